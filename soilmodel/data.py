@@ -1,0 +1,252 @@
+"""Measured data containers and CSV I/O (DESIGN.md section 7).
+
+Two kinds of file, told apart by their columns:
+
+- tractive force-slip data: ``slip,tractive_force_N`` and optionally ``normal_load_N``;
+- drive logs: ``time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s`` and
+  optionally ``vehicle_accel_m_s2``.
+
+Bad input is refused with a :class:`~soiltrack.soilmodel.errors.DataError` that names the
+file, the column and the data row (row 1 is the first line after the header).
+"""
+from __future__ import annotations
+
+import csv
+import math
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import DataError
+
+SLIP_COLUMNS = ("slip", "tractive_force_N")
+SLIP_OPTIONAL = ("normal_load_N",)
+DRIVE_COLUMNS = ("time_s", "sprocket_torque_Nm", "sprocket_speed_rad_s", "vehicle_speed_m_s")
+DRIVE_OPTIONAL = ("vehicle_accel_m_s2",)
+
+
+def _frozen(a) -> np.ndarray:
+    arr = np.array(a, dtype=float).reshape(-1)
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class SlipData:
+    """Tractive force-slip measurements (e.g. a drawbar-pull sweep or a published table).
+
+    Parameters
+    ----------
+    slip
+        Track slip i in [0, 1).
+    tractive_force
+        Tractive force of both tracks, N.
+    normal_load
+        Normal load W per sample, N, or ``None`` (then the vehicle's weight is used).
+        Samples at two or more loads make c and phi separable.
+    source
+        Where the data came from (file path or label), used in messages.
+    """
+
+    slip: np.ndarray
+    tractive_force: np.ndarray
+    normal_load: np.ndarray | None = None
+    source: str = "<memory>"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "slip", _frozen(self.slip))
+        object.__setattr__(self, "tractive_force", _frozen(self.tractive_force))
+        if self.normal_load is not None:
+            object.__setattr__(self, "normal_load", _frozen(self.normal_load))
+        cols = {"slip": self.slip, "tractive_force_N": self.tractive_force}
+        if self.normal_load is not None:
+            cols["normal_load_N"] = self.normal_load
+        _check_lengths(cols, self.source)
+        _check_finite(cols, self.source)
+        _check_range(self.slip, "slip", self.source, lo=0.0, hi=1.0, hi_open=True, what="slip must lie in [0, 1)")
+        if self.normal_load is not None:
+            _check_range(self.normal_load, "normal_load_N", self.source, lo=0.0, lo_open=True,
+                         what="normal load must be > 0 N")
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples."""
+        return int(self.slip.size)
+
+    def loads(self, default: float | None = None) -> np.ndarray:
+        """Per-sample normal load, N (``default`` where the data carry none)."""
+        if self.normal_load is not None:
+            return self.normal_load
+        if default is None:
+            raise DataError("the data carry no normal_load_N column; give the vehicle's weight", file=self.source)
+        return np.full(self.slip.shape, float(default))
+
+    @property
+    def distinct_loads(self) -> np.ndarray:
+        """Distinct normal loads in the data (empty when the data carry none)."""
+        if self.normal_load is None:
+            return np.array([])
+        return np.unique(np.round(self.normal_load, 6))
+
+
+@dataclass(frozen=True, eq=False)
+class DriveLog:
+    """A straight-line drive log: sprocket torque and speed, vehicle speed, optional IMU.
+
+    Parameters
+    ----------
+    time
+        Time stamps, s, strictly increasing.
+    sprocket_torque
+        Sprocket torque of both tracks M_s, N m.
+    sprocket_speed
+        Sprocket angular speed w, rad/s (encoder).
+    vehicle_speed
+        Vehicle speed v, m/s (e.g. GNSS).
+    vehicle_accel
+        Vehicle acceleration dv/dt, m/s^2 (IMU), or ``None``.
+    source
+        Where the data came from, used in messages.
+    """
+
+    time: np.ndarray
+    sprocket_torque: np.ndarray
+    sprocket_speed: np.ndarray
+    vehicle_speed: np.ndarray
+    vehicle_accel: np.ndarray | None = None
+    source: str = "<memory>"
+
+    def __post_init__(self) -> None:
+        for name in ("time", "sprocket_torque", "sprocket_speed", "vehicle_speed", "vehicle_accel"):
+            if getattr(self, name) is not None:
+                object.__setattr__(self, name, _frozen(getattr(self, name)))
+        cols = dict(zip(DRIVE_COLUMNS, (self.time, self.sprocket_torque, self.sprocket_speed, self.vehicle_speed)))
+        if self.vehicle_accel is not None:
+            cols["vehicle_accel_m_s2"] = self.vehicle_accel
+        _check_lengths(cols, self.source)
+        _check_finite(cols, self.source)
+        bad = np.nonzero(np.diff(self.time) <= 0)[0]
+        if bad.size:
+            k = int(bad[0]) + 1
+            raise DataError(f"time must be strictly increasing ({self.time[k - 1]:.6g} then {self.time[k]:.6g})",
+                            file=self.source, column="time_s", row=k + 1)
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples."""
+        return int(self.time.size)
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The log as ``{column name: values}`` in the CSV contract's names."""
+        out = dict(zip(DRIVE_COLUMNS, (self.time, self.sprocket_torque, self.sprocket_speed, self.vehicle_speed)))
+        if self.vehicle_accel is not None:
+            out["vehicle_accel_m_s2"] = self.vehicle_accel
+        return out
+
+
+def _check_lengths(cols: dict, source: str) -> None:
+    n = {k: v.size for k, v in cols.items()}
+    if len(set(n.values())) > 1:
+        raise DataError(f"columns differ in length: {n}", file=source)
+
+
+def _check_finite(cols: dict, source: str) -> None:
+    for name, values in cols.items():
+        bad = np.nonzero(~np.isfinite(values))[0]
+        if bad.size:
+            k = int(bad[0])
+            raise DataError(f"value {values[k]} is not a finite number", file=source, column=name, row=k + 1)
+
+
+def _check_range(values, column, source, *, lo=None, hi=None, lo_open=False, hi_open=False, what="") -> None:
+    bad = np.zeros(values.shape, dtype=bool)
+    if lo is not None:
+        bad |= (values <= lo) if lo_open else (values < lo)
+    if hi is not None:
+        bad |= (values >= hi) if hi_open else (values > hi)
+    idx = np.nonzero(bad)[0]
+    if idx.size:
+        k = int(idx[0])
+        raise DataError(f"{what}, got {values[k]:.6g}", file=source, column=column, row=k + 1)
+
+
+def _parse_float(text: str, path: str, column: str, row: int) -> float:
+    t = text.strip()
+    try:
+        v = float(t)
+    except ValueError:
+        raise DataError(f"'{t}' is not a number" if t else "empty value", file=path, column=column, row=row) from None
+    if not math.isfinite(v):
+        raise DataError(f"value '{t}' is not a finite number", file=path, column=column, row=row)
+    return v
+
+
+def read_csv(path: str | os.PathLike) -> SlipData | DriveLog:
+    """Read tractive force-slip data or a drive log; the kind is recognised by the columns.
+
+    Raises
+    ------
+    DataError
+        For a missing file, an unknown or incomplete header, a non-numeric, NaN or infinite
+        value, slip outside [0, 1), non-increasing time, or a row with the wrong number of
+        fields; the message names the file, the column and the row.
+    """
+    path = os.fspath(path)
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            rows = list(csv.reader(fh))
+    except OSError as e:
+        raise DataError(f"cannot read: {e.strerror}", file=path) from None
+    except UnicodeDecodeError:
+        raise DataError("not a UTF-8 text file", file=path) from None
+    rows = [r for r in rows if any(cell.strip() for cell in r)]  # blank lines carry nothing
+    if not rows:
+        raise DataError("empty file: expected a header row", file=path)
+    header = [h.strip() for h in rows[0]]
+    dup = sorted({h for h in header if header.count(h) > 1})
+    if dup:
+        raise DataError(f"duplicate column(s) {dup}", file=path, column=dup[0])
+    if "slip" in header or "tractive_force_N" in header:
+        kind, required, optional = "slip", SLIP_COLUMNS, SLIP_OPTIONAL
+    elif any(c in header for c in DRIVE_COLUMNS):
+        kind, required, optional = "drive", DRIVE_COLUMNS, DRIVE_OPTIONAL
+    else:
+        raise DataError(f"unrecognised columns {header}: expected {list(SLIP_COLUMNS)} (tractive force-slip "
+                        f"data) or {list(DRIVE_COLUMNS)} (drive log)", file=path)
+    for col in required:
+        if col not in header:
+            raise DataError(f"missing required column (header has {header})", file=path, column=col)
+    used = [c for c in (*required, *optional) if c in header]
+    idx = {c: header.index(c) for c in used}
+    data: dict[str, list[float]] = {c: [] for c in used}
+    for r, cells in enumerate(rows[1:], start=1):
+        if len(cells) != len(header):
+            raise DataError(f"expected {len(header)} fields, found {len(cells)}", file=path, row=r)
+        for c in used:
+            data[c].append(_parse_float(cells[idx[c]], path, c, r))
+    if not rows[1:]:
+        raise DataError("no data rows after the header", file=path)
+    if kind == "slip":
+        return SlipData(slip=data["slip"], tractive_force=data["tractive_force_N"],
+                        normal_load=data.get("normal_load_N"), source=path)
+    return DriveLog(time=data["time_s"], sprocket_torque=data["sprocket_torque_Nm"],
+                    sprocket_speed=data["sprocket_speed_rad_s"], vehicle_speed=data["vehicle_speed_m_s"],
+                    vehicle_accel=data.get("vehicle_accel_m_s2"), source=path)
+
+
+def write_csv(data: SlipData | DriveLog, path: str | os.PathLike) -> None:
+    """Write tractive force-slip data or a drive log in the CSV contract (full float precision)."""
+    if isinstance(data, SlipData):
+        cols = {"slip": data.slip, "tractive_force_N": data.tractive_force}
+        if data.normal_load is not None:
+            cols["normal_load_N"] = data.normal_load
+    elif isinstance(data, DriveLog):
+        cols = data.columns()
+    else:
+        raise TypeError(f"write_csv takes SlipData or DriveLog, got {type(data).__name__}")
+    with open(os.fspath(path), "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(list(cols))
+        for row in zip(*cols.values()):
+            w.writerow([repr(float(v)) for v in row])

@@ -1,0 +1,180 @@
+"""Vehicle description (SI), JSON I/O per DESIGN.md section 7, and the reference vehicles."""
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, fields
+
+from .errors import DataError
+
+#: Standard gravity, m/s^2.
+G = 9.81
+
+_JSON_FIELDS = {  # JSON key -> dataclass field
+    "mass_kg": "mass",
+    "track_length_m": "track_length",
+    "track_width_m": "track_width",
+    "sprocket_radius_m": "sprocket_radius",
+    "sprocket_inertia_kg_m2": "sprocket_inertia",
+    "rolling_resistance": "rolling_resistance",
+    "max_sprocket_torque_Nm": "max_sprocket_torque",
+    "max_power_W": "max_power",
+    "road_wheels": "road_wheels",
+}
+_REQUIRED = ("mass_kg", "track_length_m", "track_width_m", "sprocket_radius_m", "sprocket_inertia_kg_m2",
+             "rolling_resistance")
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """A tracked vehicle in straight-line motion, SI units.
+
+    Parameters
+    ----------
+    mass
+        m in kg; the normal load is ``W = m g`` with g = 9.81 m/s^2.
+    track_length, track_width
+        Contact length l and width b of ONE track, m. Contact area of both tracks A = 2 b l.
+    sprocket_radius
+        r in m.
+    sprocket_inertia
+        I of both sprockets and what turns with them, kg m^2.
+    rolling_resistance
+        Coefficient of longitudinal (motion) resistance mu_r (-).
+    max_sprocket_torque, max_power
+        Drivetrain limits of both tracks together (N m, W); ``None`` when unknown.
+    road_wheels
+        Road wheels per side (used by the pressure-distribution effect); ``None`` when unknown.
+    name
+        Free text label.
+    """
+
+    mass: float
+    track_length: float
+    track_width: float
+    sprocket_radius: float
+    sprocket_inertia: float
+    rolling_resistance: float
+    max_sprocket_torque: float | None = None
+    max_power: float | None = None
+    road_wheels: int | None = None
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        positive = ("mass", "track_length", "track_width", "sprocket_radius")
+        for f in fields(self):
+            if f.name in ("name", "road_wheels"):
+                continue
+            v = getattr(self, f.name)
+            if v is None:
+                continue
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise DataError(f"vehicle {f.name} must be a finite number, got {v!r}")
+            if f.name in positive and v <= 0:
+                raise DataError(f"vehicle {f.name} must be > 0, got {v}")
+            if v < 0:
+                raise DataError(f"vehicle {f.name} must be >= 0, got {v}")
+            if f.name in ("max_sprocket_torque", "max_power") and v == 0:
+                raise DataError(f"vehicle {f.name} must be > 0 (or absent), got {v}")
+        if self.rolling_resistance >= 1:
+            raise DataError(f"vehicle rolling_resistance must be < 1, got {self.rolling_resistance}")
+        if self.road_wheels is not None and (isinstance(self.road_wheels, bool)
+                                             or not isinstance(self.road_wheels, int) or self.road_wheels < 1):
+            raise DataError(f"vehicle road_wheels must be a positive integer, got {self.road_wheels!r}")
+
+    @property
+    def weight(self) -> float:
+        """Normal load W = m g, N."""
+        return self.mass * G
+
+    @property
+    def contact_area(self) -> float:
+        """Contact area of both tracks A = 2 b l, m^2."""
+        return 2.0 * self.track_width * self.track_length
+
+    @property
+    def mean_pressure(self) -> float:
+        """Mean ground pressure p = W / A, Pa."""
+        return self.weight / self.contact_area
+
+    # --- JSON -------------------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        """The JSON object of DESIGN.md section 7 (optional fields only when set)."""
+        out = {}
+        for key, attr in _JSON_FIELDS.items():
+            v = getattr(self, attr)
+            if v is not None:
+                out[key] = v
+        return out
+
+    def to_json(self) -> str:
+        """The vehicle as JSON text (DESIGN.md section 7 fields)."""
+        return json.dumps(self.to_dict(), indent=2)
+
+    @classmethod
+    def from_dict(cls, obj: dict, *, source: str | None = None, name: str = "") -> "Vehicle":
+        """Build from a JSON-like dict; errors name ``source`` and the offending field."""
+        if not isinstance(obj, dict):
+            raise DataError("vehicle JSON must be an object", file=source)
+        for key in _REQUIRED:
+            if key not in obj:
+                raise DataError(f"missing required field '{key}'", file=source, column=key)
+        unknown = sorted(set(obj) - set(_JSON_FIELDS) - {"name"})
+        if unknown:
+            raise DataError(f"unknown field(s) {unknown}; expected {sorted(_JSON_FIELDS)}", file=source)
+        kwargs = {}
+        for key, attr in _JSON_FIELDS.items():
+            if key not in obj or obj[key] is None:
+                continue
+            v = obj[key]
+            if key == "road_wheels":
+                if isinstance(v, float) and v.is_integer():
+                    v = int(v)
+            elif isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise DataError(f"field '{key}' must be a number, got {v!r}", file=source, column=key)
+            else:
+                v = float(v)
+            kwargs[attr] = v
+        try:
+            return cls(name=str(obj.get("name", name)), **kwargs)
+        except DataError as e:
+            attr_to_key = {a: k for k, a in _JSON_FIELDS.items()}
+            col = next((attr_to_key[a] for a in attr_to_key if f"vehicle {a} " in str(e)), None)
+            raise DataError(e.reason, file=source, column=col) from None
+
+    @classmethod
+    def from_json(cls, path_or_text: str | os.PathLike) -> "Vehicle":
+        """Read a vehicle from a JSON file path (or from JSON text starting with ``{``)."""
+        text = os.fspath(path_or_text)
+        if text.lstrip().startswith("{"):
+            source, raw = "<json text>", text
+        else:
+            source = text
+            try:
+                with open(text, encoding="utf-8") as fh:
+                    raw = fh.read()
+            except OSError as e:
+                raise DataError(f"cannot read vehicle file: {e.strerror}", file=source) from None
+        try:
+            obj = json.loads(raw)
+        except json.JSONDecodeError as e:
+            raise DataError(f"invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}", file=source) from None
+        return cls.from_dict(obj, source=source, name=os.path.splitext(os.path.basename(source))[0]
+                             if source != "<json text>" else "")
+
+
+#: Reference vehicles. The heavy vehicle's W = 329 kN is Wong's (2001, p. 176); its geometry
+#: (l = 2.8 m, b = 0.5 m, r = 0.3 m, I = 500 kg m^2, 5 road wheels a side) and drivetrain limits
+#: are ASSUMPTIONS of this library - the seed gives none of them. The light vehicle
+#: (W = 300 N) is the seed's cohesion-study vehicle with assumed geometry and limits.
+VEHICLES: dict[str, Vehicle] = {
+    "heavy": Vehicle(mass=329_000.0 / G, track_length=2.8, track_width=0.5, sprocket_radius=0.3,
+                     sprocket_inertia=500.0, rolling_resistance=0.05, max_sprocket_torque=80_000.0,
+                     max_power=600_000.0, road_wheels=5,
+                     name="heavy (W = 329 kN, Wong 2001 p. 176; geometry assumed)"),
+    "light": Vehicle(mass=300.0 / G, track_length=0.5, track_width=0.1, sprocket_radius=0.08,
+                     sprocket_inertia=0.05, rolling_resistance=0.05, max_sprocket_torque=40.0,
+                     max_power=500.0, road_wheels=4,
+                     name="light (W = 300 N, seed's cohesion study; geometry assumed)"),
+}
