@@ -235,8 +235,11 @@ def read_csv(path: str | os.PathLike) -> SlipData | DriveLog:
                     vehicle_accel=data.get("vehicle_accel_m_s2"), source=path)
 
 
-def write_csv(data: SlipData | DriveLog, path: str | os.PathLike) -> None:
-    """Write tractive force-slip data or a drive log in the CSV contract (full float precision)."""
+def write_csv(data: SlipData | DriveLog, path) -> None:
+    """Write tractive force-slip data or a drive log in the CSV contract (full float precision).
+
+    ``path`` is a file path or an open text stream (e.g. ``sys.stdout``).
+    """
     if isinstance(data, SlipData):
         cols = {"slip": data.slip, "tractive_force_N": data.tractive_force}
         if data.normal_load is not None:
@@ -245,8 +248,15 @@ def write_csv(data: SlipData | DriveLog, path: str | os.PathLike) -> None:
         cols = data.columns()
     else:
         raise TypeError(f"write_csv takes SlipData or DriveLog, got {type(data).__name__}")
+    if hasattr(path, "write"):
+        _write_rows(path, cols)
+        return
     with open(os.fspath(path), "w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(list(cols))
-        for row in zip(*cols.values()):
-            w.writerow([repr(float(v)) for v in row])
+        _write_rows(fh, cols)
+
+
+def _write_rows(fh, cols: dict) -> None:
+    w = csv.writer(fh, lineterminator="\n")
+    w.writerow(list(cols))
+    for row in zip(*cols.values()):
+        w.writerow([repr(float(v)) for v in row])

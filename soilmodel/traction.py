@@ -37,16 +37,23 @@ def check_model(model: str) -> str:
 
 
 def shear_bracket(x):
-    """``g(x) = 1 - (1 - exp(-x))/x`` for x >= 0, series near 0 (works on SX, MX and floats)."""
-    series = x * (1 / 2 + x * (-1 / 6 + x * (1 / 24 + x * (-1 / 120 + x * (1 / 720 + x * (-1 / 5040 + x / 40320))))))
-    safe = ca.if_else(x < SERIES_SWITCH, 1.0, x)  # keeps the unused branch finite, and its derivative
-    exact = 1 + ca.expm1(-safe) / safe
-    return ca.if_else(x < SERIES_SWITCH, series, exact)
+    """Odd extension of ``g(x) = 1 - (1 - exp(-x))/x``: ``sign(x) g(|x|)``, series near 0.
+
+    Works on SX, MX and floats. The series branch is written with ``x`` and ``|x|`` so that
+    automatic differentiation gives the true slope ``g'(0) = 1/2`` at ``x = 0``.
+    """
+    a = ca.fabs(x)
+    xa = x * a
+    series = x * (1 / 2 + x * x * (1 / 24 + x * x * (1 / 720 + x * x / 40320))) \
+        - xa * (1 / 6 + x * x * (1 / 120 + x * x / 5040))
+    safe = ca.if_else(a < SERIES_SWITCH, 1.0, a)  # keeps the unused branch finite, and its derivative
+    exact = ca.sign(x) * (1 + ca.expm1(-safe) / safe)
+    return ca.if_else(a < SERIES_SWITCH, series, exact)
 
 
 def slip_factor(slip, track_length, shear_modulus):
-    """The Janosi-Hanamoto slip factor ``sign(i) g(|i| l / K)`` of uniform pressure, in [-1, 1)."""
-    return ca.sign(slip) * shear_bracket(ca.fabs(slip) * track_length / shear_modulus)
+    """The Janosi-Hanamoto slip factor ``g(i l / K)`` of uniform pressure, in (-1, 1); odd in slip."""
+    return shear_bracket(slip * track_length / shear_modulus)
 
 
 def max_thrust_expr(c, phi, W, area, model: str = "full"):
