@@ -1,0 +1,23 @@
+"""Soil-parameter identification: bounded IPOPT fits, the seed's methods, uncertainty.
+
+Public names
+------------
+:func:`fit`
+    One dataset (tractive force-slip data or a drive log) -> :class:`FitResult`.
+:func:`fit_many`
+    Many datasets (vectorised engine for same-size slip data, any ``Executor``).
+:func:`profile_likelihood`
+    Profile of the cost along one parameter and its likelihood-ratio interval.
+:func:`build_result`
+    Shared constructor of :class:`FitResult` for every method.
+:class:`FitResult`, :class:`ParameterEstimate`, :class:`Combination`, :class:`ProfileResult`,
+:class:`FitFailed`.
+"""
+from .batch import fit_many
+from .fitting import fit
+from .problem import FitFailed
+from .profile import ProfileResult, profile_likelihood
+from .result import Combination, FitResult, ParameterEstimate, build_result
+
+__all__ = ["fit", "fit_many", "profile_likelihood", "build_result", "FitResult", "ParameterEstimate",
+           "Combination", "ProfileResult", "FitFailed"]

@@ -2,7 +2,9 @@
 
 Public names: :class:`Soil`, :class:`Vehicle`, :data:`TERRAINS`, :data:`VEHICLES`,
 :data:`PRACTICAL_BOUNDS`, :func:`tractive_force`, :func:`read_csv`, :func:`write_csv`,
-:class:`SlipData`, :class:`DriveLog`, :class:`DataError`.
+:class:`SlipData`, :class:`DriveLog`, :class:`DataError`; the unmodelled effects
+(:data:`EFFECTS`, :func:`parse_effects`, :func:`thrust_with_effects`), the dynamics
+(:func:`dynamics_function`, :func:`slip_from_thrust`) and the simulator (:func:`simulate`).
 """
 from .data import DriveLog, SlipData, read_csv, write_csv
 from .errors import DataError
@@ -17,10 +19,31 @@ from .traction import (
     tractive_force_sensitivities,
 )
 from .vehicle import G, VEHICLES, Vehicle
+from .effects import (
+    EFFECTS,
+    EffectSet,
+    EffectSpec,
+    ParamSpec,
+    effect_symbols,
+    parse_effects,
+    thrust_with_effects,
+    tractive_force_with_effects,
+)
+from .dynamics import (
+    SPROCKET_EQUATIONS,
+    dynamics_expr,
+    dynamics_function,
+    slip_from_thrust,
+    slip_from_thrust_function,
+)
+from .simulate import SensorNoise, simulate, simulate_drive_log, simulate_slip_sweep
 
 __all__ = [
     "DataError", "DriveLog", "SlipData", "read_csv", "write_csv", "PARAMETER_NAMES", "PRACTICAL_BOUNDS",
     "SEED_ACTUAL", "TERRAINS", "Soil", "SoilBounds", "MODELS", "max_thrust", "sensitivity_function",
     "thrust_expr", "thrust_function", "tractive_force", "tractive_force_sensitivities", "G", "VEHICLES",
-    "Vehicle",
+    "Vehicle", "EFFECTS", "EffectSet", "EffectSpec", "ParamSpec", "effect_symbols", "parse_effects",
+    "thrust_with_effects", "tractive_force_with_effects", "SPROCKET_EQUATIONS", "dynamics_expr",
+    "dynamics_function", "slip_from_thrust", "slip_from_thrust_function", "SensorNoise", "simulate",
+    "simulate_drive_log", "simulate_slip_sweep",
 ]

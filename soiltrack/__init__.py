@@ -28,6 +28,7 @@ from .soilmodel import (  # noqa: E402
     Soil,
     Vehicle,
     read_csv,
+    simulate,
     tractive_force,
 )
 
@@ -39,5 +40,5 @@ except ImportError:  # pragma: no cover
 
 __all__ = [
     "__version__", "soilmodel", "identify", "TERRAINS", "VEHICLES", "Soil", "Vehicle",
-    "read_csv", "tractive_force", "fit", "fit_many",
+    "read_csv", "simulate", "tractive_force", "fit", "fit_many",
 ]

@@ -1,0 +1,292 @@
+#!/usr/bin/env python
+"""Benchmark soiltrack's identification against ``scipy.optimize.least_squares``.
+
+Usage (from the repository root; scipy is a benchmark-only dependency, extra ``bench``)::
+
+    python benchmarks/bench_identify.py                          # 200 repeats, batch of 10,000
+    python benchmarks/bench_identify.py --repeats 50 --batch 2000 --json out.json
+
+What is measured
+----------------
+* Single fit, cohesion-free model (phi, K), on Wong's three points and on 100 synthetic points:
+  every soiltrack method (``fit`` with ipopt / newton / least-squares, and the ipopt path with a
+  given start) vs ``scipy.optimize.least_squares(method="trf")`` with the same data, the same
+  bounds (the seed's practical ranges), the same scaled variables (phi in rad, K in cm), an
+  analytic Jacobian and tolerances 1e-12 (scipy's best case). The estimates are compared and the
+  largest relative difference is printed. Times are medians over ``--repeats`` calls, after a
+  warm-up call (compiled CasADi solvers are cached and reused); soiltrack's time is the wall
+  time of the whole ``fit`` call, including input checks and result/uncertainty building.
+* Batch: ``--batch`` noisy 3-point datasets (+-3 % uniform noise on F and i) fitted with
+  ``fit_many`` vs a scipy loop. The scipy loop runs on a subset (``--scipy-subset``) and is
+  extrapolated per fit; the output says so.
+
+Targets (printed as reached / not reached): fastest single-fit path >= 10x faster than scipy
+per fit; batch >= 100x the scipy loop's throughput.
+
+The heavy vehicle's l = 2.8 m and b = 0.5 m are assumptions (the seed gives neither).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import sys
+import time
+
+import numpy as np
+
+_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+if _ROOT not in sys.path:
+    sys.path.insert(0, _ROOT)
+
+try:
+    from scipy.optimize import least_squares
+    import scipy
+except ImportError:  # pragma: no cover
+    sys.exit("benchmarks need scipy: pip install 'soiltrack[bench]'")
+
+from soiltrack import identify  # noqa: E402
+from soiltrack.soilmodel import PRACTICAL_BOUNDS, VEHICLES, SlipData, Soil, tractive_force  # noqa: E402
+
+HEAVY = VEHICLES["heavy"]
+WONG_SLIP = np.array([0.0248, 0.0344, 0.0700])
+WONG_FORCE = np.array([207.32e3, 223.81e3, 259.81e3])
+MODEL = "cohesion-free"
+SCALE = np.array([1.0, 1e-2])  # phi in rad, K in cm (the library's scaling)
+TOL = 1e-12
+ROUNDS = 3  # batch benchmark: alternate scipy and fit_many this many times (shared machines drift)
+
+
+def log(msg):
+    print(msg, file=sys.stderr, flush=True)
+
+
+# --------------------------------------------------------------------------------------------
+# scipy baseline: numpy model of Eq. 8 with its analytic Jacobian (independent of soiltrack)
+# --------------------------------------------------------------------------------------------
+def _g(x):
+    """g(x) = 1 - (1 - exp(-x))/x and g'(x), x > 0 (series for small x)."""
+    small = x < 1e-3
+    xs = np.where(small, 1.0, x)
+    e = np.expm1(-xs)
+    g = np.where(small, x / 2 - x * x / 6, 1.0 + e / xs)
+    dg = np.where(small, 0.5 - x / 3, (-e - xs * np.exp(-xs)) / (xs * xs))
+    return g, dg
+
+
+class ScipyFit:
+    """Bounded TRF fit of phi, K (cohesion-free) with scipy, scaled like soiltrack."""
+
+    def __init__(self, slip, force, W, l):
+        self.slip, self.force, self.W, self.l = slip, force, W, l
+        self.fscale = np.sqrt(np.mean(force ** 2))
+        lo = np.array([PRACTICAL_BOUNDS.friction_angle[0], PRACTICAL_BOUNDS.shear_modulus[0]])
+        hi = np.array([PRACTICAL_BOUNDS.friction_angle[1], PRACTICAL_BOUNDS.shear_modulus[1]])
+        self.bounds = (lo / SCALE, hi / SCALE)
+
+    def fun(self, z):
+        phi, K = z * SCALE
+        g, _ = _g(self.slip * self.l / K)
+        return (self.W * np.tan(phi) * g - self.force) / self.fscale
+
+    def jac(self, z):
+        phi, K = z * SCALE
+        x = self.slip * self.l / K
+        g, dg = _g(x)
+        t = np.tan(phi)
+        d_phi = self.W * (1 + t * t) * g
+        d_K = self.W * t * dg * (-x / K)
+        return np.stack([d_phi * SCALE[0], d_K * SCALE[1]], axis=1) / self.fscale
+
+    def solve(self, x0_si):
+        z0 = np.clip(np.asarray(x0_si, float) / SCALE, self.bounds[0], self.bounds[1])
+        r = least_squares(self.fun, z0, jac=self.jac, bounds=self.bounds, method="trf", xtol=TOL, ftol=TOL,
+                          gtol=TOL)
+        return r.x * SCALE, r
+
+
+def interleaved_times(funcs, repeats):
+    """Median wall time of each callable, timed round-robin (robust to load drifting on a shared machine)."""
+    results = [f() for f in funcs]  # warm-up (builds and caches compiled solvers)
+    ts = [[] for _ in funcs]
+    for _ in range(repeats):
+        for k, f in enumerate(funcs):
+            t0 = time.perf_counter()
+            f()
+            ts[k].append(time.perf_counter() - t0)
+    return [float(np.median(t)) for t in ts], results
+
+
+def single_fit_rows(name, data, repeats, x0_si):
+    """All paths on one dataset, timed round-robin; scipy first."""
+    W = HEAVY.weight
+    sp = ScipyFit(np.asarray(data.slip), np.asarray(data.tractive_force), W, HEAVY.track_length)
+    paths = [("soiltrack fit ipopt (grid start, default)", dict(method="ipopt")),
+             ("soiltrack fit ipopt (same x0)", dict(method="ipopt", x0=x0_si)),
+             ("soiltrack fit newton (same x0; unbounded)", dict(method="newton", x0=x0_si)),
+             ("soiltrack fit least-squares (same x0; unbounded)", dict(method="least-squares", x0=x0_si))]
+    labels = ["scipy least_squares trf (same x0)"] + [p[0] for p in paths]
+    funcs = [lambda: sp.solve(x0_si[1:])]
+    funcs += [(lambda kw=kw: identify.fit(data, HEAVY, model=MODEL, bounds=PRACTICAL_BOUNDS, **kw)) for _, kw in paths]
+    if hasattr(identify, "fit_many"):
+        labels.append("soiltrack fit_many([data]) (vectorised engine)")
+        funcs.append(lambda: identify.fit_many([data], HEAVY, model=MODEL, method="ipopt", bounds=PRACTICAL_BOUNDS,
+                                               progress=False)[0])
+    log(f"  {name}: {len(funcs)} paths x {repeats} repeats, round-robin")
+    times, results = interleaved_times(funcs, repeats)
+    th_sp, r_sp = results[0]
+    t_sp = times[0]
+    rows = [dict(dataset=name, path=labels[0], time_s=t_sp, phi_deg=math.degrees(th_sp[0]), K_m=float(th_sp[1]),
+                 status=f"scipy status {r_sp.status}", success=bool(r_sp.success), rel_diff_vs_scipy=0.0,
+                 speedup_vs_scipy=1.0, iterations=int(r_sp.nfev))]
+    for label, t, res in zip(labels[1:], times[1:], results[1:]):
+        rows.append(_row(name, label, t, res, th_sp, t_sp))
+    return rows, th_sp
+
+
+def _row(name, label, t, res, th_sp, t_sp):
+    th = np.asarray(res.theta, float)[1:]
+    rel = float(np.max(np.abs(th - th_sp) / np.abs(th_sp))) if np.all(np.isfinite(th)) else math.inf
+    return dict(dataset=name, path=label, time_s=t, phi_deg=math.degrees(th[0]), K_m=float(th[1]), status=res.status,
+                success=bool(res.success), rel_diff_vs_scipy=rel, speedup_vs_scipy=t_sp / t,
+                iterations=int(res.iterations))
+
+
+def batch(args, rng):
+    """fit_many on all datasets vs a scipy loop on a subset, alternating in ``ROUNDS`` rounds."""
+    sets = []
+    for _ in range(args.batch):
+        ui, uF = rng.uniform(-0.03, 0.03, 3), rng.uniform(-0.03, 0.03, 3)
+        sets.append(SlipData(WONG_SLIP * (1 + ui), WONG_FORCE * (1 + uF)))
+    out = {"n_datasets": args.batch, "rounds": ROUNDS}
+    x0 = np.array([0.5 * sum(PRACTICAL_BOUNDS.friction_angle), 0.5 * sum(PRACTICAL_BOUNDS.shear_modulus)])
+    n_sub = min(args.scipy_subset, args.batch)
+    per_round = max(1, n_sub // ROUNDS)
+    have_fm = hasattr(identify, "fit_many")
+    if have_fm:
+        identify.fit_many(sets[:10], HEAVY, model=MODEL, method="ipopt", progress=False)  # warm-up
+    t_sp, t_fm, sp_est, res = [], [], [], None
+    for k in range(ROUNDS):
+        part = sets[k * per_round:(k + 1) * per_round]
+        log(f"batch round {k + 1}/{ROUNDS}: scipy loop on {len(part)} datasets")
+        t0 = time.perf_counter()
+        for d in part:
+            sp = ScipyFit(np.asarray(d.slip), np.asarray(d.tractive_force), HEAVY.weight, HEAVY.track_length)
+            sp_est.append(sp.solve(x0)[0])
+        t_sp.append((time.perf_counter() - t0) / len(part))
+        if have_fm:
+            log(f"batch round {k + 1}/{ROUNDS}: fit_many on {args.batch} datasets")
+            t0 = time.perf_counter()
+            res = identify.fit_many(sets, HEAVY, model=MODEL, method="ipopt", bounds=PRACTICAL_BOUNDS, progress=False)
+            t_fm.append(time.perf_counter() - t0)
+    n_sp = len(sp_est)
+    out["scipy_subset"] = n_sp
+    out["scipy_per_fit_s"] = float(np.median(t_sp))
+    out["scipy_per_fit_s_rounds"] = t_sp
+    out["scipy_extrapolated_total_s"] = out["scipy_per_fit_s"] * args.batch
+    out["scipy_throughput_fits_per_s"] = 1.0 / out["scipy_per_fit_s"]
+    if not have_fm:
+        out["fit_many"] = "not available in soiltrack.identify"
+        return out
+    out["fit_many_total_s"] = float(np.median(t_fm))
+    out["fit_many_total_s_rounds"] = t_fm
+    out["fit_many_throughput_fits_per_s"] = args.batch / out["fit_many_total_s"]
+    out["fit_many_success"] = int(sum(r.success for r in res))
+    out["fit_many_engines"] = {}
+    for r in res:
+        e = r.extra.get("engine", "?") if isinstance(r.extra, dict) else "?"
+        out["fit_many_engines"][e] = out["fit_many_engines"].get(e, 0) + 1
+    th = np.array([np.asarray(r.theta, float)[1:] for r in res[:n_sp]])
+    sp_est = np.array(sp_est)
+    rel = np.abs(th - sp_est) / np.abs(sp_est)
+    out["max_rel_diff_vs_scipy"] = float(np.nanmax(rel))
+    out["median_rel_diff_vs_scipy"] = float(np.nanmedian(rel))
+    out["speedup"] = out["fit_many_throughput_fits_per_s"] / out["scipy_throughput_fits_per_s"]
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description="soiltrack identification vs scipy least_squares")
+    ap.add_argument("--repeats", type=int, default=200, help="timing repeats per single-fit path (median)")
+    ap.add_argument("--batch", type=int, default=10_000, help="datasets in the batch benchmark")
+    ap.add_argument("--scipy-subset", type=int, default=1000, help="datasets the scipy loop is timed on")
+    ap.add_argument("--json", default=None, help="also write the JSON object to this file")
+    ap.add_argument("--seed", type=int, default=1)
+    args = ap.parse_args(argv)
+    rng = np.random.default_rng(args.seed)
+    t_all = time.perf_counter()
+
+    wong = SlipData(WONG_SLIP, WONG_FORCE, source="Wong (2001) p. 176")
+    truth = Soil.from_kpa_deg(0.0, 38.0, 0.018)
+    s100 = np.linspace(0.005, 0.3, 100)
+    f100 = tractive_force(s100, truth, HEAVY, model=MODEL) * (1 + 0.01 * rng.standard_normal(100))
+    syn = SlipData(s100, f100, source="synthetic 100 points (phi 38 deg, K 0.018 m, 1 % noise)")
+    x0 = np.array([0.0, 0.5 * sum(PRACTICAL_BOUNDS.friction_angle), 0.5 * sum(PRACTICAL_BOUNDS.shear_modulus)])
+
+    rows = []
+    for name, d in (("3 points (Wong)", wong), ("100 points (synthetic)", syn)):
+        log(f"single fits: {name}, {args.repeats} repeats")
+        r, _ = single_fit_rows(name, d, args.repeats, x0)
+        rows.extend(r)
+    b = batch(args, rng)
+
+    # ---- table
+    print(f"soiltrack identification benchmark - {platform.processor() or platform.machine()}, "
+          f"{os.cpu_count()} cores, Python {platform.python_version()}, numpy {np.__version__}, scipy "
+          f"{scipy.__version__}, casadi {__import__('casadi').__version__}")
+    print(f"model {MODEL}, heavy vehicle (W = 329 kN; l = 2.8 m, b = 0.5 m ASSUMED), bounds phi 6-40 deg, "
+          f"K 0.006-0.05 m; x0 = middle of the bounds where 'same x0'")
+    print(f"single fits: median wall time per call over {args.repeats} repeats after a warm-up, all paths timed "
+          "round-robin; 'rel diff' = max relative difference of (phi, K) from scipy's")
+    hdr = f"{'dataset':<24}{'path':<44}{'time/fit':>11}{'vs scipy':>10}{'phi (deg)':>12}{'K (m)':>11}" \
+          f"{'rel diff':>10}  status"
+    print(hdr)
+    print("-" * len(hdr))
+    for r in rows:
+        print(f"{r['dataset']:<24}{r['path']:<44}{r['time_s'] * 1e3:>8.3f} ms{r['speedup_vs_scipy']:>9.2f}x"
+              f"{r['phi_deg']:>12.6f}{r['K_m']:>11.6f}{r['rel_diff_vs_scipy']:>10.1e}  {r['status']}")
+    print()
+    fastest = {}
+    for name in ("3 points (Wong)", "100 points (synthetic)"):
+        cand = [r for r in rows if r["dataset"] == name and r["path"].startswith("soiltrack") and r["success"]
+                and r["rel_diff_vs_scipy"] < 1e-6]
+        if cand:
+            best = min(cand, key=lambda r: r["time_s"])
+            fastest[name] = dict(path=best["path"], speedup=best["speedup_vs_scipy"])
+            print(f"fastest agreeing single-fit path on {name}: {best['path']} - {best['speedup_vs_scipy']:.2f}x scipy "
+                  f"-> target >= 10x {'REACHED' if best['speedup_vs_scipy'] >= 10 else 'NOT REACHED'}")
+        else:
+            print(f"no soiltrack path on {name} succeeded and agreed with scipy to 1e-6")
+    print()
+    print(f"batch of {b['n_datasets']} noisy 3-point datasets (+-3 % on F and i):")
+    print(f"  scipy loop: timed on a subset of {b['scipy_subset']} datasets (median over {b['rounds']} rounds "
+          f"alternating with fit_many), {b['scipy_per_fit_s'] * 1e3:.3f} ms per fit, EXTRAPOLATED per fit to "
+          f"{b['scipy_extrapolated_total_s']:.1f} s for {b['n_datasets']} ({b['scipy_throughput_fits_per_s']:.0f} fits/s)")
+    if "fit_many_total_s" in b:
+        print(f"  fit_many:   {b['fit_many_total_s']:.2f} s for all {b['n_datasets']} (median of {b['rounds']} runs; "
+              f"{b['fit_many_throughput_fits_per_s']:.0f} fits/s), {b['fit_many_success']}/{b['n_datasets']} succeeded, "
+              f"engines {b['fit_many_engines']}; estimates vs scipy on the subset: max rel diff "
+              f"{b['max_rel_diff_vs_scipy']:.1e}, median {b['median_rel_diff_vs_scipy']:.1e}")
+        print(f"  throughput ratio {b['speedup']:.1f}x -> target >= 100x "
+              f"{'REACHED' if b['speedup'] >= 100 else 'NOT REACHED'}")
+    else:
+        print(f"  fit_many: {b['fit_many']}")
+    out = {"machine": {"cores": os.cpu_count(), "python": platform.python_version(), "numpy": np.__version__,
+                       "scipy": scipy.__version__, "casadi": __import__("casadi").__version__},
+           "command": " ".join(["python", "benchmarks/bench_identify.py"] + (argv if argv is not None else sys.argv[1:])),
+           "repeats": args.repeats, "single": rows, "fastest": fastest, "batch": b,
+           "targets": {"single_10x": {k: v["speedup"] >= 10 for k, v in fastest.items()},
+                       "batch_100x": bool(b.get("speedup", 0) >= 100)},
+           "total_time_s": time.perf_counter() - t_all}
+    print()
+    print(json.dumps(out, indent=1))
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(out, fh, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,716 @@
+"""Soil identification from a straight-line drive log (sprocket torque, sprocket speed, vehicle speed).
+
+Formulation
+-----------
+The obvious approach - compute the slip from the two speeds, ``i_m = 1 - v/(r w)``, and fit
+the thrust from the sprocket equation against ``F(i_m)`` ("equation error") - is an
+error-in-variables trap: at the small slips of a tracked vehicle on sand (a few tenths of a
+percent to a few percent) the slip noise ``sigma_i ~ sigma_v / v`` is as large as the slip
+itself, so the regressor is noisy and least squares is biased (attenuation plus the curvature
+of ``F``). On simulated logs with realistic sensor noise the bias is a factor of several in K
+and tens of percent in ``F_max``. This module implements that approach only for comparison
+(``formulation="equation-error"``).
+
+The default, ``formulation="output-error"``, predicts the sprocket speed instead. At every
+sample ``k`` the TRUE slip ``i_k`` is an NLP variable (a latent state, bounded to
+[-0.95, 0.98]); the sprocket equation (thrust balance, DESIGN section 3)
+``I dw/dt = M_s - r F(i)`` ties it to the measured torque, and the kinematic relation
+``v = r w (1 - i)`` ties it to the encoder::
+
+    e_w[k] = (v_k - r w_k (1 - i_k)) / sigma_s[k]     (speed residual: encoder vs. prediction)
+    e_T[k] = (T_k - F(i_k; F_max, K)) / sigma_T[k]    (thrust residual, T_k = (M_k - I dw/dt_k) / r)
+
+and IPOPT minimises ``sum(e_w^2 + e_T^2)`` over ``(F_max, K, i_1..i_n)`` inside the soil's
+practical ranges. With ``sigma_T -> 0`` this is exactly the output-error problem "slip as NLP
+variables with equality constraints ``F(i_k) = T_k``, compare the predicted sprocket speed
+``v_k / (r (1 - i_k))`` with the encoder"; keeping the thrust residual (instead of an equality)
+accounts for the noise in the torque regressor (near the traction limit a noisy ``T_k`` can
+exceed ``F_max`` and the equality form becomes infeasible or biased upwards). Both residuals
+are linear in the measured quantities, so no measured value sits inside a nonlinearity: the
+errors in the regressors (torque, v, w) enter additively, with variances
+
+    sigma_s^2 = sigma_v^2 + r^2 (1 - i)^2 sigma_w^2,   sigma_T^2 = (sigma_M^2 + I^2 sigma_wdot^2) / r^2.
+
+The per-sample slip information is ``(r w / sigma_s)^2``, so slow samples (slip noise about
+``sigma_v / v``) are down-weighted automatically; samples with ``v`` or ``r w`` below a few
+noise levels (slip undefined) and clearly braking samples are dropped and counted in the result.
+No time integration is done, so the stiff slip dynamics (slip settles in milliseconds) cause
+no trouble: the sprocket equation holds at every instant, with ``dw/dt`` from a local quadratic
+fit of the encoder (the narrowest window, at least 5 samples, whose noise stays within the
+torque noise - wider windows smear the kinks of w at torque steps), whose noise enters ``sigma_T``.
+
+Identifiability. A flat drive log has one normal load ``W``, so c and phi enter only through
+``F_max = A c + W tan(phi)`` (cohesion-free: ``W tan(phi)``); the NLP is solved in
+``(F_max, K)`` and the Jacobian handed to :func:`~soiltrack.identify.result.build_result` is
+``d e / d(c, phi, K)`` by the chain rule, whose c and phi columns are exactly proportional.
+The latent slips are profiled out exactly (to first order) by projecting each sample's
+residual pair onto the direction orthogonal to its slip derivative: the reduced residual is
+the "effective variance" residual ``(T_k - F(i_k)) / sqrt(sigma_T^2 + F'(i_k)^2 sigma_i^2)``,
+one per sample, so the degrees of freedom and the covariance are those of the profiled problem.
+
+Gentle versus hard driving. At small slip ``F ~ F_max l i / (2 K)``: a log whose thrust stays
+well below ``F_max`` pins down only this initial slope. The fit reports the correlation of the
+``F_max`` and ``K`` estimates, their standard errors and the slope with its standard error,
+classifies the log as ``"gentle"``, ``"intermediate"`` or ``"hard"`` and says so in plain words.
+
+Noise levels are estimated from the log itself (robust second-difference estimator, MAD of
+``x[k+1] - 2 x[k] + x[k-1]`` over ``sqrt(6)``) unless given as options; the covariance is then
+scaled by the residual variance (``sigma_known=False``).
+"""
+from __future__ import annotations
+
+import math
+import time as _time
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from ..soilmodel.data import DriveLog
+from ..soilmodel.errors import DataError
+from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
+from ..soilmodel.traction import check_model, shear_bracket
+from ..soilmodel.vehicle import Vehicle
+
+__all__ = ["fit_drive_log", "FORMULATIONS", "DriveLogFitError", "estimate_noise", "prepare_drive_log",
+           "PreparedLog"]
+
+#: Formulations of :func:`fit_drive_log`.
+FORMULATIONS = ("output-error", "equation-error")
+
+#: Fewest usable samples accepted (two identifiable combinations, a noise level, and margin).
+MIN_USABLE_SAMPLES = 10
+
+#: Latent slip bounds (skid down to -0.95, driving slip up to 0.98).
+SLIP_BOUNDS = (-0.95, 0.98)
+
+#: Correlation of the F_max and K estimates above which a log is "gentle" (only the slope).
+GENTLE_CORRELATION = 0.99
+#: Relative standard error of F_max above which F_max is called undetermined.
+GENTLE_REL_STDERR = 0.25
+#: Relative standard error of F_max below which a log is a "hard" pull (F_max pinned down).
+HARD_REL_STDERR = 0.05
+
+_OPTION_NAMES = ("sigma_torque", "sigma_sprocket_speed", "sigma_vehicle_speed", "torque_hold",
+                 "min_speed", "sprocket_equation", "max_iter", "tol", "print_level", "multistart")
+
+
+class DriveLogFitError(RuntimeError):
+    """Raised by :func:`fit_drive_log` with ``strict=True`` when no trustworthy estimate exists."""
+
+
+# --------------------------------------------------------------------------------------------
+# data preparation
+# --------------------------------------------------------------------------------------------
+def estimate_noise(x: np.ndarray) -> float:
+    """Standard deviation of white measurement noise on a smooth signal, from the data alone.
+
+    Uses the second differences ``d = x[k+1] - 2 x[k] + x[k-1]`` (variance ``6 sigma^2`` for
+    white noise; a smooth signal contributes only ``h^2 x''``) and a median absolute deviation,
+    so isolated steps in the signal do not inflate the estimate. Returns 0.0 for fewer than
+    five samples or a noise-free signal.
+    """
+    x = np.asarray(x, dtype=float)
+    if x.size < 5:
+        return 0.0
+    d = x[2:] - 2.0 * x[1:-1] + x[:-2]
+    mad = float(np.median(np.abs(d - np.median(d))))
+    return _MAD_TO_SIGMA * mad / math.sqrt(6.0)
+
+
+_MAD_TO_SIGMA = 1.482602218505602
+
+
+def estimate_noise_profile(x: np.ndarray, n_bins: int = 8) -> tuple[float, float]:
+    """Noise model ``sigma(x) = sqrt(a^2 + (b x)^2)`` (absolute plus relative part) from the data alone.
+
+    Sensors such as torque cells and encoders have noise that grows with the reading. The
+    second differences (see :func:`estimate_noise`) are grouped into ``n_bins`` bins by
+    ``|x|``; a robust (MAD) variance per bin is fitted by non-negative least squares to
+    ``a^2 + b^2 mean(x^2)``. Returns ``(a, b)``; ``b = 0`` for a constant noise level.
+    """
+    x = np.asarray(x, dtype=float)
+    if x.size < 5 * n_bins:
+        return estimate_noise(x), 0.0
+    d = x[2:] - 2.0 * x[1:-1] + x[:-2]
+    xc = x[1:-1]
+    order = np.argsort(np.abs(xc))
+    rows, var, cnt = [], [], []
+    for chunk in np.array_split(order, n_bins):
+        dd = d[chunk]
+        mad = float(np.median(np.abs(dd - np.median(dd))))
+        rows.append([1.0, float(np.mean(xc[chunk] ** 2))])
+        var.append((_MAD_TO_SIGMA * mad) ** 2 / 6.0)
+        cnt.append(chunk.size)
+    X, y, wt = np.array(rows), np.array(var), np.sqrt(np.array(cnt, dtype=float))
+    # non-negative least squares on two coefficients: try both, then each alone
+    best = None
+    for cols in ((0, 1), (0,), (1,)):
+        A = X[:, cols] * wt[:, None]
+        coef, *_ = np.linalg.lstsq(A, y * wt, rcond=None)
+        if np.any(coef < 0):
+            continue
+        full = np.zeros(2)
+        full[list(cols)] = coef
+        err = float(np.sum(((X @ full - y) * wt) ** 2))
+        if best is None or err < best[0]:
+            best = (err, full)
+    if best is None:
+        return estimate_noise(x), 0.0
+    a2, b2 = best[1]
+    return math.sqrt(a2), math.sqrt(b2)
+
+
+@dataclass(frozen=True)
+class PreparedLog:
+    """The samples of a drive log that enter the fit, and their noise levels (SI).
+
+    ``thrust`` is the thrust from the sprocket equation over the interval ending at each used
+    sample (see :func:`prepare_drive_log`); ``slip_measured`` is ``1 - v/(r w)`` (for reference
+    and for the equation-error comparison only). ``keep`` marks the used samples of the log.
+    ``noise`` holds the noise model ``(a, b)`` per channel: ``sigma = sqrt(a^2 + (b x)^2)``.
+    """
+
+    keep: np.ndarray
+    vehicle_speed: np.ndarray
+    sprocket_speed: np.ndarray
+    thrust: np.ndarray
+    slip_measured: np.ndarray
+    sigma_speed: np.ndarray          # sigma_s: of v - r w (1 - i), m/s
+    sigma_thrust: np.ndarray         # sigma_T, N
+    noise: dict
+    sigma_known: bool
+    dropped: dict
+
+    @property
+    def n_used(self) -> int:
+        """Number of samples used."""
+        return int(self.thrust.size)
+
+
+def _noise_model(x: np.ndarray, given: float | None) -> tuple[float, float]:
+    if given is not None:
+        return float(given), 0.0
+    a, b = estimate_noise_profile(x)
+    floor = 1e-6 * float(np.max(np.abs(x))) + 1e-12  # keeps weights finite on noise-free data
+    return max(a, floor), b
+
+
+def prepare_drive_log(log: DriveLog, vehicle: Vehicle, *, sigma_torque: float | None = None,
+                      sigma_sprocket_speed: float | None = None, sigma_vehicle_speed: float | None = None,
+                      torque_hold: str = "zoh", min_speed: float = 0.0,
+                      sprocket_equation: str = "thrust") -> PreparedLog:
+    """Check a drive log, estimate its noise, compute the sprocket thrust and select samples.
+
+    The sprocket equation ``I dw/dt = M_s - r F(i)`` is used in discrete form, without any
+    smoothing of the encoder:
+
+    - ``torque_hold="zoh"`` (default; the torque is a command held from each sample to the
+      next, as a digital drive controller and the library's simulator do): implicit Euler over
+      the interval ending at sample k, ``r F(i_k) = M_{k-1} - I (w_k - w_{k-1}) / h``. It is
+      exact for the encoder part, and for the stiff slip dynamics (slip settles within
+      milliseconds of a torque change, so over most of the interval the slip sits on its
+      quasi-static value, the one sampled at t_k) it is the L-stable quasi-static limit.
+    - ``torque_hold="sample"`` (torque measured at the sample instants of a continuous signal):
+      ``r F(i_k) = M_k - I (w_{k+1} - w_{k-1}) / (2 h)``.
+
+    With the seed's printed sprocket equation (``sprocket_equation="seed"``) ``W mu_r`` is added.
+
+    Raises
+    ------
+    DataError
+        Too few samples, no positive vehicle or sprocket speed, or fewer than
+        :data:`MIN_USABLE_SAMPLES` usable samples; the message names the file and column.
+    """
+    if not isinstance(log, DriveLog):
+        raise TypeError(f"fit_drive_log takes a DriveLog, got {type(log).__name__}")
+    if sprocket_equation not in ("thrust", "seed"):
+        raise DataError(f"unknown sprocket_equation {sprocket_equation!r}; expected 'thrust' or 'seed'")
+    if torque_hold not in ("zoh", "sample"):
+        raise DataError(f"unknown torque_hold {torque_hold!r}; expected 'zoh' or 'sample'")
+    n = log.n_samples
+    if n < MIN_USABLE_SAMPLES:
+        raise DataError(f"a drive log needs at least {MIN_USABLE_SAMPLES} samples to identify F_max and K, "
+                        f"got {n}", file=log.source, column="time_s")
+    t = log.time
+    v = log.vehicle_speed
+    w = log.sprocket_speed
+    M = log.sprocket_torque
+    r, I, W = vehicle.sprocket_radius, vehicle.sprocket_inertia, vehicle.weight
+    if not np.any(v > 0):
+        raise DataError("no sample with a positive vehicle speed: a standing (or reversing) vehicle shows "
+                        "nothing of the soil", file=log.source, column="vehicle_speed_m_s")
+    if not np.any(w > 0):
+        raise DataError("no sample with a positive sprocket speed: the tracks never turned forwards",
+                        file=log.source, column="sprocket_speed_rad_s")
+    for name, val in (("sigma_torque", sigma_torque), ("sigma_sprocket_speed", sigma_sprocket_speed),
+                      ("sigma_vehicle_speed", sigma_vehicle_speed), ("min_speed", min_speed)):
+        if val is not None and not (isinstance(val, (int, float)) and math.isfinite(val) and val >= 0):
+            raise DataError(f"{name} must be a finite number >= 0, got {val!r}")
+    sigma_known = None not in (sigma_torque, sigma_sprocket_speed, sigma_vehicle_speed)
+    # Noise models sigma = sqrt(a^2 + (b x)^2): given (constant), or estimated from the log.
+    nm = {"torque": _noise_model(M, sigma_torque), "sprocket_speed": _noise_model(w, sigma_sprocket_speed),
+          "vehicle_speed": _noise_model(v, sigma_vehicle_speed)}
+    s_M = np.hypot(nm["torque"][0], nm["torque"][1] * M)
+    s_w = np.hypot(nm["sprocket_speed"][0], nm["sprocket_speed"][1] * w)
+    s_v = np.hypot(nm["vehicle_speed"][0], nm["vehicle_speed"][1] * v)
+
+    thrust = np.full(n, np.nan)
+    sigma_T = np.full(n, np.inf)
+    if torque_hold == "zoh":
+        h = np.diff(t)
+        thrust[1:] = (M[:-1] - I * np.diff(w) / h) / r
+        sigma_T[1:] = np.sqrt(s_M[:-1] ** 2 + (I / h) ** 2 * (s_w[1:] ** 2 + s_w[:-1] ** 2)) / r
+    else:
+        h2 = t[2:] - t[:-2]
+        thrust[1:-1] = (M[1:-1] - I * (w[2:] - w[:-2]) / h2) / r
+        sigma_T[1:-1] = np.sqrt(s_M[1:-1] ** 2 + (I / h2) ** 2 * (s_w[2:] ** 2 + s_w[:-2] ** 2)) / r
+    if sprocket_equation == "seed":  # I dw/dt = M_s - (F - W mu_r) r, as printed in the seed
+        thrust = thrust + W * vehicle.rolling_resistance
+    edge = ~np.isfinite(thrust)
+    # Discretisation error: the discrete sprocket equation gives the thrust averaged over the
+    # interval, the slip is sampled at its end. Where the thrust jumps within an interval (a
+    # spinning track that grips again, a torque step at the traction limit) the two differ by
+    # up to half the jump. Where the change to a neighbouring interval exceeds what the noise
+    # allows (4 standard deviations), that half jump is added to the sample's variance.
+    jump = np.zeros(n)
+    fin = np.isfinite(thrust)
+    d = np.where(fin[1:] & fin[:-1], np.abs(np.diff(np.where(fin, thrust, 0.0))), 0.0)
+    sd = np.sqrt(np.where(fin[1:] & fin[:-1], sigma_T[1:] ** 2 + sigma_T[:-1] ** 2, np.inf))
+    big = np.where(d > 4.0 * 1.25 * sd, d, 0.0)
+    jump[1:] = np.maximum(jump[1:], big)
+    jump[:-1] = np.maximum(jump[:-1], big)
+    sigma_T = np.sqrt(sigma_T ** 2 + (0.5 * jump) ** 2)
+    n_jump = int(np.count_nonzero(jump > 0))
+
+    floor = np.maximum(max(float(min_speed), 1e-3), 3.0 * np.maximum(s_v, r * s_w))
+    slow = ~edge & ~((v >= floor) & (r * w >= floor))
+    braking = ~edge & ~slow & (thrust < -3.0 * sigma_T)
+    keep = ~(edge | slow | braking)
+    n_keep = int(np.count_nonzero(keep))
+    if n_keep < MIN_USABLE_SAMPLES:
+        raise DataError(f"only {n_keep} samples have vehicle and track speeds above 3 noise levels "
+                        f"(about {float(np.median(floor)):.3g} m/s) while driving; at least {MIN_USABLE_SAMPLES} "
+                        f"are needed", file=log.source, column="vehicle_speed_m_s")
+    vk, wk = v[keep], w[keep]
+    slip_m = 1.0 - vk / (r * wk)
+    one_minus_i = np.clip(1.0 - slip_m, 1.0 - SLIP_BOUNDS[1], 1.0 - SLIP_BOUNDS[0])
+    sigma_s = np.sqrt(s_v[keep] ** 2 + (r * one_minus_i * s_w[keep]) ** 2)
+    return PreparedLog(keep=keep, vehicle_speed=vk, sprocket_speed=wk, thrust=thrust[keep], slip_measured=slip_m,
+                       sigma_speed=sigma_s, sigma_thrust=sigma_T[keep], noise=nm, sigma_known=sigma_known,
+                       dropped={"slow": int(np.count_nonzero(slow)), "braking": int(np.count_nonzero(braking)),
+                                "edge": int(np.count_nonzero(edge)), "speed_floor_m_s": float(np.median(floor)),
+                                "thrust_jumps": n_jump})
+
+
+# --------------------------------------------------------------------------------------------
+# the NLPs (built once per formulation and log length, data as parameters)
+# --------------------------------------------------------------------------------------------
+def _bracket_signed(slip, lk):
+    """``sign(i) g(|i| l / K)`` with ``lk = l / K``."""
+    return ca.sign(slip) * shear_bracket(ca.fabs(slip) * lk)
+
+
+_QUIET = {"expand": True, "print_time": False, "ipopt.sb": "yes", "ipopt.print_level": 0}
+
+
+@lru_cache(maxsize=32)
+def _output_error_solver(n: int, max_iter: int, tol: float, print_level: int) -> ca.Function:
+    """IPOPT solver for the output-error (latent slip) problem with ``n`` samples.
+
+    Variables ``[F_max / F_ref, K / K_ref, i_1 / i_ref, ..., i_n / i_ref]``; parameters
+    ``[F_ref, K_ref, i_ref, r, l, v(n), w(n), T(n), sigma_s(n), sigma_T(n)]``.
+    """
+    x = ca.SX.sym("x", 2 + n)
+    p = ca.SX.sym("p", 5 + 5 * n)
+    F_ref, K_ref, i_ref, r, l = (p[j] for j in range(5))
+    v, w, T, ss, sT = (p[5 + j * n:5 + (j + 1) * n] for j in range(5))
+    Fmax, K = x[0] * F_ref, x[1] * K_ref
+    slip = x[2:] * i_ref
+    e_w = (v - r * w * (1 - slip)) / ss
+    e_T = (T - Fmax * _bracket_signed(slip, l / K)) / sT
+    f = 0.5 * (ca.sumsqr(e_w) + ca.sumsqr(e_T))
+    opts = dict(_QUIET, **{"ipopt.max_iter": max_iter, "ipopt.tol": tol, "ipopt.print_level": print_level})
+    return ca.nlpsol(f"drivelog_oe_{n}", "ipopt", {"x": x, "p": p, "f": f}, opts)
+
+
+@lru_cache(maxsize=32)
+def _equation_error_solver(n: int, max_iter: int, tol: float, print_level: int) -> ca.Function:
+    """IPOPT solver for the naive equation-error problem (slip from the measured speeds)."""
+    x = ca.SX.sym("x", 2)
+    p = ca.SX.sym("p", 3 + 3 * n)
+    F_ref, K_ref, l = p[0], p[1], p[2]
+    slip, T, sT = (p[3 + j * n:3 + (j + 1) * n] for j in range(3))
+    e_T = (T - x[0] * F_ref * _bracket_signed(slip, l / (x[1] * K_ref))) / sT
+    f = 0.5 * ca.sumsqr(e_T)
+    opts = dict(_QUIET, **{"ipopt.max_iter": max_iter, "ipopt.tol": tol, "ipopt.print_level": print_level})
+    return ca.nlpsol(f"drivelog_ee_{n}", "ipopt", {"x": x, "p": p, "f": f}, opts)
+
+
+@lru_cache(maxsize=1)
+def _pointwise() -> ca.Function:
+    """``(slip, F_max, K, l) -> (F, dF/dslip, dF/dF_max, dF/dK)`` by AD (vectorises over rows)."""
+    s, Fm, K, l = (ca.SX.sym(k) for k in ("slip", "Fmax", "K", "l"))
+    F = Fm * _bracket_signed(s, l / K)
+    return ca.Function("drivelog_pointwise", [s, Fm, K, l],
+                       [F, ca.jacobian(F, s), ca.jacobian(F, Fm), ca.jacobian(F, K)],
+                       ["slip", "Fmax", "K", "l"], ["F", "dF_ds", "dF_dFmax", "dF_dK"])
+
+
+def _eval_pointwise(slip: np.ndarray, Fmax: float, K: float, l: float) -> tuple[np.ndarray, ...]:
+    out = _pointwise()(slip.reshape(1, -1), Fmax, K, l)
+    return tuple(np.asarray(o, dtype=float).reshape(-1) for o in out)
+
+
+def _g_inverse(y: np.ndarray) -> np.ndarray:
+    """x >= 0 with ``1 - (1 - exp(-x))/x = y`` for y in [0, 1) (vectorised bisection)."""
+    y = np.clip(np.asarray(y, dtype=float), 0.0, 0.999)
+    lo, hi = np.zeros_like(y), np.full_like(y, 1e4)
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            g = np.where(mid < 1e-8, mid / 2, 1.0 + np.expm1(-mid) / np.where(mid == 0, 1.0, mid))
+        lower = g < y
+        lo, hi = np.where(lower, mid, lo), np.where(lower, hi, mid)
+    return 0.5 * (lo + hi)
+
+
+# --------------------------------------------------------------------------------------------
+# the fit
+# --------------------------------------------------------------------------------------------
+def _fmax_bounds(bounds: SoilBounds, vehicle: Vehicle, model: str) -> tuple[float, float]:
+    W, A = vehicle.weight, vehicle.contact_area
+    lo = W * math.tan(bounds.friction_angle[0])
+    hi = W * math.tan(bounds.friction_angle[1])
+    if model == "full":
+        lo += A * max(bounds.cohesion[0], 0.0)
+        hi += A * bounds.cohesion[1]
+    return lo, hi
+
+
+def _ridge_point(Fmax: float, vehicle: Vehicle, bounds: SoilBounds, model: str,
+                 c_hint: float | None) -> np.ndarray:
+    """A ``(c, phi)`` on the ridge ``A c + W tan(phi) = F_max`` inside the bounds.
+
+    The point is NOT an estimate of c and phi (only their combination is identifiable; the
+    result object says so and reports the ridge's extent). It keeps ``c_hint`` (the initial
+    guess's cohesion) when that is feasible, else the middle of the feasible cohesion range,
+    so that neither coordinate sits on a bound merely by the choice of the point. For the
+    cohesion-free model c = 0 and ``phi = atan(F_max / W)``.
+    """
+    W, A = vehicle.weight, vehicle.contact_area
+    (clo, chi), (plo, phi_hi) = bounds.cohesion, bounds.friction_angle
+    if model == "cohesion-free":
+        return np.array([0.0, min(max(math.atan(Fmax / W), plo), phi_hi)])
+    c_min = max(clo, (Fmax - W * math.tan(phi_hi)) / A)
+    c_max = max(min(chi, (Fmax - W * math.tan(plo)) / A), c_min)
+    c = 0.5 * (c_min + c_max) if c_hint is None else min(max(c_hint, c_min), c_max)
+    phi = math.atan(max(Fmax - A * c, 0.0) / W)
+    return np.array([c, min(max(phi, plo), phi_hi)])
+
+
+def _solve_output_error(prep: PreparedLog, vehicle: Vehicle, F_ref: float, K_ref: float, Fb, Kb,
+                        starts, max_iter: int, tol: float, print_level: int):
+    n = prep.n_used
+    l, r = vehicle.track_length, vehicle.sprocket_radius
+    i_ref = K_ref / l
+    solver = _output_error_solver(n, max_iter, tol, print_level)
+    p = np.concatenate([[F_ref, K_ref, i_ref, r, l], prep.vehicle_speed, prep.sprocket_speed, prep.thrust,
+                        prep.sigma_speed, prep.sigma_thrust])
+    lbx = np.concatenate([[Fb[0] / F_ref, Kb[0] / K_ref], np.full(n, SLIP_BOUNDS[0] / i_ref)])
+    ubx = np.concatenate([[Fb[1] / F_ref, Kb[1] / K_ref], np.full(n, SLIP_BOUNDS[1] / i_ref)])
+    best = None
+    for Fmax0, K0 in starts:
+        # latent slips from the inverse thrust-slip curve at the start values, blended with the measured slip
+        y = np.clip(np.abs(prep.thrust) / Fmax0, 0.0, 0.98)
+        slip0 = np.sign(prep.thrust) * _g_inverse(y) * K0 / l
+        slip0 = np.clip(slip0, SLIP_BOUNDS[0] + 1e-3, SLIP_BOUNDS[1] - 1e-3)
+        x0 = np.concatenate([[Fmax0 / F_ref, K0 / K_ref], slip0 / i_ref])
+        t0 = _time.perf_counter()
+        sol = solver(x0=x0, p=p, lbx=lbx, ubx=ubx)
+        elapsed = _time.perf_counter() - t0
+        st = solver.stats()
+        xs = np.asarray(sol["x"], dtype=float).reshape(-1)
+        fval = float(sol["f"])
+        ok = bool(st.get("success", False)) and np.all(np.isfinite(xs)) and math.isfinite(fval)
+        cand = {"x": xs, "f": fval, "ok": ok, "status": str(st.get("return_status", "unknown")),
+                "iterations": int(st.get("iter_count", -1)), "time": elapsed}
+        if best is None or (cand["ok"], -cand["f"]) > (best["ok"], -best["f"]):
+            tot = (best["time"] if best else 0.0) + elapsed
+            best = cand
+            best["time"] = tot
+        else:
+            best["time"] += elapsed
+    xs = best["x"]
+    return best, xs[0] * F_ref, xs[1] * K_ref, xs[2:] * i_ref
+
+
+def _solve_equation_error(prep: PreparedLog, vehicle: Vehicle, F_ref: float, K_ref: float, Fb, Kb,
+                          starts, max_iter: int, tol: float, print_level: int):
+    n = prep.n_used
+    l = vehicle.track_length
+    solver = _equation_error_solver(n, max_iter, tol, print_level)
+    slip = np.clip(prep.slip_measured, SLIP_BOUNDS[0], SLIP_BOUNDS[1])
+    p = np.concatenate([[F_ref, K_ref, l], slip, prep.thrust, prep.sigma_thrust])
+    lbx = [Fb[0] / F_ref, Kb[0] / K_ref]
+    ubx = [Fb[1] / F_ref, Kb[1] / K_ref]
+    best = None
+    for Fmax0, K0 in starts:
+        t0 = _time.perf_counter()
+        sol = solver(x0=[Fmax0 / F_ref, K0 / K_ref], p=p, lbx=lbx, ubx=ubx)
+        elapsed = _time.perf_counter() - t0
+        st = solver.stats()
+        xs = np.asarray(sol["x"], dtype=float).reshape(-1)
+        fval = float(sol["f"])
+        ok = bool(st.get("success", False)) and np.all(np.isfinite(xs)) and math.isfinite(fval)
+        cand = {"x": xs, "f": fval, "ok": ok, "status": str(st.get("return_status", "unknown")),
+                "iterations": int(st.get("iter_count", -1)), "time": elapsed}
+        if best is None or (cand["ok"], -cand["f"]) > (best["ok"], -best["f"]):
+            tot = (best["time"] if best else 0.0) + elapsed
+            best = cand
+            best["time"] = tot
+        else:
+            best["time"] += elapsed
+    return best, best["x"][0] * F_ref, best["x"][1] * K_ref, slip
+
+
+def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: SoilBounds = PRACTICAL_BOUNDS,
+                  x0=None, strict: bool = False, *, method: str = "ipopt", formulation: str = "output-error",
+                  **options: Any):
+    """Identify the soil under a tracked vehicle from a straight-line drive log.
+
+    Parameters
+    ----------
+    log
+        The drive log (time, sprocket torque of both tracks, sprocket speed, vehicle speed).
+    vehicle
+        The vehicle (geometry, sprocket radius and inertia, mass).
+    model
+        ``"full"`` (Eq. 2) or ``"cohesion-free"`` (Eq. 8). A drive log has one normal load,
+        so for the full model only ``F_max = A c + W tan(phi)`` and K are identifiable.
+    bounds
+        Box bounds on ``[c, phi, K]`` (default: the seed's practical ranges); they bound
+        ``F_max`` to ``[A c_lo + W tan(phi_lo), A c_hi + W tan(phi_hi)]``.
+    x0
+        Optional initial guess ``[c (Pa), phi (rad), K (m)]`` (a :class:`Soil` also works).
+    strict
+        Raise :class:`DriveLogFitError` instead of returning a failed result.
+    method
+        Only ``"ipopt"``.
+    formulation
+        ``"output-error"`` (default: latent slip, predicted sprocket speed; see the module
+        docstring) or ``"equation-error"`` (slip from the measured speeds; biased, for
+        comparison only).
+    **options
+        ``sigma_torque`` (N m), ``sigma_sprocket_speed`` (rad/s), ``sigma_vehicle_speed`` (m/s):
+        sensor noise levels (default: estimated from the log); ``derivative_window_s`` (s):
+        window of the local quadratic fit giving dw/dt (default: the narrowest window, at least
+        5 samples, whose derivative noise stays within the torque noise); ``min_speed`` (m/s): extra speed floor
+        below which samples are dropped; ``sprocket_equation``: ``"thrust"`` (default,
+        ``I dw/dt = M_s - r F``) or ``"seed"`` (as printed in the seed); ``max_iter``, ``tol``,
+        ``print_level``: IPOPT settings; ``multistart`` (True): also start from a second K.
+
+    Returns
+    -------
+    FitResult
+        Built by :func:`soiltrack.identify.result.build_result` with ``data_kind="drive"``.
+        ``extra`` holds the identifiable combinations (``max_thrust_N``, ``initial_slope_N``
+        with standard errors, their correlation), the driving regime, the sample counts and
+        the noise levels used. A failed solve is a result with ``success=False``.
+
+    Raises
+    ------
+    DataError
+        Bad input (too few samples, no motion, unknown option); names file and column.
+    DriveLogFitError
+        With ``strict=True``, when the solver fails or returns a non-finite point.
+    """
+    from .result import build_result  # the shared result object (imported late: built in parallel)
+
+    check_model(model)
+    if method != "ipopt":
+        raise DataError(f"unknown method {method!r} for a drive log; expected 'ipopt'")
+    if formulation not in FORMULATIONS:
+        raise DataError(f"unknown formulation {formulation!r}; expected one of {FORMULATIONS}")
+    unknown = sorted(set(options) - set(_OPTION_NAMES))
+    if unknown:
+        raise DataError(f"unknown option(s) {unknown} for a drive-log fit; expected some of {list(_OPTION_NAMES)}")
+    if bounds is None:
+        bounds = PRACTICAL_BOUNDS
+    prep = prepare_drive_log(
+        log, vehicle, sigma_torque=options.get("sigma_torque"),
+        sigma_sprocket_speed=options.get("sigma_sprocket_speed"),
+        sigma_vehicle_speed=options.get("sigma_vehicle_speed"),
+        torque_hold=str(options.get("torque_hold", "zoh")),
+        min_speed=options.get("min_speed", 0.0),
+        sprocket_equation=str(options.get("sprocket_equation", "thrust")))
+    max_iter = int(options.get("max_iter", 500))
+    tol = float(options.get("tol", 1e-9))
+    print_level = int(options.get("print_level", 0))
+
+    W, A, l = vehicle.weight, vehicle.contact_area, vehicle.track_length
+    Fb = _fmax_bounds(bounds, vehicle, model)
+    Kb = tuple(bounds.shear_modulus)
+    F_ref = 0.5 * (Fb[0] + Fb[1])
+    K_ref = math.sqrt(Kb[0] * Kb[1])
+
+    # start values: x0 if given, else above the largest thrust seen, K in the middle (log scale)
+    c_hint = None
+    if x0 is not None:
+        x0v = np.asarray(x0.as_vector() if hasattr(x0, "as_vector") else x0, dtype=float).reshape(-1)
+        if x0v.size != 3 or not np.all(np.isfinite(x0v)):
+            raise DataError(f"x0 must be three finite numbers [c (Pa), phi (rad), K (m)], got {x0!r}")
+        c_hint = float(x0v[0]) if model == "full" else None
+        F0 = (A * x0v[0] if model == "full" else 0.0) + W * math.tan(x0v[1])
+        K0 = float(x0v[2])
+    else:
+        F0 = 1.2 * float(np.quantile(np.abs(prep.thrust), 0.99))
+        K0 = K_ref
+    F0 = min(max(F0, Fb[0] + 1e-3 * (Fb[1] - Fb[0])), Fb[1] - 1e-3 * (Fb[1] - Fb[0]))
+    K0 = min(max(K0, Kb[0] * 1.001), Kb[1] * 0.999)
+    starts = [(F0, K0)]
+    if options.get("multistart", True):
+        K_alt = min(max(K0 * (3.0 if K0 < K_ref else 1.0 / 3.0), Kb[0] * 1.001), Kb[1] * 0.999)
+        starts.append((min(max(1.5 * F0, Fb[0]), Fb[1] * 0.999), K_alt))
+
+    solve = _solve_output_error if formulation == "output-error" else _solve_equation_error
+    best, Fmax, K, slip = solve(prep, vehicle, F_ref, K_ref, Fb, Kb, starts, max_iter, tol, print_level)
+
+    # residuals and the profiled Jacobian at the solution ------------------------------------
+    n = prep.n_used
+    F, dF_ds, dF_dFm, dF_dK = _eval_pointwise(slip, Fmax, K, l)
+    sT = prep.sigma_thrust
+    if formulation == "output-error":
+        sigma_i = prep.sigma_speed / (vehicle.sprocket_radius * prep.sprocket_speed)
+        s_eff = np.sqrt(sT ** 2 + (dF_ds * sigma_i) ** 2)  # effective variance of the thrust residual
+        e_T = (prep.thrust - F) / sT
+        e_w = (prep.vehicle_speed - vehicle.sprocket_radius * prep.sprocket_speed * (1 - slip)) / prep.sigma_speed
+        # projected (profiled) residual, model minus data: |(e_w, e_T)| at the optimum
+        wres = -np.sign(e_T) * np.sqrt(e_T ** 2 + e_w ** 2)
+        res = wres * s_eff                                    # thrust-equivalent residual, N
+    else:
+        s_eff = sT
+        res = F - prep.thrust                                 # model minus data, N
+        wres = res / s_eff
+    J2 = np.column_stack([dF_dFm, dF_dK]) / s_eff[:, None]    # d wres / d(F_max, K)
+
+    finite = all(math.isfinite(z) for z in (Fmax, K)) and np.all(np.isfinite(wres)) and np.all(np.isfinite(J2))
+    success = bool(best["ok"] and finite)
+    warnings: list[str] = []
+    extra: dict[str, Any] = {
+        "formulation": formulation,
+        "samples_total": log.n_samples,
+        "samples_used": n,
+        "samples_dropped_slow": prep.dropped["slow"],
+        "samples_dropped_braking": prep.dropped["braking"],
+        "samples_thrust_jump_inflated": prep.dropped["thrust_jumps"],
+        "speed_floor_m_s": prep.dropped["speed_floor_m_s"],
+        "noise_model": {  # sigma = sqrt(abs^2 + (rel * reading)^2), given or estimated from the log
+            "torque_Nm": {"abs": prep.noise["torque"][0], "rel": prep.noise["torque"][1]},
+            "sprocket_speed_rad_s": {"abs": prep.noise["sprocket_speed"][0], "rel": prep.noise["sprocket_speed"][1]},
+            "vehicle_speed_m_s": {"abs": prep.noise["vehicle_speed"][0], "rel": prep.noise["vehicle_speed"][1]},
+            "estimated": not prep.sigma_known},
+        "torque_hold": str(options.get("torque_hold", "zoh")),
+        "sprocket_equation": str(options.get("sprocket_equation", "thrust")),
+    }
+    dropped = prep.dropped["slow"] + prep.dropped["braking"] + prep.dropped["edge"]
+    if prep.dropped["slow"] + prep.dropped["braking"]:
+        warnings.append(
+            f"{dropped} of {log.n_samples} samples not used: {prep.dropped['slow']} with vehicle or track speed "
+            f"below 3 noise levels (about {prep.dropped['speed_floor_m_s']:.3g} m/s: slip undefined or lost in the "
+            f"speed noise), {prep.dropped['braking']} braking (negative thrust: the skid law F(i) = -F(|i|) is only "
+            f"a first approximation), {prep.dropped['edge']} at the ends of the log (no sprocket-speed difference)")
+    if formulation == "equation-error":
+        warnings.append("equation-error formulation: slip computed from the noisy measured speeds is used as an "
+                        "exact regressor, which biases F_max and K (error-in-variables); use the default "
+                        "output-error formulation for estimates")
+
+    if not success:
+        msg = (f"drive-log fit failed: IPOPT returned {best['status']}"
+               + ("" if finite else " with non-finite values"))
+        if strict:
+            raise DriveLogFitError(msg)
+        theta = np.full(3, np.nan)
+        jac = np.zeros((n, 3))
+        return build_result(data_kind="drive", model=model, method=method, theta=theta, jacobian=jac,
+                            weighted_residuals=np.where(np.isfinite(wres), wres, 0.0),
+                            residuals=np.where(np.isfinite(res), res, 0.0), residual_unit="N", n_samples=n,
+                            normal_loads=np.full(n, W), vehicle=vehicle, bounds=bounds, status=best["status"],
+                            success=False, message=msg, iterations=best["iterations"], solve_time=best["time"],
+                            sigma_known=prep.sigma_known, warnings=tuple(warnings), extra=extra)
+
+    # (c, phi) on the ridge, and the Jacobian in [c, phi, K] by the chain rule ----------------
+    c, phi = _ridge_point(Fmax, vehicle, bounds, model, c_hint)
+    theta = np.array([c, phi, K])
+    dFm_dc = A if model == "full" else 0.0
+    dFm_dphi = W / math.cos(phi) ** 2
+    jac = np.column_stack([J2[:, 0] * dFm_dc, J2[:, 0] * dFm_dphi, J2[:, 1]])
+
+    # identifiable combinations and the driving regime -------------------------------------
+    dof = max(n - 2, 1)
+    s2 = 1.0 if prep.sigma_known else float(np.sum(wres ** 2)) / dof
+    info = J2.T @ J2
+    try:
+        cov2 = s2 * np.linalg.inv(info)
+        cov_ok = bool(np.all(np.isfinite(cov2))) and cov2[0, 0] > 0 and cov2[1, 1] > 0
+    except np.linalg.LinAlgError:
+        cov_ok = False
+    slope = Fmax * l / (2 * K)
+    thrust_peak = float(np.quantile(prep.thrust, 0.99))
+    utilisation = thrust_peak / Fmax
+    extra.update({"max_thrust_N": Fmax, "shear_modulus_m": K, "initial_slope_N": slope,
+                  "thrust_utilisation": utilisation, "slip_max": float(np.max(slip)),
+                  "residual_rms_N": float(np.sqrt(np.mean(res ** 2))), "reduced_chi2": float(np.sum(wres ** 2)) / dof})
+    at_bound = []
+    for name, val, (lo, hi) in (("F_max", Fmax, Fb), ("K", K, Kb)):
+        if val <= lo + 1e-6 * (hi - lo) or val >= hi - 1e-6 * (hi - lo):
+            at_bound.append(name)
+    if cov_ok:
+        sF, sK = math.sqrt(cov2[0, 0]), math.sqrt(cov2[1, 1])
+        corr = float(cov2[0, 1] / (sF * sK))
+        gslope = np.array([l / (2 * K), -Fmax * l / (2 * K * K)])
+        s_slope = float(math.sqrt(max(gslope @ cov2 @ gslope, 0.0)))
+        extra.update({"max_thrust_stderr_N": sF, "shear_modulus_stderr_m": sK, "corr_max_thrust_shear_modulus": corr,
+                      "initial_slope_stderr_N": s_slope})
+        relF = sF / Fmax
+        if abs(corr) >= GENTLE_CORRELATION or relF >= GENTLE_REL_STDERR or "F_max" in at_bound:
+            regime = "gentle"
+        elif relF <= HARD_REL_STDERR:
+            regime = "hard"
+        else:
+            regime = "intermediate"
+    else:
+        corr, s_slope, relF = float("nan"), float("nan"), float("inf")
+        regime = "gentle"
+    extra["regime"] = regime
+
+    slope_txt = (f"F_max l/(2K) = {slope:.4g} N" + (f" +- {s_slope:.2g} N" if math.isfinite(s_slope) else "")
+                 + f" (the thrust per unit slip at small slip, in N per unit slip)")
+    if regime == "gentle":
+        warnings.append(
+            f"gentle driving: the thrust stayed at about {100 * utilisation:.0f} % of the fitted soil thrust limit "
+            f"at most, so this log only shows the initial slope {slope_txt}; F_max and K are not separable "
+            f"(correlation of their estimates {corr:.3f}, standard error of F_max {100 * relF:.0f} %). "
+            f"To identify them, drive a hard pull near the traction limit (high slip, e.g. a hard acceleration "
+            f"from low speed or a drawbar pull)")
+    elif regime == "intermediate":
+        warnings.append(
+            f"the log reaches about {100 * utilisation:.0f} % of the fitted soil thrust limit: F_max and K are "
+            f"only partly separated (correlation {corr:.3f}, standard error of F_max {100 * relF:.0f} %); the best "
+            f"determined quantity is the initial slope {slope_txt}. A harder pull would pin F_max down")
+    else:
+        extra["note"] = (f"hard pull: the thrust reached about {100 * utilisation:.0f} % of the fitted limit; "
+                         f"F_max and K are separated (correlation {corr:.3f})")
+    if at_bound:
+        warnings.append(f"{' and '.join(at_bound)} ended on the bound implied by the soil ranges: "
+                        f"the data or the bounds are questionable")
+
+    msg = (f"drive-log fit ({formulation}) converged: F_max = {Fmax:.5g} N, K = {1000 * K:.4g} mm, "
+           f"{regime} log, {n} samples used")
+    return build_result(data_kind="drive", model=model, method=method, theta=theta, jacobian=jac,
+                        weighted_residuals=wres, residuals=res, residual_unit="N", n_samples=n,
+                        normal_loads=np.full(n, W), vehicle=vehicle, bounds=bounds, status=best["status"],
+                        success=True, message=msg, iterations=best["iterations"], solve_time=best["time"],
+                        sigma_known=prep.sigma_known, warnings=tuple(warnings), extra=extra)

@@ -1,0 +1,83 @@
+"""``fit``: one entry point for tractive force-slip data and drive logs."""
+from __future__ import annotations
+
+from ..soilmodel.data import DriveLog, SlipData
+from ..soilmodel.errors import DataError
+from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
+from ..soilmodel.vehicle import Vehicle
+from .ipopt_fit import _x0_vector, fit_ipopt
+from .problem import FitFailed, check_common, make_problem
+from .result import FitResult
+from .seed_methods import fit_least_squares, fit_newton
+
+__all__ = ["fit"]
+
+
+def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method: str = "ipopt",
+        bounds: SoilBounds = PRACTICAL_BOUNDS, x0=None, strict: bool = False, **options) -> FitResult:
+    """Identify the soil parameters ``c, phi, K`` from measured data.
+
+    Parameters
+    ----------
+    data : SlipData or DriveLog
+        Tractive force-slip samples (any number, one or several normal loads; a missing
+        ``normal_load`` means the vehicle's weight) or a drive log (dispatched to
+        :func:`soiltrack.identify.drivelog.fit_drive_log`).
+    vehicle : Vehicle
+    model : {"full", "cohesion-free"}
+        Eq. 2, or Eq. 8 (c fixed at 0).
+    method : {"ipopt", "newton", "least-squares"}
+        ``"ipopt"`` (default): bounded weighted least squares, cached IPOPT solver, start from
+        a variable-projection grid. ``"newton"`` and ``"least-squares"``: the seed's methods,
+        unbounded, with honest failure reports (see :mod:`soiltrack.identify.seed_methods`).
+    bounds : SoilBounds
+        Box bounds (used by IPOPT; the seed's methods only report against them).
+    x0 : Soil or array_like, optional
+        Start point ``[c (Pa), phi (rad), K (m)]``.
+    strict : bool
+        Raise :class:`FitFailed` when the fit does not succeed.
+    **options
+        ``sigma`` (N, scalar or per sample; default: equal weights, noise estimated from the
+        residuals), ``sigma_known`` (bool), ``ipopt_options`` (dict of IPOPT options),
+        ``max_iter``, ``n_grid`` (K grid of the start search). Drive-log options are passed on.
+
+    Returns
+    -------
+    FitResult
+
+    Raises
+    ------
+    DataError
+        Wrong types, too few samples for the free parameters (naming file and column).
+    FitFailed
+        With ``strict=True`` when the fit did not succeed.
+    """
+    if isinstance(data, DriveLog):
+        check_common(vehicle, model, method, bounds)
+        from .drivelog import fit_drive_log  # written separately; imported lazily
+        return fit_drive_log(data, vehicle, model, bounds, x0, strict, **options)
+    if not isinstance(data, SlipData):
+        raise DataError(f"fit takes SlipData or DriveLog, got {type(data).__name__}")
+    sigma = options.pop("sigma", None)
+    sigma_known = options.pop("sigma_known", None)
+    pb = make_problem(data, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known, method=method)
+    x0v = None if x0 is None else _x0_vector(x0)
+    if method == "ipopt":
+        allowed = {"ipopt_options", "n_grid"}
+        _check_options(options, allowed)
+        res = fit_ipopt(pb, x0v, ipopt_options=options.get("ipopt_options"), n_grid=options.get("n_grid", 25))
+    elif method == "newton":
+        _check_options(options, {"max_iter"})
+        res = fit_newton(pb, x0v, max_iter=options.get("max_iter", 50))
+    else:
+        _check_options(options, {"max_iter"})
+        res = fit_least_squares(pb, x0v, max_iter=options.get("max_iter", 500))
+    if strict and not res.success:
+        raise FitFailed(res)
+    return res
+
+
+def _check_options(options: dict, allowed: set) -> None:
+    unknown = sorted(set(options) - allowed)
+    if unknown:
+        raise DataError(f"unknown option(s) {unknown}; allowed here: {sorted(allowed) + ['sigma', 'sigma_known']}")

@@ -1,0 +1,153 @@
+"""A tractive force-slip identification problem: validated arrays, weights, scaling, result.
+
+Shared by every slip-data method (IPOPT, Newton-Raphson, least squares, the batch engine,
+profiles), so that they all solve the same weighted least-squares problem
+
+    minimise  0.5 * sum_k ((F(i_k; c, phi, K, W_k) - F_k) / sigma_k)^2
+
+and report through the same :func:`~soiltrack.identify.result.build_result`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..soilmodel.data import SlipData
+from ..soilmodel.errors import DataError
+from ..soilmodel.soil import SoilBounds
+from ..soilmodel.traction import MODELS
+from ..soilmodel.vehicle import Vehicle
+from .npmodel import thrust_and_jacobian
+from .result import FitResult, build_result
+
+__all__ = ["SlipProblem", "make_problem", "FitFailed", "SCALE", "METHODS", "n_free"]
+
+#: Variable scaling used by the solvers: c in kPa, phi in rad, K in cm.
+SCALE = np.array([1e3, 1.0, 1e-2])
+METHODS = ("ipopt", "newton", "least-squares")
+
+
+class FitFailed(RuntimeError):
+    """Raised by ``fit(..., strict=True)`` when the fit did not succeed; ``.result`` holds it."""
+
+    def __init__(self, result: FitResult) -> None:
+        self.result = result
+        super().__init__(f"soil identification failed ({result.model}, {result.method}): {result.status}: "
+                         f"{result.message}")
+
+
+def n_free(model: str) -> int:
+    """Number of free parameters: 3 (full) or 2 (cohesion-free)."""
+    return 3 if model == "full" else 2
+
+
+@dataclass(frozen=True, eq=False)
+class SlipProblem:
+    """Validated slip data with weights, ready for any solver (SI)."""
+
+    slip: np.ndarray
+    force: np.ndarray
+    load: np.ndarray
+    sigma: np.ndarray
+    sigma_known: bool
+    vehicle: Vehicle
+    bounds: SoilBounds
+    model: str
+    source: str
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return int(self.slip.size)
+
+    @property
+    def free(self) -> list[int]:
+        """Indices of the free parameters in ``[c, phi, K]``."""
+        return [0, 1, 2] if self.model == "full" else [1, 2]
+
+    def residuals(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Raw residuals (N), weighted residuals and their Jacobian (n, 3) at ``theta``."""
+        F, J = thrust_and_jacobian(np.asarray(theta, float)[None], self.slip[None], self.load[None],
+                                   self.vehicle.track_length, self.vehicle.track_width, self.model)
+        r = F[0] - self.force
+        return r, r / self.sigma, J[0] / self.sigma[:, None]
+
+    def result(self, theta: np.ndarray, *, method: str, status: str, success: bool, message: str,
+               iterations: int, solve_time: float, warnings=(), extra: dict | None = None) -> FitResult:
+        """Evaluate residuals at ``theta`` and build the :class:`FitResult`."""
+        theta = np.asarray(theta, dtype=float).copy()
+        if self.model == "cohesion-free":
+            theta[0] = 0.0
+        with np.errstate(all="ignore"):
+            r, rw, J = self.residuals(theta)
+        return build_result(data_kind="slip", model=self.model, method=method, theta=theta, jacobian=J,
+                            weighted_residuals=rw, residuals=r, residual_unit="N", n_samples=self.n,
+                            normal_loads=self.load, vehicle=self.vehicle, bounds=self.bounds, status=status,
+                            success=success, message=message, iterations=iterations, solve_time=solve_time,
+                            sigma_known=self.sigma_known, warnings=warnings, extra=extra)
+
+
+def check_common(vehicle, model: str, method: str, bounds) -> None:
+    """Type checks shared by all entry points (DataError with a plain message)."""
+    if not isinstance(vehicle, Vehicle):
+        raise DataError(f"vehicle must be a soiltrack Vehicle, got {type(vehicle).__name__}")
+    if model not in MODELS:
+        raise DataError(f"unknown model {model!r}; expected one of {MODELS}")
+    if method not in METHODS:
+        raise DataError(f"unknown method {method!r}; expected one of {METHODS}")
+    if not isinstance(bounds, SoilBounds):
+        raise DataError(f"bounds must be a SoilBounds, got {type(bounds).__name__}")
+    if bounds.friction_angle[0] <= 0 or bounds.friction_angle[1] >= math.pi / 2:
+        raise DataError("bounds on the friction angle must lie inside (0, 90) deg")
+    if bounds.shear_modulus[0] <= 0:
+        raise DataError("the lower bound on K must be > 0 m")
+    if bounds.cohesion[0] < 0:
+        raise DataError("the lower bound on cohesion must be >= 0 Pa")
+
+
+def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBounds,
+                 sigma=None, sigma_known: bool | None = None, method: str = "ipopt") -> SlipProblem:
+    """Validate slip data and build a :class:`SlipProblem`.
+
+    Parameters
+    ----------
+    data : SlipData
+    vehicle : Vehicle
+    model : {"full", "cohesion-free"}
+    bounds : SoilBounds
+    sigma : float or array_like, optional
+        Standard deviation of the tractive-force noise per sample (N). ``None``: equal
+        weights, noise level estimated from the residuals.
+    sigma_known : bool, optional
+        Whether ``sigma`` is the true noise level (normal intervals) or only relative weights
+        (scaled by the residual variance, t intervals). Defaults to ``sigma is not None``.
+
+    Raises
+    ------
+    DataError
+        Wrong types, too few samples for the free parameters, bad sigma.
+    """
+    check_common(vehicle, model, method, bounds)
+    if not isinstance(data, SlipData):
+        raise DataError(f"expected SlipData or DriveLog, got {type(data).__name__}")
+    p = n_free(model)
+    if data.n_samples < p:
+        raise DataError(f"{data.n_samples} sample(s) cannot identify the {p} free parameters of the {model} model "
+                        f"(need at least {p} rows)", file=data.source, column="tractive_force_N")
+    load = data.loads(vehicle.weight).astype(float)
+    if sigma is None:
+        sig = np.ones(data.n_samples)
+        known = False if sigma_known is None else bool(sigma_known)
+    else:
+        sig = np.broadcast_to(np.asarray(sigma, dtype=float), data.slip.shape).astype(float)
+        if not np.all(np.isfinite(sig)) or np.any(sig <= 0):
+            raise DataError("sigma must be finite and > 0 N", file=data.source, column="tractive_force_N")
+        known = True if sigma_known is None else bool(sigma_known)
+    if np.all(data.slip == 0):
+        raise DataError("all slips are zero: the tractive force carries no information on the soil",
+                        file=data.source, column="slip")
+    return SlipProblem(slip=np.array(data.slip, float), force=np.array(data.tractive_force, float), load=load,
+                       sigma=sig, sigma_known=known, vehicle=vehicle, bounds=bounds, model=model,
+                       source=data.source)

@@ -1,0 +1,442 @@
+"""Simulated measurements: straight-line drive logs and drawbar-pull slip sweeps.
+
+Drive logs (:func:`simulate_drive_log`)
+    The dynamics of :mod:`.dynamics` (Eqs. 1, 3/thrust balance, 4, with any effects on) are
+    integrated by CVODES (implicit BDF, adaptive: slip settles in milliseconds at low speed)
+    over one sample interval at a time, under a speed-reference PI controller whose torque is
+    held constant over the interval (zero-order hold) and limited by the drivetrain's torque
+    and power limits. The whole closed loop is one CasADi Function (``mapaccum`` of the
+    controller and the integrator), built once and cached. Sensor noise is added afterwards;
+    the controller acts on the noise-free speed.
+
+Slip sweeps (:func:`simulate_slip_sweep`)
+    A drawbar-pull rig at steady state: for each set slip and normal load, the tractive force.
+    What the rig reports as tractive force is the measured drawbar pull plus the NOMINAL motion
+    resistance ``W mu_r`` (the usual conversion), so resistance effects show as lost force:
+    ``F_reported = F(i) - (R_actual - W mu_r)``; the slip is computed with the nominal radius
+    (``radius_error`` offsets it); drivetrain friction does not enter (the force is measured by
+    the drawbar load cell, not from the torque).
+
+Noise (:class:`SensorNoise`) is white and Gaussian per channel, standard deviation
+``sqrt(abs^2 + (rel * |signal|)^2)``, reproducible through ``seed``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any, Callable, Sequence
+
+import casadi as ca
+import numpy as np
+
+from .data import DriveLog, SlipData
+from .dynamics import _check_sprocket_equation, dynamics_function, slip_expr
+from .effects import (DEFAULT_STANDSTILL_SPEED, EffectSet, _Values, effective_radius, motion_resistance,
+                      parse_effects, smooth_sign, thrust_with_effects_function)
+from .errors import DataError
+from .soil import Soil
+from .traction import check_model
+from .vehicle import Vehicle
+
+__all__ = ["SensorNoise", "DriveLimits", "drive_limits", "default_speed_profile", "simulate", "simulate_drive_log",
+           "simulate_slip_sweep", "DEFAULT_SLIPS", "cruise_speed", "hard_acceleration"]
+
+#: Power-to-mass ratio assumed when a vehicle gives no power limit, W/kg (typical of tracked
+#: vehicles: 15 W/kg gives 500 kW for the 33.5 t heavy vehicle, 460 W for the 30.6 kg light one).
+DEFAULT_POWER_PER_MASS = 15.0
+#: Thrust-to-weight ratio of the torque limit assumed when a vehicle gives none (T = 0.8 W r).
+DEFAULT_TORQUE_THRUST_RATIO = 0.8
+#: Default set slips of a sweep (measured slip, as the rig computes it with the nominal radius).
+DEFAULT_SLIPS = tuple(float(s) for s in np.round(np.concatenate([np.linspace(0.01, 0.1, 10),
+                                                                  np.linspace(0.15, 0.7, 12)]), 6))
+
+
+@dataclass(frozen=True)
+class SensorNoise:
+    """Standard deviations of white Gaussian sensor noise, per channel.
+
+    Each channel's standard deviation is ``sqrt(abs^2 + (rel * |signal|)^2)``. The defaults are
+    realistic for a field vehicle:
+
+    Attributes
+    ----------
+    encoder_rel, encoder_abs
+        Sprocket speed: 0.5 % and 0.01 rad/s (incremental encoder differentiated at 50 Hz).
+    gnss_speed
+        Vehicle speed: 0.05 m/s (RTK/Doppler GNSS speed).
+    imu_accel
+        Vehicle acceleration: 0.05 m/s^2 (MEMS IMU, gravity-compensated: the channel is dv/dt).
+    torque_rel, torque_fs
+        Sprocket torque: 1 % of reading and 0.1 % of the drivetrain's torque limit (full scale).
+    force_rel, force_abs
+        Sweep tractive force: 1 % of reading and 0 N.
+    slip_abs
+        Sweep slip: 0.002 (absolute).
+    """
+
+    encoder_rel: float = 0.005
+    encoder_abs: float = 0.01
+    gnss_speed: float = 0.05
+    imu_accel: float = 0.05
+    torque_rel: float = 0.01
+    torque_fs: float = 0.001
+    force_rel: float = 0.01
+    force_abs: float = 0.0
+    slip_abs: float = 0.002
+
+    def __post_init__(self) -> None:
+        for k, v in self.__dict__.items():
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+                raise DataError(f"SensorNoise.{k} must be a finite number >= 0, got {v!r}")
+
+    @classmethod
+    def none(cls) -> "SensorNoise":
+        """All channels noise-free."""
+        return cls(**{k: 0.0 for k in cls.__dataclass_fields__})
+
+
+def _noise(noise: Any) -> SensorNoise:
+    if isinstance(noise, SensorNoise):
+        return noise
+    if noise is None or noise == "none":
+        return SensorNoise.none()
+    if noise == "default":
+        return SensorNoise()
+    raise DataError(f"noise must be 'default', 'none' or a SensorNoise, got {noise!r}")
+
+
+def _std(rng: np.random.Generator, x: np.ndarray, abs_: float, rel: float) -> np.ndarray:
+    sd = np.sqrt(abs_ ** 2 + (rel * np.abs(x)) ** 2)
+    return x + sd * rng.standard_normal(x.shape)
+
+
+@dataclass(frozen=True)
+class DriveLimits:
+    """Drivetrain limits used by the simulator's controller (both tracks).
+
+    ``assumed`` is True where the vehicle gave no value and the library's default was used:
+    torque ``0.8 W r`` (thrust 0.8 W), power 15 W/kg.
+    """
+
+    max_sprocket_torque: float
+    max_power: float
+    torque_assumed: bool
+    power_assumed: bool
+
+
+def drive_limits(vehicle: Vehicle) -> DriveLimits:
+    """The vehicle's torque and power limits, or the documented defaults where it gives none."""
+    t = vehicle.max_sprocket_torque
+    p = vehicle.max_power
+    return DriveLimits(
+        float(t) if t else DEFAULT_TORQUE_THRUST_RATIO * vehicle.weight * vehicle.sprocket_radius,
+        float(p) if p else DEFAULT_POWER_PER_MASS * vehicle.mass,
+        not t, not p)
+
+
+def cruise_speed(vehicle: Vehicle) -> float:
+    """Top speed of the default reference profile: ``min(3, 4 l)`` m/s (an arbitrary, moderate choice)."""
+    return float(min(3.0, 4.0 * vehicle.track_length))
+
+
+def hard_acceleration(vehicle: Vehicle) -> float:
+    """Slope of the default profile's hard-acceleration ramps, m/s^2.
+
+    1.5 times what the torque limit can give the rigid vehicle, ``T_max / (r (m + I/r^2))``:
+    the controller saturates at the torque (then power) limit for the whole ramp, so the thrust
+    is as high as the drivetrain allows - near the soil's traction limit whenever
+    ``T_max / r`` approaches ``A c + W tan(phi)``, beyond it (track spin) when it exceeds it.
+    """
+    lim = drive_limits(vehicle)
+    r = vehicle.sprocket_radius
+    m_eq = vehicle.mass + vehicle.sprocket_inertia / r ** 2
+    return 1.5 * lim.max_sprocket_torque / (r * m_eq)
+
+
+def default_speed_profile(vehicle: Vehicle, duration_s: float = 60.0) -> Callable[[np.ndarray], np.ndarray]:
+    """Default speed reference ``v_ref(t)``, m/s: mostly gentle driving, two hard starts.
+
+    With ``v_c`` = :func:`cruise_speed`, ``a`` = :func:`hard_acceleration` and ``T`` the
+    duration (times as fractions of T):
+
+    - 0-0.04: standstill; at 0.04: HARD start, ramp 0 -> v_c at ``a`` (the controller saturates
+      at the torque, then power, limit: thrust near the traction limit); hold to 0.15;
+    - 0.15-0.25: gentle slow-down to 0.5 v_c; 0.28-0.43: gentle +-4 % speed changes (three
+      sine periods); 0.43-0.5: gentle stop; standstill to 0.55;
+    - 0.55: second HARD start to v_c; hold to 0.65; 0.65-0.75: gentle slow-down to 0.3 v_c
+      (coasting/braking: negative torque, skid); hold; 0.8-0.9: gentle ramp to 0.7 v_c; hold.
+
+    On flat ground a pull near the traction limit accelerates the vehicle at about
+    ``g (tan(phi) - mu_r)``, so it lasts only ``v_c / a`` (a fraction of a second for a light
+    vehicle): the hard phases are a few to a few tens of samples at 50 Hz.
+    """
+    vc = cruise_speed(vehicle)
+    T = float(duration_s)
+    a = hard_acceleration(vehicle)
+    kt = [0.0, 0.04 * T, 0.04 * T + vc / a, 0.15 * T, 0.25 * T, 0.43 * T, 0.5 * T, 0.55 * T, 0.55 * T + vc / a,
+          0.65 * T, 0.75 * T, 0.8 * T, 0.9 * T, T]
+    kv = np.array([0.0, 0.0, 1.0, 1.0, 0.5, 0.5, 0.0, 0.0, 1.0, 1.0, 0.3, 0.3, 0.7, 0.7]) * vc
+    kt = np.maximum.accumulate(np.array(kt))
+
+    def profile(t):
+        t = np.asarray(t, dtype=float)
+        base = np.interp(t, kt, kv)
+        wiggle = np.where((t > 0.28 * T) & (t < 0.43 * T),
+                          0.04 * vc * np.sin(2 * np.pi * (t - 0.28 * T) / (0.05 * T)), 0.0)
+        return base + wiggle
+
+    return profile
+
+
+def _reference(vehicle: Vehicle, duration_s: float, t: np.ndarray, speed_profile: Any) -> np.ndarray:
+    if speed_profile is None:
+        vref = default_speed_profile(vehicle, duration_s)(t)
+    elif callable(speed_profile):
+        vref = np.asarray(speed_profile(t), dtype=float) * np.ones_like(t)
+    else:
+        knots = np.asarray(speed_profile, dtype=float)
+        if knots.ndim != 2 or knots.shape[1] != 2 or knots.shape[0] < 1:
+            raise DataError("speed_profile must be a callable v_ref(t) or a sequence of (time_s, speed_m_s) pairs")
+        if np.any(np.diff(knots[:, 0]) < 0):
+            raise DataError("speed_profile knots must have non-decreasing time")
+        vref = np.interp(t, knots[:, 0], knots[:, 1])
+    if vref.shape != t.shape or not np.all(np.isfinite(vref)):
+        raise DataError("speed_profile must give one finite speed per time step")
+    return vref
+
+
+@lru_cache(maxsize=32)
+def _closed_loop(vehicle: Vehicle, soil: Soil, effects: EffectSet, model: str, sprocket_equation: str,
+                 h: float, n_steps: int, limits: DriveLimits, bandwidth: float) -> ca.Function:
+    """Closed-loop simulation over n_steps sample intervals: ZOH PI speed control + CVODES plant."""
+    dyn = dynamics_function(vehicle, soil, effects, model=model, sprocket_equation=sprocket_equation)
+    x = ca.MX.sym("x", 2)
+    u = ca.MX.sym("u")
+    plant = ca.integrator("plant", "cvodes", {"x": x, "p": u, "ode": dyn(x, u)[0]}, 0.0, h,
+                          {"abstol": 1e-10, "reltol": 1e-9, "max_num_steps": 200000, "show_eval_warnings": False})
+    r, I = vehicle.sprocket_radius, vehicle.sprocket_inertia
+    m_eq = vehicle.mass + I / r ** 2
+    kp = 2.0 * bandwidth * m_eq  # N per m/s (critically damped on the rigid-body plant)
+    ki = bandwidth ** 2 * m_eq  # N per m
+    xa = ca.MX.sym("xa", 3)  # v, w, integral of the speed error
+    ref = ca.MX.sym("ref", 2)  # v_ref, dv_ref/dt
+    v, w, z = xa[0], xa[1], xa[2]
+    err = ref[0] - v
+    ff = vehicle.weight * vehicle.rolling_resistance * smooth_sign(ref[0], DEFAULT_STANDSTILL_SPEED) \
+        + m_eq * ref[1]
+    m_uns = r * (ff + kp * err + ki * z)
+    w_floor = 0.05 * limits.max_power / limits.max_sprocket_torque
+    m_lim = ca.fmin(limits.max_sprocket_torque, limits.max_power / ca.fmax(ca.fabs(w), w_floor))
+    m_cmd = ca.fmin(ca.fmax(m_uns, -m_lim), m_lim)
+    saturated = ca.fabs(m_uns) > m_lim
+    z_next = ca.if_else(ca.logic_and(saturated, err * m_uns > 0), z, z + h * err)  # conditional integration
+    x_next = plant(x0=xa[:2], p=m_cmd)["xf"]
+    step = ca.Function("step", [xa, ref], [ca.vertcat(x_next, z_next), m_cmd])
+    return step.mapaccum("closed_loop", n_steps)
+
+
+def simulate_drive_log(vehicle: Vehicle, soil: Soil, *, effects: Any = None, seed: int | None = None,
+                       noise: Any = "default", model: str = "full", duration_s: float = 60.0,
+                       sample_rate_hz: float = 50.0, speed_profile: Any = None,
+                       sprocket_equation: str = "thrust", controller_bandwidth: float = 1.0,
+                       with_accel: bool = True, return_truth: bool = False):
+    """Simulate a straight-line drive log (DESIGN.md section 7 columns).
+
+    Parameters
+    ----------
+    vehicle, soil
+        The NOMINAL vehicle and the true soil.
+    effects
+        Unmodelled effects present in the "real" run (anything :func:`~.effects.parse_effects`
+        takes); default none.
+    seed
+        Seed of the noise generator (same seed, same log).
+    noise
+        ``"default"`` (:class:`SensorNoise` defaults), ``"none"`` or a :class:`SensorNoise`.
+    model
+        Thrust law of the truth: ``"full"`` or ``"cohesion-free"``.
+    duration_s, sample_rate_hz
+        Length and rate of the log; the controller runs at the sample rate (zero-order hold).
+    speed_profile
+        ``None`` (:func:`default_speed_profile`), a callable ``v_ref(t)`` on a time array, or a
+        sequence of ``(time_s, speed_m_s)`` knots (piecewise linear).
+    sprocket_equation
+        ``"thrust"`` (default) or ``"seed"`` (see :func:`~.dynamics.dynamics_expr`).
+    controller_bandwidth
+        Closed-loop bandwidth of the PI speed controller, rad/s (critically damped). Torque and
+        power limits from the vehicle, or assumed (:func:`drive_limits`, reported in the truth).
+    with_accel
+        Include the IMU acceleration channel.
+    return_truth
+        Also return the noise-free signals.
+
+    Returns
+    -------
+    DriveLog, or (DriveLog, dict)
+        The truth dict holds arrays ``time``, ``v``, ``w``, ``slip`` (true, effective radius),
+        ``slip_apparent`` (with the nominal radius, as computed from the log), ``thrust``,
+        ``resistance``, ``torque`` (at the sensor, constant over each interval from the sample
+        on), ``torque_loss``, ``accel`` (dv/dt), ``dw_dt`` (right limit at the sample),
+        ``v_ref``, and ``limits`` (:class:`DriveLimits`).
+    """
+    check_model(model)
+    _check_sprocket_equation(sprocket_equation)
+    eff = parse_effects(effects)
+    nz = _noise(noise)
+    for name, val in (("duration_s", duration_s), ("sample_rate_hz", sample_rate_hz),
+                      ("controller_bandwidth", controller_bandwidth)):
+        if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
+            raise DataError(f"{name} must be a finite number > 0, got {val!r}")
+    h = 1.0 / float(sample_rate_hz)
+    n = int(round(duration_s * sample_rate_hz)) + 1
+    if n < 3:
+        raise DataError(f"duration_s x sample_rate_hz gives {n} samples; need at least 3")
+    t = np.arange(n) * h
+    vref = _reference(vehicle, duration_s, t, speed_profile)
+    dvref = np.append(np.diff(vref) / h, 0.0)
+    limits = drive_limits(vehicle)
+    sim = _closed_loop(vehicle, soil, eff, model, sprocket_equation, h, n - 1, limits, float(controller_bandwidth))
+    X, M = sim(np.zeros(3), np.vstack([vref[:-1], dvref[:-1]]))
+    X = np.hstack([np.zeros((3, 1)), np.asarray(X)])
+    M = np.append(np.asarray(M).ravel(), 0.0)
+    M[-1] = M[-2]  # the last sample's torque: held from the previous interval
+    v, w = X[0], X[1]
+    if not (np.all(np.isfinite(v)) and np.all(np.isfinite(w)) and np.all(np.isfinite(M))):
+        raise DataError("simulation produced non-finite values (integration failed)")
+    dyn = dynamics_function(vehicle, soil, eff, model=model, sprocket_equation=sprocket_equation)
+    xdot, slip, thrust, res, loss = (np.asarray(a, dtype=float).reshape(-1, n) for a in
+                                     dyn(X[:2], M.reshape(1, -1)))
+    r_nom = vehicle.sprocket_radius
+    slip_app = np.asarray(_slip_fn()(v.reshape(1, -1), w.reshape(1, -1), r_nom), dtype=float).ravel()
+    truth = {"time": t, "v": v, "w": w, "slip": slip[0], "slip_apparent": slip_app, "thrust": thrust[0],
+             "resistance": res[0], "torque": M, "torque_loss": loss[0], "accel": xdot[0], "dw_dt": xdot[1],
+             "v_ref": vref, "limits": limits}
+    rng = np.random.default_rng(seed)
+    log = DriveLog(
+        time=t,
+        sprocket_torque=_std(rng, M, nz.torque_fs * limits.max_sprocket_torque, nz.torque_rel),
+        sprocket_speed=_std(rng, w, nz.encoder_abs, nz.encoder_rel),
+        vehicle_speed=_std(rng, v, nz.gnss_speed, 0.0),
+        vehicle_accel=_std(rng, xdot[0], nz.imu_accel, 0.0) if with_accel else None,
+        source=f"simulated drive log ({vehicle.name or 'vehicle'}, {soil.name or 'soil'}, effects: {eff})")
+    return (log, truth) if return_truth else log
+
+
+def simulate_slip_sweep(vehicle: Vehicle, soil: Soil, *, slips: Sequence[float] | None = None,
+                        normal_loads: Sequence[float] | None = None, effects: Any = None, seed: int | None = None,
+                        noise: Any = "default", model: str = "full", rig_speed: float = 0.5,
+                        return_truth: bool = False):
+    """Simulate a drawbar-pull slip sweep: tractive force at set slips and normal loads.
+
+    Parameters
+    ----------
+    vehicle, soil
+        Nominal vehicle (geometry, radius, mu_r) and the true soil.
+    slips
+        Set slips in [0, 1) as the rig measures them (nominal radius); default
+        :data:`DEFAULT_SLIPS` (0.01 to 0.7).
+    normal_loads
+        Nominal normal loads, N; every slip is run at every load. Default: the vehicle's weight,
+        and then the data carry no ``normal_load_N`` column. Two or more loads make c and phi
+        separable.
+    effects
+        Effects of the real run. ``hump_shear``, ``pressure_distribution`` change F(i);
+        ``mass_error``, ``grade`` change the actual load; ``radius_error`` offsets the measured
+        slip; resistance effects reduce the reported force (see the module docstring);
+        ``drivetrain_friction`` has no effect on a rig.
+    seed, noise
+        Noise generator seed; ``"default"``, ``"none"`` or :class:`SensorNoise` (``force_rel``,
+        ``force_abs``, ``slip_abs``). Noisy slips are clipped into [0, 0.999].
+    model
+        ``"full"`` or ``"cohesion-free"``.
+    rig_speed
+        Track speed ``r w`` of the rig, m/s (sets the vehicle speed for speed resistance).
+    return_truth
+        Also return ``{"slip": measured-noise-free, "slip_true", "tractive_force", "thrust",
+        "normal_load"}``.
+
+    Returns
+    -------
+    SlipData, or (SlipData, dict)
+    """
+    check_model(model)
+    eff = parse_effects(effects)
+    nz = _noise(noise)
+    s = np.asarray(DEFAULT_SLIPS if slips is None else slips, dtype=float).ravel()
+    if s.size == 0 or not np.all(np.isfinite(s)) or np.any(s < 0) or np.any(s >= 1):
+        raise DataError("slips must be finite values in [0, 1)")
+    loads_given = normal_loads is not None
+    loads = np.asarray([vehicle.weight] if normal_loads is None else normal_loads, dtype=float).ravel()
+    if loads.size == 0 or not np.all(np.isfinite(loads)) or np.any(loads <= 0):
+        raise DataError("normal_loads must be finite values > 0 N")
+    if not (isinstance(rig_speed, (int, float)) and math.isfinite(rig_speed) and rig_speed > 0):
+        raise DataError(f"rig_speed must be a finite number > 0, got {rig_speed!r}")
+    S, Wn = (a.ravel() for a in np.meshgrid(s, loads, indexing="xy"))
+    fn = _sweep_fn(vehicle, eff, model)
+    slip_true, thrust, reported = (np.asarray(a, dtype=float).ravel() for a in fn(
+        S.reshape(1, -1), Wn.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus, rig_speed))
+    rng = np.random.default_rng(seed)
+    F_meas = _std(rng, reported, nz.force_abs, nz.force_rel)
+    s_meas = np.clip(_std(rng, S, nz.slip_abs, 0.0), 0.0, 0.999)
+    data = SlipData(slip=s_meas, tractive_force=F_meas, normal_load=Wn if loads_given else None,
+                    source=f"simulated slip sweep ({vehicle.name or 'vehicle'}, {soil.name or 'soil'}, effects: {eff})")
+    if return_truth:
+        return data, {"slip": S, "slip_true": slip_true, "tractive_force": reported, "thrust": thrust,
+                      "normal_load": Wn}
+    return data
+
+
+@lru_cache(maxsize=1)
+def _slip_fn() -> ca.Function:
+    v, w, r = ca.SX.sym("v"), ca.SX.sym("w"), ca.SX.sym("r")
+    return ca.Function("slip", [v, w, r], [slip_expr(v, w, r)])
+
+
+@lru_cache(maxsize=64)
+def _sweep_fn(vehicle: Vehicle, effects: EffectSet, model: str) -> ca.Function:
+    ev = _Values(effects, vehicle)
+    i_app, W, c, phi, K, rig = (ca.SX.sym(n) for n in ("i", "W", "c", "phi", "K", "rig"))
+    r_nom = vehicle.sprocket_radius
+    w = rig / r_nom
+    v = r_nom * w * (1 - i_app)  # measured v (truth: a speed sensor on the carriage)
+    # true slip 1 - v/(r_eff w) = (i_app + eps)/(1 + eps): written so that eps = 0 gives i_app exactly
+    i_true = (i_app + ev["radius_error", "eps"]) / (1 + ev["radius_error", "eps"]) if ev.on("radius_error") else i_app
+    F = thrust_with_effects_function(vehicle, effects, model)(i_true, c, phi, K, W)
+    R = motion_resistance(v, i_true, vehicle, ev, W=W)
+    R_nom = W * vehicle.rolling_resistance * smooth_sign(v, DEFAULT_STANDSTILL_SPEED)
+    rep = F - (R - R_nom)
+    return ca.Function("sweep", [i_app, W, c, phi, K, rig], [i_true, F, rep])
+
+
+def simulate(vehicle: Vehicle, soil: Soil, *, kind: str = "drive", effects: Any = None, seed: int | None = None,
+             noise: Any = "default", model: str = "full", duration_s: float | None = None,
+             sample_rate_hz: float | None = None, speed_profile: Any = None, slips: Sequence[float] | None = None,
+             normal_loads: Sequence[float] | None = None, sprocket_equation: str = "thrust",
+             return_truth: bool = False):
+    """Simulate a drive log (``kind="drive"``) or a drawbar-pull slip sweep (``kind="sweep"``).
+
+    Dispatches to :func:`simulate_drive_log` (``duration_s`` default 60, ``sample_rate_hz``
+    default 50, ``speed_profile``, ``sprocket_equation``) or :func:`simulate_slip_sweep`
+    (``slips``, ``normal_loads``). Arguments that belong to the other kind are refused.
+
+    Returns
+    -------
+    DriveLog or SlipData (with a truth dict when ``return_truth``).
+    """
+    if kind == "drive":
+        if slips is not None or normal_loads is not None:
+            raise DataError("slips and normal_loads belong to kind='sweep', not to a drive log")
+        return simulate_drive_log(vehicle, soil, effects=effects, seed=seed, noise=noise, model=model,
+                                  duration_s=60.0 if duration_s is None else duration_s,
+                                  sample_rate_hz=50.0 if sample_rate_hz is None else sample_rate_hz,
+                                  speed_profile=speed_profile, sprocket_equation=sprocket_equation,
+                                  return_truth=return_truth)
+    if kind == "sweep":
+        if duration_s is not None or sample_rate_hz is not None or speed_profile is not None:
+            raise DataError("duration_s, sample_rate_hz and speed_profile belong to kind='drive', not to a sweep")
+        if sprocket_equation != "thrust":
+            raise DataError("sprocket_equation belongs to kind='drive', not to a sweep")
+        return simulate_slip_sweep(vehicle, soil, slips=slips, normal_loads=normal_loads, effects=effects, seed=seed,
+                                   noise=noise, model=model, return_truth=return_truth)
+    raise DataError(f"unknown kind {kind!r}; expected 'drive' or 'sweep'")
