@@ -167,14 +167,16 @@ def batch(args, rng):
     have_fm = hasattr(identify, "fit_many")
     if have_fm:
         identify.fit_many(sets[:10], HEAVY, model=MODEL, method="ipopt", progress=False)  # warm-up
-    t_sp, t_fm, sp_est, res = [], [], [], None
+    t_sp, t_fm, sp_est, sp_nfev, res = [], [], [], [], None
     for k in range(ROUNDS):
         part = sets[k * per_round:(k + 1) * per_round]
         log(f"batch round {k + 1}/{ROUNDS}: scipy loop on {len(part)} datasets")
         t0 = time.perf_counter()
         for d in part:
             sp = ScipyFit(np.asarray(d.slip), np.asarray(d.tractive_force), HEAVY.weight, HEAVY.track_length)
-            sp_est.append(sp.solve(x0)[0])
+            est, r = sp.solve(x0)
+            sp_est.append(est)
+            sp_nfev.append(r.nfev)
         t_sp.append((time.perf_counter() - t0) / len(part))
         if have_fm:
             log(f"batch round {k + 1}/{ROUNDS}: fit_many on {args.batch} datasets")
@@ -185,6 +187,7 @@ def batch(args, rng):
     out["scipy_subset"] = n_sp
     out["scipy_per_fit_s"] = float(np.median(t_sp))
     out["scipy_per_fit_s_rounds"] = t_sp
+    out["scipy_median_nfev"] = float(np.median(sp_nfev))
     out["scipy_extrapolated_total_s"] = out["scipy_per_fit_s"] * args.batch
     out["scipy_throughput_fits_per_s"] = 1.0 / out["scipy_per_fit_s"]
     if not have_fm:
@@ -240,12 +243,12 @@ def main(argv=None):
           f"K 0.006-0.05 m; x0 = middle of the bounds where 'same x0'")
     print(f"single fits: median wall time per call over {args.repeats} repeats after a warm-up, all paths timed "
           "round-robin; 'rel diff' = max relative difference of (phi, K) from scipy's")
-    hdr = f"{'dataset':<24}{'path':<44}{'time/fit':>11}{'vs scipy':>10}{'phi (deg)':>12}{'K (m)':>11}" \
+    hdr = f"{'dataset':<24}{'path':<50}{'time/fit':>11}{'vs scipy':>10}{'phi (deg)':>12}{'K (m)':>11}" \
           f"{'rel diff':>10}  status"
     print(hdr)
     print("-" * len(hdr))
     for r in rows:
-        print(f"{r['dataset']:<24}{r['path']:<44}{r['time_s'] * 1e3:>8.3f} ms{r['speedup_vs_scipy']:>9.2f}x"
+        print(f"{r['dataset']:<24}{r['path']:<50}{r['time_s'] * 1e3:>8.3f} ms{r['speedup_vs_scipy']:>9.2f}x"
               f"{r['phi_deg']:>12.6f}{r['K_m']:>11.6f}{r['rel_diff_vs_scipy']:>10.1e}  {r['status']}")
     print()
     fastest = {}

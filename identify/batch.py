@@ -124,7 +124,10 @@ def _solve_chunk(datasets: Sequence[SlipData], vehicle: Vehicle, model: str, bou
     slip = np.stack([d.slip for d in datasets])
     force = np.stack([d.tractive_force for d in datasets])
     Wv = vehicle.weight
-    load = np.stack([d.normal_load if d.normal_load is not None else np.full(d.slip.size, Wv) for d in datasets])
+    if all(d.normal_load is None for d in datasets):
+        load = np.full(slip.shape, Wv)
+    else:
+        load = np.stack([d.normal_load if d.normal_load is not None else np.full(d.slip.size, Wv) for d in datasets])
     if sigma is None:
         sig = np.ones_like(slip)
         sk = False if sigma_known is None else bool(sigma_known)

@@ -171,6 +171,8 @@ class PreparedLog:
     sample (see :func:`prepare_drive_log`); ``slip_measured`` is ``1 - v/(r w)`` (for reference
     and for the equation-error comparison only). ``keep`` marks the used samples of the log.
     ``noise`` holds the noise model ``(a, b)`` per channel: ``sigma = sqrt(a^2 + (b x)^2)``.
+    The speed and thrust residuals of one sample share the encoder noise of ``w_k`` (with
+    ``torque_hold="zoh"``); ``coupling`` and ``sigma_thrust_cond`` whiten that 2x2 covariance.
     """
 
     keep: np.ndarray
@@ -180,6 +182,8 @@ class PreparedLog:
     slip_measured: np.ndarray
     sigma_speed: np.ndarray          # sigma_s: of v - r w (1 - i), m/s
     sigma_thrust: np.ndarray         # sigma_T, N
+    coupling: np.ndarray             # rho = cov(speed, thrust residual noise) / sigma_s^2, N s/m
+    sigma_thrust_cond: np.ndarray    # sigma_T given the speed residual, sqrt(sigma_T^2 - rho^2 sigma_s^2), N
     noise: dict
     sigma_known: bool
     dropped: dict
@@ -194,7 +198,7 @@ def _noise_model(x: np.ndarray, given: float | None) -> tuple[float, float]:
     if given is not None:
         return float(given), 0.0
     a, b = estimate_noise_profile(x)
-    floor = 1e-6 * float(np.max(np.abs(x))) + 1e-12  # keeps weights finite on noise-free data
+    floor = 1e-4 * float(np.max(np.abs(x))) + 1e-12  # a 0.01 % resolution floor keeps noise-free data sane
     return max(a, floor), b
 
 
@@ -298,8 +302,17 @@ def prepare_drive_log(log: DriveLog, vehicle: Vehicle, *, sigma_torque: float | 
     slip_m = 1.0 - vk / (r * wk)
     one_minus_i = np.clip(1.0 - slip_m, 1.0 - SLIP_BOUNDS[1], 1.0 - SLIP_BOUNDS[0])
     sigma_s = np.sqrt(s_v[keep] ** 2 + (r * one_minus_i * s_w[keep]) ** 2)
+    sT = sigma_T[keep]
+    if torque_hold == "zoh":  # w_k enters both residuals: -r (1 - i) dw_k and -I dw_k / (h r)
+        hk = np.diff(t)[np.nonzero(keep)[0] - 1]
+        cov = I * one_minus_i * s_w[keep] ** 2 / hk
+    else:                     # the central difference does not contain w_k
+        cov = np.zeros_like(sT)
+    rho = cov / sigma_s ** 2
+    sT_cond = np.sqrt(np.maximum(sT ** 2 - rho * cov, 0.0) + 1e-300)
     return PreparedLog(keep=keep, vehicle_speed=vk, sprocket_speed=wk, thrust=thrust[keep], slip_measured=slip_m,
-                       sigma_speed=sigma_s, sigma_thrust=sigma_T[keep], noise=nm, sigma_known=sigma_known,
+                       sigma_speed=sigma_s, sigma_thrust=sT, coupling=rho, sigma_thrust_cond=sT_cond, noise=nm,
+                       sigma_known=sigma_known,
                        dropped={"slow": int(np.count_nonzero(slow)), "braking": int(np.count_nonzero(braking)),
                                 "edge": int(np.count_nonzero(edge)), "speed_floor_m_s": float(np.median(floor)),
                                 "thrust_jumps": n_jump})
@@ -321,16 +334,19 @@ def _output_error_solver(n: int, max_iter: int, tol: float, print_level: int) ->
     """IPOPT solver for the output-error (latent slip) problem with ``n`` samples.
 
     Variables ``[F_max / F_ref, K / K_ref, i_1 / i_ref, ..., i_n / i_ref]``; parameters
-    ``[F_ref, K_ref, i_ref, r, l, v(n), w(n), T(n), sigma_s(n), sigma_T(n)]``.
+    ``[F_ref, K_ref, i_ref, r, l, v(n), w(n), T(n), sigma_s(n), sigma_T|s(n), rho(n)]``.
+    The residual pair of each sample is whitened (its speed and thrust noise are correlated
+    through the encoder): ``e_w = d_s / sigma_s``, ``e_T = (d_T - rho d_s) / sigma_T|s``.
     """
     x = ca.SX.sym("x", 2 + n)
-    p = ca.SX.sym("p", 5 + 5 * n)
+    p = ca.SX.sym("p", 5 + 6 * n)
     F_ref, K_ref, i_ref, r, l = (p[j] for j in range(5))
-    v, w, T, ss, sT = (p[5 + j * n:5 + (j + 1) * n] for j in range(5))
+    v, w, T, ss, sT, rho = (p[5 + j * n:5 + (j + 1) * n] for j in range(6))
     Fmax, K = x[0] * F_ref, x[1] * K_ref
     slip = x[2:] * i_ref
-    e_w = (v - r * w * (1 - slip)) / ss
-    e_T = (T - Fmax * _bracket_signed(slip, l / K)) / sT
+    d_s = v - r * w * (1 - slip)
+    e_w = d_s / ss
+    e_T = (T - Fmax * _bracket_signed(slip, l / K) - rho * d_s) / sT
     f = 0.5 * (ca.sumsqr(e_w) + ca.sumsqr(e_T))
     opts = dict(_QUIET, **{"ipopt.max_iter": max_iter, "ipopt.tol": tol, "ipopt.print_level": print_level})
     return ca.nlpsol(f"drivelog_oe_{n}", "ipopt", {"x": x, "p": p, "f": f}, opts)
@@ -418,7 +434,7 @@ def _solve_output_error(prep: PreparedLog, vehicle: Vehicle, F_ref: float, K_ref
     i_ref = K_ref / l
     solver = _output_error_solver(n, max_iter, tol, print_level)
     p = np.concatenate([[F_ref, K_ref, i_ref, r, l], prep.vehicle_speed, prep.sprocket_speed, prep.thrust,
-                        prep.sigma_speed, prep.sigma_thrust])
+                        prep.sigma_speed, prep.sigma_thrust_cond, prep.coupling])
     lbx = np.concatenate([[Fb[0] / F_ref, Kb[0] / K_ref], np.full(n, SLIP_BOUNDS[0] / i_ref)])
     ubx = np.concatenate([[Fb[1] / F_ref, Kb[1] / K_ref], np.full(n, SLIP_BOUNDS[1] / i_ref)])
     best = None
@@ -583,10 +599,13 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
     F, dF_ds, dF_dFm, dF_dK = _eval_pointwise(slip, Fmax, K, l)
     sT = prep.sigma_thrust
     if formulation == "output-error":
-        sigma_i = prep.sigma_speed / (vehicle.sprocket_radius * prep.sprocket_speed)
-        s_eff = np.sqrt(sT ** 2 + (dF_ds * sigma_i) ** 2)  # effective variance of the thrust residual
-        e_T = (prep.thrust - F) / sT
-        e_w = (prep.vehicle_speed - vehicle.sprocket_radius * prep.sprocket_speed * (1 - slip)) / prep.sigma_speed
+        rw_k = vehicle.sprocket_radius * prep.sprocket_speed
+        sc = prep.sigma_thrust_cond
+        # effective variance of the thrust residual after profiling out the latent slip
+        s_eff = np.sqrt(sc ** 2 + ((dF_ds + prep.coupling * rw_k) * prep.sigma_speed / rw_k) ** 2)
+        d_s = prep.vehicle_speed - rw_k * (1 - slip)
+        e_T = (prep.thrust - F - prep.coupling * d_s) / sc
+        e_w = d_s / prep.sigma_speed
         # projected (profiled) residual, model minus data: |(e_w, e_T)| at the optimum
         wres = -np.sign(e_T) * np.sqrt(e_T ** 2 + e_w ** 2)
         res = wres * s_eff                                    # thrust-equivalent residual, N

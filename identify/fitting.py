@@ -55,7 +55,7 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
     if isinstance(data, DriveLog):
         check_common(vehicle, model, method, bounds)
         from .drivelog import fit_drive_log  # written separately; imported lazily
-        return fit_drive_log(data, vehicle, model, bounds, x0, strict, **options)
+        return fit_drive_log(data, vehicle, model, bounds, x0, strict, method=method, **options)
     if not isinstance(data, SlipData):
         raise DataError(f"fit takes SlipData or DriveLog, got {type(data).__name__}")
     sigma = options.pop("sigma", None)

@@ -29,6 +29,14 @@ Statistics (local, linearised at the optimum)
   bounds-feasible ridge ``A c + W tan(phi) = F_max`` for ``F_max`` within its 95 % interval.
   ``FitResult.soil`` is then ``None``; the optimiser's arbitrary ridge point is available
   as ``FitResult.ridge_point`` (a :class:`Soil` whose name says it is not an estimate).
+* A failed fit (solver status, non-finite numbers, singular Newton system, ...) carries no
+  estimate: parameter values, standard errors and intervals are ``None``, ``combinations``
+  is empty and ``soil`` is ``None``; the last iterate stays visible as ``ridge_value`` /
+  ``ridge_point`` for diagnosis, labelled as such. Estimates of the unconstrained seed
+  methods that fall outside the bounds are reported as ``outside_bounds`` (not clipped).
+* JSON (``to_json``) never carries NaN or Infinity: unavailable numbers are ``null`` and the
+  reason is in the ``note`` / ``warnings`` text. For drive logs ``rmse_N`` is ``null`` and
+  ``rmse`` / ``residual_unit`` carry the residual size in its own unit.
 """
 from __future__ import annotations
 
@@ -249,7 +257,7 @@ def _quantile(dof: int, sigma_known: bool) -> float | None:
 # --------------------------------------------------------------------------------------------
 # FitResult
 # --------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class FitResult:
     """Outcome of a soil-parameter identification (in the spirit of scipy's ``OptimizeResult``).
 
@@ -490,7 +498,7 @@ class FitResult:
             gF = np.array([0.0 if cf else A, W * sec2, 0.0])
             s0 = fm * l / (2.0 * K)
             g = gF * l / (2.0 * K) + np.array([0.0, 0.0, -fm * l / (2.0 * K * K)])
-            add(f"initial_slope@W={W:.6g}N", s0, g, "N", f"small-slip slope dF/di = F_max l / (2 K) at W = "
+            add(f"initial_slope@W={W:.6g}N", s0, g, "N/slip", f"small-slip slope dF/di = F_max l / (2 K) at W = "
                 f"{W / 1e3:.6g} kN")
         return out
 
@@ -753,8 +761,8 @@ class FitResult:
                 L.append(f"{lab}{pe.edge_value:.5g}{se} {u}, 95 % {rng}{flag}{weak}")
         L.append("identifiable combinations:" + ("" if self.combinations else " none (the fit failed)"))
         for cb in self.combinations:
-            if cb.unit == "N":
-                v, se, u = cb.value / 1e3, (None if cb.stderr is None else cb.stderr / 1e3), "kN"
+            if cb.unit.startswith("N"):
+                v, se, u = cb.value / 1e3, (None if cb.stderr is None else cb.stderr / 1e3), "k" + cb.unit
             else:
                 v, se, u = cb.value, cb.stderr, cb.unit
             if not cb.estimable:
@@ -926,22 +934,29 @@ def build_results_batch(*, model: str, method: str, theta: np.ndarray, jacobian:
     W = np.sort(np.asarray(normal_loads, dtype=float), axis=1)
     keep = np.concatenate([np.ones((N, 1), bool), np.diff(W, axis=1) > 1e-9 * np.abs(W[:, 1:])], axis=1)
     single = keep.sum(axis=1) == 1
+    # per-row views and Python scalars prepared in bulk (iteration over an array is a C loop)
+    ok_l = (np.asarray(success, dtype=bool) & finite).tolist()
+    fin_l = finite.tolist()
+    s2_l = np.where(np.isfinite(s2) & finite, s2, np.nan).tolist()
+    loads_l = [W[k, :1] if single[k] else W[k][keep[k]] for k in range(N)] if not single.all() else list(W[:, :1])
+    rows = zip(list(theta), list(J), list(rw), list(res), loads_l, ok_l, fin_l, status, message,
+               np.asarray(iterations).tolist(), np.asarray(solve_time, dtype=float).tolist(), rmse.tolist(),
+               cost.tolist(), core["rank"].tolist(), core["dof"].tolist(), s2_l, list(core["S"]), list(core["V"]),
+               list(core["D"]), list(core["Dok"]), list(core["Pinv"]), list(core["nonnull"]),
+               extra if extra is not None else [None] * N)
     out = []
     new = object.__new__
-    for k in range(N):
-        ok = bool(success[k]) and bool(finite[k])
-        st = str(status[k]) if finite[k] else f"{status[k]} (non-finite numbers)"
-        warn = () if finite[k] else ("the solver returned non-finite numbers; no estimate is given",)
-        s2k = float(s2[k])
+    sk = bool(sigma_known)
+    nonfinite = ("the solver returned non-finite numbers; no estimate is given",)
+    for (th, Jk, rwk, rk, Wk, ok, fin, st, msg, it, stime, rm, co, rank, dof, s2k, Sk, Vk, Dk, Dokk, Pk, nnk,
+         ex) in rows:
         obj = new(FitResult)
         obj.__dict__.update(
-            data_kind="slip", model=model, method=method, theta=theta[k], jacobian=J[k], weighted_residuals=rw[k],
-            residuals=res[k], residual_unit="N", n_samples=n, normal_loads=W[k, :1] if single[k] else W[k][keep[k]],
-            vehicle=vehicle, bounds=bounds, status=st, success=ok, message=str(message[k]),
-            iterations=int(iterations[k]), solve_time=float(solve_time[k]), sigma_known=bool(sigma_known),
-            rmse=float(rmse[k]), cost=float(cost[k]), rank=int(core["rank"][k]), dof=int(core["dof"][k]),
-            s2=s2k if (s2k == s2k and finite[k]) else None, free=free, scaled_singular_values=core["S"][k],
-            _V=core["V"][k], _D=core["D"][k], _Dok=core["Dok"][k], _Pinv=core["Pinv"][k],
-            _nonnull=core["nonnull"][k], input_warnings=warn, extra=dict(extra[k]) if extra is not None else {})
+            data_kind="slip", model=model, method=method, theta=th, jacobian=Jk, weighted_residuals=rwk,
+            residuals=rk, residual_unit="N", n_samples=n, normal_loads=Wk, vehicle=vehicle, bounds=bounds,
+            status=str(st) if fin else f"{st} (non-finite numbers)", success=ok, message=str(msg), iterations=it,
+            solve_time=stime, sigma_known=sk, rmse=rm, cost=co, rank=rank, dof=dof,
+            s2=None if s2k != s2k else s2k, free=free, scaled_singular_values=Sk, _V=Vk, _D=Dk, _Dok=Dokk,
+            _Pinv=Pk, _nonnull=nnk, input_warnings=() if fin else nonfinite, extra=dict(ex) if ex else {})
         out.append(obj)
     return out

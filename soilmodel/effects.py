@@ -331,7 +331,8 @@ def parse_effects(spec: Any = None) -> EffectSet:
         - ``None`` or empty: no effect (the nominal model);
         - an :class:`EffectSet`: returned unchanged;
         - a dict ``{effect: value}`` (sets the primary parameter), ``{effect: {param: value}}``,
-          or ``{effect: None}`` / ``{effect: True}`` (on, default parameters);
+          ``{effect: None}`` / ``{effect: True}`` (on, default parameters) or
+          ``{effect: False}`` (off);
         - a list of strings (or one string, items separated by commas) in the CLI form
           ``"grade=0.03"`` (primary parameter), ``"drivetrain_friction.tau_v=2"`` (a named
           parameter) or ``"hump_shear"`` (on, default parameters).
@@ -379,6 +380,8 @@ def parse_effects(spec: Any = None) -> EffectSet:
                         es_.param(str(k))
                         continue
                     put(name, str(k), v)
+            elif val is False:  # explicitly off
+                _spec(name)
             elif val is None or val is True:
                 put(name, None, None)
             else:

@@ -32,7 +32,7 @@ import numpy as np
 
 from .data import DriveLog, SlipData
 from .dynamics import _check_sprocket_equation, dynamics_function, slip_expr
-from .effects import (DEFAULT_STANDSTILL_SPEED, EffectSet, _Values, effective_radius, motion_resistance,
+from .effects import (DEFAULT_STANDSTILL_SPEED, EffectSet, _Values, motion_resistance,
                       parse_effects, smooth_sign, thrust_with_effects_function)
 from .errors import DataError
 from .soil import Soil
@@ -214,7 +214,7 @@ def _closed_loop(vehicle: Vehicle, soil: Soil, effects: EffectSet, model: str, s
     x = ca.MX.sym("x", 2)
     u = ca.MX.sym("u")
     plant = ca.integrator("plant", "cvodes", {"x": x, "p": u, "ode": dyn(x, u)[0]}, 0.0, h,
-                          {"abstol": 1e-10, "reltol": 1e-9, "max_num_steps": 200000, "show_eval_warnings": False})
+                          {"abstol": 1e-9, "reltol": 1e-8, "max_num_steps": 200000, "show_eval_warnings": False})
     r, I = vehicle.sprocket_radius, vehicle.sprocket_inertia
     m_eq = vehicle.mass + I / r ** 2
     kp = 2.0 * bandwidth * m_eq  # N per m/s (critically damped on the rigid-body plant)
@@ -297,7 +297,10 @@ def simulate_drive_log(vehicle: Vehicle, soil: Soil, *, effects: Any = None, see
     dvref = np.append(np.diff(vref) / h, 0.0)
     limits = drive_limits(vehicle)
     sim = _closed_loop(vehicle, soil, eff, model, sprocket_equation, h, n - 1, limits, float(controller_bandwidth))
-    X, M = sim(np.zeros(3), np.vstack([vref[:-1], dvref[:-1]]))
+    try:
+        X, M = sim(np.zeros(3), np.vstack([vref[:-1], dvref[:-1]]))
+    except RuntimeError as exc:  # CVODES gave up (e.g. an absurd speed profile)
+        raise DataError(f"simulation failed: the integrator did not converge ({str(exc).splitlines()[-1]})") from None
     X = np.hstack([np.zeros((3, 1)), np.asarray(X)])
     M = np.append(np.asarray(M).ravel(), 0.0)
     M[-1] = M[-2]  # the last sample's torque: held from the previous interval

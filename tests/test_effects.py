@@ -71,6 +71,7 @@ def test_parse_forms_agree():
     assert parse_effects(a.to_dict()) == a
     assert parse_effects(None) == EffectSet() == parse_effects([]) == parse_effects({})
     assert not parse_effects(None)
+    assert parse_effects({"grade": False, "mass_error": True}).names == ("mass_error",)
 
 
 def test_parse_defaults_and_vehicle_wheels():
