@@ -25,11 +25,13 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 from functools import lru_cache
 
 import casadi as ca
 import numpy as np
 
+from ..soilmodel.soil import SoilBounds
 from ..soilmodel.traction import thrust_expr
 from .problem import SCALE, SlipProblem
 from .result import FitResult
@@ -113,7 +115,9 @@ def solve_ipopt(pb: SlipProblem, theta0: np.ndarray, fixed: dict[int, float] | N
 
 def fit_ipopt(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_grid: int = 25) -> FitResult:
     """Fit a :class:`SlipProblem` with the cached IPOPT solver and build the result."""
-    ipopt_solver(pb.model, pb.n, tuple(sorted((ipopt_options or {}).items())))  # one-off build, not timed
+    one_load = pb.model == "full" and _one_load(pb)
+    ipopt_solver("cohesion-free" if one_load else pb.model, pb.n,
+                 tuple(sorted((ipopt_options or {}).items())))  # one-off build, not timed
     t0 = time.perf_counter()
     if x0 is None:
         theta0 = grid_start(pb.slip[None], pb.force[None], pb.load[None], pb.sigma[None], pb.vehicle.track_length,
@@ -122,11 +126,47 @@ def fit_ipopt(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     else:
         theta0 = _x0_vector(x0)
         start = "user start point"
-    out = solve_ipopt(pb, theta0, ipopt_options=ipopt_options)
+    note = ""
+    if one_load:
+        out = _solve_one_load(pb, theta0, ipopt_options)
+        note = ("; one normal load: solved in the identifiable parameters (F_max, K), exactly equivalent; "
+                "(c, phi) is a point of the ridge")
+    else:
+        out = solve_ipopt(pb, theta0, ipopt_options=ipopt_options)
     total = time.perf_counter() - t0
     return pb.result(out["theta"], method="ipopt", status=out["status"], success=out["success"],
-                     message=f"{out['message']} ({start})", iterations=out["iterations"], solve_time=total,
+                     message=f"{out['message']} ({start}{note})", iterations=out["iterations"], solve_time=total,
                      extra={"ipopt_time_s": out["time"], "start": [float(v) for v in theta0]})
+
+
+def _one_load(pb: SlipProblem) -> bool:
+    W = pb.load
+    return bool(np.all(np.abs(W - W[0]) <= 1e-9 * abs(W[0])))
+
+
+def _solve_one_load(pb: SlipProblem, theta0: np.ndarray, ipopt_options: dict | None) -> dict:
+    """Full model at one load W: fit (F_max, K) with F_max = W tan(phi_e), then map to the ridge.
+
+    The bounds box of (c, phi) maps onto ``F_max in [A c_lo + W tan(phi_lo), A c_hi + W tan(phi_hi)]``
+    (F_max is increasing in both), so this bounded 2-parameter problem has exactly the optimum
+    of the 3-parameter one, without its singular Hessian. The returned (c, phi) keeps the
+    start's friction angle where the bounds allow (an arbitrary ridge point, reported as such).
+    """
+    W, A = float(pb.load[0]), pb.vehicle.contact_area
+    (c_lo, c_hi), (p_lo, p_hi) = pb.bounds.cohesion, pb.bounds.friction_angle
+    F_lo, F_hi = A * c_lo + W * math.tan(p_lo), A * c_hi + W * math.tan(p_hi)
+    eb = SoilBounds((0.0, 1.0), (math.atan(F_lo / W), math.atan(F_hi / W)), pb.bounds.shear_modulus)
+    red = replace(pb, model="cohesion-free", bounds=eb)
+    F0 = A * theta0[0] + W * math.tan(theta0[1])
+    out = solve_ipopt(red, np.array([0.0, math.atan(F0 / W), theta0[2]]), ipopt_options=ipopt_options)
+    F = W * math.tan(out["theta"][1])
+    # centre of the bounds-feasible ridge segment A c + W tan(phi) = F
+    c_a = max(c_lo, (F - W * math.tan(p_hi)) / A)
+    c_b = min(c_hi, (F - W * math.tan(p_lo)) / A)
+    c = 0.5 * (c_a + c_b) if c_a <= c_b else min(max(c_a, c_lo), c_hi)
+    phi = min(max(math.atan(max(F - A * c, 0.0) / W), p_lo), p_hi)
+    out["theta"] = np.array([c, phi, out["theta"][2]])
+    return out
 
 
 def _x0_vector(x0) -> np.ndarray:

@@ -428,7 +428,7 @@ class FitResult:
     @property
     def active_bounds(self) -> dict[str, str]:
         """``{parameter name: "lower"|"upper"}`` for free parameters that ended on a bound."""
-        return {PARAMETER_NAMES[j]: s for j, s in enumerate(self._bound_flags) if s in ("lower", "upper")}
+        return {n: p.bound_side for n, p in self.parameters.items() if p.at_bound and p.bound_side}
 
     @property
     def outside_bounds(self) -> dict[str, str]:
@@ -568,7 +568,10 @@ class FitResult:
                 else:
                     ci = (float(lo[j]), float(hi[j]))
                     note = "not identifiable from these data; interval = the bounds"
-                out[name] = ParameterEstimate(name, None, None, ci, False, False, side is not None, side,
+                # the optimiser's point on a ridge is arbitrary: "on a bound" only if the whole range is
+                pinned = ci[0] is not None and ci[1] is not None and ci[1] - ci[0] <= BOUND_TOL * (hi[j] - lo[j])
+                nb_side = side if (pinned and side in ("lower", "upper")) else None
+                out[name] = ParameterEstimate(name, None, None, ci, False, False, nb_side is not None, nb_side,
                                               ridge_value=val, note=note)
         return out
 

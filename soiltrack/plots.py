@@ -43,3 +43,54 @@ def plot_data(data: SlipData | DriveLog, path: str, title: str = "") -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+
+
+def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> None:
+    """Save a figure of a fit: data, fitted curve and residuals (slip data), or residuals (drive log).
+
+    The fitted curve is drawn from the optimiser's point ``result.theta``; on a c-phi ridge every
+    point gives the same curve, so the curve is meaningful even where c and phi are not.
+    """
+    from .soilmodel import Soil, tractive_force
+
+    status = f"{result.model}, {result.method}: {result.status}" + ("" if result.success else " (FAILED)")
+    theta = np.asarray(result.theta, dtype=float)
+    soil = None
+    if np.all(np.isfinite(theta)) and 0 < theta[1] < np.pi / 2 and theta[2] > 0 and theta[0] >= 0:
+        soil = Soil(*theta)
+    if isinstance(data, SlipData):
+        fig, (ax, axr) = plt.subplots(2, 1, figsize=(6.4, 6.0), sharex=True, gridspec_kw={"height_ratios": [3, 1.3]})
+        loads = data.loads(vehicle.weight)
+        imax = max(float(np.max(data.slip)) * 1.15, 0.05)
+        grid = np.linspace(0, imax, 300)
+        for k, W in enumerate(np.unique(loads)):
+            sel = loads == W
+            col = f"C{k}"
+            ax.plot(data.slip[sel], data.tractive_force[sel] / 1e3, "o", color=col, ms=5,
+                    label=f"measured, W = {W / 1e3:.4g} kN")
+            if soil is not None:
+                ax.plot(grid, tractive_force(grid, soil, vehicle, result.model, normal_load=W) / 1e3, "-",
+                        color=col, lw=1.2, label=f"fitted ({result.model})")
+            rel = 100 * result.residuals[sel] / np.where(data.tractive_force[sel] != 0, data.tractive_force[sel], 1)
+            axr.plot(data.slip[sel], rel, "o", color=col, ms=5)
+        axr.axhline(0, color="k", lw=0.6)
+        ax.set_ylabel("tractive force F (kN)")
+        ax.legend(fontsize=8)
+        ax.set_title(status, fontsize=9)
+        axr.set_ylabel("model - data (%)")
+        axr.set_xlabel("slip i (-)")
+        for a in (ax, axr):
+            a.grid(alpha=0.3)
+    else:
+        fig, ax = plt.subplots(figsize=(7, 3.6))
+        r = np.asarray(result.residuals, dtype=float)
+        x = data.time if r.size == data.n_samples else np.arange(r.size)
+        ax.plot(x, r, ".", ms=2)
+        ax.axhline(0, color="k", lw=0.6)
+        ax.set_xlabel("time (s)" if r.size == data.n_samples else "sample used in the fit")
+        ax.set_ylabel(f"residual, model - data ({result.residual_unit})")
+        ax.set_title(status, fontsize=9)
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
