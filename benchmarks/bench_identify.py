@@ -14,11 +14,12 @@ What is measured
   bounds (the seed's practical ranges), the same scaled variables (phi in rad, K in cm), an
   analytic Jacobian and tolerances 1e-12 (scipy's best case). The estimates are compared and the
   largest relative difference is printed. Times are medians over ``--repeats`` calls, after a
-  warm-up call (compiled CasADi solvers are cached and reused); soiltrack's time is the wall
-  time of the whole ``fit`` call, including input checks and result/uncertainty building.
+  warm-up call (compiled CasADi solvers are cached and reused), with all paths timed
+  round-robin so that load changes on a shared machine hit them alike; soiltrack's time is the
+  wall time of the whole ``fit`` call, including input checks and result/uncertainty building.
 * Batch: ``--batch`` noisy 3-point datasets (+-3 % uniform noise on F and i) fitted with
   ``fit_many`` vs a scipy loop. The scipy loop runs on a subset (``--scipy-subset``) and is
-  extrapolated per fit; the output says so.
+  extrapolated per fit; the output says so. Three rounds alternate the two; medians are used.
 
 Targets (printed as reached / not reached): fastest single-fit path >= 10x faster than scipy
 per fit; batch >= 100x the scipy loop's throughput.

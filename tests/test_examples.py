@@ -48,7 +48,7 @@ def test_key_numbers(quick_run):
     # Wong's data with the seed's actual values at l = 2.8 m
     assert "207.89 kN (+0.28 %), 226.77 kN (+1.32 %), 253.00 kN (-2.62 %)" in report
     # the ridge: Newton is singular, c does not move, c and phi not identifiable
-    assert "`Singular_Jacobian`" in report
+    assert re.search(r"returns status `Singular\w*` \(success = False", report)
     assert "c moved by 0 kPa from its start" in report
     assert "NOT IDENTIFIABLE" in report
     assert "correlation of the c and phi columns 1.000000000000" in report
