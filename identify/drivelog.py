@@ -90,8 +90,10 @@ SLIP_BOUNDS = (-0.95, 0.98)
 GENTLE_CORRELATION = 0.99
 #: Relative standard error of F_max above which F_max is called undetermined.
 GENTLE_REL_STDERR = 0.25
-#: Relative standard error of F_max below which a log is a "hard" pull (F_max pinned down).
+#: Relative standard error of F_max below which F_max counts as pinned down (a "hard" pull).
 HARD_REL_STDERR = 0.05
+#: Relative standard error of K below which K counts as pinned down (with F_max: a "hard" pull).
+K_REL_STDERR = 0.25
 
 _OPTION_NAMES = ("sigma_torque", "sigma_sprocket_speed", "sigma_vehicle_speed", "torque_hold",
                  "min_speed", "sprocket_equation", "max_iter", "tol", "print_level", "multistart")
@@ -319,7 +321,7 @@ def prepare_drive_log(log: DriveLog, vehicle: Vehicle, *, sigma_torque: float | 
 
 
 # --------------------------------------------------------------------------------------------
-# the NLPs (built once per formulation and log length, data as parameters)
+# the NLPs (built once per formulation and padded log length, data as parameters)
 # --------------------------------------------------------------------------------------------
 def _bracket_signed(slip, lk):
     """``sign(i) g(|i| l / K)`` with ``lk = l / K``."""
@@ -329,37 +331,53 @@ def _bracket_signed(slip, lk):
 _QUIET = {"expand": True, "print_time": False, "ipopt.sb": "yes", "ipopt.print_level": 0}
 
 
-@lru_cache(maxsize=32)
+def padded_size(n: int) -> int:
+    """Problem size the NLP is built for: the next of 64, 96, 128, 192, 256, ... (2^k or 1.5 2^k).
+
+    Logs of similar length share one cached solver; the extra samples get zero weight.
+    """
+    size = 64
+    while True:
+        if n <= size:
+            return size
+        if n <= size * 3 // 2:
+            return size * 3 // 2
+        size *= 2
+
+
+@lru_cache(maxsize=16)
 def _output_error_solver(n: int, max_iter: int, tol: float, print_level: int) -> ca.Function:
-    """IPOPT solver for the output-error (latent slip) problem with ``n`` samples.
+    """IPOPT solver for the output-error (latent slip) problem with ``n`` (padded) samples.
 
     Variables ``[F_max / F_ref, K / K_ref, i_1 / i_ref, ..., i_n / i_ref]``; parameters
-    ``[F_ref, K_ref, i_ref, r, l, v(n), w(n), T(n), sigma_s(n), sigma_T|s(n), rho(n)]``.
+    ``[F_ref, K_ref, i_ref, r, l, v(n), w(n), T(n), 1/sigma_s(n), 1/sigma_T|s(n), rho(n), pad(n)]``.
     The residual pair of each sample is whitened (its speed and thrust noise are correlated
     through the encoder): ``e_w = d_s / sigma_s``, ``e_T = (d_T - rho d_s) / sigma_T|s``.
+    Padding samples have zero weights and ``pad = 1`` (a unit penalty pins their latent slip).
     """
     x = ca.SX.sym("x", 2 + n)
-    p = ca.SX.sym("p", 5 + 6 * n)
+    p = ca.SX.sym("p", 5 + 7 * n)
     F_ref, K_ref, i_ref, r, l = (p[j] for j in range(5))
-    v, w, T, ss, sT, rho = (p[5 + j * n:5 + (j + 1) * n] for j in range(6))
+    v, w, T, iss, isT, rho, pad = (p[5 + j * n:5 + (j + 1) * n] for j in range(7))
     Fmax, K = x[0] * F_ref, x[1] * K_ref
-    slip = x[2:] * i_ref
+    z = x[2:]
+    slip = z * i_ref
     d_s = v - r * w * (1 - slip)
-    e_w = d_s / ss
-    e_T = (T - Fmax * _bracket_signed(slip, l / K) - rho * d_s) / sT
-    f = 0.5 * (ca.sumsqr(e_w) + ca.sumsqr(e_T))
+    e_w = d_s * iss
+    e_T = (T - Fmax * _bracket_signed(slip, l / K) - rho * d_s) * isT
+    f = 0.5 * (ca.sumsqr(e_w) + ca.sumsqr(e_T) + ca.sumsqr(pad * z))
     opts = dict(_QUIET, **{"ipopt.max_iter": max_iter, "ipopt.tol": tol, "ipopt.print_level": print_level})
     return ca.nlpsol(f"drivelog_oe_{n}", "ipopt", {"x": x, "p": p, "f": f}, opts)
 
 
-@lru_cache(maxsize=32)
+@lru_cache(maxsize=16)
 def _equation_error_solver(n: int, max_iter: int, tol: float, print_level: int) -> ca.Function:
     """IPOPT solver for the naive equation-error problem (slip from the measured speeds)."""
     x = ca.SX.sym("x", 2)
     p = ca.SX.sym("p", 3 + 3 * n)
     F_ref, K_ref, l = p[0], p[1], p[2]
-    slip, T, sT = (p[3 + j * n:3 + (j + 1) * n] for j in range(3))
-    e_T = (T - x[0] * F_ref * _bracket_signed(slip, l / (x[1] * K_ref))) / sT
+    slip, T, isT = (p[3 + j * n:3 + (j + 1) * n] for j in range(3))
+    e_T = (T - x[0] * F_ref * _bracket_signed(slip, l / (x[1] * K_ref))) * isT
     f = 0.5 * ca.sumsqr(e_T)
     opts = dict(_QUIET, **{"ipopt.max_iter": max_iter, "ipopt.tol": tol, "ipopt.print_level": print_level})
     return ca.nlpsol(f"drivelog_ee_{n}", "ipopt", {"x": x, "p": p, "f": f}, opts)
@@ -427,68 +445,71 @@ def _ridge_point(Fmax: float, vehicle: Vehicle, bounds: SoilBounds, model: str,
     return np.array([c, min(max(phi, plo), phi_hi)])
 
 
-def _solve_output_error(prep: PreparedLog, vehicle: Vehicle, F_ref: float, K_ref: float, Fb, Kb,
-                        starts, max_iter: int, tol: float, print_level: int):
-    n = prep.n_used
-    l, r = vehicle.track_length, vehicle.sprocket_radius
-    i_ref = K_ref / l
-    solver = _output_error_solver(n, max_iter, tol, print_level)
-    p = np.concatenate([[F_ref, K_ref, i_ref, r, l], prep.vehicle_speed, prep.sprocket_speed, prep.thrust,
-                        prep.sigma_speed, prep.sigma_thrust_cond, prep.coupling])
-    lbx = np.concatenate([[Fb[0] / F_ref, Kb[0] / K_ref], np.full(n, SLIP_BOUNDS[0] / i_ref)])
-    ubx = np.concatenate([[Fb[1] / F_ref, Kb[1] / K_ref], np.full(n, SLIP_BOUNDS[1] / i_ref)])
+def _pad(a: np.ndarray, size: int, value: float = 0.0) -> np.ndarray:
+    return np.concatenate([a, np.full(size - a.size, value)])
+
+
+def _run_starts(solver: ca.Function, make_x0, p, lbx, ubx, starts, Fb, Kb, F_ref, K_ref) -> dict:
+    """Solve from the first start; try the next ones only if it failed or ended on a bound."""
     best = None
-    for Fmax0, K0 in starts:
-        # latent slips from the inverse thrust-slip curve at the start values, blended with the measured slip
-        y = np.clip(np.abs(prep.thrust) / Fmax0, 0.0, 0.98)
-        slip0 = np.sign(prep.thrust) * _g_inverse(y) * K0 / l
-        slip0 = np.clip(slip0, SLIP_BOUNDS[0] + 1e-3, SLIP_BOUNDS[1] - 1e-3)
-        x0 = np.concatenate([[Fmax0 / F_ref, K0 / K_ref], slip0 / i_ref])
+    total = 0.0
+    for j, (Fmax0, K0) in enumerate(starts):
         t0 = _time.perf_counter()
-        sol = solver(x0=x0, p=p, lbx=lbx, ubx=ubx)
-        elapsed = _time.perf_counter() - t0
+        sol = solver(x0=make_x0(Fmax0, K0), p=p, lbx=lbx, ubx=ubx)
+        total += _time.perf_counter() - t0
         st = solver.stats()
         xs = np.asarray(sol["x"], dtype=float).reshape(-1)
         fval = float(sol["f"])
-        ok = bool(st.get("success", False)) and np.all(np.isfinite(xs)) and math.isfinite(fval)
+        ok = bool(st.get("success", False)) and bool(np.all(np.isfinite(xs))) and math.isfinite(fval)
         cand = {"x": xs, "f": fval, "ok": ok, "status": str(st.get("return_status", "unknown")),
-                "iterations": int(st.get("iter_count", -1)), "time": elapsed}
+                "iterations": int(st.get("iter_count", -1)), "starts_tried": j + 1}
         if best is None or (cand["ok"], -cand["f"]) > (best["ok"], -best["f"]):
-            tot = (best["time"] if best else 0.0) + elapsed
             best = cand
-            best["time"] = tot
-        else:
-            best["time"] += elapsed
+        best["starts_tried"] = j + 1
+        F, K = best["x"][0] * F_ref, best["x"][1] * K_ref
+        on_bound = any(abs(val - b) <= 1e-6 * (hi - lo) for val, (lo, hi) in ((F, Fb), (K, Kb)) for b in (lo, hi))
+        if best["ok"] and not on_bound:
+            break
+    best["time"] = total
+    return best
+
+
+def _solve_output_error(prep: PreparedLog, vehicle: Vehicle, F_ref: float, K_ref: float, Fb, Kb,
+                        starts, max_iter: int, tol: float, print_level: int):
+    n = prep.n_used
+    N = padded_size(n)
+    l, r = vehicle.track_length, vehicle.sprocket_radius
+    i_ref = K_ref / l
+    solver = _output_error_solver(N, max_iter, tol, print_level)
+    p = np.concatenate([[F_ref, K_ref, i_ref, r, l], _pad(prep.vehicle_speed, N), _pad(prep.sprocket_speed, N),
+                        _pad(prep.thrust, N), _pad(1.0 / prep.sigma_speed, N), _pad(1.0 / prep.sigma_thrust_cond, N),
+                        _pad(prep.coupling, N), _pad(np.zeros(n), N, 1.0)])
+    lbx = np.concatenate([[Fb[0] / F_ref, Kb[0] / K_ref], np.full(N, SLIP_BOUNDS[0] / i_ref)])
+    ubx = np.concatenate([[Fb[1] / F_ref, Kb[1] / K_ref], np.full(N, SLIP_BOUNDS[1] / i_ref)])
+
+    def make_x0(Fmax0: float, K0: float) -> np.ndarray:
+        # latent slips from the inverse thrust-slip curve at the start values
+        y = np.clip(np.abs(prep.thrust) / Fmax0, 0.0, 0.98)
+        slip0 = np.clip(np.sign(prep.thrust) * _g_inverse(y) * K0 / l, SLIP_BOUNDS[0] + 1e-3, SLIP_BOUNDS[1] - 1e-3)
+        return np.concatenate([[Fmax0 / F_ref, K0 / K_ref], _pad(slip0 / i_ref, N)])
+
+    best = _run_starts(solver, make_x0, p, lbx, ubx, starts, Fb, Kb, F_ref, K_ref)
     xs = best["x"]
-    return best, xs[0] * F_ref, xs[1] * K_ref, xs[2:] * i_ref
+    return best, xs[0] * F_ref, xs[1] * K_ref, xs[2:2 + n] * i_ref
 
 
 def _solve_equation_error(prep: PreparedLog, vehicle: Vehicle, F_ref: float, K_ref: float, Fb, Kb,
                           starts, max_iter: int, tol: float, print_level: int):
     n = prep.n_used
+    N = padded_size(n)
     l = vehicle.track_length
-    solver = _equation_error_solver(n, max_iter, tol, print_level)
+    solver = _equation_error_solver(N, max_iter, tol, print_level)
     slip = np.clip(prep.slip_measured, SLIP_BOUNDS[0], SLIP_BOUNDS[1])
-    p = np.concatenate([[F_ref, K_ref, l], slip, prep.thrust, prep.sigma_thrust])
+    p = np.concatenate([[F_ref, K_ref, l], _pad(slip, N), _pad(prep.thrust, N), _pad(1.0 / prep.sigma_thrust, N)])
     lbx = [Fb[0] / F_ref, Kb[0] / K_ref]
     ubx = [Fb[1] / F_ref, Kb[1] / K_ref]
-    best = None
-    for Fmax0, K0 in starts:
-        t0 = _time.perf_counter()
-        sol = solver(x0=[Fmax0 / F_ref, K0 / K_ref], p=p, lbx=lbx, ubx=ubx)
-        elapsed = _time.perf_counter() - t0
-        st = solver.stats()
-        xs = np.asarray(sol["x"], dtype=float).reshape(-1)
-        fval = float(sol["f"])
-        ok = bool(st.get("success", False)) and np.all(np.isfinite(xs)) and math.isfinite(fval)
-        cand = {"x": xs, "f": fval, "ok": ok, "status": str(st.get("return_status", "unknown")),
-                "iterations": int(st.get("iter_count", -1)), "time": elapsed}
-        if best is None or (cand["ok"], -cand["f"]) > (best["ok"], -best["f"]):
-            tot = (best["time"] if best else 0.0) + elapsed
-            best = cand
-            best["time"] = tot
-        else:
-            best["time"] += elapsed
+    best = _run_starts(solver, lambda F0, K0: np.array([F0 / F_ref, K0 / K_ref]), p, lbx, ubx, starts, Fb, Kb,
+                       F_ref, K_ref)
     return best, best["x"][0] * F_ref, best["x"][1] * K_ref, slip
 
 
@@ -525,8 +546,11 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
         window of the local quadratic fit giving dw/dt (default: the narrowest window, at least
         5 samples, whose derivative noise stays within the torque noise); ``min_speed`` (m/s): extra speed floor
         below which samples are dropped; ``sprocket_equation``: ``"thrust"`` (default,
-        ``I dw/dt = M_s - r F``) or ``"seed"`` (as printed in the seed); ``max_iter``, ``tol``,
-        ``print_level``: IPOPT settings; ``multistart`` (True): also start from a second K.
+        ``I dw/dt = M_s - r F``) or ``"seed"`` (as printed in the seed); ``torque_hold``: ``"zoh"`` (default, torque held from each sample
+        to the next) or ``"sample"`` (torque sampled from a continuous signal), see
+        :func:`prepare_drive_log`; ``max_iter``, ``tol``, ``print_level``: IPOPT settings;
+        ``multistart`` (True): if the first solve fails or ends on a bound, also start from a
+        second point (K on the other side of the range).
 
     Returns
     -------
@@ -677,51 +701,62 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
     except np.linalg.LinAlgError:
         cov_ok = False
     slope = Fmax * l / (2 * K)
-    thrust_peak = float(np.quantile(prep.thrust, 0.99))
+    # the largest thrust the log certainly reached (2 standard deviations below the estimate)
+    thrust_peak = float(max(np.max(prep.thrust - 2.0 * sT), 0.0))
     utilisation = thrust_peak / Fmax
+    n_high = int(np.count_nonzero(prep.thrust - 2.0 * sT > 0.7 * Fmax))
     extra.update({"max_thrust_N": Fmax, "shear_modulus_m": K, "initial_slope_N": slope,
-                  "thrust_utilisation": utilisation, "slip_max": float(np.max(slip)),
-                  "residual_rms_N": float(np.sqrt(np.mean(res ** 2))), "reduced_chi2": float(np.sum(wres ** 2)) / dof})
+                  "thrust_peak_N": thrust_peak, "thrust_utilisation": utilisation, "samples_above_70pct": n_high,
+                  "slip_max": float(np.max(slip)), "residual_rms_N": float(np.sqrt(np.mean(res ** 2))),
+                  "reduced_chi2": float(np.sum(wres ** 2)) / dof})
     at_bound = []
     for name, val, (lo, hi) in (("F_max", Fmax, Fb), ("K", K, Kb)):
         if val <= lo + 1e-6 * (hi - lo) or val >= hi - 1e-6 * (hi - lo):
             at_bound.append(name)
+    corr, s_slope, relF, relK = float("nan"), float("nan"), float("inf"), float("inf")
     if cov_ok:
         sF, sK = math.sqrt(cov2[0, 0]), math.sqrt(cov2[1, 1])
         corr = float(cov2[0, 1] / (sF * sK))
         gslope = np.array([l / (2 * K), -Fmax * l / (2 * K * K)])
         s_slope = float(math.sqrt(max(gslope @ cov2 @ gslope, 0.0)))
+        relF, relK = sF / Fmax, sK / K
         extra.update({"max_thrust_stderr_N": sF, "shear_modulus_stderr_m": sK, "corr_max_thrust_shear_modulus": corr,
                       "initial_slope_stderr_N": s_slope})
-        relF = sF / Fmax
-        if abs(corr) >= GENTLE_CORRELATION or relF >= GENTLE_REL_STDERR or "F_max" in at_bound:
-            regime = "gentle"
-        elif relF <= HARD_REL_STDERR:
-            regime = "hard"
-        else:
-            regime = "intermediate"
-    else:
-        corr, s_slope, relF = float("nan"), float("nan"), float("inf")
+    if not cov_ok or abs(corr) >= GENTLE_CORRELATION or relF >= GENTLE_REL_STDERR or "F_max" in at_bound:
         regime = "gentle"
+    elif relF <= HARD_REL_STDERR and relK <= K_REL_STDERR and "K" not in at_bound:
+        regime = "hard"
+    else:
+        regime = "intermediate"
     extra["regime"] = regime
 
     slope_txt = (f"F_max l/(2K) = {slope:.4g} N" + (f" +- {s_slope:.2g} N" if math.isfinite(s_slope) else "")
-                 + f" (the thrust per unit slip at small slip, in N per unit slip)")
+                 + " (thrust per unit slip at small slip)")
+    pct = (lambda x: f"{100 * x:.0f} %" if math.isfinite(x) else "undetermined")
     if regime == "gentle":
         warnings.append(
-            f"gentle driving: the thrust stayed at about {100 * utilisation:.0f} % of the fitted soil thrust limit "
-            f"at most, so this log only shows the initial slope {slope_txt}; F_max and K are not separable "
-            f"(correlation of their estimates {corr:.3f}, standard error of F_max {100 * relF:.0f} %). "
-            f"To identify them, drive a hard pull near the traction limit (high slip, e.g. a hard acceleration "
-            f"from low speed or a drawbar pull)")
+            f"gentle driving: the largest thrust in this log is about {thrust_peak / 1e3:.4g} kN, well below the "
+            f"soil's thrust limit, so the log only shows the initial slope {slope_txt}; F_max and K are not "
+            f"separable (correlation of their estimates {corr:.3f}, standard error of F_max {pct(relF)}). "
+            f"To identify them, drive a hard pull near the traction limit (e.g. a hard acceleration from low "
+            f"speed, a drawbar pull or a climb)")
+    elif regime == "intermediate" and relF <= HARD_REL_STDERR:
+        i_lo, i_hi = K / l, 10 * K / l
+        warnings.append(
+            f"the log reaches the traction limit (F_max = {Fmax / 1e3:.4g} kN +- {pct(relF)}), but K is poorly "
+            f"determined (standard error {pct(relK)}{', on a bound' if 'K' in at_bound else ''}): the samples sit "
+            f"either near zero slip or at full track spin, with few in between ({n_high} samples above 70 % of "
+            f"F_max). The best determined small-slip quantity is the initial slope {slope_txt}. A sustained pull "
+            f"at 50-90 % of the traction limit (slip about {i_lo:.3g} to {i_hi:.3g}) would pin K down")
     elif regime == "intermediate":
         warnings.append(
-            f"the log reaches about {100 * utilisation:.0f} % of the fitted soil thrust limit: F_max and K are "
-            f"only partly separated (correlation {corr:.3f}, standard error of F_max {100 * relF:.0f} %); the best "
-            f"determined quantity is the initial slope {slope_txt}. A harder pull would pin F_max down")
+            f"F_max and K are only partly separated (correlation {corr:.3f}, standard errors: F_max {pct(relF)}, "
+            f"K {pct(relK)}); the largest thrust seen is about {thrust_peak / 1e3:.4g} kN. The best determined "
+            f"quantity is the initial slope {slope_txt}. A harder pull, nearer the traction limit, would pin F_max "
+            f"and K down")
     else:
-        extra["note"] = (f"hard pull: the thrust reached about {100 * utilisation:.0f} % of the fitted limit; "
-                         f"F_max and K are separated (correlation {corr:.3f})")
+        extra["note"] = (f"hard pull: the thrust reached about {pct(utilisation)} of the fitted limit; F_max and K "
+                         f"are separated (correlation {corr:.3f}, standard errors: F_max {pct(relF)}, K {pct(relK)})")
     if at_bound:
         warnings.append(f"{' and '.join(at_bound)} ended on the bound implied by the soil ranges: "
                         f"the data or the bounds are questionable")

@@ -316,14 +316,46 @@ class FitResult:
     dof: int
     s2: float | None
     free: tuple[int, ...]
-    scaled_singular_values: np.ndarray
-    _V: np.ndarray = field(repr=False)
-    _D: np.ndarray = field(repr=False)
-    _Dok: np.ndarray = field(repr=False)
-    _Pinv: np.ndarray = field(repr=False)
-    _nonnull: np.ndarray = field(repr=False)
+    _core: tuple = field(repr=False)  # (batched core statistics dict, index of this fit)
     input_warnings: tuple[str, ...] = ()
     extra: dict = field(default_factory=dict)
+
+    def __getstate__(self) -> dict:
+        """Pickle only this fit's slice of the (possibly batched) core statistics."""
+        state = dict(self.__dict__)
+        core, k = self._core
+        if next(iter(core.values())).shape[0] != 1:
+            state["_core"] = ({key: v[k:k + 1] for key, v in core.items()}, 0)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+
+    # per-fit views of the (possibly batched) core statistics, taken on first use
+    @cached_property
+    def scaled_singular_values(self) -> np.ndarray:
+        """Singular values of the column-scaled Jacobian, relative to the largest (descending)."""
+        return self._core[0]["S"][self._core[1]]
+
+    @cached_property
+    def _V(self) -> np.ndarray:
+        return self._core[0]["V"][self._core[1]]
+
+    @cached_property
+    def _D(self) -> np.ndarray:
+        return self._core[0]["D"][self._core[1]]
+
+    @cached_property
+    def _Dok(self) -> np.ndarray:
+        return self._core[0]["Dok"][self._core[1]]
+
+    @cached_property
+    def _Pinv(self) -> np.ndarray:
+        return self._core[0]["Pinv"][self._core[1]]
+
+    @cached_property
+    def _nonnull(self) -> np.ndarray:
+        return self._core[0]["nonnull"][self._core[1]]
 
     # ---------------------------------------------------------------------------- basics
     @property
@@ -840,9 +872,8 @@ def _assemble(core: dict, k: int, *, data_kind, model, method, theta, jacobian, 
         sigma_known=bool(sigma_known),
         rmse=float(np.sqrt(np.mean(res ** 2))) if res.size else math.nan,
         cost=0.5 * float(core["ssr"][k]), rank=int(core["rank"][k]), dof=int(core["dof"][k]),
-        s2=s2 if math.isfinite(s2) and finite else None, free=free,
-        scaled_singular_values=core["S"][k], _V=core["V"][k], _D=core["D"][k], _Dok=core["Dok"][k],
-        _Pinv=core["Pinv"][k], _nonnull=core["nonnull"][k], input_warnings=tuple(warn), extra=dict(extra or {}))
+        s2=s2 if math.isfinite(s2) and finite else None, free=free, _core=(core, k),
+        input_warnings=tuple(warn), extra=dict(extra or {}))
 
 
 def _distinct_loads(normal_loads) -> np.ndarray:
@@ -944,22 +975,20 @@ def build_results_batch(*, model: str, method: str, theta: np.ndarray, jacobian:
     loads_l = [W[k, :1] if single[k] else W[k][keep[k]] for k in range(N)] if not single.all() else list(W[:, :1])
     rows = zip(list(theta), list(J), list(rw), list(res), loads_l, ok_l, fin_l, status, message,
                np.asarray(iterations).tolist(), np.asarray(solve_time, dtype=float).tolist(), rmse.tolist(),
-               cost.tolist(), core["rank"].tolist(), core["dof"].tolist(), s2_l, list(core["S"]), list(core["V"]),
-               list(core["D"]), list(core["Dok"]), list(core["Pinv"]), list(core["nonnull"]),
+               cost.tolist(), core["rank"].tolist(), core["dof"].tolist(), s2_l, range(N),
                extra if extra is not None else [None] * N)
     out = []
     new = object.__new__
     sk = bool(sigma_known)
     nonfinite = ("the solver returned non-finite numbers; no estimate is given",)
-    for (th, Jk, rwk, rk, Wk, ok, fin, st, msg, it, stime, rm, co, rank, dof, s2k, Sk, Vk, Dk, Dokk, Pk, nnk,
-         ex) in rows:
+    for (th, Jk, rwk, rk, Wk, ok, fin, st, msg, it, stime, rm, co, rank, dof, s2k, k, ex) in rows:
         obj = new(FitResult)
         obj.__dict__.update(
             data_kind="slip", model=model, method=method, theta=th, jacobian=Jk, weighted_residuals=rwk,
             residuals=rk, residual_unit="N", n_samples=n, normal_loads=Wk, vehicle=vehicle, bounds=bounds,
             status=str(st) if fin else f"{st} (non-finite numbers)", success=ok, message=str(msg), iterations=it,
             solve_time=stime, sigma_known=sk, rmse=rm, cost=co, rank=rank, dof=dof,
-            s2=None if s2k != s2k else s2k, free=free, scaled_singular_values=Sk, _V=Vk, _D=Dk, _Dok=Dokk,
-            _Pinv=Pk, _nonnull=nnk, input_warnings=() if fin else nonfinite, extra=dict(ex) if ex else {})
+            s2=None if s2k != s2k else s2k, free=free, _core=(core, k), input_warnings=() if fin else nonfinite,
+            extra=dict(ex) if ex else {})
         out.append(obj)
     return out
