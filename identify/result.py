@@ -159,7 +159,13 @@ class ParameterEstimate:
     def to_dict(self) -> dict:
         """JSON-ready dict in edge units (kPa, deg, m); never NaN."""
         lo, hi = self.edge_ci95
-        return {"value": _f(self.edge_value), "stderr": _f(self.edge_stderr), "ci95": [_f(lo), _f(hi)],
+        value, on_ridge = _f(self.edge_value), False
+        if value is None and not self.identifiable and self.ridge_value is not None:
+            # The JSON contract wants a number; a non-identifiable parameter gets the centre of its
+            # feasible ridge, flagged identifiable=false, value_is_ridge_point=true, and ci95 = the ridge range.
+            value, on_ridge = _f(self._edge(self.ridge_value)), True
+        return {"value": value, "value_is_ridge_point": on_ridge, "stderr": _f(self.edge_stderr),
+                "ci95": [_f(lo), _f(hi)],
                 "identifiable": bool(self.identifiable), "at_bound": bool(self.at_bound),
                 "bound_side": self.bound_side, "weakly_identifiable": bool(self.weakly_identifiable),
                 "fixed": bool(self.fixed), "ridge_value": _f(self._edge(self.ridge_value)), "note": self.note}
