@@ -159,13 +159,7 @@ class ParameterEstimate:
     def to_dict(self) -> dict:
         """JSON-ready dict in edge units (kPa, deg, m); never NaN."""
         lo, hi = self.edge_ci95
-        value, on_ridge = _f(self.edge_value), False
-        if value is None and not self.identifiable and self.ridge_value is not None:
-            # The JSON contract wants a number; a non-identifiable parameter gets the centre of its
-            # feasible ridge, flagged identifiable=false, value_is_ridge_point=true, and ci95 = the ridge range.
-            value, on_ridge = _f(self._edge(self.ridge_value)), True
-        return {"value": value, "value_is_ridge_point": on_ridge, "stderr": _f(self.edge_stderr),
-                "ci95": [_f(lo), _f(hi)],
+        return {"value": _f(self.edge_value), "stderr": _f(self.edge_stderr), "ci95": [_f(lo), _f(hi)],
                 "identifiable": bool(self.identifiable), "at_bound": bool(self.at_bound),
                 "bound_side": self.bound_side, "weakly_identifiable": bool(self.weakly_identifiable),
                 "fixed": bool(self.fixed), "ridge_value": _f(self._edge(self.ridge_value)), "note": self.note}
@@ -742,7 +736,7 @@ class FitResult:
             "n_samples": int(self.n_samples),
             "rmse_N": rmse if self.residual_unit == "N" else None,
             "solve_time_s": _f(self.solve_time),
-            "parameters": {_EDGE[n][0]: pe.to_dict() for n, pe in self.parameters.items()},
+            "parameters": {_EDGE[n][0]: self._parameter_json(pe) for n, pe in self.parameters.items()},
             "combinations": [cb.to_dict() for cb in self.combinations],
             "data_kind": self.data_kind, "rmse": rmse, "residual_unit": self.residual_unit,
             "cost": _f(self.cost), "iterations": int(self.iterations), "message": self.message,
@@ -754,6 +748,19 @@ class FitResult:
         if self.extra:
             d["extra"] = json.loads(json.dumps(self.extra, default=_json_default, allow_nan=True),
                                     parse_constant=lambda _: None)
+        return d
+
+    def _parameter_json(self, pe: ParameterEstimate) -> dict:
+        """A parameter's JSON entry. The CLI contract wants a number in ``value``: for a successful fit
+        whose parameter is not identifiable (c, phi at one load), that number is the centre of the
+        feasible ridge, flagged ``identifiable: false`` and ``value_is_ridge_point: true``, with
+        ``ci95`` the range the ridge allows - a marker, not an estimate. A failed fit keeps ``null``."""
+        d = pe.to_dict()
+        on_ridge = (self.success and d["value"] is None and not pe.identifiable and not pe.fixed
+                    and d["ridge_value"] is not None)
+        if on_ridge:
+            d["value"] = d["ridge_value"]
+        d["value_is_ridge_point"] = bool(on_ridge)
         return d
 
     def to_json(self, indent: int | None = 2) -> str:
