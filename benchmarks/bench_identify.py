@@ -127,12 +127,16 @@ def single_fit_rows(name, data, repeats, x0_si):
     paths = [("soiltrack fit ipopt (grid start, default)", dict(method="ipopt")),
              ("soiltrack fit ipopt (same x0)", dict(method="ipopt", x0=x0_si)),
              ("soiltrack fit newton (same x0; unbounded)", dict(method="newton", x0=x0_si)),
-             ("soiltrack fit least-squares (same x0; unbounded)", dict(method="least-squares", x0=x0_si))]
+             ("soiltrack fit least-squares (same x0; unbounded)", dict(method="least-squares", x0=x0_si)),
+             ("soiltrack fit engine=compiled (grid start)", dict(method="ipopt", engine="compiled")),
+             ("soiltrack fit engine=compiled (same x0)", dict(method="ipopt", engine="compiled", x0=x0_si))]
+    if "engine" not in identify.fit.__code__.co_varnames:  # older soiltrack: no compiled engine
+        paths = [p for p in paths if "engine" not in p[1]]
     labels = ["scipy least_squares trf (same x0)"] + [p[0] for p in paths]
     funcs = [lambda: sp.solve(x0_si[1:])]
     funcs += [(lambda kw=kw: identify.fit(data, HEAVY, model=MODEL, bounds=PRACTICAL_BOUNDS, **kw)) for _, kw in paths]
     if hasattr(identify, "fit_many"):
-        labels.append("soiltrack fit_many([data]) (vectorised engine)")
+        labels.append("soiltrack fit_many([data]) (engine auto)")
         funcs.append(lambda: identify.fit_many([data], HEAVY, model=MODEL, method="ipopt", bounds=PRACTICAL_BOUNDS,
                                                progress=False)[0])
     log(f"  {name}: {len(funcs)} paths x {repeats} repeats, round-robin")
@@ -152,7 +156,8 @@ def _row(name, label, t, res, th_sp, t_sp):
     rel = float(np.max(np.abs(th - th_sp) / np.abs(th_sp))) if np.all(np.isfinite(th)) else math.inf
     return dict(dataset=name, path=label, time_s=t, phi_deg=math.degrees(th[0]), K_m=float(th[1]), status=res.status,
                 success=bool(res.success), rel_diff_vs_scipy=rel, speedup_vs_scipy=t_sp / t,
-                iterations=int(res.iterations))
+                iterations=int(res.iterations),
+                engine=(res.extra.get("engine") if isinstance(getattr(res, "extra", None), dict) else None))
 
 
 def batch(args, rng):

@@ -35,7 +35,10 @@ from .problem import SCALE, FitFailed, check_common, make_problem
 from .result import FitResult, build_results_batch
 from .start import grid_start
 
-__all__ = ["fit_many", "solve_batch"]
+__all__ = ["fit_many", "solve_batch", "SMALL_GROUP"]
+
+#: ``fit_many(engine="auto")``: same-size groups smaller than this use the compiled single-fit engine.
+SMALL_GROUP = 8
 
 
 def solve_batch(slip, force, load, sigma, l: float, b: float, model: str, bounds: SoilBounds,
@@ -162,9 +165,9 @@ def _solve_chunk(datasets: Sequence[SlipData], vehicle: Vehicle, model: str, bou
                                solve_time=[dt] * N, sigma_known=sk, extra=[{"engine": e} for e in engine])
 
 
-def _fit_chunk(datasets, vehicle, model, method, bounds, kw) -> list[FitResult]:
+def _fit_chunk(datasets, vehicle, model, method, bounds, kw, engine: str = "ipopt") -> list[FitResult]:
     from .fitting import fit
-    return [fit(d, vehicle, model=model, method=method, bounds=bounds, **kw) for d in datasets]
+    return [fit(d, vehicle, model=model, method=method, bounds=bounds, engine=engine, **kw) for d in datasets]
 
 
 class _Progress:
@@ -201,9 +204,13 @@ def fit_many(datasets: Iterable, vehicle: Vehicle, *, model: str = "full", metho
     chunk_size : int, optional
         Datasets per chunk (default: all in one chunk without an executor, else about 4 chunks
         per worker, at least 256 datasets).
-    engine : {"auto", "vectorized", "loop"}
-        ``"auto"``/``"vectorized"``: same-size slip data with ``method="ipopt"`` go through the
-        vectorised engine (module docs); ``"loop"``: one cached-IPOPT fit per dataset.
+    engine : {"auto", "vectorized", "compiled", "loop"}
+        ``"vectorized"``: same-size slip data with ``method="ipopt"`` go through the vectorised
+        engine (module docs); ``"compiled"``: one call of the compiled single-fit engine per
+        dataset (:mod:`soiltrack.identify.compiled_lm`, IPOPT hand-over when not certified);
+        ``"auto"``: groups of at least ``SMALL_GROUP`` same-size datasets vectorised, smaller
+        groups (e.g. ``fit_many([data])``) compiled, whose fixed cost per call is lower;
+        ``"loop"``: one cached-IPOPT fit per dataset.
     strict : bool
         Raise :class:`FitFailed` on the first failed fit.
     **kw
@@ -215,13 +222,13 @@ def fit_many(datasets: Iterable, vehicle: Vehicle, *, model: str = "full", metho
     """
     datasets = list(datasets)
     check_common(vehicle, model, method, bounds)
-    if engine not in ("auto", "vectorized", "loop"):
-        raise ValueError(f"engine must be 'auto', 'vectorized' or 'loop', got {engine!r}")
+    if engine not in ("auto", "vectorized", "compiled", "loop"):
+        raise ValueError(f"engine must be 'auto', 'vectorized', 'compiled' or 'loop', got {engine!r}")
     n = len(datasets)
     prog = _Progress(n, progress)
     results: list[FitResult | None] = [None] * n
-    vec = engine != "loop" and method == "ipopt" and set(kw) <= {"sigma", "sigma_known", "n_grid"} and \
-        np.ndim(kw.get("sigma", 0.0)) == 0
+    vec = engine in ("auto", "vectorized") and method == "ipopt" and \
+        set(kw) <= {"sigma", "sigma_known", "n_grid"} and np.ndim(kw.get("sigma", 0.0)) == 0
     groups: dict = {}
     singles = []
     for k, d in enumerate(datasets):
@@ -233,6 +240,11 @@ def fit_many(datasets: Iterable, vehicle: Vehicle, *, model: str = "full", metho
         workers = getattr(executor, "_max_workers", 4) if executor is not None else 1
         chunk_size = n if executor is None else max(256, -(-n // (4 * workers)))
     chunk_size = max(1, int(chunk_size))
+    if engine == "auto":  # small groups: the compiled single-fit engine has the lower fixed cost
+        for key in [k for k, idx in groups.items() if len(idx) < SMALL_GROUP]:
+            singles.extend(groups.pop(key))
+        singles.sort()
+    one_engine = "ipopt" if engine == "loop" else "compiled" if engine in ("auto", "compiled") else "ipopt"
     jobs = []  # (indices, callable, args)
     for idx in groups.values():
         for s in range(0, len(idx), chunk_size):
@@ -242,7 +254,7 @@ def fit_many(datasets: Iterable, vehicle: Vehicle, *, model: str = "full", metho
     single_chunk = chunk_size if executor is not None else max(1, min(chunk_size, 64))
     for s in range(0, len(singles), single_chunk):
         part = singles[s:s + single_chunk]
-        jobs.append((part, _fit_chunk, ([datasets[k] for k in part], vehicle, model, method, bounds, kw)))
+        jobs.append((part, _fit_chunk, ([datasets[k] for k in part], vehicle, model, method, bounds, kw, one_engine)))
     if executor is None:
         for part, fn, args in jobs:
             for k, r in zip(part, fn(*args)):

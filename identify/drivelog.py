@@ -6,56 +6,82 @@ The obvious approach - compute the slip from the two speeds, ``i_m = 1 - v/(r w)
 the thrust from the sprocket equation against ``F(i_m)`` ("equation error") - is an
 error-in-variables trap: at the small slips of a tracked vehicle on sand (a few tenths of a
 percent to a few percent) the slip noise ``sigma_i ~ sigma_v / v`` is as large as the slip
-itself, so the regressor is noisy and least squares is biased (attenuation plus the curvature
-of ``F``). On simulated logs with realistic sensor noise the bias is a factor of several in K
-and tens of percent in ``F_max``. This module implements that approach only for comparison
-(``formulation="equation-error"``).
+itself, so the regressor is noisy and least squares is biased. On the library's simulated
+logs with its default (realistic) sensor noise it returns F_max 88 % low and K on its upper
+bound. This module implements it only for comparison (``formulation="equation-error"``).
 
 The default, ``formulation="output-error"``, predicts the sprocket speed instead. At every
 sample ``k`` the TRUE slip ``i_k`` is an NLP variable (a latent state, bounded to
-[-0.95, 0.98]); the sprocket equation (thrust balance, DESIGN section 3)
-``I dw/dt = M_s - r F(i)`` ties it to the measured torque, and the kinematic relation
-``v = r w (1 - i)`` ties it to the encoder::
+[-0.95, 0.98]); the sprocket equation (thrust balance of DESIGN section 3,
+``I dw/dt = M_s - r F(i)``) ties it to the measured torque, the kinematics ``v = r w (1 - i)``
+tie it to the encoder and the speed sensor::
 
-    e_w[k] = (v_k - r w_k (1 - i_k)) / sigma_s[k]     (speed residual: encoder vs. prediction)
-    e_T[k] = (T_k - F(i_k; F_max, K)) / sigma_T[k]    (thrust residual, T_k = (M_k - I dw/dt_k) / r)
+    d_s[k] = v_k - r w_k (1 - i_k)                      (speed residual: encoder vs. prediction)
+    d_T[k] = T_k - F(i_k; F_max, K)                     (thrust residual)
+    T_k    = (M_{k-1} - I (w_k - w_{k-1}) / h) / r      (discrete sprocket equation)
 
-and IPOPT minimises ``sum(e_w^2 + e_T^2)`` over ``(F_max, K, i_1..i_n)`` inside the soil's
-practical ranges. With ``sigma_T -> 0`` this is exactly the output-error problem "slip as NLP
-variables with equality constraints ``F(i_k) = T_k``, compare the predicted sprocket speed
-``v_k / (r (1 - i_k))`` with the encoder"; keeping the thrust residual (instead of an equality)
-accounts for the noise in the torque regressor (near the traction limit a noisy ``T_k`` can
-exceed ``F_max`` and the equality form becomes infeasible or biased upwards). Both residuals
-are linear in the measured quantities, so no measured value sits inside a nonlinearity: the
-errors in the regressors (torque, v, w) enter additively, with variances
+and IPOPT minimises ``sum(e_w^2 + e_T^2)`` with ``e_w = d_s / sigma_s`` and
+``e_T = (d_T - rho d_s) / sigma_T|s`` (the pair whitened, see below) over
+``(F_max, K, i_1..i_n)`` inside the soil's practical ranges. With ``sigma_T -> 0`` this is
+the output-error problem "slip as NLP variables with equality constraints ``F(i_k) = T_k``,
+compare the predicted sprocket speed ``v_k / (r (1 - i_k))`` with the encoder"; keeping a
+thrust residual instead of an equality accounts for the noise in the torque regressor (near
+the traction limit a noisy ``T_k`` can exceed ``F_max``, and the equality form becomes
+infeasible or biased upwards). Both residuals are linear in every measured quantity, so no
+measured value sits inside a nonlinearity: the errors in the regressors (torque, v, w) enter
+additively.
 
-    sigma_s^2 = sigma_v^2 + r^2 (1 - i)^2 sigma_w^2,   sigma_T^2 = (sigma_M^2 + I^2 sigma_wdot^2) / r^2.
+Discrete sprocket equation, stiff slip. The torque of a digital drive is a command held from
+one sample to the next (the library's simulator does the same). Over the interval ending at
+sample k, ``I (w_k - w_{k-1}) = h M_{k-1} - r * integral(F dt)``; the slip settles within
+milliseconds of a torque change (stiff), so over the interval it sits on its quasi-static
+value - the one sampled at ``t_k`` - and the integral is ``h F(i_k)``: implicit Euler, the
+L-stable quasi-static limit, exact for the encoder part (no smoothing or differentiation of
+the encoder; noise-free simulated logs are recovered to 0.01 %). Where the thrust jumps
+within an interval (a spinning track that grips again) the two differ by up to half the jump;
+such samples (change to a neighbour beyond 4 noise standard deviations) get half the jump
+added to their standard deviation. ``torque_hold="sample"`` uses
+``T_k = (M_k - I (w_{k+1} - w_{k-1}) / (2 h)) / r`` for torque sampled from a continuous signal.
 
-The per-sample slip information is ``(r w / sigma_s)^2``, so slow samples (slip noise about
-``sigma_v / v``) are down-weighted automatically; samples with ``v`` or ``r w`` below a few
-noise levels (slip undefined) and clearly braking samples are dropped and counted in the result.
-No time integration is done, so the stiff slip dynamics (slip settles in milliseconds) cause
-no trouble: the sprocket equation holds at every instant, with ``dw/dt`` from a local quadratic
-fit of the encoder (the narrowest window, at least 5 samples, whose noise stays within the
-torque noise - wider windows smear the kinks of w at torque steps), whose noise enters ``sigma_T``.
+Noise. Each channel has the model ``sigma = sqrt(a^2 + (b x)^2)`` (absolute plus relative
+part), given as options or estimated from the log itself (robust MAD of second differences,
+binned by level: :func:`estimate_noise_profile`). Then
+``sigma_s^2 = sigma_v^2 + r^2 (1 - i)^2 sigma_w,k^2`` and
+``sigma_T^2 = (sigma_M,k-1^2 + (I/h)^2 (sigma_w,k^2 + sigma_w,k-1^2)) / r^2``. The encoder
+reading ``w_k`` enters both residuals of sample k; their covariance
+``I (1 - i) sigma_w,k^2 / h`` is removed by conditioning (``rho = cov / sigma_s^2``,
+``sigma_T|s^2 = sigma_T^2 - rho cov``). The slip information of a sample is
+``(r w / sigma_s)^2``, so slow samples (slip noise about ``sigma_v / v``) are down-weighted
+automatically; samples with ``v`` or ``r w`` below 3 noise levels (slip undefined) and
+clearly braking samples (the skid law ``F(i) = -F(|i|)`` is only a first approximation) are
+dropped and counted in the result.
 
 Identifiability. A flat drive log has one normal load ``W``, so c and phi enter only through
 ``F_max = A c + W tan(phi)`` (cohesion-free: ``W tan(phi)``); the NLP is solved in
 ``(F_max, K)`` and the Jacobian handed to :func:`~soiltrack.identify.result.build_result` is
-``d e / d(c, phi, K)`` by the chain rule, whose c and phi columns are exactly proportional.
-The latent slips are profiled out exactly (to first order) by projecting each sample's
-residual pair onto the direction orthogonal to its slip derivative: the reduced residual is
-the "effective variance" residual ``(T_k - F(i_k)) / sqrt(sigma_T^2 + F'(i_k)^2 sigma_i^2)``,
-one per sample, so the degrees of freedom and the covariance are those of the profiled problem.
+``d e / d(c, phi, K)`` by the chain rule, whose c and phi columns are exactly proportional
+(the result object then reports F_max, K, K/l and the initial slope, and the c-phi ridge).
+The latent slips are profiled out (Gauss-Newton, exact to first order) by projecting each
+sample's whitened residual pair onto the direction orthogonal to its slip derivative: one
+reduced residual per sample, the "effective variance" residual
+``d_T / sqrt(sigma_T|s^2 + (F'(i_k) + rho r w_k)^2 sigma_i^2)``, ``sigma_i = sigma_s / (r w_k)``;
+so the degrees of freedom and the covariance are those of the profiled problem.
 
 Gentle versus hard driving. At small slip ``F ~ F_max l i / (2 K)``: a log whose thrust stays
 well below ``F_max`` pins down only this initial slope. The fit reports the correlation of the
 ``F_max`` and ``K`` estimates, their standard errors and the slope with its standard error,
-classifies the log as ``"gentle"``, ``"intermediate"`` or ``"hard"`` and says so in plain words.
+and classifies the log: ``"gentle"`` (correlation >= 0.99, or F_max standard error >= 25 %,
+or F_max on a bound), ``"hard"`` (F_max within 5 % and K within 25 % standard error), else
+``"intermediate"`` - each said in plain words in the result's warnings, with the experiment
+that would help.
 
-Noise levels are estimated from the log itself (robust second-difference estimator, MAD of
-``x[k+1] - 2 x[k] + x[k-1]`` over ``sqrt(6)``) unless given as options; the covariance is then
-scaled by the residual variance (``sigma_known=False``).
+Known limits (measured on the library's simulator, default noise): the linearised intervals
+of K are optimistic (about 70 % coverage for a nominal 95 %, light vehicle on dry sand) and K
+tends to come out low by 5-15 % - the joint estimation of the latent slips is a nonlinear
+error-in-variables problem whose slip noise (``sigma_v / v`` about 0.03) is not small against
+the curvature scale ``K / l`` of the thrust-slip curve. Cross-sample correlation (``w_k`` is
+also in ``T_{k+1}``) is ignored. For a heavy vehicle on firm sand (``K / l`` about 0.4 %)
+GNSS speed noise of 0.05 m/s leaves K poorly determined; the result says so.
 """
 from __future__ import annotations
 
@@ -73,6 +99,8 @@ from ..soilmodel.errors import DataError
 from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
 from ..soilmodel.traction import check_model, shear_bracket
 from ..soilmodel.vehicle import Vehicle
+from .problem import FitFailed
+from .result import FitResult, build_result
 
 __all__ = ["fit_drive_log", "FORMULATIONS", "DriveLogFitError", "estimate_noise", "prepare_drive_log",
            "PreparedLog"]
@@ -99,8 +127,11 @@ _OPTION_NAMES = ("sigma_torque", "sigma_sprocket_speed", "sigma_vehicle_speed", 
                  "min_speed", "sprocket_equation", "max_iter", "tol", "print_level", "multistart")
 
 
-class DriveLogFitError(RuntimeError):
-    """Raised by :func:`fit_drive_log` with ``strict=True`` when no trustworthy estimate exists."""
+class DriveLogFitError(FitFailed):
+    """Raised by :func:`fit_drive_log` with ``strict=True`` when no trustworthy estimate exists.
+
+    A :class:`~soiltrack.identify.problem.FitFailed`; ``.result`` holds the failed result.
+    """
 
 
 # --------------------------------------------------------------------------------------------
@@ -129,16 +160,22 @@ def estimate_noise_profile(x: np.ndarray, n_bins: int = 8) -> tuple[float, float
     """Noise model ``sigma(x) = sqrt(a^2 + (b x)^2)`` (absolute plus relative part) from the data alone.
 
     Sensors such as torque cells and encoders have noise that grows with the reading. The
-    second differences (see :func:`estimate_noise`) are grouped into ``n_bins`` bins by
-    ``|x|``; a robust (MAD) variance per bin is fitted by non-negative least squares to
-    ``a^2 + b^2 mean(x^2)``. Returns ``(a, b)``; ``b = 0`` for a constant noise level.
+    second differences (see :func:`estimate_noise`) are grouped into ``n_bins`` equally
+    populated bins by the level ``|x|`` (taken two samples either side, so that binning does
+    not select on the noise itself); a robust (MAD) variance per bin is fitted to
+    ``a^2 + b^2 mean(x^2)`` by least squares (weights: square root of the bin count) with
+    non-negative coefficients. Returns ``(a, b)``; ``b = 0`` for a constant noise level.
+    The relative part is estimated mostly from the many moderate readings; a log with very few
+    large readings gets a less certain ``b`` (the covariance is scaled by the residual
+    variance anyway).
     """
     x = np.asarray(x, dtype=float)
     if x.size < 5 * n_bins:
         return estimate_noise(x), 0.0
-    d = x[2:] - 2.0 * x[1:-1] + x[:-2]
-    xc = x[1:-1]
-    order = np.argsort(np.abs(xc))
+    # level of the reading at k from x[k-2] and x[k+2]: independent of the noise in d[k]
+    d = x[3:-1] - 2.0 * x[2:-2] + x[1:-3]
+    xc = 0.5 * (np.abs(x[:-4]) + np.abs(x[4:]))
+    order = np.argsort(xc)
     rows, var, cnt = [], [], []
     for chunk in np.array_split(order, n_bins):
         dd = d[chunk]
@@ -147,20 +184,24 @@ def estimate_noise_profile(x: np.ndarray, n_bins: int = 8) -> tuple[float, float
         var.append((_MAD_TO_SIGMA * mad) ** 2 / 6.0)
         cnt.append(chunk.size)
     X, y, wt = np.array(rows), np.array(var), np.sqrt(np.array(cnt, dtype=float))
-    # non-negative least squares on two coefficients: try both, then each alone
-    best = None
-    for cols in ((0, 1), (0,), (1,)):
+    fits = {}
+    for cols in ((0,), (1,), (0, 1)):  # non-negative least squares on two coefficients
         A = X[:, cols] * wt[:, None]
         coef, *_ = np.linalg.lstsq(A, y * wt, rcond=None)
         if np.any(coef < 0):
             continue
         full = np.zeros(2)
         full[list(cols)] = coef
-        err = float(np.sum(((X @ full - y) * wt) ** 2))
-        if best is None or err < best[0]:
-            best = (err, full)
-    if best is None:
+        fits[cols] = (float(np.sum(((X @ full - y) * wt) ** 2)), full)
+    one = [fits[c] for c in ((0,), (1,)) if c in fits]
+    if not one and (0, 1) not in fits:
         return estimate_noise(x), 0.0
+    best = min(one, key=lambda f: f[0]) if one else fits[(0, 1)]
+    if (0,) in fits and (1,) in fits and fits[(1,)][0] > 0.8 * fits[(0,)][0]:
+        best = fits[(0,)]  # a purely relative model only when it fits clearly better
+    # two coefficients only when they explain clearly more (readings spread enough to tell)
+    if (0, 1) in fits and (not one or fits[(0, 1)][0] < 0.5 * best[0]):
+        best = fits[(0, 1)]
     a2, b2 = best[1]
     return math.sqrt(a2), math.sqrt(b2)
 
@@ -515,7 +556,7 @@ def _solve_equation_error(prep: PreparedLog, vehicle: Vehicle, F_ref: float, K_r
 
 def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: SoilBounds = PRACTICAL_BOUNDS,
                   x0=None, strict: bool = False, *, method: str = "ipopt", formulation: str = "output-error",
-                  **options: Any):
+                  **options: Any) -> FitResult:
     """Identify the soil under a tracked vehicle from a straight-line drive log.
 
     Parameters
@@ -542,15 +583,15 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
         comparison only).
     **options
         ``sigma_torque`` (N m), ``sigma_sprocket_speed`` (rad/s), ``sigma_vehicle_speed`` (m/s):
-        sensor noise levels (default: estimated from the log); ``derivative_window_s`` (s):
-        window of the local quadratic fit giving dw/dt (default: the narrowest window, at least
-        5 samples, whose derivative noise stays within the torque noise); ``min_speed`` (m/s): extra speed floor
-        below which samples are dropped; ``sprocket_equation``: ``"thrust"`` (default,
-        ``I dw/dt = M_s - r F``) or ``"seed"`` (as printed in the seed); ``torque_hold``: ``"zoh"`` (default, torque held from each sample
-        to the next) or ``"sample"`` (torque sampled from a continuous signal), see
-        :func:`prepare_drive_log`; ``max_iter``, ``tol``, ``print_level``: IPOPT settings;
-        ``multistart`` (True): if the first solve fails or ends on a bound, also start from a
-        second point (K on the other side of the range).
+        constant sensor noise levels (default: a noise model ``sqrt(a^2 + (b x)^2)`` per
+        channel estimated from the log; all three given means ``sigma_known=True``);
+        ``min_speed`` (m/s): extra speed floor below which samples are dropped (default: 3
+        noise levels); ``sprocket_equation``: ``"thrust"`` (default, ``I dw/dt = M_s - r F``)
+        or ``"seed"`` (as printed in the seed); ``torque_hold``: ``"zoh"`` (default, torque
+        held from each sample to the next) or ``"sample"`` (torque sampled from a continuous
+        signal), see :func:`prepare_drive_log`; ``max_iter`` (500), ``tol`` (1e-9),
+        ``print_level`` (0): IPOPT settings; ``multistart`` (True): if the first solve fails or
+        ends on a bound, also start from a second point (K on the other side of the range).
 
     Returns
     -------
@@ -567,8 +608,6 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
     DriveLogFitError
         With ``strict=True``, when the solver fails or returns a non-finite point.
     """
-    from .result import build_result  # the shared result object (imported late: built in parallel)
-
     check_model(model)
     if method != "ipopt":
         raise DataError(f"unknown method {method!r} for a drive log; expected 'ipopt'")
@@ -632,11 +671,14 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
         e_w = d_s / prep.sigma_speed
         # projected (profiled) residual, model minus data: |(e_w, e_T)| at the optimum
         wres = -np.sign(e_T) * np.sqrt(e_T ** 2 + e_w ** 2)
-        res = wres * s_eff                                    # thrust-equivalent residual, N
+        # raw residual: predicted minus measured sprocket speed, v_k / (r (1 - i_k)) - w_k, rad/s
+        res = d_s / (vehicle.sprocket_radius * (1 - slip))
+        unit = "rad/s"
     else:
         s_eff = sT
         res = F - prep.thrust                                 # model minus data, N
         wres = res / s_eff
+        unit = "N"
     J2 = np.column_stack([dF_dFm, dF_dK]) / s_eff[:, None]    # d wres / d(F_max, K)
 
     finite = all(math.isfinite(z) for z in (Fmax, K)) and np.all(np.isfinite(wres)) and np.all(np.isfinite(J2))
@@ -661,7 +703,7 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
     dropped = prep.dropped["slow"] + prep.dropped["braking"] + prep.dropped["edge"]
     if prep.dropped["slow"] + prep.dropped["braking"]:
         warnings.append(
-            f"{dropped} of {log.n_samples} samples not used: {prep.dropped['slow']} with vehicle or track speed "
+            f"{dropped} of {log.n_samples} samples not used: {prep.dropped['slow']} standing, reversing or with vehicle or track speed "
             f"below 3 noise levels (about {prep.dropped['speed_floor_m_s']:.3g} m/s: slip undefined or lost in the "
             f"speed noise), {prep.dropped['braking']} braking (negative thrust: the skid law F(i) = -F(|i|) is only "
             f"a first approximation), {prep.dropped['edge']} at the ends of the log (no sprocket-speed difference)")
@@ -673,16 +715,17 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
     if not success:
         msg = (f"drive-log fit failed: IPOPT returned {best['status']}"
                + ("" if finite else " with non-finite values"))
-        if strict:
-            raise DriveLogFitError(msg)
         theta = np.full(3, np.nan)
         jac = np.zeros((n, 3))
-        return build_result(data_kind="drive", model=model, method=method, theta=theta, jacobian=jac,
+        failed = build_result(data_kind="drive", model=model, method=method, theta=theta, jacobian=jac,
                             weighted_residuals=np.where(np.isfinite(wres), wres, 0.0),
-                            residuals=np.where(np.isfinite(res), res, 0.0), residual_unit="N", n_samples=n,
+                            residuals=np.where(np.isfinite(res), res, 0.0), residual_unit=unit, n_samples=n,
                             normal_loads=np.full(n, W), vehicle=vehicle, bounds=bounds, status=best["status"],
                             success=False, message=msg, iterations=best["iterations"], solve_time=best["time"],
                             sigma_known=prep.sigma_known, warnings=tuple(warnings), extra=extra)
+        if strict:
+            raise DriveLogFitError(failed)
+        return failed
 
     # (c, phi) on the ridge, and the Jacobian in [c, phi, K] by the chain rule ----------------
     c, phi = _ridge_point(Fmax, vehicle, bounds, model, c_hint)
@@ -707,7 +750,8 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
     n_high = int(np.count_nonzero(prep.thrust - 2.0 * sT > 0.7 * Fmax))
     extra.update({"max_thrust_N": Fmax, "shear_modulus_m": K, "initial_slope_N": slope,
                   "thrust_peak_N": thrust_peak, "thrust_utilisation": utilisation, "samples_above_70pct": n_high,
-                  "slip_max": float(np.max(slip)), "residual_rms_N": float(np.sqrt(np.mean(res ** 2))),
+                  "slip_max": float(np.max(slip)),
+                  "thrust_residual_rms_N": float(np.sqrt(np.mean((wres * s_eff) ** 2))),
                   "reduced_chi2": float(np.sum(wres ** 2)) / dof})
     at_bound = []
     for name, val, (lo, hi) in (("F_max", Fmax, Fb), ("K", K, Kb)):
@@ -764,7 +808,7 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
     msg = (f"drive-log fit ({formulation}) converged: F_max = {Fmax:.5g} N, K = {1000 * K:.4g} mm, "
            f"{regime} log, {n} samples used")
     return build_result(data_kind="drive", model=model, method=method, theta=theta, jacobian=jac,
-                        weighted_residuals=wres, residuals=res, residual_unit="N", n_samples=n,
+                        weighted_residuals=wres, residuals=res, residual_unit=unit, n_samples=n,
                         normal_loads=np.full(n, W), vehicle=vehicle, bounds=bounds, status=best["status"],
                         success=True, message=msg, iterations=best["iterations"], solve_time=best["time"],
                         sigma_known=prep.sigma_known, warnings=tuple(warnings), extra=extra)
