@@ -5,29 +5,39 @@ bounded weighted least-squares problem as the IPOPT path,
 
     minimise  0.5 * sum_k ((F(i_k; c, phi, K, W_k) - F_k) / sigma_k)^2   within the bounds,
 
-with a solver whose whole run is one pre-built CasADi ``Function`` (SX, built once per
-``(variant, n_points, n_grid, n_iter)`` and cached), called once per fit:
+with a solver whose whole run is one pre-built CasADi ``Function``, built once per
+``(p, n_points, n_grid)`` (p = 2 or 3 free parameters) and cached, called once per fit
+through a zero-copy buffer (no per-call conversion of the arguments):
 
-1. **Start**: the variable-projection grid of :mod:`soiltrack.identify.start` (a geometric grid
-   over the K bounds; for each K the linear parameters ``(c, tan(phi))`` from weighted linear
-   least squares projected onto the bounds; the grid point of lowest cost), evaluated inside
-   the Function. A given ``x0`` replaces it.
-2. **Iteration**: a fixed number (``N_ITER``) of projected, damped Newton steps in the scaled
-   variables of the IPOPT path (``c / 1 kPa``, ``phi / 1 rad``, ``K / 1 cm``): exact Hessian
-   of the cost (CasADi AD) plus Levenberg-Marquardt damping ``lam * diag(J^T J)``; variables
-   on a bound whose gradient points outwards are held (active set); the trial point is
-   projected onto the box and accepted if the cost does not increase (``lam / 10``), else
-   rejected (``lam * 10``); at the rounding floor of the cost (relative change below 1e-13)
-   a step is also accepted when it shrinks the free part of the gradient (Newton's endgame,
-   where cost decreases are below rounding). The exact Hessian gives quadratic convergence also for
-   large-residual data (e.g. Wong's three points, where Gauss-Newton converges only linearly).
-   All iterations are unrolled (no early exit); once converged the steps are zero.
+1. **Start**: variable projection on a grid of K (as :mod:`soiltrack.identify.start`: for each
+   K the linear parameters ``(c, tan(phi))`` from weighted linear least squares, projected
+   onto the bounds; the grid point of lowest cost), evaluated inside the Function. Here the
+   ``n_grid`` values of K are uniform in 1/K rather than geometric (``exp(-|i| l / K)`` then
+   follows from one K to the next by one multiplication; the local iteration converges to
+   the same optimum from either start). A given ``x0`` replaces it.
+2. **Iteration**: up to ``N_ITER`` projected, damped Newton steps in the scaled variables of
+   the IPOPT path (``c / 1 kPa``, ``phi / 1 rad``, ``K / 1 cm``): exact Hessian of the cost
+   (closed-form derivatives of Eq. 2, checked against CasADi AD in the tests) plus
+   Levenberg-Marquardt damping ``lam * diag(J^T J)``; variables on a bound whose gradient
+   points outwards are held (active set); the trial point is projected onto the box and
+   accepted if the cost does not increase (``lam / 10``), else rejected (``lam * 10``); at
+   the rounding floor of the cost (relative change below 1e-13) a step is also accepted when
+   it shrinks the free part of the gradient (Newton's endgame, where cost decreases are below
+   rounding). The exact Hessian converges quadratically also on large-residual data (e.g.
+   Wong's three points, where Gauss-Newton converges only linearly). Each iteration is a
+   conditional call that is skipped once the first-order test below holds.
 3. **Certification** (in Python, from the Function's outputs, not on trust): finite numbers,
    inside the bounds, and the first-order (KKT) conditions for the box: the projected
    gradient ``|| g_free ||`` at most ``KKT_TOL`` times ``sqrt(trace(J^T J) * 2 cost)`` (the
    same relative test as the vectorised batch engine), or a cost that is zero to rounding.
    A fit the engine cannot certify is handed to the cached IPOPT solver (said in the message;
    ``extra["engine"] == "ipopt"``).
+
+The per-sample work is mapped (a loop in the generated code), and the Function is compiled
+to C with the system C compiler (CasADi's ``shell`` JIT, ``-O2``, in a private temporary
+folder removed at exit) - about 2 s once per ``(p, n_points, n_grid)``. Without a compiler
+(or with the environment variable ``SOILTRACK_NO_JIT`` set) CasADi's virtual machine
+evaluates the same Function, a few times slower.
 
 The full model at ONE normal load is solved exactly as the IPOPT path does it: in the
 identifiable parameters ``(F_max, K)`` (``F_max = W tan(phi_e)``, with the bounds box of
@@ -36,10 +46,10 @@ bounds-feasible ridge ``A c + W tan(phi) = F_max`` (an arbitrary ridge point, re
 such by :class:`~soiltrack.identify.FitResult`).
 
 Results are labelled ``method="ipopt"`` (the estimator: bounded least squares within the
-practical ranges, identical optimum) with ``extra["engine"]`` = ``"compiled-lm"`` (or
-``"ipopt"`` after a hand-over). The FitResult is built by the shared
-:func:`~soiltrack.identify.build_result` from the thrust and its Jacobian at the optimum
-(computed from the Function's outputs), so uncertainty, identifiability and warnings are
+practical ranges, the same optimum) with ``extra["engine"]`` = ``"compiled-lm"`` (or
+``"ipopt"`` after a hand-over), status ``"Compiled_LM_Converged"``. The FitResult is built by
+the shared :func:`~soiltrack.identify.build_result` from the residuals and the Jacobian at
+the optimum (from the Function's outputs), so uncertainty, identifiability and warnings are
 those of any other path.
 """
 from __future__ import annotations
@@ -56,25 +66,19 @@ from functools import lru_cache
 import casadi as ca
 import numpy as np
 
-from ..soilmodel.soil import SoilBounds
 from ..soilmodel.traction import SERIES_SWITCH, shear_bracket
 from .problem import SCALE, SlipProblem
 from .result import FitResult, build_result
 
 __all__ = ["compiled_solver", "fit_compiled", "N_ITER", "KKT_TOL"]
 
-#: Unrolled damped-Newton iterations per call (converged fits stop moving after a few).
+#: Most damped-Newton iterations per call (skipped once converged; typically 2-6 are run).
 N_ITER = 40
 #: Relative first-order tolerance (projected gradient vs sqrt(trace(J^T J) * 2 cost)).
 KKT_TOL = 1e-9
 #: A cost below this fraction of 0.5 * sum((F / sigma)^2) is a zero-residual (global) optimum.
 ZERO_COST = 1e-24
 _EPS_B = 1e-12  # relative distance to a bound counted as "on it" (of the bound range)
-
-
-def _variant(model: str) -> int:
-    """Number of free parameters of the Function: 2 (cohesion-free, one-load full) or 3."""
-    return 3 if model == "full" else 2
 
 
 def _fit_residuals(z, d, n: int, p: int):
@@ -127,27 +131,27 @@ def _point_functions(p: int, n_grid: int):
     """
     s, F, W, sig, l, b = (ca.SX.sym(k) for k in ("s", "F", "W", "sig", "l", "b"))
     Ks = ca.SX.sym("Ks", n_grid)  # grid of K, uniform in 1/K: x_j = |i| l / K_j is uniform in j
+    Ki = ca.SX.sym("Ki", n_grid)  # 1 / Ks (no division per sample and K)
     y = F / sig
     a = ca.fabs(s) * l
     ainv = 1 / ca.fmax(a, 1e-300)
-    e0 = ca.exp(-a / Ks[0])
-    q = ca.exp(-a * (1 / Ks[1] - 1 / Ks[0])) if n_grid > 1 else 1
+    e = ca.exp(-a * Ki[0])
+    q = ca.exp(-a * (Ki[1] - Ki[0])) if n_grid > 1 else 1
     gs = []
-    e = e0
     for j in range(n_grid):  # exp(-x_j) by recurrence: one exp per sample instead of one per K
-        xj = a / Ks[j] if j == 0 else a * (1 / Ks[j])
-        gs.append(ca.if_else(xj < 1e-4, xj * (0.5 - xj / 6), 1 - (1 - e) * (Ks[j] * ainv)))
+        xj = a * Ki[j]
+        gs.append(ca.if_else(xj < 1e-4, xj * (0.5 - xj * (1 / 6)), 1 - (1 - e) * (Ks[j] * ainv)))
         e = e * q
-    g = ca.sign(s) * ca.vertcat(*gs)
-    w2 = W / sig
-    a2 = w2 * g
+    g = ca.vertcat(*gs)
+    sgn_sig = ca.sign(s) / sig
+    a2 = (W * sgn_sig) * g
     if p == 3:
-        a1 = 2 * b * l / sig * g
+        a1 = (2 * b * l * sgn_sig) * g
         sums = ca.vertcat(a1 * a1, a1 * a2, a2 * a2, a1 * y, a2 * y)
     else:
         z0 = ca.SX.zeros(n_grid)
         sums = ca.vertcat(z0, z0, a2 * a2, z0, a2 * y)
-    grid = ca.Function("pt_grid", [s, F, W, sig, l, b, Ks], [sums, y * y], {"cse": True})
+    grid = ca.Function("pt_grid", [s, F, W, sig, l, b, Ks, Ki], [sums, y * y], {"cse": True})
     z = ca.SX.sym("z", p)
     phi, u = z[p - 2], z[p - 1]
     K = u * SCALE[2]
@@ -182,14 +186,16 @@ def _point_functions(p: int, n_grid: int):
 def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER, jit: bool | None = None) -> ca.Function:
     """The cached solver Function for ``p`` free parameters (2 or 3) and ``n`` samples.
 
-    Inputs: ``d = [slip (n), F (n), W (n), sigma (n), l, b]``, ``lbz, ubz`` (scaled bounds),
-    ``z0`` (scaled start, used when ``use_z0 = 1``), ``use_z0``.
+    The returned Function takes ONE vector ``x = [d, lbz, ubz, z0, use_z0]`` and returns ONE
+    vector ``y``, the concatenation of the outputs below (so that it can be called through a
+    zero-copy buffer). Inputs: ``d = [slip (n), F (n), W (n), sigma (n), l, b]``, ``lbz, ubz``
+    (scaled bounds), ``z0`` (scaled start, used when ``use_z0 = 1``), ``use_z0``.
     Outputs: ``z`` (scaled optimum), ``cost`` (0.5 sum of squared weighted residuals),
     ``g`` (gradient of the cost in z), ``trJJ`` (trace of J^T J in z), ``iters`` (iterations
     run until the first-order test held), ``zstart`` (start used), ``scale``
     (0.5 sum (F / sigma)^2), and at the optimum ``r`` (n, model minus data, N), ``sgw``
     (n, ``sign(i) g(|i| l / K) / sigma``) and ``JK`` (n, ``dF/dK / sigma``, SI).
-    The start grid has ``2 n_grid - 1`` K values uniform in 1/K (so that ``exp(-|i| l / K)``
+    The start grid has ``n_grid`` K values uniform in 1/K (so that ``exp(-|i| l / K)``
     follows by one multiplication from one K to the next).
 
     The per-sample work is mapped (a loop in the generated code) and each iteration is a
@@ -198,7 +204,7 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER, jit:
     (CasADi's ``shell`` JIT) when one is available (``jit=None``: unless the environment
     variable ``SOILTRACK_NO_JIT`` is set), else evaluated by CasADi's virtual machine.
     """
-    n_grid = 2 * n_grid - 1 if n_grid > 1 else 1  # uniform in 1/K: twice as dense, still cheaper
+    n_grid = max(int(n_grid), 1)
     pt_grid, pt_ev, pt_sg = _point_functions(p, n_grid)
     d = ca.MX.sym("d", 4 * n + 2)
     lbz, ubz, z0, use0 = ca.MX.sym("lbz", p), ca.MX.sym("ubz", p), ca.MX.sym("z0", p), ca.MX.sym("use_z0")
@@ -237,8 +243,9 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER, jit:
     pick = ca.Function("pick", [sc, yy_s, lz, uz, Kg], [zg])
     K_lo, K_hi = lbz[p - 1] * SCALE[2], ubz[p - 1] * SCALE[2]
     frac = np.linspace(0.0, 1.0, n_grid) if n_grid > 1 else np.zeros(1)
-    Kgrid = 1 / (1 / K_hi + ca.DM(frac) * (1 / K_lo - 1 / K_hi))  # uniform in 1/K
-    gm, yym = pt_grid.map(n, "serial")(slip, force, W, sig, l, b, Kgrid)
+    Kinv = 1 / K_hi + ca.DM(frac) * (1 / K_lo - 1 / K_hi)  # uniform in 1/K
+    Kgrid = 1 / Kinv
+    gm, yym = pt_grid.map(n, "serial")(slip, force, W, sig, l, b, Kgrid, Kinv)
     yy = ca.sum2(yym)
     zgrid = pick(ca.sum2(gm), yy, lbz, ubz, Kgrid)
     zs = ca.if_else(use0 > 0.5, z0, zgrid)
@@ -338,14 +345,21 @@ class _Caller:
 
 @lru_cache(maxsize=64)
 def _caller(p: int, n: int, n_grid: int) -> _Caller:
+    """The cached zero-copy caller of :func:`compiled_solver` ``(p, n, n_grid)``."""
     return _Caller(compiled_solver(p, n, n_grid))
 
 
 _JIT_DIR: list[str] = []
+_JIT_LOCK = threading.Lock()
 
 
 def _jit(f: ca.Function) -> ca.Function:
     """Compile ``f`` to C with the system compiler in a private temporary folder; ``f`` on failure."""
+    with _JIT_LOCK:
+        return _jit_locked(f)
+
+
+def _jit_locked(f: ca.Function) -> ca.Function:
     try:
         if not _JIT_DIR:
             _JIT_DIR.append(tempfile.mkdtemp(prefix="soiltrack_clm_"))
@@ -362,8 +376,7 @@ def _jit(f: ca.Function) -> ca.Function:
         return f
 
 
-def fit_compiled(pb: SlipProblem, x0=None, n_grid: int = 25, ipopt_options: dict | None = None,
-                 _t0: float | None = None) -> FitResult:
+def fit_compiled(pb: SlipProblem, x0=None, n_grid: int = 25, ipopt_options: dict | None = None) -> FitResult:
     """Fit a :class:`SlipProblem` with the compiled engine; hand over to IPOPT if not certified.
 
     Parameters
@@ -376,7 +389,7 @@ def fit_compiled(pb: SlipProblem, x0=None, n_grid: int = 25, ipopt_options: dict
     ipopt_options : dict, optional
         Options for the IPOPT hand-over.
     """
-    t0 = time.perf_counter() if _t0 is None else _t0
+    t0 = time.perf_counter()
     W = pb.load
     W0 = float(W[0])
     one_load = pb.model == "full" and bool(np.all(np.abs(W - W0) <= 1e-9 * abs(W0)))
@@ -486,8 +499,6 @@ def _hand_over(pb: SlipProblem, z, p, one_load, x0, n_grid, ipopt_options, t0) -
     x = None
     if np.all(np.isfinite(z)):
         x = np.array(_theta_of(z, p))
-        if one_load:  # equivalent friction angle at c = 0 may exceed the phi bound; the start is clipped anyway
-            x[1] = min(x[1], math.pi / 2 - 1e-6)
     elif x0 is not None:
         x = np.asarray(x0, float)
     res = fit_ipopt(pb, x, ipopt_options=ipopt_options, n_grid=n_grid)

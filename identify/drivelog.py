@@ -102,11 +102,14 @@ from ..soilmodel.vehicle import Vehicle
 from .problem import FitFailed
 from .result import FitResult, build_result
 
-__all__ = ["fit_drive_log", "FORMULATIONS", "DriveLogFitError", "estimate_noise", "prepare_drive_log",
-           "PreparedLog"]
+__all__ = ["fit_drive_log", "FORMULATIONS", "DriveLogFitError", "estimate_noise", "estimate_noise_profile",
+           "prepare_drive_log", "PreparedLog", "padded_size"]
 
 #: Formulations of :func:`fit_drive_log`.
 FORMULATIONS = ("output-error", "equation-error")
+
+#: Factor from the median absolute deviation to the standard deviation of a normal distribution.
+_MAD_TO_SIGMA = 1.482602218505602
 
 #: Fewest usable samples accepted (two identifiable combinations, a noise level, and margin).
 MIN_USABLE_SAMPLES = 10
@@ -151,9 +154,6 @@ def estimate_noise(x: np.ndarray) -> float:
     d = x[2:] - 2.0 * x[1:-1] + x[:-2]
     mad = float(np.median(np.abs(d - np.median(d))))
     return _MAD_TO_SIGMA * mad / math.sqrt(6.0)
-
-
-_MAD_TO_SIGMA = 1.482602218505602
 
 
 def estimate_noise_profile(x: np.ndarray, n_bins: int = 8) -> tuple[float, float]:
