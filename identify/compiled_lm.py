@@ -78,6 +78,7 @@ N_ITER = 40
 KKT_TOL = 1e-9
 #: A cost below this fraction of 0.5 * sum((F / sigma)^2) is a zero-residual (global) optimum.
 ZERO_COST = 1e-24
+_BLOCK = 5  # iterations per skippable block
 _EPS_B = 1e-12  # relative distance to a bound counted as "on it" (of the bound range)
 
 
@@ -297,13 +298,23 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER, jit:
     step_f = ca.Function("lm_step", [st, d_, lbz_, ubz_], [new])
     keep_f = ca.Function("lm_keep", [st, d_, lbz_, ubz_], [st])
     cond = ca.Function.conditional("lm_iter", [step_f], keep_f)  # index 0: iterate; else: keep
+    sc_ = ca.MX.sym("scale")
+
+    def converged(s, lo, hi, scl):
+        return kkt(s[0:p], s[p + 1], s[p + 2:2 * p + 2], s[2 * p + 2 + p * p:3 * p + 2 + p * p], lo, hi, scl)[0]
+
+    # blocks of BLOCK conditional iterations, each block skipped as a whole once converged
+    sb = st
+    for _ in range(_BLOCK):
+        sb = cond(converged(sb, lbz_, ubz_, sc_), sb, d_, lbz_, ubz_)
+    block_f = ca.Function("lm_block", [st, d_, lbz_, ubz_, sc_], [sb])
+    keep_b = ca.Function("lm_keep_block", [st, d_, lbz_, ubz_, sc_], [st])
+    cond_b = ca.Function.conditional("lm_blocks", [block_f], keep_b)
 
     f0, g0, H0, D0 = evaluate(zs)
     state = ca.vertcat(zs, 1e-3, f0, g0, ca.vec(H0), D0, 0)
-    for _ in range(n_iter):
-        dn, _a = kkt(state[0:p], state[p + 1], state[p + 2:2 * p + 2], state[2 * p + 2 + p * p:3 * p + 2 + p * p],
-                     lbz, ubz, scale)
-        state = cond(dn, state, d, lbz, ubz)
+    for _ in range(-(-n_iter // _BLOCK)):
+        state = cond_b(converged(state, lbz, ubz, scale), state, d, lbz, ubz, scale)
     zf = state[0:p]
     # ---- 3. what the result needs at the optimum: sign(i) g and its K derivative
     sgd = pt_sg.map(n, "serial")(zf, slip, force, W, sig, l, b)

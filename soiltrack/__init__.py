@@ -32,13 +32,10 @@ from .soilmodel import (  # noqa: E402
     tractive_force,
 )
 
-try:  # identify is optional while it is being built
-    from . import identify  # noqa: E402
-    from .identify import fit, fit_many  # noqa: E402
-except ImportError:  # pragma: no cover
-    pass
+from . import identify, planning  # noqa: E402
+from .identify import FitResult, fit, fit_many  # noqa: E402
 
 __all__ = [
-    "__version__", "soilmodel", "identify", "TERRAINS", "VEHICLES", "Soil", "Vehicle",
+    "__version__", "soilmodel", "identify", "planning", "FitResult", "TERRAINS", "VEHICLES", "Soil", "Vehicle",
     "read_csv", "simulate", "tractive_force", "fit", "fit_many",
 ]
