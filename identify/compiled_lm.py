@@ -150,8 +150,7 @@ def _point_functions(p: int, n_grid: int):
         a1 = (2 * b * l * sgn_sig) * g
         sums = ca.vertcat(a1 * a1, a1 * a2, a2 * a2, a1 * y, a2 * y)
     else:
-        z0 = ca.SX.zeros(n_grid)
-        sums = ca.vertcat(z0, z0, a2 * a2, z0, a2 * y)
+        sums = ca.vertcat(a2 * a2, a2 * y)
     grid = ca.Function("pt_grid", [s, F, W, sig, l, b, Ks, Ki], [sums, y * y], {"cse": True})
     z = ca.SX.sym("z", p)
     phi, u = z[p - 2], z[p - 1]
@@ -214,10 +213,13 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER, jit:
 
     # ---- 1. variable-projection grid start (same construction as start.grid_start; the
     # residual cost of each K from the sums: |y|^2 - 2 c r1 - 2 t r2 + c^2 m11 + 2 c t m12 + t^2 m22)
-    sc = ca.SX.sym("sums", 5 * n_grid)
+    sc = ca.SX.sym("sums", (5 if p == 3 else 2) * n_grid)
     yy_s = ca.SX.sym("yy")
     lz, uz, Kg = ca.SX.sym("lz", p), ca.SX.sym("uz", p), ca.SX.sym("Kg", n_grid)
-    m11, m12, m22, r1, r2 = (sc[k * n_grid:(k + 1) * n_grid] for k in range(5))
+    if p == 3:
+        m11, m12, m22, r1, r2 = (sc[k * n_grid:(k + 1) * n_grid] for k in range(5))
+    else:
+        m22, r2 = sc[0:n_grid], sc[n_grid:2 * n_grid]
     t_lo, t_hi = ca.tan(lz[p - 2]), ca.tan(uz[p - 2])
     if p == 3:
         c_lo, c_hi = lz[0] * SCALE[0], uz[0] * SCALE[0]
@@ -246,18 +248,18 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER, jit:
     frac = np.linspace(0.0, 1.0, n_grid) if n_grid > 1 else np.zeros(1)
     Kinv = 1 / K_hi + ca.DM(frac) * (1 / K_lo - 1 / K_hi)  # uniform in 1/K
     Kgrid = 1 / Kinv
-    gm, yym = pt_grid.map(n, "serial")(slip, force, W, sig, l, b, Kgrid, Kinv)
-    yy = ca.sum2(yym)
-    zgrid = pick(ca.sum2(gm), yy, lbz, ubz, Kgrid)
+    # mapped over the samples with the sums accumulated in the loop (reduce_out)
+    gm, yy = pt_grid.map("grid_sums", "serial", n, [4, 5, 6, 7], [0, 1])(slip, force, W, sig, l, b, Kgrid, Kinv)
+    zgrid = pick(gm, yy, lbz, ubz, Kgrid)
     zs = ca.if_else(use0 > 0.5, z0, zgrid)
     zs = ca.fmin(ca.fmax(zs, lbz), ubz)
     scale = 0.5 * yy
 
     # ---- 2. damped projected Newton iterations (state: z, lam, f, g, H, D, done, iters)
-    evm = pt_ev.map(n, "serial")
+    evm = pt_ev.map("ev_sums", "serial", n, [0, 5, 6], [0])
 
     def evaluate(z):
-        s = ca.sum2(evm(z, slip, force, W, sig, l, b))
+        s = evm(z, slip, force, W, sig, l, b)
         return s[0], s[1:1 + p], ca.reshape(s[1 + p:1 + p + p * p], p, p), s[1 + p + p * p:]
 
     zS, gS, DS, fS, scS = ca.SX.sym("z", p), ca.SX.sym("g", p), ca.SX.sym("D", p), ca.SX.sym("f"), ca.SX.sym("sc")
@@ -288,7 +290,7 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER, jit:
     slip_, force_, W_, sig_ = (d_[k * n:(k + 1) * n].T for k in range(4))
     l_, b_ = d_[4 * n], d_[4 * n + 1]
     zt_, m_ = trial(sz, slam, sg_, sH, sD, lbz_, ubz_)
-    s_ = ca.sum2(evm(zt_, slip_, force_, W_, sig_, l_, b_))
+    s_ = evm(zt_, slip_, force_, W_, sig_, l_, b_)
     ft, gt, Ht, Dt = s_[0], s_[1:1 + p], s_[1 + p:1 + p + p * p], s_[1 + p + p * p:]
     acc = accept(ft, sf, gt, sg_, m_)  # NaN is rejected
     new_z = ca.if_else(acc, zt_, sz)
