@@ -9,14 +9,17 @@ Usage (from the repository root; scipy is a benchmark-only dependency, extra ``b
 What is measured
 ----------------
 * Single fit, cohesion-free model (phi, K), on Wong's three points and on 100 synthetic points:
-  every soiltrack method (``fit`` with ipopt / newton / least-squares, and the ipopt path with a
-  given start) vs ``scipy.optimize.least_squares(method="trf")`` with the same data, the same
+  every soiltrack method (``fit`` with ipopt / newton / least-squares, the ipopt path with a
+  given start, the compiled engine ``fit(..., engine="compiled")`` from its grid start and
+  from the given start, and ``fit_many([data])``, which sends a single dataset to the compiled
+  engine) vs ``scipy.optimize.least_squares(method="trf")`` with the same data, the same
   bounds (the seed's practical ranges), the same scaled variables (phi in rad, K in cm), an
   analytic Jacobian and tolerances 1e-12 (scipy's best case). The estimates are compared and the
   largest relative difference is printed. Times are medians over ``--repeats`` calls, after a
   warm-up call (compiled CasADi solvers are cached and reused), with all paths timed
   round-robin so that load changes on a shared machine hit them alike; soiltrack's time is the
-  wall time of the whole ``fit`` call, including input checks and result/uncertainty building.
+  wall time of the whole ``fit`` call, including input checks and result/uncertainty building
+  (the compiled engine's one-off C compilation happens in the warm-up call).
 * Batch: ``--batch`` noisy 3-point datasets (+-3 % uniform noise on F and i) fitted with
   ``fit_many`` vs a scipy loop. The scipy loop runs on a subset (``--scipy-subset``) and is
   extrapolated per fit; the output says so. Three rounds alternate the two; medians are used.

@@ -11,7 +11,11 @@ squares within the practical ranges) with ``extra["engine"]`` naming what solved
 (``"batch-lm"`` or ``"ipopt"``). The start grid has 13 K values here (25 in ``fit``): the
 local iteration converges to the same optimum from either, and the coarser grid halves the
 start cost. Other methods, drive logs and mixed sizes go one by one
-through :func:`~soiltrack.identify.fit` (the solvers are cached, so nothing is rebuilt).
+through :func:`~soiltrack.identify.fit` (the solvers are cached, so nothing is rebuilt). With
+``engine="auto"`` (default) same-size groups smaller than ``SMALL_GROUP`` datasets - e.g.
+``fit_many([data])`` - go one by one through the compiled single-fit engine
+(:mod:`soiltrack.identify.compiled_lm`, ``extra["engine"] == "compiled-lm"``), whose fixed
+cost per fit is far below the vectorised engine's for a handful of datasets.
 
 Parallelism: pass any :class:`concurrent.futures.Executor`; work is submitted in chunks
 (``chunk_size`` datasets each). For Dask, ``client.get_executor()`` of a

@@ -343,13 +343,18 @@ class _Caller:
         self.f = f
         self.n_in, self.n_out = f.size1_in(0), f.size1_out(0)
         self.lock = threading.Lock()
-        self.buf, self.trigger = f.buffer()
         self.x = np.zeros(self.n_in)
         self.y = np.zeros(self.n_out)
-        self.buf.set_arg(0, memoryview(self.x))
-        self.buf.set_res(0, memoryview(self.y))
+        try:
+            self.buf, self.trigger = f.buffer()
+            self.buf.set_arg(0, memoryview(self.x))
+            self.buf.set_res(0, memoryview(self.y))
+        except Exception:  # pragma: no cover - CasADi without buffers: ordinary (slower) calls
+            self.trigger = None
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
+        if self.trigger is None:  # pragma: no cover
+            return np.asarray(self.f(np.asarray(x, float)), float).ravel()
         with self.lock:
             self.x[:] = x
             self.trigger()

@@ -86,6 +86,7 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
                 raise FitFailed(res)
             return res
         res = fit_ipopt(pb, x0v, ipopt_options=options.get("ipopt_options"), n_grid=options.get("n_grid", 25))
+        res.extra.setdefault("engine", "ipopt")
     elif method == "newton":
         _check_options(options, {"max_iter"})
         res = fit_newton(pb, x0v, max_iter=options.get("max_iter", 50))

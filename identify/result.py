@@ -986,7 +986,7 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
     rw = np.asarray(weighted_residuals, dtype=float).ravel()
     if J.ndim != 2 or J.shape[1] != 3 or J.shape[0] != rw.size:
         raise ValueError(f"jacobian must have shape (n_res, 3) = ({rw.size}, 3), got {J.shape}")
-    core = _core_stats_one(J[:, list(free)], rw, sigma_known)
+    core = _core_stats_one(J[:, free[0]:], rw, sigma_known)  # free = (0, 1, 2) or (1, 2)
     return _assemble(core, 0, data_kind=data_kind, model=model, method=method, theta=theta, jacobian=J,
                      weighted_residuals=rw, residuals=residuals, residual_unit=residual_unit, n_samples=n_samples,
                      normal_loads=_distinct_loads(normal_loads), vehicle=vehicle, bounds=bounds, status=status,

@@ -26,8 +26,9 @@ def plot_data(data: SlipData | DriveLog, path: str, title: str = "") -> None:
     else:
         fig, axs = plt.subplots(4 if data.vehicle_accel is not None else 3, 1, figsize=(7, 8), sharex=True)
         t = data.time
-        axs[0].plot(t, data.sprocket_torque / 1e3, lw=0.8)
-        axs[0].set_ylabel("sprocket torque (kN m)")
+        big = float(np.max(np.abs(data.sprocket_torque))) >= 1e3
+        axs[0].plot(t, data.sprocket_torque / (1e3 if big else 1.0), lw=0.8)
+        axs[0].set_ylabel("sprocket torque (kN m)" if big else "sprocket torque (N m)")
         axs[1].plot(t, data.sprocket_speed, lw=0.8)
         axs[1].set_ylabel("sprocket speed (rad/s)")
         axs[2].plot(t, data.vehicle_speed, lw=0.8)
@@ -82,15 +83,32 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> None:
         for a in (ax, axr):
             a.grid(alpha=0.3)
     else:
-        fig, ax = plt.subplots(figsize=(7, 3.6))
-        r = np.asarray(result.residuals, dtype=float)
-        x = data.time if r.size == data.n_samples else np.arange(r.size)
-        ax.plot(x, r, ".", ms=2)
-        ax.axhline(0, color="k", lw=0.6)
-        ax.set_xlabel("time (s)" if r.size == data.n_samples else "sample used in the fit")
-        ax.set_ylabel(f"residual, model - data ({result.residual_unit})")
-        ax.set_title(status, fontsize=9)
-        ax.grid(alpha=0.3)
+        fig, (ax, axr) = plt.subplots(2, 1, figsize=(7, 7))
+        # thrust from the sprocket equation against the slip computed from the speeds (noisy: shown
+        # for orientation only - the fit never uses this slip as a regressor)
+        r_s, inertia = vehicle.sprocket_radius, vehicle.sprocket_inertia
+        thrust = (data.sprocket_torque[:-1] - inertia * np.diff(data.sprocket_speed) / np.diff(data.time)) / r_s
+        rw = r_s * data.sprocket_speed[1:]
+        ok = rw > 0.15 * max(float(np.max(rw)), 1e-9)
+        slip = 1 - data.vehicle_speed[1:][ok] / rw[ok]
+        i_hi = min(1.0, max(0.3, float(np.quantile(slip, 0.99)) if slip.size else 0.3))
+        ax.plot(slip, thrust[ok], ".", ms=2, alpha=0.4, color="0.4", label="sprocket thrust vs slip from speeds")
+        if soil is not None:
+            grid = np.linspace(0, i_hi, 300)
+            ax.plot(grid, tractive_force(grid, soil, vehicle, result.model), "C3-", lw=1.6, label="fitted F(i)")
+        ax.set_xlim(-0.1, i_hi)
+        ax.set_xlabel("slip i (-)")
+        ax.set_ylabel("thrust (N)")
+        regime = result.extra.get("regime") if isinstance(result.extra, dict) else None
+        ax.set_title(status + (f" - regime: {regime}" if regime else ""), fontsize=9)
+        ax.legend(fontsize=8)
+        res = np.asarray(result.residuals, dtype=float)
+        axr.plot(np.arange(res.size), res, ".", ms=2)
+        axr.axhline(0, color="k", lw=0.6)
+        axr.set_xlabel("sample used in the fit")
+        axr.set_ylabel(f"model - data ({result.residual_unit})")
+        for a in (ax, axr):
+            a.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

@@ -74,7 +74,7 @@ def test_agrees_with_ipopt_on_random_datasets(model, loads):
         data = random_data(rng, model, loads, noise=0.01 if gentle else 0.03, slip_max=0.04 if gentle else 0.4)
         a = fit(data, HEAVY, model=model, engine="compiled")
         b = fit(data, HEAVY, model=model, engine="ipopt")
-        assert b.extra.get("engine", "ipopt") == "ipopt"
+        assert b.extra["engine"] == "ipopt"
         assert_same_result(a, b)
         assert np.all(np.isfinite(a.theta))
 
@@ -187,3 +187,31 @@ def test_api_engine_values_fit_many_and_pickle():
         fit(sets[0], HEAVY, engine="fast")
     back = pickle.loads(pickle.dumps(small[0]))
     assert back.cost == small[0].cost and back.extra["engine"] == "compiled-lm"
+
+
+def test_single_fit_core_statistics_equal_the_batched_ones():
+    """build_result's single-fit fast path gives the batched statistics (rank decisions identical)."""
+    from soiltrack.identify.result import _core_stats, _core_stats_one
+    rng = np.random.default_rng(7)
+    for _ in range(400):
+        n, p = int(rng.integers(1, 12)), int(rng.choice([2, 3]))
+        J = rng.standard_normal((n, p)) * 10 ** rng.uniform(-5, 5, p)
+        kind = int(rng.integers(0, 5))
+        if kind == 1 and p == 3:
+            J[:, 1] = 2.5 * J[:, 0]  # exact ridge
+        elif kind == 2:
+            J[:, 0] = 0.0
+        elif kind == 3:
+            J[rng.integers(0, n), rng.integers(0, p)] = np.nan
+        rw = rng.standard_normal(n)
+        if kind == 4:
+            rw[0] = np.inf
+        for sk in (False, True):
+            a, b = _core_stats(J[None], rw[None], np.arange(p), sk), _core_stats_one(J, rw, sk)
+            assert set(a) == set(b)
+            for k in ("rank", "dof", "nonnull", "Dok"):
+                assert np.array_equal(a[k], b[k]), k
+            for k in ("D", "S", "Pinv", "ssr", "s2"):
+                assert a[k].shape == b[k].shape
+                scale = np.nanmax(np.abs(a[k])) if np.any(np.isfinite(a[k])) else 1.0
+                assert np.allclose(a[k], b[k], rtol=1e-12, atol=1e-12 * scale, equal_nan=True), k
