@@ -35,7 +35,7 @@ from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
 from ..soilmodel.vehicle import Vehicle
 from .ipopt_fit import solve_ipopt
 from .npmodel import thrust_and_jacobian
-from .problem import SCALE, FitFailed, check_common, make_problem
+from .problem import SCALE, FitFailed, check_common, make_problem, ridge_centre
 from .result import FitResult, build_results_batch
 from .start import grid_start
 
@@ -158,9 +158,15 @@ def _solve_chunk(datasets: Sequence[SlipData], vehicle: Vehicle, model: str, bou
         theta[k] = res["theta"]
         status[k], success[k], iters[k], engine[k] = res["status"], res["success"], res["iterations"], "ipopt"
         message[k] = "batch engine did not certify convergence; re-solved with IPOPT: " + res["message"]
-    F, J = thrust_and_jacobian(theta, slip, load, l, b, model)
     if model == "cohesion-free":
         theta[:, 0] = 0.0
+    else:  # one-load datasets: report the same ridge marker as fit() does
+        one = np.all(np.abs(load - load[:, :1]) <= 1e-9 * np.abs(load[:, :1]), axis=1) & np.array(success)
+        if np.any(one):
+            W1 = load[one, 0]
+            fmax = vehicle.contact_area * theta[one, 0] + W1 * np.tan(theta[one, 1])
+            theta[one, 0], theta[one, 1] = ridge_centre(fmax, W1, vehicle.contact_area, bounds)
+    F, J = thrust_and_jacobian(theta, slip, load, l, b, model)
     r = F - force
     dt = (time.perf_counter() - t0) / max(N, 1)
     return build_results_batch(model=model, method="ipopt", theta=theta, jacobian=J / sig[:, :, None],

@@ -67,7 +67,7 @@ import casadi as ca
 import numpy as np
 
 from ..soilmodel.traction import SERIES_SWITCH, shear_bracket
-from .problem import SCALE, SlipProblem
+from .problem import SCALE, SlipProblem, ridge_centre
 from .result import FitResult, build_result
 
 __all__ = ["compiled_solver", "fit_compiled", "N_ITER", "KKT_TOL"]
@@ -469,12 +469,8 @@ def fit_compiled(pb: SlipProblem, x0=None, n_grid: int = 25, ipopt_options: dict
     # ---- theta (SI), the ridge point for one-load full data (as the IPOPT path does it)
     K = float(z[-1]) * sK
     if one_load:
-        F = W0 * math.tan(float(z[0]))
-        c_a = max(c_lo, (F - W0 * math.tan(p_hi)) / A)
-        c_b = min(c_hi, (F - W0 * math.tan(p_lo)) / A)
-        c = 0.5 * (c_a + c_b) if c_a <= c_b else min(max(c_a, c_lo), c_hi)
-        phi = min(max(math.atan(max(F - A * c, 0.0) / W0), p_lo), p_hi)
-        theta = np.array([c, phi, K])
+        c, phi = ridge_centre(W0 * math.tan(float(z[0])), W0, A, pb.bounds)
+        theta = np.array([float(c), float(phi), K])
     elif p == 3:
         theta = np.array([float(z[0]) * SCALE[0], float(z[1]), K])
     else:

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..soilmodel.soil import SoilBounds
 from ..soilmodel.traction import thrust_expr
-from .problem import SCALE, SlipProblem
+from .problem import SCALE, SlipProblem, ridge_centre
 from .result import FitResult
 from .start import grid_start
 
@@ -150,7 +150,7 @@ def _solve_one_load(pb: SlipProblem, theta0: np.ndarray, ipopt_options: dict | N
     The bounds box of (c, phi) maps onto ``F_max in [A c_lo + W tan(phi_lo), A c_hi + W tan(phi_hi)]``
     (F_max is increasing in both), so this bounded 2-parameter problem has exactly the optimum
     of the 3-parameter one, without its singular Hessian. The returned (c, phi) keeps the
-    start's friction angle where the bounds allow (an arbitrary ridge point, reported as such).
+    centre of the bounds-feasible ridge (:func:`ridge_centre`; a marker, reported as NOT an estimate).
     """
     W, A = float(pb.load[0]), pb.vehicle.contact_area
     (c_lo, c_hi), (p_lo, p_hi) = pb.bounds.cohesion, pb.bounds.friction_angle
@@ -160,12 +160,8 @@ def _solve_one_load(pb: SlipProblem, theta0: np.ndarray, ipopt_options: dict | N
     F0 = A * theta0[0] + W * math.tan(theta0[1])
     out = solve_ipopt(red, np.array([0.0, math.atan(F0 / W), theta0[2]]), ipopt_options=ipopt_options)
     F = W * math.tan(out["theta"][1])
-    # centre of the bounds-feasible ridge segment A c + W tan(phi) = F
-    c_a = max(c_lo, (F - W * math.tan(p_hi)) / A)
-    c_b = min(c_hi, (F - W * math.tan(p_lo)) / A)
-    c = 0.5 * (c_a + c_b) if c_a <= c_b else min(max(c_a, c_lo), c_hi)
-    phi = min(max(math.atan(max(F - A * c, 0.0) / W), p_lo), p_hi)
-    out["theta"] = np.array([c, phi, out["theta"][2]])
+    c, phi = ridge_centre(F, W, A, pb.bounds)
+    out["theta"] = np.array([float(c), float(phi), out["theta"][2]])
     return out
 
 

@@ -151,3 +151,22 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
     return SlipProblem(slip=np.array(data.slip, float), force=np.array(data.tractive_force, float), load=load,
                        sigma=sig, sigma_known=known, vehicle=vehicle, bounds=bounds, model=model,
                        source=data.source)
+
+
+def ridge_centre(fmax, W, A: float, bounds: SoilBounds):
+    """Centre of the bounds-feasible c-phi ridge ``A c + W tan(phi) = F_max`` (vectorised).
+
+    At one normal load every point of this segment fits the data equally well; the library
+    reports its centre (labelled as NOT an estimate) so that every engine - IPOPT, the
+    compiled path, the batch engine - returns the same marker for the same data. Where the
+    segment is empty (F_max outside what the box allows) the nearest feasible point is used.
+    Returns ``(c, phi)`` in Pa and rad, shaped like ``fmax``.
+    """
+    F = np.asarray(fmax, dtype=float)
+    W = np.asarray(W, dtype=float)
+    (c_lo, c_hi), (p_lo, p_hi) = bounds.cohesion, bounds.friction_angle
+    c_a = np.maximum(c_lo, (F - W * math.tan(p_hi)) / A)
+    c_b = np.minimum(c_hi, (F - W * math.tan(p_lo)) / A)
+    c = np.where(c_a <= c_b, 0.5 * (c_a + c_b), np.clip(c_a, c_lo, c_hi))
+    phi = np.clip(np.arctan(np.maximum(F - A * c, 0.0) / W), p_lo, p_hi)
+    return c, phi
