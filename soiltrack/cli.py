@@ -90,7 +90,8 @@ def _cmd_fit(a: argparse.Namespace) -> int:
 
     data = read_csv(a.data)
     vehicle = _vehicle(a.vehicle)
-    result = fit(data, vehicle, model=a.model, method=a.method)
+    kw = {"engine": a.engine} if a.engine != "ipopt" else {}
+    result = fit(data, vehicle, model=a.model, method=a.method, **kw)
     if a.json:
         print(result.to_json())
     else:
@@ -134,6 +135,9 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")
     f.add_argument("--model", choices=("full", "cohesion-free"), default="full")
     f.add_argument("--method", choices=("ipopt", "newton", "least-squares"), default="ipopt")
+    f.add_argument("--engine", choices=("ipopt", "compiled", "auto"), default="ipopt",
+                   help="solver engine for --method ipopt on slip data: IPOPT (default), or the compiled "
+                        "projected Levenberg-Marquardt engine that hands anything it cannot certify to IPOPT")
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit")
     f.set_defaults(func=_cmd_fit)
