@@ -31,11 +31,13 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from ..soilmodel.data import SlipData
+from ..soilmodel.errors import DataError
 from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
 from ..soilmodel.vehicle import Vehicle
 from .ipopt_fit import solve_ipopt
 from .npmodel import thrust_and_jacobian
-from .problem import SCALE, FitFailed, check_common, make_problem, ridge_centre
+from .problem import (SCALE, FitFailed, check_common, heteroscedasticity, heteroscedasticity_warning,
+                      make_problem, relative_sigma, ridge_centre)
 from .result import FitResult, build_results_batch
 from .start import grid_start
 
@@ -140,6 +142,10 @@ def _solve_chunk(datasets: Sequence[SlipData], vehicle: Vehicle, model: str, bou
     if sigma is None:
         sig = np.ones_like(slip)
         sk = False if sigma_known is None else bool(sigma_known)
+    elif isinstance(sigma, str):
+        if sigma != "relative":
+            raise DataError(f"sigma must be a number or 'relative', got {sigma!r}")
+        sig, sk = relative_sigma(force), False
     else:
         sig = np.full_like(slip, float(sigma))
         sk = True if sigma_known is None else bool(sigma_known)
@@ -168,11 +174,15 @@ def _solve_chunk(datasets: Sequence[SlipData], vehicle: Vehicle, model: str, bou
             theta[one, 0], theta[one, 1] = ridge_centre(fmax, W1, vehicle.contact_area, bounds)
     F, J = thrust_and_jacobian(theta, slip, load, l, b, model)
     r = F - force
+    noise_warnings = None
+    if sigma is None and not sk:
+        noise_warnings = [heteroscedasticity_warning(float(bp)) for bp in heteroscedasticity(force, r, sig)]
     dt = (time.perf_counter() - t0) / max(N, 1)
     return build_results_batch(model=model, method="ipopt", theta=theta, jacobian=J / sig[:, :, None],
                                weighted_residuals=r / sig, residuals=r, normal_loads=load, vehicle=vehicle,
                                bounds=bounds, status=status, success=success, message=message, iterations=iters,
-                               solve_time=[dt] * N, sigma_known=sk, extra=[{"engine": e} for e in engine])
+                               solve_time=[dt] * N, sigma_known=sk, extra=[{"engine": e} for e in engine],
+                               warnings=noise_warnings)
 
 
 def _fit_chunk(datasets, vehicle, model, method, bounds, kw, engine: str = "ipopt") -> list[FitResult]:

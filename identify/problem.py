@@ -38,6 +38,48 @@ class FitFailed(RuntimeError):
                          f"{result.message}")
 
 
+#: Breusch-Pagan statistic above which the residual spread is said to grow with the force (chi2(1), p = 0.01).
+BP_CRITICAL = 6.635
+
+
+def heteroscedasticity(force: np.ndarray, residuals: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """Koenker's Breusch-Pagan statistic ``n R^2`` of the squared weighted residuals on the
+    squared fitted force, per dataset (leading axes broadcast; NaN where it does not apply).
+
+    Under constant noise it is about chi-square with 1 degree of freedom. Only computed for
+    eight or more samples.
+    """
+    force, residuals, sigma = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (force, residuals, sigma)))
+    n = force.shape[-1]
+    if n < 8:
+        return np.full(force.shape[:-1], np.nan)
+    e2 = (residuals / sigma) ** 2
+    x = ((force + residuals) / sigma) ** 2
+    x = x - x.mean(axis=-1, keepdims=True)
+    y = e2 - e2.mean(axis=-1, keepdims=True)
+    with np.errstate(all="ignore"):
+        r2 = (x * y).sum(-1) ** 2 / ((x * x).sum(-1) * (y * y).sum(-1))
+        slope_positive = (x * y).sum(-1) > 0
+    return np.where(slope_positive, n * r2, 0.0)
+
+
+def heteroscedasticity_warning(stat: float) -> tuple[str, ...]:
+    """Plain-words warning when the Breusch-Pagan statistic says the noise grows with the force."""
+    if not np.isfinite(stat) or stat <= BP_CRITICAL:
+        return ()
+    return (f"the residual spread grows with the force (Breusch-Pagan n R^2 = {stat:.3g} > {BP_CRITICAL}, "
+            "p < 0.01): with equal weights the intervals are too narrow, mostly for F_max; refit with "
+            "sigma='relative' (noise proportional to the force, e.g. a load cell's % of reading) or give "
+            "sigma per sample",)
+
+
+def relative_sigma(force: np.ndarray) -> np.ndarray:
+    """Weights for noise proportional to the force: ``|F_k|``, floored at 1 % of ``max |F|``."""
+    a = np.abs(np.asarray(force, dtype=float))
+    floor = 0.01 * np.max(a, axis=-1, keepdims=True)
+    return np.maximum(a, np.where(floor > 0, floor, 1.0))
+
+
 def n_free(model: str) -> int:
     """Number of free parameters: 3 (full) or 2 (cohesion-free)."""
     return 3 if model == "full" else 2
@@ -74,6 +116,12 @@ class SlipProblem:
         r = F[0] - self.force
         return r, r / self.sigma, J[0] / self.sigma[:, None]
 
+    def noise_warning(self, r: np.ndarray) -> tuple[str, ...]:
+        """A warning when equal weights meet noise that grows with the force (see :func:`heteroscedasticity`)."""
+        if self.sigma_known or np.ptp(self.sigma) != 0:
+            return ()
+        return heteroscedasticity_warning(float(heteroscedasticity(self.force, r, self.sigma)))
+
     def result(self, theta: np.ndarray, *, method: str, status: str, success: bool, message: str,
                iterations: int, solve_time: float, warnings=(), extra: dict | None = None) -> FitResult:
         """Evaluate residuals at ``theta`` and build the :class:`FitResult`."""
@@ -82,6 +130,7 @@ class SlipProblem:
             theta[0] = 0.0
         with np.errstate(all="ignore"):
             r, rw, J = self.residuals(theta)
+        warnings = tuple(warnings) + self.noise_warning(r)
         return build_result(data_kind="slip", model=self.model, method=method, theta=theta, jacobian=J,
                             weighted_residuals=rw, residuals=r, residual_unit="N", n_samples=self.n,
                             normal_loads=self.load, vehicle=self.vehicle, bounds=self.bounds, status=status,
@@ -117,9 +166,10 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
     vehicle : Vehicle
     model : {"full", "cohesion-free"}
     bounds : SoilBounds
-    sigma : float or array_like, optional
+    sigma : float, array_like or "relative", optional
         Standard deviation of the tractive-force noise per sample (N). ``None``: equal
-        weights, noise level estimated from the residuals.
+        weights, noise level estimated from the residuals. ``"relative"``: noise proportional
+        to the force (weights ``|F_k|``, floored at 1 % of the largest), level estimated.
     sigma_known : bool, optional
         Whether ``sigma`` is the true noise level (normal intervals) or only relative weights
         (scaled by the residual variance, t intervals). Defaults to ``sigma is not None``.
@@ -140,6 +190,14 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
     if sigma is None:
         sig = np.ones(data.n_samples)
         known = False if sigma_known is None else bool(sigma_known)
+    elif isinstance(sigma, str):
+        if sigma != "relative":
+            raise DataError(f"sigma must be a number, an array or 'relative', got {sigma!r}")
+        sig = relative_sigma(data.tractive_force)
+        known = False
+        if sigma_known:
+            raise DataError("sigma='relative' gives relative weights only: the noise level is estimated "
+                            "(sigma_known must be False)")
     else:
         sig = np.broadcast_to(np.asarray(sigma, dtype=float), data.slip.shape).astype(float)
         if not np.all(np.isfinite(sig)) or np.any(sig <= 0):

@@ -998,7 +998,8 @@ def build_results_batch(*, model: str, method: str, theta: np.ndarray, jacobian:
                         weighted_residuals: np.ndarray, residuals: np.ndarray, normal_loads: np.ndarray,
                         vehicle: Vehicle, bounds: SoilBounds, status: Sequence[str], success: Sequence[bool],
                         message: Sequence[str], iterations: Sequence[int], solve_time: Sequence[float],
-                        sigma_known: bool = False, extra: Sequence[dict] | None = None) -> list[FitResult]:
+                        sigma_known: bool = False, extra: Sequence[dict] | None = None,
+                        warnings: Sequence[Sequence[str]] | None = None) -> list[FitResult]:
     """Vectorised :func:`build_result` for N same-size slip fits (stacked arrays, leading axis N).
 
     Same statistics as :func:`build_result` (one code path, :func:`_core_stats`); the per-fit
@@ -1039,7 +1040,8 @@ def build_results_batch(*, model: str, method: str, theta: np.ndarray, jacobian:
             residuals=rk, residual_unit="N", n_samples=n, normal_loads=Wk, vehicle=vehicle, bounds=bounds,
             status=str(st) if fin else f"{st} (non-finite numbers)", success=ok, message=str(msg), iterations=it,
             solve_time=stime, sigma_known=sk, rmse=rm, cost=co, rank=rank, dof=dof,
-            s2=None if s2k != s2k else s2k, free=free, _core=(core, k), input_warnings=() if fin else nonfinite,
+            s2=None if s2k != s2k else s2k, free=free, _core=(core, k), input_warnings=(() if fin else nonfinite)
+            + (tuple(warnings[k]) if warnings is not None else ()),
             extra=dict(ex) if ex else {})
         out.append(obj)
     return out

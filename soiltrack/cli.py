@@ -86,11 +86,13 @@ def _cmd_simulate(a: argparse.Namespace) -> int:
 # --- fit --------------------------------------------------------------------------------------
 def _cmd_fit(a: argparse.Namespace) -> int:
     from .identify import fit
-    from .soilmodel import read_csv
+    from .soilmodel import DriveLog, read_csv
 
     data = read_csv(a.data)
     vehicle = _vehicle(a.vehicle)
     kw = {"engine": a.engine} if a.engine != "ipopt" else {}
+    if a.sigma is not None and not isinstance(data, DriveLog):
+        kw["sigma"] = a.sigma if a.sigma == "relative" else _floats(a.sigma, "--sigma")[0]
     result = fit(data, vehicle, model=a.model, method=a.method, **kw)
     if a.json:
         print(result.to_json())
@@ -138,6 +140,9 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--engine", choices=("ipopt", "compiled", "auto"), default="ipopt",
                    help="solver engine for --method ipopt on slip data: IPOPT (default), or the compiled "
                         "projected Levenberg-Marquardt engine that hands anything it cannot certify to IPOPT")
+    f.add_argument("--sigma", metavar="N|relative",
+                   help="slip data: force noise standard deviation in N (taken as known), or 'relative' for noise "
+                        "proportional to the force (level estimated); default: equal weights, level estimated")
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit")
     f.set_defaults(func=_cmd_fit)

@@ -1,0 +1,119 @@
+"""Coverage of the drive-log fit's 95 % intervals and the bias of its estimates, over noise seeds.
+
+Simulates the light vehicle on dry sand with the simulator's defaults (60 s at 50 Hz, default
+speed profile and sensor noise; only the noise seed changes, so every log has the same true
+trajectory) and fits each log with :func:`soiltrack.identify.drivelog.fit_drive_log`::
+
+    python benchmarks/drivelog_coverage.py                     # seeds 0..99, 2 worker processes
+    python benchmarks/drivelog_coverage.py --seeds 200 --jobs 2 --json out.json
+    python benchmarks/drivelog_coverage.py --vehicle heavy --terrain lete_sand --seeds 20
+
+Reported: mean and standard deviation of the relative errors of F_max and K, the mean reported
+relative standard errors, how often the reported 95 % intervals hold the truth (with the
+binomial 95 % range of a calibrated interval for the same number of seeds), the mean of the
+standardised errors z = (estimate - truth) / stderr, and the fit time.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+
+
+def _one(args):
+    vehicle_name, terrain_name, seed, kw = args
+    from soiltrack.identify.drivelog import fit_drive_log
+    from soiltrack.soilmodel import TERRAINS, VEHICLES, max_thrust
+    from soiltrack.soilmodel.simulate import simulate_drive_log
+    veh, soil = VEHICLES[vehicle_name], TERRAINS[terrain_name]
+    F_true, K_true = max_thrust(soil, veh), soil.shear_modulus
+    log = simulate_drive_log(veh, soil, seed=seed, **kw)
+    t0 = time.perf_counter()
+    res = fit_drive_log(log, veh)
+    dt = time.perf_counter() - t0
+    fmax = next(c for c in res.combinations if c.name.startswith("F_max"))
+    k = res.parameters["shear_modulus"]
+    return {"seed": seed, "success": bool(res.success), "time_s": dt,
+            "F": fmax.value, "F_se": fmax.stderr, "F_lo": fmax.ci95[0], "F_hi": fmax.ci95[1],
+            "K": k.value, "K_se": k.stderr, "K_lo": k.ci95[0], "K_hi": k.ci95[1],
+            "F_true": F_true, "K_true": K_true, "regime": res.extra.get("regime"),
+            "reduced_chi2": res.extra.get("reduced_chi2")}
+
+
+def _binom_range(n: int, p: float = 0.95) -> tuple[int, int]:
+    """Central range holding at least 95 % of Binomial(n, p) (what a calibrated interval gives)."""
+    pmf = [math.comb(n, j) * p ** j * (1 - p) ** (n - j) for j in range(n + 1)]
+    cdf = np.cumsum(pmf)
+    lo = int(np.searchsorted(cdf, 0.025))
+    hi = int(np.searchsorted(cdf, 0.975))
+    return lo, hi
+
+
+def summarise(rows: list[dict]) -> dict:
+    ok = [r for r in rows if r["success"]]
+    n = len(ok)
+    out = {"seeds": len(rows), "succeeded": n}
+    for p in ("F", "K"):
+        err = np.array([r[p] / r[p + "_true"] - 1 for r in ok])
+        se = np.array([r[p + "_se"] / r[p + "_true"] for r in ok])
+        z = np.array([(r[p] - r[p + "_true"]) / r[p + "_se"] for r in ok])
+        inside = sum(r[p + "_lo"] <= r[p + "_true"] <= r[p + "_hi"] for r in ok)
+        out[p] = {"mean_rel_error": float(err.mean()), "sd_rel_error": float(err.std(ddof=1)),
+                  "stderr_of_mean": float(err.std(ddof=1) / math.sqrt(n)), "mean_rel_stderr": float(se.mean()),
+                  "coverage": inside, "coverage_rate": inside / n, "mean_z": float(z.mean()),
+                  "sd_z": float(z.std(ddof=1))}
+    out["calibrated_range_95"] = _binom_range(n)
+    out["median_fit_time_s"] = float(np.median([r["time_s"] for r in ok]))
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=int, default=100)
+    ap.add_argument("--first-seed", type=int, default=0)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--vehicle", default="light")
+    ap.add_argument("--terrain", default="dry_sand")
+    ap.add_argument("--duration", type=float, default=None, help="log length, s (simulator default 60)")
+    ap.add_argument("--rate", type=float, default=None, help="sample rate, Hz (simulator default 50)")
+    ap.add_argument("--json", default=None, help="write per-seed rows and the summary here")
+    ap.add_argument("--quiet", action="store_true")
+    a = ap.parse_args(argv)
+    kw = {}
+    if a.duration:
+        kw["duration_s"] = a.duration
+    if a.rate:
+        kw["sample_rate_hz"] = a.rate
+    tasks = [(a.vehicle, a.terrain, s, kw) for s in range(a.first_seed, a.first_seed + a.seeds)]
+    t0 = time.time()
+    rows = []
+    with ProcessPoolExecutor(max_workers=max(a.jobs, 1)) as ex:
+        for r in ex.map(_one, tasks):
+            rows.append(r)
+            if not a.quiet:
+                print(f"seed {r['seed']:4d}  F {100 * (r['F'] / r['F_true'] - 1):+6.2f} %  "
+                      f"K {100 * (r['K'] / r['K_true'] - 1):+6.1f} %  (se {100 * r['K_se'] / r['K_true']:.1f} %)  "
+                      f"in: F {r['F_lo'] <= r['F_true'] <= r['F_hi']:d} K {r['K_lo'] <= r['K_true'] <= r['K_hi']:d}  "
+                      f"{r['time_s']:.2f} s", flush=True)
+    s = summarise(rows)
+    lo, hi = s["calibrated_range_95"]
+    print(f"\n{a.vehicle} on {a.terrain}, {s['succeeded']}/{s['seeds']} fits succeeded, "
+          f"{time.time() - t0:.0f} s wall, median fit {s['median_fit_time_s']:.2f} s")
+    for p in ("F", "K"):
+        q = s[p]
+        print(f"{p:>2}: bias {100 * q['mean_rel_error']:+.2f} % (+- {100 * q['stderr_of_mean']:.2f}), "
+              f"sd {100 * q['sd_rel_error']:.2f} %, reported se {100 * q['mean_rel_stderr']:.2f} %, "
+              f"z mean {q['mean_z']:+.2f} sd {q['sd_z']:.2f}, 95 % interval holds truth "
+              f"{q['coverage']}/{s['succeeded']} ({100 * q['coverage_rate']:.1f} %; calibrated: {lo}-{hi})")
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump({"rows": rows, "summary": s}, f, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
