@@ -7,6 +7,7 @@ trajectory) and fits each log with :func:`soiltrack.identify.drivelog.fit_drive_
     python benchmarks/drivelog_coverage.py                     # seeds 0..99, 2 worker processes
     python benchmarks/drivelog_coverage.py --seeds 200 --jobs 2 --json out.json
     python benchmarks/drivelog_coverage.py --vehicle heavy --terrain lete_sand --seeds 20
+    python benchmarks/drivelog_coverage.py --seeds 200 --gauss-newton   # the former covariance
 
 Reported: mean and standard deviation of the relative errors of F_max and K, the mean reported
 relative standard errors, how often the reported 95 % intervals hold the truth (with the
@@ -25,8 +26,11 @@ import numpy as np
 
 
 def _one(args):
-    vehicle_name, terrain_name, seed, kw = args
+    vehicle_name, terrain_name, seed, kw, gauss_newton = args
+    from soiltrack.identify import drivelog
     from soiltrack.identify.drivelog import fit_drive_log
+    if gauss_newton:  # the former covariance: no sandwich (fit_drive_log falls back to Gauss-Newton)
+        drivelog._profiled_covariance = lambda *a, **k: None
     from soiltrack.soilmodel import TERRAINS, VEHICLES, max_thrust
     from soiltrack.soilmodel.simulate import simulate_drive_log
     veh, soil = VEHICLES[vehicle_name], TERRAINS[terrain_name]
@@ -81,6 +85,8 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=None, help="log length, s (simulator default 60)")
     ap.add_argument("--rate", type=float, default=None, help="sample rate, Hz (simulator default 50)")
     ap.add_argument("--json", default=None, help="write per-seed rows and the summary here")
+    ap.add_argument("--gauss-newton", action="store_true",
+                    help="use the former Gauss-Newton covariance instead of the sandwich (for comparison)")
     ap.add_argument("--quiet", action="store_true")
     a = ap.parse_args(argv)
     kw = {}
@@ -88,7 +94,7 @@ def main(argv=None) -> int:
         kw["duration_s"] = a.duration
     if a.rate:
         kw["sample_rate_hz"] = a.rate
-    tasks = [(a.vehicle, a.terrain, s, kw) for s in range(a.first_seed, a.first_seed + a.seeds)]
+    tasks = [(a.vehicle, a.terrain, s, kw, a.gauss_newton) for s in range(a.first_seed, a.first_seed + a.seeds)]
     t0 = time.time()
     rows = []
     with ProcessPoolExecutor(max_workers=max(a.jobs, 1)) as ex:
@@ -101,7 +107,8 @@ def main(argv=None) -> int:
                       f"{r['time_s']:.2f} s", flush=True)
     s = summarise(rows)
     lo, hi = s["calibrated_range_95"]
-    print(f"\n{a.vehicle} on {a.terrain}, {s['succeeded']}/{s['seeds']} fits succeeded, "
+    print(f"\n{a.vehicle} on {a.terrain} ({'Gauss-Newton' if a.gauss_newton else 'default'} covariance), "
+          f"{s['succeeded']}/{s['seeds']} fits succeeded, "
           f"{time.time() - t0:.0f} s wall, median fit {s['median_fit_time_s']:.2f} s")
     for p in ("F", "K"):
         q = s[p]
