@@ -32,7 +32,7 @@ def _one(args):
     if gauss_newton:  # the former covariance: no sandwich (fit_drive_log falls back to Gauss-Newton)
         drivelog._profiled_covariance = lambda *a, **k: None
     from soiltrack.soilmodel import TERRAINS, VEHICLES, max_thrust
-    from soiltrack.soilmodel.simulate import simulate_drive_log
+    from soiltrack.soilmodel.simulation import simulate_drive_log
     veh, soil = VEHICLES[vehicle_name], TERRAINS[terrain_name]
     F_true, K_true = max_thrust(soil, veh), soil.shear_modulus
     log = simulate_drive_log(veh, soil, seed=seed, **kw)

@@ -36,7 +36,7 @@ from .dynamics import (
     slip_from_thrust,
     slip_from_thrust_function,
 )
-from .simulate import SensorNoise, simulate, simulate_drive_log, simulate_slip_sweep
+from .simulation import SensorNoise, simulate, simulate_drive_log, simulate_slip_sweep
 
 __all__ = [
     "DataError", "DriveLog", "SlipData", "read_csv", "write_csv", "PARAMETER_NAMES", "PRACTICAL_BOUNDS",

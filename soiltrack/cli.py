@@ -54,7 +54,7 @@ def _floats(text: str, what: str) -> list[float]:
 def _cmd_simulate(a: argparse.Namespace) -> int:
     from .soilmodel import write_csv
     from .soilmodel.effects import parse_effects
-    from .soilmodel.simulate import simulate
+    from .soilmodel.simulation import simulate
 
     vehicle, soil = _vehicle(a.vehicle), _soil(a.terrain, a.soil)
     effects = parse_effects(a.effect or [])

@@ -12,7 +12,7 @@ from soiltrack.soilmodel import (EFFECTS, SEED_ACTUAL, TERRAINS, VEHICLES, DataE
                                  SlipData, Vehicle, dynamics_function, max_thrust, simulate, simulate_drive_log,
                                  simulate_slip_sweep, slip_from_thrust, slip_from_thrust_function,
                                  tractive_force, tractive_force_with_effects)
-from soiltrack.soilmodel.simulate import default_speed_profile, drive_limits
+from soiltrack.soilmodel.simulation import default_speed_profile, drive_limits
 
 HEAVY, LIGHT = VEHICLES["heavy"], VEHICLES["light"]
 SAND = TERRAINS["dry_sand"]

@@ -1,6 +1,6 @@
 """Drive-log identification (soiltrack.identify.drivelog) on logs from the library's simulator.
 
-The logs are 60 s at 50 Hz from :func:`soiltrack.soilmodel.simulate.simulate_drive_log` with
+The logs are 60 s at 50 Hz from :func:`soiltrack.soilmodel.simulation.simulate_drive_log` with
 its default, realistic sensor noise (GNSS speed 0.05 m/s, encoder 0.5 % + 0.01 rad/s, torque
 1 % + 0.1 % of full scale) and its default speed profile (mostly gentle driving with two hard
 starts that reach the traction limit), unless a test says otherwise.
@@ -21,7 +21,7 @@ from soiltrack.identify.drivelog import (DriveLogFitError, _output_error_solver,
 from soiltrack.identify.fitting import fit
 from soiltrack.identify.problem import FitFailed
 from soiltrack.soilmodel import TERRAINS, VEHICLES, DataError, DriveLog, max_thrust
-from soiltrack.soilmodel.simulate import simulate_drive_log
+from soiltrack.soilmodel.simulation import simulate_drive_log
 
 LIGHT, HEAVY = VEHICLES["light"], VEHICLES["heavy"]
 DRY_SAND, LETE_SAND = TERRAINS["dry_sand"], TERRAINS["lete_sand"]
