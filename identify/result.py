@@ -803,6 +803,32 @@ class FitResult:
         """:meth:`to_dict` as JSON text (strict: no NaN/Infinity)."""
         return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
 
+    def _drive_log_lines(self) -> list[str]:
+        """Report lines for drive-log fits: formulation, regime and any bias correction."""
+        x = self.extra if isinstance(self.extra, dict) else {}
+        L = []
+        if "regime" in x or "formulation" in x:
+            L.append(f"drive log: {x.get('formulation', '?')} formulation, {x.get('samples_used', '?')} of "
+                     f"{x.get('samples_total', '?')} samples used, regime {x.get('regime', '?')}"
+                     + (f" - {x['note']}" if x.get("note") else ""))
+        bc = x.get("bias_correction")
+        if isinstance(bc, dict):
+            if bc.get("applied"):
+                unc, cor = bc.get("uncorrected", {}), bc.get("correction", {})
+                K0, dK = unc.get("shear_modulus_m"), cor.get("shear_modulus_m")
+                F0, dF = unc.get("max_thrust_N"), cor.get("max_thrust_N")
+                parts = []
+                if F0 and dF is not None:
+                    parts.append(f"F_max {F0:.5g} N {dF:+.3g} N")
+                if K0 and dK is not None:
+                    parts.append(f"K {K0:.5g} m {dK:+.3g} m")
+                L.append(f"bias correction: {bc.get('method', '?').upper()} applied ({bc.get('replicates', '?')} "
+                         f"replicates; {', '.join(parts)}); intervals include its Monte Carlo variance")
+            else:
+                L.append(f"bias correction: {bc.get('method', '?').upper()} NOT applied"
+                         + (f" - {bc['reason']}" if bc.get("reason") else ""))
+        return L
+
     def report(self) -> str:
         """A human-readable multi-line report (kPa, deg, m, kN)."""
         L: list[str] = []
@@ -826,6 +852,7 @@ class FitResult:
                      f"quantile {q:.4g})")
         else:
             L.append("noise: unknown and no residual degrees of freedom -> no standard errors")
+        L.extend(self._drive_log_lines())
         L.append("parameters (95 % intervals):")
         for name, pe in self.parameters.items():
             lab = f"  {_EDGE[name][3]:<20}"

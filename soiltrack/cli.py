@@ -93,6 +93,10 @@ def _cmd_fit(a: argparse.Namespace) -> int:
     kw = {"engine": a.engine} if a.engine != "ipopt" else {}
     if a.sigma is not None and not isinstance(data, DriveLog):
         kw["sigma"] = a.sigma if a.sigma == "relative" else _floats(a.sigma, "--sigma")[0]
+    if a.bias_correction != "none":
+        if not isinstance(data, DriveLog):
+            raise DataError("--bias-correction applies to drive logs only", file=a.data)
+        kw["bias_correction"] = a.bias_correction
     result = fit(data, vehicle, model=a.model, method=a.method, **kw)
     if a.json:
         print(result.to_json())
@@ -143,6 +147,8 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--sigma", metavar="N|relative",
                    help="slip data: force noise standard deviation in N (taken as known), or 'relative' for noise "
                         "proportional to the force (level estimated); default: equal weights, level estimated")
+    f.add_argument("--bias-correction", choices=("none", "simex"), default="none",
+                   help="drive logs: SIMEX correction of the slip-noise bias of K on hard-pull logs (about 5 s)")
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit")
     f.set_defaults(func=_cmd_fit)

@@ -95,6 +95,7 @@ def test_fit_bad_csv_exits_2_naming_column_and_row(tmp_path, text, column, row):
     (["simulate", "--terrain", "moon_dust", "-o", "-"], "moon_dust"),
     (["simulate", "--effect", "warp_drive=1", "-o", "-"], "warp_drive"),
     (["simulate", "--soil", "1,2", "-o", "-"], "--soil"),
+    (["fit", WONG, "--vehicle", "heavy", "--bias-correction", "simex"], "drive logs only"),
 ])
 def test_bad_arguments_exit_2(args, needle, capsys):
     assert main(args) == 2
