@@ -100,8 +100,8 @@ class Vehicle:
 
     # --- JSON -------------------------------------------------------------------------------
     def to_dict(self) -> dict:
-        """The JSON object of DESIGN.md section 7 (optional fields only when set)."""
-        out = {}
+        """The JSON object of DESIGN.md section 7 (optional fields and ``name`` only when set)."""
+        out = {"name": self.name} if self.name else {}
         for key, attr in _JSON_FIELDS.items():
             v = getattr(self, attr)
             if v is not None:
