@@ -56,13 +56,19 @@ def _scaled_cond(J: np.ndarray) -> float:
     return float(s[0] / s[-1]) if s[-1] > 0 else np.inf
 
 
+def _start(pb: SlipProblem, x0) -> np.ndarray:
+    """The start vector ``[c, phi, K]`` (the bounds' middle unless given; c = 0 for cohesion-free)."""
+    theta = default_start(pb) if x0 is None else np.asarray(x0, float).copy()
+    if pb.model == "cohesion-free":
+        theta[0] = 0.0
+    return theta
+
+
 def fit_newton(pb: SlipProblem, x0=None, max_iter: int = 50, tol: float = 1e-12) -> FitResult:
     """Newton-Raphson (square system) / Gauss-Newton (more samples), unbounded; see module docs."""
     t0 = time.perf_counter()
     free = pb.free
-    theta = default_start(pb) if x0 is None else np.asarray(x0, float).copy()
-    if pb.model == "cohesion-free":
-        theta[0] = 0.0
+    theta = _start(pb, x0)
     square = pb.n == len(free)
     kind = "Newton-Raphson on the square system (Eq. 5-7)" if square else \
         f"Gauss-Newton (least-squares step, {pb.n} samples > {len(free)} unknowns)"
@@ -121,9 +127,7 @@ def fit_least_squares(pb: SlipProblem, x0=None, max_iter: int = 500, tol: float 
     """Unconstrained Levenberg-Marquardt on Eq. 2 (the seed's comparison method); see module docs."""
     t0 = time.perf_counter()
     free = pb.free
-    theta = default_start(pb) if x0 is None else np.asarray(x0, float).copy()
-    if pb.model == "cohesion-free":
-        theta[0] = 0.0
+    theta = _start(pb, x0)
     lam = 1e-3
     _, rw, J = pb.residuals(theta)
     cost = 0.5 * float(rw @ rw)
