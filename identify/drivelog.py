@@ -111,7 +111,6 @@ import dataclasses
 import math
 import time as _time
 from dataclasses import dataclass
-from functools import lru_cache
 from typing import Any
 
 import casadi as ca
@@ -120,6 +119,7 @@ import numpy as np
 from ..soilmodel.data import DriveLog
 from ..soilmodel.errors import DataError
 from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
+from ..soilmodel.threadsafe import call_solver, locked_cache
 from ..soilmodel.traction import check_model, shear_bracket
 from ..soilmodel.vehicle import Vehicle
 from .problem import FitFailed
@@ -412,7 +412,7 @@ def padded_size(n: int) -> int:
         size *= 2
 
 
-@lru_cache(maxsize=16)
+@locked_cache(maxsize=16)
 def _output_error_solver(n: int, max_iter: int, tol: float, print_level: int) -> ca.Function:
     """IPOPT solver for the output-error (latent slip) problem with ``n`` (padded) samples.
 
@@ -437,7 +437,7 @@ def _output_error_solver(n: int, max_iter: int, tol: float, print_level: int) ->
     return ca.nlpsol(f"drivelog_oe_{n}", "ipopt", {"x": x, "p": p, "f": f}, opts)
 
 
-@lru_cache(maxsize=16)
+@locked_cache(maxsize=16)
 def _equation_error_solver(n: int, max_iter: int, tol: float, print_level: int) -> ca.Function:
     """IPOPT solver for the naive equation-error problem (slip from the measured speeds)."""
     x = ca.SX.sym("x", 2)
@@ -450,7 +450,7 @@ def _equation_error_solver(n: int, max_iter: int, tol: float, print_level: int) 
     return ca.nlpsol(f"drivelog_ee_{n}", "ipopt", {"x": x, "p": p, "f": f}, opts)
 
 
-@lru_cache(maxsize=1)
+@locked_cache(maxsize=1)
 def _pointwise() -> ca.Function:
     """``(slip, F_max, K, l) -> (F, dF/dslip, dF/dF_max, dF/dK)`` by AD (vectorises over rows)."""
     s, Fm, K, l = (ca.SX.sym(k) for k in ("slip", "Fmax", "K", "l"))
@@ -465,7 +465,7 @@ def _eval_pointwise(slip: np.ndarray, Fmax: float, K: float, l: float) -> tuple[
     return tuple(np.asarray(o, dtype=float).reshape(-1) for o in out)
 
 
-@lru_cache(maxsize=1)
+@locked_cache(maxsize=1)
 def _pointwise_hessian() -> ca.Function:
     """``(slip, F_max, K, l) -> 3x3 Hessian of F`` w.r.t. ``(F_max, K, slip)`` by AD (maps over rows)."""
     s, Fm, K, l = (ca.SX.sym(k) for k in ("slip", "Fmax", "K", "l"))
@@ -591,9 +591,8 @@ def _run_starts(solver: ca.Function, make_x0, p, lbx, ubx, starts, Fb, Kb, F_ref
     total = 0.0
     for j, (Fmax0, K0) in enumerate(starts):
         t0 = _time.perf_counter()
-        sol = solver(x0=make_x0(Fmax0, K0), p=p, lbx=lbx, ubx=ubx)
+        sol, st = call_solver(solver, x0=make_x0(Fmax0, K0), p=p, lbx=lbx, ubx=ubx)
         total += _time.perf_counter() - t0
-        st = solver.stats()
         xs = np.asarray(sol["x"], dtype=float).reshape(-1)
         fval = float(sol["f"])
         ok = bool(st.get("success", False)) and bool(np.all(np.isfinite(xs))) and math.isfinite(fval)

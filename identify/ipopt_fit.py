@@ -26,12 +26,12 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import replace
-from functools import lru_cache
 
 import casadi as ca
 import numpy as np
 
 from ..soilmodel.soil import SoilBounds
+from ..soilmodel.threadsafe import call_solver, locked_cache
 from ..soilmodel.traction import thrust_expr
 from .problem import SCALE, SlipProblem, ridge_centre
 from .result import FitResult
@@ -45,7 +45,7 @@ _DEFAULT_OPTS = {"ipopt.tol": 1e-12, "ipopt.acceptable_tol": 1e-8, "ipopt.max_it
                  "ipopt.mu_init": 1e-6, "ipopt.bound_push": 1e-6, "ipopt.bound_frac": 1e-6}
 
 
-@lru_cache(maxsize=64)
+@locked_cache(maxsize=64)
 def ipopt_solver(model: str, n: int, opts_key: tuple = ()) -> ca.Function:
     """The cached IPOPT ``nlpsol`` for ``model`` and ``n`` data points (quiet, expanded)."""
     nx = 3 if model == "full" else 2
@@ -88,9 +88,8 @@ def solve_ipopt(pb: SlipProblem, theta0: np.ndarray, fixed: dict[int, float] | N
         k = free.index(j)
         lo[k] = hi[k] = x0[k] = v / SCALE[j]
     t0 = time.perf_counter()
-    sol = solver(x0=x0, p=_params(pb), lbx=lo, ubx=hi)
+    sol, st = call_solver(solver, x0=x0, p=_params(pb), lbx=lo, ubx=hi)
     dt = time.perf_counter() - t0
-    st = solver.stats()
     x = np.asarray(sol["x"], float).ravel()
     theta = np.zeros(3)
     theta[free] = x * SCALE[free]

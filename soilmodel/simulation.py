@@ -30,6 +30,7 @@ from typing import Any, Callable, Sequence
 import casadi as ca
 import numpy as np
 
+from .threadsafe import call_solver, locked_cache
 from .data import DriveLog, SlipData
 from .dynamics import _check_sprocket_equation, dynamics_function, slip_expr
 from .effects import (DEFAULT_STANDSTILL_SPEED, EffectSet, _Values, motion_resistance,
@@ -206,7 +207,7 @@ def _reference(vehicle: Vehicle, duration_s: float, t: np.ndarray, speed_profile
     return vref
 
 
-@lru_cache(maxsize=32)
+@locked_cache(maxsize=32)
 def _closed_loop(vehicle: Vehicle, soil: Soil, effects: EffectSet, model: str, sprocket_equation: str,
                  h: float, n_steps: int, limits: DriveLimits, bandwidth: float) -> ca.Function:
     """Closed-loop simulation over n_steps sample intervals: ZOH PI speed control + CVODES plant."""
@@ -298,7 +299,7 @@ def simulate_drive_log(vehicle: Vehicle, soil: Soil, *, effects: Any = None, see
     limits = drive_limits(vehicle)
     sim = _closed_loop(vehicle, soil, eff, model, sprocket_equation, h, n - 1, limits, float(controller_bandwidth))
     try:
-        X, M = sim(np.zeros(3), np.vstack([vref[:-1], dvref[:-1]]))
+        (X, M), _ = call_solver(sim, np.zeros(3), np.vstack([vref[:-1], dvref[:-1]]))
     except RuntimeError as exc:  # CVODES gave up (e.g. an absurd speed profile)
         raise DataError(f"simulation failed: the integrator did not converge ({str(exc).splitlines()[-1]})") from None
     X = np.hstack([np.zeros((3, 1)), np.asarray(X)])
