@@ -18,18 +18,19 @@ every prediction unchanged, so that the marker is the same as the nominal fit's.
 """
 from __future__ import annotations
 
-import math
 import time
 
 import casadi as ca
 import numpy as np
 
 from ..soilmodel.effects import EFFECTS, EffectSet, effect_symbols, parameter_bounds, parameter_scale
+from ..soilmodel.ridge import one_load, ridge_centre
 from ..soilmodel.threadsafe import call_solver, locked_cache
+from ..soilmodel.traction import max_thrust_expr
 from ..soilmodel.vehicle import Vehicle
-from .problem import SCALE, SlipProblem, ridge_centre
+from .problem import SCALE, SlipProblem
 from .result import FitResult, build_result
-from .start import grid_start
+from .start import start_point
 from .sweep_model import SweepResiduals, observation_function, predict
 
 __all__ = ["fit_joint", "joint_layout"]
@@ -89,14 +90,8 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     t0 = time.perf_counter()
     fixed = dict(pb.fixed)
     # start: nominal soil from the variable-projection grid (on the tractive-force equivalent), effects off
-    if x0 is None:
-        theta0 = grid_start(pb.slip[None], pb.force[None], pb.load[None], pb.sigma[None], pb.vehicle.track_length,
-                            pb.vehicle.track_width, pb.model, pb.bounds, n_grid=n_grid)[0]
-        start = "variable-projection grid start, effects off"
-    else:
-        from .ipopt_fit import _x0_vector
-        theta0 = _x0_vector(x0)
-        start = "user start point, effects off"
+    theta0, start = start_point(pb, x0, "grid", n_grid)
+    start += ", effects off"
     e0 = []
     for lab, (lo, hi) in zip(labels, eb):
         name, p = lab.split(".", 1)
@@ -137,12 +132,11 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     theta, e = x[:3].copy(), x[3:].copy()
     note = ""
     W = pb.load
-    one_load = bool(np.all(np.abs(W - W[0]) <= 1e-9 * abs(W[0])))
-    if pb.model == "full" and one_load and not any(s in structure for s in _SHAPE_EFFECTS) and ok:
+    if pb.model == "full" and one_load(W) and not any(s in structure for s in _SHAPE_EFFECTS) and ok:
         from ..soilmodel.effects import normal_load_function
         N = float(normal_load_function(pb.vehicle, structure)(float(W[0]), e)[0]) if m else float(W[0])
         A = pb.vehicle.contact_area
-        F = A * theta[0] + N * math.tan(theta[1])
+        F = max_thrust_expr(theta[0], theta[1], N, A)
         c, phi = ridge_centre(F, N, A, pb.bounds)
         theta[0], theta[1] = float(c), float(phi)
         note = "; one normal load: (c, phi) moved along the ridge to its centre (predictions unchanged)"

@@ -19,7 +19,9 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ..soilmodel.ridge import LOAD_RTOL, distinct_loads
 from ..soilmodel.soil import PARAMETER_NAMES, SoilBounds
+from ..soilmodel.traction import max_thrust_function
 from ..soilmodel.vehicle import Vehicle
 from .core_stats import RANK_TOL, WEAK_CORRELATION, _core_stats, _core_stats_one, _quantile, _WEAK_VIF  # noqa: F401
 from .estimate_types import _EDGE, Combination, ParameterEstimate, _f  # noqa: F401
@@ -167,15 +169,12 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
 
     def _fmax(self, W: float) -> tuple[float, np.ndarray]:
         """``F_max = A c + N tan(phi)`` at nominal load ``W`` and its gradient over :attr:`parameter_names`."""
-        c, phi = float(self.theta[0]), float(self.theta[1])
-        A = self.vehicle.contact_area
-        cf = self.model == "cohesion-free"
         N, dN = self._effective_load(W)
-        t = math.tan(phi)
-        fm = N * t + (0.0 if cf else A * c)
-        g = self._full([0.0 if cf else A, N / math.cos(phi) ** 2, 0.0])
-        g[3:] = t * dN
-        return fm, g
+        fm, d = max_thrust_function(self.model)(self.theta[0], self.theta[1], N, self.vehicle.contact_area)
+        d = np.asarray(d, dtype=float).ravel()  # dF_max / d[c, phi, N]
+        g = self._full(d[:2])
+        g[3:] = d[2] * dN
+        return float(fm), g
 
     @property
     def n_parameters(self) -> int:
@@ -247,16 +246,7 @@ def _assemble(core: dict, k: int, *, data_kind, model, method, theta, jacobian, 
         input_warnings=tuple(warn), extra=dict(extra or {}), **effect_fields)
 
 
-def _distinct_loads(normal_loads) -> np.ndarray:
-    w = np.atleast_1d(np.asarray(normal_loads, dtype=float)).ravel()
-    if w.size and math.isfinite(w[0]) and (w == w[0]).all():  # one load (the common case)
-        return w[:1].copy()
-    w = w[np.isfinite(w)]
-    if w.size == 0:
-        return w
-    w = np.sort(w)
-    keep = np.concatenate([[True], np.diff(w) > 1e-9 * np.abs(w[1:])])
-    return w[keep]
+_distinct_loads = distinct_loads
 
 
 def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, jacobian: np.ndarray,
@@ -369,7 +359,7 @@ def build_results_batch(*, model: str, method: str, theta: np.ndarray, jacobian:
     cost = 0.5 * core["ssr"]
     s2 = core["s2"]
     W = np.sort(np.asarray(normal_loads, dtype=float), axis=1)
-    keep = np.concatenate([np.ones((N, 1), bool), np.diff(W, axis=1) > 1e-9 * np.abs(W[:, 1:])], axis=1)
+    keep = np.concatenate([np.ones((N, 1), bool), np.diff(W, axis=1) > LOAD_RTOL * np.abs(W[:, 1:])], axis=1)
     single = keep.sum(axis=1) == 1
     # per-row views and Python scalars prepared in bulk (iteration over an array is a C loop)
     ok_l = (np.asarray(success, dtype=bool) & finite).tolist()
