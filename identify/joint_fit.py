@@ -9,7 +9,8 @@ the soil's practical ranges and each effect parameter's physical range
 (:func:`~soiltrack.soilmodel.effects.parameter_bounds`). Held parameters (``fixed``, cohesion
 of the cohesion-free model) have ``lbx = ubx`` and keep their Jacobian column in the result.
 A pressure distribution keeps the pressure positive (``|e| + |alpha| <= 1`` as two linear
-constraints). Start: the soil of the nominal variable-projection grid, effects off.
+constraints). Start: the soil of the nominal variable-projection grid, the effects at the
+values given (an ``EffectSet`` or dict) or their defaults (off; ``k_ratio`` 5).
 
 At one normal load and without a shear-shape effect, c and phi enter only through
 ``F_max = A c + N tan(phi)`` (N the actual normal load): the reported (c, phi) is then moved to
@@ -91,12 +92,13 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     fixed = dict(pb.fixed)
     # start: nominal soil from the variable-projection grid (on the tractive-force equivalent), effects off
     theta0, start = start_point(pb, x0, "grid", n_grid)
-    start += ", effects off"
+    start += ", effects at their given or default values"
     e0 = []
+    given = dict(pb.effect_start)
     for lab, (lo, hi) in zip(labels, eb):
         name, p = lab.split(".", 1)
         spec = EFFECTS[name].param(p)
-        v = fixed.get(lab, spec.off_value if spec.default is None else spec.default)
+        v = fixed.get(lab, given.get(lab, spec.off_value if spec.default is None else spec.default))
         e0.append(min(max(v, lo), hi))
     lo = np.concatenate([pb.bounds.lower, eb[:, 0]]) / S
     hi = np.concatenate([pb.bounds.upper, eb[:, 1]]) / S

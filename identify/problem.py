@@ -143,6 +143,7 @@ class SlipProblem:
     effects: EffectSet | None = None
     fixed: tuple = ()
     rig_speed: float = DEFAULT_RIG_SPEED
+    effect_start: tuple = ()
 
     @property
     def measured_values(self) -> np.ndarray:
@@ -249,7 +250,7 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
         raise DataError(f"expected SlipData or DriveLog, got {type(data).__name__}")
     if not (isinstance(rig_speed, (int, float)) and math.isfinite(rig_speed) and rig_speed > 0):
         raise DataError(f"rig_speed must be a finite number > 0 m/s, got {rig_speed!r}")
-    structure, fixed_t = _effects_and_fixed(effects, fixed, vehicle)
+    structure, fixed_t, e_start = _effects_and_fixed(effects, fixed, vehicle)
     if structure and method != "ipopt":
         raise DataError(f"effects are fitted by method='ipopt' only, not {method!r}")
     n_eff = len(effect_symbols(structure, vehicle=vehicle)[2]) - len(fixed_t) if structure else 0
@@ -271,16 +272,24 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
     return SlipProblem(slip=np.array(data.slip, float), force=force, load=load,
                        sigma=sig, sigma_known=known, vehicle=vehicle, bounds=bounds, model=model,
                        source=data.source, measured=data.measured, offset=offset,
-                       effects=structure if structure else None, fixed=fixed_t, rig_speed=float(rig_speed))
+                       effects=structure if structure else None, fixed=fixed_t, rig_speed=float(rig_speed),
+                       effect_start=e_start)
 
 
-def _effects_and_fixed(effects, fixed, vehicle: Vehicle) -> tuple[EffectSet, tuple]:
-    """Validate ``effects`` (names or an EffectSet) and ``fixed`` ``{"effect.param": value}``."""
+def _effects_and_fixed(effects, fixed, vehicle: Vehicle) -> tuple[EffectSet, tuple, tuple]:
+    """Validate ``effects`` (names or an EffectSet) and ``fixed`` ``{"effect.param": value}``.
+
+    Returns the structure (which effects, integer parameters), the fixed ``((label, value), ...)``
+    and start values ``((label, value), ...)`` (the values of a given EffectSet or dict).
+    """
     if isinstance(effects, str):
         effects = [effects]
-    structure = effect_structure(parse_effects(effects), vehicle) if effects else EffectSet()
+    given = parse_effects(effects) if effects else EffectSet()
+    structure = effect_structure(given, vehicle) if effects else EffectSet()
+    start = tuple((f"{n}.{p.name}", given.value(n, p.name, vehicle)) for n in given.names
+                  for p in EFFECTS[n].params if not p.integer)
     if fixed is None:
-        return structure, ()
+        return structure, (), start
     if not hasattr(fixed, "items"):
         raise DataError(f"fixed must be a dict {{'effect.param': value}}, got {type(fixed).__name__}")
     labels = effect_symbols(structure, vehicle=vehicle)[2] if structure else []
@@ -302,4 +311,4 @@ def _effects_and_fixed(effects, fixed, vehicle: Vehicle) -> tuple[EffectSet, tup
             raise DataError(f"fixed: {label} = {value!r} is outside its physical range [{lo:g}, {hi:g}]")
         out.append((label, v))
     order = {lab: k for k, lab in enumerate(labels)}
-    return structure, tuple(sorted(out, key=lambda t: order[t[0]]))
+    return structure, tuple(sorted(out, key=lambda t: order[t[0]])), start

@@ -187,6 +187,34 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
         return _quantile(self.dof, self.sigma_known)
 
 
+    def predict(self, slip, normal_load=None, measured: str | None = None) -> np.ndarray:
+        """What the fitted slip model predicts a rig reports at ``slip`` (N), e.g. for a fitted curve.
+
+        Parameters
+        ----------
+        slip : array_like
+            Slips (as the rig measures them).
+        normal_load : float or array_like, optional
+            Nominal normal load, N (default the vehicle's weight).
+        measured : {"tractive_force", "drawbar_pull"}, optional
+            What to predict (default: what the fitted data measured).
+
+        Raises
+        ------
+        DataError
+            Not a slip fit, a failed fit, or a load the fit does not determine (c-phi ridge).
+        """
+        from ..soilmodel.data import SlipData
+        from ..soilmodel.errors import DataError
+        s = np.atleast_1d(np.asarray(slip, dtype=float))
+        if self.data_kind != "slip":
+            raise DataError("predict is for slip fits; use residuals_on for drive logs")
+        m = measured or self.measured or "tractive_force"
+        W = None if normal_load is None else np.broadcast_to(np.asarray(normal_load, dtype=float), s.shape)
+        probe = SlipData(slip=np.clip(s, 0.0, np.nextafter(1.0, 0.0)), normal_load=W, source="prediction grid",
+                         **{m: np.zeros(s.shape)})
+        return -next(iter(self.residuals_on(probe).values()))
+
     def residuals_on(self, data) -> dict[str, np.ndarray]:
         """Raw residuals ``measured - predicted`` of the fitted model on OTHER data of the same kind.
 
@@ -227,7 +255,9 @@ def _assemble(core: dict, k: int, *, data_kind, model, method, theta, jacobian, 
               solve_time, sigma_known, warnings, extra, free, **effect_fields) -> FitResult:
     res = np.asarray(residuals, dtype=float)
     rw = np.asarray(weighted_residuals, dtype=float)
-    finite = bool(np.isfinite(theta).all() and np.isfinite(res).all() and np.isfinite(rw).all())
+    ev = effect_fields.get("effect_values")
+    finite = bool(np.isfinite(theta).all() and np.isfinite(res).all() and np.isfinite(rw).all()
+                  and (ev is None or np.isfinite(ev).all()))
     warn = list(warnings)
     if not finite:
         success = False

@@ -10,8 +10,6 @@ and its AD Jacobian, mapped over the samples. No physics is written here.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
-
 import casadi as ca
 import numpy as np
 
@@ -20,12 +18,13 @@ from ..soilmodel.effects import (DEFAULT_RIG_SPEED, EffectSet, effect_structure,
                                  sweep_measurement)
 from ..soilmodel.errors import DataError
 from ..soilmodel.ridge import LOAD_RTOL
+from ..soilmodel.threadsafe import locked_cache
 from ..soilmodel.vehicle import Vehicle
 
 __all__ = ["observation_function", "predict", "nominal_offset", "SweepResiduals"]
 
 
-@lru_cache(maxsize=128)
+@locked_cache(maxsize=128)
 def _observation(vehicle: Vehicle, structure: EffectSet, model: str, measured: str, rig_speed: float) -> ca.Function:
     mapping, e, _ = effect_symbols(structure, ca.SX, vehicle)
     i, W = ca.SX.sym("i"), ca.SX.sym("W")
@@ -41,7 +40,7 @@ def observation_function(vehicle: Vehicle, effects=None, model: str = "full", me
     return _observation(vehicle, effect_structure(effects, vehicle), model, measured, float(rig_speed))
 
 
-@lru_cache(maxsize=256)
+@locked_cache(maxsize=256)
 def _mapped(vehicle: Vehicle, structure: EffectSet, model: str, measured: str, rig_speed: float, n: int) -> ca.Function:
     return _observation(vehicle, structure, model, measured, rig_speed).map(n)
 

@@ -195,3 +195,15 @@ def test_cli_fit_effect(tmp_path, capsys, grade_sweeps):
     assert js["covariance"]["units"] == "SI" and len(js["covariance"]["matrix"]) == 4
     assert main(["fit", str(p), "--vehicle", "heavy", "--effect", "nonsense"]) == 2
     assert "unknown effect 'nonsense'" in capsys.readouterr().err
+
+
+def test_predict_gives_the_fitted_curve_in_either_quantity(grade_sweeps):
+    d = grade_sweeps["drawbar_pull"]
+    res = fit(d, HEAVY, effects={"grade": 0.05})  # a dict: the value is the start point
+    assert "given or default values" in res.message
+    W = d.loads(HEAVY.weight)
+    dp = res.predict(d.slip, W)
+    np.testing.assert_allclose(d.values - dp, res.residuals_on(d)["drawbar_pull_N"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(dp - d.values, res.residuals, rtol=0, atol=1e-6)
+    tf = res.predict(d.slip, W, measured="tractive_force")
+    assert np.all(tf > dp)  # the rig adds the nominal resistance back
