@@ -201,7 +201,9 @@ class IdentifiabilityViews:
             if pe.fixed:
                 continue
             if not pe.identifiable and not (self._cphi_ridge and name in ("cohesion", "friction_angle")):
-                statements.append(f"{_EDGE[name][3]} is not identifiable from these data.")
+                statements.append(f"{_EDGE[name][3]} is not identifiable from these data"
+                                  + (f": they cannot separate it from {pe.correlated_with}." if pe.correlated_with
+                                     else "."))
             elif pe.weakly_identifiable:
                 statements.append(f"{_EDGE[name][3]} is only weakly identifiable (correlated above "
                                   f"{WEAK_CORRELATION} with other parameter directions).")

@@ -207,3 +207,35 @@ def test_predict_gives_the_fitted_curve_in_either_quantity(grade_sweeps):
     np.testing.assert_allclose(dp - d.values, res.residuals, rtol=0, atol=1e-6)
     tf = res.predict(d.slip, W, measured="tractive_force")
     assert np.all(tf > dp)  # the rig adds the nominal resistance back
+
+
+def test_joint_fits_from_threads_equal_serial_and_pickle(grade_sweeps):
+    import pickle
+    from concurrent.futures import ThreadPoolExecutor
+
+    data = [grade_sweeps["drawbar_pull"], grade_sweeps["tractive_force"]] * 3
+    serial = [fit(d, HEAVY, effects=["grade", "slip_sinkage"]) for d in data]
+    with ThreadPoolExecutor(4) as ex:
+        threaded = list(ex.map(lambda d: fit(d, HEAVY, effects=["grade", "slip_sinkage"]), data))
+    for a, b in zip(serial, threaded):
+        np.testing.assert_array_equal(a.theta, b.theta)
+        np.testing.assert_array_equal(a.effect_values, b.effect_values)
+        assert a.status == b.status
+    back = pickle.loads(pickle.dumps(serial[0]))
+    assert back.effects["grade"]["theta_rad"].value == serial[0].effects["grade"]["theta_rad"].value
+    d = grade_sweeps["drawbar_pull"]
+    np.testing.assert_array_equal(back.residuals_on(d)["drawbar_pull_N"], serial[0].residuals_on(d)["drawbar_pull_N"])
+
+
+def test_confounded_effects_name_each_other_or_the_soil(grade_sweeps):
+    # grade and mass error enter a sweep through (1 + delta) cos(theta) tan(phi) and (1 + delta)(mu_r cos(theta)
+    # + sin(theta)): three parameters, two combinations -> one null direction, said with its partner
+    res = fit(grade_sweeps["drawbar_pull"], HEAVY, effects=["grade", "mass_error"])
+    g, m = res.effects["grade"]["theta_rad"], res.effects["mass_error"]["delta"]
+    assert not g.identifiable and not m.identifiable
+    assert {g.correlated_with, m.correlated_with} <= {"friction_angle", "grade.theta_rad", "mass_error.delta"}
+    assert abs(g.correlation) == 1.0
+    phi = res.parameters["friction_angle"]
+    assert not phi.identifiable and phi.correlated_with in ("grade.theta_rad", "mass_error.delta")
+    assert any("cannot separate it from" in s for s in res.identifiability["statements"])
+    assert res.soil is None and res.covariance is None
