@@ -1,7 +1,9 @@
 """Joint fit of the soil and named effects to a slip sweep, with IPOPT.
 
-The NLP is built ONCE per ``(vehicle, effects on, model, measured, rig speed, n)`` and cached
-(:func:`~soiltrack.soilmodel.threadsafe.locked_cache`); the data enter as parameters. The
+The NLP is built ONCE per ``(vehicle, effects on, model, measured, rig speed, size class)`` and
+cached (:func:`~soiltrack.soilmodel.threadsafe.locked_cache`); the data enter as parameters,
+padded to the size class (:func:`padded_size`) with zero-weight samples, so that a diagnosis
+refitting blocks of many lengths builds few solvers (a build costs 40-90 ms, a solve 10-20 ms). The
 model is :func:`~soiltrack.identify.sweep_model.observation_function` (the soilmodel's
 :func:`~soiltrack.soilmodel.effects.sweep_measurement`), mapped over the samples; residuals
 and the Jacobian come from it by AD. Variables ``x = [c, phi, K, e...] / scale``, bounded by
@@ -34,11 +36,17 @@ from .result import FitResult, build_result
 from .start import start_point
 from .sweep_model import SweepResiduals, observation_function, predict
 
-__all__ = ["fit_joint", "joint_layout"]
+__all__ = ["fit_joint", "joint_layout", "padded_size"]
 
 _OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 _DEFAULT_OPTS = {"ipopt.tol": 1e-12, "ipopt.acceptable_tol": 1e-8, "ipopt.max_iter": 500}
 _SHAPE_EFFECTS = ("hump_shear", "pressure_distribution")
+
+
+def padded_size(n: int) -> int:
+    """Size class of ``n`` samples: a multiple of 8 up to 64, of 32 up to 512, then of 128."""
+    step = 8 if n <= 64 else (32 if n <= 512 else 128)
+    return -(-n // step) * step
 
 
 def joint_layout(vehicle: Vehicle, structure: EffectSet) -> tuple[list[str], np.ndarray, np.ndarray, list[str]]:
@@ -61,10 +69,10 @@ def _solver(vehicle: Vehicle, structure: EffectSet, model: str, measured: str, r
     S = np.concatenate([SCALE, scales])
     X = ca.SX.sym("x", nx)
     P = ca.SX.sym("p", 4 * n + 1)
-    slip, y, W, sig, scale = P[0:n], P[n:2 * n], P[2 * n:3 * n], P[3 * n:4 * n], P[4 * n]
+    slip, y, W, wt, scale = P[0:n], P[n:2 * n], P[2 * n:3 * n], P[3 * n:4 * n], P[4 * n]
     obs = observation_function(vehicle, structure, model, measured, rig_speed)
     ym = obs.map(n)(slip.T, W.T, X * S)[0].T
-    rw = (ym - y) / sig
+    rw = (ym - y) * wt  # wt = 1 / sigma; 0 on padding
     f = 0.5 * ca.dot(rw, rw) / scale
     g = []
     if "pressure_distribution" in structure:
@@ -87,7 +95,8 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     m = len(labels)
     S = np.concatenate([SCALE, escale])
     key = tuple(sorted((ipopt_options or {}).items()))
-    solver = _solver(pb.vehicle, structure, pb.model, pb.measured, pb.rig_speed, pb.n, key)
+    n_pad = padded_size(pb.n)
+    solver = _solver(pb.vehicle, structure, pb.model, pb.measured, pb.rig_speed, n_pad, key)
     t0 = time.perf_counter()
     fixed = dict(pb.fixed)
     # start: nominal soil from the variable-projection grid (on the tractive-force equivalent), effects off
@@ -112,7 +121,9 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     y = pb.measured_values
     yw = y / pb.sigma
     scale = max(0.5 * float(yw @ yw), 1e-300)
-    p = np.concatenate([pb.slip, y, pb.load, pb.sigma, [scale]])
+    pad = n_pad - pb.n
+    p = np.concatenate([pb.slip, np.zeros(pad), y, np.zeros(pad), pb.load, np.full(pad, pb.load[0]),
+                        1.0 / pb.sigma, np.zeros(pad), [scale]])
     args = {"x0": z0, "p": p, "lbx": lo, "ubx": hi}
     if "pressure_distribution" in structure:
         args.update(lbg=-1.0, ubg=1.0)
