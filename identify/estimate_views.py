@@ -57,8 +57,12 @@ class EstimateViews:
 
     @property
     def active_bounds(self) -> dict[str, str]:
-        """``{parameter name: "lower"|"upper"}`` for free parameters that ended on a bound."""
-        return {n: p.bound_side for n, p in self.parameters.items() if p.at_bound and p.bound_side}
+        """``{parameter name: "lower"|"upper"}`` for free parameters that ended on a bound (effect
+        parameters as ``"effect.param"``)."""
+        out = {n: p.bound_side for n, p in self.parameters.items() if p.at_bound and p.bound_side}
+        for ps in self.effects.values():
+            out.update({p.name: p.bound_side for p in ps.values() if p.at_bound and p.bound_side})
+        return out
 
     @property
     def outside_bounds(self) -> dict[str, str]:

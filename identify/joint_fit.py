@@ -159,12 +159,21 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     r = ypred - y
     msg = "; ".join(msgs) or ("IPOPT converged" if ok else f"IPOPT: {status}")
     warnings = pb.noise_warning(r)
+    active = []
+    if "pressure_distribution" in structure:
+        pe, pa = e[labels.index("pressure_distribution.e")], e[labels.index("pressure_distribution.alpha")]
+        if abs(pe) + abs(pa) >= 1.0 - 1e-6:
+            active.append("pressure_distribution: |e| + |alpha| <= 1")
+            warnings = warnings + (f"pressure_distribution ended on its constraint |e| + |alpha| = {abs(pe) + abs(pa):.6g} "
+                                   "<= 1 (the pressure reaches zero somewhere on the track): e and alpha and their "
+                                   "intervals are on that boundary, a warning about the data or the model",)
     return build_result(data_kind="slip", model=pb.model, method="ipopt", theta=theta, jacobian=J / pb.sigma[:, None],
                         weighted_residuals=r / pb.sigma, residuals=r, residual_unit="N", n_samples=pb.n,
                         normal_loads=pb.load, vehicle=pb.vehicle, bounds=pb.bounds, status=status, success=ok,
                         message=f"{msg} (joint soil and effects fit; {start}{note})", iterations=iters,
                         solve_time=total, sigma_known=pb.sigma_known, warnings=warnings,
-                        extra={"engine": "ipopt", "start": [float(v) for v in np.concatenate([theta0, e0])]},
+                        extra={"engine": "ipopt", "start": [float(v) for v in np.concatenate([theta0, e0])],
+                               "active_constraints": active},
                         effect_labels=labels, effect_values=e, effect_bounds=[tuple(b) for b in eb],
                         effect_units=units, effect_structure=structure, fixed_labels=tuple(fixed),
                         measured=pb.measured, residual_model=SweepResiduals(pb.rig_speed))

@@ -251,3 +251,21 @@ def test_padding_to_size_classes_leaves_the_fit_unchanged(grade_sweeps):
     grad = res.jacobian[:, list(res.free)].T @ res.weighted_residuals
     scale = np.linalg.norm(res.jacobian[:, list(res.free)], axis=0) * np.linalg.norm(res.weighted_residuals)
     assert np.all(np.abs(grad) <= 1e-9 * scale), grad / scale  # measured: 1.8e-11
+
+
+def test_active_effect_bounds_and_constraints_are_reported():
+    d = simulate_slip_sweep(HEAVY, SAND, effects={"pressure_distribution": {"e": 0.3, "alpha": 0.2}},
+                            normal_loads=LOADS, seed=0, measure="drawbar_pull", noise=FORCE_NOISE)
+    res = fit(d, HEAVY, effects=["pressure_distribution"])
+    e = res.effects["pressure_distribution"]
+    assert abs(e["e"].value) + abs(e["alpha"].value) <= 1.0 + 1e-9  # the pressure stays >= 0
+    # seed 0 ends on |e| + |alpha| = 1 (alpha weakly seen through 5 road-wheel periods): said, not hidden
+    assert res.extra["active_constraints"] == ["pressure_distribution: |e| + |alpha| <= 1"]
+    assert any("ended on its constraint" in w for w in res.warnings)
+    # hump-free data: the softening drop ends on its lower bound 0, where k_ratio has no effect at all
+    flat = simulate_slip_sweep(HEAVY, SAND, normal_loads=LOADS, seed=0, noise=FORCE_NOISE, measure="drawbar_pull")
+    hump = fit(flat, HEAVY, effects=["hump_shear"])
+    assert hump.active_bounds == {"hump_shear.drop": "lower"}
+    assert hump.effects["hump_shear"]["drop"].value == 0.0
+    assert not hump.effects["hump_shear"]["k_ratio"].identifiable
+    assert any("hump_shear.drop ended on its lower bound" in w for w in hump.warnings)
