@@ -370,8 +370,13 @@ def build_results_batch(*, model: str, method: str, theta: np.ndarray, jacobian:
                         vehicle: Vehicle, bounds: SoilBounds, status: Sequence[str], success: Sequence[bool],
                         message: Sequence[str], iterations: Sequence[int], solve_time: Sequence[float],
                         sigma_known: bool = False, extra: Sequence[dict] | None = None,
-                        warnings: Sequence[Sequence[str]] | None = None) -> list[FitResult]:
+                        warnings: Sequence[Sequence[str]] | None = None, measured: str | None = None,
+                        residual_model=None) -> list[FitResult]:
     """Vectorised :func:`build_result` for N same-size slip fits (stacked arrays, leading axis N).
+
+    ``measured`` and ``residual_model`` (shared by the batch, as
+    :meth:`~soiltrack.identify.problem.SlipProblem.result_kwargs` gives them) are recorded on
+    every result.
 
     Same statistics as :func:`build_result` (one code path, :func:`_core_stats`); the per-fit
     scalars are computed for all fits at once and the objects are filled directly, which keeps
@@ -413,6 +418,6 @@ def build_results_batch(*, model: str, method: str, theta: np.ndarray, jacobian:
             solve_time=stime, sigma_known=sk, rmse=rm, cost=co, rank=rank, dof=dof,
             s2=None if s2k != s2k else s2k, free=free, _core=(core, k), input_warnings=(() if fin else nonfinite)
             + (tuple(warnings[k]) if warnings is not None else ()),
-            extra=dict(ex) if ex else {})
+            extra=dict(ex) if ex else {}, measured=measured, residual_model=residual_model)
         out.append(obj)
     return out
