@@ -206,6 +206,11 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
     if np.all(data.slip == 0):
         raise DataError("all slips are zero: the tractive force carries no information on the soil",
                         file=data.source, column="slip")
+    n_slips = np.unique(data.slip[data.slip > 0]).size
+    if n_slips < 2:  # F(i) = F_max g(i l / K): one slip gives one number, not both F_max and K
+        raise DataError(f"all nonzero slips are equal (i = {float(np.max(data.slip)):.6g}): one point of the "
+                        "thrust-slip curve cannot separate F_max from K; measure at two or more different slips "
+                        "(ideally spread up to the traction limit)", file=data.source, column="slip")
     return SlipProblem(slip=np.array(data.slip, float), force=np.array(data.tractive_force, float), load=load,
                        sigma=sig, sigma_known=known, vehicle=vehicle, bounds=bounds, model=model,
                        source=data.source)

@@ -48,6 +48,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ..soilmodel.errors import DataError
 from ..soilmodel.soil import PARAMETER_NAMES, Soil, SoilBounds
 from ..soilmodel.vehicle import Vehicle
 from .stats import norm_ppf, t_ppf
@@ -755,6 +756,38 @@ class FitResult:
         label = ("optimiser's point on an unidentifiable ridge - NOT an estimate" if self.soil is None
                  else f"identified ({self.model}, {self.method})")
         return self._soil_at(self.theta, label)
+
+    def prediction_soil(self, normal_load) -> Soil:
+        """A :class:`Soil` that reproduces the fitted curve at ``normal_load`` (N, scalar or array).
+
+        Used by :func:`soiltrack.soilmodel.tractive_force` and ``max_thrust`` when they are given
+        this result. With c and phi separable it is :attr:`soil`, valid at any load. At one
+        normal load every point of the c-phi ridge gives the same curve at that load, so the
+        optimiser's ridge point predicts it exactly there; any other load is refused.
+
+        Raises
+        ------
+        DataError
+            The fit failed, K is not identifiable, or ``normal_load`` differs from the fitted
+            load(s) while c and phi were not separable.
+        """
+        if not self.success:
+            raise DataError(f"the fit did not succeed ({self.status}): it gives no prediction")
+        if self.soil is not None:
+            return self.soil
+        ident = {n: pe.identifiable for n, pe in self.parameters.items() if not pe.fixed}
+        if not (self._cphi_ridge and ident.get("shear_modulus", False)) or self.ridge_point is None:
+            missing = [_EDGE[n][3] for n, ok in ident.items() if not ok]
+            raise DataError(f"{', '.join(missing)} not identifiable from these data: no prediction")
+        W0 = float(self.normal_loads[0])
+        W = np.atleast_1d(np.asarray(normal_load, dtype=float))
+        off = W[~(np.abs(W - W0) <= 1e-6 * W0)]
+        if off.size:
+            raise DataError(f"c and phi were not separable (all data at W = {W0:.6g} N): the fit predicts the "
+                            f"tractive force at that load only, not at W = {float(off[0]):.6g} N; fit data at "
+                            "two or more normal loads to predict at others")
+        return Soil(*(float(x) for x in self.theta),
+                    name=f"fitted curve at W = {W0:.6g} N (ridge point: c and phi NOT separately identified)")
 
     @staticmethod
     def _soil_at(theta, name: str) -> Soil | None:

@@ -7,20 +7,33 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .soilmodel import DriveLog, SlipData  # noqa: E402
+from .soilmodel import DataError, DriveLog, SlipData  # noqa: E402
 
 
-def plot_data(data: SlipData | DriveLog, path: str, title: str = "") -> None:
+def save_figure(fig, path: str) -> str:
+    """Save ``fig`` to ``path`` (format from the extension) and close it; OSError -> DataError."""
+    try:
+        fig.savefig(path, dpi=120)
+    except OSError as e:
+        raise DataError(f"cannot write the figure: {e.strerror or e}", file=path) from None
+    finally:
+        plt.close(fig)
+    return path
+
+
+def plot_data(data: SlipData | DriveLog, path: str, title: str = "") -> str:
     """Save a figure of tractive force-slip data or of a drive log's four channels."""
     if isinstance(data, SlipData):
         fig, ax = plt.subplots(figsize=(6.4, 4.2))
         loads = data.normal_load if data.normal_load is not None else np.zeros(data.n_samples)
         for W in np.unique(loads):
             sel = loads == W
-            label = f"W = {W / 1e3:.4g} kN" if W > 0 else "measured"
+            label = f"W = {W / 1e3:.4g} kN" if W > 0 else "data"
             ax.plot(data.slip[sel], data.tractive_force[sel] / 1e3, "o", ms=4, label=label)
         ax.set_xlabel("slip i (-)")
         ax.set_ylabel("tractive force F (kN)")
+        ax.set_ylim(bottom=min(0.0, float(np.min(data.tractive_force)) / 1e3 * 1.05))
+        ax.set_xlim(left=0.0)
         ax.grid(alpha=0.3)
         ax.legend()
     else:
@@ -40,13 +53,14 @@ def plot_data(data: SlipData | DriveLog, path: str, title: str = "") -> None:
         for ax in axs:
             ax.grid(alpha=0.3)
     if title:
-        fig.suptitle(title, fontsize=10)
+        import textwrap
+
+        fig.suptitle(textwrap.fill(title, 90), fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    return save_figure(fig, path)
 
 
-def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> None:
+def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
     """Save a figure of a fit: data, fitted curve and residuals (slip data), or residuals (drive log).
 
     The fitted curve is drawn from the optimiser's point ``result.theta``; on a c-phi ridge every
@@ -110,5 +124,4 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> None:
         for a in (ax, axr):
             a.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    return save_figure(fig, path)
