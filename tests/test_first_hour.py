@@ -171,3 +171,54 @@ def test_options_that_do_not_apply_are_refused(capsys, sweep_csv, tmp_path):
     assert main(["simulate", "--vehicle", "light", "--duration", "3", "--seed", "1", "-o", log]) == 0
     capsys.readouterr()
     bad_input(capsys, "fit", log, "--vehicle", "light", "--sigma", "2", says=["--sigma applies to slip data only"])
+
+
+# --- items 3, 8, 11: figures that show what the fit used and say when it failed ------------------------
+@pytest.fixture()
+def captured(monkeypatch):
+    """Capture the figure ``plot_fit`` would save (checked for content, then closed)."""
+    from soiltrack import plots
+
+    figs = []
+
+    def keep(fig, path):
+        figs.append(fig)
+        return path
+
+    monkeypatch.setattr(plots, "save_figure", keep)
+    yield figs
+    import matplotlib.pyplot as plt
+    for f in figs:
+        plt.close(f)
+
+
+def test_failed_fit_figure_says_failed(captured, sweep_csv):
+    from soiltrack.plots import plot_fit
+    from soiltrack.soilmodel import read_csv
+
+    data = read_csv(sweep_csv)
+    res = fit(data, LIGHT, method="newton")
+    assert not res.success
+    plot_fit(data, LIGHT, res, "f.png")
+    ax, axr = captured[0].axes[:2]
+    labels = [ln.get_label() for ln in ax.get_lines()]
+    assert "FAILED" in ax.get_title() and not any("fitted" in lab for lab in labels)
+    assert "last iterate of the FAILED fit" in labels
+    assert "(N)" in axr.get_ylabel() and "%" not in axr.get_ylabel()  # absolute residuals, unit by magnitude
+
+
+def test_drive_log_figure_shows_the_samples_that_fix_fmax(captured):
+    from soiltrack.identify.drivelog import prepare_drive_log
+    from soiltrack.plots import plot_fit
+
+    log = simulate(LIGHT, TERRAINS["dry_sand"], seed=1)  # default profile: two hard pulls
+    res = fit(log, LIGHT)
+    plot_fit(log, LIGHT, res, "d.png")
+    ax = captured[0].axes[0]
+    prep = prepare_drive_log(log, LIGHT)
+    strong = prep.slip_measured[prep.thrust > 0.5 * prep.thrust.max()]
+    lo, hi = ax.get_xlim()
+    assert strong.size >= 5 and np.all((strong >= lo) & (strong <= hi))  # issue: 14 of 16 were cut off
+    texts = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert any("95 % band" in t for t in texts) and any("thrust bin" in t for t in texts), texts
+    assert any(f"{prep.n_used} samples used" in t for t in texts)
