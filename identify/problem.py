@@ -135,7 +135,8 @@ class SlipProblem:
                             weighted_residuals=rw, residuals=r, residual_unit="N", n_samples=self.n,
                             normal_loads=self.load, vehicle=self.vehicle, bounds=self.bounds, status=status,
                             success=success, message=message, iterations=iterations, solve_time=solve_time,
-                            sigma_known=self.sigma_known, warnings=warnings, extra=extra)
+                            sigma_known=self.sigma_known, warnings=warnings, extra=extra,
+                            samples=(self.slip, self.force, self.load))
 
 
 def check_common(vehicle, model: str, method: str, bounds) -> None:

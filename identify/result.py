@@ -719,7 +719,7 @@ class FitResult:
     def warnings(self) -> tuple[str, ...]:
         """Warnings in plain words (input warnings first)."""
         w = list(self.input_warnings)
-        if not self.success:
+        if not self.success and "answer not usable" not in self.status:  # that one says why in its own warnings
             w.append(f"the fit did not succeed ({self.status}): {self.message}")
         for name, d in self.outside_bounds.items():
             j = PARAMETER_NAMES.index(name)
@@ -1001,7 +1001,7 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
                  weighted_residuals: np.ndarray, residuals: np.ndarray, residual_unit: str, n_samples: int,
                  normal_loads: np.ndarray, vehicle: Vehicle, bounds: SoilBounds, status: str, success: bool,
                  message: str, iterations: int, solve_time: float, sigma_known: bool = False,
-                 warnings: Sequence[str] = (), extra: dict | None = None) -> FitResult:
+                 warnings: Sequence[str] = (), extra: dict | None = None, samples=None) -> FitResult:
     """Build a :class:`FitResult` from an optimum and its Jacobian (shared by all fitting methods).
 
     Parameters
@@ -1033,6 +1033,11 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
         Extra warnings from the caller.
     extra : dict, optional
         Anything else worth keeping (serialised under ``"extra"`` in JSON).
+    samples : tuple of arrays, optional
+        Slip data ``(slip, force_N, load_N)`` per sample: then the plausibility checks of
+        :mod:`soiltrack.identify.plausibility` run, add their warnings, and set
+        ``success=False`` when the answer is not usable (force scale no soil within the bounds
+        gives, F_max on a bound, residuals as large as the data, a gross outlier).
 
     Returns
     -------
@@ -1046,6 +1051,15 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
     rw = np.asarray(weighted_residuals, dtype=float).ravel()
     if J.ndim != 2 or J.shape[1] != 3 or J.shape[0] != rw.size:
         raise ValueError(f"jacobian must have shape (n_res, 3) = ({rw.size}, 3), got {J.shape}")
+    if samples is not None and data_kind == "slip":
+        from .plausibility import assess
+
+        found, usable = assess(*samples, residuals, theta, vehicle, model, bounds)
+        warnings = tuple(warnings) + found
+        if not usable and success:
+            success = False
+            status = f"{status} (answer not usable)"
+            message = f"{message}; the data or the answer fail the plausibility checks (see the warnings)"
     core = _core_stats_one(J[:, free[0]:], rw, sigma_known)  # free = (0, 1, 2) or (1, 2)
     return _assemble(core, 0, data_kind=data_kind, model=model, method=method, theta=theta, jacobian=J,
                      weighted_residuals=rw, residuals=residuals, residual_unit=residual_unit, n_samples=n_samples,

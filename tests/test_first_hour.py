@@ -222,3 +222,70 @@ def test_drive_log_figure_shows_the_samples_that_fix_fmax(captured):
     texts = [t.get_text() for t in ax.get_legend().get_texts()]
     assert any("95 % band" in t for t in texts) and any("thrust bin" in t for t in texts), texts
     assert any(f"{prep.n_used} samples used" in t for t in texts)
+
+
+# --- item 1: wrong data are not a success --------------------------------------------------------------
+def _fit_json(capsys, tmp_path, rows, name):
+    p = tmp_path / f"{name}.csv"
+    p.write_text("slip,tractive_force_N\n" + "".join(f"{i!r},{F!r}\n" for i, F in rows))
+    rc = main(["fit", str(p), "--vehicle", "light", "--json"])
+    return rc, json.loads(capsys.readouterr().out)
+
+
+@pytest.fixture(scope="module")
+def clean_rows(sweep_csv):
+    from soiltrack.soilmodel import read_csv
+
+    d = read_csv(sweep_csv)
+    return list(zip(d.slip.tolist(), d.tractive_force.tolist()))
+
+
+def test_clean_sweep_is_a_success_without_plausibility_findings(capsys, tmp_path, clean_rows):
+    rc, js = _fit_json(capsys, tmp_path, clean_rows, "clean")
+    assert rc == 0 and js["success"]
+    assert not any("NOT USABLE" in w or "outlier" in w or "negative" in w for w in js["warnings"])
+
+
+def test_forces_in_kn_under_an_n_header_are_not_a_success(capsys, tmp_path, clean_rows):
+    rc, js = _fit_json(capsys, tmp_path, [(i, F / 1e3) for i, F in clean_rows], "kn")
+    assert rc == 1 and js["success"] is False
+    text = " ".join(js["warnings"])
+    assert "kN in an N column" in text and "F_max" in text and "smallest value the bounds allow" in text
+
+
+def test_negative_thrust_and_gross_outlier_are_named_by_row(capsys, tmp_path, clean_rows):
+    rows = list(clean_rows)
+    rows[3] = (rows[3][0], -5.0)
+    rc, js = _fit_json(capsys, tmp_path, rows, "neg")
+    assert rc == 1 and js["success"] is False
+    text = " ".join(js["warnings"])
+    assert "row(s) 4: negative tractive force" in text and "row(s) 4 lie far off the rest" in text
+    rows = list(clean_rows)
+    rows[4] = (rows[4][0], 1e12)
+    rc, js = _fit_json(capsys, tmp_path, rows, "big")
+    assert rc == 1 and js["success"] is False
+    text = " ".join(js["warnings"])
+    assert "row(s) 5: the tractive force" in text and "strongest soil within the bounds" in text
+
+
+def test_limit_just_beyond_a_bound_is_a_warning_not_a_failure():
+    """Wong's data, cohesion-free: phi wants slightly more than the seed's 40 deg bound - usable, said."""
+    from soiltrack.soilmodel import read_csv
+
+    wong = read_csv(os.path.join(ROOT, "examples", "data", "wong2001_p176.csv"))
+    res = fit(wong, VEHICLES["heavy"], model="cohesion-free")
+    assert res.success
+    w = " ".join(res.warnings)
+    assert "largest value the bounds allow" in w and "widen them" in w and "NOT USABLE" not in w
+
+
+def test_plausibility_unit_checks():
+    from soiltrack.identify.plausibility import check_slip_data
+    from soiltrack.soilmodel import PRACTICAL_BOUNDS
+
+    slip = np.linspace(0.02, 0.5, 10)
+    F = tractive_force(slip, TERRAINS["dry_sand"], LIGHT)
+    load = np.full(10, LIGHT.weight)
+    assert check_slip_data(slip, F, load, LIGHT, "full", PRACTICAL_BOUNDS) == []
+    codes = [f.code for f in check_slip_data(slip, F / 1e3, load, LIGHT, "full", PRACTICAL_BOUNDS)]
+    assert codes == ["force_scale_low"]
