@@ -36,6 +36,8 @@ def _cmd_fit(a: argparse.Namespace) -> int:
         kw["sigma"] = a.sigma if a.sigma == "relative" else floats_arg(a.sigma, "--sigma")[0]
     if a.bias_correction != "none":
         kw["bias_correction"] = a.bias_correction
+    if a.effect:
+        kw["effects"] = [e.strip() for item in a.effect for e in item.split(",") if e.strip()]
     result = fit(data, vehicle, model=a.model, method=a.method, **kw)
     if a.json:
         print(result.to_json())
@@ -87,6 +89,9 @@ def add_parser(sub) -> None:
     f.add_argument("--bias-correction", choices=("none", "simex"), default="none",
                    help="drive logs: SIMEX correction of the slip-noise bias of K on hard-pull logs, about 5 s "
                         "(default: none)")
+    f.add_argument("--effect", action="append", metavar="NAME",
+                   help="fit this unmodelled effect's parameters jointly with the soil (repeatable; e.g. grade, "
+                        "slip_sinkage, speed_resistance, mass_error)")
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit (.png, .pdf, .svg)")
     f.set_defaults(func=_cmd_fit)
