@@ -32,8 +32,9 @@ import numpy as np
 from ..soilmodel.soil import Soil, SoilBounds
 from ..soilmodel.traction import max_thrust, tractive_force
 from ..soilmodel.vehicle import Vehicle
+from .estimate_types import format_force
 
-__all__ = ["Finding", "check_slip_data", "check_slip_fit", "assess", "SCALE_FACTOR", "OUTLIER_Z", "OUTLIER_SHARE",
+__all__ = ["Finding", "fmax_range", "check_slip_data", "check_slip_fit", "assess", "SCALE_FACTOR", "OUTLIER_Z", "OUTLIER_SHARE",
            "GROSS_Z", "GROSS_SHARE", "RESIDUAL_RATIO", "BOUND_FACTOR"]
 
 #: Data this many times below the weakest soil (median over the samples) or a row this many times
@@ -75,7 +76,7 @@ class Finding:
 
 
 def _fmt_force(x: float) -> str:
-    return f"{x / 1e3:.3g} kN" if abs(x) >= 1e3 else f"{x:.3g} N"
+    return format_force(x, 3)
 
 
 def _rows(idx, limit: int = 5) -> str:
@@ -89,6 +90,12 @@ def _corner(bounds: SoilBounds, weakest: bool, model: str) -> Soil:
     k = 0 if weakest else 1
     c = 0.0 if model == "cohesion-free" else bounds.cohesion[k]
     return Soil(c, bounds.friction_angle[k], bounds.shear_modulus[1 - k])
+
+
+def fmax_range(bounds: SoilBounds, vehicle: Vehicle, model: str, normal_load: float) -> tuple[float, float]:
+    """Smallest and largest thrust limit F_max (N) that soils within the bounds give at this load."""
+    return (float(max_thrust(_corner(bounds, True, model), vehicle, model, normal_load=float(normal_load))),
+            float(max_thrust(_corner(bounds, False, model), vehicle, model, normal_load=float(normal_load))))
 
 
 def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: SoilBounds) -> list[Finding]:
@@ -158,8 +165,7 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
         for W in np.unique(load):
             sel = load == W
             fm = max_thrust(soil, vehicle, model, normal_load=float(W))
-            fm_lo = max_thrust(_corner(bounds, True, model), vehicle, model, normal_load=float(W))
-            fm_hi = max_thrust(_corner(bounds, False, model), vehicle, model, normal_load=float(W))
+            fm_lo, fm_hi = fmax_range(bounds, vehicle, model, float(W))
             tol = 1e-3 * (fm_hi - fm_lo)
             side = "smallest" if fm <= fm_lo + tol else "largest" if fm >= fm_hi - tol else None
             if not side or fm <= 0:

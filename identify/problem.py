@@ -113,6 +113,7 @@ class SlipProblem:
     effects: EffectSet | None = None
     fixed: tuple = ()
     rig_speed: float = DEFAULT_RIG_SPEED
+    noise_model: str = "equal"  # "equal" weights, "relative" (proportional to the force) or "given" sigma
 
     @property
     def measured_values(self) -> np.ndarray:
@@ -160,7 +161,8 @@ class SlipProblem:
                             weighted_residuals=rw, residuals=r, residual_unit="N", n_samples=self.n,
                             normal_loads=self.load, vehicle=self.vehicle, bounds=self.bounds, status=status,
                             success=success, message=message, iterations=iterations, solve_time=solve_time,
-                            sigma_known=self.sigma_known, warnings=warnings, extra=extra, measured=self.measured,
+                            sigma_known=self.sigma_known, warnings=warnings,
+                            extra={"sigma_model": self.noise_model, **(extra or {})}, measured=self.measured,
                             residual_model=SweepResiduals(self.rig_speed),
                             samples=(self.slip, self.force, self.load))
 
@@ -257,7 +259,8 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
     if data.measured == "drawbar_pull":
         offset = nominal_offset(data.slip, load, vehicle, rig_speed)
         force = force + offset
-    return SlipProblem(slip=np.array(data.slip, float), force=force, load=load,
+    noise_model = "equal" if sigma is None else "relative" if isinstance(sigma, str) else "given"
+    return SlipProblem(slip=np.array(data.slip, float), force=force, load=load, noise_model=noise_model,
                        sigma=sig, sigma_known=known, vehicle=vehicle, bounds=bounds, model=model,
                        source=data.source, measured=data.measured, offset=offset,
                        effects=structure if structure else None, fixed=fixed_t, rig_speed=float(rig_speed))

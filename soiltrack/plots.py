@@ -61,10 +61,10 @@ def plot_data(data: SlipData | DriveLog, path: str, title: str = "") -> str:
 
 
 def force_unit(values) -> tuple[float, str]:
-    """``(divisor, unit)`` for forces of this magnitude: kN from 1 kN on, else N."""
-    a = np.abs(np.asarray(values, dtype=float))
-    a = a[np.isfinite(a)]
-    return (1e3, "kN") if a.size and float(np.max(a)) >= 1e3 else (1.0, "N")
+    """``(divisor, unit)`` for forces of this magnitude: kN from 1 kN on, else N (as the reports)."""
+    from .identify.estimate_types import _force_scale
+
+    return _force_scale(values)
 
 
 def _curve_band(grid, result, vehicle, W: float) -> np.ndarray | None:

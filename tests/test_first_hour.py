@@ -289,3 +289,38 @@ def test_plausibility_unit_checks():
     assert check_slip_data(slip, F, load, LIGHT, "full", PRACTICAL_BOUNDS) == []
     codes = [f.code for f in check_slip_data(slip, F / 1e3, load, LIGHT, "full", PRACTICAL_BOUNDS)]
     assert codes == ["force_scale_low"]
+
+
+# --- items 5, 7, 10: the report and the JSON say each thing once, in units a person reads -------------
+def test_relative_sigma_leaves_a_trace(capsys, sweep_csv):
+    main(["fit", sweep_csv, "--vehicle", "light", "--sigma", "relative", "--json"])
+    assert json.loads(capsys.readouterr().out)["sigma_model"] == "relative"
+    main(["fit", sweep_csv, "--vehicle", "light", "--sigma", "relative"])
+    out = capsys.readouterr().out
+    assert "noise: proportional to the force" in out and "estimated from the residuals at about" in out
+    main(["fit", sweep_csv, "--vehicle", "light", "--sigma", "2"])
+    assert "sigma given per sample and taken as known" in capsys.readouterr().out
+
+
+def test_one_k_interval_cut_at_the_bound_and_said(capsys):
+    wong = os.path.join(ROOT, "examples", "data", "wong2001_p176.csv")
+    main(["fit", wong, "--vehicle", os.path.join(ROOT, "examples", "data", "heavy_vehicle.json"), "--json"])
+    js = json.loads(capsys.readouterr().out)
+    pk = js["parameters"]["shear_modulus_m"]
+    ck = next(c for c in js["combinations"] if c["name"] == "K")
+    assert pk["ci95"] == ck["ci95"] and ck["ci95"][0] >= 0.006  # was [-0.0065, ...] beside [0.006, ...]
+    assert "lower end of the 95 % interval is cut at the bound 0.006 m" in ck["note"]
+    assert "lower end of the 95 % interval is cut at the bound 0.006 m" in pk["note"]
+    for c in js["combinations"]:
+        assert c["ci95"][0] is None or c["ci95"][0] >= 0  # no negative K, K/l or slope
+
+
+def test_report_units_by_magnitude_and_each_thing_once(capsys, sweep_csv):
+    main(["fit", sweep_csv, "--vehicle", "light"])
+    out = capsys.readouterr().out
+    assert " kN" not in out.replace("kN/slip", "")  # 300 N vehicle: forces in N (was "RMSE 0.003376 kN")
+    assert "RMSE " in out and out.split("RMSE ")[1].split(",")[0].endswith(" N")
+    assert "F_max@W=" not in out and "F_max at W = 300 N" in out
+    assert out.count("c and phi are not separable") == 1
+    assert "scaled singular values" in out and "relative to the strongest" in out
+    assert "null direction" not in out and "leaves the fitted curve unchanged" in out
