@@ -324,3 +324,23 @@ def test_report_units_by_magnitude_and_each_thing_once(capsys, sweep_csv):
     assert out.count("c and phi are not separable") == 1
     assert "scaled singular values" in out and "relative to the strongest" in out
     assert "null direction" not in out and "leaves the fitted curve unchanged" in out
+
+
+# --- item 11: smaller ones ----------------------------------------------------------------------------
+def test_quick_paper_run_does_not_overwrite_the_full_report():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("reproduce_paper", os.path.join(ROOT, "examples",
+                                                                                   "reproduce_paper.py"))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    assert mod.default_out(True) != mod.default_out(False)
+
+
+def test_fit_many_progress_in_a_log_has_no_carriage_returns(capsys):
+    from soiltrack.identify import fit_many
+
+    ds = [simulate(LIGHT, TERRAINS["dry_sand"], kind="sweep", seed=s) for s in range(8)]
+    fit_many(ds, LIGHT, progress=True, chunk_size=2)
+    err = capsys.readouterr().err
+    assert "\r" not in err and err.count("\n") >= 2 and "8/8 fits" in err
