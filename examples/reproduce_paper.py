@@ -700,16 +700,24 @@ def dist(a, spec=".3g", unit=""):
     return f"{np.median(a):{spec}} [{q(a, 5):{spec}}, {q(a, 95):{spec}}]{unit}"
 
 
+def default_out(quick: bool) -> str:
+    """Output folder when ``--out`` is not given: a ``--quick`` smoke run has its own."""
+    return os.path.join(_ROOT, "examples", "out", "paper-quick" if quick else "paper")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", default=os.path.join(_ROOT, "examples", "out", "paper"), help="output folder")
+    ap.add_argument("--out", default=None, help="output folder (default examples/out/paper; with --quick "
+                                                "examples/out/paper-quick, so a smoke run never overwrites the full report)")
     ap.add_argument("--quick", action="store_true", help="smoke run: 50 draws, 20 starts, 3 timing repeats")
     ap.add_argument("--draws", type=int, default=None, help="noisy draws for Table 2 (default 1000; quick 50)")
     ap.add_argument("--starts", type=int, default=None, help="random initial vectors (default 100; quick 20)")
     ap.add_argument("--repeats", type=int, default=None, help="timing repeats per Table 1 row (default 30)")
     ap.add_argument("--seed", type=int, default=2005, help="random seed")
     args = ap.parse_args(argv)
+    if args.out is None:
+        args.out = default_out(args.quick)
     args.draws = args.draws if args.draws is not None else (50 if args.quick else 1000)
     args.starts = args.starts if args.starts is not None else (20 if args.quick else 100)
     args.repeats = args.repeats if args.repeats is not None else (3 if args.quick else 30)

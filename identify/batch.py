@@ -199,9 +199,11 @@ class _Progress:
         if self.enabled:
             dt = time.perf_counter() - self.t0
             rate = self.done / dt if dt > 0 else float("inf")
-            sys.stderr.write(f"\rfit_many: {self.done}/{self.total} fits ({rate:,.0f}/s)")
-            if self.done >= self.total:
-                sys.stderr.write("\n")
+            line = f"fit_many: {self.done}/{self.total} fits ({rate:,.0f}/s)"
+            if sys.stderr.isatty():  # a terminal: one line, rewritten in place
+                sys.stderr.write("\r" + line + ("\n" if self.done >= self.total else ""))
+            elif self.done >= self.total or self.done * 10 // self.total > (self.done - k) * 10 // self.total:
+                sys.stderr.write(line + "\n")  # a log file: one line per tenth, no carriage returns
             sys.stderr.flush()
 
 

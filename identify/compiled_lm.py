@@ -496,8 +496,8 @@ def fit_compiled(pb: SlipProblem, x0=None, n_grid: int = 25, ipopt_options: dict
                         success=True, message="converged (compiled projected Levenberg-Marquardt, first-order "
                                               f"conditions met; {src}{note})",
                         iterations=int(iters), solve_time=time.perf_counter() - t0, sigma_known=pb.sigma_known,
-                        warnings=pb.noise_warning(r),
-                        extra={"engine": "compiled-lm", "engine_call_time_s": t_call,
+                        warnings=pb.noise_warning(r), samples=(pb.slip, pb.force, pb.load),
+                        extra={"engine": "compiled-lm", "sigma_model": pb.noise_model, "engine_call_time_s": t_call,
                                "start": _theta_of(zs, p)})
 
 

@@ -8,7 +8,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ["ParameterEstimate", "Combination", "EDGE_UNITS", "finite_or_none"]
+import numpy as np
+
+__all__ = ["ParameterEstimate", "Combination", "EDGE_UNITS", "finite_or_none", "format_force"]
 
 EDGE_UNITS = _EDGE = {  # SI name -> (JSON key, edge unit, factor SI -> edge, label, SI unit)
     "cohesion": ("cohesion_kpa", "kPa", 1e-3, "cohesion c", "Pa"),
@@ -142,6 +144,8 @@ class Combination:
         Whether the data determine it (its gradient lies in the Jacobian's row space).
     weakly_identifiable : bool
         Variance inflation above the 0.99-correlation level.
+    note : str
+        Plain words about the interval, e.g. that a bound cut it (empty when nothing to say).
     """
 
     name: str
@@ -152,10 +156,24 @@ class Combination:
     description: str
     estimable: bool = True
     weakly_identifiable: bool = False
+    note: str = ""
 
     def to_dict(self) -> dict:
         """JSON-ready dict (SI units as named); never NaN."""
         return {"name": self.name, "value": _f(self.value), "stderr": _f(self.stderr),
                 "ci95": [_f(self.ci95[0]), _f(self.ci95[1])], "unit": self.unit,
                 "description": self.description, "estimable": bool(self.estimable),
-                "weakly_identifiable": bool(self.weakly_identifiable)}
+                "weakly_identifiable": bool(self.weakly_identifiable), "note": self.note}
+
+
+def _force_scale(values) -> tuple[float, str]:
+    """``(divisor, unit)`` for forces of this size: kN from 1 kN on, else N."""
+    a = np.abs(np.asarray(values, dtype=float))
+    a = a[np.isfinite(a)]
+    return (1e3, "kN") if a.size and float(np.max(a)) >= 1e3 else (1.0, "N")
+
+
+def format_force(x: float, digits: int = 4) -> str:
+    """A force in N or kN by its magnitude: ``"3.376 N"``, ``"235.1 kN"``."""
+    sc, u = _force_scale([x])
+    return f"{x / sc:.{digits}g} {u}"

@@ -24,8 +24,22 @@ import numpy as np
 
 from ..soilmodel.soil import PARAMETER_NAMES, Soil
 from .core_stats import _WEAK_VIF
-from .estimate_types import Combination, ParameterEstimate
+from .estimate_types import _EDGE, Combination, ParameterEstimate, format_force
 from .identifiability import BOUND_TOL
+from .plausibility import fmax_range
+
+
+def _cut_note(lo: float, hi: float, b_lo: float, b_hi: float, factor: float, unit: str) -> list[str]:
+    """Plain words for a 95 % interval ``[lo, hi]`` cut at the bounds ``[b_lo, b_hi]`` (edge units via factor)."""
+    out = []
+    unit = "" if unit in ("-", "") else " " + unit
+    if lo < b_lo:
+        out.append(f"the lower end of the 95 % interval is cut at the bound {b_lo * factor:.4g}{unit} (the "
+                   f"symmetric interval would reach {lo * factor:.4g}{unit})")
+    if hi > b_hi:
+        out.append(f"the upper end of the 95 % interval is cut at the bound {b_hi * factor:.4g}{unit} (the "
+                   f"symmetric interval would reach {hi * factor:.4g}{unit})")
+    return out
 
 __all__ = ["EstimateViews"]
 
@@ -85,10 +99,15 @@ class EstimateViews:
         idx = np.array(self.free)
         out: list[Combination] = []
 
-        def add(name, value, g3, unit, desc):
+        def add(name, value, g3, unit, desc, rng=None):
+            """``rng``: the range the bounds allow; the interval is cut there, and the note says so."""
             se, est, weak = self._combo_stderr(self._full(g3)[idx])
             ci = (value - q * se, value + q * se) if (se is not None and q is not None) else (None, None)
-            out.append(Combination(name, float(value), se, ci, unit, desc, est, weak))
+            note = ""
+            if rng is not None and ci[0] is not None:
+                note = "; ".join(_cut_note(ci[0], ci[1], rng[0], rng[1], 1.0, unit))
+                ci = (max(ci[0], rng[0]), min(ci[1], rng[1]))
+            out.append(Combination(name, float(value), se, ci, unit, desc, est, weak, note))
 
         cf = self.model == "cohesion-free"
         actual = ""
@@ -96,20 +115,27 @@ class EstimateViews:
             W = float(W)
             fm, gF = self._fmax(W)
             if self.effect_labels:
-                actual = f" (actual normal load N = {self._effective_load(W)[0] / 1e3:.6g} kN with the fitted effects)"
+                actual = f" (actual normal load N = {format_force(self._effective_load(W)[0], 6)} with the fitted effects)"
             add(f"F_max@W={W:.6g}N", fm, gF, "N",
-                f"soil thrust limit {'N tan(phi)' if cf else 'A c + N tan(phi)'} at W = {W / 1e3:.6g} kN{actual}"
+                f"soil thrust limit {'N tan(phi)' if cf else 'A c + N tan(phi)'} at W = {format_force(W, 6)}{actual}"
                 if self.effect_labels else
-                f"soil thrust limit {'W tan(phi)' if cf else 'A c + W tan(phi)'} at W = {W / 1e3:.6g} kN")
-        add("K", K, [0.0, 0.0, 1.0], "m", "shear deformation modulus K")
-        add("K/l", K / l, [0.0, 0.0, 1.0 / l], "-", f"K over the track length l = {l:.6g} m")
+                f"soil thrust limit {'W tan(phi)' if cf else 'A c + W tan(phi)'} at W = {format_force(W, 6)}",
+                rng=None if self.effect_labels else fmax_range(self.bounds, self.vehicle, self.model, W))
+        Kb = self.bounds.shear_modulus
+        add("K", K, [0.0, 0.0, 1.0], "m", "shear deformation modulus K", rng=Kb)
+        add("K/l", K / l, [0.0, 0.0, 1.0 / l], "-", f"K over the track length l = {l:.6g} m",
+            rng=(Kb[0] / l, Kb[1] / l))
         for W in self.normal_loads:
             W = float(W)
             fm, gF = self._fmax(W)
             s0 = fm * l / (2.0 * K)
             g = gF * l / (2.0 * K) + self._full([0.0, 0.0, -fm * l / (2.0 * K * K)])
+            srng = None
+            if not self.effect_labels:
+                f_lo, f_hi = fmax_range(self.bounds, self.vehicle, self.model, W)
+                srng = (f_lo * l / (2.0 * Kb[1]), f_hi * l / (2.0 * Kb[0]))
             add(f"initial_slope@W={W:.6g}N", s0, g, "N/slip", f"small-slip slope dF/di = F_max l / (2 K) at W = "
-                f"{W / 1e3:.6g} kN")
+                f"{format_force(W, 6)}", rng=srng)
         return out
 
     @cached_property
@@ -163,6 +189,9 @@ class EstimateViews:
                     ci = (val - q * se, val + q * se)
                 elif se is not None and q is not None:
                     ci = (max(lo[j], val - q * se), min(hi[j], val + q * se))
+                    if side is None:
+                        notes.extend(_cut_note(val - q * se, val + q * se, lo[j], hi[j], _EDGE[name][2],
+                                               _EDGE[name][1]))
                 else:
                     ci = (None, None)
                 if side is not None:
@@ -300,6 +329,45 @@ class EstimateViews:
         label = ("optimiser's point on an unidentifiable ridge - NOT an estimate" if self.soil is None
                  else f"identified ({self.model}, {self.method})")
         return self._soil_at(self.theta, label)
+
+    def prediction_soil(self, normal_load) -> Soil:
+        """A :class:`Soil` that reproduces the fitted curve at ``normal_load`` (N, scalar or array).
+
+        Used by :func:`soiltrack.soilmodel.tractive_force` and ``max_thrust`` when they are given
+        this result. With c and phi separable it is :attr:`soil`, valid at any load. At one
+        normal load every point of the c-phi ridge gives the same curve at that load, so the
+        optimiser's ridge point predicts it exactly there; any other load is refused.
+
+        Raises
+        ------
+        DataError
+            The fit failed, K is not identifiable, effects were fitted (use
+            ``tractive_force_with_effects`` with :attr:`effect_set`), or ``normal_load``
+            differs from the fitted load while c and phi were not separable.
+        """
+        from ..soilmodel.errors import DataError
+        from .estimate_types import _EDGE
+
+        if not self.success:
+            raise DataError(f"the fit did not succeed ({self.status}): it gives no prediction")
+        if self.effect_labels:
+            raise DataError("the fit includes effects: predict with soilmodel.tractive_force_with_effects(slip, "
+                            "result.ridge_point, vehicle, result.effect_set)")
+        if self.soil is not None:
+            return self.soil
+        ident = {n: pe.identifiable for n, pe in self.parameters.items() if not pe.fixed}
+        if not (self._cphi_ridge and ident.get("shear_modulus", False)) or self.ridge_point is None:
+            missing = [_EDGE[n][3] for n, ok in ident.items() if not ok]
+            raise DataError(f"{', '.join(missing)} not identifiable from these data: no prediction")
+        W0 = float(self.normal_loads[0])
+        W = np.atleast_1d(np.asarray(normal_load, dtype=float))
+        off = W[~(np.abs(W - W0) <= 1e-6 * W0)]
+        if off.size:
+            raise DataError(f"c and phi were not separable (all data at W = {W0:.6g} N): the fit predicts the "
+                            f"tractive force at that load only, not at W = {float(off[0]):.6g} N; fit data at "
+                            "two or more normal loads to predict at others")
+        return Soil(*(float(x) for x in self.theta[:3]),
+                    name=f"fitted curve at W = {W0:.6g} N (ridge point: c and phi NOT separately identified)")
 
     @staticmethod
     def _soil_at(theta, name: str) -> Soil | None:

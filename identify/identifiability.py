@@ -22,7 +22,7 @@ import numpy as np
 
 from ..soilmodel.ridge import ridge_ranges
 from .core_stats import RANK_TOL, WEAK_CORRELATION, _WEAK_VIF
-from .estimate_types import _EDGE, Combination, _f
+from .estimate_types import _EDGE, Combination, _f, format_force
 
 __all__ = ["IdentifiabilityViews", "BOUND_TOL"]
 
@@ -122,7 +122,7 @@ class IdentifiabilityViews:
         if rr is None:
             return (None, None), (None, None), (f"no point of the ridge A c + W tan(phi) = F_max with {how} "
                                                 "lies within the bounds")
-        return rr[0], rr[1], (f"range along the ridge A c + W tan(phi) = F_max (W = {W / 1e3:.6g} kN) "
+        return rr[0], rr[1], (f"range along the ridge A c + W tan(phi) = F_max (W = {format_force(W, 6)}) "
                                           f"with {how}, within the bounds")
 
 
@@ -193,7 +193,7 @@ class IdentifiabilityViews:
         if self._cphi_ridge:
             W = float(self.normal_loads[0])
             statements.append(
-                f"c and phi are not separable: all data are at one normal load (W = {W / 1e3:.6g} kN), where they "
+                f"c and phi are not separable: all data are at one normal load (W = {format_force(W, 6)}), where they "
                 "enter only through F_max = A c + W tan(phi); infinitely many (c, phi) give the same curve. "
                 "The data pin down F_max and K. Data at two or more normal loads (payload change, slope) or a "
                 "prior are needed to separate c and phi.")
@@ -224,7 +224,7 @@ class IdentifiabilityViews:
                        and not self.effect_labels]  # with effects, F_max may be weak through an effect
         high = {w: r for w, r in fk_corr.items() if r is not None and abs(r) > WEAK_CORRELATION}
         if weak_combos or high or (params["shear_modulus"].weakly_identifiable and not self.effect_labels):
-            rtxt = (" (correlation " + ", ".join(f"{r:+.4f} at W = {float(w) / 1e3:.6g} kN" for w, r in high.items())
+            rtxt = (" (correlation " + ", ".join(f"{r:+.4f} at W = {format_force(float(w), 6)}" for w, r in high.items())
                     + ")") if high else ""
             statements.append(
                 f"F_max and K are strongly correlated{rtxt}: the data show mainly the start of the thrust-slip curve, "

@@ -144,6 +144,7 @@ class SlipProblem:
     fixed: tuple = ()
     rig_speed: float = DEFAULT_RIG_SPEED
     effect_start: tuple = ()
+    noise_model: str = "equal"  # "equal" weights, "relative" (proportional to the force) or "given" sigma
 
     @property
     def measured_values(self) -> np.ndarray:
@@ -190,11 +191,13 @@ class SlipProblem:
                             weighted_residuals=rw, residuals=r, residual_unit="N", n_samples=self.n,
                             normal_loads=self.load, vehicle=self.vehicle, bounds=self.bounds, status=status,
                             success=success, message=message, iterations=iterations, solve_time=solve_time,
-                            sigma_known=self.sigma_known, warnings=warnings, extra=extra, **self.result_kwargs())
+                            sigma_known=self.sigma_known, warnings=warnings,
+                            extra={"sigma_model": self.noise_model, **(extra or {})}, **self.result_kwargs())
 
     def result_kwargs(self) -> dict:
         """What every slip result records about these data: pass to ``build_result(..., **pb.result_kwargs())``."""
-        return {"measured": self.measured, "residual_model": SweepResiduals(self.rig_speed)}
+        return {"measured": self.measured, "residual_model": SweepResiduals(self.rig_speed),
+                "samples": (self.slip, self.force, self.load)}
 
 
 def check_common(vehicle, model: str, method: str, bounds) -> None:
@@ -264,12 +267,18 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
     if np.all(data.slip == 0):
         raise DataError("all slips are zero: the tractive force carries no information on the soil",
                         file=data.source, column="slip")
+    n_slips = np.unique(data.slip[data.slip > 0]).size
+    if n_slips < 2:  # F(i) = F_max g(i l / K): one slip gives one number, not both F_max and K
+        raise DataError(f"all nonzero slips are equal (i = {float(np.max(data.slip)):.6g}): one point of the "
+                        "thrust-slip curve cannot separate F_max from K; measure at two or more different slips "
+                        "(ideally spread up to the traction limit)", file=data.source, column="slip")
     offset = None
     force = np.array(data.values, float)
     if data.measured == "drawbar_pull":
         offset = nominal_offset(data.slip, load, vehicle, rig_speed)
         force = force + offset
-    return SlipProblem(slip=np.array(data.slip, float), force=force, load=load,
+    noise_model = "equal" if sigma is None else "relative" if isinstance(sigma, str) else "given"
+    return SlipProblem(slip=np.array(data.slip, float), force=force, load=load, noise_model=noise_model,
                        sigma=sig, sigma_known=known, vehicle=vehicle, bounds=bounds, model=model,
                        source=data.source, measured=data.measured, offset=offset,
                        effects=structure if structure else None, fixed=fixed_t, rig_speed=float(rig_speed),

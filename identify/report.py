@@ -14,9 +14,9 @@ import numpy as np
 
 from ..soilmodel.soil import PARAMETER_NAMES, Soil, SoilBounds
 from ..soilmodel.vehicle import Vehicle
-from .estimate_types import _EDGE, ParameterEstimate, _f
+from .estimate_types import _EDGE, ParameterEstimate, _f, _force_scale, format_force
 
-__all__ = ["ReportViews"]
+__all__ = ["ReportViews", "format_force"]
 
 
 class ReportViews:
@@ -26,7 +26,7 @@ class ReportViews:
     def warnings(self) -> tuple[str, ...]:
         """Warnings in plain words (input warnings first)."""
         w = list(self.input_warnings)
-        if not self.success:
+        if not self.success and "answer not usable" not in self.status:  # that one says why in its own warnings
             w.append(f"the fit did not succeed ({self.status}): {self.message}")
         for name, d in self.outside_bounds.items():
             j = PARAMETER_NAMES.index(name)
@@ -70,6 +70,8 @@ class ReportViews:
             "data_kind": self.data_kind, "rmse": rmse, "residual_unit": self.residual_unit,
             "cost": _f(self.cost), "iterations": int(self.iterations), "message": self.message,
             "dof": int(self.dof), "sigma_known": bool(self.sigma_known),
+            "sigma_model": (self.extra.get("sigma_model") if self.data_kind == "slip" and isinstance(self.extra, dict)
+                            else "per-channel" if self.data_kind == "drive" else None),
             "normal_loads_N": [float(w) for w in self.normal_loads],
             "identifiability": self.identifiability, "warnings": list(self.warnings),
             "active_bounds": self.active_bounds,
@@ -133,32 +135,49 @@ class ReportViews:
                          + (f" - {bc['reason']}" if bc.get("reason") else ""))
         return L
 
+    def _noise_line(self) -> str:
+        """What noise model the intervals rest on, in plain words (said once)."""
+        x = self.extra if isinstance(self.extra, dict) else {}
+        kind = x.get("sigma_model") if self.data_kind == "slip" else None
+        q = self.quantile
+        t = (f"95 % intervals use Student t ({self.dof} residual degrees of freedom, quantile {q:.4g})"
+             if q is not None and not self.sigma_known else "95 % intervals use the normal quantile 1.96")
+        if self.data_kind == "drive":
+            head = "noise: per-channel levels " + ("given" if self.sigma_known else "estimated from the log")
+        elif kind == "relative":
+            head = ("noise: proportional to the force (sigma='relative': weights 1/|F|, floored at 1 % of the "
+                    "largest force); its level estimated from the residuals")
+            if self.s2 is not None:
+                head += f" at about {100 * self.s2 ** 0.5:.3g} % of the force"
+        elif kind == "given" or (kind is None and self.sigma_known):
+            head = ("noise: sigma given per sample and taken as known" if self.sigma_known else
+                    "noise: sigma given as relative weights; level estimated from the residuals")
+        else:
+            head = "noise: equal weights; level estimated from the residuals"
+            if self.s2 is not None and self.residual_unit == "N":
+                head += f" (s = {format_force(self.s2 ** 0.5)})"
+        if q is None and not self.sigma_known:
+            return head + "; no residual degrees of freedom -> no standard errors"
+        return f"{head}; {t}"
+
     def report(self) -> str:
-        """A human-readable multi-line report (kPa, deg, m, kN)."""
+        """A human-readable multi-line report (units by magnitude: N or kN, kPa, deg, m)."""
         L: list[str] = []
-        loads = ", ".join(f"{w / 1e3:.6g} kN" for w in self.normal_loads)
+        loads = ", ".join(format_force(w) for w in self.normal_loads)
         L.append(f"soiltrack identification - model {self.model}, method {self.method}")
         what = f" ({self.measured.replace('_', ' ')})" if self.measured else ""
-        L.append(f"data: {self.data_kind}{what}, {self.n_samples} samples, normal load(s): {loads}")
+        L.append(f"data: {self.data_kind}{what}, {self.n_samples} samples, normal load(s) W: {loads}")
         L.append(f"vehicle: {self.vehicle.name or 'unnamed'} (l = {self.vehicle.track_length:.4g} m, "
                  f"b = {self.vehicle.track_width:.4g} m, A = {self.vehicle.contact_area:.4g} m^2)")
         L.append(f"status: {self.status} ({'success' if self.success else 'FAILED'}), {self.iterations} iterations, "
                  f"{self.solve_time * 1e3:.3g} ms")
         unit = self.residual_unit
-        if unit == "N":
-            L.append(f"fit: RMSE {self.rmse / 1e3:.4g} kN, cost {self.cost:.6g}, residual dof {self.dof}")
-        else:
-            L.append(f"fit: RMSE {self.rmse:.4g} {unit}, cost {self.cost:.6g}, residual dof {self.dof}")
-        q = self.quantile
-        if self.sigma_known:
-            L.append("noise: sigma given; 95 % intervals use the normal quantile 1.96")
-        elif q is not None:
-            L.append(f"noise: sigma estimated from the residuals; 95 % intervals use Student t ({self.dof} dof, "
-                     f"quantile {q:.4g})")
-        else:
-            L.append("noise: unknown and no residual degrees of freedom -> no standard errors")
+        rmse = format_force(self.rmse) if unit == "N" else f"{self.rmse:.4g} {unit}"
+        L.append(f"fit: RMSE {rmse}, cost {self.cost:.6g}, residual dof {self.dof}")
+        L.append(self._noise_line())
         L.extend(self._drive_log_lines())
         L.append("parameters (95 % intervals):")
+        notes = []
         for name, pe in self.parameters.items():
             lab = f"  {_EDGE[name][3]:<20}"
             u = pe.edge_unit
@@ -174,7 +193,12 @@ class ReportViews:
                 se = f" +- {pe.edge_stderr:.3g}" if pe.stderr is not None else " (no stderr)"
                 flag = " [ON " + pe.bound_side.upper() + " BOUND]" if pe.at_bound else ""
                 weak = " [weakly identifiable]" if pe.weakly_identifiable else ""
-                L.append(f"{lab}{pe.edge_value:.5g}{se} {u}, 95 % {rng}{flag}{weak}")
+                cut = " [cut at a bound, see below]" if "is cut at the bound" in (pe.note or "") else ""
+                L.append(f"{lab}{pe.edge_value:.5g}{se} {u}, 95 % {rng}{flag}{weak}{cut}")
+                if cut:
+                    notes.append(f"  {_EDGE[name][3]}: " + "; ".join(n for n in pe.note.split("; ")
+                                                                    if "is cut at the bound" in n))
+        L.extend(notes)
         if self.effects:
             L.append("effect parameters (95 % intervals, SI):")
         for name, ps in self.effects.items():
@@ -197,42 +221,72 @@ class ReportViews:
                             if pe.weakly_identifiable and pe.correlated_with else
                             (" [weakly identifiable]" if pe.weakly_identifiable else ""))
                     L.append(f"{lab}{pe.value:.5g}{se} {u}, 95 % {rng}{flag}{weak}")
-        L.append("identifiable combinations:" + ("" if self.combinations else " none (the fit failed)"))
-        for cb in self.combinations:
-            if cb.unit.startswith("N"):
-                v, se, u = cb.value / 1e3, (None if cb.stderr is None else cb.stderr / 1e3), "k" + cb.unit
-            else:
-                v, se, u = cb.value, cb.stderr, cb.unit
+        k_shown = self.parameters["shear_modulus"].identifiable and self.success
+        combos = [cb for cb in self.combinations if not (cb.name == "K" and k_shown)]  # K is said above
+        L.append("what the data determine (95 % intervals):" + ("" if combos else " nothing (the fit failed)"))
+        for cb in combos:
+            label = _combo_label(cb.name)
             if not cb.estimable:
-                L.append(f"  {cb.name:<26} not estimable from these data")
+                L.append(f"  {label:<28} not estimable from these data")
                 continue
-            s = f" +- {se:.3g}" if se is not None else " (no stderr)"
-            L.append(f"  {cb.name:<26} {v:.5g}{s} {u}{' [weak]' if cb.weakly_identifiable else ''}  ({cb.description})")
+            ends = [e for e in ("lower", "upper") if f"the {e} end of the 95 % interval is cut" in cb.note]
+            cut = f" [{' and '.join(ends)} end cut at the bound]" if ends else ""
+            L.append(f"  {label:<28} {_combo_value(cb)}{cut}{' [weak]' if cb.weakly_identifiable else ''}  "
+                     f"({cb.description})")
         ident = self.identifiability
-        L.append(f"identifiability: rank {ident['rank']} of {ident['n_parameters']}; scaled singular values "
+        L.append(f"identifiability: the data determine {ident['rank']} independent direction(s) of the "
+                 f"{ident['n_parameters']} parameters; sensitivity of the fit along each, relative to the strongest "
+                 "(scaled singular values; about 1e-8 or less = not determined): "
                  + ", ".join(f"{s:.3g}" for s in ident["scaled_singular_values"]))
         for d in ident["null_space"]:
-            L.append("  null direction: " + ", ".join(f"{k} {v:+.3g}" for k, v in d.items())
-                     + " (unit vector in kPa / deg / m: moving along it leaves the fit unchanged)")
-        for s in ident["statements"]:
-            L.append("  - " + s)
+            L.append("  undetermined direction: " + ", ".join(f"{k} {v:+.3g}" for k, v in d.items())
+                     + " (moving the parameters along it, in kPa / deg / m, leaves the fitted curve unchanged)")
+        for st in ident["statements"]:
+            L.append("  - " + st)
         if self.ridge_point is not None and self.soil is None:
             rp = self.ridge_point
             what = "optimiser's ridge point" if self.success else "last iterate of the failed fit"
             L.append(f"  ({what}, NOT an estimate: c = {rp.cohesion_kpa:.4g} kPa, "
                      f"phi = {rp.friction_angle_deg:.4g} deg, K = {rp.shear_modulus:.4g} m)")
         if self.n_samples <= 20:
-            sc, u = (1e-3, "kN") if unit == "N" else (1.0, unit)
-            L.append(f"residuals (model - data, {u}): " + ", ".join(f"{r * sc:+.4g}" for r in self.residuals))
-        if self.warnings:
+            if unit == "N":
+                sc, u = _force_scale(self.residuals)
+            else:
+                sc, u = 1.0, unit
+            L.append(f"residuals (model - data, {u}): " + ", ".join(f"{r / sc:+.4g}" for r in self.residuals))
+        said = set(ident["statements"])  # the identifiability statements are said once, above
+        warns = [w for w in self.warnings if w not in said]
+        if warns:
             L.append("warnings:")
-            for w in self.warnings:
+            for w in warns:
                 L.append("  ! " + w)
         return "\n".join(L)
 
     def __str__(self) -> str:  # pragma: no cover - convenience
         return self.report()
 
+
+
+def _combo_label(name: str) -> str:
+    """``"F_max@W=4905N"`` -> ``"F_max at W = 4.905 kN"`` (the JSON keeps the machine name)."""
+    if "@W=" in name and name.endswith("N"):
+        base, w = name.split("@W=")
+        return f"{base} at W = {format_force(float(w[:-1]))}"
+    return name
+
+
+def _combo_value(cb) -> str:
+    """Value, standard error and 95 % interval of a combination in units by magnitude."""
+    if cb.unit in ("N", "N/slip"):
+        sc, u = _force_scale([cb.value])
+        u += "/slip" if cb.unit == "N/slip" else ""
+    else:
+        sc, u = 1.0, ("" if cb.unit == "-" else cb.unit)
+    sp = f" {u}" if u else ""
+    se = f" +- {cb.stderr / sc:.3g}" if cb.stderr is not None else " (no stderr)"
+    lo, hi = cb.ci95
+    ci = f", 95 % [{lo / sc:.4g}, {hi / sc:.4g}]{sp}" if lo is not None and hi is not None else ""
+    return f"{cb.value / sc:.5g}{se}{sp}{ci}"
 
 
 def _json_default(o):

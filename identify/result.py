@@ -286,7 +286,7 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
                  warnings: Sequence[str] = (), extra: dict | None = None, effect_labels: Sequence[str] = (),
                  effect_values=None, effect_bounds: Sequence = (), effect_units: Sequence[str] = (),
                  effect_structure=None, fixed_labels: Sequence[str] = (), measured: str | None = None,
-                 residual_model=None) -> FitResult:
+                 residual_model=None, samples=None) -> FitResult:
     """Build a :class:`FitResult` from an optimum and its Jacobian (shared by all fitting methods).
 
     Parameters
@@ -329,6 +329,11 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
         What slip data measured (``"tractive_force"`` / ``"drawbar_pull"``).
     residual_model
         Object with ``residuals_on(result, data) -> dict`` for :meth:`FitResult.residuals_on`.
+    samples : tuple of arrays, optional
+        Slip data ``(slip, thrust_N, load_N)`` per sample: then the plausibility checks of
+        :mod:`soiltrack.identify.plausibility` run, add their warnings, and set
+        ``success=False`` when the answer is not usable (a force scale no soil within the bounds
+        gives, F_max fixed by a bound, residuals as large as the data, a gross outlier).
 
     Returns
     -------
@@ -344,6 +349,14 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
     m = len(labels)
     if J.ndim != 2 or J.shape[1] != 3 + m or J.shape[0] != rw.size:
         raise ValueError(f"jacobian must have shape (n_res, 3 + {m}) = ({rw.size}, {3 + m}), got {J.shape}")
+    if samples is not None and data_kind == "slip":
+        from .plausibility import assess
+
+        found, usable = assess(*samples, residuals, theta, vehicle, model, bounds)
+        warnings = tuple(warnings) + found
+        if not usable and success:
+            success, status = False, f"{status} (answer not usable)"
+            message = f"{message}; the data or the answer fail the plausibility checks (see the warnings)"
     effect_fields: dict[str, Any] = {"measured": measured, "residual_model": residual_model}
     if m:
         fixed_labels = tuple(fixed_labels)

@@ -287,8 +287,11 @@ def read_csv(path: str | os.PathLike) -> SlipData | DriveLog:
     elif any(c in header for c in DRIVE_COLUMNS):
         kind, required, optional = "drive", DRIVE_COLUMNS, DRIVE_OPTIONAL
     else:
+        sep = next((s for s in (";", "\t", "|") if len(header) == 1 and s in header[0]), None)
+        hint = (f" - the header is separated by {'a tab' if sep == chr(9) else repr(sep)}: soiltrack reads "
+                "comma-separated CSV with a decimal point (save or export as 'CSV, comma')") if sep else ""
         raise DataError(f"unrecognised columns {header}: expected {list(SLIP_COLUMNS)} (tractive force-slip "
-                        f"data), {list(DRAWBAR_COLUMNS)} (drawbar-pull data) or {list(DRIVE_COLUMNS)} (drive log)",
+                        f"data), {list(DRAWBAR_COLUMNS)} (drawbar-pull data) or {list(DRIVE_COLUMNS)} (drive log){hint}",
                         file=path)
     for col in required:
         if col not in header:

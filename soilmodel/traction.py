@@ -120,6 +120,38 @@ def sensitivity_function(model: str = "full") -> ca.Function:
                        ["slip", "c", "phi", "K", "W", "l", "b"], ["dF_dp"])
 
 
+def resolve_soil(soil, vehicle: Vehicle, model: str | None = None, normal_load=None) -> tuple[Soil, str]:
+    """The :class:`Soil` and model to predict with, from a ``Soil`` or a fit result.
+
+    A fit result (``soiltrack.identify.FitResult``, or any object with a method
+    ``prediction_soil(normal_load) -> Soil`` and a ``model`` attribute) is asked for a soil that
+    reproduces its fitted curve at the requested normal load(s). At one normal load c and phi
+    are not separable, but every point of the c-phi ridge gives the same curve at THAT load, so
+    the prediction is well determined there and refused (DataError) at any other load.
+
+    Raises
+    ------
+    DataError
+        ``soil`` is ``None`` (e.g. ``FitResult.soil`` when c and phi were not separable) or not
+        a soil, or the fit result cannot predict at the requested load.
+    """
+    if isinstance(soil, Soil):
+        return soil, check_model(model or "full")
+    hook = getattr(soil, "prediction_soil", None)
+    if callable(hook):
+        W = vehicle.weight if normal_load is None else normal_load
+        fitted_model = getattr(soil, "model", None) or "full"
+        if model is not None and check_model(model) != fitted_model:
+            raise DataError(f"the fit used the {fitted_model} model; predicting with model={model!r} would mix "
+                            "models (leave model out to use the fitted one)")
+        return hook(W), check_model(fitted_model)
+    if soil is None:
+        raise DataError("no soil given (None). FitResult.soil is None when c and phi are not separable (one "
+                        "normal load) or the fit failed: pass the FitResult itself, which predicts at the "
+                        "fitted normal load(s), e.g. tractive_force(slip, result, vehicle)")
+    raise DataError(f"soil must be a Soil or a fit result, got {type(soil).__name__}")
+
+
 def _args(slip, soil: Soil, vehicle: Vehicle, normal_load):
     W = vehicle.weight if normal_load is None else normal_load
     arrays = np.broadcast_arrays(np.asarray(slip, dtype=float), np.asarray(W, dtype=float))
@@ -129,21 +161,27 @@ def _args(slip, soil: Soil, vehicle: Vehicle, normal_load):
                    vehicle.track_length, vehicle.track_width]
 
 
-def tractive_force(slip, soil: Soil, vehicle: Vehicle, model: str = "full", normal_load=None) -> np.ndarray:
+def tractive_force(slip, soil, vehicle: Vehicle, model: str | None = None, normal_load=None) -> np.ndarray:
     """Tractive force of both tracks in newtons, as a numpy array shaped like ``slip``.
 
     Parameters
     ----------
     slip
         Track slip i (scalar or array). i < 0 is skid, handled as ``F(i) = -F(|i|)``.
-    soil, vehicle
-        Soil parameters and the vehicle (geometry and normal load W = m g).
+    soil
+        A :class:`Soil`, or a fit result (``FitResult``): then the fitted curve, valid at the
+        fitted normal load(s) when c and phi were not separable (refused elsewhere; see
+        :func:`resolve_soil`).
+    vehicle
+        The vehicle (geometry and normal load W = m g).
     model
-        ``"full"`` (Eq. 2) or ``"cohesion-free"`` (Eq. 8, drops ``A c``).
+        ``"full"`` (Eq. 2) or ``"cohesion-free"`` (Eq. 8, drops ``A c``); default ``"full"``
+        for a Soil, the fitted model for a fit result.
     normal_load
         Normal load W in N (scalar or array broadcastable with ``slip``); defaults to the
         vehicle's weight.
     """
+    soil, model = resolve_soil(soil, vehicle, model, normal_load)
     shape, args = _args(slip, soil, vehicle, normal_load)
     if args[0].size == 0:
         return np.zeros(shape)
@@ -153,13 +191,20 @@ def tractive_force(slip, soil: Soil, vehicle: Vehicle, model: str = "full", norm
 def tractive_force_sensitivities(slip, soil: Soil, vehicle: Vehicle, model: str = "full",
                                  normal_load=None) -> np.ndarray:
     """``dF/dc`` (N/Pa), ``dF/dphi`` (N/rad), ``dF/dK`` (N/m) from CasADi's AD, shape ``(n, 3)``."""
+    if not isinstance(soil, Soil):
+        raise DataError(f"soil must be a Soil (sensitivities to c and phi at a ridge point are meaningless), "
+                        f"got {type(soil).__name__}")
     shape, args = _args(slip, soil, vehicle, normal_load)
     out = np.asarray(sensitivity_function(model)(*args), dtype=float)
     return out.reshape(-1, 3)  # auto-mapped call: 1 x 3n, one [c, phi, K] block per point
 
 
-def max_thrust(soil: Soil, vehicle: Vehicle, model: str = "full", normal_load=None) -> float | np.ndarray:
-    """Soil thrust limit ``F_max = A c + W tan(phi)`` in N (cohesion-free: ``W tan(phi)``)."""
+def max_thrust(soil, vehicle: Vehicle, model: str | None = None, normal_load=None) -> float | np.ndarray:
+    """Soil thrust limit ``F_max = A c + W tan(phi)`` in N (cohesion-free: ``W tan(phi)``).
+
+    ``soil`` is a :class:`Soil` or a fit result (see :func:`tractive_force`).
+    """
+    soil, model = resolve_soil(soil, vehicle, model, normal_load)
     W = vehicle.weight if normal_load is None else np.asarray(normal_load, dtype=float)
     F = max_thrust_expr(soil.cohesion, soil.friction_angle, W, vehicle.contact_area, model)
     return F if np.ndim(F) else float(F)

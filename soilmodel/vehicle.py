@@ -22,6 +22,19 @@ _JSON_FIELDS = {  # JSON key -> dataclass field
     "max_power_W": "max_power",
     "road_wheels": "road_wheels",
 }
+#: Plausible ranges (SI) of the vehicle's numbers; anything outside is refused at input, because a
+#: typo (a mass of 1e300 kg, a track 500 m long) would otherwise surface as overflow deep in a solver.
+#: Generous on purpose: the largest tracked machines (bucket-wheel excavators) weigh about 1.4e7 kg.
+LIMITS = {
+    "mass": (1e-3, 1e8, "kg"),
+    "track_length": (1e-3, 100.0, "m"),
+    "track_width": (1e-3, 20.0, "m"),
+    "sprocket_radius": (1e-3, 10.0, "m"),
+    "sprocket_inertia": (0.0, 1e8, "kg m^2"),
+    "max_sprocket_torque": (0.0, 1e9, "N m"),
+    "max_power": (0.0, 1e9, "W"),
+}
+
 _REQUIRED = ("mass_kg", "track_length_m", "track_width_m", "sprocket_radius_m", "sprocket_inertia_kg_m2",
              "rolling_resistance")
 
@@ -77,11 +90,16 @@ class Vehicle:
                 raise DataError(f"vehicle {f.name} must be >= 0, got {v}")
             if f.name in ("max_sprocket_torque", "max_power") and v == 0:
                 raise DataError(f"vehicle {f.name} must be > 0 (or absent), got {v}")
+        for name, (lo, hi, unit) in LIMITS.items():
+            v = getattr(self, name)
+            if v is not None and not (v == 0 and lo == 0) and not lo <= v <= hi:
+                raise DataError(f"vehicle {name} = {v:.6g} {unit} is outside the plausible range [{lo:g}, {hi:g}] "
+                                f"{unit}: check the number and its unit")
         if self.rolling_resistance >= 1:
             raise DataError(f"vehicle rolling_resistance must be < 1, got {self.rolling_resistance}")
-        if self.road_wheels is not None and (isinstance(self.road_wheels, bool)
-                                             or not isinstance(self.road_wheels, int) or self.road_wheels < 1):
-            raise DataError(f"vehicle road_wheels must be a positive integer, got {self.road_wheels!r}")
+        rw = self.road_wheels
+        if rw is not None and (isinstance(rw, bool) or not isinstance(rw, int) or not 1 <= rw <= 100):
+            raise DataError(f"vehicle road_wheels must be a positive integer (at most 100), got {rw!r}")
 
     @property
     def weight(self) -> float:
@@ -152,10 +170,12 @@ class Vehicle:
         else:
             source = text
             try:
-                with open(text, encoding="utf-8") as fh:
+                with open(text, encoding="utf-8-sig") as fh:  # a UTF-8 BOM (Windows editors) is fine
                     raw = fh.read()
             except OSError as e:
                 raise DataError(f"cannot read vehicle file: {e.strerror}", file=source) from None
+            except UnicodeDecodeError:
+                raise DataError("not a UTF-8 text file (save the vehicle JSON as UTF-8)", file=source) from None
         try:
             obj = json.loads(raw)
         except json.JSONDecodeError as e:

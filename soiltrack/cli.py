@@ -1,7 +1,8 @@
 """The ``soiltrack`` command: one subcommand per job, each in its own ``cmd_*`` module.
 
-Exit status: 0 success; 1 the solver failed (results are still printed, with the reason);
-2 bad input (the message names the file, the column and the row; no traceback).
+Exit status: 0 success; 1 the solver failed or its answer is not usable (results are still
+printed, with the reason); 2 bad input (the message names the file, the column and the row;
+no traceback).
 """
 from __future__ import annotations
 
@@ -16,15 +17,28 @@ from .soilmodel import DataError
 #: Subcommand modules, in the order of the help text; each has ``add_parser(subparsers)``.
 COMMAND_MODULES = ("cmd_simulate", "cmd_fit")
 
+EPILOG = """\
+exit status:
+  0  success
+  1  the solver failed or its answer is not usable (the report or JSON is still printed, with the reason)
+  2  bad input: the message names the file, column or argument, and the row
+
+example:
+  soiltrack simulate --kind sweep --vehicle light --terrain sandy_loam --loads 300,450 --seed 1 -o sweep.csv
+  soiltrack fit sweep.csv --vehicle light --plot fit.png
+
+'soiltrack COMMAND --help' describes each command."""
+
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``soiltrack`` command."""
     p = argparse.ArgumentParser(prog="soiltrack",
-                                description="Soil-parameter identification and traversability for tracked vehicles.")
+                                description="Soil-parameter identification and traversability for tracked vehicles.",
+                                epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     from . import __version__
 
     p.add_argument("--version", action="version", version=f"soiltrack {__version__}")
-    sub = p.add_subparsers(dest="command", required=True)
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMAND_MODULES:
         importlib.import_module(f"{__package__}.{name}").add_parser(sub)
     return p

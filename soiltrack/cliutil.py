@@ -32,7 +32,7 @@ def soil_arg(terrain: str | None, soil: str | None) -> Soil:
             c, phi, K = (float(p) for p in parts)
         except ValueError:
             raise DataError(f"--soil expects three numbers C_KPA,PHI_DEG,K_M, got {soil!r}") from None
-        return Soil.from_kpa_deg(c, phi, K, name="command line")
+        return Soil.from_kpa_deg(c, phi, K, name=f"soil c = {c:g} kPa, phi = {phi:g} deg, K = {K:g} m")
     key = terrain or "lete_sand"
     if key not in TERRAINS:
         raise DataError(f"unknown terrain {key!r}; presets: {sorted(TERRAINS)}")
@@ -48,3 +48,40 @@ def floats_arg(text: str, what: str) -> list[float]:
     if not vals or not all(math.isfinite(v) for v in vals):
         raise DataError(f"{what} expects finite numbers, got {text!r}")
     return vals
+
+
+#: Most samples a simulated drive log may have (a one-hour log at 500 Hz is 1.8 million).
+MAX_SAMPLES = 2_000_000
+
+
+def figure_formats() -> dict[str, str]:
+    """File extensions matplotlib can write (``{"png": "Portable Network Graphics", ...}``)."""
+    from matplotlib.figure import Figure
+
+    return Figure().canvas.get_supported_filetypes()
+
+
+def output_path(path: str, option: str, *, figure: bool = False) -> str:
+    """Check an output path before any work is done (DataError naming the option otherwise).
+
+    The folder must exist and the path must not be a folder; a figure path must end in an
+    extension matplotlib writes (``.png``, ``.pdf``, ``.svg``, ...), so that nothing is
+    silently written under another name.
+    """
+    if not path or not path.strip():
+        raise DataError(f"{option} needs a file name")
+    if os.path.isdir(path):
+        raise DataError(f"{option} {path!r} is a folder; give a file name inside it, e.g. "
+                        f"{os.path.join(path, 'fit.png' if figure else 'out.csv')!r}")
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise DataError(f"{option} {path!r}: the folder {folder!r} does not exist")
+    if not os.access(folder, os.W_OK):
+        raise DataError(f"{option} {path!r}: the folder {folder!r} is not writable")
+    if figure:
+        ext = os.path.splitext(path)[1].lower().lstrip(".")
+        formats = figure_formats()
+        if ext not in formats:
+            raise DataError(f"{option} {path!r}: " + (f"unknown figure format '.{ext}'" if ext else "no file extension")
+                            + f"; use one of {', '.join('.' + e for e in sorted(formats))} (e.g. fit.png)")
+    return path

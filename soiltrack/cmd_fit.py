@@ -2,23 +2,39 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
-from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, vehicle_arg
+from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path, vehicle_arg
 from .soilmodel import DataError
 
+
 # --- fit --------------------------------------------------------------------------------------
+def _check_options(a: argparse.Namespace, drive_log: bool) -> None:
+    """Refuse options that do not apply to these data or this method (nothing is silently ignored)."""
+    if a.engine != "ipopt" and (a.method != "ipopt" or drive_log):
+        raise DataError(f"--engine {a.engine} applies to --method ipopt on slip data only"
+                        + (" (this file is a drive log)" if drive_log else f", not to --method {a.method}"),
+                        file=a.data if drive_log else None)
+    if a.sigma is not None and drive_log:
+        raise DataError("--sigma applies to slip data only; a drive-log fit estimates its noise levels", file=a.data)
+    if a.bias_correction != "none" and not drive_log:
+        raise DataError("--bias-correction applies to drive logs only", file=a.data)
+
+
 def _cmd_fit(a: argparse.Namespace) -> int:
     from .identify import fit
     from .soilmodel import DriveLog, read_csv
 
+    if a.plot:
+        output_path(a.plot, "--plot", figure=True)
     data = read_csv(a.data)
     vehicle = vehicle_arg(a.vehicle)
+    drive_log = isinstance(data, DriveLog)
+    _check_options(a, drive_log)
     kw = {"engine": a.engine} if a.engine != "ipopt" else {}
-    if a.sigma is not None and not isinstance(data, DriveLog):
+    if a.sigma is not None:
         kw["sigma"] = a.sigma if a.sigma == "relative" else floats_arg(a.sigma, "--sigma")[0]
     if a.bias_correction != "none":
-        if not isinstance(data, DriveLog):
-            raise DataError("--bias-correction applies to drive logs only", file=a.data)
         kw["bias_correction"] = a.bias_correction
     if a.effect:
         kw["effects"] = [e.strip() for item in a.effect for e in item.split(",") if e.strip()]
@@ -30,17 +46,40 @@ def _cmd_fit(a: argparse.Namespace) -> int:
     if a.plot:
         from .plots import plot_fit
 
-        plot_fit(data, vehicle, result, a.plot)
+        path = plot_fit(data, vehicle, result, a.plot)
+        print(f"wrote the figure to {path}", file=sys.stderr)
     return EXIT_OK if result.success else EXIT_SOLVER
+
+
+_DESCRIPTION = """\
+Identify the soil (cohesion c, friction angle phi, shear modulus K) from a CSV file, with
+bounded fits (default bounds: c 0-69 kPa, phi 6-40 deg, K 0.006-0.05 m). The file kind is
+recognised by its header (comma separated, SI units, any column order):
+
+  tractive force-slip data:  slip,tractive_force_N[,normal_load_N]
+      slip in [0, 1); rows at two or more normal loads make c and phi separable
+  drive log:                 time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s
+                             [,vehicle_accel_m_s2]
+      time strictly increasing; torque and speed of both sprockets together
+
+Prints a report (or --json); exit 0 when the fit succeeded, 1 when it failed or its answer is
+not usable (the reason is printed), 2 for bad input."""
 
 
 def add_parser(sub) -> None:
     """Register the ``fit`` subcommand on an argparse subparsers object."""
-    f = sub.add_parser("fit", help="identify soil parameters from a CSV (slip sweep or drive log)")
-    f.add_argument("data", help="CSV file: slip,tractive_force_N[,normal_load_N] or a drive log")
+    f = sub.add_parser("fit", help="identify soil parameters from a CSV (slip sweep or drive log)",
+                       description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter,
+                       epilog="example: soiltrack fit examples/data/wong2001_p176.csv "
+                              "--vehicle examples/data/heavy_vehicle.json --plot fit.png")
+    f.add_argument("data", help="CSV file: tractive force-slip data or a drive log (columns above)")
     f.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")
-    f.add_argument("--model", choices=("full", "cohesion-free"), default="full")
-    f.add_argument("--method", choices=("ipopt", "newton", "least-squares"), default="ipopt")
+    f.add_argument("--model", choices=("full", "cohesion-free"), default="full",
+                   help="full: F_max = A c + W tan(phi) (Eq. 2); cohesion-free: F_max = W tan(phi), c = 0 "
+                        "(Eq. 8) (default: full)")
+    f.add_argument("--method", choices=("ipopt", "newton", "least-squares"), default="ipopt",
+                   help="ipopt: bounded weighted least squares (recommended); newton, least-squares: the seed "
+                        "paper's unbounded methods, for comparison (default: ipopt)")
     f.add_argument("--engine", choices=("ipopt", "compiled", "auto"), default="ipopt",
                    help="solver engine for --method ipopt on slip data: IPOPT (default), or the compiled "
                         "projected Levenberg-Marquardt engine that hands anything it cannot certify to IPOPT")
@@ -48,10 +87,11 @@ def add_parser(sub) -> None:
                    help="slip data: force noise standard deviation in N (taken as known), or 'relative' for noise "
                         "proportional to the force (level estimated); default: equal weights, level estimated")
     f.add_argument("--bias-correction", choices=("none", "simex"), default="none",
-                   help="drive logs: SIMEX correction of the slip-noise bias of K on hard-pull logs (about 5 s)")
+                   help="drive logs: SIMEX correction of the slip-noise bias of K on hard-pull logs, about 5 s "
+                        "(default: none)")
     f.add_argument("--effect", action="append", metavar="NAME",
                    help="fit this unmodelled effect's parameters jointly with the soil (repeatable; e.g. grade, "
                         "slip_sinkage, speed_resistance, mass_error)")
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
-    f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit")
+    f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit (.png, .pdf, .svg)")
     f.set_defaults(func=_cmd_fit)

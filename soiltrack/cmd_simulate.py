@@ -4,15 +4,42 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .cliutil import EXIT_OK, floats_arg, soil_arg, vehicle_arg
-from .soilmodel import TERRAINS
+from .cliutil import EXIT_OK, MAX_SAMPLES, floats_arg, output_path, soil_arg, vehicle_arg
+from .soilmodel import TERRAINS, DataError
+
 
 # --- simulate ---------------------------------------------------------------------------------
+def _check_options(a: argparse.Namespace) -> None:
+    """Refuse options that do not apply to the chosen kind, effects without a value, absurd sizes."""
+    drive_only = [o for o, v in (("--duration", a.duration), ("--rate", a.rate)) if v is not None]
+    sweep_only = [o for o, v in (("--slips", a.slips), ("--loads", a.loads)) if v is not None]
+    if a.kind == "drive" and sweep_only:
+        raise DataError(f"{', '.join(sweep_only)} applies to slip sweeps only (--kind sweep); a drive log's slip "
+                        "and load follow from the simulated run")
+    if a.kind == "sweep" and drive_only:
+        raise DataError(f"{', '.join(drive_only)} applies to drive logs only (--kind drive)")
+    for spec in a.effect or []:
+        if "=" not in spec:
+            raise DataError(f"--effect {spec!r} needs a value (NAME=VALUE, e.g. grade=0.03): an effect switched on "
+                            "at its default parameters is the nominal model, i.e. no effect")
+    if a.kind == "drive":
+        duration = 60.0 if a.duration is None else a.duration
+        rate = 50.0 if a.rate is None else a.rate
+        if duration > 0 and rate > 0 and duration * rate > MAX_SAMPLES:
+            raise DataError(f"--duration {duration:g} s x --rate {rate:g} Hz = {duration * rate:.3g} samples; at most "
+                            f"{MAX_SAMPLES:,} (e.g. one hour at 500 Hz)")
+    if a.output != "-":
+        output_path(a.output, "-o/--output")
+    if a.plot:
+        output_path(a.plot, "--plot", figure=True)
+
+
 def _cmd_simulate(a: argparse.Namespace) -> int:
     from .soilmodel import write_csv
     from .soilmodel.effects import parse_effects
     from .soilmodel.simulation import simulate
 
+    _check_options(a)
     vehicle, soil = vehicle_arg(a.vehicle), soil_arg(a.terrain, a.soil)
     effects = parse_effects(a.effect or [])
     kwargs = dict(kind=a.kind, effects=effects, seed=a.seed, noise=a.noise, model=a.model)
@@ -27,36 +54,53 @@ def _cmd_simulate(a: argparse.Namespace) -> int:
         if a.loads:
             kwargs["normal_loads"] = floats_arg(a.loads, "--loads")
     data = simulate(vehicle, soil, **kwargs)
+    what = "drive log" if a.kind == "drive" else "slip sweep"
     if a.output == "-":
         write_csv(data, sys.stdout)
     else:
-        write_csv(data, a.output)
-        print(f"wrote {data.n_samples} rows ({'drive log' if a.kind == 'drive' else 'slip sweep'}) to {a.output}",
-              file=sys.stderr)
+        try:
+            write_csv(data, a.output)
+        except OSError as e:
+            raise DataError(f"cannot write the CSV: {e.strerror or e}", file=a.output) from None
+        print(f"wrote {data.n_samples} rows ({what}) to {a.output}", file=sys.stderr)
     if a.plot:
         from .plots import plot_data
 
-        plot_data(data, a.plot, title=f"{vehicle.name or a.vehicle} on {soil.name or 'soil'}")
+        path = plot_data(data, a.plot, title=f"{vehicle.name or a.vehicle} on {soil.name or 'soil'}")
+        print(f"wrote the figure to {path}", file=sys.stderr)
     return EXIT_OK
 
 
 def add_parser(sub) -> None:
     """Register the ``simulate`` subcommand on an argparse subparsers object."""
-    s = sub.add_parser("simulate", help="write a simulated drive log or tractive force-slip sweep (CSV)")
-    s.add_argument("--vehicle", default="heavy", help="preset name (heavy, light) or vehicle JSON file")
+    s = sub.add_parser(
+        "simulate", help="write a simulated drive log or tractive force-slip sweep (CSV)",
+        description="Simulate a straight-line drive log (CVODES, speed-reference controller, sensor noise) or a "
+                    "tractive force-slip sweep, and write it as CSV in the columns 'soiltrack fit' reads.",
+        epilog="example: soiltrack simulate --kind sweep --vehicle light --soil 1.7,29,0.01 --loads 300,450 "
+               "--seed 1 -o sweep.csv")
+    s.add_argument("--vehicle", default="heavy",
+                   help="preset name (heavy, light) or vehicle JSON file (default: heavy)")
     g = s.add_mutually_exclusive_group()
-    g.add_argument("--terrain", help=f"terrain preset ({', '.join(TERRAINS)}); default lete_sand")
-    g.add_argument("--soil", help="soil as C_KPA,PHI_DEG,K_M, e.g. 1.3,31.1,0.012")
-    s.add_argument("--kind", choices=("drive", "sweep"), default="drive", help="drive log (default) or slip sweep")
+    g.add_argument("--terrain", help=f"terrain preset: {', '.join(TERRAINS)} (default: lete_sand)")
+    g.add_argument("--soil", metavar="C_KPA,PHI_DEG,K_M",
+                   help="soil as cohesion kPa, friction angle deg, shear modulus m, e.g. 1.3,31.1,0.012")
+    s.add_argument("--kind", choices=("drive", "sweep"), default="drive",
+                   help="drive log or slip sweep (default: drive)")
     s.add_argument("--effect", action="append", metavar="NAME=VALUE",
-                   help="switch on an unmodelled effect, e.g. grade=0.03, drivetrain_friction.tau_v=2 (repeatable)")
-    s.add_argument("--model", choices=("full", "cohesion-free"), default="full")
-    s.add_argument("--noise", choices=("default", "none"), default="default", help="sensor noise")
-    s.add_argument("--seed", type=int, default=None, help="random seed for the noise")
-    s.add_argument("--duration", type=float, default=None, help="drive log length, s")
-    s.add_argument("--rate", type=float, default=None, help="drive log sample rate, Hz")
-    s.add_argument("--slips", help="sweep: comma-separated slips")
-    s.add_argument("--loads", help="sweep: comma-separated normal loads, N (several make c and phi separable)")
-    s.add_argument("-o", "--output", default="-", help="output CSV path ('-' for stdout)")
-    s.add_argument("--plot", metavar="PNG", help="also save a figure of the data")
+                   help="switch on an unmodelled effect with a value, e.g. grade=0.03 (rad), "
+                        "drivetrain_friction.tau_v=2 (repeatable; default: none)")
+    s.add_argument("--model", choices=("full", "cohesion-free"), default="full",
+                   help="thrust model: full (Eq. 2, A c + W tan phi) or cohesion-free (Eq. 8, W tan phi) "
+                        "(default: full)")
+    s.add_argument("--noise", choices=("default", "none"), default="default",
+                   help="sensor noise: realistic default levels, or none (default: default)")
+    s.add_argument("--seed", type=int, default=None, help="random seed for the noise (default: fresh each run)")
+    s.add_argument("--duration", type=float, default=None, help="drive log length in s (default: 60)")
+    s.add_argument("--rate", type=float, default=None, help="drive log sample rate in Hz (default: 50)")
+    s.add_argument("--slips", help="sweep: comma-separated slips in [0, 1) (default: 22 slips from 0.01 to 0.7)")
+    s.add_argument("--loads", help="sweep: comma-separated normal loads in N; several make c and phi separable "
+                                   "(default: the vehicle's weight)")
+    s.add_argument("-o", "--output", default="-", help="output CSV path, '-' for stdout (default: -)")
+    s.add_argument("--plot", metavar="PNG", help="also save a figure of the data (.png, .pdf, .svg)")
     s.set_defaults(func=_cmd_simulate)

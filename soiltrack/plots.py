@@ -7,20 +7,33 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .soilmodel import DriveLog, SlipData  # noqa: E402
+from .soilmodel import DataError, DriveLog, SlipData  # noqa: E402
 
 
-def plot_data(data: SlipData | DriveLog, path: str, title: str = "") -> None:
+def save_figure(fig, path: str) -> str:
+    """Save ``fig`` to ``path`` (format from the extension) and close it; OSError -> DataError."""
+    try:
+        fig.savefig(path, dpi=120)
+    except OSError as e:
+        raise DataError(f"cannot write the figure: {e.strerror or e}", file=path) from None
+    finally:
+        plt.close(fig)
+    return path
+
+
+def plot_data(data: SlipData | DriveLog, path: str, title: str = "") -> str:
     """Save a figure of tractive force-slip data or of a drive log's four channels."""
     if isinstance(data, SlipData):
         fig, ax = plt.subplots(figsize=(6.4, 4.2))
         loads = data.normal_load if data.normal_load is not None else np.zeros(data.n_samples)
         for W in np.unique(loads):
             sel = loads == W
-            label = f"W = {W / 1e3:.4g} kN" if W > 0 else "measured"
+            label = f"W = {W / 1e3:.4g} kN" if W > 0 else "data"
             ax.plot(data.slip[sel], data.tractive_force[sel] / 1e3, "o", ms=4, label=label)
         ax.set_xlabel("slip i (-)")
         ax.set_ylabel("tractive force F (kN)")
+        ax.set_ylim(bottom=min(0.0, float(np.min(data.tractive_force)) / 1e3 * 1.05))
+        ax.set_xlim(left=0.0)
         ax.grid(alpha=0.3)
         ax.legend()
     else:
@@ -40,75 +53,182 @@ def plot_data(data: SlipData | DriveLog, path: str, title: str = "") -> None:
         for ax in axs:
             ax.grid(alpha=0.3)
     if title:
-        fig.suptitle(title, fontsize=10)
+        import textwrap
+
+        fig.suptitle(textwrap.fill(title, 90), fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    return save_figure(fig, path)
 
 
-def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> None:
-    """Save a figure of a fit: data, fitted curve and residuals (slip data), or residuals (drive log).
+def force_unit(values) -> tuple[float, str]:
+    """``(divisor, unit)`` for forces of this magnitude: kN from 1 kN on, else N (as the reports)."""
+    from .identify.estimate_types import _force_scale
 
-    The fitted curve is drawn from the optimiser's point ``result.theta``; on a c-phi ridge every
-    point gives the same curve, so the curve is meaningful even where c and phi are not.
+    return _force_scale(values)
+
+
+def _curve_band(grid, result, vehicle, W: float) -> np.ndarray | None:
+    """Half-width of the 95 % band of the fitted curve at load ``W`` (delta method on F_max and K).
+
+    F = F_max g(i l / K); the sensitivities come from the soilmodel's AD Function (dF/dphi =
+    W sec^2(phi) g gives g, dF/dK the K column); F_max's and K's standard errors and their
+    correlation come from the result. ``None`` when the result has no interval for them.
+    """
+    from .soilmodel import Soil, tractive_force_sensitivities
+
+    cbs = {cb.name: cb for cb in result.combinations}
+    fm = next((cb for name, cb in cbs.items() if name.startswith("F_max") and
+               abs(float(name.split("=")[1].rstrip("N")) - W) <= 1e-6 * W), None)
+    kk = cbs.get("K")
+    corr = (result.identifiability.get("fmax_K_correlation") or {}).get(f"{W:.6g}")
+    q = result.quantile
+    if fm is None or kk is None or fm.stderr is None or kk.stderr is None or corr is None or q is None:
+        return None
+    sens = tractive_force_sensitivities(grid, Soil(*(float(x) for x in result.theta)), vehicle, result.model,
+                                       normal_load=W)
+    g = sens[:, 1] / (W / np.cos(result.theta[1]) ** 2)
+    dK = sens[:, 2]
+    var = (g * fm.stderr) ** 2 + (dK * kk.stderr) ** 2 + 2 * g * dK * corr * fm.stderr * kk.stderr
+    return q * np.sqrt(np.maximum(var, 0.0))
+
+
+def _status_title(result) -> tuple[str, str]:
+    if result.success:
+        return f"{result.model} model, {result.method}: {result.status}", "k"
+    return f"FIT FAILED ({result.model} model, {result.method}: {result.status}) - no estimate", "C3"
+
+
+def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
+    """Save a figure of a fit: data, fitted curve with its 95 % band, and residuals.
+
+    Slip data: the measurements per normal load, the fitted curve (through the fit result, so
+    it is the same at every point of an unidentifiable c-phi ridge) and the residuals in N or
+    kN. Drive log: the samples the fit used - thrust from the sprocket equation against the
+    slip from the speeds, coloured by their weight in the fit (slow samples carry little slip
+    information), thrust-binned weighted means of the slip - with the fitted curve and band,
+    and the speed residuals over time. A failed fit is drawn as such: its last iterate dashed
+    and labelled, never as "fitted".
     """
     from .soilmodel import Soil, tractive_force
 
-    status = f"{result.model}, {result.method}: {result.status}" + ("" if result.success else " (FAILED)")
+    title, tcol = _status_title(result)
     theta = np.asarray(result.theta, dtype=float)
-    soil = None
-    if np.all(np.isfinite(theta)) and 0 < theta[1] < np.pi / 2 and theta[2] > 0 and theta[0] >= 0:
-        soil = Soil(*theta)
+    last = None  # the optimiser's last point, drawn only for a failed fit
+    if not result.success and np.all(np.isfinite(theta)) and 0 < theta[1] < np.pi / 2 and theta[2] > 0 \
+            and theta[0] >= 0:
+        last = Soil(*theta)
+
+    def curve(grid, W):
+        if result.success:
+            return tractive_force(grid, result, vehicle, normal_load=W)
+        return tractive_force(grid, last, vehicle, result.model, normal_load=W)
+
+    drawable = result.success or last is not None
     if isinstance(data, SlipData):
-        fig, (ax, axr) = plt.subplots(2, 1, figsize=(6.4, 6.0), sharex=True, gridspec_kw={"height_ratios": [3, 1.3]})
+        fig, (ax, axr) = plt.subplots(2, 1, figsize=(6.6, 6.2), sharex=True, gridspec_kw={"height_ratios": [3, 1.3]})
         loads = data.loads(vehicle.weight)
+        sc, u = force_unit(data.tractive_force)
         imax = max(float(np.max(data.slip)) * 1.15, 0.05)
         grid = np.linspace(0, imax, 300)
+        res = np.asarray(result.residuals, dtype=float)
         for k, W in enumerate(np.unique(loads)):
             sel = loads == W
             col = f"C{k}"
-            ax.plot(data.slip[sel], data.tractive_force[sel] / 1e3, "o", color=col, ms=5,
-                    label=f"measured, W = {W / 1e3:.4g} kN")
-            if soil is not None:
-                ax.plot(grid, tractive_force(grid, soil, vehicle, result.model, normal_load=W) / 1e3, "-",
-                        color=col, lw=1.2, label=f"fitted ({result.model})")
-            rel = 100 * result.residuals[sel] / np.where(data.tractive_force[sel] != 0, data.tractive_force[sel], 1)
-            axr.plot(data.slip[sel], rel, "o", color=col, ms=5)
+            ax.plot(data.slip[sel], data.tractive_force[sel] / sc, "o", color=col, ms=5,
+                    label=f"measured, W = {W / sc:.4g} {u}")
+            if drawable:
+                F = curve(grid, W)
+                if result.success:
+                    ax.plot(grid, F / sc, "-", color=col, lw=1.2, label=f"fitted ({result.model} model)")
+                    band = _curve_band(grid, result, vehicle, float(W))
+                    if band is not None:
+                        ax.fill_between(grid, (F - band) / sc, (F + band) / sc, color=col, alpha=0.18, lw=0,
+                                        label=None if k else "95 % band of the fitted curve")
+                else:
+                    ax.plot(grid, F / sc, "--", color="0.5", lw=1.0, label="last iterate of the FAILED fit")
+            if np.all(np.isfinite(res[sel])):
+                axr.plot(data.slip[sel], res[sel] / sc, "o", color=col, ms=5)
         axr.axhline(0, color="k", lw=0.6)
-        ax.set_ylabel("tractive force F (kN)")
+        ax.set_ylabel(f"tractive force F ({u})")
+        ax.set_ylim(bottom=min(0.0, float(np.min(data.tractive_force)) / sc * 1.05))
         ax.legend(fontsize=8)
-        ax.set_title(status, fontsize=9)
-        axr.set_ylabel("model - data (%)")
+        axr.set_ylabel(f"{'model' if result.success else 'last iterate'} - data ({u})")
         axr.set_xlabel("slip i (-)")
-        for a in (ax, axr):
-            a.grid(alpha=0.3)
+        axes = (ax, axr)
     else:
-        fig, (ax, axr) = plt.subplots(2, 1, figsize=(7, 7))
-        # thrust from the sprocket equation against the slip computed from the speeds (noisy: shown
-        # for orientation only - the fit never uses this slip as a regressor)
-        r_s, inertia = vehicle.sprocket_radius, vehicle.sprocket_inertia
-        thrust = (data.sprocket_torque[:-1] - inertia * np.diff(data.sprocket_speed) / np.diff(data.time)) / r_s
-        rw = r_s * data.sprocket_speed[1:]
-        ok = rw > 0.15 * max(float(np.max(rw)), 1e-9)
-        slip = 1 - data.vehicle_speed[1:][ok] / rw[ok]
-        i_hi = min(1.0, max(0.3, float(np.quantile(slip, 0.99)) if slip.size else 0.3))
-        ax.plot(slip, thrust[ok], ".", ms=2, alpha=0.4, color="0.4", label="sprocket thrust vs slip from speeds")
-        if soil is not None:
-            grid = np.linspace(0, i_hi, 300)
-            ax.plot(grid, tractive_force(grid, soil, vehicle, result.model), "C3-", lw=1.6, label="fitted F(i)")
-        ax.set_xlim(-0.1, i_hi)
-        ax.set_xlabel("slip i (-)")
-        ax.set_ylabel("thrust (N)")
-        regime = result.extra.get("regime") if isinstance(result.extra, dict) else None
-        ax.set_title(status + (f" - regime: {regime}" if regime else ""), fontsize=9)
-        ax.legend(fontsize=8)
-        res = np.asarray(result.residuals, dtype=float)
-        axr.plot(np.arange(res.size), res, ".", ms=2)
-        axr.axhline(0, color="k", lw=0.6)
-        axr.set_xlabel("sample used in the fit")
-        axr.set_ylabel(f"model - data ({result.residual_unit})")
-        for a in (ax, axr):
-            a.grid(alpha=0.3)
+        fig, (ax, axr) = plt.subplots(2, 1, figsize=(7, 7.4), gridspec_kw={"height_ratios": [3, 1.4]})
+        _drive_log_panels(fig, ax, axr, data, vehicle, result, curve if drawable else None)
+        axes = (ax, axr)
+    ax.set_title(title, fontsize=9, color=tcol)
+    for a in axes:
+        a.grid(alpha=0.3)
+    fig.align_ylabels(list(axes))
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    return save_figure(fig, path)
+
+
+def _drive_log_panels(fig, ax, axr, data: DriveLog, vehicle, result, curve) -> None:
+    """The two panels of a drive-log fit (see :func:`plot_fit`)."""
+    from .identify.drivelog import prepare_drive_log
+
+    prep = prepare_drive_log(data, vehicle)
+    r_s = vehicle.sprocket_radius
+    rw = r_s * prep.sprocket_speed
+    slip = prep.slip_measured
+    thrust = prep.thrust
+    weight = (rw / prep.sigma_speed) ** 2  # slip information of a sample: 1 / sigma_i^2
+    sc, u = force_unit(thrust)
+    order = np.argsort(weight)  # heavy samples drawn last, on top
+    wrel = weight / float(np.max(weight))
+    pts = ax.scatter(np.clip(slip[order], -1, 1), thrust[order] / sc, c=np.log10(np.maximum(wrel[order], 1e-4)),
+                     s=5, cmap="viridis", vmin=-4, vmax=0, alpha=0.6, lw=0,
+                     label=f"{slip.size} samples used: sprocket thrust vs slip from speeds")
+    cb = fig.colorbar(pts, ax=ax, pad=0.01)
+    cb.set_label("weight in the fit (log10, relative)", fontsize=8)
+    # thrust bins (the thrust is the precise variable): weighted mean slip of each, with its standard error
+    edges = np.linspace(float(np.min(thrust)), float(np.max(thrust)), 13)
+    idx = np.clip(np.searchsorted(edges, thrust, side="right") - 1, 0, edges.size - 2)
+    bx, by, be = [], [], []
+    for b in range(edges.size - 1):
+        sel = idx == b
+        if sel.sum() < 3:
+            continue
+        w = weight[sel]
+        bx.append(float(np.sum(w * slip[sel]) / np.sum(w)))
+        be.append(float(np.sqrt(1.0 / np.sum(w))))  # standard error of the weighted mean
+        by.append(float(np.mean(thrust[sel])))
+    bx, by, be = np.array(bx), np.array(by), np.array(be)
+    ax.errorbar(bx, by / sc, xerr=1.96 * be, fmt="s", color="k", ms=4, capsize=2, lw=1,
+                label="weighted mean slip per thrust bin (95 %)")
+    # the axis shows every sample that pulls hard (they fix F_max) and the bulk of the rest
+    strong = slip[thrust > 0.25 * float(np.max(thrust))]
+    i_hi = min(0.99, 1.05 * max(0.05, float(np.quantile(slip, 0.99)), float(np.max(strong)) if strong.size else 0.0,
+                                float(np.max(bx + 2 * be)) if bx.size else 0.0))
+    i_lo = max(-0.3, min(-0.02, float(np.quantile(slip, 0.01))))
+    if curve is not None:
+        grid = np.linspace(0, i_hi, 300)
+        W = float(result.normal_loads[0]) if len(result.normal_loads) else vehicle.weight
+        F = curve(grid, W)
+        if result.success:
+            ax.plot(grid, F / sc, "C3-", lw=1.6, label="fitted F(i)")
+            band = _curve_band(grid, result, vehicle, W)
+            if band is not None:
+                ax.fill_between(grid, (F - band) / sc, (F + band) / sc, color="C3", alpha=0.2, lw=0,
+                                label="95 % band of the fitted curve")
+        else:
+            ax.plot(grid, F / sc, "--", color="0.5", lw=1.2, label="last iterate of the FAILED fit")
+    outside = int(np.sum((slip < i_lo) | (slip > i_hi)))
+    ax.set_xlim(i_lo, i_hi)
+    ax.set_ylim(min(0.0, float(np.min(thrust)) / sc), float(np.max(thrust)) / sc * 1.08)
+    ax.set_xlabel("slip i (-)" + (f"; {outside} low-weight samples beyond the axis" if outside else ""))
+    ax.set_ylabel(f"thrust ({u})")
+    ax.legend(fontsize=7, loc="lower right")
+    x = result.extra if isinstance(result.extra, dict) else {}
+    if x.get("regime"):
+        ax.text(0.01, 0.98, f"regime: {x['regime']}", transform=ax.transAxes, va="top", fontsize=8)
+    res = np.asarray(result.residuals, dtype=float)
+    t_used = data.time[prep.keep] if prep.keep.sum() == res.size else np.arange(res.size)
+    axr.plot(t_used, res, ".", ms=2)
+    axr.axhline(0, color="k", lw=0.6)
+    axr.set_xlabel("time (s)" if prep.keep.sum() == res.size else "sample used in the fit")
+    axr.set_ylabel(f"{'model' if result.success else 'last iterate'} - data ({result.residual_unit})")

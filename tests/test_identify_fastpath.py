@@ -98,7 +98,9 @@ def test_bounds_respected_with_tight_bounds_and_given_start():
         for x0 in (None, Soil.from_kpa_deg(60.0, 39.0, 0.007)):  # start far outside the box
             a = fit(data, HEAVY, model=model, bounds=tight, x0=x0, engine="compiled")
             b = fit(data, HEAVY, model=model, bounds=tight, x0=x0)
-            assert a.success and np.all(np.isfinite(a.theta))
+            # the truth lies far outside these bounds: the solver converges, the plausibility check may
+            # then call the bound-fixed answer not usable (issue 7), which is right
+            assert np.all(np.isfinite(a.theta)) and (a.success or a.status.endswith("(answer not usable)"))
             free = list(a.free)
             assert np.all(a.theta[free] >= tight.lower[free]) and np.all(a.theta[free] <= tight.upper[free])
             assert a.cost == pytest.approx(b.cost, rel=1e-8)

@@ -1,0 +1,241 @@
+"""Plausibility of tractive force-slip data and of a fit to them: wrong data must not pass as success.
+
+A bounded fit always "converges" to something. These checks say, in plain words, when the data
+or the answer cannot be right, so that a fit to them is not reported as a success:
+
+At input (independent of the fit):
+
+- **force scale**: the forces are far below what the weakest soil within the bounds gives at
+  these slips and this load (typically kN written in an N column), or a row lies far above
+  what the strongest soil gives (a typo, a unit error, the wrong normal load);
+- **negative thrust while driving**: a negative tractive force at positive slip.
+
+After the fit:
+
+- **thrust limit on a bound**: the identifiable combination F_max = A c + W tan(phi) sits at the
+  smallest or largest value the bounds allow, so the bounds, not the data, fixed it;
+- **residuals as large as the data**: the model does not describe them;
+- **gross outliers**: a row whose residual is many robust standard deviations out (robust
+  z-score: residual over 1.4826 times the median absolute deviation), named by row.
+
+Each finding says whether the answer is still usable; :func:`assess` returns the warnings and
+the verdict that the result builder turns into ``warnings`` and ``success``. Rows are numbered
+like :class:`~soiltrack.soilmodel.DataError`'s: row 1 is the first data row of the file.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..soilmodel.soil import Soil, SoilBounds
+from ..soilmodel.traction import max_thrust, tractive_force
+from ..soilmodel.vehicle import Vehicle
+from .estimate_types import format_force
+
+__all__ = ["Finding", "fmax_range", "check_slip_data", "check_slip_fit", "assess", "SCALE_FACTOR", "OUTLIER_Z", "OUTLIER_SHARE",
+           "GROSS_Z", "GROSS_SHARE", "RESIDUAL_RATIO", "BOUND_FACTOR"]
+
+#: Data this many times below the weakest soil (median over the samples) or a row this many times
+#: above the strongest are not a soil within the bounds.
+SCALE_FACTOR = 5.0
+#: Robust z-score and share of the force scale (90th percentile of |F|) of a residual from which a
+#: row is named as a likely outlier, and from which it spoils the fit.
+OUTLIER_Z, OUTLIER_SHARE = 8.0, 0.1
+GROSS_Z, GROSS_SHARE = 10.0, 0.25
+#: RMSE over the root-mean-square force above which the model does not describe the data.
+RESIDUAL_RATIO = 0.5
+#: F_max on a bound is unusable when the data ask for more than this factor beyond it.
+BOUND_FACTOR = 2.0
+#: Fewest samples for a robust residual scale (median absolute deviation).
+MIN_ROBUST = 6
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One plausibility finding.
+
+    Attributes
+    ----------
+    code : str
+        ``"force_scale_low"``, ``"force_above_any_soil"``, ``"negative_thrust"``,
+        ``"limit_on_bound"``, ``"residuals_large"``, ``"outlier"``.
+    message : str
+        What is wrong and what to check, in plain words.
+    usable : bool
+        Whether the fit's answer can still be used (``False`` makes the fit unsuccessful).
+    rows : tuple of int
+        Data rows concerned (1-based), if any.
+    """
+
+    code: str
+    message: str
+    usable: bool
+    rows: tuple[int, ...] = ()
+
+
+def _fmt_force(x: float) -> str:
+    return format_force(x, 3)
+
+
+def _rows(idx, limit: int = 5) -> str:
+    rows = [int(k) + 1 for k in idx]
+    text = ", ".join(str(r) for r in rows[:limit])
+    return text + (f" and {len(rows) - limit} more" if len(rows) > limit else "")
+
+
+def _corner(bounds: SoilBounds, weakest: bool, model: str) -> Soil:
+    """The weakest (c, phi low, K high) or strongest (c, phi high, K low) soil within the bounds."""
+    k = 0 if weakest else 1
+    c = 0.0 if model == "cohesion-free" else bounds.cohesion[k]
+    return Soil(c, bounds.friction_angle[k], bounds.shear_modulus[1 - k])
+
+
+def fmax_range(bounds: SoilBounds, vehicle: Vehicle, model: str, normal_load: float) -> tuple[float, float]:
+    """Smallest and largest thrust limit F_max (N) that soils within the bounds give at this load."""
+    return (float(max_thrust(_corner(bounds, True, model), vehicle, model, normal_load=float(normal_load))),
+            float(max_thrust(_corner(bounds, False, model), vehicle, model, normal_load=float(normal_load))))
+
+
+def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: SoilBounds) -> list[Finding]:
+    """Checks that need no fit: the force scale against the bounds, and negative thrust.
+
+    Parameters
+    ----------
+    slip, force, load : array_like
+        Slip (-), tractive force (N) and normal load (N) per sample.
+    vehicle, model, bounds
+        As in the fit; the bounds define "any soil".
+    """
+    slip, force, load = (np.asarray(a, dtype=float).ravel() for a in (slip, force, load))
+    out: list[Finding] = []
+    pos = slip > 0
+    if not pos.any():
+        return out
+    lo = tractive_force(slip[pos], _corner(bounds, True, model), vehicle, model, normal_load=load[pos])
+    hi = tractive_force(slip[pos], _corner(bounds, False, model), vehicle, model, normal_load=load[pos])
+    f = force[pos]
+    ratio = float(np.median(f / lo))
+    if ratio < 1.0 / SCALE_FACTOR:
+        W = float(np.median(load))
+        out.append(Finding(
+            "force_scale_low",
+            f"the forces are about {1 / max(ratio, 1e-12):.3g} times smaller than the weakest soil within the bounds "
+            f"gives at these slips (W = {_fmt_force(W)}; largest measured {_fmt_force(float(np.max(force)))}, the "
+            f"weakest soil reaches {_fmt_force(float(np.max(lo)))}): are they in kN in an N column, or is the "
+            "normal load or the vehicle wrong?", usable=False))
+    above = np.nonzero(pos)[0][f > SCALE_FACTOR * hi]
+    if above.size:
+        k = int(above[0])
+        out.append(Finding(
+            "force_above_any_soil",
+            f"row(s) {_rows(above)}: the tractive force ({_fmt_force(float(force[k]))} in row {k + 1}) is more than "
+            f"{SCALE_FACTOR:g} times what the strongest soil within the bounds gives at that slip and load "
+            f"({_fmt_force(float(hi[np.nonzero(pos)[0] == k][0]))}): a typo, a unit error or the wrong normal load?",
+            usable=False, rows=tuple(int(r) + 1 for r in above)))
+    neg = np.nonzero(pos & (force < 0))[0]
+    if neg.size:
+        k = int(neg[0])
+        out.append(Finding(
+            "negative_thrust",
+            f"row(s) {_rows(neg)}: negative tractive force at positive slip ({_fmt_force(float(force[k]))} at "
+            f"i = {slip[k]:.3g} in row {k + 1}); a driving track pushes forward: a sign error or a braking sample?",
+            usable=True, rows=tuple(int(r) + 1 for r in neg)))
+    return out
+
+
+def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model: str,
+                   bounds: SoilBounds) -> list[Finding]:
+    """Checks of a fit's answer: F_max on a bound, residuals as large as the data, gross outliers.
+
+    ``residuals`` are model minus data (N) at the fitted ``theta = [c (Pa), phi (rad), K (m)]``.
+    """
+    slip, force, load, r = (np.asarray(a, dtype=float).ravel() for a in (slip, force, load, residuals))
+    out: list[Finding] = []
+    theta = np.asarray(theta, dtype=float)
+    if not (np.all(np.isfinite(theta)) and np.all(np.isfinite(r))):
+        return out
+    # the identifiable combination on a bound: F_max at its smallest or largest value within the bounds
+    try:
+        soil = Soil(*(float(x) for x in theta))
+    except ValueError:
+        soil = None
+    if soil is not None:
+        for W in np.unique(load):
+            sel = load == W
+            fm = max_thrust(soil, vehicle, model, normal_load=float(W))
+            fm_lo, fm_hi = fmax_range(bounds, vehicle, model, float(W))
+            tol = 1e-3 * (fm_hi - fm_lo)
+            side = "smallest" if fm <= fm_lo + tol else "largest" if fm >= fm_hi - tol else None
+            if not side or fm <= 0:
+                continue
+            # the F_max these data ask for with the fitted curve's shape: F = F_max g(i), g = model / F_max,
+            # so the unbounded best F_max is the least-squares scale sum(g F) / sum(g^2)
+            g = (force[sel] + r[sel]) / fm
+            wanted = float(np.sum(g * force[sel]) / np.sum(g * g)) if np.sum(g * g) > 0 else fm
+            far = wanted < fm / BOUND_FACTOR if side == "smallest" else wanted > fm * BOUND_FACTOR
+            out.append(Finding(
+                "limit_on_bound",
+                f"the thrust limit F_max = {_fmt_force(fm)} at W = {_fmt_force(float(W))} is the {side} value the "
+                f"bounds allow (c and phi at their {'lower' if side == 'smallest' else 'upper'} bounds); the data ask "
+                f"for about {_fmt_force(wanted)}"
+                + (": the bounds, not the data, fixed the answer; check the units of the force and the normal load"
+                   if far else ": the soil lies at or just beyond the bounds; widen them if that is physically "
+                   "reasonable"), usable=not far))
+    # residuals as large as the data
+    scale = math.sqrt(float(np.mean(force ** 2))) if force.size else 0.0
+    rmse = math.sqrt(float(np.mean(r ** 2))) if r.size else 0.0
+    if scale > 0 and rmse > RESIDUAL_RATIO * scale:
+        out.append(Finding(
+            "residuals_large",
+            f"the residuals are as large as the data (RMSE {_fmt_force(rmse)}, data {_fmt_force(scale)} root mean "
+            "square): the model does not describe these data", usable=False))
+    # gross outliers: far out in robust z-score AND a sizeable share of the force scale (the noise
+    # of a thrust-slip sweep is not constant - slip noise on the steep part of the curve gives
+    # large force residuals - so a z-score alone flags clean data)
+    if r.size >= MIN_ROBUST:
+        med = float(np.median(r))
+        mad = 1.4826 * float(np.median(np.abs(r - med)))
+        size = float(np.quantile(np.abs(force), 0.9))  # the data's force scale, robust to a few wild rows
+        z = (r - med) / max(mad, 1e-6 * size, 1e-300)
+        share = np.abs(r - med) / max(size, 1e-300)
+        gross = np.nonzero((np.abs(z) > GROSS_Z) & (share > GROSS_SHARE))[0]
+        odd = np.setdiff1d(np.nonzero((np.abs(z) > OUTLIER_Z) & (share > OUTLIER_SHARE))[0], gross)
+        if gross.size and gross.size <= max(1, r.size // 4):
+            k = int(gross[np.argmax(np.abs(z[gross]))])
+            out.append(Finding(
+                "outlier",
+                f"row(s) {_rows(gross)} lie far off the rest (row {k + 1}: {_fmt_force(float(force[k]))} at "
+                f"i = {slip[k]:.3g}, off the fitted curve by {_fmt_force(abs(float(r[k])))}, {abs(z[k]):.3g} robust "
+                "standard deviations): the fit is pulled by it; correct or remove the row and fit again",
+                usable=False, rows=tuple(int(g) + 1 for g in gross)))
+        if odd.size and odd.size <= max(1, r.size // 4):
+            out.append(Finding(
+                "outlier",
+                f"row(s) {_rows(odd)} look like outliers (off the fitted curve by more than {OUTLIER_Z:g} robust "
+                f"standard deviations and {OUTLIER_SHARE:.0%} of the force scale)", usable=True,
+                rows=tuple(int(g) + 1 for g in odd)))
+    return out
+
+
+def assess(slip, force, load, residuals, theta, vehicle: Vehicle, model: str,
+           bounds: SoilBounds) -> tuple[tuple[str, ...], bool]:
+    """All checks: ``(warnings, usable)``; ``usable`` is False when any finding makes the answer unusable.
+
+    Each cause is said once: rows already refused at input are not named again as outliers, and
+    "residuals as large as the data" is left out when an input finding or an outlier explains it.
+    """
+    found = check_slip_data(slip, force, load, vehicle, model, bounds)
+    named = {r for f in found if not f.usable for r in f.rows}
+    after = check_slip_fit(slip, force, load, residuals, theta, vehicle, model, bounds)
+    for f in sorted(after, key=lambda f: f.code == "residuals_large"):
+        if f.code == "outlier" and set(f.rows) <= named:
+            continue
+        if f.code == "residuals_large" and any(not g.usable for g in found if g.code != "limit_on_bound"):
+            continue
+        found.append(f)
+        if not f.usable:
+            named |= set(f.rows)
+    usable = all(f.usable for f in found)
+    return tuple(("NOT USABLE: " if not f.usable else "") + f.message for f in found), usable
