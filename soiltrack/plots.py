@@ -21,6 +21,9 @@ def save_figure(fig, path: str) -> str:
     return path
 
 
+_QUANTITY = {"tractive_force": "tractive force F", "drawbar_pull": "drawbar pull DP"}
+
+
 def plot_data(data: SlipData | DriveLog, path: str, title: str = "") -> str:
     """Save a figure of tractive force-slip data or of a drive log's four channels."""
     if isinstance(data, SlipData):
@@ -29,10 +32,10 @@ def plot_data(data: SlipData | DriveLog, path: str, title: str = "") -> str:
         for W in np.unique(loads):
             sel = loads == W
             label = f"W = {W / 1e3:.4g} kN" if W > 0 else "data"
-            ax.plot(data.slip[sel], data.tractive_force[sel] / 1e3, "o", ms=4, label=label)
+            ax.plot(data.slip[sel], data.values[sel] / 1e3, "o", ms=4, label=label)
         ax.set_xlabel("slip i (-)")
-        ax.set_ylabel("tractive force F (kN)")
-        ax.set_ylim(bottom=min(0.0, float(np.min(data.tractive_force)) / 1e3 * 1.05))
+        ax.set_ylabel(f"{_QUANTITY[data.measured]} (kN)")
+        ax.set_ylim(bottom=min(0.0, float(np.min(data.values)) / 1e3 * 1.05))
         ax.set_xlim(left=0.0)
         ax.grid(alpha=0.3)
         ax.legend()
@@ -118,29 +121,35 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
             and theta[0] >= 0:
         last = Soil(*theta)
 
+    measured = getattr(data, "measured", "tractive_force")
+    effects = bool(getattr(result, "effects", None))
+
     def curve(grid, W):
         if result.success:
+            if isinstance(data, SlipData):  # what the rig reports (tractive force or drawbar pull, with effects)
+                return result.predict(grid, normal_load=W)
             return tractive_force(grid, result, vehicle, normal_load=W)
         return tractive_force(grid, last, vehicle, result.model, normal_load=W)
 
-    drawable = result.success or last is not None
+    # a failed fit's last iterate is a soil only: draw it where the data are the soil's thrust
+    drawable = result.success or (last is not None and measured == "tractive_force" and not effects)
     if isinstance(data, SlipData):
         fig, (ax, axr) = plt.subplots(2, 1, figsize=(6.6, 6.2), sharex=True, gridspec_kw={"height_ratios": [3, 1.3]})
         loads = data.loads(vehicle.weight)
-        sc, u = force_unit(data.tractive_force)
+        sc, u = force_unit(data.values)
         imax = max(float(np.max(data.slip)) * 1.15, 0.05)
         grid = np.linspace(0, imax, 300)
         res = np.asarray(result.residuals, dtype=float)
         for k, W in enumerate(np.unique(loads)):
             sel = loads == W
             col = f"C{k}"
-            ax.plot(data.slip[sel], data.tractive_force[sel] / sc, "o", color=col, ms=5,
+            ax.plot(data.slip[sel], data.values[sel] / sc, "o", color=col, ms=5,
                     label=f"measured, W = {W / sc:.4g} {u}")
             if drawable:
                 F = curve(grid, W)
                 if result.success:
                     ax.plot(grid, F / sc, "-", color=col, lw=1.2, label=f"fitted ({result.model} model)")
-                    band = _curve_band(grid, result, vehicle, float(W))
+                    band = None if effects else _curve_band(grid, result, vehicle, float(W))
                     if band is not None:
                         ax.fill_between(grid, (F - band) / sc, (F + band) / sc, color=col, alpha=0.18, lw=0,
                                         label=None if k else "95 % band of the fitted curve")
@@ -149,8 +158,8 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
             if np.all(np.isfinite(res[sel])):
                 axr.plot(data.slip[sel], res[sel] / sc, "o", color=col, ms=5)
         axr.axhline(0, color="k", lw=0.6)
-        ax.set_ylabel(f"tractive force F ({u})")
-        ax.set_ylim(bottom=min(0.0, float(np.min(data.tractive_force)) / sc * 1.05))
+        ax.set_ylabel(f"{_QUANTITY[measured]} ({u})")
+        ax.set_ylim(bottom=min(0.0, float(np.min(data.values)) / sc * 1.05))
         ax.legend(fontsize=8)
         axr.set_ylabel(f"{'model' if result.success else 'last iterate'} - data ({u})")
         axr.set_xlabel("slip i (-)")
