@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 
 from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, vehicle_arg
+from .identify.engines import DEFAULT_ENGINE, ENGINES
 from .soilmodel import DataError
 
 # --- fit --------------------------------------------------------------------------------------
@@ -13,7 +14,7 @@ def _cmd_fit(a: argparse.Namespace) -> int:
 
     data = read_csv(a.data)
     vehicle = vehicle_arg(a.vehicle)
-    kw = {"engine": a.engine} if a.engine != "ipopt" else {}
+    kw = {"engine": a.engine}
     if a.sigma is not None and not isinstance(data, DriveLog):
         kw["sigma"] = a.sigma if a.sigma == "relative" else floats_arg(a.sigma, "--sigma")[0]
     if a.bias_correction != "none":
@@ -39,9 +40,11 @@ def add_parser(sub) -> None:
     f.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")
     f.add_argument("--model", choices=("full", "cohesion-free"), default="full")
     f.add_argument("--method", choices=("ipopt", "newton", "least-squares"), default="ipopt")
-    f.add_argument("--engine", choices=("ipopt", "compiled", "auto"), default="ipopt",
-                   help="solver engine for --method ipopt on slip data: IPOPT (default), or the compiled "
-                        "projected Levenberg-Marquardt engine that hands anything it cannot certify to IPOPT")
+    f.add_argument("--engine", choices=ENGINES, default=DEFAULT_ENGINE,
+                   help="what solves --method ipopt on slip data (same optimum): auto (default: compiled "
+                        "Levenberg-Marquardt, C code from the per-user cache or, while it compiles in the "
+                        "background, CasADi's virtual machine), ipopt, compiled (compile the C code now if not "
+                        "cached) or vectorized; anything not certified is handed to IPOPT")
     f.add_argument("--sigma", metavar="N|relative",
                    help="slip data: force noise standard deviation in N (taken as known), or 'relative' for noise "
                         "proportional to the force (level estimated); default: equal weights, level estimated")
