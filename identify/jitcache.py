@@ -49,6 +49,15 @@ _LOCK = threading.Lock()
 _PENDING: dict[str, subprocess.Popen] = {}
 
 
+def _after_fork() -> None:  # a lock held by another thread at fork time would never be released
+    global _LOCK
+    _LOCK = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork)
+
+
 def cache_dir() -> Path:
     """The per-user folder of compiled libraries (created on first use)."""
     d = os.environ.get("SOILTRACK_CACHE_DIR")
