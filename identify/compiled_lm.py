@@ -67,6 +67,7 @@ import numpy as np
 
 from ..soilmodel.traction import max_thrust_expr, thrust_expr
 from . import jitcache
+from .ipopt_fit import _one_load  # the one test of "a single normal load"
 from .problem import SCALE, SlipProblem, ridge_centre
 from .result import FitResult, build_result
 
@@ -332,7 +333,10 @@ class Kernel:
         self._callers()
 
     def _callers(self) -> None:
-        self.solver, self.resjac = (_Caller(f) for f in self.compiled.functions)
+        callers = [_Caller(f) for f in self.compiled.functions]
+        for c in callers:  # what evaluates this very caller (read with it, never stale)
+            c.engine, c.backend = self.engine, self.backend
+        self.solver, self.resjac = callers
 
     @property
     def backend(self) -> str:
@@ -420,7 +424,6 @@ class Solution:
 
 def _variant(pb: SlipProblem) -> tuple[int, bool, str]:
     """``(p, one_load, residual model)`` of a problem."""
-    from .ipopt_fit import _one_load  # the one test of "a single normal load"
     one = pb.model == "full" and _one_load(pb)
     p = 3 if (pb.model == "full" and not one) else 2
     return p, one, pb.model
@@ -450,10 +453,14 @@ def _scaled_start(pb: SlipProblem, x0, p: int, one_load: bool) -> tuple[list, fl
     return [x0[1], x0[2] / SCALE[2]], 1.0
 
 
-def _data_vector(pb: SlipProblem, nc: int) -> np.ndarray:
-    """``[slip, F, W, w, l, b]`` padded to ``nc`` rows (zero slip, force and weight)."""
+def _data_vector(pb: SlipProblem, nc: int, out: np.ndarray | None = None) -> np.ndarray:
+    """``[slip, F, W, w, l, b]`` padded to ``nc`` rows (zero slip, force and weight), into ``out`` if given."""
     n = pb.n
-    d = np.zeros(4 * nc + 2)
+    if out is None:
+        d = np.zeros(4 * nc + 2)
+    else:
+        d = out
+        d[:] = 0.0
     d[0:n] = pb.slip
     d[nc:nc + n] = pb.force
     d[2 * nc:2 * nc + n] = pb.load
@@ -477,10 +484,23 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
     nc = k.n
     lbz, ubz = _scaled_box(pb, p, one_load)
     z0, use0 = _scaled_start(pb, x0, p, one_load)
-    d = _data_vector(pb, nc)
-    t1 = time.perf_counter()
-    y = k.solver(np.concatenate((d, lbz, ubz, z0, [use0])))
-    t_call = time.perf_counter() - t1
+    o = 4 * nc + 2
+    cs = k.solver
+    if cs.trigger is None:  # pragma: no cover - CasADi without buffers
+        d = _data_vector(pb, nc)
+        t1 = time.perf_counter()
+        y = cs(np.concatenate((d, lbz, ubz, z0, [use0])))
+        t_call = time.perf_counter() - t1
+    else:
+        with cs.lock:  # fill the zero-copy input buffer in place, call, copy the output
+            xb = cs.x
+            _data_vector(pb, nc, xb[0:o])
+            xb[o:o + p], xb[o + p:o + 2 * p], xb[o + 2 * p:o + 3 * p], xb[o + 3 * p] = lbz, ubz, z0, use0
+            t1 = time.perf_counter()
+            cs.trigger()
+            t_call = time.perf_counter() - t1
+            y = cs.y.copy()
+            d = xb[0:o].copy()
     # y = [z (p), cost, g (p), trJJ, iters, zstart (p), scale]
     z, cost, g = y[0:p], float(y[p]), y[p + 1:2 * p + 1]
     trJJ, iters = float(y[2 * p + 1]), int(y[2 * p + 2]) if math.isfinite(y[2 * p + 2]) else -1
@@ -513,7 +533,7 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
         for j in range(3):
             J[:, j] = rj[nc + j * nc:nc + j * nc + n]
     return Solution(theta=theta, certified=ok, iterations=iters, start=_theta_si(zs, p), residuals=r, jacobian=J,
-                    z=np.asarray(z, float), p=p, one_load=one_load, engine=k.engine, backend=k.backend,
+                    z=np.asarray(z, float), p=p, one_load=one_load, engine=cs.engine, backend=cs.backend,
                     call_time=t_call)
 
 

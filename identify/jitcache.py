@@ -210,7 +210,11 @@ def load(functions: Sequence[ca.Function], name: str, wait: bool = True) -> Comp
                     return vm
                 vm.backend = VM_PENDING
                 return vm
-            if not _compile_now(source, name, cc, lib):
+            try:
+                compiled = _compile_now(source, name, cc, lib)
+            except OSError:  # e.g. a read-only cache folder
+                compiled = False
+            if not compiled:
                 vm.backend = VM_FAILED
                 return vm
             backend = C_NEW

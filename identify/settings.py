@@ -9,6 +9,7 @@ stay keywords of ``fit``; drive-log options are passed on to the drive-log fit.
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
+from functools import lru_cache
 from typing import Any, Mapping
 
 from ..soilmodel.errors import DataError
@@ -70,9 +71,16 @@ class FitSettings:
         unknown = sorted(set(overrides) - set(SETTING_NAMES))
         if unknown:
             raise DataError(f"unknown setting(s) {unknown}; FitSettings has {list(SETTING_NAMES)}")
-        base = settings if settings is not None else cls()
         given = {k: v for k, v in overrides.items() if v is not None}
+        if settings is None and set(given) <= {"engine"} and isinstance(given.get("engine", ""), str):  # the common case: cached, validated once
+            return _engine_only(given.get("engine", DEFAULT_ENGINE))
+        base = settings if settings is not None else cls()
         return replace(base, **given) if given else base
+
+
+@lru_cache(maxsize=None)
+def _engine_only(engine: str) -> FitSettings:
+    return FitSettings(engine=engine)
 
 
 #: Field names of :class:`FitSettings` (the keywords ``fit`` and ``fit_many`` take for them).
