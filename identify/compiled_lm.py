@@ -26,10 +26,12 @@ nothing here writes the shear bracket or its derivatives by hand.
    the rounding floor of the cost (relative change below 1e-13) a step is also accepted when
    it shrinks the free part of the gradient (Newton's endgame). Each block of iterations is a
    conditional call skipped once the first-order test below holds.
-3. **Certification** (in Python, from the Function's outputs, not on trust): finite numbers,
-   inside the bounds, and the first-order (KKT) conditions for the box: the projected
-   gradient ``|| g_free ||`` at most ``KKT_TOL`` times ``sqrt(trace(J^T J) * 2 cost)``, or a
-   cost that is zero to rounding. A fit the engine cannot certify is handed to the cached IPOPT
+3. **Certification**, computed by the same Function from its final state (not a solver's
+   word): finite numbers, inside the bounds, and the first-order (KKT) conditions for the box:
+   the projected gradient ``|| g_free ||`` at most ``KKT_TOL`` times
+   ``sqrt(trace(J^T J) * 2 cost)``, or a cost that is zero to rounding - the very test that
+   stops the iteration (one home). ``KKT_TOL`` and ``ZERO_COST`` are inputs of the call, not
+   compiled-in constants. A fit the engine cannot certify is handed to the cached IPOPT
    solver, the authority (said in the message; ``extra["engine"] == "ipopt"``,
    ``extra["handed_over_from"] == "compiled"``).
 
@@ -225,12 +227,20 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
         s = evm(z, slip, force, W, wt, l, b)
         return s[0], s[1:1 + p], ca.reshape(s[1 + p:1 + p + p * p], p, p), s[1 + p + p * p:]
 
+    # the first-order (KKT) test with bounds: the stopping test AND the certificate (one home);
+    # tolS = [KKT_TOL, ZERO_COST] are inputs, not compiled-in constants
     zS, gS, DS, fS, scS = ca.SX.sym("z", p), ca.SX.sym("g", p), ca.SX.sym("D", p), ca.SX.sym("f"), ca.SX.sym("sc")
+    tolS = ca.SX.sym("tol", 2)
     epsS = _EPS_B * (uz - lz)
     act = ca.logic_or(ca.logic_and(zS <= lz + epsS, gS > 0), ca.logic_and(zS >= uz - epsS, gS < 0))
     gp = ca.if_else(act, ca.SX.zeros(p), gS)
-    done = ca.logic_or(ca.norm_2(gp) <= KKT_TOL * ca.sqrt(ca.sum1(DS) * 2 * fS), fS <= ZERO_COST * scS)
-    kkt = ca.Function("kkt", [zS, fS, gS, DS, lz, uz, scS], [done, act])
+    done = ca.logic_or(ca.norm_2(gp) <= tolS[0] * ca.sqrt(ca.sum1(DS) * 2 * fS), fS <= tolS[1] * scS)
+    kkt = ca.Function("kkt", [zS, fS, gS, DS, lz, uz, scS, tolS], [done, act])
+    # certificate: the KKT test on finite numbers inside the box (NaN fails every comparison)
+    vals = ca.vertcat(zS, fS, gS, DS)
+    finite = ca.logic_and(ca.sum1(ca.fabs(vals) < ca.inf) == vals.numel(),
+                          ca.sum1(ca.logic_and(zS >= lz, zS <= uz)) == p)
+    certify = ca.Function("certify", [zS, fS, gS, DS, lz, uz, scS, tolS], [ca.logic_and(finite, done)])
     HS, lamS = ca.SX.sym("H", p, p), ca.SX.sym("lam")
     m = 1 - act
     Hd = HS + lamS * ca.diag(ca.fmax(DS, 1e-300))
@@ -259,30 +269,34 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
     step_f = ca.Function("lm_step", [st, d_, lbz_, ubz_], [new])
     keep_f = ca.Function("lm_keep", [st, d_, lbz_, ubz_], [st])
     cond = ca.Function.conditional("lm_iter", [step_f], keep_f)  # index 0: iterate; else: keep
-    sc_ = ca.MX.sym("scale")
+    sc_, tol_, tol = ca.MX.sym("scale"), ca.MX.sym("tol", 2), ca.MX.sym("tol", 2)
 
-    def converged(s, lo, hi, scl):
-        return kkt(s[0:p], s[p + 1], s[p + 2:2 * p + 2], s[2 * p + 2 + p * p:3 * p + 2 + p * p], lo, hi, scl)[0]
+    def parts(s):
+        return s[0:p], s[p + 1], s[p + 2:2 * p + 2], s[2 * p + 2 + p * p:3 * p + 2 + p * p]
+
+    def converged(s, lo, hi, scl, tl):
+        return kkt(*parts(s), lo, hi, scl, tl)[0]
 
     sb = st  # blocks of _BLOCK conditional iterations, each block skipped as a whole once converged
     for _ in range(_BLOCK):
-        sb = cond(converged(sb, lbz_, ubz_, sc_), sb, d_, lbz_, ubz_)
-    block_f = ca.Function("lm_block", [st, d_, lbz_, ubz_, sc_], [sb])
-    keep_b = ca.Function("lm_keep_block", [st, d_, lbz_, ubz_, sc_], [st])
+        sb = cond(converged(sb, lbz_, ubz_, sc_, tol_), sb, d_, lbz_, ubz_)
+    block_f = ca.Function("lm_block", [st, d_, lbz_, ubz_, sc_, tol_], [sb])
+    keep_b = ca.Function("lm_keep_block", [st, d_, lbz_, ubz_, sc_, tol_], [st])
     cond_b = ca.Function.conditional("lm_blocks", [block_f], keep_b)
 
     f0, g0, H0, D0 = evaluate(zs)
     state = ca.vertcat(zs, 1e-3, f0, g0, ca.vec(H0), D0, 0)
     for _ in range(-(-n_iter // _BLOCK)):
-        state = cond_b(converged(state, lbz, ubz, scale), state, d, lbz, ubz, scale)
+        state = cond_b(converged(state, lbz, ubz, scale, tol), state, d, lbz, ubz, scale, tol)
     out = ca.vertcat(state[0:p], state[p + 1], state[p + 2:2 * p + 2],
-                     ca.sum1(state[2 * p + 2 + p * p:3 * p + 2 + p * p]), state[nst - 1], zs, scale)
+                     ca.sum1(state[2 * p + 2 + p * p:3 * p + 2 + p * p]), state[nst - 1], zs, scale,
+                     certify(*parts(state), lbz, ubz, scale, tol))
     o = 4 * n + 2
-    xin = ca.MX.sym("x", o + 3 * p + 1 + gd.numel())
-    f = ca.Function("lm", [d, lbz, ubz, z0, use0, gd], [out])
+    xin = ca.MX.sym("x", o + 3 * p + 3 + gd.numel())
+    f = ca.Function("lm", [d, lbz, ubz, z0, use0, tol, gd], [out])
     return ca.Function(f"soilfit_clm_{p}_{n}_{n_grid}_{n_iter}", [xin],
                        [ca.densify(f(xin[0:o], xin[o:o + p], xin[o + p:o + 2 * p], xin[o + 2 * p:o + 3 * p],
-                                     xin[o + 3 * p], xin[o + 3 * p + 1:]))],
+                                     xin[o + 3 * p], xin[o + 3 * p + 1:o + 3 * p + 3], xin[o + 3 * p + 3:]))],
                        ["x"], ["y"])
 
 
@@ -503,6 +517,17 @@ def _theta_si(z: np.ndarray, p: int) -> list[float]:
     return [0.0, float(z[0]), float(z[1] * SCALE[2])]
 
 
+def input_vector(pb: SlipProblem, x0=None, nc: int | None = None) -> np.ndarray:
+    """The solver Function's input ``[d, lbz, ubz, z0, use_z0, tol, g]`` for ``pb`` (``nc`` rows)."""
+    p, one_load, _ = _variant(pb)
+    nc = size_class(pb.n) if nc is None else nc
+    z0, use0 = _scaled_start(pb, x0, p, one_load)
+    g = np.zeros(4 * GRID_ROWS if nc > GRID_ROWS else 0)
+    if g.size:
+        _grid_vector(pb, g)
+    return np.concatenate((_data_vector(pb, nc), *_scaled_box(pb, p, one_load), z0, [use0], [KKT_TOL, ZERO_COST], g))
+
+
 def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solution:
     """Run the compiled solver on a :class:`SlipProblem` and certify its answer (no hand-over here)."""
     p, one_load, model = _variant(pb)
@@ -512,43 +537,33 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
     z0, use0 = _scaled_start(pb, x0, p, one_load)
     o = 4 * nc + 2
     cs = k.solver
+    tol = (KKT_TOL, ZERO_COST)  # read at call time (not compiled in)
     if cs.trigger is None:  # pragma: no cover - CasADi without buffers
-        d = _data_vector(pb, nc)
-        g = np.zeros(4 * GRID_ROWS if nc > GRID_ROWS else 0)
-        if g.size:
-            _grid_vector(pb, g)
+        xin = input_vector(pb, x0, nc)
+        d = xin[0:o]
         t1 = time.perf_counter()
-        y = cs(np.concatenate((d, lbz, ubz, z0, [use0], g)))
+        y = cs(xin)
         t_call = time.perf_counter() - t1
     else:
         with cs.lock:  # fill the zero-copy input buffer in place, call, copy the output
             xb = cs.x
             _data_vector(pb, nc, xb[0:o])
             xb[o:o + p], xb[o + p:o + 2 * p], xb[o + 2 * p:o + 3 * p], xb[o + 3 * p] = lbz, ubz, z0, use0
+            xb[o + 3 * p + 1:o + 3 * p + 3] = tol
             if nc > GRID_ROWS:
-                _grid_vector(pb, xb[o + 3 * p + 1:])
+                _grid_vector(pb, xb[o + 3 * p + 3:])
             t1 = time.perf_counter()
             cs.trigger()
             t_call = time.perf_counter() - t1
             y = cs.y.copy()
             d = xb[0:o].copy()
-    # y = [z (p), cost, g (p), trJJ, iters, zstart (p), scale]
-    z, cost, g = y[0:p], float(y[p]), y[p + 1:2 * p + 1]
-    trJJ, iters = float(y[2 * p + 1]), int(y[2 * p + 2]) if math.isfinite(y[2 * p + 2]) else -1
-    zs, scale = y[2 * p + 3:3 * p + 3], float(y[3 * p + 3])
-    # ---- certify: finite, inside the bounds, first-order conditions with bounds
-    ok = math.isfinite(cost) and math.isfinite(trJJ)
-    gp2 = 0.0
-    for j in range(p):
-        zj, gj, lo, hi = float(z[j]), float(g[j]), lbz[j], ubz[j]
-        if not (math.isfinite(zj) and math.isfinite(gj) and lo <= zj <= hi):
-            ok = False
-            break
-        eps = _EPS_B * (hi - lo)
-        if not ((zj <= lo + eps and gj > 0) or (zj >= hi - eps and gj < 0)):
-            gp2 += gj * gj
-    if ok:
-        ok = math.sqrt(gp2) <= KKT_TOL * math.sqrt(trJJ * 2.0 * cost) or cost <= ZERO_COST * scale
+    # y = [z (p), cost, g (p), trJJ, iters, zstart (p), scale, certified]; the certificate (finite
+    # numbers inside the box meeting the first-order test) is computed by the Function itself
+    # from its final state, with the same KKT test that stops the iteration
+    z = y[0:p]
+    iters = int(y[2 * p + 2]) if math.isfinite(y[2 * p + 2]) else -1
+    zs = y[2 * p + 3:3 * p + 3]
+    ok = bool(y[3 * p + 4] > 0.5)
     theta = np.array(_theta_si(z, p)) if np.all(np.isfinite(z)) else np.full(3, np.nan)
     if ok and one_load:  # the ridge marker, as the IPOPT path reports it
         W0 = float(pb.load[0])

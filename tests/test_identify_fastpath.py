@@ -210,10 +210,10 @@ def test_virtual_machine_agrees_with_c_code():
     assert k.compiled.is_c and k.engine == "compiled", k.backend  # the JIT really ran (no silent fallback)
     assert k.solver.f.class_name() != k.vm[0].class_name()  # an external library, not the MX Function
     pb = make_problem(WONG, HEAVY, "cohesion-free", PRACTICAL_BOUNDS)
-    lbz, ubz = compiled_lm._scaled_box(pb, 2, False)
-    x = np.concatenate([compiled_lm._data_vector(pb, k.n), lbz, ubz, [0, 0], [0]])
+    x = compiled_lm.input_vector(pb, nc=k.n)
     vm = compiled_lm._Caller(k.vm[0])(x)
     c = k.solver(x)
+    assert c[-1] == 1.0  # certified
     assert np.allclose(vm, c, rtol=1e-12, atol=1e-9)
 
 
