@@ -454,13 +454,13 @@ def _variant(pb: SlipProblem) -> tuple[int, bool, str]:
 
 def _scaled_box(pb: SlipProblem, p: int, one_load: bool) -> tuple[list, list]:
     (c_lo, c_hi), (p_lo, p_hi), (K_lo, K_hi) = pb.bounds.cohesion, pb.bounds.friction_angle, pb.bounds.shear_modulus
-    sK = SCALE[2]
+    sK = _S2
     if one_load:  # F_max = W tan(phi_e) spans what the (c, phi) box allows
         W0, A = float(pb.load[0]), pb.vehicle.contact_area
         F_lo, F_hi = max_thrust_expr(c_lo, p_lo, W0, A), max_thrust_expr(c_hi, p_hi, W0, A)
         return [math.atan(F_lo / W0), K_lo / sK], [math.atan(F_hi / W0), K_hi / sK]
     if p == 3:
-        return [c_lo / SCALE[0], p_lo, K_lo / sK], [c_hi / SCALE[0], p_hi, K_hi / sK]
+        return [c_lo / _S0, p_lo, K_lo / sK], [c_hi / _S0, p_hi, K_hi / sK]
     return [p_lo, K_lo / sK], [p_hi, K_hi / sK]
 
 
@@ -468,12 +468,16 @@ def _scaled_start(pb: SlipProblem, x0, p: int, one_load: bool) -> tuple[list, fl
     if x0 is None:
         return [0.0] * p, 0.0
     x0 = np.asarray(x0, float)
+    return [float(v) for v in _scaled_start_given(pb, x0, p, one_load)], 1.0
+
+
+def _scaled_start_given(pb: SlipProblem, x0: np.ndarray, p: int, one_load: bool) -> list:
     if one_load:
         W0 = float(pb.load[0])
-        return [math.atan(max_thrust_expr(x0[0], x0[1], W0, pb.vehicle.contact_area) / W0), x0[2] / SCALE[2]], 1.0
+        return [math.atan(max_thrust_expr(x0[0], x0[1], W0, pb.vehicle.contact_area) / W0), x0[2] / SCALE[2]]
     if p == 3:
-        return [x0[0] / SCALE[0], x0[1], x0[2] / SCALE[2]], 1.0
-    return [x0[1], x0[2] / SCALE[2]], 1.0
+        return [x0[0] / SCALE[0], x0[1], x0[2] / SCALE[2]]
+    return [x0[1], x0[2] / SCALE[2]]
 
 
 def _data_vector(pb: SlipProblem, nc: int, out: np.ndarray | None = None) -> np.ndarray:
@@ -510,11 +514,14 @@ def _grid_vector(pb: SlipProblem, out: np.ndarray) -> None:
                                                                     1.0 / pb.sigma[idx])
 
 
-def _theta_si(z: np.ndarray, p: int) -> list[float]:
+_S0, _S2 = float(SCALE[0]), float(SCALE[2])
+
+
+def _theta_si(z, p: int) -> list[float]:
     """Start/optimum in SI ``[c, phi, K]`` (one-load full: ``c = 0`` and the equivalent friction angle)."""
     if p == 3:
-        return [float(z[0] * SCALE[0]), float(z[1]), float(z[2] * SCALE[2])]
-    return [0.0, float(z[0]), float(z[1] * SCALE[2])]
+        return [float(z[0]) * _S0, float(z[1]), float(z[2]) * _S2]
+    return [0.0, float(z[0]), float(z[1]) * _S2]
 
 
 def input_vector(pb: SlipProblem, x0=None, nc: int | None = None) -> np.ndarray:
@@ -548,8 +555,7 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
         with cs.lock:  # fill the zero-copy input buffer in place, call, copy the output
             xb = cs.x
             _data_vector(pb, nc, xb[0:o])
-            xb[o:o + p], xb[o + p:o + 2 * p], xb[o + 2 * p:o + 3 * p], xb[o + 3 * p] = lbz, ubz, z0, use0
-            xb[o + 3 * p + 1:o + 3 * p + 3] = tol
+            xb[o:o + 3 * p + 3] = lbz + ubz + z0 + [use0, KKT_TOL, ZERO_COST]
             if nc > GRID_ROWS:
                 _grid_vector(pb, xb[o + 3 * p + 3:])
             t1 = time.perf_counter()
@@ -560,27 +566,25 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
     # y = [z (p), cost, g (p), trJJ, iters, zstart (p), scale, certified]; the certificate (finite
     # numbers inside the box meeting the first-order test) is computed by the Function itself
     # from its final state, with the same KKT test that stops the iteration
-    z = y[0:p]
-    iters = int(y[2 * p + 2]) if math.isfinite(y[2 * p + 2]) else -1
-    zs = y[2 * p + 3:3 * p + 3]
-    ok = bool(y[3 * p + 4] > 0.5)
-    theta = np.array(_theta_si(z, p)) if np.all(np.isfinite(z)) else np.full(3, np.nan)
+    yl = y.tolist()
+    z = yl[0:p]
+    iters = int(yl[2 * p + 2]) if math.isfinite(yl[2 * p + 2]) else -1
+    ok = yl[3 * p + 4] > 0.5
+    theta = np.array(_theta_si(z, p) if all(math.isfinite(v) for v in z) else [math.nan] * 3)
     if ok and one_load:  # the ridge marker, as the IPOPT path reports it
         W0 = float(pb.load[0])
         c, phi = ridge_centre(max_thrust_expr(0.0, theta[1], W0, pb.vehicle.contact_area, "cohesion-free"), W0,
                               pb.vehicle.contact_area, pb.bounds)
         theta[0], theta[1] = float(c), float(phi)
     r = J = np.empty(0)
-    if ok:
+    if ok:  # residuals and Jacobian at the reported point (AD of Eq. 2/8)
         n = pb.n
         rj = k.resjac(np.concatenate((theta, d)))
         r = rj[0:n]
-        J = np.empty((n, 3))
-        for j in range(3):
-            J[:, j] = rj[nc + j * nc:nc + j * nc + n]
-    return Solution(theta=theta, certified=ok, iterations=iters, start=_theta_si(zs, p), residuals=r, jacobian=J,
-                    z=np.asarray(z, float), p=p, one_load=one_load, engine=cs.engine, backend=cs.backend,
-                    call_time=t_call)
+        J = rj[nc:].reshape(3, nc)[:, 0:n].T
+    return Solution(theta=theta, certified=ok, iterations=iters, start=_theta_si(yl[2 * p + 3:3 * p + 3], p),
+                    residuals=r, jacobian=J, z=np.array(z), p=p, one_load=one_load, engine=cs.engine,
+                    backend=cs.backend, call_time=t_call)
 
 
 def fit_compiled(pb: SlipProblem, x0=None, n_grid: int = 25, ipopt_options: dict | None = None,
