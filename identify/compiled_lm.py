@@ -66,6 +66,7 @@ import os
 import threading
 import time
 from dataclasses import dataclass
+from functools import lru_cache
 
 import casadi as ca
 import numpy as np
@@ -503,15 +504,21 @@ def grid_rows(pb: SlipProblem) -> np.ndarray:
     Evenly spread over the samples sorted by slip (smallest and largest slip included): the
     grid only chooses the start basin, the iteration and its certificate use every sample.
     """
-    order = np.argsort(pb.slip, kind="stable")
-    return order[np.round(np.linspace(0, pb.n - 1, GRID_ROWS)).astype(int)]
+    return np.argsort(pb.slip, kind="stable")[_spread(pb.n)]
+
+
+@lru_cache(maxsize=1024)
+def _spread(n: int) -> np.ndarray:
+    return np.round(np.linspace(0, n - 1, GRID_ROWS)).astype(np.intp)
 
 
 def _grid_vector(pb: SlipProblem, out: np.ndarray) -> None:
     idx = grid_rows(pb)
     m = GRID_ROWS
-    out[0:m], out[m:2 * m], out[2 * m:3 * m], out[3 * m:4 * m] = (pb.slip[idx], pb.force[idx], pb.load[idx],
-                                                                    1.0 / pb.sigma[idx])
+    out[0:m] = pb.slip[idx]
+    out[m:2 * m] = pb.force[idx]
+    out[2 * m:3 * m] = pb.load[idx]
+    np.divide(1.0, pb.sigma[idx], out=out[3 * m:4 * m])
 
 
 _S0, _S2 = float(SCALE[0]), float(SCALE[2])
