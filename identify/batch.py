@@ -46,7 +46,7 @@ def _solve_chunk(datasets: Sequence[SlipData], vehicle: Vehicle, model: str, bou
     t0 = time.perf_counter()
     jit = jit_mode(settings.engine)
     pbs = [make_problem(d, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known) for d in datasets]
-    sols = [compiled_lm.solve(pb, None, settings.n_grid, jit) for pb in pbs]
+    sols = compiled_lm.solve_many(pbs, settings.n_grid, jit)
     dt = (time.perf_counter() - t0) / max(len(pbs), 1)
     out: list[FitResult | None] = [None] * len(pbs)
     groups: dict[int, list[int]] = {}

@@ -77,7 +77,7 @@ from .ipopt_fit import _one_load  # the one test of "a single normal load"
 from .problem import SCALE, SlipProblem, ridge_centre
 from .result import FitResult, build_result
 
-__all__ = ["compiled_solver", "fit_compiled", "solve", "kernel", "size_class", "Solution", "N_ITER", "KKT_TOL",
+__all__ = ["compiled_solver", "fit_compiled", "solve", "solve_many", "kernel", "size_class", "Solution", "N_ITER", "KKT_TOL",
            "JIT_MODES"]
 
 #: Most damped-Newton iterations per call (skipped once converged; typically 2-6 are run).
@@ -350,8 +350,7 @@ class Kernel:
 
     def _load(self, jit: str) -> None:
         if jit == "off":
-            self.compiled = jitcache.Compiled(tuple(f.name() for f in self.vm), list(self.vm), jitcache.VM_NO_CC)
-            self.compiled.backend = "virtual machine (JIT off)"
+            self.compiled = jitcache.Compiled(tuple(f.name() for f in self.vm), list(self.vm), jitcache.VM_OFF)
         else:
             self.compiled = jitcache.load(self.vm, f"soiltrack_clm_{self.p}_{self.n}", wait=(jit == "wait"))
         self._callers()
@@ -376,7 +375,7 @@ class Kernel:
             return
         if self.compiled.upgrade():
             self._callers()
-        elif jit == "wait" and self.compiled.backend in (jitcache.VM_PENDING, "virtual machine (JIT off)"):
+        elif jit == "wait" and self.compiled.backend in (jitcache.VM_PENDING, jitcache.VM_OFF):
             self._load("wait")
 
     def renew_locks(self) -> None:
@@ -592,6 +591,90 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
     return Solution(theta=theta, certified=ok, iterations=iters, start=_theta_si(yl[2 * p + 3:3 * p + 3], p),
                     residuals=r, jacobian=J, z=np.array(z), p=p, one_load=one_load, engine=cs.engine,
                     backend=cs.backend, call_time=t_call)
+
+
+def solve_many(pbs: list, n_grid: int = 25, jit: str = "wait") -> list[Solution]:
+    """:func:`solve` for many problems: the same Function and inputs, packed and decoded as arrays.
+
+    Problems of one kind and one length are stacked; the compiled solver and the residual
+    Function are called once per problem through their zero-copy buffers (no Python work per
+    call beyond a row copy), so the per-problem cost is a few microseconds plus the C call.
+    Gives exactly what :func:`solve` gives for each problem.
+    """
+    out: list[Solution | None] = [None] * len(pbs)
+    groups: dict[tuple, list[int]] = {}
+    for i, pb in enumerate(pbs):
+        groups.setdefault((*_variant(pb), pb.n), []).append(i)
+    for (p, one_load, model, n), idx in groups.items():
+        k = kernel(p, model, n, n_grid, jit)
+        cs, cr = k.solver, k.resjac
+        nc, N = k.n, len(idx)
+        P = [pbs[i] for i in idx]
+        o = 4 * nc + 2
+        X = np.zeros((N, cs.n_in))
+        load = np.stack([pb.load for pb in P])
+        X[:, 0:n] = np.stack([pb.slip for pb in P])
+        X[:, nc:nc + n] = np.stack([pb.force for pb in P])
+        X[:, 2 * nc:2 * nc + n] = load
+        X[:, 2 * nc + n:3 * nc] = load[:, 0:1]
+        X[:, 3 * nc:3 * nc + n] = 1.0 / np.stack([pb.sigma for pb in P])
+        X[:, 4 * nc] = [pb.vehicle.track_length for pb in P]
+        X[:, 4 * nc + 1] = [pb.vehicle.track_width for pb in P]
+        for r, pb in enumerate(P):
+            lbz, ubz = _scaled_box(pb, p, one_load)
+            X[r, o:o + 2 * p] = lbz + ubz
+        X[:, o + 3 * p + 1] = KKT_TOL
+        X[:, o + 3 * p + 2] = ZERO_COST
+        if nc > GRID_ROWS:
+            m = GRID_ROWS
+            rows = np.take_along_axis(np.argsort(X[:, 0:n], axis=1, kind="stable"), _spread(n)[None, :].repeat(N, 0),
+                                      axis=1)
+            g = o + 3 * p + 3
+            for j, blk in enumerate((0, nc, 2 * nc, 3 * nc)):
+                X[:, g + j * m:g + (j + 1) * m] = np.take_along_axis(X[:, blk:blk + n], rows, axis=1)
+        Y = _run_rows(cs, X)
+        Z = Y[:, 0:p]
+        cert = Y[:, 3 * p + 4] > 0.5
+        theta = np.zeros((N, 3))
+        if p == 3:
+            theta[:, 0] = Z[:, 0] * _S0
+        theta[:, 1] = Z[:, p - 2]
+        theta[:, 2] = Z[:, p - 1] * _S2
+        theta[~np.all(np.isfinite(Z), axis=1)] = np.nan
+        if one_load:  # the ridge marker, as the IPOPT path reports it
+            for r in np.nonzero(cert)[0]:
+                pb = P[r]
+                W0, A = float(pb.load[0]), pb.vehicle.contact_area
+                c, phi = ridge_centre(max_thrust_expr(0.0, theta[r, 1], W0, A, "cohesion-free"), W0, A, pb.bounds)
+                theta[r, 0], theta[r, 1] = float(c), float(phi)
+        RJ = _run_rows(cr, np.concatenate((theta, X[:, 0:o]), axis=1))
+        J = RJ[:, nc:].reshape(N, 3, nc)[:, :, 0:n].transpose(0, 2, 1)
+        iters = [int(v) if math.isfinite(v) else -1 for v in Y[:, 2 * p + 2].tolist()]
+        empty = np.empty(0)
+        for r, i in enumerate(idx):
+            ok = bool(cert[r])
+            out[i] = Solution(theta=theta[r].copy(), certified=ok, iterations=iters[r],
+                              start=_theta_si(Y[r, 2 * p + 3:3 * p + 3], p),
+                              residuals=RJ[r, 0:n].copy() if ok else empty, jacobian=J[r].copy() if ok else empty,
+                              z=Z[r].copy(), p=p, one_load=one_load, engine=cs.engine, backend=cs.backend,
+                              call_time=math.nan)
+    return out  # type: ignore[return-value]
+
+
+def _run_rows(c: "_Caller", X: np.ndarray) -> np.ndarray:
+    """Call a flat Function on each row of ``X`` through its zero-copy buffer."""
+    Y = np.empty((X.shape[0], c.n_out))
+    if c.trigger is None:  # pragma: no cover - CasADi without buffers
+        for r in range(X.shape[0]):
+            Y[r] = c(X[r])
+        return Y
+    with c.lock:
+        xb, yb, trig = c.x, c.y, c.trigger
+        for r in range(X.shape[0]):
+            xb[:] = X[r]
+            trig()
+            Y[r] = yb
+    return Y
 
 
 def fit_compiled(pb: SlipProblem, x0=None, n_grid: int = 25, ipopt_options: dict | None = None,

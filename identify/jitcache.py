@@ -41,9 +41,10 @@ __all__ = ["cache_dir", "compiler", "load", "Compiled", "FLAGS"]
 FLAGS = ("-O2", "-shared", "-fPIC")
 
 #: Backend labels (``Compiled.backend``).
-C_CACHED, C_NEW, VM_NO_CC, VM_PENDING, VM_FAILED = (
+C_CACHED, C_NEW, VM_NO_CC, VM_PENDING, VM_FAILED, VM_OFF = (
     "C (disk cache)", "C (compiled now)", "virtual machine (no C compiler)",
-    "virtual machine (C code compiling in the background)", "virtual machine (C compilation failed)")
+    "virtual machine (C code compiling in the background)", "virtual machine (C compilation failed)",
+    "virtual machine (JIT off: SOILTRACK_NO_JIT or jit='off')")
 
 _LOCK = threading.Lock()
 _PENDING: dict[str, subprocess.Popen] = {}

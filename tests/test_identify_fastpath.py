@@ -258,11 +258,19 @@ def test_auto_never_waits_and_picks_up_the_background_compilation(tmp_path, monk
     assert b.theta[1] == pytest.approx(a.theta[1], rel=1e-13) and b.cost == pytest.approx(a.cost, rel=1e-12)
 
 
-def test_no_compiler_falls_back_to_the_virtual_machine_and_says_so(monkeypatch):
-    monkeypatch.setenv("SOILTRACK_NO_JIT", "1")
+@pytest.mark.parametrize("how", ["no compiler", "SOILTRACK_NO_JIT"])
+def test_no_compiler_falls_back_to_the_virtual_machine_and_says_so(monkeypatch, how):
+    if how == "no compiler":
+        monkeypatch.setattr(jitcache, "compiler", lambda: None)
+        expected = jitcache.VM_NO_CC
+    else:
+        monkeypatch.setenv("SOILTRACK_NO_JIT", "1")
+        expected = jitcache.VM_OFF
     monkeypatch.setattr(compiled_lm, "_KERNELS", {})
     r = fit(WONG, HEAVY, model="cohesion-free", engine="compiled")
-    assert r.extra["engine"] == "compiled-vm" and "virtual machine" in r.extra["engine_backend"]
+    assert r.extra["engine"] == "compiled-vm" and r.extra["engine_backend"] == expected
+    many = fit_many([WONG], HEAVY, model="cohesion-free", progress=False)[0]
+    assert many.extra["engine"] == "vectorized-vm" and many.extra["engine_backend"] == expected
     ref = fit(WONG, HEAVY, model="cohesion-free", engine="ipopt")
     assert r.cost == pytest.approx(ref.cost, rel=1e-12) and r.status == ref.status == "converged"
 
@@ -322,3 +330,21 @@ def test_single_fit_core_statistics_equal_the_batched_ones():
                 assert a[k].shape == b[k].shape
                 scale = np.nanmax(np.abs(a[k])) if np.any(np.isfinite(a[k])) else 1.0
                 assert np.allclose(a[k], b[k], rtol=1e-12, atol=1e-12 * scale, equal_nan=True), k
+
+
+def test_solve_many_gives_exactly_what_solve_gives():
+    """The stacked packing of fit_many's engine feeds the Function the same inputs as a single solve."""
+    rng = np.random.default_rng(10)
+    pbs = []
+    for model, loads in CASES:
+        for n in (3, 5, 20, 20, 37):
+            if model == "full" and n < 3:
+                continue
+            d = random_data(rng, model, loads, n=n)
+            pbs.append(make_problem(d, HEAVY, model, PRACTICAL_BOUNDS, sigma=rng.uniform(1e3, 5e3, n)))
+    many = compiled_lm.solve_many(pbs)
+    for pb, a in zip(pbs, many):
+        b = compiled_lm.solve(pb)
+        assert a.certified == b.certified and a.iterations == b.iterations and a.engine == b.engine
+        assert np.array_equal(a.theta, b.theta) and np.array_equal(a.start, b.start)
+        assert np.array_equal(a.residuals, b.residuals) and np.array_equal(a.jacobian, b.jacobian)
