@@ -265,7 +265,8 @@ def main(argv=None):
     print("-" * len(hdr))
     for r in rows:
         print(f"{r['dataset']:<24}{r['path']:<50}{r['time_s'] * 1e3:>8.3f} ms{r['speedup_vs_scipy']:>9.2f}x"
-              f"{r['phi_deg']:>12.6f}{r['K_m']:>11.6f}{r['rel_diff_vs_scipy']:>10.1e}  {r['status']}")
+              f"{r['phi_deg']:>12.6f}{r['K_m']:>11.6f}{r['rel_diff_vs_scipy']:>10.1e}  {r['status']}"
+              + (f" [{r['engine']}]" if r.get("engine") else ""))
     print()
     fastest = {}
     for name in ("3 points (Wong)", "100 points (synthetic)"):

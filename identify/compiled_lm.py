@@ -550,7 +550,6 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
     z0, use0 = _scaled_start(pb, x0, p, one_load)
     o = 4 * nc + 2
     cs = k.solver
-    tol = (KKT_TOL, ZERO_COST)  # read at call time (not compiled in)
     if cs.trigger is None:  # pragma: no cover - CasADi without buffers
         xin = input_vector(pb, x0, nc)
         d = xin[0:o]
