@@ -348,3 +348,14 @@ def test_solve_many_gives_exactly_what_solve_gives():
         assert a.certified == b.certified and a.iterations == b.iterations and a.engine == b.engine
         assert np.array_equal(a.theta, b.theta) and np.array_equal(a.start, b.start)
         assert np.array_equal(a.residuals, b.residuals) and np.array_equal(a.jacobian, b.jacobian)
+
+
+def test_twenty_lengths_share_a_few_size_classes(monkeypatch):
+    """fit_many on 20 datasets of 20 lengths builds one kernel per size class, not one per length."""
+    monkeypatch.setattr(compiled_lm, "_KERNELS", {})
+    rng = np.random.default_rng(11)
+    lengths = [5 + 10 * k for k in range(20)]  # 5 ... 195
+    sets = [random_data(rng, "cohesion-free", [HEAVY.weight], n=n) for n in lengths]
+    res = fit_many(sets, HEAVY, model="cohesion-free", progress=False)
+    assert all(r.success and r.status == "converged" for r in res)
+    assert len(compiled_lm._KERNELS) == len({compiled_lm.size_class(n) for n in lengths}) == 6
