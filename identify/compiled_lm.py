@@ -56,8 +56,9 @@ centre of the bounds-feasible ridge (:func:`~soiltrack.identify.problem.ridge_ce
 arbitrary ridge point, reported as such by :class:`~soiltrack.identify.FitResult`).
 
 Thread safety: each cached kernel is called through a zero-copy buffer guarded by its own
-lock (a C call of microseconds; the lock is held only across it); kernels are built under a
-module lock, and after ``fork`` the locks are renewed in the child.
+lock (a C call of microseconds; the lock is held only across it); each kernel is built (and
+compiled) once under its own lock, so a compilation does not block fits that use other
+kernels; after ``fork`` the locks are renewed in the child.
 """
 from __future__ import annotations
 
@@ -384,12 +385,14 @@ class Kernel:
 
 
 _KERNELS: dict[tuple, Kernel] = {}
-_KERNELS_LOCK = threading.Lock()
+_KERNELS_LOCK = threading.Lock()  # guards the two dicts
+_BUILD_LOCKS: dict[tuple, threading.Lock] = {}  # one per kernel: builds and compiles do not block other kernels
 
 
 def _after_fork() -> None:  # a lock held by another thread at fork time would never be released
     global _KERNELS_LOCK
     _KERNELS_LOCK = threading.Lock()
+    _BUILD_LOCKS.clear()
     for k in _KERNELS.values():
         k.renew_locks()
 
@@ -413,10 +416,17 @@ def kernel(p: int, model: str, n: int, n_grid: int = 25, jit: str = "wait") -> K
     """
     jit = _jit_mode(jit)
     key = (int(p), model, size_class(n), max(int(n_grid), 1))
+    k = _KERNELS.get(key)
+    if k is not None and k.compiled.is_c:  # the common case: no lock
+        return k
     with _KERNELS_LOCK:
+        lock = _BUILD_LOCKS.setdefault(key, threading.Lock())
+    with lock:
         k = _KERNELS.get(key)
         if k is None:
-            k = _KERNELS[key] = Kernel(*key, jit=jit)
+            k = Kernel(*key, jit=jit)
+            with _KERNELS_LOCK:
+                _KERNELS[key] = k
         else:
             k.refresh(jit)
         return k

@@ -46,13 +46,15 @@ C_CACHED, C_NEW, VM_NO_CC, VM_PENDING, VM_FAILED, VM_OFF = (
     "virtual machine (C code compiling in the background)", "virtual machine (C compilation failed)",
     "virtual machine (JIT off: SOILTRACK_NO_JIT or jit='off')")
 
-_LOCK = threading.Lock()
+_LOCK = threading.Lock()  # guards the dicts below
+_LIB_LOCKS: dict[str, threading.Lock] = {}  # one per library: one compilation of it per process at a time
 _PENDING: dict[str, subprocess.Popen] = {}
 
 
 def _after_fork() -> None:  # a lock held by another thread at fork time would never be released
     global _LOCK
     _LOCK = threading.Lock()
+    _LIB_LOCKS.clear()
 
 
 if hasattr(os, "register_at_fork"):
@@ -202,6 +204,8 @@ def load(functions: Sequence[ca.Function], name: str, wait: bool = True) -> Comp
         return vm
     vm.path = str(lib)
     with _LOCK:
+        lock = _LIB_LOCKS.setdefault(str(lib), threading.Lock())
+    with lock:
         if not lib.exists():
             if not wait:
                 try:
