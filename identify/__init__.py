@@ -14,14 +14,19 @@ Public names
     Profile of the cost along one parameter and its likelihood-ratio interval.
 :func:`build_result`
     Shared constructor of :class:`FitResult` for every method.
+:class:`FitSettings`, :data:`ENGINES`, :data:`DEFAULT_ENGINE`
+    Typed solver settings and the engine vocabulary (:mod:`soiltrack.identify.engines`).
 :class:`FitResult`, :class:`ParameterEstimate`, :class:`Combination`, :class:`ProfileResult`,
 :class:`FitFailed`.
 """
+from . import jitcache
 from .batch import fit_many
+from .engines import DEFAULT_ENGINE, ENGINES
 from .fitting import fit
 from .problem import FitFailed
 from .profile import ProfileResult, profile_likelihood
 from .result import Combination, FitResult, ParameterEstimate, build_result
+from .settings import FitSettings
 
 __all__ = ["fit", "fit_many", "profile_likelihood", "build_result", "FitResult", "ParameterEstimate",
-           "Combination", "ProfileResult", "FitFailed"]
+           "Combination", "ProfileResult", "FitFailed", "FitSettings", "ENGINES", "DEFAULT_ENGINE"]

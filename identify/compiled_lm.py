@@ -1,218 +1,186 @@
-"""The compiled single-fit engine: a bounded Levenberg-Marquardt solve as ONE CasADi call.
+"""The compiled LM engine: a bounded Levenberg-Marquardt solve as ONE CasADi call.
 
-``fit(data, vehicle, engine="compiled")`` (and small groups in ``fit_many``) solve the same
-bounded weighted least-squares problem as the IPOPT path,
+``fit(data, vehicle)`` (default ``engine="auto"``, or ``engine="compiled"``) and
+``fit_many`` solve the same bounded weighted least-squares problem as the IPOPT path,
 
-    minimise  0.5 * sum_k ((F(i_k; c, phi, K, W_k) - F_k) / sigma_k)^2   within the bounds,
+    minimise  0.5 * sum_k (w_k (F(i_k; c, phi, K, W_k) - F_k))^2   within the bounds,  w_k = 1/sigma_k,
 
-with a solver whose whole run is one pre-built CasADi ``Function``, built once per
-``(p, n_points, n_grid)`` (p = 2 or 3 free parameters) and cached, called once per fit
-through a zero-copy buffer (no per-call conversion of the arguments):
+with a solver whose whole run is one pre-built CasADi ``Function``. Every residual, gradient,
+Hessian and Jacobian in it is derived by CasADi's automatic differentiation from
+:func:`soiltrack.soilmodel.traction.thrust_expr` (Eq. 2 / Eq. 8, the one home of the physics);
+nothing here writes the shear bracket or its derivatives by hand.
 
 1. **Start**: variable projection on a grid of K (as :mod:`soiltrack.identify.start`: for each
-   K the linear parameters ``(c, tan(phi))`` from weighted linear least squares, projected
-   onto the bounds; the grid point of lowest cost), evaluated inside the Function. Here the
-   ``n_grid`` values of K are uniform in 1/K rather than geometric (``exp(-|i| l / K)`` then
-   follows from one K to the next by one multiplication; the local iteration converges to
-   the same optimum from either start). A given ``x0`` replaces it.
+   K the force is linear in ``(c, tan(phi))``; its coefficients are the derivatives of Eq. 2
+   with respect to them, solved by weighted linear least squares and projected onto the
+   bounds; the grid point of lowest cost wins). The ``n_grid`` values of K are uniform in
+   1/K. On problems of more than ``GRID_ROWS`` (16) samples the grid is evaluated on 16 of
+   them spread evenly over the slip range (it only picks the start basin; the iteration and
+   the certificate use every sample), which halves the cost of a 100-point fit. A given
+   ``x0`` replaces it.
 2. **Iteration**: up to ``N_ITER`` projected, damped Newton steps in the scaled variables of
    the IPOPT path (``c / 1 kPa``, ``phi / 1 rad``, ``K / 1 cm``): exact Hessian of the cost
-   (closed-form derivatives of Eq. 2, checked against CasADi AD in the tests) plus
-   Levenberg-Marquardt damping ``lam * diag(J^T J)``; variables on a bound whose gradient
-   points outwards are held (active set); the trial point is projected onto the box and
-   accepted if the cost does not increase (``lam / 10``), else rejected (``lam * 10``); at
+   (AD) plus Levenberg-Marquardt damping ``lam * diag(J^T J)``; variables on a bound whose
+   gradient points outwards are held (active set); the trial point is projected onto the box
+   and accepted if the cost does not increase (``lam / 10``), else rejected (``lam * 10``); at
    the rounding floor of the cost (relative change below 1e-13) a step is also accepted when
-   it shrinks the free part of the gradient (Newton's endgame, where cost decreases are below
-   rounding). The exact Hessian converges quadratically also on large-residual data (e.g.
-   Wong's three points, where Gauss-Newton converges only linearly). Each iteration is a
-   conditional call that is skipped once the first-order test below holds.
-3. **Certification** (in Python, from the Function's outputs, not on trust): finite numbers,
-   inside the bounds, and the first-order (KKT) conditions for the box: the projected
-   gradient ``|| g_free ||`` at most ``KKT_TOL`` times ``sqrt(trace(J^T J) * 2 cost)`` (the
-   same relative test as the vectorised batch engine), or a cost that is zero to rounding.
-   A fit the engine cannot certify is handed to the cached IPOPT solver (said in the message;
-   ``extra["engine"] == "ipopt"``).
+   it shrinks the free part of the gradient (Newton's endgame). Each block of iterations is a
+   conditional call skipped once the first-order test below holds.
+3. **Certification**, computed by the same Function from its final state (not a solver's
+   word): finite numbers, inside the bounds, and the first-order (KKT) conditions for the box:
+   the projected gradient ``|| g_free ||`` at most ``KKT_TOL`` times
+   ``sqrt(trace(J^T J) * 2 cost)``, or a cost that is zero to rounding - the very test that
+   stops the iteration (one home). ``KKT_TOL`` and ``ZERO_COST`` are inputs of the call, not
+   compiled-in constants. A fit the engine cannot certify is handed to the cached IPOPT
+   solver, the authority (said in the message; ``extra["engine"] == "ipopt"``,
+   ``extra["handed_over_from"] == "compiled"``).
 
-The per-sample work is mapped (a loop in the generated code), and the Function is compiled
-to C with the system C compiler (CasADi's ``shell`` JIT, ``-O2``, in a private temporary
-folder removed at exit) - about 2 s once per ``(p, n_points, n_grid)``. Without a compiler
-(or with the environment variable ``SOILTRACK_NO_JIT`` set) CasADi's virtual machine
-evaluates the same Function, a few times slower.
+**Size classes.** A problem of ``n`` samples is padded to ``size_class(n)`` rows (powers of
+two, at least 4) with zero slip, zero force and zero weight: padded rows add exactly nothing
+to the cost, its derivatives or the start grid. Twenty datasets of twenty lengths therefore
+share a handful of Functions instead of building twenty.
+
+**C code.** Each Function is generated to C and compiled with the system compiler into a
+per-user on-disk cache keyed by a hash of the source (:mod:`soiltrack.identify.jitcache`), so
+a second process loads the library instead of compiling. ``jit="wait"`` compiles now when
+the library is missing (``engine="compiled"``); ``jit="background"`` (``engine="auto"``)
+never waits: it evaluates the same Function in CasADi's virtual machine while a detached
+compiler fills the cache; ``jit="off"`` (or ``SOILTRACK_NO_JIT``) uses the virtual machine.
+``extra["engine"]`` is ``"compiled"`` for C code and ``"compiled-vm"`` for the virtual
+machine, and ``extra["engine_backend"]`` says why (e.g. "virtual machine (no C compiler)").
 
 The full model at ONE normal load is solved exactly as the IPOPT path does it: in the
-identifiable parameters ``(F_max, K)`` (``F_max = W tan(phi_e)``, with the bounds box of
-``(c, phi)`` mapped onto bounds of ``phi_e``), then mapped onto the centre of the
-bounds-feasible ridge ``A c + W tan(phi) = F_max`` (an arbitrary ridge point, reported as
-such by :class:`~soiltrack.identify.FitResult`).
+identifiable parameters ``(F_max, K)`` (``F_max = W tan(phi_e)``, the cohesion-free Eq. 8,
+with the bounds box of ``(c, phi)`` mapped onto bounds of ``phi_e``), then mapped onto the
+centre of the bounds-feasible ridge (:func:`~soiltrack.identify.problem.ridge_centre`, an
+arbitrary ridge point, reported as such by :class:`~soiltrack.identify.FitResult`).
 
-Results are labelled ``method="ipopt"`` (the estimator: bounded least squares within the
-practical ranges, the same optimum) with ``extra["engine"]`` = ``"compiled-lm"`` (or
-``"ipopt"`` after a hand-over), status ``"Compiled_LM_Converged"``. The FitResult is built by
-the shared :func:`~soiltrack.identify.build_result` from the residuals and the Jacobian at
-the optimum (from the Function's outputs), so uncertainty, identifiability and warnings are
-those of any other path.
+Thread safety: each cached kernel is called through a zero-copy buffer guarded by its own
+lock (a C call of microseconds; the lock is held only across it); each kernel is built (and
+compiled) once under its own lock, so a compilation does not block fits that use other
+kernels; after ``fork`` the locks are renewed in the child.
 """
 from __future__ import annotations
 
-import atexit
 import math
 import os
-import shutil
-import tempfile
 import threading
 import time
+from dataclasses import dataclass
 from functools import lru_cache
 
 import casadi as ca
 import numpy as np
 
-from ..soilmodel.traction import SERIES_SWITCH, shear_bracket
+from ..soilmodel.traction import max_thrust_expr, thrust_expr
+from . import jitcache
+from .ipopt_fit import _one_load  # the one test of "a single normal load"
 from .problem import SCALE, SlipProblem, ridge_centre
 from .result import FitResult, build_result
 
-__all__ = ["compiled_solver", "fit_compiled", "N_ITER", "KKT_TOL"]
+__all__ = ["compiled_solver", "fit_compiled", "solve", "solve_many", "kernel", "size_class", "Solution", "N_ITER", "KKT_TOL",
+           "JIT_MODES"]
 
 #: Most damped-Newton iterations per call (skipped once converged; typically 2-6 are run).
 N_ITER = 40
 #: Relative first-order tolerance (projected gradient vs sqrt(trace(J^T J) * 2 cost)).
 KKT_TOL = 1e-9
-#: A cost below this fraction of 0.5 * sum((F / sigma)^2) is a zero-residual (global) optimum.
+#: A cost below this fraction of 0.5 * sum((w F)^2) is a zero-residual (global) optimum.
 ZERO_COST = 1e-24
+#: How the C code is obtained: compile now if missing / in the background / never.
+JIT_MODES = ("wait", "background", "off")
 _BLOCK = 5  # iterations per skippable block
 _EPS_B = 1e-12  # relative distance to a bound counted as "on it" (of the bound range)
+_MIN_CLASS = 4
+#: Samples the start grid is evaluated on (problems with more rows: a spread subsample, see ``grid_rows``).
+GRID_ROWS = 16
 
 
-def _fit_residuals(z, d, n: int, p: int):
-    """Weighted residuals (n) as SX of the scaled variables ``z`` and the data vector ``d``."""
-    slip, force, W, sig = d[0:n], d[n:2 * n], d[2 * n:3 * n], d[3 * n:4 * n]
-    l, b = d[4 * n], d[4 * n + 1]
+def size_class(n: int) -> int:
+    """Rows a problem of ``n`` samples is padded to: the next power of two, at least 4."""
+    n = max(int(n), 1)
+    return max(_MIN_CLASS, 1 << (n - 1).bit_length())
+
+
+def _theta_of_z(z, p: int):
+    """``(c, phi, K, model)`` of the scaled variables (p = 3: full; p = 2: cohesion-free / phi_e)."""
     if p == 3:
-        c, phi, K = z[0] * SCALE[0], z[1], z[2] * SCALE[2]
-        fmax = 2 * b * l * c + W * ca.tan(phi)
-    else:
-        phi, K = z[0], z[1] * SCALE[2]
-        fmax = W * ca.tan(phi)
-    return (fmax * shear_bracket(slip * l / K) - force) / sig
+        return z[0] * SCALE[0], z[1], z[2] * SCALE[2], "full"
+    return 0.0, z[0], z[1] * SCALE[2], "cohesion-free"
 
 
-def _bracket_d2(x):
-    """``g(x) = 1 - (1 - exp(-x))/x`` and its first two derivatives for x >= 0 (SX).
-
-    Exact form above ``SERIES_SWITCH`` (0.05, as in :mod:`soiltrack.soilmodel.traction`), the
-    Taylor series below (truncation < 1e-14 relative): no division by zero, F(0) = 0.
-    Closed forms: ``g' = (1 - e - x e) / x^2``, ``g'' = (e - 2 g') / x`` with ``e = exp(-x)``.
-    """
-    small = x < SERIES_SWITCH
-    xs = ca.if_else(small, 1.0, x)
-    E = ca.expm1(-xs)
-    g_ex = 1 + E / xs
-    d1_ex = (-E - xs * (E + 1)) / (xs * xs)
-    d2_ex = (E + 1 - 2 * d1_ex) / xs
-    # series: g = sum_{k>=1} (-1)^(k+1) x^k / (k+1)!
-    cs = [(-1) ** (k + 1) / math.factorial(k + 1) for k in range(1, 10)]
-    g_s = 0
-    for k in range(9, 0, -1):
-        g_s = (g_s + cs[k - 1]) * x
-    d1_s = 0
-    for k in range(9, 0, -1):
-        d1_s = d1_s * x + k * cs[k - 1]
-    d2_s = 0
-    for k in range(9, 1, -1):
-        d2_s = d2_s * x + k * (k - 1) * cs[k - 1]
-    return (ca.if_else(small, g_s, g_ex), ca.if_else(small, d1_s, d1_ex), ca.if_else(small, d2_s, d2_ex))
+def _data_symbols():
+    return [ca.SX.sym(k) for k in ("s", "F", "W", "w", "l", "b")]
 
 
 def _point_functions(p: int, n_grid: int):
-    """Per-sample SX Functions (mapped over the samples; compact generated code for any n).
+    """Per-sample SX Functions, all derived from ``thrust_expr`` by AD (mapped over the samples).
 
-    ``pt_ev`` gives the sample's cost, gradient, exact Hessian and squared Jacobian row in the
-    scaled variables from closed-form derivatives of Eq. 2 (checked against CasADi AD in the
-    tests); ``pt_grid`` the sums of the variable-projection grid (start point only, so the
-    bracket is evaluated with a short series below x = 1e-4).
+    ``pt_grid``: the sums of the variable-projection grid (coefficients of the linear
+    parameters ``(c, tan(phi))`` at each grid K); ``pt_ev``: the sample's cost
+    ``0.5 r^2``, its gradient ``r dr/dz``, exact Hessian and squared Jacobian row in the
+    scaled variables ``z``, with ``r = w (F(z) - F_data)``.
     """
-    s, F, W, sig, l, b = (ca.SX.sym(k) for k in ("s", "F", "W", "sig", "l", "b"))
-    Ks = ca.SX.sym("Ks", n_grid)  # grid of K, uniform in 1/K: x_j = |i| l / K_j is uniform in j
-    Ki = ca.SX.sym("Ki", n_grid)  # 1 / Ks (no division per sample and K)
-    y = F / sig
-    a = ca.fabs(s) * l
-    ainv = 1 / ca.fmax(a, 1e-300)
-    e = ca.exp(-a * Ki[0])
-    q = ca.exp(-a * (Ki[1] - Ki[0])) if n_grid > 1 else 1
-    gs = []
-    for j in range(n_grid):  # exp(-x_j) by recurrence: one exp per sample instead of one per K
-        xj = a * Ki[j]
-        gs.append(ca.if_else(xj < 1e-4, xj * (0.5 - xj * (1 / 6)), 1 - (1 - e) * (Ks[j] * ainv)))
-        e = e * q
-    g = ca.vertcat(*gs)
-    sgn_sig = ca.sign(s) / sig
-    a2 = (W * sgn_sig) * g
+    s, F, W, w, l, b = _data_symbols()
+    model = "full" if p == 3 else "cohesion-free"
+    cs, ts, Kk = ca.SX.sym("c"), ca.SX.sym("t"), ca.SX.sym("K")
+    lin = ca.vertcat(cs, ts) if p == 3 else ts
+    F_lin = thrust_expr(s, cs, ca.atan(ts), Kk, W, l, b, model=model)  # linear in (c, tan(phi))
+    coef = ca.substitute(ca.jacobian(F_lin, lin), lin, ca.DM.zeros(lin.numel()))
+    coef_f = ca.Function("coef", [s, W, l, b, Kk], [coef])
+    Ks = ca.SX.sym("Ks", n_grid)
+    y = F * w
+    rows = [coef_f(s, W, l, b, Ks[j]) * w for j in range(n_grid)]
+    a2 = ca.vertcat(*[r[r.numel() - 1] for r in rows])
     if p == 3:
-        a1 = (2 * b * l * sgn_sig) * g
+        a1 = ca.vertcat(*[r[0] for r in rows])
         sums = ca.vertcat(a1 * a1, a1 * a2, a2 * a2, a1 * y, a2 * y)
     else:
         sums = ca.vertcat(a2 * a2, a2 * y)
-    grid = ca.Function("pt_grid", [s, F, W, sig, l, b, Ks, Ki], [sums, y * y], {"cse": True})
+    grid = ca.Function("pt_grid", [s, F, W, w, l, b, Ks], [sums, y * y], {"cse": True})
     z = ca.SX.sym("z", p)
-    phi, u = z[p - 2], z[p - 1]
-    K = u * SCALE[2]
-    sgn = ca.sign(s)
-    x = ca.fabs(s) * l / K
-    g0, g1, g2 = _bracket_d2(x)
-    sg = sgn * g0
-    dsg = sgn * g1 * (-x / u)                      # d sg / du
-    d2sg = sgn * (g2 * x * x + 2 * g1 * x) / (u * u)  # d2 sg / du2
-    t = ca.tan(phi)
-    sec2 = 1 + t * t
-    fm = W * t + (2 * b * l * SCALE[0] * z[0] if p == 3 else 0)
-    r = (fm * sg - F) / sig
-    dphi = W * sec2 / sig
-    gr = [dphi * sg, fm / sig * dsg]  # dr/dphi, dr/du
-    H2 = [[2 * t * dphi * sg, dphi * dsg], [dphi * dsg, fm / sig * d2sg]]
-    if p == 3:
-        ac = 2 * b * l * SCALE[0] / sig
-        gr = [ac * sg] + gr
-        H2 = [[0, 0, ac * dsg], [0] + H2[0], [ac * dsg] + H2[1]]
-    gr = ca.vertcat(*gr)
-    Hr = ca.blockcat([[ca.SX(v) if not isinstance(v, ca.SX) else v for v in row] for row in H2])
-    Hf = ca.mtimes(gr, gr.T) + r * Hr
-    ev = ca.Function("pt_ev", [z, s, F, W, sig, l, b], [ca.vertcat(0.5 * r * r, r * gr, ca.vec(Hf), gr * gr)], {"cse": True})
-    # at the optimum: raw residual r, sg / sigma (dF/dF_max / sigma) and dF/dK / sigma (SI)
-    sgf = ca.Function("pt_res", [z, s, F, W, sig, l, b], [ca.vertcat(fm * sg - F, sg / sig, fm / sig * dsg / SCALE[2])],
-                      {"cse": True})
-    return grid, ev, sgf
+    c, phi, K, model = _theta_of_z(z, p)
+    r = w * (thrust_expr(s, c, phi, K, W, l, b, model=model) - F)
+    gr = ca.jacobian(r, z).T
+    cost = 0.5 * r * r
+    H = ca.hessian(cost, z)[0]
+    ev = ca.Function("pt_ev", [z, s, F, W, w, l, b], [ca.vertcat(cost, r * gr, ca.vec(H), gr * gr)], {"cse": True})
+    return grid, ev
 
 
-@lru_cache(maxsize=64)
-def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER, jit: bool | None = None) -> ca.Function:
-    """The cached solver Function for ``p`` free parameters (2 or 3) and ``n`` samples.
+def _resjac_point(model: str) -> ca.Function:
+    """Per sample: raw residual ``F(theta) - F_data`` (N) and ``w dF/d[c, phi, K]`` (SI), by AD."""
+    s, F, W, w, l, b = _data_symbols()
+    th = ca.SX.sym("theta", 3)
+    Fm = thrust_expr(s, th[0], th[1], th[2], W, l, b, model=model)
+    J = ca.jacobian(Fm, th)
+    return ca.Function("pt_resjac", [th, s, F, W, w, l, b], [ca.vertcat(Fm - F, w * J.T)], {"cse": True})
 
-    The returned Function takes ONE vector ``x = [d, lbz, ubz, z0, use_z0]`` and returns ONE
-    vector ``y``, the concatenation of the outputs below (so that it can be called through a
-    zero-copy buffer). Inputs: ``d = [slip (n), F (n), W (n), sigma (n), l, b]``, ``lbz, ubz``
-    (scaled bounds), ``z0`` (scaled start, used when ``use_z0 = 1``), ``use_z0``.
-    Outputs: ``z`` (scaled optimum), ``cost`` (0.5 sum of squared weighted residuals),
-    ``g`` (gradient of the cost in z), ``trJJ`` (trace of J^T J in z), ``iters`` (iterations
-    run until the first-order test held), ``zstart`` (start used), ``scale``
-    (0.5 sum (F / sigma)^2), and at the optimum ``r`` (n, model minus data, N), ``sgw``
-    (n, ``sign(i) g(|i| l / K) / sigma``) and ``JK`` (n, ``dF/dK / sigma``, SI).
-    The start grid has ``n_grid`` K values uniform in 1/K (so that ``exp(-|i| l / K)``
-    follows by one multiplication from one K to the next).
 
-    The per-sample work is mapped (a loop in the generated code) and each iteration is a
-    conditional call that is skipped once the first-order test holds, so the cost is that of
-    the grid plus the iterations actually needed. Compiled to C with the system compiler
-    (CasADi's ``shell`` JIT) when one is available (``jit=None``: unless the environment
-    variable ``SOILTRACK_NO_JIT`` is set), else evaluated by CasADi's virtual machine.
+def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> ca.Function:
+    """The solver Function for ``p`` free parameters (2 or 3) and ``n`` rows (virtual-machine form).
+
+    Takes ONE vector ``x = [d, lbz, ubz, z0, use_z0, g]`` and returns ONE vector ``y`` (so that it
+    can be called through a zero-copy buffer). Inputs: ``d = [slip (n), F (n), W (n), w (n), l, b]``
+    with ``w = 1/sigma`` (0 on padding rows), ``lbz, ubz`` (scaled bounds), ``z0`` (scaled
+    start, used when ``use_z0 = 1``) and, for ``n > GRID_ROWS``, ``g = [slip, F, W, w]`` of the
+    ``GRID_ROWS`` samples the start grid is evaluated on (:func:`grid_rows`). Output: ``[z (p), cost, g (p), trJJ, iters, zstart (p),
+    scale]``: the scaled optimum, ``0.5 sum r^2``, the gradient of the cost in ``z``, the trace
+    of ``J^T J``, the iterations run until the first-order test held, the start used and
+    ``0.5 sum (w F)^2``. :func:`kernel` compiles it to C (cached on disk).
     """
     n_grid = max(int(n_grid), 1)
-    pt_grid, pt_ev, pt_sg = _point_functions(p, n_grid)
+    pt_grid, pt_ev = _point_functions(p, n_grid)
     d = ca.MX.sym("d", 4 * n + 2)
     lbz, ubz, z0, use0 = ca.MX.sym("lbz", p), ca.MX.sym("ubz", p), ca.MX.sym("z0", p), ca.MX.sym("use_z0")
-    slip, force, W, sig = (d[k * n:(k + 1) * n].T for k in range(4))
+    slip, force, W, wt = (d[k * n:(k + 1) * n].T for k in range(4))
     l, b = d[4 * n], d[4 * n + 1]
+    m = min(n, GRID_ROWS)  # rows of the start grid: all, or a subsample given as its own input
+    gd = ca.MX.sym("grid_data", 4 * m if n > GRID_ROWS else 0)
+    g_rows = [gd[k * m:(k + 1) * m].T for k in range(4)] if n > GRID_ROWS else [slip, force, W, wt]
 
-    # ---- 1. variable-projection grid start (same construction as start.grid_start; the
-    # residual cost of each K from the sums: |y|^2 - 2 c r1 - 2 t r2 + c^2 m11 + 2 c t m12 + t^2 m22)
+    # ---- 1. variable-projection grid start (residual cost of each K from the sums:
+    # |y|^2 - 2 c r1 - 2 t r2 + c^2 m11 + 2 c t m12 + t^2 m22, with t = tan(phi))
     sc = ca.SX.sym("sums", (5 if p == 3 else 2) * n_grid)
     yy_s = ca.SX.sym("yy")
     lz, uz, Kg = ca.SX.sym("lz", p), ca.SX.sym("uz", p), ca.SX.sym("Kg", n_grid)
@@ -246,36 +214,41 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER, jit:
     pick = ca.Function("pick", [sc, yy_s, lz, uz, Kg], [zg])
     K_lo, K_hi = lbz[p - 1] * SCALE[2], ubz[p - 1] * SCALE[2]
     frac = np.linspace(0.0, 1.0, n_grid) if n_grid > 1 else np.zeros(1)
-    Kinv = 1 / K_hi + ca.DM(frac) * (1 / K_lo - 1 / K_hi)  # uniform in 1/K
-    Kgrid = 1 / Kinv
+    Kgrid = 1 / (1 / K_hi + ca.DM(frac) * (1 / K_lo - 1 / K_hi))  # uniform in 1/K
     # mapped over the samples with the sums accumulated in the loop (reduce_out)
-    gm, yy = pt_grid.map("grid_sums", "serial", n, [4, 5, 6, 7], [0, 1])(slip, force, W, sig, l, b, Kgrid, Kinv)
+    gm, yy = pt_grid.map("grid_sums", "serial", m, [4, 5, 6], [0, 1])(*g_rows, l, b, Kgrid)
     zgrid = pick(gm, yy, lbz, ubz, Kgrid)
     zs = ca.if_else(use0 > 0.5, z0, zgrid)
     zs = ca.fmin(ca.fmax(zs, lbz), ubz)
-    scale = 0.5 * yy
+    scale = 0.5 * ca.sumsqr(force * wt)
 
-    # ---- 2. damped projected Newton iterations (state: z, lam, f, g, H, D, done, iters)
+    # ---- 2. damped projected Newton iterations (state: z, lam, f, g, H, D, iters)
     evm = pt_ev.map("ev_sums", "serial", n, [0, 5, 6], [0])
 
     def evaluate(z):
-        s = evm(z, slip, force, W, sig, l, b)
+        s = evm(z, slip, force, W, wt, l, b)
         return s[0], s[1:1 + p], ca.reshape(s[1 + p:1 + p + p * p], p, p), s[1 + p + p * p:]
 
+    # the first-order (KKT) test with bounds: the stopping test AND the certificate (one home);
+    # tolS = [KKT_TOL, ZERO_COST] are inputs, not compiled-in constants
     zS, gS, DS, fS, scS = ca.SX.sym("z", p), ca.SX.sym("g", p), ca.SX.sym("D", p), ca.SX.sym("f"), ca.SX.sym("sc")
+    tolS = ca.SX.sym("tol", 2)
     epsS = _EPS_B * (uz - lz)
     act = ca.logic_or(ca.logic_and(zS <= lz + epsS, gS > 0), ca.logic_and(zS >= uz - epsS, gS < 0))
     gp = ca.if_else(act, ca.SX.zeros(p), gS)
-    done = ca.logic_or(ca.norm_2(gp) <= KKT_TOL * ca.sqrt(ca.sum1(DS) * 2 * fS), fS <= ZERO_COST * scS)
-    kkt = ca.Function("kkt", [zS, fS, gS, DS, lz, uz, scS], [done, act])
+    done = ca.logic_or(ca.norm_2(gp) <= tolS[0] * ca.sqrt(ca.sum1(DS) * 2 * fS), fS <= tolS[1] * scS)
+    kkt = ca.Function("kkt", [zS, fS, gS, DS, lz, uz, scS, tolS], [done, act])
+    # certificate: the KKT test on finite numbers inside the box (NaN fails every comparison)
+    vals = ca.vertcat(zS, fS, gS, DS)
+    finite = ca.logic_and(ca.sum1(ca.fabs(vals) < ca.inf) == vals.numel(),
+                          ca.sum1(ca.logic_and(zS >= lz, zS <= uz)) == p)
+    certify = ca.Function("certify", [zS, fS, gS, DS, lz, uz, scS, tolS], [ca.logic_and(finite, done)])
     HS, lamS = ca.SX.sym("H", p, p), ca.SX.sym("lam")
     m = 1 - act
     Hd = HS + lamS * ca.diag(ca.fmax(DS, 1e-300))
     Hr = (m @ m.T) * Hd + ca.diag(1 - m)
     zt = ca.fmin(ca.fmax(zS + ca.solve(Hr, -m * gS), lz), uz)
     trial = ca.Function("trial", [zS, lamS, gS, HS, DS, lz, uz], [zt, m])
-    # acceptance: the cost does not increase; or, at the rounding floor of the cost (relative
-    # change below 1e-13), the free part of the gradient shrinks (Newton's endgame)
     ftS, gtS, mS = ca.SX.sym("ft"), ca.SX.sym("gt", p), ca.SX.sym("m", p)
     accept = ca.Function("accept", [ftS, fS, gtS, gS, mS], [ca.logic_or(
         ftS <= fS, ca.logic_and(ftS <= fS + 1e-13 * ca.fabs(fS), ca.norm_2(mS * gtS) < ca.norm_2(mS * gS)))])
@@ -286,54 +259,57 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER, jit:
     sH = ca.reshape(st[2 * p + 2:2 * p + 2 + p * p], p, p)
     sD, sit = st[2 * p + 2 + p * p:3 * p + 2 + p * p], st[nst - 1]
     d_, lbz_, ubz_ = ca.MX.sym("d", 4 * n + 2), ca.MX.sym("lbz", p), ca.MX.sym("ubz", p)
-    # the iteration needs the data: rebuild the data views on its own symbols
-    slip_, force_, W_, sig_ = (d_[k * n:(k + 1) * n].T for k in range(4))
+    slip_, force_, W_, w_ = (d_[k * n:(k + 1) * n].T for k in range(4))
     l_, b_ = d_[4 * n], d_[4 * n + 1]
     zt_, m_ = trial(sz, slam, sg_, sH, sD, lbz_, ubz_)
-    s_ = evm(zt_, slip_, force_, W_, sig_, l_, b_)
+    s_ = evm(zt_, slip_, force_, W_, w_, l_, b_)
     ft, gt, Ht, Dt = s_[0], s_[1:1 + p], s_[1 + p:1 + p + p * p], s_[1 + p + p * p:]
     acc = accept(ft, sf, gt, sg_, m_)  # NaN is rejected
-    new_z = ca.if_else(acc, zt_, sz)
-    new = ca.vertcat(new_z, ca.if_else(acc, ca.fmax(slam * 0.1, 1e-15), ca.fmin(slam * 10, 1e20)),
+    new = ca.vertcat(ca.if_else(acc, zt_, sz), ca.if_else(acc, ca.fmax(slam * 0.1, 1e-15), ca.fmin(slam * 10, 1e20)),
                      ca.if_else(acc, ft, sf), ca.if_else(acc, gt, sg_), ca.if_else(acc, Ht, ca.vec(sH)),
                      ca.if_else(acc, Dt, sD), sit + 1)
     step_f = ca.Function("lm_step", [st, d_, lbz_, ubz_], [new])
     keep_f = ca.Function("lm_keep", [st, d_, lbz_, ubz_], [st])
     cond = ca.Function.conditional("lm_iter", [step_f], keep_f)  # index 0: iterate; else: keep
-    sc_ = ca.MX.sym("scale")
+    sc_, tol_, tol = ca.MX.sym("scale"), ca.MX.sym("tol", 2), ca.MX.sym("tol", 2)
 
-    def converged(s, lo, hi, scl):
-        return kkt(s[0:p], s[p + 1], s[p + 2:2 * p + 2], s[2 * p + 2 + p * p:3 * p + 2 + p * p], lo, hi, scl)[0]
+    def parts(s):
+        return s[0:p], s[p + 1], s[p + 2:2 * p + 2], s[2 * p + 2 + p * p:3 * p + 2 + p * p]
 
-    # blocks of BLOCK conditional iterations, each block skipped as a whole once converged
-    sb = st
+    def converged(s, lo, hi, scl, tl):
+        return kkt(*parts(s), lo, hi, scl, tl)[0]
+
+    sb = st  # blocks of _BLOCK conditional iterations, each block skipped as a whole once converged
     for _ in range(_BLOCK):
-        sb = cond(converged(sb, lbz_, ubz_, sc_), sb, d_, lbz_, ubz_)
-    block_f = ca.Function("lm_block", [st, d_, lbz_, ubz_, sc_], [sb])
-    keep_b = ca.Function("lm_keep_block", [st, d_, lbz_, ubz_, sc_], [st])
+        sb = cond(converged(sb, lbz_, ubz_, sc_, tol_), sb, d_, lbz_, ubz_)
+    block_f = ca.Function("lm_block", [st, d_, lbz_, ubz_, sc_, tol_], [sb])
+    keep_b = ca.Function("lm_keep_block", [st, d_, lbz_, ubz_, sc_, tol_], [st])
     cond_b = ca.Function.conditional("lm_blocks", [block_f], keep_b)
 
     f0, g0, H0, D0 = evaluate(zs)
     state = ca.vertcat(zs, 1e-3, f0, g0, ca.vec(H0), D0, 0)
     for _ in range(-(-n_iter // _BLOCK)):
-        state = cond_b(converged(state, lbz, ubz, scale), state, d, lbz, ubz, scale)
-    zf = state[0:p]
-    # ---- 3. what the result needs at the optimum: sign(i) g and its K derivative
-    sgd = pt_sg.map(n, "serial")(zf, slip, force, W, sig, l, b)
-    f = ca.Function(f"soilfit_clm_{p}_{n}_{n_grid}_{n_iter}", [d, lbz, ubz, z0, use0],
-                    [zf, state[p + 1], state[p + 2:2 * p + 2], ca.sum1(state[2 * p + 2 + p * p:3 * p + 2 + p * p]),
-                     state[nst - 1], zs, scale, sgd[0, :].T, sgd[1, :].T, sgd[2, :].T],
-                    ["d", "lbz", "ubz", "z0", "use_z0"],
-                    ["z", "cost", "g", "trJJ", "iters", "zstart", "scale", "r", "sgw", "JK"])
-    # one flat input and one flat output: called through a zero-copy buffer (no conversions)
-    xin = ca.MX.sym("x", 4 * n + 3 + 3 * p)
+        state = cond_b(converged(state, lbz, ubz, scale, tol), state, d, lbz, ubz, scale, tol)
+    out = ca.vertcat(state[0:p], state[p + 1], state[p + 2:2 * p + 2],
+                     ca.sum1(state[2 * p + 2 + p * p:3 * p + 2 + p * p]), state[nst - 1], zs, scale,
+                     certify(*parts(state), lbz, ubz, scale, tol))
     o = 4 * n + 2
-    flat = ca.Function(f"soilfit_clm_{p}_{n}_{n_grid}_{n_iter}_flat", [xin],
-                       [ca.vertcat(*f(xin[0:o], xin[o:o + p], xin[o + p:o + 2 * p], xin[o + 2 * p:o + 3 * p],
-                                      xin[o + 3 * p]))], ["x"], ["y"])
-    if jit is None:
-        jit = not os.environ.get("SOILTRACK_NO_JIT")
-    return _jit(flat) if jit else flat
+    xin = ca.MX.sym("x", o + 3 * p + 3 + gd.numel())
+    f = ca.Function("lm", [d, lbz, ubz, z0, use0, tol, gd], [out])
+    return ca.Function(f"soilfit_clm_{p}_{n}_{n_grid}_{n_iter}", [xin],
+                       [ca.densify(f(xin[0:o], xin[o:o + p], xin[o + p:o + 2 * p], xin[o + 2 * p:o + 3 * p],
+                                     xin[o + 3 * p], xin[o + 3 * p + 1:o + 3 * p + 3], xin[o + 3 * p + 3:]))],
+                       ["x"], ["y"])
+
+
+def resjac_function(model: str, n: int) -> ca.Function:
+    """``[theta (3), d (4n+2)] -> [r (n), J (n x 3, column-major)]`` of Eq. 2/8 by AD (``J = w dF/dtheta``)."""
+    pt = _resjac_point(model).map("resjac", "serial", n, [0, 5, 6], [])
+    xin = ca.MX.sym("x", 3 + 4 * n + 2)
+    th, d = xin[0:3], xin[3:]
+    out = pt(th, *(d[k * n:(k + 1) * n].T for k in range(4)), d[4 * n], d[4 * n + 1])  # 4 x n
+    return ca.Function(f"soilfit_resjac_{model.replace('-', '_')}_{n}", [xin],
+                       [ca.densify(ca.vertcat(out[0, :].T, ca.vec(out[1:4, :].T)))], ["x"], ["y"])
 
 
 class _Caller:
@@ -361,40 +337,357 @@ class _Caller:
             return self.y.copy()
 
 
-@lru_cache(maxsize=64)
-def _caller(p: int, n: int, n_grid: int) -> _Caller:
-    """The cached zero-copy caller of :func:`compiled_solver` ``(p, n, n_grid)``."""
-    return _Caller(compiled_solver(p, n, n_grid))
+class Kernel:
+    """The solver and residual/Jacobian Functions of one ``(p, model, size class, n_grid)``.
+
+    ``backend`` says what evaluates them (C from the disk cache, C compiled now, or the
+    virtual machine and why); ``engine`` is ``"compiled"`` (C) or ``"compiled-vm"``.
+    """
+
+    def __init__(self, p: int, model: str, n: int, n_grid: int, jit: str) -> None:
+        self.p, self.model, self.n, self.n_grid = p, model, n, n_grid
+        self.vm = [compiled_solver(p, n, n_grid), resjac_function(model, n)]
+        self._load(jit)
+
+    def _load(self, jit: str) -> None:
+        if jit == "off":
+            self.compiled = jitcache.Compiled(tuple(f.name() for f in self.vm), list(self.vm), jitcache.VM_OFF)
+        else:
+            self.compiled = jitcache.load(self.vm, f"soiltrack_clm_{self.p}_{self.n}", wait=(jit == "wait"))
+        self._callers()
+
+    def _callers(self) -> None:
+        callers = [_Caller(f) for f in self.compiled.functions]
+        for c in callers:  # what evaluates this very caller (read with it, never stale)
+            c.engine, c.backend = self.engine, self.backend
+        self.solver, self.resjac = callers
+
+    @property
+    def backend(self) -> str:
+        return self.compiled.backend
+
+    @property
+    def engine(self) -> str:
+        return "compiled" if self.compiled.is_c else "compiled-vm"
+
+    def refresh(self, jit: str) -> None:
+        """Pick up a finished background compilation, or compile now when ``jit == "wait"``."""
+        if self.compiled.is_c:
+            return
+        if self.compiled.upgrade():
+            self._callers()
+        elif jit == "wait" and self.compiled.backend in (jitcache.VM_PENDING, jitcache.VM_OFF):
+            self._load("wait")
+
+    def renew_locks(self) -> None:
+        for c in (self.solver, self.resjac):
+            c.lock = threading.Lock()
 
 
-_JIT_DIR: list[str] = []
-_JIT_LOCK = threading.Lock()
+_KERNELS: dict[tuple, Kernel] = {}
+_KERNELS_LOCK = threading.Lock()  # guards the two dicts
+_BUILD_LOCKS: dict[tuple, threading.Lock] = {}  # one per kernel: builds and compiles do not block other kernels
 
 
-def _jit(f: ca.Function) -> ca.Function:
-    """Compile ``f`` to C with the system compiler in a private temporary folder; ``f`` on failure."""
-    with _JIT_LOCK:
-        return _jit_locked(f)
+def _after_fork() -> None:  # a lock held by another thread at fork time would never be released
+    global _KERNELS_LOCK
+    _KERNELS_LOCK = threading.Lock()
+    _BUILD_LOCKS.clear()
+    for k in _KERNELS.values():
+        k.renew_locks()
 
 
-def _jit_locked(f: ca.Function) -> ca.Function:
-    try:
-        if not _JIT_DIR:
-            _JIT_DIR.append(tempfile.mkdtemp(prefix="soiltrack_clm_"))
-            atexit.register(shutil.rmtree, _JIT_DIR[0], True)
-        folder = _JIT_DIR[0] + os.sep
-        name = f.name()
-        cg = ca.CodeGenerator(name + ".c", {"with_header": False})
-        cg.add(f)
-        cg.generate(folder)
-        imp = ca.Importer(folder + name + ".c", "shell", {"directory": folder, "flags": ["-O2"], "cleanup": False})
-        g = ca.external(name, imp)
-        return g
-    except Exception:  # no compiler, or it failed: the virtual machine evaluates the same Function
-        return f
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork)
 
 
-def fit_compiled(pb: SlipProblem, x0=None, n_grid: int = 25, ipopt_options: dict | None = None) -> FitResult:
+def _jit_mode(jit: str) -> str:
+    if os.environ.get("SOILTRACK_NO_JIT"):
+        return "off"
+    if jit not in JIT_MODES:
+        raise ValueError(f"jit must be one of {JIT_MODES}, got {jit!r}")
+    return jit
+
+
+def kernel(p: int, model: str, n: int, n_grid: int = 25, jit: str = "wait") -> Kernel:
+    """The cached :class:`Kernel` for ``p`` free parameters, residual ``model`` and ``n`` samples.
+
+    ``n`` is rounded up to its :func:`size_class`. ``jit`` is one of :data:`JIT_MODES`.
+    """
+    jit = _jit_mode(jit)
+    key = (int(p), model, size_class(n), max(int(n_grid), 1))
+    k = _KERNELS.get(key)
+    if k is not None and k.compiled.is_c:  # the common case: no lock
+        return k
+    with _KERNELS_LOCK:
+        lock = _BUILD_LOCKS.setdefault(key, threading.Lock())
+    with lock:
+        k = _KERNELS.get(key)
+        if k is None:
+            k = Kernel(*key, jit=jit)
+            with _KERNELS_LOCK:
+                _KERNELS[key] = k
+        else:
+            k.refresh(jit)
+        return k
+
+
+@dataclass(frozen=True, eq=False)
+class Solution:
+    """What one compiled solve returns (SI), before the result is built or handed over.
+
+    ``certified``: the first-order conditions with bounds hold (checked here from the
+    Function's outputs). ``residuals`` (N) and ``jacobian`` (``w dF/dtheta``, n x 3) are at
+    ``theta`` (the reported point; for one-load full data the ridge marker).
+    """
+
+    theta: np.ndarray
+    certified: bool
+    iterations: int
+    start: list
+    residuals: np.ndarray
+    jacobian: np.ndarray
+    z: np.ndarray
+    p: int
+    one_load: bool
+    engine: str
+    backend: str
+    call_time: float
+
+
+def _variant(pb: SlipProblem) -> tuple[int, bool, str]:
+    """``(p, one_load, residual model)`` of a problem."""
+    one = pb.model == "full" and _one_load(pb)
+    p = 3 if (pb.model == "full" and not one) else 2
+    return p, one, pb.model
+
+
+def _scaled_box(pb: SlipProblem, p: int, one_load: bool) -> tuple[list, list]:
+    (c_lo, c_hi), (p_lo, p_hi), (K_lo, K_hi) = pb.bounds.cohesion, pb.bounds.friction_angle, pb.bounds.shear_modulus
+    sK = _S2
+    if one_load:  # F_max = W tan(phi_e) spans what the (c, phi) box allows
+        W0, A = float(pb.load[0]), pb.vehicle.contact_area
+        F_lo, F_hi = max_thrust_expr(c_lo, p_lo, W0, A), max_thrust_expr(c_hi, p_hi, W0, A)
+        return [math.atan(F_lo / W0), K_lo / sK], [math.atan(F_hi / W0), K_hi / sK]
+    if p == 3:
+        return [c_lo / _S0, p_lo, K_lo / sK], [c_hi / _S0, p_hi, K_hi / sK]
+    return [p_lo, K_lo / sK], [p_hi, K_hi / sK]
+
+
+def _scaled_start(pb: SlipProblem, x0, p: int, one_load: bool) -> tuple[list, float]:
+    if x0 is None:
+        return [0.0] * p, 0.0
+    x0 = np.asarray(x0, float)
+    return [float(v) for v in _scaled_start_given(pb, x0, p, one_load)], 1.0
+
+
+def _scaled_start_given(pb: SlipProblem, x0: np.ndarray, p: int, one_load: bool) -> list:
+    if one_load:
+        W0 = float(pb.load[0])
+        return [math.atan(max_thrust_expr(x0[0], x0[1], W0, pb.vehicle.contact_area) / W0), x0[2] / SCALE[2]]
+    if p == 3:
+        return [x0[0] / SCALE[0], x0[1], x0[2] / SCALE[2]]
+    return [x0[1], x0[2] / SCALE[2]]
+
+
+def _data_vector(pb: SlipProblem, nc: int, out: np.ndarray | None = None) -> np.ndarray:
+    """``[slip, F, W, w, l, b]`` padded to ``nc`` rows (zero slip, force and weight), into ``out`` if given."""
+    n = pb.n
+    if out is None:
+        d = np.zeros(4 * nc + 2)
+    else:
+        d = out
+        d[:] = 0.0
+    d[0:n] = pb.slip
+    d[nc:nc + n] = pb.force
+    d[2 * nc:2 * nc + n] = pb.load
+    d[2 * nc + n:3 * nc] = pb.load[0]
+    d[3 * nc:3 * nc + n] = 1.0 / pb.sigma
+    d[4 * nc], d[4 * nc + 1] = pb.vehicle.track_length, pb.vehicle.track_width
+    return d
+
+
+def grid_rows(pb: SlipProblem) -> np.ndarray:
+    """Indices of the ``GRID_ROWS`` samples the start grid uses when a problem has more.
+
+    Evenly spread over the samples sorted by slip (smallest and largest slip included): the
+    grid only chooses the start basin, the iteration and its certificate use every sample.
+    """
+    return np.argsort(pb.slip, kind="stable")[_spread(pb.n)]
+
+
+@lru_cache(maxsize=1024)
+def _spread(n: int) -> np.ndarray:
+    return np.round(np.linspace(0, n - 1, GRID_ROWS)).astype(np.intp)
+
+
+def _grid_vector(pb: SlipProblem, out: np.ndarray) -> None:
+    idx = grid_rows(pb)
+    m = GRID_ROWS
+    out[0:m] = pb.slip[idx]
+    out[m:2 * m] = pb.force[idx]
+    out[2 * m:3 * m] = pb.load[idx]
+    np.divide(1.0, pb.sigma[idx], out=out[3 * m:4 * m])
+
+
+_S0, _S2 = float(SCALE[0]), float(SCALE[2])
+
+
+def _theta_si(z, p: int) -> list[float]:
+    """Start/optimum in SI ``[c, phi, K]`` (one-load full: ``c = 0`` and the equivalent friction angle)."""
+    if p == 3:
+        return [float(z[0]) * _S0, float(z[1]), float(z[2]) * _S2]
+    return [0.0, float(z[0]), float(z[1]) * _S2]
+
+
+def input_vector(pb: SlipProblem, x0=None, nc: int | None = None) -> np.ndarray:
+    """The solver Function's input ``[d, lbz, ubz, z0, use_z0, tol, g]`` for ``pb`` (``nc`` rows)."""
+    p, one_load, _ = _variant(pb)
+    nc = size_class(pb.n) if nc is None else nc
+    z0, use0 = _scaled_start(pb, x0, p, one_load)
+    g = np.zeros(4 * GRID_ROWS if nc > GRID_ROWS else 0)
+    if g.size:
+        _grid_vector(pb, g)
+    return np.concatenate((_data_vector(pb, nc), *_scaled_box(pb, p, one_load), z0, [use0], [KKT_TOL, ZERO_COST], g))
+
+
+def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solution:
+    """Run the compiled solver on a :class:`SlipProblem` and certify its answer (no hand-over here)."""
+    p, one_load, model = _variant(pb)
+    k = kernel(p, model, pb.n, n_grid, jit)
+    nc = k.n
+    lbz, ubz = _scaled_box(pb, p, one_load)
+    z0, use0 = _scaled_start(pb, x0, p, one_load)
+    o = 4 * nc + 2
+    cs = k.solver
+    if cs.trigger is None:  # pragma: no cover - CasADi without buffers
+        xin = input_vector(pb, x0, nc)
+        d = xin[0:o]
+        t1 = time.perf_counter()
+        y = cs(xin)
+        t_call = time.perf_counter() - t1
+    else:
+        with cs.lock:  # fill the zero-copy input buffer in place, call, copy the output
+            xb = cs.x
+            _data_vector(pb, nc, xb[0:o])
+            xb[o:o + 3 * p + 3] = lbz + ubz + z0 + [use0, KKT_TOL, ZERO_COST]
+            if nc > GRID_ROWS:
+                _grid_vector(pb, xb[o + 3 * p + 3:])
+            t1 = time.perf_counter()
+            cs.trigger()
+            t_call = time.perf_counter() - t1
+            y = cs.y.copy()
+            d = xb[0:o].copy()
+    # y = [z (p), cost, g (p), trJJ, iters, zstart (p), scale, certified]; the certificate (finite
+    # numbers inside the box meeting the first-order test) is computed by the Function itself
+    # from its final state, with the same KKT test that stops the iteration
+    yl = y.tolist()
+    z = yl[0:p]
+    iters = int(yl[2 * p + 2]) if math.isfinite(yl[2 * p + 2]) else -1
+    ok = yl[3 * p + 4] > 0.5
+    theta = np.array(_theta_si(z, p) if all(math.isfinite(v) for v in z) else [math.nan] * 3)
+    if ok and one_load:  # the ridge marker, as the IPOPT path reports it
+        W0 = float(pb.load[0])
+        c, phi = ridge_centre(max_thrust_expr(0.0, theta[1], W0, pb.vehicle.contact_area, "cohesion-free"), W0,
+                              pb.vehicle.contact_area, pb.bounds)
+        theta[0], theta[1] = float(c), float(phi)
+    r = J = np.empty(0)
+    if ok:  # residuals and Jacobian at the reported point (AD of Eq. 2/8)
+        n = pb.n
+        rj = k.resjac(np.concatenate((theta, d)))
+        r = rj[0:n]
+        J = rj[nc:].reshape(3, nc)[:, 0:n].T
+    return Solution(theta=theta, certified=ok, iterations=iters, start=_theta_si(yl[2 * p + 3:3 * p + 3], p),
+                    residuals=r, jacobian=J, z=np.array(z), p=p, one_load=one_load, engine=cs.engine,
+                    backend=cs.backend, call_time=t_call)
+
+
+def solve_many(pbs: list, n_grid: int = 25, jit: str = "wait") -> list[Solution]:
+    """:func:`solve` for many problems: the same Function and inputs, packed and decoded as arrays.
+
+    Problems of one kind and one length are stacked; the compiled solver and the residual
+    Function are called once per problem through their zero-copy buffers (no Python work per
+    call beyond a row copy), so the per-problem cost is a few microseconds plus the C call.
+    Gives exactly what :func:`solve` gives for each problem.
+    """
+    out: list[Solution | None] = [None] * len(pbs)
+    groups: dict[tuple, list[int]] = {}
+    for i, pb in enumerate(pbs):
+        groups.setdefault((*_variant(pb), pb.n), []).append(i)
+    for (p, one_load, model, n), idx in groups.items():
+        k = kernel(p, model, n, n_grid, jit)
+        cs, cr = k.solver, k.resjac
+        nc, N = k.n, len(idx)
+        P = [pbs[i] for i in idx]
+        o = 4 * nc + 2
+        X = np.zeros((N, cs.n_in))
+        load = np.stack([pb.load for pb in P])
+        X[:, 0:n] = np.stack([pb.slip for pb in P])
+        X[:, nc:nc + n] = np.stack([pb.force for pb in P])
+        X[:, 2 * nc:2 * nc + n] = load
+        X[:, 2 * nc + n:3 * nc] = load[:, 0:1]
+        X[:, 3 * nc:3 * nc + n] = 1.0 / np.stack([pb.sigma for pb in P])
+        X[:, 4 * nc] = [pb.vehicle.track_length for pb in P]
+        X[:, 4 * nc + 1] = [pb.vehicle.track_width for pb in P]
+        for r, pb in enumerate(P):
+            lbz, ubz = _scaled_box(pb, p, one_load)
+            X[r, o:o + 2 * p] = lbz + ubz
+        X[:, o + 3 * p + 1] = KKT_TOL
+        X[:, o + 3 * p + 2] = ZERO_COST
+        if nc > GRID_ROWS:
+            m = GRID_ROWS
+            rows = np.take_along_axis(np.argsort(X[:, 0:n], axis=1, kind="stable"), _spread(n)[None, :].repeat(N, 0),
+                                      axis=1)
+            g = o + 3 * p + 3
+            for j, blk in enumerate((0, nc, 2 * nc, 3 * nc)):
+                X[:, g + j * m:g + (j + 1) * m] = np.take_along_axis(X[:, blk:blk + n], rows, axis=1)
+        Y = _run_rows(cs, X)
+        Z = Y[:, 0:p]
+        cert = Y[:, 3 * p + 4] > 0.5
+        theta = np.zeros((N, 3))
+        if p == 3:
+            theta[:, 0] = Z[:, 0] * _S0
+        theta[:, 1] = Z[:, p - 2]
+        theta[:, 2] = Z[:, p - 1] * _S2
+        theta[~np.all(np.isfinite(Z), axis=1)] = np.nan
+        if one_load:  # the ridge marker, as the IPOPT path reports it
+            for r in np.nonzero(cert)[0]:
+                pb = P[r]
+                W0, A = float(pb.load[0]), pb.vehicle.contact_area
+                c, phi = ridge_centre(max_thrust_expr(0.0, theta[r, 1], W0, A, "cohesion-free"), W0, A, pb.bounds)
+                theta[r, 0], theta[r, 1] = float(c), float(phi)
+        RJ = _run_rows(cr, np.concatenate((theta, X[:, 0:o]), axis=1))
+        J = RJ[:, nc:].reshape(N, 3, nc)[:, :, 0:n].transpose(0, 2, 1)
+        iters = [int(v) if math.isfinite(v) else -1 for v in Y[:, 2 * p + 2].tolist()]
+        empty = np.empty(0)
+        for r, i in enumerate(idx):
+            ok = bool(cert[r])
+            out[i] = Solution(theta=theta[r].copy(), certified=ok, iterations=iters[r],
+                              start=_theta_si(Y[r, 2 * p + 3:3 * p + 3], p),
+                              residuals=RJ[r, 0:n].copy() if ok else empty, jacobian=J[r].copy() if ok else empty,
+                              z=Z[r].copy(), p=p, one_load=one_load, engine=cs.engine, backend=cs.backend,
+                              call_time=math.nan)
+    return out  # type: ignore[return-value]
+
+
+def _run_rows(c: "_Caller", X: np.ndarray) -> np.ndarray:
+    """Call a flat Function on each row of ``X`` through its zero-copy buffer."""
+    Y = np.empty((X.shape[0], c.n_out))
+    if c.trigger is None:  # pragma: no cover - CasADi without buffers
+        for r in range(X.shape[0]):
+            Y[r] = c(X[r])
+        return Y
+    with c.lock:
+        xb, yb, trig = c.x, c.y, c.trigger
+        for r in range(X.shape[0]):
+            xb[:] = X[r]
+            trig()
+            Y[r] = yb
+    return Y
+
+
+def fit_compiled(pb: SlipProblem, x0=None, n_grid: int = 25, ipopt_options: dict | None = None,
+                 jit: str = "wait") -> FitResult:
     """Fit a :class:`SlipProblem` with the compiled engine; hand over to IPOPT if not certified.
 
     Parameters
@@ -406,119 +699,63 @@ def fit_compiled(pb: SlipProblem, x0=None, n_grid: int = 25, ipopt_options: dict
         K values of the start grid.
     ipopt_options : dict, optional
         Options for the IPOPT hand-over.
+    jit : {"wait", "background", "off"}
+        How the C code is obtained (module notes).
     """
     t0 = time.perf_counter()
-    W = pb.load
-    W0 = float(W[0])
-    one_load = pb.model == "full" and bool(np.all(np.abs(W - W0) <= 1e-9 * abs(W0)))
-    p = 3 if (pb.model == "full" and not one_load) else 2
-    n = pb.n
-    call = _caller(p, n, int(n_grid))  # built (and compiled) once per (p, n, n_grid), then cached
-    bnd = pb.bounds
-    l, b = pb.vehicle.track_length, pb.vehicle.track_width
-    A = 2.0 * b * l
-    (c_lo, c_hi), (p_lo, p_hi), (K_lo, K_hi) = bnd.cohesion, bnd.friction_angle, bnd.shear_modulus
-    sK = SCALE[2]
-    if one_load:
-        F_lo, F_hi = A * c_lo + W0 * math.tan(p_lo), A * c_hi + W0 * math.tan(p_hi)
-        lbz = [math.atan(F_lo / W0), K_lo / sK]
-        ubz = [math.atan(F_hi / W0), K_hi / sK]
-    elif p == 3:
-        lbz = [c_lo / SCALE[0], p_lo, K_lo / sK]
-        ubz = [c_hi / SCALE[0], p_hi, K_hi / sK]
-    else:
-        lbz = [p_lo, K_lo / sK]
-        ubz = [p_hi, K_hi / sK]
-    if x0 is None:
-        z0, use0 = [0.0] * p, 0.0
-    else:
-        x0 = np.asarray(x0, float)
-        if one_load:
-            z0 = [math.atan((A * x0[0] + W0 * math.tan(x0[1])) / W0), x0[2] / sK]
-        elif p == 3:
-            z0 = [x0[0] / SCALE[0], x0[1], x0[2] / sK]
-        else:
-            z0 = [x0[1], x0[2] / sK]
-        use0 = 1.0
-    t1 = time.perf_counter()
-    y = call(np.concatenate((pb.slip, pb.force, W, pb.sigma, [l, b], lbz, ubz, z0, [use0])))
-    t_call = time.perf_counter() - t1
-    # y = [z (p), cost, g (p), trJJ, iters, zstart (p), scale, r (n), sg / sigma (n), dF/dK / sigma (n)]
-    z = y[0:p]
-    cost = float(y[p])
-    g = y[p + 1:2 * p + 1]
-    trJJ, iters = float(y[2 * p + 1]), y[2 * p + 2]
-    zs = y[2 * p + 3:3 * p + 3]
-    scale = float(y[3 * p + 3])
-    o = 3 * p + 4
-    # ---- certify: finite, inside the bounds, first-order conditions with bounds
-    ok = math.isfinite(cost) and math.isfinite(trJJ)
-    gp2 = 0.0
-    for j in range(p):
-        zj, gj, lo, hi = float(z[j]), float(g[j]), lbz[j], ubz[j]
-        if not (math.isfinite(zj) and math.isfinite(gj) and lo <= zj <= hi):
-            ok = False
-            break
-        eps = _EPS_B * (hi - lo)
-        if not ((zj <= lo + eps and gj > 0) or (zj >= hi - eps and gj < 0)):
-            gp2 += gj * gj
-    if ok:
-        ok = math.sqrt(gp2) <= KKT_TOL * math.sqrt(trJJ * 2.0 * cost) or cost <= ZERO_COST * scale
-    if not ok:
-        return _hand_over(pb, z, p, one_load, x0, n_grid, ipopt_options, t0)
-    # ---- theta (SI), the ridge point for one-load full data (as the IPOPT path does it)
-    K = float(z[-1]) * sK
-    if one_load:
-        c, phi = ridge_centre(W0 * math.tan(float(z[0])), W0, A, pb.bounds)
-        theta = np.array([float(c), float(phi), K])
-    elif p == 3:
-        theta = np.array([float(z[0]) * SCALE[0], float(z[1]), K])
-    else:
-        theta = np.array([0.0, float(z[0]), K])
-    # ---- residuals and Jacobian at theta from the Function's outputs (F_max is the same at
-    # every point of the one-load ridge, so r and dF/dK are too)
-    r = y[o:o + n]
-    sgw = y[o + n:o + 2 * n]
-    tphi = math.tan(theta[1])
-    J = np.empty((n, 3))
-    if pb.model == "cohesion-free":
-        J[:, 0] = 0.0
-    else:
-        J[:, 0] = A * sgw
-    J[:, 1] = W * (1.0 + tphi * tphi) * sgw
-    J[:, 2] = y[o + 2 * n:o + 3 * n]
-    note = ("; one normal load: solved in the identifiable parameters (F_max, K), exactly equivalent; "
-            "(c, phi) is a point of the ridge") if one_load else ""
+    sol = solve(pb, x0, n_grid, jit)
+    if not sol.certified:
+        return hand_over(pb, sol, x0, n_grid, ipopt_options, t0)
+    return result_of(pb, sol, x0, time.perf_counter() - t0)
+
+
+def _note(sol: Solution, x0) -> str:
     src = "user start point" if x0 is not None else "variable-projection grid start"
-    return build_result(data_kind="slip", model=pb.model, method="ipopt", theta=theta, jacobian=J,
-                        weighted_residuals=r / pb.sigma, residuals=r, residual_unit="N", n_samples=n,
-                        normal_loads=W, vehicle=pb.vehicle, bounds=bnd, status="Compiled_LM_Converged",
-                        success=True, message="converged (compiled projected Levenberg-Marquardt, first-order "
-                                              f"conditions met; {src}{note})",
-                        iterations=int(iters), solve_time=time.perf_counter() - t0, sigma_known=pb.sigma_known,
-                        warnings=pb.noise_warning(r), samples=(pb.slip, pb.force, pb.load),
-                        extra={"engine": "compiled-lm", "sigma_model": pb.noise_model, "engine_call_time_s": t_call,
-                               "start": _theta_of(zs, p)})
+    ridge = ("; one normal load: solved in the identifiable parameters (F_max, K), exactly equivalent; "
+             "(c, phi) is a point of the ridge") if sol.one_load else ""
+    return f"{src}{ridge}"
 
 
-def _theta_of(z: np.ndarray, p: int) -> list[float]:
-    """Start point in SI ``[c, phi, K]`` (one-load full: ``c = 0`` and the equivalent friction angle)."""
-    if p == 3:
-        return [float(z[0] * SCALE[0]), float(z[1]), float(z[2] * SCALE[2])]
-    return [0.0, float(z[0]), float(z[1] * SCALE[2])]
+def message_of(sol: Solution, x0) -> str:
+    """The result message of a certified compiled solve."""
+    return f"converged (compiled projected Levenberg-Marquardt, first-order conditions met; {_note(sol, x0)})"
 
 
-def _hand_over(pb: SlipProblem, z, p, one_load, x0, n_grid, ipopt_options, t0) -> FitResult:
+def extra_of(sol: Solution) -> dict:
+    """``extra`` of a certified compiled solve: which engine and backend, call time, start point."""
+    return {"engine": sol.engine, "engine_backend": sol.backend, "engine_call_time_s": sol.call_time,
+            "start": sol.start, "solver_status": "first-order conditions certified"}
+
+
+def result_of(pb: SlipProblem, sol: Solution, x0, solve_time: float) -> FitResult:
+    """The :class:`FitResult` of a certified solve (shared statistics via ``build_result``)."""
+    return build_result(data_kind="slip", model=pb.model, method="ipopt", theta=sol.theta,
+                        jacobian=sol.jacobian, weighted_residuals=sol.residuals / pb.sigma, residuals=sol.residuals,
+                        residual_unit="N", n_samples=pb.n, normal_loads=pb.load, vehicle=pb.vehicle,
+                        bounds=pb.bounds, status="converged", success=True, message=message_of(sol, x0),
+                        iterations=sol.iterations, solve_time=solve_time, sigma_known=pb.sigma_known,
+                        warnings=pb.noise_warning(sol.residuals), extra={**extra_of(sol), "sigma_model": pb.noise_model},
+                        **pb.result_kwargs())
+
+
+def hand_over(pb: SlipProblem, sol: Solution, x0, n_grid: int, ipopt_options: dict | None, t0: float,
+              source: str = "compiled") -> FitResult:
     """Re-solve with the cached IPOPT path (from the last iterate if finite, else as asked)."""
     from .ipopt_fit import fit_ipopt
     x = None
-    if np.all(np.isfinite(z)):
-        x = np.array(_theta_of(z, p))
+    if np.all(np.isfinite(sol.z)):
+        x = np.array(_theta_si(sol.z, sol.p))
+        if sol.one_load:  # a point of the same F_max inside the box
+            W0 = float(pb.load[0])
+            c, phi = ridge_centre(max_thrust_expr(0.0, x[1], W0, 0.0, "cohesion-free"), W0,
+                                  pb.vehicle.contact_area, pb.bounds)
+            x[0], x[1] = float(c), float(phi)
     elif x0 is not None:
         x = np.asarray(x0, float)
     res = fit_ipopt(pb, x, ipopt_options=ipopt_options, n_grid=n_grid)
-    object.__setattr__(res, "message", "compiled engine did not certify convergence; re-solved with IPOPT: "
+    object.__setattr__(res, "message", f"{source} engine did not certify convergence; re-solved with IPOPT: "
                        + res.message)
     object.__setattr__(res, "solve_time", time.perf_counter() - t0)
     res.extra["engine"] = "ipopt"
+    res.extra["handed_over_from"] = sol.engine
     return res

@@ -6,21 +6,20 @@ from ..soilmodel.errors import DataError
 from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
 from ..soilmodel.vehicle import Vehicle
 from .compiled_lm import fit_compiled
+from .engines import check_engine, jit_mode, normalise_status
 from .ipopt_fit import _x0_vector, fit_ipopt
 from .joint_fit import fit_joint
 from .problem import FitFailed, check_common, make_problem
 from .result import FitResult
 from .seed_methods import fit_least_squares, fit_newton
+from .settings import SETTING_NAMES, FitSettings
 
 __all__ = ["fit"]
 
 
-ENGINES = ("ipopt", "compiled", "auto")
-
-
 def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method: str = "ipopt",
-        bounds: SoilBounds = PRACTICAL_BOUNDS, x0=None, strict: bool = False, engine: str = "ipopt",
-        effects=None, fixed=None, **options) -> FitResult:
+        bounds: SoilBounds = PRACTICAL_BOUNDS, x0=None, strict: bool = False, engine: str | None = None,
+        effects=None, fixed=None, *, settings: FitSettings | None = None, **options) -> FitResult:
     """Identify the soil parameters ``c, phi, K`` from measured data.
 
     Parameters
@@ -43,14 +42,16 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
         Start point ``[c (Pa), phi (rad), K (m)]``.
     strict : bool
         Raise :class:`FitFailed` when the fit does not succeed.
-    engine : {"ipopt", "compiled", "auto"}
-        What solves ``method="ipopt"`` on slip data (the estimator - bounded least squares - and
-        its optimum are the same): ``"ipopt"`` (default) the cached IPOPT solver;
-        ``"compiled"`` the compiled single-fit engine (:mod:`soiltrack.identify.compiled_lm`:
-        one pre-built CasADi call running a projected Levenberg-Marquardt iteration, about
-        10x faster per fit), which hands any fit it cannot certify (first-order conditions)
-        over to IPOPT; ``"auto"``: ``"compiled"`` where it applies, else IPOPT. Drive logs and
-        the other methods ignore it. ``result.extra["engine"]`` says what solved the fit.
+    engine : {"auto", "ipopt", "compiled", "vectorized"}, optional
+        What solves ``method="ipopt"`` on slip data (the estimator and its optimum are the
+        same; :mod:`soiltrack.identify.engines`). Default ``"auto"``: the compiled LM engine
+        (one CasADi call; C code from the per-user cache, else the virtual machine while the C
+        code compiles in the background), which hands any fit it cannot certify to IPOPT.
+        ``result.extra["engine"]`` says what solved the fit. Drive logs and the other methods
+        ignore it.
+    settings : FitSettings, optional
+        Typed solver settings (engine, ``n_grid``, ``ipopt_options``, ``max_iter``); the
+        keywords of the same names override its fields.
     effects : sequence of str or EffectSet, optional
         Unmodelled effects (DESIGN.md section 6, :data:`soiltrack.soilmodel.EFFECTS`) whose
         parameters are fitted jointly with the soil by IPOPT, within their physical ranges
@@ -62,8 +63,8 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
     **options
         ``rig_speed`` (m/s, track speed of the rig for ``speed_resistance``, default 0.5),
         ``sigma`` (N, scalar or per sample; default: equal weights, noise estimated from the
-        residuals), ``sigma_known`` (bool), ``ipopt_options`` (dict of IPOPT options),
-        ``max_iter``, ``n_grid`` (K grid of the start search). Drive-log options are passed on.
+        residuals) and ``sigma_known`` (bool) describe the data; ``n_grid``, ``ipopt_options``
+        and ``max_iter`` are :class:`FitSettings` fields. Drive-log options are passed on.
 
     Returns
     -------
@@ -83,6 +84,8 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
             options["effects"] = effects
         if fixed is not None:
             options["fixed"] = fixed
+        if settings is not None or engine is not None:
+            check_engine(FitSettings.resolve(settings, engine=engine).engine)
         return fit_drive_log(data, vehicle, model, bounds, x0, strict, method=method, **options)
     if not isinstance(data, SlipData):
         raise DataError(f"fit takes SlipData or DriveLog, got {type(data).__name__}")
@@ -92,32 +95,35 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
     pb = make_problem(data, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known, method=method,
                       effects=effects, fixed=fixed, **rig)
     x0v = None if x0 is None else _x0_vector(x0)
-    if engine not in ENGINES:
-        raise DataError(f"unknown engine {engine!r}; expected one of {ENGINES}")
+    given = {k: options.pop(k) for k in SETTING_NAMES if k in options}
+    _check_options(options, set(SETTING_NAMES))
+    st = FitSettings.resolve(settings, engine=engine, **given)
     if pb.has_effects:  # joint soil-and-effects fit: IPOPT (whatever the engine)
-        _check_options(options, {"ipopt_options", "n_grid"})
-        res = fit_joint(pb, x0v, ipopt_options=options.get("ipopt_options"), n_grid=options.get("n_grid", 25))
+        if method != "ipopt":
+            raise DataError(f"effects are fitted jointly with the soil by IPOPT only (method='ipopt'), "
+                            f"not by the seed's method {method!r}")
+        if st.max_iter is not None:
+            raise DataError("max_iter applies to method='newton' or 'least-squares'")
+        res = normalise_status(fit_joint(pb, x0v, ipopt_options=st.ipopt_dict, n_grid=st.n_grid), "ipopt")
         if strict and not res.success:
             raise FitFailed(res)
         return res
     if fixed:
         raise DataError("fixed holds effect parameters: give the effects too (effects=[...])")
     if method == "ipopt":
-        allowed = {"ipopt_options", "n_grid"}
-        _check_options(options, allowed)
-        if engine != "ipopt":
-            res = fit_compiled(pb, x0v, n_grid=options.get("n_grid", 25), ipopt_options=options.get("ipopt_options"))
-            if strict and not res.success:
-                raise FitFailed(res)
-            return res
-        res = fit_ipopt(pb, x0v, ipopt_options=options.get("ipopt_options"), n_grid=options.get("n_grid", 25))
-        res.extra.setdefault("engine", "ipopt")
+        if st.max_iter is not None:
+            raise DataError("max_iter applies to method='newton' or 'least-squares'; for IPOPT use "
+                            "ipopt_options={'ipopt.max_iter': N}")
+        if st.engine == "ipopt":
+            res = normalise_status(fit_ipopt(pb, x0v, ipopt_options=st.ipopt_dict, n_grid=st.n_grid), "ipopt")
+        else:  # compiled LM (a single dataset is "vectorized" trivially); IPOPT if not certified
+            res = fit_compiled(pb, x0v, n_grid=st.n_grid, ipopt_options=st.ipopt_dict, jit=jit_mode(st.engine))
+            if res.extra.get("engine") == "ipopt":
+                normalise_status(res)
     elif method == "newton":
-        _check_options(options, {"max_iter"})
-        res = fit_newton(pb, x0v, max_iter=options.get("max_iter", 50))
+        res = fit_newton(pb, x0v, max_iter=st.max_iter or 50)
     else:
-        _check_options(options, {"max_iter"})
-        res = fit_least_squares(pb, x0v, max_iter=options.get("max_iter", 500))
+        res = fit_least_squares(pb, x0v, max_iter=st.max_iter or 500)
     if strict and not res.success:
         raise FitFailed(res)
     return res

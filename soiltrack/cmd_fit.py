@@ -5,13 +5,14 @@ import argparse
 import sys
 
 from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path, vehicle_arg
+from .identify.engines import DEFAULT_ENGINE, ENGINES
 from .soilmodel import DataError
 
 
 # --- fit --------------------------------------------------------------------------------------
 def _check_options(a: argparse.Namespace, drive_log: bool) -> None:
     """Refuse options that do not apply to these data or this method (nothing is silently ignored)."""
-    if a.engine != "ipopt" and (a.method != "ipopt" or drive_log):
+    if a.engine != DEFAULT_ENGINE and (a.method != "ipopt" or drive_log):
         raise DataError(f"--engine {a.engine} applies to --method ipopt on slip data only"
                         + (" (this file is a drive log)" if drive_log else f", not to --method {a.method}"),
                         file=a.data if drive_log else None)
@@ -31,7 +32,7 @@ def _cmd_fit(a: argparse.Namespace) -> int:
     vehicle = vehicle_arg(a.vehicle)
     drive_log = isinstance(data, DriveLog)
     _check_options(a, drive_log)
-    kw = {"engine": a.engine} if a.engine != "ipopt" else {}
+    kw = {"engine": a.engine} if a.method == "ipopt" and not drive_log else {}
     if a.sigma is not None:
         kw["sigma"] = a.sigma if a.sigma == "relative" else floats_arg(a.sigma, "--sigma")[0]
     if a.bias_correction != "none":
@@ -80,9 +81,12 @@ def add_parser(sub) -> None:
     f.add_argument("--method", choices=("ipopt", "newton", "least-squares"), default="ipopt",
                    help="ipopt: bounded weighted least squares (recommended); newton, least-squares: the seed "
                         "paper's unbounded methods, for comparison (default: ipopt)")
-    f.add_argument("--engine", choices=("ipopt", "compiled", "auto"), default="ipopt",
-                   help="solver engine for --method ipopt on slip data: IPOPT (default), or the compiled "
-                        "projected Levenberg-Marquardt engine that hands anything it cannot certify to IPOPT")
+    f.add_argument("--engine", choices=ENGINES, default=DEFAULT_ENGINE,
+                   help="what solves --method ipopt on slip data (same optimum): auto (default: compiled "
+                        "Levenberg-Marquardt, C code from the per-user cache or, while it compiles in the "
+                        "background, CasADi's virtual machine), ipopt, compiled (compile the C code now if not "
+                        "cached) or vectorized; anything not certified, and every fit with --effect, is solved "
+                        "by IPOPT")
     f.add_argument("--sigma", metavar="N|relative",
                    help="slip data: force noise standard deviation in N (taken as known), or 'relative' for noise "
                         "proportional to the force (level estimated); default: equal weights, level estimated")
