@@ -1,0 +1,50 @@
+"""Figures of the planning results (matplotlib, Agg backend)."""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+__all__ = ["plot_margin", "plot_profile"]
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_margin(terrain: Any, vehicle, m, path: str) -> None:
+    """Thrust-slip curve at the margin's normal load against the drivetrain limit and the requirement."""
+    from .margin import _soil_thrust, resolve_terrain
+
+    plt = _plt()
+    soil, unc, model = resolve_terrain(terrain)
+    theta = soil.as_vector() if soil is not None else unc.soils_at(unc.mean, m.normal_load_N)[0]
+    s = np.linspace(0.0, 0.6, 301)
+    F = np.array([_soil_thrust(theta, float(x), m.normal_load_N, vehicle, model)[0] for x in s])
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    ax.plot(s * 100, F / 1e3, label=f"soil thrust at N = {m.normal_load_N / 1e3:.4g} kN")
+    if unc is not None:
+        q = unc.sample(200, 1)
+        th = unc.soils_at(q, m.normal_load_N)
+        Fs = np.array([[_soil_thrust(t, float(x), m.normal_load_N, vehicle, model)[0] for x in s[::10]] for t in th])
+        lo, hi = np.percentile(Fs, [2.5, 97.5], axis=0)
+        ax.fill_between(s[::10] * 100, lo / 1e3, hi / 1e3, alpha=0.3, label="95 % band of the fitted soil")
+    ax.axhline(m.required_N / 1e3, color="C3", label=f"required {m.required_N / 1e3:.4g} kN")
+    if m.drivetrain_limit_N is not None:
+        ax.axhline(m.drivetrain_limit_N / 1e3, color="C2", ls="--",
+                   label=f"drivetrain limit {m.drivetrain_limit_N / 1e3:.4g} kN")
+    ax.axvline(m.max_slip * 100, color="k", ls=":", label=f"allowed slip {m.max_slip * 100:.3g} %")
+    ax.set_xlabel("slip (%)")
+    ax.set_ylabel("thrust (kN)")
+    go = "traversable" if m.traversable else "NOT traversable"
+    ax.set_title(f"{m.terrain}, grade {m.grade_deg:g} deg: {go}, margin {m.margin_N / 1e3:.4g} kN", fontsize=9)
+    ax.legend(fontsize=8, loc="lower right")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
