@@ -48,3 +48,37 @@ def plot_margin(terrain: Any, vehicle, m, path: str) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def plot_profile(result, path: str, title: str = "") -> None:
+    """Speed, slip, torque and traction reserve of a planned profile against distance."""
+    plt = _plt()
+    s = result.series
+    fig, axs = plt.subplots(4, 1, figsize=(7, 8), sharex=True)
+    x = np.asarray(s["distance_m"])
+    axs[0].plot(x, s["speed_m_s"], "-o", ms=2)
+    axs[0].set_ylabel("speed (m/s)")
+    axs[1].plot(x, np.asarray(s["slip"]) * 100, "-o", ms=2)
+    lim = result.limits["max_slip"] * 100
+    for sgn in (1, -1):
+        axs[1].axhline(sgn * lim, color="k", ls=":")
+    axs[1].set_ylabel("slip (%)")
+    axs[2].step(x, np.asarray(s["sprocket_torque_Nm"]) / 1e3, where="post")
+    for sgn in (1, -1):
+        axs[2].axhline(sgn * result.limits["max_torque_Nm"] / 1e3, color="k", ls=":")
+    axs[2].set_ylabel("sprocket torque (kN m)")
+    axs[3].plot(x, np.asarray(s["margin_N"]) / 1e3)
+    axs[3].set_ylabel("traction reserve (kN)")
+    axs[3].set_xlabel("distance (m)")
+    if "patch" in s and len(set(s["patch"])) > 1:
+        p = np.asarray(s["patch"])
+        for b in x[1:][np.diff(p) != 0]:
+            for ax in axs:
+                ax.axvline(b, color="0.6", lw=0.8)
+    for ax in axs:
+        ax.grid(alpha=0.3)
+    axs[0].set_title(title or f"{result.objective}-optimal profile: {result.total_time_s:.4g} s, "
+                     f"{result.energy_J / 1e3:.4g} kJ", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

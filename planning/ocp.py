@@ -1,0 +1,256 @@
+"""The speed/slip/torque optimal-control problem: direct collocation, built once per size.
+
+Formulation (time-domain direct collocation on a mesh fixed in DISTANCE, so that every patch
+boundary is a mesh point):
+
+- states ``x = [v, w, s]`` (vehicle speed, sprocket speed, distance) at the mesh points and at
+  ``d = 3`` Radau IIA collocation points inside every interval (L-stable, order 5: the stiff
+  slip dynamics are integrated implicitly, never with an explicit step);
+- the sprocket torque ``M_k`` is held over each interval (zero-order hold);
+- the interval durations ``dt_k`` are free; the distance at mesh point k is fixed (the
+  patch boundaries), the total time is ``sum(dt_k)``;
+- dynamics: :func:`soiltrack.soilmodel.dynamics.dynamics_expr` itself (Eqs. 1, 4, the
+  thrust-balance sprocket equation; grade as the ``grade`` effect) plus the patch's Bekker
+  compaction resistance;
+- limits at the mesh and collocation points: slip ``|i| <= i_b`` (per interval) written as the
+  linear ``(1 - i_b) r w <= v <= (1 + i_b) r w``; ``|M| <= T_max``; ``M w <= P_max``; optional
+  torque rate ``|M_{k+1} - M_k| <= rate (dt_k + dt_{k+1}) / 2``;
+- objective: time ``sum(dt_k)`` or sprocket energy ``sum(M_k integral(w dt))`` (signed:
+  braking torque returns energy; the quadrature is exact for the collocation polynomial).
+
+All data enter as parameters (soil, grade and compaction per interval, mesh distances,
+limits, weights), so one ``nlpsol`` (IPOPT) is built per (vehicle, n) and re-solved; the
+previous solution of the same size warm-starts the next solve.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from ..soilmodel import Vehicle
+from ..soilmodel.dynamics import dynamics_expr
+from ..soilmodel.threadsafe import SOLVER_LOCK, call_solver, locked_cache
+
+__all__ = ["OcpData", "solve_ocp", "ocp_solver", "clear_warm_starts", "DEGREE"]
+
+#: Collocation points per interval (Radau IIA).
+DEGREE = 3
+_IPOPT = {"print_level": 0, "sb": "yes", "max_iter": 1000, "tol": 1e-8, "acceptable_tol": 1e-6,
+          "constr_viol_tol": 1e-8}
+_WARM = {"warm_start_init_point": "yes", "warm_start_bound_push": 1e-9, "warm_start_mult_bound_push": 1e-9,
+         "warm_start_slack_bound_push": 1e-9, "mu_init": 1e-6}
+
+
+@dataclass(frozen=True)
+class OcpData:
+    """Numbers of one OCP instance (SI; per-interval arrays of length n, ``s`` of length n + 1)."""
+
+    c: np.ndarray
+    phi: np.ndarray
+    K: np.ndarray
+    grade: np.ndarray  # rad
+    Rc: np.ndarray  # compaction resistance, N
+    slip_bound: np.ndarray  # |slip| bound used by the plan, per interval
+    s: np.ndarray  # mesh distances (only the ratios matter when the distance is free)
+    v0: float
+    v1: float
+    distance: float | None
+    duration: float | None
+    max_torque: float
+    max_power: float | None
+    max_slip: float
+    torque_rate: float | None
+    objective: str
+
+
+@locked_cache(maxsize=8)
+def dynamics_fn(vehicle: Vehicle) -> ca.Function:
+    """``f(x=[v, w, s], M, p=[c, phi, K, grade, R_c]) -> (xdot, slip, thrust)`` from the model core."""
+    x = ca.SX.sym("x", 3)
+    M = ca.SX.sym("M")
+    p = ca.SX.sym("p", 5)
+    d = dynamics_expr(x[0], x[1], M, p[0], p[1], p[2], vehicle, {"grade": {"theta_rad": p[3]}})
+    xdot = ca.vertcat(d["dv"] - p[4] / vehicle.mass, d["dw"], x[0])
+    return ca.Function("plan_dynamics", [x, M, p], [xdot, d["slip"], d["thrust"]], ["x", "M", "p"],
+                       ["xdot", "slip", "thrust"])
+
+
+def _radau(d: int):
+    tau = np.append(0.0, ca.collocation_points(d, "radau"))
+    C = np.zeros((d + 1, d + 1))  # derivative of the Lagrange basis at the collocation points
+    B = np.zeros(d + 1)  # quadrature weights
+    for j in range(d + 1):
+        coeff = np.poly1d([1.0])
+        for r in range(d + 1):
+            if r != j:
+                coeff *= np.poly1d([1.0, -tau[r]]) / (tau[j] - tau[r])
+        der = np.polyder(coeff)
+        for r in range(d + 1):
+            C[j, r] = der(tau[r])
+        B[j] = np.polyint(coeff)(1.0)
+    return tau, C, B
+
+
+def _layout(n: int):
+    """Index blocks of the decision vector: nodes X (3(n+1)), collocation Z (3 d n), u (n), dt (n)."""
+    nx = 3 * (n + 1)
+    nz = 3 * DEGREE * n
+    return slice(0, nx), slice(nx, nx + nz), slice(nx + nz, nx + nz + n), slice(nx + nz + n, nx + nz + 2 * n)
+
+
+@locked_cache(maxsize=32)
+def ocp_solver(vehicle: Vehicle, n: int, warm: bool) -> ca.Function:
+    """The cached IPOPT solver of the OCP with ``n`` intervals (``warm``: warm-start options)."""
+    f = dynamics_fn(vehicle)
+    d = DEGREE
+    tau, C, B = _radau(d)
+    r = vehicle.sprocket_radius
+    X = ca.SX.sym("X", 3, n + 1)
+    Z = ca.SX.sym("Z", 3, d * n)
+    u = ca.SX.sym("u", n)
+    dt = ca.SX.sym("dt", n)
+    P = ca.SX.sym("P", 6, n)  # c, phi, K, grade, R_c, slip bound
+    Ms, Pw, rate, wt, we, ts, es, vs, ws = (ca.SX.sym(s) for s in ("Ms", "Pw", "rate", "wt", "we", "ts", "es", "vs", "ws"))
+    xs = ca.vertcat(vs, ws, 1.0)  # state scales (distance is scaled through its bounds)
+    g_dyn, g_slip_lo, g_slip_hi, g_pow = [], [], [], []
+    J_time = ca.sum1(dt)
+    energy = 0
+    for k in range(n):
+        Mk = u[k] * Ms
+        pts = [X[:, k]] + [Z[:, k * d + j] for j in range(d)]
+        w_int = 0
+        for j in range(1, d + 1):
+            xp = sum(C[q, j] * pts[q] for q in range(d + 1))
+            fj = f(pts[j], Mk, P[:5, k])[0]
+            g_dyn.append((xp - dt[k] * fj) / xs)
+            w_int += B[j] * pts[j][1]
+        g_dyn.append((pts[d] - X[:, k + 1]) / xs)  # Radau: the last collocation point is the interval's end
+        energy += Mk * dt[k] * w_int
+        for q in range(d + 1):
+            v_, w_ = pts[q][0], pts[q][1]
+            g_slip_lo.append((v_ - (1 - P[5, k]) * r * w_) / vs)
+            g_slip_hi.append(((1 + P[5, k]) * r * w_ - v_) / vs)
+            g_pow.append((Mk * w_) / Pw)
+    dM = u[1:] - u[:-1]
+    avg_dt = 0.5 * (dt[1:] + dt[:-1])
+    g = ca.vertcat(*g_dyn, *g_slip_lo, *g_slip_hi, *g_pow, dM - rate * avg_dt / Ms, -dM - rate * avg_dt / Ms,
+                   J_time)
+    J = wt * J_time / ts + we * energy / es
+    x = ca.vertcat(ca.vec(X), ca.vec(Z), u, dt)
+    p = ca.vertcat(ca.vec(P), Ms, Pw, rate, wt, we, ts, es, vs, ws)
+    opts = {"ipopt": dict(_IPOPT, **(_WARM if warm else {})), "print_time": False, "error_on_fail": False}
+    return ca.nlpsol(f"speed_ocp_{n}", "ipopt", {"x": x, "p": p, "f": J, "g": g}, opts)
+
+
+_last: dict = {}
+
+
+def _guess(d: OcpData, vehicle: Vehicle, n: int, slip_of_thrust) -> np.ndarray:
+    """A consistent start: speed linear in distance, slip from the steady thrust, torque from the balance."""
+    m, r, I = vehicle.mass, vehicle.sprocket_radius, vehicle.sprocket_inertia
+    f = dynamics_fn(vehicle)
+    S = d.s
+    L = S[-1]
+    vmid = max(d.v0, d.v1, 0.5)
+    v = d.v0 + (d.v1 - d.v0) * S / L
+    v = np.maximum(v, 0.3 * vmid)
+    v[0], v[-1] = d.v0, d.v1
+    h = np.diff(S)
+    a = (v[1:] ** 2 - v[:-1] ** 2) / (2 * h)
+    R = np.array([float(f(ca.DM([r, 1.0, 0.0]), 0.0, [d.c[k], d.phi[k], d.K[k], d.grade[k], d.Rc[k]])[0][0])
+                  for k in range(n)]) * -m  # resistance from the model core (rest of the slip: 0)
+    Freq = m * a + R
+    i = np.clip(slip_of_thrust(Freq), -0.9 * d.slip_bound, 0.9 * d.slip_bound)
+    M = np.clip(r * Freq + I * a / (r * (1 - i)), -0.95 * d.max_torque, 0.95 * d.max_torque)
+    inode = np.append(i, i[-1])
+    w = np.maximum(v, 1e-3) / (r * (1 - inode))
+    X = np.vstack([v, w, S])
+    tau = np.append(0.0, ca.collocation_points(DEGREE, "radau"))
+    Z = np.zeros((3, DEGREE * n))
+    for k in range(n):
+        for j in range(DEGREE):
+            t = tau[j + 1]
+            Z[:, k * DEGREE + j] = (1 - t) * X[:, k] + t * X[:, k + 1]
+    dt = 2 * h / np.maximum(v[1:] + v[:-1], 1e-3)
+    return np.concatenate([X.ravel(order="F"), Z.ravel(order="F"), M / d.max_torque, dt])
+
+
+def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
+    """Solve one instance; the raw solution, IPOPT's status, iterations and wall time.
+
+    ``slip_of_thrust(F_array) -> slip_array`` gives the start guess of the slip (cold starts).
+    """
+    n = len(d.c)
+    iX, iZ, iu, idt = _layout(n)
+    key = (vehicle, n)
+    prev = _last.get(key)
+    r = vehicle.sprocket_radius
+    inf = np.inf
+    Ms = d.max_torque
+    Pw = d.max_power if d.max_power else 1.0
+    L = float(d.s[-1])
+    vmax = max(d.v0, d.v1, 0.1)
+    ts = (L / vmax) if d.duration is None else d.duration
+    es = vehicle.weight * L * 0.1 + 0.5 * vehicle.mass * vmax ** 2
+    wt, we = (1.0, 0.0) if d.objective == "time" else (0.0, 1.0)
+    Pmat = np.vstack([d.c, d.phi, d.K, d.grade, d.Rc, d.slip_bound])
+    p = np.concatenate([Pmat.ravel(order="F"), [Ms, Pw, d.torque_rate or 0.0, wt, we, ts, es, vmax, vmax / r]])
+    nxv = 3 * (n + 1) + 3 * DEGREE * n + 2 * n
+    lbx, ubx = np.full(nxv, -inf), np.full(nxv, inf)
+    Xl, Xu = np.full((3, n + 1), -inf), np.full((3, n + 1), inf)
+    Xl[0], Xl[1] = 0.0, 1e-4
+    Xl[2] = Xu[2] = d.s if d.distance is not None else np.nan
+    Xl[0, 0] = Xu[0, 0] = d.v0
+    Xl[0, -1] = Xu[0, -1] = d.v1
+    Zl, Zu = np.full((3, DEGREE * n), -inf), np.full((3, DEGREE * n), inf)
+    Zl[0], Zl[1] = 0.0, 1e-4
+    free_dist = d.distance is None
+    if free_dist:  # duration given: the distance is free, only its start is fixed
+        Xl[2], Xu[2] = -inf, inf
+        Xl[2, 0] = Xu[2, 0] = 0.0
+    lbx[iX], ubx[iX] = Xl.ravel(order="F"), Xu.ravel(order="F")
+    lbx[iZ], ubx[iZ] = Zl.ravel(order="F"), Zu.ravel(order="F")
+    lbx[iu], ubx[iu] = -1.0, 1.0
+    lbx[idt], ubx[idt] = 1e-5, inf
+    npt = n * (DEGREE + 1)
+    ndyn = n * 3 * (DEGREE + 1)
+    lbg = np.concatenate([np.zeros(ndyn), np.zeros(2 * npt), np.full(npt, -inf), np.full(2 * (n - 1), -inf),
+                          [d.duration if d.duration is not None else -inf]])
+    ubg = np.concatenate([np.zeros(ndyn), np.full(2 * npt, inf), np.full(npt, 1.0 if d.max_power else inf),
+                          np.full(2 * (n - 1), 0.0 if d.torque_rate else inf),
+                          [d.duration if d.duration is not None else inf]])
+    args = dict(p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+    warm = prev is not None
+    t0 = time.perf_counter()
+    if warm:
+        args.update(x0=np.clip(prev["x"], lbx, ubx), lam_x0=prev["lam_x"], lam_g0=prev["lam_g"])
+    else:
+        x0 = _guess(d, vehicle, n, slip_of_thrust)
+        if free_dist:
+            x0[iX] = np.where(np.isfinite(lbx[iX]), np.clip(x0[iX], lbx[iX], ubx[iX]), x0[iX])
+        args["x0"] = x0
+    out, stats = call_solver(ocp_solver(vehicle, n, warm), **args)
+    ok = bool(stats.get("success", False))
+    if not ok and warm:  # a poor warm start: retry cold once
+        warm = False
+        args = dict(p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, x0=_guess(d, vehicle, n, slip_of_thrust))
+        out, stats = call_solver(ocp_solver(vehicle, n, False), **args)
+        ok = bool(stats.get("success", False))
+    elapsed = time.perf_counter() - t0
+    x = np.asarray(out["x"], dtype=float).ravel()
+    if ok and np.all(np.isfinite(x)):
+        with SOLVER_LOCK:
+            _last[key] = {"x": x, "lam_x": np.asarray(out["lam_x"]).ravel(), "lam_g": np.asarray(out["lam_g"]).ravel()}
+    X = x[iX].reshape((3, n + 1), order="F")
+    return {"x": x, "v": X[0], "w": X[1], "s": X[2], "Z": x[iZ].reshape((3, DEGREE * n), order="F"),
+            "M": x[iu] * Ms, "dt": x[idt], "success": ok, "status": str(stats.get("return_status", "unknown")),
+            "iterations": int(stats.get("iter_count", -1)), "solve_time": elapsed, "warm": warm}
+
+
+def clear_warm_starts() -> None:
+    """Forget the stored solutions (the next solve of each size starts cold)."""
+    with SOLVER_LOCK:
+        _last.clear()
