@@ -16,7 +16,9 @@
 
 The torque is held over each interval; the returned series hold one value per mesh point
 (the torque's last entry repeats the one before). ``margin_N`` is the soil's thrust at the
-slip limit minus the planned thrust (traction reserve).
+slip limit minus the magnitude of the planned thrust (traction reserve; braking uses the same
+limit, as ``F(-i) = -F(i)``). The initial sprocket speed is free within the slip limit (the
+vehicle is already moving at ``v0``); the torque is the decision, held over each interval.
 
 Robust profiles (``confidence`` with an identified soil): the plan is made on a soil backed
 off along the linearised covariance - the soil whose thrust at the slip limit is the lower
@@ -339,7 +341,7 @@ def _plan(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: float,
         viol.append("power")
     ok = sol["success"] and not viol and abs(v[-1] - v1) <= 1e-6 * max(1.0, v1)
     if not ok:
-        k_int = int(np.argmin(Fs_int - F_nodes[:-1]))
+        k_int = int(np.argmin(Fs_int - np.abs(F_nodes[:-1])))
         k = int(idx[k_int])
         d = pd[k]
         reason = _reason(k, "slip" if d["Fs"] < Tmax / r else "torque", d["R"], float(min(d["Fs"], Tmax / r)))
@@ -351,7 +353,7 @@ def _plan(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: float,
     t = np.concatenate([[0.0], np.cumsum(dt)])
     rep = lambda a: np.append(a, a[-1])  # noqa: E731 - interval value at its start node, last repeated
     series = {"time_s": t, "distance_m": sol["s"], "speed_m_s": v, "sprocket_speed_rad_s": w, "slip": i_nodes,
-              "sprocket_torque_Nm": rep(M), "thrust_N": F_nodes, "margin_N": rep(Fs_int) - F_nodes, "patch": rep(idx)}
+              "sprocket_torque_Nm": rep(M), "thrust_N": F_nodes, "margin_N": rep(Fs_int) - np.abs(F_nodes), "patch": rep(idx)}
     series = {k: [float(a) for a in vals] if k != "patch" else [int(a) for a in vals] for k, vals in series.items()}
     tau, _C, B = _radau(DEGREE)
     w_int = np.array([np.dot(B[1:], Z[1, k * DEGREE:(k + 1) * DEGREE]) for k in range(n)])
