@@ -159,3 +159,22 @@ def test_fit_json_without_covariance_is_rebuilt_and_agrees_with_the_fit(fits, tm
     bad.write_text('{"model": "full", "success": true}')
     with pytest.raises(DataError, match="parameters"):
         load_fit_json(str(bad), HEAVY)
+
+
+def test_fig7_example_writes_the_figure_with_the_consistent_reading(tmp_path):
+    import importlib.util
+    import os
+
+    path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples",
+                        "fig7_traversability.py")
+    spec = importlib.util.spec_from_file_location("fig7_example", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    seed, margins = mod.compute()
+    assert seed["dry_sand"] == pytest.approx(2.8 * 1.04e3 + 329e3 * math.tan(math.radians(28)), rel=1e-6)
+    assert seed["clayey_soil"] == pytest.approx(2.8 * 4.14e3 + 329e3 * math.tan(math.radians(13)), rel=1e-6)
+    go = {k: m.traversable for k, m in margins.items()}
+    assert go == {("dry_sand", 0.0): True, ("clayey_soil", 0.0): True, ("dry_sand", 15.0): True,
+                  ("clayey_soil", 15.0): False}
+    out = tmp_path / "fig7.png"
+    assert mod.main(["--out", str(out)]) == 0 and out.stat().st_size > 10_000
