@@ -5,7 +5,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["plot_margin", "plot_profile"]
+__all__ = ["plot_margin", "plot_profile", "plot_slip_optimal"]
 
 
 def _plt():
@@ -79,6 +79,37 @@ def plot_profile(result, path: str, title: str = "") -> None:
         ax.grid(alpha=0.3)
     axs[0].set_title(title or f"{result.objective}-optimal profile: {result.total_time_s:.4g} s, "
                      f"{result.energy_J / 1e3:.4g} kJ", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_slip_optimal(opt, path: str, title: str = "") -> None:
+    """Drawbar power and tractive efficiency against slip, the optima marked, with fit bands."""
+    plt = _plt()
+    fig, a1 = plt.subplots(figsize=(7, 4.5))
+    s = opt.slip * 100
+    a1.plot(s, opt.drawbar_power_W / 1e3, color="C0", label="drawbar power")
+    a2 = a1.twinx()
+    a2.plot(s, opt.efficiency * 100, color="C1", label="tractive efficiency")
+    if opt.bands:
+        lo, hi = opt.bands["drawbar_power_W"]
+        a1.fill_between(s, np.asarray(lo) / 1e3, np.asarray(hi) / 1e3, color="C0", alpha=0.25)
+        lo, hi = opt.bands["efficiency"]
+        a2.fill_between(s, np.asarray(lo) * 100, np.asarray(hi) * 100, color="C1", alpha=0.25)
+    if opt.slip_max_power is not None:
+        a1.axvline(opt.slip_max_power * 100, color="C0", ls=":")
+        a2.axvline(opt.slip_max_efficiency * 100, color="C1", ls=":")
+    a1.set_xlabel("slip (%)")
+    a1.set_ylabel("drawbar power (kW)", color="C0")
+    a2.set_ylabel("tractive efficiency (%)", color="C1")
+    a1.set_xlim(0, 40)
+    a1.set_ylim(bottom=0)
+    a2.set_ylim(0, 100)
+    a1.grid(alpha=0.3)
+    a1.set_title(title or (f"power-optimal slip {opt.slip_max_power * 100:.3g} %, efficiency-optimal "
+                           f"{opt.slip_max_efficiency * 100:.3g} %" if opt.slip_max_power is not None else
+                           "no positive drawbar pull"), fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

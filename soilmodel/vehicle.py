@@ -21,6 +21,7 @@ _JSON_FIELDS = {  # JSON key -> dataclass field
     "max_sprocket_torque_Nm": "max_sprocket_torque",
     "max_power_W": "max_power",
     "road_wheels": "road_wheels",
+    "ground_clearance_m": "ground_clearance",
 }
 _REQUIRED = ("mass_kg", "track_length_m", "track_width_m", "sprocket_radius_m", "sprocket_inertia_kg_m2",
              "rolling_resistance")
@@ -46,6 +47,9 @@ class Vehicle:
         Drivetrain limits of both tracks together (N m, W); ``None`` when unknown.
     road_wheels
         Road wheels per side (used by the pressure-distribution effect); ``None`` when unknown.
+    ground_clearance
+        Height of the belly above the track's ground contact, m (stuck prediction: sinkage
+        reaching the belly); ``None`` when unknown.
     name
         Free text label.
     """
@@ -60,6 +64,7 @@ class Vehicle:
     max_power: float | None = None
     road_wheels: int | None = None
     name: str = ""
+    ground_clearance: float | None = None
 
     def __post_init__(self) -> None:
         positive = ("mass", "track_length", "track_width", "sprocket_radius")
@@ -75,7 +80,7 @@ class Vehicle:
                 raise DataError(f"vehicle {f.name} must be > 0, got {v}")
             if v < 0:
                 raise DataError(f"vehicle {f.name} must be >= 0, got {v}")
-            if f.name in ("max_sprocket_torque", "max_power") and v == 0:
+            if f.name in ("max_sprocket_torque", "max_power", "ground_clearance") and v == 0:
                 raise DataError(f"vehicle {f.name} must be > 0 (or absent), got {v}")
         if self.rolling_resistance >= 1:
             raise DataError(f"vehicle rolling_resistance must be < 1, got {self.rolling_resistance}")
