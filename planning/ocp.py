@@ -3,12 +3,13 @@
 Formulation (time-domain direct collocation on a mesh fixed in DISTANCE, so that every patch
 boundary is a mesh point):
 
-- states ``x = [v, w, s]`` (vehicle speed, sprocket speed, distance) at the mesh points and at
-  ``d = 3`` Radau IIA collocation points inside every interval (L-stable, order 5: the stiff
-  slip dynamics are integrated implicitly, never with an explicit step);
+- states ``x = [v, w]`` (vehicle speed, sprocket speed) at the mesh points and at ``d = 3``
+  Radau IIA collocation points inside every interval (L-stable, order 5: the stiff slip
+  dynamics are integrated implicitly, never with an explicit step);
 - the sprocket torque ``M_k`` is held over each interval (zero-order hold);
-- the interval durations ``dt_k`` are free; the distance at mesh point k is fixed (the
-  patch boundaries), the total time is ``sum(dt_k)``;
+- the interval durations ``dt_k`` are free; each interval's length is fixed,
+  ``dt_k sum_j B_j v_kj = h_k`` (the collocation quadrature of ``ds/dt = v``, exact for the
+  polynomial), so the patch boundaries are mesh points; the total time is ``sum(dt_k)``;
 - dynamics: :func:`soiltrack.soilmodel.dynamics.dynamics_expr` itself (Eqs. 1, 4, the
   thrust-balance sprocket equation; grade as the ``grade`` effect) plus the patch's Bekker
   compaction resistance;
@@ -54,7 +55,7 @@ class OcpData:
     grade: np.ndarray  # rad
     Rc: np.ndarray  # compaction resistance, N
     slip_bound: np.ndarray  # |slip| bound used by the plan, per interval
-    s: np.ndarray  # mesh distances (only the ratios matter when the distance is free)
+    s: np.ndarray  # mesh distances (a start guess only when the distance is free)
     v0: float
     v1: float
     distance: float | None
@@ -68,12 +69,12 @@ class OcpData:
 
 @locked_cache(maxsize=8)
 def dynamics_fn(vehicle: Vehicle) -> ca.Function:
-    """``f(x=[v, w, s], M, p=[c, phi, K, grade, R_c]) -> (xdot, slip, thrust)`` from the model core."""
-    x = ca.SX.sym("x", 3)
+    """``f(x=[v, w], M, p=[c, phi, K, grade, R_c]) -> (xdot, slip, thrust)`` from the model core."""
+    x = ca.SX.sym("x", 2)
     M = ca.SX.sym("M")
     p = ca.SX.sym("p", 5)
     d = dynamics_expr(x[0], x[1], M, p[0], p[1], p[2], vehicle, {"grade": {"theta_rad": p[3]}})
-    xdot = ca.vertcat(d["dv"] - p[4] / vehicle.mass, d["dw"], x[0])
+    xdot = ca.vertcat(d["dv"] - p[4] / vehicle.mass, d["dw"])
     return ca.Function("plan_dynamics", [x, M, p], [xdot, d["slip"], d["thrust"]], ["x", "M", "p"],
                        ["xdot", "slip", "thrust"])
 
@@ -95,9 +96,9 @@ def _radau(d: int):
 
 
 def _layout(n: int):
-    """Index blocks of the decision vector: nodes X (3(n+1)), collocation Z (3 d n), u (n), dt (n)."""
-    nx = 3 * (n + 1)
-    nz = 3 * DEGREE * n
+    """Index blocks of the decision vector: nodes X (2(n+1)), collocation Z (2 d n), u (n), dt (n)."""
+    nx = 2 * (n + 1)
+    nz = 2 * DEGREE * n
     return slice(0, nx), slice(nx, nx + nz), slice(nx + nz, nx + nz + n), slice(nx + nz + n, nx + nz + 2 * n)
 
 
@@ -108,27 +109,30 @@ def ocp_solver(vehicle: Vehicle, n: int, warm: bool) -> ca.Function:
     d = DEGREE
     tau, C, B = _radau(d)
     r = vehicle.sprocket_radius
-    X = ca.SX.sym("X", 3, n + 1)
-    Z = ca.SX.sym("Z", 3, d * n)
+    X = ca.SX.sym("X", 2, n + 1)
+    Z = ca.SX.sym("Z", 2, d * n)
     u = ca.SX.sym("u", n)
     dt = ca.SX.sym("dt", n)
-    P = ca.SX.sym("P", 6, n)  # c, phi, K, grade, R_c, slip bound
+    P = ca.SX.sym("P", 7, n)  # c, phi, K, grade, R_c, slip bound, interval length
     Ms, Pw, rate, wt, we, ts, es, vs, ws = (ca.SX.sym(s) for s in ("Ms", "Pw", "rate", "wt", "we", "ts", "es", "vs", "ws"))
-    xs = ca.vertcat(vs, ws, 1.0)  # state scales (distance is scaled through its bounds)
-    g_dyn, g_slip_lo, g_slip_hi, g_pow = [], [], [], []
+    xs = ca.vertcat(vs, ws)  # state scales
+    g_dyn, g_slip_lo, g_slip_hi, g_pow, g_dist = [], [], [], [], []
     J_time = ca.sum1(dt)
     energy = 0
     for k in range(n):
         Mk = u[k] * Ms
         pts = [X[:, k]] + [Z[:, k * d + j] for j in range(d)]
         w_int = 0
+        v_int = 0
         for j in range(1, d + 1):
             xp = sum(C[q, j] * pts[q] for q in range(d + 1))
             fj = f(pts[j], Mk, P[:5, k])[0]
             g_dyn.append((xp - dt[k] * fj) / xs)
             w_int += B[j] * pts[j][1]
+            v_int += B[j] * pts[j][0]
         g_dyn.append((pts[d] - X[:, k + 1]) / xs)  # Radau: the last collocation point is the interval's end
         energy += Mk * dt[k] * w_int
+        g_dist.append(dt[k] * v_int / P[6, k] - 1.0)
         for q in range(d + 1):
             v_, w_ = pts[q][0], pts[q][1]
             g_slip_lo.append((v_ - (1 - P[5, k]) * r * w_) / vs)
@@ -136,7 +140,7 @@ def ocp_solver(vehicle: Vehicle, n: int, warm: bool) -> ca.Function:
             g_pow.append((Mk * w_) / Pw)
     dM = u[1:] - u[:-1]
     avg_dt = 0.5 * (dt[1:] + dt[:-1])
-    g = ca.vertcat(*g_dyn, *g_slip_lo, *g_slip_hi, *g_pow, dM - rate * avg_dt / Ms, -dM - rate * avg_dt / Ms,
+    g = ca.vertcat(*g_dyn, *g_dist, *g_slip_lo, *g_slip_hi, *g_pow, dM - rate * avg_dt / Ms, -dM - rate * avg_dt / Ms,
                    J_time)
     J = wt * J_time / ts + we * energy / es
     x = ca.vertcat(ca.vec(X), ca.vec(Z), u, dt)
@@ -160,16 +164,16 @@ def _guess(d: OcpData, vehicle: Vehicle, n: int, slip_of_thrust) -> np.ndarray:
     v[0], v[-1] = d.v0, d.v1
     h = np.diff(S)
     a = (v[1:] ** 2 - v[:-1] ** 2) / (2 * h)
-    R = np.array([float(f(ca.DM([r, 1.0, 0.0]), 0.0, [d.c[k], d.phi[k], d.K[k], d.grade[k], d.Rc[k]])[0][0])
+    R = np.array([float(f(ca.DM([r, 1.0]), 0.0, [d.c[k], d.phi[k], d.K[k], d.grade[k], d.Rc[k]])[0][0])
                   for k in range(n)]) * -m  # resistance from the model core (rest of the slip: 0)
     Freq = m * a + R
     i = np.clip(slip_of_thrust(Freq), -0.9 * d.slip_bound, 0.9 * d.slip_bound)
     M = np.clip(r * Freq + I * a / (r * (1 - i)), -0.95 * d.max_torque, 0.95 * d.max_torque)
     inode = np.append(i, i[-1])
     w = np.maximum(v, 1e-3) / (r * (1 - inode))
-    X = np.vstack([v, w, S])
+    X = np.vstack([v, w])
     tau = np.append(0.0, ca.collocation_points(DEGREE, "radau"))
-    Z = np.zeros((3, DEGREE * n))
+    Z = np.zeros((2, DEGREE * n))
     for k in range(n):
         for j in range(DEGREE):
             t = tau[j + 1]
@@ -196,30 +200,28 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
     ts = (L / vmax) if d.duration is None else d.duration
     es = vehicle.weight * L * 0.1 + 0.5 * vehicle.mass * vmax ** 2
     wt, we = (1.0, 0.0) if d.objective == "time" else (0.0, 1.0)
-    Pmat = np.vstack([d.c, d.phi, d.K, d.grade, d.Rc, d.slip_bound])
+    Pmat = np.vstack([d.c, d.phi, d.K, d.grade, d.Rc, d.slip_bound, np.diff(d.s)])
     p = np.concatenate([Pmat.ravel(order="F"), [Ms, Pw, d.torque_rate or 0.0, wt, we, ts, es, vmax, vmax / r]])
-    nxv = 3 * (n + 1) + 3 * DEGREE * n + 2 * n
+    nxv = 2 * (n + 1) + 2 * DEGREE * n + 2 * n
     lbx, ubx = np.full(nxv, -inf), np.full(nxv, inf)
-    Xl, Xu = np.full((3, n + 1), -inf), np.full((3, n + 1), inf)
+    Xl, Xu = np.full((2, n + 1), -inf), np.full((2, n + 1), inf)
     Xl[0], Xl[1] = 0.0, 1e-4
-    Xl[2] = Xu[2] = d.s if d.distance is not None else np.nan
     Xl[0, 0] = Xu[0, 0] = d.v0
     Xl[0, -1] = Xu[0, -1] = d.v1
-    Zl, Zu = np.full((3, DEGREE * n), -inf), np.full((3, DEGREE * n), inf)
+    Zl, Zu = np.full((2, DEGREE * n), -inf), np.full((2, DEGREE * n), inf)
     Zl[0], Zl[1] = 0.0, 1e-4
     free_dist = d.distance is None
-    if free_dist:  # duration given: the distance is free, only its start is fixed
-        Xl[2], Xu[2] = -inf, inf
-        Xl[2, 0] = Xu[2, 0] = 0.0
     lbx[iX], ubx[iX] = Xl.ravel(order="F"), Xu.ravel(order="F")
     lbx[iZ], ubx[iZ] = Zl.ravel(order="F"), Zu.ravel(order="F")
     lbx[iu], ubx[iu] = -1.0, 1.0
     lbx[idt], ubx[idt] = 1e-5, inf
     npt = n * (DEGREE + 1)
-    ndyn = n * 3 * (DEGREE + 1)
-    lbg = np.concatenate([np.zeros(ndyn), np.zeros(2 * npt), np.full(npt, -inf), np.full(2 * (n - 1), -inf),
+    ndyn = n * 2 * (DEGREE + 1)
+    dist_lo = np.full(n, -inf) if free_dist else np.zeros(n)
+    dist_hi = np.full(n, inf) if free_dist else np.zeros(n)
+    lbg = np.concatenate([np.zeros(ndyn), dist_lo, np.zeros(2 * npt), np.full(npt, -inf), np.full(2 * (n - 1), -inf),
                           [d.duration if d.duration is not None else -inf]])
-    ubg = np.concatenate([np.zeros(ndyn), np.full(2 * npt, inf), np.full(npt, 1.0 if d.max_power else inf),
+    ubg = np.concatenate([np.zeros(ndyn), dist_hi, np.full(2 * npt, inf), np.full(npt, 1.0 if d.max_power else inf),
                           np.full(2 * (n - 1), 0.0 if d.torque_rate else inf),
                           [d.duration if d.duration is not None else inf]])
     args = dict(p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
@@ -228,10 +230,7 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
     if warm:
         args.update(x0=np.clip(prev["x"], lbx, ubx), lam_x0=prev["lam_x"], lam_g0=prev["lam_g"])
     else:
-        x0 = _guess(d, vehicle, n, slip_of_thrust)
-        if free_dist:
-            x0[iX] = np.where(np.isfinite(lbx[iX]), np.clip(x0[iX], lbx[iX], ubx[iX]), x0[iX])
-        args["x0"] = x0
+        args["x0"] = _guess(d, vehicle, n, slip_of_thrust)
     out, stats = call_solver(ocp_solver(vehicle, n, warm), **args)
     ok = bool(stats.get("success", False))
     if not ok and warm:  # a poor warm start: retry cold once
@@ -244,8 +243,11 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
     if ok and np.all(np.isfinite(x)):
         with SOLVER_LOCK:
             _last[key] = {"x": x, "lam_x": np.asarray(out["lam_x"]).ravel(), "lam_g": np.asarray(out["lam_g"]).ravel()}
-    X = x[iX].reshape((3, n + 1), order="F")
-    return {"x": x, "v": X[0], "w": X[1], "s": X[2], "Z": x[iZ].reshape((3, DEGREE * n), order="F"),
+    X = x[iX].reshape((2, n + 1), order="F")
+    Z = x[iZ].reshape((2, DEGREE * n), order="F")
+    _tau, _C, B = _radau(DEGREE)
+    h = x[idt] * (Z[0].reshape(n, DEGREE) @ B[1:])
+    return {"x": x, "v": X[0], "w": X[1], "s": np.concatenate([[0.0], np.cumsum(h)]), "Z": Z,
             "M": x[iu] * Ms, "dt": x[idt], "success": ok, "status": str(stats.get("return_status", "unknown")),
             "iterations": int(stats.get("iter_count", -1)), "solve_time": elapsed, "warm": warm}
 
