@@ -49,6 +49,8 @@ __all__ = ["ProfileResult", "profile", "route_profile", "DEFAULT_INTERVALS"]
 #: (measured: 0.07 % of thrust moved the slip of a braking plan on clayey soil from 19.8 % to
 #: 21.4 % in the open-loop replay), so a plan right at i_max is not kept by its own torque.
 THRUST_RESERVE = 0.005
+#: Sampled soils of the Monte Carlo check of a robust profile.
+ROBUST_SAMPLES = 100
 #: Mesh intervals when none are given.
 DEFAULT_INTERVALS = 50
 _SERIES = ("time_s", "distance_m", "speed_m_s", "sprocket_speed_rad_s", "slip", "sprocket_torque_Nm", "thrust_N",
@@ -227,7 +229,8 @@ def _precheck(pd, lengths, vehicle, v0, v1, i_max, Tmax, Pmax, r):
 
 def _plan(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: float, distance: float | None,
           duration: float | None, max_slip: float | None, objective: str, intervals: int,
-          torque_rate: float | None, confidence: float | None, route: bool) -> ProfileResult:
+          torque_rate: float | None, confidence: float | None, route: bool,
+          robust_samples: int = ROBUST_SAMPLES) -> ProfileResult:
     v0 = _check("v0", v0, 0.0)
     v1 = _check("v1", v1, 0.0)
     if v0 + v1 <= 0:
@@ -368,10 +371,12 @@ def _plan(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: float,
     if confidence is not None:
         kw = dict(v0=v0, v1=v1, distance=distance, duration=duration, max_slip=i_max, objective=objective,
                   intervals=intervals, torque_rate=torque_rate, route=route)
+        if isinstance(robust_samples, bool) or not isinstance(robust_samples, int) or robust_samples < 10:
+            raise DataError(f"argument robust_samples must be an integer >= 10, got {robust_samples!r}")
         res = _with_mesh(res, mesh)
         from dataclasses import replace
 
-        res = replace(res, robust=_robust_check(res, pd, idx, vehicle, i_max, confidence, patches, kw))
+        res = replace(res, robust=_robust_check(res, pd, idx, vehicle, i_max, confidence, patches, kw, robust_samples))
     return res
 
 
@@ -399,24 +404,20 @@ def _with_mesh(result: "ProfileResult", mesh: dict) -> "ProfileResult":
     return replace(result, mesh=mesh)
 
 
-#: Sampled soils of the Monte Carlo check of a robust profile.
-ROBUST_SAMPLES = 100
-
-
-def _robust_check(result, pd, idx, vehicle, i_max, confidence, patches, kw) -> dict:
-    frac = _violations(result, pd, idx, vehicle, i_max, ROBUST_SAMPLES)
+def _robust_check(result, pd, idx, vehicle, i_max, confidence, patches, kw, n_samples) -> dict:
+    frac = _violations(result, pd, idx, vehicle, i_max, n_samples)
     nominal = _plan(tuple(patches), vehicle, **dict(kw, confidence=None))
-    frac_nom = _violations(nominal, pd, idx, vehicle, i_max, ROBUST_SAMPLES) if nominal.success else None
+    frac_nom = _violations(nominal, pd, idx, vehicle, i_max, n_samples) if nominal.success else None
     return {"confidence": float(confidence),
             "method": "plan on the soil backed off along the linearised covariance; Monte Carlo replay check",
-            "n_samples": ROBUST_SAMPLES, "violation_fraction": frac, "nominal_violation_fraction": frac_nom,
+            "n_samples": n_samples, "violation_fraction": frac, "nominal_violation_fraction": frac_nom,
             "nominal_total_time_s": nominal.total_time_s}
 
 
 def profile(terrain: Any, vehicle: Vehicle, *, v0: float, v1: float, distance: float | None = None,
             duration: float | None = None, grade_deg: float = 0.0, max_slip: float | None = None,
             objective: str = "time", intervals: int = DEFAULT_INTERVALS, torque_rate: float | None = None,
-            confidence: float | None = None) -> ProfileResult:
+            confidence: float | None = None, robust_samples: int = ROBUST_SAMPLES) -> ProfileResult:
     """Plan a speed/slip/torque profile on one terrain (see the module docstring).
 
     Parameters
@@ -435,6 +436,8 @@ def profile(terrain: Any, vehicle: Vehicle, *, v0: float, v1: float, distance: f
     confidence
         With an identified soil: plan so that the slip limit holds with this probability
         (back-off, checked by Monte Carlo).
+    robust_samples
+        Sampled soils of that Monte Carlo check (each replays the plan and the nominal plan).
 
     Returns
     -------
@@ -450,7 +453,7 @@ def profile(terrain: Any, vehicle: Vehicle, *, v0: float, v1: float, distance: f
     grade_deg = _check("grade_deg", grade_deg, -68.75, 68.75)
     return _plan((Patch(length, terrain, grade_deg),), vehicle, v0=v0, v1=v1, distance=distance, duration=duration,
                  max_slip=max_slip, objective=objective, intervals=intervals, torque_rate=torque_rate,
-                 confidence=confidence, route=False)
+                 confidence=confidence, route=False, robust_samples=robust_samples)
 
 
 def route_profile(route: Route, vehicle: Vehicle, *, intervals: int | None = None,
