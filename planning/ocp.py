@@ -65,6 +65,7 @@ class OcpData:
     max_slip: float
     torque_rate: float | None
     objective: str
+    v_guess: np.ndarray | None = None  # start guess of the node speeds (None: linear in distance)
 
 
 @locked_cache(maxsize=8)
@@ -159,7 +160,7 @@ def _guess(d: OcpData, vehicle: Vehicle, n: int, slip_of_thrust) -> np.ndarray:
     S = d.s
     L = S[-1]
     vmid = max(d.v0, d.v1, 0.5)
-    v = d.v0 + (d.v1 - d.v0) * S / L
+    v = d.v0 + (d.v1 - d.v0) * S / L if d.v_guess is None else np.asarray(d.v_guess, dtype=float).copy()
     v = np.maximum(v, 0.3 * vmid)
     v[0], v[-1] = d.v0, d.v1
     h = np.diff(S)
