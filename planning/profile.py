@@ -57,6 +57,11 @@ _SERIES = ("time_s", "distance_m", "speed_m_s", "sprocket_speed_rad_s", "slip", 
            "margin_N", "patch")
 
 
+def _dur(t) -> str:
+    t = t or 0.0
+    return f"{t * 1e3:.3g} ms" if t < 1 else f"{t:.3g} s"
+
+
 def _f(x):
     if x is None:
         return None
@@ -132,7 +137,7 @@ class ProfileResult:
         else:
             s = self.series
             L = [f"profile found ({self.objective} objective, IPOPT {self.status}, {self.iterations} iterations, "
-                 f"{(self.solve_time_s or 0) * 1e3:.3g} ms{', warm start' if self.warm_start else ''})",
+                 f"{_dur(self.solve_time_s)}{', warm start' if self.warm_start else ''})",
                  f"  {s['distance_m'][-1]:.4g} m in {self.total_time_s:.4g} s, sprocket energy "
                  f"{self.energy_J / 1e3:.4g} kJ; speed {s['speed_m_s'][0]:.3g} -> {s['speed_m_s'][-1]:.3g} m/s",
                  f"  largest slip {max(abs(x) for x in s['slip']) * 100:.3g} % (limit {self.limits['max_slip'] * 100:.3g} %),"
