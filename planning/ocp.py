@@ -16,8 +16,11 @@ boundary is a mesh point):
 - limits at the mesh and collocation points: slip ``|i| <= i_b`` (per interval) written as the
   linear ``(1 - i_b) r w <= v <= (1 + i_b) r w``; ``|M| <= T_max``; ``M w <= P_max``; optional
   torque rate ``|M_{k+1} - M_k| <= rate (dt_k + dt_{k+1}) / 2``;
-- objective: time ``sum(dt_k)`` or sprocket energy ``sum(M_k integral(w dt))`` (signed:
-  braking torque returns energy; the quadrature is exact for the collocation polynomial).
+- objective: time ``sum(dt_k)`` or the sprocket's positive work ``sum(max(0, M_k integral(w dt)))``
+  (braking energy is not recovered; slack variables ``e_k >= 0, e_k >= M_k integral(w dt)``
+  keep it smooth; the quadrature is exact for the collocation polynomial);
+- with a duration instead of a distance, the intervals are of equal time ``T / n`` and the
+  distance is free.
 
 All data enter as parameters (soil, grade and compaction per interval, mesh distances,
 limits, weights), so one ``nlpsol`` (IPOPT) is built per (vehicle, n) and re-solved; the
@@ -97,10 +100,11 @@ def _radau(d: int):
 
 
 def _layout(n: int):
-    """Index blocks of the decision vector: nodes X (2(n+1)), collocation Z (2 d n), u (n), dt (n)."""
+    """Index blocks of the decision vector: nodes X (2(n+1)), collocation Z (2 d n), u, dt, e (n each)."""
     nx = 2 * (n + 1)
     nz = 2 * DEGREE * n
-    return slice(0, nx), slice(nx, nx + nz), slice(nx + nz, nx + nz + n), slice(nx + nz + n, nx + nz + 2 * n)
+    a = nx + nz
+    return slice(0, nx), slice(nx, a), slice(a, a + n), slice(a + n, a + 2 * n), slice(a + 2 * n, a + 3 * n)
 
 
 @locked_cache(maxsize=32)
@@ -114,12 +118,13 @@ def ocp_solver(vehicle: Vehicle, n: int, warm: bool) -> ca.Function:
     Z = ca.SX.sym("Z", 2, d * n)
     u = ca.SX.sym("u", n)
     dt = ca.SX.sym("dt", n)
+    e = ca.SX.sym("e", n)  # positive work per interval (slack)
     P = ca.SX.sym("P", 7, n)  # c, phi, K, grade, R_c, slip bound, interval length
     Ms, Pw, rate, wt, we, ts, es, vs, ws = (ca.SX.sym(s) for s in ("Ms", "Pw", "rate", "wt", "we", "ts", "es", "vs", "ws"))
     xs = ca.vertcat(vs, ws)  # state scales
     g_dyn, g_slip_lo, g_slip_hi, g_pow, g_dist = [], [], [], [], []
     J_time = ca.sum1(dt)
-    energy = 0
+    g_work = []
     for k in range(n):
         Mk = u[k] * Ms
         pts = [X[:, k]] + [Z[:, k * d + j] for j in range(d)]
@@ -132,7 +137,7 @@ def ocp_solver(vehicle: Vehicle, n: int, warm: bool) -> ca.Function:
             w_int += B[j] * pts[j][1]
             v_int += B[j] * pts[j][0]
         g_dyn.append((pts[d] - X[:, k + 1]) / xs)  # Radau: the last collocation point is the interval's end
-        energy += Mk * dt[k] * w_int
+        g_work.append((e[k] - Mk * dt[k] * w_int) / es)
         g_dist.append(dt[k] * v_int / P[6, k] - 1.0)
         for q in range(d + 1):
             v_, w_ = pts[q][0], pts[q][1]
@@ -141,10 +146,10 @@ def ocp_solver(vehicle: Vehicle, n: int, warm: bool) -> ca.Function:
             g_pow.append((Mk * w_) / Pw)
     dM = u[1:] - u[:-1]
     avg_dt = 0.5 * (dt[1:] + dt[:-1])
-    g = ca.vertcat(*g_dyn, *g_dist, *g_slip_lo, *g_slip_hi, *g_pow, dM - rate * avg_dt / Ms, -dM - rate * avg_dt / Ms,
+    g = ca.vertcat(*g_dyn, *g_dist, *g_work, *g_slip_lo, *g_slip_hi, *g_pow, dM - rate * avg_dt / Ms, -dM - rate * avg_dt / Ms,
                    J_time)
-    J = wt * J_time / ts + we * energy / es
-    x = ca.vertcat(ca.vec(X), ca.vec(Z), u, dt)
+    J = wt * J_time / ts + we * ca.sum1(e) / es
+    x = ca.vertcat(ca.vec(X), ca.vec(Z), u, dt, e)
     p = ca.vertcat(ca.vec(P), Ms, Pw, rate, wt, we, ts, es, vs, ws)
     opts = {"ipopt": dict(_IPOPT, **(_WARM if warm else {})), "print_time": False, "error_on_fail": False}
     return ca.nlpsol(f"speed_ocp_{n}", "ipopt", {"x": x, "p": p, "f": J, "g": g}, opts)
@@ -179,8 +184,9 @@ def _guess(d: OcpData, vehicle: Vehicle, n: int, slip_of_thrust) -> np.ndarray:
         for j in range(DEGREE):
             t = tau[j + 1]
             Z[:, k * DEGREE + j] = (1 - t) * X[:, k] + t * X[:, k + 1]
-    dt = 2 * h / np.maximum(v[1:] + v[:-1], 1e-3)
-    return np.concatenate([X.ravel(order="F"), Z.ravel(order="F"), M / d.max_torque, dt])
+    dt = 2 * h / np.maximum(v[1:] + v[:-1], 1e-3) if d.duration is None else np.full(n, d.duration / n)
+    e = np.maximum(M * h / (r * (1 - i)), 0.0)
+    return np.concatenate([X.ravel(order="F"), Z.ravel(order="F"), M / d.max_torque, dt, e])
 
 
 def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
@@ -189,7 +195,7 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
     ``slip_of_thrust(F_array) -> slip_array`` gives the start guess of the slip (cold starts).
     """
     n = len(d.c)
-    iX, iZ, iu, idt = _layout(n)
+    iX, iZ, iu, idt, ie = _layout(n)
     key = (vehicle, n)
     prev = _last.get(key)
     r = vehicle.sprocket_radius
@@ -203,7 +209,7 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
     wt, we = (1.0, 0.0) if d.objective == "time" else (0.0, 1.0)
     Pmat = np.vstack([d.c, d.phi, d.K, d.grade, d.Rc, d.slip_bound, np.diff(d.s)])
     p = np.concatenate([Pmat.ravel(order="F"), [Ms, Pw, d.torque_rate or 0.0, wt, we, ts, es, vmax, vmax / r]])
-    nxv = 2 * (n + 1) + 2 * DEGREE * n + 2 * n
+    nxv = 2 * (n + 1) + 2 * DEGREE * n + 3 * n
     lbx, ubx = np.full(nxv, -inf), np.full(nxv, inf)
     Xl, Xu = np.full((2, n + 1), -inf), np.full((2, n + 1), inf)
     Xl[0], Xl[1] = 0.0, 1e-4
@@ -216,13 +222,17 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
     lbx[iZ], ubx[iZ] = Zl.ravel(order="F"), Zu.ravel(order="F")
     lbx[iu], ubx[iu] = -1.0, 1.0
     lbx[idt], ubx[idt] = 1e-5, inf
+    if d.duration is not None:  # equal time steps, free distance
+        lbx[idt] = ubx[idt] = d.duration / n
+    lbx[ie], ubx[ie] = 0.0, (inf if d.objective == "energy" else 0.0)  # the slack only matters for energy
+    work_lo = np.zeros(n) if d.objective == "energy" else np.full(n, -inf)
     npt = n * (DEGREE + 1)
     ndyn = n * 2 * (DEGREE + 1)
     dist_lo = np.full(n, -inf) if free_dist else np.zeros(n)
     dist_hi = np.full(n, inf) if free_dist else np.zeros(n)
-    lbg = np.concatenate([np.zeros(ndyn), dist_lo, np.zeros(2 * npt), np.full(npt, -inf), np.full(2 * (n - 1), -inf),
+    lbg = np.concatenate([np.zeros(ndyn), dist_lo, work_lo, np.zeros(2 * npt), np.full(npt, -inf), np.full(2 * (n - 1), -inf),
                           [d.duration if d.duration is not None else -inf]])
-    ubg = np.concatenate([np.zeros(ndyn), dist_hi, np.full(2 * npt, inf), np.full(npt, 1.0 if d.max_power else inf),
+    ubg = np.concatenate([np.zeros(ndyn), dist_hi, np.full(n, inf), np.full(2 * npt, inf), np.full(npt, 1.0 if d.max_power else inf),
                           np.full(2 * (n - 1), 0.0 if d.torque_rate else inf),
                           [d.duration if d.duration is not None else inf]])
     args = dict(p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)

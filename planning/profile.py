@@ -79,7 +79,8 @@ class ProfileResult:
         Whether a feasible plan was found and checked; IPOPT's status (or ``"infeasible"``
         from the checks before the solver); words.
     objective, total_time_s, energy_J, solve_time_s, iterations, warm_start
-        Objective, planned time and sprocket energy (``None`` when there is no plan), solver time
+        Objective, planned time and sprocket energy (positive work of the sprocket torque: braking
+        energy is not recovered; ``None`` when there is no plan), solver time
         and iterations, whether the solve was warm-started.
     series
         Equal-length lists per mesh point: ``time_s``, ``distance_m``, ``speed_m_s``,
@@ -90,6 +91,12 @@ class ProfileResult:
     mesh
         Per-interval data for replays: ``c``, ``phi``, ``K`` (SI), ``grade_rad``,
         ``compaction_N``, ``dt``, ``torque``.
+    active_limits
+        Number of intervals in which each limit is active (``slip``: at the plan's slip bound,
+        ``torque``, ``power``, ``torque_rate``): which limits shape the plan.
+    patches
+        Per patch: ``length_m``, ``grade_deg``, ``normal_load_N`` and the motion resistance the plan
+        uses, itemised (``rolling_N``, ``compaction_N``, ``grade_N``): a replay must include them.
     limits, notes, robust
         Limits used (``max_torque_Nm``, ``max_power_W``, ``max_slip``, ``torque_rate_Nm_s``,
         and which were assumed), remarks, and the Monte Carlo check of a robust profile.
@@ -111,6 +118,8 @@ class ProfileResult:
     notes: tuple[str, ...] = field(default=())
     robust: dict | None = None
     n_patches: int = 1
+    patches: tuple = ()
+    active_limits: dict | None = None
 
     def to_dict(self, route: bool = False) -> dict:
         """The ``profile --json`` / ``route --json`` object (DESIGN.md section 8); never NaN."""
@@ -126,6 +135,8 @@ class ProfileResult:
             d["reason"] = {k: (_f(v) if isinstance(v, float) else v) for k, v in self.reason.items()}
         d["limits"] = {k: (_f(v) if isinstance(v, float) else v) for k, v in self.limits.items()}
         d["notes"] = list(self.notes)
+        d["active_limits"] = self.active_limits
+        d["patches"] = [{k: (_f(v) if isinstance(v, float) else v) for k, v in p.items()} for p in self.patches]
         if self.robust is not None:
             d["robust"] = {k: (_f(v) if isinstance(v, float) else v) for k, v in self.robust.items()}
         return d
@@ -144,6 +155,9 @@ class ProfileResult:
                  f" largest torque {max(abs(x) for x in s['sprocket_torque_Nm']) / 1e3:.4g} kN m (limit "
                  f"{self.limits['max_torque_Nm'] / 1e3:.4g} kN m), smallest traction reserve "
                  f"{min(s['margin_N']) / 1e3:.4g} kN"]
+            if self.active_limits:
+                L.append("  limits active in " + ", ".join(f"{n} intervals ({k})" for k, n in self.active_limits.items()
+                                                         if n) + " of the plan")
         if self.robust is not None:
             L.append(f"  robust plan at confidence {self.robust['confidence']:.3g}: the slip limit is broken for "
                      f"{self.robust['violation_fraction'] * 100:.3g} % of {self.robust['n_samples']} sampled soils "
@@ -255,7 +269,24 @@ def _bang_bang(pd, idx, S, v0, v1, T_thr, Pmax, m) -> np.ndarray:
     return v
 
 
-def _plan(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: float, distance: float | None,
+def _plan(patches: tuple[Patch, ...], vehicle: Vehicle, **kw) -> ProfileResult:
+    from dataclasses import replace
+
+    res = _plan_core(patches, vehicle, **kw)
+    info = []
+    for p in patches:
+        soil, _u, _m = resolve_terrain(p.terrain)
+        N, req = _resistances(vehicle, soil, np.array([math.radians(p.grade_deg)]), 0.0, 0.0)
+        length = float(p.length_m)
+        if kw.get("duration") is not None:  # the distance is an outcome of the plan
+            length = res.series["distance_m"][-1] if res.success else None
+        info.append({"length_m": length, "grade_deg": float(p.grade_deg), "terrain": p.label,
+                     "normal_load_N": float(N[0]), "rolling_N": float(req["rolling_N"][0]),
+                     "compaction_N": float(req["compaction_N"][0]), "grade_N": float(req["grade_N"][0])})
+    return replace(res, patches=tuple(info))
+
+
+def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: float, distance: float | None,
           duration: float | None, max_slip: float | None, objective: str, intervals: int,
           torque_rate: float | None, confidence: float | None, route: bool,
           robust_samples: int = ROBUST_SAMPLES) -> ProfileResult:
@@ -390,14 +421,22 @@ def _plan(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: float,
     series = {k: [float(a) for a in vals] if k != "patch" else [int(a) for a in vals] for k, vals in series.items()}
     tau, _C, B = _radau(DEGREE)
     w_int = np.array([np.dot(B[1:], Z[1, k * DEGREE:(k + 1) * DEGREE]) for k in range(n)])
-    energy = float(np.sum(M * dt * w_int))
+    energy = float(np.sum(np.maximum(M * dt * w_int, 0.0)))  # positive sprocket work (braking not recovered)
     mesh = {"c": th[:, 0], "phi": th[:, 1], "K": th[:, 2], "grade_rad": data.grade, "compaction_N": data.Rc,
             "dt": dt, "torque": M, "v": v, "w": w, "slip": i_nodes, "normal_load": Nn, "patch": idx,
             "slip_collocation": i_col}
     msg = (f"feasible profile: {sol['s'][-1]:.4g} m in {t[-1]:.4g} s; limits checked after the solve at the mesh "
            "and collocation points")
+    sb_nodes = np.concatenate([slip_bound, slip_bound[-1:]])
+    at_slip = np.abs(i_nodes) >= sb_nodes * (1 - 1e-4)
+    active = {"slip": int(np.sum(at_slip[:-1] | at_slip[1:])),
+              "torque": int(np.sum(np.abs(M) >= Tmax * (1 - 1e-6))),
+              "power": int(np.sum(np.maximum(M * w[:-1], M * w[1:]) >= Pmax * (1 - THRUST_RESERVE) * (1 - 1e-4))),
+              "torque_rate": (int(np.sum(np.abs(np.diff(M)) >= torque_rate * 0.5 * (dt[1:] + dt[:-1]) * (1 - 1e-4)))
+                              if torque_rate else 0)}
     res = ProfileResult(True, sol["status"], msg, objective, float(t[-1]), energy, sol["solve_time"],
-                        sol["iterations"], sol["warm"], series, None, mesh, limits, tuple(notes), None, len(patches))
+                        sol["iterations"], sol["warm"], series, None, mesh, limits, tuple(notes), None, len(patches),
+                        active_limits=active)
     if confidence is not None:
         kw = dict(v0=v0, v1=v1, distance=distance, duration=duration, max_slip=i_max, objective=objective,
                   intervals=intervals, torque_rate=torque_rate, route=route)

@@ -150,3 +150,17 @@ def test_robust_profile_keeps_the_slip_limit_for_most_sampled_soils():
     assert rb["nominal_violation_fraction"] > rb["violation_fraction"]
     with pytest.raises(DataError, match="confidence"):
         profile(TERRAINS["lete_sand"], HEAVY, v0=1.0, v1=3.0, distance=30.0, confidence=0.9)
+
+
+def test_torque_rate_and_duration():
+    res = profile(TERRAINS["lete_sand"], HEAVY, v0=0.5, v1=3.0, distance=30.0, intervals=30, torque_rate=1e5)
+    check_replay(res, HEAVY, 3.0)
+    M = np.asarray(res.series["sprocket_torque_Nm"][:-1])
+    dt = np.diff(res.series["time_s"])
+    assert np.all(np.abs(np.diff(M)) <= 1e5 * 0.5 * (dt[1:] + dt[:-1]) * (1 + 1e-6))
+    assert res.active_limits["torque_rate"] > 0
+    d = profile(TERRAINS["lete_sand"], HEAVY, v0=1.0, v1=2.0, duration=10.0, objective="energy", intervals=20)
+    assert d.success and d.total_time_s == pytest.approx(10.0, rel=1e-8)
+    check_replay(d, HEAVY, 2.0)
+    with pytest.raises(DataError, match="objective"):
+        profile(TERRAINS["lete_sand"], HEAVY, v0=1.0, v1=2.0, duration=10.0, objective="time")
