@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from functools import lru_cache
 
 import casadi as ca
 import numpy as np
@@ -83,6 +84,7 @@ def dynamics_fn(vehicle: Vehicle) -> ca.Function:
                        ["xdot", "slip", "thrust"])
 
 
+@lru_cache(maxsize=8)
 def _radau(d: int):
     tau = np.append(0.0, ca.collocation_points(d, "radau"))
     C = np.zeros((d + 1, d + 1))  # derivative of the Lagrange basis at the collocation points

@@ -30,12 +30,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
 from statistics import NormalDist
 from typing import Any
 
 import numpy as np
 
-from ..soilmodel import DataError, Soil, Vehicle, sensitivity_function, slip_from_thrust
+from ..soilmodel import DataError, Soil, Vehicle, sensitivity_function, slip_from_thrust, thrust_function
 from ..soilmodel.simulation import drive_limits
 from .margin import DEFAULT_MAX_SLIP, _check, _resistances, _soil_thrust, resolve_terrain
 from .ocp import DEGREE, OcpData, _radau, solve_ocp
@@ -246,6 +247,13 @@ def _precheck(pd, lengths, vehicle, v0, v1, i_max, Tmax, Pmax, r):
     return None
 
 
+@lru_cache(maxsize=256)
+def _slip_bound(theta: tuple, N: float, Fs: float, i_max: float, vehicle: Vehicle) -> float:
+    """Slip at which the soil gives (1 - THRUST_RESERVE) of its thrust at i_max (cached per soil and load)."""
+    sb = slip_from_thrust(np.array([(1 - THRUST_RESERVE) * Fs]), Soil(*theta), vehicle, normal_load=N)
+    return float(min(sb[0], i_max))
+
+
 def _bang_bang(pd, idx, S, v0, v1, T_thr, Pmax, m) -> np.ndarray:
     """Start guess of a minimum-time plan: 0.8 x (full thrust forward, full braking back from v1, the lower
     of the two) + 0.2 x (linear in distance); measured: 28-36 IPOPT iterations on the benchmark cases against
@@ -360,11 +368,7 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: f
     else:
         S = np.linspace(0.0, 0.5 * (v0 + v1) * duration, n + 1)
     th = np.array([pd[k]["theta"] for k in idx])
-    bounds_p = []
-    for d in pd:  # slip at which the soil gives (1 - reserve) of its thrust at i_max
-        sb = slip_from_thrust(np.array([(1 - THRUST_RESERVE) * d["Fs"]]), Soil(*map(float, d["theta"])), vehicle,
-                              normal_load=d["N"])
-        bounds_p.append(float(min(sb[0], i_max)))
+    bounds_p = [_slip_bound(tuple(map(float, d["theta"])), d["N"], d["Fs"], i_max, vehicle) for d in pd]
     slip_bound = np.array([bounds_p[k] for k in idx])
     data = OcpData(c=th[:, 0], phi=th[:, 1], K=th[:, 2], grade=np.array([pd[k]["grade"] for k in idx]),
                    Rc=np.array([pd[k]["Rc"] for k in idx]), s=S, v0=v0, v1=v1,
@@ -389,8 +393,11 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: f
     i_nodes = (r * w - v) / (r * w)
     i_col = (r * Z[1] - Z[0]) / (r * Z[1])
     Nn = np.array([pd[k]["N"] for k in idx])
-    F_nodes = np.array([_soil_thrust(th[min(k, n - 1)], float(i_nodes[k]), Nn[min(k, n - 1)], vehicle, "full")[0]
-                        for k in range(n + 1)])
+    kk = np.minimum(np.arange(n + 1), n - 1)  # node k takes the soil of interval k (the end node: the last)
+    F_nodes = np.asarray(thrust_function("full")(i_nodes.reshape(1, -1), th[kk, 0].reshape(1, -1),
+                                                 th[kk, 1].reshape(1, -1), th[kk, 2].reshape(1, -1),
+                                                 Nn[kk].reshape(1, -1), vehicle.track_length, vehicle.track_width),
+                         dtype=float).ravel()
     Fs_int = np.array([pd[k]["Fs"] for k in idx])
     # checks after the solver (mesh and collocation points)
     viol = []
