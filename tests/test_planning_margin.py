@@ -178,3 +178,17 @@ def test_fig7_example_writes_the_figure_with_the_consistent_reading(tmp_path):
                   ("clayey_soil", 15.0): False}
     out = tmp_path / "fig7.png"
     assert mod.main(["--out", str(out)]) == 0 and out.stat().st_size > 10_000
+
+
+def test_fit_json_covariance_block_is_used_when_present(fits, tmp_path):
+    f = fits["cohesion-free"]
+    obj = json.loads(f.to_json())
+    obj["covariance"] = {"parameters": ["cohesion", "friction_angle", "shear_modulus"],
+                         "matrix": np.asarray(f.covariance).tolist(), "units": "SI"}
+    path = tmp_path / "fit_cov.json"
+    path.write_text(json.dumps(obj))
+    u = load_fit_json(str(path), HEAVY)
+    assert u.source == "covariance matrix of the fit JSON"
+    np.testing.assert_allclose(u.cov, np.asarray(f.covariance)[1:, 1:], rtol=1e-12)
+    assert margin(u, HEAVY, grade_deg=5).p_traversable_delta == pytest.approx(
+        margin(f, HEAVY, grade_deg=5).p_traversable_delta, abs=1e-9)
