@@ -23,8 +23,8 @@ boundary is a mesh point):
   distance is free.
 
 All data enter as parameters (soil, grade and compaction per interval, mesh distances,
-limits, weights), so one ``nlpsol`` (IPOPT) is built per (vehicle, n) and re-solved; the
-previous solution of the same size warm-starts the next solve.
+limits, weights), so one ``nlpsol`` (IPOPT) is built per (vehicle, n, objective, torque-rate
+limit on/off) and re-solved; the previous solution of the same structure warm-starts the next.
 """
 from __future__ import annotations
 
@@ -103,17 +103,23 @@ def _radau(d: int):
     return tau, C, B
 
 
-def _layout(n: int):
-    """Index blocks of the decision vector: nodes X (2(n+1)), collocation Z (2 d n), u, dt, e (n each)."""
+def _layout(n: int, energy: bool):
+    """Index blocks of the decision vector: nodes X (2(n+1)), collocation Z (2 d n), u, dt (n each) and,
+    for the energy objective, the work slacks e (n)."""
     nx = 2 * (n + 1)
     nz = 2 * DEGREE * n
     a = nx + nz
-    return slice(0, nx), slice(nx, a), slice(a, a + n), slice(a + n, a + 2 * n), slice(a + 2 * n, a + 3 * n)
+    return (slice(0, nx), slice(nx, a), slice(a, a + n), slice(a + n, a + 2 * n),
+            slice(a + 2 * n, a + 3 * n) if energy else None)
 
 
 @locked_cache(maxsize=32)
-def ocp_solver(vehicle: Vehicle, n: int, warm: bool) -> ca.Function:
-    """The cached IPOPT solver of the OCP with ``n`` intervals (``warm``: warm-start options)."""
+def ocp_solver(vehicle: Vehicle, n: int, warm: bool, energy: bool = False, rate_limit: bool = False) -> ca.Function:
+    """The cached IPOPT solver of the OCP with ``n`` intervals.
+
+    ``warm``: warm-start options; ``energy``: energy objective (work slacks), else minimum time;
+    ``rate_limit``: with the torque-rate rows. Only the rows a problem needs are built.
+    """
     f = dynamics_fn(vehicle)
     d = DEGREE
     tau, C, B = _radau(d)
@@ -150,10 +156,12 @@ def ocp_solver(vehicle: Vehicle, n: int, warm: bool) -> ca.Function:
             g_pow.append((Mk * w_) / Pw)
     dM = u[1:] - u[:-1]
     avg_dt = 0.5 * (dt[1:] + dt[:-1])
-    g = ca.vertcat(*g_dyn, *g_dist, *g_work, *g_slip_lo, *g_slip_hi, *g_pow, dM - rate * avg_dt / Ms, -dM - rate * avg_dt / Ms,
-                   J_time)
-    J = wt * J_time / ts + we * ca.sum1(e) / es
-    x = ca.vertcat(ca.vec(X), ca.vec(Z), u, dt, e)
+    rows = [*g_dyn, *g_dist] + (g_work if energy else []) + [*g_slip_lo, *g_slip_hi, *g_pow]
+    if rate_limit:
+        rows += [dM - rate * avg_dt / Ms, -dM - rate * avg_dt / Ms]
+    g = ca.vertcat(*rows, J_time)
+    J = we * ca.sum1(e) / es if energy else wt * J_time / ts
+    x = ca.vertcat(ca.vec(X), ca.vec(Z), u, dt, e) if energy else ca.vertcat(ca.vec(X), ca.vec(Z), u, dt)
     p = ca.vertcat(ca.vec(P), Ms, Pw, rate, wt, we, ts, es, vs, ws)
     opts = {"ipopt": dict(_IPOPT, **(_WARM if warm else {})), "print_time": False, "error_on_fail": False}
     return ca.nlpsol(f"speed_ocp_{n}", "ipopt", {"x": x, "p": p, "f": J, "g": g}, opts)
@@ -189,8 +197,10 @@ def _guess(d: OcpData, vehicle: Vehicle, n: int, slip_of_thrust) -> np.ndarray:
             t = tau[j + 1]
             Z[:, k * DEGREE + j] = (1 - t) * X[:, k] + t * X[:, k + 1]
     dt = 2 * h / np.maximum(v[1:] + v[:-1], 1e-3) if d.duration is None else np.full(n, d.duration / n)
-    e = np.maximum(M * h / (r * (1 - i)), 0.0)
-    return np.concatenate([X.ravel(order="F"), Z.ravel(order="F"), M / d.max_torque, dt, e])
+    out = [X.ravel(order="F"), Z.ravel(order="F"), M / d.max_torque, dt]
+    if d.objective == "energy":
+        out.append(np.maximum(M * h / (r * (1 - i)), 0.0))
+    return np.concatenate(out)
 
 
 def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
@@ -199,8 +209,9 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
     ``slip_of_thrust(F_array) -> slip_array`` gives the start guess of the slip (cold starts).
     """
     n = len(d.c)
-    iX, iZ, iu, idt, ie = _layout(n)
-    key = (vehicle, n)
+    energy, rate_on = d.objective == "energy", bool(d.torque_rate)
+    iX, iZ, iu, idt, ie = _layout(n, energy)
+    key = (vehicle, n, energy, rate_on)
     prev = _last.get(key)
     r = vehicle.sprocket_radius
     inf = np.inf
@@ -213,7 +224,7 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
     wt, we = (1.0, 0.0) if d.objective == "time" else (0.0, 1.0)
     Pmat = np.vstack([d.c, d.phi, d.K, d.grade, d.Rc, d.slip_bound, np.diff(d.s)])
     p = np.concatenate([Pmat.ravel(order="F"), [Ms, Pw, d.torque_rate or 0.0, wt, we, ts, es, vmax, vmax / r]])
-    nxv = 2 * (n + 1) + 2 * DEGREE * n + 3 * n
+    nxv = 2 * (n + 1) + 2 * DEGREE * n + (3 if energy else 2) * n
     lbx, ubx = np.full(nxv, -inf), np.full(nxv, inf)
     Xl, Xu = np.full((2, n + 1), -inf), np.full((2, n + 1), inf)
     Xl[0], Xl[1] = 0.0, 1e-4
@@ -228,20 +239,24 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
     lbx[idt], ubx[idt] = 1e-5, inf
     if d.duration is not None:  # equal time steps, free distance
         lbx[idt] = ubx[idt] = d.duration / n
-    lbx[ie], ubx[ie] = 0.0, (inf if d.objective == "energy" else 0.0)  # the slack only matters for energy
-    work_lo = np.zeros(n) if d.objective == "energy" else np.full(n, -inf)
+    if energy:
+        lbx[ie], ubx[ie] = 0.0, inf
     npt = n * (DEGREE + 1)
     ndyn = n * 2 * (DEGREE + 1)
     dist_lo = np.full(n, -inf) if free_dist else np.zeros(n)
     dist_hi = np.full(n, inf) if free_dist else np.zeros(n)
-    lbg = np.concatenate([np.zeros(ndyn), dist_lo, work_lo, np.zeros(2 * npt), np.full(npt, -inf), np.full(2 * (n - 1), -inf),
-                          [d.duration if d.duration is not None else -inf]])
-    ubg = np.concatenate([np.zeros(ndyn), dist_hi, np.full(n, inf), np.full(2 * npt, inf), np.full(npt, 1.0 if d.max_power else inf),
-                          np.full(2 * (n - 1), 0.0 if d.torque_rate else inf),
-                          [d.duration if d.duration is not None else inf]])
+    lbg = [np.zeros(ndyn), dist_lo] + ([np.zeros(n)] if energy else []) + [np.zeros(2 * npt), np.full(npt, -inf)]
+    ubg = [np.zeros(ndyn), dist_hi] + ([np.full(n, inf)] if energy else []) + [np.full(2 * npt, inf),
+                                                                               np.full(npt, 1.0 if d.max_power else inf)]
+    if rate_on:
+        lbg.append(np.full(2 * (n - 1), -inf))
+        ubg.append(np.zeros(2 * (n - 1)))
+    lbg.append([d.duration if d.duration is not None else -inf])
+    ubg.append([d.duration if d.duration is not None else inf])
+    lbg, ubg = np.concatenate(lbg), np.concatenate(ubg)
     args = dict(p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
     warm = prev is not None
-    solver = ocp_solver(vehicle, n, warm)  # built once per (vehicle, n, warm); not part of the solve time
+    solver = ocp_solver(vehicle, n, warm, energy, rate_on)  # built once per structure; not solve time
     t0 = time.perf_counter()
     if warm:
         args.update(x0=np.clip(prev["x"], lbx, ubx), lam_x0=prev["lam_x"], lam_g0=prev["lam_g"])
@@ -253,7 +268,7 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
         warm = False
         args = dict(p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, x0=_guess(d, vehicle, n, slip_of_thrust))
         t_b = time.perf_counter()
-        cold = ocp_solver(vehicle, n, False)
+        cold = ocp_solver(vehicle, n, False, energy, rate_on)
         t0 += time.perf_counter() - t_b  # the build (if any) is not solve time
         out, stats = call_solver(cold, **args)
         ok = bool(stats.get("success", False))
