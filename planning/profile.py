@@ -8,9 +8,11 @@
    (``"slip"`` if a larger slip would give it, ``"soil"`` if no slip does) and the torque limit
    ``T_max / r`` (``"torque"``); the power limit ``P / v_end`` on the last patch
    (``"power"``); and whether the end speed can be reached at all with the largest thrust the
-   limits allow (accelerating) or the largest braking thrust (slowing down);
-2. solve the OCP of :mod:`.ocp` (IPOPT; the problem is built once per size and re-solved with
-   the data as parameters, warm-started from the previous solution);
+   limits allow (accelerating) or the largest braking thrust (slowing down). These checks are
+   optimistic (necessary conditions), so a request they refuse is impossible: the solver is not
+   run and the reason names the patch, the limit and the numbers;
+2. solve the OCP of :mod:`.ocp` (direct collocation, IPOPT; the problem is built once per
+   structure and re-solved with the data as parameters, warm-started from the previous solution);
 3. check the solution after the solver: limits, end speed; a failed solve reports IPOPT's
    status and the patch where the plan is tightest.
 
@@ -24,7 +26,14 @@ Robust profiles (``confidence`` with an identified soil): the plan is made on a 
 off along the linearised covariance - the soil whose thrust at the slip limit is the lower
 one-sided ``confidence`` quantile (``q = mean - z Sigma g / sqrt(g' Sigma g)``, g the gradient
 of that thrust) - and then checked by Monte Carlo: the fraction of sampled soils for which the
-planned torque, replayed (quasi-static slip), breaks the slip limit.
+planned torque, replayed open-loop through the full dynamics (:func:`~.replay.replay`), breaks
+the slip limit, beside the same fraction for the plan on the nominal soil.
+
+Every plan keeps a traction reserve of :data:`THRUST_RESERVE` (its slip bound is where the soil
+gives ``1 - THRUST_RESERVE`` of its thrust at the slip limit, and its power stays below
+``(1 - THRUST_RESERVE) P_max``), so that the torque replayed open-loop keeps the limits between
+the mesh points too. A duration instead of a distance gives equal time steps and a free
+distance (energy objective only).
 """
 from __future__ import annotations
 
