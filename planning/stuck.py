@@ -29,18 +29,12 @@ from typing import Any
 import numpy as np
 
 from ..soilmodel import Soil, Vehicle, slip_from_thrust
-from ..soilmodel.sinkage import has_bekker, static_sinkage
+from ..soilmodel.sinkage import has_bekker, slip_at_sinkage, slip_sinkage, static_sinkage
 from .margin import DEFAULT_MAX_SLIP, _check, _resistances, _soil_thrust, resolve_terrain
 
-__all__ = ["Stuck", "stuck", "slip_sinkage"]
+__all__ = ["Stuck", "stuck"]
 
 _FULL_SLIP = 0.999
-
-
-def slip_sinkage(z0, slip):
-    """Lyasko's slip sinkage ``z0 (1 + i) / (1 - 0.5 i)``, m (numpy)."""
-    i = np.abs(np.asarray(slip, dtype=float))
-    return np.asarray(z0, dtype=float) * (1 + i) / (1 - 0.5 * i)
 
 
 @dataclass(frozen=True)
@@ -175,8 +169,7 @@ def stuck(terrain: Any, vehicle: Vehicle, *, torque: float | None = None, grade_
             if z0 >= gc:
                 belly = 0.0
             else:
-                q = gc / z0
-                ib = (q - 1) / (1 + 0.5 * q)
+                ib = slip_at_sinkage(z0, gc)
                 belly = ib if ib < 1 else None
         else:
             notes.append("the vehicle gives no ground_clearance_m: the belly check is not done")

@@ -11,7 +11,13 @@ metre travelled)::
     R_c = 2 b (k_c / b + k_phi) z0 ** (n + 1) / (n + 1)
 
 Written once as CasADi expressions (floats work too); :func:`static_sinkage` and
-:func:`compaction_resistance` are the numpy helpers. A soil without Bekker parameters
+:func:`compaction_resistance` are the numpy helpers. Slip-induced sinkage (for stuck prediction) follows Lyasko's empirical relation
+(J. Terramechanics 47, 2010)::
+
+    z = z0 (1 + i) / (1 - 0.5 i)          (z = 4 z0 at full slip)
+
+one law among several (others give other numbers); :func:`slip_sinkage` and its inverse
+:func:`slip_at_sinkage`. A soil without Bekker parameters
 (``n``, ``k_c``, ``k_phi`` of :class:`~.soil.Soil` unset) has no compaction term: the helpers
 return 0 and :func:`has_bekker` says so.
 """
@@ -23,7 +29,8 @@ import numpy as np
 from .soil import Soil
 from .vehicle import Vehicle
 
-__all__ = ["has_bekker", "sinkage_expr", "compaction_expr", "static_sinkage", "compaction_resistance"]
+__all__ = ["has_bekker", "sinkage_expr", "compaction_expr", "static_sinkage", "compaction_resistance", "slip_sinkage",
+           "slip_at_sinkage"]
 
 
 def has_bekker(soil: Soil) -> bool:
@@ -62,3 +69,15 @@ def static_sinkage(soil: Soil, vehicle: Vehicle, normal_load=None) -> float | np
 def compaction_resistance(soil: Soil, vehicle: Vehicle, normal_load=None) -> float | np.ndarray:
     """Compaction resistance R_c of both tracks in N (0 without Bekker parameters)."""
     return _eval(compaction_expr, soil, vehicle, normal_load)
+
+
+def slip_sinkage(z0, slip):
+    """Lyasko's slip sinkage ``z0 (1 + |i|) / (1 - 0.5 |i|)``, m (numpy)."""
+    i = np.abs(np.asarray(slip, dtype=float))
+    return np.asarray(z0, dtype=float) * (1 + i) / (1 - 0.5 * i)
+
+
+def slip_at_sinkage(z0: float, z: float) -> float:
+    """Slip at which :func:`slip_sinkage` reaches ``z`` (>= 1 when only beyond full slip)."""
+    q = z / z0
+    return (q - 1) / (1 + 0.5 * q)
