@@ -21,6 +21,7 @@ _JSON_FIELDS = {  # JSON key -> dataclass field
     "max_sprocket_torque_Nm": "max_sprocket_torque",
     "max_power_W": "max_power",
     "road_wheels": "road_wheels",
+    "ground_clearance_m": "ground_clearance",
 }
 #: Plausible ranges (SI) of the vehicle's numbers; anything outside is refused at input, because a
 #: typo (a mass of 1e300 kg, a track 500 m long) would otherwise surface as overflow deep in a solver.
@@ -59,6 +60,9 @@ class Vehicle:
         Drivetrain limits of both tracks together (N m, W); ``None`` when unknown.
     road_wheels
         Road wheels per side (used by the pressure-distribution effect); ``None`` when unknown.
+    ground_clearance
+        Height of the belly above the track's ground contact, m (stuck prediction: sinkage
+        reaching the belly); ``None`` when unknown.
     name
         Free text label.
     """
@@ -73,6 +77,7 @@ class Vehicle:
     max_power: float | None = None
     road_wheels: int | None = None
     name: str = ""
+    ground_clearance: float | None = None
 
     def __post_init__(self) -> None:
         positive = ("mass", "track_length", "track_width", "sprocket_radius")
@@ -88,7 +93,7 @@ class Vehicle:
                 raise DataError(f"vehicle {f.name} must be > 0, got {v}")
             if v < 0:
                 raise DataError(f"vehicle {f.name} must be >= 0, got {v}")
-            if f.name in ("max_sprocket_torque", "max_power") and v == 0:
+            if f.name in ("max_sprocket_torque", "max_power", "ground_clearance") and v == 0:
                 raise DataError(f"vehicle {f.name} must be > 0 (or absent), got {v}")
         for name, (lo, hi, unit) in LIMITS.items():
             v = getattr(self, name)

@@ -1,0 +1,239 @@
+#!/usr/bin/env python
+"""Benchmark soiltrack's planning: profile OCP (cold, warm), scipy SLSQP single shooting, a route, margins.
+
+Usage (from the repository root; scipy is a benchmark-only dependency, extra ``bench``)::
+
+    python benchmarks/bench_planning.py                 # 20 repeats, SLSQP up to 100 iterations
+    python benchmarks/bench_planning.py --repeats 50 --slsqp-maxiter 200 --json out.json
+
+What is measured
+----------------
+* The single-terrain minimum-time profile: heavy vehicle, LETE sand, 0.5 -> 3 m/s over 30 m,
+  slip limit 0.2, torque 80 kN m, power 600 kW, 100 intervals (direct collocation, IPOPT):
+  - build: the first call (CasADi builds the NLP and IPOPT's structures);
+  - cold: solves of the built problem from the default start (warm starts cleared);
+  - warm, new v1: alternating v1 = 3.0 / 2.8 m/s, warm-started from the previous solution;
+  - warm, new soil: alternating LETE sand / dry sand.
+  Medians over ``--repeats`` of the wall time of the whole ``profile`` call (input checks,
+  steady-state checks, solve, checks after the solve, result building) and of the solver call
+  alone (``solve_time_s``).
+* The same problem the way a user would otherwise script it: ``scipy.optimize.minimize``
+  (SLSQP), single shooting, variables = the 100 held torques and the total time (uniform
+  intervals), objective = time, constraints = final speed, distance, slip and power at 4
+  points per interval, torque bounds; the simulation is the same CVODES replay of the model
+  core (one CasADi call for the whole horizon, ``mapaccum``); gradients by finite differences
+  (what ``minimize`` does without a Jacobian). Its result is replayed and compared.
+* A 10-patch route (alternating terrains and grades, 100 intervals): cold solve and warm
+  re-solve.
+* ``margin`` with a fit's uncertainty and 10,000 Monte Carlo samples.
+
+Targets: warm profile solve below 50 ms on 2 cores (aim 10 ms).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import sys
+import time
+
+import casadi as ca
+import numpy as np
+
+_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+if _ROOT not in sys.path:
+    sys.path.insert(0, _ROOT)
+
+try:
+    import scipy
+    from scipy.optimize import minimize
+except ImportError:  # pragma: no cover
+    sys.exit("benchmarks need scipy: pip install 'soiltrack[bench]'")
+
+from soiltrack.identify import fit  # noqa: E402
+from soiltrack.planning import margin, profile, replay, route_from_dict, route_profile  # noqa: E402
+from soiltrack.planning.ocp import clear_warm_starts  # noqa: E402
+from soiltrack.planning.replay import _step  # noqa: E402
+from soiltrack.soilmodel import TERRAINS, VEHICLES, Soil, simulate_slip_sweep  # noqa: E402
+
+HEAVY = VEHICLES["heavy"]
+CASE = dict(v0=0.5, v1=3.0, distance=30.0, max_slip=0.2, objective="time", intervals=100)
+
+
+def med(xs):
+    return statistics.median(xs)
+
+
+def timed(fn):
+    t0 = time.perf_counter()
+    out = fn()
+    return out, time.perf_counter() - t0
+
+
+def bench_profile(repeats: int) -> dict:
+    clear_warm_starts()
+    res, t_build = timed(lambda: profile(TERRAINS["lete_sand"], HEAVY, **CASE))
+    assert res.success, res.message
+    cold, cold_s = [], []
+    for _ in range(repeats):
+        clear_warm_starts()
+        r, t = timed(lambda: profile(TERRAINS["lete_sand"], HEAVY, **CASE))
+        assert r.success and not r.warm_start
+        cold.append(t)
+        cold_s.append(r.solve_time_s)
+    wv, wv_s, wv_it = [], [], []
+    for k in range(repeats):
+        r, t = timed(lambda: profile(TERRAINS["lete_sand"], HEAVY, **dict(CASE, v1=2.8 if k % 2 else 3.0)))
+        assert r.success
+        wv.append(t)
+        wv_s.append(r.solve_time_s)
+        wv_it.append(r.iterations)
+    ws, ws_s, ws_it = [], [], []
+    for k in range(repeats):
+        soil = TERRAINS["dry_sand" if k % 2 else "lete_sand"]
+        r, t = timed(lambda: profile(soil, HEAVY, **CASE))
+        assert r.success
+        ws.append(t)
+        ws_s.append(r.solve_time_s)
+        ws_it.append(r.iterations)
+    return {"total_time_s": res.total_time_s, "build_and_first_solve_s": t_build,
+            "cold_call_s": med(cold), "cold_solver_s": med(cold_s), "cold_iterations": res.iterations,
+            "warm_new_v1_call_s": med(wv), "warm_new_v1_solver_s": med(wv_s), "warm_new_v1_iterations": med(wv_it),
+            "warm_new_soil_call_s": med(ws), "warm_new_soil_solver_s": med(ws_s),
+            "warm_new_soil_iterations": med(ws_it)}
+
+
+def bench_slsqp(maxiter: int) -> dict:
+    """Single shooting with SLSQP on the same problem (see the module docstring)."""
+    n, sub = CASE["intervals"], 4
+    soil = TERRAINS["lete_sand"]
+    r = HEAVY.sprocket_radius
+    step = _step(HEAVY, sub)
+    x = ca.MX.sym("x", 2)
+    p = ca.MX.sym("p", 7)
+    out = step(x0=x, p=p)["xf"]
+    one = ca.Function("one", [x, p], [out[:, -1], ca.vec(out)])
+    sim = one.mapaccum("sim", n)
+    # soil, grade 0, compaction of LETE sand at W (as the planner uses)
+    from soiltrack.soilmodel.sinkage import compaction_resistance
+    Rc = compaction_resistance(soil, HEAVY)
+    i_max, Tmax, Pmax = CASE["max_slip"], HEAVY.max_sprocket_torque, HEAVY.max_power
+    v0, v1, D = CASE["v0"], CASE["v1"], CASE["distance"]
+    cache = {}
+
+    def run(z):
+        key = z.tobytes()
+        if key in cache:
+            return cache[key]
+        M, T = z[:n] * Tmax, z[n]
+        dt = T / n
+        P = np.vstack([M, np.full(n, soil.cohesion), np.full(n, soil.friction_angle), np.full(n, soil.shear_modulus),
+                       np.zeros(n), np.full(n, Rc), np.full(n, dt)])
+        w0 = v0 / (r * (1 - 0.05))
+        _, traj = sim(np.array([v0, w0]), P)
+        traj = np.asarray(traj).reshape(2, sub, n, order="F")
+        v, w = traj[0].T.ravel(), traj[1].T.ravel()
+        slip = 1 - v / (r * np.maximum(w, 1e-6))
+        dist = np.sum(np.concatenate([[v0], v])[:-1] + v) * 0.5 * dt / sub  # trapezoid over the outputs
+        pw = np.repeat(M, sub) * w
+        res = {"v_end": v[-1], "dist": dist, "slip": slip, "power": pw}
+        cache.clear()
+        cache[key] = res
+        return res
+
+    z0 = np.concatenate([np.full(n, 0.3), [D / (0.5 * (v0 + v1))]])
+    cons = [{"type": "eq", "fun": lambda z: np.array([run(z)["v_end"] - v1, (run(z)["dist"] - D) / D])},
+            {"type": "ineq", "fun": lambda z: np.concatenate([i_max - run(z)["slip"], i_max + run(z)["slip"],
+                                                              1 - run(z)["power"] / Pmax])}]
+    bounds = [(-1, 1)] * n + [(0.5, 100.0)]
+    t0 = time.perf_counter()
+    sol = minimize(lambda z: z[n], z0, jac=lambda z: np.r_[np.zeros(n), 1.0], method="SLSQP", bounds=bounds,
+                   constraints=cons, options={"maxiter": maxiter, "ftol": 1e-8})
+    t = time.perf_counter() - t0
+    rr = run(sol.x)
+    return {"success": bool(sol.success), "message": str(sol.message), "iterations": int(sol.nit),
+            "wall_s": t, "total_time_s": float(sol.x[n]), "v_end": float(rr["v_end"]), "distance_m": float(rr["dist"]),
+            "max_slip": float(np.max(np.abs(rr["slip"]))), "max_power_W": float(np.max(rr["power"]))}
+
+
+def bench_route(repeats: int) -> dict:
+    names = ["lete_sand", "dry_sand", "sandy_loam", "clayey_soil", "snow"]
+    patches = [{"length_m": 10.0 + 2 * k, "terrain": names[k % 5], "grade_deg": [0, 5, -3, 8, 2][k % 5]}
+               for k in range(10)]
+    route = route_from_dict({"v0_m_s": 1.0, "v_end_m_s": 2.0, "objective": "time", "max_slip": 0.2,
+                             "patches": patches})
+    clear_warm_starts()
+    r, t_first = timed(lambda: route_profile(route, HEAVY, intervals=100))
+    assert r.success, r.message
+    cold = []
+    for _ in range(max(3, repeats // 4)):
+        clear_warm_starts()
+        rr, t = timed(lambda: route_profile(route, HEAVY, intervals=100))
+        cold.append(t)
+    warm, warm_s = [], []
+    for _ in range(repeats):
+        rr, t = timed(lambda: route_profile(route, HEAVY, intervals=100))
+        warm.append(t)
+        warm_s.append(rr.solve_time_s)
+    rp = replay(r, HEAVY)
+    return {"length_m": route.length_m, "intervals": len(r.series["time_s"]) - 1, "total_time_s": r.total_time_s,
+            "build_and_first_solve_s": t_first, "cold_call_s": med(cold), "warm_call_s": med(warm),
+            "warm_solver_s": med(warm_s), "replay_v_end": float(rp.speed[-1]), "replay_max_slip": float(np.max(np.abs(rp.slip)))}
+
+
+def bench_margin(repeats: int) -> dict:
+    data = simulate_slip_sweep(HEAVY, Soil.from_kpa_deg(1.3, 31.1, 0.012), seed=1)
+    f = fit(data, HEAVY)
+    margin(f, HEAVY, grade_deg=10)
+    ts = []
+    for _ in range(repeats):
+        m, t = timed(lambda: margin(f, HEAVY, grade_deg=10, samples=10_000))
+        ts.append(t)
+    return {"samples": 10_000, "call_s": med(ts), "p_traversable": m.p_traversable}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=20)
+    ap.add_argument("--slsqp-maxiter", type=int, default=100)
+    ap.add_argument("--skip-slsqp", action="store_true")
+    ap.add_argument("--json", help="write the numbers to this file")
+    a = ap.parse_args(argv)
+    out = {"machine": {"python": platform.python_version(), "casadi": ca.__version__, "scipy": scipy.__version__,
+                       "cpus": os.cpu_count(), "load_1min": os.getloadavg()[0]}}
+    print(f"machine: {out['machine']}")
+    out["profile"] = p = bench_profile(a.repeats)
+    print(f"profile, 100 intervals (planned time {p['total_time_s']:.4g} s):")
+    print(f"  build + first solve {p['build_and_first_solve_s'] * 1e3:8.1f} ms")
+    print(f"  cold solve          {p['cold_call_s'] * 1e3:8.1f} ms per call ({p['cold_solver_s'] * 1e3:.1f} ms in IPOPT, "
+          f"{p['cold_iterations']} iterations)")
+    for key, label in (("warm_new_v1", "warm, new v1  "), ("warm_new_soil", "warm, new soil")):
+        print(f"  {label}      {p[key + '_call_s'] * 1e3:8.1f} ms per call ({p[key + '_solver_s'] * 1e3:.1f} ms in "
+              f"IPOPT, median {p[key + '_iterations']:.0f} iterations)")
+    best = min(p["warm_new_v1_call_s"], p["warm_new_soil_call_s"])
+    print(f"  target warm < 50 ms: {'reached' if best < 0.05 else 'NOT reached'} ({best * 1e3:.1f} ms); "
+          f"aim 10 ms: {'reached' if best < 0.01 else 'not reached'}")
+    if not a.skip_slsqp:
+        out["slsqp"] = s = bench_slsqp(a.slsqp_maxiter)
+        print(f"scipy SLSQP single shooting, same problem: {s['wall_s']:.2f} s, {s['iterations']} iterations, "
+              f"success {s['success']} ({s['message']}); time {s['total_time_s']:.4g} s, v_end {s['v_end']:.4g} m/s, "
+              f"distance {s['distance_m']:.4g} m, max slip {s['max_slip']:.4g}")
+        print(f"  ratio SLSQP / soiltrack cold: {s['wall_s'] / p['cold_call_s']:.0f}x; / warm: {s['wall_s'] / best:.0f}x")
+    out["route"] = rt = bench_route(a.repeats)
+    print(f"route, 10 patches, {rt['length_m']:.0f} m, {rt['intervals']} intervals: build + first "
+          f"{rt['build_and_first_solve_s'] * 1e3:.0f} ms, cold {rt['cold_call_s'] * 1e3:.1f} ms, warm "
+          f"{rt['warm_call_s'] * 1e3:.1f} ms per call; replay v_end {rt['replay_v_end']:.4g} m/s, "
+          f"max slip {rt['replay_max_slip']:.4g}")
+    out["margin"] = mg = bench_margin(a.repeats)
+    print(f"margin with 10,000 Monte Carlo samples: {mg['call_s'] * 1e3:.1f} ms per call "
+          f"(p_traversable {mg['p_traversable']:.3f})")
+    if a.json:
+        with open(a.json, "w") as fh:
+            json.dump(out, fh, indent=2)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

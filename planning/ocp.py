@@ -1,0 +1,292 @@
+"""The speed/slip/torque optimal-control problem: direct collocation, built once per size.
+
+Formulation (time-domain direct collocation on a mesh fixed in DISTANCE, so that every patch
+boundary is a mesh point):
+
+- states ``x = [v, w]`` (vehicle speed, sprocket speed) at the mesh points and at ``d = 3``
+  Radau IIA collocation points inside every interval (L-stable, order 5: the stiff slip
+  dynamics are integrated implicitly, never with an explicit step);
+- the sprocket torque ``M_k`` is held over each interval (zero-order hold);
+- the interval durations ``dt_k`` are free; each interval's length is fixed,
+  ``dt_k sum_j B_j v_kj = h_k`` (the collocation quadrature of ``ds/dt = v``, exact for the
+  polynomial), so the patch boundaries are mesh points; the total time is ``sum(dt_k)``;
+- dynamics: :func:`soiltrack.soilmodel.dynamics.dynamics_expr` itself (Eqs. 1, 4, the
+  thrust-balance sprocket equation; grade as the ``grade`` effect) plus the patch's Bekker
+  compaction resistance;
+- limits at the mesh and collocation points: slip ``|i| <= i_b`` (per interval) written as the
+  linear ``(1 - i_b) r w <= v <= (1 + i_b) r w``; ``|M| <= T_max``; ``M w <= P_max``; optional
+  torque rate ``|M_{k+1} - M_k| <= rate (dt_k + dt_{k+1}) / 2``;
+- objective: time ``sum(dt_k)`` or the sprocket's positive work ``sum(max(0, M_k integral(w dt)))``
+  (braking energy is not recovered; slack variables ``e_k >= 0, e_k >= M_k integral(w dt)``
+  keep it smooth; the quadrature is exact for the collocation polynomial);
+- with a duration instead of a distance, the intervals are of equal time ``T / n`` and the
+  distance is free.
+
+All data enter as parameters (soil, grade and compaction per interval, mesh distances,
+limits, weights), so one ``nlpsol`` (IPOPT) is built per (vehicle, n, objective, torque-rate
+limit on/off) and re-solved; the previous solution of the same structure warm-starts the next.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from functools import lru_cache
+
+import casadi as ca
+import numpy as np
+
+from ..soilmodel import Vehicle
+from ..soilmodel.dynamics import dynamics_expr
+from ..soilmodel.threadsafe import SOLVER_LOCK, call_solver, locked_cache
+
+__all__ = ["OcpData", "solve_ocp", "ocp_solver", "clear_warm_starts", "DEGREE"]
+
+#: Collocation points per interval (Radau IIA).
+DEGREE = 3
+_IPOPT = {"print_level": 0, "sb": "yes", "max_iter": 1000, "tol": 1e-8, "acceptable_tol": 1e-6,
+          "constr_viol_tol": 1e-8}
+#: Warm-start options, tuned on the benchmark profile (IPOPT iterations for a new v1 / a new soil:
+#: 13 / 22-65 with mu_init 1e-6 and pushes 1e-9; 5-6 / 20-24 with these).
+_WARM = {"warm_start_init_point": "yes", "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6,
+         "warm_start_slack_bound_push": 1e-6, "mu_init": 1e-8}
+
+
+@dataclass(frozen=True)
+class OcpData:
+    """Numbers of one OCP instance (SI; per-interval arrays of length n, ``s`` of length n + 1)."""
+
+    c: np.ndarray
+    phi: np.ndarray
+    K: np.ndarray
+    grade: np.ndarray  # rad
+    Rc: np.ndarray  # compaction resistance, N
+    slip_bound: np.ndarray  # |slip| bound used by the plan, per interval
+    s: np.ndarray  # mesh distances (a start guess only when the distance is free)
+    v0: float
+    v1: float
+    distance: float | None
+    duration: float | None
+    max_torque: float
+    max_power: float | None
+    max_slip: float
+    torque_rate: float | None
+    objective: str
+    v_guess: np.ndarray | None = None  # start guess of the node speeds (None: linear in distance)
+
+
+@locked_cache(maxsize=8)
+def dynamics_fn(vehicle: Vehicle) -> ca.Function:
+    """``f(x=[v, w], M, p=[c, phi, K, grade, R_c]) -> (xdot, slip, thrust)`` from the model core."""
+    x = ca.SX.sym("x", 2)
+    M = ca.SX.sym("M")
+    p = ca.SX.sym("p", 5)
+    d = dynamics_expr(x[0], x[1], M, p[0], p[1], p[2], vehicle, {"grade": {"theta_rad": p[3]}})
+    xdot = ca.vertcat(d["dv"] - p[4] / vehicle.mass, d["dw"])
+    return ca.Function("plan_dynamics", [x, M, p], [xdot, d["slip"], d["thrust"]], ["x", "M", "p"],
+                       ["xdot", "slip", "thrust"])
+
+
+@lru_cache(maxsize=8)
+def _radau(d: int):
+    tau = np.append(0.0, ca.collocation_points(d, "radau"))
+    C = np.zeros((d + 1, d + 1))  # derivative of the Lagrange basis at the collocation points
+    B = np.zeros(d + 1)  # quadrature weights
+    for j in range(d + 1):
+        coeff = np.poly1d([1.0])
+        for r in range(d + 1):
+            if r != j:
+                coeff *= np.poly1d([1.0, -tau[r]]) / (tau[j] - tau[r])
+        der = np.polyder(coeff)
+        for r in range(d + 1):
+            C[j, r] = der(tau[r])
+        B[j] = np.polyint(coeff)(1.0)
+    return tau, C, B
+
+
+def _layout(n: int, energy: bool):
+    """Index blocks of the decision vector: nodes X (2(n+1)), collocation Z (2 d n), u, dt (n each) and,
+    for the energy objective, the work slacks e (n)."""
+    nx = 2 * (n + 1)
+    nz = 2 * DEGREE * n
+    a = nx + nz
+    return (slice(0, nx), slice(nx, a), slice(a, a + n), slice(a + n, a + 2 * n),
+            slice(a + 2 * n, a + 3 * n) if energy else None)
+
+
+@locked_cache(maxsize=32)
+def ocp_solver(vehicle: Vehicle, n: int, warm: bool, energy: bool = False, rate_limit: bool = False) -> ca.Function:
+    """The cached IPOPT solver of the OCP with ``n`` intervals.
+
+    ``warm``: warm-start options; ``energy``: energy objective (work slacks), else minimum time;
+    ``rate_limit``: with the torque-rate rows. Only the rows a problem needs are built.
+    """
+    f = dynamics_fn(vehicle)
+    d = DEGREE
+    tau, C, B = _radau(d)
+    r = vehicle.sprocket_radius
+    X = ca.SX.sym("X", 2, n + 1)
+    Z = ca.SX.sym("Z", 2, d * n)
+    u = ca.SX.sym("u", n)
+    dt = ca.SX.sym("dt", n)
+    e = ca.SX.sym("e", n)  # positive work per interval (slack)
+    P = ca.SX.sym("P", 7, n)  # c, phi, K, grade, R_c, slip bound, interval length
+    Ms, Pw, rate, wt, we, ts, es, vs, ws = (ca.SX.sym(s) for s in ("Ms", "Pw", "rate", "wt", "we", "ts", "es", "vs", "ws"))
+    xs = ca.vertcat(vs, ws)  # state scales
+    g_dyn, g_slip_lo, g_slip_hi, g_pow, g_dist = [], [], [], [], []
+    J_time = ca.sum1(dt)
+    g_work = []
+    for k in range(n):
+        Mk = u[k] * Ms
+        pts = [X[:, k]] + [Z[:, k * d + j] for j in range(d)]
+        w_int = 0
+        v_int = 0
+        for j in range(1, d + 1):
+            xp = sum(C[q, j] * pts[q] for q in range(d + 1))
+            fj = f(pts[j], Mk, P[:5, k])[0]
+            g_dyn.append((xp - dt[k] * fj) / xs)
+            w_int += B[j] * pts[j][1]
+            v_int += B[j] * pts[j][0]
+        g_dyn.append((pts[d] - X[:, k + 1]) / xs)  # Radau: the last collocation point is the interval's end
+        g_work.append((e[k] - Mk * dt[k] * w_int) / es)
+        g_dist.append(dt[k] * v_int / P[6, k] - 1.0)
+        for q in range(d + 1):
+            v_, w_ = pts[q][0], pts[q][1]
+            g_slip_lo.append((v_ - (1 - P[5, k]) * r * w_) / vs)
+            g_slip_hi.append(((1 + P[5, k]) * r * w_ - v_) / vs)
+            g_pow.append((Mk * w_) / Pw)
+    dM = u[1:] - u[:-1]
+    avg_dt = 0.5 * (dt[1:] + dt[:-1])
+    rows = [*g_dyn, *g_dist] + (g_work if energy else []) + [*g_slip_lo, *g_slip_hi, *g_pow]
+    if rate_limit:
+        rows += [dM - rate * avg_dt / Ms, -dM - rate * avg_dt / Ms]
+    g = ca.vertcat(*rows, J_time)
+    J = we * ca.sum1(e) / es if energy else wt * J_time / ts
+    x = ca.vertcat(ca.vec(X), ca.vec(Z), u, dt, e) if energy else ca.vertcat(ca.vec(X), ca.vec(Z), u, dt)
+    p = ca.vertcat(ca.vec(P), Ms, Pw, rate, wt, we, ts, es, vs, ws)
+    opts = {"ipopt": dict(_IPOPT, **(_WARM if warm else {})), "print_time": False, "error_on_fail": False}
+    return ca.nlpsol(f"speed_ocp_{n}", "ipopt", {"x": x, "p": p, "f": J, "g": g}, opts)
+
+
+_last: dict = {}
+
+
+def _guess(d: OcpData, vehicle: Vehicle, n: int, slip_of_thrust) -> np.ndarray:
+    """A consistent start: speed linear in distance, slip from the steady thrust, torque from the balance."""
+    m, r, I = vehicle.mass, vehicle.sprocket_radius, vehicle.sprocket_inertia
+    f = dynamics_fn(vehicle)
+    S = d.s
+    L = S[-1]
+    vmid = max(d.v0, d.v1, 0.5)
+    v = d.v0 + (d.v1 - d.v0) * S / L if d.v_guess is None else np.asarray(d.v_guess, dtype=float).copy()
+    v = np.maximum(v, 0.3 * vmid)
+    v[0], v[-1] = d.v0, d.v1
+    h = np.diff(S)
+    a = (v[1:] ** 2 - v[:-1] ** 2) / (2 * h)
+    R = np.array([float(f(ca.DM([r, 1.0]), 0.0, [d.c[k], d.phi[k], d.K[k], d.grade[k], d.Rc[k]])[0][0])
+                  for k in range(n)]) * -m  # resistance from the model core (rest of the slip: 0)
+    Freq = m * a + R
+    i = np.clip(slip_of_thrust(Freq), -0.9 * d.slip_bound, 0.9 * d.slip_bound)
+    M = np.clip(r * Freq + I * a / (r * (1 - i)), -0.95 * d.max_torque, 0.95 * d.max_torque)
+    inode = np.append(i, i[-1])
+    w = np.maximum(v, 1e-3) / (r * (1 - inode))
+    X = np.vstack([v, w])
+    tau = np.append(0.0, ca.collocation_points(DEGREE, "radau"))
+    Z = np.zeros((2, DEGREE * n))
+    for k in range(n):
+        for j in range(DEGREE):
+            t = tau[j + 1]
+            Z[:, k * DEGREE + j] = (1 - t) * X[:, k] + t * X[:, k + 1]
+    dt = 2 * h / np.maximum(v[1:] + v[:-1], 1e-3) if d.duration is None else np.full(n, d.duration / n)
+    out = [X.ravel(order="F"), Z.ravel(order="F"), M / d.max_torque, dt]
+    if d.objective == "energy":
+        out.append(np.maximum(M * h / (r * (1 - i)), 0.0))
+    return np.concatenate(out)
+
+
+def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
+    """Solve one instance; the raw solution, IPOPT's status, iterations and wall time.
+
+    ``slip_of_thrust(F_array) -> slip_array`` gives the start guess of the slip (cold starts).
+    """
+    n = len(d.c)
+    energy, rate_on = d.objective == "energy", bool(d.torque_rate)
+    iX, iZ, iu, idt, ie = _layout(n, energy)
+    key = (vehicle, n, energy, rate_on)
+    prev = _last.get(key)
+    r = vehicle.sprocket_radius
+    inf = np.inf
+    Ms = d.max_torque
+    Pw = d.max_power if d.max_power else 1.0
+    L = float(d.s[-1])
+    vmax = max(d.v0, d.v1, 0.1)
+    ts = (L / vmax) if d.duration is None else d.duration
+    es = vehicle.weight * L * 0.1 + 0.5 * vehicle.mass * vmax ** 2
+    wt, we = (1.0, 0.0) if d.objective == "time" else (0.0, 1.0)
+    Pmat = np.vstack([d.c, d.phi, d.K, d.grade, d.Rc, d.slip_bound, np.diff(d.s)])
+    p = np.concatenate([Pmat.ravel(order="F"), [Ms, Pw, d.torque_rate or 0.0, wt, we, ts, es, vmax, vmax / r]])
+    nxv = 2 * (n + 1) + 2 * DEGREE * n + (3 if energy else 2) * n
+    lbx, ubx = np.full(nxv, -inf), np.full(nxv, inf)
+    Xl, Xu = np.full((2, n + 1), -inf), np.full((2, n + 1), inf)
+    Xl[0], Xl[1] = 0.0, 1e-4
+    Xl[0, 0] = Xu[0, 0] = d.v0
+    Xl[0, -1] = Xu[0, -1] = d.v1
+    Zl, Zu = np.full((2, DEGREE * n), -inf), np.full((2, DEGREE * n), inf)
+    Zl[0], Zl[1] = 0.0, 1e-4
+    free_dist = d.distance is None
+    lbx[iX], ubx[iX] = Xl.ravel(order="F"), Xu.ravel(order="F")
+    lbx[iZ], ubx[iZ] = Zl.ravel(order="F"), Zu.ravel(order="F")
+    lbx[iu], ubx[iu] = -1.0, 1.0
+    lbx[idt], ubx[idt] = 1e-5, inf
+    if d.duration is not None:  # equal time steps, free distance
+        lbx[idt] = ubx[idt] = d.duration / n
+    if energy:
+        lbx[ie], ubx[ie] = 0.0, inf
+    npt = n * (DEGREE + 1)
+    ndyn = n * 2 * (DEGREE + 1)
+    dist_lo = np.full(n, -inf) if free_dist else np.zeros(n)
+    dist_hi = np.full(n, inf) if free_dist else np.zeros(n)
+    lbg = [np.zeros(ndyn), dist_lo] + ([np.zeros(n)] if energy else []) + [np.zeros(2 * npt), np.full(npt, -inf)]
+    ubg = [np.zeros(ndyn), dist_hi] + ([np.full(n, inf)] if energy else []) + [np.full(2 * npt, inf),
+                                                                               np.full(npt, 1.0 if d.max_power else inf)]
+    if rate_on:
+        lbg.append(np.full(2 * (n - 1), -inf))
+        ubg.append(np.zeros(2 * (n - 1)))
+    lbg.append([d.duration if d.duration is not None else -inf])
+    ubg.append([d.duration if d.duration is not None else inf])
+    lbg, ubg = np.concatenate(lbg), np.concatenate(ubg)
+    args = dict(p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+    warm = prev is not None
+    solver = ocp_solver(vehicle, n, warm, energy, rate_on)  # built once per structure; not solve time
+    t0 = time.perf_counter()
+    if warm:
+        args.update(x0=np.clip(prev["x"], lbx, ubx), lam_x0=prev["lam_x"], lam_g0=prev["lam_g"])
+    else:
+        args["x0"] = _guess(d, vehicle, n, slip_of_thrust)
+    out, stats = call_solver(solver, **args)
+    ok = bool(stats.get("success", False))
+    if not ok and warm:  # a poor warm start: retry cold once
+        warm = False
+        args = dict(p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, x0=_guess(d, vehicle, n, slip_of_thrust))
+        t_b = time.perf_counter()
+        cold = ocp_solver(vehicle, n, False, energy, rate_on)
+        t0 += time.perf_counter() - t_b  # the build (if any) is not solve time
+        out, stats = call_solver(cold, **args)
+        ok = bool(stats.get("success", False))
+    elapsed = time.perf_counter() - t0
+    x = np.asarray(out["x"], dtype=float).ravel()
+    if ok and np.all(np.isfinite(x)):
+        with SOLVER_LOCK:
+            _last[key] = {"x": x, "lam_x": np.asarray(out["lam_x"]).ravel(), "lam_g": np.asarray(out["lam_g"]).ravel()}
+    X = x[iX].reshape((2, n + 1), order="F")
+    Z = x[iZ].reshape((2, DEGREE * n), order="F")
+    _tau, _C, B = _radau(DEGREE)
+    h = x[idt] * (Z[0].reshape(n, DEGREE) @ B[1:])
+    return {"x": x, "v": X[0], "w": X[1], "s": np.concatenate([[0.0], np.cumsum(h)]), "Z": Z,
+            "M": x[iu] * Ms, "dt": x[idt], "success": ok, "status": str(stats.get("return_status", "unknown")),
+            "iterations": int(stats.get("iter_count", -1)), "solve_time": elapsed, "warm": warm}
+
+
+def clear_warm_starts() -> None:
+    """Forget the stored solutions (the next solve of each size starts cold)."""
+    with SOLVER_LOCK:
+        _last.clear()

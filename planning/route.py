@@ -1,0 +1,147 @@
+"""Routes of terrain patches (length, soil, grade) and the ROUTE.json reader (DESIGN.md section 8)."""
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from typing import Any
+
+from ..soilmodel import TERRAINS, DataError, Soil
+
+__all__ = ["Patch", "Route", "read_route", "route_from_dict", "OBJECTIVES"]
+
+#: Objectives of a profile: minimum time, or minimum sprocket energy.
+OBJECTIVES = ("time", "energy")
+
+
+@dataclass(frozen=True)
+class Patch:
+    """One stretch of uniform terrain.
+
+    Attributes
+    ----------
+    length_m
+        Length along the path, m (> 0).
+    terrain
+        The soil (a :class:`~soiltrack.soilmodel.Soil`, e.g. a ``TERRAINS`` preset) or a
+        :class:`~.uncertainty.SoilUncertainty` (an identified soil).
+    grade_deg
+        Grade, deg, positive uphill.
+    """
+
+    length_m: float
+    terrain: Any
+    grade_deg: float = 0.0
+
+    @property
+    def label(self) -> str:
+        """Short name of the terrain."""
+        name = getattr(self.terrain, "name", "") or ("identified soil" if not isinstance(self.terrain, Soil) else "soil")
+        return name
+
+
+@dataclass(frozen=True)
+class Route:
+    """A route: start and end speed, objective, slip limit and patches in driving order."""
+
+    v0_m_s: float
+    v_end_m_s: float
+    patches: tuple[Patch, ...]
+    objective: str = "time"
+    max_slip: float | None = None
+
+    @property
+    def length_m(self) -> float:
+        """Total length, m."""
+        return float(sum(p.length_m for p in self.patches))
+
+
+def _num(x: Any, field: str, src: str | None, *, lo: float = -math.inf, lo_open: bool = False,
+         hi: float = math.inf, hi_open: bool = False) -> float:
+    if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(float(x)):
+        raise DataError(f"field '{field}' must be a finite number, got {x!r}", file=src, column=field)
+    x = float(x)
+    if x < lo or (lo_open and x == lo) or x > hi or (hi_open and x == hi):
+        rng = f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+        raise DataError(f"field '{field}' = {x:g} is outside {rng}", file=src, column=field)
+    return x
+
+
+def route_from_dict(obj: Any, *, source: str | None = None, default_terrain: Any = None) -> Route:
+    """Build a :class:`Route` from the ROUTE.json object; errors name the file and the field.
+
+    ``default_terrain`` (e.g. the soil of ``--fit``) is used for patches that give neither
+    ``terrain`` nor ``soil``.
+    """
+    src = source
+    if not isinstance(obj, dict):
+        raise DataError("route JSON must be an object", file=src)
+    known = {"v0_m_s", "v_end_m_s", "objective", "max_slip", "patches"}
+    unknown = sorted(set(obj) - known)
+    if unknown:
+        raise DataError(f"unknown field(s) {unknown}; expected {sorted(known)}", file=src)
+    pats = obj.get("patches")
+    if not isinstance(pats, list) or not pats:
+        raise DataError("field 'patches' must be a non-empty list", file=src, column="patches")
+    patches = []
+    for k, p in enumerate(pats):
+        f = f"patches[{k}]"
+        if not isinstance(p, dict):
+            raise DataError(f"{f} must be an object", file=src, column=f)
+        bad = sorted(set(p) - {"length_m", "terrain", "soil", "grade_deg"})
+        if bad:
+            raise DataError(f"unknown field(s) {bad} in {f}", file=src, column=f)
+        if "length_m" not in p:
+            raise DataError(f"missing field '{f}.length_m'", file=src, column=f"{f}.length_m")
+        length = _num(p["length_m"], f"{f}.length_m", src, lo=0.0, lo_open=True)
+        grade = _num(p.get("grade_deg", 0.0), f"{f}.grade_deg", src, lo=-68.75, hi=68.75)
+        if "terrain" in p and "soil" in p:
+            raise DataError(f"{f}: give 'terrain' or 'soil', not both", file=src, column=f)
+        if "terrain" in p:
+            name = p["terrain"]
+            if name not in TERRAINS:
+                raise DataError(f"unknown terrain {name!r} in {f}.terrain; presets: {sorted(TERRAINS)}", file=src,
+                                column=f"{f}.terrain")
+            terrain = TERRAINS[name]
+        elif "soil" in p:
+            s = p["soil"]
+            if not isinstance(s, dict):
+                raise DataError(f"{f}.soil must be an object with cohesion_kpa, friction_angle_deg, shear_modulus_m",
+                                file=src, column=f"{f}.soil")
+            vals = []
+            for key in ("cohesion_kpa", "friction_angle_deg", "shear_modulus_m"):
+                if key not in s:
+                    raise DataError(f"missing field '{f}.soil.{key}'", file=src, column=f"{f}.soil.{key}")
+                vals.append(_num(s[key], f"{f}.soil.{key}", src))
+            try:
+                terrain = Soil.from_kpa_deg(*vals, name=f"soil of patch {k}")
+            except DataError as e:
+                raise DataError(e.reason, file=src, column=f"{f}.soil") from None
+        elif default_terrain is not None:
+            terrain = default_terrain
+        else:
+            raise DataError(f"{f} needs 'terrain' (a preset name) or 'soil' (or pass --fit)", file=src, column=f)
+        patches.append(Patch(length, terrain, grade))
+    v0 = _num(obj.get("v0_m_s", 0.0), "v0_m_s", src, lo=0.0)
+    v1 = _num(obj.get("v_end_m_s", v0), "v_end_m_s", src, lo=0.0)
+    objective = obj.get("objective", "time")
+    if objective not in OBJECTIVES:
+        raise DataError(f"field 'objective' must be one of {OBJECTIVES}, got {objective!r}", file=src,
+                        column="objective")
+    ms = obj.get("max_slip")
+    ms = None if ms is None else _num(ms, "max_slip", src, lo=0.0, lo_open=True, hi=1.0, hi_open=True)
+    return Route(v0, v1, tuple(patches), objective, ms)
+
+
+def read_route(path: str, default_terrain: Any = None) -> Route:
+    """Read ROUTE.json (DESIGN.md section 8); DataError naming the file and the field."""
+    src = os.fspath(path)
+    try:
+        with open(src, encoding="utf-8") as fh:
+            obj = json.load(fh)
+    except OSError as e:
+        raise DataError(f"cannot read route file: {e.strerror}", file=src) from None
+    except json.JSONDecodeError as e:
+        raise DataError(f"invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}", file=src) from None
+    return route_from_dict(obj, source=src, default_terrain=default_terrain)

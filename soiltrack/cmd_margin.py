@@ -1,0 +1,65 @@
+"""``soiltrack margin``: traversability margin of a vehicle on a terrain, a soil or a fit."""
+from __future__ import annotations
+
+import argparse
+import json
+
+from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, vehicle_arg
+from .soilmodel import TERRAINS, DataError
+
+
+def terrain_args(a: argparse.Namespace, vehicle):
+    """``--terrain`` / ``--soil`` / ``--fit`` -> Soil or SoilUncertainty (exactly one; default none is an error)."""
+    from .cliutil import soil_arg
+    from .planning import load_fit_json
+
+    given = [x for x in (a.terrain, a.soil, a.fit) if x is not None]
+    if len(given) != 1:
+        raise DataError("give exactly one of --terrain NAME, --soil C_KPA,PHI_DEG,K_M or --fit FIT.json")
+    if a.fit is not None:
+        return load_fit_json(a.fit, vehicle)
+    if a.terrain is not None and a.terrain not in TERRAINS:
+        raise DataError(f"argument --terrain: unknown terrain {a.terrain!r}; presets: {sorted(TERRAINS)}")
+    return soil_arg(a.terrain, a.soil)
+
+
+def add_terrain_arguments(p: argparse.ArgumentParser) -> None:
+    """The shared ``--terrain | --soil | --fit`` arguments."""
+    p.add_argument("--terrain", help=f"terrain preset ({', '.join(sorted(TERRAINS))})")
+    p.add_argument("--soil", metavar="C_KPA,PHI_DEG,K_M", help="soil parameters (no Bekker parameters: no compaction)")
+    p.add_argument("--fit", metavar="FIT.json", help="what `soiltrack fit --json` printed (soil with its uncertainty)")
+
+
+def _num(text: str | None, name: str):
+    return None if text is None else floats_arg(text, name)[0]
+
+
+def _cmd_margin(a: argparse.Namespace) -> int:
+    from .planning import margin
+
+    vehicle = vehicle_arg(a.vehicle)
+    terrain = terrain_args(a, vehicle)
+    m = margin(terrain, vehicle, grade_deg=_num(a.grade_deg, "--grade-deg") or 0.0,
+               accel=_num(a.accel, "--accel") or 0.0, drawbar_N=_num(a.drawbar_N, "--drawbar-N") or 0.0,
+               speed=_num(a.speed, "--speed"), max_slip=_num(a.max_slip, "--max-slip"))
+    print(json.dumps(m.to_dict(), indent=2, allow_nan=False) if a.json else m.report())
+    if a.plot:
+        from .planning.plots import plot_margin
+
+        plot_margin(terrain, vehicle, m, a.plot)
+    return EXIT_OK if m.traversable else EXIT_SOLVER
+
+
+def add_parser(sub) -> None:
+    """Register the ``margin`` subcommand on an argparse subparsers object."""
+    p = sub.add_parser("margin", help="traversability margin: available against required thrust (exit 1: not traversable)")
+    p.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")
+    add_terrain_arguments(p)
+    p.add_argument("--grade-deg", metavar="G", help="grade in degrees, positive uphill (default 0)")
+    p.add_argument("--accel", metavar="A", help="acceleration to sustain, m/s^2 (default 0)")
+    p.add_argument("--drawbar-N", dest="drawbar_N", metavar="D", help="drawbar pull to deliver, N (default 0)")
+    p.add_argument("--speed", metavar="V", help="vehicle speed, m/s (brings in the power limit)")
+    p.add_argument("--max-slip", metavar="S", help="allowed slip in (0, 1) (default 0.2)")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
+    p.add_argument("--plot", metavar="PNG", help="save the thrust-slip curve against the limits and the requirement")
+    p.set_defaults(func=_cmd_margin)
