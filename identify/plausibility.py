@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..soilmodel.soil import Soil, SoilBounds
-from ..soilmodel.traction import max_thrust, tractive_force
+from ..soilmodel.traction import max_thrust, thrust_at
 from ..soilmodel.vehicle import Vehicle
 from .estimate_types import format_force
 
@@ -113,8 +113,12 @@ def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: Soi
     pos = slip > 0
     if not pos.any():
         return out
-    lo = tractive_force(slip[pos], _corner(bounds, True, model), vehicle, model, normal_load=load[pos])
-    hi = tractive_force(slip[pos], _corner(bounds, False, model), vehicle, model, normal_load=load[pos])
+    weak, strong = _corner(bounds, True, model), _corner(bounds, False, model)
+    both = thrust_at(np.tile(slip[pos], 2), np.repeat([weak.cohesion, strong.cohesion], pos.sum()),
+                     np.repeat([weak.friction_angle, strong.friction_angle], pos.sum()),
+                     np.repeat([weak.shear_modulus, strong.shear_modulus], pos.sum()), np.tile(load[pos], 2),
+                     vehicle, model)  # the weakest and the strongest soil's curves, one call
+    lo, hi = both[:pos.sum()], both[pos.sum():]
     f = force[pos]
     ratio = float(np.median(f / lo))
     if ratio < 1.0 / SCALE_FACTOR:

@@ -152,6 +152,17 @@ def resolve_soil(soil, vehicle: Vehicle, model: str | None = None, normal_load=N
     raise DataError(f"soil must be a Soil or a fit result, got {type(soil).__name__}")
 
 
+@lru_cache(maxsize=256)
+def _mapped(kind: str, model: str, n: int) -> ca.Function:
+    """``thrust_function(model)`` (``kind="F"``) or ``sensitivity_function(model)`` mapped over n points.
+
+    Cached per size: calling a scalar Function with rows of n points makes CasADi build a new
+    map on every call, which costs more than the evaluation itself.
+    """
+    f = thrust_function(model) if kind == "F" else sensitivity_function(model)
+    return f.map(n)
+
+
 def _args(slip, soil: Soil, vehicle: Vehicle, normal_load):
     W = vehicle.weight if normal_load is None else normal_load
     arrays = np.broadcast_arrays(np.asarray(slip, dtype=float), np.asarray(W, dtype=float))
@@ -185,7 +196,24 @@ def tractive_force(slip, soil, vehicle: Vehicle, model: str | None = None, norma
     shape, args = _args(slip, soil, vehicle, normal_load)
     if args[0].size == 0:
         return np.zeros(shape)
-    return np.asarray(thrust_function(model)(*args), dtype=float).reshape(shape)
+    return np.asarray(_mapped("F", model, args[0].size)(*args), dtype=float).reshape(shape)
+
+
+def thrust_at(slip, cohesion, friction_angle, shear_modulus, normal_load, vehicle: Vehicle,
+              model: str = "full") -> np.ndarray:
+    """Eq. 2 / Eq. 8 at many points, each with its own soil and load (SI arrays, broadcast together).
+
+    One mapped CasADi call for all points (e.g. several soils' curves at once).
+    """
+    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in
+                                   (slip, cohesion, friction_angle, shear_modulus, normal_load)))
+    shape = arrays[0].shape
+    if arrays[0].size == 0:
+        return np.zeros(shape)
+    rows = [a.reshape(1, -1) for a in arrays]
+    out = _mapped("F", check_model(model), rows[0].shape[1])(*rows[:4], rows[4], vehicle.track_length,
+                                                             vehicle.track_width)
+    return np.asarray(out, dtype=float).reshape(shape)
 
 
 def tractive_force_sensitivities(slip, soil: Soil, vehicle: Vehicle, model: str = "full",
@@ -195,8 +223,10 @@ def tractive_force_sensitivities(slip, soil: Soil, vehicle: Vehicle, model: str 
         raise DataError(f"soil must be a Soil (sensitivities to c and phi at a ridge point are meaningless), "
                         f"got {type(soil).__name__}")
     shape, args = _args(slip, soil, vehicle, normal_load)
-    out = np.asarray(sensitivity_function(model)(*args), dtype=float)
-    return out.reshape(-1, 3)  # auto-mapped call: 1 x 3n, one [c, phi, K] block per point
+    if args[0].size == 0:
+        return np.zeros((0, 3))
+    out = np.asarray(_mapped("dF", check_model(model), args[0].size)(*args), dtype=float)
+    return out.reshape(-1, 3)  # mapped call: 1 x 3n, one [c, phi, K] block per point
 
 
 def max_thrust(soil, vehicle: Vehicle, model: str | None = None, normal_load=None) -> float | np.ndarray:
