@@ -31,12 +31,12 @@ import numpy as np
 
 def _one(args):
     vehicle_name, terrain_name, seed, kw, gauss_newton, bias_correction, simex_fixed = args
-    from soiltrack.identify import drivelog
+    from soiltrack.identify import drivelog_covariance, drivelog_simex
     from soiltrack.identify.drivelog import fit_drive_log
     if gauss_newton:  # the former covariance: no sandwich (fit_drive_log falls back to Gauss-Newton)
-        drivelog._profiled_covariance = lambda *a, **k: None
+        drivelog_covariance.profiled_covariance = lambda *a, **k: None
     if simex_fixed is not None:
-        drivelog._SIMEX_FIXED_SELECTION = simex_fixed
+        drivelog_simex._SIMEX_FIXED_SELECTION = simex_fixed
     from soiltrack.soilmodel import TERRAINS, VEHICLES, max_thrust
     from soiltrack.soilmodel.simulation import simulate_drive_log
     veh, soil = VEHICLES[vehicle_name], TERRAINS[terrain_name]
