@@ -127,20 +127,23 @@ from .drivelog_noise import estimate_noise, estimate_noise_profile
 from .drivelog_nlp import (eval_pointwise, fmax_bounds, padded_size, ridge_point, solve_equation_error,
                            solve_output_error)
 from .drivelog_prepare import MIN_USABLE_SAMPLES, SLIP_BOUNDS, PreparedLog, prepare_drive_log
+from .drivelog_joint_fit import fit_joint
 from .drivelog_regime import classify_regime
+from .drivelog_residuals import DriveLogResiduals, drive_log_residuals
 from .drivelog_simex import BIAS_CORRECTIONS, SIMEX_LAMBDAS, simex_fit
 from .problem import FitFailed
 from .result import FitResult, build_result
 
 __all__ = ["fit_drive_log", "FORMULATIONS", "DriveLogFitError", "estimate_noise", "estimate_noise_profile",
            "prepare_drive_log", "PreparedLog", "padded_size", "MIN_USABLE_SAMPLES", "SLIP_BOUNDS",
-           "BIAS_CORRECTIONS", "SIMEX_LAMBDAS"]
+           "BIAS_CORRECTIONS", "SIMEX_LAMBDAS", "drive_log_residuals", "DriveLogResiduals"]
 
 #: Formulations of :func:`fit_drive_log`.
 FORMULATIONS = ("output-error", "equation-error")
 
 _OPTION_NAMES = ("sigma_torque", "sigma_sprocket_speed", "sigma_vehicle_speed", "torque_hold",
-                 "min_speed", "sprocket_equation", "max_iter", "tol", "print_level", "multistart")
+                 "min_speed", "sprocket_equation", "max_iter", "tol", "print_level", "multistart",
+                 "hull_channel", "sigma_accel")
 
 
 class DriveLogFitError(FitFailed):
@@ -152,7 +155,8 @@ class DriveLogFitError(FitFailed):
 
 def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: SoilBounds = PRACTICAL_BOUNDS,
                   x0=None, strict: bool = False, *, method: str = "ipopt", formulation: str = "output-error",
-                  bias_correction: str | None = None, **options: Any) -> FitResult:
+                  bias_correction: str | None = None, effects: Any = None, fixed: Any = None,
+                  **options: Any) -> FitResult:
     """Identify the soil under a tracked vehicle from a straight-line drive log.
 
     Parameters
@@ -187,8 +191,21 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
         held from each sample to the next) or ``"sample"`` (torque sampled from a continuous
         signal), see :func:`prepare_drive_log`; ``max_iter`` (500), ``tol`` (1e-9),
         ``print_level`` (0): IPOPT settings; ``multistart`` (True): if the first solve fails or
-        ends on a bound, also start from a second point (K on the other side of the range).
+        ends on a bound, also start from a second point (K on the other side of the range);
+        ``hull_channel`` (default: on exactly when effects are fitted): use the hull force
+        balance as a third residual channel (also for a nominal fit, e.g. to compare a nominal
+        and an effect fit on equal terms); ``sigma_accel`` (m/s^2): constant noise of the IMU
+        acceleration column (default: estimated from the log).
 
+    effects
+        Unmodelled effects (DESIGN.md section 6) whose parameters are fitted jointly with F_max and
+        K: a list of names (``["grade", "mass_error"]``) or anything
+        :func:`~soiltrack.soilmodel.effects.parse_effects` takes (given values are start values).
+        Adds the hull force balance as a third residual channel (see
+        :mod:`.drivelog_joint`). ``None`` (default): the nominal fit.
+    fixed
+        Effect parameters held at given values, e.g. ``{"grade": 0.05}`` or
+        ``{"drivetrain_friction.tau_v": 0.0}`` (the effect is switched on).
     bias_correction
         ``None`` (default: no correction) or ``"simex"``: opt-in simulation-extrapolation
         correction of the error-in-variables bias of F_max and K caused by the vehicle-speed
@@ -214,9 +231,14 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
     DriveLogFitError
         With ``strict=True``, when the solver fails or returns a non-finite point.
     """
+    joint = bool(effects) or bool(fixed) or bool(options.get("hull_channel", False))
     if bias_correction is not None:
+        if joint:
+            raise DataError("bias_correction is not available with effects or the hull channel")
         return simex_fit(log, vehicle, model, bounds, x0, strict, method, formulation, bias_correction, options)
     _check_arguments(model, method, formulation, options)
+    if joint and formulation != "output-error":
+        raise DataError("effects and the hull channel need the output-error formulation")
     bounds = PRACTICAL_BOUNDS if bounds is None else bounds
     prep = prepare_drive_log(log, vehicle, **_prepare_options(options), fixed_keep=options.get("_fixed_keep"))
     max_iter = int(options.get("max_iter", 500))
@@ -228,6 +250,14 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
     F_ref = 0.5 * (Fb[0] + Fb[1])
     K_ref = math.sqrt(Kb[0] * Kb[1])
     starts, c_hint = _start_points(prep, vehicle, model, x0, Fb, Kb, K_ref, bool(options.get("multistart", True)))
+    if joint:
+        pr0 = {"covariance": "sandwich"}
+        extra, warnings = _base_extra(log, prep, formulation, options, pr0["covariance"])
+        res, ok = fit_joint(log, vehicle, prep, model, bounds, effects, fixed, starts, c_hint, method, options,
+                            extra, warnings)
+        if strict and not ok:
+            raise DriveLogFitError(res)
+        return res
 
     solve = solve_output_error if formulation == "output-error" else solve_equation_error
     best, Fmax, K, slip = solve(prep, vehicle, F_ref, K_ref, Fb, Kb, starts, max_iter, tol, print_level)
@@ -241,7 +271,8 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
     W = vehicle.weight
     common = dict(data_kind="drive", model=model, method=method, residual_unit=pr["unit"], n_samples=n,
                   normal_loads=np.full(n, W), vehicle=vehicle, bounds=bounds, status=best["status"],
-                  iterations=best["iterations"], solve_time=best["time"], sigma_known=prep.sigma_known)
+                  iterations=best["iterations"], solve_time=best["time"], sigma_known=prep.sigma_known,
+                  residual_model=DriveLogResiduals(hull_in_fit=False))
     if not success:
         msg = (f"drive-log fit failed: IPOPT returned {best['status']}"
                + ("" if finite else " with non-finite values"))
@@ -258,7 +289,7 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
     c, phi = ridge_point(Fmax, vehicle, bounds, model, c_hint)
     J2 = pr["J2"]
     dFm_dc = vehicle.contact_area if model == "full" else 0.0
-    jac = np.column_stack([J2[:, 0] * dFm_dc, J2[:, 0] * W / math.cos(phi) ** 2, J2[:, 1]])
+    jac = np.column_stack([J2[:, 0] * dFm_dc, J2[:, 0] * (W / math.cos(phi) ** 2), J2[:, 1]])
 
     # identifiable combinations and the driving regime
     wres = pr["wres"]

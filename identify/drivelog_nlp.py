@@ -113,6 +113,7 @@ def _g_inverse(y: np.ndarray) -> np.ndarray:
 
 
 def fmax_bounds(bounds: SoilBounds, vehicle: Vehicle, model: str) -> tuple[float, float]:
+    """Range of ``F_max = A c + W tan(phi)`` over the soil bounds, N (cohesion-free: no ``A c``)."""
     W, A = vehicle.weight, vehicle.contact_area
     lo = W * math.tan(bounds.friction_angle[0])
     hi = W * math.tan(bounds.friction_angle[1])
@@ -123,16 +124,17 @@ def fmax_bounds(bounds: SoilBounds, vehicle: Vehicle, model: str) -> tuple[float
 
 
 def ridge_point(Fmax: float, vehicle: Vehicle, bounds: SoilBounds, model: str,
-                 c_hint: float | None) -> np.ndarray:
+                c_hint: float | None, normal_load: float | None = None) -> np.ndarray:
     """A ``(c, phi)`` on the ridge ``A c + W tan(phi) = F_max`` inside the bounds.
 
     The point is NOT an estimate of c and phi (only their combination is identifiable; the
     result object says so and reports the ridge's extent). It keeps ``c_hint`` (the initial
     guess's cohesion) when that is feasible, else the middle of the feasible cohesion range,
     so that neither coordinate sits on a bound merely by the choice of the point. For the
-    cohesion-free model c = 0 and ``phi = atan(F_max / W)``.
+    cohesion-free model c = 0 and ``phi = atan(F_max / W)``. ``normal_load`` (default the
+    vehicle's weight) is the log's actual normal load W.
     """
-    W, A = vehicle.weight, vehicle.contact_area
+    W, A = (vehicle.weight if normal_load is None else normal_load), vehicle.contact_area
     (clo, chi), (plo, phi_hi) = bounds.cohesion, bounds.friction_angle
     if model == "cohesion-free":
         return np.array([0.0, min(max(math.atan(Fmax / W), plo), phi_hi)])

@@ -55,7 +55,8 @@ class PreparedLog:
 def prepare_drive_log(log: DriveLog, vehicle: Vehicle, *, sigma_torque: float | None = None,
                       sigma_sprocket_speed: float | None = None, sigma_vehicle_speed: float | None = None,
                       torque_hold: str = "zoh", min_speed: float = 0.0,
-                      sprocket_equation: str = "thrust", fixed_keep: np.ndarray | None = None) -> PreparedLog:
+                      sprocket_equation: str = "thrust", fixed_keep: np.ndarray | None = None,
+                      noise_models: dict | None = None) -> PreparedLog:
     """Check a drive log, estimate its noise, compute the sprocket thrust and select samples.
 
     The sprocket equation ``I dw/dt = M_s - r F(i)`` is used in discrete form, without any
@@ -71,6 +72,8 @@ def prepare_drive_log(log: DriveLog, vehicle: Vehicle, *, sigma_torque: float | 
       ``r F(i_k) = M_k - I (w_{k+1} - w_{k-1}) / (2 h)``.
 
     With the seed's printed sprocket equation (``sprocket_equation="seed"``) ``W mu_r`` is added.
+    ``noise_models`` (``{"torque": (a, b), "sprocket_speed": ..., "vehicle_speed": ...}``)
+    replaces the noise estimated from the log (a held-out block uses the fit's noise).
 
     Raises
     ------
@@ -107,6 +110,8 @@ def prepare_drive_log(log: DriveLog, vehicle: Vehicle, *, sigma_torque: float | 
     # Noise models sigma = sqrt(a^2 + (b x)^2): given (constant), or estimated from the log.
     nm = {"torque": noise_model(M, sigma_torque), "sprocket_speed": noise_model(w, sigma_sprocket_speed),
           "vehicle_speed": noise_model(v, sigma_vehicle_speed)}
+    if noise_models is not None:
+        nm.update({k: (float(a), float(b)) for k, (a, b) in noise_models.items()})
     s_M = np.hypot(nm["torque"][0], nm["torque"][1] * M)
     s_w = np.hypot(nm["sprocket_speed"][0], nm["sprocket_speed"][1] * w)
     s_v = np.hypot(nm["vehicle_speed"][0], nm["vehicle_speed"][1] * v)
