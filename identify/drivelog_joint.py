@@ -62,7 +62,7 @@ from .drivelog_noise import noise_model
 from .drivelog_prepare import SLIP_BOUNDS, PreparedLog
 
 __all__ = ["JointData", "joint_data", "parse_fixed", "effect_layout",
-           "residual_function", "derivative_function", "joint_solver", "solve_slips", "CHANNELS",
+           "residual_function", "derivative_function", "joint_solver", "solve_slips", "best_slips", "CHANNELS",
            "DATA_ROWS"]
 
 #: Residual channels of a drive log (raw residuals: measured minus predicted).
@@ -266,6 +266,30 @@ def solve_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np
             break
         s = s_new
     return s
+
+
+def best_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np.ndarray,
+               starts: list[np.ndarray], iterations: int = 40) -> np.ndarray:
+    """Per-sample latent slips from several starts (:func:`solve_slips`), keeping the lowest cost.
+
+    The per-sample cost can have two minima (e.g. with ``slip_sinkage`` the hull balance
+    ``F(i) - W mu_s |i|`` is not monotone in the slip: a spinning track has a second, low-slip
+    solution); starting from the inverse thrust-slip curve AND from the slip measured from the
+    speeds (accurate at large slip) finds the right one.
+    """
+    n = D.shape[1]
+    fn = _slip_newton_function(vehicle, structure).map(n)
+    th = np.repeat(np.asarray(theta, dtype=float).reshape(-1, 1), n, axis=1)
+    best, best_c = None, None
+    for s0 in starts:
+        s = solve_slips(vehicle, structure, theta, D, s0, iterations)
+        c = np.asarray(fn(th, s.reshape(1, -1), D)[0], dtype=float).ravel()
+        if best is None:
+            best, best_c = s, c
+        else:
+            better = c < best_c
+            best, best_c = np.where(better, s, best), np.where(better, c, best_c)
+    return best
 
 
 @locked_cache(maxsize=16)

@@ -20,7 +20,7 @@ from ..soilmodel.effects import EFFECTS, effect_structure, parse_effects
 from ..soilmodel.errors import DataError
 from ..soilmodel.soil import SoilBounds
 from ..soilmodel.vehicle import Vehicle
-from .drivelog_joint import (CHANNELS, derivative_function, effect_layout, joint_data, joint_solver, parse_fixed,
+from .drivelog_joint import (CHANNELS, best_slips, derivative_function, effect_layout, joint_data, joint_solver, parse_fixed,
                              residual_function)
 from .drivelog_nlp import _g_inverse, _pad, _run_starts, fmax_bounds, padded_size, ridge_point
 from .drivelog_prepare import SLIP_BOUNDS, PreparedLog
@@ -100,9 +100,16 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     ubx = np.concatenate([[Fb[1] / F_ref, Kb[1] / K_ref], np.where(np.isfinite(e_hi), e_hi / esc, big),
                           np.full(N, SLIP_BOUNDS[1] / i_ref)])
 
+    lo_s, hi_s = SLIP_BOUNDS[0] + 1e-3, SLIP_BOUNDS[1] - 1e-3
+    slip_meas = np.clip(prep.slip_measured, lo_s, hi_s)
+
     def make_x0(Fmax0: float, K0: float) -> np.ndarray:
+        # latent slips: the per-sample optimum at the start values, from the inverse thrust-slip
+        # curve and from the measured slip (the per-sample cost can have two minima)
         y = np.clip(np.abs(prep.thrust) / Fmax0, 0.0, 0.98)
-        slip0 = np.clip(np.sign(prep.thrust) * _g_inverse(y) * K0 / l, SLIP_BOUNDS[0] + 1e-3, SLIP_BOUNDS[1] - 1e-3)
+        slip_inv = np.clip(np.sign(prep.thrust) * _g_inverse(y) * K0 / l, lo_s, hi_s)
+        th0 = np.concatenate([[Fmax0, K0], e0])
+        slip0 = np.clip(best_slips(vehicle, structure, th0, jd.D, [slip_inv, slip_meas], 25), lo_s, hi_s)
         return np.concatenate([[Fmax0 / F_ref, K0 / K_ref], e0 / esc, _pad(slip0 / i_ref, N)])
 
     starts = [(min(max(F0, Fb[0] * 1.001), Fb[1] * 0.999), K0) for F0, K0 in starts]

@@ -29,7 +29,7 @@ from ..soilmodel.data import DriveLog
 from ..soilmodel.effects import effect_structure, parse_effects
 from ..soilmodel.errors import DataError
 from ..soilmodel.vehicle import Vehicle
-from .drivelog_joint import CHANNELS, joint_data, residual_function, solve_slips
+from .drivelog_joint import CHANNELS, best_slips, joint_data, residual_function
 from .drivelog_nlp import _g_inverse
 from .drivelog_prepare import SLIP_BOUNDS, prepare_drive_log
 
@@ -128,7 +128,8 @@ def drive_log_residuals(result_or_params: Any, log: DriveLog, vehicle: Vehicle, 
     D_solve = jd.D.copy()
     if not hull:
         D_solve[8] = 0.0
-    slip = solve_slips(vehicle, structure, theta, D_solve, slip0)
+    slip_meas = np.clip(prep.slip_measured, SLIP_BOUNDS[0] + 1e-3, SLIP_BOUNDS[1] - 1e-3)
+    slip = best_slips(vehicle, structure, theta, D_solve, [slip0, slip_meas])
     th = np.repeat(theta.reshape(-1, 1), n, axis=1)
     e, raw, Fi, T = (np.asarray(o, dtype=float) for o in res_fn.map(n)(th, slip.reshape(1, -1), jd.D))
     r_eff = vehicle.sprocket_radius * (1 + ev.get("radius_error.eps", 0.0))
