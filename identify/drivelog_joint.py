@@ -261,7 +261,7 @@ def solve_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np
                 break
             t = np.where(worse, 0.5 * t, t)
         s_new = np.clip(s + t * step, lo, hi)
-        if np.max(np.abs(s_new - s)) < 1e-13:
+        if np.max(np.abs(s_new - s)) < 1e-10:
             s = s_new
             break
         s = s_new

@@ -104,12 +104,12 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     slip_meas = np.clip(prep.slip_measured, lo_s, hi_s)
 
     def make_x0(Fmax0: float, K0: float) -> np.ndarray:
-        # latent slips: the per-sample optimum at the start values, from the inverse thrust-slip
-        # curve and from the measured slip (the per-sample cost can have two minima)
+        # latent slips: near the per-sample optimum at the start values (6 Newton steps), from the
+        # inverse thrust-slip curve and from the measured slip (the per-sample cost can have two minima)
         y = np.clip(np.abs(prep.thrust) / Fmax0, 0.0, 0.98)
         slip_inv = np.clip(np.sign(prep.thrust) * _g_inverse(y) * K0 / l, lo_s, hi_s)
         th0 = np.concatenate([[Fmax0, K0], e0])
-        slip0 = np.clip(best_slips(vehicle, structure, th0, jd.D, [slip_inv, slip_meas], 25), lo_s, hi_s)
+        slip0 = np.clip(best_slips(vehicle, structure, th0, jd.D, [slip_inv, slip_meas], 6), lo_s, hi_s)
         return np.concatenate([[Fmax0 / F_ref, K0 / K_ref], e0 / esc, _pad(slip0 / i_ref, N)])
 
     starts = [(min(max(F0, Fb[0] * 1.001), Fb[1] * 0.999), K0) for F0, K0 in starts]
