@@ -63,6 +63,9 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     labels = list(labels)
     torque_hold = str(options.get("torque_hold", "zoh"))
     jd = joint_data(log, vehicle, prep, torque_hold, sigma_accel=options.get("sigma_accel"))
+    hull_used = options.get("hull_channel", True) is not False
+    if not hull_used:  # explicitly off: effects fitted from the speed and thrust channels only
+        jd.D[8] = 0.0
     n = prep.n_used
     N = padded_size(n)
     l, W = vehicle.track_length, vehicle.weight
@@ -141,7 +144,7 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     dof = max(n - int(np.count_nonzero(free)), 1)
     extra = dict(base_extra)
     warnings = list(base_warnings)
-    extra["hull_channel"] = {"accel_source": jd.accel_source,
+    extra["hull_channel"] = {"used": hull_used, "accel_source": jd.accel_source,
                              "accel_noise_m_s2": {"abs": jd.accel_noise[0], "rel": jd.accel_noise[1]},
                              "sigma_hull_median_N": float(np.median(jd.sigma_hull[np.isfinite(jd.sigma_hull)]))
                              if np.any(np.isfinite(jd.sigma_hull)) else None}
@@ -157,7 +160,7 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
                   effect_values=theta[2:], effect_bounds=tuple(zip(elo.tolist(), ehi.tolist())),
                   effect_units=tuple(units), effect_structure=structure,
                   fixed_labels=tuple(lab for lab in labels if lab in fixed_vals),
-                  residual_model=DriveLogResiduals(hull_in_fit=True))
+                  residual_model=DriveLogResiduals(hull_in_fit=hull_used))
     pd_all = 3 + len(labels)
     if not success:
         extra["covariance"] = "none"

@@ -70,9 +70,9 @@ def _params_from(result_or_params: Any, effects: Any) -> tuple[float, float, dic
           for k, col in (("torque", "torque_Nm"), ("sprocket_speed", "sprocket_speed_rad_s"),
                          ("vehicle_speed", "vehicle_speed_m_s"))}
     jp = ex.get("joint_parameters")
-    hull = "hull_channel" in ex
+    hull = bool(ex.get("hull_channel", {}).get("used", False))
     an = None
-    if hull:
+    if "hull_channel" in ex:
         a = ex["hull_channel"]["accel_noise_m_s2"]
         an = (a["abs"], a["rel"]) if ex["hull_channel"]["accel_source"] == "imu" else None
     if jp is not None:
