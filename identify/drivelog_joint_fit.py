@@ -20,7 +20,7 @@ from ..soilmodel.effects import EFFECTS, effect_structure, parse_effects
 from ..soilmodel.errors import DataError
 from ..soilmodel.soil import SoilBounds
 from ..soilmodel.vehicle import Vehicle
-from .drivelog_joint import (CHANNELS, best_slips, derivative_function, effect_layout, joint_data, joint_solver, parse_fixed,
+from .drivelog_joint import (CHANNELS, HULL_ROW, best_slips, derivative_function, effect_layout, joint_data, joint_solver, parse_fixed,
                              residual_function)
 from .drivelog_nlp import _g_inverse, _pad, _run_starts, fmax_bounds, padded_size, ridge_point
 from .drivelog_prepare import SLIP_BOUNDS, PreparedLog
@@ -65,7 +65,7 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     jd = joint_data(log, vehicle, prep, torque_hold, sigma_accel=options.get("sigma_accel"))
     hull_used = options.get("hull_channel", True) is not False
     if not hull_used:  # explicitly off: effects fitted from the speed and thrust channels only
-        jd.D[8] = 0.0
+        jd.D[HULL_ROW] = 0.0
     n = prep.n_used
     N = padded_size(n)
     l, W = vehicle.track_length, vehicle.weight
@@ -96,6 +96,8 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     Dp = np.hstack([jd.D, np.zeros((jd.D.shape[0], N - n))])
     Dp[0, n:] = 1.0  # padding: harmless finite values (zero weights)
     Dp[1, n:] = 1.0 / vehicle.sprocket_radius
+    Dp[5, n:] = 1.0  # sigma_v
+    Dp[7, n:] = 1.0  # sigma_T
     p = np.concatenate([scale, [i_ref], Dp.reshape(-1, order="F"), _pad(np.zeros(n), N, 1.0)])
     big = 1e20
     lbx = np.concatenate([[Fb[0] / F_ref, Kb[0] / K_ref], np.where(np.isfinite(e_lo), e_lo / esc, -big),
