@@ -54,7 +54,7 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
         raise DataError("effects and the hull channel need sprocket_equation='thrust' (the seed's printed "
                         "Eq. 3 mixes the resistance into the sprocket equation)")
     fixed_vals = parse_fixed(fixed)
-    names = set(parse_fixed_names(fixed_vals))
+    names = set(_fixed_names(fixed_vals))
     es = parse_effects(effects)
     if names - set(es.names):
         es = parse_effects({**es.to_dict(), **{n: None for n in names - set(es.names)}})
@@ -173,70 +173,14 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
                             residuals=np.where(np.isfinite(res), res, 0.0), normal_loads=np.full(n, W),
                             success=False, message=msg, warnings=tuple(warnings), extra=extra, **common), False
 
-    # Jacobian for the shared result object, in (F_lim, K, effects): a Gram-preserving stand-in
-    # Q S with S^T S = the profiled Gauss-Newton information (only J^T J enters the statistics),
-    # the free block then rescaled so that s2 (J^T J)^-1 is the sandwich covariance.
-    Jp = Jt.copy()
-    gn = np.sum(gi ** 2, axis=1)
-    okg = gn > 1e-300
-    Jp[okg] -= gi[okg, :, None] * (np.einsum("kc,kcp->kp", gi[okg], Jt[okg]) / gn[okg, None])[:, None, :]
-    info = np.einsum("kcp,kcq->pq", Jp, Jp)
-    wv, Uv = np.linalg.eigh(0.5 * (info + info.T))
-    S = (Uv * np.sqrt(np.clip(wv, 0.0, None))) @ Uv.T
-    Q, _ = np.linalg.qr(Jt[:, 1, :] + Jt[:, 2, :] + Jt[:, 0, :])
-    Jr = Q @ S
     s2 = 1.0 if prep.sigma_known else float(np.sum(wres ** 2)) / dof
-    kind = "gauss-newton"
-    fidx = np.nonzero(free)[0]
-    if cov_full is not None and np.all(ident[fidx]):
-        try:
-            Jf = Jr[:, fidx]
-            Lg = np.linalg.cholesky(Jf.T @ Jf)
-            Lv = np.linalg.cholesky(s2 * np.linalg.inv(cov_full[np.ix_(fidx, fidx)]))
-            Jr[:, fidx] = Jf @ np.linalg.solve(Lg.T, Lv.T)
-            kind = "sandwich"
-        except np.linalg.LinAlgError:
-            pass
+    Jr, cov2, kind = _result_jacobian(Jt, gi, free, ident, cov_full, s2)
     extra["covariance"] = kind
-    cov2 = None
-    if kind == "sandwich":
-        cov2 = cov_full[:2, :2]
-    else:
-        try:
-            cov2 = s2 * np.linalg.inv(Jr[:, :2].T @ Jr[:, :2])
-        except np.linalg.LinAlgError:
-            cov2 = None
     c, phi = ridge_point(Flim, vehicle, bounds, model, c_hint, normal_load=Nload)
     dFm_dc = vehicle.contact_area if model == "full" else 0.0
     jac = np.column_stack([Jr[:, 0] * dFm_dc, Jr[:, 0] * (Nload / math.cos(phi) ** 2), Jr[:, 1:]])
 
-    # confounding said in words, with the experiment that would separate (correlations from the
-    # sandwich, or from the information where the parameter is not estimable)
-    all_labels = ["F_max", "K"] + labels
-    for j, lab in enumerate(labels):
-        jj = 2 + j
-        if is_fixed[j]:
-            continue
-        corr = {}
-        for k2, other in enumerate(all_labels):
-            if k2 == jj or not free[k2]:
-                continue
-            if ident[jj] and ident[k2] and cov_full is not None and cov_full[jj, jj] > 0 and cov_full[k2, k2] > 0:
-                rho = float(cov_full[jj, k2] / math.sqrt(cov_full[jj, jj] * cov_full[k2, k2]))
-            elif A[jj, jj] > 0 and A[k2, k2] > 0:
-                rho = float(A[jj, k2] / math.sqrt(A[jj, jj] * A[k2, k2]))
-            else:
-                continue
-            if abs(rho) >= 0.9:
-                corr[other] = rho
-        txt = ", ".join(f"{o} (correlation {r:+.3f})" for o, r in corr.items())
-        if not ident[jj] or any(abs(r) >= WEAK_CORRELATION for r in corr.values()):
-            why = (f"its effect on the measurements is confounded with that of {txt}" if txt else
-                   "the log carries no information on it")
-            warnings.append(f"effect {lab} is not identifiable from this log: {why}. "
-                            f"{_separating_experiment(lab.partition('.')[0], corr)}")
-        elif corr:
-            warnings.append(f"effect {lab} is strongly correlated with {txt}: its interval is wide for that reason")
+    warnings.extend(_confounding_warnings(labels, is_fixed, free, ident, cov_full, A))
 
     # soil combinations and the regime (marginal over the effects)
     Fb_hit = [nm for nm, val, (lo, hi) in (("F_max", Flim, Fb), ("K", K, Kb))
@@ -261,7 +205,78 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
                         extra=extra, **common), True
 
 
-def parse_fixed_names(fixed_vals: dict[str, float]) -> list[str]:
+def _result_jacobian(Jt: np.ndarray, gi: np.ndarray, free: np.ndarray, ident: np.ndarray,
+                     cov_full: np.ndarray | None, s2: float) -> tuple[np.ndarray, np.ndarray | None, str]:
+    """Jacobian in ``(F_lim, K, effects)`` for the shared result object, the (F_lim, K) covariance, its kind.
+
+    A Gram-preserving stand-in ``Q S`` with ``S^T S`` the profiled Gauss-Newton information
+    (only ``J^T J`` enters the statistics; the rows are not per-sample sensitivities), whose free
+    block is then rescaled so that ``s2 (J^T J)^-1`` is the sandwich covariance (``"sandwich"``;
+    ``"gauss-newton"`` when the sandwich does not exist for every free parameter).
+    """
+    Jp = Jt.copy()
+    gn = np.sum(gi ** 2, axis=1)
+    okg = gn > 1e-300
+    Jp[okg] -= gi[okg, :, None] * (np.einsum("kc,kcp->kp", gi[okg], Jt[okg]) / gn[okg, None])[:, None, :]
+    info = np.einsum("kcp,kcq->pq", Jp, Jp)
+    wv, Uv = np.linalg.eigh(0.5 * (info + info.T))
+    S = (Uv * np.sqrt(np.clip(wv, 0.0, None))) @ Uv.T
+    Q, _ = np.linalg.qr(Jt[:, 1, :] + Jt[:, 2, :] + Jt[:, 0, :])
+    Jr = Q @ S
+    kind = "gauss-newton"
+    fidx = np.nonzero(free)[0]
+    if cov_full is not None and np.all(ident[fidx]):
+        try:
+            Jf = Jr[:, fidx]
+            Lg = np.linalg.cholesky(Jf.T @ Jf)
+            Lv = np.linalg.cholesky(s2 * np.linalg.inv(cov_full[np.ix_(fidx, fidx)]))
+            Jr[:, fidx] = Jf @ np.linalg.solve(Lg.T, Lv.T)
+            kind = "sandwich"
+        except np.linalg.LinAlgError:
+            pass
+    if kind == "sandwich":
+        return Jr, cov_full[:2, :2], kind
+    try:
+        return Jr, s2 * np.linalg.inv(Jr[:, :2].T @ Jr[:, :2]), kind
+    except np.linalg.LinAlgError:
+        return Jr, None, kind
+
+
+def _confounding_warnings(labels: list[str], is_fixed: np.ndarray, free: np.ndarray, ident: np.ndarray,
+                          cov_full: np.ndarray | None, A: np.ndarray) -> list[str]:
+    """Effect parameters confounded with the soil or another effect, in words, with the experiment.
+
+    Correlations from the sandwich covariance, or, where a parameter is not estimable, the
+    collinearity of the sensitivities (the information's ``A_ij / sqrt(A_ii A_jj)``).
+    """
+    warnings: list[str] = []
+    all_labels = ["F_max", "K"] + list(labels)
+    for j, lab in enumerate(labels):
+        jj = 2 + j
+        if is_fixed[j]:
+            continue
+        corr, kinds = {}, {}
+        for k2, other in enumerate(all_labels):
+            if k2 == jj or not free[k2]:
+                continue
+            if ident[jj] and ident[k2] and cov_full is not None and cov_full[jj, jj] > 0 and cov_full[k2, k2] > 0:
+                rho, kind = float(cov_full[jj, k2] / math.sqrt(cov_full[jj, jj] * cov_full[k2, k2])), "correlation"
+            elif A[jj, jj] > 0 and A[k2, k2] > 0:
+                rho, kind = float(A[jj, k2] / math.sqrt(A[jj, jj] * A[k2, k2])), "collinearity of their effects"
+            else:
+                continue
+            if abs(rho) >= WEAK_CORRELATION:
+                corr[other], kinds[other] = rho, kind
+        if ident[jj] and not corr:
+            continue
+        # (the result object states weak identifiability itself; this adds what separates them)
+        txt = ", ".join(f"{o} ({kinds[o]} {r:+.3f})" for o, r in corr.items())
+        what = f"cannot be told apart from {txt}" if txt else "is not determined (the log carries no information on it)"
+        warnings.append(f"effect {lab} {what} on this log. {_separating_experiment(lab.partition('.')[0], corr)}")
+    return warnings
+
+
+def _fixed_names(fixed_vals: dict[str, float]) -> list[str]:
     """Effect names that appear in a parsed ``fixed`` mapping."""
     return sorted({lab.partition(".")[0] for lab in fixed_vals})
 
