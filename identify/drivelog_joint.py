@@ -314,20 +314,25 @@ def joint_solver(vehicle: Vehicle, structure: EffectSet, n: int, max_iter: int, 
     """IPOPT solver of the joint problem with ``n`` (padded) samples.
 
     Variables ``[theta / scale (2 + n_e), i_1 / i_ref, ..., i_n / i_ref]``; parameters
-    ``[scale (2 + n_e), i_ref, D (9 n, column-major per sample), pad (n)]``. Padding samples
+    ``[scale (2 + n_e), i_ref, D (10 n, column-major per sample), pad (n)]``. Padding samples
     have zero weights and ``pad = 1`` (a unit penalty pins their latent slip).
     """
     res, labels = residual_function(vehicle, structure)
     p_dim = res.size1_in(0)
-    x = ca.SX.sym("x", p_dim + n)
-    p = ca.SX.sym("p", p_dim + 1 + len(DATA_ROWS) * n + n)
+    x = ca.MX.sym("x", p_dim + n)
+    p = ca.MX.sym("p", p_dim + 1 + len(DATA_ROWS) * n + n)
     scale = p[:p_dim]
     i_ref = p[p_dim]
     D = ca.reshape(p[p_dim + 1:p_dim + 1 + len(DATA_ROWS) * n], len(DATA_ROWS), n)
     pad = p[p_dim + 1 + len(DATA_ROWS) * n:]
     theta = x[:p_dim] * scale
     z = x[p_dim:]
-    E = res.map(n)(ca.repmat(theta, 1, n), (z * i_ref).T, D)[0]
-    f = 0.5 * (ca.sumsqr(E) + ca.sumsqr(pad * z))
-    opts = dict(_QUIET, **{"ipopt.max_iter": max_iter, "ipopt.tol": tol, "ipopt.print_level": print_level})
+    # MX graph over the mapped per-sample cost (not expanded): built in about a third of the time
+    # of the inlined SX graph (3,000 samples: 3.8 s against 10.4 s first call, same optimum);
+    # derivatives are maps of the per-sample SX derivatives
+    th1, s1, d1 = ca.SX.sym("th", p_dim), ca.SX.sym("s"), ca.SX.sym("d", len(DATA_ROWS))
+    cost1 = ca.Function("drivelog_joint_cost", [th1, s1, d1], [0.5 * ca.sumsqr(res(th1, s1, d1)[0])])
+    f = ca.sum2(cost1.map(n)(ca.repmat(theta, 1, n), (z * i_ref).T, D)) + 0.5 * ca.sumsqr(pad * z)
+    opts = dict(_QUIET, **{"ipopt.max_iter": max_iter, "ipopt.tol": tol, "ipopt.print_level": print_level,
+                           "expand": False})
     return ca.nlpsol(f"drivelog_joint_{n}", "ipopt", {"x": x, "p": p, "f": f}, opts)

@@ -28,8 +28,10 @@ from .drivelog_regime import classify_regime
 from .drivelog_residuals import DriveLogResiduals
 from .result import WEAK_CORRELATION, FitResult, build_result
 
-__all__ = ["fit_joint", "NULL_EIG_TOL"]
+__all__ = ["fit_joint", "NULL_EIG_TOL", "CONFUSED_CORRELATION"]
 
+#: Correlation beyond which an effect parameter is said to be confounded with another estimate.
+CONFUSED_CORRELATION = 0.95
 #: Relative eigenvalue of the (scaled) information below which a direction is not identifiable.
 NULL_EIG_TOL = 1e-10
 
@@ -265,13 +267,15 @@ def _confounding_warnings(labels: list[str], is_fixed: np.ndarray, free: np.ndar
                 rho, kind = float(A[jj, k2] / math.sqrt(A[jj, jj] * A[k2, k2])), "collinearity of their effects"
             else:
                 continue
-            if abs(rho) >= WEAK_CORRELATION:
+            if abs(rho) >= CONFUSED_CORRELATION:
                 corr[other], kinds[other] = rho, kind
         if ident[jj] and not corr:
             continue
         # (the result object states weak identifiability itself; this adds what separates them)
         txt = ", ".join(f"{o} ({kinds[o]} {r:+.3f})" for o, r in corr.items())
-        what = f"cannot be told apart from {txt}" if txt else "is not determined (the log carries no information on it)"
+        hard = not ident[jj] or any(abs(r) >= WEAK_CORRELATION for r in corr.values())
+        what = (f"{'cannot' if hard else 'can hardly'} be told apart from {txt}" if txt
+                else "is not determined (the log carries no information on it)")
         warnings.append(f"effect {lab} {what} on this log. {_separating_experiment(lab.partition('.')[0], corr)}")
     return warnings
 
