@@ -1,0 +1,620 @@
+"""Sim-to-real gap diagnosis: where the model and the data part, which effect explains it, how far it shrinks.
+
+:func:`diagnose` runs, on a drive log or a tractive-force / drawbar-pull sweep:
+
+1. **Screen** (one fit): the nominal model is fitted with every candidate effect switched on
+   and held at its off value, which is the nominal fit itself but also gives the Jacobian
+   columns of the effects' parameters. Each candidate's score test
+   (:func:`~.screening.score_test`) asks whether moving its parameter away from "off" would
+   explain the residuals beyond what the soil can absorb.
+2. **The gap**: the samples (in time order for a log, in slip order for a sweep) are cut into
+   contiguous blocks, alternately held out (:func:`~.gap.blocked_folds`, two folds). The
+   nominal model is fitted on one part and predicts the other, channel by channel, against
+   each channel's noise floor (:func:`~.gap.noise_floor`).
+3. **Where** (:func:`~.gap.localise`, :func:`~.gap.change_window`, :func:`~.gap.whiteness`,
+   :func:`~.gap.lag_peak`): the share of the misfit by channel and by slip, speed and time
+   range; the time window of a change; residual whiteness; a lag peak against the inputs.
+4. **Which** (:mod:`.selection`): the candidates screening keeps are refitted on each training
+   part (jointly with the soil, through :func:`~.fitting.fit`), scored on the held-out part,
+   and compared with the nominal model and a flexible discrepancy term by cross-validation
+   weights. Verdict, confidence, confusable pairs and the experiment that separates them.
+5. **How far it shrinks**: held-out RMS per channel before and after adding the verdict's
+   effect, and the soil before and after (the bias the missing effect caused).
+
+All model evaluations go through :func:`~.fitting.fit` and its results; no physics here.
+"""
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..soilmodel.data import DriveLog, SlipData
+from ..soilmodel.effects import EFFECTS
+from ..soilmodel.errors import DataError
+from ..soilmodel.vehicle import Vehicle
+from .gap import (Segment, blocked_folds, change_window, lag_peak, localise, long_run_factor, noise_floor,
+                  whiteness)
+from .screening import Screen, newey_west_lag, score_test
+from .selection import (DISCREPANCY, NOMINAL, Verdict, confusable_groups, cv_weights, decide, fit_discrepancy,
+                        gap_p_value, separating_experiment)
+
+__all__ = ["diagnose", "Diagnosis", "RankEntry"]
+
+#: Significance level of the tests (screening is Bonferroni-corrected over the candidates).
+ALPHA = 0.01
+
+
+def _f(x) -> float | None:
+    """A finite float or None (JSON never carries NaN/inf)."""
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return None
+    return x if math.isfinite(x) else None
+
+
+@dataclass(frozen=True)
+class RankEntry:
+    """One model compared in the diagnosis.
+
+    Attributes
+    ----------
+    effect
+        Effect name, ``"none"`` (the nominal model) or ``"discrepancy"`` (the flexible term).
+    weight
+        Cross-validation weight (0-1; the weights of all entries sum to 1).
+    holdout_rmse_before, holdout_rmse_after
+        Held-out RMS per channel of the nominal model and of this model (channel's unit).
+    shrink
+        ``1 - after/before`` of the noise-standardised held-out RMS pooled over the channels.
+    parameters
+        Fitted effect parameters (on all the data) ``{param: {value, stderr, ci95, identifiable,
+        at_bound}}``; empty for ``none`` and ``discrepancy``.
+    screen
+        The score test of this candidate, when it is an effect.
+    converged
+        Whether every fit of this model converged.
+    """
+
+    effect: str
+    weight: float
+    holdout_rmse_before: dict[str, float]
+    holdout_rmse_after: dict[str, float]
+    shrink: float | None
+    parameters: dict
+    screen: Screen | None = None
+    converged: bool = True
+
+    def to_dict(self) -> dict:
+        """The JSON entry of DESIGN.md section 8."""
+        return {"effect": self.effect, "weight": float(self.weight),
+                "holdout_rmse_before": {k: _f(v) for k, v in self.holdout_rmse_before.items()},
+                "holdout_rmse_after": {k: _f(v) for k, v in self.holdout_rmse_after.items()},
+                "shrink": _f(self.shrink), "parameters": self.parameters, "converged": bool(self.converged)}
+
+
+@dataclass(frozen=True, eq=False)
+class Diagnosis:
+    """Outcome of :func:`diagnose`. Read ``report()``; ``to_json()`` is the CLI contract.
+
+    Attributes
+    ----------
+    verdict, confidence, reason
+        An effect name, ``"none"`` or ``"unexplained"``; the weight of the verdict (0-1); why.
+    ranking
+        :class:`RankEntry` per compared model, best first.
+    screens
+        Score test of every candidate.
+    confusable
+        ``[((a, b), correlation, experiment), ...]``: effects the data cannot tell apart.
+    localisation
+        :class:`~.gap.Segment` list sorted by share.
+    change
+        The time (or slip) window whose residual mean shifts most, or None.
+    whiteness, lags
+        Residual whiteness per channel; cross-correlation peaks of the residuals with the inputs.
+    noise
+        Noise floor per channel (channel's unit).
+    holdout_rmse_before, holdout_rmse_after, shrink
+        Held-out RMS per channel before and after the verdict's effect; ``1 - after/before``
+        (None for ``none`` and ``unexplained``).
+    soil_before, soil_after
+        Soil of the nominal fit and of the fit with the verdict's effect (None for ``none``).
+    gap_p_value
+        p-value of the nominal held-out error against the noise floor.
+    converged
+        Whether all fits converged; ``notes`` lists what did not, and other caveats.
+    """
+
+    data_kind: str
+    n_samples: int
+    candidates: tuple[str, ...]
+    verdict: str
+    confidence: float
+    reason: str
+    ranking: tuple[RankEntry, ...]
+    screens: tuple[Screen, ...]
+    confusable: tuple
+    localisation: tuple[Segment, ...]
+    change: Any
+    whiteness: dict
+    lags: dict
+    noise: dict
+    holdout_rmse_before: dict
+    holdout_rmse_after: dict | None
+    shrink: float | None
+    soil_before: dict
+    soil_after: dict | None
+    gap_p_value: float
+    converged: bool
+    notes: tuple[str, ...] = ()
+    elapsed_s: float = 0.0
+    curves: dict = field(default_factory=dict, repr=False)
+
+    # ------------------------------------------------------------------ output
+    def to_dict(self) -> dict:
+        """The JSON object of DESIGN.md section 8 (never NaN: null instead)."""
+        return {
+            "verdict": self.verdict, "confidence": float(self.confidence), "reason": self.reason,
+            "ranking": [e.to_dict() for e in self.ranking],
+            "confusable": [list(p) for p, _, _ in self.confusable],
+            "confusable_detail": [{"effects": list(p), "correlation": _f(c), "experiment": x}
+                                  for p, c, x in self.confusable],
+            "localisation": [s.to_dict() for s in self.localisation],
+            "change_window": None if self.change is None else self.change.to_dict(),
+            "shrink": _f(self.shrink),
+            "holdout_rmse_before": {k: _f(v) for k, v in self.holdout_rmse_before.items()},
+            "holdout_rmse_after": None if self.holdout_rmse_after is None else
+            {k: _f(v) for k, v in self.holdout_rmse_after.items()},
+            "noise_floor": {k: _f(v) for k, v in self.noise.items()},
+            "gap_p_value": _f(self.gap_p_value),
+            "soil_before": self.soil_before, "soil_after": self.soil_after,
+            "screening": [s.to_dict() for s in self.screens],
+            "whiteness": self.whiteness, "lags": self.lags,
+            "data_kind": self.data_kind, "n_samples": int(self.n_samples), "candidates": list(self.candidates),
+            "converged": bool(self.converged), "notes": list(self.notes), "elapsed_s": _f(self.elapsed_s),
+        }
+
+    def to_json(self, indent: int | None = 2) -> str:
+        """:meth:`to_dict` as JSON."""
+        return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
+
+    def report(self) -> str:
+        """A plain-words report a terramechanics engineer reads."""
+        L = []
+        kind = "drive log" if self.data_kind == "drive" else "slip sweep"
+        L.append(f"Sim-to-real gap diagnosis of a {kind} ({self.n_samples} samples)")
+        L.append("")
+        head = {"none": "no gap beyond the noise", "unexplained": "a real gap that no candidate explains well"}
+        L.append(f"Verdict: {self.verdict} ({head.get(self.verdict, 'the effect that explains the gap best')}), "
+                 f"confidence {self.confidence:.2f}")
+        L.append(f"  why: {self.reason}")
+        if not self.converged:
+            L.append("  CAUTION: not every fit converged (see notes)")
+        L.append("")
+        L.append("The gap (nominal model fitted on alternate blocks, predicting the blocks it did not see):")
+        for ch, v in self.holdout_rmse_before.items():
+            nf = self.noise.get(ch, 0.0)
+            ratio = f"{v / nf:.2f} x the noise floor {_fmt(nf)}" if nf > 0 else "noise floor unknown"
+            L.append(f"  {ch}: held-out RMS {_fmt(v)} = {ratio}")
+        L.append(f"  probability that pure noise leaves this much: {self.gap_p_value:.2g}")
+        L.append("")
+        L.append("Where it lies (share of the misfit above the noise; * = significant at 1 %):")
+        shown = [s for s in self.localisation if s.share >= 0.05][:8]
+        for s in shown:
+            rng = "whole channel" if s.range is None else f"{s.dimension} {_fmt(s.range[0])} to {_fmt(s.range[1])}"
+            L.append(f"  {'*' if s.significant else ' '} {s.share:5.1%}  {s.channel:<24s} {rng} "
+                     f"(mean residual {_fmt(s.mean)})")
+        if not shown:
+            L.append("  nowhere above the noise")
+        if self.change is not None:
+            c = self.change
+            what = "time" if self.data_kind == "drive" else "slip"
+            L.append(f"  {'a significant' if c.significant else 'no significant'} window in {what}: "
+                     f"{_fmt(c.start)} to {_fmt(c.end)} shifts the {c.channel} residual by {_fmt(c.shift)} "
+                     f"(p = {c.p_value:.2g})")
+        for ch, w in self.whiteness.items():
+            L.append(f"  residuals of {ch}: lag-1 autocorrelation {w['lag1']:.2f}, "
+                     f"{'white' if w['white'] else 'not white'} (Ljung-Box p = {w['p_value']:.2g})")
+        for key, lg in self.lags.items():
+            if lg["lag"] != 0 and abs(lg["corr"]) > max(lg["bound"], 1.5 * abs(lg["corr_at_0"])):
+                L.append(f"  {key}: cross-correlation peaks at lag {lg['lag']} samples ({lg['corr']:.2f}): "
+                         "a delay between the channels?")
+        L.append("")
+        L.append("Which effect (score test at the nominal fit, projected off the soil's sensitivities):")
+        for s in sorted(self.screens, key=lambda s: -s.statistic):
+            if not s.screenable:
+                L.append(f"    {s.effect:<22s} leaves no signature in these data")
+            else:
+                L.append(f"  {'*' if s.p_value < ALPHA / max(1, len(self.screens)) else ' '} {s.effect:<22s} "
+                         f"LM = {s.statistic:10.1f} ({s.dof} dof), p = {s.p_value:.2g}")
+        L.append("Compared on held-out data (weight = evidence from the blocks the fit did not see):")
+        for e in self.ranking:
+            sh = "" if e.shrink is None else f", held-out error shrinks by {e.shrink:.0%}"
+            L.append(f"  {e.effect:<22s} weight {e.weight:.3f}{sh}{'' if e.converged else ' (a fit did not converge)'}")
+            for p, d in e.parameters.items():
+                L.append(f"      {p} = {_fmt(d.get('value'))} +- {_fmt(d.get('stderr'))} "
+                         f"{'' if d.get('identifiable', True) else '(not identifiable)'}"
+                         f"{' (at a bound)' if d.get('at_bound') else ''}")
+        for (a, b), corr, exp in self.confusable:
+            cs = f" (correlation of their sensitivities {corr:.2f})" if corr is not None and math.isfinite(corr) else ""
+            L.append(f"  {a} and {b} cannot be told apart on these data{cs}; to separate them: {exp}")
+        if self.verdict not in ("none", "unexplained") and self.holdout_rmse_after is not None:
+            L.append("")
+            L.append(f"How far the gap shrinks with {self.verdict} (refitted on the training blocks only):")
+            for ch, b in self.holdout_rmse_before.items():
+                a = self.holdout_rmse_after.get(ch)
+                L.append(f"  {ch}: {_fmt(b)} -> {_fmt(a)}")
+            L.append(f"  shrink 1 - after/before = {self.shrink:.2f}")
+        L.append("")
+        L.append("Soil (identifiable quantities), nominal fit" + (" -> with the effect:" if self.soil_after else ":"))
+        for k, v in self.soil_before.items():
+            if k in ("identifiable", "converged"):
+                continue
+            after = "" if not self.soil_after else f" -> {_fmt(self.soil_after.get(k))}"
+            L.append(f"  {k}: {_fmt(v)}{after}")
+        if self.soil_after:
+            L.append("  (the change is the bias the missing effect caused in the nominal fit)")
+        for n in self.notes:
+            L.append(f"Note: {n}")
+        L.append(f"({self.elapsed_s:.1f} s)")
+        return "\n".join(L)
+
+    def plot(self, path: str) -> str:
+        """Save a figure: held-out residuals before/after with the noise band, localisation, weights."""
+        from .diagnosis_plot import plot_diagnosis
+
+        return plot_diagnosis(self, path)
+
+
+def _fmt(x) -> str:
+    if x is None:
+        return "n/a"
+    x = float(x)
+    if not math.isfinite(x):
+        return "n/a"
+    if x == 0:
+        return "0"
+    a = abs(x)
+    if a >= 1e4 or a < 1e-3:
+        return f"{x:.3g}" if 1e-3 <= a < 1e6 else f"{x:.3e}"
+    return f"{x:.4g}"
+
+
+# ----------------------------------------------------------------------------- helpers on fits
+def _subset(data, idx: np.ndarray):
+    return data.subset(np.asarray(idx))
+
+
+def _channels(res, data) -> dict[str, np.ndarray]:
+    out = res.residuals_on(data)
+    return {k: np.asarray(v, dtype=float).ravel() for k, v in out.items()}
+
+
+def _soil_summary(res) -> dict:
+    """The soil of a fit: values in kPa, deg, m (None where not identifiable), F_max, K."""
+    out: dict[str, Any] = {}
+    try:
+        params = res.parameters
+    except Exception:  # noqa: BLE001 - a failed fit may have no statistics
+        params = {}
+    keys = {"cohesion": "cohesion_kpa", "friction_angle": "friction_angle_deg", "shear_modulus": "shear_modulus_m"}
+    ident = {}
+    for name, key in keys.items():
+        pe = params.get(name)
+        if pe is None:
+            out[key] = None
+            continue
+        d = pe.to_dict()
+        out[key] = _f(d["value"]) if pe.identifiable or pe.fixed else None
+        ident[name] = bool(pe.identifiable)
+    try:
+        for cb in res.combinations:
+            if cb.name.startswith("F_max@"):
+                out.setdefault("max_thrust_N", _f(cb.value))
+    except Exception:  # noqa: BLE001
+        pass
+    out.setdefault("max_thrust_N", None)
+    out["identifiable"] = ident
+    out["converged"] = bool(getattr(res, "success", False))
+    return out
+
+
+def _effect_params(res, name: str) -> dict:
+    eff = getattr(res, "effects", {}) or {}
+    out = {}
+    for p, est in (eff.get(name) or {}).items():
+        if hasattr(est, "to_dict"):
+            d = est.to_dict()
+        elif isinstance(est, dict):
+            d = dict(est)
+        else:
+            d = {"value": est}
+        out[p] = {k: (_f(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v) for k, v in d.items()
+                  if k in ("value", "stderr", "ci95", "identifiable", "at_bound")}
+        if isinstance(out[p].get("ci95"), (list, tuple)):
+            out[p]["ci95"] = [_f(v) for v in out[p]["ci95"]]
+    return out
+
+
+def _order(data) -> np.ndarray:
+    """Natural order of the samples: time for a log, slip for a sweep."""
+    if isinstance(data, DriveLog):
+        return np.arange(data.n_samples)
+    return np.argsort(np.asarray(data.slip), kind="stable")
+
+
+def _variables(data, vehicle: Vehicle, n: int) -> dict[str, np.ndarray]:
+    """Localisation variables aligned with the last ``n`` samples."""
+    if isinstance(data, DriveLog):
+        v = np.asarray(data.vehicle_speed, dtype=float)
+        rw = vehicle.sprocket_radius * np.asarray(data.sprocket_speed, dtype=float)
+        slip = np.where(rw > 0.05 * max(1e-9, float(np.max(np.abs(rw)))), 1.0 - v / np.where(rw == 0, 1.0, rw), 0.0)
+        out = {"time": np.asarray(data.time, dtype=float), "speed": v, "slip": np.clip(slip, -1.0, 1.0)}
+    else:
+        out = {"slip": np.asarray(data.slip, dtype=float)}
+    return {k: x[-n:] for k, x in out.items()}
+
+
+def _align(x: np.ndarray, n: int) -> np.ndarray:
+    return np.asarray(x)[-n:]
+
+
+def _check_candidates(candidates, data) -> tuple[str, ...]:
+    kind = "drive" if isinstance(data, DriveLog) else "sweep"
+    if candidates is None:
+        return tuple(n for n, e in EFFECTS.items() if kind in e.shows_in)
+    if isinstance(candidates, str):
+        candidates = [c for c in candidates.split(",") if c.strip()]
+    out = []
+    for c in candidates:
+        c = str(c).strip()
+        if c not in EFFECTS:
+            raise DataError(f"unknown candidate effect {c!r}; valid: {', '.join(EFFECTS)}")
+        if c not in out:
+            out.append(c)
+    return tuple(out)
+
+
+# ----------------------------------------------------------------------------- the diagnosis
+def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full",
+             candidates: Sequence[str] | None = None, n_blocks: int = 10, max_refits: int = 3,
+             alpha: float = ALPHA) -> Diagnosis:
+    """Diagnose the gap between the nominal model and a drive log or a slip sweep.
+
+    Parameters
+    ----------
+    data
+        A drive log or tractive-force / drawbar-pull sweep (from :func:`~soiltrack.soilmodel.read_csv`).
+    vehicle
+        The nominal vehicle.
+    model
+        ``"full"`` or ``"cohesion-free"``.
+    candidates
+        Effect names to consider (default: every effect that shows in this kind of data).
+    n_blocks
+        Number of contiguous blocks of the blocked hold-out (alternately held out).
+    max_refits
+        At most this many candidates (the most significant in screening) are refitted.
+    alpha
+        Significance level (screening is Bonferroni-corrected over the candidates).
+
+    Returns
+    -------
+    Diagnosis
+
+    Raises
+    ------
+    DataError
+        Unknown candidate, wrong data type, too few samples for a blocked hold-out.
+    """
+    from .fitting import fit
+
+    t0 = time.perf_counter()
+    if not isinstance(data, (SlipData, DriveLog)):
+        raise DataError(f"diagnose takes SlipData or DriveLog, got {type(data).__name__}")
+    if not isinstance(vehicle, Vehicle):
+        raise DataError(f"vehicle must be a Vehicle, got {type(vehicle).__name__}")
+    cands = _check_candidates(candidates, data)
+    n = data.n_samples
+    if n < 8:
+        raise DataError(f"a diagnosis needs at least 8 samples for a blocked hold-out, got {n}",
+                        file=getattr(data, "source", None))
+    is_log = isinstance(data, DriveLog)
+    notes: list[str] = []
+    converged = True
+
+    def run_fit(d, effects=(), fixed=None):
+        nonlocal converged
+        kw = {}
+        if effects:
+            kw["effects"] = list(effects)
+        if fixed:
+            kw["fixed"] = dict(fixed)
+        res = fit(d, vehicle, model=model, **kw)
+        if not res.success:
+            converged = False
+        return res
+
+    # --- 1. screening: one fit with every candidate held at its off value -------------------------
+    screen_fit = None
+    screens: list[Screen] = []
+    if cands:
+        fixed = {f"{c}.{p.name}": p.off_value for c in cands for p in EFFECTS[c].params if not p.integer}
+        screen_fit = run_fit(data, cands, fixed)
+        names = list(screen_fit.parameter_names)
+        J = np.asarray(screen_fit.jacobian, dtype=float)
+        r = np.asarray(screen_fit.weighted_residuals, dtype=float).ravel()
+        eff_cols = {c: [j for j, nm in enumerate(names) if nm.startswith(c + ".")] for c in cands}
+        eff_all = {j for js in eff_cols.values() for j in js}
+        free = [j for j in range(len(names)) if j not in eff_all]
+        lag = newey_west_lag(r.size) if is_log else 0
+        for c in cands:
+            js = eff_cols[c]
+            screens.append(score_test(c, J[:, free], J[:, js], r, tuple(names[j] for j in js), hac_lag=lag))
+        nominal_full = screen_fit
+    else:
+        nominal_full = run_fit(data)
+    screenable = [s for s in screens if s.screenable]
+    thr = alpha / max(1, len(screenable))
+    significant = sorted((s for s in screenable if s.p_value < thr), key=lambda s: -s.statistic)
+    refit = [s.effect for s in significant[:max_refits]]
+    if len(significant) > max_refits:
+        notes.append(f"{len(significant)} candidates screened significant; the {max_refits} strongest were refitted "
+                     f"({', '.join(refit)})")
+
+    # --- 2. the gap: blocked hold-out ------------------------------------------------------------------
+    full_res = _channels(nominal_full, data)
+    channels = list(full_res)
+    order = _order(data)
+    m_full = {ch: v.size for ch, v in full_res.items()}
+    noise = {}
+    for ch, rr in full_res.items():
+        o = order[order >= n - rr.size] - (n - rr.size) if rr.size < n else order
+        noise[ch] = noise_floor(rr, o)
+    # a noise-free simulated log gives a zero floor: use a tiny fraction of the channel's scale instead
+    for ch, s in noise.items():
+        if not s > 0:
+            scale = float(np.max(np.abs(full_res[ch]))) if full_res[ch].size else 0.0
+            noise[ch] = max(1e-12, 1e-9 * scale)
+            notes.append(f"no measurable noise in {ch}: the noise floor is set to a negligible value")
+    folds = blocked_folds(n, n_blocks)
+    folds = [(order[a], order[b]) for a, b in folds]  # blocks in the natural order (slip for sweeps)
+    folds = [(np.sort(a), np.sort(b)) for a, b in folds]
+    nat = {"drive": "time"}.get("drive" if is_log else "sweep", "slip")
+
+    def x_of(idx):
+        return (np.asarray(data.time, dtype=float) if is_log else np.asarray(data.slip, dtype=float))[idx]
+
+    held: dict[str, dict[str, list]] = {}  # model -> channel -> list of held-out residual arrays
+    held_x: dict[str, list] = {ch: [] for ch in channels}
+    train_fits: dict[str, list] = {}
+
+    def score_model(name, effects=()):
+        held[name] = {ch: [] for ch in channels}
+        fits = []
+        for tr, te in folds:
+            res = run_fit(_subset(data, tr), effects)
+            fits.append(res)
+            rt = _channels(res, _subset(data, te))
+            for ch in channels:
+                held[name][ch].append(rt[ch])
+        train_fits[name] = fits
+
+    score_model(NOMINAL)
+    for tr, te in folds:
+        for ch in channels:
+            held_x[ch].append(_align(x_of(te), held[NOMINAL][ch][len(held_x[ch])].size))
+    # discrepancy term: spline in slip (sweep) or time (log) fitted to the nominal training residuals
+    held[DISCREPANCY] = {ch: [] for ch in channels}
+    n_knots = 8 if is_log else max(2, min(5, n // 8))
+    for k, (tr, te) in enumerate(folds):
+        rtr = _channels(train_fits[NOMINAL][k], _subset(data, tr))
+        for ch in channels:
+            xtr = _align(x_of(tr), rtr[ch].size)
+            pred, _ = fit_discrepancy(xtr, rtr[ch], held_x[ch][k], n_knots)
+            held[DISCREPANCY][ch].append(held[NOMINAL][ch][k] - pred)
+    for c in refit:
+        score_model(c, (c,))
+
+    def cat(name, ch):
+        return np.concatenate(held[name][ch])
+
+    def ss(name):
+        return sum(float(np.sum((cat(name, ch) / noise[ch]) ** 2)) for ch in channels)
+
+    def rmse(name):
+        return {ch: float(np.sqrt(np.mean(cat(name, ch) ** 2))) for ch in channels}
+
+    n_held = sum(cat(NOMINAL, ch).size for ch in channels)
+    scores = {m: ss(m) for m in held}
+    # evidence correction for correlated residuals: from the flexible model's held-out residuals
+    best_m = min(scores, key=lambda m: scores[m])
+    infl = max(long_run_factor(cat(best_m, ch) / noise[ch]) for ch in channels) if is_log else 1.0
+    weights = cv_weights(scores, infl)
+    gap_p = gap_p_value(scores[NOMINAL], n_held, infl)
+    after_ratio = {c: max(float(np.sqrt(np.mean((cat(c, ch) / noise[ch]) ** 2))) for ch in channels) for c in refit}
+    after_p = {c: gap_p_value(scores[c], n_held, infl) for c in refit}
+    verdict = decide(weights, [s.effect for s in significant], gap_p, after_ratio, after_p, alpha=alpha)
+
+    # --- 3. where -----------------------------------------------------------------------------------------
+    hold_all = {ch: cat(NOMINAL, ch) for ch in channels}
+    n_ch = {ch: v.size for ch, v in full_res.items()}
+    variables = {}
+    for ch in channels:
+        variables[ch] = _variables(data, vehicle, n_ch[ch])
+    # localisation on the full-data nominal residuals (every sample; the gap is the nominal misfit)
+    var_common = _variables(data, vehicle, min(n_ch.values()))
+    res_common = {ch: _align(v, min(n_ch.values())) for ch, v in full_res.items()}
+    loc = localise(res_common, noise, var_common, alpha=alpha)
+    # main channel for the window and lags: the one with the largest share
+    main = max(channels, key=lambda ch: float(np.mean((full_res[ch] / noise[ch]) ** 2)))
+    xw = _align(np.asarray(data.time if is_log else data.slip, dtype=float), full_res[main].size)
+    change = change_window(full_res[main], xw, noise[main], channel=main, alpha=alpha)
+    white = {ch: whiteness(rr[np.argsort(_align(np.asarray(data.time if is_log else data.slip), rr.size),
+                                         kind="stable")]) for ch, rr in full_res.items()}
+    lags = {}
+    if is_log:
+        for ch in channels:
+            rr = full_res[ch]
+            for key, sig in (("vehicle_speed_m_s", data.vehicle_speed), ("sprocket_speed_rad_s", data.sprocket_speed),
+                             ("sprocket_torque_Nm", data.sprocket_torque)):
+                lg = lag_peak(rr, _align(np.diff(np.asarray(sig, dtype=float), prepend=sig[0]), rr.size))
+                lags[f"{ch} vs d({key})/dt"] = lg
+
+    # --- 4. ranking, confusable, shrink, soil -------------------------------------------------------------
+    before = rmse(NOMINAL)
+    ranking = []
+    full_fits = {}
+    for m in sorted(held, key=lambda m: -weights[m]):
+        after = rmse(m)
+        zb = math.sqrt(scores[NOMINAL] / n_held)
+        za = math.sqrt(scores[m] / n_held)
+        shrink = None if m == NOMINAL or zb <= 0 else 1.0 - za / zb
+        params = {}
+        conv = all(f.success for f in train_fits.get(m, []))
+        scr = next((s for s in screens if s.effect == m), None)
+        if m in refit:
+            full_fits[m] = run_fit(data, (m,))
+            params = _effect_params(full_fits[m], m)
+            conv = conv and full_fits[m].success
+        ranking.append(RankEntry(m, weights[m], before, after, shrink, params, scr, conv))
+    dirs = {s.effect: s.direction for s in screens}
+    conf = []
+    for (a, b), corr in confusable_groups({m: weights[m] for m in refit}, dirs):
+        conf.append(((a, b), corr, separating_experiment(a, b)))
+    name = verdict.name
+    if name not in (NOMINAL, "unexplained") and any(name in p for p, _, _ in conf):
+        notes.append(f"{name} is named with low certainty: the data cannot tell it from "
+                     + ", ".join(x for p, _, _ in conf if name in p for x in p if x != name))
+    soil_before = _soil_summary(nominal_full)
+    if name in full_fits:
+        soil_after = _soil_summary(full_fits[name])
+        after_rmse = rmse(name)
+        shrink = next(e.shrink for e in ranking if e.effect == name)
+    elif name == "unexplained":
+        soil_after = None
+        after_rmse = rmse(DISCREPANCY)
+        shrink = None
+        notes.append("unexplained: 'after' is the flexible discrepancy term, which names no physics")
+    else:
+        soil_after, after_rmse, shrink = None, None, None
+    if not converged:
+        notes.append("at least one fit did not converge; its held-out residuals were still used")
+    curves = {"held_x": {ch: np.concatenate(held_x[ch]) for ch in channels},
+              "before": {ch: cat(NOMINAL, ch) for ch in channels},
+              "after": {ch: cat(name if name in held else DISCREPANCY, ch) for ch in channels}
+              if name != NOMINAL else None,
+              "x_label": nat}
+    return Diagnosis(
+        data_kind="drive" if is_log else "sweep", n_samples=n, candidates=cands, verdict=name,
+        confidence=float(verdict.confidence), reason=verdict.reason, ranking=tuple(ranking), screens=tuple(screens),
+        confusable=tuple(conf), localisation=tuple(loc), change=change, whiteness=white, lags=lags, noise=noise,
+        holdout_rmse_before=before, holdout_rmse_after=after_rmse, shrink=shrink, soil_before=soil_before,
+        soil_after=soil_after if name not in (NOMINAL, "unexplained") else None, gap_p_value=gap_p,
+        converged=converged, notes=tuple(notes), elapsed_s=time.perf_counter() - t0, curves=curves)

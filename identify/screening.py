@@ -1,0 +1,159 @@
+"""Cheap screening of candidate effects: the score (Lagrange-multiplier) test at the nominal fit.
+
+At the nominal fit, an effect's parameters sit at their off values. If the effect were in the
+data, moving its parameter would lower the cost: the score ``Z^T r`` is the gradient of the
+half sum of squared weighted residuals ``r`` along the effect's Jacobian columns ``Z``,
+after projecting ``Z`` off the columns of the freely fitted (soil) parameters, so that what the
+soil can absorb does not count. The statistic
+
+    LM = s^T V^{-1} s,   s = Z_perp^T r,   V = Var(s)
+
+is chi-squared with as many degrees of freedom as the effect has columns when the effect is
+absent. ``V`` is the heteroscedasticity-and-autocorrelation-consistent (Newey-West, Bartlett
+weights) variance of ``sum_t Z_perp[t] r[t]``: drive-log residuals are correlated in time, and
+the plain ``sigma^2 Z^T Z`` would overstate the evidence. No refit is needed; the Jacobian
+comes from one fit with the candidate effects held at their off values.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .gap import chi2_sf
+
+__all__ = ["Screen", "project_off", "score_test", "newey_west_lag"]
+
+
+@dataclass(frozen=True)
+class Screen:
+    """Score-test outcome for one candidate effect.
+
+    Attributes
+    ----------
+    effect
+        Candidate name.
+    columns
+        Labels of the effect's Jacobian columns used (those with a sensitivity on these data).
+    score
+        Norm of the projected score ``Z_perp^T r`` relative to ``|Z_perp| |r|`` (0-1: the cosine
+        between the residuals and the effect's sensitivity; 0 at a perfect nominal fit).
+    statistic, dof, p_value
+        LM statistic, its degrees of freedom, and the chi-squared p-value.
+    screenable
+        False when the effect leaves no sensitivity on these data beyond the soil's (e.g.
+        ``drivetrain_friction`` on a rig sweep); then statistic 0 and p-value 1.
+    direction
+        The projected sensitivity along which the score points (unit vector over the samples),
+        used to tell confusable candidates; ``None`` when not screenable.
+    """
+
+    effect: str
+    columns: tuple[str, ...]
+    score: float
+    statistic: float
+    dof: int
+    p_value: float
+    screenable: bool
+    direction: np.ndarray | None = None
+
+    def to_dict(self) -> dict:
+        """JSON-friendly dict (no direction)."""
+        return {"effect": self.effect, "columns": list(self.columns), "score": float(self.score),
+                "statistic": float(self.statistic), "dof": int(self.dof), "p_value": float(self.p_value),
+                "screenable": bool(self.screenable)}
+
+
+def project_off(Z: np.ndarray, J: np.ndarray, rtol: float = 1e-10) -> np.ndarray:
+    """The part of the columns of ``Z`` orthogonal to the column space of ``J`` (SVD, rank-revealing)."""
+    Z = np.asarray(Z, dtype=float)
+    J = np.asarray(J, dtype=float)
+    if J.size == 0 or J.shape[1] == 0:
+        return Z.copy()
+    norms = np.linalg.norm(J, axis=0)
+    Js = J[:, norms > 0] / norms[norms > 0]
+    if Js.shape[1] == 0:
+        return Z.copy()
+    U, s, _ = np.linalg.svd(Js, full_matrices=False)
+    U = U[:, s > rtol * s[0]]
+    return Z - U @ (U.T @ Z)
+
+
+def newey_west_lag(n: int) -> int:
+    """Bartlett bandwidth ``floor(4 (n/100)^(2/9))`` (Newey-West's rule)."""
+    return int(math.floor(4.0 * (n / 100.0) ** (2.0 / 9.0)))
+
+
+def _hac(G: np.ndarray, lag: int) -> np.ndarray:
+    """Newey-West long-run covariance of the rows of ``G`` (n x k), times n."""
+    V = G.T @ G
+    for k in range(1, lag + 1):
+        w = 1.0 - k / (lag + 1.0)
+        C = G[k:].T @ G[:-k]
+        V = V + w * (C + C.T)
+    return V
+
+
+def score_test(effect: str, J_free: np.ndarray, Z: np.ndarray, r: np.ndarray, labels: tuple[str, ...] = (),
+               hac_lag: int | None = 0, sigma2: float | None = None, rel_tol: float = 1e-6) -> Screen:
+    """Score test of one candidate from the nominal fit's weighted residuals and Jacobian.
+
+    Parameters
+    ----------
+    effect
+        Candidate name.
+    J_free
+        Jacobian of the weighted residuals w.r.t. the freely fitted parameters (n x p).
+    Z
+        Jacobian columns of the candidate's parameters at their off values (n x k).
+    r
+        Weighted residuals at the nominal fit (n).
+    labels
+        Labels of the columns of ``Z``.
+    hac_lag
+        Newey-West bandwidth for correlated residuals; 0 for independent samples (then
+        ``V = sigma^2 Z_perp^T Z_perp`` with ``sigma2`` estimated from ``r`` unless given);
+        ``None`` chooses :func:`newey_west_lag`.
+    sigma2
+        Residual variance for the independent case (default ``r^T r / (n - p)``).
+    rel_tol
+        Columns whose projected norm is below ``rel_tol`` times their norm carry no information
+        beyond the soil's and are dropped.
+    """
+    r = np.asarray(r, dtype=float).ravel()
+    Z = np.asarray(Z, dtype=float).reshape(r.size, -1)
+    labels = tuple(labels) or tuple(f"{effect}[{j}]" for j in range(Z.shape[1]))
+    Zp = project_off(Z, J_free)
+    nz = np.linalg.norm(Z, axis=0)
+    npz = np.linalg.norm(Zp, axis=0)
+    keep = (nz > 0) & (npz > rel_tol * np.where(nz > 0, nz, 1.0)) & np.all(np.isfinite(Zp), axis=0)
+    if not np.any(keep):
+        return Screen(effect, (), 0.0, 0.0, 0, 1.0, False, None)
+    Zp = Zp[:, keep]
+    # drop columns (nearly) dependent on the others, keep a well-conditioned basis
+    Un, sv, Vt = np.linalg.svd(Zp / np.linalg.norm(Zp, axis=0), full_matrices=False)
+    rank = int(np.sum(sv > 1e-6 * sv[0]))
+    B = Un[:, :rank]  # orthonormal basis of the projected sensitivity
+    s = B.T @ r
+    n = r.size
+    rn = float(np.linalg.norm(r))
+    cosine = float(np.linalg.norm(s)) / rn if rn > 0 else 0.0
+    lag = newey_west_lag(n) if hac_lag is None else int(hac_lag)
+    if lag > 0:
+        V = _hac(B * r[:, None], lag)
+    else:
+        p = np.linalg.matrix_rank(J_free) if np.size(J_free) else 0
+        s2 = float(r @ r) / max(1, n - p - rank) if sigma2 is None else float(sigma2)
+        V = s2 * np.eye(rank)
+    try:
+        stat = float(s @ np.linalg.solve(V, s)) if np.all(np.isfinite(V)) else 0.0
+    except np.linalg.LinAlgError:
+        stat = 0.0
+    if not math.isfinite(stat) or stat < 0:
+        stat = 0.0
+    d = B @ s
+    dn = float(np.linalg.norm(d))
+    direction = d / dn if dn > 0 else B[:, 0]
+    return Screen(effect, tuple(l for l, k in zip(labels, keep) if k), cosine, stat, rank, chi2_sf(stat, rank), True,
+                  direction)
