@@ -12,12 +12,16 @@ Public names
     Shared constructor of :class:`FitResult` for every method.
 :class:`FitResult`, :class:`ParameterEstimate`, :class:`Combination`, :class:`ProfileResult`,
 :class:`FitFailed`.
+:func:`diagnose`, :class:`Diagnosis`
+    Sim-to-real gap diagnosis: where the gap lies, which unmodelled effect explains it.
 """
 from .batch import fit_many
+from .diagnosis import Diagnosis, diagnose
 from .fitting import fit
 from .problem import FitFailed
 from .profile import ProfileResult, profile_likelihood
 from .result import Combination, FitResult, ParameterEstimate, build_result
 
 __all__ = ["fit", "fit_many", "profile_likelihood", "build_result", "FitResult", "ParameterEstimate",
-           "Combination", "ProfileResult", "FitFailed"]
+           "Combination", "ProfileResult", "FitFailed",
+           "diagnose", "Diagnosis"]

@@ -39,11 +39,14 @@ from ..soilmodel.errors import DataError
 from ..soilmodel.vehicle import Vehicle
 from .gap import (Segment, blocked_folds, change_window, lag_peak, localise, long_run_factor, noise_floor,
                   whiteness)
-from .screening import Screen, newey_west_lag, score_test
+from .screening import Screen, screen
 from .selection import (DISCREPANCY, NOMINAL, Verdict, confusable_groups, cv_weights, decide, fit_discrepancy,
                         gap_p_value, separating_experiment)
 
 __all__ = ["diagnose", "Diagnosis", "RankEntry"]
+
+#: Fewest samples for a blocked hold-out (two folds of alternate blocks of at least 2 samples each).
+MIN_SAMPLES = 8
 
 #: Significance level of the tests (screening is Bonferroni-corrected over the candidates).
 ALPHA = 0.01
@@ -197,6 +200,17 @@ class Diagnosis:
         if not self.converged:
             L.append("  CAUTION: not every fit converged (see notes)")
         L.append("")
+        if self.n_samples < MIN_SAMPLES:
+            L.append("In-sample residuals (too few samples to hold any out):")
+            for ch, v in self.holdout_rmse_before.items():
+                L.append(f"  {ch}: RMS {_fmt(v)}")
+            L.append("Score tests (little power with so few samples):")
+            for s in self.screens:
+                L.append(f"    {s.effect:<22s} LM = {s.statistic:6.2f} ({s.dof} dof), p = {s.p_value:.2g}")
+            L.append("")
+            L.append("Soil of the nominal fit: " + ", ".join(f"{k} {_fmt(v)}" for k, v in self.soil_before.items()
+                                                         if k not in ("identifiable", "converged")))
+            return "\n".join(L)
         L.append("The gap (nominal model fitted on alternate blocks, predicting the blocks it did not see):")
         for ch, v in self.holdout_rmse_before.items():
             nf = self.noise.get(ch, 0.0)
@@ -422,10 +436,9 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         raise DataError(f"vehicle must be a Vehicle, got {type(vehicle).__name__}")
     cands = _check_candidates(candidates, data)
     n = data.n_samples
-    if n < 8:
-        raise DataError(f"a diagnosis needs at least 8 samples for a blocked hold-out, got {n}",
-                        file=getattr(data, "source", None))
     is_log = isinstance(data, DriveLog)
+    if n < MIN_SAMPLES:
+        return _too_few(data, vehicle, model, cands, is_log, t0)
     notes: list[str] = []
     converged = True
 
@@ -442,24 +455,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         return res
 
     # --- 1. screening: one fit with every candidate held at its off value -------------------------
-    screen_fit = None
-    screens: list[Screen] = []
-    if cands:
-        fixed = {f"{c}.{p.name}": p.off_value for c in cands for p in EFFECTS[c].params if not p.integer}
-        screen_fit = run_fit(data, cands, fixed)
-        names = list(screen_fit.parameter_names)
-        J = np.asarray(screen_fit.jacobian, dtype=float)
-        r = np.asarray(screen_fit.weighted_residuals, dtype=float).ravel()
-        eff_cols = {c: [j for j, nm in enumerate(names) if nm.startswith(c + ".")] for c in cands}
-        eff_all = {j for js in eff_cols.values() for j in js}
-        free = [j for j in range(len(names)) if j not in eff_all]
-        lag = newey_west_lag(r.size) if is_log else 0
-        for c in cands:
-            js = eff_cols[c]
-            screens.append(score_test(c, J[:, free], J[:, js], r, tuple(names[j] for j in js), hac_lag=lag))
-        nominal_full = screen_fit
-    else:
-        nominal_full = run_fit(data)
+    lag = None if is_log else 0
+    nominal_full, screens = screen(data, vehicle, cands, model=model, hac_lag=lag)
+    if not nominal_full.success:
+        converged = False
     screenable = [s for s in screens if s.screenable]
     thr = alpha / max(1, len(screenable))
     significant = sorted((s for s in screenable if s.p_value < thr), key=lambda s: -s.statistic)
@@ -498,10 +497,17 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     def score_model(name, effects=()):
         held[name] = {ch: [] for ch in channels}
         fits = []
-        for tr, te in folds:
+        for k, (tr, te) in enumerate(folds):
             res = run_fit(_subset(data, tr), effects)
             fits.append(res)
-            rt = _channels(res, _subset(data, te))
+            try:
+                rt = _channels(res, _subset(data, te))
+            except DataError:
+                if name == NOMINAL:
+                    raise
+                # a failed candidate fit predicts nothing: it gets no weight
+                rt = {ch: np.full(held[NOMINAL][ch][k].size, np.inf) for ch in channels}
+                notes.append(f"the fit with {name} failed on a training part ({res.status}): it gets no weight")
             for ch in channels:
                 held[name][ch].append(rt[ch])
         train_fits[name] = fits
@@ -618,3 +624,32 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         holdout_rmse_before=before, holdout_rmse_after=after_rmse, shrink=shrink, soil_before=soil_before,
         soil_after=soil_after if name not in (NOMINAL, "unexplained") else None, gap_p_value=gap_p,
         converged=converged, notes=tuple(notes), elapsed_s=time.perf_counter() - t0, curves=curves)
+
+
+def _too_few(data, vehicle: Vehicle, model: str, cands: tuple[str, ...], is_log: bool, t0: float) -> Diagnosis:
+    """A diagnosis of data too small for a hold-out: the fit, its residuals, and what cannot be said."""
+    res, screens = screen(data, vehicle, cands, model=model, hac_lag=None if is_log else 0)
+    try:
+        rr = _channels(res, data) if res.success else {}
+    except DataError:
+        rr = {}
+    rms = {ch: float(np.sqrt(np.mean(v ** 2))) for ch, v in rr.items()}
+    n = data.n_samples
+    rel = ""
+    if not is_log and rr:
+        scale = float(np.sqrt(np.mean(np.asarray(data.tractive_force if hasattr(data, "tractive_force")
+                                                 else data.values, dtype=float) ** 2)))
+        rel = f" ({100 * next(iter(rms.values())) / scale:.2g} % of the measured force)" if scale > 0 else ""
+    reason = (f"{n} samples cannot show a gap: no block can be held out (a diagnosis needs at least "
+              f"{MIN_SAMPLES}), the noise cannot be estimated apart from the misfit, and with "
+              f"{min(n, 3)} soil directions fitted to {n} points almost nothing is left to test an effect; "
+              f"the in-sample RMS residual is {', '.join(_fmt(v) for v in rms.values()) or 'n/a'}{rel}. "
+              "'none' here means 'no evidence either way' (confidence 0), not 'no gap'")
+    return Diagnosis(
+        data_kind="drive" if is_log else "sweep", n_samples=n, candidates=cands, verdict=NOMINAL, confidence=0.0,
+        reason=reason, ranking=(RankEntry(NOMINAL, 1.0, rms, rms, None, {}, None, bool(res.success)),),
+        screens=tuple(screens), confusable=(), localisation=(), change=None, whiteness={}, lags={},
+        noise={ch: 0.0 for ch in rms}, holdout_rmse_before=rms, holdout_rmse_after=None, shrink=None,
+        soil_before=_soil_summary(res), soil_after=None, gap_p_value=1.0, converged=bool(res.success),
+        notes=(f"only {n} samples: the 'held-out' errors are in-sample residuals",),
+        elapsed_s=time.perf_counter() - t0, curves={})

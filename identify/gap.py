@@ -117,12 +117,15 @@ def blocked_folds(n: int, n_blocks: int = 10) -> list[tuple[np.ndarray, np.ndarr
 
 
 def noise_floor(residuals: np.ndarray, order: np.ndarray | None = None) -> float:
-    """Standard deviation of the white noise in a residual series, from the data alone.
+    """Root-mean-square level of the white noise in a residual series, from the data alone.
 
     Second differences ``d_k = r_{k+1} - 2 r_k + r_{k-1}`` in the natural order (``order``:
     indices that sort the samples, e.g. by slip for a sweep) have variance ``6 sigma^2`` for
-    white noise, while a smooth gap between model and data nearly cancels. A median absolute
-    deviation makes isolated steps harmless. Returns 0.0 for fewer than 5 samples.
+    white noise, while a smooth gap between model and data nearly cancels. The estimate is the
+    root mean square of ``d / sqrt(6)`` after clipping at 5 robust (MAD) standard deviations:
+    an RMS, not a median, because it is compared with RMS errors and noise whose level varies
+    along the data (relative noise) must count at its mean square; the clip keeps isolated
+    steps harmless. Returns 0.0 for fewer than 5 samples.
     """
     r = np.asarray(residuals, dtype=float).ravel()
     if order is not None:
@@ -130,8 +133,11 @@ def noise_floor(residuals: np.ndarray, order: np.ndarray | None = None) -> float
     if r.size < 5:
         return 0.0
     d = r[2:] - 2.0 * r[1:-1] + r[:-2]
-    mad = float(np.median(np.abs(d - np.median(d))))
-    return _MAD_TO_SIGMA * mad / math.sqrt(6.0)
+    med = float(np.median(d))
+    mad = _MAD_TO_SIGMA * float(np.median(np.abs(d - med)))
+    if mad > 0:
+        d = np.clip(d, med - 5 * mad, med + 5 * mad)
+    return float(np.sqrt(np.mean(d ** 2) / 6.0))
 
 
 def long_run_factor(residuals: np.ndarray, max_lag: int | None = None) -> float:

@@ -11,7 +11,9 @@ soil can absorb does not count. The statistic
 is chi-squared with as many degrees of freedom as the effect has columns when the effect is
 absent. ``V`` is the heteroscedasticity-and-autocorrelation-consistent (Newey-West, Bartlett
 weights) variance of ``sum_t Z_perp[t] r[t]``: drive-log residuals are correlated in time, and
-the plain ``sigma^2 Z^T Z`` would overstate the evidence. No refit is needed; the Jacobian
+the plain ``sigma^2 Z^T Z`` would overstate the evidence. With lag 0 (independent samples, a
+sweep) it is White's heteroscedasticity-robust variance: noise that grows with the reading, or
+one outlier, does not make every candidate look significant. No refit is needed; the Jacobian
 comes from one fit with the candidate effects held at their off values.
 """
 from __future__ import annotations
@@ -21,9 +23,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..soilmodel.effects import EFFECTS
 from .gap import chi2_sf
 
-__all__ = ["Screen", "project_off", "score_test", "newey_west_lag"]
+__all__ = ["Screen", "project_off", "score_test", "newey_west_lag", "screen"]
 
 
 @dataclass(frozen=True)
@@ -96,7 +99,7 @@ def _hac(G: np.ndarray, lag: int) -> np.ndarray:
 
 
 def score_test(effect: str, J_free: np.ndarray, Z: np.ndarray, r: np.ndarray, labels: tuple[str, ...] = (),
-               hac_lag: int | None = 0, sigma2: float | None = None, rel_tol: float = 1e-6) -> Screen:
+               hac_lag: int | None = 0, rel_tol: float = 1e-6) -> Screen:
     """Score test of one candidate from the nominal fit's weighted residuals and Jacobian.
 
     Parameters
@@ -112,11 +115,10 @@ def score_test(effect: str, J_free: np.ndarray, Z: np.ndarray, r: np.ndarray, la
     labels
         Labels of the columns of ``Z``.
     hac_lag
-        Newey-West bandwidth for correlated residuals; 0 for independent samples (then
-        ``V = sigma^2 Z_perp^T Z_perp`` with ``sigma2`` estimated from ``r`` unless given);
-        ``None`` chooses :func:`newey_west_lag`.
-    sigma2
-        Residual variance for the independent case (default ``r^T r / (n - p)``).
+        Newey-West bandwidth for correlated residuals; 0 for independent samples (White's
+        heteroscedasticity-robust variance ``sum_t g_t g_t^T``, ``g_t = Z_perp[t] r[t]``: one
+        large residual cannot make every candidate look significant); ``None`` chooses
+        :func:`newey_west_lag`.
     rel_tol
         Columns whose projected norm is below ``rel_tol`` times their norm carry no information
         beyond the soil's and are dropped.
@@ -139,13 +141,8 @@ def score_test(effect: str, J_free: np.ndarray, Z: np.ndarray, r: np.ndarray, la
     n = r.size
     rn = float(np.linalg.norm(r))
     cosine = float(np.linalg.norm(s)) / rn if rn > 0 else 0.0
-    lag = newey_west_lag(n) if hac_lag is None else int(hac_lag)
-    if lag > 0:
-        V = _hac(B * r[:, None], lag)
-    else:
-        p = np.linalg.matrix_rank(J_free) if np.size(J_free) else 0
-        s2 = float(r @ r) / max(1, n - p - rank) if sigma2 is None else float(sigma2)
-        V = s2 * np.eye(rank)
+    lag = newey_west_lag(n) if hac_lag is None else max(0, int(hac_lag))
+    V = _hac(B * r[:, None], lag)
     try:
         stat = float(s @ np.linalg.solve(V, s)) if np.all(np.isfinite(V)) else 0.0
     except np.linalg.LinAlgError:
@@ -157,3 +154,31 @@ def score_test(effect: str, J_free: np.ndarray, Z: np.ndarray, r: np.ndarray, la
     direction = d / dn if dn > 0 else B[:, 0]
     return Screen(effect, tuple(l for l, k in zip(labels, keep) if k), cosine, stat, rank, chi2_sf(stat, rank), True,
                   direction)
+
+
+def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None = 0):
+    """Score-test every candidate from ONE fit: the nominal model with the candidates held off.
+
+    The fit (:func:`~.fitting.fit` with ``effects=candidates`` and ``fixed`` = every parameter
+    at its off value) is the nominal fit, and its Jacobian carries the candidates' columns.
+
+    Returns
+    -------
+    (FitResult, list of Screen)
+    """
+    from .fitting import fit
+
+    cands = list(candidates)
+    if not cands:
+        return fit(data, vehicle, model=model), []
+    fixed = {f"{c}.{p.name}": p.off_value for c in cands for p in EFFECTS[c].params if not p.integer}
+    res = fit(data, vehicle, model=model, effects=cands, fixed=fixed)
+    names = list(res.parameter_names)
+    J = np.asarray(res.jacobian, dtype=float)
+    r = np.asarray(res.weighted_residuals, dtype=float).ravel()
+    cols = {c: [j for j, nm in enumerate(names) if nm.startswith(c + ".")] for c in cands}
+    taken = {j for js in cols.values() for j in js}
+    free = [j for j in range(len(names)) if j not in taken]
+    out = [score_test(c, J[:, free], J[:, cols[c]], r, tuple(names[j] for j in cols[c]), hac_lag=hac_lag)
+           for c in cands]
+    return res, out

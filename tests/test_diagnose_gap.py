@@ -96,7 +96,7 @@ def test_score_test_zero_without_and_large_with_the_effect():
     # noise only: p-value not small (seeded)
     s2 = score_test("e", J_soil, Z, project_off(0.05 * rng.standard_normal((n, 1)), J_soil).ravel())
     assert s2.p_value > 0.01
-    # HAC variance is more cautious on correlated residuals than the iid one
+    # HAC variance is more cautious on correlated residuals than the lag-0 (White) one
     rc = np.convolve(rng.standard_normal(n + 20), np.ones(20) / 20, mode="valid")[:n]
     rc = project_off(rc[:, None], J_soil).ravel()
     assert score_test("e", J_soil, Z, rc, hac_lag=20).statistic < score_test("e", J_soil, Z, rc, hac_lag=0).statistic
