@@ -7,6 +7,7 @@ from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
 from ..soilmodel.vehicle import Vehicle
 from .compiled_lm import fit_compiled
 from .ipopt_fit import _x0_vector, fit_ipopt
+from .joint_fit import fit_joint
 from .problem import FitFailed, check_common, make_problem
 from .result import FitResult
 from .seed_methods import fit_least_squares, fit_newton
@@ -19,15 +20,16 @@ ENGINES = ("ipopt", "compiled", "auto")
 
 def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method: str = "ipopt",
         bounds: SoilBounds = PRACTICAL_BOUNDS, x0=None, strict: bool = False, engine: str = "ipopt",
-        **options) -> FitResult:
+        effects=None, fixed=None, **options) -> FitResult:
     """Identify the soil parameters ``c, phi, K`` from measured data.
 
     Parameters
     ----------
     data : SlipData or DriveLog
-        Tractive force-slip samples (any number, one or several normal loads; a missing
-        ``normal_load`` means the vehicle's weight) or a drive log (dispatched to
-        :func:`soiltrack.identify.drivelog.fit_drive_log`).
+        Tractive force-slip or drawbar pull-slip samples (any number, one or several normal
+        loads; a missing ``normal_load`` means the vehicle's weight) or a drive log (dispatched
+        to :func:`soiltrack.identify.drivelog.fit_drive_log`). Drawbar pull is modelled as
+        ``F(i) - R`` with ``R`` the motion resistance (``mu_r W`` for the nominal model).
     vehicle : Vehicle
     model : {"full", "cohesion-free"}
         Eq. 2, or Eq. 8 (c fixed at 0).
@@ -49,7 +51,16 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
         10x faster per fit), which hands any fit it cannot certify (first-order conditions)
         over to IPOPT; ``"auto"``: ``"compiled"`` where it applies, else IPOPT. Drive logs and
         the other methods ignore it. ``result.extra["engine"]`` says what solved the fit.
+    effects : sequence of str or EffectSet, optional
+        Unmodelled effects (DESIGN.md section 6, :data:`soiltrack.soilmodel.EFFECTS`) whose
+        parameters are fitted jointly with the soil by IPOPT, within their physical ranges
+        (integer shape parameters such as ``n_w`` stay at their defaults). The result reports
+        them in ``result.effects`` like the soil's parameters.
+    fixed : dict, optional
+        ``{"effect.param": value}`` (SI): effect parameters held at a value; their Jacobian
+        column is still reported (``result.jacobian``, ``result.parameter_names``).
     **options
+        ``rig_speed`` (m/s, track speed of the rig for ``speed_resistance``, default 0.5),
         ``sigma`` (N, scalar or per sample; default: equal weights, noise estimated from the
         residuals), ``sigma_known`` (bool), ``ipopt_options`` (dict of IPOPT options),
         ``max_iter``, ``n_grid`` (K grid of the start search). Drive-log options are passed on.
@@ -68,15 +79,29 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
     if isinstance(data, DriveLog):
         check_common(vehicle, model, method, bounds)
         from .drivelog import fit_drive_log  # written separately; imported lazily
+        if effects is not None:
+            options["effects"] = effects
+        if fixed is not None:
+            options["fixed"] = fixed
         return fit_drive_log(data, vehicle, model, bounds, x0, strict, method=method, **options)
     if not isinstance(data, SlipData):
         raise DataError(f"fit takes SlipData or DriveLog, got {type(data).__name__}")
     sigma = options.pop("sigma", None)
     sigma_known = options.pop("sigma_known", None)
-    pb = make_problem(data, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known, method=method)
+    rig = {"rig_speed": options.pop("rig_speed")} if "rig_speed" in options else {}
+    pb = make_problem(data, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known, method=method,
+                      effects=effects, fixed=fixed, **rig)
     x0v = None if x0 is None else _x0_vector(x0)
     if engine not in ENGINES:
         raise DataError(f"unknown engine {engine!r}; expected one of {ENGINES}")
+    if pb.has_effects:  # joint soil-and-effects fit: IPOPT (whatever the engine)
+        _check_options(options, {"ipopt_options", "n_grid"})
+        res = fit_joint(pb, x0v, ipopt_options=options.get("ipopt_options"), n_grid=options.get("n_grid", 25))
+        if strict and not res.success:
+            raise FitFailed(res)
+        return res
+    if fixed:
+        raise DataError("fixed holds effect parameters: give the effects too (effects=[...])")
     if method == "ipopt":
         allowed = {"ipopt_options", "n_grid"}
         _check_options(options, allowed)

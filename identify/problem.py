@@ -15,12 +15,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..soilmodel.data import SlipData
+from ..soilmodel.effects import (DEFAULT_RIG_SPEED, EFFECTS, EffectSet, effect_structure, effect_symbols,
+                                 parameter_bounds, parse_effects)
 from ..soilmodel.errors import DataError
 from ..soilmodel.soil import SoilBounds
 from ..soilmodel.traction import MODELS
 from ..soilmodel.vehicle import Vehicle
 from .npmodel import thrust_and_jacobian
 from .result import FitResult, build_result
+from .sweep_model import SweepResiduals, nominal_offset
 
 __all__ = ["SlipProblem", "make_problem", "FitFailed", "SCALE", "METHODS", "n_free"]
 
@@ -87,7 +90,14 @@ def n_free(model: str) -> int:
 
 @dataclass(frozen=True, eq=False)
 class SlipProblem:
-    """Validated slip data with weights, ready for any solver (SI)."""
+    """Validated slip data with weights, ready for any solver (SI).
+
+    ``force`` is the tractive force, or for drawbar-pull data the equivalent tractive force
+    ``drawbar pull + offset`` (``offset``: the nominal resistance, see
+    :func:`~soiltrack.identify.sweep_model.nominal_offset`); the residuals are the same.
+    ``effects`` (the structure: which effects are on) and ``fixed`` (``((label, value), ...)``)
+    are set for joint soil-and-effect fits; ``rig_speed`` is the rig's track speed (m/s).
+    """
 
     slip: np.ndarray
     force: np.ndarray
@@ -98,6 +108,21 @@ class SlipProblem:
     bounds: SoilBounds
     model: str
     source: str
+    measured: str = "tractive_force"
+    offset: np.ndarray | None = None
+    effects: EffectSet | None = None
+    fixed: tuple = ()
+    rig_speed: float = DEFAULT_RIG_SPEED
+
+    @property
+    def measured_values(self) -> np.ndarray:
+        """The data as measured (tractive force or drawbar pull), N."""
+        return self.force if self.offset is None else self.force - self.offset
+
+    @property
+    def has_effects(self) -> bool:
+        """Whether effect parameters are fitted (or held) with the soil."""
+        return bool(self.effects)
 
     @property
     def n(self) -> int:
@@ -135,7 +160,8 @@ class SlipProblem:
                             weighted_residuals=rw, residuals=r, residual_unit="N", n_samples=self.n,
                             normal_loads=self.load, vehicle=self.vehicle, bounds=self.bounds, status=status,
                             success=success, message=message, iterations=iterations, solve_time=solve_time,
-                            sigma_known=self.sigma_known, warnings=warnings, extra=extra)
+                            sigma_known=self.sigma_known, warnings=warnings, extra=extra, measured=self.measured,
+                            residual_model=SweepResiduals(self.rig_speed))
 
 
 def check_common(vehicle, model: str, method: str, bounds) -> None:
@@ -157,7 +183,8 @@ def check_common(vehicle, model: str, method: str, bounds) -> None:
 
 
 def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBounds,
-                 sigma=None, sigma_known: bool | None = None, method: str = "ipopt") -> SlipProblem:
+                 sigma=None, sigma_known: bool | None = None, method: str = "ipopt", effects=None,
+                 fixed=None, rig_speed: float = DEFAULT_RIG_SPEED) -> SlipProblem:
     """Validate slip data and build a :class:`SlipProblem`.
 
     Parameters
@@ -173,6 +200,12 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
     sigma_known : bool, optional
         Whether ``sigma`` is the true noise level (normal intervals) or only relative weights
         (scaled by the residual variance, t intervals). Defaults to ``sigma is not None``.
+    effects : sequence of effect names or EffectSet, optional
+        Effects whose parameters are fitted with the soil (DESIGN.md section 6).
+    fixed : dict, optional
+        ``{"effect.param": value}``: effect parameters held at a value (SI).
+    rig_speed : float
+        Track speed ``r w`` of the rig, m/s (vehicle speed for ``speed_resistance``).
 
     Raises
     ------
@@ -182,10 +215,17 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
     check_common(vehicle, model, method, bounds)
     if not isinstance(data, SlipData):
         raise DataError(f"expected SlipData or DriveLog, got {type(data).__name__}")
-    p = n_free(model)
+    if not (isinstance(rig_speed, (int, float)) and math.isfinite(rig_speed) and rig_speed > 0):
+        raise DataError(f"rig_speed must be a finite number > 0 m/s, got {rig_speed!r}")
+    structure, fixed_t = _effects_and_fixed(effects, fixed, vehicle)
+    if structure and method != "ipopt":
+        raise DataError(f"effects are fitted by method='ipopt' only, not {method!r}")
+    n_eff = len(effect_symbols(structure, vehicle=vehicle)[2]) - len(fixed_t) if structure else 0
+    p = n_free(model) + n_eff
     if data.n_samples < p:
-        raise DataError(f"{data.n_samples} sample(s) cannot identify the {p} free parameters of the {model} model "
-                        f"(need at least {p} rows)", file=data.source, column="tractive_force_N")
+        raise DataError(f"{data.n_samples} sample(s) cannot identify the {p} free parameters of the {model} model"
+                        f"{' with the effects' if n_eff else ''} (need at least {p} rows)", file=data.source,
+                        column=data.channel)
     load = data.loads(vehicle.weight).astype(float)
     if sigma is None:
         sig = np.ones(data.n_samples)
@@ -193,7 +233,7 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
     elif isinstance(sigma, str):
         if sigma != "relative":
             raise DataError(f"sigma must be a number, an array or 'relative', got {sigma!r}")
-        sig = relative_sigma(data.tractive_force)
+        sig = relative_sigma(data.values)
         known = False
         if sigma_known:
             raise DataError("sigma='relative' gives relative weights only: the noise level is estimated "
@@ -201,14 +241,51 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
     else:
         sig = np.broadcast_to(np.asarray(sigma, dtype=float), data.slip.shape).astype(float)
         if not np.all(np.isfinite(sig)) or np.any(sig <= 0):
-            raise DataError("sigma must be finite and > 0 N", file=data.source, column="tractive_force_N")
+            raise DataError("sigma must be finite and > 0 N", file=data.source, column=data.channel)
         known = True if sigma_known is None else bool(sigma_known)
     if np.all(data.slip == 0):
         raise DataError("all slips are zero: the tractive force carries no information on the soil",
                         file=data.source, column="slip")
-    return SlipProblem(slip=np.array(data.slip, float), force=np.array(data.tractive_force, float), load=load,
+    offset = None
+    force = np.array(data.values, float)
+    if data.measured == "drawbar_pull":
+        offset = nominal_offset(data.slip, load, vehicle, rig_speed)
+        force = force + offset
+    return SlipProblem(slip=np.array(data.slip, float), force=force, load=load,
                        sigma=sig, sigma_known=known, vehicle=vehicle, bounds=bounds, model=model,
-                       source=data.source)
+                       source=data.source, measured=data.measured, offset=offset,
+                       effects=structure if structure else None, fixed=fixed_t, rig_speed=float(rig_speed))
+
+
+def _effects_and_fixed(effects, fixed, vehicle: Vehicle) -> tuple[EffectSet, tuple]:
+    """Validate ``effects`` (names or an EffectSet) and ``fixed`` ``{"effect.param": value}``."""
+    if isinstance(effects, str):
+        effects = [effects]
+    structure = effect_structure(parse_effects(effects), vehicle) if effects else EffectSet()
+    if fixed is None:
+        return structure, ()
+    if not hasattr(fixed, "items"):
+        raise DataError(f"fixed must be a dict {{'effect.param': value}}, got {type(fixed).__name__}")
+    labels = effect_symbols(structure, vehicle=vehicle)[2] if structure else []
+    out = []
+    for label, value in fixed.items():
+        if label not in labels:
+            name = str(label).partition(".")[0]
+            hint = (f"the fitted effect parameters are {labels}" if labels else "no effect is fitted")
+            if name in EFFECTS and name not in structure:
+                hint = f"effect '{name}' is not among the fitted effects ({list(structure.names)})"
+            raise DataError(f"fixed: unknown parameter {label!r}; {hint}")
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise DataError(f"fixed: {label} must be a number, got {value!r}") from None
+        name, pname = label.split(".", 1)
+        lo, hi = parameter_bounds(name, pname, vehicle)
+        if not (math.isfinite(v) and lo <= v <= hi):
+            raise DataError(f"fixed: {label} = {value!r} is outside its physical range [{lo:g}, {hi:g}]")
+        out.append((label, v))
+    order = {lab: k for k, lab in enumerate(labels)}
+    return structure, tuple(sorted(out, key=lambda t: order[t[0]]))
 
 
 def ridge_centre(fmax, W, A: float, bounds: SoilBounds):

@@ -116,19 +116,22 @@ class ParameterEstimate:
     fixed: bool = False
     ridge_value: float | None = None
     note: str = ""
+    si_unit: str = ""
+    correlated_with: str | None = None
+    correlation: float | None = None
 
     @property
     def unit(self) -> str:
-        """SI unit (``"Pa"``, ``"rad"``, ``"m"``)."""
-        return _EDGE[self.name][4]
+        """SI unit (``"Pa"``, ``"rad"``, ``"m"``; an effect parameter's own unit)."""
+        return _EDGE[self.name][4] if self.name in _EDGE else self.si_unit
 
     @property
     def edge_unit(self) -> str:
-        """Unit at the edges (``"kPa"``, ``"deg"``, ``"m"``)."""
-        return _EDGE[self.name][1]
+        """Unit at the edges (``"kPa"``, ``"deg"``, ``"m"``; effect parameters: SI)."""
+        return _EDGE[self.name][1] if self.name in _EDGE else self.si_unit
 
     def _edge(self, x):
-        return None if x is None else x * _EDGE[self.name][2]
+        return None if x is None else x * (_EDGE[self.name][2] if self.name in _EDGE else 1.0)
 
     @property
     def edge_value(self) -> float | None:
@@ -162,7 +165,9 @@ class ParameterEstimate:
         return {"value": _f(self.edge_value), "stderr": _f(self.edge_stderr), "ci95": [_f(lo), _f(hi)],
                 "identifiable": bool(self.identifiable), "at_bound": bool(self.at_bound),
                 "bound_side": self.bound_side, "weakly_identifiable": bool(self.weakly_identifiable),
-                "fixed": bool(self.fixed), "ridge_value": _f(self._edge(self.ridge_value)), "note": self.note}
+                "fixed": bool(self.fixed), "ridge_value": _f(self._edge(self.ridge_value)), "note": self.note,
+                **({} if self.name in _EDGE else {"unit": self.si_unit, "correlated_with": self.correlated_with,
+                                                  "correlation": _f(self.correlation)})}
 
 
 @dataclass(frozen=True)
@@ -355,6 +360,14 @@ class FitResult:
     _core: tuple = field(repr=False)  # (batched core statistics dict, index of this fit)
     input_warnings: tuple[str, ...] = ()
     extra: dict = field(default_factory=dict)
+    effect_labels: tuple[str, ...] = ()
+    effect_values: Any = None
+    effect_bounds: tuple = ()
+    effect_units: tuple = ()
+    effect_structure: Any = None
+    fixed_labels: tuple[str, ...] = ()
+    measured: str | None = None
+    residual_model: Any = None
 
     def __getstate__(self) -> dict:
         """Pickle only this fit's slice of the (possibly batched) core statistics."""
@@ -395,6 +408,43 @@ class FitResult:
 
     # ---------------------------------------------------------------------------- basics
     @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Every column of :attr:`jacobian`: the soil's ``cohesion, friction_angle, shear_modulus``,
+        then the effect parameters as ``"effect.param"`` (fixed ones included)."""
+        return tuple(PARAMETER_NAMES) + tuple(self.effect_labels)
+
+    @property
+    def _n_all(self) -> int:
+        return 3 + len(self.effect_labels)
+
+    def _full(self, g) -> np.ndarray:
+        """A gradient over the first entries of :attr:`parameter_names`, padded with zeros."""
+        out = np.zeros(self._n_all)
+        g = np.asarray(g, dtype=float)
+        out[:g.size] = g
+        return out
+
+    def _effective_load(self, W: float) -> tuple[float, np.ndarray]:
+        """Actual normal load ``N`` at nominal load ``W`` with the fitted effects, and ``dN/de``."""
+        if not self.effect_labels:
+            return W, np.zeros(0)
+        from ..soilmodel.effects import normal_load_function
+        N, dN = normal_load_function(self.vehicle, self.effect_structure)(W, np.asarray(self.effect_values, float))
+        return float(N), np.asarray(dN, dtype=float).ravel()
+
+    def _fmax(self, W: float) -> tuple[float, np.ndarray]:
+        """``F_max = A c + N tan(phi)`` at nominal load ``W`` and its gradient over :attr:`parameter_names`."""
+        c, phi = float(self.theta[0]), float(self.theta[1])
+        A = self.vehicle.contact_area
+        cf = self.model == "cohesion-free"
+        N, dN = self._effective_load(W)
+        t = math.tan(phi)
+        fm = N * t + (0.0 if cf else A * c)
+        g = self._full([0.0 if cf else A, N / math.cos(phi) ** 2, 0.0])
+        g[3:] = t * dN
+        return fm, g
+
+    @property
     def n_parameters(self) -> int:
         """Number of free parameters of the model (3 full, 2 cohesion-free)."""
         return len(self.free)
@@ -432,7 +482,7 @@ class FitResult:
         C = self._cov_free
         if C is None or self.rank < len(self.free) or not np.all(np.isfinite(C)):
             return None
-        out = np.zeros((3, 3))
+        out = np.zeros((self._n_all, self._n_all))
         idx = np.array(self.free)
         out[np.ix_(idx, idx)] = C
         return out
@@ -514,7 +564,7 @@ class FitResult:
 
     def _ridge_intervals(self, fmax: "Combination") -> tuple[tuple, tuple, str]:
         A = self.vehicle.contact_area
-        W = float(self.normal_loads[0])
+        W = self._effective_load(float(self.normal_loads[0]))[0]
         (c_lo, c_hi), (p_lo, p_hi) = self.bounds.cohesion, self.bounds.friction_angle
         F_lo = fmax.ci95[0] if fmax.ci95[0] is not None else fmax.value
         F_hi = fmax.ci95[1] if fmax.ci95[1] is not None else fmax.value
@@ -546,26 +596,28 @@ class FitResult:
         out: list[Combination] = []
 
         def add(name, value, g3, unit, desc):
-            se, est, weak = self._combo_stderr(np.asarray(g3, dtype=float)[idx])
+            se, est, weak = self._combo_stderr(self._full(g3)[idx])
             ci = (value - q * se, value + q * se) if (se is not None and q is not None) else (None, None)
             out.append(Combination(name, float(value), se, ci, unit, desc, est, weak))
 
-        sec2 = 1.0 / math.cos(phi) ** 2
         cf = self.model == "cohesion-free"
+        actual = ""
         for W in self.normal_loads:
             W = float(W)
-            fm = W * math.tan(phi) + (0.0 if cf else A * c)
-            gF = np.array([0.0 if cf else A, W * sec2, 0.0])
+            fm, gF = self._fmax(W)
+            if self.effect_labels:
+                actual = f" (actual normal load N = {self._effective_load(W)[0] / 1e3:.6g} kN with the fitted effects)"
             add(f"F_max@W={W:.6g}N", fm, gF, "N",
+                f"soil thrust limit {'N tan(phi)' if cf else 'A c + N tan(phi)'} at W = {W / 1e3:.6g} kN{actual}"
+                if self.effect_labels else
                 f"soil thrust limit {'W tan(phi)' if cf else 'A c + W tan(phi)'} at W = {W / 1e3:.6g} kN")
         add("K", K, [0.0, 0.0, 1.0], "m", "shear deformation modulus K")
         add("K/l", K / l, [0.0, 0.0, 1.0 / l], "-", f"K over the track length l = {l:.6g} m")
         for W in self.normal_loads:
             W = float(W)
-            fm = W * math.tan(phi) + (0.0 if cf else A * c)
-            gF = np.array([0.0 if cf else A, W * sec2, 0.0])
+            fm, gF = self._fmax(W)
             s0 = fm * l / (2.0 * K)
-            g = gF * l / (2.0 * K) + np.array([0.0, 0.0, -fm * l / (2.0 * K * K)])
+            g = gF * l / (2.0 * K) + self._full([0.0, 0.0, -fm * l / (2.0 * K * K)])
             add(f"initial_slope@W={W:.6g}N", s0, g, "N/slip", f"small-slip slope dF/di = F_max l / (2 K) at W = "
                 f"{W / 1e3:.6g} kN")
         return out
@@ -643,19 +695,161 @@ class FitResult:
                                               ridge_value=val, note=note)
         return out
 
+    def _partner(self, k: int, identifiable: bool) -> tuple[str | None, float | None]:
+        """The free parameter most correlated with free parameter ``k`` and that correlation.
+
+        Identifiable: the largest pairwise correlation of the estimates. Not identifiable: the
+        parameter moving most with it along the null space (correlation +-1, sign of the
+        estimates' co-movement)."""
+        names = [self.parameter_names[j] for j in self.free]
+        if len(names) < 2:
+            return None, None
+        if identifiable:
+            P = self._Pinv
+            d = np.sqrt(np.clip(np.diag(P), 0.0, None))
+            if d[k] <= 0:
+                return None, None
+            with np.errstate(all="ignore"):
+                row = P[k] / (d[k] * np.where(d > 0, d, np.inf))
+            row[k] = 0.0
+            row = np.where(np.isfinite(row) & self._identifiable_free, row, 0.0)
+            m = int(np.argmax(np.abs(row)))
+            return names[m], float(np.clip(row[m], -1.0, 1.0))
+        null = self._null
+        if null.shape[1] == 0:
+            return None, None
+        v = null @ null[k]  # null-space direction closest to this parameter's axis (scaled coordinates)
+        w = np.abs(v)
+        w[k] = 0.0
+        m = int(np.argmax(w))
+        if w[m] < _NULL_TOL:
+            return None, None
+        return names[m], float(np.sign(v[k] * v[m]))
+
+    @cached_property
+    def effects(self) -> dict[str, dict[str, ParameterEstimate]]:
+        """Per effect, per parameter: estimate and uncertainty, with the soil's honesty.
+
+        ``{effect: {param: ParameterEstimate}}`` in SI (each parameter's own unit). A parameter
+        the data cannot separate from the soil or another effect is not identifiable (value
+        ``None``, interval = its bounds) and ``correlated_with`` / ``correlation`` name the
+        parameter it is confounded with; a weakly identifiable one carries the same. Parameters
+        held by ``fixed`` are marked ``fixed`` with their value. Empty without effects.
+        """
+        out: dict[str, dict[str, ParameterEstimate]] = {}
+        if not self.effect_labels:
+            return out
+        q = self.quantile
+        C = self._cov_free
+        ident = self._identifiable_free
+        for m, label in enumerate(self.effect_labels):
+            name, pname = label.split(".", 1)
+            j = 3 + m
+            val = float(self.effect_values[m])
+            lo, hi = (float(x) for x in self.effect_bounds[m])
+            unit = self.effect_units[m] if m < len(self.effect_units) else ""
+            d = out.setdefault(name, {})
+            if label in self.fixed_labels:
+                d[pname] = ParameterEstimate(label, val, None, (val, val), identifiable=False, fixed=True,
+                                             si_unit=unit, note=f"held fixed at {val:g} {unit} (not estimated)")
+                continue
+            k = self.free.index(j)
+            if not self.success:
+                d[pname] = ParameterEstimate(label, None, None, (None, None), bool(ident[k]), si_unit=unit,
+                                             ridge_value=val if math.isfinite(val) else None,
+                                             note="the fit failed: no estimate (ridge_value is the last iterate, "
+                                                  "NOT an estimate)")
+                continue
+            tol = BOUND_TOL * (hi - lo)
+            side = "lower" if val <= lo + tol else ("upper" if val >= hi - tol else None)
+            partner, rho = self._partner(k, bool(ident[k]))
+            if ident[k]:
+                g_s = np.zeros(len(self.free))
+                g_s[k] = 1.0 / self._D[k]
+                vif = self._vif(g_s)
+                weak = vif > _WEAK_VIF
+                se = None
+                if C is not None:
+                    v = C[k, k]
+                    se = math.sqrt(v) if (v >= 0 and math.isfinite(v)) else None
+                ci = (max(lo, val - q * se), min(hi, val + q * se)) if (se is not None and q is not None) \
+                    else (None, None)
+                notes = []
+                if se is None:
+                    notes.append("no standard error: " + ("no residual degrees of freedom (n = rank)"
+                                                          if self.dof <= 0 else "covariance not finite"))
+                if side is not None:
+                    notes.append(f"on the {side} bound of its physical range [{lo:g}, {hi:g}] {unit}: the standard "
+                                 "error ignores the bound and the interval is clipped")
+                if weak:
+                    mult = math.sqrt(max(0.0, 1.0 - 1.0 / vif)) if math.isfinite(vif) else 1.0
+                    notes.append(f"weakly identifiable: multiple correlation {mult:.5f} with the other parameters"
+                                 + (f", most with {partner} ({rho:+.4f})" if partner else ""))
+                d[pname] = ParameterEstimate(label, val, se, ci, True, bool(weak), side is not None, side,
+                                             note="; ".join(notes), si_unit=unit, correlated_with=partner,
+                                             correlation=rho)
+            else:
+                with_ = f" from {partner}" if partner else ""
+                d[pname] = ParameterEstimate(label, None, None, (lo, hi), False, ridge_value=val, si_unit=unit,
+                                             correlated_with=partner, correlation=rho,
+                                             note=f"not identifiable: the data cannot separate it{with_}; "
+                                                  "interval = its physical range")
+        return out
+
+    @cached_property
+    def effect_set(self):
+        """The fitted effects as an :class:`~soiltrack.soilmodel.EffectSet` (fitted and fixed values),
+        usable in ``simulate`` / ``tractive_force_with_effects``; ``None`` without effects or when
+        the fit failed. Parameters the data do not identify keep the optimiser's value."""
+        if not self.effect_labels or not self.success:
+            return None
+        from ..soilmodel.effects import EFFECTS, parse_effects
+        vals: dict[str, dict[str, float]] = {}
+        for label, v in zip(self.effect_labels, np.asarray(self.effect_values, float)):
+            name, pname = label.split(".", 1)
+            vals.setdefault(name, {})[pname] = float(v)
+        for name in self.effect_structure.names:
+            for p in EFFECTS[name].params:
+                if p.integer:
+                    vals.setdefault(name, {})[p.name] = self.effect_structure.value(name, p.name, self.vehicle)
+        try:
+            return parse_effects(vals)
+        except Exception:  # noqa: BLE001 - a non-finite or inadmissible point carries no effect set
+            return None
+
+    def residuals_on(self, data) -> dict[str, np.ndarray]:
+        """Raw residuals ``measured - predicted`` of the fitted model on OTHER data of the same kind.
+
+        For slip data the channel is ``"tractive_force_N"`` or ``"drawbar_pull_N"`` (what ``data``
+        measured), in N. The prediction hook is :attr:`residual_model`, any object with a method
+        ``residuals_on(result, data) -> dict[str, ndarray]`` (picklable); slip fits use
+        :class:`~soiltrack.identify.sweep_model.SweepResiduals` when none is set.
+
+        Raises
+        ------
+        DataError
+            Wrong kind of data, a failed fit, or a prediction the fit does not determine (c and
+            phi on their ridge, asked at another normal load).
+        """
+        model = self.residual_model
+        if model is None and self.data_kind == "slip":
+            from .sweep_model import SweepResiduals
+            model = SweepResiduals()
+        if model is None:
+            from ..soilmodel.errors import DataError
+            raise DataError(f"residuals_on is not available for {self.data_kind} fits (no residual model)")
+        return model.residuals_on(self, data)
+
     def _fmax_K_correlation(self) -> dict[str, float | None]:
         """Correlation of the F_max estimate at each load with the K estimate (scale-free)."""
         out: dict[str, float | None] = {}
         if not self.success:
             return out
-        phi = float(self.theta[1])
-        sec2 = 1.0 / math.cos(phi) ** 2
         idx = np.array(self.free)
         Pinv = self._Pinv / np.outer(self._D, self._D)  # (J^T J)^+ in SI; s^2 cancels in a correlation
-        gK = np.array([0.0, 0.0, 1.0])[idx]
+        gK = self._full([0.0, 0.0, 1.0])[idx]
         for W in self.normal_loads:
-            gF = np.array([0.0 if self.model == "cohesion-free" else self.vehicle.contact_area,
-                           float(W) * sec2, 0.0])[idx]
+            gF = self._fmax(float(W))[1][idx]
             if not (self._estimable(gF / self._D) and self._estimable(gK / self._D)):
                 out[f"{float(W):.6g}"] = None
                 continue
@@ -667,15 +861,15 @@ class FitResult:
     def identifiability(self) -> dict[str, Any]:
         """Rank, scaled singular values, null-space directions and plain-words statements."""
         p = len(self.free)
-        names = [PARAMETER_NAMES[j] for j in self.free]
+        names = [self.parameter_names[j] for j in self.free]
         null_dirs = []
         for col in self._null.T:
             d = col / self._D  # back to SI parameter space
-            d = d * np.array([_EDGE[n][2] for n in names])  # edge units: kPa, deg, m
+            d = d * np.array([_EDGE[n][2] if n in _EDGE else 1.0 for n in names])  # edge units: kPa, deg, m
             d = d / np.linalg.norm(d)
             if d[np.argmax(np.abs(d))] < 0:
                 d = -d
-            null_dirs.append({_EDGE[names[k]][0]: float(d[k]) for k in range(p)})
+            null_dirs.append({(_EDGE[names[k]][0] if names[k] in _EDGE else names[k]): float(d[k]) for k in range(p)})
         statements: list[str] = []
         params = self.parameters
         if self._cphi_ridge:
@@ -693,10 +887,23 @@ class FitResult:
             elif pe.weakly_identifiable:
                 statements.append(f"{_EDGE[name][3]} is only weakly identifiable (correlated above "
                                   f"{WEAK_CORRELATION} with other parameter directions).")
+        for name, ps in self.effects.items():
+            for pname, pe in ps.items():
+                if pe.fixed or not self.success:
+                    continue
+                partner = f" from {pe.correlated_with}" if pe.correlated_with else ""
+                rho = f" (correlation {pe.correlation:+.4f})" if pe.correlation is not None else ""
+                if not pe.identifiable:
+                    statements.append(f"effect parameter {name}.{pname} is not identifiable from these data: they "
+                                      f"cannot separate it{partner}{rho}.")
+                elif pe.weakly_identifiable:
+                    statements.append(f"effect parameter {name}.{pname} is only weakly identifiable: the data hardly "
+                                      f"separate it from the soil and the other effects ({pe.note.split(': ', 1)[-1]}).")
         fk_corr = self._fmax_K_correlation()
-        weak_combos = [cb for cb in self.combinations if cb.weakly_identifiable and cb.name.startswith("F_max")]
+        weak_combos = [cb for cb in self.combinations if cb.weakly_identifiable and cb.name.startswith("F_max")
+                       and not self.effect_labels]  # with effects, F_max may be weak through an effect
         high = {w: r for w, r in fk_corr.items() if r is not None and abs(r) > WEAK_CORRELATION}
-        if weak_combos or high or params["shear_modulus"].weakly_identifiable:
+        if weak_combos or high or (params["shear_modulus"].weakly_identifiable and not self.effect_labels):
             rtxt = (" (correlation " + ", ".join(f"{r:+.4f} at W = {float(w) / 1e3:.6g} kN" for w, r in high.items())
                     + ")") if high else ""
             statements.append(
@@ -737,6 +944,11 @@ class FitResult:
         for s in self.identifiability["statements"]:
             if not s.startswith("all free"):
                 w.append(s)
+        for name, ps in self.effects.items():
+            for pname, pe in ps.items():
+                if pe.at_bound:
+                    w.append(f"effect parameter {name}.{pname} ended on its {pe.bound_side} bound "
+                             f"({pe.value:.6g} {pe.si_unit}): a warning about the data or the range")
         if self.dof <= 0 and not self.sigma_known:
             w.append("no residual degrees of freedom (as many identifiable directions as samples): no standard "
                      "errors, and an exact fit says nothing about the noise")
@@ -745,7 +957,7 @@ class FitResult:
     @cached_property
     def soil(self) -> Soil | None:
         """The identified soil, or ``None`` when the fit failed or a free parameter is not identifiable."""
-        if not self.success or not all(self.parameters[PARAMETER_NAMES[j]].identifiable for j in self.free):
+        if not self.success or not all(self.parameters[PARAMETER_NAMES[j]].identifiable for j in self.free if j < 3):
             return None
         return self._soil_at(self.theta, f"identified ({self.model}, {self.method})")
 
@@ -780,11 +992,22 @@ class FitResult:
             "normal_loads_N": [float(w) for w in self.normal_loads],
             "identifiability": self.identifiability, "warnings": list(self.warnings),
             "active_bounds": self.active_bounds,
+            "measured": self.measured,
+            "parameter_names": list(self.parameter_names),
+            "effects": {n: {k: pe.to_dict() for k, pe in ps.items()} for n, ps in self.effects.items()},
+            "covariance": self._covariance_json(),
         }
         if self.extra:
             d["extra"] = json.loads(json.dumps(self.extra, default=_json_default, allow_nan=True),
                                     parse_constant=lambda _: None)
         return d
+
+    def _covariance_json(self) -> dict:
+        """``{"parameters", "matrix", "units"}``: the covariance over :attr:`parameter_names` in SI,
+        ``matrix`` null when unavailable (rank deficient, no dof, failed fit), entries never NaN."""
+        C = self.covariance if self.success else None
+        return {"parameters": list(self.parameter_names),
+                "matrix": None if C is None else [[_f(x) for x in row] for row in C], "units": "SI"}
 
     def _parameter_json(self, pe: ParameterEstimate) -> dict:
         """A parameter's JSON entry. The CLI contract wants a number in ``value``: for a successful fit
@@ -834,7 +1057,8 @@ class FitResult:
         L: list[str] = []
         loads = ", ".join(f"{w / 1e3:.6g} kN" for w in self.normal_loads)
         L.append(f"soiltrack identification - model {self.model}, method {self.method}")
-        L.append(f"data: {self.data_kind}, {self.n_samples} samples, normal load(s): {loads}")
+        what = f" ({self.measured.replace('_', ' ')})" if self.measured else ""
+        L.append(f"data: {self.data_kind}{what}, {self.n_samples} samples, normal load(s): {loads}")
         L.append(f"vehicle: {self.vehicle.name or 'unnamed'} (l = {self.vehicle.track_length:.4g} m, "
                  f"b = {self.vehicle.track_width:.4g} m, A = {self.vehicle.contact_area:.4g} m^2)")
         L.append(f"status: {self.status} ({'success' if self.success else 'FAILED'}), {self.iterations} iterations, "
@@ -870,6 +1094,28 @@ class FitResult:
                 flag = " [ON " + pe.bound_side.upper() + " BOUND]" if pe.at_bound else ""
                 weak = " [weakly identifiable]" if pe.weakly_identifiable else ""
                 L.append(f"{lab}{pe.edge_value:.5g}{se} {u}, 95 % {rng}{flag}{weak}")
+        if self.effects:
+            L.append("effect parameters (95 % intervals, SI):")
+        for name, ps in self.effects.items():
+            for pname, pe in ps.items():
+                lab = f"  {name + '.' + pname:<20}"
+                u = pe.si_unit
+                lo, hi = pe.ci95
+                rng = f"[{lo:.4g}, {hi:.4g}] {u}" if lo is not None and hi is not None else "[unavailable]"
+                if pe.fixed:
+                    L.append(f"{lab}{pe.value:.5g} {u} (held fixed, not estimated)")
+                elif pe.value is None and not self.success:
+                    L.append(f"{lab}no estimate (the fit failed)")
+                elif not pe.identifiable:
+                    w = f" from {pe.correlated_with}" if pe.correlated_with else ""
+                    L.append(f"{lab}NOT IDENTIFIABLE (not separable{w}); range {rng}")
+                else:
+                    se = f" +- {pe.stderr:.3g}" if pe.stderr is not None else " (no stderr)"
+                    flag = " [ON " + pe.bound_side.upper() + " BOUND]" if pe.at_bound else ""
+                    weak = (f" [weakly identifiable: correlation {pe.correlation:+.4f} with {pe.correlated_with}]"
+                            if pe.weakly_identifiable and pe.correlated_with else
+                            (" [weakly identifiable]" if pe.weakly_identifiable else ""))
+                    L.append(f"{lab}{pe.value:.5g}{se} {u}, 95 % {rng}{flag}{weak}")
         L.append("identifiable combinations:" + ("" if self.combinations else " none (the fit failed)"))
         for cb in self.combinations:
             if cb.unit.startswith("N"):
@@ -930,7 +1176,7 @@ def _free_indices(model: str) -> tuple[int, ...]:
 
 def _assemble(core: dict, k: int, *, data_kind, model, method, theta, jacobian, weighted_residuals, residuals,
               residual_unit, n_samples, normal_loads, vehicle, bounds, status, success, message, iterations,
-              solve_time, sigma_known, warnings, extra, free) -> FitResult:
+              solve_time, sigma_known, warnings, extra, free, **effect_fields) -> FitResult:
     res = np.asarray(residuals, dtype=float)
     rw = np.asarray(weighted_residuals, dtype=float)
     finite = bool(np.isfinite(theta).all() and np.isfinite(res).all() and np.isfinite(rw).all())
@@ -949,7 +1195,7 @@ def _assemble(core: dict, k: int, *, data_kind, model, method, theta, jacobian, 
         rmse=math.sqrt(float(np.dot(res.ravel(), res.ravel())) / res.size) if res.size else math.nan,
         cost=0.5 * float(core["ssr"][k]), rank=int(core["rank"][k]), dof=int(core["dof"][k]),
         s2=s2 if math.isfinite(s2) and finite else None, free=free, _core=(core, k),
-        input_warnings=tuple(warn), extra=dict(extra or {}))
+        input_warnings=tuple(warn), extra=dict(extra or {}), **effect_fields)
 
 
 def _distinct_loads(normal_loads) -> np.ndarray:
@@ -968,7 +1214,10 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
                  weighted_residuals: np.ndarray, residuals: np.ndarray, residual_unit: str, n_samples: int,
                  normal_loads: np.ndarray, vehicle: Vehicle, bounds: SoilBounds, status: str, success: bool,
                  message: str, iterations: int, solve_time: float, sigma_known: bool = False,
-                 warnings: Sequence[str] = (), extra: dict | None = None) -> FitResult:
+                 warnings: Sequence[str] = (), extra: dict | None = None, effect_labels: Sequence[str] = (),
+                 effect_values=None, effect_bounds: Sequence = (), effect_units: Sequence[str] = (),
+                 effect_structure=None, fixed_labels: Sequence[str] = (), measured: str | None = None,
+                 residual_model=None) -> FitResult:
     """Build a :class:`FitResult` from an optimum and its Jacobian (shared by all fitting methods).
 
     Parameters
@@ -1000,6 +1249,17 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
         Extra warnings from the caller.
     extra : dict, optional
         Anything else worth keeping (serialised under ``"extra"`` in JSON).
+    effect_labels, effect_values, effect_bounds, effect_units, effect_structure
+        Effect parameters fitted with the soil: labels ``"effect.param"`` (Jacobian columns 3...),
+        values (SI), physical ranges ``(lo, hi)``, units, and the ``EffectSet`` of which effects
+        are on (integer parameters resolved).
+    fixed_labels
+        Effect parameters held at their value: their Jacobian column is kept (score tests) but
+        they are not free.
+    measured
+        What slip data measured (``"tractive_force"`` / ``"drawbar_pull"``).
+    residual_model
+        Object with ``residuals_on(result, data) -> dict`` for :meth:`FitResult.residuals_on`.
 
     Returns
     -------
@@ -1011,14 +1271,29 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
     theta = np.asarray(theta, dtype=float).reshape(3).copy()
     J = np.asarray(jacobian, dtype=float)
     rw = np.asarray(weighted_residuals, dtype=float).ravel()
-    if J.ndim != 2 or J.shape[1] != 3 or J.shape[0] != rw.size:
-        raise ValueError(f"jacobian must have shape (n_res, 3) = ({rw.size}, 3), got {J.shape}")
-    core = _core_stats_one(J[:, free[0]:], rw, sigma_known)  # free = (0, 1, 2) or (1, 2)
+    labels = tuple(effect_labels)
+    m = len(labels)
+    if J.ndim != 2 or J.shape[1] != 3 + m or J.shape[0] != rw.size:
+        raise ValueError(f"jacobian must have shape (n_res, 3 + {m}) = ({rw.size}, {3 + m}), got {J.shape}")
+    effect_fields: dict[str, Any] = {"measured": measured, "residual_model": residual_model}
+    if m:
+        fixed_labels = tuple(fixed_labels)
+        unknown = set(fixed_labels) - set(labels)
+        if unknown:
+            raise ValueError(f"fixed_labels {sorted(unknown)} are not effect parameters {labels}")
+        free = free + tuple(3 + k for k, lab in enumerate(labels) if lab not in fixed_labels)
+        effect_fields.update(effect_labels=labels, effect_values=np.asarray(effect_values, float).reshape(m).copy(),
+                             effect_bounds=tuple((float(a), float(b)) for a, b in effect_bounds),
+                             effect_units=tuple(effect_units), effect_structure=effect_structure,
+                             fixed_labels=fixed_labels)
+        core = _core_stats_one(J[:, list(free)], rw, sigma_known)
+    else:
+        core = _core_stats_one(J[:, free[0]:], rw, sigma_known)  # free = (0, 1, 2) or (1, 2)
     return _assemble(core, 0, data_kind=data_kind, model=model, method=method, theta=theta, jacobian=J,
                      weighted_residuals=rw, residuals=residuals, residual_unit=residual_unit, n_samples=n_samples,
                      normal_loads=_distinct_loads(normal_loads), vehicle=vehicle, bounds=bounds, status=status,
                      success=success, message=message, iterations=iterations, solve_time=solve_time,
-                     sigma_known=sigma_known, warnings=warnings, extra=extra, free=free)
+                     sigma_known=sigma_known, warnings=warnings, extra=extra, free=free, **effect_fields)
 
 
 def build_results_batch(*, model: str, method: str, theta: np.ndarray, jacobian: np.ndarray,

@@ -3,6 +3,8 @@
 Two kinds of file, told apart by their columns:
 
 - tractive force-slip data: ``slip,tractive_force_N`` and optionally ``normal_load_N``;
+- drawbar-pull data: ``slip,drawbar_pull_N`` and optionally ``normal_load_N`` (drawbar pull =
+  thrust - motion resistance, what a test rig measures);
 - drive logs: ``time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s`` and
   optionally ``vehicle_accel_m_s2``.
 
@@ -21,7 +23,10 @@ import numpy as np
 from .errors import DataError
 
 SLIP_COLUMNS = ("slip", "tractive_force_N")
+DRAWBAR_COLUMNS = ("slip", "drawbar_pull_N")
 SLIP_OPTIONAL = ("normal_load_N",)
+#: What a slip sweep measured -> its CSV column.
+MEASURED_COLUMNS = {"tractive_force": "tractive_force_N", "drawbar_pull": "drawbar_pull_N"}
 DRIVE_COLUMNS = ("time_s", "sprocket_torque_Nm", "sprocket_speed_rad_s", "vehicle_speed_m_s")
 DRIVE_OPTIONAL = ("vehicle_accel_m_s2",)
 
@@ -34,32 +39,40 @@ def _frozen(a) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class SlipData:
-    """Tractive force-slip measurements (e.g. a drawbar-pull sweep or a published table).
+    """Slip-sweep measurements: tractive force or drawbar pull against slip.
+
+    Exactly one of ``tractive_force`` and ``drawbar_pull`` is given; :attr:`measured` says which.
 
     Parameters
     ----------
     slip
         Track slip i in [0, 1).
     tractive_force
-        Tractive force of both tracks, N.
+        Tractive force of both tracks, N (``None`` for drawbar-pull data).
     normal_load
         Normal load W per sample, N, or ``None`` (then the vehicle's weight is used).
         Samples at two or more loads make c and phi separable.
     source
         Where the data came from (file path or label), used in messages.
+    drawbar_pull
+        Drawbar pull ``thrust - motion resistance`` of both tracks, N (``None`` for tractive
+        force data).
     """
 
     slip: np.ndarray
-    tractive_force: np.ndarray
+    tractive_force: np.ndarray | None = None
     normal_load: np.ndarray | None = None
     source: str = "<memory>"
+    drawbar_pull: np.ndarray | None = None
 
     def __post_init__(self) -> None:
+        if (self.tractive_force is None) == (self.drawbar_pull is None):
+            raise DataError("give exactly one of tractive_force and drawbar_pull", file=self.source)
         object.__setattr__(self, "slip", _frozen(self.slip))
-        object.__setattr__(self, "tractive_force", _frozen(self.tractive_force))
-        if self.normal_load is not None:
-            object.__setattr__(self, "normal_load", _frozen(self.normal_load))
-        cols = {"slip": self.slip, "tractive_force_N": self.tractive_force}
+        for name in ("tractive_force", "drawbar_pull", "normal_load"):
+            if getattr(self, name) is not None:
+                object.__setattr__(self, name, _frozen(getattr(self, name)))
+        cols = {"slip": self.slip, self.channel: self.values}
         if self.normal_load is not None:
             cols["normal_load_N"] = self.normal_load
         _check_lengths(cols, self.source)
@@ -73,6 +86,31 @@ class SlipData:
     def n_samples(self) -> int:
         """Number of samples."""
         return int(self.slip.size)
+
+    @property
+    def measured(self) -> str:
+        """``"tractive_force"`` or ``"drawbar_pull"``: what the force column holds."""
+        return "tractive_force" if self.tractive_force is not None else "drawbar_pull"
+
+    @property
+    def channel(self) -> str:
+        """CSV column of the measured force: ``"tractive_force_N"`` or ``"drawbar_pull_N"``."""
+        return MEASURED_COLUMNS[self.measured]
+
+    @property
+    def values(self) -> np.ndarray:
+        """The measured force, N (tractive force or drawbar pull, see :attr:`measured`)."""
+        return self.tractive_force if self.tractive_force is not None else self.drawbar_pull
+
+    def subset(self, index) -> "SlipData":
+        """The rows selected by ``index`` (slice, integer array or boolean mask), same type.
+
+        The source is annotated with the data rows taken (row 1 = first data row).
+        """
+        idx = _rows(index, self.n_samples, self.source)
+        kw = {"drawbar_pull" if self.measured == "drawbar_pull" else "tractive_force": self.values[idx]}
+        return SlipData(slip=self.slip[idx], normal_load=None if self.normal_load is None else self.normal_load[idx],
+                        source=_annotate(self.source, idx), **kw)
 
     def loads(self, default: float | None = None) -> np.ndarray:
         """Per-sample normal load, N (``default`` where the data carry none)."""
@@ -137,12 +175,43 @@ class DriveLog:
         """Number of samples."""
         return int(self.time.size)
 
+    def subset(self, index) -> "DriveLog":
+        """The rows selected by ``index`` (slice, integer array or boolean mask), same type.
+
+        The source is annotated with the data rows taken (row 1 = first data row); the rows
+        must stay in time order.
+        """
+        idx = _rows(index, self.n_samples, self.source)
+        return DriveLog(time=self.time[idx], sprocket_torque=self.sprocket_torque[idx],
+                        sprocket_speed=self.sprocket_speed[idx], vehicle_speed=self.vehicle_speed[idx],
+                        vehicle_accel=None if self.vehicle_accel is None else self.vehicle_accel[idx],
+                        source=_annotate(self.source, idx))
+
     def columns(self) -> dict[str, np.ndarray]:
         """The log as ``{column name: values}`` in the CSV contract's names."""
         out = dict(zip(DRIVE_COLUMNS, (self.time, self.sprocket_torque, self.sprocket_speed, self.vehicle_speed)))
         if self.vehicle_accel is not None:
             out["vehicle_accel_m_s2"] = self.vehicle_accel
         return out
+
+
+def _rows(index, n: int, source: str) -> np.ndarray:
+    """Integer row indices (0-based) selected by ``index``; DataError when empty or out of range."""
+    try:
+        idx = np.arange(n)[index]
+    except (IndexError, TypeError, ValueError) as e:
+        raise DataError(f"bad row selection {index!r}: {e}", file=source) from None
+    idx = np.atleast_1d(idx)
+    if idx.size == 0:
+        raise DataError(f"row selection {index!r} selects no rows", file=source)
+    return idx
+
+
+def _annotate(source: str, idx: np.ndarray) -> str:
+    a, b = int(idx[0]) + 1, int(idx[-1]) + 1
+    if idx.size == b - a + 1 and np.all(np.diff(idx) == 1):
+        return f"{source} rows {a}-{b}"
+    return f"{source} rows {a}-{b} ({idx.size} selected)"
 
 
 def _check_lengths(cols: dict, source: str) -> None:
@@ -183,7 +252,7 @@ def _parse_float(text: str, path: str, column: str, row: int) -> float:
 
 
 def read_csv(path: str | os.PathLike) -> SlipData | DriveLog:
-    """Read tractive force-slip data or a drive log; the kind is recognised by the columns.
+    """Read tractive force-slip data, drawbar-pull data or a drive log (recognised by the columns).
 
     Raises
     ------
@@ -207,13 +276,19 @@ def read_csv(path: str | os.PathLike) -> SlipData | DriveLog:
     dup = sorted({h for h in header if header.count(h) > 1})
     if dup:
         raise DataError(f"duplicate column(s) {dup}", file=path, column=dup[0])
-    if "slip" in header or "tractive_force_N" in header:
+    if "drawbar_pull_N" in header and "tractive_force_N" in header:
+        raise DataError("both tractive_force_N and drawbar_pull_N given: a sweep measures one of them", file=path,
+                        column="drawbar_pull_N")
+    if "drawbar_pull_N" in header:
+        kind, required, optional = "drawbar", DRAWBAR_COLUMNS, SLIP_OPTIONAL
+    elif "slip" in header or "tractive_force_N" in header:
         kind, required, optional = "slip", SLIP_COLUMNS, SLIP_OPTIONAL
     elif any(c in header for c in DRIVE_COLUMNS):
         kind, required, optional = "drive", DRIVE_COLUMNS, DRIVE_OPTIONAL
     else:
         raise DataError(f"unrecognised columns {header}: expected {list(SLIP_COLUMNS)} (tractive force-slip "
-                        f"data) or {list(DRIVE_COLUMNS)} (drive log)", file=path)
+                        f"data), {list(DRAWBAR_COLUMNS)} (drawbar-pull data) or {list(DRIVE_COLUMNS)} (drive log)",
+                        file=path)
     for col in required:
         if col not in header:
             raise DataError(f"missing required column (header has {header})", file=path, column=col)
@@ -227,6 +302,9 @@ def read_csv(path: str | os.PathLike) -> SlipData | DriveLog:
             data[c].append(_parse_float(cells[idx[c]], path, c, r))
     if not rows[1:]:
         raise DataError("no data rows after the header", file=path)
+    if kind == "drawbar":
+        return SlipData(slip=data["slip"], drawbar_pull=data["drawbar_pull_N"],
+                        normal_load=data.get("normal_load_N"), source=path)
     if kind == "slip":
         return SlipData(slip=data["slip"], tractive_force=data["tractive_force_N"],
                         normal_load=data.get("normal_load_N"), source=path)
@@ -236,12 +314,12 @@ def read_csv(path: str | os.PathLike) -> SlipData | DriveLog:
 
 
 def write_csv(data: SlipData | DriveLog, path) -> None:
-    """Write tractive force-slip data or a drive log in the CSV contract (full float precision).
+    """Write slip data (tractive force or drawbar pull) or a drive log in the CSV contract (full float precision).
 
     ``path`` is a file path or an open text stream (e.g. ``sys.stdout``).
     """
     if isinstance(data, SlipData):
-        cols = {"slip": data.slip, "tractive_force_N": data.tractive_force}
+        cols = {"slip": data.slip, data.channel: data.values}
         if data.normal_load is not None:
             cols["normal_load_N"] = data.normal_load
     elif isinstance(data, DriveLog):

@@ -83,7 +83,8 @@ __all__ = [
     "DEFAULT_STANDSTILL_SPEED", "smooth_sign", "effective_mass", "effective_weight", "effective_normal_load",
     "effective_radius", "motion_resistance", "torque_loss", "thrust_with_effects",
     "thrust_with_effects_function", "tractive_force_with_effects", "softening_shear", "wong_type_b_shear",
-    "pressure_profile",
+    "pressure_profile", "DEFAULT_RIG_SPEED", "SWEEP_MEASURES", "parameter_bounds", "parameter_scale",
+    "effect_structure", "rig_true_slip", "sweep_measurement", "normal_load_function",
 ]
 
 _INF = math.inf
@@ -413,6 +414,47 @@ def parse_effects(spec: Any = None) -> EffectSet:
     return EffectSet(tuple(entries))
 
 
+def parameter_bounds(name: str, param: str, vehicle: Vehicle) -> tuple[float, float]:
+    """Finite physical range of an effect parameter for identification, SI.
+
+    The registry's range where it is finite. The drivetrain torques, unbounded in the registry,
+    are scaled by the vehicle: ``|tau_c| <= 0.5 W r`` (half the sprocket torque that would
+    give a thrust equal to the weight) and ``|tau_v| <= 0.5 W r / w_ref`` with
+    ``w_ref = (10 m/s) / r`` (the same loss at a track speed of 10 m/s).
+    """
+    spec = _spec(name)
+    p = spec.param(param)
+    lo, hi = p.lower, p.upper
+    if name == "drivetrain_friction":
+        t = 0.5 * vehicle.weight * vehicle.sprocket_radius
+        if param == "tau_v":
+            t = t * vehicle.sprocket_radius / 10.0
+        lo, hi = max(lo, -t), min(hi, t)
+    return float(lo), float(hi)
+
+
+def parameter_scale(name: str, param: str, vehicle: Vehicle) -> float:
+    """Typical magnitude of an effect parameter (variable scaling for the solvers), SI."""
+    if name == "drivetrain_friction":
+        return 0.01 * vehicle.weight * vehicle.sprocket_radius * (vehicle.sprocket_radius / 10.0 if param == "tau_v"
+                                                                  else 1.0)
+    if name == "hump_shear" and param == "k_ratio":
+        return 5.0
+    return 1.0
+
+
+def effect_structure(effects: Any, vehicle: Vehicle | None = None) -> "EffectSet":
+    """The same effects with every identifiable parameter at its default (integers resolved).
+
+    What a cached builder keys on: which effects are on and their fixed integer parameters.
+    """
+    es = parse_effects(effects)
+    out = {}
+    for name in es.names:
+        out[name] = {p.name: es.value(name, p.name, vehicle) for p in EFFECTS[name].params if p.integer}
+    return parse_effects(out)
+
+
 # --- resolution of numeric or symbolic parameter values -------------------------------------------
 
 class _Values:
@@ -734,3 +776,64 @@ def pressure_profile(x, vehicle: Vehicle, effects: Any = None, W=None) -> np.nda
         e, a, n = (float(ev["pressure_distribution", k]) for k in ("e", "alpha", "n_w"))
         shape = shape + e * (2 * x / l - 1) + a * np.cos(2 * math.pi * n * x / l)
     return p_mean * shape
+
+
+#: Track speed ``r w`` of a drawbar-pull rig when none is given, m/s (sets the vehicle speed).
+DEFAULT_RIG_SPEED = 0.5
+#: What a slip sweep may have measured (the CSV column is the name with ``_N``).
+SWEEP_MEASURES = ("tractive_force", "drawbar_pull")
+
+
+def rig_true_slip(i_app, vehicle: Vehicle, effects: Any = None):
+    """True slip from the slip a rig computes with the nominal radius (``radius_error``).
+
+    ``1 - v / (r_eff w) = (i + eps) / (1 + eps)``: ``eps = 0`` gives ``i`` exactly.
+    """
+    ev = effects if isinstance(effects, _Values) else _Values(effects, vehicle)
+    if not ev.on("radius_error"):
+        return i_app
+    eps = ev["radius_error", "eps"]
+    return (i_app + eps) / (1 + eps)
+
+
+def sweep_measurement(i_app, W, c, phi, K, vehicle: Vehicle, effects: Any = None, model: str = "full",
+                      measured: str = "tractive_force", rig_speed: float = DEFAULT_RIG_SPEED):
+    """What a drawbar-pull rig reports at apparent slip ``i_app`` and nominal load ``W`` (symbolic).
+
+    The rig runs the track at speed ``r w = rig_speed`` (so ``v = rig_speed (1 - i_app)``)
+    and measures the drawbar pull ``DP = F(i) - R`` with ``F`` the thrust with effects
+    (:func:`thrust_with_effects`, at the true slip :func:`rig_true_slip`) and ``R`` the actual
+    motion resistance (:func:`motion_resistance`). A rig reporting "tractive force" adds the
+    NOMINAL resistance back (the usual conversion): ``F_rep = DP + W mu_r``, so resistance
+    effects show there as lost force. With no effect on, ``F_rep = F(i)`` exactly.
+
+    Returns
+    -------
+    i_true, thrust, reported
+        True slip, thrust (N) and the reported quantity (N).
+    """
+    if measured not in SWEEP_MEASURES:
+        raise DataError(f"unknown measured quantity {measured!r}; expected one of {SWEEP_MEASURES}")
+    ev = effects if isinstance(effects, _Values) else _Values(effects, vehicle)
+    v = rig_speed * (1 - i_app)
+    i_true = rig_true_slip(i_app, vehicle, ev)
+    F = thrust_with_effects(i_true, c, phi, K, W, vehicle, ev, model)
+    dp = F - motion_resistance(v, i_true, vehicle, ev, W=W)
+    if measured == "drawbar_pull":
+        return i_true, F, dp
+    return i_true, F, dp + motion_resistance(v, i_true, vehicle, None, W=W)
+
+
+@lru_cache(maxsize=64)
+def _normal_load_fn(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
+    mapping, vec, _ = effect_symbols(structure, ca.SX, vehicle)
+    W = ca.SX.sym("W")
+    N = effective_normal_load(W, vehicle, mapping)
+    N = N if isinstance(N, ca.SX) else ca.SX(N)
+    return ca.Function("normal_load", [W, vec], [N, ca.jacobian(N, vec)], ["W", "e"], ["N", "dN_de"])
+
+
+def normal_load_function(vehicle: Vehicle, effects: Any = None) -> ca.Function:
+    """Cached Function ``(W, e) -> (N, dN/de)``: actual normal load from the nominal ``W`` and the
+    vector ``e`` of the identifiable effect parameters (order of :func:`effect_symbols`)."""
+    return _normal_load_fn(vehicle, effect_structure(effects, vehicle))

@@ -33,8 +33,8 @@ import numpy as np
 from .threadsafe import call_solver, locked_cache
 from .data import DriveLog, SlipData
 from .dynamics import _check_sprocket_equation, dynamics_function, slip_expr
-from .effects import (DEFAULT_STANDSTILL_SPEED, EffectSet, _Values, motion_resistance,
-                      parse_effects, smooth_sign, thrust_with_effects_function)
+from .effects import (DEFAULT_RIG_SPEED, DEFAULT_STANDSTILL_SPEED, SWEEP_MEASURES, EffectSet, _Values,
+                      parse_effects, smooth_sign, sweep_measurement)
 from .errors import DataError
 from .soil import Soil
 from .traction import check_model
@@ -329,8 +329,8 @@ def simulate_drive_log(vehicle: Vehicle, soil: Soil, *, effects: Any = None, see
 
 def simulate_slip_sweep(vehicle: Vehicle, soil: Soil, *, slips: Sequence[float] | None = None,
                         normal_loads: Sequence[float] | None = None, effects: Any = None, seed: int | None = None,
-                        noise: Any = "default", model: str = "full", rig_speed: float = 0.5,
-                        return_truth: bool = False):
+                        noise: Any = "default", model: str = "full", rig_speed: float = DEFAULT_RIG_SPEED,
+                        measure: str = "tractive_force", return_truth: bool = False):
     """Simulate a drawbar-pull slip sweep: tractive force at set slips and normal loads.
 
     Parameters
@@ -356,6 +356,10 @@ def simulate_slip_sweep(vehicle: Vehicle, soil: Soil, *, slips: Sequence[float] 
         ``"full"`` or ``"cohesion-free"``.
     rig_speed
         Track speed ``r w`` of the rig, m/s (sets the vehicle speed for speed resistance).
+    measure
+        ``"tractive_force"`` (default: drawbar pull plus the nominal resistance ``W mu_r``) or
+        ``"drawbar_pull"`` (the pull itself, ``F - R``); see
+        :func:`~soiltrack.soilmodel.effects.sweep_measurement`.
     return_truth
         Also return ``{"slip": measured-noise-free, "slip_true", "tractive_force", "thrust",
         "normal_load"}``.
@@ -376,17 +380,22 @@ def simulate_slip_sweep(vehicle: Vehicle, soil: Soil, *, slips: Sequence[float] 
         raise DataError("normal_loads must be finite values > 0 N")
     if not (isinstance(rig_speed, (int, float)) and math.isfinite(rig_speed) and rig_speed > 0):
         raise DataError(f"rig_speed must be a finite number > 0, got {rig_speed!r}")
+    if measure not in SWEEP_MEASURES:
+        raise DataError(f"measure must be one of {SWEEP_MEASURES}, got {measure!r}")
     S, Wn = (a.ravel() for a in np.meshgrid(s, loads, indexing="xy"))
-    fn = _sweep_fn(vehicle, eff, model)
+    fn = _sweep_fn(vehicle, eff, model, measure)
     slip_true, thrust, reported = (np.asarray(a, dtype=float).ravel() for a in fn(
         S.reshape(1, -1), Wn.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus, rig_speed))
     rng = np.random.default_rng(seed)
     F_meas = _std(rng, reported, nz.force_abs, nz.force_rel)
     s_meas = np.clip(_std(rng, S, nz.slip_abs, 0.0), 0.0, 0.999)
-    data = SlipData(slip=s_meas, tractive_force=F_meas, normal_load=Wn if loads_given else None,
-                    source=f"simulated slip sweep ({vehicle.name or 'vehicle'}, {soil.name or 'soil'}, effects: {eff})")
+    src = f"simulated slip sweep ({vehicle.name or 'vehicle'}, {soil.name or 'soil'}, effects: {eff})"
+    if measure == "drawbar_pull":
+        data = SlipData(slip=s_meas, normal_load=Wn if loads_given else None, source=src, drawbar_pull=F_meas)
+    else:
+        data = SlipData(slip=s_meas, tractive_force=F_meas, normal_load=Wn if loads_given else None, source=src)
     if return_truth:
-        return data, {"slip": S, "slip_true": slip_true, "tractive_force": reported, "thrust": thrust,
+        return data, {"slip": S, "slip_true": slip_true, measure: reported, "thrust": thrust,
                       "normal_load": Wn}
     return data
 
@@ -398,18 +407,10 @@ def _slip_fn() -> ca.Function:
 
 
 @lru_cache(maxsize=64)
-def _sweep_fn(vehicle: Vehicle, effects: EffectSet, model: str) -> ca.Function:
+def _sweep_fn(vehicle: Vehicle, effects: EffectSet, model: str, measured: str = "tractive_force") -> ca.Function:
     ev = _Values(effects, vehicle)
     i_app, W, c, phi, K, rig = (ca.SX.sym(n) for n in ("i", "W", "c", "phi", "K", "rig"))
-    r_nom = vehicle.sprocket_radius
-    w = rig / r_nom
-    v = r_nom * w * (1 - i_app)  # measured v (truth: a speed sensor on the carriage)
-    # true slip 1 - v/(r_eff w) = (i_app + eps)/(1 + eps): written so that eps = 0 gives i_app exactly
-    i_true = (i_app + ev["radius_error", "eps"]) / (1 + ev["radius_error", "eps"]) if ev.on("radius_error") else i_app
-    F = thrust_with_effects_function(vehicle, effects, model)(i_true, c, phi, K, W)
-    R = motion_resistance(v, i_true, vehicle, ev, W=W)
-    R_nom = W * vehicle.rolling_resistance * smooth_sign(v, DEFAULT_STANDSTILL_SPEED)
-    rep = F - (R - R_nom)
+    i_true, F, rep = sweep_measurement(i_app, W, c, phi, K, vehicle, ev, model, measured, rig)
     return ca.Function("sweep", [i_app, W, c, phi, K, rig], [i_true, F, rep])
 
 
@@ -417,20 +418,20 @@ def simulate(vehicle: Vehicle, soil: Soil, *, kind: str = "drive", effects: Any 
              noise: Any = "default", model: str = "full", duration_s: float | None = None,
              sample_rate_hz: float | None = None, speed_profile: Any = None, slips: Sequence[float] | None = None,
              normal_loads: Sequence[float] | None = None, sprocket_equation: str = "thrust",
-             return_truth: bool = False):
+             measure: str = "tractive_force", return_truth: bool = False):
     """Simulate a drive log (``kind="drive"``) or a drawbar-pull slip sweep (``kind="sweep"``).
 
     Dispatches to :func:`simulate_drive_log` (``duration_s`` default 60, ``sample_rate_hz``
     default 50, ``speed_profile``, ``sprocket_equation``) or :func:`simulate_slip_sweep`
-    (``slips``, ``normal_loads``). Arguments that belong to the other kind are refused.
+    (``slips``, ``normal_loads``, ``measure``: ``"tractive_force"`` or ``"drawbar_pull"``). Arguments that belong to the other kind are refused.
 
     Returns
     -------
     DriveLog or SlipData (with a truth dict when ``return_truth``).
     """
     if kind == "drive":
-        if slips is not None or normal_loads is not None:
-            raise DataError("slips and normal_loads belong to kind='sweep', not to a drive log")
+        if slips is not None or normal_loads is not None or measure != "tractive_force":
+            raise DataError("slips, normal_loads and measure belong to kind='sweep', not to a drive log")
         return simulate_drive_log(vehicle, soil, effects=effects, seed=seed, noise=noise, model=model,
                                   duration_s=60.0 if duration_s is None else duration_s,
                                   sample_rate_hz=50.0 if sample_rate_hz is None else sample_rate_hz,
@@ -442,5 +443,5 @@ def simulate(vehicle: Vehicle, soil: Soil, *, kind: str = "drive", effects: Any 
         if sprocket_equation != "thrust":
             raise DataError("sprocket_equation belongs to kind='drive', not to a sweep")
         return simulate_slip_sweep(vehicle, soil, slips=slips, normal_loads=normal_loads, effects=effects, seed=seed,
-                                   noise=noise, model=model, return_truth=return_truth)
+                                   noise=noise, model=model, measure=measure, return_truth=return_truth)
     raise DataError(f"unknown kind {kind!r}; expected 'drive' or 'sweep'")

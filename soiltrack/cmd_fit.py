@@ -20,6 +20,8 @@ def _cmd_fit(a: argparse.Namespace) -> int:
         if not isinstance(data, DriveLog):
             raise DataError("--bias-correction applies to drive logs only", file=a.data)
         kw["bias_correction"] = a.bias_correction
+    if a.effect:
+        kw["effects"] = [e.strip() for item in a.effect for e in item.split(",") if e.strip()]
     result = fit(data, vehicle, model=a.model, method=a.method, **kw)
     if a.json:
         print(result.to_json())
@@ -47,6 +49,9 @@ def add_parser(sub) -> None:
                         "proportional to the force (level estimated); default: equal weights, level estimated")
     f.add_argument("--bias-correction", choices=("none", "simex"), default="none",
                    help="drive logs: SIMEX correction of the slip-noise bias of K on hard-pull logs (about 5 s)")
+    f.add_argument("--effect", action="append", metavar="NAME",
+                   help="fit this unmodelled effect's parameters jointly with the soil (repeatable; e.g. grade, "
+                        "slip_sinkage, speed_resistance, mass_error)")
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit")
     f.set_defaults(func=_cmd_fit)

@@ -1,0 +1,163 @@
+"""Joint fit of the soil and named effects to a slip sweep, with IPOPT.
+
+The NLP is built ONCE per ``(vehicle, effects on, model, measured, rig speed, n)`` and cached
+(:func:`~soiltrack.soilmodel.threadsafe.locked_cache`); the data enter as parameters. The
+model is :func:`~soiltrack.identify.sweep_model.observation_function` (the soilmodel's
+:func:`~soiltrack.soilmodel.effects.sweep_measurement`), mapped over the samples; residuals
+and the Jacobian come from it by AD. Variables ``x = [c, phi, K, e...] / scale``, bounded by
+the soil's practical ranges and each effect parameter's physical range
+(:func:`~soiltrack.soilmodel.effects.parameter_bounds`). Held parameters (``fixed``, cohesion
+of the cohesion-free model) have ``lbx = ubx`` and keep their Jacobian column in the result.
+A pressure distribution keeps the pressure positive (``|e| + |alpha| <= 1`` as two linear
+constraints). Start: the soil of the nominal variable-projection grid, effects off.
+
+At one normal load and without a shear-shape effect, c and phi enter only through
+``F_max = A c + N tan(phi)`` (N the actual normal load): the reported (c, phi) is then moved to
+the centre of the bounds-feasible ridge at the fitted F_max (:func:`ridge_centre`), which leaves
+every prediction unchanged, so that the marker is the same as the nominal fit's.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import casadi as ca
+import numpy as np
+
+from ..soilmodel.effects import EFFECTS, EffectSet, effect_symbols, parameter_bounds, parameter_scale
+from ..soilmodel.threadsafe import call_solver, locked_cache
+from ..soilmodel.vehicle import Vehicle
+from .problem import SCALE, SlipProblem, ridge_centre
+from .result import FitResult, build_result
+from .start import grid_start
+from .sweep_model import SweepResiduals, observation_function, predict
+
+__all__ = ["fit_joint", "joint_layout"]
+
+_OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+_DEFAULT_OPTS = {"ipopt.tol": 1e-12, "ipopt.acceptable_tol": 1e-8, "ipopt.max_iter": 500}
+_SHAPE_EFFECTS = ("hump_shear", "pressure_distribution")
+
+
+def joint_layout(vehicle: Vehicle, structure: EffectSet) -> tuple[list[str], np.ndarray, np.ndarray, list[str]]:
+    """Labels, bounds ``(m, 2)``, scales ``(m,)`` and units of the identifiable effect parameters."""
+    labels = effect_symbols(structure, vehicle=vehicle)[2]
+    bounds, scales, units = [], [], []
+    for lab in labels:
+        name, p = lab.split(".", 1)
+        bounds.append(parameter_bounds(name, p, vehicle))
+        scales.append(parameter_scale(name, p, vehicle))
+        units.append(EFFECTS[name].param(p).unit)
+    return labels, np.array(bounds, float).reshape(-1, 2), np.array(scales, float), units
+
+
+@locked_cache(maxsize=64)
+def _solver(vehicle: Vehicle, structure: EffectSet, model: str, measured: str, rig_speed: float, n: int,
+            opts_key: tuple = ()) -> ca.Function:
+    labels, _, scales, _ = joint_layout(vehicle, structure)
+    nx = 3 + len(labels)
+    S = np.concatenate([SCALE, scales])
+    X = ca.SX.sym("x", nx)
+    P = ca.SX.sym("p", 4 * n + 1)
+    slip, y, W, sig, scale = P[0:n], P[n:2 * n], P[2 * n:3 * n], P[3 * n:4 * n], P[4 * n]
+    obs = observation_function(vehicle, structure, model, measured, rig_speed)
+    ym = obs.map(n)(slip.T, W.T, X * S)[0].T
+    rw = (ym - y) / sig
+    f = 0.5 * ca.dot(rw, rw) / scale
+    g = []
+    if "pressure_distribution" in structure:
+        ie, ia = 3 + labels.index("pressure_distribution.e"), 3 + labels.index("pressure_distribution.alpha")
+        e, a = X[ie] * S[ie], X[ia] * S[ia]
+        g = [e + a, e - a]
+    nlp = {"x": X, "p": P, "f": f}
+    if g:
+        nlp["g"] = ca.vertcat(*g)
+    opts = {"expand": True, "print_time": False, "error_on_fail": False, "ipopt.print_level": 0, "ipopt.sb": "yes"}
+    opts.update(_DEFAULT_OPTS)
+    opts.update(dict(opts_key))
+    return ca.nlpsol(f"jointfit_{n}", "ipopt", nlp, opts)
+
+
+def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_grid: int = 25) -> FitResult:
+    """Fit the soil and the effects of ``pb`` jointly with IPOPT and build the result."""
+    structure = pb.effects if pb.effects is not None else EffectSet()
+    labels, eb, escale, units = joint_layout(pb.vehicle, structure)
+    m = len(labels)
+    S = np.concatenate([SCALE, escale])
+    key = tuple(sorted((ipopt_options or {}).items()))
+    solver = _solver(pb.vehicle, structure, pb.model, pb.measured, pb.rig_speed, pb.n, key)
+    t0 = time.perf_counter()
+    fixed = dict(pb.fixed)
+    # start: nominal soil from the variable-projection grid (on the tractive-force equivalent), effects off
+    if x0 is None:
+        theta0 = grid_start(pb.slip[None], pb.force[None], pb.load[None], pb.sigma[None], pb.vehicle.track_length,
+                            pb.vehicle.track_width, pb.model, pb.bounds, n_grid=n_grid)[0]
+        start = "variable-projection grid start, effects off"
+    else:
+        from .ipopt_fit import _x0_vector
+        theta0 = _x0_vector(x0)
+        start = "user start point, effects off"
+    e0 = []
+    for lab, (lo, hi) in zip(labels, eb):
+        name, p = lab.split(".", 1)
+        spec = EFFECTS[name].param(p)
+        v = fixed.get(lab, spec.off_value if spec.default is None else spec.default)
+        e0.append(min(max(v, lo), hi))
+    lo = np.concatenate([pb.bounds.lower, eb[:, 0]]) / S
+    hi = np.concatenate([pb.bounds.upper, eb[:, 1]]) / S
+    z0 = np.concatenate([theta0, e0]) / S
+    if pb.model == "cohesion-free":
+        lo[0] = hi[0] = z0[0] = 0.0
+    for k, lab in enumerate(labels):
+        if lab in fixed:
+            lo[3 + k] = hi[3 + k] = z0[3 + k] = fixed[lab] / S[3 + k]
+    z0 = np.clip(z0, lo, hi)
+    y = pb.measured_values
+    yw = y / pb.sigma
+    scale = max(0.5 * float(yw @ yw), 1e-300)
+    p = np.concatenate([pb.slip, y, pb.load, pb.sigma, [scale]])
+    args = {"x0": z0, "p": p, "lbx": lo, "ubx": hi}
+    if "pressure_distribution" in structure:
+        args.update(lbg=-1.0, ubg=1.0)
+    sol, st = call_solver(solver, **args)
+    x = np.asarray(sol["x"], float).ravel() * S
+    status = str(st.get("return_status", "unknown"))
+    iters = int(st.get("iter_count", -1))
+    ok = bool(st.get("success", False)) and status in _OK_STATUS
+    msgs = []
+    if not np.all(np.isfinite(x)):
+        ok = False
+        msgs.append("IPOPT returned non-finite numbers")
+    span = np.where(hi > lo, hi - lo, 1.0) * S
+    viol = np.maximum(lo * S - x, x - hi * S) / span
+    if np.any(viol > 1e-6):
+        ok = False
+        msgs.append("IPOPT's answer lies outside the bounds")
+    x = np.clip(np.where(np.isfinite(x), x, z0 * S), lo * S, hi * S)
+    theta, e = x[:3].copy(), x[3:].copy()
+    note = ""
+    W = pb.load
+    one_load = bool(np.all(np.abs(W - W[0]) <= 1e-9 * abs(W[0])))
+    if pb.model == "full" and one_load and not any(s in structure for s in _SHAPE_EFFECTS) and ok:
+        from ..soilmodel.effects import normal_load_function
+        N = float(normal_load_function(pb.vehicle, structure)(float(W[0]), e)[0]) if m else float(W[0])
+        A = pb.vehicle.contact_area
+        F = A * theta[0] + N * math.tan(theta[1])
+        c, phi = ridge_centre(F, N, A, pb.bounds)
+        theta[0], theta[1] = float(c), float(phi)
+        note = "; one normal load: (c, phi) moved along the ridge to its centre (predictions unchanged)"
+    total = time.perf_counter() - t0
+    ypred, J = predict(np.concatenate([theta, e]), pb.slip, pb.load, pb.vehicle, structure, pb.model, pb.measured,
+                       pb.rig_speed)
+    r = ypred - y
+    msg = "; ".join(msgs) or ("IPOPT converged" if ok else f"IPOPT: {status}")
+    warnings = pb.noise_warning(r)
+    return build_result(data_kind="slip", model=pb.model, method="ipopt", theta=theta, jacobian=J / pb.sigma[:, None],
+                        weighted_residuals=r / pb.sigma, residuals=r, residual_unit="N", n_samples=pb.n,
+                        normal_loads=pb.load, vehicle=pb.vehicle, bounds=pb.bounds, status=status, success=ok,
+                        message=f"{msg} (joint soil and effects fit; {start}{note})", iterations=iters,
+                        solve_time=total, sigma_known=pb.sigma_known, warnings=warnings,
+                        extra={"engine": "ipopt", "start": [float(v) for v in np.concatenate([theta0, e0])]},
+                        effect_labels=labels, effect_values=e, effect_bounds=[tuple(b) for b in eb],
+                        effect_units=units, effect_structure=structure, fixed_labels=tuple(fixed),
+                        measured=pb.measured, residual_model=SweepResiduals(pb.rig_speed))
