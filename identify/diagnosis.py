@@ -10,7 +10,7 @@
 2. **The gap**: the samples (in time order for a log, in slip order for a sweep) are cut into
    contiguous blocks, alternately held out (:func:`~.gap.blocked_folds`, two folds). The
    nominal model is fitted on one part and predicts the other, channel by channel, against
-   each channel's noise floor (:func:`~.gap.noise_floor`).
+   each channel's noise level (:func:`~.gap.noise_profile`: it may vary along the data).
 3. **Where** (:func:`~.gap.localise`, :func:`~.gap.change_window`, :func:`~.gap.whiteness`,
    :func:`~.gap.lag_peak`): the share of the misfit by channel and by slip, speed and time
    range; the time window of a change; residual whiteness; a lag peak against the inputs.
@@ -37,10 +37,10 @@ from ..soilmodel.data import DriveLog, SlipData
 from ..soilmodel.effects import EFFECTS
 from ..soilmodel.errors import DataError
 from ..soilmodel.vehicle import Vehicle
-from .gap import (Segment, blocked_folds, change_window, lag_peak, localise, long_run_factor, noise_floor,
+from .gap import (Segment, blocked_folds, change_window, lag_peak, localise, long_run_factor, noise_profile,
                   whiteness)
-from .screening import Screen, screen
-from .selection import (DISCREPANCY, NOMINAL, Verdict, confusable_groups, cv_weights, decide, fit_discrepancy,
+from .screening import Screen, newey_west_lag, screen
+from .selection import (DISCREPANCY, NOMINAL, confusable_groups, cv_weights, decide, dm_test, fit_discrepancy,
                         gap_p_value, separating_experiment)
 
 __all__ = ["diagnose", "Diagnosis", "RankEntry"]
@@ -397,7 +397,7 @@ def _check_candidates(candidates, data) -> tuple[str, ...]:
 
 # ----------------------------------------------------------------------------- the diagnosis
 def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full",
-             candidates: Sequence[str] | None = None, n_blocks: int = 10, max_refits: int = 3,
+             candidates: Sequence[str] | None = None, n_blocks: int = 10, max_refits: int | None = None,
              alpha: float = ALPHA) -> Diagnosis:
     """Diagnose the gap between the nominal model and a drive log or a slip sweep.
 
@@ -414,7 +414,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     n_blocks
         Number of contiguous blocks of the blocked hold-out (alternately held out).
     max_refits
-        At most this many candidates (the most significant in screening) are refitted.
+        At most this many candidates (the most significant in screening) are refitted; default
+        every significant one for a sweep (fits take milliseconds), 3 for a drive log.
     alpha
         Significance level (screening is Bonferroni-corrected over the candidates).
 
@@ -462,6 +463,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     screenable = [s for s in screens if s.screenable]
     thr = alpha / max(1, len(screenable))
     significant = sorted((s for s in screenable if s.p_value < thr), key=lambda s: -s.statistic)
+    if max_refits is None:
+        max_refits = 3 if is_log else len(significant)
     refit = [s.effect for s in significant[:max_refits]]
     if len(significant) > max_refits:
         notes.append(f"{len(significant)} candidates screened significant; the {max_refits} strongest were refitted "
@@ -471,17 +474,16 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     full_res = _channels(nominal_full, data)
     channels = list(full_res)
     order = _order(data)
-    m_full = {ch: v.size for ch, v in full_res.items()}
-    noise = {}
+    noise, sig_n = {}, {}
     for ch, rr in full_res.items():
         o = order[order >= n - rr.size] - (n - rr.size) if rr.size < n else order
-        noise[ch] = noise_floor(rr, o)
-    # a noise-free simulated log gives a zero floor: use a tiny fraction of the channel's scale instead
-    for ch, s in noise.items():
-        if not s > 0:
-            scale = float(np.max(np.abs(full_res[ch]))) if full_res[ch].size else 0.0
-            noise[ch] = max(1e-12, 1e-9 * scale)
+        prof = noise_profile(rr, o)
+        if not np.all(prof > 0):  # a noise-free simulated run: a negligible floor instead of zero
+            scale = float(np.max(np.abs(rr))) if rr.size else 0.0
+            prof = np.full(rr.size, max(1e-12, 1e-9 * scale))
             notes.append(f"no measurable noise in {ch}: the noise floor is set to a negligible value")
+        noise[ch] = float(np.sqrt(np.mean(prof ** 2)))
+        sig_n[ch] = np.concatenate([np.full(n - rr.size, prof[0]), prof])  # per sample of the data
     folds = blocked_folds(n, n_blocks)
     folds = [(order[a], order[b]) for a, b in folds]  # blocks in the natural order (slip for sweeps)
     folds = [(np.sort(a), np.sort(b)) for a, b in folds]
@@ -492,6 +494,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
 
     held: dict[str, dict[str, list]] = {}  # model -> channel -> list of held-out residual arrays
     held_x: dict[str, list] = {ch: [] for ch in channels}
+    held_s: dict[str, list] = {ch: [] for ch in channels}  # noise level of each held-out sample
     train_fits: dict[str, list] = {}
 
     def score_model(name, effects=()):
@@ -515,7 +518,9 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     score_model(NOMINAL)
     for tr, te in folds:
         for ch in channels:
-            held_x[ch].append(_align(x_of(te), held[NOMINAL][ch][len(held_x[ch])].size))
+            m = held[NOMINAL][ch][len(held_x[ch])].size
+            held_x[ch].append(_align(x_of(te), m))
+            held_s[ch].append(_align(sig_n[ch][te], m))
     # discrepancy term: spline in slip (sweep) or time (log) fitted to the nominal training residuals
     held[DISCREPANCY] = {ch: [] for ch in channels}
     n_knots = 8 if is_log else max(2, min(5, n // 8))
@@ -531,37 +536,44 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     def cat(name, ch):
         return np.concatenate(held[name][ch])
 
+    sig_held = {ch: np.concatenate(held_s[ch]) for ch in channels}
+
+    def z(name, ch):
+        return cat(name, ch) / sig_held[ch]
+
     def ss(name):
-        return sum(float(np.sum((cat(name, ch) / noise[ch]) ** 2)) for ch in channels)
+        return sum(float(np.sum(z(name, ch) ** 2)) for ch in channels)
 
     def rmse(name):
         return {ch: float(np.sqrt(np.mean(cat(name, ch) ** 2))) for ch in channels}
 
     n_held = sum(cat(NOMINAL, ch).size for ch in channels)
     scores = {m: ss(m) for m in held}
-    # evidence correction for correlated residuals: from the flexible model's held-out residuals
+    # evidence correction: correlated residuals (logs) and residuals more dispersed than Gaussian noise
     best_m = min(scores, key=lambda m: scores[m])
-    infl = max(long_run_factor(cat(best_m, ch) / noise[ch]) for ch in channels) if is_log else 1.0
+    zb = np.concatenate([z(best_m, ch) for ch in channels])
+    infl = max(long_run_factor(z(best_m, ch)) for ch in channels) if is_log else 1.0
+    infl *= max(1.0, float(np.var(zb ** 2)) / 2.0)
     weights = cv_weights(scores, infl)
     gap_p = gap_p_value(scores[NOMINAL], n_held, infl)
-    after_ratio = {c: max(float(np.sqrt(np.mean((cat(c, ch) / noise[ch]) ** 2))) for ch in channels) for c in refit}
+    dm_lag = newey_west_lag(n_held) if is_log else 0
+    zd = np.concatenate([z(DISCREPANCY, ch) for ch in channels])
+    disc_beats = {m: dm_test(np.concatenate([z(m, ch) for ch in channels]), zd, dm_lag)
+                  for m in held if m != DISCREPANCY}
+    after_ratio = {c: max(float(np.sqrt(np.mean(z(c, ch) ** 2))) for ch in channels) for c in refit}
     after_p = {c: gap_p_value(scores[c], n_held, infl) for c in refit}
-    verdict = decide(weights, [s.effect for s in significant], gap_p, after_ratio, after_p, alpha=alpha)
+    verdict = decide(weights, [s.effect for s in significant], disc_beats, after_ratio, after_p, alpha=alpha)
 
     # --- 3. where -----------------------------------------------------------------------------------------
-    hold_all = {ch: cat(NOMINAL, ch) for ch in channels}
     n_ch = {ch: v.size for ch, v in full_res.items()}
-    variables = {}
-    for ch in channels:
-        variables[ch] = _variables(data, vehicle, n_ch[ch])
     # localisation on the full-data nominal residuals (every sample; the gap is the nominal misfit)
     var_common = _variables(data, vehicle, min(n_ch.values()))
     res_common = {ch: _align(v, min(n_ch.values())) for ch, v in full_res.items()}
-    loc = localise(res_common, noise, var_common, alpha=alpha)
+    loc = localise(res_common, {ch: sig_n[ch][-min(n_ch.values()):] for ch in channels}, var_common, alpha=alpha)
     # main channel for the window and lags: the one with the largest share
-    main = max(channels, key=lambda ch: float(np.mean((full_res[ch] / noise[ch]) ** 2)))
+    main = max(channels, key=lambda ch: float(np.mean((full_res[ch] / sig_n[ch][-full_res[ch].size:]) ** 2)))
     xw = _align(np.asarray(data.time if is_log else data.slip, dtype=float), full_res[main].size)
-    change = change_window(full_res[main], xw, noise[main], channel=main, alpha=alpha)
+    change = change_window(full_res[main], xw, sig_n[main][-full_res[main].size:], channel=main, alpha=alpha)
     white = {ch: whiteness(rr[np.argsort(_align(np.asarray(data.time if is_log else data.slip), rr.size),
                                          kind="stable")]) for ch, rr in full_res.items()}
     lags = {}

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["blocked_folds", "noise_floor", "long_run_factor", "Segment", "localise", "ChangeWindow",
+__all__ = ["blocked_folds", "noise_floor", "noise_profile", "long_run_factor", "Segment", "localise", "ChangeWindow",
            "change_window", "whiteness", "lag_peak", "chi2_sf", "chi2_isf"]
 
 _MAD_TO_SIGMA = 1.4826
@@ -140,6 +140,47 @@ def noise_floor(residuals: np.ndarray, order: np.ndarray | None = None) -> float
     return float(np.sqrt(np.mean(d ** 2) / 6.0))
 
 
+def noise_profile(residuals: np.ndarray, order: np.ndarray | None = None, window: int | None = None) -> np.ndarray:
+    """Per-sample noise level of a residual series whose noise varies along the data.
+
+    Sweeps have noise that grows where the curve is steep (slip noise times dF/di at small
+    slip) or with the reading (relative noise); logs, where the speed or torque is high. The
+    squared second differences (see :func:`noise_floor`) are averaged over a moving window of
+    ``window`` neighbours in the natural order (default: about a tenth of the samples, at
+    least 7) and divided by 6; the result is floored at a fifth of the global level so that
+    a quiet stretch does not make every residual there look significant.
+
+    Returns
+    -------
+    ndarray
+        sigma per sample, in the input's order (not the sorted one).
+    """
+    r = np.asarray(residuals, dtype=float).ravel()
+    n = r.size
+    idx = np.arange(n) if order is None else np.asarray(order)
+    rs = r[idx]
+    glob = noise_floor(rs)
+    if n < 5:
+        return np.full(n, glob)
+    d2 = np.empty(n)
+    d = rs[2:] - 2.0 * rs[1:-1] + rs[:-2]
+    med = float(np.median(d))
+    mad = _MAD_TO_SIGMA * float(np.median(np.abs(d - med)))
+    if mad > 0:
+        d = np.clip(d, med - 8 * mad, med + 8 * mad)
+    d2[1:-1] = d ** 2 / 6.0
+    d2[0], d2[-1] = d2[1], d2[-2]
+    w = int(window if window is not None else max(7, n // 10))
+    w = max(1, min(w, n))
+    cs = np.concatenate([[0.0], np.cumsum(d2)])
+    lo = np.clip(np.arange(n) - w // 2, 0, n - w)  # the window slides to stay inside the data
+    sm = (cs[lo + w] - cs[lo]) / w
+    sig_sorted = np.maximum(np.sqrt(sm), 0.2 * glob)
+    out = np.empty(n)
+    out[idx] = sig_sorted
+    return out
+
+
 def long_run_factor(residuals: np.ndarray, max_lag: int | None = None) -> float:
     """Variance inflation of a mean of correlated residuals, ``1 + 2 sum_k w_k rho_k`` (Bartlett).
 
@@ -225,7 +266,8 @@ def localise(residuals: dict[str, np.ndarray], sigma: dict[str, float], variable
     residuals
         ``{channel: residuals}`` on the same samples, model minus data.
     sigma
-        ``{channel: noise floor}`` in the channel's unit (> 0).
+        ``{channel: noise level}`` in the channel's unit: a number, or one per sample
+        (:func:`noise_profile`).
     variables
         ``{"slip" | "speed" | "time": values per sample}``; each is cut into ``n_bins`` ranges
         holding equal numbers of samples (contiguous in the variable).
@@ -242,9 +284,9 @@ def localise(residuals: dict[str, np.ndarray], sigma: dict[str, float], variable
     z_all = {}
     infl = {}
     for ch, r in residuals.items():
-        s = float(sigma.get(ch, 0.0))
         r = np.asarray(r, dtype=float)
-        z = r / s if s > 0 else np.zeros_like(r)
+        s = np.broadcast_to(np.asarray(sigma.get(ch, 0.0), dtype=float), r.shape)
+        z = np.divide(r, s, out=np.zeros_like(r), where=s > 0)
         z_all[ch] = z
         infl[ch] = long_run_factor(z)
     # by channel
@@ -312,17 +354,18 @@ def change_window(residuals: np.ndarray, x: np.ndarray, sigma: float, channel: s
 
     The series is pooled into ``n_cells`` consecutive cells; every window of whole cells (not
     the whole series) is scored by the standardised difference of its mean from the mean
-    outside. The long-run variance (:func:`long_run_factor`) of the residuals outside the best
+    outside (residuals standardised by ``sigma``, a number or one per sample). The long-run variance (:func:`long_run_factor`) of the residuals outside the best
     window corrects for correlation; the p-value is Bonferroni-corrected for the number of
     windows tried. ``None`` when the series is too short or ``sigma`` is not positive.
     """
-    r = np.asarray(residuals, dtype=float).ravel()
+    raw = np.asarray(residuals, dtype=float).ravel()
     x = np.asarray(x, dtype=float).ravel()
-    n = r.size
-    if n < 12 or not sigma > 0:
+    n = raw.size
+    sg = np.broadcast_to(np.asarray(sigma, dtype=float), raw.shape)
+    if n < 12 or not np.all(sg > 0):
         return None
     order = np.argsort(x, kind="stable")
-    r, x = r[order], x[order]
+    raw, x, r = raw[order], x[order], (raw / sg)[order]  # r: standardised residuals
     cells = np.array_split(np.arange(n), min(n_cells, n // 3))
     m = len(cells)
     sums = np.array([r[c].sum() for c in cells])
@@ -336,7 +379,7 @@ def change_window(residuals: np.ndarray, x: np.ndarray, sigma: float, channel: s
     s_in = S[b_idx] - S[a_idx]
     n_out = n - n_in
     shift = s_in / n_in - (S[-1] - s_in) / n_out
-    z2 = shift ** 2 / (sigma ** 2 * (1.0 / n_in + 1.0 / n_out))
+    z2 = shift ** 2 / (1.0 / n_in + 1.0 / n_out)
     k = int(np.argmax(z2))
     a, b = int(a_idx[k]), int(b_idx[k])
     inside = np.concatenate([cells[j] for j in range(a, b)])
@@ -345,7 +388,8 @@ def change_window(residuals: np.ndarray, x: np.ndarray, sigma: float, channel: s
     infl = max(long_run_factor(r[mask] - r[mask].mean()), long_run_factor(r[~mask] - r[~mask].mean()))
     stat = float(z2[k]) / infl
     p = min(1.0, chi2_sf(stat, 1) * a_idx.size)
-    return ChangeWindow(channel, float(x[inside].min()), float(x[inside].max()), float(shift[k]), stat, p,
+    raw_shift = float(np.mean(raw[inside]) - np.mean(raw[mask]))
+    return ChangeWindow(channel, float(x[inside].min()), float(x[inside].max()), raw_shift, stat, p,
                         bool(p < alpha))
 
 

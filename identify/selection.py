@@ -19,12 +19,17 @@ stands for any smooth gap, which no named effect can claim.
 
 The verdict (:func:`decide`):
 
-- ``none`` when no candidate's score test is significant and the nominal hold-out error does
-  not exceed the noise floor (or the discrepancy term does not beat the nominal model);
-- ``unexplained`` when the discrepancy term gets the largest weight, or when the best
-  candidate still leaves a significant gap on held-out data (its held-out RMS more than
-  ``gap_ratio`` times the noise floor);
-- otherwise the best candidate. ``confidence`` is the weight of the verdict.
+- ``none`` when no candidate's score test is significant and the discrepancy term does not
+  predict the held-out data significantly better than the nominal model (Diebold-Mariano
+  test, :func:`dm_test`), or when the nominal model outweighs every candidate;
+- ``unexplained`` when the discrepancy term predicts significantly better than the best
+  candidate, or when the best candidate still leaves a significant gap on held-out data (its
+  held-out RMS more than ``gap_ratio`` times the noise floor);
+- otherwise the best candidate. ``confidence`` is the weight of the verdict (for
+  ``unexplained``: the weight not carried by the best candidate).
+
+Weights are flattened (``f`` larger) when the held-out squared residuals are more dispersed
+than Gaussian noise makes them (``var(z^2) > 2``): a few large residuals are weak evidence.
 """
 from __future__ import annotations
 
@@ -36,7 +41,7 @@ import numpy as np
 from .gap import chi2_sf
 
 __all__ = ["SEPARATING_EXPERIMENTS", "separating_experiment", "hat_basis", "fit_discrepancy", "cv_weights",
-           "Verdict", "decide", "confusable_groups"]
+           "Verdict", "decide", "confusable_groups", "dm_test", "gap_p_value"]
 
 DISCREPANCY = "discrepancy"
 NOMINAL = "none"
@@ -178,8 +183,34 @@ class Verdict:
     reason: str
 
 
-def decide(weights: dict[str, float], significant: list[str], gap_p: float, after_ratio: dict[str, float],
-           after_p: dict[str, float], alpha: float = 0.01, gap_ratio: float = 1.5) -> Verdict:
+def dm_test(z_a: np.ndarray, z_b: np.ndarray, lag: int = 0) -> float:
+    """One-sided Diebold-Mariano p-value that model b predicts the held-out data better than model a.
+
+    ``d_t = z_a[t]^2 - z_b[t]^2`` (standardised held-out residuals of the same samples); the
+    statistic is ``mean(d) / se(mean(d))`` with a Newey-West (Bartlett, ``lag``) variance, so a
+    few large residuals or correlated ones do not make a small average gain look certain.
+    """
+    d = np.asarray(z_a, dtype=float) ** 2 - np.asarray(z_b, dtype=float) ** 2
+    d = d[np.isfinite(d)] if np.all(np.isfinite(z_a)) or np.all(np.isfinite(z_b)) else d
+    n = d.size
+    if n < 3:
+        return 1.0
+    if not np.all(np.isfinite(d)):
+        return 1.0
+    m = float(np.mean(d))
+    e = d - m
+    v = float(e @ e) / n
+    for k in range(1, min(lag, n - 1) + 1):
+        v += 2.0 * (1.0 - k / (lag + 1.0)) * float(e[k:] @ e[:-k]) / n
+    if v <= 0:
+        return 0.0 if m > 0 else 1.0
+    t = m / math.sqrt(v / n)
+    return 0.5 * math.erfc(t / math.sqrt(2.0))
+
+
+def decide(weights: dict[str, float], significant: list[str], disc_beats: dict[str, float],
+           after_ratio: dict[str, float], after_p: dict[str, float], alpha: float = 0.01,
+           gap_ratio: float = 1.5) -> Verdict:
     """The verdict from the weights and tests (see the module docstring).
 
     Parameters
@@ -188,30 +219,41 @@ def decide(weights: dict[str, float], significant: list[str], gap_p: float, afte
         Cross-validation weights of ``"none"``, ``"discrepancy"`` and the refitted candidates.
     significant
         Candidates whose score test was significant.
-    gap_p
-        p-value of the nominal model's held-out error against the noise floor.
+    disc_beats
+        Per model (``"none"`` and each refitted candidate): p-value that the discrepancy term
+        predicts the held-out data better (:func:`dm_test`).
     after_ratio, after_p
         Per refitted candidate: held-out RMS over the noise floor (worst channel) and the
         p-value of its held-out error against the noise floor.
     """
     w_none = weights.get(NOMINAL, 0.0)
     w_disc = weights.get(DISCREPANCY, 0.0)
-    if not significant and (gap_p >= alpha or w_disc <= w_none):
-        return Verdict(NOMINAL, w_none if significant else max(w_none, 1.0 - w_disc),
-                       "no candidate's score is significant and the held-out error is at the noise floor"
-                       if gap_p >= alpha else "no candidate's score is significant and a flexible term "
-                       "does not predict the held-out data better than the nominal model")
-    best = max(weights, key=lambda k: weights[k])
-    if best == NOMINAL:
+    gap = disc_beats.get(NOMINAL, 1.0) < alpha
+    named = {k: w for k, w in weights.items() if k not in (NOMINAL, DISCREPANCY)}
+    if not significant and not gap:
+        return Verdict(NOMINAL, max(w_none, 1.0 - w_disc),
+                       "no candidate's score is significant and a flexible term does not predict the held-out "
+                       "data significantly better than the nominal model")
+    if not named:
+        if gap:
+            return Verdict("unexplained", w_disc, "a flexible discrepancy term predicts the held-out data "
+                           "significantly better than the nominal model, and no candidate effect screens significant")
+        return Verdict(NOMINAL, w_none, "the candidates that screened significant do not predict the held-out "
+                       "data better than the nominal model")
+    best = max(named, key=lambda k: named[k])
+    if w_none > named[best] and not gap:
         return Verdict(NOMINAL, w_none, "the nominal model predicts the held-out data best")
-    if best == DISCREPANCY:
-        return Verdict("unexplained", w_disc, "a flexible discrepancy term predicts the held-out data better "
-                       "than every candidate effect")
+    if disc_beats.get(best, 1.0) < alpha:
+        return Verdict("unexplained", max(w_disc, 1.0 - named[best]),
+                       f"a flexible discrepancy term predicts the held-out data significantly better than the "
+                       f"best candidate, {best}")
     if after_ratio.get(best, 0.0) > gap_ratio and after_p.get(best, 1.0) < alpha:
-        return Verdict("unexplained", 1.0 - weights[best],
+        return Verdict("unexplained", 1.0 - named[best],
                        f"the best candidate, {best}, still leaves a held-out error "
                        f"{after_ratio[best]:.1f} times the noise floor")
-    return Verdict(best, weights[best], f"{best} predicts the held-out data best")
+    if w_none > named[best]:
+        return Verdict(NOMINAL, w_none, "the nominal model predicts the held-out data best")
+    return Verdict(best, named[best], f"{best} predicts the held-out data best")
 
 
 def gap_p_value(ss: float, n: int, inflation: float = 1.0) -> float:

@@ -4,10 +4,10 @@ import math
 import numpy as np
 import pytest
 
-from soiltrack.identify.gap import (blocked_folds, chi2_isf, chi2_sf, change_window, lag_peak, localise,
+from soiltrack.identify.gap import (blocked_folds, chi2_isf, chi2_sf, change_window, lag_peak, localise, noise_profile,
                                      long_run_factor, noise_floor, whiteness)
 from soiltrack.identify.screening import project_off, score_test
-from soiltrack.identify.selection import (DISCREPANCY, NOMINAL, confusable_groups, cv_weights, decide,
+from soiltrack.identify.selection import (DISCREPANCY, NOMINAL, confusable_groups, cv_weights, decide, dm_test,
                                           fit_discrepancy, hat_basis, separating_experiment)
 
 
@@ -116,20 +116,35 @@ def test_weights_and_verdicts():
     w = cv_weights({NOMINAL: 500.0, DISCREPANCY: 110.0, "grade": 100.0, "mass_error": 101.0})
     assert sum(w.values()) == pytest.approx(1.0)
     assert w["grade"] > w["mass_error"] > w[DISCREPANCY] > w[NOMINAL]
-    v = decide(w, ["grade", "mass_error"], 1e-20, {"grade": 1.0, "mass_error": 1.0}, {"grade": 0.5, "mass_error": 0.5})
+    gap = {NOMINAL: 1e-12, "grade": 0.9, "mass_error": 0.9}  # discrepancy beats nominal only
+    v = decide(w, ["grade", "mass_error"], gap, {"grade": 1.0, "mass_error": 1.0}, {"grade": 0.5, "mass_error": 0.5})
     assert v.name == "grade" and v.confidence == pytest.approx(w["grade"])
     # the best candidate leaves a gap three times the noise: unexplained
-    v = decide(w, ["grade"], 1e-20, {"grade": 3.0, "mass_error": 3.0}, {"grade": 1e-9, "mass_error": 1e-9})
+    v = decide(w, ["grade"], gap, {"grade": 3.0, "mass_error": 3.0}, {"grade": 1e-9, "mass_error": 1e-9})
     assert v.name == "unexplained"
-    # the discrepancy term wins: unexplained
-    w2 = cv_weights({NOMINAL: 500.0, DISCREPANCY: 90.0, "grade": 130.0})
-    assert decide(w2, ["grade"], 1e-20, {"grade": 1.0}, {"grade": 0.5}).name == "unexplained"
-    # nothing significant, gap at the noise floor: none
+    # the discrepancy term predicts significantly better than the best candidate: unexplained
+    assert decide(w, ["grade"], {NOMINAL: 1e-12, "grade": 1e-5}, {"grade": 1.0}, {"grade": 0.5}).name == "unexplained"
+    # nothing significant, discrepancy not significantly better: none
     w3 = cv_weights({NOMINAL: 100.0, DISCREPANCY: 104.0})
-    v = decide(w3, [], 0.4, {}, {})
+    v = decide(w3, [], {NOMINAL: 0.6}, {}, {})
     assert v.name == NOMINAL and v.confidence > 0.5
+    # nothing screened, but a flexible term clearly better: unexplained
+    w4 = cv_weights({NOMINAL: 300.0, DISCREPANCY: 100.0})
+    assert decide(w4, [], {NOMINAL: 1e-9}, {}, {}).name == "unexplained"
     # inflation flattens the weights (correlated residuals carry less evidence)
     assert cv_weights({"a": 0.0, "b": 4.0}, 4.0)["a"] < cv_weights({"a": 0.0, "b": 4.0}, 1.0)["a"]
+
+
+def test_diebold_mariano_needs_more_than_one_lucky_residual():
+    rng = np.random.default_rng(6)
+    a = rng.standard_normal(300)
+    assert dm_test(a + 1.0, a) < 1e-6          # a steady gain over 300 samples
+    b = a.copy()
+    b[0] = 0.0
+    a2 = a.copy()
+    a2[0] = 8.0                                 # one big residual in model a only
+    assert dm_test(a2, b) > 0.05
+    assert dm_test(a, a + 1.0) > 0.99
 
 
 def test_confusable_pairs_and_experiments():
@@ -140,3 +155,15 @@ def test_confusable_pairs_and_experiments():
     assert "payload" in separating_experiment("mass_error", "grade")
     assert "coast-down" in separating_experiment("drivetrain_friction", "speed_resistance")
     assert "high slip" in separating_experiment("slip_sinkage", "hump_shear")
+
+
+def test_noise_profile_follows_a_varying_noise_level():
+    rng = np.random.default_rng(5)
+    x = np.linspace(0, 1, 3000)
+    sd = 0.1 + 0.9 * x  # noise grows tenfold along the data
+    r = np.sin(4 * x) + sd * rng.standard_normal(x.size)
+    prof = noise_profile(r)
+    assert prof[100] == pytest.approx(sd[100], rel=0.2) and prof[2900] == pytest.approx(sd[2900], rel=0.2)
+    # standardised by the profile, the noise is unit-variance everywhere
+    z = (r - np.sin(4 * x)) / prof
+    assert np.std(z[:1000]) == pytest.approx(1.0, abs=0.15) and np.std(z[-1000:]) == pytest.approx(1.0, abs=0.15)
