@@ -306,8 +306,15 @@ def _subset(data, idx: np.ndarray):
 
 
 def _channels(res, data) -> dict[str, np.ndarray]:
-    out = res.residuals_on(data)
-    return {k: np.asarray(v, dtype=float).ravel() for k, v in out.items()}
+    """Held-out residuals per channel at full length (NaN in front where the fit returns fewer)."""
+    out = {}
+    m = data.n_samples
+    for k, v in res.residuals_on(data).items():
+        v = np.asarray(v, dtype=float).ravel()
+        if v.size < m:
+            v = np.concatenate([np.full(m - v.size, np.nan), v])
+        out[k] = v[-m:]
+    return out
 
 
 def _soil_summary(res) -> dict:
@@ -363,20 +370,14 @@ def _order(data) -> np.ndarray:
     return np.argsort(np.asarray(data.slip), kind="stable")
 
 
-def _variables(data, vehicle: Vehicle, n: int) -> dict[str, np.ndarray]:
-    """Localisation variables aligned with the last ``n`` samples."""
+def _variables(data, vehicle: Vehicle) -> dict[str, np.ndarray]:
+    """Localisation variables per sample: slip (apparent, from the speeds, for a log), speed, time."""
     if isinstance(data, DriveLog):
         v = np.asarray(data.vehicle_speed, dtype=float)
         rw = vehicle.sprocket_radius * np.asarray(data.sprocket_speed, dtype=float)
         slip = np.where(rw > 0.05 * max(1e-9, float(np.max(np.abs(rw)))), 1.0 - v / np.where(rw == 0, 1.0, rw), 0.0)
-        out = {"time": np.asarray(data.time, dtype=float), "speed": v, "slip": np.clip(slip, -1.0, 1.0)}
-    else:
-        out = {"slip": np.asarray(data.slip, dtype=float)}
-    return {k: x[-n:] for k, x in out.items()}
-
-
-def _align(x: np.ndarray, n: int) -> np.ndarray:
-    return np.asarray(x)[-n:]
+        return {"time": np.asarray(data.time, dtype=float), "speed": v, "slip": np.clip(slip, -1.0, 1.0)}
+    return {"slip": np.asarray(data.slip, dtype=float)}
 
 
 def _check_candidates(candidates, data) -> tuple[str, ...]:
@@ -471,36 +472,35 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                      f"({', '.join(refit)})")
 
     # --- 2. the gap: blocked hold-out ------------------------------------------------------------------
-    full_res = _channels(nominal_full, data)
-    channels = list(full_res)
+    # every residual array is kept at full length n (NaN where the fit used no sample, e.g. a
+    # drive-log sample at standstill), so that held-out parts of the two folds fill one array
+    R = _channels(nominal_full, data)
+    channels = list(R)
     order = _order(data)
     noise, sig_n = {}, {}
-    for ch, rr in full_res.items():
-        o = order[order >= n - rr.size] - (n - rr.size) if rr.size < n else order
-        prof = noise_profile(rr, o)
-        if not np.all(prof > 0):  # a noise-free simulated run: a negligible floor instead of zero
-            scale = float(np.max(np.abs(rr))) if rr.size else 0.0
-            prof = np.full(rr.size, max(1e-12, 1e-9 * scale))
+    for ch, rr in R.items():
+        ok = np.isfinite(rr)
+        o = order[ok[order]]
+        prof_o = noise_profile(rr[o])
+        if not np.all(prof_o > 0):  # a noise-free simulated run: a negligible floor instead of zero
+            scale = float(np.max(np.abs(rr[ok]))) if np.any(ok) else 0.0
+            prof_o = np.full(o.size, max(1e-12, 1e-9 * scale))
             notes.append(f"no measurable noise in {ch}: the noise floor is set to a negligible value")
-        noise[ch] = float(np.sqrt(np.mean(prof ** 2)))
-        sig_n[ch] = np.concatenate([np.full(n - rr.size, prof[0]), prof])  # per sample of the data
-    folds = blocked_folds(n, n_blocks)
-    folds = [(order[a], order[b]) for a, b in folds]  # blocks in the natural order (slip for sweeps)
-    folds = [(np.sort(a), np.sort(b)) for a, b in folds]
-    nat = {"drive": "time"}.get("drive" if is_log else "sweep", "slip")
-
-    def x_of(idx):
-        return (np.asarray(data.time, dtype=float) if is_log else np.asarray(data.slip, dtype=float))[idx]
-
-    held: dict[str, dict[str, list]] = {}  # model -> channel -> list of held-out residual arrays
-    held_x: dict[str, list] = {ch: [] for ch in channels}
-    held_s: dict[str, list] = {ch: [] for ch in channels}  # noise level of each held-out sample
+        sg = np.full(n, np.nan)
+        sg[o] = prof_o
+        sig_n[ch] = sg
+        noise[ch] = float(np.sqrt(np.mean(prof_o ** 2))) if prof_o.size else 0.0
+    folds = [(np.sort(order[a]), np.sort(order[b])) for a, b in blocked_folds(n, n_blocks)]  # natural order
+    nat = "time" if is_log else "slip"
+    xnat = np.asarray(data.time if is_log else data.slip, dtype=float)
+    H: dict[str, dict[str, np.ndarray]] = {}  # model -> channel -> held-out residual per sample
     train_fits: dict[str, list] = {}
+    train_res: list[dict[str, np.ndarray]] = []
 
     def score_model(name, effects=()):
-        held[name] = {ch: [] for ch in channels}
+        H[name] = {ch: np.full(n, np.nan) for ch in channels}
         fits = []
-        for k, (tr, te) in enumerate(folds):
+        for tr, te in folds:
             res = run_fit(_subset(data, tr), effects)
             fits.append(res)
             try:
@@ -509,91 +509,92 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                 if name == NOMINAL:
                     raise
                 # a failed candidate fit predicts nothing: it gets no weight
-                rt = {ch: np.full(held[NOMINAL][ch][k].size, np.inf) for ch in channels}
+                rt = {ch: np.full(te.size, np.inf) for ch in channels}
                 notes.append(f"the fit with {name} failed on a training part ({res.status}): it gets no weight")
             for ch in channels:
-                held[name][ch].append(rt[ch])
+                H[name][ch][te] = rt[ch]
+            if name == NOMINAL:
+                train_res.append(_channels(res, _subset(data, tr)))
         train_fits[name] = fits
 
     score_model(NOMINAL)
-    for tr, te in folds:
-        for ch in channels:
-            m = held[NOMINAL][ch][len(held_x[ch])].size
-            held_x[ch].append(_align(x_of(te), m))
-            held_s[ch].append(_align(sig_n[ch][te], m))
     # discrepancy term: spline in slip (sweep) or time (log) fitted to the nominal training residuals
-    held[DISCREPANCY] = {ch: [] for ch in channels}
+    H[DISCREPANCY] = {ch: np.full(n, np.nan) for ch in channels}
     n_knots = 8 if is_log else max(2, min(5, n // 8))
     for k, (tr, te) in enumerate(folds):
-        rtr = _channels(train_fits[NOMINAL][k], _subset(data, tr))
         for ch in channels:
-            xtr = _align(x_of(tr), rtr[ch].size)
-            pred, _ = fit_discrepancy(xtr, rtr[ch], held_x[ch][k], n_knots)
-            held[DISCREPANCY][ch].append(held[NOMINAL][ch][k] - pred)
+            rtr = train_res[k][ch]
+            ok = np.isfinite(rtr)
+            if np.sum(ok) < 2:
+                H[DISCREPANCY][ch][te] = H[NOMINAL][ch][te]
+                continue
+            pred, _ = fit_discrepancy(xnat[tr][ok], rtr[ok], xnat[te], n_knots)
+            H[DISCREPANCY][ch][te] = H[NOMINAL][ch][te] - pred
     for c in refit:
         score_model(c, (c,))
 
-    def cat(name, ch):
-        return np.concatenate(held[name][ch])
+    mask = {ch: np.isfinite(H[NOMINAL][ch]) & np.isfinite(sig_n[ch]) & (np.nan_to_num(sig_n[ch]) > 0)
+            for ch in channels}
 
-    sig_held = {ch: np.concatenate(held_s[ch]) for ch in channels}
+    def cat(name, ch):
+        return H[name][ch][mask[ch]]
 
     def z(name, ch):
-        return cat(name, ch) / sig_held[ch]
+        return cat(name, ch) / sig_n[ch][mask[ch]]
+
+    def zall(name):
+        return np.concatenate([z(name, ch) for ch in channels])
 
     def ss(name):
-        return sum(float(np.sum(z(name, ch) ** 2)) for ch in channels)
+        v = zall(name)
+        return float(np.sum(v ** 2)) if np.all(np.isfinite(v)) else math.inf
 
     def rmse(name):
-        return {ch: float(np.sqrt(np.mean(cat(name, ch) ** 2))) for ch in channels}
+        return {ch: float(np.sqrt(np.mean(cat(name, ch) ** 2))) if np.any(mask[ch]) else math.nan for ch in channels}
 
-    n_held = sum(cat(NOMINAL, ch).size for ch in channels)
-    scores = {m: ss(m) for m in held}
+    n_held = int(sum(np.sum(mask[ch]) for ch in channels))
+    scores = {m: ss(m) for m in H}
     # evidence correction: correlated residuals (logs) and residuals more dispersed than Gaussian noise
     best_m = min(scores, key=lambda m: scores[m])
-    zb = np.concatenate([z(best_m, ch) for ch in channels])
     infl = max(long_run_factor(z(best_m, ch)) for ch in channels) if is_log else 1.0
-    infl *= max(1.0, float(np.var(zb ** 2)) / 2.0)
+    infl *= max(1.0, float(np.var(zall(best_m) ** 2)) / 2.0)
     weights = cv_weights(scores, infl)
     gap_p = gap_p_value(scores[NOMINAL], n_held, infl)
-    dm_lag = newey_west_lag(n_held) if is_log else 0
-    zd = np.concatenate([z(DISCREPANCY, ch) for ch in channels])
-    disc_beats = {m: dm_test(np.concatenate([z(m, ch) for ch in channels]), zd, dm_lag)
-                  for m in held if m != DISCREPANCY}
+    dm_lag = newey_west_lag(n_held // max(1, len(channels))) if is_log else 0
+    disc_beats = {m: dm_test(zall(m), zall(DISCREPANCY), dm_lag) for m in H if m != DISCREPANCY}
     after_ratio = {c: max(float(np.sqrt(np.mean(z(c, ch) ** 2))) for ch in channels) for c in refit}
     after_p = {c: gap_p_value(scores[c], n_held, infl) for c in refit}
     verdict = decide(weights, [s.effect for s in significant], disc_beats, after_ratio, after_p, alpha=alpha)
 
-    # --- 3. where -----------------------------------------------------------------------------------------
-    n_ch = {ch: v.size for ch, v in full_res.items()}
-    # localisation on the full-data nominal residuals (every sample; the gap is the nominal misfit)
-    var_common = _variables(data, vehicle, min(n_ch.values()))
-    res_common = {ch: _align(v, min(n_ch.values())) for ch, v in full_res.items()}
-    loc = localise(res_common, {ch: sig_n[ch][-min(n_ch.values()):] for ch in channels}, var_common, alpha=alpha)
-    # main channel for the window and lags: the one with the largest share
-    main = max(channels, key=lambda ch: float(np.mean((full_res[ch] / sig_n[ch][-full_res[ch].size:]) ** 2)))
-    xw = _align(np.asarray(data.time if is_log else data.slip, dtype=float), full_res[main].size)
-    change = change_window(full_res[main], xw, sig_n[main][-full_res[main].size:], channel=main, alpha=alpha)
-    white = {ch: whiteness(rr[np.argsort(_align(np.asarray(data.time if is_log else data.slip), rr.size),
-                                         kind="stable")]) for ch, rr in full_res.items()}
+    # --- 3. where: on the full-data nominal residuals (every sample; the gap is the nominal misfit) -----
+    common = np.logical_and.reduce([np.isfinite(R[ch]) & np.isfinite(sig_n[ch]) for ch in channels])
+    var_all = _variables(data, vehicle)
+    loc = localise({ch: R[ch][common] for ch in channels}, {ch: sig_n[ch][common] for ch in channels},
+                   {k: v[common] for k, v in var_all.items()}, alpha=alpha)
+    main = max(channels, key=lambda ch: float(np.mean((R[ch][common] / sig_n[ch][common]) ** 2)))
+    change = change_window(R[main][common], xnat[common], sig_n[main][common], channel=main, alpha=alpha)
+    white = {}
+    for ch in channels:
+        ok = np.isfinite(R[ch])
+        o = order[ok[order]]
+        white[ch] = whiteness(R[ch][o])
     lags = {}
     if is_log:
         for ch in channels:
-            rr = full_res[ch]
+            rr = np.nan_to_num(R[ch], nan=0.0, posinf=0.0, neginf=0.0)
             for key, sig in (("vehicle_speed_m_s", data.vehicle_speed), ("sprocket_speed_rad_s", data.sprocket_speed),
                              ("sprocket_torque_Nm", data.sprocket_torque)):
-                lg = lag_peak(rr, _align(np.diff(np.asarray(sig, dtype=float), prepend=sig[0]), rr.size))
-                lags[f"{ch} vs d({key})/dt"] = lg
+                lags[f"{ch} vs d({key})/dt"] = lag_peak(rr, np.diff(np.asarray(sig, dtype=float), prepend=sig[0]))
 
     # --- 4. ranking, confusable, shrink, soil -------------------------------------------------------------
     before = rmse(NOMINAL)
     ranking = []
     full_fits = {}
-    for m in sorted(held, key=lambda m: -weights[m]):
+    for m in sorted(H, key=lambda m: -weights[m]):
         after = rmse(m)
-        zb = math.sqrt(scores[NOMINAL] / n_held)
-        za = math.sqrt(scores[m] / n_held)
-        shrink = None if m == NOMINAL or zb <= 0 else 1.0 - za / zb
+        zb = math.sqrt(scores[NOMINAL] / max(1, n_held))
+        za = math.sqrt(scores[m] / max(1, n_held)) if math.isfinite(scores[m]) else math.inf
+        shrink = None if m == NOMINAL or zb <= 0 or not math.isfinite(za) else 1.0 - za / zb
         params = {}
         conv = all(f.success for f in train_fits.get(m, []))
         scr = next((s for s in screens if s.effect == m), None)
@@ -624,9 +625,9 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         soil_after, after_rmse, shrink = None, None, None
     if not converged:
         notes.append("at least one fit did not converge; its held-out residuals were still used")
-    curves = {"held_x": {ch: np.concatenate(held_x[ch]) for ch in channels},
+    curves = {"held_x": {ch: xnat[mask[ch]] for ch in channels},
               "before": {ch: cat(NOMINAL, ch) for ch in channels},
-              "after": {ch: cat(name if name in held else DISCREPANCY, ch) for ch in channels}
+              "after": {ch: cat(name if name in H else DISCREPANCY, ch) for ch in channels}
               if name != NOMINAL else None,
               "x_label": nat}
     return Diagnosis(
