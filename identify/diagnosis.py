@@ -40,8 +40,8 @@ from ..soilmodel.vehicle import Vehicle
 from .gap import (Segment, blocked_folds, change_window, lag_peak, localise, long_run_factor, noise_profile,
                   whiteness)
 from .screening import Screen, newey_west_lag, screen
-from .selection import (DISCREPANCY, NOMINAL, confusable_groups, cv_weights, decide, dm_test, fit_discrepancy,
-                        gap_p_value, separating_experiment)
+from .selection import (DISCREPANCY, NOMINAL, confusable_groups, decide, dm_test, fit_discrepancy, gap_p_value,
+                        separating_experiment, stacking_weights)
 
 __all__ = ["diagnose", "Diagnosis", "RankEntry"]
 
@@ -464,12 +464,6 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     screenable = [s for s in screens if s.screenable]
     thr = alpha / max(1, len(screenable))
     significant = sorted((s for s in screenable if s.p_value < thr), key=lambda s: -s.statistic)
-    if max_refits is None:
-        max_refits = 3 if is_log else len(significant)
-    refit = [s.effect for s in significant[:max_refits]]
-    if len(significant) > max_refits:
-        notes.append(f"{len(significant)} candidates screened significant; the {max_refits} strongest were refitted "
-                     f"({', '.join(refit)})")
 
     # --- 2. the gap: blocked hold-out ------------------------------------------------------------------
     # every residual array is kept at full length n (NaN where the fit used no sample, e.g. a
@@ -530,6 +524,20 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                 continue
             pred, _ = fit_discrepancy(xnat[tr][ok], rtr[ok], xnat[te], n_knots)
             H[DISCREPANCY][ch][te] = H[NOMINAL][ch][te] - pred
+    # which candidates to refit: none when nothing screens significant and the flexible term does not
+    # beat the nominal model; else the strongest by score (all of them for a sweep: its fits are cheap,
+    # and a local score test can miss an effect whose sensitivity at "off" is mostly the soil's)
+    ok_n = {ch: np.isfinite(H[NOMINAL][ch]) & (np.nan_to_num(sig_n[ch]) > 0) for ch in channels}
+    z_nom = np.concatenate([H[NOMINAL][ch][ok_n[ch]] / sig_n[ch][ok_n[ch]] for ch in channels])
+    z_dis = np.concatenate([H[DISCREPANCY][ch][ok_n[ch]] / sig_n[ch][ok_n[ch]] for ch in channels])
+    dm_lag = newey_west_lag(z_nom.size // max(1, len(channels))) if is_log else 0
+    gap_seen = dm_test(z_nom, z_dis, dm_lag) < alpha
+    if max_refits is None:
+        max_refits = 3 if is_log else len(screenable)
+    ranked = sorted(screenable, key=lambda s: -s.statistic)
+    refit = [s.effect for s in ranked[:max_refits]] if (significant or gap_seen) else []
+    if significant and len(ranked) > max_refits:
+        notes.append(f"the {max_refits} candidates with the strongest score were refitted ({', '.join(refit)})")
     for c in refit:
         score_model(c, (c,))
 
@@ -558,9 +566,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     best_m = min(scores, key=lambda m: scores[m])
     infl = max(long_run_factor(z(best_m, ch)) for ch in channels) if is_log else 1.0
     infl *= max(1.0, float(np.var(zall(best_m) ** 2)) / 2.0)
-    weights = cv_weights(scores, infl)
+    blk = max(1, newey_west_lag(n_held // max(1, len(channels)))) if is_log else 1
+    weights = stacking_weights({m: -0.5 * zall(m) ** 2 if math.isfinite(scores[m]) else np.full(n_held, -np.inf)
+                                for m in H}, block=blk)
     gap_p = gap_p_value(scores[NOMINAL], n_held, infl)
-    dm_lag = newey_west_lag(n_held // max(1, len(channels))) if is_log else 0
     disc_beats = {m: dm_test(zall(m), zall(DISCREPANCY), dm_lag) for m in H if m != DISCREPANCY}
     after_ratio = {c: max(float(np.sqrt(np.mean(z(c, ch) ** 2))) for ch in channels) for c in refit}
     after_p = {c: gap_p_value(scores[c], n_held, infl) for c in refit}
@@ -605,7 +614,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         ranking.append(RankEntry(m, weights[m], before, after, shrink, params, scr, conv))
     dirs = {s.effect: s.direction for s in screens}
     conf = []
-    for (a, b), corr in confusable_groups({m: weights[m] for m in refit}, dirs):
+    for (a, b), corr in confusable_groups({m: weights[m] for m in refit}, dirs, verdict=verdict.name):
         conf.append(((a, b), corr, separating_experiment(a, b)))
     name = verdict.name
     if name not in (NOMINAL, "unexplained") and any(name in p for p, _, _ in conf):
