@@ -489,7 +489,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     xnat = np.asarray(data.time if is_log else data.slip, dtype=float)
     H: dict[str, dict[str, np.ndarray]] = {}  # model -> channel -> held-out residual per sample
     train_fits: dict[str, list] = {}
-    train_res: list[dict[str, np.ndarray]] = []
+    train_res: dict[str, list[dict[str, np.ndarray]]] = {}
 
     def score_model(name, effects=()):
         H[name] = {ch: np.full(n, np.nan) for ch in channels}
@@ -507,23 +507,30 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                 notes.append(f"the fit with {name} failed on a training part ({res.status}): it gets no weight")
             for ch in channels:
                 H[name][ch][te] = rt[ch]
-            if name == NOMINAL:
-                train_res.append(_channels(res, _subset(data, tr)))
+            try:
+                train_res.setdefault(name, []).append(_channels(res, _subset(data, tr)))
+            except DataError:
+                train_res.setdefault(name, []).append({ch: np.full(tr.size, np.nan) for ch in channels})
         train_fits[name] = fits
 
     score_model(NOMINAL)
     # discrepancy term: spline in slip (sweep) or time (log) fitted to the nominal training residuals
-    H[DISCREPANCY] = {ch: np.full(n, np.nan) for ch in channels}
-    n_knots = 8 if is_log else max(2, min(5, n // 8))
-    for k, (tr, te) in enumerate(folds):
-        for ch in channels:
-            rtr = train_res[k][ch]
-            ok = np.isfinite(rtr)
-            if np.sum(ok) < 2:
-                H[DISCREPANCY][ch][te] = H[NOMINAL][ch][te]
-                continue
-            pred, _ = fit_discrepancy(xnat[tr][ok], rtr[ok], xnat[te], n_knots)
-            H[DISCREPANCY][ch][te] = H[NOMINAL][ch][te] - pred
+    n_knots = int(min(20, max(8, n // 150))) if is_log else int(max(2, min(12, n // 6)))
+
+    def with_discrepancy(name):
+        out = {ch: np.full(n, np.nan) for ch in channels}
+        for k, (tr, te) in enumerate(folds):
+            for ch in channels:
+                rtr = train_res[name][k][ch]
+                ok = np.isfinite(rtr)
+                if np.sum(ok) < 2:
+                    out[ch][te] = H[name][ch][te]
+                    continue
+                pred, _ = fit_discrepancy(xnat[tr][ok], rtr[ok], xnat[te], n_knots)
+                out[ch][te] = H[name][ch][te] - pred
+        return out
+
+    H[DISCREPANCY] = with_discrepancy(NOMINAL)
     # which candidates to refit: none when nothing screens significant and the flexible term does not
     # beat the nominal model; else the strongest by score (all of them for a sweep: its fits are cheap,
     # and a local score test can miss an effect whose sensitivity at "off" is mostly the soil's)
@@ -573,6 +580,17 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     disc_beats = {m: dm_test(zall(m), zall(DISCREPANCY), dm_lag) for m in H if m != DISCREPANCY}
     after_ratio = {c: max(float(np.sqrt(np.mean(z(c, ch) ** 2))) for ch in channels) for c in refit}
     after_p = {c: gap_p_value(scores[c], n_held, infl) for c in refit}
+    # does the best candidate leave a smooth gap? (a flexible term on top of it still predicts better)
+    named = [m for m in refit if math.isfinite(scores[m])]
+    if named:
+        bc = max(named, key=lambda m: weights[m])
+        Hc = with_discrepancy(bc)
+        zc = np.concatenate([Hc[ch][mask[ch]] / sig_n[ch][mask[ch]] for ch in channels])
+        if np.all(np.isfinite(zc)) and dm_test(zall(bc), zc, dm_lag) < alpha:
+            after_ratio[bc] = max(after_ratio[bc], math.inf)
+            after_p[bc] = 0.0
+            notes.append(f"a flexible term on top of {bc} still predicts the held-out data significantly better: "
+                         f"{bc} leaves a smooth gap")
     verdict = decide(weights, [s.effect for s in significant], disc_beats, after_ratio, after_p, alpha=alpha)
 
     # --- 3. where: on the full-data nominal residuals (every sample; the gap is the nominal misfit) -----

@@ -37,7 +37,7 @@ def plot_diagnosis(diag, path: str) -> str:
                    label=f"change window {diag.change.start:.3g}-{diag.change.end:.3g}")
     ax.axhline(0, color="k", lw=0.6)
     ax.set_xlabel("time, s" if cv["x_label"] == "time" else "slip, -")
-    ax.set_ylabel(f"held-out residual, {main}\n(model - data)")
+    ax.set_ylabel(f"held-out residual, {main}\n(measured - predicted)")
     ax.set_title(f"verdict: {diag.verdict} (confidence {diag.confidence:.2f})"
                  + ("" if diag.shrink is None else f", held-out error shrinks by {diag.shrink:.0%}"))
     ax.legend(fontsize=8, loc="best")

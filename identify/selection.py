@@ -265,7 +265,8 @@ def decide(weights: dict[str, float], significant: list[str], disc_beats: dict[s
         Per model (``"none"`` and each refitted candidate): p-value that the discrepancy term
         predicts the held-out data better (:func:`dm_test`).
     after_ratio, after_p
-        Per refitted candidate: held-out RMS over the noise floor (worst channel) and the
+        Per refitted candidate: held-out RMS over the noise floor (worst channel; ``inf`` when a
+        flexible term on top of the candidate still predicts significantly better) and the
         p-value of its held-out error against the noise floor.
     """
     w_none = weights.get(NOMINAL, 0.0)
@@ -290,9 +291,9 @@ def decide(weights: dict[str, float], significant: list[str], disc_beats: dict[s
                        f"a flexible discrepancy term predicts the held-out data significantly better than the "
                        f"best candidate, {best}")
     if after_ratio.get(best, 0.0) > gap_ratio and after_p.get(best, 1.0) < alpha:
-        return Verdict("unexplained", 1.0 - named[best],
-                       f"the best candidate, {best}, still leaves a held-out error "
-                       f"{after_ratio[best]:.1f} times the noise floor")
+        how = (f"a held-out error {after_ratio[best]:.1f} times the noise floor" if math.isfinite(after_ratio[best])
+               else "a smooth gap that a flexible term on top of it still predicts")
+        return Verdict("unexplained", 1.0 - named[best], f"the best candidate, {best}, still leaves {how}")
     if w_none > named[best]:
         return Verdict(NOMINAL, w_none, "the nominal model predicts the held-out data best")
     return Verdict(best, named[best], f"{best} predicts the held-out data best")
