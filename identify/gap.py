@@ -1,6 +1,6 @@
 """Where a model and its measurements part: blocked hold-out, noise floor, localisation.
 
-Pure numpy on residual arrays (model minus data); no model and no fit in here. Used by
+Pure numpy on residual arrays (measured minus predicted); no model and no fit in here. Used by
 :func:`soiltrack.identify.diagnose`.
 
 - :func:`blocked_folds`: contiguous blocks, alternately held out (two folds), never random rows
@@ -264,7 +264,7 @@ def localise(residuals: dict[str, np.ndarray], sigma: dict[str, float], variable
     Parameters
     ----------
     residuals
-        ``{channel: residuals}`` on the same samples, model minus data.
+        ``{channel: residuals}`` on the same samples, measured minus predicted.
     sigma
         ``{channel: noise level}`` in the channel's unit: a number, or one per sample
         (:func:`noise_profile`).
