@@ -458,7 +458,11 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
 
     # --- 1. screening: one fit with every candidate held at its off value -------------------------
     lag = None if is_log else 0
-    nominal_full, screens = screen(data, vehicle, cands, model=model, hac_lag=lag)
+    kind = "drive" if is_log else "sweep"
+    outside = tuple(e for e, spec in EFFECTS.items() if kind in spec.shows_in and e not in cands)
+    nominal_full, all_screens = screen(data, vehicle, cands + outside, model=model, hac_lag=lag)
+    screens = [s for s in all_screens if s.effect in cands]
+    out_screens = [s for s in all_screens if s.effect in outside and s.screenable]
     if not nominal_full.success:
         converged = False
     screenable = [s for s in screens if s.screenable]
@@ -613,11 +617,34 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                              ("sprocket_torque_Nm", data.sprocket_torque)):
                 lags[f"{ch} vs d({key})/dt"] = lag_peak(rr, np.diff(np.asarray(sig, dtype=float), prepend=sig[0]))
 
+    # --- the verdict against the library effects that were not candidates ------------------------------
+    # the user may leave the true effect out; a candidate that merely imitates it must not be named
+    # with confidence. The strongest outside effects (by score) are refitted like the candidates and
+    # the verdict's confidence becomes its weight among all of them.
+    compared = list(H)
+    confidence = float(verdict.confidence)
+    outside_rivals = []
+    if verdict.name in refit and out_screens:
+        k_out = 2 if is_log else len(out_screens)
+        for sc in sorted(out_screens, key=lambda s: -s.statistic)[:k_out]:
+            score_model(sc.effect, (sc.effect,))
+            scores[sc.effect] = ss(sc.effect)
+        w_ext = stacking_weights({m: -0.5 * zall(m) ** 2 if math.isfinite(scores[m]) else np.full(n_held, -np.inf)
+                                  for m in H}, block=blk)
+        confidence = min(confidence, w_ext[verdict.name])
+        for o in (m for m in H if m not in compared):
+            if w_ext[o] >= 0.2 * w_ext[verdict.name]:
+                outside_rivals.append(o)
+                notes.append(f"{o}, which is not among the candidates, predicts the held-out data "
+                             f"{'better' if w_ext[o] > w_ext[verdict.name] else 'about as well'} "
+                             f"(weight {w_ext[o]:.2f} against {w_ext[verdict.name]:.2f} among all library effects): "
+                             f"{verdict.name} is named with confidence {confidence:.2f} only")
+
     # --- 4. ranking, confusable, shrink, soil -------------------------------------------------------------
     before = rmse(NOMINAL)
     ranking = []
     full_fits = {}
-    for m in sorted(H, key=lambda m: -weights[m]):
+    for m in sorted(compared, key=lambda m: -weights[m]):
         after = rmse(m)
         zb = math.sqrt(scores[NOMINAL] / max(1, n_held))
         za = math.sqrt(scores[m] / max(1, n_held)) if math.isfinite(scores[m]) else math.inf
@@ -630,10 +657,15 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             params = _effect_params(full_fits[m], m)
             conv = conv and full_fits[m].success
         ranking.append(RankEntry(m, weights[m], before, after, shrink, params, scr, conv))
-    dirs = {s.effect: s.direction for s in screens}
+    dirs = {s.effect: s.direction for s in all_screens}
     conf = []
     for (a, b), corr in confusable_groups({m: weights[m] for m in refit}, dirs, verdict=verdict.name):
         conf.append(((a, b), corr, separating_experiment(a, b)))
+    for o in outside_rivals:
+        da, db = dirs.get(verdict.name), dirs.get(o)
+        corr = (float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db)))
+                if da is not None and db is not None and np.linalg.norm(da) * np.linalg.norm(db) > 0 else math.nan)
+        conf.append(((verdict.name, o), corr, separating_experiment(verdict.name, o)))
     name = verdict.name
     if name not in (NOMINAL, "unexplained") and any(name in p for p, _, _ in conf):
         notes.append(f"{name} is named with low certainty: the data cannot tell it from "
@@ -659,7 +691,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
               "x_label": nat}
     return Diagnosis(
         data_kind="drive" if is_log else "sweep", n_samples=n, candidates=cands, verdict=name,
-        confidence=float(verdict.confidence), reason=verdict.reason, ranking=tuple(ranking), screens=tuple(screens),
+        confidence=float(confidence), reason=verdict.reason, ranking=tuple(ranking), screens=tuple(screens),
         confusable=tuple(conf), localisation=tuple(loc), change=change, whiteness=white, lags=lags, noise=noise,
         holdout_rmse_before=before, holdout_rmse_after=after_rmse, shrink=shrink, soil_before=soil_before,
         soil_after=soil_after if name not in (NOMINAL, "unexplained") else None, gap_p_value=gap_p,
