@@ -189,16 +189,16 @@ def stacking_weights(pointwise: dict[str, np.ndarray], block: int = 1, n_boot: i
 
 
 def confusable_groups(weights: dict[str, float], directions: dict[str, np.ndarray | None],
-                      min_ratio: float = 0.2, min_corr: float = 0.95, min_weight: float = 0.05,
+                      min_ratio: float = 0.2, min_corr: float = 0.9, min_weight: float = 0.05,
                       verdict: str | None = None) -> list[tuple[tuple[str, ...], float]]:
     """Pairs of candidates the data cannot tell apart.
 
-    A pair of named candidates is confusable when either of them is the ``verdict`` or carries
-    at least ``min_weight``, and (a) the correlation of their projected sensitivity directions
-    (what each would change in the residuals, beyond the soil) is at least ``min_corr`` in
-    absolute value, or (b) their weights are close (the smaller at least ``min_ratio`` of the
-    larger, both at least ``min_weight``). Returns ``[((a, b), corr), ...]`` (corr NaN when a
-    direction is unknown).
+    A pair of named candidates is confusable when their weights are close (the smaller at least
+    ``min_ratio`` of the larger and at least ``min_weight``) and their projected sensitivity
+    directions (what each would change in the residuals, beyond the soil) are collinear
+    (``|corr| >= min_corr``, or unknown). Collinear sensitivities alone are not enough: they
+    are local (at "effect off"), and a refit that the held-out data clearly prefer has told the
+    two apart. Returns ``[((a, b), corr), ...]`` (corr NaN when a direction is unknown).
     """
     names = [k for k in weights if k not in (NOMINAL, DISCREPANCY)]
     out = []
@@ -211,7 +211,7 @@ def confusable_groups(weights: dict[str, float], directions: dict[str, np.ndarra
             ok = da is not None and db is not None and np.linalg.norm(da) > 0 and np.linalg.norm(db) > 0
             corr = float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db))) if ok else float("nan")
             close = min(wa, wb) >= max(min_ratio * max(wa, wb), min_weight)
-            if (math.isfinite(corr) and corr >= min_corr) or close:
+            if close and (not math.isfinite(corr) or corr >= min_corr):
                 out.append(((a, b), corr))
     return out
 
