@@ -495,6 +495,22 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     train_fits: dict[str, list] = {}
     train_res: dict[str, list[dict[str, np.ndarray]]] = {}
 
+    def residuals_at(res, idx):
+        """Residuals of ``res`` on the samples ``idx``: one call per contiguous run for a log (a run's
+        first sample has no predecessor there, instead of a wrong one across a gap in time)."""
+        if not is_log:
+            return _channels(res, _subset(data, idx))
+        out = {ch: np.full(idx.size, np.nan) for ch in channels}
+        cuts = np.nonzero(np.diff(idx) > 1)[0] + 1
+        start = 0
+        for run in np.split(idx, cuts):
+            if run.size >= 3:
+                rr = _channels(res, _subset(data, run))
+                for ch in channels:
+                    out[ch][start:start + run.size] = rr.get(ch, np.nan)
+            start += run.size
+        return out
+
     def score_model(name, effects=()):
         H[name] = {ch: np.full(n, np.nan) for ch in channels}
         fits = []
@@ -502,7 +518,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             res = run_fit(_subset(data, tr), effects)
             fits.append(res)
             try:
-                rt = _channels(res, _subset(data, te))
+                rt = residuals_at(res, te)
             except DataError:
                 if name == NOMINAL:
                     raise
@@ -512,7 +528,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             for ch in channels:
                 H[name][ch][te] = rt[ch]
             try:
-                train_res.setdefault(name, []).append(_channels(res, _subset(data, tr)))
+                train_res.setdefault(name, []).append(residuals_at(res, tr))
             except DataError:
                 train_res.setdefault(name, []).append({ch: np.full(tr.size, np.nan) for ch in channels})
         train_fits[name] = fits
