@@ -76,8 +76,9 @@ class RankEntry:
     shrink
         ``1 - after/before`` of the noise-standardised held-out RMS pooled over the channels.
     parameters
-        Fitted effect parameters (on all the data) ``{param: {value, stderr, ci95, identifiable,
-        at_bound}}``; empty for ``none`` and ``discrepancy``.
+        Fitted effect parameters ``{param: {value, stderr, ci95, identifiable, at_bound}}``: on all
+        the data for the verdict's effect, on the first training part (``fitted_on``) for the
+        other candidates; empty for ``none`` and ``discrepancy``.
     screen
         The score test of this candidate, when it is an effect.
     converged
@@ -668,10 +669,13 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         params = {}
         conv = all(f.success for f in train_fits.get(m, []))
         scr = next((s for s in screens if s.effect == m), None)
-        if m in refit:
+        if m == verdict.name and m in refit:  # the verdict's effect: refitted on all the data (soil after, parameters)
             full_fits[m] = run_fit(data, (m,))
             params = _effect_params(full_fits[m], m)
             conv = conv and full_fits[m].success
+        elif m in refit and train_fits.get(m):  # others: as fitted on the first training part (half the data)
+            params = {p: dict(v, fitted_on="training part A (half the data)")
+                      for p, v in _effect_params(train_fits[m][0], m).items()}
         ranking.append(RankEntry(m, weights[m], before, after, shrink, params, scr, conv))
     dirs = {s.effect: s.direction for s in all_screens}
     conf = []
