@@ -307,9 +307,30 @@ def _subset(data, idx: np.ndarray):
 
 
 def _channels(res, data) -> dict[str, np.ndarray]:
-    """Held-out residuals per channel at full length (NaN in front where the fit returns fewer)."""
-    out = {}
+    """Residuals (measured - predicted) per channel at full length: NaN where the fit uses no sample.
+
+    A drive-log fit skips samples (standstill, braking, the first one); its residual model then
+    says which (``keep``), so that every value lands on its own sample.
+    """
     m = data.n_samples
+    if isinstance(data, DriveLog) and getattr(res, "data_kind", None) == "drive":
+        try:
+            from .drivelog_residuals import drive_log_residuals
+        except ImportError:  # pragma: no cover - a build without drive-log residual channels
+            drive_log_residuals = None
+        if drive_log_residuals is not None:
+            if not res.success:
+                raise DataError("the fit did not succeed; it predicts nothing", file=data.source)
+            out = drive_log_residuals(res, data, res.vehicle, model=res.model)
+            keep = np.asarray(out["keep"])
+            idx = np.nonzero(keep)[0] if keep.dtype == bool else keep.astype(int)
+            full = {}
+            for k, v in out["channels"].items():
+                a = np.full(m, np.nan)
+                a[idx] = np.asarray(v, dtype=float).ravel()
+                full[k] = a
+            return full
+    out = {}
     for k, v in res.residuals_on(data).items():
         v = np.asarray(v, dtype=float).ravel()
         if v.size < m:
