@@ -26,7 +26,7 @@ import numpy as np
 from ..soilmodel.effects import EFFECTS
 from .gap import chi2_sf
 
-__all__ = ["Screen", "project_off", "score_test", "newey_west_lag", "screen"]
+__all__ = ["Screen", "project_off", "score_test", "newey_west_lag", "screen", "stationarity"]
 
 
 @dataclass(frozen=True)
@@ -156,6 +156,26 @@ def score_test(effect: str, J_free: np.ndarray, Z: np.ndarray, r: np.ndarray, la
                   direction)
 
 
+def stationarity(J_free: np.ndarray, r: np.ndarray) -> float:
+    """Largest cosine between the residuals and a free parameter's Jacobian column.
+
+    At a least-squares optimum inside the bounds ``J_free^T r = 0``: the value is at the level
+    of the solver tolerance. A large value means the Jacobian and residuals handed over are not
+    the pair the fit minimised (or a parameter sits on a bound), and score tests built on them
+    are not to be trusted.
+    """
+    J = np.asarray(J_free, dtype=float)
+    r = np.asarray(r, dtype=float).ravel()
+    nr = float(np.linalg.norm(r))
+    if J.size == 0 or nr == 0:
+        return 0.0
+    nj = np.linalg.norm(J, axis=0)
+    ok = nj > 0
+    if not np.any(ok):
+        return 0.0
+    return float(np.max(np.abs(J[:, ok].T @ r) / (nj[ok] * nr)))
+
+
 def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None = 0):
     """Score-test every candidate from ONE fit: the nominal model with the candidates held off.
 
@@ -181,4 +201,8 @@ def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None =
     free = [j for j in range(len(names)) if j not in taken]
     out = [score_test(c, J[:, free], J[:, cols[c]], r, tuple(names[j] for j in cols[c]), hac_lag=hac_lag)
            for c in cands]
+    if res.success:
+        bound = set(getattr(res, "active_bounds", {}) or {})
+        fj = [j for j in free if names[j] not in bound]
+        res.extra["screening_stationarity"] = stationarity(J[:, fj], r)
     return res, out
