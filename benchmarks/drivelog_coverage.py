@@ -9,6 +9,13 @@ trajectory) and fits each log with :func:`soiltrack.identify.drivelog.fit_drive_
     python benchmarks/drivelog_coverage.py --vehicle heavy --terrain lete_sand --seeds 20
     python benchmarks/drivelog_coverage.py --seeds 200 --gauss-newton   # the former covariance
     python benchmarks/drivelog_coverage.py --seeds 60 --bias-correction simex   # opt-in SIMEX correction
+    python benchmarks/drivelog_coverage.py --seeds 40 --hull                     # nominal fit + hull channel
+    python benchmarks/drivelog_coverage.py --seeds 40 --effect grade=0.0524 --fit-effect grade
+
+With ``--effect NAME=VALUE`` (repeatable) the logs carry that effect; ``--fit-effect NAME``
+(repeatable) fits it jointly (hull channel on); F_max's truth is then the thrust limit at the
+log's actual normal load ``W (1 + delta) cos(theta)``, and each fitted effect parameter with a
+true value gets the same bias / coverage lines.
 
 Reported: mean and standard deviation of the relative errors of F_max and K, the mean reported
 relative standard errors, how often the reported 95 % intervals hold the truth (with the
@@ -30,20 +37,23 @@ import numpy as np
 
 
 def _one(args):
-    vehicle_name, terrain_name, seed, kw, gauss_newton, bias_correction, simex_fixed = args
-    from soiltrack.identify import drivelog
+    vehicle_name, terrain_name, seed, kw, gauss_newton, bias_correction, simex_fixed, fit_kw = args
+    from soiltrack.identify import drivelog_covariance, drivelog_simex
     from soiltrack.identify.drivelog import fit_drive_log
     if gauss_newton:  # the former covariance: no sandwich (fit_drive_log falls back to Gauss-Newton)
-        drivelog._profiled_covariance = lambda *a, **k: None
+        drivelog_covariance.profiled_covariance = lambda *a, **k: None
     if simex_fixed is not None:
-        drivelog._SIMEX_FIXED_SELECTION = simex_fixed
+        drivelog_simex._SIMEX_FIXED_SELECTION = simex_fixed
     from soiltrack.soilmodel import TERRAINS, VEHICLES, max_thrust
     from soiltrack.soilmodel.simulation import simulate_drive_log
     veh, soil = VEHICLES[vehicle_name], TERRAINS[terrain_name]
-    F_true, K_true = max_thrust(soil, veh), soil.shear_modulus
+    from soiltrack.soilmodel.effects import effective_normal_load, parse_effects
+    true_eff = parse_effects(kw.get("effects"))
+    N_true = float(effective_normal_load(veh.weight, veh, true_eff))
+    F_true, K_true = max_thrust(soil, veh, normal_load=N_true), soil.shear_modulus
     log = simulate_drive_log(veh, soil, seed=seed, **kw)
     t0 = time.perf_counter()
-    res = fit_drive_log(log, veh, bias_correction=bias_correction)
+    res = fit_drive_log(log, veh, bias_correction=bias_correction, **fit_kw)
     dt = time.perf_counter() - t0
     fmax = next(c for c in res.combinations if c.name.startswith("F_max"))
     k = res.parameters["shear_modulus"]
@@ -60,6 +70,13 @@ def _one(args):
                                  "K": u["shear_modulus_m"], "K_se": u["shear_modulus_stderr_m"],
                                  "K_lo": u["shear_modulus_m"] - q * u["shear_modulus_stderr_m"],
                                  "K_hi": u["shear_modulus_m"] + q * u["shear_modulus_stderr_m"]}}
+    for name, ps in (res.effects or {}).items():
+        for pname, est in ps.items():
+            if name in true_eff and est.stderr is not None:
+                tv = true_eff.value(name, pname, veh)
+                lab = f"{name}.{pname}"
+                extra.update({lab: est.value, lab + "_se": est.stderr, lab + "_lo": est.ci95[0],
+                              lab + "_hi": est.ci95[1], lab + "_true": tv})
     return {**extra, "seed": seed, "success": bool(res.success), "time_s": dt,
             "F": fmax.value, "F_se": fmax.stderr, "F_lo": fmax.ci95[0], "F_hi": fmax.ci95[1],
             "K": k.value, "K_se": k.stderr, "K_lo": k.ci95[0], "K_hi": k.ci95[1],
@@ -76,11 +93,24 @@ def _binom_range(n: int, p: float = 0.95) -> tuple[int, int]:
     return lo, hi
 
 
+def _effect_labels(rows: list[dict]) -> list[str]:
+    return sorted({k[:-5] for r in rows for k in r if k.endswith("_true") and "." in k})
+
+
 def summarise(rows: list[dict]) -> dict:
     ok = [r for r in rows if r["success"]]
     n = len(ok)
     out = {"seeds": len(rows), "succeeded": n}
-    for p in ("F", "K"):
+    for p in ["F", "K"] + _effect_labels(ok):
+        if p not in ("F", "K"):  # effect parameters: absolute errors (their truth may be 0)
+            have = [r for r in ok if p in r]
+            err = np.array([r[p] - r[p + "_true"] for r in have])
+            z = np.array([(r[p] - r[p + "_true"]) / r[p + "_se"] for r in have])
+            inside = sum(r[p + "_lo"] <= r[p + "_true"] <= r[p + "_hi"] for r in have)
+            out[p] = {"n": len(have), "mean_error": float(err.mean()), "sd_error": float(err.std(ddof=1)),
+                      "mean_stderr": float(np.mean([r[p + "_se"] for r in have])), "coverage": inside,
+                      "mean_z": float(z.mean()), "sd_z": float(z.std(ddof=1)), "true": have[0][p + "_true"]}
+            continue
         err = np.array([r[p] / r[p + "_true"] - 1 for r in ok])
         se = np.array([r[p + "_se"] / r[p + "_true"] for r in ok])
         z = np.array([(r[p] - r[p + "_true"]) / r[p + "_se"] for r in ok])
@@ -110,15 +140,26 @@ def main(argv=None) -> int:
                     help="opt-in bias correction of fit_drive_log; also reports the uncorrected estimates")
     ap.add_argument("--simex-selection", default=None, choices=["fixed", "refit"],
                     help="(diagnostic) SIMEX refits keep the uncorrected fit's samples (fixed, default) or reselect")
+    ap.add_argument("--effect", action="append", default=[], help="effect in the simulated logs, NAME=VALUE")
+    ap.add_argument("--fit-effect", action="append", default=[], help="effect fitted jointly (hull channel on)")
+    ap.add_argument("--hull", action="store_true", help="nominal fit with the hull channel")
     ap.add_argument("--quiet", action="store_true")
     a = ap.parse_args(argv)
     kw = {}
+    if a.effect:
+        kw["effects"] = list(a.effect)
+    fit_kw = {}
+    if a.fit_effect:
+        fit_kw["effects"] = list(a.fit_effect)
+    if a.hull:
+        fit_kw["hull_channel"] = True
     if a.duration:
         kw["duration_s"] = a.duration
     if a.rate:
         kw["sample_rate_hz"] = a.rate
     simex_fixed = None if a.simex_selection is None else a.simex_selection == "fixed"
-    tasks = [(a.vehicle, a.terrain, s, kw, a.gauss_newton, a.bias_correction, simex_fixed) for s in range(a.first_seed, a.first_seed + a.seeds)]
+    tasks = [(a.vehicle, a.terrain, s, kw, a.gauss_newton, a.bias_correction, simex_fixed, fit_kw)
+             for s in range(a.first_seed, a.first_seed + a.seeds)]
     t0 = time.time()
     rows = []
     with ProcessPoolExecutor(max_workers=max(a.jobs, 1)) as ex:
@@ -135,7 +176,8 @@ def main(argv=None) -> int:
         s["uncorrected"] = s_unc
         s["correction_applied"] = sum(bool(r.get("applied")) for r in rows)
     lo, hi = s["calibrated_range_95"]
-    print(f"\n{a.vehicle} on {a.terrain} ({'Gauss-Newton' if a.gauss_newton else 'default'} covariance), "
+    print(f"\n{a.vehicle} on {a.terrain} ({'Gauss-Newton' if a.gauss_newton else 'default'} covariance; "
+          f"effects in logs: {a.effect or 'none'}; fitted: {a.fit_effect or 'none'}{'; hull channel' if a.hull else ''}), "
           f"{s['succeeded']}/{s['seeds']} fits succeeded, "
           f"{time.time() - t0:.0f} s wall, median fit {s['median_fit_time_s']:.2f} s")
     blocks = [("", s)]
@@ -150,6 +192,11 @@ def main(argv=None) -> int:
                   f"sd {100 * q['sd_rel_error']:.2f} %, reported se {100 * q['mean_rel_stderr']:.2f} %, "
                   f"z mean {q['mean_z']:+.2f} sd {q['sd_z']:.2f}, 95 % interval holds truth "
                   f"{q['coverage']}/{s['succeeded']} ({100 * q['coverage_rate']:.1f} %; calibrated: {lo}-{hi})")
+    for p in _effect_labels([r for r in rows if r["success"]]):
+        q = s[p]
+        print(f"{p}: true {q['true']:.5g}, bias {q['mean_error']:+.3g} (sd {q['sd_error']:.3g}), reported se "
+              f"{q['mean_stderr']:.3g}, z mean {q['mean_z']:+.2f} sd {q['sd_z']:.2f}, 95 % interval holds truth "
+              f"{q['coverage']}/{q['n']} (calibrated: {lo}-{hi})")
     if a.json:
         with open(a.json, "w") as f:
             json.dump({"rows": rows, "summary": s}, f, indent=1)

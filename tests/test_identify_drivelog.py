@@ -16,8 +16,9 @@ import math
 import numpy as np
 import pytest
 
-from soiltrack.identify.drivelog import (DriveLogFitError, _output_error_solver, estimate_noise_profile,
-                                         fit_drive_log, padded_size, prepare_drive_log)
+from soiltrack.identify.drivelog import (DriveLogFitError, estimate_noise_profile, fit_drive_log, padded_size,
+                                         prepare_drive_log)
+from soiltrack.identify.drivelog_nlp import _output_error_solver
 from soiltrack.identify.fitting import fit
 from soiltrack.identify.problem import FitFailed
 from soiltrack.soilmodel import TERRAINS, VEHICLES, DataError, DriveLog, max_thrust
@@ -64,7 +65,7 @@ def test_light_vehicle_interval_coverage(light_fits):
     """95 % intervals hold the truth at the measured rate over 8 seeds.
 
     Measured with ``python benchmarks/drivelog_coverage.py --seeds 200`` (sandwich covariance
-    of the profiled estimator, see ``drivelog._profiled_covariance``): F_max 188/200 (94 %),
+    of the profiled estimator, see ``drivelog_covariance.profiled_covariance``): F_max 188/200 (94 %),
     K 179/200 (89.5 %; K is about 3 % low on average, so its misses are mostly on the low
     side). With the former Gauss-Newton covariance: F_max 179/200, K 173/200. On these 8 seeds:
     F_max 8/8, K 7/8 (before: 7/8 and 5/8). The bounds asserted are those a method with the
@@ -85,19 +86,21 @@ def test_covariance_is_the_profiled_sandwich(light_fits):
     errors handed through the shared result object must be those of the sandwich, and the
     observed information A must be symmetric positive definite, B positive semi-definite.
     """
-    from soiltrack.identify import drivelog as D
+    from soiltrack.identify import drivelog_covariance as C
+    from soiltrack.identify import drivelog_nlp as D
+    from soiltrack.soilmodel.soil import PRACTICAL_BOUNDS
     log, res = light_fits[0]
     e = res.extra
     prep = prepare_drive_log(log, LIGHT)
-    Fb = D._fmax_bounds(D.PRACTICAL_BOUNDS, LIGHT, "full")
-    Kb = tuple(D.PRACTICAL_BOUNDS.shear_modulus)
+    Fb = D.fmax_bounds(PRACTICAL_BOUNDS, LIGHT, "full")
+    Kb = tuple(PRACTICAL_BOUNDS.shear_modulus)
     F_ref, K_ref = 0.5 * (Fb[0] + Fb[1]), math.sqrt(Kb[0] * Kb[1])
-    _, Fm, K, slip = D._solve_output_error(prep, LIGHT, F_ref, K_ref, Fb, Kb,
+    _, Fm, K, slip = D.solve_output_error(prep, LIGHT, F_ref, K_ref, Fb, Kb,
                                            [(e["max_thrust_N"], e["shear_modulus_m"])], 500, 1e-9, 0)
     assert Fm == pytest.approx(e["max_thrust_N"], rel=1e-5) and K == pytest.approx(e["shear_modulus_m"], rel=1e-4)
     l = LIGHT.track_length
-    F, dF_ds, dF_dFm, dF_dK = D._eval_pointwise(slip, Fm, K, l)
-    V, A, B = D._profiled_covariance(prep, LIGHT.sprocket_radius, slip, Fm, K, l, F, dF_ds, dF_dFm, dF_dK)
+    F, dF_ds, dF_dFm, dF_dK = D.eval_pointwise(slip, Fm, K, l)
+    V, A, B = C.profiled_covariance(prep, LIGHT.sprocket_radius, slip, Fm, K, l, F, dF_ds, dF_dFm, dF_dK)
     assert np.allclose(A, A.T) and np.all(np.linalg.eigvalsh(A) > 0)
     assert np.all(np.linalg.eigvalsh(B) >= 0)
     assert e["max_thrust_stderr_N"] == pytest.approx(math.sqrt(V[0, 0]), rel=1e-3)

@@ -1,0 +1,317 @@
+"""Drive-log fits with unmodelled effects: three residual channels, effect parameters, latent slips.
+
+The nominal output-error problem (:mod:`.drivelog_nlp`) uses two channels per sample, the
+encoder (speed residual) and the sprocket thrust. Most drive-log effects (DESIGN.md section 6)
+show only in the HULL force balance ``m dv/dt = F(i) - R(v, i)``, so the joint problem adds it
+as a third channel. Per used sample ``k``, with ``theta = (F_lim, K, effect parameters)`` and the
+latent slip ``i_k``::
+
+    d_s = v_k - r_eff w_k (1 - i_k)                              speed (encoder) residual, m/s
+    T_k = (M_k' - tau_loss(w_k) - I dw_k/dt) / r_eff              sprocket thrust, N
+    d_T = T_k - F(i_k)                                           thrust residual, N
+    d_H = F(i_k) - R(v_k, i_k) - m_eff a_k                        hull balance residual, N
+
+whitened as ``e_w = d_s / sigma_s``, ``e_T = (d_T - rho d_s) / sigma_T|s`` (as in the nominal
+problem) and ``e_H = d_H / sigma_H`` with ``sigma_H = m_eff sigma_a`` (it depends on
+``mass_error``: errors in the acceleration regressor are weighted as such, Deming-style); IPOPT minimises ``sum |e_k|^2 / 2``. ``M_k'`` and
+``dw_k/dt`` are those of the discrete sprocket equation (:func:`.drivelog_prepare.prepare_drive_log`).
+The acceleration ``a_k`` is the IMU column ``vehicle_accel_m_s2`` when the log has it (noise
+model estimated from that column), else the central difference of the measured vehicle speed
+(``sigma_a`` from the speed noise; about ``sqrt(2) sigma_v / (2 h)``, so the hull channel then
+carries little per sample).
+
+All physics comes from :mod:`soiltrack.soilmodel.effects`: ``thrust_with_effects`` (shear-shape
+effects), ``motion_resistance`` (grade, speed_resistance, slip_sinkage, the normal load of
+grade and mass_error), ``torque_loss`` (drivetrain_friction), ``effective_radius``
+(radius_error, in the slip kinematics and the torque arm), ``effective_mass`` (mass_error).
+
+Soil parametrisation. A drive log has one normal load, so the soil enters through the log's
+thrust limit ``F_lim = A c + N tan(phi)`` at its ACTUAL normal load ``N = W (1 + delta)
+cos(theta)`` and K. The thrust is ``thrust_with_effects`` evaluated with the cohesion-free law at
+``tan(phi) = F_lim / N`` (identical to the full law for every effect except
+``pressure_distribution``, whose load shift acts on the frictional part only: the split of
+``F_lim`` into cohesion and friction is not identifiable from one load, and the fit treats it
+as frictional). Consequently ``grade`` and ``mass_error`` do not show in the thrust-slip relation
+(their ``cos(theta)`` and ``1 + delta`` are absorbed by ``F_lim``); they show in the hull channel.
+The reported ``(c, phi)`` is a point of the ridge ``A c + N tan(phi) = F_lim`` at the fitted N.
+
+Covariance: the sandwich ``A^-1 B A^-1`` of the profiled M-estimator (as for the nominal fit,
+:mod:`.drivelog_covariance`), here from CasADi's exact per-sample Hessian of
+``|e_k|^2 / 2`` in ``(theta, i_k)``. Parameters with ``fixed`` values are not estimated.
+Identifiability: a direction of ``A`` with a relative eigenvalue below ``1e-10`` is not
+identifiable; an effect parameter whose estimate correlates with another estimate (soil or
+effect) beyond :data:`~.result.WEAK_CORRELATION` is flagged with the correlation.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+import casadi as ca
+import numpy as np
+
+from ..soilmodel.data import DriveLog
+from ..soilmodel.effects import (EFFECTS, EffectSet, effect_symbols, effective_mass, effective_normal_load,
+                                 effective_radius, motion_resistance, parameter_bounds, parameter_scale,
+                                 thrust_with_effects, torque_loss)
+from ..soilmodel.errors import DataError
+from ..soilmodel.threadsafe import locked_cache
+from ..soilmodel.vehicle import Vehicle
+from .drivelog_noise import noise_model
+from .drivelog_prepare import SLIP_BOUNDS, PreparedLog
+
+__all__ = ["JointData", "joint_data", "parse_fixed", "effect_layout",
+           "residual_function", "derivative_function", "joint_solver", "solve_slips", "best_slips", "CHANNELS",
+           "DATA_ROWS"]
+
+#: Residual channels of a drive log (raw residuals: measured minus predicted).
+CHANNELS = ("sprocket_speed_rad_s", "thrust_N", "hull_N")
+#: Rows of the per-sample data matrix handed to the residual function.
+DATA_ROWS = ("v", "w", "M", "dw_dt", "a", "inv_sigma_s", "inv_sigma_T_cond", "rho", "inv_sigma_H")
+
+_QUIET = {"expand": True, "print_time": False, "ipopt.sb": "yes", "ipopt.print_level": 0}
+
+
+@dataclass(frozen=True)
+class JointData:
+    """Per-sample data of the joint problem (used samples only; rows of :data:`DATA_ROWS`).
+
+    ``D`` is ``(9, n)``; ``sigma_hull`` (N) is ``inf`` where no acceleration exists;
+    ``accel_source`` is ``"imu"`` or ``"speed-difference"``; ``accel_noise`` the noise model
+    ``(a, b)`` of the acceleration, m/s^2.
+    """
+
+    D: np.ndarray
+    sigma_hull: np.ndarray
+    accel_source: str
+    accel_noise: tuple[float, float]
+
+
+def joint_data(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, torque_hold: str,
+               sigma_accel: float | None = None, accel_noise: tuple[float, float] | None = None) -> JointData:
+    """Assemble the per-sample data of the joint problem from the log and its preparation.
+
+    ``accel_noise`` (``(a, b)``, m/s^2) overrides the estimate (held-out blocks use the fit's).
+    """
+    idx = np.nonzero(prep.keep)[0]
+    t, M, w, v = log.time, log.sprocket_torque, log.sprocket_speed, log.vehicle_speed
+    n_all = t.size
+    if torque_hold == "zoh":
+        M_used = M[idx - 1]
+        dwdt = (w[idx] - w[idx - 1]) / (t[idx] - t[idx - 1])
+    else:
+        M_used = M[idx]
+        dwdt = (w[idx + 1] - w[idx - 1]) / (t[idx + 1] - t[idx - 1])
+    m = vehicle.mass
+    if log.vehicle_accel is not None:
+        acc = np.asarray(log.vehicle_accel, dtype=float)
+        nm = accel_noise if accel_noise is not None else noise_model(acc, sigma_accel)
+        a = acc[idx]
+        s_a = np.hypot(nm[0], nm[1] * a)
+        source = "imu"
+    else:
+        va, vb = prep.noise["vehicle_speed"]
+        s_v = np.hypot(va, vb * v)
+        a = np.full(idx.size, np.nan)
+        s_a = np.full(idx.size, np.inf)
+        ok = (idx >= 1) & (idx + 1 < n_all)
+        j = idx[ok]
+        dt = t[j + 1] - t[j - 1]
+        a[ok] = (v[j + 1] - v[j - 1]) / dt
+        s_a[ok] = np.sqrt(s_v[j + 1] ** 2 + s_v[j - 1] ** 2) / dt
+        nm = (float(np.median(s_a[ok])) if np.any(ok) else math.inf, 0.0)
+        source = "speed-difference"
+    sigma_H = m * s_a
+    good = np.isfinite(a) & np.isfinite(sigma_H) & (sigma_H > 0)
+    inv_H = np.where(good, 1.0 / np.where(good, sigma_H, 1.0), 0.0)
+    D = np.vstack([prep.vehicle_speed, prep.sprocket_speed, M_used, dwdt, np.where(good, a, 0.0),
+                   1.0 / prep.sigma_speed, 1.0 / prep.sigma_thrust_cond, prep.coupling, inv_H])
+    return JointData(D=D, sigma_hull=np.where(good, sigma_H, np.inf), accel_source=source,
+                     accel_noise=(float(nm[0]), float(nm[1])))
+
+
+def parse_fixed(fixed: Any) -> dict[str, float]:
+    """``fixed`` as ``{"effect.param": value}``.
+
+    Accepts ``{"grade": 0.05}`` (primary parameter), ``{"grade": {"theta_rad": 0.05}}`` or
+    ``{"grade.theta_rad": 0.05}``; values are checked against the parameter's admissible range.
+    """
+    if fixed is None:
+        return {}
+    if not isinstance(fixed, Mapping):
+        raise DataError(f"fixed must be a mapping like {{'grade': 0.05}} or {{'grade.theta_rad': 0.05}}, "
+                        f"got {type(fixed).__name__}")
+    out: dict[str, float] = {}
+    for key, val in fixed.items():
+        name, dot, param = str(key).partition(".")
+        if name not in EFFECTS:
+            raise DataError(f"fixed: unknown effect {name!r}; valid: {sorted(EFFECTS)}")
+        spec = EFFECTS[name]
+        items = val.items() if isinstance(val, Mapping) else [(param if dot else spec.primary, val)]
+        for p, x in items:
+            ps = spec.param(str(p))
+            if ps.integer:
+                raise DataError(f"fixed: {name}.{ps.name} is a fixed integer of the effect, give it in effects")
+            try:
+                xf = float(x)
+            except (TypeError, ValueError):
+                raise DataError(f"fixed: {name}.{ps.name} must be a number, got {x!r}") from None
+            if not (math.isfinite(xf) and ps.lower <= xf <= ps.upper):
+                raise DataError(f"fixed: {name}.{ps.name} = {x!r} outside its admissible range "
+                                f"[{ps.lower:g}, {ps.upper:g}]")
+            out[f"{name}.{ps.name}"] = xf
+    return out
+
+
+def effect_layout(labels: list[str], vehicle: Vehicle) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Lower and upper physical bounds and typical scales of the effect parameters (as for slip fits:
+    :func:`~soiltrack.soilmodel.effects.parameter_bounds` and ``parameter_scale``)."""
+    lo, hi, sc = [], [], []
+    for lab in labels:
+        name, _, p = lab.partition(".")
+        a, b = parameter_bounds(name, p, vehicle)
+        lo.append(a)
+        hi.append(b)
+        sc.append(parameter_scale(name, p, vehicle))
+    return np.array(lo, dtype=float), np.array(hi, dtype=float), np.array(sc, dtype=float)
+
+
+@locked_cache(maxsize=32)
+def residual_function(vehicle: Vehicle, structure: EffectSet) -> tuple[ca.Function, tuple[str, ...]]:
+    """Per-sample residuals ``(theta, i, d) -> (e[3], raw[3], F, T)`` and the effect labels.
+
+    ``theta = [F_lim, K, effect parameters...]`` (labels in that order after ``F_lim, K``),
+    ``d`` the rows of :data:`DATA_ROWS`. ``raw`` are measured minus predicted, per channel of
+    :data:`CHANNELS`: encoder minus ``v / (r_eff (1 - i))``, ``T - F(i)``, ``m_eff a - (F - R)``.
+    """
+    mapping, vec, labels = effect_symbols(structure, ca.SX, vehicle)
+    Flim, K, slip = ca.SX.sym("F_lim"), ca.SX.sym("K"), ca.SX.sym("slip")
+    d = ca.SX.sym("d", len(DATA_ROWS))
+    v, w, Mu, dwdt, a, iss, isT, rho, isH = (d[j] for j in range(len(DATA_ROWS)))
+    W, I = vehicle.weight, vehicle.sprocket_inertia
+    r_eff = effective_radius(vehicle, mapping)
+    m_eff = effective_mass(vehicle, mapping)
+    N = effective_normal_load(W, vehicle, mapping)
+    # the log's thrust limit F_lim = N tan(phi): the soil law of soilmodel at tan(phi) = F_lim / N
+    F = thrust_with_effects(slip, 0.0, ca.atan(Flim / N), K, W, vehicle, mapping, "cohesion-free")
+    loss = torque_loss(w, vehicle, mapping)
+    T = (Mu - loss - I * dwdt) / r_eff
+    d_s = v - r_eff * w * (1 - slip)
+    R = motion_resistance(v, slip, vehicle, mapping)
+    hull = m_eff * a - (F - R)
+    # sigma_H = m_eff sigma_a: the acceleration noise scales with the actual mass (a weight fixed at
+    # the nominal mass would make the hull channel an ordinary regression on the noisy acceleration,
+    # attenuating mass_error: measured -9 % on delta = 0.1, light vehicle)
+    e = ca.vertcat(d_s * iss, (T - F - rho * d_s) * isT, -hull * isH * (vehicle.mass / m_eff))
+    raw = ca.vertcat(w - v / (r_eff * (1 - slip)), T - F, hull)
+    theta = ca.vertcat(Flim, K, vec)
+    fn = ca.Function("drivelog_joint_residual", [theta, slip, d], [e, raw, F, T],
+                     ["theta", "slip", "d"], ["e", "raw", "F", "T"])
+    return fn, tuple(labels)
+
+
+@locked_cache(maxsize=32)
+def derivative_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
+    """Per-sample ``(theta, i, d) -> (e, de/dtheta, de/di, Hessian of |e|^2/2 in (theta, i))`` by AD."""
+    res, _ = residual_function(vehicle, structure)
+    theta = ca.SX.sym("theta", res.size1_in(0))
+    slip = ca.SX.sym("slip")
+    d = ca.SX.sym("d", len(DATA_ROWS))
+    e = res(theta, slip, d)[0]
+    z = ca.vertcat(theta, slip)
+    H = ca.hessian(0.5 * ca.sumsqr(e), z)[0]
+    return ca.Function("drivelog_joint_derivatives", [theta, slip, d],
+                       [e, ca.jacobian(e, theta), ca.jacobian(e, slip), H])
+
+
+@locked_cache(maxsize=32)
+def _slip_newton_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
+    """Per-sample ``(theta, i, d) -> (c, dc/di, d2c/di2)`` with ``c = |e|^2 / 2``."""
+    res, _ = residual_function(vehicle, structure)
+    theta = ca.SX.sym("theta", res.size1_in(0))
+    slip = ca.SX.sym("slip")
+    d = ca.SX.sym("d", len(DATA_ROWS))
+    c = 0.5 * ca.sumsqr(res(theta, slip, d)[0])
+    g, h = ca.gradient(c, slip), ca.hessian(c, slip)[0]
+    return ca.Function("drivelog_joint_slip_newton", [theta, slip, d], [c, g, h])
+
+
+def solve_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np.ndarray,
+                slip0: np.ndarray, iterations: int = 40) -> np.ndarray:
+    """Latent slips of given samples for fixed parameters: per-sample minimum of ``|e_k|^2 / 2``.
+
+    Safeguarded Newton (steps halved until the cost does not rise) inside the slip bounds, all
+    samples at once; the same per-sample problem that the fit profiles out.
+    """
+    n = slip0.size
+    fn = _slip_newton_function(vehicle, structure).map(n)
+    th = np.repeat(np.asarray(theta, dtype=float).reshape(-1, 1), n, axis=1)
+    lo, hi = SLIP_BOUNDS
+    s = np.clip(np.asarray(slip0, dtype=float), lo, hi)
+    for _ in range(iterations):
+        c, g, h = (np.asarray(o, dtype=float).ravel() for o in fn(th, s.reshape(1, -1), D))
+        step = -g / np.where(h > 0, h, np.maximum(np.abs(h), 1e-300)) * np.where(h > 0, 1.0, 1e-3)
+        t = np.ones(n)
+        for _half in range(30):
+            cand = np.clip(s + t * step, lo, hi)
+            c_new = np.asarray(fn(th, cand.reshape(1, -1), D)[0], dtype=float).ravel()
+            worse = c_new > c * (1 + 1e-12) + 1e-300
+            if not np.any(worse):
+                break
+            t = np.where(worse, 0.5 * t, t)
+        s_new = np.clip(s + t * step, lo, hi)
+        if np.max(np.abs(s_new - s)) < 1e-13:
+            s = s_new
+            break
+        s = s_new
+    return s
+
+
+def best_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np.ndarray,
+               starts: list[np.ndarray], iterations: int = 40) -> np.ndarray:
+    """Per-sample latent slips from several starts (:func:`solve_slips`), keeping the lowest cost.
+
+    The per-sample cost can have two minima (e.g. with ``slip_sinkage`` the hull balance
+    ``F(i) - W mu_s |i|`` is not monotone in the slip: a spinning track has a second, low-slip
+    solution); starting from the inverse thrust-slip curve AND from the slip measured from the
+    speeds (accurate at large slip) finds the right one.
+    """
+    n = D.shape[1]
+    fn = _slip_newton_function(vehicle, structure).map(n)
+    th = np.repeat(np.asarray(theta, dtype=float).reshape(-1, 1), n, axis=1)
+    best, best_c = None, None
+    for s0 in starts:
+        s = solve_slips(vehicle, structure, theta, D, s0, iterations)
+        c = np.asarray(fn(th, s.reshape(1, -1), D)[0], dtype=float).ravel()
+        if best is None:
+            best, best_c = s, c
+        else:
+            better = c < best_c
+            best, best_c = np.where(better, s, best), np.where(better, c, best_c)
+    return best
+
+
+@locked_cache(maxsize=16)
+def joint_solver(vehicle: Vehicle, structure: EffectSet, n: int, max_iter: int, tol: float,
+                 print_level: int) -> ca.Function:
+    """IPOPT solver of the joint problem with ``n`` (padded) samples.
+
+    Variables ``[theta / scale (2 + n_e), i_1 / i_ref, ..., i_n / i_ref]``; parameters
+    ``[scale (2 + n_e), i_ref, D (9 n, column-major per sample), pad (n)]``. Padding samples
+    have zero weights and ``pad = 1`` (a unit penalty pins their latent slip).
+    """
+    res, labels = residual_function(vehicle, structure)
+    p_dim = res.size1_in(0)
+    x = ca.SX.sym("x", p_dim + n)
+    p = ca.SX.sym("p", p_dim + 1 + len(DATA_ROWS) * n + n)
+    scale = p[:p_dim]
+    i_ref = p[p_dim]
+    D = ca.reshape(p[p_dim + 1:p_dim + 1 + len(DATA_ROWS) * n], len(DATA_ROWS), n)
+    pad = p[p_dim + 1 + len(DATA_ROWS) * n:]
+    theta = x[:p_dim] * scale
+    z = x[p_dim:]
+    E = res.map(n)(ca.repmat(theta, 1, n), (z * i_ref).T, D)[0]
+    f = 0.5 * (ca.sumsqr(E) + ca.sumsqr(pad * z))
+    opts = dict(_QUIET, **{"ipopt.max_iter": max_iter, "ipopt.tol": tol, "ipopt.print_level": print_level})
+    return ca.nlpsol(f"drivelog_joint_{n}", "ipopt", {"x": x, "p": p, "f": f}, opts)

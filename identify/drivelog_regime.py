@@ -1,0 +1,103 @@
+"""Gentle versus hard driving: what a drive log pins down, said in plain words.
+
+At small slip ``F ~ F_max l i / (2 K)``: a log whose thrust stays well below ``F_max`` pins
+down only this initial slope. :func:`classify_regime` calls a log ``"gentle"`` (correlation of
+the F_max and K estimates >= 0.99, or F_max standard error >= 25 %, or F_max on a bound),
+``"hard"`` (F_max within 5 % and K within 25 % standard error) or ``"intermediate"``, and
+writes the warning that says which experiment would help.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+__all__ = ["classify_regime", "GENTLE_CORRELATION", "GENTLE_REL_STDERR", "HARD_REL_STDERR", "K_REL_STDERR"]
+
+#: Correlation of the F_max and K estimates above which a log is "gentle" (only the slope).
+GENTLE_CORRELATION = 0.99
+#: Relative standard error of F_max above which F_max is called undetermined.
+GENTLE_REL_STDERR = 0.25
+#: Relative standard error of F_max below which F_max counts as pinned down (a "hard" pull).
+HARD_REL_STDERR = 0.05
+#: Relative standard error of K below which K counts as pinned down (with F_max: a "hard" pull).
+K_REL_STDERR = 0.25
+
+
+def classify_regime(Fmax: float, K: float, l: float, cov2: np.ndarray | None, at_bound: list[str],
+                    thrust_peak: float, utilisation: float, n_high: int) -> tuple[str, dict[str, Any], list[str]]:
+    """Driving regime of a fitted log, the statistics behind it and its warnings.
+
+    Parameters
+    ----------
+    Fmax, K, l
+        Fitted thrust limit (N), shear modulus (m) and track length (m).
+    cov2
+        Covariance of ``(F_max, K)`` or ``None`` when it does not exist.
+    at_bound
+        Names (``"F_max"``, ``"K"``) of the estimates on a bound.
+    thrust_peak, utilisation, n_high
+        Largest thrust the log certainly reached (N), its ratio to ``Fmax``, and the number of
+        samples above 70 % of ``Fmax``.
+
+    Returns
+    -------
+    regime, extra, warnings
+        ``"gentle"``, ``"intermediate"`` or ``"hard"``; entries for ``FitResult.extra``
+        (standard errors, correlation, slope standard error, ``regime``, and ``note`` for a
+        hard log); warnings for the report.
+    """
+    extra: dict[str, Any] = {}
+    warnings: list[str] = []
+    corr, s_slope, relF, relK = float("nan"), float("nan"), float("inf"), float("inf")
+    cov_ok = cov2 is not None
+    if cov_ok:
+        sF, sK = math.sqrt(cov2[0, 0]), math.sqrt(cov2[1, 1])
+        corr = float(cov2[0, 1] / (sF * sK))
+        gslope = np.array([l / (2 * K), -Fmax * l / (2 * K * K)])
+        s_slope = float(math.sqrt(max(gslope @ cov2 @ gslope, 0.0)))
+        relF, relK = sF / Fmax, sK / K
+        extra.update({"max_thrust_stderr_N": sF, "shear_modulus_stderr_m": sK, "corr_max_thrust_shear_modulus": corr,
+                      "initial_slope_stderr_N": s_slope})
+    if not cov_ok or abs(corr) >= GENTLE_CORRELATION or relF >= GENTLE_REL_STDERR or "F_max" in at_bound:
+        regime = "gentle"
+    elif relF <= HARD_REL_STDERR and relK <= K_REL_STDERR and "K" not in at_bound:
+        regime = "hard"
+    else:
+        regime = "intermediate"
+    extra["regime"] = regime
+
+    slope = Fmax * l / (2 * K)
+    slope_txt = (f"F_max l/(2K) = {slope:.4g} N" + (f" +- {s_slope:.2g} N" if math.isfinite(s_slope) else "")
+                 + " (thrust per unit slip at small slip)")
+    pct = (lambda x: f"{100 * x:.0f} %" if math.isfinite(x) else "undetermined")
+    if regime == "gentle":
+        warnings.append(
+            f"gentle driving: the largest thrust in this log is about {thrust_peak / 1e3:.4g} kN, well below the "
+            f"soil's thrust limit, so the log only shows the initial slope {slope_txt}; F_max and K are not "
+            f"separable (correlation of their estimates {corr:.3f}, standard error of F_max {pct(relF)}). "
+            f"To identify them, drive a hard pull near the traction limit (e.g. a hard acceleration from low "
+            f"speed, a drawbar pull or a climb)")
+    elif regime == "intermediate" and relF <= HARD_REL_STDERR:
+        i_lo, i_hi = K / l, 10 * K / l
+        warnings.append(
+            f"the log reaches the traction limit (F_max = {Fmax / 1e3:.4g} kN +- {pct(relF)}), but K is poorly "
+            f"determined (standard error {pct(relK)}{', on a bound' if 'K' in at_bound else ''}): the samples sit "
+            f"either near zero slip or at full track spin, with few in between ({n_high} samples above 70 % of "
+            f"F_max). The best determined small-slip quantity is the initial slope {slope_txt}. A sustained pull "
+            f"at 50-90 % of the traction limit (slip about {i_lo:.3g} to {i_hi:.3g}) would pin K down")
+    elif regime == "intermediate":
+        warnings.append(
+            f"F_max and K are only partly separated (correlation {corr:.3f}, standard errors: F_max {pct(relF)}, "
+            f"K {pct(relK)}); the largest thrust seen is about {thrust_peak / 1e3:.4g} kN. The best determined "
+            f"quantity is the initial slope {slope_txt}. A harder pull, nearer the traction limit, would pin F_max "
+            f"and K down")
+    else:
+        extra["note"] = (f"hard pull: the thrust reached about {pct(utilisation)} of the fitted limit; F_max and K "
+                         f"are separated (correlation {corr:.3f}, standard errors: F_max {pct(relF)}, K {pct(relK)})")
+    if at_bound:
+        warnings.append(f"{' and '.join(at_bound)} ended on the bound implied by the soil ranges: "
+                        f"the data or the bounds are questionable")
+
+    return regime, extra, warnings

@@ -1,0 +1,152 @@
+"""Drive-log fits with effects (hull channel) and held-out residuals per channel.
+
+Logs of 30 s (1,500 samples; the light grade log 60 s) from the library's simulator keep the
+file fast; the numbers in the comments were measured on these very logs (seed 0) unless said
+otherwise.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from soiltrack.identify.drivelog import fit_drive_log
+from soiltrack.identify.fitting import fit
+from soiltrack.soilmodel import TERRAINS, VEHICLES, DataError, max_thrust
+from soiltrack.soilmodel.simulation import simulate_drive_log
+
+LIGHT, HEAVY = VEHICLES["light"], VEHICLES["heavy"]
+DRY_SAND, LETE_SAND = TERRAINS["dry_sand"], TERRAINS["lete_sand"]
+GRADE = math.radians(3.0)
+
+
+def _fmax(res):
+    return next(c for c in res.combinations if c.name.startswith("F_max"))
+
+
+@pytest.fixture(scope="module")
+def grade_light():
+    """60 s log: on the 30 s log of seed 0 the F_max estimate is 2.08 standard errors low (an
+    ordinary 95 %-interval miss: over seeds 0-5 of 30 s logs the standardised errors were -2.08,
+    +1.06, +0.16, +1.15, -0.41, -0.21); on the 60 s log it is -1.0."""
+    log = simulate_drive_log(LIGHT, DRY_SAND, seed=0, effects={"grade": GRADE})
+    return log, fit(log, LIGHT, effects=["grade"])
+
+
+@pytest.fixture(scope="module")
+def nominal_light(grade_light):
+    return fit(grade_light[0], LIGHT)
+
+
+def test_grade_and_fmax_inside_their_intervals_light(grade_light):
+    _, res = grade_light
+    assert res.success, res.message
+    g = res.effects["grade"]["theta_rad"]
+    assert g.identifiable and g.ci95[0] <= GRADE <= g.ci95[1], g
+    assert g.stderr < 0.1 * GRADE                        # measured 2.3e-4 rad (0.4 % of 3 deg)
+    # the log's thrust limit is at its actual normal load W cos(theta)
+    F_true = max_thrust(DRY_SAND, LIGHT, normal_load=LIGHT.weight * math.cos(GRADE))
+    f = _fmax(res)
+    assert f.ci95[0] <= F_true <= f.ci95[1], (f, F_true)
+    assert res.extra["covariance"] == "sandwich"
+    assert res.extra["hull_channel"]["accel_source"] == "imu"
+    assert set(res.extra["channel_rms"]) == {"sprocket_speed_rad_s", "thrust_N", "hull_N"}
+
+
+def test_hull_channel_sees_the_grade_the_thrust_channel_cannot(grade_light, nominal_light):
+    """The nominal fit's F_max has about 2.3x the standard error of the fit with the hull channel."""
+    _, res = grade_light
+    f_eff, f_nom = _fmax(res), _fmax(nominal_light)
+    assert f_eff.stderr < 0.7 * f_nom.stderr
+
+
+def test_grade_and_fmax_inside_their_intervals_heavy():
+    log = simulate_drive_log(HEAVY, LETE_SAND, seed=0, effects={"grade": GRADE}, duration_s=30)
+    res = fit_drive_log(log, HEAVY, effects=["grade"])
+    assert res.success, res.message
+    g = res.effects["grade"]["theta_rad"]
+    assert g.ci95[0] <= GRADE <= g.ci95[1], g
+    F_true = max_thrust(LETE_SAND, HEAVY, normal_load=HEAVY.weight * math.cos(GRADE))
+    f = _fmax(res)
+    assert f.ci95[0] <= F_true <= f.ci95[1], (f, F_true)
+
+
+def test_mass_error_inside_its_interval():
+    """delta = 0.1; measured on 60 s logs, seeds 0-3: 0.0977, 0.0969, 0.0998, 0.1041 (stderr ~0.004)."""
+    log = simulate_drive_log(LIGHT, DRY_SAND, seed=0, effects={"mass_error": 0.1}, duration_s=30)
+    res = fit_drive_log(log, LIGHT, effects=["mass_error"])
+    d = res.effects["mass_error"]["delta"]
+    assert res.success and d.identifiable
+    assert d.ci95[0] <= 0.1 <= d.ci95[1], d
+    F_true = max_thrust(DRY_SAND, LIGHT, normal_load=LIGHT.weight * 1.1)
+    f = _fmax(res)
+    assert f.ci95[0] <= F_true <= f.ci95[1], (f, F_true)
+
+
+def test_slip_sinkage_finds_the_spinning_samples():
+    """slip_sinkage makes the hull balance non-monotone in the slip (a spinning track has a
+    second, low-slip solution); the latent slips start from the better of two candidates.
+    Measured: mu_s = 0.301 +- 0.008 (truth 0.3); starting only from the inverse thrust curve
+    gave 0.61 +- 0.03 and K = 8 mm (truth 25 mm) on the 60 s log."""
+    log = simulate_drive_log(LIGHT, DRY_SAND, seed=0, effects={"slip_sinkage": 0.3}, duration_s=30)
+    res = fit_drive_log(log, LIGHT, effects=["slip_sinkage"])
+    mu = res.effects["slip_sinkage"]["mu_s"]
+    assert res.success and mu.ci95[0] <= 0.3 <= mu.ci95[1], mu
+
+
+def test_hull_channel_from_speed_differences_without_imu():
+    """No IMU column: the acceleration is the central difference of the GNSS speed (about 1.9
+    m/s^2 noise at 50 Hz); the grade is still found, with about 15x the standard error."""
+    log = simulate_drive_log(LIGHT, DRY_SAND, seed=0, effects={"grade": GRADE}, duration_s=30, with_accel=False)
+    res = fit_drive_log(log, LIGHT, effects=["grade"])
+    g = res.effects["grade"]["theta_rad"]
+    assert res.extra["hull_channel"]["accel_source"] == "speed-difference"
+    assert res.success and g.ci95[0] <= GRADE <= g.ci95[1], g
+    assert 0.002 < g.stderr < 0.02                       # measured 0.0050 rad
+
+
+def test_no_effects_is_the_nominal_fit(grade_light, nominal_light):
+    log, _ = grade_light
+    for kw in ({"effects": []}, {"fixed": None}):
+        res = fit(log, LIGHT, **kw)
+        assert np.array_equal(res.theta, nominal_light.theta), kw
+        assert res.extra["max_thrust_N"] == nominal_light.extra["max_thrust_N"]
+        assert "hull_channel" not in res.extra and not res.effects
+
+
+def test_grade_and_mass_error_confused_on_a_steady_log():
+    """At constant speed both act as one constant force: flagged, with the correlation."""
+    log = simulate_drive_log(LIGHT, DRY_SAND, seed=0, effects={"grade": GRADE}, duration_s=30,
+                             speed_profile=[(0, 0), (3, 1.0), (30, 1.0)])
+    res = fit_drive_log(log, LIGHT, effects=["grade", "mass_error"])
+    assert res.success
+    g, d = res.effects["grade"]["theta_rad"], res.effects["mass_error"]["delta"]
+    assert not (g.identifiable and d.identifiable) or abs(g.correlation or 0) > 0.99
+    text = " ".join(res.warnings)
+    assert "effect grade.theta_rad is not identifiable" in text or "effect mass_error.delta is not" in text
+    assert "mass_error.delta (correlation" in text or "grade.theta_rad (correlation" in text
+    assert "payload" in text                               # the experiment that separates them
+
+
+def test_fixed_effect_is_held_and_reported(grade_light):
+    log, _ = grade_light
+    res = fit_drive_log(log, LIGHT, fixed={"grade": GRADE})
+    g = res.effects["grade"]["theta_rad"]
+    assert res.success and g.fixed and g.value == GRADE
+    F_true = max_thrust(DRY_SAND, LIGHT, normal_load=LIGHT.weight * math.cos(GRADE))
+    assert _fmax(res).ci95[0] <= F_true <= _fmax(res).ci95[1]
+
+
+def test_bad_effect_inputs_are_refused(grade_light):
+    log, _ = grade_light
+    with pytest.raises(DataError, match="nonsense"):
+        fit_drive_log(log, LIGHT, fixed={"nonsense": 1.0})
+    with pytest.raises(DataError, match="theta_rad"):
+        fit_drive_log(log, LIGHT, fixed={"grade.theta_rad": 5.0})
+    with pytest.raises(DataError, match="output-error"):
+        fit_drive_log(log, LIGHT, effects=["grade"], formulation="equation-error")
+    with pytest.raises(DataError, match="bias_correction"):
+        fit_drive_log(log, LIGHT, effects=["grade"], bias_correction="simex")
+    with pytest.raises(DataError):
+        fit_drive_log(log, LIGHT, effects=["no_such_effect"])
