@@ -593,7 +593,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     gap_seen = dm_test(z_nom, z_dis, dm_lag) < alpha
     if max_refits is None:
         max_refits = 3 if is_log else len(screenable)
-    ranked = sorted(screenable, key=lambda s: -s.statistic)
+    ranked = sorted(screenable, key=lambda s: -s.gain)  # by the cost drop a refit would give
     refit = [s.effect for s in ranked[:max_refits]] if (significant or gap_seen) else []
     if significant and len(ranked) > max_refits:
         notes.append(f"the {max_refits} candidates with the strongest score were refitted ({', '.join(refit)})")
@@ -674,7 +674,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     outside_rivals = []
     if verdict.name in refit and out_screens:
         k_out = 2 if is_log else len(out_screens)
-        for sc in sorted(out_screens, key=lambda s: -s.statistic)[:k_out]:
+        for sc in sorted(out_screens, key=lambda s: -s.gain)[:k_out]:
             score_model(sc.effect, (sc.effect,))
             scores[sc.effect] = ss(sc.effect)
         w_ext = stacking_weights({m: -0.5 * zall(m) ** 2 if math.isfinite(scores[m]) else np.full(n_held, -np.inf)

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..soilmodel.effects import EFFECTS
+from ..soilmodel.errors import DataError
 from .gap import chi2_sf
 
 __all__ = ["Screen", "project_off", "score_test", "newey_west_lag", "screen", "stationarity"]
@@ -50,6 +51,11 @@ class Screen:
     direction
         The projected sensitivity along which the score points (unit vector over the samples),
         used to tell confusable candidates; ``None`` when not screenable.
+    gain
+        ``|B^T r|^2`` with ``B`` an orthonormal basis of the projected sensitivity: the drop of
+        the sum of squared weighted residuals a linearised refit with the effect would give.
+        It ranks the candidates for refitting (the LM statistic's robust variance makes it a
+        significance, not a size).
     """
 
     effect: str
@@ -60,12 +66,13 @@ class Screen:
     p_value: float
     screenable: bool
     direction: np.ndarray | None = None
+    gain: float = 0.0
 
     def to_dict(self) -> dict:
         """JSON-friendly dict (no direction)."""
         return {"effect": self.effect, "columns": list(self.columns), "score": float(self.score),
                 "statistic": float(self.statistic), "dof": int(self.dof), "p_value": float(self.p_value),
-                "screenable": bool(self.screenable)}
+                "screenable": bool(self.screenable), "gain": float(self.gain)}
 
 
 def project_off(Z: np.ndarray, J: np.ndarray, rtol: float = 1e-10) -> np.ndarray:
@@ -153,7 +160,7 @@ def score_test(effect: str, J_free: np.ndarray, Z: np.ndarray, r: np.ndarray, la
     dn = float(np.linalg.norm(d))
     direction = d / dn if dn > 0 else B[:, 0]
     return Screen(effect, tuple(l for l, k in zip(labels, keep) if k), cosine, stat, rank, chi2_sf(stat, rank), True,
-                  direction)
+                  direction, float(s @ s))
 
 
 def stationarity(J_free: np.ndarray, r: np.ndarray) -> float:
@@ -176,6 +183,55 @@ def stationarity(J_free: np.ndarray, r: np.ndarray) -> float:
     return float(np.max(np.abs(J[:, ok].T @ r) / (nj[ok] * nr)))
 
 
+def drive_log_score_pair(res, log, vehicle) -> tuple[np.ndarray, np.ndarray, list[str], int]:
+    """A consistent (Jacobian, residual) pair of a drive-log fit, for score tests.
+
+    A drive-log fit profiles out one latent slip per sample, and the Jacobian it reports is a
+    stand-in with the right ``J^T J`` only. The score needs the real thing: per used sample,
+    the whitened residuals ``e_k`` (three channels) and ``de_k/dtheta`` from the drive-log
+    model's own CasADi derivative function (:func:`~.drivelog_joint.derivative_function`), at
+    the fitted parameters and the latent slips :func:`~.drivelog_residuals.drive_log_residuals`
+    solves, with ``de_k/dtheta`` projected off ``de_k/di_k`` (the profiled sensitivity: at the
+    per-sample optimum ``e_k`` is orthogonal to ``de_k/di_k``). Stacked sample by sample.
+
+    Returns
+    -------
+    J, r, labels, c
+        ``(c n, p)``, ``(c n,)``, the column labels ``["F_max", "K", "effect.param", ...]`` and the
+        number of channels ``c`` (rows per sample).
+    """
+    from ..soilmodel.effects import effect_structure, parse_effects
+    from .drivelog_joint import derivative_function, joint_data, residual_function
+    from .drivelog_prepare import prepare_drive_log
+    from .drivelog_residuals import _params_from, drive_log_residuals
+
+    out = drive_log_residuals(res, log, vehicle, model=res.model)
+    F, K, ev, eff, nm, hull, torque_hold, an = _params_from(res, None)
+    es = parse_effects(eff) if eff is not None else None
+    structure = effect_structure(es, vehicle)
+    _, labels = residual_function(vehicle, structure)
+    theta = np.array([F, K] + [ev[lab] if lab in ev else es.value(*lab.split("."), vehicle) for lab in labels])
+    prep = prepare_drive_log(log, vehicle, torque_hold=torque_hold, noise_models=nm)
+    D = joint_data(log, vehicle, prep, torque_hold, accel_noise=an).D.copy()
+    if not hull:
+        D[8] = 0.0
+    n = D.shape[1]
+    slip = np.asarray(out["slip"], dtype=float).reshape(1, -1)
+    fn = derivative_function(vehicle, structure)
+    e, Jt, gi, _ = (np.asarray(a, dtype=float) for a in
+                    fn.map(n)(np.repeat(theta.reshape(-1, 1), n, axis=1), slip, D))
+    c, p = e.shape[0], theta.size
+    e = e.T                                   # (n, c)
+    Jt = Jt.reshape(c, n, p).transpose(1, 0, 2)  # (n, c, p)
+    gi = gi.T                                  # (n, c)
+    gn = np.sum(gi ** 2, axis=1)
+    ok = gn > 1e-300
+    Jt[ok] -= gi[ok, :, None] * (np.einsum("kc,kcp->kp", gi[ok], Jt[ok]) / gn[ok, None])[:, None, :]
+    e = np.where(np.isfinite(e), e, 0.0)
+    Jt = np.where(np.isfinite(Jt), Jt, 0.0)
+    return Jt.reshape(n * c, p), e.reshape(n * c), ["F_max", "K"] + list(labels), c
+
+
 def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None = 0):
     """Score-test every candidate from ONE fit: the nominal model with the candidates held off.
 
@@ -196,6 +252,14 @@ def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None =
     names = list(res.parameter_names)
     J = np.asarray(res.jacobian, dtype=float)
     r = np.asarray(res.weighted_residuals, dtype=float).ravel()
+    rows_per_sample = 1
+    if getattr(res, "data_kind", None) == "drive" and res.success:
+        try:
+            J, r, names, rows_per_sample = drive_log_score_pair(res, data, vehicle)
+        except (ImportError, KeyError, DataError):  # a build whose drive-log fits carry no such model
+            pass
+    if hac_lag is None:
+        hac_lag = rows_per_sample * newey_west_lag(r.size // rows_per_sample)
     cols = {c: [j for j, nm in enumerate(names) if nm.startswith(c + ".")] for c in cands}
     taken = {j for js in cols.values() for j in js}
     free = [j for j in range(len(names)) if j not in taken]
