@@ -132,7 +132,8 @@ class Diagnosis:
     gap_p_value
         p-value of the nominal held-out error against the noise floor.
     converged
-        Whether all fits converged; ``notes`` lists what did not, and other caveats.
+        Whether the fits the verdict rests on converged (the nominal model's and the verdict
+        effect's); a candidate whose fit failed only loses its weight. ``notes`` says which.
     """
 
     data_kind: str
@@ -199,7 +200,7 @@ class Diagnosis:
                  f"confidence {self.confidence:.2f}")
         L.append(f"  why: {self.reason}")
         if not self.converged:
-            L.append("  CAUTION: not every fit converged (see notes)")
+            L.append("  CAUTION: a fit the verdict rests on did not converge (see notes)")
         L.append("")
         if self.n_samples < MIN_SAMPLES:
             L.append("In-sample residuals (too few samples to hold any out):")
@@ -237,7 +238,7 @@ class Diagnosis:
             L.append(f"  residuals of {ch}: lag-1 autocorrelation {w['lag1']:.2f}, "
                      f"{'white' if w['white'] else 'not white'} (Ljung-Box p = {w['p_value']:.2g})")
         for key, lg in self.lags.items():
-            if lg["lag"] != 0 and abs(lg["corr"]) > max(lg["bound"], 1.5 * abs(lg["corr_at_0"])):
+            if abs(lg["lag"]) >= 2 and abs(lg["corr"]) > max(5 * lg["bound"], 2 * abs(lg["corr_at_0"])):
                 L.append(f"  {key}: cross-correlation peaks at lag {lg['lag']} samples ({lg['corr']:.2f}): "
                          "a delay between the channels?")
         L.append("")
@@ -467,10 +468,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     if n < MIN_SAMPLES:
         return _too_few(data, vehicle, model, cands, is_log, t0)
     notes: list[str] = []
-    converged = True
+
+    failed: list[str] = []
 
     def run_fit(d, effects=(), fixed=None):
-        nonlocal converged
         kw = {}
         if effects:
             kw["effects"] = list(effects)
@@ -478,7 +479,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             kw["fixed"] = dict(fixed)
         res = fit(d, vehicle, model=model, **kw)
         if not res.success:
-            converged = False
+            failed.append(effects[0] if len(effects) == 1 else NOMINAL)
         return res
 
     # --- 1. screening: one fit with every candidate held at its off value -------------------------
@@ -489,8 +490,6 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     screens = [s for s in all_screens if s.effect in cands]
     stat_cos = (nominal_full.extra or {}).get("screening_stationarity", 0.0) if nominal_full.success else 0.0
     out_screens = [s for s in all_screens if s.effect in outside and s.screenable]
-    if not nominal_full.success:
-        converged = False
     screenable = [s for s in screens if s.screenable]
     thr = alpha / max(1, len(screenable))
     significant = sorted((s for s in screenable if s.p_value < thr), key=lambda s: -s.statistic)
@@ -733,8 +732,11 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         notes.append("unexplained: 'after' is the flexible discrepancy term, which names no physics")
     else:
         soil_after, after_rmse, shrink = None, None, None
+    # the diagnosis stands on the nominal fits and on the verdict's: a candidate whose fit failed only
+    # loses its weight (said in the notes)
+    converged = bool(nominal_full.success) and NOMINAL not in failed and name not in failed
     if not converged:
-        notes.append("at least one fit did not converge; its held-out residuals were still used")
+        notes.append("a fit the verdict rests on did not converge (the nominal model's or the verdict's effect's)")
     curves = {"held_x": {ch: xnat[mask[ch]] for ch in channels},
               "before": {ch: cat(NOMINAL, ch) for ch in channels},
               "after": {ch: cat(name if name in H else DISCREPANCY, ch) for ch in channels}

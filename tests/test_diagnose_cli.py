@@ -3,18 +3,10 @@ import os
 
 import pytest
 
-import soiltrack.cli as cli
 from soiltrack.cli import main
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 WONG = os.path.join(ROOT, "examples", "data", "wong2001_p176.csv")
-
-
-@pytest.fixture(autouse=True)
-def _registered(monkeypatch):
-    # TEMPORARY until drive-log fits take effects and the command is registered in COMMAND_MODULES
-    if "cmd_diagnose" not in cli.COMMAND_MODULES:
-        monkeypatch.setattr(cli, "COMMAND_MODULES", cli.COMMAND_MODULES + ("cmd_diagnose",))
 
 
 def _csv(tmp_path, text, name="d.csv"):
