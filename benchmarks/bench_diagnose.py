@@ -83,6 +83,7 @@ def drive_effects_supported(vehicle) -> bool:
 
 
 def run_case(kind, vname, tname, eff_name, mag, nname, seed, candidates=None, duration=60.0):
+    """Simulate one case, diagnose it, and measure its detectability."""
     vehicle, soil = VEHICLES[vname], TERRAINS[tname]
     effects = {eff_name: mag} if eff_name != "none" else None
     data = make(kind, vehicle, soil, effects, seed, NOISE[kind][nname], duration)
@@ -96,17 +97,17 @@ def run_case(kind, vname, tname, eff_name, mag, nname, seed, candidates=None, du
 
 
 # ----------------------------------------------------------------------------- out of library
-def delayed_speed_log(vehicle, soil, seed, lag=10):
-    log = simulate(vehicle, soil, kind="drive", seed=seed, duration_s=60.0)
+def delayed_speed_log(vehicle, soil, seed, lag=10, duration=60.0):
+    log = simulate(vehicle, soil, kind="drive", seed=seed, duration_s=duration)
     v = np.asarray(log.vehicle_speed)
     vs = np.concatenate([np.full(lag, v[0]), v[:-lag]])  # the speed sensor reports lag samples late
     return DriveLog(log.time, log.sprocket_torque, log.sprocket_speed, vs, log.vehicle_accel,
                     source=f"drive log with a {lag}-sample speed-sensor delay")
 
 
-def soft_patch_log(vehicle, soil, soft, seed, t1=25.0, t2=40.0):
-    a = simulate(vehicle, soil, kind="drive", seed=seed, duration_s=60.0)
-    b = simulate(vehicle, soft, kind="drive", seed=seed, duration_s=60.0)
+def soft_patch_log(vehicle, soil, soft, seed, t1=25.0, t2=40.0, duration=60.0):
+    a = simulate(vehicle, soil, kind="drive", seed=seed, duration_s=duration)
+    b = simulate(vehicle, soft, kind="drive", seed=seed, duration_s=duration)
     m = (a.time >= t1) & (a.time < t2)
     cols = {}
     for name in ("sprocket_torque", "sprocket_speed", "vehicle_speed", "vehicle_accel"):
@@ -191,6 +192,7 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="a small grid (a few minutes)")
     ap.add_argument("--kinds", default="sweep,drive")
     ap.add_argument("--png", default="bench_diagnose_confusion.png")
+    ap.add_argument("--log-seconds", type=float, default=60.0, help="duration of the simulated drive logs")
     a = ap.parse_args(argv)
     kinds = [k for k in a.kinds.split(",") if k]
     if "drive" in kinds and not drive_effects_supported(VEHICLES["light"]):
@@ -202,29 +204,37 @@ def main(argv=None) -> int:
         terrains = ("lete_sand",) if a.quick else ("lete_sand", "dry_sand")
         noises = list(NOISE[kind])[:1] if a.quick else list(NOISE[kind])
         names = [e for e, s in EFFECTS.items() if kind in s.shows_in]
+        # a drive-log diagnosis costs about a minute on a loaded 2-core machine: a smaller grid
+        dur = a.log_seconds
+        mags = (lambda e, v: magnitudes(e, v)[-1:]) if kind == "drive" and a.quick else magnitudes
+        free_seeds = (seeds + (2, 3)) if a.quick and kind == "sweep" else ((1, 2) if kind == "drive" and a.quick
+                                                                            else seeds)
         for vname in vehicles:
             for tname in terrains:
                 for nname in noises:
-                    for seed in seeds + ((2, 3) if a.quick else ()):
-                        rows.append(run_case(kind, vname, tname, "none", None, nname, seed))
+                    for seed in free_seeds:
+                        rows.append(run_case(kind, vname, tname, "none", None, nname, seed, duration=dur))
                         print(_line(rows[-1]), flush=True)
                     for e in names:
-                        for mag in magnitudes(e, VEHICLES[vname]):
+                        for mag in mags(e, VEHICLES[vname]):
                             for seed in seeds:
-                                rows.append(run_case(kind, vname, tname, e, mag, nname, seed))
+                                rows.append(run_case(kind, vname, tname, e, mag, nname, seed, duration=dur))
                                 print(_line(rows[-1]), flush=True)
         # (b) leave-one-out on the detectable cases of the first vehicle/terrain/noise
-        for r in [r for r in rows if r["kind"] == kind and r["effect"] != "none" and r["det"] > 3][:(8 if a.quick else 40)]:
+        n_loo = (2 if kind == "drive" else 8) if a.quick else 40
+        for r in [r for r in rows if r["kind"] == kind and r["effect"] != "none" and r["det"] > 3][:n_loo]:
             cands = [e for e, s in EFFECTS.items() if kind in s.shows_in and e != r["effect"]]
             loo.append(run_case(kind, r["vehicle"], r["terrain"], r["effect"], r["mag"], r["noise"], r["seed"],
-                                candidates=cands))
+                                candidates=cands, duration=dur))
             print("LOO " + _line(loo[-1]), flush=True)
     if "drive" in kinds:
         v, s = VEHICLES["light"], TERRAINS["lete_sand"]
         soft = TERRAINS["dry_sand"]
+        T = a.log_seconds
+        t1, t2 = round(0.4 * T), round(0.65 * T)
         for seed in seeds:
-            for label, log in (("speed-sensor delay 10 samples", delayed_speed_log(v, s, seed)),
-                               ("softer patch 25-40 s", soft_patch_log(v, s, soft, seed))):
+            for label, log in (("speed-sensor delay 10 samples", delayed_speed_log(v, s, seed, duration=T)),
+                               (f"softer patch {t1}-{t2} s", soft_patch_log(v, s, soft, seed, t1, t2, duration=T))):
                 t0 = time.perf_counter()
                 d = diagnose(log, v)
                 ool.append((label, d, time.perf_counter() - t0))

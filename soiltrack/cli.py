@@ -14,7 +14,7 @@ from .cliutil import EXIT_INPUT, EXIT_OK
 from .soilmodel import DataError
 
 #: Subcommand modules, in the order of the help text; each has ``add_parser(subparsers)``.
-COMMAND_MODULES = ("cmd_simulate", "cmd_fit")
+COMMAND_MODULES = ("cmd_simulate", "cmd_fit", "cmd_diagnose")
 
 
 def build_parser() -> argparse.ArgumentParser:
