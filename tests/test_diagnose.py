@@ -97,3 +97,25 @@ def test_three_points_say_how_little_they_support():
     assert "3 samples cannot show a gap" in d.reason
     assert json.loads(d.to_json())["soil_after"] is None
     assert not any(isinstance(v, float) and not math.isfinite(v) for v in json.loads(d.to_json()).values())
+
+
+def test_drive_log_score_for_drivetrain_friction():
+    # drivetrain_friction shows only in drive logs. The nominal drive-log model (implicit-Euler sprocket
+    # equation) matches the simulator's noise-free log only to its discretisation, so the score is not
+    # exactly zero without the effect: measured gain 5.5 without, 3.0e5 with (whitened units)
+    Wr = VEH.weight * VEH.sprocket_radius
+    gains = []
+    for eff in (None, {"drivetrain_friction": 0.03 * Wr}):
+        log = simulate(VEH, SOIL, kind="drive", effects=eff, seed=1, duration_s=10.0, noise="none")
+        res, screens = screen(log, VEH, ["drivetrain_friction"], hac_lag=None)
+        assert res.success and res.extra["screening_stationarity"] < 1e-5  # a consistent pair at an optimum
+        gains.append(screens[0])
+    assert gains[1].gain > 1e3 * gains[0].gain and gains[1].score > 0.99
+
+
+def test_none_on_an_effect_free_drive_log():
+    log = simulate(VEH, SOIL, kind="drive", seed=1, duration_s=15.0)
+    d = diagnose(log, VEH)
+    assert d.verdict == "none" and d.confidence > 0.5 and d.converged
+    assert set(d.holdout_rmse_before) == {"sprocket_speed_rad_s", "thrust_N", "hull_N"}
+    assert {s.dimension for s in d.localisation} == {"channel", "time", "speed", "slip"}
