@@ -497,6 +497,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     # --- 2. the gap: blocked hold-out ------------------------------------------------------------------
     # every residual array is kept at full length n (NaN where the fit used no sample, e.g. a
     # drive-log sample at standstill), so that held-out parts of the two folds fill one array
+    if not nominal_full.success:
+        return _nominal_failed(data, cands, screens, nominal_full, "on all the data", is_log, t0)
     R = _channels(nominal_full, data)
     channels = list(R)
     order = _order(data)
@@ -552,7 +554,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                 rt = residuals_at(res, te)
             except DataError:
                 if name == NOMINAL:
-                    raise
+                    raise _NominalFailed(res) from None
                 # a failed candidate fit predicts nothing: it gets no weight
                 rt = {ch: np.full(te.size, np.inf) for ch in channels}
                 notes.append(f"the fit with {name} failed on a training part ({res.status}): it gets no weight")
@@ -564,7 +566,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                 train_res.setdefault(name, []).append({ch: np.full(tr.size, np.nan) for ch in channels})
         train_fits[name] = fits
 
-    score_model(NOMINAL)
+    try:
+        score_model(NOMINAL)
+    except _NominalFailed as e:
+        return _nominal_failed(data, cands, screens, e.res, "on a training part", is_log, t0)
     # discrepancy term: spline in slip (sweep) or time (log) fitted to the nominal training residuals
     n_knots = int(min(20, max(8, n // 150))) if is_log else int(max(2, min(12, n // 6)))
 
@@ -777,4 +782,22 @@ def _too_few(data, vehicle: Vehicle, model: str, cands: tuple[str, ...], is_log:
         noise={ch: 0.0 for ch in rms}, holdout_rmse_before=rms, holdout_rmse_after=None, shrink=None,
         soil_before=_soil_summary(res), soil_after=None, gap_p_value=1.0, converged=bool(res.success),
         notes=(f"only {n} samples: the 'held-out' errors are in-sample residuals",),
+        elapsed_s=time.perf_counter() - t0, curves={})
+
+
+class _NominalFailed(Exception):
+    def __init__(self, res):
+        super().__init__(getattr(res, "status", "failed"))
+        self.res = res
+
+
+def _nominal_failed(data, cands, screens, res, where: str, is_log: bool, t0: float) -> Diagnosis:
+    """No diagnosis without a nominal fit: say so (verdict ``unexplained``, confidence 0, not converged)."""
+    reason = (f"the nominal model could not be fitted {where} ({getattr(res, 'status', 'failed')}: "
+              f"{getattr(res, 'message', '')}); without it there is no gap to explain")
+    return Diagnosis(
+        data_kind="drive" if is_log else "sweep", n_samples=data.n_samples, candidates=cands, verdict="unexplained",
+        confidence=0.0, reason=reason, ranking=(), screens=tuple(screens), confusable=(), localisation=(),
+        change=None, whiteness={}, lags={}, noise={}, holdout_rmse_before={}, holdout_rmse_after=None, shrink=None,
+        soil_before=_soil_summary(res), soil_after=None, gap_p_value=1.0, converged=False, notes=(reason,),
         elapsed_s=time.perf_counter() - t0, curves={})

@@ -19,6 +19,15 @@ def plot_diagnosis(diag, path: str) -> str:
     import matplotlib.pyplot as plt
 
     cv = diag.curves
+    if not cv or not cv.get("before"):  # nothing was held out (too few samples, or no nominal fit)
+        fig, ax = plt.subplots(figsize=(8, 3))
+        ax.axis("off")
+        ax.text(0.02, 0.5, f"verdict: {diag.verdict} (confidence {diag.confidence:.2f})\n\n"
+                + "\n".join(diag.reason[i:i + 100] for i in range(0, len(diag.reason), 100)),
+                va="center", fontsize=9, family="monospace")
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        return path
     chans = list(cv["before"])
     fig = plt.figure(figsize=(11, 7.5))
     gs = fig.add_gridspec(2, 2, height_ratios=[1.2, 1.0])

@@ -119,3 +119,27 @@ def test_none_on_an_effect_free_drive_log():
     assert d.verdict == "none" and d.confidence > 0.5 and d.converged
     assert set(d.holdout_rmse_before) == {"sprocket_speed_rad_s", "thrust_N", "hull_N"}
     assert {s.dimension for s in d.localisation} == {"channel", "time", "speed", "slip"}
+
+
+def test_a_failed_nominal_fit_is_reported_not_hidden(monkeypatch, tmp_path):
+    # stub of the fit interface (tests only): every fit fails, as IPOPT may on hostile data
+    from types import SimpleNamespace
+
+    import soiltrack.identify.fitting as fitting
+
+    def failing_fit(data, vehicle, model="full", effects=(), fixed=None, **kw):
+        k = 3 + len(effects or ())
+        return SimpleNamespace(success=False, status="Maximum_Iterations_Exceeded", message="stub",
+                               parameter_names=("cohesion", "friction_angle", "shear_modulus")
+                               + tuple(f"{e}.x" for e in (effects or ())),
+                               jacobian=np.zeros((data.n_samples, k)), weighted_residuals=np.zeros(data.n_samples),
+                               parameters={}, combinations=[], extra={}, active_bounds={}, data_kind="slip")
+
+    monkeypatch.setattr(fitting, "fit", failing_fit)
+    d = diagnose(sweep(), VEH)
+    assert d.verdict == "unexplained" and d.confidence == 0.0 and not d.converged
+    assert "could not be fitted" in d.reason and "Maximum_Iterations_Exceeded" in d.reason
+    js = json.loads(d.to_json())
+    assert js["soil_after"] is None and isinstance(js["soil_before"], dict)
+    d.plot(str(tmp_path / "f.png"))
+    assert "could not be fitted" in d.report()
