@@ -5,7 +5,8 @@
 2. :func:`soiltrack.identify.diagnose`: where the gap lies, which effect explains it, how far the
    held-out error shrinks, how far the soil estimate moves.
 3. The repaired model (``fit(..., effects=[verdict])``) against the nominal one, with figures.
-4. When drive-log fits take effects: a drive log with an unknown payload (``mass_error``).
+4. A 30 s drive log with an unknown payload (``mass_error``; about a minute: each drive-log fit
+   with effects takes seconds).
 5. The seed's three points (Wong 2001, p. 176): what a diagnosis can and cannot say from them.
 
 Run:  python examples/diagnose_story.py [--out DIR]
@@ -86,7 +87,7 @@ def _curve_figure(data, veh, soil, rn, rr, name, path):
 
 def drive_story(out: str) -> None:
     veh, soil = VEHICLES["light"], TERRAINS["lete_sand"]
-    log = simulate(veh, soil, kind="drive", effects={"mass_error": 0.25}, seed=1, duration_s=60.0)
+    log = simulate(veh, soil, kind="drive", effects={"mass_error": 0.25}, seed=1, duration_s=30.0)
     print()
     print("=" * 78)
     print("2. A drive log with 25 % more payload than the vehicle file says")
