@@ -3,7 +3,11 @@
 Public names
 ------------
 :func:`fit`
-    One dataset (tractive force-slip data or a drive log) -> :class:`FitResult`.
+    One dataset (tractive force-slip or drawbar pull-slip data, or a drive log) ->
+    :class:`FitResult`; ``effects=[...]`` fits unmodelled effects jointly with the soil,
+    ``fixed={"effect.param": value}`` holds some. The result's ``effects``, ``effect_set``,
+    ``parameter_names``, ``jacobian``, ``weighted_residuals``, ``predict`` and ``residuals_on``
+    (held-out data) serve the sim-to-real diagnosis.
 :func:`fit_many`
     Many datasets (vectorised engine for same-size slip data, any ``Executor``).
 :func:`profile_likelihood`

@@ -11,8 +11,6 @@
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from .stats import norm_ppf, t_ppf
@@ -26,25 +24,27 @@ WEAK_CORRELATION = 0.99
 _WEAK_VIF = 1.0 / (1.0 - WEAK_CORRELATION ** 2)
 
 
-def _core_stats(J: np.ndarray, rw: np.ndarray, free: np.ndarray, sigma_known: bool) -> dict[str, np.ndarray]:
-    """Identifiability and covariance for a stack of fits.
+def core_stats(J: np.ndarray, rw: np.ndarray, sigma_known: bool) -> dict[str, np.ndarray]:
+    """Identifiability and covariance for a stack of fits (a single fit is a stack of one).
 
     J: (N, n, p) Jacobian of weighted residuals w.r.t. the FREE parameters; rw: (N, n).
-    Returns arrays, all per fit: D (N,p) column scales, S (N,p) relative singular values
-    (descending, zeros padded), V (N,p,p) right singular vectors (columns), rank (N,),
-    Pinv (N,p,p) = (Js^T Js)^+ in scaled coordinates, ssr (N,), dof (N,), s2 (N,).
+    Returns arrays, all per fit: D (N,p) column scales, Dok (N,p) whether a column is usable,
+    S (N,p) relative singular values (descending, zeros padded), V (N,p,p) right singular
+    vectors (columns), rank (N,), Pinv (N,p,p) = (Js^T Js)^+ in scaled coordinates, ssr (N,),
+    dof (N,), s2 (N,), nonnull (N,p). One thin SVD of the column-scaled Jacobian per fit.
     """
+    J = np.asarray(J, dtype=float)
     N, n, p = J.shape
     D = np.sqrt(np.einsum("kij,kij->kj", J, J))
     ok = np.isfinite(D) & (D > 0)
-    Dsafe = np.where(ok, D, 1.0)
-    Js = np.where(ok[:, None, :], J / Dsafe[:, None, :], 0.0)
-    Js = np.where(np.isfinite(Js), Js, 0.0)
-    if n > p:
-        R = np.linalg.qr(Js, mode="r")
+    if ok.all():  # finite column norms: J is finite
+        Dsafe = D
+        Js = J / D[:, None, :]
     else:
-        R = Js
-    _, S, Vt = np.linalg.svd(R, full_matrices=True)
+        Dsafe = np.where(ok, D, 1.0)
+        Js = np.where(ok[:, None, :], J / Dsafe[:, None, :], 0.0)
+        Js = np.where(np.isfinite(Js), Js, 0.0)
+    _, S, Vt = np.linalg.svd(Js, full_matrices=n < p)
     if S.shape[1] < p:
         S = np.concatenate([S, np.zeros((N, p - S.shape[1]))], axis=1)
     smax = S[:, :1]
@@ -54,8 +54,9 @@ def _core_stats(J: np.ndarray, rw: np.ndarray, free: np.ndarray, sigma_known: bo
     inv2 = np.where(nonnull, 1.0 / np.where(nonnull, S, 1.0) ** 2, 0.0)
     V = np.swapaxes(Vt, 1, 2)
     Pinv = np.einsum("kij,kj,klj->kil", V, inv2, V)
-    rw = np.where(np.isfinite(rw), rw, np.nan)
+    rw = np.asarray(rw, dtype=float)
     ssr = np.einsum("ki,ki->k", rw, rw)
+    ssr = np.where(np.isfinite(ssr), ssr, np.nan)
     dof = n - rank
     if sigma_known:
         s2 = np.ones(N)
@@ -65,40 +66,14 @@ def _core_stats(J: np.ndarray, rw: np.ndarray, free: np.ndarray, sigma_known: bo
             "s2": s2, "nonnull": nonnull}
 
 
+def _core_stats(J: np.ndarray, rw: np.ndarray, free, sigma_known: bool) -> dict[str, np.ndarray]:
+    """:func:`core_stats` under its former name (``free`` is not used)."""
+    return core_stats(J, rw, sigma_known)
+
+
 def _core_stats_one(J: np.ndarray, rw: np.ndarray, sigma_known: bool) -> dict[str, np.ndarray]:
-    """:func:`_core_stats` for ONE fit (J: (n, p), rw: (n,)): the same quantities (leading axis
-    of length 1) without the stacked-array bookkeeping, which dominates a single fit's
-    result-building time. The singular values and right singular vectors come from one thin
-    SVD of the column-scaled Jacobian (mathematically those of its R factor, which the batched
-    path decomposes; both are backward stable, so they agree to rounding)."""
-    n, p = J.shape
-    D = np.sqrt(np.einsum("ij,ij->j", J, J))
-    Dl = D.tolist()
-    if all(d > 0 and math.isfinite(d) for d in Dl):  # finite column norms: J is finite
-        ok = np.ones(p, dtype=bool)
-        Dsafe = D
-        Js = J / D
-    else:
-        ok = np.isfinite(D) & (D > 0)
-        Dsafe = np.where(ok, D, 1.0)
-        Js = np.where(ok[None, :], J / Dsafe, 0.0)
-        Js = np.where(np.isfinite(Js), Js, 0.0)
-    _, S, Vt = np.linalg.svd(Js, full_matrices=n < p)
-    Sl = S.tolist() + [0.0] * (p - S.shape[0])
-    smax = Sl[0]
-    Srel = [s / smax for s in Sl] if smax > 0 else [0.0] * p
-    nonnull = [s > RANK_TOL for s in Srel]
-    rank = sum(nonnull)
-    V = Vt.T
-    Pinv = (V * np.array([1.0 / (s * s) if nn else 0.0 for s, nn in zip(Sl, nonnull)])) @ Vt
-    ssr = float(rw @ rw)
-    if not math.isfinite(ssr):  # the batched path maps non-finite residuals to NaN
-        ssr = math.nan
-    dof = n - rank
-    s2 = 1.0 if sigma_known else (ssr / dof if dof > 0 else math.nan)
-    return {"D": Dsafe[None], "Dok": ok[None], "S": np.array([Srel]), "V": V[None], "rank": np.array([rank]),
-            "Pinv": Pinv[None], "ssr": np.array([ssr]), "dof": np.array([dof]), "s2": np.array([s2]),
-            "nonnull": np.array([nonnull])}
+    """:func:`core_stats` for ONE fit (J: (n, p), rw: (n,)): a stack of one."""
+    return core_stats(np.asarray(J, dtype=float)[None], np.asarray(rw, dtype=float)[None], sigma_known)
 
 
 def _quantile(dof: int, sigma_known: bool) -> float | None:
@@ -109,4 +84,4 @@ def _quantile(dof: int, sigma_known: bool) -> float | None:
     return t_ppf(0.975, float(dof))
 
 
-core_stats, core_stats_one, quantile = _core_stats, _core_stats_one, _quantile
+core_stats_one, quantile = _core_stats_one, _quantile

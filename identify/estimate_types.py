@@ -117,8 +117,9 @@ class ParameterEstimate:
                 "identifiable": bool(self.identifiable), "at_bound": bool(self.at_bound),
                 "bound_side": self.bound_side, "weakly_identifiable": bool(self.weakly_identifiable),
                 "fixed": bool(self.fixed), "ridge_value": _f(self._edge(self.ridge_value)), "note": self.note,
-                **({} if self.name in _EDGE else {"unit": self.si_unit, "correlated_with": self.correlated_with,
-                                                  "correlation": _f(self.correlation)})}
+                **({} if self.name in _EDGE else {"unit": self.si_unit}),
+                **({} if self.name in _EDGE and self.correlated_with is None else
+                   {"correlated_with": self.correlated_with, "correlation": _f(self.correlation)})}
 
 
 @dataclass(frozen=True)

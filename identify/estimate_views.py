@@ -57,8 +57,12 @@ class EstimateViews:
 
     @property
     def active_bounds(self) -> dict[str, str]:
-        """``{parameter name: "lower"|"upper"}`` for free parameters that ended on a bound."""
-        return {n: p.bound_side for n, p in self.parameters.items() if p.at_bound and p.bound_side}
+        """``{parameter name: "lower"|"upper"}`` for free parameters that ended on a bound (effect
+        parameters as ``"effect.param"``)."""
+        out = {n: p.bound_side for n, p in self.parameters.items() if p.at_bound and p.bound_side}
+        for ps in self.effects.values():
+            out.update({p.name: p.bound_side for p in ps.values() if p.at_bound and p.bound_side})
+        return out
 
     @property
     def outside_bounds(self) -> dict[str, str]:
@@ -144,6 +148,9 @@ class EstimateViews:
             g[k] = 1.0
             g_s = g / self._D
             weak = bool(ident[k]) and self._vif(g_s) > _WEAK_VIF
+            partner = rho = None
+            if weak and self.effect_labels:
+                partner, rho = self._partner(k, True)
             if ident[k]:
                 se = None
                 if C is not None:
@@ -163,9 +170,10 @@ class EstimateViews:
                                  "bound and the interval is clipped to the bounds; use profile_likelihood for an "
                                  "honest interval")
                 if weak:
-                    notes.append("weakly identifiable (correlation with other parameter directions > 0.99)")
+                    notes.append("weakly identifiable (correlation with other parameter directions > 0.99"
+                                 + (f"; most with {partner}: {rho:+.4f})" if partner else ")"))
                 out[name] = ParameterEstimate(name, val, se, ci, True, weak, side is not None, side,
-                                              note="; ".join(notes))
+                                              note="; ".join(notes), correlated_with=partner, correlation=rho)
             else:
                 if ridge is not None and j in (0, 1):
                     ci = ridge[j]
@@ -174,11 +182,16 @@ class EstimateViews:
                 else:
                     ci = (float(lo[j]), float(hi[j]))
                     note = "not identifiable from these data; interval = the bounds"
+                    if self.effect_labels:  # say what it is confounded with (an effect, or another parameter)
+                        partner, rho = self._partner(k, False)
+                        if partner:
+                            note = (f"not identifiable: the data cannot separate it from {partner}; interval = the "
+                                    "bounds")
                 # the optimiser's point on a ridge is arbitrary: "on a bound" only if the whole range is
                 pinned = ci[0] is not None and ci[1] is not None and ci[1] - ci[0] <= BOUND_TOL * (hi[j] - lo[j])
                 nb_side = side if (pinned and side in ("lower", "upper")) else None
                 out[name] = ParameterEstimate(name, None, None, ci, False, False, nb_side is not None, nb_side,
-                                              ridge_value=val, note=note)
+                                              ridge_value=val, note=note, correlated_with=partner, correlation=rho)
         return out
 
 

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from ..soilmodel.ridge import ridge_ranges
 from .core_stats import RANK_TOL, WEAK_CORRELATION, _WEAK_VIF
 from .estimate_types import _EDGE, Combination, _f
 
@@ -113,19 +114,15 @@ class IdentifiabilityViews:
     def _ridge_intervals(self, fmax: "Combination") -> tuple[tuple, tuple, str]:
         A = self.vehicle.contact_area
         W = self._effective_load(float(self.normal_loads[0]))[0]
-        (c_lo, c_hi), (p_lo, p_hi) = self.bounds.cohesion, self.bounds.friction_angle
         F_lo = fmax.ci95[0] if fmax.ci95[0] is not None else fmax.value
         F_hi = fmax.ci95[1] if fmax.ci95[1] is not None else fmax.value
-        c_a = max(c_lo, (F_lo - W * math.tan(p_hi)) / A)
-        c_b = min(c_hi, (F_hi - W * math.tan(p_lo)) / A)
-        ph_a = max(p_lo, math.atan((F_lo - A * c_hi) / W))
-        ph_b = min(p_hi, math.atan((F_hi - A * c_lo) / W))
+        rr = ridge_ranges(F_lo, F_hi, W, A, self.bounds)
         how = ("F_max within its 95 % interval" if fmax.ci95[0] is not None
                else "F_max at its estimate (no interval: no residual degrees of freedom)")
-        if c_a > c_b or ph_a > ph_b:
+        if rr is None:
             return (None, None), (None, None), (f"no point of the ridge A c + W tan(phi) = F_max with {how} "
                                                 "lies within the bounds")
-        return (c_a, c_b), (ph_a, ph_b), (f"range along the ridge A c + W tan(phi) = F_max (W = {W / 1e3:.6g} kN) "
+        return rr[0], rr[1], (f"range along the ridge A c + W tan(phi) = F_max (W = {W / 1e3:.6g} kN) "
                                           f"with {how}, within the bounds")
 
 
@@ -204,7 +201,9 @@ class IdentifiabilityViews:
             if pe.fixed:
                 continue
             if not pe.identifiable and not (self._cphi_ridge and name in ("cohesion", "friction_angle")):
-                statements.append(f"{_EDGE[name][3]} is not identifiable from these data.")
+                statements.append(f"{_EDGE[name][3]} is not identifiable from these data"
+                                  + (f": they cannot separate it from {pe.correlated_with}." if pe.correlated_with
+                                     else "."))
             elif pe.weakly_identifiable:
                 statements.append(f"{_EDGE[name][3]} is only weakly identifiable (correlated above "
                                   f"{WEAK_CORRELATION} with other parameter directions).")

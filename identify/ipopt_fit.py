@@ -32,10 +32,11 @@ import numpy as np
 
 from ..soilmodel.soil import SoilBounds
 from ..soilmodel.threadsafe import call_solver, locked_cache
-from ..soilmodel.traction import thrust_expr
+from ..soilmodel.ridge import fmax_range, one_load
+from ..soilmodel.traction import max_thrust_expr, thrust_expr
 from .problem import SCALE, SlipProblem, ridge_centre
 from .result import FitResult
-from .start import grid_start
+from .start import start_point
 
 __all__ = ["ipopt_solver", "fit_ipopt", "solve_ipopt"]
 
@@ -118,13 +119,7 @@ def fit_ipopt(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     ipopt_solver("cohesion-free" if one_load else pb.model, pb.n,
                  tuple(sorted((ipopt_options or {}).items())))  # one-off build, not timed
     t0 = time.perf_counter()
-    if x0 is None:
-        theta0 = grid_start(pb.slip[None], pb.force[None], pb.load[None], pb.sigma[None], pb.vehicle.track_length,
-                            pb.vehicle.track_width, pb.model, pb.bounds, n_grid=n_grid)[0]
-        start = "variable-projection grid start"
-    else:
-        theta0 = _x0_vector(x0)
-        start = "user start point"
+    theta0, start = start_point(pb, x0, "grid", n_grid)
     note = ""
     if one_load:
         out = _solve_one_load(pb, theta0, ipopt_options)
@@ -139,8 +134,8 @@ def fit_ipopt(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
 
 
 def _one_load(pb: SlipProblem) -> bool:
-    W = pb.load
-    return bool(np.all(np.abs(W - W[0]) <= 1e-9 * abs(W[0])))
+    """Whether the problem's samples are at one normal load (:func:`soilmodel.ridge.one_load`)."""
+    return one_load(pb.load)
 
 
 def _solve_one_load(pb: SlipProblem, theta0: np.ndarray, ipopt_options: dict | None) -> dict:
@@ -152,13 +147,12 @@ def _solve_one_load(pb: SlipProblem, theta0: np.ndarray, ipopt_options: dict | N
     centre of the bounds-feasible ridge (:func:`ridge_centre`; a marker, reported as NOT an estimate).
     """
     W, A = float(pb.load[0]), pb.vehicle.contact_area
-    (c_lo, c_hi), (p_lo, p_hi) = pb.bounds.cohesion, pb.bounds.friction_angle
-    F_lo, F_hi = A * c_lo + W * math.tan(p_lo), A * c_hi + W * math.tan(p_hi)
+    F_lo, F_hi = fmax_range(W, A, pb.bounds)
     eb = SoilBounds((0.0, 1.0), (math.atan(F_lo / W), math.atan(F_hi / W)), pb.bounds.shear_modulus)
     red = replace(pb, model="cohesion-free", bounds=eb)
-    F0 = A * theta0[0] + W * math.tan(theta0[1])
+    F0 = max_thrust_expr(theta0[0], theta0[1], W, A)
     out = solve_ipopt(red, np.array([0.0, math.atan(F0 / W), theta0[2]]), ipopt_options=ipopt_options)
-    F = W * math.tan(out["theta"][1])
+    F = max_thrust_expr(0.0, out["theta"][1], W, A, "cohesion-free")
     c, phi = ridge_centre(F, W, A, pb.bounds)
     out["theta"] = np.array([float(c), float(phi), out["theta"][2]])
     return out

@@ -1,7 +1,9 @@
 """Joint fit of the soil and named effects to a slip sweep, with IPOPT.
 
-The NLP is built ONCE per ``(vehicle, effects on, model, measured, rig speed, n)`` and cached
-(:func:`~soiltrack.soilmodel.threadsafe.locked_cache`); the data enter as parameters. The
+The NLP is built ONCE per ``(vehicle, effects on, model, measured, rig speed, size class)`` and
+cached (:func:`~soiltrack.soilmodel.threadsafe.locked_cache`); the data enter as parameters,
+padded to the size class (:func:`padded_size`) with zero-weight samples, so that a diagnosis
+refitting blocks of many lengths builds few solvers (a build costs 40-90 ms, a solve 10-20 ms). The
 model is :func:`~soiltrack.identify.sweep_model.observation_function` (the soilmodel's
 :func:`~soiltrack.soilmodel.effects.sweep_measurement`), mapped over the samples; residuals
 and the Jacobian come from it by AD. Variables ``x = [c, phi, K, e...] / scale``, bounded by
@@ -9,7 +11,8 @@ the soil's practical ranges and each effect parameter's physical range
 (:func:`~soiltrack.soilmodel.effects.parameter_bounds`). Held parameters (``fixed``, cohesion
 of the cohesion-free model) have ``lbx = ubx`` and keep their Jacobian column in the result.
 A pressure distribution keeps the pressure positive (``|e| + |alpha| <= 1`` as two linear
-constraints). Start: the soil of the nominal variable-projection grid, effects off.
+constraints). Start: the soil of the nominal variable-projection grid, the effects at the
+values given (an ``EffectSet`` or dict) or their defaults (off; ``k_ratio`` 5).
 
 At one normal load and without a shear-shape effect, c and phi enter only through
 ``F_max = A c + N tan(phi)`` (N the actual normal load): the reported (c, phi) is then moved to
@@ -18,25 +21,32 @@ every prediction unchanged, so that the marker is the same as the nominal fit's.
 """
 from __future__ import annotations
 
-import math
 import time
 
 import casadi as ca
 import numpy as np
 
 from ..soilmodel.effects import EFFECTS, EffectSet, effect_symbols, parameter_bounds, parameter_scale
+from ..soilmodel.ridge import one_load, ridge_centre
 from ..soilmodel.threadsafe import call_solver, locked_cache
+from ..soilmodel.traction import max_thrust_expr
 from ..soilmodel.vehicle import Vehicle
-from .problem import SCALE, SlipProblem, ridge_centre
+from .problem import SCALE, SlipProblem
 from .result import FitResult, build_result
-from .start import grid_start
+from .start import start_point
 from .sweep_model import SweepResiduals, observation_function, predict
 
-__all__ = ["fit_joint", "joint_layout"]
+__all__ = ["fit_joint", "joint_layout", "padded_size"]
 
 _OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 _DEFAULT_OPTS = {"ipopt.tol": 1e-12, "ipopt.acceptable_tol": 1e-8, "ipopt.max_iter": 500}
 _SHAPE_EFFECTS = ("hump_shear", "pressure_distribution")
+
+
+def padded_size(n: int) -> int:
+    """Size class of ``n`` samples: a multiple of 8 up to 64, of 32 up to 512, then of 128."""
+    step = 8 if n <= 64 else (32 if n <= 512 else 128)
+    return -(-n // step) * step
 
 
 def joint_layout(vehicle: Vehicle, structure: EffectSet) -> tuple[list[str], np.ndarray, np.ndarray, list[str]]:
@@ -59,10 +69,10 @@ def _solver(vehicle: Vehicle, structure: EffectSet, model: str, measured: str, r
     S = np.concatenate([SCALE, scales])
     X = ca.SX.sym("x", nx)
     P = ca.SX.sym("p", 4 * n + 1)
-    slip, y, W, sig, scale = P[0:n], P[n:2 * n], P[2 * n:3 * n], P[3 * n:4 * n], P[4 * n]
+    slip, y, W, wt, scale = P[0:n], P[n:2 * n], P[2 * n:3 * n], P[3 * n:4 * n], P[4 * n]
     obs = observation_function(vehicle, structure, model, measured, rig_speed)
     ym = obs.map(n)(slip.T, W.T, X * S)[0].T
-    rw = (ym - y) / sig
+    rw = (ym - y) * wt  # wt = 1 / sigma; 0 on padding
     f = 0.5 * ca.dot(rw, rw) / scale
     g = []
     if "pressure_distribution" in structure:
@@ -85,23 +95,19 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     m = len(labels)
     S = np.concatenate([SCALE, escale])
     key = tuple(sorted((ipopt_options or {}).items()))
-    solver = _solver(pb.vehicle, structure, pb.model, pb.measured, pb.rig_speed, pb.n, key)
+    n_pad = padded_size(pb.n)
+    solver = _solver(pb.vehicle, structure, pb.model, pb.measured, pb.rig_speed, n_pad, key)
     t0 = time.perf_counter()
     fixed = dict(pb.fixed)
     # start: nominal soil from the variable-projection grid (on the tractive-force equivalent), effects off
-    if x0 is None:
-        theta0 = grid_start(pb.slip[None], pb.force[None], pb.load[None], pb.sigma[None], pb.vehicle.track_length,
-                            pb.vehicle.track_width, pb.model, pb.bounds, n_grid=n_grid)[0]
-        start = "variable-projection grid start, effects off"
-    else:
-        from .ipopt_fit import _x0_vector
-        theta0 = _x0_vector(x0)
-        start = "user start point, effects off"
+    theta0, start = start_point(pb, x0, "grid", n_grid)
+    start += ", effects at their given or default values"
     e0 = []
+    given = dict(pb.effect_start)
     for lab, (lo, hi) in zip(labels, eb):
         name, p = lab.split(".", 1)
         spec = EFFECTS[name].param(p)
-        v = fixed.get(lab, spec.off_value if spec.default is None else spec.default)
+        v = fixed.get(lab, given.get(lab, spec.off_value if spec.default is None else spec.default))
         e0.append(min(max(v, lo), hi))
     lo = np.concatenate([pb.bounds.lower, eb[:, 0]]) / S
     hi = np.concatenate([pb.bounds.upper, eb[:, 1]]) / S
@@ -115,7 +121,9 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     y = pb.measured_values
     yw = y / pb.sigma
     scale = max(0.5 * float(yw @ yw), 1e-300)
-    p = np.concatenate([pb.slip, y, pb.load, pb.sigma, [scale]])
+    pad = n_pad - pb.n
+    p = np.concatenate([pb.slip, np.zeros(pad), y, np.zeros(pad), pb.load, np.full(pad, pb.load[0]),
+                        1.0 / pb.sigma, np.zeros(pad), [scale]])
     args = {"x0": z0, "p": p, "lbx": lo, "ubx": hi}
     if "pressure_distribution" in structure:
         args.update(lbg=-1.0, ubg=1.0)
@@ -137,12 +145,11 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     theta, e = x[:3].copy(), x[3:].copy()
     note = ""
     W = pb.load
-    one_load = bool(np.all(np.abs(W - W[0]) <= 1e-9 * abs(W[0])))
-    if pb.model == "full" and one_load and not any(s in structure for s in _SHAPE_EFFECTS) and ok:
+    if pb.model == "full" and one_load(W) and not any(s in structure for s in _SHAPE_EFFECTS) and ok:
         from ..soilmodel.effects import normal_load_function
         N = float(normal_load_function(pb.vehicle, structure)(float(W[0]), e)[0]) if m else float(W[0])
         A = pb.vehicle.contact_area
-        F = A * theta[0] + N * math.tan(theta[1])
+        F = max_thrust_expr(theta[0], theta[1], N, A)
         c, phi = ridge_centre(F, N, A, pb.bounds)
         theta[0], theta[1] = float(c), float(phi)
         note = "; one normal load: (c, phi) moved along the ridge to its centre (predictions unchanged)"
@@ -152,12 +159,21 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     r = ypred - y
     msg = "; ".join(msgs) or ("IPOPT converged" if ok else f"IPOPT: {status}")
     warnings = pb.noise_warning(r)
+    active = []
+    if "pressure_distribution" in structure:
+        pe, pa = e[labels.index("pressure_distribution.e")], e[labels.index("pressure_distribution.alpha")]
+        if abs(pe) + abs(pa) >= 1.0 - 1e-6:
+            active.append("pressure_distribution: |e| + |alpha| <= 1")
+            warnings = warnings + (f"pressure_distribution ended on its constraint |e| + |alpha| = {abs(pe) + abs(pa):.6g} "
+                                   "<= 1 (the pressure reaches zero somewhere on the track): e and alpha and their "
+                                   "intervals are on that boundary, a warning about the data or the model",)
     return build_result(data_kind="slip", model=pb.model, method="ipopt", theta=theta, jacobian=J / pb.sigma[:, None],
                         weighted_residuals=r / pb.sigma, residuals=r, residual_unit="N", n_samples=pb.n,
                         normal_loads=pb.load, vehicle=pb.vehicle, bounds=pb.bounds, status=status, success=ok,
                         message=f"{msg} (joint soil and effects fit; {start}{note})", iterations=iters,
                         solve_time=total, sigma_known=pb.sigma_known, warnings=warnings,
-                        extra={"engine": "ipopt", "start": [float(v) for v in np.concatenate([theta0, e0])]},
+                        extra={"engine": "ipopt", "start": [float(v) for v in np.concatenate([theta0, e0])],
+                               "active_constraints": active},
                         effect_labels=labels, effect_values=e, effect_bounds=[tuple(b) for b in eb],
                         effect_units=units, effect_structure=structure, fixed_labels=tuple(fixed),
                         measured=pb.measured, residual_model=SweepResiduals(pb.rig_speed))

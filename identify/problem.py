@@ -18,14 +18,14 @@ from ..soilmodel.data import SlipData
 from ..soilmodel.effects import (DEFAULT_RIG_SPEED, EFFECTS, EffectSet, effect_structure, effect_symbols,
                                  parameter_bounds, parse_effects)
 from ..soilmodel.errors import DataError
+from ..soilmodel.ridge import ridge_centre  # noqa: F401 - re-exported: the one ridge marker
 from ..soilmodel.soil import SoilBounds
 from ..soilmodel.traction import MODELS
 from ..soilmodel.vehicle import Vehicle
-from .npmodel import thrust_and_jacobian
 from .result import FitResult, build_result
-from .sweep_model import SweepResiduals, nominal_offset
+from .sweep_model import SweepResiduals, nominal_offset, predict
 
-__all__ = ["SlipProblem", "make_problem", "FitFailed", "SCALE", "METHODS", "n_free"]
+__all__ = ["SlipProblem", "make_problem", "FitFailed", "SCALE", "METHODS", "n_free", "ridge_centre", "weights"]
 
 #: Variable scaling used by the solvers: c in kPa, phi in rad, K in cm.
 SCALE = np.array([1e3, 1.0, 1e-2])
@@ -83,6 +83,36 @@ def relative_sigma(force: np.ndarray) -> np.ndarray:
     return np.maximum(a, np.where(floor > 0, floor, 1.0))
 
 
+def weights(values: np.ndarray, sigma=None, sigma_known: bool | None = None, *, source: str | None = None,
+            column: str | None = None) -> tuple[np.ndarray, bool]:
+    """The one weighting rule of slip fits: per-sample ``sigma`` (N) and whether it is the true noise level.
+
+    ``sigma=None``: equal weights, level estimated (``sigma_known`` default False).
+    ``"relative"``: :func:`relative_sigma` of the measured values, level estimated; refused with
+    ``sigma_known=True`` (relative weights carry no level). A number or array: that noise
+    level (``sigma_known`` default True).
+
+    Raises
+    ------
+    DataError
+        Unknown string, non-finite or non-positive sigma, or ``"relative"`` with ``sigma_known=True``.
+    """
+    values = np.asarray(values, dtype=float)
+    if sigma is None:
+        return np.ones(values.shape), (False if sigma_known is None else bool(sigma_known))
+    if isinstance(sigma, str):
+        if sigma != "relative":
+            raise DataError(f"sigma must be a number, an array or 'relative', got {sigma!r}")
+        if sigma_known:
+            raise DataError("sigma='relative' gives relative weights only: the noise level is estimated "
+                            "(sigma_known must be False)")
+        return relative_sigma(values), False
+    sig = np.broadcast_to(np.asarray(sigma, dtype=float), values.shape).astype(float)
+    if not np.all(np.isfinite(sig)) or np.any(sig <= 0):
+        raise DataError("sigma must be finite and > 0 N", file=source, column=column)
+    return sig, (True if sigma_known is None else bool(sigma_known))
+
+
 def n_free(model: str) -> int:
     """Number of free parameters: 3 (full) or 2 (cohesion-free)."""
     return 3 if model == "full" else 2
@@ -113,6 +143,7 @@ class SlipProblem:
     effects: EffectSet | None = None
     fixed: tuple = ()
     rig_speed: float = DEFAULT_RIG_SPEED
+    effect_start: tuple = ()
 
     @property
     def measured_values(self) -> np.ndarray:
@@ -136,10 +167,9 @@ class SlipProblem:
 
     def residuals(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Raw residuals (N), weighted residuals and their Jacobian (n, 3) at ``theta``."""
-        F, J = thrust_and_jacobian(np.asarray(theta, float)[None], self.slip[None], self.load[None],
-                                   self.vehicle.track_length, self.vehicle.track_width, self.model)
-        r = F[0] - self.force
-        return r, r / self.sigma, J[0] / self.sigma[:, None]
+        F, J = predict(np.asarray(theta, float), self.slip, self.load, self.vehicle, None, self.model)
+        r = F - self.force
+        return r, r / self.sigma, J / self.sigma[:, None]
 
     def noise_warning(self, r: np.ndarray) -> tuple[str, ...]:
         """A warning when equal weights meet noise that grows with the force (see :func:`heteroscedasticity`)."""
@@ -160,8 +190,11 @@ class SlipProblem:
                             weighted_residuals=rw, residuals=r, residual_unit="N", n_samples=self.n,
                             normal_loads=self.load, vehicle=self.vehicle, bounds=self.bounds, status=status,
                             success=success, message=message, iterations=iterations, solve_time=solve_time,
-                            sigma_known=self.sigma_known, warnings=warnings, extra=extra, measured=self.measured,
-                            residual_model=SweepResiduals(self.rig_speed))
+                            sigma_known=self.sigma_known, warnings=warnings, extra=extra, **self.result_kwargs())
+
+    def result_kwargs(self) -> dict:
+        """What every slip result records about these data: pass to ``build_result(..., **pb.result_kwargs())``."""
+        return {"measured": self.measured, "residual_model": SweepResiduals(self.rig_speed)}
 
 
 def check_common(vehicle, model: str, method: str, bounds) -> None:
@@ -217,7 +250,7 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
         raise DataError(f"expected SlipData or DriveLog, got {type(data).__name__}")
     if not (isinstance(rig_speed, (int, float)) and math.isfinite(rig_speed) and rig_speed > 0):
         raise DataError(f"rig_speed must be a finite number > 0 m/s, got {rig_speed!r}")
-    structure, fixed_t = _effects_and_fixed(effects, fixed, vehicle)
+    structure, fixed_t, e_start = _effects_and_fixed(effects, fixed, vehicle)
     if structure and method != "ipopt":
         raise DataError(f"effects are fitted by method='ipopt' only, not {method!r}")
     n_eff = len(effect_symbols(structure, vehicle=vehicle)[2]) - len(fixed_t) if structure else 0
@@ -227,22 +260,7 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
                         f"{' with the effects' if n_eff else ''} (need at least {p} rows)", file=data.source,
                         column=data.channel)
     load = data.loads(vehicle.weight).astype(float)
-    if sigma is None:
-        sig = np.ones(data.n_samples)
-        known = False if sigma_known is None else bool(sigma_known)
-    elif isinstance(sigma, str):
-        if sigma != "relative":
-            raise DataError(f"sigma must be a number, an array or 'relative', got {sigma!r}")
-        sig = relative_sigma(data.values)
-        known = False
-        if sigma_known:
-            raise DataError("sigma='relative' gives relative weights only: the noise level is estimated "
-                            "(sigma_known must be False)")
-    else:
-        sig = np.broadcast_to(np.asarray(sigma, dtype=float), data.slip.shape).astype(float)
-        if not np.all(np.isfinite(sig)) or np.any(sig <= 0):
-            raise DataError("sigma must be finite and > 0 N", file=data.source, column=data.channel)
-        known = True if sigma_known is None else bool(sigma_known)
+    sig, known = weights(data.values, sigma, sigma_known, source=data.source, column=data.channel)
     if np.all(data.slip == 0):
         raise DataError("all slips are zero: the tractive force carries no information on the soil",
                         file=data.source, column="slip")
@@ -254,16 +272,24 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
     return SlipProblem(slip=np.array(data.slip, float), force=force, load=load,
                        sigma=sig, sigma_known=known, vehicle=vehicle, bounds=bounds, model=model,
                        source=data.source, measured=data.measured, offset=offset,
-                       effects=structure if structure else None, fixed=fixed_t, rig_speed=float(rig_speed))
+                       effects=structure if structure else None, fixed=fixed_t, rig_speed=float(rig_speed),
+                       effect_start=e_start)
 
 
-def _effects_and_fixed(effects, fixed, vehicle: Vehicle) -> tuple[EffectSet, tuple]:
-    """Validate ``effects`` (names or an EffectSet) and ``fixed`` ``{"effect.param": value}``."""
+def _effects_and_fixed(effects, fixed, vehicle: Vehicle) -> tuple[EffectSet, tuple, tuple]:
+    """Validate ``effects`` (names or an EffectSet) and ``fixed`` ``{"effect.param": value}``.
+
+    Returns the structure (which effects, integer parameters), the fixed ``((label, value), ...)``
+    and start values ``((label, value), ...)`` (the values of a given EffectSet or dict).
+    """
     if isinstance(effects, str):
         effects = [effects]
-    structure = effect_structure(parse_effects(effects), vehicle) if effects else EffectSet()
+    given = parse_effects(effects) if effects else EffectSet()
+    structure = effect_structure(given, vehicle) if effects else EffectSet()
+    start = tuple((f"{n}.{p.name}", given.value(n, p.name, vehicle)) for n in given.names
+                  for p in EFFECTS[n].params if not p.integer)
     if fixed is None:
-        return structure, ()
+        return structure, (), start
     if not hasattr(fixed, "items"):
         raise DataError(f"fixed must be a dict {{'effect.param': value}}, got {type(fixed).__name__}")
     labels = effect_symbols(structure, vehicle=vehicle)[2] if structure else []
@@ -285,23 +311,4 @@ def _effects_and_fixed(effects, fixed, vehicle: Vehicle) -> tuple[EffectSet, tup
             raise DataError(f"fixed: {label} = {value!r} is outside its physical range [{lo:g}, {hi:g}]")
         out.append((label, v))
     order = {lab: k for k, lab in enumerate(labels)}
-    return structure, tuple(sorted(out, key=lambda t: order[t[0]]))
-
-
-def ridge_centre(fmax, W, A: float, bounds: SoilBounds):
-    """Centre of the bounds-feasible c-phi ridge ``A c + W tan(phi) = F_max`` (vectorised).
-
-    At one normal load every point of this segment fits the data equally well; the library
-    reports its centre (labelled as NOT an estimate) so that every engine - IPOPT, the
-    compiled path, the batch engine - returns the same marker for the same data. Where the
-    segment is empty (F_max outside what the box allows) the nearest feasible point is used.
-    Returns ``(c, phi)`` in Pa and rad, shaped like ``fmax``.
-    """
-    F = np.asarray(fmax, dtype=float)
-    W = np.asarray(W, dtype=float)
-    (c_lo, c_hi), (p_lo, p_hi) = bounds.cohesion, bounds.friction_angle
-    c_a = np.maximum(c_lo, (F - W * math.tan(p_hi)) / A)
-    c_b = np.minimum(c_hi, (F - W * math.tan(p_lo)) / A)
-    c = np.where(c_a <= c_b, 0.5 * (c_a + c_b), np.clip(c_a, c_lo, c_hi))
-    phi = np.clip(np.arctan(np.maximum(F - A * c, 0.0) / W), p_lo, p_hi)
-    return c, phi
+    return structure, tuple(sorted(out, key=lambda t: order[t[0]])), start

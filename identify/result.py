@@ -19,7 +19,9 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ..soilmodel.ridge import LOAD_RTOL, distinct_loads
 from ..soilmodel.soil import PARAMETER_NAMES, SoilBounds
+from ..soilmodel.traction import max_thrust_function
 from ..soilmodel.vehicle import Vehicle
 from .core_stats import RANK_TOL, WEAK_CORRELATION, _core_stats, _core_stats_one, _quantile, _WEAK_VIF  # noqa: F401
 from .estimate_types import _EDGE, Combination, ParameterEstimate, _f  # noqa: F401
@@ -167,15 +169,12 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
 
     def _fmax(self, W: float) -> tuple[float, np.ndarray]:
         """``F_max = A c + N tan(phi)`` at nominal load ``W`` and its gradient over :attr:`parameter_names`."""
-        c, phi = float(self.theta[0]), float(self.theta[1])
-        A = self.vehicle.contact_area
-        cf = self.model == "cohesion-free"
         N, dN = self._effective_load(W)
-        t = math.tan(phi)
-        fm = N * t + (0.0 if cf else A * c)
-        g = self._full([0.0 if cf else A, N / math.cos(phi) ** 2, 0.0])
-        g[3:] = t * dN
-        return fm, g
+        fm, d = max_thrust_function(self.model)(self.theta[0], self.theta[1], N, self.vehicle.contact_area)
+        d = np.asarray(d, dtype=float).ravel()  # dF_max / d[c, phi, N]
+        g = self._full(d[:2])
+        g[3:] = d[2] * dN
+        return float(fm), g
 
     @property
     def n_parameters(self) -> int:
@@ -187,6 +186,34 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
         """Two-sided 95 % quantile used (t with ``dof`` or normal), ``None`` if ``dof == 0``."""
         return _quantile(self.dof, self.sigma_known)
 
+
+    def predict(self, slip, normal_load=None, measured: str | None = None) -> np.ndarray:
+        """What the fitted slip model predicts a rig reports at ``slip`` (N), e.g. for a fitted curve.
+
+        Parameters
+        ----------
+        slip : array_like
+            Slips (as the rig measures them).
+        normal_load : float or array_like, optional
+            Nominal normal load, N (default the vehicle's weight).
+        measured : {"tractive_force", "drawbar_pull"}, optional
+            What to predict (default: what the fitted data measured).
+
+        Raises
+        ------
+        DataError
+            Not a slip fit, a failed fit, or a load the fit does not determine (c-phi ridge).
+        """
+        from ..soilmodel.data import SlipData
+        from ..soilmodel.errors import DataError
+        s = np.atleast_1d(np.asarray(slip, dtype=float))
+        if self.data_kind != "slip":
+            raise DataError("predict is for slip fits; use residuals_on for drive logs")
+        m = measured or self.measured or "tractive_force"
+        W = None if normal_load is None else np.broadcast_to(np.asarray(normal_load, dtype=float), s.shape)
+        probe = SlipData(slip=np.clip(s, 0.0, np.nextafter(1.0, 0.0)), normal_load=W, source="prediction grid",
+                         **{m: np.zeros(s.shape)})
+        return -next(iter(self.residuals_on(probe).values()))
 
     def residuals_on(self, data) -> dict[str, np.ndarray]:
         """Raw residuals ``measured - predicted`` of the fitted model on OTHER data of the same kind.
@@ -228,7 +255,9 @@ def _assemble(core: dict, k: int, *, data_kind, model, method, theta, jacobian, 
               solve_time, sigma_known, warnings, extra, free, **effect_fields) -> FitResult:
     res = np.asarray(residuals, dtype=float)
     rw = np.asarray(weighted_residuals, dtype=float)
-    finite = bool(np.isfinite(theta).all() and np.isfinite(res).all() and np.isfinite(rw).all())
+    ev = effect_fields.get("effect_values")
+    finite = bool(np.isfinite(theta).all() and np.isfinite(res).all() and np.isfinite(rw).all()
+                  and (ev is None or np.isfinite(ev).all()))
     warn = list(warnings)
     if not finite:
         success = False
@@ -247,16 +276,7 @@ def _assemble(core: dict, k: int, *, data_kind, model, method, theta, jacobian, 
         input_warnings=tuple(warn), extra=dict(extra or {}), **effect_fields)
 
 
-def _distinct_loads(normal_loads) -> np.ndarray:
-    w = np.atleast_1d(np.asarray(normal_loads, dtype=float)).ravel()
-    if w.size and math.isfinite(w[0]) and (w == w[0]).all():  # one load (the common case)
-        return w[:1].copy()
-    w = w[np.isfinite(w)]
-    if w.size == 0:
-        return w
-    w = np.sort(w)
-    keep = np.concatenate([[True], np.diff(w) > 1e-9 * np.abs(w[1:])])
-    return w[keep]
+_distinct_loads = distinct_loads
 
 
 def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, jacobian: np.ndarray,
@@ -350,8 +370,13 @@ def build_results_batch(*, model: str, method: str, theta: np.ndarray, jacobian:
                         vehicle: Vehicle, bounds: SoilBounds, status: Sequence[str], success: Sequence[bool],
                         message: Sequence[str], iterations: Sequence[int], solve_time: Sequence[float],
                         sigma_known: bool = False, extra: Sequence[dict] | None = None,
-                        warnings: Sequence[Sequence[str]] | None = None) -> list[FitResult]:
+                        warnings: Sequence[Sequence[str]] | None = None, measured: str | None = None,
+                        residual_model=None) -> list[FitResult]:
     """Vectorised :func:`build_result` for N same-size slip fits (stacked arrays, leading axis N).
+
+    ``measured`` and ``residual_model`` (shared by the batch, as
+    :meth:`~soiltrack.identify.problem.SlipProblem.result_kwargs` gives them) are recorded on
+    every result.
 
     Same statistics as :func:`build_result` (one code path, :func:`_core_stats`); the per-fit
     scalars are computed for all fits at once and the objects are filled directly, which keeps
@@ -369,7 +394,7 @@ def build_results_batch(*, model: str, method: str, theta: np.ndarray, jacobian:
     cost = 0.5 * core["ssr"]
     s2 = core["s2"]
     W = np.sort(np.asarray(normal_loads, dtype=float), axis=1)
-    keep = np.concatenate([np.ones((N, 1), bool), np.diff(W, axis=1) > 1e-9 * np.abs(W[:, 1:])], axis=1)
+    keep = np.concatenate([np.ones((N, 1), bool), np.diff(W, axis=1) > LOAD_RTOL * np.abs(W[:, 1:])], axis=1)
     single = keep.sum(axis=1) == 1
     # per-row views and Python scalars prepared in bulk (iteration over an array is a C loop)
     ok_l = (np.asarray(success, dtype=bool) & finite).tolist()
@@ -393,6 +418,6 @@ def build_results_batch(*, model: str, method: str, theta: np.ndarray, jacobian:
             solve_time=stime, sigma_known=sk, rmse=rm, cost=co, rank=rank, dof=dof,
             s2=None if s2k != s2k else s2k, free=free, _core=(core, k), input_warnings=(() if fin else nonfinite)
             + (tuple(warnings[k]) if warnings is not None else ()),
-            extra=dict(ex) if ex else {})
+            extra=dict(ex) if ex else {}, measured=measured, residual_model=residual_model)
         out.append(obj)
     return out

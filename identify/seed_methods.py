@@ -31,6 +31,7 @@ import numpy as np
 
 from .problem import SCALE, SlipProblem
 from .result import FitResult
+from .start import middle_of_bounds, start_point
 
 __all__ = ["fit_newton", "fit_least_squares", "default_start"]
 
@@ -39,7 +40,7 @@ COND_MAX = 1e10
 
 def default_start(pb: SlipProblem) -> np.ndarray:
     """Middle of the bounds (the seed's initial guess is not given)."""
-    return 0.5 * (pb.bounds.lower + pb.bounds.upper)
+    return middle_of_bounds(pb.bounds, "full")
 
 
 def _in_domain(theta: np.ndarray) -> bool:
@@ -58,10 +59,7 @@ def _scaled_cond(J: np.ndarray) -> float:
 
 def _start(pb: SlipProblem, x0) -> np.ndarray:
     """The start vector ``[c, phi, K]`` (the bounds' middle unless given; c = 0 for cohesion-free)."""
-    theta = default_start(pb) if x0 is None else np.asarray(x0, float).copy()
-    if pb.model == "cohesion-free":
-        theta[0] = 0.0
-    return theta
+    return start_point(pb, x0, "middle")[0]
 
 
 def fit_newton(pb: SlipProblem, x0=None, max_iter: int = 50, tol: float = 1e-12) -> FitResult:

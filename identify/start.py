@@ -1,20 +1,78 @@
-"""Start points by variable projection: a grid on K, linear least squares for the rest.
+"""Start points: the one home of where the solvers start.
+
+:func:`start_point` gives the start of one problem: the user's ``x0``, the middle of the bounds
+(the seed's methods) or the variable-projection grid (IPOPT, joint fits). :func:`grid_start`
+is the grid, vectorised over many problems.
+
+Variable projection: a grid on K, linear least squares for the rest.
 
 For a fixed K the tractive force is LINEAR in ``(c, tan(phi))``:
 ``F_k = (A c + W_k tan(phi)) g(i_k l / K)``. So for each K on a geometric grid over its
 bounds the best ``(c, tan(phi))`` follow from a 2x2 (or 1x1) weighted linear least-squares
 problem, are projected onto the bounds, and the grid point of lowest cost is the start.
 This is a global search over the only nonlinear parameter; the local solver then refines.
-Vectorised over many problems at once (leading axis N).
+Vectorised over many problems at once (leading axis N). The slip factor ``g`` of every
+(sample, K) pair comes from the soilmodel's CasADi Function in one mapped call.
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
+import casadi as ca
 import numpy as np
 
 from ..soilmodel.soil import SoilBounds
-from .npmodel import bracket
+from ..soilmodel.traction import slip_factor_function
 
-__all__ = ["grid_start"]
+__all__ = ["grid_start", "start_point", "middle_of_bounds"]
+
+
+def middle_of_bounds(bounds: SoilBounds, model: str) -> np.ndarray:
+    """Middle of the bounds ``[c, phi, K]`` (c = 0 for the cohesion-free model)."""
+    theta = 0.5 * (bounds.lower + bounds.upper)
+    if model == "cohesion-free":
+        theta[0] = 0.0
+    return theta
+
+
+def start_point(pb, x0=None, how: str = "grid", n_grid: int = 25) -> tuple[np.ndarray, str]:
+    """Start ``[c, phi, K]`` (SI) of a slip problem and a label saying where it came from.
+
+    Parameters
+    ----------
+    pb : SlipProblem
+    x0 : Soil or array_like, optional
+        The user's start point (wins over ``how``).
+    how : {"grid", "middle"}
+        Variable-projection grid (:func:`grid_start`) or the middle of the bounds.
+    n_grid : int
+        K values of the grid.
+    """
+    if x0 is not None:
+        from .ipopt_fit import _x0_vector
+        theta = _x0_vector(x0).copy()
+        if pb.model == "cohesion-free":
+            theta[0] = 0.0
+        return theta, "user start point"
+    if how == "middle":
+        return middle_of_bounds(pb.bounds, pb.model), "middle of the bounds"
+    theta = grid_start(pb.slip[None], pb.force[None], pb.load[None], pb.sigma[None], pb.vehicle.track_length,
+                       pb.vehicle.track_width, pb.model, pb.bounds, n_grid=n_grid)[0]
+    return theta, "variable-projection grid start"
+
+
+@lru_cache(maxsize=32)
+def _mapped_slip_factor(m: int) -> ca.Function:
+    return slip_factor_function().map(m)
+
+
+def _slip_factors(slip: np.ndarray, l: float, Ks: np.ndarray) -> np.ndarray:
+    """``g(slip l / K)`` for every problem, K and sample: shape (N, len(Ks), n), one mapped CasADi call."""
+    N, n = slip.shape
+    S = np.broadcast_to(slip[:, None, :], (N, Ks.size, n))
+    K = np.broadcast_to(Ks[None, :, None], (N, Ks.size, n))
+    g = _mapped_slip_factor(S.size)(S.reshape(1, -1), l, K.reshape(1, -1))
+    return np.asarray(g, dtype=float).reshape(N, Ks.size, n)
 
 
 def grid_start(slip: np.ndarray, force: np.ndarray, load: np.ndarray, sigma: np.ndarray, l: float, b: float,
@@ -39,7 +97,7 @@ def grid_start(slip: np.ndarray, force: np.ndarray, load: np.ndarray, sigma: np.
     Ks = np.geomspace(K_lo, K_hi, n_grid)
     # axes: (problem, K value, sample)
     y = (force / sigma)[:, None, :]
-    g = np.sign(slip)[:, None, :] * bracket(np.abs(slip)[:, None, :] * l / Ks[None, :, None], derivative=False)[0]
+    g = _slip_factors(slip, l, Ks)
     a2 = (load / sigma)[:, None, :] * g
     m22 = np.einsum("kgi,kgi->kg", a2, a2)
     r2 = np.einsum("kgi,kgi->kg", a2, y)

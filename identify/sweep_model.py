@@ -10,8 +10,6 @@ and its AD Jacobian, mapped over the samples. No physics is written here.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
-
 import casadi as ca
 import numpy as np
 
@@ -19,12 +17,14 @@ from ..soilmodel.data import SlipData
 from ..soilmodel.effects import (DEFAULT_RIG_SPEED, EffectSet, effect_structure, effect_symbols,
                                  sweep_measurement)
 from ..soilmodel.errors import DataError
+from ..soilmodel.ridge import LOAD_RTOL
+from ..soilmodel.threadsafe import locked_cache
 from ..soilmodel.vehicle import Vehicle
 
 __all__ = ["observation_function", "predict", "nominal_offset", "SweepResiduals"]
 
 
-@lru_cache(maxsize=128)
+@locked_cache(maxsize=128)
 def _observation(vehicle: Vehicle, structure: EffectSet, model: str, measured: str, rig_speed: float) -> ca.Function:
     mapping, e, _ = effect_symbols(structure, ca.SX, vehicle)
     i, W = ca.SX.sym("i"), ca.SX.sym("W")
@@ -40,15 +40,20 @@ def observation_function(vehicle: Vehicle, effects=None, model: str = "full", me
     return _observation(vehicle, effect_structure(effects, vehicle), model, measured, float(rig_speed))
 
 
+@locked_cache(maxsize=256)
+def _mapped(vehicle: Vehicle, structure: EffectSet, model: str, measured: str, rig_speed: float, n: int) -> ca.Function:
+    return _observation(vehicle, structure, model, measured, rig_speed).map(n)
+
+
 def predict(x, slip, W, vehicle: Vehicle, effects=None, model: str = "full", measured: str = "tractive_force",
             rig_speed: float = DEFAULT_RIG_SPEED) -> tuple[np.ndarray, np.ndarray]:
     """Reported quantity (N) and its Jacobian ``(n, 3 + m)`` at ``x`` for samples ``(slip, W)``."""
-    f = observation_function(vehicle, effects, model, measured, rig_speed)
     s = np.asarray(slip, dtype=float).reshape(1, -1)
     n = s.shape[1]
+    structure = effect_structure(effects, vehicle) if effects else EffectSet()
     Wr = np.broadcast_to(np.asarray(W, dtype=float), (n,)).reshape(1, -1)
     x = np.asarray(x, dtype=float).reshape(-1, 1)
-    y, J = f.map(n)(s, Wr, x)
+    y, J = _mapped(vehicle, structure, model, measured, float(rig_speed), n)(s, Wr, x)
     return np.asarray(y, dtype=float).ravel(), np.asarray(J, dtype=float).reshape(n, x.size)
 
 
@@ -89,7 +94,7 @@ class SweepResiduals:
         W = data.loads(result.vehicle.weight).astype(float)
         if result.model == "full" and len(result.normal_loads) == 1 and result.soil is None:
             W0 = float(result.normal_loads[0])
-            bad = np.nonzero(np.abs(W - W0) > 1e-9 * W0)[0]
+            bad = np.nonzero(np.abs(W - W0) > LOAD_RTOL * W0)[0]
             if bad.size:
                 raise DataError(f"the fit saw one normal load ({W0:.6g} N), where c and phi are not separable: its "
                                 f"prediction at {W[bad[0]]:.6g} N is not determined", file=data.source,

@@ -2,8 +2,9 @@
 
 Public names: :class:`Soil`, :class:`Vehicle`, :data:`TERRAINS`, :data:`VEHICLES`,
 :data:`PRACTICAL_BOUNDS`, :func:`tractive_force`, :func:`read_csv`, :func:`write_csv`,
-:class:`SlipData`, :class:`DriveLog`, :class:`DataError`; the unmodelled effects
-(:data:`EFFECTS`, :func:`parse_effects`, :func:`thrust_with_effects`), the dynamics
+:class:`SlipData` (tractive force or drawbar pull), :class:`DriveLog`, :class:`DataError`; the
+unmodelled effects (:data:`EFFECTS`, :func:`parse_effects`, :func:`thrust_with_effects`,
+:func:`sweep_measurement`: what a drawbar-pull rig reports), the dynamics
 (:func:`dynamics_function`, :func:`slip_from_thrust`) and the simulator (:func:`simulate`).
 """
 from .data import DriveLog, SlipData, read_csv, write_csv
@@ -26,6 +27,7 @@ from .effects import (
     ParamSpec,
     effect_symbols,
     parse_effects,
+    sweep_measurement,
     thrust_with_effects,
     tractive_force_with_effects,
 )
@@ -42,7 +44,7 @@ __all__ = [
     "DataError", "DriveLog", "SlipData", "read_csv", "write_csv", "PARAMETER_NAMES", "PRACTICAL_BOUNDS",
     "SEED_ACTUAL", "TERRAINS", "Soil", "SoilBounds", "MODELS", "max_thrust", "sensitivity_function",
     "thrust_expr", "thrust_function", "tractive_force", "tractive_force_sensitivities", "G", "VEHICLES",
-    "Vehicle", "EFFECTS", "EffectSet", "EffectSpec", "ParamSpec", "effect_symbols", "parse_effects",
+    "Vehicle", "EFFECTS", "EffectSet", "EffectSpec", "ParamSpec", "effect_symbols", "parse_effects", "sweep_measurement",
     "thrust_with_effects", "tractive_force_with_effects", "SPROCKET_EQUATIONS", "dynamics_expr",
     "dynamics_function", "slip_from_thrust", "slip_from_thrust_function", "SensorNoise", "simulate",
     "simulate_drive_log", "simulate_slip_sweep",

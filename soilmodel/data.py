@@ -125,7 +125,8 @@ class SlipData:
         """Distinct normal loads in the data (empty when the data carry none)."""
         if self.normal_load is None:
             return np.array([])
-        return np.unique(np.round(self.normal_load, 6))
+        from .ridge import distinct_loads
+        return distinct_loads(self.normal_load)
 
 
 @dataclass(frozen=True, eq=False)

@@ -55,7 +55,8 @@ def sweep_measurement(i_app, W, c, phi, K, vehicle: Vehicle, effects: Any = None
     v = rig_speed * (1 - i_app)
     i_true = rig_true_slip(i_app, vehicle, ev)
     F = thrust_with_effects(i_true, c, phi, K, W, vehicle, ev, model)
-    dp = F - motion_resistance(v, i_true, vehicle, ev, W=W)
+    R = motion_resistance(v, i_true, vehicle, ev, W=W)
     if measured == "drawbar_pull":
-        return i_true, F, dp
-    return i_true, F, dp + motion_resistance(v, i_true, vehicle, None, W=W)
+        return i_true, F, F - R
+    # F - (R - R_nominal): exactly F when no resistance effect is on
+    return i_true, F, F - (R - motion_resistance(v, i_true, vehicle, None, W=W))

@@ -56,11 +56,29 @@ def slip_factor(slip, track_length, shear_modulus):
     return shear_bracket(slip * track_length / shear_modulus)
 
 
+def _tan(x):
+    return ca.tan(x) if isinstance(x, (ca.SX, ca.MX, ca.DM)) else np.tan(x)
+
+
 def max_thrust_expr(c, phi, W, area, model: str = "full"):
-    """Soil thrust limit ``F_max = A c + W tan(phi)`` (``W tan(phi)`` for cohesion-free)."""
+    """Soil thrust limit ``F_max = A c + W tan(phi)`` (``W tan(phi)`` for cohesion-free).
+
+    The one home of F_max: CasADi expressions, floats or numpy arrays (broadcast).
+    """
     check_model(model)
-    friction = W * ca.tan(phi)
+    friction = W * _tan(phi)
     return friction if model == "cohesion-free" else area * c + friction
+
+
+@lru_cache(maxsize=None)
+def max_thrust_function(model: str = "full") -> ca.Function:
+    """CasADi Function ``(c, phi, W, A) -> (F_max, dF_max/d[c, phi, W])`` (AD), built once per model."""
+    check_model(model)
+    c, phi, W, A = (ca.SX.sym(n) for n in ("c", "phi", "W", "A"))
+    F = max_thrust_expr(c, phi, W, A, model)
+    F = F if isinstance(F, ca.SX) else ca.SX(F)
+    return ca.Function(f"max_thrust_{model.replace('-', '_')}", [c, phi, W, A],
+                       [F, ca.jacobian(F, ca.vertcat(c, phi, W))], ["c", "phi", "W", "A"], ["F_max", "dF_dcphiW"])
 
 
 def thrust_expr(slip, c, phi, K, W, track_length, track_width, model: str = "full"):
@@ -79,6 +97,16 @@ def thrust_function(model: str = "full") -> ca.Function:
     s = [ca.SX.sym(n) for n in ("slip", "c", "phi", "K", "W", "l", "b")]
     return ca.Function(f"thrust_{model.replace('-', '_')}", s, [thrust_expr(*s, model=model)],
                        ["slip", "c", "phi", "K", "W", "l", "b"], ["F"])
+
+
+@lru_cache(maxsize=None)
+def slip_factor_function() -> ca.Function:
+    """CasADi Function ``g(slip, l, K)``: the slip factor of Eq. 2 (``F = F_max g``), built once.
+
+    Call it with row vectors of equal length (or scalars) to evaluate many points at once.
+    """
+    s, l, K = ca.SX.sym("slip"), ca.SX.sym("l"), ca.SX.sym("K")
+    return ca.Function("slip_factor", [s, l, K], [slip_factor(s, l, K)], ["slip", "l", "K"], ["g"])
 
 
 @lru_cache(maxsize=None)
@@ -133,9 +161,5 @@ def tractive_force_sensitivities(slip, soil: Soil, vehicle: Vehicle, model: str 
 def max_thrust(soil: Soil, vehicle: Vehicle, model: str = "full", normal_load=None) -> float | np.ndarray:
     """Soil thrust limit ``F_max = A c + W tan(phi)`` in N (cohesion-free: ``W tan(phi)``)."""
     W = vehicle.weight if normal_load is None else np.asarray(normal_load, dtype=float)
-    F = W * np.tan(soil.friction_angle)
-    if model == "full":
-        F = F + vehicle.contact_area * soil.cohesion
-    else:
-        check_model(model)
+    F = max_thrust_expr(soil.cohesion, soil.friction_angle, W, vehicle.contact_area, model)
     return F if np.ndim(F) else float(F)

@@ -195,3 +195,77 @@ def test_cli_fit_effect(tmp_path, capsys, grade_sweeps):
     assert js["covariance"]["units"] == "SI" and len(js["covariance"]["matrix"]) == 4
     assert main(["fit", str(p), "--vehicle", "heavy", "--effect", "nonsense"]) == 2
     assert "unknown effect 'nonsense'" in capsys.readouterr().err
+
+
+def test_predict_gives_the_fitted_curve_in_either_quantity(grade_sweeps):
+    d = grade_sweeps["drawbar_pull"]
+    res = fit(d, HEAVY, effects={"grade": 0.05})  # a dict: the value is the start point
+    assert "given or default values" in res.message
+    W = d.loads(HEAVY.weight)
+    dp = res.predict(d.slip, W)
+    np.testing.assert_allclose(d.values - dp, res.residuals_on(d)["drawbar_pull_N"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(dp - d.values, res.residuals, rtol=0, atol=1e-6)
+    tf = res.predict(d.slip, W, measured="tractive_force")
+    assert np.all(tf > dp)  # the rig adds the nominal resistance back
+
+
+def test_joint_fits_from_threads_equal_serial_and_pickle(grade_sweeps):
+    import pickle
+    from concurrent.futures import ThreadPoolExecutor
+
+    data = [grade_sweeps["drawbar_pull"], grade_sweeps["tractive_force"]] * 3
+    serial = [fit(d, HEAVY, effects=["grade", "slip_sinkage"]) for d in data]
+    with ThreadPoolExecutor(4) as ex:
+        threaded = list(ex.map(lambda d: fit(d, HEAVY, effects=["grade", "slip_sinkage"]), data))
+    for a, b in zip(serial, threaded):
+        np.testing.assert_array_equal(a.theta, b.theta)
+        np.testing.assert_array_equal(a.effect_values, b.effect_values)
+        assert a.status == b.status
+    back = pickle.loads(pickle.dumps(serial[0]))
+    assert back.effects["grade"]["theta_rad"].value == serial[0].effects["grade"]["theta_rad"].value
+    d = grade_sweeps["drawbar_pull"]
+    np.testing.assert_array_equal(back.residuals_on(d)["drawbar_pull_N"], serial[0].residuals_on(d)["drawbar_pull_N"])
+
+
+def test_confounded_effects_name_each_other_or_the_soil(grade_sweeps):
+    # grade and mass error enter a sweep through (1 + delta) cos(theta) tan(phi) and (1 + delta)(mu_r cos(theta)
+    # + sin(theta)): three parameters, two combinations -> one null direction, said with its partner
+    res = fit(grade_sweeps["drawbar_pull"], HEAVY, effects=["grade", "mass_error"])
+    g, m = res.effects["grade"]["theta_rad"], res.effects["mass_error"]["delta"]
+    assert not g.identifiable and not m.identifiable
+    assert {g.correlated_with, m.correlated_with} <= {"friction_angle", "grade.theta_rad", "mass_error.delta"}
+    assert abs(g.correlation) == 1.0
+    phi = res.parameters["friction_angle"]
+    assert not phi.identifiable and phi.correlated_with in ("grade.theta_rad", "mass_error.delta")
+    assert any("cannot separate it from" in s for s in res.identifiability["statements"])
+    assert res.soil is None and res.covariance is None
+
+
+def test_padding_to_size_classes_leaves_the_fit_unchanged(grade_sweeps):
+    from soiltrack.identify.joint_fit import padded_size
+    assert [padded_size(n) for n in (3, 8, 9, 64, 65, 600)] == [8, 8, 16, 64, 96, 640]
+    d = grade_sweeps["drawbar_pull"].subset(slice(0, 21))  # padded to 24 with zero-weight samples
+    res = fit(d, HEAVY, effects=["grade"])
+    assert res.jacobian.shape == (21, 4) and res.residuals.shape == (21,)
+    # the optimum satisfies the first-order conditions of the unpadded problem
+    grad = res.jacobian[:, list(res.free)].T @ res.weighted_residuals
+    scale = np.linalg.norm(res.jacobian[:, list(res.free)], axis=0) * np.linalg.norm(res.weighted_residuals)
+    assert np.all(np.abs(grad) <= 1e-9 * scale), grad / scale  # measured: 1.8e-11
+
+
+def test_active_effect_bounds_and_constraints_are_reported():
+    d = simulate_slip_sweep(HEAVY, SAND, effects={"pressure_distribution": {"e": 0.3, "alpha": 0.2}},
+                            normal_loads=LOADS, seed=0, measure="drawbar_pull", noise=FORCE_NOISE)
+    res = fit(d, HEAVY, effects=["pressure_distribution"])
+    e = res.effects["pressure_distribution"]
+    assert abs(e["e"].value) + abs(e["alpha"].value) <= 1.0 + 1e-9  # the pressure stays >= 0
+    # seed 0 ends on |e| + |alpha| = 1 (alpha weakly seen through 5 road-wheel periods): said, not hidden
+    assert res.extra["active_constraints"] == ["pressure_distribution: |e| + |alpha| <= 1"]
+    assert any("ended on its constraint" in w for w in res.warnings)
+    # hump-free data: the softening drop ends on its lower bound 0, where k_ratio has no effect at all
+    flat = simulate_slip_sweep(HEAVY, SAND, normal_loads=LOADS, seed=0, noise=FORCE_NOISE, measure="drawbar_pull")
+    hump = fit(flat, HEAVY, effects=["hump_shear"])
+    assert hump.active_bounds == {"hump_shear.drop": "lower"}
+    assert hump.effects["hump_shear"]["drop"].value == 0.0
+    assert not hump.effects["hump_shear"]["k_ratio"].identifiable
+    assert any("hump_shear.drop ended on its lower bound" in w for w in hump.warnings)

@@ -26,17 +26,20 @@ def _data(soil):
 def test_noise_free_two_load_data_recovered(soil):
     res = fit(_data(soil), HEAVY)
     assert res.success and res.soil is not None
-    assert np.allclose(res.theta, soil.as_vector(), rtol=1e-5, atol=1e-3)
+    # per parameter, relative (c in Pa, phi in rad, K in m): measured worst 8.5e-10 (c) over 200 soils
+    np.testing.assert_allclose(res.theta, soil.as_vector(), rtol=1e-8)
     assert res.rmse < 1e-3 * HEAVY.weight
 
 
 @settings(max_examples=10, deadline=None)
-@given(st.lists(soils(), min_size=2, max_size=6))
-def test_batch_engine_agrees_with_truth(soil_list):
-    results = fit_many([_data(s) for s in soil_list], HEAVY, progress=False)
+@given(st.lists(soils(), min_size=2, max_size=12))
+def test_vectorized_engine_agrees_with_truth(soil_list):
+    results = fit_many([_data(s) for s in soil_list], HEAVY, progress=False, engine="vectorized")
+    # the vectorised engine solved them (not the loop over fit); IPOPT only for hand-overs it cannot certify
+    assert any(res.extra.get("engine") != "ipopt" for res in results), [res.extra for res in results]
     for res, soil in zip(results, soil_list):
         assert res.success
-        assert np.allclose(res.theta, soil.as_vector(), rtol=1e-5, atol=1e-3)
+        np.testing.assert_allclose(res.theta, soil.as_vector(), rtol=1e-8)  # measured worst 3.4e-15
 
 
 @settings(max_examples=15, deadline=None)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from soiltrack.identify import FitFailed, fit, fit_many, profile_likelihood
-from soiltrack.identify.npmodel import thrust_and_jacobian
+from soiltrack.identify.sweep_model import predict
 from soiltrack.soilmodel import (PRACTICAL_BOUNDS, VEHICLES, DataError, DriveLog, SlipData, Soil, read_csv,
                                  tractive_force)
 from soiltrack.soilmodel.traction import tractive_force_sensitivities
@@ -32,12 +32,13 @@ def simulate(rng, n_per_load, loads, noise_rel, soil=TRUE, vehicle=HEAVY, slip_m
     return SlipData(slip, F + sigma * rng.standard_normal(F.size), W), sigma
 
 
-def test_numpy_model_matches_casadi_model():
+def test_fit_model_is_the_soilmodel():
+    # the slip fits' residual model (rig measurement with no effect) is Eq. 2 itself, with its AD derivatives
     slip = np.concatenate([[0.0, 1e-6, 1e-3], np.linspace(0.01, 0.95, 40)])
     W = np.linspace(1e5, 4e5, slip.size)
-    F, J = thrust_and_jacobian(TRUE.as_vector()[None], slip[None], W[None], HEAVY.track_length, HEAVY.track_width)
-    assert np.allclose(F[0], tractive_force(slip, TRUE, HEAVY, normal_load=W), rtol=1e-13, atol=1e-9)
-    assert np.allclose(J[0], tractive_force_sensitivities(slip, TRUE, HEAVY, normal_load=W), rtol=1e-12, atol=1e-9)
+    F, J = predict(TRUE.as_vector(), slip, W, HEAVY)
+    np.testing.assert_array_equal(F, tractive_force(slip, TRUE, HEAVY, normal_load=W))
+    np.testing.assert_allclose(J, tractive_force_sensitivities(slip, TRUE, HEAVY, normal_load=W), rtol=1e-13)
 
 
 @pytest.mark.parametrize("noise", [0.0, 0.002, 0.01])
@@ -177,8 +178,8 @@ def test_newton_with_more_points_says_gauss_newton():
     res = fit(data, HEAVY, method="newton", x0=Soil.from_kpa_deg(4.0, 28.0, 0.018))
     assert "Gauss-Newton" in res.extra["algorithm"]
     ref = fit(data, HEAVY)
-    if res.success:
-        assert np.allclose(res.theta, ref.theta, rtol=1e-5)
+    assert res.success, res.message
+    np.testing.assert_allclose(res.theta, ref.theta, rtol=1e-9)  # measured: 8e-11
 
 
 def test_least_squares_reports_what_it_does():
@@ -302,11 +303,8 @@ def test_strict_raises_only_on_failure():
 
 
 def test_drive_log_is_dispatched():
-    pytest.importorskip("soiltrack.identify.drivelog")
-    t = np.linspace(0, 1, 5)
-    log = DriveLog(t, np.full(5, 1e4), np.full(5, 5.0), np.full(5, 1.4))
-    try:
-        res = fit(log, HEAVY)
-    except DataError:
-        return  # the drive-log helper may refuse such a tiny log; dispatch happened
-    assert res.data_kind == "drive"
+    from soiltrack.soilmodel import TERRAINS, simulate_drive_log
+    light = VEHICLES["light"]
+    log = simulate_drive_log(light, TERRAINS["dry_sand"], seed=1, duration_s=10.0)  # a valid 500-sample log
+    res = fit(log, light)
+    assert res.data_kind == "drive" and res.success, res.message

@@ -1,0 +1,76 @@
+"""The c-phi ridge: at one normal load, c and phi enter only through ``F_max = A c + N tan(phi)``.
+
+One home for what follows from that (DESIGN.md section 4): the range of F_max a bounds box
+allows, the centre of the bounds-feasible ridge (the one marker every engine reports for
+one-load data, labelled as NOT an estimate), and the ranges of c and phi along the ridge for
+an interval of F_max. ``N`` is the actual normal load (the nominal W, or W with effects).
+F_max itself is :func:`~soiltrack.soilmodel.traction.max_thrust_expr`.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .soil import SoilBounds
+from .traction import max_thrust_expr
+
+__all__ = ["fmax_range", "ridge_centre", "ridge_ranges", "one_load", "LOAD_RTOL", "distinct_loads"]
+
+#: Relative tolerance below which two normal loads are the same load (one home for "one load").
+LOAD_RTOL = 1e-9
+
+
+def distinct_loads(W) -> np.ndarray:
+    """Distinct normal loads (sorted, finite), two loads being equal within :data:`LOAD_RTOL`."""
+    w = np.atleast_1d(np.asarray(W, dtype=float)).ravel()
+    if w.size and math.isfinite(w[0]) and (w == w[0]).all():  # one load (the common case)
+        return w[:1].copy()
+    w = np.sort(w[np.isfinite(w)])
+    if w.size == 0:
+        return w
+    keep = np.concatenate([[True], np.diff(w) > LOAD_RTOL * np.abs(w[1:])])
+    return w[keep]
+
+
+def one_load(W) -> bool:
+    """Whether all normal loads are one load (within :data:`LOAD_RTOL`): the c-phi ridge case."""
+    return distinct_loads(W).size == 1
+
+
+def fmax_range(N: float, A: float, bounds: SoilBounds) -> tuple[float, float]:
+    """``[A c_lo + N tan(phi_lo), A c_hi + N tan(phi_hi)]``: the F_max the box allows (full model)."""
+    (c_lo, c_hi), (p_lo, p_hi) = bounds.cohesion, bounds.friction_angle
+    return float(max_thrust_expr(c_lo, p_lo, N, A)), float(max_thrust_expr(c_hi, p_hi, N, A))
+
+
+def ridge_centre(fmax, W, A: float, bounds: SoilBounds):
+    """Centre of the bounds-feasible c-phi ridge ``A c + W tan(phi) = F_max`` (vectorised).
+
+    At one normal load every point of this segment fits the data equally well; the library
+    reports its centre (labelled as NOT an estimate) so that every engine - IPOPT, the
+    compiled path, the batch engine - returns the same marker for the same data. Where the
+    segment is empty (F_max outside what the box allows) the nearest feasible point is used.
+    Returns ``(c, phi)`` in Pa and rad, shaped like ``fmax``.
+    """
+    F = np.asarray(fmax, dtype=float)
+    W = np.asarray(W, dtype=float)
+    (c_lo, c_hi), (p_lo, p_hi) = bounds.cohesion, bounds.friction_angle
+    c_a = np.maximum(c_lo, (F - max_thrust_expr(0.0, p_hi, W, A)) / A)
+    c_b = np.minimum(c_hi, (F - max_thrust_expr(0.0, p_lo, W, A)) / A)
+    c = np.where(c_a <= c_b, 0.5 * (c_a + c_b), np.clip(c_a, c_lo, c_hi))
+    phi = np.clip(np.arctan(np.maximum(F - A * c, 0.0) / W), p_lo, p_hi)
+    return c, phi
+
+
+def ridge_ranges(F_lo: float, F_hi: float, N: float, A: float, bounds: SoilBounds):
+    """Ranges ``((c_a, c_b), (phi_a, phi_b))`` of the ridge points with F_max in ``[F_lo, F_hi]``
+    inside the box, or ``None`` when no such point lies within the bounds."""
+    (c_lo, c_hi), (p_lo, p_hi) = bounds.cohesion, bounds.friction_angle
+    c_a = max(c_lo, (F_lo - max_thrust_expr(0.0, p_hi, N, A)) / A)
+    c_b = min(c_hi, (F_hi - max_thrust_expr(0.0, p_lo, N, A)) / A)
+    ph_a = max(p_lo, math.atan((F_lo - A * c_hi) / N))
+    ph_b = min(p_hi, math.atan((F_hi - A * c_lo) / N))
+    if c_a > c_b or ph_a > ph_b:
+        return None
+    return (float(c_a), float(c_b)), (float(ph_a), float(ph_b))
