@@ -12,7 +12,7 @@ latent slip ``i_k``::
     d_H = F(i_k) - R(v_k, i_k) - m_eff a_k                        hull balance residual, N
 
 whitened as ``e_w = d_s / sigma_s``, ``e_T = (d_T - rho d_s) / sigma_T|s`` (as in the nominal
-problem) and ``e_H = d_H / sigma_H`` with ``sigma_H = m_eff sigma_a`` (it depends on
+problem; ``sigma_s`` and ``sigma_T`` follow ``r_eff``) and ``e_H = d_H / sigma_H`` with ``sigma_H = m_eff sigma_a`` (it depends on
 ``mass_error``: errors in the acceleration regressor are weighted as such, Deming-style); IPOPT minimises ``sum |e_k|^2 / 2``. ``M_k'`` and
 ``dw_k/dt`` are those of the discrete sprocket equation (:func:`.drivelog_prepare.prepare_drive_log`).
 The acceleration ``a_k`` is the IMU column ``vehicle_accel_m_s2`` when the log has it (noise
@@ -62,13 +62,15 @@ from .drivelog_noise import noise_model
 from .drivelog_prepare import SLIP_BOUNDS, PreparedLog
 
 __all__ = ["JointData", "joint_data", "parse_fixed", "effect_layout",
-           "residual_function", "derivative_function", "joint_solver", "solve_slips", "best_slips", "CHANNELS",
+           "residual_function", "derivative_function", "joint_solver", "solve_slips", "best_slips", "HULL_ROW", "CHANNELS",
            "DATA_ROWS"]
 
 #: Residual channels of a drive log (raw residuals: measured minus predicted).
 CHANNELS = ("sprocket_speed_rad_s", "thrust_N", "hull_N")
 #: Rows of the per-sample data matrix handed to the residual function.
-DATA_ROWS = ("v", "w", "M", "dw_dt", "a", "inv_sigma_s", "inv_sigma_T_cond", "rho", "inv_sigma_H")
+DATA_ROWS = ("v", "w", "M", "dw_dt", "a", "sigma_v", "sigma_w_slip", "sigma_T", "cov_sT", "inv_sigma_H")
+#: Index of the hull channel's weight in :data:`DATA_ROWS` (0 switches the channel off).
+HULL_ROW = DATA_ROWS.index("inv_sigma_H")
 
 _QUIET = {"expand": True, "print_time": False, "ipopt.sb": "yes", "ipopt.print_level": 0}
 
@@ -125,8 +127,15 @@ def joint_data(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, torque_hold: 
     sigma_H = m * s_a
     good = np.isfinite(a) & np.isfinite(sigma_H) & (sigma_H > 0)
     inv_H = np.where(good, 1.0 / np.where(good, sigma_H, 1.0), 0.0)
+    # noise parts at the nominal radius; the residual function rescales them with r_eff
+    va, vb = prep.noise["vehicle_speed"]
+    wa, wb = prep.noise["sprocket_speed"]
+    s_v = np.hypot(va, vb * prep.vehicle_speed)
+    one_minus_i = np.clip(1.0 - prep.slip_measured, 1.0 - SLIP_BOUNDS[1], 1.0 - SLIP_BOUNDS[0])
+    sw_slip = one_minus_i * np.hypot(wa, wb * prep.sprocket_speed)
+    cov = prep.coupling * prep.sigma_speed ** 2
     D = np.vstack([prep.vehicle_speed, prep.sprocket_speed, M_used, dwdt, np.where(good, a, 0.0),
-                   1.0 / prep.sigma_speed, 1.0 / prep.sigma_thrust_cond, prep.coupling, inv_H])
+                   s_v, sw_slip, prep.sigma_thrust, cov, inv_H])
     return JointData(D=D, sigma_hull=np.where(good, sigma_H, np.inf), accel_source=source,
                      accel_noise=(float(nm[0]), float(nm[1])))
 
@@ -188,7 +197,7 @@ def residual_function(vehicle: Vehicle, structure: EffectSet) -> tuple[ca.Functi
     mapping, vec, labels = effect_symbols(structure, ca.SX, vehicle)
     Flim, K, slip = ca.SX.sym("F_lim"), ca.SX.sym("K"), ca.SX.sym("slip")
     d = ca.SX.sym("d", len(DATA_ROWS))
-    v, w, Mu, dwdt, a, iss, isT, rho, isH = (d[j] for j in range(len(DATA_ROWS)))
+    v, w, Mu, dwdt, a, s_v, sw_slip, sT, cov, isH = (d[j] for j in range(len(DATA_ROWS)))
     W, I = vehicle.weight, vehicle.sprocket_inertia
     r_eff = effective_radius(vehicle, mapping)
     m_eff = effective_mass(vehicle, mapping)
@@ -203,7 +212,14 @@ def residual_function(vehicle: Vehicle, structure: EffectSet) -> tuple[ca.Functi
     # sigma_H = m_eff sigma_a: the acceleration noise scales with the actual mass (a weight fixed at
     # the nominal mass would make the hull channel an ordinary regression on the noisy acceleration,
     # attenuating mass_error: measured -9 % on delta = 0.1, light vehicle)
-    e = ca.vertcat(d_s * iss, (T - F - rho * d_s) * isT, -hull * isH * (vehicle.mass / m_eff))
+    # the speed and thrust noise scale with the effective radius (radius_error), like the hull
+    # noise with the mass: weights fixed at the nominal r would attenuate eps (measured +10 %)
+    ratio = r_eff / vehicle.sprocket_radius
+    ss2 = s_v ** 2 + (r_eff * sw_slip) ** 2
+    sTe = sT / ratio
+    rho = cov / ss2
+    sTc = ca.sqrt(ca.fmax(sTe ** 2 - rho * cov, 0.0) + 1e-300)
+    e = ca.vertcat(d_s / ca.sqrt(ss2), (T - F - rho * d_s) / sTc, -hull * isH * (vehicle.mass / m_eff))
     raw = ca.vertcat(w - v / (r_eff * (1 - slip)), T - F, hull)
     theta = ca.vertcat(Flim, K, vec)
     fn = ca.Function("drivelog_joint_residual", [theta, slip, d], [e, raw, F, T],
@@ -261,7 +277,7 @@ def solve_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np
                 break
             t = np.where(worse, 0.5 * t, t)
         s_new = np.clip(s + t * step, lo, hi)
-        if np.max(np.abs(s_new - s)) < 1e-13:
+        if np.max(np.abs(s_new - s)) < 1e-10:
             s = s_new
             break
         s = s_new

@@ -20,7 +20,7 @@ from ..soilmodel.effects import EFFECTS, effect_structure, parse_effects
 from ..soilmodel.errors import DataError
 from ..soilmodel.soil import SoilBounds
 from ..soilmodel.vehicle import Vehicle
-from .drivelog_joint import (CHANNELS, best_slips, derivative_function, effect_layout, joint_data, joint_solver, parse_fixed,
+from .drivelog_joint import (CHANNELS, HULL_ROW, best_slips, derivative_function, effect_layout, joint_data, joint_solver, parse_fixed,
                              residual_function)
 from .drivelog_nlp import _g_inverse, _pad, _run_starts, fmax_bounds, padded_size, ridge_point
 from .drivelog_prepare import SLIP_BOUNDS, PreparedLog
@@ -54,7 +54,7 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
         raise DataError("effects and the hull channel need sprocket_equation='thrust' (the seed's printed "
                         "Eq. 3 mixes the resistance into the sprocket equation)")
     fixed_vals = parse_fixed(fixed)
-    names = set(parse_fixed_names(fixed_vals))
+    names = set(_fixed_names(fixed_vals))
     es = parse_effects(effects)
     if names - set(es.names):
         es = parse_effects({**es.to_dict(), **{n: None for n in names - set(es.names)}})
@@ -63,6 +63,9 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     labels = list(labels)
     torque_hold = str(options.get("torque_hold", "zoh"))
     jd = joint_data(log, vehicle, prep, torque_hold, sigma_accel=options.get("sigma_accel"))
+    hull_used = options.get("hull_channel", True) is not False
+    if not hull_used:  # explicitly off: effects fitted from the speed and thrust channels only
+        jd.D[HULL_ROW] = 0.0
     n = prep.n_used
     N = padded_size(n)
     l, W = vehicle.track_length, vehicle.weight
@@ -93,6 +96,8 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     Dp = np.hstack([jd.D, np.zeros((jd.D.shape[0], N - n))])
     Dp[0, n:] = 1.0  # padding: harmless finite values (zero weights)
     Dp[1, n:] = 1.0 / vehicle.sprocket_radius
+    Dp[5, n:] = 1.0  # sigma_v
+    Dp[7, n:] = 1.0  # sigma_T
     p = np.concatenate([scale, [i_ref], Dp.reshape(-1, order="F"), _pad(np.zeros(n), N, 1.0)])
     big = 1e20
     lbx = np.concatenate([[Fb[0] / F_ref, Kb[0] / K_ref], np.where(np.isfinite(e_lo), e_lo / esc, -big),
@@ -104,12 +109,12 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     slip_meas = np.clip(prep.slip_measured, lo_s, hi_s)
 
     def make_x0(Fmax0: float, K0: float) -> np.ndarray:
-        # latent slips: the per-sample optimum at the start values, from the inverse thrust-slip
-        # curve and from the measured slip (the per-sample cost can have two minima)
+        # latent slips: near the per-sample optimum at the start values (6 Newton steps), from the
+        # inverse thrust-slip curve and from the measured slip (the per-sample cost can have two minima)
         y = np.clip(np.abs(prep.thrust) / Fmax0, 0.0, 0.98)
         slip_inv = np.clip(np.sign(prep.thrust) * _g_inverse(y) * K0 / l, lo_s, hi_s)
         th0 = np.concatenate([[Fmax0, K0], e0])
-        slip0 = np.clip(best_slips(vehicle, structure, th0, jd.D, [slip_inv, slip_meas], 25), lo_s, hi_s)
+        slip0 = np.clip(best_slips(vehicle, structure, th0, jd.D, [slip_inv, slip_meas], 6), lo_s, hi_s)
         return np.concatenate([[Fmax0 / F_ref, K0 / K_ref], e0 / esc, _pad(slip0 / i_ref, N)])
 
     starts = [(min(max(F0, Fb[0] * 1.001), Fb[1] * 0.999), K0) for F0, K0 in starts]
@@ -141,7 +146,7 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     dof = max(n - int(np.count_nonzero(free)), 1)
     extra = dict(base_extra)
     warnings = list(base_warnings)
-    extra["hull_channel"] = {"accel_source": jd.accel_source,
+    extra["hull_channel"] = {"used": hull_used, "accel_source": jd.accel_source,
                              "accel_noise_m_s2": {"abs": jd.accel_noise[0], "rel": jd.accel_noise[1]},
                              "sigma_hull_median_N": float(np.median(jd.sigma_hull[np.isfinite(jd.sigma_hull)]))
                              if np.any(np.isfinite(jd.sigma_hull)) else None}
@@ -157,7 +162,7 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
                   effect_values=theta[2:], effect_bounds=tuple(zip(elo.tolist(), ehi.tolist())),
                   effect_units=tuple(units), effect_structure=structure,
                   fixed_labels=tuple(lab for lab in labels if lab in fixed_vals),
-                  residual_model=DriveLogResiduals(hull_in_fit=True))
+                  residual_model=DriveLogResiduals(hull_in_fit=hull_used))
     pd_all = 3 + len(labels)
     if not success:
         extra["covariance"] = "none"
@@ -168,70 +173,14 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
                             residuals=np.where(np.isfinite(res), res, 0.0), normal_loads=np.full(n, W),
                             success=False, message=msg, warnings=tuple(warnings), extra=extra, **common), False
 
-    # Jacobian for the shared result object, in (F_lim, K, effects): a Gram-preserving stand-in
-    # Q S with S^T S = the profiled Gauss-Newton information (only J^T J enters the statistics),
-    # the free block then rescaled so that s2 (J^T J)^-1 is the sandwich covariance.
-    Jp = Jt.copy()
-    gn = np.sum(gi ** 2, axis=1)
-    okg = gn > 1e-300
-    Jp[okg] -= gi[okg, :, None] * (np.einsum("kc,kcp->kp", gi[okg], Jt[okg]) / gn[okg, None])[:, None, :]
-    info = np.einsum("kcp,kcq->pq", Jp, Jp)
-    wv, Uv = np.linalg.eigh(0.5 * (info + info.T))
-    S = (Uv * np.sqrt(np.clip(wv, 0.0, None))) @ Uv.T
-    Q, _ = np.linalg.qr(Jt[:, 1, :] + Jt[:, 2, :] + Jt[:, 0, :])
-    Jr = Q @ S
     s2 = 1.0 if prep.sigma_known else float(np.sum(wres ** 2)) / dof
-    kind = "gauss-newton"
-    fidx = np.nonzero(free)[0]
-    if cov_full is not None and np.all(ident[fidx]):
-        try:
-            Jf = Jr[:, fidx]
-            Lg = np.linalg.cholesky(Jf.T @ Jf)
-            Lv = np.linalg.cholesky(s2 * np.linalg.inv(cov_full[np.ix_(fidx, fidx)]))
-            Jr[:, fidx] = Jf @ np.linalg.solve(Lg.T, Lv.T)
-            kind = "sandwich"
-        except np.linalg.LinAlgError:
-            pass
+    Jr, cov2, kind = _result_jacobian(Jt, gi, free, ident, cov_full, s2)
     extra["covariance"] = kind
-    cov2 = None
-    if kind == "sandwich":
-        cov2 = cov_full[:2, :2]
-    else:
-        try:
-            cov2 = s2 * np.linalg.inv(Jr[:, :2].T @ Jr[:, :2])
-        except np.linalg.LinAlgError:
-            cov2 = None
     c, phi = ridge_point(Flim, vehicle, bounds, model, c_hint, normal_load=Nload)
     dFm_dc = vehicle.contact_area if model == "full" else 0.0
     jac = np.column_stack([Jr[:, 0] * dFm_dc, Jr[:, 0] * (Nload / math.cos(phi) ** 2), Jr[:, 1:]])
 
-    # confounding said in words, with the experiment that would separate (correlations from the
-    # sandwich, or from the information where the parameter is not estimable)
-    all_labels = ["F_max", "K"] + labels
-    for j, lab in enumerate(labels):
-        jj = 2 + j
-        if is_fixed[j]:
-            continue
-        corr = {}
-        for k2, other in enumerate(all_labels):
-            if k2 == jj or not free[k2]:
-                continue
-            if ident[jj] and ident[k2] and cov_full is not None and cov_full[jj, jj] > 0 and cov_full[k2, k2] > 0:
-                rho = float(cov_full[jj, k2] / math.sqrt(cov_full[jj, jj] * cov_full[k2, k2]))
-            elif A[jj, jj] > 0 and A[k2, k2] > 0:
-                rho = float(A[jj, k2] / math.sqrt(A[jj, jj] * A[k2, k2]))
-            else:
-                continue
-            if abs(rho) >= 0.9:
-                corr[other] = rho
-        txt = ", ".join(f"{o} (correlation {r:+.3f})" for o, r in corr.items())
-        if not ident[jj] or any(abs(r) >= WEAK_CORRELATION for r in corr.values()):
-            why = (f"its effect on the measurements is confounded with that of {txt}" if txt else
-                   "the log carries no information on it")
-            warnings.append(f"effect {lab} is not identifiable from this log: {why}. "
-                            f"{_separating_experiment(lab.partition('.')[0], corr)}")
-        elif corr:
-            warnings.append(f"effect {lab} is strongly correlated with {txt}: its interval is wide for that reason")
+    warnings.extend(_confounding_warnings(labels, is_fixed, free, ident, cov_full, A))
 
     # soil combinations and the regime (marginal over the effects)
     Fb_hit = [nm for nm, val, (lo, hi) in (("F_max", Flim, Fb), ("K", K, Kb))
@@ -256,7 +205,78 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
                         extra=extra, **common), True
 
 
-def parse_fixed_names(fixed_vals: dict[str, float]) -> list[str]:
+def _result_jacobian(Jt: np.ndarray, gi: np.ndarray, free: np.ndarray, ident: np.ndarray,
+                     cov_full: np.ndarray | None, s2: float) -> tuple[np.ndarray, np.ndarray | None, str]:
+    """Jacobian in ``(F_lim, K, effects)`` for the shared result object, the (F_lim, K) covariance, its kind.
+
+    A Gram-preserving stand-in ``Q S`` with ``S^T S`` the profiled Gauss-Newton information
+    (only ``J^T J`` enters the statistics; the rows are not per-sample sensitivities), whose free
+    block is then rescaled so that ``s2 (J^T J)^-1`` is the sandwich covariance (``"sandwich"``;
+    ``"gauss-newton"`` when the sandwich does not exist for every free parameter).
+    """
+    Jp = Jt.copy()
+    gn = np.sum(gi ** 2, axis=1)
+    okg = gn > 1e-300
+    Jp[okg] -= gi[okg, :, None] * (np.einsum("kc,kcp->kp", gi[okg], Jt[okg]) / gn[okg, None])[:, None, :]
+    info = np.einsum("kcp,kcq->pq", Jp, Jp)
+    wv, Uv = np.linalg.eigh(0.5 * (info + info.T))
+    S = (Uv * np.sqrt(np.clip(wv, 0.0, None))) @ Uv.T
+    Q, _ = np.linalg.qr(Jt[:, 1, :] + Jt[:, 2, :] + Jt[:, 0, :])
+    Jr = Q @ S
+    kind = "gauss-newton"
+    fidx = np.nonzero(free)[0]
+    if cov_full is not None and np.all(ident[fidx]):
+        try:
+            Jf = Jr[:, fidx]
+            Lg = np.linalg.cholesky(Jf.T @ Jf)
+            Lv = np.linalg.cholesky(s2 * np.linalg.inv(cov_full[np.ix_(fidx, fidx)]))
+            Jr[:, fidx] = Jf @ np.linalg.solve(Lg.T, Lv.T)
+            kind = "sandwich"
+        except np.linalg.LinAlgError:
+            pass
+    if kind == "sandwich":
+        return Jr, cov_full[:2, :2], kind
+    try:
+        return Jr, s2 * np.linalg.inv(Jr[:, :2].T @ Jr[:, :2]), kind
+    except np.linalg.LinAlgError:
+        return Jr, None, kind
+
+
+def _confounding_warnings(labels: list[str], is_fixed: np.ndarray, free: np.ndarray, ident: np.ndarray,
+                          cov_full: np.ndarray | None, A: np.ndarray) -> list[str]:
+    """Effect parameters confounded with the soil or another effect, in words, with the experiment.
+
+    Correlations from the sandwich covariance, or, where a parameter is not estimable, the
+    collinearity of the sensitivities (the information's ``A_ij / sqrt(A_ii A_jj)``).
+    """
+    warnings: list[str] = []
+    all_labels = ["F_max", "K"] + list(labels)
+    for j, lab in enumerate(labels):
+        jj = 2 + j
+        if is_fixed[j]:
+            continue
+        corr, kinds = {}, {}
+        for k2, other in enumerate(all_labels):
+            if k2 == jj or not free[k2]:
+                continue
+            if ident[jj] and ident[k2] and cov_full is not None and cov_full[jj, jj] > 0 and cov_full[k2, k2] > 0:
+                rho, kind = float(cov_full[jj, k2] / math.sqrt(cov_full[jj, jj] * cov_full[k2, k2])), "correlation"
+            elif A[jj, jj] > 0 and A[k2, k2] > 0:
+                rho, kind = float(A[jj, k2] / math.sqrt(A[jj, jj] * A[k2, k2])), "collinearity of their effects"
+            else:
+                continue
+            if abs(rho) >= WEAK_CORRELATION:
+                corr[other], kinds[other] = rho, kind
+        if ident[jj] and not corr:
+            continue
+        # (the result object states weak identifiability itself; this adds what separates them)
+        txt = ", ".join(f"{o} ({kinds[o]} {r:+.3f})" for o, r in corr.items())
+        what = f"cannot be told apart from {txt}" if txt else "is not determined (the log carries no information on it)"
+        warnings.append(f"effect {lab} {what} on this log. {_separating_experiment(lab.partition('.')[0], corr)}")
+    return warnings
+
+
+def _fixed_names(fixed_vals: dict[str, float]) -> list[str]:
     """Effect names that appear in a parsed ``fixed`` mapping."""
     return sorted({lab.partition(".")[0] for lab in fixed_vals})
 

@@ -71,7 +71,7 @@ def classify_regime(Fmax: float, K: float, l: float, cov2: np.ndarray | None, at
     slope = Fmax * l / (2 * K)
     slope_txt = (f"F_max l/(2K) = {slope:.4g} N" + (f" +- {s_slope:.2g} N" if math.isfinite(s_slope) else "")
                  + " (thrust per unit slip at small slip)")
-    pct = (lambda x: f"{100 * x:.0f} %" if math.isfinite(x) else "undetermined")
+    pct = (lambda x: f"{100 * x:.2g} %" if math.isfinite(x) else "undetermined")
     if regime == "gentle":
         warnings.append(
             f"gentle driving: the largest thrust in this log is about {thrust_peak / 1e3:.4g} kN, well below the "

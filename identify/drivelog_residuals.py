@@ -29,7 +29,7 @@ from ..soilmodel.data import DriveLog
 from ..soilmodel.effects import effect_structure, parse_effects
 from ..soilmodel.errors import DataError
 from ..soilmodel.vehicle import Vehicle
-from .drivelog_joint import CHANNELS, best_slips, joint_data, residual_function
+from .drivelog_joint import CHANNELS, HULL_ROW, best_slips, joint_data, residual_function
 from .drivelog_nlp import _g_inverse
 from .drivelog_prepare import SLIP_BOUNDS, prepare_drive_log
 
@@ -70,9 +70,9 @@ def _params_from(result_or_params: Any, effects: Any) -> tuple[float, float, dic
           for k, col in (("torque", "torque_Nm"), ("sprocket_speed", "sprocket_speed_rad_s"),
                          ("vehicle_speed", "vehicle_speed_m_s"))}
     jp = ex.get("joint_parameters")
-    hull = "hull_channel" in ex
+    hull = bool(ex.get("hull_channel", {}).get("used", False))
     an = None
-    if hull:
+    if "hull_channel" in ex:
         a = ex["hull_channel"]["accel_noise_m_s2"]
         an = (a["abs"], a["rel"]) if ex["hull_channel"]["accel_source"] == "imu" else None
     if jp is not None:
@@ -127,16 +127,18 @@ def drive_log_residuals(result_or_params: Any, log: DriveLog, vehicle: Vehicle, 
     slip0 = np.clip(np.sign(prep.thrust) * _g_inverse(y) * K / l, SLIP_BOUNDS[0] + 1e-3, SLIP_BOUNDS[1] - 1e-3)
     D_solve = jd.D.copy()
     if not hull:
-        D_solve[8] = 0.0
+        D_solve[HULL_ROW] = 0.0
     slip_meas = np.clip(prep.slip_measured, SLIP_BOUNDS[0] + 1e-3, SLIP_BOUNDS[1] - 1e-3)
     slip = best_slips(vehicle, structure, theta, D_solve, [slip0, slip_meas])
     th = np.repeat(theta.reshape(-1, 1), n, axis=1)
     e, raw, Fi, T = (np.asarray(o, dtype=float) for o in res_fn.map(n)(th, slip.reshape(1, -1), jd.D))
     r_eff = vehicle.sprocket_radius * (1 + ev.get("radius_error.eps", 0.0))
     m_eff = vehicle.mass * (1 + ev.get("mass_error.delta", 0.0))
-    sig_w = prep.sigma_speed / (r_eff * np.maximum(1 - slip, 1e-3))
+    ratio = r_eff / vehicle.sprocket_radius
+    s_speed = np.sqrt(jd.D[5] ** 2 + (r_eff * jd.D[6]) ** 2)
+    sig_w = s_speed / (r_eff * np.maximum(1 - slip, 1e-3))
     sig_H = jd.sigma_hull * m_eff / vehicle.mass
-    sigma = {"sprocket_speed_rad_s": sig_w, "thrust_N": prep.sigma_thrust, "hull_N": sig_H}
+    sigma = {"sprocket_speed_rad_s": sig_w, "thrust_N": prep.sigma_thrust / ratio, "hull_N": sig_H}
     chans = {ch: raw[j] for j, ch in enumerate(CHANNELS)}
     chans["hull_N"] = np.where(np.isfinite(sig_H), chans["hull_N"], np.nan)
     return {"channels": chans, "sigma": sigma,

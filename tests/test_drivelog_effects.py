@@ -122,10 +122,10 @@ def test_grade_and_mass_error_confused_on_a_steady_log():
     res = fit_drive_log(log, LIGHT, effects=["grade", "mass_error"])
     assert res.success
     g, d = res.effects["grade"]["theta_rad"], res.effects["mass_error"]["delta"]
-    assert not (g.identifiable and d.identifiable) or abs(g.correlation or 0) > 0.99
+    assert not (g.identifiable and d.identifiable) or abs(g.correlation or 0) > 0.99   # measured -0.9915
     text = " ".join(res.warnings)
-    assert "effect grade.theta_rad is not identifiable" in text or "effect mass_error.delta is not" in text
-    assert "mass_error.delta (correlation" in text or "grade.theta_rad (correlation" in text
+    assert "effect grade.theta_rad cannot be told apart from mass_error.delta (" in text
+    assert "effect mass_error.delta cannot be told apart from grade.theta_rad (" in text
     assert "payload" in text                               # the experiment that separates them
 
 
