@@ -201,7 +201,7 @@ def drive_log_score_pair(res, log, vehicle) -> tuple[np.ndarray, np.ndarray, lis
         number of channels ``c`` (rows per sample).
     """
     from ..soilmodel.effects import effect_structure, parse_effects
-    from .drivelog_joint import derivative_function, joint_data, residual_function
+    from .drivelog_joint import HULL_ROW, derivative_function, joint_data, residual_function
     from .drivelog_prepare import prepare_drive_log
     from .drivelog_residuals import _params_from, drive_log_residuals
 
@@ -214,7 +214,7 @@ def drive_log_score_pair(res, log, vehicle) -> tuple[np.ndarray, np.ndarray, lis
     prep = prepare_drive_log(log, vehicle, torque_hold=torque_hold, noise_models=nm)
     D = joint_data(log, vehicle, prep, torque_hold, accel_noise=an).D.copy()
     if not hull:
-        D[8] = 0.0
+        D[HULL_ROW] = 0.0
     n = D.shape[1]
     slip = np.asarray(out["slip"], dtype=float).reshape(1, -1)
     fn = derivative_function(vehicle, structure)
