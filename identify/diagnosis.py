@@ -473,6 +473,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
 
     def run_fit(d, effects=(), fixed=None):
         kw = {}
+        if is_log and not effects:
+            kw["hull_channel"] = True  # the nominal model on the same three channels as the candidates
         if effects:
             kw["effects"] = list(effects)
         if fixed:
@@ -528,21 +530,17 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     train_fits: dict[str, list] = {}
     train_res: dict[str, list[dict[str, np.ndarray]]] = {}
 
+    full_cache: dict[int, dict[str, np.ndarray]] = {}
+
     def residuals_at(res, idx):
-        """Residuals of ``res`` on the samples ``idx``: one call per contiguous run for a log (a run's
-        first sample has no predecessor there, instead of a wrong one across a gap in time)."""
+        """Residuals of ``res`` on the samples ``idx``. For a log: evaluated once on the whole log and
+        picked (each sample's prediction uses the measured inputs at it and its predecessor, not
+        a neighbour across a gap of the subset; the fitted parameters saw only the training part)."""
         if not is_log:
             return _channels(res, _subset(data, idx))
-        out = {ch: np.full(idx.size, np.nan) for ch in channels}
-        cuts = np.nonzero(np.diff(idx) > 1)[0] + 1
-        start = 0
-        for run in np.split(idx, cuts):
-            if run.size >= 3:
-                rr = _channels(res, _subset(data, run))
-                for ch in channels:
-                    out[ch][start:start + run.size] = rr.get(ch, np.nan)
-            start += run.size
-        return out
+        if id(res) not in full_cache:
+            full_cache[id(res)] = _channels(res, data)
+        return {ch: full_cache[id(res)][ch][idx] for ch in channels}
 
     def score_model(name, effects=()):
         H[name] = {ch: np.full(n, np.nan) for ch in channels}

@@ -24,7 +24,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..soilmodel.effects import EFFECTS
-from ..soilmodel.errors import DataError
 from .gap import chi2_sf
 
 __all__ = ["Screen", "project_off", "score_test", "newey_west_lag", "screen", "stationarity"]
@@ -183,7 +182,7 @@ def stationarity(J_free: np.ndarray, r: np.ndarray) -> float:
     return float(np.max(np.abs(J[:, ok].T @ r) / (nj[ok] * nr)))
 
 
-def drive_log_score_pair(res, log, vehicle) -> tuple[np.ndarray, np.ndarray, list[str], int]:
+def drive_log_score_pair(res, log, vehicle, effects=None) -> tuple[np.ndarray, np.ndarray, list[str], int]:
     """A consistent (Jacobian, residual) pair of a drive-log fit, for score tests.
 
     A drive-log fit profiles out one latent slip per sample, and the Jacobian it reports is a
@@ -193,6 +192,8 @@ def drive_log_score_pair(res, log, vehicle) -> tuple[np.ndarray, np.ndarray, lis
     the fitted parameters and the latent slips :func:`~.drivelog_residuals.drive_log_residuals`
     solves, with ``de_k/dtheta`` projected off ``de_k/di_k`` (the profiled sensitivity: at the
     per-sample optimum ``e_k`` is orthogonal to ``de_k/di_k``). Stacked sample by sample.
+    ``effects`` (names) evaluates the derivatives with those effects switched on at their off
+    values, so that a nominal fit gives the candidates' columns without carrying them in its NLP.
 
     Returns
     -------
@@ -205,8 +206,8 @@ def drive_log_score_pair(res, log, vehicle) -> tuple[np.ndarray, np.ndarray, lis
     from .drivelog_prepare import prepare_drive_log
     from .drivelog_residuals import _params_from, drive_log_residuals
 
-    out = drive_log_residuals(res, log, vehicle, model=res.model)
-    F, K, ev, eff, nm, hull, torque_hold, an = _params_from(res, None)
+    out = drive_log_residuals(res, log, vehicle, effects=effects, model=res.model)
+    F, K, ev, eff, nm, hull, torque_hold, an = _params_from(res, effects)
     es = parse_effects(eff) if eff is not None else None
     structure = effect_structure(es, vehicle)
     _, labels = residual_function(vehicle, structure)
@@ -235,8 +236,10 @@ def drive_log_score_pair(res, log, vehicle) -> tuple[np.ndarray, np.ndarray, lis
 def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None = 0):
     """Score-test every candidate from ONE fit: the nominal model with the candidates held off.
 
-    The fit (:func:`~.fitting.fit` with ``effects=candidates`` and ``fixed`` = every parameter
-    at its off value) is the nominal fit, and its Jacobian carries the candidates' columns.
+    For a sweep the fit (:func:`~.fitting.fit` with ``effects=candidates`` and ``fixed`` = every
+    parameter at its off value) is the nominal fit, and its Jacobian carries the candidates'
+    columns. For a drive log it is the nominal fit with the hull channel, and the columns come
+    from :func:`drive_log_score_pair` (cheaper: the candidates stay out of the NLP).
 
     Returns
     -------
@@ -247,17 +250,24 @@ def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None =
     cands = list(candidates)
     if not cands:
         return fit(data, vehicle, model=model), []
-    fixed = {f"{c}.{p.name}": p.off_value for c in cands for p in EFFECTS[c].params if not p.integer}
-    res = fit(data, vehicle, model=model, effects=cands, fixed=fixed)
-    names = list(res.parameter_names)
-    J = np.asarray(res.jacobian, dtype=float)
-    r = np.asarray(res.weighted_residuals, dtype=float).ravel()
+    from ..soilmodel.data import DriveLog
+
     rows_per_sample = 1
-    if getattr(res, "data_kind", None) == "drive" and res.success:
-        try:
-            J, r, names, rows_per_sample = drive_log_score_pair(res, data, vehicle)
-        except (ImportError, KeyError, DataError):  # a build whose drive-log fits carry no such model
-            pass
+    if isinstance(data, DriveLog):
+        # the nominal fit with the hull channel (the estimator of the candidates' fits); the candidates'
+        # columns come from the drive-log model's derivatives with them switched on at "off"
+        res = fit(data, vehicle, model=model, hull_channel=True)
+        names = list(res.parameter_names)
+        J = np.zeros((1, len(names)))
+        r = np.zeros(1)
+        if res.success:
+            J, r, names, rows_per_sample = drive_log_score_pair(res, data, vehicle, effects=cands)
+    else:
+        fixed = {f"{c}.{p.name}": p.off_value for c in cands for p in EFFECTS[c].params if not p.integer}
+        res = fit(data, vehicle, model=model, effects=cands, fixed=fixed)
+        names = list(res.parameter_names)
+        J = np.asarray(res.jacobian, dtype=float)
+        r = np.asarray(res.weighted_residuals, dtype=float).ravel()
     if hac_lag is None:
         hac_lag = rows_per_sample * newey_west_lag(r.size // rows_per_sample)
     cols = {c: [j for j, nm in enumerate(names) if nm.startswith(c + ".")] for c in cands}
