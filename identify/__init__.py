@@ -18,10 +18,13 @@ Public names
     Typed solver settings and the engine vocabulary (:mod:`soiltrack.identify.engines`).
 :class:`FitResult`, :class:`ParameterEstimate`, :class:`Combination`, :class:`ProfileResult`,
 :class:`FitFailed`.
+:func:`diagnose`, :class:`Diagnosis`
+    Sim-to-real gap diagnosis: where the gap lies, which unmodelled effect explains it.
 """
 from . import jitcache
 from .batch import fit_many
 from .engines import DEFAULT_ENGINE, ENGINES
+from .diagnosis import Diagnosis, diagnose
 from .fitting import fit
 from .problem import FitFailed
 from .profile import ProfileResult, profile_likelihood
@@ -29,4 +32,5 @@ from .result import Combination, FitResult, ParameterEstimate, build_result
 from .settings import FitSettings
 
 __all__ = ["fit", "fit_many", "profile_likelihood", "build_result", "FitResult", "ParameterEstimate",
-           "Combination", "ProfileResult", "FitFailed", "FitSettings", "ENGINES", "DEFAULT_ENGINE"]
+           "Combination", "ProfileResult", "FitFailed", "FitSettings", "ENGINES", "DEFAULT_ENGINE",
+           "diagnose", "Diagnosis"]

@@ -1,0 +1,801 @@
+"""Sim-to-real gap diagnosis: where the model and the data part, which effect explains it, how far it shrinks.
+
+:func:`diagnose` runs, on a drive log or a tractive-force / drawbar-pull sweep:
+
+1. **Screen** (one fit): the nominal model is fitted with every candidate effect switched on
+   and held at its off value, which is the nominal fit itself but also gives the Jacobian
+   columns of the effects' parameters. Each candidate's score test
+   (:func:`~.screening.score_test`) asks whether moving its parameter away from "off" would
+   explain the residuals beyond what the soil can absorb.
+2. **The gap**: the samples (in time order for a log, in slip order for a sweep) are cut into
+   contiguous blocks, alternately held out (:func:`~.gap.blocked_folds`, two folds). The
+   nominal model is fitted on one part and predicts the other, channel by channel, against
+   each channel's noise level (:func:`~.gap.noise_profile`: it may vary along the data).
+3. **Where** (:func:`~.gap.localise`, :func:`~.gap.change_window`, :func:`~.gap.whiteness`,
+   :func:`~.gap.lag_peak`): the share of the misfit by channel and by slip, speed and time
+   range; the time window of a change; residual whiteness; a lag peak against the inputs.
+4. **Which** (:mod:`.selection`): the candidates screening keeps are refitted on each training
+   part (jointly with the soil, through :func:`~.fitting.fit`), scored on the held-out part,
+   and compared with the nominal model and a flexible discrepancy term by cross-validation
+   weights. Verdict, confidence, confusable pairs and the experiment that separates them.
+5. **How far it shrinks**: held-out RMS per channel before and after adding the verdict's
+   effect, and the soil before and after (the bias the missing effect caused).
+
+All model evaluations go through :func:`~.fitting.fit` and its results; no physics here.
+"""
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..soilmodel.data import DriveLog, SlipData
+from ..soilmodel.effects import EFFECTS
+from ..soilmodel.errors import DataError
+from ..soilmodel.vehicle import Vehicle
+from .gap import (Segment, blocked_folds, change_window, lag_peak, localise, long_run_factor, noise_profile,
+                  whiteness)
+from .screening import Screen, newey_west_lag, screen
+from .selection import (DISCREPANCY, NOMINAL, confusable_groups, decide, dm_test, fit_discrepancy, gap_p_value,
+                        separating_experiment, stacking_weights)
+
+__all__ = ["diagnose", "Diagnosis", "RankEntry"]
+
+#: Fewest samples for a blocked hold-out (two folds of alternate blocks of at least 2 samples each).
+MIN_SAMPLES = 8
+
+#: Significance level of the tests (screening is Bonferroni-corrected over the candidates).
+ALPHA = 0.01
+
+
+def _f(x) -> float | None:
+    """A finite float or None (JSON never carries NaN/inf)."""
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return None
+    return x if math.isfinite(x) else None
+
+
+@dataclass(frozen=True)
+class RankEntry:
+    """One model compared in the diagnosis.
+
+    Attributes
+    ----------
+    effect
+        Effect name, ``"none"`` (the nominal model) or ``"discrepancy"`` (the flexible term).
+    weight
+        Cross-validation weight (0-1; the weights of all entries sum to 1).
+    holdout_rmse_before, holdout_rmse_after
+        Held-out RMS per channel of the nominal model and of this model (channel's unit).
+    shrink
+        ``1 - after/before`` of the noise-standardised held-out RMS pooled over the channels.
+    parameters
+        Fitted effect parameters ``{param: {value, stderr, ci95, identifiable, at_bound}}``: on all
+        the data for the verdict's effect, on the first training part (``fitted_on``) for the
+        other candidates; empty for ``none`` and ``discrepancy``.
+    screen
+        The score test of this candidate, when it is an effect.
+    converged
+        Whether every fit of this model converged.
+    """
+
+    effect: str
+    weight: float
+    holdout_rmse_before: dict[str, float]
+    holdout_rmse_after: dict[str, float]
+    shrink: float | None
+    parameters: dict
+    screen: Screen | None = None
+    converged: bool = True
+
+    def to_dict(self) -> dict:
+        """The JSON entry of DESIGN.md section 8."""
+        return {"effect": self.effect, "weight": float(self.weight),
+                "holdout_rmse_before": {k: _f(v) for k, v in self.holdout_rmse_before.items()},
+                "holdout_rmse_after": {k: _f(v) for k, v in self.holdout_rmse_after.items()},
+                "shrink": _f(self.shrink), "parameters": self.parameters, "converged": bool(self.converged)}
+
+
+@dataclass(frozen=True, eq=False)
+class Diagnosis:
+    """Outcome of :func:`diagnose`. Read ``report()``; ``to_json()`` is the CLI contract.
+
+    Attributes
+    ----------
+    verdict, confidence, reason
+        An effect name, ``"none"`` or ``"unexplained"``; the weight of the verdict (0-1); why.
+    ranking
+        :class:`RankEntry` per compared model, best first.
+    screens
+        Score test of every candidate.
+    confusable
+        ``[((a, b), correlation, experiment), ...]``: effects the data cannot tell apart.
+    localisation
+        :class:`~.gap.Segment` list sorted by share.
+    change
+        The time (or slip) window whose residual mean shifts most, or None.
+    whiteness, lags
+        Residual whiteness per channel; cross-correlation peaks of the residuals with the inputs.
+    noise
+        Noise floor per channel (channel's unit).
+    holdout_rmse_before, holdout_rmse_after, shrink
+        Held-out RMS per channel before and after the verdict's effect; ``1 - after/before``
+        (None for ``none`` and ``unexplained``).
+    soil_before, soil_after
+        Soil of the nominal fit and of the fit with the verdict's effect (None for ``none``).
+    gap_p_value
+        p-value of the nominal held-out error against the noise floor.
+    converged
+        Whether the fits the verdict rests on converged (the nominal model's and the verdict
+        effect's); a candidate whose fit failed only loses its weight. ``notes`` says which.
+    """
+
+    data_kind: str
+    n_samples: int
+    candidates: tuple[str, ...]
+    verdict: str
+    confidence: float
+    reason: str
+    ranking: tuple[RankEntry, ...]
+    screens: tuple[Screen, ...]
+    confusable: tuple
+    localisation: tuple[Segment, ...]
+    change: Any
+    whiteness: dict
+    lags: dict
+    noise: dict
+    holdout_rmse_before: dict
+    holdout_rmse_after: dict | None
+    shrink: float | None
+    soil_before: dict
+    soil_after: dict | None
+    gap_p_value: float
+    converged: bool
+    notes: tuple[str, ...] = ()
+    elapsed_s: float = 0.0
+    curves: dict = field(default_factory=dict, repr=False)
+
+    # ------------------------------------------------------------------ output
+    def to_dict(self) -> dict:
+        """The JSON object of DESIGN.md section 8 (never NaN: null instead)."""
+        return {
+            "verdict": self.verdict, "confidence": float(self.confidence), "reason": self.reason,
+            "ranking": [e.to_dict() for e in self.ranking],
+            "confusable": [list(p) for p, _, _ in self.confusable],
+            "confusable_detail": [{"effects": list(p), "correlation": _f(c), "experiment": x}
+                                  for p, c, x in self.confusable],
+            "localisation": [s.to_dict() for s in self.localisation],
+            "change_window": None if self.change is None else self.change.to_dict(),
+            "shrink": _f(self.shrink),
+            "holdout_rmse_before": {k: _f(v) for k, v in self.holdout_rmse_before.items()},
+            "holdout_rmse_after": None if self.holdout_rmse_after is None else
+            {k: _f(v) for k, v in self.holdout_rmse_after.items()},
+            "noise_floor": {k: _f(v) for k, v in self.noise.items()},
+            "gap_p_value": _f(self.gap_p_value),
+            "soil_before": self.soil_before, "soil_after": self.soil_after,
+            "screening": [s.to_dict() for s in self.screens],
+            "whiteness": self.whiteness, "lags": self.lags,
+            "data_kind": self.data_kind, "n_samples": int(self.n_samples), "candidates": list(self.candidates),
+            "converged": bool(self.converged), "notes": list(self.notes), "elapsed_s": _f(self.elapsed_s),
+        }
+
+    def to_json(self, indent: int | None = 2) -> str:
+        """:meth:`to_dict` as JSON."""
+        return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
+
+    def report(self) -> str:
+        """A plain-words report a terramechanics engineer reads."""
+        L = []
+        kind = "drive log" if self.data_kind == "drive" else "slip sweep"
+        L.append(f"Sim-to-real gap diagnosis of a {kind} ({self.n_samples} samples)")
+        L.append("")
+        head = {"none": "no gap beyond the noise", "unexplained": "a real gap that no candidate explains well"}
+        L.append(f"Verdict: {self.verdict} ({head.get(self.verdict, 'the effect that explains the gap best')}), "
+                 f"confidence {self.confidence:.2f}")
+        L.append(f"  why: {self.reason}")
+        if not self.converged:
+            L.append("  CAUTION: a fit the verdict rests on did not converge (see notes)")
+        L.append("")
+        if self.n_samples < MIN_SAMPLES:
+            L.append("In-sample residuals (too few samples to hold any out):")
+            for ch, v in self.holdout_rmse_before.items():
+                L.append(f"  {ch}: RMS {_fmt(v)}")
+            L.append("Score tests (little power with so few samples):")
+            for s in self.screens:
+                L.append(f"    {s.effect:<22s} LM = {s.statistic:6.2f} ({s.dof} dof), p = {s.p_value:.2g}")
+            L.append("")
+            L.append("Soil of the nominal fit: " + ", ".join(f"{k} {_fmt(v)}" for k, v in self.soil_before.items()
+                                                         if k not in ("identifiable", "converged")))
+            return "\n".join(L)
+        L.append("The gap (nominal model fitted on alternate blocks, predicting the blocks it did not see):")
+        for ch, v in self.holdout_rmse_before.items():
+            nf = self.noise.get(ch, 0.0)
+            ratio = f"{v / nf:.2f} x the noise floor {_fmt(nf)}" if nf > 0 else "noise floor unknown"
+            L.append(f"  {ch}: held-out RMS {_fmt(v)} = {ratio}")
+        L.append(f"  probability that pure noise leaves this much: {self.gap_p_value:.2g}")
+        L.append("")
+        L.append("Where it lies (share of the misfit above the noise; * = significant at 1 %):")
+        shown = [s for s in self.localisation if s.share >= 0.05][:8]
+        for s in shown:
+            rng = "whole channel" if s.range is None else f"{s.dimension} {_fmt(s.range[0])} to {_fmt(s.range[1])}"
+            L.append(f"  {'*' if s.significant else ' '} {s.share:5.1%}  {s.channel:<24s} {rng} "
+                     f"(mean residual {_fmt(s.mean)})")
+        if not shown:
+            L.append("  nowhere above the noise")
+        if self.change is not None:
+            c = self.change
+            what = "time" if self.data_kind == "drive" else "slip"
+            L.append(f"  {'a significant' if c.significant else 'no significant'} window in {what}: "
+                     f"{_fmt(c.start)} to {_fmt(c.end)} shifts the {c.channel} residual by {_fmt(c.shift)} "
+                     f"(p = {c.p_value:.2g})")
+        for ch, w in self.whiteness.items():
+            L.append(f"  residuals of {ch}: lag-1 autocorrelation {w['lag1']:.2f}, "
+                     f"{'white' if w['white'] else 'not white'} (Ljung-Box p = {w['p_value']:.2g})")
+        for key, lg in self.lags.items():
+            if abs(lg["lag"]) >= 2 and abs(lg["corr"]) > max(5 * lg["bound"], 2 * abs(lg["corr_at_0"])):
+                L.append(f"  {key}: cross-correlation peaks at lag {lg['lag']} samples ({lg['corr']:.2f}): "
+                         "a delay between the channels?")
+        L.append("")
+        L.append("Which effect (score test at the nominal fit, projected off the soil's sensitivities):")
+        for s in sorted(self.screens, key=lambda s: -s.statistic):
+            if not s.screenable:
+                L.append(f"    {s.effect:<22s} leaves no signature in these data")
+            else:
+                L.append(f"  {'*' if s.p_value < ALPHA / max(1, len(self.screens)) else ' '} {s.effect:<22s} "
+                         f"LM = {s.statistic:10.1f} ({s.dof} dof), p = {s.p_value:.2g}")
+        L.append("Compared on held-out data (weight = evidence from the blocks the fit did not see):")
+        for e in self.ranking:
+            sh = "" if e.shrink is None else f", held-out error shrinks by {e.shrink:.0%}"
+            L.append(f"  {e.effect:<22s} weight {e.weight:.3f}{sh}{'' if e.converged else ' (a fit did not converge)'}")
+            for p, d in e.parameters.items():
+                L.append(f"      {p} = {_fmt(d.get('value'))} +- {_fmt(d.get('stderr'))} "
+                         f"{'' if d.get('identifiable', True) else '(not identifiable)'}"
+                         f"{' (at a bound)' if d.get('at_bound') else ''}")
+        for (a, b), corr, exp in self.confusable:
+            cs = f" (correlation of their sensitivities {corr:.2f})" if corr is not None and math.isfinite(corr) else ""
+            L.append(f"  {a} and {b} cannot be told apart on these data{cs}; to separate them: {exp}")
+        if self.verdict not in ("none", "unexplained") and self.holdout_rmse_after is not None:
+            L.append("")
+            L.append(f"How far the gap shrinks with {self.verdict} (refitted on the training blocks only):")
+            for ch, b in self.holdout_rmse_before.items():
+                a = self.holdout_rmse_after.get(ch)
+                L.append(f"  {ch}: {_fmt(b)} -> {_fmt(a)}")
+            L.append(f"  shrink 1 - after/before = {self.shrink:.2f}")
+        L.append("")
+        L.append("Soil (identifiable quantities), nominal fit" + (" -> with the effect:" if self.soil_after else ":"))
+        for k, v in self.soil_before.items():
+            if k in ("identifiable", "converged"):
+                continue
+            after = "" if not self.soil_after else f" -> {_fmt(self.soil_after.get(k))}"
+            L.append(f"  {k}: {_fmt(v)}{after}")
+        if self.soil_after:
+            L.append("  (the change is the bias the missing effect caused in the nominal fit)")
+        for n in self.notes:
+            L.append(f"Note: {n}")
+        L.append(f"({self.elapsed_s:.1f} s)")
+        return "\n".join(L)
+
+    def plot(self, path: str) -> str:
+        """Save a figure: held-out residuals before/after with the noise band, localisation, weights."""
+        from .diagnosis_plot import plot_diagnosis
+
+        return plot_diagnosis(self, path)
+
+
+def _fmt(x) -> str:
+    if x is None:
+        return "n/a"
+    x = float(x)
+    if not math.isfinite(x):
+        return "n/a"
+    if x == 0:
+        return "0"
+    a = abs(x)
+    if a >= 1e4 or a < 1e-3:
+        return f"{x:.3g}" if 1e-3 <= a < 1e6 else f"{x:.3e}"
+    return f"{x:.4g}"
+
+
+# ----------------------------------------------------------------------------- helpers on fits
+def _subset(data, idx: np.ndarray):
+    return data.subset(np.asarray(idx))
+
+
+def _channels(res, data) -> dict[str, np.ndarray]:
+    """Residuals (measured - predicted) per channel at full length: NaN where the fit uses no sample.
+
+    A drive-log fit skips samples (standstill, braking, the first one); its residual model then
+    says which (``keep``), so that every value lands on its own sample.
+    """
+    m = data.n_samples
+    if isinstance(data, DriveLog) and getattr(res, "data_kind", None) == "drive":
+        try:
+            from .drivelog_residuals import drive_log_residuals
+        except ImportError:  # pragma: no cover - a build without drive-log residual channels
+            drive_log_residuals = None
+        if drive_log_residuals is not None:
+            if not res.success:
+                raise DataError("the fit did not succeed; it predicts nothing", file=data.source)
+            out = drive_log_residuals(res, data, res.vehicle, model=res.model)
+            keep = np.asarray(out["keep"])
+            idx = np.nonzero(keep)[0] if keep.dtype == bool else keep.astype(int)
+            full = {}
+            for k, v in out["channels"].items():
+                a = np.full(m, np.nan)
+                a[idx] = np.asarray(v, dtype=float).ravel()
+                full[k] = a
+            return full
+    out = {}
+    for k, v in res.residuals_on(data).items():
+        v = np.asarray(v, dtype=float).ravel()
+        if v.size < m:
+            v = np.concatenate([np.full(m - v.size, np.nan), v])
+        out[k] = v[-m:]
+    return out
+
+
+def _soil_summary(res) -> dict:
+    """The soil of a fit: values in kPa, deg, m (None where not identifiable), F_max, K."""
+    out: dict[str, Any] = {}
+    try:
+        params = res.parameters
+    except Exception:  # noqa: BLE001 - a failed fit may have no statistics
+        params = {}
+    keys = {"cohesion": "cohesion_kpa", "friction_angle": "friction_angle_deg", "shear_modulus": "shear_modulus_m"}
+    ident = {}
+    for name, key in keys.items():
+        pe = params.get(name)
+        if pe is None:
+            out[key] = None
+            continue
+        d = pe.to_dict()
+        out[key] = _f(d["value"]) if pe.identifiable or pe.fixed else None
+        ident[name] = bool(pe.identifiable)
+    try:
+        for cb in res.combinations:
+            if cb.name.startswith("F_max@"):
+                out.setdefault("max_thrust_N", _f(cb.value))
+    except Exception:  # noqa: BLE001
+        pass
+    out.setdefault("max_thrust_N", None)
+    out["identifiable"] = ident
+    out["converged"] = bool(getattr(res, "success", False))
+    return out
+
+
+def _effect_params(res, name: str) -> dict:
+    eff = getattr(res, "effects", {}) or {}
+    out = {}
+    for p, est in (eff.get(name) or {}).items():
+        if hasattr(est, "to_dict"):
+            d = est.to_dict()
+        elif isinstance(est, dict):
+            d = dict(est)
+        else:
+            d = {"value": est}
+        out[p] = {k: (_f(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v) for k, v in d.items()
+                  if k in ("value", "stderr", "ci95", "identifiable", "at_bound")}
+        if isinstance(out[p].get("ci95"), (list, tuple)):
+            out[p]["ci95"] = [_f(v) for v in out[p]["ci95"]]
+    return out
+
+
+def _order(data) -> np.ndarray:
+    """Natural order of the samples: time for a log, slip for a sweep."""
+    if isinstance(data, DriveLog):
+        return np.arange(data.n_samples)
+    return np.argsort(np.asarray(data.slip), kind="stable")
+
+
+def _variables(data, vehicle: Vehicle) -> dict[str, np.ndarray]:
+    """Localisation variables per sample: slip (apparent, from the speeds, for a log), speed, time."""
+    if isinstance(data, DriveLog):
+        v = np.asarray(data.vehicle_speed, dtype=float)
+        rw = vehicle.sprocket_radius * np.asarray(data.sprocket_speed, dtype=float)
+        slip = np.where(rw > 0.05 * max(1e-9, float(np.max(np.abs(rw)))), 1.0 - v / np.where(rw == 0, 1.0, rw), 0.0)
+        return {"time": np.asarray(data.time, dtype=float), "speed": v, "slip": np.clip(slip, -1.0, 1.0)}
+    return {"slip": np.asarray(data.slip, dtype=float)}
+
+
+def _check_candidates(candidates, data) -> tuple[str, ...]:
+    kind = "drive" if isinstance(data, DriveLog) else "sweep"
+    if candidates is None:
+        return tuple(n for n, e in EFFECTS.items() if kind in e.shows_in)
+    if isinstance(candidates, str):
+        candidates = [c for c in candidates.split(",") if c.strip()]
+    out = []
+    for c in candidates:
+        c = str(c).strip()
+        if c not in EFFECTS:
+            raise DataError(f"unknown candidate effect {c!r}; valid: {', '.join(EFFECTS)}")
+        if c not in out:
+            out.append(c)
+    return tuple(out)
+
+
+# ----------------------------------------------------------------------------- the diagnosis
+def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full",
+             candidates: Sequence[str] | None = None, n_blocks: int = 10, n_folds: int | None = None,
+             max_refits: int | None = None, alpha: float = ALPHA) -> Diagnosis:
+    """Diagnose the gap between the nominal model and a drive log or a slip sweep.
+
+    Parameters
+    ----------
+    data
+        A drive log or tractive-force / drawbar-pull sweep (from :func:`~soiltrack.soilmodel.read_csv`).
+    vehicle
+        The nominal vehicle.
+    model
+        ``"full"`` or ``"cohesion-free"``.
+    candidates
+        Effect names to consider (default: every effect that shows in this kind of data).
+    n_blocks
+        Number of contiguous blocks of the blocked hold-out (alternately held out).
+    n_folds
+        1 (fit on the even blocks, predict the odd ones) or 2 (and the other way round).
+        Default 2 for a sweep, 1 for a drive log (each drive-log fit costs seconds).
+    max_refits
+        At most this many candidates (the most significant in screening) are refitted; default
+        every significant one for a sweep (fits take milliseconds), 3 for a drive log.
+    alpha
+        Significance level (screening is Bonferroni-corrected over the candidates).
+
+    Returns
+    -------
+    Diagnosis
+
+    Raises
+    ------
+    DataError
+        Unknown candidate, wrong data type, too few samples for a blocked hold-out.
+    """
+    from .fitting import fit
+
+    t0 = time.perf_counter()
+    if not isinstance(data, (SlipData, DriveLog)):
+        raise DataError(f"diagnose takes SlipData or DriveLog, got {type(data).__name__}")
+    if not isinstance(vehicle, Vehicle):
+        raise DataError(f"vehicle must be a Vehicle, got {type(vehicle).__name__}")
+    cands = _check_candidates(candidates, data)
+    n = data.n_samples
+    is_log = isinstance(data, DriveLog)
+    if n < MIN_SAMPLES:
+        return _too_few(data, vehicle, model, cands, is_log, t0)
+    notes: list[str] = []
+
+    failed: list[str] = []
+
+    def run_fit(d, effects=(), fixed=None):
+        kw = {}
+        if is_log and not effects:
+            kw["hull_channel"] = True  # the nominal model on the same three channels as the candidates
+        if effects:
+            kw["effects"] = list(effects)
+        if fixed:
+            kw["fixed"] = dict(fixed)
+        res = fit(d, vehicle, model=model, **kw)
+        if not res.success:
+            failed.append(effects[0] if len(effects) == 1 else NOMINAL)
+        return res
+
+    # --- 1. screening: one fit with every candidate held at its off value -------------------------
+    lag = None if is_log else 0
+    kind = "drive" if is_log else "sweep"
+    outside = tuple(e for e, spec in EFFECTS.items() if kind in spec.shows_in and e not in cands)
+    nominal_full, all_screens = screen(data, vehicle, cands + outside, model=model, hac_lag=lag)
+    screens = [s for s in all_screens if s.effect in cands]
+    stat_cos = (nominal_full.extra or {}).get("screening_stationarity", 0.0) if nominal_full.success else 0.0
+    out_screens = [s for s in all_screens if s.effect in outside and s.screenable]
+    screenable = [s for s in screens if s.screenable]
+    thr = alpha / max(1, len(screenable))
+    significant = sorted((s for s in screenable if s.p_value < thr), key=lambda s: -s.statistic)
+
+    # --- 2. the gap: blocked hold-out ------------------------------------------------------------------
+    # every residual array is kept at full length n (NaN where the fit used no sample, e.g. a
+    # drive-log sample at standstill), so that held-out parts of the two folds fill one array
+    if not nominal_full.success:
+        return _nominal_failed(data, cands, screens, nominal_full, "on all the data", is_log, t0)
+    R = _channels(nominal_full, data)
+    channels = list(R)
+    order = _order(data)
+    noise, sig_n = {}, {}
+    for ch, rr in R.items():
+        ok = np.isfinite(rr)
+        o = order[ok[order]]
+        prof_o = noise_profile(rr[o])
+        if not np.all(prof_o > 0):  # a noise-free simulated run: a negligible floor instead of zero
+            scale = float(np.max(np.abs(rr[ok]))) if np.any(ok) else 0.0
+            prof_o = np.full(o.size, max(1e-12, 1e-9 * scale))
+            notes.append(f"no measurable noise in {ch}: the noise floor is set to a negligible value")
+        sg = np.full(n, np.nan)
+        sg[o] = prof_o
+        sig_n[ch] = sg
+        noise[ch] = float(np.sqrt(np.mean(prof_o ** 2))) if prof_o.size else 0.0
+    if stat_cos > 1e-2 and not any("no measurable noise" in t for t in notes):
+        notes.append(f"the screening fit's residuals are not orthogonal to the soil's sensitivities (cosine "
+                     f"{stat_cos:.2g}): its score tests are unreliable; the held-out comparison decides")
+    folds = [(np.sort(order[a]), np.sort(order[b])) for a, b in blocked_folds(n, n_blocks)]  # natural order
+    if n_folds is None:
+        n_folds = 1 if is_log else 2
+    folds = folds[:max(1, min(2, int(n_folds)))]
+    nat = "time" if is_log else "slip"
+    xnat = np.asarray(data.time if is_log else data.slip, dtype=float)
+    H: dict[str, dict[str, np.ndarray]] = {}  # model -> channel -> held-out residual per sample
+    train_fits: dict[str, list] = {}
+    train_res: dict[str, list[dict[str, np.ndarray]]] = {}
+
+    full_cache: dict[int, dict[str, np.ndarray]] = {}
+
+    def residuals_at(res, idx):
+        """Residuals of ``res`` on the samples ``idx``. For a log: evaluated once on the whole log and
+        picked (each sample's prediction uses the measured inputs at it and its predecessor, not
+        a neighbour across a gap of the subset; the fitted parameters saw only the training part)."""
+        if not is_log:
+            return _channels(res, _subset(data, idx))
+        if id(res) not in full_cache:
+            full_cache[id(res)] = _channels(res, data)
+        return {ch: full_cache[id(res)][ch][idx] for ch in channels}
+
+    def score_model(name, effects=()):
+        H[name] = {ch: np.full(n, np.nan) for ch in channels}
+        fits = []
+        for tr, te in folds:
+            res = run_fit(_subset(data, tr), effects)
+            fits.append(res)
+            try:
+                rt = residuals_at(res, te)
+            except DataError:
+                if name == NOMINAL:
+                    raise _NominalFailed(res) from None
+                # a failed candidate fit predicts nothing: it gets no weight
+                rt = {ch: np.full(te.size, np.inf) for ch in channels}
+                notes.append(f"the fit with {name} failed on a training part ({res.status}): it gets no weight")
+            for ch in channels:
+                H[name][ch][te] = rt[ch]
+            try:
+                train_res.setdefault(name, []).append(residuals_at(res, tr))
+            except DataError:
+                train_res.setdefault(name, []).append({ch: np.full(tr.size, np.nan) for ch in channels})
+        train_fits[name] = fits
+
+    try:
+        score_model(NOMINAL)
+    except _NominalFailed as e:
+        return _nominal_failed(data, cands, screens, e.res, "on a training part", is_log, t0)
+    # discrepancy term: spline in slip (sweep) or time (log) fitted to the nominal training residuals
+    n_knots = int(min(20, max(8, n // 150))) if is_log else int(max(2, min(12, n // 6)))
+
+    def with_discrepancy(name):
+        out = {ch: np.full(n, np.nan) for ch in channels}
+        for k, (tr, te) in enumerate(folds):
+            for ch in channels:
+                rtr = train_res[name][k][ch]
+                ok = np.isfinite(rtr)
+                if np.sum(ok) < 2:
+                    out[ch][te] = H[name][ch][te]
+                    continue
+                pred, _ = fit_discrepancy(xnat[tr][ok], rtr[ok], xnat[te], n_knots)
+                out[ch][te] = H[name][ch][te] - pred
+        return out
+
+    H[DISCREPANCY] = with_discrepancy(NOMINAL)
+    # which candidates to refit: none when nothing screens significant and the flexible term does not
+    # beat the nominal model; else the strongest by score (all of them for a sweep: its fits are cheap,
+    # and a local score test can miss an effect whose sensitivity at "off" is mostly the soil's)
+    ok_n = {ch: np.isfinite(H[NOMINAL][ch]) & (np.nan_to_num(sig_n[ch]) > 0) for ch in channels}
+    z_nom = np.concatenate([H[NOMINAL][ch][ok_n[ch]] / sig_n[ch][ok_n[ch]] for ch in channels])
+    z_dis = np.concatenate([H[DISCREPANCY][ch][ok_n[ch]] / sig_n[ch][ok_n[ch]] for ch in channels])
+    dm_lag = newey_west_lag(z_nom.size // max(1, len(channels))) if is_log else 0
+    gap_seen = dm_test(z_nom, z_dis, dm_lag) < alpha
+    if max_refits is None:
+        max_refits = 3 if is_log else len(screenable)
+    ranked = sorted(screenable, key=lambda s: -s.gain)  # by the cost drop a refit would give
+    refit = [s.effect for s in ranked[:max_refits]] if (significant or gap_seen) else []
+    if significant and len(ranked) > max_refits:
+        notes.append(f"the {max_refits} candidates with the strongest score were refitted ({', '.join(refit)})")
+    for c in refit:
+        score_model(c, (c,))
+
+    mask = {ch: np.isfinite(H[NOMINAL][ch]) & np.isfinite(sig_n[ch]) & (np.nan_to_num(sig_n[ch]) > 0)
+            for ch in channels}
+
+    def cat(name, ch):
+        return H[name][ch][mask[ch]]
+
+    def z(name, ch):
+        return cat(name, ch) / sig_n[ch][mask[ch]]
+
+    def zall(name):
+        return np.concatenate([z(name, ch) for ch in channels])
+
+    def ss(name):
+        v = zall(name)
+        return float(np.sum(v ** 2)) if np.all(np.isfinite(v)) else math.inf
+
+    def rmse(name):
+        return {ch: float(np.sqrt(np.mean(cat(name, ch) ** 2))) if np.any(mask[ch]) else math.nan for ch in channels}
+
+    n_held = int(sum(np.sum(mask[ch]) for ch in channels))
+    scores = {m: ss(m) for m in H}
+    # evidence correction: correlated residuals (logs) and residuals more dispersed than Gaussian noise
+    best_m = min(scores, key=lambda m: scores[m])
+    infl = max(long_run_factor(z(best_m, ch)) for ch in channels) if is_log else 1.0
+    infl *= max(1.0, float(np.var(zall(best_m) ** 2)) / 2.0)
+    blk = max(1, newey_west_lag(n_held // max(1, len(channels)))) if is_log else 1
+    weights = stacking_weights({m: -0.5 * zall(m) ** 2 if math.isfinite(scores[m]) else np.full(n_held, -np.inf)
+                                for m in H}, block=blk)
+    gap_p = gap_p_value(scores[NOMINAL], n_held, infl)
+    disc_beats = {m: dm_test(zall(m), zall(DISCREPANCY), dm_lag) for m in H if m != DISCREPANCY}
+    after_ratio = {c: max(float(np.sqrt(np.mean(z(c, ch) ** 2))) for ch in channels) for c in refit}
+    after_p = {c: gap_p_value(scores[c], n_held, infl) for c in refit}
+    # does the best candidate leave a smooth gap? (a flexible term on top of it still predicts better)
+    named = [m for m in refit if math.isfinite(scores[m])]
+    if named:
+        bc = max(named, key=lambda m: weights[m])
+        Hc = with_discrepancy(bc)
+        zc = np.concatenate([Hc[ch][mask[ch]] / sig_n[ch][mask[ch]] for ch in channels])
+        if np.all(np.isfinite(zc)) and dm_test(zall(bc), zc, dm_lag) < alpha:
+            after_ratio[bc] = max(after_ratio[bc], math.inf)
+            after_p[bc] = 0.0
+            notes.append(f"a flexible term on top of {bc} still predicts the held-out data significantly better: "
+                         f"{bc} leaves a smooth gap")
+    verdict = decide(weights, [s.effect for s in significant], disc_beats, after_ratio, after_p, alpha=alpha)
+
+    # --- 3. where: on the full-data nominal residuals (every sample; the gap is the nominal misfit) -----
+    common = np.logical_and.reduce([np.isfinite(R[ch]) & np.isfinite(sig_n[ch]) for ch in channels])
+    var_all = _variables(data, vehicle)
+    loc = localise({ch: R[ch][common] for ch in channels}, {ch: sig_n[ch][common] for ch in channels},
+                   {k: v[common] for k, v in var_all.items()}, alpha=alpha)
+    main = max(channels, key=lambda ch: float(np.mean((R[ch][common] / sig_n[ch][common]) ** 2)))
+    change = change_window(R[main][common], xnat[common], sig_n[main][common], channel=main, alpha=alpha)
+    white = {}
+    for ch in channels:
+        ok = np.isfinite(R[ch])
+        o = order[ok[order]]
+        white[ch] = whiteness(R[ch][o])
+    lags = {}
+    if is_log:
+        for ch in channels:
+            rr = np.nan_to_num(R[ch], nan=0.0, posinf=0.0, neginf=0.0)
+            for key, sig in (("vehicle_speed_m_s", data.vehicle_speed), ("sprocket_speed_rad_s", data.sprocket_speed),
+                             ("sprocket_torque_Nm", data.sprocket_torque)):
+                lags[f"{ch} vs d({key})/dt"] = lag_peak(rr, np.diff(np.asarray(sig, dtype=float), prepend=sig[0]))
+
+    # --- the verdict against the library effects that were not candidates ------------------------------
+    # the user may leave the true effect out; a candidate that merely imitates it must not be named
+    # with confidence. The strongest outside effects (by score) are refitted like the candidates and
+    # the verdict's confidence becomes its weight among all of them.
+    compared = list(H)
+    confidence = float(verdict.confidence)
+    outside_rivals = []
+    if verdict.name in refit and out_screens:
+        k_out = 2 if is_log else len(out_screens)
+        for sc in sorted(out_screens, key=lambda s: -s.gain)[:k_out]:
+            score_model(sc.effect, (sc.effect,))
+            scores[sc.effect] = ss(sc.effect)
+        w_ext = stacking_weights({m: -0.5 * zall(m) ** 2 if math.isfinite(scores[m]) else np.full(n_held, -np.inf)
+                                  for m in H}, block=blk)
+        confidence = min(confidence, w_ext[verdict.name])
+        for o in (m for m in H if m not in compared):
+            if w_ext[o] >= 0.2 * w_ext[verdict.name]:
+                outside_rivals.append(o)
+                notes.append(f"{o}, which is not among the candidates, predicts the held-out data "
+                             f"{'better' if w_ext[o] > w_ext[verdict.name] else 'about as well'} "
+                             f"(weight {w_ext[o]:.2f} against {w_ext[verdict.name]:.2f} among all library effects): "
+                             f"{verdict.name} is named with confidence {confidence:.2f} only")
+
+    # --- 4. ranking, confusable, shrink, soil -------------------------------------------------------------
+    before = rmse(NOMINAL)
+    ranking = []
+    full_fits = {}
+    for m in sorted(compared, key=lambda m: -weights[m]):
+        after = rmse(m)
+        zb = math.sqrt(scores[NOMINAL] / max(1, n_held))
+        za = math.sqrt(scores[m] / max(1, n_held)) if math.isfinite(scores[m]) else math.inf
+        shrink = None if m == NOMINAL or zb <= 0 or not math.isfinite(za) else 1.0 - za / zb
+        params = {}
+        conv = all(f.success for f in train_fits.get(m, []))
+        scr = next((s for s in screens if s.effect == m), None)
+        if m == verdict.name and m in refit:  # the verdict's effect: refitted on all the data (soil after, parameters)
+            full_fits[m] = run_fit(data, (m,))
+            params = _effect_params(full_fits[m], m)
+            conv = conv and full_fits[m].success
+        elif m in refit and train_fits.get(m):  # others: as fitted on the first training part (half the data)
+            params = {p: dict(v, fitted_on="training part A (half the data)")
+                      for p, v in _effect_params(train_fits[m][0], m).items()}
+        ranking.append(RankEntry(m, weights[m], before, after, shrink, params, scr, conv))
+    dirs = {s.effect: s.direction for s in all_screens}
+    conf = []
+    for (a, b), corr in confusable_groups({m: weights[m] for m in refit}, dirs, verdict=verdict.name):
+        conf.append(((a, b), corr, separating_experiment(a, b)))
+    for o in outside_rivals:
+        da, db = dirs.get(verdict.name), dirs.get(o)
+        corr = (float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db)))
+                if da is not None and db is not None and np.linalg.norm(da) * np.linalg.norm(db) > 0 else math.nan)
+        conf.append(((verdict.name, o), corr, separating_experiment(verdict.name, o)))
+    name = verdict.name
+    if name not in (NOMINAL, "unexplained") and any(name in p for p, _, _ in conf):
+        notes.append(f"{name} is named with low certainty: the data cannot tell it from "
+                     + ", ".join(x for p, _, _ in conf if name in p for x in p if x != name))
+    soil_before = _soil_summary(nominal_full)
+    if name in full_fits:
+        soil_after = _soil_summary(full_fits[name])
+        after_rmse = rmse(name)
+        shrink = next(e.shrink for e in ranking if e.effect == name)
+    elif name == "unexplained":
+        soil_after = None
+        after_rmse = rmse(DISCREPANCY)
+        shrink = None
+        notes.append("unexplained: 'after' is the flexible discrepancy term, which names no physics")
+    else:
+        soil_after, after_rmse, shrink = None, None, None
+    # the diagnosis stands on the nominal fits and on the verdict's: a candidate whose fit failed only
+    # loses its weight (said in the notes)
+    converged = bool(nominal_full.success) and NOMINAL not in failed and name not in failed
+    if not converged:
+        notes.append("a fit the verdict rests on did not converge (the nominal model's or the verdict's effect's)")
+    curves = {"held_x": {ch: xnat[mask[ch]] for ch in channels},
+              "before": {ch: cat(NOMINAL, ch) for ch in channels},
+              "after": {ch: cat(name if name in H else DISCREPANCY, ch) for ch in channels}
+              if name != NOMINAL else None,
+              "x_label": nat}
+    return Diagnosis(
+        data_kind="drive" if is_log else "sweep", n_samples=n, candidates=cands, verdict=name,
+        confidence=float(confidence), reason=verdict.reason, ranking=tuple(ranking), screens=tuple(screens),
+        confusable=tuple(conf), localisation=tuple(loc), change=change, whiteness=white, lags=lags, noise=noise,
+        holdout_rmse_before=before, holdout_rmse_after=after_rmse, shrink=shrink, soil_before=soil_before,
+        soil_after=soil_after if name not in (NOMINAL, "unexplained") else None, gap_p_value=gap_p,
+        converged=converged, notes=tuple(notes), elapsed_s=time.perf_counter() - t0, curves=curves)
+
+
+def _too_few(data, vehicle: Vehicle, model: str, cands: tuple[str, ...], is_log: bool, t0: float) -> Diagnosis:
+    """A diagnosis of data too small for a hold-out: the fit, its residuals, and what cannot be said."""
+    res, screens = screen(data, vehicle, cands, model=model, hac_lag=None if is_log else 0)
+    try:
+        rr = _channels(res, data) if res.success else {}
+    except DataError:
+        rr = {}
+    rms = {ch: float(np.sqrt(np.mean(v ** 2))) for ch, v in rr.items()}
+    n = data.n_samples
+    rel = ""
+    if not is_log and rr:
+        scale = float(np.sqrt(np.mean(np.asarray(data.tractive_force if hasattr(data, "tractive_force")
+                                                 else data.values, dtype=float) ** 2)))
+        rel = f" ({100 * next(iter(rms.values())) / scale:.2g} % of the measured force)" if scale > 0 else ""
+    reason = (f"{n} samples cannot show a gap: no block can be held out (a diagnosis needs at least "
+              f"{MIN_SAMPLES}), the noise cannot be estimated apart from the misfit, and with "
+              f"{min(n, 3)} soil directions fitted to {n} points almost nothing is left to test an effect; "
+              f"the in-sample RMS residual is {', '.join(_fmt(v) for v in rms.values()) or 'n/a'}{rel}. "
+              "'none' here means 'no evidence either way' (confidence 0), not 'no gap'")
+    return Diagnosis(
+        data_kind="drive" if is_log else "sweep", n_samples=n, candidates=cands, verdict=NOMINAL, confidence=0.0,
+        reason=reason, ranking=(RankEntry(NOMINAL, 1.0, rms, rms, None, {}, None, bool(res.success)),),
+        screens=tuple(screens), confusable=(), localisation=(), change=None, whiteness={}, lags={},
+        noise={ch: 0.0 for ch in rms}, holdout_rmse_before=rms, holdout_rmse_after=None, shrink=None,
+        soil_before=_soil_summary(res), soil_after=None, gap_p_value=1.0, converged=bool(res.success),
+        notes=(f"only {n} samples: the 'held-out' errors are in-sample residuals",),
+        elapsed_s=time.perf_counter() - t0, curves={})
+
+
+class _NominalFailed(Exception):
+    def __init__(self, res):
+        super().__init__(getattr(res, "status", "failed"))
+        self.res = res
+
+
+def _nominal_failed(data, cands, screens, res, where: str, is_log: bool, t0: float) -> Diagnosis:
+    """No diagnosis without a nominal fit: say so (verdict ``unexplained``, confidence 0, not converged)."""
+    reason = (f"the nominal model could not be fitted {where} ({getattr(res, 'status', 'failed')}: "
+              f"{getattr(res, 'message', '')}); without it there is no gap to explain")
+    return Diagnosis(
+        data_kind="drive" if is_log else "sweep", n_samples=data.n_samples, candidates=cands, verdict="unexplained",
+        confidence=0.0, reason=reason, ranking=(), screens=tuple(screens), confusable=(), localisation=(),
+        change=None, whiteness={}, lags={}, noise={}, holdout_rmse_before={}, holdout_rmse_after=None, shrink=None,
+        soil_before=_soil_summary(res), soil_after=None, gap_p_value=1.0, converged=False, notes=(reason,),
+        elapsed_s=time.perf_counter() - t0, curves={})

@@ -1,0 +1,40 @@
+"""``soiltrack diagnose``: the sim-to-real gap of a CSV against the nominal model (DESIGN.md section 8)."""
+from __future__ import annotations
+
+import argparse
+
+from .cliutil import EXIT_OK, EXIT_SOLVER, vehicle_arg
+
+
+def _cmd_diagnose(a: argparse.Namespace) -> int:
+    from .identify import diagnose
+    from .soilmodel import read_csv
+
+    vehicle = vehicle_arg(a.vehicle)
+    data = read_csv(a.data)
+    cands = None
+    if a.candidates is not None:
+        cands = [c.strip() for c in a.candidates.split(",") if c.strip()]
+        if not cands:
+            from .soilmodel import DataError
+
+            raise DataError(f"--candidates expects comma-separated effect names, got {a.candidates!r}")
+    d = diagnose(data, vehicle, model=a.model, candidates=cands)
+    print(d.to_json() if a.json else d.report())
+    if a.plot:
+        d.plot(a.plot)
+    return EXIT_OK if d.converged else EXIT_SOLVER
+
+
+def add_parser(sub) -> None:
+    """Register the ``diagnose`` subcommand on an argparse subparsers object."""
+    p = sub.add_parser("diagnose", help="where a model and measured data part, which unmodelled effect explains "
+                                        "it, and how far the gap shrinks (slip sweep or drive log)")
+    p.add_argument("data", help="CSV: slip,tractive_force_N|drawbar_pull_N[,normal_load_N] or a drive log")
+    p.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")
+    p.add_argument("--model", choices=("full", "cohesion-free"), default="full")
+    p.add_argument("--candidates", metavar="A,B,...",
+                   help="candidate effects (default: every effect that shows in this kind of data)")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
+    p.add_argument("--plot", metavar="PNG", help="save a figure of the held-out residuals, weights and localisation")
+    p.set_defaults(func=_cmd_diagnose)

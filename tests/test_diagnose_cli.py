@@ -1,0 +1,40 @@
+"""``soiltrack diagnose``: bad input exits 2 with the file, column or argument named and no traceback."""
+import os
+
+import pytest
+
+from soiltrack.cli import main
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+WONG = os.path.join(ROOT, "examples", "data", "wong2001_p176.csv")
+
+
+def _csv(tmp_path, text, name="d.csv"):
+    p = tmp_path / name
+    p.write_text(text)
+    return str(p)
+
+
+@pytest.mark.parametrize("text,needle", [
+    ("slip,force\n0.1,100\n0.2,200\n", "tractive_force_N"),                     # wrong column
+    ("slip,tractive_force_N\n0.1,100\n0.2,nan\n", "row"),                        # NaN, row named
+    ("slip,tractive_force_N\n0.1,100\n1.2,200\n", "slip"),                       # slip outside [0, 1)
+    ("time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s\n0,1,1,0.1\n0,1,1,0.1\n", "time_s"),
+])
+def test_bad_data_exits_2_naming_the_problem(tmp_path, capsys, text, needle):
+    path = _csv(tmp_path, text)
+    assert main(["diagnose", path, "--vehicle", "heavy", "--json"]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and needle in err and "d.csv" in err
+
+
+def test_bad_arguments_exit_2(tmp_path, capsys):
+    assert main(["diagnose", WONG, "--vehicle", "heavy", "--candidates", "grade,warp_drive"]) == 2
+    err = capsys.readouterr().err
+    assert "warp_drive" in err and "grade" in err
+    assert main(["diagnose", WONG, "--vehicle", "no_such_vehicle.json"]) == 2
+    assert "no_such_vehicle.json" in capsys.readouterr().err
+    assert main(["diagnose", str(tmp_path / "missing.csv"), "--vehicle", "heavy"]) == 2
+    assert "missing.csv" in capsys.readouterr().err
+    assert main(["diagnose", WONG, "--vehicle", "heavy", "--candidates", ","]) == 2
+    assert "--candidates" in capsys.readouterr().err
