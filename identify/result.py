@@ -37,9 +37,13 @@ __all__ = ["FitResult", "ParameterEstimate", "Combination", "build_result", "bui
 class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
     """Outcome of a soil-parameter identification (in the spirit of scipy's ``OptimizeResult``).
 
-    Eagerly stored: the optimum, residuals, solver status and the linear-algebra core of the
-    uncertainty analysis. Derived views (``parameters``, ``combinations``, ``identifiability``,
-    ``warnings``, ``soil``, ``report()``, ``to_dict()``) are computed on first access.
+    Eagerly stored: the optimum, residuals and the solver status with everything that decides
+    it (finite numbers, the plausibility checks). The core statistics (``rank``, ``dof``,
+    ``cost``, ``s2``, the SVD of the scaled Jacobian) and the views built on them
+    (``parameters``, ``combinations``, ``identifiability``, ``covariance``, ``warnings``,
+    ``soil``, ``report()``, ``to_dict()``) are computed on first access, from the stored
+    Jacobian and residuals, and then kept: the same numbers whenever (and whether) they are read.
+    A pickled result carries what was computed and computes the rest after unpickling.
 
     Attributes
     ----------
@@ -87,12 +91,11 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
     solve_time: float
     sigma_known: bool
     rmse: float
-    cost: float
-    rank: int
-    dof: int
-    s2: float | None
     free: tuple[int, ...]
-    _core: tuple = field(repr=False)  # (batched core statistics dict, index of this fit)
+    #: ``(batched core statistics dict, index of this fit)`` when built in a batch, else None:
+    #: computed from ``jacobian`` and ``weighted_residuals`` on first use (:attr:`_stats`).
+    _core: Any = field(default=None, repr=False)
+    _finite: bool = field(default=True, repr=False)  # theta, residuals (and effects) finite
     input_warnings: tuple[str, ...] = ()
     extra: dict = field(default_factory=dict)
     effect_labels: tuple[str, ...] = ()
@@ -105,41 +108,82 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
     residual_model: Any = None
 
     def __getstate__(self) -> dict:
-        """Pickle only this fit's slice of the (possibly batched) core statistics."""
+        """Pickle only this fit's slice of batched core statistics (never computed ones: they follow)."""
         state = dict(self.__dict__)
-        core, k = self._core
-        if next(iter(core.values())).shape[0] != 1:
-            state["_core"] = ({key: v[k:k + 1] for key, v in core.items()}, 0)
+        for key in ("_core", "_stats"):
+            ck = state.get(key)
+            if ck is not None and next(iter(ck[0].values())).shape[0] != 1:
+                core, k = ck
+                state[key] = ({name: v[k:k + 1] for name, v in core.items()}, 0)
         return state
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
 
+    # ---------------------------------------------------------------------------- core statistics (lazy)
+    @cached_property
+    def _stats(self) -> tuple[dict, int]:
+        """``(core statistics dict, index)``: the batch's, or computed now from this fit's Jacobian.
+
+        Nothing that decides ``success`` or ``status`` reads it: a fit that is never inspected
+        never pays for the SVD.
+        """
+        if self._core is not None:
+            return self._core
+        J = self.jacobian
+        cols = J[:, self.free[0]:] if not self.effect_labels else J[:, list(self.free)]
+        return _core_stats_one(cols, self.weighted_residuals, self.sigma_known), 0
+
+    @cached_property
+    def rank(self) -> int:
+        """Rank of the column-scaled Jacobian of the free parameters (identifiable directions)."""
+        core, k = self._stats
+        return int(core["rank"][k])
+
+    @cached_property
+    def dof(self) -> int:
+        """Residual degrees of freedom ``n - rank``."""
+        core, k = self._stats
+        return int(core["dof"][k])
+
+    @cached_property
+    def cost(self) -> float:
+        """``0.5 * sum(weighted_residuals**2)``."""
+        core, k = self._stats
+        return 0.5 * float(core["ssr"][k])
+
+    @cached_property
+    def s2(self) -> float | None:
+        """Residual variance factor of the covariance (1 with known sigma), None when undefined."""
+        core, k = self._stats
+        s2 = float(core["s2"][k])
+        return s2 if math.isfinite(s2) and self._finite else None
+
     # per-fit views of the (possibly batched) core statistics, taken on first use
     @cached_property
     def scaled_singular_values(self) -> np.ndarray:
         """Singular values of the column-scaled Jacobian, relative to the largest (descending)."""
-        return self._core[0]["S"][self._core[1]]
+        return self._stats[0]["S"][self._stats[1]]
 
     @cached_property
     def _V(self) -> np.ndarray:
-        return self._core[0]["V"][self._core[1]]
+        return self._stats[0]["V"][self._stats[1]]
 
     @cached_property
     def _D(self) -> np.ndarray:
-        return self._core[0]["D"][self._core[1]]
+        return self._stats[0]["D"][self._stats[1]]
 
     @cached_property
     def _Dok(self) -> np.ndarray:
-        return self._core[0]["Dok"][self._core[1]]
+        return self._stats[0]["Dok"][self._stats[1]]
 
     @cached_property
     def _Pinv(self) -> np.ndarray:
-        return self._core[0]["Pinv"][self._core[1]]
+        return self._stats[0]["Pinv"][self._stats[1]]
 
     @cached_property
     def _nonnull(self) -> np.ndarray:
-        return self._core[0]["nonnull"][self._core[1]]
+        return self._stats[0]["nonnull"][self._stats[1]]
 
     # ---------------------------------------------------------------------------- basics
     @property
@@ -250,7 +294,7 @@ def _free_indices(model: str) -> tuple[int, ...]:
     raise ValueError(f"unknown model {model!r}")
 
 
-def _assemble(core: dict, k: int, *, data_kind, model, method, theta, jacobian, weighted_residuals, residuals,
+def _assemble(*, data_kind, model, method, theta, jacobian, weighted_residuals, residuals,
               residual_unit, n_samples, normal_loads, vehicle, bounds, status, success, message, iterations,
               solve_time, sigma_known, warnings, extra, free, **effect_fields) -> FitResult:
     res = np.asarray(residuals, dtype=float)
@@ -258,22 +302,20 @@ def _assemble(core: dict, k: int, *, data_kind, model, method, theta, jacobian, 
     ev = effect_fields.get("effect_values")
     finite = bool(np.isfinite(theta).all() and np.isfinite(res).all() and np.isfinite(rw).all()
                   and (ev is None or np.isfinite(ev).all()))
-    warn = list(warnings)
+    warn = tuple(warnings)
     if not finite:
         success = False
         status = status if "non-finite" in status else f"{status} (non-finite numbers)"
-        warn.append("the solver returned non-finite numbers; no estimate is given")
-    s2 = float(core["s2"][k])
+        warn += ("the solver returned non-finite numbers; no estimate is given",)
+    rv = res.ravel()
     return FitResult(
         data_kind=data_kind, model=model, method=method, theta=theta, jacobian=jacobian,
         weighted_residuals=rw, residuals=res, residual_unit=residual_unit, n_samples=int(n_samples),
         normal_loads=normal_loads, vehicle=vehicle, bounds=bounds, status=str(status), success=bool(success),
         message=str(message), iterations=int(iterations), solve_time=float(solve_time),
         sigma_known=bool(sigma_known),
-        rmse=math.sqrt(float(np.dot(res.ravel(), res.ravel())) / res.size) if res.size else math.nan,
-        cost=0.5 * float(core["ssr"][k]), rank=int(core["rank"][k]), dof=int(core["dof"][k]),
-        s2=s2 if math.isfinite(s2) and finite else None, free=free, _core=(core, k),
-        input_warnings=tuple(warn), extra=dict(extra or {}), **effect_fields)
+        rmse=math.sqrt(float(np.dot(rv, rv)) / res.size) if res.size else math.nan,
+        free=free, _finite=finite, input_warnings=warn, extra=dict(extra or {}), **effect_fields)
 
 
 _distinct_loads = distinct_loads
@@ -368,10 +410,7 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
                              effect_bounds=tuple((float(a), float(b)) for a, b in effect_bounds),
                              effect_units=tuple(effect_units), effect_structure=effect_structure,
                              fixed_labels=fixed_labels)
-        core = _core_stats_one(J[:, list(free)], rw, sigma_known)
-    else:
-        core = _core_stats_one(J[:, free[0]:], rw, sigma_known)  # free = (0, 1, 2) or (1, 2)
-    return _assemble(core, 0, data_kind=data_kind, model=model, method=method, theta=theta, jacobian=J,
+    return _assemble(data_kind=data_kind, model=model, method=method, theta=theta, jacobian=J,
                      weighted_residuals=rw, residuals=residuals, residual_unit=residual_unit, n_samples=n_samples,
                      normal_loads=_distinct_loads(normal_loads), vehicle=vehicle, bounds=bounds, status=status,
                      success=success, message=message, iterations=iterations, solve_time=solve_time,
@@ -404,33 +443,28 @@ def build_results_batch(*, model: str, method: str, theta: np.ndarray, jacobian:
     core = _core_stats(J[:, :, list(free)], rw, np.array(free), sigma_known)
     finite = np.all(np.isfinite(theta), axis=1) & np.all(np.isfinite(res), axis=1) & np.all(np.isfinite(rw), axis=1)
     rmse = np.sqrt(np.mean(res ** 2, axis=1))
-    cost = 0.5 * core["ssr"]
-    s2 = core["s2"]
     W = np.sort(np.asarray(normal_loads, dtype=float), axis=1)
     keep = np.concatenate([np.ones((N, 1), bool), np.diff(W, axis=1) > LOAD_RTOL * np.abs(W[:, 1:])], axis=1)
     single = keep.sum(axis=1) == 1
     # per-row views and Python scalars prepared in bulk (iteration over an array is a C loop)
     ok_l = (np.asarray(success, dtype=bool) & finite).tolist()
     fin_l = finite.tolist()
-    s2_l = np.where(np.isfinite(s2) & finite, s2, np.nan).tolist()
     loads_l = [W[k, :1] if single[k] else W[k][keep[k]] for k in range(N)] if not single.all() else list(W[:, :1])
     rows = zip(list(theta), list(J), list(rw), list(res), loads_l, ok_l, fin_l, status, message,
-               np.asarray(iterations).tolist(), np.asarray(solve_time, dtype=float).tolist(), rmse.tolist(),
-               cost.tolist(), core["rank"].tolist(), core["dof"].tolist(), s2_l, range(N),
+               np.asarray(iterations).tolist(), np.asarray(solve_time, dtype=float).tolist(), rmse.tolist(), range(N),
                extra if extra is not None else [None] * N)
     out = []
     new = object.__new__
     sk = bool(sigma_known)
     nonfinite = ("the solver returned non-finite numbers; no estimate is given",)
-    for (th, Jk, rwk, rk, Wk, ok, fin, st, msg, it, stime, rm, co, rank, dof, s2k, k, ex) in rows:
+    for (th, Jk, rwk, rk, Wk, ok, fin, st, msg, it, stime, rm, k, ex) in rows:
         obj = new(FitResult)
         obj.__dict__.update(
             data_kind="slip", model=model, method=method, theta=th, jacobian=Jk, weighted_residuals=rwk,
             residuals=rk, residual_unit="N", n_samples=n, normal_loads=Wk, vehicle=vehicle, bounds=bounds,
             status=str(st) if fin else f"{st} (non-finite numbers)", success=ok, message=str(msg), iterations=it,
-            solve_time=stime, sigma_known=sk, rmse=rm, cost=co, rank=rank, dof=dof,
-            s2=None if s2k != s2k else s2k, free=free, _core=(core, k), input_warnings=(() if fin else nonfinite)
-            + (tuple(warnings[k]) if warnings is not None else ()),
+            solve_time=stime, sigma_known=sk, rmse=rm, free=free, _core=(core, k), _finite=fin,
+            input_warnings=(() if fin else nonfinite) + (tuple(warnings[k]) if warnings is not None else ()),
             extra=dict(ex) if ex else {}, measured=measured, residual_model=residual_model)
         out.append(obj)
     return out
