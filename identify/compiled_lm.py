@@ -72,9 +72,10 @@ from functools import lru_cache
 import casadi as ca
 import numpy as np
 
-from ..soilmodel.traction import max_thrust_expr, thrust_expr
+from ..soilmodel.traction import max_thrust_expr, thrust_expr, thrust_function
 from . import jitcache
 from .ipopt_fit import _one_load  # the one test of "a single normal load"
+from .plausibility import corner_soils
 from .problem import SCALE, SlipProblem, ridge_centre
 from .result import FitResult, build_result
 
@@ -303,13 +304,24 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
 
 
 def resjac_function(model: str, n: int) -> ca.Function:
-    """``[theta (3), d (4n+2)] -> [r (n), J (n x 3, column-major)]`` of Eq. 2/8 by AD (``J = w dF/dtheta``)."""
+    """``[theta (3), d (4n+2), corners (6)] -> [r (n), J (n x 3, column-major), F_weak (n), F_strong (n)]``.
+
+    Residuals and ``J = w dF/dtheta`` of Eq. 2/8 by AD, and the thrust of the weakest and the
+    strongest soil within the bounds (``corners = [c, phi, K]`` of each,
+    :func:`~soiltrack.identify.plausibility.corner_soils`) at every sample: the curves the
+    plausibility checks compare the data with (:func:`~soiltrack.identify.plausibility.assess`).
+    """
     pt = _resjac_point(model).map("resjac", "serial", n, [0, 5, 6], [])
-    xin = ca.MX.sym("x", 3 + 4 * n + 2)
-    th, d = xin[0:3], xin[3:]
-    out = pt(th, *(d[k * n:(k + 1) * n].T for k in range(4)), d[4 * n], d[4 * n + 1])  # 4 x n
+    thr = thrust_function(model).map("corner_curves", "serial", n, [1, 2, 3, 5, 6], [])
+    xin = ca.MX.sym("x", 3 + 4 * n + 2 + 6)
+    th, d, cr = xin[0:3], xin[3:3 + 4 * n + 2], xin[3 + 4 * n + 2:]
+    rows = [d[k * n:(k + 1) * n].T for k in range(4)]
+    l, b = d[4 * n], d[4 * n + 1]
+    out = pt(th, *rows, l, b)  # 4 x n
+    weak = thr(rows[0], cr[0], cr[1], cr[2], rows[2], l, b)
+    strong = thr(rows[0], cr[3], cr[4], cr[5], rows[2], l, b)
     return ca.Function(f"soilfit_resjac_{model.replace('-', '_')}_{n}", [xin],
-                       [ca.densify(ca.vertcat(out[0, :].T, ca.vec(out[1:4, :].T)))], ["x"], ["y"])
+                       [ca.densify(ca.vertcat(out[0, :].T, ca.vec(out[1:4, :].T), weak.T, strong.T))], ["x"], ["y"])
 
 
 class _Caller:
@@ -438,7 +450,8 @@ class Solution:
 
     ``certified``: the first-order conditions with bounds hold (checked here from the
     Function's outputs). ``residuals`` (N) and ``jacobian`` (``w dF/dtheta``, n x 3) are at
-    ``theta`` (the reported point; for one-load full data the ridge marker).
+    ``theta`` (the reported point; for one-load full data the ridge marker); ``curves`` are the
+    weakest and strongest soil's thrust at each sample (N) for the plausibility checks.
     """
 
     theta: np.ndarray
@@ -453,6 +466,7 @@ class Solution:
     engine: str
     backend: str
     call_time: float
+    curves: tuple | None = None
 
 
 def _variant(pb: SlipProblem) -> tuple[int, bool, str]:
@@ -592,14 +606,17 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
                               pb.vehicle.contact_area, pb.bounds)
         theta[0], theta[1] = float(c), float(phi)
     r = J = np.empty(0)
-    if ok:  # residuals and Jacobian at the reported point (AD of Eq. 2/8)
+    curves = None
+    if ok:  # residuals and Jacobian at the reported point (AD of Eq. 2/8), the plausibility curves
         n = pb.n
-        rj = k.resjac(np.concatenate((theta, d)))
+        weak, strong = corner_soils(pb.bounds, pb.model)
+        rj = k.resjac(np.concatenate((theta, d, weak, strong)))
         r = rj[0:n]
-        J = rj[nc:].reshape(3, nc)[:, 0:n].T
+        J = rj[nc:4 * nc].reshape(3, nc)[:, 0:n].T
+        curves = (rj[4 * nc:4 * nc + n], rj[5 * nc:5 * nc + n])
     return Solution(theta=theta, certified=ok, iterations=iters, start=_theta_si(yl[2 * p + 3:3 * p + 3], p),
                     residuals=r, jacobian=J, z=np.array(z), p=p, one_load=one_load, engine=cs.engine,
-                    backend=cs.backend, call_time=t_call)
+                    backend=cs.backend, call_time=t_call, curves=curves)
 
 
 def solve_many(pbs: list, n_grid: int = 25, jit: str = "wait") -> list[Solution]:
@@ -656,8 +673,9 @@ def solve_many(pbs: list, n_grid: int = 25, jit: str = "wait") -> list[Solution]
                 W0, A = float(pb.load[0]), pb.vehicle.contact_area
                 c, phi = ridge_centre(max_thrust_expr(0.0, theta[r, 1], W0, A, "cohesion-free"), W0, A, pb.bounds)
                 theta[r, 0], theta[r, 1] = float(c), float(phi)
-        RJ = _run_rows(cr, np.concatenate((theta, X[:, 0:o]), axis=1))
-        J = RJ[:, nc:].reshape(N, 3, nc)[:, :, 0:n].transpose(0, 2, 1)
+        corners = np.array([[v for c in corner_soils(pb.bounds, pb.model) for v in c] for pb in P])
+        RJ = _run_rows(cr, np.concatenate((theta, X[:, 0:o], corners), axis=1))
+        J = RJ[:, nc:4 * nc].reshape(N, 3, nc)[:, :, 0:n].transpose(0, 2, 1)
         iters = [int(v) if math.isfinite(v) else -1 for v in Y[:, 2 * p + 2].tolist()]
         empty = np.empty(0)
         for r, i in enumerate(idx):
@@ -666,7 +684,8 @@ def solve_many(pbs: list, n_grid: int = 25, jit: str = "wait") -> list[Solution]
                               start=_theta_si(Y[r, 2 * p + 3:3 * p + 3], p),
                               residuals=RJ[r, 0:n].copy() if ok else empty, jacobian=J[r].copy() if ok else empty,
                               z=Z[r].copy(), p=p, one_load=one_load, engine=cs.engine, backend=cs.backend,
-                              call_time=math.nan)
+                              call_time=math.nan,
+                              curves=(RJ[r, 4 * nc:4 * nc + n].copy(), RJ[r, 5 * nc:5 * nc + n].copy()) if ok else None)
     return out  # type: ignore[return-value]
 
 
@@ -735,7 +754,7 @@ def result_of(pb: SlipProblem, sol: Solution, x0, solve_time: float) -> FitResul
                         bounds=pb.bounds, status="converged", success=True, message=message_of(sol, x0),
                         iterations=sol.iterations, solve_time=solve_time, sigma_known=pb.sigma_known,
                         warnings=pb.noise_warning(sol.residuals), extra={**extra_of(sol), "sigma_model": pb.noise_model},
-                        **pb.result_kwargs())
+                        **pb.result_kwargs(sol.curves))
 
 
 def hand_over(pb: SlipProblem, sol: Solution, x0, n_grid: int, ipopt_options: dict | None, t0: float,

@@ -30,12 +30,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..soilmodel.soil import Soil, SoilBounds
-from ..soilmodel.traction import max_thrust, thrust_at
+from ..soilmodel.traction import max_thrust_expr, thrust_at
 from ..soilmodel.vehicle import Vehicle
 from .estimate_types import format_force
 
-__all__ = ["Finding", "fmax_range", "check_slip_data", "check_slip_fit", "assess", "SCALE_FACTOR", "OUTLIER_Z", "OUTLIER_SHARE",
-           "GROSS_Z", "GROSS_SHARE", "RESIDUAL_RATIO", "BOUND_FACTOR"]
+__all__ = ["Finding", "fmax_range", "corner_soils", "corner_curves", "check_slip_data", "check_slip_fit", "assess",
+           "SCALE_FACTOR", "OUTLIER_Z", "OUTLIER_SHARE", "GROSS_Z", "GROSS_SHARE", "RESIDUAL_RATIO", "BOUND_FACTOR"]
 
 #: Data this many times below the weakest soil (median over the samples) or a row this many times
 #: above the strongest are not a soil within the bounds.
@@ -85,20 +85,74 @@ def _rows(idx, limit: int = 5) -> str:
     return text + (f" and {len(rows) - limit} more" if len(rows) > limit else "")
 
 
+def corner_soils(bounds: SoilBounds, model: str) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """``[c, phi, K]`` (SI) of the weakest (c, phi low, K high) and strongest (c, phi high, K low) soil
+    within the bounds (c = 0 for the cohesion-free model)."""
+    cf = model == "cohesion-free"
+    return ((0.0 if cf else float(bounds.cohesion[0]), float(bounds.friction_angle[0]), float(bounds.shear_modulus[1])),
+            (0.0 if cf else float(bounds.cohesion[1]), float(bounds.friction_angle[1]), float(bounds.shear_modulus[0])))
+
+
 def _corner(bounds: SoilBounds, weakest: bool, model: str) -> Soil:
-    """The weakest (c, phi low, K high) or strongest (c, phi high, K low) soil within the bounds."""
-    k = 0 if weakest else 1
-    c = 0.0 if model == "cohesion-free" else bounds.cohesion[k]
-    return Soil(c, bounds.friction_angle[k], bounds.shear_modulus[1 - k])
+    """The weakest or strongest soil within the bounds, as a :class:`Soil`."""
+    return Soil(*corner_soils(bounds, model)[0 if weakest else 1])
 
 
 def fmax_range(bounds: SoilBounds, vehicle: Vehicle, model: str, normal_load: float) -> tuple[float, float]:
     """Smallest and largest thrust limit F_max (N) that soils within the bounds give at this load."""
-    return (float(max_thrust(_corner(bounds, True, model), vehicle, model, normal_load=float(normal_load))),
-            float(max_thrust(_corner(bounds, False, model), vehicle, model, normal_load=float(normal_load))))
+    weak, strong = corner_soils(bounds, model)
+    W, A = float(normal_load), vehicle.contact_area
+    return float(max_thrust_expr(weak[0], weak[1], W, A, model)), float(max_thrust_expr(strong[0], strong[1], W, A, model))
 
 
-def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: SoilBounds) -> list[Finding]:
+def corner_curves(slip, load, vehicle: Vehicle, model: str, bounds: SoilBounds) -> tuple[np.ndarray, np.ndarray]:
+    """Thrust (N) of the weakest and of the strongest soil within the bounds at each sample (one CasADi call).
+
+    The compiled engine computes the same curves in its residual Function and passes them to
+    :func:`assess` (``curves``), which then skips this call.
+    """
+    slip, load = np.asarray(slip, dtype=float).ravel(), np.asarray(load, dtype=float).ravel()
+    n = slip.size
+    weak, strong = corner_soils(bounds, model)
+    both = thrust_at(np.tile(slip, 2), np.repeat([weak[0], strong[0]], n), np.repeat([weak[1], strong[1]], n),
+                     np.repeat([weak[2], strong[2]], n), np.tile(load, 2), vehicle, model)
+    return both[:n], both[n:]
+
+
+def _median(x: np.ndarray) -> float:
+    """``np.median`` of a 1-D array, the same number without its generic machinery (NaN if any is NaN)."""
+    n = x.size
+    h = n // 2
+    if n % 2:
+        part = np.partition(x, h)
+        m = float(part[h])
+    else:
+        part = np.partition(x, (h - 1, h))
+        m = (float(part[h - 1]) + float(part[h])) / 2.0
+    return math.nan if math.isnan(float(np.add.reduce(x))) else m
+
+
+def _quantile(x: np.ndarray, q: float) -> float:
+    """``np.quantile(x, q)`` (linear interpolation) of a finite 1-D array, the same arithmetic as numpy's."""
+    n = x.size
+    virtual = (n - 1) * q
+    if virtual >= n - 1:
+        return float(np.max(x))
+    lo = int(math.floor(virtual))
+    t = virtual - lo
+    part = np.partition(x, (lo, lo + 1))
+    a, b = part[lo], part[lo + 1]
+    d = b - a
+    return float(b - d * (1 - t)) if t >= 0.5 else float(a + d * t)
+
+
+def _mean_square(x: np.ndarray) -> float:
+    """``np.mean(x ** 2)`` (the same sum and division)."""
+    return float(np.add.reduce(x * x)) / x.size
+
+
+def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: SoilBounds,
+                    curves: tuple | None = None) -> list[Finding]:
     """Checks that need no fit: the force scale against the bounds, and negative thrust.
 
     Parameters
@@ -107,29 +161,33 @@ def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: Soi
         Slip (-), tractive force (N) and normal load (N) per sample.
     vehicle, model, bounds
         As in the fit; the bounds define "any soil".
+    curves : (ndarray, ndarray), optional
+        :func:`corner_curves` at every sample, if already computed.
     """
     slip, force, load = (np.asarray(a, dtype=float).ravel() for a in (slip, force, load))
     out: list[Finding] = []
     pos = slip > 0
-    if not pos.any():
+    n_pos = int(np.count_nonzero(pos))
+    if not n_pos:
         return out
-    weak, strong = _corner(bounds, True, model), _corner(bounds, False, model)
-    both = thrust_at(np.tile(slip[pos], 2), np.repeat([weak.cohesion, strong.cohesion], pos.sum()),
-                     np.repeat([weak.friction_angle, strong.friction_angle], pos.sum()),
-                     np.repeat([weak.shear_modulus, strong.shear_modulus], pos.sum()), np.tile(load[pos], 2),
-                     vehicle, model)  # the weakest and the strongest soil's curves, one call
-    lo, hi = both[:pos.sum()], both[pos.sum():]
-    f = force[pos]
-    ratio = float(np.median(f / lo))
+    every = n_pos == slip.size
+    if curves is None:
+        lo, hi = corner_curves(slip if every else slip[pos], load if every else load[pos], vehicle, model, bounds)
+    else:
+        lo, hi = (np.asarray(c, dtype=float).ravel() for c in curves)
+        if not every:
+            lo, hi = lo[pos], hi[pos]
+    f = force if every else force[pos]
+    ratio = _median(f / lo)
     if ratio < 1.0 / SCALE_FACTOR:
-        W = float(np.median(load))
+        W = _median(load)
         out.append(Finding(
             "force_scale_low",
             f"the forces are about {1 / max(ratio, 1e-12):.3g} times smaller than the weakest soil within the bounds "
             f"gives at these slips (W = {_fmt_force(W)}; largest measured {_fmt_force(float(np.max(force)))}, the "
             f"weakest soil reaches {_fmt_force(float(np.max(lo)))}): are they in kN in an N column, or is the "
             "normal load or the vehicle wrong?", usable=False))
-    above = np.nonzero(pos)[0][f > SCALE_FACTOR * hi]
+    above = np.nonzero(pos)[0][f > SCALE_FACTOR * hi] if not every else np.nonzero(f > SCALE_FACTOR * hi)[0]
     if above.size:
         k = int(above[0])
         out.append(Finding(
@@ -138,8 +196,8 @@ def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: Soi
             f"{SCALE_FACTOR:g} times what the strongest soil within the bounds gives at that slip and load "
             f"({_fmt_force(float(hi[np.nonzero(pos)[0] == k][0]))}): a typo, a unit error or the wrong normal load?",
             usable=False, rows=tuple(int(r) + 1 for r in above)))
-    neg = np.nonzero(pos & (force < 0))[0]
-    if neg.size:
+    neg = np.nonzero(pos & (force < 0))[0] if float(np.min(force)) < 0 else ()
+    if len(neg):
         k = int(neg[0])
         out.append(Finding(
             "negative_thrust",
@@ -166,14 +224,15 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
     except ValueError:
         soil = None
     if soil is not None:
-        for W in np.unique(load):
-            sel = load == W
-            fm = max_thrust(soil, vehicle, model, normal_load=float(W))
+        single = float(np.min(load)) == float(np.max(load))
+        for W in (load[:1] if single else np.unique(load)):
+            fm = float(max_thrust_expr(soil.cohesion, soil.friction_angle, float(W), vehicle.contact_area, model))
             fm_lo, fm_hi = fmax_range(bounds, vehicle, model, float(W))
             tol = 1e-3 * (fm_hi - fm_lo)
             side = "smallest" if fm <= fm_lo + tol else "largest" if fm >= fm_hi - tol else None
             if not side or fm <= 0:
                 continue
+            sel = load == W
             # the F_max these data ask for with the fitted curve's shape: F = F_max g(i), g = model / F_max,
             # so the unbounded best F_max is the least-squares scale sum(g F) / sum(g^2)
             g = (force[sel] + r[sel]) / fm
@@ -188,8 +247,8 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
                    if far else ": the soil lies at or just beyond the bounds; widen them if that is physically "
                    "reasonable"), usable=not far))
     # residuals as large as the data
-    scale = math.sqrt(float(np.mean(force ** 2))) if force.size else 0.0
-    rmse = math.sqrt(float(np.mean(r ** 2))) if r.size else 0.0
+    scale = math.sqrt(_mean_square(force)) if force.size else 0.0
+    rmse = math.sqrt(_mean_square(r)) if r.size else 0.0
     if scale > 0 and rmse > RESIDUAL_RATIO * scale:
         out.append(Finding(
             "residuals_large",
@@ -199,9 +258,9 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
     # of a thrust-slip sweep is not constant - slip noise on the steep part of the curve gives
     # large force residuals - so a z-score alone flags clean data)
     if r.size >= MIN_ROBUST:
-        med = float(np.median(r))
-        mad = 1.4826 * float(np.median(np.abs(r - med)))
-        size = float(np.quantile(np.abs(force), 0.9))  # the data's force scale, robust to a few wild rows
+        med = _median(r)
+        mad = 1.4826 * _median(np.abs(r - med))
+        size = _quantile(np.abs(force), 0.9)  # the data's force scale, robust to a few wild rows
         z = (r - med) / max(mad, 1e-6 * size, 1e-300)
         share = np.abs(r - med) / max(size, 1e-300)
         gross = np.nonzero((np.abs(z) > GROSS_Z) & (share > GROSS_SHARE))[0]
@@ -224,13 +283,14 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
 
 
 def assess(slip, force, load, residuals, theta, vehicle: Vehicle, model: str,
-           bounds: SoilBounds) -> tuple[tuple[str, ...], bool]:
+           bounds: SoilBounds, curves: tuple | None = None) -> tuple[tuple[str, ...], bool]:
     """All checks: ``(warnings, usable)``; ``usable`` is False when any finding makes the answer unusable.
 
     Each cause is said once: rows already refused at input are not named again as outliers, and
     "residuals as large as the data" is left out when an input finding or an outlier explains it.
+    ``curves``: :func:`corner_curves` at every sample, if the caller has them (the compiled engine).
     """
-    found = check_slip_data(slip, force, load, vehicle, model, bounds)
+    found = check_slip_data(slip, force, load, vehicle, model, bounds, curves)
     named = {r for f in found if not f.usable for r in f.rows}
     after = check_slip_fit(slip, force, load, residuals, theta, vehicle, model, bounds)
     for f in sorted(after, key=lambda f: f.code == "residuals_large"):

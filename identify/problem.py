@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -52,7 +53,10 @@ def heteroscedasticity(force: np.ndarray, residuals: np.ndarray, sigma: np.ndarr
     Under constant noise it is about chi-square with 1 degree of freedom. Only computed for
     eight or more samples.
     """
-    force, residuals, sigma = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (force, residuals, sigma)))
+    force, residuals, sigma = (np.asarray(a, dtype=float) for a in (force, residuals, sigma))
+    if force.ndim == residuals.ndim == sigma.ndim == 1 and force.size == residuals.size == sigma.size:
+        return _heteroscedasticity_1d(force, residuals, sigma)  # one dataset: the same numbers, fewer calls
+    force, residuals, sigma = np.broadcast_arrays(force, residuals, sigma)
     n = force.shape[-1]
     if n < 8:
         return np.full(force.shape[:-1], np.nan)
@@ -64,6 +68,21 @@ def heteroscedasticity(force: np.ndarray, residuals: np.ndarray, sigma: np.ndarr
         r2 = (x * y).sum(-1) ** 2 / ((x * x).sum(-1) * (y * y).sum(-1))
         slope_positive = (x * y).sum(-1) > 0
     return np.where(slope_positive, n * r2, 0.0)
+
+
+def _heteroscedasticity_1d(force: np.ndarray, residuals: np.ndarray, sigma: np.ndarray) -> np.float64:
+    """:func:`heteroscedasticity` of one dataset (the same arithmetic, scalar results)."""
+    n = force.size
+    if n < 8:
+        return np.float64(np.nan)
+    e2 = (residuals / sigma) ** 2
+    x = ((force + residuals) / sigma) ** 2
+    x = x - x.mean()
+    y = e2 - e2.mean()
+    with np.errstate(all="ignore"):
+        sxy = (x * y).sum()
+        r2 = sxy ** 2 / ((x * x).sum() * (y * y).sum())
+    return n * r2 if sxy > 0 else np.float64(0.0)
 
 
 def heteroscedasticity_warning(stat: float) -> tuple[str, ...]:
@@ -174,8 +193,8 @@ class SlipProblem:
 
     def noise_warning(self, r: np.ndarray) -> tuple[str, ...]:
         """A warning when equal weights meet noise that grows with the force (see :func:`heteroscedasticity`)."""
-        if self.sigma_known or np.ptp(self.sigma) != 0:
-            return ()
+        if self.sigma_known or self.n < 8 or float(self.sigma.min()) != float(self.sigma.max()):
+            return ()  # (fewer than 8 samples: the statistic is not computed)
         return heteroscedasticity_warning(float(heteroscedasticity(self.force, r, self.sigma)))
 
     def result(self, theta: np.ndarray, *, method: str, status: str, success: bool, message: str,
@@ -194,10 +213,19 @@ class SlipProblem:
                             sigma_known=self.sigma_known, warnings=warnings,
                             extra={"sigma_model": self.noise_model, **(extra or {})}, **self.result_kwargs())
 
-    def result_kwargs(self) -> dict:
-        """What every slip result records about these data: pass to ``build_result(..., **pb.result_kwargs())``."""
-        return {"measured": self.measured, "residual_model": SweepResiduals(self.rig_speed),
-                "samples": (self.slip, self.force, self.load)}
+    def result_kwargs(self, curves: tuple | None = None) -> dict:
+        """What every slip result records about these data: pass to ``build_result(..., **pb.result_kwargs())``.
+
+        ``curves``: the weakest and strongest soil's thrust at every sample, when the solver
+        computed them (:func:`~soiltrack.identify.plausibility.corner_curves`).
+        """
+        samples = (self.slip, self.force, self.load) if curves is None else (self.slip, self.force, self.load, curves)
+        return {"measured": self.measured, "residual_model": _sweep_residuals(self.rig_speed), "samples": samples}
+
+
+@lru_cache(maxsize=64)
+def _sweep_residuals(rig_speed: float) -> SweepResiduals:
+    return SweepResiduals(rig_speed)  # immutable: one per rig speed
 
 
 def check_common(vehicle, model: str, method: str, bounds) -> None:

@@ -372,7 +372,9 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
     residual_model
         Object with ``residuals_on(result, data) -> dict`` for :meth:`FitResult.residuals_on`.
     samples : tuple of arrays, optional
-        Slip data ``(slip, thrust_N, load_N)`` per sample: then the plausibility checks of
+        Slip data ``(slip, thrust_N, load_N)`` per sample, optionally followed by the weakest and
+        strongest soil's thrust at each sample ``(F_weak, F_strong)`` when the solver has them
+        (:func:`~soiltrack.identify.plausibility.corner_curves`): then the plausibility checks of
         :mod:`soiltrack.identify.plausibility` run, add their warnings, and set
         ``success=False`` when the answer is not usable (a force scale no soil within the bounds
         gives, F_max fixed by a bound, residuals as large as the data, a gross outlier).
@@ -394,7 +396,8 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
     if samples is not None and data_kind == "slip":
         from .plausibility import assess
 
-        found, usable = assess(*samples, residuals, theta, vehicle, model, bounds)
+        slip, thrust, load, *curves = samples
+        found, usable = assess(slip, thrust, load, residuals, theta, vehicle, model, bounds, *curves)
         warnings = tuple(warnings) + found
         if not usable and success:
             success, status = False, f"{status} (answer not usable)"
