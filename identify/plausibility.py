@@ -146,6 +146,11 @@ def _quantile(x: np.ndarray, q: float) -> float:
     return float(b - d * (1 - t)) if t >= 0.5 else float(a + d * t)
 
 
+def _all_finite(x: np.ndarray) -> bool:
+    """Whether every entry is finite (a finite sum proves it; else each entry is checked)."""
+    return math.isfinite(float(np.add.reduce(x, axis=None))) or bool(np.isfinite(x).all())
+
+
 def _mean_square(x: np.ndarray) -> float:
     """``np.mean(x ** 2)`` (the same sum and division)."""
     return float(np.add.reduce(x * x)) / x.size
@@ -196,7 +201,7 @@ def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: Soi
             f"{SCALE_FACTOR:g} times what the strongest soil within the bounds gives at that slip and load "
             f"({_fmt_force(float(hi[np.nonzero(pos)[0] == k][0]))}): a typo, a unit error or the wrong normal load?",
             usable=False, rows=tuple(int(r) + 1 for r in above)))
-    neg = np.nonzero(pos & (force < 0))[0] if float(np.min(force)) < 0 else ()
+    neg = np.nonzero(pos & (force < 0))[0] if force.min() < 0 else ()
     if len(neg):
         k = int(neg[0])
         out.append(Finding(
@@ -216,7 +221,7 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
     slip, force, load, r = (np.asarray(a, dtype=float).ravel() for a in (slip, force, load, residuals))
     out: list[Finding] = []
     theta = np.asarray(theta, dtype=float)
-    if not (np.all(np.isfinite(theta)) and np.all(np.isfinite(r))):
+    if not (_all_finite(theta) and _all_finite(r)):
         return out
     # the identifiable combination on a bound: F_max at its smallest or largest value within the bounds
     try:
@@ -224,7 +229,7 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
     except ValueError:
         soil = None
     if soil is not None:
-        single = float(np.min(load)) == float(np.max(load))
+        single = load.min() == load.max()
         for W in (load[:1] if single else np.unique(load)):
             fm = float(max_thrust_expr(soil.cohesion, soil.friction_angle, float(W), vehicle.contact_area, model))
             fm_lo, fm_hi = fmax_range(bounds, vehicle, model, float(W))
@@ -263,8 +268,10 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
         size = _quantile(np.abs(force), 0.9)  # the data's force scale, robust to a few wild rows
         z = (r - med) / max(mad, 1e-6 * size, 1e-300)
         share = np.abs(r - med) / max(size, 1e-300)
-        gross = np.nonzero((np.abs(z) > GROSS_Z) & (share > GROSS_SHARE))[0]
-        odd = np.setdiff1d(np.nonzero((np.abs(z) > OUTLIER_Z) & (share > OUTLIER_SHARE))[0], gross)
+        az = np.abs(z)
+        is_gross = (az > GROSS_Z) & (share > GROSS_SHARE)
+        gross = np.nonzero(is_gross)[0]
+        odd = np.nonzero((az > OUTLIER_Z) & (share > OUTLIER_SHARE) & ~is_gross)[0]  # the rest, in row order
         if gross.size and gross.size <= max(1, r.size // 4):
             k = int(gross[np.argmax(np.abs(z[gross]))])
             out.append(Finding(

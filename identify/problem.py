@@ -75,14 +75,17 @@ def _heteroscedasticity_1d(force: np.ndarray, residuals: np.ndarray, sigma: np.n
     n = force.size
     if n < 8:
         return np.float64(np.nan)
-    e2 = (residuals / sigma) ** 2
-    x = ((force + residuals) / sigma) ** 2
-    x = x - x.mean()
-    y = e2 - e2.mean()
-    with np.errstate(all="ignore"):
-        sxy = (x * y).sum()
-        r2 = sxy ** 2 / ((x * x).sum() * (y * y).sum())
-    return n * r2 if sxy > 0 else np.float64(0.0)
+    e2 = residuals / sigma
+    e2 *= e2
+    x = (force + residuals) / sigma
+    x *= x
+    x -= np.add.reduce(x) / n  # x - x.mean()
+    e2 -= np.add.reduce(e2) / n
+    sxy = float(np.add.reduce(x * e2))
+    den = float(np.add.reduce(x * x)) * float(np.add.reduce(e2 * e2))
+    if not sxy > 0:
+        return np.float64(0.0)
+    return np.float64(n * (sxy * sxy / den if den != 0 else math.inf))
 
 
 def heteroscedasticity_warning(stat: float) -> tuple[str, ...]:
@@ -281,7 +284,10 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
         raise DataError(f"expected SlipData or DriveLog, got {type(data).__name__}")
     if not (isinstance(rig_speed, (int, float)) and math.isfinite(rig_speed) and rig_speed > 0):
         raise DataError(f"rig_speed must be a finite number > 0 m/s, got {rig_speed!r}")
-    structure, fixed_t, e_start = _effects_and_fixed(effects, fixed, vehicle)
+    if effects is None and fixed is None:  # the common case: no effects
+        structure, fixed_t, e_start = None, (), ()
+    else:
+        structure, fixed_t, e_start = _effects_and_fixed(effects, fixed, vehicle)
     if structure and method != "ipopt":
         raise DataError(f"effects are fitted by method='ipopt' only, not {method!r}")
     n_eff = len(effect_symbols(structure, vehicle=vehicle)[2]) - len(fixed_t) if structure else 0
@@ -295,8 +301,9 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
     if np.all(data.slip == 0):
         raise DataError("all slips are zero: the tractive force carries no information on the soil",
                         file=data.source, column="slip")
-    n_slips = np.unique(data.slip[data.slip > 0]).size
-    if n_slips < 2:  # F(i) = F_max g(i l / K): one slip gives one number, not both F_max and K
+    positive = data.slip[data.slip > 0]
+    if positive.size == 0 or positive.min() == positive.max():  # fewer than 2 distinct nonzero slips:
+        # F(i) = F_max g(i l / K): one slip gives one number, not both F_max and K
         raise DataError(f"all nonzero slips are equal (i = {float(np.max(data.slip)):.6g}): one point of the "
                         "thrust-slip curve cannot separate F_max from K; measure at two or more different slips "
                         "(ideally spread up to the traction limit)", file=data.source, column="slip")
