@@ -119,8 +119,9 @@ def corner_curves(slip, load, vehicle: Vehicle, model: str, bounds: SoilBounds) 
     return both[:n], both[n:]
 
 
-def _median(x: np.ndarray) -> float:
-    """``np.median`` of a 1-D array, the same number without its generic machinery (NaN if any is NaN)."""
+def _median(x: np.ndarray, finite: bool = False) -> float:
+    """``np.median`` of a 1-D array, the same number without its generic machinery (NaN if any is NaN;
+    ``finite=True``: the caller knows there is none)."""
     n = x.size
     h = n // 2
     if n % 2:
@@ -129,7 +130,7 @@ def _median(x: np.ndarray) -> float:
     else:
         part = np.partition(x, (h - 1, h))
         m = (float(part[h - 1]) + float(part[h])) / 2.0
-    return math.nan if math.isnan(float(np.add.reduce(x))) else m
+    return m if finite or not math.isnan(float(np.add.reduce(x))) else math.nan
 
 
 def _quantile(x: np.ndarray, q: float) -> float:
@@ -263,21 +264,24 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
     # of a thrust-slip sweep is not constant - slip noise on the steep part of the curve gives
     # large force residuals - so a z-score alone flags clean data)
     if r.size >= MIN_ROBUST:
-        med = _median(r)
-        mad = 1.4826 * _median(np.abs(r - med))
+        med = _median(r, finite=True)
+        dev = np.abs(r - med)
+        mad = 1.4826 * _median(dev, finite=True)
         size = _quantile(np.abs(force), 0.9)  # the data's force scale, robust to a few wild rows
-        z = (r - med) / max(mad, 1e-6 * size, 1e-300)
-        share = np.abs(r - med) / max(size, 1e-300)
-        az = np.abs(z)
-        is_gross = (az > GROSS_Z) & (share > GROSS_SHARE)
-        gross = np.nonzero(is_gross)[0]
-        odd = np.nonzero((az > OUTLIER_Z) & (share > OUTLIER_SHARE) & ~is_gross)[0]  # the rest, in row order
+        az = dev / max(mad, 1e-6 * size, 1e-300)  # |robust z-score|
+        if az.max() > min(OUTLIER_Z, GROSS_Z):  # else no row is an outlier of either kind
+            share = dev / max(size, 1e-300)
+            is_gross = (az > GROSS_Z) & (share > GROSS_SHARE)
+            gross = np.nonzero(is_gross)[0]
+            odd = np.nonzero((az > OUTLIER_Z) & (share > OUTLIER_SHARE) & ~is_gross)[0]  # the rest, in row order
+        else:
+            gross = odd = np.empty(0, dtype=np.intp)
         if gross.size and gross.size <= max(1, r.size // 4):
-            k = int(gross[np.argmax(np.abs(z[gross]))])
+            k = int(gross[np.argmax(az[gross])])
             out.append(Finding(
                 "outlier",
                 f"row(s) {_rows(gross)} lie far off the rest (row {k + 1}: {_fmt_force(float(force[k]))} at "
-                f"i = {slip[k]:.3g}, off the fitted curve by {_fmt_force(abs(float(r[k])))}, {abs(z[k]):.3g} robust "
+                f"i = {slip[k]:.3g}, off the fitted curve by {_fmt_force(abs(float(r[k])))}, {az[k]:.3g} robust "
                 "standard deviations): the fit is pulled by it; correct or remove the row and fit again",
                 usable=False, rows=tuple(int(g) + 1 for g in gross)))
         if odd.size and odd.size <= max(1, r.size // 4):
