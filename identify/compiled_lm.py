@@ -516,7 +516,7 @@ def _data_vector(pb: SlipProblem, nc: int, out: np.ndarray | None = None) -> np.
     d[nc:nc + n] = pb.force
     d[2 * nc:2 * nc + n] = pb.load
     d[2 * nc + n:3 * nc] = pb.load[0]
-    d[3 * nc:3 * nc + n] = 1.0 / pb.sigma
+    np.divide(1.0, pb.sigma, out=d[3 * nc:3 * nc + n])
     d[4 * nc], d[4 * nc + 1] = pb.vehicle.track_length, pb.vehicle.track_width
     return d
 
@@ -538,10 +538,12 @@ def _spread(n: int) -> np.ndarray:
 def _grid_vector(pb: SlipProblem, out: np.ndarray) -> None:
     idx = grid_rows(pb)
     m = GRID_ROWS
-    out[0:m] = pb.slip[idx]
-    out[m:2 * m] = pb.force[idx]
-    out[2 * m:3 * m] = pb.load[idx]
-    np.divide(1.0, pb.sigma[idx], out=out[3 * m:4 * m])
+    np.take(pb.slip, idx, out=out[0:m])
+    np.take(pb.force, idx, out=out[m:2 * m])
+    np.take(pb.load, idx, out=out[2 * m:3 * m])
+    w = out[3 * m:4 * m]
+    np.take(pb.sigma, idx, out=w)
+    np.divide(1.0, w, out=w)
 
 
 _S0, _S2 = float(SCALE[0]), float(SCALE[2])
@@ -569,19 +571,23 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
     """Run the compiled solver on a :class:`SlipProblem` and certify its answer (no hand-over here)."""
     p, one_load, model = _variant(pb)
     k = kernel(p, model, pb.n, n_grid, jit)
-    nc = k.n
+    nc, n = k.n, pb.n
     lbz, ubz = _scaled_box(pb, p, one_load)
     z0, use0 = _scaled_start(pb, x0, p, one_load)
     o = 4 * nc + 2
-    cs = k.solver
-    if cs.trigger is None:  # pragma: no cover - CasADi without buffers
+    cs, cr = k.solver, k.resjac
+    weak, strong = corner_soils(pb.bounds, pb.model)
+    rj = None
+    if cs.trigger is None or cr.trigger is None:  # pragma: no cover - CasADi without buffers
         xin = input_vector(pb, x0, nc)
-        d = xin[0:o]
         t1 = time.perf_counter()
-        y = cs(xin)
+        yl = cs(xin).tolist()
         t_call = time.perf_counter() - t1
+        z, iters, ok, theta = _decode(pb, yl, p, one_load)
+        if ok:
+            rj = cr(np.concatenate((theta, xin[0:o], weak, strong)))
     else:
-        with cs.lock:  # fill the zero-copy input buffer in place, call, copy the output
+        with cs.lock:  # fill the zero-copy input buffer in place, call, read the output
             xb = cs.x
             _data_vector(pb, nc, xb[0:o])
             xb[o:o + 3 * p + 3] = lbz + ubz + z0 + [use0, KKT_TOL, ZERO_COST]
@@ -590,12 +596,34 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
             t1 = time.perf_counter()
             cs.trigger()
             t_call = time.perf_counter() - t1
-            y = cs.y.copy()
-            d = xb[0:o].copy()
-    # y = [z (p), cost, g (p), trJJ, iters, zstart (p), scale, certified]; the certificate (finite
-    # numbers inside the box meeting the first-order test) is computed by the Function itself
-    # from its final state, with the same KKT test that stops the iteration
-    yl = y.tolist()
+            yl = cs.y.tolist()
+            z, iters, ok, theta = _decode(pb, yl, p, one_load)
+            if ok:  # residuals and Jacobian at the reported point (AD of Eq. 2/8), the plausibility curves
+                with cr.lock:  # (always taken after the solver's lock: no deadlock)
+                    rb = cr.x
+                    rb[0:3] = theta
+                    rb[3:3 + o] = xb[0:o]
+                    rb[3 + o:] = weak + strong
+                    cr.trigger()
+                    rj = cr.y.copy()
+    r = J = np.empty(0)
+    curves = None
+    if rj is not None:
+        r = rj[0:n]
+        J = rj[nc:4 * nc].reshape(3, nc)[:, 0:n].T
+        curves = (rj[4 * nc:4 * nc + n], rj[5 * nc:5 * nc + n])
+    return Solution(theta=theta, certified=ok, iterations=iters, start=_theta_si(yl[2 * p + 3:3 * p + 3], p),
+                    residuals=r, jacobian=J, z=np.array(z), p=p, one_load=one_load, engine=cs.engine,
+                    backend=cs.backend, call_time=t_call, curves=curves)
+
+
+def _decode(pb: SlipProblem, yl: list, p: int, one_load: bool) -> tuple[list, int, bool, np.ndarray]:
+    """``(z, iterations, certified, theta)`` of the solver's output list.
+
+    ``yl = [z (p), cost, g (p), trJJ, iters, zstart (p), scale, certified]``; the certificate
+    (finite numbers inside the box meeting the first-order test) is computed by the Function
+    itself from its final state, with the same KKT test that stops the iteration.
+    """
     z = yl[0:p]
     iters = int(yl[2 * p + 2]) if math.isfinite(yl[2 * p + 2]) else -1
     ok = yl[3 * p + 4] > 0.5
@@ -605,18 +633,7 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
         c, phi = ridge_centre(max_thrust_expr(0.0, theta[1], W0, pb.vehicle.contact_area, "cohesion-free"), W0,
                               pb.vehicle.contact_area, pb.bounds)
         theta[0], theta[1] = float(c), float(phi)
-    r = J = np.empty(0)
-    curves = None
-    if ok:  # residuals and Jacobian at the reported point (AD of Eq. 2/8), the plausibility curves
-        n = pb.n
-        weak, strong = corner_soils(pb.bounds, pb.model)
-        rj = k.resjac(np.concatenate((theta, d, weak, strong)))
-        r = rj[0:n]
-        J = rj[nc:4 * nc].reshape(3, nc)[:, 0:n].T
-        curves = (rj[4 * nc:4 * nc + n], rj[5 * nc:5 * nc + n])
-    return Solution(theta=theta, certified=ok, iterations=iters, start=_theta_si(yl[2 * p + 3:3 * p + 3], p),
-                    residuals=r, jacobian=J, z=np.array(z), p=p, one_load=one_load, engine=cs.engine,
-                    backend=cs.backend, call_time=t_call, curves=curves)
+    return z, iters, ok, theta
 
 
 def solve_many(pbs: list, n_grid: int = 25, jit: str = "wait") -> list[Solution]:

@@ -130,7 +130,7 @@ def _median(x: np.ndarray, finite: bool = False) -> float:
     else:
         part = np.partition(x, (h - 1, h))
         m = (float(part[h - 1]) + float(part[h])) / 2.0
-    return m if finite or not math.isnan(float(np.add.reduce(x))) else math.nan
+    return m if finite or not np.logical_or.reduce(np.isnan(x)) else math.nan
 
 
 def _quantile(x: np.ndarray, q: float) -> float:
@@ -148,8 +148,8 @@ def _quantile(x: np.ndarray, q: float) -> float:
 
 
 def _all_finite(x: np.ndarray) -> bool:
-    """Whether every entry is finite (a finite sum proves it; else each entry is checked)."""
-    return math.isfinite(float(np.add.reduce(x, axis=None))) or bool(np.isfinite(x).all())
+    """Whether every entry is finite (``np.isfinite(x).all()`` in two ufunc calls)."""
+    return bool(np.logical_and.reduce(np.isfinite(x), axis=None))
 
 
 def _mean_square(x: np.ndarray) -> float:

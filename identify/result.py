@@ -300,8 +300,7 @@ def _assemble(*, data_kind, model, method, theta, jacobian, weighted_residuals, 
     res = np.asarray(residuals, dtype=float)
     rw = np.asarray(weighted_residuals, dtype=float)
     ev = effect_fields.get("effect_values")
-    finite = bool(np.isfinite(theta).all() and np.isfinite(res).all() and np.isfinite(rw).all()
-                  and (ev is None or np.isfinite(ev).all()))
+    finite = _all_finite(theta) and _all_finite(res) and _all_finite(rw) and (ev is None or _all_finite(ev))
     warn = tuple(warnings)
     if not finite:
         success = False
@@ -319,6 +318,11 @@ def _assemble(*, data_kind, model, method, theta, jacobian, weighted_residuals, 
 
 
 _distinct_loads = distinct_loads
+
+
+def _all_finite(x: np.ndarray) -> bool:
+    """Whether every entry is finite (``np.isfinite(x).all()`` in two ufunc calls)."""
+    return bool(np.logical_and.reduce(np.isfinite(x), axis=None))
 
 
 def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, jacobian: np.ndarray,
