@@ -132,7 +132,9 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
             return self._core
         J = self.jacobian
         cols = J[:, self.free[0]:] if not self.effect_labels else J[:, list(self.free)]
-        return _core_stats_one(cols, self.weighted_residuals, self.sigma_known), 0
+        # a C-ordered copy: the same bytes (and so the same last digits) whatever the stored array's
+        # layout, e.g. before and after pickling (the layout of a batch's stacked columns, too)
+        return _core_stats_one(np.ascontiguousarray(cols), self.weighted_residuals, self.sigma_known), 0
 
     @cached_property
     def rank(self) -> int:

@@ -350,6 +350,51 @@ def test_solve_many_gives_exactly_what_solve_gives():
         assert a.certified == b.certified and a.iterations == b.iterations and a.engine == b.engine
         assert np.array_equal(a.theta, b.theta) and np.array_equal(a.start, b.start)
         assert np.array_equal(a.residuals, b.residuals) and np.array_equal(a.jacobian, b.jacobian)
+        assert all(np.array_equal(x, y) for x, y in zip(a.curves, b.curves))
+
+
+def test_plausibility_curves_of_the_kernel_are_the_soilmodel_ones():
+    """The weakest/strongest soil curves the compiled residual Function returns for the plausibility
+    checks equal soilmodel's thrust (to rounding), and the checks then find exactly the same."""
+    from soiltrack.identify import plausibility
+    rng = np.random.default_rng(12)
+    found, checked = set(), 0
+    for model, loads in CASES:
+        for n in (5, 20, 37):
+            d = random_data(rng, model, loads, n=n)
+            F = np.array(d.tractive_force)
+            if n == 20:
+                F[3] *= 30.0  # a gross outlier / a row above any soil
+            if n == 37:
+                F = F / 1e3  # kN in an N column
+            pb = make_problem(SlipData(d.slip, F, d.normal_load), HEAVY, model, PRACTICAL_BOUNDS)
+            sol = compiled_lm.solve(pb)
+            if not sol.certified:
+                continue
+            lo, hi = plausibility.corner_curves(pb.slip, pb.load, HEAVY, model, PRACTICAL_BOUNDS)
+            assert np.allclose(sol.curves[0], lo, rtol=1e-13, atol=0) and np.allclose(sol.curves[1], hi, rtol=1e-13)
+            args = (pb.slip, pb.force, pb.load, sol.residuals, sol.theta, HEAVY, model, PRACTICAL_BOUNDS)
+            warnings, usable = plausibility.assess(*args, sol.curves)
+            assert (warnings, usable) == plausibility.assess(*args)
+            found |= {w.split(":")[0] for w in warnings if w.startswith("NOT USABLE")}
+            checked += 1
+    assert checked >= 3 * len(CASES) - 2 and found == {"NOT USABLE"}  # the bad rows were seen
+
+
+def test_fast_robust_statistics_equal_numpy():
+    """The partition-based median and quantile of the plausibility checks are numpy's, bit for bit."""
+    from soiltrack.identify.plausibility import _median, _quantile
+    from soiltrack.identify.problem import heteroscedasticity
+    rng = np.random.default_rng(13)
+    for n in list(range(1, 40)) + [100, 101, 128, 1000]:
+        x = rng.standard_normal(n) * 10 ** rng.uniform(-3, 6)
+        assert _median(x) == np.median(x) and _median(np.abs(x), finite=True) == np.median(np.abs(x))
+        for q in (0.1, 0.5, 0.9, 0.99):
+            assert _quantile(np.abs(x), q) == np.quantile(np.abs(x), q)
+        F, r, s = rng.uniform(1, 1e5, n), rng.standard_normal(n) * 1e3, np.full(n, rng.uniform(0.5, 2))
+        one, stacked = heteroscedasticity(F, r, s), heteroscedasticity(F[None], r[None], s[None])[0]
+        assert (np.isnan(one) and np.isnan(stacked)) or one == stacked
+    assert np.isnan(_median(np.array([1.0, np.nan, 2.0])))
 
 
 def test_twenty_lengths_share_a_few_size_classes(monkeypatch):

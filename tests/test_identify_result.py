@@ -1,6 +1,8 @@
 """FitResult / build_result: statistics, identifiability, JSON contract (no solver involved)."""
 import json
 import math
+import pickle
+import re
 
 import numpy as np
 import pytest
@@ -191,3 +193,84 @@ def test_build_result_rejects_bad_shapes():
                      weighted_residuals=np.zeros(4), residuals=np.zeros(4), residual_unit="N", n_samples=4,
                      normal_loads=np.ones(1), vehicle=HEAVY, bounds=PRACTICAL_BOUNDS, status="", success=True,
                      message="", iterations=0, solve_time=0.0)
+
+
+# ------------------------------------------------------------------------------------------------
+# laziness contract: statistics computed on first access, the same whether and when they are read
+# ------------------------------------------------------------------------------------------------
+STATS = ("_stats", "rank", "dof", "cost", "s2", "parameters", "combinations", "identifiability", "warnings")
+
+
+def _everything(res) -> dict:
+    """Every statistic and view of a result, as plain comparable values (exact)."""
+    out = {"rank": res.rank, "dof": res.dof, "cost": res.cost, "s2": res.s2,
+           "singular": res.scaled_singular_values.tolist(),
+           "covariance": None if res.covariance is None else res.covariance.tolist(),
+           "warnings": res.warnings, "identifiability": json.dumps(res.identifiability, sort_keys=True),
+           "report": re.sub(r"iterations, [0-9.]+ m?s", "iterations", res.report())}  # without the solve time
+    d = json.loads(res.to_json())
+    d.pop("solve_time_s", None)
+    d.pop("extra", None)  # the solver's own timings
+    out["json"] = json.dumps(d, sort_keys=True)
+    for name, pe in res.parameters.items():
+        out[name] = (pe.value, pe.stderr, tuple(pe.ci95), pe.identifiable, pe.weakly_identifiable, pe.at_bound)
+    out["combinations"] = [(c.name, c.value, c.stderr) for c in res.combinations]
+    return out
+
+
+def _lazy_cases():
+    from soiltrack.soilmodel import SlipData
+    rng = np.random.default_rng(21)
+    slip = np.linspace(0.01, 0.4, 40)
+    cf = Soil.from_kpa_deg(0.0, 33.0, 0.015)
+    F = tractive_force(slip, cf, HEAVY, model="cohesion-free")
+    yield "cohesion-free", SlipData(slip, F * (1 + 0.01 * rng.standard_normal(40))), {"model": "cohesion-free"}
+    F = tractive_force(slip, SEED_ACTUAL, HEAVY)
+    yield "one load (ridge)", SlipData(slip, F + 2e3 * rng.standard_normal(40)), {}
+    W = np.repeat([0.5 * HEAVY.weight, HEAVY.weight], 20)
+    F = tractive_force(slip, SEED_ACTUAL, HEAVY, normal_load=W)
+    yield "two loads (ipopt)", SlipData(slip, F + 2e3 * rng.standard_normal(40), W), {"engine": "ipopt"}
+    F = tractive_force(slip, cf, HEAVY, model="cohesion-free")
+    yield "kN in an N column", SlipData(slip, F / 1e3), {"model": "cohesion-free"}
+
+
+@pytest.mark.parametrize("case", list(range(4)))
+def test_statistics_are_lazy_and_the_same_whenever_read(case):
+    from soiltrack.identify import fit
+    name, data, kw = list(_lazy_cases())[case]
+    looked = fit(data, HEAVY, **kw)
+    before = _everything(looked)  # read everything at once
+    untouched = fit(data, HEAVY, **kw)
+    assert not any(k in untouched.__dict__ for k in STATS), name  # fit computed no statistic
+    # what decides success is eager and independent of whether anyone looked
+    assert (untouched.success, untouched.status, untouched.input_warnings, untouched.message) == \
+        (looked.success, looked.status, looked.input_warnings, looked.message), name
+    assert np.array_equal(untouched.theta, looked.theta) and untouched.rmse == looked.rmse
+    # a pickled untouched result computes its statistics after unpickling: the same numbers
+    back = pickle.loads(pickle.dumps(untouched))
+    assert not any(k in back.__dict__ for k in STATS)
+    assert _everything(back) == before, name
+    assert _everything(untouched) == before, name  # read in another order: the same
+    # a pickled looked-at result carries what was computed
+    again = pickle.loads(pickle.dumps(looked))
+    assert "_stats" in again.__dict__ and _everything(again) == before, name
+    if name == "kN in an N column":
+        assert not looked.success and "answer not usable" in looked.status
+
+
+def test_batched_results_pickle_their_own_slice_and_replace_keeps_statistics():
+    import dataclasses
+    from soiltrack.identify import fit_many
+    from soiltrack.soilmodel import SlipData
+    rng = np.random.default_rng(22)
+    slip = np.linspace(0.01, 0.3, 12)
+    sets = [SlipData(slip, tractive_force(slip, Soil.from_kpa_deg(0.0, rng.uniform(20, 38), 0.02), HEAVY,
+                                          model="cohesion-free") * (1 + 0.02 * rng.standard_normal(12)))
+            for _ in range(5)]
+    res = fit_many(sets, HEAVY, model="cohesion-free", progress=False)
+    blob = pickle.dumps(res[3])
+    assert len(blob) < len(pickle.dumps(res)) / 2  # one fit's slice, not the batch's arrays
+    back = pickle.loads(blob)
+    assert _everything(back) == _everything(res[3])
+    copy = dataclasses.replace(res[3], extra={"note": 1})
+    assert _everything(copy)["json"] != "" and copy.rank == res[3].rank and copy.cost == res[3].cost
