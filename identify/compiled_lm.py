@@ -527,7 +527,7 @@ def grid_rows(pb: SlipProblem) -> np.ndarray:
     Evenly spread over the samples sorted by slip (smallest and largest slip included): the
     grid only chooses the start basin, the iteration and its certificate use every sample.
     """
-    return np.argsort(pb.slip, kind="stable")[_spread(pb.n)]
+    return pb.slip.argsort(kind="stable")[_spread(pb.n)]
 
 
 @lru_cache(maxsize=1024)
@@ -538,11 +538,11 @@ def _spread(n: int) -> np.ndarray:
 def _grid_vector(pb: SlipProblem, out: np.ndarray) -> None:
     idx = grid_rows(pb)
     m = GRID_ROWS
-    np.take(pb.slip, idx, out=out[0:m])
-    np.take(pb.force, idx, out=out[m:2 * m])
-    np.take(pb.load, idx, out=out[2 * m:3 * m])
+    pb.slip.take(idx, out=out[0:m])
+    pb.force.take(idx, out=out[m:2 * m])
+    pb.load.take(idx, out=out[2 * m:3 * m])
     w = out[3 * m:4 * m]
-    np.take(pb.sigma, idx, out=w)
+    pb.sigma.take(idx, out=w)
     np.divide(1.0, w, out=w)
 
 

@@ -95,9 +95,12 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
     pb = make_problem(data, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known, method=method,
                       effects=effects, fixed=fixed, **rig)
     x0v = None if x0 is None else _x0_vector(x0)
-    given = {k: options.pop(k) for k in SETTING_NAMES if k in options}
-    _check_options(options, set(SETTING_NAMES))
-    st = FitSettings.resolve(settings, engine=engine, **given)
+    if options:
+        given = {k: options.pop(k) for k in SETTING_NAMES if k in options}
+        _check_options(options, set(SETTING_NAMES))
+        st = FitSettings.resolve(settings, engine=engine, **given)
+    else:  # the common case: no settings keywords
+        st = FitSettings.resolve(settings, engine=engine)
     if pb.has_effects:  # joint soil-and-effects fit: IPOPT (whatever the engine)
         if method != "ipopt":
             raise DataError(f"effects are fitted jointly with the soil by IPOPT only (method='ipopt'), "

@@ -124,11 +124,12 @@ def _median(x: np.ndarray, finite: bool = False) -> float:
     ``finite=True``: the caller knows there is none)."""
     n = x.size
     h = n // 2
+    part = x.copy()  # np.partition without its wrapper
     if n % 2:
-        part = np.partition(x, h)
+        part.partition(h)
         m = float(part[h])
     else:
-        part = np.partition(x, (h - 1, h))
+        part.partition((h - 1, h))
         m = (float(part[h - 1]) + float(part[h])) / 2.0
     return m if finite or not np.logical_or.reduce(np.isnan(x)) else math.nan
 
@@ -141,7 +142,8 @@ def _quantile(x: np.ndarray, q: float) -> float:
         return float(np.max(x))
     lo = int(math.floor(virtual))
     t = virtual - lo
-    part = np.partition(x, (lo, lo + 1))
+    part = x.copy()
+    part.partition((lo, lo + 1))
     a, b = part[lo], part[lo + 1]
     d = b - a
     return float(b - d * (1 - t)) if t >= 0.5 else float(a + d * t)

@@ -296,9 +296,10 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
         raise DataError(f"{data.n_samples} sample(s) cannot identify the {p} free parameters of the {model} model"
                         f"{' with the effects' if n_eff else ''} (need at least {p} rows)", file=data.source,
                         column=data.channel)
-    load = data.loads(vehicle.weight).astype(float)
+    load = data.loads(vehicle.weight)
+    load = load.astype(float) if data.normal_load is not None else load  # a copy of the data's; np.full is new
     sig, known = weights(data.values, sigma, sigma_known, source=data.source, column=data.channel)
-    if np.all(data.slip == 0):
+    if not data.slip.any():  # all slips zero
         raise DataError("all slips are zero: the tractive force carries no information on the soil",
                         file=data.source, column="slip")
     positive = data.slip[data.slip > 0]

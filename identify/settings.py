@@ -66,6 +66,9 @@ class FitSettings:
     @classmethod
     def resolve(cls, settings: "FitSettings | None" = None, **overrides: Any) -> "FitSettings":
         """``settings`` (default ``FitSettings()``) with the given fields replaced (``None`` = keep)."""
+        if settings is None and len(overrides) == 1 and isinstance(overrides.get("engine", 0), (str, type(None))):
+            e = overrides["engine"]
+            return _engine_only(DEFAULT_ENGINE if e is None else e)  # the common case, validated once
         if settings is not None and not isinstance(settings, FitSettings):
             raise DataError(f"settings must be a FitSettings, got {type(settings).__name__}")
         unknown = sorted(set(overrides) - set(SETTING_NAMES))
