@@ -149,6 +149,16 @@ def _quantile(x: np.ndarray, q: float) -> float:
     return float(b - d * (1 - t)) if t >= 0.5 else float(a + d * t)
 
 
+_MIN, _MAX = np.minimum.reduce, np.maximum.reduce  # x.min(), x.max() without their Python wrappers
+
+
+def _vec(a) -> np.ndarray:
+    """``np.asarray(a, dtype=float).ravel()`` (the array itself when it already is one)."""
+    if type(a) is np.ndarray and a.ndim == 1 and a.dtype == np.float64:
+        return a
+    return np.asarray(a, dtype=float).ravel()
+
+
 def _all_finite(x: np.ndarray) -> bool:
     """Whether every entry is finite (``np.isfinite(x).all()`` in two ufunc calls)."""
     return bool(np.logical_and.reduce(np.isfinite(x), axis=None))
@@ -172,7 +182,7 @@ def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: Soi
     curves : (ndarray, ndarray), optional
         :func:`corner_curves` at every sample, if already computed.
     """
-    slip, force, load = (np.asarray(a, dtype=float).ravel() for a in (slip, force, load))
+    slip, force, load = _vec(slip), _vec(force), _vec(load)
     out: list[Finding] = []
     pos = slip > 0
     n_pos = int(np.count_nonzero(pos))
@@ -182,7 +192,7 @@ def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: Soi
     if curves is None:
         lo, hi = corner_curves(slip if every else slip[pos], load if every else load[pos], vehicle, model, bounds)
     else:
-        lo, hi = (np.asarray(c, dtype=float).ravel() for c in curves)
+        lo, hi = _vec(curves[0]), _vec(curves[1])
         if not every:
             lo, hi = lo[pos], hi[pos]
     f = force if every else force[pos]
@@ -204,7 +214,7 @@ def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: Soi
             f"{SCALE_FACTOR:g} times what the strongest soil within the bounds gives at that slip and load "
             f"({_fmt_force(float(hi[np.nonzero(pos)[0] == k][0]))}): a typo, a unit error or the wrong normal load?",
             usable=False, rows=tuple(int(r) + 1 for r in above)))
-    neg = np.nonzero(pos & (force < 0))[0] if force.min() < 0 else ()
+    neg = np.nonzero(pos & (force < 0))[0] if _MIN(force) < 0 else ()
     if len(neg):
         k = int(neg[0])
         out.append(Finding(
@@ -221,7 +231,7 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
 
     ``residuals`` are model minus data (N) at the fitted ``theta = [c (Pa), phi (rad), K (m)]``.
     """
-    slip, force, load, r = (np.asarray(a, dtype=float).ravel() for a in (slip, force, load, residuals))
+    slip, force, load, r = _vec(slip), _vec(force), _vec(load), _vec(residuals)
     out: list[Finding] = []
     theta = np.asarray(theta, dtype=float)
     if not (_all_finite(theta) and _all_finite(r)):
@@ -232,7 +242,7 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
     except ValueError:
         soil = None
     if soil is not None:
-        single = load.min() == load.max()
+        single = _MIN(load) == _MAX(load)
         for W in (load[:1] if single else np.unique(load)):
             fm = float(max_thrust_expr(soil.cohesion, soil.friction_angle, float(W), vehicle.contact_area, model))
             fm_lo, fm_hi = fmax_range(bounds, vehicle, model, float(W))
@@ -271,7 +281,7 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
         mad = 1.4826 * _median(dev, finite=True)
         size = _quantile(np.abs(force), 0.9)  # the data's force scale, robust to a few wild rows
         az = dev / max(mad, 1e-6 * size, 1e-300)  # |robust z-score|
-        if az.max() > min(OUTLIER_Z, GROSS_Z):  # else no row is an outlier of either kind
+        if _MAX(az) > min(OUTLIER_Z, GROSS_Z):  # else no row is an outlier of either kind
             share = dev / max(size, 1e-300)
             is_gross = (az > GROSS_Z) & (share > GROSS_SHARE)
             gross = np.nonzero(is_gross)[0]
@@ -303,10 +313,11 @@ def assess(slip, force, load, residuals, theta, vehicle: Vehicle, model: str,
     "residuals as large as the data" is left out when an input finding or an outlier explains it.
     ``curves``: :func:`corner_curves` at every sample, if the caller has them (the compiled engine).
     """
+    slip, force, load = _vec(slip), _vec(force), _vec(load)
     found = check_slip_data(slip, force, load, vehicle, model, bounds, curves)
     named = {r for f in found if not f.usable for r in f.rows}
     after = check_slip_fit(slip, force, load, residuals, theta, vehicle, model, bounds)
-    for f in sorted(after, key=lambda f: f.code == "residuals_large"):
+    for f in (sorted(after, key=lambda f: f.code == "residuals_large") if after else ()):
         if f.code == "outlier" and set(f.rows) <= named:
             continue
         if f.code == "residuals_large" and any(not g.usable for g in found if g.code != "limit_on_bound"):

@@ -196,7 +196,8 @@ class SlipProblem:
 
     def noise_warning(self, r: np.ndarray) -> tuple[str, ...]:
         """A warning when equal weights meet noise that grows with the force (see :func:`heteroscedasticity`)."""
-        if self.sigma_known or self.n < 8 or float(self.sigma.min()) != float(self.sigma.max()):
+        sig = self.sigma
+        if self.sigma_known or sig.size < 8 or np.minimum.reduce(sig) != np.maximum.reduce(sig):
             return ()  # (fewer than 8 samples: the statistic is not computed)
         return heteroscedasticity_warning(float(heteroscedasticity(self.force, r, self.sigma)))
 
@@ -303,7 +304,7 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
         raise DataError("all slips are zero: the tractive force carries no information on the soil",
                         file=data.source, column="slip")
     positive = data.slip[data.slip > 0]
-    if positive.size == 0 or positive.min() == positive.max():  # fewer than 2 distinct nonzero slips:
+    if positive.size == 0 or np.minimum.reduce(positive) == np.maximum.reduce(positive):  # fewer than 2 distinct nonzero slips:
         # F(i) = F_max g(i l / K): one slip gives one number, not both F_max and K
         raise DataError(f"all nonzero slips are equal (i = {float(np.max(data.slip)):.6g}): one point of the "
                         "thrust-slip curve cannot separate F_max from K; measure at two or more different slips "
