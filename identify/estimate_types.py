@@ -175,5 +175,6 @@ def _force_scale(values) -> tuple[float, str]:
 
 def format_force(x: float, digits: int = 4) -> str:
     """A force in N or kN by its magnitude: ``"3.376 N"``, ``"235.1 kN"``."""
-    sc, u = _force_scale([x])
+    x = float(x)
+    sc, u = (1e3, "kN") if math.isfinite(x) and abs(x) >= 1e3 else (1.0, "N")  # _force_scale of one number
     return f"{x / sc:.{digits}g} {u}"
