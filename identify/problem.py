@@ -70,14 +70,17 @@ def heteroscedasticity(force: np.ndarray, residuals: np.ndarray, sigma: np.ndarr
     return np.where(slope_positive, n * r2, 0.0)
 
 
-def _heteroscedasticity_1d(force: np.ndarray, residuals: np.ndarray, sigma: np.ndarray) -> np.float64:
-    """:func:`heteroscedasticity` of one dataset (the same arithmetic, scalar results)."""
+def _heteroscedasticity_1d(force: np.ndarray, residuals: np.ndarray, sigma: np.ndarray | None) -> np.float64:
+    """:func:`heteroscedasticity` of one dataset (the same arithmetic, scalar results; ``sigma=None``:
+    all ones, whose divisions change nothing)."""
     n = force.size
     if n < 8:
         return np.float64(np.nan)
-    e2 = residuals / sigma
+    e2 = residuals / sigma if sigma is not None else residuals.copy()
     e2 *= e2
-    x = (force + residuals) / sigma
+    x = force + residuals
+    if sigma is not None:
+        x /= sigma
     x *= x
     x -= np.add.reduce(x) / n  # x - x.mean()
     e2 -= np.add.reduce(e2) / n
@@ -197,9 +200,17 @@ class SlipProblem:
     def noise_warning(self, r: np.ndarray) -> tuple[str, ...]:
         """A warning when equal weights meet noise that grows with the force (see :func:`heteroscedasticity`)."""
         sig = self.sigma
-        if self.sigma_known or sig.size < 8 or np.minimum.reduce(sig) != np.maximum.reduce(sig):
+        if self.sigma_known or sig.size < 8:
             return ()  # (fewer than 8 samples: the statistic is not computed)
-        return heteroscedasticity_warning(float(heteroscedasticity(self.force, r, self.sigma)))
+        lo = np.minimum.reduce(sig)
+        if lo != np.maximum.reduce(sig):
+            return ()
+        r = np.asarray(r, dtype=float)
+        if r.shape == sig.shape:  # one dataset (equal weights of 1: nothing to divide by)
+            stat = _heteroscedasticity_1d(self.force, r, None if lo == 1.0 else sig)
+        else:
+            stat = heteroscedasticity(self.force, r, sig)
+        return heteroscedasticity_warning(float(stat))
 
     def result(self, theta: np.ndarray, *, method: str, status: str, success: bool, message: str,
                iterations: int, solve_time: float, warnings=(), extra: dict | None = None) -> FitResult:

@@ -384,7 +384,7 @@ def test_plausibility_curves_of_the_kernel_are_the_soilmodel_ones():
 def test_fast_robust_statistics_equal_numpy():
     """The partition-based median and quantile of the plausibility checks are numpy's, bit for bit."""
     from soiltrack.identify.plausibility import _median, _quantile
-    from soiltrack.identify.problem import heteroscedasticity
+    from soiltrack.identify.problem import _heteroscedasticity_1d, heteroscedasticity
     rng = np.random.default_rng(13)
     for n in list(range(1, 40)) + [100, 101, 128, 1000]:
         x = rng.standard_normal(n) * 10 ** rng.uniform(-3, 6)
@@ -394,6 +394,8 @@ def test_fast_robust_statistics_equal_numpy():
         F, r, s = rng.uniform(1, 1e5, n), rng.standard_normal(n) * 1e3, np.full(n, rng.uniform(0.5, 2))
         one, stacked = heteroscedasticity(F, r, s), heteroscedasticity(F[None], r[None], s[None])[0]
         assert (np.isnan(one) and np.isnan(stacked)) or one == stacked
+        ones = heteroscedasticity(F[None], r[None], np.ones((1, n)))[0]
+        assert (np.isnan(ones) and n < 8) or _heteroscedasticity_1d(F, r, None) == ones  # weights of 1: no division
     assert np.isnan(_median(np.array([1.0, np.nan, 2.0])))
 
 
