@@ -233,18 +233,14 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
     """
     slip, force, load, r = _vec(slip), _vec(force), _vec(load), _vec(residuals)
     out: list[Finding] = []
-    theta = np.asarray(theta, dtype=float)
-    if not (_all_finite(theta) and _all_finite(r)):
+    c, phi, K = np.asarray(theta, dtype=float).ravel().tolist()
+    if not (math.isfinite(c) and math.isfinite(phi) and math.isfinite(K) and _all_finite(r)):
         return out
     # the identifiable combination on a bound: F_max at its smallest or largest value within the bounds
-    try:
-        soil = Soil(*(float(x) for x in theta))
-    except ValueError:
-        soil = None
-    if soil is not None:
+    if c >= 0 and 0 < phi < math.pi / 2 and K > 0:  # a soil (what :class:`Soil` accepts)
         single = _MIN(load) == _MAX(load)
         for W in (load[:1] if single else np.unique(load)):
-            fm = float(max_thrust_expr(soil.cohesion, soil.friction_angle, float(W), vehicle.contact_area, model))
+            fm = float(max_thrust_expr(c, phi, float(W), vehicle.contact_area, model))
             fm_lo, fm_hi = fmax_range(bounds, vehicle, model, float(W))
             tol = 1e-3 * (fm_hi - fm_lo)
             side = "smallest" if fm <= fm_lo + tol else "largest" if fm >= fm_hi - tol else None

@@ -27,6 +27,7 @@ from .core_stats import RANK_TOL, WEAK_CORRELATION, _core_stats, _core_stats_one
 from .estimate_types import _EDGE, Combination, ParameterEstimate, _f  # noqa: F401
 from .estimate_views import EstimateViews
 from .identifiability import BOUND_TOL, _NULL_TOL, IdentifiabilityViews  # noqa: F401
+from .plausibility import assess
 from .report import ReportViews, _json_default  # noqa: F401
 
 __all__ = ["FitResult", "ParameterEstimate", "Combination", "build_result", "build_results_batch", "RANK_TOL",
@@ -400,8 +401,6 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
     if J.ndim != 2 or J.shape[1] != 3 + m or J.shape[0] != rw.size:
         raise ValueError(f"jacobian must have shape (n_res, 3 + {m}) = ({rw.size}, {3 + m}), got {J.shape}")
     if samples is not None and data_kind == "slip":
-        from .plausibility import assess
-
         slip, thrust, load, *curves = samples
         found, usable = assess(slip, thrust, load, residuals, theta, vehicle, model, bounds, *curves)
         warnings = tuple(warnings) + found
