@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..soilmodel.soil import Soil, SoilBounds
+from ..soilmodel.soil import SoilBounds
 from ..soilmodel.traction import max_thrust_expr, thrust_at
 from ..soilmodel.vehicle import Vehicle
 from .estimate_types import format_force
@@ -91,11 +91,6 @@ def corner_soils(bounds: SoilBounds, model: str) -> tuple[tuple[float, float, fl
     cf = model == "cohesion-free"
     return ((0.0 if cf else float(bounds.cohesion[0]), float(bounds.friction_angle[0]), float(bounds.shear_modulus[1])),
             (0.0 if cf else float(bounds.cohesion[1]), float(bounds.friction_angle[1]), float(bounds.shear_modulus[0])))
-
-
-def _corner(bounds: SoilBounds, weakest: bool, model: str) -> Soil:
-    """The weakest or strongest soil within the bounds, as a :class:`Soil`."""
-    return Soil(*corner_soils(bounds, model)[0 if weakest else 1])
 
 
 def fmax_range(bounds: SoilBounds, vehicle: Vehicle, model: str, normal_load: float) -> tuple[float, float]:
