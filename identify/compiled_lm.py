@@ -426,11 +426,11 @@ def kernel(p: int, model: str, n: int, n_grid: int = 25, jit: str = "wait") -> K
 
     ``n`` is rounded up to its :func:`size_class`. ``jit`` is one of :data:`JIT_MODES`.
     """
-    jit = _jit_mode(jit)
     key = (int(p), model, size_class(n), max(int(n_grid), 1))
     k = _KERNELS.get(key)
-    if k is not None and k.compiled.is_c:  # the common case: no lock
+    if k is not None and k.compiled.is_c and jit in JIT_MODES:  # the common case: C code loaded, no lock
         return k
+    jit = _jit_mode(jit)
     with _KERNELS_LOCK:
         lock = _BUILD_LOCKS.setdefault(key, threading.Lock())
     with lock:
