@@ -42,6 +42,7 @@ from .gap import (Segment, blocked_folds, change_window, lag_peak, localise, lon
 from .screening import Screen, newey_west_lag, screen
 from .selection import (DISCREPANCY, NOMINAL, confusable_groups, decide, dm_test, fit_discrepancy, gap_p_value,
                         separating_experiment, stacking_weights)
+from .verdict_checks import check_verdict, explained_fraction
 
 __all__ = ["diagnose", "Diagnosis", "RankEntry"]
 
@@ -646,6 +647,15 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             notes.append(f"a flexible term on top of {bc} still predicts the held-out data significantly better: "
                          f"{bc} leaves a smooth gap")
     verdict = decide(weights, [s.effect for s in significant], disc_beats, after_ratio, after_p, alpha=alpha)
+    if verdict.name in scores and verdict.name not in (NOMINAL, DISCREPANCY):
+        # is there a gap, and does the named effect explain it? (against the noise, not the other models)
+        verdict, note = check_verdict(
+            verdict, gap_p=gap_p, beats_nominal_p=dm_test(zall(NOMINAL), zall(verdict.name), dm_lag),
+            shrink=1.0 - math.sqrt(scores[verdict.name] / max(scores[NOMINAL], 1e-300)),
+            explained=explained_fraction(scores[NOMINAL], scores[verdict.name], n_held),
+            no_gap_confidence=1.0 - weights.get(DISCREPANCY, 0.0), alpha=alpha)
+        if note:
+            notes.append(note)
 
     # --- 3. where: on the full-data nominal residuals (every sample; the gap is the nominal misfit) -----
     common = np.logical_and.reduce([np.isfinite(R[ch]) & np.isfinite(sig_n[ch]) for ch in channels])

@@ -14,10 +14,14 @@ A pressure distribution keeps the pressure positive (``|e| + |alpha| <= 1`` as t
 constraints). Start: the soil of the nominal variable-projection grid, the effects at the
 values given (an ``EffectSet`` or dict) or their defaults (off; ``k_ratio`` 5).
 
-At one normal load and without a shear-shape effect, c and phi enter only through
-``F_max = A c + N tan(phi)`` (N the actual normal load): the reported (c, phi) is then moved to
-the centre of the bounds-feasible ridge at the fitted F_max (:func:`ridge_centre`), which leaves
-every prediction unchanged, so that the marker is the same as the nominal fit's.
+At one normal load and without a non-uniform pressure (``hump_shear`` scales the whole shear
+law, so it keeps the ridge), c and phi enter only through ``F_max = A c + N tan(phi)`` (N the
+actual normal load). The NLP is then solved for ``F_max = N0 tan(phi_e)`` with c held at 0 and
+phi_e spanning the F_max range of the bounds box (the same optimum, without the singular
+Hessian along the ridge on which IPOPT otherwise wanders without certifying), and the
+reported (c, phi) is the centre of the bounds-feasible ridge at the fitted F_max
+(:func:`ridge_centre`), which leaves every prediction unchanged: the same marker as the
+nominal fit's.
 """
 from __future__ import annotations
 
@@ -27,7 +31,7 @@ import casadi as ca
 import numpy as np
 
 from ..soilmodel.effects import EFFECTS, EffectSet, effect_symbols, parameter_bounds, parameter_scale
-from ..soilmodel.ridge import one_load, ridge_centre
+from ..soilmodel.ridge import fmax_range, one_load, ridge_centre
 from ..soilmodel.threadsafe import call_solver, locked_cache
 from ..soilmodel.traction import max_thrust_expr
 from ..soilmodel.vehicle import Vehicle
@@ -40,7 +44,6 @@ __all__ = ["fit_joint", "joint_layout", "padded_size"]
 
 _OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 _DEFAULT_OPTS = {"ipopt.tol": 1e-12, "ipopt.acceptable_tol": 1e-8, "ipopt.max_iter": 500}
-_SHAPE_EFFECTS = ("hump_shear", "pressure_distribution")
 
 
 def padded_size(n: int) -> int:
@@ -88,6 +91,14 @@ def _solver(vehicle: Vehicle, structure: EffectSet, model: str, measured: str, r
     return ca.nlpsol(f"jointfit_{n}", "ipopt", nlp, opts)
 
 
+def _separates_c_phi(structure: EffectSet, fixed: dict) -> bool:
+    """Whether the effects let c and phi enter other than through F_max (only a non-uniform pressure does)."""
+    if "pressure_distribution" not in structure:
+        return False
+    held = [fixed.get(f"pressure_distribution.{p}") for p in ("e", "alpha")]
+    return not all(h is not None and h == 0.0 for h in held)
+
+
 def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_grid: int = 25) -> FitResult:
     """Fit the soil and the effects of ``pb`` jointly with IPOPT and build the result."""
     structure = pb.effects if pb.effects is not None else EffectSet()
@@ -127,7 +138,47 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     args = {"x0": z0, "p": p, "lbx": lo, "ubx": hi}
     if "pressure_distribution" in structure:
         args.update(lbg=-1.0, ubg=1.0)
-    sol, st = call_solver(solver, **args)
+    W = pb.load
+    A = pb.vehicle.contact_area
+    ridge = pb.model == "full" and one_load(W) and not _separates_c_phi(structure, fixed)
+    from ..soilmodel.effects import normal_load_function
+    n_of = normal_load_function(pb.vehicle, structure) if m else None
+
+    def load_at(e_values) -> float:
+        return float(n_of(float(W[0]), e_values)[0]) if m else float(W[0])
+
+    if ridge:
+        # c and phi enter only through F_max = A c + N tan(phi): solve for (F_max, K, effects) with
+        # F_max = N0 tan(phi_e) (c held at 0, phi_e over the F_max range of the box), exactly the
+        # optimum of the full problem without its singular Hessian (IPOPT wanders along the ridge
+        # otherwise and never certifies); the reported (c, phi) is the ridge centre below.
+        N0 = load_at(z0[3:] * S[3:])
+        F_lo, F_hi = fmax_range(N0, A, pb.bounds)
+        F0 = float(max_thrust_expr(z0[0] * S[0], z0[1] * S[1], N0, A))
+        rlo, rhi = lo.copy(), hi.copy()
+        rlo[0] = rhi[0] = 0.0
+        rlo[1], rhi[1] = np.arctan(F_lo / N0) / S[1], np.arctan(F_hi / N0) / S[1]
+        rz0 = z0.copy()
+        rz0[0] = 0.0
+        rz0[1] = min(max(np.arctan(F0 / N0) / S[1], rlo[1]), rhi[1])
+        args.update(x0=rz0, lbx=rlo, ubx=rhi)
+        sol, st = call_solver(solver, **args)
+        xr = np.asarray(sol["x"], float).ravel() * S
+        lo_c, hi_c = rlo, rhi
+        if np.all(np.isfinite(xr)):
+            Nr = load_at(xr[3:])
+            Fr = float(max_thrust_expr(0.0, xr[1], Nr, A))
+            f_lo, f_hi = fmax_range(Nr, A, pb.bounds)
+            if not f_lo * (1 - 1e-9) <= Fr <= f_hi * (1 + 1e-9):
+                # the fitted effects moved N so far that this F_max leaves the box: solve the full problem
+                c_r, phi_r = ridge_centre(Fr, Nr, A, pb.bounds)
+                z1 = np.concatenate([[float(c_r), float(phi_r)], xr[2:]]) / S
+                args.update(x0=np.clip(z1, lo, hi), lbx=lo, ubx=hi)
+                sol, st = call_solver(solver, **args)
+                lo_c, hi_c = lo, hi
+    else:
+        sol, st = call_solver(solver, **args)
+        lo_c, hi_c = lo, hi
     x = np.asarray(sol["x"], float).ravel() * S
     status = str(st.get("return_status", "unknown"))
     iters = int(st.get("iter_count", -1))
@@ -136,19 +187,16 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     if not np.all(np.isfinite(x)):
         ok = False
         msgs.append("IPOPT returned non-finite numbers")
-    span = np.where(hi > lo, hi - lo, 1.0) * S
-    viol = np.maximum(lo * S - x, x - hi * S) / span
+    span = np.where(hi_c > lo_c, hi_c - lo_c, 1.0) * S
+    viol = np.maximum(lo_c * S - x, x - hi_c * S) / span
     if np.any(viol > 1e-6):
         ok = False
         msgs.append("IPOPT's answer lies outside the bounds")
-    x = np.clip(np.where(np.isfinite(x), x, z0 * S), lo * S, hi * S)
+    x = np.clip(np.where(np.isfinite(x), x, z0 * S), lo_c * S, hi_c * S)
     theta, e = x[:3].copy(), x[3:].copy()
     note = ""
-    W = pb.load
-    if pb.model == "full" and one_load(W) and not any(s in structure for s in _SHAPE_EFFECTS) and ok:
-        from ..soilmodel.effects import normal_load_function
-        N = float(normal_load_function(pb.vehicle, structure)(float(W[0]), e)[0]) if m else float(W[0])
-        A = pb.vehicle.contact_area
+    if ridge and ok:
+        N = load_at(e)
         F = max_thrust_expr(theta[0], theta[1], N, A)
         c, phi = ridge_centre(F, N, A, pb.bounds)
         theta[0], theta[1] = float(c), float(phi)

@@ -75,6 +75,8 @@ SEPARATING_EXPERIMENTS: dict[frozenset, str] = {
     frozenset({"speed_resistance", "slip_sinkage"}): "runs at the same slip and two speeds (or the same "
     "speed and two drawbar loads)",
     frozenset({"mass_error", "speed_resistance"}): "runs at two constant speeds and an acceleration run",
+    frozenset({"mass_error", "slip_sinkage"}): "a run at constant speed with a different drawbar load (slip sinkage "
+    "grows with the slip, a mass error only shows with acceleration), or a run at another payload",
     frozenset({"drivetrain_friction", "radius_error"}): "a torque sensor at the track or a coast-down; "
     "and a measured distance per sprocket turn",
 }
