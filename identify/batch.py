@@ -34,6 +34,7 @@ from ..soilmodel.vehicle import Vehicle
 from . import compiled_lm
 from .engines import check_engine, jit_mode, normalise_status
 from .problem import FitFailed, check_common, make_problem
+from .plausibility import assess
 from .result import FitResult, build_results_batch
 from .settings import SETTING_NAMES, FitSettings
 
@@ -67,13 +68,23 @@ def _solve_chunk(datasets: Sequence[SlipData], vehicle: Vehicle, model: str, bou
             e = compiled_lm.extra_of(s)
             e["engine"] = "vectorized" if s.engine == "compiled" else "vectorized-vm"
             extras.append(e)
+        # the same plausibility checks as fit (they decide success: fit and fit_many agree on it)
+        status, success, message, warns = [], [], [], []
+        for pb, s in zip(P, S):
+            found, usable = assess(pb.slip, pb.force, pb.load, s.residuals, s.theta, vehicle, model, bounds,
+                                   s.curves)
+            msg = compiled_lm.message_of(s, None).replace("compiled", "vectorised compiled", 1)
+            status.append("converged" if usable else "converged (answer not usable)")
+            success.append(usable)
+            message.append(msg if usable else f"{msg}; the data or the answer fail the plausibility checks (see the "
+                           "warnings)")
+            warns.append(tuple(pb.noise_warning(s.residuals)) + found)
         built = build_results_batch(
             model=model, method="ipopt", theta=np.stack([s.theta for s in S]), jacobian=np.stack([s.jacobian for s in S]),
             weighted_residuals=r / sig, residuals=r, normal_loads=np.stack([pb.load for pb in P]), vehicle=vehicle,
-            bounds=bounds, status=["converged"] * len(idx), success=[True] * len(idx),
-            message=[compiled_lm.message_of(s, None).replace("compiled", "vectorised compiled", 1) for s in S],
+            bounds=bounds, status=status, success=success, message=message,
             iterations=[s.iterations for s in S], solve_time=[dt] * len(idx), sigma_known=P[0].sigma_known,
-            extra=extras, warnings=[pb.noise_warning(s.residuals) for pb, s in zip(P, S)])
+            extra=extras, warnings=warns)
         for k, res in zip(idx, built):
             out[k] = res
     return out  # type: ignore[return-value]

@@ -344,3 +344,22 @@ def test_fit_many_progress_in_a_log_has_no_carriage_returns(capsys):
     fit_many(ds, LIGHT, progress=True, chunk_size=2)
     err = capsys.readouterr().err
     assert "\r" not in err and err.count("\n") >= 2 and "8/8 fits" in err
+
+
+def test_fit_many_runs_the_same_plausibility_checks_as_fit(clean_rows):
+    """fit and fit_many agree on success: the vectorised batch engine ran no plausibility checks."""
+    from soiltrack.identify import fit, fit_many
+    from soiltrack.soilmodel import VEHICLES, SlipData
+
+    light = VEHICLES["light"]
+    i = np.array([r[0] for r in clean_rows])
+    F = np.array([r[1] for r in clean_rows])
+    kn = SlipData(slip=i, tractive_force=F / 1e3)
+    neg = SlipData(slip=i, tractive_force=np.where(np.arange(F.size) == 3, -5.0, F))
+    sets = [SlipData(slip=i, tractive_force=F), kn, neg] * 4  # 12 same-size sets: the vectorised engine
+    many = fit_many(sets, light, engine="vectorized")
+    for d, r in zip(sets, many):
+        one = fit(d, light)
+        assert r.success == one.success and r.status == one.status, (r.status, one.status)
+        assert [w for w in r.warnings if "NOT USABLE" in w] == [w for w in one.warnings if "NOT USABLE" in w]
+    assert [r.success for r in many[:3]] == [True, False, False]
