@@ -14,7 +14,7 @@ import numpy as np
 
 from ..soilmodel.soil import SoilBounds
 from ..soilmodel.threadsafe import call_solver, locked_cache
-from ..soilmodel.traction import shear_bracket
+from ..soilmodel.traction import shear_bracket, shear_bracket_inverse
 from ..soilmodel.vehicle import Vehicle
 from .drivelog_prepare import SLIP_BOUNDS, PreparedLog
 
@@ -99,16 +99,8 @@ def eval_pointwise(slip: np.ndarray, Fmax: float, K: float, l: float) -> tuple[n
 
 
 def _g_inverse(y: np.ndarray) -> np.ndarray:
-    """x >= 0 with ``1 - (1 - exp(-x))/x = y`` for y in [0, 1) (vectorised bisection)."""
-    y = np.clip(np.asarray(y, dtype=float), 0.0, 0.999)
-    lo, hi = np.zeros_like(y), np.full_like(y, 1e4)
-    for _ in range(80):
-        mid = 0.5 * (lo + hi)
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            g = np.where(mid < 1e-8, mid / 2, 1.0 + np.expm1(-mid) / np.where(mid == 0, 1.0, mid))
-        lower = g < y
-        lo, hi = np.where(lower, mid, lo), np.where(lower, hi, mid)
-    return 0.5 * (lo + hi)
+    """x >= 0 with ``1 - (1 - exp(-x))/x = y`` for y in [0, 1): the soilmodel's inverse of the one bracket."""
+    return shear_bracket_inverse(y)
 
 
 

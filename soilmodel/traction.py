@@ -51,6 +51,28 @@ def shear_bracket(x):
     return ca.if_else(a < SERIES_SWITCH, series, exact)
 
 
+@lru_cache(maxsize=1)
+def _bracket_table() -> tuple[np.ndarray, np.ndarray]:
+    """``(g(x), x)`` of :func:`shear_bracket` at x = 0 and 8,001 log-spaced points in [1e-8, 1e4]."""
+    x = np.concatenate([[0.0], np.logspace(-8.0, 4.0, 8001)])
+    xs = ca.SX.sym("x")
+    g = ca.Function("shear_bracket", [xs], [shear_bracket(xs)]).map(x.size)
+    return np.asarray(g(x.reshape(1, -1)), dtype=float).ravel(), x
+
+
+def shear_bracket_inverse(y) -> np.ndarray:
+    """``x >= 0`` with ``g(x) = y`` (:func:`shear_bracket`) for ``y`` in [0, 1), numpy, vectorised.
+
+    Interpolated in a table of the one :func:`shear_bracket` (monotone; built once, 8,001
+    log-spaced points up to x = 1e4), exact to about 1e-5 relative; ``y`` is clipped to
+    [0, 0.999]. Meant for start points: a start slip from a thrust is ``i = x K / l`` with
+    ``x = shear_bracket_inverse(F / F_max)``.
+    """
+    y = np.clip(np.asarray(y, dtype=float), 0.0, 0.999)
+    g, x = _bracket_table()
+    return np.interp(y, g, x)
+
+
 def slip_factor(slip, track_length, shear_modulus):
     """The Janosi-Hanamoto slip factor ``g(i l / K)`` of uniform pressure, in (-1, 1); odd in slip."""
     return shear_bracket(slip * track_length / shear_modulus)

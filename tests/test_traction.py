@@ -136,3 +136,17 @@ def test_per_sample_normal_load_broadcasts():
 def test_unknown_model_is_refused():
     with pytest.raises(ValueError, match="unknown model"):
         tractive_force(0.1, LETE, HEAVY, model="bogus")
+
+
+def test_shear_bracket_inverse_round_trip():
+    """The inverse (start points of the drive-log fits) is the one bracket's, to about 1e-5."""
+    import casadi as ca
+    from soiltrack.soilmodel.traction import shear_bracket, shear_bracket_inverse
+
+    y = np.concatenate([[0.0, 1e-7, 1e-3], np.linspace(0.01, 0.999, 300)])
+    x = shear_bracket_inverse(y)
+    xs = ca.SX.sym("x")
+    g = np.asarray(ca.Function("g", [xs], [shear_bracket(xs)]).map(y.size)(x.reshape(1, -1))).ravel()
+    assert np.all(np.diff(x) > 0) and x[0] == 0.0
+    assert np.allclose(g, y, rtol=1e-5, atol=1e-12)
+    assert np.array_equal(shear_bracket_inverse(np.array([1.5, -0.2])), shear_bracket_inverse(np.array([0.999, 0.0])))
