@@ -37,9 +37,12 @@ from ..soilmodel.data import DriveLog, SlipData
 from ..soilmodel.effects import EFFECTS
 from ..soilmodel.errors import DataError
 from ..soilmodel.vehicle import Vehicle
+from .diagnosis_sweep import (effect_start, imitation_rms, information_weights, plausibility_warnings,
+                              solver_converged, sweep_folds)
 from .gap import (Segment, blocked_folds, change_window, lag_peak, localise, long_run_factor, noise_profile,
                   whiteness)
 from .screening import Screen, newey_west_lag, screen
+from .sweep_model import SweepResiduals
 from .selection import (DISCREPANCY, NOMINAL, confusable_groups, decide, dm_test, fit_discrepancy, gap_p_value,
                         separating_experiment, stacking_weights)
 
@@ -332,7 +335,13 @@ def _channels(res, data) -> dict[str, np.ndarray]:
                 full[k] = a
             return full
     out = {}
-    for k, v in res.residuals_on(data).items():
+    rm = getattr(res, "residual_model", None)
+    if isinstance(data, SlipData) and (rm is None or isinstance(rm, SweepResiduals)):
+        # a converged fit that only the plausibility checks flagged still predicts (diagnosis_sweep)
+        items = (rm or SweepResiduals()).residuals_on(res, data, accept_implausible=True)
+    else:
+        items = res.residuals_on(data)
+    for k, v in items.items():
         v = np.asarray(v, dtype=float).ravel()
         if v.size < m:
             v = np.concatenate([np.full(m - v.size, np.nan), v])
@@ -470,18 +479,37 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     notes: list[str] = []
 
     failed: list[str] = []
+    flagged: dict[str, int] = {}  # model -> number of its fits only the plausibility checks refused
 
-    def run_fit(d, effects=(), fixed=None):
+    def usable(res) -> bool:
+        """A fit the diagnosis may use: successful, or (sweep) converged and only flagged implausible."""
+        return bool(res.success) or (not is_log and solver_converged(res))
+
+    def run_fit(d, effects=(), fixed=None, start=None, record=True):
         kw = {}
         if is_log and not effects:
             kw["hull_channel"] = True  # the nominal model on the same three channels as the candidates
         if effects:
             kw["effects"] = list(effects)
+        if start is not None and effects:
+            # refit from another fit's answer (soil and effect parameters)
+            st = effect_start(start)
+            kw["effects"] = {e: dict(st.get(e, {})) or True for e in effects}
+            kw["x0"] = np.asarray(start.theta, dtype=float)
         if fixed:
             kw["fixed"] = dict(fixed)
-        res = fit(d, vehicle, model=model, **kw)
-        if not res.success:
-            failed.append(effects[0] if len(effects) == 1 else NOMINAL)
+        try:
+            res = fit(d, vehicle, model=model, **kw)
+        except DataError:
+            if start is None:
+                raise
+            return run_fit(d, effects, fixed, None, record)
+        if record:
+            key = effects[0] if len(effects) == 1 else NOMINAL
+            if not usable(res):
+                failed.append(key)
+            elif not res.success:
+                flagged[key] = flagged.get(key, 0) + 1
         return res
 
     # --- 1. screening: one fit with every candidate held at its off value -------------------------
@@ -499,10 +527,15 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     # --- 2. the gap: blocked hold-out ------------------------------------------------------------------
     # every residual array is kept at full length n (NaN where the fit used no sample, e.g. a
     # drive-log sample at standstill), so that held-out parts of the two folds fill one array
-    if not nominal_full.success:
+    if not usable(nominal_full):
         return _nominal_failed(data, cands, screens, nominal_full, "on all the data", is_log, t0)
     R = _channels(nominal_full, data)
     channels = list(R)
+    if not nominal_full.success:
+        pw = plausibility_warnings(nominal_full)
+        notes.append("the nominal fit converged but fails the plausibility checks (" + ("; ".join(pw) or
+                     nominal_full.status) + "): a model missing an effect looks like this; the diagnosis uses "
+                     "its converged answer")
     order = _order(data)
     noise, sig_n = {}, {}
     for ch, rr in R.items():
@@ -520,10 +553,13 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     if stat_cos > 1e-2 and not any("no measurable noise" in t for t in notes):
         notes.append(f"the screening fit's residuals are not orthogonal to the soil's sensitivities (cosine "
                      f"{stat_cos:.2g}): its score tests are unreliable; the held-out comparison decides")
-    folds = [(np.sort(order[a]), np.sort(order[b])) for a, b in blocked_folds(n, n_blocks)]  # natural order
-    if n_folds is None:
-        n_folds = 1 if is_log else 2
-    folds = folds[:max(1, min(2, int(n_folds)))]
+    if is_log:
+        folds = [(np.sort(order[a]), np.sort(order[b])) for a, b in blocked_folds(n, n_blocks)]  # natural order
+        folds = folds[:max(1, min(2, int(1 if n_folds is None else n_folds)))]
+    else:
+        # every block held out once over n_folds folds: each fit sees most of the sweep (diagnosis_sweep)
+        folds = sweep_folds(order, n_blocks, 5 if n_folds is None else max(2, int(n_folds)))
+    full_fits: dict[str, Any] = {}  # model -> its fit on all the data (sweeps: every refitted candidate)
     nat = "time" if is_log else "slip"
     xnat = np.asarray(data.time if is_log else data.slip, dtype=float)
     H: dict[str, dict[str, np.ndarray]] = {}  # model -> channel -> held-out residual per sample
@@ -545,8 +581,17 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     def score_model(name, effects=()):
         H[name] = {ch: np.full(n, np.nan) for ch in channels}
         fits = []
+        start = full_fits.get(name) if effects else None
         for tr, te in folds:
-            res = run_fit(_subset(data, tr), effects)
+            if start is not None and usable(start):
+                # a fit on part of a sweep may stall where the fit on all of it did not: retry from its answer
+                res = run_fit(_subset(data, tr), effects, record=False)
+                if not usable(res):
+                    res = run_fit(_subset(data, tr), effects, start=start)
+                elif not res.success:
+                    flagged[name] = flagged.get(name, 0) + 1
+            else:
+                res = run_fit(_subset(data, tr), effects)
             fits.append(res)
             try:
                 rt = residuals_at(res, te)
@@ -600,6 +645,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     if significant and len(ranked) > max_refits:
         notes.append(f"the {max_refits} candidates with the strongest score were refitted ({', '.join(refit)})")
     for c in refit:
+        if not is_log:
+            full_fits[c] = run_fit(data, (c,))
         score_model(c, (c,))
 
     mask = {ch: np.isfinite(H[NOMINAL][ch]) & np.isfinite(sig_n[ch]) & (np.nan_to_num(sig_n[ch]) > 0)
@@ -630,6 +677,32 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     blk = max(1, newey_west_lag(n_held // max(1, len(channels)))) if is_log else 1
     weights = stacking_weights({m: -0.5 * zall(m) ** 2 if math.isfinite(scores[m]) else np.full(n_held, -np.inf)
                                 for m in H}, block=blk)
+    # sweeps: which effect is weighed on ALL the data (likelihood with Akaike's penalty, pseudo-BMA+):
+    # independent samples, and no extrapolation into held-out blocks (diagnosis_sweep). The held-out
+    # blocks still measure the gap, test the flexible term and give the shrink.
+    full_ok = np.logical_and.reduce([np.isfinite(R[ch]) & (np.nan_to_num(sig_n[ch]) > 0) for ch in channels])
+    kpar: dict[str, int] = {NOMINAL: 0, DISCREPANCY: n_knots}
+
+    def z_in(m):
+        """Standardised residuals of model ``m`` fitted on all the data (inf when it has no usable fit)."""
+        if m == NOMINAL:
+            rr = R
+        elif m == DISCREPANCY:
+            rr = {ch: R[ch] - fit_discrepancy(xnat[full_ok], R[ch][full_ok], xnat, n_knots)[0] for ch in channels}
+        else:
+            f = full_fits.get(m)
+            try:
+                rr = _channels(f, data) if f is not None and usable(f) else None
+            except DataError:
+                rr = None
+            if rr is None:
+                return np.full(int(np.sum(full_ok)) * len(channels), np.inf)
+            kpar[m] = len(f.effect_labels) - len(f.fixed_labels)
+        return np.concatenate([rr[ch][full_ok] / sig_n[ch][full_ok] for ch in channels])
+
+    if not is_log:
+        z_full = {m: z_in(m) for m in H}
+        weights = information_weights(z_full, kpar)
     gap_p = gap_p_value(scores[NOMINAL], n_held, infl)
     disc_beats = {m: dm_test(zall(m), zall(DISCREPANCY), dm_lag) for m in H if m != DISCREPANCY}
     after_ratio = {c: max(float(np.sqrt(np.mean(z(c, ch) ** 2))) for ch in channels) for c in refit}
@@ -676,36 +749,50 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     outside_rivals = []
     if verdict.name in refit and out_screens:
         k_out = 2 if is_log else len(out_screens)
+        outside_fitted = []
         for sc in sorted(out_screens, key=lambda s: -s.gain)[:k_out]:
-            score_model(sc.effect, (sc.effect,))
-            scores[sc.effect] = ss(sc.effect)
-        w_ext = stacking_weights({m: -0.5 * zall(m) ** 2 if math.isfinite(scores[m]) else np.full(n_held, -np.inf)
-                                  for m in H}, block=blk)
+            outside_fitted.append(sc.effect)
+            if is_log:
+                score_model(sc.effect, (sc.effect,))
+                scores[sc.effect] = ss(sc.effect)
+            else:  # sweeps: on all the data, like the candidates' weights
+                full_fits[sc.effect] = run_fit(data, (sc.effect,), record=False)
+                z_full[sc.effect] = z_in(sc.effect)
+        if is_log:
+            w_ext = stacking_weights({m: -0.5 * zall(m) ** 2 if math.isfinite(scores[m])
+                                      else np.full(n_held, -np.inf) for m in H}, block=blk)
+        else:
+            w_ext = information_weights(z_full, kpar)
         confidence = min(confidence, w_ext[verdict.name])
-        for o in (m for m in H if m not in compared):
+        for o in outside_fitted:
             if w_ext[o] >= 0.2 * w_ext[verdict.name]:
                 outside_rivals.append(o)
-                notes.append(f"{o}, which is not among the candidates, predicts the held-out data "
+                notes.append(f"{o}, which is not among the candidates, {'predicts the held-out' if is_log else 'fits the'} data "
                              f"{'better' if w_ext[o] > w_ext[verdict.name] else 'about as well'} "
                              f"(weight {w_ext[o]:.2f} against {w_ext[verdict.name]:.2f} among all library effects): "
                              f"{verdict.name} is named with confidence {confidence:.2f} only")
 
+    for m, k in flagged.items():
+        if m != NOMINAL or k:
+            notes.append(f"{k} fit(s) with {'the nominal model' if m == NOMINAL else m} converged but fail the "
+                         "plausibility checks (large residuals or rows far off the curve); their converged answers "
+                         "are used")
     # --- 4. ranking, confusable, shrink, soil -------------------------------------------------------------
     before = rmse(NOMINAL)
     ranking = []
-    full_fits = {}
     for m in sorted(compared, key=lambda m: -weights[m]):
         after = rmse(m)
         zb = math.sqrt(scores[NOMINAL] / max(1, n_held))
         za = math.sqrt(scores[m] / max(1, n_held)) if math.isfinite(scores[m]) else math.inf
         shrink = None if m == NOMINAL or zb <= 0 or not math.isfinite(za) else 1.0 - za / zb
         params = {}
-        conv = all(f.success for f in train_fits.get(m, []))
+        conv = all(usable(f) for f in train_fits.get(m, []))
         scr = next((s for s in screens if s.effect == m), None)
         if m == verdict.name and m in refit:  # the verdict's effect: refitted on all the data (soil after, parameters)
-            full_fits[m] = run_fit(data, (m,))
+            if m not in full_fits:
+                full_fits[m] = run_fit(data, (m,))
             params = _effect_params(full_fits[m], m)
-            conv = conv and full_fits[m].success
+            conv = conv and usable(full_fits[m])
         elif m in refit and train_fits.get(m):  # others: as fitted on the first training part (half the data)
             params = {p: dict(v, fitted_on="training part A (half the data)")
                       for p, v in _effect_params(train_fits[m][0], m).items()}
@@ -737,7 +824,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         soil_after, after_rmse, shrink = None, None, None
     # the diagnosis stands on the nominal fits and on the verdict's: a candidate whose fit failed only
     # loses its weight (said in the notes)
-    converged = bool(nominal_full.success) and NOMINAL not in failed and name not in failed
+    converged = usable(nominal_full) and NOMINAL not in failed and name not in failed
     if not converged:
         notes.append("a fit the verdict rests on did not converge (the nominal model's or the verdict's effect's)")
     curves = {"held_x": {ch: xnat[mask[ch]] for ch in channels},
