@@ -175,3 +175,156 @@ def imitation_rms(prediction: np.ndarray, data: SlipData, sigma: np.ndarray, fit
     if not np.any(ok):
         return math.inf
     return float(np.sqrt(np.mean((r[ok] / s[ok]) ** 2)))
+
+
+# ----------------------------------------------------------------------------- lack of fit and the verdict
+def _betacf(a: float, b: float, x: float) -> float:
+    """Continued fraction of the incomplete beta function (modified Lentz)."""
+    tiny = 1e-300
+    qab, qap, qam = a + b, a + 1.0, a - 1.0
+    c, d = 1.0, 1.0 - qab * x / qap
+    d = 1.0 / (tiny if abs(d) < tiny else d)
+    h = d
+    for m in range(1, 1000):
+        m2 = 2 * m
+        aa = m * (b - m) * x / ((qam + m2) * (a + m2))
+        d = 1.0 + aa * d
+        d = 1.0 / (tiny if abs(d) < tiny else d)
+        c = 1.0 + aa / c
+        c = tiny if abs(c) < tiny else c
+        h *= d * c
+        aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2))
+        d = 1.0 + aa * d
+        d = 1.0 / (tiny if abs(d) < tiny else d)
+        c = 1.0 + aa / c
+        c = tiny if abs(c) < tiny else c
+        delta = d * c
+        h *= delta
+        if abs(delta - 1.0) < 1e-14:
+            break
+    return h
+
+
+def betainc(a: float, b: float, x: float) -> float:
+    """Regularised incomplete beta function ``I_x(a, b)`` (no scipy at run time)."""
+    if x <= 0.0:
+        return 0.0
+    if x >= 1.0:
+        return 1.0
+    lbt = math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b) + a * math.log(x) + b * math.log1p(-x)
+    if x < (a + 1.0) / (a + b + 2.0):
+        return math.exp(lbt) * _betacf(a, b, x) / a
+    return 1.0 - math.exp(lbt) * _betacf(b, a, 1.0 - x) / b
+
+
+def f_sf(f: float, d1: float, d2: float) -> float:
+    """P(X > f) for X with an F(d1, d2) distribution."""
+    if not math.isfinite(f):
+        return 0.0 if f > 0 else 1.0
+    if f <= 0 or d1 <= 0 or d2 <= 0:
+        return 1.0
+    return betainc(0.5 * d2, 0.5 * d1, d2 / (d2 + d1 * f))
+
+
+def lack_of_fit(residuals: np.ndarray, jacobian: np.ndarray, basis: np.ndarray, sigma: np.ndarray) -> float:
+    """p-value that a flexible term ``basis`` on top of a fitted model still explains its residuals (F test).
+
+    The model's own parameters are refitted with the flexible term (linearised: its Jacobian),
+    so the test asks what the basis adds beyond them. Rows are weighted by ``1/sigma`` (the
+    shape of the noise along the sweep); the F statistic does not depend on the noise level,
+    which second differences estimate only roughly.
+
+    Parameters
+    ----------
+    residuals
+        Measured minus predicted of the model fitted on all the data, per sample.
+    jacobian
+        Its prediction's Jacobian w.r.t. its parameters, ``(n, p)``.
+    basis
+        The flexible term's basis, ``(n, k)`` (e.g. :func:`~.selection.hat_basis` in slip).
+    sigma
+        Noise level per sample (only its shape matters).
+    """
+    s = np.asarray(sigma, dtype=float)
+    z = np.asarray(residuals, dtype=float) / s
+    J = np.asarray(jacobian, dtype=float) / s[:, None]
+    B = np.asarray(basis, dtype=float) / s[:, None]
+    ok = np.isfinite(z) & np.all(np.isfinite(J), axis=1) & np.all(np.isfinite(B), axis=1)
+    z, J, B = z[ok], J[ok], B[ok]
+
+    def span(M):
+        M = M[:, np.linalg.norm(M, axis=0) > 0]
+        if M.shape[1] == 0:
+            return np.zeros((M.shape[0], 0))
+        M = M / np.linalg.norm(M, axis=0)
+        U, sv, _ = np.linalg.svd(M, full_matrices=False)
+        return U[:, sv > 1e-9 * sv[0]]
+
+    U0, U1 = span(J), span(np.hstack([J, B]))
+    d1 = U1.shape[1] - U0.shape[1]
+    d2 = z.size - U1.shape[1]
+    if d1 <= 0 or d2 <= 0:
+        return 1.0
+    s0 = float(z @ z - np.sum((U0.T @ z) ** 2))
+    s1 = float(z @ z - np.sum((U1.T @ z) ** 2))
+    if s1 <= 0:
+        return 0.0 if s0 > 0 else 1.0
+    return f_sf(((s0 - s1) / d1) / (s1 / d2), d1, d2)
+
+
+def decide_sweep(weights: dict[str, float], significant: list[str], gap: bool, lack_p: dict[str, float],
+                 alpha: float = 0.01):
+    """The verdict on a sweep from information-criterion weights and the lack-of-fit test.
+
+    - ``none`` when no candidate screens significant and no gap is seen, or when the nominal model
+      outweighs every candidate;
+    - ``unexplained`` when the flexible term outweighs the best candidate, or when a flexible term
+      on top of the best candidate still explains its residuals (:func:`lack_of_fit` below ``alpha``);
+    - otherwise the best candidate, with its weight as the confidence.
+
+    Returns a :class:`~.selection.Verdict`.
+    """
+    from .selection import DISCREPANCY, NOMINAL, Verdict
+
+    w_none = weights.get(NOMINAL, 0.0)
+    w_disc = weights.get(DISCREPANCY, 0.0)
+    named = {k: w for k, w in weights.items() if k not in (NOMINAL, DISCREPANCY)}
+    if not significant and not gap:
+        return Verdict(NOMINAL, max(w_none, 1.0 - w_disc),
+                       "no candidate's score is significant and the nominal model leaves no significant gap")
+    if not named:
+        if gap:
+            return Verdict("unexplained", w_disc, "the nominal model leaves a significant gap, and no candidate "
+                           "effect screens significant")
+        return Verdict(NOMINAL, w_none, "no candidate fits the data better than the nominal model")
+    best = max(named, key=lambda k: named[k])
+    if w_none >= named[best] and w_none >= w_disc:
+        return Verdict(NOMINAL, w_none, "the nominal model fits all the data best (likelihood with Akaike's "
+                       "penalty for the parameters an effect adds)")
+    if w_disc > named[best]:
+        return Verdict("unexplained", 1.0 - named[best],
+                       f"a flexible discrepancy term fits all the data better than the best candidate, {best}, "
+                       "even with Akaike's penalty for its many parameters")
+    p = lack_p.get(best, 1.0)
+    if p < alpha:
+        return Verdict("unexplained", 1.0 - named[best],
+                       f"the best candidate, {best}, still leaves a smooth gap: a flexible term on top of it "
+                       f"explains its residuals (F test, p = {p:.2g})")
+    return Verdict(best, named[best], f"{best} fits all the data best (likelihood with Akaike's penalty)")
+
+
+def fit_jacobian(res, data: SlipData) -> np.ndarray:
+    """Jacobian ``(n, 3 + m)`` of a sweep fit's prediction at its answer, on the samples of ``data``."""
+    from .sweep_model import SweepResiduals, predict
+
+    rm = res.residual_model if isinstance(getattr(res, "residual_model", None), SweepResiduals) else SweepResiduals()
+    values = getattr(res, "effect_values", None)
+    ev = np.zeros(0) if values is None or not res.effect_labels else np.asarray(values, dtype=float).ravel()
+    x = np.concatenate([np.asarray(res.theta, dtype=float), ev])
+    effects = res.effect_structure if res.effect_labels else None
+    W = data.loads(res.vehicle.weight).astype(float)
+    _, J = predict(x, data.slip, W, res.vehicle, effects, res.model, data.measured, rm.rig_speed)
+    if res.model == "cohesion-free":
+        J = J.copy()
+        J[:, 0] = 0.0
+    return J
