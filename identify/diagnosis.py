@@ -439,7 +439,7 @@ def _check_candidates(candidates, data) -> tuple[str, ...]:
 # ----------------------------------------------------------------------------- the diagnosis
 def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full",
              candidates: Sequence[str] | None = None, n_blocks: int = 10, n_folds: int | None = None,
-             max_refits: int | None = None, alpha: float = ALPHA) -> Diagnosis:
+             max_refits: int | None = None, alpha: float = ALPHA, weigh_outside: bool = True) -> Diagnosis:
     """Diagnose the gap between the nominal model and a drive log or a slip sweep.
 
     Parameters
@@ -462,6 +462,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         every significant one for a sweep (fits take milliseconds), 3 for a drive log.
     alpha
         Significance level (screening is Bonferroni-corrected over the candidates).
+    weigh_outside
+        Also weigh the verdict against the library effects left out of ``candidates`` (default);
+        ``False`` leaves the flexible term and the lack-of-fit test alone to catch a gap that no
+        candidate explains (for validation).
 
     Returns
     -------
@@ -820,7 +824,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     compared = list(H)
     confidence = float(verdict.confidence)
     outside_rivals = []
-    if verdict.name in refit and out_screens:
+    w_all = weights  # weights among the candidates, or among all library effects once outside ones are weighed
+    if verdict.name in refit and out_screens and weigh_outside:
         k_out = 2 if is_log else len(out_screens)
         outside_fitted = []
         for sc in sorted(out_screens, key=lambda s: -s.gain)[:k_out]:
@@ -837,6 +842,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         else:
             w_ext = information_weights(z_full, kpar)
         confidence = min(confidence, w_ext[verdict.name])
+        w_all = w_ext
         for o in outside_fitted:
             if w_ext[o] >= 0.2 * w_ext[verdict.name]:
                 outside_rivals.append(o)
@@ -874,12 +880,45 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     conf = []
     for (a, b), corr in confusable_groups({m: weights[m] for m in refit}, dirs, verdict=verdict.name):
         conf.append(((a, b), corr, separating_experiment(a, b)))
+    if not is_log and verdict.name in full_fits and usable(full_fits[verdict.name]):
+        # sweeps: a rival that imitates the verdict's fitted curve within the noise cannot be told apart on
+        # these data whatever the noise drew (expected evidence n d^2 below 2 ln 19: odds under 19:1)
+        va = verdict.name
+        pred = data.values - _channels(full_fits[va], data)[channels[0]]
+        listed = {x for p, _, _ in conf for x in p if va in p}
+        rivals = [m for m in sorted(full_fits, key=lambda m: -w_all.get(m, 0.0))
+                  if m != va and m not in listed and usable(full_fits[m])][:3]
+        n_use = int(np.sum(full_ok))
+        for b in rivals:
+            d = imitation_rms(pred, data, sig_n[channels[0]],
+                              lambda syn, b=b: (lambda f: (f, _channels(f, syn)[channels[0]] if usable(f) else None))(
+                                  run_fit(syn, (b,), record=False)))
+            if math.isfinite(d) and n_use * d * d < 2.0 * math.log(19.0):
+                da, db = dirs.get(va), dirs.get(b)
+                corr = (float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db)))
+                        if da is not None and db is not None and np.linalg.norm(da) * np.linalg.norm(db) > 0
+                        else math.nan)
+                conf.append(((va, b), corr, separating_experiment(va, b)))
+                notes.append(f"{b} imitates the curve fitted with {va} within {d:.2f} times the noise (RMS): on "
+                             f"{n_use} samples that is too little to tell them apart reliably")
     for o in outside_rivals:
+        if any(o in p and verdict.name in p for p, _, _ in conf):
+            continue
         da, db = dirs.get(verdict.name), dirs.get(o)
         corr = (float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db)))
                 if da is not None and db is not None and np.linalg.norm(da) * np.linalg.norm(db) > 0 else math.nan)
         conf.append(((verdict.name, o), corr, separating_experiment(verdict.name, o)))
     name = verdict.name
+    if not is_log and name not in (NOMINAL, "unexplained"):
+        # an effect whose fitted parameter ends on its bound has been stretched to its limit: the bound, not
+        # the data, stopped it, which is what an effect imitating another one does (a strain-softening drop
+        # of 95 % over hundreds of K standing for a resistance that grows with slip)
+        vp = next((e.parameters for e in ranking if e.effect == name), {})
+        on_bound = [p for p, dct in vp.items() if dct.get("at_bound")]
+        if on_bound and confidence > 0.5:
+            confidence = 0.5
+            notes.append(f"{name}'s {', '.join(on_bound)} ended on {'its bound' if len(on_bound) == 1 else 'their bounds'}: "
+                         f"the effect is stretched to its limit and may stand for another one; confidence capped at 0.5")
     if name not in (NOMINAL, "unexplained") and any(name in p for p, _, _ in conf):
         notes.append(f"{name} is named with low certainty: the data cannot tell it from "
                      + ", ".join(x for p, _, _ in conf if name in p for x in p if x != name))

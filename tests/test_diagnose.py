@@ -70,6 +70,16 @@ def test_leaving_out_the_true_effect_is_never_a_confident_wrong_name():
     assert d.verdict == "unexplained" or d.confidence <= 0.5, (d.verdict, d.confidence)
 
 
+@pytest.mark.parametrize("name", ["slip_sinkage", "radius_error"])
+def test_leave_one_out_without_weighing_the_left_out_effect(name):
+    # the true effect neither among the candidates nor weighed from outside them: a candidate that imitates it
+    # (hump_shear stretched to its bound for slip_sinkage; grade for radius_error, leaving a smooth gap) must
+    # not be named with confidence
+    cands = [e for e in SWEEP_EFFECTS if e != name]
+    d = diagnose(sweep({name: SWEEP_EFFECTS[name]}), VEH, candidates=cands, weigh_outside=False)
+    assert d.verdict == "unexplained" or d.confidence <= 0.5, (d.verdict, d.confidence, d.reason)
+
+
 def test_report_json_and_plot(tmp_path):
     d = diagnose(sweep({"hump_shear": 0.3}), VEH)
     assert isinstance(d, Diagnosis)
