@@ -8,7 +8,8 @@
    (:func:`~.screening.score_test`) asks whether moving its parameter away from "off" would
    explain the residuals beyond what the soil can absorb.
 2. **The gap**: the samples (in time order for a log, in slip order for a sweep) are cut into
-   contiguous blocks, alternately held out (:func:`~.gap.blocked_folds`, two folds). The
+   contiguous blocks, alternately held out (:func:`~.gap.blocked_folds`, two folds; a sweep:
+   each block held out once in five folds, :func:`~.diagnosis_sweep.sweep_folds`). The
    nominal model is fitted on one part and predicts the other, channel by channel, against
    each channel's noise level (:func:`~.gap.noise_profile`: it may vary along the data).
 3. **Where** (:func:`~.gap.localise`, :func:`~.gap.change_window`, :func:`~.gap.whiteness`,
@@ -18,6 +19,10 @@
    part (jointly with the soil, through :func:`~.fitting.fit`), scored on the held-out part,
    and compared with the nominal model and a flexible discrepancy term by cross-validation
    weights. Verdict, confidence, confusable pairs and the experiment that separates them.
+   A sweep (independent samples) is weighed on all its data instead, by the likelihood with
+   Akaike's penalty, and tested for a gap the best candidate leaves by an F test of a flexible
+   term on top of it (:mod:`.diagnosis_sweep`: why, and a converged fit that only the
+   plausibility checks flag, which is what a missing effect does to the nominal model).
 5. **How far it shrinks**: held-out RMS per channel before and after adding the verdict's
    effect, and the soil before and after (the bias the missing effect caused).
 
@@ -220,7 +225,9 @@ class Diagnosis:
             L.append("Soil of the nominal fit: " + ", ".join(f"{k} {_fmt(v)}" for k, v in self.soil_before.items()
                                                          if k not in ("identifiable", "converged")))
             return "\n".join(L)
-        L.append("The gap (nominal model fitted on alternate blocks, predicting the blocks it did not see):")
+        L.append("The gap (nominal model fitted on alternate blocks, predicting the blocks it did not see):"
+                 if self.data_kind == "drive" else "The gap (the sweep cut into contiguous blocks in slip, each held out "
+                 "once; the nominal model fitted on the others predicts the blocks it did not see):")
         for ch, v in self.holdout_rmse_before.items():
             nf = self.noise.get(ch, 0.0)
             ratio = f"{v / nf:.2f} x the noise floor {_fmt(nf)}" if nf > 0 else "noise floor unknown"
@@ -453,10 +460,11 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     candidates
         Effect names to consider (default: every effect that shows in this kind of data).
     n_blocks
-        Number of contiguous blocks of the blocked hold-out (alternately held out).
+        Number of contiguous blocks of the blocked hold-out.
     n_folds
-        1 (fit on the even blocks, predict the odd ones) or 2 (and the other way round).
-        Default 2 for a sweep, 1 for a drive log (each drive-log fit costs seconds).
+        Drive log: 1 (fit on the even blocks, predict the odd ones, the default: each drive-log
+        fit costs seconds) or 2 (and the other way round). Sweep: the number of folds, block k
+        held out in fold ``k mod n_folds`` (default 5: every fit sees four fifths of the sweep).
     max_refits
         At most this many candidates (the most significant in screening) are refitted; default
         every significant one for a sweep (fits take milliseconds), 3 for a drive log.
@@ -497,7 +505,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         """A fit the diagnosis may use: successful, or (sweep) converged and only flagged implausible."""
         return bool(res.success) or (not is_log and solver_converged(res))
 
-    def run_fit(d, effects=(), fixed=None, start=None, record=True, patient=False):
+    def run_fit(d, effects=(), fixed=None, start=None, record=True, patient=False, retry=True):
         kw = {}
         if is_log and not effects:
             kw["hull_channel"] = True  # the nominal model on the same three channels as the candidates
@@ -517,8 +525,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         except DataError:
             if start is None:
                 raise
-            return run_fit(d, effects, fixed, None, record, patient)
-        if not is_log and effects and not patient and not usable(res):
+            return run_fit(d, effects, fixed, None, record, patient, retry)
+        if not is_log and effects and retry and not patient and not usable(res):
             # a sweep fit with an effect that stalls (IPOPT's iteration limit in a slow valley, e.g. a
             # strain-softening hump): once more with more iterations
             return run_fit(d, effects, fixed, start, record, True)
@@ -609,7 +617,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         for tr, te in folds:
             if start is not None and usable(start):
                 # a fit on part of a sweep may stall where the fit on all of it did not: retry from its answer
-                res = run_fit(_subset(data, tr), effects, record=False)
+                res = run_fit(_subset(data, tr), effects, record=False, retry=False)
                 if not usable(res):
                     res = run_fit(_subset(data, tr), effects, start=start, patient=True)
                 elif not res.success:
@@ -679,8 +687,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             hit = [sg for sg in pre if sg.dimension == "slip" and sg.significant]
             if hit:
                 gap_seen = True
-                notes.append(f"the nominal model misses significantly at slip {_fmt(hit[0].range[0])} to "
-                             f"{_fmt(hit[0].range[1])}")
+                notes.append(f"a gap is seen: the nominal model misses significantly at slip {_fmt(hit[0].range[0])} "
+                             f"to {_fmt(hit[0].range[1])} (with the noise floor of its own residuals)")
     if max_refits is None:
         max_refits = 3 if is_log else len(screenable)
     ranked = sorted(screenable, key=lambda s: -s.gain)  # by the cost drop a refit would give
