@@ -82,15 +82,17 @@ class RankEntry:
     effect
         Effect name, ``"none"`` (the nominal model) or ``"discrepancy"`` (the flexible term).
     weight
-        Cross-validation weight (0-1; the weights of all entries sum to 1).
+        Weight of evidence (0-1; the weights of all entries sum to 1): cross-validation weight on
+        a drive log; on a sweep, the likelihood on all the data with Akaike's penalty (pseudo-BMA+).
     holdout_rmse_before, holdout_rmse_after
         Held-out RMS per channel of the nominal model and of this model (channel's unit).
     shrink
         ``1 - after/before`` of the noise-standardised held-out RMS pooled over the channels.
     parameters
         Fitted effect parameters ``{param: {value, stderr, ci95, identifiable, at_bound}}``: on all
-        the data for the verdict's effect, on the first training part (``fitted_on``) for the
-        other candidates; empty for ``none`` and ``discrepancy``.
+        the data for the verdict's effect (and for every candidate of a sweep), on the first
+        training part (``fitted_on``) for the other candidates of a drive log; empty for ``none``
+        and ``discrepancy``.
     screen
         The score test of this candidate, when it is an effect.
     converged
@@ -878,6 +880,9 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         if m == verdict.name and m in refit:  # the verdict's effect: refitted on all the data (soil after, parameters)
             if m not in full_fits:
                 full_fits[m] = run_fit(data, (m,))
+            params = _effect_params(full_fits[m], m)
+            conv = conv and usable(full_fits[m])
+        elif m in refit and not is_log and full_fits.get(m) is not None:  # sweeps: every candidate fitted on all
             params = _effect_params(full_fits[m], m)
             conv = conv and usable(full_fits[m])
         elif m in refit and train_fits.get(m):  # others: as fitted on the first training part (half the data)
