@@ -913,7 +913,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                         else math.nan)
                 conf.append(((va, b), corr, separating_experiment(va, b)))
                 notes.append(f"{b} imitates the curve fitted with {va} within {d:.2f} times the noise (RMS): on "
-                             f"{n_use} samples that is too little to tell them apart reliably")
+                             f"{n_use} samples that is too little to tell them apart reliably"
+                             + (f"; {va} is named with confidence 0.5 at most" if confidence > 0.5 else ""))
+                # what the data cannot tell apart even in expectation is not named with confidence
+                confidence = min(confidence, 0.5)
     for o in outside_rivals:
         if any(o in p and verdict.name in p for p, _, _ in conf):
             continue
