@@ -936,8 +936,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             notes.append(f"{name}'s {', '.join(on_bound)} ended on {'its bound' if len(on_bound) == 1 else 'their bounds'}: "
                          f"the effect is stretched to its limit and may stand for another one; confidence capped at 0.5")
     if name not in (NOMINAL, "unexplained") and any(name in p for p, _, _ in conf):
-        notes.append(f"{name} is named with low certainty: the data cannot tell it from "
-                     + ", ".join(x for p, _, _ in conf if name in p for x in p if x != name))
+        notes.append(f"{name} is named with low certainty (confidence {confidence:.2f}): the data cannot tell it "
+                     "from " + ", ".join(x for p, _, _ in conf if name in p for x in p if x != name))
     soil_before = _soil_summary(nominal_full)
     if name in full_fits:
         soil_after = _soil_summary(full_fits[name])
