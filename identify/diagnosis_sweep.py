@@ -17,6 +17,9 @@ which :func:`~.diagnosis.diagnose` draws on sweeps:
 - **Imitation** (:func:`imitation_rms`): how closely effect B, refitted with the soil, can
   reproduce the curve fitted with effect A, in units of the noise. When that is small, no
   realisation of the noise can tell A from B with confidence; the pair is confusable.
+- **A gap the best candidate leaves** (:func:`lack_of_fit`): an F test of a flexible term
+  (hat functions in slip) added on top of the candidate's fit on all the data, its own
+  parameters refitted with it; the verdict (:func:`decide_sweep`) is ``unexplained`` then.
 
 A fit whose solver converged but whose answer fails the plausibility checks of
 :mod:`.plausibility` (residuals far off, rows that look like outliers) is exactly what a
@@ -32,7 +35,7 @@ import numpy as np
 from ..soilmodel.data import SlipData
 
 __all__ = ["NOT_USABLE", "solver_converged", "plausibility_warnings", "sweep_folds", "information_weights",
-           "imitation_rms", "effect_start"]
+           "imitation_rms", "effect_start", "betainc", "f_sf", "lack_of_fit", "decide_sweep", "fit_jacobian"]
 
 #: Suffix :func:`~.result.build_result` appends to the status of a fit the plausibility checks refuse.
 NOT_USABLE = "(answer not usable)"

@@ -157,3 +157,22 @@ def test_a_failed_nominal_fit_is_reported_not_hidden(monkeypatch, tmp_path):
     assert js["soil_after"] is None and isinstance(js["soil_before"], dict)
     d.plot(str(tmp_path / "f.png"))
     assert "could not be fitted" in d.report()
+
+
+def test_f_test_and_lack_of_fit_on_known_cases():
+    from soiltrack.identify.diagnosis_sweep import f_sf, lack_of_fit
+    from soiltrack.identify.selection import hat_basis
+
+    # tabulated critical values of the F distribution (1 % and 5 %)
+    for f, d1, d2, p in ((3.51, 5, 40, 0.01), (2.08, 10, 40, 0.05), (7.31, 1, 40, 0.01)):
+        assert abs(f_sf(f, d1, d2) - p) < 0.001, (f, d1, d2, f_sf(f, d1, d2))
+    # a linear model y = a + b x: white residuals leave nothing for a flexible term, a smooth bump does
+    rng = np.random.default_rng(3)
+    x = np.linspace(0.0, 1.0, 60)
+    J = np.column_stack([np.ones_like(x), x])
+    B = hat_basis(x, np.linspace(0.0, 1.0, 8))
+    ps = [lack_of_fit(rng.normal(size=x.size), J, B, np.ones_like(x)) for _ in range(200)]
+    assert 0.0 < np.mean(np.array(ps) < 0.05) < 0.12  # about 5 % under the null
+    # a bump whose sum of squares (about 80) is far above the noise's 60 +- 11: any valid test must see it
+    bump = 3.0 * np.exp(-((x - 0.3) / 0.12) ** 2) + rng.normal(size=x.size)
+    assert lack_of_fit(bump, J, B, np.ones_like(x)) < 1e-3
