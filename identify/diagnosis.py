@@ -56,8 +56,9 @@ __all__ = ["diagnose", "Diagnosis", "RankEntry"]
 #: Fewest samples for a blocked hold-out (two folds of alternate blocks of at least 2 samples each).
 MIN_SAMPLES = 8
 
-#: IPOPT iterations of a sweep fit on a training part retried from the fit on all the data (the
-#: default, 500, is met on a few strain-softening fits whose optimum lies in a slow valley).
+#: IPOPT iterations of a sweep fit with an effect that stalled, retried once (from the fit on all
+#: the data for a training part): the default, 500, is met on a few strain-softening fits whose
+#: optimum lies in a slow valley.
 RETRY_MAX_ITER = 3000
 
 #: Significance level of the tests (screening is Bonferroni-corrected over the candidates).
@@ -862,7 +863,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                              f"{verdict.name} is named with confidence {confidence:.2f} only")
 
     for m, k in flagged.items():
-        if m != NOMINAL or k:
+        if k:
             notes.append(f"{k} fit(s) with {'the nominal model' if m == NOMINAL else m} converged but fail the "
                          "plausibility checks (large residuals or rows far off the curve); their converged answers "
                          "are used")
