@@ -11,7 +11,7 @@ def plot_diagnosis(diag, path: str) -> str:
 
     Top: held-out residuals of the main channel against time (log) or slip (sweep), nominal
     model and with the verdict's effect, with the +-2 noise-floor band and the change window.
-    Bottom left: cross-validation weights. Bottom right: the largest localisation shares.
+    Bottom left: the weights (cross-validation for a log, information criterion for a sweep). Bottom right: the largest localisation shares.
     """
     import matplotlib
 
@@ -56,7 +56,8 @@ def plot_diagnosis(diag, path: str) -> str:
     ax2.set_yticks(range(len(names)), names, fontsize=8)
     ax2.invert_yaxis()
     ax2.set_xlim(0, 1)
-    ax2.set_xlabel("cross-validation weight")
+    ax2.set_xlabel("cross-validation weight" if diag.data_kind == "drive" else
+                   "weight of evidence (all the sweep, Akaike's penalty)")
     ax3 = fig.add_subplot(gs[1, 1])
     segs = [sg for sg in diag.localisation if sg.dimension != "channel"][:8]
     labels = [f"{sg.dimension} {sg.range[0]:.3g}-{sg.range[1]:.3g}\n{sg.channel}" for sg in segs]

@@ -254,13 +254,14 @@ class Verdict:
 
 def decide(weights: dict[str, float], significant: list[str], disc_beats: dict[str, float],
            after_ratio: dict[str, float], after_p: dict[str, float], alpha: float = 0.01,
-           gap_ratio: float = 1.5) -> Verdict:
+           gap_ratio: float = 1.5, evidence: str = "predicts the held-out data", gap: bool | None = None) -> Verdict:
     """The verdict from the weights and tests (see the module docstring).
 
     Parameters
     ----------
     weights
-        Cross-validation weights of ``"none"``, ``"discrepancy"`` and the refitted candidates.
+        Weights of ``"none"``, ``"discrepancy"`` and the refitted candidates (cross-validation
+        weights, or for a sweep information-criterion weights on all the data).
     significant
         Candidates whose score test was significant.
     disc_beats
@@ -270,10 +271,17 @@ def decide(weights: dict[str, float], significant: list[str], disc_beats: dict[s
         Per refitted candidate: held-out RMS over the noise floor (worst channel; ``inf`` when a
         flexible term on top of the candidate still predicts significantly better) and the
         p-value of its held-out error against the noise floor.
+    evidence
+        What the weights measure, for the reasons (``"predicts the held-out data"`` or, on
+        sweeps, ``"fits all the data"``).
+    gap
+        Whether a gap is seen; default: the discrepancy term predicts the held-out data
+        significantly better than the nominal model (``disc_beats["none"] < alpha``).
     """
     w_none = weights.get(NOMINAL, 0.0)
     w_disc = weights.get(DISCREPANCY, 0.0)
-    gap = disc_beats.get(NOMINAL, 1.0) < alpha
+    if gap is None:
+        gap = disc_beats.get(NOMINAL, 1.0) < alpha
     named = {k: w for k, w in weights.items() if k not in (NOMINAL, DISCREPANCY)}
     if not significant and not gap:
         return Verdict(NOMINAL, max(w_none, 1.0 - w_disc),
@@ -281,13 +289,13 @@ def decide(weights: dict[str, float], significant: list[str], disc_beats: dict[s
                        "data significantly better than the nominal model")
     if not named:
         if gap:
-            return Verdict("unexplained", w_disc, "a flexible discrepancy term predicts the held-out data "
-                           "significantly better than the nominal model, and no candidate effect screens significant")
+            return Verdict("unexplained", w_disc, "the nominal model leaves a significant gap on the held-out data, "
+                           "and no candidate effect screens significant")
         return Verdict(NOMINAL, w_none, "the candidates that screened significant do not predict the held-out "
                        "data better than the nominal model")
     best = max(named, key=lambda k: named[k])
     if w_none > named[best] and not gap:
-        return Verdict(NOMINAL, w_none, "the nominal model predicts the held-out data best")
+        return Verdict(NOMINAL, w_none, f"the nominal model {evidence} best")
     if disc_beats.get(best, 1.0) < alpha:
         return Verdict("unexplained", max(w_disc, 1.0 - named[best]),
                        f"a flexible discrepancy term predicts the held-out data significantly better than the "
@@ -297,8 +305,8 @@ def decide(weights: dict[str, float], significant: list[str], disc_beats: dict[s
                else "a smooth gap that a flexible term on top of it still predicts")
         return Verdict("unexplained", 1.0 - named[best], f"the best candidate, {best}, still leaves {how}")
     if w_none > named[best]:
-        return Verdict(NOMINAL, w_none, "the nominal model predicts the held-out data best")
-    return Verdict(best, named[best], f"{best} predicts the held-out data best")
+        return Verdict(NOMINAL, w_none, f"the nominal model {evidence} best")
+    return Verdict(best, named[best], f"{best} {evidence} best")
 
 
 def gap_p_value(ss: float, n: int, inflation: float = 1.0) -> float:

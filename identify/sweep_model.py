@@ -83,12 +83,19 @@ class SweepResiduals:
 
     rig_speed: float = DEFAULT_RIG_SPEED
 
-    def residuals_on(self, result, data) -> dict[str, np.ndarray]:
-        """``{channel: measured - predicted}`` (N) of ``result``'s model on the slip data ``data``."""
+    def residuals_on(self, result, data, accept_implausible: bool = False) -> dict[str, np.ndarray]:
+        """``{channel: measured - predicted}`` (N) of ``result``'s model on the slip data ``data``.
+
+        A fit that did not succeed predicts nothing and is refused (:class:`DataError`), except,
+        with ``accept_implausible=True``, one whose solver converged and only the plausibility
+        checks flagged (the diagnosis: a nominal model missing an effect is implausible by design).
+        """
         if not isinstance(data, SlipData):
             raise DataError(f"residuals_on: the fit is on slip data; got {type(data).__name__}",
                             file=getattr(data, "source", None))
-        if not result.success:
+        from .diagnosis_sweep import solver_converged
+
+        if not (result.success or (accept_implausible and solver_converged(result))):
             raise DataError(f"residuals_on: the fit did not succeed ({result.status}); it predicts nothing",
                             file=data.source)
         W = data.loads(result.vehicle.weight).astype(float)

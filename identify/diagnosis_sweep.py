@@ -1,0 +1,333 @@
+"""Sweep-only pieces of the diagnosis: usable fits, the blocked folds, in-sample evidence, imitation.
+
+A tractive-force or drawbar-pull sweep has independent samples (one reading per slip), a few
+dozen of them, and effects whose signatures bend the thrust-slip curve. Three consequences,
+which :func:`~.diagnosis.diagnose` draws on sweeps:
+
+- **Which effect is decided on all the data.** Comparing candidates by their predictions of
+  held-out blocks fits each one on part of the sweep and asks it to extrapolate into the gaps
+  (and, for the end blocks, beyond the slips it saw): that throws away evidence and adds the
+  extrapolation error of the fit, which is largest for effects with a shape in slip. With
+  independent samples and a known noise level the efficient comparison is the likelihood on
+  all the data with a penalty for the parameters added (Akaike's information criterion),
+  averaged over a Bayesian bootstrap of the samples (pseudo-BMA+, :func:`information_weights`).
+  Held-out blocks still measure the gap, test the flexible term and give the shrink.
+- **More folds** (:func:`sweep_folds`): each block held out once in five folds, so every fit
+  sees 80 % of the sweep instead of half of it.
+- **Imitation** (:func:`imitation_rms`): how closely effect B, refitted with the soil, can
+  reproduce the curve fitted with effect A, in units of the noise. When that is small, no
+  realisation of the noise can tell A from B with confidence; the pair is confusable.
+- **A gap the best candidate leaves** (:func:`lack_of_fit`): an F test of a flexible term
+  (hat functions in slip) added on top of the candidate's fit on all the data, its own
+  parameters refitted with it; the verdict (:func:`decide_sweep`) is ``unexplained`` then.
+
+A fit whose solver converged but whose answer fails the plausibility checks of
+:mod:`.plausibility` (residuals far off, rows that look like outliers) is exactly what a
+missing effect does to the nominal model: :func:`solver_converged` accepts it for the
+diagnosis and :func:`plausibility_warnings` says why it was flagged.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..soilmodel.data import SlipData
+
+__all__ = ["NOT_USABLE", "solver_converged", "plausibility_warnings", "sweep_folds", "information_weights",
+           "imitation_rms", "effect_start", "betainc", "f_sf", "lack_of_fit", "decide_sweep", "fit_jacobian"]
+
+#: Suffix :func:`~.result.build_result` appends to the status of a fit the plausibility checks refuse.
+NOT_USABLE = "(answer not usable)"
+
+
+def solver_converged(res) -> bool:
+    """Whether the solver of ``res`` converged to finite numbers (plausibility aside).
+
+    True for a successful fit, and for one whose only failure is the plausibility verdict
+    (its status ends with :data:`NOT_USABLE`); False for a solver failure.
+    """
+    if getattr(res, "success", False):
+        return True
+    status = str(getattr(res, "status", ""))
+    theta = np.asarray(getattr(res, "theta", [np.nan]), dtype=float)
+    return status.endswith(NOT_USABLE) and bool(np.all(np.isfinite(theta)))
+
+
+def plausibility_warnings(res) -> list[str]:
+    """The plausibility warnings that made a converged fit 'not usable' (empty for a successful fit)."""
+    if getattr(res, "success", False):
+        return []
+    try:
+        ws = list(getattr(res, "warnings", ()) or ())
+    except Exception:  # noqa: BLE001 - a lazily built view that fails says nothing more
+        ws = []
+    flagged = [w for w in ws if str(w).startswith("NOT USABLE")]
+    return flagged or [w for w in ws if "outlier" in str(w) or "residual" in str(w)]
+
+
+def sweep_folds(order: np.ndarray, n_blocks: int = 10, n_folds: int = 5) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Blocked folds of a sweep: ``n_blocks`` contiguous blocks in slip order, fold k holds out blocks k, k+f, ...
+
+    Parameters
+    ----------
+    order
+        Sample indices sorted by slip.
+    n_blocks
+        Number of contiguous blocks (at least 2 samples each).
+    n_folds
+        Number of folds (``<= n_blocks``); every block is held out exactly once.
+
+    Returns
+    -------
+    list of (train, test)
+        Sample indices (sorted) of each fold.
+    """
+    order = np.asarray(order)
+    n = order.size
+    nb = int(max(2, min(n_blocks, n // 2)))
+    nf = int(max(2, min(n_folds, nb)))
+    chunks = np.array_split(order, nb)
+    out = []
+    for k in range(nf):
+        te = np.sort(np.concatenate([c for j, c in enumerate(chunks) if j % nf == k]))
+        tr = np.sort(np.concatenate([c for j, c in enumerate(chunks) if j % nf != k]))
+        out.append((tr, te))
+    return out
+
+
+def information_weights(z: dict[str, np.ndarray], k: dict[str, int], n_boot: int = 400,
+                        seed: int = 20261123) -> dict[str, float]:
+    """Pseudo-BMA+ weights of in-sample fits: AIC on all the data, averaged over a Bayesian bootstrap.
+
+    ``z[m]`` are model m's residuals over the noise level at every sample (the same samples for
+    every model), ``k[m]`` the parameters it adds to the soil's. Each bootstrap replicate draws
+    Dirichlet(1, ..., 1) weights ``a`` over the samples and scores every model by
+    ``-0.5 n sum_t a_t z_t^2 - k`` (the log-likelihood minus Akaike's penalty); the weights are the
+    softmax averaged over the replicates (Yao et al. 2018). A model with a non-finite residual
+    gets weight 0. Deterministic (fixed ``seed``).
+    """
+    names = list(z)
+    if not names:
+        return {}
+    Z = np.vstack([np.asarray(z[m], dtype=float) for m in names])
+    n = Z.shape[1]
+    finite = np.all(np.isfinite(Z), axis=1)
+    out = np.zeros(len(names))
+    if n == 0 or not np.any(finite):
+        return {m: (1.0 / len(names) if n == 0 else 0.0) for m in names}
+    L = -0.5 * Z[finite] ** 2  # (models, samples)
+    pen = np.array([float(k.get(m, 0)) for m, f in zip(names, finite) if f])
+    rng = np.random.default_rng(seed)
+    A = rng.dirichlet(np.ones(n), size=n_boot)  # (boot, samples)
+    E = n * A @ L.T - pen[None, :]
+    E = E - E.max(axis=1, keepdims=True)
+    W = np.exp(E)
+    W /= W.sum(axis=1, keepdims=True)
+    out[finite] = W.mean(axis=0)
+    return {m: float(w) for m, w in zip(names, out)}
+
+
+def effect_start(res) -> dict:
+    """``{effect: {param: value}}`` of a fit with effects (the start of a refit from its answer)."""
+    out: dict[str, dict[str, float]] = {}
+    labels = tuple(getattr(res, "effect_labels", ()) or ())
+    values = getattr(res, "effect_values", None)
+    values = np.zeros(0) if values is None else np.asarray(values, dtype=float).ravel()
+    for lab, v in zip(labels, values):
+        name, p = lab.split(".", 1)
+        out.setdefault(name, {})[p] = float(v)
+    return out
+
+
+def imitation_rms(prediction: np.ndarray, data: SlipData, sigma: np.ndarray, fit_other) -> float:
+    """RMS, over the noise, of the best imitation of a fitted curve by another model.
+
+    Parameters
+    ----------
+    prediction
+        The curve to imitate at the samples of ``data`` (what the data would be without noise
+        if the first model were the truth), N.
+    data
+        The sweep (its slips, loads and what it measured).
+    sigma
+        Noise level per sample, N.
+    fit_other
+        ``fit_other(SlipData) -> (FitResult, residuals per sample)`` fitting the other model.
+
+    Returns
+    -------
+    float
+        ``sqrt(mean(((prediction - imitation) / sigma)^2))``; ``inf`` when the refit fails.
+        The expected difference of the two models' sums of squared standardised residuals on
+        such data is ``n`` times its square: below a few units the data cannot tell them apart.
+    """
+    key = "drawbar_pull" if data.measured == "drawbar_pull" else "tractive_force"
+    synth = SlipData(slip=np.asarray(data.slip, float), normal_load=data.normal_load,
+                     source=f"{data.source or 'sweep'} (noise-free curve of the verdict)",
+                     **{key: np.asarray(prediction, float)})
+    try:
+        res, r = fit_other(synth)
+    except Exception:  # noqa: BLE001 - a refit that cannot be made imitates nothing
+        return math.inf
+    if not solver_converged(res):
+        return math.inf
+    r = np.asarray(r, dtype=float)
+    s = np.asarray(sigma, dtype=float)
+    ok = np.isfinite(r) & (s > 0)
+    if not np.any(ok):
+        return math.inf
+    return float(np.sqrt(np.mean((r[ok] / s[ok]) ** 2)))
+
+
+# ----------------------------------------------------------------------------- lack of fit and the verdict
+def _betacf(a: float, b: float, x: float) -> float:
+    """Continued fraction of the incomplete beta function (modified Lentz)."""
+    tiny = 1e-300
+    qab, qap, qam = a + b, a + 1.0, a - 1.0
+    c, d = 1.0, 1.0 - qab * x / qap
+    d = 1.0 / (tiny if abs(d) < tiny else d)
+    h = d
+    for m in range(1, 1000):
+        m2 = 2 * m
+        aa = m * (b - m) * x / ((qam + m2) * (a + m2))
+        d = 1.0 + aa * d
+        d = 1.0 / (tiny if abs(d) < tiny else d)
+        c = 1.0 + aa / c
+        c = tiny if abs(c) < tiny else c
+        h *= d * c
+        aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2))
+        d = 1.0 + aa * d
+        d = 1.0 / (tiny if abs(d) < tiny else d)
+        c = 1.0 + aa / c
+        c = tiny if abs(c) < tiny else c
+        delta = d * c
+        h *= delta
+        if abs(delta - 1.0) < 1e-14:
+            break
+    return h
+
+
+def betainc(a: float, b: float, x: float) -> float:
+    """Regularised incomplete beta function ``I_x(a, b)`` (no scipy at run time)."""
+    if x <= 0.0:
+        return 0.0
+    if x >= 1.0:
+        return 1.0
+    lbt = math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b) + a * math.log(x) + b * math.log1p(-x)
+    if x < (a + 1.0) / (a + b + 2.0):
+        return math.exp(lbt) * _betacf(a, b, x) / a
+    return 1.0 - math.exp(lbt) * _betacf(b, a, 1.0 - x) / b
+
+
+def f_sf(f: float, d1: float, d2: float) -> float:
+    """P(X > f) for X with an F(d1, d2) distribution."""
+    if not math.isfinite(f):
+        return 0.0 if f > 0 else 1.0
+    if f <= 0 or d1 <= 0 or d2 <= 0:
+        return 1.0
+    return betainc(0.5 * d2, 0.5 * d1, d2 / (d2 + d1 * f))
+
+
+def lack_of_fit(residuals: np.ndarray, jacobian: np.ndarray, basis: np.ndarray, sigma: np.ndarray) -> float:
+    """p-value that a flexible term ``basis`` on top of a fitted model still explains its residuals (F test).
+
+    The model's own parameters are refitted with the flexible term (linearised: its Jacobian),
+    so the test asks what the basis adds beyond them. Rows are weighted by ``1/sigma`` (the
+    shape of the noise along the sweep); the F statistic does not depend on the noise level,
+    which second differences estimate only roughly.
+
+    Parameters
+    ----------
+    residuals
+        Measured minus predicted of the model fitted on all the data, per sample.
+    jacobian
+        Its prediction's Jacobian w.r.t. its parameters, ``(n, p)``.
+    basis
+        The flexible term's basis, ``(n, k)`` (e.g. :func:`~.selection.hat_basis` in slip).
+    sigma
+        Noise level per sample (only its shape matters).
+    """
+    s = np.asarray(sigma, dtype=float)
+    z = np.asarray(residuals, dtype=float) / s
+    J = np.asarray(jacobian, dtype=float) / s[:, None]
+    B = np.asarray(basis, dtype=float) / s[:, None]
+    ok = np.isfinite(z) & np.all(np.isfinite(J), axis=1) & np.all(np.isfinite(B), axis=1)
+    z, J, B = z[ok], J[ok], B[ok]
+
+    def span(M):
+        M = M[:, np.linalg.norm(M, axis=0) > 0]
+        if M.shape[1] == 0:
+            return np.zeros((M.shape[0], 0))
+        M = M / np.linalg.norm(M, axis=0)
+        U, sv, _ = np.linalg.svd(M, full_matrices=False)
+        return U[:, sv > 1e-9 * sv[0]]
+
+    U0, U1 = span(J), span(np.hstack([J, B]))
+    d1 = U1.shape[1] - U0.shape[1]
+    d2 = z.size - U1.shape[1]
+    if d1 <= 0 or d2 <= 0:
+        return 1.0
+    s0 = float(z @ z - np.sum((U0.T @ z) ** 2))
+    s1 = float(z @ z - np.sum((U1.T @ z) ** 2))
+    if s1 <= 0:
+        return 0.0 if s0 > 0 else 1.0
+    return f_sf(((s0 - s1) / d1) / (s1 / d2), d1, d2)
+
+
+def decide_sweep(weights: dict[str, float], significant: list[str], gap: bool, lack_p: dict[str, float],
+                 alpha: float = 0.01):
+    """The verdict on a sweep from information-criterion weights and the lack-of-fit test.
+
+    - ``none`` when no candidate screens significant and no gap is seen, or when the nominal model
+      outweighs every candidate;
+    - ``unexplained`` when the flexible term outweighs the best candidate, or when a flexible term
+      on top of the best candidate still explains its residuals (:func:`lack_of_fit` below ``alpha``);
+    - otherwise the best candidate, with its weight as the confidence.
+
+    Returns a :class:`~.selection.Verdict`.
+    """
+    from .selection import DISCREPANCY, NOMINAL, Verdict
+
+    w_none = weights.get(NOMINAL, 0.0)
+    w_disc = weights.get(DISCREPANCY, 0.0)
+    named = {k: w for k, w in weights.items() if k not in (NOMINAL, DISCREPANCY)}
+    if not significant and not gap:
+        return Verdict(NOMINAL, max(w_none, 1.0 - w_disc),
+                       "no candidate's score is significant and the nominal model leaves no significant gap")
+    if not named:
+        if gap:
+            return Verdict("unexplained", w_disc, "the nominal model leaves a significant gap, and no candidate "
+                           "effect screens significant")
+        return Verdict(NOMINAL, w_none, "no candidate fits the data better than the nominal model")
+    best = max(named, key=lambda k: named[k])
+    if w_none >= named[best] and w_none >= w_disc:
+        return Verdict(NOMINAL, w_none, "the nominal model fits all the data best (likelihood with Akaike's "
+                       "penalty for the parameters an effect adds)")
+    if w_disc > named[best]:
+        return Verdict("unexplained", 1.0 - named[best],
+                       f"a flexible discrepancy term fits all the data better than the best candidate, {best}, "
+                       "even with Akaike's penalty for its many parameters")
+    p = lack_p.get(best, 1.0)
+    if p < alpha:
+        return Verdict("unexplained", 1.0 - named[best],
+                       f"the best candidate, {best}, still leaves a smooth gap: a flexible term on top of it "
+                       f"explains its residuals (F test, p = {p:.2g})")
+    return Verdict(best, named[best], f"{best} fits all the data best (likelihood with Akaike's penalty)")
+
+
+def fit_jacobian(res, data: SlipData) -> np.ndarray:
+    """Jacobian ``(n, 3 + m)`` of a sweep fit's prediction at its answer, on the samples of ``data``."""
+    from .sweep_model import SweepResiduals, predict
+
+    rm = res.residual_model if isinstance(getattr(res, "residual_model", None), SweepResiduals) else SweepResiduals()
+    values = getattr(res, "effect_values", None)
+    ev = np.zeros(0) if values is None or not res.effect_labels else np.asarray(values, dtype=float).ravel()
+    x = np.concatenate([np.asarray(res.theta, dtype=float), ev])
+    effects = res.effect_structure if res.effect_labels else None
+    W = data.loads(res.vehicle.weight).astype(float)
+    _, J = predict(x, data.slip, W, res.vehicle, effects, res.model, data.measured, rm.rig_speed)
+    if res.model == "cohesion-free":
+        J = J.copy()
+        J[:, 0] = 0.0
+    return J
