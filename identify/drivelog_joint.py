@@ -260,28 +260,53 @@ def solve_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np
     Safeguarded Newton (steps halved until the cost does not rise) inside the slip bounds, all
     samples at once; the same per-sample problem that the fit profiles out.
     """
-    n = slip0.size
-    fn = _slip_newton_function(vehicle, structure).map(n)
-    th = np.repeat(np.asarray(theta, dtype=float).reshape(-1, 1), n, axis=1)
+    base = _slip_newton_function(vehicle, structure)
     lo, hi = SLIP_BOUNDS
     s = np.clip(np.asarray(slip0, dtype=float), lo, hi)
+    theta = np.asarray(theta, dtype=float).reshape(-1, 1)
+    D = np.asarray(D, dtype=float)
+    # per-sample active set: a sample whose step fell below 1e-10 is done and is no longer evaluated
+    # (each sample's Newton iteration is independent of the others; this only saves evaluations)
+    act = np.arange(s.size)
     for _ in range(iterations):
-        c, g, h = (np.asarray(o, dtype=float).ravel() for o in fn(th, s.reshape(1, -1), D))
+        if act.size == 0:
+            break
+        fn = _mapped(base, act.size)
+        th = np.repeat(theta, act.size, axis=1)
+        Da, sa = D[:, act], s[act]
+        c, g, h = (np.asarray(o, dtype=float).ravel() for o in fn(th, sa.reshape(1, -1), Da))
         step = -g / np.where(h > 0, h, np.maximum(np.abs(h), 1e-300)) * np.where(h > 0, 1.0, 1e-3)
-        t = np.ones(n)
+        t = np.ones(act.size)
+        pend = np.arange(act.size)  # samples whose step is still being halved
         for _half in range(30):
-            cand = np.clip(s + t * step, lo, hi)
-            c_new = np.asarray(fn(th, cand.reshape(1, -1), D)[0], dtype=float).ravel()
-            worse = c_new > c * (1 + 1e-12) + 1e-300
+            cand = np.clip(sa[pend] + t[pend] * step[pend], lo, hi)
+            fp = _mapped(base, pend.size)
+            c_new = np.asarray(fp(np.repeat(theta, pend.size, axis=1), cand.reshape(1, -1), Da[:, pend])[0],
+                               dtype=float).ravel()
+            worse = c_new > c[pend] * (1 + 1e-12) + 1e-300
             if not np.any(worse):
                 break
-            t = np.where(worse, 0.5 * t, t)
-        s_new = np.clip(s + t * step, lo, hi)
-        if np.max(np.abs(s_new - s)) < 1e-10:
-            s = s_new
-            break
-        s = s_new
+            pend = pend[worse]
+            t[pend] *= 0.5
+        s_new = np.clip(sa + t * step, lo, hi)
+        moved = np.abs(s_new - sa) >= 1e-10
+        s[act] = s_new
+        act = act[moved]
     return s
+
+
+def _mapped(fn: ca.Function, n: int) -> ca.Function:
+    """``fn.map(n)``, cached per size on the function object (maps are cheap but not free to build)."""
+    cache = _MAP_CACHE.setdefault(id(fn), (fn, {}))[1]
+    m = cache.get(n)
+    if m is None:
+        if len(cache) > 256:  # bounded: the sizes of one log's shrinking active sets
+            cache.clear()
+        m = cache[n] = fn.map(n)
+    return m
+
+
+_MAP_CACHE: dict[int, tuple[ca.Function, dict[int, ca.Function]]] = {}
 
 
 def best_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np.ndarray,
