@@ -386,6 +386,21 @@ def _effect_params(res, name: str) -> dict:
     return out
 
 
+def _effect_start(fits, name: str) -> dict | None:
+    """``{name: {param: value}}`` of a converged training fit (start values of the full-data refit), or None."""
+    for res in fits or ():
+        if not getattr(res, "success", False):
+            continue
+        vals = {}
+        for lab, val in zip(getattr(res, "effect_labels", ()), np.atleast_1d(getattr(res, "effect_values", ()))):
+            eff, _, param = str(lab).partition(".")
+            if eff == name and math.isfinite(float(val)):
+                vals[param] = float(val)
+        if vals and np.all(np.isfinite(res.theta)):
+            return {name: vals, "__theta__": res.theta}
+    return None
+
+
 def _order(data) -> np.ndarray:
     """Natural order of the samples: time for a log, slip for a sweep."""
     if isinstance(data, DriveLog):
@@ -471,12 +486,16 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
 
     failed: list[str] = []
 
-    def run_fit(d, effects=(), fixed=None):
+    warm: dict[str, Any] = {}  # drive logs: the nominal full-data soil, the start of every later fit
+
+    def run_fit(d, effects=(), fixed=None, start=None):
         kw = {}
         if is_log and not effects:
             kw["hull_channel"] = True  # the nominal model on the same three channels as the candidates
+        if "x0" in warm:
+            kw["x0"] = warm["x0"]
         if effects:
-            kw["effects"] = list(effects)
+            kw["effects"] = dict(start) if start else list(effects)
         if fixed:
             kw["fixed"] = dict(fixed)
         res = fit(d, vehicle, model=model, **kw)
@@ -503,6 +522,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         return _nominal_failed(data, cands, screens, nominal_full, "on all the data", is_log, t0)
     R = _channels(nominal_full, data)
     channels = list(R)
+    if is_log and np.all(np.isfinite(nominal_full.theta)):
+        warm["x0"] = np.asarray(nominal_full.theta, dtype=float)  # warm start: fewer IPOPT iterations
     order = _order(data)
     noise, sig_n = {}, {}
     for ch, rr in R.items():
@@ -703,7 +724,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         conv = all(f.success for f in train_fits.get(m, []))
         scr = next((s for s in screens if s.effect == m), None)
         if m == verdict.name and m in refit:  # the verdict's effect: refitted on all the data (soil after, parameters)
-            full_fits[m] = run_fit(data, (m,))
+            st = _effect_start(train_fits.get(m), m) if is_log else None
+            if st is not None:  # warm start from the training fit (soil and effect)
+                warm["x0"] = np.asarray(st.pop("__theta__"), dtype=float)
+            full_fits[m] = run_fit(data, (m,), start=st)
             params = _effect_params(full_fits[m], m)
             conv = conv and full_fits[m].success
         elif m in refit and train_fits.get(m):  # others: as fitted on the first training part (half the data)
