@@ -228,7 +228,9 @@ class Diagnosis:
                      f"(mean residual {_fmt(s.mean)})")
         if not shown:
             L.append("  nowhere above the noise")
-        if self.change is not None:
+        if self.change is not None and hasattr(self.change, "describe"):  # drive log: change of soil in time
+            L.append(f"  {'*' if self.change.significant else ' '} {self.change.describe()}")
+        elif self.change is not None:
             c = self.change
             what = "time" if self.data_kind == "drive" else "slip"
             L.append(f"  {'a significant' if c.significant else 'no significant'} window in {what}: "
@@ -238,6 +240,12 @@ class Diagnosis:
             L.append(f"  residuals of {ch}: lag-1 autocorrelation {w['lag1']:.2f}, "
                      f"{'white' if w['white'] else 'not white'} (Ljung-Box p = {w['p_value']:.2g})")
         for key, lg in self.lags.items():
+            if "corr" not in lg:  # the drive-log delay scan (.diagnosis_log)
+                if lg.get("significant"):
+                    L.append(f"  {key}: peaks at {lg['lag']} samples ({lg['seconds']:.3g} s, t = {lg['t_stat']:.1f}): "
+                             f"the vehicle-speed channel looks {'late' if lg['lag'] > 0 else 'early'} against the "
+                             "sprocket speed (a delay between the sensors?)")
+                continue
             if abs(lg["lag"]) >= 2 and abs(lg["corr"]) > max(5 * lg["bound"], 2 * abs(lg["corr_at_0"])):
                 L.append(f"  {key}: cross-correlation peaks at lag {lg['lag']} samples ({lg['corr']:.2f}): "
                          "a delay between the channels?")
@@ -687,6 +695,13 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             for key, sig in (("vehicle_speed_m_s", data.vehicle_speed), ("sprocket_speed_rad_s", data.sprocket_speed),
                              ("sprocket_torque_Nm", data.sprocket_torque)):
                 lags[f"{ch} vs d({key})/dt"] = lag_peak(rr, np.diff(np.asarray(sig, dtype=float), prepend=sig[0]))
+        # drive-log checks (change of soil in time, a delay between channels): .diagnosis_log
+        from .diagnosis_log import review_drive_log
+        verdict, log_change, log_lags, log_notes = review_drive_log(
+            verdict, data, vehicle, nominal_full, H, sig_n, mask, folds, train_res, scores, dm_lag, alpha)
+        change = log_change if log_change is not None else change
+        lags.update(log_lags)
+        notes.extend(log_notes)
 
     # --- the verdict against the library effects that were not candidates ------------------------------
     # the user may leave the true effect out; a candidate that merely imitates it must not be named
