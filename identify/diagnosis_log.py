@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -508,8 +509,9 @@ def review_drive_log(verdict, data, vehicle, nominal, H: dict, sigma: dict, mask
     if check is not None and check.significant and check.gain > 0:
         # the exact delay model: the vehicle-speed channel shifted by the best whole number of samples,
         # the nominal model refitted on the training part, scored on the held-out part like the candidates
-        k, _ = estimate_delay(nominal, data, vehicle)
-        exact = _delay_gain(k, data, vehicle, nominal, H, sigma, mask, folds) if k != 0 else 0.0
+        # the side of the delay: the sign of the dominant lag of the scan on the training part
+        k, fit_k = refine_delay(nominal, data, vehicle, folds[0][0], int(np.sign(check.scan["lag"])))
+        exact = _delay_gain(k, fit_k, data, vehicle, H, sigma, mask, folds) if k != 0 else 0.0
         h = float(np.median(np.diff(np.asarray(data.time, dtype=float))))
         check = DelayCheck(dict(check.scan, lag=int(k), seconds=k * h, fir_gain=check.gain), k != 0, exact)
         lags["delay scan: speed residual vs sprocket-speed change over k samples"] = check.summary()
@@ -521,10 +523,10 @@ def review_drive_log(verdict, data, vehicle, nominal, H: dict, sigma: dict, mask
             share = max(0.0, g_eff) / (max(0.0, g_eff) + check.gain)
             if check.gain > g_eff:
                 verdict = Verdict("unexplained", 1.0 - share,
-                                  f"the speed residuals follow the sprocket-speed change over {lag_txt}: the "
-                                  f"vehicle-speed channel looks {lag_txt} {late} against the sprocket speed. A delay "
-                                  f"term explains more of the held-out misfit than the best candidate, {name} "
-                                  f"(held-out gain {check.gain:.0f} against {g_eff:.0f}); no library effect is a delay")
+                                  f"the vehicle-speed channel looks {lag_txt} {late} against the sprocket speed: the "
+                                  f"nominal model refitted with that channel shifted back explains more of the held-out "
+                                  f"misfit than the best candidate, {name} (gain in the sum of squared standardised "
+                                  f"held-out residuals {check.gain:.0f} against {g_eff:.0f}); no library effect is a delay")
                 notes.append(f"{name} was the best candidate, but a {lag_txt} delay of the vehicle-speed channel "
                              f"explains the held-out data better: check the time stamps of the speed sensor")
             elif share < verdict.confidence:
@@ -534,9 +536,9 @@ def review_drive_log(verdict, data, vehicle, nominal, H: dict, sigma: dict, mask
                              f"confidence {share:.2f} only")
         elif name == NOMINAL:
             verdict = Verdict("unexplained", max(0.0, 1.0 - float(check.scan["p_value"])),
-                              f"the vehicle-speed channel looks {lag_txt} {late} against the sprocket speed (a delay "
-                              f"term predicts the held-out speed residuals significantly better); no library effect "
-                              f"is a delay")
+                              f"the vehicle-speed channel looks {lag_txt} {late} against the sprocket speed (the "
+                              f"nominal model refitted with it shifted back predicts the held-out data better); no "
+                              f"library effect is a delay")
     if verdict.name == NOMINAL and change is not None and change.significant:
         verdict = Verdict("unexplained", max(0.0, 1.0 - change.p_value),
                           f"the soil differs in a time window ({change.evidence_start:.4g} to {change.evidence_end:.4g} s, "
@@ -545,16 +547,56 @@ def review_drive_log(verdict, data, vehicle, nominal, H: dict, sigma: dict, mask
     return verdict, change, lags, notes
 
 
-def _delay_gain(k, data, vehicle, nominal, H, sigma, mask, folds) -> float:
-    """Held-out gain (all channels, standardised) of the nominal model refitted on the shifted log."""
+def refine_delay(nominal, data, vehicle, train: np.ndarray, k0: int, max_lag: int = 25):
+    """The delay (whole samples) that the nominal model REFITTED on the shifted training part fits best.
+
+    The profile without refits (:func:`estimate_delay`) is biased towards zero (the nominal fit has
+    partly absorbed the delay); this searches the side of ``k0`` (ternary search on the integers,
+    each point a warm-started refit on the training part, its cost compared). Returns ``(k, fit)``
+    (``(0, None)`` when no shift fits better than none).
+    """
     from .fitting import fit
+
+    if k0 == 0:
+        return 0, None
+    sign = 1 if k0 > 0 else -1
+    fits: dict[int, Any] = {}
+
+    def cost(k):
+        if k not in fits:
+            try:
+                # at most 60 iterations, one start: a shift far from the delay makes a hard problem (hundreds of
+                # iterations) whose answer is only "worse"; unconverged counts as not fitting
+                r = fit(shift_speed(data, sign * k).subset(train), vehicle, model=nominal.model, hull_channel=True,
+                        x0=nominal.theta, max_iter=60, multistart=False)
+                fits[k] = r if r.success else None
+            except Exception:  # noqa: BLE001 - a shift that leaves too few usable samples
+                fits[k] = None
+        r = fits[k]
+        return math.inf if r is None else float(r.cost)
+
+    lo, hi = 1, max_lag
+    while hi - lo > 2:
+        m1 = lo + (hi - lo) // 3
+        m2 = hi - (hi - lo) // 3
+        if cost(m1) <= cost(m2):
+            hi = m2
+        else:
+            lo = m1
+    best = min(range(lo, hi + 1), key=cost)
+    if not math.isfinite(cost(best)) or cost(best) >= cost(0):
+        return 0, None
+    return sign * best, fits[best]
+
+
+def _delay_gain(k, res, data, vehicle, H, sigma, mask, folds) -> float:
+    """Held-out gain (all channels, standardised) of the training fit ``res`` on the log shifted by ``k``."""
     from .selection import NOMINAL
 
     tr, te = folds[0]
     shifted = shift_speed(data, k)
     try:
-        res = fit(shifted.subset(tr), vehicle, model=nominal.model, hull_channel=True, x0=nominal.theta)
-        if not res.success:
+        if res is None or not res.success:
             return 0.0
         from .drivelog_residuals import drive_log_residuals
 
