@@ -166,9 +166,13 @@ def terrain_window(residuals: np.ndarray, jacobian: np.ndarray, time_s: np.ndarr
     if not np.all(np.isfinite(I_all)) or np.max(np.abs(I_all)) <= 0:
         return None
     # residuals of a log are correlated in time: inflate the information by the long-run factor of the
-    # per-sample scores projected on the soil directions (1 for white residuals)
+    # per-sample scores (1 for white residuals), taken after removing their local mean over a cell, so
+    # that a change of soil (a shift of the scores' mean over many samples) does not pass for correlation
     d = np.sqrt(np.maximum(np.diag(I_all), 1e-300))
-    infl = max(long_run_factor(g[:, 0] / d[0]), long_run_factor(g[:, 1] / d[1]))
+    wlen = max(3, n // len(cells))
+    ker = np.ones(wlen) / wlen
+    hp = [g[:, j] / d[j] - np.convolve(g[:, j] / d[j], ker, mode="same") for j in range(2)]
+    infl = max(long_run_factor(hp[0]), long_run_factor(hp[1]))
     GS = np.concatenate([np.zeros((1, 2)), np.cumsum(G, axis=0)])
     IS = np.concatenate([np.zeros((1, 2, 2)), np.cumsum(I, axis=0)])
     # every window of whole cells, except the whole run
