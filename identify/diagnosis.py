@@ -14,6 +14,9 @@
 3. **Where** (:func:`~.gap.localise`, :func:`~.gap.change_window`, :func:`~.gap.whiteness`,
    :func:`~.gap.lag_peak`): the share of the misfit by channel and by slip, speed and time
    range; the time window of a change; residual whiteness; a lag peak against the inputs.
+   For a drive log (:mod:`.diagnosis_log`): the time window in which the soil differs, with a
+   bracket for its boundaries, and a delay of the vehicle-speed channel as a held-out competitor
+   of the verdict (neither is a library effect: they make the verdict ``unexplained``).
 4. **Which** (:mod:`.selection`): the candidates screening keeps are refitted on each training
    part (jointly with the soil, through :func:`~.fitting.fit`), scored on the held-out part,
    and compared with the nominal model and a flexible discrepancy term by cross-validation
