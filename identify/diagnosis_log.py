@@ -40,7 +40,8 @@ import numpy as np
 from .gap import chi2_isf, chi2_sf, long_run_factor
 from .screening import newey_west_lag
 
-__all__ = ["TerrainWindow", "terrain_window", "delay_scan", "delay_holdout", "DelayCheck", "delay_check"]
+__all__ = ["TerrainWindow", "terrain_window", "delay_scan", "delay_holdout", "DelayCheck", "delay_check",
+           "review_drive_log", "shift_speed", "refine_delay"]
 
 
 @dataclass(frozen=True)
@@ -420,48 +421,6 @@ def shift_speed(data, k: int):
                     source=f"{data.source} (vehicle speed shifted {k} samples)")
 
 
-def _standardised_ss(result, log, vehicle) -> float:
-    """Sum of squared standardised residuals (all channels, each capped at 25) of a fit's parameters on ``log``."""
-    from .drivelog_residuals import drive_log_residuals
-
-    out = drive_log_residuals(result, log, vehicle)
-    tot = 0.0
-    for ch, r in out["channels"].items():
-        z = np.asarray(r, dtype=float) / np.asarray(out["sigma"][ch], dtype=float)
-        # capped at 5 noise levels: a few samples whose latent slip jumps to the other branch of the
-        # thrust-slip curve must not decide the profile
-        tot += float(np.sum(np.minimum(z[np.isfinite(z)] ** 2, 25.0)))
-    return tot
-
-
-def estimate_delay(nominal, data, vehicle, max_lag: int = 25) -> tuple[int, dict[int, float]]:
-    """The whole-sample shift of the vehicle-speed channel that fits the nominal model's parameters best.
-
-    No refit: the nominal fit's parameters, the latent slips re-solved on each shifted log. A coarse
-    grid of lags, then the neighbours of the best. Returns ``(lag, {lag: sum of squares})``.
-    """
-    ss: dict[int, float] = {}
-
-    def at(k):
-        if k not in ss:
-            try:
-                ss[k] = _standardised_ss(nominal, shift_speed(data, k), vehicle)
-            except Exception:  # noqa: BLE001 - a shift that leaves too few usable samples
-                ss[k] = math.inf
-        return ss[k]
-
-    for k in (0, 2, -2, 4, -4, 7, -7, 10, -10, 14, -14, 19, -19, 25, -25):
-        if abs(k) <= max_lag:
-            at(k)
-    best = min(ss, key=ss.get)
-    for step in (2, 1):
-        for k in (best - step, best + step):
-            if abs(k) <= max_lag:
-                at(k)
-        best = min(ss, key=ss.get)
-    return best, ss
-
-
 #: The speed channel of a drive-log fit's residuals (:data:`~.drivelog_joint.CHANNELS`).
 SPEED_CHANNEL = "sprocket_speed_rad_s"
 
@@ -554,9 +513,10 @@ def review_drive_log(verdict, data, vehicle, nominal, H: dict, sigma: dict, mask
 def refine_delay(nominal, data, vehicle, train: np.ndarray, k0: int, max_lag: int = 25):
     """The delay (whole samples) that the nominal model REFITTED on the shifted training part fits best.
 
-    The profile without refits (:func:`estimate_delay`) is biased towards zero (the nominal fit has
-    partly absorbed the delay); this searches the side of ``k0`` (ternary search on the integers,
-    each point a warm-started refit on the training part, its cost compared). Returns ``(k, fit)``
+    A profile with the nominal fit's parameters (no refit) is biased towards zero (the nominal fit
+    has partly absorbed the delay: 3 samples for a 10-sample delay, measured); this searches the
+    side of ``k0`` (its sign; ternary search on the integers ``1..max_lag``, each point a
+    warm-started refit on the training part, their costs compared). Returns ``(k, fit)``
     (``(0, None)`` when no shift fits better than none).
     """
     from .fitting import fit
