@@ -264,8 +264,16 @@ def main(argv=None) -> int:
                 d = diagnose(log, v)
                 ool.append((label, d, time.perf_counter() - t0))
                 cw = d.change
-                print(f"OOL {label} seed {seed}: {d.verdict} ({d.confidence:.2f}); window "
-                      f"{'none' if cw is None else f'{cw.start:.1f}-{cw.end:.1f} s significant={cw.significant}'}; "
+                win = 'none' if cw is None else f'{cw.start:.1f}-{cw.end:.1f} s significant={cw.significant}'
+                if cw is not None and hasattr(cw, "evidence_start"):  # drive log: bracket and evidence window
+                    win += (f" (evidence {cw.evidence_start:.1f}-{cw.evidence_end:.1f} s)")
+                    if "patch" in label:
+                        win += (f"; brackets the patch {t1}-{t2} s: {cw.start <= t1 and cw.end >= t2} "
+                                f"(start {t1 - cw.start:+.1f} s early, end {cw.end - t2:+.1f} s late)")
+                dl = d.lags.get("delay scan: speed residual vs sprocket-speed change over k samples")
+                if dl is not None and "delay" in label:
+                    win += f"; delay found: {dl['lag']} samples (significant={dl['significant']})"
+                print(f"OOL {label} seed {seed}: {d.verdict} ({d.confidence:.2f}); window {win}; "
                       f"{d.elapsed_s:.1f} s", flush=True)
     for kind in kinds:
         summarise([r for r in rows if r["kind"] == kind], f"(a) effect withheld from the model, {kind}")

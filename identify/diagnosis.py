@@ -15,6 +15,9 @@
 3. **Where** (:func:`~.gap.localise`, :func:`~.gap.change_window`, :func:`~.gap.whiteness`,
    :func:`~.gap.lag_peak`): the share of the misfit by channel and by slip, speed and time
    range; the time window of a change; residual whiteness; a lag peak against the inputs.
+   For a drive log (:mod:`.diagnosis_log`): the time window in which the soil differs, with a
+   bracket for its boundaries, and a delay of the vehicle-speed channel as a held-out competitor
+   of the verdict (neither is a library effect: they make the verdict ``unexplained``).
 4. **Which** (:mod:`.selection`): the candidates screening keeps are refitted on each training
    part (jointly with the soil, through :func:`~.fitting.fit`), scored on the held-out part,
    and compared with the nominal model and a flexible discrepancy term by cross-validation
@@ -246,7 +249,9 @@ class Diagnosis:
                      f"(mean residual {_fmt(s.mean)})")
         if not shown:
             L.append("  nowhere above the noise")
-        if self.change is not None:
+        if self.change is not None and hasattr(self.change, "describe"):  # drive log: change of soil in time
+            L.append(f"  {'*' if self.change.significant else ' '} {self.change.describe()}")
+        elif self.change is not None:
             c = self.change
             what = "time" if self.data_kind == "drive" else "slip"
             L.append(f"  {'a significant' if c.significant else 'no significant'} window in {what}: "
@@ -256,6 +261,12 @@ class Diagnosis:
             L.append(f"  residuals of {ch}: lag-1 autocorrelation {w['lag1']:.2f}, "
                      f"{'white' if w['white'] else 'not white'} (Ljung-Box p = {w['p_value']:.2g})")
         for key, lg in self.lags.items():
+            if "corr" not in lg:  # the drive-log delay scan (.diagnosis_log)
+                if lg.get("significant"):
+                    L.append(f"  {key}: peaks at {lg['lag']} samples ({lg['seconds']:.3g} s, t = {lg['t_stat']:.1f}): "
+                             f"the vehicle-speed channel looks {'late' if lg['lag'] > 0 else 'early'} against the "
+                             "sprocket speed (a delay between the sensors?)")
+                continue
             if abs(lg["lag"]) >= 2 and abs(lg["corr"]) > max(5 * lg["bound"], 2 * abs(lg["corr_at_0"])):
                 L.append(f"  {key}: cross-correlation peaks at lag {lg['lag']} samples ({lg['corr']:.2f}): "
                          "a delay between the channels?")
@@ -414,6 +425,21 @@ def _effect_params(res, name: str) -> dict:
     return out
 
 
+def _effect_start(fits, name: str) -> dict | None:
+    """``{name: {param: value}}`` of a converged training fit (start values of the full-data refit), or None."""
+    for res in fits or ():
+        if not getattr(res, "success", False):
+            continue
+        vals = {}
+        for lab, val in zip(getattr(res, "effect_labels", ()), np.atleast_1d(getattr(res, "effect_values", ()))):
+            eff, _, param = str(lab).partition(".")
+            if eff == name and math.isfinite(float(val)):
+                vals[param] = float(val)
+        if vals and np.all(np.isfinite(res.theta)):
+            return {name: vals, "__theta__": res.theta}
+    return None
+
+
 def _order(data) -> np.ndarray:
     """Natural order of the samples: time for a log, slip for a sweep."""
     if isinstance(data, DriveLog):
@@ -505,6 +531,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     failed: list[str] = []
     flagged: dict[str, int] = {}  # model -> number of its fits only the plausibility checks refused
 
+    warm: dict[str, Any] = {}  # drive logs: the nominal full-data soil, the start of every later fit
+
     def usable(res) -> bool:
         """A fit the diagnosis may use: successful, or (sweep) converged and only flagged implausible."""
         return bool(res.success) or (not is_log and solver_converged(res))
@@ -513,13 +541,17 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         kw = {}
         if is_log and not effects:
             kw["hull_channel"] = True  # the nominal model on the same three channels as the candidates
+        if "x0" in warm:
+            kw["x0"] = warm["x0"]
         if effects:
             kw["effects"] = list(effects)
         if start is not None and effects:
-            # refit from another fit's answer (soil and effect parameters)
-            st = effect_start(start)
-            kw["effects"] = {e: dict(st.get(e, {})) or True for e in effects}
-            kw["x0"] = np.asarray(start.theta, dtype=float)
+            if isinstance(start, dict):  # drive logs: {effect: {param: value}} of a training fit
+                kw["effects"] = dict(start)
+            else:  # refit from another fit's answer (soil and effect parameters)
+                st = effect_start(start)
+                kw["effects"] = {e: dict(st.get(e, {})) or True for e in effects}
+                kw["x0"] = np.asarray(start.theta, dtype=float)
         if patient:
             kw["ipopt_options"] = {"ipopt.max_iter": RETRY_MAX_ITER}  # a slow valley, not a failure of the data
         if fixed:
@@ -566,6 +598,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         notes.append("the nominal fit converged but fails the plausibility checks (" + ("; ".join(pw) or
                      nominal_full.status) + "): a model missing an effect looks like this; the diagnosis uses "
                      "its converged answer")
+    if is_log and np.all(np.isfinite(nominal_full.theta)):
+        warm["x0"] = np.asarray(nominal_full.theta, dtype=float)  # warm start: fewer IPOPT iterations
     order = _order(data)
     noise, sig_n = {}, {}
 
@@ -837,6 +871,13 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             for key, sig in (("vehicle_speed_m_s", data.vehicle_speed), ("sprocket_speed_rad_s", data.sprocket_speed),
                              ("sprocket_torque_Nm", data.sprocket_torque)):
                 lags[f"{ch} vs d({key})/dt"] = lag_peak(rr, np.diff(np.asarray(sig, dtype=float), prepend=sig[0]))
+        # drive-log checks (change of soil in time, a delay between channels): .diagnosis_log
+        from .diagnosis_log import review_drive_log
+        verdict, log_change, log_lags, log_notes = review_drive_log(
+            verdict, data, vehicle, nominal_full, H, sig_n, mask, folds, train_res, scores, dm_lag, alpha)
+        change = log_change if log_change is not None else change
+        lags.update(log_lags)
+        notes.extend(log_notes)
 
     # --- the verdict against the library effects that were not candidates ------------------------------
     # the user may leave the true effect out; a candidate that merely imitates it must not be named
@@ -890,7 +931,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         scr = next((s for s in screens if s.effect == m), None)
         if m == verdict.name and m in refit:  # the verdict's effect: refitted on all the data (soil after, parameters)
             if m not in full_fits:
-                full_fits[m] = run_fit(data, (m,))
+                st = _effect_start(train_fits.get(m), m) if is_log else None
+                if st is not None:  # warm start from the training fit (soil and effect)
+                    warm["x0"] = np.asarray(st.pop("__theta__"), dtype=float)
+                full_fits[m] = run_fit(data, (m,), start=st)
             params = _effect_params(full_fits[m], m)
             conv = conv and usable(full_fits[m])
         elif m in refit and not is_log and full_fits.get(m) is not None:  # sweeps: every candidate fitted on all

@@ -124,7 +124,8 @@ thrust, sample selection), :mod:`.drivelog_nlp` (the NLPs and their solves),
 :mod:`.drivelog_covariance` (sandwich), :mod:`.drivelog_regime` (gentle/hard),
 :mod:`.drivelog_simex` (opt-in bias correction), :mod:`.drivelog_joint` /
 :mod:`.drivelog_joint_fit` (effects, hull channel), :mod:`.drivelog_residuals` (held-out
-residuals); this module is the entry, :func:`fit_drive_log`.
+residuals), :mod:`.drivelog_sensitivity` (per-sample residuals and sensitivities for score tests);
+this module is the entry, :func:`fit_drive_log`.
 """
 from __future__ import annotations
 
@@ -146,13 +147,15 @@ from .drivelog_prepare import MIN_USABLE_SAMPLES, SLIP_BOUNDS, PreparedLog, prep
 from .drivelog_joint_fit import fit_joint
 from .drivelog_regime import classify_regime
 from .drivelog_residuals import DriveLogResiduals, drive_log_residuals
+from .drivelog_sensitivity import DriveLogSensitivities, drive_log_sensitivities
 from .drivelog_simex import BIAS_CORRECTIONS, SIMEX_LAMBDAS, simex_fit
 from .problem import FitFailed
 from .result import FitResult, build_result
 
 __all__ = ["fit_drive_log", "FORMULATIONS", "DriveLogFitError", "estimate_noise", "estimate_noise_profile",
            "prepare_drive_log", "PreparedLog", "padded_size", "MIN_USABLE_SAMPLES", "SLIP_BOUNDS",
-           "BIAS_CORRECTIONS", "SIMEX_LAMBDAS", "drive_log_residuals", "DriveLogResiduals"]
+           "BIAS_CORRECTIONS", "SIMEX_LAMBDAS", "drive_log_residuals", "DriveLogResiduals",
+           "drive_log_sensitivities", "DriveLogSensitivities"]
 
 #: Formulations of :func:`fit_drive_log`.
 FORMULATIONS = ("output-error", "equation-error")

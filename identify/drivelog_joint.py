@@ -260,28 +260,71 @@ def solve_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np
     Safeguarded Newton (steps halved until the cost does not rise) inside the slip bounds, all
     samples at once; the same per-sample problem that the fit profiles out.
     """
-    n = slip0.size
-    fn = _slip_newton_function(vehicle, structure).map(n)
-    th = np.repeat(np.asarray(theta, dtype=float).reshape(-1, 1), n, axis=1)
+    base = _slip_newton_function(vehicle, structure)
     lo, hi = SLIP_BOUNDS
     s = np.clip(np.asarray(slip0, dtype=float), lo, hi)
+    theta = np.asarray(theta, dtype=float).reshape(-1, 1)
+    D = np.asarray(D, dtype=float)
+    # per-sample active set: a sample whose step fell below 1e-10 is done and is no longer evaluated
+    # (each sample's Newton iteration is independent of the others; this only saves evaluations)
+    act = np.arange(s.size)
     for _ in range(iterations):
-        c, g, h = (np.asarray(o, dtype=float).ravel() for o in fn(th, s.reshape(1, -1), D))
-        step = -g / np.where(h > 0, h, np.maximum(np.abs(h), 1e-300)) * np.where(h > 0, 1.0, 1e-3)
-        t = np.ones(n)
-        for _half in range(30):
-            cand = np.clip(s + t * step, lo, hi)
-            c_new = np.asarray(fn(th, cand.reshape(1, -1), D)[0], dtype=float).ravel()
-            worse = c_new > c * (1 + 1e-12) + 1e-300
-            if not np.any(worse):
-                break
-            t = np.where(worse, 0.5 * t, t)
-        s_new = np.clip(s + t * step, lo, hi)
-        if np.max(np.abs(s_new - s)) < 1e-10:
-            s = s_new
+        if act.size == 0:
             break
-        s = s_new
+        fn = _mapped(base, act.size)
+        th = np.repeat(theta, act.size, axis=1)
+        Da, sa = D[:, act], s[act]
+        c, g, h = (np.asarray(o, dtype=float).ravel() for o in fn(th, sa.reshape(1, -1), Da))
+        step = -g / np.where(h > 0, h, np.maximum(np.abs(h), 1e-300)) * np.where(h > 0, 1.0, 1e-3)
+        # step length: the first of 1, 1/2, ..., 2^-29 that does not raise the sample's cost (else 2^-30);
+        # the full step for every sample first, then all the halvings of the rejected ones in one call
+        t = np.ones(act.size)
+        c_new = _cost(base, theta, np.clip(sa + step, lo, hi), Da)
+        pend = np.nonzero(c_new > c * (1 + 1e-12) + 1e-300)[0]
+        t[pend] = 0.5 ** 30
+        for k0 in range(1, 30, 6):  # halvings in batches of 6 per call
+            if pend.size == 0:
+                break
+            tk = 0.5 ** np.arange(k0, min(k0 + 6, 30))
+            cand = np.clip(sa[pend, None] + tk[None, :] * step[pend, None], lo, hi)
+            cn = _cost(base, theta, cand.ravel(), np.repeat(Da[:, pend], tk.size, axis=1)).reshape(pend.size, -1)
+            ok = cn <= c[pend, None] * (1 + 1e-12) + 1e-300
+            hit = np.any(ok, axis=1)
+            t[pend[hit]] = tk[np.argmax(ok[hit], axis=1)]
+            pend = pend[~hit]
+        s_new = np.clip(sa + t * step, lo, hi)
+        moved = np.abs(s_new - sa) >= 1e-10
+        s[act] = s_new
+        act = act[moved]
     return s
+
+
+@locked_cache(maxsize=32)
+def _cost_function(base: ca.Function) -> ca.Function:
+    """The first output (the cost) of a slip-Newton function alone (no derivatives evaluated)."""
+    ins = [ca.SX.sym(base.name_in(j), base.sparsity_in(j)) for j in range(base.n_in())]
+    return ca.Function(base.name() + "_cost", ins, [base(*ins)[0]])
+
+
+def _cost(base: ca.Function, theta: np.ndarray, slip: np.ndarray, D: np.ndarray) -> np.ndarray:
+    """Per-sample cost ``|e_k|^2 / 2`` of the slip-Newton function at the given slips."""
+    n = slip.size
+    fn = _mapped(_cost_function(base), n)
+    return np.asarray(fn(np.repeat(theta, n, axis=1), slip.reshape(1, -1), D), dtype=float).ravel()
+
+
+def _mapped(fn: ca.Function, n: int) -> ca.Function:
+    """``fn.map(n)``, cached per size on the function object (maps are cheap but not free to build)."""
+    cache = _MAP_CACHE.setdefault(id(fn), (fn, {}))[1]
+    m = cache.get(n)
+    if m is None:
+        if len(cache) > 256:  # bounded: the sizes of one log's shrinking active sets
+            cache.clear()
+        m = cache[n] = fn.map(n)
+    return m
+
+
+_MAP_CACHE: dict[int, tuple[ca.Function, dict[int, ca.Function]]] = {}
 
 
 def best_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np.ndarray,

@@ -121,7 +121,7 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
 
     starts = [(min(max(F0, Fb[0] * 1.001), Fb[1] * 0.999), K0) for F0, K0 in starts]
     best = _run_starts(solver, make_x0, p, lbx, ubx, starts, Fb, Kb, F_ref, K_ref)
-    xs = best["x"]
+    xs = np.clip(best["x"], lbx, ubx)  # IPOPT may end a hair outside a bound (bound relaxation)
     pd = 2 + len(labels)
     theta = xs[:pd] * scale
     slip = xs[pd:pd + n] * i_ref

@@ -108,6 +108,13 @@ def drive_log_residuals(result_or_params: Any, log: DriveLog, vehicle: Vehicle, 
         median sigma}``, ``time_s``, ``keep`` (used samples of ``log``), ``slip`` (latent slips),
         ``vehicle_speed_m_s``, ``accel_source``, ``hull_in_fit``.
     """
+    out, _ = _evaluate(result_or_params, log, vehicle, effects)
+    return out
+
+
+def _evaluate(result_or_params: Any, log: DriveLog, vehicle: Vehicle, effects: Any) -> tuple[dict[str, Any], dict]:
+    """:func:`drive_log_residuals` and what it was computed from (``theta``, ``structure``, ``D`` as
+    used to solve the latent slips, ``labels``) for :mod:`.drivelog_sensitivity`."""
     F, K, ev, eff, nm, hull, torque_hold, an = _params_from(result_or_params, effects)
     structure = effect_structure(parse_effects(eff) if eff is not None else None, vehicle)
     res_fn, labels = residual_function(vehicle, structure)
@@ -141,8 +148,9 @@ def drive_log_residuals(result_or_params: Any, log: DriveLog, vehicle: Vehicle, 
     sigma = {"sprocket_speed_rad_s": sig_w, "thrust_N": prep.sigma_thrust / ratio, "hull_N": sig_H}
     chans = {ch: raw[j] for j, ch in enumerate(CHANNELS)}
     chans["hull_N"] = np.where(np.isfinite(sig_H), chans["hull_N"], np.nan)
-    return {"channels": chans, "sigma": sigma,
-            "noise_sigma": {ch: float(np.median(s[np.isfinite(s)])) if np.any(np.isfinite(s)) else math.inf
-                            for ch, s in sigma.items()},
-            "time_s": log.time[prep.keep], "keep": prep.keep, "slip": slip,
-            "vehicle_speed_m_s": prep.vehicle_speed, "accel_source": jd.accel_source, "hull_in_fit": hull}
+    out = {"channels": chans, "sigma": sigma,
+           "noise_sigma": {ch: float(np.median(s[np.isfinite(s)])) if np.any(np.isfinite(s)) else math.inf
+                           for ch, s in sigma.items()},
+           "time_s": log.time[prep.keep], "keep": prep.keep, "slip": slip,
+           "vehicle_speed_m_s": prep.vehicle_speed, "accel_source": jd.accel_source, "hull_in_fit": hull}
+    return out, {"theta": theta, "structure": structure, "D": D_solve, "labels": tuple(labels)}

@@ -186,12 +186,9 @@ def drive_log_score_pair(res, log, vehicle, effects=None) -> tuple[np.ndarray, n
     """A consistent (Jacobian, residual) pair of a drive-log fit, for score tests.
 
     A drive-log fit profiles out one latent slip per sample, and the Jacobian it reports is a
-    stand-in with the right ``J^T J`` only. The score needs the real thing: per used sample,
-    the whitened residuals ``e_k`` (three channels) and ``de_k/dtheta`` from the drive-log
-    model's own CasADi derivative function (:func:`~.drivelog_joint.derivative_function`), at
-    the fitted parameters and the latent slips :func:`~.drivelog_residuals.drive_log_residuals`
-    solves, with ``de_k/dtheta`` projected off ``de_k/di_k`` (the profiled sensitivity: at the
-    per-sample optimum ``e_k`` is orthogonal to ``de_k/di_k``). Stacked sample by sample.
+    stand-in with the right ``J^T J`` only. The score needs the real thing: the per-sample
+    whitened residuals and their profiled sensitivities from
+    :func:`~.drivelog_sensitivity.drive_log_sensitivities`, stacked sample by sample.
     ``effects`` (names) evaluates the derivatives with those effects switched on at their off
     values, so that a nominal fit gives the candidates' columns without carrying them in its NLP.
 
@@ -201,36 +198,11 @@ def drive_log_score_pair(res, log, vehicle, effects=None) -> tuple[np.ndarray, n
         ``(c n, p)``, ``(c n,)``, the column labels ``["F_max", "K", "effect.param", ...]`` and the
         number of channels ``c`` (rows per sample).
     """
-    from ..soilmodel.effects import effect_structure, parse_effects
-    from .drivelog_joint import HULL_ROW, derivative_function, joint_data, residual_function
-    from .drivelog_prepare import prepare_drive_log
-    from .drivelog_residuals import _params_from, drive_log_residuals
+    from .drivelog_sensitivity import drive_log_sensitivities
 
-    out = drive_log_residuals(res, log, vehicle, effects=effects, model=res.model)
-    F, K, ev, eff, nm, hull, torque_hold, an = _params_from(res, effects)
-    es = parse_effects(eff) if eff is not None else None
-    structure = effect_structure(es, vehicle)
-    _, labels = residual_function(vehicle, structure)
-    theta = np.array([F, K] + [ev[lab] if lab in ev else es.value(*lab.split("."), vehicle) for lab in labels])
-    prep = prepare_drive_log(log, vehicle, torque_hold=torque_hold, noise_models=nm)
-    D = joint_data(log, vehicle, prep, torque_hold, accel_noise=an).D.copy()
-    if not hull:
-        D[HULL_ROW] = 0.0
-    n = D.shape[1]
-    slip = np.asarray(out["slip"], dtype=float).reshape(1, -1)
-    fn = derivative_function(vehicle, structure)
-    e, Jt, gi, _ = (np.asarray(a, dtype=float) for a in
-                    fn.map(n)(np.repeat(theta.reshape(-1, 1), n, axis=1), slip, D))
-    c, p = e.shape[0], theta.size
-    e = e.T                                   # (n, c)
-    Jt = Jt.reshape(c, n, p).transpose(1, 0, 2)  # (n, c, p)
-    gi = gi.T                                  # (n, c)
-    gn = np.sum(gi ** 2, axis=1)
-    ok = gn > 1e-300
-    Jt[ok] -= gi[ok, :, None] * (np.einsum("kc,kcp->kp", gi[ok], Jt[ok]) / gn[ok, None])[:, None, :]
-    e = np.where(np.isfinite(e), e, 0.0)
-    Jt = np.where(np.isfinite(Jt), Jt, 0.0)
-    return Jt.reshape(n * c, p), e.reshape(n * c), ["F_max", "K"] + list(labels), c
+    sens = drive_log_sensitivities(res, log, vehicle, effects=effects)
+    J, r = sens.stacked()
+    return J, r, list(sens.labels), sens.n_channels
 
 
 def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None = 0):

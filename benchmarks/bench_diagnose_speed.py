@@ -1,0 +1,53 @@
+"""Time of one drive-log diagnosis on a 3,001-sample log (60 s at the simulator's 50 Hz), in a fresh process.
+
+Run:  python benchmarks/bench_diagnose_speed.py [--vehicle light] [--runs 3] [--seconds 60]
+Each run is a new Python process (solver builds included, as for the CLI); prints the verdict,
+wall-clock and CPU time of each run and their medians, and the load average before and after.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+
+ONE = r"""
+import json, sys, time
+sys.path.insert(0, {root!r})
+from soiltrack.identify import diagnose
+from soiltrack.soilmodel import TERRAINS, VEHICLES, simulate
+v = VEHICLES[{vehicle!r}]
+log = simulate(v, TERRAINS["lete_sand"], kind="drive", effects={{"grade": 0.03}}, seed=1, duration_s={seconds})
+t, c = time.perf_counter(), time.process_time()
+d = diagnose(log, v)
+print(json.dumps({{"n": log.n_samples, "verdict": d.verdict, "confidence": d.confidence, "shrink": d.shrink,
+                  "wall": time.perf_counter() - t, "cpu": time.process_time() - c}}))
+"""
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--vehicle", default="light")
+    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--seconds", type=float, default=60.0)
+    a = ap.parse_args(argv)
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    print("load average before:", os.getloadavg())
+    rows = []
+    for _ in range(a.runs):
+        out = subprocess.run([sys.executable, "-c", ONE.format(root=root, vehicle=a.vehicle, seconds=a.seconds)],
+                             capture_output=True, text=True, check=True).stdout.strip().splitlines()[-1]
+        rows.append(json.loads(out))
+        r = rows[-1]
+        print(f"{a.vehicle}: {r['n']} samples -> {r['verdict']} ({r['confidence']:.2f}), shrink "
+              f"{r['shrink'] if r['shrink'] is None else round(r['shrink'], 2)}: wall {r['wall']:.2f} s, "
+              f"CPU {r['cpu']:.2f} s", flush=True)
+    med = lambda k: sorted(r[k] for r in rows)[len(rows) // 2]  # noqa: E731
+    print(f"median of {len(rows)}: wall {med('wall'):.2f} s, CPU {med('cpu'):.2f} s")
+    print("load average after:", os.getloadavg())
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

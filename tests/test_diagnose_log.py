@@ -1,0 +1,88 @@
+"""Drive-log diagnosis: change of soil in time (synthetic scores) and a speed-sensor delay (short simulated log)."""
+import numpy as np
+import pytest
+
+from soiltrack.identify import diagnose
+from soiltrack.identify.diagnosis_log import delay_scan, shift_speed, terrain_window
+from soiltrack.soilmodel import TERRAINS, VEHICLES, DriveLog, simulate
+
+
+def _scores(patch, n=1500, seed=0, change=(-0.3, 0.0)):
+    """Per-sample whitened residuals and soil sensitivities of a nominal fit to a run with a soft patch.
+
+    Three channels; the sensitivities vary along the run (thrust high in bursts, low while cruising);
+    inside ``patch`` the soil differs by ``delta`` (so the residual of the whole-run soil carries
+    ``-J @ delta`` on top of unit noise), less the part the nominal (whole-run) soil absorbs.
+    """
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 0.02
+    push = 0.3 + 2.0 * (np.sin(2 * np.pi * t / 7.0) > 0.3)          # bursts of hard pushing
+    J = rng.standard_normal((n, 3, 2)) * push[:, None, None]
+    J[:, :, 1] *= 0.5
+    inside = (t >= patch[0]) & (t < patch[1])
+    delta = np.array(change)
+    # e(theta_0) = e(theta_true) + J (theta_0 - theta_true): the residual of the whole-run soil inside
+    e = rng.standard_normal((n, 3)) - np.where(inside[:, None], np.einsum("kcp,p->kc", J, delta), 0.0)
+    # the nominal fit: one least-squares soil step for the whole run (residuals orthogonal to J)
+    A = np.einsum("kcp,kcq->pq", J, J)
+    step = np.linalg.solve(A, np.einsum("kcp,kc->p", J, e))
+    e = e - np.einsum("kcp,p->kc", J, step)
+    return e, J, t
+
+
+def test_terrain_window_brackets_a_soft_patch():
+    e, J, t = _scores((12.0, 20.0))
+    w = terrain_window(e, J, t, scale=(1.0, 1.0))
+    assert w.significant and w.p_value < 1e-6
+    # the bracket holds the patch; the evidence window lies inside the bracket and overlaps the patch
+    assert w.start <= 12.0 + 0.5 and w.end >= 20.0 - 0.5
+    assert w.start <= w.evidence_start <= w.evidence_end <= w.end
+    assert w.evidence_start < 20.0 and w.evidence_end > 12.0
+    # informative data everywhere: the bracket is not the whole run
+    assert w.start > 5.0 and w.end < 25.0
+    assert w.fmax_change < 0  # softer inside (relative to the unit scale)
+    assert "soil differs" in w.describe()
+
+
+def test_terrain_window_is_quiet_on_noise():
+    for seed in (4, 5, 6):
+        e, J, t = _scores((12.0, 20.0), change=(0.0, 0.0), seed=seed)
+        w = terrain_window(e, J, t)
+        assert not w.significant and w.p_value > 0.05
+        assert "no significant change" in w.describe()
+
+
+def test_delay_scan_finds_a_lag_in_synthetic_residuals():
+    rng = np.random.default_rng(5)
+    n = 3000
+    w = np.cumsum(rng.standard_normal(n)) * 0.05 + 10.0       # sprocket speed, a random walk
+    wl = np.r_[np.nan, 0.5 * (w[:-2] + w[2:]), np.nan]
+    r = np.full(n, np.nan)
+    r[20:] = (wl[20:] - w[12:-8]) + 0.02 * rng.standard_normal(n - 20)   # late by 8 samples
+    s = delay_scan(r, w)
+    assert s["lag"] == 8 and s["p_value"] < 1e-6 and s["coef"] == pytest.approx(1.0, abs=0.05)
+    s0 = delay_scan(0.02 * rng.standard_normal(n), w)
+    assert s0["p_value"] > 0.01
+
+
+def test_shift_speed_undoes_a_delay():
+    t = np.arange(50) * 0.02
+    v = 1.0 + t
+    log = DriveLog(t, np.ones(50), np.full(50, 10.0), np.r_[np.full(3, v[0]), v[:-3]])
+    back = shift_speed(log, 3)
+    assert np.allclose(back.vehicle_speed[:-3], v[:-3])
+
+
+def test_a_delayed_speed_sensor_is_not_named_as_an_effect():
+    vehicle, soil = VEHICLES["light"], TERRAINS["lete_sand"]
+    log = simulate(vehicle, soil, kind="drive", seed=1, duration_s=30.0)
+    v = np.asarray(log.vehicle_speed)
+    late = DriveLog(log.time, log.sprocket_torque, log.sprocket_speed, np.r_[np.full(10, v[0]), v[:-10]],
+                    log.vehicle_accel, source="speed sensor 10 samples late")
+    d = diagnose(late, vehicle)
+    named = d.verdict not in ("none", "unexplained")
+    assert not (named and d.confidence > 0.5), (d.verdict, d.confidence, d.reason)
+    scan = d.lags["delay scan: speed residual vs sprocket-speed change over k samples"]
+    assert scan["significant"] and abs(scan["lag"] - 10) <= 2
+    assert "late" in d.report()
+    assert d.to_json()  # JSON-clean (no NaN)
