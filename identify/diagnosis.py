@@ -537,11 +537,11 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         """A fit the diagnosis may use: successful, or (sweep) converged and only flagged implausible."""
         return bool(res.success) or (not is_log and solver_converged(res))
 
-    def run_fit(d, effects=(), fixed=None, start=None, record=True, patient=False, retry=True):
+    def run_fit(d, effects=(), fixed=None, start=None, record=True, patient=False, retry=True, cold=False):
         kw = {}
         if is_log and not effects:
             kw["hull_channel"] = True  # the nominal model on the same three channels as the candidates
-        if "x0" in warm:
+        if "x0" in warm and not cold:
             kw["x0"] = warm["x0"]
         if effects:
             kw["effects"] = list(effects)
@@ -566,6 +566,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             # a sweep fit with an effect that stalls (IPOPT's iteration limit in a slow valley, e.g. a
             # strain-softening hump): once more with more iterations
             return run_fit(d, effects, fixed, start, record, True)
+        if is_log and effects and retry and not usable(res) and (start is not None or "x0" in warm):
+            # a drive-log fit started warm (from the nominal or a training fit) that fails: once more from
+            # the fit's own start points
+            return run_fit(d, effects, fixed, None, record, patient, False, cold=True)
         if record:
             key = effects[0] if len(effects) == 1 else NOMINAL
             if not usable(res):
@@ -1007,6 +1011,13 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             confidence = 0.5
             notes.append(f"{name}'s {', '.join(on_bound)} ended on {'its bound' if len(on_bound) == 1 else 'their bounds'}: "
                          f"the effect is stretched to its limit and may stand for another one; confidence capped at 0.5")
+    if name not in (NOMINAL, "unexplained") and name in full_fits and not usable(full_fits[name]) \
+            and confidence > 0.5:
+        # the verdict's own fit on all the data failed: its parameters are unknown, its weight rests on
+        # the training fits alone
+        confidence = 0.5
+        notes.append(f"{name}'s fit on all the data did not converge ({full_fits[name].status}): its parameters "
+                     "are not known; it is named with confidence 0.5 at most")
     if name not in (NOMINAL, "unexplained") and any(name in p for p, _, _ in conf):
         notes.append(f"{name} is named with low certainty (confidence {confidence:.2f}): the data cannot tell it "
                      "from " + ", ".join(x for p, _, _ in conf if name in p for x in p if x != name))
