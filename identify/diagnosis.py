@@ -1011,6 +1011,14 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             confidence = 0.5
             notes.append(f"{name}'s {', '.join(on_bound)} ended on {'its bound' if len(on_bound) == 1 else 'their bounds'}: "
                          f"the effect is stretched to its limit and may stand for another one; confidence capped at 0.5")
+    if name not in (NOMINAL, "unexplained") and confidence > 0.5:
+        sh = next((e.shrink for e in ranking if e.effect == name), None)
+        if sh is None or not sh > 0.0:
+            # weighed well on the data it was fitted to, but no better than the nominal model on the blocks
+            # it did not see: an imitation, not a cause one can name with confidence
+            confidence = 0.5
+            notes.append(f"{name} does not predict the held-out blocks better than the nominal model (shrink "
+                         f"{'n/a' if sh is None else f'{sh:.2f}'}): it is named with confidence 0.5 at most")
     if name not in (NOMINAL, "unexplained") and name in full_fits and not usable(full_fits[name]) \
             and confidence > 0.5:
         # the verdict's own fit on all the data failed: its parameters are unknown, its weight rests on
