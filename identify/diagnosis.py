@@ -566,9 +566,9 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             # a sweep fit with an effect that stalls (IPOPT's iteration limit in a slow valley, e.g. a
             # strain-softening hump): once more with more iterations
             return run_fit(d, effects, fixed, start, record, True)
-        if is_log and effects and retry and not usable(res) and (start is not None or "x0" in warm):
-            # a drive-log fit started warm (from the nominal or a training fit) that fails: once more from
-            # the fit's own start points
+        if is_log and effects and retry and not usable(res) and start is not None:
+            # the verdict's full-data refit, started from its training fit, fails: once more from the fit's
+            # own start points (a failed candidate fit only costs that candidate its weight: no retry)
             return run_fit(d, effects, fixed, None, record, patient, False, cold=True)
         if record:
             key = effects[0] if len(effects) == 1 else NOMINAL
