@@ -75,7 +75,7 @@ import numpy as np
 from ..soilmodel.traction import max_thrust_expr, thrust_expr, thrust_function
 from . import jitcache
 from .ipopt_fit import _one_load  # the one test of "a single normal load"
-from .plausibility import corner_soils
+from .plausibility import corner_soils, screen_expr
 from .problem import SCALE, SlipProblem, ridge_centre
 from .result import FitResult, build_result
 
@@ -304,12 +304,14 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
 
 
 def resjac_function(model: str, n: int) -> ca.Function:
-    """``[theta (3), d (4n+2), corners (6)] -> [r (n), J (n x 3, column-major), F_weak (n), F_strong (n)]``.
+    """``[theta (3), d (4n+2), corners (6)] -> [r (n), J (n x 3, column-major), F_weak (n), F_strong (n), screen]``.
 
     Residuals and ``J = w dF/dtheta`` of Eq. 2/8 by AD, and the thrust of the weakest and the
     strongest soil within the bounds (``corners = [c, phi, K]`` of each,
     :func:`~soiltrack.identify.plausibility.corner_soils`) at every sample: the curves the
-    plausibility checks compare the data with (:func:`~soiltrack.identify.plausibility.assess`).
+    plausibility checks compare the data with (:func:`~soiltrack.identify.plausibility.assess`);
+    ``screen`` is :func:`~soiltrack.identify.plausibility.screen_expr` of these numbers (0: the
+    numpy checks have nothing to find but F_max on a bound).
     """
     pt = _resjac_point(model).map("resjac", "serial", n, [0, 5, 6], [])
     thr = thrust_function(model).map("corner_curves", "serial", n, [1, 2, 3, 5, 6], [])
@@ -320,8 +322,10 @@ def resjac_function(model: str, n: int) -> ca.Function:
     out = pt(th, *rows, l, b)  # 4 x n
     weak = thr(rows[0], cr[0], cr[1], cr[2], rows[2], l, b)
     strong = thr(rows[0], cr[3], cr[4], cr[5], rows[2], l, b)
+    screen = screen_expr(rows[0], rows[1], out[0, :], weak, strong, rows[3])
     return ca.Function(f"soilfit_resjac_{model.replace('-', '_')}_{n}", [xin],
-                       [ca.densify(ca.vertcat(out[0, :].T, ca.vec(out[1:4, :].T), weak.T, strong.T))], ["x"], ["y"])
+                       [ca.densify(ca.vertcat(out[0, :].T, ca.vec(out[1:4, :].T), weak.T, strong.T, screen))],
+                       ["x"], ["y"])
 
 
 class _Caller:
@@ -467,6 +471,7 @@ class Solution:
     backend: str
     call_time: float
     curves: tuple | None = None
+    screen: float | None = None
 
 
 def _variant(pb: SlipProblem) -> tuple[int, bool, str]:
@@ -614,7 +619,8 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
         curves = (rj[4 * nc:4 * nc + n], rj[5 * nc:5 * nc + n])
     return Solution(theta=theta, certified=ok, iterations=iters, start=_theta_si(yl[2 * p + 3:3 * p + 3], p),
                     residuals=r, jacobian=J, z=np.array(z), p=p, one_load=one_load, engine=cs.engine,
-                    backend=cs.backend, call_time=t_call, curves=curves)
+                    backend=cs.backend, call_time=t_call, curves=curves,
+                    screen=None if rj is None else float(rj[6 * nc]))
 
 
 def _decode(pb: SlipProblem, yl: list, p: int, one_load: bool) -> tuple[list, int, bool, np.ndarray]:
@@ -702,7 +708,8 @@ def solve_many(pbs: list, n_grid: int = 25, jit: str = "wait") -> list[Solution]
                               residuals=RJ[r, 0:n].copy() if ok else empty, jacobian=J[r].copy() if ok else empty,
                               z=Z[r].copy(), p=p, one_load=one_load, engine=cs.engine, backend=cs.backend,
                               call_time=math.nan,
-                              curves=(RJ[r, 4 * nc:4 * nc + n].copy(), RJ[r, 5 * nc:5 * nc + n].copy()) if ok else None)
+                              curves=(RJ[r, 4 * nc:4 * nc + n].copy(), RJ[r, 5 * nc:5 * nc + n].copy()) if ok else None,
+                              screen=float(RJ[r, 6 * nc]) if ok else None)
     return out  # type: ignore[return-value]
 
 
@@ -771,7 +778,7 @@ def result_of(pb: SlipProblem, sol: Solution, x0, solve_time: float) -> FitResul
                         bounds=pb.bounds, status="converged", success=True, message=message_of(sol, x0),
                         iterations=sol.iterations, solve_time=solve_time, sigma_known=pb.sigma_known,
                         warnings=pb.noise_warning(sol.residuals), extra={**extra_of(sol), "sigma_model": pb.noise_model},
-                        **pb.result_kwargs(sol.curves))
+                        **pb.result_kwargs(sol.curves, sol.screen))
 
 
 def hand_over(pb: SlipProblem, sol: Solution, x0, n_grid: int, ipopt_options: dict | None, t0: float,

@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import casadi as ca
 import numpy as np
 
 from ..soilmodel.soil import SoilBounds
@@ -34,7 +35,7 @@ from ..soilmodel.traction import max_thrust_expr, thrust_at
 from ..soilmodel.vehicle import Vehicle
 from .estimate_types import format_force
 
-__all__ = ["Finding", "fmax_range", "corner_soils", "corner_curves", "check_slip_data", "check_slip_fit", "assess",
+__all__ = ["Finding", "fmax_range", "corner_soils", "corner_curves", "check_slip_data", "check_slip_fit", "assess", "screen_expr",
            "SCALE_FACTOR", "OUTLIER_Z", "OUTLIER_SHARE", "GROSS_Z", "GROSS_SHARE", "RESIDUAL_RATIO", "BOUND_FACTOR"]
 
 #: Data this many times below the weakest soil (median over the samples) or a row this many times
@@ -50,6 +51,8 @@ RESIDUAL_RATIO = 0.5
 BOUND_FACTOR = 2.0
 #: Fewest samples for a robust residual scale (median absolute deviation).
 MIN_ROBUST = 6
+#: Relative slack of :func:`screen_expr`: rounding never lets the screen pass data a check would flag.
+SCREEN_SLACK = 1e-9
 
 
 @dataclass(frozen=True)
@@ -164,6 +167,47 @@ def _mean_square(x: np.ndarray) -> float:
     return float(np.add.reduce(x * x)) / x.size
 
 
+def screen_expr(slip, force, residuals, weak, strong, real):
+    """CasADi expression: 1 when :func:`assess` may find more than an F_max on a bound, else 0.
+
+    A necessary condition of each check, written so that it can run where the residuals are
+    computed (the compiled engine's residual Function), and a clean fit then skips the numpy
+    checks; a 1 runs them all, so what is found and said is decided by the checks below alone.
+    0 needs every number finite and: every force at positive slip above ``1/SCALE_FACTOR`` of
+    the weakest soil's (so their median is too), none above ``SCALE_FACTOR`` times the
+    strongest's, none negative, ``sum r^2 <= RESIDUAL_RATIO^2 sum F^2``, and a residual range
+    ``max r - min r`` (a bound of every ``|r - median(r)|``) within the smaller outlier share of
+    a lower bound of the force scale (enough rows with ``|F|`` above it to put the 90th
+    percentile there). All with :data:`SCREEN_SLACK` against rounding.
+
+    Parameters
+    ----------
+    slip, force, residuals, weak, strong : casadi.MX or SX, row vectors
+        Per row: slip, measured force (N), model minus data (N), the weakest and strongest
+        soil's thrust (N) (:func:`corner_curves`).
+    real : same shape
+        Positive for a data row (e.g. its weight ``1/sigma``), 0 for a padding row (ignored).
+    """
+    e = SCREEN_SLACK
+    big = ca.inf
+    on = real > 0
+    pos = ca.logic_and(on, slip > 0)
+    vals = ca.vertcat(force, residuals, weak, strong)
+    finite = ca.sum2(ca.if_else(on, 4 - ca.sum1(ca.fabs(vals) < big), 0)) == 0  # NaN fails every comparison
+    low = ca.mmin(ca.if_else(pos, SCALE_FACTOR * force - weak * (1 + e), big)) < 0
+    above = ca.mmax(ca.if_else(pos, force - SCALE_FACTOR * strong, -big)) > 0
+    negative = ca.mmin(ca.if_else(on, force, big)) < 0
+    large = ca.sum2(ca.if_else(on, residuals * residuals, 0)) > RESIDUAL_RATIO ** 2 * (1 - e) * \
+        ca.sum2(ca.if_else(on, force * force, 0))
+    n = ca.sum2(ca.if_else(on, 1, 0))
+    spread = ca.mmax(ca.if_else(on, residuals, -big)) - ca.mmin(ca.if_else(on, residuals, big))
+    level = spread * (1 + e) / min(OUTLIER_SHARE, GROSS_SHARE)
+    high = ca.sum2(ca.if_else(ca.logic_and(on, ca.fabs(force) >= level), 1, 0))
+    outlier = ca.logic_and(n >= MIN_ROBUST, high < n - ca.floor(0.9 * (n - 1)))
+    return ca.logic_or(ca.logic_not(finite), ca.logic_or(ca.logic_or(low, above), ca.logic_or(negative,
+                                                                                             ca.logic_or(large, outlier))))
+
+
 def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: SoilBounds,
                     curves: tuple | None = None) -> list[Finding]:
     """Checks that need no fit: the force scale against the bounds, and negative thrust.
@@ -220,6 +264,37 @@ def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: Soi
     return out
 
 
+def _limit_on_bound(force: np.ndarray, load: np.ndarray, r: np.ndarray, c: float, phi: float, K: float,
+                    vehicle: Vehicle, model: str, bounds: SoilBounds) -> list[Finding]:
+    """The F_max-on-a-bound finding of :func:`check_slip_fit` (finite ``theta`` and residuals)."""
+    out: list[Finding] = []
+    if not (c >= 0 and 0 < phi < math.pi / 2 and K > 0):  # not a soil (what :class:`Soil` accepts)
+        return out
+    single = _MIN(load) == _MAX(load)
+    for W in (load[:1] if single else np.unique(load)):
+        fm = float(max_thrust_expr(c, phi, float(W), vehicle.contact_area, model))
+        fm_lo, fm_hi = fmax_range(bounds, vehicle, model, float(W))
+        tol = 1e-3 * (fm_hi - fm_lo)
+        side = "smallest" if fm <= fm_lo + tol else "largest" if fm >= fm_hi - tol else None
+        if not side or fm <= 0:
+            continue
+        sel = load == W
+        # the F_max these data ask for with the fitted curve's shape: F = F_max g(i), g = model / F_max,
+        # so the unbounded best F_max is the least-squares scale sum(g F) / sum(g^2)
+        g = (force[sel] + r[sel]) / fm
+        wanted = float(np.sum(g * force[sel]) / np.sum(g * g)) if np.sum(g * g) > 0 else fm
+        far = wanted < fm / BOUND_FACTOR if side == "smallest" else wanted > fm * BOUND_FACTOR
+        out.append(Finding(
+            "limit_on_bound",
+            f"the thrust limit F_max = {_fmt_force(fm)} at W = {_fmt_force(float(W))} is the {side} value the "
+            f"bounds allow (c and phi at their {'lower' if side == 'smallest' else 'upper'} bounds); the data ask "
+            f"for about {_fmt_force(wanted)}"
+            + (": the bounds, not the data, fixed the answer; check the units of the force and the normal load"
+               if far else ": the soil lies at or just beyond the bounds; widen them if that is physically "
+               "reasonable"), usable=not far))
+    return out
+
+
 def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model: str,
                    bounds: SoilBounds) -> list[Finding]:
     """Checks of a fit's answer: F_max on a bound, residuals as large as the data, gross outliers.
@@ -227,34 +302,10 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
     ``residuals`` are model minus data (N) at the fitted ``theta = [c (Pa), phi (rad), K (m)]``.
     """
     slip, force, load, r = _vec(slip), _vec(force), _vec(load), _vec(residuals)
-    out: list[Finding] = []
     c, phi, K = np.asarray(theta, dtype=float).ravel().tolist()
     if not (math.isfinite(c) and math.isfinite(phi) and math.isfinite(K) and _all_finite(r)):
-        return out
-    # the identifiable combination on a bound: F_max at its smallest or largest value within the bounds
-    if c >= 0 and 0 < phi < math.pi / 2 and K > 0:  # a soil (what :class:`Soil` accepts)
-        single = _MIN(load) == _MAX(load)
-        for W in (load[:1] if single else np.unique(load)):
-            fm = float(max_thrust_expr(c, phi, float(W), vehicle.contact_area, model))
-            fm_lo, fm_hi = fmax_range(bounds, vehicle, model, float(W))
-            tol = 1e-3 * (fm_hi - fm_lo)
-            side = "smallest" if fm <= fm_lo + tol else "largest" if fm >= fm_hi - tol else None
-            if not side or fm <= 0:
-                continue
-            sel = load == W
-            # the F_max these data ask for with the fitted curve's shape: F = F_max g(i), g = model / F_max,
-            # so the unbounded best F_max is the least-squares scale sum(g F) / sum(g^2)
-            g = (force[sel] + r[sel]) / fm
-            wanted = float(np.sum(g * force[sel]) / np.sum(g * g)) if np.sum(g * g) > 0 else fm
-            far = wanted < fm / BOUND_FACTOR if side == "smallest" else wanted > fm * BOUND_FACTOR
-            out.append(Finding(
-                "limit_on_bound",
-                f"the thrust limit F_max = {_fmt_force(fm)} at W = {_fmt_force(float(W))} is the {side} value the "
-                f"bounds allow (c and phi at their {'lower' if side == 'smallest' else 'upper'} bounds); the data ask "
-                f"for about {_fmt_force(wanted)}"
-                + (": the bounds, not the data, fixed the answer; check the units of the force and the normal load"
-                   if far else ": the soil lies at or just beyond the bounds; widen them if that is physically "
-                   "reasonable"), usable=not far))
+        return []
+    out = _limit_on_bound(force, load, r, c, phi, K, vehicle, model, bounds)
     # residuals as large as the data
     scale = math.sqrt(_mean_square(force)) if force.size else 0.0
     rmse = math.sqrt(_mean_square(r)) if r.size else 0.0
@@ -297,14 +348,23 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
 
 
 def assess(slip, force, load, residuals, theta, vehicle: Vehicle, model: str,
-           bounds: SoilBounds, curves: tuple | None = None) -> tuple[tuple[str, ...], bool]:
+           bounds: SoilBounds, curves: tuple | None = None, screen: float | None = None
+           ) -> tuple[tuple[str, ...], bool]:
     """All checks: ``(warnings, usable)``; ``usable`` is False when any finding makes the answer unusable.
 
     Each cause is said once: rows already refused at input are not named again as outliers, and
     "residuals as large as the data" is left out when an input finding or an outlier explains it.
     ``curves``: :func:`corner_curves` at every sample, if the caller has them (the compiled engine).
+    ``screen``: :func:`screen_expr` of these very numbers, if the caller has it (the compiled
+    engine); 0 means no check but F_max on a bound can find anything, and only that one runs.
     """
     slip, force, load = _vec(slip), _vec(force), _vec(load)
+    if screen is not None and screen < 0.5:
+        c, phi, K = np.asarray(theta, dtype=float).ravel().tolist()
+        if math.isfinite(c) and math.isfinite(phi) and math.isfinite(K):  # (the screen saw finite residuals)
+            found = _limit_on_bound(force, load, _vec(residuals), c, phi, K, vehicle, model, bounds)
+            return tuple(("NOT USABLE: " if not f.usable else "") + f.message for f in found), \
+                all(f.usable for f in found)
     found = check_slip_data(slip, force, load, vehicle, model, bounds, curves)
     named = {r for f in found if not f.usable for r in f.rows}
     after = check_slip_fit(slip, force, load, residuals, theta, vehicle, model, bounds)

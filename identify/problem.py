@@ -228,13 +228,16 @@ class SlipProblem:
                             sigma_known=self.sigma_known, warnings=warnings,
                             extra={"sigma_model": self.noise_model, **(extra or {})}, **self.result_kwargs())
 
-    def result_kwargs(self, curves: tuple | None = None) -> dict:
+    def result_kwargs(self, curves: tuple | None = None, screen: float | None = None) -> dict:
         """What every slip result records about these data: pass to ``build_result(..., **pb.result_kwargs())``.
 
         ``curves``: the weakest and strongest soil's thrust at every sample, when the solver
-        computed them (:func:`~soiltrack.identify.plausibility.corner_curves`).
+        computed them (:func:`~soiltrack.identify.plausibility.corner_curves`); ``screen``: the
+        solver's :func:`~soiltrack.identify.plausibility.screen_expr` with them.
         """
-        samples = (self.slip, self.force, self.load) if curves is None else (self.slip, self.force, self.load, curves)
+        samples = (self.slip, self.force, self.load) if curves is None else \
+            (self.slip, self.force, self.load, curves) if screen is None else (self.slip, self.force, self.load,
+                                                                             curves, screen)
         return {"measured": self.measured, "residual_model": _sweep_residuals(self.rig_speed), "samples": samples}
 
 

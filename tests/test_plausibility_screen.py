@@ -1,0 +1,107 @@
+"""The compiled engine's screen of the plausibility checks never hides a finding, and lets clean fits skip them."""
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from soiltrack.identify import compiled_lm, problem
+from soiltrack.identify.plausibility import assess, check_slip_data, check_slip_fit, screen_expr
+from soiltrack.soilmodel import PRACTICAL_BOUNDS, VEHICLES, SlipData, Soil, tractive_force
+
+HEAVY = VEHICLES["heavy"]
+THETA_MID = np.array([0.0, 0.5 * sum(PRACTICAL_BOUNDS.friction_angle), 0.5 * sum(PRACTICAL_BOUNDS.shear_modulus)])
+
+
+def _screen_function(n: int) -> ca.Function:
+    rows = [ca.MX.sym(k, 1, n) for k in ("slip", "F", "r", "weak", "strong", "real")]
+    return ca.Function("screen", rows, [screen_expr(*rows)])
+
+
+def _screen(slip, force, r, lo, hi, real=None) -> float:
+    n = len(slip)
+    real = np.ones(n) if real is None else real
+    return float(_screen_function(n)(*(np.asarray(a, float).reshape(1, -1) for a in (slip, force, r, lo, hi, real))))
+
+
+def _findings(slip, force, r, lo, hi):
+    """Everything but F_max on a bound (theta in the middle of the bounds: that check has nothing to say)."""
+    load = np.full(len(slip), HEAVY.weight)
+    found = check_slip_data(slip, force, load, HEAVY, "cohesion-free", PRACTICAL_BOUNDS, curves=(lo, hi))
+    found += check_slip_fit(slip, force, load, r, THETA_MID, HEAVY, "cohesion-free", PRACTICAL_BOUNDS)
+    return [f.code for f in found if f.code != "limit_on_bound"]
+
+
+@st.composite
+def rows(draw):
+    n = draw(st.integers(2, 24))
+    fl = lambda a, b: st.floats(a, b, allow_nan=False, allow_infinity=False)  # noqa: E731
+    slip = np.array(draw(st.lists(fl(-0.05, 0.8), min_size=n, max_size=n)))
+    lo = np.array(draw(st.lists(fl(1.0, 1e5), min_size=n, max_size=n)))
+    hi = lo * np.array(draw(st.lists(fl(1.0, 60.0), min_size=n, max_size=n)))
+    # forces from well below the weakest soil / 5 to well above 5 x the strongest, some negative
+    force = lo * np.array(draw(st.lists(fl(-0.5, 400.0), min_size=n, max_size=n)))
+    noise = draw(st.sampled_from([0.0, 1e-3, 0.01, 0.05, 0.3]))
+    r = force * noise * np.array(draw(st.lists(fl(-1.0, 1.0), min_size=n, max_size=n)))
+    if draw(st.booleans()):  # one wild row, off by a share of the force scale around the outlier thresholds
+        k = draw(st.integers(0, n - 1))
+        r[k] += draw(fl(-0.4, 0.4)) * float(np.quantile(np.abs(force), 0.9))
+    return slip, force, r, lo, hi
+
+
+@settings(max_examples=300, deadline=None)
+@given(rows())
+def test_screen_is_open_whenever_a_check_finds_something(case):
+    slip, force, r, lo, hi = case
+    found = _findings(slip, force, r, lo, hi)
+    if found:
+        assert _screen(slip, force, r, lo, hi) == 1.0, found
+
+
+def test_screen_opens_on_each_kind_of_finding_and_on_nan():
+    slip = np.linspace(0.02, 0.4, 20)
+    lo, hi = np.full(20, 1e3), np.full(20, 1e5)
+    force = np.full(20, 2e4) * (1 + 0.01 * np.sin(np.arange(20)))
+    r = 100.0 * np.cos(np.arange(20))
+    assert _findings(slip, force, r, lo, hi) == [] and _screen(slip, force, r, lo, hi) == 0.0
+    cases = {"force_scale_low": (force / 1000, r / 1000), "negative_thrust": (np.r_[-5.0, force[1:]], r),
+             "force_above_any_soil": (np.r_[force[:-1], 1e6], r), "residuals_large": (force, 0.9 * force),
+             "outlier": (force, np.r_[r[:-1], 1e4])}
+    for code, (F, rr) in cases.items():
+        assert code in _findings(slip, F, rr, lo, hi), code
+        assert _screen(slip, F, rr, lo, hi) == 1.0, code
+    assert _screen(slip, force, np.r_[r[:-1], math.nan], lo, hi) == 1.0
+
+
+def test_padding_rows_do_not_count():
+    slip = np.linspace(0.02, 0.4, 10)
+    lo, hi, force, r = np.full(10, 1e3), np.full(10, 1e5), np.full(10, 2e4), np.full(10, 50.0) * (-1) ** np.arange(10)
+    pad = lambda a, v: np.r_[a, np.full(6, v)]  # noqa: E731
+    s = _screen(pad(slip, 0.0), pad(force, -1e9), pad(r, 1e9), pad(lo, 0.0), pad(hi, 0.0), pad(np.ones(10), 0.0))
+    assert s == _screen(slip, force, r, lo, hi) == 0.0
+
+
+@pytest.mark.parametrize("n", [3, 40, 100])
+def test_clean_fit_passes_the_screen_and_gives_the_same_result_as_the_full_checks(n):
+    i = np.linspace(0.01, 0.4, n)
+    F = np.asarray(tractive_force(i, Soil.from_kpa_deg(0.0, 30.0, 0.02), HEAVY, model="cohesion-free")).ravel()
+    F = F * (1 + 0.01 * np.cos(7 * np.arange(n)))
+    pb = problem.make_problem(SlipData(i, F), HEAVY, "cohesion-free", PRACTICAL_BOUNDS)
+    sol = compiled_lm.solve(pb)
+    assert sol.certified and sol.screen == 0.0
+    args = (pb.slip, pb.force, pb.load, sol.residuals, sol.theta, HEAVY, pb.model, pb.bounds, sol.curves)
+    assert assess(*args, sol.screen) == assess(*args)
+
+
+def test_screen_counts_exactly_enough_rows_for_the_force_scale():
+    """n = 10: the 90th percentile of |F| lies between the two largest; one row off by 11 % of it is an outlier."""
+    slip = np.linspace(0.05, 0.5, 10)
+    force = np.r_[np.full(8, 100.0), 1e4, 2e4]  # 90th percentile 11,000 N
+    r = np.r_[1.0 * (-1) ** np.arange(9), 1200.0]
+    lo, hi = np.full(10, 100.0), np.full(10, 1e5)
+    assert "outlier" in _findings(slip, force, r, lo, hi)
+    assert _screen(slip, force, r, lo, hi) == 1.0
