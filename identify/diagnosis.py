@@ -53,6 +53,7 @@ from .screening import Screen, newey_west_lag, screen
 from .sweep_model import SweepResiduals
 from .selection import (DISCREPANCY, NOMINAL, confusable_groups, decide, dm_test, fit_discrepancy, gap_p_value, hat_basis,
                         separating_experiment, stacking_weights)
+from .saturation import find_saturation
 from .verdict_checks import check_verdict, explained_fraction
 
 __all__ = ["diagnose", "Diagnosis", "RankEntry"]
@@ -1028,6 +1029,13 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         confidence = 0.5
         notes.append(f"{name}'s fit on all the data did not converge ({full_fits[name].status}): its parameters "
                      "are not known; it is named with confidence 0.5 at most")
+    for sat in find_saturation(data):
+        # a clipped sensor is outside the library: a flexible effect may imitate the flattened curve
+        capped = name not in (NOMINAL, "unexplained") and confidence > 0.5
+        notes.append(sat.describe() + (f"; {name} is named with confidence 0.5 at most" if capped else
+                                       "; it may be the gap" if name == "unexplained" else ""))
+        if capped:
+            confidence = 0.5
     if name not in (NOMINAL, "unexplained") and any(name in p for p, _, _ in conf):
         notes.append(f"{name} is named with low certainty (confidence {confidence:.2f}): the data cannot tell it "
                      "from " + ", ".join(x for p, _, _ in conf if name in p for x in p if x != name))
