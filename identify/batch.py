@@ -78,7 +78,7 @@ def _solve_chunk(datasets: Sequence[SlipData], vehicle: Vehicle, model: str, bou
             success.append(usable)
             message.append(msg if usable else f"{msg}; the data or the answer fail the plausibility checks (see the "
                            "warnings)")
-            warns.append(tuple(pb.noise_warning(s.residuals)) + found)
+            warns.append(tuple(pb.noise_warning(s.residuals, s.bp_screen)) + found)
         built = build_results_batch(
             model=model, method="ipopt", theta=np.stack([s.theta for s in S]), jacobian=np.stack([s.jacobian for s in S]),
             weighted_residuals=r / sig, residuals=r, normal_loads=np.stack([pb.load for pb in P]), vehicle=vehicle,

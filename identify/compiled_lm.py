@@ -76,7 +76,7 @@ from ..soilmodel.traction import max_thrust_expr, thrust_expr, thrust_function
 from . import jitcache
 from .ipopt_fit import _one_load  # the one test of "a single normal load"
 from .plausibility import corner_soils, screen_expr
-from .problem import SCALE, SlipProblem, ridge_centre
+from .problem import SCALE, SlipProblem, heteroscedasticity_screen_expr, ridge_centre
 from .result import FitResult, build_result
 
 __all__ = ["compiled_solver", "fit_compiled", "solve", "solve_many", "kernel", "size_class", "Solution", "N_ITER", "KKT_TOL",
@@ -304,14 +304,15 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
 
 
 def resjac_function(model: str, n: int) -> ca.Function:
-    """``[theta (3), d (4n+2), corners (6)] -> [r (n), J (n x 3, column-major), F_weak (n), F_strong (n), screen]``.
+    """``[theta (3), d (4n+2), corners (6)] -> [r (n), J (n x 3, column-major), F_weak (n), F_strong (n), screen, bp]``.
 
     Residuals and ``J = w dF/dtheta`` of Eq. 2/8 by AD, and the thrust of the weakest and the
     strongest soil within the bounds (``corners = [c, phi, K]`` of each,
     :func:`~soiltrack.identify.plausibility.corner_soils`) at every sample: the curves the
     plausibility checks compare the data with (:func:`~soiltrack.identify.plausibility.assess`);
     ``screen`` is :func:`~soiltrack.identify.plausibility.screen_expr` of these numbers (0: the
-    numpy checks have nothing to find but F_max on a bound).
+    numpy checks have nothing to find but F_max on a bound) and ``bp``
+    :func:`~soiltrack.identify.problem.heteroscedasticity_screen_expr` (0: no noise warning).
     """
     pt = _resjac_point(model).map("resjac", "serial", n, [0, 5, 6], [])
     thr = thrust_function(model).map("corner_curves", "serial", n, [1, 2, 3, 5, 6], [])
@@ -323,8 +324,9 @@ def resjac_function(model: str, n: int) -> ca.Function:
     weak = thr(rows[0], cr[0], cr[1], cr[2], rows[2], l, b)
     strong = thr(rows[0], cr[3], cr[4], cr[5], rows[2], l, b)
     screen = screen_expr(rows[0], rows[1], out[0, :], weak, strong, rows[3])
+    bp = heteroscedasticity_screen_expr(rows[1], out[0, :], rows[3])
     return ca.Function(f"soilfit_resjac_{model.replace('-', '_')}_{n}", [xin],
-                       [ca.densify(ca.vertcat(out[0, :].T, ca.vec(out[1:4, :].T), weak.T, strong.T, screen))],
+                       [ca.densify(ca.vertcat(out[0, :].T, ca.vec(out[1:4, :].T), weak.T, strong.T, screen, bp))],
                        ["x"], ["y"])
 
 
@@ -472,6 +474,7 @@ class Solution:
     call_time: float
     curves: tuple | None = None
     screen: float | None = None
+    bp_screen: float | None = None
 
 
 def _variant(pb: SlipProblem) -> tuple[int, bool, str]:
@@ -620,7 +623,8 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
     return Solution(theta=theta, certified=ok, iterations=iters, start=_theta_si(yl[2 * p + 3:3 * p + 3], p),
                     residuals=r, jacobian=J, z=np.array(z), p=p, one_load=one_load, engine=cs.engine,
                     backend=cs.backend, call_time=t_call, curves=curves,
-                    screen=None if rj is None else float(rj[6 * nc]))
+                    screen=None if rj is None else float(rj[6 * nc]),
+                    bp_screen=None if rj is None else float(rj[6 * nc + 1]))
 
 
 def _decode(pb: SlipProblem, yl: list, p: int, one_load: bool) -> tuple[list, int, bool, np.ndarray]:
@@ -709,7 +713,8 @@ def solve_many(pbs: list, n_grid: int = 25, jit: str = "wait") -> list[Solution]
                               z=Z[r].copy(), p=p, one_load=one_load, engine=cs.engine, backend=cs.backend,
                               call_time=math.nan,
                               curves=(RJ[r, 4 * nc:4 * nc + n].copy(), RJ[r, 5 * nc:5 * nc + n].copy()) if ok else None,
-                              screen=float(RJ[r, 6 * nc]) if ok else None)
+                              screen=float(RJ[r, 6 * nc]) if ok else None,
+                              bp_screen=float(RJ[r, 6 * nc + 1]) if ok else None)
     return out  # type: ignore[return-value]
 
 
@@ -777,8 +782,8 @@ def result_of(pb: SlipProblem, sol: Solution, x0, solve_time: float) -> FitResul
                         residual_unit="N", n_samples=pb.n, normal_loads=pb.load, vehicle=pb.vehicle,
                         bounds=pb.bounds, status="converged", success=True, message=message_of(sol, x0),
                         iterations=sol.iterations, solve_time=solve_time, sigma_known=pb.sigma_known,
-                        warnings=pb.noise_warning(sol.residuals), extra={**extra_of(sol), "sigma_model": pb.noise_model},
-                        **pb.result_kwargs(sol.curves, sol.screen))
+                        warnings=pb.noise_warning(sol.residuals, sol.bp_screen),
+                        extra={**extra_of(sol), "sigma_model": pb.noise_model}, **pb.result_kwargs(sol.curves, sol.screen))
 
 
 def hand_over(pb: SlipProblem, sol: Solution, x0, n_grid: int, ipopt_options: dict | None, t0: float,

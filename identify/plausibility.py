@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import casadi as ca
 import numpy as np
@@ -91,6 +92,14 @@ def _rows(idx, limit: int = 5) -> str:
 def corner_soils(bounds: SoilBounds, model: str) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
     """``[c, phi, K]`` (SI) of the weakest (c, phi low, K high) and strongest (c, phi high, K low) soil
     within the bounds (c = 0 for the cohesion-free model)."""
+    try:
+        return _corner_soils(bounds, model)
+    except TypeError:  # unhashable bounds: not cached
+        return _corner_soils.__wrapped__(bounds, model)
+
+
+@lru_cache(maxsize=64)
+def _corner_soils(bounds: SoilBounds, model: str) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
     cf = model == "cohesion-free"
     return ((0.0 if cf else float(bounds.cohesion[0]), float(bounds.friction_angle[0]), float(bounds.shear_modulus[1])),
             (0.0 if cf else float(bounds.cohesion[1]), float(bounds.friction_angle[1]), float(bounds.shear_modulus[0])))
@@ -98,8 +107,16 @@ def corner_soils(bounds: SoilBounds, model: str) -> tuple[tuple[float, float, fl
 
 def fmax_range(bounds: SoilBounds, vehicle: Vehicle, model: str, normal_load: float) -> tuple[float, float]:
     """Smallest and largest thrust limit F_max (N) that soils within the bounds give at this load."""
+    key = (bounds, vehicle.contact_area, model, float(normal_load))
+    try:
+        return _fmax_range(*key)
+    except TypeError:  # unhashable bounds: not cached
+        return _fmax_range.__wrapped__(*key)
+
+
+@lru_cache(maxsize=1024)
+def _fmax_range(bounds: SoilBounds, A: float, model: str, W: float) -> tuple[float, float]:
     weak, strong = corner_soils(bounds, model)
-    W, A = float(normal_load), vehicle.contact_area
     return float(max_thrust_expr(weak[0], weak[1], W, A, model)), float(max_thrust_expr(strong[0], strong[1], W, A, model))
 
 

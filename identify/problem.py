@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass
 from functools import lru_cache
 
+import casadi as ca
 import numpy as np
 
 from ..soilmodel.data import SlipData
@@ -89,6 +90,44 @@ def _heteroscedasticity_1d(force: np.ndarray, residuals: np.ndarray, sigma: np.n
     if not sxy > 0:
         return np.float64(0.0)
     return np.float64(n * (sxy * sxy / den if den != 0 else math.inf))
+
+
+#: Relative slack of :func:`heteroscedasticity_screen_expr` against rounding.
+BP_SCREEN_SLACK = 1e-6
+
+
+def heteroscedasticity_screen_expr(force, residuals, real):
+    """CasADi expression: 0 when :func:`heteroscedasticity` of equal weights is surely at most
+    :data:`BP_CRITICAL` (no warning), else 1.
+
+    The same two-pass centred sums as the numpy statistic, evaluated where the residuals are
+    (the compiled engine's residual Function), so that a clean fit skips the numpy call; a 1
+    runs it, so the warning and its number come from :func:`heteroscedasticity` alone. 0 also
+    needs finite numbers and centred sums well above rounding (``sum (x - mean)^2 > 1e-6 sum
+    x^2`` for both regressors), and fewer than eight rows always give 0 (no statistic).
+
+    Parameters
+    ----------
+    force, residuals : casadi.MX or SX, row vectors
+        Measured force and model minus data (N); equal weights (the statistic is unchanged by
+        a common scale).
+    real : same shape
+        Positive for a data row, 0 for a padding row (ignored).
+    """
+    on = real > 0
+    n = ca.sum2(ca.if_else(on, 1, 0))
+    nn = ca.fmax(n, 1)
+    x = ca.if_else(on, (force + residuals) ** 2, 0)
+    y = ca.if_else(on, residuals ** 2, 0)
+    xc = ca.if_else(on, x - ca.sum2(x) / nn, 0)
+    yc = ca.if_else(on, y - ca.sum2(y) / nn, 0)
+    sxy, sxx, syy = ca.sum2(xc * yc), ca.sum2(xc * xc), ca.sum2(yc * yc)
+    vals = ca.vertcat(force, residuals)
+    finite = ca.sum2(ca.if_else(on, 2 - ca.sum1(ca.fabs(vals) < ca.inf), 0)) == 0
+    well = ca.logic_and(sxx > 1e-6 * ca.sum2(x * x), syy > 1e-6 * ca.sum2(y * y))
+    stat = n * sxy * sxy / ca.if_else(well, sxx * syy, 1)
+    low = ca.logic_or(sxy <= 0, stat <= BP_CRITICAL * (1 - BP_SCREEN_SLACK))
+    return ca.if_else(n < 8, 0, ca.if_else(ca.logic_and(ca.logic_and(finite, well), low), 0, 1))
 
 
 def heteroscedasticity_warning(stat: float) -> tuple[str, ...]:
@@ -197,10 +236,14 @@ class SlipProblem:
         r = F - self.force
         return r, r / self.sigma, J / self.sigma[:, None]
 
-    def noise_warning(self, r: np.ndarray) -> tuple[str, ...]:
-        """A warning when equal weights meet noise that grows with the force (see :func:`heteroscedasticity`)."""
+    def noise_warning(self, r: np.ndarray, screen: float | None = None) -> tuple[str, ...]:
+        """A warning when equal weights meet noise that grows with the force (see :func:`heteroscedasticity`).
+
+        ``screen``: :func:`heteroscedasticity_screen_expr` of these residuals, if the solver has
+        it; 0 means no warning without computing the statistic.
+        """
         sig = self.sigma
-        if self.sigma_known or sig.size < 8:
+        if self.sigma_known or sig.size < 8 or screen == 0.0:
             return ()  # (fewer than 8 samples: the statistic is not computed)
         lo = np.minimum.reduce(sig)
         if lo != np.maximum.reduce(sig):

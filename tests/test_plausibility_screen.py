@@ -105,3 +105,56 @@ def test_screen_counts_exactly_enough_rows_for_the_force_scale():
     lo, hi = np.full(10, 100.0), np.full(10, 1e5)
     assert "outlier" in _findings(slip, force, r, lo, hi)
     assert _screen(slip, force, r, lo, hi) == 1.0
+
+
+# ---- the Breusch-Pagan screen (noise growing with the force) ----------------------------------------------
+def _bp_screen(force, r, real=None) -> float:
+    n = len(force)
+    rows = [ca.MX.sym(k, 1, n) for k in ("F", "r", "real")]
+    f = ca.Function("bp", rows, [problem.heteroscedasticity_screen_expr(*rows)])
+    real = np.ones(n) if real is None else real
+    return float(f(*(np.asarray(a, float).reshape(1, -1) for a in (force, r, real))))
+
+
+@st.composite
+def noise_cases(draw):
+    n = draw(st.integers(2, 60))
+    fl = lambda a, b: st.floats(a, b, allow_nan=False, allow_infinity=False)  # noqa: E731
+    force = np.array(draw(st.lists(fl(-1e3, 1e6), min_size=n, max_size=n)))
+    base = draw(st.sampled_from([0.0, 1.0, 100.0]))
+    grow = draw(st.sampled_from([0.0, 1e-3, 0.01, 0.1]))  # spread growing with the force
+    z = np.array(draw(st.lists(fl(-3.0, 3.0), min_size=n, max_size=n)))
+    return force, (base + grow * np.abs(force)) * z
+
+
+@settings(max_examples=300, deadline=None)
+@given(noise_cases())
+def test_bp_screen_is_open_whenever_the_statistic_warns(case):
+    force, r = case
+    stat = float(problem.heteroscedasticity(force, r, np.ones(force.size)))
+    if np.isfinite(stat) and stat > problem.BP_CRITICAL:
+        assert _bp_screen(force, r) == 1.0, stat
+
+
+def test_bp_screen_closes_on_constant_noise_and_opens_on_growing_noise_and_ignores_padding():
+    rng = np.random.default_rng(5)
+    force = np.linspace(1e3, 1e5, 80)
+    r_const, r_grow = rng.normal(0, 300, 80), rng.normal(0, 1, 80) * 0.02 * force
+    assert float(problem.heteroscedasticity(force, r_const, np.ones(80))) < problem.BP_CRITICAL
+    assert _bp_screen(force, r_const) == 0.0
+    assert float(problem.heteroscedasticity(force, r_grow, np.ones(80))) > problem.BP_CRITICAL
+    assert _bp_screen(force, r_grow) == 1.0
+    pad = lambda a, v: np.r_[a, np.full(8, v)]  # noqa: E731
+    assert _bp_screen(pad(force, 0.0), pad(r_const, 1e9), pad(np.ones(80), 0.0)) == 0.0
+
+
+def test_fit_gives_the_same_noise_warning_with_and_without_the_screen():
+    rng = np.random.default_rng(2)
+    i = np.geomspace(0.0005, 0.4, 100)
+    F = np.asarray(tractive_force(i, Soil.from_kpa_deg(0.0, 30.0, 0.02), HEAVY, model="cohesion-free")).ravel()
+    for noisy in (F + rng.normal(0, 200, 100), F * (1 + rng.normal(0, 0.03, 100))):
+        pb = problem.make_problem(SlipData(i, noisy), HEAVY, "cohesion-free", PRACTICAL_BOUNDS)
+        sol = compiled_lm.solve(pb)
+        assert sol.certified
+        assert pb.noise_warning(sol.residuals, sol.bp_screen) == pb.noise_warning(sol.residuals)
+    assert sol.bp_screen == 1.0 and pb.noise_warning(sol.residuals)  # the growing noise is warned about
