@@ -62,7 +62,7 @@ from .drivelog_noise import noise_model
 from .drivelog_prepare import SLIP_BOUNDS, PreparedLog
 
 __all__ = ["JointData", "joint_data", "parse_fixed", "effect_layout",
-           "residual_function", "derivative_function", "joint_solver", "solve_slips", "best_slips", "HULL_ROW", "CHANNELS",
+           "residual_function", "derivative_function", "joint_solver", "padded_data", "solve_slips", "best_slips", "HULL_ROW", "CHANNELS",
            "DATA_ROWS"]
 
 #: Residual channels of a drive log (raw residuals: measured minus predicted).
@@ -349,6 +349,24 @@ def best_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np.
             better = c < best_c
             best, best_c = np.where(better, s, best), np.where(better, c, best_c)
     return best
+
+
+def padded_data(D: np.ndarray, size: int) -> np.ndarray:
+    """The per-sample data ``D`` (rows of :data:`DATA_ROWS`) padded to ``size`` samples for a cached solver.
+
+    A padding sample is a vehicle at rest: no speed, torque, acceleration or hull weight, unit speed and
+    thrust noise. Its residuals are zero at zero slip whatever the parameters (no torque loss at ``w = 0``,
+    no speed for ``r_eff`` to scale, ``F(0) = 0``), so it is inert: its latent slip stays at 0 and it adds
+    nothing to the cost or its derivatives. (Padding with ``v = r w = 1`` was not: with
+    ``drivetrain_friction`` its thrust ``-tau_loss / r`` pulled 1 N-noise samples along every step of
+    ``tau``, an ill-conditioned valley IPOPT crawled through, and biased the fit; with ``radius_error``
+    its speed residual depended on ``eps``.)
+    """
+    n = D.shape[1]
+    Dp = np.hstack([D, np.zeros((D.shape[0], size - n))])
+    Dp[DATA_ROWS.index("sigma_v"), n:] = 1.0
+    Dp[DATA_ROWS.index("sigma_T"), n:] = 1.0
+    return Dp
 
 
 @locked_cache(maxsize=16)
