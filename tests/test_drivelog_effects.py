@@ -217,3 +217,34 @@ def test_latent_slips_reach_the_minimum_from_a_noisy_measured_slip():
     c = np.asarray(fn(np.repeat(ctx["theta"].reshape(-1, 1), s.size, axis=1), s.reshape(1, -1), ctx["D"])[0]).ravel()
     assert abs(float(np.sum(c)) - nom.cost) <= 1e-6 * nom.cost, (float(np.sum(c)), nom.cost)
     assert float(np.max(c)) < 100.0, float(np.max(c))
+
+
+@pytest.mark.parametrize("names", [[], ["drivetrain_friction"], ["grade", "radius_error"], ["pressure_distribution"]])
+def test_joint_solver_hessian_is_casadis_own(names):
+    """The joint solver's Hessian of the Lagrangian (one map of per-sample Hessians, the arrowhead assembled)
+    equals CasADi's Hessian of the solver's own objective, on a real log with padding samples."""
+    import casadi as ca
+
+    from soiltrack.identify.drivelog_joint import joint_data, joint_solver, padded_data
+    from soiltrack.identify.drivelog_prepare import prepare_drive_log
+    from soiltrack.soilmodel.effects import effect_structure, parse_effects
+
+    log = simulate_drive_log(LIGHT, DRY_SAND, seed=3, effects={"grade": GRADE}, duration_s=1.2)
+    prep = prepare_drive_log(log, LIGHT)
+    jd = joint_data(log, LIGHT, prep, "zoh")
+    n, N = prep.n_used, 64
+    assert n < N
+    structure = effect_structure(parse_effects(names or None), LIGHT)
+    solver = joint_solver(LIGHT, structure, N, 500, 1e-9, 0)
+    pd = solver.size1_in("x0") - N
+    rng = np.random.default_rng(2)
+    scale = np.concatenate([[300.0, 0.017], np.full(pd - 2, 0.3)])
+    i_ref = 0.017 / LIGHT.track_length
+    p = np.concatenate([scale, [i_ref], padded_data(jd.D, N).reshape(-1, order="F"), np.r_[np.zeros(n), np.ones(N - n)]])
+    x = np.concatenate([[1.1, 0.8], rng.uniform(-0.1, 0.1, pd - 2), rng.uniform(0.0, 2.0, n), np.zeros(N - n)])
+    X, P = ca.MX.sym("x", x.size), ca.MX.sym("p", p.size)
+    ref = ca.Function("ref", [X, P], [ca.triu(ca.hessian(solver.oracle()(X, P)[0], X)[0])])
+    A = np.asarray(ca.DM(ref(x, p)).full())
+    B = np.asarray(ca.DM(solver.get_function("nlp_hess_l")(x, p, 0.7, np.zeros(0))).full())
+    assert np.all(np.isfinite(A)) and np.max(np.abs(A)) > 0
+    assert np.max(np.abs(0.7 * A - B)) <= 1e-9 * np.max(np.abs(A)), np.max(np.abs(0.7 * A - B))
