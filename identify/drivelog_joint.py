@@ -62,7 +62,7 @@ from .drivelog_noise import noise_model
 from .drivelog_prepare import SLIP_BOUNDS, PreparedLog
 
 __all__ = ["JointData", "joint_data", "parse_fixed", "effect_layout",
-           "residual_function", "derivative_function", "joint_solver", "padded_data", "solve_slips", "best_slips", "HULL_ROW", "CHANNELS",
+           "residual_function", "derivative_function", "sensitivity_function", "joint_solver", "padded_data", "solve_slips", "best_slips", "HULL_ROW", "CHANNELS",
            "DATA_ROWS"]
 
 #: Residual channels of a drive log (raw residuals: measured minus predicted).
@@ -239,6 +239,20 @@ def derivative_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
     H = ca.hessian(0.5 * ca.sumsqr(e), z)[0]
     return ca.Function("drivelog_joint_derivatives", [theta, slip, d],
                        [e, ca.jacobian(e, theta), ca.jacobian(e, slip), H])
+
+
+@locked_cache(maxsize=32)
+def sensitivity_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
+    """Per-sample ``(theta, i, d) -> (e, de/dtheta, de/di)`` by AD: :func:`derivative_function` without the
+    Hessian (for score tests and sensitivities; with every candidate effect on, the Hessian's ``(p + 1)^2``
+    entries were most of the evaluation)."""
+    res, _ = residual_function(vehicle, structure)
+    theta = ca.SX.sym("theta", res.size1_in(0))
+    slip = ca.SX.sym("slip")
+    d = ca.SX.sym("d", len(DATA_ROWS))
+    e = res(theta, slip, d)[0]
+    return ca.Function("drivelog_joint_sensitivities", [theta, slip, d],
+                       [e, ca.jacobian(e, theta), ca.jacobian(e, slip)])
 
 
 @locked_cache(maxsize=32)
