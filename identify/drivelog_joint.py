@@ -398,7 +398,8 @@ def joint_solver(vehicle: Vehicle, structure: EffectSet, n: int, max_iter: int, 
 
     Variables ``[theta / scale (2 + n_e), i_1 / i_ref, ..., i_n / i_ref]``; parameters
     ``[scale (2 + n_e), i_ref, D (10 n, column-major per sample), pad (n)]``. Padding samples
-    have zero weights and ``pad = 1`` (a unit penalty pins their latent slip).
+    (:func:`padded_data`) are inert and have ``pad = 1`` (a unit penalty pins their latent slip at 0).
+    IPOPT gets the exact Hessian from :func:`_hessian_of_lagrangian`; the barrier parameter is adaptive.
     """
     res, labels = residual_function(vehicle, structure)
     p_dim = res.size1_in(0)
