@@ -537,8 +537,15 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         """A fit the diagnosis may use: successful, or (sweep) converged and only flagged implausible."""
         return bool(res.success) or (not is_log and solver_converged(res))
 
-    def run_fit(d, effects=(), fixed=None, start=None, record=True, patient=False, retry=True, cold=False):
+    def run_fit(d, effects=(), fixed=None, start=None, record=True, patient=False, retry=True, cold=False,
+                weight_only=False):
         kw = {}
+        if is_log and effects and weight_only:
+            # a candidate's fit on a training part only gives it a weight: one start (the second start of a
+            # drive-log fit, tried when the first ends on a bound of F_max or K, roughly doubled the cost of
+            # the candidates that stretch to a bound to imitate another effect); the verdict's own refit on
+            # all the data keeps every start
+            kw["multistart"] = False
         if is_log and not effects:
             kw["hull_channel"] = True  # the nominal model on the same three channels as the candidates
         if "x0" in warm and not cold:
@@ -665,7 +672,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                 elif not res.success:
                     flagged[name] = flagged.get(name, 0) + 1
             else:
-                res = run_fit(_subset(data, tr), effects)
+                res = run_fit(_subset(data, tr), effects, weight_only=True)
             fits.append(res)
             try:
                 rt = residuals_at(res, te)
