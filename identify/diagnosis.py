@@ -538,8 +538,15 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         """A fit the diagnosis may use: successful, or (sweep) converged and only flagged implausible."""
         return bool(res.success) or (not is_log and solver_converged(res))
 
-    def run_fit(d, effects=(), fixed=None, start=None, record=True, patient=False, retry=True, cold=False):
+    def run_fit(d, effects=(), fixed=None, start=None, record=True, patient=False, retry=True, cold=False,
+                weight_only=False):
         kw = {}
+        if is_log and effects and weight_only:
+            # a candidate's fit on a training part only gives it a weight: one start (the second start of a
+            # drive-log fit, tried when the first ends on a bound of F_max or K, roughly doubled the cost of
+            # the candidates that stretch to a bound to imitate another effect); the verdict's own refit on
+            # all the data keeps every start
+            kw["multistart"] = False
         if is_log and not effects:
             kw["hull_channel"] = True  # the nominal model on the same three channels as the candidates
         if "x0" in warm and not cold:
@@ -666,7 +673,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                 elif not res.success:
                     flagged[name] = flagged.get(name, 0) + 1
             else:
-                res = run_fit(_subset(data, tr), effects)
+                res = run_fit(_subset(data, tr), effects, weight_only=True)
             fits.append(res)
             try:
                 rt = residuals_at(res, te)
@@ -987,18 +994,21 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     if is_log and verdict.name in refit and math.isfinite(scores.get(verdict.name, math.inf)):
         # logs: a rival the held-out data do not show to predict worse than the verdict (Diebold-Mariano,
         # block-robust) and that removes at least half as much of the held-out error cannot be told apart
-        # from it on this log
+        # from it on this log; that holds for a rival already paired with it by its sensitivities too
         va = verdict.name
         listed = {x for p, _, _ in conf for x in p if va in p}
-        for b in (m for m in refit if m != va and m not in listed and math.isfinite(scores.get(m, math.inf))):
+        # (the candidates refitted, and the library effects outside the candidates weighed against the verdict)
+        rivals = [m for m in H if m not in (NOMINAL, DISCREPANCY, va)]
+        for b in (m for m in rivals if math.isfinite(scores.get(m, math.inf))):
             p_b = dm_test(zall(b), zall(va), dm_lag)
             sh_a, sh_b = (1.0 - math.sqrt(scores[m] / max(scores[NOMINAL], 1e-300)) for m in (va, b))
             if p_b >= alpha and sh_b > 0.0 and sh_b >= 0.5 * sh_a:  # not shown worse, and at least half the gain
-                da, db = dirs.get(va), dirs.get(b)
-                corr = (float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db)))
-                        if da is not None and db is not None and np.linalg.norm(da) * np.linalg.norm(db) > 0
-                        else math.nan)
-                conf.append(((va, b), corr, separating_experiment(va, b)))
+                if b not in listed:
+                    da, db = dirs.get(va), dirs.get(b)
+                    corr = (float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db)))
+                            if da is not None and db is not None and np.linalg.norm(da) * np.linalg.norm(db) > 0
+                            else math.nan)
+                    conf.append(((va, b), corr, separating_experiment(va, b)))
                 notes.append(f"{b} predicts the held-out data about as well as {va} (held-out shrink {sh_b:.2f} "
                              f"against {sh_a:.2f}; the difference is not significant, p = {p_b:.2g})"
                              + (f"; {va} is named with confidence 0.5 at most" if confidence > 0.5 else ""))

@@ -62,7 +62,7 @@ from .drivelog_noise import noise_model
 from .drivelog_prepare import SLIP_BOUNDS, PreparedLog
 
 __all__ = ["JointData", "joint_data", "parse_fixed", "effect_layout",
-           "residual_function", "derivative_function", "joint_solver", "solve_slips", "best_slips", "HULL_ROW", "CHANNELS",
+           "residual_function", "derivative_function", "sensitivity_function", "joint_solver", "padded_data", "solve_slips", "best_slips", "HULL_ROW", "CHANNELS",
            "DATA_ROWS"]
 
 #: Residual channels of a drive log (raw residuals: measured minus predicted).
@@ -242,15 +242,33 @@ def derivative_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
 
 
 @locked_cache(maxsize=32)
-def _slip_newton_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
-    """Per-sample ``(theta, i, d) -> (c, dc/di, d2c/di2)`` with ``c = |e|^2 / 2``."""
+def sensitivity_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
+    """Per-sample ``(theta, i, d) -> (e, de/dtheta, de/di)`` by AD: :func:`derivative_function` without the
+    Hessian (for score tests and sensitivities; with every candidate effect on, the Hessian's ``(p + 1)^2``
+    entries were most of the evaluation)."""
     res, _ = residual_function(vehicle, structure)
     theta = ca.SX.sym("theta", res.size1_in(0))
     slip = ca.SX.sym("slip")
     d = ca.SX.sym("d", len(DATA_ROWS))
-    c = 0.5 * ca.sumsqr(res(theta, slip, d)[0])
+    e = res(theta, slip, d)[0]
+    return ca.Function("drivelog_joint_sensitivities", [theta, slip, d],
+                       [e, ca.jacobian(e, theta), ca.jacobian(e, slip)])
+
+
+@locked_cache(maxsize=32)
+def _slip_newton_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
+    """Per-sample ``(theta, i, d) -> (c, dc/di, d2c/di2, |de/di|^2)`` with ``c = |e|^2 / 2``.
+
+    The last output is the Gauss-Newton curvature (never negative).
+    """
+    res, _ = residual_function(vehicle, structure)
+    theta = ca.SX.sym("theta", res.size1_in(0))
+    slip = ca.SX.sym("slip")
+    d = ca.SX.sym("d", len(DATA_ROWS))
+    e = res(theta, slip, d)[0]
+    c = 0.5 * ca.sumsqr(e)
     g, h = ca.gradient(c, slip), ca.hessian(c, slip)[0]
-    return ca.Function("drivelog_joint_slip_newton", [theta, slip, d], [c, g, h])
+    return ca.Function("drivelog_joint_slip_newton", [theta, slip, d], [c, g, h, ca.sumsqr(ca.jacobian(e, slip))])
 
 
 def solve_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np.ndarray,
@@ -258,7 +276,11 @@ def solve_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np
     """Latent slips of given samples for fixed parameters: per-sample minimum of ``|e_k|^2 / 2``.
 
     Safeguarded Newton (steps halved until the cost does not rise) inside the slip bounds, all
-    samples at once; the same per-sample problem that the fit profiles out.
+    samples at once; the same per-sample problem that the fit profiles out. Where the cost is not
+    convex in the slip (a noisy measured slip far out on the flat part of the thrust-slip curve)
+    the step is the Gauss-Newton one, ``-dc/di / |de/di|^2``, a descent direction of the right
+    length scale (a gradient step of 1e-3 / |c''| crawled there: measured 2,400 of 2,704 samples of
+    a heavy log still moving after 40 iterations).
     """
     base = _slip_newton_function(vehicle, structure)
     lo, hi = SLIP_BOUNDS
@@ -274,8 +296,8 @@ def solve_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np
         fn = _mapped(base, act.size)
         th = np.repeat(theta, act.size, axis=1)
         Da, sa = D[:, act], s[act]
-        c, g, h = (np.asarray(o, dtype=float).ravel() for o in fn(th, sa.reshape(1, -1), Da))
-        step = -g / np.where(h > 0, h, np.maximum(np.abs(h), 1e-300)) * np.where(h > 0, 1.0, 1e-3)
+        c, g, h, hgn = (np.asarray(o, dtype=float).ravel() for o in fn(th, sa.reshape(1, -1), Da))
+        step = np.clip(-g / np.where(h > 0, h, np.maximum(hgn, 1e-300)), lo - hi, hi - lo)
         # step length: the first of 1, 1/2, ..., 2^-29 that does not raise the sample's cost (else 2^-30);
         # the full step for every sample first, then all the halvings of the rejected ones in one call
         t = np.ones(act.size)
@@ -351,6 +373,24 @@ def best_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np.
     return best
 
 
+def padded_data(D: np.ndarray, size: int) -> np.ndarray:
+    """The per-sample data ``D`` (rows of :data:`DATA_ROWS`) padded to ``size`` samples for a cached solver.
+
+    A padding sample is a vehicle at rest: no speed, torque, acceleration or hull weight, unit speed and
+    thrust noise. Its residuals are zero at zero slip whatever the parameters (no torque loss at ``w = 0``,
+    no speed for ``r_eff`` to scale, ``F(0) = 0``), so it is inert: its latent slip stays at 0 and it adds
+    nothing to the cost or its derivatives. (Padding with ``v = r w = 1`` was not: with
+    ``drivetrain_friction`` its thrust ``-tau_loss / r`` pulled 1 N-noise samples along every step of
+    ``tau``, an ill-conditioned valley IPOPT crawled through, and biased the fit; with ``radius_error``
+    its speed residual depended on ``eps``.)
+    """
+    n = D.shape[1]
+    Dp = np.hstack([D, np.zeros((D.shape[0], size - n))])
+    Dp[DATA_ROWS.index("sigma_v"), n:] = 1.0
+    Dp[DATA_ROWS.index("sigma_T"), n:] = 1.0
+    return Dp
+
+
 @locked_cache(maxsize=16)
 def joint_solver(vehicle: Vehicle, structure: EffectSet, n: int, max_iter: int, tol: float,
                  print_level: int) -> ca.Function:
@@ -358,7 +398,8 @@ def joint_solver(vehicle: Vehicle, structure: EffectSet, n: int, max_iter: int, 
 
     Variables ``[theta / scale (2 + n_e), i_1 / i_ref, ..., i_n / i_ref]``; parameters
     ``[scale (2 + n_e), i_ref, D (10 n, column-major per sample), pad (n)]``. Padding samples
-    have zero weights and ``pad = 1`` (a unit penalty pins their latent slip).
+    (:func:`padded_data`) are inert and have ``pad = 1`` (a unit penalty pins their latent slip at 0).
+    IPOPT gets the exact Hessian from :func:`_hessian_of_lagrangian`; the barrier parameter is adaptive.
     """
     res, labels = residual_function(vehicle, structure)
     p_dim = res.size1_in(0)
@@ -376,6 +417,44 @@ def joint_solver(vehicle: Vehicle, structure: EffectSet, n: int, max_iter: int, 
     th1, s1, d1 = ca.SX.sym("th", p_dim), ca.SX.sym("s"), ca.SX.sym("d", len(DATA_ROWS))
     cost1 = ca.Function("drivelog_joint_cost", [th1, s1, d1], [0.5 * ca.sumsqr(res(th1, s1, d1)[0])])
     f = ca.sum2(cost1.map(n)(ca.repmat(theta, 1, n), (z * i_ref).T, D)) + 0.5 * ca.sumsqr(pad * z)
+    # adaptive barrier parameter: the fits start near their optimum (the nominal fit's soil, the latent slips
+    # at their per-sample minimum) with no bound active but K's, and the monotone rule spent most iterations
+    # lowering mu from 0.1 (measured on 60 s logs, same optima to 10 digits: light 30/20/25/26 -> 18/11/13/17
+    # iterations for the nominal / drivetrain_friction / grade / speed_resistance fits, heavy 57/16/27/20 ->
+    # 51/10/13/13); the convergence test (tol) is unchanged
     opts = dict(_QUIET, **{"ipopt.max_iter": max_iter, "ipopt.tol": tol, "ipopt.print_level": print_level,
-                           "expand": False})
+                           "ipopt.mu_strategy": "adaptive", "expand": False,
+                           "hess_lag": _hessian_of_lagrangian(cost1, x, p, theta, z, scale, i_ref, D, pad)})
     return ca.nlpsol(f"drivelog_joint_{n}", "ipopt", {"x": x, "p": p, "f": f}, opts)
+
+
+def _hessian_of_lagrangian(cost1: ca.Function, x: ca.MX, p: ca.MX, theta: ca.MX, z: ca.MX, scale: ca.MX,
+                           i_ref: ca.MX, D: ca.MX, pad: ca.MX) -> ca.Function:
+    """The exact Hessian of the joint cost for IPOPT, from ONE map of the per-sample Hessians (AD of ``cost1``).
+
+    The cost is a sum of per-sample terms in ``(theta, i_k)``: its Hessian is an arrowhead (a dense
+    ``theta`` block, one ``theta``-``i_k`` column and one diagonal entry per sample). CasADi's own Hessian of
+    the mapped graph colours it into ``p + 1`` forward-over-reverse sweeps of the whole map (measured 27-40 ms
+    per evaluation on 3,072 samples, about 60 % of IPOPT's time); the per-sample ``(p + 1)^2`` Hessian mapped
+    once is the same matrix (to rounding, checked in the tests) in 9 ms. Output: the upper triangle
+    (``triu:hess:gamma:x:x`` of the solver interface) with the objective multiplier ``lam_f``; no constraints.
+    """
+    p_dim = theta.numel()
+    n = z.numel()
+    th1, s1, d1 = (ca.SX.sym(cost1.name_in(j), cost1.sparsity_in(j)) for j in range(3))
+    H1 = ca.hessian(cost1(th1, s1, d1), ca.vertcat(th1, s1))[0]
+    tri = [(i, j) for j in range(p_dim) for i in range(j + 1)]   # upper triangle of the theta block, by column
+    h1 = ca.Function("drivelog_joint_hessian1", [th1, s1, d1],
+                     [ca.vertcat(*[H1[i, j] for i, j in tri]), H1[:, p_dim]])
+    Htt, Hs = h1.map(n)(ca.repmat(theta, 1, n), (z * i_ref).T, D)
+    tt = ca.sum2(Htt) * ca.vertcat(*[scale[i] * scale[j] for i, j in tri])     # chain rule to x = theta / scale
+    cross = Hs[:p_dim, :] * ca.repmat(scale * i_ref, 1, n)
+    diag = Hs[p_dim, :] * i_ref ** 2 + (pad ** 2).T
+    lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", 0, 1)
+    nz = lam_f * ca.vertcat(tt, ca.reshape(ca.vertcat(cross, diag), -1, 1))
+    # nonzeros in column order: the theta block's upper triangle, then per sample its theta column and diagonal
+    rows = [i for i, _ in tri] + [r for k in range(n) for r in list(range(p_dim)) + [p_dim + k]]
+    cols = [j for _, j in tri] + [p_dim + k for k in range(n) for _ in range(p_dim + 1)]
+    sp = ca.Sparsity.triplet(p_dim + n, p_dim + n, rows, cols)
+    return ca.Function("nlp_hess_l", [x, p, lam_f, lam_g], [ca.MX(sp, nz)],
+                       ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])

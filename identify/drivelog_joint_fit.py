@@ -20,7 +20,8 @@ from ..soilmodel.effects import EFFECTS, effect_structure, parse_effects
 from ..soilmodel.errors import DataError
 from ..soilmodel.soil import SoilBounds
 from ..soilmodel.vehicle import Vehicle
-from .drivelog_joint import (CHANNELS, HULL_ROW, best_slips, derivative_function, effect_layout, joint_data, joint_solver, parse_fixed,
+from .drivelog_joint import (CHANNELS, HULL_ROW, best_slips, derivative_function, effect_layout, joint_data, joint_solver, padded_data,
+                             parse_fixed,
                              residual_function)
 from .drivelog_nlp import _g_inverse, _pad, _run_starts, fmax_bounds, padded_size, ridge_point
 from .drivelog_prepare import SLIP_BOUNDS, PreparedLog
@@ -95,11 +96,7 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     e0 = np.clip(e0, np.where(np.isfinite(elo), elo, -1e300), np.where(np.isfinite(ehi), ehi, 1e300))
 
     solver = joint_solver(vehicle, structure, N, max_iter, tol, print_level)
-    Dp = np.hstack([jd.D, np.zeros((jd.D.shape[0], N - n))])
-    Dp[0, n:] = 1.0  # padding: harmless finite values (zero weights)
-    Dp[1, n:] = 1.0 / vehicle.sprocket_radius
-    Dp[5, n:] = 1.0  # sigma_v
-    Dp[7, n:] = 1.0  # sigma_T
+    Dp = padded_data(jd.D, N)
     p = np.concatenate([scale, [i_ref], Dp.reshape(-1, order="F"), _pad(np.zeros(n), N, 1.0)])
     big = 1e20
     lbx = np.concatenate([[Fb[0] / F_ref, Kb[0] / K_ref], np.where(np.isfinite(e_lo), e_lo / esc, -big),

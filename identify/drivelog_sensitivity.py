@@ -5,7 +5,7 @@ object is a stand-in with the right ``J^T J`` only (:mod:`.drivelog_joint_fit`).
 (:mod:`.screening`) and the search for a change of terrain (:mod:`.diagnosis_log`) need the real
 per-sample thing: the whitened residuals ``e_k`` (three channels per used sample) and
 ``de_k/dtheta`` from the drive-log model's own CasADi derivative function
-(:func:`~.drivelog_joint.derivative_function`, the physics of :mod:`soiltrack.soilmodel`), at the
+(:func:`~.drivelog_joint.sensitivity_function`, the physics of :mod:`soiltrack.soilmodel`), at the
 fitted parameters and the latent slips :func:`~.drivelog_residuals.drive_log_residuals` solves,
 with ``de_k/dtheta`` projected off ``de_k/di_k`` (the profiled sensitivity: at the per-sample
 optimum ``e_k`` is orthogonal to ``de_k/di_k``).
@@ -19,7 +19,7 @@ import numpy as np
 
 from ..soilmodel.data import DriveLog
 from ..soilmodel.vehicle import Vehicle
-from .drivelog_joint import derivative_function
+from .drivelog_joint import sensitivity_function
 from .drivelog_residuals import _evaluate
 
 __all__ = ["DriveLogSensitivities", "drive_log_sensitivities"]
@@ -91,8 +91,8 @@ def drive_log_sensitivities(result: Any, log: DriveLog, vehicle: Vehicle, effect
     theta, structure, D = ctx["theta"], ctx["structure"], ctx["D"]
     n = D.shape[1]
     slip = np.asarray(out["slip"], dtype=float).reshape(1, -1)
-    fn = derivative_function(vehicle, structure)
-    e, Jt, gi, _ = (np.asarray(a, dtype=float) for a in fn.map(n)(np.repeat(theta.reshape(-1, 1), n, axis=1), slip, D))
+    fn = sensitivity_function(vehicle, structure)
+    e, Jt, gi = (np.asarray(a, dtype=float) for a in fn.map(n)(np.repeat(theta.reshape(-1, 1), n, axis=1), slip, D))
     c, p = e.shape[0], theta.size
     e = e.T                                      # (n, c)
     Jt = Jt.reshape(c, n, p).transpose(1, 0, 2)  # (n, c, p)
