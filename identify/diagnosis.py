@@ -477,7 +477,8 @@ def _check_candidates(candidates, data) -> tuple[str, ...]:
 # ----------------------------------------------------------------------------- the diagnosis
 def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full",
              candidates: Sequence[str] | None = None, n_blocks: int = 10, n_folds: int | None = None,
-             max_refits: int | None = None, alpha: float = ALPHA, weigh_outside: bool = True) -> Diagnosis:
+             max_refits: int | None = None, alpha: float = ALPHA, weigh_outside: bool = True,
+             torque_hold: str = "zoh") -> Diagnosis:
     """Diagnose the gap between the nominal model and a drive log or a slip sweep.
 
     Parameters
@@ -505,6 +506,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         Also weigh the verdict against the library effects left out of ``candidates`` (default);
         ``False`` leaves the flexible term and the lack-of-fit test alone to catch a gap that no
         candidate explains (for validation).
+    torque_hold
+        Drive log: ``"zoh"`` (torque held from each sample to the next, the default) or
+        ``"sample"`` (a continuous torque signal sampled), for every fit of the diagnosis
+        (:func:`~soiltrack.identify.drivelog.fit_drive_log`).
 
     Returns
     -------
@@ -517,6 +522,9 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     """
     from .fitting import fit
 
+    if torque_hold not in ("zoh", "sample"):
+        raise DataError(f"torque_hold must be 'zoh' or 'sample', got {torque_hold!r}")
+    log_options = {"torque_hold": torque_hold} if isinstance(data, DriveLog) else {}
     t0 = time.perf_counter()
     if not isinstance(data, (SlipData, DriveLog)):
         raise DataError(f"diagnose takes SlipData or DriveLog, got {type(data).__name__}")
@@ -526,7 +534,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     n = data.n_samples
     is_log = isinstance(data, DriveLog)
     if n < MIN_SAMPLES:
-        return _too_few(data, vehicle, model, cands, is_log, t0)
+        return _too_few(data, vehicle, model, cands, is_log, t0, log_options)
     notes: list[str] = []
 
     failed: list[str] = []
@@ -540,7 +548,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
 
     def run_fit(d, effects=(), fixed=None, start=None, record=True, patient=False, retry=True, cold=False,
                 weight_only=False):
-        kw = {}
+        kw = dict(log_options)
         if is_log and effects and weight_only:
             # a candidate's fit on a training part only gives it a weight: one start (the second start of a
             # drive-log fit, tried when the first ends on a bound of F_max or K, roughly doubled the cost of
@@ -590,7 +598,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     lag = None if is_log else 0
     kind = "drive" if is_log else "sweep"
     outside = tuple(e for e, spec in EFFECTS.items() if kind in spec.shows_in and e not in cands)
-    nominal_full, all_screens = screen(data, vehicle, cands + outside, model=model, hac_lag=lag)
+    nominal_full, all_screens = screen(data, vehicle, cands + outside, model=model, hac_lag=lag,
+                                       fit_options=log_options)
     screens = [s for s in all_screens if s.effect in cands]
     stat_cos = (nominal_full.extra or {}).get("screening_stationarity", 0.0) if nominal_full.success else 0.0
     out_screens = [s for s in all_screens if s.effect in outside and s.screenable]
@@ -1080,9 +1089,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         converged=converged, notes=tuple(notes), elapsed_s=time.perf_counter() - t0, curves=curves)
 
 
-def _too_few(data, vehicle: Vehicle, model: str, cands: tuple[str, ...], is_log: bool, t0: float) -> Diagnosis:
+def _too_few(data, vehicle: Vehicle, model: str, cands: tuple[str, ...], is_log: bool, t0: float,
+             log_options: dict | None = None) -> Diagnosis:
     """A diagnosis of data too small for a hold-out: the fit, its residuals, and what cannot be said."""
-    res, screens = screen(data, vehicle, cands, model=model, hac_lag=None if is_log else 0)
+    res, screens = screen(data, vehicle, cands, model=model, hac_lag=None if is_log else 0, fit_options=log_options)
     try:
         rr = _channels(res, data) if res.success else {}
     except DataError:

@@ -114,9 +114,11 @@ class ReportViews:
         x = self.extra if isinstance(self.extra, dict) else {}
         L = []
         if "regime" in x or "formulation" in x:
+            hold = {"zoh": "torque held between samples (zoh)",
+                    "sample": "torque sampled from a continuous signal"}.get(str(x.get("torque_hold")))
             L.append(f"drive log: {x.get('formulation', '?')} formulation, {x.get('samples_used', '?')} of "
                      f"{x.get('samples_total', '?')} samples used, regime {x.get('regime', '?')}"
-                     + (f" - {x['note']}" if x.get("note") else ""))
+                     + (f", {hold}" if hold else "") + (f" - {x['note']}" if x.get("note") else ""))
         bc = x.get("bias_correction")
         if isinstance(bc, dict):
             if bc.get("applied"):

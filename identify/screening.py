@@ -205,13 +205,14 @@ def drive_log_score_pair(res, log, vehicle, effects=None) -> tuple[np.ndarray, n
     return J, r, list(sens.labels), sens.n_channels
 
 
-def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None = 0):
+def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None = 0, fit_options: dict | None = None):
     """Score-test every candidate from ONE fit: the nominal model with the candidates held off.
 
     For a sweep the fit (:func:`~.fitting.fit` with ``effects=candidates`` and ``fixed`` = every
     parameter at its off value) is the nominal fit, and its Jacobian carries the candidates'
     columns. For a drive log it is the nominal fit with the hull channel, and the columns come
     from :func:`drive_log_score_pair` (cheaper: the candidates stay out of the NLP).
+    ``fit_options`` are passed to that fit (e.g. ``{"torque_hold": "sample"}`` for a drive log).
 
     Returns
     -------
@@ -221,14 +222,14 @@ def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None =
 
     cands = list(candidates)
     if not cands:
-        return fit(data, vehicle, model=model), []
+        return fit(data, vehicle, model=model, **(fit_options or {})), []
     from ..soilmodel.data import DriveLog
 
     rows_per_sample = 1
     if isinstance(data, DriveLog):
         # the nominal fit with the hull channel (the estimator of the candidates' fits); the candidates'
         # columns come from the drive-log model's derivatives with them switched on at "off"
-        res = fit(data, vehicle, model=model, hull_channel=True)
+        res = fit(data, vehicle, model=model, hull_channel=True, **(fit_options or {}))
         names = list(res.parameter_names)
         J = np.zeros((1, len(names)))
         r = np.zeros(1)

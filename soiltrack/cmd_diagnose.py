@@ -19,7 +19,11 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
             from .soilmodel import DataError
 
             raise DataError(f"--candidates expects comma-separated effect names, got {a.candidates!r}")
-    d = diagnose(data, vehicle, model=a.model, candidates=cands)
+    from .soilmodel import DataError, DriveLog
+
+    if a.torque_hold is not None and not isinstance(data, DriveLog):
+        raise DataError("--torque-hold applies to drive logs only", file=a.data)
+    d = diagnose(data, vehicle, model=a.model, candidates=cands, torque_hold=a.torque_hold or "zoh")
     print(d.to_json() if a.json else d.report())
     if a.plot:
         d.plot(a.plot)
@@ -35,6 +39,9 @@ def add_parser(sub) -> None:
     p.add_argument("--model", choices=("full", "cohesion-free"), default="full")
     p.add_argument("--candidates", metavar="A,B,...",
                    help="candidate effects (default: every effect that shows in this kind of data)")
+    p.add_argument("--torque-hold", choices=("zoh", "sample"), default=None,
+                   help="drive logs: zoh (default): the torque is held from each sample to the next; sample: a "
+                        "continuous torque signal sampled at each time (see soiltrack fit --help)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     p.add_argument("--plot", metavar="PNG", help="save a figure of the held-out residuals, weights and localisation")
     p.set_defaults(func=_cmd_diagnose)

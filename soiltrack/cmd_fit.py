@@ -20,6 +20,8 @@ def _check_options(a: argparse.Namespace, drive_log: bool) -> None:
         raise DataError("--sigma applies to slip data only; a drive-log fit estimates its noise levels", file=a.data)
     if a.bias_correction != "none" and not drive_log:
         raise DataError("--bias-correction applies to drive logs only", file=a.data)
+    if a.torque_hold is not None and not drive_log:
+        raise DataError("--torque-hold applies to drive logs only", file=a.data)
 
 
 def _cmd_fit(a: argparse.Namespace) -> int:
@@ -37,6 +39,8 @@ def _cmd_fit(a: argparse.Namespace) -> int:
         kw["sigma"] = a.sigma if a.sigma == "relative" else floats_arg(a.sigma, "--sigma")[0]
     if a.bias_correction != "none":
         kw["bias_correction"] = a.bias_correction
+    if a.torque_hold is not None:
+        kw["torque_hold"] = a.torque_hold
     if a.effect:
         kw["effects"] = [e.strip() for item in a.effect for e in item.split(",") if e.strip()]
     result = fit(data, vehicle, model=a.model, method=a.method, **kw)
@@ -93,6 +97,12 @@ def add_parser(sub) -> None:
     f.add_argument("--bias-correction", choices=("none", "simex"), default="none",
                    help="drive logs: SIMEX correction of the slip-noise bias of K on hard-pull logs, about 5 s "
                         "(default: none)")
+    f.add_argument("--torque-hold", choices=("zoh", "sample"), default=None,
+                   help="drive logs: how the logged torque relates to the drive (default: zoh). zoh: the torque "
+                        "is held from each sample to the next (a controller updating it at the log rate); sample: "
+                        "a continuous torque signal sampled at each time (a torque transducer, or a controller "
+                        "much faster than the log). The wrong one biases a fitted grade by about the thrust "
+                        "change over one sample")
     f.add_argument("--effect", action="append", metavar="NAME",
                    help="fit this unmodelled effect's parameters jointly with the soil (repeatable; e.g. grade, "
                         "slip_sinkage, speed_resistance, mass_error)")
