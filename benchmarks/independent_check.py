@@ -21,7 +21,7 @@ Cases (truth in brackets; "unexplained" where the cause is outside the library):
   [unexplained]; a much softer patch from 20 to 35 s [unexplained, with a window bracketing
   20-35 s]; a mildly softer patch (its slip change is below the slip noise) [none is fair].
 
-Run:  python benchmarks/independent_check.py [--kinds sweep,drive] [--seeds 3]
+Run:  python benchmarks/independent_check.py [--kinds sweep,drive] [--seeds 3] [--torque-hold sample]
 It prints one line per case and a summary: right verdicts, confident (> 0.5) wrong names.
 """
 from __future__ import annotations
@@ -146,6 +146,9 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--kinds", default="sweep,drive")
     ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--torque-hold", choices=("zoh", "sample"), default=None,
+                    help="passed to the drive-log diagnoses (these logs sample a continuous torque: 'sample' "
+                         "describes them; default: the library's default, zoh)")
     args = ap.parse_args(argv)
     kinds = set(args.kinds.split(","))
     right = confident_wrong = total = 0
@@ -154,8 +157,9 @@ def main(argv=None) -> int:
             path = os.path.join(tmp, f"{kind}_{seed}.csv")
             (sweep_csv if kind == "sweep" else log_csv)(path, seed, **kw)
             t0 = time.perf_counter()
-            p = subprocess.run([sys.executable, "-m", "soiltrack", "diagnose", path, "--vehicle", VEHICLE, "--json"],
-                               cwd=ROOT, capture_output=True, text=True)
+            hold = ["--torque-hold", args.torque_hold] if kind == "drive" and args.torque_hold else []
+            p = subprocess.run([sys.executable, "-m", "soiltrack", "diagnose", path, "--vehicle", VEHICLE, "--json",
+                                *hold], cwd=ROOT, capture_output=True, text=True)
             dt = time.perf_counter() - t0
             total += 1
             try:

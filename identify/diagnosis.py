@@ -54,7 +54,7 @@ from .sweep_model import SweepResiduals
 from .selection import (DISCREPANCY, NOMINAL, confusable_groups, decide, dm_test, fit_discrepancy, gap_p_value, hat_basis,
                         separating_experiment, stacking_weights)
 from .saturation import find_saturation
-from .verdict_checks import check_verdict, explained_fraction
+from .verdict_checks import MIN_SHRINK, check_verdict, explained_fraction
 
 __all__ = ["diagnose", "Diagnosis", "RankEntry"]
 
@@ -1002,8 +1002,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         conf.append(((verdict.name, o), corr, separating_experiment(verdict.name, o)))
     if is_log and verdict.name in refit and math.isfinite(scores.get(verdict.name, math.inf)):
         # logs: a rival the held-out data do not show to predict worse than the verdict (Diebold-Mariano,
-        # block-robust) and that removes at least half as much of the held-out error cannot be told apart
-        # from it on this log; that holds for a rival already paired with it by its sensitivities too
+        # block-robust) and that removes at least half as much of the held-out error, or one whose held-out
+        # shrink falls short of the verdict's by less than MIN_SHRINK (a difference that does not matter,
+        # however significant over thousands of samples), cannot be told apart from it on this log; that
+        # holds for a rival already paired with it by its sensitivities too
         va = verdict.name
         listed = {x for p, _, _ in conf for x in p if va in p}
         # (the candidates refitted, and the library effects outside the candidates weighed against the verdict)
@@ -1011,15 +1013,20 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         for b in (m for m in rivals if math.isfinite(scores.get(m, math.inf))):
             p_b = dm_test(zall(b), zall(va), dm_lag)
             sh_a, sh_b = (1.0 - math.sqrt(scores[m] / max(scores[NOMINAL], 1e-300)) for m in (va, b))
-            if p_b >= alpha and sh_b > 0.0 and sh_b >= 0.5 * sh_a:  # not shown worse, and at least half the gain
+            alike = p_b >= alpha and sh_b >= 0.5 * sh_a  # not shown worse, and at least half the gain
+            close = sh_a - sh_b < MIN_SHRINK  # or worse by less than an appreciable share of the held-out error
+            if sh_b > 0.0 and (alike or close):
                 if b not in listed:
                     da, db = dirs.get(va), dirs.get(b)
                     corr = (float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db)))
                             if da is not None and db is not None and np.linalg.norm(da) * np.linalg.norm(db) > 0
                             else math.nan)
                     conf.append(((va, b), corr, separating_experiment(va, b)))
+                why = (f"the difference is not significant, p = {p_b:.2g}" if alike else
+                       f"{va} is better by less than {MIN_SHRINK:.0%} of the nominal model's held-out error, "
+                       f"however significant (p = {p_b:.2g})")
                 notes.append(f"{b} predicts the held-out data about as well as {va} (held-out shrink {sh_b:.2f} "
-                             f"against {sh_a:.2f}; the difference is not significant, p = {p_b:.2g})"
+                             f"against {sh_a:.2f}; {why})"
                              + (f"; {va} is named with confidence 0.5 at most" if confidence > 0.5 else ""))
                 confidence = min(confidence, 0.5)
     name = verdict.name
