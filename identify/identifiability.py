@@ -218,7 +218,11 @@ class IdentifiabilityViews:
                                       f"cannot separate it{partner}{rho}.")
                 elif pe.weakly_identifiable:
                     statements.append(f"effect parameter {name}.{pname} is only weakly identifiable: the data hardly "
-                                      f"separate it from the soil and the other effects ({pe.note.split(': ', 1)[-1]}).")
+                                      f"separate it from the soil and the other effects ({pe.note.split(': ', 1)[-1]}). "
+                                      "Its interval assumes the model of the data is exact: along so narrow a ridge a "
+                                      "small unmodelled error (slip measured with noise, a sensor offset) can move the "
+                                      "estimate far outside it; an experiment that separates it is safer than the "
+                                      "interval.")
         fk_corr = self._fmax_K_correlation()
         weak_combos = [cb for cb in self.combinations if cb.weakly_identifiable and cb.name.startswith("F_max")
                        and not self.effect_labels]  # with effects, F_max may be weak through an effect
