@@ -51,8 +51,8 @@ from .gap import (Segment, blocked_folds, change_window, lag_peak, localise, lon
                   whiteness)
 from .screening import Screen, newey_west_lag, screen
 from .sweep_model import SweepResiduals
-from .selection import (DISCREPANCY, NOMINAL, confusable_groups, decide, dm_test, fit_discrepancy, gap_p_value, hat_basis,
-                        separating_experiment, stacking_weights)
+from .selection import (DISCREPANCY, LOOKALIKES, NOMINAL, confusable_groups, decide, dm_test, fit_discrepancy,
+                        gap_p_value, hat_basis, separating_experiment, stacking_weights)
 from .saturation import find_saturation
 from .verdict_checks import MIN_SHRINK, check_verdict, explained_fraction
 
@@ -1062,6 +1062,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         confidence = 0.5
         notes.append(f"{name}'s fit on all the data did not converge ({full_fits[name].status}): its parameters "
                      "are not known; it is named with confidence 0.5 at most")
+    if name in LOOKALIKES:
+        notes.append(f"{name} also stands for {LOOKALIKES[name]}: these data cannot tell them apart")
     for sat in find_saturation(data):
         # a clipped sensor is outside the library: a flexible effect may imitate the flattened curve
         capped = name not in (NOMINAL, "unexplained") and confidence > 0.5

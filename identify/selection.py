@@ -82,6 +82,21 @@ SEPARATING_EXPERIMENTS: dict[frozenset, str] = {
 }
 
 
+#: Causes outside the library that leave the same signature as an effect: a diagnosis that names the
+#: effect says that these would look the same.
+LOOKALIKES = {
+    "grade": "any constant extra force on the vehicle (a towed load, a steady wind, compaction resistance) "
+             "and a zero offset of the force sensor (a sweep) or of the accelerometer (a drive log)",
+    "drivetrain_friction": "a zero offset of the torque sensor (it looks like the Coulomb part)",
+    "radius_error": "a scale error of the vehicle-speed sensor (it shifts the apparent slip the same way; only "
+                    "the torque arm differs)",
+    "mass_error": "a scale error of the accelerometer (in the hull balance; a mass error also changes the "
+                  "normal load)",
+    "slip_sinkage": "any resistance that grows with the slip (bulldozing, a track digging in)",
+    "speed_resistance": "any resistance that grows with speed (air drag, a viscous loss in the running gear)",
+}
+
+
 def separating_experiment(a: str, b: str) -> str:
     """The experiment that separates effects ``a`` and ``b`` (a generic advice when none is tabled)."""
     text = SEPARATING_EXPERIMENTS.get(frozenset({a, b}))

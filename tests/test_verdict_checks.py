@@ -58,3 +58,23 @@ def test_a_significant_but_negligible_gain_without_a_gap_gives_none():
     v, note = check_verdict(Verdict("drivetrain_friction", 0.998, "x"), gap_p=0.96, beats_nominal_p=1e-5,
                             shrink=0.02, explained=math.nan, no_gap_confidence=1.0)
     assert v.name == "none" and "2.0 %" in v.reason
+
+
+def test_lookalikes_name_library_effects_and_reach_the_notes():
+    import numpy as np
+
+    from soiltrack.identify import diagnose
+    from soiltrack.identify.selection import LOOKALIKES
+    from soiltrack.soilmodel import EFFECTS, TERRAINS, VEHICLES, SensorNoise, simulate
+
+    assert set(LOOKALIKES) <= set(EFFECTS)
+    v = VEHICLES["light"]
+    d = simulate(v, TERRAINS["lete_sand"], kind="sweep", effects={"slip_sinkage": 0.1}, seed=1,
+                 slips=np.round(np.linspace(0.01, 0.7, 60), 4), noise=SensorNoise(force_rel=0.005, slip_abs=0.0005))
+    dg = diagnose(d, v)
+    assert dg.verdict == "slip_sinkage"
+    assert any(n.startswith("slip_sinkage also stands for any resistance that grows with the slip") for n in dg.notes)
+    assert not any("also stands for" in n for n in diagnose(simulate(v, TERRAINS["lete_sand"], kind="sweep", seed=1,
+                                                                    slips=np.round(np.linspace(0.01, 0.7, 60), 4),
+                                                                    noise=SensorNoise(force_rel=0.005, slip_abs=0.0005)),
+                                                           v).notes)
