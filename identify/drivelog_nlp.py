@@ -133,6 +133,7 @@ def ridge_point(Fmax: float, vehicle: Vehicle, bounds: SoilBounds, model: str,
     c_min = max(clo, (Fmax - W * math.tan(phi_hi)) / A)
     c_max = max(min(chi, (Fmax - W * math.tan(plo)) / A), c_min)
     c = 0.5 * (c_min + c_max) if c_hint is None else min(max(c_hint, c_min), c_max)
+    c = min(max(c, clo), chi)  # F_max beyond what the box gives at this load: the nearest point of the box
     phi = math.atan(max(Fmax - A * c, 0.0) / W)
     return np.array([c, min(max(phi, plo), phi_hi)])
 

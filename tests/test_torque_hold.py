@@ -58,6 +58,10 @@ def test_sampled_torque_fitted_as_sampled_gives_the_grade_inside_its_interval(se
     assert g_right.ci95[0] <= 0.05 <= g_right.ci95[1], g_right.ci95
     # measured: zoh on these data gives 0.04942-0.04945 with intervals of +-0.00045, missing 0.05
     assert g_wrong.value < g_right.value - 0.0003, (g_wrong.value, g_right.value)
+    for r in (right, wrong):  # the ridge point (c, phi) stays inside the bounds even with F_max at its limit
+        b = r.bounds
+        for x, (lo, hi) in zip(r.theta, (b.cohesion, b.friction_angle, b.shear_modulus)):
+            assert lo <= x <= hi, (r.theta, b)
     assert "torque sampled from a continuous signal" in right.report()
     assert "torque held between samples" in wrong.report()
 
