@@ -12,6 +12,7 @@ import time as _time
 import casadi as ca
 import numpy as np
 
+from ..soilmodel.ridge import ridge_centre, ridge_ranges
 from ..soilmodel.soil import SoilBounds
 from ..soilmodel.threadsafe import call_solver, locked_cache
 from ..soilmodel.traction import shear_bracket, shear_bracket_inverse
@@ -121,21 +122,23 @@ def ridge_point(Fmax: float, vehicle: Vehicle, bounds: SoilBounds, model: str,
 
     The point is NOT an estimate of c and phi (only their combination is identifiable; the
     result object says so and reports the ridge's extent). It keeps ``c_hint`` (the initial
-    guess's cohesion) when that is feasible, else the middle of the feasible cohesion range,
-    so that neither coordinate sits on a bound merely by the choice of the point. For the
+    guess's cohesion) when that is feasible, clamped into the feasible cohesion range, else it is
+    the library's one ridge marker (:func:`~soiltrack.soilmodel.ridge.ridge_centre`: the middle of
+    the feasible range, or the nearest point of the box when F_max lies beyond it). For the
     cohesion-free model c = 0 and ``phi = atan(F_max / W)``. ``normal_load`` (default the
     vehicle's weight) is the log's actual normal load W.
     """
     W, A = (vehicle.weight if normal_load is None else normal_load), vehicle.contact_area
-    (clo, chi), (plo, phi_hi) = bounds.cohesion, bounds.friction_angle
+    plo, phi_hi = bounds.friction_angle
     if model == "cohesion-free":
         return np.array([0.0, min(max(math.atan(Fmax / W), plo), phi_hi)])
-    c_min = max(clo, (Fmax - W * math.tan(phi_hi)) / A)
-    c_max = max(min(chi, (Fmax - W * math.tan(plo)) / A), c_min)
-    c = 0.5 * (c_min + c_max) if c_hint is None else min(max(c_hint, c_min), c_max)
-    c = min(max(c, clo), chi)  # F_max beyond what the box gives at this load: the nearest point of the box
-    phi = math.atan(max(Fmax - A * c, 0.0) / W)
-    return np.array([c, min(max(phi, plo), phi_hi)])
+    seg = ridge_ranges(Fmax, Fmax, W, A, bounds) if c_hint is not None else None
+    if seg is None:
+        c, phi = ridge_centre(Fmax, W, A, bounds)
+        return np.array([float(c), float(phi)])
+    (c_a, c_b), _ = seg
+    c = min(max(float(c_hint), c_a), c_b)
+    return np.array([c, min(max(math.atan(max(Fmax - A * c, 0.0) / W), plo), phi_hi)])
 
 
 def _pad(a: np.ndarray, size: int, value: float = 0.0) -> np.ndarray:
