@@ -300,14 +300,15 @@ class Diagnosis:
             for ch, b in self.holdout_rmse_before.items():
                 a = self.holdout_rmse_after.get(ch)
                 nz = self.noise.get(ch) if isinstance(self.noise, dict) else None
-                part = (f"shrink {1.0 - a / b:.2f}" if a is not None and b and math.isfinite(a) and math.isfinite(b)
-                        else "")
+                part = (f"shrink {1.0 - a / b:.2f}" if len(self.holdout_rmse_before) > 1 and a is not None and b
+                        and math.isfinite(a) and math.isfinite(b) else "")
                 if nz is not None and math.isfinite(nz) and nz > 0:
                     part += f"{'; ' if part else ''}noise about {_fmt(nz)}"
                 L.append(f"  {ch}: {_fmt(b)} -> {_fmt(a)}" + (f" ({part})" if part else ""))
-            L.append(f"  shrink 1 - after/before = {self.shrink:.2f} (all channels, each residual over its noise: a "
-                     "channel the effect does not touch stays at its noise before and after)"
-                     if len(self.holdout_rmse_before) > 1 else f"  shrink 1 - after/before = {self.shrink:.2f}")
+            L.append(f"  shrink 1 - after/before = {self.shrink:.2f} (of the held-out residuals each over its noise "
+                     "level" + ("; all channels together: a channel the effect does not touch stays at its noise "
+                               "before and after)" if len(self.holdout_rmse_before) > 1 else
+                               ", so it differs from the ratio of the RMS above where the noise varies along the data)"))
         L.append("")
         L.append("Soil (identifiable quantities), nominal fit" + (" -> with the effect:" if self.soil_after else ":"))
         for k, v in self.soil_before.items():
