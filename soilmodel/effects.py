@@ -11,15 +11,17 @@ The effects are split by concept; every name stays importable from here:
 """
 from .effect_registry import (EFFECTS, EffectSet, EffectSpec, ParamSpec, _spec, _Values, effect_structure,  # noqa: F401
                               effect_symbols, parameter_bounds, parameter_scale, parse_effects)
-from .effect_terms import (DEFAULT_STANDSTILL_SPEED, effective_mass, effective_normal_load, effective_radius,
-                           effective_weight, motion_resistance, normal_load_function, smooth_sign, torque_loss)
+from .effect_terms import (DEFAULT_SLIP_WIDTH, DEFAULT_STANDSTILL_SPEED, effective_mass, effective_normal_load,
+                           effective_radius, effective_weight, motion_resistance, normal_load_function, smooth_abs,
+                           smooth_sign, torque_loss)
 from .rig import DEFAULT_RIG_SPEED, SWEEP_MEASURES, rig_true_slip, sweep_measurement
 from .thrust_effects import (pressure_profile, softening_shear, thrust_with_effects, thrust_with_effects_function,
                              tractive_force_with_effects, wong_type_b_shear)
 
 __all__ = [
     "ParamSpec", "EffectSpec", "EFFECTS", "EffectSet", "parse_effects", "effect_symbols",
-    "DEFAULT_STANDSTILL_SPEED", "smooth_sign", "effective_mass", "effective_weight", "effective_normal_load",
+    "DEFAULT_STANDSTILL_SPEED", "DEFAULT_SLIP_WIDTH", "smooth_sign", "smooth_abs", "effective_mass",
+    "effective_weight", "effective_normal_load",
     "effective_radius", "motion_resistance", "torque_loss", "thrust_with_effects",
     "thrust_with_effects_function", "tractive_force_with_effects", "softening_shear", "wong_type_b_shear",
     "pressure_profile", "DEFAULT_RIG_SPEED", "SWEEP_MEASURES", "parameter_bounds", "parameter_scale",
