@@ -36,7 +36,7 @@ from __future__ import annotations
 import json
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Sequence
 
 import numpy as np
@@ -1018,6 +1018,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         listed = {x for p, _, _ in conf for x in p if va in p}
         # (the candidates refitted, and the library effects outside the candidates weighed against the verdict)
         rivals = [m for m in H if m not in (NOMINAL, DISCREPANCY, va)]
+        alikes: list[tuple[float, str]] = []
         for b in (m for m in rivals if math.isfinite(scores.get(m, math.inf))):
             p_b = dm_test(zall(b), zall(va), dm_lag)
             sh_a, sh_b = (1.0 - math.sqrt(scores[m] / max(scores[NOMINAL], 1e-300)) for m in (va, b))
@@ -1037,6 +1038,31 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                              f"against {sh_a:.2f}; {why})"
                              + (f"; {va} is named with confidence 0.5 at most" if confidence > 0.5 else ""))
                 confidence = min(confidence, 0.5)
+                alikes.append((sh_b, b))
+        # of explanations the log cannot tell apart, one that needs a parameter pinned on its physical bound
+        # is stretched to imitate the other: name the one that fits inside its range (both stay confusable)
+        va_params = next((e.parameters for e in ranking if e.effect == va), {})
+        stretched = [p for p, d in va_params.items() if d.get("at_bound")]
+        for _, b in (sorted(alikes, reverse=True) if stretched else ()):
+            if b not in refit or not train_fits.get(b):
+                continue
+            st = _effect_start(train_fits.get(b), b)
+            if st is not None:
+                warm["x0"] = np.asarray(st.pop("__theta__"), dtype=float)
+            fb = run_fit(data, (b,), start=st)
+            pb = _effect_params(fb, b) if usable(fb) else {}
+            if not pb or any(d.get("at_bound") for d in pb.values()):
+                continue
+            full_fits[b] = fb
+            ranking = [replace(e, parameters=pb, converged=e.converged and usable(fb)) if e.effect == b else e
+                       for e in ranking]
+            notes.append(f"{va}'s {', '.join(stretched)} ended on {'its bound' if len(stretched) == 1 else 'their bounds'} "
+                         f"while {b}, which predicts the held-out data about as well, fits inside its physical range: "
+                         f"{b} is named (the two stay listed as confusable)")
+            verdict = replace(verdict, name=b, confidence=min(verdict.confidence, 0.5),
+                              reason=f"{b} explains the gap about as well as {va}, which had to be stretched to a "
+                                     "bound of its parameters to do so")
+            break
     name = verdict.name
     if name not in (NOMINAL, "unexplained"):
         # an effect whose fitted parameter ends on its bound has been stretched to its limit: the bound, not
