@@ -544,6 +544,12 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     if n < MIN_SAMPLES:
         return _too_few(data, vehicle, model, cands, is_log, t0, log_options)
     notes: list[str] = []
+    if is_log:
+        notes.append("the logged torque is taken as " + (
+            "held from each sample to the next (torque_hold='zoh', the default; a torque sampled from a "
+            "continuous signal, e.g. a transducer, needs torque_hold='sample': the wrong one shifts the thrust by "
+            "its change over one sample, which reads as a grade or a drivetrain loss)" if torque_hold == "zoh" else
+            "a continuous signal sampled at each time (torque_hold='sample')"))
 
     failed: list[str] = []
     flagged: dict[str, int] = {}  # model -> number of its fits only the plausibility checks refused

@@ -103,3 +103,13 @@ def test_a_rival_as_good_to_within_five_percent_keeps_the_verdict_from_confidenc
     assert d.verdict in ("grade", "drivetrain_friction")
     assert d.confidence <= 0.5 and any({"grade", "drivetrain_friction"} == set(p) for p, _, _ in d.confusable), \
         (d.verdict, d.confidence, d.notes)
+
+
+def test_a_log_diagnosis_says_which_torque_hold_it_assumed():
+    from soiltrack.soilmodel import TERRAINS, simulate
+
+    light = VEHICLES["light"]
+    log = simulate(light, TERRAINS["lete_sand"], kind="drive", seed=1, duration_s=20)
+    for hold, text in (("zoh", "held from each sample to the next"), ("sample", "a continuous signal sampled")):
+        d = diagnose(log, light, torque_hold=hold)
+        assert any(n.startswith("the logged torque is taken as") and text in n for n in d.notes), d.notes
