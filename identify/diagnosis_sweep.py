@@ -33,6 +33,7 @@ import math
 import numpy as np
 
 from ..soilmodel.data import SlipData
+from .stats import betainc, f_sf  # noqa: F401 - re-exported (the F test's tail)
 
 __all__ = ["NOT_USABLE", "solver_converged", "plausibility_warnings", "sweep_folds", "information_weights",
            "imitation_rms", "effect_start", "betainc", "f_sf", "lack_of_fit", "decide_sweep", "fit_jacobian"]
@@ -181,54 +182,6 @@ def imitation_rms(prediction: np.ndarray, data: SlipData, sigma: np.ndarray, fit
 
 
 # ----------------------------------------------------------------------------- lack of fit and the verdict
-def _betacf(a: float, b: float, x: float) -> float:
-    """Continued fraction of the incomplete beta function (modified Lentz)."""
-    tiny = 1e-300
-    qab, qap, qam = a + b, a + 1.0, a - 1.0
-    c, d = 1.0, 1.0 - qab * x / qap
-    d = 1.0 / (tiny if abs(d) < tiny else d)
-    h = d
-    for m in range(1, 1000):
-        m2 = 2 * m
-        aa = m * (b - m) * x / ((qam + m2) * (a + m2))
-        d = 1.0 + aa * d
-        d = 1.0 / (tiny if abs(d) < tiny else d)
-        c = 1.0 + aa / c
-        c = tiny if abs(c) < tiny else c
-        h *= d * c
-        aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2))
-        d = 1.0 + aa * d
-        d = 1.0 / (tiny if abs(d) < tiny else d)
-        c = 1.0 + aa / c
-        c = tiny if abs(c) < tiny else c
-        delta = d * c
-        h *= delta
-        if abs(delta - 1.0) < 1e-14:
-            break
-    return h
-
-
-def betainc(a: float, b: float, x: float) -> float:
-    """Regularised incomplete beta function ``I_x(a, b)`` (no scipy at run time)."""
-    if x <= 0.0:
-        return 0.0
-    if x >= 1.0:
-        return 1.0
-    lbt = math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b) + a * math.log(x) + b * math.log1p(-x)
-    if x < (a + 1.0) / (a + b + 2.0):
-        return math.exp(lbt) * _betacf(a, b, x) / a
-    return 1.0 - math.exp(lbt) * _betacf(b, a, 1.0 - x) / b
-
-
-def f_sf(f: float, d1: float, d2: float) -> float:
-    """P(X > f) for X with an F(d1, d2) distribution."""
-    if not math.isfinite(f):
-        return 0.0 if f > 0 else 1.0
-    if f <= 0 or d1 <= 0 or d2 <= 0:
-        return 1.0
-    return betainc(0.5 * d2, 0.5 * d1, d2 / (d2 + d1 * f))
-
-
 def lack_of_fit(residuals: np.ndarray, jacobian: np.ndarray, basis: np.ndarray, sigma: np.ndarray) -> float:
     """p-value that a flexible term ``basis`` on top of a fitted model still explains its residuals (F test).
 

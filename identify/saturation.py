@@ -67,8 +67,9 @@ def _channels(data: SlipData | DriveLog) -> dict[str, np.ndarray]:
     return {k: np.asarray(v, dtype=float) for k, v in out.items()}
 
 
-def _pile(x: np.ndarray, side: str) -> tuple[float, np.ndarray] | None:
-    x = x[np.isfinite(x)] if not np.all(np.isfinite(x)) else x
+def _pile(x: np.ndarray, side: str) -> float | None:
+    """The reading at which ``x`` piles up on ``side`` (its largest or smallest value), or None."""
+    x = x[np.isfinite(x)]
     if x.size < MIN_ROWS:
         return None
     level = float(np.max(x) if side == "largest" else np.min(x))
@@ -83,7 +84,7 @@ def _pile(x: np.ndarray, side: str) -> tuple[float, np.ndarray] | None:
     nxt = float(np.max(rest) if side == "largest" else np.min(rest))
     if at < PILE_FACTOR * int(np.count_nonzero(x == nxt)):
         return None
-    return level, x
+    return level
 
 
 def find_saturation(data: SlipData | DriveLog) -> tuple[Saturation, ...]:
@@ -91,9 +92,8 @@ def find_saturation(data: SlipData | DriveLog) -> tuple[Saturation, ...]:
     out = []
     for name, x in _channels(data).items():
         for side in ("largest", "smallest"):
-            hit = _pile(x, side)
-            if hit is not None:
-                level = hit[0]
+            level = _pile(x, side)
+            if level is not None:
                 rows = tuple(int(k) + 1 for k in np.nonzero(x == level)[0])
                 out.append(Saturation(name, side, level, rows))
     return tuple(out)

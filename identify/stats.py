@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from functools import lru_cache
 
-__all__ = ["betainc", "t_cdf", "t_ppf", "norm_cdf", "norm_ppf"]
+__all__ = ["betainc", "f_sf", "t_cdf", "t_ppf", "norm_cdf", "norm_ppf"]
 
 
 def _betacf(a: float, b: float, x: float) -> float:
@@ -53,6 +53,15 @@ def betainc(a: float, b: float, x: float) -> float:
     if x < (a + 1.0) / (a + b + 2.0):
         return bt * _betacf(a, b, x) / a
     return 1.0 - bt * _betacf(b, a, 1.0 - x) / b
+
+
+def f_sf(f: float, d1: float, d2: float) -> float:
+    """P(X > f) for X with an F(d1, d2) distribution."""
+    if not math.isfinite(f):
+        return 0.0 if f > 0 else 1.0
+    if f <= 0 or d1 <= 0 or d2 <= 0:
+        return 1.0
+    return betainc(0.5 * d2, 0.5 * d1, d2 / (d2 + d1 * f))
 
 
 def t_cdf(t: float, dof: float) -> float:
