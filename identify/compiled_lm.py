@@ -8,7 +8,11 @@
 with a solver whose whole run is one pre-built CasADi ``Function``. Every residual, gradient,
 Hessian and Jacobian in it is derived by CasADi's automatic differentiation from
 :func:`soiltrack.soilmodel.traction.thrust_expr` (Eq. 2 / Eq. 8, the one home of the physics);
-nothing here writes the shear bracket or its derivatives by hand.
+nothing here writes the shear bracket or its derivatives by hand. Each per-sample expression
+is split by CasADi's ``extract_parametric`` into what depends on the parameters alone
+(``tan(phi)``, ``cos(phi)^2``, ...), computed once per evaluation, and the per-sample rest: the
+same operations on the same numbers as one expression per sample, without the repeated
+transcendental calls.
 
 1. **Start**: variable projection on a grid of K (as :mod:`soiltrack.identify.start`: for each
    K the force is linear in ``(c, tan(phi))``; its coefficients are the derivatives of Eq. 2
@@ -72,7 +76,7 @@ from functools import lru_cache
 import casadi as ca
 import numpy as np
 
-from ..soilmodel.traction import max_thrust_expr, thrust_expr, thrust_function
+from ..soilmodel.traction import max_thrust_expr, thrust_expr
 from . import jitcache
 from .ipopt_fit import _one_load  # the one test of "a single normal load"
 from .plausibility import corner_soils, screen_expr
@@ -114,13 +118,47 @@ def _data_symbols():
     return [ca.SX.sym(k) for k in ("s", "F", "W", "w", "l", "b")]
 
 
-def _point_functions(p: int, n_grid: int):
-    """Per-sample SX Functions, all derived from ``thrust_expr`` by AD (mapped over the samples).
+def _hoisted(name: str, inputs: list, outputs: list, repeated: list, opts: dict | None = None) -> tuple:
+    """A per-sample SX Function split into its row-invariant part and the rest (CasADi's ``extract_parametric``).
 
-    ``pt_grid``: the sums of the variable-projection grid (coefficients of the linear
-    parameters ``(c, tan(phi))`` at each grid K); ``pt_ev``: the sample's cost
-    ``0.5 r^2``, its gradient ``r dr/dz``, exact Hessian and squared Jacobian row in the
-    scaled variables ``z``, with ``r = w (F(z) - F_data)``.
+    ``repeated``: indices of the inputs that are the same for every sample of a map (the
+    parameters, ``l``, ``b``, ...). Everything in ``outputs`` that depends on them alone
+    (``tan(phi)``, ``cos(phi)^2``, ``A c``, ...) is computed once per call by ``pre`` and handed to
+    ``row`` as its extra first input ``e``, instead of once per sample: the same operations on the
+    same numbers, so the same results to the last bit, with fewer transcendental calls.
+    Returns ``(pre, row)``; ``row`` takes ``[e] + inputs``.
+    """
+    par = ca.vertcat(*[inputs[i] for i in repeated])
+    ret, syms, pars = ca.extract_parametric(outputs, par)
+    e = ca.vertcat(*syms) if syms else ca.SX.sym("e", 0)
+    pre = ca.Function(name + "_pre", [inputs[i] for i in repeated], [ca.vertcat(*pars) if pars else ca.SX(0, 1)],
+                      {"cse": True})
+    row = ca.Function(name, [e] + list(inputs), list(ret), opts or {})
+    return pre, row
+
+
+def _row_map(name: str, inputs: list, outputs: list, repeated: list, n: int, reduce_out=(),
+             opts: dict | None = None):
+    """``Function(name, inputs, outputs).map(name, "serial", n, repeated, reduce_out)`` with the
+    row-invariant parts hoisted out of the loop (:func:`_hoisted`); returns a callable with the
+    mapped Function's arguments."""
+    pre, row = _hoisted(name, inputs, outputs, list(repeated), opts)
+    mapped = row.map(name + "_map", "serial", n, [0] + [i + 1 for i in repeated], list(reduce_out))
+    rep = list(repeated)
+
+    def call(*args):
+        return mapped(pre(*[args[i] for i in rep]), *args)
+    return call
+
+
+def _point_functions(p: int, n_grid: int, n: int, m: int):
+    """Per-sample functions mapped over the samples, all derived from ``thrust_expr`` by AD.
+
+    ``grid`` (over ``m`` samples): the sums of the variable-projection grid (coefficients of
+    the linear parameters ``(c, tan(phi))`` at each grid K); ``ev`` (over ``n`` samples): the
+    sums of the sample's cost ``0.5 r^2``, its gradient ``r dr/dz``, exact Hessian and squared
+    Jacobian row in the scaled variables ``z``, with ``r = w (F(z) - F_data)``. Both are
+    called as the mapped Functions they stand for (:func:`_row_map`).
     """
     s, F, W, w, l, b = _data_symbols()
     model = "full" if p == 3 else "cohesion-free"
@@ -138,24 +176,32 @@ def _point_functions(p: int, n_grid: int):
         sums = ca.vertcat(a1 * a1, a1 * a2, a2 * a2, a1 * y, a2 * y)
     else:
         sums = ca.vertcat(a2 * a2, a2 * y)
-    grid = ca.Function("pt_grid", [s, F, W, w, l, b, Ks], [sums, y * y], {"cse": True})
+    grid = _row_map("pt_grid", [s, F, W, w, l, b, Ks], [sums, y * y], [4, 5, 6], m, [0, 1], {"cse": True})
     z = ca.SX.sym("z", p)
     c, phi, K, model = _theta_of_z(z, p)
     r = w * (thrust_expr(s, c, phi, K, W, l, b, model=model) - F)
     gr = ca.jacobian(r, z).T
     cost = 0.5 * r * r
     H = ca.hessian(cost, z)[0]
-    ev = ca.Function("pt_ev", [z, s, F, W, w, l, b], [ca.vertcat(cost, r * gr, ca.vec(H), gr * gr)], {"cse": True})
+    ev = _row_map("pt_ev", [z, s, F, W, w, l, b], [ca.vertcat(cost, r * gr, ca.vec(H), gr * gr)], [0, 5, 6], n, [0],
+                  {"cse": True})
     return grid, ev
 
 
-def _resjac_point(model: str) -> ca.Function:
-    """Per sample: raw residual ``F(theta) - F_data`` (N) and ``w dF/d[c, phi, K]`` (SI), by AD."""
+def _resjac_point(model: str, n: int):
+    """Per sample (mapped over ``n``): raw residual ``F(theta) - F_data`` (N) and ``w dF/d[c, phi, K]`` (SI), by AD."""
     s, F, W, w, l, b = _data_symbols()
     th = ca.SX.sym("theta", 3)
     Fm = thrust_expr(s, th[0], th[1], th[2], W, l, b, model=model)
     J = ca.jacobian(Fm, th)
-    return ca.Function("pt_resjac", [th, s, F, W, w, l, b], [ca.vertcat(Fm - F, w * J.T)], {"cse": True})
+    return _row_map("pt_resjac", [th, s, F, W, w, l, b], [ca.vertcat(Fm - F, w * J.T)], [0, 5, 6], n, (),
+                    {"cse": True})
+
+
+def _thrust_map(model: str, n: int):
+    """``thrust_expr`` at ``n`` samples of one soil: ``(slip, c, phi, K, W, l, b)`` with c, phi, K, l, b shared."""
+    a = [ca.SX.sym(k) for k in ("slip", "c", "phi", "K", "W", "l", "b")]
+    return _row_map("corner_curves", a, [thrust_expr(*a, model=model)], [1, 2, 3, 5, 6], n)
 
 
 def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> ca.Function:
@@ -171,12 +217,12 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
     ``0.5 sum (w F)^2``. :func:`kernel` compiles it to C (cached on disk).
     """
     n_grid = max(int(n_grid), 1)
-    pt_grid, pt_ev = _point_functions(p, n_grid)
     d = ca.MX.sym("d", 4 * n + 2)
     lbz, ubz, z0, use0 = ca.MX.sym("lbz", p), ca.MX.sym("ubz", p), ca.MX.sym("z0", p), ca.MX.sym("use_z0")
     slip, force, W, wt = (d[k * n:(k + 1) * n].T for k in range(4))
     l, b = d[4 * n], d[4 * n + 1]
     m = min(n, GRID_ROWS)  # rows of the start grid: all, or a subsample given as its own input
+    grid_sums, evm = _point_functions(p, n_grid, n, m)
     gd = ca.MX.sym("grid_data", 4 * m if n > GRID_ROWS else 0)
     g_rows = [gd[k * m:(k + 1) * m].T for k in range(4)] if n > GRID_ROWS else [slip, force, W, wt]
 
@@ -217,14 +263,13 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
     frac = np.linspace(0.0, 1.0, n_grid) if n_grid > 1 else np.zeros(1)
     Kgrid = 1 / (1 / K_hi + ca.DM(frac) * (1 / K_lo - 1 / K_hi))  # uniform in 1/K
     # mapped over the samples with the sums accumulated in the loop (reduce_out)
-    gm, yy = pt_grid.map("grid_sums", "serial", m, [4, 5, 6], [0, 1])(*g_rows, l, b, Kgrid)
+    gm, yy = grid_sums(*g_rows, l, b, Kgrid)
     zgrid = pick(gm, yy, lbz, ubz, Kgrid)
     zs = ca.if_else(use0 > 0.5, z0, zgrid)
     zs = ca.fmin(ca.fmax(zs, lbz), ubz)
     scale = 0.5 * ca.sumsqr(force * wt)
 
     # ---- 2. damped projected Newton iterations (state: z, lam, f, g, H, D, iters)
-    evm = pt_ev.map("ev_sums", "serial", n, [0, 5, 6], [0])
 
     def evaluate(z):
         s = evm(z, slip, force, W, wt, l, b)
@@ -314,8 +359,8 @@ def resjac_function(model: str, n: int) -> ca.Function:
     numpy checks have nothing to find but F_max on a bound) and ``bp``
     :func:`~soiltrack.identify.problem.heteroscedasticity_screen_expr` (0: no noise warning).
     """
-    pt = _resjac_point(model).map("resjac", "serial", n, [0, 5, 6], [])
-    thr = thrust_function(model).map("corner_curves", "serial", n, [1, 2, 3, 5, 6], [])
+    pt = _resjac_point(model, n)
+    thr = _thrust_map(model, n)
     xin = ca.MX.sym("x", 3 + 4 * n + 2 + 6)
     th, d, cr = xin[0:3], xin[3:3 + 4 * n + 2], xin[3 + 4 * n + 2:]
     rows = [d[k * n:(k + 1) * n].T for k in range(4)]
