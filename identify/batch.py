@@ -72,7 +72,7 @@ def _solve_chunk(datasets: Sequence[SlipData], vehicle: Vehicle, model: str, bou
         status, success, message, warns = [], [], [], []
         for pb, s in zip(P, S):
             found, usable = assess(pb.slip, pb.force, pb.load, s.residuals, s.theta, vehicle, model, bounds,
-                                   s.curves, s.screen)
+                                   s.curves, s.screen, s.limit_screen)
             msg = compiled_lm.message_of(s, None).replace("compiled", "vectorised compiled", 1)
             status.append("converged" if usable else "converged (answer not usable)")
             success.append(usable)

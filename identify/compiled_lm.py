@@ -79,7 +79,7 @@ import numpy as np
 from ..soilmodel.traction import max_thrust_expr, thrust_expr
 from . import jitcache
 from .ipopt_fit import _one_load  # the one test of "a single normal load"
-from .plausibility import corner_soils, screen_expr
+from .plausibility import corner_soils, limit_screen_expr, screen_expr
 from .problem import SCALE, SlipProblem, heteroscedasticity_screen_expr, ridge_centre
 from .result import FitResult, build_result
 
@@ -349,7 +349,8 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
 
 
 def resjac_function(model: str, n: int) -> ca.Function:
-    """``[theta (3), d (4n+2), corners (6)] -> [r (n), J (n x 3, column-major), F_weak (n), F_strong (n), screen, bp]``.
+    """``[theta (3), d (4n+2), corners (6)] -> [r (n), J (n x 3, column-major), F_weak (n), F_strong (n), screen, bp,
+    limit]``.
 
     Residuals and ``J = w dF/dtheta`` of Eq. 2/8 by AD, and the thrust of the weakest and the
     strongest soil within the bounds (``corners = [c, phi, K]`` of each,
@@ -357,7 +358,9 @@ def resjac_function(model: str, n: int) -> ca.Function:
     plausibility checks compare the data with (:func:`~soiltrack.identify.plausibility.assess`);
     ``screen`` is :func:`~soiltrack.identify.plausibility.screen_expr` of these numbers (0: the
     numpy checks have nothing to find but F_max on a bound) and ``bp``
-    :func:`~soiltrack.identify.problem.heteroscedasticity_screen_expr` (0: no noise warning).
+    :func:`~soiltrack.identify.problem.heteroscedasticity_screen_expr` (0: no noise warning),
+    ``limit`` :func:`~soiltrack.identify.plausibility.limit_screen_expr` at ``theta`` (0: F_max is
+    on no bound either, so no numpy check runs).
     """
     pt = _resjac_point(model, n)
     thr = _thrust_map(model, n)
@@ -370,8 +373,10 @@ def resjac_function(model: str, n: int) -> ca.Function:
     strong = thr(rows[0], cr[3], cr[4], cr[5], rows[2], l, b)
     screen = screen_expr(rows[0], rows[1], out[0, :], weak, strong, rows[3])
     bp = heteroscedasticity_screen_expr(rows[1], out[0, :], rows[3])
+    limit = limit_screen_expr(th[0], th[1], rows[2], cr[0:3], cr[3:6], 2.0 * b * l, model, rows[3])
     return ca.Function(f"soilfit_resjac_{model.replace('-', '_')}_{n}", [xin],
-                       [ca.densify(ca.vertcat(out[0, :].T, ca.vec(out[1:4, :].T), weak.T, strong.T, screen, bp))],
+                       [ca.densify(ca.vertcat(out[0, :].T, ca.vec(out[1:4, :].T), weak.T, strong.T, screen, bp,
+                                              limit))],
                        ["x"], ["y"])
 
 
@@ -502,7 +507,9 @@ class Solution:
     ``certified``: the first-order conditions with bounds hold (checked here from the
     Function's outputs). ``residuals`` (N) and ``jacobian`` (``w dF/dtheta``, n x 3) are at
     ``theta`` (the reported point; for one-load full data the ridge marker); ``curves`` are the
-    weakest and strongest soil's thrust at each sample (N) for the plausibility checks.
+    weakest and strongest soil's thrust at each sample (N) for the plausibility checks;
+    ``screen``, ``bp_screen`` and ``limit_screen`` the residual Function's screens of them
+    (:func:`resjac_function`).
     """
 
     theta: np.ndarray
@@ -520,6 +527,7 @@ class Solution:
     curves: tuple | None = None
     screen: float | None = None
     bp_screen: float | None = None
+    limit_screen: float | None = None
 
 
 def _variant(pb: SlipProblem) -> tuple[int, bool, str]:
@@ -669,7 +677,8 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
                     residuals=r, jacobian=J, z=np.array(z), p=p, one_load=one_load, engine=cs.engine,
                     backend=cs.backend, call_time=t_call, curves=curves,
                     screen=None if rj is None else float(rj[6 * nc]),
-                    bp_screen=None if rj is None else float(rj[6 * nc + 1]))
+                    bp_screen=None if rj is None else float(rj[6 * nc + 1]),
+                    limit_screen=None if rj is None else float(rj[6 * nc + 2]))
 
 
 def _decode(pb: SlipProblem, yl: list, p: int, one_load: bool) -> tuple[list, int, bool, np.ndarray]:
@@ -759,7 +768,8 @@ def solve_many(pbs: list, n_grid: int = 25, jit: str = "wait") -> list[Solution]
                               call_time=math.nan,
                               curves=(RJ[r, 4 * nc:4 * nc + n].copy(), RJ[r, 5 * nc:5 * nc + n].copy()) if ok else None,
                               screen=float(RJ[r, 6 * nc]) if ok else None,
-                              bp_screen=float(RJ[r, 6 * nc + 1]) if ok else None)
+                              bp_screen=float(RJ[r, 6 * nc + 1]) if ok else None,
+                              limit_screen=float(RJ[r, 6 * nc + 2]) if ok else None)
     return out  # type: ignore[return-value]
 
 
@@ -822,13 +832,16 @@ def extra_of(sol: Solution) -> dict:
 
 def result_of(pb: SlipProblem, sol: Solution, x0, solve_time: float) -> FitResult:
     """The :class:`FitResult` of a certified solve (shared statistics via ``build_result``)."""
+    kw = pb.result_kwargs(sol.curves, sol.screen)
+    if sol.screen is not None and sol.limit_screen is not None:  # (slip, F, W, curves, screen, limit screen)
+        kw["samples"] += (sol.limit_screen,)
     return build_result(data_kind="slip", model=pb.model, method="ipopt", theta=sol.theta,
                         jacobian=sol.jacobian, weighted_residuals=sol.residuals / pb.sigma, residuals=sol.residuals,
                         residual_unit="N", n_samples=pb.n, normal_loads=pb.load, vehicle=pb.vehicle,
                         bounds=pb.bounds, status="converged", success=True, message=message_of(sol, x0),
                         iterations=sol.iterations, solve_time=solve_time, sigma_known=pb.sigma_known,
                         warnings=pb.noise_warning(sol.residuals, sol.bp_screen),
-                        extra={**extra_of(sol), "sigma_model": pb.noise_model}, **pb.result_kwargs(sol.curves, sol.screen))
+                        extra={**extra_of(sol), "sigma_model": pb.noise_model}, **kw)
 
 
 def hand_over(pb: SlipProblem, sol: Solution, x0, n_grid: int, ipopt_options: dict | None, t0: float,

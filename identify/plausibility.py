@@ -37,7 +37,7 @@ from ..soilmodel.vehicle import Vehicle
 from .estimate_types import format_force
 
 __all__ = ["Finding", "fmax_range", "corner_soils", "corner_curves", "check_slip_data", "check_slip_fit", "assess", "screen_expr",
-           "SCALE_FACTOR", "OUTLIER_Z", "OUTLIER_SHARE", "GROSS_Z", "GROSS_SHARE", "RESIDUAL_RATIO", "BOUND_FACTOR"]
+           "limit_screen_expr", "LIMIT_BAND", "SCALE_FACTOR", "OUTLIER_Z", "OUTLIER_SHARE", "GROSS_Z", "GROSS_SHARE", "RESIDUAL_RATIO", "BOUND_FACTOR"]
 
 #: Data this many times below the weakest soil (median over the samples) or a row this many times
 #: above the strongest are not a soil within the bounds.
@@ -50,6 +50,8 @@ GROSS_Z, GROSS_SHARE = 10.0, 0.25
 RESIDUAL_RATIO = 0.5
 #: F_max on a bound is unusable when the data ask for more than this factor beyond it.
 BOUND_FACTOR = 2.0
+#: F_max within this share of the range the bounds allow from either end counts as on that bound.
+LIMIT_BAND = 1e-3
 #: Fewest samples for a robust residual scale (median absolute deviation).
 MIN_ROBUST = 6
 #: Relative slack of :func:`screen_expr`: rounding never lets the screen pass data a check would flag.
@@ -225,6 +227,36 @@ def screen_expr(slip, force, residuals, weak, strong, real):
                                                                                              ca.logic_or(large, outlier))))
 
 
+def limit_screen_expr(c, phi, load, weak, strong, area, model: str, real):
+    """CasADi expression: 0 when the F_max-on-a-bound check of :func:`assess` surely finds nothing, else 1.
+
+    The necessary condition of that check, to run where the residuals are computed (the
+    compiled engine's residual Function) next to :func:`screen_expr`: with both 0 a clean fit
+    skips every numpy check. 0 needs, at every data row's load ``W``, the fitted soil's
+    ``F_max = max_thrust_expr(c, phi, W)`` finite and farther than the band of
+    :data:`LIMIT_BAND` (plus :data:`SCREEN_SLACK` of the magnitudes, against rounding) from both
+    ends of the range ``[F_max(weak), F_max(strong)]`` the bounds allow (:func:`fmax_range`).
+
+    Parameters
+    ----------
+    c, phi : casadi.MX or SX scalars
+        The reported soil (SI).
+    load, real : row vectors
+        Normal load per row (N); positive ``real`` for a data row, 0 for a padding row.
+    weak, strong : sequences ``(c, phi, ...)``
+        The weakest and strongest soil within the bounds (:func:`corner_soils`).
+    area : float or expression
+        Contact area ``A`` (m^2); ``model``: ``"full"`` or ``"cohesion-free"``.
+    """
+    fm = max_thrust_expr(c, phi, load, area, model)
+    lo = max_thrust_expr(weak[0], weak[1], load, area, model)
+    hi = max_thrust_expr(strong[0], strong[1], load, area, model)
+    tol = LIMIT_BAND * (hi - lo)
+    slack = SCREEN_SLACK * (ca.fabs(fm) + ca.fabs(lo) + ca.fabs(hi))
+    clear = ca.logic_and(fm > lo + tol + slack, fm < hi - tol - slack)  # NaN: not clear
+    return ca.sum2(ca.if_else(real > 0, 1 - clear, 0)) > 0
+
+
 def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: SoilBounds,
                     curves: tuple | None = None) -> list[Finding]:
     """Checks that need no fit: the force scale against the bounds, and negative thrust.
@@ -291,7 +323,7 @@ def _limit_on_bound(force: np.ndarray, load: np.ndarray, r: np.ndarray, c: float
     for W in (load[:1] if single else np.unique(load)):
         fm = float(max_thrust_expr(c, phi, float(W), vehicle.contact_area, model))
         fm_lo, fm_hi = fmax_range(bounds, vehicle, model, float(W))
-        tol = 1e-3 * (fm_hi - fm_lo)
+        tol = LIMIT_BAND * (fm_hi - fm_lo)
         side = "smallest" if fm <= fm_lo + tol else "largest" if fm >= fm_hi - tol else None
         if not side or fm <= 0:
             continue
@@ -365,8 +397,8 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
 
 
 def assess(slip, force, load, residuals, theta, vehicle: Vehicle, model: str,
-           bounds: SoilBounds, curves: tuple | None = None, screen: float | None = None
-           ) -> tuple[tuple[str, ...], bool]:
+           bounds: SoilBounds, curves: tuple | None = None, screen: float | None = None,
+           limit_screen: float | None = None) -> tuple[tuple[str, ...], bool]:
     """All checks: ``(warnings, usable)``; ``usable`` is False when any finding makes the answer unusable.
 
     Each cause is said once: rows already refused at input are not named again as outliers, and
@@ -374,14 +406,19 @@ def assess(slip, force, load, residuals, theta, vehicle: Vehicle, model: str,
     ``curves``: :func:`corner_curves` at every sample, if the caller has them (the compiled engine).
     ``screen``: :func:`screen_expr` of these very numbers, if the caller has it (the compiled
     engine); 0 means no check but F_max on a bound can find anything, and only that one runs.
+    ``limit_screen``: :func:`limit_screen_expr` at ``theta``, if the caller has it; 0 (with
+    ``screen`` 0) means that one has nothing to find either: no finding, usable.
     """
-    slip, force, load = _vec(slip), _vec(force), _vec(load)
     if screen is not None and screen < 0.5:
         c, phi, K = np.asarray(theta, dtype=float).ravel().tolist()
         if math.isfinite(c) and math.isfinite(phi) and math.isfinite(K):  # (the screen saw finite residuals)
+            if limit_screen is not None and limit_screen < 0.5:
+                return (), True
+            slip, force, load = _vec(slip), _vec(force), _vec(load)
             found = _limit_on_bound(force, load, _vec(residuals), c, phi, K, vehicle, model, bounds)
             return tuple(("NOT USABLE: " if not f.usable else "") + f.message for f in found), \
                 all(f.usable for f in found)
+    slip, force, load = _vec(slip), _vec(force), _vec(load)
     found = check_slip_data(slip, force, load, vehicle, model, bounds, curves)
     named = {r for f in found if not f.usable for r in f.rows}
     after = check_slip_fit(slip, force, load, residuals, theta, vehicle, model, bounds)

@@ -382,7 +382,8 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
         Slip data ``(slip, thrust_N, load_N)`` per sample, optionally followed by the weakest and
         strongest soil's thrust at each sample ``(F_weak, F_strong)`` when the solver has them
         (:func:`~soiltrack.identify.plausibility.corner_curves`) and the solver's screen of them
-        (:func:`~soiltrack.identify.plausibility.screen_expr`): then the plausibility checks of
+        (:func:`~soiltrack.identify.plausibility.screen_expr`) and of F_max on a bound
+        (:func:`~soiltrack.identify.plausibility.limit_screen_expr`): then the plausibility checks of
         :mod:`soiltrack.identify.plausibility` run, add their warnings, and set
         ``success=False`` when the answer is not usable (a force scale no soil within the bounds
         gives, F_max fixed by a bound, residuals as large as the data, a gross outlier).

@@ -10,7 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from soiltrack.identify import compiled_lm, problem
-from soiltrack.identify.plausibility import assess, check_slip_data, check_slip_fit, screen_expr
+from soiltrack.identify.plausibility import (_limit_on_bound, assess, check_slip_data, check_slip_fit, corner_soils,
+                                              limit_screen_expr, screen_expr)
 from soiltrack.soilmodel import PRACTICAL_BOUNDS, VEHICLES, SlipData, Soil, tractive_force
 
 HEAVY = VEHICLES["heavy"]
@@ -158,3 +159,65 @@ def test_fit_gives_the_same_noise_warning_with_and_without_the_screen():
         assert sol.certified
         assert pb.noise_warning(sol.residuals, sol.bp_screen) == pb.noise_warning(sol.residuals)
     assert sol.bp_screen == 1.0 and pb.noise_warning(sol.residuals)  # the growing noise is warned about
+
+
+# ---- the screen of F_max on a bound ---------------------------------------------------------------------------
+def _limit_screen(theta, load, model, bounds=PRACTICAL_BOUNDS, real=None) -> float:
+    n = len(load)
+    c, phi = ca.MX.sym("c"), ca.MX.sym("phi")
+    W, rl = ca.MX.sym("W", 1, n), ca.MX.sym("real", 1, n)
+    weak, strong = corner_soils(bounds, model)
+    f = ca.Function("limit", [c, phi, W, rl],
+                    [limit_screen_expr(c, phi, W, weak, strong, HEAVY.contact_area, model, rl)])
+    real = np.ones(n) if real is None else real
+    return float(f(theta[0], theta[1], np.asarray(load, float).reshape(1, -1), np.asarray(real, float).reshape(1, -1)))
+
+
+@st.composite
+def limit_cases(draw):
+    model = draw(st.sampled_from(["full", "cohesion-free"]))
+    n = draw(st.integers(1, 12))
+    loads = draw(st.lists(st.sampled_from([1e5, 2.5e5, 329e3, 4e5]), min_size=n, max_size=n))
+    (c_lo, c_hi), (p_lo, p_hi) = PRACTICAL_BOUNDS.cohesion, PRACTICAL_BOUNDS.friction_angle
+    # c, phi on, just inside and just outside the edges of the band at each end, or anywhere in between
+    rel = st.sampled_from([0.0, 1e-12, 1e-6, 1e-4, 9e-4, 1e-3, 1.1e-3, 0.01])
+    u = draw(st.one_of(rel, rel.map(lambda t: 1.0 - t), st.floats(0.0, 1.0)))
+    v = draw(st.one_of(st.just(u), rel, rel.map(lambda t: 1.0 - t), st.floats(0.0, 1.0)))
+    c = 0.0 if model == "cohesion-free" else c_lo + u * (c_hi - c_lo)
+    phi = p_lo + v * (p_hi - p_lo)
+    return model, np.array(loads), np.array([c, phi, 0.02])
+
+
+@settings(max_examples=400, deadline=None)
+@given(limit_cases())
+def test_limit_screen_is_open_whenever_fmax_on_a_bound_is_found(case):
+    model, load, theta = case
+    force = np.full(load.size, 1e5)
+    found = _limit_on_bound(force, load, np.zeros(load.size), *theta, HEAVY, model, PRACTICAL_BOUNDS)
+    if found:
+        assert _limit_screen(theta, load, model) == 1.0, [f.message for f in found]
+
+
+def test_limit_screen_closes_inside_opens_on_the_bounds_and_on_nan_and_ignores_padding():
+    W = np.full(5, HEAVY.weight)
+    p_lo, p_hi = PRACTICAL_BOUNDS.friction_angle
+    mid = np.array([0.0, 0.5 * (p_lo + p_hi), 0.02])
+    assert _limit_screen(mid, W, "cohesion-free") == 0.0
+    assert _limit_screen(np.array([0.0, p_lo, 0.02]), W, "cohesion-free") == 1.0
+    assert _limit_screen(np.array([0.0, p_hi, 0.02]), W, "cohesion-free") == 1.0
+    assert _limit_screen(np.array([0.0, math.nan, 0.02]), W, "cohesion-free") == 1.0
+    pad = np.r_[W, np.full(3, 1e-30)]
+    assert _limit_screen(mid, pad, "cohesion-free", real=np.r_[np.ones(5), np.zeros(3)]) == 0.0
+
+
+def test_fit_on_a_bound_gives_the_same_result_with_and_without_the_limit_screen():
+    i = np.linspace(0.01, 0.3, 30)
+    for soil in (Soil.from_kpa_deg(0.0, 45.0, 0.02), Soil.from_kpa_deg(0.0, 30.0, 0.02)):
+        F = np.asarray(tractive_force(i, soil, HEAVY, model="cohesion-free")).ravel()
+        pb = problem.make_problem(SlipData(i, F), HEAVY, "cohesion-free", PRACTICAL_BOUNDS)
+        sol = compiled_lm.solve(pb)
+        assert sol.certified
+        args = (pb.slip, pb.force, pb.load, sol.residuals, sol.theta, HEAVY, pb.model, pb.bounds, sol.curves)
+        assert assess(*args, sol.screen, sol.limit_screen) == assess(*args, sol.screen) == assess(*args)
+        assert assess(*args, 0.0, sol.limit_screen) == assess(*args, 0.0)
+        assert sol.limit_screen == (1.0 if soil.friction_angle > PRACTICAL_BOUNDS.friction_angle[1] else 0.0)
