@@ -70,7 +70,7 @@ import math
 import os
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import MISSING, dataclass, fields
 from functools import lru_cache
 
 import casadi as ca
@@ -428,7 +428,14 @@ class Kernel:
         callers = [_Caller(f) for f in self.compiled.functions]
         for c in callers:  # what evaluates this very caller (read with it, never stale)
             c.engine, c.backend = self.engine, self.backend
-        self.solver, self.resjac = callers
+        cs, cr = callers
+        nc, p = self.n, self.p
+        o = 4 * nc + 2
+        # views of the solver's input buffer: the data [slip, F, W, w, l, b] (+ the box and start), the
+        # start grid's samples as 4 x GRID_ROWS; (read with the caller, under its lock)
+        cs.head, cs.front = cs.x[0:o], cs.x[0:o + 3 * p + 3]
+        cs.grid = cs.x[o + 3 * p + 3:].reshape(4, GRID_ROWS) if nc > GRID_ROWS else None
+        self.solver, self.resjac = cs, cr
 
     @property
     def backend(self) -> str:
@@ -637,9 +644,9 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
     z0, use0 = _scaled_start(pb, x0, p, one_load)
     o = 4 * nc + 2
     cs, cr = k.solver, k.resjac
-    weak, strong = corner_soils(pb.bounds, pb.model)
     rj = None
     if cs.trigger is None or cr.trigger is None:  # pragma: no cover - CasADi without buffers
+        weak, strong = corner_soils(pb.bounds, pb.model)
         xin = input_vector(pb, x0, nc)
         t1 = time.perf_counter()
         yl = cs(xin).tolist()
@@ -648,12 +655,17 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
         if ok:
             rj = cr(np.concatenate((theta, xin[0:o], weak, strong)))
     else:
+        tail = _tail(pb, p, one_load, lbz, ubz, z0, use0)
+        w = np.divide(1.0, pb.sigma)
         with cs.lock:  # fill the zero-copy input buffer in place, call, read the output
             xb = cs.x
-            _data_vector(pb, nc, xb[0:o])
-            xb[o:o + 3 * p + 3] = lbz + ubz + z0 + [use0, KKT_TOL, ZERO_COST]
-            if nc > GRID_ROWS:
-                _grid_vector(pb, xb[o + 3 * p + 3:])
+            # [slip, F, W, w] each padded to nc rows (zero slip, force and weight; W = the first load), l, b,
+            # the scaled box and start: what _data_vector and input_vector give, in one copy
+            pad = _zeros(nc - n)
+            np.concatenate((pb.slip, pad, pb.force, pad, pb.load, pb.load[0:1].repeat(nc - n), w, pad, tail),
+                           out=cs.front)
+            if cs.grid is not None:  # the start grid's samples (grid_rows), taken from the blocks just written
+                np.take(xb, _grid_index(pb, nc), out=cs.grid)
             t1 = time.perf_counter()
             cs.trigger()
             t_call = time.perf_counter() - t1
@@ -661,24 +673,88 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
             z, iters, ok, theta = _decode(pb, yl, p, one_load)
             if ok:  # residuals and Jacobian at the reported point (AD of Eq. 2/8), the plausibility curves
                 with cr.lock:  # (always taken after the solver's lock: no deadlock)
-                    rb = cr.x
-                    rb[0:3] = theta
-                    rb[3:3 + o] = xb[0:o]
-                    rb[3 + o:] = weak + strong
+                    np.concatenate((theta, cs.head, _corners(pb.bounds, pb.model)), out=cr.x)
                     cr.trigger()
                     rj = cr.y.copy()
     r = J = np.empty(0)
-    curves = None
+    curves = screens = None
     if rj is not None:
         r = rj[0:n]
         J = rj[nc:4 * nc].reshape(3, nc)[:, 0:n].T
         curves = (rj[4 * nc:4 * nc + n], rj[5 * nc:5 * nc + n])
-    return Solution(theta=theta, certified=ok, iterations=iters, start=_theta_si(yl[2 * p + 3:3 * p + 3], p),
-                    residuals=r, jacobian=J, z=np.array(z), p=p, one_load=one_load, engine=cs.engine,
-                    backend=cs.backend, call_time=t_call, curves=curves,
-                    screen=None if rj is None else float(rj[6 * nc]),
-                    bp_screen=None if rj is None else float(rj[6 * nc + 1]),
-                    limit_screen=None if rj is None else float(rj[6 * nc + 2]))
+        screens = rj[6 * nc:6 * nc + 3].tolist()
+    return _solution(theta=theta, certified=ok, iterations=iters, start=_theta_si(yl[2 * p + 3:3 * p + 3], p),
+                     residuals=r, jacobian=J, z=np.array(z), p=p, one_load=one_load, engine=cs.engine,
+                     backend=cs.backend, call_time=t_call, curves=curves,
+                     screen=None if screens is None else screens[0],
+                     bp_screen=None if screens is None else screens[1],
+                     limit_screen=None if screens is None else screens[2])
+
+
+def _tail(pb: SlipProblem, p: int, one_load: bool, lbz: list, ubz: list, z0: list, use0: float) -> np.ndarray:
+    """``[l, b, lbz, ubz, z0, use_z0, KKT_TOL, ZERO_COST]``: what follows the data blocks in the solver's input."""
+    v = pb.vehicle
+    if use0 == 0.0:  # no start given: the same numbers for every problem of these bounds and this vehicle
+        return _tail_cached(v.track_length, v.track_width, tuple(lbz), tuple(ubz), p, KKT_TOL, ZERO_COST)
+    return np.array([v.track_length, v.track_width, *lbz, *ubz, *z0, use0, KKT_TOL, ZERO_COST])
+
+
+@lru_cache(maxsize=256)
+def _tail_cached(l: float, b: float, lbz: tuple, ubz: tuple, p: int, kkt: float, zero: float) -> np.ndarray:
+    t = np.array([l, b, *lbz, *ubz, *([0.0] * p), 0.0, kkt, zero])
+    t.flags.writeable = False
+    return t
+
+
+@lru_cache(maxsize=64)
+def _zeros(n: int) -> np.ndarray:
+    """``n`` zeros (read only): the padding rows of a size class."""
+    z = np.zeros(n)
+    z.flags.writeable = False
+    return z
+
+
+@lru_cache(maxsize=64)
+def _corners_cached(bounds, model: str) -> np.ndarray:
+    weak, strong = corner_soils(bounds, model)
+    c = np.array(weak + strong, dtype=float)
+    c.flags.writeable = False
+    return c
+
+
+def _corners(bounds, model: str) -> np.ndarray:
+    """``[weak (c, phi, K), strong (c, phi, K)]`` of :func:`corner_soils` as one array (the residual Function's last input)."""
+    try:
+        return _corners_cached(bounds, model)
+    except TypeError:  # unhashable bounds: not cached
+        return _corners_cached.__wrapped__(bounds, model)
+
+
+@lru_cache(maxsize=1024)
+def _block_offsets(nc: int) -> np.ndarray:
+    return np.arange(4, dtype=np.intp).reshape(4, 1) * nc
+
+
+def _grid_index(pb: SlipProblem, nc: int) -> np.ndarray:
+    """Positions in the solver's input of the start grid's samples (:func:`grid_rows`) in each of the four
+    data blocks (slip, F, W, w = 1/sigma), as 4 x GRID_ROWS."""
+    return _block_offsets(nc) + grid_rows(pb)
+
+
+_SOLUTION_DEFAULTS: dict = {}
+
+
+def _solution(**values) -> "Solution":
+    """``Solution(**values)`` without the frozen dataclass's one ``object.__setattr__`` per field."""
+    if not _SOLUTION_DEFAULTS:
+        _SOLUTION_DEFAULTS.update({f.name: f.default for f in fields(Solution)})
+    state = dict(_SOLUTION_DEFAULTS)
+    state.update(values)
+    if len(state) != len(_SOLUTION_DEFAULTS) or any(v is MISSING for v in state.values()):
+        raise TypeError(f"Solution: bad fields {sorted(set(state) ^ set(_SOLUTION_DEFAULTS))}")
+    obj = object.__new__(Solution)
+    obj.__dict__.update(state)
+    return obj
 
 
 def _decode(pb: SlipProblem, yl: list, p: int, one_load: bool) -> tuple[list, int, bool, np.ndarray]:

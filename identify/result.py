@@ -13,7 +13,7 @@ effects, combinations, the soil), :mod:`.identifiability` (null space, ridge, co
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import MISSING, dataclass, field, fields
 from functools import cached_property
 from typing import Any, Sequence
 
@@ -289,6 +289,31 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
 # --------------------------------------------------------------------------------------------
 # entry points
 # --------------------------------------------------------------------------------------------
+#: Fields of :class:`FitResult` in order, with their defaults (:func:`_new_result`).
+_NO_DEFAULT = object()
+_RESULT_DEFAULTS = {f.name: (f.default if f.default is not MISSING else _NO_DEFAULT) for f in fields(FitResult)}
+_RESULT_FACTORIES = tuple((f.name, f.default_factory) for f in fields(FitResult) if f.default_factory is not MISSING)
+_RESULT_REQUIRED = frozenset(k for k, v in _RESULT_DEFAULTS.items() if v is _NO_DEFAULT) - \
+    {name for name, _ in _RESULT_FACTORIES}
+
+
+def _new_result(values: dict) -> FitResult:
+    """``FitResult(**values)``: the same attributes in the same order, without the frozen dataclass's
+    one ``object.__setattr__`` call per field (a result has over thirty)."""
+    missing = _RESULT_REQUIRED - values.keys()
+    unknown = values.keys() - _RESULT_DEFAULTS.keys()
+    if missing or unknown:
+        raise TypeError(f"FitResult: missing {sorted(missing)}, unknown {sorted(unknown)}")
+    state = dict(_RESULT_DEFAULTS)
+    state.update(values)
+    for name, factory in _RESULT_FACTORIES:
+        if name not in values:
+            state[name] = factory()
+    obj = object.__new__(FitResult)
+    obj.__dict__.update(state)
+    return obj
+
+
 def _free_indices(model: str) -> tuple[int, ...]:
     if model == "full":
         return (0, 1, 2)
@@ -303,21 +328,23 @@ def _assemble(*, data_kind, model, method, theta, jacobian, weighted_residuals, 
     res = np.asarray(residuals, dtype=float)
     rw = np.asarray(weighted_residuals, dtype=float)
     ev = effect_fields.get("effect_values")
-    finite = _all_finite(theta) and _all_finite(res) and _all_finite(rw) and (ev is None or _all_finite(ev))
+    rv = res.ravel()
+    ss = float(np.dot(rv, rv))  # finite only if every residual is (squares cannot cancel an inf or a NaN)
+    finite = _finite_values(theta) and (math.isfinite(ss) or _all_finite(res)) and _all_finite(rw) \
+        and (ev is None or _all_finite(ev))
     warn = tuple(warnings)
     if not finite:
         success = False
         status = status if "non-finite" in status else f"{status} (non-finite numbers)"
         warn += ("the solver returned non-finite numbers; no estimate is given",)
-    rv = res.ravel()
-    return FitResult(
+    return _new_result(dict(
         data_kind=data_kind, model=model, method=method, theta=theta, jacobian=jacobian,
         weighted_residuals=rw, residuals=res, residual_unit=residual_unit, n_samples=int(n_samples),
         normal_loads=normal_loads, vehicle=vehicle, bounds=bounds, status=str(status), success=bool(success),
         message=str(message), iterations=int(iterations), solve_time=float(solve_time),
         sigma_known=bool(sigma_known),
-        rmse=math.sqrt(float(np.dot(rv, rv)) / res.size) if res.size else math.nan,
-        free=free, _finite=finite, input_warnings=warn, extra=dict(extra or {}), **effect_fields)
+        rmse=math.sqrt(ss / res.size) if res.size else math.nan,
+        free=free, _finite=finite, input_warnings=warn, extra=dict(extra or {}), **effect_fields))
 
 
 _distinct_loads = distinct_loads
@@ -326,6 +353,11 @@ _distinct_loads = distinct_loads
 def _all_finite(x: np.ndarray) -> bool:
     """Whether every entry is finite (``np.isfinite(x).all()`` in two ufunc calls)."""
     return bool(np.logical_and.reduce(np.isfinite(x), axis=None))
+
+
+def _finite_values(x: np.ndarray) -> bool:
+    """:func:`_all_finite` of a short array (theta: three numbers) without numpy calls."""
+    return all(map(math.isfinite, x.tolist())) if x.ndim == 1 else _all_finite(x)
 
 
 def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, jacobian: np.ndarray,
@@ -395,7 +427,10 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
     if data_kind not in ("slip", "drive"):
         raise ValueError(f"data_kind must be 'slip' or 'drive', got {data_kind!r}")
     free = _free_indices(model)
-    theta = np.asarray(theta, dtype=float).reshape(3).copy()
+    if type(theta) is np.ndarray and theta.shape == (3,) and theta.dtype == np.float64:
+        theta = theta.copy()
+    else:
+        theta = np.asarray(theta, dtype=float).reshape(3).copy()
     J = np.asarray(jacobian, dtype=float)
     rw = np.asarray(weighted_residuals, dtype=float).ravel()
     labels = tuple(effect_labels)

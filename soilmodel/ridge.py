@@ -23,9 +23,14 @@ LOAD_RTOL = 1e-9
 
 def distinct_loads(W) -> np.ndarray:
     """Distinct normal loads (sorted, finite), two loads being equal within :data:`LOAD_RTOL`."""
-    w = np.atleast_1d(np.asarray(W, dtype=float)).ravel()
-    if w.size and math.isfinite(w[0]) and (w == w[0]).all():  # one load (the common case)
-        return w[:1].copy()
+    if type(W) is np.ndarray and W.ndim == 1 and W.dtype == np.float64:
+        w = W
+    else:
+        w = np.atleast_1d(np.asarray(W, dtype=float)).ravel()
+    if w.size:
+        lo = np.minimum.reduce(w)
+        if lo == np.maximum.reduce(w) and math.isfinite(lo):  # one load (the common case)
+            return w[:1].copy()
     w = np.sort(w[np.isfinite(w)])
     if w.size == 0:
         return w
