@@ -70,7 +70,7 @@ import math
 import os
 import threading
 import time
-from dataclasses import MISSING, dataclass, fields
+from dataclasses import dataclass
 from functools import lru_cache
 
 import casadi as ca
@@ -545,15 +545,21 @@ def _variant(pb: SlipProblem) -> tuple[int, bool, str]:
 
 
 def _scaled_box(pb: SlipProblem, p: int, one_load: bool) -> tuple[list, list]:
-    (c_lo, c_hi), (p_lo, p_hi), (K_lo, K_hi) = pb.bounds.cohesion, pb.bounds.friction_angle, pb.bounds.shear_modulus
-    sK = _S2
     if one_load:  # F_max = W tan(phi_e) spans what the (c, phi) box allows
+        (c_lo, c_hi), (p_lo, p_hi), (K_lo, K_hi) = pb.bounds.cohesion, pb.bounds.friction_angle, \
+            pb.bounds.shear_modulus
         W0, A = float(pb.load[0]), pb.vehicle.contact_area
         F_lo, F_hi = max_thrust_expr(c_lo, p_lo, W0, A), max_thrust_expr(c_hi, p_hi, W0, A)
-        return [math.atan(F_lo / W0), K_lo / sK], [math.atan(F_hi / W0), K_hi / sK]
+        return [math.atan(F_lo / W0), K_lo / _S2], [math.atan(F_hi / W0), K_hi / _S2]
+    return _box(pb.bounds, p)
+
+
+def _box(bounds, p: int) -> tuple[list, list]:
+    """Scaled bounds of the variables (not the one-load case, whose box depends on the load)."""
+    (c_lo, c_hi), (p_lo, p_hi), (K_lo, K_hi) = bounds.cohesion, bounds.friction_angle, bounds.shear_modulus
     if p == 3:
-        return [c_lo / _S0, p_lo, K_lo / sK], [c_hi / _S0, p_hi, K_hi / sK]
-    return [p_lo, K_lo / sK], [p_hi, K_hi / sK]
+        return [c_lo / _S0, p_lo, K_lo / _S2], [c_hi / _S0, p_hi, K_hi / _S2]
+    return [p_lo, K_lo / _S2], [p_hi, K_hi / _S2]
 
 
 def _scaled_start(pb: SlipProblem, x0, p: int, one_load: bool) -> tuple[list, float]:
@@ -640,67 +646,84 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
     p, one_load, model = _variant(pb)
     k = kernel(p, model, pb.n, n_grid, jit)
     nc, n = k.n, pb.n
-    lbz, ubz = _scaled_box(pb, p, one_load)
-    z0, use0 = _scaled_start(pb, x0, p, one_load)
-    o = 4 * nc + 2
     cs, cr = k.solver, k.resjac
-    rj = None
     if cs.trigger is None or cr.trigger is None:  # pragma: no cover - CasADi without buffers
-        weak, strong = corner_soils(pb.bounds, pb.model)
-        xin = input_vector(pb, x0, nc)
+        return _solve_unbuffered(pb, x0, p, one_load, k)
+    tail = _tail(pb, p, one_load, x0)
+    w = np.divide(1.0, pb.sigma)
+    grid = None if cs.grid is None else _block_offsets(nc) + pb.slip.argsort(kind="stable")[_spread(n)]
+    pad = _zeros(nc - n)
+    with cs.lock:  # fill the zero-copy input buffer in place, call, read the output
+        # [slip, F, W, w] each padded to nc rows (zero slip, force and weight; W = the first load), l, b,
+        # the scaled box and start (what input_vector gives), in one copy; then the start grid's samples
+        # (grid_rows) taken from the blocks just written
+        np.concatenate((pb.slip, pad, pb.force, pad, pb.load, pb.load[0:1].repeat(nc - n), w, pad, tail),
+                       out=cs.front)
+        if grid is not None:
+            cs.x.take(grid, out=cs.grid)
         t1 = time.perf_counter()
-        yl = cs(xin).tolist()
+        cs.trigger()
         t_call = time.perf_counter() - t1
+        yl = cs.y.tolist()
         z, iters, ok, theta = _decode(pb, yl, p, one_load)
-        if ok:
-            rj = cr(np.concatenate((theta, xin[0:o], weak, strong)))
+        if ok:  # residuals and Jacobian at the reported point (AD of Eq. 2/8), the plausibility curves
+            with cr.lock:  # (always taken after the solver's lock: no deadlock)
+                np.concatenate((theta, cs.head, _corners(pb.bounds, pb.model)), out=cr.x)
+                cr.trigger()
+                rj = cr.y.copy()
+    return _solution_of(theta, ok, iters, yl, p, z, one_load, cs, t_call, rj if ok else None, n, nc)
+
+
+def _solve_unbuffered(pb: SlipProblem, x0, p: int, one_load: bool, k: "Kernel") -> "Solution":  # pragma: no cover
+    """:func:`solve` through ordinary Function calls (CasADi without buffers)."""
+    nc, n = k.n, pb.n
+    cs, cr = k.solver, k.resjac
+    o = 4 * nc + 2
+    weak, strong = corner_soils(pb.bounds, pb.model)
+    xin = input_vector(pb, x0, nc)
+    t1 = time.perf_counter()
+    yl = cs(xin).tolist()
+    t_call = time.perf_counter() - t1
+    z, iters, ok, theta = _decode(pb, yl, p, one_load)
+    rj = cr(np.concatenate((theta, xin[0:o], weak, strong))) if ok else None
+    return _solution_of(theta, ok, iters, yl, p, z, one_load, cs, t_call, rj, n, nc)
+
+
+def _solution_of(theta, ok: bool, iters: int, yl: list, p: int, z: list, one_load: bool, cs: "_Caller",
+                 t_call: float, rj: np.ndarray | None, n: int, nc: int) -> "Solution":
+    """The :class:`Solution` of one solve: the solver's output list ``yl`` and the residual Function's ``rj``."""
+    if rj is None:
+        r = J = np.empty(0)
+        curves = screen = bp = limit = None
     else:
-        tail = _tail(pb, p, one_load, lbz, ubz, z0, use0)
-        w = np.divide(1.0, pb.sigma)
-        with cs.lock:  # fill the zero-copy input buffer in place, call, read the output
-            xb = cs.x
-            # [slip, F, W, w] each padded to nc rows (zero slip, force and weight; W = the first load), l, b,
-            # the scaled box and start: what _data_vector and input_vector give, in one copy
-            pad = _zeros(nc - n)
-            np.concatenate((pb.slip, pad, pb.force, pad, pb.load, pb.load[0:1].repeat(nc - n), w, pad, tail),
-                           out=cs.front)
-            if cs.grid is not None:  # the start grid's samples (grid_rows), taken from the blocks just written
-                np.take(xb, _grid_index(pb, nc), out=cs.grid)
-            t1 = time.perf_counter()
-            cs.trigger()
-            t_call = time.perf_counter() - t1
-            yl = cs.y.tolist()
-            z, iters, ok, theta = _decode(pb, yl, p, one_load)
-            if ok:  # residuals and Jacobian at the reported point (AD of Eq. 2/8), the plausibility curves
-                with cr.lock:  # (always taken after the solver's lock: no deadlock)
-                    np.concatenate((theta, cs.head, _corners(pb.bounds, pb.model)), out=cr.x)
-                    cr.trigger()
-                    rj = cr.y.copy()
-    r = J = np.empty(0)
-    curves = screens = None
-    if rj is not None:
         r = rj[0:n]
         J = rj[nc:4 * nc].reshape(3, nc)[:, 0:n].T
         curves = (rj[4 * nc:4 * nc + n], rj[5 * nc:5 * nc + n])
-        screens = rj[6 * nc:6 * nc + 3].tolist()
-    return _solution(theta=theta, certified=ok, iterations=iters, start=_theta_si(yl[2 * p + 3:3 * p + 3], p),
-                     residuals=r, jacobian=J, z=np.array(z), p=p, one_load=one_load, engine=cs.engine,
-                     backend=cs.backend, call_time=t_call, curves=curves,
-                     screen=None if screens is None else screens[0],
-                     bp_screen=None if screens is None else screens[1],
-                     limit_screen=None if screens is None else screens[2])
+        screen, bp, limit = rj[6 * nc:6 * nc + 3].tolist()
+    obj = object.__new__(Solution)  # Solution(...) without the frozen dataclass's per-field setattr
+    obj.__dict__.update(theta=theta, certified=ok, iterations=iters, start=_theta_si(yl[2 * p + 3:3 * p + 3], p),
+                        residuals=r, jacobian=J, z=np.array(z), p=p, one_load=one_load, engine=cs.engine,
+                        backend=cs.backend, call_time=t_call, curves=curves, screen=screen, bp_screen=bp,
+                        limit_screen=limit)
+    return obj
 
 
-def _tail(pb: SlipProblem, p: int, one_load: bool, lbz: list, ubz: list, z0: list, use0: float) -> np.ndarray:
+def _tail(pb: SlipProblem, p: int, one_load: bool, x0) -> np.ndarray:
     """``[l, b, lbz, ubz, z0, use_z0, KKT_TOL, ZERO_COST]``: what follows the data blocks in the solver's input."""
     v = pb.vehicle
-    if use0 == 0.0:  # no start given: the same numbers for every problem of these bounds and this vehicle
-        return _tail_cached(v.track_length, v.track_width, tuple(lbz), tuple(ubz), p, KKT_TOL, ZERO_COST)
+    if x0 is None and not one_load:  # the same numbers for every problem with these bounds and this vehicle
+        try:
+            return _tail_cached(v.track_length, v.track_width, pb.bounds, p, KKT_TOL, ZERO_COST)
+        except TypeError:  # unhashable bounds: not cached
+            pass
+    lbz, ubz = _scaled_box(pb, p, one_load)
+    z0, use0 = _scaled_start(pb, x0, p, one_load)
     return np.array([v.track_length, v.track_width, *lbz, *ubz, *z0, use0, KKT_TOL, ZERO_COST])
 
 
 @lru_cache(maxsize=256)
-def _tail_cached(l: float, b: float, lbz: tuple, ubz: tuple, p: int, kkt: float, zero: float) -> np.ndarray:
+def _tail_cached(l: float, b: float, bounds, p: int, kkt: float, zero: float) -> np.ndarray:
+    lbz, ubz = _box(bounds, p)
     t = np.array([l, b, *lbz, *ubz, *([0.0] * p), 0.0, kkt, zero])
     t.flags.writeable = False
     return t
@@ -733,28 +756,6 @@ def _corners(bounds, model: str) -> np.ndarray:
 @lru_cache(maxsize=1024)
 def _block_offsets(nc: int) -> np.ndarray:
     return np.arange(4, dtype=np.intp).reshape(4, 1) * nc
-
-
-def _grid_index(pb: SlipProblem, nc: int) -> np.ndarray:
-    """Positions in the solver's input of the start grid's samples (:func:`grid_rows`) in each of the four
-    data blocks (slip, F, W, w = 1/sigma), as 4 x GRID_ROWS."""
-    return _block_offsets(nc) + grid_rows(pb)
-
-
-_SOLUTION_DEFAULTS: dict = {}
-
-
-def _solution(**values) -> "Solution":
-    """``Solution(**values)`` without the frozen dataclass's one ``object.__setattr__`` per field."""
-    if not _SOLUTION_DEFAULTS:
-        _SOLUTION_DEFAULTS.update({f.name: f.default for f in fields(Solution)})
-    state = dict(_SOLUTION_DEFAULTS)
-    state.update(values)
-    if len(state) != len(_SOLUTION_DEFAULTS) or any(v is MISSING for v in state.values()):
-        raise TypeError(f"Solution: bad fields {sorted(set(state) ^ set(_SOLUTION_DEFAULTS))}")
-    obj = object.__new__(Solution)
-    obj.__dict__.update(state)
-    return obj
 
 
 def _decode(pb: SlipProblem, yl: list, p: int, one_load: bool) -> tuple[list, int, bool, np.ndarray]:

@@ -357,12 +357,12 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
     load = data.loads(vehicle.weight)
     load = load.astype(float) if data.normal_load is not None else load  # a copy of the data's; np.full is new
     sig, known = weights(data.values, sigma, sigma_known, source=data.source, column=data.channel)
-    if not data.slip.any():  # all slips zero
-        raise DataError("all slips are zero: the tractive force carries no information on the soil",
-                        file=data.source, column="slip")
     positive = data.slip[data.slip > 0]
-    if positive.size == 0 or np.minimum.reduce(positive) == np.maximum.reduce(positive):  # fewer than 2 distinct nonzero slips:
+    if positive.size < 2 or not np.count_nonzero(positive != positive[0]):  # fewer than 2 distinct nonzero slips:
         # F(i) = F_max g(i l / K): one slip gives one number, not both F_max and K
+        if not data.slip.any():  # all slips zero
+            raise DataError("all slips are zero: the tractive force carries no information on the soil",
+                            file=data.source, column="slip")
         raise DataError(f"all nonzero slips are equal (i = {float(np.max(data.slip)):.6g}): one point of the "
                         "thrust-slip curve cannot separate F_max from K; measure at two or more different slips "
                         "(ideally spread up to the traction limit)", file=data.source, column="slip")

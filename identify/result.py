@@ -289,29 +289,11 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
 # --------------------------------------------------------------------------------------------
 # entry points
 # --------------------------------------------------------------------------------------------
-#: Fields of :class:`FitResult` in order, with their defaults (:func:`_new_result`).
+#: Fields of :class:`FitResult` in order, with their defaults (``_NO_DEFAULT`` for the required ones):
+#: :func:`build_result` fills a copy (the same attributes, in the same order, as ``FitResult(...)``,
+#: without the frozen dataclass's one ``object.__setattr__`` call per field).
 _NO_DEFAULT = object()
 _RESULT_DEFAULTS = {f.name: (f.default if f.default is not MISSING else _NO_DEFAULT) for f in fields(FitResult)}
-_RESULT_FACTORIES = tuple((f.name, f.default_factory) for f in fields(FitResult) if f.default_factory is not MISSING)
-_RESULT_REQUIRED = frozenset(k for k, v in _RESULT_DEFAULTS.items() if v is _NO_DEFAULT) - \
-    {name for name, _ in _RESULT_FACTORIES}
-
-
-def _new_result(values: dict) -> FitResult:
-    """``FitResult(**values)``: the same attributes in the same order, without the frozen dataclass's
-    one ``object.__setattr__`` call per field (a result has over thirty)."""
-    missing = _RESULT_REQUIRED - values.keys()
-    unknown = values.keys() - _RESULT_DEFAULTS.keys()
-    if missing or unknown:
-        raise TypeError(f"FitResult: missing {sorted(missing)}, unknown {sorted(unknown)}")
-    state = dict(_RESULT_DEFAULTS)
-    state.update(values)
-    for name, factory in _RESULT_FACTORIES:
-        if name not in values:
-            state[name] = factory()
-    obj = object.__new__(FitResult)
-    obj.__dict__.update(state)
-    return obj
 
 
 def _free_indices(model: str) -> tuple[int, ...]:
@@ -322,37 +304,12 @@ def _free_indices(model: str) -> tuple[int, ...]:
     raise ValueError(f"unknown model {model!r}")
 
 
-def _assemble(*, data_kind, model, method, theta, jacobian, weighted_residuals, residuals,
-              residual_unit, n_samples, normal_loads, vehicle, bounds, status, success, message, iterations,
-              solve_time, sigma_known, warnings, extra, free, **effect_fields) -> FitResult:
-    res = np.asarray(residuals, dtype=float)
-    rw = np.asarray(weighted_residuals, dtype=float)
-    ev = effect_fields.get("effect_values")
-    rv = res.ravel()
-    ss = float(np.dot(rv, rv))  # finite only if every residual is (squares cannot cancel an inf or a NaN)
-    finite = _finite_values(theta) and (math.isfinite(ss) or _all_finite(res)) and _all_finite(rw) \
-        and (ev is None or _all_finite(ev))
-    warn = tuple(warnings)
-    if not finite:
-        success = False
-        status = status if "non-finite" in status else f"{status} (non-finite numbers)"
-        warn += ("the solver returned non-finite numbers; no estimate is given",)
-    return _new_result(dict(
-        data_kind=data_kind, model=model, method=method, theta=theta, jacobian=jacobian,
-        weighted_residuals=rw, residuals=res, residual_unit=residual_unit, n_samples=int(n_samples),
-        normal_loads=normal_loads, vehicle=vehicle, bounds=bounds, status=str(status), success=bool(success),
-        message=str(message), iterations=int(iterations), solve_time=float(solve_time),
-        sigma_known=bool(sigma_known),
-        rmse=math.sqrt(ss / res.size) if res.size else math.nan,
-        free=free, _finite=finite, input_warnings=warn, extra=dict(extra or {}), **effect_fields))
-
-
 _distinct_loads = distinct_loads
 
 
 def _all_finite(x: np.ndarray) -> bool:
-    """Whether every entry is finite (``np.isfinite(x).all()`` in two ufunc calls)."""
-    return bool(np.logical_and.reduce(np.isfinite(x), axis=None))
+    """Whether every entry is finite (``np.isfinite(x).all()``, counted without a ufunc reduction)."""
+    return np.count_nonzero(np.isfinite(x)) == x.size
 
 
 def _finite_values(x: np.ndarray) -> bool:
@@ -455,11 +412,28 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
                              effect_bounds=tuple((float(a), float(b)) for a, b in effect_bounds),
                              effect_units=tuple(effect_units), effect_structure=effect_structure,
                              fixed_labels=fixed_labels)
-    return _assemble(data_kind=data_kind, model=model, method=method, theta=theta, jacobian=J,
-                     weighted_residuals=rw, residuals=residuals, residual_unit=residual_unit, n_samples=n_samples,
-                     normal_loads=_distinct_loads(normal_loads), vehicle=vehicle, bounds=bounds, status=status,
-                     success=success, message=message, iterations=iterations, solve_time=solve_time,
-                     sigma_known=sigma_known, warnings=warnings, extra=extra, free=free, **effect_fields)
+    res = np.asarray(residuals, dtype=float)
+    ev = effect_fields.get("effect_values")
+    rv = res.ravel()
+    ss = float(np.dot(rv, rv))  # finite only if every residual is (squares cannot cancel an inf or a NaN)
+    finite = _finite_values(theta) and (math.isfinite(ss) or _all_finite(res)) and _all_finite(rw) \
+        and (ev is None or _all_finite(ev))
+    warn = tuple(warnings)
+    if not finite:
+        success = False
+        status = status if "non-finite" in status else f"{status} (non-finite numbers)"
+        warn += ("the solver returned non-finite numbers; no estimate is given",)
+    state = dict(_RESULT_DEFAULTS)  # every field (extra, the one with a factory, is always given)
+    state.update(
+        data_kind=data_kind, model=model, method=method, theta=theta, jacobian=J, weighted_residuals=rw,
+        residuals=res, residual_unit=residual_unit, n_samples=int(n_samples),
+        normal_loads=_distinct_loads(normal_loads), vehicle=vehicle, bounds=bounds, status=str(status),
+        success=bool(success), message=str(message), iterations=int(iterations), solve_time=float(solve_time),
+        sigma_known=bool(sigma_known), rmse=math.sqrt(ss / res.size) if res.size else math.nan, free=free,
+        _finite=finite, input_warnings=warn, extra=dict(extra or {}), **effect_fields)
+    obj = object.__new__(FitResult)
+    obj.__dict__.update(state)
+    return obj
 
 
 def build_results_batch(*, model: str, method: str, theta: np.ndarray, jacobian: np.ndarray,

@@ -27,10 +27,8 @@ def distinct_loads(W) -> np.ndarray:
         w = W
     else:
         w = np.atleast_1d(np.asarray(W, dtype=float)).ravel()
-    if w.size:
-        lo = np.minimum.reduce(w)
-        if lo == np.maximum.reduce(w) and math.isfinite(lo):  # one load (the common case)
-            return w[:1].copy()
+    if w.size and math.isfinite(w[0]) and not np.count_nonzero(w != w[0]):  # one load (the common case)
+        return w[:1].copy()
     w = np.sort(w[np.isfinite(w)])
     if w.size == 0:
         return w

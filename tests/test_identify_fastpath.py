@@ -351,6 +351,34 @@ def test_solve_many_gives_exactly_what_solve_gives():
         assert np.array_equal(a.theta, b.theta) and np.array_equal(a.start, b.start)
         assert np.array_equal(a.residuals, b.residuals) and np.array_equal(a.jacobian, b.jacobian)
         assert all(np.array_equal(x, y) for x, y in zip(a.curves, b.curves))
+        assert (a.screen, a.bp_screen, a.limit_screen) == (b.screen, b.bp_screen, b.limit_screen)
+
+
+def input_state(pb):
+    """The solver's input buffer after a solve: what input_vector says it is."""
+    sol = compiled_lm.solve(pb)
+    k = compiled_lm.kernel(sol.p, pb.model, pb.n)
+    return np.array_equal(k.solver.x, compiled_lm.input_vector(pb, nc=k.n))
+
+
+def test_the_buffer_fill_is_input_vector_and_records_have_every_field():
+    """solve fills the solver's buffer in one copy: exactly input_vector; Solution and FitResult are built
+    without their dataclass __init__: every field is there, in field order."""
+    import dataclasses
+    from soiltrack.identify.result import FitResult
+    rng = np.random.default_rng(11)
+    for model, loads in CASES:
+        for n in (3, 16, 17, 40, 100):
+            d = random_data(rng, model, loads, n=n)
+            for sigma in (None, "relative", rng.uniform(1e3, 5e3, n)):
+                pb = make_problem(d, HEAVY, model, PRACTICAL_BOUNDS, sigma=sigma)
+                assert input_state(pb)
+    sol = compiled_lm.solve(pb)
+    assert list(sol.__dict__) == [f.name for f in dataclasses.fields(compiled_lm.Solution)]
+    for res in (fit(d, HEAVY, model=model), fit(d, HEAVY, model=model, engine="ipopt"),
+                fit(d, HEAVY, model=model, method="newton")):
+        assert list(res.__dict__)[:len(dataclasses.fields(FitResult))] == [f.name for f in dataclasses.fields(FitResult)]
+        assert not any(type(v) is object for v in res.__dict__.values())
 
 
 def test_plausibility_curves_of_the_kernel_are_the_soilmodel_ones():
