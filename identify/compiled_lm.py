@@ -462,6 +462,7 @@ class Kernel:
 _KERNELS: dict[tuple, Kernel] = {}
 _KERNELS_LOCK = threading.Lock()  # guards the two dicts
 _BUILD_LOCKS: dict[tuple, threading.Lock] = {}  # one per kernel: builds and compiles do not block other kernels
+_BY_SIZE: dict[tuple, tuple] = {}  # (p, model, n, n_grid) as called -> (its kernel, _KERNELS): a shortcut
 
 
 def _after_fork() -> None:  # a lock held by another thread at fork time would never be released
@@ -489,9 +490,13 @@ def kernel(p: int, model: str, n: int, n_grid: int = 25, jit: str = "wait") -> K
 
     ``n`` is rounded up to its :func:`size_class`. ``jit`` is one of :data:`JIT_MODES`.
     """
+    hit = _BY_SIZE.get((p, model, n, n_grid))
+    if hit is not None and hit[1] is _KERNELS and hit[0].compiled.is_c and jit in JIT_MODES:
+        return hit[0]  # the common case: C code loaded, no lock
     key = (int(p), model, size_class(n), max(int(n_grid), 1))
     k = _KERNELS.get(key)
-    if k is not None and k.compiled.is_c and jit in JIT_MODES:  # the common case: C code loaded, no lock
+    if k is not None and k.compiled.is_c and jit in JIT_MODES:
+        _remember(p, model, n, n_grid, k)
         return k
     jit = _jit_mode(jit)
     with _KERNELS_LOCK:
@@ -504,7 +509,16 @@ def kernel(p: int, model: str, n: int, n_grid: int = 25, jit: str = "wait") -> K
                 _KERNELS[key] = k
         else:
             k.refresh(jit)
+        _remember(p, model, n, n_grid, k)
         return k
+
+
+def _remember(p, model: str, n, n_grid, k: Kernel) -> None:
+    """Find ``k`` for these exact arguments without computing its key next time (kernels are never replaced;
+    the entry holds the cache it came from, and counts only while that is still the cache)."""
+    if len(_BY_SIZE) > 4096:
+        _BY_SIZE.clear()
+    _BY_SIZE[(p, model, n, n_grid)] = (k, _KERNELS)
 
 
 @dataclass(frozen=True, eq=False)
@@ -768,7 +782,7 @@ def _decode(pb: SlipProblem, yl: list, p: int, one_load: bool) -> tuple[list, in
     z = yl[0:p]
     iters = int(yl[2 * p + 2]) if math.isfinite(yl[2 * p + 2]) else -1
     ok = yl[3 * p + 4] > 0.5
-    theta = np.array(_theta_si(z, p) if all(math.isfinite(v) for v in z) else [math.nan] * 3)
+    theta = np.array(_theta_si(z, p) if all(map(math.isfinite, z)) else [math.nan] * 3)
     if ok and one_load:  # the ridge marker, as the IPOPT path reports it
         W0 = float(pb.load[0])
         c, phi = ridge_centre(max_thrust_expr(0.0, theta[1], W0, pb.vehicle.contact_area, "cohesion-free"), W0,
