@@ -118,36 +118,33 @@ def _data_symbols():
     return [ca.SX.sym(k) for k in ("s", "F", "W", "w", "l", "b")]
 
 
-def _hoisted(name: str, inputs: list, outputs: list, repeated: list, opts: dict | None = None) -> tuple:
-    """A per-sample SX Function split into its row-invariant part and the rest (CasADi's ``extract_parametric``).
-
-    ``repeated``: indices of the inputs that are the same for every sample of a map (the
-    parameters, ``l``, ``b``, ...). Everything in ``outputs`` that depends on them alone
-    (``tan(phi)``, ``cos(phi)^2``, ``A c``, ...) is computed once per call by ``pre`` and handed to
-    ``row`` as its extra first input ``e``, instead of once per sample: the same operations on the
-    same numbers, so the same results to the last bit, with fewer transcendental calls.
-    Returns ``(pre, row)``; ``row`` takes ``[e] + inputs``.
-    """
-    par = ca.vertcat(*[inputs[i] for i in repeated])
-    ret, syms, pars = ca.extract_parametric(outputs, par)
-    e = ca.vertcat(*syms) if syms else ca.SX.sym("e", 0)
-    pre = ca.Function(name + "_pre", [inputs[i] for i in repeated], [ca.vertcat(*pars) if pars else ca.SX(0, 1)],
-                      {"cse": True})
-    row = ca.Function(name, [e] + list(inputs), list(ret), opts or {})
-    return pre, row
-
-
 def _row_map(name: str, inputs: list, outputs: list, repeated: list, n: int, reduce_out=(),
              opts: dict | None = None):
-    """``Function(name, inputs, outputs).map(name, "serial", n, repeated, reduce_out)`` with the
-    row-invariant parts hoisted out of the loop (:func:`_hoisted`); returns a callable with the
-    mapped Function's arguments."""
-    pre, row = _hoisted(name, inputs, outputs, list(repeated), opts)
-    mapped = row.map(name + "_map", "serial", n, [0] + [i + 1 for i in repeated], list(reduce_out))
+    """``Function(name, inputs, outputs).map(name, "serial", n, repeated, reduce_out)``, evaluated in less time.
+
+    ``repeated``: indices of the inputs that are the same for every sample (the parameters,
+    ``l``, ``b``, ...). CasADi's ``extract_parametric`` splits ``outputs`` into what depends on
+    them alone (``tan(phi)``, ``cos(phi)^2``, ``A c``, ...), computed once per call by a ``pre``
+    Function, and the per-sample rest, which takes those numbers as an extra first input
+    instead of computing them once per sample: the same operations on the same numbers, so the
+    same results to the last bit, with fewer transcendental calls. Inputs the per-sample rest no
+    longer reads are left out of the map (a serial map copies a repeated input once per sample).
+    Returns a callable with the arguments of the plain mapped Function.
+    """
     rep = list(repeated)
+    ret, syms, pars = ca.extract_parametric(outputs, ca.vertcat(*[inputs[i] for i in rep]))
+    body = ca.vertcat(*ret)
+    used = [k for k, x in enumerate(inputs) if x.numel() and ca.depends_on(body, x)]
+    row_in = ([ca.vertcat(*syms)] if syms else []) + [inputs[k] for k in used]
+    row = ca.Function(name, row_in, list(ret), opts or {})
+    first = 1 if syms else 0
+    mapped = row.map(name + "_map", "serial", n, ([0] if syms else []) + [first + j for j, k in enumerate(used)
+                                                                          if k in rep], list(reduce_out))
+    pre = ca.Function(name + "_pre", [inputs[i] for i in rep], [ca.vertcat(*pars)], {"cse": True}) if syms else None
 
     def call(*args):
-        return mapped(pre(*[args[i] for i in rep]), *args)
+        kept = [args[k] for k in used]
+        return mapped(pre(*[args[i] for i in rep]), *kept) if syms else mapped(*kept)
     return call
 
 
