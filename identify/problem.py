@@ -163,7 +163,9 @@ def weights(values: np.ndarray, sigma=None, sigma_known: bool | None = None, *, 
     """
     values = np.asarray(values, dtype=float)
     if sigma is None:
-        return np.ones(values.shape), (False if sigma_known is None else bool(sigma_known))
+        ones = np.empty(values.shape)
+        ones.fill(1.0)
+        return ones, (False if sigma_known is None else bool(sigma_known))
     if isinstance(sigma, str):
         if sigma != "relative":
             raise DataError(f"sigma must be a number, an array or 'relative', got {sigma!r}")

@@ -118,7 +118,9 @@ class SlipData:
             return self.normal_load
         if default is None:
             raise DataError("the data carry no normal_load_N column; give the vehicle's weight", file=self.source)
-        return np.full(self.slip.shape, float(default))
+        out = np.empty(self.slip.shape)
+        out.fill(float(default))  # np.full without its Python wrapper
+        return out
 
     @property
     def distinct_loads(self) -> np.ndarray:
