@@ -575,6 +575,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             kw["x0"] = warm["x0"]
         if effects:
             kw["effects"] = list(effects)
+            if not is_log:  # held-out errors are compared, not intervals: the plain exact-slip estimator
+                kw.update(slip_noise="off", intervals="linear")
         if start is not None and effects:
             if isinstance(start, dict):  # drive logs: {effect: {param: value}} of a training fit
                 kw["effects"] = dict(start)

@@ -144,8 +144,14 @@ class ReportViews:
         q = self.quantile
         t = (f"95 % intervals use Student t ({self.dof} residual degrees of freedom, quantile {q:.4g})"
              if q is not None and not self.sigma_known else "95 % intervals use the normal quantile 1.96")
+        sn = x.get("slip_noise") if self.data_kind == "slip" else None
         if self.data_kind == "drive":
             head = "noise: per-channel levels " + ("given" if self.sigma_known else "estimated from the log")
+        elif isinstance(sn, dict) and sn.get("adopted"):
+            how = ("estimated from the residuals" if sn.get("mode") == "auto" else "slip noise given")
+            head = (f"noise: on the force and on the slip, weights 1 / (sigma_F^2 + (dF/di)^2 sigma_i^2) (effective "
+                    f"variance; {how}: sigma_i = {sn['slip_sigma']:.3g}, sigma_F = "
+                    f"{format_force(sn['force_sigma_N'])})")
         elif kind == "relative":
             head = ("noise: proportional to the force (sigma='relative': weights 1/|F|, floored at 1 % of the "
                     "largest force); its level estimated from the residuals")
