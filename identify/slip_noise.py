@@ -38,7 +38,7 @@ import numpy as np
 from ..soilmodel.errors import DataError
 from .sweep_model import slip_slope
 
-__all__ = ["SlipNoise", "estimate_slip_noise", "check_slip_noise", "fit_with_slip_noise", "LR_CRITICAL"]
+__all__ = ["SlipNoise", "estimate_slip_noise", "leverage", "serial_correlation", "check_slip_noise", "fit_with_slip_noise", "LR_CRITICAL"]
 
 #: Likelihood-ratio level above which slip noise is adopted: p = 0.01 under the mixture
 #: 0.5 chi2(0) + 0.5 chi2(1) of a variance tested on its zero bound (P(chi2(1) > 5.412) = 0.02).
@@ -204,6 +204,22 @@ def serial_correlation(residuals, sigma, slip, load) -> float:
 SERIAL_Z = 2.576
 
 
+def leverage(res) -> np.ndarray:
+    """Diagonal of the hat matrix of the weighted fit (free columns), capped at 0.95.
+
+    A fitted residual has variance ``var_k (1 - h_k)``: the samples that pin the parameters
+    (the steep start of the curve pins K) are fitted closely whatever their noise, so the
+    variance components are estimated from ``r_k / sqrt(1 - h_k)``.
+    """
+    J = np.asarray(res.jacobian, float)[:, list(res.free)]
+    if J.size == 0:
+        return np.zeros(J.shape[0])
+    Q, R = np.linalg.qr(J / np.maximum(np.linalg.norm(J, axis=0), 1e-300))
+    keep = np.abs(np.diag(R)) > 1e-10 * max(float(np.max(np.abs(np.diag(R)))), 1e-300)
+    h = np.sum(Q[:, keep] ** 2, axis=1)
+    return np.minimum(h, 0.95)
+
+
 def _x_of(res) -> np.ndarray:
     ev = np.asarray(res.effect_values, float) if res.effect_values is not None else np.zeros(0)
     return np.concatenate([np.asarray(res.theta, float), ev])
@@ -231,7 +247,7 @@ def fit_with_slip_noise(pb, solve, mode) -> tuple[object, SlipNoise, object]:
 
     def components(r):
         d = slip_slope(_x_of(r), pb.slip, pb.load, pb.vehicle, pb.effects, pb.model, pb.measured, pb.rig_speed)
-        return d, estimate_slip_noise(r.residuals, d, base, pb.sigma_known, given)
+        return d, estimate_slip_noise(r.residuals / np.sqrt(1.0 - leverage(r)), d, base, pb.sigma_known, given)
 
     d, (ss, s, lr) = components(res)
     if given is None and not lr > LR_CRITICAL:
