@@ -126,7 +126,7 @@ def test_profile_interval_matches_linear_where_the_cost_is_quadratic():
     assert set(res.profile_intervals) == {"cohesion", "friction_angle", "shear_modulus", "grade.theta_rad"}
     for label, pi in res.profile_intervals.items():
         lo, hi = pi.linear
-        # measured: the ends agree to about 1 % of the width on these well-determined parameters
+        # measured: the ends agree to 0-2.2 % of the width on these well-determined parameters
         assert abs(pi.lower - lo) < 0.05 * (hi - lo) and abs(pi.upper - hi) < 0.05 * (hi - lo), (label, pi)
     assert json.loads(res.to_json())["extra"]["profile_intervals"]["grade.theta_rad"]["evaluations"] > 0
     lin = fit(d, HEAVY, effects=["grade"], intervals="linear", slip_noise="off")
