@@ -45,7 +45,9 @@ __all__ = ["EstimateViews"]
 
 
 def _profile_note(pi, factor: float, unit: str) -> str:
-    """Plain words for a profile-likelihood interval that replaced the linearised one."""
+    """Plain words for a profile-likelihood (or hold-widened) interval that replaced the linearised one."""
+    if pi.kind != "profile":
+        return pi.note
     unit = "" if unit in ("-", "") else " " + unit
     a, b = pi.linear
     lin = (f"; the linearised interval [{a * factor:.4g}, {b * factor:.4g}]{unit} assumes a quadratic cost"

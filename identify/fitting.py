@@ -17,6 +17,7 @@ from .result import FitResult
 from .seed_methods import fit_least_squares, fit_newton
 from .settings import SETTING_NAMES, FitSettings
 from .slip_noise import check_slip_noise, fit_with_slip_noise
+from .torque_hold import fit_both_holds
 
 __all__ = ["fit"]
 
@@ -103,6 +104,11 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
             options["fixed"] = fixed
         if settings is not None or engine is not None:
             check_engine(FitSettings.resolve(settings, engine=engine).engine)
+        if effects is not None and options.get("torque_hold") is None:
+            # the hold is not stated: intervals cover both (soiltrack.identify.torque_hold)
+            options.pop("torque_hold", None)
+            return fit_both_holds(lambda hold: fit_drive_log(data, vehicle, model, bounds, x0, strict, method=method,
+                                                             torque_hold=hold, **options))
         return fit_drive_log(data, vehicle, model, bounds, x0, strict, method=method, **options)
     if not isinstance(data, SlipData):
         raise DataError(f"fit takes SlipData or DriveLog, got {type(data).__name__}")

@@ -56,13 +56,16 @@ class ProfileInterval:
     linear: tuple
     evaluations: int
     note: str = ""
+    #: ``"profile"`` (the profile likelihood) or ``"hold"`` (widened to cover the other torque hold of a
+    #: drive log, :mod:`soiltrack.identify.torque_hold`)
+    kind: str = "profile"
 
     def to_dict(self) -> dict:
         """JSON-ready dict."""
         f = lambda x: None if x is None or not math.isfinite(x) else float(x)  # noqa: E731
         return {"ci95": [f(self.lower), f(self.upper)], "open_lower": self.open_lower,
                 "open_upper": self.open_upper, "linear_ci95": [f(v) for v in self.linear],
-                "evaluations": self.evaluations, "note": self.note}
+                "evaluations": self.evaluations, "note": self.note, "kind": self.kind}
 
 
 def check_intervals(value) -> str:

@@ -119,6 +119,11 @@ class ReportViews:
             L.append(f"drive log: {x.get('formulation', '?')} formulation, {x.get('samples_used', '?')} of "
                      f"{x.get('samples_total', '?')} samples used, regime {x.get('regime', '?')}"
                      + (f", {hold}" if hold else "") + (f" - {x['note']}" if x.get("note") else ""))
+            alt = x.get("torque_hold_alternative")
+            if isinstance(alt, dict):
+                L.append(f"torque hold not given: fitted again with torque_hold='{alt.get('torque_hold')}' ("
+                         + ("its intervals are covered by the ones below" if alt.get("success") else
+                            f"that fit did not succeed: {alt.get('status')}; intervals from this one only") + ")")
         bc = x.get("bias_correction")
         if isinstance(bc, dict):
             if bc.get("applied"):

@@ -109,7 +109,8 @@ def add_parser(sub) -> None:
                    help="drive logs: SIMEX correction of the slip-noise bias of K on hard-pull logs, about 5 s "
                         "(default: none)")
     f.add_argument("--torque-hold", choices=("zoh", "sample"), default=None,
-                   help="drive logs: how the logged torque relates to the drive (default: zoh). zoh: the torque "
+                   help="drive logs: how the logged torque relates to the drive (default: zoh; with --effect and "
+                        "no --torque-hold the fit is made with both and its intervals cover both). zoh: the torque "
                         "is held from each sample to the next (a controller updating it at the log rate); sample: "
                         "a continuous torque signal sampled at each time (a torque transducer, or a controller "
                         "much faster than the log). The wrong one biases a fitted grade by about the thrust "
