@@ -104,7 +104,7 @@ def run_case(kind, vname, tname, eff_name, mag, nname, seed, candidates=None, du
         noise_level = {data.channel: float(np.sqrt(np.mean((np.asarray(data.values) - truth.values) ** 2)))}
     det = detectability(kind, vehicle, soil, effects, seed, noise_level, duration)
     return {"kind": kind, "vehicle": vname, "terrain": tname, "effect": eff_name, "mag": mag, "noise": nname,
-            "seed": seed, "verdict": d.verdict, "confidence": d.confidence, "shrink": d.shrink, "time": dt,
+            "seed": seed, "verdict": d.verdict, "confidence": d.confidence, "shrink": d.shrink, "gap_shrink": d.gap_shrink, "time": dt,
             "det": det, "n": data.n_samples, "outside": weigh_outside, "confusable": [p for p, _, _ in d.confusable], "diag": d}
 
 
@@ -202,6 +202,11 @@ def summarise(rows, title):
              and r["shrink"] is not None]
     if right:
         print(f"median held-out shrink when right: {np.median(right):.2f} (n = {len(right)})")
+    gaps = [r["gap_shrink"] for r in rows if r["effect"] not in ("none",) and r["verdict"] == r["effect"]
+            and r.get("gap_shrink") is not None]
+    if gaps:
+        print(f"median share of the misfit above the noise removed (gap_shrink) when right: {np.median(gaps):.2f} "
+              f"(n = {len(gaps)})")
     ts = [r["time"] for r in rows]
     print(f"time per diagnosis: median {np.median(ts):.2f} s, max {max(ts):.2f} s (n = {len(ts)}; samples "
           f"{sorted({r['n'] for r in rows})})")

@@ -178,6 +178,11 @@ class Diagnosis:
     gap_p_value: float
     converged: bool
     notes: tuple[str, ...] = ()
+    #: Share of the held-out misfit ABOVE the noise that the verdict's effect removes:
+    #: ``1 - sqrt((za^2 - 1) / (zb^2 - 1))`` with ``zb``, ``za`` the RMS of the held-out residuals over
+    #: their noise floor before and after (``za^2 < 1`` counts as 1: nothing left but noise); None when
+    #: there is no gap above the noise or no named effect.
+    gap_shrink: float | None = None
     elapsed_s: float = 0.0
     curves: dict = field(default_factory=dict, repr=False)
 
@@ -192,7 +197,7 @@ class Diagnosis:
                                   for p, c, x in self.confusable],
             "localisation": [s.to_dict() for s in self.localisation],
             "change_window": None if self.change is None else self.change.to_dict(),
-            "shrink": _f(self.shrink),
+            "shrink": _f(self.shrink), "gap_shrink": _f(self.gap_shrink),
             "holdout_rmse_before": {k: _f(v) for k, v in self.holdout_rmse_before.items()},
             "holdout_rmse_after": None if self.holdout_rmse_after is None else
             {k: _f(v) for k, v in self.holdout_rmse_after.items()},
@@ -309,6 +314,9 @@ class Diagnosis:
                      "level" + ("; all channels together: a channel the effect does not touch stays at its noise "
                                "before and after)" if len(self.holdout_rmse_before) > 1 else
                                ", so it differs from the ratio of the RMS above where the noise varies along the data)"))
+            if self.gap_shrink is not None:
+                L.append(f"  the misfit above the noise shrinks by {self.gap_shrink:.0%} (the part of the held-out error "
+                         "the noise cannot explain, before and after: the share of the gap the effect accounts for)")
         L.append("")
         L.append("Soil (identifiable quantities), nominal fit" + (" -> with the effect:" if self.soil_after else ":"))
         for k, v in self.soil_before.items():
@@ -575,6 +583,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             kw["x0"] = warm["x0"]
         if effects:
             kw["effects"] = list(effects)
+            if not is_log:  # held-out errors are compared, not intervals: the plain exact-slip estimator
+                kw.update(slip_noise="off", intervals="linear")
         if start is not None and effects:
             if isinstance(start, dict):  # drive logs: {effect: {param: value}} of a training fit
                 kw["effects"] = dict(start)
@@ -885,7 +895,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             ch = channels[0]
             lack_p[c] = lack_of_fit(rc[ch][full_ok], fit_jacobian(f, data)[full_ok], basis[full_ok],
                                     sig_n[ch][full_ok])
-        verdict = decide_sweep(weights, [s.effect for s in significant], gap_seen, lack_p, alpha=alpha)
+        shrink_of = {c: 1.0 - math.sqrt(scores[c] / max(scores[NOMINAL], 1e-300)) for c in lack_p
+                     if math.isfinite(scores.get(c, math.inf))}
+        verdict = decide_sweep(weights, [s.effect for s in significant], gap_seen, lack_p, alpha=alpha,
+                               shrink=shrink_of)
 
     # --- 3. where: on the full-data nominal residuals (every sample; the gap is the nominal misfit) -----
     common = np.logical_and.reduce([np.isfinite(R[ch]) & np.isfinite(sig_n[ch]) for ch in channels])
@@ -1080,6 +1093,45 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             confidence = 0.5
             notes.append(f"{name}'s {', '.join(on_bound)} ended on {'its bound' if len(on_bound) == 1 else 'their bounds'}: "
                          f"the effect is stretched to its limit and may stand for another one; confidence capped at 0.5")
+    if name not in (NOMINAL, "unexplained") and name in EFFECTS:
+        # a resistance that grows with speed (or slip), fitted as one that FALLS with it, is not that effect:
+        # it imitates another (with the rig's track speed fixed, -mu_v v = -mu_v u (1 - i) is a resistance
+        # growing with slip)
+        def wrong_sign(effect: str) -> list[str]:
+            ps = next((e.parameters for e in ranking if e.effect == effect), {})
+            out = []
+            for spec in EFFECTS[effect].params:
+                d = ps.get(spec.name, {})
+                v, se = d.get("value"), d.get("stderr")
+                if spec.physical_sign and v is not None and se is not None and math.isfinite(v) \
+                        and math.isfinite(se) and spec.physical_sign * v < -1.96 * se:
+                    out.append(f"{spec.name} = {v:.4g} +- {se:.2g}")
+            return out
+
+        wrong = wrong_sign(name)
+        if wrong:
+            notes.append(f"{name} is fitted with the opposite sign to its meaning ({', '.join(wrong)}: "
+                         f"{EFFECTS[name].description.split(':')[0]} that falls instead): it imitates another effect"
+                         + ("; confidence capped at 0.5" if confidence > 0.5 else ""))
+            confidence = min(confidence, 0.5)
+            # a candidate that explains the held-out gap nearly as well with its parameters physical is named
+            sh_v = next((e.shrink for e in ranking if e.effect == name), None)
+            for e in sorted(ranking, key=lambda e: -e.weight):
+                if e.effect in (name, NOMINAL, DISCREPANCY) or e.effect not in EFFECTS or e.effect not in full_fits:
+                    continue
+                if sh_v is None or e.shrink is None or not e.shrink >= max(0.5 * sh_v, sh_v - MIN_SHRINK) \
+                        or not e.shrink > 0 or wrong_sign(e.effect) or not usable(full_fits[e.effect]) \
+                        or any(d.get("at_bound") for d in e.parameters.values()):
+                    continue
+                notes.append(f"{e.effect} explains the held-out data nearly as well (shrink {e.shrink:.2f} against "
+                             f"{sh_v:.2f}) with its parameters of the physical sign: {e.effect} is named instead")
+                w_v = next((x.weight for x in ranking if x.effect == name), 0.0)
+                c_new = min(0.5, e.weight / max(1.0 - w_v, 1e-12))  # its weight without the discredited verdict
+                verdict = replace(verdict, name=e.effect, confidence=c_new,
+                                  reason=f"{e.effect} explains the gap nearly as well as {name}, which needs the "
+                                         "opposite sign to its meaning to do so")
+                name, confidence = e.effect, c_new
+                break
     if name not in (NOMINAL, "unexplained") and confidence > 0.5:
         sh = next((e.shrink for e in ranking if e.effect == name), None)
         if sh is None or not sh > 0.0:
@@ -1108,10 +1160,15 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         notes.append(f"{name} is named with low certainty (confidence {confidence:.2f}): the data cannot tell it "
                      "from " + ", ".join(x for p, _, _ in conf if name in p for x in p if x != name))
     soil_before = _soil_summary(nominal_full)
+    gap_shrink = None
     if name in full_fits:
         soil_after = _soil_summary(full_fits[name])
         after_rmse = rmse(name)
         shrink = next(e.shrink for e in ranking if e.effect == name)
+        zb2 = scores[NOMINAL] / max(1, n_held)
+        za2 = scores[name] / max(1, n_held) if math.isfinite(scores[name]) else math.inf
+        if zb2 > 1.0 and math.isfinite(za2):
+            gap_shrink = 1.0 - math.sqrt(max(za2 - 1.0, 0.0) / (zb2 - 1.0))
     elif name == "unexplained":
         soil_after = None
         after_rmse = rmse(DISCREPANCY)
@@ -1135,7 +1192,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         confusable=tuple(conf), localisation=tuple(loc), change=change, whiteness=white, lags=lags, noise=noise,
         holdout_rmse_before=before, holdout_rmse_after=after_rmse, shrink=shrink, soil_before=soil_before,
         soil_after=soil_after if name not in (NOMINAL, "unexplained") else None, gap_p_value=gap_p,
-        converged=converged, notes=tuple(notes), elapsed_s=time.perf_counter() - t0, curves=curves)
+        converged=converged, notes=tuple(notes), elapsed_s=time.perf_counter() - t0, curves=curves,
+        gap_shrink=gap_shrink)
 
 
 def _too_few(data, vehicle: Vehicle, model: str, cands: tuple[str, ...], is_log: bool, t0: float,

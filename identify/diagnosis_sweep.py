@@ -228,14 +228,21 @@ def lack_of_fit(residuals: np.ndarray, jacobian: np.ndarray, basis: np.ndarray, 
     return f_sf(((s0 - s1) / d1) / (s1 / d2), d1, d2)
 
 
+#: Held-out shrink from which a candidate that leaves a smooth residual is still named (capped at 0.5).
+PARTIAL_SHRINK = 0.5
+
+
 def decide_sweep(weights: dict[str, float], significant: list[str], gap: bool, lack_p: dict[str, float],
-                 alpha: float = 0.01):
+                 alpha: float = 0.01, shrink: dict[str, float] | None = None):
     """The verdict on a sweep from information-criterion weights and the lack-of-fit test.
 
     - ``none`` when no candidate screens significant and no gap is seen, or when the nominal model
       outweighs every candidate;
     - ``unexplained`` when the flexible term outweighs the best candidate, or when a flexible term
-      on top of the best candidate still explains its residuals (:func:`lack_of_fit` below ``alpha``);
+      on top of the best candidate still explains its residuals (:func:`lack_of_fit` below ``alpha``)
+      and the candidate explains less than half of the held-out gap (``shrink`` below
+      :data:`PARTIAL_SHRINK`); with half or more it is named, its confidence capped at 0.5 (the
+      effect is there, but its form is not quite the library's, or a second cause adds to it);
     - otherwise the best candidate, with its weight as the confidence.
 
     Returns a :class:`~.selection.Verdict`.
@@ -263,9 +270,18 @@ def decide_sweep(weights: dict[str, float], significant: list[str], gap: bool, l
                        "even with Akaike's penalty for its many parameters")
     p = lack_p.get(best, 1.0)
     if p < alpha:
-        return Verdict("unexplained", 1.0 - named[best],
+        sh = (shrink or {}).get(best, 0.0)
+        sh = sh if math.isfinite(sh) else 0.0
+        if sh >= PARTIAL_SHRINK:
+            return Verdict(best, min(named[best], 0.5),
+                           f"{best} explains most of the gap (held-out error shrinks by {sh:.0%}) but leaves a smooth "
+                           f"residual (a flexible term on top of it still explains it, F test p = {p:.2g}): the effect "
+                           "is there, but its form is not quite the library's, or a second cause adds to it, hence "
+                           "a confidence of at most 0.5")
+        return Verdict("unexplained", max(1.0 - named[best], 1.0 - max(sh, 0.0)),
                        f"the best candidate, {best}, still leaves a smooth gap: a flexible term on top of it "
-                       f"explains its residuals (F test, p = {p:.2g})")
+                       f"explains its residuals (F test, p = {p:.2g}), and it explains only {max(sh, 0.0):.0%} of the "
+                       "held-out gap")
     return Verdict(best, named[best], f"{best} fits all the data best (likelihood with Akaike's penalty)")
 
 

@@ -44,6 +44,24 @@ def _cut_note(lo: float, hi: float, b_lo: float, b_hi: float, factor: float, uni
 __all__ = ["EstimateViews"]
 
 
+def _profile_note(pi, factor: float, unit: str) -> str:
+    """Plain words for a profile-likelihood (or hold-widened) interval that replaced the linearised one."""
+    if pi.kind != "profile":
+        return pi.note
+    unit = "" if unit in ("-", "") else " " + unit
+    a, b = pi.linear
+    lin = (f"; the linearised interval [{a * factor:.4g}, {b * factor:.4g}]{unit} assumes a quadratic cost"
+           if a is not None and b is not None else "")
+    s = ("95 % interval from the profile likelihood (this parameter held, all others refitted, up to the "
+         f"likelihood-ratio threshold){lin}")
+    if pi.open_lower or pi.open_upper:
+        side = "either side" if (pi.open_lower and pi.open_upper) else ("below" if pi.open_lower else "above")
+        s += f"; the data do not bound it {side}: the interval reaches the physical bound there"
+    if pi.note:
+        s += "; " + pi.note
+    return s
+
+
 class EstimateViews:
     """Estimate views of a fit result (mixin)."""
 
@@ -201,6 +219,13 @@ class EstimateViews:
                 if weak:
                     notes.append("weakly identifiable (correlation with other parameter directions > 0.99"
                                  + (f"; most with {partner}: {rho:+.4f})" if partner else ")"))
+                pi = (self.profile_intervals or {}).get(name)
+                if pi is not None:
+                    ci = (pi.lower, pi.upper)
+                    notes = [n for n in notes if not n.startswith(("on the", "the lower end", "the upper end"))]
+                    if side is not None:
+                        notes.insert(0, f"on the {side} bound")
+                    notes.append(_profile_note(pi, _EDGE[name][2], _EDGE[name][1]))
                 out[name] = ParameterEstimate(name, val, se, ci, True, weak, side is not None, side,
                                               note="; ".join(notes), correlated_with=partner, correlation=rho)
             else:
@@ -283,6 +308,13 @@ class EstimateViews:
                     mult = math.sqrt(max(0.0, 1.0 - 1.0 / vif)) if math.isfinite(vif) else 1.0
                     notes.append(f"weakly identifiable: multiple correlation {mult:.5f} with the other parameters"
                                  + (f", most with {partner} ({rho:+.4f})" if partner else ""))
+                pi = (self.profile_intervals or {}).get(label)
+                if pi is not None:
+                    ci = (pi.lower, pi.upper)
+                    notes = [n for n in notes if not n.startswith("on the")]
+                    if side is not None:
+                        notes.insert(0, f"on the {side} bound of its physical range [{lo:g}, {hi:g}] {unit}")
+                    notes.append(_profile_note(pi, 1.0, unit))
                 d[pname] = ParameterEstimate(label, val, se, ci, True, bool(weak), side is not None, side,
                                              note="; ".join(notes), si_unit=unit, correlated_with=partner,
                                              correlation=rho)

@@ -1,6 +1,8 @@
 """``fit``: one entry point for tractive force-slip data and drive logs."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 from ..soilmodel.data import DriveLog, SlipData
 from ..soilmodel.errors import DataError
 from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
@@ -9,10 +11,13 @@ from .compiled_lm import fit_compiled
 from .engines import check_engine, jit_mode, normalise_status
 from .ipopt_fit import _x0_vector, fit_ipopt
 from .joint_fit import fit_joint
+from .joint_profile import check_intervals, with_profile_intervals
 from .problem import FitFailed, check_common, make_problem
 from .result import FitResult
 from .seed_methods import fit_least_squares, fit_newton
 from .settings import SETTING_NAMES, FitSettings
+from .slip_noise import check_slip_noise, fit_with_slip_noise
+from .torque_hold import fit_both_holds
 
 __all__ = ["fit"]
 
@@ -63,8 +68,16 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
     **options
         ``rig_speed`` (m/s, track speed of the rig for ``speed_resistance``, default 0.5),
         ``sigma`` (N, scalar or per sample; default: equal weights, noise estimated from the
-        residuals) and ``sigma_known`` (bool) describe the data; ``n_grid``, ``ipopt_options``
-        and ``max_iter`` are :class:`FitSettings` fields. Drive-log options are passed on.
+        residuals) and ``sigma_known`` (bool) describe the data; ``slip_noise`` (``"auto"``,
+        ``"off"`` or the slip's standard deviation; default ``"auto"`` with effects, else
+        ``"off"``) says whether the measured slip is noisy (:mod:`soiltrack.identify.slip_noise`:
+        effective-variance weights, adopted by ``auto`` only when a likelihood-ratio test finds
+        the noise); ``intervals`` (``"auto"``, ``"linear"``, ``"profile"``; default ``"auto"``
+        with effects, else ``"linear"``) says which 95 % intervals come from the profile
+        likelihood (:mod:`soiltrack.identify.joint_profile`; ``auto``: the weakly identifiable
+        and at-bound parameters). Either one other than off/linear makes the fit an IPOPT joint
+        fit. ``n_grid``, ``ipopt_options`` and ``max_iter`` are :class:`FitSettings` fields.
+        Drive-log options are passed on.
 
     Returns
     -------
@@ -79,6 +92,11 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
     """
     if isinstance(data, DriveLog):
         check_common(vehicle, model, method, bounds)
+        for opt in ("slip_noise", "intervals"):
+            if options.get(opt) is not None:
+                raise DataError(f"{opt} applies to slip sweeps; a drive log's slip is already a latent variable of "
+                                "its fit (its noise comes from the speed channels)", file=data.source)
+            options.pop(opt, None)
         from .drivelog import fit_drive_log  # written separately; imported lazily
         if effects is not None:
             options["effects"] = effects
@@ -86,11 +104,18 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
             options["fixed"] = fixed
         if settings is not None or engine is not None:
             check_engine(FitSettings.resolve(settings, engine=engine).engine)
+        if effects is not None and options.get("torque_hold") is None:
+            # the hold is not stated: intervals cover both (soiltrack.identify.torque_hold)
+            options.pop("torque_hold", None)
+            return fit_both_holds(lambda hold: fit_drive_log(data, vehicle, model, bounds, x0, strict, method=method,
+                                                             torque_hold=hold, **options))
         return fit_drive_log(data, vehicle, model, bounds, x0, strict, method=method, **options)
     if not isinstance(data, SlipData):
         raise DataError(f"fit takes SlipData or DriveLog, got {type(data).__name__}")
     sigma = options.pop("sigma", None)
     sigma_known = options.pop("sigma_known", None)
+    slip_noise = options.pop("slip_noise", None)
+    intervals = options.pop("intervals", None)
     rig = {"rig_speed": options.pop("rig_speed")} if "rig_speed" in options else {}
     pb = make_problem(data, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known, method=method,
                       effects=effects, fixed=fixed, **rig)
@@ -101,13 +126,18 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
         st = FitSettings.resolve(settings, engine=engine, **given)
     else:  # the common case: no settings keywords
         st = FitSettings.resolve(settings, engine=engine)
-    if pb.has_effects:  # joint soil-and-effects fit: IPOPT (whatever the engine)
+    joint = pb.has_effects
+    if slip_noise is not None or intervals is not None or joint:
+        slip_noise = check_slip_noise(("auto" if joint else "off") if slip_noise is None else slip_noise)
+        intervals = check_intervals(("auto" if joint else "linear") if intervals is None else intervals)
+        joint = joint or slip_noise != "off" or intervals != "linear"
+    if joint:  # joint soil-and-effects fit (or slip noise, profile intervals): IPOPT (whatever the engine)
         if method != "ipopt":
-            raise DataError(f"effects are fitted jointly with the soil by IPOPT only (method='ipopt'), "
+            raise DataError(f"effects, slip noise and profile intervals are fitted by IPOPT only (method='ipopt'), "
                             f"not by the seed's method {method!r}")
         if st.max_iter is not None:
             raise DataError("max_iter applies to method='newton' or 'least-squares'")
-        res = normalise_status(fit_joint(pb, x0v, ipopt_options=st.ipopt_dict, n_grid=st.n_grid), "ipopt")
+        res = _fit_joint_sweep(pb, x0v, st, slip_noise, intervals)
         if strict and not res.success:
             raise FitFailed(res)
         return res
@@ -132,7 +162,26 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
     return res
 
 
+def _fit_joint_sweep(pb, x0v, st: FitSettings, slip_noise, intervals: str) -> FitResult:
+    """IPOPT joint fit of a sweep, with slip-noise weights and profile intervals as asked."""
+    opts, n_grid = st.ipopt_dict, st.n_grid
+
+    def solve(q, start_x):
+        return fit_joint(q, x0v if start_x is None else None, ipopt_options=opts, n_grid=n_grid, start_x=start_x)
+
+    res, noise, pb_final = fit_with_slip_noise(pb, solve, slip_noise)
+    extra = dict(res.extra)
+    extra["slip_noise"] = noise.to_dict()
+    extra["sigma_model"] = "slip_noise" if noise.adopted else pb.noise_model
+    warns = tuple(res.input_warnings) + ((noise.note,) if noise.note and (noise.adopted or not noise.converged)
+                                         else ())
+    res = replace(res, extra=extra, input_warnings=warns)
+    res = with_profile_intervals(pb_final, res, lambda q, hold, sx: fit_joint(
+        q, ipopt_options=opts, n_grid=n_grid, hold=hold, start_x=sx), intervals)
+    return normalise_status(res, "ipopt")
+
+
 def _check_options(options: dict, allowed: set) -> None:
     unknown = sorted(set(options) - allowed)
     if unknown:
-        raise DataError(f"unknown option(s) {unknown}; allowed here: {sorted(allowed) + ['sigma', 'sigma_known']}")
+        raise DataError(f"unknown option(s) {unknown}; allowed here: {sorted(allowed) + ['intervals', 'sigma', 'sigma_known', 'slip_noise']}")

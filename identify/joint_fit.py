@@ -99,8 +99,14 @@ def _separates_c_phi(structure: EffectSet, fixed: dict) -> bool:
     return not all(h is not None and h == 0.0 for h in held)
 
 
-def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_grid: int = 25) -> FitResult:
-    """Fit the soil and the effects of ``pb`` jointly with IPOPT and build the result."""
+def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_grid: int = 25, *,
+              hold: dict | None = None, start_x=None) -> FitResult:
+    """Fit the soil and the effects of ``pb`` jointly with IPOPT and build the result.
+
+    ``hold``: ``{index in [c, phi, K, e...]: value (SI)}`` held during the solve (a profile
+    point: :mod:`soiltrack.identify.joint_profile`); ``start_x``: a whole start vector
+    ``[c, phi, K, e...]`` (SI), instead of the grid and the effects' defaults.
+    """
     structure = pb.effects if pb.effects is not None else EffectSet()
     labels, eb, escale, units = joint_layout(pb.vehicle, structure)
     m = len(labels)
@@ -111,15 +117,19 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     t0 = time.perf_counter()
     fixed = dict(pb.fixed)
     # start: nominal soil from the variable-projection grid (on the tractive-force equivalent), effects off
-    theta0, start = start_point(pb, x0, "grid", n_grid)
-    start += ", effects at their given or default values"
-    e0 = []
-    given = dict(pb.effect_start)
-    for lab, (lo, hi) in zip(labels, eb):
-        name, p = lab.split(".", 1)
-        spec = EFFECTS[name].param(p)
-        v = fixed.get(lab, given.get(lab, spec.off_value if spec.default is None else spec.default))
-        e0.append(min(max(v, lo), hi))
+    if start_x is not None:
+        sx = np.asarray(start_x, float).ravel()
+        theta0, e0, start = sx[:3].copy(), [float(v) for v in sx[3:]], "given start"
+    else:
+        theta0, start = start_point(pb, x0, "grid", n_grid)
+        start += ", effects at their given or default values"
+        e0 = []
+        given = dict(pb.effect_start)
+        for lab, (lo, hi) in zip(labels, eb):
+            name, p = lab.split(".", 1)
+            spec = EFFECTS[name].param(p)
+            v = fixed.get(lab, given.get(lab, spec.off_value if spec.default is None else spec.default))
+            e0.append(min(max(v, lo), hi))
     lo = np.concatenate([pb.bounds.lower, eb[:, 0]]) / S
     hi = np.concatenate([pb.bounds.upper, eb[:, 1]]) / S
     z0 = np.concatenate([theta0, e0]) / S
@@ -128,6 +138,8 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     for k, lab in enumerate(labels):
         if lab in fixed:
             lo[3 + k] = hi[3 + k] = z0[3 + k] = fixed[lab] / S[3 + k]
+    for j, v in (hold or {}).items():
+        lo[j] = hi[j] = z0[j] = float(v) / S[j]
     z0 = np.clip(z0, lo, hi)
     y = pb.measured_values
     yw = y / pb.sigma
@@ -140,7 +152,8 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
         args.update(lbg=-1.0, ubg=1.0)
     W = pb.load
     A = pb.vehicle.contact_area
-    ridge = pb.model == "full" and one_load(W) and not _separates_c_phi(structure, fixed)
+    ridge = (pb.model == "full" and one_load(W) and not _separates_c_phi(structure, fixed)
+             and not {0, 1} & set(hold or ()))
     from ..soilmodel.effects import normal_load_function
     n_of = normal_load_function(pb.vehicle, structure) if m else None
 

@@ -27,7 +27,7 @@ from .problem import make_problem
 from .result import FitResult
 from .stats import norm_ppf, t_ppf
 
-__all__ = ["profile_likelihood", "ProfileResult"]
+__all__ = ["profile_likelihood", "ProfileResult", "lr_threshold"]
 
 _ALIASES = {"c": "cohesion", "phi": "friction_angle", "K": "shear_modulus"}
 
@@ -76,6 +76,20 @@ class ProfileResult:
                 "cost": [f(c) for c in self.cost], "threshold": f(self.threshold),
                 "interval": [f(self.interval[0]), f(self.interval[1])], "open_lower": self.open_lower,
                 "open_upper": self.open_upper, "note": self.note}
+
+
+def lr_threshold(cmin: float, dof: int, sigma_known: bool) -> tuple[float, str]:
+    """Profile cost that bounds the 95 % likelihood-ratio interval, and how it was set.
+
+    ``cmin + 1.96^2 / 2`` when sigma is known; ``cmin + s^2 t_{0.975, dof}^2 / 2`` with
+    ``s^2 = 2 cmin / dof`` when it is estimated; ``inf`` without residual degrees of freedom.
+    """
+    if sigma_known:
+        return cmin + 0.5 * norm_ppf(0.975) ** 2, "sigma known: Delta(SSR) <= 1.96^2 (chi-square, 1 dof)"
+    if dof <= 0:
+        return math.inf, "no residual degrees of freedom: the noise level, hence the interval, is unknown"
+    s2 = 2.0 * cmin / dof
+    return cmin + 0.5 * s2 * t_ppf(0.975, float(dof)) ** 2, f"sigma estimated: Delta(SSR) <= s^2 t^2 (t with {dof} dof)"
 
 
 def profile_likelihood(data: SlipData, vehicle: Vehicle, parameter: str, values=None, *, model: str = "full",
@@ -136,17 +150,9 @@ def profile_likelihood(data: SlipData, vehicle: Vehicle, parameter: str, values=
             else:
                 others[k] = np.nan
     cmin = min(float(fit_result.cost), float(np.min(cost)))
-    if pb.sigma_known:
-        thr = cmin + 0.5 * norm_ppf(0.975) ** 2
-        note = "sigma known: Delta(SSR) <= 1.96^2 (chi-square, 1 dof)"
-    else:
-        dof = fit_result.dof
-        if dof <= 0:
-            return ProfileResult(name, grid, cost, others, math.inf, (None, None), True, True, fit_result,
-                                 "no residual degrees of freedom: the noise level, hence the interval, is unknown")
-        s2 = 2.0 * cmin / dof
-        thr = cmin + 0.5 * s2 * t_ppf(0.975, float(dof)) ** 2
-        note = f"sigma estimated: Delta(SSR) <= s^2 t^2 (t with {dof} dof)"
+    thr, note = lr_threshold(cmin, fit_result.dof, pb.sigma_known)
+    if not math.isfinite(thr):
+        return ProfileResult(name, grid, cost, others, math.inf, (None, None), True, True, fit_result, note)
     inside = cost <= thr
     if not np.any(inside):
         return ProfileResult(name, grid, cost, others, thr, (None, None), False, False, fit_result,

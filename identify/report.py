@@ -119,6 +119,11 @@ class ReportViews:
             L.append(f"drive log: {x.get('formulation', '?')} formulation, {x.get('samples_used', '?')} of "
                      f"{x.get('samples_total', '?')} samples used, regime {x.get('regime', '?')}"
                      + (f", {hold}" if hold else "") + (f" - {x['note']}" if x.get("note") else ""))
+            alt = x.get("torque_hold_alternative")
+            if isinstance(alt, dict):
+                L.append(f"torque hold not given: fitted again with torque_hold='{alt.get('torque_hold')}' ("
+                         + ("its intervals are covered by the ones below" if alt.get("success") else
+                            f"that fit did not succeed: {alt.get('status')}; intervals from this one only") + ")")
         bc = x.get("bias_correction")
         if isinstance(bc, dict):
             if bc.get("applied"):
@@ -144,8 +149,14 @@ class ReportViews:
         q = self.quantile
         t = (f"95 % intervals use Student t ({self.dof} residual degrees of freedom, quantile {q:.4g})"
              if q is not None and not self.sigma_known else "95 % intervals use the normal quantile 1.96")
+        sn = x.get("slip_noise") if self.data_kind == "slip" else None
         if self.data_kind == "drive":
             head = "noise: per-channel levels " + ("given" if self.sigma_known else "estimated from the log")
+        elif isinstance(sn, dict) and sn.get("adopted"):
+            how = ("estimated from the residuals" if sn.get("mode") == "auto" else "slip noise given")
+            head = (f"noise: on the force and on the slip, weights 1 / (sigma_F^2 + (dF/di)^2 sigma_i^2) (effective "
+                    f"variance; {how}: sigma_i = {sn['slip_sigma']:.3g}, sigma_F = "
+                    f"{format_force(sn['force_sigma_N'])})")
         elif kind == "relative":
             head = ("noise: proportional to the force (sigma='relative': weights 1/|F|, floored at 1 % of the "
                     "largest force); its level estimated from the residuals")

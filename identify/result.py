@@ -107,6 +107,9 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
     fixed_labels: tuple[str, ...] = ()
     measured: str | None = None
     residual_model: Any = None
+    #: ``{label: ProfileInterval}`` replacing the linearised 95 % intervals of those parameters
+    #: (:mod:`soiltrack.identify.joint_profile`), or None.
+    profile_intervals: Any = None
 
     def __getstate__(self) -> dict:
         """Pickle only this fit's slice of batched core statistics (never computed ones: they follow)."""

@@ -21,7 +21,7 @@ from ..soilmodel.ridge import LOAD_RTOL
 from ..soilmodel.threadsafe import locked_cache
 from ..soilmodel.vehicle import Vehicle
 
-__all__ = ["observation_function", "predict", "nominal_offset", "SweepResiduals"]
+__all__ = ["observation_function", "predict", "slip_slope", "nominal_offset", "SweepResiduals"]
 
 
 @locked_cache(maxsize=128)
@@ -55,6 +55,32 @@ def predict(x, slip, W, vehicle: Vehicle, effects=None, model: str = "full", mea
     x = np.asarray(x, dtype=float).reshape(-1, 1)
     y, J = _mapped(vehicle, structure, model, measured, float(rig_speed), n)(s, Wr, x)
     return np.asarray(y, dtype=float).ravel(), np.asarray(J, dtype=float).reshape(n, x.size)
+
+
+@locked_cache(maxsize=64)
+def _slope_mapped(vehicle: Vehicle, structure: EffectSet, model: str, measured: str, rig_speed: float,
+                  n: int) -> ca.Function:
+    mapping, e, _ = effect_symbols(structure, ca.SX, vehicle)
+    i, W = ca.SX.sym("i"), ca.SX.sym("W")
+    th = ca.SX.sym("theta", 3)
+    _, _, y = sweep_measurement(i, W, th[0], th[1], th[2], vehicle, mapping, model, measured, rig_speed)
+    return ca.Function("sweep_slope", [i, W, ca.vertcat(th, e)], [ca.jacobian(y, i)], ["i", "W", "x"],
+                       ["dy_di"]).map(n)
+
+
+def slip_slope(x, slip, W, vehicle: Vehicle, effects=None, model: str = "full", measured: str = "tractive_force",
+               rig_speed: float = DEFAULT_RIG_SPEED) -> np.ndarray:
+    """Slope ``dy/di`` (N per unit slip) of the reported quantity at each sample, by AD of the same model.
+
+    What a slip error ``delta i`` does to a sample: ``y(i + delta i) ~ y(i) + dy/di delta i``
+    (:mod:`soiltrack.identify.slip_noise` weights samples with it).
+    """
+    s = np.asarray(slip, dtype=float).reshape(1, -1)
+    n = s.shape[1]
+    structure = effect_structure(effects, vehicle) if effects else EffectSet()
+    Wr = np.broadcast_to(np.asarray(W, dtype=float), (n,)).reshape(1, -1)
+    f = _slope_mapped(vehicle, structure, model, measured, float(rig_speed), n)
+    return np.asarray(f(s, Wr, np.asarray(x, dtype=float).reshape(-1, 1)), dtype=float).ravel()
 
 
 def nominal_offset(slip, W, vehicle: Vehicle, rig_speed: float = DEFAULT_RIG_SPEED) -> np.ndarray:

@@ -70,6 +70,10 @@ class ParamSpec:
         Physically admissible closed range.
     integer
         True for integer parameters (never identified, never symbolic).
+    physical_sign
+        +1 when the effect as named has this parameter >= 0 (a resistance that GROWS with speed or
+        slip); the range stays signed, so that a fit can say the data want the opposite, which is
+        then another effect imitating this one. 0: either sign is physical.
     """
 
     name: str
@@ -80,6 +84,7 @@ class ParamSpec:
     lower: float = -_INF
     upper: float = _INF
     integer: bool = False
+    physical_sign: int = 0
 
 
 @dataclass(frozen=True)
@@ -127,11 +132,13 @@ EFFECTS: dict[str, EffectSpec] = {
         "theta_rad"),
     "speed_resistance": EffectSpec(
         "speed_resistance", "motion resistance growing with speed: N (mu_r + mu_v v)",
-        (ParamSpec("mu_v", "s/m", "speed coefficient of motion resistance", 0.0, lower=-1.0, upper=1.0),),
+        (ParamSpec("mu_v", "s/m", "speed coefficient of motion resistance", 0.0, lower=-1.0, upper=1.0,
+                   physical_sign=1),),
         "mu_v", ("drive", "sweep")),
     "slip_sinkage": EffectSpec(
         "slip_sinkage", "slip-induced sinkage: resistance N (mu_r + mu_s |i|)",
-        (ParamSpec("mu_s", "-", "slip coefficient of motion resistance", 0.0, lower=-1.0, upper=2.0),),
+        (ParamSpec("mu_s", "-", "slip coefficient of motion resistance", 0.0, lower=-1.0, upper=2.0,
+                   physical_sign=1),),
         "mu_s"),
     "drivetrain_friction": EffectSpec(
         "drivetrain_friction", "torque lost between the torque sensor and the track: tau_c sgn(w) + tau_v w",

@@ -22,6 +22,12 @@ def _check_options(a: argparse.Namespace, drive_log: bool) -> None:
         raise DataError("--bias-correction applies to drive logs only", file=a.data)
     if a.torque_hold is not None and not drive_log:
         raise DataError("--torque-hold applies to drive logs only", file=a.data)
+    for opt, val in (("--slip-noise", a.slip_noise), ("--intervals", a.intervals)):
+        if val is not None and drive_log:
+            raise DataError(f"{opt} applies to slip sweeps only (a drive log's slip is a latent variable of its fit)",
+                            file=a.data)
+        if val is not None and a.method != "ipopt":
+            raise DataError(f"{opt} applies to --method ipopt, not to --method {a.method}")
 
 
 def _cmd_fit(a: argparse.Namespace) -> int:
@@ -41,6 +47,11 @@ def _cmd_fit(a: argparse.Namespace) -> int:
         kw["bias_correction"] = a.bias_correction
     if a.torque_hold is not None:
         kw["torque_hold"] = a.torque_hold
+    if a.slip_noise is not None:
+        kw["slip_noise"] = a.slip_noise if a.slip_noise in ("auto", "off") else \
+            floats_arg(a.slip_noise, "--slip-noise")[0]
+    if a.intervals is not None:
+        kw["intervals"] = a.intervals
     if a.effect:
         kw["effects"] = [e.strip() for item in a.effect for e in item.split(",") if e.strip()]
     result = fit(data, vehicle, model=a.model, method=a.method, **kw)
@@ -98,11 +109,20 @@ def add_parser(sub) -> None:
                    help="drive logs: SIMEX correction of the slip-noise bias of K on hard-pull logs, about 5 s "
                         "(default: none)")
     f.add_argument("--torque-hold", choices=("zoh", "sample"), default=None,
-                   help="drive logs: how the logged torque relates to the drive (default: zoh). zoh: the torque "
+                   help="drive logs: how the logged torque relates to the drive (default: zoh; with --effect and "
+                        "no --torque-hold the fit is made with both and its intervals cover both). zoh: the torque "
                         "is held from each sample to the next (a controller updating it at the log rate); sample: "
                         "a continuous torque signal sampled at each time (a torque transducer, or a controller "
                         "much faster than the log). The wrong one biases a fitted grade by about the thrust "
                         "change over one sample")
+    f.add_argument("--slip-noise", metavar="auto|off|SIGMA",
+                   help="slip sweeps: noise on the measured slip. auto (default with --effect): weights for it "
+                        "when the residuals show it (likelihood-ratio test); off: slip exact (default without "
+                        "--effect); a number: the slip's standard deviation")
+    f.add_argument("--intervals", choices=("auto", "linear", "profile"), default=None,
+                   help="slip sweeps: 95 %% intervals from the profile likelihood for the weakly identifiable and "
+                        "at-bound parameters (auto, default with --effect), for all (profile), or linearised "
+                        "for all (linear, default without --effect)")
     f.add_argument("--effect", action="append", metavar="NAME",
                    help="fit this unmodelled effect's parameters jointly with the soil (repeatable; e.g. grade, "
                         "slip_sinkage, speed_resistance, mass_error)")

@@ -51,13 +51,24 @@ def test_vehicle_constants_match_the_generator():
 def test_sampled_torque_fitted_as_sampled_gives_the_grade_inside_its_interval(seed):
     log = sampled_torque_log(seed)
     right = fit(log, HEAVY, effects=["grade"], torque_hold="sample")
-    wrong = fit(log, HEAVY, effects=["grade"])  # the default assumes a held torque
+    wrong = fit(log, HEAVY, effects=["grade"], torque_hold="zoh")  # stated, and wrong for these data
     g_right = right.effects["grade"]["theta_rad"]
     g_wrong = wrong.effects["grade"]["theta_rad"]
     assert right.success and right.extra["torque_hold"] == "sample" and wrong.extra["torque_hold"] == "zoh"
     assert g_right.ci95[0] <= 0.05 <= g_right.ci95[1], g_right.ci95
     # measured: zoh on these data gives 0.04942-0.04945 with intervals of +-0.00045, missing 0.05
     assert g_wrong.value < g_right.value - 0.0003, (g_wrong.value, g_right.value)
+    assert not g_wrong.ci95[0] <= 0.05 <= g_wrong.ci95[1], g_wrong.ci95  # the failure the default must not have
+    assert "torque_hold_alternative" not in wrong.extra and "torque_hold_alternative" not in right.extra
+    # the hold not stated: the zoh estimate, its interval widened to cover the sampled-torque fit's
+    unsure = fit(log, HEAVY, effects=["grade"])
+    g = unsure.effects["grade"]["theta_rad"]
+    assert unsure.extra["torque_hold"] == "zoh" and g.value == pytest.approx(g_wrong.value, rel=1e-9)
+    assert g.ci95[0] == pytest.approx(min(g_wrong.ci95[0], g_right.ci95[0]))
+    assert g.ci95[1] == pytest.approx(max(g_wrong.ci95[1], g_right.ci95[1]))
+    assert g.ci95[0] <= 0.05 <= g.ci95[1] and "torque hold was not given" in g.note
+    assert unsure.extra["torque_hold_alternative"]["torque_hold"] == "sample"
+    assert "torque hold not given" in unsure.report()
     for r in (right, wrong):  # the ridge point (c, phi) stays inside the bounds even with F_max at its limit
         b = r.bounds
         for x, (lo, hi) in zip(r.theta, (b.cohesion, b.friction_angle, b.shear_modulus)):
