@@ -37,7 +37,8 @@ from typing import Any
 
 import numpy as np
 
-from .gap import chi2_isf, chi2_sf, long_run_factor
+from .gap import long_run_factor
+from .stats import chi2_isf, chi2_sf
 from .screening import newey_west_lag
 
 __all__ = ["TerrainWindow", "terrain_window", "delay_scan", "delay_holdout", "DelayCheck", "delay_check",

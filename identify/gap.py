@@ -23,72 +23,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .stats import chi2_isf, chi2_sf  # re-exported (their home is .stats)
+
 __all__ = ["blocked_folds", "noise_floor", "noise_profile", "long_run_factor", "Segment", "localise", "ChangeWindow",
            "change_window", "whiteness", "lag_peak", "chi2_sf", "chi2_isf"]
 
 _MAD_TO_SIGMA = 1.4826
-
-
-# ----------------------------------------------------------------------------- statistics
-def _gammainc_lower_series(a: float, x: float) -> float:
-    term = total = 1.0 / a
-    ap = a
-    for _ in range(1000):
-        ap += 1.0
-        term *= x / ap
-        total += term
-        if abs(term) < abs(total) * 1e-15:
-            break
-    return total * math.exp(-x + a * math.log(x) - math.lgamma(a))
-
-
-def _gammainc_upper_cf(a: float, x: float) -> float:
-    tiny = 1e-300
-    b = x + 1.0 - a
-    c = 1.0 / tiny
-    d = 1.0 / b
-    h = d
-    for i in range(1, 1000):
-        an = -i * (i - a)
-        b += 2.0
-        d = an * d + b
-        d = tiny if abs(d) < tiny else d
-        c = b + an / c
-        c = tiny if abs(c) < tiny else c
-        d = 1.0 / d
-        delta = d * c
-        h *= delta
-        if abs(delta - 1.0) < 1e-15:
-            break
-    return math.exp(-x + a * math.log(x) - math.lgamma(a)) * h
-
-
-def chi2_sf(x: float, dof: float) -> float:
-    """P(X > x) for X chi-squared with ``dof`` degrees of freedom (regularised upper gamma)."""
-    if not math.isfinite(x):
-        return 0.0 if x > 0 else 1.0
-    if x <= 0 or dof <= 0:
-        return 1.0
-    a, y = 0.5 * dof, 0.5 * x
-    if y < a + 1.0:
-        return max(0.0, 1.0 - _gammainc_lower_series(a, y))
-    return min(1.0, _gammainc_upper_cf(a, y))
-
-
-def chi2_isf(p: float, dof: float) -> float:
-    """The x with ``chi2_sf(x, dof) = p`` (bisection on the monotone survival function)."""
-    lo, hi = 0.0, max(10.0, 10.0 * dof)
-    while chi2_sf(hi, dof) > p:
-        hi *= 2.0
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if chi2_sf(mid, dof) > p:
-            lo = mid
-        else:
-            hi = mid
-        if hi - lo < 1e-10 * max(1.0, hi):
-            break
-    return 0.5 * (lo + hi)
 
 
 # ----------------------------------------------------------------------------- splits and noise

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..soilmodel.effects import EFFECTS
-from .gap import chi2_sf
+from .stats import chi2_sf
 
 __all__ = ["Screen", "project_off", "score_test", "newey_west_lag", "screen", "stationarity"]
 

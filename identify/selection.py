@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .gap import chi2_sf
+from .stats import chi2_sf
 
 __all__ = ["SEPARATING_EXPERIMENTS", "separating_experiment", "hat_basis", "fit_discrepancy", "cv_weights",
            "Verdict", "decide", "confusable_groups", "dm_test", "gap_p_value", "stacking_weights"]
