@@ -1027,6 +1027,21 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         corr = (float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db)))
                 if da is not None and db is not None and np.linalg.norm(da) * np.linalg.norm(db) > 0 else math.nan)
         conf.append(((verdict.name, o), corr, separating_experiment(verdict.name, o)))
+    if not is_log and verdict.name in refit and confidence > 0.5 and math.isfinite(scores.get(verdict.name, math.inf)):
+        # sweeps: a rival whose sensitivities the data cannot tell from the verdict's (listed confusable) and
+        # that predicts the held-out blocks as well, or better by less than MIN_SHRINK: the weights, on all the
+        # sweep, favour the verdict, but nothing the data show independently of those weights does
+        va = verdict.name
+        sh_a = 1.0 - math.sqrt(scores[va] / max(scores[NOMINAL], 1e-300))
+        for b in sorted({x for p, _, _ in conf if va in p for x in p} - {va}):
+            if not math.isfinite(scores.get(b, math.inf)):
+                continue
+            sh_b = 1.0 - math.sqrt(scores[b] / max(scores[NOMINAL], 1e-300))
+            if sh_b > 0.0 and sh_a - sh_b < MIN_SHRINK:
+                notes.append(f"{b}, listed as confusable with {va}, predicts the held-out blocks as well (held-out "
+                             f"shrink {sh_b:.2f} against {sh_a:.2f}): {va} is named with confidence 0.5 at most")
+                confidence = 0.5
+                break
     if is_log and verdict.name in refit and math.isfinite(scores.get(verdict.name, math.inf)):
         # logs: a rival the held-out data do not show to predict worse than the verdict (Diebold-Mariano,
         # block-robust) and that removes at least half as much of the held-out error, or one whose held-out
