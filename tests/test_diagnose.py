@@ -55,7 +55,14 @@ def test_clean_case_is_diagnosed_and_the_gap_shrinks(name):
     # radius_error: the nominal fit of this sweep converges but fails issue 7's plausibility checks (rows at
     # small slip far off the curve); the diagnosis uses its converged answer and says so
     d = diagnose(sweep({name: SWEEP_EFFECTS[name]}), VEH)
-    assert d.verdict == name and d.confidence > 0.5, (d.verdict, d.confidence)
+    if name == "slip_sinkage":
+        # hump_shear, listed confusable, predicts the held-out blocks exactly as well (measured shrink 0.8198
+        # against 0.8200; weights 0.28 and 0.72 on all the data): named, with confidence 0.5 and the pair listed
+        assert d.verdict == name and d.confidence == 0.5, (d.verdict, d.confidence)
+        assert any(set(p) == {"slip_sinkage", "hump_shear"} for p, _, _ in d.confusable)
+        assert any("predicts the held-out blocks as well" in t for t in d.notes)
+    else:
+        assert d.verdict == name and d.confidence > 0.5, (d.verdict, d.confidence)
     assert d.shrink > 0.5
     ch = next(iter(d.holdout_rmse_before))
     assert d.holdout_rmse_after[ch] < 0.5 * d.holdout_rmse_before[ch]

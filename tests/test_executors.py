@@ -109,6 +109,31 @@ def test_drive_logs_under_executors(logs, pool):
     _same(par, serial)
 
 
+def _fit_grade(d):
+    # a joint fit with the slip-noise test and profile intervals: every path of fit(..., effects=...)
+    return fit(d, HEAVY, effects=["grade"], intervals="profile")
+
+
+def _interval_key(r):
+    ps = sorted((k, round(v.lower, 9), round(v.upper, 9)) for k, v in (r.profile_intervals or {}).items())
+    return (r.extra["slip_noise"]["adopted"], ps)
+
+
+@pytest.mark.parametrize("pool", ["thread", "process"])
+def test_joint_fits_with_slip_noise_and_profiles_under_executors(pool):
+    from soiltrack.soilmodel import simulate_slip_sweep
+    data = [simulate_slip_sweep(HEAVY, TERRAINS["dry_sand"], effects={"grade": 0.1},
+                                normal_loads=[HEAVY.weight, 0.6 * HEAVY.weight], seed=s, measure="drawbar_pull")
+            for s in range(4)]
+    serial = [_fit_grade(d) for d in data]
+    assert any(r.extra["slip_noise"]["adopted"] for r in serial) and all(r.profile_intervals for r in serial)
+    ex = ThreadPoolExecutor(4) if pool == "thread" else ProcessPoolExecutor(2)
+    with ex:
+        par = list(ex.map(_fit_grade, data))
+    _same(par, serial)
+    assert [_interval_key(r) for r in par] == [_interval_key(r) for r in serial]
+
+
 def test_dask_local_cluster(sweeps):
     distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed "
                                                              "(pip install 'soiltrack[dask]')")
