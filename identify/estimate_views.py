@@ -138,7 +138,8 @@ class EstimateViews:
                 f"soil thrust limit {'N tan(phi)' if cf else 'A c + N tan(phi)'} at W = {format_force(W, 6)}{actual}"
                 if self.effect_labels else
                 f"soil thrust limit {'W tan(phi)' if cf else 'A c + W tan(phi)'} at W = {format_force(W, 6)}",
-                rng=None if self.effect_labels else fmax_range(self.bounds, self.vehicle, self.model, W))
+                rng=fmax_range(self.bounds, self.vehicle, self.model,
+                               self._effective_load(W)[0] if self.effect_labels else W))
         Kb = self.bounds.shear_modulus
         add("K", K, [0.0, 0.0, 1.0], "m", "shear deformation modulus K", rng=Kb)
         add("K/l", K / l, [0.0, 0.0, 1.0 / l], "-", f"K over the track length l = {l:.6g} m",

@@ -142,6 +142,11 @@ class ReportViews:
                          + (f" - {bc['reason']}" if bc.get("reason") else ""))
         return L
 
+    def _interval_tag(self, label: str) -> str:
+        """`` (profile)`` or `` (both holds)`` when that parameter's interval replaced the linearised one."""
+        pi = (self.profile_intervals or {}).get(label)
+        return "" if pi is None else (" (profile)" if pi.kind == "profile" else " (both holds)")
+
     def _noise_line(self) -> str:
         """What noise model the intervals rest on, in plain words (said once)."""
         x = self.extra if isinstance(self.extra, dict) else {}
@@ -207,7 +212,7 @@ class ReportViews:
                 flag = " [ON " + pe.bound_side.upper() + " BOUND]" if pe.at_bound else ""
                 weak = " [weakly identifiable]" if pe.weakly_identifiable else ""
                 cut = " [cut at a bound, see below]" if "is cut at the bound" in (pe.note or "") else ""
-                L.append(f"{lab}{pe.edge_value:.5g}{se} {u}, 95 % {rng}{flag}{weak}{cut}")
+                L.append(f"{lab}{pe.edge_value:.5g}{se} {u}, 95 % {rng}{self._interval_tag(name)}{flag}{weak}{cut}")
                 if cut:
                     notes.append(f"  {_EDGE[name][3]}: " + "; ".join(n for n in pe.note.split("; ")
                                                                     if "is cut at the bound" in n))
@@ -233,7 +238,15 @@ class ReportViews:
                     weak = (f" [weakly identifiable: correlation {pe.correlation:+.4f} with {pe.correlated_with}]"
                             if pe.weakly_identifiable and pe.correlated_with else
                             (" [weakly identifiable]" if pe.weakly_identifiable else ""))
-                    L.append(f"{lab}{pe.value:.5g}{se} {u}, 95 % {rng}{flag}{weak}")
+                    L.append(f"{lab}{pe.value:.5g}{se} {u}, 95 % {rng}{self._interval_tag(name + '.' + pname)}{flag}"
+                             f"{weak}")
+        kinds = {v.kind for v in (self.profile_intervals or {}).values()}
+        if "profile" in kinds:
+            L.append("  (profile: the 95 % interval from the profile likelihood, this parameter held and all others "
+                     "refitted; the +- is the linearised standard error, which assumes a quadratic cost)")
+        if "hold" in kinds:
+            L.append("  (both holds: the interval covers the fits with the torque held and sampled; the torque hold "
+                     "was not given)")
         k_shown = self.parameters["shear_modulus"].identifiable and self.success
         combos = [cb for cb in self.combinations if not (cb.name == "K" and k_shown)]  # K is said above
         L.append("what the data determine (95 % intervals):" + ("" if combos else " nothing (the fit failed)"))

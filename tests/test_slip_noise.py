@@ -188,3 +188,14 @@ def test_leverage_is_the_hat_diagonal(noisy_slip_sweeps):
     # the steep start of the curve (smallest slips) carries the most leverage
     small = np.argsort(noisy_slip_sweeps[0].slip)[:4]
     assert h[small].mean() > 2 * np.median(h)
+
+
+def test_report_marks_profile_intervals_and_fmax_stays_physical(tmp_path):
+    d = _independent_sweep(tmp_path, 3)
+    res = fit(d, HEAVY, effects=["grade"])
+    rep = res.report()
+    line = next(ln for ln in rep.splitlines() if ln.strip().startswith("grade.theta_rad"))
+    assert "(profile)" in line and "profile likelihood" in rep
+    for cb in res.combinations:
+        if cb.name.startswith("F_max"):
+            assert cb.ci95[0] > 0, cb  # the linearised interval reached -87 kN before it was cut at the bounds
