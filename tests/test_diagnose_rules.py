@@ -1,16 +1,14 @@
 """Verdict rules on sweeps: an effect fitted with the wrong physical sign, a candidate that explains most of a
 gap but leaves a smooth residual, and the share of the gap above the noise the verdict removes."""
 import json
-import os
-import sys
 
 import pytest
 
 from soiltrack.identify import diagnose
 from soiltrack.identify.diagnosis_sweep import PARTIAL_SHRINK, decide_sweep
-from soiltrack.soilmodel import EFFECTS, TERRAINS, VEHICLES, SensorNoise, read_csv, simulate
+from soiltrack.soilmodel import EFFECTS, TERRAINS, VEHICLES, SensorNoise, simulate
+from conftest import independent_sweep
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 HEAVY = VEHICLES["heavy"]
 SLIPS = tuple(round(0.01 + k * (0.69 / 59), 4) for k in range(60))
 LOW = SensorNoise(force_rel=0.005, slip_abs=0.0005)
@@ -65,14 +63,7 @@ def test_gap_shrink_is_the_share_of_the_misfit_above_the_noise(sinkage_sweep):
 def test_a_softening_soil_outside_the_library_form_is_named_at_half_confidence(tmp_path):
     # Wong's type B law (independent numpy) is not the library's hump_shear form: it explains 88 % of the
     # held-out gap and leaves a smooth residual; measured before the rule: "unexplained", confidence 0.00
-    sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
-    try:
-        import independent_check as ic
-    finally:
-        sys.path.pop(0)
-    path = tmp_path / "hump.csv"
-    ic.sweep_csv(str(path), 0, hump=(0.55, 0.025))
-    d = diagnose(read_csv(str(path)), HEAVY)
+    d = diagnose(independent_sweep(tmp_path / "hump.csv", 0, hump=(0.55, 0.025)), HEAVY)
     assert d.verdict == "hump_shear" and d.confidence == 0.5 and "most of the gap" in d.reason
 
 
@@ -80,13 +71,6 @@ def test_a_confusable_rival_that_predicts_as_well_caps_a_sweep_verdict(tmp_path)
     # a load cell saturating at 80 % of the peak, noise added after the clip (outside the library; independent
     # numpy), seed 2: hump_shear was named at 0.68 while pressure_distribution, listed confusable (sensitivity
     # correlation 0.99), predicted the held-out blocks as well (shrink 0.70 against 0.68)
-    sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
-    try:
-        import independent_check as ic
-    finally:
-        sys.path.pop(0)
-    path = tmp_path / "clipped.csv"
-    ic.sweep_csv(str(path), 2, clip=0.8)
-    d = diagnose(read_csv(str(path)), HEAVY)
+    d = diagnose(independent_sweep(tmp_path / "clipped.csv", 2, clip=0.8), HEAVY)
     assert d.confidence <= 0.5
     assert d.verdict == "unexplained" or any("predicts the held-out blocks as well" in n for n in d.notes)

@@ -1,7 +1,5 @@
 """Noise on the measured slip of a sweep (effective variance) and profile-likelihood intervals of joint fits."""
 import json
-import os
-import sys
 
 import numpy as np
 import pytest
@@ -9,13 +7,13 @@ import pytest
 from soiltrack.cli import main
 from soiltrack.identify import fit
 from soiltrack.identify.slip_noise import estimate_slip_noise, serial_correlation
-from soiltrack.soilmodel import TERRAINS, VEHICLES, DataError, read_csv, simulate_slip_sweep, write_csv
+from soiltrack.soilmodel import TERRAINS, VEHICLES, DataError, simulate_slip_sweep, write_csv
+from conftest import independent_sweep
 
 HEAVY = VEHICLES["heavy"]
 SAND = TERRAINS["dry_sand"]
 LOADS = [HEAVY.weight, 0.6 * HEAVY.weight]
 GRADE = 0.1
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TRUTH = {"cohesion": SAND.cohesion, "friction_angle": SAND.friction_angle, "shear_modulus": SAND.shear_modulus}
 
 
@@ -94,14 +92,8 @@ def test_a_misfit_is_not_taken_for_slip_noise():
 
 
 def _independent_sweep(tmp_path, seed):
-    sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
-    try:
-        import independent_check as ic
-    finally:
-        sys.path.pop(0)
-    path = tmp_path / f"sweep_{seed}.csv"
-    ic.sweep_csv(str(path), seed, loads=(ic.W0, 0.6 * ic.W0), grade=0.06)
-    return read_csv(str(path))
+    w0 = 33537.2 * 9.81  # the oracle's vehicle mass times g (benchmarks/independent_check.py)
+    return independent_sweep(tmp_path / f"sweep_{seed}.csv", seed, loads=(w0, 0.6 * w0), grade=0.06)
 
 
 def test_independent_sweep_grade_and_soil_inside_their_intervals(tmp_path):
