@@ -271,6 +271,50 @@ def _slip_newton_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function
     return ca.Function("drivelog_joint_slip_newton", [theta, slip, d], [c, g, h, ca.sumsqr(ca.jacobian(e, slip))])
 
 
+#: Samples per call of the compiled slip kernels (a log's samples are padded to a multiple of it).
+SLIP_CHUNK = 64
+
+
+@locked_cache(maxsize=32)
+def _slip_kernels(base: ca.Function):
+    """The slip-Newton function and its cost alone, mapped over :data:`SLIP_CHUNK` samples, from C code
+    when the per-user cache has it.
+
+    :func:`~soiltrack.identify.jitcache.load` without waiting: the virtual machine answers until the
+    C library, compiled once per machine in the background, is there (the same operations, the same
+    numbers); the per-sample Newton iterations of a 3,000-sample log are most of a diagnosis's time.
+    """
+    from .jitcache import load
+    return load([base.map(SLIP_CHUNK), _cost_function(base).map(SLIP_CHUNK)], "drivelog_slip", wait=False)
+
+
+class _Chunked:
+    """Per-sample evaluation of a chunk-mapped kernel over any number of samples (padded with samples at rest)."""
+
+    def __init__(self, fn: ca.Function) -> None:
+        self.fn = fn
+
+    def __call__(self, th: np.ndarray, slip: np.ndarray, D: np.ndarray):
+        n = slip.shape[1]
+        k = -(-n // SLIP_CHUNK)
+        size = k * SLIP_CHUNK
+        if size != n:
+            th = np.hstack([th, np.repeat(th[:, :1], size - n, axis=1)])
+            slip = np.hstack([slip, np.zeros((1, size - n))])
+            D = padded_data(D, size)
+        out = _mapped(self.fn, k)(th, slip, D)
+        if isinstance(out, (list, tuple)):
+            return [np.asarray(o, dtype=float).ravel()[:n] for o in out]
+        return np.asarray(out, dtype=float).ravel()[:n]
+
+
+def _slip_pair(base: ca.Function) -> tuple[_Chunked, _Chunked]:
+    """``(slip-Newton function, its cost function)`` per sample: C code if loaded, else the virtual machine."""
+    k = _slip_kernels(base)
+    k.upgrade()
+    return _Chunked(k.functions[0]), _Chunked(k.functions[1])
+
+
 def solve_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np.ndarray,
                 slip0: np.ndarray, iterations: int = 40) -> np.ndarray:
     """Latent slips of given samples for fixed parameters: per-sample minimum of ``|e_k|^2 / 2``.
@@ -282,7 +326,7 @@ def solve_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np
     length scale (a gradient step of 1e-3 / |c''| crawled there: measured 2,400 of 2,704 samples of
     a heavy log still moving after 40 iterations).
     """
-    base = _slip_newton_function(vehicle, structure)
+    base, cost = _slip_pair(_slip_newton_function(vehicle, structure))
     lo, hi = SLIP_BOUNDS
     s = np.clip(np.asarray(slip0, dtype=float), lo, hi)
     theta = np.asarray(theta, dtype=float).reshape(-1, 1)
@@ -293,15 +337,14 @@ def solve_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np
     for _ in range(iterations):
         if act.size == 0:
             break
-        fn = _mapped(base, act.size)
         th = np.repeat(theta, act.size, axis=1)
         Da, sa = D[:, act], s[act]
-        c, g, h, hgn = (np.asarray(o, dtype=float).ravel() for o in fn(th, sa.reshape(1, -1), Da))
+        c, g, h, hgn = base(th, sa.reshape(1, -1), Da)
         step = np.clip(-g / np.where(h > 0, h, np.maximum(hgn, 1e-300)), lo - hi, hi - lo)
         # step length: the first of 1, 1/2, ..., 2^-29 that does not raise the sample's cost (else 2^-30);
         # the full step for every sample first, then all the halvings of the rejected ones in one call
         t = np.ones(act.size)
-        c_new = _cost(base, theta, np.clip(sa + step, lo, hi), Da)
+        c_new = _cost(cost, theta, np.clip(sa + step, lo, hi), Da)
         pend = np.nonzero(c_new > c * (1 + 1e-12) + 1e-300)[0]
         t[pend] = 0.5 ** 30
         for k0 in range(1, 30, 6):  # halvings in batches of 6 per call
@@ -309,7 +352,7 @@ def solve_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np
                 break
             tk = 0.5 ** np.arange(k0, min(k0 + 6, 30))
             cand = np.clip(sa[pend, None] + tk[None, :] * step[pend, None], lo, hi)
-            cn = _cost(base, theta, cand.ravel(), np.repeat(Da[:, pend], tk.size, axis=1)).reshape(pend.size, -1)
+            cn = _cost(cost, theta, cand.ravel(), np.repeat(Da[:, pend], tk.size, axis=1)).reshape(pend.size, -1)
             ok = cn <= c[pend, None] * (1 + 1e-12) + 1e-300
             hit = np.any(ok, axis=1)
             t[pend[hit]] = tk[np.argmax(ok[hit], axis=1)]
@@ -328,11 +371,10 @@ def _cost_function(base: ca.Function) -> ca.Function:
     return ca.Function(base.name() + "_cost", ins, [base(*ins)[0]])
 
 
-def _cost(base: ca.Function, theta: np.ndarray, slip: np.ndarray, D: np.ndarray) -> np.ndarray:
-    """Per-sample cost ``|e_k|^2 / 2`` of the slip-Newton function at the given slips."""
+def _cost(cost: _Chunked, theta: np.ndarray, slip: np.ndarray, D: np.ndarray) -> np.ndarray:
+    """Per-sample cost ``|e_k|^2 / 2`` (``cost``: :func:`_cost_function` of the slip-Newton function)."""
     n = slip.size
-    fn = _mapped(_cost_function(base), n)
-    return np.asarray(fn(np.repeat(theta, n, axis=1), slip.reshape(1, -1), D), dtype=float).ravel()
+    return cost(np.repeat(theta, n, axis=1), slip.reshape(1, -1), D)
 
 
 def _mapped(fn: ca.Function, n: int) -> ca.Function:
@@ -359,12 +401,12 @@ def best_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np.
     speeds (accurate at large slip) finds the right one.
     """
     n = D.shape[1]
-    fn = _slip_newton_function(vehicle, structure).map(n)
+    fn = _slip_pair(_slip_newton_function(vehicle, structure))[1]
     th = np.repeat(np.asarray(theta, dtype=float).reshape(-1, 1), n, axis=1)
     best, best_c = None, None
     for s0 in starts:
         s = solve_slips(vehicle, structure, theta, D, s0, iterations)
-        c = np.asarray(fn(th, s.reshape(1, -1), D)[0], dtype=float).ravel()
+        c = fn(th, s.reshape(1, -1), D)
         if best is None:
             best, best_c = s, c
         else:

@@ -248,3 +248,29 @@ def test_joint_solver_hessian_is_casadis_own(names):
     B = np.asarray(ca.DM(solver.get_function("nlp_hess_l")(x, p, 0.7, np.zeros(0))).full())
     assert np.all(np.isfinite(A)) and np.max(np.abs(A)) > 0
     assert np.max(np.abs(0.7 * A - B)) <= 1e-9 * np.max(np.abs(A)), np.max(np.abs(0.7 * A - B))
+
+
+def test_compiled_slip_kernels_equal_the_virtual_machine():
+    # the per-sample latent-slip Newton of drive-log fits runs from C code (per-user cache, compiled in the
+    # background); it must give the virtual machine's numbers exactly, padding included
+    from soiltrack.identify import drivelog_joint as J
+    from soiltrack.identify.jitcache import compiler, load
+    from soiltrack.soilmodel import VEHICLES
+    from soiltrack.soilmodel.effects import effect_structure
+    if compiler() is None:
+        pytest.skip("no C compiler: the virtual machine is used, nothing to compare")
+    v = VEHICLES["light"]
+    base = J._slip_newton_function(v, effect_structure(["grade", "slip_sinkage"], v))
+    c = load([base.map(J.SLIP_CHUNK), J._cost_function(base).map(J.SLIP_CHUNK)], "drivelog_slip", wait=True)
+    assert c.is_c
+    rng = np.random.default_rng(0)
+    n = 3 * J.SLIP_CHUNK + 5  # not a multiple of the chunk: padded
+    th = np.vstack([rng.uniform(100, 5000, n), rng.uniform(0.005, 0.05, n)]
+                   + [rng.uniform(-0.05, 0.05, n) for _ in range(base.size1_in(0) - 2)])
+    s = rng.uniform(-0.5, 0.9, (1, n))
+    D = np.abs(rng.normal(size=(len(J.DATA_ROWS), n)))
+    vm = [np.asarray(o).ravel() for o in base.map(n)(th, s, D)]
+    cc = J._Chunked(c.functions[0])(th, s, D)
+    for a, b in zip(vm, cc):
+        assert np.array_equal(a, b, equal_nan=True)
+    assert np.array_equal(J._Chunked(c.functions[1])(th, s, D), vm[0], equal_nan=True)
