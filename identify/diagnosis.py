@@ -823,6 +823,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
 
     n_held = int(sum(np.sum(mask[ch]) for ch in channels))
     scores = {m: ss(m) for m in H}
+
+    def held_shrink(m: str) -> float:
+        """``1 - after/before`` of model ``m`` against the nominal model on the held-out residuals over the noise."""
+        return 1.0 - math.sqrt(scores[m] / max(scores[NOMINAL], 1e-300))
     # evidence correction: correlated residuals (logs) and residuals more dispersed than Gaussian noise
     best_m = min(scores, key=lambda m: scores[m])
     infl = max(long_run_factor(z(best_m, ch)) for ch in channels) if is_log else 1.0
@@ -877,7 +881,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             # is there a gap, and does the named effect explain it? (against the noise, not the other models)
             verdict, note = check_verdict(
                 verdict, gap_p=gap_p, beats_nominal_p=dm_test(zall(NOMINAL), zall(verdict.name), dm_lag),
-                shrink=1.0 - math.sqrt(scores[verdict.name] / max(scores[NOMINAL], 1e-300)),
+                shrink=held_shrink(verdict.name),
                 explained=explained_fraction(scores[NOMINAL], scores[verdict.name], n_held),
                 no_gap_confidence=1.0 - weights.get(DISCREPANCY, 0.0), alpha=alpha)
             if note:
@@ -895,7 +899,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             ch = channels[0]
             lack_p[c] = lack_of_fit(rc[ch][full_ok], fit_jacobian(f, data)[full_ok], basis[full_ok],
                                     sig_n[ch][full_ok])
-        shrink_of = {c: 1.0 - math.sqrt(scores[c] / max(scores[NOMINAL], 1e-300)) for c in lack_p
+        shrink_of = {c: held_shrink(c) for c in lack_p
                      if math.isfinite(scores.get(c, math.inf))}
         verdict = decide_sweep(weights, [s.effect for s in significant], gap_seen, lack_p, alpha=alpha,
                                shrink=shrink_of)
@@ -1032,11 +1036,11 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         # that predicts the held-out blocks as well, or better by less than MIN_SHRINK: the weights, on all the
         # sweep, favour the verdict, but nothing the data show independently of those weights does
         va = verdict.name
-        sh_a = 1.0 - math.sqrt(scores[va] / max(scores[NOMINAL], 1e-300))
+        sh_a = held_shrink(va)
         for b in sorted({x for p, _, _ in conf if va in p for x in p} - {va}):
             if not math.isfinite(scores.get(b, math.inf)):
                 continue
-            sh_b = 1.0 - math.sqrt(scores[b] / max(scores[NOMINAL], 1e-300))
+            sh_b = held_shrink(b)
             if sh_b > 0.0 and sh_a - sh_b < MIN_SHRINK:
                 notes.append(f"{b}, listed as confusable with {va}, predicts the held-out blocks as well (held-out "
                              f"shrink {sh_b:.2f} against {sh_a:.2f}): {va} is named with confidence 0.5 at most")
@@ -1055,7 +1059,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         alikes: list[tuple[float, str]] = []
         for b in (m for m in rivals if math.isfinite(scores.get(m, math.inf))):
             p_b = dm_test(zall(b), zall(va), dm_lag)
-            sh_a, sh_b = (1.0 - math.sqrt(scores[m] / max(scores[NOMINAL], 1e-300)) for m in (va, b))
+            sh_a, sh_b = held_shrink(va), held_shrink(b)
             alike = p_b >= alpha and sh_b >= 0.5 * sh_a  # not shown worse, and at least half the gain
             close = sh_a - sh_b < MIN_SHRINK  # or worse by less than an appreciable share of the held-out error
             if sh_b > 0.0 and (alike or close):

@@ -287,12 +287,10 @@ def decide_sweep(weights: dict[str, float], significant: list[str], gap: bool, l
 
 def fit_jacobian(res, data: SlipData) -> np.ndarray:
     """Jacobian ``(n, 3 + m)`` of a sweep fit's prediction at its answer, on the samples of ``data``."""
-    from .sweep_model import SweepResiduals, predict
+    from .sweep_model import SweepResiduals, fit_vector, predict
 
     rm = res.residual_model if isinstance(getattr(res, "residual_model", None), SweepResiduals) else SweepResiduals()
-    values = getattr(res, "effect_values", None)
-    ev = np.zeros(0) if values is None or not res.effect_labels else np.asarray(values, dtype=float).ravel()
-    x = np.concatenate([np.asarray(res.theta, dtype=float), ev])
+    x = fit_vector(res)
     effects = res.effect_structure if res.effect_labels else None
     W = data.loads(res.vehicle.weight).astype(float)
     _, J = predict(x, data.slip, W, res.vehicle, effects, res.model, data.measured, rm.rig_speed)

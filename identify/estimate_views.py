@@ -220,7 +220,7 @@ class EstimateViews:
                 if weak:
                     notes.append("weakly identifiable (correlation with other parameter directions > 0.99"
                                  + (f"; most with {partner}: {rho:+.4f})" if partner else ")"))
-                pi = (self.profile_intervals or {}).get(name)
+                pi = (self.replaced_intervals or {}).get(name)
                 if pi is not None:
                     ci = (pi.lower, pi.upper)
                     notes = [n for n in notes if not n.startswith(("on the", "the lower end", "the upper end"))]
@@ -309,7 +309,7 @@ class EstimateViews:
                     mult = math.sqrt(max(0.0, 1.0 - 1.0 / vif)) if math.isfinite(vif) else 1.0
                     notes.append(f"weakly identifiable: multiple correlation {mult:.5f} with the other parameters"
                                  + (f", most with {partner} ({rho:+.4f})" if partner else ""))
-                pi = (self.profile_intervals or {}).get(label)
+                pi = (self.replaced_intervals or {}).get(label)
                 if pi is not None:
                     ci = (pi.lower, pi.upper)
                     notes = [n for n in notes if not n.startswith("on the")]

@@ -29,8 +29,9 @@ import numpy as np
 from ..soilmodel.errors import DataError
 from ..soilmodel.soil import PARAMETER_NAMES
 from .profile import lr_threshold
+from .sweep_model import fit_vector
 
-__all__ = ["ProfileInterval", "profile_intervals", "with_profile_intervals", "check_intervals", "INTERVAL_MODES"]
+__all__ = ["ReplacedInterval", "profile_intervals", "with_profile_intervals", "check_intervals", "INTERVAL_MODES"]
 
 INTERVAL_MODES = ("auto", "linear", "profile")
 _MAX_EXPAND = 7
@@ -40,8 +41,9 @@ _COST_RTOL = 0.02
 
 
 @dataclass(frozen=True)
-class ProfileInterval:
-    """The 95 % profile-likelihood interval of one parameter (SI).
+class ReplacedInterval:
+    """A 95 % interval that replaced a parameter's linearised one (SI): the profile likelihood's, or
+    (``kind="hold"``) one widened to cover a drive log's two torque holds.
 
     ``open_lower`` / ``open_upper``: the threshold is not crossed before the physical bound
     (the data do not bound the parameter on that side); ``linear``: the linearised interval it
@@ -96,7 +98,7 @@ def profile_intervals(pb, res, solve, mode: str = "auto") -> tuple[dict, tuple[s
     """Profile intervals of ``res`` (a successful joint fit of ``pb``).
 
     ``solve(pb, hold, start_x) -> FitResult`` solves with ``{index: value}`` held. Returns
-    ``({label: ProfileInterval}, warnings)``.
+    ``({label: ReplacedInterval}, warnings)``.
     """
     if mode == "linear" or not res.success:
         return {}, ()
@@ -104,8 +106,7 @@ def profile_intervals(pb, res, solve, mode: str = "auto") -> tuple[dict, tuple[s
     thr, how = lr_threshold(cmin, res.dof, pb.sigma_known)
     if not math.isfinite(thr):
         return {}, ()
-    ev = np.asarray(res.effect_values, float) if res.effect_values is not None else np.zeros(0)
-    xhat = np.concatenate([np.asarray(res.theta, float), ev])
+    xhat = fit_vector(res)
     lo_b = np.concatenate([pb.bounds.lower, [b[0] for b in res.effect_bounds]])
     hi_b = np.concatenate([pb.bounds.upper, [b[1] for b in res.effect_bounds]])
     out, warnings = {}, []
@@ -116,8 +117,7 @@ def profile_intervals(pb, res, solve, mode: str = "auto") -> tuple[dict, tuple[s
         if not r.success:
             return None, None
         c = 0.5 * float(np.dot(r.weighted_residuals, r.weighted_residuals))
-        x = np.concatenate([np.asarray(r.theta, float), np.asarray(r.effect_values, float)
-                            if r.effect_values is not None else np.zeros(0)])
+        x = fit_vector(r)
         if c < best[0] - 1e-9 * max(abs(best[0]), 1e-300) - 1e-12:
             best[0], best[1] = c, x
         return c, x
@@ -179,7 +179,7 @@ def profile_intervals(pb, res, solve, mode: str = "auto") -> tuple[dict, tuple[s
             t = (thr - in_c) / (out_c - in_c) if out_c != in_c else 0.0
             ends.append(in_v + t * (out_v - in_v))
             opens.append(False)
-        out[label] = ProfileInterval(label, float(min(ends)), float(max(ends)), opens[0], opens[1],
+        out[label] = ReplacedInterval(label, float(min(ends)), float(max(ends)), opens[0], opens[1],
                                      tuple(pe.ci95), n_eval, "; ".join(notes))
     if best[1] is not None:
         warnings.append(f"the profile found a lower cost ({best[0]:.6g} against the fit's {cmin:.6g}) at "
@@ -197,4 +197,4 @@ def with_profile_intervals(pb, res, solve, mode: str = "auto"):
         return res
     extra = dict(res.extra)
     extra["profile_intervals"] = {k: v.to_dict() for k, v in prof.items()}
-    return replace(res, profile_intervals=prof, extra=extra, input_warnings=tuple(res.input_warnings) + warns)
+    return replace(res, replaced_intervals=prof, extra=extra, input_warnings=tuple(res.input_warnings) + warns)

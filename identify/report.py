@@ -144,7 +144,7 @@ class ReportViews:
 
     def _interval_tag(self, label: str) -> str:
         """`` (profile)`` or `` (both holds)`` when that parameter's interval replaced the linearised one."""
-        pi = (self.profile_intervals or {}).get(label)
+        pi = (self.replaced_intervals or {}).get(label)
         return "" if pi is None else (" (profile)" if pi.kind == "profile" else " (both holds)")
 
     def _noise_line(self) -> str:
@@ -240,7 +240,7 @@ class ReportViews:
                             (" [weakly identifiable]" if pe.weakly_identifiable else ""))
                     L.append(f"{lab}{pe.value:.5g}{se} {u}, 95 % {rng}{self._interval_tag(name + '.' + pname)}{flag}"
                              f"{weak}")
-        kinds = {v.kind for v in (self.profile_intervals or {}).values()}
+        kinds = {v.kind for v in (self.replaced_intervals or {}).values()}
         if "profile" in kinds:
             L.append("  (profile: the 95 % interval from the profile likelihood, this parameter held and all others "
                      "refitted; the +- is the linearised standard error, which assumes a quadratic cost)")

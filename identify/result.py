@@ -107,9 +107,10 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
     fixed_labels: tuple[str, ...] = ()
     measured: str | None = None
     residual_model: Any = None
-    #: ``{label: ProfileInterval}`` replacing the linearised 95 % intervals of those parameters
-    #: (:mod:`soiltrack.identify.joint_profile`), or None.
-    profile_intervals: Any = None
+    #: ``{label: ReplacedInterval}`` replacing the linearised 95 % intervals of those parameters: profile
+    #: likelihood (:mod:`soiltrack.identify.joint_profile`) or widened over both torque holds
+    #: (:mod:`soiltrack.identify.torque_hold`); None when every interval is the linearised one.
+    replaced_intervals: Any = None
 
     def __getstate__(self) -> dict:
         """Pickle only this fit's slice of batched core statistics (never computed ones: they follow)."""

@@ -36,7 +36,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..soilmodel.errors import DataError
-from .sweep_model import slip_slope
+from .sweep_model import fit_vector, slip_slope
 
 __all__ = ["SlipNoise", "estimate_slip_noise", "leverage", "serial_correlation", "check_slip_noise", "fit_with_slip_noise", "LR_CRITICAL"]
 
@@ -220,11 +220,6 @@ def leverage(res) -> np.ndarray:
     return np.minimum(h, 0.95)
 
 
-def _x_of(res) -> np.ndarray:
-    ev = np.asarray(res.effect_values, float) if res.effect_values is not None else np.zeros(0)
-    return np.concatenate([np.asarray(res.theta, float), ev])
-
-
 def fit_with_slip_noise(pb, solve, mode) -> tuple[object, SlipNoise, object]:
     """Fit ``pb`` with ``solve(pb, start_x) -> FitResult`` under the slip-noise ``mode``.
 
@@ -246,7 +241,7 @@ def fit_with_slip_noise(pb, solve, mode) -> tuple[object, SlipNoise, object]:
     given = None if mode == "auto" else float(mode)
 
     def components(r):
-        d = slip_slope(_x_of(r), pb.slip, pb.load, pb.vehicle, pb.effects, pb.model, pb.measured, pb.rig_speed)
+        d = slip_slope(fit_vector(r), pb.slip, pb.load, pb.vehicle, pb.effects, pb.model, pb.measured, pb.rig_speed)
         return d, estimate_slip_noise(r.residuals / np.sqrt(1.0 - leverage(r)), d, base, pb.sigma_known, given)
 
     d, (ss, s, lr) = components(res)
@@ -265,7 +260,7 @@ def fit_with_slip_noise(pb, solve, mode) -> tuple[object, SlipNoise, object]:
     while it < MAX_ITER:
         it += 1
         q = replace(pb, sigma=sig / s)  # relative weights when the level is estimated (s = 1 when known)
-        cur = solve(q, _x_of(last))
+        cur = solve(q, fit_vector(last))
         if not cur.success:
             break
         last, last_pb = cur, q

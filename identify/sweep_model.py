@@ -21,7 +21,7 @@ from ..soilmodel.ridge import LOAD_RTOL
 from ..soilmodel.threadsafe import locked_cache
 from ..soilmodel.vehicle import Vehicle
 
-__all__ = ["observation_function", "predict", "slip_slope", "nominal_offset", "SweepResiduals"]
+__all__ = ["observation_function", "predict", "slip_slope", "fit_vector", "nominal_offset", "SweepResiduals"]
 
 
 @locked_cache(maxsize=128)
@@ -57,15 +57,20 @@ def predict(x, slip, W, vehicle: Vehicle, effects=None, model: str = "full", mea
     return np.asarray(y, dtype=float).ravel(), np.asarray(J, dtype=float).reshape(n, x.size)
 
 
+def fit_vector(result) -> np.ndarray:
+    """``x = [c, phi, K, e...]`` (SI) of a slip fit: its ``theta`` and its effect values (none without effects)."""
+    ev = result.effect_values if result.effect_labels and result.effect_values is not None else []
+    return np.concatenate([np.asarray(result.theta, dtype=float), np.asarray(ev, dtype=float).ravel()])
+
+
 @locked_cache(maxsize=64)
 def _slope_mapped(vehicle: Vehicle, structure: EffectSet, model: str, measured: str, rig_speed: float,
                   n: int) -> ca.Function:
-    mapping, e, _ = effect_symbols(structure, ca.SX, vehicle)
+    obs = _observation(vehicle, structure, model, measured, rig_speed)  # the one observation model
     i, W = ca.SX.sym("i"), ca.SX.sym("W")
-    th = ca.SX.sym("theta", 3)
-    _, _, y = sweep_measurement(i, W, th[0], th[1], th[2], vehicle, mapping, model, measured, rig_speed)
-    return ca.Function("sweep_slope", [i, W, ca.vertcat(th, e)], [ca.jacobian(y, i)], ["i", "W", "x"],
-                       ["dy_di"]).map(n)
+    x = ca.SX.sym("x", obs.size1_in(2))
+    y = obs(i, W, x)[0]
+    return ca.Function("sweep_slope", [i, W, x], [ca.jacobian(y, i)], ["i", "W", "x"], ["dy_di"]).map(n)
 
 
 def slip_slope(x, slip, W, vehicle: Vehicle, effects=None, model: str = "full", measured: str = "tractive_force",
@@ -132,8 +137,7 @@ class SweepResiduals:
                 raise DataError(f"the fit saw one normal load ({W0:.6g} N), where c and phi are not separable: its "
                                 f"prediction at {W[bad[0]]:.6g} N is not determined", file=data.source,
                                 column="normal_load_N", row=int(bad[0]) + 1)
-        x = np.concatenate([np.asarray(result.theta, float),
-                            np.asarray(result.effect_values if result.effect_labels else [], float)])
+        x = fit_vector(result)
         effects = result.effect_structure if result.effect_labels else None
         y, _ = predict(x, data.slip, W, result.vehicle, effects, result.model, data.measured, self.rig_speed)
         return {data.channel: data.values - y}

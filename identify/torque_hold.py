@@ -19,7 +19,7 @@ import math
 from dataclasses import replace
 from typing import Callable
 
-from .joint_profile import ProfileInterval
+from .joint_profile import ReplacedInterval
 
 __all__ = ["fit_both_holds", "widen_for_hold"]
 
@@ -47,7 +47,7 @@ def widen_for_hold(res, alt, alt_hold: str = "sample"):
         extra["torque_hold_alternative"] = info
         return replace(res, extra=extra)
     mine, other = _estimates(res), _estimates(alt)
-    overrides = dict(res.profile_intervals or {})
+    overrides = dict(res.replaced_intervals or {})
     info["intervals"] = {}
     for label, pe in mine.items():
         pa = other.get(label)
@@ -63,10 +63,10 @@ def widen_for_hold(res, alt, alt_hold: str = "sample"):
                 "the one that describes the log")
         if prev is not None:
             note = f"{prev.note}; {note}" if prev.note else note
-        overrides[label] = ProfileInterval(label, float(lo), float(hi), False, False, tuple(pe.ci95), 0, note,
+        overrides[label] = ReplacedInterval(label, float(lo), float(hi), False, False, tuple(pe.ci95), 0, note,
                                            kind="hold")
     extra["torque_hold_alternative"] = info
-    return replace(res, profile_intervals=overrides or None, extra=extra)
+    return replace(res, replaced_intervals=overrides or None, extra=extra)
 
 
 def fit_both_holds(fit_with: Callable[[str], object]):

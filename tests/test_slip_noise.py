@@ -106,7 +106,7 @@ def test_independent_sweep_grade_and_soil_inside_their_intervals(tmp_path):
     res = fit(d, HEAVY, effects=["grade"])
     assert res.success and res.extra["slip_noise"]["adopted"]
     assert all(_hits([res], truth, 0.06).values())
-    pi = res.profile_intervals["grade.theta_rad"]
+    pi = res.replaced_intervals["grade.theta_rad"]
     assert pi.linear != (pi.lower, pi.upper) and "profile likelihood" in res.effects["grade"]["theta_rad"].note
 
 
@@ -115,21 +115,21 @@ def test_profile_interval_matches_linear_where_the_cost_is_quadratic():
     d = simulate_slip_sweep(HEAVY, SAND, effects={"grade": GRADE}, normal_loads=LOADS, seed=2,
                             measure="drawbar_pull", noise=SensorNoise(force_rel=0.0, force_abs=1000.0, slip_abs=0.0))
     res = fit(d, HEAVY, effects=["grade"], intervals="profile", slip_noise="off")
-    assert set(res.profile_intervals) == {"cohesion", "friction_angle", "shear_modulus", "grade.theta_rad"}
-    for label, pi in res.profile_intervals.items():
+    assert set(res.replaced_intervals) == {"cohesion", "friction_angle", "shear_modulus", "grade.theta_rad"}
+    for label, pi in res.replaced_intervals.items():
         lo, hi = pi.linear
         # measured: the ends agree to 0-2.2 % of the width on these well-determined parameters
         assert abs(pi.lower - lo) < 0.05 * (hi - lo) and abs(pi.upper - hi) < 0.05 * (hi - lo), (label, pi)
     assert json.loads(res.to_json())["extra"]["profile_intervals"]["grade.theta_rad"]["evaluations"] > 0
     lin = fit(d, HEAVY, effects=["grade"], intervals="linear", slip_noise="off")
-    assert lin.profile_intervals is None and lin.effects["grade"]["theta_rad"].ci95 == pytest.approx(
-        res.profile_intervals["grade.theta_rad"].linear)
+    assert lin.replaced_intervals is None and lin.effects["grade"]["theta_rad"].ci95 == pytest.approx(
+        res.replaced_intervals["grade.theta_rad"].linear)
 
 
 def test_defaults_without_effects_are_unchanged():
     d = simulate_slip_sweep(HEAVY, SAND, seed=0)
     res = fit(d, HEAVY)
-    assert "slip_noise" not in res.extra and res.profile_intervals is None
+    assert "slip_noise" not in res.extra and res.replaced_intervals is None
     same = fit(d, HEAVY, slip_noise="off", intervals="linear")
     np.testing.assert_allclose(same.theta, res.theta, rtol=1e-6)
 
