@@ -902,7 +902,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         shrink_of = {c: held_shrink(c) for c in lack_p
                      if math.isfinite(scores.get(c, math.inf))}
         verdict = decide_sweep(weights, [s.effect for s in significant], gap_seen, lack_p, alpha=alpha,
-                               shrink=shrink_of)
+                               shrink=shrink_of, disc_held_p=disc_beats[NOMINAL])
 
     # --- 3. where: on the full-data nominal residuals (every sample; the gap is the nominal misfit) -----
     common = np.logical_and.reduce([np.isfinite(R[ch]) & np.isfinite(sig_n[ch]) for ch in channels])

@@ -11,7 +11,9 @@ which :func:`~.diagnosis.diagnose` draws on sweeps:
   independent samples and a known noise level the efficient comparison is the likelihood on
   all the data with a penalty for the parameters added (Akaike's information criterion),
   averaged over a Bayesian bootstrap of the samples (pseudo-BMA+, :func:`information_weights`).
-  Held-out blocks still measure the gap, test the flexible term and give the shrink.
+  Held-out blocks still measure the gap, test the flexible term and give the shrink; a flexible
+  term that wins on all the data but predicts the held-out blocks no better than the nominal
+  model is a chance feature of the noise, not a gap (:func:`decide_sweep`).
 - **More folds** (:func:`sweep_folds`): each block held out once in five folds, so every fit
   sees 80 % of the sweep instead of half of it.
 - **Imitation** (:func:`imitation_rms`): how closely effect B, refitted with the soil, can
@@ -98,7 +100,7 @@ def sweep_folds(order: np.ndarray, n_blocks: int = 10, n_folds: int = 5) -> list
 
 
 def information_weights(z: dict[str, np.ndarray], k: dict[str, int], n_boot: int = 400,
-                        seed: int = 20261123) -> dict[str, float]:
+                        seed: int = 20261123, profile_scale: bool = True) -> dict[str, float]:
     """Pseudo-BMA+ weights of in-sample fits: AIC on all the data, averaged over a Bayesian bootstrap.
 
     ``z[m]`` are model m's residuals over the noise level at every sample (the same samples for
@@ -107,6 +109,12 @@ def information_weights(z: dict[str, np.ndarray], k: dict[str, int], n_boot: int
     ``-0.5 n sum_t a_t z_t^2 - k`` (the log-likelihood minus Akaike's penalty); the weights are the
     softmax averaged over the replicates (Yao et al. 2018). A model with a non-finite residual
     gets weight 0. Deterministic (fixed ``seed``).
+
+    With ``profile_scale`` (the default) the noise floor gives only the shape of the noise along
+    the sweep: its overall level, which second differences of a few dozen samples estimate to
+    within 10-20 %, is profiled out per model, and the score becomes
+    ``-0.5 n log(sum_t a_t z_t^2) - k``. A floor set too low then no longer multiplies every
+    likelihood gain (a chance feature of the noise fitted by the flexible term among them).
     """
     names = list(z)
     if not names:
@@ -117,11 +125,15 @@ def information_weights(z: dict[str, np.ndarray], k: dict[str, int], n_boot: int
     out = np.zeros(len(names))
     if n == 0 or not np.any(finite):
         return {m: (1.0 / len(names) if n == 0 else 0.0) for m in names}
-    L = -0.5 * Z[finite] ** 2  # (models, samples)
+    Q = Z[finite] ** 2  # (models, samples)
     pen = np.array([float(k.get(m, 0)) for m, f in zip(names, finite) if f])
     rng = np.random.default_rng(seed)
     A = rng.dirichlet(np.ones(n), size=n_boot)  # (boot, samples)
-    E = n * A @ L.T - pen[None, :]
+    if profile_scale:
+        # the noise level's scale profiled out (one factor over the floor's shape, per model and replicate)
+        E = -0.5 * n * np.log(np.maximum(A @ Q.T, 1e-300)) - pen[None, :]
+    else:
+        E = -0.5 * n * A @ Q.T - pen[None, :]
     E = E - E.max(axis=1, keepdims=True)
     W = np.exp(E)
     W /= W.sum(axis=1, keepdims=True)
@@ -233,7 +245,7 @@ PARTIAL_SHRINK = 0.5
 
 
 def decide_sweep(weights: dict[str, float], significant: list[str], gap: bool, lack_p: dict[str, float],
-                 alpha: float = 0.01, shrink: dict[str, float] | None = None):
+                 alpha: float = 0.01, shrink: dict[str, float] | None = None, disc_held_p: float | None = None):
     """The verdict on a sweep from information-criterion weights and the lack-of-fit test.
 
     - ``none`` when no candidate screens significant and no gap is seen, or when the nominal model
@@ -243,6 +255,10 @@ def decide_sweep(weights: dict[str, float], significant: list[str], gap: bool, l
       and the candidate explains less than half of the held-out gap (``shrink`` below
       :data:`PARTIAL_SHRINK`); with half or more it is named, its confidence capped at 0.5 (the
       effect is there, but its form is not quite the library's, or a second cause adds to it);
+    - when the flexible term outweighs every candidate on all the data but predicts the held-out
+      blocks no better than the nominal model (``disc_held_p``, the Diebold-Mariano p-value, at
+      least ``alpha``), no structured gap is confirmed: ``none``, or a candidate whose own score is
+      significant, named at 0.5 at most (weights renormalised without the flexible term);
     - otherwise the best candidate, with its weight as the confidence.
 
     Returns a :class:`~.selection.Verdict`.
@@ -264,6 +280,19 @@ def decide_sweep(weights: dict[str, float], significant: list[str], gap: bool, l
     if w_none >= named[best] and w_none >= w_disc:
         return Verdict(NOMINAL, w_none, "the nominal model fits all the data best (likelihood with Akaike's "
                        "penalty for the parameters an effect adds)")
+    if w_disc > named[best] and disc_held_p is not None and disc_held_p >= alpha:
+        # the flexible term wins on all the data but predicts the held-out blocks no better than the
+        # nominal model: its gain is a chance feature of this noise (or a floor set too low), not a
+        # structured gap; it leaves the comparison, and a name needs a significant score of its own
+        rest = w_none + sum(named.values())
+        wn = w_none / rest if rest > 0 else 1.0
+        wb = named[best] / rest if rest > 0 else 0.0
+        why = (f"a flexible term fits all the data better, but it does not predict the held-out blocks better than "
+               f"the nominal model (p = {disc_held_p:.2g}): no structured gap is confirmed")
+        if best in significant and wb > wn:
+            return Verdict(best, min(wb, 0.5), why + f"; {best} screens significant and is named, with confidence "
+                           "0.5 at most")
+        return Verdict(NOMINAL, max(wn, 1.0 - wb) if best not in significant else wn, why)
     if w_disc > named[best]:
         return Verdict("unexplained", 1.0 - named[best],
                        f"a flexible discrepancy term fits all the data better than the best candidate, {best}, "

@@ -74,3 +74,27 @@ def test_a_confusable_rival_that_predicts_as_well_caps_a_sweep_verdict(tmp_path)
     d = diagnose(independent_sweep(tmp_path / "clipped.csv", 2, clip=0.8), HEAVY)
     assert d.confidence <= 0.5
     assert d.verdict == "unexplained" or any("predicts the held-out blocks as well" in n for n in d.notes)
+
+
+def test_a_flexible_term_that_does_not_predict_held_out_blocks_is_no_gap():
+    w = {"none": 0.06, "discrepancy": 0.80, "grade": 0.05, "mass_error": 0.09}
+    # the flexible term wins on all the data and ALSO predicts the held-out blocks: a real gap
+    assert decide_sweep(w, [], True, {}, disc_held_p=1e-4).name == "unexplained"
+    # it wins on all the data only: a chance feature of the noise; nothing screens significant -> none
+    v = decide_sweep(w, [], True, {}, disc_held_p=0.17)
+    assert v.name == "none" and "no structured gap is confirmed" in v.reason
+    assert v.confidence == pytest.approx(1.0 - 0.09 / 0.20)
+    # a candidate with a significant score of its own is named, at 0.5 at most
+    v = decide_sweep(w, ["mass_error"], True, {}, disc_held_p=0.17)
+    assert v.name == "mass_error" and v.confidence == pytest.approx(0.09 / 0.20)  # its share, under 0.5
+
+
+def test_an_effect_free_clayey_sweep_from_independent_code_is_none(tmp_path):
+    # independent oracle, effect-free, c = 4.14 kPa, phi = 13 deg, K = 6 mm, seed 0: residuals white but with a
+    # chance lag-1 correlation of 0.26, so the noise floor is low (255 N against about 300 N) and a 10-knot
+    # flexible term wins on all the data; it predicts the held-out blocks no better (p = 0.17).
+    # Measured before the rule: unexplained, confidence 0.94.
+    import numpy as np
+    d = diagnose(independent_sweep(tmp_path / "clay.csv", 0, c=4140., phi=np.radians(13.0), K=0.006), HEAVY)
+    assert d.verdict == "none"
+    assert "no structured gap is confirmed" in d.reason
