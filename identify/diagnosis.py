@@ -45,14 +45,14 @@ from ..soilmodel.data import DriveLog, SlipData
 from ..soilmodel.effects import EFFECTS
 from ..soilmodel.errors import DataError
 from ..soilmodel.vehicle import Vehicle
-from .diagnosis_sweep import (decide_sweep, effect_start, fit_jacobian, imitation_rms, information_weights,
+from .diagnosis_sweep import (decide_sweep, effect_start, find_plateau, fit_jacobian, imitation_rms, information_weights,
                               lack_of_fit, plausibility_warnings, solver_converged, sweep_folds)
 from .gap import (Segment, blocked_folds, change_window, lag_peak, localise, long_run_factor, noise_profile,
                   whiteness)
 from .screening import Screen, newey_west_lag, screen
 from .sweep_model import SweepResiduals
 from .selection import (DISCREPANCY, LOOKALIKES, NOMINAL, confusable_groups, decide, dm_test, fit_discrepancy,
-                        gap_p_value, hat_basis, separating_experiment, stacking_weights)
+                        gap_p_value, hat_basis, separating_experiment, stacking_weights, Verdict)
 from .saturation import find_saturation
 from .verdict_checks import MIN_SHRINK, check_verdict, explained_fraction
 
@@ -353,6 +353,49 @@ def _fmt(x) -> str:
 
 
 # ----------------------------------------------------------------------------- helpers on fits
+def _weigh_plateau(verdict, confidence, data, slip, sigma, z_full, kpar, ch, run_fit, notes, alpha):
+    """Weigh "soil below, a flat level above" (:func:`~.diagnosis_sweep.find_plateau`) against a sweep's verdict.
+
+    Returns the verdict and confidence: ``unexplained`` when the plateau fits all the data better
+    (information weights, two parameters for the level and where it starts), the confidence
+    capped at 0.5 when it fits at least a fifth as well, unchanged otherwise (notes say which).
+    """
+    n = data.n_samples
+
+    def fit_below(idx):
+        f = run_fit(_subset(data, idx), (), record=False, retry=False)
+        if not solver_converged(f):
+            return None
+        try:
+            r = _channels(f, data)[ch]
+        except DataError:
+            return None
+        rest = np.setdiff1d(np.arange(n), idx)
+        return r[idx], np.asarray(data.values, dtype=float)[rest] - r[rest]
+
+    plateau = find_plateau(np.asarray(data.values, dtype=float), slip, sigma, fit_below)
+    if plateau is None:
+        return verdict, confidence
+    zz = dict(z_full, plateau=plateau.z)
+    w = information_weights(zz, dict(kpar, plateau=2))
+    held = DISCREPANCY if verdict.name == "unexplained" else verdict.name
+    w_v, w_p = w.get(held, 0.0), w["plateau"]
+    if verdict.name == "unexplained":
+        notes.append(plateau.describe() + f" (weight {w_p:.2f} against the flexible term's {w_v:.2f}); it may be the gap")
+        return verdict, confidence
+    if w_p > w_v:
+        notes.append(plateau.describe() + f"; it fits all the sweep better than {verdict.name} (weight {w_p:.2f} "
+                     f"against {w_v:.2f}), so no effect is named")
+        return Verdict("unexplained", 1.0 - w_v, f"the sweep's largest readings are flat at {plateau.level:.6g} N, "
+                       f"which fits all the data better than {verdict.name}: a sensor or rig limit, outside the "
+                       "library, is the likelier cause"), 1.0 - w_v
+    if w_p >= 0.2 * w_v:
+        notes.append(plateau.describe() + f"; it fits all the sweep about as well as {verdict.name} (weight "
+                     f"{w_p:.2f} against {w_v:.2f})" + ("; confidence capped at 0.5" if confidence > 0.5 else ""))
+        return verdict, min(confidence, 0.5)
+    return verdict, confidence
+
+
 def _subset(data, idx: np.ndarray):
     return data.subset(np.asarray(idx))
 
@@ -965,6 +1008,11 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                              f"(weight {w_ext[o]:.2f} against {w_ext[verdict.name]:.2f} among all library effects): "
                              f"{verdict.name} is named with confidence {confidence:.2f} only")
 
+    if not is_log and verdict.name != NOMINAL and len(channels) == 1 and bool(np.all(full_ok)):
+        # sweeps: the largest readings flat within the noise where the soil fitted below them still rises (a
+        # load cell or rig at its limit, outside the library) weighed against the verdict
+        verdict, confidence = _weigh_plateau(verdict, confidence, data, xnat, sig_n[channels[0]], z_full, kpar,
+                                             channels[0], run_fit, notes, alpha)
     for m, k in flagged.items():
         if k:
             notes.append(f"{k} fit(s) with {'the nominal model' if m == NOMINAL else m} converged but fail the "

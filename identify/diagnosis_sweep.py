@@ -31,6 +31,7 @@ diagnosis and :func:`plausibility_warnings` says why it was flagged.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -38,7 +39,8 @@ from ..soilmodel.data import SlipData
 from .stats import betainc, f_sf  # noqa: F401 - re-exported (the F test's tail)
 
 __all__ = ["NOT_USABLE", "solver_converged", "plausibility_warnings", "sweep_folds", "information_weights",
-           "imitation_rms", "effect_start", "betainc", "f_sf", "lack_of_fit", "decide_sweep", "fit_jacobian"]
+           "imitation_rms", "effect_start", "betainc", "f_sf", "lack_of_fit", "decide_sweep", "fit_jacobian", "Plateau",
+           "find_plateau", "PLATEAU_SHARE"]
 
 #: Suffix :func:`~.result.build_result` appends to the status of a fit the plausibility checks refuse.
 NOT_USABLE = "(answer not usable)"
@@ -327,3 +329,114 @@ def fit_jacobian(res, data: SlipData) -> np.ndarray:
         J = J.copy()
         J[:, 0] = 0.0
     return J
+
+
+# ----------------------------------------------------------------------------- a measured plateau
+@dataclass(frozen=True)
+class Plateau:
+    """The sweep's largest readings flat at one level within the noise: a sensor or rig at its limit.
+
+    The alternative it stands for is the nominal soil on the samples below the plateau and a
+    constant ``level`` on the ``rows`` of the plateau: what a load cell clipped at its range (with
+    noise added after the clip, so the readings do not repeat exactly) or a rig's force limit gives.
+
+    Attributes
+    ----------
+    level : float
+        The plateau's level (weighted mean of its readings), N.
+    rows : tuple of int
+        Its data rows (1-based, as in the file).
+    slip_range : tuple of float
+        Smallest and largest slip on it.
+    z : numpy.ndarray
+        Standardised residuals of the alternative at every sample.
+    """
+
+    level: float
+    rows: tuple[int, ...]
+    slip_range: tuple[float, float]
+    z: np.ndarray
+
+    def describe(self) -> str:
+        """One plain sentence."""
+        return (f"the {len(self.rows)} largest readings (slip {self.slip_range[0]:.3g} to {self.slip_range[1]:.3g}) "
+                f"are flat at {self.level:.6g} N within the noise, while the soil's curve through the readings below "
+                "them still rises there: a load cell or rig at its limit looks like this, and no effect in the "
+                "library models it")
+
+
+#: Smallest share of a sweep's samples a plateau must hold to be considered.
+PLATEAU_SHARE = 1.0 / 3.0
+
+
+def find_plateau(values: np.ndarray, slip: np.ndarray, sigma: np.ndarray, fit_below,
+                 min_share: float = PLATEAU_SHARE) -> Plateau | None:
+    """The best model "nominal soil below, one flat level on the largest readings" of a sweep.
+
+    For each count m of largest readings put on the level (at least ``min_share`` of the sweep),
+    the level is their weighted mean and the nominal soil is fitted on the others; the m with
+    the smallest total chi-square wins (searched in order of the level's own chi-square, which
+    bounds the total from below, so few soil fits are made).
+
+    Parameters
+    ----------
+    values
+        Measured force per sample, N.
+    slip
+        Slip per sample.
+    sigma
+        Noise level per sample, N.
+    fit_below
+        ``fit_below(idx) -> (residuals on idx, predictions on the other samples)`` fitting the
+        nominal soil on the samples ``idx`` only (None when the fit fails).
+    min_share
+        Fewest samples on the level, as a share of the sweep.
+
+    Returns
+    -------
+    Plateau or None
+        None for fewer than 9 samples or non-finite inputs, or when no m gives a soil below
+        that rises to the level at the plateau's slips (then nothing is clipped). One or two
+        readings below the level are passed exactly by the soil (F_max and K).
+    """
+    y = np.asarray(values, dtype=float)
+    s = np.asarray(sigma, dtype=float)
+    n = y.size
+    if n < 9 or not np.all(np.isfinite(y) & np.isfinite(s) & (s > 0)):
+        return None
+    top = np.argsort(-y, kind="stable")
+    w = 1.0 / s[top] ** 2
+    sw, swy, swy2 = np.cumsum(w), np.cumsum(w * y[top]), np.cumsum(w * y[top] ** 2)
+    chi_top = np.maximum(swy2 - swy ** 2 / sw, 0.0)  # spread of the top m readings about their mean, m = 1..n
+    ms = np.arange(max(3, int(math.ceil(min_share * n))), n)
+    best: tuple[float, int, np.ndarray] | None = None
+    for m in sorted(ms, key=lambda m: chi_top[m - 1]):
+        if best is not None and chi_top[m - 1] >= best[0]:
+            break
+        on, below = np.sort(top[:m]), np.sort(top[m:])
+        lev = float(swy[m - 1] / sw[m - 1])
+        if below.size >= 3:
+            got = fit_below(below)
+            if got is None:
+                continue
+            r_below, pred_on = got
+            if not np.all(np.isfinite(r_below)) or not np.all(np.isfinite(pred_on)):
+                continue
+            if np.median((pred_on - lev) / s[on]) < 0.0:
+                continue  # the soil below does not rise to the level there: nothing is clipped
+        elif np.any(y[below] >= lev):
+            continue
+        else:  # one or two readings below: the soil (F_max and K at least) passes through them
+            r_below = np.zeros(below.size)
+        z = np.empty(n)
+        z[below] = r_below / s[below]
+        z[on] = (y[on] - lev) / s[on]
+        total = float(z @ z)
+        if best is None or total < best[0]:
+            best = (total, m, z)
+    if best is None:
+        return None
+    _, m, z = best
+    on = np.sort(top[:m])
+    return Plateau(float(swy[m - 1] / sw[m - 1]), tuple(int(k) + 1 for k in on),
+                   (float(np.min(slip[on])), float(np.max(slip[on]))), z)
