@@ -198,6 +198,9 @@ def summarise(rows, title):
     if free:
         fa = sum(r["verdict"] != "none" for r in free)
         print(f"false alarms on effect-free data: {fa}/{len(free)} = {fa / len(free):.0%}")
+    lone = [r for r in rows if any("far off" in n and "neighbours" in n for n in r["diag"].notes)]
+    print(f"lone readings flagged (the simulator makes no glitches, so each is a false flag): {len(lone)}/{len(rows)}"
+          + "".join(f"\n    {_line(r)}" for r in lone[:5]))
     right = [r["shrink"] for r in rows if r["effect"] not in ("none",) and r["verdict"] == r["effect"]
              and r["shrink"] is not None]
     if right:

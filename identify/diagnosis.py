@@ -47,8 +47,8 @@ from ..soilmodel.errors import DataError
 from ..soilmodel.vehicle import Vehicle
 from .diagnosis_sweep import (decide_sweep, effect_start, find_plateau, fit_jacobian, imitation_rms, information_weights,
                               lack_of_fit, plausibility_warnings, solver_converged, sweep_folds)
-from .gap import (Segment, blocked_folds, change_window, lag_peak, localise, long_run_factor, noise_profile,
-                  whiteness)
+from .gap import (Segment, blocked_folds, change_window, isolated_outliers, lag_peak, localise, long_run_factor,
+                  noise_profile, whiteness)
 from .screening import Screen, newey_west_lag, screen
 from .sweep_model import SweepResiduals
 from .selection import (DISCREPANCY, LOOKALIKES, NOMINAL, confusable_groups, decide, dm_test, fit_discrepancy,
@@ -537,7 +537,7 @@ def _check_candidates(candidates, data) -> tuple[str, ...]:
 def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full",
              candidates: Sequence[str] | None = None, n_blocks: int = 10, n_folds: int | None = None,
              max_refits: int | None = None, alpha: float = ALPHA, weigh_outside: bool = True,
-             torque_hold: str = "zoh") -> Diagnosis:
+             torque_hold: str = "zoh", recheck_outliers: bool = True) -> Diagnosis:
     """Diagnose the gap between the nominal model and a drive log or a slip sweep.
 
     Parameters
@@ -569,6 +569,11 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         Drive log: ``"zoh"`` (torque held from each sample to the next, the default) or
         ``"sample"`` (a continuous torque signal sampled), for every fit of the diagnosis
         (:func:`~soiltrack.identify.drivelog.fit_drive_log`).
+    recheck_outliers
+        Sweep: when lone readings lie far off their neighbours
+        (:func:`~soiltrack.identify.gap.isolated_outliers`) and the verdict is ``none`` or
+        ``unexplained``, diagnose the sweep again without them and say that verdict in the notes
+        (the verdict itself stands on all the data).
 
     Returns
     -------
@@ -1248,6 +1253,33 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     converged = usable(nominal_full) and NOMINAL not in failed and name not in failed
     if not converged:
         notes.append("a fit the verdict rests on did not converge (the nominal model's or the verdict's effect's)")
+    if not is_log and len(channels) == 1:
+        # lone readings far off their neighbours (a glitch of the rig or the logger): said, with what the
+        # verdict is without them when no candidate explained the gap
+        base = full_fits[name] if name in full_fits and usable(full_fits[name]) else nominal_full
+        try:
+            r_base = _channels(base, data)[channels[0]]
+        except DataError:
+            r_base = R[channels[0]]
+        lone = isolated_outliers(r_base, xnat)
+        if lone:
+            rows = sorted(k + 1 for k, _ in lone)
+            txt = (f"row{'s' if len(rows) > 1 else ''} {', '.join(map(str, rows))} "
+                   f"({'; '.join(f'slip {xnat[k]:.3g}: {abs(zk):.0f} robust sd' for k, zk in sorted(lone))}) "
+                   f"lie{'' if len(rows) > 1 else 's'} far off {'their' if len(rows) > 1 else 'its'} neighbours "
+                   "while the readings around stay close: a glitch of the rig or logger looks like this, no effect "
+                   "does")
+            if name in ("unexplained", NOMINAL) and recheck_outliers and n - len(rows) >= MIN_SAMPLES:
+                keep = np.setdiff1d(np.arange(n), [k for k, _ in lone])
+                try:
+                    again = diagnose(_subset(data, keep), vehicle, model=model, candidates=candidates,
+                                     n_blocks=n_blocks, n_folds=n_folds, max_refits=max_refits, alpha=alpha,
+                                     weigh_outside=weigh_outside, torque_hold=torque_hold, recheck_outliers=False)
+                    txt += (f"; without {'them' if len(rows) > 1 else 'it'} the verdict is {again.verdict} "
+                            f"(confidence {again.confidence:.2f})")
+                except DataError:
+                    pass
+            notes.append(txt)
     curves = {"held_x": {ch: xnat[mask[ch]] for ch in channels},
               "before": {ch: cat(NOMINAL, ch) for ch in channels},
               "after": {ch: cat(name if name in H else DISCREPANCY, ch) for ch in channels}

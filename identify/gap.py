@@ -26,7 +26,7 @@ import numpy as np
 from .stats import chi2_isf, chi2_sf  # re-exported (their home is .stats)
 
 __all__ = ["blocked_folds", "noise_floor", "noise_profile", "long_run_factor", "Segment", "localise", "ChangeWindow",
-           "change_window", "whiteness", "lag_peak", "chi2_sf", "chi2_isf"]
+           "change_window", "whiteness", "lag_peak", "chi2_sf", "chi2_isf", "isolated_outliers", "OUTLIER_Z"]
 
 _MAD_TO_SIGMA = 1.4826
 
@@ -119,6 +119,54 @@ def noise_profile(residuals: np.ndarray, order: np.ndarray | None = None, window
     out = np.empty(n)
     out[idx] = sig_sorted
     return out
+
+
+#: Robust z-score from which a lone reading is called an outlier (:func:`isolated_outliers`).
+OUTLIER_Z = 6.0
+
+
+def isolated_outliers(residuals: np.ndarray, x: np.ndarray, z_min: float = OUTLIER_Z,
+                      window: int | None = None) -> list[tuple[int, float]]:
+    """Lone readings far off their neighbours: a glitch, not a trend an effect could explain.
+
+    In the order of ``x`` (slip or time), each residual is compared with the median of its two
+    neighbours on each side, over a local robust noise level (median absolute deviation of the
+    second differences in a window of ``window`` neighbours, default a tenth of the samples and at
+    least 21, leaving out the three that the reading itself enters, and never below the level of
+    the whole series: a few wild values do not inflate it, a noise that grows along the data is
+    followed, and a quiet stretch does not make its readings look wild). A reading is an outlier when that robust z-score exceeds ``z_min`` while its two
+    neighbours stay under 3: a step, a bend or a run of large residuals is not isolated. The first
+    and last two readings are not judged (one side only). At most a tenth of the readings.
+
+    Returns
+    -------
+    list of (index, z)
+        Indices into ``residuals`` and the signed robust z-scores, largest first.
+    """
+    r = np.asarray(residuals, dtype=float).ravel()
+    n = r.size
+    if n < 9 or not np.all(np.isfinite(r)):
+        return []
+    order = np.argsort(np.asarray(x, dtype=float).ravel(), kind="stable")
+    rs = r[order]
+    d = np.abs(rs[2:] - 2.0 * rs[1:-1] + rs[:-2])
+    w = int(window if window is not None else max(21, n // 10))
+    w = max(3, min(w, d.size))
+    glob = _MAD_TO_SIGMA * float(np.median(d)) / math.sqrt(6.0)
+    z = np.zeros(n)
+    for k in range(2, n - 2):
+        lo = int(np.clip(k - 1 - w // 2, 0, d.size - w))
+        idx = np.arange(lo, lo + w)
+        near = idx[(idx < k - 2) | (idx > k)]  # without the three differences reading k itself touches
+        sig = max(glob, _MAD_TO_SIGMA * float(np.median(d[near] if near.size >= 3 else d[idx])) / math.sqrt(6.0))
+        if sig <= 0:
+            continue
+        ref = float(np.median([rs[k - 2], rs[k - 1], rs[k + 1], rs[k + 2]]))
+        z[k] = (rs[k] - ref) / (sig * math.sqrt(1.0 + math.pi / 8.0))  # the median of 4 has variance ~0.39 sigma^2
+    hits = [k for k in range(2, n - 2) if abs(z[k]) > z_min and abs(z[k - 1]) < 3.0 and abs(z[k + 1]) < 3.0]
+    if len(hits) > max(1, n // 10):
+        return []
+    return sorted(((int(order[k]), float(z[k])) for k in hits), key=lambda t: -abs(t[1]))
 
 
 def long_run_factor(residuals: np.ndarray, max_lag: int | None = None) -> float:

@@ -141,3 +141,43 @@ def test_an_effect_free_clayey_sweep_from_independent_code_is_none(tmp_path):
     d = diagnose(independent_sweep(tmp_path / "clay.csv", 0, c=4140., phi=np.radians(13.0), K=0.006), HEAVY)
     assert d.verdict == "none"
     assert "no structured gap is confirmed" in d.reason
+
+
+def test_isolated_outliers_finds_lone_readings_and_spares_noise_steps_and_growth():
+    import numpy as np
+    from soiltrack.identify.gap import isolated_outliers
+    rng = np.random.default_rng(7)
+    x = np.linspace(0.02, 0.7, 60)
+    r = rng.normal(0.0, 1.0, 60)
+    assert isolated_outliers(r, x) == []
+    spiked = r.copy()
+    spiked[[17, 41]] += [12.0, -10.0]
+    found = isolated_outliers(spiked[::-1], x[::-1])  # in any row order
+    assert sorted(59 - k for k, _ in found) == [17, 41] and all(abs(z) > 6 for _, z in found)
+    step = r.copy()
+    step[30:] += 15.0  # a step (a change of terrain, a sharp bend) is not a lone reading
+    assert isolated_outliers(step, x) == []
+    pair = r.copy()
+    pair[[20, 21]] += 15.0  # two neighbours off together: not isolated
+    assert isolated_outliers(pair, x) == []
+    grows = rng.normal(0.0, 1.0, 60) * np.linspace(0.2, 3.0, 60)  # noise growing along the sweep
+    assert isolated_outliers(grows, x) == []
+    # Gaussian noise: no false flag in 500 series of 60
+    assert sum(bool(isolated_outliers(rng.normal(size=60), x)) for _ in range(500)) == 0
+
+
+def test_a_sweep_with_two_glitches_says_so_and_what_it_is_without_them(tmp_path):
+    import numpy as np
+    path = tmp_path / "spiked.csv"
+    data = independent_sweep(path, 10)
+    a = np.loadtxt(path, delimiter=",", skiprows=1)
+    a[[17, 41], 1] += 8000.0  # two glitches of 8 kN on a noise of about 600 N
+    np.savetxt(path, a, delimiter=",", header="slip,drawbar_pull_N,normal_load_N", comments="", fmt="%.5f")
+    from soiltrack.soilmodel import read_csv
+    d = diagnose(read_csv(str(path)), HEAVY)
+    note = next(n for n in d.notes if "far off their neighbours" in n)
+    assert note.startswith("rows 18, 42 ")
+    assert d.verdict in ("none", "unexplained") and d.confidence <= 1.0
+    assert "without them the verdict is none" in note
+    # the clean sweep has no such note
+    assert not any("far off" in n for n in diagnose(data, HEAVY).notes)
