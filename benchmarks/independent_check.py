@@ -14,7 +14,8 @@ Cases (truth in brackets; "unexplained" where the cause is outside the library):
   effect-free on LETE-like sand and on a clayey soil [none]; slip sinkage mu_s = 0.12
   [slip_sinkage]; Wong type B strain softening K_r = 0.55, K_w = 2.5 cm [hump_shear]; a 0.06 rad
   grade at two normal loads [grade, or none: a resistance proportional to W is nearly absorbed
-  by phi]; a load cell saturating at 80 % of the peak [unexplained].
+  by phi]; a load cell saturating at 80 % of the peak [unexplained]; two logger glitches of +8 and
+  -7 kN at rows 18 and 42 [none or unexplained, with the two rows named].
 * drive logs (60 s at 20 Hz, speed 0.4-3.8 m/s, encoder, GNSS speed, torque and IMU noise):
   effect-free (2 seeds) [none]; a 0.05 rad grade [grade]; 20 % and 25 % extra mass
   [mass_error]; a 4 % radius error [radius_error]; the vehicle-speed channel 4 samples late
@@ -62,7 +63,7 @@ def thrust_quadrature(slips, W, c, phi, K, hump=None):
 
 
 def sweep_csv(path, seed, c=1300., phi=np.radians(31.1), K=0.012, loads=(W0,), mu_s=0.0, grade=0.0, hump=None,
-              clip=None):
+              clip=None, glitches=()):
     rng = np.random.default_rng(seed)
     rows = []
     for W in loads:
@@ -72,6 +73,8 @@ def sweep_csv(path, seed, c=1300., phi=np.radians(31.1), K=0.012, loads=(W0,), m
         if clip is not None:
             D = np.minimum(D, clip * D.max())
         D = D + rng.normal(0, 0.01 * np.abs(D).mean() / 3 + 100, D.size)
+        for k, dD in glitches:  # a logger glitch: one reading off by dD
+            D[k] += dD
         rows += list(zip(i + rng.normal(0, 0.001, i.size), D, np.full(i.size, W)))
     with open(path, "w") as fh:
         fh.write("slip,drawbar_pull_N,normal_load_N\n")
@@ -127,7 +130,9 @@ def cases(kinds, seeds):
                     ("sweep", "slip_sinkage 0.12", s, dict(mu_s=0.12), {"slip_sinkage"}),
                     ("sweep", "hump_shear (Wong type B)", s, dict(hump=(0.55, 0.025)), {"hump_shear"}),
                     ("sweep", "grade 0.06, two loads", s, dict(loads=(W0, 0.6 * W0), grade=0.06), {"grade", "none"}),
-                    ("sweep", "OUT: load cell saturates", s, dict(clip=0.8), {"unexplained"})]
+                    ("sweep", "OUT: load cell saturates", s, dict(clip=0.8), {"unexplained"}),
+                    ("sweep", "OUT: two glitches (rows 18, 42)", s, dict(glitches=((17, 8000.), (41, -7000.))),
+                     {"none", "unexplained"})]
     if "drive" in kinds:
         for s in range(1, 1 + max(1, seeds // 2 + 1)):
             out += [("drive", "none", s, {}, {"none"}),
@@ -173,6 +178,9 @@ def main(argv=None) -> int:
             confident_wrong += wrong
             win = j.get("change_window") or {}
             extra = (f"  window {win.get('start')}-{win.get('end')} s" if kind == "drive" and "patch" in label else "")
+            if "glitches" in label:
+                named = any(n.startswith("rows 18, 42 ") for n in j.get("notes", []))
+                extra += f"  glitch rows named: {'yes' if named else 'NO'}"
             shrink = j.get("shrink")
             print(f"{kind:5s} {label:28s} seed {seed}: {j['verdict']:20s} confidence {j['confidence']:.2f}  "
                   f"shrink {'-' if shrink is None else f'{shrink:.2f}'}  exit {p.returncode}  {dt:5.1f} s"
