@@ -122,7 +122,7 @@ def noise_profile(residuals: np.ndarray, order: np.ndarray | None = None, window
 
 
 #: Robust z-score from which a lone reading is called an outlier (:func:`isolated_outliers`).
-OUTLIER_Z = 6.0
+OUTLIER_Z = 5.5
 
 
 def isolated_outliers(residuals: np.ndarray, x: np.ndarray, z_min: float = OUTLIER_Z,
