@@ -353,6 +353,50 @@ def _fmt(x) -> str:
 
 
 # ----------------------------------------------------------------------------- helpers on fits
+#: A drive log's measured channels: column name -> DriveLog field.
+_LOG_FIELDS = {"sprocket_torque_Nm": "sprocket_torque", "sprocket_speed_rad_s": "sprocket_speed",
+               "vehicle_speed_m_s": "vehicle_speed", "vehicle_accel_m_s2": "vehicle_accel"}
+
+
+def _note_lone_log_readings(data: DriveLog, vehicle: Vehicle, name: str, notes: list[str], recheck: bool,
+                            options: dict) -> None:
+    """Name a log's lone readings (a sensor or logger glitch) in ``notes``; with ``recheck``, say the verdict
+    with each replaced by the median of its two neighbours on each side (a glitch in a speed channel
+    otherwise reads as a change of terrain over the few samples around it)."""
+    t = np.asarray(data.time, dtype=float)
+    found: dict[str, list[tuple[int, float]]] = {}
+    for col, attr in _LOG_FIELDS.items():
+        v = getattr(data, attr, None)
+        if v is not None:
+            lone = isolated_outliers(np.asarray(v, dtype=float), t)
+            if lone:
+                found[attr] = lone
+    if not found:
+        return
+    inv = {a: c for c, a in _LOG_FIELDS.items()}
+    parts = []
+    for attr, lone in found.items():
+        ks = sorted(k for k, _ in lone)
+        shown = ", ".join(f"row {k + 1} (t = {t[k]:.4g} s)" for k in ks[:5]) + (", ..." if len(ks) > 5 else "")
+        parts.append(f"{inv[attr]}: {shown}")
+    txt = ("lone readings far off their neighbours while the readings around stay close (" + "; ".join(parts)
+           + "): a glitch of a sensor or the logger looks like this, no effect does")
+    if recheck:
+        fixed = {}
+        for attr, lone in found.items():
+            v = np.asarray(getattr(data, attr), dtype=float).copy()
+            for k, _ in lone:
+                v[k] = float(np.median(v[[k - 2, k - 1, k + 1, k + 2]]))
+            fixed[attr] = v
+        try:
+            again = diagnose(replace(data, **fixed), vehicle, recheck_outliers=False, **options)
+            txt += (f"; with each replaced by the median of its two neighbours on each side the verdict is "
+                    f"{again.verdict} (confidence {again.confidence:.2f})")
+        except DataError:
+            pass
+    notes.append(txt)
+
+
 def _weigh_plateau(verdict, confidence, data, slip, sigma, z_full, kpar, ch, run_fit, notes, alpha):
     """Weigh "soil below, a flat level above" (:func:`~.diagnosis_sweep.find_plateau`) against a sweep's verdict.
 
@@ -1280,6 +1324,11 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                 except DataError:
                     pass
             notes.append(txt)
+    if is_log:
+        _note_lone_log_readings(data, vehicle, name, notes, recheck_outliers and name in ("unexplained", NOMINAL),
+                                dict(model=model, candidates=candidates, n_blocks=n_blocks, n_folds=n_folds,
+                                     max_refits=max_refits, alpha=alpha, weigh_outside=weigh_outside,
+                                     torque_hold=torque_hold))
     curves = {"held_x": {ch: xnat[mask[ch]] for ch in channels},
               "before": {ch: cat(NOMINAL, ch) for ch in channels},
               "after": {ch: cat(name if name in H else DISCREPANCY, ch) for ch in channels}

@@ -153,17 +153,30 @@ def isolated_outliers(residuals: np.ndarray, x: np.ndarray, z_min: float = OUTLI
     w = int(window if window is not None else max(21, n // 10))
     w = max(3, min(w, d.size))
     glob = _MAD_TO_SIGMA * float(np.median(d)) / math.sqrt(6.0)
-    z = np.zeros(n)
+    sig = np.zeros(n)
     for k in range(2, n - 2):
         lo = int(np.clip(k - 1 - w // 2, 0, d.size - w))
         idx = np.arange(lo, lo + w)
         near = idx[(idx < k - 2) | (idx > k)]  # without the three differences reading k itself touches
-        sig = max(glob, _MAD_TO_SIGMA * float(np.median(d[near] if near.size >= 3 else d[idx])) / math.sqrt(6.0))
-        if sig <= 0:
-            continue
-        ref = float(np.median([rs[k - 2], rs[k - 1], rs[k + 1], rs[k + 2]]))
-        z[k] = (rs[k] - ref) / (sig * math.sqrt(1.0 + math.pi / 8.0))  # the median of 4 has variance ~0.39 sigma^2
-    hits = [k for k in range(2, n - 2) if abs(z[k]) > z_min and abs(z[k - 1]) < 3.0 and abs(z[k + 1]) < 3.0]
+        sig[k] = max(glob, _MAD_TO_SIGMA * float(np.median(d[near] if near.size >= 3 else d[idx])) / math.sqrt(6.0))
+    fac = math.sqrt(1.3)  # the median of four neighbours has a variance of about 0.3 sigma^2
+
+    def zscores(v: np.ndarray) -> np.ndarray:
+        z = np.zeros(n)
+        ref = np.zeros(n)
+        for k in range(2, n - 2):
+            ref[k] = float(np.median(v[[k - 2, k - 1, k + 1, k + 2]]))
+            if sig[k] > 0:
+                z[k] = (v[k] - ref[k]) / (sig[k] * fac)
+        return z, ref
+
+    z, ref = zscores(rs)
+    cand = np.abs(z) > z_min
+    # the neighbours judged with the candidates set to their references (a wild reading enters its
+    # neighbours' references and would make them look off too)
+    z2, _ = zscores(np.where(cand, ref, rs))
+    hits = [k for k in range(2, n - 2) if cand[k] and not cand[k - 1] and not cand[k + 1]
+            and abs(z2[k - 1]) < 3.0 and abs(z2[k + 1]) < 3.0]
     if len(hits) > max(1, n // 10):
         return []
     return sorted(((int(order[k]), float(z[k])) for k in hits), key=lambda t: -abs(t[1]))
