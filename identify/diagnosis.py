@@ -86,7 +86,9 @@ class RankEntry:
     Attributes
     ----------
     effect
-        Effect name, ``"none"`` (the nominal model) or ``"discrepancy"`` (the flexible term).
+        Effect name, ``"none"`` (the nominal model), ``"discrepancy"`` (the flexible term) or, on a sweep
+        whose largest readings are flat (:func:`~.diagnosis_sweep.find_plateau`), ``"plateau"`` (a sensor or
+        rig limit: the soil below, one level above; its level in ``parameters``).
     weight
         Weight of evidence (0-1; the weights of all entries sum to 1): cross-validation weight on
         a drive log; on a sweep, the likelihood on all the data with Akaike's penalty (pseudo-BMA+).
@@ -183,6 +185,9 @@ class Diagnosis:
     #: their noise floor before and after (``za^2 < 1`` counts as 1: nothing left but noise); None when
     #: there is no gap above the noise or no named effect.
     gap_shrink: float | None = None
+    #: The largest ``shrink`` the held-out blocks allow, ``1 - 1/zb``: what a model that left only the
+    #: noise would reach (a gap as large as the noise allows 0.29 at most); None without a gap above the noise.
+    shrink_ceiling: float | None = None
     elapsed_s: float = 0.0
     curves: dict = field(default_factory=dict, repr=False)
 
@@ -197,7 +202,7 @@ class Diagnosis:
                                   for p, c, x in self.confusable],
             "localisation": [s.to_dict() for s in self.localisation],
             "change_window": None if self.change is None else self.change.to_dict(),
-            "shrink": _f(self.shrink), "gap_shrink": _f(self.gap_shrink),
+            "shrink": _f(self.shrink), "gap_shrink": _f(self.gap_shrink), "shrink_ceiling": _f(self.shrink_ceiling),
             "holdout_rmse_before": {k: _f(v) for k, v in self.holdout_rmse_before.items()},
             "holdout_rmse_after": None if self.holdout_rmse_after is None else
             {k: _f(v) for k, v in self.holdout_rmse_after.items()},
@@ -314,6 +319,10 @@ class Diagnosis:
                      "level" + ("; all channels together: a channel the effect does not touch stays at its noise "
                                "before and after)" if len(self.holdout_rmse_before) > 1 else
                                ", so it differs from the ratio of the RMS above where the noise varies along the data)"))
+            if self.shrink_ceiling is not None:
+                L.append(f"  the most any model could reach here is {self.shrink_ceiling:.2f} (it would leave only the "
+                         "noise: the held-out error before is "
+                         f"{1.0 / max(1e-12, 1.0 - self.shrink_ceiling):.2f} times the noise)")
             if self.gap_shrink is not None:
                 L.append(f"  the misfit above the noise shrinks by {self.gap_shrink:.0%} (the part of the held-out error "
                          "the noise cannot explain, before and after: the share of the gap the effect accounts for)")
@@ -400,8 +409,9 @@ def _note_lone_log_readings(data: DriveLog, vehicle: Vehicle, name: str, notes: 
 def _weigh_plateau(verdict, confidence, data, slip, sigma, z_full, kpar, ch, run_fit, notes, alpha):
     """Weigh "soil below, a flat level above" (:func:`~.diagnosis_sweep.find_plateau`) against a sweep's verdict.
 
-    Returns the verdict and confidence: ``unexplained`` when the plateau fits all the data better
-    (information weights, two parameters for the level and where it starts), the confidence
+    Returns the verdict, the confidence and, when the plateau mattered, ``(plateau, weights)`` with
+    the weights of every model and the plateau: ``unexplained`` when the plateau fits all the data
+    better (information weights, two parameters for the level and where it starts), the confidence
     capped at 0.5 when it fits at least a fifth as well, unchanged otherwise (notes say which).
     """
     n = data.n_samples
@@ -419,25 +429,25 @@ def _weigh_plateau(verdict, confidence, data, slip, sigma, z_full, kpar, ch, run
 
     plateau = find_plateau(np.asarray(data.values, dtype=float), slip, sigma, fit_below)
     if plateau is None:
-        return verdict, confidence
+        return verdict, confidence, None
     zz = dict(z_full, plateau=plateau.z)
     w = information_weights(zz, dict(kpar, plateau=2))
     held = DISCREPANCY if verdict.name == "unexplained" else verdict.name
     w_v, w_p = w.get(held, 0.0), w["plateau"]
     if verdict.name == "unexplained":
         notes.append(plateau.describe() + f" (weight {w_p:.2f} against the flexible term's {w_v:.2f}); it may be the gap")
-        return verdict, confidence
+        return verdict, confidence, (plateau, w)
     if w_p > w_v:
         notes.append(plateau.describe() + f"; it fits all the sweep better than {verdict.name} (weight {w_p:.2f} "
                      f"against {w_v:.2f}), so no effect is named")
         return Verdict("unexplained", 1.0 - w_v, f"the sweep's largest readings are flat at {plateau.level:.6g} N, "
                        f"which fits all the data better than {verdict.name}: a sensor or rig limit, outside the "
-                       "library, is the likelier cause"), 1.0 - w_v
+                       "library, is the likelier cause"), 1.0 - w_v, (plateau, w)
     if w_p >= 0.2 * w_v:
         notes.append(plateau.describe() + f"; it fits all the sweep about as well as {verdict.name} (weight "
                      f"{w_p:.2f} against {w_v:.2f})" + ("; confidence capped at 0.5" if confidence > 0.5 else ""))
-        return verdict, min(confidence, 0.5)
-    return verdict, confidence
+        return verdict, min(confidence, 0.5), (plateau, w)
+    return verdict, confidence, None
 
 
 def _subset(data, idx: np.ndarray):
@@ -1057,11 +1067,12 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                              f"(weight {w_ext[o]:.2f} against {w_ext[verdict.name]:.2f} among all library effects): "
                              f"{verdict.name} is named with confidence {confidence:.2f} only")
 
+    plateau_w = None
     if not is_log and verdict.name != NOMINAL and len(channels) == 1 and bool(np.all(full_ok)):
         # sweeps: the largest readings flat within the noise where the soil fitted below them still rises (a
         # load cell or rig at its limit, outside the library) weighed against the verdict
-        verdict, confidence = _weigh_plateau(verdict, confidence, data, xnat, sig_n[channels[0]], z_full, kpar,
-                                             channels[0], run_fit, notes, alpha)
+        verdict, confidence, plateau_w = _weigh_plateau(verdict, confidence, data, xnat, sig_n[channels[0]],
+                                                        z_full, kpar, channels[0], run_fit, notes, alpha)
     for m, k in flagged.items():
         if k:
             notes.append(f"{k} fit(s) with {'the nominal model' if m == NOMINAL else m} converged but fail the "
@@ -1070,7 +1081,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     # --- 4. ranking, confusable, shrink, soil -------------------------------------------------------------
     before = rmse(NOMINAL)
     ranking = []
-    for m in sorted(compared, key=lambda m: -weights[m]):
+    w_rank = weights if plateau_w is None else {m: plateau_w[1].get(m, 0.0) for m in compared}
+    for m in sorted(compared, key=lambda m: -w_rank[m]):
         after = rmse(m)
         zb = math.sqrt(scores[NOMINAL] / max(1, n_held))
         za = math.sqrt(scores[m] / max(1, n_held)) if math.isfinite(scores[m]) else math.inf
@@ -1092,7 +1104,14 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         elif m in refit and train_fits.get(m):  # others: as fitted on the first training part (half the data)
             params = {p: dict(v, fitted_on="training part A (half the data)")
                       for p, v in _effect_params(train_fits[m][0], m).items()}
-        ranking.append(RankEntry(m, weights[m], before, after, shrink, params, scr, conv))
+        ranking.append(RankEntry(m, w_rank[m], before, after, shrink, params, scr, conv))
+    if plateau_w is not None:
+        # the plateau ("soil below, a flat level above": a sensor or rig limit), weighed on all the sweep
+        pl, w_pl = plateau_w
+        ranking.append(RankEntry("plateau", w_pl["plateau"], before, {ch: math.nan for ch in channels}, None,
+                                 {"level_N": {"value": pl.level, "stderr": pl.level_stderr, "identifiable": True,
+                                              "at_bound": False, "rows": len(pl.rows)}}, None, True))
+        ranking.sort(key=lambda e: -e.weight)
     dirs = {s.effect: s.direction for s in all_screens}
     conf = []
     for (a, b), corr in confusable_groups({m: weights[m] for m in refit}, dirs, verdict=verdict.name):
@@ -1276,7 +1295,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         notes.append(f"{name} is named with low certainty (confidence {confidence:.2f}): the data cannot tell it "
                      "from " + ", ".join(x for p, _, _ in conf if name in p for x in p if x != name))
     soil_before = _soil_summary(nominal_full)
-    gap_shrink = None
+    gap_shrink = shrink_ceiling = None
     if name in full_fits:
         soil_after = _soil_summary(full_fits[name])
         after_rmse = rmse(name)
@@ -1285,6 +1304,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         za2 = scores[name] / max(1, n_held) if math.isfinite(scores[name]) else math.inf
         if zb2 > 1.0 and math.isfinite(za2):
             gap_shrink = 1.0 - math.sqrt(max(za2 - 1.0, 0.0) / (zb2 - 1.0))
+            shrink_ceiling = 1.0 - 1.0 / math.sqrt(zb2)
     elif name == "unexplained":
         soil_after = None
         after_rmse = rmse(DISCREPANCY)
@@ -1341,7 +1361,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         holdout_rmse_before=before, holdout_rmse_after=after_rmse, shrink=shrink, soil_before=soil_before,
         soil_after=soil_after if name not in (NOMINAL, "unexplained") else None, gap_p_value=gap_p,
         converged=converged, notes=tuple(notes), elapsed_s=time.perf_counter() - t0, curves=curves,
-        gap_shrink=gap_shrink)
+        gap_shrink=gap_shrink, shrink_ceiling=shrink_ceiling)
 
 
 def _too_few(data, vehicle: Vehicle, model: str, cands: tuple[str, ...], is_log: bool, t0: float,

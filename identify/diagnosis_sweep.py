@@ -350,12 +350,15 @@ class Plateau:
         Smallest and largest slip on it.
     z : numpy.ndarray
         Standardised residuals of the alternative at every sample.
+    level_stderr : float
+        Standard error of the level (its readings' noise floor over the square root of their count), N.
     """
 
     level: float
     rows: tuple[int, ...]
     slip_range: tuple[float, float]
     z: np.ndarray
+    level_stderr: float = math.nan
 
     def describe(self) -> str:
         """One plain sentence."""
@@ -439,4 +442,4 @@ def find_plateau(values: np.ndarray, slip: np.ndarray, sigma: np.ndarray, fit_be
     _, m, z = best
     on = np.sort(top[:m])
     return Plateau(float(swy[m - 1] / sw[m - 1]), tuple(int(k) + 1 for k in on),
-                   (float(np.min(slip[on])), float(np.max(slip[on]))), z)
+                   (float(np.min(slip[on])), float(np.max(slip[on]))), z, float(1.0 / math.sqrt(sw[m - 1])))
