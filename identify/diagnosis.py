@@ -406,13 +406,13 @@ def _note_lone_log_readings(data: DriveLog, vehicle: Vehicle, name: str, notes: 
     notes.append(txt)
 
 
-def _weigh_plateau(verdict, confidence, data, slip, sigma, z_full, kpar, ch, run_fit, notes, alpha):
+def _weigh_plateau(verdict, confidence, data, slip, sigma, z_full, kpar, ch, run_fit, notes):
     """Weigh "soil below, a flat level above" (:func:`~.diagnosis_sweep.find_plateau`) against a sweep's verdict.
 
     Returns the verdict, the confidence and, when the plateau mattered, ``(plateau, weights)`` with
     the weights of every model and the plateau: ``unexplained`` when the plateau fits all the data
     better (information weights, two parameters for the level and where it starts), the confidence
-    capped at 0.5 when it fits at least a fifth as well, unchanged otherwise (notes say which).
+    capped at 0.5 when it fits at least a fifth as well, unchanged (and nothing said) otherwise.
     """
     n = data.n_samples
 
@@ -434,6 +434,8 @@ def _weigh_plateau(verdict, confidence, data, slip, sigma, z_full, kpar, ch, run
     w = information_weights(zz, dict(kpar, plateau=2))
     held = DISCREPANCY if verdict.name == "unexplained" else verdict.name
     w_v, w_p = w.get(held, 0.0), w["plateau"]
+    if w_p < 0.2 * w_v:
+        return verdict, confidence, None  # far worse than the verdict: not worth a word
     if verdict.name == "unexplained":
         notes.append(plateau.describe() + f" (weight {w_p:.2f} against the flexible term's {w_v:.2f}); it may be the gap")
         return verdict, confidence, (plateau, w)
@@ -443,11 +445,9 @@ def _weigh_plateau(verdict, confidence, data, slip, sigma, z_full, kpar, ch, run
         return Verdict("unexplained", 1.0 - w_v, f"the sweep's largest readings are flat at {plateau.level:.6g} N, "
                        f"which fits all the data better than {verdict.name}: a sensor or rig limit, outside the "
                        "library, is the likelier cause"), 1.0 - w_v, (plateau, w)
-    if w_p >= 0.2 * w_v:
-        notes.append(plateau.describe() + f"; it fits all the sweep about as well as {verdict.name} (weight "
-                     f"{w_p:.2f} against {w_v:.2f})" + ("; confidence capped at 0.5" if confidence > 0.5 else ""))
-        return verdict, min(confidence, 0.5), (plateau, w)
-    return verdict, confidence, None
+    notes.append(plateau.describe() + f"; it fits all the sweep about as well as {verdict.name} (weight "
+                 f"{w_p:.2f} against {w_v:.2f})" + ("; confidence capped at 0.5" if confidence > 0.5 else ""))
+    return verdict, min(confidence, 0.5), (plateau, w)
 
 
 def _subset(data, idx: np.ndarray):
@@ -1072,7 +1072,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         # sweeps: the largest readings flat within the noise where the soil fitted below them still rises (a
         # load cell or rig at its limit, outside the library) weighed against the verdict
         verdict, confidence, plateau_w = _weigh_plateau(verdict, confidence, data, xnat, sig_n[channels[0]],
-                                                        z_full, kpar, channels[0], run_fit, notes, alpha)
+                                                        z_full, kpar, channels[0], run_fit, notes)
     for m, k in flagged.items():
         if k:
             notes.append(f"{k} fit(s) with {'the nominal model' if m == NOMINAL else m} converged but fail the "
