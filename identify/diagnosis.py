@@ -362,9 +362,10 @@ def _fmt(x) -> str:
 
 
 # ----------------------------------------------------------------------------- helpers on fits
-#: A drive log's measured channels: column name -> DriveLog field.
-_LOG_FIELDS = {"sprocket_torque_Nm": "sprocket_torque", "sprocket_speed_rad_s": "sprocket_speed",
-               "vehicle_speed_m_s": "vehicle_speed", "vehicle_accel_m_s2": "vehicle_accel"}
+#: A drive log's speed channels (column name -> DriveLog field), checked for lone readings: inertia keeps
+#: them smooth, so a reading far off both sides is a glitch. Torque and acceleration are not checked: a
+#: controller at its limit, a shift or an impact moves them from one sample to the next for real.
+_LOG_FIELDS = {"sprocket_speed_rad_s": "sprocket_speed", "vehicle_speed_m_s": "vehicle_speed"}
 
 
 def _note_lone_log_readings(data: DriveLog, vehicle: Vehicle, name: str, notes: list[str], recheck: bool,
@@ -377,7 +378,7 @@ def _note_lone_log_readings(data: DriveLog, vehicle: Vehicle, name: str, notes: 
     for col, attr in _LOG_FIELDS.items():
         v = getattr(data, attr, None)
         if v is not None:
-            lone = isolated_outliers(np.asarray(v, dtype=float), t)
+            lone = isolated_outliers(np.asarray(v, dtype=float), t, split_sides=True)
             if lone:
                 found[attr] = lone
     if not found:

@@ -126,17 +126,25 @@ OUTLIER_Z = 5.5
 
 
 def isolated_outliers(residuals: np.ndarray, x: np.ndarray, z_min: float = OUTLIER_Z,
-                      window: int | None = None) -> list[tuple[int, float]]:
+                      window: int | None = None, split_sides: bool = False) -> list[tuple[int, float]]:
     """Lone readings far off their neighbours: a glitch, not a trend an effect could explain.
 
-    In the order of ``x`` (slip or time), each residual is compared with the median of its two
-    neighbours on each side, over a local robust noise level (median absolute deviation of the
-    second differences in a window of ``window`` neighbours, default a tenth of the samples and at
-    least 21, leaving out the three that the reading itself enters, and never below the level of
-    the whole series: a few wild values do not inflate it, a noise that grows along the data is
-    followed, and a quiet stretch does not make its readings look wild). A reading is an outlier when that robust z-score exceeds ``z_min`` while its two
-    neighbours stay under 3: a step, a bend or a run of large residuals is not isolated. The first
-    and last two readings are not judged (one side only). At most a tenth of the readings.
+    In the order of ``x`` (slip or time), each reading is compared with the mean of its two
+    neighbours on the left and with that on the right, and the nearer of the two counts: a glitch
+    is far from both, a reading at the edge of a step is near one side. The difference is taken
+    over a local robust noise level (median absolute deviation of the second differences over
+    ``window // 2`` neighbours on each side, default a tenth of the samples and at least 21 in all,
+    leaving out the three that the reading itself enters, and never below the level of the whole
+    series: a few wild values do not inflate it, a noise that grows along the data is followed,
+    and a quiet stretch does not make its readings look wild). With ``split_sides`` each side's
+    level is estimated on its own and the larger counts (a signal whose noise changes at a step,
+    as a measured signal at its limit does; less sensitive, since each side has half the samples).
+
+    A reading is an outlier when that robust z-score exceeds ``z_min``, no reading within three
+    on either side does, and its two neighbours agree within three times the noise of their
+    difference: a ramp steeper than the noise, a step, or wild readings close together are not
+    lone readings. The first and last two readings are not judged (one side only). At most a
+    tenth of the readings.
 
     Returns
     -------
@@ -154,29 +162,28 @@ def isolated_outliers(residuals: np.ndarray, x: np.ndarray, z_min: float = OUTLI
     w = max(3, min(w, d.size))
     glob = _MAD_TO_SIGMA * float(np.median(d)) / math.sqrt(6.0)
     sig = np.zeros(n)
+    half = max(3, w // 2)
     for k in range(2, n - 2):
-        lo = int(np.clip(k - 1 - w // 2, 0, d.size - w))
-        idx = np.arange(lo, lo + w)
-        near = idx[(idx < k - 2) | (idx > k)]  # without the three differences reading k itself touches
-        sig[k] = max(glob, _MAD_TO_SIGMA * float(np.median(d[near] if near.size >= 3 else d[idx])) / math.sqrt(6.0))
-    fac = math.sqrt(1.3)  # the median of four neighbours has a variance of about 0.3 sigma^2
-
-    def zscores(v: np.ndarray) -> np.ndarray:
-        z = np.zeros(n)
-        ref = np.zeros(n)
-        for k in range(2, n - 2):
-            ref[k] = float(np.median(v[[k - 2, k - 1, k + 1, k + 2]]))
-            if sig[k] > 0:
-                z[k] = (v[k] - ref[k]) / (sig[k] * fac)
-        return z, ref
-
-    z, ref = zscores(rs)
+        # without the three differences the reading itself enters (d[j] is centred on reading j + 1)
+        left, right = d[max(0, k - 2 - half):k - 2], d[k + 1:k + 1 + half]
+        if split_sides:  # each side on its own, the larger counting: the noise may change at a step of the signal
+            side = [_MAD_TO_SIGMA * float(np.median(v)) / math.sqrt(6.0) for v in (left, right) if v.size >= 3]
+        else:
+            both = np.concatenate([left, right])
+            side = [_MAD_TO_SIGMA * float(np.median(both)) / math.sqrt(6.0)] if both.size >= 3 else []
+        sig[k] = max([glob] + side)
+    # the reading against the mean of its two neighbours on each side, the nearer of the two: a glitch is far
+    # from both, a reading at the edge of a step is near one of them (each difference has variance 1.5 sigma^2)
+    z = np.zeros(n)
+    for k in range(2, n - 2):
+        if sig[k] > 0:
+            left, right = 0.5 * (rs[k - 2] + rs[k - 1]), 0.5 * (rs[k + 1] + rs[k + 2])
+            e = rs[k] - left if abs(rs[k] - left) < abs(rs[k] - right) else rs[k] - right
+            z[k] = e / (sig[k] * math.sqrt(1.5))
     cand = np.abs(z) > z_min
-    # the neighbours judged with the candidates set to their references (a wild reading enters its
-    # neighbours' references and would make them look off too)
-    z2, _ = zscores(np.where(cand, ref, rs))
-    hits = [k for k in range(2, n - 2) if cand[k] and not cand[k - 1] and not cand[k + 1]
-            and abs(z2[k - 1]) < 3.0 and abs(z2[k + 1]) < 3.0]
+    # and the signal continues across it: its two neighbours agree within the noise (not a pair, not a step)
+    hits = [k for k in range(2, n - 2) if cand[k] and not np.any(cand[max(0, k - 3):k]) and not np.any(cand[k + 1:k + 4])
+            and abs(rs[k + 1] - rs[k - 1]) < 3.0 * math.sqrt(2.0) * sig[k]]
     if len(hits) > max(1, n // 10):
         return []
     return sorted(((int(order[k]), float(z[k])) for k in hits), key=lambda t: -abs(t[1]))

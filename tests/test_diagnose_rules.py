@@ -145,7 +145,7 @@ def test_an_effect_free_clayey_sweep_from_independent_code_is_none(tmp_path):
 
 def test_isolated_outliers_finds_lone_readings_and_spares_noise_steps_and_growth():
     import numpy as np
-    from soiltrack.identify.gap import isolated_outliers
+    from soiltrack.identify.gap import OUTLIER_Z, isolated_outliers
     rng = np.random.default_rng(7)
     x = np.linspace(0.02, 0.7, 60)
     r = rng.normal(0.0, 1.0, 60)
@@ -153,7 +153,7 @@ def test_isolated_outliers_finds_lone_readings_and_spares_noise_steps_and_growth
     spiked = r.copy()
     spiked[[17, 41]] += [12.0, -10.0]
     found = isolated_outliers(spiked[::-1], x[::-1])  # in any row order
-    assert sorted(59 - k for k, _ in found) == [17, 41] and all(abs(z) > 6 for _, z in found)
+    assert sorted(59 - k for k, _ in found) == [17, 41] and all(abs(z) > OUTLIER_Z for _, z in found)
     step = r.copy()
     step[30:] += 15.0  # a step (a change of terrain, a sharp bend) is not a lone reading
     assert isolated_outliers(step, x) == []
@@ -162,6 +162,13 @@ def test_isolated_outliers_finds_lone_readings_and_spares_noise_steps_and_growth
     assert isolated_outliers(pair, x) == []
     grows = rng.normal(0.0, 1.0, 60) * np.linspace(0.2, 3.0, 60)  # noise growing along the sweep
     assert isolated_outliers(grows, x) == []
+    # a signal stepping to a limit where its noise grows 20-fold (a torque at its limit): with the sides'
+    # noise levels estimated apart, the readings after the step are not lone readings
+    limit = np.where(np.arange(60) < 30, 1.0 + 0.05 * rng.normal(size=60), 100.0 + 1.0 * rng.normal(size=60))
+    assert isolated_outliers(limit, x, split_sides=True) == []
+    glitch = limit.copy()
+    glitch[45] += 30.0
+    assert [k for k, _ in isolated_outliers(glitch, x, split_sides=True)] == [45]
     # Gaussian noise: no false flag in 500 series of 60
     assert sum(bool(isolated_outliers(rng.normal(size=60), x)) for _ in range(500)) == 0
 
