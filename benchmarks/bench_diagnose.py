@@ -204,11 +204,7 @@ def summarise(rows, title):
     right = [r["shrink"] for r in rows if r["effect"] not in ("none",) and r["verdict"] == r["effect"]
              and r["shrink"] is not None]
     if right:
-        ceil = [r["diag"].shrink_ceiling for r in rows if r["effect"] not in ("none",) and r["verdict"] == r["effect"]
-                and r["shrink"] is not None and r["diag"].shrink_ceiling is not None]
-        print(f"median held-out shrink when right: {np.median(right):.2f} (n = {len(right)})"
-              + (f"; the most the held-out blocks allowed (shrink_ceiling, a model leaving only the noise): median "
-                 f"{np.median(ceil):.2f} (n = {len(ceil)})" if ceil else ""))
+        print(f"median held-out shrink when right: {np.median(right):.2f} (n = {len(right)})")
     gaps = [r["gap_shrink"] for r in rows if r["effect"] not in ("none",) and r["verdict"] == r["effect"]
             and r.get("gap_shrink") is not None]
     if gaps:

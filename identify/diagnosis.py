@@ -185,9 +185,6 @@ class Diagnosis:
     #: their noise floor before and after (``za^2 < 1`` counts as 1: nothing left but noise); None when
     #: there is no gap above the noise or no named effect.
     gap_shrink: float | None = None
-    #: The largest ``shrink`` the held-out blocks allow, ``1 - 1/zb``: what a model that left only the
-    #: noise would reach (a gap as large as the noise allows 0.29 at most); None without a gap above the noise.
-    shrink_ceiling: float | None = None
     elapsed_s: float = 0.0
     curves: dict = field(default_factory=dict, repr=False)
 
@@ -202,7 +199,7 @@ class Diagnosis:
                                   for p, c, x in self.confusable],
             "localisation": [s.to_dict() for s in self.localisation],
             "change_window": None if self.change is None else self.change.to_dict(),
-            "shrink": _f(self.shrink), "gap_shrink": _f(self.gap_shrink), "shrink_ceiling": _f(self.shrink_ceiling),
+            "shrink": _f(self.shrink), "gap_shrink": _f(self.gap_shrink),
             "holdout_rmse_before": {k: _f(v) for k, v in self.holdout_rmse_before.items()},
             "holdout_rmse_after": None if self.holdout_rmse_after is None else
             {k: _f(v) for k, v in self.holdout_rmse_after.items()},
@@ -319,10 +316,6 @@ class Diagnosis:
                      "level" + ("; all channels together: a channel the effect does not touch stays at its noise "
                                "before and after)" if len(self.holdout_rmse_before) > 1 else
                                ", so it differs from the ratio of the RMS above where the noise varies along the data)"))
-            if self.shrink_ceiling is not None:
-                L.append(f"  the most any model could reach here is {self.shrink_ceiling:.2f} (it would leave only the "
-                         "noise: the held-out error before is "
-                         f"{1.0 / max(1e-12, 1.0 - self.shrink_ceiling):.2f} times the noise)")
             if self.gap_shrink is not None:
                 L.append(f"  the misfit above the noise shrinks by {self.gap_shrink:.0%} (the part of the held-out error "
                          "the noise cannot explain, before and after: the share of the gap the effect accounts for)")
@@ -1296,7 +1289,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         notes.append(f"{name} is named with low certainty (confidence {confidence:.2f}): the data cannot tell it "
                      "from " + ", ".join(x for p, _, _ in conf if name in p for x in p if x != name))
     soil_before = _soil_summary(nominal_full)
-    gap_shrink = shrink_ceiling = None
+    gap_shrink = None
     if name in full_fits:
         soil_after = _soil_summary(full_fits[name])
         after_rmse = rmse(name)
@@ -1305,7 +1298,6 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         za2 = scores[name] / max(1, n_held) if math.isfinite(scores[name]) else math.inf
         if zb2 > 1.0 and math.isfinite(za2):
             gap_shrink = 1.0 - math.sqrt(max(za2 - 1.0, 0.0) / (zb2 - 1.0))
-            shrink_ceiling = 1.0 - 1.0 / math.sqrt(zb2)
     elif name == "unexplained":
         soil_after = None
         after_rmse = rmse(DISCREPANCY)
@@ -1362,7 +1354,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         holdout_rmse_before=before, holdout_rmse_after=after_rmse, shrink=shrink, soil_before=soil_before,
         soil_after=soil_after if name not in (NOMINAL, "unexplained") else None, gap_p_value=gap_p,
         converged=converged, notes=tuple(notes), elapsed_s=time.perf_counter() - t0, curves=curves,
-        gap_shrink=gap_shrink, shrink_ceiling=shrink_ceiling)
+        gap_shrink=gap_shrink)
 
 
 def _too_few(data, vehicle: Vehicle, model: str, cands: tuple[str, ...], is_log: bool, t0: float,
