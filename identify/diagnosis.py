@@ -1021,8 +1021,12 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                 lags[f"{ch} vs d({key})/dt"] = lag_peak(rr, np.diff(np.asarray(sig, dtype=float), prepend=sig[0]))
         # drive-log checks (change of soil in time, a delay between channels): .diagnosis_log
         from .diagnosis_log import review_drive_log
+        # the best candidate (its training fit), should the nominal model show a change of soil in time
+        named_w = {m: weights[m] for m in refit if train_fits.get(m) and usable(train_fits[m][0])}
+        best_alt = max(named_w, key=lambda m: named_w[m]) if named_w else None
         verdict, log_change, log_lags, log_notes = review_drive_log(
-            verdict, data, vehicle, nominal_full, H, sig_n, mask, folds, train_res, scores, dm_lag, alpha)
+            verdict, data, vehicle, nominal_full, H, sig_n, mask, folds, train_res, scores, dm_lag, alpha,
+            alternative=None if best_alt is None else (best_alt, train_fits[best_alt][0]))
         change = log_change if log_change is not None else change
         lags.update(log_lags)
         notes.extend(log_notes)

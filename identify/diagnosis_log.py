@@ -427,7 +427,7 @@ SPEED_CHANNEL = "sprocket_speed_rad_s"
 
 
 def review_drive_log(verdict, data, vehicle, nominal, H: dict, sigma: dict, mask: dict, folds, train_res: dict,
-                     scores: dict, dm_lag: int, alpha: float = 0.01):
+                     scores: dict, dm_lag: int, alpha: float = 0.01, alternative=None):
     """The drive-log checks of :func:`~.diagnosis.diagnose` after the held-out comparison.
 
     1. The change of terrain in time (:func:`terrain_window` on the nominal fit's per-sample scores).
@@ -435,7 +435,11 @@ def review_drive_log(verdict, data, vehicle, nominal, H: dict, sigma: dict, mask
        more of the held-out misfit than the effect, the verdict is ``unexplained`` (a delay between the
        channels is no effect of the library); when it explains part of it, the effect's confidence is
        at most its share of the two gains.
-    3. A verdict ``none`` with a significant change of soil in time becomes ``unexplained``.
+    3. A verdict ``none`` with a significant change of soil in time becomes ``unexplained`` - unless
+       ``alternative``, ``(effect, fit)`` of the best candidate, removes that change when the window
+       is sought on its own fit: then the "change" is the effect's signature in time (a radius error
+       offsets the slip by about -eps, which weighs differently as the speed varies), and the effect
+       is named with confidence 0.5 (its held-out gain alone was within the noise).
 
     Returns
     -------
@@ -503,6 +507,21 @@ def review_drive_log(verdict, data, vehicle, nominal, H: dict, sigma: dict, mask
                               f"the vehicle-speed channel looks {lag_txt} {late} against the sprocket speed (the "
                               f"nominal model refitted with it shifted back predicts the held-out data better); no "
                               f"library effect is a delay")
+    if verdict.name == NOMINAL and change is not None and change.significant and alternative is not None:
+        a_name, a_fit = alternative
+        try:
+            sa = drive_log_sensitivities(a_fit, data, vehicle)
+            ch_a = terrain_window(sa.residuals, sa.jacobian, sa.time_s, scale=scale, alpha=alpha)
+        except DataError:
+            ch_a = change
+        if ch_a is None or not ch_a.significant:
+            notes.append(f"the nominal model's soil seems to differ at {change.evidence_start:.4g}-"
+                         f"{change.evidence_end:.4g} s (p = {change.p_value:.2g}), but with {a_name} (fitted on the "
+                         f"training part) no time window differs "
+                         f"({'p = ' + format(ch_a.p_value, '.2g') if ch_a is not None else 'nothing to test'}): "
+                         f"it is {a_name}'s signature in time, not a change of terrain")
+            verdict = Verdict(a_name, 0.5, f"{a_name} removes the change of soil in time that the nominal model "
+                              "shows, while its held-out gain alone is within the noise: named with confidence 0.5")
     if verdict.name == NOMINAL and change is not None and change.significant:
         verdict = Verdict("unexplained", max(0.0, 1.0 - change.p_value),
                           f"the soil differs in a time window ({change.evidence_start:.4g} to {change.evidence_end:.4g} s, "
