@@ -355,46 +355,62 @@ def _fmt(x) -> str:
 
 
 # ----------------------------------------------------------------------------- helpers on fits
-#: A drive log's speed channels (column name -> DriveLog field), checked for lone readings: inertia keeps
+#: A drive log's speed channels (DriveLog field -> column name), checked for lone readings: inertia keeps
 #: them smooth, so a reading far off both sides is a glitch. Torque and acceleration are not checked: a
 #: controller at its limit, a shift or an impact moves them from one sample to the next for real.
-_LOG_FIELDS = {"sprocket_speed_rad_s": "sprocket_speed", "vehicle_speed_m_s": "vehicle_speed"}
+_LOG_SPEEDS = {"sprocket_speed": "sprocket_speed_rad_s", "vehicle_speed": "vehicle_speed_m_s"}
 
 
-def _note_lone_log_readings(data: DriveLog, vehicle: Vehicle, name: str, notes: list[str], recheck: bool,
-                            options: dict) -> None:
-    """Name a log's lone readings (a sensor or logger glitch) in ``notes``; with ``recheck``, say the verdict
-    with each replaced by the median of its two neighbours on each side (a glitch in a speed channel
-    otherwise reads as a change of terrain over the few samples around it)."""
-    t = np.asarray(data.time, dtype=float)
-    found: dict[str, list[tuple[int, float]]] = {}
-    for col, attr in _LOG_FIELDS.items():
-        v = getattr(data, attr, None)
-        if v is not None:
-            lone = isolated_outliers(np.asarray(v, dtype=float), t, split_sides=True)
-            if lone:
-                found[attr] = lone
-    if not found:
-        return
-    inv = {a: c for c, a in _LOG_FIELDS.items()}
-    parts = []
-    for attr, lone in found.items():
-        ks = sorted(k for k, _ in lone)
-        shown = ", ".join(f"row {k + 1} (t = {t[k]:.4g} s)" for k in ks[:5]) + (", ..." if len(ks) > 5 else "")
-        parts.append(f"{inv[attr]}: {shown}")
-    txt = ("lone readings far off their neighbours while the readings around stay close (" + "; ".join(parts)
-           + "): a glitch of a sensor or the logger looks like this, no effect does")
-    if recheck:
-        fixed = {}
+def _note_lone_readings(data, vehicle: Vehicle, residual: np.ndarray | None, notes: list[str], recheck: bool,
+                        options: dict) -> None:
+    """Name lone readings (:func:`~.gap.isolated_outliers`: a glitch of a sensor, the rig or the logger) in
+    ``notes``; with ``recheck``, say the verdict without them.
+
+    A sweep is checked on ``residual`` (the verdict fit's, in slip order) and diagnosed again without
+    those rows; a drive log on its speed channels in time (each side's noise level apart), diagnosed
+    again with each replaced by the median of its two neighbours on each side (a glitch in a speed
+    channel otherwise reads as a change of terrain over the few samples around it).
+    """
+    if isinstance(data, DriveLog):
+        t = np.asarray(data.time, dtype=float)
+        found = {attr: lone for attr in _LOG_SPEEDS
+                 if (lone := isolated_outliers(np.asarray(getattr(data, attr), dtype=float), t, split_sides=True))}
+        if not found:
+            return
+        parts = []
         for attr, lone in found.items():
-            v = np.asarray(getattr(data, attr), dtype=float).copy()
-            for k, _ in lone:
-                v[k] = float(np.median(v[[k - 2, k - 1, k + 1, k + 2]]))
-            fixed[attr] = v
+            ks = sorted(k for k, _ in lone)
+            parts.append(f"{_LOG_SPEEDS[attr]}: " + ", ".join(f"row {k + 1} (t = {t[k]:.4g} s)" for k in ks[:5])
+                         + (", ..." if len(ks) > 5 else ""))
+        txt = ("lone readings far off their neighbours while the readings around stay close (" + "; ".join(parts)
+               + "): a glitch of a sensor or the logger looks like this, no effect does")
+        without, how = None, "with each replaced by the median of its two neighbours on each side"
+        if recheck:
+            fixed = {}
+            for attr, lone in found.items():
+                v = np.asarray(getattr(data, attr), dtype=float).copy()
+                for k, _ in lone:
+                    v[k] = float(np.median(v[[k - 2, k - 1, k + 1, k + 2]]))
+                fixed[attr] = v
+            without = replace(data, **fixed)
+    else:
+        x = np.asarray(data.slip, dtype=float)
+        lone = isolated_outliers(residual, x)
+        if not lone:
+            return
+        rows = sorted(k + 1 for k, _ in lone)
+        many = len(rows) > 1
+        txt = (f"row{'s' if many else ''} {', '.join(map(str, rows))} "
+               f"({'; '.join(f'slip {x[k]:.3g}: {abs(zk):.0f} robust sd' for k, zk in sorted(lone))}) "
+               f"lie{'' if many else 's'} far off {'their' if many else 'its'} neighbours while the readings around "
+               "stay close: a glitch of the rig or logger looks like this, no effect does")
+        without, how = None, f"without {'them' if many else 'it'}"
+        if recheck and data.n_samples - len(rows) >= MIN_SAMPLES:
+            without = _subset(data, np.setdiff1d(np.arange(data.n_samples), [k for k, _ in lone]))
+    if without is not None:
         try:
-            again = diagnose(replace(data, **fixed), vehicle, recheck_outliers=False, **options)
-            txt += (f"; with each replaced by the median of its two neighbours on each side the verdict is "
-                    f"{again.verdict} (confidence {again.confidence:.2f})")
+            again = diagnose(without, vehicle, recheck_outliers=False, **options)
+            txt += f"; {how} the verdict is {again.verdict} (confidence {again.confidence:.2f})"
         except DataError:
             pass
     notes.append(txt)
@@ -618,9 +634,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         ``"sample"`` (a continuous torque signal sampled), for every fit of the diagnosis
         (:func:`~soiltrack.identify.drivelog.fit_drive_log`).
     recheck_outliers
-        Sweep: when lone readings lie far off their neighbours
-        (:func:`~soiltrack.identify.gap.isolated_outliers`) and the verdict is ``none`` or
-        ``unexplained``, diagnose the sweep again without them and say that verdict in the notes
+        When lone readings lie far off their neighbours
+        (:func:`~soiltrack.identify.gap.isolated_outliers`; a sweep's residuals, a log's speed
+        channels) and the verdict is ``none`` or ``unexplained``, diagnose the data again without
+        them (a log: each replaced by its neighbours' median) and say that verdict in the notes
         (the verdict itself stands on all the data).
 
     Returns
@@ -1314,38 +1331,20 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     converged = usable(nominal_full) and NOMINAL not in failed and name not in failed
     if not converged:
         notes.append("a fit the verdict rests on did not converge (the nominal model's or the verdict's effect's)")
-    if not is_log and len(channels) == 1:
-        # lone readings far off their neighbours (a glitch of the rig or the logger): said, with what the
-        # verdict is without them when no candidate explained the gap
+    # lone readings (a glitch of a sensor, the rig or the logger), with the verdict without them when no
+    # candidate explained the gap
+    r_lone = None
+    if not is_log:
         base = full_fits[name] if name in full_fits and usable(full_fits[name]) else nominal_full
         try:
-            r_base = _channels(base, data)[channels[0]]
+            r_lone = _channels(base, data)[channels[0]]
         except DataError:
-            r_base = R[channels[0]]
-        lone = isolated_outliers(r_base, xnat)
-        if lone:
-            rows = sorted(k + 1 for k, _ in lone)
-            txt = (f"row{'s' if len(rows) > 1 else ''} {', '.join(map(str, rows))} "
-                   f"({'; '.join(f'slip {xnat[k]:.3g}: {abs(zk):.0f} robust sd' for k, zk in sorted(lone))}) "
-                   f"lie{'' if len(rows) > 1 else 's'} far off {'their' if len(rows) > 1 else 'its'} neighbours "
-                   "while the readings around stay close: a glitch of the rig or logger looks like this, no effect "
-                   "does")
-            if name in ("unexplained", NOMINAL) and recheck_outliers and n - len(rows) >= MIN_SAMPLES:
-                keep = np.setdiff1d(np.arange(n), [k for k, _ in lone])
-                try:
-                    again = diagnose(_subset(data, keep), vehicle, model=model, candidates=candidates,
-                                     n_blocks=n_blocks, n_folds=n_folds, max_refits=max_refits, alpha=alpha,
-                                     weigh_outside=weigh_outside, torque_hold=torque_hold, recheck_outliers=False)
-                    txt += (f"; without {'them' if len(rows) > 1 else 'it'} the verdict is {again.verdict} "
-                            f"(confidence {again.confidence:.2f})")
-                except DataError:
-                    pass
-            notes.append(txt)
-    if is_log:
-        _note_lone_log_readings(data, vehicle, name, notes, recheck_outliers and name in ("unexplained", NOMINAL),
-                                dict(model=model, candidates=candidates, n_blocks=n_blocks, n_folds=n_folds,
-                                     max_refits=max_refits, alpha=alpha, weigh_outside=weigh_outside,
-                                     torque_hold=torque_hold))
+            r_lone = R[channels[0]]
+    if is_log or len(channels) == 1:
+        _note_lone_readings(data, vehicle, r_lone, notes, recheck_outliers and name in ("unexplained", NOMINAL),
+                            dict(model=model, candidates=candidates, n_blocks=n_blocks, n_folds=n_folds,
+                                 max_refits=max_refits, alpha=alpha, weigh_outside=weigh_outside,
+                                 torque_hold=torque_hold))
     curves = {"held_x": {ch: xnat[mask[ch]] for ch in channels},
               "before": {ch: cat(NOMINAL, ch) for ch in channels},
               "after": {ch: cat(name if name in H else DISCREPANCY, ch) for ch in channels}

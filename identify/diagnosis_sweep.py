@@ -102,21 +102,20 @@ def sweep_folds(order: np.ndarray, n_blocks: int = 10, n_folds: int = 5) -> list
 
 
 def information_weights(z: dict[str, np.ndarray], k: dict[str, int], n_boot: int = 400,
-                        seed: int = 20261123, profile_scale: bool = True) -> dict[str, float]:
+                        seed: int = 20261123) -> dict[str, float]:
     """Pseudo-BMA+ weights of in-sample fits: AIC on all the data, averaged over a Bayesian bootstrap.
 
     ``z[m]`` are model m's residuals over the noise level at every sample (the same samples for
     every model), ``k[m]`` the parameters it adds to the soil's. Each bootstrap replicate draws
     Dirichlet(1, ..., 1) weights ``a`` over the samples and scores every model by
-    ``-0.5 n sum_t a_t z_t^2 - k`` (the log-likelihood minus Akaike's penalty); the weights are the
-    softmax averaged over the replicates (Yao et al. 2018). A model with a non-finite residual
-    gets weight 0. Deterministic (fixed ``seed``).
+    ``-0.5 n log(sum_t a_t z_t^2) - k`` (the Gaussian log-likelihood with the noise level profiled
+    out, minus Akaike's penalty); the weights are the softmax averaged over the replicates (Yao et
+    al. 2018). A model with a non-finite residual gets weight 0. Deterministic (fixed ``seed``).
 
-    With ``profile_scale`` (the default) the noise floor gives only the shape of the noise along
-    the sweep: its overall level, which second differences of a few dozen samples estimate to
-    within 10-20 %, is profiled out per model, and the score becomes
-    ``-0.5 n log(sum_t a_t z_t^2) - k``. A floor set too low then no longer multiplies every
-    likelihood gain (a chance feature of the noise fitted by the flexible term among them).
+    The noise floor gives only the shape of the noise along the sweep: its overall level, which
+    second differences of a few dozen samples estimate to within 10-20 %, is profiled out per model
+    and replicate, so a floor set too low does not multiply every likelihood gain (a chance feature
+    of the noise fitted by the flexible term among them).
     """
     names = list(z)
     if not names:
@@ -131,11 +130,7 @@ def information_weights(z: dict[str, np.ndarray], k: dict[str, int], n_boot: int
     pen = np.array([float(k.get(m, 0)) for m, f in zip(names, finite) if f])
     rng = np.random.default_rng(seed)
     A = rng.dirichlet(np.ones(n), size=n_boot)  # (boot, samples)
-    if profile_scale:
-        # the noise level's scale profiled out (one factor over the floor's shape, per model and replicate)
-        E = -0.5 * n * np.log(np.maximum(A @ Q.T, 1e-300)) - pen[None, :]
-    else:
-        E = -0.5 * n * A @ Q.T - pen[None, :]
+    E = -0.5 * n * np.log(np.maximum(A @ Q.T, 1e-300)) - pen[None, :]  # the noise level profiled out
     E = E - E.max(axis=1, keepdims=True)
     W = np.exp(E)
     W /= W.sum(axis=1, keepdims=True)
