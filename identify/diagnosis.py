@@ -69,6 +69,10 @@ RETRY_MAX_ITER = 3000
 #: Significance level of the tests (screening is Bonferroni-corrected over the candidates).
 ALPHA = 0.01
 
+#: Drive logs: candidates (refitted ones first, then the strongest by score) whose training fits are
+#: checked for the nominal model's change of soil in time before it is called a change of terrain.
+MAX_WINDOW_ALTERNATIVES = 3
+
 
 def _f(x) -> float | None:
     """A finite float or None (JSON never carries NaN/inf)."""
@@ -1038,15 +1042,27 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                 lags[f"{ch} vs d({key})/dt"] = lag_peak(rr, np.diff(np.asarray(sig, dtype=float), prepend=sig[0]))
         # drive-log checks (change of soil in time, a delay between channels): .diagnosis_log
         from .diagnosis_log import review_drive_log
-        # the best candidate (its training fit), should the nominal model show a change of soil in time
+        # the candidates (their training fits), should the nominal model show a change of soil in time: the
+        # refitted ones by weight, then the strongest of those screening left out (by score gain), fitted on
+        # the first training part only if asked (an effect within the noise may still weigh on a time window)
         named_w = {m: weights[m] for m in refit if train_fits.get(m) and usable(train_fits[m][0])}
-        best_alt = max(named_w, key=lambda m: named_w[m]) if named_w else None
+        alts = [(m, train_fits[m][0]) for m in sorted(named_w, key=lambda m: -named_w[m])]
+        alts += [(s.effect, lambda c=s.effect: run_fit(_subset(data, folds[0][0]), (c,), weight_only=True))
+                 for s in ranked if s.effect not in refit][:max(0, MAX_WINDOW_ALTERNATIVES - len(alts))]
         verdict, log_change, log_lags, log_notes = review_drive_log(
             verdict, data, vehicle, nominal_full, H, sig_n, mask, folds, train_res, scores, dm_lag, alpha,
-            alternative=None if best_alt is None else (best_alt, train_fits[best_alt][0]))
+            alternatives=alts)
         change = log_change if log_change is not None else change
         lags.update(log_lags)
         notes.extend(log_notes)
+        if verdict.name in cands and verdict.name not in H:
+            # named by the time-window check without having been refitted: scored on the held-out blocks like
+            # the refitted candidates, so that its shrink, parameters and soil are reported too
+            score_model(verdict.name, (verdict.name,))
+            scores[verdict.name] = ss(verdict.name)
+            refit.append(verdict.name)
+            weights = stacking_weights({m: -0.5 * zall(m) ** 2 if math.isfinite(scores[m])
+                                        else np.full(n_held, -np.inf) for m in H}, block=blk)
 
     # --- the verdict against the library effects that were not candidates ------------------------------
     # the user may leave the true effect out; a candidate that merely imitates it must not be named

@@ -427,7 +427,7 @@ SPEED_CHANNEL = "sprocket_speed_rad_s"
 
 
 def review_drive_log(verdict, data, vehicle, nominal, H: dict, sigma: dict, mask: dict, folds, train_res: dict,
-                     scores: dict, dm_lag: int, alpha: float = 0.01, alternative=None):
+                     scores: dict, dm_lag: int, alpha: float = 0.01, alternatives=()):
     """The drive-log checks of :func:`~.diagnosis.diagnose` after the held-out comparison.
 
     1. The change of terrain in time (:func:`terrain_window` on the nominal fit's per-sample scores).
@@ -436,10 +436,13 @@ def review_drive_log(verdict, data, vehicle, nominal, H: dict, sigma: dict, mask
        channels is no effect of the library); when it explains part of it, the effect's confidence is
        at most its share of the two gains.
     3. A verdict ``none`` with a significant change of soil in time becomes ``unexplained`` - unless
-       ``alternative``, ``(effect, fit)`` of the best candidate, removes that change when the window
-       is sought on its own fit: then the "change" is the effect's signature in time (a radius error
-       offsets the slip by about -eps, which weighs differently as the speed varies), and the effect
-       is named with confidence 0.5 (its held-out gain alone was within the noise).
+       one of ``alternatives``, ``(effect, fit)`` pairs of candidates fitted on the training part, best
+       first (``fit`` may be a callable that fits on demand: the candidates that screening did not keep
+       are fitted only here), removes that change when the window is sought on its own fit: then the
+       "change" is the effect's signature in time (a radius error offsets the slip by about -eps, which
+       weighs differently as the speed varies; a resistance growing with slip weighs on the windows of
+       hard acceleration), and the first such effect is named with confidence 0.5 (its held-out gain
+       alone was within the noise).
 
     Returns
     -------
@@ -507,14 +510,20 @@ def review_drive_log(verdict, data, vehicle, nominal, H: dict, sigma: dict, mask
                               f"the vehicle-speed channel looks {lag_txt} {late} against the sprocket speed (the "
                               f"nominal model refitted with it shifted back predicts the held-out data better); no "
                               f"library effect is a delay")
-    if verdict.name == NOMINAL and change is not None and change.significant and alternative is not None:
-        a_name, a_fit = alternative
-        try:
-            sa = drive_log_sensitivities(a_fit, data, vehicle)
-            ch_a = terrain_window(sa.residuals, sa.jacobian, sa.time_s, scale=scale, alpha=alpha)
-        except DataError:
-            ch_a = change
-        if ch_a is None or not ch_a.significant:
+    if verdict.name == NOMINAL and change is not None and change.significant:
+        kept: list[tuple[str, Any]] = []  # (effect, its window): the effects that do not remove the change
+        for a_name, a_fit in alternatives:
+            try:
+                a_fit = a_fit() if callable(a_fit) else a_fit
+                if a_fit is None or not a_fit.success:
+                    continue
+                sa = drive_log_sensitivities(a_fit, data, vehicle)
+                ch_a = terrain_window(sa.residuals, sa.jacobian, sa.time_s, scale=scale, alpha=alpha)
+            except DataError:
+                continue
+            if ch_a is not None and ch_a.significant:
+                kept.append((a_name, ch_a))
+                continue
             notes.append(f"the nominal model's soil seems to differ at {change.evidence_start:.4g}-"
                          f"{change.evidence_end:.4g} s (p = {change.p_value:.2g}), but with {a_name} (fitted on the "
                          f"training part) no time window differs "
@@ -522,6 +531,10 @@ def review_drive_log(verdict, data, vehicle, nominal, H: dict, sigma: dict, mask
                          f"it is {a_name}'s signature in time, not a change of terrain")
             verdict = Verdict(a_name, 0.5, f"{a_name} removes the change of soil in time that the nominal model "
                               "shows, while its held-out gain alone is within the noise: named with confidence 0.5")
+            break
+        if verdict.name == NOMINAL and kept:
+            notes.append("the change of soil in time stays significant with "
+                         + ", ".join(f"{a} (p = {w.p_value:.2g})" for a, w in kept) + " fitted on the training part")
     if verdict.name == NOMINAL and change is not None and change.significant:
         verdict = Verdict("unexplained", max(0.0, 1.0 - change.p_value),
                           f"the soil differs in a time window ({change.evidence_start:.4g} to {change.evidence_end:.4g} s, "

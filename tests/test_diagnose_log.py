@@ -115,3 +115,19 @@ def test_an_effects_signature_in_time_is_not_a_change_of_terrain():
     d = diagnose(log, v)
     assert d.verdict == "radius_error" and d.confidence <= 0.5
     assert any("signature in time, not a change of terrain" in n for n in d.notes)
+
+
+def test_an_effect_screening_left_out_is_tried_before_a_change_of_terrain():
+    # heavy vehicle, LETE sand, slip_sinkage mu_s = 0.15, the bench's default noise, seed 1: no score test is
+    # significant, so no candidate was refitted, but the nominal model's soil "differs" at 29.6-33.9 s (a hard
+    # acceleration: high slip, so high slip-sinkage resistance; p = 8e-8). Measured before the rule: unexplained
+    # 1.00 (a change of terrain). The strongest candidates by score are now fitted on the training part and the
+    # window sought on their fits; slip_sinkage removes it and is named at 0.5, scored like a refitted candidate.
+    v = VEHICLES["heavy"]
+    log = simulate(v, TERRAINS["lete_sand"], kind="drive", effects={"slip_sinkage": 0.15}, seed=1, duration_s=60.0)
+    d = diagnose(log, v)
+    assert d.verdict == "slip_sinkage" and d.confidence <= 0.5, (d.verdict, d.confidence)
+    assert any("signature in time, not a change of terrain" in n for n in d.notes)
+    assert d.shrink is not None and d.shrink > 0.0
+    mu_s = next(e.parameters for e in d.ranking if e.effect == "slip_sinkage")["mu_s"]
+    assert abs(mu_s["value"] - 0.15) < 3 * mu_s["stderr"] + 0.02, mu_s
