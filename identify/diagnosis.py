@@ -254,7 +254,11 @@ class Diagnosis:
         L.append(f"  probability that pure noise leaves this much: {self.gap_p_value:.2g}")
         L.append("")
         L.append("Where it lies (share of the misfit above the noise; * = significant at 1 %):")
-        shown = [s for s in self.localisation if s.share >= 0.05][:8]
+        # (a drive log's change of soil in time is in the localisation too; it is said once, below)
+        win = (self.change.evidence_start, self.change.evidence_end) \
+            if self.change is not None and hasattr(self.change, "describe") else None
+        shown = [s for s in self.localisation if s.share >= 0.05 and not (s.dimension == "time" and win is not None
+                                                                          and s.range == win)][:8]
         for s in shown:
             rng = "whole channel" if s.range is None else f"{s.dimension} {_fmt(s.range[0])} to {_fmt(s.range[1])}"
             L.append(f"  {'*' if s.significant else ' '} {s.share:5.1%}  {s.channel:<24s} {rng} "
@@ -363,6 +367,34 @@ def _fmt(x) -> str:
 #: them smooth, so a reading far off both sides is a glitch. Torque and acceleration are not checked: a
 #: controller at its limit, a shift or an impact moves them from one sample to the next for real.
 _LOG_SPEEDS = {"sprocket_speed": "sprocket_speed_rad_s", "vehicle_speed": "vehicle_speed_m_s"}
+
+
+def _window_segment(change, R: dict, sig: dict, t: np.ndarray) -> Segment:
+    """The change of soil in time of a drive log as a ``localisation`` entry (dimension ``"time"``).
+
+    Its range is where the change shows (the evidence window; the bracket of its boundaries stays in
+    ``change_window``), its channel the residual channel that carries most of the misfit above the
+    noise there, its share that channel's misfit above the noise there over that of all channels
+    inside and outside the window (each part's sum of
+    squared standardised residuals less its number of samples, floored at zero),
+    and it is significant when the change's own test is (a soft patch shows in the soil's
+    sensitivities before it shows in the residuals' size).
+    """
+    inside = (t >= change.evidence_start) & (t <= change.evidence_end)
+    ex_in, ex_out = {}, 0.0
+    for ch in R:
+        z = np.divide(R[ch], sig[ch], out=np.full(R[ch].shape, np.nan), where=np.nan_to_num(sig[ch]) > 0)
+        ok = np.isfinite(z)
+        zi, zo = z[ok & inside], z[ok & ~inside]
+        ex_in[ch] = max(0.0, float(zi @ zi) - zi.size)
+        ex_out += max(0.0, float(zo @ zo) - zo.size)
+    total = sum(ex_in.values()) + ex_out
+    ch = max(ex_in, key=lambda c: ex_in[c])
+    r = R[ch][inside & np.isfinite(R[ch])]
+    return Segment("time", (float(change.evidence_start), float(change.evidence_end)), ch,
+                   ex_in[ch] / total if total > 0 else 0.0, bool(change.significant),
+                   float(np.mean(r)) if r.size else 0.0, float(np.sqrt(np.mean(r ** 2))) if r.size else 0.0,
+                   int(r.size))
 
 
 def _note_lone_readings(data, vehicle: Vehicle, residual: np.ndarray | None, notes: list[str], recheck: bool,
@@ -1361,6 +1393,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                             dict(model=model, candidates=candidates, n_blocks=n_blocks, n_folds=n_folds,
                                  max_refits=max_refits, alpha=alpha, weigh_outside=weigh_outside,
                                  torque_hold=torque_hold))
+    if is_log and change is not None and getattr(change, "significant", False) and hasattr(change, "evidence_start"):
+        # the change of soil in time is where a drive log's gap lies: in the contract's localisation too
+        loc = sorted([*loc, _window_segment(change, R, sig_n, np.asarray(data.time, dtype=float))],
+                     key=lambda sg: -sg.share)
     curves = {"held_x": {ch: xnat[mask[ch]] for ch in channels},
               "before": {ch: cat(NOMINAL, ch) for ch in channels},
               "after": {ch: cat(name if name in H else DISCREPANCY, ch) for ch in channels}
