@@ -95,9 +95,10 @@ def _slip_for(F, W, c, phi, K):
     return 0.5 * (lo + hi)
 
 
-def log_csv(path, seed, soil=(1300., np.radians(31.1), 0.012), grade=0.0, mass=0.0, patch=None, delay=0, radius=0.0):
+def log_csv(path, seed, soil=(1300., np.radians(31.1), 0.012), grade=0.0, mass=0.0, patch=None, delay=0, radius=0.0,
+            duration=60.0):
     rng = np.random.default_rng(seed)
-    t = np.arange(0, 60.0, 0.05)
+    t = np.arange(0, duration, 0.05)
     v = 2.0 + 1.2 * np.sin(2 * np.pi * t / 17) + 0.6 * np.sin(2 * np.pi * t / 6.3 + 1) + 0.4 * t / 60.0
     a = np.gradient(v, t)
     m = M * (1 + mass)
