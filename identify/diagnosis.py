@@ -1079,7 +1079,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         # the first training part only if asked (an effect within the noise may still weigh on a time window)
         named_w = {m: weights[m] for m in refit if train_fits.get(m) and usable(train_fits[m][0])}
         alts = [(m, train_fits[m][0]) for m in sorted(named_w, key=lambda m: -named_w[m])]
-        alts += [(s.effect, lambda c=s.effect: run_fit(_subset(data, folds[0][0]), (c,), weight_only=True))
+        alts += [(s.effect, lambda c=s.effect: run_fit(_subset(data, folds[0][0]), (c,), weight_only=True,
+                                                       record=False))
                  for s in ranked if s.effect not in refit][:max(0, MAX_WINDOW_ALTERNATIVES - len(alts))]
         verdict, log_change, log_lags, log_notes = review_drive_log(
             verdict, data, vehicle, nominal_full, H, sig_n, mask, folds, train_res, scores, dm_lag, alpha,
