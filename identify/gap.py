@@ -126,7 +126,8 @@ OUTLIER_Z = 5.5
 
 
 def isolated_outliers(residuals: np.ndarray, x: np.ndarray, z_min: float = OUTLIER_Z,
-                      window: int | None = None, split_sides: bool = False) -> list[tuple[int, float]]:
+                      window: int | None = None, split_sides: bool = False,
+                      trend: bool = False) -> list[tuple[int, float]]:
     """Lone readings far off their neighbours: a glitch, not a trend an effect could explain.
 
     In the order of ``x`` (slip or time), each reading is compared with the mean of its two
@@ -143,8 +144,12 @@ def isolated_outliers(residuals: np.ndarray, x: np.ndarray, z_min: float = OUTLI
     A reading is an outlier when that robust z-score exceeds ``z_min``, no reading within three
     on either side does, and its two neighbours agree within three times the noise of their
     difference: a ramp steeper than the noise, a step, or wild readings close together are not
-    lone readings. The first and last two readings are not judged (one side only). At most a
-    tenth of the readings.
+    lone readings. With ``trend`` (a measured input that ramps fast, such as a torque) each side's
+    reference is the straight line through its two readings carried on to this one, and the two
+    neighbours need only agree with the local slope of the two outer ones,
+    ``|(r[k+1] - r[k-1]) - (r[k+2] - r[k-2]) / 2| < 3 sqrt(2.5) sigma``: a glitch on a ramp is a lone
+    reading, a step still is not. The first and last two readings are not judged (one side only).
+    At most a tenth of the readings.
 
     Returns
     -------
@@ -177,13 +182,21 @@ def isolated_outliers(residuals: np.ndarray, x: np.ndarray, z_min: float = OUTLI
     z = np.zeros(n)
     for k in range(2, n - 2):
         if sig[k] > 0:
-            left, right = 0.5 * (rs[k - 2] + rs[k - 1]), 0.5 * (rs[k + 1] + rs[k + 2])
+            if trend:  # each side's straight line through its two readings, carried on to this one (variance 6)
+                left, right = 2.0 * rs[k - 1] - rs[k - 2], 2.0 * rs[k + 1] - rs[k + 2]
+            else:
+                left, right = 0.5 * (rs[k - 2] + rs[k - 1]), 0.5 * (rs[k + 1] + rs[k + 2])
             e = rs[k] - left if abs(rs[k] - left) < abs(rs[k] - right) else rs[k] - right
-            z[k] = e / (sig[k] * math.sqrt(1.5))
+            z[k] = e / (sig[k] * math.sqrt(6.0 if trend else 1.5))
     cand = np.abs(z) > z_min
     # and the signal continues across it: its two neighbours agree within the noise (not a pair, not a step)
+    def continues(k: int) -> bool:
+        if trend:
+            return abs((rs[k + 1] - rs[k - 1]) - 0.5 * (rs[k + 2] - rs[k - 2])) < 3.0 * math.sqrt(2.5) * sig[k]
+        return abs(rs[k + 1] - rs[k - 1]) < 3.0 * math.sqrt(2.0) * sig[k]
+
     hits = [k for k in range(2, n - 2) if cand[k] and not np.any(cand[max(0, k - 3):k]) and not np.any(cand[k + 1:k + 4])
-            and abs(rs[k + 1] - rs[k - 1]) < 3.0 * math.sqrt(2.0) * sig[k]]
+            and continues(k)]
     if len(hits) > max(1, n // 10):
         return []
     return sorted(((int(order[k]), float(z[k])) for k in hits), key=lambda t: -abs(t[1]))
