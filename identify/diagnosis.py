@@ -54,6 +54,7 @@ from .sweep_model import SweepResiduals
 from .selection import (DISCREPANCY, LOOKALIKES, NOMINAL, confusable_groups, decide, dm_test, fit_discrepancy,
                         gap_p_value, hat_basis, separating_experiment, stacking_weights, Verdict)
 from .saturation import find_saturation
+from .stats import chi2_isf, chi2_sf
 from .verdict_checks import MIN_SHRINK, check_verdict, explained_fraction
 
 __all__ = ["diagnose", "Diagnosis", "RankEntry"]
@@ -1377,7 +1378,42 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         confidence = 0.5
         notes.append(f"{name}'s fit on all the data did not converge ({full_fits[name].status}): its parameters "
                      "are not known; it is named with confidence 0.5 at most")
-    if name in LOOKALIKES:
+    arm_told = False
+    if is_log and name == "radius_error" and name in full_fits and usable(full_fits[name]):
+        # a scale error of the vehicle-speed sensor shifts the slip like a radius error but leaves the torque arm
+        # alone: a thrust scale kappa fitted on top tells them apart (0 for a radius error, eps for the sensor)
+        from .diagnosis_log import torque_arm_check
+        eps = float(next((e.parameters for e in ranking if e.effect == name), {}).get("eps", {}).get("value", math.nan))
+        arm = torque_arm_check(full_fits[name], data, vehicle, eps) if math.isfinite(eps) else None
+        if arm is not None:
+            zc = math.sqrt(chi2_isf(alpha, 1))
+            what = (f"a thrust scale fitted on top of the radius error is kappa = {arm.kappa:.3g} +- {arm.stderr:.2g}, "
+                    f"where a radius error has 0 and a scale error of the vehicle-speed sensor has eps = {arm.eps:.3g}")
+            if arm.z_radius < zc <= arm.z_speed_scale:
+                arm_told = True
+                notes.append(f"the torque arm follows the slip offset ({what}): a radius error, not a scale error of "
+                             "the vehicle-speed sensor")
+            elif arm.z_speed_scale < zc <= arm.z_radius:
+                arm_told = True
+                conf_u = 1.0 - chi2_sf(arm.z_radius ** 2, 1)
+                notes.append(f"the slip is offset as by a radius error but the torque arm does not follow ({what}): a "
+                             "scale error of the vehicle-speed sensor, which no library effect is; radius_error, "
+                             "in the ranking, repairs the slip and stands for it")
+                verdict = replace(verdict, name="unexplained", confidence=conf_u,
+                                  reason="the slip is offset as by a radius error, but the sprocket thrust is not "
+                                         "divided by the radius (a thrust scale fitted on top is "
+                                         f"{arm.z_radius:.1f} standard errors from a radius error's 0 and "
+                                         f"{arm.z_speed_scale:.1f} from a speed-sensor scale error's eps): a scale "
+                                         "error of the vehicle-speed sensor, outside the library")
+                name, confidence = "unexplained", conf_u
+            elif arm.z_radius < zc and arm.z_speed_scale < zc:
+                notes.append(f"the torque arm cannot tell a radius error from a scale error of the vehicle-speed "
+                             f"sensor on these data ({what})" + ("; confidence capped at 0.5" if confidence > 0.5 else ""))
+                confidence = min(confidence, 0.5)
+            else:
+                notes.append(f"the torque arm fits neither a radius error nor a scale error of the vehicle-speed "
+                             f"sensor ({what})")
+    if name in LOOKALIKES and not arm_told:
         notes.append(f"{name} also stands for {LOOKALIKES[name]}: these data cannot tell them apart")
     for sat in find_saturation(data):
         # a clipped sensor is outside the library: a flexible effect may imitate the flattened curve

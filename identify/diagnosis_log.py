@@ -617,3 +617,70 @@ def _delay_gain(k, res, data, vehicle, H, sigma, mask, folds) -> float:
         ok = np.isfinite(z0) & np.isfinite(z1)
         gain += float(np.sum(z0[ok] ** 2) - np.sum(z1[ok] ** 2))
     return gain
+
+
+@dataclass(frozen=True)
+class ArmCheck:
+    """Does the torque arm follow a radius error's slip offset? (:func:`torque_arm_check`)
+
+    A radius error ``r (1 + eps)`` shifts the apparent slip and divides the sprocket thrust by
+    ``1 + eps``; a scale error of the vehicle-speed sensor shifts the slip the same way and leaves the
+    thrust alone. With a thrust scale ``1 + kappa`` fitted on top (jointly with the soil and eps,
+    linearised at the radius-error fit), a radius error has ``kappa = 0`` and a speed-sensor scale
+    error ``kappa = eps``.
+
+    Attributes
+    ----------
+    kappa, stderr
+        The thrust scale's estimate and standard error (widened for correlated residuals).
+    eps
+        The radius error's fitted eps.
+    z_radius, z_speed_scale
+        ``|kappa| / stderr`` and ``|kappa - eps| / stderr``: how far each explanation is off.
+    """
+
+    kappa: float
+    stderr: float
+    eps: float
+    z_radius: float
+    z_speed_scale: float
+
+
+def torque_arm_check(fit, data, vehicle, eps: float, h: float = 1e-4) -> ArmCheck | None:
+    """The thrust scale ``kappa`` on top of a radius-error fit of a drive log (see :class:`ArmCheck`).
+
+    Its profiled sensitivity is a difference quotient: the residuals with the logged torque and the
+    sprocket inertia scaled by ``1 + h`` (the sprocket thrust ``(M - I dw/dt) / r`` scaled), the
+    latent slips solved again, against those of the fit. None when the residuals cannot be evaluated.
+    """
+    from dataclasses import replace
+
+    from ..soilmodel.errors import DataError
+    from .drivelog_sensitivity import drive_log_sensitivities
+
+    try:
+        s0 = drive_log_sensitivities(fit, data, vehicle)
+        s1 = drive_log_sensitivities(fit, replace(data, sprocket_torque=np.asarray(data.sprocket_torque, float) * (1 + h)),
+                                     replace(vehicle, sprocket_inertia=vehicle.sprocket_inertia * (1 + h)))
+    except DataError:
+        return None
+    if s0.residuals.shape != s1.residuals.shape or not np.array_equal(s0.keep, s1.keep):
+        return None
+    J, r = s0.stacked()
+    zk = ((s1.residuals - s0.residuals) / h).reshape(-1, 1)
+    A = np.hstack([J, zk])
+    ok = np.all(np.isfinite(A), axis=1) & np.isfinite(r)
+    A, r = A[ok], r[ok]
+    G = A.T @ A
+    try:
+        Gi = np.linalg.inv(G)
+    except np.linalg.LinAlgError:
+        return None
+    kappa = float(-(Gi @ (A.T @ r))[-1])
+    s2 = max(1.0, float(np.mean(r ** 2)))
+    infl = max(long_run_factor(s0.residuals[:, j]) for j in range(s0.residuals.shape[1]))
+    var = float(Gi[-1, -1]) * s2 * infl
+    if not (math.isfinite(kappa) and math.isfinite(var) and var > 0):
+        return None
+    se = math.sqrt(var)
+    return ArmCheck(kappa, se, float(eps), abs(kappa) / se, abs(kappa - eps) / se)
