@@ -14,15 +14,39 @@ settings.register_profile("explore", deadline=None, print_blob=True)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "repeatable"))
 
 
-def independent_sweep(path, seed: int, **kw):
-    """A sweep CSV from the plain-numpy oracle of ``benchmarks/independent_check.py`` (not soilmodel), read back."""
+def independent_check():
+    """The plain-numpy oracle ``benchmarks/independent_check.py`` (not soilmodel), loaded as a module."""
     import importlib.util
-
-    from soiltrack.soilmodel import read_csv
 
     spec = importlib.util.spec_from_file_location("independent_check",
                                                   os.path.join(ROOT, "benchmarks", "independent_check.py"))
     ic = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(ic)
-    ic.sweep_csv(str(path), seed, **kw)
+    return ic
+
+
+def independent_sweep(path, seed: int, **kw):
+    """A sweep CSV from the plain-numpy oracle of ``benchmarks/independent_check.py``, read back."""
+    from soiltrack.soilmodel import read_csv
+
+    independent_check().sweep_csv(str(path), seed, **kw)
+    return read_csv(str(path))
+
+
+def independent_log(path, seed: int, edit=None, **kw):
+    """A drive-log CSV from the plain-numpy oracle (heavy vehicle, 60 s at 20 Hz), read back.
+
+    ``edit(a)`` changes the array of the CSV's columns (time, torque, sprocket speed, vehicle speed,
+    acceleration) in place before it is written back: glitches, a scaled channel.
+    """
+    import numpy as np
+
+    from soiltrack.soilmodel import read_csv
+
+    independent_check().log_csv(str(path), seed, **kw)
+    if edit is not None:
+        a = np.loadtxt(str(path), delimiter=",", skiprows=1)
+        edit(a)
+        np.savetxt(str(path), a, delimiter=",", comments="", fmt="%.6g",
+                   header="time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s,vehicle_accel_m_s2")
     return read_csv(str(path))

@@ -5,6 +5,7 @@ import pytest
 from soiltrack.identify import diagnose
 from soiltrack.identify.diagnosis_log import delay_scan, shift_speed, terrain_window
 from soiltrack.soilmodel import TERRAINS, VEHICLES, DriveLog, simulate
+from conftest import independent_log
 
 
 def _scores(patch, n=1500, seed=0, change=(-0.3, 0.0)):
@@ -161,38 +162,19 @@ def test_a_soft_patch_is_in_the_contracts_localisation():
     assert not any(f"time {lo:.4g} to {hi:.4g}" in line for line in d.report().splitlines())
 
 
-def _plain_log(tmp_path, name, seed, column=None, scale=1.0, **kw):
-    """A log of the plain-numpy generator of benchmarks/independent_check.py (heavy vehicle, 60 s at 20 Hz)."""
-    import importlib.util
-    import os
-
-    from soiltrack.soilmodel import read_csv
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    spec = importlib.util.spec_from_file_location("independent_check_log", os.path.join(root, "benchmarks",
-                                                                                        "independent_check.py"))
-    ic = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ic)
-    path = str(tmp_path / f"{name}.csv")
-    ic.log_csv(path, seed, **kw)
-    if column is not None:
-        a = np.loadtxt(path, delimiter=",", skiprows=1)
-        a[:, column] *= scale
-        np.savetxt(path, a, delimiter=",", comments="", fmt="%.6g",
-                   header="time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s,vehicle_accel_m_s2")
-    return read_csv(path)
-
-
 def test_a_speed_sensor_scale_error_is_told_from_a_radius_error_by_the_torque_arm(tmp_path):
     # plain-numpy heavy logs, seed 5: the vehicle-speed column read 3 % high (a GNSS scale error, outside the
     # library), against seed 1 with a true 4 % radius error. Both offset the slip alike; only the radius divides the
     # sprocket thrust. Measured before the check: the scale error named radius_error with confidence 1.00 (eps 0.029)
     from soiltrack.identify.diagnosis_log import torque_arm_check
     heavy = VEHICLES["heavy"]
-    d = diagnose(_plain_log(tmp_path, "gnss", 5, column=3, scale=1.03), heavy)
+    def reads_high(a):
+        a[:, 3] *= 1.03
+    d = diagnose(independent_log(tmp_path / "gnss.csv", 5, edit=reads_high), heavy)
     assert d.verdict == "unexplained", (d.verdict, d.confidence, d.reason)
     assert "vehicle-speed sensor" in d.reason
     assert any(e.effect == "radius_error" for e in d.ranking)
-    d = diagnose(_plain_log(tmp_path, "radius", 1, radius=0.04), heavy)
+    d = diagnose(independent_log(tmp_path / "radius.csv", 1, radius=0.04), heavy)
     assert d.verdict == "radius_error" and d.confidence > 0.5, (d.verdict, d.confidence)
     assert any("the torque arm follows the slip offset" in n for n in d.notes)
     assert not any("also stands for a scale error of the vehicle-speed sensor" in n for n in d.notes)

@@ -7,7 +7,7 @@ import pytest
 from soiltrack.identify import diagnose
 from soiltrack.identify.diagnosis_sweep import PARTIAL_SHRINK, decide_sweep
 from soiltrack.soilmodel import EFFECTS, TERRAINS, VEHICLES, SensorNoise, simulate
-from conftest import independent_sweep
+from conftest import independent_check, independent_log, independent_sweep
 
 HEAVY = VEHICLES["heavy"]
 SLIPS = tuple(round(0.01 + k * (0.69 / 59), 4) for k in range(60))
@@ -81,15 +81,8 @@ def test_a_load_cell_flat_at_its_limit_is_unexplained_not_an_effect(tmp_path, se
 
 def _oracle_clip(share: float) -> float:
     """The clip level of the oracle's sweep: ``share`` of its noise-free drawbar-pull peak (default soil)."""
-    import importlib.util
-    import os
-
     import numpy as np
-    path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks",
-                        "independent_check.py")
-    spec = importlib.util.spec_from_file_location("independent_check_clip", path)
-    ic = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ic)
+    ic = independent_check()
     i = np.linspace(0.02, 0.7, 60)
     D = ic.thrust_quadrature(i, ic.W0, 1300., np.radians(31.1), 0.012) - ic.W0 * ic.MU
     return share * float(D.max())
@@ -193,23 +186,9 @@ def test_a_sweep_with_two_glitches_says_so_and_what_it_is_without_them(tmp_path)
 def test_speed_glitches_in_a_log_are_named_and_the_verdict_without_them_is_given(tmp_path):
     # independent numpy log (heavy vehicle, 60 s at 20 Hz, effect-free), three GNSS speed glitches. Measured before:
     # unexplained 1.00 through a "change of terrain" at 44.1-47.05 s around the third one, with nothing said of them
-    import importlib.util
-    import os
-
-    import numpy as np
-    from soiltrack.soilmodel import read_csv
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    spec = importlib.util.spec_from_file_location("independent_check_log", os.path.join(root, "benchmarks",
-                                                                                        "independent_check.py"))
-    ic = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ic)
-    path = str(tmp_path / "glitchy.csv")
-    ic.log_csv(path, 5)
-    a = np.loadtxt(path, delimiter=",", skiprows=1)
-    a[[300, 610, 905], 3] += [1.5, -1.2, 2.0]
-    np.savetxt(path, a, delimiter=",", comments="", fmt="%.6g",
-               header="time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s,vehicle_accel_m_s2")
-    d = diagnose(read_csv(path), VEHICLES["heavy"])
+    def glitch(a):
+        a[[300, 610, 905], 3] += [1.5, -1.2, 2.0]
+    d = diagnose(independent_log(tmp_path / "glitchy.csv", 5, edit=glitch), VEHICLES["heavy"])
     note = next(n for n in d.notes if n.startswith("lone readings"))
     assert "vehicle_speed_m_s: row 301 (t = 15 s), row 611 (t = 30.5 s), row 906 (t = 45.25 s)" in note
     assert "the verdict is none" in note
@@ -237,24 +216,12 @@ def test_isolated_outliers_with_trend_finds_a_glitch_on_a_ramp_but_no_step():
 def test_torque_glitches_in_a_log_are_named_but_not_readings_at_the_drivetrain_limit(tmp_path):
     # independent numpy log (heavy vehicle, 60 s at 20 Hz, effect-free), two torque glitches of +20 and -15 kN m on
     # a torque ramping by about 500 N m per sample. Measured before: verdict none, nothing said of them
-    import importlib.util
-    import os
-
     import numpy as np
     from soiltrack.identify.diagnosis import _lone_torque
-    from soiltrack.soilmodel import read_csv
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    spec = importlib.util.spec_from_file_location("independent_check_log", os.path.join(root, "benchmarks",
-                                                                                        "independent_check.py"))
-    ic = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ic)
-    path = str(tmp_path / "torque.csv")
-    ic.log_csv(path, 6)
-    a = np.loadtxt(path, delimiter=",", skiprows=1)
-    a[[200, 700], 1] += [20000.0, -15000.0]
-    np.savetxt(path, a, delimiter=",", comments="", fmt="%.6g",
-               header="time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s,vehicle_accel_m_s2")
-    d = diagnose(read_csv(path), VEHICLES["heavy"])
+
+    def glitch(a):
+        a[[200, 700], 1] += [20000.0, -15000.0]
+    d = diagnose(independent_log(tmp_path / "torque.csv", 6, edit=glitch), VEHICLES["heavy"])
     note = next(n for n in d.notes if n.startswith("lone readings"))
     assert "sprocket_torque_Nm: row 201 (t = 10 s), row 701 (t = 35 s)" in note
     assert d.verdict == "none" and "the verdict is none" in note
