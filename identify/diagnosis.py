@@ -37,7 +37,7 @@ import json
 import math
 import time
 from dataclasses import dataclass, field, replace
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -669,7 +669,8 @@ def _check_candidates(candidates, data) -> tuple[str, ...]:
 def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full",
              candidates: Sequence[str] | None = None, n_blocks: int = 10, n_folds: int | None = None,
              max_refits: int | None = None, alpha: float = ALPHA, weigh_outside: bool = True,
-             torque_hold: str = "zoh", recheck_outliers: bool = True) -> Diagnosis:
+             torque_hold: str = "zoh", recheck_outliers: bool = True,
+             progress: Callable[[str], None] | None = None) -> Diagnosis:
     """Diagnose the gap between the nominal model and a drive log or a slip sweep.
 
     Parameters
@@ -707,6 +708,9 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         channels) and the verdict is ``none`` or ``unexplained``, diagnose the data again without
         them (a log: each replaced by its neighbours' median) and say that verdict in the notes
         (the verdict itself stands on all the data).
+    progress
+        Called with a short line at each stage (screening, each refit, the checks): the command line
+        prints them on stderr. None: silent.
 
     Returns
     -------
@@ -730,6 +734,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     cands = _check_candidates(candidates, data)
     n = data.n_samples
     is_log = isinstance(data, DriveLog)
+    say = progress if progress is not None else (lambda msg: None)
     if n < MIN_SAMPLES:
         return _too_few(data, vehicle, model, cands, is_log, t0, log_options)
     notes: list[str] = []
@@ -803,6 +808,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     lag = None if is_log else 0
     kind = "drive" if is_log else "sweep"
     outside = tuple(e for e, spec in EFFECTS.items() if kind in spec.shows_in and e not in cands)
+    say(f"screening {len(cands + outside)} effects: the nominal model on all {n} samples, with score tests")
     nominal_full, all_screens = screen(data, vehicle, cands + outside, model=model, hac_lag=lag,
                                        fit_options=log_options)
     screens = [s for s in all_screens if s.effect in cands]
@@ -906,6 +912,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         train_fits[name] = fits
 
     try:
+        say("the nominal model on the training blocks")
         score_model(NOMINAL)
     except _NominalFailed as e:
         return _nominal_failed(data, cands, screens, e.res, "on a training part", is_log, t0)
@@ -959,7 +966,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     refit = [s.effect for s in ranked[:max_refits]] if (significant or gap_seen) else []
     if significant and len(ranked) > max_refits:
         notes.append(f"the {max_refits} candidates with the strongest score were refitted ({', '.join(refit)})")
-    for c in refit:
+    for k, c in enumerate(refit, 1):
+        say(f"{c} ({k} of {len(refit)} candidates kept by the screening) on the training blocks")
         if not is_log:
             full_fits[c] = run_fit(data, (c,))
         score_model(c, (c,))
@@ -1106,6 +1114,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                 lags[f"{ch} vs d({key})/dt"] = lag_peak(rr, np.diff(np.asarray(sig, dtype=float), prepend=sig[0]))
         # drive-log checks (change of soil in time, a delay between channels): .diagnosis_log
         from .diagnosis_log import review_drive_log
+        say("drive-log checks: a change of soil in time, a delay between the channels")
         # the candidates (their training fits), should the nominal model show a change of soil in time: the
         # refitted ones by weight, then the strongest of those screening left out (by score gain), fitted on
         # the first training part only if asked (an effect within the noise may still weigh on a time window)
@@ -1139,6 +1148,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     w_all = weights  # weights among the candidates, or among all library effects once outside ones are weighed
     if verdict.name in refit and out_screens and weigh_outside:
         k_out = 2 if is_log else len(out_screens)
+        say(f"{verdict.name} weighed against the library effects outside the candidates")
         outside_fitted = []
         for sc in sorted(out_screens, key=lambda s: -s.gain)[:k_out]:
             outside_fitted.append(sc.effect)
@@ -1191,6 +1201,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                 st = _effect_start(train_fits.get(m), m) if is_log else None
                 if st is not None:  # warm start from the training fit (soil and effect)
                     warm["x0"] = np.asarray(st.pop("__theta__"), dtype=float)
+                say(f"{m} on all the data")
                 full_fits[m] = run_fit(data, (m,), start=st)
             params = _effect_params(full_fits[m], m)
             conv = conv and usable(full_fits[m])

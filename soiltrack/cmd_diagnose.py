@@ -23,7 +23,16 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
 
     if a.torque_hold is not None and not isinstance(data, DriveLog):
         raise DataError("--torque-hold applies to drive logs only", file=a.data)
-    d = diagnose(data, vehicle, model=a.model, candidates=cands, torque_hold=a.torque_hold or "zoh")
+    import sys
+    import time
+
+    t0 = time.perf_counter()
+
+    def progress(msg: str) -> None:
+        print(f"[{time.perf_counter() - t0:5.1f} s] {msg}", file=sys.stderr, flush=True)
+
+    d = diagnose(data, vehicle, model=a.model, candidates=cands, torque_hold=a.torque_hold or "zoh",
+                 progress=None if a.quiet else progress)
     print(d.to_json() if a.json else d.report())
     if a.plot:
         d.plot(a.plot)
@@ -44,4 +53,5 @@ def add_parser(sub) -> None:
                         "continuous torque signal sampled at each time (see soiltrack fit --help)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     p.add_argument("--plot", metavar="PNG", help="save a figure of the held-out residuals, weights and localisation")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(func=_cmd_diagnose)

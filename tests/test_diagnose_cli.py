@@ -38,3 +38,23 @@ def test_bad_arguments_exit_2(tmp_path, capsys):
     assert "missing.csv" in capsys.readouterr().err
     assert main(["diagnose", WONG, "--vehicle", "heavy", "--candidates", ","]) == 2
     assert "--candidates" in capsys.readouterr().err
+
+
+def test_progress_on_stderr_and_quiet(tmp_path, capsys):
+    # the stages of a diagnosis, one line each on stderr with the time since the start; stdout keeps the JSON alone
+    import json
+
+    from soiltrack.soilmodel import TERRAINS, VEHICLES, simulate, write_csv
+    path = str(tmp_path / "sweep.csv")
+    write_csv(simulate(VEHICLES["heavy"], TERRAINS["lete_sand"], kind="sweep", effects={"slip_sinkage": 0.12}, seed=1),
+              path)
+    assert main(["diagnose", path, "--vehicle", "heavy", "--json"]) == 0
+    out, err = capsys.readouterr()
+    json.loads(out)
+    lines = err.strip().splitlines()
+    assert lines[0].startswith("[") and "screening" in lines[0]
+    assert any("on the training blocks" in line for line in lines), lines
+    assert main(["diagnose", path, "--vehicle", "heavy", "--json", "--quiet"]) == 0
+    out, err = capsys.readouterr()
+    json.loads(out)
+    assert err == ""
