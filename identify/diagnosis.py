@@ -1021,8 +1021,13 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     infl = max(long_run_factor(z(best_m, ch)) for ch in channels) if is_log else 1.0
     infl *= max(1.0, float(np.var(zall(best_m) ** 2)) / 2.0)
     blk = max(1, newey_west_lag(n_held // max(1, len(channels)))) if is_log else 1
-    weights = stacking_weights({m: -0.5 * zall(m) ** 2 if math.isfinite(scores[m]) else np.full(n_held, -np.inf)
-                                for m in H}, block=blk)
+
+    def held_weights() -> dict[str, float]:
+        """Stacking weights of every model in ``H`` from its held-out log-densities (blocked)."""
+        return stacking_weights({m: -0.5 * zall(m) ** 2 if math.isfinite(scores[m]) else np.full(n_held, -np.inf)
+                                 for m in H}, block=blk)
+
+    weights = held_weights()
     # sweeps: which effect is weighed on ALL the data (likelihood with Akaike's penalty, pseudo-BMA+):
     # independent samples, and no extrapolation into held-out blocks (diagnosis_sweep). The held-out
     # blocks still measure the gap, test the flexible term and give the shrink.
@@ -1135,8 +1140,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             score_model(verdict.name, (verdict.name,))
             scores[verdict.name] = ss(verdict.name)
             refit.append(verdict.name)
-            weights = stacking_weights({m: -0.5 * zall(m) ** 2 if math.isfinite(scores[m])
-                                        else np.full(n_held, -np.inf) for m in H}, block=blk)
+            weights = held_weights()
 
     # --- the verdict against the library effects that were not candidates ------------------------------
     # the user may leave the true effect out; a candidate that merely imitates it must not be named
@@ -1159,8 +1163,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                 full_fits[sc.effect] = run_fit(data, (sc.effect,), record=False)
                 z_full[sc.effect] = z_in(sc.effect)
         if is_log:
-            w_ext = stacking_weights({m: -0.5 * zall(m) ** 2 if math.isfinite(scores[m])
-                                      else np.full(n_held, -np.inf) for m in H}, block=blk)
+            w_ext = held_weights()
         else:
             w_ext = information_weights(z_full, kpar)
         confidence = min(confidence, w_ext[verdict.name])
@@ -1394,7 +1397,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         # a scale error of the vehicle-speed sensor shifts the slip like a radius error but leaves the torque arm
         # alone: a thrust scale kappa fitted on top tells them apart (0 for a radius error, eps for the sensor)
         from .diagnosis_log import torque_arm_check
-        eps = float(next((e.parameters for e in ranking if e.effect == name), {}).get("eps", {}).get("value", math.nan))
+        eps = _effect_params(full_fits[name], name).get("eps", {}).get("value")
+        eps = math.nan if eps is None else float(eps)
         arm = torque_arm_check(full_fits[name], data, vehicle, eps) if math.isfinite(eps) else None
         if arm is not None:
             zc = math.sqrt(chi2_isf(alpha, 1))
