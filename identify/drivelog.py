@@ -350,7 +350,7 @@ def _check_arguments(model: str, method: str, formulation: str, options: dict) -
         raise DataError(f"unknown method {method!r} for a drive log; expected 'ipopt'")
     if formulation not in FORMULATIONS:
         raise DataError(f"unknown formulation {formulation!r}; expected one of {FORMULATIONS}")
-    unknown = sorted(set(options) - set(_OPTION_NAMES) - {"_fixed_keep"})
+    unknown = sorted(set(options) - set(_OPTION_NAMES) - {"_fixed_keep", "_plain_start"})
     if unknown:
         raise DataError(f"unknown option(s) {unknown} for a drive-log fit; expected some of {list(_OPTION_NAMES)}")
 

@@ -62,7 +62,7 @@ from .drivelog_noise import noise_model
 from .drivelog_prepare import SLIP_BOUNDS, PreparedLog
 
 __all__ = ["JointData", "joint_data", "parse_fixed", "effect_layout",
-           "residual_function", "derivative_function", "sensitivity_function", "joint_solver", "padded_data", "solve_slips", "best_slips", "HULL_ROW", "CHANNELS",
+           "residual_function", "derivative_function", "sensitivity_function", "joint_solver", "padded_data", "SlipSolver", "solve_slips", "best_slips", "sample_costs", "HULL_ROW", "CHANNELS",
            "DATA_ROWS"]
 
 #: Residual channels of a drive log (raw residuals: measured minus predicted).
@@ -273,108 +273,202 @@ def _slip_newton_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function
 
 #: Samples per call of the compiled slip kernels (a log's samples are padded to a multiple of it).
 SLIP_CHUNK = 64
+#: Step fractions the compiled slip step tries itself (1, 1/2, 1/4, 1/8); a sample none of them lets
+#: descend (rare: the far, flat part of the thrust-slip curve) gets the halvings down to 2^-29 in Python.
+SLIP_STEP_FRACTIONS = 4
+#: Halvings of a slip step at most (then the step is 2^-30 of the Newton step, taken as it is).
+_MAX_HALVINGS = 30
 
 
 @locked_cache(maxsize=32)
-def _slip_kernels(base: ca.Function):
-    """The slip-Newton function and its cost alone, mapped over :data:`SLIP_CHUNK` samples, from C code
-    when the per-user cache has it.
+def _slip_step_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
+    """Per-sample safeguarded Newton step of the latent slip: ``(theta, i, d) -> (i_new, c_new, ok, step, c)``.
+
+    ``c = |e|^2 / 2`` at ``i``; the step is Newton's ``-c' / c''`` where ``c'' > 0``, else the Gauss-Newton
+    ``-c' / |de/di|^2`` (a descent direction of the right length scale where the cost is not convex in the
+    slip); ``i_new`` is ``i`` plus the largest of :data:`SLIP_STEP_FRACTIONS` fractions ``1, 1/2, ...`` of it
+    that does not raise the cost (``ok = 1``), inside the slip bounds; ``ok = 0`` (and ``i_new = i``) if none.
+    One call per Newton iteration of every sample: the data cross from numpy to CasADi once per iteration
+    (the conversions, not the arithmetic, were most of the time of the former per-fraction calls).
+    """
+    res, _ = residual_function(vehicle, structure)
+    theta = ca.SX.sym("theta", res.size1_in(0))
+    slip = ca.SX.sym("slip")
+    d = ca.SX.sym("d", len(DATA_ROWS))
+    e = res(theta, slip, d)[0]
+    c = 0.5 * ca.sumsqr(e)
+    g, h = ca.gradient(c, slip), ca.hessian(c, slip)[0]
+    lo, hi = SLIP_BOUNDS
+    step = ca.fmin(ca.fmax(-g / ca.if_else(h > 0, h, ca.fmax(ca.sumsqr(ca.jacobian(e, slip)), 1e-300)), lo - hi), hi - lo)
+    bar = c * (1 + 1e-12) + 1e-300
+    s_new, c_new, ok = slip, c, ca.SX(0)
+    for k in reversed(range(SLIP_STEP_FRACTIONS)):  # smallest first: the largest fraction that descends wins
+        cand = ca.fmin(ca.fmax(slip + 0.5 ** k * step, lo), hi)
+        ck = 0.5 * ca.sumsqr(res(theta, cand, d)[0])
+        good = ck <= bar
+        s_new, c_new, ok = ca.if_else(good, cand, s_new), ca.if_else(good, ck, c_new), ca.if_else(good, 1, ok)
+    return ca.Function("drivelog_joint_slip_step", [theta, slip, d], [s_new, c_new, ok, step, c])
+
+
+@locked_cache(maxsize=32)
+def _slip_cost_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
+    """Per-sample cost ``(theta, i, d) -> |e|^2 / 2``."""
+    res, _ = residual_function(vehicle, structure)
+    theta = ca.SX.sym("theta", res.size1_in(0))
+    slip = ca.SX.sym("slip")
+    d = ca.SX.sym("d", len(DATA_ROWS))
+    return ca.Function("drivelog_joint_slip_cost", [theta, slip, d], [0.5 * ca.sumsqr(res(theta, slip, d)[0])])
+
+
+@locked_cache(maxsize=32)
+def _slip_kernels(vehicle: Vehicle, structure: EffectSet):
+    """The slip step and the cost, mapped over :data:`SLIP_CHUNK` samples, from C code when the per-user
+    cache has it.
 
     :func:`~soiltrack.identify.jitcache.load` without waiting: the virtual machine answers until the
     C library, compiled once per machine in the background, is there (the same operations, the same
     numbers); the per-sample Newton iterations of a 3,000-sample log are most of a diagnosis's time.
     """
     from .jitcache import load
-    return load([base.map(SLIP_CHUNK), _cost_function(base).map(SLIP_CHUNK)], "drivelog_slip", wait=False)
+    return load([_slip_step_function(vehicle, structure).map(SLIP_CHUNK),
+                 _slip_cost_function(vehicle, structure).map(SLIP_CHUNK)], "drivelog_slip", wait=False)
 
 
 class _Chunked:
-    """Per-sample evaluation of a chunk-mapped kernel over any number of samples (padded with samples at rest)."""
+    """Per-sample evaluation of a chunk-mapped kernel ``(theta, i, d)`` over the samples of ``D``.
 
-    def __init__(self, fn: ca.Function) -> None:
+    ``theta`` is one column (broadcast to every sample by CasADi) or one per sample; the samples are
+    padded with samples at rest (:func:`padded_data`) to a multiple of :data:`SLIP_CHUNK`. ``D`` is
+    converted to CasADi once, for calls on all its samples; a call on a subset (``idx``) converts
+    that subset.
+    """
+
+    def __init__(self, fn: ca.Function, D: np.ndarray) -> None:
         self.fn = fn
+        self.D = np.asarray(D, dtype=float)
+        self.n = self.D.shape[1]
+        self._full = None
 
-    def __call__(self, th: np.ndarray, slip: np.ndarray, D: np.ndarray):
-        n = slip.shape[1]
+    def __call__(self, th: np.ndarray, slip: np.ndarray, idx: np.ndarray | None = None) -> list[np.ndarray]:
+        slip = np.asarray(slip, dtype=float).ravel()
+        n = slip.size
         k = -(-n // SLIP_CHUNK)
         size = k * SLIP_CHUNK
-        if size != n:
+        if idx is None:
+            if self._full is None:
+                self._full = ca.DM(padded_data(self.D, size))
+            D = self._full
+        else:
+            D = padded_data(self.D[:, idx], size)
+        th = np.asarray(th, dtype=float)
+        if th.shape[1] > 1 and size != n:
             th = np.hstack([th, np.repeat(th[:, :1], size - n, axis=1)])
-            slip = np.hstack([slip, np.zeros((1, size - n))])
-            D = padded_data(D, size)
-        out = _mapped(self.fn, k)(th, slip, D)
+        s = np.zeros((1, size))
+        s[0, :n] = slip
+        out = _mapped(self.fn, k)(th, s, D)
         if isinstance(out, (list, tuple)):
             return [np.asarray(o, dtype=float).ravel()[:n] for o in out]
-        return np.asarray(out, dtype=float).ravel()[:n]
+        return [np.asarray(out, dtype=float).ravel()[:n]]
 
 
-def _slip_pair(base: ca.Function) -> tuple[_Chunked, _Chunked]:
-    """``(slip-Newton function, its cost function)`` per sample: C code if loaded, else the virtual machine."""
-    k = _slip_kernels(base)
+def _slip_pair(vehicle: Vehicle, structure: EffectSet, D: np.ndarray) -> tuple[_Chunked, _Chunked]:
+    """``(slip step, cost)`` per sample of ``D``: C code if loaded, else the virtual machine."""
+    k = _slip_kernels(vehicle, structure)
     k.upgrade()
-    return _Chunked(k.functions[0]), _Chunked(k.functions[1])
+    return _Chunked(k.functions[0], D), _Chunked(k.functions[1], D)
 
 
-def solve_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np.ndarray,
-                slip0: np.ndarray, iterations: int = 40) -> np.ndarray:
-    """Latent slips of given samples for fixed parameters: per-sample minimum of ``|e_k|^2 / 2``.
+class SlipSolver:
+    """The latent slips of one set of samples ``D`` for any parameters: the per-sample minimum of ``|e_k|^2 / 2``.
 
     Safeguarded Newton (steps halved until the cost does not rise) inside the slip bounds, all
     samples at once; the same per-sample problem that the fit profiles out. Where the cost is not
     convex in the slip (a noisy measured slip far out on the flat part of the thrust-slip curve)
     the step is the Gauss-Newton one, ``-dc/di / |de/di|^2``, a descent direction of the right
     length scale (a gradient step of 1e-3 / |c''| crawled there: measured 2,400 of 2,704 samples of
-    a heavy log still moving after 40 iterations).
+    a heavy log still moving after 40 iterations). Build it once per data set and call it with many
+    parameter values: the data cross to CasADi once.
     """
-    base, cost = _slip_pair(_slip_newton_function(vehicle, structure))
-    lo, hi = SLIP_BOUNDS
-    s = np.clip(np.asarray(slip0, dtype=float), lo, hi)
-    theta = np.asarray(theta, dtype=float).reshape(-1, 1)
-    D = np.asarray(D, dtype=float)
-    # per-sample active set: a sample whose step fell below 1e-10 is done and is no longer evaluated
-    # (each sample's Newton iteration is independent of the others; this only saves evaluations)
-    act = np.arange(s.size)
-    for _ in range(iterations):
-        if act.size == 0:
-            break
-        th = np.repeat(theta, act.size, axis=1)
-        Da, sa = D[:, act], s[act]
-        c, g, h, hgn = base(th, sa.reshape(1, -1), Da)
-        step = np.clip(-g / np.where(h > 0, h, np.maximum(hgn, 1e-300)), lo - hi, hi - lo)
-        # step length: the first of 1, 1/2, ..., 2^-29 that does not raise the sample's cost (else 2^-30);
-        # the full step for every sample first, then all the halvings of the rejected ones in one call
-        t = np.ones(act.size)
-        c_new = _cost(cost, theta, np.clip(sa + step, lo, hi), Da)
-        pend = np.nonzero(c_new > c * (1 + 1e-12) + 1e-300)[0]
-        t[pend] = 0.5 ** 30
-        for k0 in range(1, 30, 6):  # halvings in batches of 6 per call
-            if pend.size == 0:
+
+    def __init__(self, vehicle: Vehicle, structure: EffectSet, D: np.ndarray) -> None:
+        self.step_k, self.cost_k = _slip_pair(vehicle, structure, D)
+
+    def costs(self, theta: np.ndarray, slip: np.ndarray) -> np.ndarray:
+        """Per-sample cost ``|e_k|^2 / 2`` at ``theta`` and the given slips."""
+        return self.cost_k(np.asarray(theta, dtype=float).reshape(-1, 1), slip)[0]
+
+    def solve(self, theta: np.ndarray, slip0: np.ndarray, iterations: int = 40) -> np.ndarray:
+        """Per-sample minima from ``slip0`` (at most ``iterations`` Newton iterations per sample)."""
+        theta = np.asarray(theta, dtype=float).reshape(-1, 1)
+        lo, hi = SLIP_BOUNDS
+        s = np.clip(np.asarray(slip0, dtype=float).ravel(), lo, hi)
+        n = s.size
+        # per-sample active set: a sample whose step fell below 1e-10 is done (each sample's Newton iteration
+        # is independent of the others); while most samples are active, all are evaluated from the data
+        # converted once, and the inactive ones' results are dropped
+        act = np.arange(n)
+        for _ in range(iterations):
+            if act.size == 0:
                 break
-            tk = 0.5 ** np.arange(k0, min(k0 + 6, 30))
-            cand = np.clip(sa[pend, None] + tk[None, :] * step[pend, None], lo, hi)
-            cn = _cost(cost, theta, cand.ravel(), np.repeat(Da[:, pend], tk.size, axis=1)).reshape(pend.size, -1)
-            ok = cn <= c[pend, None] * (1 + 1e-12) + 1e-300
-            hit = np.any(ok, axis=1)
-            t[pend[hit]] = tk[np.argmax(ok[hit], axis=1)]
-            pend = pend[~hit]
-        s_new = np.clip(sa + t * step, lo, hi)
-        moved = np.abs(s_new - sa) >= 1e-10
-        s[act] = s_new
-        act = act[moved]
-    return s
+            whole = 4 * act.size > n
+            out = self.step_k(theta, s if whole else s[act], None if whole else act)
+            s_new, ok, step, c = (o[act] if whole else o for o in (out[0], out[2], out[3], out[4]))
+            sa = s[act]
+            pend = np.nonzero(ok == 0)[0]
+            s_new = np.where(ok != 0, s_new, sa + 0.5 ** _MAX_HALVINGS * step)
+            # samples no fraction of the compiled step let descend: the further halvings, 6 per call
+            for k0 in range(SLIP_STEP_FRACTIONS, _MAX_HALVINGS, 6):
+                if pend.size == 0:
+                    break
+                tk = 0.5 ** np.arange(k0, min(k0 + 6, _MAX_HALVINGS))
+                cand = np.clip(sa[pend, None] + tk[None, :] * step[pend, None], lo, hi)
+                cn = self.cost_k(theta, cand.ravel(), np.repeat(act[pend], tk.size))[0].reshape(pend.size, -1)
+                good = cn <= c[pend, None] * (1 + 1e-12) + 1e-300
+                hit = np.any(good, axis=1)
+                s_new[pend[hit]] = cand[hit, np.argmax(good[hit], axis=1)]
+                pend = pend[~hit]
+            s_new = np.clip(s_new, lo, hi)
+            moved = np.abs(s_new - sa) >= 1e-10
+            s[act] = s_new
+            act = act[moved]
+        return s
+
+    def best(self, theta: np.ndarray, starts: list[np.ndarray], iterations: int = 40) -> np.ndarray:
+        """Per-sample minima from several starts, keeping the lowest cost.
+
+        The per-sample cost can have two minima (e.g. with ``slip_sinkage`` the hull balance
+        ``F(i) - W mu_s |i|`` is not monotone in the slip: a spinning track has a second, low-slip
+        solution); starting from the inverse thrust-slip curve AND from the slip measured from the
+        speeds (accurate at large slip) finds the right one.
+        """
+        best, best_c = None, None
+        for s0 in starts:
+            s = self.solve(theta, s0, iterations)
+            c = self.costs(theta, s)
+            if best is None:
+                best, best_c = s, c
+            else:
+                better = c < best_c
+                best, best_c = np.where(better, s, best), np.where(better, c, best_c)
+        return best
 
 
-@locked_cache(maxsize=32)
-def _cost_function(base: ca.Function) -> ca.Function:
-    """The first output (the cost) of a slip-Newton function alone (no derivatives evaluated)."""
-    ins = [ca.SX.sym(base.name_in(j), base.sparsity_in(j)) for j in range(base.n_in())]
-    return ca.Function(base.name() + "_cost", ins, [base(*ins)[0]])
+def solve_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np.ndarray,
+                slip0: np.ndarray, iterations: int = 40) -> np.ndarray:
+    """Latent slips of the samples ``D`` at ``theta`` from ``slip0`` (:meth:`SlipSolver.solve`)."""
+    return SlipSolver(vehicle, structure, D).solve(theta, slip0, iterations)
 
 
-def _cost(cost: _Chunked, theta: np.ndarray, slip: np.ndarray, D: np.ndarray) -> np.ndarray:
-    """Per-sample cost ``|e_k|^2 / 2`` (``cost``: :func:`_cost_function` of the slip-Newton function)."""
-    n = slip.size
-    return cost(np.repeat(theta, n, axis=1), slip.reshape(1, -1), D)
+def sample_costs(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, slip: np.ndarray,
+                 D: np.ndarray) -> np.ndarray:
+    """Per-sample cost ``|e_k|^2 / 2`` at given parameters and latent slips (:meth:`SlipSolver.costs`)."""
+    return SlipSolver(vehicle, structure, D).costs(theta, slip)
+
+
+def best_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np.ndarray,
+               starts: list[np.ndarray], iterations: int = 40) -> np.ndarray:
+    """Latent slips of the samples ``D`` at ``theta``, the best of several starts (:meth:`SlipSolver.best`)."""
+    return SlipSolver(vehicle, structure, D).best(theta, starts, iterations)
 
 
 def _mapped(fn: ca.Function, n: int) -> ca.Function:
@@ -389,30 +483,6 @@ def _mapped(fn: ca.Function, n: int) -> ca.Function:
 
 
 _MAP_CACHE: dict[int, tuple[ca.Function, dict[int, ca.Function]]] = {}
-
-
-def best_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np.ndarray,
-               starts: list[np.ndarray], iterations: int = 40) -> np.ndarray:
-    """Per-sample latent slips from several starts (:func:`solve_slips`), keeping the lowest cost.
-
-    The per-sample cost can have two minima (e.g. with ``slip_sinkage`` the hull balance
-    ``F(i) - W mu_s |i|`` is not monotone in the slip: a spinning track has a second, low-slip
-    solution); starting from the inverse thrust-slip curve AND from the slip measured from the
-    speeds (accurate at large slip) finds the right one.
-    """
-    n = D.shape[1]
-    fn = _slip_pair(_slip_newton_function(vehicle, structure))[1]
-    th = np.repeat(np.asarray(theta, dtype=float).reshape(-1, 1), n, axis=1)
-    best, best_c = None, None
-    for s0 in starts:
-        s = solve_slips(vehicle, structure, theta, D, s0, iterations)
-        c = fn(th, s.reshape(1, -1), D)
-        if best is None:
-            best, best_c = s, c
-        else:
-            better = c < best_c
-            best, best_c = np.where(better, s, best), np.where(better, c, best_c)
-    return best
 
 
 def padded_data(D: np.ndarray, size: int) -> np.ndarray:
@@ -466,6 +536,7 @@ def joint_solver(vehicle: Vehicle, structure: EffectSet, n: int, max_iter: int, 
     # 51/10/13/13); the convergence test (tol) is unchanged
     opts = dict(_QUIET, **{"ipopt.max_iter": max_iter, "ipopt.tol": tol, "ipopt.print_level": print_level,
                            "ipopt.mu_strategy": "adaptive", "expand": False,
+                           "ipopt.bound_push": 1e-8, "ipopt.bound_frac": 1e-8, "ipopt.mu_init": 1e-8, "ipopt.mu_max": 1e-5,
                            "hess_lag": _hessian_of_lagrangian(cost1, x, p, theta, z, scale, i_ref, D, pad)})
     return ca.nlpsol(f"drivelog_joint_{n}", "ipopt", {"x": x, "p": p, "f": f}, opts)
 

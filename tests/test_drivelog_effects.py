@@ -251,8 +251,8 @@ def test_joint_solver_hessian_is_casadis_own(names):
 
 
 def test_compiled_slip_kernels_equal_the_virtual_machine():
-    # the per-sample latent-slip Newton of drive-log fits runs from C code (per-user cache, compiled in the
-    # background); it must give the virtual machine's numbers exactly, padding included
+    # the per-sample latent-slip Newton step of drive-log fits runs from C code (per-user cache, compiled in
+    # the background); it must give the virtual machine's numbers exactly, padding and subsets included
     from soiltrack.identify import drivelog_joint as J
     from soiltrack.identify.jitcache import compiler, load
     from soiltrack.soilmodel import VEHICLES
@@ -260,17 +260,48 @@ def test_compiled_slip_kernels_equal_the_virtual_machine():
     if compiler() is None:
         pytest.skip("no C compiler: the virtual machine is used, nothing to compare")
     v = VEHICLES["light"]
-    base = J._slip_newton_function(v, effect_structure(["grade", "slip_sinkage"], v))
-    c = load([base.map(J.SLIP_CHUNK), J._cost_function(base).map(J.SLIP_CHUNK)], "drivelog_slip", wait=True)
+    st = effect_structure(["grade", "slip_sinkage"], v)
+    step, cost = J._slip_step_function(v, st), J._slip_cost_function(v, st)
+    c = load([step.map(J.SLIP_CHUNK), cost.map(J.SLIP_CHUNK)], "drivelog_slip", wait=True)
     assert c.is_c
     rng = np.random.default_rng(0)
     n = 3 * J.SLIP_CHUNK + 5  # not a multiple of the chunk: padded
-    th = np.vstack([rng.uniform(100, 5000, n), rng.uniform(0.005, 0.05, n)]
-                   + [rng.uniform(-0.05, 0.05, n) for _ in range(base.size1_in(0) - 2)])
-    s = rng.uniform(-0.5, 0.9, (1, n))
+    th = np.concatenate([[rng.uniform(100, 5000), rng.uniform(0.005, 0.05)],
+                         rng.uniform(-0.05, 0.05, step.size1_in(0) - 2)]).reshape(-1, 1)
+    s = rng.uniform(-0.5, 0.9, n)
     D = np.abs(rng.normal(size=(len(J.DATA_ROWS), n)))
-    vm = [np.asarray(o).ravel() for o in base.map(n)(th, s, D)]
-    cc = J._Chunked(c.functions[0])(th, s, D)
+    vm = [np.asarray(o).ravel() for o in step.map(n)(th, s.reshape(1, -1), D)]
+    cc = J._Chunked(c.functions[0], D)(th, s)
     for a, b in zip(vm, cc):
         assert np.array_equal(a, b, equal_nan=True)
-    assert np.array_equal(J._Chunked(c.functions[1])(th, s, D), vm[0], equal_nan=True)
+    assert np.array_equal(J._Chunked(c.functions[1], D)(th, s)[0], vm[4], equal_nan=True)
+    idx = np.array([3, 3, 70, 1])
+    sub = J._Chunked(c.functions[0], D)(th, s[idx], idx)
+    for a, b in zip(vm, sub):
+        assert np.array_equal(a[idx], b, equal_nan=True)
+
+
+def test_slip_step_kernel_matches_the_newton_step():
+    """The compiled slip step takes Newton's step where the cost is convex in the slip (full step when it
+    descends), and never raises a sample's cost."""
+    from soiltrack.identify import drivelog_joint as J
+    from soiltrack.soilmodel import VEHICLES
+    from soiltrack.soilmodel.effects import effect_structure
+    v = VEHICLES["light"]
+    st = effect_structure(["grade"], v)
+    step = J._slip_step_function(v, st)
+    newton = J._slip_newton_function(v, st)
+    rng = np.random.default_rng(4)
+    n = 200
+    th = np.array([[2000.0], [0.02], [0.01]])
+    s = rng.uniform(0.0, 0.5, n)
+    D = np.abs(rng.normal(size=(len(J.DATA_ROWS), n))) + 0.1
+    s_new, c_new, ok, stp, c = (np.asarray(o).ravel() for o in step.map(n)(th, s.reshape(1, -1), D))
+    c0, g, h, hgn = (np.asarray(o).ravel() for o in newton.map(n)(th, s.reshape(1, -1), D))
+    assert np.array_equal(c, c0)
+    conv = h > 0
+    lo, hi = J.SLIP_BOUNDS
+    assert np.allclose(stp[conv], np.clip(-g[conv] / h[conv], lo - hi, hi - lo), rtol=1e-12, atol=0)
+    assert np.all(c_new <= c * (1 + 1e-12) + 1e-300)
+    assert np.all(s_new[ok == 0] == s[ok == 0])
+    assert np.count_nonzero(ok) > n // 2
