@@ -47,7 +47,7 @@ from ..soilmodel.errors import DataError
 from ..soilmodel.vehicle import Vehicle
 from .diagnosis_sweep import (decide_sweep, effect_start, find_plateau, fit_jacobian, imitation_rms, information_weights,
                               lack_of_fit, plausibility_warnings, solver_converged, sweep_folds)
-from .gap import (Segment, blocked_folds, change_window, isolated_outliers, lag_peak, localise, long_run_factor,
+from .gap import (Segment, blocked_folds, change_window, isolated_outliers, lag_peak, localise, long_run_factor, range_share,
                   noise_profile, whiteness)
 from .screening import Screen, newey_west_lag, screen
 from .sweep_model import SweepResiduals
@@ -403,27 +403,19 @@ def _window_segment(change, R: dict, sig: dict, t: np.ndarray) -> Segment:
 
     Its range is where the change shows (the evidence window; the bracket of its boundaries stays in
     ``change_window``), its channel the residual channel that carries most of the misfit above the
-    noise there, its share that channel's misfit above the noise there over that of all channels
-    inside and outside the window (each part's sum of
-    squared standardised residuals less its number of samples, floored at zero),
-    and it is significant when the change's own test is (a soft patch shows in the soil's
-    sensitivities before it shows in the residuals' size).
+    noise there, its share that misfit over the total of the time dimension's ranges in every channel
+    (:func:`.gap.range_share`: on the scale of the other time entries), and it is significant when the
+    change's own test is (a soft patch shows in the soil's sensitivities before it shows in the
+    residuals' size).
     """
+    ok = np.logical_and.reduce([np.isfinite(R[ch]) & np.isfinite(sig[ch]) for ch in R])
+    ch, share = range_share({c: R[c][ok] for c in R}, {c: sig[c][ok] for c in R}, t[ok],
+                            float(change.evidence_start), float(change.evidence_end))
     inside = (t >= change.evidence_start) & (t <= change.evidence_end)
-    ex_in, ex_out = {}, 0.0
-    for ch in R:
-        z = np.divide(R[ch], sig[ch], out=np.full(R[ch].shape, np.nan), where=np.nan_to_num(sig[ch]) > 0)
-        ok = np.isfinite(z)
-        zi, zo = z[ok & inside], z[ok & ~inside]
-        ex_in[ch] = max(0.0, float(zi @ zi) - zi.size)
-        ex_out += max(0.0, float(zo @ zo) - zo.size)
-    total = sum(ex_in.values()) + ex_out
-    ch = max(ex_in, key=lambda c: ex_in[c])
     r = R[ch][inside & np.isfinite(R[ch])]
-    return Segment("time", (float(change.evidence_start), float(change.evidence_end)), ch,
-                   ex_in[ch] / total if total > 0 else 0.0, bool(change.significant),
-                   float(np.mean(r)) if r.size else 0.0, float(np.sqrt(np.mean(r ** 2))) if r.size else 0.0,
-                   int(r.size))
+    return Segment("time", (float(change.evidence_start), float(change.evidence_end)), ch, share,
+                   bool(change.significant), float(np.mean(r)) if r.size else 0.0,
+                   float(np.sqrt(np.mean(r ** 2))) if r.size else 0.0, int(r.size))
 
 
 def _note_lone_readings(data, vehicle: Vehicle, residual: np.ndarray | None, notes: list[str], recheck: bool,

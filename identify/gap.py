@@ -26,7 +26,7 @@ import numpy as np
 from .stats import chi2_isf, chi2_sf  # re-exported (their home is .stats)
 
 __all__ = ["blocked_folds", "noise_floor", "noise_profile", "long_run_factor", "Segment", "localise", "ChangeWindow",
-           "change_window", "whiteness", "lag_peak", "chi2_sf", "chi2_isf", "isolated_outliers", "OUTLIER_Z"]
+           "change_window", "whiteness", "lag_peak", "chi2_sf", "chi2_isf", "isolated_outliers", "OUTLIER_Z", "range_share"]
 
 _MAD_TO_SIGMA = 1.4826
 
@@ -278,6 +278,41 @@ def _excess(z: np.ndarray, inflation: float, alpha: float) -> tuple[float, bool]
     return excess, bool(sig)
 
 
+def _standardised(residuals: dict[str, np.ndarray], sigma: dict) -> tuple[dict, dict]:
+    """Standardised residuals per channel (0 where the noise level is not positive) and their long-run factors."""
+    z_all, infl = {}, {}
+    for ch, r in residuals.items():
+        r = np.asarray(r, dtype=float)
+        s = np.broadcast_to(np.asarray(sigma.get(ch, 0.0), dtype=float), r.shape)
+        z = np.divide(r, s, out=np.zeros_like(r), where=s > 0)
+        z_all[ch] = z
+        infl[ch] = long_run_factor(z)
+    return z_all, infl
+
+
+def _bins(x: np.ndarray, n_bins: int) -> list[np.ndarray]:
+    """Indices of ``n_bins`` ranges of ``x`` holding equal numbers of samples (contiguous in ``x``)."""
+    order = np.argsort(x, kind="stable")
+    return [c for c in np.array_split(order, min(n_bins, max(1, x.size // 3))) if c.size]
+
+
+def range_share(residuals: dict[str, np.ndarray], sigma: dict, x: np.ndarray, lo: float, hi: float,
+                n_bins: int = 6) -> tuple[str, float]:
+    """The channel with the most misfit above the noise in ``lo <= x <= hi``, and its share of it.
+
+    On the scale of :func:`localise`'s segments of the variable ``x``: the misfit above the noise in
+    the range over the total of the variable's ``n_bins`` ranges in every channel, so that an entry
+    for a range that :func:`localise` did not cut (a change window, say) sits beside its bins.
+    """
+    x = np.asarray(x, dtype=float)
+    z_all, _ = _standardised(residuals, sigma)
+    inside = (x >= lo) & (x <= hi)
+    ex = {ch: max(0.0, float(z[inside] @ z[inside]) - int(np.count_nonzero(inside))) for ch, z in z_all.items()}
+    total = sum(max(0.0, float(z[c] @ z[c]) - c.size) for z in z_all.values() for c in _bins(x, n_bins))
+    ch = max(ex, key=lambda c: ex[c])
+    return ch, (min(1.0, ex[ch] / total) if total > 0 else 0.0)
+
+
 def localise(residuals: dict[str, np.ndarray], sigma: dict[str, float], variables: dict[str, np.ndarray],
              n_bins: int = 6, alpha: float = 0.01) -> list[Segment]:
     """Share and significance of the misfit by channel and by range of each variable.
@@ -302,14 +337,7 @@ def localise(residuals: dict[str, np.ndarray], sigma: dict[str, float], variable
         no misfit above the noise).
     """
     out: list[Segment] = []
-    z_all = {}
-    infl = {}
-    for ch, r in residuals.items():
-        r = np.asarray(r, dtype=float)
-        s = np.broadcast_to(np.asarray(sigma.get(ch, 0.0), dtype=float), r.shape)
-        z = np.divide(r, s, out=np.zeros_like(r), where=s > 0)
-        z_all[ch] = z
-        infl[ch] = long_run_factor(z)
+    z_all, infl = _standardised(residuals, sigma)
     # by channel
     ex = {ch: _excess(z, infl[ch], alpha / max(1, len(z_all))) for ch, z in z_all.items()}
     tot = sum(e for e, _ in ex.values())
@@ -320,8 +348,7 @@ def localise(residuals: dict[str, np.ndarray], sigma: dict[str, float], variable
     # by range of each variable, in every channel
     for dim, x in variables.items():
         x = np.asarray(x, dtype=float)
-        order = np.argsort(x, kind="stable")
-        chunks = [c for c in np.array_split(order, min(n_bins, max(1, x.size // 3))) if c.size]
+        chunks = _bins(x, n_bins)
         segs = []
         for ch, z in z_all.items():
             r = np.asarray(residuals[ch], dtype=float)

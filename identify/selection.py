@@ -59,8 +59,9 @@ SEPARATING_EXPERIMENTS: dict[frozenset, str] = {
     "(beyond 30 %): strain softening lowers the thrust itself, slip sinkage only adds resistance",
     frozenset({"grade", "slip_sinkage"}): "a sweep down to very small slip (or a run at near-constant slip "
     "on level ground): a grade costs force at every slip, slip sinkage only as the slip grows",
-    frozenset({"grade", "drivetrain_friction"}): "a coast-down, or a torque sensor at the track: Coulomb "
-    "drivetrain friction acts between sensor and track, a grade on the hull",
+    frozenset({"grade", "drivetrain_friction"}): "the same stretch driven in both directions (a grade changes "
+    "sign, a drivetrain loss does not), a coast-down, or a torque sensor at the track: Coulomb drivetrain "
+    "friction acts between sensor and track, a grade on the hull",
     frozenset({"mass_error", "radius_error"}): "a speed reference independent of the sprocket (e.g. a "
     "measured distance over a timed run): a radius error offsets the apparent slip by -eps, a mass "
     "error does not",

@@ -171,3 +171,21 @@ def test_noise_profile_follows_a_varying_noise_level():
     # standardised by the profile, the noise is unit-variance everywhere
     z = (r - np.sin(4 * x)) / prof
     assert np.std(z[:1000]) == pytest.approx(1.0, abs=0.15) and np.std(z[-1000:]) == pytest.approx(1.0, abs=0.15)
+
+
+def test_range_share_is_on_the_scale_of_the_localisation_bins():
+    # a change window's entry sits beside localise's time ranges: a window covering exactly two of the six
+    # ranges has their summed share, one covering one of them that range's share (misfit only in channel b)
+    from soiltrack.identify.gap import localise, range_share
+    t = np.arange(600.0)
+    zb = np.where((t >= 200) & (t < 400), 3.0, 0.0)
+    R = {"a": np.zeros(600), "b": zb}
+    sig = {"a": np.ones(600), "b": np.ones(600)}
+    segs = [s for s in localise(R, sig, {"time": t}) if s.dimension == "time" and s.channel == "b"]
+    inside = [s for s in segs if s.range[0] >= 200 and s.range[1] < 400]
+    assert len(inside) == 2 and sum(s.share for s in inside) == pytest.approx(1.0)
+    ch, share = range_share(R, sig, t, 200.0, 399.0)
+    assert ch == "b" and share == pytest.approx(sum(s.share for s in inside))
+    ch, share = range_share(R, sig, t, inside[0].range[0], inside[0].range[1])
+    assert ch == "b" and share == pytest.approx(inside[0].share)
+    assert range_share(R, sig, t, 0.0, 150.0)[1] == 0.0
