@@ -19,6 +19,7 @@ Pure numpy on residual arrays (measured minus predicted); no model and no fit in
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -125,6 +126,44 @@ def noise_profile(residuals: np.ndarray, order: np.ndarray | None = None, window
 OUTLIER_Z = 5.5
 
 
+def _row_medians(a: np.ndarray, full: np.ndarray) -> np.ndarray:
+    """Median of each row of ``a`` over its non-NaN values (``full``: rows without NaN, the fast path)."""
+    out = np.full(a.shape[0], np.nan)
+    if np.any(full):
+        out[full] = np.median(a[full], axis=1)
+    if not np.all(full):
+        out[~full] = np.nanmedian(a[~full], axis=1)
+    return out
+
+
+def _local_medians(d: np.ndarray, n: int, half: int, split_sides: bool) -> np.ndarray:
+    """Per reading ``k`` of ``n``, the median of the second differences ``d`` over ``half`` on each side.
+
+    Leaves out the three that reading ``k`` enters (``d[j]`` is centred on reading ``j + 1``): the left
+    side is ``d[k - 2 - half:k - 2]``, the right ``d[k + 1:k + 1 + half]`` (cut at the ends). A side with
+    fewer than 3 values does not count; with ``split_sides`` each side's median is taken on its own and
+    the larger kept. NaN where nothing counts. Vectorised over the readings in blocks (bounded memory).
+    """
+    pad = np.concatenate([np.full(half + 2, np.nan), d, np.full(half + 4, np.nan)])
+    view = np.lib.stride_tricks.sliding_window_view(pad, half)
+    # left window of reading k starts at d index k - 2 - half (pad index k), right one at d index k + 1
+    out = np.full(n, np.nan)
+    block = max(1, 2_000_000 // max(1, 2 * half))
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows: nothing counts there
+        for a in range(0, n, block):
+            k = np.arange(a, min(n, a + block))
+            left, right = view[k], view[k + half + 3]
+            nl, nr = np.sum(~np.isnan(left), axis=1), np.sum(~np.isnan(right), axis=1)
+            if split_sides:
+                ml = np.where(nl >= 3, _row_medians(left, nl == half), np.nan)
+                mr = np.where(nr >= 3, _row_medians(right, nr == half), np.nan)
+                out[k] = np.fmax(ml, mr)
+            else:
+                out[k] = np.where(nl + nr >= 3, _row_medians(np.hstack([left, right]), nl + nr == 2 * half), np.nan)
+    return np.where(np.isnan(out), 0.0, out)
+
+
 def isolated_outliers(residuals: np.ndarray, x: np.ndarray, z_min: float = OUTLIER_Z,
                       window: int | None = None, split_sides: bool = False,
                       trend: bool = False) -> list[tuple[int, float]]:
@@ -166,28 +205,20 @@ def isolated_outliers(residuals: np.ndarray, x: np.ndarray, z_min: float = OUTLI
     w = int(window if window is not None else max(21, n // 10))
     w = max(3, min(w, d.size))
     glob = _MAD_TO_SIGMA * float(np.median(d)) / math.sqrt(6.0)
-    sig = np.zeros(n)
     half = max(3, w // 2)
-    for k in range(2, n - 2):
-        # without the three differences the reading itself enters (d[j] is centred on reading j + 1)
-        left, right = d[max(0, k - 2 - half):k - 2], d[k + 1:k + 1 + half]
-        if split_sides:  # each side on its own, the larger counting: the noise may change at a step of the signal
-            side = [_MAD_TO_SIGMA * float(np.median(v)) / math.sqrt(6.0) for v in (left, right) if v.size >= 3]
-        else:
-            both = np.concatenate([left, right])
-            side = [_MAD_TO_SIGMA * float(np.median(both)) / math.sqrt(6.0)] if both.size >= 3 else []
-        sig[k] = max([glob] + side)
+    sig = np.maximum(glob, _MAD_TO_SIGMA * _local_medians(d, n, half, split_sides) / math.sqrt(6.0))
+    sig[:2] = sig[n - 2:] = 0.0
     # the reading against the mean of its two neighbours on each side, the nearer of the two: a glitch is far
     # from both, a reading at the edge of a step is near one of them (each difference has variance 1.5 sigma^2)
     z = np.zeros(n)
-    for k in range(2, n - 2):
-        if sig[k] > 0:
-            if trend:  # each side's straight line through its two readings, carried on to this one (variance 6)
-                left, right = 2.0 * rs[k - 1] - rs[k - 2], 2.0 * rs[k + 1] - rs[k + 2]
-            else:
-                left, right = 0.5 * (rs[k - 2] + rs[k - 1]), 0.5 * (rs[k + 1] + rs[k + 2])
-            e = rs[k] - left if abs(rs[k] - left) < abs(rs[k] - right) else rs[k] - right
-            z[k] = e / (sig[k] * math.sqrt(6.0 if trend else 1.5))
+    k = np.arange(2, n - 2)
+    if trend:  # each side's straight line through its two readings, carried on to this one (variance 6)
+        left, right = 2.0 * rs[k - 1] - rs[k - 2], 2.0 * rs[k + 1] - rs[k + 2]
+    else:
+        left, right = 0.5 * (rs[k - 2] + rs[k - 1]), 0.5 * (rs[k + 1] + rs[k + 2])
+    e = np.where(np.abs(rs[k] - left) < np.abs(rs[k] - right), rs[k] - left, rs[k] - right)
+    pos = sig[k] > 0
+    z[k[pos]] = e[pos] / (sig[k[pos]] * math.sqrt(6.0 if trend else 1.5))
     cand = np.abs(z) > z_min
     # and the signal continues across it: its two neighbours agree within the noise (not a pair, not a step)
     def continues(k: int) -> bool:

@@ -189,3 +189,23 @@ def test_range_share_is_on_the_scale_of_the_localisation_bins():
     ch, share = range_share(R, sig, t, inside[0].range[0], inside[0].range[1])
     assert ch == "b" and share == pytest.approx(inside[0].share)
     assert range_share(R, sig, t, 0.0, 150.0)[1] == 0.0
+
+
+@pytest.mark.parametrize("split", [False, True])
+def test_local_noise_medians_follow_their_definition(split):
+    # the vectorised local medians of isolated_outliers against the definition read literally, reading by reading:
+    # half second differences on each side, leaving out the three the reading enters, a side counting from 3 values
+    from soiltrack.identify.gap import _local_medians
+    rng = np.random.default_rng(7)
+    for n, half in ((9, 3), (40, 5), (300, 21), (301, 150)):
+        d = np.abs(rng.normal(size=n - 2)) * (1 + (np.arange(n - 2) > n // 2))
+        got = _local_medians(d, n, half, split)
+        for k in range(2, n - 2):
+            left, right = d[max(0, k - 2 - half):k - 2], d[k + 1:k + 1 + half]
+            if split:
+                sides = [float(np.median(v)) for v in (left, right) if v.size >= 3]
+                want = max(sides) if sides else 0.0
+            else:
+                both = np.concatenate([left, right])
+                want = float(np.median(both)) if both.size >= 3 else 0.0
+            assert got[k] == pytest.approx(want, rel=1e-14, abs=0.0), (n, half, k)
