@@ -533,7 +533,10 @@ def joint_solver(vehicle: Vehicle, structure: EffectSet, n: int, max_iter: int, 
     # at their per-sample minimum) with no bound active but K's, and the monotone rule spent most iterations
     # lowering mu from 0.1 (measured on 60 s logs, same optima to 10 digits: light 30/20/25/26 -> 18/11/13/17
     # iterations for the nominal / drivetrain_friction / grade / speed_resistance fits, heavy 57/16/27/20 ->
-    # 51/10/13/13); the convergence test (tol) is unchanged
+    # 51/10/13/13); the convergence test (tol) is unchanged. The fits now start at the profiled optimum
+    # (drivelog_profiled): no bound push (the default 1 % of a range moved a drivetrain loss off its optimum)
+    # and a small barrier parameter, capped (free to grow, the adaptive rule raised it to about 1 and the fit
+    # took 91 iterations to come back; with the cap 4-9)
     opts = dict(_QUIET, **{"ipopt.max_iter": max_iter, "ipopt.tol": tol, "ipopt.print_level": print_level,
                            "ipopt.mu_strategy": "adaptive", "expand": False,
                            "ipopt.bound_push": 1e-8, "ipopt.bound_frac": 1e-8, "ipopt.mu_init": 1e-8, "ipopt.mu_max": 1e-5,
