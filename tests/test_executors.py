@@ -109,6 +109,23 @@ def test_drive_logs_under_executors(logs, pool):
     _same(par, serial)
 
 
+def _fit_joint_log(d):
+    # a joint drive-log fit: the profiled start (slip kernels, mapped sums), then IPOPT
+    return fit(d, LIGHT, effects=["drivetrain_friction"])
+
+
+@pytest.mark.parametrize("pool", ["thread", "process"])
+def test_joint_drive_log_fits_under_executors(logs, pool):
+    serial = [_fit_joint_log(d) for d in logs]
+    assert all(r.success and "profiled_start" in r.extra for r in serial)
+    ex = ThreadPoolExecutor(2) if pool == "thread" else ProcessPoolExecutor(2)
+    with ex:
+        par = list(ex.map(_fit_joint_log, logs + logs))
+    _same(par, serial + serial)
+    for a, b in zip(par, serial + serial):
+        assert a.extra["joint_parameters"]["effects"] == b.extra["joint_parameters"]["effects"]
+
+
 def _fit_grade(d):
     # a joint fit with the slip-noise test and profile intervals: every path of fit(..., effects=...)
     return fit(d, HEAVY, effects=["grade"], intervals="profile")
