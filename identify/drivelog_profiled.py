@@ -11,7 +11,7 @@ derivative vanishes there) and its exact Hessian is the Schur complement of each
 IPOPT solves the full problem, slips included, and its status is the fit's. Started from the
 nominal soil with the effect off, it spent 110-190 iterations on logs from foreign simulators
 (ill-conditioned latent slips, K on its bound; 14 ms each on 1,500 samples); started at the
-optimum it needs 5-9. A few projected Levenberg-Marquardt steps on ``phi`` bring the start there;
+optimum, with no bound push and a capped barrier parameter, it needs 4-9. A few projected Levenberg-Marquardt steps on ``phi`` bring the start there;
 IPOPT then polishes and certifies (its KKT test, its bounds). Nothing here is reported as a
 result: a start that did not converge is still a start.
 """
@@ -42,7 +42,8 @@ class ProfiledStart:
 
     ``theta`` in physical units (``[F_lim, K, effects...]``), ``slip`` per used sample,
     ``cost`` the profiled cost there, ``iterations`` the accepted steps, ``converged`` whether
-    the projected gradient or the step became negligible before ``max_iter``.
+    the projected gradient, the decrease of the cost or the descent left became negligible before
+    ``max_iter`` (the slips then rechecked from every start).
     """
 
     theta: np.ndarray
@@ -108,7 +109,7 @@ def profiled_start(vehicle: Vehicle, structure: EffectSet, D: np.ndarray, theta0
         Starts of the latent slips (the per-sample cost can have two minima; the lowest is kept,
         at the start and again at the end).
     max_iter, tol
-        Accepted steps at most; relative decrease of the cost (and scaled step) deemed negligible.
+        Accepted steps at most; relative decrease of the cost deemed negligible.
     """
     lo, hi = SLIP_BOUNDS
     sc = np.asarray(scale, dtype=float)
@@ -153,7 +154,6 @@ def profiled_start(vehicle: Vehicle, structure: EffectSet, D: np.ndarray, theta0
                 sn = slips.solve(xn * sc, slip, TRIAL_SLIP_ITERATIONS)
                 cn = float(np.sum(slips.costs(xn * sc, sn)))
                 if np.isfinite(cn) and cn < cost:
-                    dx = np.max(np.abs(xn - x))
                     rel = (cost - cn) / max(cost, 1e-300)
                     x, slip = xn, sn
                     lam = max(lam / 3.0, 1e-9)
