@@ -233,3 +233,19 @@ def test_torque_glitches_in_a_log_are_named_but_not_readings_at_the_drivetrain_l
     T[:] = 10.0 + np.random.default_rng(0).normal(0.0, 0.05, 200)
     T[100] = 14.0
     assert [k for k, _ in _lone_torque(T, t, VEHICLES["light"])] == [100]
+
+
+def test_a_stretched_candidate_that_leaves_a_gap_gives_way_to_one_in_range():
+    # heavy vehicle, LETE sand, a 25 % mass error, default noise, seed 3 (a case of benchmarks/bench_diagnose.py):
+    # slip_sinkage ended on its bound mu_s = 2 in every training fit, still left a smooth gap and outweighed
+    # mass_error (0.58 against 0.39, both shrinking the held-out error by 26 %). Measured before the rule:
+    # `unexplained` 0.42. mass_error, inside its range and without a smooth gap, is named; the two stay confusable.
+    log = simulate(HEAVY, TERRAINS["lete_sand"], kind="drive", effects={"mass_error": 0.25}, seed=3, duration_s=60.0,
+                   noise=SensorNoise())
+    d = diagnose(log, HEAVY)
+    assert d.verdict == "mass_error" and d.confidence <= 0.5, (d.verdict, d.confidence, d.notes)
+    delta = next(e for e in d.ranking if e.effect == "mass_error").parameters["delta"]["value"]
+    assert abs(delta - 0.25) < 0.02, delta
+    assert any("stretched to imitate another effect" in n for n in d.notes)
+    assert any({"mass_error", "slip_sinkage"} <= set(g) for g in (grp for grp, _, _ in d.confusable))
+    assert next(e for e in d.ranking if e.effect == "slip_sinkage").weight == 0.0
