@@ -17,6 +17,7 @@ result: a start that did not converge is still a start.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import casadi as ca
@@ -120,6 +121,9 @@ def profiled_start(vehicle: Vehicle, structure: EffectSet, D: np.ndarray, theta0
     sums = _Sums(vehicle, structure, D)
     slip = slips.best(x * sc, slip_starts, TRIAL_SLIP_ITERATIONS)
     cost, g, Hr, Hgn = sums(x * sc, slip)
+    if not (math.isfinite(cost) and np.all(np.isfinite(g)) and np.all(np.isfinite(Hr)) and np.all(np.isfinite(Hgn))):
+        # nothing to descend on (a non-finite residual somewhere): the start as given, IPOPT judges it
+        return ProfiledStart(theta=x * sc, slip=np.clip(slip, lo, hi), cost=cost, iterations=0, converged=False)
     lam = 1e-3
     it = 0
     converged = False
@@ -160,6 +164,9 @@ def profiled_start(vehicle: Vehicle, structure: EffectSet, D: np.ndarray, theta0
                     accepted = True
                     it += 1
                     cost, g, Hr, Hgn = sums(x * sc, slip)
+                    if not (np.all(np.isfinite(g)) and np.all(np.isfinite(Hr)) and np.all(np.isfinite(Hgn))):
+                        return ProfiledStart(theta=x * sc, slip=np.clip(slip, lo, hi), cost=cost, iterations=it,
+                                             converged=False)
                     if rel <= tol:
                         converged = True
                     break

@@ -96,3 +96,15 @@ def test_profiled_start_changes_the_start_not_the_optimum(grade_log, names):
     assert ja["shear_modulus_m"] == pytest.approx(jb["shear_modulus_m"], rel=1e-4)
     for k, v in ja["effects"].items():
         assert v == pytest.approx(jb["effects"][k], rel=1e-4, abs=1e-9), k
+
+
+def test_profiled_start_returns_the_start_when_the_cost_is_not_finite(grade_log):
+    prep, jd, st = _problem(grade_log, ["grade"])
+    D = jd.D.copy()
+    D[0, 5] = np.nan  # one sample's speed
+    th0 = np.array([1.2 * float(np.max(prep.thrust)), 0.02, 0.0])
+    lo, hi = np.array([1e3, 0.006, -0.5]), np.array([5e5, 0.05, 0.5])
+    ps = profiled_start(HEAVY, st, D, th0, lo, hi, np.array([1e5, 0.017, 0.05]),
+                        [np.clip(prep.slip_measured, -0.9, 0.9)])
+    assert not ps.converged and ps.iterations == 0
+    assert np.array_equal(ps.theta, th0)
