@@ -227,13 +227,16 @@ def residual_function(vehicle: Vehicle, structure: EffectSet) -> tuple[ca.Functi
     return fn, tuple(labels)
 
 
+def _sample_symbols(vehicle: Vehicle, structure: EffectSet) -> tuple[ca.Function, ca.SX, ca.SX, ca.SX]:
+    """The per-sample residual function and fresh symbols of its inputs ``(theta, i, d)``."""
+    res, _ = residual_function(vehicle, structure)
+    return res, ca.SX.sym("theta", res.size1_in(0)), ca.SX.sym("slip"), ca.SX.sym("d", len(DATA_ROWS))
+
+
 @locked_cache(maxsize=32)
 def derivative_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
     """Per-sample ``(theta, i, d) -> (e, de/dtheta, de/di, Hessian of |e|^2/2 in (theta, i))`` by AD."""
-    res, _ = residual_function(vehicle, structure)
-    theta = ca.SX.sym("theta", res.size1_in(0))
-    slip = ca.SX.sym("slip")
-    d = ca.SX.sym("d", len(DATA_ROWS))
+    res, theta, slip, d = _sample_symbols(vehicle, structure)
     e = res(theta, slip, d)[0]
     z = ca.vertcat(theta, slip)
     H = ca.hessian(0.5 * ca.sumsqr(e), z)[0]
@@ -246,10 +249,7 @@ def sensitivity_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
     """Per-sample ``(theta, i, d) -> (e, de/dtheta, de/di)`` by AD: :func:`derivative_function` without the
     Hessian (for score tests and sensitivities; with every candidate effect on, the Hessian's ``(p + 1)^2``
     entries were most of the evaluation)."""
-    res, _ = residual_function(vehicle, structure)
-    theta = ca.SX.sym("theta", res.size1_in(0))
-    slip = ca.SX.sym("slip")
-    d = ca.SX.sym("d", len(DATA_ROWS))
+    res, theta, slip, d = _sample_symbols(vehicle, structure)
     e = res(theta, slip, d)[0]
     return ca.Function("drivelog_joint_sensitivities", [theta, slip, d],
                        [e, ca.jacobian(e, theta), ca.jacobian(e, slip)])
@@ -261,10 +261,7 @@ def _slip_newton_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function
 
     The last output is the Gauss-Newton curvature (never negative).
     """
-    res, _ = residual_function(vehicle, structure)
-    theta = ca.SX.sym("theta", res.size1_in(0))
-    slip = ca.SX.sym("slip")
-    d = ca.SX.sym("d", len(DATA_ROWS))
+    res, theta, slip, d = _sample_symbols(vehicle, structure)
     e = res(theta, slip, d)[0]
     c = 0.5 * ca.sumsqr(e)
     g, h = ca.gradient(c, slip), ca.hessian(c, slip)[0]
@@ -291,15 +288,11 @@ def _slip_step_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
     One call per Newton iteration of every sample: the data cross from numpy to CasADi once per iteration
     (the conversions, not the arithmetic, were most of the time of the former per-fraction calls).
     """
-    res, _ = residual_function(vehicle, structure)
-    theta = ca.SX.sym("theta", res.size1_in(0))
-    slip = ca.SX.sym("slip")
-    d = ca.SX.sym("d", len(DATA_ROWS))
-    e = res(theta, slip, d)[0]
-    c = 0.5 * ca.sumsqr(e)
-    g, h = ca.gradient(c, slip), ca.hessian(c, slip)[0]
+    res, theta, slip, d = _sample_symbols(vehicle, structure)
+    newton = _slip_newton_function(vehicle, structure)
+    c, g, h, hgn = newton(theta, slip, d)
     lo, hi = SLIP_BOUNDS
-    step = ca.fmin(ca.fmax(-g / ca.if_else(h > 0, h, ca.fmax(ca.sumsqr(ca.jacobian(e, slip)), 1e-300)), lo - hi), hi - lo)
+    step = ca.fmin(ca.fmax(-g / ca.if_else(h > 0, h, ca.fmax(hgn, 1e-300)), lo - hi), hi - lo)
     bar = c * (1 + 1e-12) + 1e-300
     s_new, c_new, ok = slip, c, ca.SX(0)
     for k in reversed(range(SLIP_STEP_FRACTIONS)):  # smallest first: the largest fraction that descends wins
@@ -313,10 +306,7 @@ def _slip_step_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
 @locked_cache(maxsize=32)
 def _slip_cost_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
     """Per-sample cost ``(theta, i, d) -> |e|^2 / 2``."""
-    res, _ = residual_function(vehicle, structure)
-    theta = ca.SX.sym("theta", res.size1_in(0))
-    slip = ca.SX.sym("slip")
-    d = ca.SX.sym("d", len(DATA_ROWS))
+    res, theta, slip, d = _sample_symbols(vehicle, structure)
     return ca.Function("drivelog_joint_slip_cost", [theta, slip, d], [0.5 * ca.sumsqr(res(theta, slip, d)[0])])
 
 
