@@ -47,8 +47,8 @@ from ..soilmodel.errors import DataError
 from ..soilmodel.vehicle import Vehicle
 from .diagnosis_sweep import (decide_sweep, effect_start, find_plateau, fit_jacobian, imitation_rms, information_weights,
                               lack_of_fit, plausibility_warnings, solver_converged, sweep_folds)
-from .gap import (Segment, blocked_folds, change_window, isolated_outliers, lag_peak, localise, long_run_factor, range_share,
-                  noise_profile, whiteness)
+from .gap import (Segment, blocked_folds, change_window, isolated_outliers, lag_peak, localise, long_run_factor,
+                  noise_profile, range_share, whiteness)
 from .screening import Screen, newey_west_lag, screen
 from .sweep_model import SweepResiduals
 from .selection import (DISCREPANCY, LOOKALIKES, NOMINAL, confusable_groups, decide, dm_test, fit_discrepancy,

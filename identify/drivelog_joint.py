@@ -62,7 +62,8 @@ from .drivelog_noise import noise_model
 from .drivelog_prepare import SLIP_BOUNDS, PreparedLog
 
 __all__ = ["JointData", "joint_data", "parse_fixed", "effect_layout",
-           "residual_function", "derivative_function", "sensitivity_function", "joint_solver", "padded_data", "SlipSolver", "solve_slips", "best_slips", "sample_costs", "HULL_ROW", "CHANNELS",
+           "residual_function", "derivative_function", "sensitivity_function", "joint_solver", "padded_data",
+           "SlipSolver", "solve_slips", "best_slips", "sample_costs", "HULL_ROW", "CHANNELS",
            "DATA_ROWS"]
 
 #: Residual channels of a drive log (raw residuals: measured minus predicted).

@@ -11,9 +11,10 @@ derivative vanishes there) and its exact Hessian is the Schur complement of each
 IPOPT solves the full problem, slips included, and its status is the fit's. Started from the
 nominal soil with the effect off, it spent 110-190 iterations on logs from foreign simulators
 (ill-conditioned latent slips, K on its bound; 14 ms each on 1,500 samples); started at the
-optimum, with no bound push and a capped barrier parameter, it needs 4-9. A few projected Levenberg-Marquardt steps on ``phi`` bring the start there;
-IPOPT then polishes and certifies (its KKT test, its bounds). Nothing here is reported as a
-result: a start that did not converge is still a start.
+optimum, with no bound push and a capped barrier parameter, it needs 4-9. A few projected
+Levenberg-Marquardt steps on ``phi`` bring the start there; IPOPT then polishes and certifies (its
+KKT test, its bounds). Nothing here is reported as a result: a start that did not converge is
+still a start.
 """
 from __future__ import annotations
 
