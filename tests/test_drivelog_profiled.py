@@ -108,3 +108,27 @@ def test_profiled_start_returns_the_start_when_the_cost_is_not_finite(grade_log)
                         [np.clip(prep.slip_measured, -0.9, 0.9)])
     assert not ps.converged and ps.iterations == 0
     assert np.array_equal(ps.theta, th0)
+
+
+def test_the_plain_starts_run_when_ipopt_cannot_certify_the_profiled_start(grade_log, monkeypatch):
+    """IPOPT's status from the profiled start is the fit's only if it converged; otherwise the plain starts run
+    and the status from the profiled start is reported beside the fit's own."""
+    import soiltrack.identify.drivelog_nlp as nlp
+
+    real = nlp.call_solver
+    calls = []
+
+    def first_fails(solver, *a, **k):
+        out, st = real(solver, *a, **k)
+        calls.append(st.get("return_status"))
+        if len(calls) == 1:  # the first run, from the profiled start: reported as not converged
+            st = dict(st, success=False, return_status="Search_Direction_Becomes_Too_Small")
+        return out, st
+
+    monkeypatch.setattr(nlp, "call_solver", first_fails)
+    r = fit(grade_log, HEAVY, effects=["grade"], multistart=False, torque_hold="zoh")
+    assert r.success and r.status == "Solve_Succeeded"
+    assert len(calls) == 2  # the profiled start, then the plain start
+    assert r.extra["profiled_start"]["ipopt_status_from_it"] == "Search_Direction_Becomes_Too_Small"
+    ref = fit(grade_log, HEAVY, effects=["grade"], multistart=False, torque_hold="zoh")
+    assert r.cost == pytest.approx(ref.cost, rel=1e-8)
