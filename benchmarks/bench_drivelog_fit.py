@@ -35,6 +35,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from soiltrack.identify import fit  # noqa: E402
 from soiltrack.identify.drivelog_joint import (best_slips, effect_layout, joint_data, residual_function,  # noqa: E402
                                                sensitivity_function)
+from soiltrack.identify.drivelog import _start_points  # noqa: E402
 from soiltrack.identify.drivelog_nlp import _g_inverse, fmax_bounds  # noqa: E402
 from soiltrack.identify.drivelog_prepare import SLIP_BOUNDS, prepare_drive_log  # noqa: E402
 from soiltrack.soilmodel import TERRAINS, VEHICLES, simulate  # noqa: E402
@@ -59,8 +60,7 @@ def scipy_problem(log, vehicle, effect):
     i_ref = K_ref / vehicle.track_length
     scale = np.concatenate([[F_ref, K_ref], esc])
     p = scale.size
-    F0 = min(max(1.2 * float(np.quantile(np.abs(prep.thrust), 0.99)), Fb[0] * 1.001), Fb[1] * 0.999)
-    K0 = K_ref
+    (F0, K0), = _start_points(prep, vehicle, "full", None, Fb, Kb, K_ref, multistart=False)[0]  # the fit's start
     th0 = np.concatenate([[F0, K0], np.zeros(len(labels))])
     lo_s, hi_s = SLIP_BOUNDS[0] + 1e-3, SLIP_BOUNDS[1] - 1e-3
     y = np.clip(np.abs(prep.thrust) / F0, 0.0, 0.98)

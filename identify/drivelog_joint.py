@@ -63,7 +63,7 @@ from .drivelog_prepare import SLIP_BOUNDS, PreparedLog
 
 __all__ = ["JointData", "joint_data", "parse_fixed", "effect_layout",
            "residual_function", "derivative_function", "sensitivity_function", "joint_solver", "padded_data",
-           "SlipSolver", "solve_slips", "best_slips", "sample_costs", "HULL_ROW", "CHANNELS",
+           "SlipSolver", "best_slips", "HULL_ROW", "CHANNELS",
            "DATA_ROWS"]
 
 #: Residual channels of a drive log (raw residuals: measured minus predicted).
@@ -328,8 +328,7 @@ def _slip_kernels(vehicle: Vehicle, structure: EffectSet):
 class _Chunked:
     """Per-sample evaluation of a chunk-mapped kernel ``(theta, i, d)`` over the samples of ``D``.
 
-    ``theta`` is one column (broadcast to every sample by CasADi) or one per sample; the samples are
-    padded with samples at rest (:func:`padded_data`) to a multiple of :data:`SLIP_CHUNK`. ``D`` is
+    ``theta`` is one column (broadcast to every sample by CasADi); the samples are padded with samples at rest (:func:`padded_data`) to a multiple of :data:`SLIP_CHUNK`. ``D`` is
     converted to CasADi once, for calls on all its samples; a call on a subset (``idx``) converts
     that subset.
     """
@@ -337,7 +336,6 @@ class _Chunked:
     def __init__(self, fn: ca.Function, D: np.ndarray) -> None:
         self.fn = fn
         self.D = np.asarray(D, dtype=float)
-        self.n = self.D.shape[1]
         self._full = None
 
     def __call__(self, th: np.ndarray, slip: np.ndarray, idx: np.ndarray | None = None) -> list[np.ndarray]:
@@ -351,9 +349,7 @@ class _Chunked:
             D = self._full
         else:
             D = padded_data(self.D[:, idx], size)
-        th = np.asarray(th, dtype=float)
-        if th.shape[1] > 1 and size != n:
-            th = np.hstack([th, np.repeat(th[:, :1], size - n, axis=1)])
+        th = np.asarray(th, dtype=float).reshape(-1, 1)
         s = np.zeros((1, size))
         s[0, :n] = slip
         out = _mapped(self.fn, k)(th, s, D)
@@ -444,18 +440,6 @@ class SlipSolver:
         return best
 
 
-def solve_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np.ndarray,
-                slip0: np.ndarray, iterations: int = 40) -> np.ndarray:
-    """Latent slips of the samples ``D`` at ``theta`` from ``slip0`` (:meth:`SlipSolver.solve`)."""
-    return SlipSolver(vehicle, structure, D).solve(theta, slip0, iterations)
-
-
-def sample_costs(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, slip: np.ndarray,
-                 D: np.ndarray) -> np.ndarray:
-    """Per-sample cost ``|e_k|^2 / 2`` at given parameters and latent slips (:meth:`SlipSolver.costs`)."""
-    return SlipSolver(vehicle, structure, D).costs(theta, slip)
-
-
 def best_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np.ndarray,
                starts: list[np.ndarray], iterations: int = 40) -> np.ndarray:
     """Latent slips of the samples ``D`` at ``theta``, the best of several starts (:meth:`SlipSolver.best`)."""
@@ -504,7 +488,7 @@ def joint_solver(vehicle: Vehicle, structure: EffectSet, n: int, max_iter: int, 
     (:func:`padded_data`) are inert and have ``pad = 1`` (a unit penalty pins their latent slip at 0).
     IPOPT gets the exact Hessian from :func:`_hessian_of_lagrangian`; the barrier parameter is adaptive.
     """
-    res, labels = residual_function(vehicle, structure)
+    res, _ = residual_function(vehicle, structure)
     p_dim = res.size1_in(0)
     x = ca.MX.sym("x", p_dim + n)
     p = ca.MX.sym("p", p_dim + 1 + len(DATA_ROWS) * n + n)
@@ -517,8 +501,7 @@ def joint_solver(vehicle: Vehicle, structure: EffectSet, n: int, max_iter: int, 
     # MX graph over the mapped per-sample cost (not expanded): built in about a third of the time
     # of the inlined SX graph (3,000 samples: 3.8 s against 10.4 s first call, same optimum);
     # derivatives are maps of the per-sample SX derivatives
-    th1, s1, d1 = ca.SX.sym("th", p_dim), ca.SX.sym("s"), ca.SX.sym("d", len(DATA_ROWS))
-    cost1 = ca.Function("drivelog_joint_cost", [th1, s1, d1], [0.5 * ca.sumsqr(res(th1, s1, d1)[0])])
+    cost1 = _slip_cost_function(vehicle, structure)
     f = ca.sum2(cost1.map(n)(ca.repmat(theta, 1, n), (z * i_ref).T, D)) + 0.5 * ca.sumsqr(pad * z)
     # adaptive barrier parameter: the fits start near their optimum (the nominal fit's soil, the latent slips
     # at their per-sample minimum) with no bound active but K's, and the monotone rule spent most iterations

@@ -109,32 +109,32 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     slip_meas = np.clip(prep.slip_measured, lo_s, hi_s)
 
     # the start: a few profiled Levenberg-Marquardt steps (drivelog_profiled); "_plain_start" (tests) skips them
-    presolve = [not options.get("_plain_start", False)]
+    profiled = not options.get("_plain_start", False)
     presolved: list = []
     th_lo = np.concatenate([[Fb[0], Kb[0]], np.where(np.isfinite(e_lo), e_lo, -big * esc)])
     th_hi = np.concatenate([[Fb[1], Kb[1]], np.where(np.isfinite(e_hi), e_hi, big * esc)])
 
-    def make_x0(Fmax0: float, K0: float) -> np.ndarray:
-        # latent slips: near the per-sample optimum at the start values (6 Newton steps), from the
-        # inverse thrust-slip curve and from the measured slip (the per-sample cost can have two minima)
-        y = np.clip(np.abs(prep.thrust) / Fmax0, 0.0, 0.98)
-        slip_inv = np.clip(np.sign(prep.thrust) * _g_inverse(y) * K0 / l, lo_s, hi_s)
-        th0 = np.concatenate([[Fmax0, K0], e0])
-        if presolve[0]:
-            ps = profiled_start(vehicle, structure, jd.D, th0, th_lo, th_hi, scale, [slip_inv, slip_meas])
-            presolved.append(ps)
-            slip0 = np.clip(ps.slip, lo_s, hi_s)
-            return np.concatenate([ps.theta / scale, _pad(slip0 / i_ref, N)])
-        slip0 = np.clip(best_slips(vehicle, structure, th0, jd.D, [slip_inv, slip_meas], 6), lo_s, hi_s)
-        return np.concatenate([[Fmax0 / F_ref, K0 / K_ref], e0 / esc, _pad(slip0 / i_ref, N)])
+    def start_maker(with_profile: bool):
+        def make_x0(Fmax0: float, K0: float) -> np.ndarray:
+            # latent slips from the inverse thrust-slip curve and from the measured slip (the per-sample cost
+            # can have two minima); then the profiled steps, or 6 Newton steps of the slips at the start values
+            y = np.clip(np.abs(prep.thrust) / Fmax0, 0.0, 0.98)
+            slip_inv = np.clip(np.sign(prep.thrust) * _g_inverse(y) * K0 / l, lo_s, hi_s)
+            th0 = np.concatenate([[Fmax0, K0], e0])
+            if with_profile:
+                ps = profiled_start(vehicle, structure, jd.D, th0, th_lo, th_hi, scale, [slip_inv, slip_meas])
+                presolved.append(ps)
+                return np.concatenate([ps.theta / scale, _pad(np.clip(ps.slip, lo_s, hi_s) / i_ref, N)])
+            slip0 = np.clip(best_slips(vehicle, structure, th0, jd.D, [slip_inv, slip_meas], 6), lo_s, hi_s)
+            return np.concatenate([[Fmax0 / F_ref, K0 / K_ref], e0 / esc, _pad(slip0 / i_ref, N)])
+        return make_x0
 
     starts = [(min(max(F0, Fb[0] * 1.001), Fb[1] * 0.999), K0) for F0, K0 in starts]
-    best = _run_starts(solver, make_x0, p, lbx, ubx, starts, Fb, Kb, F_ref, K_ref)
-    if presolve[0] and not best["ok"]:
+    best = _run_starts(solver, start_maker(profiled), p, lbx, ubx, starts, Fb, Kb, F_ref, K_ref)
+    if profiled and not best["ok"]:
         # IPOPT from the profiled start did not certify it (seen on noise-free logs: the search direction
         # "too small" at a point it could not improve): the plain starts, as without the profiled steps
-        presolve[0] = False
-        plain = _run_starts(solver, make_x0, p, lbx, ubx, starts, Fb, Kb, F_ref, K_ref)
+        plain = _run_starts(solver, start_maker(False), p, lbx, ubx, starts, Fb, Kb, F_ref, K_ref)
         plain["time"] += best["time"]
         plain["profiled_status"] = best["status"]
         best = plain if (plain["ok"], -plain["f"]) >= (best["ok"], -best["f"]) else best

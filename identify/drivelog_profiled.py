@@ -2,7 +2,7 @@
 
 The joint problem (:mod:`.drivelog_joint`) has a few global parameters ``theta`` (thrust limit,
 K, effect parameters) and one latent slip per sample, each in its own sample's residual only.
-For fixed ``theta`` every slip is a one-dimensional problem (:func:`.drivelog_joint.solve_slips`);
+For fixed ``theta`` every slip is a one-dimensional problem (:meth:`.drivelog_joint.SlipSolver.solve`);
 what is left is the profiled cost ``phi(theta) = sum_k min_i |e_k(theta, i)|^2 / 2`` in 2 to 5
 variables. Its gradient is ``sum_k J_k^T e_k`` at the per-sample optimum (the slip's own
 derivative vanishes there) and its exact Hessian is the Schur complement of each sample's
@@ -81,12 +81,17 @@ def _sums_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
                        [0.5 * ca.sumsqr(e), ca.mtimes(Jt.T, e), red, ca.mtimes(Jp.T, Jp)])
 
 
+@locked_cache(maxsize=64)
+def _sums_map(vehicle: Vehicle, structure: EffectSet, n: int) -> ca.Function:
+    """:func:`_sums_function` mapped over ``n`` samples, every output summed (built once per size)."""
+    return _sums_function(vehicle, structure).map("drivelog_profiled_sums_map", "serial", n, [], [0, 1, 2, 3])
+
+
 class _Sums:
     """The sums over the samples of :func:`_sums_function`, with the data converted to CasADi once."""
 
     def __init__(self, vehicle: Vehicle, structure: EffectSet, D: np.ndarray) -> None:
-        n = D.shape[1]
-        self.fn = _sums_function(vehicle, structure).map("drivelog_profiled_sums_map", "serial", n, [], [0, 1, 2, 3])
+        self.fn = _sums_map(vehicle, structure, int(D.shape[1]))
         self.D = ca.DM(np.asarray(D, dtype=float))
 
     def __call__(self, theta: np.ndarray, slip: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
@@ -129,9 +134,9 @@ def profiled_start(vehicle: Vehicle, structure: EffectSet, D: np.ndarray, theta0
     it = 0
     converged = False
     rechecked = False
+    S = np.outer(sc, sc)
     while it < max_iter:
         gs = g * sc
-        S = np.outer(sc, sc)
         # active set: fixed, or on a bound with the gradient pushing outwards
         span = np.maximum(xu - xl, 1e-300)
         at_lo = (x - xl <= 1e-9 * span) & (gs > 0)

@@ -11,7 +11,7 @@ Three channels, each ``measured - predicted`` in its own unit (:data:`~.drivelog
     difference of the measured speed).
 
 The latent slip of each held-out sample is solved for the FITTED parameters (the per-sample
-minimum of the same whitened cost the fit profiles out, :func:`~.drivelog_joint.solve_slips`;
+minimum of the same whitened cost the fit profiles out, :meth:`~.drivelog_joint.SlipSolver.solve`;
 the hull channel takes part only if the fit used it). Because that slip is fitted to the sample,
 the channels of one sample share one fitted degree of freedom: the sum over the channels of the
 whitened squares has expectation about (channels used - 1) per sample, not the number of
