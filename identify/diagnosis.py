@@ -44,6 +44,7 @@ import numpy as np
 from ..soilmodel.data import DriveLog, SlipData
 from ..soilmodel.effects import EFFECTS
 from ..soilmodel.errors import DataError
+from ..soilmodel.soil import PRACTICAL_BOUNDS, WIDE_BOUNDS, SoilBounds
 from ..soilmodel.vehicle import Vehicle
 from .diagnosis_sweep import (decide_sweep, effect_start, find_plateau, fit_jacobian, imitation_rms, information_weights,
                               lack_of_fit, plausibility_warnings, solver_converged, sweep_folds)
@@ -242,8 +243,8 @@ class Diagnosis:
             for s in self.screens:
                 L.append(f"    {s.effect:<22s} LM = {s.statistic:6.2f} ({s.dof} dof), p = {s.p_value:.2g}")
             L.append("")
-            L.append("Soil of the nominal fit: " + ", ".join(f"{k} {_fmt(v)}" for k, v in self.soil_before.items()
-                                                         if k not in ("identifiable", "converged")))
+            L.append("Soil of the nominal fit: " + ", ".join(f"{k} {_fmt(v)}{_soil_flag(self.soil_before, k)}"
+                                                         for k, v in self.soil_before.items() if k not in _SOIL_META))
             return "\n".join(L)
         L.append("The gap (nominal model fitted on alternate blocks, predicting the blocks it did not see):"
                  if self.data_kind == "drive" else "The gap (the sweep cut into contiguous blocks in slip, each held out "
@@ -331,10 +332,10 @@ class Diagnosis:
         L.append("")
         L.append("Soil (identifiable quantities), nominal fit" + (" -> with the effect:" if self.soil_after else ":"))
         for k, v in self.soil_before.items():
-            if k in ("identifiable", "converged"):
+            if k in _SOIL_META:
                 continue
-            after = "" if not self.soil_after else f" -> {_fmt(self.soil_after.get(k))}"
-            L.append(f"  {k}: {_fmt(v)}{after}")
+            after = "" if not self.soil_after else f" -> {_fmt(self.soil_after.get(k))}{_soil_flag(self.soil_after, k)}"
+            L.append(f"  {k}: {_fmt(v)}{_soil_flag(self.soil_before, k)}{after}")
         if self.soil_after:
             L.append("  (the change is the bias the missing effect caused in the nominal fit)")
         for n in self.notes:
@@ -566,6 +567,21 @@ def _channels(res, data) -> dict[str, np.ndarray]:
     return out
 
 
+_SOIL_KEYS = {"cohesion": "cohesion_kpa", "friction_angle": "friction_angle_deg", "shear_modulus": "shear_modulus_m"}
+
+
+#: Soil-summary entries that say something about the values rather than being one.
+_SOIL_META = ("identifiable", "converged", "at_bound", "outside_practical_range")
+
+
+def _soil_flag(soil: dict, key: str) -> str:
+    """`` (on its lower bound)`` / `` (outside the practical range)`` for a soil-summary value, or ""."""
+    side = (soil.get("at_bound") or {}).get(key)
+    if side:
+        return f" (on its {side} bound)"
+    return " (outside the practical range)" if key in (soil.get("outside_practical_range") or ()) else ""
+
+
 def _soil_summary(res) -> dict:
     """The soil of a fit: values in kPa, deg, m (None where not identifiable), F_max, K."""
     out: dict[str, Any] = {}
@@ -573,7 +589,7 @@ def _soil_summary(res) -> dict:
         params = res.parameters
     except Exception:  # noqa: BLE001 - a failed fit may have no statistics
         params = {}
-    keys = {"cohesion": "cohesion_kpa", "friction_angle": "friction_angle_deg", "shear_modulus": "shear_modulus_m"}
+    keys = _SOIL_KEYS
     ident = {}
     for name, key in keys.items():
         pe = params.get(name)
@@ -592,7 +608,163 @@ def _soil_summary(res) -> dict:
     out.setdefault("max_thrust_N", None)
     out["identifiable"] = ident
     out["converged"] = bool(getattr(res, "success", False))
+    try:
+        active = dict(res.active_bounds)
+    except Exception:  # noqa: BLE001
+        active = {}
+    out["at_bound"] = {keys[k]: side for k, side in active.items() if k in keys}
+    out["outside_practical_range"] = _outside_practical(res)
     return out
+
+
+def _outside_practical(res) -> list[str]:
+    """The soil values of fit ``res`` outside the practical range (contract keys; fixed or unidentifiable ones left out)."""
+    out = []
+    try:
+        params = res.parameters
+    except Exception:  # noqa: BLE001
+        return out
+    for j, (name, key) in enumerate(_SOIL_KEYS.items()):
+        pe = params.get(name)
+        if pe is None or not pe.identifiable or pe.fixed or pe.value is None:
+            continue
+        lo, hi = PRACTICAL_BOUNDS.lower[j], PRACTICAL_BOUNDS.upper[j]
+        v = float(pe.value)
+        if not lo * (1 - 1e-6) <= v <= hi * (1 + 1e-6):
+            out.append(key)
+    return out
+
+
+def _torque_hold_note(data, vehicle: Vehicle, model: str, nominal, fit_options: dict, alpha: float) -> str | None:
+    """Does the nominal model fit a log significantly better with its torque taken as sampled, not held?
+
+    ``nominal`` is the nominal fit with the torque held (``"zoh"``); the other is started from its
+    answer (one start, at most 60 iterations). Both have the same parameters, so their cost
+    difference is a likelihood ratio. Returns the note that says so, or None (keep ``"zoh"``).
+    """
+    from .fitting import fit
+
+    if not solver_converged(nominal):
+        return None
+    try:
+        other = fit(data, vehicle, model=model, hull_channel=True, x0=np.asarray(nominal.theta, dtype=float),
+                    max_iter=60, multistart=False, **dict(fit_options, torque_hold="sample"))
+    except DataError:
+        return None
+    if not solver_converged(other):
+        return None
+    lr = 2.0 * (float(nominal.cost) - float(other.cost))
+    if not lr > chi2_isf(alpha, 1):
+        return None
+    return (f"the logged torque is taken as a continuous signal sampled at each time (torque_hold='sample'): the "
+            f"nominal model fits the log significantly better than with the torque held from each sample to the next (a "
+            f"likelihood ratio of {lr:.3g}, p = {chi2_sf(lr, 1):.2g}). A torque transducer logs this way, a logged "
+            "command the other; the wrong one shifts the thrust by the torque's change over one sample, which "
+            "reads as a drivetrain loss, a grade or a mass error. Pass torque_hold='zoh' (command line: "
+            "--torque-hold zoh) to keep the held torque")
+
+
+def _rms_per_dof(r: np.ndarray, n_par: int) -> float:
+    """``sqrt(sum r^2 / (n - n_par))`` over the finite residuals ``r`` (a noise level from a fit's residuals)."""
+    rf = r[np.isfinite(r)]
+    return float(np.sqrt(np.sum(rf ** 2) / max(1, rf.size - n_par))) if rf.size else math.nan
+
+
+def _noise_floors(resid: dict[str, np.ndarray], order: np.ndarray) -> tuple[dict[str, np.ndarray], set[str]]:
+    """The noise floor per sample of each channel's residuals (:func:`~.gap.noise_profile` along ``order``).
+
+    Returns the floors (NaN where a residual is not finite) and the channels without measurable noise
+    (a noise-free simulated run), whose floor is set to a negligible value instead of zero.
+    """
+    floors, flat = {}, set()
+    for ch, rr in resid.items():
+        ok = np.isfinite(rr)
+        o = order[ok[order]]
+        prof_o = noise_profile(rr[o])
+        if not np.all(prof_o > 0):
+            scale = float(np.max(np.abs(rr[ok]))) if np.any(ok) else 0.0
+            prof_o = np.full(o.size, max(1e-12, 1e-9 * scale))
+            flat.add(ch)
+        sg = np.full(rr.size, np.nan)
+        sg[o] = prof_o
+        floors[ch] = sg
+    return floors, flat
+
+
+@dataclass(frozen=True)
+class _WiderSoil:
+    """The nominal model refitted with :data:`WIDE_BOUNDS`: how much better it fits, and what to say."""
+
+    drop: float   # chi-square drop against the bounded nominal fit (a log's over its long-run factor)
+    note: str
+    residuals: dict  # channel -> residual per sample of the nominal fit with the wider bounds
+
+
+def _chi2_drop(R: dict, Rx: dict, sig_n: dict, is_log: bool) -> float:
+    """Chi-square of residuals ``R`` minus that of ``Rx`` over the noise floor (a log's over its long-run factor)."""
+    out = 0.0
+    for ch, rb in R.items():
+        rx = Rx.get(ch)
+        if rx is None:
+            return -math.inf
+        ok = np.isfinite(rb) & np.isfinite(rx) & (np.nan_to_num(sig_n[ch]) > 0)
+        zb, zx = rb[ok] / sig_n[ch][ok], rx[ok] / sig_n[ch][ok]
+        out += float(zb @ zb - zx @ zx) / (max(1.0, long_run_factor(zb)) if is_log else 1.0)
+    return out
+
+
+def _wider_soil(data, vehicle: Vehicle, model: str, nominal, R: dict, sig_n: dict, is_log: bool,
+                fit_options: dict, alpha: float) -> _WiderSoil | None:
+    """Does the data want a soil beyond the practical range that the nominal fit ended on?
+
+    The nominal model is fitted again on all the data with :data:`WIDE_BOUNDS`; the drop of the
+    residuals' chi-square (:func:`_chi2_drop`) is a likelihood ratio with one degree of freedom per
+    freed bound. Returns the drop and the note that says so when it is significant at ``alpha`` and
+    the wider soil lies outside the practical range (not on the wide bounds too), else None.
+    """
+    from .fitting import fit
+
+    try:
+        active = dict(nominal.active_bounds)
+    except Exception:  # noqa: BLE001
+        return None
+    j_of = {name: j for j, name in enumerate(_SOIL_KEYS)}
+    edges = {k: side for k, side in active.items() if k in j_of and
+             (PRACTICAL_BOUNDS.lower if side == "lower" else PRACTICAL_BOUNDS.upper)[j_of[k]]
+             != (WIDE_BOUNDS.lower if side == "lower" else WIDE_BOUNDS.upper)[j_of[k]]}
+    if not edges:
+        return None  # on no bound, or on one that is physical (c >= 0)
+    kw = dict(fit_options, bounds=WIDE_BOUNDS)
+    if is_log:
+        # one start, at most 60 iterations from the bounded optimum: a soil the data really want beyond
+        # the bound is a few steps away; an unconverged search (a direction the data do not determine,
+        # e.g. K under a log whose slips stay in the noise) is no evidence for widening
+        kw.update(hull_channel=True, max_iter=60, multistart=False)
+    try:
+        wide = fit(data, vehicle, model=model, x0=np.asarray(nominal.theta, dtype=float), **kw)
+        Rw = _channels(wide, data) if solver_converged(wide) else None
+    except DataError:
+        return None
+    if Rw is None:
+        return None
+    lr = _chi2_drop(R, Rw, sig_n, is_log)
+    p = chi2_sf(max(lr, 0.0), len(edges))
+    outside = _outside_practical(wide)
+    if p >= alpha or not outside or any(k in edges for k in wide.active_bounds):
+        # not significant, still inside the practical range, or pushed to the edge of the physical range
+        # too: then the data want something no soil gives (an effect's shape), not a soil beyond the range
+        return None
+    names = {"cohesion": "c", "friction_angle": "phi", "shear_modulus": "K"}
+    units = {"cohesion": (1e-3, "kPa"), "friction_angle": (180 / math.pi, "deg"), "shear_modulus": (1e3, "mm")}
+
+    def val(k, v):
+        f, u = units[k]
+        return f"{names[k]} = {v * f:.3g} {u}" if v is not None else f"{names[k]} (not identifiable alone)"
+    on = ", ".join(f"{val(k, nominal.parameters[k].value)} on its {side} bound" for k, side in edges.items())
+    now = ", ".join(val(k, wide.parameters[k].value) for k in _SOIL_KEYS if _SOIL_KEYS[k] in outside)
+    return _WiderSoil(lr, residuals=Rw, note=f"the nominal soil ended on the edge of the practical range ({on}) and the data want a soil "
+                          f"beyond it: with the bounds widened (c 0-200 kPa, phi 1-55 deg, K 2-250 mm) the nominal "
+                          f"model fits all the data better by a likelihood ratio of {lr:.3g} (p = {p:.2g}), with {now}")
 
 
 def _effect_params(res, name: str) -> dict:
@@ -671,7 +843,7 @@ def _check_candidates(candidates, data) -> tuple[str, ...]:
 def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full",
              candidates: Sequence[str] | None = None, n_blocks: int = 10, n_folds: int | None = None,
              max_refits: int | None = None, alpha: float = ALPHA, weigh_outside: bool = True,
-             torque_hold: str = "zoh", recheck_outliers: bool = True,
+             torque_hold: str = "auto", recheck_outliers: bool = True, bounds: SoilBounds | None = None,
              progress: Callable[[str], None] | None = None) -> Diagnosis:
     """Diagnose the gap between the nominal model and a drive log or a slip sweep.
 
@@ -701,15 +873,25 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         ``False`` leaves the flexible term and the lack-of-fit test alone to catch a gap that no
         candidate explains (for validation).
     torque_hold
-        Drive log: ``"zoh"`` (torque held from each sample to the next, the default) or
-        ``"sample"`` (a continuous torque signal sampled), for every fit of the diagnosis
-        (:func:`~soiltrack.identify.drivelog.fit_drive_log`).
+        Drive log: ``"zoh"`` (torque held from each sample to the next: a logged command),
+        ``"sample"`` (a continuous torque signal sampled: a transducer), for every fit of the
+        diagnosis (:func:`~soiltrack.identify.drivelog.fit_drive_log`), or ``"auto"`` (the
+        default): ``"zoh"`` unless the nominal model fits the log significantly better with
+        ``"sample"`` (likelihood ratio at ``alpha``; the notes say which and why). The wrong one
+        shifts the thrust by the torque's change over one sample, which reads as a drivetrain loss,
+        a grade or a mass error.
     recheck_outliers
         When lone readings lie far off their neighbours
         (:func:`~soiltrack.identify.gap.isolated_outliers`; a sweep's residuals, a log's speed
         channels) and the verdict is ``none`` or ``unexplained``, diagnose the data again without
         them (a log: each replaced by its neighbours' median) and say that verdict in the notes
         (the verdict itself stands on all the data).
+    bounds
+        Soil bounds of every fit. None (the default): the practical range
+        (:data:`~soiltrack.soilmodel.PRACTICAL_BOUNDS`), widened to
+        :data:`~soiltrack.soilmodel.WIDE_BOUNDS` when the nominal soil ends on an edge of it and
+        the data want a soil beyond (likelihood ratio test at ``alpha``); the notes say so. Given
+        bounds are kept as they are.
     progress
         Called with a short line at each stage (screening, each refit, the checks): the command line
         prints them on stderr. None: silent.
@@ -725,9 +907,11 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     """
     from .fitting import fit
 
-    if torque_hold not in ("zoh", "sample"):
-        raise DataError(f"torque_hold must be 'zoh' or 'sample', got {torque_hold!r}")
-    log_options = {"torque_hold": torque_hold} if isinstance(data, DriveLog) else {}
+    if torque_hold not in ("auto", "zoh", "sample"):
+        raise DataError(f"torque_hold must be 'auto', 'zoh' or 'sample', got {torque_hold!r}")
+    hold = "zoh" if torque_hold == "auto" else torque_hold
+    fit_options: dict[str, Any] = {"torque_hold": hold} if isinstance(data, DriveLog) else {}
+    fit_options["bounds"] = PRACTICAL_BOUNDS if bounds is None else bounds
     t0 = time.perf_counter()
     if not isinstance(data, (SlipData, DriveLog)):
         raise DataError(f"diagnose takes SlipData or DriveLog, got {type(data).__name__}")
@@ -738,14 +922,12 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     is_log = isinstance(data, DriveLog)
     say = progress if progress is not None else (lambda msg: None)
     if n < MIN_SAMPLES:
-        return _too_few(data, vehicle, model, cands, is_log, t0, log_options)
+        return _too_few(data, vehicle, model, cands, is_log, t0, fit_options)
     notes: list[str] = []
-    if is_log:
+    if is_log and torque_hold != "auto":
         notes.append("the logged torque is taken as " + (
-            "held from each sample to the next (torque_hold='zoh', the default; a torque sampled from a "
-            "continuous signal, e.g. a transducer, needs torque_hold='sample': the wrong one shifts the thrust by "
-            "its change over one sample, which reads as a grade or a drivetrain loss)" if torque_hold == "zoh" else
-            "a continuous signal sampled at each time (torque_hold='sample')"))
+            "held from each sample to the next (torque_hold='zoh')" if hold == "zoh" else
+            "a continuous signal sampled at each time (torque_hold='sample')") + ", as asked")
 
     failed: list[str] = []
     flagged: dict[str, int] = {}  # model -> number of its fits only the plausibility checks refused
@@ -758,7 +940,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
 
     def run_fit(d, effects=(), fixed=None, start=None, record=True, patient=False, retry=True, cold=False,
                 weight_only=False):
-        kw = dict(log_options)
+        kw = dict(fit_options)
         if is_log and effects and weight_only:
             # a candidate's fit on a training part only gives it a weight: one start (the second start of a
             # drive-log fit, tried when the first ends on a bound of F_max or K, roughly doubled the cost of
@@ -812,7 +994,19 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     outside = tuple(e for e, spec in EFFECTS.items() if kind in spec.shows_in and e not in cands)
     say(f"screening {len(cands + outside)} effects: the nominal model on all {n} samples, with score tests")
     nominal_full, all_screens = screen(data, vehicle, cands + outside, model=model, hac_lag=lag,
-                                       fit_options=log_options)
+                                       fit_options=fit_options)
+    if is_log and torque_hold == "auto":
+        hold_note = _torque_hold_note(data, vehicle, model, nominal_full, fit_options, alpha)
+        if hold_note is None:
+            notes.append("the logged torque is taken as held from each sample to the next (torque_hold='zoh'): "
+                         "a continuous signal sampled at each time does not fit the log significantly better")
+        else:
+            say("the logged torque fits better as a sampled continuous signal: the diagnosis again with it")
+            again = diagnose(data, vehicle, model=model, candidates=candidates, n_blocks=n_blocks, n_folds=n_folds,
+                             max_refits=max_refits, alpha=alpha, weigh_outside=weigh_outside, torque_hold="sample",
+                             recheck_outliers=recheck_outliers, bounds=bounds, progress=progress)
+            return replace(again, notes=(hold_note,) + tuple(n for n in again.notes if not n.endswith(", as asked")),
+                           elapsed_s=time.perf_counter() - t0)
     screens = [s for s in all_screens if s.effect in cands]
     stat_cos = (nominal_full.extra or {}).get("screening_stationarity", 0.0) if nominal_full.success else 0.0
     out_screens = [s for s in all_screens if s.effect in outside and s.screenable]
@@ -839,21 +1033,17 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
 
     def set_noise(resid: dict[str, np.ndarray]) -> None:
         """The noise floor per sample (``sig_n``) and per channel (``noise``) from residuals ``resid``."""
-        for ch, rr in resid.items():
-            ok = np.isfinite(rr)
-            o = order[ok[order]]
-            prof_o = noise_profile(rr[o])
-            if not np.all(prof_o > 0):  # a noise-free simulated run: a negligible floor instead of zero
-                scale = float(np.max(np.abs(rr[ok]))) if np.any(ok) else 0.0
-                prof_o = np.full(o.size, max(1e-12, 1e-9 * scale))
-                if not any(f"no measurable noise in {ch}" in t for t in notes):
-                    notes.append(f"no measurable noise in {ch}: the noise floor is set to a negligible value")
-            sg = np.full(n, np.nan)
-            sg[o] = prof_o
+        floors, flat = _noise_floors(resid, order)
+        for ch, sg in floors.items():
+            if ch in flat and not any(f"no measurable noise in {ch}" in t for t in notes):
+                notes.append(f"no measurable noise in {ch}: the noise floor is set to a negligible value")
             sig_n[ch] = sg
-            noise[ch] = float(np.sqrt(np.mean(prof_o ** 2))) if prof_o.size else 0.0
+            noise[ch] = float(np.sqrt(np.nanmean(sg ** 2))) if np.any(np.isfinite(sg)) else 0.0
 
     set_noise(R)
+    # the data may want a soil beyond the practical range the nominal fit ended on: weighed against the verdict
+    wider = _wider_soil(data, vehicle, model, nominal_full, R, sig_n, is_log, fit_options, alpha) \
+        if bounds is None else None
     if stat_cos > 1e-2 and not any("no measurable noise" in t for t in notes):
         notes.append(f"the screening fit's residuals are not orthogonal to the soil's sensitivities (cosine "
                      f"{stat_cos:.2g}): its score tests are unreliable; the held-out comparison decides")
@@ -1480,6 +1670,46 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     if name not in (NOMINAL, "unexplained") and any(name in p for p, _, _ in conf):
         notes.append(f"{name} is named with low certainty (confidence {confidence:.2f}): the data cannot tell it "
                      "from " + ", ".join(x for p, _, _ in conf if name in p for x in p if x != name))
+    if wider is not None:
+        # a soil beyond the practical range, or the verdict with the soil inside it? (chi-square drops against the
+        # bounded nominal fit, Akaike's penalty of 2 per parameter the effect adds; the wider soil adds none)
+        # (on the noise level the wider soil implies, its residuals' RMS per degree of freedom, one per channel:
+        # the wider soil is the hypothesis without an effect. The noise floor of the bounded nominal carries its
+        # misfit, a floor varying along the data is estimated from a few neighbours each: on a 42-point
+        # effect-free sweep either moved this comparison by several units of chi-square, toward the effect)
+        # The effect must fit significantly better (likelihood ratio at alpha, one degree of freedom per
+        # parameter it adds) to stand: the wider soil is the simpler answer. Its confidence is then at most its
+        # Akaike weight against the wider soil.
+        fx = full_fits.get(name)
+        gain, k_x = -math.inf, 0
+        if name not in (NOMINAL, "unexplained") and fx is not None and usable(fx) and not _outside_practical(fx):
+            try:
+                sig_w = {ch: np.where(np.isfinite(rw), _rms_per_dof(rw, len(_SOIL_KEYS)), np.nan)
+                         for ch, rw in wider.residuals.items()}
+                k_x = len(fx.effect_labels) - len(fx.fixed_labels)
+                gain = _chi2_drop(R, _channels(fx, data), sig_w, is_log) - _chi2_drop(R, wider.residuals, sig_w,
+                                                                                       is_log)
+            except DataError:
+                pass
+        if k_x > 0 and gain > chi2_isf(alpha, k_x):
+            w_x = 1.0 / (1.0 + math.exp(-0.5 * min(gain - 2.0 * k_x, 700.0)))  # Akaike weight against the wider soil
+            notes.append(wider.note + f"; {name} with the soil inside the range fits significantly better still "
+                         f"(chi-square {gain:.3g} lower, p = {chi2_sf(gain, k_x):.2g}; Akaike weight {w_x:.2f} against "
+                         "the wider soil), so the verdict stands" + (f" with confidence {w_x:.2f} at most"
+                                                                    if w_x < confidence else ""))
+            confidence = min(confidence, w_x)
+        else:
+            say("the data want a soil outside the practical range: the diagnosis again with the bounds widened")
+            again = diagnose(data, vehicle, model=model, candidates=candidates, n_blocks=n_blocks, n_folds=n_folds,
+                             max_refits=max_refits, alpha=alpha, weigh_outside=weigh_outside, torque_hold=torque_hold,
+                             recheck_outliers=recheck_outliers, bounds=WIDE_BOUNDS, progress=progress)
+            was = "no gap" if name == NOMINAL else f"the verdict was {name} (confidence {confidence:.2f})"
+            return replace(again, notes=(wider.note + f". This diagnosis is made with the widened bounds (with the "
+                                         f"practical ones {was}). A soil outside the practical range is unusual: "
+                                         "check the data (the slip's definition, the units, the vehicle's track "
+                                         "length) before trusting it; to keep the practical range, call diagnose "
+                                         "with bounds=PRACTICAL_BOUNDS (command line: --bounds practical)",)
+                           + tuple(again.notes), elapsed_s=time.perf_counter() - t0)
     soil_before = _soil_summary(nominal_full)
     gap_shrink = None
     if name in full_fits:
@@ -1515,7 +1745,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         _note_lone_readings(data, vehicle, r_lone, notes, recheck_outliers and name in ("unexplained", NOMINAL),
                             dict(model=model, candidates=candidates, n_blocks=n_blocks, n_folds=n_folds,
                                  max_refits=max_refits, alpha=alpha, weigh_outside=weigh_outside,
-                                 torque_hold=torque_hold))
+                                 torque_hold=torque_hold, bounds=fit_options["bounds"]))
     if is_log and change is not None and getattr(change, "significant", False) and hasattr(change, "evidence_start"):
         # the change of soil in time is where a drive log's gap lies: in the contract's localisation too
         loc = sorted([*loc, _window_segment(change, R, sig_n, np.asarray(data.time, dtype=float))],
@@ -1536,9 +1766,9 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
 
 
 def _too_few(data, vehicle: Vehicle, model: str, cands: tuple[str, ...], is_log: bool, t0: float,
-             log_options: dict | None = None) -> Diagnosis:
+             fit_options: dict | None = None) -> Diagnosis:
     """A diagnosis of data too small for a hold-out: the fit, its residuals, and what cannot be said."""
-    res, screens = screen(data, vehicle, cands, model=model, hac_lag=None if is_log else 0, fit_options=log_options)
+    res, screens = screen(data, vehicle, cands, model=model, hac_lag=None if is_log else 0, fit_options=fit_options)
     try:
         rr = _channels(res, data) if res.success else {}
     except DataError:

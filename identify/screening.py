@@ -237,7 +237,8 @@ def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None =
             J, r, names, rows_per_sample = drive_log_score_pair(res, data, vehicle, effects=cands)
     else:
         fixed = {f"{c}.{p.name}": p.off_value for c in cands for p in EFFECTS[c].params if not p.integer}
-        res = fit(data, vehicle, model=model, effects=cands, fixed=fixed, slip_noise="off", intervals="linear")
+        res = fit(data, vehicle, model=model, effects=cands, fixed=fixed, slip_noise="off", intervals="linear",
+                  **(fit_options or {}))
         names = list(res.parameter_names)
         J = np.asarray(res.jacobian, dtype=float)
         r = np.asarray(res.weighted_residuals, dtype=float).ravel()

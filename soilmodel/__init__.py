@@ -9,7 +9,7 @@ unmodelled effects (:data:`EFFECTS`, :func:`parse_effects`, :func:`thrust_with_e
 """
 from .data import DriveLog, SlipData, read_csv, write_csv
 from .errors import DataError
-from .soil import PARAMETER_NAMES, PRACTICAL_BOUNDS, SEED_ACTUAL, TERRAINS, Soil, SoilBounds
+from .soil import PARAMETER_NAMES, PRACTICAL_BOUNDS, SEED_ACTUAL, TERRAINS, WIDE_BOUNDS, Soil, SoilBounds
 from .traction import (
     MODELS,
     max_thrust,
@@ -41,7 +41,7 @@ from .dynamics import (
 from .simulation import SensorNoise, simulate, simulate_drive_log, simulate_slip_sweep
 
 __all__ = [
-    "DataError", "DriveLog", "SlipData", "read_csv", "write_csv", "PARAMETER_NAMES", "PRACTICAL_BOUNDS",
+    "DataError", "DriveLog", "SlipData", "read_csv", "write_csv", "PARAMETER_NAMES", "PRACTICAL_BOUNDS", "WIDE_BOUNDS",
     "SEED_ACTUAL", "TERRAINS", "Soil", "SoilBounds", "MODELS", "max_thrust", "sensitivity_function",
     "thrust_expr", "thrust_function", "tractive_force", "tractive_force_sensitivities", "G", "VEHICLES",
     "Vehicle", "EFFECTS", "EffectSet", "EffectSpec", "ParamSpec", "effect_symbols", "parse_effects", "sweep_measurement",

@@ -122,6 +122,12 @@ class SoilBounds:
 #: The seed's "practical range": c 0-69 kPa, phi 6-40 deg, K 0.006-0.05 m. Note that the
 #: seed's own "actual" phi (40.1 deg) lies just outside it; a fit that ends on a bound says so.
 PRACTICAL_BOUNDS = SoilBounds.from_kpa_deg((0.0, 69.0), (6.0, 40.0), (0.006, 0.05))
+#: Soils a measurement can still come from beyond the practical range: dense sands and gravels
+#: (phi to 55 deg), stiff clays (c to 200 kPa), firm soils under small rig tracks (K from 2 mm:
+#: below it a sweep whose readings all sit near one level, e.g. a load cell at its limit, would
+#: read as a soil) and loose snow (K to 0.25 m). The diagnosis widens to them when the data want
+#: a soil outside the practical range (:func:`soiltrack.identify.diagnose`).
+WIDE_BOUNDS = SoilBounds.from_kpa_deg((0.0, 200.0), (1.0, 55.0), (0.002, 0.25))
 
 
 def _terrain(key: str, name: str, n: float, k_c_kn: float, k_phi_kn: float, c_kpa: float, phi_deg: float,

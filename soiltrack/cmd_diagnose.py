@@ -31,8 +31,11 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
     def progress(msg: str) -> None:
         print(f"[{time.perf_counter() - t0:5.1f} s] {msg}", file=sys.stderr, flush=True)
 
-    d = diagnose(data, vehicle, model=a.model, candidates=cands, torque_hold=a.torque_hold or "zoh",
-                 progress=None if a.quiet else progress)
+    from .soilmodel import PRACTICAL_BOUNDS, WIDE_BOUNDS
+
+    bounds = {"auto": None, "practical": PRACTICAL_BOUNDS, "wide": WIDE_BOUNDS}[a.bounds]
+    d = diagnose(data, vehicle, model=a.model, candidates=cands, torque_hold=a.torque_hold or "auto",
+                 bounds=bounds, progress=None if a.quiet else progress)
     print(d.to_json() if a.json else d.report())
     if a.plot:
         d.plot(a.plot)
@@ -48,9 +51,14 @@ def add_parser(sub) -> None:
     p.add_argument("--model", choices=("full", "cohesion-free"), default="full")
     p.add_argument("--candidates", metavar="A,B,...",
                    help="candidate effects (default: every effect that shows in this kind of data)")
-    p.add_argument("--torque-hold", choices=("zoh", "sample"), default=None,
-                   help="drive logs: zoh (default): the torque is held from each sample to the next; sample: a "
-                        "continuous torque signal sampled at each time (see soiltrack fit --help)")
+    p.add_argument("--torque-hold", choices=("auto", "zoh", "sample"), default=None,
+                   help="drive logs: zoh: the torque is held from each sample to the next (a logged command); "
+                        "sample: a continuous torque signal sampled at each time (a transducer); auto (default): "
+                        "zoh unless sample fits the log significantly better (the report says which)")
+    p.add_argument("--bounds", choices=("auto", "practical", "wide"), default="auto",
+                   help="soil bounds of the fits: the practical range (c 0-69 kPa, phi 6-40 deg, K 6-50 mm), "
+                        "widened (c 0-200 kPa, phi 1-55 deg, K 2-250 mm), or auto (the default): practical, "
+                        "widened when the data want a soil beyond it (the report says so)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     p.add_argument("--plot", metavar="PNG", help="save a figure of the held-out residuals, weights and localisation")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")

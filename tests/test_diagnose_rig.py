@@ -1,11 +1,12 @@
 """Sweeps shaped like a test rig's: zero-slip rows, few points, a soil outside the practical range."""
+import json
 import math
 import os
 
 import numpy as np
 
 from soiltrack.identify import diagnose
-from soiltrack.soilmodel import SlipData, Vehicle
+from soiltrack.soilmodel import PRACTICAL_BOUNDS, SlipData, Vehicle
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 HEAVY = Vehicle.from_json(os.path.join(os.path.dirname(HERE), "examples", "data", "heavy_vehicle.json"))
@@ -31,3 +32,42 @@ def test_a_humped_rig_sweep_with_zero_slip_rows_is_diagnosed():
     ch = "drawbar_pull_N"
     assert d.holdout_rmse_before[ch] > 10 * d.noise[ch]
     assert d.gap_p_value < 1e-6
+
+
+LIGHT = Vehicle.from_json(os.path.join(os.path.dirname(HERE), "examples", "data", "light_vehicle.json"))
+
+
+def _light_sweep(K, seed=3, n=30):
+    # effect-free tractive-force sweep of the light vehicle (W = 300 N, l = 0.5 m, A = 0.1 m^2)
+    rng = np.random.default_rng(seed)
+    i = np.linspace(0.01, 0.5, n)
+    fmax = _fmax(c=500.0, phi_deg=30.0, W=300.0, A=0.1)
+    x = i * 0.5 / K
+    F = fmax * (1 - (1 - np.exp(-x)) / x) + 0.01 * fmax * rng.standard_normal(n)
+    return SlipData(slip=i, tractive_force=F, source="small_rig.csv")
+
+
+def test_a_soil_beyond_the_practical_range_is_not_read_as_an_effect():
+    # K = 3 mm (a firm soil under a small rig track) lies below the practical range's 6 mm: the nominal fit
+    # ends on that bound, misses the steep rise, and an effect that bends the curve (hump_shear) was named
+    # with confidence 1. The data want the soil beyond the bound: the diagnosis widens and finds no gap
+    data = _light_sweep(K=0.003)
+    d = diagnose(data, LIGHT)
+    assert d.verdict == "none", (d.verdict, d.confidence, d.notes)
+    assert any("the data want a soil beyond it" in n for n in d.notes)
+    assert d.soil_before["outside_practical_range"] == ["shear_modulus_m"]
+    assert abs(d.soil_before["shear_modulus_m"] - 0.003) < 0.0006
+    assert json.loads(d.to_json())["soil_before"]["outside_practical_range"] == ["shear_modulus_m"]
+    # kept to the practical range on request: K sits on its bound and the report says so
+    kept = diagnose(data, LIGHT, bounds=PRACTICAL_BOUNDS)
+    assert kept.soil_before["at_bound"] == {"shear_modulus_m": "lower"}
+    assert "(on its lower bound)" in kept.report()
+    assert not any("the data want a soil beyond it" in n for n in kept.notes)
+
+
+def test_a_soil_inside_the_practical_range_is_diagnosed_within_it():
+    d = diagnose(_light_sweep(K=0.012), LIGHT)
+    assert d.verdict == "none" and d.confidence > 0.5, (d.verdict, d.confidence, d.notes)
+    assert d.soil_before["at_bound"].get("shear_modulus_m") is None
+    assert d.soil_before["outside_practical_range"] == []
+    assert not any("soil beyond" in n for n in d.notes)
