@@ -67,6 +67,8 @@ MIN_SAMPLES = 8
 #: the data for a training part): the default, 500, is met on a few strain-softening fits whose
 #: optimum lies in a slow valley.
 RETRY_MAX_ITER = 3000
+#: IPOPT iterations of a drive log's nominal training fit started from the full-data answer (then from its own starts)
+WARM_MAX_ITER = 100
 
 #: Significance level of the tests (screening is Bonferroni-corrected over the candidates).
 ALPHA = 0.01
@@ -571,15 +573,20 @@ _SOIL_KEYS = {"cohesion": "cohesion_kpa", "friction_angle": "friction_angle_deg"
 
 
 #: Soil-summary entries that say something about the values rather than being one.
-_SOIL_META = ("identifiable", "converged", "at_bound", "outside_practical_range")
+_SOIL_META = ("identifiable", "converged", "at_bound", "outside_practical_range", "weakly_identifiable")
 
 
 def _soil_flag(soil: dict, key: str) -> str:
-    """`` (on its lower bound)`` / `` (outside the practical range)`` for a soil-summary value, or ""."""
+    """`` (on its lower bound)``, `` (outside the practical range)``, `` (weakly determined...)`` or "" for a soil value."""
+    flags = []
     side = (soil.get("at_bound") or {}).get(key)
     if side:
-        return f" (on its {side} bound)"
-    return " (outside the practical range)" if key in (soil.get("outside_practical_range") or ()) else ""
+        flags.append(f"on its {side} bound")
+    elif key in (soil.get("outside_practical_range") or ()):
+        flags.append("outside the practical range")
+    if key in (soil.get("weakly_identifiable") or ()):
+        flags.append("weakly determined: its interval is wide")
+    return f" ({'; '.join(flags)})" if flags else ""
 
 
 def _soil_summary(res) -> dict:
@@ -590,7 +597,8 @@ def _soil_summary(res) -> dict:
     except Exception:  # noqa: BLE001 - a failed fit may have no statistics
         params = {}
     keys = _SOIL_KEYS
-    ident = {}
+    ident: dict[str, bool] = {}
+    weak: list[str] = []
     for name, key in keys.items():
         pe = params.get(name)
         if pe is None:
@@ -599,10 +607,14 @@ def _soil_summary(res) -> dict:
         d = pe.to_dict()
         out[key] = _f(d["value"]) if pe.identifiable or pe.fixed else None
         ident[name] = bool(pe.identifiable)
+        if pe.identifiable and not pe.fixed and getattr(pe, "weakly_identifiable", False):
+            weak.append(key)
     try:
         for cb in res.combinations:
-            if cb.name.startswith("F_max@"):
-                out.setdefault("max_thrust_N", _f(cb.value))
+            if cb.name.startswith("F_max@") and "max_thrust_N" not in out:
+                out["max_thrust_N"] = _f(cb.value) if cb.estimable else None
+                if cb.estimable and cb.weakly_identifiable:
+                    weak.append("max_thrust_N")
     except Exception:  # noqa: BLE001
         pass
     out.setdefault("max_thrust_N", None)
@@ -614,6 +626,7 @@ def _soil_summary(res) -> dict:
         active = {}
     out["at_bound"] = {keys[k]: side for k, side in active.items() if k in keys}
     out["outside_practical_range"] = _outside_practical(res)
+    out["weakly_identifiable"] = weak
     return out
 
 
@@ -939,8 +952,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         return bool(res.success) or (not is_log and solver_converged(res))
 
     def run_fit(d, effects=(), fixed=None, start=None, record=True, patient=False, retry=True, cold=False,
-                weight_only=False):
+                weight_only=False, max_iter=None):
         kw = dict(fit_options)
+        if max_iter is not None:
+            kw["max_iter"] = int(max_iter)
         if is_log and effects and weight_only:
             # a candidate's fit on a training part only gives it a weight: one start (the second start of a
             # drive-log fit, tried when the first ends on a bound of F_max or K, roughly doubled the cost of
@@ -1084,6 +1099,14 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                     res = run_fit(_subset(data, tr), effects, start=start, patient=True)
                 elif not res.success:
                     flagged[name] = flagged.get(name, 0) + 1
+            elif is_log and not effects and "x0" in warm:
+                # the nominal model from the full-data answer: a few dozen iterations when it helps. From a
+                # soil on the corner of its bounds (a log whose slips stay in the noise) IPOPT can wander for
+                # its 500 iterations twice (28 s on a 3000-sample log, then failed); from its own starts it
+                # converges: so a short warm try, then the cold one
+                res = run_fit(_subset(data, tr), effects, weight_only=True, max_iter=WARM_MAX_ITER, record=False)
+                if not usable(res):
+                    res = run_fit(_subset(data, tr), effects, weight_only=True, cold=True)
             else:
                 res = run_fit(_subset(data, tr), effects, weight_only=True)
             fits.append(res)
