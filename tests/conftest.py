@@ -14,15 +14,19 @@ settings.register_profile("explore", deadline=None, print_blob=True)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "repeatable"))
 
 
-def independent_check():
-    """The plain-numpy oracle ``benchmarks/independent_check.py`` (not soilmodel), loaded as a module."""
+def bench_module(name: str):
+    """A script of ``benchmarks/`` (their plain-numpy data makers, not soilmodel), loaded as a module."""
     import importlib.util
 
-    spec = importlib.util.spec_from_file_location("independent_check",
-                                                  os.path.join(ROOT, "benchmarks", "independent_check.py"))
-    ic = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ic)
-    return ic
+    spec = importlib.util.spec_from_file_location(name, os.path.join(ROOT, "benchmarks", name + ".py"))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def independent_check():
+    """The plain-numpy oracle ``benchmarks/independent_check.py`` (not soilmodel), loaded as a module."""
+    return bench_module("independent_check")
 
 
 def independent_sweep(path, seed: int, **kw):

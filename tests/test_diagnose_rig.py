@@ -5,6 +5,7 @@ import os
 
 import numpy as np
 
+from conftest import bench_module
 from soiltrack.identify import diagnose
 from soiltrack.soilmodel import PRACTICAL_BOUNDS, SlipData, Vehicle
 
@@ -35,16 +36,7 @@ def test_a_humped_rig_sweep_with_zero_slip_rows_is_diagnosed():
 
 
 LIGHT = Vehicle.from_json(os.path.join(os.path.dirname(HERE), "examples", "data", "light_vehicle.json"))
-
-
-def _light_sweep(K, seed=3, n=30):
-    # effect-free tractive-force sweep of the light vehicle (W = 300 N, l = 0.5 m, A = 0.1 m^2)
-    rng = np.random.default_rng(seed)
-    i = np.linspace(0.01, 0.5, n)
-    fmax = _fmax(c=500.0, phi_deg=30.0, W=300.0, A=0.1)
-    x = i * 0.5 / K
-    F = fmax * (1 - (1 - np.exp(-x)) / x) + 0.01 * fmax * rng.standard_normal(n)
-    return SlipData(slip=i, tractive_force=F, source="small_rig.csv")
+_light_sweep = bench_module("soil_range_and_torque_hold").light_sweep  # effect-free, independent numpy
 
 
 def test_a_soil_beyond_the_practical_range_is_not_read_as_an_effect():
