@@ -577,7 +577,7 @@ _SOIL_META = ("identifiable", "converged", "at_bound", "outside_practical_range"
 
 
 def _soil_flag(soil: dict, key: str) -> str:
-    """`` (on its lower bound)``, `` (outside the practical range)``, `` (weakly determined...)`` or "" for a soil value."""
+    """The flags of a soil-summary value: on a bound, outside the practical range, weakly determined ("" if none)."""
     flags = []
     side = (soil.get("at_bound") or {}).get(key)
     if side:
@@ -631,7 +631,7 @@ def _soil_summary(res) -> dict:
 
 
 def _outside_practical(res) -> list[str]:
-    """The soil values of fit ``res`` outside the practical range (contract keys; fixed or unidentifiable ones left out)."""
+    """The soil values of fit ``res`` outside the practical range (contract keys; fixed, unidentifiable left out)."""
     out = []
     try:
         params = res.parameters
@@ -670,9 +670,9 @@ def _torque_hold_note(data, vehicle: Vehicle, model: str, nominal, fit_options: 
     if not lr > chi2_isf(alpha, 1):
         return None
     return (f"the logged torque is taken as a continuous signal sampled at each time (torque_hold='sample'): the "
-            f"nominal model fits the log significantly better than with the torque held from each sample to the next (a "
-            f"likelihood ratio of {lr:.3g}, p = {chi2_sf(lr, 1):.2g}). A torque transducer logs this way, a logged "
-            "command the other; the wrong one shifts the thrust by the torque's change over one sample, which "
+            "nominal model fits the log significantly better than with the torque held from each sample to the "
+            f"next (a likelihood ratio of {lr:.3g}, p = {chi2_sf(lr, 1):.2g}). A torque transducer logs this way, a "
+            "logged command the other; the wrong one shifts the thrust by the torque's change over one sample, which "
             "reads as a drivetrain loss, a grade or a mass error. Pass torque_hold='zoh' (command line: "
             "--torque-hold zoh) to keep the held torque")
 
@@ -706,9 +706,8 @@ def _noise_floors(resid: dict[str, np.ndarray], order: np.ndarray) -> tuple[dict
 
 @dataclass(frozen=True)
 class _WiderSoil:
-    """The nominal model refitted with :data:`WIDE_BOUNDS`: how much better it fits, and what to say."""
+    """The nominal model refitted with :data:`WIDE_BOUNDS`: its residuals, and what to say."""
 
-    drop: float   # chi-square drop against the bounded nominal fit (a log's over its long-run factor)
     note: str
     residuals: dict  # channel -> residual per sample of the nominal fit with the wider bounds
 
@@ -732,8 +731,9 @@ def _wider_soil(data, vehicle: Vehicle, model: str, nominal, R: dict, sig_n: dic
 
     The nominal model is fitted again on all the data with :data:`WIDE_BOUNDS`; the drop of the
     residuals' chi-square (:func:`_chi2_drop`) is a likelihood ratio with one degree of freedom per
-    freed bound. Returns the drop and the note that says so when it is significant at ``alpha`` and
-    the wider soil lies outside the practical range (not on the wide bounds too), else None.
+    freed bound. Returns the wider fit's residuals and the note that says so when it is significant
+    at ``alpha`` and the wider soil lies outside the practical range (not on the wide bounds too),
+    else None.
     """
     from .fitting import fit
 
@@ -775,9 +775,10 @@ def _wider_soil(data, vehicle: Vehicle, model: str, nominal, R: dict, sig_n: dic
         return f"{names[k]} = {v * f:.3g} {u}" if v is not None else f"{names[k]} (not identifiable alone)"
     on = ", ".join(f"{val(k, nominal.parameters[k].value)} on its {side} bound" for k, side in edges.items())
     now = ", ".join(val(k, wide.parameters[k].value) for k in _SOIL_KEYS if _SOIL_KEYS[k] in outside)
-    return _WiderSoil(lr, residuals=Rw, note=f"the nominal soil ended on the edge of the practical range ({on}) and the data want a soil "
-                          f"beyond it: with the bounds widened (c 0-200 kPa, phi 1-55 deg, K 2-250 mm) the nominal "
-                          f"model fits all the data better by a likelihood ratio of {lr:.3g} (p = {p:.2g}), with {now}")
+    return _WiderSoil(residuals=Rw, note=(
+        f"the nominal soil ended on the edge of the practical range ({on}) and the data want a soil beyond it: with "
+        f"the bounds widened (c 0-200 kPa, phi 1-55 deg, K 2-250 mm) the nominal model fits all the data better by "
+        f"a likelihood ratio of {lr:.3g} (p = {p:.2g}), with {now}"))
 
 
 def _effect_params(res, name: str) -> dict:
