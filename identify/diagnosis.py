@@ -648,12 +648,16 @@ def _outside_practical(res) -> list[str]:
     return out
 
 
+#: Effects a wrong torque hold imitates on a drive log (a shift of the thrust by its change over one sample).
+HOLD_LOOKALIKES = ("drivetrain_friction", "grade", "mass_error")
+
+
 def _torque_hold_note(data, vehicle: Vehicle, model: str, nominal, fit_options: dict, alpha: float) -> str | None:
     """Does the nominal model fit a log significantly better with its torque taken as sampled, not held?
 
     ``nominal`` is the nominal fit with the torque held (``"zoh"``); the other is started from its
     answer (one start, at most 60 iterations). Both have the same parameters, so their cost
-    difference is a likelihood ratio. Returns the note that says so, or None (keep ``"zoh"``).
+    difference is a likelihood ratio. Returns the note that says so, or None.
     """
     from .fitting import fit
 
@@ -669,12 +673,12 @@ def _torque_hold_note(data, vehicle: Vehicle, model: str, nominal, fit_options: 
     lr = 2.0 * (float(nominal.cost) - float(other.cost))
     if not lr > chi2_isf(alpha, 1):
         return None
-    return (f"the logged torque is taken as a continuous signal sampled at each time (torque_hold='sample'): the "
-            "nominal model fits the log significantly better than with the torque held from each sample to the "
-            f"next (a likelihood ratio of {lr:.3g}, p = {chi2_sf(lr, 1):.2g}). A torque transducer logs this way, a "
-            "logged command the other; the wrong one shifts the thrust by the torque's change over one sample, which "
-            "reads as a drivetrain loss, a grade or a mass error. Pass torque_hold='zoh' (command line: "
-            "--torque-hold zoh) to keep the held torque")
+    return ("the nominal model fits the log significantly better with the torque taken as a continuous signal "
+            f"sampled at each time (torque_hold='sample') than as held from each sample to the next (a likelihood "
+            f"ratio of {lr:.3g}, p = {chi2_sf(lr, 1):.2g}). A torque transducer logs the first way, a logged command "
+            "the other, and the wrong one shifts the thrust by the torque's change over one sample. A missing effect "
+            "can also make the sampled torque fit better (it does on some of the library's own held-torque logs), "
+            "so the hold is not switched: give torque_hold (command line: --torque-hold) if it is known")
 
 
 def _rms_per_dof(r: np.ndarray, n_par: int) -> float:
@@ -857,7 +861,7 @@ def _check_candidates(candidates, data) -> tuple[str, ...]:
 def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full",
              candidates: Sequence[str] | None = None, n_blocks: int = 10, n_folds: int | None = None,
              max_refits: int | None = None, alpha: float = ALPHA, weigh_outside: bool = True,
-             torque_hold: str = "auto", recheck_outliers: bool = True, bounds: SoilBounds | None = None,
+             torque_hold: str | None = None, recheck_outliers: bool = True, bounds: SoilBounds | None = None,
              progress: Callable[[str], None] | None = None) -> Diagnosis:
     """Diagnose the gap between the nominal model and a drive log or a slip sweep.
 
@@ -887,13 +891,12 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         ``False`` leaves the flexible term and the lack-of-fit test alone to catch a gap that no
         candidate explains (for validation).
     torque_hold
-        Drive log: ``"zoh"`` (torque held from each sample to the next: a logged command),
+        Drive log: ``"zoh"`` (torque held from each sample to the next: a logged command) or
         ``"sample"`` (a continuous torque signal sampled: a transducer), for every fit of the
-        diagnosis (:func:`~soiltrack.identify.drivelog.fit_drive_log`), or ``"auto"`` (the
-        default): ``"zoh"`` unless the nominal model fits the log significantly better with
-        ``"sample"`` (likelihood ratio at ``alpha``; the notes say which and why). The wrong one
-        shifts the thrust by the torque's change over one sample, which reads as a drivetrain loss,
-        a grade or a mass error.
+        diagnosis (:func:`~soiltrack.identify.drivelog.fit_drive_log`). None (the default):
+        ``"zoh"``, and a verdict the wrong hold imitates (a drivetrain loss, a grade, a mass
+        error) is named with confidence 0.5 at most when the nominal model fits the log
+        significantly better with ``"sample"`` (the notes say so).
     recheck_outliers
         When lone readings lie far off their neighbours
         (:func:`~soiltrack.identify.gap.isolated_outliers`; a sweep's residuals, a log's speed
@@ -921,9 +924,9 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     """
     from .fitting import fit
 
-    if torque_hold not in ("auto", "zoh", "sample"):
-        raise DataError(f"torque_hold must be 'auto', 'zoh' or 'sample', got {torque_hold!r}")
-    hold = "zoh" if torque_hold == "auto" else torque_hold
+    if torque_hold not in (None, "zoh", "sample"):
+        raise DataError(f"torque_hold must be 'zoh' or 'sample', got {torque_hold!r}")
+    hold = "zoh" if torque_hold is None else torque_hold
     fit_options: dict[str, Any] = {"torque_hold": hold} if isinstance(data, DriveLog) else {}
     fit_options["bounds"] = PRACTICAL_BOUNDS if bounds is None else bounds
     t0 = time.perf_counter()
@@ -938,10 +941,13 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     if n < MIN_SAMPLES:
         return _too_few(data, vehicle, model, cands, is_log, t0, fit_options)
     notes: list[str] = []
-    if is_log and torque_hold != "auto":
+    if is_log:
         notes.append("the logged torque is taken as " + (
+            "held from each sample to the next (torque_hold='zoh', the default; a torque sampled from a "
+            "continuous signal, e.g. a transducer, needs torque_hold='sample': the wrong one shifts the thrust by "
+            "its change over one sample, which reads as a grade or a drivetrain loss)" if torque_hold is None else
             "held from each sample to the next (torque_hold='zoh')" if hold == "zoh" else
-            "a continuous signal sampled at each time (torque_hold='sample')") + ", as asked")
+            "a continuous signal sampled at each time (torque_hold='sample')"))
 
     failed: list[str] = []
     flagged: dict[str, int] = {}  # model -> number of its fits only the plausibility checks refused
@@ -1011,18 +1017,6 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     say(f"screening {len(cands + outside)} effects: the nominal model on all {n} samples, with score tests")
     nominal_full, all_screens = screen(data, vehicle, cands + outside, model=model, hac_lag=lag,
                                        fit_options=fit_options)
-    if is_log and torque_hold == "auto":
-        hold_note = _torque_hold_note(data, vehicle, model, nominal_full, fit_options, alpha)
-        if hold_note is None:
-            notes.append("the logged torque is taken as held from each sample to the next (torque_hold='zoh'): "
-                         "a continuous signal sampled at each time does not fit the log significantly better")
-        else:
-            say("the logged torque fits better as a sampled continuous signal: the diagnosis again with it")
-            again = diagnose(data, vehicle, model=model, candidates=candidates, n_blocks=n_blocks, n_folds=n_folds,
-                             max_refits=max_refits, alpha=alpha, weigh_outside=weigh_outside, torque_hold="sample",
-                             recheck_outliers=recheck_outliers, bounds=bounds, progress=progress)
-            return replace(again, notes=(hold_note,) + tuple(n for n in again.notes if not n.endswith(", as asked")),
-                           elapsed_s=time.perf_counter() - t0)
     screens = [s for s in all_screens if s.effect in cands]
     stat_cos = (nominal_full.extra or {}).get("screening_stationarity", 0.0) if nominal_full.success else 0.0
     out_screens = [s for s in all_screens if s.effect in outside and s.screenable]
@@ -1694,6 +1688,12 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     if name not in (NOMINAL, "unexplained") and any(name in p for p, _, _ in conf):
         notes.append(f"{name} is named with low certainty (confidence {confidence:.2f}): the data cannot tell it "
                      "from " + ", ".join(x for p, _, _ in conf if name in p for x in p if x != name))
+    if is_log and torque_hold is None and name in HOLD_LOOKALIKES and confidence > 0.5:
+        # the torque's hold was not given: a transducer's sampled torque taken as held reads as these effects
+        hold_note = _torque_hold_note(data, vehicle, model, nominal_full, fit_options, alpha)
+        if hold_note is not None:
+            notes.append(hold_note + f": {name} is named with confidence 0.5 at most")
+            confidence = 0.5
     if wider is not None:
         # a soil beyond the practical range, or the verdict with the soil inside it? (chi-square drops against the
         # bounded nominal fit, Akaike's penalty of 2 per parameter the effect adds; the wider soil adds none)

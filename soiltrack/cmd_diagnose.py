@@ -34,7 +34,7 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
     from .soilmodel import PRACTICAL_BOUNDS, WIDE_BOUNDS
 
     bounds = {"auto": None, "practical": PRACTICAL_BOUNDS, "wide": WIDE_BOUNDS}[a.bounds]
-    d = diagnose(data, vehicle, model=a.model, candidates=cands, torque_hold=a.torque_hold or "auto",
+    d = diagnose(data, vehicle, model=a.model, candidates=cands, torque_hold=a.torque_hold,
                  bounds=bounds, progress=None if a.quiet else progress)
     print(d.to_json() if a.json else d.report())
     if a.plot:
@@ -51,10 +51,11 @@ def add_parser(sub) -> None:
     p.add_argument("--model", choices=("full", "cohesion-free"), default="full")
     p.add_argument("--candidates", metavar="A,B,...",
                    help="candidate effects (default: every effect that shows in this kind of data)")
-    p.add_argument("--torque-hold", choices=("auto", "zoh", "sample"), default=None,
-                   help="drive logs: zoh: the torque is held from each sample to the next (a logged command); "
-                        "sample: a continuous torque signal sampled at each time (a transducer); auto (default): "
-                        "zoh unless sample fits the log significantly better (the report says which)")
+    p.add_argument("--torque-hold", choices=("zoh", "sample"), default=None,
+                   help="drive logs: zoh: the torque is held from each sample to the next (a logged command; the "
+                        "default); sample: a continuous torque signal sampled at each time (a transducer). Not "
+                        "given: zoh, and a drivetrain loss, grade or mass error is named with confidence 0.5 at "
+                        "most when sample fits the log significantly better")
     p.add_argument("--bounds", choices=("auto", "practical", "wide"), default="auto",
                    help="soil bounds of the fits: the practical range (c 0-69 kPa, phi 6-40 deg, K 6-50 mm), "
                         "widened (c 0-200 kPa, phi 1-55 deg, K 2-250 mm), or auto (the default): practical, "
