@@ -58,6 +58,23 @@ def light_sweep(K: float, seed: int = 3, n: int = 30) -> SlipData:
     return SlipData(slip=i, tractive_force=F, source="small_rig.csv")
 
 
+def _sprocket(t, v, F, W, soil, l, A, r, I):
+    """Sprocket speed and the torque a transducer reads for thrust ``F`` (quasi-static slip by bisection).
+
+    Skid while braking is ``F(-i) = -F(i)``; samples at rest have zero sprocket speed and torque.
+    """
+    c, phi, K = soil
+    lo, hi = np.full(t.size, 1e-12), np.full(t.size, 0.95)
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        big = _thrust(mid, W, c, phi, K, l, A) > np.abs(F)
+        hi, lo = np.where(big, mid, hi), np.where(big, lo, mid)
+    moving = v > 1e-3
+    i = np.where(moving, np.sign(F) * 0.5 * (lo + hi), 0.0)
+    w = np.where(moving, v / (r * (1 - i)), 0.0)
+    return w, np.where(moving, r * F + I * np.gradient(w, t), 0.0)
+
+
 def stop_and_go_log(seed: int) -> DriveLog:
     """Effect-free 30 s stop-and-go log at 10 Hz, 8 t vehicle on LETE sand, torque read as a transducer does.
 
@@ -71,16 +88,7 @@ def stop_and_go_log(seed: int) -> DriveLog:
     t = np.arange(0.0, 30.0, 0.1)
     v = 2.5 * np.clip(np.sin(2 * np.pi * t / 21.0), 0.0, None) ** 2
     a = np.gradient(v, t)
-    F = m * a + W * mu
-    lo, hi = np.full(t.size, 1e-12), np.full(t.size, 0.95)
-    for _ in range(80):
-        mid = 0.5 * (lo + hi)
-        big = _thrust(mid, W, c, phi, K, l, A) > np.abs(F)
-        hi, lo = np.where(big, mid, hi), np.where(big, lo, mid)
-    moving = v > 1e-3
-    i = np.where(moving, np.sign(F) * 0.5 * (lo + hi), 0.0)
-    w = np.where(moving, v / (r * (1 - i)), 0.0)
-    M = np.where(moving, r * F + I * np.gradient(w, t), 0.0)
+    w, M = _sprocket(t, v, m * a + W * mu, W, (c, phi, K), l, A, r, I)
     return DriveLog(time=t,
                     sprocket_torque=M * (1 + rng.normal(0, 0.008, t.size)) + rng.normal(0, 0.0025 * r * W, t.size),
                     sprocket_speed=w * (1 + rng.normal(0, 0.0025, t.size)) + rng.normal(0, 0.008, t.size),
@@ -103,16 +111,7 @@ def cruise_log(vehicle: Vehicle, soil, seed: int, rate_hz: float = 50.0, duratio
     t = np.arange(0.0, duration_s, 1.0 / rate_hz)
     v = v_max * np.minimum(1.0, t / 8.0) * (0.8 + 0.02 * np.sin(t))
     a = np.gradient(v, t)
-    F = m * a + W * mu
-    lo, hi = np.full(t.size, 1e-12), np.full(t.size, 0.95)
-    for _ in range(80):
-        mid = 0.5 * (lo + hi)
-        big = _thrust(mid, W, c, phi, K, l, A) > np.abs(F)
-        hi, lo = np.where(big, mid, hi), np.where(big, lo, mid)
-    moving = v > 1e-3
-    i = np.where(moving, np.sign(F) * 0.5 * (lo + hi), 0.0)
-    w = np.where(moving, v / (r * (1 - i)), 0.0)
-    M = np.where(moving, r * F + I * np.gradient(w, t), 0.0)
+    w, M = _sprocket(t, v, m * a + W * mu, W, (c, phi, K), l, A, r, I)
     ns = noise_scale
     return DriveLog(time=t, vehicle_speed=v + rng.normal(0, 0.02 * v_max * ns, t.size),
                     sprocket_speed=w * (1 + rng.normal(0, 0.003 * ns, t.size)) + rng.normal(0, 0.01 * ns, t.size),
