@@ -115,7 +115,8 @@ def cruise_log(vehicle: Vehicle, soil, seed: int, rate_hz: float = 50.0, duratio
     ns = noise_scale
     return DriveLog(time=t, vehicle_speed=v + rng.normal(0, 0.02 * v_max * ns, t.size),
                     sprocket_speed=w * (1 + rng.normal(0, 0.003 * ns, t.size)) + rng.normal(0, 0.01 * ns, t.size),
-                    sprocket_torque=M * (1 + rng.normal(0, 0.01 * ns, t.size)) + rng.normal(0, 0.003 * r * W * ns, t.size),
+                    sprocket_torque=M * (1 + rng.normal(0, 0.01 * ns, t.size))
+                    + rng.normal(0, 0.003 * r * W * ns, t.size),
                     vehicle_accel=a + rng.normal(0, 0.05, t.size), source="cruise.csv")
 
 

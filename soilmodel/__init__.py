@@ -1,7 +1,7 @@
 """The vehicle and track-terrain model, written symbolically in CasADi, and its data.
 
 Public names: :class:`Soil`, :class:`Vehicle`, :data:`TERRAINS`, :data:`VEHICLES`,
-:data:`PRACTICAL_BOUNDS`, :func:`tractive_force`, :func:`read_csv`, :func:`write_csv`,
+:data:`PRACTICAL_BOUNDS`, :data:`WIDE_BOUNDS`, :func:`tractive_force`, :func:`read_csv`, :func:`write_csv`,
 :class:`SlipData` (tractive force or drawbar pull), :class:`DriveLog`, :class:`DataError`; the
 unmodelled effects (:data:`EFFECTS`, :func:`parse_effects`, :func:`thrust_with_effects`,
 :func:`sweep_measurement`: what a drawbar-pull rig reports), the dynamics
@@ -41,8 +41,8 @@ from .dynamics import (
 from .simulation import SensorNoise, simulate, simulate_drive_log, simulate_slip_sweep
 
 __all__ = [
-    "DataError", "DriveLog", "SlipData", "read_csv", "write_csv", "PARAMETER_NAMES", "PRACTICAL_BOUNDS", "WIDE_BOUNDS",
-    "SEED_ACTUAL", "TERRAINS", "Soil", "SoilBounds", "MODELS", "max_thrust", "sensitivity_function",
+    "DataError", "DriveLog", "SlipData", "read_csv", "write_csv", "PARAMETER_NAMES", "PRACTICAL_BOUNDS",
+    "WIDE_BOUNDS", "SEED_ACTUAL", "TERRAINS", "Soil", "SoilBounds", "MODELS", "max_thrust", "sensitivity_function",
     "thrust_expr", "thrust_function", "tractive_force", "tractive_force_sensitivities", "G", "VEHICLES",
     "Vehicle", "EFFECTS", "EffectSet", "EffectSpec", "ParamSpec", "effect_symbols", "parse_effects", "sweep_measurement",
     "thrust_with_effects", "tractive_force_with_effects", "SPROCKET_EQUATIONS", "dynamics_expr",

@@ -63,3 +63,25 @@ def test_a_soil_inside_the_practical_range_is_diagnosed_within_it():
     assert d.soil_before["at_bound"].get("shear_modulus_m") is None
     assert d.soil_before["outside_practical_range"] == []
     assert not any("soil beyond" in n for n in d.notes)
+
+
+def test_the_command_line_keeps_or_widens_the_bounds(tmp_path, capsys):
+    from soiltrack.cli import main
+    from soiltrack.soilmodel import write_csv
+
+    path = str(tmp_path / "small_rig.csv")
+    write_csv(_light_sweep(K=0.003), path)
+    out = {}
+    for b in ("practical", "auto"):
+        assert main(["diagnose", path, "--vehicle", "light", "--json", "--quiet", "--bounds", b]) == 0
+        out[b] = json.loads(capsys.readouterr().out)
+    assert out["practical"]["soil_before"]["at_bound"] == {"shear_modulus_m": "lower"}
+    assert out["practical"]["verdict"] != "none"
+    assert out["auto"]["verdict"] == "none"
+    assert out["auto"]["soil_before"]["outside_practical_range"] == ["shear_modulus_m"]
+    import subprocess
+    import sys
+
+    bad = subprocess.run([sys.executable, "-m", "soiltrack", "diagnose", path, "--vehicle", "light", "--bounds",
+                          "loose"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "--bounds" in bad.stderr and "Traceback" not in bad.stderr
