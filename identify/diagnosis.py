@@ -52,8 +52,8 @@ from .gap import (Segment, blocked_folds, change_window, isolated_outliers, lag_
                   noise_profile, range_share, whiteness)
 from .screening import Screen, newey_west_lag, screen
 from .sweep_model import SweepResiduals
-from .selection import (DISCREPANCY, LOOKALIKES, NOMINAL, confusable_groups, decide, dm_test, fit_discrepancy,
-                        gap_p_value, hat_basis, separating_experiment, stacking_weights, Verdict)
+from .selection import (DISCREPANCY, LOOKALIKES, NOMINAL, confusable_groups, cv_weights, decide, dm_test,
+                        fit_discrepancy, gap_p_value, hat_basis, separating_experiment, stacking_weights, Verdict)
 from .saturation import find_saturation
 from .stats import chi2_isf, chi2_sf
 from .verdict_checks import MIN_SHRINK, check_verdict, explained_fraction
@@ -1268,7 +1268,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             kpar[m] = len(f.effect_labels) - len(f.fixed_labels)
         return np.concatenate([rr[ch][full_ok] / sig_n[ch][full_ok] for ch in channels])
 
-    gap_p = gap_p_value(scores[NOMINAL], n_held, infl)
+    gap_infl = infl
     if not is_log:
         z_full = {m: z_in(m) for m in H}
         weights = information_weights(z_full, kpar)
@@ -1277,7 +1277,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         # misfit, not noise, and would turn a nominal error 35 x the noise floor into p = 0.26
         z_best = z_full[min(z_full, key=lambda m: float(np.sum(z_full[m] ** 2)))]
         if np.all(np.isfinite(z_best)) and z_best.size > 1:
-            gap_p = gap_p_value(scores[NOMINAL], n_held, max(1.0, float(np.var(z_best ** 2)) / 2.0))
+            gap_infl = max(1.0, float(np.var(z_best ** 2)) / 2.0)
+    gap_p = gap_p_value(scores[NOMINAL], n_held, gap_infl)
     disc_beats = {m: dm_test(zall(m), zall(DISCREPANCY), dm_lag) for m in H if m != DISCREPANCY}
     after_ratio = {c: max(float(np.sqrt(np.mean(z(c, ch) ** 2))) for ch in channels) for c in refit}
     after_p = {c: gap_p_value(scores[c], n_held, infl) for c in refit}
@@ -1716,7 +1717,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             except DataError:
                 pass
         if k_x > 0 and gain > chi2_isf(alpha, k_x):
-            w_x = 1.0 / (1.0 + math.exp(-0.5 * min(gain - 2.0 * k_x, 700.0)))  # Akaike weight against the wider soil
+            w_x = cv_weights({"wider soil": 0.0, name: 2.0 * k_x - gain})[name]  # Akaike weight against it
             notes.append(wider.note + f"; {name} with the soil inside the range fits significantly better still "
                          f"(chi-square {gain:.3g} lower, p = {chi2_sf(gain, k_x):.2g}; Akaike weight {w_x:.2f} against "
                          "the wider soil), so the verdict stands" + (f" with confidence {w_x:.2f} at most"
