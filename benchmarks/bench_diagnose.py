@@ -30,7 +30,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from soiltrack.identify import diagnose, fit  # noqa: E402
-from soiltrack.identify.diagnosis.sweep_parts import solver_converged  # noqa: E402
+from soiltrack.identify.estimates.records import solver_converged  # noqa: E402
 from soiltrack.identify.sweep.model import SweepResiduals  # noqa: E402
 from soiltrack.soilmodel import EFFECTS, TERRAINS, VEHICLES, DataError, DriveLog, SensorNoise, simulate  # noqa: E402
 
@@ -104,7 +104,7 @@ def run_case(kind, vname, tname, eff_name, mag, nname, seed, candidates=None, du
         noise_level = {data.channel: float(np.sqrt(np.mean((np.asarray(data.values) - truth.values) ** 2)))}
     det = detectability(kind, vehicle, soil, effects, seed, noise_level, duration)
     return {"kind": kind, "vehicle": vname, "terrain": tname, "effect": eff_name, "mag": mag, "noise": nname,
-            "seed": seed, "verdict": d.verdict, "confidence": d.confidence, "shrink": d.shrink, "gap_shrink": d.gap_shrink, "time": dt,
+            "seed": seed, "verdict": d.verdict, "confidence": d.confidence, "shrink": d.shrink, "explained": d.explained, "cause": d.cause, "time": dt,
             "det": det, "n": data.n_samples, "outside": weigh_outside, "confusable": [p for p, _, _ in d.confusable], "diag": d}
 
 
@@ -198,17 +198,18 @@ def summarise(rows, title):
     if free:
         fa = sum(r["verdict"] != "none" for r in free)
         print(f"false alarms on effect-free data: {fa}/{len(free)} = {fa / len(free):.0%}")
-    lone = [r for r in rows if any("far off" in n and "neighbours" in n for n in r["diag"].notes)]
-    print(f"lone readings flagged (the simulator makes no glitches, so each is a false flag): {len(lone)}/{len(rows)}"
-          + "".join(f"\n    {_line(r)}" for r in lone[:5]))
+    if rows and rows[0]["kind"] == "drive":
+        terr = [r for r in rows if r["cause"] == "terrain_change"]
+        print(f"uniform-soil logs that claim a change of terrain: {len(terr)}/{len(rows)}"
+              + "".join(f"\n    {_line(r)}" for r in terr[:5]))
     right = [r["shrink"] for r in rows if r["effect"] not in ("none",) and r["verdict"] == r["effect"]
              and r["shrink"] is not None]
     if right:
         print(f"median held-out shrink when right: {np.median(right):.2f} (n = {len(right)})")
-    gaps = [r["gap_shrink"] for r in rows if r["effect"] not in ("none",) and r["verdict"] == r["effect"]
-            and r.get("gap_shrink") is not None]
+    gaps = [r["explained"] for r in rows if r["effect"] not in ("none",) and r["verdict"] == r["effect"]
+            and r.get("explained") is not None]
     if gaps:
-        print(f"median share of the misfit above the noise removed (gap_shrink) when right: {np.median(gaps):.2f} "
+        print(f"median share of the excess error over the noise explained when right: {np.median(gaps):.2f} "
               f"(n = {len(gaps)})")
     ts = [r["time"] for r in rows]
     print(f"time per diagnosis: median {np.median(ts):.2f} s, max {max(ts):.2f} s (n = {len(ts)}; samples "
@@ -219,7 +220,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="a small grid (a few minutes)")
     ap.add_argument("--kinds", default="sweep,drive")
-    ap.add_argument("--png", default="bench_diagnose_confusion.png")
+    ap.add_argument("--png", default=os.path.join("out", "bench_diagnose_confusion.png"))
     ap.add_argument("--log-seconds", type=float, default=60.0, help="duration of the simulated drive logs")
     a = ap.parse_args(argv)
     kinds = [k for k in a.kinds.split(",") if k]
@@ -271,17 +272,14 @@ def main(argv=None) -> int:
                 t0 = time.perf_counter()
                 d = diagnose(log, v)
                 ool.append((label, d, time.perf_counter() - t0))
-                cw = d.change
-                win = 'none' if cw is None else f'{cw.start:.1f}-{cw.end:.1f} s significant={cw.significant}'
-                if cw is not None and hasattr(cw, "evidence_start"):  # drive log: bracket and evidence window
-                    win += (f" (evidence {cw.evidence_start:.1f}-{cw.evidence_end:.1f} s)")
-                    if "patch" in label:
-                        win += (f"; brackets the patch {t1}-{t2} s: {cw.start <= t1 and cw.end >= t2} "
-                                f"(start {t1 - cw.start:+.1f} s early, end {cw.end - t2:+.1f} s late)")
-                dl = d.lags.get("delay scan: speed residual vs sprocket-speed change over k samples")
-                if dl is not None and "delay" in label:
-                    win += f"; delay found: {dl['lag']} samples (significant={dl['significant']})"
-                print(f"OOL {label} seed {seed}: {d.verdict} ({d.confidence:.2f}); window {win}; "
+                det = d.cause_detail
+                win = f"cause {d.cause}"
+                if "window_s" in det:
+                    w0, w1 = det["window_s"]
+                    win += f" window {w0:.1f}-{w1:.1f} s (patch {t1}-{t2} s)"
+                if "lag_s" in det:
+                    win += f" lag {det['lag_s']:.3g} s ({det['lag_samples']} samples)"
+                print(f"OOL {label} seed {seed}: {d.verdict} ({d.confidence:.2f}); {win}; "
                       f"{d.elapsed_s:.1f} s", flush=True)
     for kind in kinds:
         summarise([r for r in rows if r["kind"] == kind], f"(a) effect withheld from the model, {kind}")
@@ -298,6 +296,7 @@ def main(argv=None) -> int:
         print(f"(c) out of library: {len(ool)} cases, confident (>0.5) names {bad}")
     if rows:
         labels = ["none"] + [e for e in EFFECTS if any(r["effect"] == e for r in rows)]
+        os.makedirs(os.path.dirname(a.png) or ".", exist_ok=True)
         confusion_png(rows, labels, a.png)
         print(f"confusion matrix saved to {a.png}")
     return 0

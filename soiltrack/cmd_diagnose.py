@@ -3,13 +3,15 @@ from __future__ import annotations
 
 import argparse
 
-from .cliutil import EXIT_OK, EXIT_SOLVER, vehicle_arg
+from .cliutil import EXIT_OK, EXIT_SOLVER, output_path, vehicle_arg
 
 
 def _cmd_diagnose(a: argparse.Namespace) -> int:
     from .identify import diagnose
     from .soilmodel import read_csv
 
+    if a.plot:
+        output_path(a.plot, "--plot", figure=True)  # checked before the work: exit 2, not a traceback after it
     vehicle = vehicle_arg(a.vehicle)
     data = read_csv(a.data)
     cands = None
@@ -21,7 +23,7 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
             raise DataError(f"--candidates expects comma-separated effect names, got {a.candidates!r}")
     from .soilmodel import DataError, DriveLog
 
-    if a.torque_hold is not None and not isinstance(data, DriveLog):
+    if a.torque_hold not in (None, "auto") and not isinstance(data, DriveLog):
         raise DataError("--torque-hold applies to drive logs only", file=a.data)
     import sys
     import time
@@ -34,7 +36,8 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
     from .soilmodel import PRACTICAL_BOUNDS, WIDE_BOUNDS
 
     bounds = {"auto": None, "practical": PRACTICAL_BOUNDS, "wide": WIDE_BOUNDS}[a.bounds]
-    d = diagnose(data, vehicle, model=a.model, candidates=cands, torque_hold=a.torque_hold,
+    hold = None if a.torque_hold == "auto" else a.torque_hold
+    d = diagnose(data, vehicle, model=a.model, candidates=cands, torque_hold=hold,
                  bounds=bounds, progress=None if a.quiet else progress)
     print(d.to_json() if a.json else d.report())
     if a.plot:
@@ -44,22 +47,24 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
 
 def add_parser(sub) -> None:
     """Register the ``diagnose`` subcommand on an argparse subparsers object."""
-    p = sub.add_parser("diagnose", help="where a model and measured data part, which unmodelled effect explains "
+    p = sub.add_parser("diagnose", description="Weigh every explanation of the gap between the nominal model "
+                       "and the data in one comparison (library effects, a flexible term, no gap, causes outside "
+                       "the library) and name the heaviest. Example: soiltrack diagnose log.csv --vehicle light "
+                       "--json", help="where a model and measured data part, which unmodelled effect explains "
                                         "it, and how far the gap shrinks (slip sweep or drive log)")
     p.add_argument("data", help="CSV: slip,tractive_force_N|drawbar_pull_N[,normal_load_N] or a drive log")
     p.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")
     p.add_argument("--model", choices=("full", "cohesion-free"), default="full")
     p.add_argument("--candidates", metavar="A,B,...",
                    help="candidate effects (default: every effect that shows in this kind of data)")
-    p.add_argument("--torque-hold", choices=("zoh", "sample"), default=None,
-                   help="drive logs: zoh: the torque is held from each sample to the next (a logged command; the "
-                        "default); sample: a continuous torque signal sampled at each time (a transducer). Not "
-                        "given: zoh, and a drivetrain loss, grade or mass error is named with confidence 0.5 at "
-                        "most when sample fits the log significantly better")
+    p.add_argument("--torque-hold", choices=("auto", "zoh", "sample"), default="auto",
+                   help="drive logs: zoh: the torque is held from each sample to the next (a logged command); "
+                        "sample: a continuous torque signal sampled at each time (a transducer); auto (the "
+                        "default): held, with the sampled torque weighed as a cause outside the library")
     p.add_argument("--bounds", choices=("auto", "practical", "wide"), default="auto",
                    help="soil bounds of the fits: the practical range (c 0-69 kPa, phi 6-40 deg, K 6-50 mm), "
                         "widened (c 0-200 kPa, phi 1-55 deg, K 2-250 mm), or auto (the default): practical, "
-                        "widened when the data want a soil beyond it (the report says so)")
+                        "with a soil beyond it weighed as a cause outside the library")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     p.add_argument("--plot", metavar="PNG", help="save a figure of the held-out residuals, weights and localisation")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")

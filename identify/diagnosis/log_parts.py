@@ -1,7 +1,7 @@
 """Drive-log parts of the diagnosis: a change of terrain in time, and a delay between channels.
 
-Two things a drive log can show that no effect of the library explains, and that must not be
-named as one (docs/physics.md, "Unmodelled effects"; :func:`~.diagnosis.diagnose` calls these for logs):
+Two things a drive log can show that no effect of the library explains; :mod:`.outside` makes
+each a hypothesis of the comparison from these tools:
 
 - :func:`terrain_window`: the time window in which the SOIL differs from the rest of the run
   (a softer patch). A change of soil does not shift the residual's mean: the thrust-slip curve
@@ -24,8 +24,7 @@ named as one (docs/physics.md, "Unmodelled effects"; :func:`~.diagnosis.diagnose
   ``k`` samples, ``w(t) - w(t - k)``, for ``k = -K..K``: a vehicle-speed sensor late by ``d``
   samples leaves ``r(t) ~ w(t) - w(t - d)`` (the encoder is not delayed and its noise is not the
   speed sensor's), so the lag with the largest t-statistic (Newey-West) estimates the delay.
-  :func:`delay_holdout` fits that term on the training part and predicts the held-out part, so
-  that the delay competes with the candidate effects on the same held-out data.
+  :func:`refine_delay` refits the nominal model on the log with the speed channel shifted.
 
 Pure numpy on the fit's residuals and sensitivities; no physics here.
 """
@@ -41,8 +40,7 @@ from .gap import long_run_factor
 from ..estimates.distributions import chi2_isf, chi2_sf
 from .screening import newey_west_lag
 
-__all__ = ["TerrainWindow", "terrain_window", "delay_scan", "delay_holdout", "DelayCheck", "delay_check",
-           "review_drive_log", "shift_speed", "refine_delay"]
+__all__ = ["TerrainWindow", "terrain_window", "delay_scan", "shift_speed", "refine_delay", "SPEED_CHANNEL"]
 
 
 @dataclass(frozen=True)
@@ -295,114 +293,6 @@ def delay_scan(residual: np.ndarray, sprocket_speed: np.ndarray, max_lag: int = 
     return out
 
 
-def _lag_matrix(w: np.ndarray, idx: np.ndarray, lags: list[int]) -> tuple[np.ndarray, np.ndarray]:
-    """Rows ``idx`` (those with every lag inside the log) of ``[wl(t) - w(t - k) for k in lags]``."""
-    n = w.size
-    wl = np.full(n, np.nan)
-    wl[1:-1] = 0.5 * (w[:-2] + w[2:])
-    kmin, kmax = min(lags), max(lags)
-    idx = idx[(idx - kmax >= 0) & (idx - kmin < n) & (idx >= 1) & (idx < n - 1)]
-    X = np.column_stack([wl[idx] - w[idx - k] for k in lags])
-    return X, idx
-
-
-def delay_holdout(residual_train: np.ndarray, residual_held: np.ndarray, sprocket_speed: np.ndarray,
-                  train: np.ndarray, test: np.ndarray, max_lag: int = 25) -> tuple[np.ndarray, dict]:
-    """The delay term fitted on the training samples, subtracted from the held-out residuals.
-
-    The term is a distributed lag: the speed residual regressed jointly on the sprocket-speed
-    changes over every lag ``2 <= |k| <= max_lag`` (a delay that is not a whole number of samples,
-    or that the latent slip partly absorbs, leaves a blend of lags). :func:`delay_scan` on the
-    training part names the dominant lag for the report.
-
-    Parameters
-    ----------
-    residual_train
-        Speed-channel residual of the training fit at every sample of the log (NaN where unused).
-    residual_held
-        The held-out residuals to correct (full length; only ``test`` is changed).
-    sprocket_speed
-        Measured sprocket speed per sample.
-    train, test
-        Sample indices of the two parts.
-
-    Returns
-    -------
-    (corrected, scan)
-        Full-length residuals with the training part's delay term removed on ``test``, and the
-        training part's :func:`delay_scan`.
-    """
-    scan = delay_scan(residual_train, sprocket_speed, max_lag, idx=np.asarray(train))
-    out = np.array(residual_held, dtype=float, copy=True)
-    w = np.asarray(sprocket_speed, dtype=float)
-    rt = np.asarray(residual_train, dtype=float)
-    L = int(min(max_lag, max(2, np.asarray(train).size // 40)))
-    lags = [k for k in range(-L, L + 1) if abs(k) >= 2]
-    tr = np.asarray(train)
-    tr = tr[np.isfinite(rt[tr])]
-    X, tr = _lag_matrix(w, tr, lags)
-    if tr.size < 4 * len(lags):
-        return out, scan
-    coef, *_ = np.linalg.lstsq(X, rt[tr], rcond=None)
-    Xt, te = _lag_matrix(w, np.asarray(test), lags)
-    ok = np.isfinite(out[te])
-    out[te[ok]] = out[te[ok]] - Xt[ok] @ coef
-    return out, scan
-
-
-@dataclass(frozen=True)
-class DelayCheck:
-    """The delay term as a competitor of the verdict on the held-out data.
-
-    Attributes
-    ----------
-    scan
-        :func:`delay_scan` on the training part (``lag`` in samples, ``seconds``, ``t_stat``, ...).
-    significant
-        The delay term predicts the held-out speed residuals significantly better than nothing
-        (Diebold-Mariano at ``alpha``) and its lag is significant on the training part.
-    gain
-        Drop of the held-out sum of squared standardised residuals the delay term gives.
-    """
-
-    scan: dict
-    significant: bool
-    gain: float
-
-    def summary(self) -> dict:
-        """JSON-friendly summary (the ``lags`` entry of a drive-log diagnosis)."""
-        s = self.scan
-        return {"lag": int(s["lag"]), "seconds": float(s.get("seconds", 0.0)), "t_stat": float(s["t_stat"]),
-                "p_value": float(s["p_value"]), "coef": float(s["coef"]), "r2": float(s["r2"]),
-                "holdout_gain": float(self.gain) if math.isfinite(self.gain) else None,
-                "significant": bool(self.significant)}
-
-
-def delay_check(train_residual: np.ndarray, held_residual: np.ndarray, sigma: np.ndarray, mask: np.ndarray,
-                sprocket_speed: np.ndarray, time_s: np.ndarray, train: np.ndarray, test: np.ndarray,
-                dm_lag: int, alpha: float = 0.01) -> DelayCheck:
-    """Fit the delay term on the training part, score it on the held-out part (speed channel).
-
-    ``train_residual`` / ``held_residual``: the nominal model's speed-channel residuals at every sample
-    (NaN elsewhere) from the training fit, on the training and the held-out samples; ``sigma`` the
-    noise level per sample; ``mask`` the held-out samples compared.
-    """
-    from .selection import dm_test
-
-    corrected, scan = delay_holdout(train_residual, held_residual, sprocket_speed, train, test)
-    h = float(np.median(np.diff(np.asarray(time_s, dtype=float)))) if len(time_s) > 1 else 0.0
-    scan = dict(scan, seconds=scan["lag"] * h)
-    scan.pop("t_by_lag", None)
-    z0 = held_residual[mask] / sigma[mask]
-    z1 = corrected[mask] / sigma[mask]
-    ok = np.isfinite(z0) & np.isfinite(z1)
-    if scan["lag"] == 0 or np.count_nonzero(ok) < 10:
-        return DelayCheck(scan, False, 0.0)
-    gain = float(np.sum(z0[ok] ** 2) - np.sum(z1[ok] ** 2))
-    sig = bool(scan["p_value"] < alpha and dm_test(z0[ok], z1[ok], dm_lag) < alpha)
-    return DelayCheck(scan, sig, gain)
-
-
 def shift_speed(data, k: int):
     """The log with its vehicle-speed channel moved ``k`` samples earlier (undoing a ``k``-sample delay).
 
@@ -424,123 +314,6 @@ def shift_speed(data, k: int):
 
 #: The speed channel of a drive-log fit's residuals (:data:`~.drivelog_joint.CHANNELS`).
 SPEED_CHANNEL = "sprocket_speed_rad_s"
-
-
-def review_drive_log(verdict, data, vehicle, nominal, H: dict, sigma: dict, mask: dict, folds, train_res: dict,
-                     scores: dict, dm_lag: int, alpha: float = 0.01, alternatives=()):
-    """The drive-log checks of :func:`~.diagnosis.diagnose` after the held-out comparison.
-
-    1. The change of terrain in time (:func:`terrain_window` on the nominal fit's per-sample scores).
-    2. The delay term (:func:`delay_check`) as a competitor of the verdict's effect: when it explains
-       more of the held-out misfit than the effect, the verdict is ``unexplained`` (a delay between the
-       channels is no effect of the library); when it explains part of it, the effect's confidence is
-       at most its share of the two gains.
-    3. A verdict ``none`` with a significant change of soil in time becomes ``unexplained`` - unless
-       one of ``alternatives``, ``(effect, fit)`` pairs of candidates fitted on the training part, best
-       first (``fit`` may be a callable that fits on demand: the candidates that screening did not keep
-       are fitted only here), removes that change when the window is sought on its own fit: then the
-       "change" is the effect's signature in time (a radius error offsets the slip by about -eps, which
-       weighs differently as the speed varies; a resistance growing with slip weighs on the windows of
-       hard acceleration), and the first such effect is named with confidence 0.5 (its held-out gain
-       alone was within the noise).
-
-    Returns
-    -------
-    (verdict, change, lags, notes)
-        The (possibly revised) :class:`~.selection.Verdict`, the :class:`TerrainWindow` (or None), the
-        ``{"delay scan ...": summary}`` entry for the diagnosis' ``lags`` and notes for the report.
-    """
-    from ...soilmodel.errors import DataError
-    from ..drivelog.sensitivity import drive_log_sensitivities
-    from .selection import NOMINAL, Verdict
-
-    notes: list[str] = []
-    lags: dict = {}
-    change = None
-    try:
-        sens = drive_log_sensitivities(nominal, data, vehicle)
-        scale = (float(nominal.extra.get("max_thrust_N", 1.0)), float(nominal.extra.get("shear_modulus_m", 1.0)))
-        change = terrain_window(sens.residuals, sens.jacobian, sens.time_s, scale=scale, alpha=alpha)
-    except DataError:
-        change = None
-    # the delay term, fitted on the first training part, scored on its held-out part
-    check = None
-    if SPEED_CHANNEL in H.get(NOMINAL, {}) and folds and train_res.get(NOMINAL):
-        tr, te = folds[0]
-        n = data.n_samples
-        rtr = np.full(n, np.nan)
-        rtr[tr] = train_res[NOMINAL][0][SPEED_CHANNEL]
-        held = np.full(n, np.nan)
-        held[te] = H[NOMINAL][SPEED_CHANNEL][te]
-        m = mask[SPEED_CHANNEL].copy()
-        m[tr] = False
-        check = delay_check(rtr, held, sigma[SPEED_CHANNEL], m, data.sprocket_speed, data.time, tr, te, dm_lag, alpha)
-        lags["delay scan: speed residual vs sprocket-speed change over k samples"] = check.summary()
-    name = verdict.name
-    if check is not None and check.significant and check.gain > 0:
-        # the exact delay model: the vehicle-speed channel shifted by the best whole number of samples,
-        # the nominal model refitted on the training part, scored on the held-out part like the candidates
-        # the side of the delay: the sign of the dominant lag of the scan on the training part
-        k, fit_k = refine_delay(nominal, data, vehicle, folds[0][0], int(np.sign(check.scan["lag"])))
-        exact = _delay_gain(k, fit_k, data, vehicle, H, sigma, mask, folds) if k != 0 else 0.0
-        h = float(np.median(np.diff(np.asarray(data.time, dtype=float))))
-        check = DelayCheck(dict(check.scan, lag=int(k), seconds=k * h, fir_gain=check.gain), k != 0, exact)
-        lags["delay scan: speed residual vs sprocket-speed change over k samples"] = check.summary()
-    if check is not None and check.significant and check.gain > 0:
-        lag_txt = (f"{abs(check.scan['lag'])} samples ({abs(check.scan['seconds']):.3g} s)")
-        late = "late" if check.scan["lag"] > 0 else "early"
-        if name not in (NOMINAL, "unexplained", "discrepancy"):
-            g_eff = float(scores[NOMINAL] - scores[name]) if math.isfinite(scores.get(name, math.inf)) else 0.0
-            share = max(0.0, g_eff) / (max(0.0, g_eff) + check.gain)
-            if check.gain > g_eff:
-                verdict = Verdict("unexplained", 1.0 - share,
-                                  f"the vehicle-speed channel looks {lag_txt} {late} against the sprocket speed: the "
-                                  f"nominal model refitted with that channel shifted back explains more of the held-out "
-                                  f"misfit than the best candidate, {name} (gain in the sum of squared standardised "
-                                  f"held-out residuals {check.gain:.0f} against {g_eff:.0f}); no library effect is a delay")
-                notes.append(f"{name} was the best candidate, but a {lag_txt} delay of the vehicle-speed channel "
-                             f"explains the held-out data better: check the time stamps of the speed sensor")
-            elif share < verdict.confidence:
-                verdict = Verdict(name, share, verdict.reason)
-                notes.append(f"a {lag_txt} delay of the vehicle-speed channel explains part of the held-out misfit "
-                             f"(gain {check.gain:.0f} against {g_eff:.0f} for {name}): {name} is named with "
-                             f"confidence {share:.2f} only")
-        elif name == NOMINAL:
-            verdict = Verdict("unexplained", max(0.0, 1.0 - float(check.scan["p_value"])),
-                              f"the vehicle-speed channel looks {lag_txt} {late} against the sprocket speed (the "
-                              f"nominal model refitted with it shifted back predicts the held-out data better); no "
-                              f"library effect is a delay")
-    if verdict.name == NOMINAL and change is not None and change.significant:
-        kept: list[tuple[str, Any]] = []  # (effect, its window): the effects that do not remove the change
-        for a_name, a_fit in alternatives:
-            try:
-                a_fit = a_fit() if callable(a_fit) else a_fit
-                if a_fit is None or not a_fit.success:
-                    continue
-                sa = drive_log_sensitivities(a_fit, data, vehicle)
-                ch_a = terrain_window(sa.residuals, sa.jacobian, sa.time_s, scale=scale, alpha=alpha)
-            except DataError:
-                continue
-            if ch_a is not None and ch_a.significant:
-                kept.append((a_name, ch_a))
-                continue
-            notes.append(f"the nominal model's soil seems to differ at {change.evidence_start:.4g}-"
-                         f"{change.evidence_end:.4g} s (p = {change.p_value:.2g}), but with {a_name} (fitted on the "
-                         f"training part) no time window differs "
-                         f"({'p = ' + format(ch_a.p_value, '.2g') if ch_a is not None else 'nothing to test'}): "
-                         f"it is {a_name}'s signature in time, not a change of terrain")
-            verdict = Verdict(a_name, 0.5, f"{a_name} removes the change of soil in time that the nominal model "
-                              "shows, while its held-out gain alone is within the noise: named with confidence 0.5")
-            break
-        if verdict.name == NOMINAL and kept:
-            notes.append("the change of soil in time stays significant with "
-                         + ", ".join(f"{a} (p = {w.p_value:.2g})" for a, w in kept) + " fitted on the training part")
-    if verdict.name == NOMINAL and change is not None and change.significant:
-        verdict = Verdict("unexplained", max(0.0, 1.0 - change.p_value),
-                          f"the soil differs in a time window ({change.evidence_start:.4g} to {change.evidence_end:.4g} s, "
-                          f"within {change.start:.4g} to {change.end:.4g} s; p = {change.p_value:.2g}): a change of "
-                          "terrain during the run, which no candidate effect describes")
-    return verdict, change, lags, notes
 
 
 def refine_delay(nominal, data, vehicle, train: np.ndarray, k0: int, max_lag: int = 25):
@@ -587,100 +360,3 @@ def refine_delay(nominal, data, vehicle, train: np.ndarray, k0: int, max_lag: in
     return sign * best, fits[best]
 
 
-def _delay_gain(k, res, data, vehicle, H, sigma, mask, folds) -> float:
-    """Held-out gain (all channels, standardised) of the training fit ``res`` on the log shifted by ``k``."""
-    from .selection import NOMINAL
-
-    tr, te = folds[0]
-    shifted = shift_speed(data, k)
-    try:
-        if res is None or not res.success:
-            return 0.0
-        from ..drivelog.residuals import drive_log_residuals
-
-        out = drive_log_residuals(res, shifted, vehicle)
-    except Exception:  # noqa: BLE001 - no delay model: no gain
-        return 0.0
-    keep = np.asarray(out["keep"])
-    idx = np.nonzero(keep)[0] if keep.dtype == bool else keep.astype(int)
-    gain = 0.0
-    n = data.n_samples
-    for ch, r in out["channels"].items():
-        if ch not in H[NOMINAL]:
-            continue
-        full = np.full(n, np.nan)
-        full[idx] = np.asarray(r, dtype=float)
-        m = mask[ch].copy()
-        m[tr] = False
-        z0 = H[NOMINAL][ch][m] / sigma[ch][m]
-        z1 = full[m] / sigma[ch][m]
-        ok = np.isfinite(z0) & np.isfinite(z1)
-        gain += float(np.sum(z0[ok] ** 2) - np.sum(z1[ok] ** 2))
-    return gain
-
-
-@dataclass(frozen=True)
-class ArmCheck:
-    """Does the torque arm follow a radius error's slip offset? (:func:`torque_arm_check`)
-
-    A radius error ``r (1 + eps)`` shifts the apparent slip and divides the sprocket thrust by
-    ``1 + eps``; a scale error of the vehicle-speed sensor shifts the slip the same way and leaves the
-    thrust alone. With a thrust scale ``1 + kappa`` fitted on top (jointly with the soil and eps,
-    linearised at the radius-error fit), a radius error has ``kappa = 0`` and a speed-sensor scale
-    error ``kappa = eps``.
-
-    Attributes
-    ----------
-    kappa, stderr
-        The thrust scale's estimate and standard error (widened for correlated residuals).
-    eps
-        The radius error's fitted eps.
-    z_radius, z_speed_scale
-        ``|kappa| / stderr`` and ``|kappa - eps| / stderr``: how far each explanation is off.
-    """
-
-    kappa: float
-    stderr: float
-    eps: float
-    z_radius: float
-    z_speed_scale: float
-
-
-def torque_arm_check(fit, data, vehicle, eps: float, h: float = 1e-4) -> ArmCheck | None:
-    """The thrust scale ``kappa`` on top of a radius-error fit of a drive log (see :class:`ArmCheck`).
-
-    Its profiled sensitivity is a difference quotient: the residuals with the logged torque and the
-    sprocket inertia scaled by ``1 + h`` (the sprocket thrust ``(M - I dw/dt) / r`` scaled), the
-    latent slips solved again, against those of the fit. None when the residuals cannot be evaluated.
-    """
-    from dataclasses import replace
-
-    from ...soilmodel.errors import DataError
-    from ..drivelog.sensitivity import drive_log_sensitivities
-
-    try:
-        s0 = drive_log_sensitivities(fit, data, vehicle)
-        s1 = drive_log_sensitivities(fit, replace(data, sprocket_torque=np.asarray(data.sprocket_torque, float) * (1 + h)),
-                                     replace(vehicle, sprocket_inertia=vehicle.sprocket_inertia * (1 + h)))
-    except DataError:
-        return None
-    if s0.residuals.shape != s1.residuals.shape or not np.array_equal(s0.keep, s1.keep):
-        return None
-    J, r = s0.stacked()
-    zk = ((s1.residuals - s0.residuals) / h).reshape(-1, 1)
-    A = np.hstack([J, zk])
-    ok = np.all(np.isfinite(A), axis=1) & np.isfinite(r)
-    A, r = A[ok], r[ok]
-    G = A.T @ A
-    try:
-        Gi = np.linalg.inv(G)
-    except np.linalg.LinAlgError:
-        return None
-    kappa = float(-(Gi @ (A.T @ r))[-1])
-    s2 = max(1.0, float(np.mean(r ** 2)))
-    infl = max(long_run_factor(s0.residuals[:, j]) for j in range(s0.residuals.shape[1]))
-    var = float(Gi[-1, -1]) * s2 * infl
-    if not (math.isfinite(kappa) and math.isfinite(var) and var > 0):
-        return None
-    se = math.sqrt(var)
-    return ArmCheck(kappa, se, float(eps), abs(kappa) / se, abs(kappa - eps) / se)

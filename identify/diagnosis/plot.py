@@ -1,12 +1,14 @@
 """The figure of a :class:`~.diagnosis.Diagnosis` (matplotlib, Agg)."""
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 __all__ = ["plot_diagnosis"]
 
 
-def plot_diagnosis(diag, path: str) -> str:
+def plot_diagnosis(diag: Any, path: str) -> str:
     """Save a figure of the diagnosis to ``path`` (PNG) and return the path.
 
     Top: held-out residuals of the main channel against time (log) or slip (sweep), nominal
@@ -37,16 +39,17 @@ def plot_diagnosis(diag, path: str) -> str:
     o = np.argsort(x, kind="stable")
     ax.plot(x[o], cv["before"][main][o], ".", ms=3, color="tab:red", alpha=0.6, label="nominal model")
     if cv.get("after") is not None:
-        lab = diag.verdict if diag.verdict != "unexplained" else "flexible discrepancy term"
+        lab = diag.verdict if diag.verdict != "unexplained" else (diag.cause or "flexible discrepancy term")
         ax.plot(x[o], cv["after"][main][o], ".", ms=3, color="tab:blue", alpha=0.6, label=f"with {lab}")
     s = diag.noise[main]
     ax.axhspan(-2 * s, 2 * s, color="0.85", zorder=0, label="+-2 x noise floor")
-    if diag.change is not None and diag.change.significant:
-        ax.axvspan(diag.change.start, diag.change.end, color="tab:orange", alpha=0.15,
-                   label=f"change window {diag.change.start:.3g}-{diag.change.end:.3g}")
+    win = diag.cause_detail.get("window_s")
+    if win is not None:
+        ax.axvspan(win[0], win[1], color="tab:orange", alpha=0.15,
+                   label=f"terrain-change window {win[0]:.3g}-{win[1]:.3g} s")
     ax.axhline(0, color="k", lw=0.6)
     ax.set_xlabel("time, s" if cv["x_label"] == "time" else "slip, -")
-    ax.set_ylabel(f"held-out residual, {main}\n(measured - predicted)")
+    ax.set_ylabel(f"held-out residual, {main}\n(measured - model)")
     ax.set_title(f"verdict: {diag.verdict} (confidence {diag.confidence:.2f})"
                  + ("" if diag.shrink is None else f", held-out error shrinks by {diag.shrink:.0%}"))
     ax.legend(fontsize=8, loc="best")
@@ -56,8 +59,8 @@ def plot_diagnosis(diag, path: str) -> str:
     ax2.set_yticks(range(len(names)), names, fontsize=8)
     ax2.invert_yaxis()
     ax2.set_xlim(0, 1)
-    ax2.set_xlabel("cross-validation weight" if diag.data_kind == "drive" else
-                   "weight of evidence (all the sweep, Akaike's penalty)")
+    ax2.set_xlabel("weight (held-out evidence)" if diag.data_kind == "drive" else
+                   "weight (in-sample evidence, Akaike's penalty)")
     ax3 = fig.add_subplot(gs[1, 1])
     segs = [sg for sg in diag.localisation if sg.dimension != "channel"][:8]
     labels = [f"{sg.dimension} {sg.range[0]:.3g}-{sg.range[1]:.3g}\n{sg.channel}" for sg in segs]

@@ -1,50 +1,26 @@
-"""Deciding which effect explains a gap: blocked cross-validation weights, the discrepancy term, the verdict.
+"""The comparison's tools: the flexible discrepancy term, pseudo-BMA+ weights, Diebold-Mariano tests.
 
-Every model compared - the nominal one (``"none"``), each candidate effect kept by screening,
-and a flexible discrepancy term standing for "something else" - is fitted on one part of the
-data and scored on the other (the two folds of :func:`~.gap.blocked_folds`), as the sum of
-squared held-out residuals standardised by each channel's noise floor. Held-out error is an
-estimate of minus twice the predictive log-likelihood, so the weights
-
-    w_m  proportional to  exp(-(S_m - S_min) / (2 f))
-
-are Akaike-type weights computed on data the fit did not see; ``f`` (>= 1) is the long-run
-variance factor of the residuals (:func:`~.gap.long_run_factor`): correlated residuals carry
-less evidence than their count says.
-
-The discrepancy term adds, to the nominal model's prediction, a low-order linear spline (hat
-functions on quantile knots) fitted to the nominal training residuals - in slip for a sweep,
-in time for a log. It is deliberately a two-stage fit (the soil is not refitted with it): it
-stands for any smooth gap, which no named effect can claim.
-
-The verdict (:func:`decide`):
-
-- ``none`` when no candidate's score test is significant and the discrepancy term does not
-  predict the held-out data significantly better than the nominal model (Diebold-Mariano
-  test, :func:`dm_test`), or when the nominal model outweighs every candidate;
-- ``unexplained`` when the discrepancy term predicts significantly better than the best
-  candidate, or when the best candidate still leaves a significant gap on held-out data (its
-  held-out RMS more than ``gap_ratio`` times the noise floor);
-- otherwise the best candidate. ``confidence`` is the weight of the verdict (for
-  ``unexplained``: the weight not carried by the best candidate).
-
-Weights are flattened (``f`` larger) when the held-out squared residuals are more dispersed
-than Gaussian noise makes them (``var(z^2) > 2``): a few large residuals are weak evidence.
+- The flexible term (:func:`fit_discrepancy`) adds, to the nominal model's prediction, a low-order
+  linear spline (hat functions on quantile knots, :func:`hat_basis`) fitted to the nominal training
+  residuals: in slip for a sweep, in time for a log. It stands for any smooth gap and names no physics.
+- :func:`stacking_weights`: pseudo-BMA+ weights of held-out log densities (Yao et al. 2018).
+- :func:`dm_test`: one-sided Diebold-Mariano test that one model predicts the held-out data better.
+- :func:`gap_p_value`: the held-out error against the noise floor (chi-square, corrected for
+  correlated or over-dispersed residuals).
+- :func:`confusable_groups` and :func:`separating_experiment`: effects the data cannot tell apart and
+  the experiment that would.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-
 import numpy as np
 
 from ..estimates.distributions import chi2_sf
 
-__all__ = ["SEPARATING_EXPERIMENTS", "separating_experiment", "hat_basis", "fit_discrepancy", "cv_weights",
-           "Verdict", "decide", "confusable_groups", "dm_test", "gap_p_value", "stacking_weights"]
+__all__ = ["SEPARATING_EXPERIMENTS", "LOOKALIKES", "separating_experiment", "hat_basis", "fit_discrepancy",
+           "confusable_groups", "dm_test", "gap_p_value", "stacking_weights"]
 
-DISCREPANCY = "discrepancy"
-NOMINAL = "none"
+from .hypotheses import DISCREPANCY, NOMINAL
 
 #: What experiment separates two effects that a given data set cannot tell apart (docs/physics.md,
 #: "Unmodelled effects": where each effect leaves its signature).
@@ -156,17 +132,6 @@ def fit_discrepancy(x_train: np.ndarray, r_train: np.ndarray, x_test: np.ndarray
 
 
 # ----------------------------------------------------------------------------- weights and verdict
-def cv_weights(scores: dict[str, float], inflation: float = 1.0) -> dict[str, float]:
-    """Akaike-type weights from held-out scores (sum of squared standardised held-out residuals)."""
-    finite = {k: v for k, v in scores.items() if v is not None and math.isfinite(v)}
-    if not finite:
-        return {k: 0.0 for k in scores}
-    smin = min(finite.values())
-    raw = {k: math.exp(-(v - smin) / (2.0 * max(1.0, inflation))) for k, v in finite.items()}
-    tot = sum(raw.values())
-    return {k: raw.get(k, 0.0) / tot for k in scores}
-
-
 def stacking_weights(pointwise: dict[str, np.ndarray], block: int = 1, n_boot: int = 400,
                      seed: int = 20261123) -> dict[str, float]:
     """Pseudo-BMA+ weights: Akaike-type weights averaged over a Bayesian bootstrap of the held-out samples.
@@ -257,72 +222,6 @@ def dm_test(z_a: np.ndarray, z_b: np.ndarray, lag: int = 0) -> float:
         return 0.0 if m > 0 else 1.0
     t = m / math.sqrt(v / n)
     return 0.5 * math.erfc(t / math.sqrt(2.0))
-
-
-@dataclass(frozen=True)
-class Verdict:
-    """The decision: ``name`` (effect, ``"none"`` or ``"unexplained"``), ``confidence`` and why."""
-
-    name: str
-    confidence: float
-    reason: str
-
-
-def decide(weights: dict[str, float], significant: list[str], disc_beats: dict[str, float],
-           after_ratio: dict[str, float], after_p: dict[str, float], alpha: float = 0.01,
-           gap_ratio: float = 1.5, evidence: str = "predicts the held-out data", gap: bool | None = None) -> Verdict:
-    """The verdict from the weights and tests (see the module docstring).
-
-    Parameters
-    ----------
-    weights
-        Weights of ``"none"``, ``"discrepancy"`` and the refitted candidates (cross-validation
-        weights, or for a sweep information-criterion weights on all the data).
-    significant
-        Candidates whose score test was significant.
-    disc_beats
-        Per model (``"none"`` and each refitted candidate): p-value that the discrepancy term
-        predicts the held-out data better (:func:`dm_test`).
-    after_ratio, after_p
-        Per refitted candidate: held-out RMS over the noise floor (worst channel; ``inf`` when a
-        flexible term on top of the candidate still predicts significantly better) and the
-        p-value of its held-out error against the noise floor.
-    evidence
-        What the weights measure, for the reasons (``"predicts the held-out data"`` or, on
-        sweeps, ``"fits all the data"``).
-    gap
-        Whether a gap is seen; default: the discrepancy term predicts the held-out data
-        significantly better than the nominal model (``disc_beats["none"] < alpha``).
-    """
-    w_none = weights.get(NOMINAL, 0.0)
-    w_disc = weights.get(DISCREPANCY, 0.0)
-    if gap is None:
-        gap = disc_beats.get(NOMINAL, 1.0) < alpha
-    named = {k: w for k, w in weights.items() if k not in (NOMINAL, DISCREPANCY)}
-    if not significant and not gap:
-        return Verdict(NOMINAL, max(w_none, 1.0 - w_disc),
-                       "no candidate's score is significant and a flexible term does not predict the held-out "
-                       "data significantly better than the nominal model")
-    if not named:
-        if gap:
-            return Verdict("unexplained", w_disc, "the nominal model leaves a significant gap on the held-out data, "
-                           "and no candidate effect screens significant")
-        return Verdict(NOMINAL, w_none, "the candidates that screened significant do not predict the held-out "
-                       "data better than the nominal model")
-    best = max(named, key=lambda k: named[k])
-    if w_none > named[best] and not gap:
-        return Verdict(NOMINAL, w_none, f"the nominal model {evidence} best")
-    if disc_beats.get(best, 1.0) < alpha:
-        return Verdict("unexplained", max(w_disc, 1.0 - named[best]),
-                       f"a flexible discrepancy term predicts the held-out data significantly better than the "
-                       f"best candidate, {best}")
-    if after_ratio.get(best, 0.0) > gap_ratio and after_p.get(best, 1.0) < alpha:
-        how = (f"a held-out error {after_ratio[best]:.1f} times the noise floor" if math.isfinite(after_ratio[best])
-               else "a smooth gap that a flexible term on top of it still predicts")
-        return Verdict("unexplained", 1.0 - named[best], f"the best candidate, {best}, still leaves {how}")
-    if w_none > named[best]:
-        return Verdict(NOMINAL, w_none, f"the nominal model {evidence} best")
-    return Verdict(best, named[best], f"{best} {evidence} best")
 
 
 def gap_p_value(ss: float, n: int, inflation: float = 1.0) -> float:

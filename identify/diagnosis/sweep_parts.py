@@ -1,32 +1,15 @@
-"""Sweep-only pieces of the diagnosis: usable fits, the blocked folds, in-sample evidence, imitation.
+"""Sweep-only pieces of the diagnosis: the blocked folds, in-sample evidence, lack of fit, a plateau.
 
-A tractive-force or drawbar-pull sweep has independent samples (one reading per slip), a few
-dozen of them, and effects whose signatures bend the thrust-slip curve. Three consequences,
-which :func:`~.diagnosis.diagnose` draws on sweeps:
+A tractive-force or drawbar-pull sweep has independent samples (one reading per slip), a few dozen
+of them, and effects whose signatures bend the thrust-slip curve:
 
-- **Which effect is decided on all the data.** Comparing candidates by their predictions of
-  held-out blocks fits each one on part of the sweep and asks it to extrapolate into the gaps
-  (and, for the end blocks, beyond the slips it saw): that throws away evidence and adds the
-  extrapolation error of the fit, which is largest for effects with a shape in slip. With
-  independent samples and a known noise level the efficient comparison is the likelihood on
-  all the data with a penalty for the parameters added (Akaike's information criterion),
-  averaged over a Bayesian bootstrap of the samples (pseudo-BMA+, :func:`information_weights`).
-  Held-out blocks still measure the gap, test the flexible term and give the shrink; a flexible
-  term that wins on all the data but predicts the held-out blocks no better than the nominal
-  model is a chance feature of the noise, not a gap (:func:`decide_sweep`).
-- **More folds** (:func:`sweep_folds`): each block held out once in five folds, so every fit
-  sees 80 % of the sweep instead of half of it.
-- **Imitation** (:func:`imitation_rms`): how closely effect B, refitted with the soil, can
-  reproduce the curve fitted with effect A, in units of the noise. When that is small, no
-  realisation of the noise can tell A from B with confidence; the pair is confusable.
-- **A gap the best candidate leaves** (:func:`lack_of_fit`): an F test of a flexible term
-  (hat functions in slip) added on top of the candidate's fit on all the data, its own
-  parameters refitted with it; the verdict (:func:`decide_sweep`) is ``unexplained`` then.
-
-A fit whose solver converged but whose answer fails the plausibility checks of
-:mod:`.plausibility` (residuals far off, rows that look like outliers) is exactly what a
-missing effect does to the nominal model: :func:`solver_converged` accepts it for the
-diagnosis and :func:`plausibility_warnings` says why it was flagged.
+- **In-sample evidence** (:func:`information_weights`): the likelihood of each fit on all the
+  data with Akaike's penalty, averaged over a Bayesian bootstrap (pseudo-BMA+); held-out blocks
+  would make an effect with a shape in slip extrapolate into the gaps it did not see.
+- **More folds** (:func:`sweep_folds`): each block held out once in five folds (the shrink).
+- **Lack of fit** (:func:`lack_of_fit`): an F test of a flexible term (hat functions in slip) on
+  top of a fit, its own parameters refitted with it.
+- **A plateau** (:func:`find_plateau`): the largest readings flat at one level within the noise.
 """
 from __future__ import annotations
 
@@ -36,25 +19,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...soilmodel.data import SlipData
-from ..estimates.distributions import betainc, f_sf  # noqa: F401 - re-exported (the F test's tail)
-from ..estimates.records import NOT_USABLE, solver_converged  # noqa: F401 - used by the diagnosis
+from ..estimates.distributions import f_sf
 
-__all__ = ["plausibility_warnings", "sweep_folds", "information_weights",
-           "imitation_rms", "effect_start", "betainc", "f_sf", "lack_of_fit", "decide_sweep", "fit_jacobian", "Plateau",
-           "find_plateau", "PLATEAU_SHARE"]
+__all__ = ["sweep_folds", "information_weights", "effect_start", "lack_of_fit",
+           "fit_jacobian", "Plateau", "find_plateau", "PLATEAU_SHARE"]
 
-
-
-def plausibility_warnings(res) -> list[str]:
-    """The plausibility warnings that made a converged fit 'not usable' (empty for a successful fit)."""
-    if getattr(res, "success", False):
-        return []
-    try:
-        ws = list(getattr(res, "warnings", ()) or ())
-    except Exception:  # noqa: BLE001 - a lazily built view that fails says nothing more
-        ws = []
-    flagged = [w for w in ws if str(w).startswith("NOT USABLE")]
-    return flagged or [w for w in ws if "outlier" in str(w) or "residual" in str(w)]
 
 
 def sweep_folds(order: np.ndarray, n_blocks: int = 10, n_folds: int = 5) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -136,46 +105,6 @@ def effect_start(res) -> dict:
     return out
 
 
-def imitation_rms(prediction: np.ndarray, data: SlipData, sigma: np.ndarray, fit_other) -> float:
-    """RMS, over the noise, of the best imitation of a fitted curve by another model.
-
-    Parameters
-    ----------
-    prediction
-        The curve to imitate at the samples of ``data`` (what the data would be without noise
-        if the first model were the truth), N.
-    data
-        The sweep (its slips, loads and what it measured).
-    sigma
-        Noise level per sample, N.
-    fit_other
-        ``fit_other(SlipData) -> (FitResult, residuals per sample)`` fitting the other model.
-
-    Returns
-    -------
-    float
-        ``sqrt(mean(((prediction - imitation) / sigma)^2))``; ``inf`` when the refit fails.
-        The expected difference of the two models' sums of squared standardised residuals on
-        such data is ``n`` times its square: below a few units the data cannot tell them apart.
-    """
-    key = "drawbar_pull" if data.measured == "drawbar_pull" else "tractive_force"
-    synth = SlipData(slip=np.asarray(data.slip, float), normal_load=data.normal_load,
-                     source=f"{data.source or 'sweep'} (noise-free curve of the verdict)",
-                     **{key: np.asarray(prediction, float)})
-    try:
-        res, r = fit_other(synth)
-    except Exception:  # noqa: BLE001 - a refit that cannot be made imitates nothing
-        return math.inf
-    if not solver_converged(res):
-        return math.inf
-    r = np.asarray(r, dtype=float)
-    s = np.asarray(sigma, dtype=float)
-    ok = np.isfinite(r) & (s > 0)
-    if not np.any(ok):
-        return math.inf
-    return float(np.sqrt(np.mean((r[ok] / s[ok]) ** 2)))
-
-
 # ----------------------------------------------------------------------------- lack of fit and the verdict
 def lack_of_fit(residuals: np.ndarray, jacobian: np.ndarray, basis: np.ndarray, sigma: np.ndarray) -> float:
     """p-value that a flexible term ``basis`` on top of a fitted model still explains its residuals (F test).
@@ -221,80 +150,6 @@ def lack_of_fit(residuals: np.ndarray, jacobian: np.ndarray, basis: np.ndarray, 
     if s1 <= 0:
         return 0.0 if s0 > 0 else 1.0
     return f_sf(((s0 - s1) / d1) / (s1 / d2), d1, d2)
-
-
-#: Held-out shrink from which a candidate that leaves a smooth residual is still named (capped at 0.5).
-PARTIAL_SHRINK = 0.5
-
-
-def decide_sweep(weights: dict[str, float], significant: list[str], gap: bool, lack_p: dict[str, float],
-                 alpha: float = 0.01, shrink: dict[str, float] | None = None, disc_held_p: float | None = None):
-    """The verdict on a sweep from information-criterion weights and the lack-of-fit test.
-
-    - ``none`` when no candidate screens significant and no gap is seen, or when the nominal model
-      outweighs every candidate;
-    - ``unexplained`` when the flexible term outweighs the best candidate, or when a flexible term
-      on top of the best candidate still explains its residuals (:func:`lack_of_fit` below ``alpha``)
-      and the candidate explains less than half of the held-out gap (``shrink`` below
-      :data:`PARTIAL_SHRINK`); with half or more it is named, its confidence capped at 0.5 (the
-      effect is there, but its form is not quite the library's, or a second cause adds to it);
-    - when the flexible term outweighs every candidate on all the data but predicts the held-out
-      blocks no better than the nominal model (``disc_held_p``, the Diebold-Mariano p-value, at
-      least ``alpha``), no structured gap is confirmed: ``none``, or a candidate whose own score is
-      significant, named at 0.5 at most (weights renormalised without the flexible term);
-    - otherwise the best candidate, with its weight as the confidence.
-
-    Returns a :class:`~.selection.Verdict`.
-    """
-    from .selection import DISCREPANCY, NOMINAL, Verdict
-
-    w_none = weights.get(NOMINAL, 0.0)
-    w_disc = weights.get(DISCREPANCY, 0.0)
-    named = {k: w for k, w in weights.items() if k not in (NOMINAL, DISCREPANCY)}
-    if not significant and not gap:
-        return Verdict(NOMINAL, max(w_none, 1.0 - w_disc),
-                       "no candidate's score is significant and the nominal model leaves no significant gap")
-    if not named:
-        if gap:
-            return Verdict("unexplained", w_disc, "the nominal model leaves a significant gap, and no candidate "
-                           "effect screens significant")
-        return Verdict(NOMINAL, w_none, "no candidate fits the data better than the nominal model")
-    best = max(named, key=lambda k: named[k])
-    if w_none >= named[best] and w_none >= w_disc:
-        return Verdict(NOMINAL, w_none, "the nominal model fits all the data best (likelihood with Akaike's "
-                       "penalty for the parameters an effect adds)")
-    if w_disc > named[best] and disc_held_p is not None and disc_held_p >= alpha:
-        # the flexible term wins on all the data but predicts the held-out blocks no better than the
-        # nominal model: its gain is a chance feature of this noise (or a floor set too low), not a
-        # structured gap; it leaves the comparison, and a name needs a significant score of its own
-        rest = w_none + sum(named.values())
-        wn = w_none / rest if rest > 0 else 1.0
-        wb = named[best] / rest if rest > 0 else 0.0
-        why = (f"a flexible term fits all the data better, but it does not predict the held-out blocks better than "
-               f"the nominal model (p = {disc_held_p:.2g}): no structured gap is confirmed")
-        if best in significant and wb > wn:
-            return Verdict(best, min(wb, 0.5), why + f"; {best} screens significant and is named, with confidence "
-                           "0.5 at most")
-        return Verdict(NOMINAL, max(wn, 1.0 - wb) if best not in significant else wn, why)
-    if w_disc > named[best]:
-        return Verdict("unexplained", 1.0 - named[best],
-                       f"a flexible discrepancy term fits all the data better than the best candidate, {best}, "
-                       "even with Akaike's penalty for its many parameters")
-    p = lack_p.get(best, 1.0)
-    if p < alpha:
-        sh = (shrink or {}).get(best, 0.0)
-        sh = sh if math.isfinite(sh) else 0.0
-        if sh >= PARTIAL_SHRINK:
-            return Verdict(best, min(named[best], 0.5),
-                           f"{best} explains most of the gap (held-out error shrinks by {sh:.0%}) but leaves a smooth "
-                           f"residual (a flexible term on top of it still explains it, F test p = {p:.2g}): the effect "
-                           "is there, but its form is not quite the library's, or a second cause adds to it, hence "
-                           "a confidence of at most 0.5")
-        return Verdict("unexplained", max(1.0 - named[best], 1.0 - max(sh, 0.0)),
-                       f"the best candidate, {best}, still leaves a smooth gap: a flexible term on top of it "
-                       f"explains its residuals (F test, p = {p:.2g}), and it explains only {max(sh, 0.0):.0%} of the "
-                       "held-out gap")
-    return Verdict(best, named[best], f"{best} fits all the data best (likelihood with Akaike's penalty)")
 
 
 def fit_jacobian(res, data: SlipData) -> np.ndarray:

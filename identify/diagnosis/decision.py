@@ -1,0 +1,122 @@
+"""The one decision rule: the verdict, its confidence, the cause, what cannot be told apart.
+
+Given the weights of the admissible hypotheses (:mod:`.evidence`) and the gap tests
+(:mod:`.gap_test`):
+
+1. No gap: the verdict is ``none``.
+2. A gap, and the heaviest hypothesis is a candidate effect that removes at least
+   ``min_explained`` of the nominal model's excess error over the noise: that effect.
+3. A gap, and the heaviest is a candidate that explains less, the flexible term, or a cause
+   outside the library (or an effect the user left out of the candidates): ``unexplained``, with
+   the cause named when the heaviest is one.
+4. A gap, and the heaviest is the nominal model: ``none``.
+
+The confidence is the verdict's weight as it stands in the ranking; for ``unexplained`` the summed
+weight of the hypotheses outside the candidates (the flexible term and the outside causes). Effects
+whose weights are close and whose sensitivities are collinear are ``confusable``, each pair with the
+experiment that separates them; the confidence is not capped for it.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .gap_test import GapDecision
+from .hypotheses import NOMINAL, Hypothesis
+from .selection import confusable_groups, separating_experiment
+from .settings import DiagnoseSettings
+
+__all__ = ["Decision", "decide", "UNEXPLAINED"]
+
+UNEXPLAINED = "unexplained"
+
+
+@dataclass(frozen=True)
+class Decision:
+    """The outcome of :func:`decide`.
+
+    Attributes
+    ----------
+    verdict
+        An effect name, ``"none"`` or ``"unexplained"``.
+    confidence
+        The verdict's weight (``unexplained``: the summed weight outside the candidates).
+    heaviest
+        The hypothesis with the largest weight.
+    explained
+        Share of the nominal excess error the heaviest removes (None when not computed).
+    cause, cause_detail
+        The outside cause that carries the gap (``unexplained`` only), and what names it.
+    reason
+        The rule that decided, with its numbers.
+    confusable
+        ``((a, b), correlation, experiment)`` per pair of effects the data cannot tell apart.
+    """
+
+    verdict: str
+    confidence: float
+    heaviest: str
+    explained: float | None
+    cause: str | None
+    reason: str
+    cause_detail: dict = field(default_factory=dict)
+    confusable: tuple = ()
+
+
+def _confusable(hyps: list[Hypothesis], weights: dict[str, float], directions: dict, verdict: str,
+                s: DiagnoseSettings) -> tuple:
+    """Pairs of library effects with close weights and collinear sensitivities, with their experiment."""
+    lib = {h.name: weights[h.name] for h in hyps if h.name in directions}
+    pairs = confusable_groups(lib, directions, min_ratio=s.confusable_ratio, min_corr=s.confusable_corr,
+                              min_weight=s.confusable_weight, verdict=verdict)
+    return tuple((p, c, separating_experiment(*p)) for p, c in pairs)
+
+
+def decide(hyps: list[Hypothesis], weights: dict[str, float], gap: GapDecision, directions: dict[str, np.ndarray],
+           settings: DiagnoseSettings) -> Decision:
+    """Apply the rule of the module docstring.
+
+    Parameters
+    ----------
+    hyps
+        The admissible hypotheses (the nominal model among them).
+    weights
+        Their weights (:mod:`.evidence`).
+    gap
+        The gap tests.
+    directions
+        Projected sensitivity of each library effect (screening), for the confusable pairs.
+    settings
+        ``min_explained`` and the confusable thresholds.
+    """
+    by = {h.name: h for h in hyps}
+    nominal = by[NOMINAL]
+    top = max(weights, key=lambda k: weights[k])
+    h = by[top]
+    w_out = float(sum(weights[x.name] for x in hyps if x.family in ("flexible", "outside")))
+    ex = h.explained(nominal) if h.family != "nominal" else math.nan
+    exv = None if not math.isfinite(ex) else float(ex)
+    conf = _confusable(hyps, weights, directions, top, settings)
+    if not gap.present:
+        return Decision(NOMINAL, weights[NOMINAL], top, exv, None,
+                        "no gap test is significant at the level " + f"{settings.alpha:g}", confusable=conf)
+    if h.family == "nominal":
+        return Decision(NOMINAL, weights[NOMINAL], top, None, None,
+                        f"a gap test is significant, but the nominal model carries the largest weight "
+                        f"({weights[NOMINAL]:.2f})", confusable=conf)
+    if h.family == "candidate" and (exv is None or exv >= settings.min_explained):
+        share = "" if exv is None else f" and removes {exv:.0%} of the nominal excess error over the noise"
+        return Decision(top, weights[top], top, exv, None,
+                        f"{top} carries the largest weight ({weights[top]:.2f}){share}", confusable=conf)
+    if h.family == "candidate":
+        return Decision(UNEXPLAINED, w_out, top, exv, None,
+                        f"{top} carries the largest weight ({weights[top]:.2f}) but removes only "
+                        f"{max(exv or 0.0, 0.0):.0%} of the nominal excess error over the noise (at least "
+                        f"{settings.min_explained:.0%} is needed)", confusable=conf)
+    cause = None if h.family == "flexible" else top
+    what = "the flexible discrepancy term" if cause is None else f"the outside cause {top}"
+    return Decision(UNEXPLAINED, w_out, top, exv, cause,
+                    f"{what} carries the largest weight ({weights[top]:.2f}); the hypotheses outside the "
+                    f"candidates weigh {w_out:.2f} together", cause_detail=dict(h.detail), confusable=conf)

@@ -1,0 +1,94 @@
+"""Is there a gap? The tests the decision uses, each with its p-value and level.
+
+A gap is present when any of these is significant at ``alpha`` (each printed in the report):
+
+- ``nominal error vs noise``: the nominal model's held-out error against the noise floor
+  (:func:`~.selection.gap_p_value`, the chi-square corrected for correlated or over-dispersed
+  residuals);
+- ``flexible term beats nominal`` (drive logs): the flexible term predicts the held-out data
+  better than the nominal model (Diebold-Mariano, :func:`~.selection.dm_test`);
+- ``heaviest beats nominal``: the heaviest hypothesis predicts (log) or fits (sweep: on the held-out
+  blocks) better than the nominal model by a Diebold-Mariano test AND its held-out RMS shrinks by at
+  least ``min_shrink`` (a gain of a fraction of a percent over hundreds of samples is no gap);
+- ``lack of fit`` (sweeps): a flexible term on top of the nominal fit explains its residuals
+  (F test, :func:`~.sweep_parts.lack_of_fit`);
+- ``pure-error lack of fit`` (sweeps whose rows repeat a condition): the spread of the group
+  means about the model against the spread within the groups (:func:`pure_error_lack_of_fit`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..estimates.distributions import f_sf
+
+__all__ = ["GapTest", "GapDecision", "pure_error_lack_of_fit", "decide_gap"]
+
+
+@dataclass(frozen=True)
+class GapTest:
+    """One test of the gap: what it asks, its p-value, the level it is held to."""
+
+    name: str
+    p_value: float
+    level: float
+
+    @property
+    def significant(self) -> bool:
+        """``p_value < level``."""
+        return bool(self.p_value < self.level)
+
+    def to_dict(self) -> dict:
+        """JSON entry."""
+        return {"test": self.name, "p_value": float(self.p_value), "level": float(self.level),
+                "significant": self.significant}
+
+
+@dataclass(frozen=True)
+class GapDecision:
+    """The gap tests and whether any is significant."""
+
+    tests: tuple[GapTest, ...]
+
+    @property
+    def present(self) -> bool:
+        """Whether a gap is present (any test significant)."""
+        return any(t.significant for t in self.tests)
+
+    def p_of(self, name: str) -> float:
+        """p-value of the test ``name`` (1 when it was not made)."""
+        return next((t.p_value for t in self.tests if t.name == name), 1.0)
+
+
+def pure_error_lack_of_fit(residuals: np.ndarray, sigma: np.ndarray, keys: np.ndarray, n_params: int) -> float | None:
+    """p-value of the pure-error lack-of-fit F test, or None when no condition is repeated.
+
+    Rows with the same ``keys`` repeat one condition (rig trials). With weights ``1/sigma^2``, the
+    pure error is the spread of the residuals within the groups, the lack of fit the spread of the
+    group means about zero less the ``n_params`` fitted; ``F = (SS_lof / (g - p)) / (SS_pe / (n - g))``.
+    """
+    r = np.asarray(residuals, dtype=float)
+    w = 1.0 / np.asarray(sigma, dtype=float) ** 2
+    ok = np.isfinite(r) & np.isfinite(w)
+    r, w, keys = r[ok], w[ok], np.asarray(keys)[ok]
+    _, inv = np.unique(keys, axis=0, return_inverse=True)
+    inv = np.asarray(inv).ravel()
+    g = int(inv.max()) + 1 if inv.size else 0
+    n = r.size
+    if g == n or n - g < 2 or g - n_params < 1:
+        return None
+    sw = np.bincount(inv, weights=w, minlength=g)
+    mean = np.bincount(inv, weights=w * r, minlength=g) / sw
+    ss_pe = float(np.sum(w * (r - mean[inv]) ** 2))
+    ss_lof = float(np.sum(sw * mean ** 2))
+    if ss_pe <= 0:
+        return 0.0 if ss_lof > 0 else 1.0
+    return f_sf((ss_lof / (g - n_params)) / (ss_pe / (n - g)), g - n_params, n - g)
+
+
+def decide_gap(p_values: dict[str, float | None], alpha: float) -> GapDecision:
+    """The :class:`GapDecision` from the p-values of the tests made (None: not made)."""
+    return GapDecision(tuple(GapTest(k, float(v), alpha) for k, v in p_values.items()
+                             if v is not None and math.isfinite(float(v))))

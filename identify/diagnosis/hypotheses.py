@@ -1,0 +1,133 @@
+"""Hypotheses: every explanation of a gap, in one form the comparison weighs.
+
+A :class:`Hypothesis` is the nominal model (``"none"``), a library effect, the flexible
+discrepancy term (``"discrepancy"``: any smooth gap, naming no physics) or a cause outside the
+library (:mod:`.outside`). Each states its parameter count, its standardised residuals on the
+samples the evidence is taken on (:class:`Frame`), and whether it is admissible: its fits
+converged and its parameters lie inside their range (an effect parameter on a bound is an effect
+stretched to imitate something else). An inadmissible hypothesis leaves the comparison.
+
+Residual convention: measured - model.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Frame", "Hypothesis", "NOMINAL", "DISCREPANCY", "FAMILIES"]
+
+NOMINAL = "none"
+DISCREPANCY = "discrepancy"
+
+#: ``nominal``: the model as it is; ``candidate``: a library effect among the candidates; ``flexible``: the
+#: discrepancy term; ``outside``: a cause outside the library, or a library effect the user left out of the
+#: candidates. The confidence of ``unexplained`` is the summed weight of ``flexible`` and ``outside``.
+FAMILIES = ("nominal", "candidate", "flexible", "outside")
+
+
+@dataclass(frozen=True, eq=False)
+class Frame:
+    """The samples the evidence is taken on, and the noise floor that standardises them.
+
+    Attributes
+    ----------
+    sigma
+        Noise floor per channel and sample (full length; NaN where unknown).
+    mask
+        Per channel, the samples compared (held out for a log, all usable ones for a sweep).
+    """
+
+    sigma: dict[str, np.ndarray]
+    mask: dict[str, np.ndarray]
+
+    @property
+    def channels(self) -> list[str]:
+        """The residual channels."""
+        return list(self.mask)
+
+    @property
+    def size(self) -> int:
+        """Number of standardised residuals compared."""
+        return int(sum(int(np.count_nonzero(m)) for m in self.mask.values()))
+
+    def z(self, residuals: dict[str, np.ndarray], fill: np.ndarray | None = None) -> np.ndarray:
+        """Standardised residuals on the compared samples, channel after channel.
+
+        ``fill`` (a z vector of the same layout, e.g. the nominal model's) replaces samples the
+        hypothesis leaves unpredicted (NaN), so that every hypothesis is scored on the same samples.
+        """
+        out = np.concatenate([np.asarray(residuals[ch], dtype=float)[m] / self.sigma[ch][m]
+                              for ch, m in self.mask.items()])
+        if fill is not None:
+            bad = np.isnan(out)
+            out[bad] = fill[bad]
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class Hypothesis:
+    """One explanation in the comparison.
+
+    Attributes
+    ----------
+    name
+        ``"none"``, an effect name, ``"discrepancy"`` or an outside cause (``"delay"``,
+        ``"terrain_change"``, ``"clipped_sensor"``, ``"sampled_torque"``, ``"soil_beyond_range"``,
+        ``"plateau"``).
+    family
+        One of :data:`FAMILIES`.
+    n_params
+        Parameters it adds to the nominal soil (the penalty of in-sample evidence).
+    residuals
+        Its residuals per channel (full length) on the samples the evidence uses: held out for a
+        log, fitted on all the data for a sweep.
+    z
+        Standardised residuals on the frame's samples (set by :meth:`scored`).
+    admissible, why
+        Whether it enters the comparison, and why not (empty when it does).
+    held
+        Held-out residuals per channel (full length), for the shrink; None when not held out.
+    parameters
+        Its fitted parameters ``{param: {value, stderr, ci95, identifiable, at_bound}}``.
+    detail
+        What names an outside cause (``lag_s``, ``window_s``, ``level``, ...).
+    fit
+        Its fit on all the data, when made.
+    """
+
+    name: str
+    family: str
+    n_params: int
+    residuals: dict[str, np.ndarray]
+    z: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    admissible: bool = True
+    why: str = ""
+    held: dict[str, np.ndarray] | None = None
+    parameters: dict = field(default_factory=dict)
+    detail: dict = field(default_factory=dict)
+    fit: Any = None
+
+    def scored(self, frame: Frame, fill: np.ndarray | None = None) -> "Hypothesis":
+        """This hypothesis with ``z`` on the frame's samples (see :meth:`Frame.z`)."""
+        return replace(self, z=frame.z(self.residuals, fill))
+
+    @property
+    def sum_squares(self) -> float:
+        """Sum of the squared standardised residuals (inf when any is not finite)."""
+        return float(self.z @ self.z) if np.all(np.isfinite(self.z)) else math.inf
+
+    def explained(self, nominal: "Hypothesis") -> float:
+        """Share of the nominal model's excess error over the noise that this hypothesis removes.
+
+        ``1 - max(E, 0) / E_nominal`` with ``E = S / n - 1`` (``S`` the sum of squared standardised
+        residuals over ``n``): at most 1, negative when it does worse, NaN when the nominal model
+        shows no excess (nothing to explain).
+        """
+        n = self.z.size
+        s0, s1 = nominal.sum_squares, self.sum_squares
+        if n == 0 or not (math.isfinite(s0) and math.isfinite(s1)) or s0 / n - 1.0 <= 0.0:
+            return math.nan
+        return 1.0 - max(s1 / n - 1.0, 0.0) / (s0 / n - 1.0)

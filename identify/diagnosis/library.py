@@ -1,0 +1,126 @@
+"""The model hypotheses: the nominal model, the library's effects and the flexible discrepancy term.
+
+Each is fitted the same way: on a drive log on the training blocks, predicting the held-out ones;
+on a sweep on all the data (its in-sample residuals are the evidence) and on each fold's training
+blocks (its held-out residuals give the shrink). The flexible term adds, to the nominal model's
+prediction, a linear spline (hat functions on quantile knots) fitted to the nominal residuals: in
+time for a log, in slip for a sweep. It is a two-stage fit standing for any smooth gap.
+
+An effect is admissible when its fits converged and none of its parameters ended on a bound (an
+effect stretched to its bound imitates something it is not).
+"""
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import numpy as np
+
+from ...soilmodel.errors import DataError
+from .fits import channels, effect_parameters, usable
+from .hypotheses import DISCREPANCY, NOMINAL, Hypothesis
+from .selection import fit_discrepancy
+from .setup import Setup
+
+__all__ = ["nominal_hypothesis", "flexible_hypothesis", "effect_hypothesis", "held_out"]
+
+
+def held_out(setup: Setup, fit_on: Callable[[np.ndarray], Any]) -> tuple[dict[str, np.ndarray], list, list]:
+    """Held-out residuals of the model ``fit_on(train) -> fit`` over the folds.
+
+    Returns the held-out residuals per channel (full length, NaN where not held out or not
+    predicted), the training fits, and the training residuals per fold (full length).
+    A log's fit is evaluated on the whole log and picked (each prediction uses the measured
+    inputs at its own sample); a sweep's on the held-out rows.
+    """
+    n = setup.n
+    held = {ch: np.full(n, np.nan) for ch in setup.channels}
+    fits, train_res = [], []
+    for tr, te in setup.folds:
+        res = fit_on(tr)
+        fits.append(res)
+        tres = {ch: np.full(n, np.nan) for ch in setup.channels}
+        try:
+            if setup.is_log:
+                full = channels(res, setup.data)
+                pick_te = {ch: full[ch][te] for ch in setup.channels}
+                pick_tr = {ch: full[ch][tr] for ch in setup.channels}
+            else:
+                pick_te = channels(res, setup.data.subset(te))
+                pick_tr = channels(res, setup.data.subset(tr))
+        except DataError:
+            pick_te = {ch: np.full(te.size, np.inf) for ch in setup.channels}
+            pick_tr = {ch: np.full(tr.size, np.nan) for ch in setup.channels}
+        for ch in setup.channels:
+            held[ch][te] = pick_te[ch]
+            tres[ch][tr] = pick_tr[ch]
+        train_res.append(tres)
+    return held, fits, train_res
+
+
+def nominal_hypothesis(setup: Setup) -> tuple[Hypothesis, list, list]:
+    """The nominal model, its training fits and its training residuals per fold (for the flexible term,
+    the delay and the change of terrain)."""
+    held, fits, train_res = held_out(setup, lambda tr: setup.runner.run_warm(tr))
+    ok = all(usable(f, setup.is_log) for f in fits)
+    resid = held if setup.is_log else setup.residuals
+    return Hypothesis(NOMINAL, "nominal", 0, resid, admissible=ok, why="" if ok else "a training fit failed",
+                      held=held, fit=setup.nominal_fit), fits, train_res
+
+
+def _spline(setup: Setup, x_tr: np.ndarray, r_tr: np.ndarray, x_at: np.ndarray) -> np.ndarray:
+    ok = np.isfinite(r_tr)
+    if np.count_nonzero(ok) < 2:
+        return np.zeros(x_at.size)
+    return fit_discrepancy(x_tr[ok], r_tr[ok], x_at, setup.n_knots)[0]
+
+
+def flexible_hypothesis(setup: Setup, nominal: Hypothesis, train_res: list) -> Hypothesis:
+    """The flexible discrepancy term on top of the nominal model (``n_knots`` parameters per channel)."""
+    x = setup.x
+    held = {ch: np.array(nominal.held[ch], copy=True) for ch in setup.channels}
+    for (tr, te), tres in zip(setup.folds, train_res):
+        for ch in setup.channels:
+            held[ch][te] = nominal.held[ch][te] - _spline(setup, x[tr], tres[ch][tr], x[te])
+    if setup.is_log:
+        resid = held
+    else:
+        resid = {ch: r - _spline(setup, x, r, x) for ch, r in setup.residuals.items()}
+    return Hypothesis(DISCREPANCY, "flexible", setup.n_knots * len(setup.channels), resid, held=held)
+
+
+def _stretched(fits: list, name: str) -> list[str]:
+    """Parameters of effect ``name`` on a bound in any of ``fits``."""
+    return sorted({p for f in fits if f is not None and getattr(f, "success", False)
+                   for p, d in effect_parameters(f, name).items() if d.get("at_bound")})
+
+
+def effect_hypothesis(setup: Setup, name: str, family: str) -> Hypothesis:
+    """Library effect ``name`` refitted with the soil (``family``: ``"candidate"`` or ``"outside"``)."""
+    run = setup.runner
+    eff = (name,)
+    full = None
+    if setup.is_log:
+        held, fits, _ = held_out(setup, lambda tr: run.run_warm(tr, eff))
+        resid = held
+    else:
+        full = run.run(None, eff)
+        try:
+            resid = channels(full, setup.data) if usable(full, False) else None
+        except DataError:
+            resid = None
+
+        def fit_fold(tr: np.ndarray) -> Any:
+            res = run.run(tr, eff)
+            return res if usable(res, False) or not usable(full, False) else run.refit_from(full, tr, eff)
+        held, fits, _ = held_out(setup, fit_fold)
+        if resid is None:
+            resid = {ch: np.full(setup.n, np.inf) for ch in setup.channels}
+    ref = fits[0] if setup.is_log else full
+    conv = all(usable(f, setup.is_log) for f in fits) and (full is None or usable(full, False))
+    at = _stretched(fits + ([full] if full is not None else []), name)
+    why = "" if conv and not at else ("a fit did not converge" if not conv else
+                                      f"{', '.join(at)} ended on {'its bound' if len(at) == 1 else 'their bounds'}")
+    n_par = len(getattr(ref, "effect_labels", ()) or ()) - len(getattr(ref, "fixed_labels", ()) or ())
+    params = effect_parameters(ref, name) if ref is not None and usable(ref, setup.is_log) else {}
+    return Hypothesis(name, family, max(1, n_par), resid, admissible=not why, why=why, held=held,
+                      parameters=params, fit=full)

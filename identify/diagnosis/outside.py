@@ -1,0 +1,218 @@
+"""Causes outside the library, each a hypothesis fitted and scored like the effects.
+
+Drive logs (held-out evidence: fitted on the training blocks, predicting the others):
+
+- ``delay``: the vehicle-speed channel late (or early) against the sprocket speed. The lag comes from
+  the nominal training residuals (:func:`~.log_parts.delay_scan`) and is refined by refits on the
+  shifted log (:func:`~.log_parts.refine_delay`); the hypothesis is the nominal model on the log with
+  the speed channel shifted back. Detail: ``lag_s``.
+- ``terrain_change``: the soil differs within a time window. The window comes from the score test of
+  the nominal training fit (:func:`~.log_parts.terrain_window`); the hypothesis is one soil fitted
+  on the training samples inside the window and another outside, each predicting its held-out
+  samples. It must beat the effects and the flexible term on held-out evidence like any other.
+  Detail: ``window_s`` (where the data show it) and ``bracket_s`` (where its boundaries can lie).
+- ``sampled_torque`` (when the torque hold was not given): the nominal model with the torque taken
+  as a sampled continuous signal instead of held.
+
+Both kinds of data:
+
+- ``soil_beyond_range``: the nominal model with the soil bounds widened, when the nominal soil
+  ends on an edge of the practical range (admissible when the wider soil lies outside it).
+- ``clipped_sensor``: readings piled up exactly at a channel's extreme (:func:`~.saturation.find_saturation`);
+  the nominal model fitted without them, a censored reading contributing one noise unit.
+
+Sweeps (penalised in-sample evidence): ``plateau``, the largest readings flat at one level within
+the noise where the soil fitted below still rises (:func:`~.sweep_parts.find_plateau`).
+
+A cause whose trace the data do not show (no significant lag, no significant window, nothing
+clipped, no soil on a bound) is listed as not formed, with the reason; it is not weighed.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ...soilmodel.errors import DataError
+from ...soilmodel.soil import PRACTICAL_BOUNDS, WIDE_BOUNDS
+from ..drivelog.sensitivity import drive_log_sensitivities
+from .fits import SOIL_KEYS, channels, outside_practical, usable
+from .hypotheses import Hypothesis
+from .library import held_out
+from .log_parts import SPEED_CHANNEL, delay_scan, refine_delay, shift_speed, terrain_window
+from .saturation import find_saturation
+from .setup import Setup
+from .sweep_parts import find_plateau
+
+__all__ = ["outside_hypotheses"]
+
+
+def _not_formed(name: str, why: str, n: int, channels_: list[str]) -> Hypothesis:
+    return Hypothesis(name, "outside", 0, {ch: np.full(n, np.inf) for ch in channels_}, admissible=False, why=why)
+
+
+def delay_hypothesis(setup: Setup, train_res: list) -> Hypothesis:
+    """The vehicle-speed channel delayed against the sprocket speed (drive logs)."""
+    s, data = setup.settings, setup.data
+    tr, te = setup.folds[0]
+    rtr = train_res[0].get(SPEED_CHANNEL)
+    if rtr is None:
+        return _not_formed("delay", "no speed channel", setup.n, setup.channels)
+    scan = delay_scan(rtr, data.sprocket_speed, s.max_delay_samples, idx=tr)
+    if not scan["p_value"] < s.alpha:
+        return _not_formed("delay", f"the delay scan finds no significant lag (p = {scan['p_value']:.2g})",
+                           setup.n, setup.channels)
+    k, fit_k = refine_delay(setup.nominal_fit, data, setup.runner.vehicle, tr,
+                            int(np.sign(scan["lag"])), s.max_delay_samples)
+    if k == 0 or fit_k is None:
+        return _not_formed("delay", "no shift of the speed channel fits the training blocks better",
+                           setup.n, setup.channels)
+    full = channels(fit_k, shift_speed(data, k))
+    held = {ch: np.full(setup.n, np.nan) for ch in setup.channels}
+    for ch in setup.channels:
+        held[ch][te] = full[ch][te]
+    h = float(np.median(np.diff(np.asarray(data.time, dtype=float))))
+    detail = {"lag_samples": int(k), "lag_s": float(k * h), "scan_p_value": float(scan["p_value"])}
+    return Hypothesis("delay", "outside", 1, held, held=held, detail=detail,
+                      parameters={"lag_s": {"value": float(k * h), "identifiable": True, "at_bound": False}})
+
+
+def terrain_hypothesis(setup: Setup, train_fit: Any) -> Hypothesis:
+    """A different soil inside a time window (drive logs)."""
+    s, data, run = setup.settings, setup.data, setup.runner
+    tr, te = setup.folds[0]
+    try:
+        sens = drive_log_sensitivities(train_fit, data.subset(tr), run.vehicle)
+        ex = setup.nominal_fit.extra
+        win = terrain_window(sens.residuals, sens.jacobian, sens.time_s, alpha=s.alpha,
+                             scale=(float(ex.get("max_thrust_N", 1.0)), float(ex.get("shear_modulus_m", 1.0))))
+    except DataError:
+        win = None
+    if win is None or not win.significant:
+        why = ("the soil's score test finds no window" if win is None else
+               f"no time window where the soil differs significantly (p = {win.p_value:.2g})")
+        return _not_formed("terrain_change", why, setup.n, setup.channels)
+    t = np.asarray(data.time, dtype=float)
+    inside = (t >= win.evidence_start) & (t <= win.evidence_end)
+    held = {ch: np.full(setup.n, np.nan) for ch in setup.channels}
+    try:
+        for part in (inside, ~inside):
+            f = run.run_warm(tr[part[tr]])
+            full = channels(f, data)
+            sel = te[part[te]]
+            for ch in setup.channels:
+                held[ch][sel] = full[ch][sel]
+    except DataError as e:
+        return _not_formed("terrain_change", f"a soil could not be fitted on one side of the window ({e})",
+                           setup.n, setup.channels)
+    detail = {"window_s": [float(win.evidence_start), float(win.evidence_end)],
+              "bracket_s": [float(win.start), float(win.end)], "score_p_value": float(win.p_value)}
+    return Hypothesis("terrain_change", "outside", 5, held, held=held, detail=detail)
+
+
+def sampled_torque_hypothesis(setup: Setup) -> Hypothesis:
+    """The nominal model with the logged torque taken as sampled, not held (drive logs, hold not given)."""
+    run = setup.runner
+    held, fits, _ = held_out(setup, lambda tr: run.run_warm(tr, torque_hold="sample"))
+    ok = all(usable(f, True) for f in fits)
+    return Hypothesis("sampled_torque", "outside", 0, held, admissible=ok, held=held,
+                      why="" if ok else "the fit with the sampled torque failed", detail={"torque_hold": "sample"})
+
+
+def _bound_edges(nominal: Any) -> dict[str, str]:
+    """Soil parameters on a practical bound that the wide bounds move."""
+    j_of = {name: j for j, name in enumerate(SOIL_KEYS)}
+    out = {}
+    for k, side in dict(getattr(nominal, "active_bounds", None) or {}).items():
+        if k in j_of:
+            pb = (PRACTICAL_BOUNDS.lower if side == "lower" else PRACTICAL_BOUNDS.upper)[j_of[k]]
+            wb = (WIDE_BOUNDS.lower if side == "lower" else WIDE_BOUNDS.upper)[j_of[k]]
+            if pb != wb:
+                out[k] = side
+    return out
+
+
+def wider_soil_hypothesis(setup: Setup) -> Hypothesis:
+    """The nominal model with the soil bounds widened (when the nominal soil ends on a practical edge)."""
+    run, nom = setup.runner, setup.nominal_fit
+    edges = _bound_edges(nom)
+    if not edges or setup.runner.options.get("bounds") is not PRACTICAL_BOUNDS:
+        return _not_formed("soil_beyond_range", "the nominal soil ends on no edge of the practical range"
+                           if not edges else "the soil bounds were given", setup.n, setup.channels)
+    x0 = np.asarray(nom.theta, dtype=float)
+    held, fits, _ = held_out(setup, lambda tr: run.run_warm(tr, bounds=WIDE_BOUNDS) if setup.is_log
+                             else run.run(tr, bounds=WIDE_BOUNDS, x0=x0))
+    ref = fits[0] if setup.is_log else run.run(None, bounds=WIDE_BOUNDS, x0=x0)
+    if not usable(ref, setup.is_log) or not outside_practical(ref) or any(k in edges for k in ref.active_bounds):
+        return _not_formed("soil_beyond_range", "the soil with the bounds widened stays in the practical range "
+                           "or ends on a wide bound", setup.n, setup.channels)
+    resid = held if setup.is_log else channels(ref, setup.data)
+    detail = {"outside_practical_range": outside_practical(ref), "on_practical_bound": sorted(edges)}
+    return Hypothesis("soil_beyond_range", "outside", 0, resid, held=held, detail=detail, fit=ref)
+
+
+def clipped_hypothesis(setup: Setup) -> Hypothesis:
+    """The nominal model fitted without the clipped readings; a censored reading counts one noise unit."""
+    sat = find_saturation(setup.data)
+    if not sat:
+        return _not_formed("clipped_sensor", "no channel piles up at its extreme", setup.n, setup.channels)
+    clipped = np.zeros(setup.n, dtype=bool)
+    for c in sat:
+        clipped[np.asarray(c.rows) - 1] = True
+    run = setup.runner
+    keep = np.nonzero(~clipped)[0]
+    try:
+        if setup.is_log:
+            held, _, _ = held_out(setup, lambda tr: run.run_warm(tr[~clipped[tr]]))
+            resid = held
+        else:
+            f = run.run(keep)
+            resid = channels(f, setup.data)
+            held = None
+    except DataError as e:
+        return _not_formed("clipped_sensor", f"no fit without the clipped readings ({e})", setup.n, setup.channels)
+    for ch in setup.channels:
+        resid[ch][clipped] = setup.sigma[ch][clipped]
+    detail = {"channels": sorted({c.channel for c in sat}), "rows": int(np.count_nonzero(clipped)),
+              "levels": {c.channel: float(c.level) for c in sat}}
+    return Hypothesis("clipped_sensor", "outside", 1, resid, held=held, detail=detail)
+
+
+def plateau_hypothesis(setup: Setup) -> Hypothesis:
+    """The soil below, one flat level on the largest readings (sweeps)."""
+    data, run, ch = setup.data, setup.runner, setup.channels[0]
+    values = np.asarray(data.values, dtype=float)
+
+    def fit_below(idx: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        try:
+            f = run.run(idx)
+            r = channels(f, data)[ch] if usable(f, False) else None
+        except DataError:
+            return None
+        if r is None:
+            return None
+        rest = np.setdiff1d(np.arange(setup.n), idx)
+        return r[idx], values[rest] - r[rest]
+
+    pl = find_plateau(values, setup.x, setup.sigma[ch], fit_below) if len(setup.channels) == 1 else None
+    if pl is None:
+        return _not_formed("plateau", "no flat level on the largest readings above a rising soil", setup.n,
+                           setup.channels)
+    detail = {"level_N": float(pl.level), "rows": len(pl.rows), "slip_range": list(pl.slip_range)}
+    return Hypothesis("plateau", "outside", 2, {ch: pl.z * setup.sigma[ch]}, detail=detail,
+                      parameters={"level_N": {"value": float(pl.level), "stderr": float(pl.level_stderr)
+                                              if math.isfinite(pl.level_stderr) else None,
+                                              "identifiable": True, "at_bound": False}})
+
+
+def outside_hypotheses(setup: Setup, train_res: list, train_fit: Any, hold_given: bool) -> list[Hypothesis]:
+    """Every outside cause this kind of data can show (formed or not)."""
+    out = [wider_soil_hypothesis(setup), clipped_hypothesis(setup)]
+    if setup.is_log:
+        out += [delay_hypothesis(setup, train_res), terrain_hypothesis(setup, train_fit)]
+        if not hold_given:
+            out.append(sampled_torque_hypothesis(setup))
+    else:
+        out.append(plateau_hypothesis(setup))
+    return out

@@ -1,0 +1,94 @@
+"""Every threshold, level and count of the diagnosis, each with the reason for its value.
+
+:class:`DiagnoseSettings` is the one place the decision code takes a number from; ``diagnose(...,
+settings=DiagnoseSettings(alpha=0.05))`` changes one of them for a run.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["DiagnoseSettings", "DEFAULT_SETTINGS"]
+
+
+@dataclass(frozen=True)
+class DiagnoseSettings:
+    """Thresholds, levels and counts of :func:`~.diagnose.diagnose` (frozen; one reason per field).
+
+    Attributes
+    ----------
+    alpha
+        Significance level of every test the decision uses (the gap tests, a cause's own test):
+        1 %, so that one diagnosis in a hundred of effect-free data sees a gap by chance.
+    min_explained
+        Least share of the nominal model's excess error over the noise that the heaviest hypothesis
+        must remove to be the verdict: below half, something else carries most of the gap.
+    min_shrink
+        Least held-out RMS shrink (with a significant Diebold-Mariano test) that shows a gap when the
+        nominal error alone is within the noise: 5 % is about what a half-size effect gives on a
+        one-minute log, and more than chance gains of hundreds of held-out samples.
+    min_samples
+        Fewest samples for a blocked hold-out: two folds of alternate blocks of at least 2 samples.
+    n_blocks
+        Contiguous blocks of the hold-out: 10 keeps a held-out block short against a run's trends
+        and long against the residuals' correlation time.
+    sweep_folds
+        Folds of a sweep's hold-out (each block held out once): every fit sees four fifths of it.
+    log_refits
+        Library effects refitted on a drive log (the strongest by score gain): each costs a fit of
+        a few hundred milliseconds; the score gain ranks the true effect in the first three on the
+        simulated grid.
+    log_outside_refits
+        Library effects outside the user's candidates refitted on a drive log (by score gain): the
+        two most likely imitators of the left-out truth.
+    warm_max_iter
+        IPOPT iterations of a warm-started drive-log fit (from the full-data answer): a hypothesis
+        close to the nominal soil converges in a few dozen; more is a wandering search.
+    retry_max_iter
+        IPOPT iterations of a sweep fit with an effect retried after a stall: strain-softening fits
+        meet the default 500 in a slow valley.
+    log_knots_per_sample, log_min_knots, log_max_knots
+        Knots of the flexible term in time on a log: one per 150 samples, 8 to 20 (a smooth trend,
+        not the noise).
+    sweep_samples_per_knot, sweep_min_knots, sweep_max_knots
+        Knots of the flexible term in slip on a sweep: one per 6 samples, 2 to 12.
+    confusable_ratio, confusable_corr, confusable_weight
+        Two library hypotheses are confusable when the smaller weight is at least this share of the
+        larger (and at least ``confusable_weight``) and their sensitivities are this collinear.
+    max_delay_samples
+        Largest delay between channels tried (samples): a quarter second at 100 Hz.
+    n_bootstrap
+        Bayesian-bootstrap replicates of the pseudo-BMA+ weights: 400 keeps their Monte Carlo error
+        below 0.01.
+    """
+
+    alpha: float = 0.01
+    min_explained: float = 0.5
+    min_shrink: float = 0.05
+    min_samples: int = 8
+    n_blocks: int = 10
+    sweep_folds: int = 5
+    log_refits: int = 3
+    log_outside_refits: int = 2
+    warm_max_iter: int = 60
+    retry_max_iter: int = 3000
+    log_knots_per_sample: int = 150
+    log_min_knots: int = 8
+    log_max_knots: int = 20
+    sweep_samples_per_knot: int = 6
+    sweep_min_knots: int = 2
+    sweep_max_knots: int = 12
+    confusable_ratio: float = 0.2
+    confusable_corr: float = 0.9
+    confusable_weight: float = 0.05
+    max_delay_samples: int = 25
+    n_bootstrap: int = 400
+
+    def knots(self, n: int, is_log: bool) -> int:
+        """Knots of the flexible term for ``n`` samples of a log or a sweep."""
+        if is_log:
+            return int(min(self.log_max_knots, max(self.log_min_knots, n // self.log_knots_per_sample)))
+        return int(max(self.sweep_min_knots, min(self.sweep_max_knots, n // self.sweep_samples_per_knot)))
+
+
+#: The settings :func:`~.diagnose.diagnose` uses when none are given.
+DEFAULT_SETTINGS = DiagnoseSettings()

@@ -1,0 +1,157 @@
+"""The data step: candidates, folds, the nominal fit's residuals and the noise floor.
+
+:class:`Setup` is what every later step of the diagnosis reads: the fit runner, the nominal fit
+on all the data and its residuals (measured - model), the hold-out folds, the natural variable
+(time for a log, slip for a sweep) and the noise floor per channel and sample
+(:func:`~.gap.noise_profile` of the residuals in that order).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ...soilmodel.data import DriveLog
+from ...soilmodel.effects import EFFECTS
+from ...soilmodel.errors import DataError
+from .fits import FitRunner
+from .gap import blocked_folds, noise_profile
+from .screening import newey_west_lag
+from .settings import DiagnoseSettings
+from .sweep_parts import sweep_folds
+
+__all__ = ["Setup", "check_candidates", "noise_floors", "make_folds"]
+
+
+def check_candidates(candidates: Any, is_log: bool) -> tuple[str, ...]:
+    """The candidate effects: the given names checked, or every effect that shows in this kind of data.
+
+    Raises
+    ------
+    DataError
+        An unknown effect name.
+    """
+    kind = "drive" if is_log else "sweep"
+    if candidates is None:
+        return tuple(n for n, e in EFFECTS.items() if kind in e.shows_in)
+    if isinstance(candidates, str):
+        candidates = [c for c in candidates.split(",") if c.strip()]
+    out: list[str] = []
+    for c in candidates:
+        c = str(c).strip()
+        if c not in EFFECTS:
+            raise DataError(f"unknown candidate effect {c!r}; valid: {', '.join(EFFECTS)}")
+        if c not in out:
+            out.append(c)
+    return tuple(out)
+
+
+def noise_floors(resid: dict[str, np.ndarray], order: np.ndarray) -> tuple[dict[str, np.ndarray], set[str]]:
+    """The noise floor per sample of each channel's residuals along ``order``.
+
+    Returns the floors (NaN where a residual is not finite) and the channels without measurable
+    noise (a noise-free simulated run), whose floor is set to a negligible value instead of zero.
+    """
+    floors, flat = {}, set()
+    for ch, rr in resid.items():
+        ok = np.isfinite(rr)
+        o = order[ok[order]]
+        prof = noise_profile(rr[o])
+        if not np.all(prof > 0):
+            scale = float(np.max(np.abs(rr[ok]))) if np.any(ok) else 0.0
+            prof = np.full(o.size, max(1e-12, 1e-9 * scale))
+            flat.add(ch)
+        sg = np.full(rr.size, np.nan)
+        sg[o] = prof
+        floors[ch] = sg
+    return floors, flat
+
+
+def make_folds(data: Any, order: np.ndarray, s: DiagnoseSettings) -> list[tuple[np.ndarray, np.ndarray]]:
+    """A log: one fold (fit on the even blocks in time, predict the odd ones); a sweep: every block
+    held out once over :attr:`~.settings.DiagnoseSettings.sweep_folds` folds (blocks in slip)."""
+    n = data.n_samples
+    if isinstance(data, DriveLog):
+        return [(np.sort(order[a]), np.sort(order[b])) for a, b in blocked_folds(n, s.n_blocks)][:1]
+    return sweep_folds(order, s.n_blocks, s.sweep_folds)
+
+
+@dataclass(frozen=True, eq=False)
+class Setup:
+    """Everything the later steps read (see the module docstring).
+
+    Attributes
+    ----------
+    runner
+        The fits.
+    nominal_fit
+        The nominal model on all the data (the screening fit).
+    residuals
+        Its residuals per channel, full length.
+    sigma
+        Noise floor per channel and sample.
+    flat
+        Channels without measurable noise.
+    folds
+        ``(train, test)`` sample indices.
+    x
+        The natural variable per sample (time, s, or slip).
+    order
+        Sample indices in natural order.
+    """
+
+    runner: FitRunner
+    nominal_fit: Any
+    residuals: dict[str, np.ndarray]
+    sigma: dict[str, np.ndarray]
+    flat: frozenset
+    folds: list
+    x: np.ndarray
+    order: np.ndarray
+
+    @property
+    def data(self) -> Any:
+        """The diagnosed data."""
+        return self.runner.data
+
+    @property
+    def is_log(self) -> bool:
+        """Whether the data are a drive log."""
+        return self.runner.is_log
+
+    @property
+    def settings(self) -> DiagnoseSettings:
+        """The settings."""
+        return self.runner.settings
+
+    @property
+    def channels(self) -> list[str]:
+        """The residual channels."""
+        return list(self.residuals)
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return int(self.data.n_samples)
+
+    @property
+    def n_knots(self) -> int:
+        """Knots of the flexible term."""
+        return self.settings.knots(self.n, self.is_log)
+
+    @property
+    def dm_lag(self) -> int:
+        """Newey-West lag of the Diebold-Mariano tests (0 for a sweep's independent samples)."""
+        return newey_west_lag(self.n) if self.is_log else 0
+
+    @property
+    def compared(self) -> dict[str, np.ndarray]:
+        """Per channel, the samples the evidence compares: a log's held-out ones, all of a sweep's."""
+        ok = {ch: np.isfinite(self.residuals[ch]) & (np.nan_to_num(self.sigma[ch]) > 0) for ch in self.channels}
+        if not self.is_log:
+            return ok
+        held = np.zeros(self.n, dtype=bool)
+        for _, te in self.folds:
+            held[te] = True
+        return {ch: m & held for ch, m in ok.items()}
