@@ -185,12 +185,11 @@ def main(argv=None) -> int:
             wrong = not ok and j["verdict"] not in ("none", "unexplained") and j["confidence"] > 0.5
             right += ok
             confident_wrong += wrong
-            win = j.get("change_window") or {}
-            extra = (f"  window {win.get('start')}-{win.get('end')} s" if kind == "drive" and "patch" in label else "")
-            if "glitches" in label:
-                rows = "row 301 (t = 15 s), row 801 (t = 40 s)" if kind == "drive" else None
-                named = any((rows in n) if rows else n.startswith("rows 18, 42 ") for n in j.get("notes", []))
-                extra += f"  glitch rows named: {'yes' if named else 'NO'}"
+            extra = f"  cause {j.get('cause')}" if j.get("cause") else ""
+            if j.get("window_s"):
+                extra += f"  window {j['window_s'][0]:.1f}-{j['window_s'][1]:.1f} s"
+            if j.get("lag_s") is not None:
+                extra += f"  lag {j['lag_s']:.3g} s"
             shrink = j.get("shrink")
             print(f"{kind:5s} {label:28s} seed {seed}: {j['verdict']:20s} confidence {j['confidence']:.2f}  "
                   f"shrink {'-' if shrink is None else f'{shrink:.2f}'}  exit {p.returncode}  {dt:5.1f} s"

@@ -7,7 +7,7 @@ import pytest
 from soiltrack.identify.diagnosis.gap import (blocked_folds, chi2_isf, chi2_sf, change_window, lag_peak, localise, noise_profile,
                                      long_run_factor, noise_floor, whiteness)
 from soiltrack.identify.diagnosis.screening import project_off, score_test
-from soiltrack.identify.diagnosis.selection import (DISCREPANCY, NOMINAL, confusable_groups, cv_weights, decide, dm_test,
+from soiltrack.identify.diagnosis.selection import (confusable_groups, dm_test,
                                           fit_discrepancy, hat_basis, separating_experiment)
 
 
@@ -110,29 +110,6 @@ def test_discrepancy_spline_predicts_a_smooth_gap_between_blocks():
         assert k == 8 and np.max(np.abs(pred - y[te])) < 0.04  # measured 0.026 and 0.022
     B = hat_basis(x, np.linspace(0, 1, 5))
     assert np.allclose(B.sum(axis=1), 1.0)
-
-
-def test_weights_and_verdicts():
-    w = cv_weights({NOMINAL: 500.0, DISCREPANCY: 110.0, "grade": 100.0, "mass_error": 101.0})
-    assert sum(w.values()) == pytest.approx(1.0)
-    assert w["grade"] > w["mass_error"] > w[DISCREPANCY] > w[NOMINAL]
-    gap = {NOMINAL: 1e-12, "grade": 0.9, "mass_error": 0.9}  # discrepancy beats nominal only
-    v = decide(w, ["grade", "mass_error"], gap, {"grade": 1.0, "mass_error": 1.0}, {"grade": 0.5, "mass_error": 0.5})
-    assert v.name == "grade" and v.confidence == pytest.approx(w["grade"])
-    # the best candidate leaves a gap three times the noise: unexplained
-    v = decide(w, ["grade"], gap, {"grade": 3.0, "mass_error": 3.0}, {"grade": 1e-9, "mass_error": 1e-9})
-    assert v.name == "unexplained"
-    # the discrepancy term predicts significantly better than the best candidate: unexplained
-    assert decide(w, ["grade"], {NOMINAL: 1e-12, "grade": 1e-5}, {"grade": 1.0}, {"grade": 0.5}).name == "unexplained"
-    # nothing significant, discrepancy not significantly better: none
-    w3 = cv_weights({NOMINAL: 100.0, DISCREPANCY: 104.0})
-    v = decide(w3, [], {NOMINAL: 0.6}, {}, {})
-    assert v.name == NOMINAL and v.confidence > 0.5
-    # nothing screened, but a flexible term clearly better: unexplained
-    w4 = cv_weights({NOMINAL: 300.0, DISCREPANCY: 100.0})
-    assert decide(w4, [], {NOMINAL: 1e-9}, {}, {}).name == "unexplained"
-    # inflation flattens the weights (correlated residuals carry less evidence)
-    assert cv_weights({"a": 0.0, "b": 4.0}, 4.0)["a"] < cv_weights({"a": 0.0, "b": 4.0}, 1.0)["a"]
 
 
 def test_diebold_mariano_needs_more_than_one_lucky_residual():

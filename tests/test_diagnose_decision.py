@@ -1,0 +1,112 @@
+"""The one decision rule, the evidence and the gap tests on hand-made hypotheses (fast, no fits)."""
+import math
+
+import numpy as np
+import pytest
+
+from soiltrack.identify.diagnosis import DiagnoseSettings
+from soiltrack.identify.diagnosis.decision import decide
+from soiltrack.identify.diagnosis.evidence import HeldOutEvidence, PenalisedEvidence
+from soiltrack.identify.diagnosis.gap_test import decide_gap, pure_error_lack_of_fit
+from soiltrack.identify.diagnosis.hypotheses import Frame, Hypothesis
+
+S = DiagnoseSettings()
+RNG = np.random.default_rng(3)
+N = 400
+
+
+def hyp(name, family, z, **kw):
+    return Hypothesis(name, family, kw.pop("k", 1), {"c": z}, z=np.asarray(z, float), **kw)
+
+
+def gap(p):
+    return decide_gap({"nominal error vs noise": p}, S.alpha)
+
+
+def test_no_gap_is_none_with_the_nominal_weight_as_confidence():
+    hs = [hyp("none", "nominal", RNG.standard_normal(N)), hyp("grade", "candidate", RNG.standard_normal(N))]
+    w = {"none": 0.7, "grade": 0.3}
+    d = decide(hs, w, gap(0.5), {}, S)
+    assert d.verdict == "none" and d.confidence == 0.7 and d.cause is None
+
+
+def test_a_candidate_that_explains_the_gap_is_named_with_its_weight():
+    e = RNG.standard_normal(N)
+    hs = [hyp("none", "nominal", 3 * e), hyp("grade", "candidate", e), hyp("discrepancy", "flexible", 1.2 * e)]
+    w = {"none": 0.0, "grade": 0.8, "discrepancy": 0.2}
+    d = decide(hs, w, gap(1e-9), {}, S)
+    assert d.verdict == "grade" and d.confidence == 0.8 and d.explained > 0.9
+
+
+def test_a_candidate_that_explains_too_little_gives_unexplained_with_the_outside_weight():
+    e = RNG.standard_normal(N)
+    # nominal excess 9 - 1 = 8; the candidate leaves 6.25 - 1 = 5.25: explains 34 %
+    hs = [hyp("none", "nominal", 3 * e), hyp("radius_error", "candidate", 2.5 * e),
+          hyp("delay", "outside", 2.6 * e, detail={"lag_s": 0.25})]
+    w = {"none": 0.0, "radius_error": 0.7, "delay": 0.3}
+    d = decide(hs, w, gap(1e-9), {}, S)
+    assert d.verdict == "unexplained" and d.cause is None and d.confidence == pytest.approx(0.3)
+    assert d.explained == pytest.approx(1 - (2.5 ** 2 * np.mean(e ** 2) - 1) / (9 * np.mean(e ** 2) - 1))
+
+
+def test_an_outside_cause_is_named_with_its_detail_and_the_outside_weight():
+    e = RNG.standard_normal(N)
+    hs = [hyp("none", "nominal", 3 * e), hyp("grade", "candidate", 2 * e), hyp("discrepancy", "flexible", 1.5 * e),
+          hyp("delay", "outside", e, detail={"lag_s": 0.25, "lag_samples": 25})]
+    w = {"none": 0.0, "grade": 0.1, "discrepancy": 0.2, "delay": 0.7}
+    d = decide(hs, w, gap(1e-9), {}, S)
+    assert (d.verdict, d.cause, d.cause_detail["lag_s"]) == ("unexplained", "delay", 0.25)
+    assert d.confidence == pytest.approx(0.9)
+
+
+def test_close_collinear_effects_are_confusable_with_their_experiment_and_no_cap():
+    e = RNG.standard_normal(N)
+    hs = [hyp("none", "nominal", 3 * e), hyp("grade", "candidate", e), hyp("drivetrain_friction", "candidate", e)]
+    w = {"none": 0.0, "grade": 0.55, "drivetrain_friction": 0.45}
+    u = np.ones(10) / math.sqrt(10)
+    d = decide(hs, w, gap(1e-9), {"grade": u, "drivetrain_friction": u}, S)
+    assert d.verdict == "grade" and d.confidence == 0.55
+    assert [set(p) for p, _, _ in d.confusable] == [{"grade", "drivetrain_friction"}]
+    assert d.confusable[0][1] == pytest.approx(1.0) and d.confusable[0][2]
+
+
+def test_evidence_weights_sum_to_one_and_favour_the_better_prediction():
+    e = RNG.standard_normal(N)
+    hs = [hyp("none", "nominal", 2 * e, k=0), hyp("grade", "candidate", e, k=1)]
+    for ev in (HeldOutEvidence(block=5, n_bootstrap=200), PenalisedEvidence(n_bootstrap=200)):
+        w = ev.weights(hs)
+        assert sum(w.values()) == pytest.approx(1.0) and w["grade"] > 0.99
+
+
+def test_penalised_evidence_charges_parameters_that_fit_nothing():
+    e = RNG.standard_normal(60)
+    w = PenalisedEvidence(n_bootstrap=200).weights([hyp("none", "nominal", e, k=0),
+                                                    hyp("discrepancy", "flexible", 0.999 * e, k=12)])
+    assert w["none"] > 0.99
+
+
+def test_frame_fills_unpredicted_samples_with_the_nominal_values():
+    f = Frame({"c": np.full(4, 2.0)}, {"c": np.array([True, True, False, True])})
+    z0 = f.z({"c": np.array([2.0, 4.0, 9.0, 6.0])})
+    assert z0.tolist() == [1.0, 2.0, 3.0]
+    assert f.z({"c": np.array([0.0, np.nan, 1.0, 2.0])}, z0).tolist() == [0.0, 2.0, 1.0]
+
+
+def test_pure_error_lack_of_fit():
+    keys = np.repeat(np.arange(10), 4).reshape(-1, 1)
+    sigma = np.ones(40)
+    noise = np.random.default_rng(1).standard_normal(40)
+    assert pure_error_lack_of_fit(noise, sigma, keys, 3) > 0.01
+    bias = np.repeat(np.array([3.0, -3.0] * 5), 4)
+    assert pure_error_lack_of_fit(noise + bias, sigma, keys, 3) < 1e-6
+    assert pure_error_lack_of_fit(noise, sigma, np.arange(40).reshape(-1, 1), 3) is None
+
+
+def test_gap_decision_keeps_only_the_tests_made():
+    g = decide_gap({"a": 0.5, "b": None, "c": 0.001}, 0.01)
+    assert [t.name for t in g.tests] == ["a", "c"] and g.present and g.p_of("b") == 1.0
+    assert not decide_gap({"a": 0.5}, 0.01).present
+
+
+def test_settings_knots():
+    assert S.knots(3001, True) == 20 and S.knots(600, True) == 8 and S.knots(60, False) == 10
