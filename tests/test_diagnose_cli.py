@@ -1,4 +1,5 @@
 """``soiltrack diagnose``: bad input exits 2 with the file, column or argument named and no traceback."""
+import json
 import os
 
 import pytest
@@ -58,3 +59,18 @@ def test_progress_on_stderr_and_quiet(tmp_path, capsys):
     out, err = capsys.readouterr()
     json.loads(out)
     assert err == ""
+
+
+@pytest.mark.parametrize("plot", ["no_such_dir/d.png", "d.notanimage"])
+def test_a_bad_plot_path_exits_2_before_the_work(tmp_path, capsys, plot):
+    assert main(["diagnose", WONG, "--vehicle", "heavy", "--plot", str(tmp_path / plot)]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "--plot" in err
+
+
+def test_torque_hold_auto_is_accepted_and_applies_to_logs_only(capsys):
+    # auto is the default and means "not given" (the sampled torque weighed as an outside cause); zoh on a sweep
+    # is refused
+    assert main(["diagnose", WONG, "--vehicle", "heavy", "--torque-hold", "auto", "--json", "--quiet"]) == 0
+    assert json.loads(capsys.readouterr().out)["verdict"] == "none"
+    assert main(["diagnose", WONG, "--vehicle", "heavy", "--torque-hold", "zoh"]) == 2

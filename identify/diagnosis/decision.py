@@ -8,7 +8,8 @@ Given the weights of the admissible hypotheses (:mod:`.evidence`) and the gap te
    ``min_explained`` of the nominal model's excess error over the noise: that effect.
 3. A gap, and the heaviest is a candidate that explains less, the flexible term, or a cause
    outside the library (or an effect the user left out of the candidates): ``unexplained``, with
-   the cause named when the heaviest is one.
+   the cause named when the heaviest is one and it removes at least ``min_explained`` of the
+   excess (the same test a named effect passes).
 4. A gap, and the heaviest is the nominal model: ``none``.
 
 The confidence is the verdict's weight as it stands in the ranking; for ``unexplained`` the summed
@@ -115,8 +116,12 @@ def decide(hyps: list[Hypothesis], weights: dict[str, float], gap: GapDecision, 
                         f"{top} carries the largest weight ({weights[top]:.2f}) but removes only "
                         f"{max(exv or 0.0, 0.0):.0%} of the nominal excess error over the noise (at least "
                         f"{settings.min_explained:.0%} is needed)", confusable=conf)
-    cause = None if h.family == "flexible" else top
-    what = "the flexible discrepancy term" if cause is None else f"the outside cause {top}"
+    enough = exv is None or exv >= settings.min_explained
+    cause = top if h.family == "outside" and enough else None
+    what = ("the flexible discrepancy term" if h.family == "flexible" else f"the outside cause {top}"
+            + ("" if enough else f", which removes only {max(exv or 0.0, 0.0):.0%} of the nominal excess error "
+               "(too little to name it)"))
     return Decision(UNEXPLAINED, w_out, top, exv, cause,
                     f"{what} carries the largest weight ({weights[top]:.2f}); the hypotheses outside the "
-                    f"candidates weigh {w_out:.2f} together", cause_detail=dict(h.detail), confusable=conf)
+                    f"candidates weigh {w_out:.2f} together", cause_detail=dict(h.detail) if cause else {},
+                    confusable=conf)

@@ -7,8 +7,8 @@ Drive logs (held-out evidence: fitted on the training blocks, predicting the oth
   shifted log (:func:`~.log_parts.refine_delay`); the hypothesis is the nominal model on the log with
   the speed channel shifted back. Detail: ``lag_s``.
 - ``terrain_change``: the soil differs within a time window. The window comes from the score test of
-  the nominal training fit (:func:`~.log_parts.terrain_window`); the hypothesis is one soil fitted
-  on the training samples inside the window and another outside, each predicting its held-out
+  the nominal fit on all the data (:func:`~.log_parts.terrain_window`); the hypothesis moves the soil
+  inside the window by one Gauss-Newton step on the training samples there and predicts the held-out
   samples. It must beat the effects and the flexible term on held-out evidence like any other.
   Detail: ``window_s`` (where the data show it) and ``bracket_s`` (where its boundaries can lie).
 - ``sampled_torque`` (when the torque hold was not given): the nominal model with the torque taken
@@ -30,6 +30,7 @@ clipped, no soil on a bound) is listed as not formed, with the reason; it is not
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -78,12 +79,43 @@ def delay_hypothesis(setup: Setup, train_res: list) -> Hypothesis:
                       parameters={"lag_s": {"value": float(k * h), "identifiable": True, "at_bound": False}})
 
 
+def _with_soil(res: Any, fmax: float, k: float) -> Any:
+    """Fit result ``res`` with its thrust limit and shear modulus replaced (what a drive-log model predicts from)."""
+    extra = dict(res.extra)
+    if extra.get("joint_parameters") is not None:
+        extra["joint_parameters"] = dict(extra["joint_parameters"], max_thrust_N=fmax, shear_modulus_m=k)
+    extra.update(max_thrust_N=fmax, shear_modulus_m=k)
+    return replace(res, extra=extra)
+
+
+def _inside_soil(train_fit: Any, data: Any, vehicle: Any, tr: np.ndarray, inside: np.ndarray
+                 ) -> tuple[float, float] | None:
+    """``(F_max, K)`` inside the window: one Gauss-Newton step from the training fit on its training samples
+    inside the window (the soil outside stays the training fit's). None without information there."""
+    sens = drive_log_sensitivities(train_fit, data, vehicle)
+    used = np.nonzero(sens.keep)[0]
+    rows = np.isin(used, tr) & inside[used]
+    if np.count_nonzero(rows) < 2:
+        return None
+    J = sens.jacobian[rows][:, :, :2].reshape(-1, 2)
+    e = sens.residuals[rows].reshape(-1)
+    d = -np.linalg.pinv(J.T @ J) @ (J.T @ e)
+    f0, k0 = float(train_fit.extra["max_thrust_N"]), float(train_fit.extra["shear_modulus_m"])
+    return f0 + float(d[0]), k0 + float(d[1])
+
+
 def terrain_hypothesis(setup: Setup, train_fit: Any) -> Hypothesis:
-    """A different soil inside a time window (drive logs)."""
+    """A different soil inside a time window (drive logs).
+
+    The window is found like the effects are screened: by the score test of the nominal fit on all
+    the data (:func:`~.log_parts.terrain_window`). The hypothesis is then judged like the others on
+    the held-out samples: outside the window the nominal training fit predicts them; inside, its
+    soil (F_max, K) moved by one Gauss-Newton step on the training samples inside the window.
+    """
     s, data, run = setup.settings, setup.data, setup.runner
     tr, te = setup.folds[0]
     try:
-        sens = drive_log_sensitivities(train_fit, data.subset(tr), run.vehicle)
+        sens = drive_log_sensitivities(setup.nominal_fit, data, run.vehicle)
         ex = setup.nominal_fit.extra
         win = terrain_window(sens.residuals, sens.jacobian, sens.time_s, alpha=s.alpha,
                              scale=(float(ex.get("max_thrust_N", 1.0)), float(ex.get("shear_modulus_m", 1.0))))
@@ -95,20 +127,25 @@ def terrain_hypothesis(setup: Setup, train_fit: Any) -> Hypothesis:
         return _not_formed("terrain_change", why, setup.n, setup.channels)
     t = np.asarray(data.time, dtype=float)
     inside = (t >= win.evidence_start) & (t <= win.evidence_end)
-    held = {ch: np.full(setup.n, np.nan) for ch in setup.channels}
-    try:
-        for part in (inside, ~inside):
-            f = run.run_warm(tr[part[tr]])
-            full = channels(f, data)
-            sel = te[part[te]]
-            for ch in setup.channels:
-                held[ch][sel] = full[ch][sel]
-    except DataError as e:
-        return _not_formed("terrain_change", f"a soil could not be fitted on one side of the window ({e})",
-                           setup.n, setup.channels)
     detail = {"window_s": [float(win.evidence_start), float(win.evidence_end)],
               "bracket_s": [float(win.start), float(win.end)], "score_p_value": float(win.p_value)}
-    return Hypothesis("terrain_change", "outside", 5, held, held=held, detail=detail)
+    try:
+        soil = _inside_soil(train_fit, data, run.vehicle, tr, inside)
+        if soil is None or not (soil[0] > 0 and soil[1] > 0):
+            return Hypothesis("terrain_change", "outside", 5, {ch: np.full(setup.n, np.inf) for ch in setup.channels},
+                              admissible=False, detail=detail,
+                              why="the training samples inside the window give no soil of physical sign")
+        rin = channels(_with_soil(train_fit, *soil), data)
+        rout = channels(train_fit, data)
+    except DataError as e:
+        return _not_formed("terrain_change", f"no soil inside the window ({e})", setup.n, setup.channels)
+    held = {ch: np.full(setup.n, np.nan) for ch in setup.channels}
+    for ch in setup.channels:
+        held[ch][te] = np.where(inside[te], rin[ch][te], rout[ch][te])
+    f0, k0 = float(train_fit.extra["max_thrust_N"]), float(train_fit.extra["shear_modulus_m"])
+    params = {"fmax_change": {"value": soil[0] / f0 - 1.0, "identifiable": True, "at_bound": False},
+              "k_change": {"value": soil[1] / k0 - 1.0, "identifiable": True, "at_bound": False}}
+    return Hypothesis("terrain_change", "outside", 4, held, held=held, detail=detail, parameters=params)
 
 
 def sampled_torque_hypothesis(setup: Setup) -> Hypothesis:

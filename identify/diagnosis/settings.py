@@ -28,9 +28,13 @@ class DiagnoseSettings:
         one-minute log, and more than chance gains of hundreds of held-out samples.
     min_samples
         Fewest samples for a blocked hold-out: two folds of alternate blocks of at least 2 samples.
-    n_blocks
-        Contiguous blocks of the hold-out: 10 keeps a held-out block short against a run's trends
-        and long against the residuals' correlation time.
+    sweep_blocks
+        Contiguous blocks of a sweep's hold-out, in slip: 10, so that a block holds a few readings.
+    log_blocks
+        Contiguous blocks of a drive log's hold-out, in time: 30 (2 s on a one-minute run) puts
+        training samples inside any window of a few seconds (a change of terrain is judged on its
+        own held-out samples) and breaks the alignment of blocks with a driving profile's bursts of
+        pushing, while staying long against the residuals' correlation time (a few samples).
     sweep_folds
         Folds of a sweep's hold-out (each block held out once): every fit sees four fifths of it.
     log_refits
@@ -65,7 +69,8 @@ class DiagnoseSettings:
     min_explained: float = 0.5
     min_shrink: float = 0.05
     min_samples: int = 8
-    n_blocks: int = 10
+    sweep_blocks: int = 10
+    log_blocks: int = 30
     sweep_folds: int = 5
     log_refits: int = 3
     log_outside_refits: int = 2

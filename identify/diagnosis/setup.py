@@ -73,8 +73,8 @@ def make_folds(data: Any, order: np.ndarray, s: DiagnoseSettings) -> list[tuple[
     held out once over :attr:`~.settings.DiagnoseSettings.sweep_folds` folds (blocks in slip)."""
     n = data.n_samples
     if isinstance(data, DriveLog):
-        return [(np.sort(order[a]), np.sort(order[b])) for a, b in blocked_folds(n, s.n_blocks)][:1]
-    return sweep_folds(order, s.n_blocks, s.sweep_folds)
+        return [(np.sort(order[a]), np.sort(order[b])) for a, b in blocked_folds(n, s.log_blocks)][:1]
+    return sweep_folds(order, s.sweep_blocks, s.sweep_folds)
 
 
 @dataclass(frozen=True, eq=False)
