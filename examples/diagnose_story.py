@@ -9,7 +9,7 @@
    with effects takes seconds).
 5. The seed's three points (Wong 2001, p. 176): what a diagnosis can and cannot say from them.
 
-Run:  python examples/diagnose_story.py [--out DIR]
+Run:  python examples/diagnose_story.py [--out DIR]   (figures in examples/out by default)
 """
 from __future__ import annotations
 
@@ -118,7 +118,8 @@ def wong_story() -> None:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default=".", help="folder for the figures")
+    ap.add_argument("--out", default=os.path.join(HERE, "out"), help="folder for the figures (default examples/out, "
+                    "ignored by git)")
     a = ap.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
     sweep_story(a.out)

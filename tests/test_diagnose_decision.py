@@ -1,4 +1,5 @@
 """The one decision rule, the evidence and the gap tests on hand-made hypotheses (fast, no fits)."""
+
 import math
 
 import numpy as np
@@ -32,7 +33,11 @@ def test_no_gap_is_none_with_the_nominal_weight_as_confidence():
 
 def test_a_candidate_that_explains_the_gap_is_named_with_its_weight():
     e = RNG.standard_normal(N)
-    hs = [hyp("none", "nominal", 3 * e), hyp("grade", "candidate", e), hyp("discrepancy", "flexible", 1.2 * e)]
+    hs = [
+        hyp("none", "nominal", 3 * e),
+        hyp("grade", "candidate", e),
+        hyp("discrepancy", "flexible", 1.2 * e),
+    ]
     w = {"none": 0.0, "grade": 0.8, "discrepancy": 0.2}
     d = decide(hs, w, gap(1e-9), {}, S)
     assert d.verdict == "grade" and d.confidence == 0.8 and d.explained > 0.9
@@ -41,18 +46,25 @@ def test_a_candidate_that_explains_the_gap_is_named_with_its_weight():
 def test_a_candidate_that_explains_too_little_gives_unexplained_with_the_outside_weight():
     e = RNG.standard_normal(N)
     # nominal excess 9 - 1 = 8; the candidate leaves 6.25 - 1 = 5.25: explains 34 %
-    hs = [hyp("none", "nominal", 3 * e), hyp("radius_error", "candidate", 2.5 * e),
-          hyp("delay", "outside", 2.6 * e, detail={"lag_s": 0.25})]
+    hs = [
+        hyp("none", "nominal", 3 * e),
+        hyp("radius_error", "candidate", 2.5 * e),
+        hyp("delay", "outside", 2.6 * e, detail={"lag_s": 0.25}),
+    ]
     w = {"none": 0.0, "radius_error": 0.7, "delay": 0.3}
     d = decide(hs, w, gap(1e-9), {}, S)
     assert d.verdict == "unexplained" and d.cause is None and d.confidence == pytest.approx(0.3)
-    assert d.explained == pytest.approx(1 - (2.5 ** 2 * np.mean(e ** 2) - 1) / (9 * np.mean(e ** 2) - 1))
+    assert d.explained == pytest.approx(1 - (2.5**2 * np.mean(e**2) - 1) / (9 * np.mean(e**2) - 1))
 
 
 def test_an_outside_cause_is_named_with_its_detail_and_the_outside_weight():
     e = RNG.standard_normal(N)
-    hs = [hyp("none", "nominal", 3 * e), hyp("grade", "candidate", 2 * e), hyp("discrepancy", "flexible", 1.5 * e),
-          hyp("delay", "outside", e, detail={"lag_s": 0.25, "lag_samples": 25})]
+    hs = [
+        hyp("none", "nominal", 3 * e),
+        hyp("grade", "candidate", 2 * e),
+        hyp("discrepancy", "flexible", 1.5 * e),
+        hyp("delay", "outside", e, detail={"lag_s": 0.25, "lag_samples": 25}),
+    ]
     w = {"none": 0.0, "grade": 0.1, "discrepancy": 0.2, "delay": 0.7}
     d = decide(hs, w, gap(1e-9), {}, S)
     assert (d.verdict, d.cause, d.cause_detail["lag_s"]) == ("unexplained", "delay", 0.25)
@@ -61,7 +73,11 @@ def test_an_outside_cause_is_named_with_its_detail_and_the_outside_weight():
 
 def test_close_collinear_effects_are_confusable_with_their_experiment_and_no_cap():
     e = RNG.standard_normal(N)
-    hs = [hyp("none", "nominal", 3 * e), hyp("grade", "candidate", e), hyp("drivetrain_friction", "candidate", e)]
+    hs = [
+        hyp("none", "nominal", 3 * e),
+        hyp("grade", "candidate", e),
+        hyp("drivetrain_friction", "candidate", e),
+    ]
     w = {"none": 0.0, "grade": 0.55, "drivetrain_friction": 0.45}
     u = np.ones(10) / math.sqrt(10)
     d = decide(hs, w, gap(1e-9), {"grade": u, "drivetrain_friction": u}, S)
@@ -80,8 +96,9 @@ def test_evidence_weights_sum_to_one_and_favour_the_better_prediction():
 
 def test_penalised_evidence_charges_parameters_that_fit_nothing():
     e = RNG.standard_normal(60)
-    w = PenalisedEvidence(n_bootstrap=200).weights([hyp("none", "nominal", e, k=0),
-                                                    hyp("discrepancy", "flexible", 0.999 * e, k=12)])
+    w = PenalisedEvidence(n_bootstrap=200).weights(
+        [hyp("none", "nominal", e, k=0), hyp("discrepancy", "flexible", 0.999 * e, k=12)]
+    )
     assert w["none"] > 0.99
 
 

@@ -7,7 +7,7 @@ import numpy as np
 
 from conftest import bench_module
 from soiltrack.identify import diagnose
-from soiltrack.soilmodel import PRACTICAL_BOUNDS, SlipData, Vehicle
+from soiltrack.soilmodel import SlipData, Vehicle
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 HEAVY = Vehicle.from_json(os.path.join(os.path.dirname(HERE), "examples", "data", "heavy_vehicle.json"))

@@ -17,6 +17,7 @@ weight of the hypotheses outside the candidates (the flexible term and the outsi
 whose weights are close and whose sensitivities are collinear are ``confusable``, each pair with the
 experiment that separates them; the confidence is not capped for it.
 """
+
 from __future__ import annotations
 
 import math
@@ -66,17 +67,29 @@ class Decision:
     confusable: tuple = ()
 
 
-def _confusable(hyps: list[Hypothesis], weights: dict[str, float], directions: dict, verdict: str,
-                s: DiagnoseSettings) -> tuple:
+def _confusable(
+    hyps: list[Hypothesis], weights: dict[str, float], directions: dict, verdict: str, s: DiagnoseSettings
+) -> tuple:
     """Pairs of library effects with close weights and collinear sensitivities, with their experiment."""
     lib = {h.name: weights[h.name] for h in hyps if h.name in directions}
-    pairs = confusable_groups(lib, directions, min_ratio=s.confusable_ratio, min_corr=s.confusable_corr,
-                              min_weight=s.confusable_weight, verdict=verdict)
+    pairs = confusable_groups(
+        lib,
+        directions,
+        min_ratio=s.confusable_ratio,
+        min_corr=s.confusable_corr,
+        min_weight=s.confusable_weight,
+        verdict=verdict,
+    )
     return tuple((p, c, separating_experiment(*p)) for p, c in pairs)
 
 
-def decide(hyps: list[Hypothesis], weights: dict[str, float], gap: GapDecision, directions: dict[str, np.ndarray],
-           settings: DiagnoseSettings) -> Decision:
+def decide(
+    hyps: list[Hypothesis],
+    weights: dict[str, float],
+    gap: GapDecision,
+    directions: dict[str, np.ndarray],
+    settings: DiagnoseSettings,
+) -> Decision:
     """Apply the rule of the module docstring.
 
     Parameters
@@ -101,27 +114,70 @@ def decide(hyps: list[Hypothesis], weights: dict[str, float], gap: GapDecision, 
     exv = None if not math.isfinite(ex) else float(ex)
     conf = _confusable(hyps, weights, directions, top, settings)
     if not gap.present:
-        return Decision(NOMINAL, weights[NOMINAL], top, exv, None,
-                        "no gap test is significant at the level " + f"{settings.alpha:g}", confusable=conf)
+        return Decision(
+            NOMINAL,
+            weights[NOMINAL],
+            top,
+            exv,
+            None,
+            "no gap test is significant at the level " + f"{settings.alpha:g}",
+            confusable=conf,
+        )
     if h.family == "nominal":
-        return Decision(NOMINAL, weights[NOMINAL], top, None, None,
-                        f"a gap test is significant, but the nominal model carries the largest weight "
-                        f"({weights[NOMINAL]:.2f})", confusable=conf)
+        return Decision(
+            NOMINAL,
+            weights[NOMINAL],
+            top,
+            None,
+            None,
+            f"a gap test is significant, but the nominal model carries the largest weight "
+            f"({weights[NOMINAL]:.2f})",
+            confusable=conf,
+        )
     if h.family == "candidate" and (exv is None or exv >= settings.min_explained):
         share = "" if exv is None else f" and removes {exv:.0%} of the nominal excess error over the noise"
-        return Decision(top, weights[top], top, exv, None,
-                        f"{top} carries the largest weight ({weights[top]:.2f}){share}", confusable=conf)
+        return Decision(
+            top,
+            weights[top],
+            top,
+            exv,
+            None,
+            f"{top} carries the largest weight ({weights[top]:.2f}){share}",
+            confusable=conf,
+        )
     if h.family == "candidate":
-        return Decision(UNEXPLAINED, w_out, top, exv, None,
-                        f"{top} carries the largest weight ({weights[top]:.2f}) but removes only "
-                        f"{max(exv or 0.0, 0.0):.0%} of the nominal excess error over the noise (at least "
-                        f"{settings.min_explained:.0%} is needed)", confusable=conf)
+        return Decision(
+            UNEXPLAINED,
+            w_out,
+            top,
+            exv,
+            None,
+            f"{top} carries the largest weight ({weights[top]:.2f}) but removes only "
+            f"{max(exv or 0.0, 0.0):.0%} of the nominal excess error over the noise (at least "
+            f"{settings.min_explained:.0%} is needed)",
+            confusable=conf,
+        )
     enough = exv is None or exv >= settings.min_explained
     cause = top if h.family == "outside" and enough else None
-    what = ("the flexible discrepancy term" if h.family == "flexible" else f"the outside cause {top}"
-            + ("" if enough else f", which removes only {max(exv or 0.0, 0.0):.0%} of the nominal excess error "
-               "(too little to name it)"))
-    return Decision(UNEXPLAINED, w_out, top, exv, cause,
-                    f"{what} carries the largest weight ({weights[top]:.2f}); the hypotheses outside the "
-                    f"candidates weigh {w_out:.2f} together", cause_detail=dict(h.detail) if cause else {},
-                    confusable=conf)
+    what = (
+        "the flexible discrepancy term"
+        if h.family == "flexible"
+        else f"the outside cause {top}"
+        + (
+            ""
+            if enough
+            else f", which removes only {max(exv or 0.0, 0.0):.0%} of the nominal excess error "
+            "(too little to name it)"
+        )
+    )
+    return Decision(
+        UNEXPLAINED,
+        w_out,
+        top,
+        exv,
+        cause,
+        f"{what} carries the largest weight ({weights[top]:.2f}); the hypotheses outside the "
+        f"candidates weigh {w_out:.2f} together",
+        cause_detail=dict(h.detail) if cause else {},
+        confusable=conf,
+    )

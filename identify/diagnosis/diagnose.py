@@ -18,6 +18,7 @@ The procedure, one step per module:
 
 Residuals are measured - model throughout.
 """
+
 from __future__ import annotations
 
 import time
@@ -43,9 +44,9 @@ from .outside import outside_hypotheses
 from .result import Diagnosis, Excluded, RankEntry
 from .screening import Screen, newey_west_lag, screen
 from .selection import LOOKALIKES, dm_test, gap_p_value, hat_basis
+from .sweep_parts import fit_jacobian, lack_of_fit
 from .settings import DEFAULT_SETTINGS, DiagnoseSettings
 from .setup import Setup, check_candidates, make_folds, noise_floors
-from .sweep_parts import fit_jacobian, lack_of_fit
 
 __all__ = ["diagnose", "Diagnosis", "RankEntry", "TORQUE_HOLDS"]
 
@@ -53,8 +54,14 @@ __all__ = ["diagnose", "Diagnosis", "RankEntry", "TORQUE_HOLDS"]
 TORQUE_HOLDS = (None, "auto", "zoh", "sample")
 
 
-def _runner(data: Any, vehicle: Vehicle, model: str, torque_hold: str | None, bounds: SoilBounds | None,
-            settings: DiagnoseSettings) -> FitRunner:
+def _runner(
+    data: Any,
+    vehicle: Vehicle,
+    model: str,
+    torque_hold: str | None,
+    bounds: SoilBounds | None,
+    settings: DiagnoseSettings,
+) -> FitRunner:
     if not isinstance(data, (SlipData, DriveLog)):
         raise DataError(f"diagnose takes SlipData or DriveLog, got {type(data).__name__}")
     if not isinstance(vehicle, Vehicle):
@@ -75,25 +82,31 @@ def _setup(runner: FitRunner, nominal_fit: Any) -> Setup:
     if runner.is_log and np.all(np.isfinite(nominal_fit.theta)):
         runner.x0 = np.asarray(nominal_fit.theta, dtype=float)
     x = np.asarray(data.time if runner.is_log else data.slip, dtype=float)
-    return Setup(runner, nominal_fit, R, sigma, frozenset(flat), make_folds(data, order, runner.settings), x, order)
+    return Setup(
+        runner, nominal_fit, R, sigma, frozenset(flat), make_folds(data, order, runner.settings), x, order
+    )
 
 
-def _refits(screens: list[Screen], cands: tuple[str, ...], hint: bool, setup: Setup, outside_too: bool
-            ) -> list[tuple[str, str]]:
+def _refits(
+    screens: list[Screen], cands: tuple[str, ...], hint: bool, setup: Setup, outside_too: bool
+) -> list[tuple[str, str]]:
     """``(effect, family)`` of the library effects to refit: all on a sweep; on a log the strongest by score
     gain (candidates, then those outside them), none when nothing screens significant and no gap is hinted."""
     s = setup.settings
     ok = [x for x in screens if x.screenable]
     if not setup.is_log:
-        return [(x.effect, "candidate" if x.effect in cands else "outside") for x in ok
-                if x.effect in cands or outside_too]
+        return [
+            (x.effect, "candidate" if x.effect in cands else "outside")
+            for x in ok
+            if x.effect in cands or outside_too
+        ]
     thr = s.alpha / max(1, len([x for x in ok if x.effect in cands]))
     if not hint and not any(x.p_value < thr for x in ok if x.effect in cands):
         return []
     by_gain = sorted(ok, key=lambda x: -x.gain)
-    out = [(x.effect, "candidate") for x in by_gain if x.effect in cands][:s.log_refits]
+    out = [(x.effect, "candidate") for x in by_gain if x.effect in cands][: s.log_refits]
     if outside_too:
-        out += [(x.effect, "outside") for x in by_gain if x.effect not in cands][:s.log_outside_refits]
+        out += [(x.effect, "outside") for x in by_gain if x.effect not in cands][: s.log_outside_refits]
     return out
 
 
@@ -106,10 +119,14 @@ def _frame(setup: Setup, nominal: Hypothesis, held: bool) -> Frame:
 
 def _sweep_noise(setup: Setup, hyps: list[Hypothesis]) -> Setup:
     """A sweep's noise floor from the residuals of the effect that fits it best (when better than nominal):
-    where the nominal model misses a sharp bend, its second differences carry the bend and overstate the noise."""
+    where the nominal model misses a sharp bend, its second differences carry the bend and overstate the
+    noise."""
     frame = _frame(setup, hyps[0], held=False)
-    ss = {h.name: float(np.nansum(frame.z(h.residuals) ** 2)) for h in hyps
-          if h.family in ("nominal", "candidate", "outside") and h.admissible and h.fit is not None}
+    ss = {
+        h.name: float(np.nansum(frame.z(h.residuals) ** 2))
+        for h in hyps
+        if h.family in ("nominal", "candidate", "outside") and h.admissible and h.fit is not None
+    }
     ss_nom = float(np.nansum(frame.z(setup.residuals) ** 2))
     if not ss or min(ss.values()) >= ss_nom:
         return setup
@@ -118,13 +135,22 @@ def _sweep_noise(setup: Setup, hyps: list[Hypothesis]) -> Setup:
     return replace(setup, sigma=sigma)
 
 
-def _hypotheses(setup: Setup, screens: list[Screen], cands: tuple[str, ...], weigh_outside: bool,
-                hold_given: bool, say: Callable[[str], None]) -> tuple[Setup, list[Hypothesis]]:
+def _hypotheses(
+    setup: Setup,
+    screens: list[Screen],
+    cands: tuple[str, ...],
+    weigh_outside: bool,
+    hold_given: bool,
+    say: Callable[[str], None],
+) -> tuple[Setup, list[Hypothesis]]:
     say("the nominal model and the flexible term on the training blocks")
     nominal, train_fits, train_res = nominal_hypothesis(setup)
     flexible = flexible_hypothesis(setup, nominal, train_res)
     fz = _frame(setup, nominal, held=True)
-    hint = dm_test(fz.z(nominal.held), fz.z(flexible.held, fz.z(nominal.held)), setup.dm_lag) < setup.settings.alpha
+    hint = (
+        dm_test(fz.z(nominal.held), fz.z(flexible.held, fz.z(nominal.held)), setup.dm_lag)
+        < setup.settings.alpha
+    )
     hyps = [nominal, flexible]
     for name, fam in _refits(screens, cands, hint, setup, weigh_outside):
         say(f"{name} refitted ({fam})")
@@ -137,53 +163,66 @@ def _hypotheses(setup: Setup, screens: list[Screen], cands: tuple[str, ...], wei
 
 
 def _score(setup: Setup, hyps: list[Hypothesis]) -> tuple[list[Hypothesis], Frame]:
-    """Every hypothesis with its z on the evidence's frame (nominal values fill what one leaves unpredicted)."""
+    """Every hypothesis with its z on the evidence's frame (the nominal values fill what one leaves
+    unpredicted)."""
     frame = _frame(setup, hyps[0], held=setup.is_log)
     z0 = frame.z(hyps[0].residuals)
     return [h.scored(frame, z0) for h in hyps], frame
 
 
 def _gap(setup: Setup, hyps: list[Hypothesis], weights: dict[str, float], hold: Frame) -> GapDecision:
-    """The gap tests (:mod:`.gap_test`) on the held-out residuals, and a sweep's lack-of-fit tests."""
+    """The gap tests (:mod:`.gap_test`) on the held-out residuals (and a sweep's pure-error test)."""
     s = setup.settings
     by = {h.name: h for h in hyps}
     z_nom = hold.z(by[NOMINAL].held)
-    if setup.is_log:  # correlated residuals carry less evidence than their count says
-        infl = max(long_run_factor(by[NOMINAL].held[ch][m] / setup.sigma[ch][m]) for ch, m in hold.mask.items())
-    else:  # over-dispersed squared residuals (of the model that fits all the sweep best): weak evidence
-        zb = min((h.z for h in hyps if np.all(np.isfinite(h.z))), key=lambda z: float(z @ z))
-        infl = max(1.0, float(np.var(zb ** 2)) / 2.0)
-    p: dict[str, float | None] = {"nominal error vs noise": gap_p_value(float(z_nom @ z_nom), z_nom.size, infl)}
-    if setup.is_log:
-        p["flexible term beats nominal"] = dm_test(z_nom, hold.z(by["discrepancy"].held, z_nom), setup.dm_lag)
+    p: dict[str, float | None] = {}
+    if (
+        setup.is_log
+    ):  # a log's noise floor is measured on thousands of samples; correlated residuals count less
+        infl = max(
+            long_run_factor(by[NOMINAL].held[ch][m] / setup.sigma[ch][m]) for ch, m in hold.mask.items()
+        )
+        p["nominal error vs noise"] = gap_p_value(float(z_nom @ z_nom), z_nom.size, infl)
+    p["flexible term beats nominal"] = dm_test(z_nom, hold.z(by["discrepancy"].held, z_nom), setup.dm_lag)
     top = by[max(weights, key=lambda k: weights[k])]
     if top.family != "nominal" and top.held is not None:
         zt = hold.z(top.held, z_nom)
-        shrink = 1.0 - float(np.sqrt((zt @ zt) / max(z_nom @ z_nom, 1e-300))) if np.all(np.isfinite(zt)) else 0.0
+        ok = bool(np.all(np.isfinite(zt)))
+        shrink = 1.0 - float(np.sqrt((zt @ zt) / max(z_nom @ z_nom, 1e-300))) if ok else 0.0
         p["heaviest beats nominal"] = dm_test(z_nom, zt, setup.dm_lag) if shrink >= s.min_shrink else None
     if not setup.is_log:
-        p.update(_lack_of_fit(setup))
+        p["lack of fit"] = _lack_of_fit(setup)
+        p["pure-error lack of fit"] = _pure_error(setup)
     return decide_gap(p, s.alpha)
 
 
-def _lack_of_fit(setup: Setup) -> dict[str, float | None]:
-    """A sweep's lack-of-fit F test of the nominal model, and the pure-error test when rows repeat."""
+def _lack_of_fit(setup: Setup) -> float:
+    """A sweep's lack-of-fit F test: a flexible term in slip on top of the nominal fit, the soil refitted
+    with it     (in-sample, like a sweep's evidence; it does not depend on the noise level, only on its shape)."""
     ch, data, nom = setup.channels[0], setup.data, setup.nominal_fit
     r, sg = setup.residuals[ch], setup.sigma[ch]
     ok = np.isfinite(r) & (np.nan_to_num(sg) > 0)
     knots = np.unique(np.quantile(setup.x[ok], np.linspace(0.0, 1.0, max(2, setup.n_knots))))
-    J = fit_jacobian(nom, data)[:, :len(SOIL_KEYS)]  # the soil's columns (the screening fit holds the effects off)
-    out: dict[str, float | None] = {"lack of fit": lack_of_fit(r[ok], J[ok], hat_basis(setup.x, knots)[ok], sg[ok])}
+    J = fit_jacobian(nom, data)[
+        :, : len(SOIL_KEYS)
+    ]  # the soil's columns (the screening fit holds effects off)
+    return lack_of_fit(r[ok], J[ok], hat_basis(setup.x, knots)[ok], sg[ok])
+
+
+def _pure_error(setup: Setup) -> float | None:
+    """A sweep's pure-error lack-of-fit test of the nominal model when rows repeat a condition (slip, load)."""
+    ch, data, nom = setup.channels[0], setup.data, setup.nominal_fit
     loads = data.loads(setup.runner.vehicle.weight)
     keys = np.column_stack([np.round(np.asarray(data.slip, dtype=float), 6), np.round(loads, 3)])
     n_par = int(np.sum([not getattr(pe, "fixed", False) for pe in (nom.parameters or {}).values()]))
-    out["pure-error lack of fit"] = pure_error_lack_of_fit(r, sg, keys, n_par)
-    return out
+    return pure_error_lack_of_fit(setup.residuals[ch], setup.sigma[ch], keys, n_par)
 
 
 def _rmse(held: dict[str, np.ndarray], frame: Frame) -> dict[str, float]:
-    return {ch: float(np.sqrt(np.mean(held[ch][m] ** 2))) if np.any(m) else float("nan")
-            for ch, m in frame.mask.items()}
+    return {
+        ch: float(np.sqrt(np.mean(held[ch][m] ** 2))) if np.any(m) else float("nan")
+        for ch, m in frame.mask.items()
+    }
 
 
 def _ranking(hyps: list[Hypothesis], weights: dict[str, float], hold: Frame) -> tuple[RankEntry, ...]:
@@ -195,11 +234,27 @@ def _ranking(hyps: list[Hypothesis], weights: dict[str, float], hold: Frame) -> 
         after, shrink = before, None
         if h.held is not None and h.family != "nominal":
             zh = hold.z(h.held, z0)
-            after = _rmse({ch: np.where(np.isnan(h.held[ch]), nominal.held[ch], h.held[ch]) for ch in h.held}, hold)
-            shrink = 1.0 - float(np.sqrt((zh @ zh) / max(z0 @ z0, 1e-300))) if np.all(np.isfinite(zh)) else None
+            after = _rmse(
+                {ch: np.where(np.isnan(h.held[ch]), nominal.held[ch], h.held[ch]) for ch in h.held}, hold
+            )
+            shrink = (
+                1.0 - float(np.sqrt((zh @ zh) / max(z0 @ z0, 1e-300))) if np.all(np.isfinite(zh)) else None
+            )
         ex = h.explained(nominal) if h.family != "nominal" else None
-        out.append(RankEntry(h.name, h.family, weights[h.name], h.n_params, before, after, shrink,
-                             None if ex is None or not np.isfinite(ex) else float(ex), h.parameters, h.detail))
+        out.append(
+            RankEntry(
+                h.name,
+                h.family,
+                weights[h.name],
+                h.n_params,
+                before,
+                after,
+                shrink,
+                None if ex is None or not np.isfinite(ex) else float(ex),
+                h.parameters,
+                h.detail,
+            )
+        )
     return tuple(out)
 
 
@@ -213,10 +268,18 @@ def _verdict_fit(setup: Setup, dec: Decision, by: dict[str, Hypothesis]) -> Any:
     return setup.runner.run(None, (dec.verdict,))
 
 
-def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full",
-             candidates: Sequence[str] | None = None, weigh_outside: bool = True, torque_hold: str | None = None,
-             bounds: SoilBounds | None = None, settings: DiagnoseSettings = DEFAULT_SETTINGS,
-             progress: Callable[[str], None] | None = None) -> Diagnosis:
+def diagnose(
+    data: SlipData | DriveLog,
+    vehicle: Vehicle,
+    *,
+    model: str = "full",
+    candidates: Sequence[str] | None = None,
+    weigh_outside: bool = True,
+    torque_hold: str | None = None,
+    bounds: SoilBounds | None = None,
+    settings: DiagnoseSettings = DEFAULT_SETTINGS,
+    progress: Callable[[str], None] | None = None,
+) -> Diagnosis:
     """Diagnose the gap between the nominal model and a drive log or a slip sweep.
 
     Parameters
@@ -257,29 +320,61 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     kind = "drive" if runner.is_log else "sweep"
     library = tuple(e for e, spec in EFFECTS.items() if kind in spec.shows_in)
     say(f"screening: the nominal model on all {data.n_samples} samples, with the score tests")
-    nominal_fit, screens = screen(data, vehicle, cands + tuple(e for e in library if e not in cands), model=model,
-                                  hac_lag=None if runner.is_log else 0, fit_options=runner.options)
+    nominal_fit, screens = screen(
+        data,
+        vehicle,
+        cands + tuple(e for e in library if e not in cands),
+        model=model,
+        hac_lag=None if runner.is_log else 0,
+        fit_options=runner.options,
+    )
     if data.n_samples < settings.min_samples or not usable(nominal_fit, runner.is_log):
         return _no_comparison(runner, cands, nominal_fit, screens, t0)
     setup = _setup(runner, nominal_fit)
     setup, hyps = _hypotheses(setup, screens, cands, weigh_outside, torque_hold in ("zoh", "sample"), say)
     admissible = [h for h in hyps if h.admissible]
     scored, frame = _score(setup, admissible)
-    evidence = (HeldOutEvidence(max(1, newey_west_lag(frame.size // max(1, len(setup.channels)))),
-                                settings.n_bootstrap) if runner.is_log else PenalisedEvidence(settings.n_bootstrap))
+    evidence = (
+        HeldOutEvidence(
+            max(1, newey_west_lag(frame.size // max(1, len(setup.channels)))), settings.n_bootstrap
+        )
+        if runner.is_log
+        else PenalisedEvidence(settings.n_bootstrap)
+    )
     weights = evidence.weights(scored)
     hold = _frame(setup, scored[0], held=True)
     gap = _gap(setup, scored, weights, hold)
     dirs = {s.effect: s.direction for s in screens if s.direction is not None}
     dec = decide(scored, weights, gap, dirs, settings)
     say("the verdict's fit on all the data")
-    return _result(setup, cands, screens, scored, [h for h in hyps if not h.admissible], weights, gap, dec,
-                   evidence.describes, hold, t0)
+    return _result(
+        setup,
+        cands,
+        screens,
+        scored,
+        [h for h in hyps if not h.admissible],
+        weights,
+        gap,
+        dec,
+        evidence.describes,
+        hold,
+        t0,
+    )
 
 
-def _result(setup: Setup, cands: tuple[str, ...], screens: list[Screen], hyps: list[Hypothesis],
-            excluded: list[Hypothesis], weights: dict[str, float], gap: GapDecision, dec: Decision, evidence: str,
-            hold: Frame, t0: float) -> Diagnosis:
+def _result(
+    setup: Setup,
+    cands: tuple[str, ...],
+    screens: list[Screen],
+    hyps: list[Hypothesis],
+    excluded: list[Hypothesis],
+    weights: dict[str, float],
+    gap: GapDecision,
+    dec: Decision,
+    evidence: str,
+    hold: Frame,
+    t0: float,
+) -> Diagnosis:
     by = {h.name: h for h in hyps}
     ranking = _ranking(hyps, weights, hold)
     vfit = _verdict_fit(setup, dec, by)
@@ -287,7 +382,9 @@ def _result(setup: Setup, cands: tuple[str, ...], screens: list[Screen], hyps: l
     entry = next(e for e in ranking if e.effect == shown)
     notes = [f"{dec.verdict} also stands for {LOOKALIKES[dec.verdict]}"] if dec.verdict in LOOKALIKES else []
     if setup.flat:
-        notes.append(f"no measurable noise in {', '.join(sorted(setup.flat))}: its noise floor is set negligible")
+        notes.append(
+            f"no measurable noise in {', '.join(sorted(setup.flat))}: its noise floor is set negligible"
+        )
     params = dict(entry.parameters)
     if vfit is not None and usable(vfit, setup.is_log):
         params = effect_parameters(vfit, dec.verdict)
@@ -295,47 +392,96 @@ def _result(setup: Setup, cands: tuple[str, ...], screens: list[Screen], hyps: l
     conv = usable(setup.nominal_fit, setup.is_log) and (vfit is None or usable(vfit, setup.is_log))
     named = dec.verdict not in (NOMINAL, UNEXPLAINED)
     held_x = {ch: setup.x[m] for ch, m in hold.mask.items()}
-    curves = {"held_x": held_x, "x_label": "time" if setup.is_log else "slip",
-              "before": {ch: by[NOMINAL].held[ch][m] for ch, m in hold.mask.items()},
-              "after": None if dec.verdict == NOMINAL or by[shown].held is None else
-              {ch: by[shown].held[ch][m] for ch, m in hold.mask.items()}}
+    curves = {
+        "held_x": held_x,
+        "x_label": "time" if setup.is_log else "slip",
+        "before": {ch: by[NOMINAL].held[ch][m] for ch, m in hold.mask.items()},
+        "after": None
+        if dec.verdict == NOMINAL or by[shown].held is None
+        else {ch: by[shown].held[ch][m] for ch, m in hold.mask.items()},
+    }
     return Diagnosis(
-        data_kind="drive" if setup.is_log else "sweep", n_samples=setup.n, candidates=cands,
-        verdict=dec.verdict, confidence=float(dec.confidence), reason=dec.reason, cause=dec.cause,
-        cause_detail=dec.cause_detail, ranking=ranking, excluded=tuple(Excluded(h.name, h.family, h.why)
-                                                                       for h in excluded),
-        evidence=evidence, gap=gap, screens=tuple(screens), confusable=dec.confusable,
-        localisation=tuple(localisation(setup)), noise={ch: float(np.sqrt(np.nanmean(s ** 2)))
-                                                        for ch, s in setup.sigma.items()},
+        data_kind="drive" if setup.is_log else "sweep",
+        n_samples=setup.n,
+        candidates=cands,
+        verdict=dec.verdict,
+        confidence=float(dec.confidence),
+        reason=dec.reason,
+        cause=dec.cause,
+        cause_detail=dec.cause_detail,
+        ranking=ranking,
+        excluded=tuple(Excluded(h.name, h.family, h.why) for h in excluded),
+        evidence=evidence,
+        gap=gap,
+        screens=tuple(screens),
+        confusable=dec.confusable,
+        localisation=tuple(localisation(setup)),
+        noise={ch: float(np.sqrt(np.nanmean(s**2))) for ch, s in setup.sigma.items()},
         holdout_rmse_before=entry.holdout_rmse_before,
         holdout_rmse_after=None if dec.verdict == NOMINAL else entry.holdout_rmse_after,
-        shrink=entry.shrink if dec.verdict != NOMINAL else None, explained=entry.explained if dec.verdict != NOMINAL
-        else None, soil_before=soil_summary(setup.nominal_fit),
-        soil_after=soil_summary(vfit) if named and vfit is not None else None, converged=bool(conv),
-        notes=tuple(notes), elapsed_s=time.perf_counter() - t0, curves=curves)
+        shrink=entry.shrink if dec.verdict != NOMINAL else None,
+        explained=entry.explained if dec.verdict != NOMINAL else None,
+        soil_before=soil_summary(setup.nominal_fit),
+        soil_after=soil_summary(vfit) if named and vfit is not None else None,
+        converged=bool(conv),
+        notes=tuple(notes),
+        elapsed_s=time.perf_counter() - t0,
+        curves=curves,
+    )
 
 
-def _no_comparison(runner: FitRunner, cands: tuple[str, ...], res: Any, screens: list[Screen], t0: float
-                   ) -> Diagnosis:
+def _no_comparison(
+    runner: FitRunner, cands: tuple[str, ...], res: Any, screens: list[Screen], t0: float
+) -> Diagnosis:
     """Too few samples for a hold-out, or no nominal fit: nothing can be compared; say which."""
     n = runner.data.n_samples
     ok = usable(res, runner.is_log)
     if not ok:
-        verdict, reason = UNEXPLAINED, (f"the nominal model could not be fitted ({getattr(res, 'status', 'failed')}): "
-                                        "without it there is no gap to explain")
+        verdict, reason = (
+            UNEXPLAINED,
+            (
+                f"the nominal model could not be fitted ({getattr(res, 'status', 'failed')}): "
+                "without it there is no gap to explain"
+            ),
+        )
     else:
-        verdict, reason = NOMINAL, (f"{n} samples cannot show a gap: a hold-out needs at least "
-                                    f"{runner.settings.min_samples}; 'none' here means no evidence either way")
+        verdict, reason = (
+            NOMINAL,
+            (
+                f"{n} samples cannot show a gap: a hold-out needs at least "
+                f"{runner.settings.min_samples}; 'none' here means no evidence either way"
+            ),
+        )
     rms: dict[str, float] = {}
     if ok:
         try:
-            rms = {ch: float(np.sqrt(np.nanmean(v ** 2))) for ch, v in channels(res, runner.data).items()}
+            rms = {ch: float(np.sqrt(np.nanmean(v**2))) for ch, v in channels(res, runner.data).items()}
         except DataError:
             rms = {}
     return Diagnosis(
-        data_kind="drive" if runner.is_log else "sweep", n_samples=n, candidates=cands, verdict=verdict,
-        confidence=0.0, reason=reason, cause=None, cause_detail={}, ranking=(), excluded=(), evidence="none",
-        gap=GapDecision(()), screens=tuple(screens), confusable=(), localisation=(), noise={},
-        holdout_rmse_before=rms, holdout_rmse_after=None, shrink=None, explained=None,
-        soil_before=soil_summary(res), soil_after=None, converged=ok, notes=(reason,),
-        elapsed_s=time.perf_counter() - t0)
+        data_kind="drive" if runner.is_log else "sweep",
+        n_samples=n,
+        candidates=cands,
+        verdict=verdict,
+        confidence=0.0,
+        reason=reason,
+        cause=None,
+        cause_detail={},
+        ranking=(),
+        excluded=(),
+        evidence="none",
+        gap=GapDecision(()),
+        screens=tuple(screens),
+        confusable=(),
+        localisation=(),
+        noise={},
+        holdout_rmse_before=rms,
+        holdout_rmse_after=None,
+        shrink=None,
+        explained=None,
+        soil_before=soil_summary(res),
+        soil_after=None,
+        converged=ok,
+        notes=(reason,),
+        elapsed_s=time.perf_counter() - t0,
+    )

@@ -13,6 +13,7 @@
 
 The weights are computed once, over the admissible hypotheses; they sum to one.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -47,8 +48,11 @@ class HeldOutEvidence:
 
     def weights(self, hypotheses: Sequence[Hypothesis]) -> dict[str, float]:
         """Weights of ``hypotheses`` (all on the same held-out samples)."""
-        return stacking_weights({h.name: -0.5 * np.asarray(h.z) ** 2 for h in hypotheses}, block=self.block,
-                                n_boot=self.n_bootstrap)
+        return stacking_weights(
+            {h.name: -0.5 * np.asarray(h.z) ** 2 for h in hypotheses},
+            block=self.block,
+            n_boot=self.n_bootstrap,
+        )
 
 
 @dataclass(frozen=True)
@@ -56,10 +60,14 @@ class PenalisedEvidence:
     """Pseudo-BMA+ weights of in-sample likelihoods with Akaike's penalty."""
 
     n_bootstrap: int
-    describes: str = ("penalised in-sample evidence: each fit on all the data, Akaike's penalty per parameter "
-                      "(pseudo-BMA+)")
+    describes: str = (
+        "penalised in-sample evidence: each fit on all the data, Akaike's penalty per parameter (pseudo-BMA+)"
+    )
 
     def weights(self, hypotheses: Sequence[Hypothesis]) -> dict[str, float]:
         """Weights of ``hypotheses`` (all on the same samples)."""
-        return information_weights({h.name: h.z for h in hypotheses}, {h.name: h.n_params for h in hypotheses},
-                                   n_boot=self.n_bootstrap)
+        return information_weights(
+            {h.name: h.z for h in hypotheses},
+            {h.name: h.n_params for h in hypotheses},
+            n_boot=self.n_bootstrap,
+        )

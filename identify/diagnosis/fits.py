@@ -7,6 +7,7 @@ object, so that no state travels through closures.
 
 Residual convention: measured - model, everywhere.
 """
+
 from __future__ import annotations
 
 import math
@@ -26,11 +27,23 @@ from ..sweep.model import SweepResiduals
 from .settings import DiagnoseSettings
 from .sweep_parts import effect_start
 
-__all__ = ["FitRunner", "channels", "soil_summary", "effect_parameters", "outside_practical", "finite",
-           "SOIL_KEYS", "usable"]
+__all__ = [
+    "FitRunner",
+    "channels",
+    "soil_summary",
+    "effect_parameters",
+    "outside_practical",
+    "finite",
+    "SOIL_KEYS",
+    "usable",
+]
 
 #: Soil parameter names of a fit -> the contract's soil keys.
-SOIL_KEYS = {"cohesion": "cohesion_kpa", "friction_angle": "friction_angle_deg", "shear_modulus": "shear_modulus_m"}
+SOIL_KEYS = {
+    "cohesion": "cohesion_kpa",
+    "friction_angle": "friction_angle_deg",
+    "shear_modulus": "shear_modulus_m",
+}
 
 
 def finite(x: Any) -> float | None:
@@ -116,8 +129,12 @@ class FitRunner:
     def refit_from(self, start: Any, idx: np.ndarray | None, effects: tuple[str, ...]) -> Any:
         """Refit ``effects`` on ``idx`` from another fit's answer (soil and effect parameters)."""
         st = effect_start(start)
-        return self.run(idx, effects, effects={e: dict(st.get(e, {})) or True for e in effects},
-                        x0=np.asarray(start.theta, dtype=float))
+        return self.run(
+            idx,
+            effects,
+            effects={e: dict(st.get(e, {})) or True for e in effects},
+            x0=np.asarray(start.theta, dtype=float),
+        )
 
 
 def channels(res: Any, data: SlipData | DriveLog) -> dict[str, np.ndarray]:
@@ -142,8 +159,9 @@ def channels(res: Any, data: SlipData | DriveLog) -> dict[str, np.ndarray]:
             full[k] = a
         return full
     rm = getattr(res, "residual_model", None)
-    items = (rm if isinstance(rm, SweepResiduals) else SweepResiduals()).residuals_on(res, data,
-                                                                                      accept_implausible=True)
+    items = (rm if isinstance(rm, SweepResiduals) else SweepResiduals()).residuals_on(
+        res, data, accept_implausible=True
+    )
     out = {}
     for k, v in items.items():
         v = np.asarray(v, dtype=float).ravel()
@@ -157,9 +175,18 @@ def effect_parameters(res: Any, name: str) -> dict:
     """``{param: {value, stderr, ci95, identifiable, at_bound}}`` of effect ``name`` in fit ``res``."""
     out: dict[str, dict] = {}
     for p, est in ((getattr(res, "effects", {}) or {}).get(name) or {}).items():
-        d = est.to_dict() if hasattr(est, "to_dict") else dict(est) if isinstance(est, dict) else {"value": est}
-        out[p] = {k: (finite(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v)
-                  for k, v in d.items() if k in ("value", "stderr", "ci95", "identifiable", "at_bound")}
+        d = (
+            est.to_dict()
+            if hasattr(est, "to_dict")
+            else dict(est)
+            if isinstance(est, dict)
+            else {"value": est}
+        )
+        out[p] = {
+            k: (finite(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v)
+            for k, v in d.items()
+            if k in ("value", "stderr", "ci95", "identifiable", "at_bound")
+        }
         if isinstance(out[p].get("ci95"), (list, tuple)):
             out[p]["ci95"] = [finite(v) for v in out[p]["ci95"]]
     return out

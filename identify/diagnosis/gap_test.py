@@ -2,19 +2,21 @@
 
 A gap is present when any of these is significant at ``alpha`` (each printed in the report):
 
-- ``nominal error vs noise``: the nominal model's held-out error against the noise floor
-  (:func:`~.selection.gap_p_value`, the chi-square corrected for correlated or over-dispersed
-  residuals);
-- ``flexible term beats nominal`` (drive logs): the flexible term predicts the held-out data
-  better than the nominal model (Diebold-Mariano, :func:`~.selection.dm_test`);
-- ``heaviest beats nominal``: the heaviest hypothesis predicts (log) or fits (sweep: on the held-out
-  blocks) better than the nominal model by a Diebold-Mariano test AND its held-out RMS shrinks by at
-  least ``min_shrink`` (a gain of a fraction of a percent over hundreds of samples is no gap);
-- ``lack of fit`` (sweeps): a flexible term on top of the nominal fit explains its residuals
-  (F test, :func:`~.sweep_parts.lack_of_fit`);
+- ``nominal error vs noise`` (drive logs): the nominal model's held-out error against the noise
+  floor (:func:`~.selection.gap_p_value`, the chi-square corrected for correlated residuals). A
+  sweep's noise floor, from second differences of a few dozen readings, is too rough for this.
+- ``flexible term beats nominal``: the flexible term predicts the held-out data better than the
+  nominal model (Diebold-Mariano, :func:`~.selection.dm_test`);
+- ``heaviest beats nominal``: the heaviest hypothesis predicts the held-out data better than the
+  nominal model by a Diebold-Mariano test AND its held-out RMS shrinks by at least ``min_shrink``
+  (a gain of a fraction of a percent over hundreds of samples is no gap);
+- ``lack of fit`` (sweeps): a flexible term in slip on top of the nominal fit explains its residuals
+  (F test, :func:`~.sweep_parts.lack_of_fit`; in-sample like a sweep's evidence, free of the noise level);
 - ``pure-error lack of fit`` (sweeps whose rows repeat a condition): the spread of the group
-  means about the model against the spread within the groups (:func:`pure_error_lack_of_fit`).
+  means about the model against the spread within the groups (:func:`pure_error_lack_of_fit`),
+  which measures the noise directly.
 """
+
 from __future__ import annotations
 
 import math
@@ -42,8 +44,12 @@ class GapTest:
 
     def to_dict(self) -> dict:
         """JSON entry."""
-        return {"test": self.name, "p_value": float(self.p_value), "level": float(self.level),
-                "significant": self.significant}
+        return {
+            "test": self.name,
+            "p_value": float(self.p_value),
+            "level": float(self.level),
+            "significant": self.significant,
+        }
 
 
 @dataclass(frozen=True)
@@ -62,7 +68,9 @@ class GapDecision:
         return next((t.p_value for t in self.tests if t.name == name), 1.0)
 
 
-def pure_error_lack_of_fit(residuals: np.ndarray, sigma: np.ndarray, keys: np.ndarray, n_params: int) -> float | None:
+def pure_error_lack_of_fit(
+    residuals: np.ndarray, sigma: np.ndarray, keys: np.ndarray, n_params: int
+) -> float | None:
     """p-value of the pure-error lack-of-fit F test, or None when no condition is repeated.
 
     Rows with the same ``keys`` repeat one condition (rig trials). With weights ``1/sigma^2``, the
@@ -82,7 +90,7 @@ def pure_error_lack_of_fit(residuals: np.ndarray, sigma: np.ndarray, keys: np.nd
     sw = np.bincount(inv, weights=w, minlength=g)
     mean = np.bincount(inv, weights=w * r, minlength=g) / sw
     ss_pe = float(np.sum(w * (r - mean[inv]) ** 2))
-    ss_lof = float(np.sum(sw * mean ** 2))
+    ss_lof = float(np.sum(sw * mean**2))
     if ss_pe <= 0:
         return 0.0 if ss_lof > 0 else 1.0
     return f_sf((ss_lof / (g - n_params)) / (ss_pe / (n - g)), g - n_params, n - g)
@@ -90,5 +98,10 @@ def pure_error_lack_of_fit(residuals: np.ndarray, sigma: np.ndarray, keys: np.nd
 
 def decide_gap(p_values: dict[str, float | None], alpha: float) -> GapDecision:
     """The :class:`GapDecision` from the p-values of the tests made (None: not made)."""
-    return GapDecision(tuple(GapTest(k, float(v), alpha) for k, v in p_values.items()
-                             if v is not None and math.isfinite(float(v))))
+    return GapDecision(
+        tuple(
+            GapTest(k, float(v), alpha)
+            for k, v in p_values.items()
+            if v is not None and math.isfinite(float(v))
+        )
+    )

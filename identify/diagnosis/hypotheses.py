@@ -9,6 +9,7 @@ stretched to imitate something else). An inadmissible hypothesis leaves the comp
 
 Residual convention: measured - model.
 """
+
 from __future__ import annotations
 
 import math
@@ -59,8 +60,9 @@ class Frame:
         ``fill`` (a z vector of the same layout, e.g. the nominal model's) replaces samples the
         hypothesis leaves unpredicted (NaN), so that every hypothesis is scored on the same samples.
         """
-        out = np.concatenate([np.asarray(residuals[ch], dtype=float)[m] / self.sigma[ch][m]
-                              for ch, m in self.mask.items()])
+        out = np.concatenate(
+            [np.asarray(residuals[ch], dtype=float)[m] / self.sigma[ch][m] for ch, m in self.mask.items()]
+        )
         if fill is not None:
             bad = np.isnan(out)
             out[bad] = fill[bad]

@@ -9,6 +9,7 @@ time for a log, in slip for a sweep. It is a two-stage fit standing for any smoo
 An effect is admissible when its fits converged and none of its parameters ended on a bound (an
 effect stretched to its bound imitates something it is not).
 """
+
 from __future__ import annotations
 
 from typing import Any, Callable
@@ -63,8 +64,20 @@ def nominal_hypothesis(setup: Setup) -> tuple[Hypothesis, list, list]:
     held, fits, train_res = held_out(setup, lambda tr: setup.runner.run_warm(tr))
     ok = all(usable(f, setup.is_log) for f in fits)
     resid = held if setup.is_log else setup.residuals
-    return Hypothesis(NOMINAL, "nominal", 0, resid, admissible=ok, why="" if ok else "a training fit failed",
-                      held=held, fit=setup.nominal_fit), fits, train_res
+    return (
+        Hypothesis(
+            NOMINAL,
+            "nominal",
+            0,
+            resid,
+            admissible=ok,
+            why="" if ok else "a training fit failed",
+            held=held,
+            fit=setup.nominal_fit,
+        ),
+        fits,
+        train_res,
+    )
 
 
 def _spline(setup: Setup, x_tr: np.ndarray, r_tr: np.ndarray, x_at: np.ndarray) -> np.ndarray:
@@ -90,8 +103,15 @@ def flexible_hypothesis(setup: Setup, nominal: Hypothesis, train_res: list) -> H
 
 def _stretched(fits: list, name: str) -> list[str]:
     """Parameters of effect ``name`` on a bound in any of ``fits``."""
-    return sorted({p for f in fits if f is not None and getattr(f, "success", False)
-                   for p, d in effect_parameters(f, name).items() if d.get("at_bound")})
+    return sorted(
+        {
+            p
+            for f in fits
+            if f is not None and getattr(f, "success", False)
+            for p, d in effect_parameters(f, name).items()
+            if d.get("at_bound")
+        }
+    )
 
 
 def effect_hypothesis(setup: Setup, name: str, family: str) -> Hypothesis:
@@ -112,15 +132,32 @@ def effect_hypothesis(setup: Setup, name: str, family: str) -> Hypothesis:
         def fit_fold(tr: np.ndarray) -> Any:
             res = run.run(tr, eff)
             return res if usable(res, False) or not usable(full, False) else run.refit_from(full, tr, eff)
+
         held, fits, _ = held_out(setup, fit_fold)
         if resid is None:
             resid = {ch: np.full(setup.n, np.inf) for ch in setup.channels}
     ref = fits[0] if setup.is_log else full
     conv = all(usable(f, setup.is_log) for f in fits) and (full is None or usable(full, False))
     at = _stretched(fits + ([full] if full is not None else []), name)
-    why = "" if conv and not at else ("a fit did not converge" if not conv else
-                                      f"{', '.join(at)} ended on {'its bound' if len(at) == 1 else 'their bounds'}")
+    why = (
+        ""
+        if conv and not at
+        else (
+            "a fit did not converge"
+            if not conv
+            else f"{', '.join(at)} ended on {'its bound' if len(at) == 1 else 'their bounds'}"
+        )
+    )
     n_par = len(getattr(ref, "effect_labels", ()) or ()) - len(getattr(ref, "fixed_labels", ()) or ())
     params = effect_parameters(ref, name) if ref is not None and usable(ref, setup.is_log) else {}
-    return Hypothesis(name, family, max(1, n_par), resid, admissible=not why, why=why, held=held,
-                      parameters=params, fit=full)
+    return Hypothesis(
+        name,
+        family,
+        max(1, n_par),
+        resid,
+        admissible=not why,
+        why=why,
+        held=held,
+        parameters=params,
+        fit=full,
+    )

@@ -1,4 +1,5 @@
 """Where the nominal misfit lies: by channel and by range of slip, speed and time (:func:`~.gap.localise`)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -28,5 +29,9 @@ def localisation(setup: Setup) -> list[Segment]:
     """Segments of the nominal model's full-data residuals, by share of the misfit above the noise."""
     R, sg = setup.residuals, setup.sigma
     common = np.logical_and.reduce([np.isfinite(R[ch]) & np.isfinite(sg[ch]) for ch in setup.channels])
-    return localise({ch: R[ch][common] for ch in setup.channels}, {ch: sg[ch][common] for ch in setup.channels},
-                    {k: v[common] for k, v in variables(setup).items()}, alpha=setup.settings.alpha)
+    return localise(
+        {ch: R[ch][common] for ch in setup.channels},
+        {ch: sg[ch][common] for ch in setup.channels},
+        {k: v[common] for k, v in variables(setup).items()},
+        alpha=setup.settings.alpha,
+    )

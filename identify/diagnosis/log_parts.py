@@ -83,35 +83,6 @@ class TerrainWindow:
     def shift(self) -> float:
         return self.fmax_change
 
-    def to_dict(self) -> dict:
-        """JSON-friendly dict (the ``change_window`` entry of a drive-log diagnosis)."""
-        f = (lambda x: float(x) if math.isfinite(x) else None)
-        return {"channel": self.channel, "start": float(self.start), "end": float(self.end),
-                "evidence_start": float(self.evidence_start), "evidence_end": float(self.evidence_end),
-                "shift": f(self.fmax_change), "fmax_change": f(self.fmax_change), "k_change": f(self.k_change),
-                "statistic": float(self.statistic), "dof": int(self.dof), "p_value": float(self.p_value),
-                "significant": bool(self.significant)}
-
-    def describe(self) -> str:
-        """One line for the report."""
-        if not self.significant:
-            return (f"no significant change of soil in time (strongest window {self.evidence_start:.4g} to "
-                    f"{self.evidence_end:.4g} s, p = {self.p_value:.2g})")
-        how = ", ".join(f"{name} {_pct(x)}" for name, x in (("thrust limit", self.fmax_change), ("K", self.k_change)))
-        return (f"the soil differs from the rest of the run within {self.start:.4g} to {self.end:.4g} s: it shows "
-                f"between {self.evidence_start:.4g} and {self.evidence_end:.4g} s (linearised change there: {how}; "
-                f"p = {self.p_value:.2g}); the samples outside that but inside the bracket carry too little "
-                f"information about the soil (little thrust) to place the boundaries closer")
-
-
-def _pct(x: float) -> str:
-    """A relative change in words (a linearised step beyond +-100 % says only its direction)."""
-    if not math.isfinite(x):
-        return "unknown"
-    if abs(x) > 1.0:
-        return "much lower" if x < 0 else "much higher"
-    return f"{x:+.0%}"
-
 
 def _pinv_quad(S: np.ndarray, V: np.ndarray, atol: float = 1e-8) -> tuple[float, int]:
     """``S^T V^+ S`` and the rank of ``V`` (symmetric, eigen-decomposed; eigenvalues below ``atol`` dropped)."""

@@ -27,6 +27,7 @@ the noise where the soil fitted below still rises (:func:`~.sweep_parts.find_pla
 A cause whose trace the data do not show (no significant lag, no significant window, nothing
 clipped, no soil on a bound) is listed as not formed, with the reason; it is not weighed.
 """
+
 from __future__ import annotations
 
 import math
@@ -50,7 +51,9 @@ __all__ = ["outside_hypotheses"]
 
 
 def _not_formed(name: str, why: str, n: int, channels_: list[str]) -> Hypothesis:
-    return Hypothesis(name, "outside", 0, {ch: np.full(n, np.inf) for ch in channels_}, admissible=False, why=why)
+    return Hypothesis(
+        name, "outside", 0, {ch: np.full(n, np.inf) for ch in channels_}, admissible=False, why=why
+    )
 
 
 def delay_hypothesis(setup: Setup, train_res: list) -> Hypothesis:
@@ -62,25 +65,39 @@ def delay_hypothesis(setup: Setup, train_res: list) -> Hypothesis:
         return _not_formed("delay", "no speed channel", setup.n, setup.channels)
     scan = delay_scan(rtr, data.sprocket_speed, s.max_delay_samples, idx=tr)
     if not scan["p_value"] < s.alpha:
-        return _not_formed("delay", f"the delay scan finds no significant lag (p = {scan['p_value']:.2g})",
-                           setup.n, setup.channels)
-    k, fit_k = refine_delay(setup.nominal_fit, data, setup.runner.vehicle, tr,
-                            int(np.sign(scan["lag"])), s.max_delay_samples)
+        return _not_formed(
+            "delay",
+            f"the delay scan finds no significant lag (p = {scan['p_value']:.2g})",
+            setup.n,
+            setup.channels,
+        )
+    k, fit_k = refine_delay(
+        setup.nominal_fit, data, setup.runner.vehicle, tr, int(np.sign(scan["lag"])), s.max_delay_samples
+    )
     if k == 0 or fit_k is None:
-        return _not_formed("delay", "no shift of the speed channel fits the training blocks better",
-                           setup.n, setup.channels)
+        return _not_formed(
+            "delay", "no shift of the speed channel fits the training blocks better", setup.n, setup.channels
+        )
     full = channels(fit_k, shift_speed(data, k))
     held = {ch: np.full(setup.n, np.nan) for ch in setup.channels}
     for ch in setup.channels:
         held[ch][te] = full[ch][te]
     h = float(np.median(np.diff(np.asarray(data.time, dtype=float))))
     detail = {"lag_samples": int(k), "lag_s": float(k * h), "scan_p_value": float(scan["p_value"])}
-    return Hypothesis("delay", "outside", 1, held, held=held, detail=detail,
-                      parameters={"lag_s": {"value": float(k * h), "identifiable": True, "at_bound": False}})
+    return Hypothesis(
+        "delay",
+        "outside",
+        1,
+        held,
+        held=held,
+        detail=detail,
+        parameters={"lag_s": {"value": float(k * h), "identifiable": True, "at_bound": False}},
+    )
 
 
 def _with_soil(res: Any, fmax: float, k: float) -> Any:
-    """Fit result ``res`` with its thrust limit and shear modulus replaced (what a drive-log model predicts from)."""
+    """Fit result ``res`` with its thrust limit and shear modulus replaced (a drive-log model predicts
+    from these two)."""
     extra = dict(res.extra)
     if extra.get("joint_parameters") is not None:
         extra["joint_parameters"] = dict(extra["joint_parameters"], max_thrust_N=fmax, shear_modulus_m=k)
@@ -88,8 +105,9 @@ def _with_soil(res: Any, fmax: float, k: float) -> Any:
     return replace(res, extra=extra)
 
 
-def _inside_soil(train_fit: Any, data: Any, vehicle: Any, tr: np.ndarray, inside: np.ndarray
-                 ) -> tuple[float, float] | None:
+def _inside_soil(
+    train_fit: Any, data: Any, vehicle: Any, tr: np.ndarray, inside: np.ndarray
+) -> tuple[float, float] | None:
     """``(F_max, K)`` inside the window: one Gauss-Newton step from the training fit on its training samples
     inside the window (the soil outside stays the training fit's). None without information there."""
     sens = drive_log_sensitivities(train_fit, data, vehicle)
@@ -117,24 +135,41 @@ def terrain_hypothesis(setup: Setup, train_fit: Any) -> Hypothesis:
     try:
         sens = drive_log_sensitivities(setup.nominal_fit, data, run.vehicle)
         ex = setup.nominal_fit.extra
-        win = terrain_window(sens.residuals, sens.jacobian, sens.time_s, alpha=s.alpha,
-                             scale=(float(ex.get("max_thrust_N", 1.0)), float(ex.get("shear_modulus_m", 1.0))))
+        win = terrain_window(
+            sens.residuals,
+            sens.jacobian,
+            sens.time_s,
+            alpha=s.alpha,
+            scale=(float(ex.get("max_thrust_N", 1.0)), float(ex.get("shear_modulus_m", 1.0))),
+        )
     except DataError:
         win = None
     if win is None or not win.significant:
-        why = ("the soil's score test finds no window" if win is None else
-               f"no time window where the soil differs significantly (p = {win.p_value:.2g})")
+        why = (
+            "the soil's score test finds no window"
+            if win is None
+            else f"no time window where the soil differs significantly (p = {win.p_value:.2g})"
+        )
         return _not_formed("terrain_change", why, setup.n, setup.channels)
     t = np.asarray(data.time, dtype=float)
     inside = (t >= win.evidence_start) & (t <= win.evidence_end)
-    detail = {"window_s": [float(win.evidence_start), float(win.evidence_end)],
-              "bracket_s": [float(win.start), float(win.end)], "score_p_value": float(win.p_value)}
+    detail = {
+        "window_s": [float(win.evidence_start), float(win.evidence_end)],
+        "bracket_s": [float(win.start), float(win.end)],
+        "score_p_value": float(win.p_value),
+    }
     try:
         soil = _inside_soil(train_fit, data, run.vehicle, tr, inside)
         if soil is None or not (soil[0] > 0 and soil[1] > 0):
-            return Hypothesis("terrain_change", "outside", 5, {ch: np.full(setup.n, np.inf) for ch in setup.channels},
-                              admissible=False, detail=detail,
-                              why="the training samples inside the window give no soil of physical sign")
+            return Hypothesis(
+                "terrain_change",
+                "outside",
+                5,
+                {ch: np.full(setup.n, np.inf) for ch in setup.channels},
+                admissible=False,
+                detail=detail,
+                why="the training samples inside the window give no soil of physical sign",
+            )
         rin = channels(_with_soil(train_fit, *soil), data)
         rout = channels(train_fit, data)
     except DataError as e:
@@ -143,8 +178,10 @@ def terrain_hypothesis(setup: Setup, train_fit: Any) -> Hypothesis:
     for ch in setup.channels:
         held[ch][te] = np.where(inside[te], rin[ch][te], rout[ch][te])
     f0, k0 = float(train_fit.extra["max_thrust_N"]), float(train_fit.extra["shear_modulus_m"])
-    params = {"fmax_change": {"value": soil[0] / f0 - 1.0, "identifiable": True, "at_bound": False},
-              "k_change": {"value": soil[1] / k0 - 1.0, "identifiable": True, "at_bound": False}}
+    params = {
+        "fmax_change": {"value": soil[0] / f0 - 1.0, "identifiable": True, "at_bound": False},
+        "k_change": {"value": soil[1] / k0 - 1.0, "identifiable": True, "at_bound": False},
+    }
     return Hypothesis("terrain_change", "outside", 4, held, held=held, detail=detail, parameters=params)
 
 
@@ -153,8 +190,16 @@ def sampled_torque_hypothesis(setup: Setup) -> Hypothesis:
     run = setup.runner
     held, fits, _ = held_out(setup, lambda tr: run.run_warm(tr, torque_hold="sample"))
     ok = all(usable(f, True) for f in fits)
-    return Hypothesis("sampled_torque", "outside", 0, held, admissible=ok, held=held,
-                      why="" if ok else "the fit with the sampled torque failed", detail={"torque_hold": "sample"})
+    return Hypothesis(
+        "sampled_torque",
+        "outside",
+        0,
+        held,
+        admissible=ok,
+        held=held,
+        why="" if ok else "the fit with the sampled torque failed",
+        detail={"torque_hold": "sample"},
+    )
 
 
 def _bound_edges(nominal: Any) -> dict[str, str]:
@@ -175,15 +220,33 @@ def wider_soil_hypothesis(setup: Setup) -> Hypothesis:
     run, nom = setup.runner, setup.nominal_fit
     edges = _bound_edges(nom)
     if not edges or setup.runner.options.get("bounds") is not PRACTICAL_BOUNDS:
-        return _not_formed("soil_beyond_range", "the nominal soil ends on no edge of the practical range"
-                           if not edges else "the soil bounds were given", setup.n, setup.channels)
+        return _not_formed(
+            "soil_beyond_range",
+            "the nominal soil ends on no edge of the practical range"
+            if not edges
+            else "the soil bounds were given",
+            setup.n,
+            setup.channels,
+        )
     x0 = np.asarray(nom.theta, dtype=float)
-    held, fits, _ = held_out(setup, lambda tr: run.run_warm(tr, bounds=WIDE_BOUNDS) if setup.is_log
-                             else run.run(tr, bounds=WIDE_BOUNDS, x0=x0))
+    held, fits, _ = held_out(
+        setup,
+        lambda tr: (
+            run.run_warm(tr, bounds=WIDE_BOUNDS) if setup.is_log else run.run(tr, bounds=WIDE_BOUNDS, x0=x0)
+        ),
+    )
     ref = fits[0] if setup.is_log else run.run(None, bounds=WIDE_BOUNDS, x0=x0)
-    if not usable(ref, setup.is_log) or not outside_practical(ref) or any(k in edges for k in ref.active_bounds):
-        return _not_formed("soil_beyond_range", "the soil with the bounds widened stays in the practical range "
-                           "or ends on a wide bound", setup.n, setup.channels)
+    if (
+        not usable(ref, setup.is_log)
+        or not outside_practical(ref)
+        or any(k in edges for k in ref.active_bounds)
+    ):
+        return _not_formed(
+            "soil_beyond_range",
+            "the soil with the bounds widened stays in the practical range or ends on a wide bound",
+            setup.n,
+            setup.channels,
+        )
     resid = held if setup.is_log else channels(ref, setup.data)
     detail = {"outside_practical_range": outside_practical(ref), "on_practical_bound": sorted(edges)}
     return Hypothesis("soil_beyond_range", "outside", 0, resid, held=held, detail=detail, fit=ref)
@@ -208,11 +271,16 @@ def clipped_hypothesis(setup: Setup) -> Hypothesis:
             resid = channels(f, setup.data)
             held = None
     except DataError as e:
-        return _not_formed("clipped_sensor", f"no fit without the clipped readings ({e})", setup.n, setup.channels)
+        return _not_formed(
+            "clipped_sensor", f"no fit without the clipped readings ({e})", setup.n, setup.channels
+        )
     for ch in setup.channels:
         resid[ch][clipped] = setup.sigma[ch][clipped]
-    detail = {"channels": sorted({c.channel for c in sat}), "rows": int(np.count_nonzero(clipped)),
-              "levels": {c.channel: float(c.level) for c in sat}}
+    detail = {
+        "channels": sorted({c.channel for c in sat}),
+        "rows": int(np.count_nonzero(clipped)),
+        "levels": {c.channel: float(c.level) for c in sat},
+    }
     return Hypothesis("clipped_sensor", "outside", 1, resid, held=held, detail=detail)
 
 
@@ -234,13 +302,25 @@ def plateau_hypothesis(setup: Setup) -> Hypothesis:
 
     pl = find_plateau(values, setup.x, setup.sigma[ch], fit_below) if len(setup.channels) == 1 else None
     if pl is None:
-        return _not_formed("plateau", "no flat level on the largest readings above a rising soil", setup.n,
-                           setup.channels)
+        return _not_formed(
+            "plateau", "no flat level on the largest readings above a rising soil", setup.n, setup.channels
+        )
     detail = {"level_N": float(pl.level), "rows": len(pl.rows), "slip_range": list(pl.slip_range)}
-    return Hypothesis("plateau", "outside", 2, {ch: pl.z * setup.sigma[ch]}, detail=detail,
-                      parameters={"level_N": {"value": float(pl.level), "stderr": float(pl.level_stderr)
-                                              if math.isfinite(pl.level_stderr) else None,
-                                              "identifiable": True, "at_bound": False}})
+    return Hypothesis(
+        "plateau",
+        "outside",
+        2,
+        {ch: pl.z * setup.sigma[ch]},
+        detail=detail,
+        parameters={
+            "level_N": {
+                "value": float(pl.level),
+                "stderr": float(pl.level_stderr) if math.isfinite(pl.level_stderr) else None,
+                "identifiable": True,
+                "at_bound": False,
+            }
+        },
+    )
 
 
 def outside_hypotheses(setup: Setup, train_res: list, train_fit: Any, hold_given: bool) -> list[Hypothesis]:

@@ -1,4 +1,5 @@
 """The plain-words report of a diagnosis: what decided, with the numbers the decision used, and no others."""
+
 from __future__ import annotations
 
 import math
@@ -40,8 +41,11 @@ def _soil_flag(soil: dict, key: str) -> str:
 
 
 def _gap_lines(d: Any) -> list[str]:
-    kind = ("nominal model fitted on alternate blocks in time, predicting the others" if d.data_kind == "drive"
-            else "each block of the sweep in slip held out once")
+    kind = (
+        "nominal model fitted on alternate blocks in time, predicting the others"
+        if d.data_kind == "drive"
+        else "each block of the sweep in slip held out once"
+    )
     out = [f"The gap ({kind}; residuals are measured - model):"]
     for ch, v in d.holdout_rmse_before.items():
         nf = d.noise.get(ch, 0.0)
@@ -61,8 +65,10 @@ def _ranking_lines(d: Any) -> list[str]:
         det = "".join(f", {k} {v}" for k, v in e.detail.items() if k in ("lag_s", "window_s", "level_N"))
         out.append(f"  {e.effect:<20s} {e.family:<9s} weight {e.weight:.3f} ({e.n_params} par){sh}{ex}{det}")
         for p, v in e.parameters.items():
-            out.append(f"      {p} = {fmt(v.get('value'))} (standard error {fmt(v.get('stderr'))})"
-                       f"{'' if v.get('identifiable', True) else ' (not identifiable)'}")
+            out.append(
+                f"      {p} = {fmt(v.get('value'))} (standard error {fmt(v.get('stderr'))})"
+                f"{'' if v.get('identifiable', True) else ' (not identifiable)'}"
+            )
     for x in d.excluded:
         out.append(f"  left out: {x.name} ({x.family}): {x.why}")
     for (a, b), corr, exp in d.confusable:
@@ -109,11 +115,18 @@ def report_text(d: Any) -> str:
     kind = "drive log" if d.data_kind == "drive" else "slip sweep"
     cause = ""
     if d.cause is not None:
-        cause = f"; cause: {d.cause}" + "".join(f", {k} {v}" for k, v in d.cause_detail.items()
-                                                if k in ("lag_s", "window_s", "level_N", "channels"))
-    lines = [f"Sim-to-real gap diagnosis of a {kind} ({d.n_samples} samples)", "",
-             f"Verdict: {d.verdict} ({HEADS.get(d.verdict, 'the effect that explains the gap')}{cause}), "
-             f"confidence {d.confidence:.2f}", f"  why: {d.reason}"]
+        cause = f"; cause: {d.cause}" + "".join(
+            f", {k} {v}"
+            for k, v in d.cause_detail.items()
+            if k in ("lag_s", "window_s", "level_N", "channels")
+        )
+    lines = [
+        f"Sim-to-real gap diagnosis of a {kind} ({d.n_samples} samples)",
+        "",
+        f"Verdict: {d.verdict} ({HEADS.get(d.verdict, 'the effect that explains the gap')}{cause}), "
+        f"confidence {d.confidence:.2f}",
+        f"  why: {d.reason}",
+    ]
     if not d.converged:
         lines.append("  CAUTION: a fit the verdict rests on did not converge")
     if not d.ranking:

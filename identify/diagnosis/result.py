@@ -6,6 +6,7 @@ hypotheses outside the candidates), ``cause`` with what names it (``lag_s``, ``w
 ``ranking``, ``confusable``, ``localisation``, ``shrink``, ``soil_before``, ``soil_after``, and the
 gap tests the decision used. Never NaN: null instead.
 """
+
 from __future__ import annotations
 
 import json
@@ -60,12 +61,18 @@ class RankEntry:
 
     def to_dict(self) -> dict:
         """The JSON entry."""
-        return {"effect": self.effect, "family": self.family, "weight": float(self.weight),
-                "n_params": int(self.n_params),
-                "holdout_rmse_before": {k: finite(v) for k, v in self.holdout_rmse_before.items()},
-                "holdout_rmse_after": {k: finite(v) for k, v in self.holdout_rmse_after.items()},
-                "shrink": finite(self.shrink), "explained": finite(self.explained),
-                "parameters": self.parameters, "detail": self.detail}
+        return {
+            "effect": self.effect,
+            "family": self.family,
+            "weight": float(self.weight),
+            "n_params": int(self.n_params),
+            "holdout_rmse_before": {k: finite(v) for k, v in self.holdout_rmse_before.items()},
+            "holdout_rmse_after": {k: finite(v) for k, v in self.holdout_rmse_after.items()},
+            "shrink": finite(self.shrink),
+            "explained": finite(self.explained),
+            "parameters": self.parameters,
+            "detail": self.detail,
+        }
 
 
 @dataclass(frozen=True)
@@ -149,26 +156,44 @@ class Diagnosis:
     def to_dict(self) -> dict:
         """The JSON object (never NaN: null instead)."""
         out: dict[str, Any] = {
-            "verdict": self.verdict, "confidence": float(self.confidence), "cause": self.cause}
+            "verdict": self.verdict,
+            "confidence": float(self.confidence),
+            "cause": self.cause,
+        }
         out.update(self.cause_detail)
-        out.update({
-            "reason": self.reason, "ranking": [e.to_dict() for e in self.ranking],
-            "excluded": [e.to_dict() for e in self.excluded], "evidence": self.evidence,
-            "gap_tests": [t.to_dict() for t in self.gap.tests], "gap": bool(self.gap.present),
-            "confusable": [list(p) for p, _, _ in self.confusable],
-            "confusable_detail": [{"effects": list(p), "correlation": finite(c), "experiment": x}
-                                  for p, c, x in self.confusable],
-            "localisation": [s.to_dict() for s in self.localisation],
-            "shrink": finite(self.shrink), "explained": finite(self.explained),
-            "holdout_rmse_before": {k: finite(v) for k, v in self.holdout_rmse_before.items()},
-            "holdout_rmse_after": None if self.holdout_rmse_after is None else
-            {k: finite(v) for k, v in self.holdout_rmse_after.items()},
-            "noise_floor": {k: finite(v) for k, v in self.noise.items()},
-            "soil_before": self.soil_before, "soil_after": self.soil_after,
-            "screening": [s.to_dict() for s in self.screens], "data_kind": self.data_kind,
-            "n_samples": int(self.n_samples), "candidates": list(self.candidates),
-            "residual_sign": "measured - model", "converged": bool(self.converged), "notes": list(self.notes),
-            "elapsed_s": finite(self.elapsed_s)})
+        out.update(
+            {
+                "reason": self.reason,
+                "ranking": [e.to_dict() for e in self.ranking],
+                "excluded": [e.to_dict() for e in self.excluded],
+                "evidence": self.evidence,
+                "gap_tests": [t.to_dict() for t in self.gap.tests],
+                "gap": bool(self.gap.present),
+                "confusable": [list(p) for p, _, _ in self.confusable],
+                "confusable_detail": [
+                    {"effects": list(p), "correlation": finite(c), "experiment": x}
+                    for p, c, x in self.confusable
+                ],
+                "localisation": [s.to_dict() for s in self.localisation],
+                "shrink": finite(self.shrink),
+                "explained": finite(self.explained),
+                "holdout_rmse_before": {k: finite(v) for k, v in self.holdout_rmse_before.items()},
+                "holdout_rmse_after": None
+                if self.holdout_rmse_after is None
+                else {k: finite(v) for k, v in self.holdout_rmse_after.items()},
+                "noise_floor": {k: finite(v) for k, v in self.noise.items()},
+                "soil_before": self.soil_before,
+                "soil_after": self.soil_after,
+                "screening": [s.to_dict() for s in self.screens],
+                "data_kind": self.data_kind,
+                "n_samples": int(self.n_samples),
+                "candidates": list(self.candidates),
+                "residual_sign": "measured - model",
+                "converged": bool(self.converged),
+                "notes": list(self.notes),
+                "elapsed_s": finite(self.elapsed_s),
+            }
+        )
         return out
 
     def to_json(self, indent: int | None = 2) -> str:

@@ -3,6 +3,7 @@
 :class:`DiagnoseSettings` is the one place the decision code takes a number from; ``diagnose(...,
 settings=DiagnoseSettings(alpha=0.05))`` changes one of them for a run.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -5,6 +5,7 @@ on all the data and its residuals (measured - model), the hold-out folds, the na
 (time for a log, slip for a sweep) and the noise floor per channel and sample
 (:func:`~.gap.noise_profile` of the residuals in that order).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -148,7 +149,9 @@ class Setup:
     @property
     def compared(self) -> dict[str, np.ndarray]:
         """Per channel, the samples the evidence compares: a log's held-out ones, all of a sweep's."""
-        ok = {ch: np.isfinite(self.residuals[ch]) & (np.nan_to_num(self.sigma[ch]) > 0) for ch in self.channels}
+        ok = {
+            ch: np.isfinite(self.residuals[ch]) & (np.nan_to_num(self.sigma[ch]) > 0) for ch in self.channels
+        }
         if not self.is_log:
             return ok
         held = np.zeros(self.n, dtype=bool)
