@@ -198,7 +198,7 @@ def _gap(setup: Setup, hyps: list[Hypothesis], weights: dict[str, float], hold: 
 
 def _lack_of_fit(setup: Setup) -> float:
     """A sweep's lack-of-fit F test: a flexible term in slip on top of the nominal fit, the soil refitted
-    with it     (in-sample, like a sweep's evidence; it does not depend on the noise level, only on its shape)."""
+    with it (in-sample, like a sweep's evidence; free of the noise level, only its shape matters)."""
     ch, data, nom = setup.channels[0], setup.data, setup.nominal_fit
     r, sg = setup.residuals[ch], setup.sigma[ch]
     ok = np.isfinite(r) & (np.nan_to_num(sg) > 0)
@@ -210,7 +210,7 @@ def _lack_of_fit(setup: Setup) -> float:
 
 
 def _pure_error(setup: Setup) -> float | None:
-    """A sweep's pure-error lack-of-fit test of the nominal model when rows repeat a condition (slip, load)."""
+    """A sweep's pure-error lack-of-fit test of the nominal model when rows repeat a condition."""
     ch, data, nom = setup.channels[0], setup.data, setup.nominal_fit
     loads = data.loads(setup.runner.vehicle.weight)
     keys = np.column_stack([np.round(np.asarray(data.slip, dtype=float), 6), np.round(loads, 3)])
