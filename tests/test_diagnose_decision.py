@@ -127,3 +127,14 @@ def test_gap_decision_keeps_only_the_tests_made():
 
 def test_settings_knots():
     assert S.knots(3001, True) == 20 and S.knots(600, True) == 8 and S.knots(60, False) == 10
+
+
+def test_a_candidate_that_leaves_a_gap_is_not_named():
+    e = RNG.standard_normal(N)
+    hs = [hyp("none", "nominal", 3 * e), hyp("grade", "candidate", e)]
+    w = {"none": 0.0, "grade": 1.0}
+    g = decide_gap({"nominal error vs noise": 1e-9}, S.alpha, ("gap left by grade", 1e-4))
+    d = decide(hs, w, g, {}, S)
+    assert d.verdict == "unexplained" and d.cause is None and d.confidence == 0.0
+    g = decide_gap({"nominal error vs noise": 1e-9}, S.alpha, ("gap left by grade", 0.3))
+    assert decide(hs, w, g, {}, S).verdict == "grade"

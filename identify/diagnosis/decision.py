@@ -4,12 +4,12 @@ Given the weights of the admissible hypotheses (:mod:`.evidence`) and the gap te
 (:mod:`.gap_test`):
 
 1. No gap: the verdict is ``none``.
-2. A gap, and the heaviest hypothesis is a candidate effect that removes at least
-   ``min_explained`` of the nominal model's excess error over the noise: that effect.
-3. A gap, and the heaviest is a candidate that explains less, the flexible term, or a cause
+2. A gap, and the heaviest hypothesis is a candidate effect that explains it: that effect. It
+   explains the gap when it removes at least ``min_explained`` of the nominal model's excess error
+   over the noise and leaves no gap that a flexible term on top of it still explains.
+3. A gap, and the heaviest is a candidate that does not explain it, the flexible term, or a cause
    outside the library (or an effect the user left out of the candidates): ``unexplained``, with
-   the cause named when the heaviest is one and it removes at least ``min_explained`` of the
-   excess (the same test a named effect passes).
+   the cause named when the heaviest is one and it explains the gap (the same test).
 4. A gap, and the heaviest is the nominal model: ``none``.
 
 The confidence is the verdict's weight as it stands in the ranking; for ``unexplained`` the summed
@@ -83,6 +83,20 @@ def _confusable(
     return tuple((p, c, separating_experiment(*p)) for p, c in pairs)
 
 
+def _explains(h: Hypothesis, exv: float | None, gap: GapDecision, s: DiagnoseSettings) -> tuple[bool, str]:
+    """Whether the heaviest hypothesis explains the gap: it removes at least ``min_explained`` of the nominal
+    excess over the noise and leaves no gap a flexible term on top of it still explains; and why not."""
+    if exv is not None and exv < s.min_explained:
+        return False, (
+            f"removes only {max(exv, 0.0):.0%} of the nominal excess error over the noise (at least "
+            f"{s.min_explained:.0%} is needed)"
+        )
+    if gap.left is not None and gap.left.significant:
+        return False, f"leaves a gap a flexible term on top of it still explains (p = {gap.left.p_value:.2g})"
+    share = "" if exv is None else f"removes {exv:.0%} of the nominal excess error over the noise"
+    return True, share
+
+
 def decide(
     hyps: list[Hypothesis],
     weights: dict[str, float],
@@ -99,85 +113,45 @@ def decide(
     weights
         Their weights (:mod:`.evidence`).
     gap
-        The gap tests.
+        The gap tests, and the test of the gap the heaviest hypothesis leaves.
     directions
         Projected sensitivity of each library effect (screening), for the confusable pairs.
     settings
         ``min_explained`` and the confusable thresholds.
     """
     by = {h.name: h for h in hyps}
-    nominal = by[NOMINAL]
     top = max(weights, key=lambda k: weights[k])
     h = by[top]
     w_out = float(sum(weights[x.name] for x in hyps if x.family in ("flexible", "outside")))
-    ex = h.explained(nominal) if h.family != "nominal" else math.nan
-    exv = None if not math.isfinite(ex) else float(ex)
+    ex = h.explained(by[NOMINAL]) if h.family != "nominal" else math.nan
+    exv = float(ex) if math.isfinite(ex) else None
     conf = _confusable(hyps, weights, directions, top, settings)
-    if not gap.present:
+    w_top = f"{top} carries the largest weight ({weights[top]:.2f})"
+    if not gap.present or h.family == "nominal":
+        why = (
+            f"no gap test is significant at the level {settings.alpha:g}"
+            if not gap.present
+            else f"a gap test is significant, but {w_top}"
+        )
+        return Decision(NOMINAL, weights[NOMINAL], top, None, None, why, confusable=conf)
+    ok, how = _explains(h, exv, gap, settings)
+    if h.family == "candidate" and ok:
         return Decision(
-            NOMINAL,
-            weights[NOMINAL],
-            top,
-            exv,
-            None,
-            "no gap test is significant at the level " + f"{settings.alpha:g}",
-            confusable=conf,
+            top, weights[top], top, exv, None, f"{w_top} and {how}" if how else w_top, confusable=conf
         )
-    if h.family == "nominal":
-        return Decision(
-            NOMINAL,
-            weights[NOMINAL],
-            top,
-            None,
-            None,
-            f"a gap test is significant, but the nominal model carries the largest weight "
-            f"({weights[NOMINAL]:.2f})",
-            confusable=conf,
-        )
-    if h.family == "candidate" and (exv is None or exv >= settings.min_explained):
-        share = "" if exv is None else f" and removes {exv:.0%} of the nominal excess error over the noise"
-        return Decision(
-            top,
-            weights[top],
-            top,
-            exv,
-            None,
-            f"{top} carries the largest weight ({weights[top]:.2f}){share}",
-            confusable=conf,
-        )
-    if h.family == "candidate":
-        return Decision(
-            UNEXPLAINED,
-            w_out,
-            top,
-            exv,
-            None,
-            f"{top} carries the largest weight ({weights[top]:.2f}) but removes only "
-            f"{max(exv or 0.0, 0.0):.0%} of the nominal excess error over the noise (at least "
-            f"{settings.min_explained:.0%} is needed)",
-            confusable=conf,
-        )
-    enough = exv is None or exv >= settings.min_explained
-    cause = top if h.family == "outside" and enough else None
-    what = (
-        "the flexible discrepancy term"
-        if h.family == "flexible"
-        else f"the outside cause {top}"
-        + (
-            ""
-            if enough
-            else f", which removes only {max(exv or 0.0, 0.0):.0%} of the nominal excess error "
-            "(too little to name it)"
-        )
-    )
+    cause = top if h.family == "outside" and ok else None
+    if h.family == "flexible":
+        why = f"the flexible discrepancy term carries the largest weight ({weights[top]:.2f})"
+    else:
+        why = f"{w_top}" + ("" if ok else f" but {how}")
+    why += f"; the hypotheses outside the candidates weigh {w_out:.2f} together"
     return Decision(
         UNEXPLAINED,
         w_out,
         top,
         exv,
         cause,
-        f"{what} carries the largest weight ({weights[top]:.2f}); the hypotheses outside the "
-        f"candidates weigh {w_out:.2f} together",
+        why,
         cause_detail=dict(h.detail) if cause else {},
         confusable=conf,
     )

@@ -38,7 +38,7 @@ from .fits import SOIL_KEYS, FitRunner, channels, effect_parameters, soil_summar
 from .gap import long_run_factor
 from .gap_test import GapDecision, decide_gap, pure_error_lack_of_fit
 from .hypotheses import NOMINAL, Frame, Hypothesis
-from .library import effect_hypothesis, flexible_hypothesis, nominal_hypothesis
+from .library import effect_hypothesis, flexible_hypothesis, flexible_on, nominal_hypothesis
 from .localisation import localisation
 from .outside import outside_hypotheses
 from .result import Diagnosis, Excluded, RankEntry
@@ -191,21 +191,40 @@ def _gap(setup: Setup, hyps: list[Hypothesis], weights: dict[str, float], hold: 
         shrink = 1.0 - float(np.sqrt((zt @ zt) / max(z_nom @ z_nom, 1e-300))) if ok else 0.0
         p["heaviest beats nominal"] = dm_test(z_nom, zt, setup.dm_lag) if shrink >= s.min_shrink else None
     if not setup.is_log:
-        p["lack of fit"] = _lack_of_fit(setup)
+        p["lack of fit"] = _lack_of_fit(setup, setup.residuals, setup.nominal_fit)
         p["pure-error lack of fit"] = _pure_error(setup)
-    return decide_gap(p, s.alpha)
+    return decide_gap(p, s.alpha, _gap_left(setup, top, hold, z_nom))
 
 
-def _lack_of_fit(setup: Setup) -> float:
-    """A sweep's lack-of-fit F test: a flexible term in slip on top of the nominal fit, the soil refitted
-    with it (in-sample, like a sweep's evidence; free of the noise level, only its shape matters)."""
-    ch, data, nom = setup.channels[0], setup.data, setup.nominal_fit
-    r, sg = setup.residuals[ch], setup.sigma[ch]
+def _gap_left(setup: Setup, top: Hypothesis, hold: Frame, z_nom: np.ndarray) -> tuple[str, float] | None:
+    """``(test, p-value)`` that a flexible term on top of the heaviest hypothesis still explains its residuals
+    (a log: held-out, Diebold-Mariano; a sweep: the lack-of-fit F test on top of its fit on all the data)."""
+    name = f"gap left by {top.name}"
+    if top.family in ("nominal", "flexible"):
+        return None
+    if setup.is_log:
+        if top.train_residuals is None or top.held is None:
+            return None
+        zt = hold.z(top.held, z_nom)
+        zf = hold.z(flexible_on(setup, top.held, top.train_residuals), zt)
+        return name, dm_test(zt, zf, setup.dm_lag)
+    if top.fit is None or not usable(top.fit, False):
+        return None
+    return name, _lack_of_fit(setup, top.residuals, top.fit)
+
+
+def _lack_of_fit(setup: Setup, residuals: dict[str, np.ndarray], res: Any) -> float:
+    """A sweep's lack-of-fit F test: a flexible term in slip on top of fit ``res`` (residuals
+    ``residuals``), its own parameters refitted with it (in-sample, like a sweep's evidence; free of the
+    noise level, only its shape matters). The nominal screening fit holds the effects off: its soil
+    columns only."""
+    ch = setup.channels[0]
+    r, sg = residuals[ch], setup.sigma[ch]
     ok = np.isfinite(r) & (np.nan_to_num(sg) > 0)
     knots = np.unique(np.quantile(setup.x[ok], np.linspace(0.0, 1.0, max(2, setup.n_knots))))
-    J = fit_jacobian(nom, data)[
-        :, : len(SOIL_KEYS)
-    ]  # the soil's columns (the screening fit holds effects off)
+    J = fit_jacobian(res, setup.data)
+    if res is setup.nominal_fit:
+        J = J[:, : len(SOIL_KEYS)]
     return lack_of_fit(r[ok], J[ok], hat_basis(setup.x, knots)[ok], sg[ok])
 
 

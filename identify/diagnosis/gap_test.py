@@ -54,9 +54,20 @@ class GapTest:
 
 @dataclass(frozen=True)
 class GapDecision:
-    """The gap tests and whether any is significant."""
+    """The gap tests, whether any is significant, and the test of the gap the heaviest hypothesis leaves.
+
+    Attributes
+    ----------
+    tests
+        The tests of the nominal model's gap.
+    left
+        Whether a flexible term on top of the heaviest hypothesis still explains its residuals (a log:
+        predicts its held-out residuals better, Diebold-Mariano; a sweep: the lack-of-fit F test on top
+        of its fit); None when not made (the heaviest is the nominal model, or has no fit to test).
+    """
 
     tests: tuple[GapTest, ...]
+    left: GapTest | None = None
 
     @property
     def present(self) -> bool:
@@ -96,12 +107,16 @@ def pure_error_lack_of_fit(
     return f_sf((ss_lof / (g - n_params)) / (ss_pe / (n - g)), g - n_params, n - g)
 
 
-def decide_gap(p_values: dict[str, float | None], alpha: float) -> GapDecision:
-    """The :class:`GapDecision` from the p-values of the tests made (None: not made)."""
+def decide_gap(
+    p_values: dict[str, float | None], alpha: float, left: tuple[str, float] | None = None
+) -> GapDecision:
+    """The :class:`GapDecision` from the p-values of the tests made (None: not made) and ``left``, the
+    ``(name, p-value)`` of the gap the heaviest hypothesis leaves."""
     return GapDecision(
         tuple(
             GapTest(k, float(v), alpha)
             for k, v in p_values.items()
             if v is not None and math.isfinite(float(v))
-        )
+        ),
+        None if left is None or not math.isfinite(left[1]) else GapTest(left[0], float(left[1]), alpha),
     )

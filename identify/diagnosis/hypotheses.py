@@ -98,6 +98,8 @@ class Hypothesis:
         What names an outside cause (``lag_s``, ``window_s``, ``level``, ...).
     fit
         Its fit on all the data, when made.
+    train_residuals
+        Per fold, its residuals on the training samples (full length), when held out.
     """
 
     name: str
@@ -111,6 +113,7 @@ class Hypothesis:
     parameters: dict = field(default_factory=dict)
     detail: dict = field(default_factory=dict)
     fit: Any = None
+    train_residuals: list | None = None
 
     def scored(self, frame: Frame, fill: np.ndarray | None = None) -> "Hypothesis":
         """This hypothesis with ``z`` on the frame's samples (see :meth:`Frame.z`)."""

@@ -22,7 +22,7 @@ from .hypotheses import DISCREPANCY, NOMINAL, Hypothesis
 from .selection import fit_discrepancy
 from .setup import Setup
 
-__all__ = ["nominal_hypothesis", "flexible_hypothesis", "effect_hypothesis", "held_out"]
+__all__ = ["nominal_hypothesis", "flexible_hypothesis", "flexible_on", "effect_hypothesis", "held_out"]
 
 
 def held_out(setup: Setup, fit_on: Callable[[np.ndarray], Any]) -> tuple[dict[str, np.ndarray], list, list]:
@@ -87,17 +87,24 @@ def _spline(setup: Setup, x_tr: np.ndarray, r_tr: np.ndarray, x_at: np.ndarray) 
     return fit_discrepancy(x_tr[ok], r_tr[ok], x_at, setup.n_knots)[0]
 
 
-def flexible_hypothesis(setup: Setup, nominal: Hypothesis, train_res: list) -> Hypothesis:
-    """The flexible discrepancy term on top of the nominal model (``n_knots`` parameters per channel)."""
+def flexible_on(setup: Setup, held: dict[str, np.ndarray], train_res: list) -> dict[str, np.ndarray]:
+    """Held-out residuals of a model with the flexible term on top: a spline in the natural variable fitted
+    to its training residuals of each fold, subtracted from its held-out residuals."""
     x = setup.x
-    held = {ch: np.array(nominal.held[ch], copy=True) for ch in setup.channels}
+    out = {ch: np.array(held[ch], copy=True) for ch in setup.channels}
     for (tr, te), tres in zip(setup.folds, train_res):
         for ch in setup.channels:
-            held[ch][te] = nominal.held[ch][te] - _spline(setup, x[tr], tres[ch][tr], x[te])
+            out[ch][te] = held[ch][te] - _spline(setup, x[tr], tres[ch][tr], x[te])
+    return out
+
+
+def flexible_hypothesis(setup: Setup, nominal: Hypothesis, train_res: list) -> Hypothesis:
+    """The flexible discrepancy term on top of the nominal model (``n_knots`` parameters per channel)."""
+    held = flexible_on(setup, nominal.held, train_res)
     if setup.is_log:
         resid = held
     else:
-        resid = {ch: r - _spline(setup, x, r, x) for ch, r in setup.residuals.items()}
+        resid = {ch: r - _spline(setup, setup.x, r, setup.x) for ch, r in setup.residuals.items()}
     return Hypothesis(DISCREPANCY, "flexible", setup.n_knots * len(setup.channels), resid, held=held)
 
 
@@ -120,7 +127,7 @@ def effect_hypothesis(setup: Setup, name: str, family: str) -> Hypothesis:
     eff = (name,)
     full = None
     if setup.is_log:
-        held, fits, _ = held_out(setup, lambda tr: run.run_warm(tr, eff))
+        held, fits, train_res = held_out(setup, lambda tr: run.run_warm(tr, eff))
         resid = held
     else:
         full = run.run(None, eff)
@@ -133,7 +140,7 @@ def effect_hypothesis(setup: Setup, name: str, family: str) -> Hypothesis:
             res = run.run(tr, eff)
             return res if usable(res, False) or not usable(full, False) else run.refit_from(full, tr, eff)
 
-        held, fits, _ = held_out(setup, fit_fold)
+        held, fits, train_res = held_out(setup, fit_fold)
         if resid is None:
             resid = {ch: np.full(setup.n, np.inf) for ch in setup.channels}
     ref = fits[0] if setup.is_log else full
@@ -160,4 +167,5 @@ def effect_hypothesis(setup: Setup, name: str, family: str) -> Hypothesis:
         held=held,
         parameters=params,
         fit=full,
+        train_residuals=train_res,
     )

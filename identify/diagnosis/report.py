@@ -54,6 +54,9 @@ def _gap_lines(d: Any) -> list[str]:
     for t in d.gap.tests:
         out.append(f"  {'*' if t.significant else ' '} {t.name}: p = {t.p_value:.2g} (level {t.level:g})")
     out.append(f"  gap present: {'yes' if d.gap.present else 'no'}")
+    if d.gap.left is not None:
+        t = d.gap.left
+        out.append(f"  {'*' if t.significant else ' '} {t.name}: p = {t.p_value:.2g} (level {t.level:g})")
     return out
 
 
