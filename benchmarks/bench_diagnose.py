@@ -222,22 +222,33 @@ def main(argv=None) -> int:
     ap.add_argument("--kinds", default="sweep,drive")
     ap.add_argument("--png", default=os.path.join("out", "bench_diagnose_confusion.png"))
     ap.add_argument("--log-seconds", type=float, default=60.0, help="duration of the simulated drive logs")
+    ap.add_argument("--vehicles", default=None, help="subset, e.g. light,heavy (default: the grid's)")
+    ap.add_argument("--terrains", default=None, help="subset, e.g. lete_sand (default: the grid's)")
+    ap.add_argument("--noises", default=None, help="subset of noise levels, e.g. default (default: the grid's)")
+    ap.add_argument("--seeds", default=None, help="subset of seeds, e.g. 1 (default: 1,2,3; --quick 1)")
+    ap.add_argument("--max-loo", type=int, default=None, help="leave-one-out cases per kind (default 40; quick 2/8)")
     a = ap.parse_args(argv)
     kinds = [k for k in a.kinds.split(",") if k]
     if "drive" in kinds and not drive_effects_supported(VEHICLES["light"]):
         kinds.remove("drive")
     rows, loo, ool = [], [], []
     seeds = (1,) if a.quick else (1, 2, 3)
+    if a.seeds:
+        seeds = tuple(int(x) for x in a.seeds.split(","))
     for kind in kinds:
         vehicles = ("light",) if a.quick else ("light", "heavy")
         terrains = ("lete_sand",) if a.quick else ("lete_sand", "dry_sand")
         noises = list(NOISE[kind])[:1] if a.quick else list(NOISE[kind])
+        vehicles = tuple(a.vehicles.split(",")) if a.vehicles else vehicles
+        terrains = tuple(a.terrains.split(",")) if a.terrains else terrains
+        noises = [x for x in a.noises.split(",") if x in NOISE[kind]] if a.noises else noises
         names = [e for e, s in EFFECTS.items() if kind in s.shows_in]
         # a drive-log diagnosis costs about a minute on a loaded 2-core machine: a smaller grid
         dur = a.log_seconds
         mags = (lambda e, v: magnitudes(e, v)[-1:]) if kind == "drive" and a.quick else magnitudes
         free_seeds = (seeds + (2, 3)) if a.quick and kind == "sweep" else ((1, 2) if kind == "drive" and a.quick
                                                                             else seeds)
+        free_seeds = tuple(dict.fromkeys(free_seeds))
         for vname in vehicles:
             for tname in terrains:
                 for nname in noises:
@@ -250,7 +261,7 @@ def main(argv=None) -> int:
                                 rows.append(run_case(kind, vname, tname, e, mag, nname, seed, duration=dur))
                                 print(_line(rows[-1]), flush=True)
         # (b) leave-one-out on the detectable cases of the first vehicle/terrain/noise
-        n_loo = (2 if kind == "drive" else 8) if a.quick else 40
+        n_loo = a.max_loo if a.max_loo is not None else (2 if kind == "drive" else 8) if a.quick else 40
         for r in [r for r in rows if r["kind"] == kind and r["effect"] != "none" and r["det"] > 3][:n_loo]:
             cands = [e for e, s in EFFECTS.items() if kind in s.shows_in and e != r["effect"]]
             loo.append(run_case(kind, r["vehicle"], r["terrain"], r["effect"], r["mag"], r["noise"], r["seed"],
