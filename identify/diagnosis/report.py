@@ -28,6 +28,13 @@ def fmt(x: Any) -> str:
     return f"{x:.4g}"
 
 
+def _value(v: Any) -> str:
+    """A detail value in words: numbers formatted, lists of numbers as ranges."""
+    if isinstance(v, (list, tuple)) and v and all(isinstance(x, (int, float)) for x in v):
+        return " to ".join(fmt(x) for x in v)
+    return fmt(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else str(v)
+
+
 def _soil_flag(soil: dict, key: str) -> str:
     flags = []
     side = (soil.get("at_bound") or {}).get(key)
@@ -65,7 +72,9 @@ def _ranking_lines(d: Any) -> list[str]:
     for e in d.ranking:
         sh = "" if e.shrink is None else f", held-out error shrinks by {e.shrink:.0%}"
         ex = "" if e.explained is None else f", explains {e.explained:.0%} of the excess"
-        det = "".join(f", {k} {v}" for k, v in e.detail.items() if k in ("lag_s", "window_s", "level_N"))
+        det = "".join(
+            f", {k} {_value(v)}" for k, v in e.detail.items() if k in ("lag_s", "window_s", "level_N")
+        )
         out.append(f"  {e.effect:<20s} {e.family:<9s} weight {e.weight:.3f} ({e.n_params} par){sh}{ex}{det}")
         for p, v in e.parameters.items():
             out.append(
@@ -119,7 +128,7 @@ def report_text(d: Any) -> str:
     cause = ""
     if d.cause is not None:
         cause = f"; cause: {d.cause}" + "".join(
-            f", {k} {v}"
+            f", {k} {_value(v)}"
             for k, v in d.cause_detail.items()
             if k in ("lag_s", "window_s", "level_N", "channels")
         )
