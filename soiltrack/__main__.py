@@ -3,4 +3,5 @@ import sys
 
 from .cli import main
 
-sys.exit(main())
+if __name__ == "__main__":  # imported (e.g. by a documentation tool), it does nothing
+    sys.exit(main())
