@@ -8,15 +8,28 @@ git), the layout an installed ``soiltrack`` has, and mkdocs.yml points the refer
 """
 from __future__ import annotations
 
+import ast
 import re
 import shutil
 from pathlib import Path
+
+from mkdocs.exceptions import PluginError
 
 ROOT = Path(__file__).resolve().parents[2]
 API_TREE = ROOT / "build" / "api"
 PACKAGE = "soiltrack"
 _SECTION = re.compile(r"^\[tool\.setuptools\.package-dir\]\s*$(.*?)(?=^\[|\Z)", re.M | re.S)
 _ENTRY = re.compile(r'^\s*"([\w.]+)"\s*=\s*"([^"]+)"\s*$', re.M)
+#: Reference page (under docs/, without ".md") of each public package: every name of the package's
+#: ``__all__`` must have an entry there, or the build fails (a name hidden by a module of the same
+#: name, or a new export nobody documented, would otherwise vanish from the reference silently).
+REFERENCE_PAGES = {
+    "soiltrack": "reference/soiltrack",
+    "soiltrack.soilmodel": "reference/soilmodel",
+    "soiltrack.identify": "reference/identify",
+    "soiltrack.planning": "reference/planning",
+}
+_ANCHOR = re.compile(r'id="(soiltrack(?:\.\w+)+)"')
 
 
 def package_dirs(pyproject: Path) -> dict[str, Path]:
@@ -48,3 +61,44 @@ def on_startup(command: str, dirty: bool) -> None:  # noqa: ARG001 - the MkDocs 
 def on_pre_build(config, **kwargs) -> None:  # noqa: ARG001 - the MkDocs hook signature
     """MkDocs event: refresh the copied tree before each build (``mkdocs serve`` rebuilds)."""
     build_tree()
+
+
+def exported_names(package: str) -> list[str]:
+    """The public names of ``package`` from its ``__init__.py`` in the copied tree (static, no import)."""
+    init = API_TREE.joinpath(*package.split("."), "__init__.py")
+    for node in ast.parse(init.read_text(encoding="utf-8")).body:
+        if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "__all__" for t in node.targets):
+            return [str(v) for v in ast.literal_eval(node.value)]
+    return []
+
+
+def _is_entry(anchor: str, package: str) -> bool:
+    """Whether ``anchor`` is a top entry of ``package``: ``package.name`` or ``package.module[...].name``."""
+    if not anchor.startswith(package + "."):
+        return False
+    modules = anchor[len(package) + 1:].split(".")[:-1]
+    folder = API_TREE.joinpath(*package.split("."), *modules)
+    return not modules or folder.with_suffix(".py").is_file() or (folder / "__init__.py").is_file()
+
+
+def missing_entries(site_dir: Path) -> dict[str, list[str]]:
+    """Per package, the exported names that have no entry on its reference page of the built site."""
+    missing = {}
+    for package, page in REFERENCE_PAGES.items():
+        html = (site_dir / page / "index.html").read_text(encoding="utf-8")
+        anchors = {a.rsplit(".", 1)[-1] for a in _ANCHOR.findall(html) if _is_entry(a, package)}
+        subpackages = {n.split(".")[-1] for n in REFERENCE_PAGES}
+        names = [n for n in exported_names(package)
+                 if not n.startswith("_") and n not in subpackages and n not in anchors]
+        if names:
+            missing[package] = names
+    return missing
+
+
+def on_post_build(config, **kwargs) -> None:  # noqa: ARG001 - the MkDocs hook signature
+    """MkDocs event: fail the build when an exported name has no entry in the API reference."""
+    missing = missing_entries(Path(config["site_dir"]))
+    if missing:
+        lines = "; ".join(f"{pkg}: {', '.join(names)}" for pkg, names in missing.items())
+        raise PluginError(f"exported names without an entry in the API reference: {lines} "
+                          "(add a '::: module.name' entry on the package's page under docs/reference/)")
