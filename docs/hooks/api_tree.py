@@ -6,6 +6,7 @@ source files and would look for ``soiltrack/soilmodel/``. Before each build this
 ``soiltrack/`` and every mapped folder into ``build/api/soiltrack/`` (``build/`` is ignored by
 git), the layout an installed ``soiltrack`` has, and mkdocs.yml points the reference there.
 """
+
 from __future__ import annotations
 
 import ast
@@ -76,7 +77,7 @@ def _is_entry(anchor: str, package: str) -> bool:
     """Whether ``anchor`` is a top entry of ``package``: ``package.name`` or ``package.module[...].name``."""
     if not anchor.startswith(package + "."):
         return False
-    modules = anchor[len(package) + 1:].split(".")[:-1]
+    modules = anchor[len(package) + 1 :].split(".")[:-1]
     folder = API_TREE.joinpath(*package.split("."), *modules)
     return not modules or folder.with_suffix(".py").is_file() or (folder / "__init__.py").is_file()
 
@@ -88,8 +89,9 @@ def missing_entries(site_dir: Path) -> dict[str, list[str]]:
         html = (site_dir / page / "index.html").read_text(encoding="utf-8")
         anchors = {a.rsplit(".", 1)[-1] for a in _ANCHOR.findall(html) if _is_entry(a, package)}
         subpackages = {n.split(".")[-1] for n in REFERENCE_PAGES}
-        names = [n for n in exported_names(package)
-                 if not n.startswith("_") and n not in subpackages and n not in anchors]
+        names = [
+            n for n in exported_names(package) if not n.startswith("_") and n not in subpackages and n not in anchors
+        ]
         if names:
             missing[package] = names
     return missing
@@ -100,5 +102,7 @@ def on_post_build(config, **kwargs) -> None:  # noqa: ARG001 - the MkDocs hook s
     missing = missing_entries(Path(config["site_dir"]))
     if missing:
         lines = "; ".join(f"{pkg}: {', '.join(names)}" for pkg, names in missing.items())
-        raise PluginError(f"exported names without an entry in the API reference: {lines} "
-                          "(add a '::: module.name' entry on the package's page under docs/reference/)")
+        raise PluginError(
+            f"exported names without an entry in the API reference: {lines} "
+            "(add a '::: module.name' entry on the package's page under docs/reference/)"
+        )
