@@ -30,6 +30,8 @@ REFERENCE_PAGES = {
     "soiltrack.identify": "reference/identify",
     "soiltrack.planning": "reference/planning",
 }
+#: A Sphinx role before inline code in a rendered docstring (``:func:`fit``` renders as ":func:<code>").
+_ROLE = re.compile(r":(?:func|class|meth|mod|data|attr|exc|obj):(?=<code)")
 _ANCHOR = re.compile(r'id="(soiltrack(?:\.\w+)+)"')
 
 
@@ -95,6 +97,11 @@ def missing_entries(site_dir: Path) -> dict[str, list[str]]:
         if names:
             missing[package] = names
     return missing
+
+
+def on_page_content(html: str, **kwargs) -> str:  # noqa: ARG001 - the MkDocs hook signature
+    """MkDocs event: drop the Sphinx roles the docstrings use, which Markdown shows as text."""
+    return _ROLE.sub("", html)
 
 
 def on_post_build(config, **kwargs) -> None:  # noqa: ARG001 - the MkDocs hook signature
