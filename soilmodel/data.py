@@ -6,7 +6,9 @@ Two kinds of file, told apart by their columns:
 - drawbar-pull data: ``slip,drawbar_pull_N`` and optionally ``normal_load_N`` (drawbar pull =
   thrust - motion resistance, what a test rig measures);
 - drive logs: ``time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s`` and
-  optionally ``vehicle_accel_m_s2``.
+  optionally ``vehicle_accel_m_s2``;
+- bevameter shear tests: ``normal_pressure_Pa,shear_displacement_m,shear_stress_Pa``;
+- bevameter plate sinkage tests: ``plate_width_m,pressure_Pa,sinkage_m``.
 
 Bad input is refused with a :class:`~soiltrack.soilmodel.errors.DataError` that names the
 file, the column and the data row (row 1 is the first line after the header).
@@ -29,6 +31,8 @@ SLIP_OPTIONAL = ("normal_load_N",)
 MEASURED_COLUMNS = {"tractive_force": "tractive_force_N", "drawbar_pull": "drawbar_pull_N"}
 DRIVE_COLUMNS = ("time_s", "sprocket_torque_Nm", "sprocket_speed_rad_s", "vehicle_speed_m_s")
 DRIVE_OPTIONAL = ("vehicle_accel_m_s2",)
+SHEAR_COLUMNS = ("normal_pressure_Pa", "shear_displacement_m", "shear_stress_Pa")
+PLATE_COLUMNS = ("plate_width_m", "pressure_Pa", "sinkage_m")
 
 
 def _frozen(a) -> np.ndarray:
@@ -198,6 +202,91 @@ class DriveLog:
         return out
 
 
+@dataclass(frozen=True, eq=False)
+class ShearTest:
+    """A bevameter shear test (shear ring or shear box): shear stress against shear displacement.
+
+    Parameters
+    ----------
+    normal_pressure
+        Normal pressure sigma on the shear surface per row, Pa (> 0). Rows at two or more
+        pressures separate cohesion and friction; at one pressure only ``c + sigma tan(phi)``.
+    shear_displacement
+        Shear displacement j, m (>= 0).
+    shear_stress
+        Measured shear stress tau, Pa.
+    source
+        Where the data came from, used in messages.
+    """
+
+    normal_pressure: np.ndarray
+    shear_displacement: np.ndarray
+    shear_stress: np.ndarray
+    source: str = "<memory>"
+
+    def __post_init__(self) -> None:
+        for name in ("normal_pressure", "shear_displacement", "shear_stress"):
+            object.__setattr__(self, name, _frozen(getattr(self, name)))
+        cols = dict(zip(SHEAR_COLUMNS, (self.normal_pressure, self.shear_displacement, self.shear_stress)))
+        _check_lengths(cols, self.source)
+        _check_finite(cols, self.source)
+        _check_range(self.normal_pressure, "normal_pressure_Pa", self.source, lo=0.0, lo_open=True,
+                     what="normal pressure must be > 0 Pa")
+        _check_range(self.shear_displacement, "shear_displacement_m", self.source, lo=0.0,
+                     what="shear displacement must be >= 0 m")
+
+    @property
+    def n_samples(self) -> int:
+        """Number of rows."""
+        return int(self.shear_stress.size)
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The test as ``{column name: values}`` in the CSV contract's names."""
+        return dict(zip(SHEAR_COLUMNS, (self.normal_pressure, self.shear_displacement, self.shear_stress)))
+
+
+@dataclass(frozen=True, eq=False)
+class PlateTest:
+    """A bevameter plate sinkage test: pressure against sinkage for one or more plate widths.
+
+    Parameters
+    ----------
+    plate_width
+        Plate width b per row (smaller dimension; the radius of a circular plate), m (> 0).
+        Two or more widths separate k_c and k_phi; one width gives only ``k_c / b + k_phi``.
+    pressure
+        Plate pressure p, Pa (a load cell's offset may make readings near zero sinkage negative).
+    sinkage
+        Sinkage z, m (>= 0).
+    source
+        Where the data came from, used in messages.
+    """
+
+    plate_width: np.ndarray
+    pressure: np.ndarray
+    sinkage: np.ndarray
+    source: str = "<memory>"
+
+    def __post_init__(self) -> None:
+        for name in ("plate_width", "pressure", "sinkage"):
+            object.__setattr__(self, name, _frozen(getattr(self, name)))
+        cols = dict(zip(PLATE_COLUMNS, (self.plate_width, self.pressure, self.sinkage)))
+        _check_lengths(cols, self.source)
+        _check_finite(cols, self.source)
+        _check_range(self.plate_width, "plate_width_m", self.source, lo=0.0, lo_open=True,
+                     what="plate width must be > 0 m")
+        _check_range(self.sinkage, "sinkage_m", self.source, lo=0.0, what="sinkage must be >= 0 m")
+
+    @property
+    def n_samples(self) -> int:
+        """Number of rows."""
+        return int(self.pressure.size)
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The test as ``{column name: values}`` in the CSV contract's names."""
+        return dict(zip(PLATE_COLUMNS, (self.plate_width, self.pressure, self.sinkage)))
+
+
 def _rows(index, n: int, source: str) -> np.ndarray:
     """Integer row indices (0-based) selected by ``index``; DataError when empty or out of range."""
     try:
@@ -254,8 +343,8 @@ def _parse_float(text: str, path: str, column: str, row: int) -> float:
     return v
 
 
-def read_csv(path: str | os.PathLike) -> SlipData | DriveLog:
-    """Read tractive force-slip data, drawbar-pull data or a drive log (recognised by the columns).
+def read_csv(path: str | os.PathLike) -> SlipData | DriveLog | ShearTest | PlateTest:
+    """Read a slip sweep, a drive log or a bevameter test (recognised by the columns).
 
     Raises
     ------
@@ -282,7 +371,11 @@ def read_csv(path: str | os.PathLike) -> SlipData | DriveLog:
     if "drawbar_pull_N" in header and "tractive_force_N" in header:
         raise DataError("both tractive_force_N and drawbar_pull_N given: a sweep measures one of them", file=path,
                         column="drawbar_pull_N")
-    if "drawbar_pull_N" in header:
+    if "shear_stress_Pa" in header or "shear_displacement_m" in header:
+        kind, required, optional = "shear", SHEAR_COLUMNS, ()
+    elif "plate_width_m" in header or "pressure_Pa" in header:
+        kind, required, optional = "plate", PLATE_COLUMNS, ()
+    elif "drawbar_pull_N" in header:
         kind, required, optional = "drawbar", DRAWBAR_COLUMNS, SLIP_OPTIONAL
     elif "slip" in header or "tractive_force_N" in header:
         kind, required, optional = "slip", SLIP_COLUMNS, SLIP_OPTIONAL
@@ -293,7 +386,9 @@ def read_csv(path: str | os.PathLike) -> SlipData | DriveLog:
         hint = (f" - the header is separated by {'a tab' if sep == chr(9) else repr(sep)}: soiltrack reads "
                 "comma-separated CSV with a decimal point (save or export as 'CSV, comma')") if sep else ""
         raise DataError(f"unrecognised columns {header}: expected {list(SLIP_COLUMNS)} (tractive force-slip "
-                        f"data), {list(DRAWBAR_COLUMNS)} (drawbar-pull data) or {list(DRIVE_COLUMNS)} (drive log){hint}",
+                        f"data), {list(DRAWBAR_COLUMNS)} (drawbar-pull data), {list(DRIVE_COLUMNS)} (drive log), "
+                        f"{list(SHEAR_COLUMNS)} (bevameter shear test) or {list(PLATE_COLUMNS)} (plate sinkage "
+                        f"test){hint}",
                         file=path)
     for col in required:
         if col not in header:
@@ -308,6 +403,12 @@ def read_csv(path: str | os.PathLike) -> SlipData | DriveLog:
             data[c].append(_parse_float(cells[idx[c]], path, c, r))
     if not rows[1:]:
         raise DataError("no data rows after the header", file=path)
+    if kind == "shear":
+        return ShearTest(normal_pressure=data["normal_pressure_Pa"], shear_displacement=data["shear_displacement_m"],
+                         shear_stress=data["shear_stress_Pa"], source=path)
+    if kind == "plate":
+        return PlateTest(plate_width=data["plate_width_m"], pressure=data["pressure_Pa"], sinkage=data["sinkage_m"],
+                         source=path)
     if kind == "drawbar":
         return SlipData(slip=data["slip"], drawbar_pull=data["drawbar_pull_N"],
                         normal_load=data.get("normal_load_N"), source=path)
@@ -319,8 +420,8 @@ def read_csv(path: str | os.PathLike) -> SlipData | DriveLog:
                     vehicle_accel=data.get("vehicle_accel_m_s2"), source=path)
 
 
-def write_csv(data: SlipData | DriveLog, path) -> None:
-    """Write slip data (tractive force or drawbar pull) or a drive log in the CSV contract (full float precision).
+def write_csv(data: SlipData | DriveLog | ShearTest | PlateTest, path) -> None:
+    """Write slip data, a drive log or a bevameter test in the CSV contract (full float precision).
 
     ``path`` is a file path or an open text stream (e.g. ``sys.stdout``).
     """
@@ -328,10 +429,10 @@ def write_csv(data: SlipData | DriveLog, path) -> None:
         cols = {"slip": data.slip, data.channel: data.values}
         if data.normal_load is not None:
             cols["normal_load_N"] = data.normal_load
-    elif isinstance(data, DriveLog):
+    elif isinstance(data, (DriveLog, ShearTest, PlateTest)):
         cols = data.columns()
     else:
-        raise TypeError(f"write_csv takes SlipData or DriveLog, got {type(data).__name__}")
+        raise TypeError(f"write_csv takes SlipData, DriveLog, ShearTest or PlateTest, got {type(data).__name__}")
     if hasattr(path, "write"):
         _write_rows(path, cols)
         return
