@@ -138,7 +138,7 @@ def solve_bounded(model: ResidualModel, data: np.ndarray, aux: np.ndarray, start
         x0 = np.clip(np.asarray(x0, dtype=float), lower, upper)
         sol = solver(x0=x0, p=p, lbx=lower, ubx=upper)
         stats = solver.stats()
-        x = np.asarray(sol["x"], dtype=float).ravel()
+        x = np.clip(np.asarray(sol["x"], dtype=float).ravel(), lower, upper)  # IPOPT relaxes bounds by ~1e-8
         f = float(sol["f"])
         if not (np.all(np.isfinite(x)) and np.isfinite(f)):
             continue
