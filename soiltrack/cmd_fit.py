@@ -60,7 +60,7 @@ def _cmd_fit(a: argparse.Namespace) -> int:
 
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
-    data = read_csv(a.data)
+    data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle)
     if is_soil_test(data):
         return _cmd_soil_test(a, data)
     if a.vehicle is None:
@@ -160,6 +160,12 @@ def add_parser(sub) -> None:
     f.add_argument("--effect", action="append", metavar="NAME",
                    help="fit this unmodelled effect's parameters jointly with the soil (repeatable; e.g. grade, "
                         "slip_sinkage, speed_resistance, mass_error)")
+    f.add_argument("--driving-only", action="store_true",
+                   help="slip sweeps: drop the rows at negative slip (skid, a locked wheel: outside the driving "
+                        "model) instead of refusing the file; the count is reported")
+    f.add_argument("--slip-angle", type=float, metavar="0",
+                   help="slip sweeps with a slip_angle_deg column: keep only the rows at this slip angle (only 0: "
+                        "the model is straight-line) instead of refusing the file; the count is reported")
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit (.png, .pdf, .svg)")
     f.set_defaults(func=_cmd_fit)
