@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..stats import t_ppf
+from ..estimates.distributions import t_ppf
 from .lsq import BOUND_RTOL, LsqSolution, covariance
 from .result import TestParameter
 

@@ -23,7 +23,7 @@ import numpy as np
 from ...soilmodel import DataError, Vehicle
 from ...soilmodel.sinkage import compaction_expr
 from ...soilmodel.traction import thrust_expr
-from ..stats import norm_ppf
+from ..estimates.distributions import norm_ppf
 from .result import SoilTestFit
 
 __all__ = ["DrawbarPrediction", "predict_drawbar_pull", "drawbar_pull_function"]
