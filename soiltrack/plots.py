@@ -8,6 +8,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .soilmodel import DataError, DriveLog, SlipData  # noqa: E402
+from .soilmodel.ridge import MAX_LOAD_LEVELS  # noqa: E402  (more distinct loads: drawn by load range)
 
 
 def save_figure(fig, path: str) -> str:
@@ -22,10 +23,6 @@ def save_figure(fig, path: str) -> str:
 
 
 _QUANTITY = {"tractive_force": "tractive force F", "drawbar_pull": "drawbar pull DP"}
-#: Up to this many distinct normal loads are drawn as load levels (one colour and curve each); more
-#: (a measured load that varies from row to row) are drawn by load range: colour bar, curves at the
-#: median load and the extremes.
-MAX_LOAD_LEVELS = 3
 #: The fitted curve is drawn to this factor times the largest measured slip ...
 CURVE_SLIP_MARGIN = 1.15
 #: ... but never beyond this slip (the model holds for slip in [0, 1)).
