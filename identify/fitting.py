@@ -17,6 +17,7 @@ from .sweep.problem import FitFailed, check_common, make_problem
 from .estimates.result import FitResult
 from .sweep.seed_methods import fit_least_squares, fit_newton
 from .settings import SETTING_NAMES, FitSettings
+from .sweep.rig import load_separation, rig_extra, std_weights
 from .sweep.slip_noise import check_slip_noise, fit_with_slip_noise
 from .drivelog.torque_hold import fit_both_holds
 
@@ -117,6 +118,12 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
     sigma_known = options.pop("sigma_known", None)
     slip_noise = options.pop("slip_noise", None)
     intervals = options.pop("intervals", None)
+    std = std_weights(data)
+    if sigma is None and std is not None:  # the rig's per-row std: relative weights, level estimated
+        sigma, sigma_known = std, (False if sigma_known is None else sigma_known)
+    separation = load_separation(data) if model == "full" else None
+    if separation is not None and separation.fragile and intervals is None and method == "ipopt":
+        intervals = "auto"  # c and phi rest on the load's spread: their intervals from the profile likelihood
     rig = {"rig_speed": options.pop("rig_speed")} if "rig_speed" in options else {}
     pb = make_problem(data, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known, method=method,
                       effects=effects, fixed=fixed, **rig)
@@ -138,7 +145,7 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
                             f"not by the seed's method {method!r}")
         if st.max_iter is not None:
             raise DataError("max_iter applies to method='newton' or 'least-squares'")
-        res = _fit_joint_sweep(pb, x0v, st, slip_noise, intervals)
+        res = _with_rig(data, _fit_joint_sweep(pb, x0v, st, slip_noise, intervals), separation)
         if strict and not res.success:
             raise FitFailed(res)
         return res
@@ -158,9 +165,18 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
         res = fit_newton(pb, x0v, max_iter=st.max_iter or 50)
     else:
         res = fit_least_squares(pb, x0v, max_iter=st.max_iter or 500)
+    res = _with_rig(data, res, separation)
     if strict and not res.success:
         raise FitFailed(res)
     return res
+
+
+def _with_rig(data: SlipData, res: FitResult, separation) -> FitResult:
+    """The result with what a rig sweep adds to its ``extra`` (:func:`~.sweep.rig.rig_extra`)."""
+    more = rig_extra(data, res, separation)
+    if not more:
+        return res
+    return replace(res, extra={**(res.extra if isinstance(res.extra, dict) else {}), **more})
 
 
 def _fit_joint_sweep(pb, x0v, st: FitSettings, slip_noise, intervals: str) -> FitResult:

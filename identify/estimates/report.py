@@ -15,6 +15,7 @@ import numpy as np
 from ...soilmodel.ridge import MAX_LOAD_LEVELS, load_summary_points
 from ...soilmodel.soil import PARAMETER_NAMES, Soil, SoilBounds
 from ...soilmodel.vehicle import Vehicle
+from ..sweep.rig import LoadSeparation
 from .records import EDGE_UNITS, ParameterEstimate, finite_or_none, force_scale, format_force
 
 __all__ = ["ReportViews", "format_force"]
@@ -51,6 +52,9 @@ class ReportViews:
                 if pe.at_bound:
                     w.append(f"effect parameter {name}.{pname} ended on its {pe.bound_side} bound "
                              f"({pe.value:.6g} {pe.si_unit}): a warning about the data or the range")
+        sep = self.extra.get("load_separation") if isinstance(self.extra, dict) else None
+        if isinstance(sep, dict) and sep.get("fragile") and self.success:
+            w.append(LoadSeparation(**sep).statement(self))
         if self.dof <= 0 and not self.sigma_known:
             w.append("no residual degrees of freedom (as many identifiable directions as samples): no standard "
                      "errors, and an exact fit says nothing about the noise")
@@ -160,9 +164,6 @@ class ReportViews:
         res = x.get("resistance")
         if isinstance(res, dict):
             L.append("resistance: " + res["statement"])
-        sep = x.get("load_separation")
-        if isinstance(sep, dict) and sep.get("statement"):
-            L.append("c-phi separation: " + sep["statement"])
         lof = x.get("lack_of_fit")
         if isinstance(lof, dict):
             L.append("lack of fit: " + lof["statement"])
