@@ -22,6 +22,9 @@ def _check_options(a: argparse.Namespace, drive_log: bool) -> None:
         raise DataError("--bias-correction applies to drive logs only", file=a.data)
     if a.torque_hold is not None and not drive_log:
         raise DataError("--torque-hold applies to drive logs only", file=a.data)
+    if a.resistance is not None and drive_log:
+        raise DataError("--resistance applies to drawbar-pull sweeps; a drive log's resistance is the vehicle's "
+                        "(or an --effect)", file=a.data)
     for opt, val in (("--slip-noise", a.slip_noise), ("--intervals", a.intervals)):
         if val is not None and drive_log:
             raise DataError(f"{opt} applies to slip sweeps only (a drive log's slip is a latent variable of its fit)",
@@ -33,7 +36,7 @@ def _check_options(a: argparse.Namespace, drive_log: bool) -> None:
 #: Options of slip sweeps and drive logs and their defaults (a bevameter fit takes none of them).
 _VEHICLE_OPTIONS = {"vehicle": None, "model": "full", "method": "ipopt", "engine": DEFAULT_ENGINE, "sigma": None,
                     "bias_correction": "none", "torque_hold": None, "slip_noise": None, "intervals": None,
-                    "effect": None}
+                    "effect": None, "resistance": None}
 
 
 def _cmd_soil_test(a: argparse.Namespace, data) -> int:
@@ -81,6 +84,8 @@ def _cmd_fit(a: argparse.Namespace) -> int:
             floats_arg(a.slip_noise, "--slip-noise")[0]
     if a.intervals is not None:
         kw["intervals"] = a.intervals
+    if a.resistance is not None:
+        kw["resistance"] = a.resistance
     if a.effect:
         kw["effects"] = [e.strip() for item in a.effect for e in item.split(",") if e.strip()]
     result = fit(data, vehicle, model=a.model, method=a.method, **kw)
@@ -160,6 +165,10 @@ def add_parser(sub) -> None:
     f.add_argument("--effect", action="append", metavar="NAME",
                    help="fit this unmodelled effect's parameters jointly with the soil (repeatable; e.g. grade, "
                         "slip_sinkage, speed_resistance, mass_error)")
+    f.add_argument("--resistance", choices=("assumed", "fit"), default=None,
+                   help="drawbar-pull sweeps: the motion resistance R = mu_r W is the vehicle's rolling_resistance "
+                        "(assumed, the default; the report says so) or fitted with the soil (fit: mu_r with its "
+                        "profile-likelihood interval)")
     f.add_argument("--driving-only", action="store_true",
                    help="slip sweeps: drop the rows at negative slip (skid, a locked wheel: outside the driving "
                         "model) instead of refusing the file; the count is reported")
