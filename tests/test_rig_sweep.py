@@ -162,3 +162,21 @@ def test_a_measured_load_that_barely_spreads_says_the_separation_rests_on_it():
     sep = r.extra["load_separation"]
     assert sep["fragile"] is True and sep["spread"] < 0.5
     assert r.replaced_intervals and {"cohesion", "friction_angle"} <= set(r.replaced_intervals)
+
+
+def test_resistance_proportional_to_the_sinkage_is_fitted_and_predicts_pulls_with_their_sinkage():
+    k_z = 3.0  # 1/m: R / W = 0.045 to 0.075 over 15-25 mm
+    i, DP, _, W = rig_rows(9, levels=(0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 0.9), noise=0.03)
+    z = 0.015 + 0.01 * i + np.random.default_rng(9).normal(0.0, 0.0005, i.size)
+    DP = DP - k_z * z * W
+    data = SlipData(slip=i, drawbar_pull=DP, normal_load=W, sinkage=z)
+    r = fit(data, RIG, resistance="fit-sinkage")
+    res = r.extra["resistance"]
+    lo, hi = res["ci95"]
+    assert res["mode"] == "fit-sinkage" and lo <= k_z <= hi
+    assert r.measured == "drawbar_pull"
+    assert np.allclose(r.predict(data), data.values + r.residuals, rtol=0, atol=1e-9)
+    with pytest.raises(DataError):  # a pull without its sinkage cannot be predicted
+        r.predict(SlipData(slip=i, drawbar_pull=DP, normal_load=W))
+    with pytest.raises(DataError):
+        fit(SlipData(slip=i, drawbar_pull=DP, normal_load=W), RIG, resistance="fit-sinkage")
