@@ -1,4 +1,4 @@
-"""Measured data containers and CSV I/O (DESIGN.md section 7).
+"""Measured data containers and CSV I/O (docs/data-formats.md).
 
 Two kinds of file, told apart by their columns:
 

@@ -1,6 +1,6 @@
 """The c-phi ridge: at one normal load, c and phi enter only through ``F_max = A c + N tan(phi)``.
 
-One home for what follows from that (DESIGN.md section 4): the range of F_max a bounds box
+One home for what follows from that (docs/paper.md): the range of F_max a bounds box
 allows, the centre of the bounds-feasible ridge (the one marker every engine reports for
 one-load data, labelled as NOT an estimate), and the ranges of c and phi along the ridge for
 an interval of F_max. ``N`` is the actual normal load (the nominal W, or W with effects).
