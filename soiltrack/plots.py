@@ -184,7 +184,8 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
         except DataError:  # a resistance from each row's sinkage: the model exists at the rows only
             drawable = False
             at_rows = result.predict(data)
-            ax.plot(data.slip, at_rows / sc, "x", color="k", ms=6, label="model at each row (its own sinkage)")
+            ax.plot(data.slip, at_rows / sc, "x", color="k", ms=6,
+                    label="model at each row (its own sinkage)")
             lows.append(float(np.min(at_rows)) / sc)
         for k, (col, W, label) in enumerate(curve_loads):
             if not drawable:

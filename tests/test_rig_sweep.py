@@ -187,10 +187,11 @@ def test_cli_resistance_option_exit_codes(tmp_path, capsys):
     pull = write(tmp_path / "dp.csv", {"slip": i, "drawbar_pull_N": DP, "normal_load_N": W})
     force = write(tmp_path / "tf.csv", {"slip": i, "tractive_force_N": DP, "normal_load_N": W})
     rig = tmp_path / "rig.json"
-    rig.write_text(json.dumps({"mass_kg": 2.5, "track_length_m": L, "track_width_m": B, "sprocket_radius_m": 0.058,
-                               "sprocket_inertia_kg_m2": 0.001, "rolling_resistance": 0.0}))
+    rig.write_text(json.dumps({"mass_kg": 2.5, "track_length_m": L, "track_width_m": B,
+                               "sprocket_radius_m": 0.058, "sprocket_inertia_kg_m2": 0.001,
+                               "rolling_resistance": 0.0}))
     assert main(["fit", pull, "--vehicle", str(rig), "--resistance", "fit", "--json"]) == 0
     js = json.loads(capsys.readouterr().out)
     assert js["extra"]["resistance"]["mode"] == "fit"
     assert main(["fit", force, "--vehicle", str(rig), "--resistance", "fit"]) == 2
-    assert main(["fit", pull, "--vehicle", str(rig), "--resistance", "fit-sinkage"]) == 2  # no sinkage_m column
+    assert main(["fit", pull, "--vehicle", str(rig), "--resistance", "fit-sinkage"]) == 2  # no sinkage_m

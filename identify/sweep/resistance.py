@@ -32,8 +32,8 @@ from ...soilmodel.vehicle import Vehicle
 from ..estimates.distributions import lr_threshold
 from ..estimates.result import FitResult
 
-__all__ = ["RESISTANCE_MODES", "MU_BOUNDS", "GRID_POINTS", "GOLDEN_TOL", "fit_resistance", "assumed_resistance",
-           "SinkageResistance"]
+__all__ = ["RESISTANCE_MODES", "MU_BOUNDS", "GRID_POINTS", "GOLDEN_TOL", "fit_resistance",
+           "assumed_resistance", "SinkageResistance"]
 
 #: ``"assumed"``: the vehicle's rolling_resistance; ``"fit"``: mu_r fitted with the soil;
 #: ``"fit-sinkage"``: ``R = k_z z W`` with k_z fitted (needs ``sinkage_m``).
@@ -73,8 +73,8 @@ class SinkageResistance:
     def residuals_on(self, result, data) -> dict:
         """``{drawbar_pull_N: measured - predicted}`` of data with a sinkage column."""
         if not isinstance(data, SlipData) or data.measured != "drawbar_pull" or data.sinkage is None:
-            raise DataError("this fit's resistance is proportional to the sinkage: it predicts drawbar pulls of data "
-                            "with a sinkage_m column", file=getattr(data, "source", None))
+            raise DataError("this fit's resistance is proportional to the sinkage: it predicts drawbar pulls "
+                            "of data with a sinkage_m column", file=getattr(data, "source", None))
         tf = _as_tractive(data, self.k_z)
         return {data.channel: next(iter(self.base.residuals_on(result, tf).values()))}
 
@@ -82,8 +82,9 @@ class SinkageResistance:
 def _as_tractive(data: SlipData, k_z: float) -> SlipData:
     """The drawbar pulls as tractive forces ``DP + k_z z W`` (same rows, weights and loads)."""
     W = data.loads()
-    return SlipData(slip=data.slip, tractive_force=data.values + k_z * data.sinkage * W, normal_load=data.normal_load,
-                    source=data.source, sinkage=data.sinkage, force_std=data.force_std, dropped=data.dropped)
+    return SlipData(slip=data.slip, tractive_force=data.values + k_z * data.sinkage * W,
+                    normal_load=data.normal_load, source=data.source, sinkage=data.sinkage,
+                    force_std=data.force_std, dropped=data.dropped)
 
 
 def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData, Vehicle, bool], FitResult],
@@ -139,7 +140,8 @@ def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData,
     grid = np.linspace(lo_b, hi, GRID_POINTS)
     costs = np.array([cost(m) for m in grid])
     if not np.any(np.isfinite(costs)):
-        raise DataError(f"no soil fitted the drawbar pull at any resistance in [{lo_b:g}, {hi:.4g}]", file=data.source)
+        raise DataError(f"no soil fitted the drawbar pull at any resistance in [{lo_b:g}, {hi:.4g}]",
+                        file=data.source)
     k = int(np.argmin(costs))
     a, b = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
     c, d = b - _PHI * (b - a), a + _PHI * (b - a)
@@ -161,14 +163,15 @@ def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData,
     soils = [trial(e, False) for e in ends if e is not None and e != v]
     entry = {"mode": form, "coefficient": v, "ci95": ends, "interval": how, "bounds": [lo_b, hi],
              "unit": "1/m" if form == "fit-sinkage" else "-",
-             "at_bound": bool(v - lo_b <= tol or hi - v <= tol), "soil_over_interval": _soil_ranges([best, *soils])}
+             "at_bound": bool(v - lo_b <= tol or hi - v <= tol),
+             "soil_over_interval": _soil_ranges([best, *soils])}
     if form == "fit-sinkage":
         z = np.asarray(data.sinkage, dtype=float)
         entry["mu_r_range"] = [float(v * z.min()), float(v * z.max())]
     entry["statement"] = _statement(entry)
     extra = {**(best.extra if isinstance(best.extra, dict) else {}), "resistance": entry}
     if form == "fit-sinkage":
-        if "weights_from" in extra:  # the fit saw the pulls as tractive forces: the column read was the pull's
+        if "weights_from" in extra:  # the fit saw the pulls as tractive forces; the column was the pull's
             extra["weights_from"] = STD_COLUMNS[data.measured]
         return replace(best, extra=extra, measured="drawbar_pull",
                        residual_model=SinkageResistance(v, base_residuals))
@@ -212,8 +215,8 @@ def _statement(e: dict) -> str:
     soil = ", ".join(f"{names[k][0]} {v[0]:.3g} to {v[1]:.3g} {names[k][1]}" for k, v in rng.items())
     if e["mode"] == "fit-sinkage":
         a, b = e["mu_r_range"]
-        head = (f"fitted R = k_z z W: k_z = {e['coefficient']:.4g} 1/m, {ci} 1/m (profile likelihood){bound}, i.e. "
-                f"R / W from {a:.3g} to {b:.3g} over the rows' sinkage")
+        head = (f"fitted R = k_z z W: k_z = {e['coefficient']:.4g} 1/m, {ci} 1/m (profile likelihood)"
+                f"{bound}, i.e. R / W from {a:.3g} to {b:.3g} over the rows' sinkage")
     else:
         head = f"fitted R = mu_r W: mu_r = {e['coefficient']:.4g}, {ci} (profile likelihood){bound}"
     return f"{head}; the soil below is at this value; over its interval: {soil}"
