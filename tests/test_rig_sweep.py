@@ -195,3 +195,13 @@ def test_cli_resistance_option_exit_codes(tmp_path, capsys):
     assert js["extra"]["resistance"]["mode"] == "fit"
     assert main(["fit", force, "--vehicle", str(rig), "--resistance", "fit"]) == 2
     assert main(["fit", pull, "--vehicle", str(rig), "--resistance", "fit-sinkage"]) == 2  # no sinkage_m
+
+
+def test_the_figure_of_a_measured_load_is_written_and_its_curve_stays_below_full_slip(tmp_path):
+    from soiltrack.plots import CURVE_SLIP_END, plot_fit, slip_grid_end
+
+    i, DP, _, W = rig_rows(11)
+    data = SlipData(slip=i, drawbar_pull=DP, normal_load=W)
+    path = plot_fit(data, RIG, fit(data, RIG), str(tmp_path / "f.png"))
+    assert (tmp_path / "f.png").stat().st_size > 10_000 and path.endswith("f.png")
+    assert slip_grid_end(i) == CURVE_SLIP_END < 1.0
