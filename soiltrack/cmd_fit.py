@@ -165,10 +165,11 @@ def add_parser(sub) -> None:
     f.add_argument("--effect", action="append", metavar="NAME",
                    help="fit this unmodelled effect's parameters jointly with the soil (repeatable; e.g. grade, "
                         "slip_sinkage, speed_resistance, mass_error)")
-    f.add_argument("--resistance", choices=("assumed", "fit"), default=None,
-                   help="drawbar-pull sweeps: the motion resistance R = mu_r W is the vehicle's rolling_resistance "
-                        "(assumed, the default; the report says so) or fitted with the soil (fit: mu_r with its "
-                        "profile-likelihood interval)")
+    f.add_argument("--resistance", choices=("assumed", "fit", "fit-sinkage"), default=None,
+                   help="drawbar-pull sweeps: the motion resistance is the vehicle's R = mu_r W (assumed, "
+                        "the default; the report says so), R = mu_r W with mu_r fitted with the soil (fit), "
+                        "or R = k_z z W with k_z fitted from the sinkage_m column (fit-sinkage); with its "
+                        "profile-likelihood interval")
     f.add_argument("--driving-only", action="store_true",
                    help="slip sweeps: drop the rows at negative slip (skid, a locked wheel: outside the driving "
                         "model) instead of refusing the file; the count is reported")
