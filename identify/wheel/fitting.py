@@ -1,0 +1,145 @@
+"""Bounded IPOPT fit of the rigid wheel to a wheel sweep (:func:`fit_wheel`)."""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...soilmodel.errors import DataError
+from ...soilmodel.rigid_wheel import RigidWheel
+from ...soilmodel.soil import Soil
+from ...soilmodel.threadsafe import call_solver
+from ...soilmodel.wheel import DEFAULT_WHEEL_SETTINGS, WheelSettings
+from ...soilmodel.wheel_sweep import WheelSweep
+from .problem import DEFAULT_WHEEL_BOUNDS, PARAMETER_SCALES, WheelBounds, wheel_solver
+from .result import WheelFitResult, build_wheel_result
+
+__all__ = ["fit_wheel", "WheelFitOptions", "soil_from_wheel_fit", "START_FRICTION_DEG", "START_SHEAR_MODULUS_M"]
+
+#: Friction angles (deg) of the multi-start grid; each start is one bounded IPOPT solve.
+START_FRICTION_DEG = (20.0, 30.0, 38.0)
+#: Shear moduli (m) of the multi-start grid.
+START_SHEAR_MODULUS_M = (0.008, 0.025)
+#: Cohesion (Pa) of every start (a small positive value, away from its bound).
+START_COHESION_PA = 500.0
+#: Bekker exponent of every start, and the share of k = k_c / b + k_phi started as k_c / b.
+START_BEKKER_N = 1.0
+START_KC_SHARE = 0.1
+_OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+
+@dataclass(frozen=True)
+class WheelFitOptions:
+    """Typed options of :func:`fit_wheel`.
+
+    Parameters
+    ----------
+    bekker
+        Fixed Bekker ``(k_c, k_phi, n)`` in SI (N/m^(n+1), N/m^(n+2), -), or ``None`` to fit them
+        (default when the sinkage is measured: its load balance carries them). Without a measured
+        sinkage and without ``bekker`` the three are fitted from the drawbar pull alone and the
+        identifiability report says how little that pins down.
+    cohesion_free
+        Hold c = 0 (the cohesion-free model).
+    bounds
+        :class:`WheelBounds` of the six parameters.
+    settings
+        :class:`~soiltrack.soilmodel.wheel.WheelSettings` of the wheel model (c1, c2, nodes).
+    """
+
+    bekker: tuple[float, float, float] | None = None
+    cohesion_free: bool = False
+    bounds: WheelBounds = DEFAULT_WHEEL_BOUNDS
+    settings: WheelSettings = DEFAULT_WHEEL_SETTINGS
+
+
+def _starts(data: WheelSweep, wheel: RigidWheel, free: np.ndarray, fixed: np.ndarray,
+            opts: WheelFitOptions, resid) -> list[np.ndarray]:
+    """Start points (SI, all six parameters) of the multi-start grid."""
+    starts = []
+    for phi in START_FRICTION_DEG:
+        for K in START_SHEAR_MODULUS_M:
+            th = fixed.copy()
+            th[0] = 0.0 if opts.cohesion_free else START_COHESION_PA
+            th[1], th[2] = math.radians(phi), K
+            if free[3]:
+                th[5] = START_BEKKER_N
+                th[3], th[4] = 0.0, 1.0
+                # the load scales with k at fixed n and sinkage: one evaluation at k = 1 sets it
+                k1 = _unit_load_scale(data, wheel, th, free, resid)
+                th[3] = START_KC_SHARE * k1 * wheel.width
+                th[4] = (1 - START_KC_SHARE) * k1
+            lo, hi = np.array(opts.bounds.lower), np.array(opts.bounds.upper)
+            starts.append(np.clip(th, lo + 1e-3 * (hi - lo), hi - 1e-3 * (hi - lo)))
+    return starts
+
+
+def _unit_load_scale(data: WheelSweep, wheel: RigidWheel, th: np.ndarray, free: np.ndarray, resid) -> float:
+    """k (N/m^(n+2)) at which the modelled load matches the measured one in the median (sinkage measured)."""
+    x = (th / PARAMETER_SCALES)[free]
+    p = _p(data, th)
+    _, r_w, _, _, _ = resid(x, p)
+    w1 = np.asarray(r_w).ravel() + data.normal_load  # the load at k = 1
+    return float(np.median(data.normal_load / np.maximum(w1, 1e-300)))
+
+
+def _p(data: WheelSweep, th: np.ndarray) -> np.ndarray:
+    z = data.sinkage if data.sinkage is not None else np.zeros(data.n_samples)
+    return np.concatenate([data.slip, z, data.normal_load, data.drawbar_pull, th])
+
+
+def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = WheelFitOptions()) -> WheelFitResult:
+    """Identify c, phi, K (and the Bekker k_c, k_phi, n) from a wheel sweep with bounded IPOPT.
+
+    Every start of a small grid (:data:`START_FRICTION_DEG` x :data:`START_SHEAR_MODULUS_M`) is
+    solved; the best converged solve is the answer. The result says whether it converged, which
+    parameters sit on a bound and what the data identify (from the Jacobian's rank and null space).
+    """
+    if not isinstance(data, WheelSweep):
+        raise DataError(f"fit_wheel takes a WheelSweep, got {type(data).__name__}")
+    sink = data.has_sinkage
+    free = np.ones(6, dtype=bool)
+    fixed = np.zeros(6)
+    if options.cohesion_free:
+        free[0] = False
+    if options.bekker is not None:
+        free[3:] = False
+        fixed[3:] = options.bekker
+    nf = int(free.sum())
+    if data.n_samples * (2 if sink else 1) <= nf:
+        raise DataError(f"{data.n_samples} rows cannot carry {nf} free parameters", file=data.source)
+    t0 = time.perf_counter()
+    solver, resid = wheel_solver(wheel, options.settings, data.n_samples, sink, tuple(bool(f) for f in free))
+    lo, hi = np.array(options.bounds.lower), np.array(options.bounds.upper)
+    lbx, ubx = (lo / PARAMETER_SCALES)[free], (hi / PARAMETER_SCALES)[free]
+    best = None
+    n_ok = 0
+    starts = _starts(data, wheel, free, fixed, options, resid)
+    for th0 in starts:
+        p = _p(data, np.where(free, 0.0, fixed))
+        sol, stats = call_solver(solver, x0=(th0 / PARAMETER_SCALES)[free], p=p, lbx=lbx, ubx=ubx)
+        f = float(sol["f"])
+        status = str(stats.get("return_status", "unknown"))
+        ok = bool(stats.get("success", False)) and status in _OK_STATUS and math.isfinite(f)
+        n_ok += ok
+        x = np.asarray(sol["x"], dtype=float).ravel()
+        cand = (not ok, f, x, status, int(stats.get("iter_count", -1)))
+        if best is None or cand[:2] < best[:2]:
+            best = cand
+    failed, f, x, status, iters = best
+    p = _p(data, np.where(free, 0.0, fixed))
+    r_dp, r_w, J_dp, J_w, th = (np.asarray(v, dtype=float) for v in resid(x, p))
+    return build_wheel_result(
+        data=data, wheel=wheel, options=options, free=free, theta=th.ravel(), residual_dp=r_dp.ravel(),
+        residual_w=r_w.ravel(), jac_dp=J_dp, jac_w=J_w, converged=not failed, status=status,
+        iterations=iters, starts=len(starts), starts_converged=n_ok, solve_time_s=time.perf_counter() - t0)
+
+
+def soil_from_wheel_fit(result: WheelFitResult) -> Soil:
+    """The identified soil as a :class:`~soiltrack.soilmodel.Soil` (with its Bekker values)."""
+    v = result.theta
+    return Soil(cohesion=float(v[0]), friction_angle=float(v[1]), shear_modulus=float(v[2]), n=float(v[5]),
+                k_c=float(v[3]), k_phi=float(v[4]), name="identified from a wheel sweep")
+
