@@ -13,7 +13,10 @@ the vertical, positive ahead of the axle)::
     j(theta) = r_s [(theta_1 - theta) - (1 - i)(sin(theta_1) - sin(theta))]
     tau(theta) = (c + sigma tan(phi)) (1 - exp(-j / K))           (Janosi-Hanamoto)
 
-with the shear radius ``r_s = r + h`` (grouser height h; ``r_s = r`` for a smooth wheel: the
+and, as the ``slip_sinkage`` effect (0 by default: the textbook wheel), ``k`` replaced by
+``k / (1 + s i)``: at a given sinkage a slipping wheel's soil carries less (it is excavated and
+loosened), so at a given load the wheel sinks deeper as the slip rises. With the shear radius
+``r_s = r + h`` (grouser height h; ``r_s = r`` for a smooth wheel: the
 grousers move the shear surface to their tips, only j sees it). Integrated over the arc::
 
     DP = r b  int_0^theta_1 (tau cos(theta) - sigma sin(theta)) dtheta     drawbar pull, N
@@ -44,6 +47,10 @@ from .errors import DataError
 __all__ = ["WheelSettings", "DEFAULT_WHEEL_SETTINGS", "entry_angle", "wheel_expr", "wheel_forces_function",
            "sinkage_from_load_function", "WHEEL_OUTPUTS", "evaluate"]
 
+#: Bekker's closed-form wheel sinkage (the rootfinder's start) holds for n < 3; larger n are capped here.
+BEKKER_START_N_MAX = 2.9
+#: The rootfinder's start sinkage is capped at this fraction of the radius.
+BEKKER_START_Z_MAX = 0.9
 #: Names of the outputs of :func:`wheel_expr`, in order.
 WHEEL_OUTPUTS = ("drawbar_pull", "normal_load", "torque")
 
@@ -94,7 +101,8 @@ def _as_column(x):
     return ca.DM(np.asarray(x, dtype=float).reshape(-1, 1))
 
 
-def wheel_expr(i, z, c, phi, K, k, n, r, b, h=0.0, settings: WheelSettings = DEFAULT_WHEEL_SETTINGS):
+def wheel_expr(i, z, c, phi, K, k, n, r, b, h=0.0, settings: WheelSettings = DEFAULT_WHEEL_SETTINGS,
+               slip_sinkage=0.0):
     """Drawbar pull, normal load and torque of the Wong-Reece rigid wheel (symbolic or numeric).
 
     Parameters
@@ -109,6 +117,8 @@ def wheel_expr(i, z, c, phi, K, k, n, r, b, h=0.0, settings: WheelSettings = DEF
         Wheel radius, width and grouser height, m.
     settings
         :class:`WheelSettings` (c1, c2, quadrature nodes).
+    slip_sinkage
+        Coefficient s of the slip-sinkage effect (stresses scaled by ``1 / (1 + s i)``); 0: none.
 
     Returns
     -------
@@ -135,7 +145,7 @@ def wheel_expr(i, z, c, phi, K, k, n, r, b, h=0.0, settings: WheelSettings = DEF
         tau = (c + sigma * ca.tan(phi)) * (1 - ca.exp(-j / K))
         return (tau * ca.cos(theta) - sigma * ca.sin(theta), sigma * ca.cos(theta) + tau * ca.sin(theta), tau)
 
-    kr = k * r ** n
+    kr = k * r ** n / (1 + slip_sinkage * i)
     # front arc [theta_m, theta_1]
     th_f = ca.mtimes(thm, ones) + ca.mtimes(th1 - thm, xr)
     sig_f = kr * (ca.cos(th_f) - ca.mtimes(cos1, ones)) ** n
@@ -152,16 +162,19 @@ def wheel_expr(i, z, c, phi, K, k, n, r, b, h=0.0, settings: WheelSettings = DEF
 
 def wheel_forces_function(r: float, b: float, h: float = 0.0,
                           settings: WheelSettings = DEFAULT_WHEEL_SETTINGS) -> ca.Function:
-    """CasADi Function ``(i, z, c, phi, K, k, n) -> (drawbar_pull, normal_load, torque)`` for one row."""
-    s = [ca.SX.sym(nm) for nm in ("i", "z", "c", "phi", "K", "k", "n")]
-    dp, wl, tq = wheel_expr(*s, r, b, h, settings)
-    return ca.Function("rigid_wheel", s, [dp, wl, tq], ["i", "z", "c", "phi", "K", "k", "n"],
-                       list(WHEEL_OUTPUTS))
+    """CasADi Function ``(i, z, c, phi, K, k, n, s) -> (drawbar_pull, normal_load, torque)`` for one row.
+
+    ``s`` is the slip-sinkage coefficient (0: the textbook wheel).
+    """
+    names = ["i", "z", "c", "phi", "K", "k", "n", "s"]
+    s = [ca.SX.sym(nm) for nm in names]
+    dp, wl, tq = wheel_expr(*s[:7], r, b, h, settings, slip_sinkage=s[7])
+    return ca.Function("rigid_wheel", s, [dp, wl, tq], names, list(WHEEL_OUTPUTS))
 
 
 def sinkage_from_load_function(r: float, b: float, h: float = 0.0,
                                settings: WheelSettings = DEFAULT_WHEEL_SETTINGS) -> ca.Function:
-    """CasADi Function ``(i, W, c, phi, K, k, n) -> z``: the sinkage at which the wheel carries W.
+    """CasADi Function ``(i, W, c, phi, K, k, n, s) -> z``: the sinkage at which the wheel carries W.
 
     Newton's method on ``log W(theta_1) = log W`` in ``u = log theta_1`` (W grows about like
     theta_1^(2n+1), so the residual is nearly linear in u), started from Bekker's closed-form
@@ -169,21 +182,23 @@ def sinkage_from_load_function(r: float, b: float, h: float = 0.0,
     with respect to every input follow from the implicit function theorem.
     """
     u = ca.MX.sym("u")
-    p = ca.MX.sym("p", 7)
-    i, W, c, phi, K, k, n = (p[q] for q in range(7))
+    p = ca.MX.sym("p", 8)
+    i, W, c, phi, K, k, n, s = (p[q] for q in range(8))
     th1 = ca.exp(u)
     z = r * (1 - ca.cos(th1))
-    _, wl, _ = wheel_expr(i, z, c, phi, K, k, n, r, b, h, settings)
+    _, wl, _ = wheel_expr(i, z, c, phi, K, k, n, r, b, h, settings, slip_sinkage=s)
     g = ca.Function("g", [u, p], [ca.log(wl) - ca.log(W)])
     rf = ca.rootfinder("wheel_sinkage", "newton", g, {"abstol": 1e-12, "max_iter": 60,
                                                        "error_on_fail": False})
-    ins = [ca.MX.sym(nm) for nm in ("i", "W", "c", "phi", "K", "k", "n")]
-    i_, W_, c_, phi_, K_, k_, n_ = ins
-    z0 = (3 * W_ / ((3 - ca.fmin(n_, 2.9)) * k_ * b * ca.sqrt(2 * r))) ** (2 / (2 * n_ + 1))
-    u0 = ca.log(entry_angle(ca.fmin(z0, 0.9 * r), r))
+    names = ["i", "W", "c", "phi", "K", "k", "n", "s"]
+    ins = [ca.MX.sym(nm) for nm in names]
+    i_, W_, c_, phi_, K_, k_, n_, s_ = ins
+    k_eff = k_ / (1 + s_ * i_)
+    z0 = (3 * W_ / ((3 - ca.fmin(n_, BEKKER_START_N_MAX)) * k_eff * b * ca.sqrt(2 * r))) ** (2 / (2 * n_ + 1))
+    u0 = ca.log(entry_angle(ca.fmin(z0, BEKKER_START_Z_MAX * r), r))
     u_star = rf(u0, ca.vertcat(*ins))
     z_star = r * (1 - ca.cos(ca.exp(u_star)))
-    return ca.Function("wheel_sinkage_from_load", ins, [z_star], ["i", "W", "c", "phi", "K", "k", "n"], ["z"])
+    return ca.Function("wheel_sinkage_from_load", ins, [z_star], names, ["z"])
 
 
 def evaluate(fn: ca.Function, *args: Any) -> list[np.ndarray]:

@@ -14,6 +14,8 @@ from .wheel_sweep import WheelSweep
 
 __all__ = ["WheelNoise", "DEFAULT_WHEEL_NOISE", "DEFAULT_WHEEL_SLIPS", "simulate_wheel_sweep"]
 
+#: Smallest sinkage a simulated rig reports, m (noise cannot make it zero or negative).
+MIN_SINKAGE_M = 1e-4
 #: Slips of a simulated wheel sweep when none are given.
 DEFAULT_WHEEL_SLIPS = (0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
 
@@ -40,11 +42,12 @@ DEFAULT_WHEEL_NOISE = WheelNoise()
 
 def simulate_wheel_sweep(wheel: RigidWheel, soil: Soil, *, slips=DEFAULT_WHEEL_SLIPS, normal_loads=(20.0,),
                          noise: WheelNoise | None = DEFAULT_WHEEL_NOISE, seed: int | None = None,
-                         settings: WheelSettings = DEFAULT_WHEEL_SETTINGS) -> WheelSweep:
+                         settings: WheelSettings = DEFAULT_WHEEL_SETTINGS, slip_sinkage: float = 0.0) -> WheelSweep:
     """A drawbar pull-slip sweep of ``wheel`` on ``soil`` at every slip and load (sinkage included).
 
     The sinkage of each row solves the wheel's vertical balance for its load; the drawbar pull
-    follows from the Wong-Reece stresses (:func:`~.wheel.wheel_expr`). ``noise=None``: exact.
+    follows from the Wong-Reece stresses (:func:`~.wheel.wheel_expr`). ``noise=None``: exact;
+    ``slip_sinkage`` the coefficient of that effect (0: none).
     The soil needs Bekker n, k_c and k_phi (a terrain preset has them).
     """
     if soil.n is None or soil.k_c is None or soil.k_phi is None:
@@ -57,7 +60,7 @@ def simulate_wheel_sweep(wheel: RigidWheel, soil: Soil, *, slips=DEFAULT_WHEEL_S
     i = np.tile(slips, loads.size)
     W = np.repeat(loads, slips.size)
     k = soil.k_c / wheel.width + soil.k_phi
-    args = (soil.cohesion, soil.friction_angle, soil.shear_modulus, k, soil.n)
+    args = (soil.cohesion, soil.friction_angle, soil.shear_modulus, k, soil.n, slip_sinkage)
     r, b, h = wheel.radius, wheel.width, wheel.grouser_height
     (z,) = evaluate(sinkage_from_load_function(r, b, h, settings), i, W, *args)
     dp, wl, _ = evaluate(wheel_forces_function(r, b, h, settings), i, z, *args)
@@ -67,6 +70,6 @@ def simulate_wheel_sweep(wheel: RigidWheel, soil: Soil, *, slips=DEFAULT_WHEEL_S
     if noise is not None:
         rng = np.random.default_rng(seed)
         dp = dp + rng.normal(0.0, 1.0, dp.size) * noise.drawbar_pull_rel * W
-        z = np.maximum(z + rng.normal(0.0, noise.sinkage_m, z.size), 1e-4)
+        z = np.maximum(z + rng.normal(0.0, noise.sinkage_m, z.size), MIN_SINKAGE_M)
     return WheelSweep(slip=i, drawbar_pull=dp, normal_load=W, sinkage=z,
                       source=f"simulated wheel sweep ({soil.name or 'soil'})")

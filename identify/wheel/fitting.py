@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Mapping
 
 import numpy as np
 
@@ -13,10 +14,10 @@ from ...soilmodel.soil import Soil
 from ...soilmodel.threadsafe import call_solver
 from ...soilmodel.wheel import DEFAULT_WHEEL_SETTINGS, WheelSettings
 from ...soilmodel.wheel_sweep import WheelSweep
-from .problem import DEFAULT_WHEEL_BOUNDS, PARAMETER_SCALES, WheelBounds, wheel_solver
+from .problem import DEFAULT_WHEEL_BOUNDS, PARAMETER_SCALES, WHEEL_PARAMETERS, WheelBounds, wheel_solver
 from .result import WheelFitResult, build_wheel_result
 
-__all__ = ["fit_wheel", "WheelFitOptions", "soil_from_wheel_fit", "START_FRICTION_DEG", "START_SHEAR_MODULUS_M"]
+__all__ = ["fit_wheel", "WheelFitOptions", "soil_from_wheel_fit", "START_FRICTION_DEG", "START_SHEAR_MODULUS_M", "WHEEL_EFFECTS"]
 
 #: Friction angles (deg) of the multi-start grid; each start is one bounded IPOPT solve.
 START_FRICTION_DEG = (20.0, 30.0, 38.0)
@@ -27,6 +28,10 @@ START_COHESION_PA = 500.0
 #: Bekker exponent of every start, and the share of k = k_c / b + k_phi started as k_c / b.
 START_BEKKER_N = 1.0
 START_KC_SHARE = 0.1
+#: Bekker k = k_c / b + k_phi (N/m^(n+2)) of every start when no sinkage is measured (a loose sand's).
+START_BEKKER_K = 1.5e6
+#: Effects the wheel fit can add (each a parameter of :data:`WHEEL_PARAMETERS`, 0 when off).
+WHEEL_EFFECTS = ("slip_sinkage",)
 _OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 
 
@@ -36,21 +41,23 @@ class WheelFitOptions:
 
     Parameters
     ----------
-    bekker
-        Fixed Bekker ``(k_c, k_phi, n)`` in SI (N/m^(n+1), N/m^(n+2), -), or ``None`` to fit them
-        (default when the sinkage is measured: its load balance carries them). Without a measured
-        sinkage and without ``bekker`` the three are fitted from the drawbar pull alone and the
-        identifiability report says how little that pins down.
-    cohesion_free
-        Hold c = 0 (the cohesion-free model).
+    fixed
+        Parameters held at a value, ``{name: SI value}`` with names of :data:`WHEEL_PARAMETERS`
+        (``{"cohesion": 0.0}`` is the cohesion-free model; ``{"bekker_kc": ..., "bekker_kphi": ...,
+        "bekker_n": ...}`` a known Bekker soil, e.g. a plate test's). Everything else is fitted: with
+        a measured sinkage the load balance carries the Bekker parameters; without it they rest on
+        the drawbar pull alone and the identifiability report says how little that pins down.
+    effects
+        Effects fitted with the soil: ``("slip_sinkage",)`` frees the slip-sinkage coefficient s
+        (held at 0, the textbook wheel, otherwise).
     bounds
-        :class:`WheelBounds` of the six parameters.
+        :class:`WheelBounds` of the seven parameters.
     settings
         :class:`~soiltrack.soilmodel.wheel.WheelSettings` of the wheel model (c1, c2, nodes).
     """
 
-    bekker: tuple[float, float, float] | None = None
-    cohesion_free: bool = False
+    fixed: Mapping[str, float] = field(default_factory=dict)
+    effects: tuple[str, ...] = ()
     bounds: WheelBounds = DEFAULT_WHEEL_BOUNDS
     settings: WheelSettings = DEFAULT_WHEEL_SETTINGS
 
@@ -62,15 +69,16 @@ def _starts(data: WheelSweep, wheel: RigidWheel, free: np.ndarray, fixed: np.nda
     for phi in START_FRICTION_DEG:
         for K in START_SHEAR_MODULUS_M:
             th = fixed.copy()
-            th[0] = 0.0 if opts.cohesion_free else START_COHESION_PA
-            th[1], th[2] = math.radians(phi), K
-            if free[3]:
-                th[5] = START_BEKKER_N
+            for k, v in ((0, START_COHESION_PA), (1, math.radians(phi)), (2, K), (5, START_BEKKER_N)):
+                if free[k]:
+                    th[k] = v
+            if free[3] or free[4]:
+                kc, kphi = th[3], th[4]
                 th[3], th[4] = 0.0, 1.0
                 # the load scales with k at fixed n and sinkage: one evaluation at k = 1 sets it
-                k1 = _unit_load_scale(data, wheel, th, free, resid)
-                th[3] = START_KC_SHARE * k1 * wheel.width
-                th[4] = (1 - START_KC_SHARE) * k1
+                k1 = _unit_load_scale(data, wheel, th, free, resid) if data.has_sinkage else START_BEKKER_K
+                th[3] = START_KC_SHARE * k1 * wheel.width if free[3] else kc
+                th[4] = max(k1 - th[3] / wheel.width, 0.0) if free[4] else kphi
             lo, hi = np.array(opts.bounds.lower), np.array(opts.bounds.upper)
             starts.append(np.clip(th, lo + 1e-3 * (hi - lo), hi - 1e-3 * (hi - lo)))
     return starts
@@ -100,13 +108,9 @@ def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = Wh
     if not isinstance(data, WheelSweep):
         raise DataError(f"fit_wheel takes a WheelSweep, got {type(data).__name__}")
     sink = data.has_sinkage
-    free = np.ones(6, dtype=bool)
-    fixed = np.zeros(6)
-    if options.cohesion_free:
-        free[0] = False
-    if options.bekker is not None:
-        free[3:] = False
-        fixed[3:] = options.bekker
+    free = np.array([name not in options.fixed and (name not in WHEEL_EFFECTS or name in options.effects)
+                     for name in WHEEL_PARAMETERS])
+    fixed = np.array([float(options.fixed.get(name, 0.0)) for name in WHEEL_PARAMETERS])
     nf = int(free.sum())
     if data.n_samples * (2 if sink else 1) <= nf:
         raise DataError(f"{data.n_samples} rows cannot carry {nf} free parameters", file=data.source)

@@ -1,8 +1,9 @@
 """The rigid wheel's identification problem: parameters, bounds, residuals, the cached IPOPT solver.
 
 Parameters (SI), in the order of every vector here: ``c`` (Pa), ``phi`` (rad), ``K`` (m),
-``k_c`` (N/m^(n+1)), ``k_phi`` (N/m^(n+2)), ``n`` (-). IPOPT sees them scaled by
-:data:`PARAMETER_SCALES` (kPa, rad, cm, kN/m^(n+1), MN/m^(n+2), 1).
+``k_c`` (N/m^(n+1)), ``k_phi`` (N/m^(n+2)), ``n`` (-) and the slip-sinkage coefficient ``s`` (-,
+held at 0 unless the ``slip_sinkage`` effect is fitted). IPOPT sees them scaled by
+:data:`PARAMETER_SCALES` (kPa, rad, cm, kN/m^(n+1), MN/m^(n+2), 1, 1).
 
 Channels (residuals). Drawbar pull: ``DP_model(i, z) - DP`` per row. Load balance, only when the
 sinkage is measured: ``W_model(i, z) - W`` per row (the wheel's vertical force from the stresses
@@ -33,38 +34,41 @@ from ...soilmodel.threadsafe import locked_cache
 from ...soilmodel.wheel import WheelSettings, sinkage_from_load_function, wheel_expr
 
 __all__ = ["WHEEL_PARAMETERS", "PARAMETER_SCALES", "WheelBounds", "DEFAULT_WHEEL_BOUNDS", "NOISE_FLOOR_REL",
-           "wheel_solver", "residual_function", "bekker_modulus"]
+           "wheel_solver", "N_PARAMETERS", "residual_function", "bekker_modulus"]
 
 #: Parameter names of the wheel fit (SI), in vector order.
-WHEEL_PARAMETERS = ("cohesion", "friction_angle", "shear_modulus", "bekker_kc", "bekker_kphi", "bekker_n")
-#: Scales of the NLP variables (x = theta / scale): kPa, rad, cm, kN/m^(n+1), MN/m^(n+2), 1.
-PARAMETER_SCALES = np.array([1e3, 1.0, 1e-2, 1e3, 1e6, 1.0])
+WHEEL_PARAMETERS = ("cohesion", "friction_angle", "shear_modulus", "bekker_kc", "bekker_kphi", "bekker_n",
+                    "slip_sinkage")
+#: Number of wheel-fit parameters.
+N_PARAMETERS = len(WHEEL_PARAMETERS)
+#: Scales of the NLP variables (x = theta / scale): kPa, rad, cm, kN/m^(n+1), MN/m^(n+2), 1, 1.
+PARAMETER_SCALES = np.array([1e3, 1.0, 1e-2, 1e3, 1e6, 1.0, 1.0])
 #: Noise floor of each channel as a fraction of the mean normal load (a rig's force resolution).
 NOISE_FLOOR_REL = 1e-6
 
 
 @dataclass(frozen=True)
 class WheelBounds:
-    """Box bounds (SI) of the six wheel-fit parameters, as ``(lower, upper)`` arrays in vector order.
+    """Box bounds (SI) of the seven wheel-fit parameters, as ``(lower, upper)`` tuples in vector order.
 
     The soil's are the practical ranges (c 0-69 kPa, phi 6-40 deg, K 0.006-0.05 m); the Bekker
     ranges span the tabulated terrains with room (k_c 0-500 kN/m^(n+1), k_phi 0-20 MN/m^(n+2),
-    n 0.1-2).
+    n 0.1-2); the slip-sinkage coefficient 0-20 (stresses at full slip down to 1/21).
     """
 
     lower: tuple[float, ...]
     upper: tuple[float, ...]
 
     def __post_init__(self) -> None:
-        if len(self.lower) != 6 or len(self.upper) != 6 or not all(lo < hi for lo, hi in zip(self.lower, self.upper)):
-            raise ValueError("wheel bounds need six (lower < upper) pairs")
+        if len(self.lower) != N_PARAMETERS or len(self.upper) != N_PARAMETERS or not all(lo < hi for lo, hi in zip(self.lower, self.upper)):
+            raise ValueError(f"wheel bounds need {N_PARAMETERS} (lower < upper) pairs")
 
 
 DEFAULT_WHEEL_BOUNDS = WheelBounds(
     lower=(float(PRACTICAL_BOUNDS.lower[0]), float(PRACTICAL_BOUNDS.lower[1]), float(PRACTICAL_BOUNDS.lower[2]),
-           0.0, 0.0, 0.1),
+           0.0, 0.0, 0.1, 0.0),
     upper=(float(PRACTICAL_BOUNDS.upper[0]), float(PRACTICAL_BOUNDS.upper[1]), float(PRACTICAL_BOUNDS.upper[2]),
-           500e3, 20e6, 2.0))
+           500e3, 20e6, 2.0, 20.0))
 
 
 def bekker_modulus(k_c, k_phi, width):
@@ -74,21 +78,21 @@ def bekker_modulus(k_c, k_phi, width):
 
 @locked_cache(maxsize=32)
 def residual_function(wheel: RigidWheel, settings: WheelSettings, measured_sinkage: bool) -> ca.Function:
-    """Per-row Function ``(i, z, W, theta[6]) -> (drawbar pull, normal load, sinkage used)``.
+    """Per-row Function ``(i, z, W, theta[7]) -> (drawbar pull, normal load, sinkage used)``.
 
     With ``measured_sinkage`` the row's z is used; otherwise z solves the vertical balance for W
     (the input z is ignored).
     """
     i, z, W = ca.MX.sym("i"), ca.MX.sym("z"), ca.MX.sym("W")
-    th = ca.MX.sym("theta", 6)
-    c, phi, K, k_c, k_phi, n = (th[q] for q in range(6))
+    th = ca.MX.sym("theta", N_PARAMETERS)
+    c, phi, K, k_c, k_phi, n, s = (th[q] for q in range(N_PARAMETERS))
     r, b, h = wheel.radius, wheel.width, wheel.grouser_height
     k = bekker_modulus(k_c, k_phi, b)
     if measured_sinkage:
         z_used = z
     else:
-        z_used = sinkage_from_load_function(r, b, h, settings)(i, W, c, phi, K, k, n)
-    dp, wl, _ = wheel_expr(i, z_used, c, phi, K, k, n, r, b, h, settings)
+        z_used = sinkage_from_load_function(r, b, h, settings)(i, W, c, phi, K, k, n, s)
+    dp, wl, _ = wheel_expr(i, z_used, c, phi, K, k, n, r, b, h, settings, slip_sinkage=s)
     return ca.Function("wheel_row", [i, z, W, th], [dp, wl, z_used], ["i", "z", "W", "theta"],
                        ["drawbar_pull", "normal_load", "sinkage"])
 
@@ -99,17 +103,17 @@ def wheel_solver(wheel: RigidWheel, settings: WheelSettings, n_rows: int, measur
     """The cached IPOPT solver and its residual/Jacobian Function.
 
     NLP variables: the free parameters scaled (``theta / PARAMETER_SCALES``); NLP parameters
-    ``p = [i (n), z (n), W (n), DP (n), fixed theta (6)]``. Returns ``(solver, resid)`` with
+    ``p = [i (n), z (n), W (n), DP (n), fixed theta (7)]``. Returns ``(solver, resid)`` with
     ``resid(x_free, p) -> (r_dp, r_w, J_dp, J_w)``: raw residuals and their Jacobians with
     respect to the SI free parameters.
     """
     nf = sum(free)
     x = ca.MX.sym("x", nf)
-    p = ca.MX.sym("p", 4 * n_rows + 6)
+    p = ca.MX.sym("p", 4 * n_rows + N_PARAMETERS)
     i, z, W, DP = (p[q * n_rows:(q + 1) * n_rows] for q in range(4))
     fixed = p[4 * n_rows:]
     parts, q = [], 0
-    for k in range(6):
+    for k in range(N_PARAMETERS):
         if free[k]:
             parts.append(x[q] * PARAMETER_SCALES[k])
             q += 1

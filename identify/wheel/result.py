@@ -48,6 +48,7 @@ _EDGE = {
     "bekker_kc": ("bekker_kc", 1e-3, "kN/m^(n+1)", "Bekker k_c"),
     "bekker_kphi": ("bekker_kphi", 1e-3, "kN/m^(n+2)", "Bekker k_phi"),
     "bekker_n": ("bekker_n", 1.0, "-", "Bekker exponent n"),
+    "slip_sinkage": ("slip_sinkage", 1.0, "-", "slip-sinkage coefficient s"),
 }
 
 
@@ -278,7 +279,7 @@ def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np
         rw = np.concatenate([rw, residual_w / s_w_eff])
         J = np.vstack([J, jac_w / s_w_eff])
     finite = bool(np.all(np.isfinite(J)) and np.all(np.isfinite(rw)) and np.all(np.isfinite(theta)))
-    names = [WHEEL_PARAMETERS[k] for k in range(6) if free[k]]
+    names = [WHEEL_PARAMETERS[k] for k in range(len(WHEEL_PARAMETERS)) if free[k]]
     st = core_stats_one(np.where(np.isfinite(J), J, 0.0), np.where(np.isfinite(rw), rw, 0.0), False)
     D, V, Srel, Pinv = st["D"][0], st["V"][0], st["S"][0], st["Pinv"][0]
     nonnull, rank, dof, s2 = st["nonnull"][0], int(st["rank"][0]), int(st["dof"][0]), float(st["s2"][0])
@@ -338,7 +339,7 @@ def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np
     p_bar = float(np.mean(data.normal_load / (wheel.width * wheel.radius * th1)))
     if free[0] or free[1]:
         tau = theta[0] + p_bar * math.tan(theta[1])
-        se, est, weak = combo(np.array([1.0, p_bar / math.cos(theta[1]) ** 2, 0, 0, 0, 0]))
+        se, est, weak = combo(np.array([1.0, p_bar / math.cos(theta[1]) ** 2, 0, 0, 0, 0, 0]))
         ci = (tau - q * se, tau + q * se) if se is not None and q is not None else (None, None)
         combos.append(WheelCombination("c + p tan(phi)", "kPa", tau / 1e3, None if se is None else se / 1e3,
                                        tuple(None if v is None else v / 1e3 for v in ci), est, weak,
@@ -346,7 +347,7 @@ def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np
                                        "(load over the arc's projected area b r theta_1)"))
     if free[3] and free[4]:
         kval = bekker_modulus(theta[3], theta[4], wheel.width)
-        se, est, weak = combo(np.array([0, 0, 0, 1.0 / wheel.width, 1.0, 0]))
+        se, est, weak = combo(np.array([0, 0, 0, 1.0 / wheel.width, 1.0, 0, 0]))
         ci = (kval - q * se, kval + q * se) if se is not None and q is not None else (None, None)
         combos.append(WheelCombination("k_c / b + k_phi", "kN/m^(n+2)", kval / 1e3, None if se is None else se / 1e3,
                                        tuple(None if v is None else v / 1e3 for v in ci), est, weak,
