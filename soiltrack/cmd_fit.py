@@ -4,9 +4,10 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path, vehicle_arg
+from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path, running_gear_arg
 from .identify.engines import DEFAULT_ENGINE, ENGINES
 from .soilmodel import DataError
+from .soilmodel.rigid_wheel import RigidWheel
 
 
 # --- fit --------------------------------------------------------------------------------------
@@ -34,10 +35,17 @@ def _cmd_fit(a: argparse.Namespace) -> int:
     from .identify import fit
     from .soilmodel import DriveLog, read_csv
 
+    gear = running_gear_arg(a.vehicle)
+    if isinstance(gear, RigidWheel):
+        from .wheel_cli import fit_wheel_command
+
+        return fit_wheel_command(a, gear)
+    if a.fix:
+        raise DataError("--fix applies to a rigid wheel's fit (--vehicle WHEEL.json) only")
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
     data = read_csv(a.data)
-    vehicle = vehicle_arg(a.vehicle)
+    vehicle = gear
     drive_log = isinstance(data, DriveLog)
     _check_options(a, drive_log)
     kw = {"engine": a.engine} if a.method == "ipopt" and not drive_log else {}
@@ -77,6 +85,10 @@ recognised by its header (comma separated, SI units, any column order):
   drive log:                 time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s
                              [,vehicle_accel_m_s2]
       time strictly increasing; torque and speed of both sprockets together
+  single-wheel rig sweep:    slip,drawbar_pull_N,normal_load_N[,sinkage_m]
+      with --vehicle WHEEL.json ({"running_gear": "rigid_wheel", "wheel_radius_m", "wheel_width_m",
+      "grouser_height_m"}): the Wong-Reece rigid wheel; the load is required per row; a measured
+      sinkage sets the entry angle and its load balance identifies the Bekker stiffness
 
 Prints a report (or --json); exit 0 when the fit succeeded, 1 when it failed or its answer is
 not usable (the reason is printed), 2 for bad input."""
@@ -126,6 +138,9 @@ def add_parser(sub) -> None:
     f.add_argument("--effect", action="append", metavar="NAME",
                    help="fit this unmodelled effect's parameters jointly with the soil (repeatable; e.g. grade, "
                         "slip_sinkage, speed_resistance, mass_error)")
+    f.add_argument("--fix", action="append", metavar="NAME=VALUE",
+                   help="rigid wheel: hold a parameter at a value in edge units (repeatable), e.g. bekker_n=1; names "
+                        "cohesion_kpa, friction_angle_deg, shear_modulus_m, bekker_kc, bekker_kphi, bekker_n")
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit (.png, .pdf, .svg)")
     f.set_defaults(func=_cmd_fit)

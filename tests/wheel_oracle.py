@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 #: Points of the trapezoid rule on each side of theta_m (dense: the oracle's own accuracy).
-POINTS = 40001
+POINTS = 4001
 
 
 def _trapz(y, x):
@@ -49,7 +49,7 @@ def forces(i, z, c, phi, K, k, n, r, b, h=0.0, c1=0.4, c2=0.15, s=0.0):
 def sinkage(i, W, c, phi, K, k, n, r, b, h=0.0, c1=0.4, c2=0.15, s=0.0):
     """Sinkage (m) at which the wheel carries W, by bisection on (0, r)."""
     lo, hi = 1e-7, 0.999 * r
-    for _ in range(80):
+    for _ in range(50):
         mid = 0.5 * (lo + hi)
         if forces(i, mid, c, phi, K, k, n, r, b, h, c1, c2, s)[1] < W:
             lo = mid

@@ -26,7 +26,7 @@ from ..stats import f_sf
 from .problem import WHEEL_PARAMETERS, bekker_modulus, residual_function
 
 __all__ = ["WheelEstimate", "WheelCombination", "WheelFitResult", "build_wheel_result", "NULL_TOL",
-           "BOUND_REL_TOL", "wheel_rows", "pure_error", "SLIP_LEVEL_TOL", "LOAD_SLIP_CORRELATION_WARN", "LOAD_SPREAD_MIN"]
+           "BOUND_REL_TOL", "wheel_rows", "pure_error", "slip_levels", "conditions", "LOAD_REPEAT_TOL", "SLIP_LEVEL_TOL", "LOAD_SLIP_CORRELATION_WARN", "LOAD_SPREAD_MIN"]
 
 #: Norm of a parameter's component in the null space (scaled coordinates) above which it is not identifiable.
 NULL_TOL = 1e-4
@@ -34,6 +34,9 @@ NULL_TOL = 1e-4
 BOUND_REL_TOL = 1e-4
 #: Rows whose slips differ by less than this are repeats of one slip level (pure-error test).
 SLIP_LEVEL_TOL = 0.02
+#: Rows of one slip level whose loads lie within this fraction of their mean are repeats of one condition
+#: (a rig that does not servo the load scatters it by some 10 %).
+LOAD_REPEAT_TOL = 0.2
 #: |correlation| of load and slip above which the report warns that the load tracks the slip.
 LOAD_SLIP_CORRELATION_WARN = 0.5
 #: Relative spread of the loads ((max - min) / mean) below which the sweep counts as one load.
@@ -135,6 +138,10 @@ class WheelFitResult:
         """The model's drawbar pull (N) for each row of ``data`` (its sinkage, or solved from its load)."""
         return self._rows(data)[0]
 
+    def predict_load(self, data: WheelSweep) -> np.ndarray:
+        """The vertical force (N) of the fitted stresses at each row's sinkage (its load when solved from it)."""
+        return self._rows(data)[1]
+
     def predict_sinkage(self, data: WheelSweep) -> np.ndarray:
         """The sinkage (m) used for each row: the measured one, or the one solved from the load."""
         return self._rows(data)[2]
@@ -202,7 +209,7 @@ class WheelFitResult:
         lf = self.lack_of_fit
         if lf.get("testable"):
             lines.append(f"lack of fit against the repeats' scatter (pure error sd {lf['pure_error_sd_N']:.3g} N, "
-                         f"{lf['slip_levels']} slip levels): F = {lf['F']:.3g}, p = {lf['p_value']:.3g}")
+                         f"{lf['conditions']} slip and load levels): F = {lf['F']:.3g}, p = {lf['p_value']:.3g}")
         elif lf:
             lines.append(f"lack of fit: not testable ({lf.get('reason', '')})")
         for wmsg in self.warnings:
@@ -220,22 +227,40 @@ def wheel_rows(wheel: RigidWheel, settings, theta: np.ndarray,
     return tuple(np.asarray(v, dtype=float).ravel() for v in (dp, wl, zz))
 
 
-def _slip_levels(slip: np.ndarray) -> np.ndarray:
-    """Group label per row: sorted slips split where the gap exceeds :data:`SLIP_LEVEL_TOL`."""
-    order = np.argsort(slip)
-    labels = np.empty(slip.size, dtype=int)
+def _split(x: np.ndarray, gap) -> np.ndarray:
+    """Group label per value: sorted values split where the step exceeds ``gap(previous value)``."""
+    order = np.argsort(x)
+    labels = np.empty(x.size, dtype=int)
     g = 0
     for a, b in zip(order[:-1], order[1:]):
         labels[a] = g
-        if slip[b] - slip[a] > SLIP_LEVEL_TOL:
+        if x[b] - x[a] > gap(x[a]):
             g += 1
     labels[order[-1]] = g
     return labels
 
 
-def pure_error(values: np.ndarray, slip: np.ndarray) -> tuple[float, int, int]:
-    """(pure-error sum of squares, its dof, number of slip levels) of repeats at one slip level."""
-    lab = _slip_levels(slip)
+def slip_levels(slip: np.ndarray) -> np.ndarray:
+    """Slip level of each row (sorted slips split where the step exceeds :data:`SLIP_LEVEL_TOL`)."""
+    return _split(slip, lambda _: SLIP_LEVEL_TOL)
+
+
+def conditions(slip: np.ndarray, load: np.ndarray) -> np.ndarray:
+    """Condition of each row: its slip level and, within it, its load level (:data:`LOAD_REPEAT_TOL`)."""
+    lev = slip_levels(slip)
+    out = np.empty(slip.size, dtype=int)
+    n = 0
+    for g in np.unique(lev):
+        idx = np.nonzero(lev == g)[0]
+        sub = _split(load[idx], lambda w: LOAD_REPEAT_TOL * w)
+        out[idx] = sub + n
+        n += int(sub.max()) + 1
+    return out
+
+
+def pure_error(values: np.ndarray, slip: np.ndarray, load: np.ndarray) -> tuple[float, int, int]:
+    """(pure-error sum of squares, its dof, number of conditions) of repeats at one slip and load level."""
+    lab = conditions(slip, load)
     ss, dof = 0.0, 0
     for g in np.unique(lab):
         v = values[lab == g]
@@ -245,19 +270,21 @@ def pure_error(values: np.ndarray, slip: np.ndarray) -> tuple[float, int, int]:
 
 
 def _lack_of_fit(data: WheelSweep, r_dp: np.ndarray, rank_dp: int) -> dict[str, Any]:
-    ss_pe, dof_pe, levels = pure_error(data.drawbar_pull, data.slip)
-    out: dict[str, Any] = {"slip_levels": levels, "pure_error_dof": dof_pe}
+    ss_pe, dof_pe, levels = pure_error(data.drawbar_pull, data.slip, data.normal_load)
+    out: dict[str, Any] = {"conditions": levels, "pure_error_dof": dof_pe}
     dof_lof = levels - rank_dp
     ss_res = float(r_dp @ r_dp)
     if dof_pe <= 0 or dof_lof <= 0 or ss_pe <= 0:
-        out.update(testable=False, reason=(f"{levels} slip levels for {rank_dp} identified directions of the drawbar "
-                                           "pull" if dof_lof <= 0 else "no repeated slip level"))
+        out.update(testable=False, reason=(f"{levels} conditions (slip and load levels) for {rank_dp} identified "
+                                           "directions of the drawbar pull" if dof_lof <= 0
+                                           else "no repeated condition"))
         return out
     ss_lof = max(ss_res - ss_pe, 0.0)
     F = (ss_lof / dof_lof) / (ss_pe / dof_pe)
     out.update(testable=True, pure_error_sd_N=math.sqrt(ss_pe / dof_pe), lack_of_fit_dof=dof_lof, F=F,
                p_value=f_sf(F, dof_lof, dof_pe),
-               note="the repeats differ in load and sinkage too: their scatter includes that of the covariates")
+               note="repeats of a condition differ a little in load and sinkage: their scatter includes that of "
+                    "the covariates")
     return out
 
 
