@@ -43,8 +43,9 @@ WHEEL_PARAMETERS = ("cohesion", "friction_angle", "shear_modulus", "bekker_kc", 
 N_PARAMETERS = len(WHEEL_PARAMETERS)
 #: Scales of the NLP variables (x = theta / scale): kPa, rad, cm, kN/m^(n+1), MN/m^(n+2), 1, 1.
 PARAMETER_SCALES = np.array([1e3, 1.0, 1e-2, 1e3, 1e6, 1.0, 1.0])
-#: Noise floor of each channel as a fraction of the mean normal load (a rig's force resolution).
-NOISE_FLOOR_REL = 1e-6
+#: Noise floor of each channel as a fraction of the mean normal load (a rig force sensor resolves about
+#: 0.1 % of its range): below it a channel is not weighted further up.
+NOISE_FLOOR_REL = 1e-3
 
 
 @dataclass(frozen=True)

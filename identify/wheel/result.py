@@ -4,7 +4,8 @@ Statistics (as for the track, :mod:`soiltrack.identify.core_stats`): each channe
 weighted by its own noise level (the root mean square of its residuals at the optimum); the
 column-scaled Jacobian of the weighted residuals gives the rank (singular values below
 ``RANK_TOL`` are structural zeros), the null space (directions the data do not see), the
-covariance ``s^2 (J^T J)^+`` and Student-t 95 % intervals with ``N - rank`` degrees of freedom.
+covariance ``s^2 (J^T J)^+`` and Student-t 95 % intervals with ``N - rank`` degrees of freedom
+(intersected with the bounds).
 A parameter with a component in the null space is *not identifiable*; one whose variance
 inflation exceeds ``1 / (1 - 0.99^2)`` is *weakly identifiable*. Combinations get an interval
 when their gradient lies in the row space (estimable).
@@ -23,7 +24,7 @@ from ...soilmodel.wheel import entry_angle
 from ...soilmodel.wheel_sweep import WheelSweep
 from ..core_stats import RANK_TOL, WEAK_CORRELATION, core_stats_one, quantile
 from ..stats import f_sf
-from .problem import WHEEL_PARAMETERS, bekker_modulus, residual_function
+from .problem import NOISE_FLOOR_REL, WHEEL_PARAMETERS, bekker_modulus, residual_function
 
 __all__ = ["WheelEstimate", "WheelCombination", "WheelFitResult", "build_wheel_result", "NULL_TOL",
            "BOUND_REL_TOL", "wheel_rows", "pure_error", "slip_levels", "conditions", "LOAD_REPEAT_TOL", "SLIP_LEVEL_TOL", "LOAD_SLIP_CORRELATION_WARN", "LOAD_SPREAD_MIN"]
@@ -297,12 +298,13 @@ def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np
     sink = data.has_sinkage
     s_dp = math.sqrt(float(residual_dp @ residual_dp) / n)
     s_w = math.sqrt(float(residual_w @ residual_w) / n) if sink else None
-    floor = 1e-9 * float(np.mean(data.normal_load))
-    s_dp_eff = max(s_dp, floor)
+    # the weights the objective's optimum used: 1 / (SSR_k / n + floor^2) per channel
+    floor2 = (NOISE_FLOOR_REL * float(np.mean(data.normal_load))) ** 2
+    s_dp_eff = math.sqrt(s_dp ** 2 + floor2)
     rw = residual_dp / s_dp_eff
     J = jac_dp / s_dp_eff
     if sink:
-        s_w_eff = max(s_w, floor)
+        s_w_eff = math.sqrt(s_w ** 2 + floor2)
         rw = np.concatenate([rw, residual_w / s_w_eff])
         J = np.vstack([J, jac_w / s_w_eff])
     finite = bool(np.all(np.isfinite(J)) and np.all(np.isfinite(rw)) and np.all(np.isfinite(theta)))
@@ -334,7 +336,9 @@ def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np
         vif = float(Pinv[kf, kf])
         weak = bool(ident[kf] and vif > _WEAK_VIF)
         se = math.sqrt(C[kf, kf]) if C is not None and ident[kf] and C[kf, kf] >= 0 else None
-        ci = (theta[k] - q * se, theta[k] + q * se) if se is not None and q is not None else (None, None)
+        # linearised interval, intersected with the bounds (no negative cohesion or friction angle)
+        ci = ((max(theta[k] - q * se, lo[k]), min(theta[k] + q * se, hi[k])) if se is not None and q is not None
+              else (None, None))
         note = "" if side is None else f"on its {side} bound: the data or the bounds want a value beyond it"
         params[key] = WheelEstimate(float(theta[k] * fac), None if se is None else se * fac,
                                     tuple(None if v is None else float(v * fac) for v in ci), bool(ident[kf]), weak,
