@@ -1,7 +1,7 @@
 """A single rigid wheel on a test rig (the running gear ``rigid_wheel``), its JSON, and the choice
 between it and a tracked vehicle.
 
-JSON (DESIGN.md section 7): ``{"running_gear": "rigid_wheel", "wheel_radius_m", "wheel_width_m",
+JSON (docs/data-formats.md): ``{"running_gear": "rigid_wheel", "wheel_radius_m", "wheel_width_m",
 "grouser_height_m"}`` (grouser height optional, 0 for a smooth wheel). A rig has no mass: the
 normal load is measured per row and required in its data.
 """
@@ -63,7 +63,7 @@ class RigidWheel:
         return self.radius + self.grouser_height
 
     def to_dict(self) -> dict:
-        """The JSON object of DESIGN.md section 7."""
+        """The JSON object of docs/data-formats.md."""
         out = {"name": self.name} if self.name else {}
         out["running_gear"] = "rigid_wheel"
         out.update({key: getattr(self, attr) for key, attr in _JSON_FIELDS.items()})
