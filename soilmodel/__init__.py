@@ -5,7 +5,9 @@ Public names: :class:`Soil`, :class:`Vehicle`, :data:`TERRAINS`, :data:`VEHICLES
 :class:`SlipData` (tractive force or drawbar pull), :class:`DriveLog`, :class:`DataError`; the
 unmodelled effects (:data:`EFFECTS`, :func:`parse_effects`, :func:`thrust_with_effects`,
 :func:`sweep_measurement`: what a drawbar-pull rig reports), the dynamics
-(:func:`dynamics_function`, :func:`slip_from_thrust`) and the simulator (:func:`simulate`).
+(:func:`dynamics_function`, :func:`slip_from_thrust`) and the simulator (:func:`simulate`); units by magnitude for reports and figures
+(:func:`format_force`, :func:`format_torque`, :func:`format_power`, :func:`format_energy`,
+:func:`choose_scale`).
 """
 from .data import DriveLog, SlipData, read_csv, write_csv
 from .errors import DataError
@@ -39,6 +41,7 @@ from .dynamics import (
     slip_from_thrust_function,
 )
 from .simulation import SensorNoise, simulate, simulate_drive_log, simulate_slip_sweep
+from .units import Scale, choose_scale, format_energy, format_force, format_power, format_torque, format_value
 
 __all__ = [
     "DataError", "DriveLog", "SlipData", "read_csv", "write_csv", "PARAMETER_NAMES", "PRACTICAL_BOUNDS",
@@ -47,5 +50,6 @@ __all__ = [
     "Vehicle", "EFFECTS", "EffectSet", "EffectSpec", "ParamSpec", "effect_symbols", "parse_effects", "sweep_measurement",
     "thrust_with_effects", "tractive_force_with_effects", "SPROCKET_EQUATIONS", "dynamics_expr",
     "dynamics_function", "slip_from_thrust", "slip_from_thrust_function", "SensorNoise", "simulate",
-    "simulate_drive_log", "simulate_slip_sweep",
+    "simulate_drive_log", "simulate_slip_sweep", "Scale", "choose_scale", "format_value", "format_force",
+    "format_torque", "format_power", "format_energy",
 ]

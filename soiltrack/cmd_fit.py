@@ -6,7 +6,29 @@ import sys
 
 from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path, vehicle_arg
 from .identify.engines import DEFAULT_ENGINE, ENGINES
-from .soilmodel import DataError
+from .soilmodel import PRACTICAL_BOUNDS, WIDE_BOUNDS, DataError, SoilBounds
+
+#: Named soil bounds of ``--bounds`` (the same names as ``diagnose --bounds``).
+NAMED_BOUNDS = {"practical": PRACTICAL_BOUNDS, "wide": WIDE_BOUNDS}
+
+
+def bounds_arg(text: str) -> SoilBounds:
+    """``--bounds``: a name of :data:`NAMED_BOUNDS` or six numbers ``C_LO,C_HI,PHI_LO,PHI_HI,K_LO,K_HI``
+    (kPa, deg, m) within the physical domain (c >= 0, 0 < phi < 90 deg, K > 0); DataError otherwise."""
+    if text in NAMED_BOUNDS:
+        return NAMED_BOUNDS[text]
+    what = (f"--bounds expects {' or '.join(NAMED_BOUNDS)} or six numbers C_LO,C_HI,PHI_LO,PHI_HI,K_LO,K_HI "
+            "(kPa, deg, m)")
+    vals = floats_arg(text, "--bounds") if any(ch.isdigit() for ch in text) else []
+    if len(vals) != 6:
+        raise DataError(f"{what}, got {text!r}")
+    c, phi, K = vals[0:2], vals[2:4], vals[4:6]
+    for name, (lo, hi), ok in (("c", c, c[0] >= 0), ("phi", phi, 0 < phi[0] and phi[1] < 90),
+                               ("K", K, K[0] > 0)):
+        if not ok or not lo < hi:
+            raise DataError(f"{what}: the {name} bounds [{lo:g}, {hi:g}] are not a range within c >= 0 kPa, "
+                            f"0 < phi < 90 deg, K > 0 m (lower < upper)")
+    return SoilBounds.from_kpa_deg((c[0], c[1]), (phi[0], phi[1]), (K[0], K[1]))
 
 
 # --- fit --------------------------------------------------------------------------------------
@@ -22,7 +44,7 @@ def _check_options(a: argparse.Namespace, drive_log: bool) -> None:
         raise DataError("--bias-correction applies to drive logs only", file=a.data)
     if a.torque_hold is not None and not drive_log:
         raise DataError("--torque-hold applies to drive logs only", file=a.data)
-    for opt, val in (("--slip-noise", a.slip_noise), ("--intervals", a.intervals)):
+    for opt, val in (("--slip-noise", a.slip_noise), ("--interval-method", a.interval_method)):
         if val is not None and drive_log:
             raise DataError(f"{opt} applies to slip sweeps only (a drive log's slip is a latent variable of its fit)",
                             file=a.data)
@@ -36,11 +58,16 @@ def _cmd_fit(a: argparse.Namespace) -> int:
 
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
+    bounds = bounds_arg(a.bounds)
     data = read_csv(a.data)
     vehicle = vehicle_arg(a.vehicle)
     drive_log = isinstance(data, DriveLog)
+    if a.intervals is not None:  # the old name (profile's --intervals is a mesh size)
+        print("soiltrack fit: --intervals is now --interval-method (the old name will go)", file=sys.stderr)
+        a.interval_method = a.interval_method or a.intervals
     _check_options(a, drive_log)
     kw = {"engine": a.engine} if a.method == "ipopt" and not drive_log else {}
+    kw["bounds"] = bounds
     if a.sigma is not None:
         kw["sigma"] = a.sigma if a.sigma == "relative" else floats_arg(a.sigma, "--sigma")[0]
     if a.bias_correction != "none":
@@ -50,8 +77,8 @@ def _cmd_fit(a: argparse.Namespace) -> int:
     if a.slip_noise is not None:
         kw["slip_noise"] = a.slip_noise if a.slip_noise in ("auto", "off") else \
             floats_arg(a.slip_noise, "--slip-noise")[0]
-    if a.intervals is not None:
-        kw["intervals"] = a.intervals
+    if a.interval_method is not None:
+        kw["intervals"] = a.interval_method
     if a.effect:
         kw["effects"] = [e.strip() for item in a.effect for e in item.split(",") if e.strip()]
     result = fit(data, vehicle, model=a.model, method=a.method, **kw)
@@ -69,17 +96,22 @@ def _cmd_fit(a: argparse.Namespace) -> int:
 
 _DESCRIPTION = """\
 Identify the soil (cohesion c, friction angle phi, shear modulus K) from a CSV file, with
-bounded fits (default bounds: c 0-69 kPa, phi 6-40 deg, K 0.006-0.05 m). The file kind is
+bounded fits (default bounds: c 0-69 kPa, phi 6-40 deg, K 0.006-0.05 m; see --bounds). The file kind is
 recognised by its header (comma separated, SI units, any column order):
 
   tractive force-slip data:  slip,tractive_force_N[,normal_load_N]
       slip in [0, 1); rows at two or more normal loads make c and phi separable
+  drawbar pull-slip data:    slip,drawbar_pull_N[,normal_load_N]
+      what a test rig measures: drawbar pull = thrust - motion resistance (mu_r W nominal; a
+      resistance growing with slip is the slip_sinkage effect, a constant extra one looks like grade)
   drive log:                 time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s
                              [,vehicle_accel_m_s2]
       time strictly increasing; torque and speed of both sprockets together
 
-Prints a report (or --json); exit 0 when the fit succeeded, 1 when it failed or its answer is
-not usable (the reason is printed), 2 for bad input."""
+Prints a report (or --json): the outcome (converged, not usable or failed, beside the solver's own
+status), each parameter with its standard error (SE) and 95 % interval, what the data determine,
+and residuals as measured - model. Exit 0 when the fit converged to a usable answer, 1 when it
+failed or its answer is not usable (the reason is printed), 2 for bad input."""
 
 
 def add_parser(sub) -> None:
@@ -88,7 +120,8 @@ def add_parser(sub) -> None:
                        description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter,
                        epilog="example: soiltrack fit examples/data/wong2001_p176.csv "
                               "--vehicle examples/data/heavy_vehicle.json --plot fit.png")
-    f.add_argument("data", help="CSV file: tractive force-slip data or a drive log (columns above)")
+    f.add_argument("data", help="CSV file: tractive force-slip or drawbar pull-slip data, or a drive log "
+                                "(columns above)")
     f.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")
     f.add_argument("--model", choices=("full", "cohesion-free"), default="full",
                    help="full: F_max = A c + W tan(phi) (Eq. 2); cohesion-free: F_max = W tan(phi), c = 0 "
@@ -119,7 +152,13 @@ def add_parser(sub) -> None:
                    help="slip sweeps: noise on the measured slip. auto (default with --effect): weights for it "
                         "when the residuals show it (likelihood-ratio test); off: slip exact (default without "
                         "--effect); a number: the slip's standard deviation")
-    f.add_argument("--intervals", choices=("auto", "linear", "profile"), default=None,
+    f.add_argument("--bounds", default="practical",
+                   metavar="practical|wide|C_LO,C_HI,PHI_LO,PHI_HI,K_LO,K_HI",
+                   help="soil bounds of the fit: practical (default: c 0-69 kPa, phi 6-40 deg, K 6-50 mm), "
+                        "wide (c 0-200 kPa, phi 1-55 deg, K 2-250 mm), or six numbers in kPa, deg, m, e.g. "
+                        "0,69,2,40,0.006,0.05 for a smooth track or a slippery soil (phi below 6 deg)")
+    f.add_argument("--intervals", choices=("auto", "linear", "profile"), default=None, help=argparse.SUPPRESS)
+    f.add_argument("--interval-method", choices=("auto", "linear", "profile"), default=None,
                    help="slip sweeps: 95 %% intervals from the profile likelihood for the weakly identifiable and "
                         "at-bound parameters (auto, default with --effect), for all (profile), or linearised "
                         "for all (linear, default without --effect)")

@@ -2,10 +2,14 @@
 from __future__ import annotations
 
 import argparse
+import secrets
 import sys
 
 from .cliutil import EXIT_OK, MAX_SAMPLES, floats_arg, output_path, soil_arg, vehicle_arg
 from .soilmodel import TERRAINS, DataError
+
+#: Bits of a seed drawn when ``--seed`` is not given (said on stderr, so that the run can be repeated).
+SEED_BITS = 32
 
 
 # --- simulate ---------------------------------------------------------------------------------
@@ -42,7 +46,10 @@ def _cmd_simulate(a: argparse.Namespace) -> int:
     _check_options(a)
     vehicle, soil = vehicle_arg(a.vehicle), soil_arg(a.terrain, a.soil)
     effects = parse_effects(a.effect or [])
-    kwargs = dict(kind=a.kind, effects=effects, seed=a.seed, noise=a.noise, model=a.model)
+    seed = secrets.randbits(SEED_BITS) if a.seed is None else a.seed
+    if a.seed is None:
+        print(f"seed {seed} (not given: drawn; repeat this run with --seed {seed})", file=sys.stderr)
+    kwargs = dict(kind=a.kind, effects=effects, seed=seed, noise=a.noise, model=a.model)
     if a.kind == "drive":
         if a.duration is not None:
             kwargs["duration_s"] = a.duration
@@ -95,7 +102,9 @@ def add_parser(sub) -> None:
                         "(default: full)")
     s.add_argument("--noise", choices=("default", "none"), default="default",
                    help="sensor noise: realistic default levels, or none (default: default)")
-    s.add_argument("--seed", type=int, default=None, help="random seed for the noise (default: fresh each run)")
+    s.add_argument("--seed", type=int, default=None,
+                   help="random seed for the noise (default: drawn afresh and said on stderr, so that the "
+                        "run can be repeated)")
     s.add_argument("--duration", type=float, default=None, help="drive log length in s (default: 60)")
     s.add_argument("--rate", type=float, default=None, help="drive log sample rate in Hz (default: 50)")
     s.add_argument("--slips", help="sweep: comma-separated slips in [0, 1) (default: 22 slips from 0.01 to 0.7)")
