@@ -243,7 +243,7 @@ class ReportViews:
         why = {"not usable": " - the answer fails the plausibility checks (see the warnings)",
                "failed": " - no estimate (see the warnings)"}.get(self.outcome, "")
         L.append(f"status: {self.outcome}{why} (solver status {self.solver_status}, {self.iterations} "
-                 f"iterations, {self.solve_time * 1e3:.3g} ms)")
+                 f"iterations, {_duration(self.solve_time)})")
         unit = self.residual_unit
         rmse = format_force(self.rmse) if unit == "N" else f"{self.rmse:.4g} {unit}"
         L.append(f"fit: RMSE {rmse}, cost {self.cost:.6g}, residual dof {self.dof}")
@@ -348,6 +348,15 @@ class ReportViews:
     def __str__(self) -> str:  # pragma: no cover - convenience
         return self.report()
 
+
+
+def _duration(seconds: float) -> str:
+    """A solve time in plain digits: ``"98.6 ms"``, ``"9.42 s"``, ``"312 s"`` (never ``9.42e+03 ms``)."""
+    if not np.isfinite(seconds):
+        return "time unknown"
+    if seconds < 1.0:
+        return f"{seconds * 1e3:.3g} ms"
+    return f"{seconds:.3g} s" if seconds < 100.0 else f"{seconds:.0f} s"
 
 
 def _combo_label(name: str) -> str:
