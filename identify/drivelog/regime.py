@@ -87,8 +87,8 @@ def classify_regime(Fmax: float, K: float, l: float, cov2: np.ndarray | None, at
             f"the log reaches the traction limit (F_max = {format_force(Fmax)}, SE {pct(relF)}), but K is "
             f"poorly determined (standard error {pct(relK)}{', on a bound' if 'K' in at_bound else ''}): the "
             f"samples sit either near zero slip or at full track spin, with few in between ({n_high} samples "
-            f"above 70 % of F_max). The best determined small-slip quantity is the initial slope {slope_txt}. A sustained pull "
-            f"at 50-90 % of the traction limit (slip about {i_lo:.3g} to {i_hi:.3g}) would pin K down")
+            f"above 70 % of F_max). The best determined small-slip quantity is the initial slope {slope_txt}. "
+            f"A sustained pull at 50-90 % of the traction limit (slip about {i_lo:.3g} to {i_hi:.3g}) would pin K down")
     elif regime == "intermediate":
         warnings.append(
             f"F_max and K are only partly separated (correlation {corr:.3f}, standard errors: F_max {pct(relF)}, "
