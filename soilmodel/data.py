@@ -520,7 +520,8 @@ def _slip_data(kind: str, data: dict, path: str, driving_only: bool, slip_angle:
     other = STD_COLUMNS["tractive_force" if kind == "drawbar" else "drawbar_pull"]
     if other in data:
         raise DataError(f"{other} is the standard deviation of the other quantity; this file measures "
-                        f"{MEASURED_COLUMNS[measured]} (its column is {STD_COLUMNS[measured]})", file=path, column=other)
+                        f"{MEASURED_COLUMNS[measured]} (its column is {STD_COLUMNS[measured]})", file=path,
+                        column=other)
     if slip_angle is not None and slip_angle != 0:
         raise DataError(f"--slip-angle {slip_angle:g}: the model is straight-line; only 0 can be kept", file=path,
                         column="slip_angle_deg")

@@ -10,6 +10,7 @@ import os
 import sys
 
 from .soilmodel import PRACTICAL_BOUNDS, TERRAINS, VEHICLES, WIDE_BOUNDS, DataError, Soil, Vehicle
+from .soilmodel.rigid_wheel import RigidWheel, read_running_gear
 
 EXIT_OK, EXIT_SOLVER, EXIT_INPUT = 0, 1, 2
 
@@ -21,6 +22,15 @@ def vehicle_arg(arg: str) -> Vehicle:
     if not os.path.exists(arg):
         raise DataError(f"no such vehicle file, and not a preset name (presets: {sorted(VEHICLES)})", file=arg)
     return Vehicle.from_json(arg)
+
+
+def running_gear_arg(arg: str) -> Vehicle | RigidWheel:
+    """A preset name, a vehicle JSON or a rigid-wheel JSON (``"running_gear": "rigid_wheel"``)."""
+    if arg in VEHICLES:
+        return VEHICLES[arg]
+    if not os.path.exists(arg):
+        raise DataError(f"no such vehicle file, and not a preset name (presets: {sorted(VEHICLES)})", file=arg)
+    return read_running_gear(arg)
 
 
 def soil_arg(terrain: str | None, soil: str | None) -> Soil:

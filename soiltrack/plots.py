@@ -185,6 +185,15 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
             if np.all(np.isfinite(res[sel])):
                 axr.plot(data.slip[sel], res[sel] / sc, "o", color=col, ms=5)
         lows = [float(np.min(data.values)) / sc]
+        try:
+            if drawable:
+                curve(grid[:2], curve_loads[0][1])
+        except DataError:  # a resistance from each row's sinkage: the model exists at the rows only
+            drawable = False
+            at_rows = result.predict(data)
+            ax.plot(data.slip, at_rows / sc, "x", color="k", ms=6,
+                    label="model at each row (its own sinkage)")
+            lows.append(float(np.min(at_rows)) / sc)
         for k, (col, W, label) in enumerate(curve_loads):
             if not drawable:
                 break

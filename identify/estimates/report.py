@@ -213,9 +213,12 @@ class ReportViews:
                      "estimated from the residuals)")
         z = x.get("sinkage_m")
         if isinstance(z, dict):
+            used = (x.get("resistance") or {}).get("mode") == "fit-sinkage"
             L.append(f"sinkage: measured per row, {1e3 * z['min']:.3g} to {1e3 * z['max']:.3g} mm (correlation with "
-                     f"the slip {z['slip_correlation']:+.2f}); read, not fitted: the track model's resistance does "
-                     "not take it")
+                     f"the slip {z['slip_correlation']:+.2f}); "
+                     + ("used by the resistance R = k_z z W" if used else
+                        "read, not fitted: the track model's resistance does not take it "
+                        "(--resistance fit-sinkage does)"))
         res = x.get("resistance")
         if isinstance(res, dict):
             L.append("resistance: " + res["statement"])

@@ -267,10 +267,7 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
             if normal_load is not None or measured is not None:
                 raise DataError("predict(data) takes the normal load and the measured channel from the data; "
                                 "give slips to predict at another load or channel", file=slip.source)
-            data = slip
-            if data.normal_load is None and self.data_kind == "slip":
-                return self.predict(data.slip, measured=data.measured)
-            return self.predict(data.slip, normal_load=data.normal_load, measured=data.measured)
+            return slip.values - self.residuals_on(slip)[slip.channel]
         s = np.atleast_1d(np.asarray(slip, dtype=float))
         if self.data_kind != "slip":
             raise DataError("predict is for slip fits; use residuals_on for drive logs")

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 
-import casadi as ca
 import numpy as np
 
 from ...soilmodel import WIDE_BOUNDS, DataError, ShearTest, SoilBounds, shear_stress_expr
