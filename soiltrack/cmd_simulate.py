@@ -45,6 +45,9 @@ def _cmd_simulate(a: argparse.Namespace) -> int:
     from .soilmodel.simulation import simulate
 
     gear = running_gear_arg(a.vehicle)
+    if a.seed is None:  # drawn here, for a vehicle's and a wheel's run alike, and said so it can be repeated
+        a.seed = secrets.randbits(SEED_BITS)
+        print(f"seed {a.seed} (not given: drawn; repeat this run with --seed {a.seed})", file=sys.stderr)
     if isinstance(gear, RigidWheel):
         from .wheel_cli import simulate_wheel_command
 
@@ -56,10 +59,7 @@ def _cmd_simulate(a: argparse.Namespace) -> int:
     _check_options(a)
     vehicle, soil = gear, soil_arg(a.terrain, a.soil)
     effects = parse_effects(a.effect or [])
-    seed = secrets.randbits(SEED_BITS) if a.seed is None else a.seed
-    if a.seed is None:
-        print(f"seed {seed} (not given: drawn; repeat this run with --seed {seed})", file=sys.stderr)
-    kwargs = dict(kind=a.kind, effects=effects, seed=seed, noise=a.noise, model=a.model)
+    kwargs = dict(kind=a.kind, effects=effects, seed=a.seed, noise=a.noise, model=a.model)
     if a.kind == "drive":
         if a.duration is not None:
             kwargs["duration_s"] = a.duration

@@ -20,6 +20,7 @@ from soiltrack.soilmodel import (TERRAINS, VEHICLES, DataError, Soil, Vehicle, r
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 LIGHT = VEHICLES["light"]
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+WHEEL_JSON = os.path.join(ROOT, "examples", "data", "cmu-3dterra", "smooth_wheel.json")
 
 
 def run(capsys, *argv):
@@ -130,15 +131,17 @@ def test_the_load_check_passes_a_rig_at_a_few_times_the_weight():
 
 
 # --- 4.9 simulate says its seed ------------------------------------------------------------
-def test_simulate_without_a_seed_says_it_and_the_run_repeats(tmp_path, capsys):
+@pytest.mark.parametrize("gear", [["--vehicle", "light"], ["--vehicle", WHEEL_JSON, "--loads", "100,200"]],
+                         ids=["track", "rigid wheel"])
+def test_simulate_without_a_seed_says_it_and_the_run_repeats(gear, tmp_path, capsys):
     a, b, again = tmp_path / "a.csv", tmp_path / "b.csv", tmp_path / "again.csv"
     seeds = []
     for path in (a, b):
-        rc, _, err = run(capsys, "simulate", "--kind", "sweep", "--vehicle", "light", "-o", path)
+        rc, _, err = run(capsys, "simulate", "--kind", "sweep", *gear, "-o", path)
         assert rc == 0
         seeds.append(int(re.search(r"--seed (\d+)", err).group(1)))
     assert seeds[0] != seeds[1] and a.read_bytes() != b.read_bytes()
-    rc, _, err = run(capsys, "simulate", "--kind", "sweep", "--vehicle", "light", "--seed", seeds[0], "-o", again)
+    rc, _, err = run(capsys, "simulate", "--kind", "sweep", *gear, "--seed", seeds[0], "-o", again)
     assert rc == 0 and again.read_bytes() == a.read_bytes()
     assert re.search(r"--seed \d+", err) is None  # a given seed is not repeated back
 
