@@ -200,7 +200,7 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
             F = curve(grid, W)
             lows.append(float(np.min(F)) / sc)
             if not result.success:
-                ax.plot(grid, F / sc, "--", color="0.5", lw=1.0, label="last iterate of the FAILED fit" if k == 0
+                ax.plot(grid, F / sc, "--", color="0.5", lw=1.0, label=_unusable_label(result) if k == 0
                         else None)
                 continue
             extreme = levels.size > MAX_LOAD_LEVELS and k > 0
@@ -234,8 +234,17 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
 
 
 def _residual_label(result) -> str:
-    """``measured - model`` (:data:`RESIDUAL_SIGN`), or ``measured - last iterate`` for a failed fit."""
-    return RESIDUAL_SIGN if result.success else RESIDUAL_SIGN.replace("model", "last iterate")
+    """``measured - model`` (:data:`RESIDUAL_SIGN`); ``measured - last iterate`` for a failed fit."""
+    if result.outcome == "failed":
+        return RESIDUAL_SIGN.replace("model", "last iterate")
+    return RESIDUAL_SIGN + (" (not usable)" if result.outcome == "not usable" else "")
+
+
+def _unusable_label(result) -> str:
+    """The legend of a curve that is not an answer: a converged but refused fit, or a failed one's last iterate."""
+    if result.outcome == "not usable":
+        return "the fit's curve: answer NOT USABLE (see the report)"
+    return "last iterate of the FAILED fit"
 
 
 def _effect_corrected(prep, vehicle, result) -> tuple[np.ndarray, np.ndarray, str]:
@@ -314,7 +323,7 @@ def _drive_log_panels(fig, ax, axr, data: DriveLog, vehicle, result, curve) -> N
                 ax.fill_between(grid, (F - band) / sc, (F + band) / sc, color="C3", alpha=0.2, lw=0,
                                 label="95 % band of the fitted curve")
         else:
-            ax.plot(grid, F / sc, "--", color="0.5", lw=1.2, label="last iterate of the FAILED fit")
+            ax.plot(grid, F / sc, "--", color="0.5", lw=1.2, label=_unusable_label(result))
     outside = int(np.sum((slip < i_lo) | (slip > i_hi)))
     ax.set_xlim(i_lo, i_hi)
     ax.set_ylim(min(0.0, float(np.min(thrust)) / sc), float(np.max(thrust)) / sc * 1.08)
