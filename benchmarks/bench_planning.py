@@ -23,11 +23,17 @@ What is measured
   points per interval, torque bounds; the simulation is the same CVODES replay of the model
   core (one CasADi call for the whole horizon, ``mapaccum``); gradients by finite differences
   (what ``minimize`` does without a Jacobian). Its result is replayed and compared.
+* Re-planning while driving (:class:`soiltrack.planning.Replanner`, its own warm start), the same
+  100-interval problem: cold (``reset`` before each call), warm on a new soil (alternating LETE
+  sand / dry sand, the case above), and warm on a small change of the soil (alternating LETE
+  sand and LETE sand with a friction angle 0.5 deg lower and K 5 % larger: what an on-line
+  estimate's update looks like). Medians of the whole ``replan`` call and of the solver alone.
 * A 10-patch route (alternating terrains and grades, 100 intervals): cold solve and warm
   re-solve.
 * ``margin`` with a fit's uncertainty and 10,000 Monte Carlo samples.
 
-Targets: warm profile solve below 50 ms on 2 cores (aim 10 ms).
+Targets: warm profile solve below 50 ms on 2 cores (aim 10 ms); warm re-plan on a new soil below
+20 ms (aim 10 ms, issue 22).
 """
 from __future__ import annotations
 
@@ -53,7 +59,7 @@ except ImportError:  # pragma: no cover
     sys.exit("benchmarks need scipy: pip install 'soiltrack[bench]'")
 
 from soiltrack.identify import fit  # noqa: E402
-from soiltrack.planning import margin, profile, replay, route_from_dict, route_profile  # noqa: E402
+from soiltrack.planning import Replanner, margin, profile, replay, route_from_dict, route_profile  # noqa: E402
 from soiltrack.planning.ocp import clear_warm_starts  # noqa: E402
 from soiltrack.planning.replay import step_function  # noqa: E402
 from soiltrack.soilmodel import TERRAINS, VEHICLES, Soil, simulate_slip_sweep  # noqa: E402
@@ -103,6 +109,31 @@ def bench_profile(repeats: int) -> dict:
             "warm_new_v1_call_s": med(wv), "warm_new_v1_solver_s": med(wv_s), "warm_new_v1_iterations": med(wv_it),
             "warm_new_soil_call_s": med(ws), "warm_new_soil_solver_s": med(ws_s),
             "warm_new_soil_iterations": med(ws_it)}
+
+
+def bench_replan(repeats: int) -> dict:
+    """The Replanner: cold, warm on a new soil, warm on a small change of the soil (same run)."""
+    lete = TERRAINS["lete_sand"]
+    near = Soil(lete.cohesion, lete.friction_angle - np.radians(0.5), lete.shear_modulus * 1.05, name="lete, updated")
+    rp = Replanner(HEAVY, distance=CASE["distance"], v1=CASE["v1"], intervals=CASE["intervals"],
+                   max_slip=CASE["max_slip"], objective=CASE["objective"])
+    rp.replan(lete, v0=CASE["v0"])  # builds the cold and the warm solvers (not timed below)
+    rp.replan(TERRAINS["dry_sand"], v0=CASE["v0"])
+    out = {}
+    for label, soils, reset in (("cold", (lete, TERRAINS["dry_sand"]), True),
+                                ("warm_new_soil", (lete, TERRAINS["dry_sand"]), False),
+                                ("warm_small_change", (lete, near), False)):
+        call, solver, its = [], [], []
+        for k in range(repeats):
+            if reset:
+                rp.reset()
+            r, t = timed(lambda: rp.replan(soils[k % 2], v0=CASE["v0"]))
+            assert r.success and r.warm_start is not reset, r.message
+            call.append(t)
+            solver.append(r.solve_time_s)
+            its.append(r.iterations)
+        out[label] = {"call_s": med(call), "solver_s": med(solver), "iterations": med(its)}
+    return out
 
 
 def bench_slsqp(maxiter: int) -> dict:
@@ -215,6 +246,15 @@ def main(argv=None) -> int:
     best = min(p["warm_new_v1_call_s"], p["warm_new_soil_call_s"])
     print(f"  target warm < 50 ms: {'reached' if best < 0.05 else 'NOT reached'} ({best * 1e3:.1f} ms); "
           f"aim 10 ms: {'reached' if best < 0.01 else 'not reached'}")
+    out["replan"] = rr = bench_replan(a.repeats)
+    print("Replanner, same problem (100 intervals), same run:")
+    for key, label in (("cold", "cold (reset)       "), ("warm_new_soil", "warm, new soil     "),
+                       ("warm_small_change", "warm, small change ")):
+        print(f"  {label} {rr[key]['call_s'] * 1e3:8.1f} ms per call ({rr[key]['solver_s'] * 1e3:.1f} ms in IPOPT, "
+              f"median {rr[key]['iterations']:.0f} iterations)")
+    t = rr["warm_new_soil"]["call_s"]
+    print(f"  target warm re-plan on a new soil < 20 ms: {'reached' if t < 0.02 else 'NOT reached'} ({t * 1e3:.1f} ms); "
+          f"aim 10 ms: {'reached' if t < 0.01 else 'not reached'}")
     if not a.skip_slsqp:
         out["slsqp"] = s = bench_slsqp(a.slsqp_maxiter)
         print(f"scipy SLSQP single shooting, same problem: {s['wall_s']:.2f} s, {s['iterations']} iterations, "
