@@ -110,7 +110,7 @@ class Margin:
     notes: tuple[str, ...] = field(default=())
 
     def to_dict(self) -> dict:
-        """The ``margin --json`` object (DESIGN.md section 8); never NaN (``null`` instead)."""
+        """The ``margin --json`` object (docs/data-formats.md); never NaN (``null`` instead)."""
         d = {k: getattr(self, k) for k in (
             "available_N", "required_N", "margin_N", "margin_ratio", "traversable", "p_traversable",
             "slip_required", "max_grade_deg", "limited_by", "soil_limit_N", "drivetrain_limit_N")}

@@ -155,7 +155,7 @@ class SpeedPlan:
     initial_slip_source: str | None = None
 
     def to_dict(self, route: bool = False) -> dict:
-        """The ``profile --json`` / ``route --json`` object (DESIGN.md section 8); never NaN."""
+        """The ``profile --json`` / ``route --json`` object (docs/data-formats.md); never NaN."""
         d = {"success": self.success, "status": self.status, "message": self.message, "objective": self.objective,
              "total_time_s": _f(self.total_time_s), "energy_J": _f(self.energy_J),
              "solve_time_s": _f(self.solve_time_s), "iterations": self.iterations, "warm_start": self.warm_start}
