@@ -146,6 +146,7 @@ def test_plans_from_rest_and_to_rest():
 
 
 # --- item 6: the speed limit and the peak speed ----------------------------------------------------------
+@pytest.mark.slow
 def test_readme_example_peak_speed_and_max_speed(capsys):
     base = ["profile", "--vehicle", "heavy", "--terrain", "lete_sand", "--v0", "0.5", "--v1", "3", "--distance", "30",
             "--intervals", "40", "--json"]
