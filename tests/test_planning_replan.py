@@ -1,4 +1,5 @@
 """Re-planning while driving (issue 22, deliverable 3): on-line estimates in margin/profile, the Replanner."""
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,8 +27,14 @@ def estimate_of(soil: Soil, vehicle, rel_F=0.03, rel_K=0.1, rho=0.3, **kw) -> Es
     F = float(max_thrust(soil, vehicle))
     sF, sK = rel_F * F, rel_K * soil.shear_modulus
     cov = np.array([[sF * sF, rho * sF * sK], [rho * sF * sK, sK * sK]])
-    base = dict(max_thrust_N=F, shear_modulus_m=soil.shear_modulus, covariance=cov, normal_load_N=vehicle.weight,
-                identifiable=("max_thrust", "shear_modulus"), converged=True)
+    base = dict(
+        max_thrust_N=F,
+        shear_modulus_m=soil.shear_modulus,
+        covariance=cov,
+        normal_load_N=vehicle.weight,
+        identifiable=("max_thrust", "shear_modulus"),
+        converged=True,
+    )
     base.update(kw)
     return Estimate(**base)
 
