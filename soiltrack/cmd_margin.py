@@ -89,5 +89,9 @@ def add_parser(sub) -> None:
     p.add_argument("--speed", metavar="V", help="vehicle speed, m/s (brings in the power limit)")
     p.add_argument("--max-slip", metavar="S", help="allowed slip in (0, 1) (default 0.2)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
-    p.add_argument("--plot", metavar="PNG", help="save the thrust-slip curve against the limits and the requirement")
+    p.add_argument(
+        "--plot",
+        metavar="PNG",
+        help="save the thrust-slip curve against the limits and the requirement (.png, .pdf, .svg)",
+    )
     p.set_defaults(func=_cmd_margin)

@@ -57,5 +57,9 @@ def add_parser(sub) -> None:
     p.add_argument("--intervals", metavar="N", help="mesh intervals in total (default 10 per patch, at least 50)")
     add_start_arguments(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
-    p.add_argument("--plot", metavar="PNG", help="save speed, slip, torque and traction reserve against distance")
+    p.add_argument(
+        "--plot",
+        metavar="PNG",
+        help="save speed, slip, torque and traction reserve against distance (.png, .pdf, .svg)",
+    )
     p.set_defaults(func=_cmd_route)
