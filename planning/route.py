@@ -1,4 +1,5 @@
 """Routes of terrain patches (length, soil, grade) and the ROUTE.json reader (docs/data-formats.md)."""
+
 from __future__ import annotations
 
 import json
@@ -37,7 +38,9 @@ class Patch:
     @property
     def label(self) -> str:
         """Short name of the terrain."""
-        name = getattr(self.terrain, "name", "") or ("identified soil" if not isinstance(self.terrain, Soil) else "soil")
+        name = getattr(self.terrain, "name", "") or (
+            "identified soil" if not isinstance(self.terrain, Soil) else "soil"
+        )
         return name
 
 
@@ -57,8 +60,16 @@ class Route:
         return float(sum(p.length_m for p in self.patches))
 
 
-def _num(x: Any, field: str, src: str | None, *, lo: float = -math.inf, lo_open: bool = False,
-         hi: float = math.inf, hi_open: bool = False) -> float:
+def _num(
+    x: Any,
+    field: str,
+    src: str | None,
+    *,
+    lo: float = -math.inf,
+    lo_open: bool = False,
+    hi: float = math.inf,
+    hi_open: bool = False,
+) -> float:
     if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(float(x)):
         raise DataError(f"field '{field}' must be a finite number, got {x!r}", file=src, column=field)
     x = float(x)
@@ -101,14 +112,20 @@ def route_from_dict(obj: Any, *, source: str | None = None, default_terrain: Any
         if "terrain" in p:
             name = p["terrain"]
             if name not in TERRAINS:
-                raise DataError(f"unknown terrain {name!r} in {f}.terrain; presets: {sorted(TERRAINS)}", file=src,
-                                column=f"{f}.terrain")
+                raise DataError(
+                    f"unknown terrain {name!r} in {f}.terrain; presets: {sorted(TERRAINS)}",
+                    file=src,
+                    column=f"{f}.terrain",
+                )
             terrain = TERRAINS[name]
         elif "soil" in p:
             s = p["soil"]
             if not isinstance(s, dict):
-                raise DataError(f"{f}.soil must be an object with cohesion_kpa, friction_angle_deg, shear_modulus_m",
-                                file=src, column=f"{f}.soil")
+                raise DataError(
+                    f"{f}.soil must be an object with cohesion_kpa, friction_angle_deg, shear_modulus_m",
+                    file=src,
+                    column=f"{f}.soil",
+                )
             vals = []
             for key in ("cohesion_kpa", "friction_angle_deg", "shear_modulus_m"):
                 if key not in s:
@@ -127,8 +144,9 @@ def route_from_dict(obj: Any, *, source: str | None = None, default_terrain: Any
     v1 = _num(obj.get("v_end_m_s", v0), "v_end_m_s", src, lo=0.0)
     objective = obj.get("objective", "time")
     if objective not in OBJECTIVES:
-        raise DataError(f"field 'objective' must be one of {OBJECTIVES}, got {objective!r}", file=src,
-                        column="objective")
+        raise DataError(
+            f"field 'objective' must be one of {OBJECTIVES}, got {objective!r}", file=src, column="objective"
+        )
     ms = obj.get("max_slip")
     ms = None if ms is None else _num(ms, "max_slip", src, lo=0.0, lo_open=True, hi=1.0, hi_open=True)
     return Route(v0, v1, tuple(patches), objective, ms)
