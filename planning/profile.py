@@ -58,7 +58,7 @@ from .ocp import DEGREE, OcpData, radau_collocation, solve_ocp
 from .replay import replay
 from .route import OBJECTIVES, Patch, Route
 
-__all__ = ["SpeedPlan", "profile", "route_profile", "DEFAULT_INTERVALS", "STANDSTILL_SPEED", "THRUST_RESERVE"]
+__all__ = ["SpeedPlan", "profile", "route_profile", "plan_patches", "DEFAULT_INTERVALS", "STANDSTILL_SPEED", "THRUST_RESERVE"]
 
 #: Traction reserve of a plan: its thrust stays below (1 - THRUST_RESERVE) times the soil's thrust
 #: at the slip limit, and its power below (1 - THRUST_RESERVE) P_max. On the flat part of the
@@ -372,7 +372,14 @@ def _standstills(t: np.ndarray, v: np.ndarray, s: np.ndarray) -> tuple[dict, ...
     return tuple(out)
 
 
-def _plan(patches: tuple[Patch, ...], vehicle: Vehicle, **kw) -> SpeedPlan:
+def plan_patches(patches: tuple[Patch, ...], vehicle: Vehicle, **kw: Any) -> SpeedPlan:
+    """Plan over ``patches`` (the engine of :func:`profile`, :func:`route_profile` and the re-planner).
+
+    Keyword arguments: ``v0``, ``v1``, ``distance``, ``duration``, ``max_slip``, ``objective``,
+    ``intervals``, ``torque_rate``, and optionally ``confidence``, ``robust_samples``,
+    ``max_speed``, ``slip0``, ``warm_store`` (the dict that keeps the solution for the next
+    warm start; default: the process-wide one per problem structure).
+    """
     res = _plan_core(patches, vehicle, **kw)
     info = []
     for p in patches:
@@ -389,7 +396,7 @@ def _plan(patches: tuple[Patch, ...], vehicle: Vehicle, **kw) -> SpeedPlan:
 
 def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: float, distance: float | None,
           duration: float | None, max_slip: float | None, objective: str, intervals: int,
-          torque_rate: float | None, confidence: float | None, route: bool,
+          torque_rate: float | None, confidence: float | None = None, route: bool = False,
           robust_samples: int = ROBUST_SAMPLES, max_speed: float | None = None, slip0: float | None = None,
           warm_store: dict | None = None) -> SpeedPlan:
     v0 = check_number("v0", v0, 0.0)
@@ -593,7 +600,7 @@ def _with_mesh(result: "SpeedPlan", mesh: dict) -> "SpeedPlan":
 
 def _robust_check(result, pd, idx, vehicle, i_max, confidence, patches, kw, n_samples) -> dict:
     frac = _violations(result, pd, idx, vehicle, i_max, n_samples)
-    nominal = _plan(tuple(patches), vehicle, **dict(kw, confidence=None))
+    nominal = plan_patches(tuple(patches), vehicle, **dict(kw, confidence=None))
     frac_nom = _violations(nominal, pd, idx, vehicle, i_max, n_samples) if nominal.success else None
     return {"confidence": float(confidence),
             "method": "plan on the soil backed off along the linearised covariance; Monte Carlo replay check",
@@ -646,7 +653,7 @@ def profile(terrain: Any, vehicle: Vehicle, *, v0: float, v1: float, distance: f
     else:
         length = 1.0
     grade_deg = check_number("grade_deg", grade_deg, -68.75, 68.75)
-    return _plan((Patch(length, terrain, grade_deg),), vehicle, v0=v0, v1=v1, distance=distance, duration=duration,
+    return plan_patches((Patch(length, terrain, grade_deg),), vehicle, v0=v0, v1=v1, distance=distance, duration=duration,
                  max_slip=max_slip, objective=objective, intervals=intervals, torque_rate=torque_rate,
                  confidence=confidence, route=False, robust_samples=robust_samples, max_speed=max_speed, slip0=slip0)
 
@@ -660,6 +667,6 @@ def route_profile(route: Route, vehicle: Vehicle, *, intervals: int | None = Non
     ``slip0`` as for :func:`profile`.
     """
     n = max(DEFAULT_INTERVALS, 10 * len(route.patches)) if intervals is None else intervals
-    return _plan(route.patches, vehicle, v0=route.v0_m_s, v1=route.v_end_m_s, distance=route.length_m, duration=None,
+    return plan_patches(route.patches, vehicle, v0=route.v0_m_s, v1=route.v_end_m_s, distance=route.length_m, duration=None,
                  max_slip=route.max_slip, objective=route.objective, intervals=n, torque_rate=torque_rate,
                  confidence=None, route=True, max_speed=max_speed, slip0=slip0)

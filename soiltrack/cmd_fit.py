@@ -4,9 +4,10 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path, vehicle_arg
+from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path, running_gear_arg
 from .identify.engines import DEFAULT_ENGINE, ENGINES
 from .soilmodel import DataError
+from .soilmodel.rigid_wheel import RigidWheel
 
 
 # --- fit --------------------------------------------------------------------------------------
@@ -61,15 +62,22 @@ def _cmd_fit(a: argparse.Namespace) -> int:
     from .identify.soiltests.dispatch import is_soil_test
     from .soilmodel import DriveLog, read_csv
 
+    gear = running_gear_arg(a.vehicle) if a.vehicle is not None else None
+    if isinstance(gear, RigidWheel):
+        from .wheel_cli import fit_wheel_command
+
+        return fit_wheel_command(a, gear)
+    if a.fix:
+        raise DataError("--fix applies to a rigid wheel's fit (--vehicle WHEEL.json) only")
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
     data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle)
     if is_soil_test(data):
         return _cmd_soil_test(a, data)
-    if a.vehicle is None:
+    if gear is None:
         raise DataError("--vehicle is required for slip sweeps and drive logs (a vehicle JSON file or a preset "
                         "name: heavy, light)", file=a.data)
-    vehicle = vehicle_arg(a.vehicle)
+    vehicle = gear
     drive_log = isinstance(data, DriveLog)
     _check_options(a, drive_log)
     kw = {"engine": a.engine} if a.method == "ipopt" and not drive_log else {}
@@ -115,6 +123,10 @@ recognised by its header (comma separated, SI units, any column order):
       c, phi, K (two or more normal pressures separate c and phi); no --vehicle
   plate sinkage test:        plate_width_m,pressure_Pa,sinkage_m
       Bekker k_c, k_phi, n (one plate width gives only k_c / b + k_phi); no --vehicle
+  single-wheel rig sweep:    slip,drawbar_pull_N,normal_load_N[,sinkage_m]
+      with --vehicle WHEEL.json ({"running_gear": "rigid_wheel", "wheel_radius_m", "wheel_width_m",
+      "grouser_height_m"}): the Wong-Reece rigid wheel; the load is required per row; a measured
+      sinkage sets the entry angle and its load balance identifies the Bekker stiffness
 
 Prints a report (or --json); exit 0 when the fit succeeded, 1 when it failed or its answer is
 not usable (the reason is printed), 2 for bad input."""
@@ -176,6 +188,9 @@ def add_parser(sub) -> None:
     f.add_argument("--slip-angle", type=float, metavar="0",
                    help="slip sweeps with a slip_angle_deg column: keep only the rows at this slip angle (only 0: "
                         "the model is straight-line) instead of refusing the file; the count is reported")
+    f.add_argument("--fix", action="append", metavar="NAME=VALUE",
+                   help="rigid wheel: hold a parameter at a value in edge units (repeatable), e.g. bekker_n=1; names "
+                        "cohesion_kpa, friction_angle_deg, shear_modulus_m, bekker_kc, bekker_kphi, bekker_n")
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit (.png, .pdf, .svg)")
     f.set_defaults(func=_cmd_fit)
