@@ -130,7 +130,13 @@ def test_cli_fits_a_bevameter_file_without_vehicle(tmp_path):
         assert par["ci95"][0] <= par["value"] <= par["ci95"][1]
     plate = tmp_path / "plate.csv"
     BEV.plate_csv(str(plate), SOIL, 7, widths=(0.1,))
-    assert main(["fit", str(plate), "--json"]) == 0
+    p = subprocess.run([sys.executable, "-m", "soiltrack", "fit", str(plate), "--json"], capture_output=True,
+                       text=True, cwd=ROOT)
+    assert p.returncode == 0, p.stderr
+    js = json.loads(p.stdout)
+    assert [c["name"] for c in js["combinations"]] == ["bekker_k_eq"]
+    assert js["combinations"][0]["plate_width_m"] == 0.1
+    assert js["parameters"]["bekker_kc"]["value"] is None and js["parameters"]["bekker_kc"]["identifiable"] is False
 
 
 def test_cli_refuses_sweep_options_on_a_bevameter_file_and_a_sweep_without_vehicle(tmp_path, capsys):

@@ -85,7 +85,8 @@ class TestCombination:
 
     def to_dict(self) -> dict:
         """JSON-ready dict; never NaN."""
-        return {"expression": self.expression, "unit": self.unit, "value": _f(self.value), "stderr": _f(self.stderr),
+        return {"name": self.key, "expression": self.expression, "unit": self.unit, "value": _f(self.value),
+                "stderr": _f(self.stderr),
                 "ci95": [_f(self.ci95[0]), _f(self.ci95[1])], "identifiable": True,
                 **{k: _f(v) for k, v in self.at.items()}}
 
@@ -158,7 +159,7 @@ class SoilTestFit:
                 "n_samples": int(self.n_samples), f"rmse_{self.rmse_unit}": _f(self.rmse),
                 "solve_time_s": _f(self.solve_time_s), "levels": self.levels,
                 "parameters": {k: p.to_dict() for k, p in self.parameters.items()},
-                "combinations": {k: c.to_dict() for k, c in self.combinations.items()},
+                "combinations": [c.to_dict() for c in self.combinations.values()],
                 "identifiable": self.identifiable, "active_bounds": self.active_bounds, "notes": list(self.notes)}
 
     def to_json(self, indent: int | None = 2) -> str:
