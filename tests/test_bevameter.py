@@ -136,7 +136,8 @@ def test_cli_fits_a_bevameter_file_without_vehicle(tmp_path):
     js = json.loads(p.stdout)
     assert [c["name"] for c in js["combinations"]] == ["bekker_k_eq"]
     assert js["combinations"][0]["plate_width_m"] == 0.1
-    assert js["parameters"]["bekker_kc"]["value"] is None and js["parameters"]["bekker_kc"]["identifiable"] is False
+    kc = js["parameters"]["bekker_kc"]
+    assert kc["value"] is None and kc["identifiable"] is False
 
 
 def test_cli_refuses_sweep_options_on_a_bevameter_file_and_a_sweep_without_vehicle(tmp_path, capsys):
