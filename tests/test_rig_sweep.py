@@ -205,3 +205,9 @@ def test_the_figure_of_a_measured_load_is_written_and_its_curve_stays_below_full
     path = plot_fit(data, RIG, fit(data, RIG), str(tmp_path / "f.png"))
     assert (tmp_path / "f.png").stat().st_size > 10_000 and path.endswith("f.png")
     assert slip_grid_end(i) == CURVE_SLIP_END < 1.0
+
+
+def test_diagnose_refuses_skid_and_slip_angle_rows_too(tmp_path):
+    path = _rows_with_skid_and_angles(tmp_path)
+    assert main(["diagnose", path, "--vehicle", "light"]) == 2
+    assert main(["diagnose", path, "--vehicle", "light", "--driving-only"]) == 2  # the slip-angle rows remain
