@@ -75,13 +75,14 @@ class SinkageResistance:
         if not isinstance(data, SlipData) or data.measured != "drawbar_pull" or data.sinkage is None:
             raise DataError("this fit's resistance is proportional to the sinkage: it predicts drawbar pulls "
                             "of data with a sinkage_m column", file=getattr(data, "source", None))
-        tf = _as_tractive(data, self.k_z)
+        tf = _as_tractive(data, self.k_z, result.vehicle.weight)
         return {data.channel: next(iter(self.base.residuals_on(result, tf).values()))}
 
 
-def _as_tractive(data: SlipData, k_z: float) -> SlipData:
-    """The drawbar pulls as tractive forces ``DP + k_z z W`` (same rows, weights and loads)."""
-    W = data.loads()
+def _as_tractive(data: SlipData, k_z: float, weight: float) -> SlipData:
+    """The drawbar pulls as tractive forces ``DP + k_z z W`` (same rows, weights and loads; ``weight``
+    where the data carry no load)."""
+    W = data.loads(weight)
     return SlipData(slip=data.slip, tractive_force=data.values + k_z * data.sinkage * W,
                     normal_load=data.normal_load, source=data.source, sinkage=data.sinkage,
                     force_std=data.force_std, dropped=data.dropped)
@@ -121,7 +122,7 @@ def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData,
         hi = MU_BOUNDS[1] / z_max  # R / W at most MU_BOUNDS[1] at the deepest row
 
         def trial(v: float, final: bool) -> FitResult:
-            return fit_at(_as_tractive(data, v), vehicle, final)
+            return fit_at(_as_tractive(data, v, vehicle.weight), vehicle, final)
     else:
         hi = MU_BOUNDS[1]
 
