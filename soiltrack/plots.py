@@ -1,6 +1,8 @@
 """Figures for the command-line tool and the examples (matplotlib, Agg backend, PNG)."""
 from __future__ import annotations
 
+from typing import Any
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -157,6 +159,7 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
         grid = np.linspace(0.0, slip_grid_end(data.slip), 300)
         res = np.asarray(result.residuals, dtype=float)
         levels = np.unique(loads)
+        curve_loads: list[tuple[Any, float, str | None]]  # colour, load, legend label
         if levels.size <= MAX_LOAD_LEVELS:
             shown = [(f"C{k}", W, sel) for k, (W, sel) in enumerate((W, loads == W) for W in levels)]
             curve_loads = [(f"C{k}", W, f"fitted ({result.model} model)") for k, W in enumerate(levels)]

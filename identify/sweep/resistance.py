@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -68,7 +68,7 @@ class SinkageResistance:
     """
 
     k_z: float
-    base: object
+    base: Any
 
     def residuals_on(self, result, data) -> dict:
         """``{drawbar_pull_N: measured - predicted}`` of data with a sinkage column."""
@@ -83,13 +83,15 @@ def _as_tractive(data: SlipData, k_z: float, weight: float) -> SlipData:
     """The drawbar pulls as tractive forces ``DP + k_z z W`` (same rows, weights and loads; ``weight``
     where the data carry no load)."""
     W = data.loads(weight)
+    if data.sinkage is None:
+        raise DataError("a resistance proportional to the sinkage needs a sinkage_m column", file=data.source)
     return SlipData(slip=data.slip, tractive_force=data.values + k_z * data.sinkage * W,
                     normal_load=data.normal_load, source=data.source, sinkage=data.sinkage,
                     force_std=data.force_std, dropped=data.dropped)
 
 
 def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData, Vehicle, bool], FitResult],
-                   form: str = "fit", base_residuals: object = None) -> FitResult:
+                   form: str = "fit", base_residuals: Any = None) -> FitResult:
     """Fit the resistance with the soil (see the module docs); returns the soil's fit at the best value.
 
     Parameters
@@ -153,7 +155,7 @@ def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData,
         else:
             a, c = c, d
             d = a + _PHI * (b - a)
-    v = min(cache, key=cache.get)
+    v = min(cache, key=lambda k: cache[k])
     best = trial(v, True)
     cmin = _cost(best)
     if not math.isfinite(cmin):
