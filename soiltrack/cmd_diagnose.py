@@ -67,11 +67,11 @@ def add_parser(sub) -> None:
                         "widened (c 0-200 kPa, phi 1-55 deg, K 2-250 mm), or auto (the default): practical, "
                         "widened when the data want a soil beyond it (the report says so)")
     p.add_argument("--driving-only", action="store_true",
-                   help="slip sweeps: drop the rows at negative slip (skid: outside the driving model) instead "
-                        "of refusing the file")
+                   help="slip sweeps: drop the rows at negative slip (skid: outside the driving model) "
+                        "instead of refusing the file")
     p.add_argument("--slip-angle", type=float, metavar="0",
-                   help="slip sweeps with a slip_angle_deg column: keep only the rows at slip angle 0 instead "
-                        "of refusing the file")
+                   help="slip sweeps with a slip_angle_deg column: keep only the rows at slip angle 0 "
+                        "instead of refusing the file")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     p.add_argument("--plot", metavar="PNG", help="save a figure of the held-out residuals, weights and localisation")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
