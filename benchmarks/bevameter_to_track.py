@@ -155,8 +155,8 @@ def time_against_scipy(reps: int = 50) -> None:
         agree.append(float(np.max(np.abs(ours - theirs) / np.abs(theirs))))
     med = lambda x: 1e3 * float(np.median(x))  # noqa: E731
     print(f"speed ({reps} campaigns, sandy loam, median per fit): shear test soiltrack {med(ts):.1f} ms "
-          f"(intervals included), scipy curve_fit {med(ss):.1f} ms; plate test soiltrack {med(tp):.1f} ms, scipy "
-          f"{med(sp):.1f} ms; largest relative difference of the six estimates {max(agree):.1e}")
+          f"(intervals included), scipy curve_fit {med(ss):.1f} ms; plate test soiltrack {med(tp):.1f} ms, "
+          f"scipy {med(sp):.1f} ms; largest relative difference of the six estimates {max(agree):.1e}")
 
 
 if __name__ == "__main__":
