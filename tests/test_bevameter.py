@@ -162,3 +162,13 @@ def test_bad_bevameter_rows_name_the_column_and_row(tmp_path):
 def test_fit_soil_test_dispatches_by_kind(tmp_path):
     assert fit_soil_test(_plate(tmp_path, 2)).kind == "plate_test"
     assert fit_soil_test(_shear(tmp_path, 2)).kind == "shear_test"
+
+
+def test_shear_tests_without_displacement_or_with_negative_stress_are_refused():
+    sig = [1e4] * 5 + [2e4] * 5
+    with pytest.raises(DataError) as e:
+        fit_shear_test(ShearTest(sig, [0.0] * 10, [1.0] * 10))
+    assert e.value.column == "shear_displacement_m"
+    with pytest.raises(DataError) as e:
+        fit_shear_test(ShearTest(sig, np.tile(np.linspace(0.01, 0.1, 5), 2), [-5e3] * 10))
+    assert e.value.column == "shear_stress_Pa"

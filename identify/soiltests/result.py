@@ -138,9 +138,9 @@ class SoilTestFit:
 
     @property
     def success(self) -> bool:
-        """IPOPT converged and every reported number is finite."""
+        """IPOPT converged, the data identify at least one parameter, and every reported number is finite."""
         vals = [p.value for p in self.parameters.values() if p.identifiable]
-        return bool(self.converged and all(v is not None and math.isfinite(v) for v in vals))
+        return bool(self.converged and vals and all(v is not None and math.isfinite(v) for v in vals))
 
     @property
     def active_bounds(self) -> list[str]:
@@ -187,5 +187,7 @@ class SoilTestFit:
             ci = f"[{c.ci95[0]:.4g}, {c.ci95[1]:.4g}]" if None not in c.ci95 else "[n/a]"
             lines.append(f"  {c.expression + ' (' + at + ')':<40} {c.value:.4g} {c.unit}  95 % {ci}")
         lines += [f"note: {n}" for n in self.notes]
-        lines.append("result: " + ("usable" if self.success else "NOT usable (the solver did not converge)"))
+        why = ("the solver did not converge" if not self.converged else
+               "the data identify none of the parameters")
+        lines.append("result: " + ("usable" if self.success else f"NOT usable ({why})"))
         return "\n".join(lines)
