@@ -211,3 +211,14 @@ def test_diagnose_refuses_skid_and_slip_angle_rows_too(tmp_path):
     path = _rows_with_skid_and_angles(tmp_path)
     assert main(["diagnose", path, "--vehicle", "light"]) == 2
     assert main(["diagnose", path, "--vehicle", "light", "--driving-only"]) == 2  # the slip-angle rows remain
+
+
+def test_std_columns_are_checked(tmp_path):
+    i, DP, std, W = rig_rows(12)
+    std[[2, 5]] = 0.0
+    with pytest.raises(DataError) as e:
+        read_csv(write(tmp_path / "z.csv", {"slip": i, "drawbar_pull_N": DP, "drawbar_pull_std_N": std}))
+    assert (e.value.column, e.value.rows) == ("drawbar_pull_std_N", (3, 6))
+    with pytest.raises(DataError) as e:
+        read_csv(write(tmp_path / "o.csv", {"slip": i, "tractive_force_N": DP, "drawbar_pull_std_N": std + 1}))
+    assert e.value.column == "drawbar_pull_std_N"
