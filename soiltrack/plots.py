@@ -98,8 +98,7 @@ def _curve_band(grid, result, vehicle, W: float) -> np.ndarray | None:
     from .soilmodel import Soil, tractive_force_sensitivities
 
     cbs = {cb.name: cb for cb in result.combinations}
-    fm = next((cb for name, cb in cbs.items() if name.startswith("F_max") and
-               abs(float(name.split("=")[1].rstrip("N")) - W) <= 1e-6 * W), None)
+    fm = cbs.get(f"F_max@W={W:.6g}N")  # the name as the result writes it (6 significant digits)
     kk = cbs.get("K")
     corr = (result.identifiability.get("fmax_K_correlation") or {}).get(f"{W:.6g}")
     q = result.quantile
