@@ -222,3 +222,13 @@ def test_std_columns_are_checked(tmp_path):
     with pytest.raises(DataError) as e:
         read_csv(write(tmp_path / "o.csv", {"slip": i, "tractive_force_N": DP, "drawbar_pull_std_N": std + 1}))
     assert e.value.column == "drawbar_pull_std_N"
+
+
+def test_fit_many_takes_the_rig_path_for_rig_sweeps():
+    from soiltrack.identify import fit_many
+
+    i, DP, std, W = rig_rows(13)
+    data = SlipData(slip=i, drawbar_pull=DP, normal_load=W, force_std=std)
+    one, = fit_many([data], RIG)
+    assert np.allclose(one.theta, fit(data, RIG).theta, rtol=1e-6, atol=1e-9)
+    assert one.extra["weights_from"] == "drawbar_pull_std_N" and "lack_of_fit" in one.extra
