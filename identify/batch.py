@@ -34,6 +34,7 @@ from ..soilmodel.vehicle import Vehicle
 from .sweep import compiled_lm
 from .engines import check_engine, jit_mode, normalise_status
 from .sweep.problem import FitFailed, check_common, make_problem
+from ..soilmodel.ridge import continuous_load
 from .sweep.plausibility import assess
 from .estimates.records import NOT_USABLE
 from .estimates.result import FitResult, build_results_batch
@@ -158,7 +159,10 @@ def fit_many(datasets: Iterable, vehicle: Vehicle, *, model: str = "full", metho
     kernel_ok = st.engine in ("auto", "vectorized") and method == "ipopt" and set(kw) <= {"sigma", "sigma_known"}
     batched, singles = [], []
     for k, d in enumerate(datasets):
-        (batched if kernel_ok and isinstance(d, SlipData) else singles).append(k)
+        # a rig sweep (per-row std, rows dropped, a measured load) takes fit's rig path: weights, extras
+        rig = isinstance(d, SlipData) and (d.force_std is not None or bool(d.dropped) or (
+            d.normal_load is not None and continuous_load(d.normal_load)))
+        (batched if kernel_ok and isinstance(d, SlipData) and not rig else singles).append(k)
     if chunk_size is None:
         workers = getattr(executor, "_max_workers", 4) if executor is not None else 1
         chunk_size = n if executor is None else max(1, min(256, -(-n // (4 * workers))))

@@ -25,6 +25,7 @@ import csv
 import math
 import os
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -41,8 +42,9 @@ STD_COLUMNS = {"tractive_force": "tractive_force_std_N", "drawbar_pull": "drawba
 MAX_ROWS_NAMED = 20
 DRIVE_COLUMNS = ("time_s", "sprocket_torque_Nm", "sprocket_speed_rad_s", "vehicle_speed_m_s")
 DRIVE_OPTIONAL = ("vehicle_accel_m_s2",)
-SHEAR_COLUMNS = ("normal_pressure_Pa", "shear_displacement_m", "shear_stress_Pa")
-PLATE_COLUMNS = ("plate_width_m", "pressure_Pa", "sinkage_m")
+SHEAR_COLUMNS: tuple[str, ...] = ("normal_pressure_Pa", "shear_displacement_m", "shear_stress_Pa")
+PLATE_COLUMNS: tuple[str, ...] = ("plate_width_m", "pressure_Pa", "sinkage_m")
+NO_COLUMNS: tuple[str, ...] = ()
 
 
 def _frozen(a) -> np.ndarray:
@@ -154,7 +156,8 @@ class SlipData:
     @property
     def values(self) -> np.ndarray:
         """The measured force, N (tractive force or drawbar pull, see :attr:`measured`)."""
-        return self.tractive_force if self.tractive_force is not None else self.drawbar_pull
+        # exactly one of the two is given (checked on construction)
+        return cast(np.ndarray, self.tractive_force if self.tractive_force is not None else self.drawbar_pull)
 
     def subset(self, index) -> "SlipData":
         """The rows selected by ``index`` (slice, integer array or boolean mask), same type.
@@ -467,9 +470,9 @@ def read_csv(path: str | os.PathLike, *, driving_only: bool = False,
         raise DataError("both tractive_force_N and drawbar_pull_N given: a sweep measures one of them", file=path,
                         column="drawbar_pull_N")
     if "shear_stress_Pa" in header or "shear_displacement_m" in header:
-        kind, required, optional = "shear", SHEAR_COLUMNS, ()
+        kind, required, optional = "shear", SHEAR_COLUMNS, NO_COLUMNS
     elif "plate_width_m" in header or "pressure_Pa" in header:
-        kind, required, optional = "plate", PLATE_COLUMNS, ()
+        kind, required, optional = "plate", PLATE_COLUMNS, NO_COLUMNS
     elif "drawbar_pull_N" in header:
         kind, required, optional = "drawbar", DRAWBAR_COLUMNS, SLIP_OPTIONAL
     elif "slip" in header or "tractive_force_N" in header:
@@ -504,11 +507,12 @@ def read_csv(path: str | os.PathLike, *, driving_only: bool = False,
         if val not in (False, None):
             raise DataError(f"{opt} applies to slip sweeps only, not to this {kind} file", file=path)
     if kind == "shear":
-        return ShearTest(normal_pressure=data["normal_pressure_Pa"], shear_displacement=data["shear_displacement_m"],
-                         shear_stress=data["shear_stress_Pa"], source=path)
+        return ShearTest(normal_pressure=np.asarray(data["normal_pressure_Pa"]),
+                         shear_displacement=np.asarray(data["shear_displacement_m"]),
+                         shear_stress=np.asarray(data["shear_stress_Pa"]), source=path)
     if kind == "plate":
-        return PlateTest(plate_width=data["plate_width_m"], pressure=data["pressure_Pa"], sinkage=data["sinkage_m"],
-                         source=path)
+        return PlateTest(plate_width=np.asarray(data["plate_width_m"]), pressure=np.asarray(data["pressure_Pa"]),
+                         sinkage=np.asarray(data["sinkage_m"]), source=path)
     return DriveLog(time=data["time_s"], sprocket_torque=data["sprocket_torque_Nm"],
                     sprocket_speed=data["sprocket_speed_rad_s"], vehicle_speed=data["vehicle_speed_m_s"],
                     vehicle_accel=data.get("vehicle_accel_m_s2"), source=path)
@@ -554,9 +558,10 @@ def _slip_data(kind: str, data: dict, path: str, driving_only: bool, slip_angle:
     except DataError as e:  # rows of the kept data -> rows of the file
         if e.rows is None and e.row is None or not dropped:
             raise
-        rows = tuple(int(kept[r - 1]) + 1 for r in (e.rows or (e.row,)))
+        named = e.rows if e.rows is not None else (int(e.row or 1),)
+        rows = tuple(int(kept[r - 1]) + 1 for r in named)
         n_drop = sum(len(r) for _, _, r in dropped)
-        raise DataError(f"{e.reason.replace(name_rows(e.rows or (e.row,)), name_rows(rows))} (rows of the file; "
+        raise DataError(f"{e.reason.replace(name_rows(named), name_rows(rows))} (rows of the file; "
                         f"{n_drop} rows dropped before)", file=path, column=e.column, row=rows[0],
                         rows=rows if e.rows else None) from None
 
