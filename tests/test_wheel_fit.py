@@ -46,7 +46,10 @@ def test_recovery_from_an_independent_implementation():
                 assert kb.estimable
                 assert r.rank == 5 and len(r.null_space) == 1
                 nd = r.null_space[0]
-                assert abs(nd["bekker_kc"]) > 0.5 and abs(nd["cohesion_kpa"]) < 1e-6
+                # the direction (dk_c, dk_phi) = (b, -1) t, which keeps k_c / b + k_phi (edge units: kN)
+                assert nd["bekker_kc"] / nd["bekker_kphi"] == pytest.approx(-B, rel=1e-6)
+                assert max(abs(nd[k]) for k in ("cohesion_kpa", "friction_angle_deg", "shear_modulus_m",
+                                                 "bekker_n")) < 1e-6
     assert covered / total >= 0.85, (covered, total)
 
 
