@@ -6,6 +6,9 @@ Public names: :class:`Soil`, :class:`Vehicle`, :data:`TERRAINS`, :data:`VEHICLES
 unmodelled effects (:data:`EFFECTS`, :func:`parse_effects`, :func:`thrust_with_effects`,
 :func:`sweep_measurement`: what a drawbar-pull rig reports), the dynamics
 (:func:`dynamics_function`, :func:`slip_from_thrust`) and the simulator (:func:`simulate`).
+The rigid wheel on a rig: :class:`RigidWheel`, :func:`read_running_gear` (track or wheel JSON),
+:func:`wheel_expr` (the Wong-Reece stresses integrated), :class:`WheelSettings`,
+:class:`WheelSweep`, :func:`read_wheel_sweep`, :func:`simulate_wheel_sweep`.
 """
 from .data import DriveLog, SlipData, read_csv, write_csv
 from .errors import DataError
@@ -39,6 +42,10 @@ from .dynamics import (
     slip_from_thrust_function,
 )
 from .simulation import SensorNoise, simulate, simulate_drive_log, simulate_slip_sweep
+from .rigid_wheel import RigidWheel, read_running_gear
+from .wheel import WheelSettings, wheel_expr
+from .wheel_sweep import WheelSweep, read_wheel_sweep, write_wheel_sweep
+from .wheel_simulation import simulate_wheel_sweep
 
 __all__ = [
     "DataError", "DriveLog", "SlipData", "read_csv", "write_csv", "PARAMETER_NAMES", "PRACTICAL_BOUNDS",
@@ -47,5 +54,6 @@ __all__ = [
     "Vehicle", "EFFECTS", "EffectSet", "EffectSpec", "ParamSpec", "effect_symbols", "parse_effects", "sweep_measurement",
     "thrust_with_effects", "tractive_force_with_effects", "SPROCKET_EQUATIONS", "dynamics_expr",
     "dynamics_function", "slip_from_thrust", "slip_from_thrust_function", "SensorNoise", "simulate",
-    "simulate_drive_log", "simulate_slip_sweep",
+    "simulate_drive_log", "simulate_slip_sweep", "RigidWheel", "read_running_gear", "WheelSettings", "wheel_expr",
+    "WheelSweep", "read_wheel_sweep", "write_wheel_sweep", "simulate_wheel_sweep",
 ]
