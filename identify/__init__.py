@@ -21,14 +21,14 @@ Public names
 :func:`diagnose`, :class:`Diagnosis`
     Sim-to-real gap diagnosis: where the gap lies, which unmodelled effect explains it.
 """
-from . import jitcache
+from . import jitcache  # noqa: F401 - soiltrack.identify.jitcache, the compiled-code cache
 from .batch import fit_many
 from .engines import DEFAULT_ENGINE, ENGINES
-from .diagnosis import Diagnosis, diagnose
+from .diagnosis.diagnose import Diagnosis, diagnose
 from .fitting import fit
-from .problem import FitFailed
-from .profile import ProfileResult, profile_likelihood
-from .result import Combination, FitResult, ParameterEstimate, build_result
+from .sweep.problem import FitFailed
+from .estimates.likelihood import ProfileResult, profile_likelihood
+from .estimates.result import Combination, FitResult, ParameterEstimate, build_result
 from .settings import FitSettings
 
 __all__ = ["fit", "fit_many", "profile_likelihood", "build_result", "FitResult", "ParameterEstimate",

@@ -2,7 +2,7 @@
 
 Hump shear, the parametrisation
 -------------------------------
-Wong's type B form (DESIGN.md section 6),
+Wong's type B form (docs/physics.md),
 ``tau/tau_max = K_r {1 + [1/(K_r (1 - 1/e)) - 1] exp(1 - j/K_w)} (1 - exp(-j/K_w))``, does not
 contain Janosi-Hanamoto as a special case (K_r = 1 still gives a hump of about 5 %), so it
 cannot be an augmentation whose "off" value is the nominal model. The library uses the nested
@@ -41,7 +41,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from .effect_registry import EffectSet, _Values, parse_effects
+from .effect_registry import EffectSet, EffectValues, parse_effects
 from .effect_terms import effective_normal_load
 from .soil import Soil
 from .traction import check_model, max_thrust_expr, slip_factor, thrust_expr
@@ -111,7 +111,7 @@ def thrust_with_effects(slip, c, phi, K, W, vehicle: Vehicle, effects: Any = Non
         ``"full"`` or ``"cohesion-free"`` (drops ``A c``).
     """
     check_model(model)
-    ev = effects if isinstance(effects, _Values) else _Values(effects, vehicle)
+    ev = effects if isinstance(effects, EffectValues) else EffectValues(effects, vehicle)
     N = effective_normal_load(W, vehicle, ev)
     l, b = vehicle.track_length, vehicle.track_width
     if not (ev.on("hump_shear") or ev.on("pressure_distribution")):
@@ -175,7 +175,7 @@ def softening_shear(j, K: float, drop: float = 0.0, k_ratio: float = 5.0) -> np.
 
 
 def wong_type_b_shear(j, K_r: float, K_w: float) -> np.ndarray:
-    """Wong's type B shear law ``tau / tau_max`` as written in DESIGN.md section 6 (numpy), for comparison.
+    """Wong's type B shear law ``tau / tau_max`` as written in docs/physics.md (numpy), for comparison.
 
     ``K_r {1 + [1/(K_r (1 - 1/e)) - 1] exp(1 - j/K_w)} (1 - exp(-j/K_w))``: equal to 1 at
     ``j = K_w`` (its normalisation; the exact maximum lies slightly before K_w and a few percent
@@ -191,7 +191,7 @@ def pressure_profile(x, vehicle: Vehicle, effects: Any = None, W=None) -> np.nda
 
     ``p_mean = N / A`` with the actual normal load N.
     """
-    ev = _Values(effects, vehicle)
+    ev = EffectValues(effects, vehicle)
     W = vehicle.weight if W is None else W
     p_mean = float(effective_normal_load(W, vehicle, ev)) / vehicle.contact_area
     x = np.asarray(x, dtype=float)

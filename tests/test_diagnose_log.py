@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from soiltrack.identify import diagnose
-from soiltrack.identify.diagnosis_log import delay_scan, shift_speed, terrain_window
+from soiltrack.identify.diagnosis.log_parts import delay_scan, shift_speed, terrain_window
 from soiltrack.soilmodel import TERRAINS, VEHICLES, DriveLog, simulate
 from conftest import independent_log
 
@@ -137,7 +137,7 @@ def test_an_effect_screening_left_out_is_tried_before_a_change_of_terrain():
 def test_a_soft_patch_is_in_the_contracts_localisation():
     # heavy vehicle on LETE sand with 24-39 s driven on dry sand (the log spliced from two runs with the same speed
     # reference, as benchmarks/bench_diagnose.py does): the change of soil in time is the significant "time" entry of
-    # the JSON's localisation (DESIGN.md section 8), its range where the change shows (the change window's evidence),
+    # the JSON's localisation (docs/data-formats.md), its range where the change shows (the change window's evidence),
     # inside the patch. Measured before the entry existed: the window only in the extra "change_window" field.
     import json
     v = VEHICLES["heavy"]
@@ -166,7 +166,7 @@ def test_a_speed_sensor_scale_error_is_told_from_a_radius_error_by_the_torque_ar
     # plain-numpy heavy logs, seed 5: the vehicle-speed column read 3 % high (a GNSS scale error, outside the
     # library), against seed 1 with a true 4 % radius error. Both offset the slip alike; only the radius divides the
     # sprocket thrust. Measured before the check: the scale error named radius_error with confidence 1.00 (eps 0.029)
-    from soiltrack.identify.diagnosis_log import torque_arm_check
+    from soiltrack.identify.diagnosis.log_parts import torque_arm_check
     heavy = VEHICLES["heavy"]
     def reads_high(a):
         a[:, 3] *= 1.03

@@ -22,8 +22,8 @@ import numpy as np
 from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.wheel import entry_angle
 from ...soilmodel.wheel_sweep import WheelSweep
-from ..core_stats import RANK_TOL, WEAK_CORRELATION, core_stats_one, quantile
-from ..stats import f_sf
+from ..estimates.least_squares import RANK_TOL, WEAK_CORRELATION, core_stats_one, quantile
+from ..estimates.distributions import f_sf
 from .problem import NOISE_FLOOR_REL, WHEEL_PARAMETERS, bekker_modulus, residual_function
 
 __all__ = ["WheelEstimate", "WheelCombination", "WheelFitResult", "build_wheel_result", "NULL_TOL",
