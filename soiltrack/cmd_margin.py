@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from .argcheck import check_drawbar
 from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, vehicle_arg
 from .soilmodel import TERRAINS, DataError
 
@@ -39,6 +40,7 @@ def _cmd_margin(a: argparse.Namespace) -> int:
 
     vehicle = vehicle_arg(a.vehicle)
     terrain = terrain_args(a, vehicle)
+    check_drawbar(_num(a.drawbar_N, "--drawbar-N"), vehicle)  # a push at most W, a pull at most 10 W
     m = margin(terrain, vehicle, grade_deg=_num(a.grade_deg, "--grade-deg") or 0.0,
                accel=_num(a.accel, "--accel") or 0.0, drawbar_N=_num(a.drawbar_N, "--drawbar-N") or 0.0,
                speed=_num(a.speed, "--speed"), max_slip=_num(a.max_slip, "--max-slip"))

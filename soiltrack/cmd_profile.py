@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from .argcheck import check_distance
 from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, vehicle_arg
 from .cmd_margin import add_terrain_arguments, terrain_args
 from .soilmodel import DataError
@@ -44,6 +45,7 @@ def _cmd_profile(a: argparse.Namespace) -> int:
         raise DataError(f"argument --v0 must be >= 0 m/s, got {v0:g}")
     if v1 < 0:
         raise DataError(f"argument --v1 must be >= 0 m/s, got {v1:g}")
+    check_distance(_num(a.distance, "--distance"))  # beyond any route: refused
     res = profile(terrain, vehicle, v0=v0, v1=v1, distance=_num(a.distance, "--distance"),
                   duration=_num(a.duration, "--duration"), grade_deg=_num(a.grade_deg, "--grade-deg") or 0.0,
                   max_slip=_num(a.max_slip, "--max-slip"), objective=a.objective,

@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from .argcheck import check_seed
 from .cliutil import EXIT_OK, MAX_SAMPLES, floats_arg, output_path, soil_arg, vehicle_arg
 from .soilmodel import TERRAINS, DataError
 
@@ -28,6 +29,7 @@ def _check_options(a: argparse.Namespace) -> None:
         if duration > 0 and rate > 0 and duration * rate > MAX_SAMPLES:
             raise DataError(f"--duration {duration:g} s x --rate {rate:g} Hz = {duration * rate:.3g} samples; at most "
                             f"{MAX_SAMPLES:,} (e.g. one hour at 500 Hz)")
+    check_seed(a.seed)
     if a.output != "-":
         output_path(a.output, "-o/--output")
     if a.plot:
