@@ -12,6 +12,7 @@ from functools import cached_property
 
 import numpy as np
 
+from ..jitcache import fallback_note
 from ...soilmodel.soil import PARAMETER_NAMES, Soil, SoilBounds
 from ...soilmodel.vehicle import Vehicle
 from .records import EDGE_UNITS, ParameterEstimate, finite_or_none, force_scale, format_force
@@ -189,6 +190,9 @@ class ReportViews:
                  f"b = {self.vehicle.track_width:.4g} m, A = {self.vehicle.contact_area:.4g} m^2)")
         L.append(f"status: {self.status} ({'success' if self.success else 'FAILED'}), {self.iterations} iterations, "
                  f"{self.solve_time * 1e3:.3g} ms")
+        fallback = fallback_note(self.extra.get("engine_backend")) if isinstance(self.extra, dict) else None
+        if fallback:  # said once on stderr too (soiltrack.identify.jitcache)
+            L.append(f"engine: {fallback}")
         unit = self.residual_unit
         rmse = format_force(self.rmse) if unit == "N" else f"{self.rmse:.4g} {unit}"
         L.append(f"fit: RMSE {rmse}, cost {self.cost:.6g}, residual dof {self.dof}")
