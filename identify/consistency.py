@@ -51,6 +51,7 @@ import numpy as np
 from ..soilmodel.data import DriveLog, SlipData
 from ..soilmodel.effects import motion_resistance
 from ..soilmodel.physical import PHYSICAL_RANGES
+from ..soilmodel.threadsafe import locked_cache
 from ..soilmodel.vehicle import Vehicle
 from .estimates.records import NOT_USABLE
 
@@ -157,11 +158,15 @@ def _cumtrapz(y: np.ndarray, t: np.ndarray) -> np.ndarray:
     return out
 
 
+@locked_cache(maxsize=16)
+def _resistance_function(vehicle: Vehicle) -> ca.Function:
+    vs = ca.SX.sym("v")
+    return ca.Function("R", [vs], [motion_resistance(vs, 0.0, vehicle, None)])
+
+
 def _resistance(v: np.ndarray, vehicle: Vehicle) -> np.ndarray:
     """Nominal motion resistance at speeds ``v`` from its one home (soilmodel.effect_terms)."""
-    vs = ca.SX.sym("v")
-    f = ca.Function("R", [vs], [motion_resistance(vs, 0.0, vehicle, None)])
-    return np.asarray(f.map(v.size)(v.reshape(1, -1)), dtype=float).ravel()
+    return np.asarray(_resistance_function(vehicle).map(v.size)(v.reshape(1, -1)), dtype=float).ravel()
 
 
 def _cause_torque(rho: float) -> str:
@@ -237,7 +242,7 @@ def _drive_findings(log: DriveLog, vehicle: Vehicle, st: ConsistencySettings) ->
     rw = r * w
     moving = (rw > st.moving_speed) & (v > st.moving_speed)
     if moving.sum() >= 5:
-        q = float(np.median(v[moving] / rw[moving]))
+        q = _median(v[moving] / rw[moving])
         lo, hi = st.speed_ratio_range
         if lo <= q <= hi:
             out.append(Finding("speed_ratio", "ok", f"v / (r w) while moving is {q:.3g} (slip {1 - q:.2g})", q))
@@ -260,14 +265,23 @@ def _drive_findings(log: DriveLog, vehicle: Vehicle, st: ConsistencySettings) ->
 def repeated_rows(data: SlipData) -> tuple[int, tuple[int, ...]]:
     """``(count, first rows)`` of rows that repeat an earlier row exactly (1-based data rows)."""
     cols = [data.slip, data.values] + ([data.normal_load] if data.normal_load is not None else [])
-    A = np.ascontiguousarray(np.column_stack(cols))
-    if A.shape[0] < 2:
-        return 0, ()
-    _, first = np.unique(A, axis=0, return_index=True)
-    dup = np.ones(A.shape[0], dtype=bool)
-    dup[first] = False
-    idx = np.nonzero(dup)[0]
-    return int(idx.size), tuple(int(i) + 1 for i in idx[:5])
+    seen: set = set()
+    dup: list[int] = []
+    count = 0
+    for r, row in enumerate(zip(*(c.tolist() for c in cols)), start=1):
+        if row in seen:
+            count += 1
+            if len(dup) < 5:
+                dup.append(r)
+        else:
+            seen.add(row)
+    return count, tuple(dup)
+
+
+def _median(x: np.ndarray) -> float:
+    s = np.sort(x)
+    n = s.size
+    return float(s[n // 2]) if n % 2 else float(0.5 * (s[n // 2 - 1] + s[n // 2]))
 
 
 def _sweep_findings(data: SlipData, vehicle: Vehicle, st: ConsistencySettings) -> list[Finding]:
@@ -275,7 +289,7 @@ def _sweep_findings(data: SlipData, vehicle: Vehicle, st: ConsistencySettings) -
     W = vehicle.weight
     loads = data.loads(W)
     if data.normal_load is not None:
-        q = float(np.median(data.normal_load)) / W
+        q = _median(data.normal_load) / W
         lo, hi = st.load_ratio_range
         if lo <= q <= hi:
             out.append(Finding("load_scale", "ok", f"the median normal load is {q:.3g} times the vehicle's weight", q))
@@ -333,10 +347,11 @@ def check_consistency(data: Any, vehicle: Vehicle, settings: ConsistencySettings
 def with_consistency(result: Any, report: ConsistencyReport) -> Any:
     """``result`` with the report's warnings, ``extra["consistency"]``, and ``success`` False on a fatal finding."""
     warns = report.warnings()
+    if not warns:  # the common case: recorded in the result's own extra dict (no copy of the result)
+        result.extra["consistency"] = report.to_dict()
+        return result
     extra = dict(result.extra)
     extra["consistency"] = report.to_dict()
-    if not warns:
-        return replace(result, extra=extra)
     kw: dict[str, Any] = {"extra": extra, "input_warnings": tuple(result.input_warnings) + warns}
     if not report.passed and result.success:
         fatal = [f.check for f in report.findings if f.severity == "fatal"]
