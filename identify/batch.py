@@ -56,6 +56,8 @@ from .settings import SETTING_NAMES, FitSettings
 from .consistency import check_consistency, with_consistency
 from .estimates.result import build_result
 from .fitting import fit
+from .sweep.resistance import assumed_resistance
+from .sweep.rig import load_separation, rig_extra, std_weights
 
 __all__ = ["fit_many", "failed_result"]
 
@@ -142,8 +144,8 @@ def _solve_problems(pbs: list, datasets: list[SlipData], vehicle: Vehicle, model
         r = np.stack([s.residuals for s in S])
         sig = np.stack([pb.sigma for pb in P])
         extras = []
-        for s in S:
-            e = compiled_lm.extra_of(s)
+        for pb, s in zip(P, S):
+            e = {**compiled_lm.extra_of(s), "sigma_model": pb.noise_model}  # as fit's compiled path records
             e["engine"] = "vectorized" if s.engine == "compiled" else "vectorized-vm"
             extras.append(e)
         # the same plausibility checks as fit (they decide success: fit and fit_many agree on it)
@@ -165,7 +167,33 @@ def _solve_problems(pbs: list, datasets: list[SlipData], vehicle: Vehicle, model
             extra=extras, warnings=warns)
         for k, res in zip(idx, built):
             out[k] = res
-    return [with_consistency(res, check_consistency(d, vehicle)) for res, d in zip(out, datasets)]  # type: ignore
+    return [with_consistency(_with_rig_extra(res, d, model), check_consistency(d, vehicle))  # type: ignore
+            for res, d in zip(out, datasets)]
+
+
+def _kernel_fits_like_fit(d: Any, model: str) -> bool:
+    """Whether ``fit`` would solve ``d`` as the stacked kernel does: a plain slip sweep (no per-row std
+    weights, no load spread so small that ``fit`` takes the profile-likelihood intervals)."""
+    if not isinstance(d, SlipData):
+        return False
+    try:
+        if std_weights(d) is not None:
+            return False
+        sep = load_separation(d) if model == "full" else None
+    except Exception:  # noqa: BLE001 - fitted alone, where the error is said
+        return False
+    return sep is None or not sep.fragile
+
+
+def _with_rig_extra(res: FitResult, d: SlipData, model: str) -> FitResult:
+    """What ``fit`` adds to a rig sweep's ``extra`` (:func:`~.sweep.rig.rig_extra`: the pure-error test over
+    repeated slips, the load separation; the assumed resistance of drawbar-pull data), on a kernel result."""
+    more = rig_extra(d, res, load_separation(d) if model == "full" else None)
+    if d.measured == "drawbar_pull":
+        more["resistance"] = assumed_resistance(res)
+    if more:
+        res.extra.update(more)  # the result's own, fresh dict
+    return res
 
 
 def _fit_chunk(indices: Sequence[int], datasets, vehicle, model, method, bounds, kw,
@@ -238,7 +266,7 @@ def fit_many(datasets: Iterable, vehicle: Vehicle, *, model: str = "full", metho
     kernel_ok = st.engine in ("auto", "vectorized") and method == "ipopt" and set(kw) <= {"sigma", "sigma_known"}
     batched, singles = [], []
     for k, d in enumerate(datasets):
-        (batched if kernel_ok and isinstance(d, SlipData) else singles).append(k)
+        (batched if kernel_ok and _kernel_fits_like_fit(d, model) else singles).append(k)
     if chunk_size is None:
         workers = getattr(executor, "_max_workers", 4) if executor is not None else 1
         chunk_size = n if executor is None else max(1, min(256, -(-n // (4 * workers))))

@@ -346,7 +346,7 @@ def check_consistency(data: Any, vehicle: Vehicle, settings: ConsistencySettings
 
 def with_consistency(result: Any, report: ConsistencyReport) -> Any:
     """``result`` with the report's warnings, ``extra["consistency"]``, and ``success`` False on a fatal finding."""
-    warns = report.warnings()
+    warns = tuple(w for w in report.warnings() if w not in result.input_warnings)  # a nested fit said them
     if not warns:  # the common case: recorded in the result's own extra dict (no copy of the result)
         result.extra["consistency"] = report.to_dict()
         return result

@@ -21,7 +21,7 @@ from typing import Iterator
 
 import numpy as np
 
-from .errors import SHOWN_ROWS, DataError
+from .errors import SHOWN_ROWS, DataError, rows_text
 
 __all__ = ["MAX_ROWS", "MAX_ROWS_ENV", "MAX_ABS_VALUE", "max_rows", "check_encoding", "read_header",
            "read_columns", "bad_rows_error"]
@@ -128,8 +128,9 @@ class _BadRows:
 def bad_rows_error(mask: np.ndarray, path: str, column: str | None, reason: str) -> DataError:
     """A DataError naming how many rows ``mask`` (over 0-based data rows) marks and the first few."""
     idx = np.nonzero(mask)[0]
-    return DataError(reason, file=path, column=column, rows=[int(i) + 1 for i in idx[:SHOWN_ROWS]],
-                     count=int(idx.size))
+    rows = [int(i) + 1 for i in idx[:SHOWN_ROWS]]
+    text = reason if idx.size == 1 else f"{reason} - {idx.size} of {mask.size} rows: {rows_text(rows, idx.size)}"
+    return DataError(text, file=path, column=column, rows=rows, count=int(idx.size))
 
 
 def _parse(text: str) -> tuple[float, str | None]:
@@ -182,8 +183,8 @@ def read_columns(path: str, header: list[str], used: list[str], limit: int | Non
     if bad.count:
         reason, column = bad.first  # type: ignore[misc]
         if bad.count > 1:
-            reason = f"{reason} (row {bad.rows[0]}; the other rows have the same or another bad value" + \
-                     (f" in {sorted(bad.columns)})" if bad.columns else ")")
+            cols = f" (columns {', '.join(sorted(bad.columns))})" if len(bad.columns) > 1 else ""
+            reason = f"{reason} - {bad.count} bad rows{cols}: {rows_text(bad.rows, bad.count)}"
         raise DataError(reason, file=path, column=column if len(bad.columns) <= 1 else None, rows=bad.rows,
                         count=bad.count)
     if n == 0:

@@ -9,6 +9,7 @@ import math
 import os
 
 from .soilmodel import TERRAINS, VEHICLES, DataError, Soil, Vehicle
+from .soilmodel.rigid_wheel import RigidWheel, read_running_gear
 
 EXIT_OK, EXIT_SOLVER, EXIT_INPUT = 0, 1, 2
 
@@ -20,6 +21,15 @@ def vehicle_arg(arg: str) -> Vehicle:
     if not os.path.exists(arg):
         raise DataError(f"no such vehicle file, and not a preset name (presets: {sorted(VEHICLES)})", file=arg)
     return Vehicle.from_json(arg)
+
+
+def running_gear_arg(arg: str) -> Vehicle | RigidWheel:
+    """A preset name, a vehicle JSON or a rigid-wheel JSON (``"running_gear": "rigid_wheel"``)."""
+    if arg in VEHICLES:
+        return VEHICLES[arg]
+    if not os.path.exists(arg):
+        raise DataError(f"no such vehicle file, and not a preset name (presets: {sorted(VEHICLES)})", file=arg)
+    return read_running_gear(arg)
 
 
 def soil_arg(terrain: str | None, soil: str | None) -> Soil:

@@ -1,16 +1,22 @@
-"""``soiltrack diagnose``: the sim-to-real gap of a CSV against the nominal model (DESIGN.md section 8)."""
+"""``soiltrack diagnose``: the sim-to-real gap of a CSV against the nominal model (docs/data-formats.md)."""
 from __future__ import annotations
 
 import argparse
 
-from .cliutil import EXIT_OK, EXIT_SOLVER, vehicle_arg
+from .cliutil import EXIT_OK, EXIT_SOLVER, running_gear_arg
+from .soilmodel.rigid_wheel import RigidWheel
 
 
 def _cmd_diagnose(a: argparse.Namespace) -> int:
     from .identify import diagnose
     from .soilmodel import read_csv
 
-    vehicle = vehicle_arg(a.vehicle)
+    gear = running_gear_arg(a.vehicle)
+    if isinstance(gear, RigidWheel):
+        from .wheel_cli import diagnose_wheel_command
+
+        return diagnose_wheel_command(a, gear)
+    vehicle = gear
     data = read_csv(a.data)
     cands = None
     if a.candidates is not None:

@@ -5,8 +5,9 @@ import argparse
 import sys
 
 from .argcheck import check_seed
-from .cliutil import EXIT_OK, MAX_SAMPLES, floats_arg, output_path, soil_arg, vehicle_arg
+from .cliutil import EXIT_OK, MAX_SAMPLES, floats_arg, output_path, running_gear_arg, soil_arg
 from .soilmodel import TERRAINS, DataError
+from .soilmodel.rigid_wheel import RigidWheel
 
 
 # --- simulate ---------------------------------------------------------------------------------
@@ -41,8 +42,17 @@ def _cmd_simulate(a: argparse.Namespace) -> int:
     from .soilmodel.effects import parse_effects
     from .soilmodel.simulation import simulate
 
+    gear = running_gear_arg(a.vehicle)
+    if isinstance(gear, RigidWheel):
+        from .wheel_cli import simulate_wheel_command
+
+        if a.output != "-":
+            output_path(a.output, "-o/--output")
+        return simulate_wheel_command(a, gear, soil_arg(a.terrain, a.soil))
+    if a.bekker:
+        raise DataError("--bekker applies to a rigid wheel's sweep (--vehicle WHEEL.json) only")
     _check_options(a)
-    vehicle, soil = vehicle_arg(a.vehicle), soil_arg(a.terrain, a.soil)
+    vehicle, soil = gear, soil_arg(a.terrain, a.soil)
     effects = parse_effects(a.effect or [])
     kwargs = dict(kind=a.kind, effects=effects, seed=a.seed, noise=a.noise, model=a.model)
     if a.kind == "drive":
@@ -82,7 +92,9 @@ def add_parser(sub) -> None:
         epilog="example: soiltrack simulate --kind sweep --vehicle light --soil 1.7,29,0.01 --loads 300,450 "
                "--seed 1 -o sweep.csv")
     s.add_argument("--vehicle", default="heavy",
-                   help="preset name (heavy, light) or vehicle JSON file (default: heavy)")
+                   help="preset name (heavy, light), vehicle JSON file, or a rigid wheel's JSON "
+                        "({\"running_gear\": \"rigid_wheel\", ...}: a rig sweep with --kind sweep --loads) "
+                        "(default: heavy)")
     g = s.add_mutually_exclusive_group()
     g.add_argument("--terrain", help=f"terrain preset: {', '.join(TERRAINS)} (default: lete_sand)")
     g.add_argument("--soil", metavar="C_KPA,PHI_DEG,K_M",
@@ -103,6 +115,9 @@ def add_parser(sub) -> None:
     s.add_argument("--slips", help="sweep: comma-separated slips in [0, 1) (default: 22 slips from 0.01 to 0.7)")
     s.add_argument("--loads", help="sweep: comma-separated normal loads in N; several make c and phi separable "
                                    "(default: the vehicle's weight)")
+    s.add_argument("--bekker", metavar="KC,KPHI,N",
+                   help="rigid wheel: the soil's Bekker k_c (kN/m^(n+1)), k_phi (kN/m^(n+2)) and n, with --soil "
+                        "(a --terrain preset carries its own)")
     s.add_argument("-o", "--output", default="-", help="output CSV path, '-' for stdout (default: -)")
     s.add_argument("--plot", metavar="PNG", help="also save a figure of the data (.png, .pdf, .svg)")
     s.set_defaults(func=_cmd_simulate)

@@ -138,15 +138,15 @@ def test_in_memory_torque_1e308_is_refused():
 
 
 def test_every_bad_row_is_counted_and_the_first_few_named(tmp_path):
-    n_bad = 12
+    n_bad = 30
     lines = ["slip,tractive_force_N"]
     bad_rows = []
-    for r in range(1, 41):
+    for r in range(1, 121):
         if r % 3 == 0 and len(bad_rows) < n_bad:
-            lines.append(f"0.{r:02d},oops")
+            lines.append(f"{r / 200:.4f},oops")
             bad_rows.append(r)
         else:
-            lines.append(f"0.{r:02d},{100 + r}")
+            lines.append(f"{r / 200:.4f},{100 + r}")
     p = tmp_path / "bad.csv"
     p.write_text("\n".join(lines) + "\n")
     with pytest.raises(DataError) as e:
@@ -161,7 +161,7 @@ def test_bad_rows_of_a_range_check_are_all_counted():
     slip[[2, 4, 6, 8, 10, 12, 14]] = 1.5
     with pytest.raises(DataError) as e:
         SlipData(slip, tractive_force=np.linspace(10, 100, 20))
-    assert (e.value.column, e.value.count, e.value.rows) == ("slip", 7, (3, 5, 7, 9, 11))
+    assert (e.value.column, e.value.count, e.value.rows) == ("slip", 7, (3, 5, 7, 9, 11, 13, 15))
 
 
 def test_non_increasing_time_rows_are_all_counted():
