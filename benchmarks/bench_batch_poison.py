@@ -34,6 +34,7 @@ What is checked and measured, in one run:
 * peak memory: the process's resident set before the batch and at its peak (``ru_maxrss``),
   and the growth per kept result.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -59,8 +60,18 @@ HEAVY = VEHICLES["heavy"]
 L, B = HEAVY.track_length, HEAVY.track_width
 AREA = 2 * L * B
 N_SAMPLES = 20
-KINDS = ("none", "text", "one_row", "two_rows", "short_log", "dict", "loads_kn", "forces_kn", "zero_force",
-         "repeated")
+KINDS = (
+    "none",
+    "text",
+    "one_row",
+    "two_rows",
+    "short_log",
+    "dict",
+    "loads_kn",
+    "forces_kn",
+    "zero_force",
+    "repeated",
+)
 
 
 def log(msg: str) -> None:
@@ -71,7 +82,7 @@ def rss_mb() -> float:
     """Current resident set, MB (Linux /proc; the peak from getrusage where /proc is absent)."""
     try:
         with open("/proc/self/statm") as fh:
-            return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2 ** 20
+            return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
     except OSError:  # pragma: no cover
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
@@ -145,7 +156,9 @@ def main(argv=None) -> int:
     ap.add_argument("--poison", type=float, default=0.01)
     ap.add_argument("--check", default="all", help="good results compared with single fits: all or a number")
     ap.add_argument("--scipy-subset", type=int, default=200)
-    ap.add_argument("--workers", type=int, default=0, help="fork process pool of this size (0: in this process)")
+    ap.add_argument(
+        "--workers", type=int, default=0, help="fork process pool of this size (0: in this process)"
+    )
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", nargs="?", const="-", default=None)
     a = ap.parse_args(argv)
@@ -178,37 +191,70 @@ def main(argv=None) -> int:
     good = [k for k in range(a.items) if k not in kinds]
     n_check = len(good) if a.check == "all" else min(int(a.check), len(good))
     t0 = time.perf_counter()
-    equal = sum(1 for k in good[:n_check] if (lambda s, b: s.success == b.success and s.status == b.status
-                                                and np.array_equal(s.theta, b.theta))(fit(items[k], HEAVY), res[k]))
+    equal = sum(
+        1
+        for k in good[:n_check]
+        if (
+            lambda s, b: s.success == b.success and s.status == b.status and np.array_equal(s.theta, b.theta)
+        )(fit(items[k], HEAVY), res[k])
+    )
     t_single = time.perf_counter() - t0
     good_success = sum(res[k].success for k in good)
-    sub = good[:a.scipy_subset]
+    sub = good[: a.scipy_subset]
     t0 = time.perf_counter()
     sp = [scipy_fit(items[k]) for k in sub]
     t_scipy = (time.perf_counter() - t0) / max(len(sub), 1)
-    agree = float(np.median([np.max(np.abs(np.asarray(res[k].theta) - x) / np.maximum(np.abs(x), 1e-9) *
-                                    (np.abs(x) > 1)) if res[k].success else np.nan for k, x in zip(sub, sp)]))
+    agree = float(
+        np.median(
+            [
+                np.max(np.abs(np.asarray(res[k].theta) - x) / np.maximum(np.abs(x), 1e-9) * (np.abs(x) > 1))
+                if res[k].success
+                else np.nan
+                for k, x in zip(sub, sp)
+            ]
+        )
+    )
     out = {
-        "items": a.items, "poisoned": n_bad, "workers": a.workers, "results": len(res),
+        "items": a.items,
+        "poisoned": n_bad,
+        "workers": a.workers,
+        "results": len(res),
         "poison_with_reason": {k: f"{reasons[k]}/{counts[k]}" for k in KINDS},
         "all_poison_with_reason": sum(reasons.values()) == n_bad,
-        "good_items": len(good), "good_success": good_success, "good_checked": n_check,
+        "good_items": len(good),
+        "good_success": good_success,
+        "good_checked": n_check,
         "good_equal_to_single_fit": equal,
-        "fit_many_s": t_batch, "fit_many_items_per_s": a.items / t_batch,
+        "fit_many_s": t_batch,
+        "fit_many_items_per_s": a.items / t_batch,
         "single_fit_items_per_s": n_check / t_single if t_single > 0 else None,
-        "scipy_items_per_s": 1.0 / t_scipy, "scipy_subset": len(sub), "speedup_vs_scipy": t_scipy * a.items / t_batch,
+        "scipy_items_per_s": 1.0 / t_scipy,
+        "scipy_subset": len(sub),
+        "speedup_vs_scipy": t_scipy * a.items / t_batch,
         "median_rel_diff_vs_scipy_c_phi_K": agree,
-        "rss_before_MB": rss0, "rss_after_MB": rss1, "peak_rss_MB": peak,
+        "rss_before_MB": rss0,
+        "rss_after_MB": rss1,
+        "peak_rss_MB": peak,
         "growth_per_result_kB": (rss1 - rss0) * 1024 / a.items,
     }
-    log(f"fit_many: {a.items:,} items in {t_batch:.1f} s ({out['fit_many_items_per_s']:,.0f}/s), "
-        f"{len(res):,} results; good {good_success:,}/{len(good):,} succeeded")
+    log(
+        f"fit_many: {a.items:,} items in {t_batch:.1f} s ({out['fit_many_items_per_s']:,.0f}/s), "
+        f"{len(res):,} results; good {good_success:,}/{len(good):,} succeeded"
+    )
     log("poison with a reason: " + ", ".join(f"{k} {v}" for k, v in out["poison_with_reason"].items()))
-    log(f"good results equal to a single fit: {equal:,}/{n_check:,} (single fits: {out['single_fit_items_per_s']:,.0f}/s)")
-    log(f"scipy least_squares loop: {out['scipy_items_per_s']:,.0f}/s on {len(sub)} sweeps -> fit_many "
-        f"{out['speedup_vs_scipy']:.1f}x; median largest relative difference of c, phi, K vs scipy {agree:.2g}")
-    log(f"memory: RSS {rss0:.0f} MB before the batch, {rss1:.0f} MB after, peak {peak:.0f} MB "
-        f"({out['growth_per_result_kB']:.2f} kB per kept result)")
+    log(
+        f"good results equal to a single fit: {equal:,}/{n_check:,} "
+        f"(single fits: {out['single_fit_items_per_s']:,.0f}/s)"
+    )
+    log(
+        f"scipy least_squares loop: {out['scipy_items_per_s']:,.0f}/s on {len(sub)} sweeps -> fit_many "
+        f"{out['speedup_vs_scipy']:.1f}x; median largest relative difference of c, phi, K vs scipy "
+        f"{agree:.2g}"
+    )
+    log(
+        f"memory: RSS {rss0:.0f} MB before the batch, {rss1:.0f} MB after, peak {peak:.0f} MB "
+        f"({out['growth_per_result_kB']:.2f} kB per kept result)"
+    )
     if a.json is not None:
         text = json.dumps(out, indent=2)
         if a.json == "-":

@@ -32,6 +32,7 @@ died"). Items of a chunk that failed in another executor (a Dask worker lost, a 
 are retried one by one in the same executor. Every result carries the data-consistency checks
 (:mod:`soiltrack.identify.consistency`, repeated rows included), as ``fit`` gives them.
 """
+
 from __future__ import annotations
 
 import sys
@@ -62,8 +63,16 @@ from .sweep.rig import load_separation, rig_extra, std_weights
 __all__ = ["fit_many", "failed_result"]
 
 
-def failed_result(index: int, data: Any, vehicle: Vehicle, model: str, method: str, bounds: SoilBounds,
-                  reason: str, error: str = "") -> FitResult:
+def failed_result(
+    index: int,
+    data: Any,
+    vehicle: Vehicle,
+    model: str,
+    method: str,
+    bounds: SoilBounds,
+    reason: str,
+    error: str = "",
+) -> FitResult:
     """The failed :class:`FitResult` of batch item ``index``: no estimate, ``success`` False, the reason said.
 
     ``message`` is ``"batch item <index> (<source>): <reason>"``; ``extra`` holds ``batch_index``
@@ -72,31 +81,78 @@ def failed_result(index: int, data: Any, vehicle: Vehicle, model: str, method: s
     src = getattr(data, "source", None)
     where = f"batch item {index}" + (f" ({src})" if isinstance(src, str) else f" (a {type(data).__name__})")
     kind = "drive" if isinstance(data, DriveLog) else "slip"
-    res = build_result(data_kind=kind, model=model, method=method, theta=np.full(3, np.nan), jacobian=np.zeros((0, 3)),
-                        weighted_residuals=np.zeros(0), residuals=np.zeros(0), residual_unit="N" if kind == "slip"
-                        else "m/s", n_samples=0, normal_loads=np.zeros(0), vehicle=vehicle, bounds=bounds,
-                        status="not fitted", success=False, message=f"{where}: {reason}", iterations=0,
-                        solve_time=0.0, extra={"batch_index": int(index), "error": error})
+    res = build_result(
+        data_kind=kind,
+        model=model,
+        method=method,
+        theta=np.full(3, np.nan),
+        jacobian=np.zeros((0, 3)),
+        weighted_residuals=np.zeros(0),
+        residuals=np.zeros(0),
+        residual_unit="N" if kind == "slip" else "m/s",
+        n_samples=0,
+        normal_loads=np.zeros(0),
+        vehicle=vehicle,
+        bounds=bounds,
+        status="not fitted",
+        success=False,
+        message=f"{where}: {reason}",
+        iterations=0,
+        solve_time=0.0,
+        extra={"batch_index": int(index), "error": error},
+    )
     return replace(res, status="not fitted")  # nothing was solved: no "non-finite numbers" suffix
 
 
-def _guarded_fit(k: int, d: Any, vehicle: Vehicle, model: str, method: str, bounds: SoilBounds, kw: dict,
-                 settings: FitSettings) -> FitResult:
+def _guarded_fit(
+    k: int,
+    d: Any,
+    vehicle: Vehicle,
+    model: str,
+    method: str,
+    bounds: SoilBounds,
+    kw: dict,
+    settings: FitSettings,
+) -> FitResult:
     """``fit`` of one item; any error becomes a failed result naming the item (never raised)."""
     if not isinstance(d, (SlipData, DriveLog)):
-        return failed_result(k, d, vehicle, model, method, bounds, f"fit takes SlipData or DriveLog, got "
-                             f"{type(d).__name__}", "DataError")
+        return failed_result(
+            k,
+            d,
+            vehicle,
+            model,
+            method,
+            bounds,
+            f"fit takes SlipData or DriveLog, got {type(d).__name__}",
+            "DataError",
+        )
     try:
         return fit(d, vehicle, model=model, method=method, bounds=bounds, settings=settings, **kw)
     except Exception as e:  # noqa: BLE001 - one bad item never aborts the batch (module notes)
         reason = getattr(e, "reason", None) or str(e) or type(e).__name__
         col = getattr(e, "column", None)
-        return failed_result(k, d, vehicle, model, method, bounds, (f"column '{col}': " if col else "") + reason,
-                             type(e).__name__)
+        return failed_result(
+            k,
+            d,
+            vehicle,
+            model,
+            method,
+            bounds,
+            (f"column '{col}': " if col else "") + reason,
+            type(e).__name__,
+        )
 
 
-def _solve_chunk(indices: Sequence[int], datasets: Sequence[SlipData], vehicle: Vehicle, model: str,
-                 bounds: SoilBounds, sigma, sigma_known, settings: FitSettings) -> list[FitResult]:
+def _solve_chunk(
+    indices: Sequence[int],
+    datasets: Sequence[SlipData],
+    vehicle: Vehicle,
+    model: str,
+    bounds: SoilBounds,
+    sigma,
+    sigma_known,
+    settings: FitSettings,
+) -> list[FitResult]:
     """Solve slip datasets with the compiled kernel; stacked results; IPOPT for the uncertified.
 
     An item whose problem cannot be set up is fitted alone (:func:`_guarded_fit`: its error becomes
@@ -114,14 +170,22 @@ def _solve_chunk(indices: Sequence[int], datasets: Sequence[SlipData], vehicle: 
     try:
         solved = _solve_problems(pbs, [datasets[j] for j in keep], vehicle, model, bounds, settings)
     except Exception:  # noqa: BLE001 - a failed stacked step: each item alone, errors per item
-        solved = [_guarded_fit(indices[j], datasets[j], vehicle, model, "ipopt", bounds, kw, settings) for j in keep]
+        solved = [
+            _guarded_fit(indices[j], datasets[j], vehicle, model, "ipopt", bounds, kw, settings) for j in keep
+        ]
     for j, res in zip(keep, solved):
         out[j] = res
     return out  # type: ignore[return-value]
 
 
-def _solve_problems(pbs: list, datasets: list[SlipData], vehicle: Vehicle, model: str, bounds: SoilBounds,
-                    settings: FitSettings) -> list[FitResult]:
+def _solve_problems(
+    pbs: list,
+    datasets: list[SlipData],
+    vehicle: Vehicle,
+    model: str,
+    bounds: SoilBounds,
+    settings: FitSettings,
+) -> list[FitResult]:
     """The compiled kernel over set-up problems; consistency checks applied as ``fit`` applies them."""
     t0 = time.perf_counter()
     jit = jit_mode(settings.engine)
@@ -135,8 +199,9 @@ def _solve_problems(pbs: list, datasets: list[SlipData], vehicle: Vehicle, model
         if sol.certified:
             groups.setdefault(pb.n, []).append(k)
         else:
-            res = compiled_lm.hand_over(pb, sol, None, settings.n_grid, settings.ipopt_dict, time.perf_counter(),
-                                        source="vectorized")
+            res = compiled_lm.hand_over(
+                pb, sol, None, settings.n_grid, settings.ipopt_dict, time.perf_counter(), source="vectorized"
+            )
             out[k] = normalise_status(res)
     for idx in groups.values():
         P = [pbs[k] for k in idx]
@@ -151,24 +216,53 @@ def _solve_problems(pbs: list, datasets: list[SlipData], vehicle: Vehicle, model
         # the same plausibility checks as fit (they decide success: fit and fit_many agree on it)
         status, success, message, warns = [], [], [], []
         for pb, s in zip(P, S):
-            found, usable = assess(pb.slip, pb.force, pb.load, s.residuals, s.theta, vehicle, model, bounds,
-                                   s.curves, s.screen, s.limit_screen)
+            found, usable = assess(
+                pb.slip,
+                pb.force,
+                pb.load,
+                s.residuals,
+                s.theta,
+                vehicle,
+                model,
+                bounds,
+                s.curves,
+                s.screen,
+                s.limit_screen,
+            )
             msg = compiled_lm.message_of(s, None).replace("compiled", "vectorised compiled", 1)
             status.append("converged" if usable else f"converged {NOT_USABLE}")
             success.append(usable)
-            message.append(msg if usable else f"{msg}; the data or the answer fail the plausibility checks (see the "
-                           "warnings)")
+            message.append(
+                msg
+                if usable
+                else f"{msg}; the data or the answer fail the plausibility checks (see the warnings)"
+            )
             warns.append(tuple(pb.noise_warning(s.residuals, s.bp_screen)) + found)
         built = build_results_batch(
-            model=model, method="ipopt", theta=np.stack([s.theta for s in S]), jacobian=np.stack([s.jacobian for s in S]),
-            weighted_residuals=r / sig, residuals=r, normal_loads=np.stack([pb.load for pb in P]), vehicle=vehicle,
-            bounds=bounds, status=status, success=success, message=message,
-            iterations=[s.iterations for s in S], solve_time=[dt] * len(idx), sigma_known=P[0].sigma_known,
-            extra=extras, warnings=warns)
+            model=model,
+            method="ipopt",
+            theta=np.stack([s.theta for s in S]),
+            jacobian=np.stack([s.jacobian for s in S]),
+            weighted_residuals=r / sig,
+            residuals=r,
+            normal_loads=np.stack([pb.load for pb in P]),
+            vehicle=vehicle,
+            bounds=bounds,
+            status=status,
+            success=success,
+            message=message,
+            iterations=[s.iterations for s in S],
+            solve_time=[dt] * len(idx),
+            sigma_known=P[0].sigma_known,
+            extra=extras,
+            warnings=warns,
+        )
         for k, res in zip(idx, built):
             out[k] = res
-    return [with_consistency(_with_rig_extra(res, d, model), check_consistency(d, vehicle))  # type: ignore
-            for res, d in zip(out, datasets)]
+    return [
+        with_consistency(_with_rig_extra(res, d, model), check_consistency(d, vehicle))  # type: ignore
+        for res, d in zip(out, datasets)
+    ]
 
 
 def _kernel_fits_like_fit(d: Any, model: str) -> bool:
@@ -196,10 +290,13 @@ def _with_rig_extra(res: FitResult, d: SlipData, model: str) -> FitResult:
     return res
 
 
-def _fit_chunk(indices: Sequence[int], datasets, vehicle, model, method, bounds, kw,
-               settings: FitSettings) -> list[FitResult]:
+def _fit_chunk(
+    indices: Sequence[int], datasets, vehicle, model, method, bounds, kw, settings: FitSettings
+) -> list[FitResult]:
     """``fit`` of each item, errors per item (:func:`_guarded_fit`)."""
-    return [_guarded_fit(k, d, vehicle, model, method, bounds, kw, settings) for k, d in zip(indices, datasets)]
+    return [
+        _guarded_fit(k, d, vehicle, model, method, bounds, kw, settings) for k, d in zip(indices, datasets)
+    ]
 
 
 class _Progress:
@@ -219,10 +316,21 @@ class _Progress:
             sys.stderr.flush()
 
 
-def fit_many(datasets: Iterable, vehicle: Vehicle, *, model: str = "full", method: str = "ipopt",
-             bounds: SoilBounds = PRACTICAL_BOUNDS, executor: Executor | None = None, progress: bool = True,
-             chunk_size: int | None = None, engine: str | None = None, strict: bool = False,
-             settings: FitSettings | None = None, **kw) -> list[FitResult]:
+def fit_many(
+    datasets: Iterable,
+    vehicle: Vehicle,
+    *,
+    model: str = "full",
+    method: str = "ipopt",
+    bounds: SoilBounds = PRACTICAL_BOUNDS,
+    executor: Executor | None = None,
+    progress: bool = True,
+    chunk_size: int | None = None,
+    engine: str | None = None,
+    strict: bool = False,
+    settings: FitSettings | None = None,
+    **kw,
+) -> list[FitResult]:
     """Fit many datasets with one vehicle; results in input order.
 
     Parameters
@@ -263,7 +371,9 @@ def fit_many(datasets: Iterable, vehicle: Vehicle, *, model: str = "full", metho
     n = len(datasets)
     prog = _Progress(n, progress)
     results: list[FitResult | None] = [None] * n
-    kernel_ok = st.engine in ("auto", "vectorized") and method == "ipopt" and set(kw) <= {"sigma", "sigma_known"}
+    kernel_ok = (
+        st.engine in ("auto", "vectorized") and method == "ipopt" and set(kw) <= {"sigma", "sigma_known"}
+    )
     batched, singles = [], []
     for k, d in enumerate(datasets):
         (batched if kernel_ok and _kernel_fits_like_fit(d, model) else singles).append(k)
@@ -275,11 +385,24 @@ def fit_many(datasets: Iterable, vehicle: Vehicle, *, model: str = "full", metho
     # batched: sorted by length so that a chunk holds few lengths (one stacked result step each)
     batched.sort(key=lambda k: datasets[k].n_samples)
     for s in range(0, len(batched), chunk_size):
-        part = batched[s:s + chunk_size]
-        jobs.append((part, _solve_chunk, ([datasets[k] for k in part], vehicle, model, bounds, kw.get("sigma"),
-                                          kw.get("sigma_known"), st)))
+        part = batched[s : s + chunk_size]
+        jobs.append(
+            (
+                part,
+                _solve_chunk,
+                (
+                    [datasets[k] for k in part],
+                    vehicle,
+                    model,
+                    bounds,
+                    kw.get("sigma"),
+                    kw.get("sigma_known"),
+                    st,
+                ),
+            )
+        )
     for s in range(0, len(singles), chunk_size):
-        part = singles[s:s + chunk_size]
+        part = singles[s : s + chunk_size]
         jobs.append((part, _fit_chunk, ([datasets[k] for k in part], vehicle, model, method, bounds, kw, st)))
 
     def store(part: Sequence[int], res: list[FitResult]) -> None:
@@ -305,8 +428,10 @@ def fit_many(datasets: Iterable, vehicle: Vehicle, *, model: str = "full", metho
     return results  # type: ignore[return-value]
 
 
-def _run_on_executor(executor: Executor, jobs: list, store: Callable, single: Callable, dead: Callable) -> None:
-    """Run ``jobs`` on ``executor``; finished results kept, the items of lost jobs recovered (module notes)."""
+def _run_on_executor(
+    executor: Executor, jobs: list, store: Callable, single: Callable, dead: Callable
+) -> None:
+    """Run ``jobs`` on ``executor``: finished results kept, lost jobs' items recovered (module notes)."""
     futures: list[tuple[list[int], Future | None, BaseException | None]] = []
     for part, fn, args in jobs:
         try:
@@ -340,19 +465,32 @@ def _run_on_executor(executor: Executor, jobs: list, store: Callable, single: Ca
         try:
             store([k], executor.submit(fn, *args).result())
         except Exception as e:  # noqa: BLE001 - reported as this item's failure
-            store([k], [dead(k, f"its chunk failed in the executor ({type(last_error).__name__}: {last_error}) and "
-                            f"so did a retry alone ({type(e).__name__}: {e})", type(e).__name__)])
+            store(
+                [k],
+                [
+                    dead(
+                        k,
+                        f"its chunk failed in the executor ({type(last_error).__name__}: {last_error}) and "
+                        f"so did a retry alone ({type(e).__name__}: {e})",
+                        type(e).__name__,
+                    )
+                ],
+            )
 
 
 def _fresh_pool(like: ProcessPoolExecutor, workers: int) -> ProcessPoolExecutor:
     """A new process pool of the same start method and initializer as ``like``."""
-    return ProcessPoolExecutor(max_workers=workers, mp_context=getattr(like, "_mp_context", None),
-                               initializer=getattr(like, "_initializer", None),
-                               initargs=getattr(like, "_initargs", ()))
+    return ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=getattr(like, "_mp_context", None),
+        initializer=getattr(like, "_initializer", None),
+        initargs=getattr(like, "_initargs", ()),
+    )
 
 
-def _recover_in_fresh_pools(like: ProcessPoolExecutor, items: list[int], store: Callable, single: Callable,
-                            dead: Callable) -> None:
+def _recover_in_fresh_pools(
+    like: ProcessPoolExecutor, items: list[int], store: Callable, single: Callable, dead: Callable
+) -> None:
     """Items a broken pool lost, run again in fresh pools: at most ``workers`` in flight, so that when a
     pool breaks again only the items in flight are suspects; each suspect then runs alone in its own
     one-worker pool, and one that breaks that too is reported (its worker died twice)."""
@@ -376,8 +514,16 @@ def _recover_in_fresh_pools(like: ProcessPoolExecutor, items: list[int], store: 
                     except BrokenProcessPool:
                         suspects.append(k)
                     except Exception as e:  # noqa: BLE001 - not a dead worker: this item's own failure
-                        store([k], [dead(k, f"failed in a worker process ({type(e).__name__}: {e})",
-                                         type(e).__name__)])
+                        store(
+                            [k],
+                            [
+                                dead(
+                                    k,
+                                    f"failed in a worker process ({type(e).__name__}: {e})",
+                                    type(e).__name__,
+                                )
+                            ],
+                        )
                 if suspects:
                     suspects.extend(flight.values())  # in flight when the pool broke
                     break
@@ -389,10 +535,20 @@ def _recover_in_fresh_pools(like: ProcessPoolExecutor, items: list[int], store: 
                 fn, args = single(k)
                 store([k], alone.submit(fn, *args).result())
             except BrokenProcessPool:
-                store([k], [dead(k, "its worker process died twice (BrokenProcessPool: killed, out of memory, or a "
-                                 "crash in native code while fitting this item); fit it alone to see why",
-                                 "BrokenProcessPool")])
+                store(
+                    [k],
+                    [
+                        dead(
+                            k,
+                            "its worker process died twice (BrokenProcessPool: killed, out of memory, or a "
+                            "crash in native code while fitting this item); fit it alone to see why",
+                            "BrokenProcessPool",
+                        )
+                    ],
+                )
             except Exception as e:  # noqa: BLE001 - reported as this item's failure
-                store([k], [dead(k, f"failed in a worker process ({type(e).__name__}: {e})", type(e).__name__)])
+                store(
+                    [k], [dead(k, f"failed in a worker process ({type(e).__name__}: {e})", type(e).__name__)]
+                )
             finally:
                 alone.shutdown(wait=True, cancel_futures=True)

@@ -39,6 +39,7 @@ Each finding is ``ok``, ``unchecked``, ``warning`` (said in the result's warning
 (the answer cannot stand: ``success`` is set False with the reason). :func:`with_consistency`
 applies a report to a :class:`~soiltrack.identify.FitResult`; ``fit`` and ``fit_many`` call it.
 """
+
 from __future__ import annotations
 
 import math
@@ -55,8 +56,15 @@ from ..soilmodel.threadsafe import locked_cache
 from ..soilmodel.vehicle import Vehicle
 from .estimates.records import NOT_USABLE
 
-__all__ = ["ConsistencySettings", "Finding", "ConsistencyReport", "check_consistency", "with_consistency",
-           "repeated_rows", "SEVERITIES"]
+__all__ = [
+    "ConsistencySettings",
+    "Finding",
+    "ConsistencyReport",
+    "check_consistency",
+    "with_consistency",
+    "repeated_rows",
+    "SEVERITIES",
+]
 
 #: Severity of a finding, mildest first.
 SEVERITIES = ("ok", "unchecked", "warning", "fatal")
@@ -114,9 +122,14 @@ class Finding:
 
     def to_dict(self) -> dict:
         """JSON-ready dict."""
-        return {"check": self.check, "severity": self.severity, "message": self.message,
-                "ratio": None if self.ratio is None or not math.isfinite(self.ratio) else float(self.ratio),
-                "rows": list(self.rows), "count": int(self.count)}
+        return {
+            "check": self.check,
+            "severity": self.severity,
+            "message": self.message,
+            "ratio": None if self.ratio is None or not math.isfinite(self.ratio) else float(self.ratio),
+            "rows": list(self.rows),
+            "count": int(self.count),
+        }
 
 
 @dataclass(frozen=True)
@@ -137,8 +150,11 @@ class ConsistencyReport:
 
     def warnings(self) -> tuple[str, ...]:
         """The warnings and fatal findings, in words (for the result's warnings)."""
-        return tuple(f"data consistency ({f.check}): {f.message}" for f in self.findings
-                     if f.severity in ("warning", "fatal"))
+        return tuple(
+            f"data consistency ({f.check}): {f.message}"
+            for f in self.findings
+            if f.severity in ("warning", "fatal")
+        )
 
     def to_dict(self) -> dict:
         """JSON-ready dict: ``passed`` and the findings."""
@@ -177,8 +193,10 @@ def _cause_torque(rho: float) -> str:
     if 3e-4 < rho < 3e-3:
         return "every integral over time is about 1,000 times too large: the time stamps in milliseconds?"
     if 300 < rho < 3000:
-        return "every integral over time is about 1,000 times too small: the time in kiloseconds, or the " \
-               "torque in kN m?"
+        return (
+            "every integral over time is about 1,000 times too small: the time in kiloseconds, or the "
+            "torque in kN m?"
+        )
     return "the torque channel's scale or unit does not match the vehicle's mass and the measured speeds"
 
 
@@ -207,15 +225,31 @@ def _drive_findings(log: DriveLog, vehicle: Vehicle, st: ConsistencySettings) ->
         rho = float(coef[0] / scale[0])
         if rho > 0 and se / rho <= st.max_rel_stderr:
             sev = _severity(rho, st)
-            msg = (f"the hull balance needs {rho:.3g} times the thrust the sprocket torque gives "
-                   f"(standard error {se:.2g})" + ("" if sev == "ok" else f": {_cause_torque(rho)}"))
+            msg = (
+                f"the hull balance needs {rho:.3g} times the thrust the sprocket torque gives "
+                f"(standard error {se:.2g})" + ("" if sev == "ok" else f": {_cause_torque(rho)}")
+            )
             out.append(Finding("torque_scale", sev, msg, rho))
         elif rho <= 0 and se < abs(rho):
-            out.append(Finding("torque_scale", "fatal", f"the hull accelerates against the torque (ratio {rho:.3g}): "
-                               "the torque's sign is flipped, or the columns are swapped", rho))
+            out.append(
+                Finding(
+                    "torque_scale",
+                    "fatal",
+                    f"the hull accelerates against the torque (ratio {rho:.3g}): "
+                    "the torque's sign is flipped, or the columns are swapped",
+                    rho,
+                )
+            )
         else:
-            out.append(Finding("torque_scale", "unchecked", f"not checked: the log has too little speed change to "
-                               f"compare the torque with the hull balance (ratio {rho:.3g} +- {se:.2g})", rho))
+            out.append(
+                Finding(
+                    "torque_scale",
+                    "unchecked",
+                    f"not checked: the log has too little speed change to "
+                    f"compare the torque with the hull balance (ratio {rho:.3g} +- {se:.2g})",
+                    rho,
+                )
+            )
     # IMU against the measured speed
     if log.vehicle_accel is not None:
         dv = v - v[0]
@@ -226,16 +260,36 @@ def _drive_findings(log: DriveLog, vehicle: Vehicle, st: ConsistencySettings) ->
             k = 1.0 / s if s != 0 else math.inf
             note = " (the nominal drive-log fit does not use the IMU column; fits with effects do)"
             if k < 0:
-                out.append(Finding("imu", "warning", f"the IMU acceleration has the opposite sign of the speed's change "
-                                   f"(ratio {k:.3g}): its sign is flipped" + note, k))
+                out.append(
+                    Finding(
+                        "imu",
+                        "warning",
+                        f"the IMU acceleration has the opposite sign of the speed's change "
+                        f"(ratio {k:.3g}): its sign is flipped" + note,
+                        k,
+                    )
+                )
             else:
                 sev = _severity(k, st)
-                cause = "" if sev == "ok" else (": the time stamps in milliseconds?" if 300 < k < 3000 else
-                                                ": the IMU in g instead of m/s^2?" if 0.07 < k < 0.13 else
-                                                ": a scale or unit error in the IMU column")
-                out.append(Finding("imu", "ok" if sev == "ok" else "warning",
-                                   f"the IMU acceleration is {k:.3g} times what the speed's change gives{cause}" + note,
-                                   k))
+                cause = (
+                    ""
+                    if sev == "ok"
+                    else (
+                        ": the time stamps in milliseconds?"
+                        if 300 < k < 3000
+                        else ": the IMU in g instead of m/s^2?"
+                        if 0.07 < k < 0.13
+                        else ": a scale or unit error in the IMU column"
+                    )
+                )
+                out.append(
+                    Finding(
+                        "imu",
+                        "ok" if sev == "ok" else "warning",
+                        f"the IMU acceleration is {k:.3g} times what the speed's change gives{cause}" + note,
+                        k,
+                    )
+                )
     else:
         out.append(Finding("imu", "unchecked", "no IMU column (vehicle_accel_m_s2): not checked"))
     # speed ratio while moving
@@ -245,18 +299,34 @@ def _drive_findings(log: DriveLog, vehicle: Vehicle, st: ConsistencySettings) ->
         q = _median(v[moving] / rw[moving])
         lo, hi = st.speed_ratio_range
         if lo <= q <= hi:
-            out.append(Finding("speed_ratio", "ok", f"v / (r w) while moving is {q:.3g} (slip {1 - q:.2g})", q))
+            out.append(
+                Finding("speed_ratio", "ok", f"v / (r w) while moving is {q:.3g} (slip {1 - q:.2g})", q)
+            )
         else:
             if q > hi:
-                cause = ("about 3.6 times a driving value: the vehicle speed in km/h?" if 1.4 < q < 4.0 else
-                         "the vehicle is faster than its tracks all the time: a unit error, a wrong sprocket radius, "
-                         "or the speed columns swapped?")
+                cause = (
+                    "about 3.6 times a driving value: the vehicle speed in km/h?"
+                    if 1.4 < q < 4.0
+                    else "the vehicle is faster than its tracks all the time: a unit error, a wrong sprocket "
+                    "radius, "
+                    "or the speed columns swapped?"
+                )
             else:
-                cause = ("about a tenth of a driving value: the sprocket speed in rpm (x 9.55)?" if 0.04 < q < 0.12
-                         else "the tracks turn much faster than the vehicle moves: a unit error or a wrong sprocket "
-                         "radius?")
-            out.append(Finding("speed_ratio", "fatal", f"v / (r w) while moving is {q:.3g}, outside the driving range "
-                               f"[{lo:g}, {hi:g}]: {cause}", q))
+                cause = (
+                    "about a tenth of a driving value: the sprocket speed in rpm (x 9.55)?"
+                    if 0.04 < q < 0.12
+                    else "the tracks turn much faster than the vehicle moves: a unit error or a wrong "
+                    "sprocket "
+                    "radius?"
+                )
+            out.append(
+                Finding(
+                    "speed_ratio",
+                    "fatal",
+                    f"v / (r w) while moving is {q:.3g}, outside the driving range [{lo:g}, {hi:g}]: {cause}",
+                    q,
+                )
+            )
     else:
         out.append(Finding("speed_ratio", "unchecked", "fewer than 5 moving samples: v / (r w) not checked"))
     return out
@@ -292,38 +362,82 @@ def _sweep_findings(data: SlipData, vehicle: Vehicle, st: ConsistencySettings) -
         q = _median(data.normal_load) / W
         lo, hi = st.load_ratio_range
         if lo <= q <= hi:
-            out.append(Finding("load_scale", "ok", f"the median normal load is {q:.3g} times the vehicle's weight", q))
+            out.append(
+                Finding(
+                    "load_scale", "ok", f"the median normal load is {q:.3g} times the vehicle's weight", q
+                )
+            )
         else:
-            cause = ("a thousandth: the load in kN instead of N?" if 3e-4 < q < 3e-3 else
-                     "a thousand times: the vehicle's weight in kN, or a file of another vehicle?" if 300 < q < 3000
-                     else "a file of another vehicle, or a unit error?")
-            out.append(Finding("load_scale", "fatal", f"the median normal load is {q:.3g} times this vehicle's weight "
-                               f"({W:.6g} N): {cause}", q))
+            cause = (
+                "a thousandth: the load in kN instead of N?"
+                if 3e-4 < q < 3e-3
+                else "a thousand times: the vehicle's weight in kN, or a file of another vehicle?"
+                if 300 < q < 3000
+                else "a file of another vehicle, or a unit error?"
+            )
+            out.append(
+                Finding(
+                    "load_scale",
+                    "fatal",
+                    f"the median normal load is {q:.3g} times this vehicle's weight ({W:.6g} N): {cause}",
+                    q,
+                )
+            )
     developed = data.slip >= st.min_force_slip
     if developed.any():
         ratio = float(np.max(data.values[developed] / loads[developed]))
-        c_hi, phi_hi = PHYSICAL_RANGES["cohesion_kpa"][1] * 1e3, math.radians(PHYSICAL_RANGES["friction_angle_deg"][1])
+        c_hi, phi_hi = (
+            PHYSICAL_RANGES["cohesion_kpa"][1] * 1e3,
+            math.radians(PHYSICAL_RANGES["friction_angle_deg"][1]),
+        )
         top = float(np.max((vehicle.contact_area * c_hi + loads * math.tan(phi_hi)) / loads))
         if ratio < st.min_force_ratio:
-            out.append(Finding("force_scale", "fatal", f"the largest force at slips >= {st.min_force_slip:g} is "
-                               f"{ratio:.3g} of the normal load: no soil gives so little (phi >= 1 deg gives 0.017); "
-                               "the force in kN instead of N, or the data of a lighter vehicle?", ratio))
+            out.append(
+                Finding(
+                    "force_scale",
+                    "fatal",
+                    f"the largest force at slips >= {st.min_force_slip:g} is "
+                    f"{ratio:.3g} of the normal load: no soil gives so little (phi >= 1 deg gives 0.017); "
+                    "the force in kN instead of N, or the data of a lighter vehicle?",
+                    ratio,
+                )
+            )
         elif ratio > top:
-            out.append(Finding("force_scale", "fatal", f"the largest force is {ratio:.3g} times the normal load, more "
-                               f"than any soil gives this vehicle ({top:.3g}): the force in N where the load is in kN, "
-                               "or the data of a heavier vehicle?", ratio))
+            out.append(
+                Finding(
+                    "force_scale",
+                    "fatal",
+                    f"the largest force is {ratio:.3g} times the normal load, more "
+                    f"than any soil gives this vehicle ({top:.3g}): the force in N where the load is in kN, "
+                    "or the data of a heavier vehicle?",
+                    ratio,
+                )
+            )
         else:
-            out.append(Finding("force_scale", "ok", f"the largest force is {ratio:.3g} of the normal load", ratio))
+            out.append(
+                Finding("force_scale", "ok", f"the largest force is {ratio:.3g} of the normal load", ratio)
+            )
     n_rep, rows = repeated_rows(data)
     if n_rep:
-        out.append(Finding("repeated_rows", "warning", f"{n_rep} row(s) repeat an earlier row exactly (rows "
-                           f"{', '.join(map(str, rows))}{' ...' if n_rep > len(rows) else ''}): each is fitted as "
-                           "independent evidence, which shrinks the standard errors; remove copies, keep true "
-                           "replicates", float(n_rep), rows, n_rep))
+        out.append(
+            Finding(
+                "repeated_rows",
+                "warning",
+                f"{n_rep} row(s) repeat an earlier row exactly (rows "
+                f"{', '.join(map(str, rows))}{' ...' if n_rep > len(rows) else ''}): each is fitted as "
+                "independent evidence, which shrinks the standard errors; remove copies, keep true "
+                "replicates",
+                float(n_rep),
+                rows,
+                n_rep,
+            )
+        )
     return out
 
 
-def check_consistency(data: Any, vehicle: Vehicle, settings: ConsistencySettings | None = None) -> ConsistencyReport:
+def check_consistency(
+    data: Any, vehicle: Vehicle, settings: ConsistencySettings | None = None
+) -> ConsistencyReport:
     """Run the checks of the module notes on a drive log or a slip sweep.
 
     Parameters
@@ -345,7 +459,7 @@ def check_consistency(data: Any, vehicle: Vehicle, settings: ConsistencySettings
 
 
 def with_consistency(result: Any, report: ConsistencyReport) -> Any:
-    """``result`` with the report's warnings, ``extra["consistency"]``, and ``success`` False on a fatal finding."""
+    """``result`` with the report's warnings and ``extra["consistency"]``; failed if a finding is fatal."""
     warns = tuple(w for w in report.warnings() if w not in result.input_warnings)  # a nested fit said them
     if not warns:  # the common case: recorded in the result's own extra dict (no copy of the result)
         result.extra["consistency"] = report.to_dict()
@@ -357,6 +471,8 @@ def with_consistency(result: Any, report: ConsistencyReport) -> Any:
         fatal = [f.check for f in report.findings if f.severity == "fatal"]
         kw["success"] = False
         kw["status"] = result.status if NOT_USABLE in result.status else f"{result.status} {NOT_USABLE}"
-        kw["message"] = (f"{result.message}; the data fail the consistency check(s) {', '.join(fatal)}: the answer "
-                         "cannot stand (see the warnings)")
+        kw["message"] = (
+            f"{result.message}; the data fail the consistency check(s) {', '.join(fatal)}: the answer "
+            "cannot stand (see the warnings)"
+        )
     return replace(result, **kw)

@@ -116,8 +116,9 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
     return res
 
 
-def _fit_unchecked(data, vehicle: Vehicle, model: str, method: str, bounds: SoilBounds, x0, engine: str | None,
-                   effects, fixed, settings: FitSettings | None, options: dict) -> FitResult:
+def _fit_unchecked(data, vehicle: Vehicle, model: str, method: str, bounds: SoilBounds, x0,
+                   engine: str | None, effects, fixed, settings: FitSettings | None,
+                   options: dict) -> FitResult:
     """``fit`` without the consistency checks (never strict: ``fit`` raises after the checks)."""
     strict = False
     if isinstance(data, DriveLog):

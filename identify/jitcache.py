@@ -26,6 +26,7 @@ starts a detached, low-priority compiler process that writes the library into th
 :meth:`Compiled.upgrade`, or in the next one - use the C code. This is what the default
 ``engine="auto"`` does: no call ever waits for a compiler, and the compile cliff disappears.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -42,7 +43,16 @@ from typing import Sequence
 
 import casadi as ca
 
-__all__ = ["cache_dir", "compiler", "load", "Compiled", "FLAGS", "fallback_note", "FALLBACKS", "cache_writable"]
+__all__ = [
+    "cache_dir",
+    "compiler",
+    "load",
+    "Compiled",
+    "FLAGS",
+    "fallback_note",
+    "FALLBACKS",
+    "cache_writable",
+]
 
 #: Compiler flags of every cached library. Only the entry points CasADi marks for export are
 #: visible (``-fvisibility=hidden`` with CasADi's ``GCC_HASCLASSVISIBILITY``), so the compiler may
@@ -53,10 +63,14 @@ FLAGS = ("-O2", "-fvisibility=hidden", "-DGCC_HASCLASSVISIBILITY", "-ffp-contrac
 
 #: Backend labels (``Compiled.backend``).
 C_CACHED, C_NEW, VM_NO_CC, VM_PENDING, VM_FAILED, VM_OFF, VM_UNWRITABLE = (
-    "C (disk cache)", "C (compiled now)", "virtual machine (no C compiler)",
-    "virtual machine (C code compiling in the background)", "virtual machine (C compilation failed)",
+    "C (disk cache)",
+    "C (compiled now)",
+    "virtual machine (no C compiler)",
+    "virtual machine (C code compiling in the background)",
+    "virtual machine (C compilation failed)",
     "virtual machine (JIT off: SOILTRACK_NO_JIT or jit='off')",
-    "virtual machine (compiled-code cache folder not writable)")
+    "virtual machine (compiled-code cache folder not writable)",
+)
 #: Backends that are a fallback the user did not ask for (said once on stderr and in the report).
 FALLBACKS = (VM_NO_CC, VM_FAILED, VM_UNWRITABLE)
 _SAID: set[str] = set()  # fallbacks already said on stderr by this process
@@ -101,7 +115,8 @@ def compiler() -> str | None:
 
 
 def cache_writable() -> tuple[bool, str]:
-    """``(True, folder)`` when the cache folder exists (or can be made) and is writable, else ``(False, why)``."""
+    """``(True, folder)`` when the cache folder exists (or can be made) and is writable, else
+    ``(False, why)``."""
     try:
         d = cache_dir()
     except OSError as e:
@@ -115,11 +130,17 @@ def fallback_note(backend: str | None, detail: str = "") -> str | None:
     """Words for a fallback backend (``None`` for C, a background compilation or JIT switched off)."""
     if backend not in FALLBACKS:
         return None
-    why = {VM_NO_CC: "no C compiler found ($CC, cc, gcc, clang)",
-           VM_FAILED: "compiling or loading the C code failed",
-           VM_UNWRITABLE: "the compiled-code cache folder is not writable (set SOILTRACK_CACHE_DIR to a writable one)"}
-    return (f"compiled engine on CasADi's virtual machine: {why[backend]}" + (f" - {detail}" if detail else "")
-            + "; the same numbers, a few times slower")
+    why = {
+        VM_NO_CC: "no C compiler found ($CC, cc, gcc, clang)",
+        VM_FAILED: "compiling or loading the C code failed",
+        VM_UNWRITABLE: "the compiled-code cache folder is not writable (set SOILTRACK_CACHE_DIR to a "
+        "writable one)",
+    }
+    return (
+        f"compiled engine on CasADi's virtual machine: {why[backend]}"
+        + (f" - {detail}" if detail else "")
+        + "; the same numbers, a few times slower"
+    )
 
 
 def _say_once(backend: str, detail: str = "") -> None:
@@ -205,8 +226,12 @@ def _compile_now(source: str, name: str, cc: str, lib: Path) -> bool:
     src = _write_source(lib.parent, name, source)
     tmp = f"{lib}.{os.getpid()}.{threading.get_ident()}.tmp"
     try:
-        done = subprocess.run(shlex.split(cc) + list(FLAGS) + [src, "-o", tmp, "-lm"], stdout=subprocess.DEVNULL,
-                              stderr=subprocess.DEVNULL, check=False)
+        done = subprocess.run(
+            shlex.split(cc) + list(FLAGS) + [src, "-o", tmp, "-lm"],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            check=False,
+        )
         if done.returncode != 0 or not os.path.exists(tmp):
             return False
         os.replace(tmp, lib)  # atomic: readers see the old state or the whole library
@@ -223,11 +248,18 @@ def _compile_background(source: str, name: str, cc: str, lib: Path) -> None:
     src = _write_source(lib.parent, name, source)
     tmp = f"{lib}.{os.getpid()}.bg.tmp"
     cmd = " ".join(shlex.quote(a) for a in shlex.split(cc) + list(FLAGS) + [src, "-o", tmp, "-lm"])
-    script = f"{cmd} >/dev/null 2>&1 && mv -f {shlex.quote(tmp)} {shlex.quote(str(lib))}; " \
-             f"rm -f {shlex.quote(src)} {shlex.quote(tmp)}"
+    script = (
+        f"{cmd} >/dev/null 2>&1 && mv -f {shlex.quote(tmp)} {shlex.quote(str(lib))}; "
+        f"rm -f {shlex.quote(src)} {shlex.quote(tmp)}"
+    )
     argv = (["nice", "-n", "10"] if shutil.which("nice") else []) + ["sh", "-c", script]
-    _PENDING[str(lib)] = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                                          stderr=subprocess.DEVNULL, start_new_session=True)
+    _PENDING[str(lib)] = subprocess.Popen(
+        argv,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
 
 
 def load(functions: Sequence[ca.Function], name: str, wait: bool = True) -> Compiled:
@@ -266,7 +298,9 @@ def load(functions: Sequence[ca.Function], name: str, wait: bool = True) -> Comp
         lib = _library_path(source, name, cc)
     except OSError:  # the cache folder cannot be created
         lib = None
-    if lib is None or (not writable and not lib.exists()):  # a cached library in a read-only folder still loads
+    if lib is None or (
+        not writable and not lib.exists()
+    ):  # a cached library in a read-only folder still loads
         vm.backend = VM_UNWRITABLE
         _say_once(VM_UNWRITABLE, why)
         return vm

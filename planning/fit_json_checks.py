@@ -6,6 +6,7 @@ range (:data:`~soiltrack.soilmodel.physical.PHYSICAL_RANGES`; c = 1e300 kPa was 
 near 69 kPa and planned with), a negative or non-finite standard error, a non-positive normal
 load or F_max, a covariance with a negative variance.
 """
+
 from __future__ import annotations
 
 import math
@@ -38,8 +39,11 @@ def check_fit_numbers(obj: dict, src: str) -> None:
                 check_physical(key, v, file=src, field=f"parameters.{key}.value")
             se = _finite(p.get("stderr"), src, f"parameters.{key}.stderr")
             if se is not None and se < 0:
-                raise DataError(f"a standard error cannot be negative, got {se:g}", file=src,
-                                column=f"parameters.{key}.stderr")
+                raise DataError(
+                    f"a standard error cannot be negative, got {se:g}",
+                    file=src,
+                    column=f"parameters.{key}.stderr",
+                )
     for k, c in enumerate(obj.get("combinations") or []):
         if not isinstance(c, dict):
             continue
@@ -51,19 +55,27 @@ def check_fit_numbers(obj: dict, src: str) -> None:
             check_physical("shear_modulus_m", v, file=src, field="combinations.K.value")
         se = _finite(c.get("stderr"), src, f"combinations.{name}.stderr")
         if se is not None and se < 0:
-            raise DataError(f"a standard error cannot be negative, got {se:g}", file=src,
-                            column=f"combinations.{name}.stderr")
+            raise DataError(
+                f"a standard error cannot be negative, got {se:g}",
+                file=src,
+                column=f"combinations.{name}.stderr",
+            )
     loads = obj.get("normal_loads_N")
     if isinstance(loads, list):
         for k, w in enumerate(loads):
             v = _finite(w, src, f"normal_loads_N[{k}]")
             if v is not None and v <= 0:
-                raise DataError(f"a normal load must be > 0 N, got {v:g}", file=src, column=f"normal_loads_N[{k}]")
+                raise DataError(
+                    f"a normal load must be > 0 N, got {v:g}", file=src, column=f"normal_loads_N[{k}]"
+                )
     cov = obj.get("covariance")
     if isinstance(cov, dict) and isinstance(cov.get("matrix"), list):
         for k, row in enumerate(cov["matrix"]):
             if isinstance(row, list) and k < len(row):
                 d = _finite(row[k], src, f"covariance.matrix[{k}][{k}]")
                 if d is not None and d < 0:
-                    raise DataError(f"a variance cannot be negative, got {d:g}", file=src,
-                                    column=f"covariance.matrix[{k}][{k}]")
+                    raise DataError(
+                        f"a variance cannot be negative, got {d:g}",
+                        file=src,
+                        column=f"covariance.matrix[{k}][{k}]",
+                    )

@@ -10,6 +10,7 @@ not only the first. Encodings other than UTF-8 (a UTF-16 export, a binary file),
 longer than CSV's field limit and values beyond :data:`MAX_ABS_VALUE` are refused with the
 file, the column and the row named.
 """
+
 from __future__ import annotations
 
 import codecs
@@ -23,8 +24,16 @@ import numpy as np
 
 from .errors import SHOWN_ROWS, DataError, rows_text
 
-__all__ = ["MAX_ROWS", "MAX_ROWS_ENV", "MAX_ABS_VALUE", "max_rows", "check_encoding", "read_header",
-           "read_columns", "bad_rows_error"]
+__all__ = [
+    "MAX_ROWS",
+    "MAX_ROWS_ENV",
+    "MAX_ABS_VALUE",
+    "max_rows",
+    "check_encoding",
+    "read_header",
+    "read_columns",
+    "bad_rows_error",
+]
 
 #: Default largest number of data rows read into memory (a one-hour drive log at 500 Hz has 1.8
 #: million); ``$SOILTRACK_MAX_ROWS`` or ``read_csv(..., max_rows=N)`` changes it.
@@ -36,8 +45,12 @@ MAX_ROWS_ENV = "SOILTRACK_MAX_ROWS"
 #: float64 in the fits (a torque of 1e308 made the drive-log fit fail with a linear-algebra error).
 MAX_ABS_VALUE = 1e12
 
-_BOMS = ((codecs.BOM_UTF32_LE, "UTF-32"), (codecs.BOM_UTF32_BE, "UTF-32"), (codecs.BOM_UTF16_LE, "UTF-16"),
-         (codecs.BOM_UTF16_BE, "UTF-16"))
+_BOMS = (
+    (codecs.BOM_UTF32_LE, "UTF-32"),
+    (codecs.BOM_UTF32_BE, "UTF-32"),
+    (codecs.BOM_UTF16_LE, "UTF-16"),
+    (codecs.BOM_UTF16_BE, "UTF-16"),
+)
 
 
 def max_rows(limit: int | None = None) -> int:
@@ -61,11 +74,17 @@ def check_encoding(path: str, head: bytes, what: str = "text file") -> None:
         if head.startswith(bom):
             raise DataError(f"the {what} is {name} text: save it as UTF-8", file=path)
     if b"\0" in head:
-        if len(head) >= 2 and (head[1:2] == b"\0" or head[0:1] == b"\0") and head.count(b"\0") * 3 >= len(head):
-            raise DataError(f"the {what} looks like UTF-16 text without a byte-order mark: save it as UTF-8",
-                            file=path)
-        raise DataError(f"not a text file (NUL bytes in the first {len(head)} bytes): expected a UTF-8 {what}",
-                        file=path)
+        if (
+            len(head) >= 2
+            and (head[1:2] == b"\0" or head[0:1] == b"\0")
+            and head.count(b"\0") * 3 >= len(head)
+        ):
+            raise DataError(
+                f"the {what} looks like UTF-16 text without a byte-order mark: save it as UTF-8", file=path
+            )
+        raise DataError(
+            f"not a text file (NUL bytes in the first {len(head)} bytes): expected a UTF-8 {what}", file=path
+        )
 
 
 def _rows(path: str) -> Iterator[tuple[int, list[str]]]:
@@ -88,8 +107,11 @@ def _rows(path: str) -> Iterator[tuple[int, list[str]]]:
             except csv.Error as e:
                 what = str(e)
                 if "field larger than field limit" in what:
-                    what = (f"a field longer than {csv.field_size_limit():,} characters (a missing closing quote, "
-                            "or not a CSV file)")
+                    what = (
+                        f"a field longer than {csv.field_size_limit():,} characters (a missing closing "
+                        "quote, "
+                        "or not a CSV file)"
+                    )
                 raise DataError(f"unreadable CSV: {what}", file=path, row=k if k else None) from None
             except UnicodeDecodeError:
                 raise DataError("not a UTF-8 text file", file=path, row=k if k else None) from None
@@ -129,7 +151,9 @@ def bad_rows_error(mask: np.ndarray, path: str, column: str | None, reason: str)
     """A DataError naming how many rows ``mask`` (over 0-based data rows) marks and the first few."""
     idx = np.nonzero(mask)[0]
     rows = [int(i) + 1 for i in idx[:SHOWN_ROWS]]
-    text = reason if idx.size == 1 else f"{reason} - {idx.size} of {mask.size} rows: {rows_text(rows, idx.size)}"
+    text = (
+        reason if idx.size == 1 else f"{reason} - {idx.size} of {mask.size} rows: {rows_text(rows, idx.size)}"
+    )
     return DataError(text, file=path, column=column, rows=rows, count=int(idx.size))
 
 
@@ -142,11 +166,17 @@ def _parse(text: str) -> tuple[float, str | None]:
     if not math.isfinite(v):
         return v, f"value '{t}' is not a finite number"
     if abs(v) > MAX_ABS_VALUE:
-        return v, f"value {v:.6g} is beyond any physical value in these files (|x| <= {MAX_ABS_VALUE:g} in SI units)"
+        return (
+            v,
+            f"value {v:.6g} is beyond any physical value in these files "
+            f"(|x| <= {MAX_ABS_VALUE:g} in SI units)",
+        )
     return v, None
 
 
-def read_columns(path: str, header: list[str], used: list[str], limit: int | None = None) -> dict[str, np.ndarray]:
+def read_columns(
+    path: str, header: list[str], used: list[str], limit: int | None = None
+) -> dict[str, np.ndarray]:
     """The ``used`` columns of the data rows as float arrays (streaming; see the module notes).
 
     Raises
@@ -167,9 +197,13 @@ def read_columns(path: str, header: list[str], used: list[str], limit: int | Non
             continue
         n = r
         if n > lim:
-            raise DataError(f"more than {lim:,} data rows: files are read into memory and this one is larger than "
-                            f"the limit (raise it with ${MAX_ROWS_ENV}=N or read_csv(..., max_rows=N), about "
-                            f"{8 * len(used)} bytes a row, or decimate the log)", file=path, row=n)
+            raise DataError(
+                f"more than {lim:,} data rows: files are read into memory and this one is larger than "
+                f"the limit (raise it with ${MAX_ROWS_ENV}=N or read_csv(..., max_rows=N), about "
+                f"{8 * len(used)} bytes a row, or decimate the log)",
+                file=path,
+                row=n,
+            )
         if len(cells) != width:
             bad.add(r, f"expected {width} fields, found {len(cells)}", None)
             for c in used:
@@ -185,8 +219,13 @@ def read_columns(path: str, header: list[str], used: list[str], limit: int | Non
         if bad.count > 1:
             cols = f" (columns {', '.join(sorted(bad.columns))})" if len(bad.columns) > 1 else ""
             reason = f"{reason} - {bad.count} bad rows{cols}: {rows_text(bad.rows, bad.count)}"
-        raise DataError(reason, file=path, column=column if len(bad.columns) <= 1 else None, rows=bad.rows,
-                        count=bad.count)
+        raise DataError(
+            reason,
+            file=path,
+            column=column if len(bad.columns) <= 1 else None,
+            rows=bad.rows,
+            count=bad.count,
+        )
     if n == 0:
         raise DataError("no data rows after the header", file=path)
     return {c: np.frombuffer(a, dtype=float) if len(a) else np.zeros(0) for c, a in cols.items()}

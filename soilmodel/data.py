@@ -403,8 +403,8 @@ def _check_finite(cols: dict, source: str) -> None:
         huge = np.abs(values) > MAX_ABS_VALUE
         if huge.any():
             k = int(np.argmax(huge))
-            raise bad_rows_error(huge, source, name, f"value {values[k]:.6g} is beyond any physical value in these "
-                                 f"data (|x| <= {MAX_ABS_VALUE:g} in SI units)")
+            raise bad_rows_error(huge, source, name, f"value {values[k]:.6g} is beyond any physical value in "
+                                 f"these data (|x| <= {MAX_ABS_VALUE:g} in SI units)")
 
 
 def _check_increasing(values: np.ndarray, column: str, source: str) -> None:
@@ -413,8 +413,8 @@ def _check_increasing(values: np.ndarray, column: str, source: str) -> None:
     bad[1:] = np.diff(values) <= 0
     if bad.any():
         k = int(np.argmax(bad))
-        raise bad_rows_error(bad, source, column, f"time must be strictly increasing ({values[k - 1]:.6g} then "
-                             f"{values[k]:.6g})")
+        raise bad_rows_error(bad, source, column, f"time must be strictly increasing ({values[k - 1]:.6g} "
+                             f"then {values[k]:.6g})")
 
 
 def _check_range(values, column, source, *, lo=None, hi=None, lo_open=False, hi_open=False, what="") -> None:

@@ -1,4 +1,5 @@
 """Errors raised for bad input: they name the file, the column (or field) and the rows."""
+
 from __future__ import annotations
 
 __all__ = ["DataError", "SHOWN_ROWS", "rows_text"]
@@ -8,7 +9,8 @@ SHOWN_ROWS = 20
 
 
 def rows_text(rows, count: int | None = None) -> str:
-    """``"rows 3, 7, 9"``, or with more than :data:`SHOWN_ROWS` (or ``count`` larger than given) the first ones
+    """``"rows 3, 7, 9"``, or with more than :data:`SHOWN_ROWS` (or ``count`` larger than given) the first
+    ones
     and the count: ``"rows 3, 7, ... (the first 20 of 312)"``."""
     rows = [int(r) for r in rows]
     n = len(rows) if count is None else int(count)
@@ -41,14 +43,23 @@ class DataError(ValueError):
         The structured fields (``reason`` is ``message``); ``field`` is ``column``.
     """
 
-    def __init__(self, message: str, *, file: str | None = None, column: str | None = None,
-                 row: int | None = None, rows: tuple[int, ...] | list[int] | None = None,
-                 count: int | None = None) -> None:
+    def __init__(
+        self,
+        message: str,
+        *,
+        file: str | None = None,
+        column: str | None = None,
+        row: int | None = None,
+        rows: tuple[int, ...] | list[int] | None = None,
+        count: int | None = None,
+    ) -> None:
         self.rows = tuple(int(r) for r in rows) if rows is not None else None
         if row is None and self.rows:
             row = self.rows[0]
         self.file, self.column, self.row, self.reason = file, column, row, message
-        self.count = int(count) if count is not None else (len(self.rows) if self.rows else int(row is not None))
+        self.count = (
+            int(count) if count is not None else (len(self.rows) if self.rows else int(row is not None))
+        )
         where = []
         if file is not None:
             where.append(f"file {file}")

@@ -6,6 +6,7 @@ file, a UTF-8 byte-order mark is fine), the nesting depth is measured before par
 nested 200,000 levels deep made Python's parser raise ``RecursionError``), and syntax errors
 name the line and column. Errors are :class:`~soiltrack.soilmodel.errors.DataError`.
 """
+
 from __future__ import annotations
 
 import json
@@ -36,7 +37,9 @@ def json_depth(text: str) -> int:
     b = np.frombuffer(bare, dtype=np.uint8)
     if b.size == 0:
         return 0
-    step = ((b == ord("{")) | (b == ord("["))).astype(np.int32) - ((b == ord("}")) | (b == ord("]"))).astype(np.int32)
+    step = ((b == ord("{")) | (b == ord("["))).astype(np.int32) - ((b == ord("}")) | (b == ord("]"))).astype(
+        np.int32
+    )
     return int(max(np.cumsum(step).max(), 0))
 
 
@@ -44,8 +47,11 @@ def loads_json(text: str, source: str = "<json text>", what: str = "JSON") -> An
     """Parse JSON text after the depth check; DataError naming ``source`` otherwise."""
     depth = json_depth(text)
     if depth > MAX_JSON_DEPTH:
-        raise DataError(f"the {what} is nested {depth:,} levels deep; at most {MAX_JSON_DEPTH} are read (this "
-                        "format nests a few levels: not a file of this kind?)", file=source)
+        raise DataError(
+            f"the {what} is nested {depth:,} levels deep; at most {MAX_JSON_DEPTH} are read (this "
+            "format nests a few levels: not a file of this kind?)",
+            file=source,
+        )
     try:
         return json.loads(text)
     except json.JSONDecodeError as e:
@@ -63,10 +69,14 @@ def load_json_file(path: str | os.PathLike, what: str = "JSON file") -> Any:
     except OSError as e:
         raise DataError(f"cannot read the {what}: {e.strerror}", file=src) from None
     if len(raw) > MAX_JSON_BYTES:
-        raise DataError(f"the {what} is larger than {MAX_JSON_BYTES // 2**20} MB: not a file of this kind?", file=src)
+        raise DataError(
+            f"the {what} is larger than {MAX_JSON_BYTES // 2**20} MB: not a file of this kind?", file=src
+        )
     check_encoding(src, raw[:4096], what)
     try:
         text = raw.decode("utf-8-sig")  # a UTF-8 byte-order mark (Windows editors) is fine
     except UnicodeDecodeError as e:
-        raise DataError(f"not a UTF-8 text file (byte {e.start}): save the {what} as UTF-8", file=src) from None
+        raise DataError(
+            f"not a UTF-8 text file (byte {e.start}): save the {what} as UTF-8", file=src
+        ) from None
     return loads_json(text, src, what)

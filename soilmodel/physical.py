@@ -5,6 +5,7 @@ widened one (:data:`~soiltrack.soilmodel.WIDE_BOUNDS`) bound the fits. These are
 outside them is not an unusual soil but a wrong number (a unit slip, a corrupted file), and the
 readers of identified soils (``--fit`` files) refuse it naming the field.
 """
+
 from __future__ import annotations
 
 import math
@@ -25,11 +26,18 @@ PHYSICAL_RANGES: dict[str, tuple[float, float, str, str]] = {
 
 
 def check_physical(name: str, value: float, *, file: str | None = None, field: str | None = None) -> float:
-    """``value`` of the soil parameter ``name`` (a key of :data:`PHYSICAL_RANGES`) if physical, else DataError."""
+    """``value`` of the soil parameter ``name`` (a key of :data:`PHYSICAL_RANGES`) if physical.
+
+    Raises DataError naming ``file`` and ``field`` otherwise.
+    """
     lo, hi, unit, why = PHYSICAL_RANGES[name]
     v = float(value)
     open_lo = name == "friction_angle_deg"
     if not math.isfinite(v) or v < lo or (open_lo and v <= lo) or v > hi:
-        raise DataError(f"{name} = {v:g} {unit} is outside the physical range "
-                        f"{'(' if open_lo else '['}{lo:g}, {hi:g}] {unit}: {why}", file=file, column=field or name)
+        raise DataError(
+            f"{name} = {v:g} {unit} is outside the physical range "
+            f"{'(' if open_lo else '['}{lo:g}, {hi:g}] {unit}: {why}",
+            file=file,
+            column=field or name,
+        )
     return v

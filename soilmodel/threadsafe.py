@@ -20,6 +20,7 @@ child re-creates the lock and empties every :func:`locked_cache` (its solvers ar
 first use, in the child, from scratch). The spawn and forkserver start methods never copy
 this state and need none of it.
 """
+
 from __future__ import annotations
 
 import functools
@@ -67,7 +68,9 @@ def _after_fork_child() -> None:
 
 
 if hasattr(os, "register_at_fork"):
-    os.register_at_fork(before=_before_fork, after_in_parent=_after_fork_parent, after_in_child=_after_fork_child)
+    os.register_at_fork(
+        before=_before_fork, after_in_parent=_after_fork_parent, after_in_child=_after_fork_child
+    )
 
 
 def locked_cache(maxsize: int | None = 128) -> Callable[[Callable[..., T]], Callable[..., T]]:

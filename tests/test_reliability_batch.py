@@ -1,4 +1,5 @@
 """fit_many loses nothing, and a fork beside solver threads never hangs (issue 23, items 1 and 2)."""
+
 import multiprocessing as mp
 import os
 import subprocess
@@ -39,14 +40,21 @@ class Killer(SlipData):
 
 
 def _sweeps(n: int) -> list[SlipData]:
-    return [simulate(LIGHT, TERRAINS["sandy_loam"], kind="sweep", seed=s, normal_loads=[300, 450]) for s in range(n)]
+    return [
+        simulate(LIGHT, TERRAINS["sandy_loam"], kind="sweep", seed=s, normal_loads=[300, 450])
+        for s in range(n)
+    ]
 
 
 @pytest.fixture(scope="module")
 def poisoned():
     items: list = list(_sweeps(24))
-    bad = {3: None, 7: SlipData([0.1], [50.0], [300.0]), 12: "sweep.csv", 18: DriveLog([0.0, 1.0], [1.0, 1.0],
-                                                                                         [1.0, 1.0], [0.1, 0.1])}
+    bad = {
+        3: None,
+        7: SlipData([0.1], [50.0], [300.0]),
+        12: "sweep.csv",
+        18: DriveLog([0.0, 1.0], [1.0, 1.0], [1.0, 1.0], [0.1, 0.1]),
+    }
     for k, v in bad.items():
         items[k] = v
     return items, set(bad)
@@ -171,7 +179,8 @@ FORK_BESIDE_IPOPT = textwrap.dedent("""
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", ["ipopt", "auto"])
 def test_fork_pool_beside_threads_running_ipopt_finishes_five_times(engine):
-    out = subprocess.run([sys.executable, "-c", FORK_BESIDE_IPOPT, engine], capture_output=True, text=True,
-                         timeout=400)
+    out = subprocess.run(
+        [sys.executable, "-c", FORK_BESIDE_IPOPT, engine], capture_output=True, text=True, timeout=400
+    )
     assert out.returncode == 0, out.stdout + out.stderr[-2000:]
     assert out.stdout.split()[-2:] == ["FINISHED", "5"]

@@ -1,5 +1,6 @@
 """The compiled-code cache: the right backend label, no temporary files on a failed write, the fallback
 said once on stderr and in the report (issue 23, item 3)."""
+
 import errno
 import json
 import os
@@ -88,14 +89,45 @@ def test_the_report_says_the_fallback(tmp_path):
     env = dict(os.environ, SOILTRACK_CACHE_DIR=str(tmp_path / "nofolder"), PYTHONPATH=ROOT)
     (tmp_path / "nofolder").write_text("")  # a file where the cache folder should be
     csv_path = tmp_path / "sweep.csv"
-    subprocess.run([sys.executable, "-m", "soiltrack", "simulate", "--kind", "sweep", "--vehicle", "light",
-                    "--terrain", "sandy_loam", "--loads", "300,450", "--seed", "1", "-o", str(csv_path)], env=env,
-                   check=True, capture_output=True, timeout=300)
-    out = subprocess.run([sys.executable, "-m", "soiltrack", "fit", str(csv_path), "--vehicle", "light"], env=env,
-                         capture_output=True, text=True, timeout=300)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "soiltrack",
+            "simulate",
+            "--kind",
+            "sweep",
+            "--vehicle",
+            "light",
+            "--terrain",
+            "sandy_loam",
+            "--loads",
+            "300,450",
+            "--seed",
+            "1",
+            "-o",
+            str(csv_path),
+        ],
+        env=env,
+        check=True,
+        capture_output=True,
+        timeout=300,
+    )
+    out = subprocess.run(
+        [sys.executable, "-m", "soiltrack", "fit", str(csv_path), "--vehicle", "light"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert out.returncode == 0
     assert len([ln for ln in out.stderr.splitlines() if ln.startswith("soiltrack: ")]) == 1
     assert sum(ln.startswith("engine: ") for ln in out.stdout.splitlines()) == 1
-    js = subprocess.run([sys.executable, "-m", "soiltrack", "fit", str(csv_path), "--vehicle", "light", "--json"],
-                        env=env, capture_output=True, text=True, timeout=300)
+    js = subprocess.run(
+        [sys.executable, "-m", "soiltrack", "fit", str(csv_path), "--vehicle", "light", "--json"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert json.loads(js.stdout)["extra"]["engine_backend"] == jitcache.VM_UNWRITABLE

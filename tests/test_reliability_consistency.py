@@ -1,5 +1,6 @@
 """Mislabelled data caught by physics (issue 23, item 5): files made by independent code (the plain-numpy
 oracle of benchmarks/independent_check.py), then given a wrong unit or a missing factor."""
+
 import math
 
 import numpy as np
@@ -22,6 +23,7 @@ def _findings(report) -> dict:
 def _scale(col: int, factor: float):
     def edit(a):
         a[:, col] *= factor
+
     return edit
 
 
@@ -35,12 +37,15 @@ def test_consistent_logs_pass(tmp_path, seed, kw):
     assert abs(math.log(f["imu"].ratio)) < math.log(1.25)
 
 
-@pytest.mark.parametrize("edit,check,expected", [
-    (_scale(1, 0.5), "torque_scale", 2.0),                     # the torque of one sprocket of two
-    (_scale(0, 1000.0), "torque_scale", 1e-3),                 # time in milliseconds
-    (_scale(2, 60 / (2 * math.pi)), "speed_ratio", 0.105),     # sprocket speed in rpm
-    (_scale(3, 3.6), "speed_ratio", 3.6),                      # vehicle speed in km/h
-])
+@pytest.mark.parametrize(
+    "edit,check,expected",
+    [
+        (_scale(1, 0.5), "torque_scale", 2.0),  # the torque of one sprocket of two
+        (_scale(0, 1000.0), "torque_scale", 1e-3),  # time in milliseconds
+        (_scale(2, 60 / (2 * math.pi)), "speed_ratio", 0.105),  # sprocket speed in rpm
+        (_scale(3, 3.6), "speed_ratio", 3.6),  # vehicle speed in km/h
+    ],
+)
 def test_mislabelled_logs_fail_and_say_why(tmp_path, edit, check, expected):
     log = independent_log(tmp_path / "log.csv", 5, edit=edit)
     rep = check_consistency(log, HEAVY)
@@ -50,8 +55,9 @@ def test_mislabelled_logs_fail_and_say_why(tmp_path, edit, check, expected):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("edit", [_scale(1, 0.5), _scale(0, 1000.0), _scale(2, 60 / (2 * math.pi)),
-                                  _scale(3, 3.6)])
+@pytest.mark.parametrize(
+    "edit", [_scale(1, 0.5), _scale(0, 1000.0), _scale(2, 60 / (2 * math.pi)), _scale(3, 3.6)]
+)
 def test_fit_of_a_mislabelled_log_does_not_succeed(tmp_path, edit):
     log = independent_log(tmp_path / "log.csv", 5, edit=edit)
     res = fit(log, HEAVY)

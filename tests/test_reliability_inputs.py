@@ -1,5 +1,6 @@
 """Malformed input: every case exits 2 with one line (no traceback), and the error's structured fields
 name the file, the field or column and the rows (issue 23, item 4; issue 19, item 4.15)."""
+
 import csv
 import json
 
@@ -58,12 +59,16 @@ def test_json_nested_200000_levels_exits_2(tmp_path, capsys, sweep_csv, kind):
     wrap = (lambda s: '{"patches": ' + s + "}") if kind == "route" else (lambda s: s)
     path = _deep(tmp_path / f"{kind}.json", wrap)
     assert json_depth(open(path).read()) > MAX_JSON_DEPTH
-    args = {"vehicle": ["fit", sweep_csv, "--vehicle", path],
-            "fit": ["margin", "--vehicle", "light", "--fit", path],
-            "route": ["route", path, "--vehicle", "light"]}[kind]
+    args = {
+        "vehicle": ["fit", sweep_csv, "--vehicle", path],
+        "fit": ["margin", "--vehicle", "light", "--fit", path],
+        "route": ["route", path, "--vehicle", "light"],
+    }[kind]
     rc, err = _cli(args, capsys)
     assert rc == 2 and _one_error_line(err, args[0])
-    loader = {"vehicle": Vehicle.from_json, "fit": lambda p: load_fit_json(p, LIGHT), "route": read_route}[kind]
+    loader = {"vehicle": Vehicle.from_json, "fit": lambda p: load_fit_json(p, LIGHT), "route": read_route}[
+        kind
+    ]
     with pytest.raises(DataError) as e:
         loader(path)
     assert e.value.file == path
@@ -78,8 +83,11 @@ def test_utf16_or_binary_json_exits_2(tmp_path, capsys, fit_json, kind, encoding
         path.write_bytes(bytes(range(256)) * 4)
     else:
         path.write_bytes(json.dumps(obj).encode(encoding))
-    args = ["margin", "--vehicle", "light", "--fit", str(path)] if kind == "fit" else ["route", str(path),
-                                                                                       "--vehicle", "light"]
+    args = (
+        ["margin", "--vehicle", "light", "--fit", str(path)]
+        if kind == "fit"
+        else ["route", str(path), "--vehicle", "light"]
+    )
     rc, err = _cli(args, capsys)
     assert rc == 2 and _one_error_line(err, args[0])
     with pytest.raises(DataError) as e:
@@ -89,7 +97,9 @@ def test_utf16_or_binary_json_exits_2(tmp_path, capsys, fit_json, kind, encoding
 
 def test_utf8_bom_json_is_read(tmp_path):
     p = tmp_path / "route.json"
-    p.write_bytes(b"\xef\xbb\xbf" + json.dumps({"patches": [{"length_m": 10, "terrain": "lete_sand"}]}).encode())
+    p.write_bytes(
+        b"\xef\xbb\xbf" + json.dumps({"patches": [{"length_m": 10, "terrain": "lete_sand"}]}).encode()
+    )
     assert read_route(str(p)).length_m == 10
 
 
@@ -197,7 +207,7 @@ def test_row_limit_is_configurable_and_refuses_before_reading_on(tmp_path, monke
 
 @pytest.mark.slow
 def test_five_million_rows_refused_with_bounded_memory(tmp_path):
-    """A 5-million-row log is refused at the default limit, in a child process whose peak memory is measured."""
+    """A 5-million-row log is refused at the default limit (a child process; its peak memory measured)."""
     import subprocess
     import sys
 
@@ -206,9 +216,11 @@ def test_five_million_rows_refused_with_bounded_memory(tmp_path):
         fh.write("time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s\n")
         for k in range(50):  # time increases: rows differ only in time
             fh.write("".join(f"{(k * 100_000 + j) * 0.01:.2f},10.5,12.25,0.95\n" for j in range(100_000)))
-    code = ("import resource, sys\nfrom soiltrack.soilmodel import read_csv, DataError\n"
-            "try:\n    read_csv(sys.argv[1])\nexcept DataError as e:\n    print(e.row)\n"
-            "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n")
+    code = (
+        "import resource, sys\nfrom soiltrack.soilmodel import read_csv, DataError\n"
+        "try:\n    read_csv(sys.argv[1])\nexcept DataError as e:\n    print(e.row)\n"
+        "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n"
+    )
     out = subprocess.run([sys.executable, "-c", code, str(p)], capture_output=True, text=True, timeout=600)
     row, kb = out.stdout.split()
     assert int(row) == MAX_ROWS + 1
@@ -222,13 +234,23 @@ def _route(tmp_path, obj) -> str:
     return str(p)
 
 
-@pytest.mark.parametrize("patches,field", [
-    ([{"length_m": 10, "terrain": ["lete_sand"]}], "patches[0].terrain"),
-    ([{"length_m": 1e308, "terrain": "lete_sand"}], "patches[0].length_m"),
-    ([{"length_m": 1.0, "terrain": "lete_sand"}] * 200_000, "patches"),
-    ([{"length_m": 10, "soil": {"cohesion_kpa": 1e300, "friction_angle_deg": 30, "shear_modulus_m": 0.01}}],
-     "patches[0].soil.cohesion_kpa"),
-])
+@pytest.mark.parametrize(
+    "patches,field",
+    [
+        ([{"length_m": 10, "terrain": ["lete_sand"]}], "patches[0].terrain"),
+        ([{"length_m": 1e308, "terrain": "lete_sand"}], "patches[0].length_m"),
+        ([{"length_m": 1.0, "terrain": "lete_sand"}] * 200_000, "patches"),
+        (
+            [
+                {
+                    "length_m": 10,
+                    "soil": {"cohesion_kpa": 1e300, "friction_angle_deg": 30, "shear_modulus_m": 0.01},
+                }
+            ],
+            "patches[0].soil.cohesion_kpa",
+        ),
+    ],
+)
 def test_bad_route_exits_2_naming_the_field(tmp_path, capsys, patches, field):
     path = _route(tmp_path, {"patches": patches})
     with pytest.raises(DataError) as e:
@@ -240,14 +262,31 @@ def test_bad_route_exits_2_naming_the_field(tmp_path, capsys, patches, field):
 
 
 # ------------------------------------------------------------------ --fit values
-@pytest.mark.parametrize("edit,field", [
-    (lambda o: o["parameters"]["cohesion_kpa"].__setitem__("value", 1e300), "parameters.cohesion_kpa.value"),
-    (lambda o: o["parameters"]["friction_angle_deg"].__setitem__("value", 85.0),
-     "parameters.friction_angle_deg.value"),
-    (lambda o: o["parameters"]["shear_modulus_m"].__setitem__("value", 10.0), "parameters.shear_modulus_m.value"),
-    (lambda o: o["parameters"]["cohesion_kpa"].__setitem__("stderr", -0.1), "parameters.cohesion_kpa.stderr"),
-    (lambda o: o["parameters"]["friction_angle_deg"].__setitem__("value", -3.0), "parameters.friction_angle_deg.value"),
-])
+@pytest.mark.parametrize(
+    "edit,field",
+    [
+        (
+            lambda o: o["parameters"]["cohesion_kpa"].__setitem__("value", 1e300),
+            "parameters.cohesion_kpa.value",
+        ),
+        (
+            lambda o: o["parameters"]["friction_angle_deg"].__setitem__("value", 85.0),
+            "parameters.friction_angle_deg.value",
+        ),
+        (
+            lambda o: o["parameters"]["shear_modulus_m"].__setitem__("value", 10.0),
+            "parameters.shear_modulus_m.value",
+        ),
+        (
+            lambda o: o["parameters"]["cohesion_kpa"].__setitem__("stderr", -0.1),
+            "parameters.cohesion_kpa.stderr",
+        ),
+        (
+            lambda o: o["parameters"]["friction_angle_deg"].__setitem__("value", -3.0),
+            "parameters.friction_angle_deg.value",
+        ),
+    ],
+)
 def test_absurd_fit_values_are_refused(tmp_path, capsys, fit_json, edit, field):
     obj = json.loads(json.dumps(fit_json))
     edit(obj)
@@ -267,11 +306,26 @@ def test_the_fit_json_as_printed_is_accepted(tmp_path, fit_json):
 
 
 # ------------------------------------------------------------------ absurd arguments
-@pytest.mark.parametrize("args", [
-    ["margin", "--vehicle", "light", "--terrain", "lete_sand", "--drawbar-N=-1e9"],
-    ["margin", "--vehicle", "light", "--terrain", "lete_sand", "--drawbar-N=1e9"],
-    ["profile", "--vehicle", "light", "--terrain", "lete_sand", "--v0", "0.5", "--v1", "1", "--distance", "1e300"],
-])
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["margin", "--vehicle", "light", "--terrain", "lete_sand", "--drawbar-N=-1e9"],
+        ["margin", "--vehicle", "light", "--terrain", "lete_sand", "--drawbar-N=1e9"],
+        [
+            "profile",
+            "--vehicle",
+            "light",
+            "--terrain",
+            "lete_sand",
+            "--v0",
+            "0.5",
+            "--v1",
+            "1",
+            "--distance",
+            "1e300",
+        ],
+    ],
+)
 def test_absurd_arguments_exit_2(capsys, args):
     rc, err = _cli(args, capsys)
     assert rc == 2 and _one_error_line(err, args[0])
@@ -281,4 +335,3 @@ def test_a_small_negative_drawbar_is_a_push(capsys):
     rc = main(["margin", "--vehicle", "light", "--terrain", "lete_sand", "--drawbar-N=-50", "--json"])
     out = json.loads(capsys.readouterr().out)
     assert rc == 0 and out["traversable"] is True
-
