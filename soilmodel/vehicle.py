@@ -1,6 +1,7 @@
 """Vehicle description (SI), JSON I/O per docs/data-formats.md, and the reference vehicles."""
 from __future__ import annotations
 
+import difflib
 import json
 import math
 import os
@@ -141,12 +142,19 @@ class Vehicle:
         """Build from a JSON-like dict; errors name ``source`` and the offending field."""
         if not isinstance(obj, dict):
             raise DataError("vehicle JSON must be an object", file=source)
+        known = set(_JSON_FIELDS) | {"name"}
+        unknown = sorted(k for k in obj if k not in known)  # first: a typo also "misses" the field it meant
+        if unknown:
+            hints = []
+            for k in unknown:
+                close = difflib.get_close_matches(str(k), known, 1)
+                hints.append(f"'{k}'" + (f" (did you mean '{close[0]}'?)" if close else ""))
+            raise DataError(f"unknown field{'s' if len(unknown) > 1 else ''} {', '.join(hints)}; the fields "
+                            f"are {', '.join(sorted(_JSON_FIELDS))} and name", file=source,
+                            column=str(unknown[0]))
         for key in _REQUIRED:
             if key not in obj:
                 raise DataError(f"missing required field '{key}'", file=source, column=key)
-        unknown = sorted(set(obj) - set(_JSON_FIELDS) - {"name"})
-        if unknown:
-            raise DataError(f"unknown field(s) {unknown}; expected {sorted(_JSON_FIELDS)}", file=source)
         kwargs = {}
         for key, attr in _JSON_FIELDS.items():
             if key not in obj or obj[key] is None:

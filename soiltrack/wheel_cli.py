@@ -60,7 +60,8 @@ def fit_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:
     from .soilmodel.wheel_sweep import read_wheel_sweep
 
     _refuse(a, set(), {"engine": "auto", "sigma": None, "bias_correction": "none", "torque_hold": None,
-                       "slip_noise": None, "intervals": None, "method": "ipopt"}, "its fit is bounded IPOPT")
+                       "slip_noise": None, "intervals": None, "interval_method": None, "bounds": "practical",
+                       "method": "ipopt"}, "its fit is bounded IPOPT")
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
     data = read_wheel_sweep(a.data)

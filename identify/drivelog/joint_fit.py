@@ -161,7 +161,7 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     success = bool(best["ok"] and finite)
 
     wres = -np.sign(e[:, 1] + e[:, 2]) * np.sqrt(np.sum(e ** 2, axis=1))
-    res = raw[:, 0]  # encoder minus predicted, rad/s (same unit as the nominal fit)
+    res = -raw[:, 0]  # predicted minus encoder, rad/s: model - data, as the nominal fit's (and every fit's)
     dof = max(n - int(np.count_nonzero(free)), 1)
     extra = dict(base_extra)
     warnings = list(base_warnings)
