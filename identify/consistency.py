@@ -97,6 +97,9 @@ class ConsistencySettings:
     load_ratio_range : tuple of float
         Plausible median normal load over the vehicle's weight in a sweep made for this vehicle
         (a rig may load one track segment, or add ballast).
+    gap_factor : float
+        A time step longer than this many median steps splits a log into segments (the rows of a
+        subset, a logger pause); the integrals restart at each.
     """
 
     warn_factor: float = 1.25
@@ -107,6 +110,7 @@ class ConsistencySettings:
     min_force_ratio: float = 0.01
     min_force_slip: float = 0.1
     load_ratio_range: tuple[float, float] = (0.05, 20.0)
+    gap_factor: float = 3.0
 
 
 @dataclass(frozen=True)
@@ -168,10 +172,25 @@ def _severity(ratio: float, st: ConsistencySettings) -> str:
     return "fatal" if off > st.fatal_factor else "warning" if off > st.warn_factor else "ok"
 
 
-def _cumtrapz(y: np.ndarray, t: np.ndarray) -> np.ndarray:
-    out = np.zeros_like(y, dtype=float)
-    out[1:] = np.cumsum(0.5 * (y[1:] + y[:-1]) * np.diff(t))
-    return out
+def _segments(t: np.ndarray, gap_factor: float) -> np.ndarray:
+    """Index of each sample's segment start: a time step over ``gap_factor`` x the median step (the rows
+    of a subset, a logger pause) starts a new segment, over which nothing is integrated."""
+    dt = np.diff(t)
+    new = np.zeros(t.size, dtype=bool)
+    new[0] = True
+    if dt.size:
+        new[1:] = dt > gap_factor * float(np.median(dt))
+    starts = np.nonzero(new)[0]
+    return starts[np.searchsorted(starts, np.arange(t.size), side="right") - 1]
+
+
+def _cumtrapz(y: np.ndarray, t: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """The trapezoid integral of ``y`` from each sample's segment start."""
+    inc = np.zeros(y.size, dtype=float)
+    inc[1:] = 0.5 * (y[1:] + y[:-1]) * np.diff(t)
+    inc[start == np.arange(y.size)] = 0.0
+    cum = np.cumsum(inc)
+    return cum - cum[start]
 
 
 @locked_cache(maxsize=16)
@@ -202,12 +221,14 @@ def _cause_torque(rho: float) -> str:
 
 def _drive_findings(log: DriveLog, vehicle: Vehicle, st: ConsistencySettings) -> list[Finding]:
     t = log.time - log.time[0]
+    seg = _segments(t, st.gap_factor)
     v, w, M = log.vehicle_speed, log.sprocket_speed, log.sprocket_torque
     m, I, r = vehicle.mass, vehicle.sprocket_inertia, vehicle.sprocket_radius
     out: list[Finding] = []
     # torque scale: m (v - v0) + I (w - w0) / r = rho int M/r dt - a int R dt - b int v dt - g t
-    y = m * (v - v[0]) + I * (w - w[0]) / r
-    X = np.column_stack([_cumtrapz(M / r, t), -_cumtrapz(_resistance(v, vehicle), t), -_cumtrapz(v, t), -t])
+    y = m * (v - v[seg]) + I * (w - w[seg]) / r
+    X = np.column_stack([_cumtrapz(M / r, t, seg), -_cumtrapz(_resistance(v, vehicle), t, seg),
+                         -_cumtrapz(v, t, seg), -(t - t[seg])])
     scale = np.abs(X).max(axis=0)
     scale[scale == 0] = 1.0
     ok = bool(np.all(np.isfinite(X)) and np.all(np.isfinite(y)) and np.abs(X[:, 0]).max() > 0)
@@ -252,8 +273,8 @@ def _drive_findings(log: DriveLog, vehicle: Vehicle, st: ConsistencySettings) ->
             )
     # IMU against the measured speed
     if log.vehicle_accel is not None:
-        dv = v - v[0]
-        ia = _cumtrapz(log.vehicle_accel, t)
+        dv = v - v[seg]
+        ia = _cumtrapz(log.vehicle_accel, t, seg)
         den = float(ia @ ia)
         if den > 0 and float(dv @ dv) > 0:
             s = float(ia @ dv) / den  # dv ~ s * int(a) -> the IMU is 1/s times what the speed says

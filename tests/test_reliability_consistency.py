@@ -119,3 +119,12 @@ def test_cli_fit_exits_1_on_a_mislabelled_log(tmp_path, capsys):
     assert out["success"] is False
     checks = {f["check"]: f for f in out["extra"]["consistency"]["findings"]}
     assert checks["torque_scale"]["severity"] == "fatal"
+
+
+def test_a_subset_with_gaps_is_checked_segment_by_segment(tmp_path):
+    """The rows of a subset (every other block of 150 samples) pass: nothing is integrated over a gap."""
+    log = independent_log(tmp_path / "log.csv", 9)
+    keep = np.nonzero((np.arange(log.n_samples) // 150) % 2 == 0)[0]
+    rep = check_consistency(log.subset(keep), HEAVY)
+    assert rep.passed and rep.failed_checks == ()
+    assert abs(math.log(_findings(rep)["torque_scale"].ratio)) < math.log(1.25)
