@@ -30,8 +30,8 @@ Slip sweeps:
 * **load scale**: the ``normal_load_N`` column against the vehicle's weight (a thousandth:
   kN for N);
 * **force scale**: the largest force over the normal load, against what any soil can give
-  (below 1 %: a force in kN or a load too large; above the physical maximum of Eq. 2 with the
-  physical soil ranges: impossible);
+  (below 1 %: a force in kN or a load too large; above Eq. 2's maximum over the range of measured
+  soils, :data:`~soiltrack.soilmodel.WIDE_BOUNDS`: impossible);
 * **repeated rows**: rows that repeat an earlier row exactly are counted and named (fitted as
   independent evidence, copies shrink the standard errors).
 
@@ -51,7 +51,7 @@ import numpy as np
 
 from ..soilmodel.data import DriveLog, SlipData
 from ..soilmodel.effects import motion_resistance
-from ..soilmodel.physical import PHYSICAL_RANGES
+from ..soilmodel.soil import WIDE_BOUNDS
 from ..soilmodel.threadsafe import locked_cache
 from ..soilmodel.vehicle import Vehicle
 from .estimates.records import NOT_USABLE
@@ -407,10 +407,7 @@ def _sweep_findings(data: SlipData, vehicle: Vehicle, st: ConsistencySettings) -
     developed = data.slip >= st.min_force_slip
     if developed.any():
         ratio = float(np.max(data.values[developed] / loads[developed]))
-        c_hi, phi_hi = (
-            PHYSICAL_RANGES["cohesion_kpa"][1] * 1e3,
-            math.radians(PHYSICAL_RANGES["friction_angle_deg"][1]),
-        )
+        c_hi, phi_hi = float(WIDE_BOUNDS.upper[0]), float(WIDE_BOUNDS.upper[1])  # the range of measured soils
         top = float(np.max((vehicle.contact_area * c_hi + loads * math.tan(phi_hi)) / loads))
         if ratio < st.min_force_ratio:
             out.append(

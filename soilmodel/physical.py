@@ -1,43 +1,39 @@
-"""Physical ranges of the soil parameters: what no soil can have (a refusal, not a warning).
+"""The range of measured soils, per parameter, for the readers of identified soils (a refusal, not a warning).
 
-The practical range (:data:`~soiltrack.soilmodel.PRACTICAL_BOUNDS`, the seed's soils) and the
-widened one (:data:`~soiltrack.soilmodel.WIDE_BOUNDS`) bound the fits. These are wider: a value
-outside them is not an unusual soil but a wrong number (a unit slip, a corrupted file), and the
-readers of identified soils (``--fit`` files) refuse it naming the field.
+The fits' default box is the seed's practical range (:data:`~soiltrack.soilmodel.PRACTICAL_BOUNDS`);
+the range of measured soils is :data:`~soiltrack.soilmodel.WIDE_BOUNDS` (c 0-200 kPa, phi 1-55 deg,
+K 2-250 mm), which ``--soil`` also enforces. A value outside it in a ``--fit`` file or a route's
+patch soil is not an unusual soil but a wrong number (a unit slip, a corrupted file): it is refused
+naming the field. This module only names those bounds per JSON field; it adds no range of its own.
 """
-
 from __future__ import annotations
 
 import math
 
 from .errors import DataError
+from .soil import WIDE_BOUNDS
 
 __all__ = ["PHYSICAL_RANGES", "check_physical"]
 
-#: ``name -> (low, high, unit, why)``, in the units of the fit JSON. Cohesion: the stiffest clays
-#: reach a few hundred kPa (1,000 kPa is rock, not a soil for Eq. 2). Friction angle: above 0
-#: (a frictionless soil has no Eq. 8) and below 70 deg (the densest gravels reach about 55 deg).
-#: Shear deformation modulus K: 0.1 mm to 1 m (measured soils: about 1 mm to 0.25 m).
+_EDGE = {"cohesion_kpa": (0, 1e-3, "kPa", "c in Pa given as kPa?"),
+         "friction_angle_deg": (1, 180.0 / math.pi, "deg", "phi in radians, or a typo?"),
+         "shear_modulus_m": (2, 1.0, "m", "K in mm given as m?")}
+
+#: ``field -> (low, high, unit, likely cause)`` in the units of the fit JSON, from :data:`WIDE_BOUNDS`.
 PHYSICAL_RANGES: dict[str, tuple[float, float, str, str]] = {
-    "cohesion_kpa": (0.0, 1000.0, "kPa", "no soil's cohesion is negative or above 1,000 kPa (rock)"),
-    "friction_angle_deg": (0.0, 70.0, "deg", "a friction angle lies in (0, 70) deg"),
-    "shear_modulus_m": (1e-4, 1.0, "m", "K lies between 0.1 mm and 1 m (K in mm given as m?)"),
+    key: (float(WIDE_BOUNDS.lower[j] * f), float(WIDE_BOUNDS.upper[j] * f), unit, why)
+    for key, (j, f, unit, why) in _EDGE.items()
 }
 
 
 def check_physical(name: str, value: float, *, file: str | None = None, field: str | None = None) -> float:
-    """``value`` of the soil parameter ``name`` (a key of :data:`PHYSICAL_RANGES`) if physical.
+    """``value`` of the soil parameter ``name`` (a key of :data:`PHYSICAL_RANGES`) if within the range.
 
     Raises DataError naming ``file`` and ``field`` otherwise.
     """
     lo, hi, unit, why = PHYSICAL_RANGES[name]
     v = float(value)
-    open_lo = name == "friction_angle_deg"
-    if not math.isfinite(v) or v < lo or (open_lo and v <= lo) or v > hi:
-        raise DataError(
-            f"{name} = {v:g} {unit} is outside the physical range "
-            f"{'(' if open_lo else '['}{lo:g}, {hi:g}] {unit}: {why}",
-            file=file,
-            column=field or name,
-        )
+    if not math.isfinite(v) or not lo - 1e-9 * abs(lo) <= v <= hi + 1e-9 * abs(hi):
+        raise DataError(f"{name} = {v:g} {unit} is outside the range of measured soils [{lo:g}, {hi:g}] "
+                        f"{unit} ({why})", file=file, column=field or name)
     return v
