@@ -25,15 +25,15 @@ box); the delta method uses the same mapping, differentiated.
 
 from __future__ import annotations
 
-import json
 import math
-import os
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ..soilmodel import PRACTICAL_BOUNDS, DataError, Soil, SoilBounds, Vehicle, format_force
+from ..soilmodel.jsonread import load_json_file
+from .fit_json_checks import check_fit_numbers
 
 __all__ = [
     "SoilUncertainty",
@@ -358,16 +358,11 @@ def load_fit_json(path: str, vehicle: Vehicle) -> SoilUncertainty:
     DataError
         Unreadable file, invalid JSON, missing or non-numeric field (named), failed fit.
     """
-    try:
-        with open(os.fspath(path), encoding="utf-8") as fh:
-            obj = json.load(fh)
-    except OSError as e:
-        raise DataError(f"cannot read fit file: {e.strerror}", file=str(path)) from None
-    except json.JSONDecodeError as e:
-        raise DataError(f"invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}", file=str(path)) from None
+    obj = load_json_file(path, "fit JSON")  # encoding, depth, syntax (soilmodel.jsonread)
     src = str(path)
     if not isinstance(obj, dict):
         raise DataError("fit JSON must be an object (what `soiltrack fit --json` prints)", file=src)
+    check_fit_numbers(obj, src)  # physical ranges, standard errors >= 0 (planning.fit_json_checks)
     for key in ("model", "success", "parameters"):
         if key not in obj:
             raise DataError(

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from .argcheck import check_drawbar
 from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path, vehicle_arg
 from .soilmodel import TERRAINS, DataError
 
@@ -54,6 +55,7 @@ def _cmd_margin(a: argparse.Namespace) -> int:
         output_path(a.plot, "--plot", figure=True)
     vehicle = vehicle_arg(a.vehicle)
     terrain = terrain_args(a, vehicle)
+    check_drawbar(_num(a.drawbar_N, "--drawbar-N"), vehicle)  # a push at most W, a pull at most 10 W
     m = margin(
         terrain,
         vehicle,

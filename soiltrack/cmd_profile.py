@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from .argcheck import check_distance
 from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path, vehicle_arg
 from .cmd_margin import add_terrain_arguments, terrain_args
 from .soilmodel import DataError
@@ -87,6 +88,7 @@ def _cmd_profile(a: argparse.Namespace) -> int:
         raise DataError(f"argument --v0 must be >= 0 m/s, got {v0:g}")
     if v1 < 0:
         raise DataError(f"argument --v1 must be >= 0 m/s, got {v1:g}")
+    check_distance(_num(a.distance, "--distance"))  # beyond any route: refused
     res = profile(
         terrain,
         vehicle,
