@@ -29,7 +29,8 @@ def bracket_signed(slip, lk):
     return ca.sign(slip) * shear_bracket(ca.fabs(slip) * lk)
 
 
-_QUIET: dict[str, bool | int | float | str] = {"expand": True, "print_time": False, "ipopt.sb": "yes", "ipopt.print_level": 0}
+_QUIET: dict[str, bool | int | float | str] = {"expand": True, "print_time": False, "ipopt.sb": "yes",
+                                               "ipopt.print_level": 0}
 
 
 def padded_size(n: int) -> int:
@@ -157,8 +158,9 @@ def run_starts(solver: ca.Function, make_x0, p, lbx, ubx, starts, Fb, Kb, F_ref,
         xs = np.asarray(sol["x"], dtype=float).reshape(-1)
         fval = float(sol["f"])
         ok = bool(st.get("success", False)) and bool(np.all(np.isfinite(xs))) and math.isfinite(fval)
-        cand: dict[str, Any] = {"x": xs, "f": fval, "ok": ok, "status": str(st.get("return_status", "unknown")),
-                "iterations": int(st.get("iter_count", -1)), "starts_tried": j + 1}
+        cand: dict[str, Any] = {"x": xs, "f": fval, "ok": ok,
+                                "status": str(st.get("return_status", "unknown")),
+                                "iterations": int(st.get("iter_count", -1)), "starts_tried": j + 1}
         if best is None or (cand["ok"], -cand["f"]) > (best["ok"], -best["f"]):
             best = cand
         best["starts_tried"] = j + 1

@@ -51,8 +51,8 @@ class DriveLogResiduals:
         return {ch: out["channels"][ch] for ch in CHANNELS}
 
 
-def _params_from(result_or_params: Any, effects: Any) -> tuple[float, float, dict[str, float], Any, dict | None,
-                                                                 bool, str, tuple[float, float] | None]:
+def _params_from(result_or_params: Any, effects: Any) -> tuple[
+        float, float, dict[str, float], Any, dict | None, bool, str, tuple[float, float] | None]:
     """``(F_lim, K, effect values, effects, noise models, hull used, torque_hold, accel noise)``."""
     if isinstance(result_or_params, Mapping):
         p = result_or_params

@@ -86,7 +86,8 @@ def _solver(vehicle: Vehicle, structure: EffectSet, model: str, measured: str, r
     nlp = {"x": X, "p": P, "f": f}
     if g:
         nlp["g"] = ca.vertcat(*g)
-    opts: dict[str, Any] = {"expand": True, "print_time": False, "error_on_fail": False, "ipopt.print_level": 0, "ipopt.sb": "yes"}
+    opts: dict[str, Any] = {"expand": True, "print_time": False, "error_on_fail": False,
+                            "ipopt.print_level": 0, "ipopt.sb": "yes"}
     opts.update(_DEFAULT_OPTS)
     opts.update(dict(opts_key))
     return ca.nlpsol(f"jointfit_{n}", "ipopt", nlp, opts)

@@ -47,7 +47,8 @@ class FitFailed(RuntimeError):
 BP_CRITICAL = 6.635
 
 
-def heteroscedasticity(force: np.ndarray, residuals: np.ndarray, sigma: np.ndarray) -> np.ndarray | np.float64:
+def heteroscedasticity(force: np.ndarray, residuals: np.ndarray,
+                       sigma: np.ndarray) -> np.ndarray | np.float64:
     """Koenker's Breusch-Pagan statistic ``n R^2`` of the squared weighted residuals on the
     squared fitted force, per dataset (leading axes broadcast; NaN where it does not apply).
 

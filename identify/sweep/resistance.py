@@ -177,7 +177,8 @@ def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData,
         if "weights_from" in extra:  # the fit saw the pulls as tractive forces; the column was the pull's
             extra["weights_from"] = STD_COLUMNS[data.measured]
         if base_residuals is None:
-            raise ValueError("fit_resistance: form='fit-sinkage' needs base_residuals (the sweep's residual model)")
+            raise ValueError("fit_resistance: form='fit-sinkage' needs base_residuals (the sweep's "
+                             "residual model)")
         return replace(best, extra=extra, measured="drawbar_pull",
                        residual_model=SinkageResistance(v, base_residuals))
     return replace(best, extra=extra)
