@@ -7,6 +7,7 @@ are integrated by CVODES (implicit BDF), with ``substeps`` output points inside 
 interval, so that limits can be checked between the mesh points. The start is the planned
 initial speed with the sprocket at the planned initial slip.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -18,7 +19,7 @@ from ..soilmodel import DataError, Vehicle
 from ..soilmodel.dynamics import dynamics_expr
 from ..soilmodel.threadsafe import call_solver, locked_cache
 
-__all__ = ["Replay", "replay"]
+__all__ = ["Replay", "replay", "step_function"]
 
 
 @dataclass(frozen=True)
@@ -38,34 +39,49 @@ class Replay:
 
 
 @locked_cache(maxsize=16)
-def _step(vehicle: Vehicle, substeps: int) -> ca.Function:
+def step_function(vehicle: Vehicle, substeps: int) -> ca.Function:
+    """CVODES over one held-torque interval: ``x0 = [v, w]``, ``p = [M, c, phi, K, theta, R_c, dt]``, with
+    ``substeps`` equally spaced outputs."""
     x = ca.SX.sym("x", 2)
     p = ca.SX.sym("p", 7)  # M, c, phi, K, theta, R_c, dt
     d = dynamics_expr(x[0], x[1], p[0], p[1], p[2], p[3], vehicle, {"grade": {"theta_rad": p[4]}})
     dv = d["dv"] - p[5] / vehicle.mass
     ode = p[6] * ca.vertcat(dv, d["dw"])  # normalised time tau in [0, 1]
     grid = list(np.linspace(0.0, 1.0, substeps + 1)[1:])
-    F = ca.integrator("replay", "cvodes", {"x": x, "p": p, "ode": ode}, 0.0, grid,
-                      {"abstol": 1e-10, "reltol": 1e-9, "max_num_steps": 100000, "show_eval_warnings": False})
+    F = ca.integrator(
+        "replay",
+        "cvodes",
+        {"x": x, "p": p, "ode": ode},
+        0.0,
+        grid,
+        {"abstol": 1e-10, "reltol": 1e-9, "max_num_steps": 100000, "show_eval_warnings": False},
+    )
     return F
 
 
 def replay(result, vehicle: Vehicle, substeps: int = 8) -> Replay:
-    """Replay a successful :class:`~.profile.ProfileResult` open-loop (ZOH torque) with CVODES."""
+    """Replay a successful :class:`~.profile.SpeedPlan` open-loop (ZOH torque) with CVODES."""
     if not result.success or not result.mesh:
         raise DataError("only a successful profile can be replayed")
     m = result.mesh
     r = vehicle.sprocket_radius
     n = len(m["torque"])
-    step = _step(vehicle, substeps)
+    step = step_function(vehicle, substeps)
     v0 = float(m["v"][0])
     x = np.array([v0, float(m["w"][0])])
     T, V, Wv, Mq = [0.0], [x[0]], [x[1]], [float(m["torque"][0])]
     node = [True]
     t = 0.0
     for k in range(n):
-        p = [float(m["torque"][k]), float(m["c"][k]), float(m["phi"][k]), float(m["K"][k]), float(m["grade_rad"][k]),
-             float(m["compaction_N"][k]), float(m["dt"][k])]
+        p = [
+            float(m["torque"][k]),
+            float(m["c"][k]),
+            float(m["phi"][k]),
+            float(m["K"][k]),
+            float(m["grade_rad"][k]),
+            float(m["compaction_N"][k]),
+            float(m["dt"][k]),
+        ]
         out, _ = call_solver(step, x0=x, p=p)
         X = np.asarray(out["xf"], dtype=float)
         for j in range(substeps):

@@ -1,9 +1,10 @@
-"""``soiltrack diagnose``: the sim-to-real gap of a CSV against the nominal model (DESIGN.md section 8)."""
+"""``soiltrack diagnose``: the sim-to-real gap of a CSV against the nominal model (docs/data-formats.md)."""
 from __future__ import annotations
 
 import argparse
 
-from .cliutil import EXIT_OK, EXIT_SOLVER, output_path, vehicle_arg
+from .cliutil import EXIT_OK, EXIT_SOLVER, output_path, running_gear_arg
+from .soilmodel.rigid_wheel import RigidWheel
 
 
 def _cmd_diagnose(a: argparse.Namespace) -> int:
@@ -12,8 +13,13 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
 
     if a.plot:
         output_path(a.plot, "--plot", figure=True)  # checked before the work: exit 2, not a traceback after it
-    vehicle = vehicle_arg(a.vehicle)
-    data = read_csv(a.data)
+    gear = running_gear_arg(a.vehicle)
+    if isinstance(gear, RigidWheel):
+        from .wheel_cli import diagnose_wheel_command
+
+        return diagnose_wheel_command(a, gear)
+    vehicle = gear
+    data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle)
     cands = None
     if a.candidates is not None:
         cands = [c.strip() for c in a.candidates.split(",") if c.strip()]
@@ -57,7 +63,7 @@ def add_parser(sub) -> None:
     p.add_argument("--model", choices=("full", "cohesion-free"), default="full")
     p.add_argument("--candidates", metavar="A,B,...",
                    help="candidate effects (default: every effect that shows in this kind of data)")
-    p.add_argument("--torque-hold", choices=("auto", "zoh", "sample"), default="auto",
+    p.add_argument("--torque-hold", choices=("auto", "zoh", "sample"), default=None,
                    help="drive logs: zoh: the torque is held from each sample to the next (a logged command); "
                         "sample: a continuous torque signal sampled at each time (a transducer); auto (the "
                         "default): held, with the sampled torque weighed as a cause outside the library")
@@ -65,6 +71,12 @@ def add_parser(sub) -> None:
                    help="soil bounds of the fits: the practical range (c 0-69 kPa, phi 6-40 deg, K 6-50 mm), "
                         "widened (c 0-200 kPa, phi 1-55 deg, K 2-250 mm), or auto (the default): practical, "
                         "with a soil beyond it weighed as a cause outside the library")
+    p.add_argument("--driving-only", action="store_true",
+                   help="slip sweeps: drop the rows at negative slip (skid: outside the driving model) "
+                        "instead of refusing the file")
+    p.add_argument("--slip-angle", type=float, metavar="0",
+                   help="slip sweeps with a slip_angle_deg column: keep only the rows at slip angle 0 "
+                        "instead of refusing the file")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     p.add_argument("--plot", metavar="PNG", help="save a figure of the held-out residuals, weights and localisation")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
