@@ -71,7 +71,14 @@ def _runner(
     options: dict[str, Any] = {"bounds": PRACTICAL_BOUNDS if bounds is None else bounds}
     if isinstance(data, DriveLog):
         options["torque_hold"] = torque_hold if torque_hold in ("zoh", "sample") else "zoh"
-    return FitRunner(data, vehicle, model, options, settings)
+    return FitRunner(
+        data,
+        vehicle,
+        model,
+        options,
+        settings,
+        hold_given=torque_hold if torque_hold in ("zoh", "sample") else None,
+    )
 
 
 def _setup(runner: FitRunner, nominal_fit: Any) -> Setup:
@@ -156,7 +163,7 @@ def _hypotheses(
         say(f"{name} refitted ({fam})")
         hyps.append(effect_hypothesis(setup, name, fam))
     say("causes outside the library")
-    hyps += outside_hypotheses(setup, train_res, train_fits[0], hold_given)
+    hyps += outside_hypotheses(setup, nominal, train_res, train_fits[0], hold_given)
     if not setup.is_log:
         setup = _sweep_noise(setup, hyps)
     return setup, hyps
@@ -275,6 +282,13 @@ def _ranking(hyps: list[Hypothesis], weights: dict[str, float], hold: Frame) -> 
             )
         )
     return tuple(out)
+
+
+def _hold_of(runner: FitRunner) -> str | None:
+    """The torque hold as assumed: the given one, ``"auto"`` when not given, None for a sweep."""
+    if not runner.is_log:
+        return None
+    return "auto" if runner.hold_given is None else runner.hold_given
 
 
 def _verdict_fit(setup: Setup, dec: Decision, by: dict[str, Hypothesis]) -> Any:
@@ -443,6 +457,7 @@ def _result(
         soil_before=soil_summary(setup.nominal_fit),
         soil_after=soil_summary(vfit) if named and vfit is not None else None,
         converged=bool(conv),
+        torque_hold=_hold_of(setup.runner),
         notes=tuple(notes),
         elapsed_s=time.perf_counter() - t0,
         curves=curves,
@@ -501,6 +516,7 @@ def _no_comparison(
         soil_before=soil_summary(res),
         soil_after=None,
         converged=ok,
+        torque_hold=_hold_of(runner),
         notes=(reason,),
         elapsed_s=time.perf_counter() - t0,
     )

@@ -78,6 +78,8 @@ class FitRunner:
         The diagnosis settings (iteration limits).
     x0
         Warm start of a drive log's fits (the nominal full-data answer), None until known.
+    hold_given
+        A drive log's torque hold when the caller gave it (None: not given).
     """
 
     data: SlipData | DriveLog
@@ -86,6 +88,7 @@ class FitRunner:
     options: dict
     settings: DiagnoseSettings
     x0: np.ndarray | None = field(default=None)
+    hold_given: str | None = None
 
     @property
     def is_log(self) -> bool:

@@ -122,7 +122,7 @@ def _inside_soil(
     return f0 + float(d[0]), k0 + float(d[1])
 
 
-def terrain_hypothesis(setup: Setup, train_fit: Any) -> Hypothesis:
+def terrain_hypothesis(setup: Setup, train_fit: Any, nominal_held: dict[str, np.ndarray]) -> Hypothesis:
     """A different soil inside a time window (drive logs).
 
     The window is found like the effects are screened: by the score test of the nominal fit on all
@@ -171,12 +171,11 @@ def terrain_hypothesis(setup: Setup, train_fit: Any) -> Hypothesis:
                 why="the training samples inside the window give no soil of physical sign",
             )
         rin = channels(_with_soil(train_fit, *soil), data)
-        rout = channels(train_fit, data)
     except DataError as e:
         return _not_formed("terrain_change", f"no soil inside the window ({e})", setup.n, setup.channels)
     held = {ch: np.full(setup.n, np.nan) for ch in setup.channels}
     for ch in setup.channels:
-        held[ch][te] = np.where(inside[te], rin[ch][te], rout[ch][te])
+        held[ch][te] = np.where(inside[te], rin[ch][te], nominal_held[ch][te])
     f0, k0 = float(train_fit.extra["max_thrust_N"]), float(train_fit.extra["shear_modulus_m"])
     params = {
         "fmax_change": {"value": soil[0] / f0 - 1.0, "identifiable": True, "at_bound": False},
@@ -323,11 +322,13 @@ def plateau_hypothesis(setup: Setup) -> Hypothesis:
     )
 
 
-def outside_hypotheses(setup: Setup, train_res: list, train_fit: Any, hold_given: bool) -> list[Hypothesis]:
+def outside_hypotheses(
+    setup: Setup, nominal: Hypothesis, train_res: list, train_fit: Any, hold_given: bool
+) -> list[Hypothesis]:
     """Every outside cause this kind of data can show (formed or not)."""
     out = [wider_soil_hypothesis(setup), clipped_hypothesis(setup)]
     if setup.is_log:
-        out += [delay_hypothesis(setup, train_res), terrain_hypothesis(setup, train_fit)]
+        out += [delay_hypothesis(setup, train_res), terrain_hypothesis(setup, train_fit, nominal.held)]
         if not hold_given:
             out.append(sampled_torque_hypothesis(setup))
     else:

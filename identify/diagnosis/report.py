@@ -139,6 +139,13 @@ def report_text(d: Any) -> str:
         f"confidence {d.confidence:.2f}",
         f"  why: {d.reason}",
     ]
+    if d.torque_hold is not None:
+        how = {
+            "zoh": "held from each sample to the next (given)",
+            "sample": "a sampled continuous signal (given)",
+            "auto": "held from each sample to the next, the sampled torque weighed as an outside cause",
+        }
+        lines.append(f"  torque: {how[d.torque_hold]}")
     if not d.converged:
         lines.append("  CAUTION: a fit the verdict rests on did not converge")
     if not d.ranking:

@@ -120,6 +120,9 @@ class Diagnosis:
         The nominal soil and the soil with the verdict's effect (None for ``none`` and ``unexplained``).
     converged
         Whether the fits the verdict rests on converged.
+    torque_hold
+        A drive log's torque hold as assumed (``"zoh"``, ``"sample"``, or ``"auto"``: held, with the
+        sampled torque weighed as an outside cause); None for a sweep.
     """
 
     data_kind: str
@@ -146,6 +149,7 @@ class Diagnosis:
     soil_after: dict | None
     converged: bool
     notes: tuple[str, ...] = ()
+    torque_hold: str | None = None
     elapsed_s: float = 0.0
     curves: dict = field(default_factory=dict, repr=False)
 
@@ -190,6 +194,7 @@ class Diagnosis:
                 "n_samples": int(self.n_samples),
                 "candidates": list(self.candidates),
                 "residual_sign": "measured - model",
+                "torque_hold": self.torque_hold,
                 "converged": bool(self.converged),
                 "notes": list(self.notes),
                 "elapsed_s": finite(self.elapsed_s),
