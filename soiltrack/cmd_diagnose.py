@@ -27,7 +27,11 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
             from .soilmodel import DataError
 
             raise DataError(f"--candidates expects comma-separated effect names, got {a.candidates!r}")
-    from .soilmodel import DataError, DriveLog
+    from .soilmodel import DataError, DriveLog, SlipData
+
+    if not isinstance(data, (SlipData, DriveLog)):
+        raise DataError(f"diagnose takes a slip sweep or a drive log, not a {type(data).__name__} (a soil test: "
+                        "soiltrack fit)", file=a.data)
 
     if a.torque_hold not in (None, "auto") and not isinstance(data, DriveLog):
         raise DataError("--torque-hold applies to drive logs only", file=a.data)

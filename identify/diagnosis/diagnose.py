@@ -83,12 +83,12 @@ def _runner(
 
 def _setup(runner: FitRunner, nominal_fit: Any) -> Setup:
     data = runner.data
-    order = np.arange(data.n_samples) if runner.is_log else np.argsort(np.asarray(data.slip), kind="stable")
+    x = np.asarray(data.time if isinstance(data, DriveLog) else data.slip, dtype=float)
+    order = np.arange(data.n_samples) if runner.is_log else np.argsort(x, kind="stable")
     R = channels(nominal_fit, data)
     sigma, flat = noise_floors(R, order)
     if runner.is_log and np.all(np.isfinite(nominal_fit.theta)):
         runner.x0 = np.asarray(nominal_fit.theta, dtype=float)
-    x = np.asarray(data.time if runner.is_log else data.slip, dtype=float)
     return Setup(
         runner, nominal_fit, R, sigma, frozenset(flat), make_folds(data, order, runner.settings), x, order
     )
@@ -119,7 +119,7 @@ def _refits(
 
 def _frame(setup: Setup, nominal: Hypothesis, held: bool) -> Frame:
     """The evidence's samples (``held``: the held-out residuals of every fold) with the noise floor."""
-    base = nominal.held if held else nominal.residuals
+    base = nominal.heldout() if held else nominal.residuals
     mask = {ch: np.isfinite(base[ch]) & (np.nan_to_num(setup.sigma[ch]) > 0) for ch in setup.channels}
     return Frame(setup.sigma, mask)
 
@@ -155,7 +155,7 @@ def _hypotheses(
     flexible = flexible_hypothesis(setup, nominal, train_res)
     fz = _frame(setup, nominal, held=True)
     hint = (
-        dm_test(fz.z(nominal.held), fz.z(flexible.held, fz.z(nominal.held)), setup.dm_lag)
+        dm_test(fz.z(nominal.heldout()), fz.z(flexible.heldout(), fz.z(nominal.heldout())), setup.dm_lag)
         < setup.settings.alpha
     )
     hyps = [nominal, flexible]
@@ -181,16 +181,18 @@ def _gap(setup: Setup, hyps: list[Hypothesis], weights: dict[str, float], hold: 
     """The gap tests (:mod:`.gap_test`) on the held-out residuals (and a sweep's pure-error test)."""
     s = setup.settings
     by = {h.name: h for h in hyps}
-    z_nom = hold.z(by[NOMINAL].held)
+    z_nom = hold.z(by[NOMINAL].heldout())
     p: dict[str, float | None] = {}
     if (
         setup.is_log
     ):  # a log's noise floor is measured on thousands of samples; correlated residuals count less
         infl = max(
-            long_run_factor(by[NOMINAL].held[ch][m] / setup.sigma[ch][m]) for ch, m in hold.mask.items()
+            long_run_factor(by[NOMINAL].heldout()[ch][m] / setup.sigma[ch][m]) for ch, m in hold.mask.items()
         )
         p["nominal error vs noise"] = gap_p_value(float(z_nom @ z_nom), z_nom.size, infl)
-    p["flexible term beats nominal"] = dm_test(z_nom, hold.z(by["discrepancy"].held, z_nom), setup.dm_lag)
+    p["flexible term beats nominal"] = dm_test(
+        z_nom, hold.z(by["discrepancy"].heldout(), z_nom), setup.dm_lag
+    )
     top = by[max(weights, key=lambda k: weights[k])]
     if top.family != "nominal" and top.held is not None:
         zt = hold.z(top.held, z_nom)
@@ -253,15 +255,19 @@ def _rmse(held: dict[str, np.ndarray], frame: Frame) -> dict[str, float]:
 
 def _ranking(hyps: list[Hypothesis], weights: dict[str, float], hold: Frame) -> tuple[RankEntry, ...]:
     nominal = hyps[0]
-    z0 = hold.z(nominal.held)
-    before = _rmse(nominal.held, hold)
+    z0 = hold.z(nominal.heldout())
+    before = _rmse(nominal.heldout(), hold)
     out = []
     for h in sorted(hyps, key=lambda h: -weights[h.name]):
         after, shrink = before, None
         if h.held is not None and h.family != "nominal":
             zh = hold.z(h.held, z0)
             after = _rmse(
-                {ch: np.where(np.isnan(h.held[ch]), nominal.held[ch], h.held[ch]) for ch in h.held}, hold
+                {
+                    ch: np.where(np.isnan(h.heldout()[ch]), nominal.heldout()[ch], h.heldout()[ch])
+                    for ch in h.heldout()
+                },
+                hold,
             )
             shrink = (
                 1.0 - float(np.sqrt((zh @ zh) / max(z0 @ z0, 1e-300))) if np.all(np.isfinite(zh)) else None
@@ -428,10 +434,10 @@ def _result(
     curves = {
         "held_x": held_x,
         "x_label": "time" if setup.is_log else "slip",
-        "before": {ch: by[NOMINAL].held[ch][m] for ch, m in hold.mask.items()},
+        "before": {ch: by[NOMINAL].heldout()[ch][m] for ch, m in hold.mask.items()},
         "after": None
         if dec.verdict == NOMINAL or by[shown].held is None
-        else {ch: by[shown].held[ch][m] for ch, m in hold.mask.items()},
+        else {ch: by[shown].heldout()[ch][m] for ch, m in hold.mask.items()},
     }
     return Diagnosis(
         data_kind="drive" if setup.is_log else "sweep",

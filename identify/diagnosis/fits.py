@@ -95,10 +95,13 @@ class FitRunner:
         """Whether the data are a drive log."""
         return isinstance(self.data, DriveLog)
 
-    def run(self, idx: np.ndarray | None, effects: tuple[str, ...] = (), **extra: Any) -> Any:
+    def run(
+        self, idx: np.ndarray | None, effects: tuple[str, ...] = (), start: dict | None = None, **extra: Any
+    ) -> Any:
         """Fit the nominal model (``effects=()``) or the model with ``effects`` on the samples ``idx``.
 
-        ``idx`` None: all the data. ``extra`` overrides the shared options (e.g. ``bounds``,
+        ``idx`` None: all the data. ``start``: the effects' start values (``{effect: {param: value}}``).
+        ``extra`` overrides the shared options (e.g. ``bounds``,
         ``torque_hold``, ``max_iter``). A drive log's fits use the hull channel and one start
         from the warm answer when known; a sweep's effect fit that stalls is retried once with
         :attr:`DiagnoseSettings.retry_max_iter` iterations.
@@ -106,7 +109,7 @@ class FitRunner:
         d = self.data if idx is None else self.data.subset(np.asarray(idx))
         kw = dict(self.options)
         if effects:
-            kw["effects"] = list(effects)
+            kw["effects"] = dict(start) if start is not None else list(effects)
         if self.is_log:
             kw["hull_channel"] = True
             if self.x0 is not None and "x0" not in extra:
@@ -135,7 +138,7 @@ class FitRunner:
         return self.run(
             idx,
             effects,
-            effects={e: dict(st.get(e, {})) or True for e in effects},
+            start={e: dict(st.get(e, {})) or True for e in effects},
             x0=np.asarray(start.theta, dtype=float),
         )
 

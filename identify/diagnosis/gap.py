@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -344,7 +345,7 @@ def range_share(residuals: dict[str, np.ndarray], sigma: dict, x: np.ndarray, lo
     return ch, (min(1.0, ex[ch] / total) if total > 0 else 0.0)
 
 
-def localise(residuals: dict[str, np.ndarray], sigma: dict[str, float], variables: dict[str, np.ndarray],
+def localise(residuals: dict[str, np.ndarray], sigma: dict[str, Any], variables: dict[str, np.ndarray],
              n_bins: int = 6, alpha: float = 0.01) -> list[Segment]:
     """Share and significance of the misfit by channel and by range of each variable.
 

@@ -115,6 +115,12 @@ class Hypothesis:
     fit: Any = None
     train_residuals: list | None = None
 
+    def heldout(self) -> dict[str, np.ndarray]:
+        """Its held-out residuals (raises when it was not held out: the nominal model always is)."""
+        if self.held is None:
+            raise ValueError(f"hypothesis {self.name} was not held out")
+        return self.held
+
     def scored(self, frame: Frame, fill: np.ndarray | None = None) -> "Hypothesis":
         """This hypothesis with ``z`` on the frame's samples (see :meth:`Frame.z`)."""
         return replace(self, z=frame.z(self.residuals, fill))

@@ -100,7 +100,7 @@ def flexible_on(setup: Setup, held: dict[str, np.ndarray], train_res: list) -> d
 
 def flexible_hypothesis(setup: Setup, nominal: Hypothesis, train_res: list) -> Hypothesis:
     """The flexible discrepancy term on top of the nominal model (``n_knots`` parameters per channel)."""
-    held = flexible_on(setup, nominal.held, train_res)
+    held = flexible_on(setup, nominal.heldout(), train_res)
     if setup.is_log:
         resid = held
     else:
@@ -126,23 +126,22 @@ def effect_hypothesis(setup: Setup, name: str, family: str) -> Hypothesis:
     run = setup.runner
     eff = (name,)
     full = None
+    unpredicted = {ch: np.full(setup.n, np.inf) for ch in setup.channels}
     if setup.is_log:
         held, fits, train_res = held_out(setup, lambda tr: run.run_warm(tr, eff))
         resid = held
     else:
         full = run.run(None, eff)
         try:
-            resid = channels(full, setup.data) if usable(full, False) else None
+            resid = channels(full, setup.data) if usable(full, False) else unpredicted
         except DataError:
-            resid = None
+            resid = unpredicted
 
         def fit_fold(tr: np.ndarray) -> Any:
             res = run.run(tr, eff)
             return res if usable(res, False) or not usable(full, False) else run.refit_from(full, tr, eff)
 
         held, fits, train_res = held_out(setup, fit_fold)
-        if resid is None:
-            resid = {ch: np.full(setup.n, np.inf) for ch in setup.channels}
     ref = fits[0] if setup.is_log else full
     conv = all(usable(f, setup.is_log) for f in fits) and (full is None or usable(full, False))
     at = _stretched(fits + ([full] if full is not None else []), name)

@@ -28,6 +28,7 @@ each a hypothesis of the comparison from these tools:
 
 Pure numpy on the fit's residuals and sensitivities; no physics here.
 """
+
 from __future__ import annotations
 
 import math
@@ -91,11 +92,18 @@ def _pinv_quad(S: np.ndarray, V: np.ndarray, atol: float = 1e-8) -> tuple[float,
         return 0.0, 0
     keep = w > atol
     y = U[:, keep].T @ S
-    return float(np.sum(y ** 2 / w[keep])), int(np.count_nonzero(keep))
+    return float(np.sum(y**2 / w[keep])), int(np.count_nonzero(keep))
 
 
-def terrain_window(residuals: np.ndarray, jacobian: np.ndarray, time_s: np.ndarray, scale=(1.0, 1.0),
-                   n_cells: int = 60, alpha: float = 0.01, min_info: float = 1e-3) -> TerrainWindow | None:
+def terrain_window(
+    residuals: np.ndarray,
+    jacobian: np.ndarray,
+    time_s: np.ndarray,
+    scale=(1.0, 1.0),
+    n_cells: int = 60,
+    alpha: float = 0.01,
+    min_info: float = 1e-3,
+) -> TerrainWindow | None:
     """Find the time window in which the soil differs (see the module docstring).
 
     Parameters
@@ -127,11 +135,11 @@ def terrain_window(residuals: np.ndarray, jacobian: np.ndarray, time_s: np.ndarr
     n = e.shape[0]
     if n < 24:
         return None
-    g = np.einsum("kcp,kc->kp", J, e)                 # per-sample scores (n, 2)
-    info = np.einsum("kcp,kcq->kpq", J, J)            # per-sample information (n, 2, 2)
+    g = np.einsum("kcp,kc->kp", J, e)  # per-sample scores (n, 2)
+    info = np.einsum("kcp,kcq->kpq", J, J)  # per-sample information (n, 2, 2)
     cells = np.array_split(np.arange(n), min(n_cells, n // 4))
     m = len(cells)
-    G = np.array([g[c].sum(axis=0) for c in cells])   # (m, 2)
+    G = np.array([g[c].sum(axis=0) for c in cells])  # (m, 2)
     I = np.array([info[c].sum(axis=0) for c in cells])
     I_all = I.sum(axis=0)
     if not np.all(np.isfinite(I_all)) or np.max(np.abs(I_all)) <= 0:
@@ -188,13 +196,23 @@ def terrain_window(residuals: np.ndarray, jacobian: np.ndarray, time_s: np.ndarr
     # the soil change inside the evidence window (one Gauss-Newton step of a separate soil there)
     Vk = Vin[k] - Vin[k] @ Ia @ Vin[k]
     delta = -np.linalg.pinv(Vk) @ S[k] / np.asarray(scale, dtype=float)
-    return TerrainWindow(start=float(t[lo]), end=float(t[hi]), evidence_start=float(t[cells[a][0]]),
-                         evidence_end=float(t[cells[b - 1][-1]]), statistic=stat, dof=dof, p_value=p,
-                         significant=bool(p < alpha), fmax_change=float(delta[0]), k_change=float(delta[1]))
+    return TerrainWindow(
+        start=float(t[lo]),
+        end=float(t[hi]),
+        evidence_start=float(t[cells[a][0]]),
+        evidence_end=float(t[cells[b - 1][-1]]),
+        statistic=stat,
+        dof=dof,
+        p_value=p,
+        significant=bool(p < alpha),
+        fmax_change=float(delta[0]),
+        k_change=float(delta[1]),
+    )
 
 
-def delay_scan(residual: np.ndarray, sprocket_speed: np.ndarray, max_lag: int = 25,
-               idx: np.ndarray | None = None) -> dict:
+def delay_scan(
+    residual: np.ndarray, sprocket_speed: np.ndarray, max_lag: int = 25, idx: np.ndarray | None = None
+) -> dict:
     """Regress the speed-channel residual on ``w(t) - w(t - k)`` for each lag ``k`` (module docstring).
 
     Parameters
@@ -221,7 +239,15 @@ def delay_scan(residual: np.ndarray, sprocket_speed: np.ndarray, max_lag: int = 
     n = r.size
     base = np.nonzero(np.isfinite(r))[0] if idx is None else np.asarray(idx)
     base = base[np.isfinite(r[base])]
-    out = {"lag": 0, "t_stat": 0.0, "p_value": 1.0, "coef": 0.0, "r2": 0.0, "t_by_lag": {}}
+    t_by_lag: dict[int, float] = {}
+    out: dict[str, Any] = {
+        "lag": 0,
+        "t_stat": 0.0,
+        "p_value": 1.0,
+        "coef": 0.0,
+        "r2": 0.0,
+        "t_by_lag": t_by_lag,
+    }
     if base.size < 30:
         return out
     L = int(min(max_lag, base.size // 10))
@@ -251,14 +277,14 @@ def delay_scan(residual: np.ndarray, sprocket_speed: np.ndarray, max_lag: int = 
             v += 2.0 * (1.0 - j / (lag + 1.0)) * float(gk[j:] @ gk[:-j])
         se = math.sqrt(max(v, 1e-300)) / sxx
         tk = b / se
-        out["t_by_lag"][k] = tk
+        t_by_lag[k] = tk
         syy = float(yc @ yc)
         if best is None or tk > best[1]:  # a delay leaves a positive coefficient (module docstring)
             best = (k, tk, b, 1.0 - float(u @ u) / syy if syy > 0 else 0.0)
     if best is None:
         return out
     k, tk, b, r2 = best
-    n_lags = max(1, len(out["t_by_lag"]))
+    n_lags = max(1, len(t_by_lag))
     p = min(1.0, 0.5 * math.erfc(tk / math.sqrt(2.0)) * n_lags) if tk > 0 else 1.0
     out.update({"lag": int(k), "t_stat": float(tk), "p_value": float(p), "coef": float(b), "r2": float(r2)})
     return out
@@ -279,8 +305,14 @@ def shift_speed(data, k: int):
         vs = np.concatenate([np.full(-k, v[0]), v[:k]])
     else:
         vs = v.copy()
-    return DriveLog(data.time, data.sprocket_torque, data.sprocket_speed, vs, data.vehicle_accel,
-                    source=f"{data.source} (vehicle speed shifted {k} samples)")
+    return DriveLog(
+        data.time,
+        data.sprocket_torque,
+        data.sprocket_speed,
+        vs,
+        data.vehicle_accel,
+        source=f"{data.source} (vehicle speed shifted {k} samples)",
+    )
 
 
 #: The speed channel of a drive-log fit's residuals (:data:`~.drivelog_joint.CHANNELS`).
@@ -308,9 +340,17 @@ def refine_delay(nominal, data, vehicle, train: np.ndarray, k0: int, max_lag: in
             try:
                 # at most 60 iterations, one start: a shift far from the delay makes a hard problem (hundreds of
                 # iterations) whose answer is only "worse"; unconverged counts as not fitting
-                r = fit(shift_speed(data, sign * k).subset(train), vehicle, model=nominal.model, hull_channel=True,
-                        x0=nominal.theta, max_iter=60, multistart=False, bounds=nominal.bounds,
-                        torque_hold=str(nominal.extra.get("torque_hold", "zoh")))
+                r = fit(
+                    shift_speed(data, sign * k).subset(train),
+                    vehicle,
+                    model=nominal.model,
+                    hull_channel=True,
+                    x0=nominal.theta,
+                    max_iter=60,
+                    multistart=False,
+                    bounds=nominal.bounds,
+                    torque_hold=str(nominal.extra.get("torque_hold", "zoh")),
+                )
                 fits[k] = r if r.success else None
             except Exception:  # noqa: BLE001 - a shift that leaves too few usable samples
                 fits[k] = None
@@ -329,5 +369,3 @@ def refine_delay(nominal, data, vehicle, train: np.ndarray, k0: int, max_lag: in
     if not math.isfinite(cost(best)) or cost(best) >= cost(0):
         return 0, None
     return sign * best, fits[best]
-
-

@@ -328,7 +328,7 @@ def outside_hypotheses(
     """Every outside cause this kind of data can show (formed or not)."""
     out = [wider_soil_hypothesis(setup), clipped_hypothesis(setup)]
     if setup.is_log:
-        out += [delay_hypothesis(setup, train_res), terrain_hypothesis(setup, train_fit, nominal.held)]
+        out += [delay_hypothesis(setup, train_res), terrain_hypothesis(setup, train_fit, nominal.heldout())]
         if not hold_given:
             out.append(sampled_torque_hypothesis(setup))
     else:

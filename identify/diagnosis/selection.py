@@ -10,6 +10,7 @@
 - :func:`confusable_groups` and :func:`separating_experiment`: effects the data cannot tell apart and
   the experiment that would.
 """
+
 from __future__ import annotations
 
 import math
@@ -17,8 +18,17 @@ import numpy as np
 
 from ..estimates.distributions import chi2_sf
 
-__all__ = ["SEPARATING_EXPERIMENTS", "LOOKALIKES", "separating_experiment", "hat_basis", "fit_discrepancy",
-           "confusable_groups", "dm_test", "gap_p_value", "stacking_weights"]
+__all__ = [
+    "SEPARATING_EXPERIMENTS",
+    "LOOKALIKES",
+    "separating_experiment",
+    "hat_basis",
+    "fit_discrepancy",
+    "confusable_groups",
+    "dm_test",
+    "gap_p_value",
+    "stacking_weights",
+]
 
 from .hypotheses import DISCREPANCY, NOMINAL
 
@@ -35,15 +45,20 @@ SEPARATING_EXPERIMENTS: dict[frozenset, str] = {
     "(beyond 30 %): strain softening lowers the thrust itself, slip sinkage only adds resistance",
     frozenset({"grade", "slip_sinkage"}): "a sweep down to very small slip (or a run at near-constant slip "
     "on level ground): a grade costs force at every slip, slip sinkage only as the slip grows",
-    frozenset({"grade", "drivetrain_friction"}): "the same stretch driven in both directions (a grade changes "
+    frozenset(
+        {"grade", "drivetrain_friction"}
+    ): "the same stretch driven in both directions (a grade changes "
     "sign, a drivetrain loss does not), a coast-down, or a torque sensor at the track: Coulomb drivetrain "
     "friction acts between sensor and track, a grade on the hull",
     frozenset({"mass_error", "radius_error"}): "a speed reference independent of the sprocket (e.g. a "
     "measured distance over a timed run): a radius error offsets the apparent slip by -eps, a mass "
     "error does not",
-    frozenset({"radius_error", "grade"}): "measure the track's effective radius (distance per sprocket turn at "
-    "zero drawbar on firm ground)",
-    frozenset({"hump_shear", "pressure_distribution"}): "a sweep at two normal loads or two centre-of-gravity "
+    frozenset(
+        {"radius_error", "grade"}
+    ): "measure the track's effective radius (distance per sprocket turn at zero drawbar on firm ground)",
+    frozenset(
+        {"hump_shear", "pressure_distribution"}
+    ): "a sweep at two normal loads or two centre-of-gravity "
     "positions: the pressure distribution moves with the load transfer, strain softening does not",
     frozenset({"pressure_distribution", "radius_error"}): "measure the effective radius on firm ground; a "
     "radius error shifts the whole slip axis, a pressure distribution reshapes the curve",
@@ -52,7 +67,9 @@ SEPARATING_EXPERIMENTS: dict[frozenset, str] = {
     frozenset({"speed_resistance", "slip_sinkage"}): "runs at the same slip and two speeds (or the same "
     "speed and two drawbar loads)",
     frozenset({"mass_error", "speed_resistance"}): "runs at two constant speeds and an acceleration run",
-    frozenset({"mass_error", "slip_sinkage"}): "a run at constant speed with a different drawbar load (slip sinkage "
+    frozenset(
+        {"mass_error", "slip_sinkage"}
+    ): "a run at constant speed with a different drawbar load (slip sinkage "
     "grows with the slip, a mass error only shows with acceleration), or a run at another payload",
     frozenset({"drivetrain_friction", "radius_error"}): "a torque sensor at the track or a coast-down; "
     "and a measured distance per sprocket turn",
@@ -63,12 +80,12 @@ SEPARATING_EXPERIMENTS: dict[frozenset, str] = {
 #: effect says that these would look the same.
 LOOKALIKES = {
     "grade": "any constant extra force on the vehicle (a towed load, a steady wind, compaction resistance) "
-             "and a zero offset of the force sensor (a sweep) or of the accelerometer (a drive log)",
+    "and a zero offset of the force sensor (a sweep) or of the accelerometer (a drive log)",
     "drivetrain_friction": "a zero offset of the torque sensor (it looks like the Coulomb part)",
     "radius_error": "a scale error of the vehicle-speed sensor (it shifts the apparent slip the same way; only "
-                    "the torque arm differs)",
+    "the torque arm differs)",
     "mass_error": "a scale error of the accelerometer (in the hull balance; a mass error also changes the "
-                  "normal load)",
+    "normal load)",
     "slip_sinkage": "any resistance that grows with the slip (bulldozing, a track digging in)",
     "speed_resistance": "any resistance that grows with speed (air drag, a viscous loss in the running gear)",
 }
@@ -79,8 +96,10 @@ def separating_experiment(a: str, b: str) -> str:
     text = SEPARATING_EXPERIMENTS.get(frozenset({a, b}))
     if text:
         return text
-    return (f"data over a wider range of the variables where {a} and {b} differ (other slips, speeds, "
-            "loads or accelerations), or a direct measurement of one of them")
+    return (
+        f"data over a wider range of the variables where {a} and {b} differ (other slips, speeds, "
+        "loads or accelerations), or a direct measurement of one of them"
+    )
 
 
 # ----------------------------------------------------------------------------- discrepancy term
@@ -113,8 +132,9 @@ def hat_basis(x: np.ndarray, knots: np.ndarray) -> np.ndarray:
     return B
 
 
-def fit_discrepancy(x_train: np.ndarray, r_train: np.ndarray, x_test: np.ndarray, n_knots: int,
-                    ridge: float = 1e-6) -> tuple[np.ndarray, int]:
+def fit_discrepancy(
+    x_train: np.ndarray, r_train: np.ndarray, x_test: np.ndarray, n_knots: int, ridge: float = 1e-6
+) -> tuple[np.ndarray, int]:
     """Fit a hat-function spline in ``x`` to training residuals and predict it at ``x_test``.
 
     Knots at quantiles of ``x_train``; a tiny ridge keeps empty knot intervals harmless.
@@ -127,13 +147,16 @@ def fit_discrepancy(x_train: np.ndarray, r_train: np.ndarray, x_test: np.ndarray
         return np.full(np.size(x_test), float(np.mean(r_train))), 1
     B = hat_basis(x_train, knots)
     scale = float(np.mean(B.T @ B).real) or 1.0
-    beta = np.linalg.solve(B.T @ B + ridge * scale * np.eye(knots.size), B.T @ np.asarray(r_train, dtype=float))
+    beta = np.linalg.solve(
+        B.T @ B + ridge * scale * np.eye(knots.size), B.T @ np.asarray(r_train, dtype=float)
+    )
     return hat_basis(x_test, knots) @ beta, int(knots.size)
 
 
 # ----------------------------------------------------------------------------- weights and verdict
-def stacking_weights(pointwise: dict[str, np.ndarray], block: int = 1, n_boot: int = 400,
-                     seed: int = 20261123) -> dict[str, float]:
+def stacking_weights(
+    pointwise: dict[str, np.ndarray], block: int = 1, n_boot: int = 400, seed: int = 20261123
+) -> dict[str, float]:
     """Pseudo-BMA+ weights: Akaike-type weights averaged over a Bayesian bootstrap of the held-out samples.
 
     ``pointwise[m]`` is the held-out log score of model ``m`` per sample (``-z^2/2`` for noise-
@@ -171,9 +194,14 @@ def stacking_weights(pointwise: dict[str, np.ndarray], block: int = 1, n_boot: i
     return {m: float(w) for m, w in zip(names, out)}
 
 
-def confusable_groups(weights: dict[str, float], directions: dict[str, np.ndarray | None],
-                      min_ratio: float = 0.2, min_corr: float = 0.9, min_weight: float = 0.05,
-                      verdict: str | None = None) -> list[tuple[tuple[str, ...], float]]:
+def confusable_groups(
+    weights: dict[str, float],
+    directions: dict[str, np.ndarray | None],
+    min_ratio: float = 0.2,
+    min_corr: float = 0.9,
+    min_weight: float = 0.05,
+    verdict: str | None = None,
+) -> list[tuple[tuple[str, ...], float]]:
     """Pairs of candidates the data cannot tell apart.
 
     A pair of named candidates is confusable when their weights are close (the smaller at least
@@ -184,15 +212,16 @@ def confusable_groups(weights: dict[str, float], directions: dict[str, np.ndarra
     two apart. Returns ``[((a, b), corr), ...]`` (corr NaN when a direction is unknown).
     """
     names = [k for k in weights if k not in (NOMINAL, DISCREPANCY)]
-    out = []
+    out: list[tuple[tuple[str, ...], float]] = []
     for i, a in enumerate(names):
-        for b in names[i + 1:]:
+        for b in names[i + 1 :]:
             wa, wb = weights[a], weights[b]
             if max(wa, wb) < min_weight and verdict not in (a, b):
                 continue
             da, db = directions.get(a), directions.get(b)
-            ok = da is not None and db is not None and np.linalg.norm(da) > 0 and np.linalg.norm(db) > 0
-            corr = float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db))) if ok else float("nan")
+            corr = float("nan")
+            if da is not None and db is not None and np.linalg.norm(da) > 0 and np.linalg.norm(db) > 0:
+                corr = float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db)))
             close = min(wa, wb) >= max(min_ratio * max(wa, wb), min_weight)
             if close and (not math.isfinite(corr) or corr >= min_corr):
                 out.append(((a, b), corr))

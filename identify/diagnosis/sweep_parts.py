@@ -11,6 +11,7 @@ of them, and effects whose signatures bend the thrust-slip curve:
   top of a fit, its own parameters refitted with it.
 - **A plateau** (:func:`find_plateau`): the largest readings flat at one level within the noise.
 """
+
 from __future__ import annotations
 
 import math
@@ -21,12 +22,21 @@ import numpy as np
 from ...soilmodel.data import SlipData
 from ..estimates.distributions import f_sf
 
-__all__ = ["sweep_folds", "information_weights", "effect_start", "lack_of_fit",
-           "fit_jacobian", "Plateau", "find_plateau", "PLATEAU_SHARE"]
+__all__ = [
+    "sweep_folds",
+    "information_weights",
+    "effect_start",
+    "lack_of_fit",
+    "fit_jacobian",
+    "Plateau",
+    "find_plateau",
+    "PLATEAU_SHARE",
+]
 
 
-
-def sweep_folds(order: np.ndarray, n_blocks: int = 10, n_folds: int = 5) -> list[tuple[np.ndarray, np.ndarray]]:
+def sweep_folds(
+    order: np.ndarray, n_blocks: int = 10, n_folds: int = 5
+) -> list[tuple[np.ndarray, np.ndarray]]:
     """Blocked folds of a sweep: ``n_blocks`` contiguous blocks in slip order, fold k holds out blocks k, k+f, ...
 
     Parameters
@@ -56,8 +66,9 @@ def sweep_folds(order: np.ndarray, n_blocks: int = 10, n_folds: int = 5) -> list
     return out
 
 
-def information_weights(z: dict[str, np.ndarray], k: dict[str, int], n_boot: int = 400,
-                        seed: int = 20261123) -> dict[str, float]:
+def information_weights(
+    z: dict[str, np.ndarray], k: dict[str, int], n_boot: int = 400, seed: int = 20261123
+) -> dict[str, float]:
     """Pseudo-BMA+ weights of in-sample fits: AIC on all the data, averaged over a Bayesian bootstrap.
 
     ``z[m]`` are model m's residuals over the noise level at every sample (the same samples for
@@ -156,7 +167,11 @@ def fit_jacobian(res, data: SlipData) -> np.ndarray:
     """Jacobian ``(n, 3 + m)`` of a sweep fit's prediction at its answer, on the samples of ``data``."""
     from ..sweep.model import SweepResiduals, fit_vector, predict
 
-    rm = res.residual_model if isinstance(getattr(res, "residual_model", None), SweepResiduals) else SweepResiduals()
+    rm = (
+        res.residual_model
+        if isinstance(getattr(res, "residual_model", None), SweepResiduals)
+        else SweepResiduals()
+    )
     x = fit_vector(res)
     effects = res.effect_structure if res.effect_labels else None
     W = data.loads(res.vehicle.weight).astype(float)
@@ -198,18 +213,21 @@ class Plateau:
 
     def describe(self) -> str:
         """One plain sentence."""
-        return (f"the {len(self.rows)} largest readings (slip {self.slip_range[0]:.3g} to {self.slip_range[1]:.3g}) "
-                f"are flat at {self.level:.6g} N within the noise, while the soil's curve through the readings below "
-                "them still rises there: a load cell or rig at its limit looks like this, and no effect in the "
-                "library models it")
+        return (
+            f"the {len(self.rows)} largest readings (slip {self.slip_range[0]:.3g} to {self.slip_range[1]:.3g}) "
+            f"are flat at {self.level:.6g} N within the noise, while the soil's curve through the readings below "
+            "them still rises there: a load cell or rig at its limit looks like this, and no effect in the "
+            "library models it"
+        )
 
 
 #: Smallest share of a sweep's samples a plateau must hold to be considered.
 PLATEAU_SHARE = 1.0 / 3.0
 
 
-def find_plateau(values: np.ndarray, slip: np.ndarray, sigma: np.ndarray, fit_below,
-                 min_share: float = PLATEAU_SHARE) -> Plateau | None:
+def find_plateau(
+    values: np.ndarray, slip: np.ndarray, sigma: np.ndarray, fit_below, min_share: float = PLATEAU_SHARE
+) -> Plateau | None:
     """The best model "nominal soil below, one flat level on the largest readings" of a sweep.
 
     For each count m of largest readings put on the level (at least ``min_share`` of the sweep),
@@ -246,7 +264,7 @@ def find_plateau(values: np.ndarray, slip: np.ndarray, sigma: np.ndarray, fit_be
     top = np.argsort(-y, kind="stable")
     w = 1.0 / s[top] ** 2
     sw, swy, swy2 = np.cumsum(w), np.cumsum(w * y[top]), np.cumsum(w * y[top] ** 2)
-    chi_top = np.maximum(swy2 - swy ** 2 / sw, 0.0)  # spread of the top m readings about their mean, m = 1..n
+    chi_top = np.maximum(swy2 - swy**2 / sw, 0.0)  # spread of the top m readings about their mean, m = 1..n
     ms = np.arange(max(3, int(math.ceil(min_share * n))), n)
     best: tuple[float, int, np.ndarray] | None = None
     for m in sorted(ms, key=lambda m: chi_top[m - 1]):
@@ -272,10 +290,15 @@ def find_plateau(values: np.ndarray, slip: np.ndarray, sigma: np.ndarray, fit_be
         z[on] = (y[on] - lev) / s[on]
         total = float(z @ z)
         if best is None or total < best[0]:
-            best = (total, m, z)
+            best = (total, int(m), z)
     if best is None:
         return None
-    _, m, z = best
-    on = np.sort(top[:m])
-    return Plateau(float(swy[m - 1] / sw[m - 1]), tuple(int(k) + 1 for k in on),
-                   (float(np.min(slip[on])), float(np.max(slip[on]))), z, float(1.0 / math.sqrt(sw[m - 1])))
+    _, m_best, z = best
+    on = np.sort(top[:m_best])
+    return Plateau(
+        float(swy[m_best - 1] / sw[m_best - 1]),
+        tuple(int(k) + 1 for k in on),
+        (float(np.min(slip[on])), float(np.max(slip[on]))),
+        z,
+        float(1.0 / math.sqrt(sw[m_best - 1])),
+    )
