@@ -70,7 +70,8 @@ def add_parser(sub) -> None:
     p.add_argument("--torque-hold", choices=("auto", "zoh", "sample"), default=None,
                    help="drive logs: zoh: the torque is held from each sample to the next (a logged command); "
                         "sample: a continuous torque signal sampled at each time (a transducer); auto (the "
-                        "default): held, with the sampled torque weighed as a cause outside the library")
+                        "default): the one with which the nominal model predicts held-out blocks better (held "
+                        "unless sampled is significantly better; the report says which)")
     p.add_argument("--bounds", choices=("auto", "practical", "wide"), default="auto",
                    help="soil bounds of the fits: the practical range (c 0-69 kPa, phi 6-40 deg, K 6-50 mm), "
                         "widened (c 0-200 kPa, phi 1-55 deg, K 2-250 mm), or auto (the default): practical, "

@@ -98,7 +98,9 @@ def test_report_json_and_plot(tmp_path):
     assert set(js["ranking"][0]) >= {"effect", "weight", "holdout_rmse_before", "holdout_rmse_after", "shrink",
                                      "parameters"}
     assert js["confidence"] == js["ranking"][0]["weight"]
-    assert {t["test"] for t in js["gap_tests"]} >= {"nominal error vs noise", "lack of fit"}
+    assert {t["test"] for t in js["gap_tests"]} == {"flexible term beats nominal", "heaviest beats nominal",
+                                                    "lack of fit"}  # no repeated rows: no pure-error test
+    assert js["gap_left"]["test"] == "gap left by hump_shear" and not js["gap_left"]["significant"]
     assert all(t["level"] == 0.01 for t in js["gap_tests"])
     assert {x["effect"] for x in js["excluded"]} >= {"clipped_sensor"}
     shares = [s["share"] for s in js["localisation"]]

@@ -2,7 +2,8 @@
 
 The procedure, one step per module:
 
-1. **Data** (:mod:`.setup`, :mod:`.fits`): the candidates, the fit runner, the folds.
+1. **Data** (:mod:`.setup`, :mod:`.fits`, :mod:`.hold`): the candidates, the fit runner, the folds;
+   a drive log's torque hold when not given.
 2. **Screening** (:mod:`.screening`): the nominal model on all the data, with every library
    effect's score test; it ranks the effects for refitting and gives their sensitivities.
 3. **The gap** (:mod:`.gap`, :mod:`.gap_test`): the noise floor, the held-out error of the nominal
@@ -37,6 +38,7 @@ from .evidence import HeldOutEvidence, PenalisedEvidence
 from .fits import SOIL_KEYS, FitRunner, channels, effect_parameters, soil_summary, usable
 from .gap import long_run_factor
 from .gap_test import GapDecision, decide_gap, pure_error_lack_of_fit
+from .hold import HoldChoice, choose_hold
 from .hypotheses import NOMINAL, Frame, Hypothesis
 from .library import effect_hypothesis, flexible_hypothesis, flexible_on, nominal_hypothesis
 from .localisation import localisation
@@ -50,7 +52,8 @@ from .setup import Setup, check_candidates, make_folds, noise_floors
 
 __all__ = ["diagnose", "Diagnosis", "RankEntry", "TORQUE_HOLDS"]
 
-#: Accepted ``torque_hold`` values: None and ``"auto"`` (not given: the sampled torque is a hypothesis).
+#: Accepted ``torque_hold`` values; None and ``"auto"``: not given, chosen on the held-out blocks
+#: (:mod:`.hold`).
 TORQUE_HOLDS = (None, "auto", "zoh", "sample")
 
 
@@ -144,14 +147,14 @@ def _sweep_noise(setup: Setup, hyps: list[Hypothesis]) -> Setup:
 
 def _hypotheses(
     setup: Setup,
+    base: tuple[Hypothesis, list, list],
     screens: list[Screen],
     cands: tuple[str, ...],
     weigh_outside: bool,
-    hold_given: bool,
     say: Callable[[str], None],
 ) -> tuple[Setup, list[Hypothesis]]:
-    say("the nominal model and the flexible term on the training blocks")
-    nominal, train_fits, train_res = nominal_hypothesis(setup)
+    """Every hypothesis fitted: ``base`` is the nominal one with its training fits and residuals."""
+    nominal, train_fits, train_res = base
     flexible = flexible_hypothesis(setup, nominal, train_res)
     fz = _frame(setup, nominal, held=True)
     hint = (
@@ -163,10 +166,50 @@ def _hypotheses(
         say(f"{name} refitted ({fam})")
         hyps.append(effect_hypothesis(setup, name, fam))
     say("causes outside the library")
-    hyps += outside_hypotheses(setup, nominal, train_res, train_fits[0], hold_given)
+    hyps += outside_hypotheses(setup, nominal, train_res, train_fits[0])
     if not setup.is_log:
         setup = _sweep_noise(setup, hyps)
     return setup, hyps
+
+
+def _data_step(
+    runner: FitRunner, cands: tuple[str, ...], say: Callable[[str], None]
+) -> tuple[Any, list[Screen], Setup | None, tuple[Hypothesis, list, list] | None, HoldChoice | None]:
+    """Screening, the setup and the nominal hypothesis; for a log whose torque hold was not given, the hold
+    chosen on the held-out blocks (:mod:`.hold`) and, when it is the sampled one, all of it again with it."""
+    data = runner.data
+    kind = "drive" if runner.is_log else "sweep"
+    library = cands + tuple(e for e, spec in EFFECTS.items() if kind in spec.shows_in and e not in cands)
+    chosen: HoldChoice | None = None
+    for attempt in range(2):
+        say(f"screening: the nominal model on all {data.n_samples} samples, with the score tests")
+        nominal_fit, screens = screen(
+            data,
+            runner.vehicle,
+            library,
+            model=runner.model,
+            hac_lag=None if runner.is_log else 0,
+            fit_options=runner.options,
+        )
+        if data.n_samples < runner.settings.min_samples or not usable(nominal_fit, runner.is_log):
+            return nominal_fit, screens, None, None, chosen
+        setup = _setup(runner, nominal_fit)
+        say("the nominal model and the flexible term on the training blocks")
+        base = nominal_hypothesis(setup)
+        if not runner.is_log or attempt == 1:
+            return nominal_fit, screens, setup, base, chosen
+        if runner.hold_given is not None:
+            return nominal_fit, screens, setup, base, HoldChoice(runner.hold_given, True)
+        chosen = choose_hold(setup, base[0])
+        if chosen.hold == "zoh":
+            return nominal_fit, screens, setup, base, chosen
+        say(
+            f"the sampled torque predicts the held-out blocks better (p = {chosen.p_value:.2g}): "
+            "everything refitted with it"
+        )
+        runner.options["torque_hold"] = "sample"
+        runner.x0 = None
+    raise AssertionError("unreachable: the second pass returns")
 
 
 def _score(setup: Setup, hyps: list[Hypothesis]) -> tuple[list[Hypothesis], Frame]:
@@ -206,20 +249,19 @@ def _gap(setup: Setup, hyps: list[Hypothesis], weights: dict[str, float], hold: 
 
 
 def _gap_left(setup: Setup, top: Hypothesis, hold: Frame, z_nom: np.ndarray) -> tuple[str, float] | None:
-    """``(test, p-value)`` that a flexible term on top of the heaviest hypothesis still explains its residuals
-    (a log: held-out, Diebold-Mariano; a sweep: the lack-of-fit F test on top of its fit on all the data)."""
+    """``(test, p-value)`` of the gap the heaviest hypothesis leaves, tested like the nominal model's: a log's
+    held-out (a flexible term fitted to its training residuals predicts its held-out residuals better,
+    Diebold-Mariano); a sweep's in-sample (the lack-of-fit F test on top of its fit on all the data)."""
     name = f"gap left by {top.name}"
     if top.family in ("nominal", "flexible"):
         return None
-    if setup.is_log:
-        if top.train_residuals is None or top.held is None:
-            return None
-        zt = hold.z(top.held, z_nom)
-        zf = hold.z(flexible_on(setup, top.held, top.train_residuals), zt)
-        return name, dm_test(zt, zf, setup.dm_lag)
-    if top.fit is None or not usable(top.fit, False):
+    if not setup.is_log:
+        return (name, _lack_of_fit(setup, top.residuals, top.fit)) if usable(top.fit, False) else None
+    if top.train_residuals is None or top.held is None:
         return None
-    return name, _lack_of_fit(setup, top.residuals, top.fit)
+    zt = hold.z(top.held, z_nom)
+    zf = hold.z(flexible_on(setup, top.held, top.train_residuals), zt)
+    return name, dm_test(zt, zf, setup.dm_lag)
 
 
 def _lack_of_fit(setup: Setup, residuals: dict[str, np.ndarray], res: Any) -> float:
@@ -290,13 +332,6 @@ def _ranking(hyps: list[Hypothesis], weights: dict[str, float], hold: Frame) -> 
     return tuple(out)
 
 
-def _hold_of(runner: FitRunner) -> str | None:
-    """The torque hold as assumed: the given one, ``"auto"`` when not given, None for a sweep."""
-    if not runner.is_log:
-        return None
-    return "auto" if runner.hold_given is None else runner.hold_given
-
-
 def _verdict_fit(setup: Setup, dec: Decision, by: dict[str, Hypothesis]) -> Any:
     """The verdict's effect fitted on all the data (a sweep's is made already), or None."""
     if dec.verdict not in by or by[dec.verdict].family != "candidate":
@@ -335,7 +370,8 @@ def diagnose(
         Also weigh the library effects left out of ``candidates`` (as hypotheses outside them).
     torque_hold
         Drive logs: ``"zoh"`` (held, a logged command) or ``"sample"`` (a sampled transducer signal);
-        None or ``"auto"``: held, with the sampled torque weighed as an outside cause.
+        None or ``"auto"``: the one of the two with which the nominal model predicts the held-out blocks
+        better (held unless sampled is significantly better, :mod:`.hold`); the report says which.
     bounds
         Soil bounds of every fit (default: the practical range; a soil beyond it is an outside cause).
     settings
@@ -356,21 +392,10 @@ def diagnose(
     runner = _runner(data, vehicle, model, torque_hold, bounds, settings)
     cands = check_candidates(candidates, runner.is_log)
     say = progress if progress is not None else (lambda msg: None)
-    kind = "drive" if runner.is_log else "sweep"
-    library = tuple(e for e, spec in EFFECTS.items() if kind in spec.shows_in)
-    say(f"screening: the nominal model on all {data.n_samples} samples, with the score tests")
-    nominal_fit, screens = screen(
-        data,
-        vehicle,
-        cands + tuple(e for e in library if e not in cands),
-        model=model,
-        hac_lag=None if runner.is_log else 0,
-        fit_options=runner.options,
-    )
-    if data.n_samples < settings.min_samples or not usable(nominal_fit, runner.is_log):
-        return _no_comparison(runner, cands, nominal_fit, screens, t0)
-    setup = _setup(runner, nominal_fit)
-    setup, hyps = _hypotheses(setup, screens, cands, weigh_outside, torque_hold in ("zoh", "sample"), say)
+    nominal_fit, screens, setup_or_none, base, choice = _data_step(runner, cands, say)
+    if setup_or_none is None or base is None:
+        return _no_comparison(runner, cands, nominal_fit, screens, choice, t0)
+    setup, hyps = _hypotheses(setup_or_none, base, screens, cands, weigh_outside, say)
     admissible = [h for h in hyps if h.admissible]
     scored, frame = _score(setup, admissible)
     evidence = (
@@ -397,6 +422,7 @@ def diagnose(
         dec,
         evidence.describes,
         hold,
+        choice,
         t0,
     )
 
@@ -412,6 +438,7 @@ def _result(
     dec: Decision,
     evidence: str,
     hold: Frame,
+    choice: HoldChoice | None,
     t0: float,
 ) -> Diagnosis:
     by = {h.name: h for h in hyps}
@@ -463,7 +490,7 @@ def _result(
         soil_before=soil_summary(setup.nominal_fit),
         soil_after=soil_summary(vfit) if named and vfit is not None else None,
         converged=bool(conv),
-        torque_hold=_hold_of(setup.runner),
+        torque_hold=choice,
         notes=tuple(notes),
         elapsed_s=time.perf_counter() - t0,
         curves=curves,
@@ -471,7 +498,12 @@ def _result(
 
 
 def _no_comparison(
-    runner: FitRunner, cands: tuple[str, ...], res: Any, screens: list[Screen], t0: float
+    runner: FitRunner,
+    cands: tuple[str, ...],
+    res: Any,
+    screens: list[Screen],
+    choice: HoldChoice | None,
+    t0: float,
 ) -> Diagnosis:
     """Too few samples for a hold-out, or no nominal fit: nothing can be compared; say which."""
     n = runner.data.n_samples
@@ -522,7 +554,7 @@ def _no_comparison(
         soil_before=soil_summary(res),
         soil_after=None,
         converged=ok,
-        torque_hold=_hold_of(runner),
+        torque_hold=choice,
         notes=(reason,),
         elapsed_s=time.perf_counter() - t0,
     )

@@ -61,9 +61,10 @@ class GapDecision:
     tests
         The tests of the nominal model's gap.
     left
-        Whether a flexible term on top of the heaviest hypothesis still explains its residuals (a log:
-        predicts its held-out residuals better, Diebold-Mariano; a sweep: the lack-of-fit F test on top
-        of its fit); None when not made (the heaviest is the nominal model, or has no fit to test).
+        The gap the heaviest hypothesis leaves, tested like the nominal model's: on a log, a flexible
+        term fitted to its training residuals predicts its held-out residuals better (Diebold-Mariano);
+        on a sweep, the lack-of-fit F test on top of its fit. None when not made (the heaviest is the
+        nominal model or the flexible term, or has no fit to test).
     """
 
     tests: tuple[GapTest, ...]

@@ -77,7 +77,7 @@ class Hypothesis:
     ----------
     name
         ``"none"``, an effect name, ``"discrepancy"`` or an outside cause (``"delay"``,
-        ``"terrain_change"``, ``"clipped_sensor"``, ``"sampled_torque"``, ``"soil_beyond_range"``,
+        ``"terrain_change"``, ``"clipped_sensor"``, ``"soil_beyond_range"``,
         ``"plateau"``).
     family
         One of :data:`FAMILIES`.

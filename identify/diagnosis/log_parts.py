@@ -86,7 +86,7 @@ class TerrainWindow:
 
 
 def _pinv_quad(S: np.ndarray, V: np.ndarray, atol: float = 1e-8) -> tuple[float, int]:
-    """``S^T V^+ S`` and the rank of ``V`` (symmetric, eigen-decomposed; eigenvalues below ``atol`` dropped)."""
+    """``S^T V^+ S`` and the rank of ``V`` (symmetric; eigenvalues below ``atol`` dropped)."""
     w, U = np.linalg.eigh(0.5 * (V + V.T))
     if w[-1] <= atol:
         return 0.0, 0
@@ -338,7 +338,8 @@ def refine_delay(nominal, data, vehicle, train: np.ndarray, k0: int, max_lag: in
     def cost(k):
         if k not in fits:
             try:
-                # at most 60 iterations, one start: a shift far from the delay makes a hard problem (hundreds of
+                # at most 60 iterations, one start: a shift far from the delay makes a hard problem (hundreds
+                # of
                 # iterations) whose answer is only "worse"; unconverged counts as not fitting
                 r = fit(
                     shift_speed(data, sign * k).subset(train),

@@ -11,8 +11,6 @@ Drive logs (held-out evidence: fitted on the training blocks, predicting the oth
   inside the window by one Gauss-Newton step on the training samples there and predicts the held-out
   samples. It must beat the effects and the flexible term on held-out evidence like any other.
   Detail: ``window_s`` (where the data show it) and ``bracket_s`` (where its boundaries can lie).
-- ``sampled_torque`` (when the torque hold was not given): the nominal model with the torque taken
-  as a sampled continuous signal instead of held.
 
 Both kinds of data:
 
@@ -184,23 +182,6 @@ def terrain_hypothesis(setup: Setup, train_fit: Any, nominal_held: dict[str, np.
     return Hypothesis("terrain_change", "outside", 4, held, held=held, detail=detail, parameters=params)
 
 
-def sampled_torque_hypothesis(setup: Setup) -> Hypothesis:
-    """The nominal model with the logged torque taken as sampled, not held (drive logs, hold not given)."""
-    run = setup.runner
-    held, fits, _ = held_out(setup, lambda tr: run.run_warm(tr, torque_hold="sample"))
-    ok = all(usable(f, True) for f in fits)
-    return Hypothesis(
-        "sampled_torque",
-        "outside",
-        0,
-        held,
-        admissible=ok,
-        held=held,
-        why="" if ok else "the fit with the sampled torque failed",
-        detail={"torque_hold": "sample"},
-    )
-
-
 def _bound_edges(nominal: Any) -> dict[str, str]:
     """Soil parameters on a practical bound that the wide bounds move."""
     j_of = {name: j for j, name in enumerate(SOIL_KEYS)}
@@ -323,14 +304,12 @@ def plateau_hypothesis(setup: Setup) -> Hypothesis:
 
 
 def outside_hypotheses(
-    setup: Setup, nominal: Hypothesis, train_res: list, train_fit: Any, hold_given: bool
+    setup: Setup, nominal: Hypothesis, train_res: list, train_fit: Any
 ) -> list[Hypothesis]:
     """Every outside cause this kind of data can show (formed or not)."""
     out = [wider_soil_hypothesis(setup), clipped_hypothesis(setup)]
     if setup.is_log:
         out += [delay_hypothesis(setup, train_res), terrain_hypothesis(setup, train_fit, nominal.heldout())]
-        if not hold_given:
-            out.append(sampled_torque_hypothesis(setup))
     else:
         out.append(plateau_hypothesis(setup))
     return out

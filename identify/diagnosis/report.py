@@ -140,12 +140,20 @@ def report_text(d: Any) -> str:
         f"  why: {d.reason}",
     ]
     if d.torque_hold is not None:
-        how = {
-            "zoh": "held from each sample to the next (given)",
-            "sample": "a sampled continuous signal (given)",
-            "auto": "held from each sample to the next, the sampled torque weighed as an outside cause",
-        }
-        lines.append(f"  torque: {how[d.torque_hold]}")
+        h = d.torque_hold
+        what = "held from each sample to the next" if h.hold == "zoh" else "a sampled continuous signal"
+        how = (
+            "given"
+            if h.given
+            else (
+                "chosen: the sampled torque predicts the held-out blocks "
+                f"{'better' if h.hold == 'sample' else 'no better'}"
+                f" (p = {fmt(h.p_value)}, level {fmt(h.level)}, shrink {fmt(h.shrink)})"
+                if h.p_value is not None
+                else "not tested"
+            )
+        )
+        lines.append(f"  torque: {what} ({how})")
     if not d.converged:
         lines.append("  CAUTION: a fit the verdict rests on did not converge")
     if not d.ranking:

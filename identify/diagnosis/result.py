@@ -16,6 +16,7 @@ from typing import Any
 from .fits import finite
 from .gap import Segment
 from .gap_test import GapDecision
+from .hold import HoldChoice
 from .plot import plot_diagnosis
 from .report import report_text
 from .screening import Screen
@@ -121,8 +122,8 @@ class Diagnosis:
     converged
         Whether the fits the verdict rests on converged.
     torque_hold
-        A drive log's torque hold as assumed (``"zoh"``, ``"sample"``, or ``"auto"``: held, with the
-        sampled torque weighed as an outside cause); None for a sweep.
+        A drive log's torque hold: given, or chosen on the held-out blocks (:mod:`.hold`); None for
+        a sweep.
     """
 
     data_kind: str
@@ -149,7 +150,7 @@ class Diagnosis:
     soil_after: dict | None
     converged: bool
     notes: tuple[str, ...] = ()
-    torque_hold: str | None = None
+    torque_hold: HoldChoice | None = None
     elapsed_s: float = 0.0
     curves: dict = field(default_factory=dict, repr=False)
 
@@ -194,7 +195,8 @@ class Diagnosis:
                 "n_samples": int(self.n_samples),
                 "candidates": list(self.candidates),
                 "residual_sign": "measured - model",
-                "torque_hold": self.torque_hold,
+                "torque_hold": None if self.torque_hold is None else self.torque_hold.hold,
+                "torque_hold_choice": None if self.torque_hold is None else self.torque_hold.to_dict(),
                 "converged": bool(self.converged),
                 "notes": list(self.notes),
                 "elapsed_s": finite(self.elapsed_s),

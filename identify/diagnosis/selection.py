@@ -82,8 +82,8 @@ LOOKALIKES = {
     "grade": "any constant extra force on the vehicle (a towed load, a steady wind, compaction resistance) "
     "and a zero offset of the force sensor (a sweep) or of the accelerometer (a drive log)",
     "drivetrain_friction": "a zero offset of the torque sensor (it looks like the Coulomb part)",
-    "radius_error": "a scale error of the vehicle-speed sensor (it shifts the apparent slip the same way; only "
-    "the torque arm differs)",
+    "radius_error": "a scale error of the vehicle-speed sensor (it shifts the apparent slip the same way; "
+    "only the torque arm differs)",
     "mass_error": "a scale error of the accelerometer (in the hull balance; a mass error also changes the "
     "normal load)",
     "slip_sinkage": "any resistance that grows with the slip (bulldozing, a track digging in)",

@@ -37,7 +37,7 @@ __all__ = [
 def sweep_folds(
     order: np.ndarray, n_blocks: int = 10, n_folds: int = 5
 ) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Blocked folds of a sweep: ``n_blocks`` contiguous blocks in slip order, fold k holds out blocks k, k+f, ...
+    """Blocked folds of a sweep: ``n_blocks`` contiguous blocks in slip order; fold k holds out k, k+f, ...
 
     Parameters
     ----------
@@ -210,15 +210,6 @@ class Plateau:
     slip_range: tuple[float, float]
     z: np.ndarray
     level_stderr: float = math.nan
-
-    def describe(self) -> str:
-        """One plain sentence."""
-        return (
-            f"the {len(self.rows)} largest readings (slip {self.slip_range[0]:.3g} to {self.slip_range[1]:.3g}) "
-            f"are flat at {self.level:.6g} N within the noise, while the soil's curve through the readings below "
-            "them still rises there: a load cell or rig at its limit looks like this, and no effect in the "
-            "library models it"
-        )
 
 
 #: Smallest share of a sweep's samples a plateau must hold to be considered.

@@ -1,0 +1,75 @@
+"""The data step for a drive log whose torque hold was not given: held, or sampled?
+
+A logged command is held from each sample to the next (``"zoh"``); a transducer's continuous signal
+is sampled (``"sample"``); the wrong one shifts the thrust by the torque's change over one sample,
+which reads as a grade or a drivetrain loss. When the caller does not say, the nominal model is
+fitted on the training blocks both ways and the sampled torque is taken when it predicts the
+held-out blocks better: significantly (Diebold-Mariano at ``alpha``) and appreciably (held-out RMS
+down by at least ``min_shrink``). Every hypothesis is then fitted with the hold chosen. The choice
+is made on the nominal model alone, before any explanation is compared, and the report prints its
+p-value.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .fits import usable
+from .hypotheses import Frame, Hypothesis
+from .library import held_out
+from .selection import dm_test
+from .setup import Setup
+
+__all__ = ["HoldChoice", "choose_hold"]
+
+
+@dataclass(frozen=True)
+class HoldChoice:
+    """The torque hold of a drive log's fits.
+
+    Attributes
+    ----------
+    hold
+        ``"zoh"`` or ``"sample"``.
+    given
+        Whether the caller gave it.
+    p_value, shrink, level
+        When chosen: the Diebold-Mariano p-value that the sampled torque predicts the held-out
+        blocks better than the held one, its held-out RMS shrink, and the level it was held to (None
+        when given or not tried).
+    """
+
+    hold: str
+    given: bool
+    p_value: float | None = None
+    shrink: float | None = None
+    level: float | None = None
+
+    def to_dict(self) -> dict:
+        """JSON entry."""
+        return {
+            "hold": self.hold,
+            "given": self.given,
+            "p_value": self.p_value,
+            "shrink": self.shrink,
+            "level": self.level,
+        }
+
+
+def choose_hold(setup: Setup, nominal: Hypothesis) -> HoldChoice:
+    """Compare the nominal model with the torque held (``nominal``) and sampled on the held-out blocks."""
+    s = setup.settings
+    sampled, fits, _ = held_out(setup, lambda tr: setup.runner.run_warm(tr, torque_hold="sample"))
+    held = nominal.heldout()
+    mask = {ch: np.isfinite(held[ch]) & (np.nan_to_num(setup.sigma[ch]) > 0) for ch in setup.channels}
+    frame = Frame(setup.sigma, mask)
+    z0 = frame.z(held)
+    if not all(usable(f, True) for f in fits):
+        return HoldChoice("zoh", False, None, None)
+    z1 = frame.z(sampled, z0)
+    shrink = 1.0 - float(np.sqrt((z1 @ z1) / max(float(z0 @ z0), 1e-300)))
+    p = dm_test(z0, z1, setup.dm_lag)
+    hold = "sample" if p < s.alpha and shrink >= s.min_shrink else "zoh"
+    return HoldChoice(hold, False, float(p), float(shrink), s.alpha)
