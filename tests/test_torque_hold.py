@@ -106,16 +106,17 @@ def test_cli_fit_takes_the_torque_hold_and_says_it_in_the_json(tmp_path):
 
 
 @pytest.mark.slow
-def test_a_grade_under_the_wrong_hold_is_weighed_with_its_rivals():
-    # a 0.05 rad grade in a log whose torque is sampled, diagnosed with the hold not given (auto): the sampled
-    # torque is one hypothesis, drivetrain_friction (which a wrong hold imitates) another; the verdict is the
-    # heaviest that explains the gap and its confidence is its weight, never a confident third name
+def test_the_hold_not_given_is_chosen_on_held_out_blocks():
+    # a 0.05 rad grade in a log whose torque is sampled (a transducer), the hold not given. The choice is made
+    # on the nominal model alone, and with the grade missing the sampled torque predicts the held-out blocks
+    # worse (measured shrink -0.29, p = 1): held is kept, and the constant thrust offset of the grade is then
+    # named (grade or drivetrain_friction, which the wrong hold and a Coulomb loss both imitate)
     d = diagnose(sampled_torque_log(1), HEAVY)
-    assert d.torque_hold == "auto"
-    assert "sampled_torque" in [e.effect for e in d.ranking] + [x.name for x in d.excluded]
-    assert d.verdict in ("grade", "drivetrain_friction", "unexplained"), d.verdict
-    if d.verdict != "unexplained":
-        assert d.confidence == d.weight_of(d.verdict)
+    h = d.torque_hold
+    assert (h.hold, h.given) == ("zoh", False) and h.p_value >= 0.01 and h.shrink < 0.05, h
+    assert d.to_dict()["torque_hold"] == "zoh"
+    assert d.verdict in ("grade", "drivetrain_friction"), d.verdict
+    assert d.confidence == d.weight_of(d.verdict)
 
 
 @pytest.mark.slow
@@ -126,5 +127,7 @@ def test_a_log_diagnosis_says_which_torque_hold_it_assumed():
     log = simulate(light, TERRAINS["lete_sand"], kind="drive", seed=1, duration_s=20)
     for hold in ("zoh", "sample"):
         d = diagnose(log, light, torque_hold=hold)
-        assert d.torque_hold == hold and d.to_dict()["torque_hold"] == hold
-        assert "sampled_torque" not in [e.effect for e in d.ranking]  # given: not a hypothesis
+        assert (d.torque_hold.hold, d.torque_hold.given) == (hold, True)
+        assert d.to_dict()["torque_hold"] == hold
+    d = diagnose(log, light)  # the library's simulator holds the torque: held is kept
+    assert (d.torque_hold.hold, d.torque_hold.given) == ("zoh", False) and d.torque_hold.p_value >= 0.01
