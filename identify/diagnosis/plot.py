@@ -63,7 +63,8 @@ def plot_diagnosis(diag: Any, path: str) -> str:
     ax.set_xlabel("time, s" if cv["x_label"] == "time" else "slip, -")
     ax.set_ylabel(f"held-out residual, {main}\n(measured - model)")
     ax.set_title(
-        f"verdict: {diag.verdict} (confidence {diag.confidence:.2f})"
+        f"verdict: {diag.verdict} ({'' if diag.cause is None else f'cause {diag.cause}, '}"
+        f"confidence {diag.confidence:.2f})"
         + ("" if diag.shrink is None else f", held-out error shrinks by {diag.shrink:.0%}")
     )
     ax.legend(fontsize=8, loc="best")
