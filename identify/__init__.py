@@ -20,6 +20,8 @@ Public names
 :class:`FitFailed`.
 :func:`diagnose`, :class:`Diagnosis`
     Sim-to-real gap diagnosis: where the gap lies, which unmodelled effect explains it.
+:class:`OnlineEstimator`, :class:`OnlineSettings`, :class:`OnlineEstimate`
+    On-line identification while driving, with change-of-terrain detection.
 """
 from . import jitcache
 from .batch import fit_many
@@ -30,7 +32,8 @@ from .problem import FitFailed
 from .profile import ProfileResult, profile_likelihood
 from .result import Combination, FitResult, ParameterEstimate, build_result
 from .settings import FitSettings
+from .online import OnlineEstimate, OnlineEstimator, OnlineSettings
 
 __all__ = ["fit", "fit_many", "profile_likelihood", "build_result", "FitResult", "ParameterEstimate",
            "Combination", "ProfileResult", "FitFailed", "FitSettings", "ENGINES", "DEFAULT_ENGINE",
-           "diagnose", "Diagnosis"]
+           "diagnose", "Diagnosis", "OnlineEstimator", "OnlineSettings", "OnlineEstimate"]
