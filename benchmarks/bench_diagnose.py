@@ -30,8 +30,8 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from soiltrack.identify import diagnose, fit  # noqa: E402
-from soiltrack.identify.diagnosis_sweep import solver_converged  # noqa: E402
-from soiltrack.identify.sweep_model import SweepResiduals  # noqa: E402
+from soiltrack.identify.diagnosis.sweep_parts import solver_converged  # noqa: E402
+from soiltrack.identify.sweep.model import SweepResiduals  # noqa: E402
 from soiltrack.soilmodel import EFFECTS, TERRAINS, VEHICLES, DataError, DriveLog, SensorNoise, simulate  # noqa: E402
 
 NOISE = {"sweep": {"low": SensorNoise(force_rel=0.005, slip_abs=0.0005), "default": SensorNoise()},

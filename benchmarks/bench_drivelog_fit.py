@@ -33,11 +33,11 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from soiltrack.identify import fit  # noqa: E402
-from soiltrack.identify.drivelog_joint import (best_slips, effect_layout, joint_data, residual_function,  # noqa: E402
+from soiltrack.identify.drivelog.joint import (best_slips, effect_layout, joint_data, residual_function,  # noqa: E402
                                                sensitivity_function)
-from soiltrack.identify.drivelog import _start_points  # noqa: E402
-from soiltrack.identify.drivelog_nlp import _g_inverse, fmax_bounds  # noqa: E402
-from soiltrack.identify.drivelog_prepare import SLIP_BOUNDS, prepare_drive_log  # noqa: E402
+from soiltrack.identify.drivelog.fit import _start_points  # noqa: E402
+from soiltrack.identify.drivelog.nlp import _g_inverse, fmax_bounds  # noqa: E402
+from soiltrack.identify.drivelog.prepare import SLIP_BOUNDS, prepare_drive_log  # noqa: E402
 from soiltrack.soilmodel import TERRAINS, VEHICLES, simulate  # noqa: E402
 from soiltrack.soilmodel.effects import effect_structure, parse_effects  # noqa: E402
 from soiltrack.soilmodel.soil import PRACTICAL_BOUNDS  # noqa: E402

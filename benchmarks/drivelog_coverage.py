@@ -2,7 +2,7 @@
 
 Simulates the light vehicle on dry sand with the simulator's defaults (60 s at 50 Hz, default
 speed profile and sensor noise; only the noise seed changes, so every log has the same true
-trajectory) and fits each log with :func:`soiltrack.identify.drivelog.fit_drive_log`::
+trajectory) and fits each log with :func:`soiltrack.identify.drivelog.fit.fit_drive_log`::
 
     python benchmarks/drivelog_coverage.py                     # seeds 0..99, 2 worker processes
     python benchmarks/drivelog_coverage.py --seeds 200 --jobs 2 --json out.json
@@ -38,8 +38,9 @@ import numpy as np
 
 def _one(args):
     vehicle_name, terrain_name, seed, kw, gauss_newton, bias_correction, simex_fixed, fit_kw = args
-    from soiltrack.identify import drivelog_covariance, drivelog_simex
-    from soiltrack.identify.drivelog import fit_drive_log
+    from soiltrack.identify.drivelog import covariance as drivelog_covariance
+    from soiltrack.identify.drivelog import simex as drivelog_simex
+    from soiltrack.identify.drivelog.fit import fit_drive_log
     if gauss_newton:  # the former covariance: no sandwich (fit_drive_log falls back to Gauss-Newton)
         drivelog_covariance.profiled_covariance = lambda *a, **k: None
     if simex_fixed is not None:

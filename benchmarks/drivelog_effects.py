@@ -15,7 +15,7 @@ import argparse
 import math
 import time
 
-from soiltrack.identify.drivelog import fit_drive_log
+from soiltrack.identify.drivelog.fit import fit_drive_log
 from soiltrack.soilmodel import TERRAINS, VEHICLES, max_thrust
 from soiltrack.soilmodel.simulation import simulate_drive_log
 

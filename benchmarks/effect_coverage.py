@@ -16,7 +16,6 @@ F_max and K).
 from __future__ import annotations
 
 import argparse
-import math
 
 import numpy as np
 

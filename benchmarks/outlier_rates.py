@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""False flags and detection of :func:`soiltrack.identify.gap.isolated_outliers` (lone readings).
+"""False flags and detection of :func:`soiltrack.identify.diagnosis.gap.isolated_outliers` (lone readings).
 
 Three series kinds, each 60 samples:
 
@@ -19,7 +19,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-from soiltrack.identify.gap import isolated_outliers  # noqa: E402
+from soiltrack.identify.diagnosis.gap import isolated_outliers  # noqa: E402
 
 
 def main() -> int:

@@ -23,14 +23,14 @@ Public names
 :class:`OnlineEstimator`, :class:`OnlineSettings`, :class:`OnlineEstimate`
     On-line identification while driving, with change-of-terrain detection.
 """
-from . import jitcache
+from . import jitcache  # noqa: F401 - soiltrack.identify.jitcache, the compiled-code cache
 from .batch import fit_many
 from .engines import DEFAULT_ENGINE, ENGINES
-from .diagnosis import Diagnosis, diagnose
+from .diagnosis.diagnose import Diagnosis, diagnose
 from .fitting import fit
-from .problem import FitFailed
-from .profile import ProfileResult, profile_likelihood
-from .result import Combination, FitResult, ParameterEstimate, build_result
+from .sweep.problem import FitFailed
+from .estimates.likelihood import ProfileResult, profile_likelihood
+from .estimates.result import Combination, FitResult, ParameterEstimate, build_result
 from .settings import FitSettings
 from .online import OnlineEstimate, OnlineEstimator, OnlineSettings
 

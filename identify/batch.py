@@ -1,11 +1,11 @@
 """Many fits at once: ``fit_many``.
 
 Slip datasets fitted with ``method="ipopt"`` go through the compiled LM kernel
-(:mod:`soiltrack.identify.compiled_lm`: one CasADi call per dataset, residuals and derivatives
+(:mod:`soiltrack.identify.sweep.compiled_lm`: one CasADi call per dataset, residuals and derivatives
 by AD from ``soilmodel.traction.thrust_expr``, padded to a few size classes so that datasets
 of many lengths share a handful of compiled Functions). With ``engine="auto"`` (default) or
 ``"vectorized"`` the certified results are built in one stacked numpy step per dataset length
-(:func:`~soiltrack.identify.result.build_results_batch`, the same statistics as ``fit``);
+(:func:`~soiltrack.identify.estimates.result.build_results_batch`, the same statistics as ``fit``);
 ``"auto"`` never waits for a C compiler (virtual machine while the C code compiles in the
 background), ``"vectorized"`` compiles now if the C code is not cached. Any dataset the kernel
 does not certify is re-solved with the cached IPOPT solver (said in its message,
@@ -31,11 +31,12 @@ import numpy as np
 from ..soilmodel.data import SlipData
 from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
 from ..soilmodel.vehicle import Vehicle
-from . import compiled_lm
+from .sweep import compiled_lm
 from .engines import check_engine, jit_mode, normalise_status
-from .problem import FitFailed, check_common, make_problem
-from .plausibility import assess
-from .result import FitResult, build_results_batch
+from .sweep.problem import FitFailed, check_common, make_problem
+from .sweep.plausibility import assess
+from .estimates.records import NOT_USABLE
+from .estimates.result import FitResult, build_results_batch
 from .settings import SETTING_NAMES, FitSettings
 
 __all__ = ["fit_many"]
@@ -74,7 +75,7 @@ def _solve_chunk(datasets: Sequence[SlipData], vehicle: Vehicle, model: str, bou
             found, usable = assess(pb.slip, pb.force, pb.load, s.residuals, s.theta, vehicle, model, bounds,
                                    s.curves, s.screen, s.limit_screen)
             msg = compiled_lm.message_of(s, None).replace("compiled", "vectorised compiled", 1)
-            status.append("converged" if usable else "converged (answer not usable)")
+            status.append("converged" if usable else f"converged {NOT_USABLE}")
             success.append(usable)
             message.append(msg if usable else f"{msg}; the data or the answer fail the plausibility checks (see the "
                            "warnings)")

@@ -7,17 +7,18 @@ from ..soilmodel.data import DriveLog, SlipData
 from ..soilmodel.errors import DataError
 from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
 from ..soilmodel.vehicle import Vehicle
-from .compiled_lm import fit_compiled
+from .sweep.compiled_lm import fit_compiled
 from .engines import check_engine, jit_mode, normalise_status
-from .ipopt_fit import _x0_vector, fit_ipopt
-from .joint_fit import fit_joint
-from .joint_profile import check_intervals, with_profile_intervals
-from .problem import FitFailed, check_common, make_problem
-from .result import FitResult
-from .seed_methods import fit_least_squares, fit_newton
+from .sweep.ipopt import fit_ipopt
+from .sweep.start import x0_vector
+from .sweep.joint import fit_joint
+from .estimates.joint_likelihood import check_intervals, with_profile_intervals
+from .sweep.problem import FitFailed, check_common, make_problem
+from .estimates.result import FitResult
+from .sweep.seed_methods import fit_least_squares, fit_newton
 from .settings import SETTING_NAMES, FitSettings
-from .slip_noise import check_slip_noise, fit_with_slip_noise
-from .torque_hold import fit_both_holds
+from .sweep.slip_noise import check_slip_noise, fit_with_slip_noise
+from .drivelog.torque_hold import fit_both_holds
 
 __all__ = ["fit"]
 
@@ -32,7 +33,7 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
     data : SlipData or DriveLog
         Tractive force-slip or drawbar pull-slip samples (any number, one or several normal
         loads; a missing ``normal_load`` means the vehicle's weight) or a drive log (dispatched
-        to :func:`soiltrack.identify.drivelog.fit_drive_log`). Drawbar pull is modelled as
+        to :func:`soiltrack.identify.drivelog.fit.fit_drive_log`). Drawbar pull is modelled as
         ``F(i) - R`` with ``R`` the motion resistance (``mu_r W`` for the nominal model).
     vehicle : Vehicle
     model : {"full", "cohesion-free"}
@@ -40,7 +41,7 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
     method : {"ipopt", "newton", "least-squares"}
         ``"ipopt"`` (default): bounded weighted least squares, cached IPOPT solver, start from
         a variable-projection grid. ``"newton"`` and ``"least-squares"``: the seed's methods,
-        unbounded, with honest failure reports (see :mod:`soiltrack.identify.seed_methods`).
+        unbounded, with honest failure reports (see :mod:`soiltrack.identify.sweep.seed_methods`).
     bounds : SoilBounds
         Box bounds (used by IPOPT; the seed's methods only report against them).
     x0 : Soil or array_like, optional
@@ -58,7 +59,7 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
         Typed solver settings (engine, ``n_grid``, ``ipopt_options``, ``max_iter``); the
         keywords of the same names override its fields.
     effects : sequence of str or EffectSet, optional
-        Unmodelled effects (DESIGN.md section 6, :data:`soiltrack.soilmodel.EFFECTS`) whose
+        Unmodelled effects (docs/physics.md, "Unmodelled effects", :data:`soiltrack.soilmodel.EFFECTS`) whose
         parameters are fitted jointly with the soil by IPOPT, within their physical ranges
         (integer shape parameters such as ``n_w`` stay at their defaults). The result reports
         them in ``result.effects`` like the soil's parameters.
@@ -70,11 +71,11 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
         ``sigma`` (N, scalar or per sample; default: equal weights, noise estimated from the
         residuals) and ``sigma_known`` (bool) describe the data; ``slip_noise`` (``"auto"``,
         ``"off"`` or the slip's standard deviation; default ``"auto"`` with effects, else
-        ``"off"``) says whether the measured slip is noisy (:mod:`soiltrack.identify.slip_noise`:
+        ``"off"``) says whether the measured slip is noisy (:mod:`soiltrack.identify.sweep.slip_noise`:
         effective-variance weights, adopted by ``auto`` only when a likelihood-ratio test finds
         the noise); ``intervals`` (``"auto"``, ``"linear"``, ``"profile"``; default ``"auto"``
         with effects, else ``"linear"``) says which 95 % intervals come from the profile
-        likelihood (:mod:`soiltrack.identify.joint_profile`; ``auto``: the weakly identifiable
+        likelihood (:mod:`soiltrack.identify.estimates.joint_likelihood`; ``auto``: the weakly identifiable
         and at-bound parameters). Either one other than off/linear makes the fit an IPOPT joint
         fit. ``n_grid``, ``ipopt_options`` and ``max_iter`` are :class:`FitSettings` fields.
         Drive-log options are passed on.
@@ -97,7 +98,7 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
                 raise DataError(f"{opt} applies to slip sweeps; a drive log's slip is already a latent variable of "
                                 "its fit (its noise comes from the speed channels)", file=data.source)
             options.pop(opt, None)
-        from .drivelog import fit_drive_log  # written separately; imported lazily
+        from .drivelog.fit import fit_drive_log  # written separately; imported lazily
         if effects is not None:
             options["effects"] = effects
         if fixed is not None:
@@ -105,7 +106,7 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
         if settings is not None or engine is not None:
             check_engine(FitSettings.resolve(settings, engine=engine).engine)
         if effects is not None and options.get("torque_hold") is None:
-            # the hold is not stated: intervals cover both (soiltrack.identify.torque_hold)
+            # the hold is not stated: intervals cover both (soiltrack.identify.drivelog.torque_hold)
             options.pop("torque_hold", None)
             return fit_both_holds(lambda hold: fit_drive_log(data, vehicle, model, bounds, x0, strict, method=method,
                                                              torque_hold=hold, **options))
@@ -119,7 +120,7 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
     rig = {"rig_speed": options.pop("rig_speed")} if "rig_speed" in options else {}
     pb = make_problem(data, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known, method=method,
                       effects=effects, fixed=fixed, **rig)
-    x0v = None if x0 is None else _x0_vector(x0)
+    x0v = None if x0 is None else x0_vector(x0)
     if options:
         given = {k: options.pop(k) for k in SETTING_NAMES if k in options}
         _check_options(options, set(SETTING_NAMES))

@@ -1,6 +1,6 @@
 """Compiled CasADi Functions in a per-user on-disk cache (C code generated once per machine).
 
-The compiled engines generate C code from CasADi Functions (:mod:`soiltrack.identify.compiled_lm`).
+The compiled engines generate C code from CasADi Functions (:mod:`soiltrack.identify.sweep.compiled_lm`).
 Compiling it costs about a second; this module makes that a once-per-machine cost:
 
 * The generated source is hashed (SHA-256 of the source, the CasADi version, the compiler

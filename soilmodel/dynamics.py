@@ -34,7 +34,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from .effects import (DEFAULT_STANDSTILL_SPEED, EffectSet, _Values, effective_mass, effective_radius,
+from .effects import (DEFAULT_STANDSTILL_SPEED, EffectSet, EffectValues, effective_mass, effective_radius,
                       motion_resistance, parse_effects, thrust_with_effects, thrust_with_effects_function,
                       torque_loss)
 from .errors import DataError
@@ -50,7 +50,7 @@ __all__ = ["SPROCKET_EQUATIONS", "slip_expr", "dynamics_expr", "dynamics_functio
 SPROCKET_EQUATIONS = ("thrust", "seed")
 
 
-def _check_sprocket_equation(option: str) -> str:
+def check_sprocket_equation(option: str) -> str:
     if option not in SPROCKET_EQUATIONS:
         raise DataError(f"unknown sprocket_equation {option!r}; expected one of {SPROCKET_EQUATIONS}")
     return option
@@ -102,9 +102,9 @@ def dynamics_expr(v, w, M_s, c, phi, K, vehicle: Vehicle, effects: Any = None, *
         ``dv``, ``dw`` (derivatives), ``slip``, ``thrust`` (F), ``resistance`` (R),
         ``torque_loss``, ``radius`` (effective), ``mass`` (actual).
     """
-    _check_sprocket_equation(sprocket_equation)
+    check_sprocket_equation(sprocket_equation)
     check_model(model)
-    ev = effects if isinstance(effects, _Values) else _Values(effects, vehicle)
+    ev = effects if isinstance(effects, EffectValues) else EffectValues(effects, vehicle)
     r = effective_radius(vehicle, ev)
     m = effective_mass(vehicle, ev)
     i = slip_expr(v, w, r, standstill_speed)
@@ -152,7 +152,7 @@ def dynamics_function(vehicle: Vehicle, soil: Soil | None = None, effects: Any =
     speed); see :func:`dynamics_expr` for the equations and the options.
     """
     check_model(model)
-    _check_sprocket_equation(sprocket_equation)
+    check_sprocket_equation(sprocket_equation)
     return _dyn_fn(vehicle, soil, parse_effects(effects), model, sprocket_equation,
                    None if not standstill_speed else float(standstill_speed))
 

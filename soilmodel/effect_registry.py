@@ -179,7 +179,7 @@ def _valid_names() -> str:
     return ", ".join(_ORDER)
 
 
-def _spec(name: str) -> EffectSpec:
+def effect_spec(name: str) -> EffectSpec:
     try:
         return EFFECTS[name]
     except KeyError:
@@ -234,7 +234,7 @@ class EffectSet:
 
     def params(self, name: str) -> dict[str, float | None]:
         """Parameter values of effect ``name`` (its off values when the effect is not on)."""
-        spec = _spec(name)
+        spec = effect_spec(name)
         for n, ps in self.entries:
             if n == name:
                 return dict(ps)
@@ -242,7 +242,7 @@ class EffectSet:
 
     def value(self, name: str, param: str, vehicle: Vehicle | None = None) -> float:
         """One parameter value; ``n_w = None`` is resolved from ``vehicle`` (road wheels, else 5)."""
-        spec = _spec(name)
+        spec = effect_spec(name)
         spec.param(param)
         v = self.params(name)[param]
         if v is None:
@@ -256,7 +256,7 @@ class EffectSet:
     def without(self, *names: str) -> "EffectSet":
         """A copy with the named effects switched off."""
         for n in names:
-            _spec(n)
+            effect_spec(n)
         return EffectSet(tuple(e for e in self.entries if e[0] not in names))
 
     def __str__(self) -> str:
@@ -320,7 +320,7 @@ def parse_effects(spec: Any = None) -> EffectSet:
     given: dict[str, dict[str, Any]] = {}
 
     def put(name: str, param: str | None, value: Any) -> None:
-        es = _spec(name)
+        es = effect_spec(name)
         d = given.setdefault(name, {})
         if param is None and value is None:
             return
@@ -337,16 +337,16 @@ def parse_effects(spec: Any = None) -> EffectSet:
             if not isinstance(name, str):
                 raise DataError(f"effect names must be strings, got {name!r}; valid effects: {_valid_names()}")
             if isinstance(val, Mapping):
-                _spec(name)
+                effect_spec(name)
                 given.setdefault(name, {})
                 for k, v in val.items():
                     if v is None:  # "default" (e.g. n_w from the vehicle, as to_dict writes it)
-                        es_ = _spec(name)
+                        es_ = effect_spec(name)
                         es_.param(str(k))
                         continue
                     put(name, str(k), v)
             elif val is False:  # explicitly off
-                _spec(name)
+                effect_spec(name)
             elif val is None or val is True:
                 put(name, None, None)
             else:
@@ -386,7 +386,7 @@ def parameter_bounds(name: str, param: str, vehicle: Vehicle) -> tuple[float, fl
     give a thrust equal to the weight) and ``|tau_v| <= 0.5 W r / w_ref`` with
     ``w_ref = (10 m/s) / r`` (the same loss at a track speed of 10 m/s).
     """
-    spec = _spec(name)
+    spec = effect_spec(name)
     p = spec.param(param)
     lo, hi = p.lower, p.upper
     if name == "drivetrain_friction":
@@ -421,7 +421,7 @@ def effect_structure(effects: Any, vehicle: Vehicle | None = None) -> "EffectSet
 
 # --- resolution of numeric or symbolic parameter values -------------------------------------------
 
-class _Values:
+class EffectValues:
     """Resolved parameter values (floats or CasADi expressions) of the effects that are on."""
 
     def __init__(self, effects: Any, vehicle: Vehicle | None):
@@ -438,7 +438,7 @@ class _Values:
                 self.vals[name] = {p.name: effects.value(name, p.name, vehicle) for p in EFFECTS[name].params}
             return
         for name, ps in effects.items():
-            es = _spec(name)
+            es = effect_spec(name)
             if ps is None or ps is True:
                 ps = {}
             elif not isinstance(ps, Mapping):

@@ -11,7 +11,7 @@ from typing import Any
 
 import casadi as ca
 
-from .effect_registry import EffectSet, _Values, effect_structure, effect_symbols
+from .effect_registry import EffectSet, EffectValues, effect_structure, effect_symbols
 from .vehicle import Vehicle
 
 __all__ = ["DEFAULT_STANDSTILL_SPEED", "DEFAULT_SLIP_WIDTH", "smooth_sign", "smooth_abs",
@@ -55,27 +55,27 @@ def smooth_abs(x, width: float | None):
 
 def effective_mass(vehicle: Vehicle, effects: Any = None):
     """Actual mass ``m (1 + delta)`` (``m`` when ``mass_error`` is off), kg."""
-    ev = effects if isinstance(effects, _Values) else _Values(effects, vehicle)
+    ev = effects if isinstance(effects, EffectValues) else EffectValues(effects, vehicle)
     m = vehicle.mass
     return m * (1 + ev["mass_error", "delta"]) if ev.on("mass_error") else m
 
 
 def effective_weight(W, vehicle: Vehicle, effects: Any = None):
     """Actual weight ``W (1 + delta)`` from the nominal ``W`` (``mass_error``), N."""
-    ev = effects if isinstance(effects, _Values) else _Values(effects, vehicle)
+    ev = effects if isinstance(effects, EffectValues) else EffectValues(effects, vehicle)
     return W * (1 + ev["mass_error", "delta"]) if ev.on("mass_error") else W
 
 
 def effective_normal_load(W, vehicle: Vehicle, effects: Any = None):
     """Actual normal load ``W (1 + delta) cos(theta)`` from the nominal ``W`` (``mass_error``, ``grade``)."""
-    ev = effects if isinstance(effects, _Values) else _Values(effects, vehicle)
+    ev = effects if isinstance(effects, EffectValues) else EffectValues(effects, vehicle)
     N = effective_weight(W, vehicle, ev)
     return N * ca.cos(ev["grade", "theta_rad"]) if ev.on("grade") else N
 
 
 def effective_radius(vehicle: Vehicle, effects: Any = None):
     """Effective track radius ``r (1 + eps)`` (``r`` when ``radius_error`` is off), m."""
-    ev = effects if isinstance(effects, _Values) else _Values(effects, vehicle)
+    ev = effects if isinstance(effects, EffectValues) else EffectValues(effects, vehicle)
     r = vehicle.sprocket_radius
     return r * (1 + ev["radius_error", "eps"]) if ev.on("radius_error") else r
 
@@ -98,7 +98,7 @@ def motion_resistance(v, slip, vehicle: Vehicle, effects: Any = None, W=None,
     W
         Nominal weight, N (default the vehicle's).
     """
-    ev = effects if isinstance(effects, _Values) else _Values(effects, vehicle)
+    ev = effects if isinstance(effects, EffectValues) else EffectValues(effects, vehicle)
     W = vehicle.weight if W is None else W
     N = effective_normal_load(W, vehicle, ev)
     coef = vehicle.rolling_resistance
@@ -120,7 +120,7 @@ def torque_loss(w, vehicle: Vehicle, effects: Any = None,
 
     ``sgn(w)`` is :func:`smooth_sign` with width ``standstill_speed / r``.
     """
-    ev = effects if isinstance(effects, _Values) else _Values(effects, vehicle)
+    ev = effects if isinstance(effects, EffectValues) else EffectValues(effects, vehicle)
     if not ev.on("drivetrain_friction"):
         return 0.0
     tc, tv = ev["drivetrain_friction", "tau_c"], ev["drivetrain_friction", "tau_v"]

@@ -9,7 +9,7 @@ The effects are split by concept; every name stays importable from here:
 - :mod:`.thrust_effects`: the tractive force with effects (hump shear, pressure distribution);
 - :mod:`.rig`: what a drawbar-pull rig reports (tractive force or drawbar pull).
 """
-from .effect_registry import (EFFECTS, EffectSet, EffectSpec, ParamSpec, _spec, _Values, effect_structure,  # noqa: F401
+from .effect_registry import (EFFECTS, EffectSet, EffectSpec, ParamSpec, effect_spec, EffectValues, effect_structure,  # noqa: F401
                               effect_symbols, parameter_bounds, parameter_scale, parse_effects)
 from .effect_terms import (DEFAULT_SLIP_WIDTH, DEFAULT_STANDSTILL_SPEED, effective_mass, effective_normal_load,
                            effective_radius, effective_weight, motion_resistance, normal_load_function, smooth_abs,

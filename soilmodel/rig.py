@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from .effect_registry import _Values
+from .effect_registry import EffectValues
 from .effect_terms import motion_resistance
 from .errors import DataError
 from .thrust_effects import thrust_with_effects
@@ -26,7 +26,7 @@ def rig_true_slip(i_app, vehicle: Vehicle, effects: Any = None):
 
     ``1 - v / (r_eff w) = (i + eps) / (1 + eps)``: ``eps = 0`` gives ``i`` exactly.
     """
-    ev = effects if isinstance(effects, _Values) else _Values(effects, vehicle)
+    ev = effects if isinstance(effects, EffectValues) else EffectValues(effects, vehicle)
     if not ev.on("radius_error"):
         return i_app
     eps = ev["radius_error", "eps"]
@@ -51,7 +51,7 @@ def sweep_measurement(i_app, W, c, phi, K, vehicle: Vehicle, effects: Any = None
     """
     if measured not in SWEEP_MEASURES:
         raise DataError(f"unknown measured quantity {measured!r}; expected one of {SWEEP_MEASURES}")
-    ev = effects if isinstance(effects, _Values) else _Values(effects, vehicle)
+    ev = effects if isinstance(effects, EffectValues) else EffectValues(effects, vehicle)
     v = rig_speed * (1 - i_app)
     i_true = rig_true_slip(i_app, vehicle, ev)
     F = thrust_with_effects(i_true, c, phi, K, W, vehicle, ev, model)

@@ -32,8 +32,8 @@ import numpy as np
 
 from .threadsafe import call_solver, locked_cache
 from .data import DriveLog, SlipData
-from .dynamics import _check_sprocket_equation, dynamics_function, slip_expr
-from .effects import (DEFAULT_RIG_SPEED, DEFAULT_STANDSTILL_SPEED, SWEEP_MEASURES, EffectSet, _Values,
+from .dynamics import check_sprocket_equation, dynamics_function, slip_expr
+from .effects import (DEFAULT_RIG_SPEED, DEFAULT_STANDSTILL_SPEED, SWEEP_MEASURES, EffectSet, EffectValues,
                       parse_effects, smooth_sign, sweep_measurement)
 from .errors import DataError
 from .soil import Soil
@@ -282,7 +282,7 @@ def simulate_drive_log(vehicle: Vehicle, soil: Soil, *, effects: Any = None, see
         ``v_ref``, and ``limits`` (:class:`DriveLimits`).
     """
     check_model(model)
-    _check_sprocket_equation(sprocket_equation)
+    check_sprocket_equation(sprocket_equation)
     eff = parse_effects(effects)
     nz = _noise(noise)
     for name, val in (("duration_s", duration_s), ("sample_rate_hz", sample_rate_hz),
@@ -408,7 +408,7 @@ def _slip_fn() -> ca.Function:
 
 @lru_cache(maxsize=64)
 def _sweep_fn(vehicle: Vehicle, effects: EffectSet, model: str, measured: str = "tractive_force") -> ca.Function:
-    ev = _Values(effects, vehicle)
+    ev = EffectValues(effects, vehicle)
     i_app, W, c, phi, K, rig = (ca.SX.sym(n) for n in ("i", "W", "c", "phi", "K", "rig"))
     i_true, F, rep = sweep_measurement(i_app, W, c, phi, K, vehicle, ev, model, measured, rig)
     return ca.Function("sweep", [i_app, W, c, phi, K, rig], [i_true, F, rep])

@@ -41,7 +41,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from .effect_registry import EffectSet, _Values, parse_effects
+from .effect_registry import EffectSet, EffectValues, parse_effects
 from .effect_terms import effective_normal_load
 from .soil import Soil
 from .traction import check_model, max_thrust_expr, slip_factor, thrust_expr
@@ -111,7 +111,7 @@ def thrust_with_effects(slip, c, phi, K, W, vehicle: Vehicle, effects: Any = Non
         ``"full"`` or ``"cohesion-free"`` (drops ``A c``).
     """
     check_model(model)
-    ev = effects if isinstance(effects, _Values) else _Values(effects, vehicle)
+    ev = effects if isinstance(effects, EffectValues) else EffectValues(effects, vehicle)
     N = effective_normal_load(W, vehicle, ev)
     l, b = vehicle.track_length, vehicle.track_width
     if not (ev.on("hump_shear") or ev.on("pressure_distribution")):
@@ -191,7 +191,7 @@ def pressure_profile(x, vehicle: Vehicle, effects: Any = None, W=None) -> np.nda
 
     ``p_mean = N / A`` with the actual normal load N.
     """
-    ev = _Values(effects, vehicle)
+    ev = EffectValues(effects, vehicle)
     W = vehicle.weight if W is None else W
     p_mean = float(effective_normal_load(W, vehicle, ev)) / vehicle.contact_area
     x = np.asarray(x, dtype=float)

@@ -65,9 +65,9 @@ def plot_data(data: SlipData | DriveLog, path: str, title: str = "") -> str:
 
 def force_unit(values) -> tuple[float, str]:
     """``(divisor, unit)`` for forces of this magnitude: kN from 1 kN on, else N (as the reports)."""
-    from .identify.estimate_types import _force_scale
+    from .identify.estimates.records import force_scale
 
-    return _force_scale(values)
+    return force_scale(values)
 
 
 def _curve_band(grid, result, vehicle, W: float) -> np.ndarray | None:
@@ -178,7 +178,7 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
 
 def _drive_log_panels(fig, ax, axr, data: DriveLog, vehicle, result, curve) -> None:
     """The two panels of a drive-log fit (see :func:`plot_fit`)."""
-    from .identify.drivelog import prepare_drive_log
+    from .identify.drivelog.fit import prepare_drive_log
 
     prep = prepare_drive_log(data, vehicle)
     r_s = vehicle.sprocket_radius

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from soiltrack.identify import Diagnosis, diagnose
-from soiltrack.identify.screening import screen
+from soiltrack.identify.diagnosis.screening import screen
 from soiltrack.soilmodel import TERRAINS, VEHICLES, SensorNoise, simulate
 
 VEH = VEHICLES["light"]
@@ -167,8 +167,8 @@ def test_a_failed_nominal_fit_is_reported_not_hidden(monkeypatch, tmp_path):
 
 
 def test_f_test_and_lack_of_fit_on_known_cases():
-    from soiltrack.identify.diagnosis_sweep import f_sf, lack_of_fit
-    from soiltrack.identify.selection import hat_basis
+    from soiltrack.identify.diagnosis.sweep_parts import f_sf, lack_of_fit
+    from soiltrack.identify.diagnosis.selection import hat_basis
 
     # tabulated critical values of the F distribution (1 % and 5 %)
     for f, d1, d2, p in ((3.51, 5, 40, 0.01), (2.08, 10, 40, 0.05), (7.31, 1, 40, 0.01)):

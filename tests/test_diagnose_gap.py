@@ -4,10 +4,10 @@ import math
 import numpy as np
 import pytest
 
-from soiltrack.identify.gap import (blocked_folds, chi2_isf, chi2_sf, change_window, lag_peak, localise, noise_profile,
+from soiltrack.identify.diagnosis.gap import (blocked_folds, chi2_isf, chi2_sf, change_window, lag_peak, localise, noise_profile,
                                      long_run_factor, noise_floor, whiteness)
-from soiltrack.identify.screening import project_off, score_test
-from soiltrack.identify.selection import (DISCREPANCY, NOMINAL, confusable_groups, cv_weights, decide, dm_test,
+from soiltrack.identify.diagnosis.screening import project_off, score_test
+from soiltrack.identify.diagnosis.selection import (DISCREPANCY, NOMINAL, confusable_groups, cv_weights, decide, dm_test,
                                           fit_discrepancy, hat_basis, separating_experiment)
 
 
@@ -176,7 +176,7 @@ def test_noise_profile_follows_a_varying_noise_level():
 def test_range_share_is_on_the_scale_of_the_localisation_bins():
     # a change window's entry sits beside localise's time ranges: a window covering exactly two of the six
     # ranges has their summed share, one covering one of them that range's share (misfit only in channel b)
-    from soiltrack.identify.gap import localise, range_share
+    from soiltrack.identify.diagnosis.gap import localise, range_share
     t = np.arange(600.0)
     zb = np.where((t >= 200) & (t < 400), 3.0, 0.0)
     R = {"a": np.zeros(600), "b": zb}
@@ -195,7 +195,7 @@ def test_range_share_is_on_the_scale_of_the_localisation_bins():
 def test_local_noise_medians_follow_their_definition(split):
     # the vectorised local medians of isolated_outliers against the definition read literally, reading by reading:
     # half second differences on each side, leaving out the three the reading enters, a side counting from 3 values
-    from soiltrack.identify.gap import _local_medians
+    from soiltrack.identify.diagnosis.gap import _local_medians
     rng = np.random.default_rng(7)
     for n, half in ((9, 3), (40, 5), (300, 21), (301, 150)):
         d = np.abs(rng.normal(size=n - 2)) * (1 + (np.arange(n - 2) > n // 2))

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from soiltrack.identify import diagnose
-from soiltrack.identify.diagnosis_log import delay_scan, shift_speed, terrain_window
+from soiltrack.identify.diagnosis.log_parts import delay_scan, shift_speed, terrain_window
 from soiltrack.soilmodel import TERRAINS, VEHICLES, DriveLog, simulate
 from conftest import independent_log
 
@@ -166,7 +166,7 @@ def test_a_speed_sensor_scale_error_is_told_from_a_radius_error_by_the_torque_ar
     # plain-numpy heavy logs, seed 5: the vehicle-speed column read 3 % high (a GNSS scale error, outside the
     # library), against seed 1 with a true 4 % radius error. Both offset the slip alike; only the radius divides the
     # sprocket thrust. Measured before the check: the scale error named radius_error with confidence 1.00 (eps 0.029)
-    from soiltrack.identify.diagnosis_log import torque_arm_check
+    from soiltrack.identify.diagnosis.log_parts import torque_arm_check
     heavy = VEHICLES["heavy"]
     def reads_high(a):
         a[:, 3] *= 1.03

@@ -5,7 +5,7 @@ import json
 import pytest
 
 from soiltrack.identify import diagnose
-from soiltrack.identify.diagnosis_sweep import PARTIAL_SHRINK, decide_sweep
+from soiltrack.identify.diagnosis.sweep_parts import PARTIAL_SHRINK, decide_sweep
 from soiltrack.soilmodel import EFFECTS, TERRAINS, VEHICLES, SensorNoise, simulate
 from conftest import independent_check, independent_log, independent_sweep
 
@@ -90,7 +90,7 @@ def _oracle_clip(share: float) -> float:
 
 def test_find_plateau_needs_the_soil_below_to_rise_to_the_level():
     import numpy as np
-    from soiltrack.identify.diagnosis_sweep import find_plateau
+    from soiltrack.identify.diagnosis.sweep_parts import find_plateau
     slip = np.linspace(0.02, 0.7, 30)
     flat = np.full(30, 100.0) + np.where(np.arange(30) % 2, 1.0, -1.0)
     flat[:2] = [60.0, 90.0]
@@ -138,7 +138,7 @@ def test_an_effect_free_clayey_sweep_from_independent_code_is_none(tmp_path):
 
 def test_isolated_outliers_finds_lone_readings_and_spares_noise_steps_and_growth():
     import numpy as np
-    from soiltrack.identify.gap import OUTLIER_Z, isolated_outliers
+    from soiltrack.identify.diagnosis.gap import OUTLIER_Z, isolated_outliers
     rng = np.random.default_rng(7)
     x = np.linspace(0.02, 0.7, 60)
     r = rng.normal(0.0, 1.0, 60)
@@ -196,7 +196,7 @@ def test_speed_glitches_in_a_log_are_named_and_the_verdict_without_them_is_given
 
 def test_isolated_outliers_with_trend_finds_a_glitch_on_a_ramp_but_no_step():
     import numpy as np
-    from soiltrack.identify.gap import isolated_outliers
+    from soiltrack.identify.diagnosis.gap import isolated_outliers
     rng = np.random.default_rng(3)
     t = np.arange(200) * 0.05
     ramp = 500.0 * np.arange(200) + rng.normal(0.0, 100.0, 200)  # a torque ramping 5 noise levels per sample
@@ -217,7 +217,7 @@ def test_torque_glitches_in_a_log_are_named_but_not_readings_at_the_drivetrain_l
     # independent numpy log (heavy vehicle, 60 s at 20 Hz, effect-free), two torque glitches of +20 and -15 kN m on
     # a torque ramping by about 500 N m per sample. Measured before: verdict none, nothing said of them
     import numpy as np
-    from soiltrack.identify.diagnosis import _lone_torque
+    from soiltrack.identify.diagnosis.diagnose import _lone_torque
 
     def glitch(a):
         a[[200, 700], 1] += [20000.0, -15000.0]

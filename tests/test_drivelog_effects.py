@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from soiltrack.identify.drivelog import fit_drive_log
+from soiltrack.identify.drivelog.fit import fit_drive_log
 from soiltrack.identify.fitting import fit
 from soiltrack.soilmodel import TERRAINS, VEHICLES, DataError, max_thrust
 from soiltrack.soilmodel.simulation import simulate_drive_log
@@ -161,7 +161,7 @@ def test_padding_samples_are_inert_for_every_drive_log_effect(vehicle):
     """A padding sample of the cached joint solver adds nothing: zero residual, gradient and parameter
     curvature at zero slip for any parameters (padding with v = r w = 1 made drivetrain_friction's
     torque loss a thrust residual of tau_c / r with 1 N noise: IPOPT hit its iteration limit)."""
-    from soiltrack.identify.drivelog_joint import DATA_ROWS, derivative_function, padded_data
+    from soiltrack.identify.drivelog.joint import DATA_ROWS, derivative_function, padded_data
     from soiltrack.soilmodel.effects import EFFECTS, effect_structure, parse_effects
 
     rng = np.random.default_rng(1)
@@ -186,7 +186,7 @@ def test_drivetrain_friction_fit_converges_on_the_heavy_training_part():
     """The heavy vehicle's training half of a 60 s grade log with drivetrain_friction, started from the nominal
     fit (as the diagnosis does): with the old padding IPOPT ran into its 500-iteration limit twice (50 s);
     measured 16 iterations, 0.6 s."""
-    from soiltrack.identify.gap import blocked_folds
+    from soiltrack.identify.diagnosis.gap import blocked_folds
 
     log = simulate_drive_log(HEAVY, LETE_SAND, seed=1, effects={"grade": 0.03}, duration_s=60.0)
     nom = fit(log, HEAVY, hull_channel=True)
@@ -205,13 +205,13 @@ def test_latent_slips_reach_the_minimum_from_a_noisy_measured_slip():
     vehicle, where the cost is not convex in the slip) reaches the minimum: the residuals of a fit evaluated
     on its own log give the fit's own cost (a gradient step of 1e-3 / |c''| there left one sample of this log
     at cost 916 instead of 2.9, measured)."""
-    from soiltrack.identify.drivelog_residuals import _evaluate
-    from soiltrack.identify.drivelog_joint import _slip_newton_function
+    from soiltrack.identify.drivelog.residuals import evaluate_residuals
+    from soiltrack.identify.drivelog.joint import _slip_newton_function
 
     log = simulate_drive_log(HEAVY, LETE_SAND, seed=1, effects={"grade": 0.03}, duration_s=60.0)
     nom = fit(log, HEAVY, hull_channel=True)
     assert nom.success, nom.message
-    out, ctx = _evaluate(nom, log, HEAVY, None)
+    out, ctx = evaluate_residuals(nom, log, HEAVY, None)
     s = out["slip"]
     fn = _slip_newton_function(HEAVY, ctx["structure"]).map(s.size)
     c = np.asarray(fn(np.repeat(ctx["theta"].reshape(-1, 1), s.size, axis=1), s.reshape(1, -1), ctx["D"])[0]).ravel()
@@ -225,8 +225,8 @@ def test_joint_solver_hessian_is_casadis_own(names):
     equals CasADi's Hessian of the solver's own objective, on a real log with padding samples."""
     import casadi as ca
 
-    from soiltrack.identify.drivelog_joint import joint_data, joint_solver, padded_data
-    from soiltrack.identify.drivelog_prepare import prepare_drive_log
+    from soiltrack.identify.drivelog.joint import joint_data, joint_solver, padded_data
+    from soiltrack.identify.drivelog.prepare import prepare_drive_log
     from soiltrack.soilmodel.effects import effect_structure, parse_effects
 
     log = simulate_drive_log(LIGHT, DRY_SAND, seed=3, effects={"grade": GRADE}, duration_s=1.2)
@@ -253,7 +253,7 @@ def test_joint_solver_hessian_is_casadis_own(names):
 def test_compiled_slip_kernels_equal_the_virtual_machine():
     # the per-sample latent-slip Newton step of drive-log fits runs from C code (per-user cache, compiled in
     # the background); it must give the virtual machine's numbers exactly, padding and subsets included
-    from soiltrack.identify import drivelog_joint as J
+    from soiltrack.identify.drivelog import joint as J
     from soiltrack.identify.jitcache import compiler, load
     from soiltrack.soilmodel import VEHICLES
     from soiltrack.soilmodel.effects import effect_structure
@@ -284,7 +284,7 @@ def test_compiled_slip_kernels_equal_the_virtual_machine():
 def test_slip_step_kernel_matches_the_newton_step():
     """The compiled slip step takes Newton's step where the cost is convex in the slip (full step when it
     descends), and never raises a sample's cost."""
-    from soiltrack.identify import drivelog_joint as J
+    from soiltrack.identify.drivelog import joint as J
     from soiltrack.soilmodel import VEHICLES
     from soiltrack.soilmodel.effects import effect_structure
     v = VEHICLES["light"]

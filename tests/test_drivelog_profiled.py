@@ -11,9 +11,9 @@ import math
 import numpy as np
 import pytest
 
-from soiltrack.identify.drivelog_joint import SlipSolver, effect_layout, joint_data, residual_function
-from soiltrack.identify.drivelog_prepare import prepare_drive_log
-from soiltrack.identify.drivelog_profiled import _Sums, profiled_start
+from soiltrack.identify.drivelog.joint import SlipSolver, effect_layout, joint_data, residual_function
+from soiltrack.identify.drivelog.prepare import prepare_drive_log
+from soiltrack.identify.drivelog.lm_start import _Sums, profiled_start
 from soiltrack.identify.fitting import fit
 from soiltrack.soilmodel import TERRAINS, VEHICLES
 from soiltrack.soilmodel.effects import effect_structure, parse_effects
@@ -113,7 +113,7 @@ def test_profiled_start_returns_the_start_when_the_cost_is_not_finite(grade_log)
 def test_the_plain_starts_run_when_ipopt_cannot_certify_the_profiled_start(grade_log, monkeypatch):
     """IPOPT's status from the profiled start is the fit's only if it converged; otherwise the plain starts run
     and the status from the profiled start is reported beside the fit's own."""
-    import soiltrack.identify.drivelog_nlp as nlp
+    import soiltrack.identify.drivelog.nlp as nlp
 
     real = nlp.call_solver
     calls = []

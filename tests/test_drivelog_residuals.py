@@ -7,7 +7,7 @@ import pickle
 import numpy as np
 import pytest
 
-from soiltrack.identify.drivelog import drive_log_residuals, fit_drive_log
+from soiltrack.identify.drivelog.fit import drive_log_residuals, fit_drive_log
 from soiltrack.soilmodel import TERRAINS, VEHICLES, DataError, max_thrust
 from soiltrack.soilmodel.simulation import simulate_drive_log
 

@@ -11,7 +11,8 @@ from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from soiltrack.identify import ENGINES, compiled_lm, fit, fit_many
+from soiltrack.identify import ENGINES, fit, fit_many
+from soiltrack.identify.sweep import compiled_lm
 from soiltrack.soilmodel import TERRAINS, VEHICLES, SlipData, Soil, tractive_force
 from soiltrack.soilmodel.simulation import simulate_drive_log
 

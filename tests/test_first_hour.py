@@ -208,7 +208,7 @@ def test_failed_fit_figure_says_failed(captured, sweep_csv):
 
 
 def test_drive_log_figure_shows_the_samples_that_fix_fmax(captured):
-    from soiltrack.identify.drivelog import prepare_drive_log
+    from soiltrack.identify.drivelog.fit import prepare_drive_log
     from soiltrack.plots import plot_fit
 
     log = simulate(LIGHT, TERRAINS["dry_sand"], seed=1)  # default profile: two hard pulls
@@ -280,7 +280,7 @@ def test_limit_just_beyond_a_bound_is_a_warning_not_a_failure():
 
 
 def test_plausibility_unit_checks():
-    from soiltrack.identify.plausibility import check_slip_data
+    from soiltrack.identify.sweep.plausibility import check_slip_data
     from soiltrack.soilmodel import PRACTICAL_BOUNDS
 
     slip = np.linspace(0.02, 0.5, 10)

@@ -1,4 +1,4 @@
-"""Drive-log identification (soiltrack.identify.drivelog) on logs from the library's simulator.
+"""Drive-log identification (soiltrack.identify.drivelog.fit) on logs from the library's simulator.
 
 The logs are 60 s at 50 Hz from :func:`soiltrack.soilmodel.simulation.simulate_drive_log` with
 its default, realistic sensor noise (GNSS speed 0.05 m/s, encoder 0.5 % + 0.01 rad/s, torque
@@ -16,11 +16,11 @@ import math
 import numpy as np
 import pytest
 
-from soiltrack.identify.drivelog import (DriveLogFitError, estimate_noise_profile, fit_drive_log, padded_size,
+from soiltrack.identify.drivelog.fit import (DriveLogFitError, estimate_noise_profile, fit_drive_log, padded_size,
                                          prepare_drive_log)
-from soiltrack.identify.drivelog_nlp import _output_error_solver
+from soiltrack.identify.drivelog.nlp import _output_error_solver
 from soiltrack.identify.fitting import fit
-from soiltrack.identify.problem import FitFailed
+from soiltrack.identify.sweep.problem import FitFailed
 from soiltrack.soilmodel import TERRAINS, VEHICLES, DataError, DriveLog, max_thrust
 from soiltrack.soilmodel.simulation import simulate_drive_log
 
@@ -86,8 +86,8 @@ def test_covariance_is_the_profiled_sandwich(light_fits):
     errors handed through the shared result object must be those of the sandwich, and the
     observed information A must be symmetric positive definite, B positive semi-definite.
     """
-    from soiltrack.identify import drivelog_covariance as C
-    from soiltrack.identify import drivelog_nlp as D
+    from soiltrack.identify.drivelog import covariance as C
+    from soiltrack.identify.drivelog import nlp as D
     from soiltrack.soilmodel.soil import PRACTICAL_BOUNDS
     log, res = light_fits[0]
     e = res.extra

@@ -242,7 +242,7 @@ def test_confounded_effects_name_each_other_or_the_soil(grade_sweeps):
 
 
 def test_padding_to_size_classes_leaves_the_fit_unchanged(grade_sweeps):
-    from soiltrack.identify.joint_fit import padded_size
+    from soiltrack.identify.sweep.joint import padded_size
     assert [padded_size(n) for n in (3, 8, 9, 64, 65, 600)] == [8, 8, 16, 64, 96, 640]
     d = grade_sweeps["drawbar_pull"].subset(slice(0, 21))  # padded to 24 with zero-weight samples
     res = fit(d, HEAVY, effects=["grade"])

@@ -17,9 +17,10 @@ import time
 import numpy as np
 import pytest
 
-from soiltrack.identify import FitSettings, compiled_lm, fit, fit_many, jitcache
+from soiltrack.identify import FitSettings, fit, fit_many, jitcache
+from soiltrack.identify.sweep import compiled_lm
 from soiltrack.identify.engines import ENGINES
-from soiltrack.identify.problem import make_problem
+from soiltrack.identify.sweep.problem import make_problem
 from soiltrack.soilmodel import (PRACTICAL_BOUNDS, VEHICLES, DataError, SlipData, Soil, SoilBounds, tractive_force,
                                  tractive_force_sensitivities)
 
@@ -308,7 +309,7 @@ def test_one_vocabulary_settings_and_statuses():
 
 def test_single_fit_core_statistics_equal_the_batched_ones():
     """build_result's single-fit fast path gives the batched statistics (rank decisions identical)."""
-    from soiltrack.identify.result import _core_stats, _core_stats_one
+    from soiltrack.identify.estimates.least_squares import core_stats, core_stats_one
     rng = np.random.default_rng(7)
     for _ in range(400):
         n, p = int(rng.integers(1, 12)), int(rng.choice([2, 3]))
@@ -324,7 +325,7 @@ def test_single_fit_core_statistics_equal_the_batched_ones():
         if kind == 4:
             rw[0] = np.inf
         for sk in (False, True):
-            a, b = _core_stats(J[None], rw[None], np.arange(p), sk), _core_stats_one(J, rw, sk)
+            a, b = core_stats(J[None], rw[None], sk), core_stats_one(J, rw, sk)
             assert set(a) == set(b)
             for k in ("rank", "dof", "nonnull", "Dok"):
                 assert np.array_equal(a[k], b[k]), k
@@ -365,7 +366,7 @@ def test_the_buffer_fill_is_input_vector_and_records_have_every_field():
     """solve fills the solver's buffer in one copy: exactly input_vector; Solution and FitResult are built
     without their dataclass __init__: every field is there, in field order."""
     import dataclasses
-    from soiltrack.identify.result import FitResult
+    from soiltrack.identify.estimates.result import FitResult
     rng = np.random.default_rng(11)
     for model, loads in CASES:
         for n in (3, 16, 17, 40, 100):
@@ -384,7 +385,7 @@ def test_the_buffer_fill_is_input_vector_and_records_have_every_field():
 def test_plausibility_curves_of_the_kernel_are_the_soilmodel_ones():
     """The weakest/strongest soil curves the compiled residual Function returns for the plausibility
     checks equal soilmodel's thrust (to rounding), and the checks then find exactly the same."""
-    from soiltrack.identify import plausibility
+    from soiltrack.identify.sweep import plausibility
     rng = np.random.default_rng(12)
     found, checked = set(), 0
     for model, loads in CASES:
@@ -411,8 +412,8 @@ def test_plausibility_curves_of_the_kernel_are_the_soilmodel_ones():
 
 def test_fast_robust_statistics_equal_numpy():
     """The partition-based median and quantile of the plausibility checks are numpy's, bit for bit."""
-    from soiltrack.identify.plausibility import _median, _quantile
-    from soiltrack.identify.problem import _heteroscedasticity_1d, heteroscedasticity
+    from soiltrack.identify.sweep.plausibility import _median, _quantile
+    from soiltrack.identify.sweep.problem import _heteroscedasticity_1d, heteroscedasticity
     rng = np.random.default_rng(13)
     for n in list(range(1, 40)) + [100, 101, 128, 1000]:
         x = rng.standard_normal(n) * 10 ** rng.uniform(-3, 6)

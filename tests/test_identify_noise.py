@@ -7,7 +7,7 @@ import pytest
 from soiltrack.cli import main
 from soiltrack.soilmodel import TERRAINS, VEHICLES, DataError, SlipData, max_thrust, tractive_force
 from soiltrack.identify import fit, fit_many
-from soiltrack.identify.problem import BP_CRITICAL, heteroscedasticity
+from soiltrack.identify.sweep.problem import BP_CRITICAL, heteroscedasticity
 
 LIGHT = VEHICLES["light"]
 SOIL = TERRAINS["sandy_loam"]

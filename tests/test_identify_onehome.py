@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from soiltrack.identify import fit
-from soiltrack.identify.problem import make_problem, weights
+from soiltrack.identify.sweep.problem import make_problem, weights
 from soiltrack.soilmodel import (PRACTICAL_BOUNDS, TERRAINS, VEHICLES, DataError, SensorNoise, SlipData,
                                  simulate_slip_sweep, tractive_force)
 from soiltrack.soilmodel.ridge import LOAD_RTOL, distinct_loads, ridge_centre

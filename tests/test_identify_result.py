@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from soiltrack.identify import FitResult, build_result
-from soiltrack.identify.stats import norm_ppf, t_ppf
+from soiltrack.identify.estimates.distributions import norm_ppf, t_ppf
 from soiltrack.soilmodel import PRACTICAL_BOUNDS, SEED_ACTUAL, VEHICLES, Soil, tractive_force
 from soiltrack.soilmodel.traction import tractive_force_sensitivities
 

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from soiltrack.identify import FitFailed, fit, fit_many, profile_likelihood
-from soiltrack.identify.sweep_model import predict
-from soiltrack.soilmodel import (PRACTICAL_BOUNDS, VEHICLES, DataError, DriveLog, SlipData, Soil, read_csv,
+from soiltrack.identify.sweep.model import predict
+from soiltrack.soilmodel import (PRACTICAL_BOUNDS, VEHICLES, DataError, SlipData, Soil, read_csv,
                                  tractive_force)
 from soiltrack.soilmodel.traction import tractive_force_sensitivities
 

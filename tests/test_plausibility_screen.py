@@ -9,8 +9,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from soiltrack.identify import compiled_lm, problem
-from soiltrack.identify.plausibility import (_limit_on_bound, assess, check_slip_data, check_slip_fit, corner_soils,
+from soiltrack.identify.sweep import compiled_lm
+from soiltrack.identify.sweep import problem
+from soiltrack.identify.sweep.plausibility import (_limit_on_bound, assess, check_slip_data, check_slip_fit, corner_soils,
                                               limit_screen_expr, screen_expr)
 from soiltrack.soilmodel import PRACTICAL_BOUNDS, VEHICLES, SlipData, Soil, tractive_force
 

@@ -4,7 +4,7 @@ import dataclasses
 import numpy as np
 
 from soiltrack.identify import diagnose
-from soiltrack.identify.saturation import find_saturation
+from soiltrack.identify.diagnosis.saturation import find_saturation
 from soiltrack.soilmodel import TERRAINS, VEHICLES, SensorNoise, SlipData, simulate
 
 VEH = VEHICLES["light"]

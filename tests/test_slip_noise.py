@@ -6,7 +6,7 @@ import pytest
 
 from soiltrack.cli import main
 from soiltrack.identify import fit
-from soiltrack.identify.slip_noise import estimate_slip_noise, serial_correlation
+from soiltrack.identify.sweep.slip_noise import estimate_slip_noise, serial_correlation
 from soiltrack.soilmodel import TERRAINS, VEHICLES, DataError, simulate_slip_sweep, write_csv
 from conftest import independent_sweep
 
@@ -170,7 +170,7 @@ def test_cli_options(tmp_path, capsys):
 
 
 def test_leverage_is_the_hat_diagonal(noisy_slip_sweeps):
-    from soiltrack.identify.slip_noise import leverage
+    from soiltrack.identify.sweep.slip_noise import leverage
     r = fit(noisy_slip_sweeps[0], HEAVY, effects=["grade"], slip_noise="off", intervals="linear")
     h = leverage(r)
     J = r.jacobian[:, list(r.free)]

@@ -4,8 +4,8 @@ import math
 import pytest
 from hypothesis import given, strategies as st
 
-from soiltrack.identify.selection import Verdict
-from soiltrack.identify.verdict_checks import check_verdict, explained_fraction
+from soiltrack.identify.diagnosis.selection import Verdict
+from soiltrack.identify.diagnosis.verdict_checks import check_verdict, explained_fraction
 
 
 def test_explained_fraction_values():
@@ -64,7 +64,7 @@ def test_lookalikes_name_library_effects_and_reach_the_notes():
     import numpy as np
 
     from soiltrack.identify import diagnose
-    from soiltrack.identify.selection import LOOKALIKES
+    from soiltrack.identify.diagnosis.selection import LOOKALIKES
     from soiltrack.soilmodel import EFFECTS, TERRAINS, VEHICLES, SensorNoise, simulate
 
     assert set(LOOKALIKES) <= set(EFFECTS)

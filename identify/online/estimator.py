@@ -14,7 +14,7 @@ nothing changes, the iterate sits on the batch fit's optimum of the same window.
 
 Covariance: the batch fit's sandwich ``A^-1 B A^-1`` (exact per-sample Hessian, empirical score
 variance), from the same pass. What is identifiable follows the batch fit's regime rules
-(:mod:`soiltrack.identify.drivelog_regime`): gentle driving (F_max and K correlated beyond
+(:mod:`soiltrack.identify.drivelog.regime`): gentle driving (F_max and K correlated beyond
 0.99, or F_max's standard error beyond 25 %, or F_max on a bound) identifies only the
 small-slip slope ``F_max l / (2 K)``.
 
@@ -40,9 +40,9 @@ import numpy as np
 
 from ...soilmodel.tracks import NOISE_FLOOR_REL, combine_tracks, robust_noise, turning_mask
 from ...soilmodel.vehicle import Vehicle
-from ..drivelog_nlp import fmax_bounds
-from ..drivelog_noise import noise_model
-from ..drivelog_regime import GENTLE_CORRELATION, GENTLE_REL_STDERR, K_REL_STDERR
+from ..drivelog.nlp import fmax_bounds
+from ..drivelog.noise import noise_model
+from ..drivelog.regime import GENTLE_CORRELATION, GENTLE_REL_STDERR, K_REL_STDERR
 from .detector import CusumDetector
 from .ccall import BufferCall
 from .kernels import JUMP_SIGMA, NOISE, PARAMS, RAW, ROWS, SUMS, kernels

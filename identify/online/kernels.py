@@ -25,7 +25,7 @@ import casadi as ca
 
 from ...soilmodel.threadsafe import locked_cache
 from ...soilmodel.traction import slip_factor
-from ..drivelog_prepare import SLIP_BOUNDS
+from ..drivelog.prepare import SLIP_BOUNDS
 from .. import jitcache
 
 __all__ = ["RAW", "ROWS", "NOISE", "PARAMS", "SUMS", "Kernels", "kernels", "prepare_kernel", "predict_kernel",

@@ -1,0 +1,426 @@
+"""Sweep-only pieces of the diagnosis: usable fits, the blocked folds, in-sample evidence, imitation.
+
+A tractive-force or drawbar-pull sweep has independent samples (one reading per slip), a few
+dozen of them, and effects whose signatures bend the thrust-slip curve. Three consequences,
+which :func:`~.diagnosis.diagnose` draws on sweeps:
+
+- **Which effect is decided on all the data.** Comparing candidates by their predictions of
+  held-out blocks fits each one on part of the sweep and asks it to extrapolate into the gaps
+  (and, for the end blocks, beyond the slips it saw): that throws away evidence and adds the
+  extrapolation error of the fit, which is largest for effects with a shape in slip. With
+  independent samples and a known noise level the efficient comparison is the likelihood on
+  all the data with a penalty for the parameters added (Akaike's information criterion),
+  averaged over a Bayesian bootstrap of the samples (pseudo-BMA+, :func:`information_weights`).
+  Held-out blocks still measure the gap, test the flexible term and give the shrink; a flexible
+  term that wins on all the data but predicts the held-out blocks no better than the nominal
+  model is a chance feature of the noise, not a gap (:func:`decide_sweep`).
+- **More folds** (:func:`sweep_folds`): each block held out once in five folds, so every fit
+  sees 80 % of the sweep instead of half of it.
+- **Imitation** (:func:`imitation_rms`): how closely effect B, refitted with the soil, can
+  reproduce the curve fitted with effect A, in units of the noise. When that is small, no
+  realisation of the noise can tell A from B with confidence; the pair is confusable.
+- **A gap the best candidate leaves** (:func:`lack_of_fit`): an F test of a flexible term
+  (hat functions in slip) added on top of the candidate's fit on all the data, its own
+  parameters refitted with it; the verdict (:func:`decide_sweep`) is ``unexplained`` then.
+
+A fit whose solver converged but whose answer fails the plausibility checks of
+:mod:`.plausibility` (residuals far off, rows that look like outliers) is exactly what a
+missing effect does to the nominal model: :func:`solver_converged` accepts it for the
+diagnosis and :func:`plausibility_warnings` says why it was flagged.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...soilmodel.data import SlipData
+from ..estimates.distributions import betainc, f_sf  # noqa: F401 - re-exported (the F test's tail)
+from ..estimates.records import NOT_USABLE, solver_converged  # noqa: F401 - used by the diagnosis
+
+__all__ = ["plausibility_warnings", "sweep_folds", "information_weights",
+           "imitation_rms", "effect_start", "betainc", "f_sf", "lack_of_fit", "decide_sweep", "fit_jacobian", "Plateau",
+           "find_plateau", "PLATEAU_SHARE"]
+
+
+
+def plausibility_warnings(res) -> list[str]:
+    """The plausibility warnings that made a converged fit 'not usable' (empty for a successful fit)."""
+    if getattr(res, "success", False):
+        return []
+    try:
+        ws = list(getattr(res, "warnings", ()) or ())
+    except Exception:  # noqa: BLE001 - a lazily built view that fails says nothing more
+        ws = []
+    flagged = [w for w in ws if str(w).startswith("NOT USABLE")]
+    return flagged or [w for w in ws if "outlier" in str(w) or "residual" in str(w)]
+
+
+def sweep_folds(order: np.ndarray, n_blocks: int = 10, n_folds: int = 5) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Blocked folds of a sweep: ``n_blocks`` contiguous blocks in slip order, fold k holds out blocks k, k+f, ...
+
+    Parameters
+    ----------
+    order
+        Sample indices sorted by slip.
+    n_blocks
+        Number of contiguous blocks (at least 2 samples each).
+    n_folds
+        Number of folds (``<= n_blocks``); every block is held out exactly once.
+
+    Returns
+    -------
+    list of (train, test)
+        Sample indices (sorted) of each fold.
+    """
+    order = np.asarray(order)
+    n = order.size
+    nb = int(max(2, min(n_blocks, n // 2)))
+    nf = int(max(2, min(n_folds, nb)))
+    chunks = np.array_split(order, nb)
+    out = []
+    for k in range(nf):
+        te = np.sort(np.concatenate([c for j, c in enumerate(chunks) if j % nf == k]))
+        tr = np.sort(np.concatenate([c for j, c in enumerate(chunks) if j % nf != k]))
+        out.append((tr, te))
+    return out
+
+
+def information_weights(z: dict[str, np.ndarray], k: dict[str, int], n_boot: int = 400,
+                        seed: int = 20261123) -> dict[str, float]:
+    """Pseudo-BMA+ weights of in-sample fits: AIC on all the data, averaged over a Bayesian bootstrap.
+
+    ``z[m]`` are model m's residuals over the noise level at every sample (the same samples for
+    every model), ``k[m]`` the parameters it adds to the soil's. Each bootstrap replicate draws
+    Dirichlet(1, ..., 1) weights ``a`` over the samples and scores every model by
+    ``-0.5 n log(sum_t a_t z_t^2) - k`` (the Gaussian log-likelihood with the noise level profiled
+    out, minus Akaike's penalty); the weights are the softmax averaged over the replicates (Yao et
+    al. 2018). A model with a non-finite residual gets weight 0. Deterministic (fixed ``seed``).
+
+    The noise floor gives only the shape of the noise along the sweep: its overall level, which
+    second differences of a few dozen samples estimate to within 10-20 %, is profiled out per model
+    and replicate, so a floor set too low does not multiply every likelihood gain (a chance feature
+    of the noise fitted by the flexible term among them).
+    """
+    names = list(z)
+    if not names:
+        return {}
+    Z = np.vstack([np.asarray(z[m], dtype=float) for m in names])
+    n = Z.shape[1]
+    finite = np.all(np.isfinite(Z), axis=1)
+    out = np.zeros(len(names))
+    if n == 0 or not np.any(finite):
+        return {m: (1.0 / len(names) if n == 0 else 0.0) for m in names}
+    Q = Z[finite] ** 2  # (models, samples)
+    pen = np.array([float(k.get(m, 0)) for m, f in zip(names, finite) if f])
+    rng = np.random.default_rng(seed)
+    A = rng.dirichlet(np.ones(n), size=n_boot)  # (boot, samples)
+    E = -0.5 * n * np.log(np.maximum(A @ Q.T, 1e-300)) - pen[None, :]  # the noise level profiled out
+    E = E - E.max(axis=1, keepdims=True)
+    W = np.exp(E)
+    W /= W.sum(axis=1, keepdims=True)
+    out[finite] = W.mean(axis=0)
+    return {m: float(w) for m, w in zip(names, out)}
+
+
+def effect_start(res) -> dict:
+    """``{effect: {param: value}}`` of a fit with effects (the start of a refit from its answer)."""
+    out: dict[str, dict[str, float]] = {}
+    labels = tuple(getattr(res, "effect_labels", ()) or ())
+    values = getattr(res, "effect_values", None)
+    values = np.zeros(0) if values is None else np.asarray(values, dtype=float).ravel()
+    for lab, v in zip(labels, values):
+        name, p = lab.split(".", 1)
+        out.setdefault(name, {})[p] = float(v)
+    return out
+
+
+def imitation_rms(prediction: np.ndarray, data: SlipData, sigma: np.ndarray, fit_other) -> float:
+    """RMS, over the noise, of the best imitation of a fitted curve by another model.
+
+    Parameters
+    ----------
+    prediction
+        The curve to imitate at the samples of ``data`` (what the data would be without noise
+        if the first model were the truth), N.
+    data
+        The sweep (its slips, loads and what it measured).
+    sigma
+        Noise level per sample, N.
+    fit_other
+        ``fit_other(SlipData) -> (FitResult, residuals per sample)`` fitting the other model.
+
+    Returns
+    -------
+    float
+        ``sqrt(mean(((prediction - imitation) / sigma)^2))``; ``inf`` when the refit fails.
+        The expected difference of the two models' sums of squared standardised residuals on
+        such data is ``n`` times its square: below a few units the data cannot tell them apart.
+    """
+    key = "drawbar_pull" if data.measured == "drawbar_pull" else "tractive_force"
+    synth = SlipData(slip=np.asarray(data.slip, float), normal_load=data.normal_load,
+                     source=f"{data.source or 'sweep'} (noise-free curve of the verdict)",
+                     **{key: np.asarray(prediction, float)})
+    try:
+        res, r = fit_other(synth)
+    except Exception:  # noqa: BLE001 - a refit that cannot be made imitates nothing
+        return math.inf
+    if not solver_converged(res):
+        return math.inf
+    r = np.asarray(r, dtype=float)
+    s = np.asarray(sigma, dtype=float)
+    ok = np.isfinite(r) & (s > 0)
+    if not np.any(ok):
+        return math.inf
+    return float(np.sqrt(np.mean((r[ok] / s[ok]) ** 2)))
+
+
+# ----------------------------------------------------------------------------- lack of fit and the verdict
+def lack_of_fit(residuals: np.ndarray, jacobian: np.ndarray, basis: np.ndarray, sigma: np.ndarray) -> float:
+    """p-value that a flexible term ``basis`` on top of a fitted model still explains its residuals (F test).
+
+    The model's own parameters are refitted with the flexible term (linearised: its Jacobian),
+    so the test asks what the basis adds beyond them. Rows are weighted by ``1/sigma`` (the
+    shape of the noise along the sweep); the F statistic does not depend on the noise level,
+    which second differences estimate only roughly.
+
+    Parameters
+    ----------
+    residuals
+        Measured minus predicted of the model fitted on all the data, per sample.
+    jacobian
+        Its prediction's Jacobian w.r.t. its parameters, ``(n, p)``.
+    basis
+        The flexible term's basis, ``(n, k)`` (e.g. :func:`~.selection.hat_basis` in slip).
+    sigma
+        Noise level per sample (only its shape matters).
+    """
+    s = np.asarray(sigma, dtype=float)
+    z = np.asarray(residuals, dtype=float) / s
+    J = np.asarray(jacobian, dtype=float) / s[:, None]
+    B = np.asarray(basis, dtype=float) / s[:, None]
+    ok = np.isfinite(z) & np.all(np.isfinite(J), axis=1) & np.all(np.isfinite(B), axis=1)
+    z, J, B = z[ok], J[ok], B[ok]
+
+    def span(M):
+        M = M[:, np.linalg.norm(M, axis=0) > 0]
+        if M.shape[1] == 0:
+            return np.zeros((M.shape[0], 0))
+        M = M / np.linalg.norm(M, axis=0)
+        U, sv, _ = np.linalg.svd(M, full_matrices=False)
+        return U[:, sv > 1e-9 * sv[0]]
+
+    U0, U1 = span(J), span(np.hstack([J, B]))
+    d1 = U1.shape[1] - U0.shape[1]
+    d2 = z.size - U1.shape[1]
+    if d1 <= 0 or d2 <= 0:
+        return 1.0
+    s0 = float(z @ z - np.sum((U0.T @ z) ** 2))
+    s1 = float(z @ z - np.sum((U1.T @ z) ** 2))
+    if s1 <= 0:
+        return 0.0 if s0 > 0 else 1.0
+    return f_sf(((s0 - s1) / d1) / (s1 / d2), d1, d2)
+
+
+#: Held-out shrink from which a candidate that leaves a smooth residual is still named (capped at 0.5).
+PARTIAL_SHRINK = 0.5
+
+
+def decide_sweep(weights: dict[str, float], significant: list[str], gap: bool, lack_p: dict[str, float],
+                 alpha: float = 0.01, shrink: dict[str, float] | None = None, disc_held_p: float | None = None):
+    """The verdict on a sweep from information-criterion weights and the lack-of-fit test.
+
+    - ``none`` when no candidate screens significant and no gap is seen, or when the nominal model
+      outweighs every candidate;
+    - ``unexplained`` when the flexible term outweighs the best candidate, or when a flexible term
+      on top of the best candidate still explains its residuals (:func:`lack_of_fit` below ``alpha``)
+      and the candidate explains less than half of the held-out gap (``shrink`` below
+      :data:`PARTIAL_SHRINK`); with half or more it is named, its confidence capped at 0.5 (the
+      effect is there, but its form is not quite the library's, or a second cause adds to it);
+    - when the flexible term outweighs every candidate on all the data but predicts the held-out
+      blocks no better than the nominal model (``disc_held_p``, the Diebold-Mariano p-value, at
+      least ``alpha``), no structured gap is confirmed: ``none``, or a candidate whose own score is
+      significant, named at 0.5 at most (weights renormalised without the flexible term);
+    - otherwise the best candidate, with its weight as the confidence.
+
+    Returns a :class:`~.selection.Verdict`.
+    """
+    from .selection import DISCREPANCY, NOMINAL, Verdict
+
+    w_none = weights.get(NOMINAL, 0.0)
+    w_disc = weights.get(DISCREPANCY, 0.0)
+    named = {k: w for k, w in weights.items() if k not in (NOMINAL, DISCREPANCY)}
+    if not significant and not gap:
+        return Verdict(NOMINAL, max(w_none, 1.0 - w_disc),
+                       "no candidate's score is significant and the nominal model leaves no significant gap")
+    if not named:
+        if gap:
+            return Verdict("unexplained", w_disc, "the nominal model leaves a significant gap, and no candidate "
+                           "effect screens significant")
+        return Verdict(NOMINAL, w_none, "no candidate fits the data better than the nominal model")
+    best = max(named, key=lambda k: named[k])
+    if w_none >= named[best] and w_none >= w_disc:
+        return Verdict(NOMINAL, w_none, "the nominal model fits all the data best (likelihood with Akaike's "
+                       "penalty for the parameters an effect adds)")
+    if w_disc > named[best] and disc_held_p is not None and disc_held_p >= alpha:
+        # the flexible term wins on all the data but predicts the held-out blocks no better than the
+        # nominal model: its gain is a chance feature of this noise (or a floor set too low), not a
+        # structured gap; it leaves the comparison, and a name needs a significant score of its own
+        rest = w_none + sum(named.values())
+        wn = w_none / rest if rest > 0 else 1.0
+        wb = named[best] / rest if rest > 0 else 0.0
+        why = (f"a flexible term fits all the data better, but it does not predict the held-out blocks better than "
+               f"the nominal model (p = {disc_held_p:.2g}): no structured gap is confirmed")
+        if best in significant and wb > wn:
+            return Verdict(best, min(wb, 0.5), why + f"; {best} screens significant and is named, with confidence "
+                           "0.5 at most")
+        return Verdict(NOMINAL, max(wn, 1.0 - wb) if best not in significant else wn, why)
+    if w_disc > named[best]:
+        return Verdict("unexplained", 1.0 - named[best],
+                       f"a flexible discrepancy term fits all the data better than the best candidate, {best}, "
+                       "even with Akaike's penalty for its many parameters")
+    p = lack_p.get(best, 1.0)
+    if p < alpha:
+        sh = (shrink or {}).get(best, 0.0)
+        sh = sh if math.isfinite(sh) else 0.0
+        if sh >= PARTIAL_SHRINK:
+            return Verdict(best, min(named[best], 0.5),
+                           f"{best} explains most of the gap (held-out error shrinks by {sh:.0%}) but leaves a smooth "
+                           f"residual (a flexible term on top of it still explains it, F test p = {p:.2g}): the effect "
+                           "is there, but its form is not quite the library's, or a second cause adds to it, hence "
+                           "a confidence of at most 0.5")
+        return Verdict("unexplained", max(1.0 - named[best], 1.0 - max(sh, 0.0)),
+                       f"the best candidate, {best}, still leaves a smooth gap: a flexible term on top of it "
+                       f"explains its residuals (F test, p = {p:.2g}), and it explains only {max(sh, 0.0):.0%} of the "
+                       "held-out gap")
+    return Verdict(best, named[best], f"{best} fits all the data best (likelihood with Akaike's penalty)")
+
+
+def fit_jacobian(res, data: SlipData) -> np.ndarray:
+    """Jacobian ``(n, 3 + m)`` of a sweep fit's prediction at its answer, on the samples of ``data``."""
+    from ..sweep.model import SweepResiduals, fit_vector, predict
+
+    rm = res.residual_model if isinstance(getattr(res, "residual_model", None), SweepResiduals) else SweepResiduals()
+    x = fit_vector(res)
+    effects = res.effect_structure if res.effect_labels else None
+    W = data.loads(res.vehicle.weight).astype(float)
+    _, J = predict(x, data.slip, W, res.vehicle, effects, res.model, data.measured, rm.rig_speed)
+    if res.model == "cohesion-free":
+        J = J.copy()
+        J[:, 0] = 0.0
+    return J
+
+
+# ----------------------------------------------------------------------------- a measured plateau
+@dataclass(frozen=True)
+class Plateau:
+    """The sweep's largest readings flat at one level within the noise: a sensor or rig at its limit.
+
+    The alternative it stands for is the nominal soil on the samples below the plateau and a
+    constant ``level`` on the ``rows`` of the plateau: what a load cell clipped at its range (with
+    noise added after the clip, so the readings do not repeat exactly) or a rig's force limit gives.
+
+    Attributes
+    ----------
+    level : float
+        The plateau's level (weighted mean of its readings), N.
+    rows : tuple of int
+        Its data rows (1-based, as in the file).
+    slip_range : tuple of float
+        Smallest and largest slip on it.
+    z : numpy.ndarray
+        Standardised residuals of the alternative at every sample.
+    level_stderr : float
+        Standard error of the level (its readings' noise floor over the square root of their count), N.
+    """
+
+    level: float
+    rows: tuple[int, ...]
+    slip_range: tuple[float, float]
+    z: np.ndarray
+    level_stderr: float = math.nan
+
+    def describe(self) -> str:
+        """One plain sentence."""
+        return (f"the {len(self.rows)} largest readings (slip {self.slip_range[0]:.3g} to {self.slip_range[1]:.3g}) "
+                f"are flat at {self.level:.6g} N within the noise, while the soil's curve through the readings below "
+                "them still rises there: a load cell or rig at its limit looks like this, and no effect in the "
+                "library models it")
+
+
+#: Smallest share of a sweep's samples a plateau must hold to be considered.
+PLATEAU_SHARE = 1.0 / 3.0
+
+
+def find_plateau(values: np.ndarray, slip: np.ndarray, sigma: np.ndarray, fit_below,
+                 min_share: float = PLATEAU_SHARE) -> Plateau | None:
+    """The best model "nominal soil below, one flat level on the largest readings" of a sweep.
+
+    For each count m of largest readings put on the level (at least ``min_share`` of the sweep),
+    the level is their weighted mean and the nominal soil is fitted on the others; the m with
+    the smallest total chi-square wins (searched in order of the level's own chi-square, which
+    bounds the total from below, so few soil fits are made).
+
+    Parameters
+    ----------
+    values
+        Measured force per sample, N.
+    slip
+        Slip per sample.
+    sigma
+        Noise level per sample, N.
+    fit_below
+        ``fit_below(idx) -> (residuals on idx, predictions on the other samples)`` fitting the
+        nominal soil on the samples ``idx`` only (None when the fit fails).
+    min_share
+        Fewest samples on the level, as a share of the sweep.
+
+    Returns
+    -------
+    Plateau or None
+        None for fewer than 9 samples or non-finite inputs, or when no m gives a soil below
+        that rises to the level at the plateau's slips (then nothing is clipped). One or two
+        readings below the level are passed exactly by the soil (F_max and K).
+    """
+    y = np.asarray(values, dtype=float)
+    s = np.asarray(sigma, dtype=float)
+    n = y.size
+    if n < 9 or not np.all(np.isfinite(y) & np.isfinite(s) & (s > 0)):
+        return None
+    top = np.argsort(-y, kind="stable")
+    w = 1.0 / s[top] ** 2
+    sw, swy, swy2 = np.cumsum(w), np.cumsum(w * y[top]), np.cumsum(w * y[top] ** 2)
+    chi_top = np.maximum(swy2 - swy ** 2 / sw, 0.0)  # spread of the top m readings about their mean, m = 1..n
+    ms = np.arange(max(3, int(math.ceil(min_share * n))), n)
+    best: tuple[float, int, np.ndarray] | None = None
+    for m in sorted(ms, key=lambda m: chi_top[m - 1]):
+        if best is not None and chi_top[m - 1] >= best[0]:
+            break
+        on, below = np.sort(top[:m]), np.sort(top[m:])
+        lev = float(swy[m - 1] / sw[m - 1])
+        if below.size >= 3:
+            got = fit_below(below)
+            if got is None:
+                continue
+            r_below, pred_on = got
+            if not np.all(np.isfinite(r_below)) or not np.all(np.isfinite(pred_on)):
+                continue
+            if np.median((pred_on - lev) / s[on]) < 0.0:
+                continue  # the soil below does not rise to the level there: nothing is clipped
+        elif np.any(y[below] >= lev):
+            continue
+        else:  # one or two readings below: the soil (F_max and K at least) passes through them
+            r_below = np.zeros(below.size)
+        z = np.empty(n)
+        z[below] = r_below / s[below]
+        z[on] = (y[on] - lev) / s[on]
+        total = float(z @ z)
+        if best is None or total < best[0]:
+            best = (total, m, z)
+    if best is None:
+        return None
+    _, m, z = best
+    on = np.sort(top[:m])
+    return Plateau(float(swy[m - 1] / sw[m - 1]), tuple(int(k) + 1 for k in on),
+                   (float(np.min(slip[on])), float(np.max(slip[on]))), z, float(1.0 / math.sqrt(sw[m - 1])))

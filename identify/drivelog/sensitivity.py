@@ -1,0 +1,110 @@
+"""Per-sample residuals and parameter sensitivities of a fitted drive-log model (public API).
+
+A drive-log fit profiles out one latent slip per sample, and the Jacobian it hands to the result
+object is a stand-in with the right ``J^T J`` only (:mod:`.drivelog_joint_fit`). Score tests
+(:mod:`.screening`) and the search for a change of terrain (:mod:`.diagnosis_log`) need the real
+per-sample thing: the whitened residuals ``e_k`` (three channels per used sample) and
+``de_k/dtheta`` from the drive-log model's own CasADi derivative function
+(:func:`~.drivelog_joint.sensitivity_function`, the physics of :mod:`soiltrack.soilmodel`), at the
+fitted parameters and the latent slips :func:`~.drivelog_residuals.drive_log_residuals` solves,
+with ``de_k/dtheta`` projected off ``de_k/di_k`` (the profiled sensitivity: at the per-sample
+optimum ``e_k`` is orthogonal to ``de_k/di_k``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ...soilmodel.data import DriveLog
+from ...soilmodel.vehicle import Vehicle
+from .joint import sensitivity_function
+from .residuals import evaluate_residuals
+
+__all__ = ["DriveLogSensitivities", "drive_log_sensitivities"]
+
+
+@dataclass(frozen=True, eq=False)
+class DriveLogSensitivities:
+    """Whitened residuals and their profiled sensitivities, sample by sample.
+
+    Attributes
+    ----------
+    residuals
+        ``(n, c)`` whitened residuals of the ``n`` used samples, ``c`` channels (speed, thrust,
+        hull; the hull row is zero when the fit did not use that channel). Dimensionless.
+    jacobian
+        ``(n, c, p)`` derivative of ``residuals`` with respect to the parameters ``labels``, with
+        the latent slip profiled out.
+    labels
+        ``("F_max", "K", "effect.param", ...)``: ``F_max`` is the log's thrust limit (N), ``K``
+        the shear modulus (m), then the effect parameters of ``effects`` (at the fit's values, or
+        at their off values when the fit did not carry them).
+    keep
+        Boolean mask over the log's samples: which samples are used (rows of ``residuals``).
+    time_s
+        Time of the used samples, s.
+    """
+
+    residuals: np.ndarray
+    jacobian: np.ndarray
+    labels: tuple[str, ...]
+    keep: np.ndarray
+    time_s: np.ndarray
+
+    @property
+    def n_channels(self) -> int:
+        """Residual channels per sample."""
+        return int(self.residuals.shape[1])
+
+    def stacked(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(J, r)`` stacked sample by sample: ``(c n, p)`` and ``(c n,)``."""
+        n, c, p = self.jacobian.shape
+        return self.jacobian.reshape(n * c, p), self.residuals.reshape(n * c)
+
+
+def drive_log_sensitivities(result: Any, log: DriveLog, vehicle: Vehicle, effects: Any = None) -> DriveLogSensitivities:
+    """Per-sample whitened residuals and profiled sensitivities of a drive-log fit on ``log``.
+
+    Parameters
+    ----------
+    result
+        A converged drive-log :class:`~.result.FitResult` (or the parameter mapping
+        :func:`~.drivelog_residuals.drive_log_residuals` takes).
+    log, vehicle
+        The log to evaluate on (usually the one fitted) and the nominal vehicle.
+    effects
+        Effect names to switch on at their off values (default: those of the fit): a nominal fit
+        then gives the candidates' sensitivity columns without carrying them in its NLP.
+
+    Returns
+    -------
+    DriveLogSensitivities
+
+    Raises
+    ------
+    DataError
+        The fit did not succeed, or the log has too few usable samples.
+    """
+    out, ctx = evaluate_residuals(result, log, vehicle, effects)
+    theta, structure, D = ctx["theta"], ctx["structure"], ctx["D"]
+    n = D.shape[1]
+    slip = np.asarray(out["slip"], dtype=float).reshape(1, -1)
+    fn = sensitivity_function(vehicle, structure)
+    e, Jt, gi = (np.asarray(a, dtype=float) for a in fn.map(n)(np.repeat(theta.reshape(-1, 1), n, axis=1), slip, D))
+    c, p = e.shape[0], theta.size
+    e = e.T                                      # (n, c)
+    Jt = Jt.reshape(c, n, p).transpose(1, 0, 2)  # (n, c, p)
+    gi = gi.T                                    # (n, c)
+    gn = np.sum(gi ** 2, axis=1)
+    ok = gn > 1e-300
+    Jt[ok] -= gi[ok, :, None] * (np.einsum("kc,kcp->kp", gi[ok], Jt[ok]) / gn[ok, None])[:, None, :]
+    e = np.where(np.isfinite(e), e, 0.0)
+    Jt = np.where(np.isfinite(Jt), Jt, 0.0)
+    keep = np.asarray(out["keep"])
+    if keep.dtype != bool:
+        mask = np.zeros(log.n_samples, dtype=bool)
+        mask[keep.astype(int)] = True
+        keep = mask
+    return DriveLogSensitivities(e, Jt, ("F_max", "K") + tuple(ctx["labels"]), keep, np.asarray(out["time_s"], float))

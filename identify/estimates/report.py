@@ -1,0 +1,325 @@
+"""A fit result in words and in JSON: the report, warnings, the CLI JSON object.
+
+A mixin of :class:`~soiltrack.identify.estimates.result.FitResult`. JSON (``to_json``) never carries NaN
+or Infinity: unavailable numbers are ``null`` and the reason is in the ``note`` / ``warnings``
+text. For drive logs ``rmse_N`` is ``null`` and ``rmse`` / ``residual_unit`` carry the residual
+size in its own unit.
+"""
+from __future__ import annotations
+
+import json
+from functools import cached_property
+
+import numpy as np
+
+from ...soilmodel.soil import PARAMETER_NAMES, Soil, SoilBounds
+from ...soilmodel.vehicle import Vehicle
+from .records import EDGE_UNITS, ParameterEstimate, finite_or_none, force_scale, format_force
+
+__all__ = ["ReportViews", "format_force"]
+
+
+class ReportViews:
+    """Report, warnings and JSON of a fit result (mixin)."""
+
+    @cached_property
+    def warnings(self) -> tuple[str, ...]:
+        """Warnings in plain words (input warnings first)."""
+        w = list(self.input_warnings)
+        if not self.success and "answer not usable" not in self.status:  # that one says why in its own warnings
+            w.append(f"the fit did not succeed ({self.status}): {self.message}")
+        for name, d in self.outside_bounds.items():
+            j = PARAMETER_NAMES.index(name)
+            f, u = EDGE_UNITS[name][2], EDGE_UNITS[name][1]
+            w.append(f"{EDGE_UNITS[name][3]} = {self.theta[j] * f:.5g} {u} lies {d} its bounds "
+                     f"[{self.bounds.lower[j] * f:.5g}, {self.bounds.upper[j] * f:.5g}] {u}: the {self.method} "
+                     "method is unconstrained")
+        for name, pe in self.parameters.items():
+            if pe.at_bound and name == "cohesion" and pe.bound_side == "lower" and self.bounds.cohesion[0] == 0:
+                w.append("cohesion c ended on its lower bound 0 kPa: the data show no cohesion (consistent with a "
+                         "cohesionless soil; the cohesion-free model may be the better description)")
+            elif pe.at_bound:
+                w.append(f"{EDGE_UNITS[name][3]} ended on its {pe.bound_side} bound "
+                         f"({pe.edge_value if pe.value is not None else (pe.ridge_value or 0) * EDGE_UNITS[name][2]:.6g} "
+                         f"{pe.edge_unit}): a warning about the data or the bounds")
+        for s in self.identifiability["statements"]:
+            if not s.startswith("all free"):
+                w.append(s)
+        for name, ps in self.effects.items():
+            for pname, pe in ps.items():
+                if pe.at_bound:
+                    w.append(f"effect parameter {name}.{pname} ended on its {pe.bound_side} bound "
+                             f"({pe.value:.6g} {pe.si_unit}): a warning about the data or the range")
+        if self.dof <= 0 and not self.sigma_known:
+            w.append("no residual degrees of freedom (as many identifiable directions as samples): no standard "
+                     "errors, and an exact fit says nothing about the noise")
+        return tuple(w)
+
+
+    # ---------------------------------------------------------------------------- output
+    def to_dict(self) -> dict:
+        """The CLI JSON object (edge units, never NaN; see the module docs)."""
+        rmse = finite_or_none(self.rmse)
+        d = {
+            "model": self.model, "method": self.method, "status": self.status, "success": bool(self.success),
+            "n_samples": int(self.n_samples),
+            "rmse_N": rmse if self.residual_unit == "N" else None,
+            "solve_time_s": finite_or_none(self.solve_time),
+            "parameters": {EDGE_UNITS[n][0]: self._parameter_json(pe) for n, pe in self.parameters.items()},
+            "combinations": [cb.to_dict() for cb in self.combinations],
+            "data_kind": self.data_kind, "rmse": rmse, "residual_unit": self.residual_unit,
+            "cost": finite_or_none(self.cost), "iterations": int(self.iterations), "message": self.message,
+            "dof": int(self.dof), "sigma_known": bool(self.sigma_known),
+            "sigma_model": (self.extra.get("sigma_model") if self.data_kind == "slip" and isinstance(self.extra, dict)
+                            else "per-channel" if self.data_kind == "drive" else None),
+            "normal_loads_N": [float(w) for w in self.normal_loads],
+            "identifiability": self.identifiability, "warnings": list(self.warnings),
+            "active_bounds": self.active_bounds,
+            "measured": self.measured,
+            "parameter_names": list(self.parameter_names),
+            "effects": {n: {k: pe.to_dict() for k, pe in ps.items()} for n, ps in self.effects.items()},
+            "covariance": self._covariance_json(),
+        }
+        if self.extra:
+            d["extra"] = json.loads(json.dumps(self.extra, default=json_default, allow_nan=True),
+                                    parse_constant=lambda _: None)
+        return d
+
+    def _covariance_json(self) -> dict:
+        """``{"parameters", "matrix", "units"}``: the covariance over :attr:`parameter_names` in SI,
+        ``matrix`` null when unavailable (rank deficient, no dof, failed fit), entries never NaN."""
+        C = self.covariance if self.success else None
+        return {"parameters": list(self.parameter_names),
+                "matrix": None if C is None else [[finite_or_none(x) for x in row] for row in C], "units": "SI"}
+
+    def _parameter_json(self, pe: ParameterEstimate) -> dict:
+        """A parameter's JSON entry. The CLI contract wants a number in ``value``: for a successful fit
+        whose parameter is not identifiable (c, phi at one load), that number is the centre of the
+        feasible ridge, flagged ``identifiable: false`` and ``value_is_ridge_point: true``, with
+        ``ci95`` the range the ridge allows - a marker, not an estimate. A failed fit keeps ``null``."""
+        d = pe.to_dict()
+        on_ridge = (self.success and d["value"] is None and not pe.identifiable and not pe.fixed
+                    and d["ridge_value"] is not None)
+        if on_ridge:
+            d["value"] = d["ridge_value"]
+        d["value_is_ridge_point"] = bool(on_ridge)
+        return d
+
+    def to_json(self, indent: int | None = 2) -> str:
+        """:meth:`to_dict` as JSON text (strict: no NaN/Infinity)."""
+        return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
+
+    def _drive_log_lines(self) -> list[str]:
+        """Report lines for drive-log fits: formulation, regime and any bias correction."""
+        x = self.extra if isinstance(self.extra, dict) else {}
+        L = []
+        if "regime" in x or "formulation" in x:
+            hold = {"zoh": "torque held between samples (zoh)",
+                    "sample": "torque sampled from a continuous signal"}.get(str(x.get("torque_hold")))
+            L.append(f"drive log: {x.get('formulation', '?')} formulation, {x.get('samples_used', '?')} of "
+                     f"{x.get('samples_total', '?')} samples used, regime {x.get('regime', '?')}"
+                     + (f", {hold}" if hold else "") + (f" - {x['note']}" if x.get("note") else ""))
+            alt = x.get("torque_hold_alternative")
+            if isinstance(alt, dict):
+                L.append(f"torque hold not given: fitted again with torque_hold='{alt.get('torque_hold')}' ("
+                         + ("its intervals are covered by the ones below" if alt.get("success") else
+                            f"that fit did not succeed: {alt.get('status')}; intervals from this one only") + ")")
+        bc = x.get("bias_correction")
+        if isinstance(bc, dict):
+            if bc.get("applied"):
+                unc, cor = bc.get("uncorrected", {}), bc.get("correction", {})
+                K0, dK = unc.get("shear_modulus_m"), cor.get("shear_modulus_m")
+                F0, dF = unc.get("max_thrust_N"), cor.get("max_thrust_N")
+                parts = []
+                if F0 and dF is not None:
+                    parts.append(f"F_max {F0:.5g} N {dF:+.3g} N")
+                if K0 and dK is not None:
+                    parts.append(f"K {K0:.5g} m {dK:+.3g} m")
+                L.append(f"bias correction: {bc.get('method', '?').upper()} applied ({bc.get('replicates', '?')} "
+                         f"replicates; {', '.join(parts)}); intervals include its Monte Carlo variance")
+            else:
+                L.append(f"bias correction: {bc.get('method', '?').upper()} NOT applied"
+                         + (f" - {bc['reason']}" if bc.get("reason") else ""))
+        return L
+
+    def _interval_tag(self, label: str) -> str:
+        """`` (profile)`` or `` (both holds)`` when that parameter's interval replaced the linearised one."""
+        pi = (self.replaced_intervals or {}).get(label)
+        return "" if pi is None else (" (profile)" if pi.kind == "profile" else " (both holds)")
+
+    def _noise_line(self) -> str:
+        """What noise model the intervals rest on, in plain words (said once)."""
+        x = self.extra if isinstance(self.extra, dict) else {}
+        kind = x.get("sigma_model") if self.data_kind == "slip" else None
+        q = self.quantile
+        t = (f"95 % intervals use Student t ({self.dof} residual degrees of freedom, quantile {q:.4g})"
+             if q is not None and not self.sigma_known else "95 % intervals use the normal quantile 1.96")
+        sn = x.get("slip_noise") if self.data_kind == "slip" else None
+        if self.data_kind == "drive":
+            head = "noise: per-channel levels " + ("given" if self.sigma_known else "estimated from the log")
+        elif isinstance(sn, dict) and sn.get("adopted"):
+            how = ("estimated from the residuals" if sn.get("mode") == "auto" else "slip noise given")
+            head = (f"noise: on the force and on the slip, weights 1 / (sigma_F^2 + (dF/di)^2 sigma_i^2) (effective "
+                    f"variance; {how}: sigma_i = {sn['slip_sigma']:.3g}, sigma_F = "
+                    f"{format_force(sn['force_sigma_N'])})")
+        elif kind == "relative":
+            head = ("noise: proportional to the force (sigma='relative': weights 1/|F|, floored at 1 % of the "
+                    "largest force); its level estimated from the residuals")
+            if self.s2 is not None:
+                head += f" at about {100 * self.s2 ** 0.5:.3g} % of the force"
+        elif kind == "given" or (kind is None and self.sigma_known):
+            head = ("noise: sigma given per sample and taken as known" if self.sigma_known else
+                    "noise: sigma given as relative weights; level estimated from the residuals")
+        else:
+            head = "noise: equal weights; level estimated from the residuals"
+            if self.s2 is not None and self.residual_unit == "N":
+                head += f" (s = {format_force(self.s2 ** 0.5)})"
+        if q is None and not self.sigma_known:
+            return head + "; no residual degrees of freedom -> no standard errors"
+        return f"{head}; {t}"
+
+    def report(self) -> str:
+        """A human-readable multi-line report (units by magnitude: N or kN, kPa, deg, m)."""
+        L: list[str] = []
+        loads = ", ".join(format_force(w) for w in self.normal_loads)
+        L.append(f"soiltrack identification - model {self.model}, method {self.method}")
+        what = f" ({self.measured.replace('_', ' ')})" if self.measured else ""
+        L.append(f"data: {self.data_kind}{what}, {self.n_samples} samples, normal load(s) W: {loads}")
+        L.append(f"vehicle: {self.vehicle.name or 'unnamed'} (l = {self.vehicle.track_length:.4g} m, "
+                 f"b = {self.vehicle.track_width:.4g} m, A = {self.vehicle.contact_area:.4g} m^2)")
+        L.append(f"status: {self.status} ({'success' if self.success else 'FAILED'}), {self.iterations} iterations, "
+                 f"{self.solve_time * 1e3:.3g} ms")
+        unit = self.residual_unit
+        rmse = format_force(self.rmse) if unit == "N" else f"{self.rmse:.4g} {unit}"
+        L.append(f"fit: RMSE {rmse}, cost {self.cost:.6g}, residual dof {self.dof}")
+        L.append(self._noise_line())
+        L.extend(self._drive_log_lines())
+        L.append("parameters (95 % intervals):")
+        notes = []
+        for name, pe in self.parameters.items():
+            lab = f"  {EDGE_UNITS[name][3]:<20}"
+            u = pe.edge_unit
+            lo, hi = pe.edge_ci95
+            rng = f"[{lo:.4g}, {hi:.4g}] {u}" if lo is not None and hi is not None else "[unavailable]"
+            if pe.fixed:
+                L.append(f"{lab}0 {u} (fixed by the cohesion-free model)")
+            elif pe.value is None and not self.success:
+                L.append(f"{lab}no estimate (the fit failed)" + ("" if pe.identifiable else "; not identifiable"))
+            elif not pe.identifiable:
+                L.append(f"{lab}NOT IDENTIFIABLE; possible range {rng}")
+            else:
+                se = f" +- {pe.edge_stderr:.3g}" if pe.stderr is not None else " (no stderr)"
+                flag = " [ON " + pe.bound_side.upper() + " BOUND]" if pe.at_bound else ""
+                weak = " [weakly identifiable]" if pe.weakly_identifiable else ""
+                cut = " [cut at a bound, see below]" if "is cut at the bound" in (pe.note or "") else ""
+                L.append(f"{lab}{pe.edge_value:.5g}{se} {u}, 95 % {rng}{self._interval_tag(name)}{flag}{weak}{cut}")
+                if cut:
+                    notes.append(f"  {EDGE_UNITS[name][3]}: " + "; ".join(n for n in pe.note.split("; ")
+                                                                    if "is cut at the bound" in n))
+        L.extend(notes)
+        if self.effects:
+            L.append("effect parameters (95 % intervals, SI):")
+        for name, ps in self.effects.items():
+            for pname, pe in ps.items():
+                lab = f"  {name + '.' + pname:<20}"
+                u = pe.si_unit
+                lo, hi = pe.ci95
+                rng = f"[{lo:.4g}, {hi:.4g}] {u}" if lo is not None and hi is not None else "[unavailable]"
+                if pe.fixed:
+                    L.append(f"{lab}{pe.value:.5g} {u} (held fixed, not estimated)")
+                elif pe.value is None and not self.success:
+                    L.append(f"{lab}no estimate (the fit failed)")
+                elif not pe.identifiable:
+                    w = f" from {pe.correlated_with}" if pe.correlated_with else ""
+                    L.append(f"{lab}NOT IDENTIFIABLE (not separable{w}); range {rng}")
+                else:
+                    se = f" +- {pe.stderr:.3g}" if pe.stderr is not None else " (no stderr)"
+                    flag = " [ON " + pe.bound_side.upper() + " BOUND]" if pe.at_bound else ""
+                    weak = (f" [weakly identifiable: correlation {pe.correlation:+.4f} with {pe.correlated_with}]"
+                            if pe.weakly_identifiable and pe.correlated_with else
+                            (" [weakly identifiable]" if pe.weakly_identifiable else ""))
+                    L.append(f"{lab}{pe.value:.5g}{se} {u}, 95 % {rng}{self._interval_tag(name + '.' + pname)}{flag}"
+                             f"{weak}")
+        kinds = {v.kind for v in (self.replaced_intervals or {}).values()}
+        if "profile" in kinds:
+            L.append("  (profile: the 95 % interval from the profile likelihood, this parameter held and all others "
+                     "refitted; the +- is the linearised standard error, which assumes a quadratic cost)")
+        if "hold" in kinds:
+            L.append("  (both holds: the interval covers the fits with the torque held and sampled; the torque hold "
+                     "was not given)")
+        k_shown = self.parameters["shear_modulus"].identifiable and self.success
+        combos = [cb for cb in self.combinations if not (cb.name == "K" and k_shown)]  # K is said above
+        L.append("what the data determine (95 % intervals):" + ("" if combos else " nothing (the fit failed)"))
+        for cb in combos:
+            label = _combo_label(cb.name)
+            if not cb.estimable:
+                L.append(f"  {label:<28} not estimable from these data")
+                continue
+            ends = [e for e in ("lower", "upper") if f"the {e} end of the 95 % interval is cut" in cb.note]
+            cut = f" [{' and '.join(ends)} end cut at the bound]" if ends else ""
+            L.append(f"  {label:<28} {_combo_value(cb)}{cut}{' [weak]' if cb.weakly_identifiable else ''}  "
+                     f"({cb.description})")
+        ident = self.identifiability
+        L.append(f"identifiability: the data determine {ident['rank']} independent direction(s) of the "
+                 f"{ident['n_parameters']} parameters; sensitivity of the fit along each, relative to the strongest "
+                 "(scaled singular values; about 1e-8 or less = not determined): "
+                 + ", ".join(f"{s:.3g}" for s in ident["scaled_singular_values"]))
+        for d in ident["null_space"]:
+            L.append("  undetermined direction: " + ", ".join(f"{k} {v:+.3g}" for k, v in d.items())
+                     + " (moving the parameters along it, in kPa / deg / m, leaves the fitted curve unchanged)")
+        for st in ident["statements"]:
+            L.append("  - " + st)
+        if self.ridge_point is not None and self.soil is None:
+            rp = self.ridge_point
+            what = "optimiser's ridge point" if self.success else "last iterate of the failed fit"
+            L.append(f"  ({what}, NOT an estimate: c = {rp.cohesion_kpa:.4g} kPa, "
+                     f"phi = {rp.friction_angle_deg:.4g} deg, K = {rp.shear_modulus:.4g} m)")
+        if self.n_samples <= 20:
+            if unit == "N":
+                sc, u = force_scale(self.residuals)
+            else:
+                sc, u = 1.0, unit
+            L.append(f"residuals (model - data, {u}): " + ", ".join(f"{r / sc:+.4g}" for r in self.residuals))
+        said = set(ident["statements"])  # the identifiability statements are said once, above
+        warns = [w for w in self.warnings if w not in said]
+        if warns:
+            L.append("warnings:")
+            for w in warns:
+                L.append("  ! " + w)
+        return "\n".join(L)
+
+    def __str__(self) -> str:  # pragma: no cover - convenience
+        return self.report()
+
+
+
+def _combo_label(name: str) -> str:
+    """``"F_max@W=4905N"`` -> ``"F_max at W = 4.905 kN"`` (the JSON keeps the machine name)."""
+    if "@W=" in name and name.endswith("N"):
+        base, w = name.split("@W=")
+        return f"{base} at W = {format_force(float(w[:-1]))}"
+    return name
+
+
+def _combo_value(cb) -> str:
+    """Value, standard error and 95 % interval of a combination in units by magnitude."""
+    if cb.unit in ("N", "N/slip"):
+        sc, u = force_scale([cb.value])
+        u += "/slip" if cb.unit == "N/slip" else ""
+    else:
+        sc, u = 1.0, ("" if cb.unit == "-" else cb.unit)
+    sp = f" {u}" if u else ""
+    se = f" +- {cb.stderr / sc:.3g}" if cb.stderr is not None else " (no stderr)"
+    lo, hi = cb.ci95
+    ci = f", 95 % [{lo / sc:.4g}, {hi / sc:.4g}]{sp}" if lo is not None and hi is not None else ""
+    return f"{cb.value / sc:.5g}{se}{sp}{ci}"
+
+
+def json_default(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, (Soil, Vehicle, SoilBounds)):
+        return str(o)
+    return repr(o)
