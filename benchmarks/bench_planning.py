@@ -55,7 +55,7 @@ except ImportError:  # pragma: no cover
 from soiltrack.identify import fit  # noqa: E402
 from soiltrack.planning import margin, profile, replay, route_from_dict, route_profile  # noqa: E402
 from soiltrack.planning.ocp import clear_warm_starts  # noqa: E402
-from soiltrack.planning.replay import _step  # noqa: E402
+from soiltrack.planning.replay import step_function  # noqa: E402
 from soiltrack.soilmodel import TERRAINS, VEHICLES, Soil, simulate_slip_sweep  # noqa: E402
 
 HEAVY = VEHICLES["heavy"]
@@ -110,7 +110,7 @@ def bench_slsqp(maxiter: int) -> dict:
     n, sub = CASE["intervals"], 4
     soil = TERRAINS["lete_sand"]
     r = HEAVY.sprocket_radius
-    step = _step(HEAVY, sub)
+    step = step_function(HEAVY, sub)
     x = ca.MX.sym("x", 2)
     p = ca.MX.sym("p", 7)
     out = step(x0=x, p=p)["xf"]

@@ -7,8 +7,8 @@ pull sweeps at two normal loads on a 0.06 rad slope, and 60 s drive logs on a 0.
 heavy vehicle, several seeds. Each goes through ``python -m soiltrack fit FILE --vehicle
 examples/data/heavy_vehicle.json --effect grade --json``, as a new user would run it, and the
 95 % intervals of the JSON are compared with the simulated truth (c = 1.3 kPa, phi = 31.1 deg,
-K = 1.2 cm, the grade). A sweep at one normal load cannot separate a grade from phi (DESIGN.md
-section 6), so the sweeps use two loads.
+K = 1.2 cm, the grade). A sweep at one normal load cannot separate a grade from phi (docs/physics.md,
+effects), so the sweeps use two loads.
 
 Run:  python benchmarks/independent_effect_fit.py [--seeds 5] [--kinds sweep,drive] [--torque-hold sample]
 

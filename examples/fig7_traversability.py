@@ -1,4 +1,4 @@
-"""The seed's Fig. 7, as the seed draws it and as it should be read (DESIGN.md section 4).
+"""The seed's Fig. 7, as the seed draws it and as it should be read (docs/paper.md).
 
 The seed compares a UGV "able to produce 120 kN" with a "tractive force required" of about
 180 kN on dry sand and 90 kN on clayey soil, and concludes that the vehicle crosses the clay

@@ -51,7 +51,7 @@ from soiltrack.soilmodel import (  # noqa: E402
 )
 
 # --------------------------------------------------------------------------------------------
-# reference data (DESIGN.md section 5)
+# reference data (docs/physics.md)
 # --------------------------------------------------------------------------------------------
 WONG_SLIP = np.array([0.0248, 0.0344, 0.0700])
 WONG_FORCE = np.array([207.32e3, 223.81e3, 259.81e3])  # N

@@ -17,6 +17,8 @@ from .sweep.problem import FitFailed, check_common, make_problem
 from .estimates.result import FitResult
 from .sweep.seed_methods import fit_least_squares, fit_newton
 from .settings import SETTING_NAMES, FitSettings
+from .sweep.resistance import RESISTANCE_MODES, assumed_resistance, fit_resistance
+from .sweep.rig import load_separation, rig_extra, std_weights
 from .sweep.slip_noise import check_slip_noise, fit_with_slip_noise
 from .drivelog.torque_hold import fit_both_holds
 
@@ -77,7 +79,12 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
         with effects, else ``"linear"``) says which 95 % intervals come from the profile
         likelihood (:mod:`soiltrack.identify.estimates.joint_likelihood`; ``auto``: the weakly identifiable
         and at-bound parameters). Either one other than off/linear makes the fit an IPOPT joint
-        fit. ``n_grid``, ``ipopt_options`` and ``max_iter`` are :class:`FitSettings` fields.
+        fit. ``resistance`` (``"assumed"``, default, or ``"fit"``) says whether a drawbar-pull
+        sweep's resistance coefficient mu_r is the vehicle's or fitted with the soil
+        (:mod:`soiltrack.identify.sweep.resistance`). A ``tractive_force_std_N`` /
+        ``drawbar_pull_std_N`` column of the data gives relative weights when ``sigma`` is not
+        given (:mod:`soiltrack.identify.sweep.rig`). ``n_grid``, ``ipopt_options`` and
+        ``max_iter`` are :class:`FitSettings` fields.
         Drive-log options are passed on.
 
     Returns
@@ -117,6 +124,24 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
     sigma_known = options.pop("sigma_known", None)
     slip_noise = options.pop("slip_noise", None)
     intervals = options.pop("intervals", None)
+    resistance = options.pop("resistance", None)
+    if resistance not in (None, *RESISTANCE_MODES):
+        raise DataError(f"resistance must be one of {RESISTANCE_MODES}, got {resistance!r}")
+    if resistance == "fit":
+        def fit_at(v: Vehicle, final: bool) -> FitResult:
+            return fit(data, v, model, method, bounds, x0, False, engine, effects, fixed, settings=settings,
+                       sigma=sigma, sigma_known=sigma_known, slip_noise=slip_noise,
+                       intervals=intervals if final else "linear", **options)
+        res = fit_resistance(data, vehicle, fit_at)
+        if strict and not res.success:
+            raise FitFailed(res)
+        return res
+    std = std_weights(data)
+    if sigma is None and std is not None:  # the rig's per-row std: relative weights, level estimated
+        sigma, sigma_known = std, (False if sigma_known is None else sigma_known)
+    separation = load_separation(data) if model == "full" else None
+    if separation is not None and separation.fragile and intervals is None and method == "ipopt":
+        intervals = "auto"  # c and phi rest on the load's spread: their intervals from the profile likelihood
     rig = {"rig_speed": options.pop("rig_speed")} if "rig_speed" in options else {}
     pb = make_problem(data, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known, method=method,
                       effects=effects, fixed=fixed, **rig)
@@ -138,7 +163,7 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
                             f"not by the seed's method {method!r}")
         if st.max_iter is not None:
             raise DataError("max_iter applies to method='newton' or 'least-squares'")
-        res = _fit_joint_sweep(pb, x0v, st, slip_noise, intervals)
+        res = _with_rig(data, _fit_joint_sweep(pb, x0v, st, slip_noise, intervals), separation)
         if strict and not res.success:
             raise FitFailed(res)
         return res
@@ -158,9 +183,20 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
         res = fit_newton(pb, x0v, max_iter=st.max_iter or 50)
     else:
         res = fit_least_squares(pb, x0v, max_iter=st.max_iter or 500)
+    res = _with_rig(data, res, separation)
     if strict and not res.success:
         raise FitFailed(res)
     return res
+
+
+def _with_rig(data: SlipData, res: FitResult, separation) -> FitResult:
+    """The result with what a rig sweep adds to its ``extra`` (:func:`~.sweep.rig.rig_extra`)."""
+    more = rig_extra(data, res, separation)
+    if data.measured == "drawbar_pull":
+        more["resistance"] = assumed_resistance(res)
+    if not more:
+        return res
+    return replace(res, extra={**(res.extra if isinstance(res.extra, dict) else {}), **more})
 
 
 def _fit_joint_sweep(pb, x0v, st: FitSettings, slip_noise, intervals: str) -> FitResult:

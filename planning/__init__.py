@@ -5,7 +5,7 @@ Public names
 :func:`margin` / :class:`Margin`
     Available against required thrust, go/no-go, gradeability; with an identified soil the
     probability of being traversable (delta method and Monte Carlo) and the worst case.
-:func:`profile`, :func:`route_profile` / :class:`ProfileResult`
+:func:`profile`, :func:`route_profile` / :class:`SpeedPlan`
     Feasible speed/slip/torque profiles by optimal control (direct collocation, IPOPT).
 :func:`stuck` / :class:`Stuck`
     When the tracks spin (slip runs away), and Bekker sinkage reaching the belly.
@@ -19,13 +19,13 @@ Public names
     The soil's uncertainty from a ``FitResult`` or from ``soiltrack fit --json``.
 """
 from .margin import DEFAULT_MAX_SLIP, Margin, margin
-from .profile import ProfileResult, profile, route_profile
+from .profile import SpeedPlan, profile, route_profile
 from .replay import Replay, replay
 from .route import Patch, Route, read_route, route_from_dict
 from .slip_optimal import SlipOptimum, slip_optimal
 from .stuck import Stuck, stuck
 from .uncertainty import SoilUncertainty, load_fit_json, uncertainty_from_fit
 
-__all__ = ["DEFAULT_MAX_SLIP", "Margin", "margin", "ProfileResult", "profile", "route_profile", "Replay", "replay",
+__all__ = ["DEFAULT_MAX_SLIP", "Margin", "margin", "SpeedPlan", "profile", "route_profile", "Replay", "replay",
            "Patch", "Route", "read_route", "route_from_dict", "SlipOptimum", "slip_optimal", "Stuck", "stuck", "SoilUncertainty", "load_fit_json",
            "uncertainty_from_fit"]

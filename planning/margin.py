@@ -31,10 +31,11 @@ from typing import Any
 
 import numpy as np
 
-from ..soilmodel import DataError, Soil, Vehicle, sensitivity_function, slip_from_thrust, thrust_function
-from ..soilmodel.effects import effective_normal_load, motion_resistance
-from ..soilmodel.sinkage import compaction_resistance, has_bekker, static_sinkage
-from .uncertainty import CHI2_95, SoilUncertainty, uncertainty_from_fit
+from ..soilmodel import DataError, Soil, Vehicle, choose_scale, sensitivity_function, slip_from_thrust
+from ..soilmodel.sinkage import has_bekker, static_sinkage
+from .arguments import check_number
+from .forces import resistances, soil_thrust
+from .uncertainty import CHI2_95, SoilUncertainty, is_online_estimate, uncertainty_from_estimate, uncertainty_from_fit
 
 __all__ = ["DEFAULT_MAX_SLIP", "DEFAULT_SAMPLES", "Margin", "margin", "resolve_terrain", "drivetrain_limit"]
 
@@ -109,7 +110,7 @@ class Margin:
     notes: tuple[str, ...] = field(default=())
 
     def to_dict(self) -> dict:
-        """The ``margin --json`` object (DESIGN.md section 8); never NaN (``null`` instead)."""
+        """The ``margin --json`` object (docs/data-formats.md); never NaN (``null`` instead)."""
         d = {k: getattr(self, k) for k in (
             "available_N", "required_N", "margin_N", "margin_ratio", "traversable", "p_traversable",
             "slip_required", "max_grade_deg", "limited_by", "soil_limit_N", "drivetrain_limit_N")}
@@ -123,7 +124,8 @@ class Margin:
 
     def report(self) -> str:
         """Plain-words report with units by magnitude."""
-        kn = lambda x: f"{x / 1e3:.4g} kN"  # noqa: E731
+        # one unit for the whole report, chosen by the magnitude of the thrusts compared (N or kN)
+        kn = choose_scale([self.available_N, self.required_N, self.soil_limit_N], "N").format
         go = "TRAVERSABLE" if self.traversable else "NOT TRAVERSABLE"
         L = [f"{self.terrain}, grade {self.grade_deg:g} deg: {go}",
              f"  available thrust {kn(self.available_N)} (limited by the {self.limited_by}: soil at "
@@ -145,8 +147,11 @@ class Margin:
         return "\n".join(L)
 
 
-def resolve_terrain(terrain: Any) -> tuple[Soil | None, SoilUncertainty | None, str]:
-    """``Soil`` -> (soil, None, model); ``FitResult``/``SoilUncertainty`` -> (None, uncertainty, model)."""
+def resolve_terrain(terrain: Any, vehicle: Vehicle | None = None) -> tuple[Soil | None, SoilUncertainty | None, str]:
+    """``Soil`` -> (soil, None, model); ``FitResult``/``SoilUncertainty``/on-line estimate -> (None, uncertainty, model).
+
+    An on-line estimate (:func:`~.uncertainty.is_online_estimate`) needs the ``vehicle``.
+    """
     if isinstance(terrain, Soil):
         return terrain, None, "full"
     if isinstance(terrain, SoilUncertainty):
@@ -154,8 +159,13 @@ def resolve_terrain(terrain: Any) -> tuple[Soil | None, SoilUncertainty | None, 
     if hasattr(terrain, "theta") and hasattr(terrain, "combinations"):
         u = uncertainty_from_fit(terrain)
         return None, u, u.model
-    raise DataError(f"terrain must be a Soil (e.g. TERRAINS['dry_sand']), a FitResult or a SoilUncertainty, "
-                    f"got {type(terrain).__name__}")
+    if is_online_estimate(terrain):
+        if vehicle is None:
+            raise DataError("an on-line estimate needs the vehicle to map F_max to the soil")
+        u = uncertainty_from_estimate(terrain, vehicle)
+        return None, u, u.model
+    raise DataError(f"terrain must be a Soil (e.g. TERRAINS['dry_sand']), a FitResult, a SoilUncertainty or an "
+                    f"on-line estimate, got {type(terrain).__name__}")
 
 
 def drivetrain_limit(vehicle: Vehicle, speed: float | None) -> float | None:
@@ -166,42 +176,6 @@ def drivetrain_limit(vehicle: Vehicle, speed: float | None) -> float | None:
     if vehicle.max_power and speed:
         lims.append(vehicle.max_power / speed)
     return min(lims) if lims else None
-
-
-def _check(name: str, x, lo=-math.inf, hi=math.inf, lo_open=False, hi_open=False) -> float:
-    if isinstance(x, bool) or not isinstance(x, (int, float, np.floating, np.integer)) or not math.isfinite(float(x)):
-        raise DataError(f"argument {name} must be a finite number, got {x!r}")
-    x = float(x)
-    if (x < lo or (lo_open and x == lo)) or (x > hi or (hi_open and x == hi)):
-        raise DataError(f"argument {name} = {x:g} is outside {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}")
-    return x
-
-
-def _resistances(vehicle: Vehicle, soil_bekker: Soil | None, theta: np.ndarray, accel: float, drawbar: float):
-    """Itemised required thrust at grades ``theta`` (rad, array)."""
-    W = vehicle.weight
-    N = np.array([float(effective_normal_load(W, vehicle, {"grade": float(t)})) for t in np.atleast_1d(theta)])
-    total_res = np.array([float(motion_resistance(1.0, 0.0, vehicle, {"grade": float(t)}, standstill_speed=None))
-                          for t in np.atleast_1d(theta)])
-    rolling = vehicle.rolling_resistance * N
-    grade = total_res - rolling
-    comp = (np.asarray(compaction_resistance(soil_bekker, vehicle, N), dtype=float)
-            if soil_bekker is not None and has_bekker(soil_bekker) else np.zeros_like(N))
-    inertia = vehicle.mass * accel
-    return N, {"rolling_N": rolling, "compaction_N": comp, "grade_N": grade,
-               "inertia_N": np.full_like(N, inertia), "drawbar_N": np.full_like(N, drawbar)}
-
-
-def _soil_thrust(thetas: np.ndarray, slip: float, N: np.ndarray, vehicle: Vehicle, model: str) -> np.ndarray:
-    """Soil thrust at ``slip`` for soils ``thetas`` (rows c, phi, K) and loads ``N`` (broadcast)."""
-    thetas = np.atleast_2d(thetas)
-    n = max(thetas.shape[0], np.size(N))
-    th = np.broadcast_to(thetas, (n, 3))
-    NN = np.broadcast_to(np.asarray(N, dtype=float).ravel(), (n,)) if np.size(N) > 1 else np.full(n, float(np.ravel(N)[0]))
-    f = thrust_function(model)
-    out = f(np.full((1, n), slip), th[:, 0].reshape(1, -1), th[:, 1].reshape(1, -1), th[:, 2].reshape(1, -1),
-            NN.reshape(1, -1), vehicle.track_length, vehicle.track_width)
-    return np.asarray(out, dtype=float).ravel()
 
 
 def margin(terrain: Any, vehicle: Vehicle, *, grade_deg: float = 0.0, accel: float = 0.0, drawbar_N: float = 0.0,
@@ -235,18 +209,18 @@ def margin(terrain: Any, vehicle: Vehicle, *, grade_deg: float = 0.0, accel: flo
     DataError
         An argument out of range (named).
     """
-    grade_deg = _check("grade_deg", grade_deg, -68.75, 68.75)
-    accel = _check("accel", accel)
-    drawbar = _check("drawbar_N", drawbar_N)
+    grade_deg = check_number("grade_deg", grade_deg, -68.75, 68.75)
+    accel = check_number("accel", accel)
+    drawbar = check_number("drawbar_N", drawbar_N)
     if speed is not None:
-        speed = _check("speed", speed, 0, math.inf, lo_open=True)
-    i_max = DEFAULT_MAX_SLIP if max_slip is None else _check("max_slip", max_slip, 0, 1, True, True)
+        speed = check_number("speed", speed, 0, math.inf, lo_open=True)
+    i_max = DEFAULT_MAX_SLIP if max_slip is None else check_number("max_slip", max_slip, 0, 1, True, True)
     if not isinstance(samples, int) or samples < 100:
         raise DataError(f"argument samples must be an integer >= 100, got {samples!r}")
-    soil, unc, model = resolve_terrain(terrain)
+    soil, unc, model = resolve_terrain(terrain, vehicle)
     th = math.radians(grade_deg)
     notes: list[str] = []
-    N_arr, req = _resistances(vehicle, soil, np.array([th]), accel, drawbar)
+    N_arr, req = resistances(vehicle, soil, np.array([th]), accel, drawbar)
     N = float(N_arr[0])
     required = {k: float(v[0]) for k, v in req.items()}
     R = sum(required.values())
@@ -256,7 +230,7 @@ def margin(terrain: Any, vehicle: Vehicle, *, grade_deg: float = 0.0, accel: flo
                      "not included (add it as drawbar_N if known)")
     theta0 = soil.as_vector() if soil is not None else unc.soils_at(unc.mean, N)[0]
     soil_at = soil if soil is not None else Soil(*map(float, theta0), name="fitted soil")
-    F_soil = float(_soil_thrust(theta0, i_max, N, vehicle, model)[0])
+    F_soil = float(soil_thrust(theta0, i_max, N, vehicle, model)[0])
     dt = drivetrain_limit(vehicle, speed)
     if dt is None:
         notes.append("the vehicle gives no torque or power limit: only the soil limits the thrust")
@@ -270,9 +244,9 @@ def margin(terrain: Any, vehicle: Vehicle, *, grade_deg: float = 0.0, accel: flo
 
     # steepest grade: margin(theta) falls with theta (the soil loses normal load, the grade adds)
     def m_of(t):
-        Nt, rq = _resistances(vehicle, soil, np.array([t]), accel, drawbar)
+        Nt, rq = resistances(vehicle, soil, np.array([t]), accel, drawbar)
         th_t = soil.as_vector() if soil is not None else unc.soils_at(unc.mean, float(Nt[0]))[0]
-        Fs = float(_soil_thrust(th_t, i_max, Nt, vehicle, model)[0])
+        Fs = float(soil_thrust(th_t, i_max, Nt, vehicle, model)[0])
         av = Fs if dt is None else min(Fs, dt)
         return av - sum(float(v[0]) for v in rq.values())
 
@@ -315,7 +289,7 @@ def margin(terrain: Any, vehicle: Vehicle, *, grade_deg: float = 0.0, accel: flo
         else:
             p_d = 0.5 * (1.0 + math.erf(m_soil / (sd * math.sqrt(2.0))))
         q = unc.sample(samples, seed)
-        Fs = _soil_thrust(unc.soils_at(q, N), i_max, N, vehicle, model)
+        Fs = soil_thrust(unc.soils_at(q, N), i_max, N, vehicle, model)
         av_s = Fs if dt is None else np.minimum(Fs, dt)
         ms = av_s - R
         p_mc = float(np.mean(ms >= 0))
@@ -324,7 +298,7 @@ def margin(terrain: Any, vehicle: Vehicle, *, grade_deg: float = 0.0, accel: flo
         cands = [m]
         if sd > 0:
             qw = unc.mean - r95 * (unc.cov @ g) / sd
-            Fw = float(_soil_thrust(unc.soils_at(qw, N), i_max, N, vehicle, model)[0])
+            Fw = float(soil_thrust(unc.soils_at(qw, N), i_max, N, vehicle, model)[0])
             cands.append((Fw if dt is None else min(Fw, dt)) - R)
         Linv = np.linalg.pinv(unc.cov)
         d = q - unc.mean

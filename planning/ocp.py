@@ -39,10 +39,12 @@ from ..soilmodel import Vehicle
 from ..soilmodel.dynamics import dynamics_expr
 from ..soilmodel.threadsafe import SOLVER_LOCK, call_solver, locked_cache
 
-__all__ = ["OcpData", "solve_ocp", "ocp_solver", "clear_warm_starts", "DEGREE"]
+__all__ = ["OcpData", "solve_ocp", "ocp_solver", "clear_warm_starts", "DEGREE", "radau_collocation"]
 
 #: Collocation points per interval (Radau IIA).
 DEGREE = 3
+#: Lower bound of the sprocket speed while moving, rad/s (the slip limit's linear form needs w > 0).
+MIN_SPROCKET_SPEED = 1e-4
 _IPOPT = {"print_level": 0, "sb": "yes", "max_iter": 1000, "tol": 1e-8, "acceptable_tol": 1e-6,
           "constr_viol_tol": 1e-8}
 #: Warm-start options, tuned on the benchmark profile (IPOPT iterations for a new v1 / a new soil:
@@ -72,6 +74,8 @@ class OcpData:
     torque_rate: float | None
     objective: str
     v_guess: np.ndarray | None = None  # start guess of the node speeds (None: linear in distance)
+    w0: float | None = None  # initial sprocket speed, rad/s (None: free within the slip limit)
+    max_speed: float | None = None  # speed limit at the mesh and collocation points, m/s
 
 
 @locked_cache(maxsize=8)
@@ -87,7 +91,9 @@ def dynamics_fn(vehicle: Vehicle) -> ca.Function:
 
 
 @lru_cache(maxsize=8)
-def _radau(d: int):
+def radau_collocation(d: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Radau IIA collocation of degree ``d`` on [0, 1]: points ``tau`` (with 0 first), the derivative
+    matrix ``C`` of the Lagrange basis at the points, and the quadrature weights ``B``."""
     tau = np.append(0.0, ca.collocation_points(d, "radau"))
     C = np.zeros((d + 1, d + 1))  # derivative of the Lagrange basis at the collocation points
     B = np.zeros(d + 1)  # quadrature weights
@@ -122,7 +128,7 @@ def ocp_solver(vehicle: Vehicle, n: int, warm: bool, energy: bool = False, rate_
     """
     f = dynamics_fn(vehicle)
     d = DEGREE
-    tau, C, B = _radau(d)
+    tau, C, B = radau_collocation(d)
     r = vehicle.sprocket_radius
     X = ca.SX.sym("X", 2, n + 1)
     Z = ca.SX.sym("Z", 2, d * n)
@@ -203,16 +209,20 @@ def _guess(d: OcpData, vehicle: Vehicle, n: int, slip_of_thrust) -> np.ndarray:
     return np.concatenate(out)
 
 
-def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
+def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | None = None) -> dict:
     """Solve one instance; the raw solution, IPOPT's status, iterations and wall time.
 
     ``slip_of_thrust(F_array) -> slip_array`` gives the start guess of the slip (cold starts).
+    ``warm_store``: where the solution is kept for the next warm start (default: one store per
+    problem structure, shared by every caller in the process; a :class:`~.replan.Replanner`
+    keeps its own).
     """
     n = len(d.c)
     energy, rate_on = d.objective == "energy", bool(d.torque_rate)
     iX, iZ, iu, idt, ie = _layout(n, energy)
     key = (vehicle, n, energy, rate_on)
-    prev = _last.get(key)
+    store = _last if warm_store is None else warm_store
+    prev = store.get(key)
     r = vehicle.sprocket_radius
     inf = np.inf
     Ms = d.max_torque
@@ -227,11 +237,17 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
     nxv = 2 * (n + 1) + 2 * DEGREE * n + (3 if energy else 2) * n
     lbx, ubx = np.full(nxv, -inf), np.full(nxv, inf)
     Xl, Xu = np.full((2, n + 1), -inf), np.full((2, n + 1), inf)
-    Xl[0], Xl[1] = 0.0, 1e-4
+    Xl[0], Xl[1] = 0.0, MIN_SPROCKET_SPEED
+    Zl, Zu = np.full((2, DEGREE * n), -inf), np.full((2, DEGREE * n), inf)
+    Zl[0], Zl[1] = 0.0, MIN_SPROCKET_SPEED
+    if d.max_speed is not None:
+        Xu[0], Zu[0] = d.max_speed, d.max_speed
     Xl[0, 0] = Xu[0, 0] = d.v0
     Xl[0, -1] = Xu[0, -1] = d.v1
-    Zl, Zu = np.full((2, DEGREE * n), -inf), np.full((2, DEGREE * n), inf)
-    Zl[0], Zl[1] = 0.0, 1e-4
+    if d.w0 is not None:  # the initial state is given: speed and sprocket speed (its slip)
+        Xl[1, 0] = Xu[1, 0] = d.w0
+    if d.v1 == 0.0:  # stopping: the sprocket stops with the vehicle (slip limit at v = 0)
+        Xl[1, -1] = Zl[1, -1] = 0.0
     free_dist = d.distance is None
     lbx[iX], ubx[iX] = Xl.ravel(order="F"), Xu.ravel(order="F")
     lbx[iZ], ubx[iZ] = Zl.ravel(order="F"), Zu.ravel(order="F")
@@ -261,12 +277,12 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
     if warm:
         args.update(x0=np.clip(prev["x"], lbx, ubx), lam_x0=prev["lam_x"], lam_g0=prev["lam_g"])
     else:
-        args["x0"] = _guess(d, vehicle, n, slip_of_thrust)
+        args["x0"] = np.clip(_guess(d, vehicle, n, slip_of_thrust), lbx, ubx)
     out, stats = call_solver(solver, **args)
     ok = bool(stats.get("success", False))
     if not ok and warm:  # a poor warm start: retry cold once
         warm = False
-        args = dict(p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, x0=_guess(d, vehicle, n, slip_of_thrust))
+        args = dict(p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, x0=np.clip(_guess(d, vehicle, n, slip_of_thrust), lbx, ubx))
         t_b = time.perf_counter()
         cold = ocp_solver(vehicle, n, False, energy, rate_on)
         t0 += time.perf_counter() - t_b  # the build (if any) is not solve time
@@ -276,10 +292,10 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust) -> dict:
     x = np.asarray(out["x"], dtype=float).ravel()
     if ok and np.all(np.isfinite(x)):
         with SOLVER_LOCK:
-            _last[key] = {"x": x, "lam_x": np.asarray(out["lam_x"]).ravel(), "lam_g": np.asarray(out["lam_g"]).ravel()}
+            store[key] = {"x": x, "lam_x": np.asarray(out["lam_x"]).ravel(), "lam_g": np.asarray(out["lam_g"]).ravel()}
     X = x[iX].reshape((2, n + 1), order="F")
     Z = x[iZ].reshape((2, DEGREE * n), order="F")
-    _tau, _C, B = _radau(DEGREE)
+    _tau, _C, B = radau_collocation(DEGREE)
     h = x[idt] * (Z[0].reshape(n, DEGREE) @ B[1:])
     return {"x": x, "v": X[0], "w": X[1], "s": np.concatenate([[0.0], np.cumsum(h)]), "Z": Z,
             "M": x[iu] * Ms, "dt": x[idt], "success": ok, "status": str(stats.get("return_status", "unknown")),

@@ -5,6 +5,12 @@ from typing import Any
 
 import numpy as np
 
+from ..soilmodel import Vehicle, choose_scale, format_energy, format_force
+from .forces import soil_thrust
+from .margin import Margin, resolve_terrain
+from .profile import SpeedPlan
+from .slip_optimal import SlipOptimum
+
 __all__ = ["plot_margin", "plot_profile", "plot_slip_optimal"]
 
 
@@ -17,32 +23,31 @@ def _plt():
     return plt
 
 
-def plot_margin(terrain: Any, vehicle, m, path: str) -> None:
+def plot_margin(terrain: Any, vehicle: Vehicle, m: Margin, path: str) -> None:
     """Thrust-slip curve at the margin's normal load against the drivetrain limit and the requirement."""
-    from .margin import _soil_thrust, resolve_terrain
-
     plt = _plt()
-    soil, unc, model = resolve_terrain(terrain)
+    soil, unc, model = resolve_terrain(terrain, vehicle)
     theta = soil.as_vector() if soil is not None else unc.soils_at(unc.mean, m.normal_load_N)[0]
     s = np.linspace(0.0, 0.6, 301)
-    F = np.array([_soil_thrust(theta, float(x), m.normal_load_N, vehicle, model)[0] for x in s])
+    F = np.array([soil_thrust(theta, float(x), m.normal_load_N, vehicle, model)[0] for x in s])
+    ks = choose_scale([F.max(), m.required_N, m.drivetrain_limit_N or 0.0], "N")
     fig, ax = plt.subplots(figsize=(7, 4.5))
-    ax.plot(s * 100, F / 1e3, label=f"soil thrust at N = {m.normal_load_N / 1e3:.4g} kN")
+    ax.plot(s * 100, F * ks.factor, label=f"soil thrust at N = {format_force(m.normal_load_N)}")
     if unc is not None:
         q = unc.sample(200, 1)
         th = unc.soils_at(q, m.normal_load_N)
-        Fs = np.array([[_soil_thrust(t, float(x), m.normal_load_N, vehicle, model)[0] for x in s[::10]] for t in th])
+        Fs = np.array([[soil_thrust(t, float(x), m.normal_load_N, vehicle, model)[0] for x in s[::10]] for t in th])
         lo, hi = np.percentile(Fs, [2.5, 97.5], axis=0)
-        ax.fill_between(s[::10] * 100, lo / 1e3, hi / 1e3, alpha=0.3, label="95 % band of the fitted soil")
-    ax.axhline(m.required_N / 1e3, color="C3", label=f"required {m.required_N / 1e3:.4g} kN")
+        ax.fill_between(s[::10] * 100, lo * ks.factor, hi * ks.factor, alpha=0.3, label="95 % band of the fitted soil")
+    ax.axhline(m.required_N * ks.factor, color="C3", label=f"required {ks.format(m.required_N)}")
     if m.drivetrain_limit_N is not None:
-        ax.axhline(m.drivetrain_limit_N / 1e3, color="C2", ls="--",
-                   label=f"drivetrain limit {m.drivetrain_limit_N / 1e3:.4g} kN")
+        ax.axhline(m.drivetrain_limit_N * ks.factor, color="C2", ls="--",
+                   label=f"drivetrain limit {ks.format(m.drivetrain_limit_N)}")
     ax.axvline(m.max_slip * 100, color="k", ls=":", label=f"allowed slip {m.max_slip * 100:.3g} %")
     ax.set_xlabel("slip (%)")
-    ax.set_ylabel("thrust (kN)")
+    ax.set_ylabel(f"thrust ({ks.unit})")
     go = "traversable" if m.traversable else "NOT traversable"
-    ax.set_title(f"{m.terrain}, grade {m.grade_deg:g} deg: {go}, margin {m.margin_N / 1e3:.4g} kN", fontsize=9)
+    ax.set_title(f"{m.terrain}, grade {m.grade_deg:g} deg: {go}, margin {ks.format(m.margin_N)}", fontsize=9)
     ax.legend(fontsize=8, loc="lower right")
     ax.grid(alpha=0.3)
     fig.tight_layout()
@@ -50,58 +55,74 @@ def plot_margin(terrain: Any, vehicle, m, path: str) -> None:
     plt.close(fig)
 
 
-def plot_profile(result, path: str, title: str = "") -> None:
-    """Speed, slip, torque and traction reserve of a planned profile against distance."""
+def plot_profile(result: SpeedPlan, path: str, title: str = "") -> None:
+    """Speed, slip, torque and traction reserve of a planned profile against distance.
+
+    The speed limit (when given) and the standstill windows are marked.
+    """
     plt = _plt()
     s = result.series
     fig, axs = plt.subplots(4, 1, figsize=(7, 8), sharex=True)
     x = np.asarray(s["distance_m"])
     axs[0].plot(x, s["speed_m_s"], "-o", ms=2)
+    vmax = result.limits.get("max_speed_m_s")
+    if vmax is not None:
+        axs[0].axhline(vmax, color="k", ls=":", label=f"speed limit {vmax:.3g} m/s")
+        axs[0].legend(fontsize=8, loc="lower right")
     axs[0].set_ylabel("speed (m/s)")
     axs[1].plot(x, np.asarray(s["slip"]) * 100, "-o", ms=2)
     lim = result.limits["max_slip"] * 100
     for sgn in (1, -1):
         axs[1].axhline(sgn * lim, color="k", ls=":")
     axs[1].set_ylabel("slip (%)")
-    axs[2].step(x, np.asarray(s["sprocket_torque_Nm"]) / 1e3, where="post")
+    M = np.asarray(s["sprocket_torque_Nm"])
+    ts = choose_scale([np.abs(M).max(), result.limits["max_torque_Nm"]], "N m")
+    axs[2].step(x, M * ts.factor, where="post")
     for sgn in (1, -1):
-        axs[2].axhline(sgn * result.limits["max_torque_Nm"] / 1e3, color="k", ls=":")
-    axs[2].set_ylabel("sprocket torque (kN m)")
-    axs[3].plot(x, np.asarray(s["margin_N"]) / 1e3)
-    axs[3].set_ylabel("traction reserve (kN)")
+        axs[2].axhline(sgn * result.limits["max_torque_Nm"] * ts.factor, color="k", ls=":")
+    axs[2].set_ylabel(f"sprocket torque ({ts.unit})")
+    R = np.asarray(s["margin_N"])
+    fs = choose_scale(R, "N")
+    axs[3].plot(x, R * fs.factor)
+    axs[3].set_ylabel(f"traction reserve ({fs.unit})")
     axs[3].set_xlabel("distance (m)")
     if "patch" in s and len(set(s["patch"])) > 1:
         p = np.asarray(s["patch"])
         for b in x[1:][np.diff(p) != 0]:
             for ax in axs:
                 ax.axvline(b, color="0.6", lw=0.8)
+    for w in result.standstills:  # a standstill is one point in distance: mark it with its time window
+        axs[0].annotate(f"stands still {w['start_s']:.3g}-{w['end_s']:.3g} s", (w["distance_m"], 0.0),
+                        xytext=(5, 12), textcoords="offset points", fontsize=8, color="C3",
+                        arrowprops={"arrowstyle": "->", "color": "C3"})
     for ax in axs:
         ax.grid(alpha=0.3)
     axs[0].set_title(title or f"{result.objective}-optimal profile: {result.total_time_s:.4g} s, "
-                     f"{result.energy_J / 1e3:.4g} kJ", fontsize=9)
+                     f"{format_energy(result.energy_J)}, peak speed {result.peak_speed_m_s:.3g} m/s", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
-def plot_slip_optimal(opt, path: str, title: str = "") -> None:
+def plot_slip_optimal(opt: SlipOptimum, path: str, title: str = "") -> None:
     """Drawbar power and tractive efficiency against slip, the optima marked, with fit bands."""
     plt = _plt()
     fig, a1 = plt.subplots(figsize=(7, 4.5))
     s = opt.slip * 100
-    a1.plot(s, opt.drawbar_power_W / 1e3, color="C0", label="drawbar power")
+    ps = choose_scale(opt.drawbar_power_W, "W")
+    a1.plot(s, opt.drawbar_power_W * ps.factor, color="C0", label="drawbar power")
     a2 = a1.twinx()
     a2.plot(s, opt.efficiency * 100, color="C1", label="tractive efficiency")
     if opt.bands:
         lo, hi = opt.bands["drawbar_power_W"]
-        a1.fill_between(s, np.asarray(lo) / 1e3, np.asarray(hi) / 1e3, color="C0", alpha=0.25)
+        a1.fill_between(s, np.asarray(lo) * ps.factor, np.asarray(hi) * ps.factor, color="C0", alpha=0.25)
         lo, hi = opt.bands["efficiency"]
         a2.fill_between(s, np.asarray(lo) * 100, np.asarray(hi) * 100, color="C1", alpha=0.25)
     if opt.slip_max_power is not None:
         a1.axvline(opt.slip_max_power * 100, color="C0", ls=":")
         a2.axvline(opt.slip_max_efficiency * 100, color="C1", ls=":")
     a1.set_xlabel("slip (%)")
-    a1.set_ylabel("drawbar power (kW)", color="C0")
+    a1.set_ylabel(f"drawbar power ({ps.unit})", color="C0")
     a2.set_ylabel("tractive efficiency (%)", color="C1")
     a1.set_xlim(0, 40)
     a1.set_ylim(bottom=0)

@@ -38,20 +38,27 @@ distance (energy objective only).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from statistics import NormalDist
 from typing import Any
 
+import casadi as ca
 import numpy as np
 
-from ..soilmodel import DataError, Soil, Vehicle, sensitivity_function, slip_from_thrust, thrust_function
+from ..soilmodel import (DataError, Soil, Vehicle, format_energy, format_force, format_torque, sensitivity_function,
+                         slip_from_thrust, thrust_function)
+from ..soilmodel.dynamics import slip_expr
+from ..soilmodel.effect_terms import DEFAULT_STANDSTILL_SPEED
 from ..soilmodel.simulation import drive_limits
-from .margin import DEFAULT_MAX_SLIP, _check, _resistances, _soil_thrust, resolve_terrain
-from .ocp import DEGREE, OcpData, _radau, solve_ocp
+from .arguments import check_number
+from .forces import resistances, soil_thrust
+from .margin import DEFAULT_MAX_SLIP, resolve_terrain
+from .ocp import DEGREE, OcpData, radau_collocation, solve_ocp
+from .replay import replay
 from .route import OBJECTIVES, Patch, Route
 
-__all__ = ["ProfileResult", "profile", "route_profile", "DEFAULT_INTERVALS"]
+__all__ = ["SpeedPlan", "profile", "route_profile", "DEFAULT_INTERVALS", "STANDSTILL_SPEED", "THRUST_RESERVE"]
 
 #: Traction reserve of a plan: its thrust stays below (1 - THRUST_RESERVE) times the soil's thrust
 #: at the slip limit, and its power below (1 - THRUST_RESERVE) P_max. On the flat part of the
@@ -63,6 +70,9 @@ THRUST_RESERVE = 0.005
 ROBUST_SAMPLES = 100
 #: Mesh intervals when none are given.
 DEFAULT_INTERVALS = 50
+#: Below this speed (m/s) the plan stands still: the model core's standstill regularisation speed
+#: (:data:`soiltrack.soilmodel.effect_terms.DEFAULT_STANDSTILL_SPEED`), where slip loses its meaning.
+STANDSTILL_SPEED = DEFAULT_STANDSTILL_SPEED
 _SERIES = ("time_s", "distance_m", "speed_m_s", "sprocket_speed_rad_s", "slip", "sprocket_torque_Nm", "thrust_N",
            "margin_N", "patch")
 
@@ -80,7 +90,7 @@ def _f(x):
 
 
 @dataclass(frozen=True)
-class ProfileResult:
+class SpeedPlan:
     """A planned profile (or the reason there is none).
 
     Attributes
@@ -109,7 +119,16 @@ class ProfileResult:
         uses, itemised (``rolling_N``, ``compaction_N``, ``grade_N``): a replay must include them.
     limits, notes, robust
         Limits used (``max_torque_Nm``, ``max_power_W``, ``max_slip``, ``torque_rate_Nm_s``,
-        and which were assumed), remarks, and the Monte Carlo check of a robust profile.
+        ``max_speed_m_s``, and which were assumed), remarks, and the Monte Carlo check of a
+        robust profile.
+    peak_speed_m_s
+        Largest planned speed over the mesh and collocation points (``None`` without a plan).
+    standstills
+        Time windows in which the plan stands still (speed below :data:`STANDSTILL_SPEED` at two
+        or more consecutive mesh points): ``{"start_s", "end_s", "duration_s", "distance_m"}``.
+    initial_slip, initial_slip_source
+        The plan's first-point slip and where it comes from (``"given"``, ``"steady"``: the
+        slip that carries the first patch's resistance at ``v0``, ``"rest"``: ``v0 = 0``).
     """
 
     success: bool
@@ -130,9 +149,13 @@ class ProfileResult:
     n_patches: int = 1
     patches: tuple = ()
     active_limits: dict | None = None
+    peak_speed_m_s: float | None = None
+    standstills: tuple = ()
+    initial_slip: float | None = None
+    initial_slip_source: str | None = None
 
     def to_dict(self, route: bool = False) -> dict:
-        """The ``profile --json`` / ``route --json`` object (DESIGN.md section 8); never NaN."""
+        """The ``profile --json`` / ``route --json`` object (docs/data-formats.md); never NaN."""
         d = {"success": self.success, "status": self.status, "message": self.message, "objective": self.objective,
              "total_time_s": _f(self.total_time_s), "energy_J": _f(self.energy_J),
              "solve_time_s": _f(self.solve_time_s), "iterations": self.iterations, "warm_start": self.warm_start}
@@ -146,6 +169,10 @@ class ProfileResult:
         d["limits"] = {k: (_f(v) if isinstance(v, float) else v) for k, v in self.limits.items()}
         d["notes"] = list(self.notes)
         d["active_limits"] = self.active_limits
+        d["peak_speed_m_s"] = _f(self.peak_speed_m_s)
+        d["standstills"] = [{k: _f(v) for k, v in w.items()} for w in self.standstills]
+        d["initial_slip"] = _f(self.initial_slip)
+        d["initial_slip_source"] = self.initial_slip_source
         d["patches"] = [{k: (_f(v) if isinstance(v, float) else v) for k, v in p.items()} for p in self.patches]
         if self.robust is not None:
             d["robust"] = {k: (_f(v) if isinstance(v, float) else v) for k, v in self.robust.items()}
@@ -157,17 +184,25 @@ class ProfileResult:
             L = [f"NO FEASIBLE PROFILE ({self.status}): {self.message}"]
         else:
             s = self.series
+            vmax = self.limits.get("max_speed_m_s")
             L = [f"profile found ({self.objective} objective, IPOPT {self.status}, {self.iterations} iterations, "
                  f"{_dur(self.solve_time_s)}{', warm start' if self.warm_start else ''})",
                  f"  {s['distance_m'][-1]:.4g} m in {self.total_time_s:.4g} s, sprocket energy "
-                 f"{self.energy_J / 1e3:.4g} kJ; speed {s['speed_m_s'][0]:.3g} -> {s['speed_m_s'][-1]:.3g} m/s",
+                 f"{format_energy(self.energy_J)}; speed {s['speed_m_s'][0]:.3g} -> {s['speed_m_s'][-1]:.3g} m/s, "
+                 f"peak {self.peak_speed_m_s:.3g} m/s ("
+                 + (f"limit {vmax:.3g} m/s)" if vmax is not None else "no speed limit given)"),
+                 f"  initial slip {self.initial_slip * 100:.3g} % ({_SLIP0_WORDS[self.initial_slip_source]})",
                  f"  largest slip {max(abs(x) for x in s['slip']) * 100:.3g} % (limit {self.limits['max_slip'] * 100:.3g} %),"
-                 f" largest torque {max(abs(x) for x in s['sprocket_torque_Nm']) / 1e3:.4g} kN m (limit "
-                 f"{self.limits['max_torque_Nm'] / 1e3:.4g} kN m), smallest traction reserve "
-                 f"{min(s['margin_N']) / 1e3:.4g} kN"]
-            if self.active_limits:
-                L.append("  limits active in " + ", ".join(f"{n} intervals ({k})" for k, n in self.active_limits.items()
-                                                         if n) + " of the plan")
+                 f" largest torque {format_torque(max(abs(x) for x in s['sprocket_torque_Nm']))} (limit "
+                 f"{format_torque(self.limits['max_torque_Nm'])}), smallest traction reserve "
+                 f"{format_force(min(s['margin_N']))}"]
+            act = {k: n for k, n in (self.active_limits or {}).items() if n}
+            n_int = len(s["time_s"]) - 1
+            L.append("  limits active: " + (", ".join(f"{k} in {n} of {n_int} intervals" for k, n in act.items())
+                                           if act else "none (the objective alone shapes the plan)"))
+            for w in self.standstills:
+                L.append(f"  STANDS STILL (speed below {STANDSTILL_SPEED:g} m/s) from {w['start_s']:.4g} s to "
+                         f"{w['end_s']:.4g} s ({w['duration_s']:.4g} s) at {w['distance_m']:.4g} m")
         if self.robust is not None:
             L.append(f"  robust plan at confidence {self.robust['confidence']:.3g}: the slip limit is broken for "
                      f"{self.robust['violation_fraction'] * 100:.3g} % of {self.robust['n_samples']} sampled soils "
@@ -184,8 +219,8 @@ def _mesh(lengths: np.ndarray, n: int) -> np.ndarray:
     return k
 
 
-def _infeasible(reason: dict, msg: str, objective: str, limits: dict, notes, n_patches: int) -> ProfileResult:
-    return ProfileResult(False, "infeasible", msg, objective, None, None, None, None, False,
+def _infeasible(reason: dict, msg: str, objective: str, limits: dict, notes, n_patches: int) -> SpeedPlan:
+    return SpeedPlan(False, "infeasible", msg, objective, None, None, None, None, False,
                          {k: [] for k in _SERIES}, reason, {}, limits, tuple(notes), None, n_patches)
 
 
@@ -198,13 +233,13 @@ def _patch_data(patches, vehicle, i_max):
     """Per patch: soil [c, phi, K], normal load, resistance items, soil limit, peak, label."""
     out = []
     for p in patches:
-        soil, unc, _ = resolve_terrain(p.terrain)
+        soil, unc, _ = resolve_terrain(p.terrain, vehicle)
         th = math.radians(p.grade_deg)
-        Narr, req = _resistances(vehicle, soil, np.array([th]), 0.0, 0.0)
+        Narr, req = resistances(vehicle, soil, np.array([th]), 0.0, 0.0)
         N = float(Narr[0])
         theta = soil.as_vector() if soil is not None else unc.soils_at(unc.mean, N)[0]
-        Fs = float(_soil_thrust(theta, i_max, N, vehicle, "full")[0])
-        Fpk = float(_soil_thrust(theta, 0.999, N, vehicle, "full")[0])
+        Fs = float(soil_thrust(theta, i_max, N, vehicle, "full")[0])
+        Fpk = float(soil_thrust(theta, 0.999, N, vehicle, "full")[0])
         R = float(req["rolling_N"][0] + req["compaction_N"][0] + req["grade_N"][0])
         out.append({"theta": theta, "N": N, "R": R, "Rc": float(req["compaction_N"][0]), "grade": th, "Fs": Fs,
                     "Fpk": Fpk, "soil": soil, "unc": unc})
@@ -263,7 +298,7 @@ def _slip_bound(theta: tuple, N: float, Fs: float, i_max: float, vehicle: Vehicl
     return float(min(sb[0], i_max))
 
 
-def _bang_bang(pd, idx, S, v0, v1, T_thr, Pmax, m) -> np.ndarray:
+def _bang_bang(pd, idx, S, v0, v1, T_thr, Pmax, m, max_speed=None) -> np.ndarray:
     """Start guess of a minimum-time plan: 0.8 x (full thrust forward, full braking back from v1, the lower
     of the two) + 0.2 x (linear in distance); measured: 28-36 IPOPT iterations on the benchmark cases against
     31-98 for either guess alone."""
@@ -282,18 +317,67 @@ def _bang_bang(pd, idx, S, v0, v1, T_thr, Pmax, m) -> np.ndarray:
         F = min(0.95 * d["Fs"], T_thr)
         bwd[k] = math.sqrt(max(bwd[k + 1] ** 2 + 2 * h[k] * (F + d["R"]) / m, 0.01))
     v = 0.8 * np.minimum(fwd, bwd) + 0.2 * (v0 + (v1 - v0) * S / S[-1])
+    if max_speed is not None:
+        v = np.minimum(v, max_speed)
     v[0], v[-1] = v0, v1
     return v
 
 
-def _plan(patches: tuple[Patch, ...], vehicle: Vehicle, **kw) -> ProfileResult:
-    from dataclasses import replace
+#: Words for where the first point's slip comes from.
+_SLIP0_WORDS = {"given": "given", "steady": "steady slip carrying the resistance at v0",
+                "steady_capped": "the steady slip at v0 is beyond the plan's slip bound: capped at it",
+                "rest": "at rest"}
 
+
+def _slip(v: np.ndarray, w: np.ndarray, r: float) -> np.ndarray:
+    """The model core's slip (:func:`~soiltrack.soilmodel.dynamics.slip_expr`, regularised at standstill)."""
+    v = np.asarray(v, dtype=float)
+    return np.asarray(slip_expr(ca.DM(v.ravel()), ca.DM(np.asarray(w, dtype=float).ravel()), r),
+                      dtype=float).reshape(v.shape)
+
+
+def _initial_slip(d0: dict, vehicle: Vehicle, v0: float, slip0: float | None, bound: float) -> tuple[float, str]:
+    """The first point's slip: given (checked against the plan's slip bound), 0 at rest, else the steady slip
+    that carries the first patch's resistance at ``v0`` (the vehicle is cruising when the plan starts)."""
+    if v0 == 0.0:
+        return 0.0, "rest"
+    if slip0 is not None:
+        if abs(slip0) > bound:
+            raise DataError(f"argument slip0 = {slip0:g} is beyond the plan's slip bound {bound:.4g} on the first "
+                            f"patch (the slip limit less the traction reserve of {THRUST_RESERVE:g})")
+        return float(slip0), "given"
+    i_ss = float(slip_from_thrust(np.array([d0["R"]]), Soil(*map(float, d0["theta"])), vehicle,
+                                  normal_load=d0["N"])[0])
+    if abs(i_ss) > bound:
+        return float(np.sign(i_ss) * bound), "steady_capped"
+    return i_ss, "steady"
+
+
+def _standstills(t: np.ndarray, v: np.ndarray, s: np.ndarray) -> tuple[dict, ...]:
+    """Windows of two or more consecutive mesh points below :data:`STANDSTILL_SPEED`."""
+    still = np.asarray(v) < STANDSTILL_SPEED
+    out = []
+    k = 0
+    while k < len(still):
+        if still[k]:
+            j = k
+            while j + 1 < len(still) and still[j + 1]:
+                j += 1
+            if j > k:
+                out.append({"start_s": float(t[k]), "end_s": float(t[j]), "duration_s": float(t[j] - t[k]),
+                            "distance_m": float(s[k])})
+            k = j + 1
+        else:
+            k += 1
+    return tuple(out)
+
+
+def _plan(patches: tuple[Patch, ...], vehicle: Vehicle, **kw) -> SpeedPlan:
     res = _plan_core(patches, vehicle, **kw)
     info = []
     for p in patches:
-        soil, _u, _m = resolve_terrain(p.terrain)
-        N, req = _resistances(vehicle, soil, np.array([math.radians(p.grade_deg)]), 0.0, 0.0)
+        soil, _u, _m = resolve_terrain(p.terrain, vehicle)
+        N, req = resistances(vehicle, soil, np.array([math.radians(p.grade_deg)]), 0.0, 0.0)
         length = float(p.length_m)
         if kw.get("duration") is not None:  # the distance is an outcome of the plan
             length = res.series["distance_m"][-1] if res.success else None
@@ -306,26 +390,36 @@ def _plan(patches: tuple[Patch, ...], vehicle: Vehicle, **kw) -> ProfileResult:
 def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: float, distance: float | None,
           duration: float | None, max_slip: float | None, objective: str, intervals: int,
           torque_rate: float | None, confidence: float | None, route: bool,
-          robust_samples: int = ROBUST_SAMPLES) -> ProfileResult:
-    v0 = _check("v0", v0, 0.0)
-    v1 = _check("v1", v1, 0.0)
+          robust_samples: int = ROBUST_SAMPLES, max_speed: float | None = None, slip0: float | None = None,
+          warm_store: dict | None = None) -> SpeedPlan:
+    v0 = check_number("v0", v0, 0.0)
+    v1 = check_number("v1", v1, 0.0)
     if v0 + v1 <= 0:
         raise DataError("argument v0 or v1 must be > 0 (a profile from rest to rest has no speed to plan)")
+    if max_speed is not None:
+        max_speed = check_number("max_speed", max_speed, 0.0, lo_open=True)
+        if max_speed < max(v0, v1):
+            raise DataError(f"argument max_speed = {max_speed:g} m/s is below the initial or target speed "
+                            f"(v0 = {v0:g}, v1 = {v1:g} m/s)")
+    if slip0 is not None:
+        slip0 = check_number("slip0", slip0, -1.0, 1.0, True, True)
+        if v0 == 0.0:
+            raise DataError("argument slip0 needs v0 > 0 (at rest the sprocket stands still: no slip to give)")
     if objective not in OBJECTIVES:
         raise DataError(f"argument objective must be one of {OBJECTIVES}, got {objective!r}")
-    i_max = DEFAULT_MAX_SLIP if max_slip is None else _check("max_slip", max_slip, 0, 1, True, True)
+    i_max = DEFAULT_MAX_SLIP if max_slip is None else check_number("max_slip", max_slip, 0, 1, True, True)
     if isinstance(intervals, bool) or not isinstance(intervals, (int, np.integer)) or not 2 <= intervals <= 2000:
         raise DataError(f"argument intervals must be an integer in [2, 2000], got {intervals!r}")
     if torque_rate is not None:
-        torque_rate = _check("torque_rate", torque_rate, 0.0, lo_open=True)
+        torque_rate = check_number("torque_rate", torque_rate, 0.0, lo_open=True)
     if duration is not None:
-        duration = _check("duration", duration, 0.0, lo_open=True)
+        duration = check_number("duration", duration, 0.0, lo_open=True)
         if objective == "time":
             raise DataError("argument objective: with a duration the time is fixed; use objective 'energy'")
     lim = drive_limits(vehicle)
     Tmax, Pmax, r = lim.max_sprocket_torque, lim.max_power, vehicle.sprocket_radius
     limits = {"max_torque_Nm": float(Tmax), "max_power_W": float(Pmax), "max_slip": float(i_max),
-              "torque_rate_Nm_s": torque_rate, "torque_assumed": lim.torque_assumed, "power_assumed": lim.power_assumed}
+              "torque_rate_Nm_s": torque_rate, "max_speed_m_s": max_speed, "torque_assumed": lim.torque_assumed, "power_assumed": lim.power_assumed}
     notes = []
     if lim.torque_assumed or lim.power_assumed:
         notes.append("the vehicle gives no " + " and no ".join(
@@ -333,7 +427,7 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: f
                            ("power limit (15 W/kg assumed)", lim.power_assumed)) if a))
     pd = _patch_data(patches, vehicle, i_max)
     if confidence is not None:
-        confidence = _check("confidence", confidence, 0.5, 1.0, hi_open=True)
+        confidence = check_number("confidence", confidence, 0.5, 1.0, hi_open=True)
         if not any(d["unc"] is not None for d in pd):
             raise DataError("argument confidence needs an identified soil (--fit / a FitResult): the soil given "
                             "has no uncertainty")
@@ -348,8 +442,8 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: f
             if sd > 0:
                 q = u.mean - z * (u.cov @ g) / sd
                 d["theta"] = u.soils_at(q, d["N"])[0]
-                d["Fs"] = float(_soil_thrust(d["theta"], i_max, d["N"], vehicle, "full")[0])
-                d["Fpk"] = float(_soil_thrust(d["theta"], 0.999, d["N"], vehicle, "full")[0])
+                d["Fs"] = float(soil_thrust(d["theta"], i_max, d["N"], vehicle, "full")[0])
+                d["Fpk"] = float(soil_thrust(d["theta"], 0.999, d["N"], vehicle, "full")[0])
         notes.append(f"robust plan: soils backed off to the one-sided {confidence:.3g} quantile of their thrust at the "
                      "slip limit (linearised covariance), checked by Monte Carlo")
     lengths = np.array([p.length_m for p in patches], dtype=float)
@@ -365,8 +459,9 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: f
         pre = _precheck(pd, lengths, vehicle, v0, v1, i_max, Tmax, Pmax, r)
     if pre is not None:
         msg = (f"patch {pre['patch']} ({patches[pre['patch']].label}, grade {patches[pre['patch']].grade_deg:g} deg): "
-               f"needs {pre['required_N'] / 1e3:.4g} kN, the {pre['limit']} limit gives {pre['available_N'] / 1e3:.4g} kN "
-               f"(short by {pre['short_by_N'] / 1e3:.4g} kN); found by the steady-state check before the solver")
+               f"needs {format_force(pre['required_N'])}, the {pre['limit']} limit gives "
+               f"{format_force(pre['available_N'])} (short by {format_force(pre['short_by_N'])}); found by the "
+               "steady-state check before the solver")
         return _infeasible(pre, msg, objective, limits, notes, len(patches))
     counts = _mesh(lengths, intervals) if duration is None else np.array([intervals])
     n = int(counts.sum())
@@ -379,13 +474,15 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: f
     th = np.array([pd[k]["theta"] for k in idx])
     bounds_p = [_slip_bound(tuple(map(float, d["theta"])), d["N"], d["Fs"], i_max, vehicle) for d in pd]
     slip_bound = np.array([bounds_p[k] for k in idx])
+    i0, i0_source = _initial_slip(pd[0], vehicle, v0, slip0, float(slip_bound[0]))
+    w0 = 0.0 if v0 == 0.0 else v0 / (r * (1.0 - i0))
     data = OcpData(c=th[:, 0], phi=th[:, 1], K=th[:, 2], grade=np.array([pd[k]["grade"] for k in idx]),
                    Rc=np.array([pd[k]["Rc"] for k in idx]), s=S, v0=v0, v1=v1,
                    distance=None if duration is not None else float(lengths.sum()), duration=duration,
                    slip_bound=slip_bound, max_torque=Tmax, max_power=Pmax * (1 - THRUST_RESERVE), max_slip=i_max,
                    torque_rate=torque_rate, objective=objective,
-                   v_guess=_bang_bang(pd, idx, S, v0, v1, Tmax / r, Pmax, vehicle.mass)
-                   if objective == "time" and duration is None else None)
+                   v_guess=_bang_bang(pd, idx, S, v0, v1, Tmax / r, Pmax, vehicle.mass, max_speed)
+                   if objective == "time" and duration is None else None, w0=w0, max_speed=max_speed)
 
     def slip_guess(F):
         out = np.empty(n)
@@ -396,11 +493,11 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: f
             out[sel] = s_
         return out
 
-    sol = solve_ocp(data, vehicle, slip_guess)
+    sol = solve_ocp(data, vehicle, slip_guess, warm_store)
     v, w, M, dt = sol["v"], sol["w"], sol["M"], sol["dt"]
     Z = sol["Z"]
-    i_nodes = (r * w - v) / (r * w)
-    i_col = (r * Z[1] - Z[0]) / (r * Z[1])
+    i_nodes = _slip(v, w, r)
+    i_col = _slip(Z[0], Z[1], r)
     Nn = np.array([pd[k]["N"] for k in idx])
     kk = np.minimum(np.arange(n + 1), n - 1)  # node k takes the soil of interval k (the end node: the last)
     F_nodes = np.asarray(thrust_function("full")(i_nodes.reshape(1, -1), th[kk, 0].reshape(1, -1),
@@ -419,6 +516,9 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: f
     M_all = np.concatenate([M, M, np.repeat(M, DEGREE)])
     if Pmax and np.max(M_all * w_all) > Pmax * (1 + 1e-5):
         viol.append("power")
+    peak = float(max(np.max(v), np.max(Z[0])))
+    if max_speed is not None and peak > max_speed * (1 + 1e-6):
+        viol.append("speed")
     ok = sol["success"] and not viol and abs(v[-1] - v1) <= 1e-6 * max(1.0, v1)
     if not ok:
         k_int = int(np.argmin(Fs_int - np.abs(F_nodes[:-1])))
@@ -427,7 +527,7 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: f
         reason = _reason(k, "slip" if d["Fs"] < Tmax / r else "torque", d["R"], float(min(d["Fs"], Tmax / r)))
         msg = (f"the solver found no feasible profile (IPOPT: {sol['status']}"
                f"{'; violated after the solve: ' + ', '.join(viol) if viol else ''}); the plan is tightest on patch {k}")
-        return ProfileResult(False, sol["status"], msg, objective, None, None, sol["solve_time"], sol["iterations"],
+        return SpeedPlan(False, sol["status"], msg, objective, None, None, sol["solve_time"], sol["iterations"],
                              sol["warm"], {k_: [] for k_ in _SERIES}, reason, {}, limits, tuple(notes), None,
                              len(patches))
     t = np.concatenate([[0.0], np.cumsum(dt)])
@@ -435,7 +535,7 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: f
     series = {"time_s": t, "distance_m": sol["s"], "speed_m_s": v, "sprocket_speed_rad_s": w, "slip": i_nodes,
               "sprocket_torque_Nm": rep(M), "thrust_N": F_nodes, "margin_N": rep(Fs_int) - np.abs(F_nodes), "patch": rep(idx)}
     series = {k: [float(a) for a in vals] if k != "patch" else [int(a) for a in vals] for k, vals in series.items()}
-    tau, _C, B = _radau(DEGREE)
+    tau, _C, B = radau_collocation(DEGREE)
     w_int = np.array([np.dot(B[1:], Z[1, k * DEGREE:(k + 1) * DEGREE]) for k in range(n)])
     energy = float(np.sum(np.maximum(M * dt * w_int, 0.0)))  # positive sprocket work (braking not recovered)
     mesh = {"c": th[:, 0], "phi": th[:, 1], "K": th[:, 2], "grade_rad": data.grade, "compaction_N": data.Rc,
@@ -450,25 +550,29 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: f
               "power": int(np.sum(np.maximum(M * w[:-1], M * w[1:]) >= Pmax * (1 - THRUST_RESERVE) * (1 - 1e-4))),
               "torque_rate": (int(np.sum(np.abs(np.diff(M)) >= torque_rate * 0.5 * (dt[1:] + dt[:-1]) * (1 - 1e-4)))
                               if torque_rate else 0)}
-    res = ProfileResult(True, sol["status"], msg, objective, float(t[-1]), energy, sol["solve_time"],
-                        sol["iterations"], sol["warm"], series, None, mesh, limits, tuple(notes), None, len(patches),
-                        active_limits=active)
+    if max_speed is not None:
+        v_int = np.maximum(np.maximum(v[:-1], v[1:]), Z[0].reshape(n, DEGREE).max(axis=1))
+        active["speed"] = int(np.sum(v_int >= max_speed * (1 - 1e-4)))
+    stand = _standstills(t, v, sol["s"])
+    if stand and objective == "energy" and duration is not None:
+        notes.append("the energy objective counts the sprocket's positive work only and, with a duration, the "
+                     "distance is free: standing still costs nothing, so the plan waits (see the standstills)")
+    res = SpeedPlan(True, sol["status"], msg, objective, float(t[-1]), energy, sol["solve_time"],
+                    sol["iterations"], sol["warm"], series, None, mesh, limits, tuple(notes), None, len(patches),
+                    active_limits=active, peak_speed_m_s=peak, standstills=stand, initial_slip=float(i_nodes[0]),
+                    initial_slip_source=i0_source)
     if confidence is not None:
         kw = dict(v0=v0, v1=v1, distance=distance, duration=duration, max_slip=i_max, objective=objective,
-                  intervals=intervals, torque_rate=torque_rate, route=route)
+                  intervals=intervals, torque_rate=torque_rate, route=route, max_speed=max_speed, slip0=slip0)
         if isinstance(robust_samples, bool) or not isinstance(robust_samples, int) or robust_samples < 10:
             raise DataError(f"argument robust_samples must be an integer >= 10, got {robust_samples!r}")
         res = _with_mesh(res, mesh)
-        from dataclasses import replace
-
         res = replace(res, robust=_robust_check(res, pd, idx, vehicle, i_max, confidence, patches, kw, robust_samples))
     return res
 
 
 def _violations(result, pd, idx, vehicle, i_max, n_samples, seed=1) -> float:
     """Fraction of sampled soils for which the planned torque, replayed open-loop, breaks the slip limit."""
-    from .replay import replay
-
     qs = {k: d["unc"].sample(n_samples, seed + k) for k, d in enumerate(pd) if d["unc"] is not None}
     broken = 0
     for j in range(n_samples):
@@ -483,9 +587,7 @@ def _violations(result, pd, idx, vehicle, i_max, n_samples, seed=1) -> float:
     return broken / n_samples
 
 
-def _with_mesh(result: "ProfileResult", mesh: dict) -> "ProfileResult":
-    from dataclasses import replace
-
+def _with_mesh(result: "SpeedPlan", mesh: dict) -> "SpeedPlan":
     return replace(result, mesh=mesh)
 
 
@@ -502,13 +604,15 @@ def _robust_check(result, pd, idx, vehicle, i_max, confidence, patches, kw, n_sa
 def profile(terrain: Any, vehicle: Vehicle, *, v0: float, v1: float, distance: float | None = None,
             duration: float | None = None, grade_deg: float = 0.0, max_slip: float | None = None,
             objective: str = "time", intervals: int = DEFAULT_INTERVALS, torque_rate: float | None = None,
-            confidence: float | None = None, robust_samples: int = ROBUST_SAMPLES) -> ProfileResult:
+            confidence: float | None = None, robust_samples: int = ROBUST_SAMPLES, max_speed: float | None = None,
+            slip0: float | None = None) -> SpeedPlan:
     """Plan a speed/slip/torque profile on one terrain (see the module docstring).
 
     Parameters
     ----------
     terrain
-        A ``Soil``, a ``FitResult`` or a ``SoilUncertainty``.
+        A ``Soil``, a ``FitResult``, a ``SoilUncertainty`` or an on-line estimate (see
+        :func:`~.uncertainty.uncertainty_from_estimate`).
     vehicle
         The vehicle (torque and power limits, or the simulator's documented defaults).
     v0, v1
@@ -523,31 +627,39 @@ def profile(terrain: Any, vehicle: Vehicle, *, v0: float, v1: float, distance: f
         (back-off, checked by Monte Carlo).
     robust_samples
         Sampled soils of that Monte Carlo check (each replays the plan and the nominal plan).
+    max_speed
+        Speed limit, m/s, at every mesh and collocation point (default none; the peak speed is
+        reported either way).
+    slip0
+        The slip when the plan starts (default: the steady slip that carries the resistance at
+        ``v0``; 0 at rest); within the plan's slip bound.
 
     Returns
     -------
-    ProfileResult
+    SpeedPlan
     """
     if (distance is None) == (duration is None):
         raise DataError("give exactly one of the arguments distance and duration")
     if distance is not None:
-        distance = _check("distance", distance, 0.0, lo_open=True)
+        distance = check_number("distance", distance, 0.0, lo_open=True)
         length = distance
     else:
         length = 1.0
-    grade_deg = _check("grade_deg", grade_deg, -68.75, 68.75)
+    grade_deg = check_number("grade_deg", grade_deg, -68.75, 68.75)
     return _plan((Patch(length, terrain, grade_deg),), vehicle, v0=v0, v1=v1, distance=distance, duration=duration,
                  max_slip=max_slip, objective=objective, intervals=intervals, torque_rate=torque_rate,
-                 confidence=confidence, route=False, robust_samples=robust_samples)
+                 confidence=confidence, route=False, robust_samples=robust_samples, max_speed=max_speed, slip0=slip0)
 
 
 def route_profile(route: Route, vehicle: Vehicle, *, intervals: int | None = None,
-                  torque_rate: float | None = None) -> ProfileResult:
+                  torque_rate: float | None = None, max_speed: float | None = None,
+                  slip0: float | None = None) -> SpeedPlan:
     """Plan over a :class:`~.route.Route`: mesh points on every patch boundary, at least 2 per patch.
 
-    ``intervals`` defaults to 10 per patch, at least :data:`DEFAULT_INTERVALS`.
+    ``intervals`` defaults to 10 per patch, at least :data:`DEFAULT_INTERVALS`; ``max_speed`` and
+    ``slip0`` as for :func:`profile`.
     """
     n = max(DEFAULT_INTERVALS, 10 * len(route.patches)) if intervals is None else intervals
     return _plan(route.patches, vehicle, v0=route.v0_m_s, v1=route.v_end_m_s, distance=route.length_m, duration=None,
                  max_slip=route.max_slip, objective=route.objective, intervals=n, torque_rate=torque_rate,
-                 confidence=None, route=True)
+                 confidence=None, route=True, max_speed=max_speed, slip0=slip0)

@@ -18,7 +18,7 @@ from ..soilmodel import DataError, Vehicle
 from ..soilmodel.dynamics import dynamics_expr
 from ..soilmodel.threadsafe import call_solver, locked_cache
 
-__all__ = ["Replay", "replay"]
+__all__ = ["Replay", "replay", "step_function"]
 
 
 @dataclass(frozen=True)
@@ -38,7 +38,9 @@ class Replay:
 
 
 @locked_cache(maxsize=16)
-def _step(vehicle: Vehicle, substeps: int) -> ca.Function:
+def step_function(vehicle: Vehicle, substeps: int) -> ca.Function:
+    """CVODES over one held-torque interval: ``x0 = [v, w]``, ``p = [M, c, phi, K, theta, R_c, dt]``, with
+    ``substeps`` equally spaced outputs."""
     x = ca.SX.sym("x", 2)
     p = ca.SX.sym("p", 7)  # M, c, phi, K, theta, R_c, dt
     d = dynamics_expr(x[0], x[1], p[0], p[1], p[2], p[3], vehicle, {"grade": {"theta_rad": p[4]}})
@@ -51,13 +53,13 @@ def _step(vehicle: Vehicle, substeps: int) -> ca.Function:
 
 
 def replay(result, vehicle: Vehicle, substeps: int = 8) -> Replay:
-    """Replay a successful :class:`~.profile.ProfileResult` open-loop (ZOH torque) with CVODES."""
+    """Replay a successful :class:`~.profile.SpeedPlan` open-loop (ZOH torque) with CVODES."""
     if not result.success or not result.mesh:
         raise DataError("only a successful profile can be replayed")
     m = result.mesh
     r = vehicle.sprocket_radius
     n = len(m["torque"])
-    step = _step(vehicle, substeps)
+    step = step_function(vehicle, substeps)
     v0 = float(m["v"][0])
     x = np.array([v0, float(m["w"][0])])
     T, V, Wv, Mq = [0.0], [x[0]], [x[1]], [float(m["torque"][0])]

@@ -1,4 +1,4 @@
-"""Routes of terrain patches (length, soil, grade) and the ROUTE.json reader (DESIGN.md section 8)."""
+"""Routes of terrain patches (length, soil, grade) and the ROUTE.json reader (docs/data-formats.md)."""
 from __future__ import annotations
 
 import json
@@ -135,7 +135,7 @@ def route_from_dict(obj: Any, *, source: str | None = None, default_terrain: Any
 
 
 def read_route(path: str, default_terrain: Any = None) -> Route:
-    """Read ROUTE.json (DESIGN.md section 8); DataError naming the file and the field."""
+    """Read ROUTE.json (docs/data-formats.md); DataError naming the file and the field."""
     src = os.fspath(path)
     try:
         with open(src, encoding="utf-8") as fh:

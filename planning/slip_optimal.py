@@ -20,8 +20,10 @@ from typing import Any
 
 import numpy as np
 
-from ..soilmodel import Vehicle, thrust_function
-from .margin import _check, _resistances, _soil_thrust, resolve_terrain
+from ..soilmodel import Vehicle, format_power, format_torque, thrust_function
+from .arguments import check_number
+from .forces import resistances, soil_thrust
+from .margin import resolve_terrain
 
 __all__ = ["SlipOptimum", "slip_optimal"]
 
@@ -68,7 +70,7 @@ class SlipOptimum:
         """Plain-words summary."""
         if self.slip_max_power is None:
             return "no positive drawbar pull at any slip: the soil cannot overcome the resistance"
-        L = [f"largest drawbar power {self.max_drawbar_power_W / 1e3:.4g} kW at {self.slip_max_power * 100:.3g} % slip "
+        L = [f"largest drawbar power {format_power(self.max_drawbar_power_W)} at {self.slip_max_power * 100:.3g} % slip "
              f"(sprocket speed {self.sprocket_speed_rad_s:.3g} rad/s)",
              f"largest tractive efficiency {self.max_efficiency * 100:.3g} % at {self.slip_max_efficiency * 100:.3g} % slip"]
         if self.bands:
@@ -113,7 +115,7 @@ def _optima(theta, vehicle, N, R, w, model, refine: bool = True):
     r = vehicle.sprocket_radius
 
     def F(s):
-        return float(_soil_thrust(theta, s, N, vehicle, model)[0])
+        return float(soil_thrust(theta, s, N, vehicle, model)[0])
 
     def power(s):
         return (F(s) - R) * r * w * (1 - s)
@@ -148,10 +150,10 @@ def slip_optimal(terrain: Any, vehicle: Vehicle, *, sprocket_speed: float = 10.0
     grade_deg
         Grade, deg (its W sin(theta) counts as resistance).
     """
-    w = _check("sprocket_speed", sprocket_speed, 0.0, lo_open=True)
-    th = math.radians(_check("grade_deg", grade_deg, -68.75, 68.75))
-    soil, unc, model = resolve_terrain(terrain)
-    Narr, req = _resistances(vehicle, soil, np.array([th]), 0.0, 0.0)
+    w = check_number("sprocket_speed", sprocket_speed, 0.0, lo_open=True)
+    th = math.radians(check_number("grade_deg", grade_deg, -68.75, 68.75))
+    soil, unc, model = resolve_terrain(terrain, vehicle)
+    Narr, req = resistances(vehicle, soil, np.array([th]), 0.0, 0.0)
     N = float(Narr[0])
     R = float(sum(v[0] for v in req.values()))
     theta = soil.as_vector() if soil is not None else unc.soils_at(unc.mean, N)[0]
@@ -160,7 +162,7 @@ def slip_optimal(terrain: Any, vehicle: Vehicle, *, sprocket_speed: float = 10.0
     if sp is not None:
         M = vehicle.sprocket_radius * (P[int(np.argmax(P))] / (vehicle.sprocket_radius * w * (1 - sp)) + R)
         if (vehicle.max_sprocket_torque and M > vehicle.max_sprocket_torque) or (vehicle.max_power and M * w > vehicle.max_power):
-            notes.append(f"the power-optimal slip needs a sprocket torque of {M / 1e3:.4g} kN m at {w:.3g} rad/s, beyond "
+            notes.append(f"the power-optimal slip needs a sprocket torque of {format_torque(M)} at {w:.3g} rad/s, beyond "
                          "the vehicle's torque or power limit: the drivetrain cannot reach it at this sprocket speed")
     bands = None
     if unc is not None:

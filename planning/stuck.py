@@ -28,9 +28,11 @@ from typing import Any
 
 import numpy as np
 
-from ..soilmodel import Soil, Vehicle, slip_from_thrust
+from ..soilmodel import Soil, Vehicle, format_force, format_torque, slip_from_thrust
 from ..soilmodel.sinkage import has_bekker, slip_at_sinkage, slip_sinkage, static_sinkage
-from .margin import DEFAULT_MAX_SLIP, _check, _resistances, _soil_thrust, resolve_terrain
+from .arguments import check_number
+from .forces import resistances, soil_thrust
+from .margin import DEFAULT_MAX_SLIP, resolve_terrain
 
 __all__ = ["Stuck", "stuck"]
 
@@ -89,14 +91,14 @@ class Stuck:
 
     def report(self) -> str:
         """Plain-words summary."""
-        kn = lambda x: f"{x / 1e3:.4g} kN"  # noqa: E731
+        kn = format_force
         L = [("STUCK" if self.stuck else "not stuck") + f": the soil gives at most {kn(self.spin_thrust_N)} (full "
              f"slip), the vehicle needs {kn(self.required_N)} (reserve {kn(self.thrust_margin_N)})",
-             f"  tracks spin above a sprocket torque of {self.spin_torque_Nm / 1e3:.4g} kN m"]
+             f"  tracks spin above a sprocket torque of {format_torque(self.spin_torque_Nm)}"]
         if self.torque_Nm is not None:
-            L.append(f"  at {self.torque_Nm / 1e3:.4g} kN m: " + (
+            L.append(f"  at {format_torque(self.torque_Nm)}: " + (
                 "the tracks spin (slip runs away towards 1)" if self.spins_at_torque else
-                f"steady slip {self.slip_at_torque * 100:.3g} %, {self.torque_margin_Nm / 1e3:.4g} kN m below spin"))
+                f"steady slip {self.slip_at_torque * 100:.3g} %, {format_torque(self.torque_margin_Nm)} below spin"))
         if self.spin_track_speed_m_s is not None:
             L.append(f"  at full throttle the tracks spin when the track speed r w falls below "
                      f"{self.spin_track_speed_m_s:.3g} m/s")
@@ -128,16 +130,16 @@ def stuck(terrain: Any, vehicle: Vehicle, *, torque: float | None = None, grade_
     max_slip
         Operating slip for the sinkage at the operating point (default 0.2).
     """
-    grade_deg = _check("grade_deg", grade_deg, -68.75, 68.75)
-    i_op = DEFAULT_MAX_SLIP if max_slip is None else _check("max_slip", max_slip, 0, 1, True, True)
-    soil, unc, model = resolve_terrain(terrain)
+    grade_deg = check_number("grade_deg", grade_deg, -68.75, 68.75)
+    i_op = DEFAULT_MAX_SLIP if max_slip is None else check_number("max_slip", max_slip, 0, 1, True, True)
+    soil, unc, model = resolve_terrain(terrain, vehicle)
     th = math.radians(grade_deg)
-    Narr, req = _resistances(vehicle, soil, np.array([th]), _check("accel", accel), _check("drawbar_N", drawbar_N))
+    Narr, req = resistances(vehicle, soil, np.array([th]), check_number("accel", accel), check_number("drawbar_N", drawbar_N))
     N = float(Narr[0])
     R = float(sum(v[0] for v in req.values()))
     theta = soil.as_vector() if soil is not None else unc.soils_at(unc.mean, N)[0]
     s = soil if soil is not None else Soil(*map(float, theta), name="fitted soil")
-    F_spin = float(_soil_thrust(theta, _FULL_SLIP, N, vehicle, model)[0])
+    F_spin = float(soil_thrust(theta, _FULL_SLIP, N, vehicle, model)[0])
     r = vehicle.sprocket_radius
     M_spin = r * F_spin
     notes = []
@@ -146,7 +148,7 @@ def stuck(terrain: Any, vehicle: Vehicle, *, torque: float | None = None, grade_
     M = torque if torque is not None else vehicle.max_sprocket_torque
     slip_M = spins = tm = None
     if M is not None:
-        M = _check("torque", M, 0.0)
+        M = check_number("torque", M, 0.0)
         spins = M > M_spin
         tm = M_spin - M
         if not spins:
@@ -154,7 +156,7 @@ def stuck(terrain: Any, vehicle: Vehicle, *, torque: float | None = None, grade_
     v_spin = None
     Tmax, P = vehicle.max_sprocket_torque, vehicle.max_power
     if Tmax is not None and Tmax <= M_spin:
-        notes.append(f"the torque limit ({Tmax / 1e3:.4g} kN m) is below the spin torque: full throttle does not spin "
+        notes.append(f"the torque limit ({format_torque(Tmax)}) is below the spin torque: full throttle does not spin "
                      "the tracks")
     elif P:
         v_spin = P / F_spin  # track speed r w at which P / w equals the spin torque

@@ -1,4 +1,4 @@
-"""Soil uncertainty for planning, from a :class:`~soiltrack.identify.FitResult` or its JSON.
+"""Soil uncertainty for planning, from a :class:`~soiltrack.identify.FitResult`, its JSON, or an on-line estimate.
 
 The fit's Gaussian (linearised) uncertainty is carried over what the data determine:
 
@@ -14,6 +14,11 @@ The fit's Gaussian (linearised) uncertainty is carried over what the data determ
     N > W0, a payload) for every value of F_max: a conservative answer, never a ridge point
     presented as known. At N = W0 the answer does not depend on phi at all.
 
+An on-line estimate (what ``soiltrack.identify.OnlineEstimator`` gives after each update, or any
+object with the attributes of :data:`ESTIMATE_FIELDS`) carries ``F_max`` at its normal load and
+``K`` with their 2 x 2 covariance: the ridge above, with that load as W0
+(:func:`uncertainty_from_estimate`).
+
 Samples are drawn from the Gaussian and clipped to the fit's bounds (the physically admissible
 box); the delta method uses the same mapping, differentiated.
 """
@@ -27,12 +32,18 @@ from typing import Any
 
 import numpy as np
 
-from ..soilmodel import PRACTICAL_BOUNDS, DataError, Soil, SoilBounds, Vehicle
+from ..soilmodel import PRACTICAL_BOUNDS, DataError, Soil, SoilBounds, Vehicle, format_force
 
-__all__ = ["SoilUncertainty", "uncertainty_from_fit", "load_fit_json", "CHI2_95"]
+__all__ = ["SoilUncertainty", "uncertainty_from_fit", "uncertainty_from_estimate", "is_online_estimate",
+           "load_fit_json", "CHI2_95", "ESTIMATE_FIELDS"]
 
 #: 95 % quantiles of the chi-square distribution with 1, 2, 3 degrees of freedom.
 CHI2_95 = {1: 3.841458820694124, 2: 5.991464547107979, 3: 7.814727903251179}
+#: Public attributes of an on-line estimate (``soiltrack.identify.OnlineEstimator``'s per-update record):
+#: ``max_thrust_N`` (F_max at ``normal_load_N``), ``shear_modulus_m``, ``covariance`` (2 x 2, SI, over
+#: [max_thrust_N, shear_modulus_m]; ``None`` while not identifiable), ``normal_load_N``, ``identifiable``
+#: (names of what the data identify so far), ``converged``.
+ESTIMATE_FIELDS = ("max_thrust_N", "shear_modulus_m", "covariance", "normal_load_N", "identifiable", "converged")
 
 
 @dataclass(frozen=True)
@@ -146,12 +157,12 @@ class SoilUncertainty:
         if self.kind == "parameters":
             return f"soil uncertainty: {', '.join(self.names)} with their covariance ({self.source})"
         same = abs(normal_load - self.fitted_load) <= 1e-9 * self.fitted_load
-        base = (f"c and phi were not separable (one normal load, W0 = {self.fitted_load / 1e3:.4g} kN): the fit "
+        base = (f"c and phi were not separable (one normal load, W0 = {format_force(self.fitted_load)}): the fit "
                 f"determines only F_max(W0) and K ({self.source})")
         if same:
             return base + "; at this same load the margin depends on F_max only and is as tight as F_max"
         side = "largest" if normal_load < self.fitted_load else "smallest"
-        return (base + f"; at N = {normal_load / 1e3:.4g} kN it depends on where on the ridge the soil is, so the "
+        return (base + f"; at N = {format_force(normal_load)} it depends on where on the ridge the soil is, so the "
                 f"worst case over the ridge inside the bounds is used ({side} phi): the margin is conservative and "
                 "wider than F_max alone would give")
 
@@ -194,6 +205,72 @@ def uncertainty_from_fit(fit: Any) -> SoilUncertainty:
     rho = fit.identifiability.get("fmax_K_correlation", {}).get(f"{W0:.6g}") or 0.0
     return _ridge(fm.value, fm.stderr, k.value, k.stderr, rho, W0, bounds, fit.model, area,
                   "F_max and K standard errors and their correlation from the fit")
+
+
+def is_online_estimate(obj: Any) -> bool:
+    """Whether ``obj`` has every attribute of :data:`ESTIMATE_FIELDS` (duck-typed on-line estimate)."""
+    return all(hasattr(obj, f) for f in ESTIMATE_FIELDS)
+
+
+def uncertainty_from_estimate(estimate: Any, vehicle: Vehicle, bounds: SoilBounds = PRACTICAL_BOUNDS) -> SoilUncertainty:
+    """Build a :class:`SoilUncertainty` (ridge: F_max at the estimate's load and K) from an on-line estimate.
+
+    Parameters
+    ----------
+    estimate
+        Any object with the attributes of :data:`ESTIMATE_FIELDS` (e.g. the record of
+        ``soiltrack.identify.OnlineEstimator`` after an update).
+    vehicle
+        The vehicle driving (its contact area maps F_max to the ridge of c and phi).
+    bounds
+        Box of admissible c, phi, K (default: the practical soil range).
+
+    Returns
+    -------
+    SoilUncertainty
+
+    Raises
+    ------
+    DataError
+        The estimate has not converged, has no covariance yet (not identifiable), or a field is
+        not a finite number / a 2 x 2 symmetric positive semi-definite matrix (named).
+    """
+    if not is_online_estimate(estimate):
+        missing = [f for f in ESTIMATE_FIELDS if not hasattr(estimate, f)]
+        raise DataError(f"an on-line estimate needs the attributes {list(ESTIMATE_FIELDS)}; missing {missing}")
+    ident = tuple(str(x) for x in (estimate.identifiable or ()))
+    if not bool(estimate.converged):
+        raise DataError("the on-line estimate has not converged: no soil to plan with yet (identifiable so far: "
+                        f"{', '.join(ident) or 'nothing'})")
+    if estimate.covariance is None:
+        raise DataError("the on-line estimate has no covariance: F_max and K are not identifiable yet (identifiable "
+                        f"so far: {', '.join(ident) or 'nothing'}); drive harder (larger slips) or pass a Soil")
+    F = _finite(estimate.max_thrust_N, "max_thrust_N", positive=True)
+    K = _finite(estimate.shear_modulus_m, "shear_modulus_m", positive=True)
+    W0 = _finite(estimate.normal_load_N, "normal_load_N", positive=True)
+    try:
+        cov = np.array(estimate.covariance, dtype=float)
+    except (TypeError, ValueError):
+        raise DataError(f"estimate field 'covariance' must be a 2 x 2 matrix of numbers, got {estimate.covariance!r}") \
+            from None
+    if cov.shape != (2, 2) or not np.all(np.isfinite(cov)):
+        raise DataError(f"estimate field 'covariance' must be a finite 2 x 2 matrix over [max_thrust_N, "
+                        f"shear_modulus_m], got shape {cov.shape}")
+    if abs(cov[0, 1] - cov[1, 0]) > 1e-9 * math.sqrt(abs(cov[0, 0] * cov[1, 1])) or np.linalg.eigvalsh(
+            0.5 * (cov + cov.T)).min() < -1e-12 * max(np.abs(np.diag(cov)).max(), 1e-300) or min(np.diag(cov)) < 0:
+        raise DataError("estimate field 'covariance' must be symmetric positive semi-definite")
+    return SoilUncertainty("ridge", "full", ("F_max", "shear_modulus"), np.array([F, K]), 0.5 * (cov + cov.T), W0,
+                           bounds, "covariance of the on-line estimate over F_max and K", float(vehicle.contact_area))
+
+
+def _finite(x: Any, name: str, positive: bool = False) -> float:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        raise DataError(f"estimate field '{name}' must be a number, got {x!r}") from None
+    if isinstance(x, bool) or not math.isfinite(v) or (positive and v <= 0):
+        raise DataError(f"estimate field '{name}' must be a finite{' positive' if positive else ''} number, got {x!r}")
+    return v
 
 
 def _ridge(F, sF, K, sK, rho, W0, bounds, model, area, source) -> SoilUncertainty:

@@ -1,16 +1,24 @@
-"""Measured data containers and CSV I/O (DESIGN.md section 7).
+"""Measured data containers and CSV I/O (docs/data-formats.md).
 
 Two kinds of file, told apart by their columns:
 
 - tractive force-slip data: ``slip,tractive_force_N`` and optionally ``normal_load_N``;
 - drawbar-pull data: ``slip,drawbar_pull_N`` and optionally ``normal_load_N`` (drawbar pull =
   thrust - motion resistance, what a test rig measures);
+- both slip kinds, as rigs record them, optionally add per row ``sinkage_m``, the reading's
+  standard deviation (``tractive_force_std_N`` or ``drawbar_pull_std_N``, a weight) and
+  ``slip_angle_deg``; rows at negative slip or a non-zero slip angle are outside the
+  straight driving model: refused with their count and rows unless dropped explicitly
+  (``read_csv(path, driving_only=True, slip_angle=0.0)``), the count kept in
+  :attr:`SlipData.dropped`;
 - drive logs: ``time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s`` and
   optionally ``vehicle_accel_m_s2``;
 - two-track drive logs: the same with ``sprocket_torque_left_Nm, sprocket_torque_right_Nm,
   sprocket_speed_left_rad_s, sprocket_speed_right_rad_s`` (and optionally ``yaw_rate_rad_s``)
   instead of the combined torque and speed: summed torque, mean speed, turning samples marked
-  (:mod:`.tracks`).
+  (:mod:`.tracks`);
+- bevameter shear tests: ``normal_pressure_Pa,shear_displacement_m,shear_stress_Pa``;
+- bevameter plate sinkage tests: ``plate_width_m,pressure_Pa,sinkage_m``.
 
 Bad input is refused with a :class:`~soiltrack.soilmodel.errors.DataError` that names the
 file, the column and the data row (row 1 is the first line after the header).
@@ -29,11 +37,17 @@ from .tracks import TWO_TRACK_COLUMNS, YAW_COLUMN, combine_tracks, turning_mask
 
 SLIP_COLUMNS = ("slip", "tractive_force_N")
 DRAWBAR_COLUMNS = ("slip", "drawbar_pull_N")
-SLIP_OPTIONAL = ("normal_load_N",)
+SLIP_OPTIONAL = ("normal_load_N", "sinkage_m", "tractive_force_std_N", "drawbar_pull_std_N", "slip_angle_deg")
 #: What a slip sweep measured -> its CSV column.
 MEASURED_COLUMNS = {"tractive_force": "tractive_force_N", "drawbar_pull": "drawbar_pull_N"}
+#: What a slip sweep measured -> the column of its per-row standard deviation.
+STD_COLUMNS = {"tractive_force": "tractive_force_std_N", "drawbar_pull": "drawbar_pull_std_N"}
+#: Rows named in full in a refusal up to this many; beyond it the count and the first ones.
+MAX_ROWS_NAMED = 20
 DRIVE_COLUMNS = ("time_s", "sprocket_torque_Nm", "sprocket_speed_rad_s", "vehicle_speed_m_s")
 DRIVE_OPTIONAL = ("vehicle_accel_m_s2",)
+SHEAR_COLUMNS = ("normal_pressure_Pa", "shear_displacement_m", "shear_stress_Pa")
+PLATE_COLUMNS = ("plate_width_m", "pressure_Pa", "sinkage_m")
 
 
 def _frozen(a) -> np.ndarray:
@@ -62,6 +76,17 @@ class SlipData:
     drawbar_pull
         Drawbar pull ``thrust - motion resistance`` of both tracks, N (``None`` for tractive
         force data).
+    sinkage
+        Measured sinkage per row, m (``sinkage_m``), or ``None``.
+    force_std
+        Standard deviation of each reading of the measured force, N (``tractive_force_std_N`` or
+        ``drawbar_pull_std_N``), or ``None``; fits weigh each row by ``1 / std^2``.
+    slip_angle
+        Slip angle per row, deg (``slip_angle_deg``), or ``None``; must be 0 (the model is
+        straight-line).
+    dropped
+        Rows left out when the data were read, as ``((reason, option, rows), ...)`` with the
+        1-based rows of the file (see :func:`read_csv`).
     """
 
     slip: np.ndarray
@@ -69,23 +94,52 @@ class SlipData:
     normal_load: np.ndarray | None = None
     source: str = "<memory>"
     drawbar_pull: np.ndarray | None = None
+    sinkage: np.ndarray | None = None
+    force_std: np.ndarray | None = None
+    slip_angle: np.ndarray | None = None
+    dropped: tuple = ()
 
     def __post_init__(self) -> None:
         if (self.tractive_force is None) == (self.drawbar_pull is None):
             raise DataError("give exactly one of tractive_force and drawbar_pull", file=self.source)
         object.__setattr__(self, "slip", _frozen(self.slip))
-        for name in ("tractive_force", "drawbar_pull", "normal_load"):
+        for name in ("tractive_force", "drawbar_pull", "normal_load", "sinkage", "force_std", "slip_angle"):
             if getattr(self, name) is not None:
                 object.__setattr__(self, name, _frozen(getattr(self, name)))
-        cols = {"slip": self.slip, self.channel: self.values}
-        if self.normal_load is not None:
-            cols["normal_load_N"] = self.normal_load
+        cols = self.columns()
         _check_lengths(cols, self.source)
         _check_finite(cols, self.source)
+        problems = [bad_rows(self.slip < 0, "at negative slip (skid: braking, a locked wheel), outside the driving "
+                             "model (slip in [0, 1))", "slip", "--driving-only (read_csv(..., driving_only=True))")]
+        if self.slip_angle is not None:
+            problems.append(bad_rows(self.slip_angle != 0, "at a non-zero slip angle (combined slip), outside the "
+                                     "straight-line model", "slip_angle_deg",
+                                     "--slip-angle 0 (read_csv(..., slip_angle=0))"))
+        raise_rows([q for q in problems if q is not None], self.source)
         _check_range(self.slip, "slip", self.source, lo=0.0, hi=1.0, hi_open=True, what="slip must lie in [0, 1)")
         if self.normal_load is not None:
             _check_range(self.normal_load, "normal_load_N", self.source, lo=0.0, lo_open=True,
                          what="normal load must be > 0 N")
+        if self.sinkage is not None:
+            _check_range(self.sinkage, "sinkage_m", self.source, lo=0.0, what="sinkage must be >= 0 m")
+        if self.force_std is not None:
+            raise_rows([q for q in [bad_rows(self.force_std <= 0, "with a standard deviation <= 0 (a reading's "
+                                             "weight is 1 / std^2)", STD_COLUMNS[self.measured], None)] if q],
+                       self.source)
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The sweep as ``{column name: values}`` in the CSV contract's names (given columns only)."""
+        cols = {"slip": self.slip, self.channel: self.values}
+        for name, col in (("normal_load", "normal_load_N"), ("sinkage", "sinkage_m"),
+                          ("force_std", STD_COLUMNS[self.measured]), ("slip_angle", "slip_angle_deg")):
+            if getattr(self, name) is not None:
+                cols[col] = getattr(self, name)
+        return cols
+
+    @property
+    def dropped_count(self) -> int:
+        """Number of rows left out when the data were read."""
+        return sum(len(rows) for _, _, rows in self.dropped)
 
     @property
     def n_samples(self) -> int:
@@ -113,9 +167,9 @@ class SlipData:
         The source is annotated with the data rows taken (row 1 = first data row).
         """
         idx = _rows(index, self.n_samples, self.source)
-        kw = {"drawbar_pull" if self.measured == "drawbar_pull" else "tractive_force": self.values[idx]}
-        return SlipData(slip=self.slip[idx], normal_load=None if self.normal_load is None else self.normal_load[idx],
-                        source=_annotate(self.source, idx), **kw)
+        kw = {name: None if getattr(self, name) is None else getattr(self, name)[idx]
+              for name in ("tractive_force", "drawbar_pull", "normal_load", "sinkage", "force_std", "slip_angle")}
+        return SlipData(slip=self.slip[idx], source=_annotate(self.source, idx), dropped=self.dropped, **kw)
 
     def loads(self, default: float | None = None) -> np.ndarray:
         """Per-sample normal load, N (``default`` where the data carry none)."""
@@ -220,6 +274,124 @@ class DriveLog:
         return out
 
 
+@dataclass(frozen=True, eq=False)
+class ShearTest:
+    """A bevameter shear test (shear ring or shear box): shear stress against shear displacement.
+
+    Parameters
+    ----------
+    normal_pressure
+        Normal pressure sigma on the shear surface per row, Pa (> 0). Rows at two or more
+        pressures separate cohesion and friction; at one pressure only ``c + sigma tan(phi)``.
+    shear_displacement
+        Shear displacement j, m (>= 0).
+    shear_stress
+        Measured shear stress tau, Pa.
+    source
+        Where the data came from, used in messages.
+    """
+
+    normal_pressure: np.ndarray
+    shear_displacement: np.ndarray
+    shear_stress: np.ndarray
+    source: str = "<memory>"
+
+    def __post_init__(self) -> None:
+        for name in ("normal_pressure", "shear_displacement", "shear_stress"):
+            object.__setattr__(self, name, _frozen(getattr(self, name)))
+        cols = dict(zip(SHEAR_COLUMNS, (self.normal_pressure, self.shear_displacement, self.shear_stress)))
+        _check_lengths(cols, self.source)
+        _check_finite(cols, self.source)
+        _check_range(self.normal_pressure, "normal_pressure_Pa", self.source, lo=0.0, lo_open=True,
+                     what="normal pressure must be > 0 Pa")
+        _check_range(self.shear_displacement, "shear_displacement_m", self.source, lo=0.0,
+                     what="shear displacement must be >= 0 m")
+
+    @property
+    def n_samples(self) -> int:
+        """Number of rows."""
+        return int(self.shear_stress.size)
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The test as ``{column name: values}`` in the CSV contract's names."""
+        return dict(zip(SHEAR_COLUMNS, (self.normal_pressure, self.shear_displacement, self.shear_stress)))
+
+
+@dataclass(frozen=True, eq=False)
+class PlateTest:
+    """A bevameter plate sinkage test: pressure against sinkage for one or more plate widths.
+
+    Parameters
+    ----------
+    plate_width
+        Plate width b per row (smaller dimension; the radius of a circular plate), m (> 0).
+        Two or more widths separate k_c and k_phi; one width gives only ``k_c / b + k_phi``.
+    pressure
+        Plate pressure p, Pa (a load cell's offset may make readings near zero sinkage negative).
+    sinkage
+        Sinkage z, m (>= 0).
+    source
+        Where the data came from, used in messages.
+    """
+
+    plate_width: np.ndarray
+    pressure: np.ndarray
+    sinkage: np.ndarray
+    source: str = "<memory>"
+
+    def __post_init__(self) -> None:
+        for name in ("plate_width", "pressure", "sinkage"):
+            object.__setattr__(self, name, _frozen(getattr(self, name)))
+        cols = dict(zip(PLATE_COLUMNS, (self.plate_width, self.pressure, self.sinkage)))
+        _check_lengths(cols, self.source)
+        _check_finite(cols, self.source)
+        _check_range(self.plate_width, "plate_width_m", self.source, lo=0.0, lo_open=True,
+                     what="plate width must be > 0 m")
+        _check_range(self.sinkage, "sinkage_m", self.source, lo=0.0, what="sinkage must be >= 0 m")
+
+    @property
+    def n_samples(self) -> int:
+        """Number of rows."""
+        return int(self.pressure.size)
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The test as ``{column name: values}`` in the CSV contract's names."""
+        return dict(zip(PLATE_COLUMNS, (self.plate_width, self.pressure, self.sinkage)))
+
+
+def name_rows(rows) -> str:
+    """``"rows 3, 7, 9"`` for all rows up to :data:`MAX_ROWS_NAMED`, else the count and the first ones."""
+    rows = [int(r) for r in rows]
+    if len(rows) <= MAX_ROWS_NAMED:
+        return ("row " if len(rows) == 1 else "rows ") + ", ".join(map(str, rows))
+    return f"rows {', '.join(map(str, rows[:MAX_ROWS_NAMED]))}, ... (the first {MAX_ROWS_NAMED} of {len(rows)})"
+
+
+def bad_rows(bad: np.ndarray, what: str, column: str, option: str | None) -> tuple[str, str, tuple] | None:
+    """``(message, column, rows)`` naming the count and rows where ``bad`` holds, or ``None`` if none.
+
+    ``option`` names what drops them explicitly (said in the message), or ``None``.
+    """
+    idx = np.nonzero(bad)[0]
+    if not idx.size:
+        return None
+    rows = tuple(int(k) + 1 for k in idx)
+    drop = f"; drop them explicitly with {option}" if option else ""
+    return f"{len(rows)} of {bad.size} rows {what}: {name_rows(rows)}{drop}", column, rows
+
+
+def raise_rows(problems: list, source: str) -> None:
+    """Raise one DataError for all of :func:`bad_rows`' problems (none: nothing happens).
+
+    Its ``column`` and ``row`` are the first problem's; ``rows`` all the rows named, sorted.
+    """
+    if not problems:
+        return
+    rows = tuple(sorted({r for _, _, rr in problems for r in rr}))
+    raise DataError("; and ".join(m for m, _, _ in problems), file=source, column=problems[0][1],
+                    row=problems[0][2][0], rows=rows)
+
+
 def _rows(index, n: int, source: str) -> np.ndarray:
     """Integer row indices (0-based) selected by ``index``; DataError when empty or out of range."""
     try:
@@ -276,8 +448,20 @@ def _parse_float(text: str, path: str, column: str, row: int) -> float:
     return v
 
 
-def read_csv(path: str | os.PathLike) -> SlipData | DriveLog:
-    """Read tractive force-slip data, drawbar-pull data or a drive log (recognised by the columns).
+def read_csv(path: str | os.PathLike, *, driving_only: bool = False,
+             slip_angle: float | None = None) -> SlipData | DriveLog | ShearTest | PlateTest:
+    """Read a slip sweep, a drive log or a bevameter test (recognised by the columns).
+
+    Parameters
+    ----------
+    path
+        The CSV file.
+    driving_only
+        Slip sweeps: drop the rows at negative slip (skid) instead of refusing them.
+    slip_angle
+        Slip sweeps: keep only the rows at this slip angle (only 0 is accepted: the model is
+        straight-line) instead of refusing the others. The rows dropped by either option are
+        counted in :attr:`SlipData.dropped`.
 
     Raises
     ------
@@ -304,7 +488,11 @@ def read_csv(path: str | os.PathLike) -> SlipData | DriveLog:
     if "drawbar_pull_N" in header and "tractive_force_N" in header:
         raise DataError("both tractive_force_N and drawbar_pull_N given: a sweep measures one of them", file=path,
                         column="drawbar_pull_N")
-    if "drawbar_pull_N" in header:
+    if "shear_stress_Pa" in header or "shear_displacement_m" in header:
+        kind, required, optional = "shear", SHEAR_COLUMNS, ()
+    elif "plate_width_m" in header or "pressure_Pa" in header:
+        kind, required, optional = "plate", PLATE_COLUMNS, ()
+    elif "drawbar_pull_N" in header:
         kind, required, optional = "drawbar", DRAWBAR_COLUMNS, SLIP_OPTIONAL
     elif "slip" in header or "tractive_force_N" in header:
         kind, required, optional = "slip", SLIP_COLUMNS, SLIP_OPTIONAL
@@ -317,7 +505,9 @@ def read_csv(path: str | os.PathLike) -> SlipData | DriveLog:
         hint = (f" - the header is separated by {'a tab' if sep == chr(9) else repr(sep)}: soiltrack reads "
                 "comma-separated CSV with a decimal point (save or export as 'CSV, comma')") if sep else ""
         raise DataError(f"unrecognised columns {header}: expected {list(SLIP_COLUMNS)} (tractive force-slip "
-                        f"data), {list(DRAWBAR_COLUMNS)} (drawbar-pull data) or {list(DRIVE_COLUMNS)} (drive log){hint}",
+                        f"data), {list(DRAWBAR_COLUMNS)} (drawbar-pull data), {list(DRIVE_COLUMNS)} (drive log), "
+                        f"{list(SHEAR_COLUMNS)} (bevameter shear test) or {list(PLATE_COLUMNS)} (plate sinkage "
+                        f"test){hint}",
                         file=path)
     for col in required:
         if col not in header:
@@ -332,12 +522,17 @@ def read_csv(path: str | os.PathLike) -> SlipData | DriveLog:
             data[c].append(_parse_float(cells[idx[c]], path, c, r))
     if not rows[1:]:
         raise DataError("no data rows after the header", file=path)
-    if kind == "drawbar":
-        return SlipData(slip=data["slip"], drawbar_pull=data["drawbar_pull_N"],
-                        normal_load=data.get("normal_load_N"), source=path)
-    if kind == "slip":
-        return SlipData(slip=data["slip"], tractive_force=data["tractive_force_N"],
-                        normal_load=data.get("normal_load_N"), source=path)
+    if kind in ("drawbar", "slip"):
+        return _slip_data(kind, data, path, driving_only, slip_angle)
+    for opt, val in (("driving_only", driving_only), ("slip_angle", slip_angle)):
+        if val not in (False, None):
+            raise DataError(f"{opt} applies to slip sweeps only, not to this {kind} file", file=path)
+    if kind == "shear":
+        return ShearTest(normal_pressure=data["normal_pressure_Pa"], shear_displacement=data["shear_displacement_m"],
+                         shear_stress=data["shear_stress_Pa"], source=path)
+    if kind == "plate":
+        return PlateTest(plate_width=data["plate_width_m"], pressure=data["pressure_Pa"], sinkage=data["sinkage_m"],
+                         source=path)
     return DriveLog(time=data["time_s"], sprocket_torque=data["sprocket_torque_Nm"],
                     sprocket_speed=data["sprocket_speed_rad_s"], vehicle_speed=data["vehicle_speed_m_s"],
                     vehicle_accel=data.get("vehicle_accel_m_s2"), source=path)
@@ -372,19 +567,63 @@ def _read_two_track(path: str, header: list[str], body: list[list[str]]) -> Driv
                     source=path, turning=turning)
 
 
-def write_csv(data: SlipData | DriveLog, path) -> None:
-    """Write slip data (tractive force or drawbar pull) or a drive log in the CSV contract (full float precision).
+def _slip_data(kind: str, data: dict, path: str, driving_only: bool, slip_angle: float | None) -> SlipData:
+    """A :class:`SlipData` from the parsed columns, the rows the options drop left out and counted."""
+    measured = "drawbar_pull" if kind == "drawbar" else "tractive_force"
+    other = STD_COLUMNS["tractive_force" if kind == "drawbar" else "drawbar_pull"]
+    if other in data:
+        raise DataError(f"{other} is the standard deviation of the other quantity; this file measures "
+                        f"{MEASURED_COLUMNS[measured]} (its column is {STD_COLUMNS[measured]})", file=path, column=other)
+    if slip_angle is not None and slip_angle != 0:
+        raise DataError(f"--slip-angle {slip_angle:g}: the model is straight-line; only 0 can be kept", file=path,
+                        column="slip_angle_deg")
+    arr = {c: np.asarray(v, dtype=float) for c, v in data.items()}
+    keep = np.ones(arr["slip"].size, dtype=bool)
+    dropped = []
+    if slip_angle is not None:
+        if "slip_angle_deg" not in arr:
+            raise DataError("--slip-angle given but the file has no slip_angle_deg column", file=path)
+        off = np.isfinite(arr["slip_angle_deg"]) & (arr["slip_angle_deg"] != slip_angle)
+        if off.any():
+            dropped.append((f"at a slip angle other than {slip_angle:g} deg", "--slip-angle",
+                            tuple(int(k) + 1 for k in np.nonzero(off)[0])))
+        keep &= ~off
+    if driving_only:
+        skid = keep & np.isfinite(arr["slip"]) & (arr["slip"] < 0)
+        if skid.any():
+            dropped.append(("at negative slip (skid)", "--driving-only",
+                            tuple(int(k) + 1 for k in np.nonzero(skid)[0])))
+        keep &= ~skid
+    if not keep.any():
+        raise DataError(f"no rows left after dropping {sum(len(r) for _, _, r in dropped)}", file=path)
+    kept = np.nonzero(keep)[0]
+    col = {c: v[keep] for c, v in arr.items()}
+    try:
+        return SlipData(slip=col["slip"], normal_load=col.get("normal_load_N"), source=path,
+                        sinkage=col.get("sinkage_m"), force_std=col.get(STD_COLUMNS[measured]),
+                        slip_angle=col.get("slip_angle_deg"), dropped=tuple(dropped),
+                        **{measured: col[MEASURED_COLUMNS[measured]]})
+    except DataError as e:  # rows of the kept data -> rows of the file
+        if e.rows is None and e.row is None or not dropped:
+            raise
+        rows = tuple(int(kept[r - 1]) + 1 for r in (e.rows or (e.row,)))
+        n_drop = sum(len(r) for _, _, r in dropped)
+        raise DataError(f"{e.reason.replace(name_rows(e.rows or (e.row,)), name_rows(rows))} (rows of the file; "
+                        f"{n_drop} rows dropped before)", file=path, column=e.column, row=rows[0],
+                        rows=rows if e.rows else None) from None
+
+
+def write_csv(data: SlipData | DriveLog | ShearTest | PlateTest, path) -> None:
+    """Write slip data, a drive log or a bevameter test in the CSV contract (full float precision).
 
     ``path`` is a file path or an open text stream (e.g. ``sys.stdout``).
     """
     if isinstance(data, SlipData):
-        cols = {"slip": data.slip, data.channel: data.values}
-        if data.normal_load is not None:
-            cols["normal_load_N"] = data.normal_load
-    elif isinstance(data, DriveLog):
+        cols = data.columns()
+    elif isinstance(data, (DriveLog, ShearTest, PlateTest)):
         cols = data.columns()
     else:
-        raise TypeError(f"write_csv takes SlipData or DriveLog, got {type(data).__name__}")
+        raise TypeError(f"write_csv takes SlipData, DriveLog, ShearTest or PlateTest, got {type(data).__name__}")
     if hasattr(path, "write"):
         _write_rows(path, cols)
         return

@@ -91,7 +91,7 @@ def dynamics_expr(v, w, M_s, c, phi, K, vehicle: Vehicle, effects: Any = None, *
         sprocket balances the inertia and the thrust it transmits to the ground. ``"seed"``:
         the seed's Eq. 3 as printed, ``I dw/dt = M_s - tau_loss - (F - R) r_eff``. The printed
         form makes the sprocket torque at constant speed zero (``M_s = r m dv/dt + I dw/dt``),
-        which no real vehicle does (DESIGN.md section 3); it is kept only for comparison with
+        which no real vehicle does (docs/physics.md); it is kept only for comparison with
         the seed.
     standstill_speed
         Regularisation speed ``v_0``, m/s (see module docstring).

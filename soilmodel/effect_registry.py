@@ -1,4 +1,4 @@
-"""Unmodelled physical effects (DESIGN.md section 6) as switchable augmentations of the model.
+"""Unmodelled physical effects (docs/physics.md) as switchable augmentations of the model.
 
 Each effect is a named augmentation of the nominal model (Eqs. 1-4) with its own named
 parameters. The nominal model is exactly the effect-off case: an effect that is absent from
@@ -94,7 +94,7 @@ class EffectSpec:
     Attributes
     ----------
     name, description
-        Contract name (DESIGN.md section 6) and physics in words.
+        Contract name (docs/physics.md) and physics in words.
     params
         Its parameters.
     primary
@@ -123,7 +123,7 @@ class EffectSpec:
         return tuple(p.name for p in self.params)
 
 
-#: Registry of the unmodelled effects of DESIGN.md section 6 (names are a public contract).
+#: Registry of the unmodelled effects of docs/physics.md (names are a public contract).
 EFFECTS: dict[str, EffectSpec] = {
     "grade": EffectSpec(
         "grade", "unknown constant slope (or any constant extra motion resistance, e.g. Bekker compaction): "

@@ -1,4 +1,4 @@
-"""Unmodelled physical effects (DESIGN.md section 6): the public face of the effect modules.
+"""Unmodelled physical effects (docs/physics.md): the public face of the effect modules.
 
 The effects are split by concept; every name stays importable from here:
 

@@ -12,11 +12,14 @@ class DataError(ValueError):
     file, column, row
         Where it is wrong: the file's path, the column's name and the 1-based data row
         (the header is row 0, so data row 1 is line 2 of the file). Any may be ``None``.
+    rows
+        Every offending 1-based data row when several are refused together (``row`` is the first).
     """
 
     def __init__(self, message: str, *, file: str | None = None, column: str | None = None,
-                 row: int | None = None) -> None:
+                 row: int | None = None, rows: tuple[int, ...] | None = None) -> None:
         self.file, self.column, self.row, self.reason = file, column, row, message
+        self.rows = rows
         where = []
         if file is not None:
             where.append(f"file {file}")

@@ -1,6 +1,6 @@
 """The c-phi ridge: at one normal load, c and phi enter only through ``F_max = A c + N tan(phi)``.
 
-One home for what follows from that (DESIGN.md section 4): the range of F_max a bounds box
+One home for what follows from that (docs/paper.md): the range of F_max a bounds box
 allows, the centre of the bounds-feasible ridge (the one marker every engine reports for
 one-load data, labelled as NOT an estimate), and the ranges of c and phi along the ridge for
 an interval of F_max. ``N`` is the actual normal load (the nominal W, or W with effects).
@@ -15,10 +15,32 @@ import numpy as np
 from .soil import SoilBounds
 from .traction import max_thrust_expr
 
-__all__ = ["fmax_range", "ridge_centre", "ridge_ranges", "one_load", "LOAD_RTOL", "distinct_loads"]
+__all__ = ["fmax_range", "ridge_centre", "ridge_ranges", "one_load", "LOAD_RTOL", "distinct_loads",
+           "MAX_LOAD_LEVELS", "continuous_load", "load_summary_points"]
 
 #: Relative tolerance below which two normal loads are the same load (one home for "one load").
 LOAD_RTOL = 1e-9
+#: Up to this many distinct normal loads are load levels (a designed test: each is reported and
+#: drawn on its own); more are a measured load varying from row to row - a continuous covariate,
+#: reported and drawn by range (its median row's load and its extremes).
+MAX_LOAD_LEVELS = 3
+
+
+def continuous_load(W) -> bool:
+    """Whether the normal loads are a continuous covariate (more than :data:`MAX_LOAD_LEVELS` distinct)."""
+    return distinct_loads(W).size > MAX_LOAD_LEVELS
+
+
+def load_summary_points(W) -> np.ndarray:
+    """The loads to report a continuous load at: the lowest, the median row's and the highest (sorted).
+
+    For load levels (see :func:`continuous_load`): every distinct load.
+    """
+    levels = distinct_loads(W)
+    if levels.size <= MAX_LOAD_LEVELS:
+        return levels
+    w = np.sort(np.asarray(W, dtype=float).ravel())
+    return np.array([levels[0], w[w.size // 2], levels[-1]])
 
 
 def distinct_loads(W) -> np.ndarray:

@@ -55,8 +55,11 @@ def sweep_measurement(i_app, W, c, phi, K, vehicle: Vehicle, effects: Any = None
     v = rig_speed * (1 - i_app)
     i_true = rig_true_slip(i_app, vehicle, ev)
     F = thrust_with_effects(i_true, c, phi, K, W, vehicle, ev, model)
-    R = motion_resistance(v, i_true, vehicle, ev, W=W)
+    # a rig's carriage keeps moving forward (v = r w (1 - i) > 0 for i < 1): the resistance is the
+    # textbook constant term, not faded out near standstill as in a drive (which made a step in the
+    # curve near i = 0.98)
+    R = motion_resistance(v, i_true, vehicle, ev, W=W, standstill_speed=None)
     if measured == "drawbar_pull":
         return i_true, F, F - R
     # F - (R - R_nominal): exactly F when no resistance effect is on
-    return i_true, F, F - (R - motion_resistance(v, i_true, vehicle, None, W=W))
+    return i_true, F, F - (R - motion_resistance(v, i_true, vehicle, None, W=W, standstill_speed=None))

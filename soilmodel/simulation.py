@@ -242,7 +242,7 @@ def simulate_drive_log(vehicle: Vehicle, soil: Soil, *, effects: Any = None, see
                        sample_rate_hz: float = 50.0, speed_profile: Any = None,
                        sprocket_equation: str = "thrust", controller_bandwidth: float = 1.0,
                        with_accel: bool = True, return_truth: bool = False):
-    """Simulate a straight-line drive log (DESIGN.md section 7 columns).
+    """Simulate a straight-line drive log (the columns of docs/data-formats.md).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Bekker sinkage and compaction resistance (DESIGN.md section 3): their one home.
+"""Bekker sinkage and compaction resistance (docs/physics.md): their one home.
 
 Static sinkage of a track of width b under uniform pressure p = N / A (N the normal load,
 A = 2 b l both tracks)::

@@ -32,6 +32,8 @@ class Soil:
     shear_modulus_typical
         True when K is a typical value for the soil class rather than a measured one.
 
+    Notes
+    -----
     Use :meth:`from_kpa_deg` to build one from the units terramechanics tables use.
     """
 

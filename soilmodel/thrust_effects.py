@@ -2,7 +2,7 @@
 
 Hump shear, the parametrisation
 -------------------------------
-Wong's type B form (DESIGN.md section 6),
+Wong's type B form (docs/physics.md),
 ``tau/tau_max = K_r {1 + [1/(K_r (1 - 1/e)) - 1] exp(1 - j/K_w)} (1 - exp(-j/K_w))``, does not
 contain Janosi-Hanamoto as a special case (K_r = 1 still gives a hump of about 5 %), so it
 cannot be an augmentation whose "off" value is the nominal model. The library uses the nested
@@ -175,7 +175,7 @@ def softening_shear(j, K: float, drop: float = 0.0, k_ratio: float = 5.0) -> np.
 
 
 def wong_type_b_shear(j, K_r: float, K_w: float) -> np.ndarray:
-    """Wong's type B shear law ``tau / tau_max`` as written in DESIGN.md section 6 (numpy), for comparison.
+    """Wong's type B shear law ``tau / tau_max`` as written in docs/physics.md (numpy), for comparison.
 
     ``K_r {1 + [1/(K_r (1 - 1/e)) - 1] exp(1 - j/K_w)} (1 - exp(-j/K_w))``: equal to 1 at
     ``j = K_w`` (its normalisation; the exact maximum lies slightly before K_w and a few percent

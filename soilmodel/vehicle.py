@@ -1,4 +1,4 @@
-"""Vehicle description (SI), JSON I/O per DESIGN.md section 7, and the reference vehicles."""
+"""Vehicle description (SI), JSON I/O per docs/data-formats.md, and the reference vehicles."""
 from __future__ import annotations
 
 import json
@@ -123,7 +123,7 @@ class Vehicle:
 
     # --- JSON -------------------------------------------------------------------------------
     def to_dict(self) -> dict:
-        """The JSON object of DESIGN.md section 7 (optional fields and ``name`` only when set)."""
+        """The JSON object of docs/data-formats.md (optional fields and ``name`` only when set)."""
         out = {"name": self.name} if self.name else {}
         for key, attr in _JSON_FIELDS.items():
             v = getattr(self, attr)
@@ -132,7 +132,7 @@ class Vehicle:
         return out
 
     def to_json(self) -> str:
-        """The vehicle as JSON text (DESIGN.md section 7 fields)."""
+        """The vehicle as JSON text (the fields of docs/data-formats.md)."""
         return json.dumps(self.to_dict(), indent=2)
 
     @classmethod

@@ -1,4 +1,4 @@
-"""``soiltrack diagnose``: the sim-to-real gap of a CSV against the nominal model (DESIGN.md section 8)."""
+"""``soiltrack diagnose``: the sim-to-real gap of a CSV against the nominal model (docs/data-formats.md)."""
 from __future__ import annotations
 
 import argparse

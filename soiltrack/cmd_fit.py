@@ -22,6 +22,9 @@ def _check_options(a: argparse.Namespace, drive_log: bool) -> None:
         raise DataError("--bias-correction applies to drive logs only", file=a.data)
     if a.torque_hold is not None and not drive_log:
         raise DataError("--torque-hold applies to drive logs only", file=a.data)
+    if a.resistance is not None and drive_log:
+        raise DataError("--resistance applies to drawbar-pull sweeps; a drive log's resistance is the vehicle's "
+                        "(or an --effect)", file=a.data)
     for opt, val in (("--slip-noise", a.slip_noise), ("--intervals", a.intervals)):
         if val is not None and drive_log:
             raise DataError(f"{opt} applies to slip sweeps only (a drive log's slip is a latent variable of its fit)",
@@ -30,13 +33,42 @@ def _check_options(a: argparse.Namespace, drive_log: bool) -> None:
             raise DataError(f"{opt} applies to --method ipopt, not to --method {a.method}")
 
 
+#: Options of slip sweeps and drive logs and their defaults (a bevameter fit takes none of them).
+_VEHICLE_OPTIONS = {"vehicle": None, "model": "full", "method": "ipopt", "engine": DEFAULT_ENGINE, "sigma": None,
+                    "bias_correction": "none", "torque_hold": None, "slip_noise": None, "intervals": None,
+                    "effect": None, "resistance": None}
+
+
+def _cmd_soil_test(a: argparse.Namespace, data) -> int:
+    """Fit a bevameter test (no vehicle: the soil itself was measured)."""
+    from .identify.soiltests import fit_soil_test
+
+    given = [f"--{k.replace('_', '-')}" for k, v in _VEHICLE_OPTIONS.items() if getattr(a, k) != v]
+    if given:
+        raise DataError(f"{', '.join(given)} appl{'ies' if len(given) == 1 else 'y'} to slip sweeps and drive logs; "
+                        "a bevameter test is fitted on its own (leave it out)", file=a.data)
+    result = fit_soil_test(data)
+    print(result.to_json() if a.json else result.report())
+    if a.plot:
+        from .plot_soiltest import plot_soil_test
+
+        print(f"wrote the figure to {plot_soil_test(data, result, a.plot)}", file=sys.stderr)
+    return EXIT_OK if result.success else EXIT_SOLVER
+
+
 def _cmd_fit(a: argparse.Namespace) -> int:
     from .identify import fit
+    from .identify.soiltests.dispatch import is_soil_test
     from .soilmodel import DriveLog, read_csv
 
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
-    data = read_csv(a.data)
+    data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle)
+    if is_soil_test(data):
+        return _cmd_soil_test(a, data)
+    if a.vehicle is None:
+        raise DataError("--vehicle is required for slip sweeps and drive logs (a vehicle JSON file or a preset "
+                        "name: heavy, light)", file=a.data)
     vehicle = vehicle_arg(a.vehicle)
     drive_log = isinstance(data, DriveLog)
     _check_options(a, drive_log)
@@ -52,6 +84,8 @@ def _cmd_fit(a: argparse.Namespace) -> int:
             floats_arg(a.slip_noise, "--slip-noise")[0]
     if a.intervals is not None:
         kw["intervals"] = a.intervals
+    if a.resistance is not None:
+        kw["resistance"] = a.resistance
     if a.effect:
         kw["effects"] = [e.strip() for item in a.effect for e in item.split(",") if e.strip()]
     result = fit(data, vehicle, model=a.model, method=a.method, **kw)
@@ -77,6 +111,10 @@ recognised by its header (comma separated, SI units, any column order):
   drive log:                 time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s
                              [,vehicle_accel_m_s2]
       time strictly increasing; torque and speed of both sprockets together
+  bevameter shear test:      normal_pressure_Pa,shear_displacement_m,shear_stress_Pa
+      c, phi, K (two or more normal pressures separate c and phi); no --vehicle
+  plate sinkage test:        plate_width_m,pressure_Pa,sinkage_m
+      Bekker k_c, k_phi, n (one plate width gives only k_c / b + k_phi); no --vehicle
 
 Prints a report (or --json); exit 0 when the fit succeeded, 1 when it failed or its answer is
 not usable (the reason is printed), 2 for bad input."""
@@ -88,8 +126,9 @@ def add_parser(sub) -> None:
                        description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter,
                        epilog="example: soiltrack fit examples/data/wong2001_p176.csv "
                               "--vehicle examples/data/heavy_vehicle.json --plot fit.png")
-    f.add_argument("data", help="CSV file: tractive force-slip data or a drive log (columns above)")
-    f.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")
+    f.add_argument("data", help="CSV file: a slip sweep, a drive log or a bevameter test (columns above)")
+    f.add_argument("--vehicle", help="vehicle JSON file or preset name (heavy, light); required for slip sweeps and "
+                                     "drive logs, refused for bevameter tests")
     f.add_argument("--model", choices=("full", "cohesion-free"), default="full",
                    help="full: F_max = A c + W tan(phi) (Eq. 2); cohesion-free: F_max = W tan(phi), c = 0 "
                         "(Eq. 8) (default: full)")
@@ -126,6 +165,16 @@ def add_parser(sub) -> None:
     f.add_argument("--effect", action="append", metavar="NAME",
                    help="fit this unmodelled effect's parameters jointly with the soil (repeatable; e.g. grade, "
                         "slip_sinkage, speed_resistance, mass_error)")
+    f.add_argument("--resistance", choices=("assumed", "fit"), default=None,
+                   help="drawbar-pull sweeps: the motion resistance R = mu_r W is the vehicle's rolling_resistance "
+                        "(assumed, the default; the report says so) or fitted with the soil (fit: mu_r with its "
+                        "profile-likelihood interval)")
+    f.add_argument("--driving-only", action="store_true",
+                   help="slip sweeps: drop the rows at negative slip (skid, a locked wheel: outside the driving "
+                        "model) instead of refusing the file; the count is reported")
+    f.add_argument("--slip-angle", type=float, metavar="0",
+                   help="slip sweeps with a slip_angle_deg column: keep only the rows at this slip angle (only 0: "
+                        "the model is straight-line) instead of refusing the file; the count is reported")
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit (.png, .pdf, .svg)")
     f.set_defaults(func=_cmd_fit)

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, vehicle_arg
+from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path, vehicle_arg
 from .soilmodel import TERRAINS, DataError
 
 
@@ -30,6 +30,18 @@ def add_terrain_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fit", metavar="FIT.json", help="what `soiltrack fit --json` printed (soil with its uncertainty)")
 
 
+_DESCRIPTION = """\
+Traversability margin of a vehicle on a terrain preset, a soil, or an identified soil.
+
+Available thrust: the soil's thrust at the allowed slip (Eq. 2 at the normal load W cos(theta))
+or the drivetrain limit min(T_max / r, P_max / v), whichever is smaller. Required thrust:
+rolling, Bekker compaction (terrain presets with n, k_c, k_phi), grade, inertia, drawbar pull.
+With --fit (what 'soiltrack fit --json' printed) the soil is uncertain: the probability of
+being traversable (Monte Carlo and delta method) and the worst case over the 95 % region.
+
+Exit status: 0 traversable, 1 not traversable (the report or JSON is printed), 2 bad input."""
+
+
 def _num(text: str | None, name: str):
     return None if text is None else floats_arg(text, name)[0]
 
@@ -37,6 +49,8 @@ def _num(text: str | None, name: str):
 def _cmd_margin(a: argparse.Namespace) -> int:
     from .planning import margin
 
+    if a.plot:
+        output_path(a.plot, "--plot", figure=True)
     vehicle = vehicle_arg(a.vehicle)
     terrain = terrain_args(a, vehicle)
     m = margin(terrain, vehicle, grade_deg=_num(a.grade_deg, "--grade-deg") or 0.0,
@@ -52,7 +66,10 @@ def _cmd_margin(a: argparse.Namespace) -> int:
 
 def add_parser(sub) -> None:
     """Register the ``margin`` subcommand on an argparse subparsers object."""
-    p = sub.add_parser("margin", help="traversability margin: available against required thrust (exit 1: not traversable)")
+    p = sub.add_parser("margin", help="traversability margin: available against required thrust (exit 1: not traversable)",
+                       description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter,
+                       epilog="example:\n  soiltrack margin --vehicle heavy --terrain lete_sand --grade-deg 15 --plot "
+                              "margin.png\n  soiltrack margin --vehicle light --fit FIT.json --grade-deg 10 --json")
     p.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")
     add_terrain_arguments(p)
     p.add_argument("--grade-deg", metavar="G", help="grade in degrees, positive uphill (default 0)")

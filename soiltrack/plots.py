@@ -8,6 +8,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .soilmodel import DataError, DriveLog, SlipData  # noqa: E402
+from .soilmodel.ridge import MAX_LOAD_LEVELS  # noqa: E402  (more distinct loads: drawn by load range)
 
 
 def save_figure(fig, path: str) -> str:
@@ -22,6 +23,15 @@ def save_figure(fig, path: str) -> str:
 
 
 _QUANTITY = {"tractive_force": "tractive force F", "drawbar_pull": "drawbar pull DP"}
+#: The fitted curve is drawn to this factor times the largest measured slip ...
+CURVE_SLIP_MARGIN = 1.15
+#: ... but never beyond this slip (the model holds for slip in [0, 1)).
+CURVE_SLIP_END = 0.99
+
+
+def slip_grid_end(slip) -> float:
+    """Largest slip of a fitted curve's grid: a margin beyond the data, inside [0, 1)."""
+    return min(max(float(np.max(slip)) * CURVE_SLIP_MARGIN, 0.05), CURVE_SLIP_END)
 
 
 def plot_data(data: SlipData | DriveLog, path: str, title: str = "") -> str:
@@ -29,13 +39,19 @@ def plot_data(data: SlipData | DriveLog, path: str, title: str = "") -> str:
     if isinstance(data, SlipData):
         fig, ax = plt.subplots(figsize=(6.4, 4.2))
         loads = data.normal_load if data.normal_load is not None else np.zeros(data.n_samples)
-        for W in np.unique(loads):
-            sel = loads == W
-            label = f"W = {W / 1e3:.4g} kN" if W > 0 else "data"
-            ax.plot(data.slip[sel], data.values[sel] / 1e3, "o", ms=4, label=label)
+        sc, u = force_unit(data.values)
+        if np.unique(loads).size <= MAX_LOAD_LEVELS:
+            for W in np.unique(loads):
+                sel = loads == W
+                label = f"W = {W / sc:.4g} {u}" if W > 0 else "data"
+                ax.plot(data.slip[sel], data.values[sel] / sc, "o", ms=4, label=label)
+        else:
+            sca = ax.scatter(data.slip, data.values / sc, c=loads / sc, cmap="viridis", s=24, edgecolors="k",
+                             linewidths=0.4, label="measured (colour: normal load)")
+            fig.colorbar(sca, ax=ax, label=f"normal load W ({u})")
         ax.set_xlabel("slip i (-)")
-        ax.set_ylabel(f"{_QUANTITY[data.measured]} (kN)")
-        ax.set_ylim(bottom=min(0.0, float(np.min(data.values)) / 1e3 * 1.05))
+        ax.set_ylabel(f"{_QUANTITY[data.measured]} ({u})")
+        ax.set_ylim(bottom=min(0.0, float(np.min(data.values)) / sc * 1.05))
         ax.set_xlim(left=0.0)
         ax.grid(alpha=0.3)
         ax.legend()
@@ -134,32 +150,56 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
     # a failed fit's last iterate is a soil only: draw it where the data are the soil's thrust
     drawable = result.success or (last is not None and measured == "tractive_force" and not effects)
     if isinstance(data, SlipData):
-        fig, (ax, axr) = plt.subplots(2, 1, figsize=(6.6, 6.2), sharex=True, gridspec_kw={"height_ratios": [3, 1.3]})
+        fig, (ax, axr) = plt.subplots(2, 1, figsize=(6.6, 6.2), sharex=True, gridspec_kw={"height_ratios": [3, 1.3]},
+                                      layout="constrained")
         loads = data.loads(vehicle.weight)
         sc, u = force_unit(data.values)
-        imax = max(float(np.max(data.slip)) * 1.15, 0.05)
-        grid = np.linspace(0, imax, 300)
+        grid = np.linspace(0.0, slip_grid_end(data.slip), 300)
         res = np.asarray(result.residuals, dtype=float)
-        for k, W in enumerate(np.unique(loads)):
-            sel = loads == W
-            col = f"C{k}"
-            ax.plot(data.slip[sel], data.values[sel] / sc, "o", color=col, ms=5,
-                    label=f"measured, W = {W / sc:.4g} {u}")
-            if drawable:
-                F = curve(grid, W)
-                if result.success:
-                    ax.plot(grid, F / sc, "-", color=col, lw=1.2, label=f"fitted ({result.model} model)")
-                    band = None if effects else _curve_band(grid, result, vehicle, float(W))
-                    if band is not None:
-                        ax.fill_between(grid, (F - band) / sc, (F + band) / sc, color=col, alpha=0.18, lw=0,
-                                        label=None if k else "95 % band of the fitted curve")
-                else:
-                    ax.plot(grid, F / sc, "--", color="0.5", lw=1.0, label="last iterate of the FAILED fit")
+        levels = np.unique(loads)
+        if levels.size <= MAX_LOAD_LEVELS:
+            shown = [(f"C{k}", W, sel) for k, (W, sel) in enumerate((W, loads == W) for W in levels)]
+            curve_loads = [(f"C{k}", W, f"fitted ({result.model} model)") for k, W in enumerate(levels)]
+        else:  # a measured, continuously varying load: colour by load, curves at its typical value and extremes
+            norm = plt.Normalize(float(levels[0]) / sc, float(levels[-1]) / sc)
+            cmap = plt.get_cmap("viridis")
+            sca = ax.scatter(data.slip, data.values / sc, c=loads / sc, cmap=cmap, norm=norm, s=28,
+                             edgecolors="k", linewidths=0.4, zorder=3, label="measured (colour: normal load)")
+            axr.scatter(data.slip, res / sc, c=loads / sc, cmap=cmap, norm=norm, s=22, edgecolors="k",
+                        linewidths=0.4)
+            fig.colorbar(sca, ax=[ax, axr], label=f"normal load W ({u})", pad=0.02)
+            rep = float(loads[np.argsort(loads)[loads.size // 2]])  # the median row's measured load
+            shown = []
+            curve_loads = [(cmap(norm(rep / sc)), rep, f"fitted at the median load {rep / sc:.4g} {u}"),
+                           (cmap(norm(levels[0] / sc)), float(levels[0]), f"at the extremes {levels[0] / sc:.4g} "
+                            f"and {levels[-1] / sc:.4g} {u}"), (cmap(norm(levels[-1] / sc)), float(levels[-1]), None)]
+        for col, W, sel in shown:
+            ax.plot(data.slip[sel], data.values[sel] / sc, "o", color=col, ms=5, label=f"measured, W = {W / sc:.4g} {u}")
             if np.all(np.isfinite(res[sel])):
                 axr.plot(data.slip[sel], res[sel] / sc, "o", color=col, ms=5)
+        lows = [float(np.min(data.values)) / sc]
+        for k, (col, W, label) in enumerate(curve_loads):
+            if not drawable:
+                break
+            F = curve(grid, W)
+            lows.append(float(np.min(F)) / sc)
+            if not result.success:
+                ax.plot(grid, F / sc, "--", color="0.5", lw=1.0, label="last iterate of the FAILED fit" if k == 0
+                        else None)
+                continue
+            extreme = levels.size > MAX_LOAD_LEVELS and k > 0
+            ax.plot(grid, F / sc, ":" if extreme else "-", color=col, lw=1.0 if extreme else 1.4, label=label)
+            band = None if effects or extreme else _curve_band(grid, result, vehicle, float(W))
+            if band is not None:
+                ax.fill_between(grid, (F - band) / sc, (F + band) / sc, color=col, alpha=0.18, lw=0,
+                                label=None if k else "95 % band of the fitted curve")
         axr.axhline(0, color="k", lw=0.6)
         ax.set_ylabel(f"{_QUANTITY[measured]} ({u})")
-        ax.set_ylim(bottom=min(0.0, float(np.min(data.values)) / sc * 1.05))
+        lo = min(0.0, *lows)
+        ax.set_ylim(bottom=lo - 0.05 * abs(lo) if lo < 0 else 0.0)
+        if lo < 0:
+            ax.axhline(0, color="k", lw=0.6)
+        ax.set_xlim(0.0, max(grid[-1], float(np.max(data.slip))) * 1.02)
         ax.legend(fontsize=8)
         axr.set_ylabel(f"{'model' if result.success else 'last iterate'} - data ({u})")
         axr.set_xlabel("slip i (-)")
@@ -172,7 +212,8 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
     for a in axes:
         a.grid(alpha=0.3)
     fig.align_ylabels(list(axes))
-    fig.tight_layout()
+    if fig.get_layout_engine() is None:
+        fig.tight_layout()
     return save_figure(fig, path)
 
 

@@ -61,7 +61,7 @@ def test_fit_json_contract_on_bundled_data(capsys):
     for name in ("cohesion_kpa", "friction_angle_deg", "shear_modulus_m"):
         p = js["parameters"][name]
         assert set(p) >= {"value", "stderr", "ci95", "identifiable", "at_bound"}
-    # one normal load: c and phi are not separable (DESIGN.md section 4)
+    # one normal load: c and phi are not separable (docs/paper.md)
     assert js["parameters"]["cohesion_kpa"]["identifiable"] is False
     assert js["parameters"]["friction_angle_deg"]["identifiable"] is False
 

@@ -137,7 +137,7 @@ def test_an_effect_screening_left_out_is_tried_before_a_change_of_terrain():
 def test_a_soft_patch_is_in_the_contracts_localisation():
     # heavy vehicle on LETE sand with 24-39 s driven on dry sand (the log spliced from two runs with the same speed
     # reference, as benchmarks/bench_diagnose.py does): the change of soil in time is the significant "time" entry of
-    # the JSON's localisation (DESIGN.md section 8), its range where the change shows (the change window's evidence),
+    # the JSON's localisation (docs/data-formats.md), its range where the change shows (the change window's evidence),
     # inside the patch. Measured before the entry existed: the window only in the extra "change_window" field.
     import json
     v = VEHICLES["heavy"]

@@ -5,7 +5,7 @@ its default, realistic sensor noise (GNSS speed 0.05 m/s, encoder 0.5 % + 0.01 r
 1 % + 0.1 % of full scale) and its default speed profile (mostly gentle driving with two hard
 starts that reach the traction limit), unless a test says otherwise.
 
-Tolerances are those the method is claimed to meet (DESIGN section 4: F_max within a few
+Tolerances are those the method is claimed to meet (docs/paper.md: F_max within a few
 percent, K within 5-20 %); where a tolerance is wider, the test says why.
 """
 from __future__ import annotations

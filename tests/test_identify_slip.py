@@ -118,7 +118,7 @@ def test_wong_data_honest_residuals_and_identifiability():
     res = fit(WONG, HEAVY)
     assert res.success
     rel = np.abs(res.residuals) / WONG.tractive_force
-    assert rel.max() > 0.005  # the data do not fit Eq. 2 exactly (DESIGN: ~2.2 % at the seed's values)
+    assert rel.max() > 0.005  # the data do not fit Eq. 2 exactly (docs/paper.md: ~2.2 % at the seed's values)
     assert res.rmse > 1e3
     assert res.soil is None
     assert not res.parameters["cohesion"].identifiable and not res.parameters["friction_angle"].identifiable

@@ -1,4 +1,4 @@
-"""The distribution installs one top-level import package, soiltrack (DESIGN.md section 1)."""
+"""The distribution installs one top-level import package, soiltrack (docs/index.md)."""
 import importlib.metadata as md
 import pytest
 

@@ -51,7 +51,7 @@ def test_fig7_margins_match_hand_calculation(name, grade, go):
     assert m.traversable is go
     assert sum(m.required.values()) == pytest.approx(m.required_N, rel=1e-12)
     assert m.required["grade_N"] == pytest.approx(V120.mass * G * math.sin(math.radians(grade)), rel=1e-12)
-    # DESIGN.md: about 101 kN required on 15 deg before compaction
+    # docs/paper.md (Fig. 7): about 101 kN required on 15 deg before compaction
     if grade == 15:
         assert m.required_N - m.required["compaction_N"] == pytest.approx(101e3, rel=0.01)
     assert m.limited_by == ("drivetrain" if name == "dry_sand" else "soil")

@@ -101,7 +101,7 @@ def test_ad_sensitivities_match_finite_differences(vehicle):
 
 
 def test_c_and_phi_columns_are_exactly_proportional_at_one_load():
-    """DESIGN.md section 4: c and phi enter only through F_max at one normal load."""
+    """docs/paper.md: c and phi enter only through F_max at one normal load."""
     i = np.linspace(0.005, 0.5, 20)
     J = tractive_force_sensitivities(i, LETE, HEAVY)
     ratio = J[:, 0] / J[:, 1]

@@ -12,8 +12,10 @@ from functools import cached_property
 
 import numpy as np
 
+from ...soilmodel.ridge import MAX_LOAD_LEVELS, load_summary_points
 from ...soilmodel.soil import PARAMETER_NAMES, Soil, SoilBounds
 from ...soilmodel.vehicle import Vehicle
+from ..sweep.rig import LoadSeparation
 from .records import EDGE_UNITS, ParameterEstimate, finite_or_none, force_scale, format_force
 
 __all__ = ["ReportViews", "format_force"]
@@ -50,6 +52,9 @@ class ReportViews:
                 if pe.at_bound:
                     w.append(f"effect parameter {name}.{pname} ended on its {pe.bound_side} bound "
                              f"({pe.value:.6g} {pe.si_unit}): a warning about the data or the range")
+        sep = self.extra.get("load_separation") if isinstance(self.extra, dict) else None
+        if isinstance(sep, dict) and sep.get("fragile") and self.success:
+            w.append(LoadSeparation(**sep).statement(self))
         if self.dof <= 0 and not self.sigma_known:
             w.append("no residual degrees of freedom (as many identifiable directions as samples): no standard "
                      "errors, and an exact fit says nothing about the noise")
@@ -142,6 +147,28 @@ class ReportViews:
                          + (f" - {bc['reason']}" if bc.get("reason") else ""))
         return L
 
+    def _rig_lines(self) -> list[str]:
+        """Report lines of a rig sweep: rows dropped, weights, sinkage, resistance, lack of fit, c-phi separation."""
+        x = self.extra if isinstance(self.extra, dict) else {}
+        L = []
+        for d in x.get("dropped_rows", ()):
+            L.append(f"rows dropped ({d['option']}): {d['count']} {d['reason']}")
+        if x.get("weights_from"):
+            L.append(f"weights: 1 / std^2 from the column {x['weights_from']} (relative weights: their level is "
+                     "estimated from the residuals)")
+        z = x.get("sinkage_m")
+        if isinstance(z, dict):
+            L.append(f"sinkage: measured per row, {1e3 * z['min']:.3g} to {1e3 * z['max']:.3g} mm (correlation with "
+                     f"the slip {z['slip_correlation']:+.2f}); read, not fitted: the track model's resistance does "
+                     "not take it")
+        res = x.get("resistance")
+        if isinstance(res, dict):
+            L.append("resistance: " + res["statement"])
+        lof = x.get("lack_of_fit")
+        if isinstance(lof, dict):
+            L.append("lack of fit: " + lof["statement"])
+        return L
+
     def _interval_tag(self, label: str) -> str:
         """`` (profile)`` or `` (both holds)`` when that parameter's interval replaced the linearised one."""
         pi = (self.replaced_intervals or {}).get(label)
@@ -181,10 +208,17 @@ class ReportViews:
     def report(self) -> str:
         """A human-readable multi-line report (units by magnitude: N or kN, kPa, deg, m)."""
         L: list[str] = []
-        loads = ", ".join(format_force(w) for w in self.normal_loads)
+        continuous = len(self.normal_loads) > MAX_LOAD_LEVELS
+        if continuous:
+            lo, med, hi = load_summary_points(self.normal_loads)
+            loads = (f"measured per row, {len(self.normal_loads)} values from {format_force(lo)} to "
+                     f"{format_force(hi)} (median {format_force(med)})")
+        else:
+            loads = ", ".join(format_force(w) for w in self.normal_loads)
         L.append(f"soiltrack identification - model {self.model}, method {self.method}")
         what = f" ({self.measured.replace('_', ' ')})" if self.measured else ""
         L.append(f"data: {self.data_kind}{what}, {self.n_samples} samples, normal load(s) W: {loads}")
+        L.extend(self._rig_lines())
         L.append(f"vehicle: {self.vehicle.name or 'unnamed'} (l = {self.vehicle.track_length:.4g} m, "
                  f"b = {self.vehicle.track_width:.4g} m, A = {self.vehicle.contact_area:.4g} m^2)")
         L.append(f"status: {self.status} ({'success' if self.success else 'FAILED'}), {self.iterations} iterations, "
@@ -250,6 +284,10 @@ class ReportViews:
         k_shown = self.parameters["shear_modulus"].identifiable and self.success
         combos = [cb for cb in self.combinations if not (cb.name == "K" and k_shown)]  # K is said above
         L.append("what the data determine (95 % intervals):" + ("" if combos else " nothing (the fit failed)"))
+        shown = {f"{w:.6g}" for w in load_summary_points(self.normal_loads)} if continuous else None
+        per_load = [cb for cb in combos if "@W=" in cb.name]
+        if shown is not None and per_load:  # a measured load: the combinations at its median and extremes
+            combos = [cb for cb in combos if "@W=" not in cb.name or _combo_load(cb.name) in shown]
         for cb in combos:
             label = _combo_label(cb.name)
             if not cb.estimable:
@@ -259,6 +297,9 @@ class ReportViews:
             cut = f" [{' and '.join(ends)} end cut at the bound]" if ends else ""
             L.append(f"  {label:<28} {_combo_value(cb)}{cut}{' [weak]' if cb.weakly_identifiable else ''}  "
                      f"({cb.description})")
+        if shown is not None and per_load:
+            L.append(f"  (at the lowest, the median and the highest of the {len(self.normal_loads)} measured loads; "
+                     "every load's values are in --json under combinations)")
         ident = self.identifiability
         L.append(f"identifiability: the data determine {ident['rank']} independent direction(s) of the "
                  f"{ident['n_parameters']} parameters; sensitivity of the fit along each, relative to the strongest "
@@ -291,6 +332,11 @@ class ReportViews:
     def __str__(self) -> str:  # pragma: no cover - convenience
         return self.report()
 
+
+
+def _combo_load(name: str) -> str:
+    """The load of a per-load combination's name as written there: ``"F_max@W=4905N"`` -> ``"4905"``."""
+    return name.split("@W=")[1][:-1]
 
 
 def _combo_label(name: str) -> str:

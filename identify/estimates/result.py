@@ -241,10 +241,16 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
     def predict(self, slip, normal_load=None, measured: str | None = None) -> np.ndarray:
         """What the fitted slip model predicts a rig reports at ``slip`` (N), e.g. for a fitted curve.
 
+        ``predict(data)`` with a :class:`~soiltrack.soilmodel.SlipData` gives the model's value of
+        the data's measured channel (tractive force or drawbar pull) at each of its rows, at
+        each row's normal load: ``data.values - result.predict(data)`` are its residuals, e.g.
+        on held-out rows for cross-validation.
+
         Parameters
         ----------
-        slip : array_like
-            Slips (as the rig measures them).
+        slip : array_like or SlipData
+            Slips (as the rig measures them), or data whose rows to predict (then
+            ``normal_load`` and ``measured`` come from the data and must not be given).
         normal_load : float or array_like, optional
             Nominal normal load, N (default the vehicle's weight).
         measured : {"tractive_force", "drawbar_pull"}, optional
@@ -257,6 +263,14 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
         """
         from ...soilmodel.data import SlipData
         from ...soilmodel.errors import DataError
+        if isinstance(slip, SlipData):
+            if normal_load is not None or measured is not None:
+                raise DataError("predict(data) takes the normal load and the measured channel from the data; "
+                                "give slips to predict at another load or channel", file=slip.source)
+            data = slip
+            if data.normal_load is None and self.data_kind == "slip":
+                return self.predict(data.slip, measured=data.measured)
+            return self.predict(data.slip, normal_load=data.normal_load, measured=data.measured)
         s = np.atleast_1d(np.asarray(slip, dtype=float))
         if self.data_kind != "slip":
             raise DataError("predict is for slip fits; use residuals_on for drive logs")

@@ -31,6 +31,7 @@ from functools import lru_cache
 import casadi as ca
 import numpy as np
 
+from ...soilmodel.ridge import continuous_load
 from ...soilmodel.soil import SoilBounds
 from ...soilmodel.traction import max_thrust_expr, thrust_at
 from ...soilmodel.vehicle import Vehicle
@@ -320,6 +321,8 @@ def _limit_on_bound(force: np.ndarray, load: np.ndarray, r: np.ndarray, c: float
     if not (c >= 0 and 0 < phi < math.pi / 2 and K > 0):  # not a soil (what :class:`Soil` accepts)
         return out
     single = _MIN(load) == _MAX(load)
+    if not single and continuous_load(load):  # a measured load: one check over all rows, said once
+        return _limit_on_bound_range(force, load, r, c, phi, vehicle, model, bounds)
     for W in (load[:1] if single else np.unique(load)):
         fm = float(max_thrust_expr(c, phi, float(W), vehicle.contact_area, model))
         fm_lo, fm_hi = fmax_range(bounds, vehicle, model, float(W))
@@ -342,6 +345,37 @@ def _limit_on_bound(force: np.ndarray, load: np.ndarray, r: np.ndarray, c: float
                if far else ": the soil lies at or just beyond the bounds; widen them if that is physically "
                "reasonable"), usable=not far))
     return out
+
+
+def _limit_on_bound_range(force: np.ndarray, load: np.ndarray, r: np.ndarray, c: float, phi: float,
+                          vehicle: Vehicle, model: str, bounds: SoilBounds) -> list[Finding]:
+    """The F_max-on-a-bound check for a load varying row to row: one finding for all rows.
+
+    F_max is on a bound at every load when it is at one (c and phi both at their lower or both
+    at their upper bounds); the scale the data ask for is fitted over all rows at once (one row
+    alone carries the noise of one reading, not a verdict).
+    """
+    W = _vec(load)
+    fm = np.asarray(max_thrust_expr(c, phi, W, vehicle.contact_area, model), dtype=float)
+    lo_hi = np.array([fmax_range(bounds, vehicle, model, float(w)) for w in (W.min(), W.max())])
+    lo = np.interp(W, [W.min(), W.max()], lo_hi[:, 0])  # F_max is affine in W: exact between the ends
+    hi = np.interp(W, [W.min(), W.max()], lo_hi[:, 1])
+    tol = LIMIT_BAND * (hi - lo)
+    side = "smallest" if np.all(fm <= lo + tol) else "largest" if np.all(fm >= hi - tol) else None
+    if not side or np.any(fm <= 0):
+        return []
+    m = force + r  # the fitted curve at each row; the data ask for it scaled by sum(m F) / sum(m^2)
+    scale = float(np.sum(m * force) / np.sum(m * m)) if np.sum(m * m) > 0 else 1.0
+    far = scale < 1 / BOUND_FACTOR if side == "smallest" else scale > BOUND_FACTOR
+    return [Finding(
+        "limit_on_bound",
+        f"the thrust limit F_max = {_fmt_force(float(fm.min()))} to {_fmt_force(float(fm.max()))} over the loads "
+        f"W = {_fmt_force(float(W.min()))} to {_fmt_force(float(W.max()))} is the {side} value the bounds allow (c "
+        f"and phi at their {'lower' if side == 'smallest' else 'upper'} bounds); the data, all rows together, ask "
+        f"for about {scale:.3g} times that"
+        + (": the bounds, not the data, fixed the answer; check the units of the force and the normal load"
+           if far else ": the soil lies at or just beyond the bounds; widen them if that is physically reasonable"),
+        usable=not far)]
 
 
 def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model: str,

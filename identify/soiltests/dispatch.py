@@ -1,0 +1,23 @@
+"""One entry for any bevameter test: the fit chosen by the kind of test."""
+from __future__ import annotations
+
+from ...soilmodel import DataError, PlateTest, ShearTest
+from .plate import fit_plate_test
+from .result import SoilTestFit
+from .shear import fit_shear_test
+
+__all__ = ["fit_soil_test", "is_soil_test"]
+
+
+def is_soil_test(data) -> bool:
+    """Whether ``data`` is a bevameter test (shear or plate)."""
+    return isinstance(data, (ShearTest, PlateTest))
+
+
+def fit_soil_test(test: ShearTest | PlateTest) -> SoilTestFit:
+    """Fit a bevameter test with its default bounds (:func:`fit_shear_test` or :func:`fit_plate_test`)."""
+    if isinstance(test, ShearTest):
+        return fit_shear_test(test)
+    if isinstance(test, PlateTest):
+        return fit_plate_test(test)
+    raise DataError(f"not a bevameter test: {type(test).__name__} (expected ShearTest or PlateTest)")

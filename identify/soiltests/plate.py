@@ -1,0 +1,174 @@
+"""Fit a plate sinkage test: Bekker k_c, k_phi and n from pressure against sinkage.
+
+The model is the one Bekker law of :func:`soiltrack.soilmodel.plate_pressure_expr`. The solver
+works with ``A = k z_ref^n / p_scale`` (``z_ref`` the geometric mean sinkage, ``p_scale`` the
+largest pressure): the pressure at the data's typical sinkage, weakly correlated with n.
+Plates of two or more widths identify k_c and k_phi; one width b identifies only
+``k_c / b + k_phi`` (and n): then k_c and k_phi are ``identifiable: false`` and the
+combination ``bekker_k_eq`` is reported.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...soilmodel import DataError, PlateTest, plate_pressure_expr
+from ...soilmodel.ridge import distinct_loads
+from .intervals import at_bounds, edge_parameters
+from .lsq import ResidualModel, solve_bounded
+from .result import SoilTestFit, TestCombination, TestParameter
+
+__all__ = ["fit_plate_test", "PlateBounds", "PLATE_BOUNDS", "N_STARTS"]
+
+#: Extra start values of n besides the log-log regression's (one IPOPT start each).
+N_STARTS = (0.5, 1.0, 1.5)
+
+
+@dataclass(frozen=True)
+class PlateBounds:
+    """Bounds of a plate fit. k_c and k_phi are >= 0 and otherwise free (tabulated soils: k_c
+    0.99-102 kN/m^(n+1), k_phi 197-5301 kN/m^(n+2)); the exponent n lies in ``n``
+    (tabulated 0.13 for heavy clay to 1.6 for snow).
+    """
+
+    n: tuple[float, float] = (0.05, 2.5)
+
+    def __post_init__(self) -> None:
+        lo, hi = self.n
+        if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
+            raise DataError(f"bounds on the Bekker exponent n must satisfy 0 < lower < upper, got {self.n}")
+
+
+#: Default bounds of a plate fit.
+PLATE_BOUNDS = PlateBounds()
+
+
+def _moduli(x, a):
+    """k_c, k_phi in SI from the solver's A_c, A_phi, n (``a = [p_scale, z_ref]``)."""
+    f = a[0] / a[1] ** x[2]
+    return x[0] * f, x[1] * f
+
+
+def _full(x, D, a):
+    k_c, k_phi = _moduli(x, a)
+    return (plate_pressure_expr(D[:, 1], D[:, 0], k_c, k_phi, x[2], a[1]) - D[:, 2]) / a[0]
+
+
+def _one_width(x, D, a):
+    k_eq = x[0] * a[0] / a[1] ** x[1]
+    return (plate_pressure_expr(D[:, 1], 1.0, 0.0, k_eq, x[1], a[1]) - D[:, 2]) / a[0]
+
+
+FULL = ResidualModel("plate_full", 3, 3, 2, _full)
+ONE_WIDTH = ResidualModel("plate_one_width", 2, 3, 2, _one_width)
+
+
+def _loglog_start(b: np.ndarray, z: np.ndarray, p: np.ndarray, widths: np.ndarray) -> tuple[float, np.ndarray]:
+    """n and k_eq per width (SI) from ``log p = log k_eq(b) + n log z`` on the rows with z, p > 0."""
+    use = (z > 0) & (p > 0)
+    groups = [np.isclose(b[use], w, rtol=1e-9, atol=0.0) for w in widths]
+    X = np.column_stack([np.log(z[use])] + [g.astype(float) for g in groups])
+    coef = np.linalg.lstsq(X, np.log(p[use]), rcond=None)[0]
+    return float(coef[0]), np.exp(coef[1:])
+
+
+def fit_plate_test(test: PlateTest, bounds: PlateBounds = PLATE_BOUNDS) -> SoilTestFit:
+    """Fit Bekker k_c, k_phi, n (or ``k_c / b + k_phi`` and n at one width) to a plate sinkage test.
+
+    Parameters
+    ----------
+    test
+        The readings (:class:`~soiltrack.soilmodel.PlateTest`).
+    bounds
+        Box bounds (:class:`PlateBounds`, edge units).
+
+    Returns
+    -------
+    SoilTestFit
+        ``bekker_kc`` (kN/m^(n+1)), ``bekker_kphi`` (kN/m^(n+2)), ``bekker_n`` with 95 % intervals.
+
+    Raises
+    ------
+    DataError
+        Too few rows with a positive sinkage and pressure for the parameters.
+    """
+    b, p, z = test.plate_width, test.pressure, test.sinkage
+    widths = distinct_loads(b)  # distinct values within the library's one tolerance
+    separable = widths.size >= 2
+    m = 3 if separable else 2
+    informative = int(np.count_nonzero((z > 0) & (p > 0)))
+    if informative <= m:
+        raise DataError(f"{informative} rows with a positive sinkage and pressure cannot fit {m} parameters "
+                        f"with an interval (need at least {m + 1})", file=test.source)
+    z_ref = float(np.exp(np.mean(np.log(z[(z > 0) & (p > 0)]))))
+    ps = float(np.max(p))
+    aux = np.array([ps, z_ref])
+    D = np.column_stack([b, z, p])
+    n0, k_eq0 = _loglog_start(b, z, p, widths)
+    n_lo, n_hi = bounds.n
+    n_starts = [float(np.clip(n0, n_lo, n_hi)), *N_STARTS]
+
+    def scaled(k_si, n):
+        return k_si * z_ref ** n / ps
+
+    if separable:
+        kc0, kphi0 = np.linalg.lstsq(np.column_stack([1.0 / widths, np.ones_like(widths)]), k_eq0, rcond=None)[0]
+        kc0, kphi0 = max(kc0, 0.0), max(kphi0, 0.0)
+        starts = []
+        for n in n_starts:  # the regression's moduli at its n; at other n, the same pressure at z_ref
+            f = 1.0 if n == n_starts[0] else z_ref ** (n0 - n)
+            starts.append(np.array([scaled(kc0 * f, n), scaled(kphi0 * f, n), n]))
+        big = 1e3 * max(1.0, float(np.max(k_eq0)) * z_ref ** n0 / ps)  # effectively unbounded above
+        lower = np.array([0.0, 0.0, n_lo])
+        upper = np.array([big, big, n_hi])
+        sol = solve_bounded(FULL, D, aux, starts, lower, upper)
+        n = float(sol.x[2])
+        f = ps / z_ref ** n / 1e3  # A -> kN/m^(n+...)
+        kc, kphi = sol.x[0] * f, sol.x[1] * f
+        values = np.array([kc, kphi, n])
+        lz = math.log(z_ref)
+        T = np.array([[f, 0.0, -kc * lz], [0.0, f, -kphi * lz], [0.0, 0.0, 1.0]])
+        flags = at_bounds(sol.x, lower, upper)
+        specs = [("bekker_kc", "Bekker k_c", "kN/m^(n+1)", 0.0, math.inf),
+                 ("bekker_kphi", "Bekker k_phi", "kN/m^(n+2)", 0.0, math.inf),
+                 ("bekker_n", "Bekker exponent n", "-", *bounds.n)]
+        params, cov = edge_parameters(sol, test.n_samples, values, T, specs, flags)
+        combos: dict = {}
+        notes = [f"{widths.size} plate widths ({widths.min():.4g}-{widths.max():.4g} m) separate k_c and k_phi"]
+        S = np.diag([1e3, 1e3, 1.0])
+        si = None if cov is None or not all(q.identifiable for q in params) else S @ cov @ S
+        values_si = (kc * 1e3, kphi * 1e3, n)
+    else:
+        w = float(widths[0])
+        starts = [np.array([scaled(k_eq0[0] * (1.0 if n == n_starts[0] else z_ref ** (n0 - n)), n), n])
+                  for n in n_starts]
+        big = 1e3 * max(1.0, float(k_eq0[0]) * z_ref ** n0 / ps)
+        lower = np.array([0.0, n_lo])
+        upper = np.array([big, n_hi])
+        sol = solve_bounded(ONE_WIDTH, D, aux, starts, lower, upper)
+        n = float(sol.x[1])
+        f = ps / z_ref ** n / 1e3
+        k_eq = sol.x[0] * f
+        T = np.array([[f, -k_eq * math.log(z_ref)], [0.0, 1.0]])
+        flags = at_bounds(sol.x, lower, upper)
+        specs = [("bekker_k_eq", "k_c / b + k_phi", "kN/m^(n+2)", 0.0, math.inf),
+                 ("bekker_n", "Bekker exponent n", "-", *bounds.n)]
+        (k_par, n_par), cov = edge_parameters(sol, test.n_samples, np.array([k_eq, n]), T, specs, flags)
+        why = (f"one plate width (b = {w:.4g} m): only k_c / b + k_phi is identified; plates of two or more "
+               "widths separate k_c and k_phi")
+        params = [TestParameter("bekker_kc", "Bekker k_c", "kN/m^(n+1)", None, None, (None, None), False, note=why),
+                  TestParameter("bekker_kphi", "Bekker k_phi", "kN/m^(n+2)", None, None, (None, None), False,
+                                note=why), n_par]
+        combos = {"bekker_k_eq": TestCombination("bekker_k_eq", "k_c / b + k_phi", "kN/m^(n+2)", k_par.value,
+                                                 k_par.stderr, k_par.ci95, {"plate_width_m": w})}
+        notes = [why]
+        si, values_si = None, (None, None, n)
+    if np.any(flags):
+        notes.append("on a bound: " + (", ".join(q.key for q in params if q.at_bound) or "k_c / b + k_phi") +
+                     " (a warning about the data or the bounds)")
+    rmse = math.sqrt(sol.cost / test.n_samples) * ps / 1e3
+    return SoilTestFit("plate_test", test.source, {q.key: q for q in params}, combos, sol.converged, sol.status,
+                       sol.iterations, sol.solve_time_s, test.n_samples, rmse, "kPa",
+                       {"plate_widths_m": [float(v) for v in widths]}, tuple(notes), si, values_si)

@@ -1,0 +1,198 @@
+"""Rig sweeps as rigs record them: row weights, the load as a covariate, repeats, what was dropped.
+
+A single-track or single-wheel rig measures at set slips with a normal load that varies from
+row to row, repeats each condition, and logs each reading's standard deviation and the
+sinkage. This module turns those columns into what a fit reports:
+
+- **weights**: a ``tractive_force_std_N`` / ``drawbar_pull_std_N`` column weighs each row by
+  ``1 / std^2``. The std of a reading over its averaging window is a spread, not the error of
+  the mean, so these are relative weights: their level is estimated from the residuals.
+- **c-phi separation**: c and phi separate only through the load's spread
+  (``F_max = A c + W tan(phi)``). When the spread is small (:data:`LOAD_SPREAD_SMALL`) or the
+  load moves with the slip (:data:`LOAD_SLIP_CORRELATION`), the report says that the
+  separation rests on it, and the intervals of c and phi come from the profile likelihood.
+- **pure-error lack of fit**: rows at one slip (within :data:`SLIP_REPEAT_TOL`) are repeats of
+  one condition. The scatter of their weighted residuals about their mean is the pure error
+  (the model's load dependence is already in the residuals); the rest of the residual sum is
+  lack of fit. ``F = (SS_lof / (g - p)) / (SS_pe / (n - g))`` with g slip levels and p
+  identified directions, and its p-value.
+- what was dropped when reading (``--driving-only``, ``--slip-angle 0``) and the measured
+  sinkage (read and summarised; the track model's resistance does not use it).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...soilmodel.data import STD_COLUMNS, SlipData
+from ...soilmodel.ridge import distinct_loads
+from ..estimates.distributions import f_sf
+
+__all__ = ["LOAD_SPREAD_SMALL", "LOAD_SLIP_CORRELATION", "SLIP_REPEAT_TOL", "LACK_OF_FIT_ALPHA", "LoadSeparation",
+           "LackOfFit", "std_weights", "load_separation", "pure_error_test", "rig_extra"]
+
+#: Spread of the normal load, (max - min) / median, below which c and phi rest on little.
+LOAD_SPREAD_SMALL = 0.5
+#: |correlation| of the load with the slip above which a load effect and a slip effect mix.
+LOAD_SLIP_CORRELATION = 0.5
+#: Rows whose slips differ by at most this are repeats of one condition.
+SLIP_REPEAT_TOL = 0.005
+#: Level of the lack-of-fit test's verdict.
+LACK_OF_FIT_ALPHA = 0.05
+
+
+@dataclass(frozen=True)
+class LoadSeparation:
+    """How the normal load separates c and phi in a sweep at several loads.
+
+    Attributes
+    ----------
+    spread
+        ``(max - min) / median`` of the rows' loads.
+    slip_correlation
+        Correlation of the load with the slip over the rows.
+    fragile
+        The spread is small or the load correlates with the slip: the separation rests on it.
+    """
+
+    spread: float
+    slip_correlation: float
+    fragile: bool
+
+    def statement(self, result) -> str:
+        """Plain words, with the fit's intervals of c and phi (profile likelihood when fragile)."""
+        why = []
+        if self.spread < LOAD_SPREAD_SMALL:
+            why.append(f"the load spreads only {100 * self.spread:.0f} % of its median")
+        if abs(self.slip_correlation) > LOAD_SLIP_CORRELATION:
+            why.append(f"the load correlates with the slip (r = {self.slip_correlation:+.2f}): a slip effect can "
+                       "pass for a load effect")
+        if not self.fragile:
+            return ""
+        ivs = []
+        for name, label in (("cohesion", "c"), ("friction_angle", "phi")):
+            pe = result.parameters.get(name)
+            if pe is None or pe.fixed:
+                continue
+            lo, hi = pe.edge_ci95
+            tag = " (profile)" if name in (result.replaced_intervals or {}) else ""
+            if lo is not None and hi is not None:
+                ivs.append(f"{label} in [{lo:.3g}, {hi:.3g}] {pe.edge_unit}{tag}")
+        tail = f"; 95 % intervals: {', '.join(ivs)}" if ivs else ""
+        return ("c and phi are told apart only through the normal load's spread, and " + " and ".join(why)
+                + f": the separation rests on it{tail}")
+
+    def to_dict(self) -> dict:
+        """JSON-ready: the numbers and the verdict (the statement needs the fit: :meth:`statement`)."""
+        return {"spread": self.spread, "slip_correlation": self.slip_correlation, "fragile": self.fragile}
+
+
+@dataclass(frozen=True)
+class LackOfFit:
+    """The pure-error lack-of-fit test of a sweep with repeated slips.
+
+    Attributes
+    ----------
+    levels, repeats
+        Slip levels and rows in them (repeats are rows beyond the first of a level).
+    df_lack, df_pure
+        Degrees of freedom ``g - p`` and ``n - g``.
+    F, p_value
+        The statistic and its p-value (F distribution).
+    """
+
+    levels: int
+    repeats: int
+    df_lack: int
+    df_pure: int
+    F: float
+    p_value: float
+
+    @property
+    def significant(self) -> bool:
+        """The model misses the level means by more than the repeats scatter (at :data:`LACK_OF_FIT_ALPHA`)."""
+        return self.p_value < LACK_OF_FIT_ALPHA
+
+    def statement(self) -> str:
+        """Plain words."""
+        verdict = ("the model misses the means of the slip levels by more than the repeats scatter"
+                   if self.significant else "no lack of fit beyond the repeats' scatter")
+        return (f"pure-error test over {self.levels} slip levels with repeats: F = {self.F:.3g} "
+                f"({self.df_lack}, {self.df_pure} dof), p = {self.p_value:.3g}: {verdict}")
+
+    def to_dict(self) -> dict:
+        """JSON-ready."""
+        return {"levels": self.levels, "repeats": self.repeats, "df_lack": self.df_lack, "df_pure": self.df_pure,
+                "F": self.F, "p_value": self.p_value, "significant": self.significant, "statement": self.statement()}
+
+
+def std_weights(data: SlipData) -> np.ndarray | None:
+    """The per-row standard deviation column as the fit's sigma (relative weights), or ``None``."""
+    return None if data.force_std is None else np.asarray(data.force_std, dtype=float)
+
+
+def load_separation(data: SlipData) -> LoadSeparation | None:
+    """The load's spread and its correlation with the slip, for sweeps at two or more loads."""
+    if data.normal_load is None or distinct_loads(data.normal_load).size < 2:
+        return None
+    W, s = np.asarray(data.normal_load, dtype=float), np.asarray(data.slip, dtype=float)
+    spread = float((W.max() - W.min()) / np.median(W))
+    corr = float(np.corrcoef(W, s)[0, 1]) if np.std(s) > 0 else 0.0
+    fragile = spread < LOAD_SPREAD_SMALL or abs(corr) > LOAD_SLIP_CORRELATION
+    return LoadSeparation(spread, corr, fragile)
+
+
+def slip_levels(slip) -> np.ndarray:
+    """Level index of each row: slips within :data:`SLIP_REPEAT_TOL` of the level's first (sorted) slip."""
+    s = np.asarray(slip, dtype=float)
+    order = np.argsort(s, kind="stable")
+    level = np.empty(s.size, dtype=int)
+    k, start = -1, -np.inf
+    for j in order:
+        if s[j] - start > SLIP_REPEAT_TOL:
+            k, start = k + 1, s[j]
+        level[j] = k
+    return level
+
+
+def pure_error_test(slip, weighted_residuals, n_params: int) -> LackOfFit | None:
+    """The pure-error lack-of-fit test, or ``None`` without enough repeats and levels.
+
+    Needs ``g > p`` slip levels and ``n > g`` rows (at least one repeat), and a non-zero pure error.
+    """
+    r = np.asarray(weighted_residuals, dtype=float)
+    level = slip_levels(slip)
+    g, n = int(level.max()) + 1, r.size
+    if g <= n_params or n <= g:
+        return None
+    counts = np.bincount(level, minlength=g)
+    means = np.bincount(level, weights=r, minlength=g) / counts
+    ss_pure = float(np.sum((r - means[level]) ** 2))
+    ss_lack = float(np.sum(counts * means ** 2))
+    if not ss_pure > 0:
+        return None
+    df_lack, df_pure = g - n_params, n - g
+    F = (ss_lack / df_lack) / (ss_pure / df_pure)
+    return LackOfFit(g, n - g, df_lack, df_pure, F, f_sf(F, df_lack, df_pure))
+
+
+def rig_extra(data: SlipData, result, separation: LoadSeparation | None) -> dict:
+    """The entries a rig sweep adds to ``FitResult.extra`` (empty for a plain sweep)."""
+    out: dict = {}
+    if data.dropped:
+        out["dropped_rows"] = [{"reason": reason, "option": option, "count": len(rows), "rows": list(rows)}
+                               for reason, option, rows in data.dropped]
+    if data.force_std is not None:
+        out["weights_from"] = STD_COLUMNS[data.measured]
+    if data.sinkage is not None:
+        z, s = np.asarray(data.sinkage, dtype=float), np.asarray(data.slip, dtype=float)
+        corr = float(np.corrcoef(z, s)[0, 1]) if np.std(z) > 0 and np.std(s) > 0 else 0.0
+        out["sinkage_m"] = {"min": float(z.min()), "max": float(z.max()), "slip_correlation": corr}
+    if separation is not None and result.model == "full":
+        out["load_separation"] = separation.to_dict()
+    if result.success:  # (the free parameters' count: no statistic of the result is computed here)
+        lof = pure_error_test(data.slip, result.weighted_residuals, len(result.free))
+        if lof is not None:
+            out["lack_of_fit"] = lof.to_dict()
+    return out

@@ -1,0 +1,100 @@
+"""The soil's stress laws as a bevameter measures them: their one home (DESIGN.md section 7).
+
+Janosi-Hanamoto shear (a shear ring or shear box at normal pressure sigma, shear displacement j)::
+
+    tau = (c + sigma tan(phi)) (1 - exp(-j / K))
+
+Bekker pressure-sinkage (a plate of width b - the smaller dimension; the radius of a circular
+plate - pressed to sinkage z)::
+
+    p = (k_c / b + k_phi) z^n
+
+Both are CasADi expressions (floats work too), built once into CasADi Functions; the numpy
+helpers :func:`shear_stress` and :func:`plate_pressure` evaluate them. The track's thrust
+(Eq. 2) is the shear law integrated over a track under uniform pressure; the static sinkage
+of :mod:`.sinkage` is the pressure law solved for z. ``exp`` is written ``-expm1(-j / K)``
+so that small displacements lose no digits.
+
+Units: SI (Pa, m, rad); k_c in N/m^(n+1), k_phi in N/m^(n+2).
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+
+import casadi as ca
+import numpy as np
+
+__all__ = ["shear_stress_expr", "plate_pressure_expr", "shear_stress_function", "plate_pressure_function",
+           "shear_stress", "plate_pressure", "MIN_RELATIVE_SINKAGE"]
+
+#: Floor of ``z / z_ref`` inside ``log`` in ``z^n = exp(n log z)``: keeps the branch CasADi also
+#: evaluates at z = 0 finite (the pressure there is exactly 0, and so are its derivatives).
+MIN_RELATIVE_SINKAGE = 1e-12
+
+
+def shear_stress_expr(j, sigma, c, phi, K):
+    """Janosi-Hanamoto shear stress ``(c + sigma tan(phi)) (1 - exp(-j / K))``, Pa.
+
+    Parameters
+    ----------
+    j
+        Shear displacement, m (>= 0).
+    sigma
+        Normal pressure, Pa.
+    c, phi, K
+        Cohesion (Pa), internal friction angle (rad), shear deformation modulus (m).
+    """
+    return (c + sigma * ca.tan(phi)) * -ca.expm1(-j / K)
+
+
+def plate_pressure_expr(z, b, k_c, k_phi, n, z_ref=1.0):
+    """Bekker plate pressure ``(k_c / b + k_phi) z^n``, Pa.
+
+    Written as ``(k_c / b + k_phi) z_ref^n (z / z_ref)^n`` with ``(z / z_ref)^n = exp(n log(z / z_ref))``
+    (``z_ref`` > 0, m; any value gives the same pressure - a fit picks the data's typical
+    sinkage so that its parameters are weakly correlated).
+
+    Parameters
+    ----------
+    z
+        Sinkage, m (>= 0).
+    b
+        Plate width (smaller dimension; radius of a circular plate), m.
+    k_c, k_phi, n
+        Bekker moduli (N/m^(n+1), N/m^(n+2)) and exponent (-).
+    """
+    ratio = ca.fmax(z / z_ref, MIN_RELATIVE_SINKAGE)
+    return ca.if_else(z > 0, (k_c / b + k_phi) * z_ref ** n * ca.exp(n * ca.log(ratio)), 0)
+
+
+@lru_cache(maxsize=1)
+def shear_stress_function() -> ca.Function:
+    """CasADi Function ``tau(j, sigma, c, phi, K)`` (SI), built once."""
+    s = [ca.SX.sym(n) for n in ("j", "sigma", "c", "phi", "K")]
+    return ca.Function("shear_stress", s, [shear_stress_expr(*s)], ["j", "sigma", "c", "phi", "K"], ["tau"])
+
+
+@lru_cache(maxsize=1)
+def plate_pressure_function() -> ca.Function:
+    """CasADi Function ``p(z, b, k_c, k_phi, n)`` (SI), built once."""
+    s = [ca.SX.sym(n) for n in ("z", "b", "k_c", "k_phi", "n")]
+    return ca.Function("plate_pressure", s, [plate_pressure_expr(*s)], ["z", "b", "k_c", "k_phi", "n"], ["p"])
+
+
+def _call(f: ca.Function, *args) -> np.ndarray:
+    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in args))
+    shape = arrays[0].shape
+    if arrays[0].size == 0:
+        return np.zeros(shape)
+    rows = [a.reshape(1, -1) for a in arrays]
+    return np.asarray(f.map(rows[0].shape[1])(*rows), dtype=float).reshape(shape)
+
+
+def shear_stress(j, sigma, c: float, phi: float, K: float) -> np.ndarray:
+    """:func:`shear_stress_expr` at many points (numpy, broadcast), Pa."""
+    return _call(shear_stress_function(), j, sigma, c, phi, K)
+
+
+def plate_pressure(z, b, k_c: float, k_phi: float, n: float) -> np.ndarray:
+    """:func:`plate_pressure_expr` at many points (numpy, broadcast), Pa."""
+    return _call(plate_pressure_function(), z, b, k_c, k_phi, n)

@@ -1,0 +1,164 @@
+"""Rig sweeps as rigs record them: a measured load per row, std weights, repeats, skid and slip-angle rows.
+
+The sweeps are simulated here in plain numpy (Eq. 2 written out again, not soilmodel): a small
+rig track (l = 0.0535 m, b = 0.025 m, like a 58 mm wheel approximated as two tracks) whose
+measured load varies from row to row, three repeats at each slip level.
+"""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from soiltrack.cli import main
+from soiltrack.identify import fit
+from soiltrack.soilmodel import DataError, SlipData, Vehicle, read_csv
+
+L, B = 0.0535, 0.025
+RIG = Vehicle(mass=2.5, track_length=L, track_width=B, sprocket_radius=0.058, sprocket_inertia=0.001,
+              rolling_resistance=0.0, name="rig track")
+SOIL = {"c": 800.0, "phi": math.radians(30.0), "K": 0.01}
+SLIP_LEVELS = (0.1, 0.23, 0.5, 0.75, 0.9)
+
+
+def thrust(i, W, c=SOIL["c"], phi=SOIL["phi"], K=SOIL["K"]):
+    """Eq. 2, both tracks (plain numpy)."""
+    x = np.maximum(i, 1e-12) * L / K
+    return (2 * B * L * c + W * np.tan(phi)) * (1 - (1 - np.exp(-x)) / x)
+
+
+def rig_rows(seed, levels=SLIP_LEVELS, repeats=3, noise=0.05, mu=0.0, hump=0.0):
+    """``slip, drawbar pull, std, load`` of a sweep; ``hump`` > 0 makes the pull fall at high slip."""
+    rng = np.random.default_rng(seed)
+    i = np.repeat(levels, repeats).astype(float)
+    W = rng.uniform(21.0, 27.0, i.size)
+    DP = thrust(i, W) * (1 - hump * i ** 2) - mu * W
+    return i, DP + rng.normal(0.0, noise, i.size), np.full(i.size, noise), W
+
+
+def write(path, cols: dict):
+    names = list(cols)
+    np.savetxt(path, np.column_stack([cols[n] for n in names]), delimiter=",", header=",".join(names), comments="")
+    return str(path)
+
+
+def test_a_13_row_measured_sweep_reports_by_load_range_in_at_most_80_lines(tmp_path):
+    i, DP, std, W = rig_rows(1, levels=(0.1, 0.23, 0.5, 0.9), repeats=3)
+    i, DP, std, W = (np.append(a, b) for a, b in zip((i, DP, std, W), (0.0, 0.02, 0.05, 24.0)))
+    assert i.size == 13 and np.unique(W).size == 13
+    data = read_csv(write(tmp_path / "s.csv", {"slip": i, "drawbar_pull_N": DP, "drawbar_pull_std_N": std,
+                                               "normal_load_N": W}))
+    r = fit(data, RIG)
+    lines = r.report().splitlines()
+    assert len(lines) <= 80
+    per_load = [ln for ln in lines if ln.lstrip().startswith("F_max at W")]
+    assert len(per_load) == 3  # the lowest, the median and the highest load
+    assert sum(cb.name.startswith("F_max@W=") for cb in r.combinations) == 13  # every load in the JSON
+
+
+def test_std_weights_give_noisy_rows_little_say(tmp_path):
+    i, DP, std, W = rig_rows(2, noise=0.02)
+    bad = np.array([2, 8, 13])  # three rows off by 40 %, and their logged std says they are noisy
+    DP[bad] *= 1.4
+    std[bad] = 1.0
+    cols = {"slip": i, "drawbar_pull_N": DP, "normal_load_N": W}
+    plain = fit(read_csv(write(tmp_path / "p.csv", cols)), RIG)
+    weighted = fit(read_csv(write(tmp_path / "w.csv", {**cols, "drawbar_pull_std_N": std})), RIG)
+    same = fit(SlipData(slip=i, drawbar_pull=DP, normal_load=W), RIG, sigma=std, sigma_known=False)
+    true_fmax = 2 * B * L * SOIL["c"] + np.median(W) * math.tan(SOIL["phi"])
+
+    def fmax(res):
+        return float(res.predict(np.array([0.999]), normal_load=np.median(W))[0]) / (1 - (1 - math.exp(
+            -0.999 * L / res.theta[2])) / (0.999 * L / res.theta[2]))
+    assert abs(fmax(weighted) / true_fmax - 1) < 0.05
+    assert abs(fmax(plain) / true_fmax - 1) > 2 * abs(fmax(weighted) / true_fmax - 1)
+    assert np.allclose(weighted.theta, same.theta, rtol=1e-6, atol=1e-9)
+    assert weighted.extra["weights_from"] == "drawbar_pull_std_N"
+
+
+def test_pure_error_test_finds_a_known_lack_of_fit():
+    i, DP, _, W = rig_rows(3, hump=0.6, noise=0.03)  # the pull falls at high slip: Eq. 2 cannot follow
+    lof = fit(SlipData(slip=i, drawbar_pull=DP, normal_load=W), RIG).extra["lack_of_fit"]
+    assert lof["significant"] is True and lof["p_value"] < 1e-3
+    assert (lof["levels"], lof["df_lack"], lof["df_pure"]) == (5, 2, 10)
+
+
+def test_pure_error_test_holds_its_level_on_the_model_itself():
+    significant = 0
+    for seed in range(30):
+        i, DP, _, W = rig_rows(100 + seed, noise=0.05)
+        significant += fit(SlipData(slip=i, drawbar_pull=DP, normal_load=W), RIG).extra["lack_of_fit"]["significant"]
+    assert significant <= 5  # 5 % level: more than 5 of 30 has probability < 0.3 %
+
+
+def _rows_with_skid_and_angles(tmp_path):
+    i, DP, std, W = rig_rows(4, repeats=2)
+    i = i.copy()
+    i[[0, 3]] = [-0.2, -1.0]  # skid rows 1 and 4
+    angle = np.zeros(i.size)
+    angle[[5, 6, 9]] = [15.0, 45.0, 90.0]  # rows 6, 7, 10 at a slip angle
+    return write(tmp_path / "r.csv", {"slip": i, "drawbar_pull_N": DP, "normal_load_N": W, "slip_angle_deg": angle})
+
+
+def test_skid_and_slip_angle_rows_are_refused_with_their_rows_named(tmp_path):
+    path = _rows_with_skid_and_angles(tmp_path)
+    with pytest.raises(DataError) as e:
+        read_csv(path)
+    assert e.value.rows == (1, 4, 6, 7, 10) and e.value.row == 1 and e.value.column == "slip"
+    assert main(["fit", path, "--vehicle", "light"]) == 2
+    with pytest.raises(DataError) as e:
+        read_csv(path, driving_only=True)
+    assert e.value.rows == (6, 7, 10) and e.value.column == "slip_angle_deg"
+
+
+def test_many_refused_rows_are_counted_and_the_first_named(tmp_path):
+    i, DP, _, W = rig_rows(5, repeats=6)
+    i[:25] = -0.3
+    with pytest.raises(DataError) as e:
+        SlipData(slip=i, drawbar_pull=DP, normal_load=W)
+    assert e.value.rows == tuple(range(1, 26))
+
+
+def test_the_options_drop_skid_and_slip_angle_rows_and_count_them(tmp_path, capsys):
+    path = _rows_with_skid_and_angles(tmp_path)
+    data = read_csv(path, driving_only=True, slip_angle=0.0)
+    assert data.n_samples == 5 and data.dropped_count == 5
+    assert main(["fit", path, "--vehicle", "light", "--driving-only", "--slip-angle", "0", "--json"]) in (0, 1)
+    js = json.loads(capsys.readouterr().out)
+    assert {d["option"]: d["count"] for d in js["extra"]["dropped_rows"]} == {"--slip-angle": 3, "--driving-only": 2}
+    assert {d["option"]: d["rows"] for d in js["extra"]["dropped_rows"]} == {"--slip-angle": [6, 7, 10],
+                                                                           "--driving-only": [1, 4]}
+    assert main(["fit", path, "--vehicle", "light", "--slip-angle", "15"]) == 2
+
+
+@pytest.mark.parametrize("channel", ["drawbar_pull", "tractive_force"])
+def test_predict_gives_the_datas_channel_per_row(channel):
+    i, DP, _, W = rig_rows(6)
+    data = SlipData(slip=i, normal_load=W, **{channel: DP})
+    r = fit(data, RIG)
+    assert np.allclose(r.predict(data), data.values + r.residuals, rtol=0, atol=1e-9)
+    held = SlipData(slip=i[::2] + 0.01, normal_load=W[::2] * 1.1, **{channel: DP[::2]})
+    assert np.allclose(r.predict(held), r.predict(held.slip, normal_load=held.normal_load), rtol=0, atol=1e-12)
+    with pytest.raises(DataError):
+        r.predict(data, normal_load=20.0)
+
+
+def test_resistance_fit_recovers_the_coefficient_and_the_default_says_it_is_assumed():
+    mu = 0.08
+    i, DP, _, W = rig_rows(7, levels=(0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 0.9), mu=mu, noise=0.03)
+    data = SlipData(slip=i, drawbar_pull=DP, normal_load=W)
+    res = fit(data, RIG, resistance="fit").extra["resistance"]
+    lo, hi = res["ci95"]
+    assert res["mode"] == "fit" and lo <= mu <= hi and hi - lo < 0.1
+    assert fit(data, RIG).extra["resistance"] == {**fit(data, RIG).extra["resistance"], "mode": "assumed",
+                                                  "coefficient": 0.0}
+    with pytest.raises(DataError):
+        fit(SlipData(slip=i, tractive_force=DP, normal_load=W), RIG, resistance="fit")
+
+
+def test_a_measured_load_that_barely_spreads_says_the_separation_rests_on_it():
+    i, DP, _, W = rig_rows(8)
+    r = fit(SlipData(slip=i, drawbar_pull=DP, normal_load=W), RIG)
+    sep = r.extra["load_separation"]
+    assert sep["fragile"] is True and sep["spread"] < 0.5
+    assert r.replaced_intervals and {"cohesion", "friction_angle"} <= set(r.replaced_intervals)
