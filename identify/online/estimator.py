@@ -381,21 +381,42 @@ class OnlineEstimator:
         return math.sqrt(max(2.0 * self._sums[_S["cost"]] / max(n - 2.0, 1.0), 1e-12))
 
     def _iterate(self, cutoff: float) -> None:
+        """Newton steps on the horizon: one when converged, else up to ``max_steps_per_update``.
+
+        Within one update (fixed data) a step that raised the cost is taken back and retried
+        with a quarter of the trust region (backtracking across kernel calls).
+        """
         s = self.settings
         np.multiply(self._ok, self._tslot >= cutoff, out=self._D[:, _R["m"]])
         steps = 1 if self._converged else s.max_steps_per_update
-        for _ in range(steps):
+        P = self._P
+        before: tuple[float, float, float] | None = None   # (xF, xK, cost) before the last step
+        tr = s.max_step_scaled
+        for _ in range(steps + 1):
+            P[_P["max_step"]] = tr
+            x_old = (P[_P["xF"]], P[_P["xK"]])
             self._c_step()
             if not (np.all(np.isfinite(self._sums)) and np.all(np.isfinite(self._x_out))):
                 self._converged = False   # keep the last good iterate; say so
+                P[_P["max_step"]] = s.max_step_scaled
                 return
-            self._P[_P["xF"]], self._P[_P["xK"]] = self._x_out
+            cost = self._sums[_S["cost"]]
+            if before is not None and cost > before[2] * (1 + 1e-9) + 1e-12:
+                P[_P["xF"]], P[_P["xK"]] = before[0], before[1]     # take the step back, shorter
+                tr *= 0.25
+                before = None
+                self._converged = False
+                continue
+            before = (x_old[0], x_old[1], cost)
+            P[_P["xF"]], P[_P["xK"]] = self._x_out
             np.copyto(self._Z, self._Z_out)
-            dec = self._sums[_S["decrement"]] / self._scale() ** 2
+            dec = abs(self._sums[_S["decrement"]]) / self._scale() ** 2
             self._converged = bool(self._sums[_S["n_used"]] >= 3 and dec < s.converged_decrement)
-            if self._converged:
-                self._started = True
+            if self._converged or steps == 1:
                 break
+        P[_P["max_step"]] = s.max_step_scaled
+        if self._converged:
+            self._started = True
 
     def _covariance(self) -> np.ndarray | None:
         """Sandwich covariance over (F_max, K) in SI, or ``None`` when it does not exist."""

@@ -201,12 +201,27 @@ def _step(n: int) -> ca.Function:
     det = a11 * a22 - H12 * H12
     st1 = -(a22 * g1 - H12 * g2) / det
     st2 = -(a11 * g2 - H12 * g1) / det
-    # trust region: no parameter changes by more than max_step of its current value in one step
-    scale = ca.fmin(1.0, Q["max_step"] / ca.fmax(ca.fmax(ca.fabs(st1) / xF, ca.fabs(st2) / xK), 1e-300))
-    xF_new = ca.fmin(ca.fmax(xF + scale * st1, Q["xF_lo"]), Q["xF_hi"])
-    xK_new = ca.fmin(ca.fmax(xK + scale * st2, Q["xK_lo"]), Q["xK_hi"])
+    ms = Q["max_step"]
+
+    def cap(step, x):   # trust region: no parameter changes by more than max_step of its value per step
+        return ca.fmin(ca.fmax(step, -ms * x), ms * x)
+
+    lo1, hi1, lo2, hi2 = Q["xF_lo"], Q["xF_hi"], Q["xK_lo"], Q["xK_hi"]
+    scale = ca.fmin(1.0, ms / ca.fmax(ca.fmax(ca.fabs(st1) / xF, ca.fabs(st2) / xK), 1e-300))
+    x1, x2 = xF + scale * st1, xK + scale * st2
+    out1 = ca.logic_or(x1 < lo1, x1 > hi1)
+    out2 = ca.logic_or(x2 < lo2, x2 > hi2)
+    # active set: a parameter stopped at its bound, the other takes its Newton step given that change
+    x2b = ca.fmin(ca.fmax(x2, lo2), hi2)
+    x1_given2 = ca.fmin(ca.fmax(xF + cap(-(g1 + H12 * (x2b - xK)) / a11, xF), lo1), hi1)
+    x1b = ca.fmin(ca.fmax(x1, lo1), hi1)
+    x2_given1 = ca.fmin(ca.fmax(xK + cap(-(g2 + H12 * (x1b - xF)) / a22, xK), lo2), hi2)
+    xF_new = ca.if_else(ca.logic_and(out2, ca.logic_not(out1)), x1_given2, x1b)
+    xK_new = ca.if_else(ca.logic_and(out1, ca.logic_not(out2)), x2_given1, x2b)
     dxe = ca.vertcat(xF_new - xF, xK_new - xK)
-    decrement = -(g1 * dxe[0] + g2 * dxe[1])   # predicted decrease of the cost along the step taken
+    # decrease of the cost predicted by the quadratic model along the step taken
+    decrement = -(g1 * dxe[0] + g2 * dxe[1]) - 0.5 * (H11 * dxe[0] ** 2 + 2 * H12 * dxe[0] * dxe[1]
+                                                     + H22 * dxe[1] ** 2)
     Znew = slip_f.map("online_slip_map", "serial", n, [2, 3], [])(D, Zopt, P, dxe)
     return ca.Function(f"online_step_{n}", [D, Z, P], [ca.vertcat(xF_new, xK_new), Znew, ca.vertcat(tot, decrement)],
                        ["D", "Z", "P"], ["x", "Z_new", "sums"])
