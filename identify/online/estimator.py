@@ -38,7 +38,7 @@ from collections import deque
 
 import numpy as np
 
-from ...soilmodel.tracks import NOISE_FLOOR_REL, combine_tracks, robust_noise, turning_mask
+from ...soilmodel.tracks import MAD_TO_SIGMA, NOISE_FLOOR_REL, combine_tracks, robust_noise, turning_mask
 from ...soilmodel.vehicle import Vehicle
 from ..drivelog.nlp import fmax_bounds
 from ..drivelog.noise import noise_model
@@ -115,6 +115,9 @@ class OnlineEstimator:
         self._t_reset = -math.inf
         self._detector = CusumDetector(s.detect_reference, s.detect_threshold, s.detect_clip)
         self._detect_since = -math.inf
+        self._recent_z: deque = deque(maxlen=s.detect_scale_samples)
+        self._z_scale = 1.0
+        self._z_count = 0
         self._turn_d: deque = deque(maxlen=s.turn_history)
         self._turn_y: deque = deque(maxlen=s.turn_history)
         self._turn_sigma: tuple[float | None, float | None] = (None, None)
@@ -309,9 +312,13 @@ class OnlineEstimator:
         if used:
             self._c_predict()
             slip0, wres = float(self._pred_out[0]), float(self._pred_out[1])
-            if (self._converged and self._sums[_S["n_used"]] >= s.detect_min_samples
+            z = wres / self._scale()
+            loaded = T >= s.detect_min_load * self._P[_P["xF"]] * self._F_ref
+            if (loaded and self._converged and self._sums[_S["n_used"]] >= s.detect_min_samples
                     and t - self._detect_since >= s.detect_min_s):
-                change = self._detector.update(wres / self._scale(), t)
+                change = self._detector.update(z / self._robust_scale(), t)
+                if self._detector.statistic == 0.0:     # the residual spread is learnt from quiet samples only
+                    self._recent_z.append(z)
         # the sample enters the ring buffer
         slot = self._slot
         if self._tslot[slot] >= cutoff and self._cap < s.max_capacity:
@@ -379,6 +386,20 @@ class OnlineEstimator:
             return 1.0
         n = self._sums[_S["n_used"]]
         return math.sqrt(max(2.0 * self._sums[_S["cost"]] / max(n - 2.0, 1.0), 1e-12))
+
+    def _robust_scale(self) -> float:
+        """Spread of the recent prediction residuals (MAD, never below 1), re-estimated every few samples.
+
+        Where the model fits worse than the noise (transients, coasting) the residuals spread
+        wider than the horizon's chi-square says; the detector then asks for a lean beyond that
+        spread, not beyond the noise alone.
+        """
+        self._z_count += 1
+        n = len(self._recent_z)
+        if n >= MIN_NOISE_SAMPLES and self._z_count % _TURN_REESTIMATE_EARLY == 0:
+            z = np.fromiter(self._recent_z, float)
+            self._z_scale = max(1.0, MAD_TO_SIGMA * float(np.median(np.abs(z - np.median(z)))))
+        return self._z_scale
 
     def _iterate(self, cutoff: float) -> None:
         """Newton steps on the horizon: one when converged, else up to ``max_steps_per_update``.

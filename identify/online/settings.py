@@ -53,6 +53,14 @@ class OnlineSettings:
         threshold ``h`` and the clip of each residual (one wild sample cannot raise an alarm
         alone). With k = 1, h = 14 the average run length between false alarms of white
         Gaussian residuals is far beyond 10^8 samples.
+    detect_min_load
+        Only samples whose thrust is at least this fraction of the current F_max feed the
+        detector. Below it the thrust-slip curve is its initial slope, where a change of terrain
+        hides in the slip noise (measured: no lean at all on the light vehicle at 2 m/s) while
+        the slope's error-in-variables bias moves with the driving and would read as a change.
+    detect_scale_samples
+        Recent prediction residuals whose robust spread (median absolute deviation, at least
+        1) scales the detector's input.
     detect_min_samples, detect_min_s
         The detector runs only once the estimate rests on this many samples and this many
         seconds since the start or the last change.
@@ -77,10 +85,12 @@ class OnlineSettings:
     max_steps_per_update: int = 4
     converged_decrement: float = 0.01
     max_step_scaled: float = 0.25
-    hold_rel: float = 0.5
+    hold_rel: float = 0.1
     detect_reference: float = 1.0
     detect_threshold: float = 14.0
     detect_clip: float = 4.0
+    detect_min_load: float = 0.2
+    detect_scale_samples: int = 100
     detect_min_samples: int = 20
     detect_min_s: float = 0.5
     turn_threshold: float = TURN_THRESHOLD_SIGMA
@@ -89,12 +99,12 @@ class OnlineSettings:
 
     def __post_init__(self) -> None:
         check_model(self.model)
-        for name in ("window_s", "max_step_ratio", "converged_decrement", "max_step_scaled", "hold_rel", "detect_reference",
+        for name in ("window_s", "max_step_ratio", "converged_decrement", "max_step_scaled", "hold_rel", "detect_min_load", "detect_reference",
                      "detect_threshold", "detect_clip", "turn_threshold"):
             val = getattr(self, name)
             if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
                 raise DataError(f"setting {name} must be a finite number > 0, got {val!r}")
-        for name in ("noise_every", "max_steps_per_update", "detect_min_samples", "turn_history", "max_capacity"):
+        for name in ("noise_every", "max_steps_per_update", "detect_scale_samples", "detect_min_samples", "turn_history", "max_capacity"):
             val = getattr(self, name)
             if isinstance(val, bool) or not isinstance(val, int) or val < 1:
                 raise DataError(f"setting {name} must be an integer >= 1, got {val!r}")
