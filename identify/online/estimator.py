@@ -116,6 +116,7 @@ class OnlineEstimator:
         self._detector = CusumDetector(s.detect_reference, s.detect_threshold, s.detect_clip)
         self._detect_since = -math.inf
         self._recent_z: deque = deque(maxlen=s.detect_scale_samples)
+        self._F_known: float | None = None      # last F_max the horizon determined (since the last change)
         self._z_scale = 1.0
         self._z_count = 0
         self._turn_d: deque = deque(maxlen=s.turn_history)
@@ -313,7 +314,8 @@ class OnlineEstimator:
             self._c_predict()
             slip0, wres = float(self._pred_out[0]), float(self._pred_out[1])
             z = wres / self._scale()
-            loaded = T >= s.detect_min_load * self._P[_P["xF"]] * self._F_ref
+            # a change is judged against a soil whose F_max was determined, on samples loaded against it
+            loaded = self._F_known is not None and T >= s.detect_min_load * self._F_known
             if (loaded and self._converged and self._sums[_S["n_used"]] >= s.detect_min_samples
                     and t - self._detect_since >= s.detect_min_s):
                 change = self._detector.update(z / self._robust_scale(), t)
@@ -359,6 +361,7 @@ class OnlineEstimator:
         self._converged = False
         self._since_noise = self.settings.noise_every      # re-estimate the noise on the new soil
         self._P[_P["w_prior"]] = 0.0                        # the old soil's F_max no longer holds
+        self._F_known = None
 
     def _refresh_noise(self) -> None:
         s = self.settings
@@ -484,6 +487,7 @@ class OnlineEstimator:
                     # F_max is determined: hold it there (weakly) while later horizons do not determine it
                     self._P[_P["xF_prior"]] = xF
                     self._P[_P["w_prior"]] = 1.0 / (self.settings.hold_rel * xF) ** 2
+                    self._F_known = F
                     if sK_ / K <= K_REL_STDERR and not K_bound:
                         ident = ("slope", "max_thrust", "shear_modulus")
                         sK = sK_

@@ -54,8 +54,8 @@ class OnlineSettings:
         alone). With k = 1, h = 14 the average run length between false alarms of white
         Gaussian residuals is far beyond 10^8 samples.
     detect_min_load
-        Only samples whose thrust is at least this fraction of the current F_max feed the
-        detector. Below it the thrust-slip curve is its initial slope, where a change of terrain
+        The detector runs once F_max has been determined (since the start or the last change)
+        and takes only samples whose thrust is at least this fraction of that F_max. Below it the thrust-slip curve is its initial slope, where a change of terrain
         hides in the slip noise (measured: no lean at all on the light vehicle at 2 m/s) while
         the slope's error-in-variables bias moves with the driving and would read as a change.
     detect_scale_samples
