@@ -471,10 +471,11 @@ class OnlineEstimator:
             F, K = float(xF * self._F_ref), float(xK * self._K_ref)
             slope = F * l / (2 * K)
             V = self._covariance()
-            ident = ("slope",)
             if V is not None:
                 gs = np.array([l / (2 * K), -F * l / (2 * K * K)])
                 s_slope = float(math.sqrt(max(gs @ V @ gs, 0.0)))
+                if s_slope < GENTLE_REL_STDERR * slope:     # even the slope needs slips above the noise
+                    ident = ("slope",)
                 sF_, sK_ = math.sqrt(V[0, 0]), math.sqrt(V[1, 1])
                 corr = V[0, 1] / (sF_ * sK_)
                 (Flo, Fhi), (Klo, Khi) = self._bounds_scaled

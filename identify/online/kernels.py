@@ -216,8 +216,16 @@ def _step(n: int) -> ca.Function:
     x1_given2 = ca.fmin(ca.fmax(xF + cap(-(g1 + H12 * (x2b - xK)) / a11, xF), lo1), hi1)
     x1b = ca.fmin(ca.fmax(x1, lo1), hi1)
     x2_given1 = ca.fmin(ca.fmax(xK + cap(-(g2 + H12 * (x1b - xF)) / a22, xK), lo2), hi2)
-    xF_new = ca.if_else(ca.logic_and(out2, ca.logic_not(out1)), x1_given2, x1b)
-    xK_new = ca.if_else(ca.logic_and(out1, ca.logic_not(out2)), x2_given1, x2b)
+    xF_2d = ca.if_else(ca.logic_and(out2, ca.logic_not(out1)), x1_given2, x1b)
+    xK_2d = ca.if_else(ca.logic_and(out1, ca.logic_not(out2)), x2_given1, x2b)
+    # a parameter on a bound whose gradient pushes it outward stays there; the other takes its 1-D step
+    tol = 1e-9
+    act1 = ca.logic_or(ca.logic_and(xF <= lo1 * (1 + tol), g1 > 0), ca.logic_and(xF >= hi1 * (1 - tol), g1 < 0))
+    act2 = ca.logic_or(ca.logic_and(xK <= lo2 * (1 + tol), g2 > 0), ca.logic_and(xK >= hi2 * (1 - tol), g2 < 0))
+    xF_1d = ca.fmin(ca.fmax(xF + cap(-g1 / a11, xF), lo1), hi1)
+    xK_1d = ca.fmin(ca.fmax(xK + cap(-g2 / a22, xK), lo2), hi2)
+    xF_new = ca.if_else(act1, xF, ca.if_else(act2, xF_1d, xF_2d))
+    xK_new = ca.if_else(act2, xK, ca.if_else(act1, xK_1d, xK_2d))
     dxe = ca.vertcat(xF_new - xF, xK_new - xK)
     # decrease of the cost predicted by the quadratic model along the step taken
     decrement = -(g1 * dxe[0] + g2 * dxe[1]) - 0.5 * (H11 * dxe[0] ** 2 + 2 * H12 * dxe[0] * dxe[1]
