@@ -172,7 +172,7 @@ def detection(estimates, truth, rate_hz: float) -> dict:
     F_true = truth["max_thrust"]
     within = np.abs(F - F_true) <= 0.05 * F_true
     # first time after the change from which F_max is identified and within 5 % for good (to the end)
-    post = t >= CHANGE_TIME_S
+    post = t > CHANGE_TIME_S + 0.5 / rate_hz        # the first sample on the new soil on
     bad = post & ~within
     settle = float(t[np.nonzero(bad)[0][-1] + 1] - CHANGE_TIME_S) if bad.any() and np.nonzero(bad)[0][-1] + 1 < t.size \
         else (0.0 if not bad.any() else math.inf)

@@ -316,7 +316,7 @@ class OnlineEstimator:
             z = wres / self._scale()
             # a change is judged against a soil whose F_max was determined, on samples loaded against it
             loaded = self._F_known is not None and T >= s.detect_min_load * self._F_known
-            if (loaded and self._converged and self._sums[_S["n_used"]] >= s.detect_min_samples
+            if (loaded and self._started and self._sums[_S["n_used"]] >= s.detect_min_samples
                     and t - self._detect_since >= s.detect_min_s):
                 change = self._detector.update(z / self._robust_scale(), t)
                 if self._detector.statistic == 0.0:     # the residual spread is learnt from quiet samples only
@@ -482,7 +482,10 @@ class OnlineEstimator:
                 tol = 1e-6
                 F_bound = not (Flo + tol < xF < Fhi - tol)
                 K_bound = not (Klo + tol < xK < Khi - tol)
-                if abs(corr) < GENTLE_CORRELATION and sF_ / F < GENTLE_REL_STDERR and not F_bound:
+                used = self._D[:, _R["m"]] > 0
+                peak = float(np.max(self._D[used, _R["T"]] - 2.0 / self._D[used, _R["inv_sc"]], initial=0.0))
+                reached = peak >= self.settings.identify_min_utilisation * F
+                if reached and abs(corr) < GENTLE_CORRELATION and sF_ / F < GENTLE_REL_STDERR and not F_bound:
                     ident = ("slope", "max_thrust")
                     sF = sF_
                     # F_max is determined: hold it there (weakly) while later horizons do not determine it

@@ -51,8 +51,14 @@ class OnlineSettings:
         Two-sided CUSUM of the standardised one-step prediction residuals of new samples: drift
         ``k`` (half the smallest shift it is meant to catch, in standard deviations), alarm
         threshold ``h`` and the clip of each residual (one wild sample cannot raise an alarm
-        alone). With k = 1, h = 14 the average run length between false alarms of white
+        alone). With k = 1, h = 10 the average run length between false alarms of white
         Gaussian residuals is far beyond 10^8 samples.
+    identify_min_utilisation
+        F_max (and K) count as identified only when the horizon's largest thrust (two standard
+        deviations below its value) reaches this fraction of the estimate, besides the batch
+        fit's rules (correlation below 0.99, standard error below 25 %, not on a bound): gentle
+        driving shows only the start of the curve, and a covariance computed where the
+        iterate has drifted along the ridge can look tighter than the data are.
     detect_min_load
         The detector runs once F_max has been determined (since the start or the last change)
         and takes only samples whose thrust is at least this fraction of that F_max. Below it the thrust-slip curve is its initial slope, where a change of terrain
@@ -87,8 +93,9 @@ class OnlineSettings:
     max_step_scaled: float = 0.25
     hold_rel: float = 0.1
     detect_reference: float = 1.0
-    detect_threshold: float = 14.0
+    detect_threshold: float = 10.0
     detect_clip: float = 4.0
+    identify_min_utilisation: float = 0.5
     detect_min_load: float = 0.2
     detect_scale_samples: int = 100
     detect_min_samples: int = 20
@@ -99,7 +106,7 @@ class OnlineSettings:
 
     def __post_init__(self) -> None:
         check_model(self.model)
-        for name in ("window_s", "max_step_ratio", "converged_decrement", "max_step_scaled", "hold_rel", "detect_min_load", "detect_reference",
+        for name in ("window_s", "max_step_ratio", "converged_decrement", "max_step_scaled", "hold_rel", "identify_min_utilisation", "detect_min_load", "detect_reference",
                      "detect_threshold", "detect_clip", "turn_threshold"):
             val = getattr(self, name)
             if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
