@@ -7,6 +7,7 @@ out. :func:`read_drive_stream` therefore keeps empty cells and ``nan``/``inf`` a
 refuses only what no stream can carry: a missing file or column, text that is not a number,
 a row with the wrong number of fields, time stamps that do not increase.
 """
+
 from __future__ import annotations
 
 import csv
@@ -62,8 +63,12 @@ def _cell(text: str, path: str, column: str, row: int) -> float:
     try:
         return float(t)
     except ValueError:
-        raise DataError(f"'{t}' is not a number (an empty cell or nan marks a missing reading)", file=path,
-                        column=column, row=row) from None
+        raise DataError(
+            f"'{t}' is not a number (an empty cell or nan marks a missing reading)",
+            file=path,
+            column=column,
+            row=row,
+        ) from None
 
 
 def read_drive_stream(path: str | os.PathLike) -> DriveStream:
@@ -92,13 +97,19 @@ def read_drive_stream(path: str | os.PathLike) -> DriveStream:
         raise DataError(f"duplicate column(s) {dup}", file=path, column=dup[0])
     two_track = any(c in header for c in TWO_TRACK_COLUMNS)
     if two_track and any(c in header for c in STREAM_COMBINED):
-        raise DataError(f"both combined columns {list(STREAM_COMBINED)} and two-track columns given: a drive log "
-                        "has one or the other", file=path, column=next(c for c in STREAM_COMBINED if c in header))
+        raise DataError(
+            f"both combined columns {list(STREAM_COMBINED)} and two-track columns given: a drive log "
+            "has one or the other",
+            file=path,
+            column=next(c for c in STREAM_COMBINED if c in header),
+        )
     sprocket = TWO_TRACK_COLUMNS if two_track else STREAM_COMBINED
     required = ("time_s", *sprocket, "vehicle_speed_m_s")
     for col in required:
         if col not in header:
-            raise DataError(f"missing required column of a drive log (header has {header})", file=path, column=col)
+            raise DataError(
+                f"missing required column of a drive log (header has {header})", file=path, column=col
+            )
     if len(rows) < 2:
         raise DataError("no data rows after the header", file=path)
     used = [c for c in (*required, *STREAM_OPTIONAL) if c in header]
@@ -114,8 +125,12 @@ def read_drive_stream(path: str | os.PathLike) -> DriveStream:
     bad = np.nonzero(np.diff(t[fin]) <= 0)[0]
     if bad.size:
         k = int(fin[bad[0] + 1])
-        raise DataError(f"time must be strictly increasing ({t[fin[bad[0]]]:.6g} then {t[k]:.6g})", file=path,
-                        column="time_s", row=k + 1)
+        raise DataError(
+            f"time must be strictly increasing ({t[fin[bad[0]]]:.6g} then {t[k]:.6g})",
+            file=path,
+            column="time_s",
+            row=k + 1,
+        )
     for v in data.values():
         v.setflags(write=False)
     return DriveStream(columns=data, two_track=two_track, source=path)

@@ -15,18 +15,31 @@ so the smooth turns do not inflate them) unless given. A turn's edges, where the
 still inside the noise band, are covered by marking :data:`TURN_MARGIN_SAMPLES` samples either
 side of every detected turning sample.
 """
+
 from __future__ import annotations
 
 import math
 
 import numpy as np
 
-__all__ = ["TWO_TRACK_COLUMNS", "YAW_COLUMN", "TURN_THRESHOLD_SIGMA", "TURN_MARGIN_SAMPLES", "NOISE_FLOOR_REL",
-           "robust_noise", "combine_tracks", "turning_mask"]
+__all__ = [
+    "TWO_TRACK_COLUMNS",
+    "YAW_COLUMN",
+    "TURN_THRESHOLD_SIGMA",
+    "TURN_MARGIN_SAMPLES",
+    "NOISE_FLOOR_REL",
+    "robust_noise",
+    "combine_tracks",
+    "turning_mask",
+]
 
 #: The two-track columns of a drive log (instead of ``sprocket_torque_Nm, sprocket_speed_rad_s``).
-TWO_TRACK_COLUMNS = ("sprocket_torque_left_Nm", "sprocket_torque_right_Nm", "sprocket_speed_left_rad_s",
-                     "sprocket_speed_right_rad_s")
+TWO_TRACK_COLUMNS = (
+    "sprocket_torque_left_Nm",
+    "sprocket_torque_right_Nm",
+    "sprocket_speed_left_rad_s",
+    "sprocket_speed_right_rad_s",
+)
 #: Optional yaw-rate column of a two-track log (rad/s).
 YAW_COLUMN = "yaw_rate_rad_s"
 #: A sample turns when the track-speed difference (or the yaw rate) exceeds this many noise
@@ -59,7 +72,9 @@ def robust_noise(x: np.ndarray) -> float:
 
 def combine_tracks(torque_left, torque_right, speed_left, speed_right) -> tuple[np.ndarray, np.ndarray]:
     """The straight-line model's channels: summed sprocket torque (N m) and mean sprocket speed (rad/s)."""
-    tl, tr, sl, sr = (np.asarray(a, dtype=float) for a in (torque_left, torque_right, speed_left, speed_right))
+    tl, tr, sl, sr = (
+        np.asarray(a, dtype=float) for a in (torque_left, torque_right, speed_left, speed_right)
+    )
     return tl + tr, 0.5 * (sl + sr)
 
 
@@ -68,9 +83,16 @@ def _floor(x: np.ndarray) -> float:
     return NOISE_FLOOR_REL * float(np.max(fin)) + 1e-12 if fin.size else 1e-12
 
 
-def turning_mask(speed_left, speed_right, yaw_rate=None, *, sigma_difference: float | None = None,
-                 sigma_yaw: float | None = None, threshold: float = TURN_THRESHOLD_SIGMA,
-                 margin: int = TURN_MARGIN_SAMPLES) -> np.ndarray:
+def turning_mask(
+    speed_left,
+    speed_right,
+    yaw_rate=None,
+    *,
+    sigma_difference: float | None = None,
+    sigma_yaw: float | None = None,
+    threshold: float = TURN_THRESHOLD_SIGMA,
+    margin: int = TURN_MARGIN_SAMPLES,
+) -> np.ndarray:
     """Boolean mask of the samples where the vehicle turns.
 
     Parameters
@@ -95,8 +117,9 @@ def turning_mask(speed_left, speed_right, yaw_rate=None, *, sigma_difference: fl
     """
     d = np.asarray(speed_left, dtype=float) - np.asarray(speed_right, dtype=float)
     if sigma_difference is None:
-        sigma_difference = max(robust_noise(d), _floor(np.concatenate([np.ravel(speed_left),
-                                                                       np.ravel(speed_right)])))
+        sigma_difference = max(
+            robust_noise(d), _floor(np.concatenate([np.ravel(speed_left), np.ravel(speed_right)]))
+        )
     with np.errstate(invalid="ignore"):
         turn = np.abs(d) > threshold * sigma_difference
         if yaw_rate is not None:

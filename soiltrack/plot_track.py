@@ -1,4 +1,5 @@
 """Figure of an on-line estimate over time (``soiltrack track --plot``)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -32,8 +33,15 @@ def plot_track(history, path: str, title: str = "on-line estimate") -> str:
         a.plot(t, y * scale, color="0.6", lw=0.8, label="estimate (not identifiable: grey)")
         ident = np.isfinite(s)
         a.plot(t, np.where(ident, y, np.nan) * scale, color="C0", lw=1.5, label="identified")
-        a.fill_between(t, (y - Z95 * s) * scale, (y + Z95 * s) * scale, where=ident, color="C0", alpha=0.25,
-                       label="95 % band")
+        a.fill_between(
+            t,
+            (y - Z95 * s) * scale,
+            (y + Z95 * s) * scale,
+            where=ident,
+            color="C0",
+            alpha=0.25,
+            label="95 % band",
+        )
         a.set_ylabel(label)
         a.grid(alpha=0.3)
     ax[2].plot(t, used, color="C2", label="samples in the estimate")

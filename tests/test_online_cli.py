@@ -1,4 +1,5 @@
 """``soiltrack track``: JSON lines and summary, skipped samples, two-track logs, bad input exits 2."""
+
 from __future__ import annotations
 
 import json
@@ -10,15 +11,33 @@ from conftest import bench_module
 from soiltrack.cli import main
 from soiltrack.soilmodel import TERRAINS, VEHICLES, simulate_drive_log, write_csv
 
-STEP_KEYS = {"time_s", "max_thrust_N", "max_thrust_stderr_N", "shear_modulus_m", "shear_modulus_stderr_m",
-             "identifiable", "change_detected", "samples_used", "samples_skipped", "p_traversable"}
-SUMMARY_KEYS = {"updates", "update_time_median_s", "update_time_p99_s", "changes", "samples_turning",
-                "samples_skipped"}
+STEP_KEYS = {
+    "time_s",
+    "max_thrust_N",
+    "max_thrust_stderr_N",
+    "shear_modulus_m",
+    "shear_modulus_stderr_m",
+    "identifiable",
+    "change_detected",
+    "samples_used",
+    "samples_skipped",
+    "p_traversable",
+}
+SUMMARY_KEYS = {
+    "updates",
+    "update_time_median_s",
+    "update_time_p99_s",
+    "changes",
+    "samples_turning",
+    "samples_skipped",
+}
 
 
 @pytest.fixture(scope="module")
 def log():
-    return simulate_drive_log(VEHICLES["light"], TERRAINS["lete_sand"], seed=2, duration_s=30, sample_rate_hz=50)
+    return simulate_drive_log(
+        VEHICLES["light"], TERRAINS["lete_sand"], seed=2, duration_s=30, sample_rate_hz=50
+    )
 
 
 def _run(args, capsys):
@@ -28,12 +47,14 @@ def _run(args, capsys):
     return rc, lines, out.err
 
 
+@pytest.mark.slow
 def test_json_lines_and_summary(tmp_path, capsys):
     log, _ = bench_module("bench_online").change_log(50.0, seed=11, duration_s=12.0, change=False)
     path = tmp_path / "log.csv"
     write_csv(log, path)
-    rc, lines, _ = _run(["track", str(path), "--vehicle", "light", "--every", "10", "--grade-deg", "5", "--json"],
-                        capsys)
+    rc, lines, _ = _run(
+        ["track", str(path), "--vehicle", "light", "--every", "10", "--grade-deg", "5", "--json"], capsys
+    )
     assert rc == 0
     steps, summary = lines[:-1], lines[-1]["summary"]
     assert all(STEP_KEYS <= set(s) for s in steps)
@@ -67,14 +88,18 @@ def test_two_track_log_turns_counted(log, tmp_path, capsys):
     cols = bench_module("bench_online").two_track(log, [(12.0, 13.0)], seed=1)
     names = [c for c in cols if not c.startswith("_")]
     path = tmp_path / "tracks.csv"
-    np.savetxt(path, np.column_stack([cols[c] for c in names]), delimiter=",", header=",".join(names), comments="")
+    np.savetxt(
+        path, np.column_stack([cols[c] for c in names]), delimiter=",", header=",".join(names), comments=""
+    )
     rc, lines, _ = _run(["track", str(path), "--vehicle", "light", "--every", "100", "--json"], capsys)
     n_turn = int(np.count_nonzero(cols["_turning"]))
     assert rc == 0
     assert n_turn <= lines[-1]["summary"]["samples_turning"] <= n_turn + 2
 
 
-@pytest.mark.parametrize("case", ["missing_file", "missing_column", "text", "window", "every", "grade", "time"])
+@pytest.mark.parametrize(
+    "case", ["missing_file", "missing_column", "text", "window", "every", "grade", "time"]
+)
 def test_bad_input_exits_2(case, log, tmp_path, capsys):
     path = tmp_path / "log.csv"
     write_csv(log.subset(slice(0, 200)), path)

@@ -477,9 +477,9 @@ def _base_extra(log: DriveLog, prep: PreparedLog, formulation: str, options: dic
             f"a first approximation), {prep.dropped['edge']} at the ends of the log (no sprocket-speed difference)")
     if prep.dropped["turning"]:
         warnings.append(
-            f"{prep.dropped['turning']} of {log.n_samples} samples turning (two-track log: left and right sprocket "
-            f"speeds, or the yaw rate, beyond their noise): left out of the straight-line model with the sample "
-            f"after each turn ({prep.dropped['turning_left_out']} samples in all)")
+            f"{prep.dropped['turning']} of {log.n_samples} samples turning (two-track log: left and right "
+            f"sprocket speeds, or the yaw rate, beyond their noise): left out of the straight-line model with "
+            f"the sample after each turn ({prep.dropped['turning_left_out']} samples in all)")
     if formulation == "equation-error":
         warnings.append("equation-error formulation: slip computed from the noisy measured speeds is used as an "
                         "exact regressor, which biases F_max and K (error-in-variables); use the default "

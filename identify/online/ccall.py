@@ -7,6 +7,7 @@ generated code (``int f(const double** arg, double** res, long long* iw, double*
 is called through ctypes on pointers to them, prepared once. Without a C library (no
 compiler) the same Function is called the ordinary way, with the same numbers.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -31,8 +32,9 @@ class BufferCall:
         ``rows x cols`` is an array of shape ``(cols, rows)``); outputs are written in place.
     """
 
-    def __init__(self, fn: ca.Function, library: str | None, inputs: list[np.ndarray],
-                 outputs: list[np.ndarray]) -> None:
+    def __init__(
+        self, fn: ca.Function, library: str | None, inputs: list[np.ndarray], outputs: list[np.ndarray]
+    ) -> None:
         self.fn, self.inputs, self.outputs = fn, inputs, outputs
         for a in (*inputs, *outputs):
             if a.dtype != np.float64 or not a.flags["C_CONTIGUOUS"]:
@@ -49,8 +51,13 @@ class BufferCall:
             self._w = np.zeros(max(fn.sz_w(), 1), dtype=np.float64)
             self._lib = lib
             self._c = c
-            self._args = (ctypes.addressof(self._arg), ctypes.addressof(self._res), self._iw.ctypes.data,
-                          self._w.ctypes.data, 0)
+            self._args = (
+                ctypes.addressof(self._arg),
+                ctypes.addressof(self._res),
+                self._iw.ctypes.data,
+                self._w.ctypes.data,
+                0,
+            )
         self._shapes = [(fn.size1_in(j), fn.size2_in(j)) for j in range(fn.n_in())]
 
     @property

@@ -10,6 +10,7 @@ CUSUM ``S+ = max(0, S+ + z - k)``, ``S- = max(0, S- - z - k)`` (``z`` clipped to
 change is dated at the last time the alarming side was zero (the maximum-likelihood change
 point of a CUSUM).
 """
+
 from __future__ import annotations
 
 import math

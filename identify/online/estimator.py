@@ -31,6 +31,7 @@ as a two-track log file (:func:`soiltrack.soilmodel.tracks.turning_mask`, noise 
 recent samples) and left out. The acceleration channel is accepted and not used (the nominal
 batch fit does not use it either).
 """
+
 from __future__ import annotations
 
 import math
@@ -95,28 +96,42 @@ class OnlineEstimator:
         Kb = tuple(s.bounds.shear_modulus)
         self._F_ref = 0.5 * (Fb[0] + Fb[1])
         self._K_ref = math.sqrt(Kb[0] * Kb[1])
-        self._bounds_scaled = ((Fb[0] / self._F_ref, Fb[1] / self._F_ref), (Kb[0] / self._K_ref, Kb[1] / self._K_ref))
+        self._bounds_scaled = (
+            (Fb[0] / self._F_ref, Fb[1] / self._F_ref),
+            (Kb[0] / self._K_ref, Kb[1] / self._K_ref),
+        )
         self._P = np.zeros(len(PARAMS))
-        for name, val in (("F_ref", self._F_ref), ("K_ref", self._K_ref), ("l", vehicle.track_length),
-                          ("max_step", s.max_step_scaled), ("xF_lo", self._bounds_scaled[0][0]),
-                          ("xF_hi", self._bounds_scaled[0][1]), ("xK_lo", self._bounds_scaled[1][0]),
-                          ("xK_hi", self._bounds_scaled[1][1]), ("xF", self._bounds_scaled[0][0]), ("xK", 1.0)):
+        for name, val in (
+            ("F_ref", self._F_ref),
+            ("K_ref", self._K_ref),
+            ("l", vehicle.track_length),
+            ("max_step", s.max_step_scaled),
+            ("xF_lo", self._bounds_scaled[0][0]),
+            ("xF_hi", self._bounds_scaled[0][1]),
+            ("xK_lo", self._bounds_scaled[1][0]),
+            ("xK_hi", self._bounds_scaled[1][1]),
+            ("xF", self._bounds_scaled[0][0]),
+            ("xK", 1.0),
+        ):
             self._P[_P[name]] = val
         self._noise = np.zeros(len(NOISE))
-        self._noise[[_N["r"], _N["I"], _N["min_speed"]]] = (vehicle.sprocket_radius, vehicle.sprocket_inertia,
-                                                             s.min_speed)
+        self._noise[[_N["r"], _N["I"], _N["min_speed"]]] = (
+            vehicle.sprocket_radius,
+            vehicle.sprocket_inertia,
+            s.min_speed,
+        )
         self._have_noise = False
         self._since_noise = 0
         self._alloc(INITIAL_CAPACITY)
-        self._hist: deque = deque()          # (t, M, w, v) of valid straight samples, time order
+        self._hist: deque = deque()  # (t, M, w, v) of valid straight samples, time order
         self._dts: deque = deque(maxlen=31)
-        self._prev: tuple[float, float, float, int] | None = None   # t, M, w, slot (-1: not in horizon)
-        self._last_thrust: tuple[float, float] | None = None         # T and sigma_T of the previous sample
+        self._prev: tuple[float, float, float, int] | None = None  # t, M, w, slot (-1: not in horizon)
+        self._last_thrust: tuple[float, float] | None = None  # T and sigma_T of the previous sample
         self._t_reset = -math.inf
         self._detector = CusumDetector(s.detect_reference, s.detect_threshold, s.detect_clip)
         self._detect_since = -math.inf
         self._recent_z: deque = deque(maxlen=s.detect_scale_samples)
-        self._F_known: float | None = None      # last F_max the horizon determined (since the last change)
+        self._F_known: float | None = None  # last F_max the horizon determined (since the last change)
         self._z_scale = 1.0
         self._z_count = 0
         self._turn_d: deque = deque(maxlen=s.turn_history)
@@ -156,11 +171,16 @@ class OnlineEstimator:
         self._T_all = np.zeros(cap)
         self._sT_all = np.zeros(cap)
         lib = k.library
-        self._c_step = BufferCall(k.step, lib, [self._D, self._Z, self._P], [self._x_out, self._Z_out, self._sums])
+        self._c_step = BufferCall(
+            k.step, lib, [self._D, self._Z, self._P], [self._x_out, self._Z_out, self._sums]
+        )
         self._c_predict = BufferCall(k.predict, lib, [self._row, self._P], [self._pred_out])
-        self._c_prepare = BufferCall(k.prepare, lib, [self._raw1, self._noise], [self._row, self._T_out, self._sT_out])
-        self._c_prepare_all = BufferCall(k.prepare_all, lib, [self._RAW, self._noise],
-                                         [self._rows_all, self._T_all, self._sT_all])
+        self._c_prepare = BufferCall(
+            k.prepare, lib, [self._raw1, self._noise], [self._row, self._T_out, self._sT_out]
+        )
+        self._c_prepare_all = BufferCall(
+            k.prepare_all, lib, [self._RAW, self._noise], [self._rows_all, self._T_all, self._sT_all]
+        )
 
     def _grow(self) -> None:
         old = (self._RAW, self._D, self._ok, self._Z, self._tslot, self._sums.copy())
@@ -168,7 +188,7 @@ class OnlineEstimator:
         new = min(2 * cap, self.settings.max_capacity)
         if new == cap:
             return
-        order = np.argsort(old[4])   # oldest first
+        order = np.argsort(old[4])  # oldest first
         self._alloc(new)
         self._RAW[:cap] = old[0][order]
         self._D[:cap] = old[1][order]
@@ -192,8 +212,14 @@ class OnlineEstimator:
         """What evaluates the kernels (C code, or CasADi's virtual machine)."""
         return self._backend
 
-    def update(self, time_s: float, sprocket_torque: float, sprocket_speed: float, vehicle_speed: float,
-               vehicle_accel: float | None = None) -> OnlineEstimate:
+    def update(
+        self,
+        time_s: float,
+        sprocket_torque: float,
+        sprocket_speed: float,
+        vehicle_speed: float,
+        vehicle_accel: float | None = None,
+    ) -> OnlineEstimate:
         """Take one sample and return the estimate.
 
         Parameters
@@ -210,9 +236,17 @@ class OnlineEstimator:
             return self._skip(time_s, "a channel is missing or not finite")
         return self._straight(*(float(x) for x in vals))
 
-    def update_tracks(self, time_s: float, torque_left: float, torque_right: float, speed_left: float,
-                      speed_right: float, vehicle_speed: float, vehicle_accel: float | None = None,
-                      yaw_rate: float | None = None) -> OnlineEstimate:
+    def update_tracks(
+        self,
+        time_s: float,
+        torque_left: float,
+        torque_right: float,
+        speed_left: float,
+        speed_right: float,
+        vehicle_speed: float,
+        vehicle_accel: float | None = None,
+        yaw_rate: float | None = None,
+    ) -> OnlineEstimate:
         """Take one two-track sample and return the estimate.
 
         Per-track torque (N m) and sprocket speed (rad/s), vehicle speed (m/s), optional
@@ -228,7 +262,7 @@ class OnlineEstimator:
         yaw = float(yaw_rate) if yaw_rate is not None and _finite(yaw_rate) else None
         if self._is_turning(float(speed_left), float(speed_right), yaw):
             self.samples_turning += 1
-            if self._prev is not None and self._prev[3] >= 0:   # a turn's edge: the sample before it
+            if self._prev is not None and self._prev[3] >= 0:  # a turn's edge: the sample before it
                 self._tslot[self._prev[3]] = -math.inf
             self._prev = None
             self._last_thrust = None
@@ -264,8 +298,17 @@ class OnlineEstimator:
         sd, sy = self._turn_sigma
         if sd is None:
             return False
-        return bool(turning_mask([wl], [wr], None if (yaw is None or sy is None) else [yaw], sigma_difference=sd,
-                                 sigma_yaw=sy, threshold=s.turn_threshold, margin=0)[0])
+        return bool(
+            turning_mask(
+                [wl],
+                [wr],
+                None if (yaw is None or sy is None) else [yaw],
+                sigma_difference=sd,
+                sigma_yaw=sy,
+                threshold=s.turn_threshold,
+                margin=0,
+            )[0]
+        )
 
     def _straight(self, t: float, M: float, w: float, v: float) -> OnlineEstimate:
         s = self.settings
@@ -278,12 +321,16 @@ class OnlineEstimator:
             self._hist.popleft()
         if prev is None:
             self._prev = (t, M, w, -1)
-            return self._report(t, None, False, None, None, "first sample of a chain (no sprocket-speed difference)")
+            return self._report(
+                t, None, False, None, None, "first sample of a chain (no sprocket-speed difference)"
+            )
         h = t - prev[0]
         if len(self._dts) >= 3 and h > s.max_step_ratio * float(np.median(self._dts)):
             self._prev = (t, M, w, -1)
             self._last_thrust = None
-            return self._report(t, None, False, None, None, f"time step {h:.3g} s too long: a new chain starts")
+            return self._report(
+                t, None, False, None, None, f"time step {h:.3g} s too long: a new chain starts"
+            )
         self._dts.append(h)
         self._refresh_noise()
         raw = self._raw1
@@ -303,10 +350,12 @@ class OnlineEstimator:
                     self._reprepare(j)
         self._last_thrust = (T, sT)
         used = self._row[_R["m"]] > 0
-        if used and not self._started:     # start value of F_max (the batch fit's rule), until converged once
+        if used and not self._started:  # start value of F_max (the batch fit's rule), until converged once
             self._thrust_max = max(self._thrust_max, T)
-            self._P[_P["xF"]] = min(max(self._P[_P["xF"]], START_THRUST_FACTOR * self._thrust_max / self._F_ref),
-                                    self._bounds_scaled[0][1])
+            self._P[_P["xF"]] = min(
+                max(self._P[_P["xF"]], START_THRUST_FACTOR * self._thrust_max / self._F_ref),
+                self._bounds_scaled[0][1],
+            )
         # change detection on the one-step prediction, before the sample enters the horizon
         change = None
         slip0 = None
@@ -316,10 +365,14 @@ class OnlineEstimator:
             z = wres / self._scale()
             # a change is judged against a soil whose F_max was determined, on samples loaded against it
             loaded = self._F_known is not None and T >= s.detect_min_load * self._F_known
-            if (loaded and self._started and self._sums[_S["n_used"]] >= s.detect_min_samples
-                    and t - self._detect_since >= s.detect_min_s):
+            if (
+                loaded
+                and self._started
+                and self._sums[_S["n_used"]] >= s.detect_min_samples
+                and t - self._detect_since >= s.detect_min_s
+            ):
                 change = self._detector.update(z / self._robust_scale(), t)
-                if self._detector.statistic == 0.0:     # the residual spread is learnt from quiet samples only
+                if self._detector.statistic == 0.0:  # the residual spread is learnt from quiet samples only
                     self._recent_z.append(z)
         # the sample enters the ring buffer
         slot = self._slot
@@ -352,15 +405,20 @@ class OnlineEstimator:
 
     def _forget(self, t: float, t_change: float) -> None:
         """A change of terrain at ``t_change``: drop the older samples, restart the detector."""
-        self.changes.append({"time_s": t_change, "detected_at_s": t,
-                             "max_thrust_before_N": float(self._P[_P["xF"]] * self._F_ref),
-                             "shear_modulus_before_m": float(self._P[_P["xK"]] * self._K_ref)})
+        self.changes.append(
+            {
+                "time_s": t_change,
+                "detected_at_s": t,
+                "max_thrust_before_N": float(self._P[_P["xF"]] * self._F_ref),
+                "shear_modulus_before_m": float(self._P[_P["xK"]] * self._K_ref),
+            }
+        )
         self._t_reset = t_change
         self._detector.reset(t)
         self._detect_since = t
         self._converged = False
-        self._since_noise = self.settings.noise_every      # re-estimate the noise on the new soil
-        self._P[_P["w_prior"]] = 0.0                        # the old soil's F_max no longer holds
+        self._since_noise = self.settings.noise_every  # re-estimate the noise on the new soil
+        self._P[_P["w_prior"]] = 0.0  # the old soil's F_max no longer holds
         self._F_known = None
 
     def _refresh_noise(self) -> None:
@@ -371,12 +429,17 @@ class OnlineEstimator:
         arr = np.array(self._hist, dtype=float)
         if arr.shape[0] < 3:
             arr = np.vstack([arr] * 3)
-        nm = (noise_model(arr[:, 1], s.sigma_torque), noise_model(arr[:, 2], s.sigma_sprocket_speed),
-              noise_model(arr[:, 3], s.sigma_vehicle_speed))
-        self._noise[[_N["aM"], _N["bM"], _N["aw"], _N["bw"], _N["av"], _N["bv"]]] = [z for pair in nm for z in pair]
+        nm = (
+            noise_model(arr[:, 1], s.sigma_torque),
+            noise_model(arr[:, 2], s.sigma_sprocket_speed),
+            noise_model(arr[:, 3], s.sigma_vehicle_speed),
+        )
+        self._noise[[_N["aM"], _N["bM"], _N["aw"], _N["bw"], _N["av"], _N["bv"]]] = [
+            z for pair in nm for z in pair
+        ]
         if len(self._hist) >= MIN_NOISE_SAMPLES:
             self._since_noise = 0
-        if self._have_noise:          # the horizon's weights follow the new noise levels
+        if self._have_noise:  # the horizon's weights follow the new noise levels
             self._c_prepare_all()
             self._D[:] = self._rows_all
             self._ok[:] = self._rows_all[:, _R["m"]]
@@ -414,19 +477,19 @@ class OnlineEstimator:
         np.multiply(self._ok, self._tslot >= cutoff, out=self._D[:, _R["m"]])
         steps = 1 if self._converged else s.max_steps_per_update
         P = self._P
-        before: tuple[float, float, float] | None = None   # (xF, xK, cost) before the last step
+        before: tuple[float, float, float] | None = None  # (xF, xK, cost) before the last step
         tr = s.max_step_scaled
         for _ in range(steps + 1):
             P[_P["max_step"]] = tr
             x_old = (P[_P["xF"]], P[_P["xK"]])
             self._c_step()
             if not (np.all(np.isfinite(self._sums)) and np.all(np.isfinite(self._x_out))):
-                self._converged = False   # keep the last good iterate; say so
+                self._converged = False  # keep the last good iterate; say so
                 P[_P["max_step"]] = s.max_step_scaled
                 return
             cost = self._sums[_S["cost"]]
             if before is not None and cost > before[2] * (1 + 1e-9) + 1e-12:
-                P[_P["xF"]], P[_P["xK"]] = before[0], before[1]     # take the step back, shorter
+                P[_P["xF"]], P[_P["xK"]] = before[0], before[1]  # take the step back, shorter
                 tr *= 0.25
                 before = None
                 self._converged = False
@@ -463,7 +526,10 @@ class OnlineEstimator:
     def _report(self, t: float, slip, change: bool, t_change, status, message) -> OnlineEstimate:
         l, W = self.vehicle.track_length, self.vehicle.weight
         n_used = int(round(self._sums[_S["n_used"]]))
+        # identification needs the iteration to have converged once (since the start); before that
+        # the iterate is shown, not identified
         have = self._started or (n_used >= 3 and self._converged)
+        iterate = self._P[_P["xF"]] * self._F_ref if n_used >= 3 else None
         xF, xK = self._P[_P["xF"]], self._P[_P["xK"]]
         F = K = sF = sK = cov = slope = s_slope = None
         ident: tuple[str, ...] = ()
@@ -474,7 +540,7 @@ class OnlineEstimator:
             if V is not None:
                 gs = np.array([l / (2 * K), -F * l / (2 * K * K)])
                 s_slope = float(math.sqrt(max(gs @ V @ gs, 0.0)))
-                if s_slope < GENTLE_REL_STDERR * slope:     # even the slope needs slips above the noise
+                if s_slope < GENTLE_REL_STDERR * slope:  # even the slope needs slips above the noise
                     ident = ("slope",)
                 sF_, sK_ = math.sqrt(V[0, 0]), math.sqrt(V[1, 1])
                 corr = V[0, 1] / (sF_ * sK_)
@@ -496,24 +562,46 @@ class OnlineEstimator:
                         ident = ("slope", "max_thrust", "shear_modulus")
                         sK = sK_
                         cov = V
-        elif have:
+        elif have or iterate is not None:
             F, K = float(xF * self._F_ref), float(xK * self._K_ref)
             slope = F * l / (2 * K)
         if status is None:
-            status = "ok" if (have and self._converged) else ("warming_up" if not have else "not_converged")
+            status = (
+                "ok"
+                if (have and self._converged)
+                else ("not_converged" if (have or iterate is not None) else "warming_up")
+            )
         if not message:
-            message = {"ok": "converged", "warming_up": "too few samples for an estimate yet",
-                       "not_converged": "the Gauss-Newton iteration has not converged yet"}.get(status, status)
+            message = {
+                "ok": "converged",
+                "warming_up": "too few samples for an estimate yet",
+                "not_converged": "the Gauss-Newton iteration has not converged yet",
+            }.get(status, status)
             if change:
                 message = f"change of terrain detected, dated {t_change:.6g} s: older samples forgotten"
         est = OnlineEstimate(
-            time_s=float(t), max_thrust_N=F, max_thrust_stderr_N=sF, shear_modulus_m=K, shear_modulus_stderr_m=sK,
-            covariance=cov, slope_N=slope, slope_stderr_N=s_slope, normal_load_N=float(W), identifiable=ident,
-            slip=None if slip is None else float(slip), change_detected=bool(change),
-            change_time_s=None if t_change is None else float(t_change), samples_used=n_used,
-            samples_skipped=self.samples_skipped, samples_turning=self.samples_turning,
-            samples_seen=self.samples_seen, converged=bool(self._converged and have), status=status,
-            message=message, detector=float(self._detector.statistic))
+            time_s=float(t),
+            max_thrust_N=F,
+            max_thrust_stderr_N=sF,
+            shear_modulus_m=K,
+            shear_modulus_stderr_m=sK,
+            covariance=cov,
+            slope_N=slope,
+            slope_stderr_N=s_slope,
+            normal_load_N=float(W),
+            identifiable=ident,
+            slip=None if slip is None else float(slip),
+            change_detected=bool(change),
+            change_time_s=None if t_change is None else float(t_change),
+            samples_used=n_used,
+            samples_skipped=self.samples_skipped,
+            samples_turning=self.samples_turning,
+            samples_seen=self.samples_seen,
+            converged=bool(self._converged and have),
+            status=status,
+            message=message,
+            detector=float(self._detector.statistic),
+        )
         self._last = est
         return est
 

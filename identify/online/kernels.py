@@ -19,6 +19,7 @@ re-estimated). One Gauss-Newton step on ``(F_max, K, i_1..i_n)`` eliminates the 
 the horizon (:func:`step_kernel`). The same pass gives the sandwich covariance of the profiled
 estimator (exact per-sample Hessian, empirical score variance), as the batch fit computes it.
 """
+
 from __future__ import annotations
 
 import casadi as ca
@@ -28,8 +29,21 @@ from ...soilmodel.traction import slip_factor
 from ..drivelog.prepare import SLIP_BOUNDS
 from .. import jitcache
 
-__all__ = ["RAW", "ROWS", "NOISE", "PARAMS", "SUMS", "Kernels", "kernels", "prepare_kernel", "predict_kernel",
-           "JUMP_SIGMA", "SPEED_FLOOR_SIGMA", "BRAKING_SIGMA", "PREDICT_ITERATIONS"]
+__all__ = [
+    "RAW",
+    "ROWS",
+    "NOISE",
+    "PARAMS",
+    "SUMS",
+    "Kernels",
+    "kernels",
+    "prepare_kernel",
+    "predict_kernel",
+    "JUMP_SIGMA",
+    "SPEED_FLOOR_SIGMA",
+    "BRAKING_SIGMA",
+    "PREDICT_ITERATIONS",
+]
 
 #: A sample's readings: vehicle speed, sprocket speed and the previous one, the previous
 #: torque, the time step, and the thrust jump allowance (N).
@@ -42,11 +56,37 @@ ROWS = ("v", "rw", "T", "inv_sc", "inv_ss", "rho", "m")
 #: Entries of the step's parameter vector: the scaled iterate, its scales, the track length,
 #: the trust region, the scaled bounds, and a prior on F_max (value, weight) that holds F_max
 #: where the horizon does not determine it.
-PARAMS = ("xF", "xK", "F_ref", "K_ref", "l", "max_step", "xF_lo", "xF_hi", "xK_lo", "xK_hi", "xF_prior",
-          "w_prior")
+PARAMS = (
+    "xF",
+    "xK",
+    "F_ref",
+    "K_ref",
+    "l",
+    "max_step",
+    "xF_lo",
+    "xF_hi",
+    "xK_lo",
+    "xK_hi",
+    "xF_prior",
+    "w_prior",
+)
 #: Entries of the step's sum vector (at the point before the step).
-SUMS = ("S11", "S12", "S22", "g1", "g2", "cost", "A11", "A12", "A22", "B11", "B12", "B22", "n_used",
-        "decrement")
+SUMS = (
+    "S11",
+    "S12",
+    "S22",
+    "g1",
+    "g2",
+    "cost",
+    "A11",
+    "A12",
+    "A22",
+    "B11",
+    "B12",
+    "B22",
+    "n_used",
+    "decrement",
+)
 #: Samples with vehicle or track speed below this many noise levels are not used (slip undefined).
 SPEED_FLOOR_SIGMA = 3.0
 #: Samples with thrust below minus this many thrust standard deviations are braking: not used.
@@ -70,14 +110,14 @@ def _prepare(raw, noise):
     swp = ca.sqrt(N["aw"] ** 2 + (N["bw"] * wp) ** 2)
     sv = ca.sqrt(N["av"] ** 2 + (N["bv"] * v) ** 2)
     T = (Mp - I * (w - wp) / h) / r
-    sT2_raw = (sM ** 2 + (I / h) ** 2 * (sw ** 2 + swp ** 2)) / r ** 2
+    sT2_raw = (sM**2 + (I / h) ** 2 * (sw**2 + swp**2)) / r**2
     sT2 = sT2_raw + (0.5 * jump) ** 2
     floor = ca.fmax(ca.fmax(N["min_speed"], _MIN_FLOOR), SPEED_FLOOR_SIGMA * ca.fmax(sv, r * sw))
     ok = ca.logic_and(ca.logic_and(v >= floor, r * w >= floor), T >= -BRAKING_SIGMA * ca.sqrt(sT2))
     rw = r * w
     one_minus_i = ca.fmin(ca.fmax(v / ca.fmax(rw, _MIN_FLOOR), 1.0 - SLIP_BOUNDS[1]), 1.0 - SLIP_BOUNDS[0])
-    ss2 = sv ** 2 + (r * one_minus_i * sw) ** 2
-    cov = I * one_minus_i * sw ** 2 / h
+    ss2 = sv**2 + (r * one_minus_i * sw) ** 2
+    cov = I * one_minus_i * sw**2 / h
     rho = cov / ss2
     sc = ca.sqrt(ca.fmax(sT2 - rho * cov, 0.0) + 1e-300)
     row = ca.vertcat(v, rw, T, 1.0 / sc, 1.0 / ca.sqrt(ss2), rho, ca.if_else(ok, 1.0, 0.0))
@@ -157,19 +197,32 @@ def _sample_sums():
     gT = ca.gradient(e_T, z)
     hT = ca.hessian(e_T, z)[0]
     a, bT = gT[:2], gT[2]
-    bw = row[1] * row[4]                    # d e_w / d i
-    Hii_gn = bw ** 2 + bT ** 2
-    S = (bw ** 2 / Hii_gn) * (a @ a.T)      # Gauss-Newton Schur complement of the slip
-    g = a * e_T                             # profiled gradient (the slip's own gradient is ~0)
-    H = gT @ gT.T + e_T * hT                # exact Hessian of (e_w^2 + e_T^2) / 2 in (xF, xK, i)
-    H[2, 2] = H[2, 2] + bw ** 2
+    bw = row[1] * row[4]  # d e_w / d i
+    Hii_gn = bw**2 + bT**2
+    S = (bw**2 / Hii_gn) * (a @ a.T)  # Gauss-Newton Schur complement of the slip
+    g = a * e_T  # profiled gradient (the slip's own gradient is ~0)
+    H = gT @ gT.T + e_T * hT  # exact Hessian of (e_w^2 + e_T^2) / 2 in (xF, xK, i)
+    H[2, 2] = H[2, 2] + bw**2
     free = ca.if_else(ca.logic_and(i_s > lo + 1e-6, i_s < hi - 1e-6), 1.0, 0.0)
     Hi = ca.if_else(H[2, 2] > 0, H[2, 2], Hii_gn)
     Hc = H[:2, :2] - free * (H[:2, 2] @ H[2, :2]) / Hi
-    per = m * ca.vertcat(S[0, 0], S[0, 1], S[1, 1], g[0], g[1], 0.5 * (e_w ** 2 + e_T ** 2), Hc[0, 0], Hc[0, 1],
-                         Hc[1, 1], g[0] ** 2, g[0] * g[1], g[1] ** 2, 1.0)
+    per = m * ca.vertcat(
+        S[0, 0],
+        S[0, 1],
+        S[1, 1],
+        g[0],
+        g[1],
+        0.5 * (e_w**2 + e_T**2),
+        Hc[0, 0],
+        Hc[0, 1],
+        Hc[1, 1],
+        g[0] ** 2,
+        g[0] * g[1],
+        g[1] ** 2,
+        1.0,
+    )
     dx = ca.SX.sym("dx", 2)
-    i_next = ca.fmin(ca.fmax(i_s - bT * ca.dot(a, dx) / Hii_gn, lo), hi)   # first-order follow of the step
+    i_next = ca.fmin(ca.fmax(i_s - bT * ca.dot(a, dx) / Hii_gn, lo), hi)  # first-order follow of the step
     core = ca.Function("online_sample_core", [row, i_s, xs, p, dx], [per, i_next])
     x = ca.vertcat(P["xF"], P["xK"])
     i_opt = _slip_gn(row, i0, P["xF"], P["xK"], P["F_ref"], P["K_ref"], P["l"], SLIP_ITERATIONS)
@@ -177,7 +230,9 @@ def _sample_sums():
     per_s, _ = core(row, i_opt, x, p, ca.DM.zeros(2))
     sums = ca.Function("online_sample_sums", [row, i0, p], [per_s, i_opt], {"cse": True})
     _, i_next_s = core(row, i0, x, p, dx)
-    slip = ca.Function("online_sample_slip", [row, i0, p, dx], [ca.if_else(m > 0, i_next_s, i0)], {"cse": True})
+    slip = ca.Function(
+        "online_sample_slip", [row, i0, p, dx], [ca.if_else(m > 0, i_next_s, i0)], {"cse": True}
+    )
     return sums, slip
 
 
@@ -203,7 +258,7 @@ def _step(n: int) -> ca.Function:
     st2 = -(a11 * g2 - H12 * g1) / det
     ms = Q["max_step"]
 
-    def cap(step, x):   # trust region: no parameter changes by more than max_step of its value per step
+    def cap(step, x):  # trust region: no parameter changes by more than max_step of its value per step
         return ca.fmin(ca.fmax(step, -ms * x), ms * x)
 
     lo1, hi1, lo2, hi2 = Q["xF_lo"], Q["xF_hi"], Q["xK_lo"], Q["xK_hi"]
@@ -220,19 +275,29 @@ def _step(n: int) -> ca.Function:
     xK_2d = ca.if_else(ca.logic_and(out1, ca.logic_not(out2)), x2_given1, x2b)
     # a parameter on a bound whose gradient pushes it outward stays there; the other takes its 1-D step
     tol = 1e-9
-    act1 = ca.logic_or(ca.logic_and(xF <= lo1 * (1 + tol), g1 > 0), ca.logic_and(xF >= hi1 * (1 - tol), g1 < 0))
-    act2 = ca.logic_or(ca.logic_and(xK <= lo2 * (1 + tol), g2 > 0), ca.logic_and(xK >= hi2 * (1 - tol), g2 < 0))
+    act1 = ca.logic_or(
+        ca.logic_and(xF <= lo1 * (1 + tol), g1 > 0), ca.logic_and(xF >= hi1 * (1 - tol), g1 < 0)
+    )
+    act2 = ca.logic_or(
+        ca.logic_and(xK <= lo2 * (1 + tol), g2 > 0), ca.logic_and(xK >= hi2 * (1 - tol), g2 < 0)
+    )
     xF_1d = ca.fmin(ca.fmax(xF + cap(-g1 / a11, xF), lo1), hi1)
     xK_1d = ca.fmin(ca.fmax(xK + cap(-g2 / a22, xK), lo2), hi2)
     xF_new = ca.if_else(act1, xF, ca.if_else(act2, xF_1d, xF_2d))
     xK_new = ca.if_else(act2, xK, ca.if_else(act1, xK_1d, xK_2d))
     dxe = ca.vertcat(xF_new - xF, xK_new - xK)
     # decrease of the cost predicted by the quadratic model along the step taken
-    decrement = -(g1 * dxe[0] + g2 * dxe[1]) - 0.5 * (H11 * dxe[0] ** 2 + 2 * H12 * dxe[0] * dxe[1]
-                                                     + H22 * dxe[1] ** 2)
+    decrement = -(g1 * dxe[0] + g2 * dxe[1]) - 0.5 * (
+        H11 * dxe[0] ** 2 + 2 * H12 * dxe[0] * dxe[1] + H22 * dxe[1] ** 2
+    )
     Znew = slip_f.map("online_slip_map", "serial", n, [2, 3], [])(D, Zopt, P, dxe)
-    return ca.Function(f"online_step_{n}", [D, Z, P], [ca.vertcat(xF_new, xK_new), Znew, ca.vertcat(tot, decrement)],
-                       ["D", "Z", "P"], ["x", "Z_new", "sums"])
+    return ca.Function(
+        f"online_step_{n}",
+        [D, Z, P],
+        [ca.vertcat(xF_new, xK_new), Znew, ca.vertcat(tot, decrement)],
+        ["D", "Z", "P"],
+        ["x", "Z_new", "sums"],
+    )
 
 
 @locked_cache(maxsize=1)
@@ -254,8 +319,10 @@ def predict_kernel() -> ca.Function:
     s = ca.fmin(ca.fmax(1 - row[0] / ca.fmax(row[1], _MIN_FLOOR), lo), hi)
     s = _slip_gn(row, s, P["xF"], P["xK"], P["F_ref"], P["K_ref"], P["l"], PREDICT_ITERATIONS)
     e_w, e_T = res(s)
-    wres = ca.sign(e_T) * ca.sqrt(e_w ** 2 + e_T ** 2)
-    return ca.Function("online_predict", [row, p], [ca.vertcat(s, wres)], ["row", "P"], ["out"], {"cse": True})
+    wres = ca.sign(e_T) * ca.sqrt(e_w**2 + e_T**2)
+    return ca.Function(
+        "online_predict", [row, p], [ca.vertcat(s, wres)], ["row", "P"], ["out"], {"cse": True}
+    )
 
 
 class Kernels:

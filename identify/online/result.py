@@ -1,4 +1,5 @@
 """What one update of the on-line estimator gives: :class:`OnlineEstimate` (frozen, SI)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass

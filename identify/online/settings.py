@@ -1,4 +1,5 @@
 """Typed settings of the on-line estimator (:class:`OnlineSettings`): every decision threshold named."""
+
 from __future__ import annotations
 
 import math
@@ -61,8 +62,9 @@ class OnlineSettings:
         iterate has drifted along the ridge can look tighter than the data are.
     detect_min_load
         The detector runs once F_max has been determined (since the start or the last change)
-        and takes only samples whose thrust is at least this fraction of that F_max. Below it the thrust-slip curve is its initial slope, where a change of terrain
-        hides in the slip noise (measured: no lean at all on the light vehicle at 2 m/s) while
+        and takes only samples whose thrust is at least this fraction of that F_max. Below it
+        the thrust-slip curve is its initial slope, where a change of terrain hides in the slip
+        noise (measured: no lean at all on the light vehicle at 2 m/s) while
         the slope's error-in-variables bias moves with the driving and would read as a change.
     detect_scale_samples
         Recent prediction residuals whose robust spread (median absolute deviation, at least
@@ -106,19 +108,52 @@ class OnlineSettings:
 
     def __post_init__(self) -> None:
         check_model(self.model)
-        for name in ("window_s", "max_step_ratio", "converged_decrement", "max_step_scaled", "hold_rel", "identify_min_utilisation", "detect_min_load", "detect_reference",
-                     "detect_threshold", "detect_clip", "turn_threshold"):
+        for name in (
+            "window_s",
+            "max_step_ratio",
+            "converged_decrement",
+            "max_step_scaled",
+            "hold_rel",
+            "identify_min_utilisation",
+            "detect_min_load",
+            "detect_reference",
+            "detect_threshold",
+            "detect_clip",
+            "turn_threshold",
+        ):
             val = getattr(self, name)
-            if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
+            if (
+                isinstance(val, bool)
+                or not isinstance(val, (int, float))
+                or not math.isfinite(val)
+                or val <= 0
+            ):
                 raise DataError(f"setting {name} must be a finite number > 0, got {val!r}")
-        for name in ("noise_every", "max_steps_per_update", "detect_scale_samples", "detect_min_samples", "turn_history", "max_capacity"):
+        for name in (
+            "noise_every",
+            "max_steps_per_update",
+            "detect_scale_samples",
+            "detect_min_samples",
+            "turn_history",
+            "max_capacity",
+        ):
             val = getattr(self, name)
             if isinstance(val, bool) or not isinstance(val, int) or val < 1:
                 raise DataError(f"setting {name} must be an integer >= 1, got {val!r}")
-        for name in ("sigma_torque", "sigma_sprocket_speed", "sigma_vehicle_speed", "min_speed", "detect_min_s"):
+        for name in (
+            "sigma_torque",
+            "sigma_sprocket_speed",
+            "sigma_vehicle_speed",
+            "min_speed",
+            "detect_min_s",
+        ):
             val = getattr(self, name)
-            if val is not None and (isinstance(val, bool) or not isinstance(val, (int, float))
-                                    or not math.isfinite(val) or val < 0):
+            if val is not None and (
+                isinstance(val, bool)
+                or not isinstance(val, (int, float))
+                or not math.isfinite(val)
+                or val < 0
+            ):
                 raise DataError(f"setting {name} must be a finite number >= 0, got {val!r}")
         if self.max_step_ratio <= 1:
             raise DataError(f"setting max_step_ratio must be > 1, got {self.max_step_ratio!r}")
