@@ -64,8 +64,10 @@ def test_json_lines_and_summary(tmp_path, capsys):
     assert summary["samples_skipped"] == 0 and summary["changes"] == []
     p = [s["p_traversable"] for s in steps if s["p_traversable"] is not None]
     assert p and all(0.0 <= x <= 1.0 for x in p)
-    # p_traversable only where F_max and K are both identified
-    assert all((s["p_traversable"] is None) == (s["shear_modulus_stderr_m"] is None) for s in steps)
+    # p_traversable only where F_max and K are both identified and the iteration has converged
+    assert all(
+        (s["p_traversable"] is None) == (s["shear_modulus_stderr_m"] is None or not s["converged"]) for s in steps
+    )
 
 
 def test_missing_readings_are_skipped_and_counted(log, tmp_path, capsys):

@@ -125,6 +125,8 @@ class OnlineEstimator:
         self._alloc(INITIAL_CAPACITY)
         self._hist: deque = deque()  # (t, M, w, v) of valid straight samples, time order
         self._dts: deque = deque(maxlen=31)
+        self._dt_med: float | None = None
+        self._dt_count = 0
         self._prev: tuple[float, float, float, int] | None = None  # t, M, w, slot (-1: not in horizon)
         self._last_thrust: tuple[float, float] | None = None  # T and sigma_T of the previous sample
         self._t_reset = -math.inf
@@ -132,6 +134,8 @@ class OnlineEstimator:
         self._detect_since = -math.inf
         self._recent_z: deque = deque(maxlen=s.detect_scale_samples)
         self._F_known: float | None = None  # last F_max the horizon determined (since the last change)
+        self._known_since = math.inf  # when it was first determined
+        self._last_time = -math.inf
         self._z_scale = 1.0
         self._z_count = 0
         self._turn_d: deque = deque(maxlen=s.turn_history)
@@ -325,7 +329,7 @@ class OnlineEstimator:
                 t, None, False, None, None, "first sample of a chain (no sprocket-speed difference)"
             )
         h = t - prev[0]
-        if len(self._dts) >= 3 and h > s.max_step_ratio * float(np.median(self._dts)):
+        if len(self._dts) >= 3 and h > s.max_step_ratio * self._median_dt():
             self._prev = (t, M, w, -1)
             self._last_thrust = None
             return self._report(
@@ -364,7 +368,11 @@ class OnlineEstimator:
             slip0, wres = float(self._pred_out[0]), float(self._pred_out[1])
             z = wres / self._scale()
             # a change is judged against a soil whose F_max was determined, on samples loaded against it
-            loaded = self._F_known is not None and T >= s.detect_min_load * self._F_known
+            loaded = (
+                self._F_known is not None
+                and T >= s.detect_min_load * self._F_known
+                and t - self._known_since >= s.detect_settle_s
+            )
             if (
                 loaded
                 and self._started
@@ -391,6 +399,13 @@ class OnlineEstimator:
             cutoff = max(t - s.window_s, self._t_reset)
         self._iterate(cutoff)
         return self._report(t, slip0, change is not None, change, None, "")
+
+    def _median_dt(self) -> float:
+        """Running median of the recent time steps (recomputed every few samples)."""
+        self._dt_count += 1
+        if self._dt_med is None or self._dt_count % _TURN_REESTIMATE_EARLY == 0:
+            self._dt_med = float(np.median(np.fromiter(self._dts, float)))
+        return self._dt_med
 
     def _reprepare(self, j: int) -> None:
         """Recompute slot ``j``'s data column from its readings (after its jump allowance grew)."""
@@ -420,6 +435,7 @@ class OnlineEstimator:
         self._since_noise = self.settings.noise_every  # re-estimate the noise on the new soil
         self._P[_P["w_prior"]] = 0.0  # the old soil's F_max no longer holds
         self._F_known = None
+        self._known_since = math.inf
 
     def _refresh_noise(self) -> None:
         s = self.settings
@@ -483,7 +499,7 @@ class OnlineEstimator:
             P[_P["max_step"]] = tr
             x_old = (P[_P["xF"]], P[_P["xK"]])
             self._c_step()
-            if not (np.all(np.isfinite(self._sums)) and np.all(np.isfinite(self._x_out))):
+            if not math.isfinite(float(self._sums.sum()) + float(self._x_out.sum())):
                 self._converged = False  # keep the last good iterate; say so
                 P[_P["max_step"]] = s.max_step_scaled
                 return
@@ -524,6 +540,7 @@ class OnlineEstimator:
         return V
 
     def _report(self, t: float, slip, change: bool, t_change, status, message) -> OnlineEstimate:
+        self._last_time = t
         l, W = self.vehicle.track_length, self.vehicle.weight
         n_used = int(round(self._sums[_S["n_used"]]))
         # identification needs the iteration to have converged once (since the start); before that
@@ -557,6 +574,8 @@ class OnlineEstimator:
                     # F_max is determined: hold it there (weakly) while later horizons do not determine it
                     self._P[_P["xF_prior"]] = xF
                     self._P[_P["w_prior"]] = 1.0 / (self.settings.hold_rel * xF) ** 2
+                    if self._F_known is None:
+                        self._known_since = self._last_time
                     self._F_known = F
                     if sK_ / K <= K_REL_STDERR and not K_bound:
                         ident = ("slope", "max_thrust", "shear_modulus")

@@ -142,7 +142,7 @@ def prepare_kernel() -> ca.Function:
 
 
 #: Gauss-Newton iterations on each latent slip (at the current F_max, K) within one step.
-SLIP_ITERATIONS = 1
+SLIP_ITERATIONS = 2
 
 
 #: Step fractions tried by each safeguarded Gauss-Newton step on a latent slip (the cheapest

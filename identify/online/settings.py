@@ -66,6 +66,10 @@ class OnlineSettings:
         the thrust-slip curve is its initial slope, where a change of terrain hides in the slip
         noise (measured: no lean at all on the light vehicle at 2 m/s) while
         the slope's error-in-variables bias moves with the driving and would read as a change.
+    detect_settle_s
+        ... and only this long after F_max was first determined (since the start or the last
+        change): the first pull's own samples refine the first estimate, and would otherwise
+        read as a change.
     detect_scale_samples
         Recent prediction residuals whose robust spread (median absolute deviation, at least
         1) scales the detector's input.
@@ -99,6 +103,7 @@ class OnlineSettings:
     detect_clip: float = 4.0
     identify_min_utilisation: float = 0.5
     detect_min_load: float = 0.2
+    detect_settle_s: float = 2.0
     detect_scale_samples: int = 100
     detect_min_samples: int = 20
     detect_min_s: float = 0.5
@@ -146,6 +151,7 @@ class OnlineSettings:
             "sigma_vehicle_speed",
             "min_speed",
             "detect_min_s",
+            "detect_settle_s",
         ):
             val = getattr(self, name)
             if val is not None and (
