@@ -66,7 +66,8 @@ def test_json_lines_and_summary(tmp_path, capsys):
     assert p and all(0.0 <= x <= 1.0 for x in p)
     # p_traversable only where F_max and K are both identified and the iteration has converged
     assert all(
-        (s["p_traversable"] is None) == (s["shear_modulus_stderr_m"] is None or not s["converged"]) for s in steps
+        (s["p_traversable"] is None) == (s["shear_modulus_stderr_m"] is None or not s["converged"])
+        for s in steps
     )
 
 
