@@ -17,7 +17,9 @@ from .sweep.problem import FitFailed, check_common, make_problem
 from .estimates.result import FitResult
 from .sweep.seed_methods import fit_least_squares, fit_newton
 from .settings import SETTING_NAMES, FitSettings
+from .consistency import check_consistency, with_consistency
 from .sweep.resistance import RESISTANCE_MODES, assumed_resistance, fit_resistance
+from .sweep.model import SweepResiduals
 from .sweep.rig import load_separation, rig_extra, std_weights
 from .sweep.slip_noise import check_slip_noise, fit_with_slip_noise
 from .drivelog.torque_hold import fit_both_holds
@@ -79,8 +81,9 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
         with effects, else ``"linear"``) says which 95 % intervals come from the profile
         likelihood (:mod:`soiltrack.identify.estimates.joint_likelihood`; ``auto``: the weakly identifiable
         and at-bound parameters). Either one other than off/linear makes the fit an IPOPT joint
-        fit. ``resistance`` (``"assumed"``, default, or ``"fit"``) says whether a drawbar-pull
-        sweep's resistance coefficient mu_r is the vehicle's or fitted with the soil
+        fit. ``resistance`` (``"assumed"``, default, ``"fit"`` or ``"fit-sinkage"``) says whether a
+        drawbar-pull sweep's resistance is the vehicle's ``mu_r W``, ``mu_r W`` with mu_r fitted with
+        the soil, or ``k_z z W`` with k_z fitted from the data's sinkage
         (:mod:`soiltrack.identify.sweep.resistance`). A ``tractive_force_std_N`` /
         ``drawbar_pull_std_N`` column of the data gives relative weights when ``sigma`` is not
         given (:mod:`soiltrack.identify.sweep.rig`). ``n_grid``, ``ipopt_options`` and
@@ -97,7 +100,27 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
         Wrong types, too few samples for the free parameters (naming file and column).
     FitFailed
         With ``strict=True`` when the fit did not succeed.
+
+    Notes
+    -----
+    Every result carries the data-consistency checks of :mod:`soiltrack.identify.consistency`
+    (``extra["consistency"]``): a mislabelled file (one sprocket's torque, time in ms, speed in
+    km/h or rpm, loads in kN, repeated rows) is said in the warnings, and the result fails
+    (``success`` False) where the answer cannot stand.
     """
+    res = _fit_unchecked(data, vehicle, model, method, bounds, x0, engine, effects, fixed, settings, options)
+    if isinstance(data, (SlipData, DriveLog)):
+        res = with_consistency(res, check_consistency(data, vehicle))
+    if strict and not res.success:
+        raise FitFailed(res)
+    return res
+
+
+def _fit_unchecked(data, vehicle: Vehicle, model: str, method: str, bounds: SoilBounds, x0,
+                   engine: str | None, effects, fixed, settings: FitSettings | None,
+                   options: dict) -> FitResult:
+    """``fit`` without the consistency checks (never strict: ``fit`` raises after the checks)."""
+    strict = False
     if isinstance(data, DriveLog):
         check_common(vehicle, model, method, bounds)
         for opt in ("slip_noise", "intervals"):
@@ -127,12 +150,14 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
     resistance = options.pop("resistance", None)
     if resistance not in (None, *RESISTANCE_MODES):
         raise DataError(f"resistance must be one of {RESISTANCE_MODES}, got {resistance!r}")
-    if resistance == "fit":
-        def fit_at(v: Vehicle, final: bool) -> FitResult:
-            return fit(data, v, model, method, bounds, x0, False, engine, effects, fixed, settings=settings,
+    if resistance in ("fit", "fit-sinkage"):
+        def fit_at(d: SlipData, v: Vehicle, final: bool) -> FitResult:
+            return fit(d, v, model, method, bounds, x0, False, engine, effects, fixed, settings=settings,
                        sigma=sigma, sigma_known=sigma_known, slip_noise=slip_noise,
                        intervals=intervals if final else "linear", **options)
-        res = fit_resistance(data, vehicle, fit_at)
+        rig_speed = options.get("rig_speed")
+        res = fit_resistance(data, vehicle, fit_at, resistance,
+                             SweepResiduals() if rig_speed is None else SweepResiduals(rig_speed))
         if strict and not res.success:
             raise FitFailed(res)
         return res

@@ -2,10 +2,16 @@
 from __future__ import annotations
 
 import argparse
+import secrets
 import sys
 
-from .cliutil import EXIT_OK, MAX_SAMPLES, floats_arg, output_path, soil_arg, vehicle_arg
+from .argcheck import check_seed
+from .cliutil import EXIT_OK, MAX_SAMPLES, floats_arg, output_path, running_gear_arg, soil_arg
 from .soilmodel import TERRAINS, DataError
+from .soilmodel.rigid_wheel import RigidWheel
+
+#: Bits of a seed drawn when ``--seed`` is not given (said on stderr, so that the run can be repeated).
+SEED_BITS = 32
 
 
 # --- simulate ---------------------------------------------------------------------------------
@@ -28,6 +34,7 @@ def _check_options(a: argparse.Namespace) -> None:
         if duration > 0 and rate > 0 and duration * rate > MAX_SAMPLES:
             raise DataError(f"--duration {duration:g} s x --rate {rate:g} Hz = {duration * rate:.3g} samples; at most "
                             f"{MAX_SAMPLES:,} (e.g. one hour at 500 Hz)")
+    check_seed(a.seed)
     if a.output != "-":
         output_path(a.output, "-o/--output")
     if a.plot:
@@ -39,8 +46,20 @@ def _cmd_simulate(a: argparse.Namespace) -> int:
     from .soilmodel.effects import parse_effects
     from .soilmodel.simulation import simulate
 
+    gear = running_gear_arg(a.vehicle)
+    if a.seed is None:  # drawn here, for a vehicle's and a wheel's run alike, and said so it can be repeated
+        a.seed = secrets.randbits(SEED_BITS)
+        print(f"seed {a.seed} (not given: drawn; repeat this run with --seed {a.seed})", file=sys.stderr)
+    if isinstance(gear, RigidWheel):
+        from .wheel_cli import simulate_wheel_command
+
+        if a.output != "-":
+            output_path(a.output, "-o/--output")
+        return simulate_wheel_command(a, gear, soil_arg(a.terrain, a.soil))
+    if a.bekker:
+        raise DataError("--bekker applies to a rigid wheel's sweep (--vehicle WHEEL.json) only")
     _check_options(a)
-    vehicle, soil = vehicle_arg(a.vehicle), soil_arg(a.terrain, a.soil)
+    vehicle, soil = gear, soil_arg(a.terrain, a.soil)
     effects = parse_effects(a.effect or [])
     kwargs = dict(kind=a.kind, effects=effects, seed=a.seed, noise=a.noise, model=a.model)
     if a.kind == "drive":
@@ -80,7 +99,9 @@ def add_parser(sub) -> None:
         epilog="example: soiltrack simulate --kind sweep --vehicle light --soil 1.7,29,0.01 --loads 300,450 "
                "--seed 1 -o sweep.csv")
     s.add_argument("--vehicle", default="heavy",
-                   help="preset name (heavy, light) or vehicle JSON file (default: heavy)")
+                   help="preset name (heavy, light), vehicle JSON file, or a rigid wheel's JSON "
+                        "({\"running_gear\": \"rigid_wheel\", ...}: a rig sweep with --kind sweep --loads) "
+                        "(default: heavy)")
     g = s.add_mutually_exclusive_group()
     g.add_argument("--terrain", help=f"terrain preset: {', '.join(TERRAINS)} (default: lete_sand)")
     g.add_argument("--soil", metavar="C_KPA,PHI_DEG,K_M",
@@ -95,12 +116,17 @@ def add_parser(sub) -> None:
                         "(default: full)")
     s.add_argument("--noise", choices=("default", "none"), default="default",
                    help="sensor noise: realistic default levels, or none (default: default)")
-    s.add_argument("--seed", type=int, default=None, help="random seed for the noise (default: fresh each run)")
+    s.add_argument("--seed", type=int, default=None,
+                   help="random seed for the noise (default: drawn afresh and said on stderr, so that the "
+                        "run can be repeated)")
     s.add_argument("--duration", type=float, default=None, help="drive log length in s (default: 60)")
     s.add_argument("--rate", type=float, default=None, help="drive log sample rate in Hz (default: 50)")
     s.add_argument("--slips", help="sweep: comma-separated slips in [0, 1) (default: 22 slips from 0.01 to 0.7)")
     s.add_argument("--loads", help="sweep: comma-separated normal loads in N; several make c and phi separable "
                                    "(default: the vehicle's weight)")
+    s.add_argument("--bekker", metavar="KC,KPHI,N",
+                   help="rigid wheel: the soil's Bekker k_c (kN/m^(n+1)), k_phi (kN/m^(n+2)) and n, with --soil "
+                        "(a --terrain preset carries its own)")
     s.add_argument("-o", "--output", default="-", help="output CSV path, '-' for stdout (default: -)")
     s.add_argument("--plot", metavar="PNG", help="also save a figure of the data (.png, .pdf, .svg)")
     s.set_defaults(func=_cmd_simulate)

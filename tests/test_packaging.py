@@ -35,3 +35,21 @@ def test_subpackages_import_under_soiltrack():
                                       "lete_sand", "snow"}
     assert set(soilmodel.VEHICLES) == {"heavy", "light"}
     assert soiltrack.fit is identify.fit and soiltrack.fit_many is identify.fit_many
+
+
+def test_every_subpackage_folder_is_installed():
+    """A folder with an ``__init__.py`` that pyproject.toml does not list is missing from ``pip install .``."""
+    import tomllib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    cfg = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]
+    listed = set(cfg["packages"])
+    top = {"soiltrack": "soiltrack", "soilmodel": "soiltrack.soilmodel", "identify": "soiltrack.identify",
+           "planning": "soiltrack.planning"}
+    found = set()
+    for folder, pkg in top.items():
+        for init in (root / folder).rglob("__init__.py"):
+            rel = init.parent.relative_to(root / folder).parts
+            found.add(".".join((pkg, *rel)))
+    assert found - listed == set()

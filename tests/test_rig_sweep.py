@@ -162,3 +162,73 @@ def test_a_measured_load_that_barely_spreads_says_the_separation_rests_on_it():
     sep = r.extra["load_separation"]
     assert sep["fragile"] is True and sep["spread"] < 0.5
     assert r.replaced_intervals and {"cohesion", "friction_angle"} <= set(r.replaced_intervals)
+
+
+def test_resistance_proportional_to_the_sinkage_is_fitted_and_predicts_pulls_with_their_sinkage():
+    k_z = 3.0  # 1/m: R / W = 0.045 to 0.075 over 15-25 mm
+    i, DP, _, W = rig_rows(9, levels=(0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 0.9), noise=0.03)
+    z = 0.015 + 0.01 * i + np.random.default_rng(9).normal(0.0, 0.0005, i.size)
+    DP = DP - k_z * z * W
+    data = SlipData(slip=i, drawbar_pull=DP, normal_load=W, sinkage=z)
+    r = fit(data, RIG, resistance="fit-sinkage")
+    res = r.extra["resistance"]
+    lo, hi = res["ci95"]
+    assert res["mode"] == "fit-sinkage" and lo <= k_z <= hi
+    assert r.measured == "drawbar_pull"
+    assert np.allclose(r.predict(data), data.values + r.residuals, rtol=0, atol=1e-9)
+    with pytest.raises(DataError):  # a pull without its sinkage cannot be predicted
+        r.predict(SlipData(slip=i, drawbar_pull=DP, normal_load=W))
+    with pytest.raises(DataError):
+        fit(SlipData(slip=i, drawbar_pull=DP, normal_load=W), RIG, resistance="fit-sinkage")
+
+
+def test_cli_resistance_option_exit_codes(tmp_path, capsys):
+    i, DP, std, W = rig_rows(10, mu=0.05)
+    pull = write(tmp_path / "dp.csv", {"slip": i, "drawbar_pull_N": DP, "normal_load_N": W})
+    force = write(tmp_path / "tf.csv", {"slip": i, "tractive_force_N": DP, "normal_load_N": W})
+    rig = tmp_path / "rig.json"
+    rig.write_text(json.dumps({"mass_kg": 2.5, "track_length_m": L, "track_width_m": B,
+                               "sprocket_radius_m": 0.058, "sprocket_inertia_kg_m2": 0.001,
+                               "rolling_resistance": 0.0}))
+    assert main(["fit", pull, "--vehicle", str(rig), "--resistance", "fit", "--json"]) == 0
+    js = json.loads(capsys.readouterr().out)
+    assert js["extra"]["resistance"]["mode"] == "fit"
+    assert main(["fit", force, "--vehicle", str(rig), "--resistance", "fit"]) == 2
+    assert main(["fit", pull, "--vehicle", str(rig), "--resistance", "fit-sinkage"]) == 2  # no sinkage_m
+
+
+def test_the_figure_of_a_measured_load_is_written_and_its_curve_stays_below_full_slip(tmp_path):
+    from soiltrack.plots import CURVE_SLIP_END, plot_fit, slip_grid_end
+
+    i, DP, _, W = rig_rows(11)
+    data = SlipData(slip=i, drawbar_pull=DP, normal_load=W)
+    path = plot_fit(data, RIG, fit(data, RIG), str(tmp_path / "f.png"))
+    assert (tmp_path / "f.png").stat().st_size > 10_000 and path.endswith("f.png")
+    assert slip_grid_end(i) == CURVE_SLIP_END < 1.0
+
+
+def test_diagnose_refuses_skid_and_slip_angle_rows_too(tmp_path):
+    path = _rows_with_skid_and_angles(tmp_path)
+    assert main(["diagnose", path, "--vehicle", "light"]) == 2
+    assert main(["diagnose", path, "--vehicle", "light", "--driving-only"]) == 2  # the slip-angle rows remain
+
+
+def test_std_columns_are_checked(tmp_path):
+    i, DP, std, W = rig_rows(12)
+    std[[2, 5]] = 0.0
+    with pytest.raises(DataError) as e:
+        read_csv(write(tmp_path / "z.csv", {"slip": i, "drawbar_pull_N": DP, "drawbar_pull_std_N": std}))
+    assert (e.value.column, e.value.rows) == ("drawbar_pull_std_N", (3, 6))
+    with pytest.raises(DataError) as e:
+        read_csv(write(tmp_path / "o.csv", {"slip": i, "tractive_force_N": DP, "drawbar_pull_std_N": std + 1}))
+    assert e.value.column == "drawbar_pull_std_N"
+
+
+def test_fit_many_takes_the_rig_path_for_rig_sweeps():
+    from soiltrack.identify import fit_many
+
+    i, DP, std, W = rig_rows(13)
+    data = SlipData(slip=i, drawbar_pull=DP, normal_load=W, force_std=std)
+    one, = fit_many([data], RIG)
+    assert np.allclose(one.theta, fit(data, RIG).theta, rtol=1e-6, atol=1e-9)
+    assert one.extra["weights_from"] == "drawbar_pull_std_N" and "lack_of_fit" in one.extra

@@ -1,0 +1,67 @@
+"""Figure of a rigid-wheel fit: drawbar pull against slip (coloured by load) and the load balance."""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["plot_wheel_fit", "CURVE_POINTS"]
+
+#: Points of the model curve.
+CURVE_POINTS = 60
+#: Smallest sinkage of the model curve, m (the trend line may cross zero when extrapolated).
+MIN_CURVE_SINKAGE_M = 1e-4
+
+
+def plot_wheel_fit(data, result, path: str) -> str:
+    """Save the figure of ``result`` (a wheel fit) on ``data`` (a wheel sweep) to ``path``; returns the path.
+
+    Left: measured drawbar pull (colour: normal load, with a colour bar), the model's value for
+    each row (open circles) and its curve at the median load (sinkage: the measured sinkage's
+    straight-line trend with slip, or solved from the load). Right: the wheel's vertical force
+    from the fitted stresses at each row's sinkage against the measured load (sinkage measured).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .soilmodel.wheel_sweep import WheelSweep
+
+    two = data.has_sinkage
+    fig, axes = plt.subplots(1, 2 if two else 1, figsize=(11 if two else 6.5, 4.5), squeeze=False)
+    ax = axes[0, 0]
+    W = data.normal_load
+    sc = ax.scatter(data.slip, data.drawbar_pull, c=W, cmap="viridis", s=30, zorder=3, label="measured")
+    fig.colorbar(sc, ax=ax, label="normal load (N)")
+    pred = result.predict(data)
+    ax.scatter(data.slip, pred, facecolors="none", edgecolors="k", s=45, zorder=4, label="model at each row")
+    i = np.linspace(max(0.0, data.slip.min() - 0.05), min(0.98, data.slip.max() + 0.05), CURVE_POINTS)
+    Wm = float(np.median(W))
+    if two:
+        a, b0 = np.polyfit(data.slip, data.sinkage, 1)
+        z = np.clip(b0 + a * i, MIN_CURVE_SINKAGE_M, None)
+        how = "sinkage trend of the data"
+    else:
+        z = None
+        how = "sinkage from the load"
+    curve = WheelSweep(slip=i, drawbar_pull=np.zeros_like(i), normal_load=np.full_like(i, Wm), sinkage=z)
+    ax.plot(i, result.predict(curve), "k-", lw=1.2, label=f"model at W = {Wm:.4g} N ({how})")
+    ax.axhline(0.0, color="0.6", lw=0.8)
+    ax.set_xlabel("slip i")
+    ax.set_ylabel("drawbar pull (N)")
+    status = "converged" if result.success else "FAILED"
+    ax.set_title(f"rigid wheel fit ({status}), rmse {result.rmse_drawbar_pull:.3g} N", fontsize=10)
+    ax.legend(fontsize=8, loc="lower right")
+    if two:
+        ax2 = axes[0, 1]
+        model_load = result.predict_load(data)
+        ax2.scatter(data.slip, W, c="C0", s=30, label="measured load")
+        ax2.scatter(data.slip, model_load, facecolors="none", edgecolors="C3", s=45,
+                    label="vertical force of the fitted stresses\nat the measured sinkage")
+        ax2.set_xlabel("slip i")
+        ax2.set_ylabel("normal load (N)")
+        ax2.set_title(f"load balance, rmse {result.rmse_load:.3g} N", fontsize=10)
+        ax2.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
