@@ -496,7 +496,7 @@ def read_csv(path: str | os.PathLike, *, driving_only: bool = False, slip_angle:
     elif "slip" in header or "tractive_force_N" in header:
         kind, required, optional = "slip", SLIP_COLUMNS, SLIP_OPTIONAL
     elif any(c in header for c in TWO_TRACK_COLUMNS):
-        return _read_two_track(path, header, rows[1:])
+        return _read_two_track(path, header, max_rows)
     elif any(c in header for c in DRIVE_COLUMNS):
         kind, required, optional = "drive", DRIVE_COLUMNS, DRIVE_OPTIONAL
     else:
@@ -530,7 +530,7 @@ def read_csv(path: str | os.PathLike, *, driving_only: bool = False, slip_angle:
                     vehicle_accel=data.get("vehicle_accel_m_s2"), source=path)
 
 
-def _read_two_track(path: str, header: list[str], body: list[list[str]]) -> DriveLog:
+def _read_two_track(path: str, header: list[str], max_rows: int | None) -> DriveLog:
     """A two-track drive log: summed torque, mean sprocket speed, turning samples marked."""
     combined = [c for c in ("sprocket_torque_Nm", "sprocket_speed_rad_s") if c in header]
     if combined:
@@ -543,14 +543,7 @@ def _read_two_track(path: str, header: list[str], body: list[list[str]]) -> Driv
             raise DataError(f"missing required column of a two-track drive log (header has {header})", file=path,
                             column=col)
     used = [c for c in (*required, *DRIVE_OPTIONAL, YAW_COLUMN) if c in header]
-    if not body:
-        raise DataError("no data rows after the header", file=path)
-    data: dict[str, list[float]] = {c: [] for c in used}
-    for r, cells in enumerate(body, start=1):
-        if len(cells) != len(header):
-            raise DataError(f"expected {len(header)} fields, found {len(cells)}", file=path, row=r)
-        for c in used:
-            data[c].append(_parse_float(cells[header.index(c)], path, c, r))
+    data = read_columns(path, header, used, max_rows)  # streamed, row limit, every bad row counted
     torque, speed = combine_tracks(*(data[c] for c in TWO_TRACK_COLUMNS))
     turning = turning_mask(data["sprocket_speed_left_rad_s"], data["sprocket_speed_right_rad_s"],
                            data.get(YAW_COLUMN))
