@@ -13,6 +13,7 @@ import os
 from dataclasses import dataclass
 
 from .errors import DataError
+from .jsonread import load_json_file, loads_json
 from .vehicle import Vehicle
 
 __all__ = ["RigidWheel", "RUNNING_GEARS", "read_running_gear", "WHEEL_LIMITS"]
@@ -106,20 +107,9 @@ def read_running_gear(path_or_text: str | os.PathLike) -> Vehicle | RigidWheel:
     """
     text = os.fspath(path_or_text)
     if text.lstrip().startswith("{"):
-        source, raw = "<json text>", text
-    else:
-        source = text
-        try:
-            with open(text, encoding="utf-8-sig") as fh:
-                raw = fh.read()
-        except OSError as e:
-            raise DataError(f"cannot read vehicle file: {e.strerror}", file=source) from None
-        except UnicodeDecodeError:
-            raise DataError("not a UTF-8 text file (save the vehicle JSON as UTF-8)", file=source) from None
-    try:
-        obj = json.loads(raw)
-    except json.JSONDecodeError as e:
-        raise DataError(f"invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}", file=source) from None
+        source, obj = "<json text>", loads_json(text, "<json text>", "vehicle JSON")
+    else:  # encoding, depth and syntax checked (soilmodel.jsonread)
+        source, obj = text, load_json_file(text, "vehicle JSON")
     if not isinstance(obj, dict):
         raise DataError("vehicle JSON must be an object", file=source)
     gear = obj.get("running_gear", "track")

@@ -81,8 +81,7 @@ def _cmd_soil_test(a: argparse.Namespace, data) -> int:
 
 def _cmd_fit(a: argparse.Namespace) -> int:
     from .identify import fit
-    from .identify.soiltests.dispatch import is_soil_test
-    from .soilmodel import DriveLog, read_csv
+    from .soilmodel import DriveLog, PlateTest, ShearTest, read_csv
 
     gear = running_gear_arg(a.vehicle) if a.vehicle is not None else None
     if isinstance(gear, RigidWheel):
@@ -95,7 +94,7 @@ def _cmd_fit(a: argparse.Namespace) -> int:
         output_path(a.plot, "--plot", figure=True)
     bounds = bounds_arg(a.bounds)
     data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle)
-    if is_soil_test(data):
+    if isinstance(data, (ShearTest, PlateTest)):
         return _cmd_soil_test(a, data)
     if gear is None:
         raise DataError("--vehicle is required for slip sweeps and drive logs (a vehicle JSON file or a preset "

@@ -1,6 +1,8 @@
 """Figures for the command-line tool and the examples (matplotlib, Agg backend, PNG)."""
 from __future__ import annotations
 
+from typing import Any
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -96,8 +98,7 @@ def _curve_band(grid, result, vehicle, W: float) -> np.ndarray | None:
     from .soilmodel import Soil, tractive_force_sensitivities
 
     cbs = {cb.name: cb for cb in result.combinations}
-    fm = next((cb for name, cb in cbs.items() if name.startswith("F_max") and
-               abs(float(name.split("=")[1].rstrip("N")) - W) <= 1e-6 * W), None)
+    fm = cbs.get(f"F_max@W={W:.6g}N")  # the name as the result writes it (6 significant digits)
     kk = cbs.get("K")
     corr = (result.identifiability.get("fmax_K_correlation") or {}).get(f"{W:.6g}")
     q = result.quantile
@@ -164,6 +165,7 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
         grid = np.linspace(0.0, slip_grid_end(data.slip), 300)
         res = result.residuals_measured_minus_model
         levels = np.unique(loads)
+        curve_loads: list[tuple[Any, float, str | None]]  # colour, load, legend label
         if levels.size <= MAX_LOAD_LEVELS:
             shown = [(f"C{k}", W, sel) for k, (W, sel) in enumerate((W, loads == W) for W in levels)]
             curve_loads = [(f"C{k}", W, f"fitted ({result.model} model)") for k, W in enumerate(levels)]

@@ -273,8 +273,10 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
             raise DataError("predict is for slip fits; use residuals_on for drive logs")
         m = measured or self.measured or "tractive_force"
         W = None if normal_load is None else np.broadcast_to(np.asarray(normal_load, dtype=float), s.shape)
+        zeros = np.zeros(s.shape)
         probe = SlipData(slip=np.clip(s, 0.0, np.nextafter(1.0, 0.0)), normal_load=W, source="prediction grid",
-                         **{m: np.zeros(s.shape)})
+                         tractive_force=zeros if m == "tractive_force" else None,
+                         drawbar_pull=zeros if m == "drawbar_pull" else None)
         return -next(iter(self.residuals_on(probe).values()))
 
     def residuals_on(self, data) -> dict[str, np.ndarray]:
