@@ -200,8 +200,10 @@ def sinkage_from_load_function(r: float, b: float, h: float = 0.0,
     z = r * (1 - ca.cos(th1))
     _, wl, _ = wheel_expr(i, z, c, phi, K, k_c, k_phi, n, r, b, h, settings, slip_sinkage=s)
     g = ca.Function("g", [u, p], [ca.log(wl) - ca.log(W)])
+    # no eval warnings: a trial point of a fit where the wheel cannot carry the load gives NaN, which
+    # IPOPT's line search handles by a shorter step
     rf = ca.rootfinder("wheel_sinkage", "newton", g, {"abstol": 1e-12, "max_iter": 60,
-                                                       "error_on_fail": False})
+                                                       "error_on_fail": False, "show_eval_warnings": False})
     ins = [ca.MX.sym(nm) for nm in names]
     i_, W_, c_, phi_, K_, kc_, kphi_, n_, s_ = ins
     k_eff = (kc_ / b + kphi_) / (1 + s_ * i_)

@@ -77,7 +77,7 @@ def test_sinkage_solved_from_the_load_with_a_known_bekker_soil():
         assert e.identifiable and e.ci95[0] <= soil[k] * fac <= e.ci95[1], key
     z_true = np.array([oracle.sinkage(i, W, *soil, R, B) for i, W in zip(d.slip, d.normal_load)])
     assert np.allclose(r.predict_sinkage(d), z_true, rtol=5e-3)
-    assert r.rmse_load is None and r.parameters["bekker_n"].fixed
+    assert r.rmse_sinkage is None and r.parameters["bekker_n"].fixed
 
 
 def test_bound_pinned_values_are_flagged():

@@ -2,13 +2,14 @@
 
 Hypotheses: ``none`` (the nominal Wong-Reece wheel), each wheel effect (``slip_sinkage``: at a
 given sinkage a slipping wheel's soil carries less, so the measured sinkage grows with slip at a
-constant load; its signature is a load-balance residual that rises with slip), and
+constant load; its signature is a sinkage residual - measured minus the sinkage that carries the
+load - that rises with slip), and
 ``unexplained`` (the drawbar pull misses the repeats' scatter and no effect helps).
 
 Every hypothesis is fitted to all rows (its Akaike weight, from the concentrated likelihood) and
 checked on held-out data: each slip level in turn is left out, the fit made on the others, and
-the left-out rows predicted (drawbar pull and load balance, each channel scaled by the nominal
-fit's noise level). An effect is the verdict when its likelihood-ratio test against the nominal
+the left-out rows predicted (drawbar pull and sinkage, each channel scaled by the nominal fit's
+noise level). An effect is the verdict when its likelihood-ratio test against the nominal
 has ``p < ALPHA`` and it predicts the held-out levels better; ``unexplained`` when the nominal's
 drawbar pull fails the pure-error lack-of-fit test (``p < ALPHA``) and no effect is the verdict.
 """
@@ -26,6 +27,7 @@ from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.wheel_sweep import WheelSweep
 from ..estimates.distributions import chi2_sf, t_cdf
 from .fitting import WHEEL_EFFECTS, WheelFitOptions, fit_wheel
+from .problem import channel_floors
 from .result import WheelFitResult, slip_levels, wheel_rows
 
 __all__ = ["WheelDiagnosis", "diagnose_wheel", "ALPHA"]
@@ -78,7 +80,7 @@ class WheelDiagnosis:
             lines.append(f"{r['effect']:<16}{r['weight']:>8.2f}{r['holdout_rmse_before']:>17.3g}{after:>8}{sh:>8}")
         sig = self.signature
         if sig.get("correlation") is not None:
-            lines.append(f"slip-sinkage signature: the load-balance residual against slip r = {sig['correlation']:+.2f} "
+            lines.append(f"slip-sinkage signature: the sinkage residual against slip r = {sig['correlation']:+.2f} "
                          f"(p = {sig['p_value']:.2g}); measured sinkage against slip r = {sig['sinkage_slip_r']:+.2f}")
         lf = self.nominal.lack_of_fit
         if lf.get("testable"):
@@ -88,11 +90,12 @@ class WheelDiagnosis:
 
 
 def _objective(r: WheelFitResult, data: WheelSweep) -> float:
-    """Concentrated negative log-likelihood of a fit (per-channel unknown noise)."""
+    """Concentrated negative log-likelihood of a fit (per-channel unknown noise), the fit's own objective."""
     n = data.n_samples
-    f = n / 2 * math.log(max(r.rmse_drawbar_pull, 1e-300) ** 2)
-    if r.rmse_load is not None:
-        f += n / 2 * math.log(max(r.rmse_load, 1e-300) ** 2)
+    f_dp, f_z = channel_floors(float(np.mean(data.normal_load)))
+    f = n / 2 * math.log(r.rmse_drawbar_pull ** 2 + f_dp ** 2)
+    if r.rmse_sinkage is not None:
+        f += n / 2 * math.log(r.rmse_sinkage ** 2 + f_z ** 2)
     return f
 
 
@@ -106,10 +109,10 @@ def _holdout(data: WheelSweep, wheel: RigidWheel, opts: WheelFitOptions,
         train, test = data.subset(lev != g), data.subset(lev == g)
         r = fit_wheel(train, wheel, opts)
         ok &= r.success
-        dp, wl, _ = wheel_rows(wheel, opts.settings, r.theta, test)
+        dp, _, _, z_w = wheel_rows(wheel, opts.settings, r.theta, test)
         s = float((((dp - test.drawbar_pull) / scale[0]) ** 2).sum())
         if scale[1] is not None:
-            s += float((((wl - test.normal_load) / scale[1]) ** 2).sum())
+            s += float((((z_w - test.sinkage) / scale[1]) ** 2).sum())
         sq[int(g)] = s
     n_res = data.n_samples * (2 if scale[1] is not None else 1)
     total = sum(sq.values())
@@ -128,8 +131,9 @@ def diagnose_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions
                         file=data.source, column="slip")
     nominal = fit_wheel(data, wheel, replace(options, effects=()))
     notes = []
-    scale = (max(nominal.rmse_drawbar_pull, 1e-12),
-             None if nominal.rmse_load is None else max(nominal.rmse_load, 1e-12))
+    f_dp, f_z = channel_floors(float(np.mean(data.normal_load)))
+    scale = (math.hypot(nominal.rmse_drawbar_pull, f_dp),
+             None if nominal.rmse_sinkage is None else math.hypot(nominal.rmse_sinkage, f_z))
     before, shares, ok_nom = _holdout(data, wheel, replace(options, effects=()), scale)
     hyps = [{"effect": "none", "fit": nominal, "holdout": before, "k": sum(not e.fixed for e in
                                                                           nominal.parameters.values())}]
@@ -160,10 +164,10 @@ def diagnose_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions
     unexplained = verdict == "none" and lf.get("testable") and lf["p_value"] < ALPHA
     if unexplained:
         verdict = "unexplained"
-    # the slip-sinkage signature: the load-balance residual's trend with slip (nominal fit)
+    # the slip-sinkage signature: the sinkage residual's trend with slip (nominal fit)
     sig: dict[str, Any] = {"correlation": None, "p_value": None, "sinkage_slip_r": None}
     if data.has_sinkage and data.n_samples > 3:
-        res = nominal.predict_load(data) - data.normal_load
+        res = data.sinkage - nominal.predict_sinkage(data)
         rho = float(np.corrcoef(res, data.slip)[0, 1])
         dof = data.n_samples - 2
         t = rho * math.sqrt(dof / max(1 - rho ** 2, 1e-300))
@@ -186,7 +190,7 @@ def diagnose_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions
     for g, share in sorted(shares.items(), key=lambda kv: -kv[1]):
         s = data.slip[lev == g]
         loc.append({"dimension": "slip", "range": [float(s.min()), float(s.max())], "channel": "drawbar_pull_N"
-                    + (" and normal_load_N" if data.has_sinkage else ""), "share": share,
+                    + (" and sinkage_m" if data.has_sinkage else ""), "share": share,
                     "significant": bool(share > LOCALISATION_SHARE / len(shares))})
     after = next((h["fit"] for h in hyps if h["effect"] == verdict), None)
     shrink = next((r["shrink"] for r in ranking if r["effect"] == verdict), None) if verdict in WHEEL_EFFECTS \

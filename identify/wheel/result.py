@@ -1,6 +1,7 @@
 """The result of a rigid-wheel fit: estimates, what the data identify, lack of fit, report and JSON.
 
-Statistics (as for the track, :mod:`soiltrack.identify.core_stats`): each channel's residuals are
+Channels: the drawbar pull (N) and, with a measured sinkage, the sinkage (m) against the one at
+which the fitted stresses carry the measured load (:mod:`.problem`). Statistics (as for the track, :mod:`soiltrack.identify.core_stats`): each channel's residuals are
 weighted by its own noise level (the root mean square of its residuals at the optimum); the
 column-scaled Jacobian of the weighted residuals gives the rank (singular values below
 ``RANK_TOL`` are structural zeros), the null space (directions the data do not see), the
@@ -24,7 +25,7 @@ from ...soilmodel.wheel import entry_angle
 from ...soilmodel.wheel_sweep import WheelSweep
 from ..estimates.least_squares import RANK_TOL, WEAK_CORRELATION, core_stats_one, quantile
 from ..estimates.distributions import f_sf
-from .problem import NOISE_FLOOR_REL, WHEEL_PARAMETERS, bekker_modulus, residual_function
+from .problem import WHEEL_PARAMETERS, bekker_modulus, channel_floors, residual_function
 
 __all__ = ["WheelEstimate", "WheelCombination", "WheelFitResult", "build_wheel_result", "NULL_TOL",
            "BOUND_REL_TOL", "wheel_rows", "pure_error", "slip_levels", "conditions", "LOAD_REPEAT_TOL", "SLIP_LEVEL_TOL", "LOAD_SLIP_CORRELATION_WARN", "LOAD_SPREAD_MIN"]
@@ -123,7 +124,7 @@ class WheelFitResult:
     null_space: tuple[dict[str, float], ...]
     noise_sd: dict[str, float | None]
     rmse_drawbar_pull: float
-    rmse_load: float | None
+    rmse_sinkage: float | None
     lack_of_fit: dict[str, Any]
     n_samples: int
     sinkage_measured: bool
@@ -144,10 +145,10 @@ class WheelFitResult:
         return self._rows(data)[1]
 
     def predict_sinkage(self, data: WheelSweep) -> np.ndarray:
-        """The sinkage (m) used for each row: the measured one, or the one solved from the load."""
-        return self._rows(data)[2]
+        """The sinkage (m) at which the fitted stresses carry each row's load (the sinkage channel's model)."""
+        return self._rows(data)[3]
 
-    def _rows(self, data: WheelSweep) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _rows(self, data: WheelSweep) -> tuple[np.ndarray, ...]:
         return wheel_rows(self.wheel, self.settings, self.theta, data)
 
     def to_dict(self) -> dict[str, Any]:
@@ -157,7 +158,7 @@ class WheelFitResult:
             "status": "converged" if self.success else "failed", "success": self.success, "message": self.message,
             "n_samples": self.n_samples,
             "sinkage": "measured" if self.sinkage_measured else "solved from the load (Bekker stresses)",
-            "rmse_N": self.rmse_drawbar_pull, "load_balance_rmse_N": _num(self.rmse_load),
+            "rmse_N": self.rmse_drawbar_pull, "sinkage_rmse_m": _num(self.rmse_sinkage),
             "noise_sd": {k: _num(v) for k, v in self.noise_sd.items()},
             "solve_time_s": self.solve_time_s,
             "parameters": {k: v.to_dict() for k, v in self.parameters.items()},
@@ -186,7 +187,8 @@ class WheelFitResult:
                  f"status: {'converged' if self.success else 'FAILED'} ({self.status}; {self.starts_converged} of "
                  f"{self.starts} starts converged){'' if self.success else ': ' + self.message}",
                  f"drawbar pull rmse {self.rmse_drawbar_pull:.4g} N"
-                 + (f", load balance rmse {self.rmse_load:.4g} N" if self.rmse_load is not None else ""), ""]
+                 + (f", sinkage rmse {1e3 * self.rmse_sinkage:.3g} mm (against the sinkage that carries the load)"
+                    if self.rmse_sinkage is not None else ""), ""]
         lines.append(f"{'parameter':<30}{'value':>12}{'95 % interval':>28}  identifiable")
         for key, e in self.parameters.items():
             name = next(n for n, v in _EDGE.items() if v[0] == key)
@@ -218,14 +220,14 @@ class WheelFitResult:
         return "\n".join(lines)
 
 
-def wheel_rows(wheel: RigidWheel, settings, theta: np.ndarray,
-               data: WheelSweep) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Modelled drawbar pull (N), load (N) and the sinkage used (m) per row at parameters ``theta`` (SI)."""
+def wheel_rows(wheel: RigidWheel, settings, theta: np.ndarray, data: WheelSweep) -> tuple[np.ndarray, ...]:
+    """Per row at parameters ``theta`` (SI): drawbar pull (N), vertical force (N), the sinkage used (m)
+    and the sinkage that carries the row's load (m)."""
     fn = residual_function(wheel, settings, data.has_sinkage).map(data.n_samples)
     z = data.sinkage if data.sinkage is not None else np.zeros(data.n_samples)
     th = np.tile(np.asarray(theta, dtype=float).reshape(-1, 1), (1, data.n_samples))
-    dp, wl, zz = fn(data.slip.reshape(1, -1), z.reshape(1, -1), data.normal_load.reshape(1, -1), th)
-    return tuple(np.asarray(v, dtype=float).ravel() for v in (dp, wl, zz))
+    out = fn(data.slip.reshape(1, -1), z.reshape(1, -1), data.normal_load.reshape(1, -1), th)
+    return tuple(np.asarray(v, dtype=float).ravel() for v in out)
 
 
 def _split(x: np.ndarray, gap) -> np.ndarray:
@@ -290,7 +292,7 @@ def _lack_of_fit(data: WheelSweep, r_dp: np.ndarray, rank_dp: int) -> dict[str, 
 
 
 def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np.ndarray, theta: np.ndarray,
-                       residual_dp: np.ndarray, residual_w: np.ndarray, jac_dp: np.ndarray, jac_w: np.ndarray,
+                       residual_dp: np.ndarray, residual_z: np.ndarray, jac_dp: np.ndarray, jac_z: np.ndarray,
                        converged: bool, status: str, iterations: int, starts: int, starts_converged: int,
                        solve_time_s: float) -> WheelFitResult:
     """Assemble a :class:`WheelFitResult` from the optimum's residuals and Jacobians (SI)."""
@@ -299,16 +301,16 @@ def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np
     lo, hi = np.array(options.bounds.lower), np.array(options.bounds.upper)
     theta = np.clip(theta, lo, hi)  # IPOPT may end a hair outside a bound (its bound relaxation)
     s_dp = math.sqrt(float(residual_dp @ residual_dp) / n)
-    s_w = math.sqrt(float(residual_w @ residual_w) / n) if sink else None
-    # the weights the objective's optimum used: 1 / (SSR_k / n + floor^2) per channel
-    floor2 = (NOISE_FLOOR_REL * float(np.mean(data.normal_load))) ** 2
-    s_dp_eff = math.sqrt(s_dp ** 2 + floor2)
+    s_z = math.sqrt(float(residual_z @ residual_z) / n) if sink else None
+    # the weights the objective's optimum used: 1 / (SSR_k / n + floor_k^2) per channel
+    f_dp, f_z = channel_floors(float(np.mean(data.normal_load)))
+    s_dp_eff = math.sqrt(s_dp ** 2 + f_dp ** 2)
     rw = residual_dp / s_dp_eff
     J = jac_dp / s_dp_eff
     if sink:
-        s_w_eff = math.sqrt(s_w ** 2 + floor2)
-        rw = np.concatenate([rw, residual_w / s_w_eff])
-        J = np.vstack([J, jac_w / s_w_eff])
+        s_z_eff = math.sqrt(s_z ** 2 + f_z ** 2)
+        rw = np.concatenate([rw, residual_z / s_z_eff])
+        J = np.vstack([J, jac_z / s_z_eff])
     finite = bool(np.all(np.isfinite(J)) and np.all(np.isfinite(rw)) and np.all(np.isfinite(theta)))
     names = [WHEEL_PARAMETERS[k] for k in range(len(WHEEL_PARAMETERS)) if free[k]]
     st = core_stats_one(np.where(np.isfinite(J), J, 0.0), np.where(np.isfinite(rw), rw, 0.0), False)
@@ -431,7 +433,7 @@ def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np
         wheel=wheel, success=ok, status=status, message=message, theta=np.array(theta, dtype=float),
         parameters=params, combinations=tuple(combos), statements=tuple(statements), warnings=tuple(warnings),
         rank=rank, scaled_singular_values=tuple(float(s) for s in Srel), null_space=tuple(null_dirs),
-        noise_sd={"drawbar_pull_N": s_dp, "normal_load_N": s_w}, rmse_drawbar_pull=s_dp, rmse_load=s_w,
+        noise_sd={"drawbar_pull_N": s_dp, "sinkage_m": s_z}, rmse_drawbar_pull=s_dp, rmse_sinkage=s_z,
         lack_of_fit=lof, n_samples=n, sinkage_measured=sink, settings=options.settings, iterations=iterations,
         starts=starts, starts_converged=starts_converged, solve_time_s=solve_time_s, dof=dof,
         residuals=np.asarray(residual_dp, dtype=float))
