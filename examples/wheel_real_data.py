@@ -123,7 +123,7 @@ def main(argv=None) -> dict:
     print(f"{'repeat scatter (pure-error sd, ' + str(dof_pe) + ' dof)':<48} {scatter:6.3f} N")
     print("\nWhat 12 trials at 4 slip levels support: the drawbar pull has 4 distinct slip levels, so at most "
           "about 4 directions of the soil;\nthe rest rests on the loads' and sinkages' small spread and on the "
-          "load balance at the measured sinkage.")
+          "sinkage channel (the sinkage that carries the load against the measured one).")
 
     # 4. figure
     try:

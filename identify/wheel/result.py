@@ -374,7 +374,7 @@ def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np
     if free[0] or free[1]:
         tau = theta[0] + p_bar * math.tan(theta[1])
         se, est, weak = combo(np.array([1.0, p_bar / math.cos(theta[1]) ** 2, 0, 0, 0, 0, 0]))
-        ci = (tau - q * se, tau + q * se) if se is not None and q is not None else (None, None)
+        ci = (max(tau - q * se, 0.0), tau + q * se) if se is not None and q is not None else (None, None)
         combos.append(WheelCombination("c + p tan(phi)", "kPa", tau / 1e3, None if se is None else se / 1e3,
                                        tuple(None if v is None else v / 1e3 for v in ci), est, weak,
                                        f"shear strength at the mean contact pressure p = {p_bar / 1e3:.3g} kPa "
@@ -382,7 +382,7 @@ def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np
     if free[3] and free[4]:
         kval = bekker_modulus(theta[3], theta[4], wheel.width)
         se, est, weak = combo(np.array([0, 0, 0, 1.0 / wheel.width, 1.0, 0, 0]))
-        ci = (kval - q * se, kval + q * se) if se is not None and q is not None else (None, None)
+        ci = (max(kval - q * se, 0.0), kval + q * se) if se is not None and q is not None else (None, None)
         combos.append(WheelCombination("k_c / b + k_phi", "kN/m^(n+2)", kval / 1e3, None if se is None else se / 1e3,
                                        tuple(None if v is None else v / 1e3 for v in ci), est, weak,
                                        f"Bekker stiffness of this wheel's width b = {wheel.width:g} m"))
