@@ -1,4 +1,5 @@
 """Figure of a rigid-wheel fit: drawbar pull against slip (coloured by load) and the sinkage channel."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -54,8 +55,14 @@ def plot_wheel_fit(data, result, path: str) -> str:
     if two:
         ax2 = axes[0, 1]
         ax2.scatter(data.slip, 1e3 * data.sinkage, c="C0", s=30, label="measured sinkage")
-        ax2.scatter(data.slip, 1e3 * result.predict_sinkage(data), facecolors="none", edgecolors="C3", s=45,
-                    label="sinkage at which the fitted stresses\ncarry the measured load")
+        ax2.scatter(
+            data.slip,
+            1e3 * result.predict_sinkage(data),
+            facecolors="none",
+            edgecolors="C3",
+            s=45,
+            label="sinkage at which the fitted stresses\ncarry the measured load",
+        )
         ax2.set_xlabel("slip i")
         ax2.set_ylabel("sinkage (mm)")
         ax2.set_title(f"sinkage channel, rmse {1e3 * result.rmse_sinkage:.3g} mm", fontsize=10)

@@ -1,4 +1,5 @@
 """Bounded IPOPT fit of the rigid wheel to a wheel sweep (:func:`fit_wheel`)."""
+
 from __future__ import annotations
 
 import math
@@ -17,7 +18,14 @@ from ...soilmodel.wheel_sweep import WheelSweep
 from .problem import DEFAULT_WHEEL_BOUNDS, PARAMETER_SCALES, WHEEL_PARAMETERS, WheelBounds, wheel_solver
 from .result import WheelFitResult, build_wheel_result
 
-__all__ = ["fit_wheel", "WheelFitOptions", "soil_from_wheel_fit", "START_FRICTION_DEG", "START_SHEAR_MODULUS_M", "WHEEL_EFFECTS"]
+__all__ = [
+    "fit_wheel",
+    "WheelFitOptions",
+    "soil_from_wheel_fit",
+    "START_FRICTION_DEG",
+    "START_SHEAR_MODULUS_M",
+    "WHEEL_EFFECTS",
+]
 
 #: Friction angles (deg) of the multi-start grid; each start is one bounded IPOPT solve.
 START_FRICTION_DEG = (20.0, 30.0, 38.0)
@@ -69,17 +77,25 @@ class WheelFitOptions:
                 raise DataError(f"unknown wheel effect {e!r}; the wheel model has {list(WHEEL_EFFECTS)}")
         for name, v in self.fixed.items():
             if name not in WHEEL_PARAMETERS:
-                raise DataError(f"unknown wheel parameter {name!r} to hold fixed; expected one of "
-                                f"{list(WHEEL_PARAMETERS)}")
+                raise DataError(
+                    f"unknown wheel parameter {name!r} to hold fixed; expected one of "
+                    f"{list(WHEEL_PARAMETERS)}"
+                )
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise DataError(f"fixed value of {name} must be a finite number, got {v!r}")
-            lo, hi = self.bounds.lower[WHEEL_PARAMETERS.index(name)], self.bounds.upper[WHEEL_PARAMETERS.index(name)]
+            lo, hi = (
+                self.bounds.lower[WHEEL_PARAMETERS.index(name)],
+                self.bounds.upper[WHEEL_PARAMETERS.index(name)],
+            )
             if not lo <= v <= hi:
-                raise DataError(f"fixed value of {name} ({v:.6g} SI) lies outside its bounds [{lo:.6g}, {hi:.6g}]")
+                raise DataError(
+                    f"fixed value of {name} ({v:.6g} SI) lies outside its bounds [{lo:.6g}, {hi:.6g}]"
+                )
 
 
-def _starts(data: WheelSweep, wheel: RigidWheel, free: np.ndarray, fixed: np.ndarray,
-            opts: WheelFitOptions) -> list[np.ndarray]:
+def _starts(
+    data: WheelSweep, wheel: RigidWheel, free: np.ndarray, fixed: np.ndarray, opts: WheelFitOptions
+) -> list[np.ndarray]:
     """Start points (SI, all six parameters) of the multi-start grid."""
     starts = []
     for phi in START_FRICTION_DEG:
@@ -114,7 +130,9 @@ def _p(data: WheelSweep, th: np.ndarray) -> np.ndarray:
     return np.concatenate([data.slip, z, data.normal_load, data.drawbar_pull, th])
 
 
-def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = WheelFitOptions()) -> WheelFitResult:
+def fit_wheel(
+    data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = WheelFitOptions()
+) -> WheelFitResult:
     """Identify c, phi, K (and the Bekker k_c, k_phi, n) from a wheel sweep with bounded IPOPT.
 
     Every start of a small grid (:data:`START_FRICTION_DEG` x :data:`START_SHEAR_MODULUS_M`) is
@@ -124,8 +142,12 @@ def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = Wh
     if not isinstance(data, WheelSweep):
         raise DataError(f"fit_wheel takes a WheelSweep, got {type(data).__name__}")
     sink = data.has_sinkage
-    free = np.array([name not in options.fixed and (name not in WHEEL_EFFECTS or name in options.effects)
-                     for name in WHEEL_PARAMETERS])
+    free = np.array(
+        [
+            name not in options.fixed and (name not in WHEEL_EFFECTS or name in options.effects)
+            for name in WHEEL_PARAMETERS
+        ]
+    )
     fixed = np.array([float(options.fixed.get(name, 0.0)) for name in WHEEL_PARAMETERS])
     nf = int(free.sum())
     if data.n_samples * (2 if sink else 1) <= nf:
@@ -152,14 +174,33 @@ def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = Wh
     p = _p(data, np.where(free, 0.0, fixed))
     r_dp, r_w, J_dp, J_w, th = (np.asarray(v, dtype=float) for v in resid(x, p))
     return build_wheel_result(
-        data=data, wheel=wheel, options=options, free=free, theta=th.ravel(), residual_dp=r_dp.ravel(),
-        residual_z=r_w.ravel(), jac_dp=J_dp, jac_z=J_w, converged=not failed, status=status,
-        iterations=iters, starts=len(starts), starts_converged=n_ok, solve_time_s=time.perf_counter() - t0)
+        data=data,
+        wheel=wheel,
+        options=options,
+        free=free,
+        theta=th.ravel(),
+        residual_dp=r_dp.ravel(),
+        residual_z=r_w.ravel(),
+        jac_dp=J_dp,
+        jac_z=J_w,
+        converged=not failed,
+        status=status,
+        iterations=iters,
+        starts=len(starts),
+        starts_converged=n_ok,
+        solve_time_s=time.perf_counter() - t0,
+    )
 
 
 def soil_from_wheel_fit(result: WheelFitResult) -> Soil:
     """The identified soil as a :class:`~soiltrack.soilmodel.Soil` (with its Bekker values)."""
     v = result.theta
-    return Soil(cohesion=float(v[0]), friction_angle=float(v[1]), shear_modulus=float(v[2]), n=float(v[5]),
-                k_c=float(v[3]), k_phi=float(v[4]), name="identified from a wheel sweep")
-
+    return Soil(
+        cohesion=float(v[0]),
+        friction_angle=float(v[1]),
+        shear_modulus=float(v[2]),
+        n=float(v[5]),
+        k_c=float(v[3]),
+        k_phi=float(v[4]),
+        name="identified from a wheel sweep",
+    )

@@ -24,6 +24,7 @@ sinkage) that keeps the objective finite on noise-free data.
 The NLP is built once per (wheel, settings, number of rows, sinkage measured or not, free
 parameters) and cached; the data enter as NLP parameters.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -36,12 +37,30 @@ from ...soilmodel.soil import PRACTICAL_BOUNDS
 from ...soilmodel.threadsafe import locked_cache
 from ...soilmodel.wheel import WheelSettings, sinkage_from_load_function, wheel_expr
 
-__all__ = ["WHEEL_PARAMETERS", "PARAMETER_SCALES", "WheelBounds", "DEFAULT_WHEEL_BOUNDS", "NOISE_FLOOR_REL", "SINKAGE_FLOOR_M", "channel_floors",
-           "wheel_solver", "N_PARAMETERS", "residual_function", "bekker_modulus"]
+__all__ = [
+    "WHEEL_PARAMETERS",
+    "PARAMETER_SCALES",
+    "WheelBounds",
+    "DEFAULT_WHEEL_BOUNDS",
+    "NOISE_FLOOR_REL",
+    "SINKAGE_FLOOR_M",
+    "channel_floors",
+    "wheel_solver",
+    "N_PARAMETERS",
+    "residual_function",
+    "bekker_modulus",
+]
 
 #: Parameter names of the wheel fit (SI), in vector order.
-WHEEL_PARAMETERS = ("cohesion", "friction_angle", "shear_modulus", "bekker_kc", "bekker_kphi", "bekker_n",
-                    "slip_sinkage")
+WHEEL_PARAMETERS = (
+    "cohesion",
+    "friction_angle",
+    "shear_modulus",
+    "bekker_kc",
+    "bekker_kphi",
+    "bekker_n",
+    "slip_sinkage",
+)
 #: Number of wheel-fit parameters.
 N_PARAMETERS = len(WHEEL_PARAMETERS)
 #: Scales of the NLP variables (x = theta / scale): kPa, rad, cm, kN/m^(n+1), MN/m^(n+2), 1, 1.
@@ -66,15 +85,34 @@ class WheelBounds:
     upper: tuple[float, ...]
 
     def __post_init__(self) -> None:
-        if len(self.lower) != N_PARAMETERS or len(self.upper) != N_PARAMETERS or not all(lo < hi for lo, hi in zip(self.lower, self.upper)):
+        if (
+            len(self.lower) != N_PARAMETERS
+            or len(self.upper) != N_PARAMETERS
+            or not all(lo < hi for lo, hi in zip(self.lower, self.upper))
+        ):
             raise ValueError(f"wheel bounds need {N_PARAMETERS} (lower < upper) pairs")
 
 
 DEFAULT_WHEEL_BOUNDS = WheelBounds(
-    lower=(float(PRACTICAL_BOUNDS.lower[0]), float(PRACTICAL_BOUNDS.lower[1]), float(PRACTICAL_BOUNDS.lower[2]),
-           0.0, 0.0, 0.1, 0.0),
-    upper=(float(PRACTICAL_BOUNDS.upper[0]), float(PRACTICAL_BOUNDS.upper[1]), float(PRACTICAL_BOUNDS.upper[2]),
-           500e3, 20e6, 2.0, 20.0))
+    lower=(
+        float(PRACTICAL_BOUNDS.lower[0]),
+        float(PRACTICAL_BOUNDS.lower[1]),
+        float(PRACTICAL_BOUNDS.lower[2]),
+        0.0,
+        0.0,
+        0.1,
+        0.0,
+    ),
+    upper=(
+        float(PRACTICAL_BOUNDS.upper[0]),
+        float(PRACTICAL_BOUNDS.upper[1]),
+        float(PRACTICAL_BOUNDS.upper[2]),
+        500e3,
+        20e6,
+        2.0,
+        20.0,
+    ),
+)
 
 
 def bekker_modulus(k_c, k_phi, width):
@@ -97,8 +135,13 @@ def residual_function(wheel: RigidWheel, settings: WheelSettings, measured_sinka
     z_w = sinkage_from_load_function(r, b, h, settings)(i, W, c, phi, K, k_c, k_phi, n, s)
     z_used = z if measured_sinkage else z_w
     dp, wl, _ = wheel_expr(i, z_used, c, phi, K, k_c, k_phi, n, r, b, h, settings, slip_sinkage=s)
-    return ca.Function("wheel_row", [i, z, W, th], [dp, wl, z_used, z_w], ["i", "z", "W", "theta"],
-                       ["drawbar_pull", "normal_load", "sinkage", "sinkage_from_load"])
+    return ca.Function(
+        "wheel_row",
+        [i, z, W, th],
+        [dp, wl, z_used, z_w],
+        ["i", "z", "W", "theta"],
+        ["drawbar_pull", "normal_load", "sinkage", "sinkage_from_load"],
+    )
 
 
 def channel_floors(mean_load: float) -> tuple[float, float]:
@@ -107,8 +150,9 @@ def channel_floors(mean_load: float) -> tuple[float, float]:
 
 
 @locked_cache(maxsize=64)
-def wheel_solver(wheel: RigidWheel, settings: WheelSettings, n_rows: int, measured_sinkage: bool,
-                 free: tuple[bool, ...]) -> tuple[ca.Function, ca.Function]:
+def wheel_solver(
+    wheel: RigidWheel, settings: WheelSettings, n_rows: int, measured_sinkage: bool, free: tuple[bool, ...]
+) -> tuple[ca.Function, ca.Function]:
     """The cached IPOPT solver and its residual/Jacobian Function.
 
     NLP variables: the free parameters scaled (``theta / PARAMETER_SCALES``); NLP parameters
@@ -119,8 +163,8 @@ def wheel_solver(wheel: RigidWheel, settings: WheelSettings, n_rows: int, measur
     nf = sum(free)
     x = ca.MX.sym("x", nf)
     p = ca.MX.sym("p", 4 * n_rows + N_PARAMETERS)
-    i, z, W, DP = (p[q * n_rows:(q + 1) * n_rows] for q in range(4))
-    fixed = p[4 * n_rows:]
+    i, z, W, DP = (p[q * n_rows : (q + 1) * n_rows] for q in range(4))
+    fixed = p[4 * n_rows :]
     parts, q = [], 0
     for k in range(N_PARAMETERS):
         if free[k]:
@@ -135,9 +179,15 @@ def wheel_solver(wheel: RigidWheel, settings: WheelSettings, n_rows: int, measur
     r_w = (z_w.T - z) if measured_sinkage else ca.MX.zeros(n_rows, 1)
     f = n_rows / 2 * ca.log(ca.sumsqr(r_dp) + n_rows * (NOISE_FLOOR_REL * ca.sum1(W) / n_rows) ** 2)
     if measured_sinkage:
-        f = f + n_rows / 2 * ca.log(ca.sumsqr(r_w) + n_rows * SINKAGE_FLOOR_M ** 2)
-    opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-10,
-            "ipopt.acceptable_tol": 1e-7, "ipopt.max_iter": 500}
+        f = f + n_rows / 2 * ca.log(ca.sumsqr(r_w) + n_rows * SINKAGE_FLOOR_M**2)
+    opts = {
+        "ipopt.print_level": 0,
+        "print_time": False,
+        "ipopt.sb": "yes",
+        "ipopt.tol": 1e-10,
+        "ipopt.acceptable_tol": 1e-7,
+        "ipopt.max_iter": 500,
+    }
     solver = ca.nlpsol("wheel_fit", "ipopt", {"x": x, "p": p, "f": f}, opts)
     xs = ca.MX.sym("xs", nf)
     th_si = ca.substitute(theta, x, xs)
