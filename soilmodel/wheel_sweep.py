@@ -48,6 +48,8 @@ class WheelSweep:
         Measured sinkage per row, m (> 0), or ``None``.
     source
         Where the data came from, used in messages.
+    dropped
+        Rows of the file left out when it was read (``--driving-only``, ``--slip-angle 0``).
     """
 
     slip: np.ndarray
@@ -55,6 +57,7 @@ class WheelSweep:
     normal_load: np.ndarray
     sinkage: np.ndarray | None = None
     source: str = "<memory>"
+    dropped: int = 0
 
     def __post_init__(self) -> None:
         for name in ("slip", "drawbar_pull", "normal_load", "sinkage"):
@@ -124,31 +127,14 @@ def _header(path: str) -> list[str] | None:
     return None
 
 
-def _column(path: str, name: str) -> list[float] | None:
-    """The values of one column of a CSV (None when absent); errors name file, column and row."""
-    with open(path, newline="", encoding="utf-8-sig") as fh:
-        rows = [r for r in csv.reader(fh) if any(cell.strip() for cell in r)]
-    header = [h.strip() for h in rows[0]]
-    if name not in header:
-        return None
-    k = header.index(name)
-    out = []
-    for row, cells in enumerate(rows[1:], start=1):
-        text = cells[k].strip()
-        try:
-            v = float(text)
-        except ValueError:
-            raise DataError(
-                f"'{text}' is not a number" if text else "empty value", file=path, column=name, row=row
-            ) from None
-        if not math.isfinite(v):
-            raise DataError(f"value '{text}' is not a finite number", file=path, column=name, row=row)
-        out.append(v)
-    return out
-
-
-def read_wheel_sweep(path: str | os.PathLike) -> WheelSweep:
+def read_wheel_sweep(
+    path: str | os.PathLike, *, driving_only: bool = False, slip_angle: float | None = None
+) -> WheelSweep:
     """Read a wheel sweep ``slip,drawbar_pull_N,normal_load_N[,sinkage_m]``.
+
+    ``driving_only`` and ``slip_angle`` drop the rows at negative slip or another slip angle
+    as :func:`~soiltrack.soilmodel.read_csv` does (refused otherwise); their count is kept in
+    :attr:`WheelSweep.dropped`.
 
     Raises
     ------
@@ -168,7 +154,7 @@ def read_wheel_sweep(path: str | os.PathLike) -> WheelSweep:
                     file=path,
                     column=col,
                 )
-    data = read_csv(path)
+    data = read_csv(path, driving_only=driving_only, slip_angle=slip_angle)
     if not isinstance(data, SlipData) or data.measured != "drawbar_pull":
         raise DataError(
             f"a rigid wheel's sweep needs the columns {list(WHEEL_COLUMNS)} (drawbar pull against slip); "
@@ -183,13 +169,14 @@ def read_wheel_sweep(path: str | os.PathLike) -> WheelSweep:
             file=path,
             column="normal_load_N",
         )
-    sink = _column(path, SINKAGE_COLUMN)
+    sink = data.sinkage
     return WheelSweep(
         slip=data.slip,
         drawbar_pull=data.drawbar_pull,
         normal_load=data.normal_load,
         sinkage=sink,
         source=path,
+        dropped=data.dropped_count,
     )
 
 

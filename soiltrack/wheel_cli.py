@@ -80,12 +80,13 @@ def fit_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:
             "slip_noise": None,
             "intervals": None,
             "method": "ipopt",
+            "resistance": None,
         },
-        "its fit is bounded IPOPT",
+        "its fit is bounded IPOPT; its rolling resistance is in its normal stresses",
     )
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
-    data = read_wheel_sweep(a.data)
+    data = read_wheel_sweep(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle)
     opts = WheelFitOptions(fixed=wheel_fixed_arg(getattr(a, "fix", None), a.model), effects=_effects(a))
     result = fit_wheel(data, wheel, opts)
     print(result.to_json() if a.json else result.report())

@@ -250,3 +250,30 @@ def test_module_entry_point(tmp_path, wheel_json):
         cwd=tmp_path,
     )
     assert p.returncode == 2 and "Traceback" not in p.stderr
+
+
+def test_skid_rows_are_refused_with_their_count(capsys):
+    wheel = os.path.join(CMU, "smooth_wheel.json")
+    rc = main(["fit", os.path.join(CMU, "smooth_wheel_trials_beta0.csv"), "--vehicle", wheel])
+    assert rc == 2 and "15 of 27 rows" in capsys.readouterr().err
+    rc = main(
+        ["fit", os.path.join(CMU, "smooth_wheel_driving.csv"), "--vehicle", wheel, "--resistance", "fit"]
+    )
+    assert rc == 2
+
+
+@pytest.mark.slow
+def test_skid_rows_dropped_on_request(capsys):
+    wheel = os.path.join(CMU, "smooth_wheel.json")
+    rc = main(
+        [
+            "fit",
+            os.path.join(CMU, "smooth_wheel_trials_beta0.csv"),
+            "--vehicle",
+            wheel,
+            "--driving-only",
+            "--json",
+        ]
+    )
+    out = json.loads(capsys.readouterr().out)
+    assert rc == 0 and out["n_samples"] == 12 and out["rows_dropped"] == 15

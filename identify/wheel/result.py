@@ -166,6 +166,7 @@ class WheelFitResult:
     solve_time_s: float
     dof: int
     residuals: np.ndarray = field(repr=False, default=None)
+    rows_dropped: int = 0
 
     def predict(self, data: WheelSweep) -> np.ndarray:
         """The model's drawbar pull (N) for each row of ``data`` (its sinkage, or solved from its load)."""
@@ -192,6 +193,7 @@ class WheelFitResult:
             "success": self.success,
             "message": self.message,
             "n_samples": self.n_samples,
+            "rows_dropped": self.rows_dropped,
             "sinkage": "measured" if self.sinkage_measured else "solved from the load (Bekker stresses)",
             "rmse_N": self.rmse_drawbar_pull,
             "sinkage_rmse_m": _num(self.rmse_sinkage),
@@ -228,7 +230,9 @@ class WheelFitResult:
         w = self.wheel
         lines = [
             f"rigid wheel (Wong-Reece), r = {w.radius:g} m, b = {w.width:g} m, h = {w.grouser_height:g} m; "
-            f"{self.n_samples} rows; sinkage "
+            f"{self.n_samples} rows"
+            + (f" ({self.rows_dropped} rows of the file dropped)" if self.rows_dropped else "")
+            + "; sinkage "
             + ("measured" if self.sinkage_measured else "solved from the load"),
             f"status: {'converged' if self.success else 'FAILED'} ({self.status}; {self.starts_converged} of "
             f"{self.starts} starts converged){'' if self.success else ': ' + self.message}",
@@ -595,4 +599,5 @@ def build_wheel_result(
         solve_time_s=solve_time_s,
         dof=dof,
         residuals=np.asarray(residual_dp, dtype=float),
+        rows_dropped=int(data.dropped),
     )
