@@ -187,6 +187,9 @@ def wheel_solver(
         "ipopt.tol": 1e-10,
         "ipopt.acceptable_tol": 1e-7,
         "ipopt.max_iter": 500,
+        # a trial point where the wheel cannot carry a load is NaN: IPOPT's line search then takes a
+        # shorter step; the status of the solve says whether it converged
+        "show_eval_warnings": False,
     }
     solver = ca.nlpsol("wheel_fit", "ipopt", {"x": x, "p": p, "f": f}, opts)
     xs = ca.MX.sym("xs", nf)
