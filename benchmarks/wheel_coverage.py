@@ -56,7 +56,8 @@ def main() -> None:
                     inside, total = inside + ok, total + 1
                     marks.append(("W" if e.weakly_identifiable else "I") + ("+" if ok else "-")
                                  + ("B" if e.at_bound else ""))
-                print(f"soil {si} loads {len(loads)} seed {seed}: converged {r.success}, c/phi/K {marks}", flush=True)
+                print(f"soil {si} loads {len(loads)} seed {seed}: converged {r.success}, c/phi/K {marks}",
+                      flush=True)
     print(f"true value inside the 95 % interval: {inside} of {total} identifiable cases "
           f"({time.time() - t0:.0f} s)")
 
