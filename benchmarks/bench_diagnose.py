@@ -15,6 +15,7 @@ is fitted to the noise-free data (what the soil cannot absorb), over the noise l
 targets are checked where that ratio exceeds 3; below it, ``none`` is a correct answer too.
 
 Run:  python benchmarks/bench_diagnose.py [--quick] [--kinds sweep,drive] [--png confusion.png]
+(the figure goes to benchmarks/out/, which git ignores, unless --png names another path)
 Timings are wall-clock on whatever machine runs it (say how loaded it was).
 """
 from __future__ import annotations
@@ -215,11 +216,15 @@ def summarise(rows, title):
           f"{sorted({r['n'] for r in rows})})")
 
 
+#: Where the confusion matrix goes by default (a folder git ignores: no figure lands in the repository).
+DEFAULT_PNG = os.path.join(os.path.dirname(os.path.abspath(__file__)), "out", "bench_diagnose_confusion.png")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="a small grid (a few minutes)")
     ap.add_argument("--kinds", default="sweep,drive")
-    ap.add_argument("--png", default="bench_diagnose_confusion.png")
+    ap.add_argument("--png", default=DEFAULT_PNG, help="confusion-matrix figure (default in benchmarks/out/)")
     ap.add_argument("--log-seconds", type=float, default=60.0, help="duration of the simulated drive logs")
     a = ap.parse_args(argv)
     kinds = [k for k in a.kinds.split(",") if k]
@@ -298,6 +303,7 @@ def main(argv=None) -> int:
         print(f"(c) out of library: {len(ool)} cases, confident (>0.5) names {bad}")
     if rows:
         labels = ["none"] + [e for e in EFFECTS if any(r["effect"] == e for r in rows)]
+        os.makedirs(os.path.dirname(os.path.abspath(a.png)), exist_ok=True)
         confusion_png(rows, labels, a.png)
         print(f"confusion matrix saved to {a.png}")
     return 0

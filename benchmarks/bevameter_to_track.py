@@ -5,7 +5,9 @@ pressures, plate sinkage test with several plate widths) from the textbook formu
 out again in numpy, with Gaussian reading noise; the tests load them from here. Run as a
 script it repeats the whole chain (simulate, ``fit_shear_test`` / ``fit_plate_test``,
 ``predict_drawbar_pull``) on many seeds and counts how often the 95 % intervals hold the
-truth: the soil's six parameters and the light vehicle's drawbar pull at four slips.
+truth: the soil's six parameters and the light vehicle's drawbar pull at four slips; then it
+times one shear and one plate fit against scipy's bounded ``curve_fit`` on the same data (scipy
+is a benchmark-only dependency).
 
     python benchmarks/bevameter_to_track.py [--reps 200]
 """
@@ -109,5 +111,54 @@ def main() -> None:
                   f" holds the truth in {h / a.reps:.0%}")
 
 
+def time_against_scipy(reps: int = 50) -> None:
+    """Median time of one shear and one plate fit: soiltrack against scipy's bounded curve_fit (same data).
+
+    scipy is what a user would script: ``curve_fit`` with the same bounds, its default start
+    replaced by the same start as soiltrack's regression start would be unfair to neither, so
+    scipy starts from the middle of the log-log line (n) and the largest readings (strengths).
+    """
+    from scipy.optimize import curve_fit
+
+    from soiltrack.identify.soiltests import fit_plate_test, fit_shear_test
+    from soiltrack.soilmodel import PlateTest, ShearTest
+
+    soil = SANDY_LOAM
+    ts, tp, ss, sp, agree = [], [], [], [], []
+    for seed in range(reps):
+        s_rows, p_rows = shear_rows(soil, seed), plate_rows(soil, seed)
+        t0 = time.perf_counter()
+        fs = fit_shear_test(ShearTest(s_rows[:, 0], s_rows[:, 1], s_rows[:, 2]))
+        t1 = time.perf_counter()
+        fp = fit_plate_test(PlateTest(p_rows[:, 0], p_rows[:, 1], p_rows[:, 2]))
+        t2 = time.perf_counter()
+        ts.append(t1 - t0)
+        tp.append(t2 - t1)
+
+        def tau(X, c, phi, K):
+            return (c + X[0] * np.tan(phi)) * (1 - np.exp(-X[1] / K))
+
+        def pres(X, kc, kphi, n):
+            return (kc / X[0] + kphi) * X[1] ** n
+
+        t0 = time.perf_counter()
+        ps, cs = curve_fit(tau, (s_rows[:, 0], s_rows[:, 1]), s_rows[:, 2], p0=(1e3, 0.5, 0.01),
+                           bounds=((0.0, math.radians(1), 0.002), (200e3, math.radians(55), 0.25)))
+        t1 = time.perf_counter()
+        pp, cp = curve_fit(pres, (p_rows[:, 0], p_rows[:, 2]), p_rows[:, 1], p0=(1e3, 1e6, 1.0),
+                           bounds=((0.0, 0.0, 0.05), (np.inf, np.inf, 2.5)))
+        t2 = time.perf_counter()
+        ss.append(t1 - t0)
+        sp.append(t2 - t1)
+        ours = np.array([fs.values_si[0], fs.values_si[1], fs.values_si[2], *fp.values_si])
+        theirs = np.concatenate([ps, pp])
+        agree.append(float(np.max(np.abs(ours - theirs) / np.abs(theirs))))
+    med = lambda x: 1e3 * float(np.median(x))  # noqa: E731
+    print(f"speed ({reps} campaigns, sandy loam, median per fit): shear test soiltrack {med(ts):.1f} ms "
+          f"(intervals included), scipy curve_fit {med(ss):.1f} ms; plate test soiltrack {med(tp):.1f} ms, "
+          f"scipy {med(sp):.1f} ms; largest relative difference of the six estimates {max(agree):.1e}")
+
+
 if __name__ == "__main__":
     main()
+    time_against_scipy()

@@ -10,6 +10,7 @@
 5. The seed's three points (Wong 2001, p. 176): what a diagnosis can and cannot say from them.
 
 Run:  python examples/diagnose_story.py [--out DIR]
+(figures by default in examples/out/diagnose_story/, which git ignores)
 """
 from __future__ import annotations
 
@@ -26,6 +27,8 @@ from soiltrack.soilmodel import (TERRAINS, VEHICLES, DataError, SensorNoise, rea
                                  tractive_force_with_effects)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+#: Where the figures go by default: a named folder that git ignores, wherever the script is run from.
+DEFAULT_OUT = os.path.join(HERE, "out", "diagnose_story")
 
 
 def sweep_story(out: str) -> None:
@@ -118,7 +121,8 @@ def wong_story() -> None:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default=".", help="folder for the figures")
+    ap.add_argument("--out", default=DEFAULT_OUT,
+                    help="folder for the figures (default: examples/out/diagnose_story)")
     a = ap.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
     sweep_story(a.out)

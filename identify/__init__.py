@@ -20,6 +20,9 @@ Public names
 :class:`FitFailed`.
 :func:`diagnose`, :class:`Diagnosis`
     Sim-to-real gap diagnosis: where the gap lies, which unmodelled effect explains it.
+:func:`fit_soil_test`, :class:`SoilTestFit`, :func:`predict_drawbar_pull`
+    Bevameter shear and plate sinkage tests (:mod:`soiltrack.identify.soiltests`), and a
+    track's drawbar pull predicted from them.
 """
 from . import jitcache  # noqa: F401 - soiltrack.identify.jitcache, the compiled-code cache
 from .batch import fit_many
@@ -30,7 +33,8 @@ from .sweep.problem import FitFailed
 from .estimates.likelihood import ProfileResult, profile_likelihood
 from .estimates.result import Combination, FitResult, ParameterEstimate, build_result
 from .settings import FitSettings
+from .soiltests import SoilTestFit, fit_soil_test, predict_drawbar_pull
 
 __all__ = ["fit", "fit_many", "profile_likelihood", "build_result", "FitResult", "ParameterEstimate",
            "Combination", "ProfileResult", "FitFailed", "FitSettings", "ENGINES", "DEFAULT_ENGINE",
-           "diagnose", "Diagnosis"]
+           "diagnose", "Diagnosis", "fit_soil_test", "SoilTestFit", "predict_drawbar_pull"]

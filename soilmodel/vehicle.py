@@ -1,12 +1,14 @@
 """Vehicle description (SI), JSON I/O per docs/data-formats.md, and the reference vehicles."""
 from __future__ import annotations
 
+import difflib
 import json
 import math
 import os
 from dataclasses import dataclass, fields
 
 from .errors import DataError
+from .jsonread import load_json_file, loads_json
 
 #: Standard gravity, m/s^2.
 G = 9.81
@@ -140,12 +142,19 @@ class Vehicle:
         """Build from a JSON-like dict; errors name ``source`` and the offending field."""
         if not isinstance(obj, dict):
             raise DataError("vehicle JSON must be an object", file=source)
+        known = set(_JSON_FIELDS) | {"name"}
+        unknown = sorted(k for k in obj if k not in known)  # first: a typo also "misses" the field it meant
+        if unknown:
+            hints = []
+            for k in unknown:
+                close = difflib.get_close_matches(str(k), known, 1)
+                hints.append(f"'{k}'" + (f" (did you mean '{close[0]}'?)" if close else ""))
+            raise DataError(f"unknown field{'s' if len(unknown) > 1 else ''} {', '.join(hints)}; the fields "
+                            f"are {', '.join(sorted(_JSON_FIELDS))} and name", file=source,
+                            column=str(unknown[0]))
         for key in _REQUIRED:
             if key not in obj:
                 raise DataError(f"missing required field '{key}'", file=source, column=key)
-        unknown = sorted(set(obj) - set(_JSON_FIELDS) - {"name"})
-        if unknown:
-            raise DataError(f"unknown field(s) {unknown}; expected {sorted(_JSON_FIELDS)}", file=source)
         kwargs = {}
         for key, attr in _JSON_FIELDS.items():
             if key not in obj or obj[key] is None:
@@ -171,20 +180,9 @@ class Vehicle:
         """Read a vehicle from a JSON file path (or from JSON text starting with ``{``)."""
         text = os.fspath(path_or_text)
         if text.lstrip().startswith("{"):
-            source, raw = "<json text>", text
-        else:
-            source = text
-            try:
-                with open(text, encoding="utf-8-sig") as fh:  # a UTF-8 BOM (Windows editors) is fine
-                    raw = fh.read()
-            except OSError as e:
-                raise DataError(f"cannot read vehicle file: {e.strerror}", file=source) from None
-            except UnicodeDecodeError:
-                raise DataError("not a UTF-8 text file (save the vehicle JSON as UTF-8)", file=source) from None
-        try:
-            obj = json.loads(raw)
-        except json.JSONDecodeError as e:
-            raise DataError(f"invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}", file=source) from None
+            source, obj = "<json text>", loads_json(text, "<json text>", "vehicle JSON")
+        else:  # encoding, depth and syntax checked (soilmodel.jsonread)
+            source, obj = text, load_json_file(text, "vehicle JSON")
         return cls.from_dict(obj, source=source, name=os.path.splitext(os.path.basename(source))[0]
                              if source != "<json text>" else "")
 

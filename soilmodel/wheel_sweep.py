@@ -1,6 +1,6 @@
 """Single-wheel rig sweeps: drawbar pull against slip with the load (and sinkage) per row.
 
-CSV (DESIGN.md section 7): ``slip,drawbar_pull_N,normal_load_N[,sinkage_m]``. A rig's wheel has no
+CSV (docs/data-formats.md): ``slip,drawbar_pull_N,normal_load_N[,sinkage_m]``. A rig's wheel has no
 mass, so the measured normal load is required in every row; the measured sinkage, where given,
 sets the wheel's entry angle and makes the Bekker stiffness identifiable from the load balance.
 Other columns (repeat numbers, standard deviations, raw sensor channels) are read past.

@@ -7,8 +7,9 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 
-from .soilmodel import TERRAINS, VEHICLES, DataError, Soil, Vehicle
+from .soilmodel import PRACTICAL_BOUNDS, TERRAINS, VEHICLES, WIDE_BOUNDS, DataError, Soil, Vehicle
 from .soilmodel.rigid_wheel import RigidWheel, read_running_gear
 
 EXIT_OK, EXIT_SOLVER, EXIT_INPUT = 0, 1, 2
@@ -42,11 +43,48 @@ def soil_arg(terrain: str | None, soil: str | None) -> Soil:
             c, phi, K = (float(p) for p in parts)
         except ValueError:
             raise DataError(f"--soil expects three numbers C_KPA,PHI_DEG,K_M, got {soil!r}") from None
+        for w in check_soil(c, phi, K, "--soil"):
+            print(f"soiltrack: warning: {w}", file=sys.stderr)
         return Soil.from_kpa_deg(c, phi, K, name=f"soil c = {c:g} kPa, phi = {phi:g} deg, K = {K:g} m")
     key = terrain or "lete_sand"
     if key not in TERRAINS:
         raise DataError(f"unknown terrain {key!r}; presets: {sorted(TERRAINS)}")
     return TERRAINS[key]
+
+
+def check_soil(c_kpa: float, phi_deg: float, K_m: float, what: str = "--soil") -> list[str]:
+    """Check a soil given at the edges (kPa, deg, m) like a vehicle file; returns warnings.
+
+    Outside the range a measured soil can have (``WIDE_BOUNDS``: c 0-200 kPa, phi 1-55 deg, K
+    0.002-0.25 m) it is refused (DataError naming ``what``, the parameter and the unit it was
+    probably given in: K in mm, phi in radians, c in Pa); outside the seed's practical range
+    (``PRACTICAL_BOUNDS``) it is accepted with a warning, to be printed on stderr.
+    """
+    vals = {"c": c_kpa, "phi": phi_deg, "K": K_m}
+    bad = [k for k, v in vals.items() if not math.isfinite(v)]
+    if bad:
+        raise DataError(f"{what}: {', '.join(bad)} must be a finite number")
+    # the unit a number beyond the range was probably given in (too large: Pa, mm; too small: radians)
+    hints = {"c": lambda v, high: f" (if that is Pa, it is {v / 1e3:.4g} kPa)" if high else "",
+             "phi": lambda v, high: (f" (if that is radians, it is {math.degrees(v):.4g} deg)"
+                                     if not high and 0 < math.degrees(v) < 90 else ""),
+             "K": lambda v, high: f" (if that is mm, it is {v / 1e3:.4g} m)" if high else ""}
+    units = {"c": "kPa", "phi": "deg", "K": "m"}
+    warnings = []
+    for j, key in enumerate(vals):
+        v = vals[key]
+        f = (1e-3, 180.0 / math.pi, 1.0)[j]  # SI -> edge unit (kPa, deg, m)
+        lo, hi = WIDE_BOUNDS.lower[j] * f, WIDE_BOUNDS.upper[j] * f
+        plo, phi_ = PRACTICAL_BOUNDS.lower[j] * f, PRACTICAL_BOUNDS.upper[j] * f
+        if not lo <= v <= hi:
+            raise DataError(f"{what}: {key} = {v:g} {units[key]} is outside the range of measured soils "
+                            f"[{lo:g}, {hi:g}] {units[key]}{hints[key](v, v > hi)}; expected "
+                            "C_KPA,PHI_DEG,K_M")
+        if not plo <= v <= phi_:
+            warnings.append(f"{what}: {key} = {v:g} {units[key]} is outside the practical range "
+                            f"[{plo:g}, {phi_:g}] {units[key]} (the default bounds of a fit)"
+                            f"{hints[key](v, v > phi_)}: check the number and its unit")
+    return warnings
 
 
 def floats_arg(text: str, what: str) -> list[float]:

@@ -17,7 +17,7 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
 
         return diagnose_wheel_command(a, gear)
     vehicle = gear
-    data = read_csv(a.data)
+    data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle)
     cands = None
     if a.candidates is not None:
         cands = [c.strip() for c in a.candidates.split(",") if c.strip()]
@@ -66,6 +66,12 @@ def add_parser(sub) -> None:
                    help="soil bounds of the fits: the practical range (c 0-69 kPa, phi 6-40 deg, K 6-50 mm), "
                         "widened (c 0-200 kPa, phi 1-55 deg, K 2-250 mm), or auto (the default): practical, "
                         "widened when the data want a soil beyond it (the report says so)")
+    p.add_argument("--driving-only", action="store_true",
+                   help="slip sweeps: drop the rows at negative slip (skid: outside the driving model) "
+                        "instead of refusing the file")
+    p.add_argument("--slip-angle", type=float, metavar="0",
+                   help="slip sweeps with a slip_angle_deg column: keep only the rows at slip angle 0 "
+                        "instead of refusing the file")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     p.add_argument("--plot", metavar="PNG", help="save a figure of the held-out residuals, weights and localisation")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")

@@ -6,8 +6,30 @@ import sys
 
 from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path, running_gear_arg
 from .identify.engines import DEFAULT_ENGINE, ENGINES
-from .soilmodel import DataError
+from .soilmodel import PRACTICAL_BOUNDS, WIDE_BOUNDS, DataError, SoilBounds
 from .soilmodel.rigid_wheel import RigidWheel
+
+#: Named soil bounds of ``--bounds`` (the same names as ``diagnose --bounds``).
+NAMED_BOUNDS = {"practical": PRACTICAL_BOUNDS, "wide": WIDE_BOUNDS}
+
+
+def bounds_arg(text: str) -> SoilBounds:
+    """``--bounds``: a name of :data:`NAMED_BOUNDS` or six numbers ``C_LO,C_HI,PHI_LO,PHI_HI,K_LO,K_HI``
+    (kPa, deg, m) within the physical domain (c >= 0, 0 < phi < 90 deg, K > 0); DataError otherwise."""
+    if text in NAMED_BOUNDS:
+        return NAMED_BOUNDS[text]
+    what = (f"--bounds expects {' or '.join(NAMED_BOUNDS)} or six numbers C_LO,C_HI,PHI_LO,PHI_HI,K_LO,K_HI "
+            "(kPa, deg, m)")
+    vals = floats_arg(text, "--bounds") if any(ch.isdigit() for ch in text) else []
+    if len(vals) != 6:
+        raise DataError(f"{what}, got {text!r}")
+    c, phi, K = vals[0:2], vals[2:4], vals[4:6]
+    for name, (lo, hi), ok in (("c", c, c[0] >= 0), ("phi", phi, 0 < phi[0] and phi[1] < 90),
+                               ("K", K, K[0] > 0)):
+        if not ok or not lo < hi:
+            raise DataError(f"{what}: the {name} bounds [{lo:g}, {hi:g}] are not a range within c >= 0 kPa, "
+                            f"0 < phi < 90 deg, K > 0 m (lower < upper)")
+    return SoilBounds.from_kpa_deg((c[0], c[1]), (phi[0], phi[1]), (K[0], K[1]))
 
 
 # --- fit --------------------------------------------------------------------------------------
@@ -26,7 +48,7 @@ def _check_options(a: argparse.Namespace, drive_log: bool) -> None:
     if a.resistance is not None and drive_log:
         raise DataError("--resistance applies to drawbar-pull sweeps; a drive log's resistance is the vehicle's "
                         "(or an --effect)", file=a.data)
-    for opt, val in (("--slip-noise", a.slip_noise), ("--intervals", a.intervals)):
+    for opt, val in (("--slip-noise", a.slip_noise), ("--interval-method", a.interval_method)):
         if val is not None and drive_log:
             raise DataError(f"{opt} applies to slip sweeps only (a drive log's slip is a latent variable of its fit)",
                             file=a.data)
@@ -37,7 +59,7 @@ def _check_options(a: argparse.Namespace, drive_log: bool) -> None:
 #: Options of slip sweeps and drive logs and their defaults (a bevameter fit takes none of them).
 _VEHICLE_OPTIONS = {"vehicle": None, "model": "full", "method": "ipopt", "engine": DEFAULT_ENGINE, "sigma": None,
                     "bias_correction": "none", "torque_hold": None, "slip_noise": None, "intervals": None,
-                    "effect": None, "resistance": None}
+                    "interval_method": None, "bounds": "practical", "effect": None, "resistance": None}
 
 
 def _cmd_soil_test(a: argparse.Namespace, data) -> int:
@@ -59,8 +81,7 @@ def _cmd_soil_test(a: argparse.Namespace, data) -> int:
 
 def _cmd_fit(a: argparse.Namespace) -> int:
     from .identify import fit
-    from .identify.soiltests.dispatch import is_soil_test
-    from .soilmodel import DriveLog, read_csv
+    from .soilmodel import DriveLog, PlateTest, ShearTest, read_csv
 
     gear = running_gear_arg(a.vehicle) if a.vehicle is not None else None
     if isinstance(gear, RigidWheel):
@@ -71,16 +92,21 @@ def _cmd_fit(a: argparse.Namespace) -> int:
         raise DataError("--fix applies to a rigid wheel's fit (--vehicle WHEEL.json) only")
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
+    bounds = bounds_arg(a.bounds)
     data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle)
-    if is_soil_test(data):
+    if isinstance(data, (ShearTest, PlateTest)):
         return _cmd_soil_test(a, data)
     if gear is None:
         raise DataError("--vehicle is required for slip sweeps and drive logs (a vehicle JSON file or a preset "
                         "name: heavy, light)", file=a.data)
     vehicle = gear
     drive_log = isinstance(data, DriveLog)
+    if a.intervals is not None:  # the old name (profile's --intervals is a mesh size)
+        print("soiltrack fit: --intervals is now --interval-method (the old name will go)", file=sys.stderr)
+        a.interval_method = a.interval_method or a.intervals
     _check_options(a, drive_log)
     kw = {"engine": a.engine} if a.method == "ipopt" and not drive_log else {}
+    kw["bounds"] = bounds
     if a.sigma is not None:
         kw["sigma"] = a.sigma if a.sigma == "relative" else floats_arg(a.sigma, "--sigma")[0]
     if a.bias_correction != "none":
@@ -90,8 +116,8 @@ def _cmd_fit(a: argparse.Namespace) -> int:
     if a.slip_noise is not None:
         kw["slip_noise"] = a.slip_noise if a.slip_noise in ("auto", "off") else \
             floats_arg(a.slip_noise, "--slip-noise")[0]
-    if a.intervals is not None:
-        kw["intervals"] = a.intervals
+    if a.interval_method is not None:
+        kw["intervals"] = a.interval_method
     if a.resistance is not None:
         kw["resistance"] = a.resistance
     if a.effect:
@@ -111,11 +137,14 @@ def _cmd_fit(a: argparse.Namespace) -> int:
 
 _DESCRIPTION = """\
 Identify the soil (cohesion c, friction angle phi, shear modulus K) from a CSV file, with
-bounded fits (default bounds: c 0-69 kPa, phi 6-40 deg, K 0.006-0.05 m). The file kind is
+bounded fits (default bounds: c 0-69 kPa, phi 6-40 deg, K 0.006-0.05 m; see --bounds). The file kind is
 recognised by its header (comma separated, SI units, any column order):
 
   tractive force-slip data:  slip,tractive_force_N[,normal_load_N]
       slip in [0, 1); rows at two or more normal loads make c and phi separable
+  drawbar pull-slip data:    slip,drawbar_pull_N[,normal_load_N]
+      what a test rig measures: drawbar pull = thrust - motion resistance (mu_r W nominal; a
+      resistance growing with slip is the slip_sinkage effect, a constant extra one looks like grade)
   drive log:                 time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s
                              [,vehicle_accel_m_s2]
       time strictly increasing; torque and speed of both sprockets together
@@ -128,8 +157,10 @@ recognised by its header (comma separated, SI units, any column order):
       "grouser_height_m"}): the Wong-Reece rigid wheel; the load is required per row; a measured
       sinkage sets the entry angle and its load balance identifies the Bekker stiffness
 
-Prints a report (or --json); exit 0 when the fit succeeded, 1 when it failed or its answer is
-not usable (the reason is printed), 2 for bad input."""
+Prints a report (or --json): the outcome (converged, not usable or failed, beside the solver's own
+status), each parameter with its standard error (SE) and 95 % interval, what the data determine,
+and residuals as measured - model. Exit 0 when the fit converged to a usable answer, 1 when it
+failed or its answer is not usable (the reason is printed), 2 for bad input."""
 
 
 def add_parser(sub) -> None:
@@ -138,7 +169,8 @@ def add_parser(sub) -> None:
                        description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter,
                        epilog="example: soiltrack fit examples/data/wong2001_p176.csv "
                               "--vehicle examples/data/heavy_vehicle.json --plot fit.png")
-    f.add_argument("data", help="CSV file: a slip sweep, a drive log or a bevameter test (columns above)")
+    f.add_argument("data", help="CSV file: a slip sweep (tractive force or drawbar pull), a drive log or a "
+                                "bevameter test (columns above)")
     f.add_argument("--vehicle", help="vehicle JSON file or preset name (heavy, light); required for slip sweeps and "
                                      "drive logs, refused for bevameter tests")
     f.add_argument("--model", choices=("full", "cohesion-free"), default="full",
@@ -170,7 +202,13 @@ def add_parser(sub) -> None:
                    help="slip sweeps: noise on the measured slip. auto (default with --effect): weights for it "
                         "when the residuals show it (likelihood-ratio test); off: slip exact (default without "
                         "--effect); a number: the slip's standard deviation")
-    f.add_argument("--intervals", choices=("auto", "linear", "profile"), default=None,
+    f.add_argument("--bounds", default="practical",
+                   metavar="practical|wide|C_LO,C_HI,PHI_LO,PHI_HI,K_LO,K_HI",
+                   help="soil bounds of the fit: practical (default: c 0-69 kPa, phi 6-40 deg, K 6-50 mm), "
+                        "wide (c 0-200 kPa, phi 1-55 deg, K 2-250 mm), or six numbers in kPa, deg, m, e.g. "
+                        "0,69,2,40,0.006,0.05 for a smooth track or a slippery soil (phi below 6 deg)")
+    f.add_argument("--intervals", choices=("auto", "linear", "profile"), default=None, help=argparse.SUPPRESS)
+    f.add_argument("--interval-method", choices=("auto", "linear", "profile"), default=None,
                    help="slip sweeps: 95 %% intervals from the profile likelihood for the weakly identifiable and "
                         "at-bound parameters (auto, default with --effect), for all (profile), or linearised "
                         "for all (linear, default without --effect)")

@@ -2,11 +2,16 @@
 from __future__ import annotations
 
 import argparse
+import secrets
 import sys
 
+from .argcheck import check_seed
 from .cliutil import EXIT_OK, MAX_SAMPLES, floats_arg, output_path, running_gear_arg, soil_arg
 from .soilmodel import TERRAINS, DataError
 from .soilmodel.rigid_wheel import RigidWheel
+
+#: Bits of a seed drawn when ``--seed`` is not given (said on stderr, so that the run can be repeated).
+SEED_BITS = 32
 
 
 # --- simulate ---------------------------------------------------------------------------------
@@ -29,6 +34,7 @@ def _check_options(a: argparse.Namespace) -> None:
         if duration > 0 and rate > 0 and duration * rate > MAX_SAMPLES:
             raise DataError(f"--duration {duration:g} s x --rate {rate:g} Hz = {duration * rate:.3g} samples; at most "
                             f"{MAX_SAMPLES:,} (e.g. one hour at 500 Hz)")
+    check_seed(a.seed)
     if a.output != "-":
         output_path(a.output, "-o/--output")
     if a.plot:
@@ -41,6 +47,9 @@ def _cmd_simulate(a: argparse.Namespace) -> int:
     from .soilmodel.simulation import simulate
 
     gear = running_gear_arg(a.vehicle)
+    if a.seed is None:  # drawn here, for a vehicle's and a wheel's run alike, and said so it can be repeated
+        a.seed = secrets.randbits(SEED_BITS)
+        print(f"seed {a.seed} (not given: drawn; repeat this run with --seed {a.seed})", file=sys.stderr)
     if isinstance(gear, RigidWheel):
         from .wheel_cli import simulate_wheel_command
 
@@ -107,7 +116,9 @@ def add_parser(sub) -> None:
                         "(default: full)")
     s.add_argument("--noise", choices=("default", "none"), default="default",
                    help="sensor noise: realistic default levels, or none (default: default)")
-    s.add_argument("--seed", type=int, default=None, help="random seed for the noise (default: fresh each run)")
+    s.add_argument("--seed", type=int, default=None,
+                   help="random seed for the noise (default: drawn afresh and said on stderr, so that the "
+                        "run can be repeated)")
     s.add_argument("--duration", type=float, default=None, help="drive log length in s (default: 60)")
     s.add_argument("--rate", type=float, default=None, help="drive log sample rate in Hz (default: 50)")
     s.add_argument("--slips", help="sweep: comma-separated slips in [0, 1) (default: 22 slips from 0.01 to 0.7)")

@@ -1,13 +1,16 @@
 """Figures for the command-line tool and the examples (matplotlib, Agg backend, PNG)."""
 from __future__ import annotations
 
+from typing import Any
+
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .soilmodel import DataError, DriveLog, SlipData  # noqa: E402
+from .identify.estimates.report import RESIDUAL_SIGN  # noqa: E402
+from .soilmodel import DataError, DriveLog, SlipData, choose_scale  # noqa: E402
 from .soilmodel.ridge import MAX_LOAD_LEVELS  # noqa: E402  (more distinct loads: drawn by load range)
 
 
@@ -58,9 +61,9 @@ def plot_data(data: SlipData | DriveLog, path: str, title: str = "") -> str:
     else:
         fig, axs = plt.subplots(4 if data.vehicle_accel is not None else 3, 1, figsize=(7, 8), sharex=True)
         t = data.time
-        big = float(np.max(np.abs(data.sprocket_torque))) >= 1e3
-        axs[0].plot(t, data.sprocket_torque / (1e3 if big else 1.0), lw=0.8)
-        axs[0].set_ylabel("sprocket torque (kN m)" if big else "sprocket torque (N m)")
+        torque = choose_scale(data.sprocket_torque, "N m")
+        axs[0].plot(t, data.sprocket_torque * torque.factor, lw=0.8)
+        axs[0].set_ylabel(f"sprocket torque ({torque.unit})")
         axs[1].plot(t, data.sprocket_speed, lw=0.8)
         axs[1].set_ylabel("sprocket speed (rad/s)")
         axs[2].plot(t, data.vehicle_speed, lw=0.8)
@@ -80,10 +83,9 @@ def plot_data(data: SlipData | DriveLog, path: str, title: str = "") -> str:
 
 
 def force_unit(values) -> tuple[float, str]:
-    """``(divisor, unit)`` for forces of this magnitude: kN from 1 kN on, else N (as the reports)."""
-    from .identify.estimates.records import force_scale
-
-    return force_scale(values)
+    """``(divisor, unit)`` for forces of this magnitude (:func:`soilmodel.choose_scale`, as the reports)."""
+    scale = choose_scale(values, "N")
+    return 1.0 / scale.factor, scale.unit
 
 
 def _curve_band(grid, result, vehicle, W: float) -> np.ndarray | None:
@@ -96,8 +98,7 @@ def _curve_band(grid, result, vehicle, W: float) -> np.ndarray | None:
     from .soilmodel import Soil, tractive_force_sensitivities
 
     cbs = {cb.name: cb for cb in result.combinations}
-    fm = next((cb for name, cb in cbs.items() if name.startswith("F_max") and
-               abs(float(name.split("=")[1].rstrip("N")) - W) <= 1e-6 * W), None)
+    fm = cbs.get(f"F_max@W={W:.6g}N")  # the name as the result writes it (6 significant digits)
     kk = cbs.get("K")
     corr = (result.identifiability.get("fmax_K_correlation") or {}).get(f"{W:.6g}")
     q = result.quantile
@@ -112,9 +113,13 @@ def _curve_band(grid, result, vehicle, W: float) -> np.ndarray | None:
 
 
 def _status_title(result) -> tuple[str, str]:
+    """The figure's title and its colour: the fit's outcome in the report's words."""
     if result.success:
-        return f"{result.model} model, {result.method}: {result.status}", "k"
-    return f"FIT FAILED ({result.model} model, {result.method}: {result.status}) - no estimate", "C3"
+        return f"{result.model} model, {result.method}: {result.outcome}", "k"
+    if result.outcome == "not usable":
+        return (f"ANSWER NOT USABLE ({result.model} model, {result.method}: the plausibility checks refuse "
+                "it; see the report)", "C3")
+    return f"FIT FAILED ({result.model} model, {result.method}: {result.solver_status}) - no estimate", "C3"
 
 
 def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
@@ -128,7 +133,7 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
     and the speed residuals over time. A failed fit is drawn as such: its last iterate dashed
     and labelled, never as "fitted".
     """
-    from .soilmodel import Soil, tractive_force
+    from .soilmodel import Soil, tractive_force, tractive_force_with_effects
 
     title, tcol = _status_title(result)
     theta = np.asarray(result.theta, dtype=float)
@@ -144,6 +149,9 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
         if result.success:
             if isinstance(data, SlipData):  # what the rig reports (tractive force or drawbar pull, with effects)
                 return result.predict(grid, normal_load=W)
+            if effects:  # the soil's thrust with the fitted effects (normal load, shear law), from soilmodel
+                return tractive_force_with_effects(grid, result.ridge_point, vehicle, result.effect_set,
+                                                   result.model, normal_load=W)
             return tractive_force(grid, result, vehicle, normal_load=W)
         return tractive_force(grid, last, vehicle, result.model, normal_load=W)
 
@@ -155,8 +163,9 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
         loads = data.loads(vehicle.weight)
         sc, u = force_unit(data.values)
         grid = np.linspace(0.0, slip_grid_end(data.slip), 300)
-        res = np.asarray(result.residuals, dtype=float)
+        res = result.residuals_measured_minus_model
         levels = np.unique(loads)
+        curve_loads: list[tuple[Any, float, str | None]]  # colour, load, legend label
         if levels.size <= MAX_LOAD_LEVELS:
             shown = [(f"C{k}", W, sel) for k, (W, sel) in enumerate((W, loads == W) for W in levels)]
             curve_loads = [(f"C{k}", W, f"fitted ({result.model} model)") for k, W in enumerate(levels)]
@@ -193,7 +202,7 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
             F = curve(grid, W)
             lows.append(float(np.min(F)) / sc)
             if not result.success:
-                ax.plot(grid, F / sc, "--", color="0.5", lw=1.0, label="last iterate of the FAILED fit" if k == 0
+                ax.plot(grid, F / sc, "--", color="0.5", lw=1.0, label=_unusable_label(result) if k == 0
                         else None)
                 continue
             extreme = levels.size > MAX_LOAD_LEVELS and k > 0
@@ -210,7 +219,7 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
             ax.axhline(0, color="k", lw=0.6)
         ax.set_xlim(0.0, max(grid[-1], float(np.max(data.slip))) * 1.02)
         ax.legend(fontsize=8)
-        axr.set_ylabel(f"{'model' if result.success else 'last iterate'} - data ({u})")
+        axr.set_ylabel(f"{_residual_label(result)} ({u})")
         axr.set_xlabel("slip i (-)")
         axes = (ax, axr)
     else:
@@ -226,6 +235,45 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
     return save_figure(fig, path)
 
 
+def _residual_label(result) -> str:
+    """``measured - model`` (:data:`RESIDUAL_SIGN`); ``measured - last iterate`` for a failed fit."""
+    if result.outcome == "failed":
+        return RESIDUAL_SIGN.replace("model", "last iterate")
+    return RESIDUAL_SIGN + (" (not usable)" if result.outcome == "not usable" else "")
+
+
+def _unusable_label(result) -> str:
+    """The legend of a curve that is not an answer: a converged but refused fit, or a failed one's last iterate."""
+    if result.outcome == "not usable":
+        return "the fit's curve: answer NOT USABLE (see the report)"
+    return "last iterate of the FAILED fit"
+
+
+def _effect_corrected(prep, vehicle, result) -> tuple[np.ndarray, np.ndarray, str]:
+    """The samples' thrust and slip with the fitted drivetrain loss and track radius, and a label.
+
+    ``T = (M - loss(w) - I dw/dt) / r_eff`` and ``i = 1 - v / (r_eff w)``, from soilmodel's
+    :func:`torque_loss` and :func:`effective_radius` (the nominal sprocket thrust and slip when neither
+    effect was fitted): the points then lie where the fitted model puts the soil's thrust.
+    """
+    import casadi as ca
+
+    from .soilmodel.effects import effective_radius, torque_loss
+
+    es = result.effect_set
+    names = set(getattr(es, "names", ()) or ())
+    used = sorted(names & {"drivetrain_friction", "radius_error"})
+    if not used:
+        return prep.thrust, prep.slip_measured, "sprocket thrust vs slip from speeds"
+    r, r_eff = vehicle.sprocket_radius, float(effective_radius(vehicle, es))
+    w = ca.SX.sym("w")
+    loss_fn = ca.Function("torque_loss", [w], [torque_loss(w, vehicle, es)]).map(prep.sprocket_speed.size)
+    loss = np.asarray(loss_fn(prep.sprocket_speed.reshape(1, -1)), dtype=float).ravel()
+    thrust = (r * prep.thrust - loss) / r_eff
+    slip = 1.0 - prep.vehicle_speed / (r_eff * prep.sprocket_speed)
+    return thrust, slip, f"thrust vs slip with the fitted {' and '.join(used)}"
+
+
 def _drive_log_panels(fig, ax, axr, data: DriveLog, vehicle, result, curve) -> None:
     """The two panels of a drive-log fit (see :func:`plot_fit`)."""
     from .identify.drivelog.fit import prepare_drive_log
@@ -233,15 +281,16 @@ def _drive_log_panels(fig, ax, axr, data: DriveLog, vehicle, result, curve) -> N
     prep = prepare_drive_log(data, vehicle)
     r_s = vehicle.sprocket_radius
     rw = r_s * prep.sprocket_speed
-    slip = prep.slip_measured
-    thrust = prep.thrust
+    effects = bool(getattr(result, "effects", None)) and result.success
+    thrust, slip, what = (_effect_corrected(prep, vehicle, result) if effects else
+                          (prep.thrust, prep.slip_measured, "sprocket thrust vs slip from speeds"))
     weight = (rw / prep.sigma_speed) ** 2  # slip information of a sample: 1 / sigma_i^2
     sc, u = force_unit(thrust)
     order = np.argsort(weight)  # heavy samples drawn last, on top
     wrel = weight / float(np.max(weight))
     pts = ax.scatter(np.clip(slip[order], -1, 1), thrust[order] / sc, c=np.log10(np.maximum(wrel[order], 1e-4)),
                      s=5, cmap="viridis", vmin=-4, vmax=0, alpha=0.6, lw=0,
-                     label=f"{slip.size} samples used: sprocket thrust vs slip from speeds")
+                     label=f"{slip.size} samples used: {what}")
     cb = fig.colorbar(pts, ax=ax, pad=0.01)
     cb.set_label("weight in the fit (log10, relative)", fontsize=8)
     # thrust bins (the thrust is the precise variable): weighted mean slip of each, with its standard error
@@ -269,13 +318,14 @@ def _drive_log_panels(fig, ax, axr, data: DriveLog, vehicle, result, curve) -> N
         W = float(result.normal_loads[0]) if len(result.normal_loads) else vehicle.weight
         F = curve(grid, W)
         if result.success:
-            ax.plot(grid, F / sc, "C3-", lw=1.6, label="fitted F(i)")
-            band = _curve_band(grid, result, vehicle, W)
+            ax.plot(grid, F / sc, "C3-", lw=1.6,
+                    label="fitted F(i)" + (" with the fitted effects" if effects else ""))
+            band = None if effects else _curve_band(grid, result, vehicle, W)
             if band is not None:
                 ax.fill_between(grid, (F - band) / sc, (F + band) / sc, color="C3", alpha=0.2, lw=0,
                                 label="95 % band of the fitted curve")
         else:
-            ax.plot(grid, F / sc, "--", color="0.5", lw=1.2, label="last iterate of the FAILED fit")
+            ax.plot(grid, F / sc, "--", color="0.5", lw=1.2, label=_unusable_label(result))
     outside = int(np.sum((slip < i_lo) | (slip > i_hi)))
     ax.set_xlim(i_lo, i_hi)
     ax.set_ylim(min(0.0, float(np.min(thrust)) / sc), float(np.max(thrust)) / sc * 1.08)
@@ -285,9 +335,9 @@ def _drive_log_panels(fig, ax, axr, data: DriveLog, vehicle, result, curve) -> N
     x = result.extra if isinstance(result.extra, dict) else {}
     if x.get("regime"):
         ax.text(0.01, 0.98, f"regime: {x['regime']}", transform=ax.transAxes, va="top", fontsize=8)
-    res = np.asarray(result.residuals, dtype=float)
+    res = result.residuals_measured_minus_model
     t_used = data.time[prep.keep] if prep.keep.sum() == res.size else np.arange(res.size)
     axr.plot(t_used, res, ".", ms=2)
     axr.axhline(0, color="k", lw=0.6)
     axr.set_xlabel("time (s)" if prep.keep.sum() == res.size else "sample used in the fit")
-    axr.set_ylabel(f"{'model' if result.success else 'last iterate'} - data ({result.residual_unit})")
+    axr.set_ylabel(f"{_residual_label(result)} ({result.residual_unit})")

@@ -79,6 +79,8 @@ def fit_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:
             "torque_hold": None,
             "slip_noise": None,
             "intervals": None,
+            "interval_method": None,
+            "bounds": "practical",
             "method": "ipopt",
             "resistance": None,
         },

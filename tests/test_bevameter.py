@@ -130,7 +130,14 @@ def test_cli_fits_a_bevameter_file_without_vehicle(tmp_path):
         assert par["ci95"][0] <= par["value"] <= par["ci95"][1]
     plate = tmp_path / "plate.csv"
     BEV.plate_csv(str(plate), SOIL, 7, widths=(0.1,))
-    assert main(["fit", str(plate), "--json"]) == 0
+    p = subprocess.run([sys.executable, "-m", "soiltrack", "fit", str(plate), "--json"], capture_output=True,
+                       text=True, cwd=ROOT)
+    assert p.returncode == 0, p.stderr
+    js = json.loads(p.stdout)
+    assert [c["name"] for c in js["combinations"]] == ["bekker_k_eq"]
+    assert js["combinations"][0]["plate_width_m"] == 0.1
+    kc = js["parameters"]["bekker_kc"]
+    assert kc["value"] is None and kc["identifiable"] is False
 
 
 def test_cli_refuses_sweep_options_on_a_bevameter_file_and_a_sweep_without_vehicle(tmp_path, capsys):
@@ -155,3 +162,13 @@ def test_bad_bevameter_rows_name_the_column_and_row(tmp_path):
 def test_fit_soil_test_dispatches_by_kind(tmp_path):
     assert fit_soil_test(_plate(tmp_path, 2)).kind == "plate_test"
     assert fit_soil_test(_shear(tmp_path, 2)).kind == "shear_test"
+
+
+def test_shear_tests_without_displacement_or_with_negative_stress_are_refused():
+    sig = [1e4] * 5 + [2e4] * 5
+    with pytest.raises(DataError) as e:
+        fit_shear_test(ShearTest(sig, [0.0] * 10, [1.0] * 10))
+    assert e.value.column == "shear_displacement_m"
+    with pytest.raises(DataError) as e:
+        fit_shear_test(ShearTest(sig, np.tile(np.linspace(0.01, 0.1, 5), 2), [-5e3] * 10))
+    assert e.value.column == "shear_stress_Pa"

@@ -205,3 +205,30 @@ def test_the_figure_of_a_measured_load_is_written_and_its_curve_stays_below_full
     path = plot_fit(data, RIG, fit(data, RIG), str(tmp_path / "f.png"))
     assert (tmp_path / "f.png").stat().st_size > 10_000 and path.endswith("f.png")
     assert slip_grid_end(i) == CURVE_SLIP_END < 1.0
+
+
+def test_diagnose_refuses_skid_and_slip_angle_rows_too(tmp_path):
+    path = _rows_with_skid_and_angles(tmp_path)
+    assert main(["diagnose", path, "--vehicle", "light"]) == 2
+    assert main(["diagnose", path, "--vehicle", "light", "--driving-only"]) == 2  # the slip-angle rows remain
+
+
+def test_std_columns_are_checked(tmp_path):
+    i, DP, std, W = rig_rows(12)
+    std[[2, 5]] = 0.0
+    with pytest.raises(DataError) as e:
+        read_csv(write(tmp_path / "z.csv", {"slip": i, "drawbar_pull_N": DP, "drawbar_pull_std_N": std}))
+    assert (e.value.column, e.value.rows) == ("drawbar_pull_std_N", (3, 6))
+    with pytest.raises(DataError) as e:
+        read_csv(write(tmp_path / "o.csv", {"slip": i, "tractive_force_N": DP, "drawbar_pull_std_N": std + 1}))
+    assert e.value.column == "drawbar_pull_std_N"
+
+
+def test_fit_many_takes_the_rig_path_for_rig_sweeps():
+    from soiltrack.identify import fit_many
+
+    i, DP, std, W = rig_rows(13)
+    data = SlipData(slip=i, drawbar_pull=DP, normal_load=W, force_std=std)
+    one, = fit_many([data], RIG)
+    assert np.allclose(one.theta, fit(data, RIG).theta, rtol=1e-6, atol=1e-9)
+    assert one.extra["weights_from"] == "drawbar_pull_std_N" and "lack_of_fit" in one.extra

@@ -154,15 +154,16 @@ def test_cli_options(tmp_path, capsys):
     assert main(["fit", str(path), "--vehicle", "heavy", "--effect", "grade", "--slip-noise", "0.002", "--json"]) == 0
     j = json.loads(capsys.readouterr().out)
     assert j["extra"]["slip_noise"]["mode"] == "given" and j["extra"]["slip_noise"]["slip_sigma"] == 0.002
-    for bad in (["--slip-noise", "often"], ["--slip-noise", "0.9"], ["--intervals", "profile", "--method", "newton"]):
+    for bad in (["--slip-noise", "often"], ["--slip-noise", "0.9"],
+                ["--interval-method", "profile", "--method", "newton"]):
         assert main(["fit", str(path), "--vehicle", "heavy", *bad]) == 2
         err = capsys.readouterr().err
-        assert "Traceback" not in err and ("slip" in err or "intervals" in err)
+        assert "Traceback" not in err and ("slip" in err or "interval" in err)
     from soiltrack.soilmodel import simulate
     log = simulate(VEHICLES["light"], TERRAINS["lete_sand"], kind="drive", seed=1, duration_s=5)
     lpath = tmp_path / "log.csv"
     write_csv(log, lpath)
-    for opt in (["--slip-noise", "auto"], ["--intervals", "profile"]):
+    for opt in (["--slip-noise", "auto"], ["--interval-method", "profile"]):
         assert main(["fit", str(lpath), "--vehicle", "light", *opt]) == 2
         assert "slip sweeps only" in capsys.readouterr().err
     with pytest.raises(DataError, match="slip sweeps"):

@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from ...soilmodel.units import format_force
+
 __all__ = ["classify_regime", "GENTLE_CORRELATION", "GENTLE_REL_STDERR", "HARD_REL_STDERR", "K_REL_STDERR"]
 
 #: Correlation of the F_max and K estimates above which a log is "gentle" (only the slope).
@@ -52,7 +54,7 @@ def classify_regime(Fmax: float, K: float, l: float, cov2: np.ndarray | None, at
     warnings: list[str] = []
     corr, s_slope, relF, relK = float("nan"), float("nan"), float("inf"), float("inf")
     cov_ok = cov2 is not None
-    if cov_ok:
+    if cov2 is not None:
         sF, sK = math.sqrt(cov2[0, 0]), math.sqrt(cov2[1, 1])
         corr = float(cov2[0, 1] / (sF * sK))
         gslope = np.array([l / (2 * K), -Fmax * l / (2 * K * K)])
@@ -69,30 +71,30 @@ def classify_regime(Fmax: float, K: float, l: float, cov2: np.ndarray | None, at
     extra["regime"] = regime
 
     slope = Fmax * l / (2 * K)
-    slope_txt = (f"F_max l/(2K) = {slope:.4g} N" + (f" +- {s_slope:.2g} N" if math.isfinite(s_slope) else "")
-                 + " (thrust per unit slip at small slip)")
-    pct = (lambda x: f"{100 * x:.2g} %" if math.isfinite(x) else "undetermined")
+    slope_se = f" (SE {format_force(s_slope)})" if math.isfinite(s_slope) else ""
+    slope_txt = f"F_max l/(2K) = {format_force(slope)}{slope_se} (thrust per unit slip at small slip)"
+    pct = _percent
     if regime == "gentle":
         warnings.append(
-            f"gentle driving: the largest thrust in this log is about {thrust_peak / 1e3:.4g} kN, well below the "
-            f"soil's thrust limit, so the log only shows the initial slope {slope_txt}; F_max and K are not "
-            f"separable (correlation of their estimates {corr:.3f}, standard error of F_max {pct(relF)}). "
+            f"gentle driving: the largest thrust in this log is about {format_force(thrust_peak)}, well "
+            f"below the soil's thrust limit, so the log only shows the initial slope {slope_txt}; F_max and K "
+            f"are not separable (correlation of their estimates {corr:.3f}, standard error of F_max {pct(relF)}). "
             f"To identify them, drive a hard pull near the traction limit (e.g. a hard acceleration from low "
             f"speed, a drawbar pull or a climb)")
     elif regime == "intermediate" and relF <= HARD_REL_STDERR:
         i_lo, i_hi = K / l, 10 * K / l
         warnings.append(
-            f"the log reaches the traction limit (F_max = {Fmax / 1e3:.4g} kN +- {pct(relF)}), but K is poorly "
-            f"determined (standard error {pct(relK)}{', on a bound' if 'K' in at_bound else ''}): the samples sit "
-            f"either near zero slip or at full track spin, with few in between ({n_high} samples above 70 % of "
-            f"F_max). The best determined small-slip quantity is the initial slope {slope_txt}. A sustained pull "
-            f"at 50-90 % of the traction limit (slip about {i_lo:.3g} to {i_hi:.3g}) would pin K down")
+            f"the log reaches the traction limit (F_max = {format_force(Fmax)}, SE {pct(relF)}), but K is "
+            f"poorly determined (standard error {pct(relK)}{', on a bound' if 'K' in at_bound else ''}): the "
+            f"samples sit either near zero slip or at full track spin, with few in between ({n_high} samples "
+            f"above 70 % of F_max). The best determined small-slip quantity is the initial slope {slope_txt}. "
+            f"A sustained pull at 50-90 % of the traction limit (slip about {i_lo:.3g} to {i_hi:.3g}) would pin K down")
     elif regime == "intermediate":
         warnings.append(
             f"F_max and K are only partly separated (correlation {corr:.3f}, standard errors: F_max {pct(relF)}, "
-            f"K {pct(relK)}); the largest thrust seen is about {thrust_peak / 1e3:.4g} kN. The best determined "
-            f"quantity is the initial slope {slope_txt}. A harder pull, nearer the traction limit, would pin F_max "
-            f"and K down")
+            f"K {pct(relK)}); the largest thrust seen is about {format_force(thrust_peak)}. The best "
+            f"determined quantity is the initial slope {slope_txt}. A harder pull, nearer the traction limit, "
+            f"would pin F_max and K down")
     else:
         extra["note"] = (f"hard pull: the thrust reached about {pct(utilisation)} of the fitted limit; F_max and K "
                          f"are separated (correlation {corr:.3f}, standard errors: F_max {pct(relF)}, K {pct(relK)})")
@@ -101,3 +103,11 @@ def classify_regime(Fmax: float, K: float, l: float, cov2: np.ndarray | None, at
                         f"the data or the bounds are questionable")
 
     return regime, extra, warnings
+
+
+def _percent(x: float) -> str:
+    """A share as a percentage in plain digits: ``"96 %"``, ``"102 %"``, ``"6.2 %"``, ``"0.76 %"``."""
+    if not math.isfinite(x):
+        return "undetermined"
+    p = 100 * x
+    return f"{p:.0f} %" if abs(p) >= 10 else f"{p:.2g} %"

@@ -3,11 +3,13 @@
 Modules: :mod:`.records` (one parameter's estimate, one identifiable combination),
 :mod:`.result` (:class:`FitResult` and its builders), :mod:`.least_squares` (rank, covariance,
 degrees of freedom from the Jacobian), :mod:`.identifiability` (null space, the c-phi ridge),
-:mod:`.views` (estimates per parameter and combination), :mod:`.report` (words and JSON),
+:mod:`.views` (estimates per parameter and combination), :mod:`.report` (words and JSON; the
+outcome vocabulary :data:`OUTCOMES` and the residual sign :data:`RESIDUAL_SIGN` of every output),
 :mod:`.distributions` (Student t, normal, F, chi-square without scipy), :mod:`.likelihood`
 (profile likelihood of one parameter), :mod:`.joint_likelihood` (profile intervals of joint fits).
 """
 from .records import Combination, ParameterEstimate
+from .report import OUTCOMES, RESIDUAL_SIGN
 from .result import FitResult, build_result
 
-__all__ = ["FitResult", "ParameterEstimate", "Combination", "build_result"]
+__all__ = ["FitResult", "ParameterEstimate", "Combination", "build_result", "OUTCOMES", "RESIDUAL_SIGN"]

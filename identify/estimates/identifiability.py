@@ -22,7 +22,8 @@ import numpy as np
 
 from ...soilmodel.ridge import ridge_ranges
 from .least_squares import RANK_TOL, WEAK_CORRELATION, WEAK_VIF
-from .records import EDGE_UNITS, Combination, finite_or_none, format_force
+from ...soilmodel.units import format_value
+from .records import EDGE_UNITS, Combination, finite_or_none
 
 __all__ = ["IdentifiabilityViews", "BOUND_TOL"]
 
@@ -122,8 +123,8 @@ class IdentifiabilityViews:
         if rr is None:
             return (None, None), (None, None), (f"no point of the ridge A c + W tan(phi) = F_max with {how} "
                                                 "lies within the bounds")
-        return rr[0], rr[1], (f"range along the ridge A c + W tan(phi) = F_max (W = {format_force(W, 6)}) "
-                                          f"with {how}, within the bounds")
+        return rr[0], rr[1], (f"range along the ridge A c + W tan(phi) = F_max "
+                              f"(W = {format_value(W, 'N', 6)}) with {how}, within the bounds")
 
 
     def _partner(self, k: int, identifiable: bool) -> tuple[str | None, float | None]:
@@ -193,8 +194,8 @@ class IdentifiabilityViews:
         if self._cphi_ridge:
             W = float(self.normal_loads[0])
             statements.append(
-                f"c and phi are not separable: all data are at one normal load (W = {format_force(W, 6)}), where they "
-                "enter only through F_max = A c + W tan(phi); infinitely many (c, phi) give the same curve. "
+                f"c and phi are not separable: all data are at one normal load (W = {format_value(W, 'N', 6)}), "
+                "where they enter only through F_max = A c + W tan(phi); infinitely many (c, phi) give the same curve. "
                 "The data pin down F_max and K. Data at two or more normal loads (payload change, slope) or a "
                 "prior are needed to separate c and phi.")
         for name, pe in params.items():
@@ -228,8 +229,8 @@ class IdentifiabilityViews:
                        and not self.effect_labels]  # with effects, F_max may be weak through an effect
         high = {w: r for w, r in fk_corr.items() if r is not None and abs(r) > WEAK_CORRELATION}
         if weak_combos or high or (params["shear_modulus"].weakly_identifiable and not self.effect_labels):
-            rtxt = (" (correlation " + ", ".join(f"{r:+.4f} at W = {format_force(float(w), 6)}" for w, r in high.items())
-                    + ")") if high else ""
+            rtxt = (" (correlation " + ", ".join(f"{r:+.4f} at W = {format_value(float(w), 'N', 6)}"
+                                                 for w, r in high.items()) + ")") if high else ""
             statements.append(
                 f"F_max and K are strongly correlated{rtxt}: the data show mainly the start of the thrust-slip curve, "
                 "whose slope F_max l / (2 K) is determined but not F_max and K separately; data at larger slip "

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ParameterEstimate", "Combination", "EDGE_UNITS", "finite_or_none", "format_force", "NOT_USABLE",
+__all__ = ["ParameterEstimate", "Combination", "EDGE_UNITS", "finite_or_none", "NOT_USABLE",
            "solver_converged"]
 
 EDGE_UNITS = {  # SI name -> (JSON key, edge unit, factor SI -> edge, label, SI unit)
@@ -181,17 +181,3 @@ class Combination:
                 "ci95": [finite_or_none(self.ci95[0]), finite_or_none(self.ci95[1])], "unit": self.unit,
                 "description": self.description, "estimable": bool(self.estimable),
                 "weakly_identifiable": bool(self.weakly_identifiable), "note": self.note}
-
-
-def force_scale(values) -> tuple[float, str]:
-    """``(divisor, unit)`` for forces of this size: kN from 1 kN on, else N."""
-    a = np.abs(np.asarray(values, dtype=float))
-    a = a[np.isfinite(a)]
-    return (1e3, "kN") if a.size and float(np.max(a)) >= 1e3 else (1.0, "N")
-
-
-def format_force(x: float, digits: int = 4) -> str:
-    """A force in N or kN by its magnitude: ``"3.376 N"``, ``"235.1 kN"``."""
-    x = float(x)
-    sc, u = (1e3, "kN") if math.isfinite(x) and abs(x) >= 1e3 else (1.0, "N")  # force_scale of one number
-    return f"{x / sc:.{digits}g} {u}"

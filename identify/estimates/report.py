@@ -12,24 +12,59 @@ from functools import cached_property
 
 import numpy as np
 
+from ..jitcache import fallback_note
 from ...soilmodel.ridge import MAX_LOAD_LEVELS, load_summary_points
-from ...soilmodel.soil import PARAMETER_NAMES, Soil, SoilBounds
+from ...soilmodel.soil import PARAMETER_NAMES, PRACTICAL_BOUNDS, Soil, SoilBounds
+from ...soilmodel.units import choose_scale, format_force
 from ...soilmodel.vehicle import Vehicle
 from ..sweep.rig import LoadSeparation
-from .records import EDGE_UNITS, ParameterEstimate, finite_or_none, force_scale, format_force
+from .records import EDGE_UNITS, NOT_USABLE, ParameterEstimate, finite_or_none, solver_converged
 
-__all__ = ["ReportViews", "format_force"]
+__all__ = ["ReportViews", "OUTCOMES", "RESIDUAL_SIGN"]
+
+#: The one vocabulary of a fit's outcome, in the report, the JSON (``outcome``) and the figures:
+#: the solver converged and the answer stands; it converged but the plausibility checks refuse the
+#: answer (the warnings say why); or the solver failed. The solver's own status word is kept
+#: beside it (``status``), as the solver said it.
+OUTCOMES = ("converged", "not usable", "failed")
+#: The sign of every residual a fit shows (report, JSON ``residuals``, figures), as in the diagnosis.
+RESIDUAL_SIGN = "measured - model"
 
 
 class ReportViews:
     """Report, warnings and JSON of a fit result (mixin)."""
 
+    @property
+    def outcome(self) -> str:
+        """One of :data:`OUTCOMES`: ``"converged"``, ``"not usable"`` or ``"failed"``."""
+        if self.success:
+            return OUTCOMES[0]
+        return OUTCOMES[1] if solver_converged(self) else OUTCOMES[2]
+
+    @property
+    def solver_status(self) -> str:
+        """The solver's own status word: IPOPT's as it said it (``extra["solver_status"]``, kept when
+        ``status`` is normalised to ``"converged"``), else ``status`` without the plausibility verdict."""
+        own = self.extra.get("solver_status") if isinstance(self.extra, dict) else None
+        if isinstance(own, str) and own:
+            return own
+        st = str(self.status)
+        return st[: -len(NOT_USABLE)].rstrip() if st.endswith(NOT_USABLE) else st
+
+    @property
+    def residuals_measured_minus_model(self) -> np.ndarray:
+        """The fit's residuals as every output shows them, :data:`RESIDUAL_SIGN` (``residual_unit``).
+
+        ``residuals`` holds model - data (the solver's convention); this is its negative.
+        """
+        return -np.asarray(self.residuals, dtype=float)
+
     @cached_property
     def warnings(self) -> tuple[str, ...]:
         """Warnings in plain words (input warnings first)."""
         w = list(self.input_warnings)
-        if not self.success and "answer not usable" not in self.status:  # that one says why in its own warnings
-            w.append(f"the fit did not succeed ({self.status}): {self.message}")
+        if self.outcome == "failed":  # "not usable" says why in its own warnings
+            w.append(f"the fit failed (solver status {self.solver_status}): {self.message}")
         for name, d in self.outside_bounds.items():
             j = PARAMETER_NAMES.index(name)
             f, u = EDGE_UNITS[name][2], EDGE_UNITS[name][1]
@@ -67,6 +102,7 @@ class ReportViews:
         rmse = finite_or_none(self.rmse)
         d = {
             "model": self.model, "method": self.method, "status": self.status, "success": bool(self.success),
+            "outcome": self.outcome,
             "n_samples": int(self.n_samples),
             "rmse_N": rmse if self.residual_unit == "N" else None,
             "solve_time_s": finite_or_none(self.solve_time),
@@ -84,11 +120,31 @@ class ReportViews:
             "parameter_names": list(self.parameter_names),
             "effects": {n: {k: pe.to_dict() for k, pe in ps.items()} for n, ps in self.effects.items()},
             "covariance": self._covariance_json(),
+            "bounds": self._bounds_json(),
+            "residuals": {"sign": RESIDUAL_SIGN, "unit": self.residual_unit,
+                          "values": [finite_or_none(x) for x in self.residuals_measured_minus_model]},
         }
         if self.extra:
             d["extra"] = json.loads(json.dumps(self.extra, default=json_default, allow_nan=True),
                                     parse_constant=lambda _: None)
         return d
+
+    def _bounds_json(self) -> dict:
+        """The soil bounds of the fit in edge units: ``{"cohesion_kpa": [lo, hi], ...}``."""
+        return {EDGE_UNITS[n][0]: [finite_or_none(self.bounds.lower[j] * EDGE_UNITS[n][2]),
+                                   finite_or_none(self.bounds.upper[j] * EDGE_UNITS[n][2])]
+                for j, n in enumerate(PARAMETER_NAMES)}
+
+    def _bounds_line(self) -> str | None:
+        """A report line naming the bounds when they are not the practical range (else ``None``)."""
+        if np.allclose(self.bounds.lower, PRACTICAL_BOUNDS.lower) and \
+                np.allclose(self.bounds.upper, PRACTICAL_BOUNDS.upper):
+            return None
+        b = self._bounds_json()
+        parts = [f"{EDGE_UNITS[n][3].split()[-1]} {b[EDGE_UNITS[n][0]][0]:.4g}-{b[EDGE_UNITS[n][0]][1]:.4g} "
+                 f"{EDGE_UNITS[n][1]}" for n in PARAMETER_NAMES]
+        return ("soil bounds: " + ", ".join(parts)
+                + " (not the practical range c 0-69 kPa, phi 6-40 deg, K 0.006-0.05 m)")
 
     def _covariance_json(self) -> dict:
         """``{"parameters", "matrix", "units"}``: the covariance over :attr:`parameter_names` in SI,
@@ -224,8 +280,15 @@ class ReportViews:
         L.extend(self._rig_lines())
         L.append(f"vehicle: {self.vehicle.name or 'unnamed'} (l = {self.vehicle.track_length:.4g} m, "
                  f"b = {self.vehicle.track_width:.4g} m, A = {self.vehicle.contact_area:.4g} m^2)")
-        L.append(f"status: {self.status} ({'success' if self.success else 'FAILED'}), {self.iterations} iterations, "
-                 f"{self.solve_time * 1e3:.3g} ms")
+        if (bl := self._bounds_line()) is not None:
+            L.append(bl)
+        why = {"not usable": " - the answer fails the plausibility checks (see the warnings)",
+               "failed": " - no estimate (see the warnings)"}.get(self.outcome, "")
+        L.append(f"status: {self.outcome}{why} (solver status {self.solver_status}, {self.iterations} "
+                 f"iterations, {_duration(self.solve_time)})")
+        fallback = fallback_note(self.extra.get("engine_backend")) if isinstance(self.extra, dict) else None
+        if fallback:  # said once on stderr too (soiltrack.identify.jitcache)
+            L.append(f"engine: {fallback}")
         unit = self.residual_unit
         rmse = format_force(self.rmse) if unit == "N" else f"{self.rmse:.4g} {unit}"
         L.append(f"fit: RMSE {rmse}, cost {self.cost:.6g}, residual dof {self.dof}")
@@ -245,11 +308,12 @@ class ReportViews:
             elif not pe.identifiable:
                 L.append(f"{lab}NOT IDENTIFIABLE; possible range {rng}")
             else:
-                se = f" +- {pe.edge_stderr:.3g}" if pe.stderr is not None else " (no stderr)"
+                se = f" (SE {pe.edge_stderr:.3g} {u})" if pe.stderr is not None else " (no SE)"
                 flag = " [ON " + pe.bound_side.upper() + " BOUND]" if pe.at_bound else ""
                 weak = " [weakly identifiable]" if pe.weakly_identifiable else ""
                 cut = " [cut at a bound, see below]" if "is cut at the bound" in (pe.note or "") else ""
-                L.append(f"{lab}{pe.edge_value:.5g}{se} {u}, 95 % {rng}{self._interval_tag(name)}{flag}{weak}{cut}")
+                L.append(f"{lab}{pe.edge_value:.5g} {u}{se}, 95 % {rng}{self._interval_tag(name)}"
+                         f"{flag}{weak}{cut}")
                 if cut:
                     notes.append(f"  {EDGE_UNITS[name][3]}: " + "; ".join(n for n in pe.note.split("; ")
                                                                     if "is cut at the bound" in n))
@@ -258,7 +322,7 @@ class ReportViews:
             L.append("effect parameters (95 % intervals, SI):")
         for name, ps in self.effects.items():
             for pname, pe in ps.items():
-                lab = f"  {name + '.' + pname:<20}"
+                lab = f"  {name + '.' + pname:<20} "
                 u = pe.si_unit
                 lo, hi = pe.ci95
                 rng = f"[{lo:.4g}, {hi:.4g}] {u}" if lo is not None and hi is not None else "[unavailable]"
@@ -270,17 +334,18 @@ class ReportViews:
                     w = f" from {pe.correlated_with}" if pe.correlated_with else ""
                     L.append(f"{lab}NOT IDENTIFIABLE (not separable{w}); range {rng}")
                 else:
-                    se = f" +- {pe.stderr:.3g}" if pe.stderr is not None else " (no stderr)"
+                    se = f" (SE {pe.stderr:.3g} {u})" if pe.stderr is not None else " (no SE)"
                     flag = " [ON " + pe.bound_side.upper() + " BOUND]" if pe.at_bound else ""
                     weak = (f" [weakly identifiable: correlation {pe.correlation:+.4f} with {pe.correlated_with}]"
                             if pe.weakly_identifiable and pe.correlated_with else
                             (" [weakly identifiable]" if pe.weakly_identifiable else ""))
-                    L.append(f"{lab}{pe.value:.5g}{se} {u}, 95 % {rng}{self._interval_tag(name + '.' + pname)}{flag}"
+                    L.append(f"{lab}{pe.value:.5g} {u}{se}, 95 % {rng}"
+                             f"{self._interval_tag(name + '.' + pname)}{flag}"
                              f"{weak}")
         kinds = {v.kind for v in (self.replaced_intervals or {}).values()}
         if "profile" in kinds:
             L.append("  (profile: the 95 % interval from the profile likelihood, this parameter held and all others "
-                     "refitted; the +- is the linearised standard error, which assumes a quadratic cost)")
+                     "refitted; SE is the linearised standard error, which assumes a quadratic cost)")
         if "hold" in kinds:
             L.append("  (both holds: the interval covers the fits with the torque held and sampled; the torque hold "
                      "was not given)")
@@ -319,11 +384,11 @@ class ReportViews:
             L.append(f"  ({what}, NOT an estimate: c = {rp.cohesion_kpa:.4g} kPa, "
                      f"phi = {rp.friction_angle_deg:.4g} deg, K = {rp.shear_modulus:.4g} m)")
         if self.n_samples <= 20:
-            if unit == "N":
-                sc, u = force_scale(self.residuals)
-            else:
-                sc, u = 1.0, unit
-            L.append(f"residuals (model - data, {u}): " + ", ".join(f"{r / sc:+.4g}" for r in self.residuals))
+            res = self.residuals_measured_minus_model
+            sc = choose_scale(res, "N") if unit == "N" else None
+            u = sc.unit if sc is not None else unit
+            f = sc.factor if sc is not None else 1.0
+            L.append(f"residuals ({RESIDUAL_SIGN}, {u}): " + ", ".join(f"{r * f:+.4g}" for r in res))
         said = set(ident["statements"])  # the identifiability statements are said once, above
         warns = [w for w in self.warnings if w not in said]
         if warns:
@@ -335,6 +400,15 @@ class ReportViews:
     def __str__(self) -> str:  # pragma: no cover - convenience
         return self.report()
 
+
+
+def _duration(seconds: float) -> str:
+    """A solve time in plain digits: ``"98.6 ms"``, ``"9.42 s"``, ``"312 s"`` (never ``9.42e+03 ms``)."""
+    if not np.isfinite(seconds):
+        return "time unknown"
+    if seconds < 1.0:
+        return f"{seconds * 1e3:.3g} ms"
+    return f"{seconds:.3g} s" if seconds < 100.0 else f"{seconds:.0f} s"
 
 
 def _combo_load(name: str) -> str:
@@ -353,15 +427,15 @@ def _combo_label(name: str) -> str:
 def _combo_value(cb) -> str:
     """Value, standard error and 95 % interval of a combination in units by magnitude."""
     if cb.unit in ("N", "N/slip"):
-        sc, u = force_scale([cb.value])
-        u += "/slip" if cb.unit == "N/slip" else ""
+        scale = choose_scale([cb.value], cb.unit)
+        f, u = scale.factor, scale.unit
     else:
-        sc, u = 1.0, ("" if cb.unit == "-" else cb.unit)
+        f, u = 1.0, ("" if cb.unit == "-" else cb.unit)
     sp = f" {u}" if u else ""
-    se = f" +- {cb.stderr / sc:.3g}" if cb.stderr is not None else " (no stderr)"
+    se = f" (SE {cb.stderr * f:.3g}{sp})" if cb.stderr is not None else " (no SE)"
     lo, hi = cb.ci95
-    ci = f", 95 % [{lo / sc:.4g}, {hi / sc:.4g}]{sp}" if lo is not None and hi is not None else ""
-    return f"{cb.value / sc:.5g}{se}{sp}{ci}"
+    ci = f", 95 % [{lo * f:.4g}, {hi * f:.4g}]{sp}" if lo is not None and hi is not None else ""
+    return f"{cb.value * f:.5g}{sp}{se}{ci}"
 
 
 def json_default(o):

@@ -27,7 +27,7 @@ from .least_squares import RANK_TOL, WEAK_CORRELATION, core_stats, core_stats_on
 from .records import EDGE_UNITS, NOT_USABLE, Combination, ParameterEstimate, finite_or_none  # noqa: F401
 from .views import EstimateViews
 from .identifiability import BOUND_TOL, NULL_TOL, IdentifiabilityViews  # noqa: F401
-from ..sweep.plausibility import assess
+from ..sweep.plausibility import assess, check_loads
 from .report import ReportViews, json_default  # noqa: F401
 
 __all__ = ["FitResult", "ParameterEstimate", "Combination", "build_result", "build_results_batch", "RANK_TOL",
@@ -273,8 +273,10 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
             raise DataError("predict is for slip fits; use residuals_on for drive logs")
         m = measured or self.measured or "tractive_force"
         W = None if normal_load is None else np.broadcast_to(np.asarray(normal_load, dtype=float), s.shape)
+        zeros = np.zeros(s.shape)
         probe = SlipData(slip=np.clip(s, 0.0, np.nextafter(1.0, 0.0)), normal_load=W, source="prediction grid",
-                         **{m: np.zeros(s.shape)})
+                         tractive_force=zeros if m == "tractive_force" else None,
+                         drawbar_pull=zeros if m == "drawbar_pull" else None)
         return -next(iter(self.residuals_on(probe).values()))
 
     def residuals_on(self, data) -> dict[str, np.ndarray]:
@@ -409,9 +411,13 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
     m = len(labels)
     if J.ndim != 2 or J.shape[1] != 3 + m or J.shape[0] != rw.size:
         raise ValueError(f"jacobian must have shape (n_res, 3 + {m}) = ({rw.size}, {3 + m}), got {J.shape}")
-    if samples is not None and data_kind == "slip":
-        slip, thrust, load, *curves = samples
-        found, usable = assess(slip, thrust, load, residuals, theta, vehicle, model, bounds, *curves)
+    if data_kind == "slip":
+        if samples is not None:
+            slip, thrust, load, *curves = samples
+            found, usable = assess(slip, thrust, load, residuals, theta, vehicle, model, bounds, *curves)
+        else:  # a fit without the checks of the data (joint fits): the loads against the vehicle all the same
+            loads = check_loads(normal_loads, vehicle)
+            found, usable = tuple("NOT USABLE: " + f.message for f in loads), not loads
         warnings = tuple(warnings) + found
         if not usable and success:
             success, status = False, f"{status} {NOT_USABLE}"

@@ -24,7 +24,8 @@ import numpy as np
 
 from ...soilmodel.soil import PARAMETER_NAMES, Soil
 from .least_squares import WEAK_VIF
-from .records import EDGE_UNITS, Combination, ParameterEstimate, format_force
+from ...soilmodel.units import format_value
+from .records import EDGE_UNITS, Combination, ParameterEstimate
 from .identifiability import BOUND_TOL
 from ..sweep.plausibility import fmax_range
 
@@ -133,11 +134,13 @@ class EstimateViews:
             W = float(W)
             fm, gF = self._fmax(W)
             if self.effect_labels:
-                actual = f" (actual normal load N = {format_force(self._effective_load(W)[0], 6)} with the fitted effects)"
+                N_W = format_value(self._effective_load(W)[0], 'N', 6)
+                actual = f" (actual normal load N = {N_W} with the fitted effects)"
             add(f"F_max@W={W:.6g}N", fm, gF, "N",
-                f"soil thrust limit {'N tan(phi)' if cf else 'A c + N tan(phi)'} at W = {format_force(W, 6)}{actual}"
+                f"soil thrust limit {'N tan(phi)' if cf else 'A c + N tan(phi)'} at W = "
+                f"{format_value(W, 'N', 6)}{actual}"
                 if self.effect_labels else
-                f"soil thrust limit {'W tan(phi)' if cf else 'A c + W tan(phi)'} at W = {format_force(W, 6)}",
+                f"soil thrust limit {'W tan(phi)' if cf else 'A c + W tan(phi)'} at W = {format_value(W, 'N', 6)}",
                 rng=fmax_range(self.bounds, self.vehicle, self.model,
                                self._effective_load(W)[0] if self.effect_labels else W))
         Kb = self.bounds.shear_modulus
@@ -154,7 +157,7 @@ class EstimateViews:
                 f_lo, f_hi = fmax_range(self.bounds, self.vehicle, self.model, W)
                 srng = (f_lo * l / (2.0 * Kb[1]), f_hi * l / (2.0 * Kb[0]))
             add(f"initial_slope@W={W:.6g}N", s0, g, "N/slip", f"small-slip slope dF/di = F_max l / (2 K) at W = "
-                f"{format_force(W, 6)}", rng=srng)
+                f"{format_value(W, 'N', 6)}", rng=srng)
         return out
 
     @cached_property

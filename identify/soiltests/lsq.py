@@ -104,7 +104,7 @@ def _functions(name: str, n: int) -> tuple[ca.Function, ca.Function]:
     x, D, a = _symbols(model, n)
     r = model.build(x, D, a)
     p = ca.vertcat(ca.vec(D), a)
-    opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.max_iter": MAX_ITER,
+    opts: dict = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.max_iter": MAX_ITER,
             "ipopt.tol": 1e-10}
     solver = ca.nlpsol(f"lsq_{name}_{n}", "ipopt", {"x": x, "p": p, "f": 0.5 * ca.sumsqr(r)}, opts)
     rj = ca.Function(f"rj_{name}_{n}", [x, p], [r, ca.jacobian(r, x)])

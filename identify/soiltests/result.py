@@ -85,7 +85,8 @@ class TestCombination:
 
     def to_dict(self) -> dict:
         """JSON-ready dict; never NaN."""
-        return {"expression": self.expression, "unit": self.unit, "value": _f(self.value), "stderr": _f(self.stderr),
+        return {"name": self.key, "expression": self.expression, "unit": self.unit, "value": _f(self.value),
+                "stderr": _f(self.stderr),
                 "ci95": [_f(self.ci95[0]), _f(self.ci95[1])], "identifiable": True,
                 **{k: _f(v) for k, v in self.at.items()}}
 
@@ -137,9 +138,9 @@ class SoilTestFit:
 
     @property
     def success(self) -> bool:
-        """IPOPT converged and every reported number is finite."""
+        """IPOPT converged, the data identify at least one parameter, and every reported number is finite."""
         vals = [p.value for p in self.parameters.values() if p.identifiable]
-        return bool(self.converged and all(v is not None and math.isfinite(v) for v in vals))
+        return bool(self.converged and vals and all(v is not None and math.isfinite(v) for v in vals))
 
     @property
     def active_bounds(self) -> list[str]:
@@ -158,7 +159,7 @@ class SoilTestFit:
                 "n_samples": int(self.n_samples), f"rmse_{self.rmse_unit}": _f(self.rmse),
                 "solve_time_s": _f(self.solve_time_s), "levels": self.levels,
                 "parameters": {k: p.to_dict() for k, p in self.parameters.items()},
-                "combinations": {k: c.to_dict() for k, c in self.combinations.items()},
+                "combinations": [c.to_dict() for c in self.combinations.values()],
                 "identifiable": self.identifiable, "active_bounds": self.active_bounds, "notes": list(self.notes)}
 
     def to_json(self, indent: int | None = 2) -> str:
@@ -186,5 +187,7 @@ class SoilTestFit:
             ci = f"[{c.ci95[0]:.4g}, {c.ci95[1]:.4g}]" if None not in c.ci95 else "[n/a]"
             lines.append(f"  {c.expression + ' (' + at + ')':<40} {c.value:.4g} {c.unit}  95 % {ci}")
         lines += [f"note: {n}" for n in self.notes]
-        lines.append("result: " + ("usable" if self.success else "NOT usable (the solver did not converge)"))
+        why = ("the solver did not converge" if not self.converged else
+               "the data identify none of the parameters")
+        lines.append("result: " + ("usable" if self.success else f"NOT usable ({why})"))
         return "\n".join(lines)

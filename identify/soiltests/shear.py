@@ -79,6 +79,15 @@ def fit_shear_test(test: ShearTest, bounds: SoilBounds = WIDE_BOUNDS) -> SoilTes
     ts = float(np.max(np.abs(tau)))
     if ts <= 0:
         raise DataError("every shear stress is zero", file=test.source, column="shear_stress_Pa")
+    moved = j > 0
+    if np.count_nonzero(moved) < m:
+        raise DataError(f"{np.count_nonzero(moved)} rows with a shear displacement above 0: the "
+                        f"stress-displacement curve needs at least {m}", file=test.source,
+                        column="shear_displacement_m")
+    if np.median(tau[moved]) <= 0:
+        raise DataError("most shear stresses at a positive displacement are <= 0: the soil resists shearing "
+                        "with a positive stress (a sign convention of the logger?)", file=test.source,
+                        column="shear_stress_Pa")
     D = np.column_stack([sigma, j, tau])
     (c_lo, c_hi), (p_lo, p_hi), (k_lo, k_hi) = bounds.cohesion, bounds.friction_angle, bounds.shear_modulus
     peaks = _start_strength(sigma, tau, levels)

@@ -5,6 +5,9 @@ or the answer cannot be right, so that a fit to them is not reported as a succes
 
 At input (independent of the fit):
 
+- **loads of another vehicle**: the rows' normal loads are far below or above the weight of the
+  vehicle given (a light vehicle's sweep fitted with a heavy vehicle's file): the contact area
+  A of that vehicle then puts a wrong A c into every F_max;
 - **force scale**: the forces are far below what the weakest soil within the bounds gives at
   these slips and this load (typically kN written in an N column), or a row lies far above
   what the strongest soil gives (a typo, a unit error, the wrong normal load);
@@ -35,10 +38,12 @@ from ...soilmodel.ridge import continuous_load
 from ...soilmodel.soil import SoilBounds
 from ...soilmodel.traction import max_thrust_expr, thrust_at
 from ...soilmodel.vehicle import Vehicle
-from ..estimates.records import format_force
+from ...soilmodel.units import format_value
 
-__all__ = ["Finding", "fmax_range", "corner_soils", "corner_curves", "check_slip_data", "check_slip_fit", "assess", "screen_expr",
-           "limit_screen_expr", "LIMIT_BAND", "SCALE_FACTOR", "OUTLIER_Z", "OUTLIER_SHARE", "GROSS_Z", "GROSS_SHARE", "RESIDUAL_RATIO", "BOUND_FACTOR"]
+__all__ = ["Finding", "fmax_range", "corner_soils", "corner_curves", "check_loads", "check_slip_data",
+           "check_slip_fit", "assess", "screen_expr", "limit_screen_expr", "LIMIT_BAND", "SCALE_FACTOR",
+           "OUTLIER_Z", "OUTLIER_SHARE", "GROSS_Z", "GROSS_SHARE", "RESIDUAL_RATIO", "BOUND_FACTOR",
+           "LOAD_FACTOR"]
 
 #: Data this many times below the weakest soil (median over the samples) or a row this many times
 #: above the strongest are not a soil within the bounds.
@@ -53,6 +58,10 @@ RESIDUAL_RATIO = 0.5
 BOUND_FACTOR = 2.0
 #: F_max within this share of the range the bounds allow from either end counts as on that bound.
 LIMIT_BAND = 1e-3
+#: Normal loads (median over the rows) more than this factor below or above the vehicle's weight are
+#: not this vehicle's: one track of it on a rig, a payload change or a slope stay well within it; a
+#: light vehicle's 300 N sweep fitted with a 329 kN vehicle's file (0.1 %) does not.
+LOAD_FACTOR = 10.0
 #: Fewest samples for a robust residual scale (median absolute deviation).
 MIN_ROBUST = 6
 #: Relative slack of :func:`screen_expr`: rounding never lets the screen pass data a check would flag.
@@ -83,7 +92,7 @@ class Finding:
 
 
 def _fmt_force(x: float) -> str:
-    return format_force(x, 3)
+    return format_value(x, "N", 3)
 
 
 def _rows(idx, limit: int = 5) -> str:
@@ -258,6 +267,36 @@ def limit_screen_expr(c, phi, load, weak, strong, area, model: str, real):
     return ca.sum2(ca.if_else(real > 0, 1 - clear, 0)) > 0
 
 
+def check_loads(load, vehicle: Vehicle) -> list[Finding]:
+    """The rows' normal loads against the vehicle's weight (:data:`LOAD_FACTOR`); not usable beyond it.
+
+    Parameters
+    ----------
+    load : array_like
+        Normal load per row, N (the vehicle's weight where the data give none).
+    vehicle
+        The vehicle of the fit: its weight W = m g and contact area A.
+    """
+    load = _vec(load)
+    W = float(vehicle.weight)
+    if not load.size or W <= 0 or (_MIN(load) * LOAD_FACTOR >= W and _MAX(load) <= LOAD_FACTOR * W):
+        return []  # every row within the factor (the common case: one comparison each way)
+    if not _all_finite(load):
+        return []
+    med = _median(load, finite=True)
+    ratio = med / W
+    if 1.0 / LOAD_FACTOR <= ratio <= LOAD_FACTOR:
+        return []
+    size = f"{100 * ratio:.2g} % of" if ratio < 1 else f"{ratio:.3g} times"
+    return [Finding(
+        "load_not_this_vehicle",
+        f"the data's normal loads (median {_fmt_force(med)}) are {size} this vehicle's weight "
+        f"({_fmt_force(W)}): they are not this vehicle's, and its contact area "
+        f"A = {vehicle.contact_area:.4g} m^2 makes the cohesion (A c in F_max) meaningless; check --vehicle "
+        "(the file or preset of the vehicle that made the data) and the unit of the normal_load_N column",
+        usable=False)]
+
+
 def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: SoilBounds,
                     curves: tuple | None = None) -> list[Finding]:
     """Checks that need no fit: the force scale against the bounds, and negative thrust.
@@ -303,7 +342,7 @@ def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: Soi
             f"{SCALE_FACTOR:g} times what the strongest soil within the bounds gives at that slip and load "
             f"({_fmt_force(float(hi[np.nonzero(pos)[0] == k][0]))}): a typo, a unit error or the wrong normal load?",
             usable=False, rows=tuple(int(r) + 1 for r in above)))
-    neg = np.nonzero(pos & (force < 0))[0] if _MIN(force) < 0 else ()
+    neg = np.nonzero(pos & (force < 0))[0] if _MIN(force) < 0 else np.zeros(0, dtype=np.intp)
     if len(neg):
         k = int(neg[0])
         out.append(Finding(
@@ -443,17 +482,19 @@ def assess(slip, force, load, residuals, theta, vehicle: Vehicle, model: str,
     ``limit_screen``: :func:`limit_screen_expr` at ``theta``, if the caller has it; 0 (with
     ``screen`` 0) means that one has nothing to find either: no finding, usable.
     """
+    loads = check_loads(load, vehicle)  # not part of the screens: cheap, and always run
     if screen is not None and screen < 0.5:
         c, phi, K = np.asarray(theta, dtype=float).ravel().tolist()
         if math.isfinite(c) and math.isfinite(phi) and math.isfinite(K):  # (the screen saw finite residuals)
-            if limit_screen is not None and limit_screen < 0.5:
+            if limit_screen is not None and limit_screen < 0.5 and not loads:
                 return (), True
             slip, force, load = _vec(slip), _vec(force), _vec(load)
-            found = _limit_on_bound(force, load, _vec(residuals), c, phi, K, vehicle, model, bounds)
+            found = loads + ([] if limit_screen is not None and limit_screen < 0.5 else
+                             _limit_on_bound(force, load, _vec(residuals), c, phi, K, vehicle, model, bounds))
             return tuple(("NOT USABLE: " if not f.usable else "") + f.message for f in found), \
                 all(f.usable for f in found)
     slip, force, load = _vec(slip), _vec(force), _vec(load)
-    found = check_slip_data(slip, force, load, vehicle, model, bounds, curves)
+    found = loads + check_slip_data(slip, force, load, vehicle, model, bounds, curves)
     named = {r for f in found if not f.usable for r in f.rows}
     after = check_slip_fit(slip, force, load, residuals, theta, vehicle, model, bounds)
     for f in (sorted(after, key=lambda f: f.code == "residuals_large") if after else ()):

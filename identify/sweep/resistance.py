@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -31,6 +31,7 @@ from ...soilmodel.errors import DataError
 from ...soilmodel.vehicle import Vehicle
 from ..estimates.distributions import lr_threshold
 from ..estimates.result import FitResult
+from .model import SweepResiduals
 
 __all__ = ["RESISTANCE_MODES", "MU_BOUNDS", "GRID_POINTS", "GOLDEN_TOL", "fit_resistance",
            "assumed_resistance", "SinkageResistance"]
@@ -68,27 +69,30 @@ class SinkageResistance:
     """
 
     k_z: float
-    base: object
+    base: SweepResiduals
 
     def residuals_on(self, result, data) -> dict:
         """``{drawbar_pull_N: measured - predicted}`` of data with a sinkage column."""
         if not isinstance(data, SlipData) or data.measured != "drawbar_pull" or data.sinkage is None:
             raise DataError("this fit's resistance is proportional to the sinkage: it predicts drawbar pulls "
                             "of data with a sinkage_m column", file=getattr(data, "source", None))
-        tf = _as_tractive(data, self.k_z)
+        tf = _as_tractive(data, self.k_z, result.vehicle.weight)
         return {data.channel: next(iter(self.base.residuals_on(result, tf).values()))}
 
 
-def _as_tractive(data: SlipData, k_z: float) -> SlipData:
-    """The drawbar pulls as tractive forces ``DP + k_z z W`` (same rows, weights and loads)."""
-    W = data.loads()
+def _as_tractive(data: SlipData, k_z: float, weight: float) -> SlipData:
+    """The drawbar pulls as tractive forces ``DP + k_z z W`` (same rows, weights and loads; ``weight``
+    where the data carry no load)."""
+    W = data.loads(weight)
+    if data.sinkage is None:
+        raise DataError("a resistance proportional to the sinkage needs a sinkage_m column", file=data.source)
     return SlipData(slip=data.slip, tractive_force=data.values + k_z * data.sinkage * W,
                     normal_load=data.normal_load, source=data.source, sinkage=data.sinkage,
                     force_std=data.force_std, dropped=data.dropped)
 
 
 def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData, Vehicle, bool], FitResult],
-                   form: str = "fit", base_residuals: object = None) -> FitResult:
+                   form: str = "fit", base_residuals: SweepResiduals | None = None) -> FitResult:
     """Fit the resistance with the soil (see the module docs); returns the soil's fit at the best value.
 
     Parameters
@@ -121,7 +125,7 @@ def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData,
         hi = MU_BOUNDS[1] / z_max  # R / W at most MU_BOUNDS[1] at the deepest row
 
         def trial(v: float, final: bool) -> FitResult:
-            return fit_at(_as_tractive(data, v), vehicle, final)
+            return fit_at(_as_tractive(data, v, vehicle.weight), vehicle, final)
     else:
         hi = MU_BOUNDS[1]
 
@@ -152,7 +156,7 @@ def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData,
         else:
             a, c = c, d
             d = a + _PHI * (b - a)
-    v = min(cache, key=cache.get)
+    v = min(cache, key=lambda m: cache[m])
     best = trial(v, True)
     cmin = _cost(best)
     if not math.isfinite(cmin):
@@ -173,6 +177,9 @@ def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData,
     if form == "fit-sinkage":
         if "weights_from" in extra:  # the fit saw the pulls as tractive forces; the column was the pull's
             extra["weights_from"] = STD_COLUMNS[data.measured]
+        if base_residuals is None:
+            raise ValueError("fit_resistance: form='fit-sinkage' needs base_residuals (the sweep's "
+                             "residual model)")
         return replace(best, extra=extra, measured="drawbar_pull",
                        residual_model=SinkageResistance(v, base_residuals))
     return replace(best, extra=extra)
