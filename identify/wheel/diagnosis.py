@@ -55,7 +55,7 @@ class WheelDiagnosis:
     notes: tuple[str, ...]
 
     def to_dict(self) -> dict[str, Any]:
-        """The JSON object (DESIGN.md section 8 keys, plus the wheel's signature and notes)."""
+        """The JSON object (the keys of the track's diagnosis, plus the wheel's signature and notes)."""
 
         def soil(r: WheelFitResult | None) -> dict | None:
             return None if r is None else {k: v.value for k, v in r.parameters.items()}
