@@ -160,7 +160,7 @@ def test_a_measured_load_that_barely_spreads_says_the_separation_rests_on_it():
     i, DP, _, W = rig_rows(8)
     r = fit(SlipData(slip=i, drawbar_pull=DP, normal_load=W), RIG)
     sep = r.extra["load_separation"]
-    assert sep["fragile"] is True and sep["spread"] < 0.5
+    assert sep["fragile"] is True and sep["spread"] < 0.3
     assert r.replaced_intervals and {"cohesion", "friction_angle"} <= set(r.replaced_intervals)
 
 
