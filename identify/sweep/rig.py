@@ -28,6 +28,7 @@ import numpy as np
 from ...soilmodel.data import STD_COLUMNS, SlipData
 from ...soilmodel.ridge import distinct_loads
 from ..estimates.distributions import f_sf
+from .sinkage_channel import fit_sinkage_channel
 
 __all__ = ["LOAD_SPREAD_SMALL", "LOAD_SLIP_CORRELATION", "SLIP_REPEAT_TOL", "LACK_OF_FIT_ALPHA", "LoadSeparation",
            "LackOfFit", "std_weights", "load_separation", "pure_error_test", "rig_extra"]
@@ -189,7 +190,8 @@ def rig_extra(data: SlipData, result, separation: LoadSeparation | None) -> dict
     if data.sinkage is not None:
         z, s = np.asarray(data.sinkage, dtype=float), np.asarray(data.slip, dtype=float)
         corr = float(np.corrcoef(z, s)[0, 1]) if np.std(z) > 0 and np.std(s) > 0 else 0.0
-        out["sinkage_m"] = {"min": float(z.min()), "max": float(z.max()), "slip_correlation": corr}
+        out["sinkage_m"] = {"min": float(z.min()), "max": float(z.max()), "slip_correlation": corr,
+                            "laws": fit_sinkage_channel(data, result.vehicle)}
     if separation is not None and result.model == "full":
         out["load_separation"] = separation.to_dict()
     if result.success:  # (the free parameters' count: no statistic of the result is computed here)
