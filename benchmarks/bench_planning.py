@@ -23,12 +23,19 @@ What is measured
   points per interval, torque bounds; the simulation is the same CVODES replay of the model
   core (one CasADi call for the whole horizon, ``mapaccum``); gradients by finite differences
   (what ``minimize`` does without a Jacobian). Its result is replayed and compared.
+* Re-planning while driving (:class:`soiltrack.planning.Replanner`, its own warm start), the same
+  100-interval problem: cold (``reset`` before each call), warm on a new soil (alternating LETE
+  sand / dry sand, the case above), and warm on a small change of the soil (alternating LETE
+  sand and LETE sand with a friction angle 0.5 deg lower and K 5 % larger: what an on-line
+  estimate's update looks like). Medians of the whole ``replan`` call and of the solver alone.
 * A 10-patch route (alternating terrains and grades, 100 intervals): cold solve and warm
   re-solve.
 * ``margin`` with a fit's uncertainty and 10,000 Monte Carlo samples.
 
-Targets: warm profile solve below 50 ms on 2 cores (aim 10 ms).
+Targets: warm profile solve below 50 ms on 2 cores (aim 10 ms); warm re-plan on a new soil below
+20 ms (aim 10 ms, issue 22).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -53,7 +60,7 @@ except ImportError:  # pragma: no cover
     sys.exit("benchmarks need scipy: pip install 'soiltrack[bench]'")
 
 from soiltrack.identify import fit  # noqa: E402
-from soiltrack.planning import margin, profile, replay, route_from_dict, route_profile  # noqa: E402
+from soiltrack.planning import Replanner, margin, profile, replay, route_from_dict, route_profile  # noqa: E402
 from soiltrack.planning.ocp import clear_warm_starts  # noqa: E402
 from soiltrack.planning.replay import step_function  # noqa: E402
 from soiltrack.soilmodel import TERRAINS, VEHICLES, Soil, simulate_slip_sweep  # noqa: E402
@@ -98,11 +105,52 @@ def bench_profile(repeats: int) -> dict:
         ws.append(t)
         ws_s.append(r.solve_time_s)
         ws_it.append(r.iterations)
-    return {"total_time_s": res.total_time_s, "build_and_first_solve_s": t_build,
-            "cold_call_s": med(cold), "cold_solver_s": med(cold_s), "cold_iterations": res.iterations,
-            "warm_new_v1_call_s": med(wv), "warm_new_v1_solver_s": med(wv_s), "warm_new_v1_iterations": med(wv_it),
-            "warm_new_soil_call_s": med(ws), "warm_new_soil_solver_s": med(ws_s),
-            "warm_new_soil_iterations": med(ws_it)}
+    return {
+        "total_time_s": res.total_time_s,
+        "build_and_first_solve_s": t_build,
+        "cold_call_s": med(cold),
+        "cold_solver_s": med(cold_s),
+        "cold_iterations": res.iterations,
+        "warm_new_v1_call_s": med(wv),
+        "warm_new_v1_solver_s": med(wv_s),
+        "warm_new_v1_iterations": med(wv_it),
+        "warm_new_soil_call_s": med(ws),
+        "warm_new_soil_solver_s": med(ws_s),
+        "warm_new_soil_iterations": med(ws_it),
+    }
+
+
+def bench_replan(repeats: int) -> dict:
+    """The Replanner: cold, warm on a new soil, warm on a small change of the soil (same run)."""
+    lete = TERRAINS["lete_sand"]
+    near = Soil(lete.cohesion, lete.friction_angle - np.radians(0.5), lete.shear_modulus * 1.05, name="lete, updated")
+    rp = Replanner(
+        HEAVY,
+        distance=CASE["distance"],
+        v1=CASE["v1"],
+        intervals=CASE["intervals"],
+        max_slip=CASE["max_slip"],
+        objective=CASE["objective"],
+    )
+    rp.replan(lete, v0=CASE["v0"])  # builds the cold and the warm solvers (not timed below)
+    rp.replan(TERRAINS["dry_sand"], v0=CASE["v0"])
+    out = {}
+    for label, soils, reset in (
+        ("cold", (lete, TERRAINS["dry_sand"]), True),
+        ("warm_new_soil", (lete, TERRAINS["dry_sand"]), False),
+        ("warm_small_change", (lete, near), False),
+    ):
+        call, solver, its = [], [], []
+        for k in range(repeats):
+            if reset:
+                rp.reset()
+            r, t = timed(lambda: rp.replan(soils[k % 2], v0=CASE["v0"]))
+            assert r.success and r.warm_start is not reset, r.message
+            call.append(t)
+            solver.append(r.solve_time_s)
+            its.append(r.iterations)
+        out[label] = {"call_s": med(call), "solver_s": med(solver), "iterations": med(its)}
+    return out
 
 
 def bench_slsqp(maxiter: int) -> dict:
@@ -118,6 +166,7 @@ def bench_slsqp(maxiter: int) -> dict:
     sim = one.mapaccum("sim", n)
     # soil, grade 0, compaction of LETE sand at W (as the planner uses)
     from soiltrack.soilmodel.sinkage import compaction_resistance
+
     Rc = compaction_resistance(soil, HEAVY)
     i_max, Tmax, Pmax = CASE["max_slip"], HEAVY.max_sprocket_torque, HEAVY.max_power
     v0, v1, D = CASE["v0"], CASE["v1"], CASE["distance"]
@@ -129,8 +178,17 @@ def bench_slsqp(maxiter: int) -> dict:
             return cache[key]
         M, T = z[:n] * Tmax, z[n]
         dt = T / n
-        P = np.vstack([M, np.full(n, soil.cohesion), np.full(n, soil.friction_angle), np.full(n, soil.shear_modulus),
-                       np.zeros(n), np.full(n, Rc), np.full(n, dt)])
+        P = np.vstack(
+            [
+                M,
+                np.full(n, soil.cohesion),
+                np.full(n, soil.friction_angle),
+                np.full(n, soil.shear_modulus),
+                np.zeros(n),
+                np.full(n, Rc),
+                np.full(n, dt),
+            ]
+        )
         w0 = v0 / (r * (1 - 0.05))
         _, traj = sim(np.array([v0, w0]), P)
         traj = np.asarray(traj).reshape(2, sub, n, order="F")
@@ -144,26 +202,47 @@ def bench_slsqp(maxiter: int) -> dict:
         return res
 
     z0 = np.concatenate([np.full(n, 0.3), [D / (0.5 * (v0 + v1))]])
-    cons = [{"type": "eq", "fun": lambda z: np.array([run(z)["v_end"] - v1, (run(z)["dist"] - D) / D])},
-            {"type": "ineq", "fun": lambda z: np.concatenate([i_max - run(z)["slip"], i_max + run(z)["slip"],
-                                                              1 - run(z)["power"] / Pmax])}]
+    cons = [
+        {"type": "eq", "fun": lambda z: np.array([run(z)["v_end"] - v1, (run(z)["dist"] - D) / D])},
+        {
+            "type": "ineq",
+            "fun": lambda z: np.concatenate(
+                [i_max - run(z)["slip"], i_max + run(z)["slip"], 1 - run(z)["power"] / Pmax]
+            ),
+        },
+    ]
     bounds = [(-1, 1)] * n + [(0.5, 100.0)]
     t0 = time.perf_counter()
-    sol = minimize(lambda z: z[n], z0, jac=lambda z: np.r_[np.zeros(n), 1.0], method="SLSQP", bounds=bounds,
-                   constraints=cons, options={"maxiter": maxiter, "ftol": 1e-8})
+    sol = minimize(
+        lambda z: z[n],
+        z0,
+        jac=lambda z: np.r_[np.zeros(n), 1.0],
+        method="SLSQP",
+        bounds=bounds,
+        constraints=cons,
+        options={"maxiter": maxiter, "ftol": 1e-8},
+    )
     t = time.perf_counter() - t0
     rr = run(sol.x)
-    return {"success": bool(sol.success), "message": str(sol.message), "iterations": int(sol.nit),
-            "wall_s": t, "total_time_s": float(sol.x[n]), "v_end": float(rr["v_end"]), "distance_m": float(rr["dist"]),
-            "max_slip": float(np.max(np.abs(rr["slip"]))), "max_power_W": float(np.max(rr["power"]))}
+    return {
+        "success": bool(sol.success),
+        "message": str(sol.message),
+        "iterations": int(sol.nit),
+        "wall_s": t,
+        "total_time_s": float(sol.x[n]),
+        "v_end": float(rr["v_end"]),
+        "distance_m": float(rr["dist"]),
+        "max_slip": float(np.max(np.abs(rr["slip"]))),
+        "max_power_W": float(np.max(rr["power"])),
+    }
 
 
 def bench_route(repeats: int) -> dict:
     names = ["lete_sand", "dry_sand", "sandy_loam", "clayey_soil", "snow"]
-    patches = [{"length_m": 10.0 + 2 * k, "terrain": names[k % 5], "grade_deg": [0, 5, -3, 8, 2][k % 5]}
-               for k in range(10)]
-    route = route_from_dict({"v0_m_s": 1.0, "v_end_m_s": 2.0, "objective": "time", "max_slip": 0.2,
-                             "patches": patches})
+    patches = [
+        {"length_m": 10.0 + 2 * k, "terrain": names[k % 5], "grade_deg": [0, 5, -3, 8, 2][k % 5]} for k in range(10)
+    ]
+    route = route_from_dict({"v0_m_s": 1.0, "v_end_m_s": 2.0, "objective": "time", "max_slip": 0.2, "patches": patches})
     clear_warm_starts()
     r, t_first = timed(lambda: route_profile(route, HEAVY, intervals=100))
     assert r.success, r.message
@@ -178,9 +257,17 @@ def bench_route(repeats: int) -> dict:
         warm.append(t)
         warm_s.append(rr.solve_time_s)
     rp = replay(r, HEAVY)
-    return {"length_m": route.length_m, "intervals": len(r.series["time_s"]) - 1, "total_time_s": r.total_time_s,
-            "build_and_first_solve_s": t_first, "cold_call_s": med(cold), "warm_call_s": med(warm),
-            "warm_solver_s": med(warm_s), "replay_v_end": float(rp.speed[-1]), "replay_max_slip": float(np.max(np.abs(rp.slip)))}
+    return {
+        "length_m": route.length_m,
+        "intervals": len(r.series["time_s"]) - 1,
+        "total_time_s": r.total_time_s,
+        "build_and_first_solve_s": t_first,
+        "cold_call_s": med(cold),
+        "warm_call_s": med(warm),
+        "warm_solver_s": med(warm_s),
+        "replay_v_end": float(rp.speed[-1]),
+        "replay_max_slip": float(np.max(np.abs(rp.slip))),
+    }
 
 
 def bench_margin(repeats: int) -> dict:
@@ -201,34 +288,71 @@ def main(argv=None) -> int:
     ap.add_argument("--skip-slsqp", action="store_true")
     ap.add_argument("--json", help="write the numbers to this file")
     a = ap.parse_args(argv)
-    out = {"machine": {"python": platform.python_version(), "casadi": ca.__version__, "scipy": scipy.__version__,
-                       "cpus": os.cpu_count(), "load_1min": os.getloadavg()[0]}}
+    out = {
+        "machine": {
+            "python": platform.python_version(),
+            "casadi": ca.__version__,
+            "scipy": scipy.__version__,
+            "cpus": os.cpu_count(),
+            "load_1min": os.getloadavg()[0],
+        }
+    }
     print(f"machine: {out['machine']}")
     out["profile"] = p = bench_profile(a.repeats)
     print(f"profile, 100 intervals (planned time {p['total_time_s']:.4g} s):")
     print(f"  build + first solve {p['build_and_first_solve_s'] * 1e3:8.1f} ms")
-    print(f"  cold solve          {p['cold_call_s'] * 1e3:8.1f} ms per call ({p['cold_solver_s'] * 1e3:.1f} ms in IPOPT, "
-          f"{p['cold_iterations']} iterations)")
+    print(
+        f"  cold solve          {p['cold_call_s'] * 1e3:8.1f} ms per call ({p['cold_solver_s'] * 1e3:.1f} ms in IPOPT, "
+        f"{p['cold_iterations']} iterations)"
+    )
     for key, label in (("warm_new_v1", "warm, new v1  "), ("warm_new_soil", "warm, new soil")):
-        print(f"  {label}      {p[key + '_call_s'] * 1e3:8.1f} ms per call ({p[key + '_solver_s'] * 1e3:.1f} ms in "
-              f"IPOPT, median {p[key + '_iterations']:.0f} iterations)")
+        print(
+            f"  {label}      {p[key + '_call_s'] * 1e3:8.1f} ms per call ({p[key + '_solver_s'] * 1e3:.1f} ms in "
+            f"IPOPT, median {p[key + '_iterations']:.0f} iterations)"
+        )
     best = min(p["warm_new_v1_call_s"], p["warm_new_soil_call_s"])
-    print(f"  target warm < 50 ms: {'reached' if best < 0.05 else 'NOT reached'} ({best * 1e3:.1f} ms); "
-          f"aim 10 ms: {'reached' if best < 0.01 else 'not reached'}")
+    print(
+        f"  target warm < 50 ms: {'reached' if best < 0.05 else 'NOT reached'} ({best * 1e3:.1f} ms); "
+        f"aim 10 ms: {'reached' if best < 0.01 else 'not reached'}"
+    )
+    out["replan"] = rr = bench_replan(a.repeats)
+    print("Replanner, same problem (100 intervals), same run:")
+    for key, label in (
+        ("cold", "cold (reset)       "),
+        ("warm_new_soil", "warm, new soil     "),
+        ("warm_small_change", "warm, small change "),
+    ):
+        print(
+            f"  {label} {rr[key]['call_s'] * 1e3:8.1f} ms per call ({rr[key]['solver_s'] * 1e3:.1f} ms in IPOPT, "
+            f"median {rr[key]['iterations']:.0f} iterations)"
+        )
+    t = rr["warm_new_soil"]["call_s"]
+    print(
+        f"  target warm re-plan on a new soil < 20 ms: {'reached' if t < 0.02 else 'NOT reached'} ({t * 1e3:.1f} ms); "
+        f"aim 10 ms: {'reached' if t < 0.01 else 'not reached'}"
+    )
     if not a.skip_slsqp:
         out["slsqp"] = s = bench_slsqp(a.slsqp_maxiter)
-        print(f"scipy SLSQP single shooting, same problem: {s['wall_s']:.2f} s, {s['iterations']} iterations, "
-              f"success {s['success']} ({s['message']}); time {s['total_time_s']:.4g} s, v_end {s['v_end']:.4g} m/s, "
-              f"distance {s['distance_m']:.4g} m, max slip {s['max_slip']:.4g}")
-        print(f"  ratio SLSQP / soiltrack cold: {s['wall_s'] / p['cold_call_s']:.0f}x; / warm: {s['wall_s'] / best:.0f}x")
+        print(
+            f"scipy SLSQP single shooting, same problem: {s['wall_s']:.2f} s, {s['iterations']} iterations, "
+            f"success {s['success']} ({s['message']}); time {s['total_time_s']:.4g} s, v_end {s['v_end']:.4g} m/s, "
+            f"distance {s['distance_m']:.4g} m, max slip {s['max_slip']:.4g}"
+        )
+        print(
+            f"  ratio SLSQP / soiltrack cold: {s['wall_s'] / p['cold_call_s']:.0f}x; / warm: {s['wall_s'] / best:.0f}x"
+        )
     out["route"] = rt = bench_route(a.repeats)
-    print(f"route, 10 patches, {rt['length_m']:.0f} m, {rt['intervals']} intervals: build + first "
-          f"{rt['build_and_first_solve_s'] * 1e3:.0f} ms, cold {rt['cold_call_s'] * 1e3:.1f} ms, warm "
-          f"{rt['warm_call_s'] * 1e3:.1f} ms per call; replay v_end {rt['replay_v_end']:.4g} m/s, "
-          f"max slip {rt['replay_max_slip']:.4g}")
+    print(
+        f"route, 10 patches, {rt['length_m']:.0f} m, {rt['intervals']} intervals: build + first "
+        f"{rt['build_and_first_solve_s'] * 1e3:.0f} ms, cold {rt['cold_call_s'] * 1e3:.1f} ms, warm "
+        f"{rt['warm_call_s'] * 1e3:.1f} ms per call; replay v_end {rt['replay_v_end']:.4g} m/s, "
+        f"max slip {rt['replay_max_slip']:.4g}"
+    )
     out["margin"] = mg = bench_margin(a.repeats)
-    print(f"margin with 10,000 Monte Carlo samples: {mg['call_s'] * 1e3:.1f} ms per call "
-          f"(p_traversable {mg['p_traversable']:.3f})")
+    print(
+        f"margin with 10,000 Monte Carlo samples: {mg['call_s'] * 1e3:.1f} ms per call "
+        f"(p_traversable {mg['p_traversable']:.3f})"
+    )
     if a.json:
         with open(a.json, "w") as fh:
             json.dump(out, fh, indent=2)

@@ -17,18 +17,34 @@ Parallelism: pass any :class:`concurrent.futures.Executor`; work is submitted in
 (``chunk_size`` datasets each). For Dask, ``client.get_executor()`` of a
 ``dask.distributed.Client`` is such an executor (dask is not required). Every cached solver
 is safe under threads (:mod:`soiltrack.soilmodel.threadsafe`; the compiled kernels hold their
-own lock across each call) and processes (each builds or loads its own).
+own lock across each call) and processes (each builds or loads its own; a fork start method is
+safe beside solver threads, :mod:`soiltrack.soilmodel.threadsafe`).
+
+Nothing is lost (issue 23): there is one result per item, in input order. An item that cannot
+be fitted (not SlipData or DriveLog, too few samples, any error while fitting it) gives a
+failed :class:`FitResult` (``success`` False, ``status`` "not fitted", the reason and its batch
+index in ``message``, ``extra["batch_index"]`` and ``extra["error"]``); the batch goes on. When a
+process-pool worker dies (``BrokenProcessPool``: killed, out of memory, a crash in native code),
+the finished results are kept and the items the pool lost are run again in a fresh pool of the
+same kind, a few at a time; the items in flight when a fresh pool breaks again are each run
+alone, so an item that kills its worker costs only itself (reported failed, "its worker process
+died"). Items of a chunk that failed in another executor (a Dask worker lost, a pickling error)
+are retried one by one in the same executor. Every result carries the data-consistency checks
+(:mod:`soiltrack.identify.consistency`, repeated rows included), as ``fit`` gives them.
 """
+
 from __future__ import annotations
 
 import sys
 import time
-from concurrent.futures import Executor
-from typing import Iterable, Sequence
+from dataclasses import replace
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
-from ..soilmodel.data import SlipData
+from ..soilmodel.data import DriveLog, SlipData
 from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
 from ..soilmodel.vehicle import Vehicle
 from .sweep import compiled_lm
@@ -39,16 +55,143 @@ from .sweep.plausibility import assess
 from .estimates.records import NOT_USABLE
 from .estimates.result import FitResult, build_results_batch
 from .settings import SETTING_NAMES, FitSettings
+from .consistency import check_consistency, with_consistency
+from .estimates.result import build_result
+from .fitting import fit
+from .sweep.resistance import assumed_resistance
+from .sweep.rig import load_separation, rig_extra, std_weights
 
-__all__ = ["fit_many"]
+__all__ = ["fit_many", "failed_result"]
 
 
-def _solve_chunk(datasets: Sequence[SlipData], vehicle: Vehicle, model: str, bounds: SoilBounds, sigma,
-                 sigma_known, settings: FitSettings) -> list[FitResult]:
-    """Solve slip datasets with the compiled kernel; stacked results; IPOPT for the uncertified."""
+def failed_result(
+    index: int,
+    data: Any,
+    vehicle: Vehicle,
+    model: str,
+    method: str,
+    bounds: SoilBounds,
+    reason: str,
+    error: str = "",
+) -> FitResult:
+    """The failed :class:`FitResult` of batch item ``index``: no estimate, ``success`` False, the reason said.
+
+    ``message`` is ``"batch item <index> (<source>): <reason>"``; ``extra`` holds ``batch_index``
+    and ``error`` (the exception's type name, when one was raised).
+    """
+    src = getattr(data, "source", None)
+    where = f"batch item {index}" + (f" ({src})" if isinstance(src, str) else f" (a {type(data).__name__})")
+    kind = "drive" if isinstance(data, DriveLog) else "slip"
+    res = build_result(
+        data_kind=kind,
+        model=model,
+        method=method,
+        theta=np.full(3, np.nan),
+        jacobian=np.zeros((0, 3)),
+        weighted_residuals=np.zeros(0),
+        residuals=np.zeros(0),
+        residual_unit="N" if kind == "slip" else "m/s",
+        n_samples=0,
+        normal_loads=np.zeros(0),
+        vehicle=vehicle,
+        bounds=bounds,
+        status="not fitted",
+        success=False,
+        message=f"{where}: {reason}",
+        iterations=0,
+        solve_time=0.0,
+        extra={"batch_index": int(index), "error": error},
+    )
+    return replace(res, status="not fitted")  # nothing was solved: no "non-finite numbers" suffix
+
+
+def _guarded_fit(
+    k: int,
+    d: Any,
+    vehicle: Vehicle,
+    model: str,
+    method: str,
+    bounds: SoilBounds,
+    kw: dict,
+    settings: FitSettings,
+) -> FitResult:
+    """``fit`` of one item; any error becomes a failed result naming the item (never raised)."""
+    if not isinstance(d, (SlipData, DriveLog)):
+        return failed_result(
+            k,
+            d,
+            vehicle,
+            model,
+            method,
+            bounds,
+            f"fit takes SlipData or DriveLog, got {type(d).__name__}",
+            "DataError",
+        )
+    try:
+        return fit(d, vehicle, model=model, method=method, bounds=bounds, settings=settings, **kw)
+    except Exception as e:  # noqa: BLE001 - one bad item never aborts the batch (module notes)
+        reason = getattr(e, "reason", None) or str(e) or type(e).__name__
+        col = getattr(e, "column", None)
+        return failed_result(
+            k,
+            d,
+            vehicle,
+            model,
+            method,
+            bounds,
+            (f"column '{col}': " if col else "") + reason,
+            type(e).__name__,
+        )
+
+
+def _solve_chunk(
+    indices: Sequence[int],
+    datasets: Sequence[SlipData],
+    vehicle: Vehicle,
+    model: str,
+    bounds: SoilBounds,
+    sigma,
+    sigma_known,
+    settings: FitSettings,
+) -> list[FitResult]:
+    """Solve slip datasets with the compiled kernel; stacked results; IPOPT for the uncertified.
+
+    An item whose problem cannot be set up is fitted alone (:func:`_guarded_fit`: its error becomes
+    its failed result); if the stacked solve itself fails, every item is fitted alone.
+    """
+    kw = {k: v for k, v in (("sigma", sigma), ("sigma_known", sigma_known)) if v is not None}
+    pbs, keep = [], []
+    out: list[FitResult | None] = [None] * len(datasets)
+    for j, d in enumerate(datasets):
+        try:
+            pbs.append(make_problem(d, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known))
+            keep.append(j)
+        except Exception:  # noqa: BLE001 - said by the single fit below, with the item's index
+            out[j] = _guarded_fit(indices[j], d, vehicle, model, "ipopt", bounds, kw, settings)
+    try:
+        solved = _solve_problems(pbs, [datasets[j] for j in keep], vehicle, model, bounds, settings)
+    except Exception:  # noqa: BLE001 - a failed stacked step: each item alone, errors per item
+        solved = [
+            _guarded_fit(indices[j], datasets[j], vehicle, model, "ipopt", bounds, kw, settings) for j in keep
+        ]
+    for j, res in zip(keep, solved):
+        out[j] = res
+    return out  # type: ignore[return-value]
+
+
+def _solve_problems(
+    pbs: list,
+    datasets: list[SlipData],
+    vehicle: Vehicle,
+    model: str,
+    bounds: SoilBounds,
+    settings: FitSettings,
+) -> list[FitResult]:
+    """The compiled kernel over set-up problems; consistency checks applied as ``fit`` applies them."""
     t0 = time.perf_counter()
     jit = jit_mode(settings.engine)
-    pbs = [make_problem(d, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known) for d in datasets]
+    if not pbs:
+        return []
     sols = compiled_lm.solve_many(pbs, settings.n_grid, jit)
     dt = (time.perf_counter() - t0) / max(len(pbs), 1)
     out: list[FitResult | None] = [None] * len(pbs)
@@ -57,8 +200,9 @@ def _solve_chunk(datasets: Sequence[SlipData], vehicle: Vehicle, model: str, bou
         if sol.certified:
             groups.setdefault(pb.n, []).append(k)
         else:
-            res = compiled_lm.hand_over(pb, sol, None, settings.n_grid, settings.ipopt_dict, time.perf_counter(),
-                                        source="vectorized")
+            res = compiled_lm.hand_over(
+                pb, sol, None, settings.n_grid, settings.ipopt_dict, time.perf_counter(), source="vectorized"
+            )
             out[k] = normalise_status(res)
     for idx in groups.values():
         P = [pbs[k] for k in idx]
@@ -66,35 +210,94 @@ def _solve_chunk(datasets: Sequence[SlipData], vehicle: Vehicle, model: str, bou
         r = np.stack([s.residuals for s in S])
         sig = np.stack([pb.sigma for pb in P])
         extras = []
-        for s in S:
-            e = compiled_lm.extra_of(s)
+        for pb, s in zip(P, S):
+            e = {**compiled_lm.extra_of(s), "sigma_model": pb.noise_model}  # as fit's compiled path records
             e["engine"] = "vectorized" if s.engine == "compiled" else "vectorized-vm"
             extras.append(e)
         # the same plausibility checks as fit (they decide success: fit and fit_many agree on it)
         status, success, message, warns = [], [], [], []
         for pb, s in zip(P, S):
-            found, usable = assess(pb.slip, pb.force, pb.load, s.residuals, s.theta, vehicle, model, bounds,
-                                   s.curves, s.screen, s.limit_screen)
+            found, usable = assess(
+                pb.slip,
+                pb.force,
+                pb.load,
+                s.residuals,
+                s.theta,
+                vehicle,
+                model,
+                bounds,
+                s.curves,
+                s.screen,
+                s.limit_screen,
+            )
             msg = compiled_lm.message_of(s, None).replace("compiled", "vectorised compiled", 1)
             status.append("converged" if usable else f"converged {NOT_USABLE}")
             success.append(usable)
-            message.append(msg if usable else f"{msg}; the data or the answer fail the plausibility checks (see the "
-                           "warnings)")
+            message.append(
+                msg
+                if usable
+                else f"{msg}; the data or the answer fail the plausibility checks (see the warnings)"
+            )
             warns.append(tuple(pb.noise_warning(s.residuals, s.bp_screen)) + found)
         built = build_results_batch(
-            model=model, method="ipopt", theta=np.stack([s.theta for s in S]), jacobian=np.stack([s.jacobian for s in S]),
-            weighted_residuals=r / sig, residuals=r, normal_loads=np.stack([pb.load for pb in P]), vehicle=vehicle,
-            bounds=bounds, status=status, success=success, message=message,
-            iterations=[s.iterations for s in S], solve_time=[dt] * len(idx), sigma_known=P[0].sigma_known,
-            extra=extras, warnings=warns)
+            model=model,
+            method="ipopt",
+            theta=np.stack([s.theta for s in S]),
+            jacobian=np.stack([s.jacobian for s in S]),
+            weighted_residuals=r / sig,
+            residuals=r,
+            normal_loads=np.stack([pb.load for pb in P]),
+            vehicle=vehicle,
+            bounds=bounds,
+            status=status,
+            success=success,
+            message=message,
+            iterations=[s.iterations for s in S],
+            solve_time=[dt] * len(idx),
+            sigma_known=P[0].sigma_known,
+            extra=extras,
+            warnings=warns,
+        )
         for k, res in zip(idx, built):
             out[k] = res
-    return out  # type: ignore[return-value]
+    return [
+        with_consistency(_with_rig_extra(res, d, model), check_consistency(d, vehicle))  # type: ignore
+        for res, d in zip(out, datasets)
+    ]
 
 
-def _fit_chunk(datasets, vehicle, model, method, bounds, kw, settings: FitSettings) -> list[FitResult]:
-    from .fitting import fit
-    return [fit(d, vehicle, model=model, method=method, bounds=bounds, settings=settings, **kw) for d in datasets]
+def _kernel_fits_like_fit(d: Any, model: str) -> bool:
+    """Whether ``fit`` would solve ``d`` as the stacked kernel does: a plain slip sweep (no per-row std
+    weights, no load spread so small that ``fit`` takes the profile-likelihood intervals)."""
+    if not isinstance(d, SlipData):
+        return False
+    try:
+        if std_weights(d) is not None:
+            return False
+        sep = load_separation(d) if model == "full" else None
+    except Exception:  # noqa: BLE001 - fitted alone, where the error is said
+        return False
+    return sep is None or not sep.fragile
+
+
+def _with_rig_extra(res: FitResult, d: SlipData, model: str) -> FitResult:
+    """What ``fit`` adds to a rig sweep's ``extra`` (:func:`~.sweep.rig.rig_extra`: the pure-error test over
+    repeated slips, the load separation; the assumed resistance of drawbar-pull data), on a kernel result."""
+    more = rig_extra(d, res, load_separation(d) if model == "full" else None)
+    if d.measured == "drawbar_pull":
+        more["resistance"] = assumed_resistance(res)
+    if more:
+        res.extra.update(more)  # the result's own, fresh dict
+    return res
+
+
+def _fit_chunk(
+    indices: Sequence[int], datasets, vehicle, model, method, bounds, kw, settings: FitSettings
+) -> list[FitResult]:
+    """``fit`` of each item, errors per item (:func:`_guarded_fit`)."""
+    return [
+        _guarded_fit(k, d, vehicle, model, method, bounds, kw, settings) for k, d in zip(indices, datasets)
+    ]
 
 
 class _Progress:
@@ -114,10 +317,21 @@ class _Progress:
             sys.stderr.flush()
 
 
-def fit_many(datasets: Iterable, vehicle: Vehicle, *, model: str = "full", method: str = "ipopt",
-             bounds: SoilBounds = PRACTICAL_BOUNDS, executor: Executor | None = None, progress: bool = True,
-             chunk_size: int | None = None, engine: str | None = None, strict: bool = False,
-             settings: FitSettings | None = None, **kw) -> list[FitResult]:
+def fit_many(
+    datasets: Iterable,
+    vehicle: Vehicle,
+    *,
+    model: str = "full",
+    method: str = "ipopt",
+    bounds: SoilBounds = PRACTICAL_BOUNDS,
+    executor: Executor | None = None,
+    progress: bool = True,
+    chunk_size: int | None = None,
+    engine: str | None = None,
+    strict: bool = False,
+    settings: FitSettings | None = None,
+    **kw,
+) -> list[FitResult]:
     """Fit many datasets with one vehicle; results in input order.
 
     Parameters
@@ -137,7 +351,7 @@ def fit_many(datasets: Iterable, vehicle: Vehicle, *, model: str = "full", metho
     engine : {"auto", "ipopt", "compiled", "vectorized"}, optional
         As for :func:`~soiltrack.identify.fit` (module notes; :mod:`soiltrack.identify.engines`).
     strict : bool
-        Raise :class:`FitFailed` on the first failed fit.
+        Raise :class:`FitFailed` on the first failed fit (after the whole batch has run).
     settings : FitSettings, optional
         Typed solver settings; ``engine``, ``n_grid``, ``ipopt_options``, ``max_iter`` keywords
         override its fields.
@@ -147,6 +361,8 @@ def fit_many(datasets: Iterable, vehicle: Vehicle, *, model: str = "full", metho
     Returns
     -------
     list of FitResult
+        One per item, in input order; an item that could not be fitted has a failed result
+        (``status`` "not fitted", its index in ``message`` and ``extra["batch_index"]``).
     """
     datasets = list(datasets)
     check_common(vehicle, model, method, bounds)
@@ -156,40 +372,187 @@ def fit_many(datasets: Iterable, vehicle: Vehicle, *, model: str = "full", metho
     n = len(datasets)
     prog = _Progress(n, progress)
     results: list[FitResult | None] = [None] * n
-    kernel_ok = st.engine in ("auto", "vectorized") and method == "ipopt" and set(kw) <= {"sigma", "sigma_known"}
+    kernel_ok = (
+        st.engine in ("auto", "vectorized") and method == "ipopt" and set(kw) <= {"sigma", "sigma_known"}
+    )
     batched, singles = [], []
     for k, d in enumerate(datasets):
         # a rig sweep (per-row std, rows dropped, a measured load) takes fit's rig path: weights, extras
         rig = isinstance(d, SlipData) and (d.force_std is not None or bool(d.dropped) or (
             d.normal_load is not None and continuous_load(d.normal_load)))
-        (batched if kernel_ok and isinstance(d, SlipData) and not rig else singles).append(k)
+        (batched if kernel_ok and not rig and _kernel_fits_like_fit(d, model) else singles).append(k)
     if chunk_size is None:
         workers = getattr(executor, "_max_workers", 4) if executor is not None else 1
         chunk_size = n if executor is None else max(1, min(256, -(-n // (4 * workers))))
     chunk_size = max(1, int(chunk_size))
-    jobs = []  # (indices, callable, args)
+    jobs: list[tuple[list[int], Callable, tuple]] = []  # (indices, callable, args): callable(indices, *args)
     # batched: sorted by length so that a chunk holds few lengths (one stacked result step each)
     batched.sort(key=lambda k: datasets[k].n_samples)
     for s in range(0, len(batched), chunk_size):
-        part = batched[s:s + chunk_size]
-        jobs.append((part, _solve_chunk, ([datasets[k] for k in part], vehicle, model, bounds, kw.get("sigma"),
-                                          kw.get("sigma_known"), st)))
+        part = batched[s : s + chunk_size]
+        jobs.append(
+            (
+                part,
+                _solve_chunk,
+                (
+                    [datasets[k] for k in part],
+                    vehicle,
+                    model,
+                    bounds,
+                    kw.get("sigma"),
+                    kw.get("sigma_known"),
+                    st,
+                ),
+            )
+        )
     for s in range(0, len(singles), chunk_size):
-        part = singles[s:s + chunk_size]
+        part = singles[s : s + chunk_size]
         jobs.append((part, _fit_chunk, ([datasets[k] for k in part], vehicle, model, method, bounds, kw, st)))
+
+    def store(part: Sequence[int], res: list[FitResult]) -> None:
+        for k, r in zip(part, res):
+            results[k] = r
+        prog.update(len(part))
+
+    def single(k: int) -> tuple[Callable, tuple]:  # one item as its own job (retries)
+        return _fit_chunk, ([k], [datasets[k]], vehicle, model, method, bounds, kw, st)
+
+    def dead(k: int, why: str, error: str) -> FitResult:
+        return failed_result(k, datasets[k], vehicle, model, method, bounds, why, error)
+
     if executor is None:
         for part, fn, args in jobs:
-            for k, r in zip(part, fn(*args)):
-                results[k] = r
-            prog.update(len(part))
+            store(part, fn(part, *args))
     else:
-        futures = [(part, executor.submit(fn, *args)) for part, fn, args in jobs]
-        for part, fut in futures:
-            for k, r in zip(part, fut.result()):
-                results[k] = r
-            prog.update(len(part))
+        _run_on_executor(executor, jobs, store, single, dead)
     if strict:
         for r in results:
             if r is not None and not r.success:
                 raise FitFailed(r)
     return results  # type: ignore[return-value]
+
+
+def _run_on_executor(
+    executor: Executor, jobs: list, store: Callable, single: Callable, dead: Callable
+) -> None:
+    """Run ``jobs`` on ``executor``: finished results kept, lost jobs' items recovered (module notes)."""
+    futures: list[tuple[list[int], Future | None, BaseException | None]] = []
+    for part, fn, args in jobs:
+        try:
+            futures.append((part, executor.submit(fn, part, *args), None))
+        except Exception as e:  # noqa: BLE001 - e.g. a pool already broken by a dead worker
+            futures.append((part, None, e))
+    lost: list[int] = []
+    broken = False
+    last_error: BaseException | None = None
+    for j, (part, fut, err) in enumerate(futures):
+        if fut is not None:
+            try:
+                res = fut.result()
+            except Exception as e:  # noqa: BLE001 - the chunk is lost, its items are recovered below
+                err = e
+            else:
+                store(part, res)
+                futures[j] = (part, None, None)  # the results are kept in `store`, not twice
+                continue
+        lost.extend(part)
+        broken = broken or isinstance(err, BrokenProcessPool)
+        last_error = err
+    if not lost:
+        return
+    lost.sort()
+    if broken and isinstance(executor, ProcessPoolExecutor):
+        _recover_in_fresh_pools(executor, lost, store, single, dead)
+        return
+    for k in lost:  # another executor (threads, Dask): each item once more, alone, in the same executor
+        fn, args = single(k)
+        try:
+            store([k], executor.submit(fn, *args).result())
+        except Exception as e:  # noqa: BLE001 - reported as this item's failure
+            store(
+                [k],
+                [
+                    dead(
+                        k,
+                        f"its chunk failed in the executor ({type(last_error).__name__}: {last_error}) and "
+                        f"so did a retry alone ({type(e).__name__}: {e})",
+                        type(e).__name__,
+                    )
+                ],
+            )
+
+
+def _fresh_pool(like: ProcessPoolExecutor, workers: int) -> ProcessPoolExecutor:
+    """A new process pool of the same start method and initializer as ``like``."""
+    return ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=getattr(like, "_mp_context", None),
+        initializer=getattr(like, "_initializer", None),
+        initargs=getattr(like, "_initargs", ()),
+    )
+
+
+def _recover_in_fresh_pools(
+    like: ProcessPoolExecutor, items: list[int], store: Callable, single: Callable, dead: Callable
+) -> None:
+    """Items a broken pool lost, run again in fresh pools: at most ``workers`` in flight, so that when a
+    pool breaks again only the items in flight are suspects; each suspect then runs alone in its own
+    one-worker pool, and one that breaks that too is reported (its worker died twice)."""
+    workers = max(1, int(getattr(like, "_max_workers", 1)))
+    todo = list(items)
+    while todo:
+        pool = _fresh_pool(like, workers)
+        suspects: list[int] = []
+        try:
+            flight: dict[Future, int] = {}
+            while todo or flight:
+                while todo and len(flight) < workers:
+                    k = todo.pop(0)
+                    fn, args = single(k)
+                    flight[pool.submit(fn, *args)] = k
+                done, _ = wait(list(flight), return_when=FIRST_COMPLETED)
+                for fut in done:
+                    k = flight.pop(fut)
+                    try:
+                        store([k], fut.result())
+                    except BrokenProcessPool:
+                        suspects.append(k)
+                    except Exception as e:  # noqa: BLE001 - not a dead worker: this item's own failure
+                        store(
+                            [k],
+                            [
+                                dead(
+                                    k,
+                                    f"failed in a worker process ({type(e).__name__}: {e})",
+                                    type(e).__name__,
+                                )
+                            ],
+                        )
+                if suspects:
+                    suspects.extend(flight.values())  # in flight when the pool broke
+                    break
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+        for k in sorted(set(suspects)):
+            alone = _fresh_pool(like, 1)
+            try:
+                fn, args = single(k)
+                store([k], alone.submit(fn, *args).result())
+            except BrokenProcessPool:
+                store(
+                    [k],
+                    [
+                        dead(
+                            k,
+                            "its worker process died twice (BrokenProcessPool: killed, out of memory, or a "
+                            "crash in native code while fitting this item); fit it alone to see why",
+                            "BrokenProcessPool",
+                        )
+                    ],
+                )
+            except Exception as e:  # noqa: BLE001 - reported as this item's failure
+                store(
+                    [k], [dead(k, f"failed in a worker process ({type(e).__name__}: {e})", type(e).__name__)]
+                )
+            finally:
+                alone.shutdown(wait=True, cancel_futures=True)

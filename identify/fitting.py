@@ -17,6 +17,7 @@ from .sweep.problem import FitFailed, check_common, make_problem
 from .estimates.result import FitResult
 from .sweep.seed_methods import fit_least_squares, fit_newton
 from .settings import SETTING_NAMES, FitSettings
+from .consistency import check_consistency, with_consistency
 from .sweep.resistance import RESISTANCE_MODES, assumed_resistance, fit_resistance
 from .sweep.model import SweepResiduals
 from .sweep.rig import load_separation, rig_extra, std_weights
@@ -99,7 +100,27 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
         Wrong types, too few samples for the free parameters (naming file and column).
     FitFailed
         With ``strict=True`` when the fit did not succeed.
+
+    Notes
+    -----
+    Every result carries the data-consistency checks of :mod:`soiltrack.identify.consistency`
+    (``extra["consistency"]``): a mislabelled file (one sprocket's torque, time in ms, speed in
+    km/h or rpm, loads in kN, repeated rows) is said in the warnings, and the result fails
+    (``success`` False) where the answer cannot stand.
     """
+    res = _fit_unchecked(data, vehicle, model, method, bounds, x0, engine, effects, fixed, settings, options)
+    if isinstance(data, (SlipData, DriveLog)):
+        res = with_consistency(res, check_consistency(data, vehicle))
+    if strict and not res.success:
+        raise FitFailed(res)
+    return res
+
+
+def _fit_unchecked(data, vehicle: Vehicle, model: str, method: str, bounds: SoilBounds, x0,
+                   engine: str | None, effects, fixed, settings: FitSettings | None,
+                   options: dict) -> FitResult:
+    """``fit`` without the consistency checks (never strict: ``fit`` raises after the checks)."""
+    strict = False
     if isinstance(data, DriveLog):
         check_common(vehicle, model, method, bounds)
         for opt in ("slip_noise", "intervals"):

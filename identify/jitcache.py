@@ -13,6 +13,12 @@ Compiling it costs about a second; this module makes that a once-per-machine cos
 * Without a C compiler (none on ``PATH``, ``$CC`` empty) or with ``SOILTRACK_NO_JIT`` set,
   nothing is compiled: the caller keeps CasADi's virtual machine (same Function, same
   numbers, a few times slower) and says so (:func:`load` returns the backend it used).
+* A cache folder that cannot be created or written (read-only, another user's) is told apart
+  from a missing compiler (:data:`VM_UNWRITABLE`); a write that fails half-way (a full disk)
+  leaves no file behind (the temporary source and library are removed).
+* A fallback to the virtual machine that the user did not ask for (no compiler, cache not
+  writable, compilation failed) is said once per process on stderr (:func:`fallback_note`
+  gives the words; the fit report prints them beside the status).
 
 :func:`load` can also compile in the background: it returns the virtual machine at once and
 starts a detached, low-priority compiler process that writes the library into the cache
@@ -20,6 +26,7 @@ starts a detached, low-priority compiler process that writes the library into th
 :meth:`Compiled.upgrade`, or in the next one - use the C code. This is what the default
 ``engine="auto"`` does: no call ever waits for a compiler, and the compile cliff disappears.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -27,6 +34,7 @@ import os
 import shlex
 import shutil
 import subprocess
+import sys
 import tempfile
 import threading
 from dataclasses import dataclass, field
@@ -35,7 +43,16 @@ from typing import Sequence
 
 import casadi as ca
 
-__all__ = ["cache_dir", "compiler", "load", "Compiled", "FLAGS"]
+__all__ = [
+    "cache_dir",
+    "compiler",
+    "load",
+    "Compiled",
+    "FLAGS",
+    "fallback_note",
+    "FALLBACKS",
+    "cache_writable",
+]
 
 #: Compiler flags of every cached library. Only the entry points CasADi marks for export are
 #: visible (``-fvisibility=hidden`` with CasADi's ``GCC_HASCLASSVISIBILITY``), so the compiler may
@@ -45,10 +62,18 @@ __all__ = ["cache_dir", "compiler", "load", "Compiled", "FLAGS"]
 FLAGS = ("-O2", "-fvisibility=hidden", "-DGCC_HASCLASSVISIBILITY", "-ffp-contract=off", "-shared", "-fPIC")
 
 #: Backend labels (``Compiled.backend``).
-C_CACHED, C_NEW, VM_NO_CC, VM_PENDING, VM_FAILED, VM_OFF = (
-    "C (disk cache)", "C (compiled now)", "virtual machine (no C compiler)",
-    "virtual machine (C code compiling in the background)", "virtual machine (C compilation failed)",
-    "virtual machine (JIT off: SOILTRACK_NO_JIT or jit='off')")
+C_CACHED, C_NEW, VM_NO_CC, VM_PENDING, VM_FAILED, VM_OFF, VM_UNWRITABLE = (
+    "C (disk cache)",
+    "C (compiled now)",
+    "virtual machine (no C compiler)",
+    "virtual machine (C code compiling in the background)",
+    "virtual machine (C compilation failed)",
+    "virtual machine (JIT off: SOILTRACK_NO_JIT or jit='off')",
+    "virtual machine (compiled-code cache folder not writable)",
+)
+#: Backends that are a fallback the user did not ask for (said once on stderr and in the report).
+FALLBACKS = (VM_NO_CC, VM_FAILED, VM_UNWRITABLE)
+_SAID: set[str] = set()  # fallbacks already said on stderr by this process
 
 _LOCK = threading.Lock()  # guards the dicts below
 _LIB_LOCKS: dict[str, threading.Lock] = {}  # one per library: one compilation of it per process at a time
@@ -87,6 +112,46 @@ def compiler() -> str | None:
         if shutil.which(name):
             return name
     return None
+
+
+def cache_writable() -> tuple[bool, str]:
+    """``(True, folder)`` when the cache folder exists (or can be made) and is writable, else
+    ``(False, why)``."""
+    try:
+        d = cache_dir()
+    except OSError as e:
+        return False, f"cannot create the cache folder: {e.strerror or e} ({e.filename or ''})"
+    if not os.access(d, os.W_OK | os.X_OK):
+        return False, f"the cache folder {d} is not writable"
+    return True, str(d)
+
+
+def fallback_note(backend: str | None, detail: str = "") -> str | None:
+    """Words for a fallback backend (``None`` for C, a background compilation or JIT switched off)."""
+    if backend not in FALLBACKS:
+        return None
+    why = {
+        VM_NO_CC: "no C compiler found ($CC, cc, gcc, clang)",
+        VM_FAILED: "compiling or loading the C code failed",
+        VM_UNWRITABLE: "the compiled-code cache folder is not writable (set SOILTRACK_CACHE_DIR to a "
+        "writable one)",
+    }
+    return (
+        f"compiled engine on CasADi's virtual machine: {why[backend]}"
+        + (f" - {detail}" if detail else "")
+        + "; the same numbers, a few times slower"
+    )
+
+
+def _say_once(backend: str, detail: str = "") -> None:
+    note = fallback_note(backend, detail)
+    if note is None:
+        return
+    with _LOCK:
+        if backend in _SAID:
+            return
+        _SAID.add(backend)
+    print(f"soiltrack: {note}", file=sys.stderr, flush=True)
 
 
 @dataclass
@@ -143,9 +208,17 @@ def _library_path(source: str, name: str, cc: str) -> Path:
 
 
 def _write_source(folder: Path, name: str, source: str) -> str:
+    """The source in a new temporary file; nothing left behind if the write fails (a full disk)."""
     fd, src = tempfile.mkstemp(prefix=name + "_", suffix=".c", dir=folder)
-    with os.fdopen(fd, "w") as fh:
-        fh.write(source)
+    try:
+        with os.fdopen(fd, "w") as fh:
+            fh.write(source)
+    except BaseException:
+        try:
+            os.remove(src)
+        except OSError:
+            pass
+        raise
     return src
 
 
@@ -153,8 +226,12 @@ def _compile_now(source: str, name: str, cc: str, lib: Path) -> bool:
     src = _write_source(lib.parent, name, source)
     tmp = f"{lib}.{os.getpid()}.{threading.get_ident()}.tmp"
     try:
-        done = subprocess.run(shlex.split(cc) + list(FLAGS) + [src, "-o", tmp, "-lm"], stdout=subprocess.DEVNULL,
-                              stderr=subprocess.DEVNULL, check=False)
+        done = subprocess.run(
+            shlex.split(cc) + list(FLAGS) + [src, "-o", tmp, "-lm"],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            check=False,
+        )
         if done.returncode != 0 or not os.path.exists(tmp):
             return False
         os.replace(tmp, lib)  # atomic: readers see the old state or the whole library
@@ -171,11 +248,18 @@ def _compile_background(source: str, name: str, cc: str, lib: Path) -> None:
     src = _write_source(lib.parent, name, source)
     tmp = f"{lib}.{os.getpid()}.bg.tmp"
     cmd = " ".join(shlex.quote(a) for a in shlex.split(cc) + list(FLAGS) + [src, "-o", tmp, "-lm"])
-    script = f"{cmd} >/dev/null 2>&1 && mv -f {shlex.quote(tmp)} {shlex.quote(str(lib))}; " \
-             f"rm -f {shlex.quote(src)} {shlex.quote(tmp)}"
+    script = (
+        f"{cmd} >/dev/null 2>&1 && mv -f {shlex.quote(tmp)} {shlex.quote(str(lib))}; "
+        f"rm -f {shlex.quote(src)} {shlex.quote(tmp)}"
+    )
     argv = (["nice", "-n", "10"] if shutil.which("nice") else []) + ["sh", "-c", script]
-    _PENDING[str(lib)] = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                                          stderr=subprocess.DEVNULL, start_new_session=True)
+    _PENDING[str(lib)] = subprocess.Popen(
+        argv,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
 
 
 def load(functions: Sequence[ca.Function], name: str, wait: bool = True) -> Compiled:
@@ -200,11 +284,25 @@ def load(functions: Sequence[ca.Function], name: str, wait: bool = True) -> Comp
     vm = Compiled(names, list(functions), VM_NO_CC)
     cc = compiler()
     if cc is None:
+        if not os.environ.get("SOILTRACK_NO_JIT"):
+            _say_once(VM_NO_CC)
         return vm
     try:
         source = _source(functions, name)
-        lib = _library_path(source, name, cc)
     except Exception:  # noqa: BLE001 - code generation unavailable: the virtual machine
+        vm.backend = VM_FAILED
+        _say_once(VM_FAILED, "CasADi's code generator failed")
+        return vm
+    writable, why = cache_writable()
+    try:
+        lib = _library_path(source, name, cc)
+    except OSError:  # the cache folder cannot be created
+        lib = None
+    if lib is None or (
+        not writable and not lib.exists()
+    ):  # a cached library in a read-only folder still loads
+        vm.backend = VM_UNWRITABLE
+        _say_once(VM_UNWRITABLE, why)
         return vm
     vm.path = str(lib)
     with _LOCK:
@@ -214,17 +312,22 @@ def load(functions: Sequence[ca.Function], name: str, wait: bool = True) -> Comp
             if not wait:
                 try:
                     _compile_background(source, name, cc, lib)
-                except OSError:
+                except OSError as e:
                     vm.backend = VM_FAILED
+                    _say_once(VM_FAILED, f"cannot start the compiler: {e.strerror or e}")
                     return vm
                 vm.backend = VM_PENDING
                 return vm
             try:
                 compiled = _compile_now(source, name, cc, lib)
-            except OSError:  # e.g. a read-only cache folder
+            except OSError as e:  # e.g. a full disk: nothing left behind (_write_source, _compile_now)
                 compiled = False
+                why = f"writing to the cache failed: {e.strerror or e}"
+            else:
+                why = "the compiler exited with an error"
             if not compiled:
                 vm.backend = VM_FAILED
+                _say_once(VM_FAILED, why)
                 return vm
             backend = C_NEW
         else:
@@ -233,4 +336,5 @@ def load(functions: Sequence[ca.Function], name: str, wait: bool = True) -> Comp
             return Compiled(names, [ca.external(n, str(lib)) for n in names], backend, str(lib))
         except Exception:  # noqa: BLE001 - unloadable library: the virtual machine
             vm.backend = VM_FAILED
+            _say_once(VM_FAILED, f"the cached library {lib} cannot be loaded")
             return vm

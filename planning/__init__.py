@@ -20,6 +20,7 @@ Public names
 :class:`SoilUncertainty`, :func:`uncertainty_from_fit`, :func:`uncertainty_from_estimate`, :func:`load_fit_json`
     The soil's uncertainty from a ``FitResult``, an on-line estimate or ``soiltrack fit --json``.
 """
+
 from .margin import DEFAULT_MAX_SLIP, Margin, margin
 from .profile import SpeedPlan, profile, route_profile
 from .replan import Replanner
@@ -29,6 +30,26 @@ from .slip_optimal import SlipOptimum, slip_optimal
 from .stuck import Stuck, stuck
 from .uncertainty import SoilUncertainty, load_fit_json, uncertainty_from_estimate, uncertainty_from_fit
 
-__all__ = ["DEFAULT_MAX_SLIP", "Margin", "margin", "SpeedPlan", "profile", "route_profile", "Replanner", "Replay",
-           "replay", "Patch", "Route", "read_route", "route_from_dict", "SlipOptimum", "slip_optimal", "Stuck", "stuck",
-           "SoilUncertainty", "load_fit_json", "uncertainty_from_fit", "uncertainty_from_estimate"]
+__all__ = [
+    "DEFAULT_MAX_SLIP",
+    "Margin",
+    "margin",
+    "SpeedPlan",
+    "profile",
+    "route_profile",
+    "Replanner",
+    "Replay",
+    "replay",
+    "Patch",
+    "Route",
+    "read_route",
+    "route_from_dict",
+    "SlipOptimum",
+    "slip_optimal",
+    "Stuck",
+    "stuck",
+    "SoilUncertainty",
+    "load_fit_json",
+    "uncertainty_from_fit",
+    "uncertainty_from_estimate",
+]

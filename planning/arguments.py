@@ -1,4 +1,5 @@
 """Checks of the planning functions' numeric arguments: one home for the message of a bad number."""
+
 from __future__ import annotations
 
 import math
@@ -10,8 +11,9 @@ from ..soilmodel import DataError
 __all__ = ["check_number"]
 
 
-def check_number(name: str, x: object, lo: float = -math.inf, hi: float = math.inf, lo_open: bool = False,
-                 hi_open: bool = False) -> float:
+def check_number(
+    name: str, x: object, lo: float = -math.inf, hi: float = math.inf, lo_open: bool = False, hi_open: bool = False
+) -> float:
     """``x`` as a float when it is a finite number inside ``[lo, hi]`` (open ends as given).
 
     Parameters
@@ -36,6 +38,7 @@ def check_number(name: str, x: object, lo: float = -math.inf, hi: float = math.i
         raise DataError(f"argument {name} must be a finite number, got {x!r}")
     v = float(x)
     if (v < lo or (lo_open and v == lo)) or (v > hi or (hi_open and v == hi)):
-        raise DataError(f"argument {name} = {v:g} is outside {'(' if lo_open else '['}{lo:g}, {hi:g}"
-                        f"{')' if hi_open else ']'}")
+        raise DataError(
+            f"argument {name} = {v:g} is outside {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+        )
     return v

@@ -5,6 +5,7 @@ Both are evaluated from the model core (:func:`soiltrack.soilmodel.thrust_functi
 :mod:`soiltrack.soilmodel.sinkage`), vectorised over soils and grades; no second copy of the
 physics.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -16,8 +17,9 @@ from ..soilmodel.sinkage import compaction_resistance, has_bekker
 __all__ = ["soil_thrust", "resistances"]
 
 
-def resistances(vehicle: Vehicle, soil_bekker: Soil | None, theta: np.ndarray, accel: float,
-                drawbar: float) -> tuple[np.ndarray, dict]:
+def resistances(
+    vehicle: Vehicle, soil_bekker: Soil | None, theta: np.ndarray, accel: float, drawbar: float
+) -> tuple[np.ndarray, dict]:
     """Normal load and itemised required thrust at grades ``theta``.
 
     Parameters
@@ -39,15 +41,27 @@ def resistances(vehicle: Vehicle, soil_bekker: Soil | None, theta: np.ndarray, a
     """
     W = vehicle.weight
     N = np.array([float(effective_normal_load(W, vehicle, {"grade": float(t)})) for t in np.atleast_1d(theta)])
-    total_res = np.array([float(motion_resistance(1.0, 0.0, vehicle, {"grade": float(t)}, standstill_speed=None))
-                          for t in np.atleast_1d(theta)])
+    total_res = np.array(
+        [
+            float(motion_resistance(1.0, 0.0, vehicle, {"grade": float(t)}, standstill_speed=None))
+            for t in np.atleast_1d(theta)
+        ]
+    )
     rolling = vehicle.rolling_resistance * N
     grade = total_res - rolling
-    comp = (np.asarray(compaction_resistance(soil_bekker, vehicle, N), dtype=float)
-            if soil_bekker is not None and has_bekker(soil_bekker) else np.zeros_like(N))
+    comp = (
+        np.asarray(compaction_resistance(soil_bekker, vehicle, N), dtype=float)
+        if soil_bekker is not None and has_bekker(soil_bekker)
+        else np.zeros_like(N)
+    )
     inertia = vehicle.mass * accel
-    return N, {"rolling_N": rolling, "compaction_N": comp, "grade_N": grade,
-               "inertia_N": np.full_like(N, inertia), "drawbar_N": np.full_like(N, drawbar)}
+    return N, {
+        "rolling_N": rolling,
+        "compaction_N": comp,
+        "grade_N": grade,
+        "inertia_N": np.full_like(N, inertia),
+        "drawbar_N": np.full_like(N, drawbar),
+    }
 
 
 def soil_thrust(thetas: np.ndarray, slip: float, N: np.ndarray | float, vehicle: Vehicle, model: str) -> np.ndarray:
@@ -74,9 +88,19 @@ def soil_thrust(thetas: np.ndarray, slip: float, N: np.ndarray | float, vehicle:
     thetas = np.atleast_2d(thetas)
     n = max(thetas.shape[0], np.size(N))
     th = np.broadcast_to(thetas, (n, 3))
-    NN = (np.broadcast_to(np.asarray(N, dtype=float).ravel(), (n,)) if np.size(N) > 1
-          else np.full(n, float(np.ravel(N)[0])))
+    NN = (
+        np.broadcast_to(np.asarray(N, dtype=float).ravel(), (n,))
+        if np.size(N) > 1
+        else np.full(n, float(np.ravel(N)[0]))
+    )
     f = thrust_function(model)
-    out = f(np.full((1, n), slip), th[:, 0].reshape(1, -1), th[:, 1].reshape(1, -1), th[:, 2].reshape(1, -1),
-            NN.reshape(1, -1), vehicle.track_length, vehicle.track_width)
+    out = f(
+        np.full((1, n), slip),
+        th[:, 0].reshape(1, -1),
+        th[:, 1].reshape(1, -1),
+        th[:, 2].reshape(1, -1),
+        NN.reshape(1, -1),
+        vehicle.track_length,
+        vehicle.track_width,
+    )
     return np.asarray(out, dtype=float).ravel()

@@ -23,6 +23,7 @@ answer (the two agree where the soil limit is close to Gaussian). The worst case
 region is the smallest margin found on the 95 % ellipsoid (linearised worst direction) and
 among the Monte Carlo samples inside it.
 """
+
 from __future__ import annotations
 
 import math
@@ -111,15 +112,40 @@ class Margin:
 
     def to_dict(self) -> dict:
         """The ``margin --json`` object (docs/data-formats.md); never NaN (``null`` instead)."""
-        d = {k: getattr(self, k) for k in (
-            "available_N", "required_N", "margin_N", "margin_ratio", "traversable", "p_traversable",
-            "slip_required", "max_grade_deg", "limited_by", "soil_limit_N", "drivetrain_limit_N")}
+        d = {
+            k: getattr(self, k)
+            for k in (
+                "available_N",
+                "required_N",
+                "margin_N",
+                "margin_ratio",
+                "traversable",
+                "p_traversable",
+                "slip_required",
+                "max_grade_deg",
+                "limited_by",
+                "soil_limit_N",
+                "drivetrain_limit_N",
+            )
+        }
         d["required"] = dict(self.required)
-        d.update({"p_traversable_delta": self.p_traversable_delta, "p_traversable_mc": self.p_traversable_mc,
-                  "worst_case_margin_N": self.worst_case_margin_N, "n_samples": self.n_samples,
-                  "normal_load_N": self.normal_load_N, "sinkage_m": self.sinkage_m, "max_slip": self.max_slip,
-                  "grade_deg": self.grade_deg, "speed_m_s": self.speed_m_s, "accel_m_s2": self.accel_m_s2,
-                  "terrain": self.terrain, "uncertainty": self.uncertainty, "notes": list(self.notes)})
+        d.update(
+            {
+                "p_traversable_delta": self.p_traversable_delta,
+                "p_traversable_mc": self.p_traversable_mc,
+                "worst_case_margin_N": self.worst_case_margin_N,
+                "n_samples": self.n_samples,
+                "normal_load_N": self.normal_load_N,
+                "sinkage_m": self.sinkage_m,
+                "max_slip": self.max_slip,
+                "grade_deg": self.grade_deg,
+                "speed_m_s": self.speed_m_s,
+                "accel_m_s2": self.accel_m_s2,
+                "terrain": self.terrain,
+                "uncertainty": self.uncertainty,
+                "notes": list(self.notes),
+            }
+        )
         return {k: (_fnum(v) if isinstance(v, float) else v) for k, v in d.items()}
 
     def report(self) -> str:
@@ -127,28 +153,37 @@ class Margin:
         # one unit for the whole report, chosen by the magnitude of the thrusts compared (N or kN)
         kn = choose_scale([self.available_N, self.required_N, self.soil_limit_N], "N").format
         go = "TRAVERSABLE" if self.traversable else "NOT TRAVERSABLE"
-        L = [f"{self.terrain}, grade {self.grade_deg:g} deg: {go}",
-             f"  available thrust {kn(self.available_N)} (limited by the {self.limited_by}: soil at "
-             f"{self.max_slip * 100:.3g} % slip {kn(self.soil_limit_N)}, drivetrain "
-             f"{'unknown' if self.drivetrain_limit_N is None else kn(self.drivetrain_limit_N)})",
-             f"  required thrust  {kn(self.required_N)} = rolling {kn(self.required['rolling_N'])} + compaction "
-             f"{kn(self.required['compaction_N'])} + grade {kn(self.required['grade_N'])} + inertia "
-             f"{kn(self.required['inertia_N'])} + drawbar {kn(self.required['drawbar_N'])}",
-             f"  margin {kn(self.margin_N)} ({self.margin_ratio * 100:.3g} % of the available thrust)",
-             "  steady slip needed: " + ("none delivers it (the soil cannot give this thrust)"
-                                         if self.slip_required is None else f"{self.slip_required * 100:.3g} %"),
-             "  steepest grade: " + ("none" if self.max_grade_deg is None else f"{self.max_grade_deg:.3g} deg")]
+        L = [
+            f"{self.terrain}, grade {self.grade_deg:g} deg: {go}",
+            f"  available thrust {kn(self.available_N)} (limited by the {self.limited_by}: soil at "
+            f"{self.max_slip * 100:.3g} % slip {kn(self.soil_limit_N)}, drivetrain "
+            f"{'unknown' if self.drivetrain_limit_N is None else kn(self.drivetrain_limit_N)})",
+            f"  required thrust  {kn(self.required_N)} = rolling {kn(self.required['rolling_N'])} + compaction "
+            f"{kn(self.required['compaction_N'])} + grade {kn(self.required['grade_N'])} + inertia "
+            f"{kn(self.required['inertia_N'])} + drawbar {kn(self.required['drawbar_N'])}",
+            f"  margin {kn(self.margin_N)} ({self.margin_ratio * 100:.3g} % of the available thrust)",
+            "  steady slip needed: "
+            + (
+                "none delivers it (the soil cannot give this thrust)"
+                if self.slip_required is None
+                else f"{self.slip_required * 100:.3g} %"
+            ),
+            "  steepest grade: " + ("none" if self.max_grade_deg is None else f"{self.max_grade_deg:.3g} deg"),
+        ]
         if self.p_traversable is not None:
-            L.append(f"  probability traversable {self.p_traversable:.3f} (Monte Carlo, {self.n_samples} soils; "
-                     f"delta method {self.p_traversable_delta:.3f}); worst case over the 95 % region: "
-                     f"{kn(self.worst_case_margin_N)}")
+            L.append(
+                f"  probability traversable {self.p_traversable:.3f} (Monte Carlo, {self.n_samples} soils; "
+                f"delta method {self.p_traversable_delta:.3f}); worst case over the 95 % region: "
+                f"{kn(self.worst_case_margin_N)}"
+            )
             L.append(f"  {self.uncertainty}")
         L += [f"  note: {n}" for n in self.notes]
         return "\n".join(L)
 
 
 def resolve_terrain(terrain: Any, vehicle: Vehicle | None = None) -> tuple[Soil | None, SoilUncertainty | None, str]:
-    """``Soil`` -> (soil, None, model); ``FitResult``/``SoilUncertainty``/on-line estimate -> (None, uncertainty, model).
+    """``Soil`` -> (soil, None, model); a ``FitResult``, ``SoilUncertainty`` or on-line estimate -> (None,
+    uncertainty, model).
 
     An on-line estimate (:func:`~.uncertainty.is_online_estimate`) needs the ``vehicle``.
     """
@@ -164,8 +199,10 @@ def resolve_terrain(terrain: Any, vehicle: Vehicle | None = None) -> tuple[Soil 
             raise DataError("an on-line estimate needs the vehicle to map F_max to the soil")
         u = uncertainty_from_estimate(terrain, vehicle)
         return None, u, u.model
-    raise DataError(f"terrain must be a Soil (e.g. TERRAINS['dry_sand']), a FitResult, a SoilUncertainty or an "
-                    f"on-line estimate, got {type(terrain).__name__}")
+    raise DataError(
+        f"terrain must be a Soil (e.g. TERRAINS['dry_sand']), a FitResult, a SoilUncertainty or an "
+        f"on-line estimate, got {type(terrain).__name__}"
+    )
 
 
 def drivetrain_limit(vehicle: Vehicle, speed: float | None) -> float | None:
@@ -178,9 +215,18 @@ def drivetrain_limit(vehicle: Vehicle, speed: float | None) -> float | None:
     return min(lims) if lims else None
 
 
-def margin(terrain: Any, vehicle: Vehicle, *, grade_deg: float = 0.0, accel: float = 0.0, drawbar_N: float = 0.0,
-           speed: float | None = None, max_slip: float | None = None, samples: int = DEFAULT_SAMPLES,
-           seed: int | None = 0) -> Margin:
+def margin(
+    terrain: Any,
+    vehicle: Vehicle,
+    *,
+    grade_deg: float = 0.0,
+    accel: float = 0.0,
+    drawbar_N: float = 0.0,
+    speed: float | None = None,
+    max_slip: float | None = None,
+    samples: int = DEFAULT_SAMPLES,
+    seed: int | None = 0,
+) -> Margin:
     """Traversability margin of ``vehicle`` on ``terrain`` (see the module docstring).
 
     Parameters
@@ -225,9 +271,12 @@ def margin(terrain: Any, vehicle: Vehicle, *, grade_deg: float = 0.0, accel: flo
     required = {k: float(v[0]) for k, v in req.items()}
     R = sum(required.values())
     if soil is None or not has_bekker(soil):
-        notes.append("no Bekker parameters (n, k_c, k_phi) for this terrain: compaction resistance not included"
-                     if soil is not None else "an identified soil has no Bekker parameters: compaction resistance "
-                     "not included (add it as drawbar_N if known)")
+        notes.append(
+            "no Bekker parameters (n, k_c, k_phi) for this terrain: compaction resistance not included"
+            if soil is not None
+            else "an identified soil has no Bekker parameters: compaction resistance "
+            "not included (add it as drawbar_N if known)"
+        )
     theta0 = soil.as_vector() if soil is not None else unc.soils_at(unc.mean, N)[0]
     soil_at = soil if soil is not None else Soil(*map(float, theta0), name="fitted soil")
     F_soil = float(soil_thrust(theta0, i_max, N, vehicle, model)[0])
@@ -275,8 +324,9 @@ def margin(terrain: Any, vehicle: Vehicle, *, grade_deg: float = 0.0, accel: flo
     if unc is not None:
         words = unc.describe(N)
         J = unc.jacobian_at(N)
-        g_theta = np.asarray(sensitivity_function(model)(i_max, *theta0, N, vehicle.track_length,
-                                                         vehicle.track_width), dtype=float).ravel()
+        g_theta = np.asarray(
+            sensitivity_function(model)(i_max, *theta0, N, vehicle.track_length, vehicle.track_width), dtype=float
+        ).ravel()
         g = g_theta @ J
         var = float(g @ unc.cov @ g)
         sd = math.sqrt(max(var, 0.0))
@@ -302,20 +352,41 @@ def margin(terrain: Any, vehicle: Vehicle, *, grade_deg: float = 0.0, accel: flo
             cands.append((Fw if dt is None else min(Fw, dt)) - R)
         Linv = np.linalg.pinv(unc.cov)
         d = q - unc.mean
-        inside = np.einsum("ij,jk,ik->i", d, Linv, d) <= r95 ** 2
+        inside = np.einsum("ij,jk,ik->i", d, Linv, d) <= r95**2
         if np.any(inside):
             cands.append(float(np.min(ms[inside])))
         worst = float(min(cands))
         p = p_mc
         if abs(p_mc - p_d) > 0.02:
-            notes.append(f"delta method ({p_d:.3f}) and Monte Carlo ({p_mc:.3f}) differ by more than 0.02: the "
-                         "soil limit is not close to Gaussian here; the Monte Carlo value is the answer")
+            notes.append(
+                f"delta method ({p_d:.3f}) and Monte Carlo ({p_mc:.3f}) differ by more than 0.02: the "
+                "soil limit is not close to Gaussian here; the Monte Carlo value is the answer"
+            )
     label = soil.name if soil is not None and soil.name else ("identified soil (fit)" if unc is not None else "soil")
-    return Margin(available_N=float(available), required_N=float(R), margin_N=float(m),
-                  margin_ratio=float(m / available) if available > 0 else -math.inf,
-                  traversable=bool(m >= 0), slip_required=slip_required, max_grade_deg=max_grade,
-                  limited_by=limited_by, soil_limit_N=F_soil, drivetrain_limit_N=None if dt is None else float(dt),
-                  required=required, normal_load_N=N, sinkage_m=sink, max_slip=float(i_max),
-                  grade_deg=float(grade_deg), speed_m_s=speed, accel_m_s2=float(accel), terrain=label,
-                  p_traversable=p, p_traversable_delta=p_d, p_traversable_mc=p_mc, worst_case_margin_N=worst,
-                  n_samples=n_s, uncertainty=words, notes=tuple(notes))
+    return Margin(
+        available_N=float(available),
+        required_N=float(R),
+        margin_N=float(m),
+        margin_ratio=float(m / available) if available > 0 else -math.inf,
+        traversable=bool(m >= 0),
+        slip_required=slip_required,
+        max_grade_deg=max_grade,
+        limited_by=limited_by,
+        soil_limit_N=F_soil,
+        drivetrain_limit_N=None if dt is None else float(dt),
+        required=required,
+        normal_load_N=N,
+        sinkage_m=sink,
+        max_slip=float(i_max),
+        grade_deg=float(grade_deg),
+        speed_m_s=speed,
+        accel_m_s2=float(accel),
+        terrain=label,
+        p_traversable=p,
+        p_traversable_delta=p_d,
+        p_traversable_mc=p_mc,
+        worst_case_margin_N=worst,
+        n_samples=n_s,
+        uncertainty=words,
+        notes=tuple(notes),
+    )

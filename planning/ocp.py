@@ -26,6 +26,7 @@ All data enter as parameters (soil, grade and compaction per interval, mesh dist
 limits, weights), so one ``nlpsol`` (IPOPT) is built per (vehicle, n, objective, torque-rate
 limit on/off) and re-solved; the previous solution of the same structure warm-starts the next.
 """
+
 from __future__ import annotations
 
 import time
@@ -45,12 +46,16 @@ __all__ = ["OcpData", "solve_ocp", "ocp_solver", "clear_warm_starts", "DEGREE", 
 DEGREE = 3
 #: Lower bound of the sprocket speed while moving, rad/s (the slip limit's linear form needs w > 0).
 MIN_SPROCKET_SPEED = 1e-4
-_IPOPT = {"print_level": 0, "sb": "yes", "max_iter": 1000, "tol": 1e-8, "acceptable_tol": 1e-6,
-          "constr_viol_tol": 1e-8}
+_IPOPT = {"print_level": 0, "sb": "yes", "max_iter": 1000, "tol": 1e-8, "acceptable_tol": 1e-6, "constr_viol_tol": 1e-8}
 #: Warm-start options, tuned on the benchmark profile (IPOPT iterations for a new v1 / a new soil:
 #: 13 / 22-65 with mu_init 1e-6 and pushes 1e-9; 5-6 / 20-24 with these).
-_WARM = {"warm_start_init_point": "yes", "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6,
-         "warm_start_slack_bound_push": 1e-6, "mu_init": 1e-8}
+_WARM = {
+    "warm_start_init_point": "yes",
+    "warm_start_bound_push": 1e-6,
+    "warm_start_mult_bound_push": 1e-6,
+    "warm_start_slack_bound_push": 1e-6,
+    "mu_init": 1e-8,
+}
 
 
 @dataclass(frozen=True)
@@ -86,8 +91,9 @@ def dynamics_fn(vehicle: Vehicle) -> ca.Function:
     p = ca.SX.sym("p", 5)
     d = dynamics_expr(x[0], x[1], M, p[0], p[1], p[2], vehicle, {"grade": {"theta_rad": p[3]}})
     xdot = ca.vertcat(d["dv"] - p[4] / vehicle.mass, d["dw"])
-    return ca.Function("plan_dynamics", [x, M, p], [xdot, d["slip"], d["thrust"]], ["x", "M", "p"],
-                       ["xdot", "slip", "thrust"])
+    return ca.Function(
+        "plan_dynamics", [x, M, p], [xdot, d["slip"], d["thrust"]], ["x", "M", "p"], ["xdot", "slip", "thrust"]
+    )
 
 
 @lru_cache(maxsize=8)
@@ -115,8 +121,13 @@ def _layout(n: int, energy: bool):
     nx = 2 * (n + 1)
     nz = 2 * DEGREE * n
     a = nx + nz
-    return (slice(0, nx), slice(nx, a), slice(a, a + n), slice(a + n, a + 2 * n),
-            slice(a + 2 * n, a + 3 * n) if energy else None)
+    return (
+        slice(0, nx),
+        slice(nx, a),
+        slice(a, a + n),
+        slice(a + n, a + 2 * n),
+        slice(a + 2 * n, a + 3 * n) if energy else None,
+    )
 
 
 @locked_cache(maxsize=32)
@@ -136,7 +147,9 @@ def ocp_solver(vehicle: Vehicle, n: int, warm: bool, energy: bool = False, rate_
     dt = ca.SX.sym("dt", n)
     e = ca.SX.sym("e", n)  # positive work per interval (slack)
     P = ca.SX.sym("P", 7, n)  # c, phi, K, grade, R_c, slip bound, interval length
-    Ms, Pw, rate, wt, we, ts, es, vs, ws = (ca.SX.sym(s) for s in ("Ms", "Pw", "rate", "wt", "we", "ts", "es", "vs", "ws"))
+    Ms, Pw, rate, wt, we, ts, es, vs, ws = (
+        ca.SX.sym(s) for s in ("Ms", "Pw", "rate", "wt", "we", "ts", "es", "vs", "ws")
+    )
     xs = ca.vertcat(vs, ws)  # state scales
     g_dyn, g_slip_lo, g_slip_hi, g_pow, g_dist = [], [], [], [], []
     J_time = ca.sum1(dt)
@@ -188,8 +201,12 @@ def _guess(d: OcpData, vehicle: Vehicle, n: int, slip_of_thrust) -> np.ndarray:
     v[0], v[-1] = d.v0, d.v1
     h = np.diff(S)
     a = (v[1:] ** 2 - v[:-1] ** 2) / (2 * h)
-    R = np.array([float(f(ca.DM([r, 1.0]), 0.0, [d.c[k], d.phi[k], d.K[k], d.grade[k], d.Rc[k]])[0][0])
-                  for k in range(n)]) * -m  # resistance from the model core (rest of the slip: 0)
+    R = (
+        np.array(
+            [float(f(ca.DM([r, 1.0]), 0.0, [d.c[k], d.phi[k], d.K[k], d.grade[k], d.Rc[k]])[0][0]) for k in range(n)]
+        )
+        * -m
+    )  # resistance from the model core (rest of the slip: 0)
     Freq = m * a + R
     i = np.clip(slip_of_thrust(Freq), -0.9 * d.slip_bound, 0.9 * d.slip_bound)
     M = np.clip(r * Freq + I * a / (r * (1 - i)), -0.95 * d.max_torque, 0.95 * d.max_torque)
@@ -230,7 +247,7 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
     L = float(d.s[-1])
     vmax = max(d.v0, d.v1, 0.1)
     ts = (L / vmax) if d.duration is None else d.duration
-    es = vehicle.weight * L * 0.1 + 0.5 * vehicle.mass * vmax ** 2
+    es = vehicle.weight * L * 0.1 + 0.5 * vehicle.mass * vmax**2
     wt, we = (1.0, 0.0) if d.objective == "time" else (0.0, 1.0)
     Pmat = np.vstack([d.c, d.phi, d.K, d.grade, d.Rc, d.slip_bound, np.diff(d.s)])
     p = np.concatenate([Pmat.ravel(order="F"), [Ms, Pw, d.torque_rate or 0.0, wt, we, ts, es, vmax, vmax / r]])
@@ -262,8 +279,11 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
     dist_lo = np.full(n, -inf) if free_dist else np.zeros(n)
     dist_hi = np.full(n, inf) if free_dist else np.zeros(n)
     lbg = [np.zeros(ndyn), dist_lo] + ([np.zeros(n)] if energy else []) + [np.zeros(2 * npt), np.full(npt, -inf)]
-    ubg = [np.zeros(ndyn), dist_hi] + ([np.full(n, inf)] if energy else []) + [np.full(2 * npt, inf),
-                                                                               np.full(npt, 1.0 if d.max_power else inf)]
+    ubg = (
+        [np.zeros(ndyn), dist_hi]
+        + ([np.full(n, inf)] if energy else [])
+        + [np.full(2 * npt, inf), np.full(npt, 1.0 if d.max_power else inf)]
+    )
     if rate_on:
         lbg.append(np.full(2 * (n - 1), -inf))
         ubg.append(np.zeros(2 * (n - 1)))
@@ -282,7 +302,9 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
     ok = bool(stats.get("success", False))
     if not ok and warm:  # a poor warm start: retry cold once
         warm = False
-        args = dict(p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, x0=np.clip(_guess(d, vehicle, n, slip_of_thrust), lbx, ubx))
+        args = dict(
+            p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, x0=np.clip(_guess(d, vehicle, n, slip_of_thrust), lbx, ubx)
+        )
         t_b = time.perf_counter()
         cold = ocp_solver(vehicle, n, False, energy, rate_on)
         t0 += time.perf_counter() - t_b  # the build (if any) is not solve time
@@ -297,9 +319,20 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
     Z = x[iZ].reshape((2, DEGREE * n), order="F")
     _tau, _C, B = radau_collocation(DEGREE)
     h = x[idt] * (Z[0].reshape(n, DEGREE) @ B[1:])
-    return {"x": x, "v": X[0], "w": X[1], "s": np.concatenate([[0.0], np.cumsum(h)]), "Z": Z,
-            "M": x[iu] * Ms, "dt": x[idt], "success": ok, "status": str(stats.get("return_status", "unknown")),
-            "iterations": int(stats.get("iter_count", -1)), "solve_time": elapsed, "warm": warm}
+    return {
+        "x": x,
+        "v": X[0],
+        "w": X[1],
+        "s": np.concatenate([[0.0], np.cumsum(h)]),
+        "Z": Z,
+        "M": x[iu] * Ms,
+        "dt": x[idt],
+        "success": ok,
+        "status": str(stats.get("return_status", "unknown")),
+        "iterations": int(stats.get("iter_count", -1)),
+        "solve_time": elapsed,
+        "warm": warm,
+    }
 
 
 def clear_warm_starts() -> None:

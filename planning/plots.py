@@ -1,4 +1,5 @@
 """Figures of the planning results (matplotlib, Agg backend)."""
+
 from __future__ import annotations
 
 from typing import Any
@@ -41,8 +42,12 @@ def plot_margin(terrain: Any, vehicle: Vehicle, m: Margin, path: str) -> None:
         ax.fill_between(s[::10] * 100, lo * ks.factor, hi * ks.factor, alpha=0.3, label="95 % band of the fitted soil")
     ax.axhline(m.required_N * ks.factor, color="C3", label=f"required {ks.format(m.required_N)}")
     if m.drivetrain_limit_N is not None:
-        ax.axhline(m.drivetrain_limit_N * ks.factor, color="C2", ls="--",
-                   label=f"drivetrain limit {ks.format(m.drivetrain_limit_N)}")
+        ax.axhline(
+            m.drivetrain_limit_N * ks.factor,
+            color="C2",
+            ls="--",
+            label=f"drivetrain limit {ks.format(m.drivetrain_limit_N)}",
+        )
     ax.axvline(m.max_slip * 100, color="k", ls=":", label=f"allowed slip {m.max_slip * 100:.3g} %")
     ax.set_xlabel("slip (%)")
     ax.set_ylabel(f"thrust ({ks.unit})")
@@ -92,13 +97,23 @@ def plot_profile(result: SpeedPlan, path: str, title: str = "") -> None:
             for ax in axs:
                 ax.axvline(b, color="0.6", lw=0.8)
     for w in result.standstills:  # a standstill is one point in distance: mark it with its time window
-        axs[0].annotate(f"stands still {w['start_s']:.3g}-{w['end_s']:.3g} s", (w["distance_m"], 0.0),
-                        xytext=(5, 12), textcoords="offset points", fontsize=8, color="C3",
-                        arrowprops={"arrowstyle": "->", "color": "C3"})
+        axs[0].annotate(
+            f"stands still {w['start_s']:.3g}-{w['end_s']:.3g} s",
+            (w["distance_m"], 0.0),
+            xytext=(5, 12),
+            textcoords="offset points",
+            fontsize=8,
+            color="C3",
+            arrowprops={"arrowstyle": "->", "color": "C3"},
+        )
     for ax in axs:
         ax.grid(alpha=0.3)
-    axs[0].set_title(title or f"{result.objective}-optimal profile: {result.total_time_s:.4g} s, "
-                     f"{format_energy(result.energy_J)}, peak speed {result.peak_speed_m_s:.3g} m/s", fontsize=9)
+    axs[0].set_title(
+        title
+        or f"{result.objective}-optimal profile: {result.total_time_s:.4g} s, "
+        f"{format_energy(result.energy_J)}, peak speed {result.peak_speed_m_s:.3g} m/s",
+        fontsize=9,
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -128,9 +143,16 @@ def plot_slip_optimal(opt: SlipOptimum, path: str, title: str = "") -> None:
     a1.set_ylim(bottom=0)
     a2.set_ylim(0, 100)
     a1.grid(alpha=0.3)
-    a1.set_title(title or (f"power-optimal slip {opt.slip_max_power * 100:.3g} %, efficiency-optimal "
-                           f"{opt.slip_max_efficiency * 100:.3g} %" if opt.slip_max_power is not None else
-                           "no positive drawbar pull"), fontsize=9)
+    a1.set_title(
+        title
+        or (
+            f"power-optimal slip {opt.slip_max_power * 100:.3g} %, efficiency-optimal "
+            f"{opt.slip_max_efficiency * 100:.3g} %"
+            if opt.slip_max_power is not None
+            else "no positive drawbar pull"
+        ),
+        fontsize=9,
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -35,6 +35,7 @@ gives ``1 - THRUST_RESERVE`` of its thrust at the slip limit, and its power stay
 the mesh points too. A duration instead of a distance gives equal time steps and a free
 distance (energy objective only).
 """
+
 from __future__ import annotations
 
 import math
@@ -46,8 +47,17 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from ..soilmodel import (DataError, Soil, Vehicle, format_energy, format_force, format_torque, sensitivity_function,
-                         slip_from_thrust, thrust_function)
+from ..soilmodel import (
+    DataError,
+    Soil,
+    Vehicle,
+    format_energy,
+    format_force,
+    format_torque,
+    sensitivity_function,
+    slip_from_thrust,
+    thrust_function,
+)
 from ..soilmodel.dynamics import slip_expr
 from ..soilmodel.effect_terms import DEFAULT_STANDSTILL_SPEED
 from ..soilmodel.simulation import drive_limits
@@ -58,7 +68,15 @@ from .ocp import DEGREE, OcpData, radau_collocation, solve_ocp
 from .replay import replay
 from .route import OBJECTIVES, Patch, Route
 
-__all__ = ["SpeedPlan", "profile", "route_profile", "plan_patches", "DEFAULT_INTERVALS", "STANDSTILL_SPEED", "THRUST_RESERVE"]
+__all__ = [
+    "SpeedPlan",
+    "profile",
+    "route_profile",
+    "plan_patches",
+    "DEFAULT_INTERVALS",
+    "STANDSTILL_SPEED",
+    "THRUST_RESERVE",
+]
 
 #: Traction reserve of a plan: its thrust stays below (1 - THRUST_RESERVE) times the soil's thrust
 #: at the slip limit, and its power below (1 - THRUST_RESERVE) P_max. On the flat part of the
@@ -73,8 +91,17 @@ DEFAULT_INTERVALS = 50
 #: Below this speed (m/s) the plan stands still: the model core's standstill regularisation speed
 #: (:data:`soiltrack.soilmodel.effect_terms.DEFAULT_STANDSTILL_SPEED`), where slip loses its meaning.
 STANDSTILL_SPEED = DEFAULT_STANDSTILL_SPEED
-_SERIES = ("time_s", "distance_m", "speed_m_s", "sprocket_speed_rad_s", "slip", "sprocket_torque_Nm", "thrust_N",
-           "margin_N", "patch")
+_SERIES = (
+    "time_s",
+    "distance_m",
+    "speed_m_s",
+    "sprocket_speed_rad_s",
+    "slip",
+    "sprocket_torque_Nm",
+    "thrust_N",
+    "margin_N",
+    "patch",
+)
 
 
 def _dur(t) -> str:
@@ -156,9 +183,17 @@ class SpeedPlan:
 
     def to_dict(self, route: bool = False) -> dict:
         """The ``profile --json`` / ``route --json`` object (docs/data-formats.md); never NaN."""
-        d = {"success": self.success, "status": self.status, "message": self.message, "objective": self.objective,
-             "total_time_s": _f(self.total_time_s), "energy_J": _f(self.energy_J),
-             "solve_time_s": _f(self.solve_time_s), "iterations": self.iterations, "warm_start": self.warm_start}
+        d = {
+            "success": self.success,
+            "status": self.status,
+            "message": self.message,
+            "objective": self.objective,
+            "total_time_s": _f(self.total_time_s),
+            "energy_J": _f(self.energy_J),
+            "solve_time_s": _f(self.solve_time_s),
+            "iterations": self.iterations,
+            "warm_start": self.warm_start,
+        }
         for k in _SERIES:
             if k == "patch" and not route:
                 continue
@@ -185,28 +220,42 @@ class SpeedPlan:
         else:
             s = self.series
             vmax = self.limits.get("max_speed_m_s")
-            L = [f"profile found ({self.objective} objective, IPOPT {self.status}, {self.iterations} iterations, "
-                 f"{_dur(self.solve_time_s)}{', warm start' if self.warm_start else ''})",
-                 f"  {s['distance_m'][-1]:.4g} m in {self.total_time_s:.4g} s, sprocket energy "
-                 f"{format_energy(self.energy_J)}; speed {s['speed_m_s'][0]:.3g} -> {s['speed_m_s'][-1]:.3g} m/s, "
-                 f"peak {self.peak_speed_m_s:.3g} m/s ("
-                 + (f"limit {vmax:.3g} m/s)" if vmax is not None else "no speed limit given)"),
-                 f"  initial slip {self.initial_slip * 100:.3g} % ({_SLIP0_WORDS[self.initial_slip_source]})",
-                 f"  largest slip {max(abs(x) for x in s['slip']) * 100:.3g} % (limit {self.limits['max_slip'] * 100:.3g} %),"
-                 f" largest torque {format_torque(max(abs(x) for x in s['sprocket_torque_Nm']))} (limit "
-                 f"{format_torque(self.limits['max_torque_Nm'])}), smallest traction reserve "
-                 f"{format_force(min(s['margin_N']))}"]
+            L = [
+                f"profile found ({self.objective} objective, IPOPT {self.status}, {self.iterations} iterations, "
+                f"{_dur(self.solve_time_s)}{', warm start' if self.warm_start else ''})",
+                f"  {s['distance_m'][-1]:.4g} m in {self.total_time_s:.4g} s, sprocket energy "
+                f"{format_energy(self.energy_J)}; speed {s['speed_m_s'][0]:.3g} -> {s['speed_m_s'][-1]:.3g} m/s, "
+                f"peak {self.peak_speed_m_s:.3g} m/s ("
+                + (f"limit {vmax:.3g} m/s)" if vmax is not None else "no speed limit given)"),
+                f"  initial slip {(self.initial_slip or 0.0) * 100:.3g} % "
+                f"({_SLIP0_WORDS.get(self.initial_slip_source or '', 'unknown')})",
+                f"  largest slip {max(abs(x) for x in s['slip']) * 100:.3g} % "
+                f"(limit {self.limits['max_slip'] * 100:.3g} %),"
+                f" largest torque {format_torque(max(abs(x) for x in s['sprocket_torque_Nm']))} (limit "
+                f"{format_torque(self.limits['max_torque_Nm'])}), smallest traction reserve "
+                f"{format_force(min(s['margin_N']))}",
+            ]
             act = {k: n for k, n in (self.active_limits or {}).items() if n}
             n_int = len(s["time_s"]) - 1
-            L.append("  limits active: " + (", ".join(f"{k} in {n} of {n_int} intervals" for k, n in act.items())
-                                           if act else "none (the objective alone shapes the plan)"))
+            L.append(
+                "  limits active: "
+                + (
+                    ", ".join(f"{k} in {n} of {n_int} intervals" for k, n in act.items())
+                    if act
+                    else "none (the objective alone shapes the plan)"
+                )
+            )
             for w in self.standstills:
-                L.append(f"  STANDS STILL (speed below {STANDSTILL_SPEED:g} m/s) from {w['start_s']:.4g} s to "
-                         f"{w['end_s']:.4g} s ({w['duration_s']:.4g} s) at {w['distance_m']:.4g} m")
+                L.append(
+                    f"  STANDS STILL (speed below {STANDSTILL_SPEED:g} m/s) from {w['start_s']:.4g} s to "
+                    f"{w['end_s']:.4g} s ({w['duration_s']:.4g} s) at {w['distance_m']:.4g} m"
+                )
         if self.robust is not None:
-            L.append(f"  robust plan at confidence {self.robust['confidence']:.3g}: the slip limit is broken for "
-                     f"{self.robust['violation_fraction'] * 100:.3g} % of {self.robust['n_samples']} sampled soils "
-                     f"(nominal-soil plan: {self.robust['nominal_violation_fraction'] * 100:.3g} %)")
+            L.append(
+                f"  robust plan at confidence {self.robust['confidence']:.3g}: the slip limit is broken for "
+                f"{self.robust['violation_fraction'] * 100:.3g} % of {self.robust['n_samples']} sampled soils "
+                f"(nominal-soil plan: {self.robust['nominal_violation_fraction'] * 100:.3g} %)"
+            )
         L += [f"  note: {n}" for n in self.notes]
         return "\n".join(L)
 
@@ -220,13 +269,34 @@ def _mesh(lengths: np.ndarray, n: int) -> np.ndarray:
 
 
 def _infeasible(reason: dict, msg: str, objective: str, limits: dict, notes, n_patches: int) -> SpeedPlan:
-    return SpeedPlan(False, "infeasible", msg, objective, None, None, None, None, False,
-                         {k: [] for k in _SERIES}, reason, {}, limits, tuple(notes), None, n_patches)
+    return SpeedPlan(
+        False,
+        "infeasible",
+        msg,
+        objective,
+        None,
+        None,
+        None,
+        None,
+        False,
+        {k: [] for k in _SERIES},
+        reason,
+        {},
+        limits,
+        tuple(notes),
+        None,
+        n_patches,
+    )
 
 
 def _reason(k, limit, req, avail):
-    return {"patch": int(k), "limit": limit, "required_N": float(req), "available_N": float(avail),
-            "short_by_N": float(req - avail)}
+    return {
+        "patch": int(k),
+        "limit": limit,
+        "required_N": float(req),
+        "available_N": float(avail),
+        "short_by_N": float(req - avail),
+    }
 
 
 def _patch_data(patches, vehicle, i_max):
@@ -241,8 +311,19 @@ def _patch_data(patches, vehicle, i_max):
         Fs = float(soil_thrust(theta, i_max, N, vehicle, "full")[0])
         Fpk = float(soil_thrust(theta, 0.999, N, vehicle, "full")[0])
         R = float(req["rolling_N"][0] + req["compaction_N"][0] + req["grade_N"][0])
-        out.append({"theta": theta, "N": N, "R": R, "Rc": float(req["compaction_N"][0]), "grade": th, "Fs": Fs,
-                    "Fpk": Fpk, "soil": soil, "unc": unc})
+        out.append(
+            {
+                "theta": theta,
+                "N": N,
+                "R": R,
+                "Rc": float(req["compaction_N"][0]),
+                "grade": th,
+                "Fs": Fs,
+                "Fpk": Fpk,
+                "soil": soil,
+                "unc": unc,
+            }
+        )
     return out
 
 
@@ -262,7 +343,7 @@ def _precheck(pd, lengths, vehicle, v0, v1, i_max, Tmax, Pmax, r):
         return _reason(last, "power", pd[last]["R"], Pmax / v1)
     m = vehicle.mass
     # fastest possible: largest thrust min(F_s, T/r, P/v), no inertia of the sprocket, sub-steps
-    v2 = v0 ** 2
+    v2 = v0**2
     for k, d in enumerate(pd):
         hs = lengths[k] / 200.0
         for _ in range(200):
@@ -272,20 +353,27 @@ def _precheck(pd, lengths, vehicle, v0, v1, i_max, Tmax, Pmax, r):
     if v1 > math.sqrt(max(v2, 0.0)) * (1 + 1e-9) + 1e-9:
         d = pd[last]
         L = float(sum(lengths))
-        need = sum(p["R"] * lk for p, lk in zip(pd, lengths)) / L + m * (v1 ** 2 - v0 ** 2) / (2 * L)
-        lim = ("power" if Pmax and Pmax / v1 <= min(d["Fs"], T_thr) else
-               "torque" if T_thr < d["Fs"] else "slip" if d["Fs"] < d["Fpk"] * 0.999 else "soil")
-        avail = need - m * (v1 ** 2 - math.sqrt(max(v2, 0)) ** 2) / (2 * L)
+        need = sum(p["R"] * lk for p, lk in zip(pd, lengths)) / L + m * (v1**2 - v0**2) / (2 * L)
+        lim = (
+            "power"
+            if Pmax and Pmax / v1 <= min(d["Fs"], T_thr)
+            else "torque"
+            if T_thr < d["Fs"]
+            else "slip"
+            if d["Fs"] < d["Fpk"] * 0.999
+            else "soil"
+        )
+        avail = need - m * (v1**2 - math.sqrt(max(v2, 0)) ** 2) / (2 * L)
         return _reason(last, lim, need, avail)
     # slowest possible: largest braking thrust (skid at the slip limit, or the torque limit)
-    v2 = v0 ** 2
+    v2 = v0**2
     for k, d in enumerate(pd):
         Fb = min(d["Fs"], T_thr)
         v2 = max(v2 - 2 * lengths[k] * (Fb + d["R"]) / m, 0.0)
     if math.sqrt(v2) > v1 * (1 + 1e-9) + 1e-9:
         d = pd[last]
         L = float(sum(lengths))
-        need = m * (v0 ** 2 - v1 ** 2) / (2 * L) - sum(p["R"] * lk for p, lk in zip(pd, lengths)) / L
+        need = m * (v0**2 - v1**2) / (2 * L) - sum(p["R"] * lk for p, lk in zip(pd, lengths)) / L
         avail = min(d["Fs"], T_thr)
         return _reason(last, "torque" if T_thr < d["Fs"] else "slip", need, avail)
     return None
@@ -324,16 +412,20 @@ def _bang_bang(pd, idx, S, v0, v1, T_thr, Pmax, m, max_speed=None) -> np.ndarray
 
 
 #: Words for where the first point's slip comes from.
-_SLIP0_WORDS = {"given": "given", "steady": "steady slip carrying the resistance at v0",
-                "steady_capped": "the steady slip at v0 is beyond the plan's slip bound: capped at it",
-                "rest": "at rest"}
+_SLIP0_WORDS = {
+    "given": "given",
+    "steady": "steady slip carrying the resistance at v0",
+    "steady_capped": "the steady slip at v0 is beyond the plan's slip bound: capped at it",
+    "rest": "at rest",
+}
 
 
 def _slip(v: np.ndarray, w: np.ndarray, r: float) -> np.ndarray:
     """The model core's slip (:func:`~soiltrack.soilmodel.dynamics.slip_expr`, regularised at standstill)."""
     v = np.asarray(v, dtype=float)
-    return np.asarray(slip_expr(ca.DM(v.ravel()), ca.DM(np.asarray(w, dtype=float).ravel()), r),
-                      dtype=float).reshape(v.shape)
+    return np.asarray(slip_expr(ca.DM(v.ravel()), ca.DM(np.asarray(w, dtype=float).ravel()), r), dtype=float).reshape(
+        v.shape
+    )
 
 
 def _initial_slip(d0: dict, vehicle: Vehicle, v0: float, slip0: float | None, bound: float) -> tuple[float, str]:
@@ -343,11 +435,13 @@ def _initial_slip(d0: dict, vehicle: Vehicle, v0: float, slip0: float | None, bo
         return 0.0, "rest"
     if slip0 is not None:
         if abs(slip0) > bound:
-            raise DataError(f"argument slip0 = {slip0:g} is beyond the plan's slip bound {bound:.4g} on the first "
-                            f"patch (the slip limit less the traction reserve of {THRUST_RESERVE:g})")
+            raise DataError(
+                f"argument slip0 = {slip0:g} is beyond the plan's slip bound {bound:.4g} on the first "
+                f"patch (the slip limit less the traction reserve of {THRUST_RESERVE:g})"
+            )
         return float(slip0), "given"
-    i_ss = float(slip_from_thrust(np.array([d0["R"]]), Soil(*map(float, d0["theta"])), vehicle,
-                                  normal_load=d0["N"])[0])
+    c, phi, K = (float(x) for x in d0["theta"])
+    i_ss = float(slip_from_thrust(np.array([d0["R"]]), Soil(c, phi, K), vehicle, normal_load=d0["N"])[0])
     if abs(i_ss) > bound:
         return float(np.sign(i_ss) * bound), "steady_capped"
     return i_ss, "steady"
@@ -364,8 +458,14 @@ def _standstills(t: np.ndarray, v: np.ndarray, s: np.ndarray) -> tuple[dict, ...
             while j + 1 < len(still) and still[j + 1]:
                 j += 1
             if j > k:
-                out.append({"start_s": float(t[k]), "end_s": float(t[j]), "duration_s": float(t[j] - t[k]),
-                            "distance_m": float(s[k])})
+                out.append(
+                    {
+                        "start_s": float(t[k]),
+                        "end_s": float(t[j]),
+                        "duration_s": float(t[j] - t[k]),
+                        "distance_m": float(s[k]),
+                    }
+                )
             k = j + 1
         else:
             k += 1
@@ -388,17 +488,39 @@ def plan_patches(patches: tuple[Patch, ...], vehicle: Vehicle, **kw: Any) -> Spe
         length = float(p.length_m)
         if kw.get("duration") is not None:  # the distance is an outcome of the plan
             length = res.series["distance_m"][-1] if res.success else None
-        info.append({"length_m": length, "grade_deg": float(p.grade_deg), "terrain": p.label,
-                     "normal_load_N": float(N[0]), "rolling_N": float(req["rolling_N"][0]),
-                     "compaction_N": float(req["compaction_N"][0]), "grade_N": float(req["grade_N"][0])})
+        info.append(
+            {
+                "length_m": length,
+                "grade_deg": float(p.grade_deg),
+                "terrain": p.label,
+                "normal_load_N": float(N[0]),
+                "rolling_N": float(req["rolling_N"][0]),
+                "compaction_N": float(req["compaction_N"][0]),
+                "grade_N": float(req["grade_N"][0]),
+            }
+        )
     return replace(res, patches=tuple(info))
 
 
-def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: float, distance: float | None,
-          duration: float | None, max_slip: float | None, objective: str, intervals: int,
-          torque_rate: float | None, confidence: float | None = None, route: bool = False,
-          robust_samples: int = ROBUST_SAMPLES, max_speed: float | None = None, slip0: float | None = None,
-          warm_store: dict | None = None) -> SpeedPlan:
+def _plan_core(
+    patches: tuple[Patch, ...],
+    vehicle: Vehicle,
+    *,
+    v0: float,
+    v1: float,
+    distance: float | None,
+    duration: float | None,
+    max_slip: float | None,
+    objective: str,
+    intervals: int,
+    torque_rate: float | None,
+    confidence: float | None = None,
+    route: bool = False,
+    robust_samples: int = ROBUST_SAMPLES,
+    max_speed: float | None = None,
+    slip0: float | None = None,
+    warm_store: dict | None = None,
+) -> SpeedPlan:
     v0 = check_number("v0", v0, 0.0)
     v1 = check_number("v1", v1, 0.0)
     if v0 + v1 <= 0:
@@ -406,8 +528,10 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: f
     if max_speed is not None:
         max_speed = check_number("max_speed", max_speed, 0.0, lo_open=True)
         if max_speed < max(v0, v1):
-            raise DataError(f"argument max_speed = {max_speed:g} m/s is below the initial or target speed "
-                            f"(v0 = {v0:g}, v1 = {v1:g} m/s)")
+            raise DataError(
+                f"argument max_speed = {max_speed:g} m/s is below the initial or target speed "
+                f"(v0 = {v0:g}, v1 = {v1:g} m/s)"
+            )
     if slip0 is not None:
         slip0 = check_number("slip0", slip0, -1.0, 1.0, True, True)
         if v0 == 0.0:
@@ -425,57 +549,88 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: f
             raise DataError("argument objective: with a duration the time is fixed; use objective 'energy'")
     lim = drive_limits(vehicle)
     Tmax, Pmax, r = lim.max_sprocket_torque, lim.max_power, vehicle.sprocket_radius
-    limits = {"max_torque_Nm": float(Tmax), "max_power_W": float(Pmax), "max_slip": float(i_max),
-              "torque_rate_Nm_s": torque_rate, "max_speed_m_s": max_speed, "torque_assumed": lim.torque_assumed, "power_assumed": lim.power_assumed}
+    limits = {
+        "max_torque_Nm": float(Tmax),
+        "max_power_W": float(Pmax),
+        "max_slip": float(i_max),
+        "torque_rate_Nm_s": torque_rate,
+        "max_speed_m_s": max_speed,
+        "torque_assumed": lim.torque_assumed,
+        "power_assumed": lim.power_assumed,
+    }
     notes = []
     if lim.torque_assumed or lim.power_assumed:
-        notes.append("the vehicle gives no " + " and no ".join(
-            x for x, a in (("torque limit (0.8 W r assumed)", lim.torque_assumed),
-                           ("power limit (15 W/kg assumed)", lim.power_assumed)) if a))
+        notes.append(
+            "the vehicle gives no "
+            + " and no ".join(
+                x
+                for x, a in (
+                    ("torque limit (0.8 W r assumed)", lim.torque_assumed),
+                    ("power limit (15 W/kg assumed)", lim.power_assumed),
+                )
+                if a
+            )
+        )
     pd = _patch_data(patches, vehicle, i_max)
     if confidence is not None:
         confidence = check_number("confidence", confidence, 0.5, 1.0, hi_open=True)
         if not any(d["unc"] is not None for d in pd):
-            raise DataError("argument confidence needs an identified soil (--fit / a FitResult): the soil given "
-                            "has no uncertainty")
+            raise DataError(
+                "argument confidence needs an identified soil (--fit / a FitResult): the soil given has no uncertainty"
+            )
         z = NormalDist().inv_cdf(confidence)
         for d in pd:
             u = d["unc"]
             if u is None:
                 continue
-            g = np.asarray(sensitivity_function("full")(i_max, *d["theta"], d["N"], vehicle.track_length,
-                                                        vehicle.track_width), dtype=float).ravel() @ u.jacobian_at(d["N"])
+            g = np.asarray(
+                sensitivity_function("full")(i_max, *d["theta"], d["N"], vehicle.track_length, vehicle.track_width),
+                dtype=float,
+            ).ravel() @ u.jacobian_at(d["N"])
             sd = math.sqrt(max(float(g @ u.cov @ g), 0.0))
             if sd > 0:
                 q = u.mean - z * (u.cov @ g) / sd
                 d["theta"] = u.soils_at(q, d["N"])[0]
                 d["Fs"] = float(soil_thrust(d["theta"], i_max, d["N"], vehicle, "full")[0])
                 d["Fpk"] = float(soil_thrust(d["theta"], 0.999, d["N"], vehicle, "full")[0])
-        notes.append(f"robust plan: soils backed off to the one-sided {confidence:.3g} quantile of their thrust at the "
-                     "slip limit (linearised covariance), checked by Monte Carlo")
+        notes.append(
+            f"robust plan: soils backed off to the one-sided {confidence:.3g} quantile of their thrust at the "
+            "slip limit (linearised covariance), checked by Monte Carlo"
+        )
     lengths = np.array([p.length_m for p in patches], dtype=float)
     if duration is not None:
         pre = None
         for k, d in enumerate(pd):
             if d["R"] > min(d["Fs"], Tmax / r):
                 T_thr = Tmax / r
-                pre = _reason(k, "torque" if T_thr < d["Fs"] else ("slip" if d["R"] <= d["Fpk"] else "soil"),
-                              d["R"], min(d["Fs"], T_thr))
+                pre = _reason(
+                    k,
+                    "torque" if T_thr < d["Fs"] else ("slip" if d["R"] <= d["Fpk"] else "soil"),
+                    d["R"],
+                    min(d["Fs"], T_thr),
+                )
                 break
     else:
         pre = _precheck(pd, lengths, vehicle, v0, v1, i_max, Tmax, Pmax, r)
     if pre is not None:
-        msg = (f"patch {pre['patch']} ({patches[pre['patch']].label}, grade {patches[pre['patch']].grade_deg:g} deg): "
-               f"needs {format_force(pre['required_N'])}, the {pre['limit']} limit gives "
-               f"{format_force(pre['available_N'])} (short by {format_force(pre['short_by_N'])}); found by the "
-               "steady-state check before the solver")
+        msg = (
+            f"patch {pre['patch']} ({patches[pre['patch']].label}, grade {patches[pre['patch']].grade_deg:g} deg): "
+            f"needs {format_force(pre['required_N'])}, the {pre['limit']} limit gives "
+            f"{format_force(pre['available_N'])} (short by {format_force(pre['short_by_N'])}); found by the "
+            "steady-state check before the solver"
+        )
         return _infeasible(pre, msg, objective, limits, notes, len(patches))
     counts = _mesh(lengths, intervals) if duration is None else np.array([intervals])
     n = int(counts.sum())
     idx = np.repeat(np.arange(len(patches)), counts)
     if duration is None:
-        S = np.concatenate([[0.0]] + [np.linspace(a0, a0 + lk, c + 1)[1:] for a0, lk, c in
-                                      zip(np.concatenate([[0.0], np.cumsum(lengths)[:-1]]), lengths, counts)])
+        S = np.concatenate(
+            [[0.0]]
+            + [
+                np.linspace(a0, a0 + lk, c + 1)[1:]
+                for a0, lk, c in zip(np.concatenate([[0.0], np.cumsum(lengths)[:-1]]), lengths, counts)
+            ]
+        )
     else:
         S = np.linspace(0.0, 0.5 * (v0 + v1) * duration, n + 1)
     th = np.array([pd[k]["theta"] for k in idx])
@@ -483,20 +638,37 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: f
     slip_bound = np.array([bounds_p[k] for k in idx])
     i0, i0_source = _initial_slip(pd[0], vehicle, v0, slip0, float(slip_bound[0]))
     w0 = 0.0 if v0 == 0.0 else v0 / (r * (1.0 - i0))
-    data = OcpData(c=th[:, 0], phi=th[:, 1], K=th[:, 2], grade=np.array([pd[k]["grade"] for k in idx]),
-                   Rc=np.array([pd[k]["Rc"] for k in idx]), s=S, v0=v0, v1=v1,
-                   distance=None if duration is not None else float(lengths.sum()), duration=duration,
-                   slip_bound=slip_bound, max_torque=Tmax, max_power=Pmax * (1 - THRUST_RESERVE), max_slip=i_max,
-                   torque_rate=torque_rate, objective=objective,
-                   v_guess=_bang_bang(pd, idx, S, v0, v1, Tmax / r, Pmax, vehicle.mass, max_speed)
-                   if objective == "time" and duration is None else None, w0=w0, max_speed=max_speed)
+    data = OcpData(
+        c=th[:, 0],
+        phi=th[:, 1],
+        K=th[:, 2],
+        grade=np.array([pd[k]["grade"] for k in idx]),
+        Rc=np.array([pd[k]["Rc"] for k in idx]),
+        s=S,
+        v0=v0,
+        v1=v1,
+        distance=None if duration is not None else float(lengths.sum()),
+        duration=duration,
+        slip_bound=slip_bound,
+        max_torque=Tmax,
+        max_power=Pmax * (1 - THRUST_RESERVE),
+        max_slip=i_max,
+        torque_rate=torque_rate,
+        objective=objective,
+        v_guess=_bang_bang(pd, idx, S, v0, v1, Tmax / r, Pmax, vehicle.mass, max_speed)
+        if objective == "time" and duration is None
+        else None,
+        w0=w0,
+        max_speed=max_speed,
+    )
 
     def slip_guess(F):
         out = np.empty(n)
         for k in range(len(patches)):
             sel = idx == k
-            s_, ok = slip_from_thrust(F[sel], Soil(*map(float, pd[k]["theta"])), vehicle, normal_load=pd[k]["N"],
-                                      return_reachable=True)
+            s_, ok = slip_from_thrust(
+                F[sel], Soil(*map(float, pd[k]["theta"])), vehicle, normal_load=pd[k]["N"], return_reachable=True
+            )
             out[sel] = s_
         return out
 
@@ -507,10 +679,18 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: f
     i_col = _slip(Z[0], Z[1], r)
     Nn = np.array([pd[k]["N"] for k in idx])
     kk = np.minimum(np.arange(n + 1), n - 1)  # node k takes the soil of interval k (the end node: the last)
-    F_nodes = np.asarray(thrust_function("full")(i_nodes.reshape(1, -1), th[kk, 0].reshape(1, -1),
-                                                 th[kk, 1].reshape(1, -1), th[kk, 2].reshape(1, -1),
-                                                 Nn[kk].reshape(1, -1), vehicle.track_length, vehicle.track_width),
-                         dtype=float).ravel()
+    F_nodes = np.asarray(
+        thrust_function("full")(
+            i_nodes.reshape(1, -1),
+            th[kk, 0].reshape(1, -1),
+            th[kk, 1].reshape(1, -1),
+            th[kk, 2].reshape(1, -1),
+            Nn[kk].reshape(1, -1),
+            vehicle.track_length,
+            vehicle.track_width,
+        ),
+        dtype=float,
+    ).ravel()
     Fs_int = np.array([pd[k]["Fs"] for k in idx])
     # checks after the solver (mesh and collocation points)
     viol = []
@@ -532,45 +712,120 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, v0: float, v1: f
         k = int(idx[k_int])
         d = pd[k]
         reason = _reason(k, "slip" if d["Fs"] < Tmax / r else "torque", d["R"], float(min(d["Fs"], Tmax / r)))
-        msg = (f"the solver found no feasible profile (IPOPT: {sol['status']}"
-               f"{'; violated after the solve: ' + ', '.join(viol) if viol else ''}); the plan is tightest on patch {k}")
-        return SpeedPlan(False, sol["status"], msg, objective, None, None, sol["solve_time"], sol["iterations"],
-                             sol["warm"], {k_: [] for k_ in _SERIES}, reason, {}, limits, tuple(notes), None,
-                             len(patches))
+        msg = (
+            f"the solver found no feasible profile (IPOPT: {sol['status']}"
+            f"{'; violated after the solve: ' + ', '.join(viol) if viol else ''}); the plan is tightest on patch {k}"
+        )
+        return SpeedPlan(
+            False,
+            sol["status"],
+            msg,
+            objective,
+            None,
+            None,
+            sol["solve_time"],
+            sol["iterations"],
+            sol["warm"],
+            {k_: [] for k_ in _SERIES},
+            reason,
+            {},
+            limits,
+            tuple(notes),
+            None,
+            len(patches),
+        )
     t = np.concatenate([[0.0], np.cumsum(dt)])
     rep = lambda a: np.append(a, a[-1])  # noqa: E731 - interval value at its start node, last repeated
-    series = {"time_s": t, "distance_m": sol["s"], "speed_m_s": v, "sprocket_speed_rad_s": w, "slip": i_nodes,
-              "sprocket_torque_Nm": rep(M), "thrust_N": F_nodes, "margin_N": rep(Fs_int) - np.abs(F_nodes), "patch": rep(idx)}
+    series = {
+        "time_s": t,
+        "distance_m": sol["s"],
+        "speed_m_s": v,
+        "sprocket_speed_rad_s": w,
+        "slip": i_nodes,
+        "sprocket_torque_Nm": rep(M),
+        "thrust_N": F_nodes,
+        "margin_N": rep(Fs_int) - np.abs(F_nodes),
+        "patch": rep(idx),
+    }
     series = {k: [float(a) for a in vals] if k != "patch" else [int(a) for a in vals] for k, vals in series.items()}
     tau, _C, B = radau_collocation(DEGREE)
-    w_int = np.array([np.dot(B[1:], Z[1, k * DEGREE:(k + 1) * DEGREE]) for k in range(n)])
+    w_int = np.array([np.dot(B[1:], Z[1, k * DEGREE : (k + 1) * DEGREE]) for k in range(n)])
     energy = float(np.sum(np.maximum(M * dt * w_int, 0.0)))  # positive sprocket work (braking not recovered)
-    mesh = {"c": th[:, 0], "phi": th[:, 1], "K": th[:, 2], "grade_rad": data.grade, "compaction_N": data.Rc,
-            "dt": dt, "torque": M, "v": v, "w": w, "slip": i_nodes, "normal_load": Nn, "patch": idx,
-            "slip_collocation": i_col}
-    msg = (f"feasible profile: {sol['s'][-1]:.4g} m in {t[-1]:.4g} s; limits checked after the solve at the mesh "
-           "and collocation points")
+    mesh = {
+        "c": th[:, 0],
+        "phi": th[:, 1],
+        "K": th[:, 2],
+        "grade_rad": data.grade,
+        "compaction_N": data.Rc,
+        "dt": dt,
+        "torque": M,
+        "v": v,
+        "w": w,
+        "slip": i_nodes,
+        "normal_load": Nn,
+        "patch": idx,
+        "slip_collocation": i_col,
+    }
+    msg = (
+        f"feasible profile: {sol['s'][-1]:.4g} m in {t[-1]:.4g} s; limits checked after the solve at the mesh "
+        "and collocation points"
+    )
     sb_nodes = np.concatenate([slip_bound, slip_bound[-1:]])
     at_slip = np.abs(i_nodes) >= sb_nodes * (1 - 1e-4)
-    active = {"slip": int(np.sum(at_slip[:-1] | at_slip[1:])),
-              "torque": int(np.sum(np.abs(M) >= Tmax * (1 - 1e-6))),
-              "power": int(np.sum(np.maximum(M * w[:-1], M * w[1:]) >= Pmax * (1 - THRUST_RESERVE) * (1 - 1e-4))),
-              "torque_rate": (int(np.sum(np.abs(np.diff(M)) >= torque_rate * 0.5 * (dt[1:] + dt[:-1]) * (1 - 1e-4)))
-                              if torque_rate else 0)}
+    active = {
+        "slip": int(np.sum(at_slip[:-1] | at_slip[1:])),
+        "torque": int(np.sum(np.abs(M) >= Tmax * (1 - 1e-6))),
+        "power": int(np.sum(np.maximum(M * w[:-1], M * w[1:]) >= Pmax * (1 - THRUST_RESERVE) * (1 - 1e-4))),
+        "torque_rate": (
+            int(np.sum(np.abs(np.diff(M)) >= torque_rate * 0.5 * (dt[1:] + dt[:-1]) * (1 - 1e-4))) if torque_rate else 0
+        ),
+    }
     if max_speed is not None:
         v_int = np.maximum(np.maximum(v[:-1], v[1:]), Z[0].reshape(n, DEGREE).max(axis=1))
         active["speed"] = int(np.sum(v_int >= max_speed * (1 - 1e-4)))
     stand = _standstills(t, v, sol["s"])
     if stand and objective == "energy" and duration is not None:
-        notes.append("the energy objective counts the sprocket's positive work only and, with a duration, the "
-                     "distance is free: standing still costs nothing, so the plan waits (see the standstills)")
-    res = SpeedPlan(True, sol["status"], msg, objective, float(t[-1]), energy, sol["solve_time"],
-                    sol["iterations"], sol["warm"], series, None, mesh, limits, tuple(notes), None, len(patches),
-                    active_limits=active, peak_speed_m_s=peak, standstills=stand, initial_slip=float(i_nodes[0]),
-                    initial_slip_source=i0_source)
+        notes.append(
+            "the energy objective counts the sprocket's positive work only and, with a duration, the "
+            "distance is free: standing still costs nothing, so the plan waits (see the standstills)"
+        )
+    res = SpeedPlan(
+        True,
+        sol["status"],
+        msg,
+        objective,
+        float(t[-1]),
+        energy,
+        sol["solve_time"],
+        sol["iterations"],
+        sol["warm"],
+        series,
+        None,
+        mesh,
+        limits,
+        tuple(notes),
+        None,
+        len(patches),
+        active_limits=active,
+        peak_speed_m_s=peak,
+        standstills=stand,
+        initial_slip=float(i_nodes[0]),
+        initial_slip_source=i0_source,
+    )
     if confidence is not None:
-        kw = dict(v0=v0, v1=v1, distance=distance, duration=duration, max_slip=i_max, objective=objective,
-                  intervals=intervals, torque_rate=torque_rate, route=route, max_speed=max_speed, slip0=slip0)
+        kw = dict(
+            v0=v0,
+            v1=v1,
+            distance=distance,
+            duration=duration,
+            max_slip=i_max,
+            objective=objective,
+            intervals=intervals,
+            torque_rate=torque_rate,
+            route=route,
+            max_speed=max_speed,
+            slip0=slip0,
+        )
         if isinstance(robust_samples, bool) or not isinstance(robust_samples, int) or robust_samples < 10:
             raise DataError(f"argument robust_samples must be an integer >= 10, got {robust_samples!r}")
         res = _with_mesh(res, mesh)
@@ -602,17 +857,34 @@ def _robust_check(result, pd, idx, vehicle, i_max, confidence, patches, kw, n_sa
     frac = _violations(result, pd, idx, vehicle, i_max, n_samples)
     nominal = plan_patches(tuple(patches), vehicle, **dict(kw, confidence=None))
     frac_nom = _violations(nominal, pd, idx, vehicle, i_max, n_samples) if nominal.success else None
-    return {"confidence": float(confidence),
-            "method": "plan on the soil backed off along the linearised covariance; Monte Carlo replay check",
-            "n_samples": n_samples, "violation_fraction": frac, "nominal_violation_fraction": frac_nom,
-            "nominal_total_time_s": nominal.total_time_s}
+    return {
+        "confidence": float(confidence),
+        "method": "plan on the soil backed off along the linearised covariance; Monte Carlo replay check",
+        "n_samples": n_samples,
+        "violation_fraction": frac,
+        "nominal_violation_fraction": frac_nom,
+        "nominal_total_time_s": nominal.total_time_s,
+    }
 
 
-def profile(terrain: Any, vehicle: Vehicle, *, v0: float, v1: float, distance: float | None = None,
-            duration: float | None = None, grade_deg: float = 0.0, max_slip: float | None = None,
-            objective: str = "time", intervals: int = DEFAULT_INTERVALS, torque_rate: float | None = None,
-            confidence: float | None = None, robust_samples: int = ROBUST_SAMPLES, max_speed: float | None = None,
-            slip0: float | None = None) -> SpeedPlan:
+def profile(
+    terrain: Any,
+    vehicle: Vehicle,
+    *,
+    v0: float,
+    v1: float,
+    distance: float | None = None,
+    duration: float | None = None,
+    grade_deg: float = 0.0,
+    max_slip: float | None = None,
+    objective: str = "time",
+    intervals: int = DEFAULT_INTERVALS,
+    torque_rate: float | None = None,
+    confidence: float | None = None,
+    robust_samples: int = ROBUST_SAMPLES,
+    max_speed: float | None = None,
+    slip0: float | None = None,
+) -> SpeedPlan:
     """Plan a speed/slip/torque profile on one terrain (see the module docstring).
 
     Parameters
@@ -653,20 +925,53 @@ def profile(terrain: Any, vehicle: Vehicle, *, v0: float, v1: float, distance: f
     else:
         length = 1.0
     grade_deg = check_number("grade_deg", grade_deg, -68.75, 68.75)
-    return plan_patches((Patch(length, terrain, grade_deg),), vehicle, v0=v0, v1=v1, distance=distance, duration=duration,
-                 max_slip=max_slip, objective=objective, intervals=intervals, torque_rate=torque_rate,
-                 confidence=confidence, route=False, robust_samples=robust_samples, max_speed=max_speed, slip0=slip0)
+    return plan_patches(
+        (Patch(length, terrain, grade_deg),),
+        vehicle,
+        v0=v0,
+        v1=v1,
+        distance=distance,
+        duration=duration,
+        max_slip=max_slip,
+        objective=objective,
+        intervals=intervals,
+        torque_rate=torque_rate,
+        confidence=confidence,
+        route=False,
+        robust_samples=robust_samples,
+        max_speed=max_speed,
+        slip0=slip0,
+    )
 
 
-def route_profile(route: Route, vehicle: Vehicle, *, intervals: int | None = None,
-                  torque_rate: float | None = None, max_speed: float | None = None,
-                  slip0: float | None = None) -> SpeedPlan:
+def route_profile(
+    route: Route,
+    vehicle: Vehicle,
+    *,
+    intervals: int | None = None,
+    torque_rate: float | None = None,
+    max_speed: float | None = None,
+    slip0: float | None = None,
+) -> SpeedPlan:
     """Plan over a :class:`~.route.Route`: mesh points on every patch boundary, at least 2 per patch.
 
     ``intervals`` defaults to 10 per patch, at least :data:`DEFAULT_INTERVALS`; ``max_speed`` and
     ``slip0`` as for :func:`profile`.
     """
     n = max(DEFAULT_INTERVALS, 10 * len(route.patches)) if intervals is None else intervals
-    return plan_patches(route.patches, vehicle, v0=route.v0_m_s, v1=route.v_end_m_s, distance=route.length_m, duration=None,
-                 max_slip=route.max_slip, objective=route.objective, intervals=n, torque_rate=torque_rate,
-                 confidence=None, route=True, max_speed=max_speed, slip0=slip0)
+    return plan_patches(
+        route.patches,
+        vehicle,
+        v0=route.v0_m_s,
+        v1=route.v_end_m_s,
+        distance=route.length_m,
+        duration=None,
+        max_slip=route.max_slip,
+        objective=route.objective,
+        intervals=n,
+        torque_rate=torque_rate,
+        confidence=None,
+        route=True,
+        max_speed=max_speed,
+        slip0=slip0,
+    )

@@ -17,6 +17,7 @@ cold start when the warm one fails. Every plan is checked after the solve like a
 :func:`~.profile.profile` (limits at the mesh and collocation points, end speed), and says
 whether it was warm-started and how many iterations it took.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -81,9 +82,20 @@ class Replanner:
         An argument out of range (named).
     """
 
-    def __init__(self, vehicle: Vehicle, *, v1: float, distance: float | None = None, duration: float | None = None,
-                 objective: str = "time", intervals: int = DEFAULT_INTERVALS, max_slip: float | None = None,
-                 grade_deg: float = 0.0, max_speed: float | None = None, torque_rate: float | None = None) -> None:
+    def __init__(
+        self,
+        vehicle: Vehicle,
+        *,
+        v1: float,
+        distance: float | None = None,
+        duration: float | None = None,
+        objective: str = "time",
+        intervals: int = DEFAULT_INTERVALS,
+        max_slip: float | None = None,
+        grade_deg: float = 0.0,
+        max_speed: float | None = None,
+        torque_rate: float | None = None,
+    ) -> None:
         if (distance is None) == (duration is None):
             raise DataError("give exactly one of the arguments distance and duration")
         if objective not in OBJECTIVES:
@@ -92,11 +104,14 @@ class Replanner:
         self.settings = ReplanSettings(
             distance=None if distance is None else check_number("distance", distance, 0.0, lo_open=True),
             duration=None if duration is None else check_number("duration", duration, 0.0, lo_open=True),
-            v1=check_number("v1", v1, 0.0), objective=objective, intervals=intervals,
+            v1=check_number("v1", v1, 0.0),
+            objective=objective,
+            intervals=intervals,
             max_slip=DEFAULT_MAX_SLIP if max_slip is None else check_number("max_slip", max_slip, 0, 1, True, True),
             grade_deg=check_number("grade_deg", grade_deg, -68.75, 68.75),
             max_speed=None if max_speed is None else check_number("max_speed", max_speed, 0.0, lo_open=True),
-            torque_rate=None if torque_rate is None else check_number("torque_rate", torque_rate, 0.0, lo_open=True))
+            torque_rate=None if torque_rate is None else check_number("torque_rate", torque_rate, 0.0, lo_open=True),
+        )
         self._store: dict = {}
         self.last: SpeedPlan | None = None
         self.count = 0
@@ -123,10 +138,21 @@ class Replanner:
         """
         s = self.settings
         length = s.distance if s.distance is not None else 1.0
-        res = plan_patches((Patch(length, terrain, s.grade_deg),), self.vehicle, v0=v0,
-                           v1=s.v1 if v1 is None else v1, distance=s.distance, duration=s.duration,
-                           max_slip=s.max_slip, objective=s.objective, intervals=s.intervals,
-                           torque_rate=s.torque_rate, max_speed=s.max_speed, slip0=slip0, warm_store=self._store)
+        res = plan_patches(
+            (Patch(length, terrain, s.grade_deg),),
+            self.vehicle,
+            v0=v0,
+            v1=s.v1 if v1 is None else v1,
+            distance=s.distance,
+            duration=s.duration,
+            max_slip=s.max_slip,
+            objective=s.objective,
+            intervals=s.intervals,
+            torque_rate=s.torque_rate,
+            max_speed=s.max_speed,
+            slip0=slip0,
+            warm_store=self._store,
+        )
         self.count += 1
         if res.success:
             self.last = res

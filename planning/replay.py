@@ -7,6 +7,7 @@ are integrated by CVODES (implicit BDF), with ``substeps`` output points inside 
 interval, so that limits can be checked between the mesh points. The start is the planned
 initial speed with the sprocket at the planned initial slip.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -47,8 +48,14 @@ def step_function(vehicle: Vehicle, substeps: int) -> ca.Function:
     dv = d["dv"] - p[5] / vehicle.mass
     ode = p[6] * ca.vertcat(dv, d["dw"])  # normalised time tau in [0, 1]
     grid = list(np.linspace(0.0, 1.0, substeps + 1)[1:])
-    F = ca.integrator("replay", "cvodes", {"x": x, "p": p, "ode": ode}, 0.0, grid,
-                      {"abstol": 1e-10, "reltol": 1e-9, "max_num_steps": 100000, "show_eval_warnings": False})
+    F = ca.integrator(
+        "replay",
+        "cvodes",
+        {"x": x, "p": p, "ode": ode},
+        0.0,
+        grid,
+        {"abstol": 1e-10, "reltol": 1e-9, "max_num_steps": 100000, "show_eval_warnings": False},
+    )
     return F
 
 
@@ -66,8 +73,15 @@ def replay(result, vehicle: Vehicle, substeps: int = 8) -> Replay:
     node = [True]
     t = 0.0
     for k in range(n):
-        p = [float(m["torque"][k]), float(m["c"][k]), float(m["phi"][k]), float(m["K"][k]), float(m["grade_rad"][k]),
-             float(m["compaction_N"][k]), float(m["dt"][k])]
+        p = [
+            float(m["torque"][k]),
+            float(m["c"][k]),
+            float(m["phi"][k]),
+            float(m["K"][k]),
+            float(m["grade_rad"][k]),
+            float(m["compaction_N"][k]),
+            float(m["dt"][k]),
+        ]
         out, _ = call_solver(step, x0=x, p=p)
         X = np.asarray(out["xf"], dtype=float)
         for j in range(substeps):

@@ -12,6 +12,7 @@ by golden-section search. Where eta peaks the efficiency is independent of w; th
 slip is too (w only scales P_DP). From a ``FitResult`` the uncertainty bands come from Monte Carlo
 samples of the fit's Gaussian (percentiles 2.5 and 97.5).
 """
+
 from __future__ import annotations
 
 import math
@@ -70,22 +71,34 @@ class SlipOptimum:
         """Plain-words summary."""
         if self.slip_max_power is None:
             return "no positive drawbar pull at any slip: the soil cannot overcome the resistance"
-        L = [f"largest drawbar power {format_power(self.max_drawbar_power_W)} at {self.slip_max_power * 100:.3g} % slip "
-             f"(sprocket speed {self.sprocket_speed_rad_s:.3g} rad/s)",
-             f"largest tractive efficiency {self.max_efficiency * 100:.3g} % at {self.slip_max_efficiency * 100:.3g} % slip"]
+        L = [
+            f"largest drawbar power {format_power(self.max_drawbar_power_W)} at {self.slip_max_power * 100:.3g} % slip "
+            f"(sprocket speed {self.sprocket_speed_rad_s:.3g} rad/s)",
+            f"largest tractive efficiency {self.max_efficiency * 100:.3g} % at "
+            f"{self.slip_max_efficiency * 100:.3g} % slip",
+        ]
         if self.bands:
             a, b = self.bands["slip_max_power"]
             c, d = self.bands["slip_max_efficiency"]
-            L.append(f"  95 % bands from the fit: power-optimal slip {a * 100:.3g}-{b * 100:.3g} %, efficiency-optimal "
-                     f"slip {c * 100:.3g}-{d * 100:.3g} %")
+            L.append(
+                f"  95 % bands from the fit: power-optimal slip {a * 100:.3g}-{b * 100:.3g} %, efficiency-optimal "
+                f"slip {c * 100:.3g}-{d * 100:.3g} %"
+            )
         L += [f"  note: {n}" for n in self.notes]
         return "\n".join(L)
 
 
 def _thrust_on_grid(theta, vehicle, N, model):
     f = thrust_function(model)
-    out = f(_GRID.reshape(1, -1), float(theta[0]), float(theta[1]), float(theta[2]), N, vehicle.track_length,
-            vehicle.track_width)
+    out = f(
+        _GRID.reshape(1, -1),
+        float(theta[0]),
+        float(theta[1]),
+        float(theta[2]),
+        N,
+        vehicle.track_length,
+        vehicle.track_width,
+    )
     return np.asarray(out, dtype=float).ravel()
 
 
@@ -135,8 +148,15 @@ def _optima(theta, vehicle, N, R, w, model, refine: bool = True):
     return sp, pp, se, ee, DP, P, eta
 
 
-def slip_optimal(terrain: Any, vehicle: Vehicle, *, sprocket_speed: float = 10.0, grade_deg: float = 0.0,
-                 samples: int = 200, seed: int | None = 0) -> SlipOptimum:
+def slip_optimal(
+    terrain: Any,
+    vehicle: Vehicle,
+    *,
+    sprocket_speed: float = 10.0,
+    grade_deg: float = 0.0,
+    samples: int = 200,
+    seed: int | None = 0,
+) -> SlipOptimum:
     """Slips of the largest drawbar power and of the largest tractive efficiency (module docstring).
 
     Parameters
@@ -161,9 +181,13 @@ def slip_optimal(terrain: Any, vehicle: Vehicle, *, sprocket_speed: float = 10.0
     notes = []
     if sp is not None:
         M = vehicle.sprocket_radius * (P[int(np.argmax(P))] / (vehicle.sprocket_radius * w * (1 - sp)) + R)
-        if (vehicle.max_sprocket_torque and M > vehicle.max_sprocket_torque) or (vehicle.max_power and M * w > vehicle.max_power):
-            notes.append(f"the power-optimal slip needs a sprocket torque of {format_torque(M)} at {w:.3g} rad/s, beyond "
-                         "the vehicle's torque or power limit: the drivetrain cannot reach it at this sprocket speed")
+        if (vehicle.max_sprocket_torque and M > vehicle.max_sprocket_torque) or (
+            vehicle.max_power and M * w > vehicle.max_power
+        ):
+            notes.append(
+                f"the power-optimal slip needs a sprocket torque of {format_torque(M)} at {w:.3g} rad/s, beyond "
+                "the vehicle's torque or power limit: the drivetrain cannot reach it at this sprocket speed"
+            )
     bands = None
     if unc is not None:
         notes.append(unc.describe(N))
@@ -174,8 +198,10 @@ def slip_optimal(terrain: Any, vehicle: Vehicle, *, sprocket_speed: float = 10.0
             arr = np.array([[x[0], x[2]] for x in ok])
             Ps = np.array([x[5] for x in ok])
             Es = np.array([x[6] for x in ok])
-            bands = {"slip_max_power": list(np.percentile(arr[:, 0], [2.5, 97.5])),
-                     "slip_max_efficiency": list(np.percentile(arr[:, 1], [2.5, 97.5])),
-                     "drawbar_power_W": list(np.percentile(Ps, [2.5, 97.5], axis=0)),
-                     "efficiency": list(np.percentile(Es, [2.5, 97.5], axis=0))}
+            bands = {
+                "slip_max_power": list(np.percentile(arr[:, 0], [2.5, 97.5])),
+                "slip_max_efficiency": list(np.percentile(arr[:, 1], [2.5, 97.5])),
+                "drawbar_power_W": list(np.percentile(Ps, [2.5, 97.5], axis=0)),
+                "efficiency": list(np.percentile(Es, [2.5, 97.5], axis=0)),
+            }
     return SlipOptimum(sp, pp, se, ee, w, N, R, _GRID.copy(), DP, P, eta, bands, tuple(notes))

@@ -20,6 +20,7 @@ slip), an empirical fit; other slip-sinkage laws exist and give other numbers. T
 when z reaches the ground clearance: at the slip ``i_belly`` (``None`` if never below full
 slip; 0 if the static sinkage already reaches it).
 """
+
 from __future__ import annotations
 
 import math
@@ -92,28 +93,56 @@ class Stuck:
     def report(self) -> str:
         """Plain-words summary."""
         kn = format_force
-        L = [("STUCK" if self.stuck else "not stuck") + f": the soil gives at most {kn(self.spin_thrust_N)} (full "
-             f"slip), the vehicle needs {kn(self.required_N)} (reserve {kn(self.thrust_margin_N)})",
-             f"  tracks spin above a sprocket torque of {format_torque(self.spin_torque_Nm)}"]
+        L = [
+            ("STUCK" if self.stuck else "not stuck") + f": the soil gives at most {kn(self.spin_thrust_N)} (full "
+            f"slip), the vehicle needs {kn(self.required_N)} (reserve {kn(self.thrust_margin_N)})",
+            f"  tracks spin above a sprocket torque of {format_torque(self.spin_torque_Nm)}",
+        ]
         if self.torque_Nm is not None:
-            L.append(f"  at {format_torque(self.torque_Nm)}: " + (
-                "the tracks spin (slip runs away towards 1)" if self.spins_at_torque else
-                f"steady slip {self.slip_at_torque * 100:.3g} %, {format_torque(self.torque_margin_Nm)} below spin"))
+            L.append(
+                f"  at {format_torque(self.torque_Nm)}: "
+                + (
+                    "the tracks spin (slip runs away towards 1)"
+                    if self.spins_at_torque
+                    else f"steady slip {self.slip_at_torque * 100:.3g} %, "
+                    f"{format_torque(self.torque_margin_Nm)} below spin"
+                )
+            )
         if self.spin_track_speed_m_s is not None:
-            L.append(f"  at full throttle the tracks spin when the track speed r w falls below "
-                     f"{self.spin_track_speed_m_s:.3g} m/s")
+            L.append(
+                f"  at full throttle the tracks spin when the track speed r w falls below "
+                f"{self.spin_track_speed_m_s:.3g} m/s"
+            )
         if self.static_sinkage_m is not None:
-            L.append(f"  static sinkage {self.static_sinkage_m * 100:.3g} cm" + (
-                "" if self.ground_clearance_m is None else
-                f", belly at {self.ground_clearance_m * 100:.3g} cm: " +
-                ("touches at rest" if self.belly_slip == 0 else "never touches below full slip"
-                 if self.belly_slip is None else f"touches at {self.belly_slip * 100:.3g} % slip")))
+            L.append(
+                f"  static sinkage {self.static_sinkage_m * 100:.3g} cm"
+                + (
+                    ""
+                    if self.ground_clearance_m is None
+                    else f", belly at {self.ground_clearance_m * 100:.3g} cm: "
+                    + (
+                        "touches at rest"
+                        if self.belly_slip == 0
+                        else "never touches below full slip"
+                        if self.belly_slip is None
+                        else f"touches at {self.belly_slip * 100:.3g} % slip"
+                    )
+                )
+            )
         L += [f"  note: {n}" for n in self.notes]
         return "\n".join(L)
 
 
-def stuck(terrain: Any, vehicle: Vehicle, *, torque: float | None = None, grade_deg: float = 0.0,
-          accel: float = 0.0, drawbar_N: float = 0.0, max_slip: float | None = None) -> Stuck:
+def stuck(
+    terrain: Any,
+    vehicle: Vehicle,
+    *,
+    torque: float | None = None,
+    grade_deg: float = 0.0,
+    accel: float = 0.0,
+    drawbar_N: float = 0.0,
+    max_slip: float | None = None,
+) -> Stuck:
     """When does the vehicle get stuck on ``terrain`` (see the module docstring)?
 
     Parameters
@@ -134,7 +163,9 @@ def stuck(terrain: Any, vehicle: Vehicle, *, torque: float | None = None, grade_
     i_op = DEFAULT_MAX_SLIP if max_slip is None else check_number("max_slip", max_slip, 0, 1, True, True)
     soil, unc, model = resolve_terrain(terrain, vehicle)
     th = math.radians(grade_deg)
-    Narr, req = resistances(vehicle, soil, np.array([th]), check_number("accel", accel), check_number("drawbar_N", drawbar_N))
+    Narr, req = resistances(
+        vehicle, soil, np.array([th]), check_number("accel", accel), check_number("drawbar_N", drawbar_N)
+    )
     N = float(Narr[0])
     R = float(sum(v[0] for v in req.values()))
     theta = soil.as_vector() if soil is not None else unc.soils_at(unc.mean, N)[0]
@@ -156,8 +187,9 @@ def stuck(terrain: Any, vehicle: Vehicle, *, torque: float | None = None, grade_
     v_spin = None
     Tmax, P = vehicle.max_sprocket_torque, vehicle.max_power
     if Tmax is not None and Tmax <= M_spin:
-        notes.append(f"the torque limit ({format_torque(Tmax)}) is below the spin torque: full throttle does not spin "
-                     "the tracks")
+        notes.append(
+            f"the torque limit ({format_torque(Tmax)}) is below the spin torque: full throttle does not spin the tracks"
+        )
     elif P:
         v_spin = P / F_spin  # track speed r w at which P / w equals the spin torque
     else:
@@ -178,5 +210,6 @@ def stuck(terrain: Any, vehicle: Vehicle, *, torque: float | None = None, grade_
     else:
         notes.append("no Bekker parameters: no sinkage estimate")
     is_stuck = R > F_spin or (belly is not None and belly <= i_op)
-    return Stuck(bool(is_stuck), F_spin, M_spin, R, F_spin - R, M, slip_M, spins, tm, v_spin, z0, gc, belly, z_op,
-                 tuple(notes))
+    return Stuck(
+        bool(is_stuck), F_spin, M_spin, R, F_spin - R, M, slip_M, spins, tm, v_spin, z0, gc, belly, z_op, tuple(notes)
+    )

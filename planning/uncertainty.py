@@ -22,20 +22,28 @@ object with the attributes of :data:`ESTIMATE_FIELDS`) carries ``F_max`` at its 
 Samples are drawn from the Gaussian and clipped to the fit's bounds (the physically admissible
 box); the delta method uses the same mapping, differentiated.
 """
+
 from __future__ import annotations
 
-import json
 import math
-import os
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ..soilmodel import PRACTICAL_BOUNDS, DataError, Soil, SoilBounds, Vehicle, format_force
+from ..soilmodel.jsonread import load_json_file
+from .fit_json_checks import check_fit_numbers
 
-__all__ = ["SoilUncertainty", "uncertainty_from_fit", "uncertainty_from_estimate", "is_online_estimate",
-           "load_fit_json", "CHI2_95", "ESTIMATE_FIELDS"]
+__all__ = [
+    "SoilUncertainty",
+    "uncertainty_from_fit",
+    "uncertainty_from_estimate",
+    "is_online_estimate",
+    "load_fit_json",
+    "CHI2_95",
+    "ESTIMATE_FIELDS",
+]
 
 #: 95 % quantiles of the chi-square distribution with 1, 2, 3 degrees of freedom.
 CHI2_95 = {1: 3.841458820694124, 2: 5.991464547107979, 3: 7.814727903251179}
@@ -144,7 +152,9 @@ class SoilUncertainty:
             h = 0.1 * math.sqrt(max(self.cov[j, j], 0.0)) or 1e-6 * max(abs(self.mean[j]), 1.0)
             e = np.zeros(self.dim)
             e[j] = h
-            J[:, j] = (self.soils_at(self.mean + e, normal_load)[0] - self.soils_at(self.mean - e, normal_load)[0]) / (2 * h)
+            J[:, j] = (self.soils_at(self.mean + e, normal_load)[0] - self.soils_at(self.mean - e, normal_load)[0]) / (
+                2 * h
+            )
         return J
 
     def mean_soil(self, normal_load: float, name: str = "fitted soil") -> Soil:
@@ -157,14 +167,18 @@ class SoilUncertainty:
         if self.kind == "parameters":
             return f"soil uncertainty: {', '.join(self.names)} with their covariance ({self.source})"
         same = abs(normal_load - self.fitted_load) <= 1e-9 * self.fitted_load
-        base = (f"c and phi were not separable (one normal load, W0 = {format_force(self.fitted_load)}): the fit "
-                f"determines only F_max(W0) and K ({self.source})")
+        base = (
+            f"c and phi were not separable (one normal load, W0 = {format_force(self.fitted_load)}): the fit "
+            f"determines only F_max(W0) and K ({self.source})"
+        )
         if same:
             return base + "; at this same load the margin depends on F_max only and is as tight as F_max"
         side = "largest" if normal_load < self.fitted_load else "smallest"
-        return (base + f"; at N = {format_force(normal_load)} it depends on where on the ridge the soil is, so the "
-                f"worst case over the ridge inside the bounds is used ({side} phi): the margin is conservative and "
-                "wider than F_max alone would give")
+        return (
+            base + f"; at N = {format_force(normal_load)} it depends on where on the ridge the soil is, so the "
+            f"worst case over the ridge inside the bounds is used ({side} phi): the margin is conservative and "
+            "wider than F_max alone would give"
+        )
 
 
 def _psd_sqrt(C: np.ndarray) -> np.ndarray:
@@ -191,20 +205,49 @@ def uncertainty_from_fit(fit: Any) -> SoilUncertainty:
     if cov is not None:
         cov = np.asarray(cov, dtype=float)
         if fit.model == "cohesion-free":
-            return SoilUncertainty("parameters", fit.model, ("friction_angle", "shear_modulus"),
-                                              theta[1:].copy(), cov[1:, 1:].copy(), W0, bounds,
-                                              "covariance of the fit", float(area))
-        return SoilUncertainty("parameters", fit.model, ("cohesion", "friction_angle", "shear_modulus"),
-                                          theta.copy(), cov.copy(), W0, bounds, "covariance of the fit", float(area))
+            return SoilUncertainty(
+                "parameters",
+                fit.model,
+                ("friction_angle", "shear_modulus"),
+                theta[1:].copy(),
+                cov[1:, 1:].copy(),
+                W0,
+                bounds,
+                "covariance of the fit",
+                float(area),
+            )
+        return SoilUncertainty(
+            "parameters",
+            fit.model,
+            ("cohesion", "friction_angle", "shear_modulus"),
+            theta.copy(),
+            cov.copy(),
+            W0,
+            bounds,
+            "covariance of the fit",
+            float(area),
+        )
     combos = {cb.name: cb for cb in fit.combinations}
     fm = next((cb for n, cb in combos.items() if n.startswith("F_max@")), None)
     k = combos.get("K")
     if fm is None or k is None or fm.stderr is None or k.stderr is None:
-        raise DataError("the fit gives no standard errors for F_max and K (no residual degrees of freedom?): "
-                        "no uncertainty to plan with; pass a Soil instead")
+        raise DataError(
+            "the fit gives no standard errors for F_max and K (no residual degrees of freedom?): "
+            "no uncertainty to plan with; pass a Soil instead"
+        )
     rho = fit.identifiability.get("fmax_K_correlation", {}).get(f"{W0:.6g}") or 0.0
-    return _ridge(fm.value, fm.stderr, k.value, k.stderr, rho, W0, bounds, fit.model, area,
-                  "F_max and K standard errors and their correlation from the fit")
+    return _ridge(
+        fm.value,
+        fm.stderr,
+        k.value,
+        k.stderr,
+        rho,
+        W0,
+        bounds,
+        fit.model,
+        area,
+        "F_max and K standard errors and their correlation from the fit",
+    )
 
 
 def is_online_estimate(obj: Any) -> bool:
@@ -212,7 +255,9 @@ def is_online_estimate(obj: Any) -> bool:
     return all(hasattr(obj, f) for f in ESTIMATE_FIELDS)
 
 
-def uncertainty_from_estimate(estimate: Any, vehicle: Vehicle, bounds: SoilBounds = PRACTICAL_BOUNDS) -> SoilUncertainty:
+def uncertainty_from_estimate(
+    estimate: Any, vehicle: Vehicle, bounds: SoilBounds = PRACTICAL_BOUNDS
+) -> SoilUncertainty:
     """Build a :class:`SoilUncertainty` (ridge: F_max at the estimate's load and K) from an on-line estimate.
 
     Parameters
@@ -240,27 +285,46 @@ def uncertainty_from_estimate(estimate: Any, vehicle: Vehicle, bounds: SoilBound
         raise DataError(f"an on-line estimate needs the attributes {list(ESTIMATE_FIELDS)}; missing {missing}")
     ident = tuple(str(x) for x in (estimate.identifiable or ()))
     if not bool(estimate.converged):
-        raise DataError("the on-line estimate has not converged: no soil to plan with yet (identifiable so far: "
-                        f"{', '.join(ident) or 'nothing'})")
+        raise DataError(
+            "the on-line estimate has not converged: no soil to plan with yet (identifiable so far: "
+            f"{', '.join(ident) or 'nothing'})"
+        )
     if estimate.covariance is None:
-        raise DataError("the on-line estimate has no covariance: F_max and K are not identifiable yet (identifiable "
-                        f"so far: {', '.join(ident) or 'nothing'}); drive harder (larger slips) or pass a Soil")
+        raise DataError(
+            "the on-line estimate has no covariance: F_max and K are not identifiable yet (identifiable "
+            f"so far: {', '.join(ident) or 'nothing'}); drive harder (larger slips) or pass a Soil"
+        )
     F = _finite(estimate.max_thrust_N, "max_thrust_N", positive=True)
     K = _finite(estimate.shear_modulus_m, "shear_modulus_m", positive=True)
     W0 = _finite(estimate.normal_load_N, "normal_load_N", positive=True)
     try:
         cov = np.array(estimate.covariance, dtype=float)
     except (TypeError, ValueError):
-        raise DataError(f"estimate field 'covariance' must be a 2 x 2 matrix of numbers, got {estimate.covariance!r}") \
-            from None
+        raise DataError(
+            f"estimate field 'covariance' must be a 2 x 2 matrix of numbers, got {estimate.covariance!r}"
+        ) from None
     if cov.shape != (2, 2) or not np.all(np.isfinite(cov)):
-        raise DataError(f"estimate field 'covariance' must be a finite 2 x 2 matrix over [max_thrust_N, "
-                        f"shear_modulus_m], got shape {cov.shape}")
-    if abs(cov[0, 1] - cov[1, 0]) > 1e-9 * math.sqrt(abs(cov[0, 0] * cov[1, 1])) or np.linalg.eigvalsh(
-            0.5 * (cov + cov.T)).min() < -1e-12 * max(np.abs(np.diag(cov)).max(), 1e-300) or min(np.diag(cov)) < 0:
+        raise DataError(
+            f"estimate field 'covariance' must be a finite 2 x 2 matrix over [max_thrust_N, "
+            f"shear_modulus_m], got shape {cov.shape}"
+        )
+    if (
+        abs(cov[0, 1] - cov[1, 0]) > 1e-9 * math.sqrt(abs(cov[0, 0] * cov[1, 1]))
+        or np.linalg.eigvalsh(0.5 * (cov + cov.T)).min() < -1e-12 * max(np.abs(np.diag(cov)).max(), 1e-300)
+        or min(np.diag(cov)) < 0
+    ):
         raise DataError("estimate field 'covariance' must be symmetric positive semi-definite")
-    return SoilUncertainty("ridge", "full", ("F_max", "shear_modulus"), np.array([F, K]), 0.5 * (cov + cov.T), W0,
-                           bounds, "covariance of the on-line estimate over F_max and K", float(vehicle.contact_area))
+    return SoilUncertainty(
+        "ridge",
+        "full",
+        ("F_max", "shear_modulus"),
+        np.array([F, K]),
+        0.5 * (cov + cov.T),
+        W0,
+        bounds,
+        "covariance of the on-line estimate over F_max and K",
+        float(vehicle.contact_area),
+    )
 
 
 def _finite(x: Any, name: str, positive: bool = False) -> float:
@@ -275,8 +339,9 @@ def _finite(x: Any, name: str, positive: bool = False) -> float:
 
 def _ridge(F, sF, K, sK, rho, W0, bounds, model, area, source) -> SoilUncertainty:
     cov = np.array([[sF * sF, rho * sF * sK], [rho * sF * sK, sK * sK]])
-    return SoilUncertainty("ridge", model, ("F_max", "shear_modulus"), np.array([F, K], dtype=float),
-                                      cov, W0, bounds, source, float(area))
+    return SoilUncertainty(
+        "ridge", model, ("F_max", "shear_modulus"), np.array([F, K], dtype=float), cov, W0, bounds, source, float(area)
+    )
 
 
 def load_fit_json(path: str, vehicle: Vehicle) -> SoilUncertainty:
@@ -293,19 +358,16 @@ def load_fit_json(path: str, vehicle: Vehicle) -> SoilUncertainty:
     DataError
         Unreadable file, invalid JSON, missing or non-numeric field (named), failed fit.
     """
-    try:
-        with open(os.fspath(path), encoding="utf-8") as fh:
-            obj = json.load(fh)
-    except OSError as e:
-        raise DataError(f"cannot read fit file: {e.strerror}", file=str(path)) from None
-    except json.JSONDecodeError as e:
-        raise DataError(f"invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}", file=str(path)) from None
+    obj = load_json_file(path, "fit JSON")  # encoding, depth, syntax (soilmodel.jsonread)
     src = str(path)
     if not isinstance(obj, dict):
         raise DataError("fit JSON must be an object (what `soiltrack fit --json` prints)", file=src)
+    check_fit_numbers(obj, src)  # physical ranges, standard errors >= 0 (planning.fit_json_checks)
     for key in ("model", "success", "parameters"):
         if key not in obj:
-            raise DataError(f"missing field '{key}' (expected what `soiltrack fit --json` prints)", file=src, column=key)
+            raise DataError(
+                f"missing field '{key}' (expected what `soiltrack fit --json` prints)", file=src, column=key
+            )
     if obj["success"] is not True:
         raise DataError("the fit did not succeed: no soil to plan with", file=src, column="success")
     model = obj["model"]
@@ -336,8 +398,9 @@ def load_fit_json(path: str, vehicle: Vehicle) -> SoilUncertainty:
             try:
                 idx = [order.index(names_si[k]) if names_si[k] in order else order.index(k) for k in keys]
             except ValueError:
-                raise DataError(f"covariance.parameters {order} does not name {keys}", file=src,
-                                column="covariance") from None
+                raise DataError(
+                    f"covariance.parameters {order} does not name {keys}", file=src, column="covariance"
+                ) from None
             cov = M[np.ix_(idx, idx)]
             if cov_block.get("units", "SI") != "SI":
                 raise DataError("covariance.units must be 'SI'", file=src, column="covariance.units")
@@ -357,21 +420,36 @@ def load_fit_json(path: str, vehicle: Vehicle) -> SoilUncertainty:
                 R = np.nan_to_num(Rf[np.ix_(idx, idx)], nan=0.0)
                 source = "rebuilt from the standard errors and correlations of the fit JSON (no covariance block)"
             cov = R * np.outer(se, se)
-        return SoilUncertainty("parameters", model, tuple(names_si[k] for k in keys), mean, cov, W0,
-                                          bounds, source, float(area))
+        return SoilUncertainty(
+            "parameters", model, tuple(names_si[k] for k in keys), mean, cov, W0, bounds, source, float(area)
+        )
     # ridge (full model, one load): F_max and K
     combos = obj.get("combinations") or []
     fm = next((c for c in combos if isinstance(c, dict) and str(c.get("name", "")).startswith("F_max@")), None)
     kk = next((c for c in combos if isinstance(c, dict) and c.get("name") == "K"), None)
     if fm is None or kk is None:
-        raise DataError("c and phi are not identified and the JSON has no F_max / K combinations", file=src,
-                        column="combinations")
-    F, sF = _num(fm.get("value"), src, "combinations.F_max.value"), _num(fm.get("stderr"), src, "combinations.F_max.stderr")
+        raise DataError(
+            "c and phi are not identified and the JSON has no F_max / K combinations", file=src, column="combinations"
+        )
+    F, sF = (
+        _num(fm.get("value"), src, "combinations.F_max.value"),
+        _num(fm.get("stderr"), src, "combinations.F_max.stderr"),
+    )
     K, sK = _num(kk.get("value"), src, "combinations.K.value"), _num(kk.get("stderr"), src, "combinations.K.stderr")
     rho = ((obj.get("identifiability") or {}).get("fmax_K_correlation") or {}).get(f"{W0:.6g}")
     rho = 0.0 if rho is None else float(rho)
-    return _ridge(F, sF, K, sK, rho, W0, bounds, model, area,
-                  "F_max and K standard errors and their correlation from the fit JSON")
+    return _ridge(
+        F,
+        sF,
+        K,
+        sK,
+        rho,
+        W0,
+        bounds,
+        model,
+        area,
+        "F_max and K standard errors and their correlation from the fit JSON",
+    )
 
 
 def _num(x, src: str, field: str) -> float:

@@ -10,6 +10,9 @@ unmodelled effects (:data:`EFFECTS`, :func:`parse_effects`, :func:`thrust_with_e
 (:func:`dynamics_function`, :func:`slip_from_thrust`) and the simulator (:func:`simulate`); units by magnitude for reports and figures
 (:func:`format_force`, :func:`format_torque`, :func:`format_power`, :func:`format_energy`,
 :func:`choose_scale`).
+The rigid wheel on a rig: :class:`RigidWheel`, :func:`read_running_gear` (track or wheel JSON),
+:func:`wheel_expr` (the Wong-Reece stresses integrated), :class:`WheelSettings`,
+:class:`WheelSweep`, :func:`read_wheel_sweep`, :func:`simulate_wheel_sweep`.
 """
 from .data import DriveLog, PlateTest, ShearTest, SlipData, read_csv, write_csv
 from .bevameter import (
@@ -52,6 +55,10 @@ from .dynamics import (
 )
 from .simulation import SensorNoise, simulate, simulate_drive_log, simulate_slip_sweep
 from .units import Scale, choose_scale, format_energy, format_force, format_power, format_torque, format_value
+from .rigid_wheel import RigidWheel, read_running_gear
+from .wheel import WheelSettings, wheel_expr
+from .wheel_sweep import WheelSweep, read_wheel_sweep, write_wheel_sweep
+from .wheel_simulation import simulate_wheel_sweep
 
 __all__ = [
     "DataError", "DriveLog", "SlipData", "ShearTest", "PlateTest", "read_csv", "write_csv",
@@ -64,4 +71,6 @@ __all__ = [
     "dynamics_function", "slip_from_thrust", "slip_from_thrust_function", "SensorNoise", "simulate",
     "simulate_drive_log", "simulate_slip_sweep", "Scale", "choose_scale", "format_value", "format_force",
     "format_torque", "format_power", "format_energy",
+    "RigidWheel", "read_running_gear", "WheelSettings", "wheel_expr",
+    "WheelSweep", "read_wheel_sweep", "write_wheel_sweep", "simulate_wheel_sweep",
 ]

@@ -1,4 +1,4 @@
-"""The soil's stress laws as a bevameter measures them: their one home (DESIGN.md section 7).
+"""The soil's stress laws as a bevameter measures them: their one home (docs/measured-data.md).
 
 Janosi-Hanamoto shear (a shear ring or shear box at normal pressure sigma, shear displacement j)::
 

@@ -22,13 +22,13 @@ file, the column and the data row (row 1 is the first line after the header).
 from __future__ import annotations
 
 import csv
-import math
 import os
 from dataclasses import dataclass
 from typing import cast
 
 import numpy as np
 
+from .csvread import MAX_ABS_VALUE, bad_rows_error, read_columns, read_header
 from .errors import DataError
 
 SLIP_COLUMNS = ("slip", "tractive_force_N")
@@ -224,11 +224,7 @@ class DriveLog:
             cols["vehicle_accel_m_s2"] = self.vehicle_accel
         _check_lengths(cols, self.source)
         _check_finite(cols, self.source)
-        bad = np.nonzero(np.diff(self.time) <= 0)[0]
-        if bad.size:
-            k = int(bad[0]) + 1
-            raise DataError(f"time must be strictly increasing ({self.time[k - 1]:.6g} then {self.time[k]:.6g})",
-                            file=self.source, column="time_s", row=k + 1)
+        _check_increasing(self.time, "time_s", self.source)
 
     @property
     def n_samples(self) -> int:
@@ -399,11 +395,29 @@ def _check_lengths(cols: dict, source: str) -> None:
 
 
 def _check_finite(cols: dict, source: str) -> None:
+    """Every value finite and within MAX_ABS_VALUE; all bad rows of the first bad column counted."""
     for name, values in cols.items():
-        bad = np.nonzero(~np.isfinite(values))[0]
-        if bad.size:
-            k = int(bad[0])
-            raise DataError(f"value {values[k]} is not a finite number", file=source, column=name, row=k + 1)
+        if values.size == 0:
+            continue
+        nonfinite = ~np.isfinite(values)
+        if nonfinite.any():
+            k = int(np.argmax(nonfinite))
+            raise bad_rows_error(nonfinite, source, name, f"value {values[k]} is not a finite number")
+        huge = np.abs(values) > MAX_ABS_VALUE
+        if huge.any():
+            k = int(np.argmax(huge))
+            raise bad_rows_error(huge, source, name, f"value {values[k]:.6g} is beyond any physical value in "
+                                 f"these data (|x| <= {MAX_ABS_VALUE:g} in SI units)")
+
+
+def _check_increasing(values: np.ndarray, column: str, source: str) -> None:
+    """Strictly increasing values; every row that does not increase counted (the first few named)."""
+    bad = np.zeros(values.shape, dtype=bool)
+    bad[1:] = np.diff(values) <= 0
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise bad_rows_error(bad, source, column, f"time must be strictly increasing ({values[k - 1]:.6g} "
+                             f"then {values[k]:.6g})")
 
 
 def _check_range(values, column, source, *, lo=None, hi=None, lo_open=False, hi_open=False, what="") -> None:
@@ -412,25 +426,13 @@ def _check_range(values, column, source, *, lo=None, hi=None, lo_open=False, hi_
         bad |= (values <= lo) if lo_open else (values < lo)
     if hi is not None:
         bad |= (values >= hi) if hi_open else (values > hi)
-    idx = np.nonzero(bad)[0]
-    if idx.size:
-        k = int(idx[0])
-        raise DataError(f"{what}, got {values[k]:.6g}", file=source, column=column, row=k + 1)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise bad_rows_error(bad, source, column, f"{what}, got {values[k]:.6g}")
 
 
-def _parse_float(text: str, path: str, column: str, row: int) -> float:
-    t = text.strip()
-    try:
-        v = float(t)
-    except ValueError:
-        raise DataError(f"'{t}' is not a number" if t else "empty value", file=path, column=column, row=row) from None
-    if not math.isfinite(v):
-        raise DataError(f"value '{t}' is not a finite number", file=path, column=column, row=row)
-    return v
-
-
-def read_csv(path: str | os.PathLike, *, driving_only: bool = False,
-             slip_angle: float | None = None) -> SlipData | DriveLog | ShearTest | PlateTest:
+def read_csv(path: str | os.PathLike, *, driving_only: bool = False, slip_angle: float | None = None,
+             max_rows: int | None = None) -> SlipData | DriveLog | ShearTest | PlateTest:
     """Read a slip sweep, a drive log or a bevameter test (recognised by the columns).
 
     Parameters
@@ -443,6 +445,10 @@ def read_csv(path: str | os.PathLike, *, driving_only: bool = False,
         Slip sweeps: keep only the rows at this slip angle (only 0 is accepted: the model is
         straight-line) instead of refusing the others. The rows dropped by either option are
         counted in :attr:`SlipData.dropped`.
+    max_rows
+        Most data rows read into memory (default ``$SOILTRACK_MAX_ROWS`` or 2,000,000): the rows
+        are streamed (:mod:`soiltrack.soilmodel.csvread`), a larger file is refused as soon as the
+        reader passes the limit, and every bad row is counted, the first few named.
 
     Raises
     ------
@@ -452,17 +458,7 @@ def read_csv(path: str | os.PathLike, *, driving_only: bool = False,
         fields; the message names the file, the column and the row.
     """
     path = os.fspath(path)
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            rows = list(csv.reader(fh))
-    except OSError as e:
-        raise DataError(f"cannot read: {e.strerror}", file=path) from None
-    except UnicodeDecodeError:
-        raise DataError("not a UTF-8 text file", file=path) from None
-    rows = [r for r in rows if any(cell.strip() for cell in r)]  # blank lines carry nothing
-    if not rows:
-        raise DataError("empty file: expected a header row", file=path)
-    header = [h.strip() for h in rows[0]]
+    header = read_header(path)  # encoding checked, blank lines skipped (soilmodel.csvread)
     dup = sorted({h for h in header if header.count(h) > 1})
     if dup:
         raise DataError(f"duplicate column(s) {dup}", file=path, column=dup[0])
@@ -492,15 +488,7 @@ def read_csv(path: str | os.PathLike, *, driving_only: bool = False,
         if col not in header:
             raise DataError(f"missing required column (header has {header})", file=path, column=col)
     used = [c for c in (*required, *optional) if c in header]
-    idx = {c: header.index(c) for c in used}
-    data: dict[str, list[float]] = {c: [] for c in used}
-    for r, cells in enumerate(rows[1:], start=1):
-        if len(cells) != len(header):
-            raise DataError(f"expected {len(header)} fields, found {len(cells)}", file=path, row=r)
-        for c in used:
-            data[c].append(_parse_float(cells[idx[c]], path, c, r))
-    if not rows[1:]:
-        raise DataError("no data rows after the header", file=path)
+    data = read_columns(path, header, used, max_rows)  # streamed, row limit, every bad row counted
     if kind in ("drawbar", "slip"):
         return _slip_data(kind, data, path, driving_only, slip_angle)
     for opt, val in (("driving_only", driving_only), ("slip_angle", slip_angle)):

@@ -126,6 +126,9 @@ def _dyn_fn(vehicle: Vehicle, soil: Soil | None, effects: EffectSet, model: str,
             standstill_speed: float | None) -> ca.Function:
     x = ca.SX.sym("x", 2)
     u = ca.SX.sym("u")
+    c: ca.SX | float  # symbols (soil to identify) or the given soil's numbers
+    phi: ca.SX | float
+    K: ca.SX | float
     if soil is None:
         p = ca.SX.sym("p", 3)
         c, phi, K = p[0], p[1], p[2]

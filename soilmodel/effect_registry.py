@@ -365,14 +365,17 @@ def parse_effects(spec: Any = None) -> EffectSet:
         vals = []
         for p in es.params:
             if p.name in given[name]:
-                v: float | None = _check_value(es, p, given[name][p.name])
+                pval: float | None = _check_value(es, p, given[name][p.name])
             else:
-                v = p.off_value if p.default is None and not p.integer else p.default
-            vals.append((p.name, v))
+                pval = p.off_value if p.default is None and not p.integer else p.default
+            vals.append((p.name, pval))
         if name == "pressure_distribution":
             d = dict(vals)
-            if abs(d["e"]) + abs(d["alpha"]) > 1.0:
-                raise DataError(f"pressure_distribution: |e| + |alpha| = {abs(d['e']) + abs(d['alpha']):g} > 1 "
+            e, alpha = d["e"], d["alpha"]
+            if e is None or alpha is None:  # impossible: both are real parameters with a float off value
+                raise RuntimeError("pressure_distribution: e or alpha has no value")
+            if abs(e) + abs(alpha) > 1.0:
+                raise DataError(f"pressure_distribution: |e| + |alpha| = {abs(e) + abs(alpha):g} > 1 "
                                 "makes the normal pressure negative somewhere on the track")
         entries.append((name, tuple(vals)))
     return EffectSet(tuple(entries))
@@ -466,7 +469,7 @@ class EffectValues:
         return self.vals[key[0]][key[1]]
 
 
-def effect_symbols(effects: Any, sym: type = ca.SX, vehicle: Vehicle | None = None
+def effect_symbols(effects: Any, sym: type[ca.SX] | type[ca.MX] = ca.SX, vehicle: Vehicle | None = None
                    ) -> tuple[dict[str, dict[str, Any]], Any, list[str]]:
     """Symbols for the (non-integer) parameters of the effects that are on, for identification.
 
@@ -487,7 +490,8 @@ def effect_symbols(effects: Any, sym: type = ca.SX, vehicle: Vehicle | None = No
     """
     es = parse_effects(effects)
     mapping: dict[str, dict[str, Any]] = {}
-    syms, labels = [], []
+    syms: list[Any] = []  # SX or MX symbols, as ``sym``
+    labels: list[str] = []
     for name in es.names:
         mapping[name] = {}
         for p in EFFECTS[name].params:

@@ -1,7 +1,7 @@
 """A single rigid wheel on a test rig (the running gear ``rigid_wheel``), its JSON, and the choice
 between it and a tracked vehicle.
 
-JSON (DESIGN.md section 7): ``{"running_gear": "rigid_wheel", "wheel_radius_m", "wheel_width_m",
+JSON (docs/data-formats.md): ``{"running_gear": "rigid_wheel", "wheel_radius_m", "wheel_width_m",
 "grouser_height_m"}`` (grouser height optional, 0 for a smooth wheel). A rig has no mass: the
 normal load is measured per row and required in its data.
 """
@@ -13,6 +13,7 @@ import os
 from dataclasses import dataclass
 
 from .errors import DataError
+from .jsonread import load_json_file, loads_json
 from .vehicle import Vehicle
 
 __all__ = ["RigidWheel", "RUNNING_GEARS", "read_running_gear", "WHEEL_LIMITS"]
@@ -63,7 +64,7 @@ class RigidWheel:
         return self.radius + self.grouser_height
 
     def to_dict(self) -> dict:
-        """The JSON object of DESIGN.md section 7."""
+        """The JSON object of docs/data-formats.md."""
         out = {"name": self.name} if self.name else {}
         out["running_gear"] = "rigid_wheel"
         out.update({key: getattr(self, attr) for key, attr in _JSON_FIELDS.items()})
@@ -106,20 +107,9 @@ def read_running_gear(path_or_text: str | os.PathLike) -> Vehicle | RigidWheel:
     """
     text = os.fspath(path_or_text)
     if text.lstrip().startswith("{"):
-        source, raw = "<json text>", text
-    else:
-        source = text
-        try:
-            with open(text, encoding="utf-8-sig") as fh:
-                raw = fh.read()
-        except OSError as e:
-            raise DataError(f"cannot read vehicle file: {e.strerror}", file=source) from None
-        except UnicodeDecodeError:
-            raise DataError("not a UTF-8 text file (save the vehicle JSON as UTF-8)", file=source) from None
-    try:
-        obj = json.loads(raw)
-    except json.JSONDecodeError as e:
-        raise DataError(f"invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}", file=source) from None
+        source, obj = "<json text>", loads_json(text, "<json text>", "vehicle JSON")
+    else:  # encoding, depth and syntax checked (soilmodel.jsonread)
+        source, obj = text, load_json_file(text, "vehicle JSON")
     if not isinstance(obj, dict):
         raise DataError("vehicle JSON must be an object", file=source)
     gear = obj.get("running_gear", "track")

@@ -1,4 +1,4 @@
-"""Thread safety for cached CasADi solvers: one home for the lock and the cache.
+"""Thread and fork safety for cached CasADi solvers: one home for the lock and the cache.
 
 A cached ``nlpsol``/``rootfinder``/``integrator`` is shared state. IPOPT's linear solver
 (MUMPS) keeps global Fortran state, so two solves in two threads of one process can crash
@@ -9,23 +9,75 @@ one process-wide re-entrant lock across the call and the ``stats()`` read, and e
 builder is wrapped in :func:`locked_cache`, which builds each solver once under the same lock.
 Threads then serialise on the solve itself (parallelism comes from processes, or from the
 compiled engines that keep their own memory per call); processes each hold their own cache.
+
+Fork safety (``os.register_at_fork``): a process forked while another thread is inside an
+IPOPT solve would inherit the lock held by a thread that does not exist in the child, and
+the solver's native state in the middle of that solve (measured before this module handled
+it: a fork ``ProcessPoolExecutor`` created beside three threads running IPOPT returned no
+result in 7 of 10 tries). So a fork waits until no solve is running (the forking thread takes
+:data:`SOLVER_LOCK` just before the fork and releases it in the parent just after), and the
+child re-creates the lock and empties every :func:`locked_cache` (its solvers are rebuilt on
+first use, in the child, from scratch). The spawn and forkserver start methods never copy
+this state and need none of it.
 """
+
 from __future__ import annotations
 
 import functools
+import os
 import threading
+import weakref
 from typing import Any, Callable, TypeVar
 
-__all__ = ["SOLVER_LOCK", "call_solver", "locked_cache"]
+__all__ = ["SOLVER_LOCK", "call_solver", "locked_cache", "solver_lock", "fork_generation"]
 
-#: The process-wide lock held across every cached-solver call and its ``stats()`` read.
+#: The process-wide lock held across every cached-solver call and its ``stats()`` read
+#: (re-created in a forked child: read it through :func:`solver_lock`, never keep a copy).
 SOLVER_LOCK = threading.RLock()
 
 T = TypeVar("T")
 
+_CACHES: "weakref.WeakSet[Any]" = weakref.WeakSet()  # every locked_cache wrapper, emptied in a forked child
+_GENERATION = [0]  # forks this process descends from (0 in a process not forked from a soiltrack process)
+
+
+def solver_lock() -> threading.RLock:
+    """The current process's :data:`SOLVER_LOCK` (a forked child has its own, fresh one)."""
+    return SOLVER_LOCK
+
+
+def fork_generation() -> int:
+    """How many forks separate this process from the one that imported the module (0: not forked)."""
+    return _GENERATION[0]
+
+
+def _before_fork() -> None:  # no solve in flight while the address space is copied
+    SOLVER_LOCK.acquire()
+
+
+def _after_fork_parent() -> None:
+    SOLVER_LOCK.release()
+
+
+def _after_fork_child() -> None:
+    global SOLVER_LOCK
+    SOLVER_LOCK = threading.RLock()
+    _GENERATION[0] += 1
+    for wrapper in list(_CACHES):
+        wrapper.cache_clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(
+        before=_before_fork, after_in_parent=_after_fork_parent, after_in_child=_after_fork_child
+    )
+
 
 def locked_cache(maxsize: int | None = 128) -> Callable[[Callable[..., T]], Callable[..., T]]:
-    """Like ``functools.lru_cache``, but builds under :data:`SOLVER_LOCK` (once per key)."""
+    """Like ``functools.lru_cache``, but builds under :data:`SOLVER_LOCK` (once per key).
+
+    The cache is emptied in a forked child (its solvers are rebuilt there on first use).
+    """
 
     def deco(builder: Callable[..., T]) -> Callable[..., T]:
         cached = functools.lru_cache(maxsize=maxsize)(builder)
@@ -37,6 +89,7 @@ def locked_cache(maxsize: int | None = 128) -> Callable[[Callable[..., T]], Call
 
         wrapper.cache_clear = cached.cache_clear  # type: ignore[attr-defined]
         wrapper.cache_info = cached.cache_info  # type: ignore[attr-defined]
+        _CACHES.add(wrapper)
         return wrapper
 
     return deco

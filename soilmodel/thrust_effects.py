@@ -139,7 +139,7 @@ def thrust_with_effects(slip, c, phi, K, W, vehicle: Vehicle, effects: Any = Non
 @lru_cache(maxsize=256)
 def _thrust_fn(vehicle: Vehicle, effects: EffectSet, model: str) -> ca.Function:
     s = [ca.SX.sym(n) for n in ("slip", "c", "phi", "K", "W")]
-    F = thrust_with_effects(*s, vehicle, effects, model)
+    F = thrust_with_effects(s[0], s[1], s[2], s[3], s[4], vehicle, effects, model)
     return ca.Function("thrust_effects", s, [F], ["slip", "c", "phi", "K", "W"], ["F"])
 
 

@@ -117,7 +117,8 @@ def thrust_function(model: str = "full") -> ca.Function:
     """
     check_model(model)
     s = [ca.SX.sym(n) for n in ("slip", "c", "phi", "K", "W", "l", "b")]
-    return ca.Function(f"thrust_{model.replace('-', '_')}", s, [thrust_expr(*s, model=model)],
+    F = thrust_expr(s[0], s[1], s[2], s[3], s[4], s[5], s[6], model=model)
+    return ca.Function(f"thrust_{model.replace('-', '_')}", s, [F],
                        ["slip", "c", "phi", "K", "W", "l", "b"], ["F"])
 
 
@@ -136,7 +137,7 @@ def sensitivity_function(model: str = "full") -> ca.Function:
     """CasADi Function ``dF/d[c, phi, K](slip, c, phi, K, W, l, b)`` -> 1x3 row, from AD."""
     check_model(model)
     s = [ca.SX.sym(n) for n in ("slip", "c", "phi", "K", "W", "l", "b")]
-    F = thrust_expr(*s, model=model)
+    F = thrust_expr(s[0], s[1], s[2], s[3], s[4], s[5], s[6], model=model)
     jac = ca.jacobian(F, ca.vertcat(s[1], s[2], s[3]))
     return ca.Function(f"dthrust_{model.replace('-', '_')}", s, [jac],
                        ["slip", "c", "phi", "K", "W", "l", "b"], ["dF_dp"])

@@ -15,6 +15,7 @@ the axis with ``scale.unit``::
     ax.plot(slip, thrust_N * s.factor)
     ax.set_ylabel(f"thrust ({s.unit})")
 """
+
 from __future__ import annotations
 
 import math
@@ -23,8 +24,17 @@ from typing import Iterable
 
 import numpy as np
 
-__all__ = ["Scale", "choose_scale", "format_value", "format_force", "format_torque", "format_power",
-           "format_energy", "PREFIXES", "SIGNIFICANT_DIGITS"]
+__all__ = [
+    "Scale",
+    "choose_scale",
+    "format_value",
+    "format_force",
+    "format_torque",
+    "format_power",
+    "format_energy",
+    "PREFIXES",
+    "SIGNIFICANT_DIGITS",
+]
 
 #: SI prefixes used, with their powers of ten (the base unit below 1000).
 PREFIXES = (("", 0), ("k", 3), ("M", 6), ("G", 9))
@@ -75,9 +85,9 @@ def choose_scale(values: float | Iterable[float] | np.ndarray, unit: str) -> Sca
     prefix, power = PREFIXES[0]
     for p, e in PREFIXES:
         # 999.95 kN would print as "1000 kN": switch at the rounding point of the digits shown
-        if peak >= 10.0 ** e * (1 - 0.5 * 10.0 ** -SIGNIFICANT_DIGITS):
+        if peak >= 10.0**e * (1 - 0.5 * 10.0**-SIGNIFICANT_DIGITS):
             prefix, power = p, e
-    return Scale(10.0 ** -power, prefix + unit)
+    return Scale(10.0**-power, prefix + unit)
 
 
 def format_value(value: float | None, unit: str, digits: int = SIGNIFICANT_DIGITS) -> str:

@@ -8,6 +8,7 @@ import os
 from dataclasses import dataclass, fields
 
 from .errors import DataError
+from .jsonread import load_json_file, loads_json
 
 #: Standard gravity, m/s^2.
 G = 9.81
@@ -179,20 +180,9 @@ class Vehicle:
         """Read a vehicle from a JSON file path (or from JSON text starting with ``{``)."""
         text = os.fspath(path_or_text)
         if text.lstrip().startswith("{"):
-            source, raw = "<json text>", text
-        else:
-            source = text
-            try:
-                with open(text, encoding="utf-8-sig") as fh:  # a UTF-8 BOM (Windows editors) is fine
-                    raw = fh.read()
-            except OSError as e:
-                raise DataError(f"cannot read vehicle file: {e.strerror}", file=source) from None
-            except UnicodeDecodeError:
-                raise DataError("not a UTF-8 text file (save the vehicle JSON as UTF-8)", file=source) from None
-        try:
-            obj = json.loads(raw)
-        except json.JSONDecodeError as e:
-            raise DataError(f"invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}", file=source) from None
+            source, obj = "<json text>", loads_json(text, "<json text>", "vehicle JSON")
+        else:  # encoding, depth and syntax checked (soilmodel.jsonread)
+            source, obj = text, load_json_file(text, "vehicle JSON")
         return cls.from_dict(obj, source=source, name=os.path.splitext(os.path.basename(source))[0]
                              if source != "<json text>" else "")
 

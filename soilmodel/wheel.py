@@ -30,6 +30,10 @@ takes of them is the exact derivative of the same sum. Without a measured sinkag
 from the vertical balance ``W(z) = load`` (:func:`sinkage_from_load_function`, a CasADi
 rootfinder: its derivatives follow from the implicit function theorem).
 
+The stress laws are the soil's own (:mod:`.bevameter`, their one home): the normal stress at
+angle theta is Bekker's plate pressure at the local depth ``r (cos(theta) - cos(theta_1))``
+with the wheel's width as the plate's, the shear stress is Janosi-Hanamoto's.
+
 Only driving slip (0 <= i < 1) is modelled: at skid the shear displacement changes sign along
 the arc and the Wong-Reece normal stress has no agreed form.
 """
@@ -42,6 +46,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from .bevameter import plate_pressure_expr, shear_stress_expr
 from .errors import DataError
 
 __all__ = ["WheelSettings", "DEFAULT_WHEEL_SETTINGS", "entry_angle", "wheel_expr", "wheel_forces_function",
@@ -101,7 +106,7 @@ def _as_column(x):
     return ca.DM(np.asarray(x, dtype=float).reshape(-1, 1))
 
 
-def wheel_expr(i, z, c, phi, K, k, n, r, b, h=0.0, settings: WheelSettings = DEFAULT_WHEEL_SETTINGS,
+def wheel_expr(i, z, c, phi, K, k_c, k_phi, n, r, b, h=0.0, settings: WheelSettings = DEFAULT_WHEEL_SETTINGS,
                slip_sinkage=0.0):
     """Drawbar pull, normal load and torque of the Wong-Reece rigid wheel (symbolic or numeric).
 
@@ -111,8 +116,9 @@ def wheel_expr(i, z, c, phi, K, k, n, r, b, h=0.0, settings: WheelSettings = DEF
         Slip (0 <= i < 1) and sinkage (m, 0 < z <= r): columns of equal length (or scalars).
     c, phi, K
         Cohesion (Pa), friction angle (rad), shear deformation modulus (m).
-    k, n
-        Bekker modulus ``k = k_c / b + k_phi`` (N/m^(n+2)) and exponent n.
+    k_c, k_phi, n
+        Bekker moduli (N/m^(n+1), N/m^(n+2)) and exponent n (with the wheel's width b as the
+        plate's, only ``k_c / b + k_phi`` matters).
     r, b, h
         Wheel radius, width and grouser height, m.
     settings
@@ -142,17 +148,21 @@ def wheel_expr(i, z, c, phi, K, k, n, r, b, h=0.0, settings: WheelSettings = DEF
 
     def integrands(theta, sigma):
         j = rs * ((ca.mtimes(th1, ones) - theta) - ca.mtimes(1 - i, ones) * (ca.mtimes(sin1, ones) - ca.sin(theta)))
-        tau = (c + sigma * ca.tan(phi)) * (1 - ca.exp(-j / K))
+        tau = shear_stress_expr(j, sigma, c, phi, K)
         return (tau * ca.cos(theta) - sigma * ca.sin(theta), sigma * ca.cos(theta) + tau * ca.sin(theta), tau)
 
-    kr = k * r ** n / (1 + slip_sinkage * i)
+    soften = ca.mtimes(1 / (1 + slip_sinkage * i), ones)  # the slip-sinkage effect (1 when off)
+
+    def sigma_at(theta_eq):
+        depth = r * (ca.cos(theta_eq) - ca.mtimes(cos1, ones))  # the soil's depth under the rim at theta_eq
+        return soften * plate_pressure_expr(depth, b, k_c, k_phi, n, z_ref=r)
+
     # front arc [theta_m, theta_1]
     th_f = ca.mtimes(thm, ones) + ca.mtimes(th1 - thm, xr)
-    sig_f = kr * (ca.cos(th_f) - ca.mtimes(cos1, ones)) ** n
+    sig_f = sigma_at(th_f)
     # rear arc [0, theta_m]: the mirror of the front arc's stress
     th_r = ca.mtimes(thm, xr)
-    th_eq = ca.mtimes(th1, ones) - ca.mtimes(th1 - thm, xr)
-    sig_r = kr * (ca.cos(th_eq) - ca.mtimes(cos1, ones)) ** n
+    sig_r = sigma_at(ca.mtimes(th1, ones) - ca.mtimes(th1 - thm, xr))
     out = []
     for a_f, a_r in zip(integrands(th_f, sig_f), integrands(th_r, sig_r)):
         out.append((th1 - thm) * ca.mtimes(a_f, wc) + thm * ca.mtimes(a_r, wc))
@@ -162,38 +172,39 @@ def wheel_expr(i, z, c, phi, K, k, n, r, b, h=0.0, settings: WheelSettings = DEF
 
 def wheel_forces_function(r: float, b: float, h: float = 0.0,
                           settings: WheelSettings = DEFAULT_WHEEL_SETTINGS) -> ca.Function:
-    """CasADi Function ``(i, z, c, phi, K, k, n, s) -> (drawbar_pull, normal_load, torque)`` for one row.
+    """CasADi Function ``(i, z, c, phi, K, k_c, k_phi, n, s) -> (drawbar_pull, normal_load, torque)`` for one row.
 
     ``s`` is the slip-sinkage coefficient (0: the textbook wheel).
     """
-    names = ["i", "z", "c", "phi", "K", "k", "n", "s"]
+    names = ["i", "z", "c", "phi", "K", "k_c", "k_phi", "n", "s"]
     s = [ca.SX.sym(nm) for nm in names]
-    dp, wl, tq = wheel_expr(*s[:7], r, b, h, settings, slip_sinkage=s[7])
+    dp, wl, tq = wheel_expr(*s[:8], r, b, h, settings, slip_sinkage=s[8])
     return ca.Function("rigid_wheel", s, [dp, wl, tq], names, list(WHEEL_OUTPUTS))
 
 
 def sinkage_from_load_function(r: float, b: float, h: float = 0.0,
                                settings: WheelSettings = DEFAULT_WHEEL_SETTINGS) -> ca.Function:
-    """CasADi Function ``(i, W, c, phi, K, k, n, s) -> z``: the sinkage at which the wheel carries W.
+    """CasADi Function ``(i, W, c, phi, K, k_c, k_phi, n, s) -> z``: the sinkage at which the wheel carries W.
 
     Newton's method on ``log W(theta_1) = log W`` in ``u = log theta_1`` (W grows about like
     theta_1^(2n+1), so the residual is nearly linear in u), started from Bekker's closed-form
-    sinkage of a wheel, ``z0 = (3 W / ((3 - n) k b sqrt(2 r)))^(2 / (2 n + 1))``. Derivatives
+    sinkage of a wheel, ``z0 = (3 W / ((3 - n) k b sqrt(2 r)))^(2 / (2 n + 1))`` with
+    ``k = k_c / b + k_phi``. Derivatives
     with respect to every input follow from the implicit function theorem.
     """
     u = ca.MX.sym("u")
-    p = ca.MX.sym("p", 8)
-    i, W, c, phi, K, k, n, s = (p[q] for q in range(8))
+    names = ["i", "W", "c", "phi", "K", "k_c", "k_phi", "n", "s"]
+    p = ca.MX.sym("p", len(names))
+    i, W, c, phi, K, k_c, k_phi, n, s = (p[q] for q in range(len(names)))
     th1 = ca.exp(u)
     z = r * (1 - ca.cos(th1))
-    _, wl, _ = wheel_expr(i, z, c, phi, K, k, n, r, b, h, settings, slip_sinkage=s)
+    _, wl, _ = wheel_expr(i, z, c, phi, K, k_c, k_phi, n, r, b, h, settings, slip_sinkage=s)
     g = ca.Function("g", [u, p], [ca.log(wl) - ca.log(W)])
     rf = ca.rootfinder("wheel_sinkage", "newton", g, {"abstol": 1e-12, "max_iter": 60,
                                                        "error_on_fail": False})
-    names = ["i", "W", "c", "phi", "K", "k", "n", "s"]
     ins = [ca.MX.sym(nm) for nm in names]
-    i_, W_, c_, phi_, K_, k_, n_, s_ = ins
-    k_eff = k_ / (1 + s_ * i_)
+    i_, W_, c_, phi_, K_, kc_, kphi_, n_, s_ = ins
+    k_eff = (kc_ / b + kphi_) / (1 + s_ * i_)
     z0 = (3 * W_ / ((3 - ca.fmin(n_, BEKKER_START_N_MAX)) * k_eff * b * ca.sqrt(2 * r))) ** (2 / (2 * n_ + 1))
     u0 = ca.log(entry_angle(ca.fmin(z0, BEKKER_START_Z_MAX * r), r))
     u_star = rf(u0, ca.vertcat(*ins))

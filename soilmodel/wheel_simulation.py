@@ -59,8 +59,7 @@ def simulate_wheel_sweep(wheel: RigidWheel, soil: Soil, *, slips=DEFAULT_WHEEL_S
         raise DataError("a wheel sweep needs slips in [0, 1) and loads > 0 N")
     i = np.tile(slips, loads.size)
     W = np.repeat(loads, slips.size)
-    k = soil.k_c / wheel.width + soil.k_phi
-    args = (soil.cohesion, soil.friction_angle, soil.shear_modulus, k, soil.n, slip_sinkage)
+    args = (soil.cohesion, soil.friction_angle, soil.shear_modulus, soil.k_c, soil.k_phi, soil.n, slip_sinkage)
     r, b, h = wheel.radius, wheel.width, wheel.grouser_height
     (z,) = evaluate(sinkage_from_load_function(r, b, h, settings), i, W, *args)
     dp, wl, _ = evaluate(wheel_forces_function(r, b, h, settings), i, z, *args)

@@ -1,6 +1,6 @@
 """Single-wheel rig sweeps: drawbar pull against slip with the load (and sinkage) per row.
 
-CSV (DESIGN.md section 7): ``slip,drawbar_pull_N,normal_load_N[,sinkage_m]``. A rig's wheel has no
+CSV (docs/data-formats.md): ``slip,drawbar_pull_N,normal_load_N[,sinkage_m]``. A rig's wheel has no
 mass, so the measured normal load is required in every row; the measured sinkage, where given,
 sets the wheel's entry angle and makes the Bekker stiffness identifiable from the load balance.
 Other columns (repeat numbers, standard deviations, raw sensor channels) are read past.
@@ -99,6 +99,18 @@ class WheelSweep:
         return out
 
 
+def _header(path: str) -> list[str] | None:
+    """The header of a CSV (None when the file cannot be read: read_csv then says why)."""
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            for row in csv.reader(fh):
+                if any(cell.strip() for cell in row):
+                    return [h.strip() for h in row]
+    except (OSError, UnicodeDecodeError):
+        return None
+    return None
+
+
 def _column(path: str, name: str) -> list[float] | None:
     """The values of one column of a CSV (None when absent); errors name file, column and row."""
     with open(path, newline="", encoding="utf-8-sig") as fh:
@@ -132,6 +144,12 @@ def read_wheel_sweep(path: str | os.PathLike) -> WheelSweep:
         the message names the file, the column and the row.
     """
     path = os.fspath(path)
+    header = _header(path)
+    if header is not None and "tractive_force_N" not in header:
+        for col in WHEEL_COLUMNS:
+            if col not in header:
+                raise DataError(f"missing required column of a wheel sweep (header has {header}; a rig's wheel "
+                                "has no mass, so the load is required per row)", file=path, column=col)
     data = read_csv(path)
     if not isinstance(data, SlipData) or data.measured != "drawbar_pull":
         raise DataError(f"a rigid wheel's sweep needs the columns {list(WHEEL_COLUMNS)} (drawbar pull against slip); "

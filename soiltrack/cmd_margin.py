@@ -1,9 +1,11 @@
 """``soiltrack margin``: traversability margin of a vehicle on a terrain, a soil or a fit."""
+
 from __future__ import annotations
 
 import argparse
 import json
 
+from .argcheck import check_drawbar
 from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path, vehicle_arg
 from .soilmodel import TERRAINS, DataError
 
@@ -53,9 +55,16 @@ def _cmd_margin(a: argparse.Namespace) -> int:
         output_path(a.plot, "--plot", figure=True)
     vehicle = vehicle_arg(a.vehicle)
     terrain = terrain_args(a, vehicle)
-    m = margin(terrain, vehicle, grade_deg=_num(a.grade_deg, "--grade-deg") or 0.0,
-               accel=_num(a.accel, "--accel") or 0.0, drawbar_N=_num(a.drawbar_N, "--drawbar-N") or 0.0,
-               speed=_num(a.speed, "--speed"), max_slip=_num(a.max_slip, "--max-slip"))
+    check_drawbar(_num(a.drawbar_N, "--drawbar-N"), vehicle)  # a push at most W, a pull at most 10 W
+    m = margin(
+        terrain,
+        vehicle,
+        grade_deg=_num(a.grade_deg, "--grade-deg") or 0.0,
+        accel=_num(a.accel, "--accel") or 0.0,
+        drawbar_N=_num(a.drawbar_N, "--drawbar-N") or 0.0,
+        speed=_num(a.speed, "--speed"),
+        max_slip=_num(a.max_slip, "--max-slip"),
+    )
     print(json.dumps(m.to_dict(), indent=2, allow_nan=False) if a.json else m.report())
     if a.plot:
         from .planning.plots import plot_margin
@@ -66,10 +75,14 @@ def _cmd_margin(a: argparse.Namespace) -> int:
 
 def add_parser(sub) -> None:
     """Register the ``margin`` subcommand on an argparse subparsers object."""
-    p = sub.add_parser("margin", help="traversability margin: available against required thrust (exit 1: not traversable)",
-                       description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter,
-                       epilog="example:\n  soiltrack margin --vehicle heavy --terrain lete_sand --grade-deg 15 --plot "
-                              "margin.png\n  soiltrack margin --vehicle light --fit FIT.json --grade-deg 10 --json")
+    p = sub.add_parser(
+        "margin",
+        help="traversability margin: available against required thrust (exit 1: not traversable)",
+        description=_DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="example:\n  soiltrack margin --vehicle heavy --terrain lete_sand --grade-deg 15 --plot "
+        "margin.png\n  soiltrack margin --vehicle light --fit FIT.json --grade-deg 10 --json",
+    )
     p.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")
     add_terrain_arguments(p)
     p.add_argument("--grade-deg", metavar="G", help="grade in degrees, positive uphill (default 0)")
@@ -78,5 +91,9 @@ def add_parser(sub) -> None:
     p.add_argument("--speed", metavar="V", help="vehicle speed, m/s (brings in the power limit)")
     p.add_argument("--max-slip", metavar="S", help="allowed slip in (0, 1) (default 0.2)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
-    p.add_argument("--plot", metavar="PNG", help="save the thrust-slip curve against the limits and the requirement")
+    p.add_argument(
+        "--plot",
+        metavar="PNG",
+        help="save the thrust-slip curve against the limits and the requirement (.png, .pdf, .svg)",
+    )
     p.set_defaults(func=_cmd_margin)

@@ -1,9 +1,11 @@
 """``soiltrack profile``: a feasible speed/slip/torque profile on one terrain, by optimal control."""
+
 from __future__ import annotations
 
 import argparse
 import json
 
+from .argcheck import check_distance
 from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path, vehicle_arg
 from .cmd_margin import add_terrain_arguments, terrain_args
 from .soilmodel import DataError
@@ -23,18 +25,29 @@ failed (the reason names the limit and the patch), 2 bad input."""
 
 def add_objective_argument(p: argparse.ArgumentParser) -> None:
     """The ``--objective`` option of ``profile``."""
-    p.add_argument("--objective", choices=("time", "energy"), default="time",
-                   help="time: reach v1 at the distance as fast as the limits allow; energy: the least positive "
-                        "sprocket work (braking not recovered) - with --duration the distance is free and the plan "
-                        "may stand still (reported) (default: time)")
+    p.add_argument(
+        "--objective",
+        choices=("time", "energy"),
+        default="time",
+        help="time: reach v1 at the distance as fast as the limits allow; energy: the least positive "
+        "sprocket work (braking not recovered) - with --duration the distance is free and the plan "
+        "may stand still (reported) (default: time)",
+    )
 
 
 def add_start_arguments(p: argparse.ArgumentParser) -> None:
     """The speed-limit and initial-slip options shared by ``profile`` and ``route``."""
-    p.add_argument("--max-speed", metavar="V", help="speed limit, m/s, at every mesh and collocation point "
-                                                    "(default none; the peak speed is reported either way)")
-    p.add_argument("--initial-slip", metavar="S", help="slip when the plan starts, in (-1, 1) (default: the steady "
-                                                       "slip carrying the resistance at v0)")
+    p.add_argument(
+        "--max-speed",
+        metavar="V",
+        help="speed limit, m/s, at every mesh and collocation point "
+        "(default none; the peak speed is reported either way)",
+    )
+    p.add_argument(
+        "--initial-slip",
+        metavar="S",
+        help="slip when the plan starts, in (-1, 1) (default: the steady slip carrying the resistance at v0)",
+    )
 
 
 def _num(text: str | None, name: str):
@@ -75,22 +88,37 @@ def _cmd_profile(a: argparse.Namespace) -> int:
         raise DataError(f"argument --v0 must be >= 0 m/s, got {v0:g}")
     if v1 < 0:
         raise DataError(f"argument --v1 must be >= 0 m/s, got {v1:g}")
-    res = profile(terrain, vehicle, v0=v0, v1=v1, distance=_num(a.distance, "--distance"),
-                  duration=_num(a.duration, "--duration"), grade_deg=_num(a.grade_deg, "--grade-deg") or 0.0,
-                  max_slip=_num(a.max_slip, "--max-slip"), objective=a.objective,
-                  intervals=int_option(a.intervals, "--intervals", 50), torque_rate=_num(a.torque_rate, "--torque-rate"),
-                  confidence=_num(a.confidence, "--confidence"), max_speed=_num(a.max_speed, "--max-speed"),
-                  slip0=_num(a.initial_slip, "--initial-slip"))
+    check_distance(_num(a.distance, "--distance"))  # beyond any route: refused
+    res = profile(
+        terrain,
+        vehicle,
+        v0=v0,
+        v1=v1,
+        distance=_num(a.distance, "--distance"),
+        duration=_num(a.duration, "--duration"),
+        grade_deg=_num(a.grade_deg, "--grade-deg") or 0.0,
+        max_slip=_num(a.max_slip, "--max-slip"),
+        objective=a.objective,
+        intervals=int_option(a.intervals, "--intervals", 50),
+        torque_rate=_num(a.torque_rate, "--torque-rate"),
+        confidence=_num(a.confidence, "--confidence"),
+        max_speed=_num(a.max_speed, "--max-speed"),
+        slip0=_num(a.initial_slip, "--initial-slip"),
+    )
     return print_result(res, a, route=False)
 
 
 def add_parser(sub) -> None:
     """Register the ``profile`` subcommand on an argparse subparsers object."""
-    p = sub.add_parser("profile", help="optimal speed/slip/torque profile on one terrain (exit 1: infeasible)",
-                       description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter,
-                       epilog="example:\n  soiltrack profile --vehicle heavy --terrain lete_sand --v0 0.5 --v1 3 --distance 30 "
-                              "--max-speed 4 --plot profile.png\n  soiltrack profile --vehicle light --fit FIT.json "
-                              "--v0 0.5 --v1 1.5 --duration 8 --objective energy --json")
+    p = sub.add_parser(
+        "profile",
+        help="optimal speed/slip/torque profile on one terrain (exit 1: infeasible)",
+        description=_DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="example:\n  soiltrack profile --vehicle heavy --terrain lete_sand --v0 0.5 --v1 3 --distance 30 "
+        "--max-speed 4 --plot profile.png\n  soiltrack profile --vehicle light --fit FIT.json "
+        "--v0 0.5 --v1 1.5 --duration 8 --objective energy --json",
+    )
     p.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")
     add_terrain_arguments(p)
     p.add_argument("--v0", required=True, metavar="V0", help="initial speed, m/s")
@@ -105,6 +133,9 @@ def add_parser(sub) -> None:
     p.add_argument("--confidence", metavar="P", help="with --fit: probability that the slip limit holds (robust plan)")
     add_start_arguments(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
-    p.add_argument("--plot", metavar="PNG", help="save speed, slip, torque and traction reserve against distance "
-                                                 "(.png, .pdf, .svg)")
+    p.add_argument(
+        "--plot",
+        metavar="PNG",
+        help="save speed, slip, torque and traction reserve against distance (.png, .pdf, .svg)",
+    )
     p.set_defaults(func=_cmd_profile)

@@ -5,6 +5,7 @@ import argparse
 import secrets
 import sys
 
+from .argcheck import check_seed
 from .cliutil import EXIT_OK, MAX_SAMPLES, floats_arg, output_path, running_gear_arg, soil_arg
 from .soilmodel import TERRAINS, DataError
 from .soilmodel.rigid_wheel import RigidWheel
@@ -33,6 +34,7 @@ def _check_options(a: argparse.Namespace) -> None:
         if duration > 0 and rate > 0 and duration * rate > MAX_SAMPLES:
             raise DataError(f"--duration {duration:g} s x --rate {rate:g} Hz = {duration * rate:.3g} samples; at most "
                             f"{MAX_SAMPLES:,} (e.g. one hour at 500 Hz)")
+    check_seed(a.seed)
     if a.output != "-":
         output_path(a.output, "-o/--output")
     if a.plot:

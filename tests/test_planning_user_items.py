@@ -1,4 +1,5 @@
 """What a new user hit in margin / profile / route (issue 19, items 2, 4, 5, 6, 10, 13) and the import rules."""
+
 import ast
 import json
 import math
@@ -11,8 +12,19 @@ import soiltrack.planning as planning
 from soiltrack.cli import build_parser, main
 from soiltrack.planning import profile, route_from_dict, route_profile
 from soiltrack.planning.profile import STANDSTILL_SPEED
-from soiltrack.soilmodel import (TERRAINS, VEHICLES, DataError, Soil, choose_scale, format_energy, format_force,
-                                 format_power, format_torque, slip_from_thrust, thrust_function)
+from soiltrack.soilmodel import (
+    TERRAINS,
+    VEHICLES,
+    DataError,
+    Soil,
+    choose_scale,
+    format_energy,
+    format_force,
+    format_power,
+    format_torque,
+    slip_from_thrust,
+    thrust_function,
+)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 HEAVY, LIGHT = VEHICLES["heavy"], VEHICLES["light"]
@@ -42,15 +54,27 @@ def light_fit_json(tmp_path_factory):
 
 # --- item 2: --plot checked before the work -----------------------------------------------------------------
 @pytest.mark.parametrize("bad", ["no_such_folder/p.png", "p.notanimageformat"])
-@pytest.mark.parametrize("cmd", [
-    ["margin", "--vehicle", "heavy", "--terrain", "dry_sand", "--grade-deg", "5"],
-    ["profile", "--vehicle", "heavy", "--terrain", "lete_sand", "--v0", "0.5", "--v1", "3", "--distance", "30"],
-    ["route", "ROUTE", "--vehicle", "heavy"],
-])
+@pytest.mark.parametrize(
+    "cmd",
+    [
+        ["margin", "--vehicle", "heavy", "--terrain", "dry_sand", "--grade-deg", "5"],
+        ["profile", "--vehicle", "heavy", "--terrain", "lete_sand", "--v0", "0.5", "--v1", "3", "--distance", "30"],
+        ["route", "ROUTE", "--vehicle", "heavy"],
+    ],
+)
 def test_bad_plot_path_exits_2_before_the_work(capsys, tmp_path, cmd, bad):
     route = tmp_path / "route.json"
-    route.write_text(json.dumps({"v0_m_s": 1.0, "v_end_m_s": 2.0, "objective": "time", "max_slip": 0.2,
-                                 "patches": [{"length_m": 10.0, "terrain": "dry_sand", "grade_deg": 0.0}]}))
+    route.write_text(
+        json.dumps(
+            {
+                "v0_m_s": 1.0,
+                "v_end_m_s": 2.0,
+                "objective": "time",
+                "max_slip": 0.2,
+                "patches": [{"length_m": 10.0, "terrain": "dry_sand", "grade_deg": 0.0}],
+            }
+        )
+    )
     argv = [str(route) if a == "ROUTE" else a for a in cmd] + ["--plot", str(tmp_path / bad)]
     rc, out, err = run(capsys, *argv)
     assert rc == 2
@@ -62,8 +86,23 @@ def test_bad_plot_path_exits_2_before_the_work(capsys, tmp_path, cmd, bad):
 # --- item 4: standstills and active limits ----------------------------------------------------------------
 @pytest.mark.slow
 def test_energy_plan_reports_its_standstill_and_active_limits(capsys, light_fit_json):
-    rc, out, _ = run(capsys, "profile", "--vehicle", "light", "--fit", light_fit_json, "--v0", "0.5", "--v1", "1.5",
-                     "--duration", "8", "--objective", "energy", "--json")
+    rc, out, _ = run(
+        capsys,
+        "profile",
+        "--vehicle",
+        "light",
+        "--fit",
+        light_fit_json,
+        "--v0",
+        "0.5",
+        "--v1",
+        "1.5",
+        "--duration",
+        "8",
+        "--objective",
+        "energy",
+        "--json",
+    )
     js = json.loads(out)
     assert rc == 0 and js["success"] is True
     assert len(js["standstills"]) >= 1
@@ -115,9 +154,18 @@ def test_first_point_is_the_steady_state_at_v0(objective, kw):
 
 
 def test_route_first_point_is_steady_and_a_given_slip_is_kept(capsys, tmp_path):
-    route = route_from_dict({"v0_m_s": 1.0, "v_end_m_s": 2.0, "objective": "time", "max_slip": 0.2, "patches": [
-        {"length_m": 10.0, "terrain": "dry_sand", "grade_deg": 5.0},
-        {"length_m": 10.0, "terrain": "sandy_loam", "grade_deg": 0.0}]})
+    route = route_from_dict(
+        {
+            "v0_m_s": 1.0,
+            "v_end_m_s": 2.0,
+            "objective": "time",
+            "max_slip": 0.2,
+            "patches": [
+                {"length_m": 10.0, "terrain": "dry_sand", "grade_deg": 5.0},
+                {"length_m": 10.0, "terrain": "sandy_loam", "grade_deg": 0.0},
+            ],
+        }
+    )
     res = route_profile(route, HEAVY, intervals=30)
     js = res.to_dict(route=True)
     p = js["patches"][0]
@@ -132,8 +180,22 @@ def test_route_first_point_is_steady_and_a_given_slip_is_kept(capsys, tmp_path):
     assert given.series["slip"][0] == pytest.approx(0.05, abs=1e-9)
     with pytest.raises(DataError):
         profile(soil, HEAVY, v0=1.0, v1=2.0, distance=20.0, intervals=30, slip0=0.3)  # beyond the 20 % limit
-    rc, _, err = run(capsys, "profile", "--vehicle", "heavy", "--terrain", "dry_sand", "--v0", "1", "--v1", "2",
-                     "--distance", "20", "--initial-slip", "0.3")
+    rc, _, err = run(
+        capsys,
+        "profile",
+        "--vehicle",
+        "heavy",
+        "--terrain",
+        "dry_sand",
+        "--v0",
+        "1",
+        "--v1",
+        "2",
+        "--distance",
+        "20",
+        "--initial-slip",
+        "0.3",
+    )
     assert rc == 2 and "Traceback" not in err
 
 
@@ -146,9 +208,24 @@ def test_plans_from_rest_and_to_rest():
 
 
 # --- item 6: the speed limit and the peak speed ----------------------------------------------------------
+@pytest.mark.slow
 def test_readme_example_peak_speed_and_max_speed(capsys):
-    base = ["profile", "--vehicle", "heavy", "--terrain", "lete_sand", "--v0", "0.5", "--v1", "3", "--distance", "30",
-            "--intervals", "40", "--json"]
+    base = [
+        "profile",
+        "--vehicle",
+        "heavy",
+        "--terrain",
+        "lete_sand",
+        "--v0",
+        "0.5",
+        "--v1",
+        "3",
+        "--distance",
+        "30",
+        "--intervals",
+        "40",
+        "--json",
+    ]
     rc, out, _ = run(capsys, *base)
     free = json.loads(out)
     assert rc == 0 and free["peak_speed_m_s"] >= max(free["speed_m_s"]) > 5.0  # it overshoots v1 = 3 m/s
@@ -222,10 +299,18 @@ def test_no_private_name_imported_from_another_module():
         tree = ast.parse(open(path, encoding="utf-8").read())
         for node in ast.walk(tree):
             if isinstance(node, ast.ImportFrom):
-                bad += [f"{os.path.basename(path)}: {node.module}.{a.name}" for a in node.names
-                        if a.name.startswith("_") and a.name != "__version__"]
-            if isinstance(node, ast.Attribute) and node.attr.startswith("_") and not node.attr.startswith("__") \
-                    and isinstance(node.value, ast.Name) and node.value.id in ("margin", "ocp", "profile", "replay"):
+                bad += [
+                    f"{os.path.basename(path)}: {node.module}.{a.name}"
+                    for a in node.names
+                    if a.name.startswith("_") and a.name != "__version__"
+                ]
+            if (
+                isinstance(node, ast.Attribute)
+                and node.attr.startswith("_")
+                and not node.attr.startswith("__")
+                and isinstance(node.value, ast.Name)
+                and node.value.id in ("margin", "ocp", "profile", "replay")
+            ):
                 bad.append(f"{os.path.basename(path)}: {node.value.id}.{node.attr}")
     assert bad == []
 
@@ -233,8 +318,9 @@ def test_no_private_name_imported_from_another_module():
 def test_speed_plan_is_the_only_name():
     assert hasattr(planning, "SpeedPlan") and "SpeedPlan" in planning.__all__
     assert not hasattr(planning, "ProfileResult") and "ProfileResult" not in planning.__all__
-    assert isinstance(profile(TERRAINS["lete_sand"], HEAVY, v0=0.5, v1=3.0, distance=30.0, intervals=20),
-                      planning.SpeedPlan)
+    assert isinstance(
+        profile(TERRAINS["lete_sand"], HEAVY, v0=0.5, v1=3.0, distance=30.0, intervals=20), planning.SpeedPlan
+    )
 
 
 def test_soil_thrust_is_the_model_core():
@@ -242,7 +328,8 @@ def test_soil_thrust_is_the_model_core():
 
     s = TERRAINS["dry_sand"]
     f = thrust_function("full")
-    expect = float(f(0.2, s.cohesion, s.friction_angle, s.shear_modulus, HEAVY.weight, HEAVY.track_length,
-                     HEAVY.track_width))
+    expect = float(
+        f(0.2, s.cohesion, s.friction_angle, s.shear_modulus, HEAVY.weight, HEAVY.track_length, HEAVY.track_width)
+    )
     assert soil_thrust(s.as_vector(), 0.2, HEAVY.weight, HEAVY, "full")[0] == pytest.approx(expect, rel=1e-14)
     assert math.isfinite(expect) and isinstance(Soil(*s.as_vector()), Soil)

@@ -315,6 +315,7 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
     wres = pr["wres"]
     dof = max(n - 2, 1)
     s2 = 1.0 if prep.sigma_known else float(np.sum(wres ** 2)) / dof
+    cov2: np.ndarray | None
     try:
         cov2 = s2 * np.linalg.inv(J2.T @ J2)
         if not (np.all(np.isfinite(cov2)) and cov2[0, 0] > 0 and cov2[1, 1] > 0):

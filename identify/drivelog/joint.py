@@ -73,7 +73,7 @@ DATA_ROWS = ("v", "w", "M", "dw_dt", "a", "sigma_v", "sigma_w_slip", "sigma_T", 
 #: Index of the hull channel's weight in :data:`DATA_ROWS` (0 switches the channel off).
 HULL_ROW = DATA_ROWS.index("inv_sigma_H")
 
-_QUIET = {"expand": True, "print_time": False, "ipopt.sb": "yes", "ipopt.print_level": 0}
+_QUIET: dict[str, Any] = {"expand": True, "print_time": False, "ipopt.sb": "yes", "ipopt.print_level": 0}
 
 
 @dataclass(frozen=True)
@@ -336,13 +336,14 @@ class _Chunked:
     def __init__(self, fn: ca.Function, D: np.ndarray) -> None:
         self.fn = fn
         self.D = np.asarray(D, dtype=float)
-        self._full = None
+        self._full: ca.DM | None = None
 
     def __call__(self, th: np.ndarray, slip: np.ndarray, idx: np.ndarray | None = None) -> list[np.ndarray]:
         slip = np.asarray(slip, dtype=float).ravel()
         n = slip.size
         k = -(-n // SLIP_CHUNK)
         size = k * SLIP_CHUNK
+        D: ca.DM | np.ndarray
         if idx is None:
             if self._full is None:
                 self._full = ca.DM(padded_data(self.D, size))
@@ -428,15 +429,18 @@ class SlipSolver:
         solution); starting from the inverse thrust-slip curve AND from the slip measured from the
         speeds (accurate at large slip) finds the right one.
         """
-        best, best_c = None, None
+        best: np.ndarray | None = None
+        best_c: np.ndarray | None = None
         for s0 in starts:
             s = self.solve(theta, s0, iterations)
             c = self.costs(theta, s)
-            if best is None:
+            if best is None or best_c is None:
                 best, best_c = s, c
             else:
                 better = c < best_c
                 best, best_c = np.where(better, s, best), np.where(better, c, best_c)
+        if best is None:
+            raise ValueError("SlipSolver.best: no start slips given")
         return best
 
 

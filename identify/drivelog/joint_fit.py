@@ -63,8 +63,8 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     if names - set(es.names):
         es = parse_effects({**es.to_dict(), **{n: None for n in names - set(es.names)}})
     structure = effect_structure(es, vehicle)
-    res_fn, labels = residual_function(vehicle, structure)
-    labels = list(labels)
+    res_fn, fn_labels = residual_function(vehicle, structure)
+    labels = list(fn_labels)
     torque_hold = str(options.get("torque_hold", "zoh"))
     jd = joint_data(log, vehicle, prep, torque_hold, sigma_accel=options.get("sigma_accel"))
     hull_used = options.get("hull_channel", True) is not False
@@ -87,7 +87,7 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     i_ref = K_ref / l
     scale = np.concatenate([[F_ref, K_ref], esc])
     # start of the effect parameters: given values (effects=...), else the off values; fixed ones pinned
-    e0 = np.array([es.value(*lab.split("."), vehicle) for lab in labels], dtype=float)
+    e0 = np.array([es.value(lab.split(".")[0], lab.split(".")[1], vehicle) for lab in labels], dtype=float)
     is_fixed = np.array([lab in fixed_vals for lab in labels], dtype=bool)
     for j, lab in enumerate(labels):
         if lab in fixed_vals:
@@ -256,7 +256,7 @@ def _result_jacobian(Jt: np.ndarray, gi: np.ndarray, free: np.ndarray, ident: np
             kind = "sandwich"
         except np.linalg.LinAlgError:
             pass
-    if kind == "sandwich":
+    if kind == "sandwich" and cov_full is not None:  # (the sandwich is set only with cov_full)
         return Jr, cov_full[:2, :2], kind
     try:
         return Jr, s2 * np.linalg.inv(Jr[:, :2].T @ Jr[:, :2]), kind
@@ -334,7 +334,7 @@ def _separating_experiment(name: str, correlated: dict[str, float]) -> str:
 
 
 def _sandwich(e: np.ndarray, Jt: np.ndarray, H: np.ndarray, slip: np.ndarray,
-              free: np.ndarray) -> tuple[np.ndarray | None, np.ndarray, np.ndarray | None]:
+              free: np.ndarray) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
     """Sandwich covariance of the free parameters with the latent slips profiled out.
 
     ``A = sum_k (H_tt - H_ti H_it / H_ii)`` (exact per-sample Hessian), ``B = sum_k psi_k psi_k^T``

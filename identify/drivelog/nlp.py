@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import time as _time
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -28,7 +29,8 @@ def bracket_signed(slip, lk):
     return ca.sign(slip) * shear_bracket(ca.fabs(slip) * lk)
 
 
-_QUIET = {"expand": True, "print_time": False, "ipopt.sb": "yes", "ipopt.print_level": 0}
+_QUIET: dict[str, bool | int | float | str] = {"expand": True, "print_time": False, "ipopt.sb": "yes",
+                                               "ipopt.print_level": 0}
 
 
 def padded_size(n: int) -> int:
@@ -133,7 +135,7 @@ def ridge_point(Fmax: float, vehicle: Vehicle, bounds: SoilBounds, model: str,
     if model == "cohesion-free":
         return np.array([0.0, min(max(math.atan(Fmax / W), plo), phi_hi)])
     seg = ridge_ranges(Fmax, Fmax, W, A, bounds) if c_hint is not None else None
-    if seg is None:
+    if seg is None or c_hint is None:  # (seg is None whenever c_hint is)
         c, phi = ridge_centre(Fmax, W, A, bounds)
         return np.array([float(c), float(phi)])
     (c_a, c_b), _ = seg
@@ -147,7 +149,7 @@ def pad(a: np.ndarray, size: int, value: float = 0.0) -> np.ndarray:
 
 def run_starts(solver: ca.Function, make_x0, p, lbx, ubx, starts, Fb, Kb, F_ref, K_ref) -> dict:
     """Solve from the first start; try the next ones only if it failed or ended on a bound."""
-    best = None
+    best: dict[str, Any] | None = None
     total = 0.0
     for j, (Fmax0, K0) in enumerate(starts):
         t0 = _time.perf_counter()
@@ -156,8 +158,9 @@ def run_starts(solver: ca.Function, make_x0, p, lbx, ubx, starts, Fb, Kb, F_ref,
         xs = np.asarray(sol["x"], dtype=float).reshape(-1)
         fval = float(sol["f"])
         ok = bool(st.get("success", False)) and bool(np.all(np.isfinite(xs))) and math.isfinite(fval)
-        cand = {"x": xs, "f": fval, "ok": ok, "status": str(st.get("return_status", "unknown")),
-                "iterations": int(st.get("iter_count", -1)), "starts_tried": j + 1}
+        cand: dict[str, Any] = {"x": xs, "f": fval, "ok": ok,
+                                "status": str(st.get("return_status", "unknown")),
+                                "iterations": int(st.get("iter_count", -1)), "starts_tried": j + 1}
         if best is None or (cand["ok"], -cand["f"]) > (best["ok"], -best["f"]):
             best = cand
         best["starts_tried"] = j + 1
@@ -165,6 +168,8 @@ def run_starts(solver: ca.Function, make_x0, p, lbx, ubx, starts, Fb, Kb, F_ref,
         on_bound = any(abs(val - b) <= 1e-6 * (hi - lo) for val, (lo, hi) in ((F, Fb), (K, Kb)) for b in (lo, hi))
         if best["ok"] and not on_bound:
             break
+    if best is None:
+        raise ValueError("run_starts: no start points given")
     best["time"] = total
     return best
 

@@ -54,7 +54,7 @@ def classify_regime(Fmax: float, K: float, l: float, cov2: np.ndarray | None, at
     warnings: list[str] = []
     corr, s_slope, relF, relK = float("nan"), float("nan"), float("inf"), float("inf")
     cov_ok = cov2 is not None
-    if cov_ok:
+    if cov2 is not None:
         sF, sK = math.sqrt(cov2[0, 0]), math.sqrt(cov2[1, 1])
         corr = float(cov2[0, 1] / (sF * sK))
         gslope = np.array([l / (2 * K), -Fmax * l / (2 * K * K)])

@@ -51,8 +51,8 @@ class DriveLogResiduals:
         return {ch: out["channels"][ch] for ch in CHANNELS}
 
 
-def _params_from(result_or_params: Any, effects: Any) -> tuple[float, float, dict[str, float], Any, dict, bool,
-                                                                 str, tuple[float, float] | None]:
+def _params_from(result_or_params: Any, effects: Any) -> tuple[
+        float, float, dict[str, float], Any, dict | None, bool, str, tuple[float, float] | None]:
     """``(F_lim, K, effect values, effects, noise models, hull used, torque_hold, accel noise)``."""
     if isinstance(result_or_params, Mapping):
         p = result_or_params
@@ -122,7 +122,9 @@ def evaluate_residuals(result_or_params: Any, log: DriveLog, vehicle: Vehicle, e
     if missing:
         # effects switched on without a value: their given values (or off values)
         es = parse_effects(eff)
-        ev.update({lab: es.value(*lab.split("."), vehicle) for lab in missing})
+        for lab in missing:
+            name, param = lab.split(".")
+            ev[lab] = es.value(name, param, vehicle)
     theta = np.array([F, K] + [ev[lab] for lab in labels], dtype=float)
     if not np.all(np.isfinite(theta)):
         raise DataError("drive_log_residuals: the parameters are not finite")

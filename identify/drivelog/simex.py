@@ -98,6 +98,8 @@ def _simex_correct(fit_fn: Callable[..., FitResult], base: FitResult, log: Drive
     dFm_dphi0 = W / math.cos(phi0) ** 2
     J2 = np.column_stack([jac0[:, 1] / dFm_dphi0, jac0[:, 2]])
     F0 = float(base.extra["max_thrust_N"])
+    if base.s2 is None:  # impossible: a successful hard-log fit has its residual variance
+        raise RuntimeError("SIMEX: the uncorrected fit has no residual variance s2")
     s2 = float(base.s2)
     cov0 = s2 * np.linalg.inv(J2.T @ J2)
 

@@ -20,6 +20,7 @@ from dataclasses import replace
 from typing import Callable
 
 from ..estimates.joint_likelihood import ReplacedInterval
+from ..estimates.result import FitResult
 
 __all__ = ["fit_both_holds", "widen_for_hold"]
 
@@ -69,7 +70,7 @@ def widen_for_hold(res, alt, alt_hold: str = "sample"):
     return replace(res, replaced_intervals=overrides or None, extra=extra)
 
 
-def fit_both_holds(fit_with: Callable[[str], object]):
+def fit_both_holds(fit_with: Callable[[str], FitResult]):
     """``fit_with("zoh")``, its intervals widened to cover ``fit_with("sample")`` (effects fitted only)."""
     res = fit_with("zoh")
     if not res.success or not res.effect_labels:

@@ -23,12 +23,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
 from ...soilmodel.errors import DataError
 from ...soilmodel.soil import PARAMETER_NAMES
 from .distributions import lr_threshold
+from .records import ParameterEstimate
 from ..sweep.model import fit_vector
 
 __all__ = ["ReplacedInterval", "profile_intervals", "with_profile_intervals", "check_intervals", "INTERVAL_MODES"]
@@ -77,7 +79,7 @@ def check_intervals(value) -> str:
     return value
 
 
-def _candidates(res, mode: str) -> list[tuple[int, str, object]]:
+def _candidates(res, mode: str) -> list[tuple[int, str, ParameterEstimate]]:
     """``(index in [c, phi, K, e...], label, ParameterEstimate)`` of the parameters to profile."""
     out = []
     for j, name in enumerate(PARAMETER_NAMES):
@@ -110,7 +112,7 @@ def profile_intervals(pb, res, solve, mode: str = "auto") -> tuple[dict, tuple[s
     lo_b = np.concatenate([pb.bounds.lower, [b[0] for b in res.effect_bounds]])
     hi_b = np.concatenate([pb.bounds.upper, [b[1] for b in res.effect_bounds]])
     out, warnings = {}, []
-    best = [cmin, None]
+    best: list[Any] = [cmin, None]  # the lowest cost seen and its vector (None: the fit's own)
 
     def cost_at(j, v, start):
         r = solve(pb, {j: v}, start)
@@ -135,7 +137,8 @@ def profile_intervals(pb, res, solve, mode: str = "auto") -> tuple[dict, tuple[s
                 opens.append(True)
                 continue
             in_v, in_c, in_x = val, cmin, xhat
-            out_v = out_c = None
+            out_v: float | None = None
+            out_c: float | None = None
             step = half
             failed = False
             for _ in range(_MAX_EXPAND):
@@ -153,7 +156,7 @@ def profile_intervals(pb, res, solve, mode: str = "auto") -> tuple[dict, tuple[s
                 if v == bound:
                     break
                 step *= 2.0
-            if out_v is None:
+            if out_v is None or out_c is None:  # (both are set together)
                 ends.append(bound if (not failed and in_v == bound) else in_v)
                 opens.append(not failed and in_v == bound)
                 if failed:

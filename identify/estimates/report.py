@@ -12,6 +12,7 @@ from functools import cached_property
 
 import numpy as np
 
+from ..jitcache import fallback_note
 from ...soilmodel.ridge import MAX_LOAD_LEVELS, load_summary_points
 from ...soilmodel.soil import PARAMETER_NAMES, PRACTICAL_BOUNDS, Soil, SoilBounds
 from ...soilmodel.units import choose_scale, format_force
@@ -287,6 +288,9 @@ class ReportViews:
                "failed": " - no estimate (see the warnings)"}.get(self.outcome, "")
         L.append(f"status: {self.outcome}{why} (solver status {self.solver_status}, {self.iterations} "
                  f"iterations, {_duration(self.solve_time)})")
+        fallback = fallback_note(self.extra.get("engine_backend")) if isinstance(self.extra, dict) else None
+        if fallback:  # said once on stderr too (soiltrack.identify.jitcache)
+            L.append(f"engine: {fallback}")
         unit = self.residual_unit
         rmse = format_force(self.rmse) if unit == "N" else f"{self.rmse:.4g} {unit}"
         L.append(f"fit: RMSE {rmse}, cost {self.cost:.6g}, residual dof {self.dof}")

@@ -198,7 +198,8 @@ def _resjac_point(model: str, n: int):
 def _thrust_map(model: str, n: int):
     """``thrust_expr`` at ``n`` samples of one soil: ``(slip, c, phi, K, W, l, b)`` with c, phi, K, l, b shared."""
     a = [ca.SX.sym(k) for k in ("slip", "c", "phi", "K", "W", "l", "b")]
-    return _row_map("corner_curves", a, [thrust_expr(*a, model=model)], [1, 2, 3, 5, 6], n)
+    F = thrust_expr(a[0], a[1], a[2], a[3], a[4], a[5], a[6], model=model)
+    return _row_map("corner_curves", a, [F], [1, 2, 3, 5, 6], n)
 
 
 def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> ca.Function:
@@ -248,7 +249,7 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
         t = ca.fmin(ca.fmax(r2 / ca.if_else(m22 > 0, m22, 1.0), t_lo), t_hi)
         c = ca.SX.zeros(n_grid)
         cost = yy_s - 2 * t * r2 + t * t * m22
-    best = (cost[0], c[0], t[0], Kg[0])
+    best: tuple[ca.SX, ...] = (cost[0], c[0], t[0], Kg[0])
     for j in range(1, n_grid):
         better = cost[j] < best[0]  # NaN never wins
         best = tuple(ca.if_else(better, new, old) for new, old in zip((cost[j], c[j], t[j], Kg[j]), best))
@@ -287,11 +288,11 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
                           ca.sum1(ca.logic_and(zS >= lz, zS <= uz)) == p)
     certify = ca.Function("certify", [zS, fS, gS, DS, lz, uz, scS, tolS], [ca.logic_and(finite, done)])
     HS, lamS = ca.SX.sym("H", p, p), ca.SX.sym("lam")
-    m = 1 - act
+    mfree = 1 - act
     Hd = HS + lamS * ca.diag(ca.fmax(DS, 1e-300))
-    Hr = (m @ m.T) * Hd + ca.diag(1 - m)
-    zt = ca.fmin(ca.fmax(zS + ca.solve(Hr, -m * gS), lz), uz)
-    trial = ca.Function("trial", [zS, lamS, gS, HS, DS, lz, uz], [zt, m])
+    Hr = (mfree @ mfree.T) * Hd + ca.diag(1 - mfree)
+    zt = ca.fmin(ca.fmax(zS + ca.solve(Hr, -mfree * gS), lz), uz)
+    trial = ca.Function("trial", [zS, lamS, gS, HS, DS, lz, uz], [zt, mfree])
     ftS, gtS, mS = ca.SX.sym("ft"), ca.SX.sym("gt", p), ca.SX.sym("m", p)
     accept = ca.Function("accept", [ftS, fS, gtS, gS, mS], [ca.logic_or(
         ftS <= fS, ca.logic_and(ftS <= fS + 1e-13 * ca.fabs(fS), ca.norm_2(mS * gtS) < ca.norm_2(mS * gS)))])
@@ -380,6 +381,14 @@ def resjac_function(model: str, n: int) -> ca.Function:
 class _Caller:
     """Zero-copy caller of a flat Function (one input vector, one output vector); thread-safe."""
 
+    #: what evaluates this caller (set by :class:`Kernel`)
+    engine: str
+    backend: str
+    #: views of the solver caller's input buffer (set by :class:`Kernel`): data, data + box + start, grid rows
+    head: np.ndarray
+    front: np.ndarray
+    grid: np.ndarray | None
+
     def __init__(self, f: ca.Function) -> None:
         self.f = f
         self.n_in, self.n_out = f.size1_in(0), f.size1_out(0)
@@ -388,8 +397,10 @@ class _Caller:
         self.y = np.zeros(self.n_out)
         try:
             self.buf, self.trigger = f.buffer()
-            self.buf.set_arg(0, memoryview(self.x))
-            self.buf.set_res(0, memoryview(self.y))
+            # the stub wants a byte size, the binding takes it from the memoryview (3 arguments are refused);
+            # numpy's buffer protocol is typed from Python 3.12 only
+            self.buf.set_arg(0, memoryview(self.x))  # type: ignore[call-arg, arg-type]
+            self.buf.set_res(0, memoryview(self.y))  # type: ignore[call-arg, arg-type]
         except Exception:  # pragma: no cover - CasADi without buffers: ordinary (slower) calls
             self.trigger = None
 
@@ -837,7 +848,7 @@ def solve_many(pbs: list, n_grid: int = 25, jit: str = "wait") -> list[Solution]
         theta[:, 2] = Z[:, p - 1] * _S2
         theta[~np.all(np.isfinite(Z), axis=1)] = np.nan
         if one_load:  # the ridge marker, as the IPOPT path reports it
-            for r in np.nonzero(cert)[0]:
+            for r in np.nonzero(cert)[0].tolist():
                 pb = P[r]
                 W0, A = float(pb.load[0]), pb.vehicle.contact_area
                 c, phi = ridge_centre(max_thrust_expr(0.0, theta[r, 1], W0, A, "cohesion-free"), W0, A, pb.bounds)

@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import replace
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -59,8 +60,8 @@ def ipopt_solver(model: str, n: int, opts_key: tuple = ()) -> ca.Function:
     Fm = thrust_expr(slip, c, phi, K, W, l, b, model=model)
     rw = (Fm - F) / sig
     f = 0.5 * ca.dot(rw, rw) / scale
-    opts = {"expand": True, "print_time": False, "error_on_fail": False, "ipopt.print_level": 0,
-            "ipopt.sb": "yes"}
+    opts: dict[str, Any] = {"expand": True, "print_time": False, "error_on_fail": False,
+                            "ipopt.print_level": 0, "ipopt.sb": "yes"}
     opts.update(_DEFAULT_OPTS)
     opts.update(dict(opts_key))
     return ca.nlpsol(f"soilfit_{model.replace('-', '_')}_{n}", "ipopt", {"x": x, "p": P, "f": f}, opts)

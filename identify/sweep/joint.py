@@ -26,6 +26,7 @@ nominal fit's.
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -85,7 +86,8 @@ def _solver(vehicle: Vehicle, structure: EffectSet, model: str, measured: str, r
     nlp = {"x": X, "p": P, "f": f}
     if g:
         nlp["g"] = ca.vertcat(*g)
-    opts = {"expand": True, "print_time": False, "error_on_fail": False, "ipopt.print_level": 0, "ipopt.sb": "yes"}
+    opts: dict[str, Any] = {"expand": True, "print_time": False, "error_on_fail": False,
+                            "ipopt.print_level": 0, "ipopt.sb": "yes"}
     opts.update(_DEFAULT_OPTS)
     opts.update(dict(opts_key))
     return ca.nlpsol(f"jointfit_{n}", "ipopt", nlp, opts)
@@ -126,8 +128,8 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
         e0 = []
         given = dict(pb.effect_start)
         for lab, (lo, hi) in zip(labels, eb):
-            name, p = lab.split(".", 1)
-            spec = EFFECTS[name].param(p)
+            name, pname = lab.split(".", 1)
+            spec = EFFECTS[name].param(pname)
             v = fixed.get(lab, given.get(lab, spec.off_value if spec.default is None else spec.default))
             e0.append(min(max(v, lo), hi))
     lo = np.concatenate([pb.bounds.lower, eb[:, 0]]) / S
@@ -158,7 +160,7 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     n_of = normal_load_function(pb.vehicle, structure) if m else None
 
     def load_at(e_values) -> float:
-        return float(n_of(float(W[0]), e_values)[0]) if m else float(W[0])
+        return float(n_of(float(W[0]), e_values)[0]) if n_of is not None else float(W[0])
 
     if ridge:
         # c and phi enter only through F_max = A c + N tan(phi): solve for (F_max, K, effects) with

@@ -342,7 +342,7 @@ def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: Soi
             f"{SCALE_FACTOR:g} times what the strongest soil within the bounds gives at that slip and load "
             f"({_fmt_force(float(hi[np.nonzero(pos)[0] == k][0]))}): a typo, a unit error or the wrong normal load?",
             usable=False, rows=tuple(int(r) + 1 for r in above)))
-    neg = np.nonzero(pos & (force < 0))[0] if _MIN(force) < 0 else ()
+    neg = np.nonzero(pos & (force < 0))[0] if _MIN(force) < 0 else np.zeros(0, dtype=np.intp)
     if len(neg):
         k = int(neg[0])
         out.append(Finding(

@@ -47,7 +47,8 @@ class FitFailed(RuntimeError):
 BP_CRITICAL = 6.635
 
 
-def heteroscedasticity(force: np.ndarray, residuals: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+def heteroscedasticity(force: np.ndarray, residuals: np.ndarray,
+                       sigma: np.ndarray) -> np.ndarray | np.float64:
     """Koenker's Breusch-Pagan statistic ``n R^2`` of the squared weighted residuals on the
     squared fitted force, per dataset (leading axes broadcast; NaN where it does not apply).
 
@@ -251,6 +252,7 @@ class SlipProblem:
         if lo != np.maximum.reduce(sig):
             return ()
         r = np.asarray(r, dtype=float)
+        stat: np.ndarray | np.float64
         if r.shape == sig.shape:  # one dataset (equal weights of 1: nothing to divide by)
             stat = _heteroscedasticity_1d(self.force, r, None if lo == 1.0 else sig)
         else:

@@ -31,6 +31,7 @@ from ...soilmodel.errors import DataError
 from ...soilmodel.vehicle import Vehicle
 from ..estimates.distributions import lr_threshold
 from ..estimates.result import FitResult
+from .model import SweepResiduals
 
 __all__ = ["RESISTANCE_MODES", "MU_BOUNDS", "GRID_POINTS", "GOLDEN_TOL", "fit_resistance",
            "assumed_resistance", "SinkageResistance"]
@@ -68,7 +69,7 @@ class SinkageResistance:
     """
 
     k_z: float
-    base: Any
+    base: SweepResiduals
 
     def residuals_on(self, result, data) -> dict:
         """``{drawbar_pull_N: measured - predicted}`` of data with a sinkage column."""
@@ -91,7 +92,7 @@ def _as_tractive(data: SlipData, k_z: float, weight: float) -> SlipData:
 
 
 def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData, Vehicle, bool], FitResult],
-                   form: str = "fit", base_residuals: Any = None) -> FitResult:
+                   form: str = "fit", base_residuals: SweepResiduals | None = None) -> FitResult:
     """Fit the resistance with the soil (see the module docs); returns the soil's fit at the best value.
 
     Parameters
@@ -155,7 +156,7 @@ def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData,
         else:
             a, c = c, d
             d = a + _PHI * (b - a)
-    v = min(cache, key=lambda k: cache[k])
+    v = min(cache, key=lambda m: cache[m])
     best = trial(v, True)
     cmin = _cost(best)
     if not math.isfinite(cmin):
@@ -176,6 +177,9 @@ def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData,
     if form == "fit-sinkage":
         if "weights_from" in extra:  # the fit saw the pulls as tractive forces; the column was the pull's
             extra["weights_from"] = STD_COLUMNS[data.measured]
+        if base_residuals is None:
+            raise ValueError("fit_resistance: form='fit-sinkage' needs base_residuals (the sweep's "
+                             "residual model)")
         return replace(best, extra=extra, measured="drawbar_pull",
                        residual_model=SinkageResistance(v, base_residuals))
     return replace(best, extra=extra)

@@ -138,7 +138,7 @@ def fit_least_squares(pb: SlipProblem, x0=None, max_iter: int = 500, tol: float 
         if not (np.all(np.isfinite(H)) and np.all(np.isfinite(g))):
             status, msg = "Non_Finite_Jacobian", "the Jacobian became non-finite"
             break
-        if np.linalg.norm(g) <= 1e-14 * max(1.0, np.linalg.norm(rw) * np.linalg.norm(Js)):
+        if np.linalg.norm(g) <= 1e-14 * max(1.0, float(np.linalg.norm(rw) * np.linalg.norm(Js))):
             status, ok, msg = "Converged", True, "gradient vanished"
             break
         accepted = False

@@ -36,7 +36,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ...soilmodel.errors import DataError
+from ..estimates.result import FitResult
 from .model import fit_vector, slip_slope
+from .problem import SlipProblem
 
 __all__ = ["SlipNoise", "estimate_slip_noise", "leverage", "serial_correlation", "check_slip_noise", "fit_with_slip_noise", "LR_CRITICAL"]
 
@@ -220,7 +222,7 @@ def leverage(res) -> np.ndarray:
     return np.minimum(h, 0.95)
 
 
-def fit_with_slip_noise(pb, solve, mode) -> tuple[object, SlipNoise, object]:
+def fit_with_slip_noise(pb, solve, mode) -> tuple[FitResult, SlipNoise, SlipProblem]:
     """Fit ``pb`` with ``solve(pb, start_x) -> FitResult`` under the slip-noise ``mode``.
 
     Returns the final result, what was assumed (:class:`SlipNoise`) and the problem with the

@@ -24,7 +24,7 @@ import numpy as np
 from ...soilmodel.errors import DataError
 from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.wheel_sweep import WheelSweep
-from ..stats import chi2_sf, t_cdf
+from ..estimates.distributions import chi2_sf, t_cdf
 from .fitting import WHEEL_EFFECTS, WheelFitOptions, fit_wheel
 from .result import WheelFitResult, slip_levels, wheel_rows
 

@@ -61,6 +61,20 @@ class WheelFitOptions:
     bounds: WheelBounds = DEFAULT_WHEEL_BOUNDS
     settings: WheelSettings = DEFAULT_WHEEL_SETTINGS
 
+    def __post_init__(self) -> None:
+        for e in self.effects:
+            if e not in WHEEL_EFFECTS:
+                raise DataError(f"unknown wheel effect {e!r}; the wheel model has {list(WHEEL_EFFECTS)}")
+        for name, v in self.fixed.items():
+            if name not in WHEEL_PARAMETERS:
+                raise DataError(f"unknown wheel parameter {name!r} to hold fixed; expected one of "
+                                f"{list(WHEEL_PARAMETERS)}")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise DataError(f"fixed value of {name} must be a finite number, got {v!r}")
+            lo, hi = self.bounds.lower[WHEEL_PARAMETERS.index(name)], self.bounds.upper[WHEEL_PARAMETERS.index(name)]
+            if not lo <= v <= hi:
+                raise DataError(f"fixed value of {name} ({v:.6g} SI) lies outside its bounds [{lo:.6g}, {hi:.6g}]")
+
 
 def _starts(data: WheelSweep, wheel: RigidWheel, free: np.ndarray, fixed: np.ndarray,
             opts: WheelFitOptions, resid) -> list[np.ndarray]:

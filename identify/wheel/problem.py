@@ -88,12 +88,11 @@ def residual_function(wheel: RigidWheel, settings: WheelSettings, measured_sinka
     th = ca.MX.sym("theta", N_PARAMETERS)
     c, phi, K, k_c, k_phi, n, s = (th[q] for q in range(N_PARAMETERS))
     r, b, h = wheel.radius, wheel.width, wheel.grouser_height
-    k = bekker_modulus(k_c, k_phi, b)
     if measured_sinkage:
         z_used = z
     else:
-        z_used = sinkage_from_load_function(r, b, h, settings)(i, W, c, phi, K, k, n, s)
-    dp, wl, _ = wheel_expr(i, z_used, c, phi, K, k, n, r, b, h, settings, slip_sinkage=s)
+        z_used = sinkage_from_load_function(r, b, h, settings)(i, W, c, phi, K, k_c, k_phi, n, s)
+    dp, wl, _ = wheel_expr(i, z_used, c, phi, K, k_c, k_phi, n, r, b, h, settings, slip_sinkage=s)
     return ca.Function("wheel_row", [i, z, W, th], [dp, wl, z_used], ["i", "z", "W", "theta"],
                        ["drawbar_pull", "normal_load", "sinkage"])
 

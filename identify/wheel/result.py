@@ -22,8 +22,8 @@ import numpy as np
 from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.wheel import entry_angle
 from ...soilmodel.wheel_sweep import WheelSweep
-from ..core_stats import RANK_TOL, WEAK_CORRELATION, core_stats_one, quantile
-from ..stats import f_sf
+from ..estimates.least_squares import RANK_TOL, WEAK_CORRELATION, core_stats_one, quantile
+from ..estimates.distributions import f_sf
 from .problem import NOISE_FLOOR_REL, WHEEL_PARAMETERS, bekker_modulus, residual_function
 
 __all__ = ["WheelEstimate", "WheelCombination", "WheelFitResult", "build_wheel_result", "NULL_TOL",
@@ -296,6 +296,8 @@ def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np
     """Assemble a :class:`WheelFitResult` from the optimum's residuals and Jacobians (SI)."""
     n = data.n_samples
     sink = data.has_sinkage
+    lo, hi = np.array(options.bounds.lower), np.array(options.bounds.upper)
+    theta = np.clip(theta, lo, hi)  # IPOPT may end a hair outside a bound (its bound relaxation)
     s_dp = math.sqrt(float(residual_dp @ residual_dp) / n)
     s_w = math.sqrt(float(residual_w @ residual_w) / n) if sink else None
     # the weights the objective's optimum used: 1 / (SSR_k / n + floor^2) per channel
@@ -317,7 +319,6 @@ def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np
     ident = (in_null < NULL_TOL) & st["Dok"][0]
     q = quantile(dof, False)
     C = s2 * Pinv / np.outer(D, D) if math.isfinite(s2) else None
-    lo, hi = np.array(options.bounds.lower), np.array(options.bounds.upper)
 
     params: dict[str, WheelEstimate] = {}
     kf = 0

@@ -1,0 +1,231 @@
+"""Safe, streaming reading of the CSV contract's numeric columns (limits said, every bad row named).
+
+:func:`soiltrack.soilmodel.read_csv` decides the file's kind from its header; this module reads
+the rows. It never holds the file's text in memory: each row is parsed as it is read into one
+compact float array per column, so memory grows with the numbers kept (8 bytes a value), and
+a file with more data rows than :func:`max_rows` is refused as soon as the reader passes the
+limit (before the rest of the file is read). Every bad value or row is collected - the error
+names how many there are and the first few (:data:`~soiltrack.soilmodel.errors.SHOWN_ROWS`),
+not only the first. Encodings other than UTF-8 (a UTF-16 export, a binary file), fields
+longer than CSV's field limit and values beyond :data:`MAX_ABS_VALUE` are refused with the
+file, the column and the row named.
+"""
+
+from __future__ import annotations
+
+import codecs
+import csv
+import math
+import os
+from array import array
+from typing import Iterator
+
+import numpy as np
+
+from .errors import SHOWN_ROWS, DataError, rows_text
+
+__all__ = [
+    "MAX_ROWS",
+    "MAX_ROWS_ENV",
+    "MAX_ABS_VALUE",
+    "max_rows",
+    "check_encoding",
+    "read_header",
+    "read_columns",
+    "bad_rows_error",
+]
+
+#: Default largest number of data rows read into memory (a one-hour drive log at 500 Hz has 1.8
+#: million); ``$SOILTRACK_MAX_ROWS`` or ``read_csv(..., max_rows=N)`` changes it.
+MAX_ROWS = 2_000_000
+#: Environment variable that sets the row limit.
+MAX_ROWS_ENV = "SOILTRACK_MAX_ROWS"
+#: Largest magnitude of any value in a data file (SI units). No force, torque, speed, time or
+#: load of a tracked vehicle comes near it, and sums of squares of larger values overflow
+#: float64 in the fits (a torque of 1e308 made the drive-log fit fail with a linear-algebra error).
+MAX_ABS_VALUE = 1e12
+
+_BOMS = (
+    (codecs.BOM_UTF32_LE, "UTF-32"),
+    (codecs.BOM_UTF32_BE, "UTF-32"),
+    (codecs.BOM_UTF16_LE, "UTF-16"),
+    (codecs.BOM_UTF16_BE, "UTF-16"),
+)
+
+
+def max_rows(limit: int | None = None) -> int:
+    """The row limit in force: ``limit`` if given, else ``$SOILTRACK_MAX_ROWS``, else :data:`MAX_ROWS`."""
+    if limit is None:
+        env = os.environ.get(MAX_ROWS_ENV)
+        if env is None or not env.strip():
+            return MAX_ROWS
+        try:
+            limit = int(env)
+        except ValueError:
+            raise DataError(f"${MAX_ROWS_ENV} must be a whole number of rows, got {env!r}") from None
+    if isinstance(limit, bool) or int(limit) < 1:
+        raise DataError(f"the row limit must be a whole number >= 1, got {limit!r}")
+    return int(limit)
+
+
+def check_encoding(path: str, head: bytes, what: str = "text file") -> None:
+    """Refuse UTF-16/32 and binary content (from the file's first bytes) naming the file."""
+    for bom, name in _BOMS:
+        if head.startswith(bom):
+            raise DataError(f"the {what} is {name} text: save it as UTF-8", file=path)
+    if b"\0" in head:
+        if (
+            len(head) >= 2
+            and (head[1:2] == b"\0" or head[0:1] == b"\0")
+            and head.count(b"\0") * 3 >= len(head)
+        ):
+            raise DataError(
+                f"the {what} looks like UTF-16 text without a byte-order mark: save it as UTF-8", file=path
+            )
+        raise DataError(
+            f"not a text file (NUL bytes in the first {len(head)} bytes): expected a UTF-8 {what}", file=path
+        )
+
+
+def _rows(path: str) -> Iterator[tuple[int, list[str]]]:
+    """Non-blank CSV rows with their index (0 = the header); DataError naming the row on any read error."""
+    try:
+        with open(path, "rb") as fb:
+            head = fb.read(4096)
+    except OSError as e:
+        raise DataError(f"cannot read: {e.strerror}", file=path) from None
+    check_encoding(path, head, "CSV file")
+    k = 0
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            reader = csv.reader(fh)
+            try:
+                for cells in reader:
+                    if any(cell.strip() for cell in cells):  # blank lines carry nothing
+                        yield k, cells
+                        k += 1
+            except csv.Error as e:
+                what = str(e)
+                if "field larger than field limit" in what:
+                    what = (
+                        f"a field longer than {csv.field_size_limit():,} characters (a missing closing "
+                        "quote, "
+                        "or not a CSV file)"
+                    )
+                raise DataError(f"unreadable CSV: {what}", file=path, row=k if k else None) from None
+            except UnicodeDecodeError:
+                raise DataError("not a UTF-8 text file", file=path, row=k if k else None) from None
+    except OSError as e:
+        raise DataError(f"cannot read: {e.strerror}", file=path) from None
+
+
+def read_header(path: str) -> list[str]:
+    """The header row (names stripped); DataError for an empty or unreadable file."""
+    for _, cells in _rows(path):
+        return [h.strip() for h in cells]
+    raise DataError("empty file: expected a header row", file=path)
+
+
+class _BadRows:
+    """Bad values collected while reading: the count and the first few, per reason."""
+
+    def __init__(self) -> None:
+        self.rows: list[int] = []
+        self.count = 0
+        self.first: tuple[str, str | None] | None = None  # (reason, column) of the first bad row
+        self.columns: set[str] = set()
+
+    def add(self, row: int, reason: str, column: str | None) -> None:
+        if self.rows and self.rows[-1] == row:
+            return  # one row counted once
+        self.count += 1
+        if len(self.rows) < SHOWN_ROWS:
+            self.rows.append(row)
+        if self.first is None:
+            self.first = (reason, column)
+        if column is not None:
+            self.columns.add(column)
+
+
+def bad_rows_error(mask: np.ndarray, path: str, column: str | None, reason: str) -> DataError:
+    """A DataError naming how many rows ``mask`` (over 0-based data rows) marks and the first few."""
+    idx = np.nonzero(mask)[0]
+    rows = [int(i) + 1 for i in idx[:SHOWN_ROWS]]
+    text = (
+        reason if idx.size == 1 else f"{reason} - {idx.size} of {mask.size} rows: {rows_text(rows, idx.size)}"
+    )
+    return DataError(text, file=path, column=column, rows=rows, count=int(idx.size))
+
+
+def _parse(text: str) -> tuple[float, str | None]:
+    t = text.strip()
+    try:
+        v = float(t)
+    except ValueError:
+        return math.nan, (f"'{t[:40]}{'...' if len(t) > 40 else ''}' is not a number" if t else "empty value")
+    if not math.isfinite(v):
+        return v, f"value '{t}' is not a finite number"
+    if abs(v) > MAX_ABS_VALUE:
+        return (
+            v,
+            f"value {v:.6g} is beyond any physical value in these files "
+            f"(|x| <= {MAX_ABS_VALUE:g} in SI units)",
+        )
+    return v, None
+
+
+def read_columns(
+    path: str, header: list[str], used: list[str], limit: int | None = None
+) -> dict[str, np.ndarray]:
+    """The ``used`` columns of the data rows as float arrays (streaming; see the module notes).
+
+    Raises
+    ------
+    DataError
+        A row with the wrong number of fields, a non-numeric, NaN, infinite or absurdly large
+        value (all such rows counted, the first few named), more data rows than the limit, no
+        data rows, or an unreadable file.
+    """
+    lim = max_rows(limit)
+    idx = {c: header.index(c) for c in used}
+    cols = {c: array("d") for c in used}
+    width = len(header)
+    bad = _BadRows()
+    n = 0
+    for r, cells in _rows(path):
+        if r == 0:
+            continue
+        n = r
+        if n > lim:
+            raise DataError(
+                f"more than {lim:,} data rows: files are read into memory and this one is larger than "
+                f"the limit (raise it with ${MAX_ROWS_ENV}=N or read_csv(..., max_rows=N), about "
+                f"{8 * len(used)} bytes a row, or decimate the log)",
+                file=path,
+                row=n,
+            )
+        if len(cells) != width:
+            bad.add(r, f"expected {width} fields, found {len(cells)}", None)
+            for c in used:
+                cols[c].append(math.nan)
+            continue
+        for c in used:
+            v, why = _parse(cells[idx[c]])
+            if why is not None:
+                bad.add(r, why, c)
+            cols[c].append(v)
+    if bad.count:
+        reason, column = bad.first  # type: ignore[misc]
+        if bad.count > 1:
+            cols = f" (columns {', '.join(sorted(bad.columns))})" if len(bad.columns) > 1 else ""
+            reason = f"{reason} - {bad.count} bad rows{cols}: {rows_text(bad.rows, bad.count)}"
+        raise DataError(
+            reason,
+            file=path,
+            column=column if len(bad.columns) <= 1 else None,
+            rows=bad.rows,
+            count=bad.count,
+        )
+    if n == 0:
+        raise DataError("no data rows after the header", file=path)
+    return {c: np.frombuffer(a, dtype=float) if len(a) else np.zeros(0) for c, a in cols.items()}
