@@ -447,6 +447,10 @@ def _result(
     shown = dec.heaviest if dec.verdict == UNEXPLAINED else dec.verdict
     entry = next(e for e in ranking if e.effect == shown)
     notes = [f"{dec.verdict} also stands for {LOOKALIKES[dec.verdict]}"] if dec.verdict in LOOKALIKES else []
+    turning = int(getattr(setup.data, "n_turning", 0) or 0)
+    if turning:
+        notes.append(f"{turning} of {setup.n} samples turning (two-track log): left out of the straight-line "
+                     "model, with the sample after each turn")
     if setup.flat:
         notes.append(
             f"no measurable noise in {', '.join(sorted(setup.flat))}: its noise floor is set negligible"
