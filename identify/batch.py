@@ -375,7 +375,8 @@ def fit_many(
     kernel_ok = (
         st.engine in ("auto", "vectorized") and method == "ipopt" and set(kw) <= {"sigma", "sigma_known"}
     )
-    batched, singles = [], []
+    batched: list[int] = []
+    singles: list[int] = []
     for k, d in enumerate(datasets):
         # a rig sweep (per-row std, rows dropped, a measured load) takes fit's rig path: weights, extras
         rig = isinstance(d, SlipData) and (d.force_std is not None or bool(d.dropped) or (

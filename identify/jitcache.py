@@ -201,7 +201,7 @@ def _source(functions: Sequence[ca.Function], name: str) -> str:
 
 def _library_path(source: str, name: str, cc: str) -> Path:
     h = hashlib.sha256()
-    for part in (source, ca.__version__, cc, " ".join(FLAGS)):
+    for part in (source, str(getattr(ca, "__version__", "")), cc, " ".join(FLAGS)):
         h.update(part.encode())
         h.update(b"\0")
     return cache_dir() / f"{name}_{h.hexdigest()[:24]}.so"

@@ -217,8 +217,8 @@ def read_columns(
     if bad.count:
         reason, column = bad.first  # type: ignore[misc]
         if bad.count > 1:
-            cols = f" (columns {', '.join(sorted(bad.columns))})" if len(bad.columns) > 1 else ""
-            reason = f"{reason} - {bad.count} bad rows{cols}: {rows_text(bad.rows, bad.count)}"
+            named = f" (columns {', '.join(sorted(bad.columns))})" if len(bad.columns) > 1 else ""
+            reason = f"{reason} - {bad.count} bad rows{named}: {rows_text(bad.rows, bad.count)}"
         raise DataError(
             reason,
             file=path,
