@@ -186,3 +186,31 @@ def test_fork_pool_beside_threads_running_ipopt_finishes_five_times(engine):
     )
     assert out.returncode == 0, out.stdout + out.stderr[-2000:]
     assert out.stdout.split()[-2:] == ["FINISHED", "5"]
+
+
+class FlakyExecutor(ThreadPoolExecutor):
+    """A thread pool whose first submitted chunk is lost (as a Dask worker dying would lose it)."""
+
+    def __init__(self, *a, **kw):
+        super().__init__(*a, **kw)
+        self.lost = 0
+
+    def submit(self, fn, /, *args, **kwargs):
+        if self.lost == 0:
+            self.lost += 1
+            from concurrent.futures import Future
+
+            fut = Future()
+            fut.set_exception(RuntimeError("worker lost"))
+            return fut
+        return super().submit(fn, *args, **kwargs)
+
+
+def test_a_chunk_lost_by_another_executor_is_retried_item_by_item():
+    items = _sweeps(10)
+    serial = fit_many(items, LIGHT, progress=False)
+    with FlakyExecutor(2) as ex:
+        res = fit_many(items, LIGHT, progress=False, executor=ex, chunk_size=4)
+    assert ex.lost == 1
+    assert [r.success for r in res] == [True] * len(items)
+    assert all(_same(a, b) for a, b in zip(res, serial))
