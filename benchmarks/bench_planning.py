@@ -167,6 +167,11 @@ def bench_replan(repeats: int) -> dict:
     return out
 
 
+#: SQP candidate (c): SQP iterations allowed per re-plan, and re-plans tried (each is slow: see the output).
+SQP_MAX_ITER = 15
+SQP_REPLANS = 3
+
+
 def staged_problem(n: int) -> tuple[dict, np.ndarray, np.ndarray, list, list, list]:
     """The same NLP (:func:`ocp_nlp`, minimum time, no torque-rate rows) in the stage order FATROP needs.
 
@@ -207,13 +212,15 @@ def staged_problem(n: int) -> tuple[dict, np.ndarray, np.ndarray, list, list, li
 
 
 def bench_replan_candidates(repeats: int) -> dict:
-    """Candidate (a) of issue 22 beside the Replanner's warm IPOPT, on the same re-plans in one run.
+    """Candidates (a) and (c) of issue 22 beside the Replanner's warm IPOPT, on the same re-plans in one run.
 
     The Replanner re-plans alternately on LETE sand and dry sand; the arguments of each IPOPT call are
     recorded (benchmark instrumentation around the solver call), and FATROP (CasADi's structure-
     exploiting interior point solver, the same NLP in stage order, SX functions) solves the same
     instance from the previous plan's primal solution (FATROP takes no multipliers). Both are compared
-    by iterations, wall and CPU time, and the objective against IPOPT's.
+    by iterations, wall and CPU time, and the objective against IPOPT's. An SQP method (exact Hessian,
+    regularised to convexity, HPIPM's structure-exploiting QP solver) starts from the previous plan and its
+    multipliers on the first ``SQP_REPLANS`` re-plans.
     """
     n = CASE["intervals"]
     staged, xperm, gperm, nxs, nus, ngs = staged_problem(n)
@@ -233,12 +240,21 @@ def bench_replan_candidates(repeats: int) -> dict:
             "error_on_fail": False,
         },
     )
-    calls = []
+    calls, fn_cpu = [], []
     original = ocp_module.call_solver
 
     def recording(solver, **args):
         out, stats = original(solver, **args)
-        calls.append((args, np.asarray(out["x"]).ravel(), float(out["f"])))
+        fn_cpu.append(sum(v for key, v in stats.items() if key.startswith("t_proc_nlp_")))
+        calls.append(
+            (
+                args,
+                np.asarray(out["x"]).ravel(),
+                float(out["f"]),
+                np.asarray(out["lam_x"]).ravel(),
+                np.asarray(out["lam_g"]).ravel(),
+            )
+        )
         return out, stats
 
     rp = Replanner(HEAVY, distance=CASE["distance"], v1=CASE["v1"], intervals=n, max_slip=CASE["max_slip"])
@@ -263,9 +279,48 @@ def bench_replan_candidates(repeats: int) -> dict:
         out[gperm >= 0] = a[gperm[gperm >= 0]]
         return out
 
+    sqp = ca.nlpsol(
+        "replan_sqp",
+        "sqpmethod",
+        staged,
+        {
+            "qpsol": "hpipm",
+            "qpsol_options": {"nx": nxs, "nu": nus, "ng": ngs, "N": n, "error_on_fail": False},
+            "convexify_strategy": "regularize",
+            "max_iter": SQP_MAX_ITER,
+            "tol_pr": 1e-8,
+            "tol_du": 1e-8,
+            "print_header": False,
+            "print_iteration": False,
+            "print_status": False,
+            "print_time": False,
+            "error_on_fail": False,
+        },
+    )
+    s_cpu, s_it, s_ok, s_rel = [], [], [], []
+    for k in range(1, min(len(calls), SQP_REPLANS + 1)):
+        args, _, f_ipopt = calls[k]
+        prev = calls[k - 1]
+        a = {
+            "p": args["p"],
+            "lbx": np.asarray(args["lbx"])[xperm],
+            "ubx": np.asarray(args["ubx"])[xperm],
+            "lbg": staged_g(args["lbg"]),
+            "ubg": staged_g(args["ubg"]),
+            "x0": prev[1][xperm],
+            "lam_x0": prev[3][xperm],
+            "lam_g0": staged_g(prev[4]),
+        }
+        c0 = time.process_time()
+        sol = sqp(**a)
+        s_cpu.append(time.process_time() - c0)
+        st = sqp.stats()
+        s_it.append(int(st["iter_count"]))
+        s_ok.append(bool(st["success"]))
+        s_rel.append(abs(float(sol["f"]) - f_ipopt) / abs(f_ipopt))
     f_wall, f_cpu, f_it, f_ok, f_rel = [], [], [], [], []
     for k in range(1, len(calls)):
-        args, x_ipopt, f_ipopt = calls[k]
+        args, _, f_ipopt = calls[k][:3]
         x_prev = calls[k - 1][1]
         a = {
             "p": args["p"],
@@ -288,6 +343,7 @@ def bench_replan_candidates(repeats: int) -> dict:
             "solver_s": med(ip_wall),
             "solver_p90_s": p90(ip_wall),
             "call_cpu_s": med(ip_cpu),
+            "functions_cpu_s": med(fn_cpu[1:]),
             "iterations": med(ip_it),
             "iterations_max": max(ip_it),
         },
@@ -299,6 +355,13 @@ def bench_replan_candidates(repeats: int) -> dict:
             "iterations_max": max(f_it),
             "converged": f"{sum(f_ok)} of {len(f_ok)}",
             "max_rel_objective_difference": max(f_rel),
+        },
+        "sqp_hpipm": {
+            "replans": len(s_it),
+            "cpu_s": med(s_cpu),
+            "iterations": med(s_it),
+            "converged": f"{sum(s_ok)} of {len(s_ok)}",
+            "max_rel_objective_difference": max(s_rel),
         },
     }
 
@@ -495,13 +558,19 @@ def main(argv=None) -> int:
         f"  IPOPT, warm (Replanner)      median {ip['solver_s'] * 1e3:7.1f} ms, "
         f"p90 {ip['solver_p90_s'] * 1e3:7.1f} ms, "
         f"iterations median {ip['iterations']:.0f} (max {ip['iterations_max']}); whole call CPU "
-        f"{ip['call_cpu_s'] * 1e3:.1f} ms"
+        f"{ip['call_cpu_s'] * 1e3:.1f} ms, of which {ip['functions_cpu_s'] * 1e3:.1f} ms in the NLP functions"
     )
     print(
         f"  FATROP, from the last plan   median {fa['solver_s'] * 1e3:7.1f} ms, "
         f"p90 {fa['solver_p90_s'] * 1e3:7.1f} ms, "
         f"iterations median {fa['iterations']:.0f} (max {fa['iterations_max']}); CPU {fa['cpu_s'] * 1e3:.1f} ms; "
         f"converged {fa['converged']}; objective vs IPOPT within {fa['max_rel_objective_difference']:.1e} (relative)"
+    )
+    sq = rc["sqp_hpipm"]
+    print(
+        f"  SQP (exact Hessian, regularised; QP: HPIPM) from the last plan and its multipliers, first "
+        f"{sq['replans']} re-plans: converged {sq['converged']} within {SQP_MAX_ITER} SQP iterations, CPU "
+        f"{sq['cpu_s'] * 1e3:.0f} ms (median); objective vs IPOPT {sq['max_rel_objective_difference']:.1e} (relative)"
     )
     if not a.replan_only:
         if not a.skip_slsqp:
