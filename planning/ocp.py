@@ -46,6 +46,8 @@ __all__ = [
     "ocp_solver",
     "ocp_nlp",
     "ocp_layout",
+    "IPOPT_OPTIONS",
+    "WARM_OPTIONS",
     "clear_warm_starts",
     "DEGREE",
     "radau_collocation",
@@ -55,10 +57,18 @@ __all__ = [
 DEGREE = 3
 #: Lower bound of the sprocket speed while moving, rad/s (the slip limit's linear form needs w > 0).
 MIN_SPROCKET_SPEED = 1e-4
-_IPOPT = {"print_level": 0, "sb": "yes", "max_iter": 1000, "tol": 1e-8, "acceptable_tol": 1e-6, "constr_viol_tol": 1e-8}
+#: IPOPT options of every profile solve.
+IPOPT_OPTIONS = {
+    "print_level": 0,
+    "sb": "yes",
+    "max_iter": 1000,
+    "tol": 1e-8,
+    "acceptable_tol": 1e-6,
+    "constr_viol_tol": 1e-8,
+}
 #: Warm-start options, tuned on the benchmark profile (IPOPT iterations for a new v1 / a new soil:
 #: 13 / 22-65 with mu_init 1e-6 and pushes 1e-9; 5-6 / 20-24 with these).
-_WARM = {
+WARM_OPTIONS = {
     "warm_start_init_point": "yes",
     "warm_start_bound_push": 1e-6,
     "warm_start_mult_bound_push": 1e-6,
@@ -201,7 +211,7 @@ def ocp_solver(vehicle: Vehicle, n: int, warm: bool, energy: bool = False, rate_
     ``warm``: warm-start options; ``energy``: energy objective (work slacks), else minimum time;
     ``rate_limit``: with the torque-rate rows.
     """
-    opts = {"ipopt": dict(_IPOPT, **(_WARM if warm else {})), "print_time": False, "error_on_fail": False}
+    opts = {"ipopt": dict(IPOPT_OPTIONS, **(WARM_OPTIONS if warm else {})), "print_time": False, "error_on_fail": False}
     return ca.nlpsol(f"speed_ocp_{n}", "ipopt", ocp_nlp(vehicle, n, energy, rate_limit), opts)
 
 
