@@ -348,14 +348,15 @@ def bench_replan_candidates(repeats: int) -> dict:
             "replan_ipopt_variant",
             "ipopt",
             nlp,
-            {"ipopt": dict(IPOPT_OPTIONS, **WARM_OPTIONS, **extra), "print_time": False, "error_on_fail": False},
+            {"ipopt": {**IPOPT_OPTIONS, **WARM_OPTIONS, **extra}, "print_time": False, "error_on_fail": False},
         )
         v_cpu, v_it, v_ok, v_rel = [], [], [], []
         for k in range(1, len(calls)):
             args, _, f_ipopt = calls[k][:3]
             prev = calls[k - 1]
             c0 = time.process_time()
-            sol = solver(**args, x0=prev[1], lam_x0=prev[3], lam_g0=prev[4])
+            a = {key: args[key] for key in ("p", "lbx", "ubx", "lbg", "ubg")}
+            sol = solver(**a, x0=prev[1], lam_x0=prev[3], lam_g0=prev[4])
             v_cpu.append(time.process_time() - c0)
             st = solver.stats()
             v_it.append(int(st["iter_count"]))
