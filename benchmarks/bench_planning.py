@@ -28,6 +28,11 @@ What is measured
   sand / dry sand, the case above), and warm on a small change of the soil (alternating LETE
   sand and LETE sand with a friction angle 0.5 deg lower and K 5 % larger: what an on-line
   estimate's update looks like). Medians of the whole ``replan`` call and of the solver alone.
+* Candidates for the warm re-plan on a new soil (issue 22), on the same 20 (``--repeats``) re-plans
+  in the same run: FATROP on the same NLP in stage order (from the previous plan's primal
+  solution), IPOPT with other options (``IPOPT_VARIANTS``), and an SQP method with HPIPM (first
+  ``SQP_REPLANS`` re-plans). Iterations, converged count, median and p90 times, CPU time, and the
+  objective against the Replanner's IPOPT plan. ``--replan-only`` runs only the re-planning parts.
 * A 10-patch route (alternating terrains and grades, 100 intervals): cold solve and warm
   re-solve.
 * ``margin`` with a fit's uncertainty and 10,000 Monte Carlo samples.
