@@ -74,6 +74,8 @@ def main() -> None:
         print("  " + x["resistance"]["statement"])
         if "lack_of_fit" in x:
             print("  " + x["lack_of_fit"]["statement"])
+        if mode == "assumed" and (x.get("sinkage_m") or {}).get("laws"):
+            print("  sinkage: " + x["sinkage_m"]["laws"]["statement"])
         print("  " + "; ".join(f"{pe.edge_value:.4g} {pe.edge_unit} [{pe.edge_ci95[0]:.4g}, {pe.edge_ci95[1]:.4g}]"
                                for pe in r.parameters.values() if pe.value is not None))
     level = slip_levels(data.slip)

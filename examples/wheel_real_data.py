@@ -15,12 +15,12 @@ angle 0: three repeats at each of 4 slip levels, load and sinkage measured per t
    own repeat scatter (the pure-error standard deviation: what no model of slip and load can beat);
 4. writes a figure to ``examples/output/wheel_real_data.png`` (not committed).
 """
+
 from __future__ import annotations
 
 import argparse
 import math
 import os
-from dataclasses import replace
 
 import numpy as np
 
@@ -44,9 +44,15 @@ def track_approximation(wheel, data) -> Vehicle:
     """Two tracks with l = r theta_1 (mean measured sinkage) and 2 b l = the wheel's contact area."""
     z = float(np.mean(data.sinkage))
     l = wheel.radius * math.acos(1 - z / wheel.radius)
-    return Vehicle(mass=float(np.mean(data.normal_load)) / G, track_length=l, track_width=wheel.width / 2,
-                   sprocket_radius=wheel.radius, sprocket_inertia=1e-4,
-                   rolling_resistance=TRACK_ROLLING_RESISTANCE, name="smooth wheel as two tracks")
+    return Vehicle(
+        mass=float(np.mean(data.normal_load)) / G,
+        track_length=l,
+        track_width=wheel.width / 2,
+        sprocket_radius=wheel.radius,
+        sprocket_inertia=1e-4,
+        rolling_resistance=TRACK_ROLLING_RESISTANCE,
+        name="smooth wheel as two tracks",
+    )
 
 
 def loso(data, predict_fold) -> tuple[float, int]:
@@ -60,7 +66,7 @@ def loso(data, predict_fold) -> tuple[float, int]:
             continue
         err.append(pred - data.drawbar_pull[lev == g])
     e = np.concatenate(err) if err else np.array([np.nan])
-    return float(np.sqrt(np.mean(e ** 2))), failed
+    return float(np.sqrt(np.mean(e**2))), failed
 
 
 def main(argv=None) -> dict:
@@ -70,8 +76,11 @@ def main(argv=None) -> dict:
     wheel = read_running_gear(WHEEL)
     data = read_wheel_sweep(DATA)
     levels = np.unique(slip_levels(data.slip)).size
-    print(f"{data.n_samples} trials at {levels} slip levels; loads {data.normal_load.min():.1f}-"
-          f"{data.normal_load.max():.1f} N, sinkage {1e3 * data.sinkage.min():.1f}-{1e3 * data.sinkage.max():.1f} mm")
+    print(
+        f"{data.n_samples} trials at {levels} slip levels; loads {data.normal_load.min():.1f}-"
+        f"{data.normal_load.max():.1f} N, sinkage {1e3 * data.sinkage.min():.1f}-"
+        f"{1e3 * data.sinkage.max():.1f} mm"
+    )
 
     # 1. the soil from the wheel model
     nominal = fit_wheel(data, wheel)
@@ -82,8 +91,11 @@ def main(argv=None) -> dict:
     diag = diagnose_wheel(data, wheel)
     print("\n== diagnosis ==")
     print(diag.report())
-    with_ss = diag.after if diag.verdict == "slip_sinkage" else fit_wheel(data, wheel,
-                                                                          WheelFitOptions(effects=("slip_sinkage",)))
+    with_ss = (
+        diag.after
+        if diag.verdict == "slip_sinkage"
+        else fit_wheel(data, wheel, WheelFitOptions(effects=("slip_sinkage",)))
+    )
 
     # 3. leave one slip level out
     opts_ss = WheelFitOptions(effects=("slip_sinkage",))
@@ -93,11 +105,16 @@ def main(argv=None) -> dict:
         def f(train, test):
             r = fit_wheel(train, wheel, opts)
             return r.predict(test) if r.success else None
+
         return f
 
     def track_fold(train, test):
-        sd = SlipData(slip=train.slip, drawbar_pull=train.drawbar_pull, normal_load=train.normal_load,
-                      source="training levels")
+        sd = SlipData(
+            slip=train.slip,
+            drawbar_pull=train.drawbar_pull,
+            normal_load=train.normal_load,
+            source="training levels",
+        )
         r = fit(sd, track)
         if not r.success:
             return None
@@ -110,20 +127,26 @@ def main(argv=None) -> dict:
         return np.full(test.n_samples, float(np.mean(train.drawbar_pull)))
 
     ss_pe, dof_pe, _ = pure_error(data.drawbar_pull, data.slip, data.normal_load)
-    rows = {"constant (training mean)": loso(data, const_fold),
-            f"track approximation (l = {1e3 * track.track_length:.0f} mm, mu_r = {TRACK_ROLLING_RESISTANCE})":
-                loso(data, track_fold),
-            "rigid wheel (textbook)": loso(data, wheel_fold(WheelFitOptions())),
-            "rigid wheel, Bekker n = 1 held": loso(data, wheel_fold(WheelFitOptions(fixed={"bekker_n": 1.0}))),
-            "rigid wheel + slip sinkage": loso(data, wheel_fold(opts_ss))}
+    rows = {
+        "constant (training mean)": loso(data, const_fold),
+        f"track approximation (l = {1e3 * track.track_length:.0f} mm, "
+        f"mu_r = {TRACK_ROLLING_RESISTANCE})": loso(
+            data, track_fold
+        ),
+        "rigid wheel (textbook)": loso(data, wheel_fold(WheelFitOptions())),
+        "rigid wheel, Bekker n = 1 held": loso(data, wheel_fold(WheelFitOptions(fixed={"bekker_n": 1.0}))),
+        "rigid wheel + slip sinkage": loso(data, wheel_fold(opts_ss)),
+    }
     print("\n== leave-one-slip-level-out drawbar pull error (rms over the held-out trials) ==")
     for name, (rmse, failed) in rows.items():
         print(f"{name:<48} {rmse:6.3f} N" + (f"  ({failed} of {levels} folds failed)" if failed else ""))
     scatter = math.sqrt(ss_pe / dof_pe)
     print(f"{'repeat scatter (pure-error sd, ' + str(dof_pe) + ' dof)':<48} {scatter:6.3f} N")
-    print("\nWhat 12 trials at 4 slip levels support: the drawbar pull has 4 distinct slip levels, so at most "
-          "about 4 directions of the soil;\nthe rest rests on the loads' and sinkages' small spread and on the "
-          "load balance at the measured sinkage.")
+    print(
+        "\nWhat 12 trials at 4 slip levels support: the drawbar pull has 4 distinct slip levels, so at most "
+        "about 4 directions of the soil;\nthe rest rests on the loads' and sinkages' small spread and on the "
+        "sinkage channel (the sinkage that carries the load against the measured one)."
+    )
 
     # 4. figure
     try:
@@ -133,8 +156,12 @@ def main(argv=None) -> dict:
         print(f"\nwrote {plot_wheel_fit(data, with_ss, args.out)}")
     except OSError as e:
         print(f"\nno figure: {e}")
-    return {"loso_rmse_N": {k: v[0] for k, v in rows.items()}, "repeat_scatter_N": scatter,
-            "verdict": diag.verdict, "nominal_success": nominal.success}
+    return {
+        "loso_rmse_N": {k: v[0] for k, v in rows.items()},
+        "repeat_scatter_N": scatter,
+        "verdict": diag.verdict,
+        "nominal_success": nominal.success,
+    }
 
 
 if __name__ == "__main__":

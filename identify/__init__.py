@@ -20,6 +20,8 @@ Public names
 :class:`FitFailed`.
 :func:`diagnose`, :class:`Diagnosis`
     Sim-to-real gap diagnosis: where the gap lies, which unmodelled effect explains it.
+:class:`OnlineEstimator`, :class:`OnlineSettings`, :class:`OnlineEstimate`
+    On-line identification while driving, with change-of-terrain detection.
 :func:`fit_soil_test`, :class:`SoilTestFit`, :func:`predict_drawbar_pull`
     Bevameter shear and plate sinkage tests (:mod:`soiltrack.identify.soiltests`), and a
     track's drawbar pull predicted from them.
@@ -33,8 +35,10 @@ from .sweep.problem import FitFailed
 from .estimates.likelihood import ProfileResult, profile_likelihood
 from .estimates.result import Combination, FitResult, ParameterEstimate, build_result
 from .settings import FitSettings
+from .online import OnlineEstimate, OnlineEstimator, OnlineSettings
 from .soiltests import SoilTestFit, fit_soil_test, predict_drawbar_pull
 
 __all__ = ["fit", "fit_many", "profile_likelihood", "build_result", "FitResult", "ParameterEstimate",
            "Combination", "ProfileResult", "FitFailed", "FitSettings", "ENGINES", "DEFAULT_ENGINE",
-           "diagnose", "Diagnosis", "fit_soil_test", "SoilTestFit", "predict_drawbar_pull"]
+           "diagnose", "Diagnosis", "fit_soil_test", "SoilTestFit", "predict_drawbar_pull",
+           "OnlineEstimator", "OnlineSettings", "OnlineEstimate"]

@@ -13,6 +13,10 @@ Two kinds of file, told apart by their columns:
   :attr:`SlipData.dropped`;
 - drive logs: ``time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s`` and
   optionally ``vehicle_accel_m_s2``;
+- two-track drive logs: the same with ``sprocket_torque_left_Nm, sprocket_torque_right_Nm,
+  sprocket_speed_left_rad_s, sprocket_speed_right_rad_s`` (and optionally ``yaw_rate_rad_s``)
+  instead of the combined torque and speed: summed torque, mean speed, turning samples marked
+  (:mod:`.tracks`);
 - bevameter shear tests: ``normal_pressure_Pa,shear_displacement_m,shear_stress_Pa``;
 - bevameter plate sinkage tests: ``plate_width_m,pressure_Pa,sinkage_m``.
 
@@ -30,6 +34,7 @@ import numpy as np
 
 from .csvread import MAX_ABS_VALUE, bad_rows_error, read_columns, read_header
 from .errors import DataError
+from .tracks import TWO_TRACK_COLUMNS, YAW_COLUMN, combine_tracks, turning_mask
 
 SLIP_COLUMNS = ("slip", "tractive_force_N")
 DRAWBAR_COLUMNS = ("slip", "drawbar_pull_N")
@@ -206,6 +211,11 @@ class DriveLog:
         Vehicle acceleration dv/dt, m/s^2 (IMU), or ``None``.
     source
         Where the data came from, used in messages.
+    turning
+        Boolean mask of the samples where the vehicle turns (a two-track log, see
+        :mod:`.tracks`), or ``None`` (a straight-line log). Turning samples stay in the log
+        (the sprocket equation needs consecutive samples) and are left out of the straight-line
+        model by every drive-log path, which reports their count.
     """
 
     time: np.ndarray
@@ -214,6 +224,7 @@ class DriveLog:
     vehicle_speed: np.ndarray
     vehicle_accel: np.ndarray | None = None
     source: str = "<memory>"
+    turning: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         for name in ("time", "sprocket_torque", "sprocket_speed", "vehicle_speed", "vehicle_accel"):
@@ -224,12 +235,22 @@ class DriveLog:
             cols["vehicle_accel_m_s2"] = self.vehicle_accel
         _check_lengths(cols, self.source)
         _check_finite(cols, self.source)
+        if self.turning is not None:
+            turning = np.array(self.turning, dtype=bool).reshape(-1)
+            turning.setflags(write=False)
+            object.__setattr__(self, "turning", turning)
+            _check_lengths({"time_s": self.time, "turning": turning}, self.source)
         _check_increasing(self.time, "time_s", self.source)
 
     @property
     def n_samples(self) -> int:
         """Number of samples."""
         return int(self.time.size)
+
+    @property
+    def n_turning(self) -> int:
+        """Number of turning samples (0 for a straight-line log)."""
+        return 0 if self.turning is None else int(np.count_nonzero(self.turning))
 
     def subset(self, index) -> "DriveLog":
         """The rows selected by ``index`` (slice, integer array or boolean mask), same type.
@@ -241,7 +262,8 @@ class DriveLog:
         return DriveLog(time=self.time[idx], sprocket_torque=self.sprocket_torque[idx],
                         sprocket_speed=self.sprocket_speed[idx], vehicle_speed=self.vehicle_speed[idx],
                         vehicle_accel=None if self.vehicle_accel is None else self.vehicle_accel[idx],
-                        source=_annotate(self.source, idx))
+                        source=_annotate(self.source, idx),
+                        turning=None if self.turning is None else self.turning[idx])
 
     def columns(self) -> dict[str, np.ndarray]:
         """The log as ``{column name: values}`` in the CSV contract's names."""
@@ -473,6 +495,8 @@ def read_csv(path: str | os.PathLike, *, driving_only: bool = False, slip_angle:
         kind, required, optional = "drawbar", DRAWBAR_COLUMNS, SLIP_OPTIONAL
     elif "slip" in header or "tractive_force_N" in header:
         kind, required, optional = "slip", SLIP_COLUMNS, SLIP_OPTIONAL
+    elif any(c in header for c in TWO_TRACK_COLUMNS):
+        return _read_two_track(path, header, max_rows)
     elif any(c in header for c in DRIVE_COLUMNS):
         kind, required, optional = "drive", DRIVE_COLUMNS, DRIVE_OPTIONAL
     else:
@@ -504,6 +528,28 @@ def read_csv(path: str | os.PathLike, *, driving_only: bool = False, slip_angle:
     return DriveLog(time=data["time_s"], sprocket_torque=data["sprocket_torque_Nm"],
                     sprocket_speed=data["sprocket_speed_rad_s"], vehicle_speed=data["vehicle_speed_m_s"],
                     vehicle_accel=data.get("vehicle_accel_m_s2"), source=path)
+
+
+def _read_two_track(path: str, header: list[str], max_rows: int | None) -> DriveLog:
+    """A two-track drive log: summed torque, mean sprocket speed, turning samples marked."""
+    combined = [c for c in ("sprocket_torque_Nm", "sprocket_speed_rad_s") if c in header]
+    if combined:
+        raise DataError(f"both the combined column {combined[0]} and two-track columns given: a drive log has "
+                        f"either {list(DRIVE_COLUMNS)} or the left/right columns {list(TWO_TRACK_COLUMNS)}",
+                        file=path, column=combined[0])
+    required = ("time_s", *TWO_TRACK_COLUMNS, "vehicle_speed_m_s")
+    for col in required:
+        if col not in header:
+            raise DataError(f"missing required column of a two-track drive log (header has {header})", file=path,
+                            column=col)
+    used = [c for c in (*required, *DRIVE_OPTIONAL, YAW_COLUMN) if c in header]
+    data = read_columns(path, header, used, max_rows)  # streamed, row limit, every bad row counted
+    torque, speed = combine_tracks(*(data[c] for c in TWO_TRACK_COLUMNS))
+    turning = turning_mask(data["sprocket_speed_left_rad_s"], data["sprocket_speed_right_rad_s"],
+                           data.get(YAW_COLUMN))
+    return DriveLog(time=data["time_s"], sprocket_torque=torque, sprocket_speed=speed,
+                    vehicle_speed=data["vehicle_speed_m_s"], vehicle_accel=data.get("vehicle_accel_m_s2"),
+                    source=path, turning=turning)
 
 
 def _slip_data(kind: str, data: dict, path: str, driving_only: bool, slip_angle: float | None) -> SlipData:

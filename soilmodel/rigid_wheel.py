@@ -5,6 +5,7 @@ JSON (docs/data-formats.md): ``{"running_gear": "rigid_wheel", "wheel_radius_m",
 "grouser_height_m"}`` (grouser height optional, 0 for a smooth wheel). A rig has no mass: the
 normal load is measured per row and required in its data.
 """
+
 from __future__ import annotations
 
 import json
@@ -52,11 +53,15 @@ class RigidWheel:
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise DataError(f"wheel {attr} must be a finite number, got {v!r}")
             if not lo <= v <= hi:
-                raise DataError(f"wheel {attr} = {v:.6g} m is outside the plausible range [{lo:g}, {hi:g}] m: "
-                                "check the number and its unit")
+                raise DataError(
+                    f"wheel {attr} = {v:.6g} m is outside the plausible range [{lo:g}, {hi:g}] m: "
+                    "check the number and its unit"
+                )
         if self.grouser_height >= self.radius:
-            raise DataError(f"wheel grouser_height ({self.grouser_height:g} m) must be below the radius "
-                            f"({self.radius:g} m)")
+            raise DataError(
+                f"wheel grouser_height ({self.grouser_height:g} m) must be below the radius "
+                f"({self.radius:g} m)"
+            )
 
     @property
     def shear_radius(self) -> float:
@@ -83,8 +88,12 @@ class RigidWheel:
         allowed = set(_JSON_FIELDS) | {"name", "running_gear"}
         unknown = sorted(set(obj) - allowed)
         if unknown:
-            raise DataError(f"unknown field(s) {unknown} for a rigid wheel (a rig has no mass: the load is per row "
-                            f"in the data); expected {sorted(allowed)}", file=source, column=unknown[0])
+            raise DataError(
+                f"unknown field(s) {unknown} for a rigid wheel (a rig has no mass: the load is per row "
+                f"in the data); expected {sorted(allowed)}",
+                file=source,
+                column=unknown[0],
+            )
         kwargs = {}
         for key, attr in _JSON_FIELDS.items():
             v = obj.get(key)
@@ -114,8 +123,11 @@ def read_running_gear(path_or_text: str | os.PathLike) -> Vehicle | RigidWheel:
         raise DataError("vehicle JSON must be an object", file=source)
     gear = obj.get("running_gear", "track")
     if gear not in RUNNING_GEARS:
-        raise DataError(f"unknown running_gear {gear!r}; expected one of {list(RUNNING_GEARS)}", file=source,
-                        column="running_gear")
+        raise DataError(
+            f"unknown running_gear {gear!r}; expected one of {list(RUNNING_GEARS)}",
+            file=source,
+            column="running_gear",
+        )
     label = os.path.splitext(os.path.basename(source))[0] if source != "<json text>" else ""
     if gear == "rigid_wheel":
         return RigidWheel.from_dict(obj, source=source, name=label)

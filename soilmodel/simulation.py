@@ -241,7 +241,8 @@ def simulate_drive_log(vehicle: Vehicle, soil: Soil, *, effects: Any = None, see
                        noise: Any = "default", model: str = "full", duration_s: float = 60.0,
                        sample_rate_hz: float = 50.0, speed_profile: Any = None,
                        sprocket_equation: str = "thrust", controller_bandwidth: float = 1.0,
-                       with_accel: bool = True, return_truth: bool = False):
+                       with_accel: bool = True, return_truth: bool = False,
+                       soil_changes: Sequence[tuple[float, Soil]] = ()):
     """Simulate a straight-line drive log (the columns of docs/data-formats.md).
 
     Parameters
@@ -271,6 +272,10 @@ def simulate_drive_log(vehicle: Vehicle, soil: Soil, *, effects: Any = None, see
         Include the IMU acceleration channel.
     return_truth
         Also return the noise-free signals.
+    soil_changes
+        Changes of terrain while driving: ``[(time_s, soil), ...]`` in increasing time; from
+        each time on (rounded to a sample) the vehicle drives on that soil, its state carried
+        over. The truth then also holds ``soil_index`` per sample (0: ``soil``).
 
     Returns
     -------
@@ -297,25 +302,44 @@ def simulate_drive_log(vehicle: Vehicle, soil: Soil, *, effects: Any = None, see
     vref = _reference(vehicle, duration_s, t, speed_profile)
     dvref = np.append(np.diff(vref) / h, 0.0)
     limits = drive_limits(vehicle)
-    sim = _closed_loop(vehicle, soil, eff, model, sprocket_equation, h, n - 1, limits, float(controller_bandwidth))
-    try:
-        (X, M), _ = call_solver(sim, np.zeros(3), np.vstack([vref[:-1], dvref[:-1]]))
-    except RuntimeError as exc:  # CVODES gave up (e.g. an absurd speed profile)
-        raise DataError(f"simulation failed: the integrator did not converge ({str(exc).splitlines()[-1]})") from None
-    X = np.hstack([np.zeros((3, 1)), np.asarray(X)])
-    M = np.append(np.asarray(M).ravel(), 0.0)
+    soils, starts = _soil_segments(soil, soil_changes, h, n)
+    X_parts, M_parts = [np.zeros((3, 1))], []
+    for j, (k0, k1) in enumerate(zip(starts, starts[1:])):
+        sim = _closed_loop(vehicle, soils[j], eff, model, sprocket_equation, h, k1 - k0, limits,
+                           float(controller_bandwidth))
+        try:
+            (Xj, Mj), _ = call_solver(sim, X_parts[-1][:, -1], np.vstack([vref[k0:k1], dvref[k0:k1]]))
+        except RuntimeError as exc:  # CVODES gave up (e.g. an absurd speed profile)
+            raise DataError(f"simulation failed: the integrator did not converge ({str(exc).splitlines()[-1]})") \
+                from None
+        X_parts.append(np.asarray(Xj).reshape(3, -1))
+        M_parts.append(np.asarray(Mj).ravel())
+    X = np.hstack(X_parts)
+    M = np.append(np.concatenate(M_parts), 0.0)
     M[-1] = M[-2]  # the last sample's torque: held from the previous interval
     v, w = X[0], X[1]
     if not (np.all(np.isfinite(v)) and np.all(np.isfinite(w)) and np.all(np.isfinite(M))):
         raise DataError("simulation produced non-finite values (integration failed)")
-    dyn = dynamics_function(vehicle, soil, eff, model=model, sprocket_equation=sprocket_equation)
-    xdot, slip, thrust, res, loss = (np.asarray(a, dtype=float).reshape(-1, n) for a in
-                                     dyn(X[:2], M.reshape(1, -1)))
+    soil_index = np.zeros(n, dtype=int)
+    for j, k0 in enumerate(starts[1:-1], start=1):
+        soil_index[k0 + 1:] = j        # sample k0 + 1 is the first reached on soil j
+    xdot, slip, thrust, res, loss = (np.empty((2, n)), np.empty((1, n)), np.empty((1, n)), np.empty((1, n)),
+                                     np.empty((1, n)))
+    for j, sj in enumerate(soils):
+        sel = np.nonzero(soil_index == j)[0]
+        if sel.size == 0:
+            continue
+        dyn = dynamics_function(vehicle, sj, eff, model=model, sprocket_equation=sprocket_equation)
+        outs = [np.asarray(a, dtype=float).reshape(-1, sel.size) for a in dyn(X[:2, sel], M[sel].reshape(1, -1))]
+        for arr, o in zip((xdot, slip, thrust, res, loss), outs):
+            arr[:, sel] = o
     r_nom = vehicle.sprocket_radius
     slip_app = np.asarray(_slip_fn()(v.reshape(1, -1), w.reshape(1, -1), r_nom), dtype=float).ravel()
     truth = {"time": t, "v": v, "w": w, "slip": slip[0], "slip_apparent": slip_app, "thrust": thrust[0],
              "resistance": res[0], "torque": M, "torque_loss": loss[0], "accel": xdot[0], "dw_dt": xdot[1],
              "v_ref": vref, "limits": limits}
+    if soil_changes:
+        truth["soil_index"] = soil_index
     rng = np.random.default_rng(seed)
     log = DriveLog(
         time=t,
@@ -325,6 +349,27 @@ def simulate_drive_log(vehicle: Vehicle, soil: Soil, *, effects: Any = None, see
         vehicle_accel=_std(rng, xdot[0], nz.imu_accel, 0.0) if with_accel else None,
         source=f"simulated drive log ({vehicle.name or 'vehicle'}, {soil.name or 'soil'}, effects: {eff})")
     return (log, truth) if return_truth else log
+
+
+def _soil_segments(soil: Soil, changes, h: float, n: int) -> tuple[list[Soil], list[int]]:
+    """The soils in order and the sample index where each segment's integration starts (+ the end)."""
+    soils, starts = [soil], [0]
+    last_t = -math.inf
+    for item in changes:
+        try:
+            t_c, s_c = item
+        except (TypeError, ValueError):
+            raise DataError(f"soil_changes must be (time_s, Soil) pairs, got {item!r}") from None
+        if not isinstance(s_c, Soil) or isinstance(t_c, bool) or not isinstance(t_c, (int, float)) \
+                or not math.isfinite(t_c) or t_c <= last_t:
+            raise DataError(f"soil_changes must be (time_s, Soil) pairs in increasing time, got {item!r}")
+        k = int(round(t_c / h))
+        if not 0 < k < n - 1:
+            raise DataError(f"soil change at {t_c:g} s is outside the log (0 to {(n - 1) * h:g} s)")
+        soils.append(s_c)
+        starts.append(k)
+        last_t = t_c
+    return soils, starts + [n - 1]
 
 
 def simulate_slip_sweep(vehicle: Vehicle, soil: Soil, *, slips: Sequence[float] | None = None,

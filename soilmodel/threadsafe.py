@@ -16,15 +16,18 @@ the solver's native state in the middle of that solve (measured before this modu
 it: a fork ``ProcessPoolExecutor`` created beside three threads running IPOPT returned no
 result in 7 of 10 tries). So a fork waits until no solve is running (the forking thread takes
 :data:`SOLVER_LOCK` just before the fork and releases it in the parent just after), and the
-child re-creates the lock and empties every :func:`locked_cache` (its solvers are rebuilt on
-first use, in the child, from scratch). The spawn and forkserver start methods never copy
-this state and need none of it.
+child re-creates the lock, empties every :func:`locked_cache` (its solvers are rebuilt on first
+use, in the child, from scratch) and gives every ``functools.cached_property`` of the library a
+fresh lock (Python 3.11 shares one lock per property among all instances: a thread computing a fit
+result's statistics at the fork left a worker hung in ``cached_property.__get__``, 1 of 25 tries).
+The spawn and forkserver start methods never copy this state and need none of it.
 """
 
 from __future__ import annotations
 
 import functools
 import os
+import sys
 import threading
 import weakref
 from typing import Any, Callable, TypeVar
@@ -59,12 +62,28 @@ def _after_fork_parent() -> None:
     SOLVER_LOCK.release()
 
 
+def _renew_cached_property_locks() -> None:
+    """Fresh locks for the library's ``functools.cached_property`` descriptors (Python < 3.12 keeps one
+    RLock per descriptor, shared by all instances: held by another thread at the fork, it would never
+    be released in the child - measured: a worker hung in ``cached_property.__get__`` of a fit result)."""
+    package = __name__.rsplit(".", 2)[0]
+    for name, module in list(sys.modules.items()):
+        if module is None or not (name == package or name.startswith(package + ".")):
+            continue
+        for obj in list(vars(module).values()):
+            if isinstance(obj, type) and obj.__module__ == name:
+                for attr in vars(obj).values():
+                    if isinstance(attr, functools.cached_property) and hasattr(attr, "lock"):
+                        attr.lock = threading.RLock()
+
+
 def _after_fork_child() -> None:
     global SOLVER_LOCK
     SOLVER_LOCK = threading.RLock()
     _GENERATION[0] += 1
     for wrapper in list(_CACHES):
         wrapper.cache_clear()
+    _renew_cached_property_locks()
 
 
 if hasattr(os, "register_at_fork"):

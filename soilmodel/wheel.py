@@ -37,6 +37,7 @@ with the wheel's width as the plate's, the shear stress is Janosi-Hanamoto's.
 Only driving slip (0 <= i < 1) is modelled: at skid the shear displacement changes sign along
 the arc and the Wong-Reece normal stress has no agreed form.
 """
+
 from __future__ import annotations
 
 import math
@@ -49,8 +50,16 @@ import numpy as np
 from .bevameter import plate_pressure_expr, shear_stress_expr
 from .errors import DataError
 
-__all__ = ["WheelSettings", "DEFAULT_WHEEL_SETTINGS", "entry_angle", "wheel_expr", "wheel_forces_function",
-           "sinkage_from_load_function", "WHEEL_OUTPUTS", "evaluate"]
+__all__ = [
+    "WheelSettings",
+    "DEFAULT_WHEEL_SETTINGS",
+    "entry_angle",
+    "wheel_expr",
+    "wheel_forces_function",
+    "sinkage_from_load_function",
+    "WHEEL_OUTPUTS",
+    "evaluate",
+]
 
 #: Bekker's closed-form wheel sinkage (the rootfinder's start) holds for n < 3; larger n are capped here.
 BEKKER_START_N_MAX = 2.9
@@ -85,8 +94,10 @@ class WheelSettings:
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise DataError(f"wheel setting {name} must be a finite number, got {v!r}")
         if not 0 < self.c1 < 1 or not 0 <= self.c1 + self.c2 < 1 or self.c2 < 0:
-            raise DataError(f"wheel settings need 0 < c1 < 1, c2 >= 0 and c1 + c2 < 1 (theta_m inside the arc at "
-                            f"every slip), got c1 = {self.c1}, c2 = {self.c2}")
+            raise DataError(
+                f"wheel settings need 0 < c1 < 1, c2 >= 0 and c1 + c2 < 1 (theta_m inside the arc at "
+                f"every slip), got c1 = {self.c1}, c2 = {self.c2}"
+            )
         if isinstance(self.nodes, bool) or not isinstance(self.nodes, int) or not 2 <= self.nodes <= 400:
             raise DataError(f"wheel setting nodes must be an integer in [2, 400], got {self.nodes!r}")
 
@@ -106,8 +117,21 @@ def _as_column(x):
     return ca.DM(np.asarray(x, dtype=float).reshape(-1, 1))
 
 
-def wheel_expr(i, z, c, phi, K, k_c, k_phi, n, r, b, h=0.0, settings: WheelSettings = DEFAULT_WHEEL_SETTINGS,
-               slip_sinkage=0.0):
+def wheel_expr(
+    i,
+    z,
+    c,
+    phi,
+    K,
+    k_c,
+    k_phi,
+    n,
+    r,
+    b,
+    h=0.0,
+    settings: WheelSettings = DEFAULT_WHEEL_SETTINGS,
+    slip_sinkage=0.0,
+):
     """Drawbar pull, normal load and torque of the Wong-Reece rigid wheel (symbolic or numeric).
 
     Parameters
@@ -147,7 +171,9 @@ def wheel_expr(i, z, c, phi, K, k_c, k_phi, n, r, b, h=0.0, settings: WheelSetti
     cos1, sin1 = ca.cos(th1), ca.sin(th1)
 
     def integrands(theta, sigma):
-        j = rs * ((ca.mtimes(th1, ones) - theta) - ca.mtimes(1 - i, ones) * (ca.mtimes(sin1, ones) - ca.sin(theta)))
+        j = rs * (
+            (ca.mtimes(th1, ones) - theta) - ca.mtimes(1 - i, ones) * (ca.mtimes(sin1, ones) - ca.sin(theta))
+        )
         tau = shear_stress_expr(j, sigma, c, phi, K)
         return (tau * ca.cos(theta) - sigma * ca.sin(theta), sigma * ca.cos(theta) + tau * ca.sin(theta), tau)
 
@@ -167,12 +193,15 @@ def wheel_expr(i, z, c, phi, K, k_c, k_phi, n, r, b, h=0.0, settings: WheelSetti
     for a_f, a_r in zip(integrands(th_f, sig_f), integrands(th_r, sig_r)):
         out.append((th1 - thm) * ca.mtimes(a_f, wc) + thm * ca.mtimes(a_r, wc))
     dp, wl, tq = out
-    return r * b * dp, r * b * wl, rs ** 2 * b * tq
+    return r * b * dp, r * b * wl, rs**2 * b * tq
 
 
-def wheel_forces_function(r: float, b: float, h: float = 0.0,
-                          settings: WheelSettings = DEFAULT_WHEEL_SETTINGS) -> ca.Function:
-    """CasADi Function ``(i, z, c, phi, K, k_c, k_phi, n, s) -> (drawbar_pull, normal_load, torque)`` for one row.
+def wheel_forces_function(
+    r: float, b: float, h: float = 0.0, settings: WheelSettings = DEFAULT_WHEEL_SETTINGS
+) -> ca.Function:
+    """CasADi Function ``(i, z, c, phi, K, k_c, k_phi, n, s) -> (drawbar_pull, normal_load, torque)``.
+
+    One row.
 
     ``s`` is the slip-sinkage coefficient (0: the textbook wheel).
     """
@@ -182,8 +211,9 @@ def wheel_forces_function(r: float, b: float, h: float = 0.0,
     return ca.Function("rigid_wheel", s, [dp, wl, tq], names, list(WHEEL_OUTPUTS))
 
 
-def sinkage_from_load_function(r: float, b: float, h: float = 0.0,
-                               settings: WheelSettings = DEFAULT_WHEEL_SETTINGS) -> ca.Function:
+def sinkage_from_load_function(
+    r: float, b: float, h: float = 0.0, settings: WheelSettings = DEFAULT_WHEEL_SETTINGS
+) -> ca.Function:
     """CasADi Function ``(i, W, c, phi, K, k_c, k_phi, n, s) -> z``: the sinkage at which the wheel carries W.
 
     Newton's method on ``log W(theta_1) = log W`` in ``u = log theta_1`` (W grows about like
@@ -200,8 +230,14 @@ def sinkage_from_load_function(r: float, b: float, h: float = 0.0,
     z = r * (1 - ca.cos(th1))
     _, wl, _ = wheel_expr(i, z, c, phi, K, k_c, k_phi, n, r, b, h, settings, slip_sinkage=s)
     g = ca.Function("g", [u, p], [ca.log(wl) - ca.log(W)])
-    rf = ca.rootfinder("wheel_sinkage", "newton", g, {"abstol": 1e-12, "max_iter": 60,
-                                                       "error_on_fail": False})
+    # no eval warnings: a trial point of a fit where the wheel cannot carry the load gives NaN, which
+    # IPOPT's line search handles by a shorter step
+    rf = ca.rootfinder(
+        "wheel_sinkage",
+        "newton",
+        g,
+        {"abstol": 1e-12, "max_iter": 60, "error_on_fail": False, "show_eval_warnings": False},
+    )
     ins = [ca.MX.sym(nm) for nm in names]
     i_, W_, c_, phi_, K_, kc_, kphi_, n_, s_ = ins
     k_eff = (kc_ / b + kphi_) / (1 + s_ * i_)

@@ -5,6 +5,7 @@ mass, so the measured normal load is required in every row; the measured sinkage
 sets the wheel's entry angle and makes the Bekker stiffness identifiable from the load balance.
 Other columns (repeat numbers, standard deviations, raw sensor channels) are read past.
 """
+
 from __future__ import annotations
 
 import csv
@@ -47,6 +48,8 @@ class WheelSweep:
         Measured sinkage per row, m (> 0), or ``None``.
     source
         Where the data came from, used in messages.
+    dropped
+        Rows of the file left out when it was read (``--driving-only``, ``--slip-angle 0``).
     """
 
     slip: np.ndarray
@@ -54,22 +57,32 @@ class WheelSweep:
     normal_load: np.ndarray
     sinkage: np.ndarray | None = None
     source: str = "<memory>"
+    dropped: int = 0
 
     def __post_init__(self) -> None:
         for name in ("slip", "drawbar_pull", "normal_load", "sinkage"):
             if getattr(self, name) is not None:
                 object.__setattr__(self, name, _frozen(getattr(self, name)))
         # slip range, finiteness and positive loads are checked by SlipData, with file, column and row
-        SlipData(slip=self.slip, drawbar_pull=self.drawbar_pull, normal_load=self.normal_load, source=self.source)
+        SlipData(
+            slip=self.slip, drawbar_pull=self.drawbar_pull, normal_load=self.normal_load, source=self.source
+        )
         if self.sinkage is not None:
             if self.sinkage.size != self.slip.size:
-                raise DataError(f"{SINKAGE_COLUMN} has {self.sinkage.size} values for {self.slip.size} rows",
-                                file=self.source, column=SINKAGE_COLUMN)
+                raise DataError(
+                    f"{SINKAGE_COLUMN} has {self.sinkage.size} values for {self.slip.size} rows",
+                    file=self.source,
+                    column=SINKAGE_COLUMN,
+                )
             bad = np.nonzero(~np.isfinite(self.sinkage) | (self.sinkage <= 0))[0]
             if bad.size:
-                raise DataError(f"sinkage must be a finite number > 0 m ({bad.size} row(s): "
-                                f"{', '.join(str(int(k) + 1) for k in bad[:10])}), got {self.sinkage[bad[0]]:.6g}",
-                                file=self.source, column=SINKAGE_COLUMN, row=int(bad[0]) + 1)
+                raise DataError(
+                    f"sinkage must be a finite number > 0 m ({bad.size} row(s): "
+                    f"{', '.join(str(int(k) + 1) for k in bad[:10])}), got {self.sinkage[bad[0]]:.6g}",
+                    file=self.source,
+                    column=SINKAGE_COLUMN,
+                    row=int(bad[0]) + 1,
+                )
 
     @property
     def n_samples(self) -> int:
@@ -86,10 +99,13 @@ class WheelSweep:
         idx = np.atleast_1d(np.arange(self.n_samples)[index])
         if idx.size == 0:
             raise DataError(f"row selection {index!r} selects no rows", file=self.source)
-        return WheelSweep(slip=self.slip[idx], drawbar_pull=self.drawbar_pull[idx],
-                          normal_load=self.normal_load[idx],
-                          sinkage=None if self.sinkage is None else self.sinkage[idx],
-                          source=f"{self.source} ({idx.size} of {self.n_samples} rows)")
+        return WheelSweep(
+            slip=self.slip[idx],
+            drawbar_pull=self.drawbar_pull[idx],
+            normal_load=self.normal_load[idx],
+            sinkage=None if self.sinkage is None else self.sinkage[idx],
+            source=f"{self.source} ({idx.size} of {self.n_samples} rows)",
+        )
 
     def columns(self) -> dict[str, np.ndarray]:
         """The sweep as ``{column: values}`` in the CSV contract's names."""
@@ -111,30 +127,14 @@ def _header(path: str) -> list[str] | None:
     return None
 
 
-def _column(path: str, name: str) -> list[float] | None:
-    """The values of one column of a CSV (None when absent); errors name file, column and row."""
-    with open(path, newline="", encoding="utf-8-sig") as fh:
-        rows = [r for r in csv.reader(fh) if any(cell.strip() for cell in r)]
-    header = [h.strip() for h in rows[0]]
-    if name not in header:
-        return None
-    k = header.index(name)
-    out = []
-    for row, cells in enumerate(rows[1:], start=1):
-        text = cells[k].strip()
-        try:
-            v = float(text)
-        except ValueError:
-            raise DataError(f"'{text}' is not a number" if text else "empty value", file=path, column=name,
-                            row=row) from None
-        if not math.isfinite(v):
-            raise DataError(f"value '{text}' is not a finite number", file=path, column=name, row=row)
-        out.append(v)
-    return out
-
-
-def read_wheel_sweep(path: str | os.PathLike) -> WheelSweep:
+def read_wheel_sweep(
+    path: str | os.PathLike, *, driving_only: bool = False, slip_angle: float | None = None
+) -> WheelSweep:
     """Read a wheel sweep ``slip,drawbar_pull_N,normal_load_N[,sinkage_m]``.
+
+    ``driving_only`` and ``slip_angle`` drop the rows at negative slip or another slip angle
+    as :func:`~soiltrack.soilmodel.read_csv` does (refused otherwise); their count is kept in
+    :attr:`WheelSweep.dropped`.
 
     Raises
     ------
@@ -148,19 +148,36 @@ def read_wheel_sweep(path: str | os.PathLike) -> WheelSweep:
     if header is not None and "tractive_force_N" not in header:
         for col in WHEEL_COLUMNS:
             if col not in header:
-                raise DataError(f"missing required column of a wheel sweep (header has {header}; a rig's wheel "
-                                "has no mass, so the load is required per row)", file=path, column=col)
-    data = read_csv(path)
+                raise DataError(
+                    f"missing required column of a wheel sweep (header has {header}; a rig's wheel "
+                    "has no mass, so the load is required per row)",
+                    file=path,
+                    column=col,
+                )
+    data = read_csv(path, driving_only=driving_only, slip_angle=slip_angle)
     if not isinstance(data, SlipData) or data.measured != "drawbar_pull":
-        raise DataError(f"a rigid wheel's sweep needs the columns {list(WHEEL_COLUMNS)} (drawbar pull against slip); "
-                        "this file is " + ("a drive log" if not isinstance(data, SlipData) else "tractive force data"),
-                        file=path, column="drawbar_pull_N")
+        raise DataError(
+            f"a rigid wheel's sweep needs the columns {list(WHEEL_COLUMNS)} (drawbar pull against slip); "
+            "this file is " + ("a drive log" if not isinstance(data, SlipData) else "tractive force data"),
+            file=path,
+            column="drawbar_pull_N",
+        )
     if data.normal_load is None:
-        raise DataError("missing required column: a rigid wheel on a rig has no mass, so the measured normal load "
-                        "is required in every row", file=path, column="normal_load_N")
-    sink = _column(path, SINKAGE_COLUMN)
-    return WheelSweep(slip=data.slip, drawbar_pull=data.drawbar_pull, normal_load=data.normal_load,
-                      sinkage=sink, source=path)
+        raise DataError(
+            "missing required column: a rigid wheel on a rig has no mass, so the measured normal load "
+            "is required in every row",
+            file=path,
+            column="normal_load_N",
+        )
+    sink = data.sinkage
+    return WheelSweep(
+        slip=data.slip,
+        drawbar_pull=data.drawbar_pull,
+        normal_load=data.normal_load,
+        sinkage=sink,
+        source=path,
+        dropped=data.dropped_count,
+    )
 
 
 def write_wheel_sweep(data: WheelSweep, path) -> None:

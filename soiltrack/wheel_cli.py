@@ -3,6 +3,7 @@
 The subcommands hand over here when ``--vehicle`` names a ``{"running_gear": "rigid_wheel", ...}``
 file; every option that does not apply to a wheel is refused (nothing is silently ignored).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -16,9 +17,14 @@ from .soilmodel.rigid_wheel import RigidWheel
 __all__ = ["fit_wheel_command", "diagnose_wheel_command", "simulate_wheel_command", "wheel_fixed_arg"]
 
 # edge unit -> SI factor of the parameters --fix may hold
-_FIX_UNITS = {"cohesion_kpa": ("cohesion", 1e3), "friction_angle_deg": ("friction_angle", math.pi / 180.0),
-              "shear_modulus_m": ("shear_modulus", 1.0), "bekker_kc": ("bekker_kc", 1e3),
-              "bekker_kphi": ("bekker_kphi", 1e3), "bekker_n": ("bekker_n", 1.0)}
+_FIX_UNITS = {
+    "cohesion_kpa": ("cohesion", 1e3),
+    "friction_angle_deg": ("friction_angle", math.pi / 180.0),
+    "shear_modulus_m": ("shear_modulus", 1.0),
+    "bekker_kc": ("bekker_kc", 1e3),
+    "bekker_kphi": ("bekker_kphi", 1e3),
+    "bekker_n": ("bekker_n", 1.0),
+}
 
 
 def wheel_fixed_arg(specs: list[str] | None, model: str) -> dict[str, float]:
@@ -28,8 +34,10 @@ def wheel_fixed_arg(specs: list[str] | None, model: str) -> dict[str, float]:
         name, sep, val = spec.partition("=")
         name = name.strip()
         if not sep or name not in _FIX_UNITS:
-            raise DataError(f"--fix expects NAME=VALUE with NAME one of {sorted(_FIX_UNITS)} (edge units: kPa, deg, m, "
-                            f"kN/m^(n+1), kN/m^(n+2), -), got {spec!r}")
+            raise DataError(
+                f"--fix expects NAME=VALUE with NAME one of {sorted(_FIX_UNITS)} (edge units: kPa, deg, m, "
+                f"kN/m^(n+1), kN/m^(n+2), -), got {spec!r}"
+            )
         (v,) = floats_arg(val, f"--fix {name}")
         key, fac = _FIX_UNITS[name]
         out[key] = v * fac
@@ -50,7 +58,9 @@ def _effects(a: argparse.Namespace) -> tuple[str, ...]:
     names = tuple(e.strip() for item in (a.effect or []) for e in item.split(",") if e.strip())
     bad = [e for e in names if e not in WHEEL_EFFECTS]
     if bad:
-        raise DataError(f"--effect {bad[0]!r} is not an effect of the rigid-wheel model; it has {list(WHEEL_EFFECTS)}")
+        raise DataError(
+            f"--effect {bad[0]!r} is not an effect of the rigid-wheel model; it has {list(WHEEL_EFFECTS)}"
+        )
     return names
 
 
@@ -59,12 +69,26 @@ def fit_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:
     from .identify.wheel import WheelFitOptions, fit_wheel
     from .soilmodel.wheel_sweep import read_wheel_sweep
 
-    _refuse(a, set(), {"engine": "auto", "sigma": None, "bias_correction": "none", "torque_hold": None,
-                       "slip_noise": None, "intervals": None, "interval_method": None, "bounds": "practical",
-                       "method": "ipopt"}, "its fit is bounded IPOPT")
+    _refuse(
+        a,
+        set(),
+        {
+            "engine": "auto",
+            "sigma": None,
+            "bias_correction": "none",
+            "torque_hold": None,
+            "slip_noise": None,
+            "intervals": None,
+            "interval_method": None,
+            "bounds": "practical",
+            "method": "ipopt",
+            "resistance": None,
+        },
+        "its fit is bounded IPOPT; its rolling resistance is in its normal stresses",
+    )
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
-    data = read_wheel_sweep(a.data)
+    data = read_wheel_sweep(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle)
     opts = WheelFitOptions(fixed=wheel_fixed_arg(getattr(a, "fix", None), a.model), effects=_effects(a))
     result = fit_wheel(data, wheel, opts)
     print(result.to_json() if a.json else result.report())
@@ -106,7 +130,9 @@ def simulate_wheel_command(a: argparse.Namespace, wheel: RigidWheel, soil) -> in
     if a.kind != "sweep":
         raise DataError("a rigid wheel on a rig makes sweeps only: use --kind sweep")
     if a.model != "full":
-        raise DataError("--model does not apply to simulating a rigid wheel (give the soil's cohesion instead)")
+        raise DataError(
+            "--model does not apply to simulating a rigid wheel (give the soil's cohesion instead)"
+        )
     slip_sinkage = 0.0
     for spec in a.effect or []:
         name, _, val = spec.partition("=")
@@ -118,16 +144,30 @@ def simulate_wheel_command(a: argparse.Namespace, wheel: RigidWheel, soil) -> in
         if len(vals) != 3:
             raise DataError(f"--bekker expects KC,KPHI,N (kN/m^(n+1), kN/m^(n+2), -), got {a.bekker!r}")
         kc, kphi, n = vals
-        soil = Soil(cohesion=soil.cohesion, friction_angle=soil.friction_angle, shear_modulus=soil.shear_modulus,
-                    name=soil.name, n=n, k_c=kc * 1e3, k_phi=kphi * 1e3)
+        soil = Soil(
+            cohesion=soil.cohesion,
+            friction_angle=soil.friction_angle,
+            shear_modulus=soil.shear_modulus,
+            name=soil.name,
+            n=n,
+            k_c=kc * 1e3,
+            k_phi=kphi * 1e3,
+        )
     kw = {}
     if a.slips:
         kw["slips"] = floats_arg(a.slips, "--slips")
     loads = floats_arg(a.loads, "--loads") if a.loads else None
     if loads is None:
         raise DataError("a rigid wheel has no mass: give its normal load(s) with --loads (N)")
-    data = simulate_wheel_sweep(wheel, soil, normal_loads=loads, noise=None if a.noise == "none" else DEFAULT_WHEEL_NOISE,
-                                seed=a.seed, slip_sinkage=slip_sinkage, **kw)
+    data = simulate_wheel_sweep(
+        wheel,
+        soil,
+        normal_loads=loads,
+        noise=None if a.noise == "none" else DEFAULT_WHEEL_NOISE,
+        seed=a.seed,
+        slip_sinkage=slip_sinkage,
+        **kw,
+    )
     if a.output == "-":
         write_wheel_sweep(data, sys.stdout)
     else:

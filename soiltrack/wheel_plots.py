@@ -1,4 +1,5 @@
-"""Figure of a rigid-wheel fit: drawbar pull against slip (coloured by load) and the load balance."""
+"""Figure of a rigid-wheel fit: drawbar pull against slip (coloured by load) and the sinkage channel."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -16,8 +17,8 @@ def plot_wheel_fit(data, result, path: str) -> str:
 
     Left: measured drawbar pull (colour: normal load, with a colour bar), the model's value for
     each row (open circles) and its curve at the median load (sinkage: the measured sinkage's
-    straight-line trend with slip, or solved from the load). Right: the wheel's vertical force
-    from the fitted stresses at each row's sinkage against the measured load (sinkage measured).
+    straight-line trend with slip, or solved from the load). Right (sinkage measured): the
+    measured sinkage against the one at which the fitted stresses carry each row's load.
     """
     import matplotlib
 
@@ -53,13 +54,18 @@ def plot_wheel_fit(data, result, path: str) -> str:
     ax.legend(fontsize=8, loc="lower right")
     if two:
         ax2 = axes[0, 1]
-        model_load = result.predict_load(data)
-        ax2.scatter(data.slip, W, c="C0", s=30, label="measured load")
-        ax2.scatter(data.slip, model_load, facecolors="none", edgecolors="C3", s=45,
-                    label="vertical force of the fitted stresses\nat the measured sinkage")
+        ax2.scatter(data.slip, 1e3 * data.sinkage, c="C0", s=30, label="measured sinkage")
+        ax2.scatter(
+            data.slip,
+            1e3 * result.predict_sinkage(data),
+            facecolors="none",
+            edgecolors="C3",
+            s=45,
+            label="sinkage at which the fitted stresses\ncarry the measured load",
+        )
         ax2.set_xlabel("slip i")
-        ax2.set_ylabel("normal load (N)")
-        ax2.set_title(f"load balance, rmse {result.rmse_load:.3g} N", fontsize=10)
+        ax2.set_ylabel("sinkage (mm)")
+        ax2.set_title(f"sinkage channel, rmse {1e3 * result.rmse_sinkage:.3g} mm", fontsize=10)
         ax2.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)

@@ -88,7 +88,7 @@ def test_a_failed_write_leaves_no_temporary_file(tmp_path, fresh, capsys):
 def test_the_report_says_the_fallback(tmp_path):
     env = dict(os.environ, SOILTRACK_CACHE_DIR=str(tmp_path / "nofolder"), PYTHONPATH=ROOT)
     (tmp_path / "nofolder").write_text("")  # a file where the cache folder should be
-    csv_path = tmp_path / "sweep.csv"
+    csv_path = tmp_path / "sweep.csv"  # loads 150 and 450 N: the compiled engine (not profile intervals)
     subprocess.run(
         [
             sys.executable,
@@ -102,7 +102,7 @@ def test_the_report_says_the_fallback(tmp_path):
             "--terrain",
             "sandy_loam",
             "--loads",
-            "300,450",
+            "150,450",
             "--seed",
             "1",
             "-o",

@@ -160,7 +160,7 @@ def test_a_measured_load_that_barely_spreads_says_the_separation_rests_on_it():
     i, DP, _, W = rig_rows(8)
     r = fit(SlipData(slip=i, drawbar_pull=DP, normal_load=W), RIG)
     sep = r.extra["load_separation"]
-    assert sep["fragile"] is True and sep["spread"] < 0.5
+    assert sep["fragile"] is True and sep["spread"] < 0.3
     assert r.replaced_intervals and {"cohesion", "friction_angle"} <= set(r.replaced_intervals)
 
 
@@ -232,3 +232,28 @@ def test_fit_many_takes_the_rig_path_for_rig_sweeps():
     one, = fit_many([data], RIG)
     assert np.allclose(one.theta, fit(data, RIG).theta, rtol=1e-6, atol=1e-9)
     assert one.extra["weights_from"] == "drawbar_pull_std_N" and "lack_of_fit" in one.extra
+
+
+def _sunk(seed, loads, s_exp=1.0, n=0.8, k=1.5e6):
+    """Rows whose sinkage follows Bekker's static sinkage times Lyasko's factor to the power s_exp (numpy)."""
+    rng = np.random.default_rng(seed)
+    i = np.tile(np.array([0.05, 0.1, 0.2, 0.35, 0.5, 0.7]), len(loads))
+    W = np.repeat(np.asarray(loads, dtype=float), 6)
+    z = (W / (2 * B * L * k)) ** (1 / n) * ((1 + i) / (1 - 0.5 * i)) ** s_exp
+    z = z * np.exp(rng.normal(0, 0.02, i.size))
+    return SlipData(slip=i, drawbar_pull=thrust(i, W), normal_load=W, sinkage=z)
+
+
+def test_the_sinkage_channel_recovers_bekker_n_and_k_and_tests_lyasko():
+    from soiltrack.identify.sweep.sinkage_channel import fit_sinkage_channel
+
+    out = fit_sinkage_channel(_sunk(1, (15.0, 25.0, 40.0)), RIG)
+    assert out["identifiable"] == ["z0", "n", "k_eq"]
+    assert out["n_ci95"][0] <= 0.8 <= out["n_ci95"][1] and abs(out["k_eq_kn"] / 1.5e3 - 1) < 0.3
+    assert out["slip_exponent"]["ci95"][0] <= 1.0 <= out["slip_exponent"]["ci95"][1]
+    slow = fit_sinkage_channel(_sunk(2, (15.0, 25.0, 40.0), s_exp=0.4), RIG)
+    assert slow["slip_exponent"]["p_value_lyasko"] < 1e-3
+    one = fit_sinkage_channel(_sunk(3, (25.0,)), RIG)
+    assert one["identifiable"] == ["z0"] and one["n"] is None and one["k_eq_kn"] is None
+    z0 = (25.0 / (2 * B * L * 1.5e6)) ** (1 / 0.8)
+    assert one["z0_ci95_m"][0] <= z0 <= one["z0_ci95_m"][1]

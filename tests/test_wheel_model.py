@@ -1,4 +1,5 @@
-"""The rigid-wheel model (soilmodel/wheel.py) against an independent numpy oracle, its physics and its derivatives."""
+"""The rigid wheel (soilmodel/wheel.py) against an independent numpy oracle; its physics and derivatives."""
+
 from __future__ import annotations
 
 import json
@@ -12,13 +13,21 @@ import wheel_oracle as oracle
 from soiltrack.soilmodel import DataError
 from soiltrack.soilmodel.rigid_wheel import RigidWheel, read_running_gear
 from soiltrack.soilmodel.vehicle import Vehicle
-from soiltrack.soilmodel.wheel import (WheelSettings, evaluate, sinkage_from_load_function, wheel_expr,
-                                       wheel_forces_function)
+from soiltrack.soilmodel.wheel import (
+    WheelSettings,
+    evaluate,
+    sinkage_from_load_function,
+    wheel_expr,
+    wheel_forces_function,
+)
 
 R, B = 0.058, 0.05
 # (c Pa, phi rad, K m, k N/m^(n+2), n): a loose sand, a cohesive loam, a stiff soil with small n
-SOILS = [(1000.0, math.radians(30), 0.012, 1.55e6, 1.1), (4000.0, math.radians(22), 0.02, 0.9e6, 0.7),
-         (200.0, math.radians(36), 0.006, 5.0e6, 0.5)]
+SOILS = [
+    (1000.0, math.radians(30), 0.012, 1.55e6, 1.1),
+    (4000.0, math.radians(22), 0.02, 0.9e6, 0.7),
+    (200.0, math.radians(36), 0.006, 5.0e6, 0.5),
+]
 
 
 def cas(soil, k_c=0.0):
@@ -52,7 +61,9 @@ def test_more_nodes_converge_to_the_oracle():
     err = []
     for nodes in (12, 48, 200):
         f = wheel_forces_function(R, B, 0.0, WheelSettings(nodes=nodes))
-        err.append(np.max(np.abs(np.array([float(v) for v in f(0.5, 0.02, *cas(soil), 0.0)]) - ref) / abs(ref[1])))
+        err.append(
+            np.max(np.abs(np.array([float(v) for v in f(0.5, 0.02, *cas(soil), 0.0)]) - ref) / abs(ref[1]))
+        )
     assert err[0] > err[1] > err[2]
     assert err[2] < 1e-6
 
@@ -73,7 +84,9 @@ def test_pull_rises_with_slip_at_a_given_load(soil, W):
 
 def test_pull_at_zero_slip_is_the_rolling_resistance_side():
     # with no slip the shear is small and the normal stress's horizontal part (compaction) dominates
-    dp, _, _ = evaluate(wheel_forces_function(R, B), 0.0, 0.025, 0.0, math.radians(30), 0.012, 0.0, 1.5e6, 1.1, 0.0)
+    dp, _, _ = evaluate(
+        wheel_forces_function(R, B), 0.0, 0.025, 0.0, math.radians(30), 0.012, 0.0, 1.5e6, 1.1, 0.0
+    )
     assert dp < 0
 
 
@@ -145,18 +158,38 @@ def test_settings_are_checked():
 
 def test_running_gear_json(tmp_path):
     p = tmp_path / "w.json"
-    p.write_text(json.dumps({"running_gear": "rigid_wheel", "wheel_radius_m": 0.058, "wheel_width_m": 0.05,
-                             "grouser_height_m": 0.005}))
+    p.write_text(
+        json.dumps(
+            {
+                "running_gear": "rigid_wheel",
+                "wheel_radius_m": 0.058,
+                "wheel_width_m": 0.05,
+                "grouser_height_m": 0.005,
+            }
+        )
+    )
     w = read_running_gear(str(p))
     assert isinstance(w, RigidWheel) and w.shear_radius == pytest.approx(0.063)
     assert isinstance(read_running_gear(RigidWheel(0.1, 0.05).to_json()), RigidWheel)
-    v = read_running_gear(json.dumps({"mass_kg": 30, "track_length_m": 0.5, "track_width_m": 0.1,
-                                      "sprocket_radius_m": 0.08, "sprocket_inertia_kg_m2": 0.05,
-                                      "rolling_resistance": 0.05}))
+    v = read_running_gear(
+        json.dumps(
+            {
+                "mass_kg": 30,
+                "track_length_m": 0.5,
+                "track_width_m": 0.1,
+                "sprocket_radius_m": 0.08,
+                "sprocket_inertia_kg_m2": 0.05,
+                "rolling_resistance": 0.05,
+            }
+        )
+    )
     assert isinstance(v, Vehicle)
     with pytest.raises(DataError) as e:
-        read_running_gear(json.dumps({"running_gear": "rigid_wheel", "wheel_radius_m": 0.058, "wheel_width_m": 0.05,
-                                      "mass_kg": 3}))
+        read_running_gear(
+            json.dumps(
+                {"running_gear": "rigid_wheel", "wheel_radius_m": 0.058, "wheel_width_m": 0.05, "mass_kg": 3}
+            )
+        )
     assert e.value.column == "mass_kg"
     with pytest.raises(DataError) as e:
         read_running_gear(json.dumps({"running_gear": "rigid_wheel", "wheel_width_m": 0.05}))

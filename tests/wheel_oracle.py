@@ -4,6 +4,7 @@ Written from the textbook equations (Wong, Theory of Ground Vehicles, ch. 5; Won
 not from soilmodel/wheel.py: a dense trapezoid rule in theta instead of Gauss-Legendre, the
 stresses evaluated pointwise, the sinkage from the load by bisection.
 """
+
 from __future__ import annotations
 
 import math
@@ -25,9 +26,9 @@ def stresses(theta, i, th1, c, phi, K, k, n, r, h, c1, c2, s=0.0):
     ke = k / (1.0 + s * i)
     sigma = np.empty_like(theta)
     front = theta >= thm
-    sigma[front] = ke * r ** n * np.clip(np.cos(theta[front]) - math.cos(th1), 0, None) ** n
+    sigma[front] = ke * r**n * np.clip(np.cos(theta[front]) - math.cos(th1), 0, None) ** n
     th_eq = th1 - theta[~front] / thm * (th1 - thm)
-    sigma[~front] = ke * r ** n * np.clip(np.cos(th_eq) - math.cos(th1), 0, None) ** n
+    sigma[~front] = ke * r**n * np.clip(np.cos(th_eq) - math.cos(th1), 0, None) ** n
     j = (r + h) * ((th1 - theta) - (1 - i) * (math.sin(th1) - np.sin(theta)))
     tau = (c + sigma * math.tan(phi)) * (1 - np.exp(-j / K))
     return sigma, tau
@@ -41,8 +42,11 @@ def forces(i, z, c, phi, K, k, n, r, b, h=0.0, c1=0.4, c2=0.15, s=0.0):
     for lo, hi in ((0.0, thm), (thm, th1)):
         th = np.linspace(lo, hi, POINTS)
         sig, tau = stresses(th, i, th1, c, phi, K, k, n, r, h, c1, c2, s)
-        out += [_trapz(tau * np.cos(th) - sig * np.sin(th), th), _trapz(sig * np.cos(th) + tau * np.sin(th), th),
-                _trapz(tau, th)]
+        out += [
+            _trapz(tau * np.cos(th) - sig * np.sin(th), th),
+            _trapz(sig * np.cos(th) + tau * np.sin(th), th),
+            _trapz(tau, th),
+        ]
     return r * b * out[0], r * b * out[1], (r + h) ** 2 * b * out[2]
 
 
@@ -66,5 +70,7 @@ def sweep(slips, loads, c, phi, K, k, n, r, b, h=0.0, s=0.0, sd_dp=0.0, sd_z=0.0
         for i in slips:
             z = sinkage(i, W, c, phi, K, k, n, r, b, h, s=s)
             dp = forces(i, z, c, phi, K, k, n, r, b, h, s=s)[0]
-            rows.append((i, dp + rng.normal(0, sd_dp) if sd_dp else dp, W, z + rng.normal(0, sd_z) if sd_z else z))
+            rows.append(
+                (i, dp + rng.normal(0, sd_dp) if sd_dp else dp, W, z + rng.normal(0, sd_z) if sd_z else z)
+            )
     return tuple(np.array(col) for col in zip(*rows))

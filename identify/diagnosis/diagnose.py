@@ -941,6 +941,9 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     if n < MIN_SAMPLES:
         return _too_few(data, vehicle, model, cands, is_log, t0, fit_options)
     notes: list[str] = []
+    if is_log and data.n_turning:
+        notes.append(f"{data.n_turning} of {n} samples turning (two-track log): left out of the "
+                     "straight-line model, with the sample after each turn")
     if is_log:
         notes.append("the logged torque is taken as " + (
             "held from each sample to the next (torque_hold='zoh', the default; a torque sampled from a "

@@ -458,6 +458,7 @@ def _base_extra(log: DriveLog, prep: PreparedLog, formulation: str, options: dic
         "samples_dropped_slow": prep.dropped["slow"],
         "samples_dropped_braking": prep.dropped["braking"],
         "samples_thrust_jump_inflated": prep.dropped["thrust_jumps"],
+        "samples_turning": prep.dropped["turning"],
         "speed_floor_m_s": prep.dropped["speed_floor_m_s"],
         "noise_model": {  # sigma = sqrt(abs^2 + (rel * reading)^2), given or estimated from the log
             "torque_Nm": {"abs": prep.noise["torque"][0], "rel": prep.noise["torque"][1]},
@@ -475,6 +476,11 @@ def _base_extra(log: DriveLog, prep: PreparedLog, formulation: str, options: dic
             f"below 3 noise levels (about {prep.dropped['speed_floor_m_s']:.3g} m/s: slip undefined or lost in the "
             f"speed noise), {prep.dropped['braking']} braking (negative thrust: the skid law F(i) = -F(|i|) is only "
             f"a first approximation), {prep.dropped['edge']} at the ends of the log (no sprocket-speed difference)")
+    if prep.dropped["turning"]:
+        warnings.append(
+            f"{prep.dropped['turning']} of {log.n_samples} samples turning (two-track log: left and right "
+            f"sprocket speeds, or the yaw rate, beyond their noise): left out of the straight-line model with "
+            f"the sample after each turn ({prep.dropped['turning_left_out']} samples in all)")
     if formulation == "equation-error":
         warnings.append("equation-error formulation: slip computed from the noisy measured speeds is used as an "
                         "exact regressor, which biases F_max and K (error-in-variables); use the default "

@@ -147,7 +147,14 @@ def prepare_drive_log(log: DriveLog, vehicle: Vehicle, *, sigma_torque: float | 
     floor = np.maximum(max(float(min_speed), 1e-3), 3.0 * np.maximum(s_v, r * s_w))
     slow = ~edge & ~((v >= floor) & (r * w >= floor))
     braking = ~edge & ~slow & (thrust < -3.0 * sigma_T)
-    keep = ~(edge | slow | braking)
+    # a two-track log's turning samples, and the sample after each (its thrust spans the turn's last
+    # interval), are outside the straight-line model
+    turning = np.zeros(n, dtype=bool)
+    if log.turning is not None:
+        turn = log.turning.copy()
+        turn[1:] |= log.turning[:-1]
+        turning = ~(edge | slow | braking) & turn
+    keep = ~(edge | slow | braking | turning)
     if fixed_keep is not None:  # SIMEX refits: the sample selection of the uncorrected fit
         keep = np.asarray(fixed_keep, dtype=bool).copy()
         slow, braking, edge = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool), ~keep
@@ -173,6 +180,7 @@ def prepare_drive_log(log: DriveLog, vehicle: Vehicle, *, sigma_torque: float | 
                        sigma_known=sigma_known,
                        dropped={"slow": int(np.count_nonzero(slow)), "braking": int(np.count_nonzero(braking)),
                                 "edge": int(np.count_nonzero(edge)), "speed_floor_m_s": float(np.median(floor)),
-                                "thrust_jumps": n_jump})
+                                "thrust_jumps": n_jump, "turning": log.n_turning,
+                                "turning_left_out": int(np.count_nonzero(turning))})
 
 

@@ -218,8 +218,10 @@ class ReportViews:
             L.append(f"sinkage: measured per row, {1e3 * z['min']:.3g} to {1e3 * z['max']:.3g} mm (correlation with "
                      f"the slip {z['slip_correlation']:+.2f}); "
                      + ("used by the resistance R = k_z z W" if used else
-                        "read, not fitted: the track model's resistance does not take it "
-                        "(--resistance fit-sinkage does)"))
+                        "not in the track model's resistance (--resistance fit-sinkage uses it)"))
+            laws = z.get("laws")
+            if isinstance(laws, dict):
+                L.append("sinkage laws: " + laws["statement"])
         res = x.get("resistance")
         if isinstance(res, dict):
             L.append("resistance: " + res["statement"])

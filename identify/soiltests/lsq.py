@@ -19,7 +19,8 @@ from typing import Callable
 import casadi as ca
 import numpy as np
 
-__all__ = ["ResidualModel", "LsqSolution", "solve_bounded", "covariance", "RANK_RTOL", "BOUND_RTOL", "MAX_ITER"]
+__all__ = ["ResidualModel", "LsqSolution", "solve_bounded", "covariance", "RANK_RTOL", "BOUND_RTOL",
+           "MAX_ITER", "IPOPT_TOL", "FLAT_COMPONENT_TOL"]
 
 #: Relative singular value of the scaled Jacobian below which a direction is not identifiable.
 RANK_RTOL = 1e-7
@@ -27,6 +28,10 @@ RANK_RTOL = 1e-7
 BOUND_RTOL = 1e-5
 #: IPOPT iteration budget of one start.
 MAX_ITER = 300
+#: IPOPT's convergence tolerance (the scaled problems are of order one).
+IPOPT_TOL = 1e-10
+#: A parameter whose weight in a flat direction of the fit exceeds this is not identifiable.
+FLAT_COMPONENT_TOL = 1e-6
 
 
 @dataclass(frozen=True)
@@ -105,7 +110,7 @@ def _functions(name: str, n: int) -> tuple[ca.Function, ca.Function]:
     r = model.build(x, D, a)
     p = ca.vertcat(ca.vec(D), a)
     opts: dict = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.max_iter": MAX_ITER,
-            "ipopt.tol": 1e-10}
+            "ipopt.tol": IPOPT_TOL}
     solver = ca.nlpsol(f"lsq_{name}_{n}", "ipopt", {"x": x, "p": p, "f": 0.5 * ca.sumsqr(r)}, opts)
     rj = ca.Function(f"rj_{name}_{n}", [x, p], [r, ca.jacobian(r, x)])
     return solver, rj
@@ -169,7 +174,7 @@ def covariance(J: np.ndarray, cost: float, n: int) -> tuple[np.ndarray | None, n
     U, s, Vt = np.linalg.svd(J, full_matrices=False)
     keep = s > RANK_RTOL * (s[0] if s.size and s[0] > 0 else 1.0)
     flat = Vt[~keep]
-    ident = np.ones(m, dtype=bool) if flat.size == 0 else np.all(np.abs(flat) < 1e-6, axis=0)
+    ident = np.ones(m, dtype=bool) if flat.size == 0 else np.all(np.abs(flat) < FLAT_COMPONENT_TOL, axis=0)
     if dof <= 0 or not np.any(keep):
         return None, ident, dof
     s2 = cost / dof

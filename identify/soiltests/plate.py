@@ -20,10 +20,13 @@ from .intervals import at_bounds, edge_parameters
 from .lsq import ResidualModel, solve_bounded
 from .result import SoilTestFit, TestCombination, TestParameter
 
-__all__ = ["fit_plate_test", "PlateBounds", "PLATE_BOUNDS", "N_STARTS"]
+__all__ = ["fit_plate_test", "PlateBounds", "PLATE_BOUNDS", "N_STARTS", "UNBOUNDED_FACTOR"]
 
 #: Extra start values of n besides the log-log regression's (one IPOPT start each).
 N_STARTS = (0.5, 1.0, 1.5)
+#: Upper bound of the scaled moduli, times the regression's scaled pressure: no bound in practice
+#: (k_c and k_phi are only bounded below, by 0), but a finite box for IPOPT.
+UNBOUNDED_FACTOR = 1e3
 
 
 @dataclass(frozen=True)
@@ -120,7 +123,7 @@ def fit_plate_test(test: PlateTest, bounds: PlateBounds = PLATE_BOUNDS) -> SoilT
         for n in n_starts:  # the regression's moduli at its n; at other n, the same pressure at z_ref
             f = 1.0 if n == n_starts[0] else z_ref ** (n0 - n)
             starts.append(np.array([scaled(kc0 * f, n), scaled(kphi0 * f, n), n]))
-        big = 1e3 * max(1.0, float(np.max(k_eq0)) * z_ref ** n0 / ps)  # effectively unbounded above
+        big = UNBOUNDED_FACTOR * max(1.0, float(np.max(k_eq0)) * z_ref ** n0 / ps)
         lower = np.array([0.0, 0.0, n_lo])
         upper = np.array([big, big, n_hi])
         sol = solve_bounded(FULL, D, aux, starts, lower, upper)
@@ -144,7 +147,7 @@ def fit_plate_test(test: PlateTest, bounds: PlateBounds = PLATE_BOUNDS) -> SoilT
         w = float(widths[0])
         starts = [np.array([scaled(k_eq0[0] * (1.0 if n == n_starts[0] else z_ref ** (n0 - n)), n), n])
                   for n in n_starts]
-        big = 1e3 * max(1.0, float(k_eq0[0]) * z_ref ** n0 / ps)
+        big = UNBOUNDED_FACTOR * max(1.0, float(k_eq0[0]) * z_ref ** n0 / ps)
         lower = np.array([0.0, n_lo])
         upper = np.array([big, n_hi])
         sol = solve_bounded(ONE_WIDTH, D, aux, starts, lower, upper)

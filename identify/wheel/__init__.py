@@ -4,9 +4,20 @@ Public names: :func:`fit_wheel`, :class:`WheelFitOptions`, :class:`WheelFitResul
 :class:`WheelBounds`, :data:`DEFAULT_WHEEL_BOUNDS`, :data:`WHEEL_PARAMETERS`,
 :func:`soil_from_wheel_fit`, :func:`pure_error` (the repeats' scatter per slip level).
 """
+
 from .fitting import WheelFitOptions, fit_wheel, soil_from_wheel_fit
 from .problem import DEFAULT_WHEEL_BOUNDS, WHEEL_PARAMETERS, WheelBounds
 from .result import WheelCombination, WheelEstimate, WheelFitResult, pure_error
 
-__all__ = ["fit_wheel", "WheelFitOptions", "WheelFitResult", "WheelEstimate", "WheelCombination", "WheelBounds",
-           "DEFAULT_WHEEL_BOUNDS", "WHEEL_PARAMETERS", "soil_from_wheel_fit", "pure_error"]
+__all__ = [
+    "fit_wheel",
+    "WheelFitOptions",
+    "WheelFitResult",
+    "WheelEstimate",
+    "WheelCombination",
+    "WheelBounds",
+    "DEFAULT_WHEEL_BOUNDS",
+    "WHEEL_PARAMETERS",
+    "soil_from_wheel_fit",
+    "pure_error",
+]

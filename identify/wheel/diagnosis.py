@@ -2,16 +2,18 @@
 
 Hypotheses: ``none`` (the nominal Wong-Reece wheel), each wheel effect (``slip_sinkage``: at a
 given sinkage a slipping wheel's soil carries less, so the measured sinkage grows with slip at a
-constant load; its signature is a load-balance residual that rises with slip), and
+constant load; its signature is a sinkage residual - measured minus the sinkage that carries the
+load - that rises with slip), and
 ``unexplained`` (the drawbar pull misses the repeats' scatter and no effect helps).
 
 Every hypothesis is fitted to all rows (its Akaike weight, from the concentrated likelihood) and
 checked on held-out data: each slip level in turn is left out, the fit made on the others, and
-the left-out rows predicted (drawbar pull and load balance, each channel scaled by the nominal
-fit's noise level). An effect is the verdict when its likelihood-ratio test against the nominal
+the left-out rows predicted (drawbar pull and sinkage, each channel scaled by the nominal fit's
+noise level). An effect is the verdict when its likelihood-ratio test against the nominal
 has ``p < ALPHA`` and it predicts the held-out levels better; ``unexplained`` when the nominal's
 drawbar pull fails the pure-error lack-of-fit test (``p < ALPHA``) and no effect is the verdict.
 """
+
 from __future__ import annotations
 
 import json
@@ -26,6 +28,7 @@ from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.wheel_sweep import WheelSweep
 from ..estimates.distributions import chi2_sf, t_cdf
 from .fitting import WHEEL_EFFECTS, WheelFitOptions, fit_wheel
+from .problem import channel_floors
 from .result import WheelFitResult, slip_levels, wheel_rows
 
 __all__ = ["WheelDiagnosis", "diagnose_wheel", "ALPHA"]
@@ -38,7 +41,7 @@ LOCALISATION_SHARE = 2.0
 
 @dataclass(frozen=True, eq=False)
 class WheelDiagnosis:
-    """Verdict, ranking and held-out errors of a wheel sweep's diagnosis (``to_json`` as ``diagnose --json``)."""
+    """Verdict, ranking and held-out errors of a wheel diagnosis (``to_json``: ``diagnose --json``)."""
 
     verdict: str
     confidence: float
@@ -52,16 +55,26 @@ class WheelDiagnosis:
     notes: tuple[str, ...]
 
     def to_dict(self) -> dict[str, Any]:
-        """The JSON object (DESIGN.md section 8 keys, plus the wheel's signature and notes)."""
+        """The JSON object (the keys of the track's diagnosis, plus the wheel's signature and notes)."""
+
         def soil(r: WheelFitResult | None) -> dict | None:
             return None if r is None else {k: v.value for k, v in r.parameters.items()}
 
-        return {"running_gear": "rigid_wheel", "verdict": self.verdict, "confidence": self.confidence,
-                "ranking": list(self.ranking), "confusable": [], "localisation": list(self.localisation),
-                "shrink": self.shrink, "soil_before": soil(self.nominal),
-                "soil_after": soil(self.after) if self.verdict in WHEEL_EFFECTS else None,
-                "slip_sinkage_signature": self.signature, "lack_of_fit": self.nominal.lack_of_fit,
-                "converged": self.converged, "notes": list(self.notes)}
+        return {
+            "running_gear": "rigid_wheel",
+            "verdict": self.verdict,
+            "confidence": self.confidence,
+            "ranking": list(self.ranking),
+            "confusable": [],
+            "localisation": list(self.localisation),
+            "shrink": self.shrink,
+            "soil_before": soil(self.nominal),
+            "soil_after": soil(self.after) if self.verdict in WHEEL_EFFECTS else None,
+            "slip_sinkage_signature": self.signature,
+            "lack_of_fit": self.nominal.lack_of_fit,
+            "converged": self.converged,
+            "notes": list(self.notes),
+        }
 
     def to_json(self) -> str:
         """:meth:`to_dict` as JSON text."""
@@ -69,35 +82,45 @@ class WheelDiagnosis:
 
     def report(self) -> str:
         """A plain-text report."""
-        lines = [f"verdict: {self.verdict} (confidence {self.confidence:.2f})"
-                 + ("" if self.converged else " - the nominal fit did not converge")]
+        lines = [
+            f"verdict: {self.verdict} (confidence {self.confidence:.2f})"
+            + ("" if self.converged else " - the nominal fit did not converge")
+        ]
         lines.append(f"{'hypothesis':<16}{'weight':>8}{'held-out before':>17}{'after':>8}{'shrink':>8}")
         for r in self.ranking:
             sh = "-" if r["shrink"] is None else f"{r['shrink']:.2f}"
             after = "-" if r["holdout_rmse_after"] is None else f"{r['holdout_rmse_after']:.3g}"
-            lines.append(f"{r['effect']:<16}{r['weight']:>8.2f}{r['holdout_rmse_before']:>17.3g}{after:>8}{sh:>8}")
+            lines.append(
+                f"{r['effect']:<16}{r['weight']:>8.2f}{r['holdout_rmse_before']:>17.3g}{after:>8}{sh:>8}"
+            )
         sig = self.signature
         if sig.get("correlation") is not None:
-            lines.append(f"slip-sinkage signature: the load-balance residual against slip r = {sig['correlation']:+.2f} "
-                         f"(p = {sig['p_value']:.2g}); measured sinkage against slip r = {sig['sinkage_slip_r']:+.2f}")
+            lines.append(
+                f"slip-sinkage signature: the sinkage residual against slip r = {sig['correlation']:+.2f} "
+                f"(p = {sig['p_value']:.2g}); measured sinkage against slip r = {sig['sinkage_slip_r']:+.2f}"
+            )
         lf = self.nominal.lack_of_fit
         if lf.get("testable"):
-            lines.append(f"drawbar pull against the repeats' scatter: F = {lf['F']:.3g}, p = {lf['p_value']:.2g}")
+            lines.append(
+                f"drawbar pull against the repeats' scatter: F = {lf['F']:.3g}, p = {lf['p_value']:.2g}"
+            )
         lines += [f"note: {n}" for n in self.notes]
         return "\n".join(lines)
 
 
 def _objective(r: WheelFitResult, data: WheelSweep) -> float:
-    """Concentrated negative log-likelihood of a fit (per-channel unknown noise)."""
+    """Concentrated negative log-likelihood of a fit (per-channel unknown noise), the fit's own objective."""
     n = data.n_samples
-    f = n / 2 * math.log(max(r.rmse_drawbar_pull, 1e-300) ** 2)
-    if r.rmse_load is not None:
-        f += n / 2 * math.log(max(r.rmse_load, 1e-300) ** 2)
+    f_dp, f_z = channel_floors(float(np.mean(data.normal_load)))
+    f = n / 2 * math.log(r.rmse_drawbar_pull**2 + f_dp**2)
+    if r.rmse_sinkage is not None:
+        f += n / 2 * math.log(r.rmse_sinkage**2 + f_z**2)
     return f
 
 
-def _holdout(data: WheelSweep, wheel: RigidWheel, opts: WheelFitOptions,
-             scale: tuple[float, float | None]) -> tuple[float, dict[int, float], bool]:
+def _holdout(
+    data: WheelSweep, wheel: RigidWheel, opts: WheelFitOptions, scale: tuple[float, float | None]
+) -> tuple[float, dict[int, float], bool]:
     """Leave-one-slip-level-out: scaled rms of the held-out residuals, the share per level, all converged."""
     lev = slip_levels(data.slip)
     sq: dict[int, float] = {}
@@ -106,33 +129,49 @@ def _holdout(data: WheelSweep, wheel: RigidWheel, opts: WheelFitOptions,
         train, test = data.subset(lev != g), data.subset(lev == g)
         r = fit_wheel(train, wheel, opts)
         ok &= r.success
-        dp, wl, _ = wheel_rows(wheel, opts.settings, r.theta, test)
+        dp, _, _, z_w = wheel_rows(wheel, opts.settings, r.theta, test)
         s = float((((dp - test.drawbar_pull) / scale[0]) ** 2).sum())
         if scale[1] is not None:
-            s += float((((wl - test.normal_load) / scale[1]) ** 2).sum())
+            s += float((((z_w - test.sinkage) / scale[1]) ** 2).sum())
         sq[int(g)] = s
     n_res = data.n_samples * (2 if scale[1] is not None else 1)
     total = sum(sq.values())
     return math.sqrt(total / n_res), {g: v / total if total > 0 else 0.0 for g, v in sq.items()}, ok
 
 
-def diagnose_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = WheelFitOptions(),
-                   candidates: tuple[str, ...] | None = None) -> WheelDiagnosis:
+def diagnose_wheel(
+    data: WheelSweep,
+    wheel: RigidWheel,
+    options: WheelFitOptions = WheelFitOptions(),
+    candidates: tuple[str, ...] | None = None,
+) -> WheelDiagnosis:
     """Diagnose a wheel sweep against the nominal rigid wheel (see the module text)."""
     cands = WHEEL_EFFECTS if candidates is None else tuple(candidates)
     bad = [c for c in cands if c not in WHEEL_EFFECTS]
     if bad:
         raise DataError(f"unknown candidate {bad[0]!r} for a rigid wheel; it has {list(WHEEL_EFFECTS)}")
     if np.unique(slip_levels(data.slip)).size < 3:
-        raise DataError("a wheel diagnosis leaves each slip level out in turn: it needs at least 3 slip levels",
-                        file=data.source, column="slip")
+        raise DataError(
+            "a wheel diagnosis leaves each slip level out in turn: it needs at least 3 slip levels",
+            file=data.source,
+            column="slip",
+        )
     nominal = fit_wheel(data, wheel, replace(options, effects=()))
     notes = []
-    scale = (max(nominal.rmse_drawbar_pull, 1e-12),
-             None if nominal.rmse_load is None else max(nominal.rmse_load, 1e-12))
+    f_dp, f_z = channel_floors(float(np.mean(data.normal_load)))
+    scale = (
+        math.hypot(nominal.rmse_drawbar_pull, f_dp),
+        None if nominal.rmse_sinkage is None else math.hypot(nominal.rmse_sinkage, f_z),
+    )
     before, shares, ok_nom = _holdout(data, wheel, replace(options, effects=()), scale)
-    hyps = [{"effect": "none", "fit": nominal, "holdout": before, "k": sum(not e.fixed for e in
-                                                                          nominal.parameters.values())}]
+    hyps = [
+        {
+            "effect": "none",
+            "fit": nominal,
+            "holdout": before,
+            "k": sum(not e.fixed for e in nominal.parameters.values()),
+        }
+    ]
     for eff in cands:
         if eff == "slip_sinkage" and not data.has_sinkage:
             notes.append("slip_sinkage needs a measured sinkage (sinkage_m) to show: not tried")
@@ -140,7 +179,9 @@ def diagnose_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions
         r = fit_wheel(data, wheel, replace(options, effects=(eff,)))
         ho, _, ok = _holdout(data, wheel, replace(options, effects=(eff,)), scale)
         ok_nom &= ok
-        hyps.append({"effect": eff, "fit": r, "holdout": ho, "k": sum(not e.fixed for e in r.parameters.values())})
+        hyps.append(
+            {"effect": eff, "fit": r, "holdout": ho, "k": sum(not e.fixed for e in r.parameters.values())}
+        )
     aic = np.array([2 * _objective(h["fit"], data) + 2 * h["k"] for h in hyps])
     w = np.exp(-(aic - aic.min()) / 2)
     w = w / w.sum()
@@ -160,23 +201,36 @@ def diagnose_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions
     unexplained = verdict == "none" and lf.get("testable") and lf["p_value"] < ALPHA
     if unexplained:
         verdict = "unexplained"
-    # the slip-sinkage signature: the load-balance residual's trend with slip (nominal fit)
+    # the slip-sinkage signature: the sinkage residual's trend with slip (nominal fit)
     sig: dict[str, Any] = {"correlation": None, "p_value": None, "sinkage_slip_r": None}
     if data.has_sinkage and data.n_samples > 3:
-        res = nominal.predict_load(data) - data.normal_load
+        res = data.sinkage - nominal.predict_sinkage(data)
         rho = float(np.corrcoef(res, data.slip)[0, 1])
         dof = data.n_samples - 2
-        t = rho * math.sqrt(dof / max(1 - rho ** 2, 1e-300))
-        sig = {"correlation": rho, "p_value": 2 * (1 - t_cdf(abs(t), dof)),
-               "sinkage_slip_r": float(np.corrcoef(data.sinkage, data.slip)[0, 1])}
+        t = rho * math.sqrt(dof / max(1 - rho**2, 1e-300))
+        sig = {
+            "correlation": rho,
+            "p_value": 2 * (1 - t_cdf(abs(t), dof)),
+            "sinkage_slip_r": float(np.corrcoef(data.sinkage, data.slip)[0, 1]),
+        }
     ranking = []
     for h in sorted(hyps, key=lambda x: -x["weight"]):
         sh = None if h["effect"] == "none" else 1 - h["holdout"] / before
-        ranking.append({"effect": h["effect"], "weight": h["weight"], "holdout_rmse_before": before,
-                        "holdout_rmse_after": None if h["effect"] == "none" else h["holdout"], "shrink": sh,
-                        "p_value": h["p_value"],
-                        "parameters": ({"slip_sinkage": h["fit"].parameters["slip_sinkage"].value}
-                                       if h["effect"] == "slip_sinkage" else {})})
+        ranking.append(
+            {
+                "effect": h["effect"],
+                "weight": h["weight"],
+                "holdout_rmse_before": before,
+                "holdout_rmse_after": None if h["effect"] == "none" else h["holdout"],
+                "shrink": sh,
+                "p_value": h["p_value"],
+                "parameters": (
+                    {"slip_sinkage": h["fit"].parameters["slip_sinkage"].value}
+                    if h["effect"] == "slip_sinkage"
+                    else {}
+                ),
+            }
+        )
     if verdict == "unexplained":
         confidence = 1.0 - float(lf["p_value"])
     else:
@@ -185,14 +239,34 @@ def diagnose_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions
     loc = []
     for g, share in sorted(shares.items(), key=lambda kv: -kv[1]):
         s = data.slip[lev == g]
-        loc.append({"dimension": "slip", "range": [float(s.min()), float(s.max())], "channel": "drawbar_pull_N"
-                    + (" and normal_load_N" if data.has_sinkage else ""), "share": share,
-                    "significant": bool(share > LOCALISATION_SHARE / len(shares))})
+        loc.append(
+            {
+                "dimension": "slip",
+                "range": [float(s.min()), float(s.max())],
+                "channel": "drawbar_pull_N" + (" and sinkage_m" if data.has_sinkage else ""),
+                "share": share,
+                "significant": bool(share > LOCALISATION_SHARE / len(shares)),
+            }
+        )
     after = next((h["fit"] for h in hyps if h["effect"] == verdict), None)
-    shrink = next((r["shrink"] for r in ranking if r["effect"] == verdict), None) if verdict in WHEEL_EFFECTS \
+    shrink = (
+        next((r["shrink"] for r in ranking if r["effect"] == verdict), None)
+        if verdict in WHEEL_EFFECTS
         else None
-    notes.append("held-out errors are root mean squares of residuals scaled by the nominal fit's noise level per "
-                 "channel (1 = as good as the fit in-sample), each slip level left out in turn")
-    return WheelDiagnosis(verdict=verdict, confidence=float(confidence), ranking=tuple(ranking),
-                          localisation=tuple(loc), shrink=shrink, nominal=nominal, after=after, signature=sig,
-                          converged=bool(nominal.success and ok_nom), notes=tuple(notes))
+    )
+    notes.append(
+        "held-out errors are root mean squares of residuals scaled by the nominal fit's noise level per "
+        "channel (1 = as good as the fit in-sample), each slip level left out in turn"
+    )
+    return WheelDiagnosis(
+        verdict=verdict,
+        confidence=float(confidence),
+        ranking=tuple(ranking),
+        localisation=tuple(loc),
+        shrink=shrink,
+        nominal=nominal,
+        after=after,
+        signature=sig,
+        converged=bool(nominal.success and ok_nom),
+        notes=tuple(notes),
+    )

@@ -1,4 +1,5 @@
 """Bounded IPOPT fit of the rigid wheel to a wheel sweep (:func:`fit_wheel`)."""
+
 from __future__ import annotations
 
 import math
@@ -12,12 +13,19 @@ from ...soilmodel.errors import DataError
 from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.soil import Soil
 from ...soilmodel.threadsafe import call_solver
-from ...soilmodel.wheel import DEFAULT_WHEEL_SETTINGS, WheelSettings
+from ...soilmodel.wheel import DEFAULT_WHEEL_SETTINGS, WheelSettings, evaluate, wheel_forces_function
 from ...soilmodel.wheel_sweep import WheelSweep
 from .problem import DEFAULT_WHEEL_BOUNDS, PARAMETER_SCALES, WHEEL_PARAMETERS, WheelBounds, wheel_solver
 from .result import WheelFitResult, build_wheel_result
 
-__all__ = ["fit_wheel", "WheelFitOptions", "soil_from_wheel_fit", "START_FRICTION_DEG", "START_SHEAR_MODULUS_M", "WHEEL_EFFECTS"]
+__all__ = [
+    "fit_wheel",
+    "WheelFitOptions",
+    "soil_from_wheel_fit",
+    "START_FRICTION_DEG",
+    "START_SHEAR_MODULUS_M",
+    "WHEEL_EFFECTS",
+]
 
 #: Friction angles (deg) of the multi-start grid; each start is one bounded IPOPT solve.
 START_FRICTION_DEG = (20.0, 30.0, 38.0)
@@ -28,6 +36,8 @@ START_COHESION_PA = 500.0
 #: Bekker exponent of every start, and the share of k = k_c / b + k_phi started as k_c / b.
 START_BEKKER_N = 1.0
 START_KC_SHARE = 0.1
+#: Starts keep this fraction of each free parameter's bound range away from its bounds.
+START_BOUND_MARGIN = 1e-3
 #: Bekker k = k_c / b + k_phi (N/m^(n+2)) of every start when no sinkage is measured (a loose sand's).
 START_BEKKER_K = 1.5e6
 #: Effects the wheel fit can add (each a parameter of :data:`WHEEL_PARAMETERS`, 0 when off).
@@ -45,7 +55,7 @@ class WheelFitOptions:
         Parameters held at a value, ``{name: SI value}`` with names of :data:`WHEEL_PARAMETERS`
         (``{"cohesion": 0.0}`` is the cohesion-free model; ``{"bekker_kc": ..., "bekker_kphi": ...,
         "bekker_n": ...}`` a known Bekker soil, e.g. a plate test's). Everything else is fitted: with
-        a measured sinkage the load balance carries the Bekker parameters; without it they rest on
+        a measured sinkage its balance with the load carries the Bekker parameters; without it they rest on
         the drawbar pull alone and the identifiability report says how little that pins down.
     effects
         Effects fitted with the soil: ``("slip_sinkage",)`` frees the slip-sinkage coefficient s
@@ -67,17 +77,25 @@ class WheelFitOptions:
                 raise DataError(f"unknown wheel effect {e!r}; the wheel model has {list(WHEEL_EFFECTS)}")
         for name, v in self.fixed.items():
             if name not in WHEEL_PARAMETERS:
-                raise DataError(f"unknown wheel parameter {name!r} to hold fixed; expected one of "
-                                f"{list(WHEEL_PARAMETERS)}")
+                raise DataError(
+                    f"unknown wheel parameter {name!r} to hold fixed; expected one of "
+                    f"{list(WHEEL_PARAMETERS)}"
+                )
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise DataError(f"fixed value of {name} must be a finite number, got {v!r}")
-            lo, hi = self.bounds.lower[WHEEL_PARAMETERS.index(name)], self.bounds.upper[WHEEL_PARAMETERS.index(name)]
+            lo, hi = (
+                self.bounds.lower[WHEEL_PARAMETERS.index(name)],
+                self.bounds.upper[WHEEL_PARAMETERS.index(name)],
+            )
             if not lo <= v <= hi:
-                raise DataError(f"fixed value of {name} ({v:.6g} SI) lies outside its bounds [{lo:.6g}, {hi:.6g}]")
+                raise DataError(
+                    f"fixed value of {name} ({v:.6g} SI) lies outside its bounds [{lo:.6g}, {hi:.6g}]"
+                )
 
 
-def _starts(data: WheelSweep, wheel: RigidWheel, free: np.ndarray, fixed: np.ndarray,
-            opts: WheelFitOptions, resid) -> list[np.ndarray]:
+def _starts(
+    data: WheelSweep, wheel: RigidWheel, free: np.ndarray, fixed: np.ndarray, opts: WheelFitOptions
+) -> list[np.ndarray]:
     """Start points (SI, all six parameters) of the multi-start grid."""
     starts = []
     for phi in START_FRICTION_DEG:
@@ -90,20 +108,20 @@ def _starts(data: WheelSweep, wheel: RigidWheel, free: np.ndarray, fixed: np.nda
                 kc, kphi = th[3], th[4]
                 th[3], th[4] = 0.0, 1.0
                 # the load scales with k at fixed n and sinkage: one evaluation at k = 1 sets it
-                k1 = _unit_load_scale(data, wheel, th, free, resid) if data.has_sinkage else START_BEKKER_K
+                k1 = _unit_load_scale(data, wheel, th, opts) if data.has_sinkage else START_BEKKER_K
                 th[3] = START_KC_SHARE * k1 * wheel.width if free[3] else kc
                 th[4] = max(k1 - th[3] / wheel.width, 0.0) if free[4] else kphi
             lo, hi = np.array(opts.bounds.lower), np.array(opts.bounds.upper)
-            starts.append(np.clip(th, lo + 1e-3 * (hi - lo), hi - 1e-3 * (hi - lo)))
+            inner = np.clip(th, lo + START_BOUND_MARGIN * (hi - lo), hi - START_BOUND_MARGIN * (hi - lo))
+            starts.append(np.where(free, inner, th))
     return starts
 
 
-def _unit_load_scale(data: WheelSweep, wheel: RigidWheel, th: np.ndarray, free: np.ndarray, resid) -> float:
+def _unit_load_scale(data: WheelSweep, wheel: RigidWheel, th: np.ndarray, opts: "WheelFitOptions") -> float:
     """k (N/m^(n+2)) at which the modelled load matches the measured one in the median (sinkage measured)."""
-    x = (th / PARAMETER_SCALES)[free]
-    p = _p(data, th)
-    _, r_w, _, _, _ = resid(x, p)
-    w1 = np.asarray(r_w).ravel() + data.normal_load  # the load at k = 1
+    fn = wheel_forces_function(wheel.radius, wheel.width, wheel.grouser_height, opts.settings)
+    # at k = 1 and c = 0 the vertical force is proportional to k
+    _, w1, _ = evaluate(fn, data.slip, data.sinkage, 0.0, th[1], th[2], 0.0, 1.0, th[5], 0.0)
     return float(np.median(data.normal_load / np.maximum(w1, 1e-300)))
 
 
@@ -112,7 +130,9 @@ def _p(data: WheelSweep, th: np.ndarray) -> np.ndarray:
     return np.concatenate([data.slip, z, data.normal_load, data.drawbar_pull, th])
 
 
-def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = WheelFitOptions()) -> WheelFitResult:
+def fit_wheel(
+    data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = WheelFitOptions()
+) -> WheelFitResult:
     """Identify c, phi, K (and the Bekker k_c, k_phi, n) from a wheel sweep with bounded IPOPT.
 
     Every start of a small grid (:data:`START_FRICTION_DEG` x :data:`START_SHEAR_MODULUS_M`) is
@@ -122,8 +142,12 @@ def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = Wh
     if not isinstance(data, WheelSweep):
         raise DataError(f"fit_wheel takes a WheelSweep, got {type(data).__name__}")
     sink = data.has_sinkage
-    free = np.array([name not in options.fixed and (name not in WHEEL_EFFECTS or name in options.effects)
-                     for name in WHEEL_PARAMETERS])
+    free = np.array(
+        [
+            name not in options.fixed and (name not in WHEEL_EFFECTS or name in options.effects)
+            for name in WHEEL_PARAMETERS
+        ]
+    )
     fixed = np.array([float(options.fixed.get(name, 0.0)) for name in WHEEL_PARAMETERS])
     nf = int(free.sum())
     if data.n_samples * (2 if sink else 1) <= nf:
@@ -134,7 +158,7 @@ def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = Wh
     lbx, ubx = (lo / PARAMETER_SCALES)[free], (hi / PARAMETER_SCALES)[free]
     best = None
     n_ok = 0
-    starts = _starts(data, wheel, free, fixed, options, resid)
+    starts = _starts(data, wheel, free, fixed, options)
     for th0 in starts:
         p = _p(data, np.where(free, 0.0, fixed))
         sol, stats = call_solver(solver, x0=(th0 / PARAMETER_SCALES)[free], p=p, lbx=lbx, ubx=ubx)
@@ -150,14 +174,33 @@ def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = Wh
     p = _p(data, np.where(free, 0.0, fixed))
     r_dp, r_w, J_dp, J_w, th = (np.asarray(v, dtype=float) for v in resid(x, p))
     return build_wheel_result(
-        data=data, wheel=wheel, options=options, free=free, theta=th.ravel(), residual_dp=r_dp.ravel(),
-        residual_w=r_w.ravel(), jac_dp=J_dp, jac_w=J_w, converged=not failed, status=status,
-        iterations=iters, starts=len(starts), starts_converged=n_ok, solve_time_s=time.perf_counter() - t0)
+        data=data,
+        wheel=wheel,
+        options=options,
+        free=free,
+        theta=th.ravel(),
+        residual_dp=r_dp.ravel(),
+        residual_z=r_w.ravel(),
+        jac_dp=J_dp,
+        jac_z=J_w,
+        converged=not failed,
+        status=status,
+        iterations=iters,
+        starts=len(starts),
+        starts_converged=n_ok,
+        solve_time_s=time.perf_counter() - t0,
+    )
 
 
 def soil_from_wheel_fit(result: WheelFitResult) -> Soil:
     """The identified soil as a :class:`~soiltrack.soilmodel.Soil` (with its Bekker values)."""
     v = result.theta
-    return Soil(cohesion=float(v[0]), friction_angle=float(v[1]), shear_modulus=float(v[2]), n=float(v[5]),
-                k_c=float(v[3]), k_phi=float(v[4]), name="identified from a wheel sweep")
-
+    return Soil(
+        cohesion=float(v[0]),
+        friction_angle=float(v[1]),
+        shear_modulus=float(v[2]),
+        n=float(v[5]),
+        k_c=float(v[3]),
+        k_phi=float(v[4]),
+        name="identified from a wheel sweep",
+    )

@@ -5,22 +5,26 @@ Parameters (SI), in the order of every vector here: ``c`` (Pa), ``phi`` (rad), `
 held at 0 unless the ``slip_sinkage`` effect is fitted). IPOPT sees them scaled by
 :data:`PARAMETER_SCALES` (kPa, rad, cm, kN/m^(n+1), MN/m^(n+2), 1, 1).
 
-Channels (residuals). Drawbar pull: ``DP_model(i, z) - DP`` per row. Load balance, only when the
-sinkage is measured: ``W_model(i, z) - W`` per row (the wheel's vertical force from the stresses
-at the measured sinkage against the measured load); it is what makes the Bekker stiffness
-identifiable. Without a measured sinkage, z solves ``W_model(i, z) = W`` per row (a rootfinder)
-and only the drawbar pull is a channel.
+Channels (residuals). Drawbar pull: ``DP_model(i, z) - DP`` per row (z the measured sinkage, or
+the one solved from the load). Sinkage, only when it is measured: ``z_W - z`` per row, where
+``z_W`` solves the wheel's vertical balance ``W_model(i, z_W) = W`` for the measured load (a
+rootfinder); it is what makes the Bekker stiffness identifiable. The balance is compared in
+sinkage, not in force, because the sinkage reading is the noisy one (a 0.5 mm error moves the
+balance's force by about a newton on a small wheel, far more than a load cell's error): with the
+noise on the response side the fit is not biased by errors in its inputs (on simulated sweeps the
+force form pulled the Bekker exponent from 1.1 to about 0.4).
 
 Each channel has its own unknown noise level. The objective is the concentrated (profile)
 Gaussian log-likelihood ``sum_k n_k / 2 log(SSR_k + n_k s_floor,k^2)`` (SSR_k the channel's sum
 of squared residuals), whose minimum is the weighted least-squares fit with each channel's
 weight 1 / s_k^2 set to its own residual variance. ``s_floor`` is a resolution floor
-(:data:`NOISE_FLOOR_REL` of the channel's mean load) that keeps the objective finite on
-noise-free data.
+(:data:`NOISE_FLOOR_REL` of the mean load for the drawbar pull, :data:`SINKAGE_FLOOR_M` for the
+sinkage) that keeps the objective finite on noise-free data.
 
 The NLP is built once per (wheel, settings, number of rows, sinkage measured or not, free
 parameters) and cached; the data enter as NLP parameters.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -33,12 +37,30 @@ from ...soilmodel.soil import PRACTICAL_BOUNDS
 from ...soilmodel.threadsafe import locked_cache
 from ...soilmodel.wheel import WheelSettings, sinkage_from_load_function, wheel_expr
 
-__all__ = ["WHEEL_PARAMETERS", "PARAMETER_SCALES", "WheelBounds", "DEFAULT_WHEEL_BOUNDS", "NOISE_FLOOR_REL",
-           "wheel_solver", "N_PARAMETERS", "residual_function", "bekker_modulus"]
+__all__ = [
+    "WHEEL_PARAMETERS",
+    "PARAMETER_SCALES",
+    "WheelBounds",
+    "DEFAULT_WHEEL_BOUNDS",
+    "NOISE_FLOOR_REL",
+    "SINKAGE_FLOOR_M",
+    "channel_floors",
+    "wheel_solver",
+    "N_PARAMETERS",
+    "residual_function",
+    "bekker_modulus",
+]
 
 #: Parameter names of the wheel fit (SI), in vector order.
-WHEEL_PARAMETERS = ("cohesion", "friction_angle", "shear_modulus", "bekker_kc", "bekker_kphi", "bekker_n",
-                    "slip_sinkage")
+WHEEL_PARAMETERS = (
+    "cohesion",
+    "friction_angle",
+    "shear_modulus",
+    "bekker_kc",
+    "bekker_kphi",
+    "bekker_n",
+    "slip_sinkage",
+)
 #: Number of wheel-fit parameters.
 N_PARAMETERS = len(WHEEL_PARAMETERS)
 #: Scales of the NLP variables (x = theta / scale): kPa, rad, cm, kN/m^(n+1), MN/m^(n+2), 1, 1.
@@ -46,6 +68,8 @@ PARAMETER_SCALES = np.array([1e3, 1.0, 1e-2, 1e3, 1e6, 1.0, 1.0])
 #: Noise floor of each channel as a fraction of the mean normal load (a rig force sensor resolves about
 #: 0.1 % of its range): below it a channel is not weighted further up.
 NOISE_FLOOR_REL = 1e-3
+#: Noise floor of the sinkage channel, m (a displacement sensor's resolution).
+SINKAGE_FLOOR_M = 1e-5
 
 
 @dataclass(frozen=True)
@@ -61,15 +85,34 @@ class WheelBounds:
     upper: tuple[float, ...]
 
     def __post_init__(self) -> None:
-        if len(self.lower) != N_PARAMETERS or len(self.upper) != N_PARAMETERS or not all(lo < hi for lo, hi in zip(self.lower, self.upper)):
+        if (
+            len(self.lower) != N_PARAMETERS
+            or len(self.upper) != N_PARAMETERS
+            or not all(lo < hi for lo, hi in zip(self.lower, self.upper))
+        ):
             raise ValueError(f"wheel bounds need {N_PARAMETERS} (lower < upper) pairs")
 
 
 DEFAULT_WHEEL_BOUNDS = WheelBounds(
-    lower=(float(PRACTICAL_BOUNDS.lower[0]), float(PRACTICAL_BOUNDS.lower[1]), float(PRACTICAL_BOUNDS.lower[2]),
-           0.0, 0.0, 0.1, 0.0),
-    upper=(float(PRACTICAL_BOUNDS.upper[0]), float(PRACTICAL_BOUNDS.upper[1]), float(PRACTICAL_BOUNDS.upper[2]),
-           500e3, 20e6, 2.0, 20.0))
+    lower=(
+        float(PRACTICAL_BOUNDS.lower[0]),
+        float(PRACTICAL_BOUNDS.lower[1]),
+        float(PRACTICAL_BOUNDS.lower[2]),
+        0.0,
+        0.0,
+        0.1,
+        0.0,
+    ),
+    upper=(
+        float(PRACTICAL_BOUNDS.upper[0]),
+        float(PRACTICAL_BOUNDS.upper[1]),
+        float(PRACTICAL_BOUNDS.upper[2]),
+        500e3,
+        20e6,
+        2.0,
+        20.0,
+    ),
+)
 
 
 def bekker_modulus(k_c, k_phi, width):
@@ -79,39 +122,49 @@ def bekker_modulus(k_c, k_phi, width):
 
 @locked_cache(maxsize=32)
 def residual_function(wheel: RigidWheel, settings: WheelSettings, measured_sinkage: bool) -> ca.Function:
-    """Per-row Function ``(i, z, W, theta[7]) -> (drawbar pull, normal load, sinkage used)``.
+    """Per-row Function ``(i, z, W, theta[7]) -> (drawbar pull, vertical force, sinkage used, z_W)``.
 
-    With ``measured_sinkage`` the row's z is used; otherwise z solves the vertical balance for W
-    (the input z is ignored).
+    ``z_W`` is the sinkage at which the fitted stresses carry the load W. With
+    ``measured_sinkage`` the row's z is used for the drawbar pull and the vertical force;
+    otherwise z_W is (the input z is ignored).
     """
     i, z, W = ca.MX.sym("i"), ca.MX.sym("z"), ca.MX.sym("W")
     th = ca.MX.sym("theta", N_PARAMETERS)
     c, phi, K, k_c, k_phi, n, s = (th[q] for q in range(N_PARAMETERS))
     r, b, h = wheel.radius, wheel.width, wheel.grouser_height
-    if measured_sinkage:
-        z_used = z
-    else:
-        z_used = sinkage_from_load_function(r, b, h, settings)(i, W, c, phi, K, k_c, k_phi, n, s)
+    z_w = sinkage_from_load_function(r, b, h, settings)(i, W, c, phi, K, k_c, k_phi, n, s)
+    z_used = z if measured_sinkage else z_w
     dp, wl, _ = wheel_expr(i, z_used, c, phi, K, k_c, k_phi, n, r, b, h, settings, slip_sinkage=s)
-    return ca.Function("wheel_row", [i, z, W, th], [dp, wl, z_used], ["i", "z", "W", "theta"],
-                       ["drawbar_pull", "normal_load", "sinkage"])
+    return ca.Function(
+        "wheel_row",
+        [i, z, W, th],
+        [dp, wl, z_used, z_w],
+        ["i", "z", "W", "theta"],
+        ["drawbar_pull", "normal_load", "sinkage", "sinkage_from_load"],
+    )
+
+
+def channel_floors(mean_load: float) -> tuple[float, float]:
+    """Noise floors (drawbar pull N, sinkage m) of the concentrated likelihood."""
+    return NOISE_FLOOR_REL * mean_load, SINKAGE_FLOOR_M
 
 
 @locked_cache(maxsize=64)
-def wheel_solver(wheel: RigidWheel, settings: WheelSettings, n_rows: int, measured_sinkage: bool,
-                 free: tuple[bool, ...]) -> tuple[ca.Function, ca.Function]:
+def wheel_solver(
+    wheel: RigidWheel, settings: WheelSettings, n_rows: int, measured_sinkage: bool, free: tuple[bool, ...]
+) -> tuple[ca.Function, ca.Function]:
     """The cached IPOPT solver and its residual/Jacobian Function.
 
     NLP variables: the free parameters scaled (``theta / PARAMETER_SCALES``); NLP parameters
     ``p = [i (n), z (n), W (n), DP (n), fixed theta (7)]``. Returns ``(solver, resid)`` with
-    ``resid(x_free, p) -> (r_dp, r_w, J_dp, J_w)``: raw residuals and their Jacobians with
-    respect to the SI free parameters.
+    ``resid(x_free, p) -> (r_dp, r_z, J_dp, J_z, theta)``: raw residuals (drawbar pull N, sinkage
+    m) and their Jacobians with respect to the SI free parameters.
     """
     nf = sum(free)
     x = ca.MX.sym("x", nf)
     p = ca.MX.sym("p", 4 * n_rows + N_PARAMETERS)
-    i, z, W, DP = (p[q * n_rows:(q + 1) * n_rows] for q in range(4))
-    fixed = p[4 * n_rows:]
+    i, z, W, DP = (p[q * n_rows : (q + 1) * n_rows] for q in range(4))
+    fixed = p[4 * n_rows :]
     parts, q = [], 0
     for k in range(N_PARAMETERS):
         if free[k]:
@@ -121,16 +174,23 @@ def wheel_solver(wheel: RigidWheel, settings: WheelSettings, n_rows: int, measur
             parts.append(fixed[k])
     theta = ca.vertcat(*parts)
     row = residual_function(wheel, settings, measured_sinkage).map(n_rows)
-    dp, wl, _ = row(i.T, z.T, W.T, ca.repmat(theta, 1, n_rows))
+    dp, _, _, z_w = row(i.T, z.T, W.T, ca.repmat(theta, 1, n_rows))
     r_dp = dp.T - DP
-    r_w = wl.T - W
-    Wbar = ca.sum1(W) / n_rows
-    floor2 = (NOISE_FLOOR_REL * Wbar) ** 2
-    f = n_rows / 2 * ca.log(ca.sumsqr(r_dp) + n_rows * floor2)
+    r_w = (z_w.T - z) if measured_sinkage else ca.MX.zeros(n_rows, 1)
+    f = n_rows / 2 * ca.log(ca.sumsqr(r_dp) + n_rows * (NOISE_FLOOR_REL * ca.sum1(W) / n_rows) ** 2)
     if measured_sinkage:
-        f = f + n_rows / 2 * ca.log(ca.sumsqr(r_w) + n_rows * floor2)
-    opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-10,
-            "ipopt.acceptable_tol": 1e-7, "ipopt.max_iter": 500}
+        f = f + n_rows / 2 * ca.log(ca.sumsqr(r_w) + n_rows * SINKAGE_FLOOR_M**2)
+    opts = {
+        "ipopt.print_level": 0,
+        "print_time": False,
+        "ipopt.sb": "yes",
+        "ipopt.tol": 1e-10,
+        "ipopt.acceptable_tol": 1e-7,
+        "ipopt.max_iter": 500,
+        # a trial point where the wheel cannot carry a load is NaN: IPOPT's line search then takes a
+        # shorter step; the status of the solve says whether it converged
+        "show_eval_warnings": False,
+    }
     solver = ca.nlpsol("wheel_fit", "ipopt", {"x": x, "p": p, "f": f}, opts)
     xs = ca.MX.sym("xs", nf)
     th_si = ca.substitute(theta, x, xs)

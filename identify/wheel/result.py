@@ -1,6 +1,8 @@
 """The result of a rigid-wheel fit: estimates, what the data identify, lack of fit, report and JSON.
 
-Statistics (as for the track, :mod:`soiltrack.identify.core_stats`): each channel's residuals are
+Channels: the drawbar pull (N) and, with a measured sinkage, the sinkage (m) against the one at
+which the fitted stresses carry the measured load (:mod:`.problem`). Statistics (as for the track,
+:mod:`soiltrack.identify.estimates.least_squares`): each channel's residuals are
 weighted by its own noise level (the root mean square of its residuals at the optimum); the
 column-scaled Jacobian of the weighted residuals gives the rank (singular values below
 ``RANK_TOL`` are structural zeros), the null space (directions the data do not see), the
@@ -10,6 +12,7 @@ A parameter with a component in the null space is *not identifiable*; one whose 
 inflation exceeds ``1 / (1 - 0.99^2)`` is *weakly identifiable*. Combinations get an interval
 when their gradient lies in the row space (estimable).
 """
+
 from __future__ import annotations
 
 import json
@@ -24,10 +27,24 @@ from ...soilmodel.wheel import entry_angle
 from ...soilmodel.wheel_sweep import WheelSweep
 from ..estimates.least_squares import RANK_TOL, WEAK_CORRELATION, core_stats_one, quantile
 from ..estimates.distributions import f_sf
-from .problem import NOISE_FLOOR_REL, WHEEL_PARAMETERS, bekker_modulus, residual_function
+from .problem import WHEEL_PARAMETERS, bekker_modulus, channel_floors, residual_function
 
-__all__ = ["WheelEstimate", "WheelCombination", "WheelFitResult", "build_wheel_result", "NULL_TOL",
-           "BOUND_REL_TOL", "wheel_rows", "pure_error", "slip_levels", "conditions", "LOAD_REPEAT_TOL", "SLIP_LEVEL_TOL", "LOAD_SLIP_CORRELATION_WARN", "LOAD_SPREAD_MIN"]
+__all__ = [
+    "WheelEstimate",
+    "WheelCombination",
+    "WheelFitResult",
+    "build_wheel_result",
+    "NULL_TOL",
+    "BOUND_REL_TOL",
+    "wheel_rows",
+    "pure_error",
+    "slip_levels",
+    "conditions",
+    "LOAD_REPEAT_TOL",
+    "SLIP_LEVEL_TOL",
+    "LOAD_SLIP_CORRELATION_WARN",
+    "LOAD_SPREAD_MIN",
+]
 
 #: Norm of a parameter's component in the null space (scaled coordinates) above which it is not identifiable.
 NULL_TOL = 1e-4
@@ -42,7 +59,7 @@ LOAD_REPEAT_TOL = 0.2
 LOAD_SLIP_CORRELATION_WARN = 0.5
 #: Relative spread of the loads ((max - min) / mean) below which the sweep counts as one load.
 LOAD_SPREAD_MIN = 0.25
-_WEAK_VIF = 1.0 / (1.0 - WEAK_CORRELATION ** 2)
+_WEAK_VIF = 1.0 / (1.0 - WEAK_CORRELATION**2)
 
 # name -> (JSON key, factor SI -> edge unit, unit, words)
 _EDGE = {
@@ -76,9 +93,17 @@ class WheelEstimate:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON form (the track fit's field names)."""
-        return {"value": self.value, "stderr": _num(self.stderr), "ci95": [_num(v) for v in self.ci95],
-                "identifiable": self.identifiable, "at_bound": self.at_bound, "bound_side": self.bound_side,
-                "weakly_identifiable": self.weakly_identifiable, "fixed": self.fixed, "note": self.note}
+        return {
+            "value": self.value,
+            "stderr": _num(self.stderr),
+            "ci95": [_num(v) for v in self.ci95],
+            "identifiable": self.identifiable,
+            "at_bound": self.at_bound,
+            "bound_side": self.bound_side,
+            "weakly_identifiable": self.weakly_identifiable,
+            "fixed": self.fixed,
+            "note": self.note,
+        }
 
 
 @dataclass(frozen=True)
@@ -96,9 +121,16 @@ class WheelCombination:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON form."""
-        return {"name": self.name, "unit": self.unit, "value": self.value, "stderr": _num(self.stderr),
-                "ci95": [_num(v) for v in self.ci95], "estimable": self.estimable,
-                "weakly_identifiable": self.weakly_identifiable, "meaning": self.meaning}
+        return {
+            "name": self.name,
+            "unit": self.unit,
+            "value": self.value,
+            "stderr": _num(self.stderr),
+            "ci95": [_num(v) for v in self.ci95],
+            "estimable": self.estimable,
+            "weakly_identifiable": self.weakly_identifiable,
+            "meaning": self.meaning,
+        }
 
 
 @dataclass(frozen=True, eq=False)
@@ -123,7 +155,7 @@ class WheelFitResult:
     null_space: tuple[dict[str, float], ...]
     noise_sd: dict[str, float | None]
     rmse_drawbar_pull: float
-    rmse_load: float | None
+    rmse_sinkage: float | None
     lack_of_fit: dict[str, Any]
     n_samples: int
     sinkage_measured: bool
@@ -134,43 +166,59 @@ class WheelFitResult:
     solve_time_s: float
     dof: int
     residuals: np.ndarray = field(repr=False, default=None)
+    rows_dropped: int = 0
 
     def predict(self, data: WheelSweep) -> np.ndarray:
         """The model's drawbar pull (N) for each row of ``data`` (its sinkage, or solved from its load)."""
         return self._rows(data)[0]
 
     def predict_load(self, data: WheelSweep) -> np.ndarray:
-        """The vertical force (N) of the fitted stresses at each row's sinkage (its load when solved from it)."""
+        """The vertical force (N) of the fitted stresses at each row's sinkage (its load if solved)."""
         return self._rows(data)[1]
 
     def predict_sinkage(self, data: WheelSweep) -> np.ndarray:
-        """The sinkage (m) used for each row: the measured one, or the one solved from the load."""
-        return self._rows(data)[2]
+        """The sinkage (m) at which the fitted stresses carry each row's load (the sinkage channel)."""
+        return self._rows(data)[3]
 
-    def _rows(self, data: WheelSweep) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _rows(self, data: WheelSweep) -> tuple[np.ndarray, ...]:
         return wheel_rows(self.wheel, self.settings, self.theta, data)
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON object (``soiltrack fit --json`` on a wheel sweep)."""
         return {
-            "running_gear": "rigid_wheel", "model": "wong_reece", "method": "ipopt",
-            "status": "converged" if self.success else "failed", "success": self.success, "message": self.message,
+            "running_gear": "rigid_wheel",
+            "model": "wong_reece",
+            "method": "ipopt",
+            "status": "converged" if self.success else "failed",
+            "success": self.success,
+            "message": self.message,
             "n_samples": self.n_samples,
+            "rows_dropped": self.rows_dropped,
             "sinkage": "measured" if self.sinkage_measured else "solved from the load (Bekker stresses)",
-            "rmse_N": self.rmse_drawbar_pull, "load_balance_rmse_N": _num(self.rmse_load),
+            "rmse_N": self.rmse_drawbar_pull,
+            "sinkage_rmse_m": _num(self.rmse_sinkage),
             "noise_sd": {k: _num(v) for k, v in self.noise_sd.items()},
             "solve_time_s": self.solve_time_s,
             "parameters": {k: v.to_dict() for k, v in self.parameters.items()},
             "combinations": [c.to_dict() for c in self.combinations],
-            "identifiability": {"rank": self.rank, "n_parameters": sum(not e.fixed for e in self.parameters.values()),
-                                "parameters": [k for k, e in self.parameters.items() if not e.fixed],
-                                "scaled_singular_values": list(self.scaled_singular_values),
-                                "null_space": list(self.null_space), "statements": list(self.statements),
-                                "rank_tolerance": RANK_TOL},
-            "lack_of_fit": self.lack_of_fit, "warnings": list(self.warnings),
+            "identifiability": {
+                "rank": self.rank,
+                "n_parameters": sum(not e.fixed for e in self.parameters.values()),
+                "parameters": [k for k, e in self.parameters.items() if not e.fixed],
+                "scaled_singular_values": list(self.scaled_singular_values),
+                "null_space": list(self.null_space),
+                "statements": list(self.statements),
+                "rank_tolerance": RANK_TOL,
+            },
+            "lack_of_fit": self.lack_of_fit,
+            "warnings": list(self.warnings),
             "wheel": self.wheel.to_dict(),
             "settings": {"c1": self.settings.c1, "c2": self.settings.c2, "nodes": self.settings.nodes},
-            "solver": {"iterations": self.iterations, "starts": self.starts, "starts_converged": self.starts_converged},
+            "solver": {
+                "iterations": self.iterations,
+                "starts": self.starts,
+                "starts_converged": self.starts_converged,
+            },
         }
 
     def to_json(self) -> str:
@@ -180,37 +228,56 @@ class WheelFitResult:
     def report(self) -> str:
         """A plain-text report (at most about 40 lines)."""
         w = self.wheel
-        lines = [f"rigid wheel (Wong-Reece), r = {w.radius:g} m, b = {w.width:g} m, h = {w.grouser_height:g} m; "
-                 f"{self.n_samples} rows; sinkage "
-                 + ("measured" if self.sinkage_measured else "solved from the load"),
-                 f"status: {'converged' if self.success else 'FAILED'} ({self.status}; {self.starts_converged} of "
-                 f"{self.starts} starts converged){'' if self.success else ': ' + self.message}",
-                 f"drawbar pull rmse {self.rmse_drawbar_pull:.4g} N"
-                 + (f", load balance rmse {self.rmse_load:.4g} N" if self.rmse_load is not None else ""), ""]
+        lines = [
+            f"rigid wheel (Wong-Reece), r = {w.radius:g} m, b = {w.width:g} m, h = {w.grouser_height:g} m; "
+            f"{self.n_samples} rows"
+            + (f" ({self.rows_dropped} rows of the file dropped)" if self.rows_dropped else "")
+            + "; sinkage "
+            + ("measured" if self.sinkage_measured else "solved from the load"),
+            f"status: {'converged' if self.success else 'FAILED'} ({self.status}; {self.starts_converged} of "
+            f"{self.starts} starts converged){'' if self.success else ': ' + self.message}",
+            f"drawbar pull rmse {self.rmse_drawbar_pull:.4g} N"
+            + (
+                f", sinkage rmse {1e3 * self.rmse_sinkage:.3g} mm (against the sinkage that carries the load)"
+                if self.rmse_sinkage is not None
+                else ""
+            ),
+            "",
+        ]
         lines.append(f"{'parameter':<30}{'value':>12}{'95 % interval':>28}  identifiable")
         for key, e in self.parameters.items():
             name = next(n for n, v in _EDGE.items() if v[0] == key)
             unit, words = _EDGE[name][2], _EDGE[name][3]
-            ci = ("fixed" if e.fixed else "-" if e.ci95[0] is None
-                  else f"[{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]")
-            ident = ("fixed" if e.fixed else "no" if not e.identifiable else "weakly" if e.weakly_identifiable
-                     else "yes")
+            ci = "fixed" if e.fixed else "-" if e.ci95[0] is None else f"[{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
+            ident = (
+                "fixed"
+                if e.fixed
+                else "no"
+                if not e.identifiable
+                else "weakly"
+                if e.weakly_identifiable
+                else "yes"
+            )
             flag = f"  ON {e.bound_side.upper()} BOUND" if e.at_bound else ""
             lines.append(f"{words + ' (' + unit + ')':<30}{e.value:>12.4g}{ci:>28}  {ident}{flag}")
         if self.combinations:
             lines.append("")
             for c in self.combinations:
                 ci = "-" if c.ci95[0] is None else f"[{c.ci95[0]:.4g}, {c.ci95[1]:.4g}]"
-                lines.append(f"{c.name} = {c.value:.4g} {c.unit}, 95 % {ci}"
-                             + (" (weakly identified)" if c.weakly_identifiable else "")
-                             + ("" if c.estimable else " (not estimable)"))
+                lines.append(
+                    f"{c.name} = {c.value:.4g} {c.unit}, 95 % {ci}"
+                    + (" (weakly identified)" if c.weakly_identifiable else "")
+                    + ("" if c.estimable else " (not estimable)")
+                )
         lines.append("")
         lines.append("what the data identify:")
         lines += [f"- {s}" for s in self.statements]
         lf = self.lack_of_fit
         if lf.get("testable"):
-            lines.append(f"lack of fit against the repeats' scatter (pure error sd {lf['pure_error_sd_N']:.3g} N, "
-                         f"{lf['conditions']} slip and load levels): F = {lf['F']:.3g}, p = {lf['p_value']:.3g}")
+            lines.append(
+                f"lack of fit against the repeats' scatter (pure error sd {lf['pure_error_sd_N']:.3g} N, "
+                f"{lf['conditions']} slip and load levels): F = {lf['F']:.3g}, p = {lf['p_value']:.3g}"
+            )
         elif lf:
             lines.append(f"lack of fit: not testable ({lf.get('reason', '')})")
         for wmsg in self.warnings:
@@ -218,14 +285,14 @@ class WheelFitResult:
         return "\n".join(lines)
 
 
-def wheel_rows(wheel: RigidWheel, settings, theta: np.ndarray,
-               data: WheelSweep) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Modelled drawbar pull (N), load (N) and the sinkage used (m) per row at parameters ``theta`` (SI)."""
+def wheel_rows(wheel: RigidWheel, settings, theta: np.ndarray, data: WheelSweep) -> tuple[np.ndarray, ...]:
+    """Per row at parameters ``theta`` (SI): drawbar pull (N), vertical force (N), the sinkage used (m)
+    and the sinkage that carries the row's load (m)."""
     fn = residual_function(wheel, settings, data.has_sinkage).map(data.n_samples)
     z = data.sinkage if data.sinkage is not None else np.zeros(data.n_samples)
     th = np.tile(np.asarray(theta, dtype=float).reshape(-1, 1), (1, data.n_samples))
-    dp, wl, zz = fn(data.slip.reshape(1, -1), z.reshape(1, -1), data.normal_load.reshape(1, -1), th)
-    return tuple(np.asarray(v, dtype=float).ravel() for v in (dp, wl, zz))
+    out = fn(data.slip.reshape(1, -1), z.reshape(1, -1), data.normal_load.reshape(1, -1), th)
+    return tuple(np.asarray(v, dtype=float).ravel() for v in out)
 
 
 def _split(x: np.ndarray, gap) -> np.ndarray:
@@ -276,46 +343,71 @@ def _lack_of_fit(data: WheelSweep, r_dp: np.ndarray, rank_dp: int) -> dict[str, 
     dof_lof = levels - rank_dp
     ss_res = float(r_dp @ r_dp)
     if dof_pe <= 0 or dof_lof <= 0 or ss_pe <= 0:
-        out.update(testable=False, reason=(f"{levels} conditions (slip and load levels) for {rank_dp} identified "
-                                           "directions of the drawbar pull" if dof_lof <= 0
-                                           else "no repeated condition"))
+        out.update(
+            testable=False,
+            reason=(
+                f"{levels} conditions (slip and load levels) for {rank_dp} identified "
+                "directions of the drawbar pull"
+                if dof_lof <= 0
+                else "no repeated condition"
+            ),
+        )
         return out
     ss_lof = max(ss_res - ss_pe, 0.0)
     F = (ss_lof / dof_lof) / (ss_pe / dof_pe)
-    out.update(testable=True, pure_error_sd_N=math.sqrt(ss_pe / dof_pe), lack_of_fit_dof=dof_lof, F=F,
-               p_value=f_sf(F, dof_lof, dof_pe),
-               note="repeats of a condition differ a little in load and sinkage: their scatter includes that of "
-                    "the covariates")
+    out.update(
+        testable=True,
+        pure_error_sd_N=math.sqrt(ss_pe / dof_pe),
+        lack_of_fit_dof=dof_lof,
+        F=F,
+        p_value=f_sf(F, dof_lof, dof_pe),
+        note="repeats of a condition differ a little in load and sinkage: their scatter includes that of "
+        "the covariates",
+    )
     return out
 
 
-def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np.ndarray, theta: np.ndarray,
-                       residual_dp: np.ndarray, residual_w: np.ndarray, jac_dp: np.ndarray, jac_w: np.ndarray,
-                       converged: bool, status: str, iterations: int, starts: int, starts_converged: int,
-                       solve_time_s: float) -> WheelFitResult:
+def build_wheel_result(
+    *,
+    data: WheelSweep,
+    wheel: RigidWheel,
+    options,
+    free: np.ndarray,
+    theta: np.ndarray,
+    residual_dp: np.ndarray,
+    residual_z: np.ndarray,
+    jac_dp: np.ndarray,
+    jac_z: np.ndarray,
+    converged: bool,
+    status: str,
+    iterations: int,
+    starts: int,
+    starts_converged: int,
+    solve_time_s: float,
+) -> WheelFitResult:
     """Assemble a :class:`WheelFitResult` from the optimum's residuals and Jacobians (SI)."""
     n = data.n_samples
     sink = data.has_sinkage
     lo, hi = np.array(options.bounds.lower), np.array(options.bounds.upper)
     theta = np.clip(theta, lo, hi)  # IPOPT may end a hair outside a bound (its bound relaxation)
     s_dp = math.sqrt(float(residual_dp @ residual_dp) / n)
-    s_w = math.sqrt(float(residual_w @ residual_w) / n) if sink else None
-    # the weights the objective's optimum used: 1 / (SSR_k / n + floor^2) per channel
-    floor2 = (NOISE_FLOOR_REL * float(np.mean(data.normal_load))) ** 2
-    s_dp_eff = math.sqrt(s_dp ** 2 + floor2)
+    s_z = math.sqrt(float(residual_z @ residual_z) / n) if sink else None
+    # the weights the objective's optimum used: 1 / (SSR_k / n + floor_k^2) per channel
+    f_dp, f_z = channel_floors(float(np.mean(data.normal_load)))
+    s_dp_eff = math.sqrt(s_dp**2 + f_dp**2)
     rw = residual_dp / s_dp_eff
     J = jac_dp / s_dp_eff
     if sink:
-        s_w_eff = math.sqrt(s_w ** 2 + floor2)
-        rw = np.concatenate([rw, residual_w / s_w_eff])
-        J = np.vstack([J, jac_w / s_w_eff])
+        s_z_eff = math.sqrt(s_z**2 + f_z**2)
+        rw = np.concatenate([rw, residual_z / s_z_eff])
+        J = np.vstack([J, jac_z / s_z_eff])
     finite = bool(np.all(np.isfinite(J)) and np.all(np.isfinite(rw)) and np.all(np.isfinite(theta)))
     names = [WHEEL_PARAMETERS[k] for k in range(len(WHEEL_PARAMETERS)) if free[k]]
     st = core_stats_one(np.where(np.isfinite(J), J, 0.0), np.where(np.isfinite(rw), rw, 0.0), False)
     D, V, Srel, Pinv = st["D"][0], st["V"][0], st["S"][0], st["Pinv"][0]
     nonnull, rank, dof, s2 = st["nonnull"][0], int(st["rank"][0]), int(st["dof"][0]), float(st["s2"][0])
     null = V[:, ~nonnull]
-    in_null = np.sqrt((null ** 2).sum(axis=1)) if null.shape[1] else np.zeros(len(names))
+    in_null = np.sqrt((null**2).sum(axis=1)) if null.shape[1] else np.zeros(len(names))
     ident = (in_null < NULL_TOL) & st["Dok"][0]
     q = quantile(dof, False)
     C = s2 * Pinv / np.outer(D, D) if math.isfinite(s2) else None
@@ -326,24 +418,41 @@ def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np
     for k, name in enumerate(WHEEL_PARAMETERS):
         key, fac = _EDGE[name][0], _EDGE[name][1]
         if not free[k]:
-            params[key] = WheelEstimate(float(theta[k] * fac), None, (None, None), True, False, False, None, True,
-                                        "held fixed")
+            params[key] = WheelEstimate(
+                float(theta[k] * fac), None, (None, None), True, False, False, None, True, "held fixed"
+            )
             continue
         span = hi[k] - lo[k]
-        side = "lower" if theta[k] - lo[k] < BOUND_REL_TOL * span else "upper" if hi[k] - theta[k] < BOUND_REL_TOL * span \
+        side = (
+            "lower"
+            if theta[k] - lo[k] < BOUND_REL_TOL * span
+            else "upper"
+            if hi[k] - theta[k] < BOUND_REL_TOL * span
             else None
+        )
         g = np.zeros(len(names))
         g[kf] = 1.0
         vif = float(Pinv[kf, kf])
         weak = bool(ident[kf] and vif > _WEAK_VIF)
         se = math.sqrt(C[kf, kf]) if C is not None and ident[kf] and C[kf, kf] >= 0 else None
         # linearised interval, intersected with the bounds (no negative cohesion or friction angle)
-        ci = ((max(theta[k] - q * se, lo[k]), min(theta[k] + q * se, hi[k])) if se is not None and q is not None
-              else (None, None))
+        ci = (
+            (max(theta[k] - q * se, lo[k]), min(theta[k] + q * se, hi[k]))
+            if se is not None and q is not None
+            else (None, None)
+        )
         note = "" if side is None else f"on its {side} bound: the data or the bounds want a value beyond it"
-        params[key] = WheelEstimate(float(theta[k] * fac), None if se is None else se * fac,
-                                    tuple(None if v is None else float(v * fac) for v in ci), bool(ident[kf]), weak,
-                                    side is not None, side, False, note)
+        params[key] = WheelEstimate(
+            float(theta[k] * fac),
+            None if se is None else se * fac,
+            tuple(None if v is None else float(v * fac) for v in ci),
+            bool(ident[kf]),
+            weak,
+            side is not None,
+            side,
+            False,
+            note,
+        )
         if not ident[kf]:
             nonid.append(name)
         elif weak:
@@ -355,7 +464,7 @@ def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np
         gs = g / D
         nrm = float(np.linalg.norm(gs))
         est = nrm == 0 or null.shape[1] == 0 or float(np.linalg.norm(gs @ null)) / nrm < NULL_TOL
-        weak = bool(est and nrm > 0 and float(gs @ Pinv @ gs) / nrm ** 2 > _WEAK_VIF)
+        weak = bool(est and nrm > 0 and float(gs @ Pinv @ gs) / nrm**2 > _WEAK_VIF)
         if not est or C is None:
             return None, est, weak
         var = float(g @ C @ g)
@@ -372,18 +481,36 @@ def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np
     if free[0] or free[1]:
         tau = theta[0] + p_bar * math.tan(theta[1])
         se, est, weak = combo(np.array([1.0, p_bar / math.cos(theta[1]) ** 2, 0, 0, 0, 0, 0]))
-        ci = (tau - q * se, tau + q * se) if se is not None and q is not None else (None, None)
-        combos.append(WheelCombination("c + p tan(phi)", "kPa", tau / 1e3, None if se is None else se / 1e3,
-                                       tuple(None if v is None else v / 1e3 for v in ci), est, weak,
-                                       f"shear strength at the mean contact pressure p = {p_bar / 1e3:.3g} kPa "
-                                       "(load over the arc's projected area b r theta_1)"))
+        ci = (max(tau - q * se, 0.0), tau + q * se) if se is not None and q is not None else (None, None)
+        combos.append(
+            WheelCombination(
+                "c + p tan(phi)",
+                "kPa",
+                tau / 1e3,
+                None if se is None else se / 1e3,
+                tuple(None if v is None else v / 1e3 for v in ci),
+                est,
+                weak,
+                f"shear strength at the mean contact pressure p = {p_bar / 1e3:.3g} kPa "
+                "(load over the arc's projected area b r theta_1)",
+            )
+        )
     if free[3] and free[4]:
         kval = bekker_modulus(theta[3], theta[4], wheel.width)
         se, est, weak = combo(np.array([0, 0, 0, 1.0 / wheel.width, 1.0, 0, 0]))
-        ci = (kval - q * se, kval + q * se) if se is not None and q is not None else (None, None)
-        combos.append(WheelCombination("k_c / b + k_phi", "kN/m^(n+2)", kval / 1e3, None if se is None else se / 1e3,
-                                       tuple(None if v is None else v / 1e3 for v in ci), est, weak,
-                                       f"Bekker stiffness of this wheel's width b = {wheel.width:g} m"))
+        ci = (max(kval - q * se, 0.0), kval + q * se) if se is not None and q is not None else (None, None)
+        combos.append(
+            WheelCombination(
+                "k_c / b + k_phi",
+                "kN/m^(n+2)",
+                kval / 1e3,
+                None if se is None else se / 1e3,
+                tuple(None if v is None else v / 1e3 for v in ci),
+                est,
+                weak,
+                f"Bekker stiffness of this wheel's width b = {wheel.width:g} m",
+            )
+        )
 
     # statements in words, from the rank and the null space
     null_dirs = []
@@ -394,16 +521,22 @@ def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np
             d = -d
         null_dirs.append({_EDGE[nm][0]: float(d[j]) for j, nm in enumerate(names)})
         involved = [_EDGE[nm][3] for j, nm in enumerate(names) if abs(col[j]) > 0.1]
-        statements.append(f"the data do not separate {' and '.join(involved)}: they see no change along one "
-                          "combination of them (a null direction of the Jacobian).")
+        statements.append(
+            f"the data do not separate {' and '.join(involved)}: they see no change along one "
+            "combination of them (a null direction of the Jacobian)."
+        )
     for name in nonid:
         statements.append(f"{_EDGE[name][3]} is not identifiable from these data.")
     for name in weak_names:
-        statements.append(f"{_EDGE[name][3]} is only weakly identifiable (its estimate correlates above "
-                          f"{WEAK_CORRELATION} with the other parameters'): its interval is wide.")
+        statements.append(
+            f"{_EDGE[name][3]} is only weakly identifiable (its estimate correlates above "
+            f"{WEAK_CORRELATION} with the other parameters'): its interval is wide."
+        )
     for c in combos:
         if c.estimable and not c.weakly_identifiable and c.stderr is not None:
-            statements.append(f"{c.name} ({c.meaning}) is identified: {c.value:.4g} {c.unit} +- {c.stderr:.2g}.")
+            statements.append(
+                f"{c.name} ({c.meaning}) is identified: {c.value:.4g} {c.unit} +- {c.stderr:.2g}."
+            )
     good = [_EDGE[nm][3] for j, nm in enumerate(names) if ident[j] and nm not in weak_names]
     if good:
         statements.append(f"identified on their own: {', '.join(good)}.")
@@ -411,27 +544,60 @@ def build_wheel_result(*, data: WheelSweep, wheel: RigidWheel, options, free: np
     spread = float((W.max() - W.min()) / W.mean())
     warnings = []
     if spread < LOAD_SPREAD_MIN:
-        statements.append(f"the loads span only {100 * spread:.0f} % of their mean ({W.min():.4g}-{W.max():.4g} N): "
-                          "c and phi separate only through the pressure's variation along the arc and with the "
-                          "sinkage, not through the load.")
+        statements.append(
+            f"the loads span only {100 * spread:.0f} % of their mean ({W.min():.4g}-{W.max():.4g} N): "
+            "c and phi separate only through the pressure's variation along the arc and with the "
+            "sinkage, not through the load."
+        )
     if n > 2 and np.std(W) > 0 and np.std(data.slip) > 0:
         rho = float(np.corrcoef(W, data.slip)[0, 1])
         if abs(rho) > LOAD_SLIP_CORRELATION_WARN:
-            warnings.append(f"the load correlates with the slip (r = {rho:+.2f}): what the fit attributes to the load "
-                            "may be the slip's doing and vice versa; c and phi rest on it.")
+            warnings.append(
+                f"the load correlates with the slip (r = {rho:+.2f}): what the fit attributes to the load "
+                "may be the slip's doing and vice versa; c and phi rest on it."
+            )
     at_bound = [k for k, e in params.items() if e.at_bound]
     if at_bound:
-        warnings.append(f"on a bound: {', '.join(at_bound)} (the interval of a bound-pinned value is not reliable).")
+        warnings.append(
+            f"on a bound: {', '.join(at_bound)} (the interval of a bound-pinned value is not reliable)."
+        )
     rank_dp = int(core_stats_one(np.where(np.isfinite(jac_dp), jac_dp, 0.0), residual_dp, False)["rank"][0])
     lof = _lack_of_fit(data, residual_dp, rank_dp)
     ok = converged and finite
-    message = "" if ok else ("IPOPT did not converge from any start" if not converged
-                             else "non-finite residuals or Jacobian at the optimum")
+    message = (
+        ""
+        if ok
+        else (
+            "IPOPT did not converge from any start"
+            if not converged
+            else "non-finite residuals or Jacobian at the optimum"
+        )
+    )
     return WheelFitResult(
-        wheel=wheel, success=ok, status=status, message=message, theta=np.array(theta, dtype=float),
-        parameters=params, combinations=tuple(combos), statements=tuple(statements), warnings=tuple(warnings),
-        rank=rank, scaled_singular_values=tuple(float(s) for s in Srel), null_space=tuple(null_dirs),
-        noise_sd={"drawbar_pull_N": s_dp, "normal_load_N": s_w}, rmse_drawbar_pull=s_dp, rmse_load=s_w,
-        lack_of_fit=lof, n_samples=n, sinkage_measured=sink, settings=options.settings, iterations=iterations,
-        starts=starts, starts_converged=starts_converged, solve_time_s=solve_time_s, dof=dof,
-        residuals=np.asarray(residual_dp, dtype=float))
+        wheel=wheel,
+        success=ok,
+        status=status,
+        message=message,
+        theta=np.array(theta, dtype=float),
+        parameters=params,
+        combinations=tuple(combos),
+        statements=tuple(statements),
+        warnings=tuple(warnings),
+        rank=rank,
+        scaled_singular_values=tuple(float(s) for s in Srel),
+        null_space=tuple(null_dirs),
+        noise_sd={"drawbar_pull_N": s_dp, "sinkage_m": s_z},
+        rmse_drawbar_pull=s_dp,
+        rmse_sinkage=s_z,
+        lack_of_fit=lof,
+        n_samples=n,
+        sinkage_measured=sink,
+        settings=options.settings,
+        iterations=iterations,
+        starts=starts,
+        starts_converged=starts_converged,
+        solve_time_s=solve_time_s,
+        dof=dof,
+        residuals=np.asarray(residual_dp, dtype=float),
+        rows_dropped=int(data.dropped),
+    )

@@ -1,0 +1,9 @@
+"""On-line identification while driving: :class:`OnlineEstimator` (moving horizon, real-time
+Gauss-Newton iterations, change-of-terrain detection), its :class:`OnlineSettings` and the
+:class:`OnlineEstimate` each update gives."""
+
+from .estimator import OnlineEstimator
+from .result import OnlineEstimate
+from .settings import OnlineSettings
+
+__all__ = ["OnlineEstimator", "OnlineEstimate", "OnlineSettings"]

@@ -1,0 +1,632 @@
+"""On-line soil identification while driving: a moving-horizon estimator with real-time iterations.
+
+Method
+------
+The estimate is the batch drive-log fit (:mod:`soiltrack.identify.drivelog`, output-error
+formulation with latent slips) of the samples inside a moving horizon of ``window_s`` seconds,
+tracked by real-time iteration: every new sample enters the horizon with its latent slip
+predicted from the current estimate, samples older than the horizon (or older than the last
+detected change of terrain) leave it, and ONE Gauss-Newton step on (F_max, K, all latent
+slips) is taken (:func:`~.kernels.step_kernel`: the slips are eliminated exactly, one pass
+over the horizon in a compiled CasADi kernel). While the Newton decrement says the iterate is
+not converged (start, after a change) up to ``max_steps_per_update`` steps are taken. When
+nothing changes, the iterate sits on the batch fit's optimum of the same window.
+
+Covariance: the batch fit's sandwich ``A^-1 B A^-1`` (exact per-sample Hessian, empirical score
+variance), from the same pass. What is identifiable follows the batch fit's regime rules
+(:mod:`soiltrack.identify.drivelog.regime`): gentle driving (F_max and K correlated beyond
+0.99, or F_max's standard error beyond 25 %, or F_max on a bound) identifies only the
+small-slip slope ``F_max l / (2 K)``.
+
+Change of terrain: :class:`~.detector.CusumDetector` on the standardised one-step prediction
+residuals of new samples; on an alarm the horizon drops every sample before the estimated
+change time (the old soil is forgotten) and the iteration restarts from the current iterate.
+
+Input: samples with a missing or non-finite channel are skipped and counted (the sample after
+a gap starts a new chain: the sprocket equation needs two consecutive samples); irregular time
+steps enter the sprocket equation as they are, and a step longer than ``max_step_ratio`` times
+the running median breaks the chain. Two-track samples (:meth:`OnlineEstimator.update_tracks`)
+are combined (summed torque, mean speed) and turning samples are recognised with the same rule
+as a two-track log file (:func:`soiltrack.soilmodel.tracks.turning_mask`, noise levels from the
+recent samples) and left out. The acceleration channel is accepted and not used (the nominal
+batch fit does not use it either).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+import numpy as np
+
+from ...soilmodel.tracks import MAD_TO_SIGMA, NOISE_FLOOR_REL, combine_tracks, robust_noise, turning_mask
+from ...soilmodel.vehicle import Vehicle
+from ..drivelog.nlp import fmax_bounds
+from ..drivelog.noise import noise_model
+from ..drivelog.regime import GENTLE_CORRELATION, GENTLE_REL_STDERR, K_REL_STDERR
+from .detector import CusumDetector
+from .ccall import BufferCall
+from .kernels import JUMP_SIGMA, NOISE, PARAMS, RAW, ROWS, SUMS, kernels
+from .result import OnlineEstimate
+from .settings import OnlineSettings
+
+__all__ = ["OnlineEstimator", "INITIAL_CAPACITY", "START_THRUST_FACTOR", "MIN_NOISE_SAMPLES"]
+
+#: Horizon capacity the estimator starts with (grown by doubling when the horizon needs more).
+INITIAL_CAPACITY = 64
+#: Start value of F_max: this factor times the largest thrust seen (the batch fit's start rule).
+START_THRUST_FACTOR = 1.2
+#: Fewest readings the noise levels are estimated from (before that: the first estimate stays).
+MIN_NOISE_SAMPLES = 8
+#: Turning-noise levels are re-estimated this often while fewer than ``turn_history`` are known.
+_TURN_REESTIMATE_EARLY = 8
+
+_P = {name: j for j, name in enumerate(PARAMS)}
+_S = {name: j for j, name in enumerate(SUMS)}
+_R = {name: j for j, name in enumerate(ROWS)}
+_RAW_JUMP = RAW.index("jump")
+_N = {name: j for j, name in enumerate(NOISE)}
+#: Benign readings for empty slots (finite everything; never used: outside the horizon).
+_EMPTY_RAW = np.array([1.0, 1.0, 1.0, 0.0, 1.0, 0.0])
+
+
+class OnlineEstimator:
+    """Streaming identification of F_max and K with change-of-terrain detection.
+
+    Parameters
+    ----------
+    vehicle
+        The vehicle (geometry, inertia, weight).
+    settings
+        :class:`~.settings.OnlineSettings` (defaults if ``None``).
+
+    Examples
+    --------
+    >>> est = OnlineEstimator(VEHICLES["light"])                        # doctest: +SKIP
+    >>> for row in rows:                                               # doctest: +SKIP
+    ...     e = est.update(row.t, row.torque, row.sprocket_speed, row.speed)
+    ...     if e.change_detected: print("new terrain since", e.change_time_s)
+    """
+
+    def __init__(self, vehicle: Vehicle, settings: OnlineSettings | None = None) -> None:
+        self.vehicle = vehicle
+        self.settings = settings or OnlineSettings()
+        s = self.settings
+        Fb = fmax_bounds(s.bounds, vehicle, s.model)
+        Kb = tuple(s.bounds.shear_modulus)
+        self._F_ref = 0.5 * (Fb[0] + Fb[1])
+        self._K_ref = math.sqrt(Kb[0] * Kb[1])
+        self._bounds_scaled = (
+            (Fb[0] / self._F_ref, Fb[1] / self._F_ref),
+            (Kb[0] / self._K_ref, Kb[1] / self._K_ref),
+        )
+        self._P = np.zeros(len(PARAMS))
+        for name, val in (
+            ("F_ref", self._F_ref),
+            ("K_ref", self._K_ref),
+            ("l", vehicle.track_length),
+            ("max_step", s.max_step_scaled),
+            ("xF_lo", self._bounds_scaled[0][0]),
+            ("xF_hi", self._bounds_scaled[0][1]),
+            ("xK_lo", self._bounds_scaled[1][0]),
+            ("xK_hi", self._bounds_scaled[1][1]),
+            ("xF", self._bounds_scaled[0][0]),
+            ("xK", 1.0),
+        ):
+            self._P[_P[name]] = val
+        self._noise = np.zeros(len(NOISE))
+        self._noise[[_N["r"], _N["I"], _N["min_speed"]]] = (
+            vehicle.sprocket_radius,
+            vehicle.sprocket_inertia,
+            s.min_speed,
+        )
+        self._have_noise = False
+        self._since_noise = 0
+        self._alloc(INITIAL_CAPACITY)
+        self._hist: deque = deque()  # (t, M, w, v) of valid straight samples, time order
+        self._dts: deque = deque(maxlen=31)
+        self._dt_med: float | None = None
+        self._dt_count = 0
+        self._prev: tuple[float, float, float, int] | None = None  # t, M, w, slot (-1: not in horizon)
+        self._last_thrust: tuple[float, float] | None = None  # T and sigma_T of the previous sample
+        self._t_reset = -math.inf
+        self._detector = CusumDetector(s.detect_reference, s.detect_threshold, s.detect_clip)
+        self._detect_since = -math.inf
+        self._recent_z: deque = deque(maxlen=s.detect_scale_samples)
+        self._F_known: float | None = None  # last F_max the horizon determined (since the last change)
+        self._known_since = math.inf  # when it was first determined
+        self._last_time = -math.inf
+        self._z_scale = 1.0
+        self._z_count = 0
+        self._turn_d: deque = deque(maxlen=s.turn_history)
+        self._turn_y: deque = deque(maxlen=s.turn_history)
+        self._turn_sigma: tuple[float | None, float | None] = (None, None)
+        self._turn_count = 0
+        self._w_max = 0.0
+        self._thrust_max = 0.0
+        self._started = False
+        self.changes: list[dict] = []
+        self.samples_seen = 0
+        self.samples_skipped = 0
+        self.samples_turning = 0
+        self._converged = False
+        self._last: OnlineEstimate | None = None
+
+    # ------------------------------------------------------------------ buffers
+    def _alloc(self, cap: int) -> None:
+        k = kernels(cap)
+        self._cap = cap
+        self._backend = k.backend
+        self._RAW = np.tile(_EMPTY_RAW, (cap, 1))
+        self._D = np.zeros((cap, len(ROWS)))
+        self._ok = np.zeros(cap)
+        self._Z = np.zeros(cap)
+        self._tslot = np.full(cap, -math.inf)
+        self._slot = 0
+        self._x_out = np.zeros(2)
+        self._Z_out = np.zeros(cap)
+        self._sums = np.zeros(len(SUMS))
+        self._row = np.zeros(len(ROWS))
+        self._raw1 = np.zeros(len(RAW))
+        self._pred_out = np.zeros(2)
+        self._T_out = np.zeros(1)
+        self._sT_out = np.zeros(1)
+        self._rows_all = np.zeros((cap, len(ROWS)))
+        self._T_all = np.zeros(cap)
+        self._sT_all = np.zeros(cap)
+        lib = k.library
+        self._c_step = BufferCall(
+            k.step, lib, [self._D, self._Z, self._P], [self._x_out, self._Z_out, self._sums]
+        )
+        self._c_predict = BufferCall(k.predict, lib, [self._row, self._P], [self._pred_out])
+        self._c_prepare = BufferCall(
+            k.prepare, lib, [self._raw1, self._noise], [self._row, self._T_out, self._sT_out]
+        )
+        self._c_prepare_all = BufferCall(
+            k.prepare_all, lib, [self._RAW, self._noise], [self._rows_all, self._T_all, self._sT_all]
+        )
+
+    def _grow(self) -> None:
+        old = (self._RAW, self._D, self._ok, self._Z, self._tslot, self._sums.copy())
+        cap = self._cap
+        new = min(2 * cap, self.settings.max_capacity)
+        if new == cap:
+            return
+        order = np.argsort(old[4])  # oldest first
+        self._alloc(new)
+        self._RAW[:cap] = old[0][order]
+        self._D[:cap] = old[1][order]
+        self._ok[:cap] = old[2][order]
+        self._Z[:cap] = old[3][order]
+        self._tslot[:cap] = old[4][order]
+        self._sums[:] = old[5]
+        self._slot = cap
+        if self._prev is not None and self._prev[3] >= 0:
+            p = self._prev
+            self._prev = (p[0], p[1], p[2], int(np.nonzero(order == p[3])[0][0]))
+
+    # ------------------------------------------------------------------ public
+    @property
+    def estimate(self) -> OnlineEstimate | None:
+        """The estimate after the last update (``None`` before the first)."""
+        return self._last
+
+    @property
+    def backend(self) -> str:
+        """What evaluates the kernels (C code, or CasADi's virtual machine)."""
+        return self._backend
+
+    def update(
+        self,
+        time_s: float,
+        sprocket_torque: float,
+        sprocket_speed: float,
+        vehicle_speed: float,
+        vehicle_accel: float | None = None,
+    ) -> OnlineEstimate:
+        """Take one sample and return the estimate.
+
+        Parameters
+        ----------
+        time_s, sprocket_torque, sprocket_speed, vehicle_speed
+            Time (s), torque of both tracks (N m), sprocket speed (rad/s), vehicle speed (m/s).
+            A missing (``None``) or non-finite reading skips the sample (counted).
+        vehicle_accel
+            IMU acceleration, m/s^2: accepted and not used (the nominal fit does not use it).
+        """
+        self.samples_seen += 1
+        vals = (time_s, sprocket_torque, sprocket_speed, vehicle_speed)
+        if not all(_finite(x) for x in vals):
+            return self._skip(time_s, "a channel is missing or not finite")
+        return self._straight(*(float(x) for x in vals))
+
+    def update_tracks(
+        self,
+        time_s: float,
+        torque_left: float,
+        torque_right: float,
+        speed_left: float,
+        speed_right: float,
+        vehicle_speed: float,
+        vehicle_accel: float | None = None,
+        yaw_rate: float | None = None,
+    ) -> OnlineEstimate:
+        """Take one two-track sample and return the estimate.
+
+        Per-track torque (N m) and sprocket speed (rad/s), vehicle speed (m/s), optional
+        acceleration (not used) and yaw rate (rad/s). The channels are combined (summed
+        torque, mean speed); a turning sample (left and right speeds apart, or a yaw rate,
+        beyond ``turn_threshold`` noise levels) is left out and counted, with the sample
+        before it (a turn's edge), and it breaks the sample chain.
+        """
+        self.samples_seen += 1
+        vals = (time_s, torque_left, torque_right, speed_left, speed_right, vehicle_speed)
+        if not all(_finite(x) for x in vals):
+            return self._skip(time_s, "a channel is missing or not finite")
+        yaw = float(yaw_rate) if yaw_rate is not None and _finite(yaw_rate) else None
+        if self._is_turning(float(speed_left), float(speed_right), yaw):
+            self.samples_turning += 1
+            if self._prev is not None and self._prev[3] >= 0:  # a turn's edge: the sample before it
+                self._tslot[self._prev[3]] = -math.inf
+            self._prev = None
+            self._last_thrust = None
+            return self._report(float(time_s), None, False, None, "skipped", "turning sample left out")
+        M, w = combine_tracks(torque_left, torque_right, speed_left, speed_right)
+        return self._straight(float(time_s), float(M), float(w), float(vehicle_speed))
+
+    # ------------------------------------------------------------------ internals
+    def _skip(self, time_s, why: str) -> OnlineEstimate:
+        self.samples_skipped += 1
+        self._prev = None
+        self._last_thrust = None
+        t = float(time_s) if _finite(time_s) else (self._last.time_s if self._last else math.nan)
+        return self._report(t, None, False, None, "skipped", f"sample skipped: {why}")
+
+    def _is_turning(self, wl: float, wr: float, yaw: float | None) -> bool:
+        s = self.settings
+        self._turn_d.append(wl - wr)
+        if yaw is not None:
+            self._turn_y.append(yaw)
+        self._w_max = max(self._w_max, abs(wl), abs(wr))
+        self._turn_count += 1
+        n = len(self._turn_d)
+        every = _TURN_REESTIMATE_EARLY if n < s.turn_history else s.noise_every
+        if n >= MIN_NOISE_SAMPLES and (self._turn_sigma[0] is None or self._turn_count % every == 0):
+            floor = NOISE_FLOOR_REL * self._w_max + 1e-12
+            sd = max(robust_noise(np.fromiter(self._turn_d, float)), floor)
+            sy = None
+            if len(self._turn_y) >= MIN_NOISE_SAMPLES:
+                y = np.fromiter(self._turn_y, float)
+                sy = max(robust_noise(y), NOISE_FLOOR_REL * float(np.max(np.abs(y))) + 1e-12)
+            self._turn_sigma = (sd, sy)
+        sd, sy = self._turn_sigma
+        if sd is None:
+            return False
+        return bool(
+            turning_mask(
+                [wl],
+                [wr],
+                None if (yaw is None or sy is None) else [yaw],
+                sigma_difference=sd,
+                sigma_yaw=sy,
+                threshold=s.turn_threshold,
+                margin=0,
+            )[0]
+        )
+
+    def _straight(self, t: float, M: float, w: float, v: float) -> OnlineEstimate:
+        s = self.settings
+        prev = self._prev
+        if prev is not None and t <= prev[0]:
+            return self._skip(t, f"time {t:.6g} s does not increase (previous {prev[0]:.6g} s)")
+        self._hist.append((t, M, w, v))
+        cutoff = max(t - s.window_s, self._t_reset)
+        while self._hist and self._hist[0][0] < cutoff:
+            self._hist.popleft()
+        if prev is None:
+            self._prev = (t, M, w, -1)
+            return self._report(
+                t, None, False, None, None, "first sample of a chain (no sprocket-speed difference)"
+            )
+        h = t - prev[0]
+        if len(self._dts) >= 3 and h > s.max_step_ratio * self._median_dt():
+            self._prev = (t, M, w, -1)
+            self._last_thrust = None
+            return self._report(
+                t, None, False, None, None, f"time step {h:.3g} s too long: a new chain starts"
+            )
+        self._dts.append(h)
+        self._refresh_noise()
+        raw = self._raw1
+        raw[:] = (v, w, prev[2], prev[1], h, 0.0)
+        self._c_prepare()
+        T, sT = float(self._T_out[0]), float(self._sT_out[0])
+        # thrust jumps (the batch fit's allowance): this sample and the one before it
+        if self._last_thrust is not None:
+            T0, sT0 = self._last_thrust
+            dT = abs(T - T0)
+            if dT > JUMP_SIGMA * math.hypot(sT, sT0):
+                raw[_RAW_JUMP] = dT
+                self._c_prepare()
+                if prev[3] >= 0:
+                    j = prev[3]
+                    self._RAW[j, _RAW_JUMP] = max(self._RAW[j, _RAW_JUMP], dT)
+                    self._reprepare(j)
+        self._last_thrust = (T, sT)
+        used = self._row[_R["m"]] > 0
+        if used and not self._started:  # start value of F_max (the batch fit's rule), until converged once
+            self._thrust_max = max(self._thrust_max, T)
+            self._P[_P["xF"]] = min(
+                max(self._P[_P["xF"]], START_THRUST_FACTOR * self._thrust_max / self._F_ref),
+                self._bounds_scaled[0][1],
+            )
+        # change detection on the one-step prediction, before the sample enters the horizon
+        change = None
+        slip0 = None
+        if used:
+            self._c_predict()
+            slip0, wres = float(self._pred_out[0]), float(self._pred_out[1])
+            z = wres / self._scale()
+            # a change is judged against a soil whose F_max was determined, on samples loaded against it
+            loaded = (
+                self._F_known is not None
+                and T >= s.detect_min_load * self._F_known
+                and t - self._known_since >= s.detect_settle_s
+            )
+            if (
+                loaded
+                and self._started
+                and self._sums[_S["n_used"]] >= s.detect_min_samples
+                and t - self._detect_since >= s.detect_min_s
+            ):
+                change = self._detector.update(z / self._robust_scale(), t)
+                if self._detector.statistic == 0.0:  # the residual spread is learnt from quiet samples only
+                    self._recent_z.append(z)
+        # the sample enters the ring buffer
+        slot = self._slot
+        if self._tslot[slot] >= cutoff and self._cap < s.max_capacity:
+            self._grow()
+            slot = self._slot
+        self._RAW[slot] = raw
+        self._D[slot] = self._row
+        self._ok[slot] = self._row[_R["m"]]
+        self._Z[slot] = 0.0 if slip0 is None else slip0
+        self._tslot[slot] = t
+        self._slot = (slot + 1) % self._cap
+        self._prev = (t, M, w, slot)
+        if change is not None:
+            self._forget(t, change)
+            cutoff = max(t - s.window_s, self._t_reset)
+        self._iterate(cutoff)
+        return self._report(t, slip0, change is not None, change, None, "")
+
+    def _median_dt(self) -> float:
+        """Running median of the recent time steps (recomputed every few samples)."""
+        self._dt_count += 1
+        if self._dt_med is None or self._dt_count % _TURN_REESTIMATE_EARLY == 0:
+            self._dt_med = float(np.median(np.fromiter(self._dts, float)))
+        return self._dt_med
+
+    def _reprepare(self, j: int) -> None:
+        """Recompute slot ``j``'s data column from its readings (after its jump allowance grew)."""
+        keep_row = self._row.copy()
+        keep = (self._T_out.copy(), self._sT_out.copy(), self._raw1.copy())
+        self._raw1[:] = self._RAW[j]
+        self._c_prepare()
+        self._D[j] = self._row
+        self._ok[j] = self._row[_R["m"]]
+        self._row[:] = keep_row
+        self._T_out[:], self._sT_out[:], self._raw1[:] = keep
+
+    def _forget(self, t: float, t_change: float) -> None:
+        """A change of terrain at ``t_change``: drop the older samples, restart the detector."""
+        self.changes.append(
+            {
+                "time_s": t_change,
+                "detected_at_s": t,
+                "max_thrust_before_N": float(self._P[_P["xF"]] * self._F_ref),
+                "shear_modulus_before_m": float(self._P[_P["xK"]] * self._K_ref),
+            }
+        )
+        self._t_reset = t_change
+        self._detector.reset(t)
+        self._detect_since = t
+        self._converged = False
+        self._since_noise = self.settings.noise_every  # re-estimate the noise on the new soil
+        self._P[_P["w_prior"]] = 0.0  # the old soil's F_max no longer holds
+        self._F_known = None
+        self._known_since = math.inf
+
+    def _refresh_noise(self) -> None:
+        s = self.settings
+        self._since_noise += 1
+        if self._have_noise and (self._since_noise < s.noise_every or len(self._hist) < MIN_NOISE_SAMPLES):
+            return
+        arr = np.array(self._hist, dtype=float)
+        if arr.shape[0] < 3:
+            arr = np.vstack([arr] * 3)
+        nm = (
+            noise_model(arr[:, 1], s.sigma_torque),
+            noise_model(arr[:, 2], s.sigma_sprocket_speed),
+            noise_model(arr[:, 3], s.sigma_vehicle_speed),
+        )
+        self._noise[[_N["aM"], _N["bM"], _N["aw"], _N["bw"], _N["av"], _N["bv"]]] = [
+            z for pair in nm for z in pair
+        ]
+        if len(self._hist) >= MIN_NOISE_SAMPLES:
+            self._since_noise = 0
+        if self._have_noise:  # the horizon's weights follow the new noise levels
+            self._c_prepare_all()
+            self._D[:] = self._rows_all
+            self._ok[:] = self._rows_all[:, _R["m"]]
+        self._have_noise = True
+
+    def _scale(self) -> float:
+        """Residual scale: 1 with known noise, else sqrt of the reduced chi-square of the horizon."""
+        s = self.settings
+        if None not in (s.sigma_torque, s.sigma_sprocket_speed, s.sigma_vehicle_speed):
+            return 1.0
+        n = self._sums[_S["n_used"]]
+        return math.sqrt(max(2.0 * self._sums[_S["cost"]] / max(n - 2.0, 1.0), 1e-12))
+
+    def _robust_scale(self) -> float:
+        """Spread of the recent prediction residuals (MAD, never below 1), re-estimated every few samples.
+
+        Where the model fits worse than the noise (transients, coasting) the residuals spread
+        wider than the horizon's chi-square says; the detector then asks for a lean beyond that
+        spread, not beyond the noise alone.
+        """
+        self._z_count += 1
+        n = len(self._recent_z)
+        if n >= MIN_NOISE_SAMPLES and self._z_count % _TURN_REESTIMATE_EARLY == 0:
+            z = np.fromiter(self._recent_z, float)
+            self._z_scale = max(1.0, MAD_TO_SIGMA * float(np.median(np.abs(z - np.median(z)))))
+        return self._z_scale
+
+    def _iterate(self, cutoff: float) -> None:
+        """Newton steps on the horizon: one when converged, else up to ``max_steps_per_update``.
+
+        Within one update (fixed data) a step that raised the cost is taken back and retried
+        with a quarter of the trust region (backtracking across kernel calls).
+        """
+        s = self.settings
+        np.multiply(self._ok, self._tslot >= cutoff, out=self._D[:, _R["m"]])
+        steps = 1 if self._converged else s.max_steps_per_update
+        P = self._P
+        before: tuple[float, float, float] | None = None  # (xF, xK, cost) before the last step
+        tr = s.max_step_scaled
+        for _ in range(steps + 1):
+            P[_P["max_step"]] = tr
+            x_old = (P[_P["xF"]], P[_P["xK"]])
+            self._c_step()
+            if not math.isfinite(float(self._sums.sum()) + float(self._x_out.sum())):
+                self._converged = False  # keep the last good iterate; say so
+                P[_P["max_step"]] = s.max_step_scaled
+                return
+            cost = self._sums[_S["cost"]]
+            if before is not None and cost > before[2] * (1 + 1e-9) + 1e-12:
+                P[_P["xF"]], P[_P["xK"]] = before[0], before[1]  # take the step back, shorter
+                tr *= 0.25
+                before = None
+                self._converged = False
+                continue
+            before = (x_old[0], x_old[1], cost)
+            P[_P["xF"]], P[_P["xK"]] = self._x_out
+            np.copyto(self._Z, self._Z_out)
+            dec = abs(self._sums[_S["decrement"]]) / self._scale() ** 2
+            self._converged = bool(self._sums[_S["n_used"]] >= 3 and dec < s.converged_decrement)
+            if self._converged or steps == 1:
+                break
+        P[_P["max_step"]] = s.max_step_scaled
+        if self._converged:
+            self._started = True
+
+    def _covariance(self) -> np.ndarray | None:
+        """Sandwich covariance over (F_max, K) in SI, or ``None`` when it does not exist."""
+        S = self._sums
+        A = np.array([[S[_S["A11"]], S[_S["A12"]]], [S[_S["A12"]], S[_S["A22"]]]])
+        B = np.array([[S[_S["B11"]], S[_S["B12"]]], [S[_S["B12"]], S[_S["B22"]]]])
+        if S[_S["n_used"]] < 3 or not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+            return None
+        det = A[0, 0] * A[1, 1] - A[0, 1] ** 2
+        if not (A[0, 0] > 0 and det > 1e-12 * A[0, 0] * A[1, 1]):
+            return None
+        Ai = np.array([[A[1, 1], -A[0, 1]], [-A[0, 1], A[0, 0]]]) / det
+        V = Ai @ B @ Ai
+        D = np.array([self._F_ref, self._K_ref])
+        V = 0.5 * (V + V.T) * np.outer(D, D)
+        if not (np.all(np.isfinite(V)) and V[0, 0] > 0 and V[1, 1] > 0 and V[0, 0] * V[1, 1] > V[0, 1] ** 2):
+            return None
+        return V
+
+    def _report(self, t: float, slip, change: bool, t_change, status, message) -> OnlineEstimate:
+        self._last_time = t
+        l, W = self.vehicle.track_length, self.vehicle.weight
+        n_used = int(round(self._sums[_S["n_used"]]))
+        # identification needs the iteration to have converged once (since the start); before that
+        # the iterate is shown, not identified
+        have = self._started or (n_used >= 3 and self._converged)
+        iterate = self._P[_P["xF"]] * self._F_ref if n_used >= 3 else None
+        xF, xK = self._P[_P["xF"]], self._P[_P["xK"]]
+        F = K = sF = sK = cov = slope = s_slope = None
+        ident: tuple[str, ...] = ()
+        if have and n_used >= 3:
+            F, K = float(xF * self._F_ref), float(xK * self._K_ref)
+            slope = F * l / (2 * K)
+            V = self._covariance()
+            if V is not None:
+                gs = np.array([l / (2 * K), -F * l / (2 * K * K)])
+                s_slope = float(math.sqrt(max(gs @ V @ gs, 0.0)))
+                if s_slope < GENTLE_REL_STDERR * slope:  # even the slope needs slips above the noise
+                    ident = ("slope",)
+                sF_, sK_ = math.sqrt(V[0, 0]), math.sqrt(V[1, 1])
+                corr = V[0, 1] / (sF_ * sK_)
+                (Flo, Fhi), (Klo, Khi) = self._bounds_scaled
+                tol = 1e-6
+                F_bound = not (Flo + tol < xF < Fhi - tol)
+                K_bound = not (Klo + tol < xK < Khi - tol)
+                used = self._D[:, _R["m"]] > 0
+                peak = float(np.max(self._D[used, _R["T"]] - 2.0 / self._D[used, _R["inv_sc"]], initial=0.0))
+                reached = peak >= self.settings.identify_min_utilisation * F
+                if reached and abs(corr) < GENTLE_CORRELATION and sF_ / F < GENTLE_REL_STDERR and not F_bound:
+                    ident = ("slope", "max_thrust")
+                    sF = sF_
+                    # F_max is determined: hold it there (weakly) while later horizons do not determine it
+                    self._P[_P["xF_prior"]] = xF
+                    self._P[_P["w_prior"]] = 1.0 / (self.settings.hold_rel * xF) ** 2
+                    if self._F_known is None:
+                        self._known_since = self._last_time
+                    self._F_known = F
+                    if sK_ / K <= K_REL_STDERR and not K_bound:
+                        ident = ("slope", "max_thrust", "shear_modulus")
+                        sK = sK_
+                        cov = V
+        elif have or iterate is not None:
+            F, K = float(xF * self._F_ref), float(xK * self._K_ref)
+            slope = F * l / (2 * K)
+        if status is None:
+            status = (
+                "ok"
+                if (have and self._converged)
+                else ("not_converged" if (have or iterate is not None) else "warming_up")
+            )
+        if not message:
+            message = {
+                "ok": "converged",
+                "warming_up": "too few samples for an estimate yet",
+                "not_converged": "the Gauss-Newton iteration has not converged yet",
+            }.get(status, status)
+            if change:
+                message = f"change of terrain detected, dated {t_change:.6g} s: older samples forgotten"
+        est = OnlineEstimate(
+            time_s=float(t),
+            max_thrust_N=F,
+            max_thrust_stderr_N=sF,
+            shear_modulus_m=K,
+            shear_modulus_stderr_m=sK,
+            covariance=cov,
+            slope_N=slope,
+            slope_stderr_N=s_slope,
+            normal_load_N=float(W),
+            identifiable=ident,
+            slip=None if slip is None else float(slip),
+            change_detected=bool(change),
+            change_time_s=None if t_change is None else float(t_change),
+            samples_used=n_used,
+            samples_skipped=self.samples_skipped,
+            samples_turning=self.samples_turning,
+            samples_seen=self.samples_seen,
+            converged=bool(self._converged and have),
+            status=status,
+            message=message,
+            detector=float(self._detector.statistic),
+        )
+        self._last = est
+        return est
+
+
+def _finite(x) -> bool:
+    try:
+        return x is not None and math.isfinite(float(x))
+    except (TypeError, ValueError):
+        return False

@@ -1,0 +1,350 @@
+"""The estimator's CasADi kernels: built once per horizon capacity, compiled to C once per machine.
+
+The horizon's samples are the columns of a data matrix ``D`` (rows :data:`ROWS`); their order
+does not matter (every quantity is a sum over samples), so the horizon is a ring buffer. The
+thrust law is the one of :mod:`soiltrack.soilmodel.traction` (``F = F_max g(i l / K)``,
+:func:`~soiltrack.soilmodel.traction.slip_factor`), never a copy. Per sample ``k`` (the batch
+fit's output-error formulation, :mod:`soiltrack.identify.drivelog`)::
+
+    T_k   = (M_{k-1} - I (w_k - w_{k-1}) / h_k) / r          discrete sprocket equation (zoh)
+    d_s   = v_k - r w_k (1 - i_k)
+    e_w   = d_s / sigma_s                                     speed residual
+    e_T   = (T_k - F_max g(i_k l / K) - rho d_s) / sigma_T|s  thrust residual (whitened pair)
+
+with the latent slip ``i_k`` a per-sample unknown and the noise model ``sigma = sqrt(a^2 +
+(b x)^2)`` per channel (:func:`prepare_kernel`: the weights depend only on the readings and
+the noise levels, so they are computed when a sample enters and when the noise levels are
+re-estimated). One Gauss-Newton step on ``(F_max, K, i_1..i_n)`` eliminates the slips exactly
+(block-arrow structure: the Schur complement is a 2x2 system), so a step costs one pass over
+the horizon (:func:`step_kernel`). The same pass gives the sandwich covariance of the profiled
+estimator (exact per-sample Hessian, empirical score variance), as the batch fit computes it.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+
+from ...soilmodel.threadsafe import locked_cache
+from ...soilmodel.traction import slip_factor
+from ..drivelog.prepare import SLIP_BOUNDS
+from .. import jitcache
+
+__all__ = [
+    "RAW",
+    "ROWS",
+    "NOISE",
+    "PARAMS",
+    "SUMS",
+    "Kernels",
+    "kernels",
+    "prepare_kernel",
+    "predict_kernel",
+    "JUMP_SIGMA",
+    "SPEED_FLOOR_SIGMA",
+    "BRAKING_SIGMA",
+    "PREDICT_ITERATIONS",
+]
+
+#: A sample's readings: vehicle speed, sprocket speed and the previous one, the previous
+#: torque, the time step, and the thrust jump allowance (N).
+RAW = ("v", "w", "w_prev", "M_prev", "h", "jump")
+#: Noise and vehicle constants of :func:`prepare_kernel`.
+NOISE = ("aM", "bM", "aw", "bw", "av", "bv", "r", "I", "min_speed")
+#: Rows of the horizon's data matrix (what :func:`prepare_kernel` gives per sample; ``m`` is
+#: 1 for a sample used in the fit, set to 0 outside the horizon).
+ROWS = ("v", "rw", "T", "inv_sc", "inv_ss", "rho", "m")
+#: Entries of the step's parameter vector: the scaled iterate, its scales, the track length,
+#: the trust region, the scaled bounds, and a prior on F_max (value, weight) that holds F_max
+#: where the horizon does not determine it.
+PARAMS = (
+    "xF",
+    "xK",
+    "F_ref",
+    "K_ref",
+    "l",
+    "max_step",
+    "xF_lo",
+    "xF_hi",
+    "xK_lo",
+    "xK_hi",
+    "xF_prior",
+    "w_prior",
+)
+#: Entries of the step's sum vector (at the point before the step).
+SUMS = (
+    "S11",
+    "S12",
+    "S22",
+    "g1",
+    "g2",
+    "cost",
+    "A11",
+    "A12",
+    "A22",
+    "B11",
+    "B12",
+    "B22",
+    "n_used",
+    "decrement",
+)
+#: Samples with vehicle or track speed below this many noise levels are not used (slip undefined).
+SPEED_FLOOR_SIGMA = 3.0
+#: Samples with thrust below minus this many thrust standard deviations are braking: not used.
+BRAKING_SIGMA = 3.0
+#: A thrust change beyond this many standard deviations of the difference is a jump; half of it
+#: is added to the sample's thrust standard deviation (the batch fit's discretisation allowance).
+JUMP_SIGMA = 5.0
+#: Gauss-Newton iterations on the latent slip of a new sample before it is predicted.
+PREDICT_ITERATIONS = 4
+#: Smallest speed floor, m/s (as the batch fit).
+_MIN_FLOOR = 1e-3
+
+
+def _prepare(raw, noise):
+    """Per-sample weights from the readings and the noise levels (SX)."""
+    v, w, wp, Mp, h, jump = (raw[j] for j in range(len(RAW)))
+    N = {name: noise[j] for j, name in enumerate(NOISE)}
+    r, I = N["r"], N["I"]
+    sM = ca.sqrt(N["aM"] ** 2 + (N["bM"] * Mp) ** 2)
+    sw = ca.sqrt(N["aw"] ** 2 + (N["bw"] * w) ** 2)
+    swp = ca.sqrt(N["aw"] ** 2 + (N["bw"] * wp) ** 2)
+    sv = ca.sqrt(N["av"] ** 2 + (N["bv"] * v) ** 2)
+    T = (Mp - I * (w - wp) / h) / r
+    sT2_raw = (sM**2 + (I / h) ** 2 * (sw**2 + swp**2)) / r**2
+    sT2 = sT2_raw + (0.5 * jump) ** 2
+    floor = ca.fmax(ca.fmax(N["min_speed"], _MIN_FLOOR), SPEED_FLOOR_SIGMA * ca.fmax(sv, r * sw))
+    ok = ca.logic_and(ca.logic_and(v >= floor, r * w >= floor), T >= -BRAKING_SIGMA * ca.sqrt(sT2))
+    rw = r * w
+    one_minus_i = ca.fmin(ca.fmax(v / ca.fmax(rw, _MIN_FLOOR), 1.0 - SLIP_BOUNDS[1]), 1.0 - SLIP_BOUNDS[0])
+    ss2 = sv**2 + (r * one_minus_i * sw) ** 2
+    cov = I * one_minus_i * sw**2 / h
+    rho = cov / ss2
+    sc = ca.sqrt(ca.fmax(sT2 - rho * cov, 0.0) + 1e-300)
+    row = ca.vertcat(v, rw, T, 1.0 / sc, 1.0 / ca.sqrt(ss2), rho, ca.if_else(ok, 1.0, 0.0))
+    return row, T, ca.sqrt(sT2_raw)
+
+
+def _residuals(row, i, xF, xK, F_ref, K_ref, l):
+    v, rw, T, isc, iss, rho = (row[j] for j in range(6))
+    d_s = v - rw * (1 - i)
+    e_w = d_s * iss
+    e_T = (T - xF * F_ref * slip_factor(i, l, xK * K_ref) - rho * d_s) * isc
+    return e_w, e_T
+
+
+@locked_cache(maxsize=1)
+def prepare_kernel() -> ca.Function:
+    """``(raw, noise) -> (row, T, sigma_T)``: a sample's data column (:data:`ROWS`, ``m`` = usable)."""
+    raw = ca.SX.sym("raw", len(RAW))
+    noise = ca.SX.sym("noise", len(NOISE))
+    row, T, sT = _prepare(raw, noise)
+    return ca.Function("online_prepare", [raw, noise], [row, T, sT], ["raw", "noise"], ["row", "T", "sT"])
+
+
+#: Gauss-Newton iterations on each latent slip (at the current F_max, K) within one step.
+SLIP_ITERATIONS = 2
+
+
+#: Step fractions tried by each safeguarded Gauss-Newton step on a latent slip (the cheapest
+#: cost wins; 0 keeps the slip): the thrust-slip curve is steep at small slip, and a full step
+#: from a poor start can jump to the other side of the optimum and back.
+SLIP_STEP_FRACTIONS = (1.0, 0.5, 0.25, 0.0)
+
+
+def _slip_gn(row, i, xF, xK, F_ref, K_ref, l, iterations: int):
+    """``iterations`` safeguarded Gauss-Newton steps on one sample's latent slip at fixed (F_max, K)."""
+    lo, hi = SLIP_BOUNDS
+    z = ca.SX.sym("z")
+    e = ca.vertcat(*_residuals(row, z, xF, xK, F_ref, K_ref, l))
+    J = ca.jacobian(e, z)
+    step = -ca.dot(J, e) / ca.fmax(ca.dot(J, J), 1e-300)
+    cost = ca.sumsqr(e)
+    for _ in range(iterations):
+        st = ca.substitute(step, z, i)
+        best_i, best_c = None, None
+        for frac in SLIP_STEP_FRACTIONS:
+            cand = ca.fmin(ca.fmax(i + frac * st, lo), hi)
+            c = ca.substitute(cost, z, cand)
+            if best_i is None:
+                best_i, best_c = cand, c
+            else:
+                better = c < best_c
+                best_i, best_c = ca.if_else(better, cand, best_i), ca.if_else(better, c, best_c)
+        i = best_i
+    return i
+
+
+def _sample_sums():
+    """Per-sample contributions to the sums, and the slip after the step (SX Functions).
+
+    Each latent slip is first moved to its optimum at the current (F_max, K)
+    (:data:`SLIP_ITERATIONS` Gauss-Newton steps, warm-started), so the sums are those of the
+    profiled cost: its gradient ``g = e_T de_T/dx``, its exact Hessian ``A`` (Schur
+    complement of the per-sample Hessian in (xF, xK, i), residual curvature included), the
+    Gauss-Newton matrix ``S`` (a fallback where ``A`` is not positive definite) and the score
+    products ``B`` of the sandwich covariance.
+    """
+    row = ca.SX.sym("row", len(ROWS))
+    i0 = ca.SX.sym("i")
+    p = ca.SX.sym("p", len(PARAMS))
+    P = {name: p[j] for j, name in enumerate(PARAMS)}
+    m = row[6]
+    lo, hi = SLIP_BOUNDS
+    xs = ca.SX.sym("xs", 2)
+    i_s = ca.SX.sym("i_s")
+    e_w, e_T = _residuals(row, i_s, xs[0], xs[1], P["F_ref"], P["K_ref"], P["l"])
+    z = ca.vertcat(xs, i_s)
+    gT = ca.gradient(e_T, z)
+    hT = ca.hessian(e_T, z)[0]
+    a, bT = gT[:2], gT[2]
+    bw = row[1] * row[4]  # d e_w / d i
+    Hii_gn = bw**2 + bT**2
+    S = (bw**2 / Hii_gn) * (a @ a.T)  # Gauss-Newton Schur complement of the slip
+    g = a * e_T  # profiled gradient (the slip's own gradient is ~0)
+    H = gT @ gT.T + e_T * hT  # exact Hessian of (e_w^2 + e_T^2) / 2 in (xF, xK, i)
+    H[2, 2] = H[2, 2] + bw**2
+    free = ca.if_else(ca.logic_and(i_s > lo + 1e-6, i_s < hi - 1e-6), 1.0, 0.0)
+    Hi = ca.if_else(H[2, 2] > 0, H[2, 2], Hii_gn)
+    Hc = H[:2, :2] - free * (H[:2, 2] @ H[2, :2]) / Hi
+    per = m * ca.vertcat(
+        S[0, 0],
+        S[0, 1],
+        S[1, 1],
+        g[0],
+        g[1],
+        0.5 * (e_w**2 + e_T**2),
+        Hc[0, 0],
+        Hc[0, 1],
+        Hc[1, 1],
+        g[0] ** 2,
+        g[0] * g[1],
+        g[1] ** 2,
+        1.0,
+    )
+    dx = ca.SX.sym("dx", 2)
+    i_next = ca.fmin(ca.fmax(i_s - bT * ca.dot(a, dx) / Hii_gn, lo), hi)  # first-order follow of the step
+    core = ca.Function("online_sample_core", [row, i_s, xs, p, dx], [per, i_next])
+    x = ca.vertcat(P["xF"], P["xK"])
+    i_opt = _slip_gn(row, i0, P["xF"], P["xK"], P["F_ref"], P["K_ref"], P["l"], SLIP_ITERATIONS)
+    i_opt = ca.if_else(m > 0, i_opt, i0)
+    per_s, _ = core(row, i_opt, x, p, ca.DM.zeros(2))
+    sums = ca.Function("online_sample_sums", [row, i0, p], [per_s, i_opt], {"cse": True})
+    _, i_next_s = core(row, i0, x, p, dx)
+    slip = ca.Function(
+        "online_sample_slip", [row, i0, p, dx], [ca.if_else(m > 0, i_next_s, i0)], {"cse": True}
+    )
+    return sums, slip
+
+
+def _step(n: int) -> ca.Function:
+    sums_f, slip_f = _sample_sums()
+    D = ca.MX.sym("D", len(ROWS), n)
+    Z = ca.MX.sym("Z", 1, n)
+    P = ca.MX.sym("P", len(PARAMS))
+    tot, Zopt = sums_f.map("online_sums_map", "serial", n, [2], [0])(D, Z, P)
+    Q = {name: P[j] for j, name in enumerate(PARAMS)}
+    xF, xK = Q["xF"], Q["xK"]
+    g1 = tot[3] + Q["w_prior"] * (xF - Q["xF_prior"])
+    g2 = tot[4]
+    # Newton on the profiled cost (exact Hessian A) where A is positive definite, else Gauss-Newton
+    A11, A12, A22 = tot[6] + Q["w_prior"], tot[7], tot[8]
+    S11, S12, S22 = tot[0] + Q["w_prior"], tot[1], tot[2]
+    pd = ca.logic_and(A11 > 0, A11 * A22 - A12 * A12 > 1e-9 * A11 * A22)
+    H11, H12, H22 = ca.if_else(pd, A11, S11), ca.if_else(pd, A12, S12), ca.if_else(pd, A22, S22)
+    mu = 1e-12 * (H11 + H22) + 1e-300
+    a11, a22 = H11 + mu, H22 + mu
+    det = a11 * a22 - H12 * H12
+    st1 = -(a22 * g1 - H12 * g2) / det
+    st2 = -(a11 * g2 - H12 * g1) / det
+    ms = Q["max_step"]
+
+    def cap(step, x):  # trust region: no parameter changes by more than max_step of its value per step
+        return ca.fmin(ca.fmax(step, -ms * x), ms * x)
+
+    lo1, hi1, lo2, hi2 = Q["xF_lo"], Q["xF_hi"], Q["xK_lo"], Q["xK_hi"]
+    scale = ca.fmin(1.0, ms / ca.fmax(ca.fmax(ca.fabs(st1) / xF, ca.fabs(st2) / xK), 1e-300))
+    x1, x2 = xF + scale * st1, xK + scale * st2
+    out1 = ca.logic_or(x1 < lo1, x1 > hi1)
+    out2 = ca.logic_or(x2 < lo2, x2 > hi2)
+    # active set: a parameter stopped at its bound, the other takes its Newton step given that change
+    x2b = ca.fmin(ca.fmax(x2, lo2), hi2)
+    x1_given2 = ca.fmin(ca.fmax(xF + cap(-(g1 + H12 * (x2b - xK)) / a11, xF), lo1), hi1)
+    x1b = ca.fmin(ca.fmax(x1, lo1), hi1)
+    x2_given1 = ca.fmin(ca.fmax(xK + cap(-(g2 + H12 * (x1b - xF)) / a22, xK), lo2), hi2)
+    xF_2d = ca.if_else(ca.logic_and(out2, ca.logic_not(out1)), x1_given2, x1b)
+    xK_2d = ca.if_else(ca.logic_and(out1, ca.logic_not(out2)), x2_given1, x2b)
+    # a parameter on a bound whose gradient pushes it outward stays there; the other takes its 1-D step
+    tol = 1e-9
+    act1 = ca.logic_or(
+        ca.logic_and(xF <= lo1 * (1 + tol), g1 > 0), ca.logic_and(xF >= hi1 * (1 - tol), g1 < 0)
+    )
+    act2 = ca.logic_or(
+        ca.logic_and(xK <= lo2 * (1 + tol), g2 > 0), ca.logic_and(xK >= hi2 * (1 - tol), g2 < 0)
+    )
+    xF_1d = ca.fmin(ca.fmax(xF + cap(-g1 / a11, xF), lo1), hi1)
+    xK_1d = ca.fmin(ca.fmax(xK + cap(-g2 / a22, xK), lo2), hi2)
+    xF_new = ca.if_else(act1, xF, ca.if_else(act2, xF_1d, xF_2d))
+    xK_new = ca.if_else(act2, xK, ca.if_else(act1, xK_1d, xK_2d))
+    dxe = ca.vertcat(xF_new - xF, xK_new - xK)
+    # decrease of the cost predicted by the quadratic model along the step taken
+    decrement = -(g1 * dxe[0] + g2 * dxe[1]) - 0.5 * (
+        H11 * dxe[0] ** 2 + 2 * H12 * dxe[0] * dxe[1] + H22 * dxe[1] ** 2
+    )
+    Znew = slip_f.map("online_slip_map", "serial", n, [2, 3], [])(D, Zopt, P, dxe)
+    return ca.Function(
+        f"online_step_{n}",
+        [D, Z, P],
+        [ca.vertcat(xF_new, xK_new), Znew, ca.vertcat(tot, decrement)],
+        ["D", "Z", "P"],
+        ["x", "Z_new", "sums"],
+    )
+
+
+@locked_cache(maxsize=1)
+def predict_kernel() -> ca.Function:
+    """A new sample's profiled residual: ``(row, P) -> [slip, wres]``.
+
+    The latent slip starts at the measured slip (clipped to the slip bounds) and takes
+    :data:`PREDICT_ITERATIONS` Gauss-Newton steps on ``e_w^2 + e_T^2`` at the current
+    estimate; ``wres`` is the batch fit's profiled residual ``sign(e_T) sqrt(e_w^2 + e_T^2)``.
+    """
+    row = ca.SX.sym("row", len(ROWS))
+    p = ca.SX.sym("p", len(PARAMS))
+    P = {name: p[j] for j, name in enumerate(PARAMS)}
+    lo, hi = SLIP_BOUNDS
+
+    def res(i):
+        return _residuals(row, i, P["xF"], P["xK"], P["F_ref"], P["K_ref"], P["l"])
+
+    s = ca.fmin(ca.fmax(1 - row[0] / ca.fmax(row[1], _MIN_FLOOR), lo), hi)
+    s = _slip_gn(row, s, P["xF"], P["xK"], P["F_ref"], P["K_ref"], P["l"], PREDICT_ITERATIONS)
+    e_w, e_T = res(s)
+    wres = ca.sign(e_T) * ca.sqrt(e_w**2 + e_T**2)
+    return ca.Function(
+        "online_predict", [row, p], [ca.vertcat(s, wres)], ["row", "P"], ["out"], {"cse": True}
+    )
+
+
+class Kernels:
+    """The compiled Functions of one horizon capacity: ``step``, ``predict``, ``prepare``, ``prepare_all``.
+
+    ``backend`` says what evaluates them (C code from the per-user cache, or CasADi's
+    virtual machine when no compiler is available: same numbers, slower); ``library`` is the
+    shared library's path (``None`` for the virtual machine).
+    """
+
+    def __init__(self, n: int) -> None:
+        prep = prepare_kernel()
+        prep_all = prep.map(f"online_prepare_all_{n}", "serial", n, [1], [])
+        fns = [_step(n), predict_kernel(), prep, prep_all]
+        comp = jitcache.load(fns, f"soiltrack_online_{n}", wait=True)
+        self.step, self.predict, self.prepare, self.prepare_all = comp.functions
+        self.backend = comp.backend
+        self.library = comp.path if comp.is_c else None
+        self.capacity = n
+
+
+@locked_cache(maxsize=8)
+def kernels(n: int) -> Kernels:
+    """The :class:`Kernels` of capacity ``n`` (built and compiled once per process and machine)."""
+    return Kernels(n)

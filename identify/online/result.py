@@ -1,0 +1,94 @@
+"""What one update of the on-line estimator gives: :class:`OnlineEstimate` (frozen, SI)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["OnlineEstimate", "IDENTIFIABLE_NAMES"]
+
+#: The quantities an estimate can call identified: the small-slip slope ``F_max l / (2 K)``
+#: (gentle driving), and F_max and K themselves (a pull near the traction limit).
+IDENTIFIABLE_NAMES = ("slope", "max_thrust", "shear_modulus")
+
+
+@dataclass(frozen=True, eq=False)
+class OnlineEstimate:
+    """The estimate after one update of :class:`~.estimator.OnlineEstimator`.
+
+    Attributes
+    ----------
+    time_s
+        Time of the sample just processed, s.
+    max_thrust_N, shear_modulus_m
+        Current estimate of the thrust limit F_max = A c + W tan(phi) (N) and of K (m); the
+        values of the moving-horizon fit even when they are not identifiable (then only their
+        slope is: see ``identifiable``). ``None`` before the first estimate.
+    max_thrust_stderr_N, shear_modulus_stderr_m
+        Standard errors (sandwich covariance of the horizon's fit), ``None`` while the quantity
+        is not identifiable.
+    covariance
+        2x2 covariance over ``[max_thrust_N, shear_modulus_m]`` (SI), ``None`` while F_max and
+        K are not both identifiable.
+    slope_N, slope_stderr_N
+        The small-slip slope ``F_max l / (2 K)`` (thrust per unit slip) and its standard error
+        (``None`` before an estimate exists).
+    normal_load_N
+        Normal load W of the estimate, N (the vehicle's weight on flat ground).
+    identifiable
+        What the horizon's data pin down now: ``()`` (too few samples), ``("slope",)`` (gentle
+        driving), ``("slope", "max_thrust")`` or ``("slope", "max_thrust", "shear_modulus")``.
+    slip
+        The latent (true) slip of the sample just processed, ``None`` when it was not used.
+    change_detected
+        ``True`` on the update that detected a change of terrain.
+    change_time_s
+        Estimated start of the detected change (the time the detector's statistic last left
+        zero), ``None`` unless ``change_detected``.
+    samples_used
+        Samples the current estimate rests on (inside the horizon, after the sample selection).
+    samples_skipped
+        Samples skipped so far because a channel was missing or not finite.
+    samples_turning
+        Two-track samples left out so far because the vehicle turned.
+    samples_seen
+        Samples given to the estimator so far.
+    converged
+        Whether the Gauss-Newton iteration has converged on the horizon's fit (squared Newton
+        decrement below the setting).
+    status, message
+        ``"ok"``, ``"warming_up"`` (no estimate yet), ``"not_converged"``, ``"skipped"``
+        (this sample skipped), and a sentence saying why.
+    detector
+        The change detector's statistic after this update (CUSUM, in standard deviations).
+    """
+
+    time_s: float
+    max_thrust_N: float | None
+    max_thrust_stderr_N: float | None
+    shear_modulus_m: float | None
+    shear_modulus_stderr_m: float | None
+    covariance: np.ndarray | None
+    slope_N: float | None
+    slope_stderr_N: float | None
+    normal_load_N: float
+    identifiable: tuple[str, ...]
+    slip: float | None
+    change_detected: bool
+    change_time_s: float | None
+    samples_used: int
+    samples_skipped: int
+    samples_turning: int
+    samples_seen: int
+    converged: bool
+    status: str
+    message: str
+    detector: float
+
+    def as_dict(self) -> dict:
+        """JSON-ready dict (``covariance`` as a nested list or ``None``; ``identifiable`` a list)."""
+        out = {k: getattr(self, k) for k in self.__dataclass_fields__}
+        out["identifiable"] = list(self.identifiable)
+        out["covariance"] = None if self.covariance is None else np.asarray(self.covariance).tolist()
+        return out

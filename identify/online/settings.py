@@ -1,0 +1,165 @@
+"""Typed settings of the on-line estimator (:class:`OnlineSettings`): every decision threshold named."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ...soilmodel.errors import DataError
+from ...soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
+from ...soilmodel.tracks import TURN_THRESHOLD_SIGMA
+from ...soilmodel.traction import check_model
+
+__all__ = ["OnlineSettings"]
+
+
+@dataclass(frozen=True)
+class OnlineSettings:
+    """Settings of :class:`~.estimator.OnlineEstimator` (SI units).
+
+    Attributes
+    ----------
+    window_s
+        Length of the moving horizon, s: the estimate rests on the samples of the last
+        ``window_s`` seconds (and on none before the last detected change of terrain).
+    model, bounds
+        Thrust law (``"full"`` or ``"cohesion-free"``) and the soil box; F_max is bounded by
+        the range of ``A c + W tan(phi)`` over the box, K by its K range.
+    sigma_torque, sigma_sprocket_speed, sigma_vehicle_speed
+        Sensor noise standard deviations (N m, rad/s, m/s), or ``None``: estimated from the
+        window's own readings, as the batch fit does.
+    noise_every
+        Updates between two re-estimates of the noise levels from the window.
+    min_speed
+        Samples slower than this (m/s, vehicle or track) are not used (the batch fit's option).
+    max_step_ratio
+        A time step longer than this many times the running median step breaks the sample
+        chain (the sprocket equation over a long gap would assume the torque held all along).
+    max_steps_per_update, converged_decrement
+        Gauss-Newton steps per update while not converged (one when converged), and the
+        convergence test: the squared Newton decrement (the step's size in standard errors,
+        squared) below this value.
+    hold_rel
+        Once the horizon has determined F_max, a weak prior (standard deviation ``hold_rel``
+        times that F_max) holds it there while later horizons do not (gentle driving shows only
+        the slope, along which F_max would drift to a bound). Against data that determine F_max
+        to a few percent it moves the estimate by well under a tenth of a standard error; it
+        is dropped when a change of terrain is detected.
+    max_step_scaled
+        Largest change of F_max or K per Gauss-Newton step, relative to its current value (a
+        trust region for steps along the poorly determined direction of gentle driving).
+    detect_reference, detect_threshold, detect_clip
+        Two-sided CUSUM of the standardised one-step prediction residuals of new samples: drift
+        ``k`` (half the smallest shift it is meant to catch, in standard deviations), alarm
+        threshold ``h`` and the clip of each residual (one wild sample cannot raise an alarm
+        alone). With k = 1, h = 10 the average run length between false alarms of white
+        Gaussian residuals is far beyond 10^8 samples.
+    identify_min_utilisation
+        F_max (and K) count as identified only when the horizon's largest thrust (two standard
+        deviations below its value) reaches this fraction of the estimate, besides the batch
+        fit's rules (correlation below 0.99, standard error below 25 %, not on a bound): gentle
+        driving shows only the start of the curve, and a covariance computed where the
+        iterate has drifted along the ridge can look tighter than the data are.
+    detect_min_load
+        The detector runs once F_max has been determined (since the start or the last change)
+        and takes only samples whose thrust is at least this fraction of that F_max. Below it
+        the thrust-slip curve is its initial slope, where a change of terrain hides in the slip
+        noise (measured: no lean at all on the light vehicle at 2 m/s) while
+        the slope's error-in-variables bias moves with the driving and would read as a change.
+    detect_settle_s
+        ... and only this long after F_max was first determined (since the start or the last
+        change): the first pull's own samples refine the first estimate, and would otherwise
+        read as a change.
+    detect_scale_samples
+        Recent prediction residuals whose robust spread (median absolute deviation, at least
+        1) scales the detector's input.
+    detect_min_samples, detect_min_s
+        The detector runs only once the estimate rests on this many samples and this many
+        seconds since the start or the last change.
+    turn_threshold
+        Noise standard deviations of the left-right speed difference (or the yaw rate) beyond
+        which a two-track sample turns.
+    turn_history
+        Samples of the speed difference (and yaw rate) the turning noise is estimated from.
+    max_capacity
+        Most samples in the horizon (the kernel is built for the capacity, grown by doubling).
+    """
+
+    window_s: float = 5.0
+    model: str = "full"
+    bounds: SoilBounds = PRACTICAL_BOUNDS
+    sigma_torque: float | None = None
+    sigma_sprocket_speed: float | None = None
+    sigma_vehicle_speed: float | None = None
+    noise_every: int = 200
+    min_speed: float = 0.0
+    max_step_ratio: float = 3.0
+    max_steps_per_update: int = 4
+    converged_decrement: float = 0.01
+    max_step_scaled: float = 0.25
+    hold_rel: float = 0.1
+    detect_reference: float = 1.0
+    detect_threshold: float = 10.0
+    detect_clip: float = 4.0
+    identify_min_utilisation: float = 0.5
+    detect_min_load: float = 0.2
+    detect_settle_s: float = 2.0
+    detect_scale_samples: int = 100
+    detect_min_samples: int = 20
+    detect_min_s: float = 0.5
+    turn_threshold: float = TURN_THRESHOLD_SIGMA
+    turn_history: int = 256
+    max_capacity: int = 16384
+
+    def __post_init__(self) -> None:
+        check_model(self.model)
+        for name in (
+            "window_s",
+            "max_step_ratio",
+            "converged_decrement",
+            "max_step_scaled",
+            "hold_rel",
+            "identify_min_utilisation",
+            "detect_min_load",
+            "detect_reference",
+            "detect_threshold",
+            "detect_clip",
+            "turn_threshold",
+        ):
+            val = getattr(self, name)
+            if (
+                isinstance(val, bool)
+                or not isinstance(val, (int, float))
+                or not math.isfinite(val)
+                or val <= 0
+            ):
+                raise DataError(f"setting {name} must be a finite number > 0, got {val!r}")
+        for name in (
+            "noise_every",
+            "max_steps_per_update",
+            "detect_scale_samples",
+            "detect_min_samples",
+            "turn_history",
+            "max_capacity",
+        ):
+            val = getattr(self, name)
+            if isinstance(val, bool) or not isinstance(val, int) or val < 1:
+                raise DataError(f"setting {name} must be an integer >= 1, got {val!r}")
+        for name in (
+            "sigma_torque",
+            "sigma_sprocket_speed",
+            "sigma_vehicle_speed",
+            "min_speed",
+            "detect_min_s",
+            "detect_settle_s",
+        ):
+            val = getattr(self, name)
+            if val is not None and (
+                isinstance(val, bool)
+                or not isinstance(val, (int, float))
+                or not math.isfinite(val)
+                or val < 0
+            ):
+                raise DataError(f"setting {name} must be a finite number >= 0, got {val!r}")
+        if self.max_step_ratio <= 1:
+            raise DataError(f"setting max_step_ratio must be > 1, got {self.max_step_ratio!r}")

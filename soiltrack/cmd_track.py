@@ -1,0 +1,255 @@
+"""``soiltrack track``: replay a drive log as a stream through the on-line estimator."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+
+import numpy as np
+
+from .cliutil import EXIT_OK, EXIT_SOLVER, output_path, vehicle_arg
+from .soilmodel import DataError
+
+#: The fields of every JSON line (docs/online.md), in this order.
+STEP_FIELDS = (
+    "time_s",
+    "max_thrust_N",
+    "max_thrust_stderr_N",
+    "shear_modulus_m",
+    "shear_modulus_stderr_m",
+    "identifiable",
+    "change_detected",
+    "samples_used",
+    "samples_skipped",
+    "p_traversable",
+    "slope_N",
+    "slope_stderr_N",
+    "change_time_s",
+    "samples_turning",
+    "slip",
+    "converged",
+    "status",
+)
+#: Largest grade accepted by --grade-deg, deg (the margin's own range).
+MAX_GRADE_DEG = 68.75
+#: Monte Carlo samples of each printed step's margin (a margin costs about 0.1 s: use --every).
+MARGIN_SAMPLES = 1000
+
+
+def _positive(text: str, option: str, integer: bool = False) -> float:
+    try:
+        val = int(text) if integer else float(text)
+    except ValueError:
+        raise DataError(
+            f"{option} expects {'an integer' if integer else 'a number'} > 0, got {text!r}"
+        ) from None
+    if not math.isfinite(val) or val <= 0:
+        raise DataError(f"{option} expects {'an integer' if integer else 'a number'} > 0, got {text!r}")
+    return val
+
+
+def _samples(stream):
+    """Rows of the stream as the estimator's update arguments: ``(method name, args)``."""
+    c = stream.columns
+    n = stream.n_samples
+    accel = c.get("vehicle_accel_m_s2")
+    if stream.two_track:
+        yaw = c.get("yaw_rate_rad_s")
+        cols = [
+            c[k].tolist()
+            for k in (
+                "time_s",
+                "sprocket_torque_left_Nm",
+                "sprocket_torque_right_Nm",
+                "sprocket_speed_left_rad_s",
+                "sprocket_speed_right_rad_s",
+                "vehicle_speed_m_s",
+            )
+        ]
+        extra = [[None] * n if accel is None else accel.tolist(), [None] * n if yaw is None else yaw.tolist()]
+        return "update_tracks", list(zip(*cols, *extra))
+    cols = [
+        c[k].tolist() for k in ("time_s", "sprocket_torque_Nm", "sprocket_speed_rad_s", "vehicle_speed_m_s")
+    ]
+    return "update", list(zip(*cols, [None] * n if accel is None else accel.tolist()))
+
+
+def _p_traversable(estimate, vehicle, grade_deg: float | None):
+    """Probability of traversing the grade from the estimate (``None`` without a grade or a covariance)."""
+    if grade_deg is None or estimate.covariance is None or not estimate.converged:
+        return None
+    from .planning import margin
+
+    return float(margin(estimate, vehicle, grade_deg=grade_deg, samples=MARGIN_SAMPLES).p_traversable)
+
+
+def _finite_or_none(x):
+    return None if x is None or (isinstance(x, float) and not math.isfinite(x)) else x
+
+
+def _step(estimate, p_trav) -> dict:
+    d = estimate.as_dict()
+    d["p_traversable"] = p_trav
+    return {k: _finite_or_none(d[k]) for k in STEP_FIELDS}
+
+
+def _cmd_track(a: argparse.Namespace) -> int:
+    from .identify import OnlineEstimator, OnlineSettings
+    from .soilmodel.drive_stream import read_drive_stream
+
+    if a.plot:
+        output_path(a.plot, "--plot", figure=True)
+    window = _positive(a.window, "--window")
+    every = int(_positive(a.every, "--every", integer=True))
+    grade = None
+    if a.grade_deg is not None:
+        try:
+            grade = float(a.grade_deg)
+        except ValueError:
+            raise DataError(f"--grade-deg expects a number of degrees, got {a.grade_deg!r}") from None
+        if not math.isfinite(grade) or abs(grade) > MAX_GRADE_DEG:
+            raise DataError(
+                f"--grade-deg expects a finite grade within +-{MAX_GRADE_DEG} deg, got {a.grade_deg!r}"
+            )
+    vehicle = vehicle_arg(a.vehicle)
+    stream = read_drive_stream(a.log)
+    est = OnlineEstimator(vehicle, OnlineSettings(window_s=window))
+    method, rows = _samples(stream)
+    update = getattr(est, method)
+    times = np.empty(len(rows))
+    steps, history = [], []
+    t_start, cpu_start = time.perf_counter(), time.process_time()
+    last = None
+    for k, row in enumerate(rows):
+        t0 = time.perf_counter()
+        e = update(*row)
+        times[k] = time.perf_counter() - t0
+        last = e
+        history.append(e)
+        if k % every == every - 1 or e.change_detected or k == len(rows) - 1:
+            step = _step(e, _p_traversable(e, vehicle, grade))
+            steps.append(step)
+            if a.json:
+                print(json.dumps(step, allow_nan=False))
+    wall = time.perf_counter() - t_start
+    cpu = time.process_time() - cpu_start
+    t_fin = stream.columns["time_s"][np.isfinite(stream.columns["time_s"])]
+    duration = float(t_fin[-1] - t_fin[0]) if t_fin.size > 1 else 0.0
+    # usable: the iteration converged at least once since the last change of terrain (its convergence
+    # flag may flicker from one update to the next; the last step's own flag is in its JSON line)
+    since_change = []
+    for e in reversed(history):
+        since_change.append(e)
+        if e.change_detected:
+            break
+    ok = last is not None and last.max_thrust_N is not None and any(e.converged for e in since_change)
+    if ok:
+        reason = None
+    elif last is None or last.max_thrust_N is None:
+        reason = "no estimate: too few usable samples (standing, turning, skipped or slower than the noise)"
+    else:
+        reason = "the iteration has not converged since the start or the last change of terrain"
+    summary = {
+        "updates": len(rows),
+        "update_time_median_s": float(np.median(times)) if len(rows) else None,
+        "update_time_p99_s": float(np.quantile(times, 0.99)) if len(rows) else None,
+        "changes": [{k: float(v) for k, v in c.items()} for c in est.changes],
+        "samples_turning": est.samples_turning,
+        "samples_skipped": est.samples_skipped,
+        "samples_seen": est.samples_seen,
+        "log_duration_s": duration,
+        "replay_time_s": wall,
+        "real_time_factor": duration / wall if wall > 0 else None,
+        "replay_cpu_time_s": cpu,
+        "window_s": window,
+        "kernel_backend": est.backend,
+        "converged": bool(ok),
+        "reason": reason,
+        "final": steps[-1] if steps else None,
+    }
+    if a.json:
+        print(json.dumps({"summary": summary}, allow_nan=False))
+    else:
+        print(_report(stream.source, steps, summary, every))
+    if a.plot:
+        from .plot_track import plot_track
+
+        path = plot_track(history, a.plot, title=f"on-line estimate: {stream.source}")
+        print(f"wrote the figure to {path}", file=sys.stderr)
+    return EXIT_OK if ok else EXIT_SOLVER
+
+
+def _fmt(x, scale=1.0, digits=4):
+    return "-" if x is None else f"{x * scale:.{digits}g}"
+
+
+def _report(source: str, steps: list[dict], summary: dict, every: int) -> str:
+    L = [
+        f"On-line estimate of {source}: {summary['updates']} samples, {summary['samples_skipped']} skipped "
+        f"(missing or non-finite channel), {summary['samples_turning']} turning (left out)",
+        f"horizon {summary['window_s']:g} s; update time median "
+        f"{1e6 * (summary['update_time_median_s'] or 0):.0f} us, p99 "
+        f"{1e6 * (summary['update_time_p99_s'] or 0):.0f} us; "
+        f"replay {summary['real_time_factor'] or 0:.0f} x "
+        f"faster than real time ({summary['kernel_backend']})",
+        "",
+    ]
+    for c in summary["changes"]:
+        L.append(
+            f"change of terrain detected at {c['detected_at_s']:.3f} s, dated {c['time_s']:.3f} s "
+            f"(F_max before {c['max_thrust_before_N']:.4g} N)"
+        )
+    L.append("")
+    L.append(f"{'time_s':>9} {'F_max_N':>10} {'+-N':>8} {'K_mm':>7} {'+-mm':>6} {'used':>5}  identifiable")
+    shown = steps if len(steps) <= 40 else steps[:: max(1, len(steps) // 40)] + [steps[-1]]
+    for s in shown:
+        L.append(
+            f"{s['time_s']:9.3f} {_fmt(s['max_thrust_N']):>10} {_fmt(s['max_thrust_stderr_N'], digits=2):>8} "
+            f"{_fmt(s['shear_modulus_m'], 1e3, 3):>7} {_fmt(s['shear_modulus_stderr_m'], 1e3, 2):>6} "
+            f"{s['samples_used']:>5}  {', '.join(s['identifiable']) or '-'}"
+            + ("  CHANGE" if s["change_detected"] else "")
+        )
+    if summary["reason"]:
+        L += ["", f"not converged: {summary['reason']}"]
+    return "\n".join(L)
+
+
+_DESCRIPTION = """\
+Replay a drive log as a stream, one sample at a time, through the on-line estimator (moving
+horizon, one Newton step per sample, change-of-terrain detection). Columns as for `fit`, or a
+two-track log (sprocket_torque_left_Nm, sprocket_torque_right_Nm, sprocket_speed_left_rad_s,
+sprocket_speed_right_rad_s, optional yaw_rate_rad_s: summed torque, mean speed, turning
+samples left out). An empty or non-finite reading skips its sample (counted), it is not
+refused. With --json: one JSON object per output step, then {"summary": {...}}."""
+
+
+def add_parser(sub) -> None:
+    """Register the ``track`` subcommand on an argparse subparsers object."""
+    f = sub.add_parser(
+        "track",
+        help="replay a drive log as a stream: on-line soil estimate, change of terrain",
+        description=_DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="example: soiltrack track run.csv --vehicle light --every 25 --grade-deg 10 --json",
+    )
+    f.add_argument("log", help="drive-log CSV (combined or two-track columns)")
+    f.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")
+    f.add_argument("--window", default="5", metavar="S", help="length of the moving horizon, s (default: 5)")
+    f.add_argument(
+        "--every",
+        default="1",
+        metavar="N",
+        help="print every N-th update (and every update that detects a change; default: 1)",
+    )
+    f.add_argument(
+        "--grade-deg",
+        default=None,
+        metavar="G",
+        help="probability of traversing this grade from each estimate (planning margin), deg",
+    )
+    f.add_argument("--json", action="store_true", help="JSON lines and a final summary line")
+    f.add_argument("--plot", metavar="PNG", help="write the estimates over time to this figure")
+    f.set_defaults(func=_cmd_track)
