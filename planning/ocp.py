@@ -40,16 +40,35 @@ from ..soilmodel import Vehicle
 from ..soilmodel.dynamics import dynamics_expr
 from ..soilmodel.threadsafe import SOLVER_LOCK, call_solver, locked_cache
 
-__all__ = ["OcpData", "solve_ocp", "ocp_solver", "clear_warm_starts", "DEGREE", "radau_collocation"]
+__all__ = [
+    "OcpData",
+    "solve_ocp",
+    "ocp_solver",
+    "ocp_nlp",
+    "ocp_layout",
+    "IPOPT_OPTIONS",
+    "WARM_OPTIONS",
+    "clear_warm_starts",
+    "DEGREE",
+    "radau_collocation",
+]
 
 #: Collocation points per interval (Radau IIA).
 DEGREE = 3
 #: Lower bound of the sprocket speed while moving, rad/s (the slip limit's linear form needs w > 0).
 MIN_SPROCKET_SPEED = 1e-4
-_IPOPT = {"print_level": 0, "sb": "yes", "max_iter": 1000, "tol": 1e-8, "acceptable_tol": 1e-6, "constr_viol_tol": 1e-8}
+#: IPOPT options of every profile solve.
+IPOPT_OPTIONS = {
+    "print_level": 0,
+    "sb": "yes",
+    "max_iter": 1000,
+    "tol": 1e-8,
+    "acceptable_tol": 1e-6,
+    "constr_viol_tol": 1e-8,
+}
 #: Warm-start options, tuned on the benchmark profile (IPOPT iterations for a new v1 / a new soil:
 #: 13 / 22-65 with mu_init 1e-6 and pushes 1e-9; 5-6 / 20-24 with these).
-_WARM = {
+WARM_OPTIONS = {
     "warm_start_init_point": "yes",
     "warm_start_bound_push": 1e-6,
     "warm_start_mult_bound_push": 1e-6,
@@ -115,9 +134,10 @@ def radau_collocation(d: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return tau, C, B
 
 
-def _layout(n: int, energy: bool):
-    """Index blocks of the decision vector: nodes X (2(n+1)), collocation Z (2 d n), u, dt (n each) and,
-    for the energy objective, the work slacks e (n)."""
+def ocp_layout(n: int, energy: bool) -> tuple[slice, slice, slice, slice, slice | None]:
+    """Index blocks of the decision vector of :func:`ocp_nlp`: nodes X (2(n+1), column-major),
+    collocation states Z (2 d n), held torques u, interval durations dt (n each) and, for the energy
+    objective, the work slacks e (n; ``None`` otherwise)."""
     nx = 2 * (n + 1)
     nz = 2 * DEGREE * n
     a = nx + nz
@@ -130,12 +150,11 @@ def _layout(n: int, energy: bool):
     )
 
 
-@locked_cache(maxsize=32)
-def ocp_solver(vehicle: Vehicle, n: int, warm: bool, energy: bool = False, rate_limit: bool = False) -> ca.Function:
-    """The cached IPOPT solver of the OCP with ``n`` intervals.
+def ocp_nlp(vehicle: Vehicle, n: int, energy: bool = False, rate_limit: bool = False) -> dict:
+    """The OCP with ``n`` intervals as an SX NLP ``{"x", "p", "f", "g"}`` (the layout of :func:`ocp_layout`).
 
-    ``warm``: warm-start options; ``energy``: energy objective (work slacks), else minimum time;
-    ``rate_limit``: with the torque-rate rows. Only the rows a problem needs are built.
+    ``energy``: energy objective (work slacks), else minimum time; ``rate_limit``: with the
+    torque-rate rows. Only the rows a problem needs are built; the last row of ``g`` is the total time.
     """
     f = dynamics_fn(vehicle)
     d = DEGREE
@@ -182,8 +201,18 @@ def ocp_solver(vehicle: Vehicle, n: int, warm: bool, energy: bool = False, rate_
     J = we * ca.sum1(e) / es if energy else wt * J_time / ts
     x = ca.vertcat(ca.vec(X), ca.vec(Z), u, dt, e) if energy else ca.vertcat(ca.vec(X), ca.vec(Z), u, dt)
     p = ca.vertcat(ca.vec(P), Ms, Pw, rate, wt, we, ts, es, vs, ws)
-    opts = {"ipopt": dict(_IPOPT, **(_WARM if warm else {})), "print_time": False, "error_on_fail": False}
-    return ca.nlpsol(f"speed_ocp_{n}", "ipopt", {"x": x, "p": p, "f": J, "g": g}, opts)
+    return {"x": x, "p": p, "f": J, "g": g}
+
+
+@locked_cache(maxsize=32)
+def ocp_solver(vehicle: Vehicle, n: int, warm: bool, energy: bool = False, rate_limit: bool = False) -> ca.Function:
+    """The cached IPOPT solver of the OCP with ``n`` intervals (:func:`ocp_nlp`).
+
+    ``warm``: warm-start options; ``energy``: energy objective (work slacks), else minimum time;
+    ``rate_limit``: with the torque-rate rows.
+    """
+    opts = {"ipopt": dict(IPOPT_OPTIONS, **(WARM_OPTIONS if warm else {})), "print_time": False, "error_on_fail": False}
+    return ca.nlpsol(f"speed_ocp_{n}", "ipopt", ocp_nlp(vehicle, n, energy, rate_limit), opts)
 
 
 _last: dict = {}
@@ -236,7 +265,7 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
     """
     n = len(d.c)
     energy, rate_on = d.objective == "energy", bool(d.torque_rate)
-    iX, iZ, iu, idt, ie = _layout(n, energy)
+    iX, iZ, iu, idt, ie = ocp_layout(n, energy)
     key = (vehicle, n, energy, rate_on)
     store = _last if warm_store is None else warm_store
     prev = store.get(key)
