@@ -29,7 +29,8 @@ __all__ = ["fit"]
 
 def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method: str = "ipopt",
         bounds: SoilBounds = PRACTICAL_BOUNDS, x0=None, strict: bool = False, engine: str | None = None,
-        effects=None, fixed=None, *, settings: FitSettings | None = None, **options) -> FitResult:
+        effects=None, fixed=None, *, settings: FitSettings | None = None, consistency: bool = True,
+        **options) -> FitResult:
     """Identify the soil parameters ``c, phi, K`` from measured data.
 
     Parameters
@@ -59,6 +60,10 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
         code compiles in the background), which hands any fit it cannot certify to IPOPT.
         ``result.extra["engine"]`` says what solved the fit. Drive logs and the other methods
         ignore it.
+    consistency : bool
+        Run the data's cross-channel consistency checks (see Notes). ``False`` is for a caller
+        that checked the whole data set once and refits parts of it (the diagnosis): a part of a
+        log has less power for the checks, not less consistency.
     settings : FitSettings, optional
         Typed solver settings (engine, ``n_grid``, ``ipopt_options``, ``max_iter``); the
         keywords of the same names override its fields.
@@ -109,7 +114,7 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
     (``success`` False) where the answer cannot stand.
     """
     res = _fit_unchecked(data, vehicle, model, method, bounds, x0, engine, effects, fixed, settings, options)
-    if isinstance(data, (SlipData, DriveLog)):
+    if consistency and isinstance(data, (SlipData, DriveLog)):
         res = with_consistency(res, check_consistency(data, vehicle))
     if strict and not res.success:
         raise FitFailed(res)

@@ -55,6 +55,7 @@ from ..sweep.model import SweepResiduals
 from .selection import (DISCREPANCY, LOOKALIKES, NOMINAL, confusable_groups, cv_weights, decide, dm_test,
                         fit_discrepancy, gap_p_value, hat_basis, separating_experiment, stacking_weights, Verdict)
 from .saturation import find_saturation
+from ..consistency import ConsistencyReport, check_consistency
 from ..estimates.distributions import chi2_isf, chi2_sf
 from .verdict_checks import MIN_SHRINK, check_verdict, explained_fraction
 
@@ -929,6 +930,8 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     hold = "zoh" if torque_hold is None else torque_hold
     fit_options: dict[str, Any] = {"torque_hold": hold} if isinstance(data, DriveLog) else {}
     fit_options["bounds"] = PRACTICAL_BOUNDS if bounds is None else bounds
+    # the data's consistency is checked once, on all of it (below); the refits of its parts skip it
+    fit_options["consistency"] = False
     t0 = time.perf_counter()
     if not isinstance(data, (SlipData, DriveLog)):
         raise DataError(f"diagnose takes SlipData or DriveLog, got {type(data).__name__}")
@@ -940,6 +943,9 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     say = progress if progress is not None else (lambda msg: None)
     if n < MIN_SAMPLES:
         return _too_few(data, vehicle, model, cands, is_log, t0, fit_options)
+    consistency = check_consistency(data, vehicle)
+    if not consistency.passed:
+        return _inconsistent(data, cands, consistency, is_log, t0)
     notes: list[str] = []
     if is_log and data.n_turning:
         notes.append(f"{data.n_turning} of {n} samples turning (two-track log): left out of the "
@@ -1821,6 +1827,21 @@ def _too_few(data, vehicle: Vehicle, model: str, cands: tuple[str, ...], is_log:
         soil_before=_soil_summary(res), soil_after=None, gap_p_value=1.0, converged=bool(res.success),
         notes=(f"only {n} samples: the 'held-out' errors are in-sample residuals",),
         elapsed_s=time.perf_counter() - t0, curves={})
+
+
+def _inconsistent(data, cands, report: ConsistencyReport, is_log: bool, t0: float) -> Diagnosis:
+    """Data that fail the cross-channel consistency checks (a mislabelled channel, a unit) are not
+    diagnosed: no gap can be read against a model of the wrong data (verdict ``unexplained``,
+    confidence 0, not converged, the checks in the notes)."""
+    fatal = [f for f in report.findings if f.severity == "fatal"]
+    reason = ("the data fail the consistency checks (" + ", ".join(f.check for f in fatal) + "): a channel's "
+              "label or unit does not match the vehicle; no gap is read against a model of the wrong data")
+    return Diagnosis(
+        data_kind="drive" if is_log else "sweep", n_samples=data.n_samples, candidates=cands, verdict="unexplained",
+        confidence=0.0, reason=reason, ranking=(), screens=(), confusable=(), localisation=(),
+        change=None, whiteness={}, lags={}, noise={}, holdout_rmse_before={}, holdout_rmse_after=None, shrink=None,
+        soil_before={}, soil_after=None, gap_p_value=1.0, converged=False,
+        notes=(reason,) + tuple(f.message for f in fatal), elapsed_s=time.perf_counter() - t0, curves={})
 
 
 class _NominalFailed(Exception):

@@ -566,7 +566,7 @@ def refine_delay(nominal, data, vehicle, train: np.ndarray, k0: int, max_lag: in
                 # iterations) whose answer is only "worse"; unconverged counts as not fitting
                 r = fit(shift_speed(data, sign * k).subset(train), vehicle, model=nominal.model, hull_channel=True,
                         x0=nominal.theta, max_iter=60, multistart=False, bounds=nominal.bounds,
-                        torque_hold=str(nominal.extra.get("torque_hold", "zoh")))
+                        torque_hold=str(nominal.extra.get("torque_hold", "zoh")), consistency=False)
                 fits[k] = r if r.success else None
             except Exception:  # noqa: BLE001 - a shift that leaves too few usable samples
                 fits[k] = None
