@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from .cliutil import EXIT_OK, EXIT_SOLVER, running_gear_arg
+from .cliutil import EXIT_OK, EXIT_SOLVER, output_path, running_gear_arg
 from .soilmodel.rigid_wheel import RigidWheel
 
 
@@ -11,6 +11,8 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
     from .identify import diagnose
     from .soilmodel import read_csv
 
+    if a.plot:  # checked before the work (a missing folder or an unknown extension: exit 2)
+        output_path(a.plot, "--plot", figure=True)
     gear = running_gear_arg(a.vehicle)
     if isinstance(gear, RigidWheel):
         from .wheel_cli import diagnose_wheel_command

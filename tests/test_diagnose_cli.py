@@ -58,3 +58,12 @@ def test_progress_on_stderr_and_quiet(tmp_path, capsys):
     out, err = capsys.readouterr()
     json.loads(out)
     assert err == ""
+
+
+@pytest.mark.parametrize("plot", ["missing_folder/d.png", "d.unknownext"])
+def test_a_plot_path_that_cannot_be_written_exits_2_before_the_work(tmp_path, capsys, plot):
+    data = os.path.join(os.path.dirname(__file__), "..", "examples", "data", "wong2001_p176.csv")
+    rc = main(["diagnose", data, "--vehicle", "heavy", "--plot", str(tmp_path / plot), "--quiet"])
+    out = capsys.readouterr()
+    assert rc == 2 and "Traceback" not in out.err and out.out == ""
+    assert not os.path.exists(tmp_path / plot)
