@@ -1,4 +1,5 @@
 """``soiltrack diagnose``: the sim-to-real gap of a CSV against the nominal model (docs/data-formats.md)."""
+
 from __future__ import annotations
 
 import argparse
@@ -42,8 +43,15 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
     from .soilmodel import PRACTICAL_BOUNDS, WIDE_BOUNDS
 
     bounds = {"auto": None, "practical": PRACTICAL_BOUNDS, "wide": WIDE_BOUNDS}[a.bounds]
-    d = diagnose(data, vehicle, model=a.model, candidates=cands, torque_hold=a.torque_hold,
-                 bounds=bounds, progress=None if a.quiet else progress)
+    d = diagnose(
+        data,
+        vehicle,
+        model=a.model,
+        candidates=cands,
+        torque_hold=a.torque_hold,
+        bounds=bounds,
+        progress=None if a.quiet else progress,
+    )
     print(d.to_json() if a.json else d.report())
     if a.plot:
         d.plot(a.plot)
@@ -52,28 +60,49 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
 
 def add_parser(sub) -> None:
     """Register the ``diagnose`` subcommand on an argparse subparsers object."""
-    p = sub.add_parser("diagnose", help="where a model and measured data part, which unmodelled effect explains "
-                                        "it, and how far the gap shrinks (slip sweep or drive log)")
+    p = sub.add_parser(
+        "diagnose",
+        help="where a model and measured data part, which unmodelled effect explains "
+        "it, and how far the gap shrinks (slip sweep or drive log)",
+    )
     p.add_argument("data", help="CSV: slip,tractive_force_N|drawbar_pull_N[,normal_load_N] or a drive log")
     p.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")
     p.add_argument("--model", choices=("full", "cohesion-free"), default="full")
-    p.add_argument("--candidates", metavar="A,B,...",
-                   help="candidate effects (default: every effect that shows in this kind of data)")
-    p.add_argument("--torque-hold", choices=("zoh", "sample"), default=None,
-                   help="drive logs: zoh: the torque is held from each sample to the next (a logged command; the "
-                        "default); sample: a continuous torque signal sampled at each time (a transducer). Not "
-                        "given: zoh, and a drivetrain loss, grade or mass error is named with confidence 0.5 at "
-                        "most when sample fits the log significantly better")
-    p.add_argument("--bounds", choices=("auto", "practical", "wide"), default="auto",
-                   help="soil bounds of the fits: the practical range (c 0-69 kPa, phi 6-40 deg, K 6-50 mm), "
-                        "widened (c 0-200 kPa, phi 1-55 deg, K 2-250 mm), or auto (the default): practical, "
-                        "widened when the data want a soil beyond it (the report says so)")
-    p.add_argument("--driving-only", action="store_true",
-                   help="slip sweeps: drop the rows at negative slip (skid: outside the driving model) "
-                        "instead of refusing the file")
-    p.add_argument("--slip-angle", type=float, metavar="0",
-                   help="slip sweeps with a slip_angle_deg column: keep only the rows at slip angle 0 "
-                        "instead of refusing the file")
+    p.add_argument(
+        "--candidates",
+        metavar="A,B,...",
+        help="candidate effects (default: every effect that shows in this kind of data)",
+    )
+    p.add_argument(
+        "--torque-hold",
+        choices=("zoh", "sample"),
+        default=None,
+        help="drive logs: zoh: the torque is held from each sample to the next (a logged command; the "
+        "default); sample: a continuous torque signal sampled at each time (a transducer). Not "
+        "given: zoh, and a drivetrain loss, grade or mass error is named with confidence 0.5 at "
+        "most when sample fits the log significantly better",
+    )
+    p.add_argument(
+        "--bounds",
+        choices=("auto", "practical", "wide"),
+        default="auto",
+        help="soil bounds of the fits: the practical range (c 0-69 kPa, phi 6-40 deg, K 6-50 mm), "
+        "widened (c 0-200 kPa, phi 1-55 deg, K 2-250 mm), or auto (the default): practical, "
+        "widened when the data want a soil beyond it (the report says so)",
+    )
+    p.add_argument(
+        "--driving-only",
+        action="store_true",
+        help="slip sweeps: drop the rows at negative slip (skid: outside the driving model) "
+        "instead of refusing the file",
+    )
+    p.add_argument(
+        "--slip-angle",
+        type=float,
+        metavar="0",
+        help="slip sweeps with a slip_angle_deg column: keep only the rows at slip angle 0 "
+        "instead of refusing the file",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     p.add_argument("--plot", metavar="PNG", help="save a figure of the held-out residuals, weights and localisation")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")

@@ -1,4 +1,5 @@
 """End-to-end diagnosis on simulated sweeps: score tests, verdicts, shrink, report/JSON/plot."""
+
 import json
 import math
 
@@ -13,8 +14,15 @@ VEH = VEHICLES["light"]
 SOIL = TERRAINS["lete_sand"]
 SLIPS = np.round(np.linspace(0.01, 0.7, 60), 4)
 LOW_NOISE = SensorNoise(force_rel=0.005, slip_abs=0.0005)
-SWEEP_EFFECTS = {"grade": 0.05, "speed_resistance": 0.05, "slip_sinkage": 0.1, "radius_error": 0.05,
-                 "hump_shear": 0.3, "pressure_distribution": 0.3, "mass_error": 0.2}
+SWEEP_EFFECTS = {
+    "grade": 0.05,
+    "speed_resistance": 0.05,
+    "slip_sinkage": 0.1,
+    "radius_error": 0.05,
+    "hump_shear": 0.3,
+    "pressure_distribution": 0.3,
+    "mass_error": 0.2,
+}
 
 
 def sweep(effects=None, seed=1, noise=LOW_NOISE):
@@ -72,8 +80,11 @@ def test_clean_case_is_diagnosed_and_the_gap_shrinks(name):
 
 
 def test_leaving_out_the_true_effect_is_never_a_confident_wrong_name():
-    d = diagnose(sweep({"hump_shear": 0.3}), VEH, candidates=["grade", "slip_sinkage", "speed_resistance",
-                                                               "radius_error", "mass_error"])
+    d = diagnose(
+        sweep({"hump_shear": 0.3}),
+        VEH,
+        candidates=["grade", "slip_sinkage", "speed_resistance", "radius_error", "mass_error"],
+    )
     assert d.verdict == "unexplained" or d.confidence <= 0.5, (d.verdict, d.confidence)
 
 
@@ -91,11 +102,23 @@ def test_report_json_and_plot(tmp_path):
     d = diagnose(sweep({"hump_shear": 0.3}), VEH)
     assert isinstance(d, Diagnosis)
     js = json.loads(d.to_json())
-    for k, t in {"verdict": str, "confidence": float, "ranking": list, "confusable": list, "localisation": list,
-                 "soil_before": dict}.items():
+    for k, t in {
+        "verdict": str,
+        "confidence": float,
+        "ranking": list,
+        "confusable": list,
+        "localisation": list,
+        "soil_before": dict,
+    }.items():
         assert isinstance(js[k], t), k
-    assert set(js["ranking"][0]) >= {"effect", "weight", "holdout_rmse_before", "holdout_rmse_after", "shrink",
-                                     "parameters"}
+    assert set(js["ranking"][0]) >= {
+        "effect",
+        "weight",
+        "holdout_rmse_before",
+        "holdout_rmse_after",
+        "shrink",
+        "parameters",
+    }
     assert abs(sum(e["weight"] for e in js["ranking"]) - 1.0) < 1e-9
     assert all(s["dimension"] in ("channel", "slip", "speed", "time") for s in js["localisation"])
     shares = [s["share"] for s in js["localisation"]]
@@ -150,11 +173,19 @@ def test_a_failed_nominal_fit_is_reported_not_hidden(monkeypatch, tmp_path):
 
     def failing_fit(data, vehicle, model="full", effects=(), fixed=None, **kw):
         k = 3 + len(effects or ())
-        return SimpleNamespace(success=False, status="Maximum_Iterations_Exceeded", message="stub",
-                               parameter_names=("cohesion", "friction_angle", "shear_modulus")
-                               + tuple(f"{e}.x" for e in (effects or ())),
-                               jacobian=np.zeros((data.n_samples, k)), weighted_residuals=np.zeros(data.n_samples),
-                               parameters={}, combinations=[], extra={}, active_bounds={}, data_kind="slip")
+        return SimpleNamespace(
+            success=False,
+            status="Maximum_Iterations_Exceeded",
+            message="stub",
+            parameter_names=("cohesion", "friction_angle", "shear_modulus") + tuple(f"{e}.x" for e in (effects or ())),
+            jacobian=np.zeros((data.n_samples, k)),
+            weighted_residuals=np.zeros(data.n_samples),
+            parameters={},
+            combinations=[],
+            extra={},
+            active_bounds={},
+            data_kind="slip",
+        )
 
     monkeypatch.setattr(fitting, "fit", failing_fit)
     d = diagnose(sweep(), VEH)
@@ -181,5 +212,5 @@ def test_f_test_and_lack_of_fit_on_known_cases():
     ps = [lack_of_fit(rng.normal(size=x.size), J, B, np.ones_like(x)) for _ in range(200)]
     assert 0.0 < np.mean(np.array(ps) < 0.05) < 0.12  # about 5 % under the null
     # a bump whose sum of squares (about 80) is far above the noise's 60 +- 11: any valid test must see it
-    bump = 3.0 * np.exp(-((x - 0.3) / 0.12) ** 2) + rng.normal(size=x.size)
+    bump = 3.0 * np.exp(-(((x - 0.3) / 0.12) ** 2)) + rng.normal(size=x.size)
     assert lack_of_fit(bump, J, B, np.ones_like(x)) < 1e-3

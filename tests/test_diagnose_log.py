@@ -1,4 +1,5 @@
 """Drive-log diagnosis: change of soil in time (synthetic scores) and a speed-sensor delay (short simulated log)."""
+
 import numpy as np
 import pytest
 
@@ -17,7 +18,7 @@ def _scores(patch, n=1500, seed=0, change=(-0.3, 0.0)):
     """
     rng = np.random.default_rng(seed)
     t = np.arange(n) * 0.02
-    push = 0.3 + 2.0 * (np.sin(2 * np.pi * t / 7.0) > 0.3)          # bursts of hard pushing
+    push = 0.3 + 2.0 * (np.sin(2 * np.pi * t / 7.0) > 0.3)  # bursts of hard pushing
     J = rng.standard_normal((n, 3, 2)) * push[:, None, None]
     J[:, :, 1] *= 0.5
     inside = (t >= patch[0]) & (t < patch[1])
@@ -56,10 +57,10 @@ def test_terrain_window_is_quiet_on_noise():
 def test_delay_scan_finds_a_lag_in_synthetic_residuals():
     rng = np.random.default_rng(5)
     n = 3000
-    w = np.cumsum(rng.standard_normal(n)) * 0.05 + 10.0       # sprocket speed, a random walk
+    w = np.cumsum(rng.standard_normal(n)) * 0.05 + 10.0  # sprocket speed, a random walk
     wl = np.r_[np.nan, 0.5 * (w[:-2] + w[2:]), np.nan]
     r = np.full(n, np.nan)
-    r[20:] = (wl[20:] - w[12:-8]) + 0.02 * rng.standard_normal(n - 20)   # late by 8 samples
+    r[20:] = (wl[20:] - w[12:-8]) + 0.02 * rng.standard_normal(n - 20)  # late by 8 samples
     s = delay_scan(r, w)
     assert s["lag"] == 8 and s["p_value"] < 1e-6 and s["coef"] == pytest.approx(1.0, abs=0.05)
     s0 = delay_scan(0.02 * rng.standard_normal(n), w)
@@ -78,8 +79,14 @@ def test_a_delayed_speed_sensor_is_not_named_as_an_effect():
     vehicle, soil = VEHICLES["light"], TERRAINS["lete_sand"]
     log = simulate(vehicle, soil, kind="drive", seed=1, duration_s=30.0)
     v = np.asarray(log.vehicle_speed)
-    late = DriveLog(log.time, log.sprocket_torque, log.sprocket_speed, np.r_[np.full(10, v[0]), v[:-10]],
-                    log.vehicle_accel, source="speed sensor 10 samples late")
+    late = DriveLog(
+        log.time,
+        log.sprocket_torque,
+        log.sprocket_speed,
+        np.r_[np.full(10, v[0]), v[:-10]],
+        log.vehicle_accel,
+        source="speed sensor 10 samples late",
+    )
     d = diagnose(late, vehicle)
     named = d.verdict not in ("none", "unexplained")
     assert not (named and d.confidence > 0.5), (d.verdict, d.confidence, d.reason)
@@ -108,11 +115,14 @@ def test_an_effects_signature_in_time_is_not_a_change_of_terrain():
     # radius_error is within the noise, but the nominal model's soil "differs" at 3.3-15 s (p = 3e-12); on the
     # radius_error fit no window differs. Measured before the rule: unexplained 1.00 (a change of terrain).
     from soiltrack.soilmodel import SensorNoise
-    noise = SensorNoise(encoder_rel=0.01, encoder_abs=0.02, gnss_speed=0.1, imu_accel=0.1, torque_rel=0.02,
-                        torque_fs=0.002)
+
+    noise = SensorNoise(
+        encoder_rel=0.01, encoder_abs=0.02, gnss_speed=0.1, imu_accel=0.1, torque_rel=0.02, torque_fs=0.002
+    )
     v = VEHICLES["light"]
-    log = simulate(v, TERRAINS["lete_sand"], kind="drive", effects={"radius_error": 0.02}, seed=1, noise=noise,
-                   duration_s=60.0)
+    log = simulate(
+        v, TERRAINS["lete_sand"], kind="drive", effects={"radius_error": 0.02}, seed=1, noise=noise, duration_s=60.0
+    )
     d = diagnose(log, v)
     assert d.verdict == "radius_error" and d.confidence <= 0.5
     assert any("signature in time, not a change of terrain" in n for n in d.notes)
@@ -140,19 +150,27 @@ def test_a_soft_patch_is_in_the_contracts_localisation():
     # the JSON's localisation (docs/data-formats.md), its range where the change shows (the change window's evidence),
     # inside the patch. Measured before the entry existed: the window only in the extra "change_window" field.
     import json
+
     v = VEHICLES["heavy"]
     a = simulate(v, TERRAINS["lete_sand"], kind="drive", seed=1, duration_s=60.0)
     b = simulate(v, TERRAINS["dry_sand"], kind="drive", seed=1, duration_s=60.0)
     m = (a.time >= 24.0) & (a.time < 39.0)
-    cols = {k: np.where(m, getattr(b, k), getattr(a, k))
-            for k in ("sprocket_torque", "sprocket_speed", "vehicle_speed", "vehicle_accel")}
-    d = diagnose(DriveLog(a.time, cols["sprocket_torque"], cols["sprocket_speed"], cols["vehicle_speed"],
-                          cols["vehicle_accel"]), v)
+    cols = {
+        k: np.where(m, getattr(b, k), getattr(a, k))
+        for k in ("sprocket_torque", "sprocket_speed", "vehicle_speed", "vehicle_accel")
+    }
+    d = diagnose(
+        DriveLog(a.time, cols["sprocket_torque"], cols["sprocket_speed"], cols["vehicle_speed"], cols["vehicle_accel"]),
+        v,
+    )
     j = json.loads(d.to_json())
     cw = j["change_window"]
     assert cw["significant"] and cw["start"] <= 24.0 + 1.0 and cw["end"] >= 39.0 - 1.0, cw
-    entry = [e for e in j["localisation"] if e["dimension"] == "time" and e["significant"]
-             and e["range"] == [cw["evidence_start"], cw["evidence_end"]]]
+    entry = [
+        e
+        for e in j["localisation"]
+        if e["dimension"] == "time" and e["significant"] and e["range"] == [cw["evidence_start"], cw["evidence_end"]]
+    ]
     assert len(entry) == 1, j["localisation"]
     lo, hi = entry[0]["range"]
     assert 24.0 - 1.0 <= lo < hi <= 39.0 + 1.0, entry
@@ -167,9 +185,12 @@ def test_a_speed_sensor_scale_error_is_told_from_a_radius_error_by_the_torque_ar
     # library), against seed 1 with a true 4 % radius error. Both offset the slip alike; only the radius divides the
     # sprocket thrust. Measured before the check: the scale error named radius_error with confidence 1.00 (eps 0.029)
     from soiltrack.identify.diagnosis.log_parts import torque_arm_check
+
     heavy = VEHICLES["heavy"]
+
     def reads_high(a):
         a[:, 3] *= 1.03
+
     d = diagnose(independent_log(tmp_path / "gnss.csv", 5, edit=reads_high), heavy)
     assert d.verdict == "unexplained", (d.verdict, d.confidence, d.reason)
     assert "vehicle-speed sensor" in d.reason
@@ -180,8 +201,10 @@ def test_a_speed_sensor_scale_error_is_told_from_a_radius_error_by_the_torque_ar
     assert not any("also stands for a scale error of the vehicle-speed sensor" in n for n in d.notes)
     # the check itself on a simulated log: kappa within its noise of 0, several standard errors from eps
     from soiltrack.identify import fit
-    log = simulate(VEHICLES["light"], TERRAINS["lete_sand"], kind="drive", effects={"radius_error": 0.02}, seed=1,
-                   duration_s=60.0)
+
+    log = simulate(
+        VEHICLES["light"], TERRAINS["lete_sand"], kind="drive", effects={"radius_error": 0.02}, seed=1, duration_s=60.0
+    )
     r = fit(log, VEHICLES["light"], effects=["radius_error"], hull_channel=True)
     eps = r.extra["joint_parameters"]["effects"]["radius_error.eps"]
     arm = torque_arm_check(r, log, VEHICLES["light"], eps)

@@ -1,4 +1,5 @@
 """Sweeps shaped like a test rig's: zero-slip rows, few points, a soil outside the practical range."""
+
 import json
 import math
 import os
@@ -82,6 +83,9 @@ def test_the_command_line_keeps_or_widens_the_bounds(tmp_path, capsys):
     import subprocess
     import sys
 
-    bad = subprocess.run([sys.executable, "-m", "soiltrack", "diagnose", path, "--vehicle", "light", "--bounds",
-                          "loose"], capture_output=True, text=True)
+    bad = subprocess.run(
+        [sys.executable, "-m", "soiltrack", "diagnose", path, "--vehicle", "light", "--bounds", "loose"],
+        capture_output=True,
+        text=True,
+    )
     assert bad.returncode == 2 and "--bounds" in bad.stderr and "Traceback" not in bad.stderr

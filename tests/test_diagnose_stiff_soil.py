@@ -1,4 +1,5 @@
 """A log whose slips stay in the noise: the soil ends on the corner of its bounds, the diagnosis still stands."""
+
 import os
 
 from soiltrack.identify import diagnose

@@ -1,4 +1,5 @@
 """Of two explanations a log cannot tell apart, the one stretched to a bound of its parameters is not named."""
+
 import os
 
 from soiltrack.identify import diagnose

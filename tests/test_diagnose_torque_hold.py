@@ -1,4 +1,5 @@
 """A drive log whose torque is a sampled continuous signal (a transducer), not a held command."""
+
 import json
 
 import pytest

@@ -41,10 +41,7 @@ class Killer(SlipData):
 
 def _sweeps(n: int) -> list[SlipData]:
     # loads 150 and 450 N: a spread that fit solves with the compiled kernel, as fit_many stacks it
-    return [
-        simulate(LIGHT, TERRAINS["sandy_loam"], kind="sweep", seed=s, normal_loads=[150, 450])
-        for s in range(n)
-    ]
+    return [simulate(LIGHT, TERRAINS["sandy_loam"], kind="sweep", seed=s, normal_loads=[150, 450]) for s in range(n)]
 
 
 @pytest.fixture(scope="module")
@@ -182,9 +179,7 @@ FORK_BESIDE_IPOPT = textwrap.dedent("""
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", ["ipopt", "auto"])
 def test_fork_pool_beside_threads_running_ipopt_finishes_five_times(engine):
-    out = subprocess.run(
-        [sys.executable, "-c", FORK_BESIDE_IPOPT, engine], capture_output=True, text=True, timeout=400
-    )
+    out = subprocess.run([sys.executable, "-c", FORK_BESIDE_IPOPT, engine], capture_output=True, text=True, timeout=400)
     assert out.returncode == 0, out.stdout + out.stderr[-2000:]
     assert out.stdout.split()[-2:] == ["FINISHED", "5"]
 

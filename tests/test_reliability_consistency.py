@@ -55,9 +55,7 @@ def test_mislabelled_logs_fail_and_say_why(tmp_path, edit, check, expected):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "edit", [_scale(1, 0.5), _scale(0, 1000.0), _scale(2, 60 / (2 * math.pi)), _scale(3, 3.6)]
-)
+@pytest.mark.parametrize("edit", [_scale(1, 0.5), _scale(0, 1000.0), _scale(2, 60 / (2 * math.pi)), _scale(3, 3.6)])
 def test_fit_of_a_mislabelled_log_does_not_succeed(tmp_path, edit):
     log = independent_log(tmp_path / "log.csv", 5, edit=edit)
     res = fit(log, HEAVY)

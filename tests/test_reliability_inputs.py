@@ -66,9 +66,7 @@ def test_json_nested_200000_levels_exits_2(tmp_path, capsys, sweep_csv, kind):
     }[kind]
     rc, err = _cli(args, capsys)
     assert rc == 2 and _one_error_line(err, args[0])
-    loader = {"vehicle": Vehicle.from_json, "fit": lambda p: load_fit_json(p, LIGHT), "route": read_route}[
-        kind
-    ]
+    loader = {"vehicle": Vehicle.from_json, "fit": lambda p: load_fit_json(p, LIGHT), "route": read_route}[kind]
     with pytest.raises(DataError) as e:
         loader(path)
     assert e.value.file == path
@@ -97,9 +95,7 @@ def test_utf16_or_binary_json_exits_2(tmp_path, capsys, fit_json, kind, encoding
 
 def test_utf8_bom_json_is_read(tmp_path):
     p = tmp_path / "route.json"
-    p.write_bytes(
-        b"\xef\xbb\xbf" + json.dumps({"patches": [{"length_m": 10, "terrain": "lete_sand"}]}).encode()
-    )
+    p.write_bytes(b"\xef\xbb\xbf" + json.dumps({"patches": [{"length_m": 10, "terrain": "lete_sand"}]}).encode())
     assert read_route(str(p)).length_m == 10
 
 
@@ -113,7 +109,7 @@ def test_simulate_negative_seed_exits_2(tmp_path, capsys):
 # ------------------------------------------------------------------ CSV
 def test_csv_field_longer_than_the_limit_names_the_row(tmp_path, capsys):
     p = tmp_path / "long.csv"
-    p.write_text("slip,tractive_force_N\n0.1,100\n0.2,\"" + "1" * 140_000 + "\n0.3,150\n")
+    p.write_text('slip,tractive_force_N\n0.1,100\n0.2,"' + "1" * 140_000 + "\n0.3,150\n")
     with pytest.raises(DataError) as e:
         read_csv(str(p))
     assert e.value.file == str(p) and e.value.row == 2

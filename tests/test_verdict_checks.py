@@ -1,4 +1,5 @@
 """The last checks on a named verdict (identify/verdict_checks.py)."""
+
 import math
 
 import pytest
@@ -28,14 +29,26 @@ def test_explained_fraction_at_most_one(before_per_sample, after_per_sample):
 
 
 def test_no_gap_and_no_significant_gain_gives_none():
-    v, note = check_verdict(Verdict("mass_error", 0.52, "x"), gap_p=0.88, beats_nominal_p=0.3, shrink=0.001, explained=math.nan,
-                            no_gap_confidence=1.0)
+    v, note = check_verdict(
+        Verdict("mass_error", 0.52, "x"),
+        gap_p=0.88,
+        beats_nominal_p=0.3,
+        shrink=0.001,
+        explained=math.nan,
+        no_gap_confidence=1.0,
+    )
     assert v.name == "none" and v.confidence == 1.0 and "no gap" in v.reason and "mass_error" in note
 
 
 def test_an_effect_that_explains_little_is_not_named():
-    v, note = check_verdict(Verdict("drivetrain_friction", 1.0, "x"), gap_p=1e-9, beats_nominal_p=1e-6,
-                            shrink=0.02, explained=0.1, no_gap_confidence=1.0)
+    v, note = check_verdict(
+        Verdict("drivetrain_friction", 1.0, "x"),
+        gap_p=1e-9,
+        beats_nominal_p=1e-6,
+        shrink=0.02,
+        explained=0.1,
+        no_gap_confidence=1.0,
+    )
     assert v.name == "unexplained" and v.confidence == pytest.approx(0.9) and "10 %" in v.reason
 
 
@@ -55,8 +68,14 @@ def test_none_and_unexplained_pass(name):
 
 
 def test_a_significant_but_negligible_gain_without_a_gap_gives_none():
-    v, note = check_verdict(Verdict("drivetrain_friction", 0.998, "x"), gap_p=0.96, beats_nominal_p=1e-5,
-                            shrink=0.02, explained=math.nan, no_gap_confidence=1.0)
+    v, note = check_verdict(
+        Verdict("drivetrain_friction", 0.998, "x"),
+        gap_p=0.96,
+        beats_nominal_p=1e-5,
+        shrink=0.02,
+        explained=math.nan,
+        no_gap_confidence=1.0,
+    )
     assert v.name == "none" and "2.0 %" in v.reason
 
 
@@ -69,12 +88,29 @@ def test_lookalikes_name_library_effects_and_reach_the_notes():
 
     assert set(LOOKALIKES) <= set(EFFECTS)
     v = VEHICLES["light"]
-    d = simulate(v, TERRAINS["lete_sand"], kind="sweep", effects={"slip_sinkage": 0.1}, seed=1,
-                 slips=np.round(np.linspace(0.01, 0.7, 60), 4), noise=SensorNoise(force_rel=0.005, slip_abs=0.0005))
+    d = simulate(
+        v,
+        TERRAINS["lete_sand"],
+        kind="sweep",
+        effects={"slip_sinkage": 0.1},
+        seed=1,
+        slips=np.round(np.linspace(0.01, 0.7, 60), 4),
+        noise=SensorNoise(force_rel=0.005, slip_abs=0.0005),
+    )
     dg = diagnose(d, v)
     assert dg.verdict == "slip_sinkage"
     assert any(n.startswith("slip_sinkage also stands for any resistance that grows with the slip") for n in dg.notes)
-    assert not any("also stands for" in n for n in diagnose(simulate(v, TERRAINS["lete_sand"], kind="sweep", seed=1,
-                                                                    slips=np.round(np.linspace(0.01, 0.7, 60), 4),
-                                                                    noise=SensorNoise(force_rel=0.005, slip_abs=0.0005)),
-                                                           v).notes)
+    assert not any(
+        "also stands for" in n
+        for n in diagnose(
+            simulate(
+                v,
+                TERRAINS["lete_sand"],
+                kind="sweep",
+                seed=1,
+                slips=np.round(np.linspace(0.01, 0.7, 60), 4),
+                noise=SensorNoise(force_rel=0.005, slip_abs=0.0005),
+            ),
+            v,
+        ).notes
+    )

@@ -3,6 +3,7 @@
 Entry point :func:`diagnose` (module :mod:`.diagnose`), result :class:`Diagnosis`, figure
 :func:`plot_diagnosis`.
 """
+
 from .diagnose import Diagnosis, diagnose
 from .plot import plot_diagnosis
 

@@ -31,6 +31,7 @@
 
 All model evaluations go through :func:`~.fitting.fit` and its results; no physics here.
 """
+
 from __future__ import annotations
 
 import json
@@ -46,14 +47,47 @@ from ...soilmodel.effects import EFFECTS
 from ...soilmodel.errors import DataError
 from ...soilmodel.soil import PRACTICAL_BOUNDS, WIDE_BOUNDS, SoilBounds
 from ...soilmodel.vehicle import Vehicle
-from .sweep_parts import (decide_sweep, effect_start, find_plateau, fit_jacobian, imitation_rms, information_weights,
-                              lack_of_fit, plausibility_warnings, solver_converged, sweep_folds)
-from .gap import (Segment, blocked_folds, change_window, isolated_outliers, lag_peak, localise, long_run_factor,
-                  noise_profile, range_share, whiteness)
+from .sweep_parts import (
+    decide_sweep,
+    effect_start,
+    find_plateau,
+    fit_jacobian,
+    imitation_rms,
+    information_weights,
+    lack_of_fit,
+    plausibility_warnings,
+    solver_converged,
+    sweep_folds,
+)
+from .gap import (
+    Segment,
+    blocked_folds,
+    change_window,
+    isolated_outliers,
+    lag_peak,
+    localise,
+    long_run_factor,
+    noise_profile,
+    range_share,
+    whiteness,
+)
 from .screening import Screen, newey_west_lag, screen
 from ..sweep.model import SweepResiduals
-from .selection import (DISCREPANCY, LOOKALIKES, NOMINAL, confusable_groups, cv_weights, decide, dm_test,
-                        fit_discrepancy, gap_p_value, hat_basis, separating_experiment, stacking_weights, Verdict)
+from .selection import (
+    DISCREPANCY,
+    LOOKALIKES,
+    NOMINAL,
+    confusable_groups,
+    cv_weights,
+    decide,
+    dm_test,
+    fit_discrepancy,
+    gap_p_value,
+    hat_basis,
+    separating_experiment,
+    stacking_weights,
+    Verdict,
+)
 from .saturation import find_saturation
 from ..consistency import ConsistencyReport, check_consistency
 from ..estimates.distributions import chi2_isf, chi2_sf
@@ -127,10 +161,15 @@ class RankEntry:
 
     def to_dict(self) -> dict:
         """The JSON entry of docs/data-formats.md."""
-        return {"effect": self.effect, "weight": float(self.weight),
-                "holdout_rmse_before": {k: _f(v) for k, v in self.holdout_rmse_before.items()},
-                "holdout_rmse_after": {k: _f(v) for k, v in self.holdout_rmse_after.items()},
-                "shrink": _f(self.shrink), "parameters": self.parameters, "converged": bool(self.converged)}
+        return {
+            "effect": self.effect,
+            "weight": float(self.weight),
+            "holdout_rmse_before": {k: _f(v) for k, v in self.holdout_rmse_before.items()},
+            "holdout_rmse_after": {k: _f(v) for k, v in self.holdout_rmse_after.items()},
+            "shrink": _f(self.shrink),
+            "parameters": self.parameters,
+            "converged": bool(self.converged),
+        }
 
 
 @dataclass(frozen=True, eq=False)
@@ -201,24 +240,35 @@ class Diagnosis:
     def to_dict(self) -> dict:
         """The JSON object of docs/data-formats.md (never NaN: null instead)."""
         return {
-            "verdict": self.verdict, "confidence": float(self.confidence), "reason": self.reason,
+            "verdict": self.verdict,
+            "confidence": float(self.confidence),
+            "reason": self.reason,
             "ranking": [e.to_dict() for e in self.ranking],
             "confusable": [list(p) for p, _, _ in self.confusable],
-            "confusable_detail": [{"effects": list(p), "correlation": _f(c), "experiment": x}
-                                  for p, c, x in self.confusable],
+            "confusable_detail": [
+                {"effects": list(p), "correlation": _f(c), "experiment": x} for p, c, x in self.confusable
+            ],
             "localisation": [s.to_dict() for s in self.localisation],
             "change_window": None if self.change is None else self.change.to_dict(),
-            "shrink": _f(self.shrink), "gap_shrink": _f(self.gap_shrink),
+            "shrink": _f(self.shrink),
+            "gap_shrink": _f(self.gap_shrink),
             "holdout_rmse_before": {k: _f(v) for k, v in self.holdout_rmse_before.items()},
-            "holdout_rmse_after": None if self.holdout_rmse_after is None else
-            {k: _f(v) for k, v in self.holdout_rmse_after.items()},
+            "holdout_rmse_after": None
+            if self.holdout_rmse_after is None
+            else {k: _f(v) for k, v in self.holdout_rmse_after.items()},
             "noise_floor": {k: _f(v) for k, v in self.noise.items()},
             "gap_p_value": _f(self.gap_p_value),
-            "soil_before": self.soil_before, "soil_after": self.soil_after,
+            "soil_before": self.soil_before,
+            "soil_after": self.soil_after,
             "screening": [s.to_dict() for s in self.screens],
-            "whiteness": self.whiteness, "lags": self.lags,
-            "data_kind": self.data_kind, "n_samples": int(self.n_samples), "candidates": list(self.candidates),
-            "converged": bool(self.converged), "notes": list(self.notes), "elapsed_s": _f(self.elapsed_s),
+            "whiteness": self.whiteness,
+            "lags": self.lags,
+            "data_kind": self.data_kind,
+            "n_samples": int(self.n_samples),
+            "candidates": list(self.candidates),
+            "converged": bool(self.converged),
+            "notes": list(self.notes),
+            "elapsed_s": _f(self.elapsed_s),
         }
 
     def to_json(self, indent: int | None = 2) -> str:
@@ -232,8 +282,10 @@ class Diagnosis:
         L.append(f"Sim-to-real gap diagnosis of a {kind} ({self.n_samples} samples)")
         L.append("")
         head = {"none": "no gap beyond the noise", "unexplained": "a real gap that no candidate explains well"}
-        L.append(f"Verdict: {self.verdict} ({head.get(self.verdict, 'the effect that explains the gap best')}), "
-                 f"confidence {self.confidence:.2f}")
+        L.append(
+            f"Verdict: {self.verdict} ({head.get(self.verdict, 'the effect that explains the gap best')}), "
+            f"confidence {self.confidence:.2f}"
+        )
         L.append(f"  why: {self.reason}")
         if not self.converged:
             L.append("  CAUTION: a fit the verdict rests on did not converge (see notes)")
@@ -246,12 +298,21 @@ class Diagnosis:
             for s in self.screens:
                 L.append(f"    {s.effect:<22s} LM = {s.statistic:6.2f} ({s.dof} dof), p = {s.p_value:.2g}")
             L.append("")
-            L.append("Soil of the nominal fit: " + ", ".join(f"{k} {_fmt(v)}{_soil_flag(self.soil_before, k)}"
-                                                         for k, v in self.soil_before.items() if k not in _SOIL_META))
+            L.append(
+                "Soil of the nominal fit: "
+                + ", ".join(
+                    f"{k} {_fmt(v)}{_soil_flag(self.soil_before, k)}"
+                    for k, v in self.soil_before.items()
+                    if k not in _SOIL_META
+                )
+            )
             return "\n".join(L)
-        L.append("The gap (nominal model fitted on alternate blocks, predicting the blocks it did not see):"
-                 if self.data_kind == "drive" else "The gap (the sweep cut into contiguous blocks in slip, each held out "
-                 "once; the nominal model fitted on the others predicts the blocks it did not see):")
+        L.append(
+            "The gap (nominal model fitted on alternate blocks, predicting the blocks it did not see):"
+            if self.data_kind == "drive"
+            else "The gap (the sweep cut into contiguous blocks in slip, each held out "
+            "once; the nominal model fitted on the others predicts the blocks it did not see):"
+        )
         for ch, v in self.holdout_rmse_before.items():
             nf = self.noise.get(ch, 0.0)
             ratio = f"{v / nf:.2f} x the noise floor {_fmt(nf)}" if nf > 0 else "noise floor unknown"
@@ -260,14 +321,22 @@ class Diagnosis:
         L.append("")
         L.append("Where it lies (share of the misfit above the noise; * = significant at 1 %):")
         # (a drive log's change of soil in time is in the localisation too; it is said once, below)
-        win = (self.change.evidence_start, self.change.evidence_end) \
-            if self.change is not None and hasattr(self.change, "describe") else None
-        shown = [s for s in self.localisation if s.share >= 0.05 and not (s.dimension == "time" and win is not None
-                                                                          and s.range == win)][:8]
+        win = (
+            (self.change.evidence_start, self.change.evidence_end)
+            if self.change is not None and hasattr(self.change, "describe")
+            else None
+        )
+        shown = [
+            s
+            for s in self.localisation
+            if s.share >= 0.05 and not (s.dimension == "time" and win is not None and s.range == win)
+        ][:8]
         for s in shown:
             rng = "whole channel" if s.range is None else f"{s.dimension} {_fmt(s.range[0])} to {_fmt(s.range[1])}"
-            L.append(f"  {'*' if s.significant else ' '} {s.share:5.1%}  {s.channel:<24s} {rng} "
-                     f"(mean residual {_fmt(s.mean)})")
+            L.append(
+                f"  {'*' if s.significant else ' '} {s.share:5.1%}  {s.channel:<24s} {rng} "
+                f"(mean residual {_fmt(s.mean)})"
+            )
         if not shown:
             L.append("  nowhere above the noise")
         if self.change is not None and hasattr(self.change, "describe"):  # drive log: change of soil in time
@@ -275,42 +344,56 @@ class Diagnosis:
         elif self.change is not None:
             c = self.change
             what = "time" if self.data_kind == "drive" else "slip"
-            L.append(f"  {'a significant' if c.significant else 'no significant'} window in {what}: "
-                     f"{_fmt(c.start)} to {_fmt(c.end)} shifts the {c.channel} residual by {_fmt(c.shift)} "
-                     f"(p = {c.p_value:.2g})")
+            L.append(
+                f"  {'a significant' if c.significant else 'no significant'} window in {what}: "
+                f"{_fmt(c.start)} to {_fmt(c.end)} shifts the {c.channel} residual by {_fmt(c.shift)} "
+                f"(p = {c.p_value:.2g})"
+            )
         for ch, w in self.whiteness.items():
-            L.append(f"  residuals of {ch}: lag-1 autocorrelation {w['lag1']:.2f}, "
-                     f"{'white' if w['white'] else 'not white'} (Ljung-Box p = {w['p_value']:.2g})")
+            L.append(
+                f"  residuals of {ch}: lag-1 autocorrelation {w['lag1']:.2f}, "
+                f"{'white' if w['white'] else 'not white'} (Ljung-Box p = {w['p_value']:.2g})"
+            )
         for key, lg in self.lags.items():
             if "corr" not in lg:  # the drive-log delay scan (.diagnosis_log)
                 if lg.get("significant"):
-                    L.append(f"  {key}: peaks at {lg['lag']} samples ({lg['seconds']:.3g} s, t = {lg['t_stat']:.1f}): "
-                             f"the vehicle-speed channel looks {'late' if lg['lag'] > 0 else 'early'} against the "
-                             "sprocket speed (a delay between the sensors?)")
+                    L.append(
+                        f"  {key}: peaks at {lg['lag']} samples ({lg['seconds']:.3g} s, t = {lg['t_stat']:.1f}): "
+                        f"the vehicle-speed channel looks {'late' if lg['lag'] > 0 else 'early'} against the "
+                        "sprocket speed (a delay between the sensors?)"
+                    )
                 continue
             if abs(lg["lag"]) >= 2 and abs(lg["corr"]) > max(5 * lg["bound"], 2 * abs(lg["corr_at_0"])):
-                L.append(f"  {key}: cross-correlation peaks at lag {lg['lag']} samples ({lg['corr']:.2f}): "
-                         "a delay between the channels?")
+                L.append(
+                    f"  {key}: cross-correlation peaks at lag {lg['lag']} samples ({lg['corr']:.2f}): "
+                    "a delay between the channels?"
+                )
         L.append("")
         L.append("Which effect (score test at the nominal fit, projected off the soil's sensitivities):")
         for s in sorted(self.screens, key=lambda s: -s.statistic):
             if not s.screenable:
                 L.append(f"    {s.effect:<22s} leaves no signature in these data")
             else:
-                L.append(f"  {'*' if s.p_value < ALPHA / max(1, len(self.screens)) else ' '} {s.effect:<22s} "
-                         f"LM = {s.statistic:10.1f} ({s.dof} dof), p = {s.p_value:.2g}")
+                L.append(
+                    f"  {'*' if s.p_value < ALPHA / max(1, len(self.screens)) else ' '} {s.effect:<22s} "
+                    f"LM = {s.statistic:10.1f} ({s.dof} dof), p = {s.p_value:.2g}"
+                )
         if self.data_kind == "drive":
             L.append("Compared on held-out data (weight = evidence from the blocks the fit did not see):")
         else:
-            L.append("Compared (weight = evidence of each fit on all the sweep, likelihood with Akaike's penalty for "
-                     "the parameters it adds; shrink = on the blocks the fit did not see):")
+            L.append(
+                "Compared (weight = evidence of each fit on all the sweep, likelihood with Akaike's penalty for "
+                "the parameters it adds; shrink = on the blocks the fit did not see):"
+            )
         for e in self.ranking:
             sh = "" if e.shrink is None else f", held-out error shrinks by {e.shrink:.0%}"
             L.append(f"  {e.effect:<22s} weight {e.weight:.3f}{sh}{'' if e.converged else ' (a fit did not converge)'}")
             for p, d in e.parameters.items():
-                L.append(f"      {p} = {_fmt(d.get('value'))} +- {_fmt(d.get('stderr'))} "
-                         f"{'' if d.get('identifiable', True) else '(not identifiable)'}"
-                         f"{' (at a bound)' if d.get('at_bound') else ''}")
+                L.append(
+                    f"      {p} = {_fmt(d.get('value'))} +- {_fmt(d.get('stderr'))} "
+                    f"{'' if d.get('identifiable', True) else '(not identifiable)'}"
+                    f"{' (at a bound)' if d.get('at_bound') else ''}"
+                )
         for (a, b), corr, exp in self.confusable:
             cs = f" (correlation of their sensitivities {corr:.2f})" if corr is not None and math.isfinite(corr) else ""
             L.append(f"  {a} and {b} cannot be told apart on these data{cs}; to separate them: {exp}")
@@ -320,18 +403,32 @@ class Diagnosis:
             for ch, b in self.holdout_rmse_before.items():
                 a = self.holdout_rmse_after.get(ch)
                 nz = self.noise.get(ch) if isinstance(self.noise, dict) else None
-                part = (f"shrink {1.0 - a / b:.2f}" if len(self.holdout_rmse_before) > 1 and a is not None and b
-                        and math.isfinite(a) and math.isfinite(b) else "")
+                part = (
+                    f"shrink {1.0 - a / b:.2f}"
+                    if len(self.holdout_rmse_before) > 1
+                    and a is not None
+                    and b
+                    and math.isfinite(a)
+                    and math.isfinite(b)
+                    else ""
+                )
                 if nz is not None and math.isfinite(nz) and nz > 0:
                     part += f"{'; ' if part else ''}noise about {_fmt(nz)}"
                 L.append(f"  {ch}: {_fmt(b)} -> {_fmt(a)}" + (f" ({part})" if part else ""))
-            L.append(f"  shrink 1 - after/before = {self.shrink:.2f} (of the held-out residuals each over its noise "
-                     "level" + ("; all channels together: a channel the effect does not touch stays at its noise "
-                               "before and after)" if len(self.holdout_rmse_before) > 1 else
-                               ", so it differs from the ratio of the RMS above where the noise varies along the data)"))
+            L.append(
+                f"  shrink 1 - after/before = {self.shrink:.2f} (of the held-out residuals each over its noise "
+                "level"
+                + (
+                    "; all channels together: a channel the effect does not touch stays at its noise before and after)"
+                    if len(self.holdout_rmse_before) > 1
+                    else ", so it differs from the ratio of the RMS above where the noise varies along the data)"
+                )
+            )
             if self.gap_shrink is not None:
-                L.append(f"  the misfit above the noise shrinks by {self.gap_shrink:.0%} (the part of the held-out error "
-                         "the noise cannot explain, before and after: the share of the gap the effect accounts for)")
+                L.append(
+                    f"  the misfit above the noise shrinks by {self.gap_shrink:.0%} (the part of the held-out error "
+                    "the noise cannot explain, before and after: the share of the gap the effect accounts for)"
+                )
         L.append("")
         L.append("Soil (identifiable quantities), nominal fit" + (" -> with the effect:" if self.soil_after else ":"))
         for k, v in self.soil_before.items():
@@ -375,8 +472,11 @@ def _fmt(x) -> str:
 #: from one sample to the next for real (48 simulated 60 s logs, both vehicles, both noise levels: one
 #: such reading, at 79.3 of the heavy vehicle's 80 kN m, none elsewhere). Acceleration is not checked: a
 #: shift or an impact moves it from one sample to the next for real.
-_LOG_CHANNELS = {"sprocket_speed": "sprocket_speed_rad_s", "vehicle_speed": "vehicle_speed_m_s",
-                 "sprocket_torque": "sprocket_torque_Nm"}
+_LOG_CHANNELS = {
+    "sprocket_speed": "sprocket_speed_rad_s",
+    "vehicle_speed": "vehicle_speed_m_s",
+    "sprocket_torque": "sprocket_torque_Nm",
+}
 
 #: Torque readings whose neighbours (two on each side) reach this share of the drivetrain's limit (the
 #: vehicle's max_sprocket_torque, else the largest reading the check does not flag) are not judged.
@@ -413,17 +513,30 @@ def _window_segment(change, R: dict, sig: dict, t: np.ndarray) -> Segment:
     residuals' size).
     """
     ok = np.logical_and.reduce([np.isfinite(R[ch]) & np.isfinite(sig[ch]) for ch in R])
-    ch, share = range_share({c: R[c][ok] for c in R}, {c: sig[c][ok] for c in R}, t[ok],
-                            float(change.evidence_start), float(change.evidence_end))
+    ch, share = range_share(
+        {c: R[c][ok] for c in R},
+        {c: sig[c][ok] for c in R},
+        t[ok],
+        float(change.evidence_start),
+        float(change.evidence_end),
+    )
     inside = (t >= change.evidence_start) & (t <= change.evidence_end)
     r = R[ch][inside & np.isfinite(R[ch])]
-    return Segment("time", (float(change.evidence_start), float(change.evidence_end)), ch, share,
-                   bool(change.significant), float(np.mean(r)) if r.size else 0.0,
-                   float(np.sqrt(np.mean(r ** 2))) if r.size else 0.0, int(r.size))
+    return Segment(
+        "time",
+        (float(change.evidence_start), float(change.evidence_end)),
+        ch,
+        share,
+        bool(change.significant),
+        float(np.mean(r)) if r.size else 0.0,
+        float(np.sqrt(np.mean(r**2))) if r.size else 0.0,
+        int(r.size),
+    )
 
 
-def _note_lone_readings(data, vehicle: Vehicle, residual: np.ndarray | None, notes: list[str], recheck: bool,
-                        options: dict) -> None:
+def _note_lone_readings(
+    data, vehicle: Vehicle, residual: np.ndarray | None, notes: list[str], recheck: bool, options: dict
+) -> None:
     """Name lone readings (:func:`~.gap.isolated_outliers`: a glitch of a sensor, the rig or the logger) in
     ``notes``; with ``recheck``, say the verdict without them.
 
@@ -435,19 +548,32 @@ def _note_lone_readings(data, vehicle: Vehicle, residual: np.ndarray | None, not
     """
     if isinstance(data, DriveLog):
         t = np.asarray(data.time, dtype=float)
-        found = {attr: lone for attr in _LOG_CHANNELS
-                 if (lone := (_lone_torque(np.asarray(data.sprocket_torque, dtype=float), t, vehicle)
-                              if attr == "sprocket_torque" else
-                              isolated_outliers(np.asarray(getattr(data, attr), dtype=float), t, split_sides=True)))}
+        found = {
+            attr: lone
+            for attr in _LOG_CHANNELS
+            if (
+                lone := (
+                    _lone_torque(np.asarray(data.sprocket_torque, dtype=float), t, vehicle)
+                    if attr == "sprocket_torque"
+                    else isolated_outliers(np.asarray(getattr(data, attr), dtype=float), t, split_sides=True)
+                )
+            )
+        }
         if not found:
             return
         parts = []
         for attr, lone in found.items():
             ks = sorted(k for k, _ in lone)
-            parts.append(f"{_LOG_CHANNELS[attr]}: " + ", ".join(f"row {k + 1} (t = {t[k]:.4g} s)" for k in ks[:5])
-                         + (", ..." if len(ks) > 5 else ""))
-        txt = ("lone readings far off their neighbours while the readings around stay close (" + "; ".join(parts)
-               + "): a glitch of a sensor or the logger looks like this, no effect does")
+            parts.append(
+                f"{_LOG_CHANNELS[attr]}: "
+                + ", ".join(f"row {k + 1} (t = {t[k]:.4g} s)" for k in ks[:5])
+                + (", ..." if len(ks) > 5 else "")
+            )
+        txt = (
+            "lone readings far off their neighbours while the readings around stay close ("
+            + "; ".join(parts)
+            + "): a glitch of a sensor or the logger looks like this, no effect does"
+        )
         without, how = None, "with each replaced by the median of its two neighbours on each side"
         if recheck:
             fixed = {}
@@ -464,10 +590,12 @@ def _note_lone_readings(data, vehicle: Vehicle, residual: np.ndarray | None, not
             return
         rows = sorted(k + 1 for k, _ in lone)
         many = len(rows) > 1
-        txt = (f"row{'s' if many else ''} {', '.join(map(str, rows))} "
-               f"({'; '.join(f'slip {x[k]:.3g}: {abs(zk):.0f} robust sd' for k, zk in sorted(lone))}) "
-               f"lie{'' if many else 's'} far off {'their' if many else 'its'} neighbours while the readings around "
-               "stay close: a glitch of the rig or logger looks like this, no effect does")
+        txt = (
+            f"row{'s' if many else ''} {', '.join(map(str, rows))} "
+            f"({'; '.join(f'slip {x[k]:.3g}: {abs(zk):.0f} robust sd' for k, zk in sorted(lone))}) "
+            f"lie{'' if many else 's'} far off {'their' if many else 'its'} neighbours while the readings around "
+            "stay close: a glitch of the rig or logger looks like this, no effect does"
+        )
         without, how = None, f"without {'them' if many else 'it'}"
         if recheck and data.n_samples - len(rows) >= MIN_SAMPLES:
             without = _subset(data, np.setdiff1d(np.arange(data.n_samples), [k for k, _ in lone]))
@@ -514,16 +642,30 @@ def _weigh_plateau(verdict, confidence, data, slip, sigma, z_full, kpar, ch, run
     if w_p < 0.2 * w_v:
         return verdict, confidence, None  # far worse than the verdict: not worth a word
     if verdict.name == "unexplained":
-        notes.append(plateau.describe() + f" (weight {w_p:.2f} against the flexible term's {w_v:.2f}); it may be the gap")
+        notes.append(
+            plateau.describe() + f" (weight {w_p:.2f} against the flexible term's {w_v:.2f}); it may be the gap"
+        )
         return verdict, confidence, (plateau, w)
     if w_p > w_v:
-        notes.append(plateau.describe() + f"; it fits all the sweep better than {verdict.name} (weight {w_p:.2f} "
-                     f"against {w_v:.2f}), so no effect is named")
-        return Verdict("unexplained", 1.0 - w_v, f"the sweep's largest readings are flat at {plateau.level:.6g} N, "
-                       f"which fits all the data better than {verdict.name}: a sensor or rig limit, outside the "
-                       "library, is the likelier cause"), 1.0 - w_v, (plateau, w)
-    notes.append(plateau.describe() + f"; it fits all the sweep about as well as {verdict.name} (weight "
-                 f"{w_p:.2f} against {w_v:.2f})" + ("; confidence capped at 0.5" if confidence > 0.5 else ""))
+        notes.append(
+            plateau.describe() + f"; it fits all the sweep better than {verdict.name} (weight {w_p:.2f} "
+            f"against {w_v:.2f}), so no effect is named"
+        )
+        return (
+            Verdict(
+                "unexplained",
+                1.0 - w_v,
+                f"the sweep's largest readings are flat at {plateau.level:.6g} N, "
+                f"which fits all the data better than {verdict.name}: a sensor or rig limit, outside the "
+                "library, is the likelier cause",
+            ),
+            1.0 - w_v,
+            (plateau, w),
+        )
+    notes.append(
+        plateau.describe() + f"; it fits all the sweep about as well as {verdict.name} (weight "
+        f"{w_p:.2f} against {w_v:.2f})" + ("; confidence capped at 0.5" if confidence > 0.5 else "")
+    )
     return verdict, min(confidence, 0.5), (plateau, w)
 
 
@@ -665,8 +807,16 @@ def _torque_hold_note(data, vehicle: Vehicle, model: str, nominal, fit_options: 
     if not solver_converged(nominal):
         return None
     try:
-        other = fit(data, vehicle, model=model, hull_channel=True, x0=np.asarray(nominal.theta, dtype=float),
-                    max_iter=60, multistart=False, **dict(fit_options, torque_hold="sample"))
+        other = fit(
+            data,
+            vehicle,
+            model=model,
+            hull_channel=True,
+            x0=np.asarray(nominal.theta, dtype=float),
+            max_iter=60,
+            multistart=False,
+            **dict(fit_options, torque_hold="sample"),
+        )
     except DataError:
         return None
     if not solver_converged(other):
@@ -674,18 +824,20 @@ def _torque_hold_note(data, vehicle: Vehicle, model: str, nominal, fit_options: 
     lr = 2.0 * (float(nominal.cost) - float(other.cost))
     if not lr > chi2_isf(alpha, 1):
         return None
-    return ("the nominal model fits the log significantly better with the torque taken as a continuous signal "
-            f"sampled at each time (torque_hold='sample') than as held from each sample to the next (a likelihood "
-            f"ratio of {lr:.3g}, p = {chi2_sf(lr, 1):.2g}). A torque transducer logs the first way, a logged command "
-            "the other, and the wrong one shifts the thrust by the torque's change over one sample. A missing effect "
-            "can also make the sampled torque fit better (it does on some of the library's own held-torque logs), "
-            "so the hold is not switched: give torque_hold (command line: --torque-hold) if it is known")
+    return (
+        "the nominal model fits the log significantly better with the torque taken as a continuous signal "
+        f"sampled at each time (torque_hold='sample') than as held from each sample to the next (a likelihood "
+        f"ratio of {lr:.3g}, p = {chi2_sf(lr, 1):.2g}). A torque transducer logs the first way, a logged command "
+        "the other, and the wrong one shifts the thrust by the torque's change over one sample. A missing effect "
+        "can also make the sampled torque fit better (it does on some of the library's own held-torque logs), "
+        "so the hold is not switched: give torque_hold (command line: --torque-hold) if it is known"
+    )
 
 
 def _rms_per_dof(r: np.ndarray, n_par: int) -> float:
     """``sqrt(sum r^2 / (n - n_par))`` over the finite residuals ``r`` (a noise level from a fit's residuals)."""
     rf = r[np.isfinite(r)]
-    return float(np.sqrt(np.sum(rf ** 2) / max(1, rf.size - n_par))) if rf.size else math.nan
+    return float(np.sqrt(np.sum(rf**2) / max(1, rf.size - n_par))) if rf.size else math.nan
 
 
 def _noise_floors(resid: dict[str, np.ndarray], order: np.ndarray) -> tuple[dict[str, np.ndarray], set[str]]:
@@ -730,8 +882,9 @@ def _chi2_drop(R: dict, Rx: dict, sig_n: dict, is_log: bool) -> float:
     return out
 
 
-def _wider_soil(data, vehicle: Vehicle, model: str, nominal, R: dict, sig_n: dict, is_log: bool,
-                fit_options: dict, alpha: float) -> _WiderSoil | None:
+def _wider_soil(
+    data, vehicle: Vehicle, model: str, nominal, R: dict, sig_n: dict, is_log: bool, fit_options: dict, alpha: float
+) -> _WiderSoil | None:
     """Does the data want a soil beyond the practical range that the nominal fit ended on?
 
     The nominal model is fitted again on all the data with :data:`WIDE_BOUNDS`; the drop of the
@@ -747,9 +900,13 @@ def _wider_soil(data, vehicle: Vehicle, model: str, nominal, R: dict, sig_n: dic
     except Exception:  # noqa: BLE001
         return None
     j_of = {name: j for j, name in enumerate(_SOIL_KEYS)}
-    edges = {k: side for k, side in active.items() if k in j_of and
-             (PRACTICAL_BOUNDS.lower if side == "lower" else PRACTICAL_BOUNDS.upper)[j_of[k]]
-             != (WIDE_BOUNDS.lower if side == "lower" else WIDE_BOUNDS.upper)[j_of[k]]}
+    edges = {
+        k: side
+        for k, side in active.items()
+        if k in j_of
+        and (PRACTICAL_BOUNDS.lower if side == "lower" else PRACTICAL_BOUNDS.upper)[j_of[k]]
+        != (WIDE_BOUNDS.lower if side == "lower" else WIDE_BOUNDS.upper)[j_of[k]]
+    }
     if not edges:
         return None  # on no bound, or on one that is physical (c >= 0)
     kw = dict(fit_options, bounds=WIDE_BOUNDS)
@@ -778,12 +935,17 @@ def _wider_soil(data, vehicle: Vehicle, model: str, nominal, R: dict, sig_n: dic
     def val(k, v):
         f, u = units[k]
         return f"{names[k]} = {v * f:.3g} {u}" if v is not None else f"{names[k]} (not identifiable alone)"
+
     on = ", ".join(f"{val(k, nominal.parameters[k].value)} on its {side} bound" for k, side in edges.items())
     now = ", ".join(val(k, wide.parameters[k].value) for k in _SOIL_KEYS if _SOIL_KEYS[k] in outside)
-    return _WiderSoil(residuals=Rw, note=(
-        f"the nominal soil ended on the edge of the practical range ({on}) and the data want a soil beyond it: with "
-        f"the bounds widened (c 0-200 kPa, phi 1-55 deg, K 2-250 mm) the nominal model fits all the data better by "
-        f"a likelihood ratio of {lr:.3g} (p = {p:.2g}), with {now}"))
+    return _WiderSoil(
+        residuals=Rw,
+        note=(
+            f"the nominal soil ended on the edge of the practical range ({on}) and the data want a soil beyond it: with "
+            f"the bounds widened (c 0-200 kPa, phi 1-55 deg, K 2-250 mm) the nominal model fits all the data better by "
+            f"a likelihood ratio of {lr:.3g} (p = {p:.2g}), with {now}"
+        ),
+    )
 
 
 def _effect_params(res, name: str) -> dict:
@@ -796,8 +958,11 @@ def _effect_params(res, name: str) -> dict:
             d = dict(est)
         else:
             d = {"value": est}
-        out[p] = {k: (_f(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v) for k, v in d.items()
-                  if k in ("value", "stderr", "ci95", "identifiable", "at_bound")}
+        out[p] = {
+            k: (_f(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v)
+            for k, v in d.items()
+            if k in ("value", "stderr", "ci95", "identifiable", "at_bound")
+        }
         if isinstance(out[p].get("ci95"), (list, tuple)):
             out[p]["ci95"] = [_f(v) for v in out[p]["ci95"]]
     return out
@@ -805,8 +970,11 @@ def _effect_params(res, name: str) -> dict:
 
 def _stretched(fits, name: str) -> list[str]:
     """Parameters of effect ``name`` on a bound in every usable training fit of it (empty if none, or no fit)."""
-    sets = [{p for p, d in _effect_params(f, name).items() if d.get("at_bound")}
-            for f in fits or () if getattr(f, "success", False)]
+    sets = [
+        {p for p, d in _effect_params(f, name).items() if d.get("at_bound")}
+        for f in fits or ()
+        if getattr(f, "success", False)
+    ]
     return sorted(set.intersection(*sets)) if sets else []
 
 
@@ -859,11 +1027,22 @@ def _check_candidates(candidates, data) -> tuple[str, ...]:
 
 
 # ----------------------------------------------------------------------------- the diagnosis
-def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full",
-             candidates: Sequence[str] | None = None, n_blocks: int = 10, n_folds: int | None = None,
-             max_refits: int | None = None, alpha: float = ALPHA, weigh_outside: bool = True,
-             torque_hold: str | None = None, recheck_outliers: bool = True, bounds: SoilBounds | None = None,
-             progress: Callable[[str], None] | None = None) -> Diagnosis:
+def diagnose(
+    data: SlipData | DriveLog,
+    vehicle: Vehicle,
+    *,
+    model: str = "full",
+    candidates: Sequence[str] | None = None,
+    n_blocks: int = 10,
+    n_folds: int | None = None,
+    max_refits: int | None = None,
+    alpha: float = ALPHA,
+    weigh_outside: bool = True,
+    torque_hold: str | None = None,
+    recheck_outliers: bool = True,
+    bounds: SoilBounds | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Diagnosis:
     """Diagnose the gap between the nominal model and a drive log or a slip sweep.
 
     Parameters
@@ -948,15 +1127,23 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         return _inconsistent(data, cands, consistency, is_log, t0)
     notes: list[str] = []
     if is_log and data.n_turning:
-        notes.append(f"{data.n_turning} of {n} samples turning (two-track log): left out of the "
-                     "straight-line model, with the sample after each turn")
+        notes.append(
+            f"{data.n_turning} of {n} samples turning (two-track log): left out of the "
+            "straight-line model, with the sample after each turn"
+        )
     if is_log:
-        notes.append("the logged torque is taken as " + (
-            "held from each sample to the next (torque_hold='zoh', the default; a torque sampled from a "
-            "continuous signal, e.g. a transducer, needs torque_hold='sample': the wrong one shifts the thrust by "
-            "its change over one sample, which reads as a grade or a drivetrain loss)" if torque_hold is None else
-            "held from each sample to the next (torque_hold='zoh')" if hold == "zoh" else
-            "a continuous signal sampled at each time (torque_hold='sample')"))
+        notes.append(
+            "the logged torque is taken as "
+            + (
+                "held from each sample to the next (torque_hold='zoh', the default; a torque sampled from a "
+                "continuous signal, e.g. a transducer, needs torque_hold='sample': the wrong one shifts the thrust by "
+                "its change over one sample, which reads as a grade or a drivetrain loss)"
+                if torque_hold is None
+                else "held from each sample to the next (torque_hold='zoh')"
+                if hold == "zoh"
+                else "a continuous signal sampled at each time (torque_hold='sample')"
+            )
+        )
 
     failed: list[str] = []
     flagged: dict[str, int] = {}  # model -> number of its fits only the plausibility checks refused
@@ -967,8 +1154,18 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         """A fit the diagnosis may use: successful, or (sweep) converged and only flagged implausible."""
         return bool(res.success) or (not is_log and solver_converged(res))
 
-    def run_fit(d, effects=(), fixed=None, start=None, record=True, patient=False, retry=True, cold=False,
-                weight_only=False, max_iter=None):
+    def run_fit(
+        d,
+        effects=(),
+        fixed=None,
+        start=None,
+        record=True,
+        patient=False,
+        retry=True,
+        cold=False,
+        weight_only=False,
+        max_iter=None,
+    ):
         kw = dict(fit_options)
         if max_iter is not None:
             kw["max_iter"] = int(max_iter)
@@ -1024,8 +1221,9 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     kind = "drive" if is_log else "sweep"
     outside = tuple(e for e, spec in EFFECTS.items() if kind in spec.shows_in and e not in cands)
     say(f"screening {len(cands + outside)} effects: the nominal model on all {n} samples, with score tests")
-    nominal_full, all_screens = screen(data, vehicle, cands + outside, model=model, hac_lag=lag,
-                                       fit_options=fit_options)
+    nominal_full, all_screens = screen(
+        data, vehicle, cands + outside, model=model, hac_lag=lag, fit_options=fit_options
+    )
     screens = [s for s in all_screens if s.effect in cands]
     stat_cos = (nominal_full.extra or {}).get("screening_stationarity", 0.0) if nominal_full.success else 0.0
     out_screens = [s for s in all_screens if s.effect in outside and s.screenable]
@@ -1042,9 +1240,12 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     channels = list(R)
     if not nominal_full.success:
         pw = plausibility_warnings(nominal_full)
-        notes.append("the nominal fit converged but fails the plausibility checks (" + ("; ".join(pw) or
-                     nominal_full.status) + "): a model missing an effect looks like this; the diagnosis uses "
-                     "its converged answer")
+        notes.append(
+            "the nominal fit converged but fails the plausibility checks ("
+            + ("; ".join(pw) or nominal_full.status)
+            + "): a model missing an effect looks like this; the diagnosis uses "
+            "its converged answer"
+        )
     if is_log and np.all(np.isfinite(nominal_full.theta)):
         warm["x0"] = np.asarray(nominal_full.theta, dtype=float)  # warm start: fewer IPOPT iterations
     order = _order(data)
@@ -1057,18 +1258,23 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             if ch in flat and not any(f"no measurable noise in {ch}" in t for t in notes):
                 notes.append(f"no measurable noise in {ch}: the noise floor is set to a negligible value")
             sig_n[ch] = sg
-            noise[ch] = float(np.sqrt(np.nanmean(sg ** 2))) if np.any(np.isfinite(sg)) else 0.0
+            noise[ch] = float(np.sqrt(np.nanmean(sg**2))) if np.any(np.isfinite(sg)) else 0.0
 
     set_noise(R)
     # the data may want a soil beyond the practical range the nominal fit ended on: weighed against the verdict
-    wider = _wider_soil(data, vehicle, model, nominal_full, R, sig_n, is_log, fit_options, alpha) \
-        if bounds is None else None
+    wider = (
+        _wider_soil(data, vehicle, model, nominal_full, R, sig_n, is_log, fit_options, alpha)
+        if bounds is None
+        else None
+    )
     if stat_cos > 1e-2 and not any("no measurable noise" in t for t in notes):
-        notes.append(f"the screening fit's residuals are not orthogonal to the soil's sensitivities (cosine "
-                     f"{stat_cos:.2g}): its score tests are unreliable; the held-out comparison decides")
+        notes.append(
+            f"the screening fit's residuals are not orthogonal to the soil's sensitivities (cosine "
+            f"{stat_cos:.2g}): its score tests are unreliable; the held-out comparison decides"
+        )
     if is_log:
         folds = [(np.sort(order[a]), np.sort(order[b])) for a, b in blocked_folds(n, n_blocks)]  # natural order
-        folds = folds[:max(1, min(2, int(1 if n_folds is None else n_folds)))]
+        folds = folds[: max(1, min(2, int(1 if n_folds is None else n_folds)))]
     else:
         # every block held out once over n_folds folds: each fit sees most of the sweep (diagnosis_sweep)
         folds = sweep_folds(order, n_blocks, 5 if n_folds is None else max(2, int(n_folds)))
@@ -1164,7 +1370,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         # a sharp gap (a radius error's jump at small slip) that a smooth flexible term cannot predict in a
         # held-out block still shows as a held-out error well above the noise floor
         nom_ok = z_nom[np.isfinite(z_nom)]
-        infl_nom = max(1.0, float(np.var(nom_ok ** 2)) / 2.0) if nom_ok.size else 1.0
+        infl_nom = max(1.0, float(np.var(nom_ok**2)) / 2.0) if nom_ok.size else 1.0
         if gap_p_value(float(nom_ok @ nom_ok), nom_ok.size, infl_nom) < alpha:
             gap_seen = True
             notes.append("the nominal model's held-out error is significantly above the noise floor")
@@ -1172,13 +1378,19 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             # or as a slip range where the nominal residuals are significantly off (localisation's test,
             # Bonferroni-corrected over the ranges): a misfit concentrated in a few neighbouring slips
             ok_all = np.logical_and.reduce([np.isfinite(R[ch]) & (np.nan_to_num(sig_n[ch]) > 0) for ch in channels])
-            pre = localise({ch: R[ch][ok_all] for ch in channels}, {ch: sig_n[ch][ok_all] for ch in channels},
-                           {"slip": xnat[ok_all]}, alpha=alpha)
+            pre = localise(
+                {ch: R[ch][ok_all] for ch in channels},
+                {ch: sig_n[ch][ok_all] for ch in channels},
+                {"slip": xnat[ok_all]},
+                alpha=alpha,
+            )
             hit = [sg for sg in pre if sg.dimension == "slip" and sg.significant]
             if hit:
                 gap_seen = True
-                notes.append(f"a gap is seen: the nominal model misses significantly at slip {_fmt(hit[0].range[0])} "
-                             f"to {_fmt(hit[0].range[1])} (with the noise floor of its own residuals)")
+                notes.append(
+                    f"a gap is seen: the nominal model misses significantly at slip {_fmt(hit[0].range[0])} "
+                    f"to {_fmt(hit[0].range[1])} (with the noise floor of its own residuals)"
+                )
     if max_refits is None:
         max_refits = 3 if is_log else len(screenable)
     ranked = sorted(screenable, key=lambda s: -s.gain)  # by the cost drop a refit would give
@@ -1207,11 +1419,14 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             cb = min(ss_full, key=lambda c: ss_full[c][0])
             if ss_full[cb][0] < ss_nom:
                 set_noise(ss_full[cb][1])
-                notes.append(f"noise floor from the residuals of the fit with {cb} (the candidate that fits the sweep "
-                             "best): the nominal model's misfit would inflate it where the curve bends")
+                notes.append(
+                    f"noise floor from the residuals of the fit with {cb} (the candidate that fits the sweep "
+                    "best): the nominal model's misfit would inflate it where the curve bends"
+                )
 
-    mask = {ch: np.isfinite(H[NOMINAL][ch]) & np.isfinite(sig_n[ch]) & (np.nan_to_num(sig_n[ch]) > 0)
-            for ch in channels}
+    mask = {
+        ch: np.isfinite(H[NOMINAL][ch]) & np.isfinite(sig_n[ch]) & (np.nan_to_num(sig_n[ch]) > 0) for ch in channels
+    }
 
     def cat(name, ch):
         return H[name][ch][mask[ch]]
@@ -1224,7 +1439,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
 
     def ss(name):
         v = zall(name)
-        return float(np.sum(v ** 2)) if np.all(np.isfinite(v)) else math.inf
+        return float(np.sum(v**2)) if np.all(np.isfinite(v)) else math.inf
 
     def rmse(name):
         return {ch: float(np.sqrt(np.mean(cat(name, ch) ** 2))) if np.any(mask[ch]) else math.nan for ch in channels}
@@ -1235,6 +1450,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     def held_shrink(m: str) -> float:
         """``1 - after/before`` of model ``m`` against the nominal model on the held-out residuals over the noise."""
         return 1.0 - math.sqrt(scores[m] / max(scores[NOMINAL], 1e-300))
+
     # evidence correction: correlated residuals (logs) and residuals more dispersed than Gaussian noise
     best_m = min(scores, key=lambda m: scores[m])
     infl = max(long_run_factor(z(best_m, ch)) for ch in channels) if is_log else 1.0
@@ -1246,8 +1462,9 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     def held_weights() -> dict[str, float]:
         """Stacking weights of every model in ``H`` from its held-out log-densities (blocked); a discredited
         candidate gets none (the others' weights renormalised)."""
-        w = stacking_weights({m: -0.5 * zall(m) ** 2 if math.isfinite(scores[m]) else np.full(n_held, -np.inf)
-                              for m in H}, block=blk)
+        w = stacking_weights(
+            {m: -0.5 * zall(m) ** 2 if math.isfinite(scores[m]) else np.full(n_held, -np.inf) for m in H}, block=blk
+        )
         gone = sum(w.get(m, 0.0) for m in discredited)
         if not discredited or gone >= 1.0:
             return w
@@ -1286,7 +1503,7 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         # misfit, not noise, and would turn a nominal error 35 x the noise floor into p = 0.26
         z_best = z_full[min(z_full, key=lambda m: float(np.sum(z_full[m] ** 2)))]
         if np.all(np.isfinite(z_best)) and z_best.size > 1:
-            gap_infl = max(1.0, float(np.var(z_best ** 2)) / 2.0)
+            gap_infl = max(1.0, float(np.var(z_best**2)) / 2.0)
     gap_p = gap_p_value(scores[NOMINAL], n_held, gap_infl)
     disc_beats = {m: dm_test(zall(m), zall(DISCREPANCY), dm_lag) for m in H if m != DISCREPANCY}
     after_ratio = {c: max(float(np.sqrt(np.mean(z(c, ch) ** 2))) for ch in channels) for c in refit}
@@ -1304,34 +1521,48 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         if smooth_gap(bc):
             after_ratio[bc] = max(after_ratio[bc], math.inf)
             after_p[bc] = 0.0
-            notes.append(f"a flexible term on top of {bc} still predicts the held-out data significantly better: "
-                         f"{bc} leaves a smooth gap")
+            notes.append(
+                f"a flexible term on top of {bc} still predicts the held-out data significantly better: "
+                f"{bc} leaves a smooth gap"
+            )
             # stretched to a bound in every training fit AND still leaving a smooth gap: the effect imitates another
             # one. A rival that fits inside its physical range, predicts the held-out blocks about as well and leaves
             # no smooth gap is weighed without it (a heavy log with a 25 % mass error: slip_sinkage at mu_s = 2, its
             # bound, outweighed mass_error at delta = 0.25 and the verdict was `unexplained`)
             on_bound = _stretched(train_fits.get(bc), bc)
-            rivals = [m for m in named if m != bc and not _stretched(train_fits.get(m), m)
-                      and held_shrink(m) > 0.0 and held_shrink(m) >= held_shrink(bc) - MIN_SHRINK]
+            rivals = [
+                m
+                for m in named
+                if m != bc
+                and not _stretched(train_fits.get(m), m)
+                and held_shrink(m) > 0.0
+                and held_shrink(m) >= held_shrink(bc) - MIN_SHRINK
+            ]
             b2 = max(rivals, key=lambda m: weights[m]) if on_bound and rivals else None
             if b2 is not None and not smooth_gap(b2):
                 w_bc = weights[bc]
                 discredited[bc] = w_bc
                 weights = held_weights()
-                notes.append(f"{bc}'s {', '.join(on_bound)} ended on {'its bound' if len(on_bound) == 1 else 'their bounds'} "
-                             f"in every training fit and {bc} still leaves a smooth gap: it is stretched to imitate another "
-                             f"effect. {b2} fits inside its physical range, predicts the held-out data about as well (shrink "
-                             f"{held_shrink(b2):.2f} against {held_shrink(bc):.2f}) and leaves no smooth gap: the weights are "
-                             f"those without {bc} (its weight was {w_bc:.2f})")
+                notes.append(
+                    f"{bc}'s {', '.join(on_bound)} ended on {'its bound' if len(on_bound) == 1 else 'their bounds'} "
+                    f"in every training fit and {bc} still leaves a smooth gap: it is stretched to imitate another "
+                    f"effect. {b2} fits inside its physical range, predicts the held-out data about as well (shrink "
+                    f"{held_shrink(b2):.2f} against {held_shrink(bc):.2f}) and leaves no smooth gap: the weights are "
+                    f"those without {bc} (its weight was {w_bc:.2f})"
+                )
     if is_log:
         verdict = decide(weights, [s.effect for s in significant], disc_beats, after_ratio, after_p, alpha=alpha)
         if verdict.name in scores and verdict.name not in (NOMINAL, DISCREPANCY):
             # is there a gap, and does the named effect explain it? (against the noise, not the other models)
             verdict, note = check_verdict(
-                verdict, gap_p=gap_p, beats_nominal_p=dm_test(zall(NOMINAL), zall(verdict.name), dm_lag),
+                verdict,
+                gap_p=gap_p,
+                beats_nominal_p=dm_test(zall(NOMINAL), zall(verdict.name), dm_lag),
                 shrink=held_shrink(verdict.name),
                 explained=explained_fraction(scores[NOMINAL], scores[verdict.name], n_held),
-                no_gap_confidence=1.0 - weights.get(DISCREPANCY, 0.0), alpha=alpha)
+                no_gap_confidence=1.0 - weights.get(DISCREPANCY, 0.0),
+                alpha=alpha,
+            )
             if note:
                 notes.append(note)
     else:
@@ -1345,18 +1576,27 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                 continue
             rc = _channels(f, data)
             ch = channels[0]
-            lack_p[c] = lack_of_fit(rc[ch][full_ok], fit_jacobian(f, data)[full_ok], basis[full_ok],
-                                    sig_n[ch][full_ok])
-        shrink_of = {c: held_shrink(c) for c in lack_p
-                     if math.isfinite(scores.get(c, math.inf))}
-        verdict = decide_sweep(weights, [s.effect for s in significant], gap_seen, lack_p, alpha=alpha,
-                               shrink=shrink_of, disc_held_p=disc_beats[NOMINAL])
+            lack_p[c] = lack_of_fit(rc[ch][full_ok], fit_jacobian(f, data)[full_ok], basis[full_ok], sig_n[ch][full_ok])
+        shrink_of = {c: held_shrink(c) for c in lack_p if math.isfinite(scores.get(c, math.inf))}
+        verdict = decide_sweep(
+            weights,
+            [s.effect for s in significant],
+            gap_seen,
+            lack_p,
+            alpha=alpha,
+            shrink=shrink_of,
+            disc_held_p=disc_beats[NOMINAL],
+        )
 
     # --- 3. where: on the full-data nominal residuals (every sample; the gap is the nominal misfit) -----
     common = np.logical_and.reduce([np.isfinite(R[ch]) & np.isfinite(sig_n[ch]) for ch in channels])
     var_all = _variables(data, vehicle)
-    loc = localise({ch: R[ch][common] for ch in channels}, {ch: sig_n[ch][common] for ch in channels},
-                   {k: v[common] for k, v in var_all.items()}, alpha=alpha)
+    loc = localise(
+        {ch: R[ch][common] for ch in channels},
+        {ch: sig_n[ch][common] for ch in channels},
+        {k: v[common] for k, v in var_all.items()},
+        alpha=alpha,
+    )
     main = max(channels, key=lambda ch: float(np.mean((R[ch][common] / sig_n[ch][common]) ** 2)))
     change = change_window(R[main][common], xnat[common], sig_n[main][common], channel=main, alpha=alpha)
     white = {}
@@ -1368,23 +1608,41 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
     if is_log:
         for ch in channels:
             rr = np.nan_to_num(R[ch], nan=0.0, posinf=0.0, neginf=0.0)
-            for key, sig in (("vehicle_speed_m_s", data.vehicle_speed), ("sprocket_speed_rad_s", data.sprocket_speed),
-                             ("sprocket_torque_Nm", data.sprocket_torque)):
+            for key, sig in (
+                ("vehicle_speed_m_s", data.vehicle_speed),
+                ("sprocket_speed_rad_s", data.sprocket_speed),
+                ("sprocket_torque_Nm", data.sprocket_torque),
+            ):
                 lags[f"{ch} vs d({key})/dt"] = lag_peak(rr, np.diff(np.asarray(sig, dtype=float), prepend=sig[0]))
         # drive-log checks (change of soil in time, a delay between channels): .diagnosis_log
         from .log_parts import review_drive_log
+
         say("drive-log checks: a change of soil in time, a delay between the channels")
         # the candidates (their training fits), should the nominal model show a change of soil in time: the
         # refitted ones by weight, then the strongest of those screening left out (by score gain), fitted on
         # the first training part only if asked (an effect within the noise may still weigh on a time window)
         named_w = {m: weights[m] for m in refit if train_fits.get(m) and usable(train_fits[m][0])}
         alts = [(m, train_fits[m][0]) for m in sorted(named_w, key=lambda m: -named_w[m])]
-        alts += [(s.effect, lambda c=s.effect: run_fit(_subset(data, folds[0][0]), (c,), weight_only=True,
-                                                       record=False))
-                 for s in ranked if s.effect not in refit][:max(0, MAX_WINDOW_ALTERNATIVES - len(alts))]
+        alts += [
+            (s.effect, lambda c=s.effect: run_fit(_subset(data, folds[0][0]), (c,), weight_only=True, record=False))
+            for s in ranked
+            if s.effect not in refit
+        ][: max(0, MAX_WINDOW_ALTERNATIVES - len(alts))]
         verdict, log_change, log_lags, log_notes = review_drive_log(
-            verdict, data, vehicle, nominal_full, H, sig_n, mask, folds, train_res, scores, dm_lag, alpha,
-            alternatives=alts)
+            verdict,
+            data,
+            vehicle,
+            nominal_full,
+            H,
+            sig_n,
+            mask,
+            folds,
+            train_res,
+            scores,
+            dm_lag,
+            alpha,
+            alternatives=alts,
+        )
         change = log_change if log_change is not None else change
         lags.update(log_lags)
         notes.extend(log_notes)
@@ -1429,22 +1687,27 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         for o in outside_fitted:
             if w_ext[o] >= 0.2 * w_ext[verdict.name]:
                 outside_rivals.append(o)
-                notes.append(f"{o}, which is not among the candidates, {'predicts the held-out' if is_log else 'fits the'} data "
-                             f"{'better' if w_ext[o] > w_ext[verdict.name] else 'about as well'} "
-                             f"(weight {w_ext[o]:.2f} against {w_ext[verdict.name]:.2f} among all library effects): "
-                             f"{verdict.name} is named with confidence {confidence:.2f} only")
+                notes.append(
+                    f"{o}, which is not among the candidates, {'predicts the held-out' if is_log else 'fits the'} data "
+                    f"{'better' if w_ext[o] > w_ext[verdict.name] else 'about as well'} "
+                    f"(weight {w_ext[o]:.2f} against {w_ext[verdict.name]:.2f} among all library effects): "
+                    f"{verdict.name} is named with confidence {confidence:.2f} only"
+                )
 
     plateau_w = None
     if not is_log and verdict.name != NOMINAL and len(channels) == 1 and bool(np.all(full_ok)):
         # sweeps: the largest readings flat within the noise where the soil fitted below them still rises (a
         # load cell or rig at its limit, outside the library) weighed against the verdict
-        verdict, confidence, plateau_w = _weigh_plateau(verdict, confidence, data, xnat, sig_n[channels[0]],
-                                                        z_full, kpar, channels[0], run_fit, notes)
+        verdict, confidence, plateau_w = _weigh_plateau(
+            verdict, confidence, data, xnat, sig_n[channels[0]], z_full, kpar, channels[0], run_fit, notes
+        )
     for m, k in flagged.items():
         if k:
-            notes.append(f"{k} fit(s) with {'the nominal model' if m == NOMINAL else m} converged but fail the "
-                         "plausibility checks (large residuals or rows far off the curve); their converged answers "
-                         "are used")
+            notes.append(
+                f"{k} fit(s) with {'the nominal model' if m == NOMINAL else m} converged but fail the "
+                "plausibility checks (large residuals or rows far off the curve); their converged answers "
+                "are used"
+            )
     # --- 4. ranking, confusable, shrink, soil -------------------------------------------------------------
     before = rmse(NOMINAL)
     ranking = []
@@ -1470,15 +1733,34 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             params = _effect_params(full_fits[m], m)
             conv = conv and usable(full_fits[m])
         elif m in refit and train_fits.get(m):  # others: as fitted on the first training part (half the data)
-            params = {p: dict(v, fitted_on="training part A (half the data)")
-                      for p, v in _effect_params(train_fits[m][0], m).items()}
+            params = {
+                p: dict(v, fitted_on="training part A (half the data)")
+                for p, v in _effect_params(train_fits[m][0], m).items()
+            }
         ranking.append(RankEntry(m, w_rank[m], before, after, shrink, params, scr, conv))
     if plateau_w is not None:
         # the plateau ("soil below, a flat level above": a sensor or rig limit), weighed on all the sweep
         pl, w_pl = plateau_w
-        ranking.append(RankEntry("plateau", w_pl["plateau"], before, {ch: math.nan for ch in channels}, None,
-                                 {"level_N": {"value": pl.level, "stderr": pl.level_stderr, "identifiable": True,
-                                              "at_bound": False, "rows": len(pl.rows)}}, None, True))
+        ranking.append(
+            RankEntry(
+                "plateau",
+                w_pl["plateau"],
+                before,
+                {ch: math.nan for ch in channels},
+                None,
+                {
+                    "level_N": {
+                        "value": pl.level,
+                        "stderr": pl.level_stderr,
+                        "identifiable": True,
+                        "at_bound": False,
+                        "rows": len(pl.rows),
+                    }
+                },
+                None,
+                True,
+            )
+        )
         ranking.sort(key=lambda e: -e.weight)
     dirs = {s.effect: s.direction for s in all_screens}
     conf = []
@@ -1490,30 +1772,45 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         va = verdict.name
         pred = data.values - _channels(full_fits[va], data)[channels[0]]
         listed = {x for p, _, _ in conf for x in p if va in p}
-        rivals = [m for m in sorted(full_fits, key=lambda m: -w_all.get(m, 0.0))
-                  if m != va and m not in listed and usable(full_fits[m])][:3]
+        rivals = [
+            m
+            for m in sorted(full_fits, key=lambda m: -w_all.get(m, 0.0))
+            if m != va and m not in listed and usable(full_fits[m])
+        ][:3]
         n_use = int(np.sum(full_ok))
         for b in rivals:
-            d = imitation_rms(pred, data, sig_n[channels[0]],
-                              lambda syn, b=b: (lambda f: (f, _channels(f, syn)[channels[0]] if usable(f) else None))(
-                                  run_fit(syn, (b,), record=False)))
+            d = imitation_rms(
+                pred,
+                data,
+                sig_n[channels[0]],
+                lambda syn, b=b: (lambda f: (f, _channels(f, syn)[channels[0]] if usable(f) else None))(
+                    run_fit(syn, (b,), record=False)
+                ),
+            )
             if math.isfinite(d) and n_use * d * d < 2.0 * math.log(19.0):
                 da, db = dirs.get(va), dirs.get(b)
-                corr = (float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db)))
-                        if da is not None and db is not None and np.linalg.norm(da) * np.linalg.norm(db) > 0
-                        else math.nan)
+                corr = (
+                    float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db)))
+                    if da is not None and db is not None and np.linalg.norm(da) * np.linalg.norm(db) > 0
+                    else math.nan
+                )
                 conf.append(((va, b), corr, separating_experiment(va, b)))
-                notes.append(f"{b} imitates the curve fitted with {va} within {d:.2f} times the noise (RMS): on "
-                             f"{n_use} samples that is too little to tell them apart reliably"
-                             + (f"; {va} is named with confidence 0.5 at most" if confidence > 0.5 else ""))
+                notes.append(
+                    f"{b} imitates the curve fitted with {va} within {d:.2f} times the noise (RMS): on "
+                    f"{n_use} samples that is too little to tell them apart reliably"
+                    + (f"; {va} is named with confidence 0.5 at most" if confidence > 0.5 else "")
+                )
                 # what the data cannot tell apart even in expectation is not named with confidence
                 confidence = min(confidence, 0.5)
     for o in outside_rivals:
         if any(o in p and verdict.name in p for p, _, _ in conf):
             continue
         da, db = dirs.get(verdict.name), dirs.get(o)
-        corr = (float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db)))
-                if da is not None and db is not None and np.linalg.norm(da) * np.linalg.norm(db) > 0 else math.nan)
+        corr = (
+            float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db)))
+            if da is not None and db is not None and np.linalg.norm(da) * np.linalg.norm(db) > 0
+            else math.nan
+        )
         conf.append(((verdict.name, o), corr, separating_experiment(verdict.name, o)))
     if not is_log and verdict.name in refit and confidence > 0.5 and math.isfinite(scores.get(verdict.name, math.inf)):
         # sweeps: a rival whose sensitivities the data cannot tell from the verdict's (listed confusable) and
@@ -1526,8 +1823,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
                 continue
             sh_b = held_shrink(b)
             if sh_b > 0.0 and sh_a - sh_b < MIN_SHRINK:
-                notes.append(f"{b}, listed as confusable with {va}, predicts the held-out blocks as well (held-out "
-                             f"shrink {sh_b:.2f} against {sh_a:.2f}): {va} is named with confidence 0.5 at most")
+                notes.append(
+                    f"{b}, listed as confusable with {va}, predicts the held-out blocks as well (held-out "
+                    f"shrink {sh_b:.2f} against {sh_a:.2f}): {va} is named with confidence 0.5 at most"
+                )
                 confidence = 0.5
                 break
     if is_log and verdict.name in refit and math.isfinite(scores.get(verdict.name, math.inf)):
@@ -1549,23 +1848,30 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             if sh_b > 0.0 and (alike or close):
                 if b not in listed:
                     da, db = dirs.get(va), dirs.get(b)
-                    corr = (float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db)))
-                            if da is not None and db is not None and np.linalg.norm(da) * np.linalg.norm(db) > 0
-                            else math.nan)
+                    corr = (
+                        float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db)))
+                        if da is not None and db is not None and np.linalg.norm(da) * np.linalg.norm(db) > 0
+                        else math.nan
+                    )
                     conf.append(((va, b), corr, separating_experiment(va, b)))
-                why = (f"the difference is not significant, p = {p_b:.2g}" if alike else
-                       f"{va} is better by less than {MIN_SHRINK:.0%} of the nominal model's held-out error, "
-                       f"however significant (p = {p_b:.2g})")
-                notes.append(f"{b} predicts the held-out data about as well as {va} (held-out shrink {sh_b:.2f} "
-                             f"against {sh_a:.2f}; {why})"
-                             + (f"; {va} is named with confidence 0.5 at most" if confidence > 0.5 else ""))
+                why = (
+                    f"the difference is not significant, p = {p_b:.2g}"
+                    if alike
+                    else f"{va} is better by less than {MIN_SHRINK:.0%} of the nominal model's held-out error, "
+                    f"however significant (p = {p_b:.2g})"
+                )
+                notes.append(
+                    f"{b} predicts the held-out data about as well as {va} (held-out shrink {sh_b:.2f} "
+                    f"against {sh_a:.2f}; {why})"
+                    + (f"; {va} is named with confidence 0.5 at most" if confidence > 0.5 else "")
+                )
                 confidence = min(confidence, 0.5)
                 alikes.append((sh_b, b))
         # of explanations the log cannot tell apart, one that needs a parameter pinned on its physical bound
         # is stretched to imitate the other: name the one that fits inside its range (both stay confusable)
         va_params = next((e.parameters for e in ranking if e.effect == va), {})
         stretched = [p for p, d in va_params.items() if d.get("at_bound")]
-        for _, b in (sorted(alikes, reverse=True) if stretched else ()):
+        for _, b in sorted(alikes, reverse=True) if stretched else ():
             if b not in refit or not train_fits.get(b):
                 continue
             st = _effect_start(train_fits.get(b), b)
@@ -1576,14 +1882,21 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             if not pb or any(d.get("at_bound") for d in pb.values()):
                 continue
             full_fits[b] = fb
-            ranking = [replace(e, parameters=pb, converged=e.converged and usable(fb)) if e.effect == b else e
-                       for e in ranking]
-            notes.append(f"{va}'s {', '.join(stretched)} ended on {'its bound' if len(stretched) == 1 else 'their bounds'} "
-                         f"while {b}, which predicts the held-out data about as well, fits inside its physical range: "
-                         f"{b} is named (the two stay listed as confusable)")
-            verdict = replace(verdict, name=b, confidence=min(verdict.confidence, 0.5),
-                              reason=f"{b} explains the gap about as well as {va}, which had to be stretched to a "
-                                     "bound of its parameters to do so")
+            ranking = [
+                replace(e, parameters=pb, converged=e.converged and usable(fb)) if e.effect == b else e for e in ranking
+            ]
+            notes.append(
+                f"{va}'s {', '.join(stretched)} ended on {'its bound' if len(stretched) == 1 else 'their bounds'} "
+                f"while {b}, which predicts the held-out data about as well, fits inside its physical range: "
+                f"{b} is named (the two stay listed as confusable)"
+            )
+            verdict = replace(
+                verdict,
+                name=b,
+                confidence=min(verdict.confidence, 0.5),
+                reason=f"{b} explains the gap about as well as {va}, which had to be stretched to a "
+                "bound of its parameters to do so",
+            )
             break
     name = verdict.name
     if name not in (NOMINAL, "unexplained"):
@@ -1594,8 +1907,10 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         on_bound = [p for p, dct in vp.items() if dct.get("at_bound")]
         if on_bound and confidence > 0.5:
             confidence = 0.5
-            notes.append(f"{name}'s {', '.join(on_bound)} ended on {'its bound' if len(on_bound) == 1 else 'their bounds'}: "
-                         f"the effect is stretched to its limit and may stand for another one; confidence capped at 0.5")
+            notes.append(
+                f"{name}'s {', '.join(on_bound)} ended on {'its bound' if len(on_bound) == 1 else 'their bounds'}: "
+                f"the effect is stretched to its limit and may stand for another one; confidence capped at 0.5"
+            )
     if name not in (NOMINAL, "unexplained") and name in EFFECTS:
         # a resistance that grows with speed (or slip), fitted as one that FALLS with it, is not that effect:
         # it imitates another (with the rig's track speed fixed, -mu_v v = -mu_v u (1 - i) is a resistance
@@ -1606,33 +1921,53 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             for spec in EFFECTS[effect].params:
                 d = ps.get(spec.name, {})
                 v, se = d.get("value"), d.get("stderr")
-                if spec.physical_sign and v is not None and se is not None and math.isfinite(v) \
-                        and math.isfinite(se) and spec.physical_sign * v < -1.96 * se:
+                if (
+                    spec.physical_sign
+                    and v is not None
+                    and se is not None
+                    and math.isfinite(v)
+                    and math.isfinite(se)
+                    and spec.physical_sign * v < -1.96 * se
+                ):
                     out.append(f"{spec.name} = {v:.4g} +- {se:.2g}")
             return out
 
         wrong = wrong_sign(name)
         if wrong:
-            notes.append(f"{name} is fitted with the opposite sign to its meaning ({', '.join(wrong)}: "
-                         f"{EFFECTS[name].description.split(':')[0]} that falls instead): it imitates another effect"
-                         + ("; confidence capped at 0.5" if confidence > 0.5 else ""))
+            notes.append(
+                f"{name} is fitted with the opposite sign to its meaning ({', '.join(wrong)}: "
+                f"{EFFECTS[name].description.split(':')[0]} that falls instead): it imitates another effect"
+                + ("; confidence capped at 0.5" if confidence > 0.5 else "")
+            )
             confidence = min(confidence, 0.5)
             # a candidate that explains the held-out gap nearly as well with its parameters physical is named
             sh_v = next((e.shrink for e in ranking if e.effect == name), None)
             for e in sorted(ranking, key=lambda e: -e.weight):
                 if e.effect in (name, NOMINAL, DISCREPANCY) or e.effect not in EFFECTS or e.effect not in full_fits:
                     continue
-                if sh_v is None or e.shrink is None or not e.shrink >= max(0.5 * sh_v, sh_v - MIN_SHRINK) \
-                        or not e.shrink > 0 or wrong_sign(e.effect) or not usable(full_fits[e.effect]) \
-                        or any(d.get("at_bound") for d in e.parameters.values()):
+                if (
+                    sh_v is None
+                    or e.shrink is None
+                    or not e.shrink >= max(0.5 * sh_v, sh_v - MIN_SHRINK)
+                    or not e.shrink > 0
+                    or wrong_sign(e.effect)
+                    or not usable(full_fits[e.effect])
+                    or any(d.get("at_bound") for d in e.parameters.values())
+                ):
                     continue
-                notes.append(f"{e.effect} explains the held-out data nearly as well (shrink {e.shrink:.2f} against "
-                             f"{sh_v:.2f}) with its parameters of the physical sign: {e.effect} is named instead")
+                notes.append(
+                    f"{e.effect} explains the held-out data nearly as well (shrink {e.shrink:.2f} against "
+                    f"{sh_v:.2f}) with its parameters of the physical sign: {e.effect} is named instead"
+                )
                 w_v = next((x.weight for x in ranking if x.effect == name), 0.0)
                 c_new = min(0.5, e.weight / max(1.0 - w_v, 1e-12))  # its weight without the discredited verdict
-                verdict = replace(verdict, name=e.effect, confidence=c_new,
-                                  reason=f"{e.effect} explains the gap nearly as well as {name}, which needs the "
-                                         "opposite sign to its meaning to do so")
+                verdict = replace(
+                    verdict,
+                    name=e.effect,
+                    confidence=c_new,
+                    reason=f"{e.effect} explains the gap nearly as well as {name}, which needs the "
+                    "opposite sign to its meaning to do so",
+                )
                 name, confidence = e.effect, c_new
                 break
     if name not in (NOMINAL, "unexplained") and confidence > 0.5:
@@ -1641,63 +1976,90 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
             # weighed well on the data it was fitted to, but no better than the nominal model on the blocks
             # it did not see: an imitation, not a cause one can name with confidence
             confidence = 0.5
-            notes.append(f"{name} does not predict the held-out blocks better than the nominal model (shrink "
-                         f"{'n/a' if sh is None else f'{sh:.2f}'}): it is named with confidence 0.5 at most")
-    if name not in (NOMINAL, "unexplained") and name in full_fits and not usable(full_fits[name]) \
-            and confidence > 0.5:
+            notes.append(
+                f"{name} does not predict the held-out blocks better than the nominal model (shrink "
+                f"{'n/a' if sh is None else f'{sh:.2f}'}): it is named with confidence 0.5 at most"
+            )
+    if name not in (NOMINAL, "unexplained") and name in full_fits and not usable(full_fits[name]) and confidence > 0.5:
         # the verdict's own fit on all the data failed: its parameters are unknown, its weight rests on
         # the training fits alone
         confidence = 0.5
-        notes.append(f"{name}'s fit on all the data did not converge ({full_fits[name].status}): its parameters "
-                     "are not known; it is named with confidence 0.5 at most")
+        notes.append(
+            f"{name}'s fit on all the data did not converge ({full_fits[name].status}): its parameters "
+            "are not known; it is named with confidence 0.5 at most"
+        )
     arm_told = False
     if is_log and name == "radius_error" and name in full_fits and usable(full_fits[name]):
         # a scale error of the vehicle-speed sensor shifts the slip like a radius error but leaves the torque arm
         # alone: a thrust scale kappa fitted on top tells them apart (0 for a radius error, eps for the sensor)
         from .log_parts import torque_arm_check
+
         eps = _effect_params(full_fits[name], name).get("eps", {}).get("value")
         eps = math.nan if eps is None else float(eps)
         arm = torque_arm_check(full_fits[name], data, vehicle, eps) if math.isfinite(eps) else None
         if arm is not None:
             zc = math.sqrt(chi2_isf(alpha, 1))
-            what = (f"a thrust scale fitted on top of the radius error is kappa = {arm.kappa:.3g} +- {arm.stderr:.2g}, "
-                    f"where a radius error has 0 and a scale error of the vehicle-speed sensor has eps = {arm.eps:.3g}")
+            what = (
+                f"a thrust scale fitted on top of the radius error is kappa = {arm.kappa:.3g} +- {arm.stderr:.2g}, "
+                f"where a radius error has 0 and a scale error of the vehicle-speed sensor has eps = {arm.eps:.3g}"
+            )
             if arm.z_radius < zc <= arm.z_speed_scale:
                 arm_told = True
-                notes.append(f"the torque arm follows the slip offset ({what}): a radius error, not a scale error of "
-                             "the vehicle-speed sensor")
+                notes.append(
+                    f"the torque arm follows the slip offset ({what}): a radius error, not a scale error of "
+                    "the vehicle-speed sensor"
+                )
             elif arm.z_speed_scale < zc <= arm.z_radius:
                 arm_told = True
-                conf_u = 1.0 - chi2_sf(arm.z_radius ** 2, 1)
-                notes.append(f"the slip is offset as by a radius error but the torque arm does not follow ({what}): a "
-                             "scale error of the vehicle-speed sensor, which no library effect is; radius_error, "
-                             "in the ranking, repairs the slip and stands for it")
-                verdict = replace(verdict, name="unexplained", confidence=conf_u,
-                                  reason="the slip is offset as by a radius error, but the sprocket thrust is not "
-                                         "divided by the radius (a thrust scale fitted on top is "
-                                         f"{arm.z_radius:.1f} standard errors from a radius error's 0 and "
-                                         f"{arm.z_speed_scale:.1f} from a speed-sensor scale error's eps): a scale "
-                                         "error of the vehicle-speed sensor, outside the library")
+                conf_u = 1.0 - chi2_sf(arm.z_radius**2, 1)
+                notes.append(
+                    f"the slip is offset as by a radius error but the torque arm does not follow ({what}): a "
+                    "scale error of the vehicle-speed sensor, which no library effect is; radius_error, "
+                    "in the ranking, repairs the slip and stands for it"
+                )
+                verdict = replace(
+                    verdict,
+                    name="unexplained",
+                    confidence=conf_u,
+                    reason="the slip is offset as by a radius error, but the sprocket thrust is not "
+                    "divided by the radius (a thrust scale fitted on top is "
+                    f"{arm.z_radius:.1f} standard errors from a radius error's 0 and "
+                    f"{arm.z_speed_scale:.1f} from a speed-sensor scale error's eps): a scale "
+                    "error of the vehicle-speed sensor, outside the library",
+                )
                 name, confidence = "unexplained", conf_u
             elif arm.z_radius < zc and arm.z_speed_scale < zc:
-                notes.append(f"the torque arm cannot tell a radius error from a scale error of the vehicle-speed "
-                             f"sensor on these data ({what})" + ("; confidence capped at 0.5" if confidence > 0.5 else ""))
+                notes.append(
+                    f"the torque arm cannot tell a radius error from a scale error of the vehicle-speed "
+                    f"sensor on these data ({what})" + ("; confidence capped at 0.5" if confidence > 0.5 else "")
+                )
                 confidence = min(confidence, 0.5)
             else:
-                notes.append(f"the torque arm fits neither a radius error nor a scale error of the vehicle-speed "
-                             f"sensor ({what})")
+                notes.append(
+                    f"the torque arm fits neither a radius error nor a scale error of the vehicle-speed sensor ({what})"
+                )
     if name in LOOKALIKES and not arm_told:
         notes.append(f"{name} also stands for {LOOKALIKES[name]}: these data cannot tell them apart")
     for sat in find_saturation(data):
         # a clipped sensor is outside the library: a flexible effect may imitate the flattened curve
         capped = name not in (NOMINAL, "unexplained") and confidence > 0.5
-        notes.append(sat.describe() + (f"; {name} is named with confidence 0.5 at most" if capped else
-                                       "; it may be the gap" if name == "unexplained" else ""))
+        notes.append(
+            sat.describe()
+            + (
+                f"; {name} is named with confidence 0.5 at most"
+                if capped
+                else "; it may be the gap"
+                if name == "unexplained"
+                else ""
+            )
+        )
         if capped:
             confidence = 0.5
     if name not in (NOMINAL, "unexplained") and any(name in p for p, _, _ in conf):
-        notes.append(f"{name} is named with low certainty (confidence {confidence:.2f}): the data cannot tell it "
-                     "from " + ", ".join(x for p, _, _ in conf if name in p for x in p if x != name))
+        notes.append(
+            f"{name} is named with low certainty (confidence {confidence:.2f}): the data cannot tell it "
+            "from " + ", ".join(x for p, _, _ in conf if name in p for x in p if x != name)
+        )
     if is_log and torque_hold is None and name in HOLD_LOOKALIKES and confidence > 0.5:
         # the torque's hold was not given: a transducer's sampled torque taken as held reads as these effects
         hold_note = _torque_hold_note(data, vehicle, model, nominal_full, fit_options, alpha)
@@ -1718,32 +2080,53 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         gain, k_x = -math.inf, 0
         if name not in (NOMINAL, "unexplained") and fx is not None and usable(fx) and not _outside_practical(fx):
             try:
-                sig_w = {ch: np.where(np.isfinite(rw), _rms_per_dof(rw, len(_SOIL_KEYS)), np.nan)
-                         for ch, rw in wider.residuals.items()}
+                sig_w = {
+                    ch: np.where(np.isfinite(rw), _rms_per_dof(rw, len(_SOIL_KEYS)), np.nan)
+                    for ch, rw in wider.residuals.items()
+                }
                 k_x = len(fx.effect_labels) - len(fx.fixed_labels)
-                gain = _chi2_drop(R, _channels(fx, data), sig_w, is_log) - _chi2_drop(R, wider.residuals, sig_w,
-                                                                                       is_log)
+                gain = _chi2_drop(R, _channels(fx, data), sig_w, is_log) - _chi2_drop(R, wider.residuals, sig_w, is_log)
             except DataError:
                 pass
         if k_x > 0 and gain > chi2_isf(alpha, k_x):
             w_x = cv_weights({"wider soil": 0.0, name: 2.0 * k_x - gain})[name]  # Akaike weight against it
-            notes.append(wider.note + f"; {name} with the soil inside the range fits significantly better still "
-                         f"(chi-square {gain:.3g} lower, p = {chi2_sf(gain, k_x):.2g}; Akaike weight {w_x:.2f} against "
-                         "the wider soil), so the verdict stands" + (f" with confidence {w_x:.2f} at most"
-                                                                    if w_x < confidence else ""))
+            notes.append(
+                wider.note + f"; {name} with the soil inside the range fits significantly better still "
+                f"(chi-square {gain:.3g} lower, p = {chi2_sf(gain, k_x):.2g}; Akaike weight {w_x:.2f} against "
+                "the wider soil), so the verdict stands"
+                + (f" with confidence {w_x:.2f} at most" if w_x < confidence else "")
+            )
             confidence = min(confidence, w_x)
         else:
             say("the data want a soil outside the practical range: the diagnosis again with the bounds widened")
-            again = diagnose(data, vehicle, model=model, candidates=candidates, n_blocks=n_blocks, n_folds=n_folds,
-                             max_refits=max_refits, alpha=alpha, weigh_outside=weigh_outside, torque_hold=torque_hold,
-                             recheck_outliers=recheck_outliers, bounds=WIDE_BOUNDS, progress=progress)
+            again = diagnose(
+                data,
+                vehicle,
+                model=model,
+                candidates=candidates,
+                n_blocks=n_blocks,
+                n_folds=n_folds,
+                max_refits=max_refits,
+                alpha=alpha,
+                weigh_outside=weigh_outside,
+                torque_hold=torque_hold,
+                recheck_outliers=recheck_outliers,
+                bounds=WIDE_BOUNDS,
+                progress=progress,
+            )
             was = "no gap" if name == NOMINAL else f"the verdict was {name} (confidence {confidence:.2f})"
-            return replace(again, notes=(wider.note + f". This diagnosis is made with the widened bounds (with the "
-                                         f"practical ones {was}). A soil outside the practical range is unusual: "
-                                         "check the data (the slip's definition, the units, the vehicle's track "
-                                         "length) before trusting it; to keep the practical range, call diagnose "
-                                         "with bounds=PRACTICAL_BOUNDS (command line: --bounds practical)",)
-                           + tuple(again.notes), elapsed_s=time.perf_counter() - t0)
+            return replace(
+                again,
+                notes=(
+                    wider.note + f". This diagnosis is made with the widened bounds (with the "
+                    f"practical ones {was}). A soil outside the practical range is unusual: "
+                    "check the data (the slip's definition, the units, the vehicle's track "
+                    "length) before trusting it; to keep the practical range, call diagnose "
+                    "with bounds=PRACTICAL_BOUNDS (command line: --bounds practical)",
+                )
+                + tuple(again.notes),
+                elapsed_s=time.perf_counter() - t0,
+            )
     soil_before = _soil_summary(nominal_full)
     gap_shrink = None
     if name in full_fits:
@@ -1776,57 +2159,119 @@ def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, *, model: str = "full"
         except DataError:
             r_lone = R[channels[0]]
     if is_log or len(channels) == 1:
-        _note_lone_readings(data, vehicle, r_lone, notes, recheck_outliers and name in ("unexplained", NOMINAL),
-                            dict(model=model, candidates=candidates, n_blocks=n_blocks, n_folds=n_folds,
-                                 max_refits=max_refits, alpha=alpha, weigh_outside=weigh_outside,
-                                 torque_hold=torque_hold, bounds=fit_options["bounds"]))
+        _note_lone_readings(
+            data,
+            vehicle,
+            r_lone,
+            notes,
+            recheck_outliers and name in ("unexplained", NOMINAL),
+            dict(
+                model=model,
+                candidates=candidates,
+                n_blocks=n_blocks,
+                n_folds=n_folds,
+                max_refits=max_refits,
+                alpha=alpha,
+                weigh_outside=weigh_outside,
+                torque_hold=torque_hold,
+                bounds=fit_options["bounds"],
+            ),
+        )
     if is_log and change is not None and getattr(change, "significant", False) and hasattr(change, "evidence_start"):
         # the change of soil in time is where a drive log's gap lies: in the contract's localisation too
-        loc = sorted([*loc, _window_segment(change, R, sig_n, np.asarray(data.time, dtype=float))],
-                     key=lambda sg: -sg.share)
-    curves = {"held_x": {ch: xnat[mask[ch]] for ch in channels},
-              "before": {ch: cat(NOMINAL, ch) for ch in channels},
-              "after": {ch: cat(name if name in H else DISCREPANCY, ch) for ch in channels}
-              if name != NOMINAL else None,
-              "x_label": nat}
+        loc = sorted(
+            [*loc, _window_segment(change, R, sig_n, np.asarray(data.time, dtype=float))], key=lambda sg: -sg.share
+        )
+    curves = {
+        "held_x": {ch: xnat[mask[ch]] for ch in channels},
+        "before": {ch: cat(NOMINAL, ch) for ch in channels},
+        "after": {ch: cat(name if name in H else DISCREPANCY, ch) for ch in channels} if name != NOMINAL else None,
+        "x_label": nat,
+    }
     return Diagnosis(
-        data_kind="drive" if is_log else "sweep", n_samples=n, candidates=cands, verdict=name,
-        confidence=float(confidence), reason=verdict.reason, ranking=tuple(ranking), screens=tuple(screens),
-        confusable=tuple(conf), localisation=tuple(loc), change=change, whiteness=white, lags=lags, noise=noise,
-        holdout_rmse_before=before, holdout_rmse_after=after_rmse, shrink=shrink, soil_before=soil_before,
-        soil_after=soil_after if name not in (NOMINAL, "unexplained") else None, gap_p_value=gap_p,
-        converged=converged, notes=tuple(notes), elapsed_s=time.perf_counter() - t0, curves=curves,
-        gap_shrink=gap_shrink)
+        data_kind="drive" if is_log else "sweep",
+        n_samples=n,
+        candidates=cands,
+        verdict=name,
+        confidence=float(confidence),
+        reason=verdict.reason,
+        ranking=tuple(ranking),
+        screens=tuple(screens),
+        confusable=tuple(conf),
+        localisation=tuple(loc),
+        change=change,
+        whiteness=white,
+        lags=lags,
+        noise=noise,
+        holdout_rmse_before=before,
+        holdout_rmse_after=after_rmse,
+        shrink=shrink,
+        soil_before=soil_before,
+        soil_after=soil_after if name not in (NOMINAL, "unexplained") else None,
+        gap_p_value=gap_p,
+        converged=converged,
+        notes=tuple(notes),
+        elapsed_s=time.perf_counter() - t0,
+        curves=curves,
+        gap_shrink=gap_shrink,
+    )
 
 
-def _too_few(data, vehicle: Vehicle, model: str, cands: tuple[str, ...], is_log: bool, t0: float,
-             fit_options: dict | None = None) -> Diagnosis:
+def _too_few(
+    data, vehicle: Vehicle, model: str, cands: tuple[str, ...], is_log: bool, t0: float, fit_options: dict | None = None
+) -> Diagnosis:
     """A diagnosis of data too small for a hold-out: the fit, its residuals, and what cannot be said."""
     res, screens = screen(data, vehicle, cands, model=model, hac_lag=None if is_log else 0, fit_options=fit_options)
     try:
         rr = _channels(res, data) if res.success else {}
     except DataError:
         rr = {}
-    rms = {ch: float(np.sqrt(np.mean(v ** 2))) for ch, v in rr.items()}
+    rms = {ch: float(np.sqrt(np.mean(v**2))) for ch, v in rr.items()}
     n = data.n_samples
     rel = ""
     if not is_log and rr:
-        scale = float(np.sqrt(np.mean(np.asarray(data.tractive_force if hasattr(data, "tractive_force")
-                                                 else data.values, dtype=float) ** 2)))
+        scale = float(
+            np.sqrt(
+                np.mean(
+                    np.asarray(data.tractive_force if hasattr(data, "tractive_force") else data.values, dtype=float)
+                    ** 2
+                )
+            )
+        )
         rel = f" ({100 * next(iter(rms.values())) / scale:.2g} % of the measured force)" if scale > 0 else ""
-    reason = (f"{n} samples cannot show a gap: no block can be held out (a diagnosis needs at least "
-              f"{MIN_SAMPLES}), the noise cannot be estimated apart from the misfit, and with "
-              f"{min(n, 3)} soil directions fitted to {n} points almost nothing is left to test an effect; "
-              f"the in-sample RMS residual is {', '.join(_fmt(v) for v in rms.values()) or 'n/a'}{rel}. "
-              "'none' here means 'no evidence either way' (confidence 0), not 'no gap'")
+    reason = (
+        f"{n} samples cannot show a gap: no block can be held out (a diagnosis needs at least "
+        f"{MIN_SAMPLES}), the noise cannot be estimated apart from the misfit, and with "
+        f"{min(n, 3)} soil directions fitted to {n} points almost nothing is left to test an effect; "
+        f"the in-sample RMS residual is {', '.join(_fmt(v) for v in rms.values()) or 'n/a'}{rel}. "
+        "'none' here means 'no evidence either way' (confidence 0), not 'no gap'"
+    )
     return Diagnosis(
-        data_kind="drive" if is_log else "sweep", n_samples=n, candidates=cands, verdict=NOMINAL, confidence=0.0,
-        reason=reason, ranking=(RankEntry(NOMINAL, 1.0, rms, rms, None, {}, None, bool(res.success)),),
-        screens=tuple(screens), confusable=(), localisation=(), change=None, whiteness={}, lags={},
-        noise={ch: 0.0 for ch in rms}, holdout_rmse_before=rms, holdout_rmse_after=None, shrink=None,
-        soil_before=_soil_summary(res), soil_after=None, gap_p_value=1.0, converged=bool(res.success),
+        data_kind="drive" if is_log else "sweep",
+        n_samples=n,
+        candidates=cands,
+        verdict=NOMINAL,
+        confidence=0.0,
+        reason=reason,
+        ranking=(RankEntry(NOMINAL, 1.0, rms, rms, None, {}, None, bool(res.success)),),
+        screens=tuple(screens),
+        confusable=(),
+        localisation=(),
+        change=None,
+        whiteness={},
+        lags={},
+        noise={ch: 0.0 for ch in rms},
+        holdout_rmse_before=rms,
+        holdout_rmse_after=None,
+        shrink=None,
+        soil_before=_soil_summary(res),
+        soil_after=None,
+        gap_p_value=1.0,
+        converged=bool(res.success),
         notes=(f"only {n} samples: the 'held-out' errors are in-sample residuals",),
-        elapsed_s=time.perf_counter() - t0, curves={})
+        elapsed_s=time.perf_counter() - t0,
+        curves={},
+    )
 
 
 def _inconsistent(data, cands, report: ConsistencyReport, is_log: bool, t0: float) -> Diagnosis:
@@ -1834,14 +2279,36 @@ def _inconsistent(data, cands, report: ConsistencyReport, is_log: bool, t0: floa
     diagnosed: no gap can be read against a model of the wrong data (verdict ``unexplained``,
     confidence 0, not converged, the checks in the notes)."""
     fatal = [f for f in report.findings if f.severity == "fatal"]
-    reason = ("the data fail the consistency checks (" + ", ".join(f.check for f in fatal) + "): a channel's "
-              "label or unit does not match the vehicle; no gap is read against a model of the wrong data")
+    reason = (
+        "the data fail the consistency checks (" + ", ".join(f.check for f in fatal) + "): a channel's "
+        "label or unit does not match the vehicle; no gap is read against a model of the wrong data"
+    )
     return Diagnosis(
-        data_kind="drive" if is_log else "sweep", n_samples=data.n_samples, candidates=cands, verdict="unexplained",
-        confidence=0.0, reason=reason, ranking=(), screens=(), confusable=(), localisation=(),
-        change=None, whiteness={}, lags={}, noise={}, holdout_rmse_before={}, holdout_rmse_after=None, shrink=None,
-        soil_before={}, soil_after=None, gap_p_value=1.0, converged=False,
-        notes=(reason,) + tuple(f.message for f in fatal), elapsed_s=time.perf_counter() - t0, curves={})
+        data_kind="drive" if is_log else "sweep",
+        n_samples=data.n_samples,
+        candidates=cands,
+        verdict="unexplained",
+        confidence=0.0,
+        reason=reason,
+        ranking=(),
+        screens=(),
+        confusable=(),
+        localisation=(),
+        change=None,
+        whiteness={},
+        lags={},
+        noise={},
+        holdout_rmse_before={},
+        holdout_rmse_after=None,
+        shrink=None,
+        soil_before={},
+        soil_after=None,
+        gap_p_value=1.0,
+        converged=False,
+        notes=(reason,) + tuple(f.message for f in fatal),
+        elapsed_s=time.perf_counter() - t0,
+        curves={},
+    )
 
 
 class _NominalFailed(Exception):
@@ -1852,11 +2319,33 @@ class _NominalFailed(Exception):
 
 def _nominal_failed(data, cands, screens, res, where: str, is_log: bool, t0: float) -> Diagnosis:
     """No diagnosis without a nominal fit: say so (verdict ``unexplained``, confidence 0, not converged)."""
-    reason = (f"the nominal model could not be fitted {where} ({getattr(res, 'status', 'failed')}: "
-              f"{getattr(res, 'message', '')}); without it there is no gap to explain")
+    reason = (
+        f"the nominal model could not be fitted {where} ({getattr(res, 'status', 'failed')}: "
+        f"{getattr(res, 'message', '')}); without it there is no gap to explain"
+    )
     return Diagnosis(
-        data_kind="drive" if is_log else "sweep", n_samples=data.n_samples, candidates=cands, verdict="unexplained",
-        confidence=0.0, reason=reason, ranking=(), screens=tuple(screens), confusable=(), localisation=(),
-        change=None, whiteness={}, lags={}, noise={}, holdout_rmse_before={}, holdout_rmse_after=None, shrink=None,
-        soil_before=_soil_summary(res), soil_after=None, gap_p_value=1.0, converged=False, notes=(reason,),
-        elapsed_s=time.perf_counter() - t0, curves={})
+        data_kind="drive" if is_log else "sweep",
+        n_samples=data.n_samples,
+        candidates=cands,
+        verdict="unexplained",
+        confidence=0.0,
+        reason=reason,
+        ranking=(),
+        screens=tuple(screens),
+        confusable=(),
+        localisation=(),
+        change=None,
+        whiteness={},
+        lags={},
+        noise={},
+        holdout_rmse_before={},
+        holdout_rmse_after=None,
+        shrink=None,
+        soil_before=_soil_summary(res),
+        soil_after=None,
+        gap_p_value=1.0,
+        converged=False,
+        notes=(reason,),
+        elapsed_s=time.perf_counter() - t0,
+        curves={},
+    )

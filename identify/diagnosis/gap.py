@@ -16,6 +16,7 @@ Pure numpy on residual arrays (measured minus predicted); no model and no fit in
   lag points to a delay between channels.
 - :func:`chi2_sf`: chi-squared survival function (no scipy at run time).
 """
+
 from __future__ import annotations
 
 import math
@@ -26,8 +27,23 @@ import numpy as np
 
 from ..estimates.distributions import chi2_isf, chi2_sf  # re-exported (their home is .stats)
 
-__all__ = ["blocked_folds", "noise_floor", "noise_profile", "long_run_factor", "Segment", "localise", "ChangeWindow",
-           "change_window", "whiteness", "lag_peak", "chi2_sf", "chi2_isf", "isolated_outliers", "OUTLIER_Z", "range_share"]
+__all__ = [
+    "blocked_folds",
+    "noise_floor",
+    "noise_profile",
+    "long_run_factor",
+    "Segment",
+    "localise",
+    "ChangeWindow",
+    "change_window",
+    "whiteness",
+    "lag_peak",
+    "chi2_sf",
+    "chi2_isf",
+    "isolated_outliers",
+    "OUTLIER_Z",
+    "range_share",
+]
 
 _MAD_TO_SIGMA = 1.4826
 
@@ -78,7 +94,7 @@ def noise_floor(residuals: np.ndarray, order: np.ndarray | None = None) -> float
     mad = _MAD_TO_SIGMA * float(np.median(np.abs(d - med)))
     if mad > 0:
         d = np.clip(d, med - 5 * mad, med + 5 * mad)
-    return float(np.sqrt(np.mean(d ** 2) / 6.0))
+    return float(np.sqrt(np.mean(d**2) / 6.0))
 
 
 def noise_profile(residuals: np.ndarray, order: np.ndarray | None = None, window: int | None = None) -> np.ndarray:
@@ -109,7 +125,7 @@ def noise_profile(residuals: np.ndarray, order: np.ndarray | None = None, window
     mad = _MAD_TO_SIGMA * float(np.median(np.abs(d - med)))
     if mad > 0:
         d = np.clip(d, med - 8 * mad, med + 8 * mad)
-    d2[1:-1] = d ** 2 / 6.0
+    d2[1:-1] = d**2 / 6.0
     d2[0], d2[-1] = d2[1], d2[-2]
     w = int(window if window is not None else max(7, n // 10))
     w = max(1, min(w, n))
@@ -164,9 +180,14 @@ def _local_medians(d: np.ndarray, n: int, half: int, split_sides: bool) -> np.nd
     return np.where(np.isnan(out), 0.0, out)
 
 
-def isolated_outliers(residuals: np.ndarray, x: np.ndarray, z_min: float = OUTLIER_Z,
-                      window: int | None = None, split_sides: bool = False,
-                      trend: bool = False) -> list[tuple[int, float]]:
+def isolated_outliers(
+    residuals: np.ndarray,
+    x: np.ndarray,
+    z_min: float = OUTLIER_Z,
+    window: int | None = None,
+    split_sides: bool = False,
+    trend: bool = False,
+) -> list[tuple[int, float]]:
     """Lone readings far off their neighbours: a glitch, not a trend an effect could explain.
 
     In the order of ``x`` (slip or time), each reading is compared with the mean of its two
@@ -207,7 +228,7 @@ def isolated_outliers(residuals: np.ndarray, x: np.ndarray, z_min: float = OUTLI
     glob = _MAD_TO_SIGMA * float(np.median(d)) / math.sqrt(6.0)
     half = max(3, w // 2)
     sig = np.maximum(glob, _MAD_TO_SIGMA * _local_medians(d, n, half, split_sides) / math.sqrt(6.0))
-    sig[:2] = sig[n - 2:] = 0.0
+    sig[:2] = sig[n - 2 :] = 0.0
     # the reading against the mean of its two neighbours on each side, the nearer of the two: a glitch is far
     # from both, a reading at the edge of a step is near one of them (each difference has variance 1.5 sigma^2)
     z = np.zeros(n)
@@ -220,14 +241,18 @@ def isolated_outliers(residuals: np.ndarray, x: np.ndarray, z_min: float = OUTLI
     pos = sig[k] > 0
     z[k[pos]] = e[pos] / (sig[k[pos]] * math.sqrt(6.0 if trend else 1.5))
     cand = np.abs(z) > z_min
+
     # and the signal continues across it: its two neighbours agree within the noise (not a pair, not a step)
     def continues(k: int) -> bool:
         if trend:
             return abs((rs[k + 1] - rs[k - 1]) - 0.5 * (rs[k + 2] - rs[k - 2])) < 3.0 * math.sqrt(2.5) * sig[k]
         return abs(rs[k + 1] - rs[k - 1]) < 3.0 * math.sqrt(2.0) * sig[k]
 
-    hits = [k for k in range(2, n - 2) if cand[k] and not np.any(cand[max(0, k - 3):k]) and not np.any(cand[k + 1:k + 4])
-            and continues(k)]
+    hits = [
+        k
+        for k in range(2, n - 2)
+        if cand[k] and not np.any(cand[max(0, k - 3) : k]) and not np.any(cand[k + 1 : k + 4]) and continues(k)
+    ]
     if len(hits) > max(1, n // 10):
         return []
     return sorted(((int(order[k]), float(z[k])) for k in hits), key=lambda t: -abs(t[1]))
@@ -291,10 +316,16 @@ class Segment:
 
     def to_dict(self) -> dict:
         """The JSON entry of docs/data-formats.md."""
-        return {"dimension": self.dimension, "range": None if self.range is None else [float(self.range[0]),
-                                                                                       float(self.range[1])],
-                "channel": self.channel, "share": float(self.share), "significant": bool(self.significant),
-                "mean": float(self.mean), "rms": float(self.rms), "n": int(self.n)}
+        return {
+            "dimension": self.dimension,
+            "range": None if self.range is None else [float(self.range[0]), float(self.range[1])],
+            "channel": self.channel,
+            "share": float(self.share),
+            "significant": bool(self.significant),
+            "mean": float(self.mean),
+            "rms": float(self.rms),
+            "n": int(self.n),
+        }
 
 
 def _excess(z: np.ndarray, inflation: float, alpha: float) -> tuple[float, bool]:
@@ -327,8 +358,9 @@ def _bins(x: np.ndarray, n_bins: int) -> list[np.ndarray]:
     return [c for c in np.array_split(order, min(n_bins, max(1, x.size // 3))) if c.size]
 
 
-def range_share(residuals: dict[str, np.ndarray], sigma: dict, x: np.ndarray, lo: float, hi: float,
-                n_bins: int = 6) -> tuple[str, float]:
+def range_share(
+    residuals: dict[str, np.ndarray], sigma: dict, x: np.ndarray, lo: float, hi: float, n_bins: int = 6
+) -> tuple[str, float]:
     """The channel with the most misfit above the noise in ``lo <= x <= hi``, and its share of it.
 
     On the scale of :func:`localise`'s segments of the variable ``x``: the misfit above the noise in
@@ -344,8 +376,13 @@ def range_share(residuals: dict[str, np.ndarray], sigma: dict, x: np.ndarray, lo
     return ch, (min(1.0, ex[ch] / total) if total > 0 else 0.0)
 
 
-def localise(residuals: dict[str, np.ndarray], sigma: dict[str, float], variables: dict[str, np.ndarray],
-             n_bins: int = 6, alpha: float = 0.01) -> list[Segment]:
+def localise(
+    residuals: dict[str, np.ndarray],
+    sigma: dict[str, float],
+    variables: dict[str, np.ndarray],
+    n_bins: int = 6,
+    alpha: float = 0.01,
+) -> list[Segment]:
     """Share and significance of the misfit by channel and by range of each variable.
 
     Parameters
@@ -374,8 +411,18 @@ def localise(residuals: dict[str, np.ndarray], sigma: dict[str, float], variable
     tot = sum(e for e, _ in ex.values())
     for ch, (e, sig) in ex.items():
         r = np.asarray(residuals[ch], dtype=float)
-        out.append(Segment("channel", None, ch, e / tot if tot > 0 else 0.0, sig, float(np.mean(r)),
-                           float(np.sqrt(np.mean(r ** 2))), int(r.size)))
+        out.append(
+            Segment(
+                "channel",
+                None,
+                ch,
+                e / tot if tot > 0 else 0.0,
+                sig,
+                float(np.mean(r)),
+                float(np.sqrt(np.mean(r**2))),
+                int(r.size),
+            )
+        )
     # by range of each variable, in every channel
     for dim, x in variables.items():
         x = np.asarray(x, dtype=float)
@@ -385,12 +432,35 @@ def localise(residuals: dict[str, np.ndarray], sigma: dict[str, float], variable
             r = np.asarray(residuals[ch], dtype=float)
             for c in chunks:
                 e, sig = _excess(z[c], infl[ch], alpha / (len(chunks) * len(z_all)))
-                segs.append((e, Segment(dim, (float(x[c].min()), float(x[c].max())), ch, 0.0, sig,
-                                        float(np.mean(r[c])), float(np.sqrt(np.mean(r[c] ** 2))), int(c.size))))
+                segs.append(
+                    (
+                        e,
+                        Segment(
+                            dim,
+                            (float(x[c].min()), float(x[c].max())),
+                            ch,
+                            0.0,
+                            sig,
+                            float(np.mean(r[c])),
+                            float(np.sqrt(np.mean(r[c] ** 2))),
+                            int(c.size),
+                        ),
+                    )
+                )
         tot = sum(e for e, _ in segs)
         for e, sg in segs:
-            out.append(Segment(sg.dimension, sg.range, sg.channel, e / tot if tot > 0 else 0.0, sg.significant,
-                               sg.mean, sg.rms, sg.n))
+            out.append(
+                Segment(
+                    sg.dimension,
+                    sg.range,
+                    sg.channel,
+                    e / tot if tot > 0 else 0.0,
+                    sg.significant,
+                    sg.mean,
+                    sg.rms,
+                    sg.n,
+                )
+            )
     out.sort(key=lambda s: -s.share)
     return out
 
@@ -422,13 +492,20 @@ class ChangeWindow:
 
     def to_dict(self) -> dict:
         """JSON-friendly dict."""
-        return {"channel": self.channel, "start": float(self.start), "end": float(self.end),
-                "shift": float(self.shift), "statistic": float(self.statistic), "p_value": float(self.p_value),
-                "significant": bool(self.significant)}
+        return {
+            "channel": self.channel,
+            "start": float(self.start),
+            "end": float(self.end),
+            "shift": float(self.shift),
+            "statistic": float(self.statistic),
+            "p_value": float(self.p_value),
+            "significant": bool(self.significant),
+        }
 
 
-def change_window(residuals: np.ndarray, x: np.ndarray, sigma: float, channel: str = "",
-                  n_cells: int = 100, alpha: float = 0.01) -> ChangeWindow | None:
+def change_window(
+    residuals: np.ndarray, x: np.ndarray, sigma: float, channel: str = "", n_cells: int = 100, alpha: float = 0.01
+) -> ChangeWindow | None:
     """Find the window ``[start, end]`` of ``x`` where the residual mean shifts most (two change points).
 
     The series is pooled into ``n_cells`` consecutive cells; every window of whole cells (not
@@ -458,7 +535,7 @@ def change_window(residuals: np.ndarray, x: np.ndarray, sigma: float, channel: s
     s_in = S[b_idx] - S[a_idx]
     n_out = n - n_in
     shift = s_in / n_in - (S[-1] - s_in) / n_out
-    z2 = shift ** 2 / (1.0 / n_in + 1.0 / n_out)
+    z2 = shift**2 / (1.0 / n_in + 1.0 / n_out)
     k = int(np.argmax(z2))
     a, b = int(a_idx[k]), int(b_idx[k])
     inside = np.concatenate([cells[j] for j in range(a, b)])
@@ -468,8 +545,7 @@ def change_window(residuals: np.ndarray, x: np.ndarray, sigma: float, channel: s
     stat = float(z2[k]) / infl
     p = min(1.0, chi2_sf(stat, 1) * a_idx.size)
     raw_shift = float(np.mean(raw[inside]) - np.mean(raw[mask]))
-    return ChangeWindow(channel, float(x[inside].min()), float(x[inside].max()), raw_shift, stat, p,
-                        bool(p < alpha))
+    return ChangeWindow(channel, float(x[inside].min()), float(x[inside].max()), raw_shift, stat, p, bool(p < alpha))
 
 
 # ----------------------------------------------------------------------------- whiteness and lags
@@ -486,7 +562,7 @@ def whiteness(residuals: np.ndarray, max_lag: int = 20) -> dict:
     if n < 6 or den <= 0:
         return {"lag1": 0.0, "q": 0.0, "lags": L, "p_value": 1.0, "white": True}
     rho = np.array([float(r[k:] @ r[:-k]) / den for k in range(1, L + 1)])
-    q = float(n * (n + 2) * np.sum(rho ** 2 / (n - np.arange(1, L + 1))))
+    q = float(n * (n + 2) * np.sum(rho**2 / (n - np.arange(1, L + 1))))
     p = chi2_sf(q, L)
     return {"lag1": float(rho[0]), "q": q, "lags": L, "p_value": p, "white": bool(p >= 0.01)}
 
@@ -512,8 +588,8 @@ def lag_peak(residuals: np.ndarray, signal: np.ndarray, max_lag: int = 25) -> di
     cc = {}
     for k in range(-L, L + 1):
         if k >= 0:
-            cc[k] = float(r[k:] @ s[:n - k]) / den
+            cc[k] = float(r[k:] @ s[: n - k]) / den
         else:
-            cc[k] = float(r[:n + k] @ s[-k:]) / den
+            cc[k] = float(r[: n + k] @ s[-k:]) / den
     kbest = max(cc, key=lambda k: abs(cc[k]))
     return {"lag": int(kbest), "corr": cc[kbest], "corr_at_0": cc[0], "bound": 2.58 / math.sqrt(n)}

@@ -29,6 +29,7 @@ named as one (docs/physics.md, "Unmodelled effects"; :func:`~.diagnosis.diagnose
 
 Pure numpy on the fit's residuals and sensitivities; no physics here.
 """
+
 from __future__ import annotations
 
 import math
@@ -41,8 +42,17 @@ from .gap import long_run_factor
 from ..estimates.distributions import chi2_isf, chi2_sf
 from .screening import newey_west_lag
 
-__all__ = ["TerrainWindow", "terrain_window", "delay_scan", "delay_holdout", "DelayCheck", "delay_check",
-           "review_drive_log", "shift_speed", "refine_delay"]
+__all__ = [
+    "TerrainWindow",
+    "terrain_window",
+    "delay_scan",
+    "delay_holdout",
+    "DelayCheck",
+    "delay_check",
+    "review_drive_log",
+    "shift_speed",
+    "refine_delay",
+]
 
 
 @dataclass(frozen=True)
@@ -87,23 +97,36 @@ class TerrainWindow:
 
     def to_dict(self) -> dict:
         """JSON-friendly dict (the ``change_window`` entry of a drive-log diagnosis)."""
-        f = (lambda x: float(x) if math.isfinite(x) else None)
-        return {"channel": self.channel, "start": float(self.start), "end": float(self.end),
-                "evidence_start": float(self.evidence_start), "evidence_end": float(self.evidence_end),
-                "shift": f(self.fmax_change), "fmax_change": f(self.fmax_change), "k_change": f(self.k_change),
-                "statistic": float(self.statistic), "dof": int(self.dof), "p_value": float(self.p_value),
-                "significant": bool(self.significant)}
+        f = lambda x: float(x) if math.isfinite(x) else None
+        return {
+            "channel": self.channel,
+            "start": float(self.start),
+            "end": float(self.end),
+            "evidence_start": float(self.evidence_start),
+            "evidence_end": float(self.evidence_end),
+            "shift": f(self.fmax_change),
+            "fmax_change": f(self.fmax_change),
+            "k_change": f(self.k_change),
+            "statistic": float(self.statistic),
+            "dof": int(self.dof),
+            "p_value": float(self.p_value),
+            "significant": bool(self.significant),
+        }
 
     def describe(self) -> str:
         """One line for the report."""
         if not self.significant:
-            return (f"no significant change of soil in time (strongest window {self.evidence_start:.4g} to "
-                    f"{self.evidence_end:.4g} s, p = {self.p_value:.2g})")
+            return (
+                f"no significant change of soil in time (strongest window {self.evidence_start:.4g} to "
+                f"{self.evidence_end:.4g} s, p = {self.p_value:.2g})"
+            )
         how = ", ".join(f"{name} {_pct(x)}" for name, x in (("thrust limit", self.fmax_change), ("K", self.k_change)))
-        return (f"the soil differs from the rest of the run within {self.start:.4g} to {self.end:.4g} s: it shows "
-                f"between {self.evidence_start:.4g} and {self.evidence_end:.4g} s (linearised change there: {how}; "
-                f"p = {self.p_value:.2g}); the samples outside that but inside the bracket carry too little "
-                f"information about the soil (little thrust) to place the boundaries closer")
+        return (
+            f"the soil differs from the rest of the run within {self.start:.4g} to {self.end:.4g} s: it shows "
+            f"between {self.evidence_start:.4g} and {self.evidence_end:.4g} s (linearised change there: {how}; "
+            f"p = {self.p_value:.2g}); the samples outside that but inside the bracket carry too little "
+            f"information about the soil (little thrust) to place the boundaries closer"
+        )
 
 
 def _pct(x: float) -> str:
@@ -122,11 +145,18 @@ def _pinv_quad(S: np.ndarray, V: np.ndarray, atol: float = 1e-8) -> tuple[float,
         return 0.0, 0
     keep = w > atol
     y = U[:, keep].T @ S
-    return float(np.sum(y ** 2 / w[keep])), int(np.count_nonzero(keep))
+    return float(np.sum(y**2 / w[keep])), int(np.count_nonzero(keep))
 
 
-def terrain_window(residuals: np.ndarray, jacobian: np.ndarray, time_s: np.ndarray, scale=(1.0, 1.0),
-                   n_cells: int = 60, alpha: float = 0.01, min_info: float = 1e-3) -> TerrainWindow | None:
+def terrain_window(
+    residuals: np.ndarray,
+    jacobian: np.ndarray,
+    time_s: np.ndarray,
+    scale=(1.0, 1.0),
+    n_cells: int = 60,
+    alpha: float = 0.01,
+    min_info: float = 1e-3,
+) -> TerrainWindow | None:
     """Find the time window in which the soil differs (see the module docstring).
 
     Parameters
@@ -158,11 +188,11 @@ def terrain_window(residuals: np.ndarray, jacobian: np.ndarray, time_s: np.ndarr
     n = e.shape[0]
     if n < 24:
         return None
-    g = np.einsum("kcp,kc->kp", J, e)                 # per-sample scores (n, 2)
-    info = np.einsum("kcp,kcq->kpq", J, J)            # per-sample information (n, 2, 2)
+    g = np.einsum("kcp,kc->kp", J, e)  # per-sample scores (n, 2)
+    info = np.einsum("kcp,kcq->kpq", J, J)  # per-sample information (n, 2, 2)
     cells = np.array_split(np.arange(n), min(n_cells, n // 4))
     m = len(cells)
-    G = np.array([g[c].sum(axis=0) for c in cells])   # (m, 2)
+    G = np.array([g[c].sum(axis=0) for c in cells])  # (m, 2)
     I = np.array([info[c].sum(axis=0) for c in cells])
     I_all = I.sum(axis=0)
     if not np.all(np.isfinite(I_all)) or np.max(np.abs(I_all)) <= 0:
@@ -219,13 +249,23 @@ def terrain_window(residuals: np.ndarray, jacobian: np.ndarray, time_s: np.ndarr
     # the soil change inside the evidence window (one Gauss-Newton step of a separate soil there)
     Vk = Vin[k] - Vin[k] @ Ia @ Vin[k]
     delta = -np.linalg.pinv(Vk) @ S[k] / np.asarray(scale, dtype=float)
-    return TerrainWindow(start=float(t[lo]), end=float(t[hi]), evidence_start=float(t[cells[a][0]]),
-                         evidence_end=float(t[cells[b - 1][-1]]), statistic=stat, dof=dof, p_value=p,
-                         significant=bool(p < alpha), fmax_change=float(delta[0]), k_change=float(delta[1]))
+    return TerrainWindow(
+        start=float(t[lo]),
+        end=float(t[hi]),
+        evidence_start=float(t[cells[a][0]]),
+        evidence_end=float(t[cells[b - 1][-1]]),
+        statistic=stat,
+        dof=dof,
+        p_value=p,
+        significant=bool(p < alpha),
+        fmax_change=float(delta[0]),
+        k_change=float(delta[1]),
+    )
 
 
-def delay_scan(residual: np.ndarray, sprocket_speed: np.ndarray, max_lag: int = 25,
-               idx: np.ndarray | None = None) -> dict:
+def delay_scan(
+    residual: np.ndarray, sprocket_speed: np.ndarray, max_lag: int = 25, idx: np.ndarray | None = None
+) -> dict:
     """Regress the speed-channel residual on ``w(t) - w(t - k)`` for each lag ``k`` (module docstring).
 
     Parameters
@@ -306,8 +346,14 @@ def _lag_matrix(w: np.ndarray, idx: np.ndarray, lags: list[int]) -> tuple[np.nda
     return X, idx
 
 
-def delay_holdout(residual_train: np.ndarray, residual_held: np.ndarray, sprocket_speed: np.ndarray,
-                  train: np.ndarray, test: np.ndarray, max_lag: int = 25) -> tuple[np.ndarray, dict]:
+def delay_holdout(
+    residual_train: np.ndarray,
+    residual_held: np.ndarray,
+    sprocket_speed: np.ndarray,
+    train: np.ndarray,
+    test: np.ndarray,
+    max_lag: int = 25,
+) -> tuple[np.ndarray, dict]:
     """The delay term fitted on the training samples, subtracted from the held-out residuals.
 
     The term is a distributed lag: the speed residual regressed jointly on the sprocket-speed
@@ -372,15 +418,30 @@ class DelayCheck:
     def summary(self) -> dict:
         """JSON-friendly summary (the ``lags`` entry of a drive-log diagnosis)."""
         s = self.scan
-        return {"lag": int(s["lag"]), "seconds": float(s.get("seconds", 0.0)), "t_stat": float(s["t_stat"]),
-                "p_value": float(s["p_value"]), "coef": float(s["coef"]), "r2": float(s["r2"]),
-                "holdout_gain": float(self.gain) if math.isfinite(self.gain) else None,
-                "significant": bool(self.significant)}
+        return {
+            "lag": int(s["lag"]),
+            "seconds": float(s.get("seconds", 0.0)),
+            "t_stat": float(s["t_stat"]),
+            "p_value": float(s["p_value"]),
+            "coef": float(s["coef"]),
+            "r2": float(s["r2"]),
+            "holdout_gain": float(self.gain) if math.isfinite(self.gain) else None,
+            "significant": bool(self.significant),
+        }
 
 
-def delay_check(train_residual: np.ndarray, held_residual: np.ndarray, sigma: np.ndarray, mask: np.ndarray,
-                sprocket_speed: np.ndarray, time_s: np.ndarray, train: np.ndarray, test: np.ndarray,
-                dm_lag: int, alpha: float = 0.01) -> DelayCheck:
+def delay_check(
+    train_residual: np.ndarray,
+    held_residual: np.ndarray,
+    sigma: np.ndarray,
+    mask: np.ndarray,
+    sprocket_speed: np.ndarray,
+    time_s: np.ndarray,
+    train: np.ndarray,
+    test: np.ndarray,
+    dm_lag: int,
+    alpha: float = 0.01,
+) -> DelayCheck:
     """Fit the delay term on the training part, score it on the held-out part (speed channel).
 
     ``train_residual`` / ``held_residual``: the nominal model's speed-channel residuals at every sample
@@ -418,16 +479,35 @@ def shift_speed(data, k: int):
         vs = np.concatenate([np.full(-k, v[0]), v[:k]])
     else:
         vs = v.copy()
-    return DriveLog(data.time, data.sprocket_torque, data.sprocket_speed, vs, data.vehicle_accel,
-                    source=f"{data.source} (vehicle speed shifted {k} samples)")
+    return DriveLog(
+        data.time,
+        data.sprocket_torque,
+        data.sprocket_speed,
+        vs,
+        data.vehicle_accel,
+        source=f"{data.source} (vehicle speed shifted {k} samples)",
+    )
 
 
 #: The speed channel of a drive-log fit's residuals (:data:`~.drivelog_joint.CHANNELS`).
 SPEED_CHANNEL = "sprocket_speed_rad_s"
 
 
-def review_drive_log(verdict, data, vehicle, nominal, H: dict, sigma: dict, mask: dict, folds, train_res: dict,
-                     scores: dict, dm_lag: int, alpha: float = 0.01, alternatives=()):
+def review_drive_log(
+    verdict,
+    data,
+    vehicle,
+    nominal,
+    H: dict,
+    sigma: dict,
+    mask: dict,
+    folds,
+    train_res: dict,
+    scores: dict,
+    dm_lag: int,
+    alpha: float = 0.01,
+    alternatives=(),
+):
     """The drive-log checks of :func:`~.diagnosis.diagnose` after the held-out comparison.
 
     1. The change of terrain in time (:func:`terrain_window` on the nominal fit's per-sample scores).
@@ -487,29 +567,39 @@ def review_drive_log(verdict, data, vehicle, nominal, H: dict, sigma: dict, mask
         check = DelayCheck(dict(check.scan, lag=int(k), seconds=k * h, fir_gain=check.gain), k != 0, exact)
         lags["delay scan: speed residual vs sprocket-speed change over k samples"] = check.summary()
     if check is not None and check.significant and check.gain > 0:
-        lag_txt = (f"{abs(check.scan['lag'])} samples ({abs(check.scan['seconds']):.3g} s)")
+        lag_txt = f"{abs(check.scan['lag'])} samples ({abs(check.scan['seconds']):.3g} s)"
         late = "late" if check.scan["lag"] > 0 else "early"
         if name not in (NOMINAL, "unexplained", "discrepancy"):
             g_eff = float(scores[NOMINAL] - scores[name]) if math.isfinite(scores.get(name, math.inf)) else 0.0
             share = max(0.0, g_eff) / (max(0.0, g_eff) + check.gain)
             if check.gain > g_eff:
-                verdict = Verdict("unexplained", 1.0 - share,
-                                  f"the vehicle-speed channel looks {lag_txt} {late} against the sprocket speed: the "
-                                  f"nominal model refitted with that channel shifted back explains more of the held-out "
-                                  f"misfit than the best candidate, {name} (gain in the sum of squared standardised "
-                                  f"held-out residuals {check.gain:.0f} against {g_eff:.0f}); no library effect is a delay")
-                notes.append(f"{name} was the best candidate, but a {lag_txt} delay of the vehicle-speed channel "
-                             f"explains the held-out data better: check the time stamps of the speed sensor")
+                verdict = Verdict(
+                    "unexplained",
+                    1.0 - share,
+                    f"the vehicle-speed channel looks {lag_txt} {late} against the sprocket speed: the "
+                    f"nominal model refitted with that channel shifted back explains more of the held-out "
+                    f"misfit than the best candidate, {name} (gain in the sum of squared standardised "
+                    f"held-out residuals {check.gain:.0f} against {g_eff:.0f}); no library effect is a delay",
+                )
+                notes.append(
+                    f"{name} was the best candidate, but a {lag_txt} delay of the vehicle-speed channel "
+                    f"explains the held-out data better: check the time stamps of the speed sensor"
+                )
             elif share < verdict.confidence:
                 verdict = Verdict(name, share, verdict.reason)
-                notes.append(f"a {lag_txt} delay of the vehicle-speed channel explains part of the held-out misfit "
-                             f"(gain {check.gain:.0f} against {g_eff:.0f} for {name}): {name} is named with "
-                             f"confidence {share:.2f} only")
+                notes.append(
+                    f"a {lag_txt} delay of the vehicle-speed channel explains part of the held-out misfit "
+                    f"(gain {check.gain:.0f} against {g_eff:.0f} for {name}): {name} is named with "
+                    f"confidence {share:.2f} only"
+                )
         elif name == NOMINAL:
-            verdict = Verdict("unexplained", max(0.0, 1.0 - float(check.scan["p_value"])),
-                              f"the vehicle-speed channel looks {lag_txt} {late} against the sprocket speed (the "
-                              f"nominal model refitted with it shifted back predicts the held-out data better); no "
-                              f"library effect is a delay")
+            verdict = Verdict(
+                "unexplained",
+                max(0.0, 1.0 - float(check.scan["p_value"])),
+                f"the vehicle-speed channel looks {lag_txt} {late} against the sprocket speed (the "
+                f"nominal model refitted with it shifted back predicts the held-out data better); no "
+                f"library effect is a delay",
+            )
     if verdict.name == NOMINAL and change is not None and change.significant:
         kept: list[tuple[str, Any]] = []  # (effect, its window): the effects that do not remove the change
         for a_name, a_fit in alternatives:
@@ -524,22 +614,34 @@ def review_drive_log(verdict, data, vehicle, nominal, H: dict, sigma: dict, mask
             if ch_a is not None and ch_a.significant:
                 kept.append((a_name, ch_a))
                 continue
-            notes.append(f"the nominal model's soil seems to differ at {change.evidence_start:.4g}-"
-                         f"{change.evidence_end:.4g} s (p = {change.p_value:.2g}), but with {a_name} (fitted on the "
-                         f"training part) no time window differs "
-                         f"({'p = ' + format(ch_a.p_value, '.2g') if ch_a is not None else 'nothing to test'}): "
-                         f"it is {a_name}'s signature in time, not a change of terrain")
-            verdict = Verdict(a_name, 0.5, f"{a_name} removes the change of soil in time that the nominal model "
-                              "shows, while its held-out gain alone is within the noise: named with confidence 0.5")
+            notes.append(
+                f"the nominal model's soil seems to differ at {change.evidence_start:.4g}-"
+                f"{change.evidence_end:.4g} s (p = {change.p_value:.2g}), but with {a_name} (fitted on the "
+                f"training part) no time window differs "
+                f"({'p = ' + format(ch_a.p_value, '.2g') if ch_a is not None else 'nothing to test'}): "
+                f"it is {a_name}'s signature in time, not a change of terrain"
+            )
+            verdict = Verdict(
+                a_name,
+                0.5,
+                f"{a_name} removes the change of soil in time that the nominal model "
+                "shows, while its held-out gain alone is within the noise: named with confidence 0.5",
+            )
             break
         if verdict.name == NOMINAL and kept:
-            notes.append("the change of soil in time stays significant with "
-                         + ", ".join(f"{a} (p = {w.p_value:.2g})" for a, w in kept) + " fitted on the training part")
+            notes.append(
+                "the change of soil in time stays significant with "
+                + ", ".join(f"{a} (p = {w.p_value:.2g})" for a, w in kept)
+                + " fitted on the training part"
+            )
     if verdict.name == NOMINAL and change is not None and change.significant:
-        verdict = Verdict("unexplained", max(0.0, 1.0 - change.p_value),
-                          f"the soil differs in a time window ({change.evidence_start:.4g} to {change.evidence_end:.4g} s, "
-                          f"within {change.start:.4g} to {change.end:.4g} s; p = {change.p_value:.2g}): a change of "
-                          "terrain during the run, which no candidate effect describes")
+        verdict = Verdict(
+            "unexplained",
+            max(0.0, 1.0 - change.p_value),
+            f"the soil differs in a time window ({change.evidence_start:.4g} to {change.evidence_end:.4g} s, "
+            f"within {change.start:.4g} to {change.end:.4g} s; p = {change.p_value:.2g}): a change of "
+            "terrain during the run, which no candidate effect describes",
+        )
     return verdict, change, lags, notes
 
 
@@ -564,9 +666,18 @@ def refine_delay(nominal, data, vehicle, train: np.ndarray, k0: int, max_lag: in
             try:
                 # at most 60 iterations, one start: a shift far from the delay makes a hard problem (hundreds of
                 # iterations) whose answer is only "worse"; unconverged counts as not fitting
-                r = fit(shift_speed(data, sign * k).subset(train), vehicle, model=nominal.model, hull_channel=True,
-                        x0=nominal.theta, max_iter=60, multistart=False, bounds=nominal.bounds,
-                        torque_hold=str(nominal.extra.get("torque_hold", "zoh")), consistency=False)
+                r = fit(
+                    shift_speed(data, sign * k).subset(train),
+                    vehicle,
+                    model=nominal.model,
+                    hull_channel=True,
+                    x0=nominal.theta,
+                    max_iter=60,
+                    multistart=False,
+                    bounds=nominal.bounds,
+                    torque_hold=str(nominal.extra.get("torque_hold", "zoh")),
+                    consistency=False,
+                )
                 fits[k] = r if r.success else None
             except Exception:  # noqa: BLE001 - a shift that leaves too few usable samples
                 fits[k] = None
@@ -660,8 +771,11 @@ def torque_arm_check(fit, data, vehicle, eps: float, h: float = 1e-4) -> ArmChec
 
     try:
         s0 = drive_log_sensitivities(fit, data, vehicle)
-        s1 = drive_log_sensitivities(fit, replace(data, sprocket_torque=np.asarray(data.sprocket_torque, float) * (1 + h)),
-                                     replace(vehicle, sprocket_inertia=vehicle.sprocket_inertia * (1 + h)))
+        s1 = drive_log_sensitivities(
+            fit,
+            replace(data, sprocket_torque=np.asarray(data.sprocket_torque, float) * (1 + h)),
+            replace(vehicle, sprocket_inertia=vehicle.sprocket_inertia * (1 + h)),
+        )
     except DataError:
         return None
     if s0.residuals.shape != s1.residuals.shape or not np.array_equal(s0.keep, s1.keep):
@@ -677,7 +791,7 @@ def torque_arm_check(fit, data, vehicle, eps: float, h: float = 1e-4) -> ArmChec
     except np.linalg.LinAlgError:
         return None
     kappa = float(-(Gi @ (A.T @ r))[-1])
-    s2 = max(1.0, float(np.mean(r ** 2)))
+    s2 = max(1.0, float(np.mean(r**2)))
     infl = max(long_run_factor(s0.residuals[:, j]) for j in range(s0.residuals.shape[1]))
     var = float(Gi[-1, -1]) * s2 * infl
     if not (math.isfinite(kappa) and math.isfinite(var) and var > 0):

@@ -1,4 +1,5 @@
 """The figure of a :class:`~.diagnosis.Diagnosis` (matplotlib, Agg)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -22,9 +23,15 @@ def plot_diagnosis(diag, path: str) -> str:
     if not cv or not cv.get("before"):  # nothing was held out (too few samples, or no nominal fit)
         fig, ax = plt.subplots(figsize=(8, 3))
         ax.axis("off")
-        ax.text(0.02, 0.5, f"verdict: {diag.verdict} (confidence {diag.confidence:.2f})\n\n"
-                + "\n".join(diag.reason[i:i + 100] for i in range(0, len(diag.reason), 100)),
-                va="center", fontsize=9, family="monospace")
+        ax.text(
+            0.02,
+            0.5,
+            f"verdict: {diag.verdict} (confidence {diag.confidence:.2f})\n\n"
+            + "\n".join(diag.reason[i : i + 100] for i in range(0, len(diag.reason), 100)),
+            va="center",
+            fontsize=9,
+            family="monospace",
+        )
         fig.savefig(path, dpi=110)
         plt.close(fig)
         return path
@@ -42,13 +49,20 @@ def plot_diagnosis(diag, path: str) -> str:
     s = diag.noise[main]
     ax.axhspan(-2 * s, 2 * s, color="0.85", zorder=0, label="+-2 x noise floor")
     if diag.change is not None and diag.change.significant:
-        ax.axvspan(diag.change.start, diag.change.end, color="tab:orange", alpha=0.15,
-                   label=f"change window {diag.change.start:.3g}-{diag.change.end:.3g}")
+        ax.axvspan(
+            diag.change.start,
+            diag.change.end,
+            color="tab:orange",
+            alpha=0.15,
+            label=f"change window {diag.change.start:.3g}-{diag.change.end:.3g}",
+        )
     ax.axhline(0, color="k", lw=0.6)
     ax.set_xlabel("time, s" if cv["x_label"] == "time" else "slip, -")
     ax.set_ylabel(f"held-out residual, {main}\n(measured - predicted)")
-    ax.set_title(f"verdict: {diag.verdict} (confidence {diag.confidence:.2f})"
-                 + ("" if diag.shrink is None else f", held-out error shrinks by {diag.shrink:.0%}"))
+    ax.set_title(
+        f"verdict: {diag.verdict} (confidence {diag.confidence:.2f})"
+        + ("" if diag.shrink is None else f", held-out error shrinks by {diag.shrink:.0%}")
+    )
     ax.legend(fontsize=8, loc="best")
     ax2 = fig.add_subplot(gs[1, 0])
     names = [e.effect for e in diag.ranking]
@@ -56,13 +70,15 @@ def plot_diagnosis(diag, path: str) -> str:
     ax2.set_yticks(range(len(names)), names, fontsize=8)
     ax2.invert_yaxis()
     ax2.set_xlim(0, 1)
-    ax2.set_xlabel("cross-validation weight" if diag.data_kind == "drive" else
-                   "weight of evidence (all the sweep, Akaike's penalty)")
+    ax2.set_xlabel(
+        "cross-validation weight"
+        if diag.data_kind == "drive"
+        else "weight of evidence (all the sweep, Akaike's penalty)"
+    )
     ax3 = fig.add_subplot(gs[1, 1])
     segs = [sg for sg in diag.localisation if sg.dimension != "channel"][:8]
     labels = [f"{sg.dimension} {sg.range[0]:.3g}-{sg.range[1]:.3g}\n{sg.channel}" for sg in segs]
-    ax3.barh(range(len(segs)), [sg.share for sg in segs],
-             color=["tab:red" if sg.significant else "0.6" for sg in segs])
+    ax3.barh(range(len(segs)), [sg.share for sg in segs], color=["tab:red" if sg.significant else "0.6" for sg in segs])
     ax3.set_yticks(range(len(segs)), labels, fontsize=7)
     ax3.invert_yaxis()
     ax3.set_xlabel("share of the misfit (red: significant)")

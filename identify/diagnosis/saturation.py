@@ -11,6 +11,7 @@ and at least ``PILE_FACTOR`` times as many as hold the next value inward (a coar
 channel whose top bins are all well filled is not clipped, it is only quantised). Readings of
 exactly zero (a vehicle at rest) are not a pile-up.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -52,16 +53,21 @@ class Saturation:
     def describe(self) -> str:
         """One plain sentence."""
         shown = ", ".join(str(r) for r in self.rows[:5]) + (", ..." if len(self.rows) > 5 else "")
-        return (f"{len(self.rows)} rows of {self.channel} (rows {shown}) read exactly its {self.side} value "
-                f"{self.level:.6g}: a sensor clipped at its range (saturation) looks like this, and no effect in "
-                "the library models it")
+        return (
+            f"{len(self.rows)} rows of {self.channel} (rows {shown}) read exactly its {self.side} value "
+            f"{self.level:.6g}: a sensor clipped at its range (saturation) looks like this, and no effect in "
+            "the library models it"
+        )
 
 
 def _channels(data: SlipData | DriveLog) -> dict[str, np.ndarray]:
     if isinstance(data, SlipData):
         return {data.channel: np.asarray(data.values, dtype=float)}
-    out = {"sprocket_torque_Nm": data.sprocket_torque, "sprocket_speed_rad_s": data.sprocket_speed,
-           "vehicle_speed_m_s": data.vehicle_speed}
+    out = {
+        "sprocket_torque_Nm": data.sprocket_torque,
+        "sprocket_speed_rad_s": data.sprocket_speed,
+        "vehicle_speed_m_s": data.vehicle_speed,
+    }
     if data.vehicle_accel is not None:
         out["vehicle_accel_m_s2"] = data.vehicle_accel
     return {k: np.asarray(v, dtype=float) for k, v in out.items()}

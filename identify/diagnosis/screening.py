@@ -16,6 +16,7 @@ sweep) it is White's heteroscedasticity-robust variance: noise that grows with t
 one outlier, does not make every candidate look significant. No refit is needed; the Jacobian
 comes from one fit with the candidate effects held at their off values.
 """
+
 from __future__ import annotations
 
 import math
@@ -69,9 +70,16 @@ class Screen:
 
     def to_dict(self) -> dict:
         """JSON-friendly dict (no direction)."""
-        return {"effect": self.effect, "columns": list(self.columns), "score": float(self.score),
-                "statistic": float(self.statistic), "dof": int(self.dof), "p_value": float(self.p_value),
-                "screenable": bool(self.screenable), "gain": float(self.gain)}
+        return {
+            "effect": self.effect,
+            "columns": list(self.columns),
+            "score": float(self.score),
+            "statistic": float(self.statistic),
+            "dof": int(self.dof),
+            "p_value": float(self.p_value),
+            "screenable": bool(self.screenable),
+            "gain": float(self.gain),
+        }
 
 
 def project_off(Z: np.ndarray, J: np.ndarray, rtol: float = 1e-10) -> np.ndarray:
@@ -104,8 +112,15 @@ def _hac(G: np.ndarray, lag: int) -> np.ndarray:
     return V
 
 
-def score_test(effect: str, J_free: np.ndarray, Z: np.ndarray, r: np.ndarray, labels: tuple[str, ...] = (),
-               hac_lag: int | None = 0, rel_tol: float = 1e-6) -> Screen:
+def score_test(
+    effect: str,
+    J_free: np.ndarray,
+    Z: np.ndarray,
+    r: np.ndarray,
+    labels: tuple[str, ...] = (),
+    hac_lag: int | None = 0,
+    rel_tol: float = 1e-6,
+) -> Screen:
     """Score test of one candidate from the nominal fit's weighted residuals and Jacobian.
 
     Parameters
@@ -158,8 +173,17 @@ def score_test(effect: str, J_free: np.ndarray, Z: np.ndarray, r: np.ndarray, la
     d = B @ s
     dn = float(np.linalg.norm(d))
     direction = d / dn if dn > 0 else B[:, 0]
-    return Screen(effect, tuple(l for l, k in zip(labels, keep) if k), cosine, stat, rank, chi2_sf(stat, rank), True,
-                  direction, float(s @ s))
+    return Screen(
+        effect,
+        tuple(l for l, k in zip(labels, keep) if k),
+        cosine,
+        stat,
+        rank,
+        chi2_sf(stat, rank),
+        True,
+        direction,
+        float(s @ s),
+    )
 
 
 def stationarity(J_free: np.ndarray, r: np.ndarray) -> float:
@@ -237,8 +261,16 @@ def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None =
             J, r, names, rows_per_sample = drive_log_score_pair(res, data, vehicle, effects=cands)
     else:
         fixed = {f"{c}.{p.name}": p.off_value for c in cands for p in EFFECTS[c].params if not p.integer}
-        res = fit(data, vehicle, model=model, effects=cands, fixed=fixed, slip_noise="off", intervals="linear",
-                  **(fit_options or {}))
+        res = fit(
+            data,
+            vehicle,
+            model=model,
+            effects=cands,
+            fixed=fixed,
+            slip_noise="off",
+            intervals="linear",
+            **(fit_options or {}),
+        )
         names = list(res.parameter_names)
         J = np.asarray(res.jacobian, dtype=float)
         r = np.asarray(res.weighted_residuals, dtype=float).ravel()
@@ -247,8 +279,9 @@ def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None =
     cols = {c: [j for j, nm in enumerate(names) if nm.startswith(c + ".")] for c in cands}
     taken = {j for js in cols.values() for j in js}
     free = [j for j in range(len(names)) if j not in taken]
-    out = [score_test(c, J[:, free], J[:, cols[c]], r, tuple(names[j] for j in cols[c]), hac_lag=hac_lag)
-           for c in cands]
+    out = [
+        score_test(c, J[:, free], J[:, cols[c]], r, tuple(names[j] for j in cols[c]), hac_lag=hac_lag) for c in cands
+    ]
     if res.success:
         bound = set(getattr(res, "active_bounds", {}) or {})
         fj = [j for j in free if names[j] not in bound]

@@ -31,6 +31,7 @@ The verdict (:func:`decide`):
 Weights are flattened (``f`` larger) when the held-out squared residuals are more dispersed
 than Gaussian noise makes them (``var(z^2) > 2``): a few large residuals are weak evidence.
 """
+
 from __future__ import annotations
 
 import math
@@ -40,8 +41,19 @@ import numpy as np
 
 from ..estimates.distributions import chi2_sf
 
-__all__ = ["SEPARATING_EXPERIMENTS", "separating_experiment", "hat_basis", "fit_discrepancy", "cv_weights",
-           "Verdict", "decide", "confusable_groups", "dm_test", "gap_p_value", "stacking_weights"]
+__all__ = [
+    "SEPARATING_EXPERIMENTS",
+    "separating_experiment",
+    "hat_basis",
+    "fit_discrepancy",
+    "cv_weights",
+    "Verdict",
+    "decide",
+    "confusable_groups",
+    "dm_test",
+    "gap_p_value",
+    "stacking_weights",
+]
 
 DISCREPANCY = "discrepancy"
 NOMINAL = "none"
@@ -87,12 +99,11 @@ SEPARATING_EXPERIMENTS: dict[frozenset, str] = {
 #: effect says that these would look the same.
 LOOKALIKES = {
     "grade": "any constant extra force on the vehicle (a towed load, a steady wind, compaction resistance) "
-             "and a zero offset of the force sensor (a sweep) or of the accelerometer (a drive log)",
+    "and a zero offset of the force sensor (a sweep) or of the accelerometer (a drive log)",
     "drivetrain_friction": "a zero offset of the torque sensor (it looks like the Coulomb part)",
     "radius_error": "a scale error of the vehicle-speed sensor (it shifts the apparent slip the same way; only "
-                    "the torque arm differs)",
-    "mass_error": "a scale error of the accelerometer (in the hull balance; a mass error also changes the "
-                  "normal load)",
+    "the torque arm differs)",
+    "mass_error": "a scale error of the accelerometer (in the hull balance; a mass error also changes the normal load)",
     "slip_sinkage": "any resistance that grows with the slip (bulldozing, a track digging in)",
     "speed_resistance": "any resistance that grows with speed (air drag, a viscous loss in the running gear)",
 }
@@ -103,8 +114,10 @@ def separating_experiment(a: str, b: str) -> str:
     text = SEPARATING_EXPERIMENTS.get(frozenset({a, b}))
     if text:
         return text
-    return (f"data over a wider range of the variables where {a} and {b} differ (other slips, speeds, "
-            "loads or accelerations), or a direct measurement of one of them")
+    return (
+        f"data over a wider range of the variables where {a} and {b} differ (other slips, speeds, "
+        "loads or accelerations), or a direct measurement of one of them"
+    )
 
 
 # ----------------------------------------------------------------------------- discrepancy term
@@ -137,8 +150,9 @@ def hat_basis(x: np.ndarray, knots: np.ndarray) -> np.ndarray:
     return B
 
 
-def fit_discrepancy(x_train: np.ndarray, r_train: np.ndarray, x_test: np.ndarray, n_knots: int,
-                    ridge: float = 1e-6) -> tuple[np.ndarray, int]:
+def fit_discrepancy(
+    x_train: np.ndarray, r_train: np.ndarray, x_test: np.ndarray, n_knots: int, ridge: float = 1e-6
+) -> tuple[np.ndarray, int]:
     """Fit a hat-function spline in ``x`` to training residuals and predict it at ``x_test``.
 
     Knots at quantiles of ``x_train``; a tiny ridge keeps empty knot intervals harmless.
@@ -167,8 +181,9 @@ def cv_weights(scores: dict[str, float], inflation: float = 1.0) -> dict[str, fl
     return {k: raw.get(k, 0.0) / tot for k in scores}
 
 
-def stacking_weights(pointwise: dict[str, np.ndarray], block: int = 1, n_boot: int = 400,
-                     seed: int = 20261123) -> dict[str, float]:
+def stacking_weights(
+    pointwise: dict[str, np.ndarray], block: int = 1, n_boot: int = 400, seed: int = 20261123
+) -> dict[str, float]:
     """Pseudo-BMA+ weights: Akaike-type weights averaged over a Bayesian bootstrap of the held-out samples.
 
     ``pointwise[m]`` is the held-out log score of model ``m`` per sample (``-z^2/2`` for noise-
@@ -206,9 +221,14 @@ def stacking_weights(pointwise: dict[str, np.ndarray], block: int = 1, n_boot: i
     return {m: float(w) for m, w in zip(names, out)}
 
 
-def confusable_groups(weights: dict[str, float], directions: dict[str, np.ndarray | None],
-                      min_ratio: float = 0.2, min_corr: float = 0.9, min_weight: float = 0.05,
-                      verdict: str | None = None) -> list[tuple[tuple[str, ...], float]]:
+def confusable_groups(
+    weights: dict[str, float],
+    directions: dict[str, np.ndarray | None],
+    min_ratio: float = 0.2,
+    min_corr: float = 0.9,
+    min_weight: float = 0.05,
+    verdict: str | None = None,
+) -> list[tuple[tuple[str, ...], float]]:
     """Pairs of candidates the data cannot tell apart.
 
     A pair of named candidates is confusable when their weights are close (the smaller at least
@@ -221,7 +241,7 @@ def confusable_groups(weights: dict[str, float], directions: dict[str, np.ndarra
     names = [k for k in weights if k not in (NOMINAL, DISCREPANCY)]
     out = []
     for i, a in enumerate(names):
-        for b in names[i + 1:]:
+        for b in names[i + 1 :]:
             wa, wb = weights[a], weights[b]
             if max(wa, wb) < min_weight and verdict not in (a, b):
                 continue
@@ -268,9 +288,17 @@ class Verdict:
     reason: str
 
 
-def decide(weights: dict[str, float], significant: list[str], disc_beats: dict[str, float],
-           after_ratio: dict[str, float], after_p: dict[str, float], alpha: float = 0.01,
-           gap_ratio: float = 1.5, evidence: str = "predicts the held-out data", gap: bool | None = None) -> Verdict:
+def decide(
+    weights: dict[str, float],
+    significant: list[str],
+    disc_beats: dict[str, float],
+    after_ratio: dict[str, float],
+    after_p: dict[str, float],
+    alpha: float = 0.01,
+    gap_ratio: float = 1.5,
+    evidence: str = "predicts the held-out data",
+    gap: bool | None = None,
+) -> Verdict:
     """The verdict from the weights and tests (see the module docstring).
 
     Parameters
@@ -300,25 +328,41 @@ def decide(weights: dict[str, float], significant: list[str], disc_beats: dict[s
         gap = disc_beats.get(NOMINAL, 1.0) < alpha
     named = {k: w for k, w in weights.items() if k not in (NOMINAL, DISCREPANCY)}
     if not significant and not gap:
-        return Verdict(NOMINAL, max(w_none, 1.0 - w_disc),
-                       "no candidate's score is significant and a flexible term does not predict the held-out "
-                       "data significantly better than the nominal model")
+        return Verdict(
+            NOMINAL,
+            max(w_none, 1.0 - w_disc),
+            "no candidate's score is significant and a flexible term does not predict the held-out "
+            "data significantly better than the nominal model",
+        )
     if not named:
         if gap:
-            return Verdict("unexplained", w_disc, "the nominal model leaves a significant gap on the held-out data, "
-                           "and no candidate effect screens significant")
-        return Verdict(NOMINAL, w_none, "the candidates that screened significant do not predict the held-out "
-                       "data better than the nominal model")
+            return Verdict(
+                "unexplained",
+                w_disc,
+                "the nominal model leaves a significant gap on the held-out data, "
+                "and no candidate effect screens significant",
+            )
+        return Verdict(
+            NOMINAL,
+            w_none,
+            "the candidates that screened significant do not predict the held-out data better than the nominal model",
+        )
     best = max(named, key=lambda k: named[k])
     if w_none > named[best] and not gap:
         return Verdict(NOMINAL, w_none, f"the nominal model {evidence} best")
     if disc_beats.get(best, 1.0) < alpha:
-        return Verdict("unexplained", max(w_disc, 1.0 - named[best]),
-                       f"a flexible discrepancy term predicts the held-out data significantly better than the "
-                       f"best candidate, {best}")
+        return Verdict(
+            "unexplained",
+            max(w_disc, 1.0 - named[best]),
+            f"a flexible discrepancy term predicts the held-out data significantly better than the "
+            f"best candidate, {best}",
+        )
     if after_ratio.get(best, 0.0) > gap_ratio and after_p.get(best, 1.0) < alpha:
-        how = (f"a held-out error {after_ratio[best]:.1f} times the noise floor" if math.isfinite(after_ratio[best])
-               else "a smooth gap that a flexible term on top of it still predicts")
+        how = (
+            f"a held-out error {after_ratio[best]:.1f} times the noise floor"
+            if math.isfinite(after_ratio[best])
+            else "a smooth gap that a flexible term on top of it still predicts"
+        )
         return Verdict("unexplained", 1.0 - named[best], f"the best candidate, {best}, still leaves {how}")
     if w_none > named[best]:
         return Verdict(NOMINAL, w_none, f"the nominal model {evidence} best")

@@ -28,6 +28,7 @@ A fit whose solver converged but whose answer fails the plausibility checks of
 missing effect does to the nominal model: :func:`solver_converged` accepts it for the
 diagnosis and :func:`plausibility_warnings` says why it was flagged.
 """
+
 from __future__ import annotations
 
 import math
@@ -39,10 +40,21 @@ from ...soilmodel.data import SlipData
 from ..estimates.distributions import betainc, f_sf  # noqa: F401 - re-exported (the F test's tail)
 from ..estimates.records import NOT_USABLE, solver_converged  # noqa: F401 - used by the diagnosis
 
-__all__ = ["plausibility_warnings", "sweep_folds", "information_weights",
-           "imitation_rms", "effect_start", "betainc", "f_sf", "lack_of_fit", "decide_sweep", "fit_jacobian", "Plateau",
-           "find_plateau", "PLATEAU_SHARE"]
-
+__all__ = [
+    "plausibility_warnings",
+    "sweep_folds",
+    "information_weights",
+    "imitation_rms",
+    "effect_start",
+    "betainc",
+    "f_sf",
+    "lack_of_fit",
+    "decide_sweep",
+    "fit_jacobian",
+    "Plateau",
+    "find_plateau",
+    "PLATEAU_SHARE",
+]
 
 
 def plausibility_warnings(res) -> list[str]:
@@ -87,8 +99,9 @@ def sweep_folds(order: np.ndarray, n_blocks: int = 10, n_folds: int = 5) -> list
     return out
 
 
-def information_weights(z: dict[str, np.ndarray], k: dict[str, int], n_boot: int = 400,
-                        seed: int = 20261123) -> dict[str, float]:
+def information_weights(
+    z: dict[str, np.ndarray], k: dict[str, int], n_boot: int = 400, seed: int = 20261123
+) -> dict[str, float]:
     """Pseudo-BMA+ weights of in-sample fits: AIC on all the data, averaged over a Bayesian bootstrap.
 
     ``z[m]`` are model m's residuals over the noise level at every sample (the same samples for
@@ -159,9 +172,12 @@ def imitation_rms(prediction: np.ndarray, data: SlipData, sigma: np.ndarray, fit
         such data is ``n`` times its square: below a few units the data cannot tell them apart.
     """
     key = "drawbar_pull" if data.measured == "drawbar_pull" else "tractive_force"
-    synth = SlipData(slip=np.asarray(data.slip, float), normal_load=data.normal_load,
-                     source=f"{data.source or 'sweep'} (noise-free curve of the verdict)",
-                     **{key: np.asarray(prediction, float)})
+    synth = SlipData(
+        slip=np.asarray(data.slip, float),
+        normal_load=data.normal_load,
+        source=f"{data.source or 'sweep'} (noise-free curve of the verdict)",
+        **{key: np.asarray(prediction, float)},
+    )
     try:
         res, r = fit_other(synth)
     except Exception:  # noqa: BLE001 - a refit that cannot be made imitates nothing
@@ -227,8 +243,15 @@ def lack_of_fit(residuals: np.ndarray, jacobian: np.ndarray, basis: np.ndarray, 
 PARTIAL_SHRINK = 0.5
 
 
-def decide_sweep(weights: dict[str, float], significant: list[str], gap: bool, lack_p: dict[str, float],
-                 alpha: float = 0.01, shrink: dict[str, float] | None = None, disc_held_p: float | None = None):
+def decide_sweep(
+    weights: dict[str, float],
+    significant: list[str],
+    gap: bool,
+    lack_p: dict[str, float],
+    alpha: float = 0.01,
+    shrink: dict[str, float] | None = None,
+    disc_held_p: float | None = None,
+):
     """The verdict on a sweep from information-criterion weights and the lack-of-fit test.
 
     - ``none`` when no candidate screens significant and no gap is seen, or when the nominal model
@@ -252,17 +275,27 @@ def decide_sweep(weights: dict[str, float], significant: list[str], gap: bool, l
     w_disc = weights.get(DISCREPANCY, 0.0)
     named = {k: w for k, w in weights.items() if k not in (NOMINAL, DISCREPANCY)}
     if not significant and not gap:
-        return Verdict(NOMINAL, max(w_none, 1.0 - w_disc),
-                       "no candidate's score is significant and the nominal model leaves no significant gap")
+        return Verdict(
+            NOMINAL,
+            max(w_none, 1.0 - w_disc),
+            "no candidate's score is significant and the nominal model leaves no significant gap",
+        )
     if not named:
         if gap:
-            return Verdict("unexplained", w_disc, "the nominal model leaves a significant gap, and no candidate "
-                           "effect screens significant")
+            return Verdict(
+                "unexplained",
+                w_disc,
+                "the nominal model leaves a significant gap, and no candidate effect screens significant",
+            )
         return Verdict(NOMINAL, w_none, "no candidate fits the data better than the nominal model")
     best = max(named, key=lambda k: named[k])
     if w_none >= named[best] and w_none >= w_disc:
-        return Verdict(NOMINAL, w_none, "the nominal model fits all the data best (likelihood with Akaike's "
-                       "penalty for the parameters an effect adds)")
+        return Verdict(
+            NOMINAL,
+            w_none,
+            "the nominal model fits all the data best (likelihood with Akaike's "
+            "penalty for the parameters an effect adds)",
+        )
     if w_disc > named[best] and disc_held_p is not None and disc_held_p >= alpha:
         # the flexible term wins on all the data but predicts the held-out blocks no better than the
         # nominal model: its gain is a chance feature of this noise (or a floor set too low), not a
@@ -270,30 +303,42 @@ def decide_sweep(weights: dict[str, float], significant: list[str], gap: bool, l
         rest = w_none + sum(named.values())
         wn = w_none / rest if rest > 0 else 1.0
         wb = named[best] / rest if rest > 0 else 0.0
-        why = (f"a flexible term fits all the data better, but it does not predict the held-out blocks better than "
-               f"the nominal model (p = {disc_held_p:.2g}): no structured gap is confirmed")
+        why = (
+            f"a flexible term fits all the data better, but it does not predict the held-out blocks better than "
+            f"the nominal model (p = {disc_held_p:.2g}): no structured gap is confirmed"
+        )
         if best in significant and wb > wn:
-            return Verdict(best, min(wb, 0.5), why + f"; {best} screens significant and is named, with confidence "
-                           "0.5 at most")
+            return Verdict(
+                best, min(wb, 0.5), why + f"; {best} screens significant and is named, with confidence 0.5 at most"
+            )
         return Verdict(NOMINAL, max(wn, 1.0 - wb) if best not in significant else wn, why)
     if w_disc > named[best]:
-        return Verdict("unexplained", 1.0 - named[best],
-                       f"a flexible discrepancy term fits all the data better than the best candidate, {best}, "
-                       "even with Akaike's penalty for its many parameters")
+        return Verdict(
+            "unexplained",
+            1.0 - named[best],
+            f"a flexible discrepancy term fits all the data better than the best candidate, {best}, "
+            "even with Akaike's penalty for its many parameters",
+        )
     p = lack_p.get(best, 1.0)
     if p < alpha:
         sh = (shrink or {}).get(best, 0.0)
         sh = sh if math.isfinite(sh) else 0.0
         if sh >= PARTIAL_SHRINK:
-            return Verdict(best, min(named[best], 0.5),
-                           f"{best} explains most of the gap (held-out error shrinks by {sh:.0%}) but leaves a smooth "
-                           f"residual (a flexible term on top of it still explains it, F test p = {p:.2g}): the effect "
-                           "is there, but its form is not quite the library's, or a second cause adds to it, hence "
-                           "a confidence of at most 0.5")
-        return Verdict("unexplained", max(1.0 - named[best], 1.0 - max(sh, 0.0)),
-                       f"the best candidate, {best}, still leaves a smooth gap: a flexible term on top of it "
-                       f"explains its residuals (F test, p = {p:.2g}), and it explains only {max(sh, 0.0):.0%} of the "
-                       "held-out gap")
+            return Verdict(
+                best,
+                min(named[best], 0.5),
+                f"{best} explains most of the gap (held-out error shrinks by {sh:.0%}) but leaves a smooth "
+                f"residual (a flexible term on top of it still explains it, F test p = {p:.2g}): the effect "
+                "is there, but its form is not quite the library's, or a second cause adds to it, hence "
+                "a confidence of at most 0.5",
+            )
+        return Verdict(
+            "unexplained",
+            max(1.0 - named[best], 1.0 - max(sh, 0.0)),
+            f"the best candidate, {best}, still leaves a smooth gap: a flexible term on top of it "
+            f"explains its residuals (F test, p = {p:.2g}), and it explains only {max(sh, 0.0):.0%} of the "
+            "held-out gap",
+        )
     return Verdict(best, named[best], f"{best} fits all the data best (likelihood with Akaike's penalty)")
 
 
@@ -343,18 +388,21 @@ class Plateau:
 
     def describe(self) -> str:
         """One plain sentence."""
-        return (f"the {len(self.rows)} largest readings (slip {self.slip_range[0]:.3g} to {self.slip_range[1]:.3g}) "
-                f"are flat at {self.level:.6g} N within the noise, while the soil's curve through the readings below "
-                "them still rises there: a load cell or rig at its limit looks like this, and no effect in the "
-                "library models it")
+        return (
+            f"the {len(self.rows)} largest readings (slip {self.slip_range[0]:.3g} to {self.slip_range[1]:.3g}) "
+            f"are flat at {self.level:.6g} N within the noise, while the soil's curve through the readings below "
+            "them still rises there: a load cell or rig at its limit looks like this, and no effect in the "
+            "library models it"
+        )
 
 
 #: Smallest share of a sweep's samples a plateau must hold to be considered.
 PLATEAU_SHARE = 1.0 / 3.0
 
 
-def find_plateau(values: np.ndarray, slip: np.ndarray, sigma: np.ndarray, fit_below,
-                 min_share: float = PLATEAU_SHARE) -> Plateau | None:
+def find_plateau(
+    values: np.ndarray, slip: np.ndarray, sigma: np.ndarray, fit_below, min_share: float = PLATEAU_SHARE
+) -> Plateau | None:
     """The best model "nominal soil below, one flat level on the largest readings" of a sweep.
 
     For each count m of largest readings put on the level (at least ``min_share`` of the sweep),
@@ -391,7 +439,7 @@ def find_plateau(values: np.ndarray, slip: np.ndarray, sigma: np.ndarray, fit_be
     top = np.argsort(-y, kind="stable")
     w = 1.0 / s[top] ** 2
     sw, swy, swy2 = np.cumsum(w), np.cumsum(w * y[top]), np.cumsum(w * y[top] ** 2)
-    chi_top = np.maximum(swy2 - swy ** 2 / sw, 0.0)  # spread of the top m readings about their mean, m = 1..n
+    chi_top = np.maximum(swy2 - swy**2 / sw, 0.0)  # spread of the top m readings about their mean, m = 1..n
     ms = np.arange(max(3, int(math.ceil(min_share * n))), n)
     best: tuple[float, int, np.ndarray] | None = None
     for m in sorted(ms, key=lambda m: chi_top[m - 1]):
@@ -422,5 +470,10 @@ def find_plateau(values: np.ndarray, slip: np.ndarray, sigma: np.ndarray, fit_be
         return None
     _, m, z = best
     on = np.sort(top[:m])
-    return Plateau(float(swy[m - 1] / sw[m - 1]), tuple(int(k) + 1 for k in on),
-                   (float(np.min(slip[on])), float(np.max(slip[on]))), z, float(1.0 / math.sqrt(sw[m - 1])))
+    return Plateau(
+        float(swy[m - 1] / sw[m - 1]),
+        tuple(int(k) + 1 for k in on),
+        (float(np.min(slip[on])), float(np.max(slip[on]))),
+        z,
+        float(1.0 / math.sqrt(sw[m - 1])),
+    )

@@ -20,6 +20,7 @@ name:
   gap, however it ranks among the candidates: the verdict is ``unexplained``, with the fraction
   it did explain in the reason.
 """
+
 from __future__ import annotations
 
 import math
@@ -61,9 +62,18 @@ def explained_fraction(ss_before: float, ss_after: float, n: int) -> float:
     return 1.0 - max(ss_after / n - 1.0, 0.0) / e_before
 
 
-def check_verdict(verdict: Verdict, *, gap_p: float, beats_nominal_p: float, shrink: float, explained: float,
-                  no_gap_confidence: float, alpha: float = 0.01, min_explained: float = MIN_EXPLAINED,
-                  min_shrink: float = MIN_SHRINK) -> tuple[Verdict, str | None]:
+def check_verdict(
+    verdict: Verdict,
+    *,
+    gap_p: float,
+    beats_nominal_p: float,
+    shrink: float,
+    explained: float,
+    no_gap_confidence: float,
+    alpha: float = 0.01,
+    min_explained: float = MIN_EXPLAINED,
+    min_shrink: float = MIN_SHRINK,
+) -> tuple[Verdict, str | None]:
     """Apply the two checks of the module docstring to a verdict naming an effect.
 
     Parameters
@@ -98,17 +108,28 @@ def check_verdict(verdict: Verdict, *, gap_p: float, beats_nominal_p: float, shr
         return verdict, None
     gain = math.isfinite(shrink) and shrink >= min_shrink and beats_nominal_p < alpha
     if gap_p >= alpha and not gain:
-        how = (f"cuts the held-out error by {100 * max(shrink, 0.0):.1f} % only" if beats_nominal_p < alpha
-               else f"does not predict the held-out data significantly better (p = {beats_nominal_p:.2g})")
-        why = (f"the nominal model's held-out error is within the noise (p = {gap_p:.2g}) and {name} {how}: "
-               f"there is no gap to explain")
-        return (Verdict(NOMINAL, float(min(1.0, max(0.0, no_gap_confidence))), why),
-                f"{name} ranked first among the candidates, but {why}")
+        how = (
+            f"cuts the held-out error by {100 * max(shrink, 0.0):.1f} % only"
+            if beats_nominal_p < alpha
+            else f"does not predict the held-out data significantly better (p = {beats_nominal_p:.2g})"
+        )
+        why = (
+            f"the nominal model's held-out error is within the noise (p = {gap_p:.2g}) and {name} {how}: "
+            f"there is no gap to explain"
+        )
+        return (
+            Verdict(NOMINAL, float(min(1.0, max(0.0, no_gap_confidence))), why),
+            f"{name} ranked first among the candidates, but {why}",
+        )
     if math.isfinite(explained) and explained < min_explained:
         share = max(explained, 0.0)
-        why = (f"the best candidate, {name}, removes only {100 * share:.0f} % of the nominal model's held-out "
-               f"excess over the noise floor (at least {100 * min_explained:.0f} % is needed to say it explains "
-               f"the gap)")
-        return (Verdict("unexplained", float(min(1.0, max(0.0, 1.0 - share))), why),
-                f"{name} ranked first among the candidates, but {why}")
+        why = (
+            f"the best candidate, {name}, removes only {100 * share:.0f} % of the nominal model's held-out "
+            f"excess over the noise floor (at least {100 * min_explained:.0f} % is needed to say it explains "
+            f"the gap)"
+        )
+        return (
+            Verdict("unexplained", float(min(1.0, max(0.0, 1.0 - share))), why),
+            f"{name} ranked first among the candidates, but {why}",
+        )
     return verdict, None
