@@ -226,10 +226,11 @@ def summarise(rows, title):
             det = [r for r in sel if r["det"] > 3]
             ok = sum(r["verdict"] == e for r in det)
             allok = sum(r["verdict"] == e for r in sel)
+            wrong = sum(r["verdict"] not in (e, "none", "unexplained") and r["confidence"] > 0.5 for r in sel)
             print(
                 f"  {e:<22s} {nz:<8s} detectable {ok}/{len(det)}"
                 f"{'' if not det else f' = {ok / len(det):.0%}'}   all cases {allok}/{len(sel)}   "
-                f"confident wrong (>0.5): {sum(r['verdict'] not in (e, 'none', 'unexplained') and r['confidence'] > 0.5 for r in sel)}"
+                f"confident wrong (>0.5): {wrong}"
             )
     det_all = [r for r in rows if r["effect"] != "none" and r["det"] > 3]
     if det_all:
