@@ -13,7 +13,8 @@ What is measured
   every soiltrack method (the default ``fit`` - engine ``auto``, the compiled LM engine on C
   code from the disk cache -, ``fit`` with ``engine="ipopt"`` from its grid start and from the
   given start, newton / least-squares, the compiled engine ``fit(..., engine="compiled")`` from
-  its grid start and from the given start, and ``fit_many([data])``) vs ``scipy.optimize.least_squares(method="trf")`` with the same data, the same
+  its grid start and from the given start, and ``fit_many([data])``) vs
+  ``scipy.optimize.least_squares(method="trf")`` with the same data, the same
   bounds (the seed's practical ranges), the same scaled variables (phi in rad, K in cm), an
   analytic Jacobian and tolerances 1e-12 (scipy's best case). The estimates are compared and the
   largest relative difference is printed. Times are medians over ``--repeats`` calls, after a
