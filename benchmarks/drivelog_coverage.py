@@ -244,7 +244,8 @@ def main(argv=None) -> int:
     lo, hi = s["calibrated_range_95"]
     print(
         f"\n{a.vehicle} on {a.terrain} ({'Gauss-Newton' if a.gauss_newton else 'default'} covariance; "
-        f"effects in logs: {a.effect or 'none'}; fitted: {a.fit_effect or 'none'}{'; hull channel' if a.hull else ''}), "
+        f"effects in logs: {a.effect or 'none'}; fitted: {a.fit_effect or 'none'}"
+        f"{'; hull channel' if a.hull else ''}), "
         f"{s['succeeded']}/{s['seeds']} fits succeeded, "
         f"{time.time() - t0:.0f} s wall, median fit {s['median_fit_time_s']:.2f} s"
     )
