@@ -1,5 +1,6 @@
 #!/usr/bin/env python
-"""``soiltrack fit --effect grade`` on data simulated by INDEPENDENT code: are the grade and the soil inside their intervals?
+"""``soiltrack fit --effect grade`` on data simulated by INDEPENDENT code: are the grade and the
+soil inside their intervals?
 
 The data come from :mod:`independent_check` (plain numpy: Eq. 2 by quadrature along the track,
 the quasi-static drive solved for the slip by bisection; not ``soiltrack.soilmodel``): drawbar
@@ -62,7 +63,7 @@ def run(path: str, extra: list[str]) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0].replace("\n", " "))
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--kinds", default="sweep,drive", help="comma-separated: sweep, drive")
     ap.add_argument(
