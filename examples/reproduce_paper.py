@@ -1053,7 +1053,8 @@ def main(argv=None) -> int:
     )
     if rg is not None:
         txt += (
-            f"At this F_max the ridge A c + W tan(phi) = F_max inside the bounds runs from c = {rg[0][0] / 1e3:.3g} kPa "
+            "At this F_max the ridge A c + W tan(phi) = F_max inside the bounds runs from "
+            f"c = {rg[0][0] / 1e3:.3g} kPa "
             f"(phi = {math.degrees(rg[1][1]):.4g} deg) to c = {rg[0][1] / 1e3:.3g} kPa (phi = "
             f"{math.degrees(rg[1][0]):.4g} deg); every point of it fits equally well. "
         )
@@ -1302,7 +1303,8 @@ def main(argv=None) -> int:
     e_ncf = pct(ncf_res.residuals + WONG_FORCE, WONG_FORCE)
     L.append(
         f"- Without bounds the cohesion-free model (Eq. 8) fits Wong's points exactly as well as the full model "
-        f"(RMSE {ncf_res.rmse / 1e3:.3g} vs {full_res.rmse / 1e3:.3g} kN; errors {e_ncf.min():+.2f}..{e_ncf.max():+.2f} % "
+        f"(RMSE {ncf_res.rmse / 1e3:.3g} vs {full_res.rmse / 1e3:.3g} kN; "
+        f"errors {e_ncf.min():+.2f}..{e_ncf.max():+.2f} % "
         f"vs {e_full.min():+.2f}..{e_full.max():+.2f} %). With the seed's bound phi <= 40 deg it is worse "
         f"(RMSE {cf_res.rmse / 1e3:.3g} kN, errors {e_cf.min():+.2f}..{e_cf.max():+.2f} %), because the data want "
         f"phi = {math.degrees(math.atan(fm_full / W)):.4g} deg at c = 0."
@@ -1310,7 +1312,8 @@ def main(argv=None) -> int:
     L.append(
         f"- Partly: the seed's 'actual' values against what the data determine: F_max = {fm_full / 1e3:.5g} kN "
         f"(actual: {fm_act / 1e3:.5g} kN, {pct(fm_full, fm_act):+.1f} %), K = {k_of(full_res):.4g} m (actual 0.018 m, "
-        f"{pct(k_of(full_res), 0.018):+.0f} %) with l = 2.8 m assumed - K/l = {k_of(full_res) / HEAVY.track_length:.4g} "
+        f"{pct(k_of(full_res), 0.018):+.0f} %) with l = 2.8 m assumed - "
+        f"K/l = {k_of(full_res) / HEAVY.track_length:.4g} "
         "is what the data fix, so K scales with the unknown l."
     )
     L.append("")
@@ -1377,8 +1380,6 @@ def main(argv=None) -> int:
         f"of the inequality the 120 kN vehicle crosses both on flat ground and, on {SLOPE_DEG:.0f} deg, dry sand "
         f"(margin {ds[SLOPE_DEG]['margin'] / 1e3:+.1f} kN) but not clay ({cl[SLOPE_DEG]['margin'] / 1e3:+.1f} kN)."
     )
-    tn = next(r for r in t1 if r["method"] == "newton")
-    tl = next(r for r in t1 if r["method"] == "least-squares")
     parts = [f"{row_label(r)}: {r['solve_med'] * 1e3:.3g} ms (`{r['res'].status}`)" for r in t1]
     L.append(
         f"- **Speed.** The seed: Newton {SEED_TABLE1['newton']['time']} s vs least squares "
