@@ -941,7 +941,8 @@ def _wider_soil(
     return _WiderSoil(
         residuals=Rw,
         note=(
-            f"the nominal soil ended on the edge of the practical range ({on}) and the data want a soil beyond it: with "
+            f"the nominal soil ended on the edge of the practical range ({on}) and the data want a soil "
+            "beyond it: with "
             f"the bounds widened (c 0-200 kPa, phi 1-55 deg, K 2-250 mm) the nominal model fits all the data better by "
             f"a likelihood ratio of {lr:.3g} (p = {p:.2g}), with {now}"
         ),
