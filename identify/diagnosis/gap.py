@@ -510,9 +510,10 @@ def change_window(
 
     The series is pooled into ``n_cells`` consecutive cells; every window of whole cells (not
     the whole series) is scored by the standardised difference of its mean from the mean
-    outside (residuals standardised by ``sigma``, a number or one per sample). The long-run variance (:func:`long_run_factor`) of the residuals outside the best
-    window corrects for correlation; the p-value is Bonferroni-corrected for the number of
-    windows tried. ``None`` when the series is too short or ``sigma`` is not positive.
+    outside (residuals standardised by ``sigma``, a number or one per sample). The long-run
+    variance (:func:`long_run_factor`) of the residuals outside the best window corrects for
+    correlation; the p-value is Bonferroni-corrected for the number of windows tried. ``None``
+    when the series is too short or ``sigma`` is not positive.
     """
     raw = np.asarray(residuals, dtype=float).ravel()
     x = np.asarray(x, dtype=float).ravel()
