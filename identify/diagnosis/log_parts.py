@@ -97,7 +97,10 @@ class TerrainWindow:
 
     def to_dict(self) -> dict:
         """JSON-friendly dict (the ``change_window`` entry of a drive-log diagnosis)."""
-        f = lambda x: float(x) if math.isfinite(x) else None
+
+        def f(x: float) -> float | None:
+            return float(x) if math.isfinite(x) else None
+
         return {
             "channel": self.channel,
             "start": float(self.start),
