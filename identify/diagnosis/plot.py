@@ -12,7 +12,8 @@ def plot_diagnosis(diag, path: str) -> str:
 
     Top: held-out residuals of the main channel against time (log) or slip (sweep), nominal
     model and with the verdict's effect, with the +-2 noise-floor band and the change window.
-    Bottom left: the weights (cross-validation for a log, information criterion for a sweep). Bottom right: the largest localisation shares.
+    Bottom left: the weights (cross-validation for a log, information criterion for a sweep).
+    Bottom right: the largest localisation shares.
     """
     import matplotlib
 
