@@ -560,7 +560,8 @@ def _base_extra(
     dropped = prep.dropped["slow"] + prep.dropped["braking"] + prep.dropped["edge"]
     if prep.dropped["slow"] + prep.dropped["braking"]:
         warnings.append(
-            f"{dropped} of {log.n_samples} samples not used: {prep.dropped['slow']} standing, reversing or with vehicle or track speed "
+            f"{dropped} of {log.n_samples} samples not used: {prep.dropped['slow']} standing, reversing or "
+            "with vehicle or track speed "
             f"below 3 noise levels (about {prep.dropped['speed_floor_m_s']:.3g} m/s: slip undefined or lost in the "
             f"speed noise), {prep.dropped['braking']} braking (negative thrust: the skid law F(i) = -F(|i|) is only "
             f"a first approximation), {prep.dropped['edge']} at the ends of the log (no sprocket-speed difference)"
