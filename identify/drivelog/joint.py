@@ -12,8 +12,9 @@ latent slip ``i_k``::
     d_H = F(i_k) - R(v_k, i_k) - m_eff a_k                        hull balance residual, N
 
 whitened as ``e_w = d_s / sigma_s``, ``e_T = (d_T - rho d_s) / sigma_T|s`` (as in the nominal
-problem; ``sigma_s`` and ``sigma_T`` follow ``r_eff``) and ``e_H = d_H / sigma_H`` with ``sigma_H = m_eff sigma_a`` (it depends on
-``mass_error``: errors in the acceleration regressor are weighted as such, Deming-style); IPOPT minimises ``sum |e_k|^2 / 2``. ``M_k'`` and
+problem; ``sigma_s`` and ``sigma_T`` follow ``r_eff``) and ``e_H = d_H / sigma_H`` with
+``sigma_H = m_eff sigma_a`` (it depends on ``mass_error``: errors in the acceleration regressor
+are weighted as such, Deming-style); IPOPT minimises ``sum |e_k|^2 / 2``. ``M_k'`` and
 ``dw_k/dt`` are those of the discrete sprocket equation (:func:`.drivelog_prepare.prepare_drive_log`).
 The acceleration ``a_k`` is the IMU column ``vehicle_accel_m_s2`` when the log has it (noise
 model estimated from that column), else the central difference of the measured vehicle speed
@@ -382,7 +383,8 @@ def _slip_kernels(vehicle: Vehicle, structure: EffectSet):
 class _Chunked:
     """Per-sample evaluation of a chunk-mapped kernel ``(theta, i, d)`` over the samples of ``D``.
 
-    ``theta`` is one column (broadcast to every sample by CasADi); the samples are padded with samples at rest (:func:`padded_data`) to a multiple of :data:`SLIP_CHUNK`. ``D`` is
+    ``theta`` is one column (broadcast to every sample by CasADi); the samples are padded with
+    samples at rest (:func:`padded_data`) to a multiple of :data:`SLIP_CHUNK`. ``D`` is
     converted to CasADi once, for calls on all its samples; a call on a subset (``idx``) converts
     that subset.
     """
