@@ -316,6 +316,5 @@ def _fit_joint_sweep(pb, x0v, st: FitSettings, slip_noise, intervals: str) -> Fi
 def _check_options(options: dict, allowed: set) -> None:
     unknown = sorted(set(options) - allowed)
     if unknown:
-        raise DataError(
-            f"unknown option(s) {unknown}; allowed here: {sorted(allowed) + ['intervals', 'sigma', 'sigma_known', 'slip_noise']}"
-        )
+        also = ["intervals", "sigma", "sigma_known", "slip_noise"]
+        raise DataError(f"unknown option(s) {unknown}; allowed here: {sorted(allowed) + also}")
