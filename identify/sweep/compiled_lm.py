@@ -225,10 +225,11 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
     can be called through a zero-copy buffer). Inputs: ``d = [slip (n), F (n), W (n), w (n), l, b]``
     with ``w = 1/sigma`` (0 on padding rows), ``lbz, ubz`` (scaled bounds), ``z0`` (scaled
     start, used when ``use_z0 = 1``) and, for ``n > GRID_ROWS``, ``g = [slip, F, W, w]`` of the
-    ``GRID_ROWS`` samples the start grid is evaluated on (:func:`grid_rows`). Output: ``[z (p), cost, g (p), trJJ, iters, zstart (p),
-    scale]``: the scaled optimum, ``0.5 sum r^2``, the gradient of the cost in ``z``, the trace
-    of ``J^T J``, the iterations run until the first-order test held, the start used and
-    ``0.5 sum (w F)^2``. :func:`kernel` compiles it to C (cached on disk).
+    ``GRID_ROWS`` samples the start grid is evaluated on (:func:`grid_rows`). Output:
+    ``[z (p), cost, g (p), trJJ, iters, zstart (p), scale]``: the scaled optimum,
+    ``0.5 sum r^2``, the gradient of the cost in ``z``, the trace of ``J^T J``, the iterations
+    run until the first-order test held, the start used and ``0.5 sum (w F)^2``. :func:`kernel`
+    compiles it to C (cached on disk).
     """
     n_grid = max(int(n_grid), 1)
     d = ca.MX.sym("d", 4 * n + 2)
@@ -848,7 +849,10 @@ def _corners_cached(bounds, model: str) -> np.ndarray:
 
 
 def _corners(bounds, model: str) -> np.ndarray:
-    """``[weak (c, phi, K), strong (c, phi, K)]`` of :func:`corner_soils` as one array (the residual Function's last input)."""
+    """``[weak (c, phi, K), strong (c, phi, K)]`` of :func:`corner_soils` as one array.
+
+    The residual Function's last input.
+    """
     try:
         return _corners_cached(bounds, model)
     except TypeError:  # unhashable bounds: not cached
