@@ -365,7 +365,8 @@ def check_slip_data(
         out.append(
             Finding(
                 "force_scale_low",
-                f"the forces are about {1 / max(ratio, 1e-12):.3g} times smaller than the weakest soil within the bounds "
+                f"the forces are about {1 / max(ratio, 1e-12):.3g} times smaller than the weakest soil "
+                "within the bounds "
                 f"gives at these slips (W = {_fmt_force(W)}; largest measured {_fmt_force(float(np.max(force)))}, the "
                 f"weakest soil reaches {_fmt_force(float(np.max(lo)))}): are they in kN in an N column, or is the "
                 "normal load or the vehicle wrong?",
@@ -375,12 +376,13 @@ def check_slip_data(
     above = np.nonzero(pos)[0][f > SCALE_FACTOR * hi] if not every else np.nonzero(f > SCALE_FACTOR * hi)[0]
     if above.size:
         k = int(above[0])
+        hi_k = float(hi[np.nonzero(pos)[0] == k][0])
         out.append(
             Finding(
                 "force_above_any_soil",
-                f"row(s) {_rows(above)}: the tractive force ({_fmt_force(float(force[k]))} in row {k + 1}) is more than "
-                f"{SCALE_FACTOR:g} times what the strongest soil within the bounds gives at that slip and load "
-                f"({_fmt_force(float(hi[np.nonzero(pos)[0] == k][0]))}): a typo, a unit error or the wrong normal load?",
+                f"row(s) {_rows(above)}: the tractive force ({_fmt_force(float(force[k]))} in row {k + 1}) "
+                f"is more than {SCALE_FACTOR:g} times what the strongest soil within the bounds gives at "
+                f"that slip and load ({_fmt_force(hi_k)}): a typo, a unit error or the wrong normal load?",
                 usable=False,
                 rows=tuple(int(r) + 1 for r in above),
             )
