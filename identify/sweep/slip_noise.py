@@ -311,8 +311,9 @@ def fit_with_slip_noise(pb, solve, mode) -> tuple[FitResult, SlipNoise, SlipProb
                 s,
                 lr,
                 note=(
-                    f"the residual spread grows with the slope dF/di (likelihood ratio {lr:.3g} > {LR_CRITICAL}), but the "
-                    f"residuals change smoothly with the slip (lag-1 correlation z = {zs:.3g} > {SERIAL_Z}): a misfit of "
+                    "the residual spread grows with the slope dF/di "
+                    f"(likelihood ratio {lr:.3g} > {LR_CRITICAL}), but the residuals change smoothly with "
+                    f"the slip (lag-1 correlation z = {zs:.3g} > {SERIAL_Z}): a misfit of "
                     "the model's shape, not noise on the slip, so the slip is taken as exact"
                 ),
             ),
