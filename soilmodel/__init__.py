@@ -7,9 +7,9 @@ Public names: :class:`Soil`, :class:`Vehicle`, :data:`TERRAINS`, :data:`VEHICLES
 :func:`plate_pressure_expr`: Janosi-Hanamoto shear, Bekker pressure-sinkage); the
 unmodelled effects (:data:`EFFECTS`, :func:`parse_effects`, :func:`thrust_with_effects`,
 :func:`sweep_measurement`: what a drawbar-pull rig reports), the dynamics
-(:func:`dynamics_function`, :func:`slip_from_thrust`) and the simulator (:func:`simulate`); units by magnitude for reports and figures
-(:func:`format_force`, :func:`format_torque`, :func:`format_power`, :func:`format_energy`,
-:func:`choose_scale`).
+(:func:`dynamics_function`, :func:`slip_from_thrust`) and the simulator (:func:`simulate`); units
+by magnitude for reports and figures (:func:`format_force`, :func:`format_torque`,
+:func:`format_power`, :func:`format_energy`, :func:`choose_scale`).
 The rigid wheel on a rig: :class:`RigidWheel`, :func:`read_running_gear` (track or wheel JSON),
 :func:`wheel_expr` (the Wong-Reece stresses integrated), :class:`WheelSettings`,
 :class:`WheelSweep`, :func:`read_wheel_sweep`, :func:`simulate_wheel_sweep`.
