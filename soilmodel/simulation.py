@@ -584,7 +584,8 @@ def simulate(
 
     Dispatches to :func:`simulate_drive_log` (``duration_s`` default 60, ``sample_rate_hz``
     default 50, ``speed_profile``, ``sprocket_equation``) or :func:`simulate_slip_sweep`
-    (``slips``, ``normal_loads``, ``measure``: ``"tractive_force"`` or ``"drawbar_pull"``). Arguments that belong to the other kind are refused.
+    (``slips``, ``normal_loads``, ``measure``: ``"tractive_force"`` or ``"drawbar_pull"``).
+    Arguments that belong to the other kind are refused.
 
     Returns
     -------
