@@ -11,8 +11,8 @@ metre travelled)::
     R_c = 2 b (k_c / b + k_phi) z0 ** (n + 1) / (n + 1)
 
 Written once as CasADi expressions (floats work too); :func:`static_sinkage` and
-:func:`compaction_resistance` are the numpy helpers. Slip-induced sinkage (for stuck prediction) follows Lyasko's empirical relation
-(J. Terramechanics 47, 2010)::
+:func:`compaction_resistance` are the numpy helpers. Slip-induced sinkage (for stuck
+prediction) follows Lyasko's empirical relation (J. Terramechanics 47, 2010)::
 
     z = z0 (1 + i) / (1 - 0.5 i)          (z = 4 z0 at full slip)
 
