@@ -58,7 +58,7 @@ class ReportViews:
 
         ``residuals`` holds model - data (the solver's convention); this is its negative.
         """
-        return -np.asarray(self.residuals, dtype=float)
+        return -np.asarray(self.residuals, dtype=np.float64)
 
     @cached_property
     def warnings(self) -> tuple[str, ...]:
