@@ -523,8 +523,11 @@ class EstimateViews:
                 f"tractive force at that load only, not at W = {float(off[0]):.6g} N; fit data at "
                 "two or more normal loads to predict at others"
             )
+        th = self.theta
         return Soil(
-            *(float(x) for x in self.theta[:3]),
+            float(th[0]),
+            float(th[1]),
+            float(th[2]),
             name=f"fitted curve at W = {W0:.6g} N (ridge point: c and phi NOT separately identified)",
         )
 
