@@ -289,7 +289,7 @@ class OnlineEstimator:
         every = _TURN_REESTIMATE_EARLY if n < s.turn_history else s.noise_every
         if n >= MIN_NOISE_SAMPLES and (self._turn_sigma[0] is None or self._turn_count % every == 0):
             floor = NOISE_FLOOR_REL * self._w_max + 1e-12
-            sd = max(robust_noise(np.fromiter(self._turn_d, float)), floor)
+            sd: float | None = max(robust_noise(np.fromiter(self._turn_d, float)), floor)
             sy = None
             if len(self._turn_y) >= MIN_NOISE_SAMPLES:
                 y = np.fromiter(self._turn_y, float)
