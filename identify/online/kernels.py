@@ -168,6 +168,7 @@ def _slip_gn(row, i, xF, xK, F_ref, K_ref, l, iterations: int):
             if best_i is None:
                 best_i, best_c = cand, c
             else:
+                assert best_c is not None  # set with best_i on the first fraction
                 better = c < best_c
                 best_i, best_c = ca.if_else(better, cand, best_i), ca.if_else(better, c, best_c)
         i = best_i
