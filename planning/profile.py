@@ -485,7 +485,7 @@ def plan_patches(patches: tuple[Patch, ...], vehicle: Vehicle, **kw: Any) -> Spe
     for p in patches:
         soil, _u, _m = resolve_terrain(p.terrain, vehicle)
         N, req = resistances(vehicle, soil, np.array([math.radians(p.grade_deg)]), 0.0, 0.0)
-        length = float(p.length_m)
+        length: float | None = float(p.length_m)
         if kw.get("duration") is not None:  # the distance is an outcome of the plan
             length = res.series["distance_m"][-1] if res.success else None
         info.append(
