@@ -44,7 +44,7 @@ def sweep_measurement(
     effects: Any = None,
     model: str = "full",
     measured: str = "tractive_force",
-    rig_speed: float = DEFAULT_RIG_SPEED,
+    rig_speed: Any = DEFAULT_RIG_SPEED,
 ):
     """What a drawbar-pull rig reports at apparent slip ``i_app`` and nominal load ``W`` (symbolic).
 
