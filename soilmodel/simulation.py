@@ -197,7 +197,7 @@ def default_speed_profile(vehicle: Vehicle, duration_s: float = 60.0) -> Callabl
     vc = cruise_speed(vehicle)
     T = float(duration_s)
     a = hard_acceleration(vehicle)
-    kt = [
+    kt_list = [
         0.0,
         0.04 * T,
         0.04 * T + vc / a,
@@ -214,7 +214,7 @@ def default_speed_profile(vehicle: Vehicle, duration_s: float = 60.0) -> Callabl
         T,
     ]
     kv = np.array([0.0, 0.0, 1.0, 1.0, 0.5, 0.5, 0.0, 0.0, 1.0, 1.0, 0.3, 0.3, 0.7, 0.7]) * vc
-    kt = np.maximum.accumulate(np.array(kt))
+    kt = np.maximum.accumulate(np.array(kt_list))
 
     def profile(t):
         t = np.asarray(t, dtype=float)
