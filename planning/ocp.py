@@ -32,6 +32,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -211,7 +212,11 @@ def ocp_solver(vehicle: Vehicle, n: int, warm: bool, energy: bool = False, rate_
     ``warm``: warm-start options; ``energy``: energy objective (work slacks), else minimum time;
     ``rate_limit``: with the torque-rate rows.
     """
-    opts = {"ipopt": dict(IPOPT_OPTIONS, **(WARM_OPTIONS if warm else {})), "print_time": False, "error_on_fail": False}
+    opts: dict[str, Any] = {
+        "ipopt": dict(IPOPT_OPTIONS, **(WARM_OPTIONS if warm else {})),
+        "print_time": False,
+        "error_on_fail": False,
+    }
     return ca.nlpsol(f"speed_ocp_{n}", "ipopt", ocp_nlp(vehicle, n, energy, rate_limit), opts)
 
 
@@ -307,23 +312,25 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
     ndyn = n * 2 * (DEGREE + 1)
     dist_lo = np.full(n, -inf) if free_dist else np.zeros(n)
     dist_hi = np.full(n, inf) if free_dist else np.zeros(n)
-    lbg = [np.zeros(ndyn), dist_lo] + ([np.zeros(n)] if energy else []) + [np.zeros(2 * npt), np.full(npt, -inf)]
-    ubg = (
+    lbg_parts: list[Any] = (
+        [np.zeros(ndyn), dist_lo] + ([np.zeros(n)] if energy else []) + [np.zeros(2 * npt), np.full(npt, -inf)]
+    )
+    ubg_parts: list[Any] = (
         [np.zeros(ndyn), dist_hi]
         + ([np.full(n, inf)] if energy else [])
         + [np.full(2 * npt, inf), np.full(npt, 1.0 if d.max_power else inf)]
     )
     if rate_on:
-        lbg.append(np.full(2 * (n - 1), -inf))
-        ubg.append(np.zeros(2 * (n - 1)))
-    lbg.append([d.duration if d.duration is not None else -inf])
-    ubg.append([d.duration if d.duration is not None else inf])
-    lbg, ubg = np.concatenate(lbg), np.concatenate(ubg)
+        lbg_parts.append(np.full(2 * (n - 1), -inf))
+        ubg_parts.append(np.zeros(2 * (n - 1)))
+    lbg_parts.append([d.duration if d.duration is not None else -inf])
+    ubg_parts.append([d.duration if d.duration is not None else inf])
+    lbg, ubg = np.concatenate(lbg_parts), np.concatenate(ubg_parts)
     args = dict(p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
     warm = prev is not None
     solver = ocp_solver(vehicle, n, warm, energy, rate_on)  # built once per structure; not solve time
     t0 = time.perf_counter()
-    if warm:
+    if prev is not None:  # warm
         args.update(x0=np.clip(prev["x"], lbx, ubx), lam_x0=prev["lam_x"], lam_g0=prev["lam_g"])
     else:
         args["x0"] = np.clip(_guess(d, vehicle, n, slip_of_thrust), lbx, ubx)
