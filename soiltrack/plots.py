@@ -113,8 +113,9 @@ def _curve_band(grid, result, vehicle, W: float) -> np.ndarray | None:
     q = result.quantile
     if fm is None or kk is None or fm.stderr is None or kk.stderr is None or corr is None or q is None:
         return None
+    th = result.theta  # [c, phi, K]
     sens = tractive_force_sensitivities(
-        grid, Soil(*(float(x) for x in result.theta)), vehicle, result.model, normal_load=W
+        grid, Soil(float(th[0]), float(th[1]), float(th[2])), vehicle, result.model, normal_load=W
     )
     g = sens[:, 1] / (W / np.cos(result.theta[1]) ** 2)
     dK = sens[:, 2]
@@ -350,16 +351,18 @@ def _drive_log_panels(fig, ax, axr, data: DriveLog, vehicle, result, curve) -> N
     # thrust bins (the thrust is the precise variable): weighted mean slip of each, with its standard error
     edges = np.linspace(float(np.min(thrust)), float(np.max(thrust)), 13)
     idx = np.clip(np.searchsorted(edges, thrust, side="right") - 1, 0, edges.size - 2)
-    bx, by, be = [], [], []
+    bx_l: list[float] = []
+    by_l: list[float] = []
+    be_l: list[float] = []
     for b in range(edges.size - 1):
         sel = idx == b
         if sel.sum() < 3:
             continue
         w = weight[sel]
-        bx.append(float(np.sum(w * slip[sel]) / np.sum(w)))
-        be.append(float(np.sqrt(1.0 / np.sum(w))))  # standard error of the weighted mean
-        by.append(float(np.mean(thrust[sel])))
-    bx, by, be = np.array(bx), np.array(by), np.array(be)
+        bx_l.append(float(np.sum(w * slip[sel]) / np.sum(w)))
+        be_l.append(float(np.sqrt(1.0 / np.sum(w))))  # standard error of the weighted mean
+        by_l.append(float(np.mean(thrust[sel])))
+    bx, by, be = np.array(bx_l), np.array(by_l), np.array(be_l)
     ax.errorbar(
         bx,
         by / sc,
