@@ -28,10 +28,12 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
             from .soilmodel import DataError
 
             raise DataError(f"--candidates expects comma-separated effect names, got {a.candidates!r}")
-    from .soilmodel import DataError, DriveLog
+    from .soilmodel import DataError, DriveLog, SlipData
 
     if a.torque_hold is not None and not isinstance(data, DriveLog):
         raise DataError("--torque-hold applies to drive logs only", file=a.data)
+    if not isinstance(data, (SlipData, DriveLog)):  # a bevameter test: diagnose refuses it (same words)
+        raise DataError(f"diagnose takes SlipData or DriveLog, got {type(data).__name__}")
     import sys
     import time
 
