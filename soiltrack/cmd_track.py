@@ -79,7 +79,8 @@ def _p_traversable(estimate, vehicle, grade_deg: float | None):
         return None
     from .planning import margin
 
-    return float(margin(estimate, vehicle, grade_deg=grade_deg, samples=MARGIN_SAMPLES).p_traversable)
+    p = margin(estimate, vehicle, grade_deg=grade_deg, samples=MARGIN_SAMPLES).p_traversable
+    return None if p is None else float(p)  # an estimate is uncertain: margin gives its probability
 
 
 def _finite_or_none(x):
