@@ -60,12 +60,27 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
     return EXIT_OK if d.converged else EXIT_SOLVER
 
 
+_DESCRIPTION = """Diagnose the gap between the nominal model and measured data (a slip sweep or a drive log).
+
+The data's channels are first checked against each other and the vehicle (a failed check: no
+diagnosis, exit 1). The nominal model is fitted on part of the data and predicts the rest; the
+candidate effects and a flexible "something else" term are refitted and weighed on the same
+held-out data. The verdict is an effect name, none (no gap beyond the noise) or unexplained.
+Exit 0 when the diagnosis converged, 1 when it could not (the reason printed), 2 for bad input.
+Method: docs/diagnosis.md."""
+
+
 def add_parser(sub) -> None:
     """Register the ``diagnose`` subcommand on an argparse subparsers object."""
     p = sub.add_parser(
         "diagnose",
         help="where a model and measured data part, which unmodelled effect explains "
         "it, and how far the gap shrinks (slip sweep or drive log)",
+        description=_DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="example:\n  soiltrack simulate --kind sweep --vehicle light --terrain sandy_loam --loads 300,450 "
+        "--effect slip_sinkage=0.1 --seed 1 -o sweep.csv\n  soiltrack diagnose sweep.csv --vehicle light --plot "
+        "diagnosis.png",
     )
     p.add_argument("data", help="CSV: slip,tractive_force_N|drawbar_pull_N[,normal_load_N] or a drive log")
     p.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")

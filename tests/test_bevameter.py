@@ -99,6 +99,7 @@ def test_a_cohesionless_soil_ends_on_the_cohesion_bound_and_says_so(tmp_path, se
     assert c.ci95[0] == 0.0 and c.ci95[1] > 0.0
 
 
+@pytest.mark.slow
 def test_prediction_of_a_track_drawbar_pull_covers_the_truth(tmp_path):
     slips = np.array([0.05, 0.3])
     vehicle = VEHICLES["light"]
@@ -121,6 +122,7 @@ def test_prediction_refuses_a_plate_test_of_one_width(tmp_path):
     assert e.value.reason.count("bekker_kc") == 1
 
 
+@pytest.mark.slow
 def test_cli_fits_a_bevameter_file_without_vehicle(tmp_path):
     path = tmp_path / "shear.csv"
     BEV.shear_csv(str(path), SOIL, 7)

@@ -131,6 +131,7 @@ def test_fit_report_and_plot(tmp_path, capsys):
         ("slip,tractive_force_N\n0.01,1000\n0.02,x\n0.05,3000\n", "tractive_force_N", 2),
     ],
 )
+@pytest.mark.slow
 def test_fit_bad_csv_exits_2_naming_column_and_row(tmp_path, text, column, row):
     bad = tmp_path / "bad.csv"
     bad.write_text(text)

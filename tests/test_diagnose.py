@@ -59,6 +59,7 @@ def test_none_on_effect_free_data(seed):
 
 
 @pytest.mark.parametrize("name", ["hump_shear", "slip_sinkage", "radius_error"])
+@pytest.mark.slow
 def test_clean_case_is_diagnosed_and_the_gap_shrinks(name):
     # radius_error: the nominal fit of this sweep converges but fails issue 7's plausibility checks (rows at
     # small slip far off the curve); the diagnosis uses its converged answer and says so
@@ -89,6 +90,7 @@ def test_leaving_out_the_true_effect_is_never_a_confident_wrong_name():
 
 
 @pytest.mark.parametrize("name", ["slip_sinkage", "radius_error"])
+@pytest.mark.slow
 def test_leave_one_out_without_weighing_the_left_out_effect(name):
     # the true effect neither among the candidates nor weighed from outside them: a candidate that imitates it
     # (hump_shear stretched to its bound for slip_sinkage; grade for radius_error, leaving a smooth gap) must
@@ -98,6 +100,7 @@ def test_leave_one_out_without_weighing_the_left_out_effect(name):
     assert d.verdict == "unexplained" or d.confidence <= 0.5, (d.verdict, d.confidence, d.reason)
 
 
+@pytest.mark.slow
 def test_report_json_and_plot(tmp_path):
     d = diagnose(sweep({"hump_shear": 0.3}), VEH)
     assert isinstance(d, Diagnosis)

@@ -75,6 +75,7 @@ def test_shift_speed_undoes_a_delay():
     assert np.allclose(back.vehicle_speed[:-3], v[:-3])
 
 
+@pytest.mark.slow
 def test_a_delayed_speed_sensor_is_not_named_as_an_effect():
     vehicle, soil = VEHICLES["light"], TERRAINS["lete_sand"]
     log = simulate(vehicle, soil, kind="drive", seed=1, duration_s=30.0)
@@ -96,6 +97,7 @@ def test_a_delayed_speed_sensor_is_not_named_as_an_effect():
     assert d.to_json()  # JSON-clean (no NaN)
 
 
+@pytest.mark.slow
 def test_a_grade_that_a_drivetrain_loss_imitates_is_not_named_with_confidence():
     """Light vehicle, 6 % grade: a Coulomb drivetrain loss tau_c / r = W sin(theta) explains the log as well
     (held-out shrink 0.73 for both, measured, Diebold-Mariano p = 0.25). Whichever of the pair is named, it is
@@ -110,6 +112,7 @@ def test_a_grade_that_a_drivetrain_loss_imitates_is_not_named_with_confidence():
     assert any(set(p) == {"grade", "drivetrain_friction"} for p, _, _ in d.confusable), d.confusable
 
 
+@pytest.mark.slow
 def test_an_effects_signature_in_time_is_not_a_change_of_terrain():
     # light vehicle, LETE sand, a 2 % radius error, the bench's doubled sensor noise, seed 1: the held-out gain of
     # radius_error is within the noise, but the nominal model's soil "differs" at 3.3-15 s (p = 3e-12); on the
@@ -128,6 +131,7 @@ def test_an_effects_signature_in_time_is_not_a_change_of_terrain():
     assert any("signature in time, not a change of terrain" in n for n in d.notes)
 
 
+@pytest.mark.slow
 def test_an_effect_screening_left_out_is_tried_before_a_change_of_terrain():
     # heavy vehicle, LETE sand, slip_sinkage mu_s = 0.15, the bench's default noise, seed 1: no score test is
     # significant, so no candidate was refitted, but the nominal model's soil "differs" at 29.6-33.9 s (a hard
@@ -144,6 +148,7 @@ def test_an_effect_screening_left_out_is_tried_before_a_change_of_terrain():
     assert abs(mu_s["value"] - 0.15) < 3 * mu_s["stderr"], mu_s
 
 
+@pytest.mark.slow
 def test_a_soft_patch_is_in_the_contracts_localisation():
     # heavy vehicle on LETE sand with 24-39 s driven on dry sand (the log spliced from two runs with the same speed
     # reference, as benchmarks/bench_diagnose.py does): the change of soil in time is the significant "time" entry of
@@ -180,6 +185,7 @@ def test_a_soft_patch_is_in_the_contracts_localisation():
     assert not any(f"time {lo:.4g} to {hi:.4g}" in line for line in d.report().splitlines())
 
 
+@pytest.mark.slow
 def test_a_speed_sensor_scale_error_is_told_from_a_radius_error_by_the_torque_arm(tmp_path):
     # plain-numpy heavy logs, seed 5: the vehicle-speed column read 3 % high (a GNSS scale error, outside the
     # library), against seed 1 with a true 4 % radius error. Both offset the slip alike; only the radius divides the

@@ -1,5 +1,7 @@
 """Sweeps shaped like a test rig's: zero-slip rows, few points, a soil outside the practical range."""
 
+import pytest
+
 import json
 import math
 import os
@@ -40,6 +42,7 @@ LIGHT = Vehicle.from_json(os.path.join(os.path.dirname(HERE), "examples", "data"
 _light_sweep = bench_module("soil_range_and_torque_hold").light_sweep  # effect-free, independent numpy
 
 
+@pytest.mark.slow
 def test_a_soil_beyond_the_practical_range_is_not_read_as_an_effect():
     # K = 3 mm (a firm soil under a small rig track) lies below the practical range's 6 mm: the nominal fit
     # ends on that bound, misses the steep rise, and an effect that bends the curve (hump_shear) was named
@@ -66,6 +69,7 @@ def test_a_soil_inside_the_practical_range_is_diagnosed_within_it():
     assert not any("soil beyond" in n for n in d.notes)
 
 
+@pytest.mark.slow
 def test_the_command_line_keeps_or_widens_the_bounds(tmp_path, capsys):
     from soiltrack.cli import main
     from soiltrack.soilmodel import write_csv

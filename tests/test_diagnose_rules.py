@@ -34,6 +34,7 @@ def sinkage_sweep():
     )
 
 
+@pytest.mark.slow
 def test_an_effect_of_the_wrong_sign_is_not_named_with_confidence(sinkage_sweep):
     cands = [e for e, s in EFFECTS.items() if "sweep" in s.shows_in and e != "slip_sinkage"]
     d = diagnose(sinkage_sweep, HEAVY, candidates=cands)
@@ -62,6 +63,7 @@ def test_gap_shrink_is_the_share_of_the_misfit_above_the_noise(sinkage_sweep):
     assert none.verdict != "none" or none.gap_shrink is None
 
 
+@pytest.mark.slow
 def test_a_softening_soil_outside_the_library_form_is_named_at_half_confidence(tmp_path):
     # Wong's type B law (independent numpy) is not the library's hump_shear form: it explains 88 % of the
     # held-out gap and leaves a smooth residual; measured before the rule: "unexplained", confidence 0.00
@@ -70,6 +72,7 @@ def test_a_softening_soil_outside_the_library_form_is_named_at_half_confidence(t
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.slow
 def test_a_load_cell_flat_at_its_limit_is_unexplained_not_an_effect(tmp_path, seed):
     # a load cell saturating at 80 % of the peak, noise added after the clip (outside the library; independent
     # numpy): 58 of 60 readings flat. Measured before the plateau check: hump_shear 0.50 on all three seeds (seed 1
@@ -130,6 +133,7 @@ def test_a_flexible_term_that_does_not_predict_held_out_blocks_is_no_gap():
     assert v.name == "mass_error" and v.confidence == pytest.approx(0.09 / 0.20)  # its share, under 0.5
 
 
+@pytest.mark.slow
 def test_an_effect_free_clayey_sweep_from_independent_code_is_none(tmp_path):
     # independent oracle, effect-free, c = 4.14 kPa, phi = 13 deg, K = 6 mm, seed 0: residuals white but with a
     # chance lag-1 correlation of 0.26, so the noise floor is low (255 N against about 300 N) and a 10-knot
@@ -173,6 +177,7 @@ def test_isolated_outliers_finds_lone_readings_and_spares_noise_steps_and_growth
     assert sum(bool(isolated_outliers(rng.normal(size=60), x)) for _ in range(500)) == 0
 
 
+@pytest.mark.slow
 def test_a_sweep_with_two_glitches_says_so_and_what_it_is_without_them(tmp_path):
     import numpy as np
 
@@ -192,6 +197,7 @@ def test_a_sweep_with_two_glitches_says_so_and_what_it_is_without_them(tmp_path)
     assert not any("far off" in n for n in diagnose(data, HEAVY).notes)
 
 
+@pytest.mark.slow
 def test_speed_glitches_in_a_log_are_named_and_the_verdict_without_them_is_given(tmp_path):
     # independent numpy log (heavy vehicle, 60 s at 20 Hz, effect-free), three GNSS speed glitches. Measured before:
     # unexplained 1.00 through a "change of terrain" at 44.1-47.05 s around the third one, with nothing said of them
@@ -224,6 +230,7 @@ def test_isolated_outliers_with_trend_finds_a_glitch_on_a_ramp_but_no_step():
     assert isolated_outliers(bend, t, trend=True) == []
 
 
+@pytest.mark.slow
 def test_torque_glitches_in_a_log_are_named_but_not_readings_at_the_drivetrain_limit(tmp_path):
     # independent numpy log (heavy vehicle, 60 s at 20 Hz, effect-free), two torque glitches of +20 and -15 kN m on
     # a torque ramping by about 500 N m per sample. Measured before: verdict none, nothing said of them
@@ -247,6 +254,7 @@ def test_torque_glitches_in_a_log_are_named_but_not_readings_at_the_drivetrain_l
     assert [k for k, _ in _lone_torque(T, t, VEHICLES["light"])] == [100]
 
 
+@pytest.mark.slow
 def test_a_stretched_candidate_that_leaves_a_gap_gives_way_to_one_in_range():
     # heavy vehicle, LETE sand, a 25 % mass error, default noise, seed 3 (a case of benchmarks/bench_diagnose.py):
     # slip_sinkage ended on its bound mu_s = 2 in every training fit, still left a smooth gap and outweighed

@@ -1,5 +1,7 @@
 """Of two explanations a log cannot tell apart, the one stretched to a bound of its parameters is not named."""
 
+import pytest
+
 import os
 
 from soiltrack.identify import diagnose
@@ -9,6 +11,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 
 
+@pytest.mark.slow
 def test_mass_error_is_named_over_a_slip_sinkage_pinned_on_its_bound():
     # 20 % extra mass, heavy vehicle, gentle 60 s log made by plain numpy (benchmarks/independent_check.py,
     # seed 2): slip sinkage imitates the mass error (the slip follows the acceleration) with mu_s on its upper

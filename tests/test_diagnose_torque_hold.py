@@ -13,6 +13,7 @@ MID = Vehicle.from_json(json.dumps(SHAPES.MID))
 
 
 @pytest.mark.parametrize("seed", [0, 3])
+@pytest.mark.slow
 def test_a_drivetrain_loss_a_sampled_torque_can_imitate_is_not_named_with_confidence(seed):
     # independent numpy, 10 Hz stop and go, effect-free, the torque read as a transducer does (r F + I dw/dt at
     # each sample). Taken as held (the default), the torque's change over one sample reads as a drivetrain loss:
@@ -27,6 +28,7 @@ def test_a_drivetrain_loss_a_sampled_torque_can_imitate_is_not_named_with_confid
     assert diagnose(log, MID, torque_hold="sample").verdict == "none"
 
 
+@pytest.mark.slow
 def test_a_held_torque_log_without_effect_says_none_and_which_hold():
     v = VEHICLES["heavy"]
     d = diagnose(simulate(v, TERRAINS["lete_sand"], kind="drive", seed=3), v)

@@ -40,6 +40,7 @@ def nominal_light(grade_light):
     return fit(grade_light[0], LIGHT)
 
 
+@pytest.mark.slow
 def test_grade_and_fmax_inside_their_intervals_light(grade_light):
     _, res = grade_light
     assert res.success, res.message
@@ -55,6 +56,7 @@ def test_grade_and_fmax_inside_their_intervals_light(grade_light):
     assert set(res.extra["channel_rms"]) == {"sprocket_speed_rad_s", "thrust_N", "hull_N"}
 
 
+@pytest.mark.slow
 def test_hull_channel_sees_the_grade_the_thrust_channel_cannot(grade_light, nominal_light):
     """The nominal fit's F_max has about 2.3x the standard error of the fit with the hull channel."""
     _, res = grade_light
@@ -107,6 +109,7 @@ def test_hull_channel_from_speed_differences_without_imu():
     assert 0.002 < g.stderr < 0.02  # measured 0.0050 rad
 
 
+@pytest.mark.slow
 def test_no_effects_is_the_nominal_fit(grade_light, nominal_light):
     log, _ = grade_light
     for kw in ({"effects": []}, {"fixed": None}):
@@ -135,6 +138,7 @@ def test_grade_and_mass_error_confused_on_a_steady_log():
     assert "payload" in text  # the experiment that separates them
 
 
+@pytest.mark.slow
 def test_fixed_effect_is_held_and_reported(grade_light):
     log, _ = grade_light
     res = fit_drive_log(log, LIGHT, fixed={"grade": GRADE})
@@ -188,6 +192,7 @@ def test_padding_samples_are_inert_for_every_drive_log_effect(vehicle):
                 assert np.all(H[:p, :] == 0.0), (name, H)  # no parameter curvature, no coupling to the slip
 
 
+@pytest.mark.slow
 def test_drivetrain_friction_fit_converges_on_the_heavy_training_part():
     """The heavy vehicle's training half of a 60 s grade log with drivetrain_friction, started from the nominal
     fit (as the diagnosis does): with the old padding IPOPT ran into its 500-iteration limit twice (50 s);
@@ -206,6 +211,7 @@ def test_drivetrain_friction_fit_converges_on_the_heavy_training_part():
     assert 0.02 < tau_c / (HEAVY.weight * HEAVY.sprocket_radius) < 0.04, tau_c
 
 
+@pytest.mark.slow
 def test_latent_slips_reach_the_minimum_from_a_noisy_measured_slip():
     """The per-sample slip solve from the measured slip (far out on the flat part of the curve for a heavy
     vehicle, where the cost is not convex in the slip) reaches the minimum: the residuals of a fit evaluated

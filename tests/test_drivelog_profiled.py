@@ -93,6 +93,7 @@ def test_profiled_start_lowers_the_cost_and_respects_bounds(grade_log):
 
 
 @pytest.mark.parametrize("names", [["grade"], ["drivetrain_friction"]])
+@pytest.mark.slow
 def test_profiled_start_changes_the_start_not_the_optimum(grade_log, names):
     """IPOPT from the profiled start and from the plain start (nominal soil, effect off) end at the same
     optimum; the fit reports the profiled iterations it took."""
@@ -121,6 +122,7 @@ def test_profiled_start_returns_the_start_when_the_cost_is_not_finite(grade_log)
     assert np.array_equal(ps.theta, th0)
 
 
+@pytest.mark.slow
 def test_the_plain_starts_run_when_ipopt_cannot_certify_the_profiled_start(grade_log, monkeypatch):
     """IPOPT's status from the profiled start is the fit's only if it converged; otherwise the plain starts run
     and the status from the profiled start is reported beside the fit's own."""

@@ -28,6 +28,7 @@ def block():
     return simulate_drive_log(LIGHT, DRY_SAND, seed=5, effects={"grade": GRADE}, duration_s=20, noise="none")
 
 
+@pytest.mark.slow
 def test_residuals_on_noise_free_block(fits, block):
     """Held-out noise-free block: the true model's residuals are at the discretisation level
     (far below the noise); the fitted model's are zero-mean against the noise; the nominal
@@ -57,6 +58,7 @@ def test_residuals_on_noise_free_block(fits, block):
     assert np.nanmean(nominal["hull_N"]) == pytest.approx(-W_sin, rel=0.1)  # measured -15.8 N vs -15.7 N
 
 
+@pytest.mark.slow
 def test_residual_hook_pickles_and_refuses_a_failed_fit(fits, block):
     res, _ = fits
     again = pickle.loads(pickle.dumps(res.residual_model))
@@ -67,6 +69,7 @@ def test_residual_hook_pickles_and_refuses_a_failed_fit(fits, block):
         failed.residuals_on(block)
 
 
+@pytest.mark.slow
 def test_effect_fits_and_residuals_from_threads_match_serial(fits, block):
     """Two effect fits and their held-out residuals from a ThreadPoolExecutor equal the serial ones
     (cached solvers go through the one solver lock; measured with 4 threads and 4 logs too)."""

@@ -278,6 +278,7 @@ def test_assumed_limits_when_vehicle_gives_none():
 
 
 @pytest.mark.parametrize("name", list(EFFECTS))
+@pytest.mark.slow
 def test_simulated_log_effect_off_equals_nominal_exactly(name):
     kw = dict(noise="none", duration_s=6.0, sample_rate_hz=50.0, return_truth=True)
     a, ta = simulate_drive_log(HEAVY, SEED_ACTUAL, **kw)
@@ -302,6 +303,7 @@ def _hold(veh, soil, effects, v=1.0):
     return {k: np.mean(tr[k][hold]) for k in ("torque", "slip", "slip_apparent", "v", "w", "thrust")}
 
 
+@pytest.mark.slow
 def test_effect_signatures_in_drive_logs():
     r, W, mu = LIGHT.sprocket_radius, LIGHT.weight, LIGHT.rolling_resistance
     base = _hold(LIGHT, SAND, None)
@@ -339,6 +341,7 @@ def test_effect_signatures_in_drive_logs():
     assert np.max(u1["accel"][early]) == pytest.approx(np.max(u0["accel"][early]), rel=0.15)
 
 
+@pytest.mark.slow
 def test_noise_levels_and_seeds():
     noise = SensorNoise()
     a, tr = simulate_drive_log(HEAVY, SEED_ACTUAL, seed=7, return_truth=True)

@@ -37,6 +37,7 @@ def quick_run(tmp_path_factory):
     return out, open(out / "report.md", encoding="utf-8").read(), proc.stderr
 
 
+@pytest.mark.slow
 def test_report_and_figures_exist(quick_run):
     out, report, _ = quick_run
     for name in FIGURES:

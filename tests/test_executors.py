@@ -79,6 +79,7 @@ def test_fit_from_four_threads_equals_serial(sweeps):
 
 @pytest.mark.parametrize("engine", ENGINES)
 @pytest.mark.parametrize("pool", ["thread", "process"])
+@pytest.mark.slow
 def test_fit_many_with_executors_equals_serial(sweeps, engine, pool):
     serial = fit_many(sweeps, HEAVY, engine=engine, progress=False)
     ex = ThreadPoolExecutor(4) if pool == "thread" else ProcessPoolExecutor(2)
@@ -89,6 +90,7 @@ def test_fit_many_with_executors_equals_serial(sweeps, engine, pool):
 
 @pytest.mark.skipif(FORK is None, reason="the hand-over is forced by a patched tolerance, inherited only by fork")
 @pytest.mark.parametrize("pool", ["thread", "process"])
+@pytest.mark.slow
 def test_hand_overs_under_executors(sweeps, monkeypatch, pool):
     monkeypatch.setattr(compiled_lm, "KKT_TOL", -1.0)  # nothing can be certified: every fit handed to IPOPT
     monkeypatch.setattr(compiled_lm, "ZERO_COST", -1.0)
@@ -108,6 +110,7 @@ def _fit_compiled(d):
 
 
 @pytest.mark.parametrize("pool", ["thread", "process"])
+@pytest.mark.slow
 def test_drive_logs_under_executors(logs, pool):
     serial = fit_many(logs, LIGHT, progress=False)
     assert all(r.data_kind == "drive" for r in serial)
@@ -123,6 +126,7 @@ def _fit_joint_log(d):
 
 
 @pytest.mark.parametrize("pool", ["thread", "process"])
+@pytest.mark.slow
 def test_joint_drive_log_fits_under_executors(logs, pool):
     serial = [_fit_joint_log(d) for d in logs]
     assert all(r.success and "profiled_start" in r.extra for r in serial)
@@ -145,6 +149,7 @@ def _interval_key(r):
 
 
 @pytest.mark.parametrize("pool", ["thread", "process"])
+@pytest.mark.slow
 def test_joint_fits_with_slip_noise_and_profiles_under_executors(pool):
     from soiltrack.soilmodel import simulate_slip_sweep
 

@@ -124,6 +124,7 @@ def test_fit_says_where_the_figure_went(capsys, sweep_csv, tmp_path):
     assert os.path.getsize(png) > 1000
 
 
+@pytest.mark.slow
 def test_no_traceback_through_the_real_command(tmp_path):
     """The same paths as a user runs them: a separate process, exit 2, one line, no traceback."""
     for args in (

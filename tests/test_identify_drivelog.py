@@ -58,6 +58,7 @@ def light_fits():
     return out
 
 
+@pytest.mark.slow
 def test_light_vehicle_recovers_fmax_and_k(light_fits):
     errs = [_errors(res, LIGHT, DRY_SAND) for _, res in light_fits]
     for (_, res), e in zip(light_fits, errs):
@@ -159,6 +160,7 @@ def test_noise_model_is_estimated_from_the_log(light_fits):
     assert math.hypot(a, 3.0 * b) == pytest.approx(0.1, rel=0.15)  # constant signal: 0.1 at 3.0
 
 
+@pytest.mark.slow
 def test_equation_error_is_biased_where_output_error_is_not(light_fits):
     """Slip from noisy speeds as an exact regressor (equation error) is the EIV trap."""
     log, res_oe = light_fits[0]
@@ -170,6 +172,7 @@ def test_equation_error_is_biased_where_output_error_is_not(light_fits):
     assert any("equation-error" in w for w in res_ee.warnings)
 
 
+@pytest.mark.slow
 def test_heavy_vehicle_hard_starts_pin_fmax_and_say_k_is_weak():
     """Heavy vehicle on LETE sand: K/l = 0.4 %, below what 0.05 m/s GNSS noise resolves well.
 
@@ -189,6 +192,7 @@ def test_heavy_vehicle_hard_starts_pin_fmax_and_say_k_is_weak():
         assert any("K is poorly determined" in w for w in res.warnings)
 
 
+@pytest.mark.slow
 def test_gentle_log_is_flagged():
     """Cruising well below the traction limit shows only the initial slope F_max l / (2K)."""
 
@@ -240,6 +244,7 @@ def test_solver_is_built_once_per_padded_size(light_fits):
     assert padded_size(n) >= n and padded_size(n) < 1.5 * n + 64
 
 
+@pytest.mark.slow
 def test_failure_is_reported_not_hidden(light_fits):
     log, _ = light_fits[4]
     res = fit_drive_log(log, LIGHT, max_iter=2, multistart=False)
@@ -295,6 +300,7 @@ def test_bad_inputs_name_file_and_column():
         fit_drive_log(good, LIGHT, sigma_torque=-1.0)
 
 
+@pytest.mark.slow
 def test_simex_bias_correction_is_opt_in_and_recorded(light_fits):
     """bias_correction="simex": refits with extra GNSS-speed noise, extrapolated to none.
 
@@ -331,6 +337,7 @@ def test_simex_bias_correction_is_opt_in_and_recorded(light_fits):
         fit_drive_log(log, LIGHT, bias_correction="jackknife")
 
 
+@pytest.mark.slow
 def test_simex_is_not_applied_to_a_log_that_does_not_pin_k():
     """Heavy vehicle on LETE sand ("intermediate" log, K poorly determined): no SIMEX.
 

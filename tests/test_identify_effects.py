@@ -63,6 +63,7 @@ def grade_sweeps():
 
 
 @pytest.mark.parametrize("measured", ["drawbar_pull", "tractive_force"])
+@pytest.mark.slow
 def test_grade_and_soil_inside_their_intervals(grade_sweeps, measured):
     # 95 % intervals over 10 seeds: at least 8 hold the truth (P(fewer) < 2 % per parameter at 94 % coverage)
     hits = _coverage("grade", GRADE, measured)

@@ -271,6 +271,7 @@ CHILD = (
 )
 
 
+@pytest.mark.slow
 def test_disk_cache_second_process_does_not_compile(tmp_path):
     if jitcache.compiler() is None:
         pytest.skip("no C compiler on PATH (or SOILTRACK_NO_JIT set)")
@@ -283,6 +284,7 @@ def test_disk_cache_second_process_does_not_compile(tmp_path):
     assert second[:2] == ["compiled", jitcache.C_CACHED] and second[2] == first[2]
 
 
+@pytest.mark.slow
 def test_auto_never_waits_and_picks_up_the_background_compilation(tmp_path, monkeypatch):
     """engine="auto" with an empty cache: the virtual machine now, said so; C code once compiled."""
     if jitcache.compiler() is None:

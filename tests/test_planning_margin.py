@@ -205,3 +205,23 @@ def test_fit_json_covariance_block_is_used_when_present(fits, tmp_path):
     assert margin(u, HEAVY, grade_deg=5).p_traversable_delta == pytest.approx(
         margin(f, HEAVY, grade_deg=5).p_traversable_delta, abs=1e-9
     )
+
+
+def test_margin_takes_a_fit_with_effects_and_plans_with_its_soil_block():
+    """A FitResult with an effect (covariance 4 x 4) gives the soil's marginal uncertainty (was a ValueError)."""
+    from soiltrack.identify import fit
+    from soiltrack.planning import margin
+    from soiltrack.planning.uncertainty import uncertainty_from_fit
+    from soiltrack.soilmodel import TERRAINS, VEHICLES, simulate_slip_sweep
+
+    light = VEHICLES["light"]
+    data = simulate_slip_sweep(
+        light, TERRAINS["sandy_loam"], normal_loads=(300.0, 450.0), seed=1, effects={"slip_sinkage": 0.1}
+    )
+    res = fit(data, light, effects=["slip_sinkage"])
+    assert res.success and np.asarray(res.covariance).shape == (4, 4)
+    u = uncertainty_from_fit(res)
+    assert u.cov.shape == (3, 3)
+    assert np.allclose(u.cov, np.asarray(res.covariance)[:3, :3])
+    m = margin(res, light, grade_deg=10)
+    assert m.p_traversable is not None and 0.0 <= m.p_traversable <= 1.0

@@ -160,6 +160,7 @@ def test_route_json_errors_name_the_field():
         route_from_dict({"patches": [{"length_m": 5, "terrain": "lete_sand"}, {"length_m": 5, "terrain": "mud"}]})
 
 
+@pytest.mark.slow
 def test_robust_profile_keeps_the_slip_limit_for_most_sampled_soils():
     from soiltrack.identify import fit
     from soiltrack.soilmodel import SensorNoise, Soil, simulate_slip_sweep

@@ -65,6 +65,7 @@ def rows(draw):
 
 @settings(max_examples=300, deadline=None)
 @given(rows())
+@pytest.mark.slow
 def test_screen_is_open_whenever_a_check_finds_something(case):
     slip, force, r, lo, hi = case
     found = _findings(slip, force, r, lo, hi)
@@ -143,6 +144,7 @@ def noise_cases(draw):
 
 @settings(max_examples=300, deadline=None)
 @given(noise_cases())
+@pytest.mark.slow
 def test_bp_screen_is_open_whenever_the_statistic_warns(case):
     force, r = case
     stat = float(problem.heteroscedasticity(force, r, np.ones(force.size)))
@@ -204,6 +206,7 @@ def limit_cases(draw):
 
 @settings(max_examples=400, deadline=None)
 @given(limit_cases())
+@pytest.mark.slow
 def test_limit_screen_is_open_whenever_fmax_on_a_bound_is_found(case):
     model, load, theta = case
     force = np.full(load.size, 1e5)

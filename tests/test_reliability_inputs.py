@@ -247,6 +247,7 @@ def _route(tmp_path, obj) -> str:
         ),
     ],
 )
+@pytest.mark.slow
 def test_bad_route_exits_2_naming_the_field(tmp_path, capsys, patches, field):
     path = _route(tmp_path, {"patches": patches})
     with pytest.raises(DataError) as e:

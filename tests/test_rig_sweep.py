@@ -94,6 +94,7 @@ def test_pure_error_test_finds_a_known_lack_of_fit():
     assert (lof["levels"], lof["df_lack"], lof["df_pure"]) == (5, 2, 10)
 
 
+@pytest.mark.slow
 def test_pure_error_test_holds_its_level_on_the_model_itself():
     significant = 0
     for seed in range(30):

@@ -1,5 +1,7 @@
 """A clipped sensor is found, said, and keeps any effect from being named with confidence."""
 
+import pytest
+
 import dataclasses
 
 import numpy as np
@@ -51,6 +53,7 @@ def test_noisy_quantised_and_resting_channels_are_not_saturated():
     assert find_saturation(dataclasses.replace(log, vehicle_speed=v)) == ()
 
 
+@pytest.mark.slow
 def test_diagnosis_of_a_clipped_sweep_names_no_effect_with_confidence():
     d = diagnose(_clipped(_sweep()), VEH)
     assert any("saturation" in n for n in d.notes), d.notes
@@ -59,6 +62,7 @@ def test_diagnosis_of_a_clipped_sweep_names_no_effect_with_confidence():
     assert not any("saturation" in n for n in clean.notes)
 
 
+@pytest.mark.slow
 def test_an_effect_seen_through_a_clipped_sensor_is_named_with_confidence_half_at_most():
     # a softening soil (hump_shear) measured by a load cell that clips its four largest readings: the effect
     # is still the best candidate, but the clipped rows bias its fit; the unclipped sweep names it with

@@ -66,6 +66,7 @@ def noisy_slip_sweeps():
     ]
 
 
+@pytest.mark.slow
 def test_slip_noise_restores_interval_coverage(noisy_slip_sweeps):
     auto = [fit(d, HEAVY, effects=["grade"]) for d in noisy_slip_sweeps]
     off = [fit(d, HEAVY, effects=["grade"], slip_noise="off") for d in noisy_slip_sweeps]

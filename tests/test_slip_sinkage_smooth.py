@@ -54,6 +54,7 @@ def test_slip_sinkage_resistance_has_a_continuous_slope_at_zero_slip():
     )
 
 
+@pytest.mark.slow
 def test_slip_sinkage_fit_of_independent_heavy_log_converges_finite():
     veh = Vehicle.from_json(HEAVY_JSON)
     log = read_csv(os.path.join(HERE, "data", "heavy_mass_error_gentle.csv"))

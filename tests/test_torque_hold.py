@@ -53,6 +53,7 @@ def test_vehicle_constants_match_the_generator():
 
 
 @pytest.mark.parametrize("seed", [1, 2])
+@pytest.mark.slow
 def test_sampled_torque_fitted_as_sampled_gives_the_grade_inside_its_interval(seed):
     log = sampled_torque_log(seed)
     right = fit(log, HEAVY, effects=["grade"], torque_hold="sample")
@@ -82,6 +83,7 @@ def test_sampled_torque_fitted_as_sampled_gives_the_grade_inside_its_interval(se
     assert "torque held between samples" in wrong.report()
 
 
+@pytest.mark.slow
 def test_torque_hold_is_refused_where_it_does_not_apply(tmp_path):
     log = sampled_torque_log(1)
     with pytest.raises(DataError, match="torque_hold"):
@@ -98,6 +100,7 @@ def test_torque_hold_is_refused_where_it_does_not_apply(tmp_path):
         assert "Traceback" not in p.stderr
 
 
+@pytest.mark.slow
 def test_cli_fit_takes_the_torque_hold_and_says_it_in_the_json(tmp_path):
     log = sampled_torque_log(2)
     csv = tmp_path / "log.csv"
@@ -129,6 +132,7 @@ def test_cli_fit_takes_the_torque_hold_and_says_it_in_the_json(tmp_path):
     assert j["extra"]["torque_hold"] == "sample" and lo <= 0.05 <= hi
 
 
+@pytest.mark.slow
 def test_a_rival_as_good_to_within_five_percent_keeps_the_verdict_from_confidence():
     # a 0.05 rad grade fitted with the default (wrong here) torque hold: drivetrain_friction and grade remove
     # nearly the same share of the held-out error (0.80 against 0.80 on the independent check's seed 1), and a
