@@ -133,7 +133,7 @@ class EstimateViews:
             se, est, weak = self._combo_stderr(self._full(g3)[idx])
             ci = (value - q * se, value + q * se) if (se is not None and q is not None) else (None, None)
             note = ""
-            if rng is not None and ci[0] is not None:
+            if rng is not None and ci[0] is not None and ci[1] is not None:  # both set together
                 note = "; ".join(_cut_note(ci[0], ci[1], rng[0], rng[1], 1.0, unit))
                 ci = (max(ci[0], rng[0]), min(ci[1], rng[1]))
             out.append(Combination(name, float(value), se, ci, unit, desc, est, weak, note))
@@ -454,7 +454,7 @@ class EstimateViews:
         from ...soilmodel.effects import EFFECTS, parse_effects
 
         vals: dict[str, dict[str, float]] = {}
-        for label, v in zip(self.effect_labels, np.asarray(self.effect_values, float)):
+        for label, v in zip(self.effect_labels, np.asarray(self.effect_values, np.float64)):
             name, pname = label.split(".", 1)
             vals.setdefault(name, {})[pname] = float(v)
         for name in self.effect_structure.names:
