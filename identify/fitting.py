@@ -7,6 +7,7 @@ from dataclasses import replace
 from ..soilmodel.data import DriveLog, SlipData
 from ..soilmodel.errors import DataError
 from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
+from ..soilmodel.threadsafe import fit_section
 from ..soilmodel.vehicle import Vehicle
 from .sweep.compiled_lm import fit_compiled
 from .engines import check_engine, jit_mode, normalise_status
@@ -126,9 +127,12 @@ def fit(
     km/h or rpm, loads in kN, repeated rows) is said in the warnings, and the result fails
     (``success`` False) where the answer cannot stand.
     """
-    res = _fit_unchecked(data, vehicle, model, method, bounds, x0, engine, effects, fixed, settings, options)
-    if consistency and isinstance(data, (SlipData, DriveLog)):
-        res = with_consistency(res, check_consistency(data, vehicle))
+    # the whole fit holds the process's solver lock (re-entrant): a fork then never copies a thread in the
+    # middle of a fit's CasADi or BLAS work (soilmodel.threadsafe); the solves were serialised anyway
+    with fit_section():
+        res = _fit_unchecked(data, vehicle, model, method, bounds, x0, engine, effects, fixed, settings, options)
+        if consistency and isinstance(data, (SlipData, DriveLog)):
+            res = with_consistency(res, check_consistency(data, vehicle))
     if strict and not res.success:
         raise FitFailed(res)
     return res
