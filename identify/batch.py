@@ -263,10 +263,13 @@ def _solve_problems(
 
 
 def _kernel_fits_like_fit(d: Any, model: str) -> bool:
-    """Whether ``fit`` would solve ``d`` as the stacked kernel does: a plain slip sweep (no per-row std
-    weights, no load spread so small that ``fit`` takes the profile-likelihood intervals)."""
+    """Whether ``fit`` would solve ``d`` as the stacked kernel does: a plain slip sweep (not a rig sweep -
+    no per-row std weights, no dropped rows, no measured load per row - and no load spread so small that
+    ``fit`` takes the profile-likelihood intervals)."""
     if not isinstance(d, SlipData):
         return False
+    if d.force_std is not None or d.dropped or (d.normal_load is not None and continuous_load(d.normal_load)):
+        return False  # a rig sweep takes fit's rig path: weights, extras
     try:
         if std_weights(d) is not None:
             return False
@@ -370,11 +373,7 @@ def fit_many(
     batched: list[int] = []
     singles: list[int] = []
     for k, d in enumerate(datasets):
-        # a rig sweep (per-row std, rows dropped, a measured load) takes fit's rig path: weights, extras
-        rig = isinstance(d, SlipData) and (
-            d.force_std is not None or bool(d.dropped) or (d.normal_load is not None and continuous_load(d.normal_load))
-        )
-        (batched if kernel_ok and not rig and _kernel_fits_like_fit(d, model) else singles).append(k)
+        (batched if kernel_ok and _kernel_fits_like_fit(d, model) else singles).append(k)
     if chunk_size is None:
         workers = getattr(executor, "_max_workers", 4) if executor is not None else 1
         chunk_size = n if executor is None else max(1, min(256, -(-n // (4 * workers))))
