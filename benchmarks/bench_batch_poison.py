@@ -158,9 +158,7 @@ def main(argv=None) -> int:
     ap.add_argument("--poison", type=float, default=0.01)
     ap.add_argument("--check", default="all", help="good results compared with single fits: all or a number")
     ap.add_argument("--scipy-subset", type=int, default=200)
-    ap.add_argument(
-        "--workers", type=int, default=0, help="fork process pool of this size (0: in this process)"
-    )
+    ap.add_argument("--workers", type=int, default=0, help="fork process pool of this size (0: in this process)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", nargs="?", const="-", default=None)
     a = ap.parse_args(argv)
@@ -196,9 +194,9 @@ def main(argv=None) -> int:
     equal = sum(
         1
         for k in good[:n_check]
-        if (
-            lambda s, b: s.success == b.success and s.status == b.status and np.array_equal(s.theta, b.theta)
-        )(fit(items[k], HEAVY), res[k])
+        if (lambda s, b: s.success == b.success and s.status == b.status and np.array_equal(s.theta, b.theta))(
+            fit(items[k], HEAVY), res[k]
+        )
     )
     t_single = time.perf_counter() - t0
     good_success = sum(res[k].success for k in good)
@@ -265,8 +263,10 @@ def main(argv=None) -> int:
         f"{out['speedup_vs_scipy']:.1f}x; median largest relative difference of c, phi, K vs scipy "
         f"{agree:.2g}"
     )
-    log(f"the same {len(sub)} sweeps, fit_many and the scipy loop alternated {ROUNDS} times: fit_many "
-        f"{same_subset:.1f}x faster (medians)")
+    log(
+        f"the same {len(sub)} sweeps, fit_many and the scipy loop alternated {ROUNDS} times: fit_many "
+        f"{same_subset:.1f}x faster (medians)"
+    )
     log(
         f"memory: RSS {rss0:.0f} MB before the batch, {rss1:.0f} MB after, peak {peak:.0f} MB "
         f"({out['growth_per_result_kB']:.2f} kB per kept result)"

@@ -18,6 +18,7 @@ Run:  python benchmarks/bench_diagnose.py [--quick] [--kinds sweep,drive] [--png
 (the figure goes to benchmarks/out/, which git ignores, unless --png names another path)
 Timings are wall-clock on whatever machine runs it (say how loaded it was).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -35,18 +36,31 @@ from soiltrack.identify.estimates.records import solver_converged  # noqa: E402
 from soiltrack.identify.sweep.model import SweepResiduals  # noqa: E402
 from soiltrack.soilmodel import EFFECTS, TERRAINS, VEHICLES, DataError, DriveLog, SensorNoise, simulate  # noqa: E402
 
-NOISE = {"sweep": {"low": SensorNoise(force_rel=0.005, slip_abs=0.0005), "default": SensorNoise()},
-         "drive": {"default": SensorNoise(), "double": SensorNoise(encoder_rel=0.01, encoder_abs=0.02, gnss_speed=0.1,
-                                                                   imu_accel=0.1, torque_rel=0.02, torque_fs=0.002)}}
+NOISE = {
+    "sweep": {"low": SensorNoise(force_rel=0.005, slip_abs=0.0005), "default": SensorNoise()},
+    "drive": {
+        "default": SensorNoise(),
+        "double": SensorNoise(
+            encoder_rel=0.01, encoder_abs=0.02, gnss_speed=0.1, imu_accel=0.1, torque_rel=0.02, torque_fs=0.002
+        ),
+    },
+}
 SLIPS = tuple(np.round(np.linspace(0.01, 0.7, 60), 4))
 
 
 def magnitudes(name: str, vehicle) -> list:
     """Two magnitudes per effect (small, large), in the parse_effects form."""
     Wr = vehicle.weight * vehicle.sprocket_radius
-    return {"grade": [0.02, 0.06], "speed_resistance": [0.02, 0.06], "slip_sinkage": [0.05, 0.15],
-            "drivetrain_friction": [0.01 * Wr, 0.03 * Wr], "radius_error": [0.02, 0.05],
-            "hump_shear": [0.15, 0.3], "pressure_distribution": [0.2, 0.4], "mass_error": [0.1, 0.25]}[name]
+    return {
+        "grade": [0.02, 0.06],
+        "speed_resistance": [0.02, 0.06],
+        "slip_sinkage": [0.05, 0.15],
+        "drivetrain_friction": [0.01 * Wr, 0.03 * Wr],
+        "radius_error": [0.02, 0.05],
+        "hump_shear": [0.15, 0.3],
+        "pressure_distribution": [0.2, 0.4],
+        "mass_error": [0.1, 0.25],
+    }[name]
 
 
 def make(kind, vehicle, soil, effects, seed, noise, duration=60.0, slips=SLIPS):
@@ -75,7 +89,7 @@ def detectability(kind, vehicle, soil, effects, seed, noise_level_data, duration
         v = v[np.isfinite(v)]
         s = noise_level_data.get(ch)
         if s and v.size:
-            out = max(out, float(np.sqrt(np.mean(v ** 2))) / s)
+            out = max(out, float(np.sqrt(np.mean(v**2))) / s)
     return out
 
 
@@ -104,9 +118,26 @@ def run_case(kind, vname, tname, eff_name, mag, nname, seed, candidates=None, du
         truth = make(kind, vehicle, soil, effects, seed, "none", duration, slips=np.clip(data.slip, 0.0, 0.999))
         noise_level = {data.channel: float(np.sqrt(np.mean((np.asarray(data.values) - truth.values) ** 2)))}
     det = detectability(kind, vehicle, soil, effects, seed, noise_level, duration)
-    return {"kind": kind, "vehicle": vname, "terrain": tname, "effect": eff_name, "mag": mag, "noise": nname,
-            "seed": seed, "verdict": d.verdict, "confidence": d.confidence, "shrink": d.shrink, "explained": d.explained, "cause": d.cause, "time": dt,
-            "det": det, "n": data.n_samples, "outside": weigh_outside, "confusable": [p for p, _, _ in d.confusable], "diag": d}
+    return {
+        "kind": kind,
+        "vehicle": vname,
+        "terrain": tname,
+        "effect": eff_name,
+        "mag": mag,
+        "noise": nname,
+        "seed": seed,
+        "verdict": d.verdict,
+        "confidence": d.confidence,
+        "shrink": d.shrink,
+        "explained": d.explained,
+        "cause": d.cause,
+        "time": dt,
+        "det": det,
+        "n": data.n_samples,
+        "outside": weigh_outside,
+        "confusable": [p for p, _, _ in d.confusable],
+        "diag": d,
+    }
 
 
 # ----------------------------------------------------------------------------- out of library
@@ -114,8 +145,14 @@ def delayed_speed_log(vehicle, soil, seed, lag=10, duration=60.0):
     log = simulate(vehicle, soil, kind="drive", seed=seed, duration_s=duration)
     v = np.asarray(log.vehicle_speed)
     vs = np.concatenate([np.full(lag, v[0]), v[:-lag]])  # the speed sensor reports lag samples late
-    return DriveLog(log.time, log.sprocket_torque, log.sprocket_speed, vs, log.vehicle_accel,
-                    source=f"drive log with a {lag}-sample speed-sensor delay")
+    return DriveLog(
+        log.time,
+        log.sprocket_torque,
+        log.sprocket_speed,
+        vs,
+        log.vehicle_accel,
+        source=f"drive log with a {lag}-sample speed-sensor delay",
+    )
 
 
 def soft_patch_log(vehicle, soil, soft, seed, t1=25.0, t2=40.0, duration=60.0):
@@ -126,8 +163,14 @@ def soft_patch_log(vehicle, soil, soft, seed, t1=25.0, t2=40.0, duration=60.0):
     for name in ("sprocket_torque", "sprocket_speed", "vehicle_speed", "vehicle_accel"):
         x, y = getattr(a, name), getattr(b, name)
         cols[name] = None if x is None else np.where(m, y, x)
-    return DriveLog(a.time, cols["sprocket_torque"], cols["sprocket_speed"], cols["vehicle_speed"],
-                    cols["vehicle_accel"], source=f"drive log with a softer patch from {t1} s to {t2} s")
+    return DriveLog(
+        a.time,
+        cols["sprocket_torque"],
+        cols["sprocket_speed"],
+        cols["vehicle_speed"],
+        cols["vehicle_accel"],
+        source=f"drive log with a softer patch from {t1} s to {t2} s",
+    )
 
 
 # ----------------------------------------------------------------------------- reporting
@@ -184,14 +227,19 @@ def summarise(rows, title):
             det = [r for r in sel if r["det"] > 3]
             ok = sum(r["verdict"] == e for r in det)
             allok = sum(r["verdict"] == e for r in sel)
-            print(f"  {e:<22s} {nz:<8s} detectable {ok}/{len(det)}"
-                  f"{'' if not det else f' = {ok / len(det):.0%}'}   all cases {allok}/{len(sel)}   "
-                  f"confident wrong (>0.5): {sum(r['verdict'] not in (e, 'none', 'unexplained') and r['confidence'] > 0.5 for r in sel)}")
+            wrong = sum(r["verdict"] not in (e, "none", "unexplained") and r["confidence"] > 0.5 for r in sel)
+            print(
+                f"  {e:<22s} {nz:<8s} detectable {ok}/{len(det)}"
+                f"{'' if not det else f' = {ok / len(det):.0%}'}   all cases {allok}/{len(sel)}   "
+                f"confident wrong (>0.5): {wrong}"
+            )
     det_all = [r for r in rows if r["effect"] != "none" and r["det"] > 3]
     if det_all:
         ok = sum(r["verdict"] == r["effect"] for r in det_all)
-        print(f"  all detectable cases: {ok}/{len(det_all)} = {ok / len(det_all):.0%}; misses (verdict, confidence, "
-              "confusable pairs named):")
+        print(
+            f"  all detectable cases: {ok}/{len(det_all)} = {ok / len(det_all):.0%}; misses (verdict, confidence, "
+            "confusable pairs named):"
+        )
         for r in det_all:
             if r["verdict"] != r["effect"]:
                 print(f"    {_line(r)}  confusable {r['confusable'] or '-'}")
@@ -201,20 +249,32 @@ def summarise(rows, title):
         print(f"false alarms on effect-free data: {fa}/{len(free)} = {fa / len(free):.0%}")
     if rows and rows[0]["kind"] == "drive":
         terr = [r for r in rows if r["cause"] == "terrain_change"]
-        print(f"uniform-soil logs that claim a change of terrain: {len(terr)}/{len(rows)}"
-              + "".join(f"\n    {_line(r)}" for r in terr[:5]))
-    right = [r["shrink"] for r in rows if r["effect"] not in ("none",) and r["verdict"] == r["effect"]
-             and r["shrink"] is not None]
+        print(
+            f"uniform-soil logs that claim a change of terrain: {len(terr)}/{len(rows)}"
+            + "".join(f"\n    {_line(r)}" for r in terr[:5])
+        )
+    right = [
+        r["shrink"]
+        for r in rows
+        if r["effect"] not in ("none",) and r["verdict"] == r["effect"] and r["shrink"] is not None
+    ]
     if right:
         print(f"median held-out shrink when right: {np.median(right):.2f} (n = {len(right)})")
-    gaps = [r["explained"] for r in rows if r["effect"] not in ("none",) and r["verdict"] == r["effect"]
-            and r.get("explained") is not None]
+    gaps = [
+        r["explained"]
+        for r in rows
+        if r["effect"] not in ("none",) and r["verdict"] == r["effect"] and r.get("explained") is not None
+    ]
     if gaps:
-        print(f"median share of the excess error over the noise explained when right: {np.median(gaps):.2f} "
-              f"(n = {len(gaps)})")
+        print(
+            f"median share of the excess error over the noise explained when right: {np.median(gaps):.2f} "
+            f"(n = {len(gaps)})"
+        )
     ts = [r["time"] for r in rows]
-    print(f"time per diagnosis: median {np.median(ts):.2f} s, max {max(ts):.2f} s (n = {len(ts)}; samples "
-          f"{sorted({r['n'] for r in rows})})")
+    print(
+        f"time per diagnosis: median {np.median(ts):.2f} s, max {max(ts):.2f} s (n = {len(ts)}; samples "
+        f"{sorted({r['n'] for r in rows})})"
+    )
 
 
 #: Where the confusion matrix goes by default (a folder git ignores: no figure lands in the repository).
@@ -251,8 +311,9 @@ def main(argv=None) -> int:
         # a drive-log diagnosis costs about a minute on a loaded 2-core machine: a smaller grid
         dur = a.log_seconds
         mags = (lambda e, v: magnitudes(e, v)[-1:]) if kind == "drive" and a.quick else magnitudes
-        free_seeds = (seeds + (2, 3)) if a.quick and kind == "sweep" else ((1, 2) if kind == "drive" and a.quick
-                                                                            else seeds)
+        free_seeds = (
+            (seeds + (2, 3)) if a.quick and kind == "sweep" else ((1, 2) if kind == "drive" and a.quick else seeds)
+        )
         free_seeds = tuple(dict.fromkeys(free_seeds))
         for vname in vehicles:
             for tname in terrains:
@@ -269,13 +330,36 @@ def main(argv=None) -> int:
         n_loo = a.max_loo if a.max_loo is not None else (2 if kind == "drive" else 8) if a.quick else 40
         for r in [r for r in rows if r["kind"] == kind and r["effect"] != "none" and r["det"] > 3][:n_loo]:
             cands = [e for e, s in EFFECTS.items() if kind in s.shows_in and e != r["effect"]]
-            loo.append(run_case(kind, r["vehicle"], r["terrain"], r["effect"], r["mag"], r["noise"], r["seed"],
-                                candidates=cands, duration=dur))
+            loo.append(
+                run_case(
+                    kind,
+                    r["vehicle"],
+                    r["terrain"],
+                    r["effect"],
+                    r["mag"],
+                    r["noise"],
+                    r["seed"],
+                    candidates=cands,
+                    duration=dur,
+                )
+            )
             print("LOO " + _line(loo[-1]), flush=True)
             if kind == "sweep":  # the same without weighing the left-out library effects: the flexible term and
                 # the lack-of-fit test alone must keep the confidence honest
-                loo.append(run_case(kind, r["vehicle"], r["terrain"], r["effect"], r["mag"], r["noise"], r["seed"],
-                                    candidates=cands, duration=dur, weigh_outside=False))
+                loo.append(
+                    run_case(
+                        kind,
+                        r["vehicle"],
+                        r["terrain"],
+                        r["effect"],
+                        r["mag"],
+                        r["noise"],
+                        r["seed"],
+                        candidates=cands,
+                        duration=dur,
+                        weigh_outside=False,
+                    )
+                )
                 print("LOO-blind " + _line(loo[-1]), flush=True)
     if "drive" in kinds:
         v, s = VEHICLES["light"], TERRAINS["lete_sand"]
@@ -283,8 +367,10 @@ def main(argv=None) -> int:
         T = a.log_seconds
         t1, t2 = round(0.4 * T), round(0.65 * T)
         for seed in seeds:
-            for label, log in (("speed-sensor delay 10 samples", delayed_speed_log(v, s, seed, duration=T)),
-                               (f"softer patch {t1}-{t2} s", soft_patch_log(v, s, soft, seed, t1, t2, duration=T))):
+            for label, log in (
+                ("speed-sensor delay 10 samples", delayed_speed_log(v, s, seed, duration=T)),
+                (f"softer patch {t1}-{t2} s", soft_patch_log(v, s, soft, seed, t1, t2, duration=T)),
+            ):
                 t0 = time.perf_counter()
                 d = diagnose(log, v)
                 ool.append((label, d, time.perf_counter() - t0))
@@ -295,18 +381,24 @@ def main(argv=None) -> int:
                     win += f" window {w0:.1f}-{w1:.1f} s (patch {t1}-{t2} s)"
                 if "lag_s" in det:
                     win += f" lag {det['lag_s']:.3g} s ({det['lag_samples']} samples)"
-                print(f"OOL {label} seed {seed}: {d.verdict} ({d.confidence:.2f}); {win}; "
-                      f"{d.elapsed_s:.1f} s", flush=True)
+                print(
+                    f"OOL {label} seed {seed}: {d.verdict} ({d.confidence:.2f}); {win}; {d.elapsed_s:.1f} s", flush=True
+                )
     for kind in kinds:
         summarise([r for r in rows if r["kind"] == kind], f"(a) effect withheld from the model, {kind}")
         for blind in (False, True):
             L = [r for r in loo if r["kind"] == kind and r["outside"] != blind]
             if L:
                 bad = sum(r["verdict"] not in ("unexplained", "none") and r["confidence"] > 0.5 for r in L)
-                what = ("without weighing the left-out library effects (weigh_outside=False)" if blind else
-                        "as diagnosed (the left-out effects weighed)")
-                print(f"(b) leave-one-out, {kind}, {what}: {len(L)} cases, confident (>0.5) wrong names {bad}; "
-                      "verdicts: " + ", ".join(f"{k} {v}" for k, v in sorted(_count(r['verdict'] for r in L).items())))
+                what = (
+                    "without weighing the left-out library effects (weigh_outside=False)"
+                    if blind
+                    else "as diagnosed (the left-out effects weighed)"
+                )
+                print(
+                    f"(b) leave-one-out, {kind}, {what}: {len(L)} cases, confident (>0.5) wrong names {bad}; "
+                    "verdicts: " + ", ".join(f"{k} {v}" for k, v in sorted(_count(r["verdict"] for r in L).items()))
+                )
     if ool:
         bad = sum(d.verdict not in ("unexplained", "none") and d.confidence > 0.5 for _, d, _ in ool)
         print(f"(c) out of library: {len(ool)} cases, confident (>0.5) names {bad}")
@@ -326,10 +418,12 @@ def _count(it):
 
 
 def _line(r):
-    return (f"{r['kind']:<5s} {r['vehicle']:<5s} {r['terrain']:<10s} {r['noise']:<7s} {r['effect']:<21s} "
-            f"{'' if r['mag'] is None else format(r['mag'], '.3g'):>7s} s{r['seed']} det {r['det']:6.1f} -> "
-            f"{r['verdict']:<21s} {r['confidence']:.2f} shrink {'-' if r['shrink'] is None else format(r['shrink'], '.2f')}"
-            f" {r['time']:.2f}s")
+    return (
+        f"{r['kind']:<5s} {r['vehicle']:<5s} {r['terrain']:<10s} {r['noise']:<7s} {r['effect']:<21s} "
+        f"{'' if r['mag'] is None else format(r['mag'], '.3g'):>7s} s{r['seed']} det {r['det']:6.1f} -> "
+        f"{r['verdict']:<21s} {r['confidence']:.2f} shrink {'-' if r['shrink'] is None else format(r['shrink'], '.2f')}"
+        f" {r['time']:.2f}s"
+    )
 
 
 if __name__ == "__main__":

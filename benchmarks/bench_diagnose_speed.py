@@ -9,6 +9,7 @@ wall-clock and CPU time of each run and their medians, and the load average befo
 0.05 rad, and one effect-free log), stretched to 3,000 samples (150 s): logs the library did not
 make, diagnosed with the default torque hold and with ``torque_hold="sample"`` (which describes them).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -44,13 +45,24 @@ def main(argv=None) -> int:
     print("load average before:", os.getloadavg())
     rows = []
     for _ in range(a.runs):
-        out = subprocess.run([sys.executable, "-c", ONE.format(root=root, vehicle=a.vehicle, seconds=a.seconds)],
-                             capture_output=True, text=True, check=True).stdout.strip().splitlines()[-1]
+        out = (
+            subprocess.run(
+                [sys.executable, "-c", ONE.format(root=root, vehicle=a.vehicle, seconds=a.seconds)],
+                capture_output=True,
+                text=True,
+                check=True,
+            )
+            .stdout.strip()
+            .splitlines()[-1]
+        )
         rows.append(json.loads(out))
         r = rows[-1]
-        print(f"{a.vehicle}: {r['n']} samples -> {r['verdict']} ({r['confidence']:.2f}), shrink "
-              f"{r['shrink'] if r['shrink'] is None else round(r['shrink'], 2)}: wall {r['wall']:.2f} s, "
-              f"CPU {r['cpu']:.2f} s", flush=True)
+        print(
+            f"{a.vehicle}: {r['n']} samples -> {r['verdict']} ({r['confidence']:.2f}), shrink "
+            f"{r['shrink'] if r['shrink'] is None else round(r['shrink'], 2)}: wall {r['wall']:.2f} s, "
+            f"CPU {r['cpu']:.2f} s",
+            flush=True,
+        )
     med = lambda k: sorted(r[k] for r in rows)[len(rows) // 2]  # noqa: E731
     print(f"median of {len(rows)}: wall {med('wall'):.2f} s, CPU {med('cpu'):.2f} s")
     print("load average after:", os.getloadavg())
@@ -83,14 +95,25 @@ def plain(root: str, runs: int) -> int:
             for hold in ("zoh", "sample"):
                 walls = []
                 for _ in range(runs):
-                    code = PLAIN.format(root=root, bench=os.path.join(root, "benchmarks"), grade=grade, hold=hold,
-                                        path=os.path.join(tmp, "log.csv"))
-                    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                                         check=True).stdout.strip().splitlines()[-1]
+                    code = PLAIN.format(
+                        root=root,
+                        bench=os.path.join(root, "benchmarks"),
+                        grade=grade,
+                        hold=hold,
+                        path=os.path.join(tmp, "log.csv"),
+                    )
+                    out = (
+                        subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+                        .stdout.strip()
+                        .splitlines()[-1]
+                    )
                     r = json.loads(out)
                     walls.append(r["wall"])
-                    print(f"plain log, grade {grade}, torque_hold={hold}: {r['n']} samples -> {r['verdict']} "
-                          f"({r['confidence']:.2f}): wall {r['wall']:.2f} s, CPU {r['cpu']:.2f} s", flush=True)
+                    print(
+                        f"plain log, grade {grade}, torque_hold={hold}: {r['n']} samples -> {r['verdict']} "
+                        f"({r['confidence']:.2f}): wall {r['wall']:.2f} s, CPU {r['cpu']:.2f} s",
+                        flush=True,
+                    )
                 print(f"  median of {runs}: wall {sorted(walls)[len(walls) // 2]:.2f} s")
     print("load average after:", os.getloadavg())
     return 0

@@ -20,6 +20,7 @@ slips at their per-sample optimum there), tolerances 1e-12, ``--max-nfev`` evalu
 Times are medians over ``--repeats`` calls after a warm-up (solvers built, C kernels loaded); the
 final costs and parameters are compared. Prints the load average before and after.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -33,8 +34,13 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from soiltrack.identify import fit  # noqa: E402
-from soiltrack.identify.drivelog.joint import (best_slips, effect_layout, joint_data, residual_function,  # noqa: E402
-                                               sensitivity_function)
+from soiltrack.identify.drivelog.joint import (
+    best_slips,
+    effect_layout,
+    joint_data,
+    residual_function,  # noqa: E402
+    sensitivity_function,
+)
 from soiltrack.identify.drivelog.fit import _start_points  # noqa: E402
 from soiltrack.identify.drivelog.nlp import _g_inverse, fmax_bounds  # noqa: E402
 from soiltrack.identify.drivelog.prepare import SLIP_BOUNDS, prepare_drive_log  # noqa: E402
@@ -60,17 +66,27 @@ def scipy_problem(log, vehicle, effect):
     i_ref = K_ref / vehicle.track_length
     scale = np.concatenate([[F_ref, K_ref], esc])
     p = scale.size
-    (F0, K0), = _start_points(prep, vehicle, "full", None, Fb, Kb, K_ref, multistart=False)[0]  # the fit's start
+    ((F0, K0),) = _start_points(prep, vehicle, "full", None, Fb, Kb, K_ref, multistart=False)[0]  # the fit's start
     th0 = np.concatenate([[F0, K0], np.zeros(len(labels))])
     lo_s, hi_s = SLIP_BOUNDS[0] + 1e-3, SLIP_BOUNDS[1] - 1e-3
     y = np.clip(np.abs(prep.thrust) / F0, 0.0, 0.98)
     s_inv = np.clip(np.sign(prep.thrust) * _g_inverse(y) * K0 / vehicle.track_length, lo_s, hi_s)
     s0 = best_slips(vehicle, st, th0, jd.D, [s_inv, np.clip(prep.slip_measured, lo_s, hi_s)])
     x0 = np.concatenate([th0 / scale, s0 / i_ref])
-    lb = np.concatenate([[Fb[0] / F_ref, Kb[0] / K_ref], np.where(np.isfinite(elo), elo / esc, -np.inf),
-                         np.full(n, SLIP_BOUNDS[0] / i_ref)])
-    ub = np.concatenate([[Fb[1] / F_ref, Kb[1] / K_ref], np.where(np.isfinite(ehi), ehi / esc, np.inf),
-                         np.full(n, SLIP_BOUNDS[1] / i_ref)])
+    lb = np.concatenate(
+        [
+            [Fb[0] / F_ref, Kb[0] / K_ref],
+            np.where(np.isfinite(elo), elo / esc, -np.inf),
+            np.full(n, SLIP_BOUNDS[0] / i_ref),
+        ]
+    )
+    ub = np.concatenate(
+        [
+            [Fb[1] / F_ref, Kb[1] / K_ref],
+            np.where(np.isfinite(ehi), ehi / esc, np.inf),
+            np.full(n, SLIP_BOUNDS[1] / i_ref),
+        ]
+    )
     x0 = np.clip(x0, lb + 1e-9, ub - 1e-9)
     rmap, smap = res_fn.map(n), sens.map(n)
 
@@ -88,13 +104,14 @@ def scipy_problem(log, vehicle, effect):
     def jacobian(x):
         th, s = unpack(x)
         _, Jt, gi = (np.asarray(o, dtype=float) for o in smap(th, s, jd.D))
-        Jt = Jt.reshape(3, n, p).transpose(1, 0, 2) * scale          # (n, 3, p) in scaled variables
-        gi = gi.T * i_ref                                             # (n, 3)
+        Jt = Jt.reshape(3, n, p).transpose(1, 0, 2) * scale  # (n, 3, p) in scaled variables
+        gi = gi.T * i_ref  # (n, 3)
         vals = np.concatenate([Jt, gi[:, :, None]], axis=2).ravel()
         return sparse.csr_matrix((vals, (rows, cols)), shape=(3 * n, p + n))
 
-    return dict(residuals=residuals, jacobian=jacobian, pattern=pattern, x0=x0, bounds=(lb, ub), scale=scale,
-                labels=labels, n=n)
+    return dict(
+        residuals=residuals, jacobian=jacobian, pattern=pattern, x0=x0, bounds=(lb, ub), scale=scale, labels=labels, n=n
+    )
 
 
 def main(argv=None) -> int:
@@ -112,11 +129,19 @@ def main(argv=None) -> int:
         return 2
     print("load average before:", os.getloadavg())
     v = VEHICLES[a.vehicle]
-    log = simulate(v, TERRAINS["lete_sand"], kind="drive", effects={a.effect: 0.03} if a.effect == "grade" else None,
-                   seed=1, duration_s=a.seconds)
+    log = simulate(
+        v,
+        TERRAINS["lete_sand"],
+        kind="drive",
+        effects={a.effect: 0.03} if a.effect == "grade" else None,
+        seed=1,
+        duration_s=a.seconds,
+    )
     prob = scipy_problem(log, v, a.effect)
-    print(f"{a.vehicle} vehicle, {log.n_samples} samples ({prob['n']} used), effect {a.effect}: "
-          f"{len(prob['x0'])} unknowns, {3 * prob['n']} residuals")
+    print(
+        f"{a.vehicle} vehicle, {log.n_samples} samples ({prob['n']} used), effect {a.effect}: "
+        f"{len(prob['x0'])} unknowns, {3 * prob['n']} residuals"
+    )
 
     def run_soiltrack():
         r = fit(log, v, effects=[a.effect], torque_hold="zoh")  # the hold the scipy problem uses
@@ -124,15 +149,30 @@ def main(argv=None) -> int:
 
     def run_scipy(kind):
         kw = dict(jac=prob["jacobian"]) if kind == "analytic" else dict(jac="2-point", jac_sparsity=prob["pattern"])
-        r = least_squares(prob["residuals"], prob["x0"], bounds=prob["bounds"], method="trf", x_scale="jac",
-                          ftol=1e-12, xtol=1e-12, gtol=1e-12, max_nfev=a.max_nfev, **kw)
-        th = r.x[:len(prob["scale"])] * prob["scale"]
-        return r, float(r.cost), {"max_thrust_N": th[0], "shear_modulus_m": th[1],
-                                  "effects": dict(zip(prob["labels"], th[2:].tolist()))}
+        r = least_squares(
+            prob["residuals"],
+            prob["x0"],
+            bounds=prob["bounds"],
+            method="trf",
+            x_scale="jac",
+            ftol=1e-12,
+            xtol=1e-12,
+            gtol=1e-12,
+            max_nfev=a.max_nfev,
+            **kw,
+        )
+        th = r.x[: len(prob["scale"])] * prob["scale"]
+        return (
+            r,
+            float(r.cost),
+            {"max_thrust_N": th[0], "shear_modulus_m": th[1], "effects": dict(zip(prob["labels"], th[2:].tolist()))},
+        )
 
-    runs = {"soiltrack fit (profiled start + IPOPT)": run_soiltrack,
-            "scipy least_squares trf, 2-point with sparsity": lambda: run_scipy("2-point"),
-            "scipy least_squares trf, analytic sparse Jacobian": lambda: run_scipy("analytic")}
+    runs = {
+        "soiltrack fit (profiled start + IPOPT)": run_soiltrack,
+        "scipy least_squares trf, 2-point with sparsity": lambda: run_scipy("2-point"),
+        "scipy least_squares trf, analytic sparse Jacobian": lambda: run_scipy("analytic"),
+    }
     times = {k: [] for k in runs}
     out = {}
     for k, f in runs.items():  # warm-up: solvers built, kernels loaded
@@ -145,10 +185,12 @@ def main(argv=None) -> int:
     ref = out["soiltrack fit (profiled start + IPOPT)"]
     for k in runs:
         r, cost, jp = out[k]
-        status = (f"{r.status}" if hasattr(r, "iterations") else f"status {r.status}, {r.nfev} evaluations")
+        status = f"{r.status}" if hasattr(r, "iterations") else f"status {r.status}, {r.nfev} evaluations"
         eff = ", ".join(f"{lab} = {val:.5g}" for lab, val in jp["effects"].items())
-        print(f"{k:52s} median {np.median(times[k]):7.2f} s   cost {cost:.10g} "
-              f"(rel. diff {(cost - ref[1]) / ref[1]:+.1e})   K = {1000 * jp['shear_modulus_m']:.4g} mm, {eff}; {status}")
+        print(
+            f"{k:52s} median {np.median(times[k]):7.2f} s   cost {cost:.10g} "
+            f"(rel. diff {(cost - ref[1]) / ref[1]:+.1e})   K = {1000 * jp['shear_modulus_m']:.4g} mm, {eff}; {status}"
+        )
     print("load average after:", os.getloadavg())
     return 0
 

@@ -19,6 +19,7 @@ the median over ``--repeats`` processes):
 The JSON object is printed only with ``--json`` (to FILE if given). Times are wall-clock on a
 possibly shared machine: the per-run numbers are printed too.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -82,23 +83,37 @@ def fit_many_runs(engine: str, cold: bool, repeats: int, warm_cache: str) -> dic
     for _ in range(repeats):
         cache = tempfile.mkdtemp(prefix="soiltrack_bench_cache_") if cold else warm_cache
         t0 = time.perf_counter()
-        out = subprocess.run([sys.executable, "-c", CHILD, engine], env=_env(cache), capture_output=True, text=True,
-                             check=True)
+        out = subprocess.run(
+            [sys.executable, "-c", CHILD, engine], env=_env(cache), capture_output=True, text=True, check=True
+        )
         walls.append(time.perf_counter() - t0)
         info = json.loads(out.stdout)
         times.append(info["time_s"])
         _wait_background(cache)
-    return {"engine": engine, "cache": "empty" if cold else "warm", "first_call_s": float(np.median(times)),
-            "first_call_s_runs": times, "process_wall_s": float(np.median(walls)), "success": info["success"],
-            "engines_used": info["engines"], "cost": info["cost"]}
+    return {
+        "engine": engine,
+        "cache": "empty" if cold else "warm",
+        "first_call_s": float(np.median(times)),
+        "first_call_s_runs": times,
+        "process_wall_s": float(np.median(walls)),
+        "success": info["success"],
+        "engines_used": info["engines"],
+        "cost": info["cost"],
+    }
 
 
 def cli_runs(engine: str, repeats: int, cache: str) -> dict:
     walls = []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "soiltrack", "fit", WONG, "--vehicle", "heavy", "--engine", engine,
-                        "--json"], env=_env(cache), capture_output=True, text=True, check=True, cwd=ROOT)
+        subprocess.run(
+            [sys.executable, "-m", "soiltrack", "fit", WONG, "--vehicle", "heavy", "--engine", engine, "--json"],
+            env=_env(cache),
+            capture_output=True,
+            text=True,
+            check=True,
+            cwd=ROOT,
+        )
         walls.append(time.perf_counter() - t0)
     return {"engine": engine, "process_wall_s": float(np.median(walls)), "runs": walls}
 
@@ -109,9 +124,11 @@ def main(argv=None) -> int:
     ap.add_argument("--json", nargs="?", const="-", default=None, help="print the JSON object (or write it to FILE)")
     args = ap.parse_args(argv)
     warm = tempfile.mkdtemp(prefix="soiltrack_bench_warm_")
-    print(f"soiltrack engine benchmark - {os.cpu_count()} cores, Python {platform.python_version()}, "
-          f"casadi {__import__('casadi').__version__}; every number from fresh Python processes (median of "
-          f"{args.repeats})")
+    print(
+        f"soiltrack engine benchmark - {os.cpu_count()} cores, Python {platform.python_version()}, "
+        f"casadi {__import__('casadi').__version__}; every number from fresh Python processes (median of "
+        f"{args.repeats})"
+    )
     print("\nfit_many on 20 two-load slip datasets of 20 lengths (5..195 samples), first call in a fresh process:")
     rows = []
     for cold in (True, False):
@@ -120,33 +137,47 @@ def main(argv=None) -> int:
         for e in ENGINES:
             r = fit_many_runs(e, cold, args.repeats, warm)
             rows.append(r)
-            print(f"  cache {r['cache']:<5}  engine {e:<10}  first call {r['first_call_s']:7.3f} s  "
-                  f"(runs {', '.join(f'{t:.3f}' for t in r['first_call_s_runs'])}; process {r['process_wall_s']:.2f} s) "
-                  f" {r['success']}/20 converged, solved by {r['engines_used']}")
+            print(
+                f"  cache {r['cache']:<5}  engine {e:<10}  first call {r['first_call_s']:7.3f} s  "
+                f"(runs {', '.join(f'{t:.3f}' for t in r['first_call_s_runs'])}; process {r['process_wall_s']:.2f} s) "
+                f" {r['success']}/20 converged, solved by {r['engines_used']}"
+            )
     ref = {r["cache"]: r for r in rows if r["engine"] == "ipopt"}
     targets = {}
     for r in rows:
         if r["engine"] == "auto":
             ok = r["first_call_s"] <= ref[r["cache"]]["first_call_s"]
             targets[f"fit_many_auto_{r['cache']}_cache_not_slower_than_ipopt_loop"] = ok
-            print(f"  -> default (auto) with {r['cache']} cache: {r['first_call_s']:.3f} s vs IPOPT loop "
-                  f"{ref[r['cache']]['first_call_s']:.3f} s: {'REACHED' if ok else 'NOT REACHED'}")
+            print(
+                f"  -> default (auto) with {r['cache']} cache: {r['first_call_s']:.3f} s vs IPOPT loop "
+                f"{ref[r['cache']]['first_call_s']:.3f} s: {'REACHED' if ok else 'NOT REACHED'}"
+            )
         dc = max(abs(a - b) / max(abs(b), 1e-300) for a, b in zip(r["cost"], ref[r["cache"]]["cost"]))
         r["max_rel_cost_diff_vs_ipopt"] = dc
-    print(f"  largest relative cost difference from the IPOPT loop: "
-          f"{max(r['max_rel_cost_diff_vs_ipopt'] for r in rows):.1e}")
+    print(
+        f"  largest relative cost difference from the IPOPT loop: "
+        f"{max(r['max_rel_cost_diff_vs_ipopt'] for r in rows):.1e}"
+    )
     print("\nsoiltrack fit wong2001_p176.csv --vehicle heavy --json, whole process (cache warm: second process):")
     cli_runs("compiled", 1, warm)  # the first process on this machine: compiles and fills the cache
     cli = [cli_runs(e, args.repeats, warm) for e in ("auto", "compiled", "ipopt")]
     for c in cli:
-        print(f"  --engine {c['engine']:<9} {c['process_wall_s']:.3f} s  (runs {', '.join(f'{t:.3f}' for t in c['runs'])})")
+        runs = ", ".join(f"{t:.3f}" for t in c["runs"])
+        print(f"  --engine {c['engine']:<9} {c['process_wall_s']:.3f} s  (runs {runs})")
     by = {c["engine"]: c["process_wall_s"] for c in cli}
     ok = by["compiled"] <= 1.1 * by["auto"]
     targets["cli_compiled_second_process_as_fast_as_default"] = ok
-    print(f"  -> --engine compiled {by['compiled']:.3f} s vs default {by['auto']:.3f} s (within 10 %): "
-          f"{'REACHED' if ok else 'NOT REACHED'}")
-    out = {"command": " ".join(["python", "benchmarks/bench_engines.py"] + (argv if argv is not None else sys.argv[1:])),
-           "cores": os.cpu_count(), "fit_many": rows, "cli": cli, "targets": targets}
+    print(
+        f"  -> --engine compiled {by['compiled']:.3f} s vs default {by['auto']:.3f} s (within 10 %): "
+        f"{'REACHED' if ok else 'NOT REACHED'}"
+    )
+    out = {
+        "command": " ".join(["python", "benchmarks/bench_engines.py"] + (argv if argv is not None else sys.argv[1:])),
+        "cores": os.cpu_count(),
+        "fit_many": rows,
+        "cli": cli,
+        "targets": targets,
+    }
     if args.json == "-":
         print(json.dumps(out, indent=1))
     elif args.json:

@@ -13,7 +13,8 @@ What is measured
   every soiltrack method (the default ``fit`` - engine ``auto``, the compiled LM engine on C
   code from the disk cache -, ``fit`` with ``engine="ipopt"`` from its grid start and from the
   given start, newton / least-squares, the compiled engine ``fit(..., engine="compiled")`` from
-  its grid start and from the given start, and ``fit_many([data])``) vs ``scipy.optimize.least_squares(method="trf")`` with the same data, the same
+  its grid start and from the given start, and ``fit_many([data])``) vs
+  ``scipy.optimize.least_squares(method="trf")`` with the same data, the same
   bounds (the seed's practical ranges), the same scaled variables (phi in rad, K in cm), an
   analytic Jacobian and tolerances 1e-12 (scipy's best case). The estimates are compared and the
   largest relative difference is printed. Times are medians over ``--repeats`` calls, after a
@@ -32,6 +33,7 @@ throughput. The JSON object is printed only with ``--json``.
 
 The heavy vehicle's l = 2.8 m and b = 0.5 m are assumptions (the seed gives neither).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -88,7 +90,7 @@ class ScipyFit:
 
     def __init__(self, slip, force, W, l):
         self.slip, self.force, self.W, self.l = slip, force, W, l
-        self.fscale = np.sqrt(np.mean(force ** 2))
+        self.fscale = np.sqrt(np.mean(force**2))
         lo = np.array([PRACTICAL_BOUNDS.friction_angle[0], PRACTICAL_BOUNDS.shear_modulus[0]])
         hi = np.array([PRACTICAL_BOUNDS.friction_angle[1], PRACTICAL_BOUNDS.shear_modulus[1]])
         self.bounds = (lo / SCALE, hi / SCALE)
@@ -109,8 +111,7 @@ class ScipyFit:
 
     def solve(self, x0_si):
         z0 = np.clip(np.asarray(x0_si, float) / SCALE, self.bounds[0], self.bounds[1])
-        r = least_squares(self.fun, z0, jac=self.jac, bounds=self.bounds, method="trf", xtol=TOL, ftol=TOL,
-                          gtol=TOL)
+        r = least_squares(self.fun, z0, jac=self.jac, bounds=self.bounds, method="trf", xtol=TOL, ftol=TOL, gtol=TOL)
         return r.x * SCALE, r
 
 
@@ -130,13 +131,15 @@ def single_fit_rows(name, data, repeats, x0_si):
     """All paths on one dataset, timed round-robin; scipy first."""
     W = HEAVY.weight
     sp = ScipyFit(np.asarray(data.slip), np.asarray(data.tractive_force), W, HEAVY.track_length)
-    paths = [("soiltrack fit default (engine auto)", dict()),
-             ("soiltrack fit engine=ipopt (grid start)", dict(method="ipopt", engine="ipopt")),
-             ("soiltrack fit engine=ipopt (same x0)", dict(method="ipopt", engine="ipopt", x0=x0_si)),
-             ("soiltrack fit newton (same x0; unbounded)", dict(method="newton", x0=x0_si)),
-             ("soiltrack fit least-squares (same x0; unbounded)", dict(method="least-squares", x0=x0_si)),
-             ("soiltrack fit engine=compiled (grid start)", dict(method="ipopt", engine="compiled")),
-             ("soiltrack fit engine=compiled (same x0)", dict(method="ipopt", engine="compiled", x0=x0_si))]
+    paths = [
+        ("soiltrack fit default (engine auto)", dict()),
+        ("soiltrack fit engine=ipopt (grid start)", dict(method="ipopt", engine="ipopt")),
+        ("soiltrack fit engine=ipopt (same x0)", dict(method="ipopt", engine="ipopt", x0=x0_si)),
+        ("soiltrack fit newton (same x0; unbounded)", dict(method="newton", x0=x0_si)),
+        ("soiltrack fit least-squares (same x0; unbounded)", dict(method="least-squares", x0=x0_si)),
+        ("soiltrack fit engine=compiled (grid start)", dict(method="ipopt", engine="compiled")),
+        ("soiltrack fit engine=compiled (same x0)", dict(method="ipopt", engine="compiled", x0=x0_si)),
+    ]
     if "engine" not in identify.fit.__code__.co_varnames:  # older soiltrack: no compiled engine
         paths = [p for p in paths if "engine" not in p[1]]
     labels = ["scipy least_squares trf (same x0)"] + [p[0] for p in paths]
@@ -146,15 +149,29 @@ def single_fit_rows(name, data, repeats, x0_si):
     funcs += [(lambda kw=kw: identify.fit(data, HEAVY, model=MODEL, bounds=PRACTICAL_BOUNDS, **kw)) for _, kw in paths]
     if hasattr(identify, "fit_many"):
         labels.append("soiltrack fit_many([data]) (engine auto)")
-        funcs.append(lambda: identify.fit_many([data], HEAVY, model=MODEL, method="ipopt", bounds=PRACTICAL_BOUNDS,
-                                               progress=False)[0])
+        funcs.append(
+            lambda: identify.fit_many(
+                [data], HEAVY, model=MODEL, method="ipopt", bounds=PRACTICAL_BOUNDS, progress=False
+            )[0]
+        )
     log(f"  {name}: {len(funcs)} paths x {repeats} repeats, round-robin")
     times, results = interleaved_times(funcs, repeats)
     th_sp, r_sp = results[0]
     t_sp = times[0]
-    rows = [dict(dataset=name, path=labels[0], time_s=t_sp, phi_deg=math.degrees(th_sp[0]), K_m=float(th_sp[1]),
-                 status=f"scipy status {r_sp.status}", success=bool(r_sp.success), rel_diff_vs_scipy=0.0,
-                 speedup_vs_scipy=1.0, iterations=int(r_sp.nfev))]
+    rows = [
+        dict(
+            dataset=name,
+            path=labels[0],
+            time_s=t_sp,
+            phi_deg=math.degrees(th_sp[0]),
+            K_m=float(th_sp[1]),
+            status=f"scipy status {r_sp.status}",
+            success=bool(r_sp.success),
+            rel_diff_vs_scipy=0.0,
+            speedup_vs_scipy=1.0,
+            iterations=int(r_sp.nfev),
+        )
+    ]
     for label, t, res in zip(labels[1:], times[1:], results[1:]):
         rows.append(_row(name, label, t, res, th_sp, t_sp))
     return rows, th_sp
@@ -163,10 +180,19 @@ def single_fit_rows(name, data, repeats, x0_si):
 def _row(name, label, t, res, th_sp, t_sp):
     th = np.asarray(res.theta, float)[1:]
     rel = float(np.max(np.abs(th - th_sp) / np.abs(th_sp))) if np.all(np.isfinite(th)) else math.inf
-    return dict(dataset=name, path=label, time_s=t, phi_deg=math.degrees(th[0]), K_m=float(th[1]), status=res.status,
-                success=bool(res.success), rel_diff_vs_scipy=rel, speedup_vs_scipy=t_sp / t,
-                iterations=int(res.iterations),
-                engine=(res.extra.get("engine") if isinstance(getattr(res, "extra", None), dict) else None))
+    return dict(
+        dataset=name,
+        path=label,
+        time_s=t,
+        phi_deg=math.degrees(th[0]),
+        K_m=float(th[1]),
+        status=res.status,
+        success=bool(res.success),
+        rel_diff_vs_scipy=rel,
+        speedup_vs_scipy=t_sp / t,
+        iterations=int(res.iterations),
+        engine=(res.extra.get("engine") if isinstance(getattr(res, "extra", None), dict) else None),
+    )
 
 
 def batch(args, rng):
@@ -184,7 +210,7 @@ def batch(args, rng):
         identify.fit_many(sets[:10], HEAVY, model=MODEL, method="ipopt", progress=False)  # warm-up
     t_sp, t_fm, sp_est, sp_nfev, res = [], [], [], [], None
     for k in range(ROUNDS):
-        part = sets[k * per_round:(k + 1) * per_round]
+        part = sets[k * per_round : (k + 1) * per_round]
         log(f"batch round {k + 1}/{ROUNDS}: scipy loop on {len(part)} datasets")
         t0 = time.perf_counter()
         for d in part:
@@ -230,8 +256,13 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=200, help="timing repeats per single-fit path (median)")
     ap.add_argument("--batch", type=int, default=10_000, help="datasets in the batch benchmark")
     ap.add_argument("--scipy-subset", type=int, default=1000, help="datasets the scipy loop is timed on")
-    ap.add_argument("--json", nargs="?", const="-", default=None,
-                    help="print the JSON object (or, with a file name, write it there)")
+    ap.add_argument(
+        "--json",
+        nargs="?",
+        const="-",
+        default=None,
+        help="print the JSON object (or, with a file name, write it there)",
+    )
     ap.add_argument("--seed", type=int, default=1)
     args = ap.parse_args(argv)
     rng = np.random.default_rng(args.seed)
@@ -252,61 +283,99 @@ def main(argv=None):
     b = batch(args, rng)
 
     # ---- table
-    print(f"soiltrack identification benchmark - {platform.processor() or platform.machine()}, "
-          f"{os.cpu_count()} cores, Python {platform.python_version()}, numpy {np.__version__}, scipy "
-          f"{scipy.__version__}, casadi {__import__('casadi').__version__}")
-    print(f"model {MODEL}, heavy vehicle (W = 329 kN; l = 2.8 m, b = 0.5 m ASSUMED), bounds phi 6-40 deg, "
-          f"K 0.006-0.05 m; x0 = middle of the bounds where 'same x0'")
-    print(f"single fits: median wall time per call over {args.repeats} repeats after a warm-up, all paths timed "
-          "round-robin; 'rel diff' = max relative difference of (phi, K) from scipy's")
-    hdr = f"{'dataset':<24}{'path':<50}{'time/fit':>11}{'vs scipy':>10}{'phi (deg)':>12}{'K (m)':>11}" \
-          f"{'rel diff':>10}  status"
+    print(
+        f"soiltrack identification benchmark - {platform.processor() or platform.machine()}, "
+        f"{os.cpu_count()} cores, Python {platform.python_version()}, numpy {np.__version__}, scipy "
+        f"{scipy.__version__}, casadi {__import__('casadi').__version__}"
+    )
+    print(
+        f"model {MODEL}, heavy vehicle (W = 329 kN; l = 2.8 m, b = 0.5 m ASSUMED), bounds phi 6-40 deg, "
+        f"K 0.006-0.05 m; x0 = middle of the bounds where 'same x0'"
+    )
+    print(
+        f"single fits: median wall time per call over {args.repeats} repeats after a warm-up, all paths timed "
+        "round-robin; 'rel diff' = max relative difference of (phi, K) from scipy's"
+    )
+    hdr = (
+        f"{'dataset':<24}{'path':<50}{'time/fit':>11}{'vs scipy':>10}{'phi (deg)':>12}{'K (m)':>11}"
+        f"{'rel diff':>10}  status"
+    )
     print(hdr)
     print("-" * len(hdr))
     for r in rows:
-        print(f"{r['dataset']:<24}{r['path']:<50}{r['time_s'] * 1e3:>8.3f} ms{r['speedup_vs_scipy']:>9.2f}x"
-              f"{r['phi_deg']:>12.6f}{r['K_m']:>11.6f}{r['rel_diff_vs_scipy']:>10.1e}  {r['status']}"
-              + (f" [{r['engine']}]" if r.get("engine") else ""))
+        print(
+            f"{r['dataset']:<24}{r['path']:<50}{r['time_s'] * 1e3:>8.3f} ms{r['speedup_vs_scipy']:>9.2f}x"
+            f"{r['phi_deg']:>12.6f}{r['K_m']:>11.6f}{r['rel_diff_vs_scipy']:>10.1e}  {r['status']}"
+            + (f" [{r['engine']}]" if r.get("engine") else "")
+        )
     print()
     fastest = {}
     for name in ("3 points (Wong)", "100 points (synthetic)"):
-        cand = [r for r in rows if r["dataset"] == name and r["path"].startswith("soiltrack") and r["success"]
-                and r["rel_diff_vs_scipy"] < 1e-6]
+        cand = [
+            r
+            for r in rows
+            if r["dataset"] == name
+            and r["path"].startswith("soiltrack")
+            and r["success"]
+            and r["rel_diff_vs_scipy"] < 1e-6
+        ]
         if cand:
             best = min(cand, key=lambda r: r["time_s"])
             fastest[name] = dict(path=best["path"], speedup=best["speedup_vs_scipy"])
-            print(f"fastest agreeing single-fit path on {name}: {best['path']} - {best['speedup_vs_scipy']:.2f}x scipy "
-                  f"-> target >= 10x {'REACHED' if best['speedup_vs_scipy'] >= 10 else 'NOT REACHED'}")
+            print(
+                f"fastest agreeing single-fit path on {name}: {best['path']} - {best['speedup_vs_scipy']:.2f}x scipy "
+                f"-> target >= 10x {'REACHED' if best['speedup_vs_scipy'] >= 10 else 'NOT REACHED'}"
+            )
         else:
             print(f"no soiltrack path on {name} succeeded and agreed with scipy to 1e-6")
         default = [r for r in rows if r["dataset"] == name and r["path"] == "soiltrack fit default (engine auto)"]
         if default:
             sp = default[0]["speedup_vs_scipy"]
             fastest.setdefault(name, {})["default_speedup"] = sp
-            print(f"default fit on {name} ({default[0].get('engine')}): {sp:.2f}x scipy -> target >= 10x "
-                  f"{'REACHED' if sp >= 10 else 'NOT REACHED'}, aim 50x {'REACHED' if sp >= 50 else 'not reached'}")
+            print(
+                f"default fit on {name} ({default[0].get('engine')}): {sp:.2f}x scipy -> target >= 10x "
+                f"{'REACHED' if sp >= 10 else 'NOT REACHED'}, aim 50x {'REACHED' if sp >= 50 else 'not reached'}"
+            )
     print()
     print(f"batch of {b['n_datasets']} noisy 3-point datasets (+-3 % on F and i):")
-    print(f"  scipy loop: timed on a subset of {b['scipy_subset']} datasets (median over {b['rounds']} rounds "
-          f"alternating with fit_many), {b['scipy_per_fit_s'] * 1e3:.3f} ms per fit, EXTRAPOLATED per fit to "
-          f"{b['scipy_extrapolated_total_s']:.1f} s for {b['n_datasets']} ({b['scipy_throughput_fits_per_s']:.0f} fits/s)")
+    print(
+        f"  scipy loop: timed on a subset of {b['scipy_subset']} datasets (median over {b['rounds']} rounds "
+        f"alternating with fit_many), {b['scipy_per_fit_s'] * 1e3:.3f} ms per fit, EXTRAPOLATED per fit to "
+        f"{b['scipy_extrapolated_total_s']:.1f} s for {b['n_datasets']} ({b['scipy_throughput_fits_per_s']:.0f} fits/s)"
+    )
     if "fit_many_total_s" in b:
-        print(f"  fit_many:   {b['fit_many_total_s']:.2f} s for all {b['n_datasets']} (median of {b['rounds']} runs; "
-              f"{b['fit_many_throughput_fits_per_s']:.0f} fits/s), {b['fit_many_success']}/{b['n_datasets']} succeeded, "
-              f"engines {b['fit_many_engines']}; estimates vs scipy on the subset: max rel diff "
-              f"{b['max_rel_diff_vs_scipy']:.1e}, median {b['median_rel_diff_vs_scipy']:.1e}")
-        print(f"  throughput ratio {b['speedup']:.1f}x -> target >= 100x "
-              f"{'REACHED' if b['speedup'] >= 100 else 'NOT REACHED'}")
+        print(
+            f"  fit_many:   {b['fit_many_total_s']:.2f} s for all {b['n_datasets']} (median of {b['rounds']} runs; "
+            f"{b['fit_many_throughput_fits_per_s']:.0f} fits/s), {b['fit_many_success']}/{b['n_datasets']} succeeded, "
+            f"engines {b['fit_many_engines']}; estimates vs scipy on the subset: max rel diff "
+            f"{b['max_rel_diff_vs_scipy']:.1e}, median {b['median_rel_diff_vs_scipy']:.1e}"
+        )
+        print(
+            f"  throughput ratio {b['speedup']:.1f}x -> target >= 100x "
+            f"{'REACHED' if b['speedup'] >= 100 else 'NOT REACHED'}"
+        )
     else:
         print(f"  fit_many: {b['fit_many']}")
-    out = {"machine": {"cores": os.cpu_count(), "python": platform.python_version(), "numpy": np.__version__,
-                       "scipy": scipy.__version__, "casadi": __import__("casadi").__version__},
-           "command": " ".join(["python", "benchmarks/bench_identify.py"] + (argv if argv is not None else sys.argv[1:])),
-           "repeats": args.repeats, "single": rows, "fastest": fastest, "batch": b,
-           "targets": {"single_10x": {k: v.get("speedup", 0) >= 10 for k, v in fastest.items()},
-                       "default_single_10x": {k: v.get("default_speedup", 0) >= 10 for k, v in fastest.items()},
-                       "batch_100x": bool(b.get("speedup", 0) >= 100)},
-           "total_time_s": time.perf_counter() - t_all}
+    out = {
+        "machine": {
+            "cores": os.cpu_count(),
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "scipy": scipy.__version__,
+            "casadi": __import__("casadi").__version__,
+        },
+        "command": " ".join(["python", "benchmarks/bench_identify.py"] + (argv if argv is not None else sys.argv[1:])),
+        "repeats": args.repeats,
+        "single": rows,
+        "fastest": fastest,
+        "batch": b,
+        "targets": {
+            "single_10x": {k: v.get("speedup", 0) >= 10 for k, v in fastest.items()},
+            "default_single_10x": {k: v.get("default_speedup", 0) >= 10 for k, v in fastest.items()},
+            "batch_100x": bool(b.get("speedup", 0) >= 100),
+        },
+        "total_time_s": time.perf_counter() - t_all,
+    }
     if args.json == "-":
         print()
         print(json.dumps(out, indent=1))

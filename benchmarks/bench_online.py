@@ -234,13 +234,9 @@ def detection(estimates, truth, rate_hz: float) -> dict:
         "dated_s": after[0][1] if after else math.nan,
         "extra_alarms": len(after) - 1 if after else 0,
         "false_before": len(false),
-        "first_within_5pct_s": float(t[np.nonzero(first_ok)[0][0]] - CHANGE_TIME_S)
-        if first_ok.any()
-        else math.inf,
+        "first_within_5pct_s": float(t[np.nonzero(first_ok)[0][0]] - CHANGE_TIME_S) if first_ok.any() else math.inf,
         "within_5pct_for_good_s": settle,
-        "share_identified_within_5pct_before": float(
-            np.mean(within[(t > 10) & (t < CHANGE_TIME_S) & np.isfinite(F)])
-        ),
+        "share_identified_within_5pct_before": float(np.mean(within[(t > 10) & (t < CHANGE_TIME_S) & np.isfinite(F)])),
     }
 
 
@@ -250,8 +246,7 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     veh = VEHICLES["light"]
     rates = (50.0,) if a.quick else (10.0, 50.0, 100.0)
-    print(f"light vehicle, {GRADE_DEG:g} deg climb, LETE sand -> snow at {CHANGE_TIME_S:g} s, "
-          f"window {WINDOW_S:g} s")
+    print(f"light vehicle, {GRADE_DEG:g} deg climb, LETE sand -> snow at {CHANGE_TIME_S:g} s, window {WINDOW_S:g} s")
     print(
         "machine load (1-min average) at the start:",
         open("/proc/loadavg").read().split()[0],
@@ -322,10 +317,7 @@ def main(argv=None) -> int:
             n = len(est.changes)
             alarms += n
             total_h += log.time[-1] / 3600.0
-            print(
-                f"  seed {seed}, {kind} profile ({vv.name or 'vehicle'}): {n} alarms in "
-                f"{log.time[-1] / 60:.0f} min"
-            )
+            print(f"  seed {seed}, {kind} profile ({vv.name or 'vehicle'}): {n} alarms in {log.time[-1] / 60:.0f} min")
     print(f"false alarms: {alarms} in {total_h:.2f} h = {alarms / total_h:.2f} per hour")
     return 0
 

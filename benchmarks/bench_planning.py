@@ -28,6 +28,11 @@ What is measured
   sand / dry sand, the case above), and warm on a small change of the soil (alternating LETE
   sand and LETE sand with a friction angle 0.5 deg lower and K 5 % larger: what an on-line
   estimate's update looks like). Medians of the whole ``replan`` call and of the solver alone.
+* Candidates for the warm re-plan on a new soil (issue 22), on the same 20 (``--repeats``) re-plans
+  in the same run: FATROP on the same NLP in stage order (from the previous plan's primal
+  solution), IPOPT with other options (``IPOPT_VARIANTS``), and an SQP method with HPIPM (first
+  ``SQP_REPLANS`` re-plans). Iterations, converged count, median and p90 times, CPU time, and the
+  objective against the Replanner's IPOPT plan. ``--replan-only`` runs only the re-planning parts.
 * A 10-patch route (alternating terrains and grades, 100 intervals): cold solve and warm
   re-solve.
 * ``margin`` with a fit's uncertainty and 10,000 Monte Carlo samples.
@@ -61,7 +66,15 @@ except ImportError:  # pragma: no cover
 
 from soiltrack.identify import fit  # noqa: E402
 from soiltrack.planning import Replanner, margin, profile, replay, route_from_dict, route_profile  # noqa: E402
-from soiltrack.planning.ocp import clear_warm_starts  # noqa: E402
+from soiltrack.planning import ocp as ocp_module  # noqa: E402
+from soiltrack.planning.ocp import (  # noqa: E402
+    DEGREE,
+    IPOPT_OPTIONS,
+    WARM_OPTIONS,
+    clear_warm_starts,
+    ocp_layout,
+    ocp_nlp,
+)
 from soiltrack.planning.replay import step_function  # noqa: E402
 from soiltrack.soilmodel import TERRAINS, VEHICLES, Soil, simulate_slip_sweep  # noqa: E402
 
@@ -71,6 +84,10 @@ CASE = dict(v0=0.5, v1=3.0, distance=30.0, max_slip=0.2, objective="time", inter
 
 def med(xs):
     return statistics.median(xs)
+
+
+def p90(xs):
+    return float(np.percentile(xs, 90))
 
 
 def timed(fn):
@@ -140,17 +157,270 @@ def bench_replan(repeats: int) -> dict:
         ("warm_new_soil", (lete, TERRAINS["dry_sand"]), False),
         ("warm_small_change", (lete, near), False),
     ):
-        call, solver, its = [], [], []
+        call, solver, its, cpu = [], [], [], []
         for k in range(repeats):
             if reset:
                 rp.reset()
+            c0 = time.process_time()
             r, t = timed(lambda: rp.replan(soils[k % 2], v0=CASE["v0"]))
+            cpu.append(time.process_time() - c0)
             assert r.success and r.warm_start is not reset, r.message
             call.append(t)
             solver.append(r.solve_time_s)
             its.append(r.iterations)
-        out[label] = {"call_s": med(call), "solver_s": med(solver), "iterations": med(its)}
+        out[label] = {
+            "call_s": med(call),
+            "call_p90_s": p90(call),
+            "cpu_s": med(cpu),
+            "solver_s": med(solver),
+            "iterations": med(its),
+            "iterations_max": max(its),
+        }
     return out
+
+
+#: Candidate (b): IPOPT options tried on the same warm re-plans (each beside the Replanner's own options,
+#: which the first entry repeats: the NLP rebuilt here must give the Replanner's iterations).
+IPOPT_VARIANTS = {
+    "as the Replanner": {},
+    "mu_init 1e-6": {"mu_init": 1e-6},
+    "mu_init 1e-4": {"mu_init": 1e-4},
+    "adaptive barrier": {"mu_strategy": "adaptive"},
+    "pushes 1e-9": {
+        "warm_start_bound_push": 1e-9,
+        "warm_start_mult_bound_push": 1e-9,
+        "warm_start_slack_bound_push": 1e-9,
+    },
+    "no NLP scaling": {"nlp_scaling_method": "none"},
+    "linear solver SPRAL": {"linear_solver": "spral"},
+}
+
+#: SQP candidate (c): SQP iterations allowed per re-plan, and re-plans tried (each is slow: see the output).
+SQP_MAX_ITER = 15
+SQP_REPLANS = 3
+
+
+def staged_problem(n: int) -> tuple[dict, np.ndarray, np.ndarray, list, list, list]:
+    """The same NLP (:func:`ocp_nlp`, minimum time, no torque-rate rows) in the stage order FATROP needs.
+
+    Stage k: the node state ``X_k`` (2), then the "controls" ``u_k, dt_k`` and the interval's collocation
+    states (2 d); its rows: the gap ``X_{k+1} - Z_{k,d} = 0`` (unscaled: FATROP wants the identity on
+    ``X_{k+1}``), then the interval's own rows of :func:`ocp_nlp` (collocation, distance, slip, power).
+    The total-time row (the only row coupling every stage, free in a distance problem) is left out.
+    Returns the NLP, the permutations (x_staged = x[xperm], g_staged = g[gperm], -1 for a gap row) and
+    the stage sizes nx, nu, ng.
+    """
+    d = DEGREE
+    nlp = ocp_nlp(HEAVY, n, False, False)
+    x, g = nlp["x"], nlp["g"]
+    iX, iZ, iu, idt, _ = ocp_layout(n, False)
+    ndyn, npt = 2 * (d + 1) * n, n * (d + 1)
+    base = ndyn + n  # first slip row
+    xperm, gperm, rows, nxs, nus, ngs = [], [], [], [], [], []
+    for k in range(n):
+        ctrl = [iu.start + k, idt.start + k] + [iZ.start + 2 * (k * d + j) + i for j in range(d) for i in range(2)]
+        xperm += [iX.start + 2 * k, iX.start + 2 * k + 1] + ctrl
+        own = (
+            [2 * (d + 1) * k + q for q in range(2 * d)]
+            + [ndyn + k]
+            + [base + m * npt + k * (d + 1) + q for m in range(3) for q in range(d + 1)]
+        )
+        rows += [x[iX.start + 2 * (k + 1) + i] - x[iZ.start + 2 * (k * d + d - 1) + i] for i in range(2)]
+        rows += [g[i] for i in own]
+        gperm += [-1, -1] + own
+        nxs.append(2)
+        nus.append(len(ctrl))
+        ngs.append(len(own))
+    xperm += [iX.start + 2 * n, iX.start + 2 * n + 1]
+    nxs.append(2)
+    nus.append(0)
+    ngs.append(0)
+    staged = {"x": ca.vertcat(*[x[i] for i in xperm]), "p": nlp["p"], "f": nlp["f"], "g": ca.vertcat(*rows)}
+    return staged, np.array(xperm), np.array(gperm), nxs, nus, ngs
+
+
+def bench_replan_candidates(repeats: int) -> dict:
+    """Candidates (a) and (c) of issue 22 beside the Replanner's warm IPOPT, on the same re-plans in one run.
+
+    The Replanner re-plans alternately on LETE sand and dry sand; the arguments of each IPOPT call are
+    recorded (benchmark instrumentation around the solver call), and FATROP (CasADi's structure-
+    exploiting interior point solver, the same NLP in stage order, SX functions) solves the same
+    instance from the previous plan's primal solution (FATROP takes no multipliers). Both are compared
+    by iterations, wall and CPU time, and the objective against IPOPT's. An SQP method (exact Hessian,
+    regularised to convexity, HPIPM's structure-exploiting QP solver) starts from the previous plan and its
+    multipliers on the first ``SQP_REPLANS`` re-plans.
+    """
+    n = CASE["intervals"]
+    staged, xperm, gperm, nxs, nus, ngs = staged_problem(n)
+    fatrop = ca.nlpsol(
+        "replan_fatrop",
+        "fatrop",
+        staged,
+        {
+            "structure_detection": "manual",
+            "nx": nxs,
+            "nu": nus,
+            "ng": ngs,
+            "N": n,
+            "expand": True,
+            "fatrop": {"print_level": 0, "tol": 1e-8},
+            "print_time": False,
+            "error_on_fail": False,
+        },
+    )
+    calls, fn_cpu = [], []
+    original = ocp_module.call_solver
+
+    def recording(solver, **args):
+        out, stats = original(solver, **args)
+        fn_cpu.append(sum(v for key, v in stats.items() if key.startswith("t_proc_nlp_")))
+        calls.append(
+            (
+                args,
+                np.asarray(out["x"]).ravel(),
+                float(out["f"]),
+                np.asarray(out["lam_x"]).ravel(),
+                np.asarray(out["lam_g"]).ravel(),
+            )
+        )
+        return out, stats
+
+    rp = Replanner(HEAVY, distance=CASE["distance"], v1=CASE["v1"], intervals=n, max_slip=CASE["max_slip"])
+    soils = (TERRAINS["lete_sand"], TERRAINS["dry_sand"])
+    ocp_module.call_solver = recording
+    try:
+        rp.replan(soils[1], v0=CASE["v0"])
+        ip_wall, ip_cpu, ip_it = [], [], []
+        for k in range(repeats):
+            c0 = time.process_time()
+            r, t = timed(lambda: rp.replan(soils[k % 2], v0=CASE["v0"]))
+            ip_cpu.append(time.process_time() - c0)
+            assert r.success and r.warm_start, r.message
+            ip_wall.append(r.solve_time_s)
+            ip_it.append(r.iterations)
+    finally:
+        ocp_module.call_solver = original
+
+    def staged_g(a):
+        a = np.asarray(a, dtype=float).ravel()
+        out = np.zeros(len(gperm))
+        out[gperm >= 0] = a[gperm[gperm >= 0]]
+        return out
+
+    sqp = ca.nlpsol(
+        "replan_sqp",
+        "sqpmethod",
+        staged,
+        {
+            "qpsol": "hpipm",
+            "qpsol_options": {"nx": nxs, "nu": nus, "ng": ngs, "N": n, "error_on_fail": False},
+            "convexify_strategy": "regularize",
+            "max_iter": SQP_MAX_ITER,
+            "tol_pr": 1e-8,
+            "tol_du": 1e-8,
+            "print_header": False,
+            "print_iteration": False,
+            "print_status": False,
+            "print_time": False,
+            "error_on_fail": False,
+        },
+    )
+    s_cpu, s_it, s_ok, s_rel = [], [], [], []
+    for k in range(1, min(len(calls), SQP_REPLANS + 1)):
+        args, _, f_ipopt = calls[k][:3]
+        prev = calls[k - 1]
+        a = {
+            "p": args["p"],
+            "lbx": np.asarray(args["lbx"])[xperm],
+            "ubx": np.asarray(args["ubx"])[xperm],
+            "lbg": staged_g(args["lbg"]),
+            "ubg": staged_g(args["ubg"]),
+            "x0": prev[1][xperm],
+            "lam_x0": prev[3][xperm],
+            "lam_g0": staged_g(prev[4]),
+        }
+        c0 = time.process_time()
+        sol = sqp(**a)
+        s_cpu.append(time.process_time() - c0)
+        st = sqp.stats()
+        s_it.append(int(st["iter_count"]))
+        s_ok.append(bool(st["success"]))
+        s_rel.append(abs(float(sol["f"]) - f_ipopt) / abs(f_ipopt))
+    sweep = {}
+    nlp = ocp_nlp(HEAVY, n, False, False)
+    for label, extra in IPOPT_VARIANTS.items():
+        solver = ca.nlpsol(
+            "replan_ipopt_variant",
+            "ipopt",
+            nlp,
+            {"ipopt": {**IPOPT_OPTIONS, **WARM_OPTIONS, **extra}, "print_time": False, "error_on_fail": False},
+        )
+        v_cpu, v_it, v_ok, v_rel = [], [], [], []
+        for k in range(1, len(calls)):
+            args, _, f_ipopt = calls[k][:3]
+            prev = calls[k - 1]
+            c0 = time.process_time()
+            a = {key: args[key] for key in ("p", "lbx", "ubx", "lbg", "ubg")}
+            sol = solver(**a, x0=prev[1], lam_x0=prev[3], lam_g0=prev[4])
+            v_cpu.append(time.process_time() - c0)
+            st = solver.stats()
+            v_it.append(int(st["iter_count"]))
+            v_ok.append(bool(st["success"]))
+            v_rel.append(abs(float(sol["f"]) - f_ipopt) / abs(f_ipopt))
+        sweep[label] = {
+            "cpu_s": med(v_cpu),
+            "iterations": med(v_it),
+            "iterations_max": max(v_it),
+            "converged": f"{sum(v_ok)} of {len(v_ok)}",
+            "max_rel_objective_difference": max(v_rel),
+        }
+    f_wall, f_cpu, f_it, f_ok, f_rel = [], [], [], [], []
+    for k in range(1, len(calls)):
+        args, _, f_ipopt = calls[k][:3]
+        x_prev = calls[k - 1][1]
+        a = {
+            "p": args["p"],
+            "lbx": np.asarray(args["lbx"])[xperm],
+            "ubx": np.asarray(args["ubx"])[xperm],
+            "lbg": staged_g(args["lbg"]),
+            "ubg": staged_g(args["ubg"]),
+            "x0": np.clip(x_prev[xperm], np.asarray(args["lbx"])[xperm], np.asarray(args["ubx"])[xperm]),
+        }
+        c0 = time.process_time()
+        sol, t = timed(lambda: fatrop(**a))
+        f_cpu.append(time.process_time() - c0)
+        st = fatrop.stats()
+        f_wall.append(t)
+        f_it.append(int(st["iter_count"]))
+        f_ok.append(bool(st["success"]))
+        f_rel.append(abs(float(sol["f"]) - f_ipopt) / abs(f_ipopt))
+    return {
+        "ipopt_warm": {
+            "solver_s": med(ip_wall),
+            "solver_p90_s": p90(ip_wall),
+            "call_cpu_s": med(ip_cpu),
+            "functions_cpu_s": med(fn_cpu[1:]),
+            "iterations": med(ip_it),
+            "iterations_max": max(ip_it),
+        },
+        "fatrop_primal_start": {
+            "solver_s": med(f_wall),
+            "solver_p90_s": p90(f_wall),
+            "cpu_s": med(f_cpu),
+            "iterations": med(f_it),
+            "iterations_max": max(f_it),
+            "converged": f"{sum(f_ok)} of {len(f_ok)}",
+            "max_rel_objective_difference": max(f_rel),
+        },
+        "ipopt_variants": sweep,
+        "sqp_hpipm": {
+            "replans": len(s_it),
+            "cpu_s": med(s_cpu),
+            "iterations": med(s_it),
+            "converged": f"{sum(s_ok)} of {len(s_ok)}",
+            "max_rel_objective_difference": max(s_rel),
+        },
+    }
 
 
 def bench_slsqp(maxiter: int) -> dict:
@@ -286,6 +556,7 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=20)
     ap.add_argument("--slsqp-maxiter", type=int, default=100)
     ap.add_argument("--skip-slsqp", action="store_true")
+    ap.add_argument("--replan-only", action="store_true", help="only the re-planning parts (issue 22)")
     ap.add_argument("--json", help="write the numbers to this file")
     a = ap.parse_args(argv)
     out = {
@@ -298,23 +569,25 @@ def main(argv=None) -> int:
         }
     }
     print(f"machine: {out['machine']}")
-    out["profile"] = p = bench_profile(a.repeats)
-    print(f"profile, 100 intervals (planned time {p['total_time_s']:.4g} s):")
-    print(f"  build + first solve {p['build_and_first_solve_s'] * 1e3:8.1f} ms")
-    print(
-        f"  cold solve          {p['cold_call_s'] * 1e3:8.1f} ms per call ({p['cold_solver_s'] * 1e3:.1f} ms in IPOPT, "
-        f"{p['cold_iterations']} iterations)"
-    )
-    for key, label in (("warm_new_v1", "warm, new v1  "), ("warm_new_soil", "warm, new soil")):
+    if not a.replan_only:
+        out["profile"] = p = bench_profile(a.repeats)
+        print(f"profile, 100 intervals (planned time {p['total_time_s']:.4g} s):")
+        print(f"  build + first solve {p['build_and_first_solve_s'] * 1e3:8.1f} ms")
         print(
-            f"  {label}      {p[key + '_call_s'] * 1e3:8.1f} ms per call ({p[key + '_solver_s'] * 1e3:.1f} ms in "
-            f"IPOPT, median {p[key + '_iterations']:.0f} iterations)"
+            f"  cold solve          {p['cold_call_s'] * 1e3:8.1f} ms per call "
+            f"({p['cold_solver_s'] * 1e3:.1f} ms in IPOPT, "
+            f"{p['cold_iterations']} iterations)"
         )
-    best = min(p["warm_new_v1_call_s"], p["warm_new_soil_call_s"])
-    print(
-        f"  target warm < 50 ms: {'reached' if best < 0.05 else 'NOT reached'} ({best * 1e3:.1f} ms); "
-        f"aim 10 ms: {'reached' if best < 0.01 else 'not reached'}"
-    )
+        for key, label in (("warm_new_v1", "warm, new v1  "), ("warm_new_soil", "warm, new soil")):
+            print(
+                f"  {label}      {p[key + '_call_s'] * 1e3:8.1f} ms per call ({p[key + '_solver_s'] * 1e3:.1f} ms in "
+                f"IPOPT, median {p[key + '_iterations']:.0f} iterations)"
+            )
+        best = min(p["warm_new_v1_call_s"], p["warm_new_soil_call_s"])
+        print(
+            f"  target warm < 50 ms: {'reached' if best < 0.05 else 'NOT reached'} ({best * 1e3:.1f} ms); "
+            f"aim 10 ms: {'reached' if best < 0.01 else 'not reached'}"
+        )
     out["replan"] = rr = bench_replan(a.repeats)
     print("Replanner, same problem (100 intervals), same run:")
     for key, label in (
@@ -328,31 +601,65 @@ def main(argv=None) -> int:
         )
     t = rr["warm_new_soil"]["call_s"]
     print(
+        f"  warm, new soil: p90 {rr['warm_new_soil']['call_p90_s'] * 1e3:.1f} ms per call, CPU "
+        f"{rr['warm_new_soil']['cpu_s'] * 1e3:.1f} ms (median), iterations max {rr['warm_new_soil']['iterations_max']}"
+    )
+    print(
         f"  target warm re-plan on a new soil < 20 ms: {'reached' if t < 0.02 else 'NOT reached'} ({t * 1e3:.1f} ms); "
         f"aim 10 ms: {'reached' if t < 0.01 else 'not reached'}"
     )
-    if not a.skip_slsqp:
-        out["slsqp"] = s = bench_slsqp(a.slsqp_maxiter)
-        print(
-            f"scipy SLSQP single shooting, same problem: {s['wall_s']:.2f} s, {s['iterations']} iterations, "
-            f"success {s['success']} ({s['message']}); time {s['total_time_s']:.4g} s, v_end {s['v_end']:.4g} m/s, "
-            f"distance {s['distance_m']:.4g} m, max slip {s['max_slip']:.4g}"
-        )
-        print(
-            f"  ratio SLSQP / soiltrack cold: {s['wall_s'] / p['cold_call_s']:.0f}x; / warm: {s['wall_s'] / best:.0f}x"
-        )
-    out["route"] = rt = bench_route(a.repeats)
+    out["replan_candidates"] = rc = bench_replan_candidates(a.repeats)
+    ip, fa = rc["ipopt_warm"], rc["fatrop_primal_start"]
+    print(f"re-plan on a new soil, candidates on the same {a.repeats} re-plans (solver call only):")
     print(
-        f"route, 10 patches, {rt['length_m']:.0f} m, {rt['intervals']} intervals: build + first "
-        f"{rt['build_and_first_solve_s'] * 1e3:.0f} ms, cold {rt['cold_call_s'] * 1e3:.1f} ms, warm "
-        f"{rt['warm_call_s'] * 1e3:.1f} ms per call; replay v_end {rt['replay_v_end']:.4g} m/s, "
-        f"max slip {rt['replay_max_slip']:.4g}"
+        f"  IPOPT, warm (Replanner)      median {ip['solver_s'] * 1e3:7.1f} ms, "
+        f"p90 {ip['solver_p90_s'] * 1e3:7.1f} ms, "
+        f"iterations median {ip['iterations']:.0f} (max {ip['iterations_max']}); whole call CPU "
+        f"{ip['call_cpu_s'] * 1e3:.1f} ms, of which {ip['functions_cpu_s'] * 1e3:.1f} ms in the NLP functions"
     )
-    out["margin"] = mg = bench_margin(a.repeats)
     print(
-        f"margin with 10,000 Monte Carlo samples: {mg['call_s'] * 1e3:.1f} ms per call "
-        f"(p_traversable {mg['p_traversable']:.3f})"
+        f"  FATROP, from the last plan   median {fa['solver_s'] * 1e3:7.1f} ms, "
+        f"p90 {fa['solver_p90_s'] * 1e3:7.1f} ms, "
+        f"iterations median {fa['iterations']:.0f} (max {fa['iterations_max']}); CPU {fa['cpu_s'] * 1e3:.1f} ms; "
+        f"converged {fa['converged']}; objective vs IPOPT within {fa['max_rel_objective_difference']:.1e} (relative)"
     )
+    print("  IPOPT variants, warm from the same previous plan and multipliers (candidate b):")
+    for label, v in rc["ipopt_variants"].items():
+        print(
+            f"    {label:22s} iterations median {v['iterations']:.0f} (max {v['iterations_max']}), CPU "
+            f"{v['cpu_s'] * 1e3:6.1f} ms, converged {v['converged']}, objective vs the Replanner "
+            f"{v['max_rel_objective_difference']:.1e}"
+        )
+    sq = rc["sqp_hpipm"]
+    print(
+        f"  SQP (exact Hessian, regularised; QP: HPIPM) from the last plan and its multipliers, first "
+        f"{sq['replans']} re-plans: converged {sq['converged']} within {SQP_MAX_ITER} SQP iterations, CPU "
+        f"{sq['cpu_s'] * 1e3:.0f} ms (median); objective vs IPOPT {sq['max_rel_objective_difference']:.1e} (relative)"
+    )
+    if not a.replan_only:
+        if not a.skip_slsqp:
+            out["slsqp"] = s = bench_slsqp(a.slsqp_maxiter)
+            print(
+                f"scipy SLSQP single shooting, same problem: {s['wall_s']:.2f} s, {s['iterations']} iterations, "
+                f"success {s['success']} ({s['message']}); time {s['total_time_s']:.4g} s, v_end {s['v_end']:.4g} m/s, "
+                f"distance {s['distance_m']:.4g} m, max slip {s['max_slip']:.4g}"
+            )
+            print(
+                f"  ratio SLSQP / soiltrack cold: {s['wall_s'] / p['cold_call_s']:.0f}x; "
+                f"/ warm: {s['wall_s'] / best:.0f}x"
+            )
+        out["route"] = rt = bench_route(a.repeats)
+        print(
+            f"route, 10 patches, {rt['length_m']:.0f} m, {rt['intervals']} intervals: build + first "
+            f"{rt['build_and_first_solve_s'] * 1e3:.0f} ms, cold {rt['cold_call_s'] * 1e3:.1f} ms, warm "
+            f"{rt['warm_call_s'] * 1e3:.1f} ms per call; replay v_end {rt['replay_v_end']:.4g} m/s, "
+            f"max slip {rt['replay_max_slip']:.4g}"
+        )
+        out["margin"] = mg = bench_margin(a.repeats)
+        print(
+            f"margin with 10,000 Monte Carlo samples: {mg['call_s'] * 1e3:.1f} ms per call "
+            f"(p_traversable {mg['p_traversable']:.3f})"
+        )
     if a.json:
         with open(a.json, "w") as fh:
             json.dump(out, fh, indent=2)

@@ -11,6 +11,7 @@ is a benchmark-only dependency).
 
     python benchmarks/bevameter_to_track.py [--reps 200]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -27,8 +28,14 @@ SANDY_LOAM = {"c": 1.72e3, "phi": math.radians(29.0), "K": 0.01, "k_c": 5.27e3, 
 LIGHT = {"W": 300.0, "l": 0.5, "b": 0.1}
 
 
-def shear_rows(soil: dict, seed: int, pressures=(10e3, 20e3, 40e3), j_max: float = 0.15, per_level: int = 25,
-               noise_pa: float = 300.0) -> np.ndarray:
+def shear_rows(
+    soil: dict,
+    seed: int,
+    pressures=(10e3, 20e3, 40e3),
+    j_max: float = 0.15,
+    per_level: int = 25,
+    noise_pa: float = 300.0,
+) -> np.ndarray:
     """``[sigma, j, tau]`` rows of a shear test: tau = (c + sigma tan phi)(1 - exp(-j / K)) + noise."""
     rng = np.random.default_rng(seed)
     sig = np.repeat(np.asarray(pressures, dtype=float), per_level)
@@ -37,8 +44,9 @@ def shear_rows(soil: dict, seed: int, pressures=(10e3, 20e3, 40e3), j_max: float
     return np.column_stack([sig, j, tau + rng.normal(0.0, noise_pa, sig.size)])
 
 
-def plate_rows(soil: dict, seed: int, widths=(0.05, 0.1, 0.2), z_max: float = 0.06, per_level: int = 20,
-               noise_pa: float = 1000.0) -> np.ndarray:
+def plate_rows(
+    soil: dict, seed: int, widths=(0.05, 0.1, 0.2), z_max: float = 0.06, per_level: int = 20, noise_pa: float = 1000.0
+) -> np.ndarray:
     """``[b, p, z]`` rows of a plate test: p = (k_c / b + k_phi) z^n + noise."""
     rng = np.random.default_rng(seed + 10_000)
     b = np.repeat(np.asarray(widths, dtype=float), per_level)
@@ -49,14 +57,20 @@ def plate_rows(soil: dict, seed: int, widths=(0.05, 0.1, 0.2), z_max: float = 0.
 
 def shear_csv(path: str, soil: dict, seed: int, **kw) -> None:
     """Write a shear-test CSV (columns of the data contract)."""
-    np.savetxt(path, shear_rows(soil, seed, **kw), delimiter=",", comments="",
-               header="normal_pressure_Pa,shear_displacement_m,shear_stress_Pa")
+    np.savetxt(
+        path,
+        shear_rows(soil, seed, **kw),
+        delimiter=",",
+        comments="",
+        header="normal_pressure_Pa,shear_displacement_m,shear_stress_Pa",
+    )
 
 
 def plate_csv(path: str, soil: dict, seed: int, **kw) -> None:
     """Write a plate-test CSV (columns of the data contract)."""
-    np.savetxt(path, plate_rows(soil, seed, **kw), delimiter=",", comments="",
-               header="plate_width_m,pressure_Pa,sinkage_m")
+    np.savetxt(
+        path, plate_rows(soil, seed, **kw), delimiter=",", comments="", header="plate_width_m,pressure_Pa,sinkage_m"
+    )
 
 
 def true_drawbar_pull(soil: dict, slip, W: float, l: float, b: float) -> np.ndarray:
@@ -91,8 +105,14 @@ def main() -> None:
             fs = fit_shear_test(ShearTest(s_rows[:, 0], s_rows[:, 1], s_rows[:, 2]))
             fp = fit_plate_test(PlateTest(p_rows[:, 0], p_rows[:, 1], p_rows[:, 2]))
             ok += fs.success and fp.success
-            truth = {"c": soil["c"] / 1e3, "phi": math.degrees(soil["phi"]), "K": soil["K"],
-                     "k_c": soil["k_c"] / 1e3, "k_phi": soil["k_phi"] / 1e3, "n": soil["n"]}
+            truth = {
+                "c": soil["c"] / 1e3,
+                "phi": math.degrees(soil["phi"]),
+                "K": soil["K"],
+                "k_c": soil["k_c"] / 1e3,
+                "k_phi": soil["k_phi"] / 1e3,
+                "n": soil["n"],
+            }
             est = dict(zip(keys, (*fs.parameters.values(), *fp.parameters.values())))
             for k in keys:
                 lo, hi = est[k].ci95
@@ -102,13 +122,17 @@ def main() -> None:
             dp_hits += (pr.lower <= true_dp) & (true_dp <= pr.upper)
             width += (pr.upper - pr.lower) / a.reps
         dt = time.perf_counter() - t0
-        print(f"{name}: {a.reps} simulated bevameter campaigns, both fits successful in {ok}; {dt:.1f} s "
-              f"({1e3 * dt / a.reps:.1f} ms per campaign: two fits and one prediction)")
+        print(
+            f"{name}: {a.reps} simulated bevameter campaigns, both fits successful in {ok}; {dt:.1f} s "
+            f"({1e3 * dt / a.reps:.1f} ms per campaign: two fits and one prediction)"
+        )
         print("  95 % intervals holding the truth: " + ", ".join(f"{k} {hits[k] / a.reps:.0%}" for k in keys))
         true_dp = true_drawbar_pull(soil, slips, LIGHT["W"], LIGHT["l"], LIGHT["b"])
         for s, t, w, h in zip(slips, true_dp, width, dp_hits):
-            print(f"  light track, slip {s:.2f}: true drawbar pull {t:7.1f} N, mean 95 % interval width {w:5.1f} N,"
-                  f" holds the truth in {h / a.reps:.0%}")
+            print(
+                f"  light track, slip {s:.2f}: true drawbar pull {t:7.1f} N, mean 95 % interval width {w:5.1f} N,"
+                f" holds the truth in {h / a.reps:.0%}"
+            )
 
 
 def time_against_scipy(reps: int = 50) -> None:
@@ -142,11 +166,21 @@ def time_against_scipy(reps: int = 50) -> None:
             return (kc / X[0] + kphi) * X[1] ** n
 
         t0 = time.perf_counter()
-        ps, cs = curve_fit(tau, (s_rows[:, 0], s_rows[:, 1]), s_rows[:, 2], p0=(1e3, 0.5, 0.01),
-                           bounds=((0.0, math.radians(1), 0.002), (200e3, math.radians(55), 0.25)))
+        ps, cs = curve_fit(
+            tau,
+            (s_rows[:, 0], s_rows[:, 1]),
+            s_rows[:, 2],
+            p0=(1e3, 0.5, 0.01),
+            bounds=((0.0, math.radians(1), 0.002), (200e3, math.radians(55), 0.25)),
+        )
         t1 = time.perf_counter()
-        pp, cp = curve_fit(pres, (p_rows[:, 0], p_rows[:, 2]), p_rows[:, 1], p0=(1e3, 1e6, 1.0),
-                           bounds=((0.0, 0.0, 0.05), (np.inf, np.inf, 2.5)))
+        pp, cp = curve_fit(
+            pres,
+            (p_rows[:, 0], p_rows[:, 2]),
+            p_rows[:, 1],
+            p0=(1e3, 1e6, 1.0),
+            bounds=((0.0, 0.0, 0.05), (np.inf, np.inf, 2.5)),
+        )
         t2 = time.perf_counter()
         ss.append(t1 - t0)
         sp.append(t2 - t1)
@@ -154,9 +188,11 @@ def time_against_scipy(reps: int = 50) -> None:
         theirs = np.concatenate([ps, pp])
         agree.append(float(np.max(np.abs(ours - theirs) / np.abs(theirs))))
     med = lambda x: 1e3 * float(np.median(x))  # noqa: E731
-    print(f"speed ({reps} campaigns, sandy loam, median per fit): shear test soiltrack {med(ts):.1f} ms "
-          f"(intervals included), scipy curve_fit {med(ss):.1f} ms; plate test soiltrack {med(tp):.1f} ms, "
-          f"scipy {med(sp):.1f} ms; largest relative difference of the six estimates {max(agree):.1e}")
+    print(
+        f"speed ({reps} campaigns, sandy loam, median per fit): shear test soiltrack {med(ts):.1f} ms "
+        f"(intervals included), scipy curve_fit {med(ss):.1f} ms; plate test soiltrack {med(tp):.1f} ms, "
+        f"scipy {med(sp):.1f} ms; largest relative difference of the six estimates {max(agree):.1e}"
+    )
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@ with their 95 % intervals and truths. Then fit times of the same log, nominal (n
 the hull channel only, and with the grade: the first call in the process (builds the cached
 IPOPT solver) and the second (cached), in the same run.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -41,13 +42,19 @@ def main(argv=None) -> int:
         g = res.effects["grade"]["theta_rad"]
         f = next(c for c in res.combinations if c.name.startswith("F_max"))
         print(f"{vname} on {tname}, {log.n_samples} samples, seed {a.seed}: {res.extra['regime']} log")
-        print(f"  grade  {g.value:.5f} rad, 95 % [{g.ci95[0]:.5f}, {g.ci95[1]:.5f}], truth {th:.5f} "
-              f"({'inside' if g.ci95[0] <= th <= g.ci95[1] else 'OUTSIDE'})")
-        print(f"  F_max  {f.value:.6g} N, 95 % [{f.ci95[0]:.6g}, {f.ci95[1]:.6g}], truth {F_true:.6g} "
-              f"(at W cos(theta); {'inside' if f.ci95[0] <= F_true <= f.ci95[1] else 'OUTSIDE'})")
+        print(
+            f"  grade  {g.value:.5f} rad, 95 % [{g.ci95[0]:.5f}, {g.ci95[1]:.5f}], truth {th:.5f} "
+            f"({'inside' if g.ci95[0] <= th <= g.ci95[1] else 'OUTSIDE'})"
+        )
+        print(
+            f"  F_max  {f.value:.6g} N, 95 % [{f.ci95[0]:.6g}, {f.ci95[1]:.6g}], truth {F_true:.6g} "
+            f"(at W cos(theta); {'inside' if f.ci95[0] <= F_true <= f.ci95[1] else 'OUTSIDE'})"
+        )
         k = res.parameters["shear_modulus"]
-        print(f"  K      {1000 * k.value:.4g} mm, 95 % [{1000 * k.ci95[0]:.4g}, {1000 * k.ci95[1]:.4g}], truth "
-              f"{1000 * s.shear_modulus:.4g} mm")
+        print(
+            f"  K      {1000 * k.value:.4g} mm, 95 % [{1000 * k.ci95[0]:.4g}, {1000 * k.ci95[1]:.4g}], truth "
+            f"{1000 * s.shear_modulus:.4g} mm"
+        )
         for label, ts in times.items():
             print(f"  fit time {label:13s} first {ts[0]:.2f} s, cached {ts[1]:.2f} s")
     return 0

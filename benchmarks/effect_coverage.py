@@ -13,6 +13,7 @@ model). Last, the one-load case, where the grade is weakly identifiable (the sli
 0.01, where the thrust is already 40 % of F_max, so a constant resistance is hard to tell from
 F_max and K).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -35,18 +36,23 @@ def _inside(pe, t) -> bool:
 def acceptance() -> None:
     print("acceptance case: grade 0.1 rad, force noise 1 kN, seed 1, two loads")
     for measured in ("drawbar_pull", "tractive_force"):
-        d = simulate_slip_sweep(V, S, effects={"grade": 0.1}, normal_loads=LOADS, seed=1, measure=measured,
-                                noise=FORCE_ONLY)
+        d = simulate_slip_sweep(
+            V, S, effects={"grade": 0.1}, normal_loads=LOADS, seed=1, measure=measured, noise=FORCE_ONLY
+        )
         r = fit(d, V, effects=["grade"])
         g = r.effects["grade"]["theta_rad"]
-        print(f"  {measured:<15} {r.status}: grade {g.value:.5f} +- {g.stderr:.5f} rad, 95 % "
-              f"[{g.ci95[0]:.5f}, {g.ci95[1]:.5f}] (truth 0.1: {'inside' if _inside(g, 0.1) else 'OUTSIDE'})")
+        print(
+            f"  {measured:<15} {r.status}: grade {g.value:.5f} +- {g.stderr:.5f} rad, 95 % "
+            f"[{g.ci95[0]:.5f}, {g.ci95[1]:.5f}] (truth 0.1: {'inside' if _inside(g, 0.1) else 'OUTSIDE'})"
+        )
         p = r.parameters
-        print(f"  {'':<15} c {p['cohesion'].edge_value:.3f} kPa [{p['cohesion'].edge_ci95[0]:.3f}, "
-              f"{p['cohesion'].edge_ci95[1]:.3f}] (1.04), phi {p['friction_angle'].edge_value:.3f} deg "
-              f"[{p['friction_angle'].edge_ci95[0]:.3f}, {p['friction_angle'].edge_ci95[1]:.3f}] (28), "
-              f"K {p['shear_modulus'].value:.5f} m [{p['shear_modulus'].ci95[0]:.5f}, "
-              f"{p['shear_modulus'].ci95[1]:.5f}] (0.025)")
+        print(
+            f"  {'':<15} c {p['cohesion'].edge_value:.3f} kPa [{p['cohesion'].edge_ci95[0]:.3f}, "
+            f"{p['cohesion'].edge_ci95[1]:.3f}] (1.04), phi {p['friction_angle'].edge_value:.3f} deg "
+            f"[{p['friction_angle'].edge_ci95[0]:.3f}, {p['friction_angle'].edge_ci95[1]:.3f}] (28), "
+            f"K {p['shear_modulus'].value:.5f} m [{p['shear_modulus'].ci95[0]:.5f}, "
+            f"{p['shear_modulus'].ci95[1]:.5f}] (0.025)"
+        )
 
 
 def coverage(draws: int) -> None:
@@ -57,8 +63,9 @@ def coverage(draws: int) -> None:
             hits = np.zeros(4)
             ok = 0
             for seed in range(draws):
-                d = simulate_slip_sweep(V, S, effects={eff: val}, normal_loads=LOADS, seed=seed, measure=measured,
-                                        noise=noise)
+                d = simulate_slip_sweep(
+                    V, S, effects={eff: val}, normal_loads=LOADS, seed=seed, measure=measured, noise=noise
+                )
                 r = fit(d, V, effects=[eff])
                 if not r.success:
                     continue
@@ -74,11 +81,15 @@ def one_load() -> None:
     r = fit(d, V, effects=["grade"])
     g = r.effects["grade"]["theta_rad"]
     print("one load (329 kN), drawbar pull, grade 0.1 rad:")
-    print(f"  grade {g.value:.4f} rad, 95 % [{g.ci95[0]:.4f}, {g.ci95[1]:.4f}], weakly identifiable: "
-          f"{g.weakly_identifiable} ({g.note})")
+    print(
+        f"  grade {g.value:.4f} rad, 95 % [{g.ci95[0]:.4f}, {g.ci95[1]:.4f}], weakly identifiable: "
+        f"{g.weakly_identifiable} ({g.note})"
+    )
     k = r.parameters["shear_modulus"]
-    print(f"  K {k.value:.5f} m [{k.ci95[0]:.5f}, {k.ci95[1]:.5f}] (truth 0.025); c and phi on their ridge: "
-          f"{r.soil is None}")
+    print(
+        f"  K {k.value:.5f} m [{k.ci95[0]:.5f}, {k.ci95[1]:.5f}] (truth 0.025); c and phi on their ridge: "
+        f"{r.soil is None}"
+    )
 
 
 def main() -> None:

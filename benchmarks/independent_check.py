@@ -28,6 +28,7 @@ Cases (truth in brackets; "unexplained" where the cause is outside the library):
 Run:  python benchmarks/independent_check.py [--kinds sweep,drive] [--seeds 3] [--torque-hold sample]
 It prints one line per case and a summary: right verdicts, confident (> 0.5) wrong names.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -65,8 +66,19 @@ def thrust_quadrature(slips, W, c, phi, K, hump=None):
     return np.array(out)
 
 
-def sweep_csv(path, seed, c=1300., phi=np.radians(31.1), K=0.012, loads=(W0,), mu_s=0.0, grade=0.0, hump=None,
-              clip=None, glitches=()):
+def sweep_csv(
+    path,
+    seed,
+    c=1300.0,
+    phi=np.radians(31.1),
+    K=0.012,
+    loads=(W0,),
+    mu_s=0.0,
+    grade=0.0,
+    hump=None,
+    clip=None,
+    glitches=(),
+):
     rng = np.random.default_rng(seed)
     rows = []
     for W in loads:
@@ -98,8 +110,19 @@ def _slip_for(F, W, c, phi, K):
     return 0.5 * (lo + hi)
 
 
-def log_csv(path, seed, soil=(1300., np.radians(31.1), 0.012), grade=0.0, mass=0.0, patch=None, delay=0, radius=0.0,
-            duration=60.0, speed_scale=1.0, torque_glitches=()):
+def log_csv(
+    path,
+    seed,
+    soil=(1300.0, np.radians(31.1), 0.012),
+    grade=0.0,
+    mass=0.0,
+    patch=None,
+    delay=0,
+    radius=0.0,
+    duration=60.0,
+    speed_scale=1.0,
+    torque_glitches=(),
+):
     rng = np.random.default_rng(seed)
     t = np.arange(0, duration, 0.05)
     v = 2.0 + 1.2 * np.sin(2 * np.pi * t / 17) + 0.6 * np.sin(2 * np.pi * t / 6.3 + 1) + 0.4 * t / 60.0
@@ -131,28 +154,52 @@ def cases(kinds, seeds):
     out = []
     for s in range(seeds):
         if "sweep" in kinds:
-            out += [("sweep", "none", s, {}, {"none"}),
-                    ("sweep", "none, clayey soil", s, dict(c=4140., phi=np.radians(13.0), K=0.006), {"none"}),
-                    ("sweep", "slip_sinkage 0.12", s, dict(mu_s=0.12), {"slip_sinkage"}),
-                    ("sweep", "hump_shear (Wong type B)", s, dict(hump=(0.55, 0.025)), {"hump_shear"}),
-                    ("sweep", "grade 0.06, two loads", s, dict(loads=(W0, 0.6 * W0), grade=0.06), {"grade", "none"}),
-                    ("sweep", "OUT: load cell saturates", s, dict(clip=0.8), {"unexplained"}),
-                    ("sweep", "OUT: two glitches (rows 18, 42)", s, dict(glitches=((17, 8000.), (41, -7000.))),
-                     {"none", "unexplained"})]
+            out += [
+                ("sweep", "none", s, {}, {"none"}),
+                ("sweep", "none, clayey soil", s, dict(c=4140.0, phi=np.radians(13.0), K=0.006), {"none"}),
+                ("sweep", "slip_sinkage 0.12", s, dict(mu_s=0.12), {"slip_sinkage"}),
+                ("sweep", "hump_shear (Wong type B)", s, dict(hump=(0.55, 0.025)), {"hump_shear"}),
+                ("sweep", "grade 0.06, two loads", s, dict(loads=(W0, 0.6 * W0), grade=0.06), {"grade", "none"}),
+                ("sweep", "OUT: load cell saturates", s, dict(clip=0.8), {"unexplained"}),
+                (
+                    "sweep",
+                    "OUT: two glitches (rows 18, 42)",
+                    s,
+                    dict(glitches=((17, 8000.0), (41, -7000.0))),
+                    {"none", "unexplained"},
+                ),
+            ]
     if "drive" in kinds:
         for s in range(1, 1 + max(1, seeds // 2 + 1)):
-            out += [("drive", "none", s, {}, {"none"}),
-                    ("drive", "grade 0.05", s, dict(grade=0.05), {"grade"}),
-                    ("drive", "mass_error 0.2", s, dict(mass=0.2), {"mass_error"}),
-                    ("drive", "radius_error 0.04", s, dict(radius=0.04), {"radius_error"}),
-                    ("drive", "OUT: speed 4 samples late", s, dict(delay=4), {"unexplained"}),
-                    ("drive", "OUT: soft patch 20-35 s", s,
-                     dict(patch=(20.0, 35.0, (200., np.radians(12.0), 0.05))), {"unexplained"}),
-                    ("drive", "OUT: mild patch 20-35 s", s,
-                     dict(patch=(20.0, 35.0, (800., np.radians(24.0), 0.03))), {"unexplained", "none"}),
-                    ("drive", "OUT: GNSS speed reads 3 % high", s, dict(speed_scale=1.03), {"unexplained"}),
-                    ("drive", "OUT: torque glitches (rows 301, 801)", s,
-                     dict(torque_glitches=((300, 25000.), (800, -18000.))), {"none", "unexplained"})]
+            out += [
+                ("drive", "none", s, {}, {"none"}),
+                ("drive", "grade 0.05", s, dict(grade=0.05), {"grade"}),
+                ("drive", "mass_error 0.2", s, dict(mass=0.2), {"mass_error"}),
+                ("drive", "radius_error 0.04", s, dict(radius=0.04), {"radius_error"}),
+                ("drive", "OUT: speed 4 samples late", s, dict(delay=4), {"unexplained"}),
+                (
+                    "drive",
+                    "OUT: soft patch 20-35 s",
+                    s,
+                    dict(patch=(20.0, 35.0, (200.0, np.radians(12.0), 0.05))),
+                    {"unexplained"},
+                ),
+                (
+                    "drive",
+                    "OUT: mild patch 20-35 s",
+                    s,
+                    dict(patch=(20.0, 35.0, (800.0, np.radians(24.0), 0.03))),
+                    {"unexplained", "none"},
+                ),
+                ("drive", "OUT: GNSS speed reads 3 % high", s, dict(speed_scale=1.03), {"unexplained"}),
+                (
+                    "drive",
+                    "OUT: torque glitches (rows 301, 801)",
+                    s,
+                    dict(torque_glitches=((300, 25000.0), (800, -18000.0))),
+                    {"none", "unexplained"},
+                ),
+            ]
     return out
 
 
@@ -160,9 +207,13 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--kinds", default="sweep,drive")
     ap.add_argument("--seeds", type=int, default=3)
-    ap.add_argument("--torque-hold", choices=("zoh", "sample"), default=None,
-                    help="passed to the drive-log diagnoses (these logs sample a continuous torque: 'sample' "
-                         "describes them; default: the library's default, zoh)")
+    ap.add_argument(
+        "--torque-hold",
+        choices=("zoh", "sample"),
+        default=None,
+        help="passed to the drive-log diagnoses (these logs sample a continuous torque: 'sample' "
+        "describes them; default: the library's default, zoh)",
+    )
     args = ap.parse_args(argv)
     kinds = set(args.kinds.split(","))
     right = confident_wrong = total = 0
@@ -172,8 +223,12 @@ def main(argv=None) -> int:
             (sweep_csv if kind == "sweep" else log_csv)(path, seed, **kw)
             t0 = time.perf_counter()
             hold = ["--torque-hold", args.torque_hold] if kind == "drive" and args.torque_hold else []
-            p = subprocess.run([sys.executable, "-m", "soiltrack", "diagnose", path, "--vehicle", VEHICLE, "--json",
-                                *hold], cwd=ROOT, capture_output=True, text=True)
+            p = subprocess.run(
+                [sys.executable, "-m", "soiltrack", "diagnose", path, "--vehicle", VEHICLE, "--json", *hold],
+                cwd=ROOT,
+                capture_output=True,
+                text=True,
+            )
             dt = time.perf_counter() - t0
             total += 1
             try:
@@ -191,9 +246,12 @@ def main(argv=None) -> int:
             if j.get("lag_s") is not None:
                 extra += f"  lag {j['lag_s']:.3g} s"
             shrink = j.get("shrink")
-            print(f"{kind:5s} {label:28s} seed {seed}: {j['verdict']:20s} confidence {j['confidence']:.2f}  "
-                  f"shrink {'-' if shrink is None else f'{shrink:.2f}'}  exit {p.returncode}  {dt:5.1f} s"
-                  f"{'  RIGHT' if ok else ('  CONFIDENT WRONG' if wrong else '')}{extra}", flush=True)
+            print(
+                f"{kind:5s} {label:28s} seed {seed}: {j['verdict']:20s} confidence {j['confidence']:.2f}  "
+                f"shrink {'-' if shrink is None else f'{shrink:.2f}'}  exit {p.returncode}  {dt:5.1f} s"
+                f"{'  RIGHT' if ok else ('  CONFIDENT WRONG' if wrong else '')}{extra}",
+                flush=True,
+            )
     print(f"\n{right}/{total} right; {confident_wrong} confident (> 0.5) wrong names")
     return 0
 

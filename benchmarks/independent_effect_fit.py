@@ -1,5 +1,6 @@
 #!/usr/bin/env python
-"""``soiltrack fit --effect grade`` on data simulated by INDEPENDENT code: are the grade and the soil inside their intervals?
+"""``soiltrack fit --effect grade`` on data simulated by INDEPENDENT code: are the grade and the
+soil inside their intervals?
 
 The data come from :mod:`independent_check` (plain numpy: Eq. 2 by quadrature along the track,
 the quasi-static drive solved for the slip by bisection; not ``soiltrack.soilmodel``): drawbar
@@ -19,6 +20,7 @@ over each interval, as the library's own simulator's controller does) biases the
 Prints one line per fit (value, interval, inside or not) and the count of intervals that hold
 the truth; with 95 % intervals about one in twenty may miss.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -36,8 +38,24 @@ TRUTH = {"cohesion_kpa": 1.3, "friction_angle_deg": 31.1, "shear_modulus_m": 0.0
 
 
 def run(path: str, extra: list[str]) -> dict:
-    p = subprocess.run([sys.executable, "-m", "soiltrack", "fit", path, "--vehicle", ic.VEHICLE, "--effect", "grade",
-                        "--json", *extra], cwd=ic.ROOT, capture_output=True, text=True)
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "soiltrack",
+            "fit",
+            path,
+            "--vehicle",
+            ic.VEHICLE,
+            "--effect",
+            "grade",
+            "--json",
+            *extra,
+        ],
+        cwd=ic.ROOT,
+        capture_output=True,
+        text=True,
+    )
     try:
         return {"exit": p.returncode, **json.loads(p.stdout)}
     except json.JSONDecodeError:
@@ -45,12 +63,16 @@ def run(path: str, extra: list[str]) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0].replace("\n", " "))
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--kinds", default="sweep,drive", help="comma-separated: sweep, drive")
-    ap.add_argument("--torque-hold", choices=("zoh", "sample"), default=None,
-                    help="passed to the drive-log fits (these logs sample a continuous torque: 'sample' is right; "
-                         "not given: the fit covers both)")
+    ap.add_argument(
+        "--torque-hold",
+        choices=("zoh", "sample"),
+        default=None,
+        help="passed to the drive-log fits (these logs sample a continuous torque: 'sample' is right; "
+        "not given: the fit covers both)",
+    )
     a = ap.parse_args(argv)
     inside = total = 0
     with tempfile.TemporaryDirectory() as tmp:
@@ -81,20 +103,37 @@ def main(argv=None) -> int:
                     c = counts.setdefault((kind, name), [0, 0])
                     c[0] += ok
                     c[1] += 1
-                    how = " (profile)" if name.split(".")[0] in prof or name in prof or \
-                        {"cohesion_kpa": "cohesion", "friction_angle_deg": "friction_angle",
-                         "shear_modulus_m": "shear_modulus"}.get(name) in prof else ""
+                    how = (
+                        " (profile)"
+                        if name.split(".")[0] in prof
+                        or name in prof
+                        or {
+                            "cohesion_kpa": "cohesion",
+                            "friction_angle_deg": "friction_angle",
+                            "shear_modulus_m": "shear_modulus",
+                        }.get(name)
+                        in prof
+                        else ""
+                    )
                     parts.append(f"{name} {p['value']:.5g} [{lo:.5g}, {hi:.5g}]{how} {'in' if ok else 'OUT'}")
                 sn = j.get("extra", {}).get("slip_noise")
                 snote = ""
                 if sn:
-                    snote = (f" slip noise {sn['slip_sigma']:.2g} adopted (LR {sn['likelihood_ratio']:.3g})"
-                             if sn["adopted"] else f" slip exact (LR {sn['likelihood_ratio'] or 0:.3g})")
+                    snote = (
+                        f" slip noise {sn['slip_sigma']:.2g} adopted (LR {sn['likelihood_ratio']:.3g})"
+                        if sn["adopted"]
+                        else f" slip exact (LR {sn['likelihood_ratio'] or 0:.3g})"
+                    )
                 alt = j.get("extra", {}).get("torque_hold_alternative")
                 if alt:
                     snote = f" torque hold not given: intervals cover zoh and {alt['torque_hold']}"
-                print(f"{kind} seed {seed}: success {j['success']}, exit {j['exit']}" + (f",{snote}" if snote else "")
-                      + ": " + "; ".join(parts), flush=True)
+                print(
+                    f"{kind} seed {seed}: success {j['success']}, exit {j['exit']}"
+                    + (f",{snote}" if snote else "")
+                    + ": "
+                    + "; ".join(parts),
+                    flush=True,
+                )
     print()
     for (kind, name), (k, n) in counts.items():
         print(f"{kind:5s} {name:20s} {k}/{n} intervals hold the truth")

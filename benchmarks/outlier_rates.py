@@ -11,6 +11,7 @@ Three series kinds, each 60 samples:
 
 Run:  python benchmarks/outlier_rates.py
 """
+
 from __future__ import annotations
 
 import os
@@ -27,7 +28,7 @@ def main() -> int:
     fmax, k_m, length = 2e5, 0.012, 2.8
     x = i * length / k_m
     dfdi = fmax * (1 - np.exp(-x) * (1 + x)) / (i * x)  # d/di of F_max (1 - (1 - exp(-x)) / x)
-    sd = np.sqrt(650.0 ** 2 + (0.001 * dfdi) ** 2)
+    sd = np.sqrt(650.0**2 + (0.001 * dfdi) ** 2)
     rng = np.random.default_rng(0)
     false = found = 0
     for _ in range(1000):
@@ -42,8 +43,9 @@ def main() -> int:
     g = sum(bool(isolated_outliers(rng.normal(size=60), np.arange(60))) for _ in range(4000))
     print(f"Gaussian white noise: false flags {g}/4000")
     rng = np.random.default_rng(2)
-    h = sum(bool(isolated_outliers(rng.normal(size=60) * np.linspace(0.2, 3.0, 60), np.arange(60)))
-            for _ in range(2000))
+    h = sum(
+        bool(isolated_outliers(rng.normal(size=60) * np.linspace(0.2, 3.0, 60), np.arange(60))) for _ in range(2000)
+    )
     print(f"noise growing 15-fold along the series: false flags {h}/2000")
     return 0
 

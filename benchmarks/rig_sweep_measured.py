@@ -15,6 +15,7 @@ folder, then runs what the command line runs:
 
     python benchmarks/rig_sweep_measured.py [--trials PATH] [--out DIR]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -37,15 +38,26 @@ def write_rig_files(trials: str, out: str) -> tuple[str, str]:
     with open(path, "w") as fh:
         fh.write("slip,drawbar_pull_N,drawbar_pull_std_N,normal_load_N,sinkage_m,slip_angle_deg\n")
         for r in rows:
-            fh.write(f"{r['slip']},{r['drawbar_pull_N']},{r['drawbar_pull_std_N']},{r['normal_load_N']},"
-                     f"{float(r['sinkage_mm']) / 1e3!r},{r['beta_deg_nominal']}\n")
+            fh.write(
+                f"{r['slip']},{r['drawbar_pull_N']},{r['drawbar_pull_std_N']},{r['normal_load_N']},"
+                f"{float(r['sinkage_mm']) / 1e3!r},{r['beta_deg_nominal']}\n"
+            )
     drive = [r for r in rows if float(r["beta_deg_nominal"]) == 0 and float(r["slip"]) >= 0]
     z = np.mean([float(r["sinkage_mm"]) / 1e3 for r in drive])
     W = np.mean([float(r["normal_load_N"]) for r in drive])
     l = RADIUS * math.acos(1 - z / RADIUS)
     vj = os.path.join(out, "wheel_as_tracks.json")
-    json.dump({"mass_kg": W / 9.81, "track_length_m": l, "track_width_m": WIDTH / 2, "sprocket_radius_m": RADIUS,
-               "sprocket_inertia_kg_m2": 0.001, "rolling_resistance": 0.0}, open(vj, "w"))
+    json.dump(
+        {
+            "mass_kg": W / 9.81,
+            "track_length_m": l,
+            "track_width_m": WIDTH / 2,
+            "sprocket_radius_m": RADIUS,
+            "sprocket_inertia_kg_m2": 0.001,
+            "rolling_resistance": 0.0,
+        },
+        open(vj, "w"),
+    )
     return path, vj
 
 
@@ -66,7 +78,9 @@ def main() -> None:
     except DataError as e:
         print(f"whole file refused: {len(e.rows)} rows named (skid and slip-angle rows together)")
     data = read_csv(path, driving_only=True, slip_angle=0.0)
-    print(f"kept {data.n_samples} rows; dropped " + ", ".join(f"{len(r)} {why} ({opt})" for why, opt, r in data.dropped))
+    print(
+        f"kept {data.n_samples} rows; dropped " + ", ".join(f"{len(r)} {why} ({opt})" for why, opt, r in data.dropped)
+    )
     for mode in ("assumed", "fit"):
         r = fit(data, vehicle, resistance=mode)
         x = r.extra
@@ -76,8 +90,14 @@ def main() -> None:
             print("  " + x["lack_of_fit"]["statement"])
         if mode == "assumed" and (x.get("sinkage_m") or {}).get("laws"):
             print("  sinkage: " + x["sinkage_m"]["laws"]["statement"])
-        print("  " + "; ".join(f"{pe.edge_value:.4g} {pe.edge_unit} [{pe.edge_ci95[0]:.4g}, {pe.edge_ci95[1]:.4g}]"
-                               for pe in r.parameters.values() if pe.value is not None))
+        print(
+            "  "
+            + "; ".join(
+                f"{pe.edge_value:.4g} {pe.edge_unit} [{pe.edge_ci95[0]:.4g}, {pe.edge_ci95[1]:.4g}]"
+                for pe in r.parameters.values()
+                if pe.value is not None
+            )
+        )
     level = slip_levels(data.slip)
     err_fit, err_const = [], []
     for k in range(level.max() + 1):
@@ -89,8 +109,10 @@ def main() -> None:
         err_fit += list(held.values - r.predict(held))
         err_const += list(held.values - train.values.mean())
     rms = lambda e: float(np.sqrt(np.mean(np.square(e))))  # noqa: E731
-    print(f"\nleave-one-slip-level-out ({level.max() + 1} levels): rms error of the fit {rms(err_fit):.3f} N, "
-          f"of a constant {rms(err_const):.3f} N")
+    print(
+        f"\nleave-one-slip-level-out ({level.max() + 1} levels): rms error of the fit {rms(err_fit):.3f} N, "
+        f"of a constant {rms(err_const):.3f} N"
+    )
 
 
 if __name__ == "__main__":

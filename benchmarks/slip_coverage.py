@@ -7,6 +7,7 @@ from 0.01 to 0.5 at each of W = 300 N and 450 N, constant Gaussian noise of 0.2,
 of the mean force; full model, IPOPT estimator through ``fit_many``. Prints, per noise
 level, the fraction of 95 % intervals that hold the true value and the success rate.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -28,12 +29,15 @@ def main() -> None:
     W = np.repeat([300.0, 450.0], i1.size)
     F = tractive_force(slip, s, v, normal_load=W)
     truth = s.as_vector()
-    print(f"{'noise':>6} {'success':>8} {'c':>6} {'phi':>6} {'K':>6}   (fraction of 95 % intervals holding the truth,"
-          f" {a.draws} draws)")
+    print(
+        f"{'noise':>6} {'success':>8} {'c':>6} {'phi':>6} {'K':>6}   (fraction of 95 % intervals holding the truth,"
+        f" {a.draws} draws)"
+    )
     for level in (0.002, 0.01, 0.03):
         rng = np.random.default_rng(a.seed)
-        data = [SlipData(slip, F + level * F.mean() * rng.standard_normal(F.size), normal_load=W)
-                for _ in range(a.draws)]
+        data = [
+            SlipData(slip, F + level * F.mean() * rng.standard_normal(F.size), normal_load=W) for _ in range(a.draws)
+        ]
         res = [r for r in fit_many(data, v, progress=False) if r.success]
         cover = []
         for name, t in zip(("cohesion", "friction_angle", "shear_modulus"), truth):

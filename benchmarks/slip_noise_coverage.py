@@ -7,6 +7,7 @@ of the force (proportional) or constant (2 % of the mean force). Each set is fit
 equal weights and with ``sigma="relative"``; prints the fraction of 95 % intervals that hold
 the true F_max and how often the Breusch-Pagan warning fired.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -32,8 +33,14 @@ def main() -> None:
         data = [SlipData(i, F + scale * rng.standard_normal(i.size)) for _ in range(a.draws)]
         for sigma in (None, "relative"):
             res = fit_many(data, v, progress=False, sigma=sigma)
-            hit = np.mean([next(c for c in r.combinations if c.name.startswith("F_max")).ci95[0] <= fmax
-                           <= next(c for c in r.combinations if c.name.startswith("F_max")).ci95[1] for r in res])
+            hit = np.mean(
+                [
+                    next(c for c in r.combinations if c.name.startswith("F_max")).ci95[0]
+                    <= fmax
+                    <= next(c for c in r.combinations if c.name.startswith("F_max")).ci95[1]
+                    for r in res
+                ]
+            )
             warn = np.mean([any("spread grows" in w for w in r.warnings) for r in res])
             print(f"{name:>14} {sigma or 'equal':>9} {hit:15.3f} {warn:11.3f}")
 

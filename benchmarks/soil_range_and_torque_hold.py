@@ -19,6 +19,7 @@ Every case is effect-free, so every named effect is a false alarm.
 
 Run:  python benchmarks/soil_range_and_torque_hold.py [--seeds 6]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -38,8 +39,14 @@ from soiltrack.soilmodel import PRACTICAL_BOUNDS, TERRAINS, VEHICLES, DriveLog, 
 
 G = 9.81
 #: An 8 t tracked vehicle (assumed geometry) for the transducer logs.
-MID = {"mass_kg": 8000, "track_length_m": 1.9, "track_width_m": 0.35, "sprocket_radius_m": 0.22,
-       "sprocket_inertia_kg_m2": 40, "rolling_resistance": 0.06}
+MID = {
+    "mass_kg": 8000,
+    "track_length_m": 1.9,
+    "track_width_m": 0.35,
+    "sprocket_radius_m": 0.22,
+    "sprocket_inertia_kg_m2": 40,
+    "rolling_resistance": 0.06,
+}
 
 
 def _thrust(i, W, c, phi, K, l, A):
@@ -89,23 +96,39 @@ def stop_and_go_log(seed: int) -> DriveLog:
     v = 2.5 * np.clip(np.sin(2 * np.pi * t / 21.0), 0.0, None) ** 2
     a = np.gradient(v, t)
     w, M = _sprocket(t, v, m * a + W * mu, W, (c, phi, K), l, A, r, I)
-    return DriveLog(time=t,
-                    sprocket_torque=M * (1 + rng.normal(0, 0.008, t.size)) + rng.normal(0, 0.0025 * r * W, t.size),
-                    sprocket_speed=w * (1 + rng.normal(0, 0.0025, t.size)) + rng.normal(0, 0.008, t.size),
-                    vehicle_speed=v + rng.normal(0, 0.04, t.size), vehicle_accel=a + rng.normal(0, 0.05, t.size),
-                    source="transducer.csv")
+    return DriveLog(
+        time=t,
+        sprocket_torque=M * (1 + rng.normal(0, 0.008, t.size)) + rng.normal(0, 0.0025 * r * W, t.size),
+        sprocket_speed=w * (1 + rng.normal(0, 0.0025, t.size)) + rng.normal(0, 0.008, t.size),
+        vehicle_speed=v + rng.normal(0, 0.04, t.size),
+        vehicle_accel=a + rng.normal(0, 0.05, t.size),
+        source="transducer.csv",
+    )
 
 
-def cruise_log(vehicle: Vehicle, soil, seed: int, rate_hz: float = 50.0, duration_s: float = 60.0,
-               v_max: float = 1.0, noise_scale: float = 1.26) -> DriveLog:
+def cruise_log(
+    vehicle: Vehicle,
+    soil,
+    seed: int,
+    rate_hz: float = 50.0,
+    duration_s: float = 60.0,
+    v_max: float = 1.0,
+    noise_scale: float = 1.26,
+) -> DriveLog:
     """Effect-free log: a ramp to ``0.8 v_max`` over 8 s, then cruise with a 2 % ripple; transducer torque.
 
     Sensor noise: speed 2 % of ``v_max``, sprocket speed 0.3 % + 0.01 rad/s, torque 1 % + 0.3 % of
     ``r W``, acceleration 0.05 m/s^2, each times ``noise_scale``.
     """
     rng = np.random.default_rng(seed)
-    m, l, b, r, I, mu = (vehicle.mass, vehicle.track_length, vehicle.track_width, vehicle.sprocket_radius,
-                         vehicle.sprocket_inertia, vehicle.rolling_resistance)
+    m, l, b, r, I, mu = (
+        vehicle.mass,
+        vehicle.track_length,
+        vehicle.track_width,
+        vehicle.sprocket_radius,
+        vehicle.sprocket_inertia,
+        vehicle.rolling_resistance,
+    )
     A, W = 2 * b * l, m * G
     c, phi, K = soil.cohesion, soil.friction_angle, soil.shear_modulus
     t = np.arange(0.0, duration_s, 1.0 / rate_hz)
@@ -113,11 +136,14 @@ def cruise_log(vehicle: Vehicle, soil, seed: int, rate_hz: float = 50.0, duratio
     a = np.gradient(v, t)
     w, M = _sprocket(t, v, m * a + W * mu, W, (c, phi, K), l, A, r, I)
     ns = noise_scale
-    return DriveLog(time=t, vehicle_speed=v + rng.normal(0, 0.02 * v_max * ns, t.size),
-                    sprocket_speed=w * (1 + rng.normal(0, 0.003 * ns, t.size)) + rng.normal(0, 0.01 * ns, t.size),
-                    sprocket_torque=M * (1 + rng.normal(0, 0.01 * ns, t.size))
-                    + rng.normal(0, 0.003 * r * W * ns, t.size),
-                    vehicle_accel=a + rng.normal(0, 0.05, t.size), source="cruise.csv")
+    return DriveLog(
+        time=t,
+        vehicle_speed=v + rng.normal(0, 0.02 * v_max * ns, t.size),
+        sprocket_speed=w * (1 + rng.normal(0, 0.003 * ns, t.size)) + rng.normal(0, 0.01 * ns, t.size),
+        sprocket_torque=M * (1 + rng.normal(0, 0.01 * ns, t.size)) + rng.normal(0, 0.003 * r * W * ns, t.size),
+        vehicle_accel=a + rng.normal(0, 0.05, t.size),
+        source="cruise.csv",
+    )
 
 
 def _tally(rows) -> str:
@@ -126,8 +152,9 @@ def _tally(rows) -> str:
     kinds: dict[str, int] = {}
     for v, _ in rows:
         kinds[v] = kinds.get(v, 0) + 1
-    return (f"effects named {len(named)}/{len(rows)}, confidence > 0.5: {conf}; verdicts "
-            + ", ".join(f"{k} {n}" for k, n in sorted(kinds.items())))
+    return f"effects named {len(named)}/{len(rows)}, confidence > 0.5: {conf}; verdicts " + ", ".join(
+        f"{k} {n}" for k, n in sorted(kinds.items())
+    )
 
 
 def main(argv=None) -> int:
@@ -145,13 +172,21 @@ def main(argv=None) -> int:
             w = diagnose(d, light)
             before.append((b.verdict, b.confidence))
             after.append((w.verdict, w.confidence))
-            print(f"  K {K * 1e3:4.1f} mm seed {s}: {b.verdict} {b.confidence:.2f} -> {w.verdict} {w.confidence:.2f} "
-                  f"(K {w.soil_before['shear_modulus_m']:.4g} m)", file=sys.stderr, flush=True)
-        print(f"  K = {K * 1e3:.1f} mm ({'outside' if K < 0.006 else 'inside'} the practical range): "
-              f"practical bounds: {_tally(before)} | default: {_tally(after)}")
+            print(
+                f"  K {K * 1e3:4.1f} mm seed {s}: {b.verdict} {b.confidence:.2f} -> {w.verdict} {w.confidence:.2f} "
+                f"(K {w.soil_before['shear_modulus_m']:.4g} m)",
+                file=sys.stderr,
+                flush=True,
+            )
+        print(
+            f"  K = {K * 1e3:.1f} mm ({'outside' if K < 0.006 else 'inside'} the practical range): "
+            f"practical bounds: {_tally(before)} | default: {_tally(after)}"
+        )
     mid = Vehicle.from_json(json.dumps(MID))
-    print("effect-free stop-and-go logs with a transducer's torque (independent numpy): hold given as zoh -> not "
-          "given (zoh, lookalikes capped) -> given as sample:")
+    print(
+        "effect-free stop-and-go logs with a transducer's torque (independent numpy): hold given as zoh -> not "
+        "given (zoh, lookalikes capped) -> given as sample:"
+    )
     held, default, sampled = [], [], []
     for s in range(max(a.seeds, 8)):
         log = stop_and_go_log(s)
@@ -161,13 +196,20 @@ def main(argv=None) -> int:
         held.append((z.verdict, z.confidence))
         default.append((d.verdict, d.confidence))
         sampled.append((p.verdict, p.confidence))
-        print(f"  seed {s}: {z.verdict} {z.confidence:.2f} -> {d.verdict} {d.confidence:.2f} -> {p.verdict} "
-              f"{p.confidence:.2f}", file=sys.stderr, flush=True)
+        print(
+            f"  seed {s}: {z.verdict} {z.confidence:.2f} -> {d.verdict} {d.confidence:.2f} -> {p.verdict} "
+            f"{p.confidence:.2f}",
+            file=sys.stderr,
+            flush=True,
+        )
     print(f"  zoh given: {_tally(held)}\n  not given: {_tally(default)}\n  sample given: {_tally(sampled)}")
-    print("the library's simulator (torque held over each sample): likelihood ratio of sample over zoh for the nominal "
-          "model (significant above 6.6 at 1 %: why the hold is not switched on it)")
+    print(
+        "the library's simulator (torque held over each sample): likelihood ratio of sample over zoh for the nominal "
+        "model (significant above 6.6 at 1 %: why the hold is not switched on it)"
+    )
     from soiltrack.identify import fit
     from soiltrack.soilmodel import simulate
+
     for vn in ("heavy", "light"):
         for seed in (1, 2, 3, 4):
             v = VEHICLES[vn]

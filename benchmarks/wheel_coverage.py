@@ -11,6 +11,7 @@ the plain-numpy oracle of the tests (tests/wheel_oracle.py). Prints, per case, f
 I (identifiable) or W (weakly) or N (not), + inside the interval or -, B on a bound; then the
 count inside over the identifiable ones.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -43,8 +44,9 @@ def main() -> None:
     for si, soil in enumerate(SOILS):
         for loads in ([20.0], [15.0, 30.0, 45.0]):
             for seed in range(a.seeds):
-                i, dp, W, z = oracle.sweep(SLIPS, loads, *soil, R, B, sd_dp=0.005 * float(np.mean(loads)),
-                                           sd_z=a.sinkage_sd, seed=seed)
+                i, dp, W, z = oracle.sweep(
+                    SLIPS, loads, *soil, R, B, sd_dp=0.005 * float(np.mean(loads)), sd_z=a.sinkage_sd, seed=seed
+                )
                 r = fit_wheel(WheelSweep(slip=i, drawbar_pull=dp, normal_load=W, sinkage=z), wheel)
                 marks = []
                 for key, fac, k in KEYS:
@@ -54,12 +56,11 @@ def main() -> None:
                         continue
                     ok = e.ci95[0] is not None and e.ci95[0] <= soil[k] * fac <= e.ci95[1]
                     inside, total = inside + ok, total + 1
-                    marks.append(("W" if e.weakly_identifiable else "I") + ("+" if ok else "-")
-                                 + ("B" if e.at_bound else ""))
-                print(f"soil {si} loads {len(loads)} seed {seed}: converged {r.success}, c/phi/K {marks}",
-                      flush=True)
-    print(f"true value inside the 95 % interval: {inside} of {total} identifiable cases "
-          f"({time.time() - t0:.0f} s)")
+                    marks.append(
+                        ("W" if e.weakly_identifiable else "I") + ("+" if ok else "-") + ("B" if e.at_bound else "")
+                    )
+                print(f"soil {si} loads {len(loads)} seed {seed}: converged {r.success}, c/phi/K {marks}", flush=True)
+    print(f"true value inside the 95 % interval: {inside} of {total} identifiable cases ({time.time() - t0:.0f} s)")
 
 
 if __name__ == "__main__":

@@ -12,6 +12,7 @@
 Run:  python examples/diagnose_story.py [--out DIR]
 (figures by default in examples/out/diagnose_story/, which git ignores)
 """
+
 from __future__ import annotations
 
 import argparse
@@ -23,8 +24,15 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from soiltrack.identify import diagnose, fit  # noqa: E402
-from soiltrack.soilmodel import (TERRAINS, VEHICLES, DataError, SensorNoise, read_csv, simulate,  # noqa: E402
-                                 tractive_force_with_effects)
+from soiltrack.soilmodel import (
+    TERRAINS,
+    VEHICLES,
+    DataError,
+    SensorNoise,
+    read_csv,
+    simulate,  # noqa: E402
+    tractive_force_with_effects,
+)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 #: Where the figures go by default: a named folder that git ignores, wherever the script is run from.
@@ -50,12 +58,16 @@ def sweep_story(out: str) -> None:
     print(f"\nThe repaired model: fit(data, vehicle, effects=['{d.verdict}'])")
     for p, est in repaired.effects[d.verdict].items():
         ci = est.ci95
-        print(f"  {d.verdict}.{p} = {est.value:.4g} (95 % interval {ci[0]:.4g} to {ci[1]:.4g}); "
-              f"simulated truth: drop = 0.3, k_ratio = 5")
+        print(
+            f"  {d.verdict}.{p} = {est.value:.4g} (95 % interval {ci[0]:.4g} to {ci[1]:.4g}); "
+            f"simulated truth: drop = 0.3, k_ratio = 5"
+        )
     rn = nominal.residuals_on(data)[data.channel]  # measured - predicted, N
     rr = repaired.residuals_on(data)[data.channel]
-    print(f"  in-sample RMS residual: nominal {np.sqrt(np.mean(rn ** 2)):.3g} N, repaired "
-          f"{np.sqrt(np.mean(rr ** 2)):.3g} N; held-out (the fair measure): shrink {d.shrink:.2f}")
+    print(
+        f"  in-sample RMS residual: nominal {np.sqrt(np.mean(rn**2)):.3g} N, repaired "
+        f"{np.sqrt(np.mean(rr**2)):.3g} N; held-out (the fair measure): shrink {d.shrink:.2f}"
+    )
     _curve_figure(data, veh, soil, rn, rr, d.verdict, os.path.join(out, "repaired_sweep.png"))
     print(f"figure: {os.path.join(out, 'repaired_sweep.png')}")
 
@@ -113,16 +125,17 @@ def wong_story() -> None:
     data = read_csv(os.path.join(HERE, "data", "wong2001_p176.csv"))
     d = diagnose(data, VEHICLES["heavy"])
     print(d.report())
-    print("\nIn plain words: three points and three soil parameters (two identifiable combinations, F_max "
-          "and K,\nat one normal load) leave one degree of freedom. Nothing can be held out, the noise cannot be\n"
-          "told from a misfit, and every candidate effect would need that last degree of freedom to show.\n"
-          "A diagnosis needs data over a range of slip (a sweep) or a drive log.")
+    print(
+        "\nIn plain words: three points and three soil parameters (two identifiable combinations, F_max "
+        "and K,\nat one normal load) leave one degree of freedom. Nothing can be held out, the noise cannot be\n"
+        "told from a misfit, and every candidate effect would need that last degree of freedom to show.\n"
+        "A diagnosis needs data over a range of slip (a sweep) or a drive log."
+    )
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default=DEFAULT_OUT,
-                    help="folder for the figures (default: examples/out/diagnose_story)")
+    ap.add_argument("--out", default=DEFAULT_OUT, help="folder for the figures (default: examples/out/diagnose_story)")
     a = ap.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
     sweep_story(a.out)

@@ -16,6 +16,7 @@ Usage::
 
     python examples/fig7_traversability.py [--out PNG]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -36,8 +37,12 @@ from soiltrack.planning import margin  # noqa: E402
 from soiltrack.soilmodel import TERRAINS, VEHICLES, max_thrust  # noqa: E402
 
 #: The heavy reference vehicle with the seed's 120 kN of drivetrain thrust (36 kN m at r = 0.3 m).
-VEHICLE = dataclasses.replace(VEHICLES["heavy"], max_sprocket_torque=36_000.0, max_power=None,
-                              name="heavy (W = 329 kN, geometry assumed), 120 kN drivetrain")
+VEHICLE = dataclasses.replace(
+    VEHICLES["heavy"],
+    max_sprocket_torque=36_000.0,
+    max_power=None,
+    name="heavy (W = 329 kN, geometry assumed), 120 kN drivetrain",
+)
 SOILS = ("dry_sand", "clayey_soil")
 GRADES = (0.0, 15.0)
 
@@ -61,13 +66,18 @@ def plot(seed, margins, path: str) -> None:
     a1.set_xticks(x, [names[k] for k in SOILS])
     a1.text(0.5, 200, "seed's reading: sand NO GO, clay GO", ha="center", fontsize=8)
     a1.set_ylabel("thrust (kN)")
-    a1.set_title("As the seed draws it: 'tractive force required'\n= the soil's limit A c + W tan(phi) (what the soil "
-                 "CAN give)", fontsize=9)
+    a1.set_title(
+        "As the seed draws it: 'tractive force required'\n= the soil's limit A c + W tan(phi) (what the soil CAN give)",
+        fontsize=9,
+    )
     a1.legend(loc="upper right", fontsize=8)
     a1.set_ylim(0, 220)
 
-    items = [("rolling_N", "rolling mu_r W cos(theta)", "#999999"), ("compaction_N", "Bekker compaction", "#6a8caf"),
-             ("grade_N", "grade W sin(theta)", "#c96f53")]
+    items = [
+        ("rolling_N", "rolling mu_r W cos(theta)", "#999999"),
+        ("compaction_N", "Bekker compaction", "#6a8caf"),
+        ("grade_N", "grade W sin(theta)", "#c96f53"),
+    ]
     labels, pos = [], []
     for j, g in enumerate(GRADES):
         for i, k in enumerate(SOILS):
@@ -77,21 +87,33 @@ def plot(seed, margins, path: str) -> None:
             labels.append(f"{names[k]}\n{g:g} deg")
             bottom = 0.0
             for key, lab, col in items:
-                a2.bar(p - 0.18, m.required[key] / 1e3, 0.34, bottom=bottom, color=col,
-                       label=lab if p == 0 else None)
+                a2.bar(p - 0.18, m.required[key] / 1e3, 0.34, bottom=bottom, color=col, label=lab if p == 0 else None)
                 bottom += m.required[key] / 1e3
-            a2.bar(p + 0.18, m.soil_limit_N / 1e3, 0.34, color="#e8d9b0", edgecolor="k", lw=0.5,
-                   label="soil at 20 % slip" if p == 0 else None)
+            a2.bar(
+                p + 0.18,
+                m.soil_limit_N / 1e3,
+                0.34,
+                color="#e8d9b0",
+                edgecolor="k",
+                lw=0.5,
+                label="soil at 20 % slip" if p == 0 else None,
+            )
             a2.plot([p + 0.01, p + 0.35], [120, 120], color="C3", lw=2, label="drivetrain 120 kN" if p == 0 else None)
             verdict = "GO" if m.traversable else "NO GO"
-            a2.text(p, max(m.soil_limit_N, m.required_N, 120e3) / 1e3 + 6,
-                    f"{verdict}\nmargin {m.margin_N / 1e3:+.0f} kN", ha="center", fontsize=8,
-                    color="green" if m.traversable else "red")
+            a2.text(
+                p,
+                max(m.soil_limit_N, m.required_N, 120e3) / 1e3 + 6,
+                f"{verdict}\nmargin {m.margin_N / 1e3:+.0f} kN",
+                ha="center",
+                fontsize=8,
+                color="green" if m.traversable else "red",
+            )
     a2.set_xticks(pos, labels, fontsize=8)
     a2.set_ylabel("thrust (kN)")
     a2.set_ylim(0, 230)
-    a2.set_title("As it should be read: required (left bar) against available = min(soil at 20 % slip, drivetrain)",
-                 fontsize=9)
+    a2.set_title(
+        "As it should be read: required (left bar) against available = min(soil at 20 % slip, drivetrain)", fontsize=9
+    )
     a2.legend(fontsize=7, loc="upper left", ncol=2)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -109,9 +131,11 @@ def main(argv=None) -> int:
         print(f"  {k:12s} {seed[k] / 1e3:6.1f} kN")
     print("Physically consistent margins (120 kN drivetrain, 20 % slip allowed):")
     for (k, g), m in margins.items():
-        print(f"  {k:12s} {g:4.0f} deg: available {m.available_N / 1e3:6.1f} kN ({m.limited_by}), required "
-              f"{m.required_N / 1e3:6.1f} kN, margin {m.margin_N / 1e3:+6.1f} kN -> "
-              f"{'traversable' if m.traversable else 'NOT traversable'}")
+        print(
+            f"  {k:12s} {g:4.0f} deg: available {m.available_N / 1e3:6.1f} kN ({m.limited_by}), required "
+            f"{m.required_N / 1e3:6.1f} kN, margin {m.margin_N / 1e3:+6.1f} kN -> "
+            f"{'traversable' if m.traversable else 'NOT traversable'}"
+        )
     plot(seed, margins, a.out)
     print(f"figure: {a.out}")
     return 0

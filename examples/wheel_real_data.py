@@ -129,8 +129,7 @@ def main(argv=None) -> dict:
     ss_pe, dof_pe, _ = pure_error(data.drawbar_pull, data.slip, data.normal_load)
     rows = {
         "constant (training mean)": loso(data, const_fold),
-        f"track approximation (l = {1e3 * track.track_length:.0f} mm, "
-        f"mu_r = {TRACK_ROLLING_RESISTANCE})": loso(
+        f"track approximation (l = {1e3 * track.track_length:.0f} mm, mu_r = {TRACK_ROLLING_RESISTANCE})": loso(
             data, track_fold
         ),
         "rigid wheel (textbook)": loso(data, wheel_fold(WheelFitOptions())),

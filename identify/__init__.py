@@ -26,6 +26,7 @@ Public names
     Bevameter shear and plate sinkage tests (:mod:`soiltrack.identify.soiltests`), and a
     track's drawbar pull predicted from them.
 """
+
 from . import jitcache  # noqa: F401 - soiltrack.identify.jitcache, the compiled-code cache
 from .batch import fit_many
 from .engines import DEFAULT_ENGINE, ENGINES
@@ -38,7 +39,25 @@ from .settings import FitSettings
 from .online import OnlineEstimate, OnlineEstimator, OnlineSettings
 from .soiltests import SoilTestFit, fit_soil_test, predict_drawbar_pull
 
-__all__ = ["fit", "fit_many", "profile_likelihood", "build_result", "FitResult", "ParameterEstimate",
-           "Combination", "ProfileResult", "FitFailed", "FitSettings", "ENGINES", "DEFAULT_ENGINE",
-           "diagnose", "Diagnosis", "fit_soil_test", "SoilTestFit", "predict_drawbar_pull",
-           "OnlineEstimator", "OnlineSettings", "OnlineEstimate"]
+__all__ = [
+    "fit",
+    "fit_many",
+    "profile_likelihood",
+    "build_result",
+    "FitResult",
+    "ParameterEstimate",
+    "Combination",
+    "ProfileResult",
+    "FitFailed",
+    "FitSettings",
+    "ENGINES",
+    "DEFAULT_ENGINE",
+    "diagnose",
+    "Diagnosis",
+    "fit_soil_test",
+    "SoilTestFit",
+    "predict_drawbar_pull",
+    "OnlineEstimator",
+    "OnlineSettings",
+    "OnlineEstimate",
+]

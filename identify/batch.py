@@ -171,9 +171,7 @@ def _solve_chunk(
     try:
         solved = _solve_problems(pbs, [datasets[j] for j in keep], vehicle, model, bounds, settings)
     except Exception:  # noqa: BLE001 - a failed stacked step: each item alone, errors per item
-        solved = [
-            _guarded_fit(indices[j], datasets[j], vehicle, model, "ipopt", bounds, kw, settings) for j in keep
-        ]
+        solved = [_guarded_fit(indices[j], datasets[j], vehicle, model, "ipopt", bounds, kw, settings) for j in keep]
     for j, res in zip(keep, solved):
         out[j] = res
     return out  # type: ignore[return-value]
@@ -234,9 +232,7 @@ def _solve_problems(
             status.append("converged" if usable else f"converged {NOT_USABLE}")
             success.append(usable)
             message.append(
-                msg
-                if usable
-                else f"{msg}; the data or the answer fail the plausibility checks (see the warnings)"
+                msg if usable else f"{msg}; the data or the answer fail the plausibility checks (see the warnings)"
             )
             warns.append(tuple(pb.noise_warning(s.residuals, s.bp_screen)) + found)
         built = build_results_batch(
@@ -267,10 +263,13 @@ def _solve_problems(
 
 
 def _kernel_fits_like_fit(d: Any, model: str) -> bool:
-    """Whether ``fit`` would solve ``d`` as the stacked kernel does: a plain slip sweep (no per-row std
-    weights, no load spread so small that ``fit`` takes the profile-likelihood intervals)."""
+    """Whether ``fit`` would solve ``d`` as the stacked kernel does: a plain slip sweep (not a rig sweep -
+    no per-row std weights, no dropped rows, no measured load per row - and no load spread so small that
+    ``fit`` takes the profile-likelihood intervals)."""
     if not isinstance(d, SlipData):
         return False
+    if d.force_std is not None or d.dropped or (d.normal_load is not None and continuous_load(d.normal_load)):
+        return False  # a rig sweep takes fit's rig path: weights, extras
     try:
         if std_weights(d) is not None:
             return False
@@ -295,9 +294,7 @@ def _fit_chunk(
     indices: Sequence[int], datasets, vehicle, model, method, bounds, kw, settings: FitSettings
 ) -> list[FitResult]:
     """``fit`` of each item, errors per item (:func:`_guarded_fit`)."""
-    return [
-        _guarded_fit(k, d, vehicle, model, method, bounds, kw, settings) for k, d in zip(indices, datasets)
-    ]
+    return [_guarded_fit(k, d, vehicle, model, method, bounds, kw, settings) for k, d in zip(indices, datasets)]
 
 
 class _Progress:
@@ -372,15 +369,11 @@ def fit_many(
     n = len(datasets)
     prog = _Progress(n, progress)
     results: list[FitResult | None] = [None] * n
-    kernel_ok = (
-        st.engine in ("auto", "vectorized") and method == "ipopt" and set(kw) <= {"sigma", "sigma_known"}
-    )
-    batched, singles = [], []
+    kernel_ok = st.engine in ("auto", "vectorized") and method == "ipopt" and set(kw) <= {"sigma", "sigma_known"}
+    batched: list[int] = []
+    singles: list[int] = []
     for k, d in enumerate(datasets):
-        # a rig sweep (per-row std, rows dropped, a measured load) takes fit's rig path: weights, extras
-        rig = isinstance(d, SlipData) and (d.force_std is not None or bool(d.dropped) or (
-            d.normal_load is not None and continuous_load(d.normal_load)))
-        (batched if kernel_ok and not rig and _kernel_fits_like_fit(d, model) else singles).append(k)
+        (batched if kernel_ok and _kernel_fits_like_fit(d, model) else singles).append(k)
     if chunk_size is None:
         workers = getattr(executor, "_max_workers", 4) if executor is not None else 1
         chunk_size = n if executor is None else max(1, min(256, -(-n // (4 * workers))))
@@ -432,9 +425,7 @@ def fit_many(
     return results  # type: ignore[return-value]
 
 
-def _run_on_executor(
-    executor: Executor, jobs: list, store: Callable, single: Callable, dead: Callable
-) -> None:
+def _run_on_executor(executor: Executor, jobs: list, store: Callable, single: Callable, dead: Callable) -> None:
     """Run ``jobs`` on ``executor``: finished results kept, lost jobs' items recovered (module notes)."""
     futures: list[tuple[list[int], Future | None, BaseException | None]] = []
     for part, fn, args in jobs:
@@ -551,8 +542,6 @@ def _recover_in_fresh_pools(
                     ],
                 )
             except Exception as e:  # noqa: BLE001 - reported as this item's failure
-                store(
-                    [k], [dead(k, f"failed in a worker process ({type(e).__name__}: {e})", type(e).__name__)]
-                )
+                store([k], [dead(k, f"failed in a worker process ({type(e).__name__}: {e})", type(e).__name__)])
             finally:
                 alone.shutdown(wait=True, cancel_futures=True)

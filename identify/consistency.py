@@ -155,9 +155,7 @@ class ConsistencyReport:
     def warnings(self) -> tuple[str, ...]:
         """The warnings and fatal findings, in words (for the result's warnings)."""
         return tuple(
-            f"data consistency ({f.check}): {f.message}"
-            for f in self.findings
-            if f.severity in ("warning", "fatal")
+            f"data consistency ({f.check}): {f.message}" for f in self.findings if f.severity in ("warning", "fatal")
         )
 
     def to_dict(self) -> dict:
@@ -213,8 +211,7 @@ def _cause_torque(rho: float) -> str:
         return "every integral over time is about 1,000 times too large: the time stamps in milliseconds?"
     if 300 < rho < 3000:
         return (
-            "every integral over time is about 1,000 times too small: the time in kiloseconds, or the "
-            "torque in kN m?"
+            "every integral over time is about 1,000 times too small: the time in kiloseconds, or the torque in kN m?"
         )
     return "the torque channel's scale or unit does not match the vehicle's mass and the measured speeds"
 
@@ -227,8 +224,9 @@ def _drive_findings(log: DriveLog, vehicle: Vehicle, st: ConsistencySettings) ->
     out: list[Finding] = []
     # torque scale: m (v - v0) + I (w - w0) / r = rho int M/r dt - a int R dt - b int v dt - g t
     y = m * (v - v[seg]) + I * (w - w[seg]) / r
-    X = np.column_stack([_cumtrapz(M / r, t, seg), -_cumtrapz(_resistance(v, vehicle), t, seg),
-                         -_cumtrapz(v, t, seg), -(t - t[seg])])
+    X = np.column_stack(
+        [_cumtrapz(M / r, t, seg), -_cumtrapz(_resistance(v, vehicle), t, seg), -_cumtrapz(v, t, seg), -(t - t[seg])]
+    )
     scale = np.abs(X).max(axis=0)
     scale[scale == 0] = 1.0
     ok = bool(np.all(np.isfinite(X)) and np.all(np.isfinite(y)) and np.abs(X[:, 0]).max() > 0)
@@ -320,9 +318,7 @@ def _drive_findings(log: DriveLog, vehicle: Vehicle, st: ConsistencySettings) ->
         q = _median(v[moving] / rw[moving])
         lo, hi = st.speed_ratio_range
         if lo <= q <= hi:
-            out.append(
-                Finding("speed_ratio", "ok", f"v / (r w) while moving is {q:.3g} (slip {1 - q:.2g})", q)
-            )
+            out.append(Finding("speed_ratio", "ok", f"v / (r w) while moving is {q:.3g} (slip {1 - q:.2g})", q))
         else:
             if q > hi:
                 cause = (
@@ -336,9 +332,7 @@ def _drive_findings(log: DriveLog, vehicle: Vehicle, st: ConsistencySettings) ->
                 cause = (
                     "about a tenth of a driving value: the sprocket speed in rpm (x 9.55)?"
                     if 0.04 < q < 0.12
-                    else "the tracks turn much faster than the vehicle moves: a unit error or a wrong "
-                    "sprocket "
-                    "radius?"
+                    else "the tracks turn much faster than the vehicle moves: a unit error or a wrong sprocket radius?"
                 )
             out.append(
                 Finding(
@@ -383,11 +377,7 @@ def _sweep_findings(data: SlipData, vehicle: Vehicle, st: ConsistencySettings) -
         q = _median(data.normal_load) / W
         lo, hi = st.load_ratio_range
         if lo <= q <= hi:
-            out.append(
-                Finding(
-                    "load_scale", "ok", f"the median normal load is {q:.3g} times the vehicle's weight", q
-                )
-            )
+            out.append(Finding("load_scale", "ok", f"the median normal load is {q:.3g} times the vehicle's weight", q))
         else:
             cause = (
                 "a thousandth: the load in kN instead of N?"
@@ -432,9 +422,7 @@ def _sweep_findings(data: SlipData, vehicle: Vehicle, st: ConsistencySettings) -
                 )
             )
         else:
-            out.append(
-                Finding("force_scale", "ok", f"the largest force is {ratio:.3g} of the normal load", ratio)
-            )
+            out.append(Finding("force_scale", "ok", f"the largest force is {ratio:.3g} of the normal load", ratio))
     n_rep, rows = repeated_rows(data)
     if n_rep:
         out.append(
@@ -453,9 +441,7 @@ def _sweep_findings(data: SlipData, vehicle: Vehicle, st: ConsistencySettings) -
     return out
 
 
-def check_consistency(
-    data: Any, vehicle: Vehicle, settings: ConsistencySettings | None = None
-) -> ConsistencyReport:
+def check_consistency(data: Any, vehicle: Vehicle, settings: ConsistencySettings | None = None) -> ConsistencyReport:
     """Run the checks of the module notes on a drive log or a slip sweep.
 
     Parameters

@@ -27,6 +27,7 @@ handed a fit to IPOPT. ``result.status`` is ``"converged"`` for every certified 
 whatever solved it; a failure keeps IPOPT's status. The solver's own word is in
 ``extra["solver_status"]``.
 """
+
 from __future__ import annotations
 
 from ..soilmodel.errors import DataError

@@ -1,4 +1,5 @@
 """``fit``: one entry point for tractive force-slip data and drive logs."""
+
 from __future__ import annotations
 
 from dataclasses import replace
@@ -6,6 +7,7 @@ from dataclasses import replace
 from ..soilmodel.data import DriveLog, SlipData
 from ..soilmodel.errors import DataError
 from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
+from ..soilmodel.threadsafe import fit_section
 from ..soilmodel.vehicle import Vehicle
 from .sweep.compiled_lm import fit_compiled
 from .engines import check_engine, jit_mode, normalise_status
@@ -27,9 +29,22 @@ from .drivelog.torque_hold import fit_both_holds
 __all__ = ["fit"]
 
 
-def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method: str = "ipopt",
-        bounds: SoilBounds = PRACTICAL_BOUNDS, x0=None, strict: bool = False, engine: str | None = None,
-        effects=None, fixed=None, *, settings: FitSettings | None = None, **options) -> FitResult:
+def fit(
+    data: SlipData | DriveLog,
+    vehicle: Vehicle,
+    model: str = "full",
+    method: str = "ipopt",
+    bounds: SoilBounds = PRACTICAL_BOUNDS,
+    x0=None,
+    strict: bool = False,
+    engine: str | None = None,
+    effects=None,
+    fixed=None,
+    *,
+    settings: FitSettings | None = None,
+    consistency: bool = True,
+    **options,
+) -> FitResult:
     """Identify the soil parameters ``c, phi, K`` from measured data.
 
     Parameters
@@ -59,6 +74,10 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
         code compiles in the background), which hands any fit it cannot certify to IPOPT.
         ``result.extra["engine"]`` says what solved the fit. Drive logs and the other methods
         ignore it.
+    consistency : bool
+        Run the data's cross-channel consistency checks (see Notes). ``False`` is for a caller
+        that checked the whole data set once and refits parts of it (the diagnosis): a part of a
+        log has less power for the checks, not less consistency.
     settings : FitSettings, optional
         Typed solver settings (engine, ``n_grid``, ``ipopt_options``, ``max_iter``); the
         keywords of the same names override its fields.
@@ -108,27 +127,44 @@ def fit(data: SlipData | DriveLog, vehicle: Vehicle, model: str = "full", method
     km/h or rpm, loads in kN, repeated rows) is said in the warnings, and the result fails
     (``success`` False) where the answer cannot stand.
     """
-    res = _fit_unchecked(data, vehicle, model, method, bounds, x0, engine, effects, fixed, settings, options)
-    if isinstance(data, (SlipData, DriveLog)):
-        res = with_consistency(res, check_consistency(data, vehicle))
+    # the whole fit holds the process's solver lock (re-entrant): a fork then never copies a thread in the
+    # middle of a fit's CasADi or BLAS work (soilmodel.threadsafe); the solves were serialised anyway
+    with fit_section():
+        res = _fit_unchecked(data, vehicle, model, method, bounds, x0, engine, effects, fixed, settings, options)
+        if consistency and isinstance(data, (SlipData, DriveLog)):
+            res = with_consistency(res, check_consistency(data, vehicle))
     if strict and not res.success:
         raise FitFailed(res)
     return res
 
 
-def _fit_unchecked(data, vehicle: Vehicle, model: str, method: str, bounds: SoilBounds, x0,
-                   engine: str | None, effects, fixed, settings: FitSettings | None,
-                   options: dict) -> FitResult:
+def _fit_unchecked(
+    data,
+    vehicle: Vehicle,
+    model: str,
+    method: str,
+    bounds: SoilBounds,
+    x0,
+    engine: str | None,
+    effects,
+    fixed,
+    settings: FitSettings | None,
+    options: dict,
+) -> FitResult:
     """``fit`` without the consistency checks (never strict: ``fit`` raises after the checks)."""
     strict = False
     if isinstance(data, DriveLog):
         check_common(vehicle, model, method, bounds)
         for opt in ("slip_noise", "intervals"):
             if options.get(opt) is not None:
-                raise DataError(f"{opt} applies to slip sweeps; a drive log's slip is already a latent variable of "
-                                "its fit (its noise comes from the speed channels)", file=data.source)
+                raise DataError(
+                    f"{opt} applies to slip sweeps; a drive log's slip is already a latent variable of "
+                    "its fit (its noise comes from the speed channels)",
+                    file=data.source,
+                )
             options.pop(opt, None)
         from .drivelog.fit import fit_drive_log  # written separately; imported lazily
+
         if effects is not None:
             options["effects"] = effects
         if fixed is not None:
@@ -138,8 +174,11 @@ def _fit_unchecked(data, vehicle: Vehicle, model: str, method: str, bounds: Soil
         if effects is not None and options.get("torque_hold") is None:
             # the hold is not stated: intervals cover both (soiltrack.identify.drivelog.torque_hold)
             options.pop("torque_hold", None)
-            return fit_both_holds(lambda hold: fit_drive_log(data, vehicle, model, bounds, x0, strict, method=method,
-                                                             torque_hold=hold, **options))
+            return fit_both_holds(
+                lambda hold: fit_drive_log(
+                    data, vehicle, model, bounds, x0, strict, method=method, torque_hold=hold, **options
+                )
+            )
         return fit_drive_log(data, vehicle, model, bounds, x0, strict, method=method, **options)
     if not isinstance(data, SlipData):
         raise DataError(f"fit takes SlipData or DriveLog, got {type(data).__name__}")
@@ -151,13 +190,31 @@ def _fit_unchecked(data, vehicle: Vehicle, model: str, method: str, bounds: Soil
     if resistance not in (None, *RESISTANCE_MODES):
         raise DataError(f"resistance must be one of {RESISTANCE_MODES}, got {resistance!r}")
     if resistance in ("fit", "fit-sinkage"):
+
         def fit_at(d: SlipData, v: Vehicle, final: bool) -> FitResult:
-            return fit(d, v, model, method, bounds, x0, False, engine, effects, fixed, settings=settings,
-                       sigma=sigma, sigma_known=sigma_known, slip_noise=slip_noise,
-                       intervals=intervals if final else "linear", **options)
+            return fit(
+                d,
+                v,
+                model,
+                method,
+                bounds,
+                x0,
+                False,
+                engine,
+                effects,
+                fixed,
+                settings=settings,
+                sigma=sigma,
+                sigma_known=sigma_known,
+                slip_noise=slip_noise,
+                intervals=intervals if final else "linear",
+                **options,
+            )
+
         rig_speed = options.get("rig_speed")
-        res = fit_resistance(data, vehicle, fit_at, resistance,
-                             SweepResiduals() if rig_speed is None else SweepResiduals(rig_speed))
+        res = fit_resistance(
+            data, vehicle, fit_at, resistance, SweepResiduals() if rig_speed is None else SweepResiduals(rig_speed)
+        )
         if strict and not res.success:
             raise FitFailed(res)
         return res
@@ -168,8 +225,18 @@ def _fit_unchecked(data, vehicle: Vehicle, model: str, method: str, bounds: Soil
     if separation is not None and separation.fragile and intervals is None and method == "ipopt":
         intervals = "auto"  # c and phi rest on the load's spread: their intervals from the profile likelihood
     rig = {"rig_speed": options.pop("rig_speed")} if "rig_speed" in options else {}
-    pb = make_problem(data, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known, method=method,
-                      effects=effects, fixed=fixed, **rig)
+    pb = make_problem(
+        data,
+        vehicle,
+        model,
+        bounds,
+        sigma=sigma,
+        sigma_known=sigma_known,
+        method=method,
+        effects=effects,
+        fixed=fixed,
+        **rig,
+    )
     x0v = None if x0 is None else x0_vector(x0)
     if options:
         given = {k: options.pop(k) for k in SETTING_NAMES if k in options}
@@ -184,8 +251,10 @@ def _fit_unchecked(data, vehicle: Vehicle, model: str, method: str, bounds: Soil
         joint = joint or slip_noise != "off" or intervals != "linear"
     if joint:  # joint soil-and-effects fit (or slip noise, profile intervals): IPOPT (whatever the engine)
         if method != "ipopt":
-            raise DataError(f"effects, slip noise and profile intervals are fitted by IPOPT only (method='ipopt'), "
-                            f"not by the seed's method {method!r}")
+            raise DataError(
+                f"effects, slip noise and profile intervals are fitted by IPOPT only (method='ipopt'), "
+                f"not by the seed's method {method!r}"
+            )
         if st.max_iter is not None:
             raise DataError("max_iter applies to method='newton' or 'least-squares'")
         res = _with_rig(data, _fit_joint_sweep(pb, x0v, st, slip_noise, intervals), separation)
@@ -196,8 +265,10 @@ def _fit_unchecked(data, vehicle: Vehicle, model: str, method: str, bounds: Soil
         raise DataError("fixed holds effect parameters: give the effects too (effects=[...])")
     if method == "ipopt":
         if st.max_iter is not None:
-            raise DataError("max_iter applies to method='newton' or 'least-squares'; for IPOPT use "
-                            "ipopt_options={'ipopt.max_iter': N}")
+            raise DataError(
+                "max_iter applies to method='newton' or 'least-squares'; for IPOPT use "
+                "ipopt_options={'ipopt.max_iter': N}"
+            )
         if st.engine == "ipopt":
             res = normalise_status(fit_ipopt(pb, x0v, ipopt_options=st.ipopt_dict, n_grid=st.n_grid), "ipopt")
         else:  # compiled LM (a single dataset is "vectorized" trivially); IPOPT if not certified
@@ -235,15 +306,19 @@ def _fit_joint_sweep(pb, x0v, st: FitSettings, slip_noise, intervals: str) -> Fi
     extra = dict(res.extra)
     extra["slip_noise"] = noise.to_dict()
     extra["sigma_model"] = "slip_noise" if noise.adopted else pb.noise_model
-    warns = tuple(res.input_warnings) + ((noise.note,) if noise.note and (noise.adopted or not noise.converged)
-                                         else ())
+    warns = tuple(res.input_warnings) + ((noise.note,) if noise.note and (noise.adopted or not noise.converged) else ())
     res = replace(res, extra=extra, input_warnings=warns)
-    res = with_profile_intervals(pb_final, res, lambda q, hold, sx: fit_joint(
-        q, ipopt_options=opts, n_grid=n_grid, hold=hold, start_x=sx), intervals)
+    res = with_profile_intervals(
+        pb_final,
+        res,
+        lambda q, hold, sx: fit_joint(q, ipopt_options=opts, n_grid=n_grid, hold=hold, start_x=sx),
+        intervals,
+    )
     return normalise_status(res, "ipopt")
 
 
 def _check_options(options: dict, allowed: set) -> None:
     unknown = sorted(set(options) - allowed)
     if unknown:
-        raise DataError(f"unknown option(s) {unknown}; allowed here: {sorted(allowed) + ['intervals', 'sigma', 'sigma_known', 'slip_noise']}")
+        also = ["intervals", "sigma", "sigma_known", "slip_noise"]
+        raise DataError(f"unknown option(s) {unknown}; allowed here: {sorted(allowed) + also}")

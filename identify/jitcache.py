@@ -133,8 +133,7 @@ def fallback_note(backend: str | None, detail: str = "") -> str | None:
     why = {
         VM_NO_CC: "no C compiler found ($CC, cc, gcc, clang)",
         VM_FAILED: "compiling or loading the C code failed",
-        VM_UNWRITABLE: "the compiled-code cache folder is not writable (set SOILTRACK_CACHE_DIR to a "
-        "writable one)",
+        VM_UNWRITABLE: "the compiled-code cache folder is not writable (set SOILTRACK_CACHE_DIR to a writable one)",
     }
     return (
         f"compiled engine on CasADi's virtual machine: {why[backend]}"
@@ -201,7 +200,7 @@ def _source(functions: Sequence[ca.Function], name: str) -> str:
 
 def _library_path(source: str, name: str, cc: str) -> Path:
     h = hashlib.sha256()
-    for part in (source, ca.__version__, cc, " ".join(FLAGS)):
+    for part in (source, str(getattr(ca, "__version__", "")), cc, " ".join(FLAGS)):
         h.update(part.encode())
         h.update(b"\0")
     return cache_dir() / f"{name}_{h.hexdigest()[:24]}.so"
@@ -298,9 +297,7 @@ def load(functions: Sequence[ca.Function], name: str, wait: bool = True) -> Comp
         lib = _library_path(source, name, cc)
     except OSError:  # the cache folder cannot be created
         lib = None
-    if lib is None or (
-        not writable and not lib.exists()
-    ):  # a cached library in a read-only folder still loads
+    if lib is None or (not writable and not lib.exists()):  # a cached library in a read-only folder still loads
         vm.backend = VM_UNWRITABLE
         _say_once(VM_UNWRITABLE, why)
         return vm

@@ -6,6 +6,7 @@ of a given ``settings``. Unknown keywords and bad values raise :class:`DataError
 argument. Data options (``sigma``, ``sigma_known``) describe the data, not the solver, and
 stay keywords of ``fit``; drive-log options are passed on to the drive-log fit.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
@@ -51,11 +52,13 @@ class FitSettings:
         try:
             opts = tuple(sorted((str(k), v) for k, v in opts))
         except (TypeError, ValueError):
-            raise DataError(f"ipopt_options must be a dict of option names to values, got {self.ipopt_options!r}") \
-                from None
+            raise DataError(
+                f"ipopt_options must be a dict of option names to values, got {self.ipopt_options!r}"
+            ) from None
         object.__setattr__(self, "ipopt_options", opts)
-        if self.max_iter is not None and (isinstance(self.max_iter, bool) or not isinstance(self.max_iter, int)
-                                          or self.max_iter < 1):
+        if self.max_iter is not None and (
+            isinstance(self.max_iter, bool) or not isinstance(self.max_iter, int) or self.max_iter < 1
+        ):
             raise DataError(f"max_iter must be an integer >= 1, got {self.max_iter!r}")
 
     @property
@@ -75,7 +78,9 @@ class FitSettings:
         if unknown:
             raise DataError(f"unknown setting(s) {unknown}; FitSettings has {list(SETTING_NAMES)}")
         given = {k: v for k, v in overrides.items() if v is not None}
-        if settings is None and set(given) <= {"engine"} and isinstance(given.get("engine", ""), str):  # the common case: cached, validated once
+        if (
+            settings is None and set(given) <= {"engine"} and isinstance(given.get("engine", ""), str)
+        ):  # the common case: cached, validated once
             return _engine_only(given.get("engine", DEFAULT_ENGINE))
         base = settings if settings is not None else cls()
         return replace(base, **given) if given else base

@@ -65,9 +65,7 @@ def check_fit_numbers(obj: dict, src: str) -> None:
         for k, w in enumerate(loads):
             v = _finite(w, src, f"normal_loads_N[{k}]")
             if v is not None and v <= 0:
-                raise DataError(
-                    f"a normal load must be > 0 N, got {v:g}", file=src, column=f"normal_loads_N[{k}]"
-                )
+                raise DataError(f"a normal load must be > 0 N, got {v:g}", file=src, column=f"normal_loads_N[{k}]")
     cov = obj.get("covariance")
     if isinstance(cov, dict) and isinstance(cov.get("matrix"), list):
         for k, row in enumerate(cov["matrix"]):

@@ -38,7 +38,15 @@ from .arguments import check_number
 from .forces import resistances, soil_thrust
 from .uncertainty import CHI2_95, SoilUncertainty, is_online_estimate, uncertainty_from_estimate, uncertainty_from_fit
 
-__all__ = ["DEFAULT_MAX_SLIP", "DEFAULT_SAMPLES", "Margin", "margin", "resolve_terrain", "drivetrain_limit"]
+__all__ = [
+    "DEFAULT_MAX_SLIP",
+    "DEFAULT_SAMPLES",
+    "Margin",
+    "margin",
+    "resolve_terrain",
+    "terrain_soil_vector",
+    "drivetrain_limit",
+]
 
 #: Allowed slip when none is given.
 DEFAULT_MAX_SLIP = 0.2
@@ -205,6 +213,17 @@ def resolve_terrain(terrain: Any, vehicle: Vehicle | None = None) -> tuple[Soil 
     )
 
 
+def terrain_soil_vector(soil: Soil | None, unc: SoilUncertainty | None, normal_load: float) -> np.ndarray:
+    """``[c (Pa), phi (rad), K (m)]`` of what :func:`resolve_terrain` gave.
+
+    The soil's own, or (an identified soil) the uncertainty's mean soil at ``normal_load``, N.
+    """
+    if soil is not None:
+        return soil.as_vector()
+    assert unc is not None  # resolve_terrain gives a soil or an uncertainty
+    return unc.soils_at(unc.mean, normal_load)[0]
+
+
 def drivetrain_limit(vehicle: Vehicle, speed: float | None) -> float | None:
     """``min(T_max / r, P_max / v)`` in N from what the vehicle gives (``None``: no limit known)."""
     lims = []
@@ -277,8 +296,10 @@ def margin(
             else "an identified soil has no Bekker parameters: compaction resistance "
             "not included (add it as drawbar_N if known)"
         )
-    theta0 = soil.as_vector() if soil is not None else unc.soils_at(unc.mean, N)[0]
-    soil_at = soil if soil is not None else Soil(*map(float, theta0), name="fitted soil")
+    theta0 = terrain_soil_vector(soil, unc, N)
+    soil_at = (
+        soil if soil is not None else Soil(float(theta0[0]), float(theta0[1]), float(theta0[2]), name="fitted soil")
+    )
     F_soil = float(soil_thrust(theta0, i_max, N, vehicle, model)[0])
     dt = drivetrain_limit(vehicle, speed)
     if dt is None:
@@ -294,12 +315,14 @@ def margin(
     # steepest grade: margin(theta) falls with theta (the soil loses normal load, the grade adds)
     def m_of(t):
         Nt, rq = resistances(vehicle, soil, np.array([t]), accel, drawbar)
-        th_t = soil.as_vector() if soil is not None else unc.soils_at(unc.mean, float(Nt[0]))[0]
+        th_t = terrain_soil_vector(soil, unc, float(Nt[0]))
         Fs = float(soil_thrust(th_t, i_max, Nt, vehicle, model)[0])
         av = Fs if dt is None else min(Fs, dt)
         return av - sum(float(v[0]) for v in rq.values())
 
     lim = 1.2  # the grade effect admits |theta| <= 1.2 rad (68.8 deg)
+    lo: float | None
+    hi: float | None
     if m_of(0.0) >= 0:
         lo, hi = 0.0, lim
         if m_of(hi) >= 0:
@@ -308,7 +331,7 @@ def margin(
         lo, hi = -lim, 0.0
     else:
         lo = hi = None
-    if lo is not None and lo != hi:
+    if lo is not None and hi is not None and lo != hi:
         for _ in range(50):
             mid = 0.5 * (lo + hi)
             if m_of(mid) >= 0:

@@ -32,6 +32,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -40,16 +41,35 @@ from ..soilmodel import Vehicle
 from ..soilmodel.dynamics import dynamics_expr
 from ..soilmodel.threadsafe import SOLVER_LOCK, call_solver, locked_cache
 
-__all__ = ["OcpData", "solve_ocp", "ocp_solver", "clear_warm_starts", "DEGREE", "radau_collocation"]
+__all__ = [
+    "OcpData",
+    "solve_ocp",
+    "ocp_solver",
+    "ocp_nlp",
+    "ocp_layout",
+    "IPOPT_OPTIONS",
+    "WARM_OPTIONS",
+    "clear_warm_starts",
+    "DEGREE",
+    "radau_collocation",
+]
 
 #: Collocation points per interval (Radau IIA).
 DEGREE = 3
 #: Lower bound of the sprocket speed while moving, rad/s (the slip limit's linear form needs w > 0).
 MIN_SPROCKET_SPEED = 1e-4
-_IPOPT = {"print_level": 0, "sb": "yes", "max_iter": 1000, "tol": 1e-8, "acceptable_tol": 1e-6, "constr_viol_tol": 1e-8}
+#: IPOPT options of every profile solve.
+IPOPT_OPTIONS = {
+    "print_level": 0,
+    "sb": "yes",
+    "max_iter": 1000,
+    "tol": 1e-8,
+    "acceptable_tol": 1e-6,
+    "constr_viol_tol": 1e-8,
+}
 #: Warm-start options, tuned on the benchmark profile (IPOPT iterations for a new v1 / a new soil:
 #: 13 / 22-65 with mu_init 1e-6 and pushes 1e-9; 5-6 / 20-24 with these).
-_WARM = {
+WARM_OPTIONS = {
     "warm_start_init_point": "yes",
     "warm_start_bound_push": 1e-6,
     "warm_start_mult_bound_push": 1e-6,
@@ -115,9 +135,10 @@ def radau_collocation(d: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return tau, C, B
 
 
-def _layout(n: int, energy: bool):
-    """Index blocks of the decision vector: nodes X (2(n+1)), collocation Z (2 d n), u, dt (n each) and,
-    for the energy objective, the work slacks e (n)."""
+def ocp_layout(n: int, energy: bool) -> tuple[slice, slice, slice, slice, slice | None]:
+    """Index blocks of the decision vector of :func:`ocp_nlp`: nodes X (2(n+1), column-major),
+    collocation states Z (2 d n), held torques u, interval durations dt (n each) and, for the energy
+    objective, the work slacks e (n; ``None`` otherwise)."""
     nx = 2 * (n + 1)
     nz = 2 * DEGREE * n
     a = nx + nz
@@ -130,12 +151,11 @@ def _layout(n: int, energy: bool):
     )
 
 
-@locked_cache(maxsize=32)
-def ocp_solver(vehicle: Vehicle, n: int, warm: bool, energy: bool = False, rate_limit: bool = False) -> ca.Function:
-    """The cached IPOPT solver of the OCP with ``n`` intervals.
+def ocp_nlp(vehicle: Vehicle, n: int, energy: bool = False, rate_limit: bool = False) -> dict:
+    """The OCP with ``n`` intervals as an SX NLP ``{"x", "p", "f", "g"}`` (the layout of :func:`ocp_layout`).
 
-    ``warm``: warm-start options; ``energy``: energy objective (work slacks), else minimum time;
-    ``rate_limit``: with the torque-rate rows. Only the rows a problem needs are built.
+    ``energy``: energy objective (work slacks), else minimum time; ``rate_limit``: with the
+    torque-rate rows. Only the rows a problem needs are built; the last row of ``g`` is the total time.
     """
     f = dynamics_fn(vehicle)
     d = DEGREE
@@ -182,8 +202,22 @@ def ocp_solver(vehicle: Vehicle, n: int, warm: bool, energy: bool = False, rate_
     J = we * ca.sum1(e) / es if energy else wt * J_time / ts
     x = ca.vertcat(ca.vec(X), ca.vec(Z), u, dt, e) if energy else ca.vertcat(ca.vec(X), ca.vec(Z), u, dt)
     p = ca.vertcat(ca.vec(P), Ms, Pw, rate, wt, we, ts, es, vs, ws)
-    opts = {"ipopt": dict(_IPOPT, **(_WARM if warm else {})), "print_time": False, "error_on_fail": False}
-    return ca.nlpsol(f"speed_ocp_{n}", "ipopt", {"x": x, "p": p, "f": J, "g": g}, opts)
+    return {"x": x, "p": p, "f": J, "g": g}
+
+
+@locked_cache(maxsize=32)
+def ocp_solver(vehicle: Vehicle, n: int, warm: bool, energy: bool = False, rate_limit: bool = False) -> ca.Function:
+    """The cached IPOPT solver of the OCP with ``n`` intervals (:func:`ocp_nlp`).
+
+    ``warm``: warm-start options; ``energy``: energy objective (work slacks), else minimum time;
+    ``rate_limit``: with the torque-rate rows.
+    """
+    opts: dict[str, Any] = {
+        "ipopt": dict(IPOPT_OPTIONS, **(WARM_OPTIONS if warm else {})),
+        "print_time": False,
+        "error_on_fail": False,
+    }
+    return ca.nlpsol(f"speed_ocp_{n}", "ipopt", ocp_nlp(vehicle, n, energy, rate_limit), opts)
 
 
 _last: dict = {}
@@ -236,7 +270,7 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
     """
     n = len(d.c)
     energy, rate_on = d.objective == "energy", bool(d.torque_rate)
-    iX, iZ, iu, idt, ie = _layout(n, energy)
+    iX, iZ, iu, idt, ie = ocp_layout(n, energy)
     key = (vehicle, n, energy, rate_on)
     store = _last if warm_store is None else warm_store
     prev = store.get(key)
@@ -278,23 +312,25 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
     ndyn = n * 2 * (DEGREE + 1)
     dist_lo = np.full(n, -inf) if free_dist else np.zeros(n)
     dist_hi = np.full(n, inf) if free_dist else np.zeros(n)
-    lbg = [np.zeros(ndyn), dist_lo] + ([np.zeros(n)] if energy else []) + [np.zeros(2 * npt), np.full(npt, -inf)]
-    ubg = (
+    lbg_parts: list[Any] = (
+        [np.zeros(ndyn), dist_lo] + ([np.zeros(n)] if energy else []) + [np.zeros(2 * npt), np.full(npt, -inf)]
+    )
+    ubg_parts: list[Any] = (
         [np.zeros(ndyn), dist_hi]
         + ([np.full(n, inf)] if energy else [])
         + [np.full(2 * npt, inf), np.full(npt, 1.0 if d.max_power else inf)]
     )
     if rate_on:
-        lbg.append(np.full(2 * (n - 1), -inf))
-        ubg.append(np.zeros(2 * (n - 1)))
-    lbg.append([d.duration if d.duration is not None else -inf])
-    ubg.append([d.duration if d.duration is not None else inf])
-    lbg, ubg = np.concatenate(lbg), np.concatenate(ubg)
+        lbg_parts.append(np.full(2 * (n - 1), -inf))
+        ubg_parts.append(np.zeros(2 * (n - 1)))
+    lbg_parts.append([d.duration if d.duration is not None else -inf])
+    ubg_parts.append([d.duration if d.duration is not None else inf])
+    lbg, ubg = np.concatenate(lbg_parts), np.concatenate(ubg_parts)
     args = dict(p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
     warm = prev is not None
     solver = ocp_solver(vehicle, n, warm, energy, rate_on)  # built once per structure; not solve time
     t0 = time.perf_counter()
-    if warm:
+    if prev is not None:  # warm
         args.update(x0=np.clip(prev["x"], lbx, ubx), lam_x0=prev["lam_x"], lam_g0=prev["lam_g"])
     else:
         args["x0"] = np.clip(_guess(d, vehicle, n, slip_of_thrust), lbx, ubx)

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..soilmodel import Vehicle, choose_scale, format_energy, format_force
 from .forces import soil_thrust
-from .margin import Margin, resolve_terrain
+from .margin import Margin, resolve_terrain, terrain_soil_vector
 from .profile import SpeedPlan
 from .slip_optimal import SlipOptimum
 
@@ -28,7 +28,7 @@ def plot_margin(terrain: Any, vehicle: Vehicle, m: Margin, path: str) -> None:
     """Thrust-slip curve at the margin's normal load against the drivetrain limit and the requirement."""
     plt = _plt()
     soil, unc, model = resolve_terrain(terrain, vehicle)
-    theta = soil.as_vector() if soil is not None else unc.soils_at(unc.mean, m.normal_load_N)[0]
+    theta = terrain_soil_vector(soil, unc, m.normal_load_N)
     s = np.linspace(0.0, 0.6, 301)
     F = np.array([soil_thrust(theta, float(x), m.normal_load_N, vehicle, model)[0] for x in s])
     ks = choose_scale([F.max(), m.required_N, m.drivetrain_limit_N or 0.0], "N")
@@ -133,9 +133,10 @@ def plot_slip_optimal(opt: SlipOptimum, path: str, title: str = "") -> None:
         a1.fill_between(s, np.asarray(lo) * ps.factor, np.asarray(hi) * ps.factor, color="C0", alpha=0.25)
         lo, hi = opt.bands["efficiency"]
         a2.fill_between(s, np.asarray(lo) * 100, np.asarray(hi) * 100, color="C1", alpha=0.25)
-    if opt.slip_max_power is not None:
-        a1.axvline(opt.slip_max_power * 100, color="C0", ls=":")
-        a2.axvline(opt.slip_max_efficiency * 100, color="C1", ls=":")
+    sp, se = opt.slip_max_power, opt.slip_max_efficiency  # both None together (no positive drawbar pull)
+    if sp is not None and se is not None:
+        a1.axvline(sp * 100, color="C0", ls=":")
+        a2.axvline(se * 100, color="C1", ls=":")
     a1.set_xlabel("slip (%)")
     a1.set_ylabel(f"drawbar power ({ps.unit})", color="C0")
     a2.set_ylabel("tractive efficiency (%)", color="C1")
@@ -146,9 +147,8 @@ def plot_slip_optimal(opt: SlipOptimum, path: str, title: str = "") -> None:
     a1.set_title(
         title
         or (
-            f"power-optimal slip {opt.slip_max_power * 100:.3g} %, efficiency-optimal "
-            f"{opt.slip_max_efficiency * 100:.3g} %"
-            if opt.slip_max_power is not None
+            f"power-optimal slip {sp * 100:.3g} %, efficiency-optimal {se * 100:.3g} %"
+            if sp is not None and se is not None
             else "no positive drawbar pull"
         ),
         fontsize=9,

@@ -63,7 +63,7 @@ from ..soilmodel.effect_terms import DEFAULT_STANDSTILL_SPEED
 from ..soilmodel.simulation import drive_limits
 from .arguments import check_number
 from .forces import resistances, soil_thrust
-from .margin import DEFAULT_MAX_SLIP, resolve_terrain
+from .margin import DEFAULT_MAX_SLIP, resolve_terrain, terrain_soil_vector
 from .ocp import DEGREE, OcpData, radau_collocation, solve_ocp
 from .replay import replay
 from .route import OBJECTIVES, Patch, Route
@@ -307,7 +307,7 @@ def _patch_data(patches, vehicle, i_max):
         th = math.radians(p.grade_deg)
         Narr, req = resistances(vehicle, soil, np.array([th]), 0.0, 0.0)
         N = float(Narr[0])
-        theta = soil.as_vector() if soil is not None else unc.soils_at(unc.mean, N)[0]
+        theta = terrain_soil_vector(soil, unc, N)
         Fs = float(soil_thrust(theta, i_max, N, vehicle, "full")[0])
         Fpk = float(soil_thrust(theta, 0.999, N, vehicle, "full")[0])
         R = float(req["rolling_N"][0] + req["compaction_N"][0] + req["grade_N"][0])
@@ -485,7 +485,7 @@ def plan_patches(patches: tuple[Patch, ...], vehicle: Vehicle, **kw: Any) -> Spe
     for p in patches:
         soil, _u, _m = resolve_terrain(p.terrain, vehicle)
         N, req = resistances(vehicle, soil, np.array([math.radians(p.grade_deg)]), 0.0, 0.0)
-        length = float(p.length_m)
+        length: float | None = float(p.length_m)
         if kw.get("duration") is not None:  # the distance is an outcome of the plan
             length = res.series["distance_m"][-1] if res.success else None
         info.append(
@@ -666,9 +666,9 @@ def _plan_core(
         out = np.empty(n)
         for k in range(len(patches)):
             sel = idx == k
-            s_, ok = slip_from_thrust(
-                F[sel], Soil(*map(float, pd[k]["theta"])), vehicle, normal_load=pd[k]["N"], return_reachable=True
-            )
+            c, phi, K = map(float, pd[k]["theta"])  # [c, phi, K] (_patch_data)
+            soil_k = Soil(c, phi, K)
+            s_, ok = slip_from_thrust(F[sel], soil_k, vehicle, normal_load=pd[k]["N"], return_reachable=True)
             out[sel] = s_
         return out
 

@@ -92,6 +92,6 @@ def replay(result, vehicle: Vehicle, substeps: int = 8) -> Replay:
             node.append(j == substeps - 1)
         t += float(m["dt"][k])
         x = X[:, -1]
-    T, V, Wv, Mq = map(np.asarray, (T, V, Wv, Mq))
-    slip = 1 - V / (r * Wv)
-    return Replay(T, V, Wv, slip, Mq, Mq * Wv, np.asarray(node))
+    t_a, v_a, w_a, m_a = (np.asarray(a) for a in (T, V, Wv, Mq))
+    slip = 1 - v_a / (r * w_a)
+    return Replay(t_a, v_a, w_a, slip, m_a, m_a * w_a, np.asarray(node))

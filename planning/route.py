@@ -11,8 +11,7 @@ from ..soilmodel import TERRAINS, DataError, Soil
 from ..soilmodel.jsonread import load_json_file
 from ..soilmodel.physical import check_physical
 
-__all__ = ["Patch", "Route", "read_route", "route_from_dict", "OBJECTIVES", "MAX_PATCHES",
-           "MAX_ROUTE_LENGTH_M"]
+__all__ = ["Patch", "Route", "read_route", "route_from_dict", "OBJECTIVES", "MAX_PATCHES", "MAX_ROUTE_LENGTH_M"]
 
 #: Objectives of a profile: minimum time, or minimum sprocket energy.
 OBJECTIVES = ("time", "energy")
@@ -103,9 +102,13 @@ def route_from_dict(obj: Any, *, source: str | None = None, default_terrain: Any
     if not isinstance(pats, list) or not pats:
         raise DataError("field 'patches' must be a non-empty list", file=src, column="patches")
     if len(pats) > MAX_PATCHES:
-        raise DataError(f"{len(pats):,} patches; a route has at most {MAX_PATCHES} (the plan's mesh takes "
-                        "10 intervals a patch, at most 2,000): merge neighbouring patches of one terrain or "
-                        "split the route", file=src, column="patches")
+        raise DataError(
+            f"{len(pats):,} patches; a route has at most {MAX_PATCHES} (the plan's mesh takes "
+            "10 intervals a patch, at most 2,000): merge neighbouring patches of one terrain or "
+            "split the route",
+            file=src,
+            column="patches",
+        )
     patches = []
     for k, p in enumerate(pats):
         f = f"patches[{k}]"
@@ -141,8 +144,9 @@ def route_from_dict(obj: Any, *, source: str | None = None, default_terrain: Any
             for key in ("cohesion_kpa", "friction_angle_deg", "shear_modulus_m"):
                 if key not in s:
                     raise DataError(f"missing field '{f}.soil.{key}'", file=src, column=f"{f}.soil.{key}")
-                vals.append(check_physical(key, _num(s[key], f"{f}.soil.{key}", src), file=src,
-                                           field=f"{f}.soil.{key}"))
+                vals.append(
+                    check_physical(key, _num(s[key], f"{f}.soil.{key}", src), file=src, field=f"{f}.soil.{key}")
+                )
             try:
                 terrain = Soil.from_kpa_deg(*vals, name=f"soil of patch {k}")
             except DataError as e:
@@ -154,8 +158,11 @@ def route_from_dict(obj: Any, *, source: str | None = None, default_terrain: Any
         patches.append(Patch(length, terrain, grade))
     total = math.fsum(pt.length_m for pt in patches)
     if total > MAX_ROUTE_LENGTH_M:
-        raise DataError(f"the route is {total:.6g} m long; at most {MAX_ROUTE_LENGTH_M:g} m are planned at "
-                        "once (split the route)", file=src, column="patches")
+        raise DataError(
+            f"the route is {total:.6g} m long; at most {MAX_ROUTE_LENGTH_M:g} m are planned at once (split the route)",
+            file=src,
+            column="patches",
+        )
     v0 = _num(obj.get("v0_m_s", 0.0), "v0_m_s", src, lo=0.0)
     v1 = _num(obj.get("v_end_m_s", v0), "v_end_m_s", src, lo=0.0)
     objective = obj.get("objective", "time")

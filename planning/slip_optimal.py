@@ -24,7 +24,7 @@ import numpy as np
 from ..soilmodel import Vehicle, format_power, format_torque, thrust_function
 from .arguments import check_number
 from .forces import resistances, soil_thrust
-from .margin import resolve_terrain
+from .margin import resolve_terrain, terrain_soil_vector
 
 __all__ = ["SlipOptimum", "slip_optimal"]
 
@@ -69,13 +69,13 @@ class SlipOptimum:
 
     def report(self) -> str:
         """Plain-words summary."""
-        if self.slip_max_power is None:
+        sp, se = self.slip_max_power, self.slip_max_efficiency
+        if sp is None or se is None:  # both None together (no positive drawbar pull)
             return "no positive drawbar pull at any slip: the soil cannot overcome the resistance"
         L = [
-            f"largest drawbar power {format_power(self.max_drawbar_power_W)} at {self.slip_max_power * 100:.3g} % slip "
+            f"largest drawbar power {format_power(self.max_drawbar_power_W)} at {sp * 100:.3g} % slip "
             f"(sprocket speed {self.sprocket_speed_rad_s:.3g} rad/s)",
-            f"largest tractive efficiency {self.max_efficiency * 100:.3g} % at "
-            f"{self.slip_max_efficiency * 100:.3g} % slip",
+            f"largest tractive efficiency {self.max_efficiency * 100:.3g} % at {se * 100:.3g} % slip",
         ]
         if self.bands:
             a, b = self.bands["slip_max_power"]
@@ -176,7 +176,7 @@ def slip_optimal(
     Narr, req = resistances(vehicle, soil, np.array([th]), 0.0, 0.0)
     N = float(Narr[0])
     R = float(sum(v[0] for v in req.values()))
-    theta = soil.as_vector() if soil is not None else unc.soils_at(unc.mean, N)[0]
+    theta = terrain_soil_vector(soil, unc, N)
     sp, pp, se, ee, DP, P, eta = _optima(theta, vehicle, N, R, w, model)
     notes = []
     if sp is not None:

@@ -33,7 +33,7 @@ from ..soilmodel import Soil, Vehicle, format_force, format_torque, slip_from_th
 from ..soilmodel.sinkage import has_bekker, slip_at_sinkage, slip_sinkage, static_sinkage
 from .arguments import check_number
 from .forces import resistances, soil_thrust
-from .margin import DEFAULT_MAX_SLIP, resolve_terrain
+from .margin import DEFAULT_MAX_SLIP, resolve_terrain, terrain_soil_vector
 
 __all__ = ["Stuck", "stuck"]
 
@@ -99,13 +99,13 @@ class Stuck:
             f"  tracks spin above a sprocket torque of {format_torque(self.spin_torque_Nm)}",
         ]
         if self.torque_Nm is not None:
+            slip = self.slip_at_torque  # None when the torque spins the tracks
             L.append(
                 f"  at {format_torque(self.torque_Nm)}: "
                 + (
                     "the tracks spin (slip runs away towards 1)"
-                    if self.spins_at_torque
-                    else f"steady slip {self.slip_at_torque * 100:.3g} %, "
-                    f"{format_torque(self.torque_margin_Nm)} below spin"
+                    if self.spins_at_torque or slip is None
+                    else f"steady slip {slip * 100:.3g} %, {format_torque(self.torque_margin_Nm)} below spin"
                 )
             )
         if self.spin_track_speed_m_s is not None:
@@ -168,8 +168,8 @@ def stuck(
     )
     N = float(Narr[0])
     R = float(sum(v[0] for v in req.values()))
-    theta = soil.as_vector() if soil is not None else unc.soils_at(unc.mean, N)[0]
-    s = soil if soil is not None else Soil(*map(float, theta), name="fitted soil")
+    theta = terrain_soil_vector(soil, unc, N)
+    s = soil if soil is not None else Soil(float(theta[0]), float(theta[1]), float(theta[2]), name="fitted soil")
     F_spin = float(soil_thrust(theta, _FULL_SLIP, N, vehicle, model)[0])
     r = vehicle.sprocket_radius
     M_spin = r * F_spin

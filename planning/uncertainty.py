@@ -203,7 +203,9 @@ def uncertainty_from_fit(fit: Any) -> SoilUncertainty:
     cov = fit.covariance
     area = fit.vehicle.contact_area
     if cov is not None:
-        cov = np.asarray(cov, dtype=float)
+        # a fit with effects carries their parameters after the soil's: the soil's marginal covariance
+        # is its leading 3 x 3 block (the effects are not planned with, only the soil)
+        cov = np.asarray(cov, dtype=float)[: theta.size, : theta.size]
         if fit.model == "cohesion-free":
             return SoilUncertainty(
                 "parameters",

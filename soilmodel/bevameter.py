@@ -17,6 +17,7 @@ so that small displacements lose no digits.
 
 Units: SI (Pa, m, rad); k_c in N/m^(n+1), k_phi in N/m^(n+2).
 """
+
 from __future__ import annotations
 
 from functools import lru_cache
@@ -24,8 +25,15 @@ from functools import lru_cache
 import casadi as ca
 import numpy as np
 
-__all__ = ["shear_stress_expr", "plate_pressure_expr", "shear_stress_function", "plate_pressure_function",
-           "shear_stress", "plate_pressure", "MIN_RELATIVE_SINKAGE"]
+__all__ = [
+    "shear_stress_expr",
+    "plate_pressure_expr",
+    "shear_stress_function",
+    "plate_pressure_function",
+    "shear_stress",
+    "plate_pressure",
+    "MIN_RELATIVE_SINKAGE",
+]
 
 #: Floor of ``z / z_ref`` inside ``log`` in ``z^n = exp(n log z)``: keeps the branch CasADi also
 #: evaluates at z = 0 finite (the pressure there is exactly 0, and so are its derivatives).
@@ -64,7 +72,7 @@ def plate_pressure_expr(z, b, k_c, k_phi, n, z_ref=1.0):
         Bekker moduli (N/m^(n+1), N/m^(n+2)) and exponent (-).
     """
     ratio = ca.fmax(z / z_ref, MIN_RELATIVE_SINKAGE)
-    return ca.if_else(z > 0, (k_c / b + k_phi) * z_ref ** n * ca.exp(n * ca.log(ratio)), 0)
+    return ca.if_else(z > 0, (k_c / b + k_phi) * z_ref**n * ca.exp(n * ca.log(ratio)), 0)
 
 
 @lru_cache(maxsize=1)

@@ -74,14 +74,8 @@ def check_encoding(path: str, head: bytes, what: str = "text file") -> None:
         if head.startswith(bom):
             raise DataError(f"the {what} is {name} text: save it as UTF-8", file=path)
     if b"\0" in head:
-        if (
-            len(head) >= 2
-            and (head[1:2] == b"\0" or head[0:1] == b"\0")
-            and head.count(b"\0") * 3 >= len(head)
-        ):
-            raise DataError(
-                f"the {what} looks like UTF-16 text without a byte-order mark: save it as UTF-8", file=path
-            )
+        if len(head) >= 2 and (head[1:2] == b"\0" or head[0:1] == b"\0") and head.count(b"\0") * 3 >= len(head):
+            raise DataError(f"the {what} looks like UTF-16 text without a byte-order mark: save it as UTF-8", file=path)
         raise DataError(
             f"not a text file (NUL bytes in the first {len(head)} bytes): expected a UTF-8 {what}", file=path
         )
@@ -151,9 +145,7 @@ def bad_rows_error(mask: np.ndarray, path: str, column: str | None, reason: str)
     """A DataError naming how many rows ``mask`` (over 0-based data rows) marks and the first few."""
     idx = np.nonzero(mask)[0]
     rows = [int(i) + 1 for i in idx[:SHOWN_ROWS]]
-    text = (
-        reason if idx.size == 1 else f"{reason} - {idx.size} of {mask.size} rows: {rows_text(rows, idx.size)}"
-    )
+    text = reason if idx.size == 1 else f"{reason} - {idx.size} of {mask.size} rows: {rows_text(rows, idx.size)}"
     return DataError(text, file=path, column=column, rows=rows, count=int(idx.size))
 
 
@@ -168,15 +160,12 @@ def _parse(text: str) -> tuple[float, str | None]:
     if abs(v) > MAX_ABS_VALUE:
         return (
             v,
-            f"value {v:.6g} is beyond any physical value in these files "
-            f"(|x| <= {MAX_ABS_VALUE:g} in SI units)",
+            f"value {v:.6g} is beyond any physical value in these files (|x| <= {MAX_ABS_VALUE:g} in SI units)",
         )
     return v, None
 
 
-def read_columns(
-    path: str, header: list[str], used: list[str], limit: int | None = None
-) -> dict[str, np.ndarray]:
+def read_columns(path: str, header: list[str], used: list[str], limit: int | None = None) -> dict[str, np.ndarray]:
     """The ``used`` columns of the data rows as float arrays (streaming; see the module notes).
 
     Raises
@@ -217,8 +206,8 @@ def read_columns(
     if bad.count:
         reason, column = bad.first  # type: ignore[misc]
         if bad.count > 1:
-            cols = f" (columns {', '.join(sorted(bad.columns))})" if len(bad.columns) > 1 else ""
-            reason = f"{reason} - {bad.count} bad rows{cols}: {rows_text(bad.rows, bad.count)}"
+            named = f" (columns {', '.join(sorted(bad.columns))})" if len(bad.columns) > 1 else ""
+            reason = f"{reason} - {bad.count} bad rows{named}: {rows_text(bad.rows, bad.count)}"
         raise DataError(
             reason,
             file=path,

@@ -23,6 +23,7 @@ Two kinds of file, told apart by their columns:
 Bad input is refused with a :class:`~soiltrack.soilmodel.errors.DataError` that names the
 file, the column and the data row (row 1 is the first line after the header).
 """
+
 from __future__ import annotations
 
 import csv
@@ -111,29 +112,57 @@ class SlipData:
         cols = self.columns()
         _check_lengths(cols, self.source)
         _check_finite(cols, self.source)
-        problems = [bad_rows(self.slip < 0, "at negative slip (skid: braking, a locked wheel), outside the driving "
-                             "model (slip in [0, 1))", "slip", "--driving-only (read_csv(..., driving_only=True))")]
+        problems = [
+            bad_rows(
+                self.slip < 0,
+                "at negative slip (skid: braking, a locked wheel), outside the driving model (slip in [0, 1))",
+                "slip",
+                "--driving-only (read_csv(..., driving_only=True))",
+            )
+        ]
         if self.slip_angle is not None:
-            problems.append(bad_rows(self.slip_angle != 0, "at a non-zero slip angle (combined slip), outside the "
-                                     "straight-line model", "slip_angle_deg",
-                                     "--slip-angle 0 (read_csv(..., slip_angle=0))"))
+            problems.append(
+                bad_rows(
+                    self.slip_angle != 0,
+                    "at a non-zero slip angle (combined slip), outside the straight-line model",
+                    "slip_angle_deg",
+                    "--slip-angle 0 (read_csv(..., slip_angle=0))",
+                )
+            )
         raise_rows([q for q in problems if q is not None], self.source)
         _check_range(self.slip, "slip", self.source, lo=0.0, hi=1.0, hi_open=True, what="slip must lie in [0, 1)")
         if self.normal_load is not None:
-            _check_range(self.normal_load, "normal_load_N", self.source, lo=0.0, lo_open=True,
-                         what="normal load must be > 0 N")
+            _check_range(
+                self.normal_load, "normal_load_N", self.source, lo=0.0, lo_open=True, what="normal load must be > 0 N"
+            )
         if self.sinkage is not None:
             _check_range(self.sinkage, "sinkage_m", self.source, lo=0.0, what="sinkage must be >= 0 m")
         if self.force_std is not None:
-            raise_rows([q for q in [bad_rows(self.force_std <= 0, "with a standard deviation <= 0 (a reading's "
-                                             "weight is 1 / std^2)", STD_COLUMNS[self.measured], None)] if q],
-                       self.source)
+            raise_rows(
+                [
+                    q
+                    for q in [
+                        bad_rows(
+                            self.force_std <= 0,
+                            "with a standard deviation <= 0 (a reading's weight is 1 / std^2)",
+                            STD_COLUMNS[self.measured],
+                            None,
+                        )
+                    ]
+                    if q
+                ],
+                self.source,
+            )
 
     def columns(self) -> dict[str, np.ndarray]:
         """The sweep as ``{column name: values}`` in the CSV contract's names (given columns only)."""
         cols = {"slip": self.slip, self.channel: self.values}
-        for name, col in (("normal_load", "normal_load_N"), ("sinkage", "sinkage_m"),
-                          ("force_std", STD_COLUMNS[self.measured]), ("slip_angle", "slip_angle_deg")):
+        for name, col in (
+            ("normal_load", "normal_load_N"),
+            ("sinkage", "sinkage_m"),
+            ("force_std", STD_COLUMNS[self.measured]),
+            ("slip_angle", "slip_angle_deg"),
+        ):
             if getattr(self, name) is not None:
                 cols[col] = getattr(self, name)
         return cols
@@ -170,8 +199,10 @@ class SlipData:
         The source is annotated with the data rows taken (row 1 = first data row).
         """
         idx = _rows(index, self.n_samples, self.source)
-        kw = {name: None if getattr(self, name) is None else getattr(self, name)[idx]
-              for name in ("tractive_force", "drawbar_pull", "normal_load", "sinkage", "force_std", "slip_angle")}
+        kw = {
+            name: None if getattr(self, name) is None else getattr(self, name)[idx]
+            for name in ("tractive_force", "drawbar_pull", "normal_load", "sinkage", "force_std", "slip_angle")
+        }
         return SlipData(slip=self.slip[idx], source=_annotate(self.source, idx), dropped=self.dropped, **kw)
 
     def loads(self, default: float | None = None) -> np.ndarray:
@@ -190,6 +221,7 @@ class SlipData:
         if self.normal_load is None:
             return np.array([])
         from .ridge import distinct_loads
+
         return distinct_loads(self.normal_load)
 
 
@@ -259,11 +291,15 @@ class DriveLog:
         must stay in time order.
         """
         idx = _rows(index, self.n_samples, self.source)
-        return DriveLog(time=self.time[idx], sprocket_torque=self.sprocket_torque[idx],
-                        sprocket_speed=self.sprocket_speed[idx], vehicle_speed=self.vehicle_speed[idx],
-                        vehicle_accel=None if self.vehicle_accel is None else self.vehicle_accel[idx],
-                        source=_annotate(self.source, idx),
-                        turning=None if self.turning is None else self.turning[idx])
+        return DriveLog(
+            time=self.time[idx],
+            sprocket_torque=self.sprocket_torque[idx],
+            sprocket_speed=self.sprocket_speed[idx],
+            vehicle_speed=self.vehicle_speed[idx],
+            vehicle_accel=None if self.vehicle_accel is None else self.vehicle_accel[idx],
+            source=_annotate(self.source, idx),
+            turning=None if self.turning is None else self.turning[idx],
+        )
 
     def columns(self) -> dict[str, np.ndarray]:
         """The log as ``{column name: values}`` in the CSV contract's names."""
@@ -301,10 +337,21 @@ class ShearTest:
         cols = dict(zip(SHEAR_COLUMNS, (self.normal_pressure, self.shear_displacement, self.shear_stress)))
         _check_lengths(cols, self.source)
         _check_finite(cols, self.source)
-        _check_range(self.normal_pressure, "normal_pressure_Pa", self.source, lo=0.0, lo_open=True,
-                     what="normal pressure must be > 0 Pa")
-        _check_range(self.shear_displacement, "shear_displacement_m", self.source, lo=0.0,
-                     what="shear displacement must be >= 0 m")
+        _check_range(
+            self.normal_pressure,
+            "normal_pressure_Pa",
+            self.source,
+            lo=0.0,
+            lo_open=True,
+            what="normal pressure must be > 0 Pa",
+        )
+        _check_range(
+            self.shear_displacement,
+            "shear_displacement_m",
+            self.source,
+            lo=0.0,
+            what="shear displacement must be >= 0 m",
+        )
 
     @property
     def n_samples(self) -> int:
@@ -344,8 +391,9 @@ class PlateTest:
         cols = dict(zip(PLATE_COLUMNS, (self.plate_width, self.pressure, self.sinkage)))
         _check_lengths(cols, self.source)
         _check_finite(cols, self.source)
-        _check_range(self.plate_width, "plate_width_m", self.source, lo=0.0, lo_open=True,
-                     what="plate width must be > 0 m")
+        _check_range(
+            self.plate_width, "plate_width_m", self.source, lo=0.0, lo_open=True, what="plate width must be > 0 m"
+        )
         _check_range(self.sinkage, "sinkage_m", self.source, lo=0.0, what="sinkage must be >= 0 m")
 
     @property
@@ -387,8 +435,9 @@ def raise_rows(problems: list, source: str) -> None:
     if not problems:
         return
     rows = tuple(sorted({r for _, _, rr in problems for r in rr}))
-    raise DataError("; and ".join(m for m, _, _ in problems), file=source, column=problems[0][1],
-                    row=problems[0][2][0], rows=rows)
+    raise DataError(
+        "; and ".join(m for m, _, _ in problems), file=source, column=problems[0][1], row=problems[0][2][0], rows=rows
+    )
 
 
 def _rows(index, n: int, source: str) -> np.ndarray:
@@ -428,8 +477,13 @@ def _check_finite(cols: dict, source: str) -> None:
         huge = np.abs(values) > MAX_ABS_VALUE
         if huge.any():
             k = int(np.argmax(huge))
-            raise bad_rows_error(huge, source, name, f"value {values[k]:.6g} is beyond any physical value in "
-                                 f"these data (|x| <= {MAX_ABS_VALUE:g} in SI units)")
+            raise bad_rows_error(
+                huge,
+                source,
+                name,
+                f"value {values[k]:.6g} is beyond any physical value in "
+                f"these data (|x| <= {MAX_ABS_VALUE:g} in SI units)",
+            )
 
 
 def _check_increasing(values: np.ndarray, column: str, source: str) -> None:
@@ -438,8 +492,9 @@ def _check_increasing(values: np.ndarray, column: str, source: str) -> None:
     bad[1:] = np.diff(values) <= 0
     if bad.any():
         k = int(np.argmax(bad))
-        raise bad_rows_error(bad, source, column, f"time must be strictly increasing ({values[k - 1]:.6g} "
-                             f"then {values[k]:.6g})")
+        raise bad_rows_error(
+            bad, source, column, f"time must be strictly increasing ({values[k - 1]:.6g} then {values[k]:.6g})"
+        )
 
 
 def _check_range(values, column, source, *, lo=None, hi=None, lo_open=False, hi_open=False, what="") -> None:
@@ -453,8 +508,9 @@ def _check_range(values, column, source, *, lo=None, hi=None, lo_open=False, hi_
         raise bad_rows_error(bad, source, column, f"{what}, got {values[k]:.6g}")
 
 
-def read_csv(path: str | os.PathLike, *, driving_only: bool = False, slip_angle: float | None = None,
-             max_rows: int | None = None) -> SlipData | DriveLog | ShearTest | PlateTest:
+def read_csv(
+    path: str | os.PathLike, *, driving_only: bool = False, slip_angle: float | None = None, max_rows: int | None = None
+) -> SlipData | DriveLog | ShearTest | PlateTest:
     """Read a slip sweep, a drive log or a bevameter test (recognised by the columns).
 
     Parameters
@@ -485,8 +541,11 @@ def read_csv(path: str | os.PathLike, *, driving_only: bool = False, slip_angle:
     if dup:
         raise DataError(f"duplicate column(s) {dup}", file=path, column=dup[0])
     if "drawbar_pull_N" in header and "tractive_force_N" in header:
-        raise DataError("both tractive_force_N and drawbar_pull_N given: a sweep measures one of them", file=path,
-                        column="drawbar_pull_N")
+        raise DataError(
+            "both tractive_force_N and drawbar_pull_N given: a sweep measures one of them",
+            file=path,
+            column="drawbar_pull_N",
+        )
     if "shear_stress_Pa" in header or "shear_displacement_m" in header:
         kind, required, optional = "shear", SHEAR_COLUMNS, NO_COLUMNS
     elif "plate_width_m" in header or "pressure_Pa" in header:
@@ -501,13 +560,21 @@ def read_csv(path: str | os.PathLike, *, driving_only: bool = False, slip_angle:
         kind, required, optional = "drive", DRIVE_COLUMNS, DRIVE_OPTIONAL
     else:
         sep = next((s for s in (";", "\t", "|") if len(header) == 1 and s in header[0]), None)
-        hint = (f" - the header is separated by {'a tab' if sep == chr(9) else repr(sep)}: soiltrack reads "
-                "comma-separated CSV with a decimal point (save or export as 'CSV, comma')") if sep else ""
-        raise DataError(f"unrecognised columns {header}: expected {list(SLIP_COLUMNS)} (tractive force-slip "
-                        f"data), {list(DRAWBAR_COLUMNS)} (drawbar-pull data), {list(DRIVE_COLUMNS)} (drive log), "
-                        f"{list(SHEAR_COLUMNS)} (bevameter shear test) or {list(PLATE_COLUMNS)} (plate sinkage "
-                        f"test){hint}",
-                        file=path)
+        hint = (
+            (
+                f" - the header is separated by {'a tab' if sep == chr(9) else repr(sep)}: soiltrack reads "
+                "comma-separated CSV with a decimal point (save or export as 'CSV, comma')"
+            )
+            if sep
+            else ""
+        )
+        raise DataError(
+            f"unrecognised columns {header}: expected {list(SLIP_COLUMNS)} (tractive force-slip "
+            f"data), {list(DRAWBAR_COLUMNS)} (drawbar-pull data), {list(DRIVE_COLUMNS)} (drive log), "
+            f"{list(SHEAR_COLUMNS)} (bevameter shear test) or {list(PLATE_COLUMNS)} (plate sinkage "
+            f"test){hint}",
+            file=path,
+        )
     for col in required:
         if col not in header:
             raise DataError(f"missing required column (header has {header})", file=path, column=col)
@@ -519,37 +586,58 @@ def read_csv(path: str | os.PathLike, *, driving_only: bool = False, slip_angle:
         if val not in (False, None):
             raise DataError(f"{opt} applies to slip sweeps only, not to this {kind} file", file=path)
     if kind == "shear":
-        return ShearTest(normal_pressure=np.asarray(data["normal_pressure_Pa"]),
-                         shear_displacement=np.asarray(data["shear_displacement_m"]),
-                         shear_stress=np.asarray(data["shear_stress_Pa"]), source=path)
+        return ShearTest(
+            normal_pressure=np.asarray(data["normal_pressure_Pa"]),
+            shear_displacement=np.asarray(data["shear_displacement_m"]),
+            shear_stress=np.asarray(data["shear_stress_Pa"]),
+            source=path,
+        )
     if kind == "plate":
-        return PlateTest(plate_width=np.asarray(data["plate_width_m"]), pressure=np.asarray(data["pressure_Pa"]),
-                         sinkage=np.asarray(data["sinkage_m"]), source=path)
-    return DriveLog(time=data["time_s"], sprocket_torque=data["sprocket_torque_Nm"],
-                    sprocket_speed=data["sprocket_speed_rad_s"], vehicle_speed=data["vehicle_speed_m_s"],
-                    vehicle_accel=data.get("vehicle_accel_m_s2"), source=path)
+        return PlateTest(
+            plate_width=np.asarray(data["plate_width_m"]),
+            pressure=np.asarray(data["pressure_Pa"]),
+            sinkage=np.asarray(data["sinkage_m"]),
+            source=path,
+        )
+    return DriveLog(
+        time=data["time_s"],
+        sprocket_torque=data["sprocket_torque_Nm"],
+        sprocket_speed=data["sprocket_speed_rad_s"],
+        vehicle_speed=data["vehicle_speed_m_s"],
+        vehicle_accel=data.get("vehicle_accel_m_s2"),
+        source=path,
+    )
 
 
 def _read_two_track(path: str, header: list[str], max_rows: int | None) -> DriveLog:
     """A two-track drive log: summed torque, mean sprocket speed, turning samples marked."""
     combined = [c for c in ("sprocket_torque_Nm", "sprocket_speed_rad_s") if c in header]
     if combined:
-        raise DataError(f"both the combined column {combined[0]} and two-track columns given: a drive log has "
-                        f"either {list(DRIVE_COLUMNS)} or the left/right columns {list(TWO_TRACK_COLUMNS)}",
-                        file=path, column=combined[0])
+        raise DataError(
+            f"both the combined column {combined[0]} and two-track columns given: a drive log has "
+            f"either {list(DRIVE_COLUMNS)} or the left/right columns {list(TWO_TRACK_COLUMNS)}",
+            file=path,
+            column=combined[0],
+        )
     required = ("time_s", *TWO_TRACK_COLUMNS, "vehicle_speed_m_s")
     for col in required:
         if col not in header:
-            raise DataError(f"missing required column of a two-track drive log (header has {header})", file=path,
-                            column=col)
+            raise DataError(
+                f"missing required column of a two-track drive log (header has {header})", file=path, column=col
+            )
     used = [c for c in (*required, *DRIVE_OPTIONAL, YAW_COLUMN) if c in header]
     data = read_columns(path, header, used, max_rows)  # streamed, row limit, every bad row counted
     torque, speed = combine_tracks(*(data[c] for c in TWO_TRACK_COLUMNS))
-    turning = turning_mask(data["sprocket_speed_left_rad_s"], data["sprocket_speed_right_rad_s"],
-                           data.get(YAW_COLUMN))
-    return DriveLog(time=data["time_s"], sprocket_torque=torque, sprocket_speed=speed,
-                    vehicle_speed=data["vehicle_speed_m_s"], vehicle_accel=data.get("vehicle_accel_m_s2"),
-                    source=path, turning=turning)
+    turning = turning_mask(data["sprocket_speed_left_rad_s"], data["sprocket_speed_right_rad_s"], data.get(YAW_COLUMN))
+    return DriveLog(
+        time=data["time_s"],
+        sprocket_torque=torque,
+        sprocket_speed=speed,
+        vehicle_speed=data["vehicle_speed_m_s"],
+        vehicle_accel=data.get("vehicle_accel_m_s2"),
+        source=path,
+        turning=turning,
+    )
 
 
 def _slip_data(kind: str, data: dict, path: str, driving_only: bool, slip_angle: float | None) -> SlipData:
@@ -557,12 +645,18 @@ def _slip_data(kind: str, data: dict, path: str, driving_only: bool, slip_angle:
     measured = "drawbar_pull" if kind == "drawbar" else "tractive_force"
     other = STD_COLUMNS["tractive_force" if kind == "drawbar" else "drawbar_pull"]
     if other in data:
-        raise DataError(f"{other} is the standard deviation of the other quantity; this file measures "
-                        f"{MEASURED_COLUMNS[measured]} (its column is {STD_COLUMNS[measured]})", file=path,
-                        column=other)
+        raise DataError(
+            f"{other} is the standard deviation of the other quantity; this file measures "
+            f"{MEASURED_COLUMNS[measured]} (its column is {STD_COLUMNS[measured]})",
+            file=path,
+            column=other,
+        )
     if slip_angle is not None and slip_angle != 0:
-        raise DataError(f"--slip-angle {slip_angle:g}: the model is straight-line; only 0 can be kept", file=path,
-                        column="slip_angle_deg")
+        raise DataError(
+            f"--slip-angle {slip_angle:g}: the model is straight-line; only 0 can be kept",
+            file=path,
+            column="slip_angle_deg",
+        )
     arr = {c: np.asarray(v, dtype=float) for c, v in data.items()}
     keep = np.ones(arr["slip"].size, dtype=bool)
     dropped = []
@@ -571,33 +665,49 @@ def _slip_data(kind: str, data: dict, path: str, driving_only: bool, slip_angle:
             raise DataError("--slip-angle given but the file has no slip_angle_deg column", file=path)
         off = np.isfinite(arr["slip_angle_deg"]) & (arr["slip_angle_deg"] != slip_angle)
         if off.any():
-            dropped.append((f"at a slip angle other than {slip_angle:g} deg", "--slip-angle",
-                            tuple(int(k) + 1 for k in np.nonzero(off)[0])))
+            dropped.append(
+                (
+                    f"at a slip angle other than {slip_angle:g} deg",
+                    "--slip-angle",
+                    tuple(int(k) + 1 for k in np.nonzero(off)[0]),
+                )
+            )
         keep &= ~off
     if driving_only:
         skid = keep & np.isfinite(arr["slip"]) & (arr["slip"] < 0)
         if skid.any():
-            dropped.append(("at negative slip (skid)", "--driving-only",
-                            tuple(int(k) + 1 for k in np.nonzero(skid)[0])))
+            dropped.append(
+                ("at negative slip (skid)", "--driving-only", tuple(int(k) + 1 for k in np.nonzero(skid)[0]))
+            )
         keep &= ~skid
     if not keep.any():
         raise DataError(f"no rows left after dropping {sum(len(r) for _, _, r in dropped)}", file=path)
     kept = np.nonzero(keep)[0]
     col = {c: v[keep] for c, v in arr.items()}
     try:
-        return SlipData(slip=col["slip"], normal_load=col.get("normal_load_N"), source=path,
-                        sinkage=col.get("sinkage_m"), force_std=col.get(STD_COLUMNS[measured]),
-                        slip_angle=col.get("slip_angle_deg"), dropped=tuple(dropped),
-                        **{measured: col[MEASURED_COLUMNS[measured]]})
+        return SlipData(
+            slip=col["slip"],
+            normal_load=col.get("normal_load_N"),
+            source=path,
+            sinkage=col.get("sinkage_m"),
+            force_std=col.get(STD_COLUMNS[measured]),
+            slip_angle=col.get("slip_angle_deg"),
+            dropped=tuple(dropped),
+            **{measured: col[MEASURED_COLUMNS[measured]]},
+        )
     except DataError as e:  # rows of the kept data -> rows of the file
         if e.rows is None and e.row is None or not dropped:
             raise
         named = e.rows if e.rows is not None else (int(e.row or 1),)
         rows = tuple(int(kept[r - 1]) + 1 for r in named)
         n_drop = sum(len(r) for _, _, r in dropped)
-        raise DataError(f"{e.reason.replace(name_rows(named), name_rows(rows))} (rows of the file; "
-                        f"{n_drop} rows dropped before)", file=path, column=e.column, row=rows[0],
-                        rows=rows if e.rows else None) from None
+        raise DataError(
+            f"{e.reason.replace(name_rows(named), name_rows(rows))} (rows of the file; {n_drop} rows dropped before)",
+            file=path,
+            column=e.column,
+            row=rows[0],
+            rows=rows if e.rows else None,
+        ) from None
 
 
 def write_csv(data: SlipData | DriveLog | ShearTest | PlateTest, path) -> None:

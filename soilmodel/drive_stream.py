@@ -107,9 +107,7 @@ def read_drive_stream(path: str | os.PathLike) -> DriveStream:
     required = ("time_s", *sprocket, "vehicle_speed_m_s")
     for col in required:
         if col not in header:
-            raise DataError(
-                f"missing required column of a drive log (header has {header})", file=path, column=col
-            )
+            raise DataError(f"missing required column of a drive log (header has {header})", file=path, column=col)
     if len(rows) < 2:
         raise DataError("no data rows after the header", file=path)
     used = [c for c in (*required, *STREAM_OPTIONAL) if c in header]

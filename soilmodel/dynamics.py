@@ -26,6 +26,7 @@ The dynamics are stiff at low speed (slip settles in milliseconds): integrate th
 implicit method (the simulator uses CVODES) or use the quasi-static limit,
 :func:`slip_from_thrust`.
 """
+
 from __future__ import annotations
 
 from functools import lru_cache
@@ -34,16 +35,31 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from .effects import (DEFAULT_STANDSTILL_SPEED, EffectSet, EffectValues, effective_mass, effective_radius,
-                      motion_resistance, parse_effects, thrust_with_effects, thrust_with_effects_function,
-                      torque_loss)
+from .effects import (
+    DEFAULT_STANDSTILL_SPEED,
+    EffectSet,
+    EffectValues,
+    effective_mass,
+    effective_radius,
+    motion_resistance,
+    parse_effects,
+    thrust_with_effects,
+    thrust_with_effects_function,
+    torque_loss,
+)
 from .errors import DataError
 from .soil import Soil
 from .traction import check_model
 from .vehicle import Vehicle
 
-__all__ = ["SPROCKET_EQUATIONS", "slip_expr", "dynamics_expr", "dynamics_function", "slip_from_thrust",
-           "slip_from_thrust_function"]
+__all__ = [
+    "SPROCKET_EQUATIONS",
+    "slip_expr",
+    "dynamics_expr",
+    "dynamics_function",
+    "slip_from_thrust",
+    "slip_from_thrust_function",
+]
 
 #: The two sprocket equations: ``"thrust"`` (default, ``I dw/dt = M_s - r F``) and ``"seed"``
 #: (the seed's printed Eq. 3, ``I dw/dt = M_s - (F - W mu_r) r``).
@@ -68,9 +84,20 @@ def slip_expr(v, w, r, standstill_speed: float | None = DEFAULT_STANDSTILL_SPEED
     return ca.fmin(ca.fmax((rw - v) / ca.fmax(rw, v0), -1.0), 1.0)
 
 
-def dynamics_expr(v, w, M_s, c, phi, K, vehicle: Vehicle, effects: Any = None, *, model: str = "full",
-                  sprocket_equation: str = "thrust",
-                  standstill_speed: float | None = DEFAULT_STANDSTILL_SPEED) -> dict[str, Any]:
+def dynamics_expr(
+    v,
+    w,
+    M_s,
+    c,
+    phi,
+    K,
+    vehicle: Vehicle,
+    effects: Any = None,
+    *,
+    model: str = "full",
+    sprocket_equation: str = "thrust",
+    standstill_speed: float | None = DEFAULT_STANDSTILL_SPEED,
+) -> dict[str, Any]:
     """Symbolic right-hand side and intermediate signals of the dynamics.
 
     Parameters
@@ -117,13 +144,18 @@ def dynamics_expr(v, w, M_s, c, phi, K, vehicle: Vehicle, effects: Any = None, *
         dw = (M - r * F) / vehicle.sprocket_inertia
     else:
         dw = (M - (F - R) * r) / vehicle.sprocket_inertia
-    return {"dv": dv, "dw": dw, "slip": i, "thrust": F, "resistance": R, "torque_loss": loss, "radius": r,
-            "mass": m}
+    return {"dv": dv, "dw": dw, "slip": i, "thrust": F, "resistance": R, "torque_loss": loss, "radius": r, "mass": m}
 
 
 @lru_cache(maxsize=128)
-def _dyn_fn(vehicle: Vehicle, soil: Soil | None, effects: EffectSet, model: str, sprocket_equation: str,
-            standstill_speed: float | None) -> ca.Function:
+def _dyn_fn(
+    vehicle: Vehicle,
+    soil: Soil | None,
+    effects: EffectSet,
+    model: str,
+    sprocket_equation: str,
+    standstill_speed: float | None,
+) -> ca.Function:
     x = ca.SX.sym("x", 2)
     u = ca.SX.sym("u")
     c: ca.SX | float  # symbols (soil to identify) or the given soil's numbers
@@ -134,19 +166,41 @@ def _dyn_fn(vehicle: Vehicle, soil: Soil | None, effects: EffectSet, model: str,
         c, phi, K = p[0], p[1], p[2]
     else:
         c, phi, K = soil.cohesion, soil.friction_angle, soil.shear_modulus
-    d = dynamics_expr(x[0], x[1], u, c, phi, K, vehicle, effects, model=model,
-                      sprocket_equation=sprocket_equation, standstill_speed=standstill_speed)
-    outs = [ca.vertcat(d["dv"], d["dw"]), d["slip"], d["thrust"], d["resistance"],
-            ca.SX(d["torque_loss"]) if not isinstance(d["torque_loss"], ca.SX) else d["torque_loss"]]
+    d = dynamics_expr(
+        x[0],
+        x[1],
+        u,
+        c,
+        phi,
+        K,
+        vehicle,
+        effects,
+        model=model,
+        sprocket_equation=sprocket_equation,
+        standstill_speed=standstill_speed,
+    )
+    outs = [
+        ca.vertcat(d["dv"], d["dw"]),
+        d["slip"],
+        d["thrust"],
+        d["resistance"],
+        ca.SX(d["torque_loss"]) if not isinstance(d["torque_loss"], ca.SX) else d["torque_loss"],
+    ]
     names_out = ["xdot", "slip", "thrust", "resistance", "torque_loss"]
     if soil is None:
         return ca.Function("track_dynamics", [x, u, p], outs, ["x", "u", "p"], names_out)
     return ca.Function("track_dynamics", [x, u], outs, ["x", "u"], names_out)
 
 
-def dynamics_function(vehicle: Vehicle, soil: Soil | None = None, effects: Any = None, *, model: str = "full",
-                      sprocket_equation: str = "thrust",
-                      standstill_speed: float | None = DEFAULT_STANDSTILL_SPEED) -> ca.Function:
+def dynamics_function(
+    vehicle: Vehicle,
+    soil: Soil | None = None,
+    effects: Any = None,
+    *,
+    model: str = "full",
+    sprocket_equation: str = "thrust",
+    standstill_speed: float | None = DEFAULT_STANDSTILL_SPEED,
+) -> ca.Function:
     """The dynamics as a cached CasADi Function.
 
     Inputs ``x = [v, w]``, ``u = M_s`` and, when ``soil`` is ``None``, ``p = [c, phi, K]`` (SI).
@@ -156,8 +210,14 @@ def dynamics_function(vehicle: Vehicle, soil: Soil | None = None, effects: Any =
     """
     check_model(model)
     check_sprocket_equation(sprocket_equation)
-    return _dyn_fn(vehicle, soil, parse_effects(effects), model, sprocket_equation,
-                   None if not standstill_speed else float(standstill_speed))
+    return _dyn_fn(
+        vehicle,
+        soil,
+        parse_effects(effects),
+        model,
+        sprocket_equation,
+        None if not standstill_speed else float(standstill_speed),
+    )
 
 
 # --- quasi-static limit: slip as a function of thrust -------------------------------------------------
@@ -169,8 +229,9 @@ def _peak(fn, soil: Soil, W: np.ndarray, n: int = 400) -> tuple[np.ndarray, np.n
     """Largest F on [0, _SLIP_MAX] and the smallest slip where it occurs, per load (grid + refine)."""
     grid = np.concatenate([[0.0], np.geomspace(1e-5, _SLIP_MAX, n - 1)])
     S, WW = np.meshgrid(grid, W, indexing="xy")
-    F = np.asarray(fn(S.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus,
-                      WW.reshape(1, -1)), dtype=float).reshape(S.shape)
+    F = np.asarray(
+        fn(S.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus, WW.reshape(1, -1)), dtype=float
+    ).reshape(S.shape)
     k = np.argmax(F, axis=1)
     lo = grid[np.maximum(k - 1, 0)]
     hi = grid[np.minimum(k + 1, n - 1)]
@@ -179,23 +240,33 @@ def _peak(fn, soil: Soil, W: np.ndarray, n: int = 400) -> tuple[np.ndarray, np.n
     for _ in range(60):
         a = hi - gr * (hi - lo)
         b = lo + gr * (hi - lo)
-        Fa = np.asarray(fn(a.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus,
-                           W.reshape(1, -1)), dtype=float).ravel()
-        Fb = np.asarray(fn(b.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus,
-                           W.reshape(1, -1)), dtype=float).ravel()
+        Fa = np.asarray(
+            fn(a.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus, W.reshape(1, -1)), dtype=float
+        ).ravel()
+        Fb = np.asarray(
+            fn(b.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus, W.reshape(1, -1)), dtype=float
+        ).ravel()
         left = Fa >= Fb
         hi = np.where(left, b, hi)
         lo = np.where(left, lo, a)
     s_peak = 0.5 * (lo + hi)
-    F_peak = np.asarray(fn(s_peak.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus,
-                           W.reshape(1, -1)), dtype=float).ravel()
+    F_peak = np.asarray(
+        fn(s_peak.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus, W.reshape(1, -1)), dtype=float
+    ).ravel()
     F_grid_max = F[np.arange(F.shape[0]), k]
     better = F_grid_max > F_peak
     return np.where(better, grid[k], s_peak), np.maximum(F_peak, F_grid_max)
 
 
-def slip_from_thrust(thrust, soil: Soil, vehicle: Vehicle, effects: Any = None, model: str = "full",
-                     normal_load=None, return_reachable: bool = False):
+def slip_from_thrust(
+    thrust,
+    soil: Soil,
+    vehicle: Vehicle,
+    effects: Any = None,
+    model: str = "full",
+    normal_load=None,
+    return_reachable: bool = False,
+):
     """Slip at which the soil gives the thrust ``thrust`` (inverse of F(i)), numpy, vectorised.
 
     The rising branch of F(i) is inverted by bisection (60 halvings, then the slip is exact to
@@ -237,8 +308,10 @@ def slip_from_thrust(thrust, soil: Soil, vehicle: Vehicle, effects: Any = None, 
     tgt = np.minimum(target, F_pk)
     for _ in range(60):
         mid = 0.5 * (lo + hi)
-        Fm = np.asarray(fn(mid.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus,
-                           Wb.reshape(1, -1)), dtype=float).ravel()
+        Fm = np.asarray(
+            fn(mid.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus, Wb.reshape(1, -1)),
+            dtype=float,
+        ).ravel()
         below = Fm < tgt
         lo = np.where(below, mid, lo)
         hi = np.where(below, hi, mid)
@@ -258,12 +331,21 @@ def _inv_fn(vehicle: Vehicle, effects: EffectSet, model: str) -> ca.Function:
     i_c = ca.fmin(ca.fmax(i, -1.0), 1.0)
     # F on [-1, 1], continued linearly beyond (keeps Newton finite when |F| exceeds F(1))
     g = F_of(i_c, p) + dF1 * (i - i_c) - p[0]
-    rf = ca.rootfinder("slip_inverse_rf", "newton", {"x": i, "p": p, "g": g},
-                       {"abstol": 1e-10, "max_iter": 200, "error_on_fail": False})
+    rf = ca.rootfinder(
+        "slip_inverse_rf",
+        "newton",
+        {"x": i, "p": p, "g": g},
+        {"abstol": 1e-10, "max_iter": 200, "error_on_fail": False},
+    )
     Ft, c, phi, K, W = (ca.MX.sym(n) for n in ("F", "c", "phi", "K", "W"))
     sol = rf(x0=0.0, p=ca.vertcat(Ft, c, phi, K, W))["x"]
-    return ca.Function("slip_from_thrust", [Ft, c, phi, K, W], [ca.fmin(ca.fmax(sol, -1.0), 1.0)],
-                       ["F", "c", "phi", "K", "W"], ["slip"])
+    return ca.Function(
+        "slip_from_thrust",
+        [Ft, c, phi, K, W],
+        [ca.fmin(ca.fmax(sol, -1.0), 1.0)],
+        ["F", "c", "phi", "K", "W"],
+        ["slip"],
+    )
 
 
 def slip_from_thrust_function(vehicle: Vehicle, effects: Any = None, model: str = "full") -> ca.Function:

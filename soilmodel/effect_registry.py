@@ -34,6 +34,7 @@ sets):
 The physics of each effect lives in :mod:`.effect_terms` (resistance, torque, radius, mass)
 and :mod:`.thrust_effects` (thrust with effects); :mod:`.rig` is what a drawbar-pull rig reports.
 """
+
 from __future__ import annotations
 
 import math
@@ -45,8 +46,17 @@ import casadi as ca
 from .errors import DataError
 from .vehicle import Vehicle
 
-__all__ = ["ParamSpec", "EffectSpec", "EFFECTS", "EffectSet", "parse_effects", "effect_symbols", "parameter_bounds",
-           "parameter_scale", "effect_structure"]
+__all__ = [
+    "ParamSpec",
+    "EffectSpec",
+    "EFFECTS",
+    "EffectSet",
+    "parse_effects",
+    "effect_symbols",
+    "parameter_bounds",
+    "parameter_scale",
+    "effect_structure",
+]
 
 _INF = math.inf
 
@@ -114,8 +124,7 @@ class EffectSpec:
         for p in self.params:
             if p.name == name:
                 return p
-        raise DataError(f"effect '{self.name}' has no parameter '{name}'; valid: "
-                        f"{[p.name for p in self.params]}")
+        raise DataError(f"effect '{self.name}' has no parameter '{name}'; valid: {[p.name for p in self.params]}")
 
     @property
     def param_names(self) -> tuple[str, ...]:
@@ -126,50 +135,100 @@ class EffectSpec:
 #: Registry of the unmodelled effects of docs/physics.md (names are a public contract).
 EFFECTS: dict[str, EffectSpec] = {
     "grade": EffectSpec(
-        "grade", "unknown constant slope (or any constant extra motion resistance, e.g. Bekker compaction): "
+        "grade",
+        "unknown constant slope (or any constant extra motion resistance, e.g. Bekker compaction): "
         "normal load W cos(theta), extra resistance W sin(theta)",
         (ParamSpec("theta_rad", "rad", "slope angle, positive uphill", 0.0, lower=-1.2, upper=1.2),),
-        "theta_rad"),
+        "theta_rad",
+    ),
     "speed_resistance": EffectSpec(
-        "speed_resistance", "motion resistance growing with speed: N (mu_r + mu_v v)",
-        (ParamSpec("mu_v", "s/m", "speed coefficient of motion resistance", 0.0, lower=-1.0, upper=1.0,
-                   physical_sign=1),),
-        "mu_v", ("drive", "sweep")),
+        "speed_resistance",
+        "motion resistance growing with speed: N (mu_r + mu_v v)",
+        (
+            ParamSpec(
+                "mu_v", "s/m", "speed coefficient of motion resistance", 0.0, lower=-1.0, upper=1.0, physical_sign=1
+            ),
+        ),
+        "mu_v",
+        ("drive", "sweep"),
+    ),
     "slip_sinkage": EffectSpec(
-        "slip_sinkage", "slip-induced sinkage: resistance N (mu_r + mu_s |i|)",
-        (ParamSpec("mu_s", "-", "slip coefficient of motion resistance", 0.0, lower=-1.0, upper=2.0,
-                   physical_sign=1),),
-        "mu_s"),
+        "slip_sinkage",
+        "slip-induced sinkage: resistance N (mu_r + mu_s |i|)",
+        (ParamSpec("mu_s", "-", "slip coefficient of motion resistance", 0.0, lower=-1.0, upper=2.0, physical_sign=1),),
+        "mu_s",
+    ),
     "drivetrain_friction": EffectSpec(
-        "drivetrain_friction", "torque lost between the torque sensor and the track: tau_c sgn(w) + tau_v w",
-        (ParamSpec("tau_c", "N m", "Coulomb torque loss (both tracks)", 0.0, lower=-_INF, upper=_INF),
-         ParamSpec("tau_v", "N m s/rad", "viscous torque loss coefficient (both tracks)", 0.0,
-                   lower=-_INF, upper=_INF)),
-        "tau_c", ("drive",)),
+        "drivetrain_friction",
+        "torque lost between the torque sensor and the track: tau_c sgn(w) + tau_v w",
+        (
+            ParamSpec("tau_c", "N m", "Coulomb torque loss (both tracks)", 0.0, lower=-_INF, upper=_INF),
+            ParamSpec(
+                "tau_v", "N m s/rad", "viscous torque loss coefficient (both tracks)", 0.0, lower=-_INF, upper=_INF
+            ),
+        ),
+        "tau_c",
+        ("drive",),
+    ),
     "radius_error": EffectSpec(
-        "radius_error", "effective track radius r (1 + eps) in the slip and in the torque arm",
+        "radius_error",
+        "effective track radius r (1 + eps) in the slip and in the torque arm",
         (ParamSpec("eps", "-", "relative error of the effective radius", 0.0, lower=-0.5, upper=0.5),),
-        "eps"),
+        "eps",
+    ),
     "hump_shear": EffectSpec(
-        "hump_shear", "strain-softening soil: s(j) = (1 - exp(-j/K)) [1 - drop (1 - exp(-j/(k_ratio K)))]; "
+        "hump_shear",
+        "strain-softening soil: s(j) = (1 - exp(-j/K)) [1 - drop (1 - exp(-j/(k_ratio K)))]; "
         "shear stress peaks, then falls to the residual fraction 1 - drop",
-        (ParamSpec("drop", "-", "fraction of the Mohr-Coulomb strength lost at large shear displacement "
-                   "(residual = 1 - drop); 0 = Janosi-Hanamoto", 0.0, lower=0.0, upper=0.95),
-         ParamSpec("k_ratio", "-", "softening displacement modulus over K (K_s = k_ratio K); a hump needs "
-                   "k_ratio > 1", 5.0, default=5.0, lower=0.05, upper=1000.0)),
-        "drop", ("sweep", "drive")),
+        (
+            ParamSpec(
+                "drop",
+                "-",
+                "fraction of the Mohr-Coulomb strength lost at large shear displacement "
+                "(residual = 1 - drop); 0 = Janosi-Hanamoto",
+                0.0,
+                lower=0.0,
+                upper=0.95,
+            ),
+            ParamSpec(
+                "k_ratio",
+                "-",
+                "softening displacement modulus over K (K_s = k_ratio K); a hump needs k_ratio > 1",
+                5.0,
+                default=5.0,
+                lower=0.05,
+                upper=1000.0,
+            ),
+        ),
+        "drop",
+        ("sweep", "drive"),
+    ),
     "pressure_distribution": EffectSpec(
-        "pressure_distribution", "non-uniform normal pressure p(x) = p_mean [1 + e (2x/l - 1) + "
-        "alpha cos(2 pi n_w x / l)], x from the front",
-        (ParamSpec("e", "-", "front/rear shift (e > 0: more load on the rear)", 0.0, lower=-1.0, upper=1.0),
-         ParamSpec("alpha", "-", "amplitude of the road-wheel pressure peaks", 0.0, lower=-1.0, upper=1.0),
-         ParamSpec("n_w", "-", "number of road-wheel periods along the track (default: the vehicle's "
-                   "road wheels per side, else 5)", 5.0, default=None, lower=1.0, upper=50.0, integer=True)),
-        "e", ("sweep", "drive")),
+        "pressure_distribution",
+        "non-uniform normal pressure p(x) = p_mean [1 + e (2x/l - 1) + alpha cos(2 pi n_w x / l)], x from the front",
+        (
+            ParamSpec("e", "-", "front/rear shift (e > 0: more load on the rear)", 0.0, lower=-1.0, upper=1.0),
+            ParamSpec("alpha", "-", "amplitude of the road-wheel pressure peaks", 0.0, lower=-1.0, upper=1.0),
+            ParamSpec(
+                "n_w",
+                "-",
+                "number of road-wheel periods along the track (default: the vehicle's road wheels per side, else 5)",
+                5.0,
+                default=None,
+                lower=1.0,
+                upper=50.0,
+                integer=True,
+            ),
+        ),
+        "e",
+        ("sweep", "drive"),
+    ),
     "mass_error": EffectSpec(
-        "mass_error", "actual mass (payload) differs from the nominal: m (1 + delta), and W with it",
+        "mass_error",
+        "actual mass (payload) differs from the nominal: m (1 + delta), and W with it",
         (ParamSpec("delta", "-", "relative mass error", 0.0, lower=-0.9, upper=10.0),),
-        "delta"),
+        "delta",
+    ),
 }
 
 _ORDER = tuple(EFFECTS)
@@ -196,8 +255,9 @@ def _check_value(spec: EffectSpec, p: ParamSpec, value: Any) -> float:
     if not math.isfinite(v):
         raise DataError(f"{spec.name}.{p.name} must be finite, got {value!r}")
     if not p.lower <= v <= p.upper:
-        raise DataError(f"{spec.name}.{p.name} = {v:g} is outside its admissible range "
-                        f"[{p.lower:g}, {p.upper:g}] {p.unit}")
+        raise DataError(
+            f"{spec.name}.{p.name} = {v:g} is outside its admissible range [{p.lower:g}, {p.upper:g}] {p.unit}"
+        )
     if p.integer:
         if not v.is_integer():
             raise DataError(f"{spec.name}.{p.name} must be an integer, got {value!r}")
@@ -355,8 +415,10 @@ def parse_effects(spec: Any = None) -> EffectSet:
         for name, param, val in _split_cli(spec):
             put(name, param, val)
     else:
-        raise DataError(f"cannot read effects from {type(spec).__name__}: give a dict, a list of "
-                        f"'name=value' strings or None; valid effects: {_valid_names()}")
+        raise DataError(
+            f"cannot read effects from {type(spec).__name__}: give a dict, a list of "
+            f"'name=value' strings or None; valid effects: {_valid_names()}"
+        )
     entries = []
     for name in _ORDER:
         if name not in given:
@@ -375,8 +437,10 @@ def parse_effects(spec: Any = None) -> EffectSet:
             if e is None or alpha is None:  # impossible: both are real parameters with a float off value
                 raise RuntimeError("pressure_distribution: e or alpha has no value")
             if abs(e) + abs(alpha) > 1.0:
-                raise DataError(f"pressure_distribution: |e| + |alpha| = {abs(e) + abs(alpha):g} > 1 "
-                                "makes the normal pressure negative somewhere on the track")
+                raise DataError(
+                    f"pressure_distribution: |e| + |alpha| = {abs(e) + abs(alpha):g} > 1 "
+                    "makes the normal pressure negative somewhere on the track"
+                )
         entries.append((name, tuple(vals)))
     return EffectSet(tuple(entries))
 
@@ -403,8 +467,12 @@ def parameter_bounds(name: str, param: str, vehicle: Vehicle) -> tuple[float, fl
 def parameter_scale(name: str, param: str, vehicle: Vehicle) -> float:
     """Typical magnitude of an effect parameter (variable scaling for the solvers), SI."""
     if name == "drivetrain_friction":
-        return 0.01 * vehicle.weight * vehicle.sprocket_radius * (vehicle.sprocket_radius / 10.0 if param == "tau_v"
-                                                                  else 1.0)
+        return (
+            0.01
+            * vehicle.weight
+            * vehicle.sprocket_radius
+            * (vehicle.sprocket_radius / 10.0 if param == "tau_v" else 1.0)
+        )
     if name == "hump_shear" and param == "k_ratio":
         return 5.0
     return 1.0
@@ -423,6 +491,7 @@ def effect_structure(effects: Any, vehicle: Vehicle | None = None) -> "EffectSet
 
 
 # --- resolution of numeric or symbolic parameter values -------------------------------------------
+
 
 class EffectValues:
     """Resolved parameter values (floats or CasADi expressions) of the effects that are on."""
@@ -452,8 +521,11 @@ class EffectValues:
                     v = ps[p.name]
                     out[p.name] = v if isinstance(v, (ca.SX, ca.MX, ca.DM)) else _check_value(es, p, v)
                 elif p.integer:
-                    out[p.name] = (float(vehicle.road_wheels) if vehicle is not None and vehicle.road_wheels
-                                   else 5.0) if p.default is None else p.default
+                    out[p.name] = (
+                        (float(vehicle.road_wheels) if vehicle is not None and vehicle.road_wheels else 5.0)
+                        if p.default is None
+                        else p.default
+                    )
                 else:
                     out[p.name] = p.off_value if p.default is None else p.default
             for k in ps:
@@ -469,8 +541,9 @@ class EffectValues:
         return self.vals[key[0]][key[1]]
 
 
-def effect_symbols(effects: Any, sym: type[ca.SX] | type[ca.MX] = ca.SX, vehicle: Vehicle | None = None
-                   ) -> tuple[dict[str, dict[str, Any]], Any, list[str]]:
+def effect_symbols(
+    effects: Any, sym: type[ca.SX] | type[ca.MX] = ca.SX, vehicle: Vehicle | None = None
+) -> tuple[dict[str, dict[str, Any]], Any, list[str]]:
     """Symbols for the (non-integer) parameters of the effects that are on, for identification.
 
     Parameters

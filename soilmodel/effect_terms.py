@@ -4,6 +4,7 @@ Each is the nominal term when its effect is off, and written as ``nominal + para
 or ``nominal * (1 + parameter)`` or ``nominal * cos(parameter)`` when it is on (floats or
 CasADi expressions; effects as in :mod:`.effect_registry`).
 """
+
 from __future__ import annotations
 
 from functools import lru_cache
@@ -14,9 +15,19 @@ import casadi as ca
 from .effect_registry import EffectSet, EffectValues, effect_structure, effect_symbols
 from .vehicle import Vehicle
 
-__all__ = ["DEFAULT_STANDSTILL_SPEED", "DEFAULT_SLIP_WIDTH", "smooth_sign", "smooth_abs",
-           "effective_mass", "effective_weight", "effective_normal_load",
-           "effective_radius", "motion_resistance", "torque_loss", "normal_load_function"]
+__all__ = [
+    "DEFAULT_STANDSTILL_SPEED",
+    "DEFAULT_SLIP_WIDTH",
+    "smooth_sign",
+    "smooth_abs",
+    "effective_mass",
+    "effective_weight",
+    "effective_normal_load",
+    "effective_radius",
+    "motion_resistance",
+    "torque_loss",
+    "normal_load_function",
+]
 
 #: Below this speed (m/s) Coulomb-like terms (rolling resistance, Coulomb drivetrain friction)
 #: are regularised smoothly through zero; at and above it they are exactly the textbook terms.
@@ -49,7 +60,7 @@ def smooth_abs(x, width: float | None):
         return ca.fabs(x)
     w = float(width)
     x2 = x * x
-    inner = 3.0 * w / 8.0 + x2 * (3.0 / (4.0 * w) - x2 / (8.0 * w ** 3))
+    inner = 3.0 * w / 8.0 + x2 * (3.0 / (4.0 * w) - x2 / (8.0 * w**3))
     return ca.if_else(ca.fabs(x) >= w, ca.fabs(x), inner)
 
 
@@ -80,9 +91,15 @@ def effective_radius(vehicle: Vehicle, effects: Any = None):
     return r * (1 + ev["radius_error", "eps"]) if ev.on("radius_error") else r
 
 
-def motion_resistance(v, slip, vehicle: Vehicle, effects: Any = None, W=None,
-                      standstill_speed: float | None = DEFAULT_STANDSTILL_SPEED,
-                      slip_width: float | None = DEFAULT_SLIP_WIDTH):
+def motion_resistance(
+    v,
+    slip,
+    vehicle: Vehicle,
+    effects: Any = None,
+    W=None,
+    standstill_speed: float | None = DEFAULT_STANDSTILL_SPEED,
+    slip_width: float | None = DEFAULT_SLIP_WIDTH,
+):
     """Longitudinal motion resistance, N: nominal ``W mu_r`` plus the resistance effects.
 
     ``R = N (mu_r + mu_s |i|) sgn(v) + N mu_v v + W_a sin(theta)`` with ``N`` the actual normal
@@ -114,8 +131,7 @@ def motion_resistance(v, slip, vehicle: Vehicle, effects: Any = None, W=None,
     return R
 
 
-def torque_loss(w, vehicle: Vehicle, effects: Any = None,
-                standstill_speed: float | None = DEFAULT_STANDSTILL_SPEED):
+def torque_loss(w, vehicle: Vehicle, effects: Any = None, standstill_speed: float | None = DEFAULT_STANDSTILL_SPEED):
     """Drivetrain torque loss ``tau_c sgn(w) + tau_v w`` (0 when ``drivetrain_friction`` is off), N m.
 
     ``sgn(w)`` is :func:`smooth_sign` with width ``standstill_speed / r``.

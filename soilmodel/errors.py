@@ -57,9 +57,7 @@ class DataError(ValueError):
         if row is None and self.rows:
             row = self.rows[0]
         self.file, self.column, self.row, self.reason = file, column, row, message
-        self.count = (
-            int(count) if count is not None else (len(self.rows) if self.rows else int(row is not None))
-        )
+        self.count = int(count) if count is not None else (len(self.rows) if self.rows else int(row is not None))
         where = []
         if file is not None:
             where.append(f"file {file}")

@@ -37,9 +37,7 @@ def json_depth(text: str) -> int:
     b = np.frombuffer(bare, dtype=np.uint8)
     if b.size == 0:
         return 0
-    step = ((b == ord("{")) | (b == ord("["))).astype(np.int32) - ((b == ord("}")) | (b == ord("]"))).astype(
-        np.int32
-    )
+    step = ((b == ord("{")) | (b == ord("["))).astype(np.int32) - ((b == ord("}")) | (b == ord("]"))).astype(np.int32)
     return int(max(np.cumsum(step).max(), 0))
 
 
@@ -69,14 +67,10 @@ def load_json_file(path: str | os.PathLike, what: str = "JSON file") -> Any:
     except OSError as e:
         raise DataError(f"cannot read the {what}: {e.strerror}", file=src) from None
     if len(raw) > MAX_JSON_BYTES:
-        raise DataError(
-            f"the {what} is larger than {MAX_JSON_BYTES // 2**20} MB: not a file of this kind?", file=src
-        )
+        raise DataError(f"the {what} is larger than {MAX_JSON_BYTES // 2**20} MB: not a file of this kind?", file=src)
     check_encoding(src, raw[:4096], what)
     try:
         text = raw.decode("utf-8-sig")  # a UTF-8 byte-order mark (Windows editors) is fine
     except UnicodeDecodeError as e:
-        raise DataError(
-            f"not a UTF-8 text file (byte {e.start}): save the {what} as UTF-8", file=src
-        ) from None
+        raise DataError(f"not a UTF-8 text file (byte {e.start}): save the {what} as UTF-8", file=src) from None
     return loads_json(text, src, what)

@@ -6,6 +6,7 @@ one-load data, labelled as NOT an estimate), and the ranges of c and phi along t
 an interval of F_max. ``N`` is the actual normal load (the nominal W, or W with effects).
 F_max itself is :func:`~soiltrack.soilmodel.traction.max_thrust_expr`.
 """
+
 from __future__ import annotations
 
 import math
@@ -15,8 +16,17 @@ import numpy as np
 from .soil import SoilBounds
 from .traction import max_thrust_expr
 
-__all__ = ["fmax_range", "ridge_centre", "ridge_ranges", "one_load", "LOAD_RTOL", "distinct_loads",
-           "MAX_LOAD_LEVELS", "continuous_load", "load_summary_points"]
+__all__ = [
+    "fmax_range",
+    "ridge_centre",
+    "ridge_ranges",
+    "one_load",
+    "LOAD_RTOL",
+    "distinct_loads",
+    "MAX_LOAD_LEVELS",
+    "continuous_load",
+    "load_summary_points",
+]
 
 #: Relative tolerance below which two normal loads are the same load (one home for "one load").
 LOAD_RTOL = 1e-9

@@ -3,6 +3,7 @@
 One home for the observation model of slip sweeps, used by the simulator
 (:func:`~soiltrack.soilmodel.simulate_slip_sweep`) and by every slip fit.
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -33,8 +34,18 @@ def rig_true_slip(i_app, vehicle: Vehicle, effects: Any = None):
     return (i_app + eps) / (1 + eps)
 
 
-def sweep_measurement(i_app, W, c, phi, K, vehicle: Vehicle, effects: Any = None, model: str = "full",
-                      measured: str = "tractive_force", rig_speed: float = DEFAULT_RIG_SPEED):
+def sweep_measurement(
+    i_app,
+    W,
+    c,
+    phi,
+    K,
+    vehicle: Vehicle,
+    effects: Any = None,
+    model: str = "full",
+    measured: str = "tractive_force",
+    rig_speed: Any = DEFAULT_RIG_SPEED,
+):
     """What a drawbar-pull rig reports at apparent slip ``i_app`` and nominal load ``W`` (symbolic).
 
     The rig runs the track at speed ``r w = rig_speed`` (so ``v = rig_speed (1 - i_app)``)

@@ -59,8 +59,7 @@ class RigidWheel:
                 )
         if self.grouser_height >= self.radius:
             raise DataError(
-                f"wheel grouser_height ({self.grouser_height:g} m) must be below the radius "
-                f"({self.radius:g} m)"
+                f"wheel grouser_height ({self.grouser_height:g} m) must be below the radius ({self.radius:g} m)"
             )
 
     @property

@@ -20,6 +20,7 @@ Slip sweeps (:func:`simulate_slip_sweep`)
 Noise (:class:`SensorNoise`) is white and Gaussian per channel, standard deviation
 ``sqrt(abs^2 + (rel * |signal|)^2)``, reproducible through ``seed``.
 """
+
 from __future__ import annotations
 
 import math
@@ -33,15 +34,33 @@ import numpy as np
 from .threadsafe import call_solver, locked_cache
 from .data import DriveLog, SlipData
 from .dynamics import check_sprocket_equation, dynamics_function, slip_expr
-from .effects import (DEFAULT_RIG_SPEED, DEFAULT_STANDSTILL_SPEED, SWEEP_MEASURES, EffectSet, EffectValues,
-                      parse_effects, smooth_sign, sweep_measurement)
+from .effects import (
+    DEFAULT_RIG_SPEED,
+    DEFAULT_STANDSTILL_SPEED,
+    SWEEP_MEASURES,
+    EffectSet,
+    EffectValues,
+    parse_effects,
+    smooth_sign,
+    sweep_measurement,
+)
 from .errors import DataError
 from .soil import Soil
 from .traction import check_model
 from .vehicle import Vehicle
 
-__all__ = ["SensorNoise", "DriveLimits", "drive_limits", "default_speed_profile", "simulate", "simulate_drive_log",
-           "simulate_slip_sweep", "DEFAULT_SLIPS", "cruise_speed", "hard_acceleration"]
+__all__ = [
+    "SensorNoise",
+    "DriveLimits",
+    "drive_limits",
+    "default_speed_profile",
+    "simulate",
+    "simulate_drive_log",
+    "simulate_slip_sweep",
+    "DEFAULT_SLIPS",
+    "cruise_speed",
+    "hard_acceleration",
+]
 
 #: Power-to-mass ratio assumed when a vehicle gives no power limit, W/kg (typical of tracked
 #: vehicles: 15 W/kg gives 500 kW for the 33.5 t heavy vehicle, 460 W for the 30.6 kg light one).
@@ -49,8 +68,9 @@ DEFAULT_POWER_PER_MASS = 15.0
 #: Thrust-to-weight ratio of the torque limit assumed when a vehicle gives none (T = 0.8 W r).
 DEFAULT_TORQUE_THRUST_RATIO = 0.8
 #: Default set slips of a sweep (measured slip, as the rig computes it with the nominal radius).
-DEFAULT_SLIPS = tuple(float(s) for s in np.round(np.concatenate([np.linspace(0.01, 0.1, 10),
-                                                                  np.linspace(0.15, 0.7, 12)]), 6))
+DEFAULT_SLIPS = tuple(
+    float(s) for s in np.round(np.concatenate([np.linspace(0.01, 0.1, 10), np.linspace(0.15, 0.7, 12)]), 6)
+)
 
 
 @dataclass(frozen=True)
@@ -108,7 +128,7 @@ def _noise(noise: Any) -> SensorNoise:
 
 
 def _std(rng: np.random.Generator, x: np.ndarray, abs_: float, rel: float) -> np.ndarray:
-    sd = np.sqrt(abs_ ** 2 + (rel * np.abs(x)) ** 2)
+    sd = np.sqrt(abs_**2 + (rel * np.abs(x)) ** 2)
     return x + sd * rng.standard_normal(x.shape)
 
 
@@ -133,7 +153,9 @@ def drive_limits(vehicle: Vehicle) -> DriveLimits:
     return DriveLimits(
         float(t) if t else DEFAULT_TORQUE_THRUST_RATIO * vehicle.weight * vehicle.sprocket_radius,
         float(p) if p else DEFAULT_POWER_PER_MASS * vehicle.mass,
-        not t, not p)
+        not t,
+        not p,
+    )
 
 
 def cruise_speed(vehicle: Vehicle) -> float:
@@ -151,7 +173,7 @@ def hard_acceleration(vehicle: Vehicle) -> float:
     """
     lim = drive_limits(vehicle)
     r = vehicle.sprocket_radius
-    m_eq = vehicle.mass + vehicle.sprocket_inertia / r ** 2
+    m_eq = vehicle.mass + vehicle.sprocket_inertia / r**2
     return 1.5 * lim.max_sprocket_torque / (r * m_eq)
 
 
@@ -175,16 +197,31 @@ def default_speed_profile(vehicle: Vehicle, duration_s: float = 60.0) -> Callabl
     vc = cruise_speed(vehicle)
     T = float(duration_s)
     a = hard_acceleration(vehicle)
-    kt = [0.0, 0.04 * T, 0.04 * T + vc / a, 0.15 * T, 0.25 * T, 0.43 * T, 0.5 * T, 0.55 * T, 0.55 * T + vc / a,
-          0.65 * T, 0.75 * T, 0.8 * T, 0.9 * T, T]
+    kt_list = [
+        0.0,
+        0.04 * T,
+        0.04 * T + vc / a,
+        0.15 * T,
+        0.25 * T,
+        0.43 * T,
+        0.5 * T,
+        0.55 * T,
+        0.55 * T + vc / a,
+        0.65 * T,
+        0.75 * T,
+        0.8 * T,
+        0.9 * T,
+        T,
+    ]
     kv = np.array([0.0, 0.0, 1.0, 1.0, 0.5, 0.5, 0.0, 0.0, 1.0, 1.0, 0.3, 0.3, 0.7, 0.7]) * vc
-    kt = np.maximum.accumulate(np.array(kt))
+    kt = np.maximum.accumulate(np.array(kt_list))
 
     def profile(t):
         t = np.asarray(t, dtype=float)
         base = np.interp(t, kt, kv)
-        wiggle = np.where((t > 0.28 * T) & (t < 0.43 * T),
-                          0.04 * vc * np.sin(2 * np.pi * (t - 0.28 * T) / (0.05 * T)), 0.0)
+        wiggle = np.where(
+            (t > 0.28 * T) & (t < 0.43 * T), 0.04 * vc * np.sin(2 * np.pi * (t - 0.28 * T) / (0.05 * T)), 0.0
+        )
         return base + wiggle
 
     return profile
@@ -208,24 +245,38 @@ def _reference(vehicle: Vehicle, duration_s: float, t: np.ndarray, speed_profile
 
 
 @locked_cache(maxsize=32)
-def _closed_loop(vehicle: Vehicle, soil: Soil, effects: EffectSet, model: str, sprocket_equation: str,
-                 h: float, n_steps: int, limits: DriveLimits, bandwidth: float) -> ca.Function:
+def _closed_loop(
+    vehicle: Vehicle,
+    soil: Soil,
+    effects: EffectSet,
+    model: str,
+    sprocket_equation: str,
+    h: float,
+    n_steps: int,
+    limits: DriveLimits,
+    bandwidth: float,
+) -> ca.Function:
     """Closed-loop simulation over n_steps sample intervals: ZOH PI speed control + CVODES plant."""
     dyn = dynamics_function(vehicle, soil, effects, model=model, sprocket_equation=sprocket_equation)
     x = ca.MX.sym("x", 2)
     u = ca.MX.sym("u")
-    plant = ca.integrator("plant", "cvodes", {"x": x, "p": u, "ode": dyn(x, u)[0]}, 0.0, h,
-                          {"abstol": 1e-9, "reltol": 1e-8, "max_num_steps": 200000, "show_eval_warnings": False})
+    plant = ca.integrator(
+        "plant",
+        "cvodes",
+        {"x": x, "p": u, "ode": dyn(x, u)[0]},
+        0.0,
+        h,
+        {"abstol": 1e-9, "reltol": 1e-8, "max_num_steps": 200000, "show_eval_warnings": False},
+    )
     r, I = vehicle.sprocket_radius, vehicle.sprocket_inertia
-    m_eq = vehicle.mass + I / r ** 2
+    m_eq = vehicle.mass + I / r**2
     kp = 2.0 * bandwidth * m_eq  # N per m/s (critically damped on the rigid-body plant)
-    ki = bandwidth ** 2 * m_eq  # N per m
+    ki = bandwidth**2 * m_eq  # N per m
     xa = ca.MX.sym("xa", 3)  # v, w, integral of the speed error
     ref = ca.MX.sym("ref", 2)  # v_ref, dv_ref/dt
     v, w, z = xa[0], xa[1], xa[2]
     err = ref[0] - v
-    ff = vehicle.weight * vehicle.rolling_resistance * smooth_sign(ref[0], DEFAULT_STANDSTILL_SPEED) \
-        + m_eq * ref[1]
+    ff = vehicle.weight * vehicle.rolling_resistance * smooth_sign(ref[0], DEFAULT_STANDSTILL_SPEED) + m_eq * ref[1]
     m_uns = r * (ff + kp * err + ki * z)
     w_floor = 0.05 * limits.max_power / limits.max_sprocket_torque
     m_lim = ca.fmin(limits.max_sprocket_torque, limits.max_power / ca.fmax(ca.fabs(w), w_floor))
@@ -237,12 +288,23 @@ def _closed_loop(vehicle: Vehicle, soil: Soil, effects: EffectSet, model: str, s
     return step.mapaccum("closed_loop", n_steps)
 
 
-def simulate_drive_log(vehicle: Vehicle, soil: Soil, *, effects: Any = None, seed: int | None = None,
-                       noise: Any = "default", model: str = "full", duration_s: float = 60.0,
-                       sample_rate_hz: float = 50.0, speed_profile: Any = None,
-                       sprocket_equation: str = "thrust", controller_bandwidth: float = 1.0,
-                       with_accel: bool = True, return_truth: bool = False,
-                       soil_changes: Sequence[tuple[float, Soil]] = ()):
+def simulate_drive_log(
+    vehicle: Vehicle,
+    soil: Soil,
+    *,
+    effects: Any = None,
+    seed: int | None = None,
+    noise: Any = "default",
+    model: str = "full",
+    duration_s: float = 60.0,
+    sample_rate_hz: float = 50.0,
+    speed_profile: Any = None,
+    sprocket_equation: str = "thrust",
+    controller_bandwidth: float = 1.0,
+    with_accel: bool = True,
+    return_truth: bool = False,
+    soil_changes: Sequence[tuple[float, Soil]] = (),
+):
     """Simulate a straight-line drive log (the columns of docs/data-formats.md).
 
     Parameters
@@ -290,8 +352,11 @@ def simulate_drive_log(vehicle: Vehicle, soil: Soil, *, effects: Any = None, see
     check_sprocket_equation(sprocket_equation)
     eff = parse_effects(effects)
     nz = _noise(noise)
-    for name, val in (("duration_s", duration_s), ("sample_rate_hz", sample_rate_hz),
-                      ("controller_bandwidth", controller_bandwidth)):
+    for name, val in (
+        ("duration_s", duration_s),
+        ("sample_rate_hz", sample_rate_hz),
+        ("controller_bandwidth", controller_bandwidth),
+    ):
         if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
             raise DataError(f"{name} must be a finite number > 0, got {val!r}")
     h = 1.0 / float(sample_rate_hz)
@@ -305,13 +370,15 @@ def simulate_drive_log(vehicle: Vehicle, soil: Soil, *, effects: Any = None, see
     soils, starts = _soil_segments(soil, soil_changes, h, n)
     X_parts, M_parts = [np.zeros((3, 1))], []
     for j, (k0, k1) in enumerate(zip(starts, starts[1:])):
-        sim = _closed_loop(vehicle, soils[j], eff, model, sprocket_equation, h, k1 - k0, limits,
-                           float(controller_bandwidth))
+        sim = _closed_loop(
+            vehicle, soils[j], eff, model, sprocket_equation, h, k1 - k0, limits, float(controller_bandwidth)
+        )
         try:
             (Xj, Mj), _ = call_solver(sim, X_parts[-1][:, -1], np.vstack([vref[k0:k1], dvref[k0:k1]]))
         except RuntimeError as exc:  # CVODES gave up (e.g. an absurd speed profile)
-            raise DataError(f"simulation failed: the integrator did not converge ({str(exc).splitlines()[-1]})") \
-                from None
+            raise DataError(
+                f"simulation failed: the integrator did not converge ({str(exc).splitlines()[-1]})"
+            ) from None
         X_parts.append(np.asarray(Xj).reshape(3, -1))
         M_parts.append(np.asarray(Mj).ravel())
     X = np.hstack(X_parts)
@@ -322,9 +389,14 @@ def simulate_drive_log(vehicle: Vehicle, soil: Soil, *, effects: Any = None, see
         raise DataError("simulation produced non-finite values (integration failed)")
     soil_index = np.zeros(n, dtype=int)
     for j, k0 in enumerate(starts[1:-1], start=1):
-        soil_index[k0 + 1:] = j        # sample k0 + 1 is the first reached on soil j
-    xdot, slip, thrust, res, loss = (np.empty((2, n)), np.empty((1, n)), np.empty((1, n)), np.empty((1, n)),
-                                     np.empty((1, n)))
+        soil_index[k0 + 1 :] = j  # sample k0 + 1 is the first reached on soil j
+    xdot, slip, thrust, res, loss = (
+        np.empty((2, n)),
+        np.empty((1, n)),
+        np.empty((1, n)),
+        np.empty((1, n)),
+        np.empty((1, n)),
+    )
     for j, sj in enumerate(soils):
         sel = np.nonzero(soil_index == j)[0]
         if sel.size == 0:
@@ -335,9 +407,21 @@ def simulate_drive_log(vehicle: Vehicle, soil: Soil, *, effects: Any = None, see
             arr[:, sel] = o
     r_nom = vehicle.sprocket_radius
     slip_app = np.asarray(_slip_fn()(v.reshape(1, -1), w.reshape(1, -1), r_nom), dtype=float).ravel()
-    truth = {"time": t, "v": v, "w": w, "slip": slip[0], "slip_apparent": slip_app, "thrust": thrust[0],
-             "resistance": res[0], "torque": M, "torque_loss": loss[0], "accel": xdot[0], "dw_dt": xdot[1],
-             "v_ref": vref, "limits": limits}
+    truth = {
+        "time": t,
+        "v": v,
+        "w": w,
+        "slip": slip[0],
+        "slip_apparent": slip_app,
+        "thrust": thrust[0],
+        "resistance": res[0],
+        "torque": M,
+        "torque_loss": loss[0],
+        "accel": xdot[0],
+        "dw_dt": xdot[1],
+        "v_ref": vref,
+        "limits": limits,
+    }
     if soil_changes:
         truth["soil_index"] = soil_index
     rng = np.random.default_rng(seed)
@@ -347,7 +431,8 @@ def simulate_drive_log(vehicle: Vehicle, soil: Soil, *, effects: Any = None, see
         sprocket_speed=_std(rng, w, nz.encoder_abs, nz.encoder_rel),
         vehicle_speed=_std(rng, v, nz.gnss_speed, 0.0),
         vehicle_accel=_std(rng, xdot[0], nz.imu_accel, 0.0) if with_accel else None,
-        source=f"simulated drive log ({vehicle.name or 'vehicle'}, {soil.name or 'soil'}, effects: {eff})")
+        source=f"simulated drive log ({vehicle.name or 'vehicle'}, {soil.name or 'soil'}, effects: {eff})",
+    )
     return (log, truth) if return_truth else log
 
 
@@ -360,8 +445,13 @@ def _soil_segments(soil: Soil, changes, h: float, n: int) -> tuple[list[Soil], l
             t_c, s_c = item
         except (TypeError, ValueError):
             raise DataError(f"soil_changes must be (time_s, Soil) pairs, got {item!r}") from None
-        if not isinstance(s_c, Soil) or isinstance(t_c, bool) or not isinstance(t_c, (int, float)) \
-                or not math.isfinite(t_c) or t_c <= last_t:
+        if (
+            not isinstance(s_c, Soil)
+            or isinstance(t_c, bool)
+            or not isinstance(t_c, (int, float))
+            or not math.isfinite(t_c)
+            or t_c <= last_t
+        ):
             raise DataError(f"soil_changes must be (time_s, Soil) pairs in increasing time, got {item!r}")
         k = int(round(t_c / h))
         if not 0 < k < n - 1:
@@ -372,10 +462,20 @@ def _soil_segments(soil: Soil, changes, h: float, n: int) -> tuple[list[Soil], l
     return soils, starts + [n - 1]
 
 
-def simulate_slip_sweep(vehicle: Vehicle, soil: Soil, *, slips: Sequence[float] | None = None,
-                        normal_loads: Sequence[float] | None = None, effects: Any = None, seed: int | None = None,
-                        noise: Any = "default", model: str = "full", rig_speed: float = DEFAULT_RIG_SPEED,
-                        measure: str = "tractive_force", return_truth: bool = False):
+def simulate_slip_sweep(
+    vehicle: Vehicle,
+    soil: Soil,
+    *,
+    slips: Sequence[float] | None = None,
+    normal_loads: Sequence[float] | None = None,
+    effects: Any = None,
+    seed: int | None = None,
+    noise: Any = "default",
+    model: str = "full",
+    rig_speed: float = DEFAULT_RIG_SPEED,
+    measure: str = "tractive_force",
+    return_truth: bool = False,
+):
     """Simulate a drawbar-pull slip sweep: tractive force at set slips and normal loads.
 
     Parameters
@@ -429,8 +529,12 @@ def simulate_slip_sweep(vehicle: Vehicle, soil: Soil, *, slips: Sequence[float] 
         raise DataError(f"measure must be one of {SWEEP_MEASURES}, got {measure!r}")
     S, Wn = (a.ravel() for a in np.meshgrid(s, loads, indexing="xy"))
     fn = _sweep_fn(vehicle, eff, model, measure)
-    slip_true, thrust, reported = (np.asarray(a, dtype=float).ravel() for a in fn(
-        S.reshape(1, -1), Wn.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus, rig_speed))
+    slip_true, thrust, reported = (
+        np.asarray(a, dtype=float).ravel()
+        for a in fn(
+            S.reshape(1, -1), Wn.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus, rig_speed
+        )
+    )
     rng = np.random.default_rng(seed)
     F_meas = _std(rng, reported, nz.force_abs, nz.force_rel)
     s_meas = np.clip(_std(rng, S, nz.slip_abs, 0.0), 0.0, 0.999)
@@ -440,8 +544,7 @@ def simulate_slip_sweep(vehicle: Vehicle, soil: Soil, *, slips: Sequence[float] 
     else:
         data = SlipData(slip=s_meas, tractive_force=F_meas, normal_load=Wn if loads_given else None, source=src)
     if return_truth:
-        return data, {"slip": S, "slip_true": slip_true, measure: reported, "thrust": thrust,
-                      "normal_load": Wn}
+        return data, {"slip": S, "slip_true": slip_true, measure: reported, "thrust": thrust, "normal_load": Wn}
     return data
 
 
@@ -459,16 +562,30 @@ def _sweep_fn(vehicle: Vehicle, effects: EffectSet, model: str, measured: str = 
     return ca.Function("sweep", [i_app, W, c, phi, K, rig], [i_true, F, rep])
 
 
-def simulate(vehicle: Vehicle, soil: Soil, *, kind: str = "drive", effects: Any = None, seed: int | None = None,
-             noise: Any = "default", model: str = "full", duration_s: float | None = None,
-             sample_rate_hz: float | None = None, speed_profile: Any = None, slips: Sequence[float] | None = None,
-             normal_loads: Sequence[float] | None = None, sprocket_equation: str = "thrust",
-             measure: str = "tractive_force", return_truth: bool = False):
+def simulate(
+    vehicle: Vehicle,
+    soil: Soil,
+    *,
+    kind: str = "drive",
+    effects: Any = None,
+    seed: int | None = None,
+    noise: Any = "default",
+    model: str = "full",
+    duration_s: float | None = None,
+    sample_rate_hz: float | None = None,
+    speed_profile: Any = None,
+    slips: Sequence[float] | None = None,
+    normal_loads: Sequence[float] | None = None,
+    sprocket_equation: str = "thrust",
+    measure: str = "tractive_force",
+    return_truth: bool = False,
+):
     """Simulate a drive log (``kind="drive"``) or a drawbar-pull slip sweep (``kind="sweep"``).
 
     Dispatches to :func:`simulate_drive_log` (``duration_s`` default 60, ``sample_rate_hz``
     default 50, ``speed_profile``, ``sprocket_equation``) or :func:`simulate_slip_sweep`
-    (``slips``, ``normal_loads``, ``measure``: ``"tractive_force"`` or ``"drawbar_pull"``). Arguments that belong to the other kind are refused.
+    (``slips``, ``normal_loads``, ``measure``: ``"tractive_force"`` or ``"drawbar_pull"``).
+    Arguments that belong to the other kind are refused.
 
     Returns
     -------
@@ -477,16 +594,34 @@ def simulate(vehicle: Vehicle, soil: Soil, *, kind: str = "drive", effects: Any 
     if kind == "drive":
         if slips is not None or normal_loads is not None or measure != "tractive_force":
             raise DataError("slips, normal_loads and measure belong to kind='sweep', not to a drive log")
-        return simulate_drive_log(vehicle, soil, effects=effects, seed=seed, noise=noise, model=model,
-                                  duration_s=60.0 if duration_s is None else duration_s,
-                                  sample_rate_hz=50.0 if sample_rate_hz is None else sample_rate_hz,
-                                  speed_profile=speed_profile, sprocket_equation=sprocket_equation,
-                                  return_truth=return_truth)
+        return simulate_drive_log(
+            vehicle,
+            soil,
+            effects=effects,
+            seed=seed,
+            noise=noise,
+            model=model,
+            duration_s=60.0 if duration_s is None else duration_s,
+            sample_rate_hz=50.0 if sample_rate_hz is None else sample_rate_hz,
+            speed_profile=speed_profile,
+            sprocket_equation=sprocket_equation,
+            return_truth=return_truth,
+        )
     if kind == "sweep":
         if duration_s is not None or sample_rate_hz is not None or speed_profile is not None:
             raise DataError("duration_s, sample_rate_hz and speed_profile belong to kind='drive', not to a sweep")
         if sprocket_equation != "thrust":
             raise DataError("sprocket_equation belongs to kind='drive', not to a sweep")
-        return simulate_slip_sweep(vehicle, soil, slips=slips, normal_loads=normal_loads, effects=effects, seed=seed,
-                                   noise=noise, model=model, measure=measure, return_truth=return_truth)
+        return simulate_slip_sweep(
+            vehicle,
+            soil,
+            slips=slips,
+            normal_loads=normal_loads,
+            effects=effects,
+            seed=seed,
+            noise=noise,
+            model=model,
+            measure=measure,
+            return_truth=return_truth,
+        )
     raise DataError(f"unknown kind {kind!r}; expected 'drive' or 'sweep'")

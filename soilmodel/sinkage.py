@@ -11,8 +11,8 @@ metre travelled)::
     R_c = 2 b (k_c / b + k_phi) z0 ** (n + 1) / (n + 1)
 
 Written once as CasADi expressions (floats work too); :func:`static_sinkage` and
-:func:`compaction_resistance` are the numpy helpers. Slip-induced sinkage (for stuck prediction) follows Lyasko's empirical relation
-(J. Terramechanics 47, 2010)::
+:func:`compaction_resistance` are the numpy helpers. Slip-induced sinkage (for stuck
+prediction) follows Lyasko's empirical relation (J. Terramechanics 47, 2010)::
 
     z = z0 (1 + i) / (1 - 0.5 i)          (z = 4 z0 at full slip)
 
@@ -21,6 +21,7 @@ one law among several (others give other numbers); :func:`slip_sinkage` and its 
 (``n``, ``k_c``, ``k_phi`` of :class:`~.soil.Soil` unset) has no compaction term: the helpers
 return 0 and :func:`has_bekker` says so.
 """
+
 from __future__ import annotations
 
 import casadi as ca
@@ -29,8 +30,15 @@ import numpy as np
 from .soil import Soil
 from .vehicle import Vehicle
 
-__all__ = ["has_bekker", "sinkage_expr", "compaction_expr", "static_sinkage", "compaction_resistance", "slip_sinkage",
-           "slip_at_sinkage"]
+__all__ = [
+    "has_bekker",
+    "sinkage_expr",
+    "compaction_expr",
+    "static_sinkage",
+    "compaction_resistance",
+    "slip_sinkage",
+    "slip_at_sinkage",
+]
 
 
 def has_bekker(soil: Soil) -> bool:
@@ -56,8 +64,14 @@ def _eval(expr_fn, soil: Soil, vehicle: Vehicle, normal_load) -> float | np.ndar
     if not has_bekker(soil):
         out = np.zeros_like(N)
     else:
-        out = np.asarray(ca.evalf(expr_fn(ca.DM(N.reshape(-1, 1)), soil.n, soil.k_c, soil.k_phi,
-                                          vehicle.track_length, vehicle.track_width)), dtype=float).reshape(N.shape)
+        out = np.asarray(
+            ca.evalf(
+                expr_fn(
+                    ca.DM(N.reshape(-1, 1)), soil.n, soil.k_c, soil.k_phi, vehicle.track_length, vehicle.track_width
+                )
+            ),
+            dtype=float,
+        ).reshape(N.shape)
     return out if out.ndim else float(out)
 
 

@@ -1,4 +1,5 @@
 """Soil parameters, terrain presets and the seed's practical soil ranges (SI inside)."""
+
 from __future__ import annotations
 
 import math
@@ -55,18 +56,22 @@ class Soil:
             raise DataError(f"soil cohesion must be >= 0 Pa, got {self.cohesion}")
         if not 0 < self.friction_angle < math.pi / 2:
             raise DataError(
-                f"soil friction angle must lie in (0, 90) deg, got {math.degrees(self.friction_angle):.6g} deg")
+                f"soil friction angle must lie in (0, 90) deg, got {math.degrees(self.friction_angle):.6g} deg"
+            )
         if self.shear_modulus <= 0:
             raise DataError(f"soil shear deformation modulus K must be > 0 m, got {self.shear_modulus}")
         if self.n is not None and self.n <= 0:
             raise DataError(f"Bekker exponent n must be > 0, got {self.n}")
 
     @classmethod
-    def from_kpa_deg(cls, cohesion_kpa: float, friction_angle_deg: float, shear_modulus_m: float,
-                     **kwargs) -> "Soil":
+    def from_kpa_deg(cls, cohesion_kpa: float, friction_angle_deg: float, shear_modulus_m: float, **kwargs) -> "Soil":
         """Build from c in kPa, phi in degrees and K in m (Bekker k_c, k_phi stay SI)."""
-        return cls(cohesion=float(cohesion_kpa) * 1e3, friction_angle=math.radians(friction_angle_deg),
-                   shear_modulus=float(shear_modulus_m), **kwargs)
+        return cls(
+            cohesion=float(cohesion_kpa) * 1e3,
+            friction_angle=math.radians(friction_angle_deg),
+            shear_modulus=float(shear_modulus_m),
+            **kwargs,
+        )
 
     @property
     def cohesion_kpa(self) -> float:
@@ -84,8 +89,10 @@ class Soil:
 
     def __str__(self) -> str:
         label = f"{self.name}: " if self.name else ""
-        return (f"{label}c = {self.cohesion_kpa:.4g} kPa, phi = {self.friction_angle_deg:.4g} deg, "
-                f"K = {self.shear_modulus:.4g} m")
+        return (
+            f"{label}c = {self.cohesion_kpa:.4g} kPa, phi = {self.friction_angle_deg:.4g} deg, "
+            f"K = {self.shear_modulus:.4g} m"
+        )
 
 
 @dataclass(frozen=True)
@@ -103,12 +110,18 @@ class SoilBounds:
                 raise DataError(f"bounds on {attr} must be finite with lower < upper, got ({lo}, {hi})")
 
     @classmethod
-    def from_kpa_deg(cls, cohesion_kpa: tuple[float, float], friction_angle_deg: tuple[float, float],
-                     shear_modulus_m: tuple[float, float]) -> "SoilBounds":
+    def from_kpa_deg(
+        cls,
+        cohesion_kpa: tuple[float, float],
+        friction_angle_deg: tuple[float, float],
+        shear_modulus_m: tuple[float, float],
+    ) -> "SoilBounds":
         """Build from c in kPa, phi in degrees and K in m."""
-        return cls((cohesion_kpa[0] * 1e3, cohesion_kpa[1] * 1e3),
-                   (math.radians(friction_angle_deg[0]), math.radians(friction_angle_deg[1])),
-                   (float(shear_modulus_m[0]), float(shear_modulus_m[1])))
+        return cls(
+            (cohesion_kpa[0] * 1e3, cohesion_kpa[1] * 1e3),
+            (math.radians(friction_angle_deg[0]), math.radians(friction_angle_deg[1])),
+            (float(shear_modulus_m[0]), float(shear_modulus_m[1])),
+        )
 
     @property
     def lower(self) -> np.ndarray:
@@ -132,10 +145,12 @@ PRACTICAL_BOUNDS = SoilBounds.from_kpa_deg((0.0, 69.0), (6.0, 40.0), (0.006, 0.0
 WIDE_BOUNDS = SoilBounds.from_kpa_deg((0.0, 200.0), (1.0, 55.0), (0.002, 0.25))
 
 
-def _terrain(key: str, name: str, n: float, k_c_kn: float, k_phi_kn: float, c_kpa: float, phi_deg: float,
-             K: float, typical: bool) -> Soil:
-    return Soil.from_kpa_deg(c_kpa, phi_deg, K, name=name, n=n, k_c=k_c_kn * 1e3, k_phi=k_phi_kn * 1e3,
-                             shear_modulus_typical=typical)
+def _terrain(
+    key: str, name: str, n: float, k_c_kn: float, k_phi_kn: float, c_kpa: float, phi_deg: float, K: float, typical: bool
+) -> Soil:
+    return Soil.from_kpa_deg(
+        c_kpa, phi_deg, K, name=name, n=n, k_c=k_c_kn * 1e3, k_phi=k_phi_kn * 1e3, shear_modulus_typical=typical
+    )
 
 
 #: Terrain presets (Wong, Theory of Ground Vehicles, as widely tabulated). Only LETE sand has a

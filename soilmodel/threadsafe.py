@@ -14,7 +14,9 @@ Fork safety (``os.register_at_fork``): a process forked while another thread is 
 IPOPT solve would inherit the lock held by a thread that does not exist in the child, and
 the solver's native state in the middle of that solve (measured before this module handled
 it: a fork ``ProcessPoolExecutor`` created beside three threads running IPOPT returned no
-result in 7 of 10 tries). So a fork waits until no solve is running (the forking thread takes
+result in 7 of 10 tries). ``identify.fit`` holds the lock for the whole fit, not only its solves (a
+thread in the middle of a fit's other CasADi or BLAS work at the fork: 1 hang in 5 tries under a
+load of 10). So a fork waits until no fit or solve is running (the forking thread takes
 :data:`SOLVER_LOCK` just before the fork and releases it in the parent just after), and the
 child re-creates the lock, empties every :func:`locked_cache` (its solvers are rebuilt on first
 use, in the child, from scratch) and gives every ``functools.cached_property`` of the library a
@@ -25,14 +27,15 @@ The spawn and forkserver start methods never copy this state and need none of it
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import sys
 import threading
 import weakref
-from typing import Any, Callable, TypeVar
+from typing import Any, Callable, Iterator, TypeVar
 
-__all__ = ["SOLVER_LOCK", "call_solver", "locked_cache", "solver_lock", "fork_generation"]
+__all__ = ["SOLVER_LOCK", "call_solver", "locked_cache", "solver_lock", "fork_generation", "fit_section"]
 
 #: The process-wide lock held across every cached-solver call and its ``stats()`` read
 #: (re-created in a forked child: read it through :func:`solver_lock`, never keep a copy).
@@ -54,12 +57,39 @@ def fork_generation() -> int:
     return _GENERATION[0]
 
 
+#: Open (set) except while a fork waits for the lock: a thread starting a new fit waits here, so that
+#: threads fitting back to back cannot starve the fork (the lock is not fair).
+_FORK_GATE = threading.Event()
+_FORK_GATE.set()
+_DEPTH = threading.local()  # fit sections this thread is inside (a nested fit never waits at the gate)
+
+
 def _before_fork() -> None:  # no solve in flight while the address space is copied
+    _FORK_GATE.clear()
     SOLVER_LOCK.acquire()
 
 
 def _after_fork_parent() -> None:
     SOLVER_LOCK.release()
+    _FORK_GATE.set()
+
+
+@contextlib.contextmanager
+def fit_section() -> Iterator[None]:
+    """Hold :data:`SOLVER_LOCK` across a whole fit (its CasADi and BLAS work, not only its solves).
+
+    A fork then never copies a thread in the middle of a fit; a thread starting a new top-level
+    fit first waits while a fork is pending, so fits back to back cannot starve the fork.
+    """
+    depth = getattr(_DEPTH, "n", 0)
+    if depth == 0:
+        _FORK_GATE.wait()
+    _DEPTH.n = depth + 1
+    try:
+        with SOLVER_LOCK:
+            yield
+    finally:
+        _DEPTH.n = depth
 
 
 def _renew_cached_property_locks() -> None:
@@ -78,8 +108,11 @@ def _renew_cached_property_locks() -> None:
 
 
 def _after_fork_child() -> None:
-    global SOLVER_LOCK
+    global SOLVER_LOCK, _FORK_GATE, _DEPTH
     SOLVER_LOCK = threading.RLock()
+    _FORK_GATE = threading.Event()
+    _FORK_GATE.set()
+    _DEPTH = threading.local()
     _GENERATION[0] += 1
     for wrapper in list(_CACHES):
         wrapper.cache_clear()
@@ -87,9 +120,7 @@ def _after_fork_child() -> None:
 
 
 if hasattr(os, "register_at_fork"):
-    os.register_at_fork(
-        before=_before_fork, after_in_parent=_after_fork_parent, after_in_child=_after_fork_child
-    )
+    os.register_at_fork(before=_before_fork, after_in_parent=_after_fork_parent, after_in_child=_after_fork_child)
 
 
 def locked_cache(maxsize: int | None = 128) -> Callable[[Callable[..., T]], Callable[..., T]]:

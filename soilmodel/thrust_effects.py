@@ -32,6 +32,7 @@ shapes times ``1 - exp(-beta x)`` is ``g(X)`` (uniform), ``m1(X) = (1 - e^-X)/X 
 Cohesion is a property of the soil, not of the pressure, so only the friction part changes.
 The cosine has ``n_w`` periods along the track: peaks at ``x = k l / n_w``, ``k = 0..n_w``.
 """
+
 from __future__ import annotations
 
 import math
@@ -47,8 +48,15 @@ from .soil import Soil
 from .traction import check_model, max_thrust_expr, slip_factor, thrust_expr
 from .vehicle import Vehicle
 
-__all__ = ["thrust_with_effects", "thrust_with_effects_function", "tractive_force_with_effects", "softening_shear",
-           "wong_type_b_shear", "pressure_profile"]
+__all__ = [
+    "thrust_with_effects",
+    "thrust_with_effects_function",
+    "tractive_force_with_effects",
+    "softening_shear",
+    "wong_type_b_shear",
+    "pressure_profile",
+]
+
 
 def _horner(coefs, x):
     out = 0.0
@@ -124,8 +132,10 @@ def thrust_with_effects(slip, c, phi, K, W, vehicle: Vehicle, effects: Any = Non
         out = f_max * slip_factor(slip, l, K_)
         if ev.on("pressure_distribution"):
             X = slip * l / K_
-            out = out + fric * (ev["pressure_distribution", "e"] * _m1(X)
-                                + ev["pressure_distribution", "alpha"] * _mc(X, ev["pressure_distribution", "n_w"]))
+            out = out + fric * (
+                ev["pressure_distribution", "e"] * _m1(X)
+                + ev["pressure_distribution", "alpha"] * _mc(X, ev["pressure_distribution", "n_w"])
+            )
         return out
 
     total = mean(K)
@@ -149,8 +159,9 @@ def thrust_with_effects_function(vehicle: Vehicle, effects: Any = None, model: s
     return _thrust_fn(vehicle, parse_effects(effects), model)
 
 
-def tractive_force_with_effects(slip, soil: Soil, vehicle: Vehicle, effects: Any = None, model: str = "full",
-                                normal_load=None) -> np.ndarray:
+def tractive_force_with_effects(
+    slip, soil: Soil, vehicle: Vehicle, effects: Any = None, model: str = "full", normal_load=None
+) -> np.ndarray:
     """Numpy tractive force (N) with effects, shaped like the broadcast of ``slip`` and ``normal_load``.
 
     ``normal_load`` is the nominal load (default the vehicle's weight).

@@ -72,9 +72,7 @@ def robust_noise(x: np.ndarray) -> float:
 
 def combine_tracks(torque_left, torque_right, speed_left, speed_right) -> tuple[np.ndarray, np.ndarray]:
     """The straight-line model's channels: summed sprocket torque (N m) and mean sprocket speed (rad/s)."""
-    tl, tr, sl, sr = (
-        np.asarray(a, dtype=float) for a in (torque_left, torque_right, speed_left, speed_right)
-    )
+    tl, tr, sl, sr = (np.asarray(a, dtype=float) for a in (torque_left, torque_right, speed_left, speed_right))
     return tl + tr, 0.5 * (sl + sr)
 
 
@@ -117,9 +115,7 @@ def turning_mask(
     """
     d = np.asarray(speed_left, dtype=float) - np.asarray(speed_right, dtype=float)
     if sigma_difference is None:
-        sigma_difference = max(
-            robust_noise(d), _floor(np.concatenate([np.ravel(speed_left), np.ravel(speed_right)]))
-        )
+        sigma_difference = max(robust_noise(d), _floor(np.concatenate([np.ravel(speed_left), np.ravel(speed_right)])))
     with np.errstate(invalid="ignore"):
         turn = np.abs(d) > threshold * sigma_difference
         if yaw_rate is not None:

@@ -12,6 +12,7 @@ approximation (the shear-displacement history of a skidding track differs in rea
 Everything is built once as CasADi ``Function`` objects and called many times; the numpy
 helpers broadcast their arguments and evaluate in one call.
 """
+
 from __future__ import annotations
 
 from functools import lru_cache
@@ -44,8 +45,9 @@ def shear_bracket(x):
     """
     a = ca.fabs(x)
     xa = x * a
-    series = x * (1 / 2 + x * x * (1 / 24 + x * x * (1 / 720 + x * x / 40320))) \
-        - xa * (1 / 6 + x * x * (1 / 120 + x * x / 5040))
+    series = x * (1 / 2 + x * x * (1 / 24 + x * x * (1 / 720 + x * x / 40320))) - xa * (
+        1 / 6 + x * x * (1 / 120 + x * x / 5040)
+    )
     safe = ca.if_else(a < SERIES_SWITCH, 1.0, a)  # keeps the unused branch finite, and its derivative
     exact = ca.sign(x) * (1 + ca.expm1(-safe) / safe)
     return ca.if_else(a < SERIES_SWITCH, series, exact)
@@ -99,8 +101,13 @@ def max_thrust_function(model: str = "full") -> ca.Function:
     c, phi, W, A = (ca.SX.sym(n) for n in ("c", "phi", "W", "A"))
     F = max_thrust_expr(c, phi, W, A, model)
     F = F if isinstance(F, ca.SX) else ca.SX(F)
-    return ca.Function(f"max_thrust_{model.replace('-', '_')}", [c, phi, W, A],
-                       [F, ca.jacobian(F, ca.vertcat(c, phi, W))], ["c", "phi", "W", "A"], ["F_max", "dF_dcphiW"])
+    return ca.Function(
+        f"max_thrust_{model.replace('-', '_')}",
+        [c, phi, W, A],
+        [F, ca.jacobian(F, ca.vertcat(c, phi, W))],
+        ["c", "phi", "W", "A"],
+        ["F_max", "dF_dcphiW"],
+    )
 
 
 def thrust_expr(slip, c, phi, K, W, track_length, track_width, model: str = "full"):
@@ -118,8 +125,7 @@ def thrust_function(model: str = "full") -> ca.Function:
     check_model(model)
     s = [ca.SX.sym(n) for n in ("slip", "c", "phi", "K", "W", "l", "b")]
     F = thrust_expr(s[0], s[1], s[2], s[3], s[4], s[5], s[6], model=model)
-    return ca.Function(f"thrust_{model.replace('-', '_')}", s, [F],
-                       ["slip", "c", "phi", "K", "W", "l", "b"], ["F"])
+    return ca.Function(f"thrust_{model.replace('-', '_')}", s, [F], ["slip", "c", "phi", "K", "W", "l", "b"], ["F"])
 
 
 @lru_cache(maxsize=None)
@@ -139,8 +145,9 @@ def sensitivity_function(model: str = "full") -> ca.Function:
     s = [ca.SX.sym(n) for n in ("slip", "c", "phi", "K", "W", "l", "b")]
     F = thrust_expr(s[0], s[1], s[2], s[3], s[4], s[5], s[6], model=model)
     jac = ca.jacobian(F, ca.vertcat(s[1], s[2], s[3]))
-    return ca.Function(f"dthrust_{model.replace('-', '_')}", s, [jac],
-                       ["slip", "c", "phi", "K", "W", "l", "b"], ["dF_dp"])
+    return ca.Function(
+        f"dthrust_{model.replace('-', '_')}", s, [jac], ["slip", "c", "phi", "K", "W", "l", "b"], ["dF_dp"]
+    )
 
 
 def resolve_soil(soil, vehicle: Vehicle, model: str | None = None, normal_load=None) -> tuple[Soil, str]:
@@ -165,13 +172,17 @@ def resolve_soil(soil, vehicle: Vehicle, model: str | None = None, normal_load=N
         W = vehicle.weight if normal_load is None else normal_load
         fitted_model = getattr(soil, "model", None) or "full"
         if model is not None and check_model(model) != fitted_model:
-            raise DataError(f"the fit used the {fitted_model} model; predicting with model={model!r} would mix "
-                            "models (leave model out to use the fitted one)")
+            raise DataError(
+                f"the fit used the {fitted_model} model; predicting with model={model!r} would mix "
+                "models (leave model out to use the fitted one)"
+            )
         return hook(W), check_model(fitted_model)
     if soil is None:
-        raise DataError("no soil given (None). FitResult.soil is None when c and phi are not separable (one "
-                        "normal load) or the fit failed: pass the FitResult itself, which predicts at the "
-                        "fitted normal load(s), e.g. tractive_force(slip, result, vehicle)")
+        raise DataError(
+            "no soil given (None). FitResult.soil is None when c and phi are not separable (one "
+            "normal load) or the fit failed: pass the FitResult itself, which predicts at the "
+            "fitted normal load(s), e.g. tractive_force(slip, result, vehicle)"
+        )
     raise DataError(f"soil must be a Soil or a fit result, got {type(soil).__name__}")
 
 
@@ -191,8 +202,15 @@ def _args(slip, soil: Soil, vehicle: Vehicle, normal_load):
     arrays = np.broadcast_arrays(np.asarray(slip, dtype=float), np.asarray(W, dtype=float))
     shape = arrays[0].shape
     row = [a.reshape(1, -1) for a in arrays]
-    return shape, [row[0], soil.cohesion, soil.friction_angle, soil.shear_modulus, row[1],
-                   vehicle.track_length, vehicle.track_width]
+    return shape, [
+        row[0],
+        soil.cohesion,
+        soil.friction_angle,
+        soil.shear_modulus,
+        row[1],
+        vehicle.track_length,
+        vehicle.track_width,
+    ]
 
 
 def tractive_force(slip, soil, vehicle: Vehicle, model: str | None = None, normal_load=None) -> np.ndarray:
@@ -222,29 +240,35 @@ def tractive_force(slip, soil, vehicle: Vehicle, model: str | None = None, norma
     return np.asarray(_mapped("F", model, args[0].size)(*args), dtype=float).reshape(shape)
 
 
-def thrust_at(slip, cohesion, friction_angle, shear_modulus, normal_load, vehicle: Vehicle,
-              model: str = "full") -> np.ndarray:
+def thrust_at(
+    slip, cohesion, friction_angle, shear_modulus, normal_load, vehicle: Vehicle, model: str = "full"
+) -> np.ndarray:
     """Eq. 2 / Eq. 8 at many points, each with its own soil and load (SI arrays, broadcast together).
 
     One mapped CasADi call for all points (e.g. several soils' curves at once).
     """
-    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in
-                                   (slip, cohesion, friction_angle, shear_modulus, normal_load)))
+    arrays = np.broadcast_arrays(
+        *(np.asarray(a, dtype=float) for a in (slip, cohesion, friction_angle, shear_modulus, normal_load))
+    )
     shape = arrays[0].shape
     if arrays[0].size == 0:
         return np.zeros(shape)
     rows = [a.reshape(1, -1) for a in arrays]
-    out = _mapped("F", check_model(model), rows[0].shape[1])(*rows[:4], rows[4], vehicle.track_length,
-                                                             vehicle.track_width)
+    out = _mapped("F", check_model(model), rows[0].shape[1])(
+        *rows[:4], rows[4], vehicle.track_length, vehicle.track_width
+    )
     return np.asarray(out, dtype=float).reshape(shape)
 
 
-def tractive_force_sensitivities(slip, soil: Soil, vehicle: Vehicle, model: str = "full",
-                                 normal_load=None) -> np.ndarray:
+def tractive_force_sensitivities(
+    slip, soil: Soil, vehicle: Vehicle, model: str = "full", normal_load=None
+) -> np.ndarray:
     """``dF/dc`` (N/Pa), ``dF/dphi`` (N/rad), ``dF/dK`` (N/m) from CasADi's AD, shape ``(n, 3)``."""
     if not isinstance(soil, Soil):
-        raise DataError(f"soil must be a Soil (sensitivities to c and phi at a ridge point are meaningless), "
-                        f"got {type(soil).__name__}")
+        raise DataError(
+            f"soil must be a Soil (sensitivities to c and phi at a ridge point are meaningless), "
+            f"got {type(soil).__name__}"
+        )
     shape, args = _args(slip, soil, vehicle, normal_load)
     if args[0].size == 0:
         return np.zeros((0, 3))

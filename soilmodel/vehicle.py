@@ -1,4 +1,5 @@
 """Vehicle description (SI), JSON I/O per docs/data-formats.md, and the reference vehicles."""
+
 from __future__ import annotations
 
 import difflib
@@ -38,8 +39,14 @@ LIMITS = {
     "max_power": (0.0, 1e9, "W"),
 }
 
-_REQUIRED = ("mass_kg", "track_length_m", "track_width_m", "sprocket_radius_m", "sprocket_inertia_kg_m2",
-             "rolling_resistance")
+_REQUIRED = (
+    "mass_kg",
+    "track_length_m",
+    "track_width_m",
+    "sprocket_radius_m",
+    "sprocket_inertia_kg_m2",
+    "rolling_resistance",
+)
 
 
 @dataclass(frozen=True)
@@ -100,8 +107,10 @@ class Vehicle:
         for name, (lo, hi, unit) in LIMITS.items():
             v = getattr(self, name)
             if v is not None and not (v == 0 and lo == 0) and not lo <= v <= hi:
-                raise DataError(f"vehicle {name} = {v:.6g} {unit} is outside the plausible range [{lo:g}, {hi:g}] "
-                                f"{unit}: check the number and its unit")
+                raise DataError(
+                    f"vehicle {name} = {v:.6g} {unit} is outside the plausible range [{lo:g}, {hi:g}] "
+                    f"{unit}: check the number and its unit"
+                )
         if self.rolling_resistance >= 1:
             raise DataError(f"vehicle rolling_resistance must be < 1, got {self.rolling_resistance}")
         rw = self.road_wheels
@@ -149,9 +158,12 @@ class Vehicle:
             for k in unknown:
                 close = difflib.get_close_matches(str(k), known, 1)
                 hints.append(f"'{k}'" + (f" (did you mean '{close[0]}'?)" if close else ""))
-            raise DataError(f"unknown field{'s' if len(unknown) > 1 else ''} {', '.join(hints)}; the fields "
-                            f"are {', '.join(sorted(_JSON_FIELDS))} and name", file=source,
-                            column=str(unknown[0]))
+            raise DataError(
+                f"unknown field{'s' if len(unknown) > 1 else ''} {', '.join(hints)}; the fields "
+                f"are {', '.join(sorted(_JSON_FIELDS))} and name",
+                file=source,
+                column=str(unknown[0]),
+            )
         for key in _REQUIRED:
             if key not in obj:
                 raise DataError(f"missing required field '{key}'", file=source, column=key)
@@ -183,8 +195,9 @@ class Vehicle:
             source, obj = "<json text>", loads_json(text, "<json text>", "vehicle JSON")
         else:  # encoding, depth and syntax checked (soilmodel.jsonread)
             source, obj = text, load_json_file(text, "vehicle JSON")
-        return cls.from_dict(obj, source=source, name=os.path.splitext(os.path.basename(source))[0]
-                             if source != "<json text>" else "")
+        return cls.from_dict(
+            obj, source=source, name=os.path.splitext(os.path.basename(source))[0] if source != "<json text>" else ""
+        )
 
 
 #: Reference vehicles. The heavy vehicle's W = 329 kN is Wong's (2001, p. 176); its geometry
@@ -192,12 +205,28 @@ class Vehicle:
 #: are ASSUMPTIONS of this library - the seed gives none of them. The light vehicle
 #: (W = 300 N) is the seed's cohesion-study vehicle with assumed geometry and limits.
 VEHICLES: dict[str, Vehicle] = {
-    "heavy": Vehicle(mass=329_000.0 / G, track_length=2.8, track_width=0.5, sprocket_radius=0.3,
-                     sprocket_inertia=500.0, rolling_resistance=0.05, max_sprocket_torque=80_000.0,
-                     max_power=600_000.0, road_wheels=5,
-                     name="heavy (W = 329 kN, Wong 2001 p. 176; geometry assumed)"),
-    "light": Vehicle(mass=300.0 / G, track_length=0.5, track_width=0.1, sprocket_radius=0.08,
-                     sprocket_inertia=0.05, rolling_resistance=0.05, max_sprocket_torque=40.0,
-                     max_power=500.0, road_wheels=4,
-                     name="light (W = 300 N, seed's cohesion study; geometry assumed)"),
+    "heavy": Vehicle(
+        mass=329_000.0 / G,
+        track_length=2.8,
+        track_width=0.5,
+        sprocket_radius=0.3,
+        sprocket_inertia=500.0,
+        rolling_resistance=0.05,
+        max_sprocket_torque=80_000.0,
+        max_power=600_000.0,
+        road_wheels=5,
+        name="heavy (W = 329 kN, Wong 2001 p. 176; geometry assumed)",
+    ),
+    "light": Vehicle(
+        mass=300.0 / G,
+        track_length=0.5,
+        track_width=0.1,
+        sprocket_radius=0.08,
+        sprocket_inertia=0.05,
+        rolling_resistance=0.05,
+        max_sprocket_torque=40.0,
+        max_power=500.0,
+        road_wheels=4,
+        name="light (W = 300 N, seed's cohesion study; geometry assumed)",
+    ),
 }

@@ -171,9 +171,7 @@ def wheel_expr(
     cos1, sin1 = ca.cos(th1), ca.sin(th1)
 
     def integrands(theta, sigma):
-        j = rs * (
-            (ca.mtimes(th1, ones) - theta) - ca.mtimes(1 - i, ones) * (ca.mtimes(sin1, ones) - ca.sin(theta))
-        )
+        j = rs * ((ca.mtimes(th1, ones) - theta) - ca.mtimes(1 - i, ones) * (ca.mtimes(sin1, ones) - ca.sin(theta)))
         tau = shear_stress_expr(j, sigma, c, phi, K)
         return (tau * ca.cos(theta) - sigma * ca.sin(theta), sigma * ca.cos(theta) + tau * ca.sin(theta), tau)
 

@@ -9,7 +9,6 @@ Other columns (repeat numbers, standard deviations, raw sensor channels) are rea
 from __future__ import annotations
 
 import csv
-import math
 import os
 from dataclasses import dataclass
 
@@ -64,9 +63,7 @@ class WheelSweep:
             if getattr(self, name) is not None:
                 object.__setattr__(self, name, _frozen(getattr(self, name)))
         # slip range, finiteness and positive loads are checked by SlipData, with file, column and row
-        SlipData(
-            slip=self.slip, drawbar_pull=self.drawbar_pull, normal_load=self.normal_load, source=self.source
-        )
+        SlipData(slip=self.slip, drawbar_pull=self.drawbar_pull, normal_load=self.normal_load, source=self.source)
         if self.sinkage is not None:
             if self.sinkage.size != self.slip.size:
                 raise DataError(

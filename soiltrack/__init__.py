@@ -6,6 +6,7 @@ One import package with three subpackages:
 - :mod:`soiltrack.identify` - bounded IPOPT identification, the seed's methods, uncertainty, diagnosis;
 - :mod:`soiltrack.planning` - traversability margins and traction planning.
 """
+
 from __future__ import annotations
 
 import os as _os
@@ -36,6 +37,18 @@ from . import identify, planning  # noqa: E402
 from .identify import FitResult, fit, fit_many  # noqa: E402
 
 __all__ = [
-    "__version__", "soilmodel", "identify", "planning", "FitResult", "TERRAINS", "VEHICLES", "Soil", "Vehicle",
-    "read_csv", "simulate", "tractive_force", "fit", "fit_many",
+    "__version__",
+    "soilmodel",
+    "identify",
+    "planning",
+    "FitResult",
+    "TERRAINS",
+    "VEHICLES",
+    "Soil",
+    "Vehicle",
+    "read_csv",
+    "simulate",
+    "tractive_force",
+    "fit",
+    "fit_many",
 ]

@@ -45,9 +45,7 @@ def check_drawbar(drawbar_N: float | None, vehicle: Vehicle, option: str = "--dr
                 f"and one larger than its weight ({W:.6g} N) is not a push it can be given"
             )
         print(
-            f"note: {option} = {drawbar_N:g} N is negative: taken as a push of {-drawbar_N:g} N that helps "
-            "the "
-            "vehicle",
+            f"note: {option} = {drawbar_N:g} N is negative: taken as a push of {-drawbar_N:g} N that helps the vehicle",
             file=sys.stderr,
         )
     return drawbar_N

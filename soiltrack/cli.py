@@ -4,6 +4,7 @@ Exit status: 0 success; 1 the solver failed or its answer is not usable (results
 printed, with the reason); 2 bad input (the message names the file, the column and the row;
 no traceback).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -32,9 +33,12 @@ example:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``soiltrack`` command."""
-    p = argparse.ArgumentParser(prog="soiltrack",
-                                description="Soil-parameter identification and traversability for tracked vehicles.",
-                                epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(
+        prog="soiltrack",
+        description="Soil-parameter identification and traversability for tracked vehicles.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     from . import __version__
 
     p.add_argument("--version", action="version", version=f"soiltrack {__version__}")

@@ -3,6 +3,7 @@
 Exit status: 0 success; 1 the solver failed (results are still printed, with the reason);
 2 bad input (the message names the file, the column and the row; no traceback).
 """
+
 from __future__ import annotations
 
 import math
@@ -65,10 +66,13 @@ def check_soil(c_kpa: float, phi_deg: float, K_m: float, what: str = "--soil") -
     if bad:
         raise DataError(f"{what}: {', '.join(bad)} must be a finite number")
     # the unit a number beyond the range was probably given in (too large: Pa, mm; too small: radians)
-    hints = {"c": lambda v, high: f" (if that is Pa, it is {v / 1e3:.4g} kPa)" if high else "",
-             "phi": lambda v, high: (f" (if that is radians, it is {math.degrees(v):.4g} deg)"
-                                     if not high and 0 < math.degrees(v) < 90 else ""),
-             "K": lambda v, high: f" (if that is mm, it is {v / 1e3:.4g} m)" if high else ""}
+    hints = {
+        "c": lambda v, high: f" (if that is Pa, it is {v / 1e3:.4g} kPa)" if high else "",
+        "phi": lambda v, high: (
+            f" (if that is radians, it is {math.degrees(v):.4g} deg)" if not high and 0 < math.degrees(v) < 90 else ""
+        ),
+        "K": lambda v, high: f" (if that is mm, it is {v / 1e3:.4g} m)" if high else "",
+    }
     units = {"c": "kPa", "phi": "deg", "K": "m"}
     warnings = []
     for j, key in enumerate(vals):
@@ -77,13 +81,17 @@ def check_soil(c_kpa: float, phi_deg: float, K_m: float, what: str = "--soil") -
         lo, hi = WIDE_BOUNDS.lower[j] * f, WIDE_BOUNDS.upper[j] * f
         plo, phi_ = PRACTICAL_BOUNDS.lower[j] * f, PRACTICAL_BOUNDS.upper[j] * f
         if not lo <= v <= hi:
-            raise DataError(f"{what}: {key} = {v:g} {units[key]} is outside the range of measured soils "
-                            f"[{lo:g}, {hi:g}] {units[key]}{hints[key](v, v > hi)}; expected "
-                            "C_KPA,PHI_DEG,K_M")
+            raise DataError(
+                f"{what}: {key} = {v:g} {units[key]} is outside the range of measured soils "
+                f"[{lo:g}, {hi:g}] {units[key]}{hints[key](v, v > hi)}; expected "
+                "C_KPA,PHI_DEG,K_M"
+            )
         if not plo <= v <= phi_:
-            warnings.append(f"{what}: {key} = {v:g} {units[key]} is outside the practical range "
-                            f"[{plo:g}, {phi_:g}] {units[key]} (the default bounds of a fit)"
-                            f"{hints[key](v, v > phi_)}: check the number and its unit")
+            warnings.append(
+                f"{what}: {key} = {v:g} {units[key]} is outside the practical range "
+                f"[{plo:g}, {phi_:g}] {units[key]} (the default bounds of a fit)"
+                f"{hints[key](v, v > phi_)}: check the number and its unit"
+            )
     return warnings
 
 
@@ -119,8 +127,10 @@ def output_path(path: str, option: str, *, figure: bool = False) -> str:
     if not path or not path.strip():
         raise DataError(f"{option} needs a file name")
     if os.path.isdir(path):
-        raise DataError(f"{option} {path!r} is a folder; give a file name inside it, e.g. "
-                        f"{os.path.join(path, 'fit.png' if figure else 'out.csv')!r}")
+        raise DataError(
+            f"{option} {path!r} is a folder; give a file name inside it, e.g. "
+            f"{os.path.join(path, 'fit.png' if figure else 'out.csv')!r}"
+        )
     folder = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(folder):
         raise DataError(f"{option} {path!r}: the folder {folder!r} does not exist")
@@ -130,6 +140,9 @@ def output_path(path: str, option: str, *, figure: bool = False) -> str:
         ext = os.path.splitext(path)[1].lower().lstrip(".")
         formats = figure_formats()
         if ext not in formats:
-            raise DataError(f"{option} {path!r}: " + (f"unknown figure format '.{ext}'" if ext else "no file extension")
-                            + f"; use one of {', '.join('.' + e for e in sorted(formats))} (e.g. fit.png)")
+            raise DataError(
+                f"{option} {path!r}: "
+                + (f"unknown figure format '.{ext}'" if ext else "no file extension")
+                + f"; use one of {', '.join('.' + e for e in sorted(formats))} (e.g. fit.png)"
+            )
     return path

@@ -1,4 +1,5 @@
 """``soiltrack fit``: identify the soil from a CSV."""
+
 from __future__ import annotations
 
 import argparse
@@ -18,17 +19,19 @@ def bounds_arg(text: str) -> SoilBounds:
     (kPa, deg, m) within the physical domain (c >= 0, 0 < phi < 90 deg, K > 0); DataError otherwise."""
     if text in NAMED_BOUNDS:
         return NAMED_BOUNDS[text]
-    what = (f"--bounds expects {' or '.join(NAMED_BOUNDS)} or six numbers C_LO,C_HI,PHI_LO,PHI_HI,K_LO,K_HI "
-            "(kPa, deg, m)")
+    what = (
+        f"--bounds expects {' or '.join(NAMED_BOUNDS)} or six numbers C_LO,C_HI,PHI_LO,PHI_HI,K_LO,K_HI (kPa, deg, m)"
+    )
     vals = floats_arg(text, "--bounds") if any(ch.isdigit() for ch in text) else []
     if len(vals) != 6:
         raise DataError(f"{what}, got {text!r}")
     c, phi, K = vals[0:2], vals[2:4], vals[4:6]
-    for name, (lo, hi), ok in (("c", c, c[0] >= 0), ("phi", phi, 0 < phi[0] and phi[1] < 90),
-                               ("K", K, K[0] > 0)):
+    for name, (lo, hi), ok in (("c", c, c[0] >= 0), ("phi", phi, 0 < phi[0] and phi[1] < 90), ("K", K, K[0] > 0)):
         if not ok or not lo < hi:
-            raise DataError(f"{what}: the {name} bounds [{lo:g}, {hi:g}] are not a range within c >= 0 kPa, "
-                            f"0 < phi < 90 deg, K > 0 m (lower < upper)")
+            raise DataError(
+                f"{what}: the {name} bounds [{lo:g}, {hi:g}] are not a range within c >= 0 kPa, "
+                f"0 < phi < 90 deg, K > 0 m (lower < upper)"
+            )
     return SoilBounds.from_kpa_deg((c[0], c[1]), (phi[0], phi[1]), (K[0], K[1]))
 
 
@@ -36,9 +39,11 @@ def bounds_arg(text: str) -> SoilBounds:
 def _check_options(a: argparse.Namespace, drive_log: bool) -> None:
     """Refuse options that do not apply to these data or this method (nothing is silently ignored)."""
     if a.engine != DEFAULT_ENGINE and (a.method != "ipopt" or drive_log):
-        raise DataError(f"--engine {a.engine} applies to --method ipopt on slip data only"
-                        + (" (this file is a drive log)" if drive_log else f", not to --method {a.method}"),
-                        file=a.data if drive_log else None)
+        raise DataError(
+            f"--engine {a.engine} applies to --method ipopt on slip data only"
+            + (" (this file is a drive log)" if drive_log else f", not to --method {a.method}"),
+            file=a.data if drive_log else None,
+        )
     if a.sigma is not None and drive_log:
         raise DataError("--sigma applies to slip data only; a drive-log fit estimates its noise levels", file=a.data)
     if a.bias_correction != "none" and not drive_log:
@@ -46,20 +51,35 @@ def _check_options(a: argparse.Namespace, drive_log: bool) -> None:
     if a.torque_hold is not None and not drive_log:
         raise DataError("--torque-hold applies to drive logs only", file=a.data)
     if a.resistance is not None and drive_log:
-        raise DataError("--resistance applies to drawbar-pull sweeps; a drive log's resistance is the vehicle's "
-                        "(or an --effect)", file=a.data)
+        raise DataError(
+            "--resistance applies to drawbar-pull sweeps; a drive log's resistance is the vehicle's (or an --effect)",
+            file=a.data,
+        )
     for opt, val in (("--slip-noise", a.slip_noise), ("--interval-method", a.interval_method)):
         if val is not None and drive_log:
-            raise DataError(f"{opt} applies to slip sweeps only (a drive log's slip is a latent variable of its fit)",
-                            file=a.data)
+            raise DataError(
+                f"{opt} applies to slip sweeps only (a drive log's slip is a latent variable of its fit)", file=a.data
+            )
         if val is not None and a.method != "ipopt":
             raise DataError(f"{opt} applies to --method ipopt, not to --method {a.method}")
 
 
 #: Options of slip sweeps and drive logs and their defaults (a bevameter fit takes none of them).
-_VEHICLE_OPTIONS = {"vehicle": None, "model": "full", "method": "ipopt", "engine": DEFAULT_ENGINE, "sigma": None,
-                    "bias_correction": "none", "torque_hold": None, "slip_noise": None, "intervals": None,
-                    "interval_method": None, "bounds": "practical", "effect": None, "resistance": None}
+_VEHICLE_OPTIONS = {
+    "vehicle": None,
+    "model": "full",
+    "method": "ipopt",
+    "engine": DEFAULT_ENGINE,
+    "sigma": None,
+    "bias_correction": "none",
+    "torque_hold": None,
+    "slip_noise": None,
+    "intervals": None,
+    "interval_method": None,
+    "bounds": "practical",
+    "effect": None,
+    "resistance": None,
+}
 
 
 def _cmd_soil_test(a: argparse.Namespace, data) -> int:
@@ -68,8 +88,11 @@ def _cmd_soil_test(a: argparse.Namespace, data) -> int:
 
     given = [f"--{k.replace('_', '-')}" for k, v in _VEHICLE_OPTIONS.items() if getattr(a, k) != v]
     if given:
-        raise DataError(f"{', '.join(given)} appl{'ies' if len(given) == 1 else 'y'} to slip sweeps and drive logs; "
-                        "a bevameter test is fitted on its own (leave it out)", file=a.data)
+        raise DataError(
+            f"{', '.join(given)} appl{'ies' if len(given) == 1 else 'y'} to slip sweeps and drive logs; "
+            "a bevameter test is fitted on its own (leave it out)",
+            file=a.data,
+        )
     result = fit_soil_test(data)
     print(result.to_json() if a.json else result.report())
     if a.plot:
@@ -97,8 +120,10 @@ def _cmd_fit(a: argparse.Namespace) -> int:
     if isinstance(data, (ShearTest, PlateTest)):
         return _cmd_soil_test(a, data)
     if gear is None:
-        raise DataError("--vehicle is required for slip sweeps and drive logs (a vehicle JSON file or a preset "
-                        "name: heavy, light)", file=a.data)
+        raise DataError(
+            "--vehicle is required for slip sweeps and drive logs (a vehicle JSON file or a preset name: heavy, light)",
+            file=a.data,
+        )
     vehicle = gear
     drive_log = isinstance(data, DriveLog)
     if a.intervals is not None:  # the old name (profile's --intervals is a mesh size)
@@ -114,8 +139,9 @@ def _cmd_fit(a: argparse.Namespace) -> int:
     if a.torque_hold is not None:
         kw["torque_hold"] = a.torque_hold
     if a.slip_noise is not None:
-        kw["slip_noise"] = a.slip_noise if a.slip_noise in ("auto", "off") else \
-            floats_arg(a.slip_noise, "--slip-noise")[0]
+        kw["slip_noise"] = (
+            a.slip_noise if a.slip_noise in ("auto", "off") else floats_arg(a.slip_noise, "--slip-noise")[0]
+        )
     if a.interval_method is not None:
         kw["intervals"] = a.interval_method
     if a.resistance is not None:
@@ -165,70 +191,129 @@ failed or its answer is not usable (the reason is printed), 2 for bad input."""
 
 def add_parser(sub) -> None:
     """Register the ``fit`` subcommand on an argparse subparsers object."""
-    f = sub.add_parser("fit", help="identify soil parameters from a CSV (slip sweep or drive log)",
-                       description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter,
-                       epilog="example: soiltrack fit examples/data/wong2001_p176.csv "
-                              "--vehicle examples/data/heavy_vehicle.json --plot fit.png")
-    f.add_argument("data", help="CSV file: a slip sweep (tractive force or drawbar pull), a drive log or a "
-                                "bevameter test (columns above)")
-    f.add_argument("--vehicle", help="vehicle JSON file or preset name (heavy, light); required for slip sweeps and "
-                                     "drive logs, refused for bevameter tests")
-    f.add_argument("--model", choices=("full", "cohesion-free"), default="full",
-                   help="full: F_max = A c + W tan(phi) (Eq. 2); cohesion-free: F_max = W tan(phi), c = 0 "
-                        "(Eq. 8) (default: full)")
-    f.add_argument("--method", choices=("ipopt", "newton", "least-squares"), default="ipopt",
-                   help="ipopt: bounded weighted least squares (recommended); newton, least-squares: the seed "
-                        "paper's unbounded methods, for comparison (default: ipopt)")
-    f.add_argument("--engine", choices=ENGINES, default=DEFAULT_ENGINE,
-                   help="what solves --method ipopt on slip data (same optimum): auto (default: compiled "
-                        "Levenberg-Marquardt, C code from the per-user cache or, while it compiles in the "
-                        "background, CasADi's virtual machine), ipopt, compiled (compile the C code now if not "
-                        "cached) or vectorized; anything not certified, and every fit with --effect, is solved "
-                        "by IPOPT")
-    f.add_argument("--sigma", metavar="N|relative",
-                   help="slip data: force noise standard deviation in N (taken as known), or 'relative' for noise "
-                        "proportional to the force (level estimated); default: equal weights, level estimated")
-    f.add_argument("--bias-correction", choices=("none", "simex"), default="none",
-                   help="drive logs: SIMEX correction of the slip-noise bias of K on hard-pull logs, about 5 s "
-                        "(default: none)")
-    f.add_argument("--torque-hold", choices=("zoh", "sample"), default=None,
-                   help="drive logs: how the logged torque relates to the drive (default: zoh; with --effect and "
-                        "no --torque-hold the fit is made with both and its intervals cover both). zoh: the torque "
-                        "is held from each sample to the next (a controller updating it at the log rate); sample: "
-                        "a continuous torque signal sampled at each time (a torque transducer, or a controller "
-                        "much faster than the log). The wrong one biases a fitted grade by about the thrust "
-                        "change over one sample")
-    f.add_argument("--slip-noise", metavar="auto|off|SIGMA",
-                   help="slip sweeps: noise on the measured slip. auto (default with --effect): weights for it "
-                        "when the residuals show it (likelihood-ratio test); off: slip exact (default without "
-                        "--effect); a number: the slip's standard deviation")
-    f.add_argument("--bounds", default="practical",
-                   metavar="practical|wide|C_LO,C_HI,PHI_LO,PHI_HI,K_LO,K_HI",
-                   help="soil bounds of the fit: practical (default: c 0-69 kPa, phi 6-40 deg, K 6-50 mm), "
-                        "wide (c 0-200 kPa, phi 1-55 deg, K 2-250 mm), or six numbers in kPa, deg, m, e.g. "
-                        "0,69,2,40,0.006,0.05 for a smooth track or a slippery soil (phi below 6 deg)")
+    f = sub.add_parser(
+        "fit",
+        help="identify soil parameters from a CSV (slip sweep or drive log)",
+        description=_DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="example: soiltrack fit examples/data/wong2001_p176.csv "
+        "--vehicle examples/data/heavy_vehicle.json --plot fit.png",
+    )
+    f.add_argument(
+        "data",
+        help="CSV file: a slip sweep (tractive force or drawbar pull), a drive log or a bevameter test (columns above)",
+    )
+    f.add_argument(
+        "--vehicle",
+        help="vehicle JSON file or preset name (heavy, light); required for slip sweeps and "
+        "drive logs, refused for bevameter tests",
+    )
+    f.add_argument(
+        "--model",
+        choices=("full", "cohesion-free"),
+        default="full",
+        help="full: F_max = A c + W tan(phi) (Eq. 2); cohesion-free: F_max = W tan(phi), c = 0 (Eq. 8) (default: full)",
+    )
+    f.add_argument(
+        "--method",
+        choices=("ipopt", "newton", "least-squares"),
+        default="ipopt",
+        help="ipopt: bounded weighted least squares (recommended); newton, least-squares: the seed "
+        "paper's unbounded methods, for comparison (default: ipopt)",
+    )
+    f.add_argument(
+        "--engine",
+        choices=ENGINES,
+        default=DEFAULT_ENGINE,
+        help="what solves --method ipopt on slip data (same optimum): auto (default: compiled "
+        "Levenberg-Marquardt, C code from the per-user cache or, while it compiles in the "
+        "background, CasADi's virtual machine), ipopt, compiled (compile the C code now if not "
+        "cached) or vectorized; anything not certified, and every fit with --effect, is solved "
+        "by IPOPT",
+    )
+    f.add_argument(
+        "--sigma",
+        metavar="N|relative",
+        help="slip data: force noise standard deviation in N (taken as known), or 'relative' for noise "
+        "proportional to the force (level estimated); default: equal weights, level estimated",
+    )
+    f.add_argument(
+        "--bias-correction",
+        choices=("none", "simex"),
+        default="none",
+        help="drive logs: SIMEX correction of the slip-noise bias of K on hard-pull logs, about 5 s (default: none)",
+    )
+    f.add_argument(
+        "--torque-hold",
+        choices=("zoh", "sample"),
+        default=None,
+        help="drive logs: how the logged torque relates to the drive (default: zoh; with --effect and "
+        "no --torque-hold the fit is made with both and its intervals cover both). zoh: the torque "
+        "is held from each sample to the next (a controller updating it at the log rate); sample: "
+        "a continuous torque signal sampled at each time (a torque transducer, or a controller "
+        "much faster than the log). The wrong one biases a fitted grade by about the thrust "
+        "change over one sample",
+    )
+    f.add_argument(
+        "--slip-noise",
+        metavar="auto|off|SIGMA",
+        help="slip sweeps: noise on the measured slip. auto (default with --effect): weights for it "
+        "when the residuals show it (likelihood-ratio test); off: slip exact (default without "
+        "--effect); a number: the slip's standard deviation",
+    )
+    f.add_argument(
+        "--bounds",
+        default="practical",
+        metavar="practical|wide|C_LO,C_HI,PHI_LO,PHI_HI,K_LO,K_HI",
+        help="soil bounds of the fit: practical (default: c 0-69 kPa, phi 6-40 deg, K 6-50 mm), "
+        "wide (c 0-200 kPa, phi 1-55 deg, K 2-250 mm), or six numbers in kPa, deg, m, e.g. "
+        "0,69,2,40,0.006,0.05 for a smooth track or a slippery soil (phi below 6 deg)",
+    )
     f.add_argument("--intervals", choices=("auto", "linear", "profile"), default=None, help=argparse.SUPPRESS)
-    f.add_argument("--interval-method", choices=("auto", "linear", "profile"), default=None,
-                   help="slip sweeps: 95 %% intervals from the profile likelihood for the weakly identifiable and "
-                        "at-bound parameters (auto, default with --effect), for all (profile), or linearised "
-                        "for all (linear, default without --effect)")
-    f.add_argument("--effect", action="append", metavar="NAME",
-                   help="fit this unmodelled effect's parameters jointly with the soil (repeatable; e.g. grade, "
-                        "slip_sinkage, speed_resistance, mass_error)")
-    f.add_argument("--resistance", choices=("assumed", "fit", "fit-sinkage"), default=None,
-                   help="drawbar-pull sweeps: the motion resistance is the vehicle's R = mu_r W (assumed, "
-                        "the default; the report says so), R = mu_r W with mu_r fitted with the soil (fit), "
-                        "or R = k_z z W with k_z fitted from the sinkage_m column (fit-sinkage); with its "
-                        "profile-likelihood interval")
-    f.add_argument("--driving-only", action="store_true",
-                   help="slip sweeps: drop the rows at negative slip (skid, a locked wheel: outside the driving "
-                        "model) instead of refusing the file; the count is reported")
-    f.add_argument("--slip-angle", type=float, metavar="0",
-                   help="slip sweeps with a slip_angle_deg column: keep only the rows at this slip angle (only 0: "
-                        "the model is straight-line) instead of refusing the file; the count is reported")
-    f.add_argument("--fix", action="append", metavar="NAME=VALUE",
-                   help="rigid wheel: hold a parameter at a value in edge units (repeatable), e.g. bekker_n=1; names "
-                        "cohesion_kpa, friction_angle_deg, shear_modulus_m, bekker_kc, bekker_kphi, bekker_n")
+    f.add_argument(
+        "--interval-method",
+        choices=("auto", "linear", "profile"),
+        default=None,
+        help="slip sweeps: 95 %% intervals from the profile likelihood for the weakly identifiable and "
+        "at-bound parameters (auto, default with --effect), for all (profile), or linearised "
+        "for all (linear, default without --effect)",
+    )
+    f.add_argument(
+        "--effect",
+        action="append",
+        metavar="NAME",
+        help="fit this unmodelled effect's parameters jointly with the soil (repeatable; e.g. grade, "
+        "slip_sinkage, speed_resistance, mass_error)",
+    )
+    f.add_argument(
+        "--resistance",
+        choices=("assumed", "fit", "fit-sinkage"),
+        default=None,
+        help="drawbar-pull sweeps: the motion resistance is the vehicle's R = mu_r W (assumed, "
+        "the default; the report says so), R = mu_r W with mu_r fitted with the soil (fit), "
+        "or R = k_z z W with k_z fitted from the sinkage_m column (fit-sinkage); with its "
+        "profile-likelihood interval",
+    )
+    f.add_argument(
+        "--driving-only",
+        action="store_true",
+        help="slip sweeps: drop the rows at negative slip (skid, a locked wheel: outside the driving "
+        "model) instead of refusing the file; the count is reported",
+    )
+    f.add_argument(
+        "--slip-angle",
+        type=float,
+        metavar="0",
+        help="slip sweeps with a slip_angle_deg column: keep only the rows at this slip angle (only 0: "
+        "the model is straight-line) instead of refusing the file; the count is reported",
+    )
+    f.add_argument(
+        "--fix",
+        action="append",
+        metavar="NAME=VALUE",
+        help="rigid wheel: hold a parameter at a value in edge units (repeatable), e.g. bekker_n=1; names "
+        "cohesion_kpa, friction_angle_deg, shear_modulus_m, bekker_kc, bekker_kphi, bekker_n",
+    )
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit (.png, .pdf, .svg)")
     f.set_defaults(func=_cmd_fit)

@@ -1,4 +1,5 @@
 """``soiltrack simulate``: write a simulated drive log or slip sweep."""
+
 from __future__ import annotations
 
 import argparse
@@ -20,20 +21,26 @@ def _check_options(a: argparse.Namespace) -> None:
     drive_only = [o for o, v in (("--duration", a.duration), ("--rate", a.rate)) if v is not None]
     sweep_only = [o for o, v in (("--slips", a.slips), ("--loads", a.loads)) if v is not None]
     if a.kind == "drive" and sweep_only:
-        raise DataError(f"{', '.join(sweep_only)} applies to slip sweeps only (--kind sweep); a drive log's slip "
-                        "and load follow from the simulated run")
+        raise DataError(
+            f"{', '.join(sweep_only)} applies to slip sweeps only (--kind sweep); a drive log's slip "
+            "and load follow from the simulated run"
+        )
     if a.kind == "sweep" and drive_only:
         raise DataError(f"{', '.join(drive_only)} applies to drive logs only (--kind drive)")
     for spec in a.effect or []:
         if "=" not in spec:
-            raise DataError(f"--effect {spec!r} needs a value (NAME=VALUE, e.g. grade=0.03): an effect switched on "
-                            "at its default parameters is the nominal model, i.e. no effect")
+            raise DataError(
+                f"--effect {spec!r} needs a value (NAME=VALUE, e.g. grade=0.03): an effect switched on "
+                "at its default parameters is the nominal model, i.e. no effect"
+            )
     if a.kind == "drive":
         duration = 60.0 if a.duration is None else a.duration
         rate = 50.0 if a.rate is None else a.rate
         if duration > 0 and rate > 0 and duration * rate > MAX_SAMPLES:
-            raise DataError(f"--duration {duration:g} s x --rate {rate:g} Hz = {duration * rate:.3g} samples; at most "
-                            f"{MAX_SAMPLES:,} (e.g. one hour at 500 Hz)")
+            raise DataError(
+                f"--duration {duration:g} s x --rate {rate:g} Hz = {duration * rate:.3g} samples; at most "
+                f"{MAX_SAMPLES:,} (e.g. one hour at 500 Hz)"
+            )
     check_seed(a.seed)
     if a.output != "-":
         output_path(a.output, "-o/--output")
@@ -93,40 +100,69 @@ def _cmd_simulate(a: argparse.Namespace) -> int:
 def add_parser(sub) -> None:
     """Register the ``simulate`` subcommand on an argparse subparsers object."""
     s = sub.add_parser(
-        "simulate", help="write a simulated drive log or tractive force-slip sweep (CSV)",
+        "simulate",
+        help="write a simulated drive log or tractive force-slip sweep (CSV)",
         description="Simulate a straight-line drive log (CVODES, speed-reference controller, sensor noise) or a "
-                    "tractive force-slip sweep, and write it as CSV in the columns 'soiltrack fit' reads.",
+        "tractive force-slip sweep, and write it as CSV in the columns 'soiltrack fit' reads.",
         epilog="example: soiltrack simulate --kind sweep --vehicle light --soil 1.7,29,0.01 --loads 300,450 "
-               "--seed 1 -o sweep.csv")
-    s.add_argument("--vehicle", default="heavy",
-                   help="preset name (heavy, light), vehicle JSON file, or a rigid wheel's JSON "
-                        "({\"running_gear\": \"rigid_wheel\", ...}: a rig sweep with --kind sweep --loads) "
-                        "(default: heavy)")
+        "--seed 1 -o sweep.csv",
+    )
+    s.add_argument(
+        "--vehicle",
+        default="heavy",
+        help="preset name (heavy, light), vehicle JSON file, or a rigid wheel's JSON "
+        '({"running_gear": "rigid_wheel", ...}: a rig sweep with --kind sweep --loads) '
+        "(default: heavy)",
+    )
     g = s.add_mutually_exclusive_group()
     g.add_argument("--terrain", help=f"terrain preset: {', '.join(TERRAINS)} (default: lete_sand)")
-    g.add_argument("--soil", metavar="C_KPA,PHI_DEG,K_M",
-                   help="soil as cohesion kPa, friction angle deg, shear modulus m, e.g. 1.3,31.1,0.012")
-    s.add_argument("--kind", choices=("drive", "sweep"), default="drive",
-                   help="drive log or slip sweep (default: drive)")
-    s.add_argument("--effect", action="append", metavar="NAME=VALUE",
-                   help="switch on an unmodelled effect with a value, e.g. grade=0.03 (rad), "
-                        "drivetrain_friction.tau_v=2 (repeatable; default: none)")
-    s.add_argument("--model", choices=("full", "cohesion-free"), default="full",
-                   help="thrust model: full (Eq. 2, A c + W tan phi) or cohesion-free (Eq. 8, W tan phi) "
-                        "(default: full)")
-    s.add_argument("--noise", choices=("default", "none"), default="default",
-                   help="sensor noise: realistic default levels, or none (default: default)")
-    s.add_argument("--seed", type=int, default=None,
-                   help="random seed for the noise (default: drawn afresh and said on stderr, so that the "
-                        "run can be repeated)")
+    g.add_argument(
+        "--soil",
+        metavar="C_KPA,PHI_DEG,K_M",
+        help="soil as cohesion kPa, friction angle deg, shear modulus m, e.g. 1.3,31.1,0.012",
+    )
+    s.add_argument(
+        "--kind", choices=("drive", "sweep"), default="drive", help="drive log or slip sweep (default: drive)"
+    )
+    s.add_argument(
+        "--effect",
+        action="append",
+        metavar="NAME=VALUE",
+        help="switch on an unmodelled effect with a value, e.g. grade=0.03 (rad), "
+        "drivetrain_friction.tau_v=2 (repeatable; default: none)",
+    )
+    s.add_argument(
+        "--model",
+        choices=("full", "cohesion-free"),
+        default="full",
+        help="thrust model: full (Eq. 2, A c + W tan phi) or cohesion-free (Eq. 8, W tan phi) (default: full)",
+    )
+    s.add_argument(
+        "--noise",
+        choices=("default", "none"),
+        default="default",
+        help="sensor noise: realistic default levels, or none (default: default)",
+    )
+    s.add_argument(
+        "--seed",
+        type=int,
+        default=None,
+        help="random seed for the noise (default: drawn afresh and said on stderr, so that the run can be repeated)",
+    )
     s.add_argument("--duration", type=float, default=None, help="drive log length in s (default: 60)")
     s.add_argument("--rate", type=float, default=None, help="drive log sample rate in Hz (default: 50)")
     s.add_argument("--slips", help="sweep: comma-separated slips in [0, 1) (default: 22 slips from 0.01 to 0.7)")
-    s.add_argument("--loads", help="sweep: comma-separated normal loads in N; several make c and phi separable "
-                                   "(default: the vehicle's weight)")
-    s.add_argument("--bekker", metavar="KC,KPHI,N",
-                   help="rigid wheel: the soil's Bekker k_c (kN/m^(n+1)), k_phi (kN/m^(n+2)) and n, with --soil "
-                        "(a --terrain preset carries its own)")
+    s.add_argument(
+        "--loads",
+        help="sweep: comma-separated normal loads in N; several make c and phi separable "
+        "(default: the vehicle's weight)",
+    )
+    s.add_argument(
+        "--bekker",
+        metavar="KC,KPHI,N",
+        help="rigid wheel: the soil's Bekker k_c (kN/m^(n+1)), k_phi (kN/m^(n+2)) and n, with --soil "
+        "(a --terrain preset carries its own)",
+    )
     s.add_argument("-o", "--output", default="-", help="output CSV path, '-' for stdout (default: -)")
     s.add_argument("--plot", metavar="PNG", help="also save a figure of the data (.png, .pdf, .svg)")
     s.set_defaults(func=_cmd_simulate)

@@ -43,9 +43,7 @@ def _positive(text: str, option: str, integer: bool = False) -> float:
     try:
         val = int(text) if integer else float(text)
     except ValueError:
-        raise DataError(
-            f"{option} expects {'an integer' if integer else 'a number'} > 0, got {text!r}"
-        ) from None
+        raise DataError(f"{option} expects {'an integer' if integer else 'a number'} > 0, got {text!r}") from None
     if not math.isfinite(val) or val <= 0:
         raise DataError(f"{option} expects {'an integer' if integer else 'a number'} > 0, got {text!r}")
     return val
@@ -71,9 +69,7 @@ def _samples(stream):
         ]
         extra = [[None] * n if accel is None else accel.tolist(), [None] * n if yaw is None else yaw.tolist()]
         return "update_tracks", list(zip(*cols, *extra))
-    cols = [
-        c[k].tolist() for k in ("time_s", "sprocket_torque_Nm", "sprocket_speed_rad_s", "vehicle_speed_m_s")
-    ]
+    cols = [c[k].tolist() for k in ("time_s", "sprocket_torque_Nm", "sprocket_speed_rad_s", "vehicle_speed_m_s")]
     return "update", list(zip(*cols, [None] * n if accel is None else accel.tolist()))
 
 
@@ -83,7 +79,8 @@ def _p_traversable(estimate, vehicle, grade_deg: float | None):
         return None
     from .planning import margin
 
-    return float(margin(estimate, vehicle, grade_deg=grade_deg, samples=MARGIN_SAMPLES).p_traversable)
+    p = margin(estimate, vehicle, grade_deg=grade_deg, samples=MARGIN_SAMPLES).p_traversable
+    return None if p is None else float(p)  # an estimate is uncertain: margin gives its probability
 
 
 def _finite_or_none(x):
@@ -111,9 +108,7 @@ def _cmd_track(a: argparse.Namespace) -> int:
         except ValueError:
             raise DataError(f"--grade-deg expects a number of degrees, got {a.grade_deg!r}") from None
         if not math.isfinite(grade) or abs(grade) > MAX_GRADE_DEG:
-            raise DataError(
-                f"--grade-deg expects a finite grade within +-{MAX_GRADE_DEG} deg, got {a.grade_deg!r}"
-            )
+            raise DataError(f"--grade-deg expects a finite grade within +-{MAX_GRADE_DEG} deg, got {a.grade_deg!r}")
     vehicle = vehicle_arg(a.vehicle)
     stream = read_drive_stream(a.log)
     est = OnlineEstimator(vehicle, OnlineSettings(window_s=window))

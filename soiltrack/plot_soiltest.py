@@ -1,4 +1,5 @@
 """Figure of a bevameter test and its fit: readings per pressure or plate width, fitted curves."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -20,8 +21,7 @@ def _curves(test: ShearTest | PlateTest, fit: SoilTestFit):
         out = []
         for s in np.unique(lev):
             if P["cohesion_kpa"].identifiable:
-                tau = shear_stress(grid, s, P["cohesion_kpa"].value * 1e3,
-                                   np.radians(P["friction_angle_deg"].value), K)
+                tau = shear_stress(grid, s, P["cohesion_kpa"].value * 1e3, np.radians(P["friction_angle_deg"].value), K)
             else:
                 tau = shear_stress(grid, 0.0, fit.combinations["shear_strength_kpa"].value * 1e3, 0.0, K)
             out.append(tau)

@@ -1,4 +1,5 @@
 """Figures for the command-line tool and the examples (matplotlib, Agg backend, PNG)."""
+
 from __future__ import annotations
 
 from typing import Any
@@ -49,8 +50,16 @@ def plot_data(data: SlipData | DriveLog, path: str, title: str = "") -> str:
                 label = f"W = {W / sc:.4g} {u}" if W > 0 else "data"
                 ax.plot(data.slip[sel], data.values[sel] / sc, "o", ms=4, label=label)
         else:
-            sca = ax.scatter(data.slip, data.values / sc, c=loads / sc, cmap="viridis", s=24, edgecolors="k",
-                             linewidths=0.4, label="measured (colour: normal load)")
+            sca = ax.scatter(
+                data.slip,
+                data.values / sc,
+                c=loads / sc,
+                cmap="viridis",
+                s=24,
+                edgecolors="k",
+                linewidths=0.4,
+                label="measured (colour: normal load)",
+            )
             fig.colorbar(sca, ax=ax, label=f"normal load W ({u})")
         ax.set_xlabel("slip i (-)")
         ax.set_ylabel(f"{_QUANTITY[data.measured]} ({u})")
@@ -104,8 +113,10 @@ def _curve_band(grid, result, vehicle, W: float) -> np.ndarray | None:
     q = result.quantile
     if fm is None or kk is None or fm.stderr is None or kk.stderr is None or corr is None or q is None:
         return None
-    sens = tractive_force_sensitivities(grid, Soil(*(float(x) for x in result.theta)), vehicle, result.model,
-                                       normal_load=W)
+    th = result.theta  # [c, phi, K]
+    sens = tractive_force_sensitivities(
+        grid, Soil(float(th[0]), float(th[1]), float(th[2])), vehicle, result.model, normal_load=W
+    )
     g = sens[:, 1] / (W / np.cos(result.theta[1]) ** 2)
     dK = sens[:, 2]
     var = (g * fm.stderr) ** 2 + (dK * kk.stderr) ** 2 + 2 * g * dK * corr * fm.stderr * kk.stderr
@@ -117,8 +128,11 @@ def _status_title(result) -> tuple[str, str]:
     if result.success:
         return f"{result.model} model, {result.method}: {result.outcome}", "k"
     if result.outcome == "not usable":
-        return (f"ANSWER NOT USABLE ({result.model} model, {result.method}: the plausibility checks refuse "
-                "it; see the report)", "C3")
+        return (
+            f"ANSWER NOT USABLE ({result.model} model, {result.method}: the plausibility checks refuse "
+            "it; see the report)",
+            "C3",
+        )
     return f"FIT FAILED ({result.model} model, {result.method}: {result.solver_status}) - no estimate", "C3"
 
 
@@ -138,8 +152,13 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
     title, tcol = _status_title(result)
     theta = np.asarray(result.theta, dtype=float)
     last = None  # the optimiser's last point, drawn only for a failed fit
-    if not result.success and np.all(np.isfinite(theta)) and 0 < theta[1] < np.pi / 2 and theta[2] > 0 \
-            and theta[0] >= 0:
+    if (
+        not result.success
+        and np.all(np.isfinite(theta))
+        and 0 < theta[1] < np.pi / 2
+        and theta[2] > 0
+        and theta[0] >= 0
+    ):
         last = Soil(*theta)
 
     measured = getattr(data, "measured", "tractive_force")
@@ -150,16 +169,18 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
             if isinstance(data, SlipData):  # what the rig reports (tractive force or drawbar pull, with effects)
                 return result.predict(grid, normal_load=W)
             if effects:  # the soil's thrust with the fitted effects (normal load, shear law), from soilmodel
-                return tractive_force_with_effects(grid, result.ridge_point, vehicle, result.effect_set,
-                                                   result.model, normal_load=W)
+                return tractive_force_with_effects(
+                    grid, result.ridge_point, vehicle, result.effect_set, result.model, normal_load=W
+                )
             return tractive_force(grid, result, vehicle, normal_load=W)
         return tractive_force(grid, last, vehicle, result.model, normal_load=W)
 
     # a failed fit's last iterate is a soil only: draw it where the data are the soil's thrust
     drawable = result.success or (last is not None and measured == "tractive_force" and not effects)
     if isinstance(data, SlipData):
-        fig, (ax, axr) = plt.subplots(2, 1, figsize=(6.6, 6.2), sharex=True, gridspec_kw={"height_ratios": [3, 1.3]},
-                                      layout="constrained")
+        fig, (ax, axr) = plt.subplots(
+            2, 1, figsize=(6.6, 6.2), sharex=True, gridspec_kw={"height_ratios": [3, 1.3]}, layout="constrained"
+        )
         loads = data.loads(vehicle.weight)
         sc, u = force_unit(data.values)
         grid = np.linspace(0.0, slip_grid_end(data.slip), 300)
@@ -172,18 +193,35 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
         else:  # a measured, continuously varying load: colour by load, curves at its typical value and extremes
             norm = plt.Normalize(float(levels[0]) / sc, float(levels[-1]) / sc)
             cmap = plt.get_cmap("viridis")
-            sca = ax.scatter(data.slip, data.values / sc, c=loads / sc, cmap=cmap, norm=norm, s=28,
-                             edgecolors="k", linewidths=0.4, zorder=3, label="measured (colour: normal load)")
-            axr.scatter(data.slip, res / sc, c=loads / sc, cmap=cmap, norm=norm, s=22, edgecolors="k",
-                        linewidths=0.4)
+            sca = ax.scatter(
+                data.slip,
+                data.values / sc,
+                c=loads / sc,
+                cmap=cmap,
+                norm=norm,
+                s=28,
+                edgecolors="k",
+                linewidths=0.4,
+                zorder=3,
+                label="measured (colour: normal load)",
+            )
+            axr.scatter(data.slip, res / sc, c=loads / sc, cmap=cmap, norm=norm, s=22, edgecolors="k", linewidths=0.4)
             fig.colorbar(sca, ax=[ax, axr], label=f"normal load W ({u})", pad=0.02)
             rep = float(loads[np.argsort(loads)[loads.size // 2]])  # the median row's measured load
             shown = []
-            curve_loads = [(cmap(norm(rep / sc)), rep, f"fitted at the median load {rep / sc:.4g} {u}"),
-                           (cmap(norm(levels[0] / sc)), float(levels[0]), f"at the extremes {levels[0] / sc:.4g} "
-                            f"and {levels[-1] / sc:.4g} {u}"), (cmap(norm(levels[-1] / sc)), float(levels[-1]), None)]
+            curve_loads = [
+                (cmap(norm(rep / sc)), rep, f"fitted at the median load {rep / sc:.4g} {u}"),
+                (
+                    cmap(norm(levels[0] / sc)),
+                    float(levels[0]),
+                    f"at the extremes {levels[0] / sc:.4g} and {levels[-1] / sc:.4g} {u}",
+                ),
+                (cmap(norm(levels[-1] / sc)), float(levels[-1]), None),
+            ]
         for col, W, sel in shown:
-            ax.plot(data.slip[sel], data.values[sel] / sc, "o", color=col, ms=5, label=f"measured, W = {W / sc:.4g} {u}")
+            ax.plot(
+                data.slip[sel], data.values[sel] / sc, "o", color=col, ms=5, label=f"measured, W = {W / sc:.4g} {u}"
+            )
             if np.all(np.isfinite(res[sel])):
                 axr.plot(data.slip[sel], res[sel] / sc, "o", color=col, ms=5)
         lows = [float(np.min(data.values)) / sc]
@@ -193,8 +231,7 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
         except DataError:  # a resistance from each row's sinkage: the model exists at the rows only
             drawable = False
             at_rows = result.predict(data)
-            ax.plot(data.slip, at_rows / sc, "x", color="k", ms=6,
-                    label="model at each row (its own sinkage)")
+            ax.plot(data.slip, at_rows / sc, "x", color="k", ms=6, label="model at each row (its own sinkage)")
             lows.append(float(np.min(at_rows)) / sc)
         for k, (col, W, label) in enumerate(curve_loads):
             if not drawable:
@@ -202,15 +239,21 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
             F = curve(grid, W)
             lows.append(float(np.min(F)) / sc)
             if not result.success:
-                ax.plot(grid, F / sc, "--", color="0.5", lw=1.0, label=_unusable_label(result) if k == 0
-                        else None)
+                ax.plot(grid, F / sc, "--", color="0.5", lw=1.0, label=_unusable_label(result) if k == 0 else None)
                 continue
             extreme = levels.size > MAX_LOAD_LEVELS and k > 0
             ax.plot(grid, F / sc, ":" if extreme else "-", color=col, lw=1.0 if extreme else 1.4, label=label)
             band = None if effects or extreme else _curve_band(grid, result, vehicle, float(W))
             if band is not None:
-                ax.fill_between(grid, (F - band) / sc, (F + band) / sc, color=col, alpha=0.18, lw=0,
-                                label=None if k else "95 % band of the fitted curve")
+                ax.fill_between(
+                    grid,
+                    (F - band) / sc,
+                    (F + band) / sc,
+                    color=col,
+                    alpha=0.18,
+                    lw=0,
+                    label=None if k else "95 % band of the fitted curve",
+                )
         axr.axhline(0, color="k", lw=0.6)
         ax.set_ylabel(f"{_QUANTITY[measured]} ({u})")
         lo = min(0.0, *lows)
@@ -282,48 +325,85 @@ def _drive_log_panels(fig, ax, axr, data: DriveLog, vehicle, result, curve) -> N
     r_s = vehicle.sprocket_radius
     rw = r_s * prep.sprocket_speed
     effects = bool(getattr(result, "effects", None)) and result.success
-    thrust, slip, what = (_effect_corrected(prep, vehicle, result) if effects else
-                          (prep.thrust, prep.slip_measured, "sprocket thrust vs slip from speeds"))
+    thrust, slip, what = (
+        _effect_corrected(prep, vehicle, result)
+        if effects
+        else (prep.thrust, prep.slip_measured, "sprocket thrust vs slip from speeds")
+    )
     weight = (rw / prep.sigma_speed) ** 2  # slip information of a sample: 1 / sigma_i^2
     sc, u = force_unit(thrust)
     order = np.argsort(weight)  # heavy samples drawn last, on top
     wrel = weight / float(np.max(weight))
-    pts = ax.scatter(np.clip(slip[order], -1, 1), thrust[order] / sc, c=np.log10(np.maximum(wrel[order], 1e-4)),
-                     s=5, cmap="viridis", vmin=-4, vmax=0, alpha=0.6, lw=0,
-                     label=f"{slip.size} samples used: {what}")
+    pts = ax.scatter(
+        np.clip(slip[order], -1, 1),
+        thrust[order] / sc,
+        c=np.log10(np.maximum(wrel[order], 1e-4)),
+        s=5,
+        cmap="viridis",
+        vmin=-4,
+        vmax=0,
+        alpha=0.6,
+        lw=0,
+        label=f"{slip.size} samples used: {what}",
+    )
     cb = fig.colorbar(pts, ax=ax, pad=0.01)
     cb.set_label("weight in the fit (log10, relative)", fontsize=8)
     # thrust bins (the thrust is the precise variable): weighted mean slip of each, with its standard error
     edges = np.linspace(float(np.min(thrust)), float(np.max(thrust)), 13)
     idx = np.clip(np.searchsorted(edges, thrust, side="right") - 1, 0, edges.size - 2)
-    bx, by, be = [], [], []
+    bx_l: list[float] = []
+    by_l: list[float] = []
+    be_l: list[float] = []
     for b in range(edges.size - 1):
         sel = idx == b
         if sel.sum() < 3:
             continue
         w = weight[sel]
-        bx.append(float(np.sum(w * slip[sel]) / np.sum(w)))
-        be.append(float(np.sqrt(1.0 / np.sum(w))))  # standard error of the weighted mean
-        by.append(float(np.mean(thrust[sel])))
-    bx, by, be = np.array(bx), np.array(by), np.array(be)
-    ax.errorbar(bx, by / sc, xerr=1.96 * be, fmt="s", color="k", ms=4, capsize=2, lw=1,
-                label="weighted mean slip per thrust bin (95 %)")
+        bx_l.append(float(np.sum(w * slip[sel]) / np.sum(w)))
+        be_l.append(float(np.sqrt(1.0 / np.sum(w))))  # standard error of the weighted mean
+        by_l.append(float(np.mean(thrust[sel])))
+    bx, by, be = np.array(bx_l), np.array(by_l), np.array(be_l)
+    ax.errorbar(
+        bx,
+        by / sc,
+        xerr=1.96 * be,
+        fmt="s",
+        color="k",
+        ms=4,
+        capsize=2,
+        lw=1,
+        label="weighted mean slip per thrust bin (95 %)",
+    )
     # the axis shows every sample that pulls hard (they fix F_max) and the bulk of the rest
     strong = slip[thrust > 0.25 * float(np.max(thrust))]
-    i_hi = min(0.99, 1.05 * max(0.05, float(np.quantile(slip, 0.99)), float(np.max(strong)) if strong.size else 0.0,
-                                float(np.max(bx + 2 * be)) if bx.size else 0.0))
+    i_hi = min(
+        0.99,
+        1.05
+        * max(
+            0.05,
+            float(np.quantile(slip, 0.99)),
+            float(np.max(strong)) if strong.size else 0.0,
+            float(np.max(bx + 2 * be)) if bx.size else 0.0,
+        ),
+    )
     i_lo = max(-0.3, min(-0.02, float(np.quantile(slip, 0.01))))
     if curve is not None:
         grid = np.linspace(0, i_hi, 300)
         W = float(result.normal_loads[0]) if len(result.normal_loads) else vehicle.weight
         F = curve(grid, W)
         if result.success:
-            ax.plot(grid, F / sc, "C3-", lw=1.6,
-                    label="fitted F(i)" + (" with the fitted effects" if effects else ""))
+            ax.plot(grid, F / sc, "C3-", lw=1.6, label="fitted F(i)" + (" with the fitted effects" if effects else ""))
             band = None if effects else _curve_band(grid, result, vehicle, W)
             if band is not None:
-                ax.fill_between(grid, (F - band) / sc, (F + band) / sc, color="C3", alpha=0.2, lw=0,
-                                label="95 % band of the fitted curve")
+                ax.fill_between(
+                    grid,
+                    (F - band) / sc,
+                    (F + band) / sc,
+                    color="C3",
+                    alpha=0.2,
+                    lw=0,
+                    label="95 % band of the fitted curve",
+                )
         else:
             ax.plot(grid, F / sc, "--", color="0.5", lw=1.2, label=_unusable_label(result))
     outside = int(np.sum((slip < i_lo) | (slip > i_hi)))

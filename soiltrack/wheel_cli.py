@@ -58,9 +58,7 @@ def _effects(a: argparse.Namespace) -> tuple[str, ...]:
     names = tuple(e.strip() for item in (a.effect or []) for e in item.split(",") if e.strip())
     bad = [e for e in names if e not in WHEEL_EFFECTS]
     if bad:
-        raise DataError(
-            f"--effect {bad[0]!r} is not an effect of the rigid-wheel model; it has {list(WHEEL_EFFECTS)}"
-        )
+        raise DataError(f"--effect {bad[0]!r} is not an effect of the rigid-wheel model; it has {list(WHEEL_EFFECTS)}")
     return names
 
 
@@ -130,9 +128,7 @@ def simulate_wheel_command(a: argparse.Namespace, wheel: RigidWheel, soil) -> in
     if a.kind != "sweep":
         raise DataError("a rigid wheel on a rig makes sweeps only: use --kind sweep")
     if a.model != "full":
-        raise DataError(
-            "--model does not apply to simulating a rigid wheel (give the soil's cohesion instead)"
-        )
+        raise DataError("--model does not apply to simulating a rigid wheel (give the soil's cohesion instead)")
     slip_sinkage = 0.0
     for spec in a.effect or []:
         name, _, val = spec.partition("=")

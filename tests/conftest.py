@@ -51,6 +51,12 @@ def independent_log(path, seed: int, edit=None, **kw):
     if edit is not None:
         a = np.loadtxt(str(path), delimiter=",", skiprows=1)
         edit(a)
-        np.savetxt(str(path), a, delimiter=",", comments="", fmt="%.6g",
-                   header="time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s,vehicle_accel_m_s2")
+        np.savetxt(
+            str(path),
+            a,
+            delimiter=",",
+            comments="",
+            fmt="%.6g",
+            header="time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s,vehicle_accel_m_s2",
+        )
     return read_csv(str(path))

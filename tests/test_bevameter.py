@@ -1,4 +1,5 @@
 """Bevameter soil tests: files simulated by plain numpy (benchmarks/bevameter_to_track.py), fitted."""
+
 import json
 import math
 import subprocess
@@ -37,8 +38,11 @@ def test_files_are_recognised_by_their_columns(tmp_path):
 
 
 def test_shear_test_recovers_c_phi_K_within_intervals(tmp_path):
-    truth = {"cohesion_kpa": SOIL["c"] / 1e3, "friction_angle_deg": math.degrees(SOIL["phi"]),
-             "shear_modulus_m": SOIL["K"]}
+    truth = {
+        "cohesion_kpa": SOIL["c"] / 1e3,
+        "friction_angle_deg": math.degrees(SOIL["phi"]),
+        "shear_modulus_m": SOIL["K"],
+    }
     hits = dict.fromkeys(truth, 0)
     for seed in range(REPS):
         r = fit_shear_test(_shear(tmp_path, seed))
@@ -95,14 +99,16 @@ def test_a_cohesionless_soil_ends_on_the_cohesion_bound_and_says_so(tmp_path, se
     assert c.ci95[0] == 0.0 and c.ci95[1] > 0.0
 
 
+@pytest.mark.slow
 def test_prediction_of_a_track_drawbar_pull_covers_the_truth(tmp_path):
     slips = np.array([0.05, 0.3])
     vehicle = VEHICLES["light"]
     truth = BEV.true_drawbar_pull(SOIL, slips, vehicle.weight, vehicle.track_length, vehicle.track_width)
     hits = np.zeros(slips.size)
     for seed in range(REPS):
-        pr = predict_drawbar_pull(fit_shear_test(_shear(tmp_path, seed)), fit_plate_test(_plate(tmp_path, seed)),
-                                  vehicle, slips)
+        pr = predict_drawbar_pull(
+            fit_shear_test(_shear(tmp_path, seed)), fit_plate_test(_plate(tmp_path, seed)), vehicle, slips
+        )
         assert np.all(pr.upper > pr.lower) and np.all(np.isfinite(pr.drawbar_pull))
         hits += (pr.lower <= truth) & (truth <= pr.upper)
     assert hits.min() >= MIN_HITS, hits
@@ -116,11 +122,13 @@ def test_prediction_refuses_a_plate_test_of_one_width(tmp_path):
     assert e.value.reason.count("bekker_kc") == 1
 
 
+@pytest.mark.slow
 def test_cli_fits_a_bevameter_file_without_vehicle(tmp_path):
     path = tmp_path / "shear.csv"
     BEV.shear_csv(str(path), SOIL, 7)
-    p = subprocess.run([sys.executable, "-m", "soiltrack", "fit", str(path), "--json"], capture_output=True,
-                       text=True, cwd=ROOT)
+    p = subprocess.run(
+        [sys.executable, "-m", "soiltrack", "fit", str(path), "--json"], capture_output=True, text=True, cwd=ROOT
+    )
     assert p.returncode == 0, p.stderr
     js = json.loads(p.stdout)
     assert js["kind"] == "shear_test" and js["success"] is True
@@ -130,8 +138,9 @@ def test_cli_fits_a_bevameter_file_without_vehicle(tmp_path):
         assert par["ci95"][0] <= par["value"] <= par["ci95"][1]
     plate = tmp_path / "plate.csv"
     BEV.plate_csv(str(plate), SOIL, 7, widths=(0.1,))
-    p = subprocess.run([sys.executable, "-m", "soiltrack", "fit", str(plate), "--json"], capture_output=True,
-                       text=True, cwd=ROOT)
+    p = subprocess.run(
+        [sys.executable, "-m", "soiltrack", "fit", str(plate), "--json"], capture_output=True, text=True, cwd=ROOT
+    )
     assert p.returncode == 0, p.stderr
     js = json.loads(p.stdout)
     assert [c["name"] for c in js["combinations"]] == ["bekker_k_eq"]

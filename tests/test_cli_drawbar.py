@@ -1,4 +1,5 @@
 """Drawbar-pull data through the command line: fit, figure and JSON (no traceback)."""
+
 import json
 
 from soiltrack.cli import main

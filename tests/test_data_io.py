@@ -1,4 +1,5 @@
 """CSV and JSON contracts: round trips and every bad-input path."""
+
 import json
 import math
 
@@ -55,10 +56,18 @@ BAD = [
     ("slip,tractive_force_N,normal_load_N\n0.1,10,-5\n", "normal_load_N", 1, "> 0"),
     ("slip\n0.1\n", "tractive_force_N", None, "missing required column"),
     ("time_s,sprocket_torque_Nm,sprocket_speed_rad_s\n0,1,2\n", "vehicle_speed_m_s", None, "missing"),
-    ("time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s\n0,1,2,3\n0.1,1,2,3\n0.1,1,2,3\n",
-     "time_s", 3, "strictly increasing"),
-    ("time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s\n0,1,2,3\n0.1,1,NaN,3\n",
-     "sprocket_speed_rad_s", 2, "not a finite"),
+    (
+        "time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s\n0,1,2,3\n0.1,1,2,3\n0.1,1,2,3\n",
+        "time_s",
+        3,
+        "strictly increasing",
+    ),
+    (
+        "time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s\n0,1,2,3\n0.1,1,NaN,3\n",
+        "sprocket_speed_rad_s",
+        2,
+        "not a finite",
+    ),
 ]
 
 
@@ -75,13 +84,16 @@ def test_bad_csv_names_file_column_row(tmp_path, text, column, row, msg):
     assert msg in str(e.value)
 
 
-@pytest.mark.parametrize("text,msg", [
-    ("", "empty file"),
-    ("slip,tractive_force_N\n", "no data rows"),
-    ("a,b\n1,2\n", "unrecognised columns"),
-    ("slip,tractive_force_N\n0.1,2,3\n", "expected 2 fields"),
-    ("slip,slip,tractive_force_N\n0.1,0.1,2\n", "duplicate"),
-])
+@pytest.mark.parametrize(
+    "text,msg",
+    [
+        ("", "empty file"),
+        ("slip,tractive_force_N\n", "no data rows"),
+        ("a,b\n1,2\n", "unrecognised columns"),
+        ("slip,tractive_force_N\n0.1,2,3\n", "expected 2 fields"),
+        ("slip,slip,tractive_force_N\n0.1,0.1,2\n", "duplicate"),
+    ],
+)
 def test_bad_csv_structure(tmp_path, text, msg):
     p = write(tmp_path, "bad.csv", text)
     with pytest.raises(DataError, match=msg.replace("(", r"\(")):
@@ -109,14 +121,17 @@ def test_vehicle_json_round_trip(tmp_path):
         assert json.loads(v.to_json())["mass_kg"] == v.mass
 
 
-@pytest.mark.parametrize("patch,column,msg", [
-    ({"mass_kg": -1}, "mass_kg", "> 0"),
-    ({"track_length_m": 0}, "track_length_m", "> 0"),
-    ({"mass_kg": "heavy"}, "mass_kg", "must be a number"),
-    ({"rolling_resistance": 1.5}, "rolling_resistance", "< 1"),
-    ({"road_wheels": 2.5}, "road_wheels", "positive integer"),
-    ({"max_power_W": float("nan")}, "max_power_W", "finite"),
-])
+@pytest.mark.parametrize(
+    "patch,column,msg",
+    [
+        ({"mass_kg": -1}, "mass_kg", "> 0"),
+        ({"track_length_m": 0}, "track_length_m", "> 0"),
+        ({"mass_kg": "heavy"}, "mass_kg", "must be a number"),
+        ({"rolling_resistance": 1.5}, "rolling_resistance", "< 1"),
+        ({"road_wheels": 2.5}, "road_wheels", "positive integer"),
+        ({"max_power_W": float("nan")}, "max_power_W", "finite"),
+    ],
+)
 def test_vehicle_json_bad_fields(tmp_path, patch, column, msg):
     obj = VEHICLES["light"].to_dict() | patch
     p = tmp_path / "v.json"

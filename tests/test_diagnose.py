@@ -1,4 +1,5 @@
 """End-to-end diagnosis on simulated sweeps: score tests, verdicts, shrink, report/JSON/plot."""
+
 import json
 import math
 
@@ -13,8 +14,15 @@ VEH = VEHICLES["light"]
 SOIL = TERRAINS["lete_sand"]
 SLIPS = np.round(np.linspace(0.01, 0.7, 60), 4)
 LOW_NOISE = SensorNoise(force_rel=0.005, slip_abs=0.0005)
-SWEEP_EFFECTS = {"grade": 0.05, "speed_resistance": 0.05, "slip_sinkage": 0.1, "radius_error": 0.05,
-                 "hump_shear": 0.3, "pressure_distribution": 0.3, "mass_error": 0.2}
+SWEEP_EFFECTS = {
+    "grade": 0.05,
+    "speed_resistance": 0.05,
+    "slip_sinkage": 0.1,
+    "radius_error": 0.05,
+    "hump_shear": 0.3,
+    "pressure_distribution": 0.3,
+    "mass_error": 0.2,
+}
 
 
 def sweep(effects=None, seed=1, noise=LOW_NOISE):
@@ -91,15 +99,32 @@ def test_report_json_and_plot(tmp_path):
     d = diagnose(sweep({"hump_shear": 0.3}), VEH)
     assert isinstance(d, Diagnosis)
     js = json.loads(d.to_json())
-    for k, t in {"verdict": str, "confidence": float, "ranking": list, "confusable": list, "localisation": list,
-                 "soil_before": dict, "gap_tests": list, "excluded": list}.items():
+    for k, t in {
+        "verdict": str,
+        "confidence": float,
+        "ranking": list,
+        "confusable": list,
+        "localisation": list,
+        "soil_before": dict,
+        "gap_tests": list,
+        "excluded": list,
+    }.items():
         assert isinstance(js[k], t), k
     assert js["verdict"] == "hump_shear" and js["cause"] is None and js["residual_sign"] == "measured - model"
-    assert set(js["ranking"][0]) >= {"effect", "weight", "holdout_rmse_before", "holdout_rmse_after", "shrink",
-                                     "parameters"}
+    assert set(js["ranking"][0]) >= {
+        "effect",
+        "weight",
+        "holdout_rmse_before",
+        "holdout_rmse_after",
+        "shrink",
+        "parameters",
+    }
     assert js["confidence"] == js["ranking"][0]["weight"]
-    assert {t["test"] for t in js["gap_tests"]} == {"flexible term beats nominal", "heaviest beats nominal",
-                                                    "lack of fit"}  # no repeated rows: no pure-error test
+    assert {t["test"] for t in js["gap_tests"]} == {
+        "flexible term beats nominal",
+        "heaviest beats nominal",
+        "lack of fit",
+    }  # no repeated rows: no pure-error test
     assert js["gap_left"]["test"] == "gap left by hump_shear" and not js["gap_left"]["significant"]
     assert all(t["level"] == 0.01 for t in js["gap_tests"])
     assert {x["effect"] for x in js["excluded"]} >= {"clipped_sensor"}

@@ -1,4 +1,5 @@
 """``soiltrack diagnose``: bad input exits 2 with the file, column or argument named and no traceback."""
+
 import json
 import os
 
@@ -16,12 +17,15 @@ def _csv(tmp_path, text, name="d.csv"):
     return str(p)
 
 
-@pytest.mark.parametrize("text,needle", [
-    ("slip,force\n0.1,100\n0.2,200\n", "tractive_force_N"),                     # wrong column
-    ("slip,tractive_force_N\n0.1,100\n0.2,nan\n", "row"),                        # NaN, row named
-    ("slip,tractive_force_N\n0.1,100\n1.2,200\n", "slip"),                       # slip outside [0, 1)
-    ("time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s\n0,1,1,0.1\n0,1,1,0.1\n", "time_s"),
-])
+@pytest.mark.parametrize(
+    "text,needle",
+    [
+        ("slip,force\n0.1,100\n0.2,200\n", "tractive_force_N"),  # wrong column
+        ("slip,tractive_force_N\n0.1,100\n0.2,nan\n", "row"),  # NaN, row named
+        ("slip,tractive_force_N\n0.1,100\n1.2,200\n", "slip"),  # slip outside [0, 1)
+        ("time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s\n0,1,1,0.1\n0,1,1,0.1\n", "time_s"),
+    ],
+)
 def test_bad_data_exits_2_naming_the_problem(tmp_path, capsys, text, needle):
     path = _csv(tmp_path, text)
     assert main(["diagnose", path, "--vehicle", "heavy", "--json"]) == 2
@@ -46,9 +50,11 @@ def test_progress_on_stderr_and_quiet(tmp_path, capsys):
     import json
 
     from soiltrack.soilmodel import TERRAINS, VEHICLES, simulate, write_csv
+
     path = str(tmp_path / "sweep.csv")
-    write_csv(simulate(VEHICLES["heavy"], TERRAINS["lete_sand"], kind="sweep", effects={"slip_sinkage": 0.12}, seed=1),
-              path)
+    write_csv(
+        simulate(VEHICLES["heavy"], TERRAINS["lete_sand"], kind="sweep", effects={"slip_sinkage": 0.12}, seed=1), path
+    )
     assert main(["diagnose", path, "--vehicle", "heavy", "--json"]) == 0
     out, err = capsys.readouterr()
     json.loads(out)

@@ -1,14 +1,30 @@
 """Localisation, screening and decision logic of the diagnosis on synthetic residual arrays (no fits)."""
+
 import math
 
 import numpy as np
 import pytest
 
-from soiltrack.identify.diagnosis.gap import (blocked_folds, chi2_isf, chi2_sf, change_window, lag_peak, localise, noise_profile,
-                                     long_run_factor, noise_floor, whiteness)
+from soiltrack.identify.diagnosis.gap import (
+    blocked_folds,
+    chi2_isf,
+    chi2_sf,
+    change_window,
+    lag_peak,
+    localise,
+    noise_profile,
+    long_run_factor,
+    noise_floor,
+    whiteness,
+)
 from soiltrack.identify.diagnosis.screening import project_off, score_test
-from soiltrack.identify.diagnosis.selection import (confusable_groups, dm_test,
-                                          fit_discrepancy, hat_basis, separating_experiment)
+from soiltrack.identify.diagnosis.selection import (
+    confusable_groups,
+    dm_test,
+    fit_discrepancy,
+    hat_basis,
+    separating_experiment,
+)
 
 
 def test_chi2_matches_known_quantiles():
@@ -82,12 +98,12 @@ def test_score_test_zero_without_and_large_with_the_effect():
     n = 400
     x = np.linspace(0, 1, n)
     J_soil = np.column_stack([np.ones(n), x])
-    Z = np.column_stack([x ** 2])
+    Z = np.column_stack([x**2])
     # residuals at the nominal fit: exactly zero (noise-free, effect-free) -> score 0
     s0 = score_test("e", J_soil, Z, np.zeros(n))
     assert s0.score == 0.0 and s0.statistic == 0.0
     # an effect the soil can absorb (in its column space) leaves no score after projection
-    r_abs = project_off(np.column_stack([3 * x ** 2]), J_soil).ravel() * 0 + (0.5 + 2 * x)
+    r_abs = project_off(np.column_stack([3 * x**2]), J_soil).ravel() * 0 + (0.5 + 2 * x)
     assert score_test("e", J_soil, np.column_stack([1 + x]), r_abs).screenable is False
     # the effect in the residuals (projected off the soil, as at a least-squares optimum)
     r = project_off(Z * 2.0, J_soil).ravel() + 0.05 * rng.standard_normal(n)
@@ -115,11 +131,11 @@ def test_discrepancy_spline_predicts_a_smooth_gap_between_blocks():
 def test_diebold_mariano_needs_more_than_one_lucky_residual():
     rng = np.random.default_rng(6)
     a = rng.standard_normal(300)
-    assert dm_test(a + 1.0, a) < 1e-6          # a steady gain over 300 samples
+    assert dm_test(a + 1.0, a) < 1e-6  # a steady gain over 300 samples
     b = a.copy()
     b[0] = 0.0
     a2 = a.copy()
-    a2[0] = 8.0                                 # one big residual in model a only
+    a2[0] = 8.0  # one big residual in model a only
     assert dm_test(a2, b) > 0.05
     assert dm_test(a, a + 1.0) > 0.99
 
@@ -154,6 +170,7 @@ def test_range_share_is_on_the_scale_of_the_localisation_bins():
     # a change window's entry sits beside localise's time ranges: a window covering exactly two of the six
     # ranges has their summed share, one covering one of them that range's share (misfit only in channel b)
     from soiltrack.identify.diagnosis.gap import localise, range_share
+
     t = np.arange(600.0)
     zb = np.where((t >= 200) & (t < 400), 3.0, 0.0)
     R = {"a": np.zeros(600), "b": zb}
@@ -173,12 +190,13 @@ def test_local_noise_medians_follow_their_definition(split):
     # the vectorised local medians of isolated_outliers against the definition read literally, reading by reading:
     # half second differences on each side, leaving out the three the reading enters, a side counting from 3 values
     from soiltrack.identify.diagnosis.gap import _local_medians
+
     rng = np.random.default_rng(7)
     for n, half in ((9, 3), (40, 5), (300, 21), (301, 150)):
         d = np.abs(rng.normal(size=n - 2)) * (1 + (np.arange(n - 2) > n // 2))
         got = _local_medians(d, n, half, split)
         for k in range(2, n - 2):
-            left, right = d[max(0, k - 2 - half):k - 2], d[k + 1:k + 1 + half]
+            left, right = d[max(0, k - 2 - half) : k - 2], d[k + 1 : k + 1 + half]
             if split:
                 sides = [float(np.median(v)) for v in (left, right) if v.size >= 3]
                 want = max(sides) if sides else 0.0

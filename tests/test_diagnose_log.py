@@ -1,4 +1,5 @@
 """Drive-log diagnosis: the change-of-terrain and delay tools, and the outside causes they name."""
+
 import numpy as np
 import pytest
 
@@ -16,7 +17,7 @@ def _scores(patch, n=1500, seed=0, change=(-0.3, 0.0)):
     """
     rng = np.random.default_rng(seed)
     t = np.arange(n) * 0.02
-    push = 0.3 + 2.0 * (np.sin(2 * np.pi * t / 7.0) > 0.3)          # bursts of hard pushing
+    push = 0.3 + 2.0 * (np.sin(2 * np.pi * t / 7.0) > 0.3)  # bursts of hard pushing
     J = rng.standard_normal((n, 3, 2)) * push[:, None, None]
     J[:, :, 1] *= 0.5
     inside = (t >= patch[0]) & (t < patch[1])
@@ -53,10 +54,10 @@ def test_terrain_window_is_quiet_on_noise():
 def test_delay_scan_finds_a_lag_in_synthetic_residuals():
     rng = np.random.default_rng(5)
     n = 3000
-    w = np.cumsum(rng.standard_normal(n)) * 0.05 + 10.0       # sprocket speed, a random walk
+    w = np.cumsum(rng.standard_normal(n)) * 0.05 + 10.0  # sprocket speed, a random walk
     wl = np.r_[np.nan, 0.5 * (w[:-2] + w[2:]), np.nan]
     r = np.full(n, np.nan)
-    r[20:] = (wl[20:] - w[12:-8]) + 0.02 * rng.standard_normal(n - 20)   # late by 8 samples
+    r[20:] = (wl[20:] - w[12:-8]) + 0.02 * rng.standard_normal(n - 20)  # late by 8 samples
     s = delay_scan(r, w)
     assert s["lag"] == 8 and s["p_value"] < 1e-6 and s["coef"] == pytest.approx(1.0, abs=0.05)
     s0 = delay_scan(0.02 * rng.standard_normal(n), w)
@@ -84,8 +85,14 @@ def test_a_delayed_speed_sensor_is_unexplained_with_the_delay_named():
     vehicle, soil = VEHICLES["light"], TERRAINS["lete_sand"]
     log = simulate(vehicle, soil, kind="drive", seed=1, duration_s=30.0)
     v = np.asarray(log.vehicle_speed)
-    late = DriveLog(log.time, log.sprocket_torque, log.sprocket_speed, np.r_[np.full(10, v[0]), v[:-10]],
-                    log.vehicle_accel, source="speed sensor 10 samples late")
+    late = DriveLog(
+        log.time,
+        log.sprocket_torque,
+        log.sprocket_speed,
+        np.r_[np.full(10, v[0]), v[:-10]],
+        log.vehicle_accel,
+        source="speed sensor 10 samples late",
+    )
     d = diagnose(late, vehicle)
     _consistent(d)
     assert (d.verdict, d.cause) == ("unexplained", "delay"), (d.verdict, d.cause, d.reason)
@@ -114,10 +121,14 @@ def test_a_soft_patch_is_unexplained_and_never_an_effect():
     a = simulate(v, TERRAINS["lete_sand"], kind="drive", seed=1, duration_s=60.0)
     b = simulate(v, TERRAINS["dry_sand"], kind="drive", seed=1, duration_s=60.0)
     m = (a.time >= 24.0) & (a.time < 39.0)
-    cols = {k: np.where(m, getattr(b, k), getattr(a, k))
-            for k in ("sprocket_torque", "sprocket_speed", "vehicle_speed", "vehicle_accel")}
-    d = diagnose(DriveLog(a.time, cols["sprocket_torque"], cols["sprocket_speed"], cols["vehicle_speed"],
-                          cols["vehicle_accel"]), v)
+    cols = {
+        k: np.where(m, getattr(b, k), getattr(a, k))
+        for k in ("sprocket_torque", "sprocket_speed", "vehicle_speed", "vehicle_accel")
+    }
+    d = diagnose(
+        DriveLog(a.time, cols["sprocket_torque"], cols["sprocket_speed"], cols["vehicle_speed"], cols["vehicle_accel"]),
+        v,
+    )
     _consistent(d)
     assert d.verdict == "unexplained" and d.gap.present, (d.verdict, d.reason)
     assert "terrain_change" in [e.effect for e in d.ranking]  # formed and weighed

@@ -1,4 +1,7 @@
 """Sweeps shaped like a test rig's: zero-slip rows, few points, a soil outside the practical range."""
+
+import pytest
+
 import json
 import math
 import os
@@ -38,6 +41,7 @@ LIGHT = Vehicle.from_json(os.path.join(os.path.dirname(HERE), "examples", "data"
 _light_sweep = bench_module("soil_range_and_torque_hold").light_sweep  # effect-free, independent numpy
 
 
+@pytest.mark.slow
 def test_a_soil_beyond_the_practical_range_is_not_read_as_an_effect():
     # K = 3 mm (a firm soil under a small rig track) lies below the practical range's 6 mm: the nominal fit
     # ends on that bound, misses the steep rise, and an effect that bends the curve (hump_shear) was named
@@ -58,6 +62,7 @@ def test_a_soil_inside_the_practical_range_is_diagnosed_within_it():
     assert "soil_beyond_range" in [x.name for x in d.excluded]  # not formed: the soil is on no edge
 
 
+@pytest.mark.slow
 def test_the_command_line_keeps_or_widens_the_bounds(tmp_path, capsys):
     from soiltrack.cli import main
     from soiltrack.soilmodel import write_csv
@@ -76,6 +81,9 @@ def test_the_command_line_keeps_or_widens_the_bounds(tmp_path, capsys):
     import subprocess
     import sys
 
-    bad = subprocess.run([sys.executable, "-m", "soiltrack", "diagnose", path, "--vehicle", "light", "--bounds",
-                          "loose"], capture_output=True, text=True)
+    bad = subprocess.run(
+        [sys.executable, "-m", "soiltrack", "diagnose", path, "--vehicle", "light", "--bounds", "loose"],
+        capture_output=True,
+        text=True,
+    )
     assert bad.returncode == 2 and "--bounds" in bad.stderr and "Traceback" not in bad.stderr

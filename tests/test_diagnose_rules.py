@@ -1,5 +1,6 @@
 """Sweeps from independent code: a load cell at its limit is the plateau cause; an effect-free clayey sweep is
 none; the plateau and lone-reading tools."""
+
 import pytest
 
 from soiltrack.identify import diagnose
@@ -26,15 +27,17 @@ def test_a_load_cell_flat_at_its_limit_is_unexplained_not_an_effect(tmp_path, se
 def _oracle_clip(share: float) -> float:
     """The clip level of the oracle's sweep: ``share`` of its noise-free drawbar-pull peak (default soil)."""
     import numpy as np
+
     ic = independent_check()
     i = np.linspace(0.02, 0.7, 60)
-    D = ic.thrust_quadrature(i, ic.W0, 1300., np.radians(31.1), 0.012) - ic.W0 * ic.MU
+    D = ic.thrust_quadrature(i, ic.W0, 1300.0, np.radians(31.1), 0.012) - ic.W0 * ic.MU
     return share * float(D.max())
 
 
 def test_find_plateau_needs_the_soil_below_to_rise_to_the_level():
     import numpy as np
     from soiltrack.identify.diagnosis.sweep_parts import find_plateau
+
     slip = np.linspace(0.02, 0.7, 30)
     flat = np.full(30, 100.0) + np.where(np.arange(30) % 2, 1.0, -1.0)
     flat[:2] = [60.0, 90.0]
@@ -45,6 +48,7 @@ def test_find_plateau_needs_the_soil_below_to_rise_to_the_level():
     # a soil fitted below that stays under the level at the plateau's slips: nothing is clipped
     low = flat.copy()
     low[:6] = [40.0, 50.0, 60.0, 70.0, 80.0, 90.0]
+
     def soil(curve):  # a "fit" below: the given curve's residuals on idx, its predictions on the rest
         return lambda idx: (low[idx] - curve[idx], np.delete(curve, idx))
 
@@ -57,21 +61,27 @@ def test_find_plateau_needs_the_soil_below_to_rise_to_the_level():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "known miss of the one comparison: the lack-of-fit F test on top of the nominal fit reads p = 0.0006 on "
-    "this effect-free sweep (the flexible term does not predict the held-out blocks better, p = 0.17): the "
-    "verdict is unexplained, no effect is named"))
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "known miss of the one comparison: the lack-of-fit F test on top of the nominal fit reads p = 0.0006 on "
+        "this effect-free sweep (the flexible term does not predict the held-out blocks better, p = 0.17): the "
+        "verdict is unexplained, no effect is named"
+    ),
+)
 def test_an_effect_free_clayey_sweep_from_independent_code_is_none(tmp_path):
     # independent oracle, effect-free, c = 4.14 kPa, phi = 13 deg, K = 6 mm, seed 0: white residuals, with a
     # chance lag-1 correlation of 0.26; a 10-knot flexible term wins on all the data
     import numpy as np
-    d = diagnose(independent_sweep(tmp_path / "clay.csv", 0, c=4140., phi=np.radians(13.0), K=0.006), HEAVY)
+
+    d = diagnose(independent_sweep(tmp_path / "clay.csv", 0, c=4140.0, phi=np.radians(13.0), K=0.006), HEAVY)
     assert d.verdict == "none" and not d.gap.present, [t.to_dict() for t in d.gap.tests]
 
 
 def test_isolated_outliers_finds_lone_readings_and_spares_noise_steps_and_growth():
     import numpy as np
     from soiltrack.identify.diagnosis.gap import OUTLIER_Z, isolated_outliers
+
     rng = np.random.default_rng(7)
     x = np.linspace(0.02, 0.7, 60)
     r = rng.normal(0.0, 1.0, 60)
@@ -102,6 +112,7 @@ def test_isolated_outliers_finds_lone_readings_and_spares_noise_steps_and_growth
 def test_isolated_outliers_with_trend_finds_a_glitch_on_a_ramp_but_no_step():
     import numpy as np
     from soiltrack.identify.diagnosis.gap import isolated_outliers
+
     rng = np.random.default_rng(3)
     t = np.arange(200) * 0.05
     ramp = 500.0 * np.arange(200) + rng.normal(0.0, 100.0, 200)  # a torque ramping 5 noise levels per sample
@@ -116,5 +127,3 @@ def test_isolated_outliers_with_trend_finds_a_glitch_on_a_ramp_but_no_step():
     assert isolated_outliers(step, t, trend=True) == []
     bend = np.where(np.arange(200) < 100, 500.0, -500.0).cumsum() + rng.normal(0.0, 100.0, 200)  # a kink
     assert isolated_outliers(bend, t, trend=True) == []
-
-

@@ -1,4 +1,7 @@
 """A log whose slips stay in the noise: the soil ends on the corner of its bounds, the diagnosis still stands."""
+
+import pytest
+
 import os
 
 from soiltrack.identify import diagnose
@@ -7,6 +10,7 @@ from soiltrack.soilmodel import VEHICLES, read_csv
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
+@pytest.mark.slow
 def test_a_soil_on_the_corner_of_its_bounds_still_gives_a_diagnosis():
     # light vehicle (300 N) cruising 60 s at 50 Hz on clayey soil (A c alone is 414 N): true slips below 0.001,
     # torque read by a transducer (independent numpy, benchmarks/soil_range_and_torque_hold.py's kind of log,

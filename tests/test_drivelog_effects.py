@@ -4,6 +4,7 @@ Logs of 30 s (1,500 samples; the light grade log 60 s) from the library's simula
 file fast; the numbers in the comments were measured on these very logs (seed 0) unless said
 otherwise.
 """
+
 from __future__ import annotations
 
 import math
@@ -39,12 +40,13 @@ def nominal_light(grade_light):
     return fit(grade_light[0], LIGHT)
 
 
+@pytest.mark.slow
 def test_grade_and_fmax_inside_their_intervals_light(grade_light):
     _, res = grade_light
     assert res.success, res.message
     g = res.effects["grade"]["theta_rad"]
     assert g.identifiable and g.ci95[0] <= GRADE <= g.ci95[1], g
-    assert g.stderr < 0.1 * GRADE                        # measured 2.3e-4 rad (0.4 % of 3 deg)
+    assert g.stderr < 0.1 * GRADE  # measured 2.3e-4 rad (0.4 % of 3 deg)
     # the log's thrust limit is at its actual normal load W cos(theta)
     F_true = max_thrust(DRY_SAND, LIGHT, normal_load=LIGHT.weight * math.cos(GRADE))
     f = _fmax(res)
@@ -54,6 +56,7 @@ def test_grade_and_fmax_inside_their_intervals_light(grade_light):
     assert set(res.extra["channel_rms"]) == {"sprocket_speed_rad_s", "thrust_N", "hull_N"}
 
 
+@pytest.mark.slow
 def test_hull_channel_sees_the_grade_the_thrust_channel_cannot(grade_light, nominal_light):
     """The nominal fit's F_max has about 2.3x the standard error of the fit with the hull channel."""
     _, res = grade_light
@@ -103,9 +106,10 @@ def test_hull_channel_from_speed_differences_without_imu():
     g = res.effects["grade"]["theta_rad"]
     assert res.extra["hull_channel"]["accel_source"] == "speed-difference"
     assert res.success and g.ci95[0] <= GRADE <= g.ci95[1], g
-    assert 0.002 < g.stderr < 0.02                       # measured 0.0050 rad
+    assert 0.002 < g.stderr < 0.02  # measured 0.0050 rad
 
 
+@pytest.mark.slow
 def test_no_effects_is_the_nominal_fit(grade_light, nominal_light):
     log, _ = grade_light
     for kw in ({"effects": []}, {"fixed": None}):
@@ -117,22 +121,24 @@ def test_no_effects_is_the_nominal_fit(grade_light, nominal_light):
 
 def test_grade_and_mass_error_confused_on_a_steady_log():
     """At constant speed both act as one constant force: flagged, with the correlation."""
-    log = simulate_drive_log(LIGHT, DRY_SAND, seed=0, effects={"grade": GRADE}, duration_s=15,
-                             speed_profile=[(0, 0), (3, 1.0), (15, 1.0)])
+    log = simulate_drive_log(
+        LIGHT, DRY_SAND, seed=0, effects={"grade": GRADE}, duration_s=15, speed_profile=[(0, 0), (3, 1.0), (15, 1.0)]
+    )
     res = fit_drive_log(log, LIGHT, effects=["grade", "mass_error"])
     assert res.success
     g, d = res.effects["grade"]["theta_rad"], res.effects["mass_error"]["delta"]
-    assert abs(g.correlation) > 0.95 and g.correlated_with == "mass_error.delta"   # measured -0.989
+    assert abs(g.correlation) > 0.95 and g.correlated_with == "mass_error.delta"  # measured -0.989
     assert d.correlated_with == "grade.theta_rad"
     # wide but honest: both intervals hold the truth (measured 0.0530 +- 0.0024 rad, -0.004 +- 0.020)
     assert g.ci95[0] <= GRADE <= g.ci95[1] and d.ci95[0] <= 0.0 <= d.ci95[1]
-    assert g.stderr > 5 * 3.2e-4        # the grade fitted alone on the 30 s log: 3.2e-4 rad
+    assert g.stderr > 5 * 3.2e-4  # the grade fitted alone on the 30 s log: 3.2e-4 rad
     text = " ".join(res.warnings)
     assert "effect grade.theta_rad can" in text and "be told apart from mass_error.delta (" in text
     assert "effect mass_error.delta can" in text and "be told apart from grade.theta_rad (" in text
-    assert "payload" in text                               # the experiment that separates them
+    assert "payload" in text  # the experiment that separates them
 
 
+@pytest.mark.slow
 def test_fixed_effect_is_held_and_reported(grade_light):
     log, _ = grade_light
     res = fit_drive_log(log, LIGHT, fixed={"grade": GRADE})
@@ -173,15 +179,20 @@ def test_padding_samples_are_inert_for_every_drive_log_effect(vehicle):
         der = derivative_function(vehicle, effect_structure(parse_effects([name]), vehicle))
         p = der.size1_in(0)
         for _ in range(3):
-            th = np.concatenate([[rng.uniform(0.2, 1.0) * vehicle.weight, rng.uniform(0.006, 0.05)],
-                                 rng.uniform(-0.2, 0.2, p - 2) * (vehicle.weight * vehicle.sprocket_radius
-                                                                  if name == "drivetrain_friction" else 1.0)])
+            th = np.concatenate(
+                [
+                    [rng.uniform(0.2, 1.0) * vehicle.weight, rng.uniform(0.006, 0.05)],
+                    rng.uniform(-0.2, 0.2, p - 2)
+                    * (vehicle.weight * vehicle.sprocket_radius if name == "drivetrain_friction" else 1.0),
+                ]
+            )
             for k in (3, 4):
                 e, Jt, _, H = (np.asarray(o, dtype=float) for o in der(th, 0.0, D[:, k]))
                 assert np.all(e == 0.0) and np.all(Jt == 0.0), (name, e, Jt)
-                assert np.all(H[:p, :] == 0.0), (name, H)      # no parameter curvature, no coupling to the slip
+                assert np.all(H[:p, :] == 0.0), (name, H)  # no parameter curvature, no coupling to the slip
 
 
+@pytest.mark.slow
 def test_drivetrain_friction_fit_converges_on_the_heavy_training_part():
     """The heavy vehicle's training half of a 60 s grade log with drivetrain_friction, started from the nominal
     fit (as the diagnosis does): with the old padding IPOPT ran into its 500-iteration limit twice (50 s);
@@ -200,6 +211,7 @@ def test_drivetrain_friction_fit_converges_on_the_heavy_training_part():
     assert 0.02 < tau_c / (HEAVY.weight * HEAVY.sprocket_radius) < 0.04, tau_c
 
 
+@pytest.mark.slow
 def test_latent_slips_reach_the_minimum_from_a_noisy_measured_slip():
     """The per-sample slip solve from the measured slip (far out on the flat part of the curve for a heavy
     vehicle, where the cost is not convex in the slip) reaches the minimum: the residuals of a fit evaluated
@@ -240,7 +252,9 @@ def test_joint_solver_hessian_is_casadis_own(names):
     rng = np.random.default_rng(2)
     scale = np.concatenate([[300.0, 0.017], np.full(pd - 2, 0.3)])
     i_ref = 0.017 / LIGHT.track_length
-    p = np.concatenate([scale, [i_ref], padded_data(jd.D, N).reshape(-1, order="F"), np.r_[np.zeros(n), np.ones(N - n)]])
+    p = np.concatenate(
+        [scale, [i_ref], padded_data(jd.D, N).reshape(-1, order="F"), np.r_[np.zeros(n), np.ones(N - n)]]
+    )
     x = np.concatenate([[1.1, 0.8], rng.uniform(-0.1, 0.1, pd - 2), rng.uniform(0.0, 2.0, n), np.zeros(N - n)])
     X, P = ca.MX.sym("x", x.size), ca.MX.sym("p", p.size)
     ref = ca.Function("ref", [X, P], [ca.triu(ca.hessian(solver.oracle()(X, P)[0], X)[0])])
@@ -257,6 +271,7 @@ def test_compiled_slip_kernels_equal_the_virtual_machine():
     from soiltrack.identify.jitcache import compiler, load
     from soiltrack.soilmodel import VEHICLES
     from soiltrack.soilmodel.effects import effect_structure
+
     if compiler() is None:
         pytest.skip("no C compiler: the virtual machine is used, nothing to compare")
     v = VEHICLES["light"]
@@ -266,8 +281,9 @@ def test_compiled_slip_kernels_equal_the_virtual_machine():
     assert c.is_c
     rng = np.random.default_rng(0)
     n = 3 * J.SLIP_CHUNK + 5  # not a multiple of the chunk: padded
-    th = np.concatenate([[rng.uniform(100, 5000), rng.uniform(0.005, 0.05)],
-                         rng.uniform(-0.05, 0.05, step.size1_in(0) - 2)]).reshape(-1, 1)
+    th = np.concatenate(
+        [[rng.uniform(100, 5000), rng.uniform(0.005, 0.05)], rng.uniform(-0.05, 0.05, step.size1_in(0) - 2)]
+    ).reshape(-1, 1)
     s = rng.uniform(-0.5, 0.9, n)
     D = np.abs(rng.normal(size=(len(J.DATA_ROWS), n)))
     vm = [np.asarray(o).ravel() for o in step.map(n)(th, s.reshape(1, -1), D)]
@@ -287,6 +303,7 @@ def test_slip_step_kernel_matches_the_newton_step():
     from soiltrack.identify.drivelog import joint as J
     from soiltrack.soilmodel import VEHICLES
     from soiltrack.soilmodel.effects import effect_structure
+
     v = VEHICLES["light"]
     st = effect_structure(["grade"], v)
     step = J._slip_step_function(v, st)

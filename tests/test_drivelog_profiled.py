@@ -4,6 +4,7 @@ The profiled cost ``phi(theta) = sum_k min_i |e_k(theta, i)|^2 / 2`` has the gra
 the module assembles from CasADi's per-sample derivatives; the start only moves IPOPT's starting
 point, never its optimum.
 """
+
 from __future__ import annotations
 
 import math
@@ -24,8 +25,9 @@ HEAVY = VEHICLES["heavy"]
 
 @pytest.fixture(scope="module")
 def grade_log():
-    return simulate_drive_log(HEAVY, TERRAINS["lete_sand"], seed=2, effects={"grade": math.radians(2.0)},
-                              duration_s=30.0)
+    return simulate_drive_log(
+        HEAVY, TERRAINS["lete_sand"], seed=2, effects={"grade": math.radians(2.0)}, duration_s=30.0
+    )
 
 
 def _problem(log, names):
@@ -52,12 +54,20 @@ def test_profiled_gradient_and_hessian_match_finite_differences(grade_log):
     c, g, Hr, _ = sums(theta, s0)
     assert c == pytest.approx(c0, rel=1e-12)
     h = np.array([theta[0] * 1e-5, theta[1] * 1e-5, 1e-6])
-    gfd = np.array([(phi(theta + h[j] * np.eye(3)[j])[0] - phi(theta - h[j] * np.eye(3)[j])[0]) / (2 * h[j])
-                    for j in range(3)])
+    gfd = np.array(
+        [(phi(theta + h[j] * np.eye(3)[j])[0] - phi(theta - h[j] * np.eye(3)[j])[0]) / (2 * h[j]) for j in range(3)]
+    )
     assert np.allclose(g, gfd, rtol=1e-4, atol=1e-6 * np.max(np.abs(gfd))), (g, gfd)
-    Hfd = np.column_stack([(sums(theta + h[j] * np.eye(3)[j], phi(theta + h[j] * np.eye(3)[j])[1])[1]
-                            - sums(theta - h[j] * np.eye(3)[j], phi(theta - h[j] * np.eye(3)[j])[1])[1]) / (2 * h[j])
-                           for j in range(3)])
+    Hfd = np.column_stack(
+        [
+            (
+                sums(theta + h[j] * np.eye(3)[j], phi(theta + h[j] * np.eye(3)[j])[1])[1]
+                - sums(theta - h[j] * np.eye(3)[j], phi(theta - h[j] * np.eye(3)[j])[1])[1]
+            )
+            / (2 * h[j])
+            for j in range(3)
+        ]
+    )
     scale = np.sqrt(np.outer(np.diag(np.abs(Hfd)), np.diag(np.abs(Hfd))))
     assert np.all(np.abs(Hr - Hfd) <= 1e-3 * scale + 1e-9 * np.max(scale)), (Hr, Hfd)
 
@@ -83,6 +93,7 @@ def test_profiled_start_lowers_the_cost_and_respects_bounds(grade_log):
 
 
 @pytest.mark.parametrize("names", [["grade"], ["drivetrain_friction"]])
+@pytest.mark.slow
 def test_profiled_start_changes_the_start_not_the_optimum(grade_log, names):
     """IPOPT from the profiled start and from the plain start (nominal soil, effect off) end at the same
     optimum; the fit reports the profiled iterations it took."""
@@ -104,12 +115,14 @@ def test_profiled_start_returns_the_start_when_the_cost_is_not_finite(grade_log)
     D[0, 5] = np.nan  # one sample's speed
     th0 = np.array([1.2 * float(np.max(prep.thrust)), 0.02, 0.0])
     lo, hi = np.array([1e3, 0.006, -0.5]), np.array([5e5, 0.05, 0.5])
-    ps = profiled_start(HEAVY, st, D, th0, lo, hi, np.array([1e5, 0.017, 0.05]),
-                        [np.clip(prep.slip_measured, -0.9, 0.9)])
+    ps = profiled_start(
+        HEAVY, st, D, th0, lo, hi, np.array([1e5, 0.017, 0.05]), [np.clip(prep.slip_measured, -0.9, 0.9)]
+    )
     assert not ps.converged and ps.iterations == 0
     assert np.array_equal(ps.theta, th0)
 
 
+@pytest.mark.slow
 def test_the_plain_starts_run_when_ipopt_cannot_certify_the_profiled_start(grade_log, monkeypatch):
     """IPOPT's status from the profiled start is the fit's only if it converged; otherwise the plain starts run
     and the status from the profiled start is reported beside the fit's own."""

@@ -1,4 +1,5 @@
 """Held-out residuals of drive-log fits per channel (``FitResult.residuals_on`` for drive logs)."""
+
 from __future__ import annotations
 
 import math
@@ -27,18 +28,25 @@ def block():
     return simulate_drive_log(LIGHT, DRY_SAND, seed=5, effects={"grade": GRADE}, duration_s=20, noise="none")
 
 
+@pytest.mark.slow
 def test_residuals_on_noise_free_block(fits, block):
     """Held-out noise-free block: the true model's residuals are at the discretisation level
     (far below the noise); the fitted model's are zero-mean against the noise; the nominal
     model leaves the grade's force W sin(theta) in the hull channel."""
     res, nominal_fit = fits
-    truth = {"max_thrust_N": max_thrust(DRY_SAND, LIGHT, normal_load=LIGHT.weight * math.cos(GRADE)),
-             "shear_modulus_m": DRY_SAND.shear_modulus, "effects": {"grade.theta_rad": GRADE},
-             "structure": ["grade"], "hull_in_fit": True,
-             "noise": {k: (v["abs"], v["rel"]) for k, v in zip(
-                 ("torque", "sprocket_speed", "vehicle_speed"), res.extra["noise_model"].values())}}
+    truth = {
+        "max_thrust_N": max_thrust(DRY_SAND, LIGHT, normal_load=LIGHT.weight * math.cos(GRADE)),
+        "shear_modulus_m": DRY_SAND.shear_modulus,
+        "effects": {"grade.theta_rad": GRADE},
+        "structure": ["grade"],
+        "hull_in_fit": True,
+        "noise": {
+            k: (v["abs"], v["rel"])
+            for k, v in zip(("torque", "sprocket_speed", "vehicle_speed"), res.extra["noise_model"].values())
+        },
+    }
     out = drive_log_residuals(truth, block, LIGHT)
-    for ch, r in out["channels"].items():   # whitened means measured: 0.0005, 0.013, 0.002
+    for ch, r in out["channels"].items():  # whitened means measured: 0.0005, 0.013, 0.002
         assert abs(np.mean(r / out["sigma"][ch])) < 0.05, (ch, np.mean(r / out["sigma"][ch]))
     fitted = drive_log_residuals(res, block, LIGHT)
     hook = res.residuals_on(block)
@@ -47,9 +55,10 @@ def test_residuals_on_noise_free_block(fits, block):
         assert abs(np.mean(r / fitted["sigma"][ch])) < 0.2, (ch, np.mean(r / fitted["sigma"][ch]))
     nominal = nominal_fit.residuals_on(block)
     W_sin = LIGHT.weight * math.sin(GRADE)
-    assert np.nanmean(nominal["hull_N"]) == pytest.approx(-W_sin, rel=0.1)   # measured -15.8 N vs -15.7 N
+    assert np.nanmean(nominal["hull_N"]) == pytest.approx(-W_sin, rel=0.1)  # measured -15.8 N vs -15.7 N
 
 
+@pytest.mark.slow
 def test_residual_hook_pickles_and_refuses_a_failed_fit(fits, block):
     res, _ = fits
     again = pickle.loads(pickle.dumps(res.residual_model))
@@ -60,10 +69,12 @@ def test_residual_hook_pickles_and_refuses_a_failed_fit(fits, block):
         failed.residuals_on(block)
 
 
+@pytest.mark.slow
 def test_effect_fits_and_residuals_from_threads_match_serial(fits, block):
     """Two effect fits and their held-out residuals from a ThreadPoolExecutor equal the serial ones
     (cached solvers go through the one solver lock; measured with 4 threads and 4 logs too)."""
     from concurrent.futures import ThreadPoolExecutor
+
     logs = [simulate_drive_log(LIGHT, DRY_SAND, seed=k, effects={"grade": GRADE}, duration_s=12) for k in (1, 2)]
     serial = [fit_drive_log(lg, LIGHT, effects=["grade"]) for lg in logs]
     with ThreadPoolExecutor(2) as ex:

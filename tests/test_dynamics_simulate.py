@@ -1,4 +1,5 @@
 """Dynamics (Eqs. 1, 3, 4), the quasi-static slip inverse, and the simulator."""
+
 import math
 import time
 
@@ -8,10 +9,26 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from soiltrack.soilmodel import (EFFECTS, SEED_ACTUAL, TERRAINS, VEHICLES, DataError, DriveLog, SensorNoise,
-                                 SlipData, Vehicle, dynamics_function, max_thrust, simulate, simulate_drive_log,
-                                 simulate_slip_sweep, slip_from_thrust, slip_from_thrust_function,
-                                 tractive_force, tractive_force_with_effects)
+from soiltrack.soilmodel import (
+    EFFECTS,
+    SEED_ACTUAL,
+    TERRAINS,
+    VEHICLES,
+    DataError,
+    DriveLog,
+    SensorNoise,
+    SlipData,
+    Vehicle,
+    dynamics_function,
+    max_thrust,
+    simulate,
+    simulate_drive_log,
+    simulate_slip_sweep,
+    slip_from_thrust,
+    slip_from_thrust_function,
+    tractive_force,
+    tractive_force_with_effects,
+)
 from soiltrack.soilmodel.simulation import default_speed_profile, drive_limits
 
 HEAVY, LIGHT = VEHICLES["heavy"], VEHICLES["light"]
@@ -25,11 +42,11 @@ def off_spec(name):
 
 # --- dynamics -------------------------------------------------------------------------------------------
 
+
 def test_dynamics_equations_pointwise():
     """The Function implements Eqs. 1, 4 and the thrust balance, checked against the traction module."""
     f = dynamics_function(HEAVY, SEED_ACTUAL)
-    r, I, m, W, mu = (HEAVY.sprocket_radius, HEAVY.sprocket_inertia, HEAVY.mass, HEAVY.weight,
-                      HEAVY.rolling_resistance)
+    r, I, m, W, mu = (HEAVY.sprocket_radius, HEAVY.sprocket_inertia, HEAVY.mass, HEAVY.weight, HEAVY.rolling_resistance)
     for v, w, M in ((2.0, 7.0, 20e3), (0.5, 1.8, 5e4), (3.0, 10.5, -2e3), (1.0, 4.0, 0.0)):
         xdot, slip, F, R, loss = (np.asarray(o, dtype=float).ravel() for o in f([v, w], M))
         i = 1 - v / (r * w)
@@ -62,11 +79,20 @@ def test_dynamics_symbolic_soil_and_cache():
         dynamics_function(LIGHT, SAND, sprocket_equation="printed")
 
 
-@pytest.mark.parametrize("x", [[0.0, 0.0], [0.0, 1e-9], [1e-9, 0.0], [0.5, 0.0], [0.0, 5.0], [-0.3, -4.0],
-                               [0.2, -1.0], [1e-300, 1e-300]])
+@pytest.mark.parametrize(
+    "x", [[0.0, 0.0], [0.0, 1e-9], [1e-9, 0.0], [0.5, 0.0], [0.0, 5.0], [-0.3, -4.0], [0.2, -1.0], [1e-300, 1e-300]]
+)
 def test_dynamics_no_nan_near_standstill(x):
-    f = dynamics_function(LIGHT, SAND, {"drivetrain_friction": {"tau_c": 0.2, "tau_v": 0.01}, "grade": 0.1,
-                                        "slip_sinkage": 0.1, "speed_resistance": 0.05})
+    f = dynamics_function(
+        LIGHT,
+        SAND,
+        {
+            "drivetrain_friction": {"tau_c": 0.2, "tau_v": 0.01},
+            "grade": 0.1,
+            "slip_sinkage": 0.1,
+            "speed_resistance": 0.05,
+        },
+    )
     for M in (0.0, 5.0, -5.0):
         out = np.concatenate([np.asarray(o, dtype=float).ravel() for o in f(x, M)])
         assert np.all(np.isfinite(out))
@@ -88,27 +114,34 @@ def test_effects_act_on_the_right_terms():
     r, m = HEAVY.sprocket_radius, HEAVY.mass
     base = [np.asarray(o, dtype=float).ravel() for o in dynamics_function(HEAVY, SEED_ACTUAL)(x, M)]
     # mass_error: a heavier vehicle accelerates less for the same state
-    heavy = [np.asarray(o, dtype=float).ravel() for o in
-             dynamics_function(HEAVY, SEED_ACTUAL, {"mass_error": 0.3})(x, M)]
+    heavy = [
+        np.asarray(o, dtype=float).ravel() for o in dynamics_function(HEAVY, SEED_ACTUAL, {"mass_error": 0.3})(x, M)
+    ]
     F13 = float(tractive_force(base[1][0], SEED_ACTUAL, HEAVY, normal_load=1.3 * HEAVY.weight))
     assert heavy[0][0] == pytest.approx((F13 - 1.3 * HEAVY.weight * 0.05) / (1.3 * m), rel=1e-12)
     # radius_error: slip and torque arm use r (1 + eps)
-    rad = [np.asarray(o, dtype=float).ravel() for o in
-           dynamics_function(HEAVY, SEED_ACTUAL, {"radius_error": 0.03})(x, M)]
+    rad = [
+        np.asarray(o, dtype=float).ravel() for o in dynamics_function(HEAVY, SEED_ACTUAL, {"radius_error": 0.03})(x, M)
+    ]
     i_eff = 1 - 2.0 / (1.03 * r * 7.0)
     assert rad[1][0] == pytest.approx(i_eff, rel=1e-13)
     assert rad[0][1] * HEAVY.sprocket_inertia == pytest.approx(M - 1.03 * r * rad[2][0], rel=1e-12)
     # drivetrain friction: less torque reaches the sprocket
-    dt = [np.asarray(o, dtype=float).ravel() for o in
-          dynamics_function(HEAVY, SEED_ACTUAL, {"drivetrain_friction": {"tau_c": 300.0, "tau_v": 20.0}})(x, M)]
+    dt = [
+        np.asarray(o, dtype=float).ravel()
+        for o in dynamics_function(HEAVY, SEED_ACTUAL, {"drivetrain_friction": {"tau_c": 300.0, "tau_v": 20.0}})(x, M)
+    ]
     assert dt[4][0] == 300.0 + 20.0 * 7.0
     assert dt[0][1] == pytest.approx(base[0][1] - 440.0 / HEAVY.sprocket_inertia, rel=1e-12)
 
 
 # --- quasi-static slip --------------------------------------------------------------------------------
 
-@given(st.floats(-0.97, 0.97), st.sampled_from([None, {"pressure_distribution": {"e": 0.3, "alpha": 0.2}},
-                                                 {"grade": 0.1, "mass_error": 0.2}]))
+
+@given(
+    st.floats(-0.97, 0.97),
+    st.sampled_from([None, {"pressure_distribution": {"e": 0.3, "alpha": 0.2}}, {"grade": 0.1, "mass_error": 0.2}]),
+)
 @settings(max_examples=40, deadline=None)
 def test_slip_from_thrust_inverts(frac, eff):
     F_top = float(tractive_force_with_effects(0.999, SEED_ACTUAL, HEAVY, eff))
@@ -129,8 +162,9 @@ def test_slip_from_thrust_unreachable_and_hump():
     grid = np.linspace(0.001, 0.9, 2000)
     F = tractive_force_with_effects(grid, SEED_ACTUAL, HEAVY, hump)
     s_pk = grid[np.argmax(F)]
-    s, ok = slip_from_thrust([0.5 * F.max(), 0.999 * F.max(), 1.01 * F.max()], SEED_ACTUAL, HEAVY, hump,
-                             return_reachable=True)
+    s, ok = slip_from_thrust(
+        [0.5 * F.max(), 0.999 * F.max(), 1.01 * F.max()], SEED_ACTUAL, HEAVY, hump, return_reachable=True
+    )
     assert ok.tolist() == [True, True, False]
     assert np.all(s <= s_pk + 1e-3)  # the rising branch
     g = slip_from_thrust_function(HEAVY)
@@ -139,18 +173,22 @@ def test_slip_from_thrust_unreachable_and_hump():
     s1 = float(g(1e5, *SEED_ACTUAL.as_vector(), HEAVY.weight))
     i = ca.SX.sym("i")
     from soiltrack.soilmodel import thrust_with_effects
-    dFdi = ca.Function("dF", [i], [ca.jacobian(thrust_with_effects(i, *SEED_ACTUAL.as_vector(), HEAVY.weight,
-                                                                     HEAVY), i)])
+
+    dFdi = ca.Function(
+        "dF", [i], [ca.jacobian(thrust_with_effects(i, *SEED_ACTUAL.as_vector(), HEAVY.weight, HEAVY), i)]
+    )
     assert float(dsdF(1e5)) == pytest.approx(1 / float(dFdi(s1)), rel=1e-8)  # implicit-function derivative
 
 
 # --- drive-log simulation -----------------------------------------------------------------------------
 
+
 def test_noise_free_log_satisfies_the_equations():
     """Truth signals satisfy Eqs. 1, 3 (thrust balance), 4; integration checked in integral form."""
     for veh, soil in ((LIGHT, SAND), (HEAVY, TERRAINS["lete_sand"])):
-        log, tr = simulate_drive_log(veh, soil, noise="none", duration_s=8.0, sample_rate_hz=1000.0,
-                                     speed_profile=GENTLE, return_truth=True)
+        log, tr = simulate_drive_log(
+            veh, soil, noise="none", duration_s=8.0, sample_rate_hz=1000.0, speed_profile=GENTLE, return_truth=True
+        )
         r, I, m = veh.sprocket_radius, veh.sprocket_inertia, veh.mass
         W, mu = veh.weight, veh.rolling_resistance
         v, w, M = tr["v"], tr["w"], tr["torque"]
@@ -170,14 +208,29 @@ def test_noise_free_log_satisfies_the_equations():
         assert np.max(np.abs(res)) < 1e-6 * scale
         # Eq. 1 over each interval by the trapezoid rule: small except in the short slip transients
         lhs = m * np.diff(v)[k]
-        rhs = 0.5 * (F[np.searchsorted(np.nonzero(moving)[0], k)] + F[np.searchsorted(np.nonzero(moving)[0], k + 1)]
-                     - 2 * W * mu) * h
+        rhs = (
+            0.5
+            * (
+                F[np.searchsorted(np.nonzero(moving)[0], k)]
+                + F[np.searchsorted(np.nonzero(moving)[0], k + 1)]
+                - 2 * W * mu
+            )
+            * h
+        )
         assert np.median(np.abs(lhs - rhs)) < 1e-5 * np.max(np.abs(F)) * h
 
 
 def test_seed_sprocket_equation_option():
-    log, tr = simulate_drive_log(LIGHT, SAND, noise="none", duration_s=6.0, sample_rate_hz=200.0,
-                                 speed_profile=GENTLE, sprocket_equation="seed", return_truth=True)
+    log, tr = simulate_drive_log(
+        LIGHT,
+        SAND,
+        noise="none",
+        duration_s=6.0,
+        sample_rate_hz=200.0,
+        speed_profile=GENTLE,
+        sprocket_equation="seed",
+        return_truth=True,
+    )
     r, I, m, h = LIGHT.sprocket_radius, LIGHT.sprocket_inertia, LIGHT.mass, 1 / 200.0
     k = np.nonzero(tr["v"][:-1] > 0.05)[0]
     res = I * np.diff(tr["w"])[k] + r * m * np.diff(tr["v"])[k] - tr["torque"][k] * h  # (1) + printed (3)
@@ -208,8 +261,14 @@ def test_default_log_has_gentle_and_hard_driving_and_is_fast():
 
 
 def test_assumed_limits_when_vehicle_gives_none():
-    bare = Vehicle(mass=100.0, track_length=0.8, track_width=0.15, sprocket_radius=0.1, sprocket_inertia=0.2,
-                   rolling_resistance=0.06)
+    bare = Vehicle(
+        mass=100.0,
+        track_length=0.8,
+        track_width=0.15,
+        sprocket_radius=0.1,
+        sprocket_inertia=0.2,
+        rolling_resistance=0.06,
+    )
     lim = drive_limits(bare)
     assert lim.torque_assumed and lim.power_assumed
     assert lim.max_sprocket_torque == pytest.approx(0.8 * bare.weight * 0.1)
@@ -219,6 +278,7 @@ def test_assumed_limits_when_vehicle_gives_none():
 
 
 @pytest.mark.parametrize("name", list(EFFECTS))
+@pytest.mark.slow
 def test_simulated_log_effect_off_equals_nominal_exactly(name):
     kw = dict(noise="none", duration_s=6.0, sample_rate_hz=50.0, return_truth=True)
     a, ta = simulate_drive_log(HEAVY, SEED_ACTUAL, **kw)
@@ -229,12 +289,21 @@ def test_simulated_log_effect_off_equals_nominal_exactly(name):
 
 def _hold(veh, soil, effects, v=1.0):
     """Mean torque and signals during a constant-speed hold."""
-    log, tr = simulate_drive_log(veh, soil, effects=effects, noise="none", duration_s=20.0, sample_rate_hz=50.0,
-                                 speed_profile=[(0, 0), (0.5, 0), (5.0, v), (20.0, v)], return_truth=True)
+    log, tr = simulate_drive_log(
+        veh,
+        soil,
+        effects=effects,
+        noise="none",
+        duration_s=20.0,
+        sample_rate_hz=50.0,
+        speed_profile=[(0, 0), (0.5, 0), (5.0, v), (20.0, v)],
+        return_truth=True,
+    )
     hold = tr["time"] > 17.0  # the PI integrator has absorbed the unknown extra load by then
     return {k: np.mean(tr[k][hold]) for k in ("torque", "slip", "slip_apparent", "v", "w", "thrust")}
 
 
+@pytest.mark.slow
 def test_effect_signatures_in_drive_logs():
     r, W, mu = LIGHT.sprocket_radius, LIGHT.weight, LIGHT.rolling_resistance
     base = _hold(LIGHT, SAND, None)
@@ -262,7 +331,7 @@ def test_effect_signatures_in_drive_logs():
     early = t0["time"] < 3.0
     a0, a1 = np.max(t0["accel"][early]), np.max(t1["accel"][early])
     T_r = drive_limits(HEAVY).max_sprocket_torque / HEAVY.sprocket_radius
-    m_eq = HEAVY.mass + HEAVY.sprocket_inertia / HEAVY.sprocket_radius ** 2
+    m_eq = HEAVY.mass + HEAVY.sprocket_inertia / HEAVY.sprocket_radius**2
     # rigid-body estimate (T/r - R)/(m + I/r^2) of both, to within the slip dynamics' share
     assert a0 == pytest.approx((T_r - HEAVY.weight * 0.05) / m_eq, rel=0.01)
     assert a1 == pytest.approx((T_r - 1.5 * HEAVY.weight * 0.05) / (m_eq + 0.5 * HEAVY.mass), rel=0.01)
@@ -272,6 +341,7 @@ def test_effect_signatures_in_drive_logs():
     assert np.max(u1["accel"][early]) == pytest.approx(np.max(u0["accel"][early]), rel=0.15)
 
 
+@pytest.mark.slow
 def test_noise_levels_and_seeds():
     noise = SensorNoise()
     a, tr = simulate_drive_log(HEAVY, SEED_ACTUAL, seed=7, return_truth=True)
@@ -285,8 +355,10 @@ def test_noise_levels_and_seeds():
         (a.vehicle_speed - tr["v"], np.full(tr["v"].shape, noise.gnss_speed)),
         (a.vehicle_accel - tr["accel"], np.full(tr["v"].shape, noise.imu_accel)),
         (a.sprocket_speed - tr["w"], np.hypot(noise.encoder_abs, noise.encoder_rel * tr["w"])),
-        (a.sprocket_torque - tr["torque"], np.hypot(noise.torque_fs * lim.max_sprocket_torque,
-                                                    noise.torque_rel * tr["torque"])),
+        (
+            a.sprocket_torque - tr["torque"],
+            np.hypot(noise.torque_fs * lim.max_sprocket_torque, noise.torque_rel * tr["torque"]),
+        ),
     ]
     n = tr["v"].size
     for err, sd in checks:
@@ -302,11 +374,19 @@ def test_noise_levels_and_seeds():
 
 
 def test_drive_log_with_effects_and_cohesion_free_model_is_finite():
-    eff = {"grade": -0.05, "speed_resistance": 0.01, "slip_sinkage": 0.2, "drivetrain_friction": 0.5,
-           "radius_error": -0.02, "hump_shear": 0.3, "pressure_distribution": {"e": 0.2, "alpha": 0.3},
-           "mass_error": 0.2}
-    log, tr = simulate_drive_log(LIGHT, SAND, effects=eff, model="cohesion-free", seed=3, duration_s=20.0,
-                                 return_truth=True)
+    eff = {
+        "grade": -0.05,
+        "speed_resistance": 0.01,
+        "slip_sinkage": 0.2,
+        "drivetrain_friction": 0.5,
+        "radius_error": -0.02,
+        "hump_shear": 0.3,
+        "pressure_distribution": {"e": 0.2, "alpha": 0.3},
+        "mass_error": 0.2,
+    }
+    log, tr = simulate_drive_log(
+        LIGHT, SAND, effects=eff, model="cohesion-free", seed=3, duration_s=20.0, return_truth=True
+    )
     for col in log.columns().values():
         assert np.all(np.isfinite(col))
     assert "grade" in log.source and "mass_error" in log.source
@@ -314,13 +394,15 @@ def test_drive_log_with_effects_and_cohesion_free_model_is_finite():
 
 # --- sweeps ----------------------------------------------------------------------------------------------
 
+
 def test_sweep_several_loads_noise_free():
     loads = [0.6 * HEAVY.weight, HEAVY.weight, 1.3 * HEAVY.weight]
     data = simulate_slip_sweep(HEAVY, SEED_ACTUAL, normal_loads=loads, noise="none")
     assert isinstance(data, SlipData) and data.distinct_loads.size == 3
     assert data.n_samples == 3 * 22
-    assert np.array_equal(data.tractive_force, tractive_force(data.slip, SEED_ACTUAL, HEAVY,
-                                                              normal_load=data.normal_load))
+    assert np.array_equal(
+        data.tractive_force, tractive_force(data.slip, SEED_ACTUAL, HEAVY, normal_load=data.normal_load)
+    )
     one = simulate(HEAVY, SEED_ACTUAL, kind="sweep", noise="none", slips=[0.02, 0.05])
     assert one.normal_load is None and one.n_samples == 2
 

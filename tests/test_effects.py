@@ -1,4 +1,5 @@
 """Unmodelled effects: nesting (off == nominal, exactly), closed forms vs quadrature, directions."""
+
 import math
 
 import casadi as ca
@@ -7,12 +8,30 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from soiltrack.soilmodel import (EFFECTS, SEED_ACTUAL, TERRAINS, VEHICLES, DataError, EffectSet, Soil,
-                                 effect_symbols, parse_effects, thrust_with_effects, tractive_force,
-                                 tractive_force_with_effects)
-from soiltrack.soilmodel.effects import (effective_mass, effective_normal_load, effective_radius,
-                                         motion_resistance, pressure_profile, softening_shear, torque_loss,
-                                         wong_type_b_shear)
+from soiltrack.soilmodel import (
+    EFFECTS,
+    SEED_ACTUAL,
+    TERRAINS,
+    VEHICLES,
+    DataError,
+    EffectSet,
+    Soil,
+    effect_symbols,
+    parse_effects,
+    thrust_with_effects,
+    tractive_force,
+    tractive_force_with_effects,
+)
+from soiltrack.soilmodel.effects import (
+    effective_mass,
+    effective_normal_load,
+    effective_radius,
+    motion_resistance,
+    pressure_profile,
+    softening_shear,
+    torque_loss,
+    wong_type_b_shear,
+)
 from soiltrack.soilmodel.traction import thrust_expr
 
 HEAVY, LIGHT = VEHICLES["heavy"], VEHICLES["light"]
@@ -55,9 +74,18 @@ def quad_force(i, soil, veh, W=None, e=0.0, alpha=0.0, n_w=5, drop=0.0, k_ratio=
 
 # --- registry and parsing ------------------------------------------------------------------------------
 
+
 def test_registry_names_are_the_contract():
-    assert list(EFFECTS) == ["grade", "speed_resistance", "slip_sinkage", "drivetrain_friction", "radius_error",
-                             "hump_shear", "pressure_distribution", "mass_error"]
+    assert list(EFFECTS) == [
+        "grade",
+        "speed_resistance",
+        "slip_sinkage",
+        "drivetrain_friction",
+        "radius_error",
+        "hump_shear",
+        "pressure_distribution",
+        "mass_error",
+    ]
     for name, spec in EFFECTS.items():
         assert spec.name == name
         assert spec.primary in spec.param_names
@@ -91,24 +119,27 @@ def test_parse_defaults_and_vehicle_wheels():
     assert "vehicle" in str(es)
 
 
-@pytest.mark.parametrize("spec, words", [
-    ({"gravity": 0.1}, ["unknown effect 'gravity'", "grade", "mass_error"]),
-    (["grade.phi=0.1"], ["no parameter 'phi'", "theta_rad"]),
-    (["drivetrain_friction.tau=1"], ["tau_c", "tau_v"]),
-    (["grade=abc"], ["must be a number"]),
-    (["grade=nan"], ["finite"]),
-    ({"grade": math.inf}, ["finite"]),
-    ({"grade": [0.1]}, ["must be a number"]),
-    ({"grade": {"theta_rad": True}}, ["must be a number"]),
-    (["grade="], ["missing value"]),
-    (["grade=0.1", "grade.theta_rad=0.2"], ["given twice"]),
-    ({"pressure_distribution": {"e": 0.7, "alpha": 0.5}}, ["negative"]),
-    ({"pressure_distribution": {"n_w": 4.5}}, ["integer"]),
-    ({"hump_shear": {"drop": 1.5}}, ["outside its admissible range"]),
-    ({"radius_error": -2.0}, ["outside"]),
-    (42, ["cannot read effects"]),
-    ([3.0], ["must be a string"]),
-])
+@pytest.mark.parametrize(
+    "spec, words",
+    [
+        ({"gravity": 0.1}, ["unknown effect 'gravity'", "grade", "mass_error"]),
+        (["grade.phi=0.1"], ["no parameter 'phi'", "theta_rad"]),
+        (["drivetrain_friction.tau=1"], ["tau_c", "tau_v"]),
+        (["grade=abc"], ["must be a number"]),
+        (["grade=nan"], ["finite"]),
+        ({"grade": math.inf}, ["finite"]),
+        ({"grade": [0.1]}, ["must be a number"]),
+        ({"grade": {"theta_rad": True}}, ["must be a number"]),
+        (["grade="], ["missing value"]),
+        (["grade=0.1", "grade.theta_rad=0.2"], ["given twice"]),
+        ({"pressure_distribution": {"e": 0.7, "alpha": 0.5}}, ["negative"]),
+        ({"pressure_distribution": {"n_w": 4.5}}, ["integer"]),
+        ({"hump_shear": {"drop": 1.5}}, ["outside its admissible range"]),
+        ({"radius_error": -2.0}, ["outside"]),
+        (42, ["cannot read effects"]),
+        ([3.0], ["must be a string"]),
+    ],
+)
 def test_parse_errors(spec, words):
     with pytest.raises(DataError) as err:
         parse_effects(spec)
@@ -128,6 +159,7 @@ def test_parse_roundtrip(d):
 
 # --- nesting: effect off == nominal, exactly ------------------------------------------------------------
 
+
 @pytest.mark.parametrize("name", list(EFFECTS))
 @pytest.mark.parametrize("model", ["full", "cohesion-free"])
 def test_thrust_off_equals_nominal_exactly(name, model):
@@ -143,8 +175,10 @@ def test_all_off_together_equals_nominal_exactly():
     for n in EFFECTS:
         spec.update(off_spec(n))
     for W in (HEAVY.weight, 0.5 * HEAVY.weight):
-        assert np.array_equal(tractive_force(SLIPS, SEED_ACTUAL, HEAVY, normal_load=W),
-                              tractive_force_with_effects(SLIPS, SEED_ACTUAL, HEAVY, spec, normal_load=W))
+        assert np.array_equal(
+            tractive_force(SLIPS, SEED_ACTUAL, HEAVY, normal_load=W),
+            tractive_force_with_effects(SLIPS, SEED_ACTUAL, HEAVY, spec, normal_load=W),
+        )
     v = np.array([0.0, 0.003, 0.5, 3.0])
     i = np.array([0.0, 0.1, 0.02, 0.5])
     for vv, ii in zip(v, i):
@@ -160,21 +194,28 @@ def test_all_off_together_equals_nominal_exactly():
 @given(soils, st.floats(-0.99, 0.99), st.sampled_from(list(EFFECTS)))
 @settings(max_examples=80, deadline=None)
 def test_off_equals_nominal_property(soil, slip, name):
-    assert np.array_equal(tractive_force(slip, soil, LIGHT), tractive_force_with_effects(slip, soil, LIGHT,
-                                                                                          off_spec(name)))
+    assert np.array_equal(
+        tractive_force(slip, soil, LIGHT), tractive_force_with_effects(slip, soil, LIGHT, off_spec(name))
+    )
 
 
 def test_symbolic_effect_parameters_nest():
     """Identification builds the model with effect parameters as symbols: at 0 it is the nominal model."""
-    mapping, vec, labels = effect_symbols(["hump_shear", "pressure_distribution", "grade", "mass_error"],
-                                          vehicle=HEAVY)
-    assert labels == ["grade.theta_rad", "hump_shear.drop", "hump_shear.k_ratio", "pressure_distribution.e",
-                      "pressure_distribution.alpha", "mass_error.delta"]  # registry order
+    mapping, vec, labels = effect_symbols(["hump_shear", "pressure_distribution", "grade", "mass_error"], vehicle=HEAVY)
+    assert labels == [
+        "grade.theta_rad",
+        "hump_shear.drop",
+        "hump_shear.k_ratio",
+        "pressure_distribution.e",
+        "pressure_distribution.alpha",
+        "mass_error.delta",
+    ]  # registry order
     i = ca.SX.sym("i")
     F = thrust_with_effects(i, *SEED_ACTUAL.as_vector(), HEAVY.weight, HEAVY, mapping)
     fn = ca.Function("f", [i, vec], [F])
-    F0 = ca.Function("f0", [i], [thrust_expr(i, *SEED_ACTUAL.as_vector(), HEAVY.weight, HEAVY.track_length,
-                                             HEAVY.track_width)])
+    F0 = ca.Function(
+        "f0", [i], [thrust_expr(i, *SEED_ACTUAL.as_vector(), HEAVY.weight, HEAVY.track_length, HEAVY.track_width)]
+    )
     q_off = [0.0, 0.0, 5.0, 0.0, 0.0, 0.0]
     for s in SLIPS:
         assert float(fn(s, q_off)) == float(F0(s))
@@ -186,15 +227,25 @@ def test_symbolic_effect_parameters_nest():
 
 # --- closed forms vs quadrature --------------------------------------------------------------------------
 
-@pytest.mark.parametrize("kw", [dict(e=0.3), dict(e=-0.5), dict(alpha=0.4), dict(alpha=-0.3, n_w=3),
-                                dict(e=-0.2, alpha=0.5, n_w=7), dict(drop=0.4), dict(drop=0.3, k_ratio=0.5),
-                                dict(drop=0.3, k_ratio=2.0, e=0.2, alpha=0.3)])
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        dict(e=0.3),
+        dict(e=-0.5),
+        dict(alpha=0.4),
+        dict(alpha=-0.3, n_w=3),
+        dict(e=-0.2, alpha=0.5, n_w=7),
+        dict(drop=0.4),
+        dict(drop=0.3, k_ratio=0.5),
+        dict(drop=0.3, k_ratio=2.0, e=0.2, alpha=0.3),
+    ],
+)
 @pytest.mark.parametrize("model", ["full", "cohesion-free"])
 def test_closed_form_matches_quad(kw, model):
     spec = {}
     if "e" in kw or "alpha" in kw:
-        spec["pressure_distribution"] = {"e": kw.get("e", 0.0), "alpha": kw.get("alpha", 0.0),
-                                         "n_w": kw.get("n_w", 5)}
+        spec["pressure_distribution"] = {"e": kw.get("e", 0.0), "alpha": kw.get("alpha", 0.0), "n_w": kw.get("n_w", 5)}
     if "drop" in kw:
         spec["hump_shear"] = {"drop": kw["drop"], "k_ratio": kw.get("k_ratio", 5.0)}
     for veh, soil in ((HEAVY, SEED_ACTUAL), (LIGHT, TERRAINS["clayey_soil"])):
@@ -204,12 +255,21 @@ def test_closed_form_matches_quad(kw, model):
             assert got == pytest.approx(ref, rel=1e-11, abs=1e-12 * abs(ref) + 1e-300)
 
 
-@given(soils, st.floats(1e-6, 0.99), st.floats(-0.5, 0.5), st.floats(-0.5, 0.5), st.integers(1, 12),
-       st.floats(0.0, 0.9), st.floats(0.1, 50.0))
+@given(
+    soils,
+    st.floats(1e-6, 0.99),
+    st.floats(-0.5, 0.5),
+    st.floats(-0.5, 0.5),
+    st.integers(1, 12),
+    st.floats(0.0, 0.9),
+    st.floats(0.1, 50.0),
+)
 @settings(max_examples=40, deadline=None)
 def test_closed_form_matches_quad_property(soil, i, e, alpha, n_w, drop, k_ratio):
-    spec = {"pressure_distribution": {"e": e, "alpha": alpha, "n_w": n_w},
-            "hump_shear": {"drop": drop, "k_ratio": k_ratio}}
+    spec = {
+        "pressure_distribution": {"e": e, "alpha": alpha, "n_w": n_w},
+        "hump_shear": {"drop": drop, "k_ratio": k_ratio},
+    }
     got = float(tractive_force_with_effects(i, soil, HEAVY, spec))
     ref = quad_force(i, soil, HEAVY, e=e, alpha=alpha, n_w=n_w, drop=drop, k_ratio=k_ratio)
     assert got == pytest.approx(ref, rel=1e-9)
@@ -234,6 +294,7 @@ def test_no_nan_near_zero_slip_and_derivatives():
 
 
 # --- directions -----------------------------------------------------------------------------------------
+
 
 def test_hump_shear_peak_then_drop():
     s = np.linspace(0.001, 0.9, 400)
@@ -280,18 +341,22 @@ def test_load_and_resistance_effects_directions():
     W, mu = HEAVY.weight, HEAVY.rolling_resistance
     th = 0.1
     assert float(motion_resistance(2.0, 0.05, HEAVY, {"grade": th})) == pytest.approx(
-        W * (mu * math.cos(th) + math.sin(th)), rel=1e-14)
+        W * (mu * math.cos(th) + math.sin(th)), rel=1e-14
+    )
     assert float(motion_resistance(2.0, 0.05, HEAVY, {"speed_resistance": 0.01})) == pytest.approx(
-        W * (mu + 0.02), rel=1e-14)
+        W * (mu + 0.02), rel=1e-14
+    )
     assert float(motion_resistance(2.0, 0.05, HEAVY, {"slip_sinkage": 0.2})) == pytest.approx(
-        W * (mu + 0.01), rel=1e-14)
+        W * (mu + 0.01), rel=1e-14
+    )
     assert float(motion_resistance(2.0, 0.05, HEAVY, {"mass_error": 0.1})) == pytest.approx(W * 1.1 * mu, rel=1e-14)
     assert float(torque_loss(4.0, HEAVY, {"drivetrain_friction": {"tau_c": 100.0, "tau_v": 2.0}})) == 108.0
     assert float(effective_radius(HEAVY, {"radius_error": 0.02})) == pytest.approx(0.306, rel=1e-14)
     # grade and payload change the normal load, hence the thrust
     F_grade = float(tractive_force_with_effects(0.05, SEED_ACTUAL, HEAVY, {"grade": th}))
-    assert F_grade == pytest.approx(float(tractive_force(0.05, SEED_ACTUAL, HEAVY,
-                                                         normal_load=W * math.cos(th))), rel=1e-14)
+    assert F_grade == pytest.approx(
+        float(tractive_force(0.05, SEED_ACTUAL, HEAVY, normal_load=W * math.cos(th))), rel=1e-14
+    )
     F_mass = float(tractive_force_with_effects(0.05, SEED_ACTUAL, HEAVY, {"mass_error": 0.2}))
     assert F_mass == pytest.approx(float(tractive_force(0.05, SEED_ACTUAL, HEAVY, normal_load=1.2 * W)), rel=1e-14)
     # standstill: Coulomb-like terms pass smoothly through zero, no NaN

@@ -1,4 +1,5 @@
 """Smoke test of examples/reproduce_paper.py: a --quick run writes the report and the figures."""
+
 import os
 import re
 import subprocess
@@ -8,21 +9,35 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCRIPT = os.path.join(ROOT, "examples", "reproduce_paper.py")
-FIGURES = ("fig2_backprediction.png", "fig3_sensitivity_heavy.png", "fig4_cohesion_heavy_vs_light.png",
-           "fig5_models_vs_data.png", "fig6_model_errors.png", "fig7_traversability.png", "table2_noise.png",
-           "robustness.png")
+FIGURES = (
+    "fig2_backprediction.png",
+    "fig3_sensitivity_heavy.png",
+    "fig4_cohesion_heavy_vs_light.png",
+    "fig5_models_vs_data.png",
+    "fig6_model_errors.png",
+    "fig7_traversability.png",
+    "table2_noise.png",
+    "robustness.png",
+)
 
 
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("paper")
     env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""), MPLBACKEND="Agg")
-    proc = subprocess.run([sys.executable, SCRIPT, "--quick", "--out", str(out)], capture_output=True, text=True,
-                          cwd=ROOT, env=env, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, SCRIPT, "--quick", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env=env,
+        timeout=120,
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     return out, open(out / "report.md", encoding="utf-8").read(), proc.stderr
 
 
+@pytest.mark.slow
 def test_report_and_figures_exist(quick_run):
     out, report, _ = quick_run
     for name in FIGURES:
@@ -36,8 +51,14 @@ def test_report_and_figures_exist(quick_run):
 
 def test_report_has_every_section(quick_run):
     _, report, _ = quick_run
-    for heading in ("## Table 1", "## Table 2", "## Robustness", "## Figures 2-6", "## Fig. 7",
-                    "## Where this library agrees with the seed and where it does not"):
+    for heading in (
+        "## Table 1",
+        "## Table 2",
+        "## Robustness",
+        "## Figures 2-6",
+        "## Fig. 7",
+        "## Where this library agrees with the seed and where it does not",
+    ):
         assert heading in report, heading
     assert "ASSUMES l = 2.8 m, b = 0.5 m" in report
     assert "--quick" in report and "50 noisy draws" in report

@@ -5,6 +5,7 @@ give the same results as a serial run. IPOPT/MUMPS is not thread safe: the cache
 called under one process-wide lock (:mod:`soiltrack.soilmodel.threadsafe`); the compiled
 kernels hold their own lock across each C call.
 """
+
 import multiprocessing
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
@@ -36,8 +37,14 @@ def _sweeps(k: int, seed: int = 0) -> list[SlipData]:
 
 def _key(r):
     """What must be equal to a serial run: engine, status, optimum, statistics."""
-    return (r.extra.get("engine"), r.status, r.success, tuple(np.round(r.theta, 12)), round(r.cost, 9),
-            tuple(None if p.stderr is None else round(p.stderr, 9) for p in r.parameters.values()))
+    return (
+        r.extra.get("engine"),
+        r.status,
+        r.success,
+        tuple(np.round(r.theta, 12)),
+        round(r.cost, 9),
+        tuple(None if p.stderr is None else round(p.stderr, 9) for p in r.parameters.values()),
+    )
 
 
 def _same(a, b):
@@ -72,6 +79,7 @@ def test_fit_from_four_threads_equals_serial(sweeps):
 
 @pytest.mark.parametrize("engine", ENGINES)
 @pytest.mark.parametrize("pool", ["thread", "process"])
+@pytest.mark.slow
 def test_fit_many_with_executors_equals_serial(sweeps, engine, pool):
     serial = fit_many(sweeps, HEAVY, engine=engine, progress=False)
     ex = ThreadPoolExecutor(4) if pool == "thread" else ProcessPoolExecutor(2)
@@ -82,6 +90,7 @@ def test_fit_many_with_executors_equals_serial(sweeps, engine, pool):
 
 @pytest.mark.skipif(FORK is None, reason="the hand-over is forced by a patched tolerance, inherited only by fork")
 @pytest.mark.parametrize("pool", ["thread", "process"])
+@pytest.mark.slow
 def test_hand_overs_under_executors(sweeps, monkeypatch, pool):
     monkeypatch.setattr(compiled_lm, "KKT_TOL", -1.0)  # nothing can be certified: every fit handed to IPOPT
     monkeypatch.setattr(compiled_lm, "ZERO_COST", -1.0)
@@ -101,6 +110,7 @@ def _fit_compiled(d):
 
 
 @pytest.mark.parametrize("pool", ["thread", "process"])
+@pytest.mark.slow
 def test_drive_logs_under_executors(logs, pool):
     serial = fit_many(logs, LIGHT, progress=False)
     assert all(r.data_kind == "drive" for r in serial)
@@ -116,6 +126,7 @@ def _fit_joint_log(d):
 
 
 @pytest.mark.parametrize("pool", ["thread", "process"])
+@pytest.mark.slow
 def test_joint_drive_log_fits_under_executors(logs, pool):
     serial = [_fit_joint_log(d) for d in logs]
     assert all(r.success and "profiled_start" in r.extra for r in serial)
@@ -138,11 +149,21 @@ def _interval_key(r):
 
 
 @pytest.mark.parametrize("pool", ["thread", "process"])
+@pytest.mark.slow
 def test_joint_fits_with_slip_noise_and_profiles_under_executors(pool):
     from soiltrack.soilmodel import simulate_slip_sweep
-    data = [simulate_slip_sweep(HEAVY, TERRAINS["dry_sand"], effects={"grade": 0.1},
-                                normal_loads=[HEAVY.weight, 0.6 * HEAVY.weight], seed=s, measure="drawbar_pull")
-            for s in range(4)]
+
+    data = [
+        simulate_slip_sweep(
+            HEAVY,
+            TERRAINS["dry_sand"],
+            effects={"grade": 0.1},
+            normal_loads=[HEAVY.weight, 0.6 * HEAVY.weight],
+            seed=s,
+            measure="drawbar_pull",
+        )
+        for s in range(4)
+    ]
     serial = [_fit_grade(d) for d in data]
     assert any(r.extra["slip_noise"]["adopted"] for r in serial) and all(r.replaced_intervals for r in serial)
     ex = ThreadPoolExecutor(4) if pool == "thread" else ProcessPoolExecutor(2)
@@ -153,11 +174,14 @@ def test_joint_fits_with_slip_noise_and_profiles_under_executors(pool):
 
 
 def test_dask_local_cluster(sweeps):
-    distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed "
-                                                             "(pip install 'soiltrack[dask]')")
+    distributed = pytest.importorskip(
+        "distributed", reason="dask.distributed is not installed (pip install 'soiltrack[dask]')"
+    )
     serial = fit_many(sweeps, HEAVY, progress=False)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=2, processes=False, dashboard_address=None) as cl, \
-            distributed.Client(cl) as client:
+    with (
+        distributed.LocalCluster(n_workers=2, threads_per_worker=2, processes=False, dashboard_address=None) as cl,
+        distributed.Client(cl) as client,
+    ):
         par = fit_many(sweeps, HEAVY, executor=client.get_executor(), chunk_size=2, progress=False)
         direct = client.gather(client.map(fit, sweeps, vehicle=HEAVY, pure=False))
     _same(par, serial)

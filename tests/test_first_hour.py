@@ -1,4 +1,5 @@
 """A new user's first hour (issue 7): each item as the user met it, through the CLI where it is bad input."""
+
 import json
 import os
 import subprocess
@@ -19,8 +20,9 @@ LIGHT_JSON = os.path.join(ROOT, "examples", "data", "light_vehicle.json")
 
 def run_module(*args, cwd=ROOT):
     env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    return subprocess.run([sys.executable, "-m", "soiltrack", *args], capture_output=True, text=True, cwd=cwd,
-                          env=env, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "soiltrack", *args], capture_output=True, text=True, cwd=cwd, env=env, timeout=300
+    )
 
 
 def bad_input(capsys, *argv, says=()):
@@ -61,6 +63,7 @@ def test_readme_example_at_one_load_predicts_from_the_result(one_load_fit):
     c2 = res.theta[0] + 100.0
     phi2 = np.arctan((fmax.value - A * c2) / W)
     from soiltrack.soilmodel import Soil
+
     other = tractive_force([0.05, 0.2], Soil(c2, phi2, res.theta[2]), LIGHT)
     np.testing.assert_allclose(F, other, rtol=1e-12)
     # the data are reproduced to within the noise
@@ -78,30 +81,38 @@ def test_two_load_result_predicts_like_its_soil():
     sweep = simulate(LIGHT, TERRAINS["sandy_loam"], kind="sweep", normal_loads=[300.0, 450.0], seed=1)
     res = fit(sweep, LIGHT)
     assert res.soil is not None
-    np.testing.assert_array_equal(tractive_force([0.05, 0.2], res, LIGHT, normal_load=600.0),
-                                  tractive_force([0.05, 0.2], res.soil, LIGHT, normal_load=600.0))
+    np.testing.assert_array_equal(
+        tractive_force([0.05, 0.2], res, LIGHT, normal_load=600.0),
+        tractive_force([0.05, 0.2], res.soil, LIGHT, normal_load=600.0),
+    )
 
 
 # --- item 4: output paths and absurd sizes ---------------------------------------------------------
-@pytest.mark.parametrize("opt,path,says", [
-    ("--plot", "/nonexistent_dir/x.png", "does not exist"),
-    ("--plot", "out.xyz", "unknown figure format '.xyz'"),
-    ("--plot", "{tmp}", "is a folder"),
-    ("--plot", "{tmp}/noext", "no file extension"),
-])
+@pytest.mark.parametrize(
+    "opt,path,says",
+    [
+        ("--plot", "/nonexistent_dir/x.png", "does not exist"),
+        ("--plot", "out.xyz", "unknown figure format '.xyz'"),
+        ("--plot", "{tmp}", "is a folder"),
+        ("--plot", "{tmp}/noext", "no file extension"),
+    ],
+)
 def test_fit_bad_plot_path(capsys, sweep_csv, tmp_path, opt, path, says):
     bad_input(capsys, "fit", sweep_csv, "--vehicle", "light", opt, path.format(tmp=tmp_path), says=[opt, says])
     assert os.listdir(tmp_path) == []  # nothing written, not even tmp/noext.png
 
 
-@pytest.mark.parametrize("args,says", [
-    (["-o", "/nonexistent_dir/x.csv"], ["-o/--output", "does not exist"]),
-    (["--plot", "/nonexistent_dir/x.png"], ["--plot", "does not exist"]),
-    (["--duration", "1e9", "--rate", "1e6"], ["--duration", "--rate", "samples; at most"]),
-    (["--loads", "300"], ["--loads applies to slip sweeps only"]),
-    (["--effect", "grade"], ["--effect 'grade' needs a value"]),
-    (["--kind", "sweep", "--duration", "5"], ["--duration applies to drive logs only"]),
-])
+@pytest.mark.parametrize(
+    "args,says",
+    [
+        (["-o", "/nonexistent_dir/x.csv"], ["-o/--output", "does not exist"]),
+        (["--plot", "/nonexistent_dir/x.png"], ["--plot", "does not exist"]),
+        (["--duration", "1e9", "--rate", "1e6"], ["--duration", "--rate", "samples; at most"]),
+        (["--loads", "300"], ["--loads applies to slip sweeps only"]),
+        (["--effect", "grade"], ["--effect 'grade' needs a value"]),
+        (["--kind", "sweep", "--duration", "5"], ["--duration applies to drive logs only"]),
+    ],
+)
 def test_simulate_bad_arguments(capsys, args, says):
     bad_input(capsys, "simulate", "--vehicle", "light", *args, says=says)
 
@@ -113,10 +124,13 @@ def test_fit_says_where_the_figure_went(capsys, sweep_csv, tmp_path):
     assert os.path.getsize(png) > 1000
 
 
+@pytest.mark.slow
 def test_no_traceback_through_the_real_command(tmp_path):
     """The same paths as a user runs them: a separate process, exit 2, one line, no traceback."""
-    for args in (["simulate", "-o", "/nonexistent_dir/x.csv"],
-                 ["simulate", "--kind", "sweep", "--plot", str(tmp_path / "x.xyz")]):
+    for args in (
+        ["simulate", "-o", "/nonexistent_dir/x.csv"],
+        ["simulate", "--kind", "sweep", "--plot", str(tmp_path / "x.xyz")],
+    ):
         p = run_module(*args)
         assert p.returncode == 2 and "Traceback" not in p.stderr and "error:" in p.stderr, p.stderr
 
@@ -135,8 +149,10 @@ def test_vehicle_json_with_utf8_bom_is_read(tmp_path):
     assert Vehicle.from_json(str(p)).mass == pytest.approx(Vehicle.from_json(LIGHT_JSON).mass)
 
 
-@pytest.mark.parametrize("key,value", [("mass_kg", 1e300), ("track_length_m", 500.0), ("sprocket_radius_m", 1e-9),
-                                       ("max_sprocket_torque_Nm", 1e20)])
+@pytest.mark.parametrize(
+    "key,value",
+    [("mass_kg", 1e300), ("track_length_m", 500.0), ("sprocket_radius_m", 1e-9), ("max_sprocket_torque_Nm", 1e20)],
+)
 def test_absurd_vehicle_numbers_refused_with_field(capsys, sweep_csv, tmp_path, key, value):
     obj = json.load(open(LIGHT_JSON))
     obj[key] = value
@@ -165,8 +181,18 @@ def test_help_texts(capsys):
 
 
 def test_options_that_do_not_apply_are_refused(capsys, sweep_csv, tmp_path):
-    bad_input(capsys, "fit", sweep_csv, "--vehicle", "light", "--method", "newton", "--engine", "compiled",
-              says=["--engine compiled applies to --method ipopt"])
+    bad_input(
+        capsys,
+        "fit",
+        sweep_csv,
+        "--vehicle",
+        "light",
+        "--method",
+        "newton",
+        "--engine",
+        "compiled",
+        says=["--engine compiled applies to --method ipopt"],
+    )
     log = str(tmp_path / "log.csv")
     assert main(["simulate", "--vehicle", "light", "--duration", "3", "--seed", "1", "-o", log]) == 0
     capsys.readouterr()
@@ -188,6 +214,7 @@ def captured(monkeypatch):
     monkeypatch.setattr(plots, "save_figure", keep)
     yield figs
     import matplotlib.pyplot as plt
+
     for f in figs:
         plt.close(f)
 
@@ -330,8 +357,9 @@ def test_report_units_by_magnitude_and_each_thing_once(capsys, sweep_csv):
 def test_quick_paper_run_does_not_overwrite_the_full_report():
     import importlib.util
 
-    spec = importlib.util.spec_from_file_location("reproduce_paper", os.path.join(ROOT, "examples",
-                                                                                   "reproduce_paper.py"))
+    spec = importlib.util.spec_from_file_location(
+        "reproduce_paper", os.path.join(ROOT, "examples", "reproduce_paper.py")
+    )
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     assert mod.default_out(True) != mod.default_out(False)

@@ -8,6 +8,7 @@ starts that reach the traction limit), unless a test says otherwise.
 Tolerances are those the method is claimed to meet (docs/paper.md: F_max within a few
 percent, K within 5-20 %); where a tolerance is wider, the test says why.
 """
+
 from __future__ import annotations
 
 import json
@@ -16,8 +17,13 @@ import math
 import numpy as np
 import pytest
 
-from soiltrack.identify.drivelog.fit import (DriveLogFitError, estimate_noise_profile, fit_drive_log, padded_size,
-                                         prepare_drive_log)
+from soiltrack.identify.drivelog.fit import (
+    DriveLogFitError,
+    estimate_noise_profile,
+    fit_drive_log,
+    padded_size,
+    prepare_drive_log,
+)
 from soiltrack.identify.drivelog.nlp import _output_error_solver
 from soiltrack.identify.fitting import fit
 from soiltrack.identify.sweep.problem import FitFailed
@@ -33,8 +39,12 @@ def _errors(res, vehicle, soil):
     F_true, K_true = max_thrust(soil, vehicle), soil.shear_modulus
     fmax = next(c for c in res.combinations if c.name.startswith("F_max"))
     k = res.parameters["shear_modulus"]
-    return {"F": fmax.value / F_true - 1.0, "K": k.value / K_true - 1.0,
-            "F_in": fmax.ci95[0] <= F_true <= fmax.ci95[1], "K_in": k.ci95[0] <= K_true <= k.ci95[1]}
+    return {
+        "F": fmax.value / F_true - 1.0,
+        "K": k.value / K_true - 1.0,
+        "F_in": fmax.ci95[0] <= F_true <= fmax.ci95[1],
+        "K_in": k.ci95[0] <= K_true <= k.ci95[1],
+    }
 
 
 @pytest.fixture(scope="module")
@@ -48,13 +58,14 @@ def light_fits():
     return out
 
 
+@pytest.mark.slow
 def test_light_vehicle_recovers_fmax_and_k(light_fits):
     errs = [_errors(res, LIGHT, DRY_SAND) for _, res in light_fits]
     for (_, res), e in zip(light_fits, errs):
         assert res.success, res.message
         assert res.data_kind == "drive"
-        assert abs(e["F"]) < 0.04, e                   # F_max within a few percent, every seed
-        assert abs(e["K"]) < 0.35, e                   # single seeds: K within ~3 of its ~11 % stderr
+        assert abs(e["F"]) < 0.04, e  # F_max within a few percent, every seed
+        assert abs(e["K"]) < 0.35, e  # single seeds: K within ~3 of its ~11 % stderr
         assert res.extra["regime"] == "hard"
     # on average: F_max within 1.5 %, K within 20 % (measured: about 1 % and 12 %)
     assert np.mean([abs(e["F"]) for e in errs]) < 0.015
@@ -89,14 +100,16 @@ def test_covariance_is_the_profiled_sandwich(light_fits):
     from soiltrack.identify.drivelog import covariance as C
     from soiltrack.identify.drivelog import nlp as D
     from soiltrack.soilmodel.soil import PRACTICAL_BOUNDS
+
     log, res = light_fits[0]
     e = res.extra
     prep = prepare_drive_log(log, LIGHT)
     Fb = D.fmax_bounds(PRACTICAL_BOUNDS, LIGHT, "full")
     Kb = tuple(PRACTICAL_BOUNDS.shear_modulus)
     F_ref, K_ref = 0.5 * (Fb[0] + Fb[1]), math.sqrt(Kb[0] * Kb[1])
-    _, Fm, K, slip = D.solve_output_error(prep, LIGHT, F_ref, K_ref, Fb, Kb,
-                                           [(e["max_thrust_N"], e["shear_modulus_m"])], 500, 1e-9, 0)
+    _, Fm, K, slip = D.solve_output_error(
+        prep, LIGHT, F_ref, K_ref, Fb, Kb, [(e["max_thrust_N"], e["shear_modulus_m"])], 500, 1e-9, 0
+    )
     assert Fm == pytest.approx(e["max_thrust_N"], rel=1e-5) and K == pytest.approx(e["shear_modulus_m"], rel=1e-4)
     l = LIGHT.track_length
     F, dF_ds, dF_dFm, dF_dK = D.eval_pointwise(slip, Fm, K, l)
@@ -118,7 +131,7 @@ def test_light_vehicle_result_contents(light_fits):
     assert res.rank == 2
     assert res.parameters["cohesion"].value is None and not res.parameters["cohesion"].identifiable
     assert res.parameters["shear_modulus"].identifiable
-    assert res.soil is None                             # no (c, phi) point is presented as an estimate
+    assert res.soil is None  # no (c, phi) point is presented as an estimate
     assert any("not separable" in w for w in res.warnings)
     # identifiable combinations and their uncertainty, consistent with the shared result object
     fmax = next(c for c in res.combinations if c.name.startswith("F_max"))
@@ -131,9 +144,9 @@ def test_light_vehicle_result_contents(light_fits):
     assert e["samples_used"] + e["samples_dropped_slow"] + e["samples_dropped_braking"] < log.n_samples
     assert e["samples_dropped_slow"] > 0
     assert res.n_samples == e["samples_used"] == res.weighted_residuals.size
-    assert 0.7 < e["reduced_chi2"] < 1.5                # the estimated noise model is consistent
+    assert 0.7 < e["reduced_chi2"] < 1.5  # the estimated noise model is consistent
     assert np.all(np.isfinite(res.residuals)) and np.all(np.isfinite(res.jacobian))
-    d = json.loads(res.to_json())                        # strict JSON: no NaN anywhere
+    d = json.loads(res.to_json())  # strict JSON: no NaN anywhere
     assert d["data_kind"] == "drive" and d["extra"]["regime"] == "hard"
 
 
@@ -141,23 +154,25 @@ def test_noise_model_is_estimated_from_the_log(light_fits):
     log, res = light_fits[1]
     nm = res.extra["noise_model"]
     assert nm["estimated"]
-    assert nm["vehicle_speed_m_s"]["abs"] == pytest.approx(0.05, rel=0.15)      # GNSS 0.05 m/s
+    assert nm["vehicle_speed_m_s"]["abs"] == pytest.approx(0.05, rel=0.15)  # GNSS 0.05 m/s
     assert nm["sprocket_speed_rad_s"]["rel"] == pytest.approx(0.005, rel=0.25)  # encoder 0.5 %
     a, b = estimate_noise_profile(np.full(500, 3.0) + 0.1 * np.random.default_rng(0).standard_normal(500))
-    assert math.hypot(a, 3.0 * b) == pytest.approx(0.1, rel=0.15)   # constant signal: 0.1 at 3.0
+    assert math.hypot(a, 3.0 * b) == pytest.approx(0.1, rel=0.15)  # constant signal: 0.1 at 3.0
 
 
+@pytest.mark.slow
 def test_equation_error_is_biased_where_output_error_is_not(light_fits):
     """Slip from noisy speeds as an exact regressor (equation error) is the EIV trap."""
     log, res_oe = light_fits[0]
     res_ee = fit_drive_log(log, LIGHT, formulation="equation-error")
     e_oe, e_ee = _errors(res_oe, LIGHT, DRY_SAND), _errors(res_ee, LIGHT, DRY_SAND)
     assert abs(e_oe["F"]) < 0.04
-    assert abs(e_ee["F"]) > 0.3 or abs(e_ee["K"]) > 0.5     # measured: F_max -88 %, K +100 % (on bounds)
+    assert abs(e_ee["F"]) > 0.3 or abs(e_ee["K"]) > 0.5  # measured: F_max -88 %, K +100 % (on bounds)
     assert not (e_ee["F_in"] and e_ee["K_in"])
     assert any("equation-error" in w for w in res_ee.warnings)
 
 
+@pytest.mark.slow
 def test_heavy_vehicle_hard_starts_pin_fmax_and_say_k_is_weak():
     """Heavy vehicle on LETE sand: K/l = 0.4 %, below what 0.05 m/s GNSS noise resolves well.
 
@@ -170,15 +185,17 @@ def test_heavy_vehicle_hard_starts_pin_fmax_and_say_k_is_weak():
         res = fit_drive_log(log, HEAVY)
         e = _errors(res, HEAVY, LETE_SAND)
         assert res.success
-        assert abs(e["F"]) < 0.03, e                            # measured: 0.6 % and 1.1 %
-        assert e["K_in"]                                       # the wide K interval holds the truth
+        assert abs(e["F"]) < 0.03, e  # measured: 0.6 % and 1.1 %
+        assert e["K_in"]  # the wide K interval holds the truth
         assert res.extra["shear_modulus_stderr_m"] / res.extra["shear_modulus_m"] > 0.25
         assert res.extra["regime"] == "intermediate"
         assert any("K is poorly determined" in w for w in res.warnings)
 
 
+@pytest.mark.slow
 def test_gentle_log_is_flagged():
     """Cruising well below the traction limit shows only the initial slope F_max l / (2K)."""
+
     def gentle(t):
         t = np.asarray(t, dtype=float)
         return np.clip(t / 8.0, 0.0, 1.0) * (1.2 + 0.3 * np.sin(2 * np.pi * t / 12.0))
@@ -227,13 +244,14 @@ def test_solver_is_built_once_per_padded_size(light_fits):
     assert padded_size(n) >= n and padded_size(n) < 1.5 * n + 64
 
 
+@pytest.mark.slow
 def test_failure_is_reported_not_hidden(light_fits):
     log, _ = light_fits[4]
     res = fit_drive_log(log, LIGHT, max_iter=2, multistart=False)
     assert not res.success
     assert "failed" in res.message
     assert res.soil is None
-    json.loads(res.to_json())                             # still valid JSON, no NaN
+    json.loads(res.to_json())  # still valid JSON, no NaN
     with pytest.raises(DriveLogFitError) as ei:
         fit_drive_log(log, LIGHT, max_iter=2, multistart=False, strict=True)
     assert isinstance(ei.value, FitFailed) and not ei.value.result.success
@@ -248,9 +266,13 @@ def test_library_fit_dispatches_drive_logs(light_fits):
 
 def _log(n, v, w, M, source="run.csv"):
     t = np.arange(n) * 0.02
-    return DriveLog(time=t, sprocket_torque=np.full(n, M, dtype=float) if np.isscalar(M) else M,
-                    sprocket_speed=np.full(n, w, dtype=float) if np.isscalar(w) else w,
-                    vehicle_speed=np.full(n, v, dtype=float) if np.isscalar(v) else v, source=source)
+    return DriveLog(
+        time=t,
+        sprocket_torque=np.full(n, M, dtype=float) if np.isscalar(M) else M,
+        sprocket_speed=np.full(n, w, dtype=float) if np.isscalar(w) else w,
+        vehicle_speed=np.full(n, v, dtype=float) if np.isscalar(v) else v,
+        source=source,
+    )
 
 
 def test_bad_inputs_name_file_and_column():
@@ -278,6 +300,7 @@ def test_bad_inputs_name_file_and_column():
         fit_drive_log(good, LIGHT, sigma_torque=-1.0)
 
 
+@pytest.mark.slow
 def test_simex_bias_correction_is_opt_in_and_recorded(light_fits):
     """bias_correction="simex": refits with extra GNSS-speed noise, extrapolated to none.
 
@@ -294,16 +317,16 @@ def test_simex_bias_correction_is_opt_in_and_recorded(light_fits):
     assert bc["method"] == "simex" and bc["applied"] and bc["replicates"] == 2
     assert bc["lambdas"] == [0.5, 1.0, 2.0]
     unc = bc["uncorrected"]
-    assert unc["shear_modulus_m"] == base.extra["shear_modulus_m"]        # same uncorrected fit
+    assert unc["shear_modulus_m"] == base.extra["shear_modulus_m"]  # same uncorrected fit
     assert unc["max_thrust_N"] == base.extra["max_thrust_N"]
     k, k0 = res.parameters["shear_modulus"], base.parameters["shear_modulus"]
-    assert k.value > k0.value                                              # corrected upwards
+    assert k.value > k0.value  # corrected upwards
     assert k.value - k0.value == pytest.approx(bc["correction"]["shear_modulus_m"])
     assert abs(k.value / DRY_SAND.shear_modulus - 1) < 0.35
-    assert k.stderr >= k0.stderr                                           # + extrapolation variance
+    assert k.stderr >= k0.stderr  # + extrapolation variance
     assert k.stderr == pytest.approx(res.extra["shear_modulus_stderr_m"], rel=1e-9)
     assert k.ci95[0] < k.value < k.ci95[1]
-    kc = next(c for c in res.combinations if c.name == "K")                # one K interval (issue 7): the
+    kc = next(c for c in res.combinations if c.name == "K")  # one K interval (issue 7): the
     assert kc.value == pytest.approx(k.value, rel=1e-9) and kc.ci95 == pytest.approx(k.ci95, rel=1e-12)  # parameter's
     fmax = next(c for c in res.combinations if c.name.startswith("F_max"))
     assert fmax.value == pytest.approx(res.extra["max_thrust_N"], rel=1e-9)
@@ -314,6 +337,7 @@ def test_simex_bias_correction_is_opt_in_and_recorded(light_fits):
         fit_drive_log(log, LIGHT, bias_correction="jackknife")
 
 
+@pytest.mark.slow
 def test_simex_is_not_applied_to_a_log_that_does_not_pin_k():
     """Heavy vehicle on LETE sand ("intermediate" log, K poorly determined): no SIMEX.
 

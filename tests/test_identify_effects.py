@@ -1,4 +1,5 @@
 """Effects and drawbar pull in slip fits: joint soil-and-effect fits, fixed parameters, held-out residuals."""
+
 import json
 
 import numpy as np
@@ -6,8 +7,17 @@ import pytest
 
 from soiltrack.cli import main
 from soiltrack.identify import fit
-from soiltrack.soilmodel import (TERRAINS, VEHICLES, DataError, DriveLog, SensorNoise, SlipData, read_csv,
-                                 simulate_slip_sweep, write_csv)
+from soiltrack.soilmodel import (
+    TERRAINS,
+    VEHICLES,
+    DataError,
+    DriveLog,
+    SensorNoise,
+    SlipData,
+    read_csv,
+    simulate_slip_sweep,
+    write_csv,
+)
 
 HEAVY = VEHICLES["heavy"]
 SAND = TERRAINS["dry_sand"]
@@ -30,8 +40,9 @@ def _soil_inside(res, soil):
 
 
 def _sweep(effects, seed, measured):
-    return simulate_slip_sweep(HEAVY, SAND, effects=effects, normal_loads=LOADS, seed=seed, measure=measured,
-                               noise=FORCE_NOISE)
+    return simulate_slip_sweep(
+        HEAVY, SAND, effects=effects, normal_loads=LOADS, seed=seed, measure=measured, noise=FORCE_NOISE
+    )
 
 
 def _coverage(effect, value, measured):
@@ -52,6 +63,7 @@ def grade_sweeps():
 
 
 @pytest.mark.parametrize("measured", ["drawbar_pull", "tractive_force"])
+@pytest.mark.slow
 def test_grade_and_soil_inside_their_intervals(grade_sweeps, measured):
     # 95 % intervals over 10 seeds: at least 8 hold the truth (P(fewer) < 2 % per parameter at 94 % coverage)
     hits = _coverage("grade", GRADE, measured)
@@ -108,8 +120,9 @@ def test_unseparable_effect_is_flagged_not_estimated(grade_sweeps):
 
 
 def test_residuals_on_held_out_half_is_zero_mean_on_noise_free_data():
-    d = simulate_slip_sweep(HEAVY, SAND, effects={"grade": GRADE}, normal_loads=LOADS, noise="none",
-                            measure="drawbar_pull")
+    d = simulate_slip_sweep(
+        HEAVY, SAND, effects={"grade": GRADE}, normal_loads=LOADS, noise="none", measure="drawbar_pull"
+    )
     n = d.n_samples
     train, test = d.subset(np.arange(0, n, 2)), d.subset(np.arange(1, n, 2))
     assert "rows 1-" in train.source and train.measured == "drawbar_pull"
@@ -121,7 +134,7 @@ def test_residuals_on_held_out_half_is_zero_mean_on_noise_free_data():
     assert np.abs(r["drawbar_pull_N"]).max() < 1e-6 * scale
     # the nominal model leaves a gap on the same held-out rows
     gap = fit(train, HEAVY).residuals_on(test)["drawbar_pull_N"]
-    assert np.sqrt(np.mean(gap ** 2)) > 1e-3 * scale
+    assert np.sqrt(np.mean(gap**2)) > 1e-3 * scale
 
 
 def test_residuals_on_at_one_load_uses_fmax_not_the_ridge_point():
@@ -137,8 +150,9 @@ def test_residuals_on_at_one_load_uses_fmax_not_the_ridge_point():
 
 def test_drawbar_without_effects_is_the_tractive_force_fit_shifted_by_the_resistance():
     d = simulate_slip_sweep(HEAVY, SAND, normal_loads=LOADS, seed=3, measure="drawbar_pull")
-    tf = SlipData(slip=d.slip, tractive_force=d.values + d.normal_load * HEAVY.rolling_resistance,
-                  normal_load=d.normal_load)
+    tf = SlipData(
+        slip=d.slip, tractive_force=d.values + d.normal_load * HEAVY.rolling_resistance, normal_load=d.normal_load
+    )
     a, b = fit(d, HEAVY), fit(tf, HEAVY)
     np.testing.assert_allclose(a.theta, b.theta, rtol=1e-9)
     np.testing.assert_allclose(a.residuals, b.residuals, atol=1e-6)
@@ -176,8 +190,13 @@ def test_subsets_keep_type_and_name_rows():
     s = d.subset(slice(2, 6))
     assert isinstance(s, SlipData) and s.n_samples == 4 and s.source.endswith("rows 3-6")
     np.testing.assert_array_equal(s.tractive_force, d.tractive_force[2:6])
-    log = DriveLog(time=np.arange(5.0), sprocket_torque=np.ones(5), sprocket_speed=np.ones(5),
-                   vehicle_speed=np.ones(5), source="log.csv")
+    log = DriveLog(
+        time=np.arange(5.0),
+        sprocket_torque=np.ones(5),
+        sprocket_speed=np.ones(5),
+        vehicle_speed=np.ones(5),
+        source="log.csv",
+    )
     sub = log.subset(np.array([1, 2, 3]))
     assert isinstance(sub, DriveLog) and sub.source == "log.csv rows 2-4" and sub.time.tolist() == [1.0, 2.0, 3.0]
     with pytest.raises(DataError, match="no rows"):
@@ -243,6 +262,7 @@ def test_confounded_effects_name_each_other_or_the_soil(grade_sweeps):
 
 def test_padding_to_size_classes_leaves_the_fit_unchanged(grade_sweeps):
     from soiltrack.identify.sweep.joint import padded_size
+
     assert [padded_size(n) for n in (3, 8, 9, 64, 65, 600)] == [8, 8, 16, 64, 96, 640]
     d = grade_sweeps["drawbar_pull"].subset(slice(0, 21))  # padded to 24 with zero-weight samples
     res = fit(d, HEAVY, effects=["grade"])
@@ -254,8 +274,15 @@ def test_padding_to_size_classes_leaves_the_fit_unchanged(grade_sweeps):
 
 
 def test_active_effect_bounds_and_constraints_are_reported():
-    d = simulate_slip_sweep(HEAVY, SAND, effects={"pressure_distribution": {"e": 0.3, "alpha": 0.2}},
-                            normal_loads=LOADS, seed=0, measure="drawbar_pull", noise=FORCE_NOISE)
+    d = simulate_slip_sweep(
+        HEAVY,
+        SAND,
+        effects={"pressure_distribution": {"e": 0.3, "alpha": 0.2}},
+        normal_loads=LOADS,
+        seed=0,
+        measure="drawbar_pull",
+        noise=FORCE_NOISE,
+    )
     res = fit(d, HEAVY, effects=["pressure_distribution"])
     e = res.effects["pressure_distribution"]
     assert abs(e["e"].value) + abs(e["alpha"].value) <= 1.0 + 1e-9  # the pressure stays >= 0

@@ -6,6 +6,7 @@ hand any fit it cannot certify over to IPOPT. The C code is cached on disk (a se
 does not compile again); the virtual machine evaluates the same Function. Sample sizes are
 few (each size class is compiled once).
 """
+
 import json
 import math
 import os
@@ -21,8 +22,16 @@ from soiltrack.identify import FitSettings, fit, fit_many, jitcache
 from soiltrack.identify.sweep import compiled_lm
 from soiltrack.identify.engines import ENGINES
 from soiltrack.identify.sweep.problem import make_problem
-from soiltrack.soilmodel import (PRACTICAL_BOUNDS, VEHICLES, DataError, SlipData, Soil, SoilBounds, tractive_force,
-                                 tractive_force_sensitivities)
+from soiltrack.soilmodel import (
+    PRACTICAL_BOUNDS,
+    VEHICLES,
+    DataError,
+    SlipData,
+    Soil,
+    SoilBounds,
+    tractive_force,
+    tractive_force_sensitivities,
+)
 
 HEAVY = VEHICLES["heavy"]
 WONG = SlipData([0.0248, 0.0344, 0.0700], [207.32e3, 223.81e3, 259.81e3], source="wong2001_p176")
@@ -31,8 +40,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def random_data(rng, model, loads, noise=0.02, slip_max=0.4, n=N):
-    soil = Soil.from_kpa_deg(rng.uniform(0, 60) if model == "full" else 0.0, rng.uniform(8, 39),
-                             rng.uniform(0.007, 0.045))
+    soil = Soil.from_kpa_deg(
+        rng.uniform(0, 60) if model == "full" else 0.0, rng.uniform(8, 39), rng.uniform(0.007, 0.045)
+    )
     slip = np.sort(rng.uniform(0.0, slip_max, n))
     W = np.resize(np.asarray(loads, float), n)
     F = tractive_force(slip, soil, HEAVY, model=model, normal_load=W)
@@ -52,14 +62,23 @@ def assert_same_result(a, b, rel=1e-5, engine="compiled"):
     assert a.method == b.method == "ipopt"
     assert a.status == b.status == "converged"
     assert a.extra["engine"] == engine
-    assert a.cost == pytest.approx(b.cost, rel=1e-9, abs=1e-12 * float(np.sum(b.residuals ** 2) + 1))
+    assert a.cost == pytest.approx(b.cost, rel=1e-9, abs=1e-12 * float(np.sum(b.residuals**2) + 1))
     assert a.rank == b.rank and a.dof == b.dof and a.free == b.free
     for name in ("cohesion", "friction_angle", "shear_modulus"):
         pa, pb = a.parameters[name], b.parameters[name]
-        assert (pa.identifiable, pa.weakly_identifiable, pa.at_bound, pa.bound_side, pa.fixed) == \
-            (pb.identifiable, pb.weakly_identifiable, pb.at_bound, pb.bound_side, pb.fixed), name
-        for x, y in ((pa.value, pb.value), (pa.stderr, pb.stderr), (pa.ridge_value, pb.ridge_value),
-                     *zip(pa.ci95, pb.ci95)):
+        assert (pa.identifiable, pa.weakly_identifiable, pa.at_bound, pa.bound_side, pa.fixed) == (
+            pb.identifiable,
+            pb.weakly_identifiable,
+            pb.at_bound,
+            pb.bound_side,
+            pb.fixed,
+        ), name
+        for x, y in (
+            (pa.value, pb.value),
+            (pa.stderr, pb.stderr),
+            (pa.ridge_value, pb.ridge_value),
+            *zip(pa.ci95, pb.ci95),
+        ):
             assert (x is None) == (y is None)
             if x is not None:
                 assert x == pytest.approx(y, rel=rel, abs=1e-9)
@@ -78,9 +97,12 @@ def assert_same_result(a, b, rel=1e-5, engine="compiled"):
     assert da["extra"]["engine"] == engine
 
 
-CASES = [("cohesion-free", [HEAVY.weight]), ("cohesion-free", [0.5 * HEAVY.weight, HEAVY.weight]),
-         ("full", [HEAVY.weight]),  # c-phi ridge: solved in (F_max, K), ridge point as IPOPT
-         ("full", [0.5 * HEAVY.weight, HEAVY.weight])]
+CASES = [
+    ("cohesion-free", [HEAVY.weight]),
+    ("cohesion-free", [0.5 * HEAVY.weight, HEAVY.weight]),
+    ("full", [HEAVY.weight]),  # c-phi ridge: solved in (F_max, K), ridge point as IPOPT
+    ("full", [0.5 * HEAVY.weight, HEAVY.weight]),
+]
 
 
 @pytest.mark.parametrize("model,loads", CASES)
@@ -94,8 +116,16 @@ def test_engines_agree_with_ipopt_to_1e8(model, loads):
     sets = []
     for k in range(6):
         gentle = k % 3 == 2  # small slips only: F_max and K strongly correlated
-        sets.append(random_data(rng, model, loads, noise=0.01 if gentle else 0.03,
-                                slip_max=0.04 if gentle else 0.4, n=int(rng.integers(5, 30))))
+        sets.append(
+            random_data(
+                rng,
+                model,
+                loads,
+                noise=0.01 if gentle else 0.03,
+                slip_max=0.04 if gentle else 0.4,
+                n=int(rng.integers(5, 30)),
+            )
+        )
     ref = [fit(d, HEAVY, model=model, engine="ipopt") for d in sets]
     runs = {e: [fit(d, HEAVY, model=model, engine=e) for d in sets] for e in ("compiled", "auto", "vectorized")}
     runs["fit_many vectorized"] = fit_many(sets, HEAVY, model=model, engine="vectorized", progress=False)
@@ -153,8 +183,7 @@ def test_not_certified_is_handed_to_ipopt(monkeypatch):
         assert res.cost == pytest.approx(ref.cost, rel=1e-9)
     one = fit(WONG, HEAVY, engine="compiled")  # one-load full data handed over too
     assert one.extra["engine"] == "ipopt" and one.success
-    assert one.combinations[0].value == pytest.approx(fit(WONG, HEAVY, engine="ipopt").combinations[0].value,
-                                                      rel=1e-7)
+    assert one.combinations[0].value == pytest.approx(fit(WONG, HEAVY, engine="ipopt").combinations[0].value, rel=1e-7)
 
 
 def test_never_nan_on_awkward_data():
@@ -163,8 +192,12 @@ def test_never_nan_on_awkward_data():
     slip = np.linspace(0.0, 0.3, N)
     soil = Soil.from_kpa_deg(0.0, 30.0, 0.02)
     exact = tractive_force(slip, soil, HEAVY, model="cohesion-free")
-    cases = [SlipData(slip, exact), SlipData(slip, np.full(N, 1e5)),
-             SlipData(slip, exact * (1 + rng.standard_normal(N))), SlipData(slip, -exact + 1.0)]
+    cases = [
+        SlipData(slip, exact),
+        SlipData(slip, np.full(N, 1e5)),
+        SlipData(slip, exact * (1 + rng.standard_normal(N))),
+        SlipData(slip, -exact + 1.0),
+    ]
     for d in cases:
         for model in ("cohesion-free", "full"):
             r = fit(d, HEAVY, model=model, engine="compiled")
@@ -199,8 +232,10 @@ def test_size_classes_share_one_kernel():
     rng = np.random.default_rng(9)
     sets = [random_data(rng, "cohesion-free", [HEAVY.weight], n=n) for n in (5, 6, 7, 8)]  # all in class 8
     for d in sets:
-        a, b = fit(d, HEAVY, model="cohesion-free", engine="compiled"), fit(d, HEAVY, model="cohesion-free",
-                                                                          engine="ipopt")
+        a, b = (
+            fit(d, HEAVY, model="cohesion-free", engine="compiled"),
+            fit(d, HEAVY, model="cohesion-free", engine="ipopt"),
+        )
         assert a.n_samples == d.n_samples and a.residuals.shape == (d.n_samples,)
         assert a.cost == pytest.approx(b.cost, rel=1e-12)
 
@@ -223,16 +258,20 @@ def test_virtual_machine_agrees_with_c_code():
 def _fresh_process(code: str, cache: str) -> str:
     env = dict(os.environ, SOILTRACK_CACHE_DIR=cache, PYTHONPATH=ROOT)
     env.pop("SOILTRACK_NO_JIT", None)
-    return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True,
-                          timeout=300).stdout.strip()
+    return subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True, timeout=300
+    ).stdout.strip()
 
 
-CHILD = ("from soiltrack.identify import fit; from soiltrack.soilmodel import VEHICLES, SlipData; "
-         "r = fit(SlipData([0.0248, 0.0344, 0.07], [207.32e3, 223.81e3, 259.81e3]), VEHICLES['heavy'], "
-         "model='cohesion-free', engine='{e}'); print(r.extra['engine'], '|', r.extra['engine_backend'], '|', "
-         "repr(r.theta[1]))")
+CHILD = (
+    "from soiltrack.identify import fit; from soiltrack.soilmodel import VEHICLES, SlipData; "
+    "r = fit(SlipData([0.0248, 0.0344, 0.07], [207.32e3, 223.81e3, 259.81e3]), VEHICLES['heavy'], "
+    "model='cohesion-free', engine='{e}'); print(r.extra['engine'], '|', r.extra['engine_backend'], '|', "
+    "repr(r.theta[1]))"
+)
 
 
+@pytest.mark.slow
 def test_disk_cache_second_process_does_not_compile(tmp_path):
     if jitcache.compiler() is None:
         pytest.skip("no C compiler on PATH (or SOILTRACK_NO_JIT set)")
@@ -245,6 +284,7 @@ def test_disk_cache_second_process_does_not_compile(tmp_path):
     assert second[:2] == ["compiled", jitcache.C_CACHED] and second[2] == first[2]
 
 
+@pytest.mark.slow
 def test_auto_never_waits_and_picks_up_the_background_compilation(tmp_path, monkeypatch):
     """engine="auto" with an empty cache: the virtual machine now, said so; C code once compiled."""
     if jitcache.compiler() is None:
@@ -285,8 +325,11 @@ def test_one_vocabulary_settings_and_statuses():
     labels = {e: [r.extra["engine"] for r in fit_many(sets, HEAVY, progress=False, engine=e)] for e in ENGINES}
     assert labels["ipopt"] == ["ipopt"] * 3 and labels["compiled"] == ["compiled"] * 3
     assert labels["vectorized"] == ["vectorized"] * 3 and set(labels["auto"]) <= {"vectorized", "vectorized-vm"}
-    statuses = {r.status for e in ENGINES for r in [fit(sets[0], HEAVY, engine=e)] + fit_many(sets, HEAVY, engine=e,
-                                                                                          progress=False)}
+    statuses = {
+        r.status
+        for e in ENGINES
+        for r in [fit(sets[0], HEAVY, engine=e)] + fit_many(sets, HEAVY, engine=e, progress=False)
+    }
     assert statuses == {"converged"}
     for bad in ("fast", "loop"):
         with pytest.raises(DataError, match="engine"):
@@ -298,8 +341,10 @@ def test_one_vocabulary_settings_and_statuses():
     with pytest.raises(DataError, match="unknown option"):
         fit(sets[0], HEAVY, n_grids=3)
     st = FitSettings(engine="ipopt", n_grid=13, ipopt_options={"ipopt.max_iter": 200})
-    a, b = fit(sets[0], HEAVY, settings=st), fit(sets[0], HEAVY, engine="ipopt", n_grid=13,
-                                                 ipopt_options={"ipopt.max_iter": 200})
+    a, b = (
+        fit(sets[0], HEAVY, settings=st),
+        fit(sets[0], HEAVY, engine="ipopt", n_grid=13, ipopt_options={"ipopt.max_iter": 200}),
+    )
     assert a.extra["engine"] == b.extra["engine"] == "ipopt" and a.cost == b.cost
     assert fit(sets[0], HEAVY, settings=st, engine="compiled").extra["engine"] == "compiled"  # keyword wins
     assert fit(sets[0], HEAVY, method="newton", engine="compiled").method == "newton"  # engine: ipopt only
@@ -310,6 +355,7 @@ def test_one_vocabulary_settings_and_statuses():
 def test_single_fit_core_statistics_equal_the_batched_ones():
     """build_result's single-fit fast path gives the batched statistics (rank decisions identical)."""
     from soiltrack.identify.estimates.least_squares import core_stats, core_stats_one
+
     rng = np.random.default_rng(7)
     for _ in range(400):
         n, p = int(rng.integers(1, 12)), int(rng.choice([2, 3]))
@@ -367,6 +413,7 @@ def test_the_buffer_fill_is_input_vector_and_records_have_every_field():
     without their dataclass __init__: every field is there, in field order."""
     import dataclasses
     from soiltrack.identify.estimates.result import FitResult
+
     rng = np.random.default_rng(11)
     for model, loads in CASES:
         for n in (3, 16, 17, 40, 100):
@@ -376,9 +423,14 @@ def test_the_buffer_fill_is_input_vector_and_records_have_every_field():
                 assert input_state(pb)
     sol = compiled_lm.solve(pb)
     assert list(sol.__dict__) == [f.name for f in dataclasses.fields(compiled_lm.Solution)]
-    for res in (fit(d, HEAVY, model=model), fit(d, HEAVY, model=model, engine="ipopt"),
-                fit(d, HEAVY, model=model, method="newton")):
-        assert list(res.__dict__)[:len(dataclasses.fields(FitResult))] == [f.name for f in dataclasses.fields(FitResult)]
+    for res in (
+        fit(d, HEAVY, model=model),
+        fit(d, HEAVY, model=model, engine="ipopt"),
+        fit(d, HEAVY, model=model, method="newton"),
+    ):
+        assert list(res.__dict__)[: len(dataclasses.fields(FitResult))] == [
+            f.name for f in dataclasses.fields(FitResult)
+        ]
         assert not any(type(v) is object for v in res.__dict__.values())
 
 
@@ -386,6 +438,7 @@ def test_plausibility_curves_of_the_kernel_are_the_soilmodel_ones():
     """The weakest/strongest soil curves the compiled residual Function returns for the plausibility
     checks equal soilmodel's thrust (to rounding), and the checks then find exactly the same."""
     from soiltrack.identify.sweep import plausibility
+
     rng = np.random.default_rng(12)
     found, checked = set(), 0
     for model, loads in CASES:
@@ -414,6 +467,7 @@ def test_fast_robust_statistics_equal_numpy():
     """The partition-based median and quantile of the plausibility checks are numpy's, bit for bit."""
     from soiltrack.identify.sweep.plausibility import _median, _quantile
     from soiltrack.identify.sweep.problem import _heteroscedasticity_1d, heteroscedasticity
+
     rng = np.random.default_rng(13)
     for n in list(range(1, 40)) + [100, 101, 128, 1000]:
         x = rng.standard_normal(n) * 10 ** rng.uniform(-3, 6)

@@ -1,4 +1,5 @@
 """Noise models for slip data: equal weights vs noise proportional to the force."""
+
 import math
 
 import numpy as np
@@ -85,7 +86,9 @@ def test_bad_sigma_values():
 def test_cli_sigma(tmp_path, capsys):
     p = tmp_path / "s.csv"
     d = sweeps(1, 12, rel=0.02, seed=9)[0]
-    p.write_text("slip,tractive_force_N\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(d.slip, d.tractive_force)))
+    p.write_text(
+        "slip,tractive_force_N\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(d.slip, d.tractive_force))
+    )
     assert main(["fit", str(p), "--vehicle", "light", "--sigma", "relative"]) == 0
     assert main(["fit", str(p), "--vehicle", "light", "--sigma", "abc"]) == 2
     assert "--sigma" in capsys.readouterr().err

@@ -1,11 +1,20 @@
 """One home for statistics and physics: engines and methods agree, one weighting rule, one load count."""
+
 import numpy as np
 import pytest
 
 from soiltrack.identify import fit
 from soiltrack.identify.sweep.problem import make_problem, weights
-from soiltrack.soilmodel import (PRACTICAL_BOUNDS, TERRAINS, VEHICLES, DataError, SensorNoise, SlipData,
-                                 simulate_slip_sweep, tractive_force)
+from soiltrack.soilmodel import (
+    PRACTICAL_BOUNDS,
+    TERRAINS,
+    VEHICLES,
+    DataError,
+    SensorNoise,
+    SlipData,
+    simulate_slip_sweep,
+    tractive_force,
+)
 from soiltrack.soilmodel.ridge import LOAD_RTOL, distinct_loads, ridge_centre
 
 HEAVY = VEHICLES["heavy"]
@@ -15,8 +24,17 @@ LOAM = TERRAINS["sandy_loam"]
 @pytest.fixture(scope="module")
 def two_load_sweeps():
     noise = SensorNoise(force_rel=0.01, slip_abs=0.0)
-    return [simulate_slip_sweep(HEAVY, LOAM, normal_loads=[HEAVY.weight, 0.6 * HEAVY.weight],
-                                slips=np.linspace(0.02, 0.5, 8), seed=s, noise=noise) for s in range(3)]
+    return [
+        simulate_slip_sweep(
+            HEAVY,
+            LOAM,
+            normal_loads=[HEAVY.weight, 0.6 * HEAVY.weight],
+            slips=np.linspace(0.02, 0.5, 8),
+            seed=s,
+            noise=noise,
+        )
+        for s in range(3)
+    ]
 
 
 @pytest.mark.parametrize("method", ["newton", "least-squares"])
@@ -66,8 +84,9 @@ def test_one_load_count_with_one_tolerance():
     assert distinct_loads([W, W * (1 + 0.1 * LOAD_RTOL)]).size == 1
     assert distinct_loads([W, W * (1 + 10 * LOAD_RTOL)]).size == 2
     d = simulate_slip_sweep(HEAVY, LOAM, noise="none")
-    near = SlipData(slip=d.slip, tractive_force=d.values,
-                    normal_load=W * (1 + 0.1 * LOAD_RTOL * (np.arange(d.n_samples) % 2)))
+    near = SlipData(
+        slip=d.slip, tractive_force=d.values, normal_load=W * (1 + 0.1 * LOAD_RTOL * (np.arange(d.n_samples) % 2))
+    )
     assert near.distinct_loads.size == 1
     res = fit(near, HEAVY)
     assert len(res.normal_loads) == 1 and res.soil is None  # the c-phi ridge, said once

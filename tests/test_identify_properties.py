@@ -1,4 +1,5 @@
 """Property tests: noise-free data at two loads are recovered wherever the soil lies in the bounds."""
+
 import math
 
 import numpy as np

@@ -1,4 +1,5 @@
 """FitResult / build_result: statistics, identifiability, JSON contract (no solver involved)."""
+
 import json
 import math
 import pickle
@@ -13,14 +14,24 @@ from soiltrack.soilmodel import PRACTICAL_BOUNDS, SEED_ACTUAL, VEHICLES, Soil, t
 from soiltrack.soilmodel.traction import tractive_force_sensitivities
 
 HEAVY = VEHICLES["heavy"]
-CONTRACT_KEYS = {"model", "method", "status", "success", "n_samples", "rmse_N", "solve_time_s", "parameters",
-                 "combinations"}
+CONTRACT_KEYS = {
+    "model",
+    "method",
+    "status",
+    "success",
+    "n_samples",
+    "rmse_N",
+    "solve_time_s",
+    "parameters",
+    "combinations",
+}
 PARAM_KEYS = {"value", "stderr", "ci95", "identifiable", "at_bound"}
 
 
 def strict_json(text: str) -> dict:
     def bad(c):
         raise AssertionError(f"JSON carries {c}")
+
     return json.loads(text, parse_constant=bad)
 
 
@@ -44,11 +55,26 @@ def _result(slip, loads, soil=SEED_ACTUAL, noise=None, model="full", sigma_known
     data = F + (0 if noise is None else noise)
     r = F - data
     J = tractive_force_sensitivities(slip, soil, HEAVY, model=model, normal_load=loads)
-    args = dict(data_kind="slip", model=model, method="ipopt", theta=soil.as_vector() * (
-        [1, 1, 1] if model == "full" else [0, 1, 1]), jacobian=J, weighted_residuals=r, residuals=r,
-        residual_unit="N", n_samples=slip.size, normal_loads=loads, vehicle=HEAVY, bounds=PRACTICAL_BOUNDS,
-        status="Solve_Succeeded", success=True, message="test", iterations=1, solve_time=0.0,
-        sigma_known=sigma_known)
+    args = dict(
+        data_kind="slip",
+        model=model,
+        method="ipopt",
+        theta=soil.as_vector() * ([1, 1, 1] if model == "full" else [0, 1, 1]),
+        jacobian=J,
+        weighted_residuals=r,
+        residuals=r,
+        residual_unit="N",
+        n_samples=slip.size,
+        normal_loads=loads,
+        vehicle=HEAVY,
+        bounds=PRACTICAL_BOUNDS,
+        status="Solve_Succeeded",
+        success=True,
+        message="test",
+        iterations=1,
+        solve_time=0.0,
+        sigma_known=sigma_known,
+    )
     args.update(kw)
     return build_result(**args)
 
@@ -178,10 +204,25 @@ def test_drive_kind_result_rmse_key_is_null():
     n = 200
     J = rng.standard_normal((n, 3))
     rw = rng.standard_normal(n)
-    res = build_result(data_kind="drive", model="full", method="ipopt", theta=SEED_ACTUAL.as_vector(), jacobian=J,
-                       weighted_residuals=rw, residuals=0.01 * rw, residual_unit="rad/s", n_samples=n,
-                       normal_loads=np.array([HEAVY.weight]), vehicle=HEAVY, bounds=PRACTICAL_BOUNDS,
-                       status="Solve_Succeeded", success=True, message="", iterations=3, solve_time=0.1)
+    res = build_result(
+        data_kind="drive",
+        model="full",
+        method="ipopt",
+        theta=SEED_ACTUAL.as_vector(),
+        jacobian=J,
+        weighted_residuals=rw,
+        residuals=0.01 * rw,
+        residual_unit="rad/s",
+        n_samples=n,
+        normal_loads=np.array([HEAVY.weight]),
+        vehicle=HEAVY,
+        bounds=PRACTICAL_BOUNDS,
+        status="Solve_Succeeded",
+        success=True,
+        message="",
+        iterations=3,
+        solve_time=0.1,
+    )
     d = check_contract(res)
     assert d["rmse_N"] is None and d["residual_unit"] == "rad/s" and d["rmse"] > 0
     assert "rad/s" in res.report()
@@ -189,10 +230,25 @@ def test_drive_kind_result_rmse_key_is_null():
 
 def test_build_result_rejects_bad_shapes():
     with pytest.raises(ValueError):
-        build_result(data_kind="slip", model="full", method="ipopt", theta=np.zeros(3), jacobian=np.zeros((4, 2)),
-                     weighted_residuals=np.zeros(4), residuals=np.zeros(4), residual_unit="N", n_samples=4,
-                     normal_loads=np.ones(1), vehicle=HEAVY, bounds=PRACTICAL_BOUNDS, status="", success=True,
-                     message="", iterations=0, solve_time=0.0)
+        build_result(
+            data_kind="slip",
+            model="full",
+            method="ipopt",
+            theta=np.zeros(3),
+            jacobian=np.zeros((4, 2)),
+            weighted_residuals=np.zeros(4),
+            residuals=np.zeros(4),
+            residual_unit="N",
+            n_samples=4,
+            normal_loads=np.ones(1),
+            vehicle=HEAVY,
+            bounds=PRACTICAL_BOUNDS,
+            status="",
+            success=True,
+            message="",
+            iterations=0,
+            solve_time=0.0,
+        )
 
 
 # ------------------------------------------------------------------------------------------------
@@ -203,11 +259,17 @@ STATS = ("_stats", "rank", "dof", "cost", "s2", "parameters", "combinations", "i
 
 def _everything(res) -> dict:
     """Every statistic and view of a result, as plain comparable values (exact)."""
-    out = {"rank": res.rank, "dof": res.dof, "cost": res.cost, "s2": res.s2,
-           "singular": res.scaled_singular_values.tolist(),
-           "covariance": None if res.covariance is None else res.covariance.tolist(),
-           "warnings": res.warnings, "identifiability": json.dumps(res.identifiability, sort_keys=True),
-           "report": re.sub(r"iterations, [0-9.]+ m?s", "iterations", res.report())}  # without the solve time
+    out = {
+        "rank": res.rank,
+        "dof": res.dof,
+        "cost": res.cost,
+        "s2": res.s2,
+        "singular": res.scaled_singular_values.tolist(),
+        "covariance": None if res.covariance is None else res.covariance.tolist(),
+        "warnings": res.warnings,
+        "identifiability": json.dumps(res.identifiability, sort_keys=True),
+        "report": re.sub(r"iterations, [0-9.]+ m?s", "iterations", res.report()),
+    }  # without the solve time
     d = json.loads(res.to_json())
     d.pop("solve_time_s", None)
     d.pop("extra", None)  # the solver's own timings
@@ -220,6 +282,7 @@ def _everything(res) -> dict:
 
 def _lazy_cases():
     from soiltrack.soilmodel import SlipData
+
     rng = np.random.default_rng(21)
     slip = np.linspace(0.01, 0.4, 40)
     cf = Soil.from_kpa_deg(0.0, 33.0, 0.015)
@@ -237,14 +300,19 @@ def _lazy_cases():
 @pytest.mark.parametrize("case", list(range(4)))
 def test_statistics_are_lazy_and_the_same_whenever_read(case):
     from soiltrack.identify import fit
+
     name, data, kw = list(_lazy_cases())[case]
     looked = fit(data, HEAVY, **kw)
     before = _everything(looked)  # read everything at once
     untouched = fit(data, HEAVY, **kw)
     assert not any(k in untouched.__dict__ for k in STATS), name  # fit computed no statistic
     # what decides success is eager and independent of whether anyone looked
-    assert (untouched.success, untouched.status, untouched.input_warnings, untouched.message) == \
-        (looked.success, looked.status, looked.input_warnings, looked.message), name
+    assert (untouched.success, untouched.status, untouched.input_warnings, untouched.message) == (
+        looked.success,
+        looked.status,
+        looked.input_warnings,
+        looked.message,
+    ), name
     assert np.array_equal(untouched.theta, looked.theta) and untouched.rmse == looked.rmse
     # a pickled untouched result computes its statistics after unpickling: the same numbers
     back = pickle.loads(pickle.dumps(untouched))
@@ -262,11 +330,17 @@ def test_batched_results_pickle_their_own_slice_and_replace_keeps_statistics():
     import dataclasses
     from soiltrack.identify import fit_many
     from soiltrack.soilmodel import SlipData
+
     rng = np.random.default_rng(22)
     slip = np.linspace(0.01, 0.3, 12)
-    sets = [SlipData(slip, tractive_force(slip, Soil.from_kpa_deg(0.0, rng.uniform(20, 38), 0.02), HEAVY,
-                                          model="cohesion-free") * (1 + 0.02 * rng.standard_normal(12)))
-            for _ in range(5)]
+    sets = [
+        SlipData(
+            slip,
+            tractive_force(slip, Soil.from_kpa_deg(0.0, rng.uniform(20, 38), 0.02), HEAVY, model="cohesion-free")
+            * (1 + 0.02 * rng.standard_normal(12)),
+        )
+        for _ in range(5)
+    ]
     res = fit_many(sets, HEAVY, model="cohesion-free", progress=False)
     blob = pickle.dumps(res[3])
     assert len(blob) < len(pickle.dumps(res)) / 2  # one fit's slice, not the batch's arrays

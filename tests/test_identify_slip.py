@@ -1,4 +1,5 @@
 """Identification from tractive force-slip data: IPOPT, the seed's methods, fit_many, profiles."""
+
 import json
 import math
 from concurrent.futures import ThreadPoolExecutor
@@ -8,8 +9,7 @@ import pytest
 
 from soiltrack.identify import FitFailed, fit, fit_many, profile_likelihood
 from soiltrack.identify.sweep.model import predict
-from soiltrack.soilmodel import (PRACTICAL_BOUNDS, VEHICLES, DataError, SlipData, Soil, read_csv,
-                                 tractive_force)
+from soiltrack.soilmodel import PRACTICAL_BOUNDS, VEHICLES, DataError, SlipData, Soil, read_csv, tractive_force
 from soiltrack.soilmodel.traction import tractive_force_sensitivities
 
 HEAVY = VEHICLES["heavy"]
@@ -21,6 +21,7 @@ TRUE = Soil.from_kpa_deg(5.0, 30.0, 0.02)
 def strict_json(text):
     def bad(c):
         raise AssertionError(f"JSON carries {c}")
+
     return json.loads(text, parse_constant=bad)
 
 
@@ -304,6 +305,7 @@ def test_strict_raises_only_on_failure():
 
 def test_drive_log_is_dispatched():
     from soiltrack.soilmodel import TERRAINS, simulate_drive_log
+
     light = VEHICLES["light"]
     log = simulate_drive_log(light, TERRAINS["dry_sand"], seed=1, duration_s=10.0)  # a valid 500-sample log
     res = fit(log, light)

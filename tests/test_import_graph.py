@@ -3,14 +3,19 @@
 Every ``import`` counts, including those inside functions (a late import hides a cycle, it does
 not remove it). A name starting with one underscore is private to its module.
 """
+
 from __future__ import annotations
 
 import ast
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-FOLDERS = {"soiltrack": "soiltrack", "soilmodel": "soiltrack.soilmodel", "identify": "soiltrack.identify",
-           "planning": "soiltrack.planning"}
+FOLDERS = {
+    "soiltrack": "soiltrack",
+    "soilmodel": "soiltrack.soilmodel",
+    "identify": "soiltrack.identify",
+    "planning": "soiltrack.planning",
+}
 
 
 def _modules() -> dict[str, tuple[Path, bool]]:
@@ -125,6 +130,7 @@ def test_layers_flow_one_way():
             if m == k or m.startswith(k + "."):
                 return r
         return 3
+
     bad = [(m, t) for m, ts in edges.items() for t in ts if layer(t) > layer(m)]
     assert bad == []
 

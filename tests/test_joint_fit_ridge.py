@@ -5,6 +5,7 @@ its lower bound; the joint fit with the candidates held "off" is then the nomina
 IPOPT, left on the singular c-phi ridge, used to wander for 500 iterations
 (Maximum_Iterations_Exceeded) - which made the diagnosis answer "unexplained" for want of a fit.
 """
+
 import numpy as np
 import pytest
 
@@ -18,8 +19,15 @@ SWEEP_EFFECTS = [e for e, s in EFFECTS.items() if "sweep" in s.shows_in]
 
 @pytest.fixture(scope="module")
 def sinkage_sweep():
-    return simulate(VEH, TERRAINS["lete_sand"], kind="sweep", effects={"slip_sinkage": {"mu_s": 0.12}},
-                    measure="drawbar_pull", seed=0, slips=list(np.linspace(0.02, 0.7, 60)))
+    return simulate(
+        VEH,
+        TERRAINS["lete_sand"],
+        kind="sweep",
+        effects={"slip_sinkage": {"mu_s": 0.12}},
+        measure="drawbar_pull",
+        seed=0,
+        slips=list(np.linspace(0.02, 0.7, 60)),
+    )
 
 
 def _fmax(res, W):

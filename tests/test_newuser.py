@@ -3,6 +3,7 @@
 Items 4.1, 4.7-4.10, 4.12-4.14 (the fit side) and 4.16. Each test asserts exit codes, JSON
 numbers, the figure written (and the numbers it plots), never the wording of a message.
 """
+
 import json
 import os
 import re
@@ -14,8 +15,17 @@ import pytest
 
 import soiltrack.plots as plots
 from soiltrack.cli import main
-from soiltrack.soilmodel import (TERRAINS, VEHICLES, DataError, Soil, Vehicle, read_csv, simulate,
-                                 tractive_force_with_effects, write_csv)
+from soiltrack.soilmodel import (
+    TERRAINS,
+    VEHICLES,
+    DataError,
+    Soil,
+    Vehicle,
+    read_csv,
+    simulate,
+    tractive_force_with_effects,
+    write_csv,
+)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 LIGHT = VEHICLES["light"]
@@ -41,8 +51,7 @@ def figures(monkeypatch):
         axes = []
         for ax in fig.axes:
             ys = [np.asarray(line.get_ydata(), dtype=float) for line in ax.get_lines()]
-            ys += [np.asarray(c.get_offsets(), dtype=float)[:, 1] for c in ax.collections
-                   if len(c.get_offsets())]
+            ys += [np.asarray(c.get_offsets(), dtype=float)[:, 1] for c in ax.collections if len(c.get_offsets())]
             axes.append((ax.get_ylabel(), ys, {line.get_label(): line for line in ax.get_lines()}))
         saved.append(axes)
         return original(fig, path)
@@ -60,8 +69,26 @@ def is_png(path) -> bool:
 def light_sweep(tmp_path_factory):
     """The light vehicle's sweep at 300 and 450 N on sandy loam (README's first example)."""
     path = tmp_path_factory.mktemp("newuser") / "sweep.csv"
-    assert main(["simulate", "--kind", "sweep", "--vehicle", "light", "--terrain", "sandy_loam", "--loads",
-                 "300,450", "--seed", "1", "-o", str(path)]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                "--kind",
+                "sweep",
+                "--vehicle",
+                "light",
+                "--terrain",
+                "sandy_loam",
+                "--loads",
+                "300,450",
+                "--seed",
+                "1",
+                "-o",
+                str(path),
+            ]
+        )
+        == 0
+    )
     return path
 
 
@@ -69,8 +96,22 @@ def light_sweep(tmp_path_factory):
 @pytest.mark.slow
 def test_drive_log_fit_with_an_effect_plots_the_curve_with_the_effect(tmp_path, capsys, monkeypatch):
     story, png = tmp_path / "story.csv", tmp_path / "f.png"
-    rc, _, _ = run(capsys, "simulate", "--vehicle", "light", "--terrain", "dry_sand", "--effect", "grade=0.05",
-                   "--seed", "7", "--duration", "40", "-o", story)
+    rc, _, _ = run(
+        capsys,
+        "simulate",
+        "--vehicle",
+        "light",
+        "--terrain",
+        "dry_sand",
+        "--effect",
+        "grade=0.05",
+        "--seed",
+        "7",
+        "--duration",
+        "40",
+        "-o",
+        story,
+    )
     assert rc == 0
     saved = figures(monkeypatch)
     rc, out, _ = run(capsys, "fit", story, "--vehicle", "light", "--effect", "grade", "--plot", png)
@@ -82,8 +123,9 @@ def test_drive_log_fit_with_an_effect_plots_the_curve_with_the_effect(tmp_path, 
     curve = next(line for label, line in lines.items() if label.startswith("fitted F(i)"))
     grid, drawn = np.asarray(curve.get_xdata(), float), np.asarray(curve.get_ydata(), float)
     p = j["parameters"]
-    soil = Soil.from_kpa_deg(p["cohesion_kpa"]["value"], p["friction_angle_deg"]["value"],
-                             p["shear_modulus_m"]["value"])
+    soil = Soil.from_kpa_deg(
+        p["cohesion_kpa"]["value"], p["friction_angle_deg"]["value"], p["shear_modulus_m"]["value"]
+    )
     theta = j["effects"]["grade"]["theta_rad"]["value"]
     expected = tractive_force_with_effects(grid, soil, LIGHT, {"grade": theta})
     assert abs(theta - 0.05) < 0.005
@@ -96,18 +138,36 @@ def test_soil_outside_the_range_of_soils_exits_2_in_every_command(tmp_path, caps
     for soil in ("1.7,29,10", "1.7,0.5,0.01", "1700,29,0.01"):  # K in mm, phi in radians, c in Pa
         assert run(capsys, "simulate", "--kind", "sweep", "--vehicle", "light", "--soil", soil, "-o", out)[0] == 2
         assert run(capsys, "margin", "--vehicle", "light", "--soil", soil, "--json")[0] == 2
-        assert run(capsys, "profile", "--vehicle", "light", "--soil", soil, "--v0", "0.5", "--v1", "1",
-                   "--duration", "5", "--json")[0] == 2
+        assert (
+            run(
+                capsys,
+                "profile",
+                "--vehicle",
+                "light",
+                "--soil",
+                soil,
+                "--v0",
+                "0.5",
+                "--v1",
+                "1",
+                "--duration",
+                "5",
+                "--json",
+            )[0]
+            == 2
+        )
     assert not out.exists()
 
 
 def test_soil_outside_the_practical_range_warns_on_stderr(tmp_path, capsys):
     out = tmp_path / "s.csv"
-    base = run(capsys, "simulate", "--kind", "sweep", "--vehicle", "light", "--soil", "1.7,29,0.01", "--seed", "1",
-               "-o", out)
+    base = run(
+        capsys, "simulate", "--kind", "sweep", "--vehicle", "light", "--soil", "1.7,29,0.01", "--seed", "1", "-o", out
+    )
     for soil in ("1.7,29,0.003", "1.7,4,0.01", "100,29,0.01"):  # K 3 mm, phi 4 deg, c 100 kPa: real but rare
-        rc, _, err = run(capsys, "simulate", "--kind", "sweep", "--vehicle", "light", "--soil", soil, "--seed", "1",
-                         "-o", out)
+        rc, _, err = run(
+            capsys, "simulate", "--kind", "sweep", "--vehicle", "light", "--soil", soil, "--seed", "1", "-o", out
+        )
         assert rc == 0 and len(err.splitlines()) == len(base[2].splitlines()) + 1
 
 
@@ -131,8 +191,9 @@ def test_the_load_check_passes_a_rig_at_a_few_times_the_weight():
 
 
 # --- 4.9 simulate says its seed ------------------------------------------------------------
-@pytest.mark.parametrize("gear", [["--vehicle", "light"], ["--vehicle", WHEEL_JSON, "--loads", "100,200"]],
-                         ids=["track", "rigid wheel"])
+@pytest.mark.parametrize(
+    "gear", [["--vehicle", "light"], ["--vehicle", WHEEL_JSON, "--loads", "100,200"]], ids=["track", "rigid wheel"]
+)
 def test_simulate_without_a_seed_says_it_and_the_run_repeats(gear, tmp_path, capsys):
     a, b, again = tmp_path / "a.csv", tmp_path / "b.csv", tmp_path / "again.csv"
     seeds = []
@@ -149,11 +210,28 @@ def test_simulate_without_a_seed_says_it_and_the_run_repeats(gear, tmp_path, cap
 # --- 4.10 units by magnitude in figures and reports -----------------------------------------
 def test_light_vehicle_figures_are_in_newtons(light_sweep, tmp_path, capsys, monkeypatch):
     saved = figures(monkeypatch)
-    assert run(capsys, "simulate", "--kind", "sweep", "--vehicle", "light", "--terrain", "sandy_loam", "--seed", "1",
-               "-o", tmp_path / "s.csv", "--plot", tmp_path / "data.png")[0] == 0
+    assert (
+        run(
+            capsys,
+            "simulate",
+            "--kind",
+            "sweep",
+            "--vehicle",
+            "light",
+            "--terrain",
+            "sandy_loam",
+            "--seed",
+            "1",
+            "-o",
+            tmp_path / "s.csv",
+            "--plot",
+            tmp_path / "data.png",
+        )[0]
+        == 0
+    )
     assert run(capsys, "fit", light_sweep, "--vehicle", "light", "--plot", tmp_path / "fit.png")[0] == 0
     data = read_csv(str(light_sweep))
-    (_, data_ys, _), = saved[0]
+    ((_, data_ys, _),) = saved[0]
     (_, fit_ys, _), _ = saved[1]
     for ys in (data_ys, fit_ys):
         peak = max(float(np.max(np.abs(y))) for y in ys if y.size)
@@ -171,16 +249,21 @@ def magnitudes_ok(report: str) -> list[str]:
     bad = []
     for m in NUMBER_UNIT.finditer(report):
         x, unit = float(m.group(1)), m.group(2)
-        if "e" in m.group(1) or (unit == "kN" and not 1 <= abs(x) < 1000) or (unit == "N" and abs(x) >= 1000) \
-                or (unit == "ms" and x >= 1000):
+        if (
+            "e" in m.group(1)
+            or (unit == "kN" and not 1 <= abs(x) < 1000)
+            or (unit == "N" and abs(x) >= 1000)
+            or (unit == "ms" and x >= 1000)
+        ):
             bad.append(m.group(0))
     return bad
 
 
 @pytest.mark.slow
 def test_a_gentle_light_drive_log_report_has_units_by_magnitude(tmp_path, capsys):
-    log = simulate(LIGHT, TERRAINS["dry_sand"], kind="drive", seed=3, duration_s=30,
-                   speed_profile=[(0, 0.3), (5, 0.6), (30, 0.7)])
+    log = simulate(
+        LIGHT, TERRAINS["dry_sand"], kind="drive", seed=3, duration_s=30, speed_profile=[(0, 0.3), (5, 0.6), (30, 0.7)]
+    )
     path = tmp_path / "gentle.csv"
     write_csv(log, path)
     rc, out, _ = run(capsys, "fit", path, "--vehicle", "light")
@@ -205,8 +288,12 @@ def load_script(path):
     return mod
 
 
-@pytest.mark.skipif(shutil.which("git") is None or not os.path.isdir(os.path.join(ROOT, ".git"))
-                    and not os.path.isfile(os.path.join(ROOT, ".git")), reason="not a git checkout")
+@pytest.mark.skipif(
+    shutil.which("git") is None
+    or not os.path.isdir(os.path.join(ROOT, ".git"))
+    and not os.path.isfile(os.path.join(ROOT, ".git")),
+    reason="not a git checkout",
+)
 def test_example_and_benchmark_figures_go_to_ignored_folders():
     story = load_script(os.path.join(ROOT, "examples", "diagnose_story.py"))
     bench = load_script(os.path.join(ROOT, "benchmarks", "bench_diagnose.py"))
@@ -288,8 +375,23 @@ def test_residuals_are_measured_minus_model(tmp_path, capsys):
 @pytest.mark.slow
 def test_drive_log_residuals_have_one_sign_with_and_without_effects(tmp_path, capsys):
     log = tmp_path / "log.csv"
-    assert run(capsys, "simulate", "--vehicle", "light", "--terrain", "dry_sand", "--seed", "2", "--duration", "30",
-               "-o", log)[0] == 0
+    assert (
+        run(
+            capsys,
+            "simulate",
+            "--vehicle",
+            "light",
+            "--terrain",
+            "dry_sand",
+            "--seed",
+            "2",
+            "--duration",
+            "30",
+            "-o",
+            log,
+        )[0]
+        == 0
+    )
     res = []
     for opts in ([], ["--effect", "grade", "--torque-hold", "zoh"]):
         rc, out, _ = run(capsys, "fit", log, "--vehicle", "light", "--json", *opts)
@@ -302,12 +404,38 @@ def test_drive_log_residuals_have_one_sign_with_and_without_effects(tmp_path, ca
 # --- 4.16 fit --bounds ---------------------------------------------------------------------
 def test_fit_bounds_widen_phi_below_6_degrees(tmp_path, capsys):
     path = tmp_path / "slippery.csv"
-    assert run(capsys, "simulate", "--kind", "sweep", "--vehicle", "light", "--soil", "0,4,0.01", "--loads",
-               "300,450", "--seed", "2", "-o", path)[0] == 0
+    assert (
+        run(
+            capsys,
+            "simulate",
+            "--kind",
+            "sweep",
+            "--vehicle",
+            "light",
+            "--soil",
+            "0,4,0.01",
+            "--loads",
+            "300,450",
+            "--seed",
+            "2",
+            "-o",
+            path,
+        )[0]
+        == 0
+    )
     phis = {}
     for bounds in (None, "wide", "0,69,2,40,0.006,0.05"):
-        rc, out, _ = run(capsys, "fit", path, "--vehicle", "light", "--model", "cohesion-free", "--json",
-                         *(["--bounds", bounds] if bounds else []))
+        rc, out, _ = run(
+            capsys,
+            "fit",
+            path,
+            "--vehicle",
+            "light",
+            "--model",
+            "cohesion-free",
+            "--json",
+            *(["--bounds", bounds] if bounds else []),
+        )
         j = json.loads(out)
         phis[bounds] = j["parameters"]["friction_angle_deg"]
         assert rc == 0

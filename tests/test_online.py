@@ -28,9 +28,7 @@ def sand_log():
 def _replay(est, log, upto=None):
     out = []
     for k in range(log.n_samples if upto is None else upto + 1):
-        out.append(
-            est.update(log.time[k], log.sprocket_torque[k], log.sprocket_speed[k], log.vehicle_speed[k])
-        )
+        out.append(est.update(log.time[k], log.sprocket_torque[k], log.sprocket_speed[k], log.vehicle_speed[k]))
     return out
 
 
@@ -111,9 +109,7 @@ def test_change_of_terrain_detected_dated_and_the_new_soil_learnt(bench):
     detected, dated = changes[0]
     assert 0.0 <= detected - bench.CHANGE_TIME_S <= 1.0
     assert abs(dated - bench.CHANGE_TIME_S) <= 2.0
-    F_new = max_thrust(
-        TERRAINS["snow"], LIGHT, normal_load=LIGHT.weight * math.cos(math.radians(bench.GRADE_DEG))
-    )
+    F_new = max_thrust(TERRAINS["snow"], LIGHT, normal_load=LIGHT.weight * math.cos(math.radians(bench.GRADE_DEG)))
     e = hist[int(round((bench.CHANGE_TIME_S + 5.0) * 50))]
     assert "max_thrust" in e.identifiable
     assert abs(e.max_thrust_N / F_new - 1) <= 0.05
@@ -141,8 +137,7 @@ def test_gentle_driving_is_not_reported_as_identifying_f_max():
     late = [e for e in hist if e.time_s > 4.0]
     assert all(e.identifiable in ((), ("slope",)) for e in late)
     assert all(
-        e.max_thrust_stderr_N is None and e.shear_modulus_stderr_m is None and e.covariance is None
-        for e in late
+        e.max_thrust_stderr_N is None and e.shear_modulus_stderr_m is None and e.covariance is None for e in late
     )
     # the batch fit of the last window agrees: a gentle log, F_max undetermined (25 % or worse)
     r = fit(log.subset(slice(log.n_samples - 252, log.n_samples)), LIGHT)
@@ -176,9 +171,7 @@ def test_dropouts_are_skipped_and_counted(sand_log):
 
 def test_irregular_time_steps(sand_log):
     rng = np.random.default_rng(1)
-    keep = np.concatenate(
-        [[0], np.sort(rng.choice(np.arange(1, sand_log.n_samples), size=1500, replace=False))]
-    )
+    keep = np.concatenate([[0], np.sort(rng.choice(np.arange(1, sand_log.n_samples), size=1500, replace=False))])
     sub = sand_log.subset(keep)  # steps of 1, 2, 3 ... sample intervals
     steps = np.diff(sub.time)
     assert steps.min() < steps.max() / 2
@@ -233,13 +226,9 @@ def test_two_track_columns_summed_and_turning_marked(bench, sand_log, tmp_path):
     cols = bench.two_track(sand_log, [(10.0, 12.0)], seed=5)
     path = tmp_path / "tracks.csv"
     names = [c for c in cols if not c.startswith("_")]
-    np.savetxt(
-        path, np.column_stack([cols[c] for c in names]), delimiter=",", header=",".join(names), comments=""
-    )
+    np.savetxt(path, np.column_stack([cols[c] for c in names]), delimiter=",", header=",".join(names), comments="")
     log = read_csv(path)
-    assert np.allclose(
-        log.sprocket_torque, cols["sprocket_torque_left_Nm"] + cols["sprocket_torque_right_Nm"]
-    )
+    assert np.allclose(log.sprocket_torque, cols["sprocket_torque_left_Nm"] + cols["sprocket_torque_right_Nm"])
     assert np.allclose(
         log.sprocket_speed, 0.5 * (cols["sprocket_speed_left_rad_s"] + cols["sprocket_speed_right_rad_s"])
     )

@@ -35,9 +35,7 @@ SUMMARY_KEYS = {
 
 @pytest.fixture(scope="module")
 def log():
-    return simulate_drive_log(
-        VEHICLES["light"], TERRAINS["lete_sand"], seed=2, duration_s=30, sample_rate_hz=50
-    )
+    return simulate_drive_log(VEHICLES["light"], TERRAINS["lete_sand"], seed=2, duration_s=30, sample_rate_hz=50)
 
 
 def _run(args, capsys):
@@ -66,8 +64,7 @@ def test_json_lines_and_summary(tmp_path, capsys):
     assert p and all(0.0 <= x <= 1.0 for x in p)
     # p_traversable only where F_max and K are both identified and the iteration has converged
     assert all(
-        (s["p_traversable"] is None) == (s["shear_modulus_stderr_m"] is None or not s["converged"])
-        for s in steps
+        (s["p_traversable"] is None) == (s["shear_modulus_stderr_m"] is None or not s["converged"]) for s in steps
     )
 
 
@@ -91,18 +88,14 @@ def test_two_track_log_turns_counted(log, tmp_path, capsys):
     cols = bench_module("bench_online").two_track(log, [(12.0, 13.0)], seed=1)
     names = [c for c in cols if not c.startswith("_")]
     path = tmp_path / "tracks.csv"
-    np.savetxt(
-        path, np.column_stack([cols[c] for c in names]), delimiter=",", header=",".join(names), comments=""
-    )
+    np.savetxt(path, np.column_stack([cols[c] for c in names]), delimiter=",", header=",".join(names), comments="")
     rc, lines, _ = _run(["track", str(path), "--vehicle", "light", "--every", "100", "--json"], capsys)
     n_turn = int(np.count_nonzero(cols["_turning"]))
     assert rc == 0
     assert n_turn <= lines[-1]["summary"]["samples_turning"] <= n_turn + 2
 
 
-@pytest.mark.parametrize(
-    "case", ["missing_file", "missing_column", "text", "window", "every", "grade", "time"]
-)
+@pytest.mark.parametrize("case", ["missing_file", "missing_column", "text", "window", "every", "grade", "time"])
 def test_bad_input_exits_2(case, log, tmp_path, capsys):
     path = tmp_path / "log.csv"
     write_csv(log.subset(slice(0, 200)), path)

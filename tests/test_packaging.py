@@ -1,4 +1,5 @@
 """The distribution installs one top-level import package, soiltrack (docs/index.md)."""
+
 import importlib.metadata as md
 import pytest
 
@@ -31,8 +32,15 @@ def test_subpackages_import_under_soiltrack():
     assert soilmodel.__name__ == "soiltrack.soilmodel"
     assert identify.__name__ == "soiltrack.identify" and planning.__name__ == "soiltrack.planning"
     assert soiltrack.TERRAINS is soilmodel.TERRAINS
-    assert set(soilmodel.TERRAINS) == {"dry_sand", "sandy_loam", "clayey_soil", "heavy_clay", "lean_clay",
-                                      "lete_sand", "snow"}
+    assert set(soilmodel.TERRAINS) == {
+        "dry_sand",
+        "sandy_loam",
+        "clayey_soil",
+        "heavy_clay",
+        "lean_clay",
+        "lete_sand",
+        "snow",
+    }
     assert set(soilmodel.VEHICLES) == {"heavy", "light"}
     assert soiltrack.fit is identify.fit and soiltrack.fit_many is identify.fit_many
 
@@ -45,8 +53,12 @@ def test_every_subpackage_folder_is_installed():
     root = Path(__file__).resolve().parents[1]
     cfg = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]
     listed = set(cfg["packages"])
-    top = {"soiltrack": "soiltrack", "soilmodel": "soiltrack.soilmodel", "identify": "soiltrack.identify",
-           "planning": "soiltrack.planning"}
+    top = {
+        "soiltrack": "soiltrack",
+        "soilmodel": "soiltrack.soilmodel",
+        "identify": "soiltrack.identify",
+        "planning": "soiltrack.planning",
+    }
     found = set()
     for folder, pkg in top.items():
         for init in (root / folder).rglob("__init__.py"):

@@ -1,4 +1,5 @@
 """Traversability margins: hand calculations on the presets, Fig. 7, uncertainty from a fit."""
+
 import dataclasses
 import json
 import math
@@ -39,8 +40,10 @@ def hand_margin(soil, veh, grade_deg, i_max=0.2, drivetrain=120e3):
     return avail, req
 
 
-@pytest.mark.parametrize("name,grade,go", [("dry_sand", 0, True), ("clayey_soil", 0, True),
-                                           ("dry_sand", 15, True), ("clayey_soil", 15, False)])
+@pytest.mark.parametrize(
+    "name,grade,go",
+    [("dry_sand", 0, True), ("clayey_soil", 0, True), ("dry_sand", 15, True), ("clayey_soil", 15, False)],
+)
 def test_fig7_margins_match_hand_calculation(name, grade, go):
     soil = TERRAINS[name]
     m = margin(soil, V120, grade_deg=grade)
@@ -80,8 +83,9 @@ def test_power_limit_at_speed_and_missing_limits():
     assert json.dumps(m2.to_dict(), allow_nan=False)
 
 
-@pytest.mark.parametrize("kw", [dict(max_slip=1.5), dict(max_slip=0.0), dict(grade_deg=80.0),
-                                dict(accel=float("nan")), dict(speed=-1.0)])
+@pytest.mark.parametrize(
+    "kw", [dict(max_slip=1.5), dict(max_slip=0.0), dict(grade_deg=80.0), dict(accel=float("nan")), dict(speed=-1.0)]
+)
 def test_bad_arguments_are_named(kw):
     with pytest.raises(DataError) as e:
         margin(TERRAINS["dry_sand"], HEAVY, **kw)
@@ -165,8 +169,9 @@ def test_fig7_example_writes_the_figure_with_the_consistent_reading(tmp_path):
     import importlib.util
     import os
 
-    path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples",
-                        "fig7_traversability.py")
+    path = os.path.join(
+        os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples", "fig7_traversability.py"
+    )
     spec = importlib.util.spec_from_file_location("fig7_example", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
@@ -174,8 +179,12 @@ def test_fig7_example_writes_the_figure_with_the_consistent_reading(tmp_path):
     assert seed["dry_sand"] == pytest.approx(2.8 * 1.04e3 + 329e3 * math.tan(math.radians(28)), rel=1e-6)
     assert seed["clayey_soil"] == pytest.approx(2.8 * 4.14e3 + 329e3 * math.tan(math.radians(13)), rel=1e-6)
     go = {k: m.traversable for k, m in margins.items()}
-    assert go == {("dry_sand", 0.0): True, ("clayey_soil", 0.0): True, ("dry_sand", 15.0): True,
-                  ("clayey_soil", 15.0): False}
+    assert go == {
+        ("dry_sand", 0.0): True,
+        ("clayey_soil", 0.0): True,
+        ("dry_sand", 15.0): True,
+        ("clayey_soil", 15.0): False,
+    }
     out = tmp_path / "fig7.png"
     assert mod.main(["--out", str(out)]) == 0 and out.stat().st_size > 10_000
 
@@ -183,12 +192,36 @@ def test_fig7_example_writes_the_figure_with_the_consistent_reading(tmp_path):
 def test_fit_json_covariance_block_is_used_when_present(fits, tmp_path):
     f = fits["cohesion-free"]
     obj = json.loads(f.to_json())
-    obj["covariance"] = {"parameters": ["cohesion", "friction_angle", "shear_modulus"],
-                         "matrix": np.asarray(f.covariance).tolist(), "units": "SI"}
+    obj["covariance"] = {
+        "parameters": ["cohesion", "friction_angle", "shear_modulus"],
+        "matrix": np.asarray(f.covariance).tolist(),
+        "units": "SI",
+    }
     path = tmp_path / "fit_cov.json"
     path.write_text(json.dumps(obj))
     u = load_fit_json(str(path), HEAVY)
     assert u.source == "covariance matrix of the fit JSON"
     np.testing.assert_allclose(u.cov, np.asarray(f.covariance)[1:, 1:], rtol=1e-12)
     assert margin(u, HEAVY, grade_deg=5).p_traversable_delta == pytest.approx(
-        margin(f, HEAVY, grade_deg=5).p_traversable_delta, abs=1e-9)
+        margin(f, HEAVY, grade_deg=5).p_traversable_delta, abs=1e-9
+    )
+
+
+def test_margin_takes_a_fit_with_effects_and_plans_with_its_soil_block():
+    """A FitResult with an effect (covariance 4 x 4) gives the soil's marginal uncertainty (was a ValueError)."""
+    from soiltrack.identify import fit
+    from soiltrack.planning import margin
+    from soiltrack.planning.uncertainty import uncertainty_from_fit
+    from soiltrack.soilmodel import TERRAINS, VEHICLES, simulate_slip_sweep
+
+    light = VEHICLES["light"]
+    data = simulate_slip_sweep(
+        light, TERRAINS["sandy_loam"], normal_loads=(300.0, 450.0), seed=1, effects={"slip_sinkage": 0.1}
+    )
+    res = fit(data, light, effects=["slip_sinkage"])
+    assert res.success and np.asarray(res.covariance).shape == (4, 4)
+    u = uncertainty_from_fit(res)
+    assert u.cov.shape == (3, 3)
+    assert np.allclose(u.cov, np.asarray(res.covariance)[:3, :3])
+    m = margin(res, light, grade_deg=10)
+    assert m.p_traversable is not None and 0.0 <= m.p_traversable <= 1.0

@@ -1,4 +1,5 @@
 """Optimal-control profiles: replayed open-loop through the full dynamics, routes, infeasibility."""
+
 import dataclasses
 import math
 
@@ -34,8 +35,9 @@ def check_replay(res, veh, v_end):
 
 @pytest.fixture(scope="module")
 def min_time():
-    return profile(TERRAINS["lete_sand"], HEAVY, v0=0.5, v1=3.0, distance=30.0, max_slip=0.2, objective="time",
-                   intervals=40)
+    return profile(
+        TERRAINS["lete_sand"], HEAVY, v0=0.5, v1=3.0, distance=30.0, max_slip=0.2, objective="time", intervals=40
+    )
 
 
 @pytest.mark.parametrize("terrain", ["lete_sand", "clayey_soil"])
@@ -54,14 +56,15 @@ def test_braking_profile_and_light_vehicle():
 
 
 def test_energy_objective_is_slower_and_cheaper(min_time):
-    e = profile(TERRAINS["lete_sand"], HEAVY, v0=0.5, v1=3.0, distance=30.0, max_slip=0.2, objective="energy",
-                intervals=40)
+    e = profile(
+        TERRAINS["lete_sand"], HEAVY, v0=0.5, v1=3.0, distance=30.0, max_slip=0.2, objective="energy", intervals=40
+    )
     check_replay(e, HEAVY, 3.0)
     assert e.energy_J < min_time.energy_J
     assert e.total_time_s > min_time.total_time_s
     # the sprocket energy can be no less than the kinetic energy gained plus the rolling work
     m, W = HEAVY.mass, HEAVY.weight
-    assert e.energy_J > 0.5 * m * (3.0 ** 2 - 0.5 ** 2) + 0.05 * W * 30.0
+    assert e.energy_J > 0.5 * m * (3.0**2 - 0.5**2) + 0.05 * W * 30.0
 
 
 def test_warm_resolve_reuses_the_problem(min_time):
@@ -77,10 +80,23 @@ def test_warm_resolve_reuses_the_problem(min_time):
 
 
 def test_route_patch_boundaries_on_the_mesh_and_replay():
-    route = route_from_dict({"v0_m_s": 1.0, "v_end_m_s": 2.0, "objective": "time", "max_slip": 0.2, "patches": [
-        {"length_m": 20, "terrain": "lete_sand"}, {"length_m": 10, "terrain": "clayey_soil", "grade_deg": 10},
-        {"length_m": 15, "soil": {"cohesion_kpa": 1.0, "friction_angle_deg": 30, "shear_modulus_m": 0.02},
-         "grade_deg": -5}]})
+    route = route_from_dict(
+        {
+            "v0_m_s": 1.0,
+            "v_end_m_s": 2.0,
+            "objective": "time",
+            "max_slip": 0.2,
+            "patches": [
+                {"length_m": 20, "terrain": "lete_sand"},
+                {"length_m": 10, "terrain": "clayey_soil", "grade_deg": 10},
+                {
+                    "length_m": 15,
+                    "soil": {"cohesion_kpa": 1.0, "friction_angle_deg": 30, "shear_modulus_m": 0.02},
+                    "grade_deg": -5,
+                },
+            ],
+        }
+    )
     res = route_profile(route, HEAVY, intervals=45)
     check_replay(res, HEAVY, 2.0)
     x, p = np.asarray(res.series["distance_m"]), np.asarray(res.series["patch"])
@@ -92,8 +108,16 @@ def test_route_patch_boundaries_on_the_mesh_and_replay():
 
 
 def test_infeasible_patch_is_named_with_numbers():
-    route = route_from_dict({"v0_m_s": 1.0, "v_end_m_s": 2.0, "patches": [
-        {"length_m": 20, "terrain": "lete_sand"}, {"length_m": 10, "terrain": "clayey_soil", "grade_deg": 40}]})
+    route = route_from_dict(
+        {
+            "v0_m_s": 1.0,
+            "v_end_m_s": 2.0,
+            "patches": [
+                {"length_m": 20, "terrain": "lete_sand"},
+                {"length_m": 10, "terrain": "clayey_soil", "grade_deg": 40},
+            ],
+        }
+    )
     res = route_profile(route, HEAVY)
     assert not res.success and res.reason["patch"] == 1
     soil = TERRAINS["clayey_soil"]
@@ -118,8 +142,9 @@ def test_torque_and_power_limits_named():
     assert not res.success and res.reason["limit"] == "power"
 
 
-@pytest.mark.parametrize("kw", [dict(v0=-1.0), dict(max_slip=1.2), dict(intervals=1), dict(distance=-3.0),
-                                dict(objective="fast")])
+@pytest.mark.parametrize(
+    "kw", [dict(v0=-1.0), dict(max_slip=1.2), dict(intervals=1), dict(distance=-3.0), dict(objective="fast")]
+)
 def test_bad_arguments(kw):
     args = dict(v0=0.5, v1=3.0, distance=30.0)
     args.update(kw)
@@ -135,14 +160,16 @@ def test_route_json_errors_name_the_field():
         route_from_dict({"patches": [{"length_m": 5, "terrain": "lete_sand"}, {"length_m": 5, "terrain": "mud"}]})
 
 
+@pytest.mark.slow
 def test_robust_profile_keeps_the_slip_limit_for_most_sampled_soils():
     from soiltrack.identify import fit
     from soiltrack.soilmodel import SensorNoise, Soil, simulate_slip_sweep
 
     data = simulate_slip_sweep(HEAVY, Soil.from_kpa_deg(1.3, 31.1, 0.012), seed=3, noise=SensorNoise(force_rel=0.05))
     f = fit(data, HEAVY, model="cohesion-free")
-    res = profile(f, HEAVY, v0=1.0, v1=3.0, distance=30.0, grade_deg=10, intervals=30, confidence=0.9,
-                  robust_samples=40)
+    res = profile(
+        f, HEAVY, v0=1.0, v1=3.0, distance=30.0, grade_deg=10, intervals=30, confidence=0.9, robust_samples=40
+    )
     check_replay(res, HEAVY, 3.0)
     rb = res.robust
     # measured with 100 soils: 2 % of them break the slip limit with the robust plan, 27 % with the nominal one

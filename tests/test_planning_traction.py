@@ -1,4 +1,5 @@
 """Stuck prediction and slip-optimal traction against hand calculations."""
+
 import dataclasses
 import math
 

@@ -142,6 +142,7 @@ def _steady_thrust_check(js, vehicle, soil, resistance_N):
 
 
 @pytest.mark.parametrize("objective,kw", [("time", {"distance": 30.0}), ("energy", {"duration": 8.0})])
+@pytest.mark.slow
 def test_first_point_is_the_steady_state_at_v0(objective, kw):
     soil = TERRAINS["dry_sand"]
     res = profile(soil, LIGHT, v0=0.5, v1=1.5, objective=objective, intervals=30, **kw)

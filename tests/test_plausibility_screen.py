@@ -1,4 +1,5 @@
 """The compiled engine's screen of the plausibility checks never hides a finding, and lets clean fits skip them."""
+
 from __future__ import annotations
 
 import math
@@ -11,8 +12,15 @@ from hypothesis import strategies as st
 
 from soiltrack.identify.sweep import compiled_lm
 from soiltrack.identify.sweep import problem
-from soiltrack.identify.sweep.plausibility import (_limit_on_bound, assess, check_slip_data, check_slip_fit, corner_soils,
-                                              limit_screen_expr, screen_expr)
+from soiltrack.identify.sweep.plausibility import (
+    _limit_on_bound,
+    assess,
+    check_slip_data,
+    check_slip_fit,
+    corner_soils,
+    limit_screen_expr,
+    screen_expr,
+)
 from soiltrack.soilmodel import PRACTICAL_BOUNDS, VEHICLES, SlipData, Soil, tractive_force
 
 HEAVY = VEHICLES["heavy"]
@@ -57,6 +65,7 @@ def rows(draw):
 
 @settings(max_examples=300, deadline=None)
 @given(rows())
+@pytest.mark.slow
 def test_screen_is_open_whenever_a_check_finds_something(case):
     slip, force, r, lo, hi = case
     found = _findings(slip, force, r, lo, hi)
@@ -70,9 +79,13 @@ def test_screen_opens_on_each_kind_of_finding_and_on_nan():
     force = np.full(20, 2e4) * (1 + 0.01 * np.sin(np.arange(20)))
     r = 100.0 * np.cos(np.arange(20))
     assert _findings(slip, force, r, lo, hi) == [] and _screen(slip, force, r, lo, hi) == 0.0
-    cases = {"force_scale_low": (force / 1000, r / 1000), "negative_thrust": (np.r_[-5.0, force[1:]], r),
-             "force_above_any_soil": (np.r_[force[:-1], 1e6], r), "residuals_large": (force, 0.9 * force),
-             "outlier": (force, np.r_[r[:-1], 1e4])}
+    cases = {
+        "force_scale_low": (force / 1000, r / 1000),
+        "negative_thrust": (np.r_[-5.0, force[1:]], r),
+        "force_above_any_soil": (np.r_[force[:-1], 1e6], r),
+        "residuals_large": (force, 0.9 * force),
+        "outlier": (force, np.r_[r[:-1], 1e4]),
+    }
     for code, (F, rr) in cases.items():
         assert code in _findings(slip, F, rr, lo, hi), code
         assert _screen(slip, F, rr, lo, hi) == 1.0, code
@@ -131,6 +144,7 @@ def noise_cases(draw):
 
 @settings(max_examples=300, deadline=None)
 @given(noise_cases())
+@pytest.mark.slow
 def test_bp_screen_is_open_whenever_the_statistic_warns(case):
     force, r = case
     stat = float(problem.heteroscedasticity(force, r, np.ones(force.size)))
@@ -168,8 +182,9 @@ def _limit_screen(theta, load, model, bounds=PRACTICAL_BOUNDS, real=None) -> flo
     c, phi = ca.MX.sym("c"), ca.MX.sym("phi")
     W, rl = ca.MX.sym("W", 1, n), ca.MX.sym("real", 1, n)
     weak, strong = corner_soils(bounds, model)
-    f = ca.Function("limit", [c, phi, W, rl],
-                    [limit_screen_expr(c, phi, W, weak, strong, HEAVY.contact_area, model, rl)])
+    f = ca.Function(
+        "limit", [c, phi, W, rl], [limit_screen_expr(c, phi, W, weak, strong, HEAVY.contact_area, model, rl)]
+    )
     real = np.ones(n) if real is None else real
     return float(f(theta[0], theta[1], np.asarray(load, float).reshape(1, -1), np.asarray(real, float).reshape(1, -1)))
 
@@ -191,6 +206,7 @@ def limit_cases(draw):
 
 @settings(max_examples=400, deadline=None)
 @given(limit_cases())
+@pytest.mark.slow
 def test_limit_screen_is_open_whenever_fmax_on_a_bound_is_found(case):
     model, load, theta = case
     force = np.full(load.size, 1e5)

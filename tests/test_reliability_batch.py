@@ -41,10 +41,7 @@ class Killer(SlipData):
 
 def _sweeps(n: int) -> list[SlipData]:
     # loads 150 and 450 N: a spread that fit solves with the compiled kernel, as fit_many stacks it
-    return [
-        simulate(LIGHT, TERRAINS["sandy_loam"], kind="sweep", seed=s, normal_loads=[150, 450])
-        for s in range(n)
-    ]
+    return [simulate(LIGHT, TERRAINS["sandy_loam"], kind="sweep", seed=s, normal_loads=[150, 450]) for s in range(n)]
 
 
 @pytest.fixture(scope="module")
@@ -69,7 +66,8 @@ def test_poisoned_batch_gives_one_result_per_item_in_order(poisoned):
     items, bad = poisoned
     res = fit_many(items, LIGHT, progress=False)
     assert len(res) == len(items)
-    assert {res[k].extra["engine"] for k in range(len(items)) if k not in bad} <= {"vectorized", "vectorized-vm"}
+    engines = {res[k].extra["engine"] for k in range(len(items)) if k not in bad}
+    assert engines <= {"vectorized", "vectorized-vm"}  # the stacked kernel, not fit one by one
     for k, (d, r) in enumerate(zip(items, res)):
         if k in bad:
             assert r.success is False and r.status == "not fitted" and r.extra["batch_index"] == k
@@ -181,8 +179,34 @@ FORK_BESIDE_IPOPT = textwrap.dedent("""
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", ["ipopt", "auto"])
 def test_fork_pool_beside_threads_running_ipopt_finishes_five_times(engine):
-    out = subprocess.run(
-        [sys.executable, "-c", FORK_BESIDE_IPOPT, engine], capture_output=True, text=True, timeout=400
-    )
+    out = subprocess.run([sys.executable, "-c", FORK_BESIDE_IPOPT, engine], capture_output=True, text=True, timeout=400)
     assert out.returncode == 0, out.stdout + out.stderr[-2000:]
     assert out.stdout.split()[-2:] == ["FINISHED", "5"]
+
+
+class FlakyExecutor(ThreadPoolExecutor):
+    """A thread pool whose first submitted chunk is lost (as a Dask worker dying would lose it)."""
+
+    def __init__(self, *a, **kw):
+        super().__init__(*a, **kw)
+        self.lost = 0
+
+    def submit(self, fn, /, *args, **kwargs):
+        if self.lost == 0:
+            self.lost += 1
+            from concurrent.futures import Future
+
+            fut = Future()
+            fut.set_exception(RuntimeError("worker lost"))
+            return fut
+        return super().submit(fn, *args, **kwargs)
+
+
+def test_a_chunk_lost_by_another_executor_is_retried_item_by_item():
+    items = _sweeps(10)
+    serial = fit_many(items, LIGHT, progress=False)
+    with FlakyExecutor(2) as ex:
+        res = fit_many(items, LIGHT, progress=False, executor=ex, chunk_size=4)
+    assert ex.lost == 1
+    assert [r.success for r in res] == [True] * len(items)
+    assert all(_same(a, b) for a, b in zip(res, serial))

@@ -55,9 +55,7 @@ def test_mislabelled_logs_fail_and_say_why(tmp_path, edit, check, expected):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "edit", [_scale(1, 0.5), _scale(0, 1000.0), _scale(2, 60 / (2 * math.pi)), _scale(3, 3.6)]
-)
+@pytest.mark.parametrize("edit", [_scale(1, 0.5), _scale(0, 1000.0), _scale(2, 60 / (2 * math.pi)), _scale(3, 3.6)])
 def test_fit_of_a_mislabelled_log_does_not_succeed(tmp_path, edit):
     log = independent_log(tmp_path / "log.csv", 5, edit=edit)
     res = fit(log, HEAVY)
@@ -128,3 +126,33 @@ def test_a_subset_with_gaps_is_checked_segment_by_segment(tmp_path):
     rep = check_consistency(log.subset(keep), HEAVY)
     assert rep.passed and rep.failed_checks == ()
     assert abs(math.log(_findings(rep)["torque_scale"].ratio)) < math.log(1.25)
+
+
+def test_diagnose_does_not_answer_none_on_a_sweep_with_loads_in_kn(tmp_path):
+    """The diagnosis checks the data once: loads in kN give 'unexplained' at confidence 0, not 'none'."""
+    from soiltrack.identify import diagnose
+
+    d = independent_sweep(tmp_path / "s.csv", 1, loads=(164_500.0, 329_000.0))
+    kn = SlipData(d.slip, drawbar_pull=d.values, normal_load=d.normal_load / 1000)
+    dg = diagnose(kn, HEAVY)
+    assert (dg.verdict, dg.confidence, dg.converged) == ("unexplained", 0.0, False)
+    assert dg.ranking == ()
+
+
+@pytest.mark.slow
+def test_diagnose_does_not_answer_none_on_one_sprocket_of_two(tmp_path):
+    from soiltrack.identify import diagnose
+
+    log = independent_log(tmp_path / "log.csv", 5, edit=_scale(1, 0.5))
+    dg = diagnose(log, HEAVY)
+    assert (dg.verdict, dg.confidence, dg.converged) == ("unexplained", 0.0, False)
+
+
+@pytest.mark.slow
+def test_diagnose_of_a_consistent_log_is_not_refused_by_the_checks_on_its_parts(tmp_path):
+    """The refits of a log's parts skip the checks (checked once on all of it): an effect-free log is 'none'."""
+    from soiltrack.identify import diagnose
+
+    log = independent_log(tmp_path / "log.csv", 1)
+    dg = diagnose(log, HEAVY)
+    assert dg.converged and dg.verdict == "none"

@@ -4,6 +4,7 @@ The sweeps are simulated here in plain numpy (Eq. 2 written out again, not soilm
 rig track (l = 0.0535 m, b = 0.025 m, like a 58 mm wheel approximated as two tracks) whose
 measured load varies from row to row, three repeats at each slip level.
 """
+
 import json
 import math
 
@@ -15,8 +16,15 @@ from soiltrack.identify import fit
 from soiltrack.soilmodel import DataError, SlipData, Vehicle, read_csv
 
 L, B = 0.0535, 0.025
-RIG = Vehicle(mass=2.5, track_length=L, track_width=B, sprocket_radius=0.058, sprocket_inertia=0.001,
-              rolling_resistance=0.0, name="rig track")
+RIG = Vehicle(
+    mass=2.5,
+    track_length=L,
+    track_width=B,
+    sprocket_radius=0.058,
+    sprocket_inertia=0.001,
+    rolling_resistance=0.0,
+    name="rig track",
+)
 SOIL = {"c": 800.0, "phi": math.radians(30.0), "K": 0.01}
 SLIP_LEVELS = (0.1, 0.23, 0.5, 0.75, 0.9)
 
@@ -32,7 +40,7 @@ def rig_rows(seed, levels=SLIP_LEVELS, repeats=3, noise=0.05, mu=0.0, hump=0.0):
     rng = np.random.default_rng(seed)
     i = np.repeat(levels, repeats).astype(float)
     W = rng.uniform(21.0, 27.0, i.size)
-    DP = thrust(i, W) * (1 - hump * i ** 2) - mu * W
+    DP = thrust(i, W) * (1 - hump * i**2) - mu * W
     return i, DP + rng.normal(0.0, noise, i.size), np.full(i.size, noise), W
 
 
@@ -46,8 +54,9 @@ def test_a_13_row_measured_sweep_reports_by_load_range_in_at_most_80_lines(tmp_p
     i, DP, std, W = rig_rows(1, levels=(0.1, 0.23, 0.5, 0.9), repeats=3)
     i, DP, std, W = (np.append(a, b) for a, b in zip((i, DP, std, W), (0.0, 0.02, 0.05, 24.0)))
     assert i.size == 13 and np.unique(W).size == 13
-    data = read_csv(write(tmp_path / "s.csv", {"slip": i, "drawbar_pull_N": DP, "drawbar_pull_std_N": std,
-                                               "normal_load_N": W}))
+    data = read_csv(
+        write(tmp_path / "s.csv", {"slip": i, "drawbar_pull_N": DP, "drawbar_pull_std_N": std, "normal_load_N": W})
+    )
     r = fit(data, RIG)
     lines = r.report().splitlines()
     assert len(lines) <= 80
@@ -68,8 +77,10 @@ def test_std_weights_give_noisy_rows_little_say(tmp_path):
     true_fmax = 2 * B * L * SOIL["c"] + np.median(W) * math.tan(SOIL["phi"])
 
     def fmax(res):
-        return float(res.predict(np.array([0.999]), normal_load=np.median(W))[0]) / (1 - (1 - math.exp(
-            -0.999 * L / res.theta[2])) / (0.999 * L / res.theta[2]))
+        return float(res.predict(np.array([0.999]), normal_load=np.median(W))[0]) / (
+            1 - (1 - math.exp(-0.999 * L / res.theta[2])) / (0.999 * L / res.theta[2])
+        )
+
     assert abs(fmax(weighted) / true_fmax - 1) < 0.05
     assert abs(fmax(plain) / true_fmax - 1) > 2 * abs(fmax(weighted) / true_fmax - 1)
     assert np.allclose(weighted.theta, same.theta, rtol=1e-6, atol=1e-9)
@@ -83,6 +94,7 @@ def test_pure_error_test_finds_a_known_lack_of_fit():
     assert (lof["levels"], lof["df_lack"], lof["df_pure"]) == (5, 2, 10)
 
 
+@pytest.mark.slow
 def test_pure_error_test_holds_its_level_on_the_model_itself():
     significant = 0
     for seed in range(30):
@@ -126,8 +138,10 @@ def test_the_options_drop_skid_and_slip_angle_rows_and_count_them(tmp_path, caps
     assert main(["fit", path, "--vehicle", "light", "--driving-only", "--slip-angle", "0", "--json"]) in (0, 1)
     js = json.loads(capsys.readouterr().out)
     assert {d["option"]: d["count"] for d in js["extra"]["dropped_rows"]} == {"--slip-angle": 3, "--driving-only": 2}
-    assert {d["option"]: d["rows"] for d in js["extra"]["dropped_rows"]} == {"--slip-angle": [6, 7, 10],
-                                                                           "--driving-only": [1, 4]}
+    assert {d["option"]: d["rows"] for d in js["extra"]["dropped_rows"]} == {
+        "--slip-angle": [6, 7, 10],
+        "--driving-only": [1, 4],
+    }
     assert main(["fit", path, "--vehicle", "light", "--slip-angle", "15"]) == 2
 
 
@@ -150,8 +164,11 @@ def test_resistance_fit_recovers_the_coefficient_and_the_default_says_it_is_assu
     res = fit(data, RIG, resistance="fit").extra["resistance"]
     lo, hi = res["ci95"]
     assert res["mode"] == "fit" and lo <= mu <= hi and hi - lo < 0.1
-    assert fit(data, RIG).extra["resistance"] == {**fit(data, RIG).extra["resistance"], "mode": "assumed",
-                                                  "coefficient": 0.0}
+    assert fit(data, RIG).extra["resistance"] == {
+        **fit(data, RIG).extra["resistance"],
+        "mode": "assumed",
+        "coefficient": 0.0,
+    }
     with pytest.raises(DataError):
         fit(SlipData(slip=i, tractive_force=DP, normal_load=W), RIG, resistance="fit")
 
@@ -187,9 +204,18 @@ def test_cli_resistance_option_exit_codes(tmp_path, capsys):
     pull = write(tmp_path / "dp.csv", {"slip": i, "drawbar_pull_N": DP, "normal_load_N": W})
     force = write(tmp_path / "tf.csv", {"slip": i, "tractive_force_N": DP, "normal_load_N": W})
     rig = tmp_path / "rig.json"
-    rig.write_text(json.dumps({"mass_kg": 2.5, "track_length_m": L, "track_width_m": B,
-                               "sprocket_radius_m": 0.058, "sprocket_inertia_kg_m2": 0.001,
-                               "rolling_resistance": 0.0}))
+    rig.write_text(
+        json.dumps(
+            {
+                "mass_kg": 2.5,
+                "track_length_m": L,
+                "track_width_m": B,
+                "sprocket_radius_m": 0.058,
+                "sprocket_inertia_kg_m2": 0.001,
+                "rolling_resistance": 0.0,
+            }
+        )
+    )
     assert main(["fit", pull, "--vehicle", str(rig), "--resistance", "fit", "--json"]) == 0
     js = json.loads(capsys.readouterr().out)
     assert js["extra"]["resistance"]["mode"] == "fit"
@@ -229,7 +255,7 @@ def test_fit_many_takes_the_rig_path_for_rig_sweeps():
 
     i, DP, std, W = rig_rows(13)
     data = SlipData(slip=i, drawbar_pull=DP, normal_load=W, force_std=std)
-    one, = fit_many([data], RIG)
+    (one,) = fit_many([data], RIG)
     assert np.allclose(one.theta, fit(data, RIG).theta, rtol=1e-6, atol=1e-9)
     assert one.extra["weights_from"] == "drawbar_pull_std_N" and "lack_of_fit" in one.extra
 

@@ -1,4 +1,5 @@
 """A clipped sensor is found, and weighed as a cause outside the library beside the effects."""
+
 import dataclasses
 
 import numpy as np
@@ -13,8 +14,14 @@ SLIPS = np.round(np.linspace(0.01, 0.7, 60), 4)
 
 
 def _sweep(seed=1):
-    return simulate(VEH, TERRAINS["lete_sand"], kind="sweep", seed=seed, slips=SLIPS,
-                    noise=SensorNoise(force_rel=0.005, slip_abs=0.0005))
+    return simulate(
+        VEH,
+        TERRAINS["lete_sand"],
+        kind="sweep",
+        seed=seed,
+        slips=SLIPS,
+        noise=SensorNoise(force_rel=0.005, slip_abs=0.0005),
+    )
 
 
 def _clipped(d: SlipData, share: float = 0.85) -> SlipData:
@@ -58,8 +65,15 @@ def test_an_effect_seen_through_a_clipped_sensor_is_the_effect_or_the_clip():
     # a softening soil (hump_shear) measured by a load cell that clips its four largest readings: the effect
     # is still the best candidate, but the clipped rows bias its fit; the unclipped sweep names it with
     # confidence 1 (measured)
-    d0 = simulate(VEH, TERRAINS["lete_sand"], kind="sweep", effects={"hump_shear": 0.3}, seed=1, slips=SLIPS,
-                  noise=SensorNoise(force_rel=0.005, slip_abs=0.0005))
+    d0 = simulate(
+        VEH,
+        TERRAINS["lete_sand"],
+        kind="sweep",
+        effects={"hump_shear": 0.3},
+        seed=1,
+        slips=SLIPS,
+        noise=SensorNoise(force_rel=0.005, slip_abs=0.0005),
+    )
     F = np.asarray(d0.values, float)
     d = dataclasses.replace(d0, tractive_force=np.minimum(F, np.sort(F)[-4]))
     plain, clipped = diagnose(d0, VEH), diagnose(d, VEH)

@@ -1,4 +1,5 @@
 """Noise on the measured slip of a sweep (effective variance) and profile-likelihood intervals of joint fits."""
+
 import json
 
 import numpy as np
@@ -59,10 +60,13 @@ def test_serial_correlation_tells_smooth_misfit_from_noise():
 @pytest.fixture(scope="module")
 def noisy_slip_sweeps():
     # the simulator's default sensor noise includes 0.002 on the slip
-    return [simulate_slip_sweep(HEAVY, SAND, effects={"grade": GRADE}, normal_loads=LOADS, seed=s,
-                                measure="drawbar_pull") for s in range(10)]
+    return [
+        simulate_slip_sweep(HEAVY, SAND, effects={"grade": GRADE}, normal_loads=LOADS, seed=s, measure="drawbar_pull")
+        for s in range(10)
+    ]
 
 
+@pytest.mark.slow
 def test_slip_noise_restores_interval_coverage(noisy_slip_sweeps):
     auto = [fit(d, HEAVY, effects=["grade"]) for d in noisy_slip_sweeps]
     off = [fit(d, HEAVY, effects=["grade"], slip_noise="off") for d in noisy_slip_sweeps]
@@ -84,8 +88,16 @@ def test_a_misfit_is_not_taken_for_slip_noise():
     # force noise only, the grade held at 0 while the data have 0.1 rad: residuals grow where the curve
     # is steep, but smoothly with the slip
     from soiltrack.soilmodel import SensorNoise
-    d = simulate_slip_sweep(HEAVY, SAND, effects={"grade": GRADE}, normal_loads=LOADS, seed=1,
-                            measure="drawbar_pull", noise=SensorNoise(force_rel=0.0, force_abs=1000.0, slip_abs=0.0))
+
+    d = simulate_slip_sweep(
+        HEAVY,
+        SAND,
+        effects={"grade": GRADE},
+        normal_loads=LOADS,
+        seed=1,
+        measure="drawbar_pull",
+        noise=SensorNoise(force_rel=0.0, force_abs=1000.0, slip_abs=0.0),
+    )
     held = fit(d, HEAVY, effects=["grade"], fixed={"grade.theta_rad": 0.0})
     sn = held.extra["slip_noise"]
     assert sn["likelihood_ratio"] > 5.412 and not sn["adopted"] and "smoothly" in sn["note"]
@@ -112,8 +124,16 @@ def test_independent_sweep_grade_and_soil_inside_their_intervals(tmp_path):
 
 def test_profile_interval_matches_linear_where_the_cost_is_quadratic():
     from soiltrack.soilmodel import SensorNoise
-    d = simulate_slip_sweep(HEAVY, SAND, effects={"grade": GRADE}, normal_loads=LOADS, seed=2,
-                            measure="drawbar_pull", noise=SensorNoise(force_rel=0.0, force_abs=1000.0, slip_abs=0.0))
+
+    d = simulate_slip_sweep(
+        HEAVY,
+        SAND,
+        effects={"grade": GRADE},
+        normal_loads=LOADS,
+        seed=2,
+        measure="drawbar_pull",
+        noise=SensorNoise(force_rel=0.0, force_abs=1000.0, slip_abs=0.0),
+    )
     res = fit(d, HEAVY, effects=["grade"], intervals="profile", slip_noise="off")
     assert set(res.replaced_intervals) == {"cohesion", "friction_angle", "shear_modulus", "grade.theta_rad"}
     for label, pi in res.replaced_intervals.items():
@@ -123,7 +143,8 @@ def test_profile_interval_matches_linear_where_the_cost_is_quadratic():
     assert json.loads(res.to_json())["extra"]["profile_intervals"]["grade.theta_rad"]["evaluations"] > 0
     lin = fit(d, HEAVY, effects=["grade"], intervals="linear", slip_noise="off")
     assert lin.replaced_intervals is None and lin.effects["grade"]["theta_rad"].ci95 == pytest.approx(
-        res.replaced_intervals["grade.theta_rad"].linear)
+        res.replaced_intervals["grade.theta_rad"].linear
+    )
 
 
 def test_defaults_without_effects_are_unchanged():
@@ -154,12 +175,16 @@ def test_cli_options(tmp_path, capsys):
     assert main(["fit", str(path), "--vehicle", "heavy", "--effect", "grade", "--slip-noise", "0.002", "--json"]) == 0
     j = json.loads(capsys.readouterr().out)
     assert j["extra"]["slip_noise"]["mode"] == "given" and j["extra"]["slip_noise"]["slip_sigma"] == 0.002
-    for bad in (["--slip-noise", "often"], ["--slip-noise", "0.9"],
-                ["--interval-method", "profile", "--method", "newton"]):
+    for bad in (
+        ["--slip-noise", "often"],
+        ["--slip-noise", "0.9"],
+        ["--interval-method", "profile", "--method", "newton"],
+    ):
         assert main(["fit", str(path), "--vehicle", "heavy", *bad]) == 2
         err = capsys.readouterr().err
         assert "Traceback" not in err and ("slip" in err or "interval" in err)
     from soiltrack.soilmodel import simulate
+
     log = simulate(VEHICLES["light"], TERRAINS["lete_sand"], kind="drive", seed=1, duration_s=5)
     lpath = tmp_path / "log.csv"
     write_csv(log, lpath)
@@ -172,6 +197,7 @@ def test_cli_options(tmp_path, capsys):
 
 def test_leverage_is_the_hat_diagonal(noisy_slip_sweeps):
     from soiltrack.identify.sweep.slip_noise import leverage
+
     r = fit(noisy_slip_sweeps[0], HEAVY, effects=["grade"], slip_noise="off", intervals="linear")
     h = leverage(r)
     J = r.jacobian[:, list(r.free)]

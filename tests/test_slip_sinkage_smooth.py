@@ -6,6 +6,7 @@ searches to its 500-iteration limit (15 s) on ``data/heavy_mass_error_gentle.csv
 independent numpy code (``benchmarks/independent_check.py``: ``log_csv(path, 2, mass=0.2)``, heavy
 vehicle with 20 % extra mass, gentle driving).
 """
+
 from __future__ import annotations
 
 import os
@@ -49,9 +50,11 @@ def test_slip_sinkage_resistance_has_a_continuous_slope_at_zero_slip():
     # exactly the textbook term from the width on
     W = veh.weight
     assert float(motion_resistance(3.0, 0.01, veh, {"slip_sinkage": 2.0})) == pytest.approx(
-        W * (veh.rolling_resistance + 2.0 * 0.01), rel=1e-14)
+        W * (veh.rolling_resistance + 2.0 * 0.01), rel=1e-14
+    )
 
 
+@pytest.mark.slow
 def test_slip_sinkage_fit_of_independent_heavy_log_converges_finite():
     veh = Vehicle.from_json(HEAVY_JSON)
     log = read_csv(os.path.join(HERE, "data", "heavy_mass_error_gentle.csv"))

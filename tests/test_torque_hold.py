@@ -4,6 +4,7 @@ The log here is made with plain numpy, as a logger of a continuous torque transd
 it (``M_k = r F(t_k) + I dw/dt(t_k)``), not with the library's simulator (whose controller holds
 the torque over each interval).
 """
+
 import json
 import subprocess
 import sys
@@ -38,9 +39,13 @@ def sampled_torque_log(seed: int, grade: float = 0.05) -> DriveLog:
     F = M * a + W * np.cos(grade) * MU + W * np.sin(grade)
     w = v / (R * (1 - _slip_for(F, W * np.cos(grade))))
     Ms = R * F + I_S * np.gradient(w, t)
-    return DriveLog(time=t, sprocket_torque=Ms * (1 + rng.normal(0, 0.01, t.size)) + rng.normal(0, 100, t.size),
-                    sprocket_speed=w * (1 + rng.normal(0, 0.005, t.size)) + rng.normal(0, 0.01, t.size),
-                    vehicle_speed=v + rng.normal(0, 0.05, t.size), vehicle_accel=a + rng.normal(0, 0.05, t.size))
+    return DriveLog(
+        time=t,
+        sprocket_torque=Ms * (1 + rng.normal(0, 0.01, t.size)) + rng.normal(0, 100, t.size),
+        sprocket_speed=w * (1 + rng.normal(0, 0.005, t.size)) + rng.normal(0, 0.01, t.size),
+        vehicle_speed=v + rng.normal(0, 0.05, t.size),
+        vehicle_accel=a + rng.normal(0, 0.05, t.size),
+    )
 
 
 def test_vehicle_constants_match_the_generator():
@@ -84,8 +89,11 @@ def test_torque_hold_is_refused_where_it_does_not_apply(tmp_path):
     csv = tmp_path / "sweep.csv"
     csv.write_text("slip,tractive_force_N\n0.05,100000\n0.1,150000\n0.2,180000\n")
     for cmd in ("fit", "diagnose"):
-        p = subprocess.run([sys.executable, "-m", "soiltrack", cmd, str(csv), "--vehicle", "heavy",
-                            "--torque-hold", "sample"], capture_output=True, text=True)
+        p = subprocess.run(
+            [sys.executable, "-m", "soiltrack", cmd, str(csv), "--vehicle", "heavy", "--torque-hold", "sample"],
+            capture_output=True,
+            text=True,
+        )
         assert p.returncode == 2 and "--torque-hold applies to drive logs only" in p.stderr
         assert "Traceback" not in p.stderr
 
@@ -97,8 +105,24 @@ def test_cli_fit_takes_the_torque_hold_and_says_it_in_the_json(tmp_path):
         fh.write("time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s,vehicle_accel_m_s2\n")
         for row in zip(log.time, log.sprocket_torque, log.sprocket_speed, log.vehicle_speed, log.vehicle_accel):
             fh.write(",".join(f"{x:.9g}" for x in row) + "\n")
-    p = subprocess.run([sys.executable, "-m", "soiltrack", "fit", str(csv), "--vehicle", "heavy", "--effect", "grade",
-                        "--torque-hold", "sample", "--json"], capture_output=True, text=True)
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "soiltrack",
+            "fit",
+            str(csv),
+            "--vehicle",
+            "heavy",
+            "--effect",
+            "grade",
+            "--torque-hold",
+            "sample",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert p.returncode == 0, p.stderr
     j = json.loads(p.stdout)
     lo, hi = j["effects"]["grade"]["theta_rad"]["ci95"]

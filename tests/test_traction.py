@@ -1,4 +1,5 @@
 """Physics invariants of the tractive force (Eq. 2 / Eq. 8)."""
+
 import math
 from decimal import Decimal, getcontext
 
@@ -15,8 +16,9 @@ HEAVY, LIGHT = VEHICLES["heavy"], VEHICLES["light"]
 LETE = TERRAINS["lete_sand"]
 
 soils = st.builds(Soil.from_kpa_deg, st.floats(0, 69), st.floats(6, 45), st.floats(0.006, 0.05))
-vehicles = st.builds(lambda m, l, b: Vehicle(m, l, b, 0.3, 1.0, 0.05),
-                     st.floats(10, 60000), st.floats(0.2, 5), st.floats(0.05, 1))
+vehicles = st.builds(
+    lambda m, l, b: Vehicle(m, l, b, 0.3, 1.0, 0.05), st.floats(10, 60000), st.floats(0.2, 5), st.floats(0.05, 1)
+)
 
 
 def decimal_force(i: float, soil: Soil, v: Vehicle) -> Decimal:
@@ -46,8 +48,7 @@ def test_zero_slip_is_zero_with_finite_derivative():
     assert float(tractive_force(0.0, LETE, HEAVY)) == 0.0
     i = ca.SX.sym("i")
     f = thrust_function("full")
-    args = [LETE.cohesion, LETE.friction_angle, LETE.shear_modulus, HEAVY.weight, HEAVY.track_length,
-            HEAVY.track_width]
+    args = [LETE.cohesion, LETE.friction_angle, LETE.shear_modulus, HEAVY.weight, HEAVY.track_length, HEAVY.track_width]
     F = f(i, *args)
     dF = ca.Function("d", [i], [ca.jacobian(F, i)])(0.0)
     fmax = max_thrust(LETE, HEAVY)

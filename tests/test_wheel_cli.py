@@ -100,9 +100,7 @@ def test_simulate_then_fit_and_plot(tmp_path, wheel_json, capsys):
     capsys.readouterr()
 
 
-@pytest.mark.parametrize(
-    "drop,column", [("normal_load_N", "normal_load_N"), ("drawbar_pull_N", "drawbar_pull_N")]
-)
+@pytest.mark.parametrize("drop,column", [("normal_load_N", "normal_load_N"), ("drawbar_pull_N", "drawbar_pull_N")])
 def test_missing_column_exits_2(tmp_path, wheel_json, capsys, drop, column):
     cols = {
         "slip": [0.2, 0.5, 0.8],
@@ -137,13 +135,8 @@ def test_bad_inputs_exit_2(tmp_path, wheel_json, capsys):
     assert main(["fit", good, "--vehicle", wheel_json, "--fix", "gravity=3"]) == 2
     assert main(["fit", good, "--vehicle", wheel_json, "--sigma", "0.1"]) == 2
     assert main(["fit", good, "--vehicle", wheel_json, "--effect", "grade"]) == 2
-    assert (
-        main(["simulate", "--kind", "sweep", "--vehicle", wheel_json, "--terrain", "dry_sand"]) == 2
-    )  # no --loads
-    assert (
-        main(["simulate", "--kind", "sweep", "--vehicle", wheel_json, "--soil", "1,30,0.01", "--loads", "20"])
-        == 2
-    )
+    assert main(["simulate", "--kind", "sweep", "--vehicle", wheel_json, "--terrain", "dry_sand"]) == 2  # no --loads
+    assert main(["simulate", "--kind", "sweep", "--vehicle", wheel_json, "--soil", "1,30,0.01", "--loads", "20"]) == 2
     capsys.readouterr()
 
 
@@ -256,9 +249,7 @@ def test_skid_rows_are_refused_with_their_count(capsys):
     wheel = os.path.join(CMU, "smooth_wheel.json")
     rc = main(["fit", os.path.join(CMU, "smooth_wheel_trials_beta0.csv"), "--vehicle", wheel])
     assert rc == 2 and "15 of 27 rows" in capsys.readouterr().err
-    rc = main(
-        ["fit", os.path.join(CMU, "smooth_wheel_driving.csv"), "--vehicle", wheel, "--resistance", "fit"]
-    )
+    rc = main(["fit", os.path.join(CMU, "smooth_wheel_driving.csv"), "--vehicle", wheel, "--resistance", "fit"])
     assert rc == 2
 
 

@@ -22,9 +22,7 @@ TRUE_KEYS = (("cohesion_kpa", 1e-3, 0), ("friction_angle_deg", 180 / math.pi, 1)
 
 
 def _sweep(soil, loads, seed, with_sinkage=True, sd_z=0.0002):
-    i, dp, W, z = oracle.sweep(
-        SLIPS, loads, *soil, R, B, sd_dp=0.005 * float(np.mean(loads)), sd_z=sd_z, seed=seed
-    )
+    i, dp, W, z = oracle.sweep(SLIPS, loads, *soil, R, B, sd_dp=0.005 * float(np.mean(loads)), sd_z=sd_z, seed=seed)
     return WheelSweep(slip=i, drawbar_pull=dp, normal_load=W, sinkage=z if with_sinkage else None)
 
 
@@ -42,10 +40,7 @@ def test_recovery_from_an_independent_implementation():
                     total += 1
                     covered += e.ci95[0] <= soil[k] * fac <= e.ci95[1]
                 # one wheel width: k_c and k_phi are not separable, their combination is
-                assert (
-                    not r.parameters["bekker_kc"].identifiable
-                    and not r.parameters["bekker_kphi"].identifiable
-                )
+                assert not r.parameters["bekker_kc"].identifiable and not r.parameters["bekker_kphi"].identifiable
                 assert r.parameters["bekker_kc"].ci95 == (None, None)
                 kb = next(c for c in r.combinations if c.name == "k_c / b + k_phi")
                 assert kb.estimable
@@ -54,10 +49,7 @@ def test_recovery_from_an_independent_implementation():
                 # the direction (dk_c, dk_phi) = (b, -1) t, which keeps k_c / b + k_phi (edge units: kN)
                 assert nd["bekker_kc"] / nd["bekker_kphi"] == pytest.approx(-B, rel=1e-6)
                 assert (
-                    max(
-                        abs(nd[k])
-                        for k in ("cohesion_kpa", "friction_angle_deg", "shear_modulus_m", "bekker_n")
-                    )
+                    max(abs(nd[k]) for k in ("cohesion_kpa", "friction_angle_deg", "shear_modulus_m", "bekker_n"))
                     < 1e-6
                 )
     assert covered / total >= 0.85, (covered, total)
@@ -68,8 +60,7 @@ def test_one_load_separates_c_and_phi_only_weakly_three_loads_well():
     one = fit_wheel(_sweep(SOILS[0], [20.0], 2), WHEEL)
     three = fit_wheel(_sweep(SOILS[0], [15.0, 30.0, 45.0], 2), WHEEL)
     assert (
-        one.parameters["cohesion_kpa"].weakly_identifiable
-        and one.parameters["friction_angle_deg"].weakly_identifiable
+        one.parameters["cohesion_kpa"].weakly_identifiable and one.parameters["friction_angle_deg"].weakly_identifiable
     )
     assert not three.parameters["cohesion_kpa"].weakly_identifiable
     assert not three.parameters["friction_angle_deg"].weakly_identifiable
@@ -83,9 +74,7 @@ def test_sinkage_solved_from_the_load_with_a_known_bekker_soil():
     soil = SOILS[0]
     d = _sweep(soil, [20.0, 35.0], 3, with_sinkage=False)
     k_phi = soil[3]  # k_c = 0: all of k in k_phi
-    r = fit_wheel(
-        d, WHEEL, WheelFitOptions(fixed={"bekker_kc": 0.0, "bekker_kphi": k_phi, "bekker_n": soil[4]})
-    )
+    r = fit_wheel(d, WHEEL, WheelFitOptions(fixed={"bekker_kc": 0.0, "bekker_kphi": k_phi, "bekker_n": soil[4]}))
     assert r.success and not r.sinkage_measured
     for key, fac, k in TRUE_KEYS:
         e = r.parameters[key]

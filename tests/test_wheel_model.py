@@ -61,9 +61,7 @@ def test_more_nodes_converge_to_the_oracle():
     err = []
     for nodes in (12, 48, 200):
         f = wheel_forces_function(R, B, 0.0, WheelSettings(nodes=nodes))
-        err.append(
-            np.max(np.abs(np.array([float(v) for v in f(0.5, 0.02, *cas(soil), 0.0)]) - ref) / abs(ref[1]))
-        )
+        err.append(np.max(np.abs(np.array([float(v) for v in f(0.5, 0.02, *cas(soil), 0.0)]) - ref) / abs(ref[1])))
     assert err[0] > err[1] > err[2]
     assert err[2] < 1e-6
 
@@ -84,9 +82,7 @@ def test_pull_rises_with_slip_at_a_given_load(soil, W):
 
 def test_pull_at_zero_slip_is_the_rolling_resistance_side():
     # with no slip the shear is small and the normal stress's horizontal part (compaction) dominates
-    dp, _, _ = evaluate(
-        wheel_forces_function(R, B), 0.0, 0.025, 0.0, math.radians(30), 0.012, 0.0, 1.5e6, 1.1, 0.0
-    )
+    dp, _, _ = evaluate(wheel_forces_function(R, B), 0.0, 0.025, 0.0, math.radians(30), 0.012, 0.0, 1.5e6, 1.1, 0.0)
     assert dp < 0
 
 
@@ -186,9 +182,7 @@ def test_running_gear_json(tmp_path):
     assert isinstance(v, Vehicle)
     with pytest.raises(DataError) as e:
         read_running_gear(
-            json.dumps(
-                {"running_gear": "rigid_wheel", "wheel_radius_m": 0.058, "wheel_width_m": 0.05, "mass_kg": 3}
-            )
+            json.dumps({"running_gear": "rigid_wheel", "wheel_radius_m": 0.058, "wheel_width_m": 0.05, "mass_kg": 3})
         )
     assert e.value.column == "mass_kg"
     with pytest.raises(DataError) as e:

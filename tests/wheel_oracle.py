@@ -70,7 +70,5 @@ def sweep(slips, loads, c, phi, K, k, n, r, b, h=0.0, s=0.0, sd_dp=0.0, sd_z=0.0
         for i in slips:
             z = sinkage(i, W, c, phi, K, k, n, r, b, h, s=s)
             dp = forces(i, z, c, phi, K, k, n, r, b, h, s=s)[0]
-            rows.append(
-                (i, dp + rng.normal(0, sd_dp) if sd_dp else dp, W, z + rng.normal(0, sd_z) if sd_z else z)
-            )
+            rows.append((i, dp + rng.normal(0, sd_dp) if sd_dp else dp, W, z + rng.normal(0, sd_z) if sd_z else z))
     return tuple(np.array(col) for col in zip(*rows))

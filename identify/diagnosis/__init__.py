@@ -3,6 +3,7 @@
 Entry point :func:`diagnose`, result :class:`Diagnosis`, settings :class:`DiagnoseSettings`, figure
 :func:`plot_diagnosis`.
 """
+
 from .diagnose import diagnose
 from .plot import plot_diagnosis
 from .result import Diagnosis, RankEntry

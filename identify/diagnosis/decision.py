@@ -136,9 +136,7 @@ def decide(
         return Decision(NOMINAL, weights[NOMINAL], top, None, None, why, confusable=conf)
     ok, how = _explains(h, exv, gap, settings)
     if h.family == "candidate" and ok:
-        return Decision(
-            top, weights[top], top, exv, None, f"{w_top} and {how}" if how else w_top, confusable=conf
-        )
+        return Decision(top, weights[top], top, exv, None, f"{w_top} and {how}" if how else w_top, confusable=conf)
     cause = top if h.family == "outside" and ok else None
     if h.family == "flexible":
         why = f"the flexible discrepancy term carries the largest weight ({weights[top]:.2f})"

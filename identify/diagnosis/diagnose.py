@@ -92,9 +92,7 @@ def _setup(runner: FitRunner, nominal_fit: Any) -> Setup:
     sigma, flat = noise_floors(R, order)
     if runner.is_log and np.all(np.isfinite(nominal_fit.theta)):
         runner.x0 = np.asarray(nominal_fit.theta, dtype=float)
-    return Setup(
-        runner, nominal_fit, R, sigma, frozenset(flat), make_folds(data, order, runner.settings), x, order
-    )
+    return Setup(runner, nominal_fit, R, sigma, frozenset(flat), make_folds(data, order, runner.settings), x, order)
 
 
 def _refits(
@@ -106,9 +104,7 @@ def _refits(
     ok = [x for x in screens if x.screenable]
     if not setup.is_log:
         return [
-            (x.effect, "candidate" if x.effect in cands else "outside")
-            for x in ok
-            if x.effect in cands or outside_too
+            (x.effect, "candidate" if x.effect in cands else "outside") for x in ok if x.effect in cands or outside_too
         ]
     thr = s.alpha / max(1, len([x for x in ok if x.effect in cands]))
     if not hint and not any(x.p_value < thr for x in ok if x.effect in cands):
@@ -226,16 +222,10 @@ def _gap(setup: Setup, hyps: list[Hypothesis], weights: dict[str, float], hold: 
     by = {h.name: h for h in hyps}
     z_nom = hold.z(by[NOMINAL].heldout())
     p: dict[str, float | None] = {}
-    if (
-        setup.is_log
-    ):  # a log's noise floor is measured on thousands of samples; correlated residuals count less
-        infl = max(
-            long_run_factor(by[NOMINAL].heldout()[ch][m] / setup.sigma[ch][m]) for ch, m in hold.mask.items()
-        )
+    if setup.is_log:  # a log's noise floor is measured on thousands of samples; correlated residuals count less
+        infl = max(long_run_factor(by[NOMINAL].heldout()[ch][m] / setup.sigma[ch][m]) for ch, m in hold.mask.items())
         p["nominal error vs noise"] = gap_p_value(float(z_nom @ z_nom), z_nom.size, infl)
-    p["flexible term beats nominal"] = dm_test(
-        z_nom, hold.z(by["discrepancy"].heldout(), z_nom), setup.dm_lag
-    )
+    p["flexible term beats nominal"] = dm_test(z_nom, hold.z(by["discrepancy"].heldout(), z_nom), setup.dm_lag)
     top = by[max(weights, key=lambda k: weights[k])]
     if top.family != "nominal" and top.held is not None:
         zt = hold.z(top.held, z_nom)
@@ -290,8 +280,7 @@ def _pure_error(setup: Setup) -> float | None:
 
 def _rmse(held: dict[str, np.ndarray], frame: Frame) -> dict[str, float]:
     return {
-        ch: float(np.sqrt(np.mean(held[ch][m] ** 2))) if np.any(m) else float("nan")
-        for ch, m in frame.mask.items()
+        ch: float(np.sqrt(np.mean(held[ch][m] ** 2))) if np.any(m) else float("nan") for ch, m in frame.mask.items()
     }
 
 
@@ -305,15 +294,10 @@ def _ranking(hyps: list[Hypothesis], weights: dict[str, float], hold: Frame) -> 
         if h.held is not None and h.family != "nominal":
             zh = hold.z(h.held, z0)
             after = _rmse(
-                {
-                    ch: np.where(np.isnan(h.heldout()[ch]), nominal.heldout()[ch], h.heldout()[ch])
-                    for ch in h.heldout()
-                },
+                {ch: np.where(np.isnan(h.heldout()[ch]), nominal.heldout()[ch], h.heldout()[ch]) for ch in h.heldout()},
                 hold,
             )
-            shrink = (
-                1.0 - float(np.sqrt((zh @ zh) / max(z0 @ z0, 1e-300))) if np.all(np.isfinite(zh)) else None
-            )
+            shrink = 1.0 - float(np.sqrt((zh @ zh) / max(z0 @ z0, 1e-300))) if np.all(np.isfinite(zh)) else None
         ex = h.explained(nominal) if h.family != "nominal" else None
         out.append(
             RankEntry(
@@ -399,9 +383,7 @@ def diagnose(
     admissible = [h for h in hyps if h.admissible]
     scored, frame = _score(setup, admissible)
     evidence = (
-        HeldOutEvidence(
-            max(1, newey_west_lag(frame.size // max(1, len(setup.channels)))), settings.n_bootstrap
-        )
+        HeldOutEvidence(max(1, newey_west_lag(frame.size // max(1, len(setup.channels)))), settings.n_bootstrap)
         if runner.is_log
         else PenalisedEvidence(settings.n_bootstrap)
     )
@@ -449,12 +431,12 @@ def _result(
     notes = [f"{dec.verdict} also stands for {LOOKALIKES[dec.verdict]}"] if dec.verdict in LOOKALIKES else []
     turning = int(getattr(setup.data, "n_turning", 0) or 0)
     if turning:
-        notes.append(f"{turning} of {setup.n} samples turning (two-track log): left out of the straight-line "
-                     "model, with the sample after each turn")
-    if setup.flat:
         notes.append(
-            f"no measurable noise in {', '.join(sorted(setup.flat))}: its noise floor is set negligible"
+            f"{turning} of {setup.n} samples turning (two-track log): left out of the straight-line "
+            "model, with the sample after each turn"
         )
+    if setup.flat:
+        notes.append(f"no measurable noise in {', '.join(sorted(setup.flat))}: its noise floor is set negligible")
     params = dict(entry.parameters)
     if vfit is not None and usable(vfit, setup.is_log):
         params = effect_parameters(vfit, dec.verdict)

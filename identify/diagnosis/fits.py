@@ -181,13 +181,7 @@ def effect_parameters(res: Any, name: str) -> dict:
     """``{param: {value, stderr, ci95, identifiable, at_bound}}`` of effect ``name`` in fit ``res``."""
     out: dict[str, dict] = {}
     for p, est in ((getattr(res, "effects", {}) or {}).get(name) or {}).items():
-        d = (
-            est.to_dict()
-            if hasattr(est, "to_dict")
-            else dict(est)
-            if isinstance(est, dict)
-            else {"value": est}
-        )
+        d = est.to_dict() if hasattr(est, "to_dict") else dict(est) if isinstance(est, dict) else {"value": est}
         out[p] = {
             k: (finite(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v)
             for k, v in d.items()

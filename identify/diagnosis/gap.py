@@ -98,9 +98,7 @@ def noise_floor(residuals: np.ndarray, order: np.ndarray | None = None) -> float
     return float(np.sqrt(np.mean(d**2) / 6.0))
 
 
-def noise_profile(
-    residuals: np.ndarray, order: np.ndarray | None = None, window: int | None = None
-) -> np.ndarray:
+def noise_profile(residuals: np.ndarray, order: np.ndarray | None = None, window: int | None = None) -> np.ndarray:
     """Per-sample noise level of a residual series whose noise varies along the data.
 
     Sweeps have noise that grows where the curve is steep (slip noise times dF/di at small
@@ -179,9 +177,7 @@ def _local_medians(d: np.ndarray, n: int, half: int, split_sides: bool) -> np.nd
                 mr = np.where(nr >= 3, _row_medians(right, nr == half), np.nan)
                 out[k] = np.fmax(ml, mr)
             else:
-                out[k] = np.where(
-                    nl + nr >= 3, _row_medians(np.hstack([left, right]), nl + nr == 2 * half), np.nan
-                )
+                out[k] = np.where(nl + nr >= 3, _row_medians(np.hstack([left, right]), nl + nr == 2 * half), np.nan)
     return np.where(np.isnan(out), 0.0, out)
 
 
@@ -251,18 +247,13 @@ def isolated_outliers(
     # and the signal continues across it: its two neighbours agree within the noise (not a pair, not a step)
     def continues(k: int) -> bool:
         if trend:
-            return (
-                abs((rs[k + 1] - rs[k - 1]) - 0.5 * (rs[k + 2] - rs[k - 2])) < 3.0 * math.sqrt(2.5) * sig[k]
-            )
+            return abs((rs[k + 1] - rs[k - 1]) - 0.5 * (rs[k + 2] - rs[k - 2])) < 3.0 * math.sqrt(2.5) * sig[k]
         return abs(rs[k + 1] - rs[k - 1]) < 3.0 * math.sqrt(2.0) * sig[k]
 
     hits = [
         k
         for k in range(2, n - 2)
-        if cand[k]
-        and not np.any(cand[max(0, k - 3) : k])
-        and not np.any(cand[k + 1 : k + 4])
-        and continues(k)
+        if cand[k] and not np.any(cand[max(0, k - 3) : k]) and not np.any(cand[k + 1 : k + 4]) and continues(k)
     ]
     if len(hits) > max(1, n // 10):
         return []
@@ -283,9 +274,7 @@ def long_run_factor(residuals: np.ndarray, max_lag: int | None = None) -> float:
     den = float(r @ r)
     if den <= 0:
         return 1.0
-    L = int(
-        max_lag if max_lag is not None else min(n // 4, max(1, round(4 * (n / 100.0) ** (2.0 / 9.0)) * 4))
-    )
+    L = int(max_lag if max_lag is not None else min(n // 4, max(1, round(4 * (n / 100.0) ** (2.0 / 9.0)) * 4)))
     acc = 1.0
     for k in range(1, L + 1):
         rho = float(r[k:] @ r[:-k]) / den
@@ -383,9 +372,7 @@ def range_share(
     x = np.asarray(x, dtype=float)
     z_all, _ = _standardised(residuals, sigma)
     inside = (x >= lo) & (x <= hi)
-    ex = {
-        ch: max(0.0, float(z[inside] @ z[inside]) - int(np.count_nonzero(inside))) for ch, z in z_all.items()
-    }
+    ex = {ch: max(0.0, float(z[inside] @ z[inside]) - int(np.count_nonzero(inside))) for ch, z in z_all.items()}
     total = sum(max(0.0, float(z[c] @ z[c]) - c.size) for z in z_all.values() for c in _bins(x, n_bins))
     ch = max(ex, key=lambda c: ex[c])
     return ch, (min(1.0, ex[ch] / total) if total > 0 else 0.0)
@@ -566,9 +553,7 @@ def change_window(
     stat = float(z2[k]) / infl
     p = min(1.0, chi2_sf(stat, 1) * a_idx.size)
     raw_shift = float(np.mean(raw[inside]) - np.mean(raw[mask]))
-    return ChangeWindow(
-        channel, float(x[inside].min()), float(x[inside].max()), raw_shift, stat, p, bool(p < alpha)
-    )
+    return ChangeWindow(channel, float(x[inside].min()), float(x[inside].max()), raw_shift, stat, p, bool(p < alpha))
 
 
 # ----------------------------------------------------------------------------- whiteness and lags

@@ -80,9 +80,7 @@ class GapDecision:
         return next((t.p_value for t in self.tests if t.name == name), 1.0)
 
 
-def pure_error_lack_of_fit(
-    residuals: np.ndarray, sigma: np.ndarray, keys: np.ndarray, n_params: int
-) -> float | None:
+def pure_error_lack_of_fit(residuals: np.ndarray, sigma: np.ndarray, keys: np.ndarray, n_params: int) -> float | None:
     """p-value of the pure-error lack-of-fit F test, or None when no condition is repeated.
 
     Rows with the same ``keys`` repeat one condition (rig trials). With weights ``1/sigma^2``, the
@@ -108,16 +106,10 @@ def pure_error_lack_of_fit(
     return f_sf((ss_lof / (g - n_params)) / (ss_pe / (n - g)), g - n_params, n - g)
 
 
-def decide_gap(
-    p_values: dict[str, float | None], alpha: float, left: tuple[str, float] | None = None
-) -> GapDecision:
+def decide_gap(p_values: dict[str, float | None], alpha: float, left: tuple[str, float] | None = None) -> GapDecision:
     """The :class:`GapDecision` from the p-values of the tests made (None: not made) and ``left``, the
     ``(name, p-value)`` of the gap the heaviest hypothesis leaves."""
     return GapDecision(
-        tuple(
-            GapTest(k, float(v), alpha)
-            for k, v in p_values.items()
-            if v is not None and math.isfinite(float(v))
-        ),
+        tuple(GapTest(k, float(v), alpha) for k, v in p_values.items() if v is not None and math.isfinite(float(v))),
         None if left is None or not math.isfinite(left[1]) else GapTest(left[0], float(left[1]), alpha),
     )

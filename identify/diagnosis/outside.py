@@ -49,9 +49,7 @@ __all__ = ["outside_hypotheses"]
 
 
 def _not_formed(name: str, why: str, n: int, channels_: list[str]) -> Hypothesis:
-    return Hypothesis(
-        name, "outside", 0, {ch: np.full(n, np.inf) for ch in channels_}, admissible=False, why=why
-    )
+    return Hypothesis(name, "outside", 0, {ch: np.full(n, np.inf) for ch in channels_}, admissible=False, why=why)
 
 
 def delay_hypothesis(setup: Setup, train_res: list) -> Hypothesis:
@@ -202,25 +200,17 @@ def wider_soil_hypothesis(setup: Setup) -> Hypothesis:
     if not edges or setup.runner.options.get("bounds") is not PRACTICAL_BOUNDS:
         return _not_formed(
             "soil_beyond_range",
-            "the nominal soil ends on no edge of the practical range"
-            if not edges
-            else "the soil bounds were given",
+            "the nominal soil ends on no edge of the practical range" if not edges else "the soil bounds were given",
             setup.n,
             setup.channels,
         )
     x0 = np.asarray(nom.theta, dtype=float)
     held, fits, _ = held_out(
         setup,
-        lambda tr: (
-            run.run_warm(tr, bounds=WIDE_BOUNDS) if setup.is_log else run.run(tr, bounds=WIDE_BOUNDS, x0=x0)
-        ),
+        lambda tr: run.run_warm(tr, bounds=WIDE_BOUNDS) if setup.is_log else run.run(tr, bounds=WIDE_BOUNDS, x0=x0),
     )
     ref = fits[0] if setup.is_log else run.run(None, bounds=WIDE_BOUNDS, x0=x0)
-    if (
-        not usable(ref, setup.is_log)
-        or not outside_practical(ref)
-        or any(k in edges for k in ref.active_bounds)
-    ):
+    if not usable(ref, setup.is_log) or not outside_practical(ref) or any(k in edges for k in ref.active_bounds):
         return _not_formed(
             "soil_beyond_range",
             "the soil with the bounds widened stays in the practical range or ends on a wide bound",
@@ -251,9 +241,7 @@ def clipped_hypothesis(setup: Setup) -> Hypothesis:
             resid = channels(f, setup.data)
             held = None
     except DataError as e:
-        return _not_formed(
-            "clipped_sensor", f"no fit without the clipped readings ({e})", setup.n, setup.channels
-        )
+        return _not_formed("clipped_sensor", f"no fit without the clipped readings ({e})", setup.n, setup.channels)
     for ch in setup.channels:
         resid[ch][clipped] = setup.sigma[ch][clipped]
     detail = {
@@ -303,9 +291,7 @@ def plateau_hypothesis(setup: Setup) -> Hypothesis:
     )
 
 
-def outside_hypotheses(
-    setup: Setup, nominal: Hypothesis, train_res: list, train_fit: Any
-) -> list[Hypothesis]:
+def outside_hypotheses(setup: Setup, nominal: Hypothesis, train_res: list, train_fit: Any) -> list[Hypothesis]:
     """Every outside cause this kind of data can show (formed or not)."""
     out = [wider_soil_hypothesis(setup), clipped_hypothesis(setup)]
     if setup.is_log:

@@ -75,9 +75,7 @@ def plot_diagnosis(diag: Any, path: str) -> str:
     ax2.invert_yaxis()
     ax2.set_xlim(0, 1)
     ax2.set_xlabel(
-        "weight (held-out evidence)"
-        if diag.data_kind == "drive"
-        else "weight (in-sample evidence, Akaike's penalty)"
+        "weight (held-out evidence)" if diag.data_kind == "drive" else "weight (in-sample evidence, Akaike's penalty)"
     )
     ax3 = fig.add_subplot(gs[1, 1])
     segs = [sg for sg in diag.localisation if sg.dimension != "channel"][:8]

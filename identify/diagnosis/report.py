@@ -72,9 +72,7 @@ def _ranking_lines(d: Any) -> list[str]:
     for e in d.ranking:
         sh = "" if e.shrink is None else f", held-out error shrinks by {e.shrink:.0%}"
         ex = "" if e.explained is None else f", explains {e.explained:.0%} of the excess"
-        det = "".join(
-            f", {k} {_value(v)}" for k, v in e.detail.items() if k in ("lag_s", "window_s", "level_N")
-        )
+        det = "".join(f", {k} {_value(v)}" for k, v in e.detail.items() if k in ("lag_s", "window_s", "level_N"))
         out.append(f"  {e.effect:<20s} {e.family:<9s} weight {e.weight:.3f} ({e.n_params} par){sh}{ex}{det}")
         for p, v in e.parameters.items():
             out.append(
@@ -128,9 +126,7 @@ def report_text(d: Any) -> str:
     cause = ""
     if d.cause is not None:
         cause = f"; cause: {d.cause}" + "".join(
-            f", {k} {_value(v)}"
-            for k, v in d.cause_detail.items()
-            if k in ("lag_s", "window_s", "level_N", "channels")
+            f", {k} {_value(v)}" for k, v in d.cause_detail.items() if k in ("lag_s", "window_s", "level_N", "channels")
         )
     lines = [
         f"Sim-to-real gap diagnosis of a {kind} ({d.n_samples} samples)",

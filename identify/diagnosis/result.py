@@ -177,8 +177,7 @@ class Diagnosis:
                 "gap_left": None if self.gap.left is None else self.gap.left.to_dict(),
                 "confusable": [list(p) for p, _, _ in self.confusable],
                 "confusable_detail": [
-                    {"effects": list(p), "correlation": finite(c), "experiment": x}
-                    for p, c, x in self.confusable
+                    {"effects": list(p), "correlation": finite(c), "experiment": x} for p, c, x in self.confusable
                 ],
                 "localisation": [s.to_dict() for s in self.localisation],
                 "shrink": finite(self.shrink),

@@ -229,9 +229,7 @@ def drive_log_score_pair(res, log, vehicle, effects=None) -> tuple[np.ndarray, n
     return J, r, list(sens.labels), sens.n_channels
 
 
-def screen(
-    data, vehicle, candidates, model: str = "full", hac_lag: int | None = 0, fit_options: dict | None = None
-):
+def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None = 0, fit_options: dict | None = None):
     """Score-test every candidate from ONE fit: the nominal model with the candidates held off.
 
     For a sweep the fit (:func:`~.fitting.fit` with ``effects=candidates`` and ``fixed`` = every
@@ -282,8 +280,7 @@ def screen(
     taken = {j for js in cols.values() for j in js}
     free = [j for j in range(len(names)) if j not in taken]
     out = [
-        score_test(c, J[:, free], J[:, cols[c]], r, tuple(names[j] for j in cols[c]), hac_lag=hac_lag)
-        for c in cands
+        score_test(c, J[:, free], J[:, cols[c]], r, tuple(names[j] for j in cols[c]), hac_lag=hac_lag) for c in cands
     ]
     if res.success:
         bound = set(getattr(res, "active_bounds", {}) or {})

@@ -45,9 +45,7 @@ SEPARATING_EXPERIMENTS: dict[frozenset, str] = {
     "(beyond 30 %): strain softening lowers the thrust itself, slip sinkage only adds resistance",
     frozenset({"grade", "slip_sinkage"}): "a sweep down to very small slip (or a run at near-constant slip "
     "on level ground): a grade costs force at every slip, slip sinkage only as the slip grows",
-    frozenset(
-        {"grade", "drivetrain_friction"}
-    ): "the same stretch driven in both directions (a grade changes "
+    frozenset({"grade", "drivetrain_friction"}): "the same stretch driven in both directions (a grade changes "
     "sign, a drivetrain loss does not), a coast-down, or a torque sensor at the track: Coulomb drivetrain "
     "friction acts between sensor and track, a grade on the hull",
     frozenset({"mass_error", "radius_error"}): "a speed reference independent of the sprocket (e.g. a "
@@ -56,9 +54,7 @@ SEPARATING_EXPERIMENTS: dict[frozenset, str] = {
     frozenset(
         {"radius_error", "grade"}
     ): "measure the track's effective radius (distance per sprocket turn at zero drawbar on firm ground)",
-    frozenset(
-        {"hump_shear", "pressure_distribution"}
-    ): "a sweep at two normal loads or two centre-of-gravity "
+    frozenset({"hump_shear", "pressure_distribution"}): "a sweep at two normal loads or two centre-of-gravity "
     "positions: the pressure distribution moves with the load transfer, strain softening does not",
     frozenset({"pressure_distribution", "radius_error"}): "measure the effective radius on firm ground; a "
     "radius error shifts the whole slip axis, a pressure distribution reshapes the curve",
@@ -67,9 +63,7 @@ SEPARATING_EXPERIMENTS: dict[frozenset, str] = {
     frozenset({"speed_resistance", "slip_sinkage"}): "runs at the same slip and two speeds (or the same "
     "speed and two drawbar loads)",
     frozenset({"mass_error", "speed_resistance"}): "runs at two constant speeds and an acceleration run",
-    frozenset(
-        {"mass_error", "slip_sinkage"}
-    ): "a run at constant speed with a different drawbar load (slip sinkage "
+    frozenset({"mass_error", "slip_sinkage"}): "a run at constant speed with a different drawbar load (slip sinkage "
     "grows with the slip, a mass error only shows with acceleration), or a run at another payload",
     frozenset({"drivetrain_friction", "radius_error"}): "a torque sensor at the track or a coast-down; "
     "and a measured distance per sprocket turn",
@@ -84,8 +78,7 @@ LOOKALIKES = {
     "drivetrain_friction": "a zero offset of the torque sensor (it looks like the Coulomb part)",
     "radius_error": "a scale error of the vehicle-speed sensor (it shifts the apparent slip the same way; "
     "only the torque arm differs)",
-    "mass_error": "a scale error of the accelerometer (in the hull balance; a mass error also changes the "
-    "normal load)",
+    "mass_error": "a scale error of the accelerometer (in the hull balance; a mass error also changes the normal load)",
     "slip_sinkage": "any resistance that grows with the slip (bulldozing, a track digging in)",
     "speed_resistance": "any resistance that grows with speed (air drag, a viscous loss in the running gear)",
 }
@@ -147,9 +140,7 @@ def fit_discrepancy(
         return np.full(np.size(x_test), float(np.mean(r_train))), 1
     B = hat_basis(x_train, knots)
     scale = float(np.mean(B.T @ B).real) or 1.0
-    beta = np.linalg.solve(
-        B.T @ B + ridge * scale * np.eye(knots.size), B.T @ np.asarray(r_train, dtype=float)
-    )
+    beta = np.linalg.solve(B.T @ B + ridge * scale * np.eye(knots.size), B.T @ np.asarray(r_train, dtype=float))
     return hat_basis(x_test, knots) @ beta, int(knots.size)
 
 

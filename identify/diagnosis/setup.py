@@ -149,9 +149,7 @@ class Setup:
     @property
     def compared(self) -> dict[str, np.ndarray]:
         """Per channel, the samples the evidence compares: a log's held-out ones, all of a sweep's."""
-        ok = {
-            ch: np.isfinite(self.residuals[ch]) & (np.nan_to_num(self.sigma[ch]) > 0) for ch in self.channels
-        }
+        ok = {ch: np.isfinite(self.residuals[ch]) & (np.nan_to_num(self.sigma[ch]) > 0) for ch in self.channels}
         if not self.is_log:
             return ok
         held = np.zeros(self.n, dtype=bool)

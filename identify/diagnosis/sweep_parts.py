@@ -34,9 +34,7 @@ __all__ = [
 ]
 
 
-def sweep_folds(
-    order: np.ndarray, n_blocks: int = 10, n_folds: int = 5
-) -> list[tuple[np.ndarray, np.ndarray]]:
+def sweep_folds(order: np.ndarray, n_blocks: int = 10, n_folds: int = 5) -> list[tuple[np.ndarray, np.ndarray]]:
     """Blocked folds of a sweep: ``n_blocks`` contiguous blocks in slip order; fold k holds out k, k+f, ...
 
     Parameters
@@ -167,11 +165,7 @@ def fit_jacobian(res, data: SlipData) -> np.ndarray:
     """Jacobian ``(n, 3 + m)`` of a sweep fit's prediction at its answer, on the samples of ``data``."""
     from ..sweep.model import SweepResiduals, fit_vector, predict
 
-    rm = (
-        res.residual_model
-        if isinstance(getattr(res, "residual_model", None), SweepResiduals)
-        else SweepResiduals()
-    )
+    rm = res.residual_model if isinstance(getattr(res, "residual_model", None), SweepResiduals) else SweepResiduals()
     x = fit_vector(res)
     effects = res.effect_structure if res.effect_labels else None
     W = data.loads(res.vehicle.weight).astype(float)

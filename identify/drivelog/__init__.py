@@ -7,10 +7,18 @@ optimum), :mod:`.covariance` (sandwich covariance), :mod:`.regime` (gentle or ha
 :mod:`.residuals` / :mod:`.sensitivity` (per-sample residuals and sensitivities), :mod:`.simex`
 (opt-in bias correction), :mod:`.torque_hold` (a torque hold the user did not state).
 """
+
 from .fit import DriveLogFitError, fit_drive_log
 from .regime import classify_regime
 from .residuals import DriveLogResiduals, drive_log_residuals
 from .sensitivity import DriveLogSensitivities, drive_log_sensitivities
 
-__all__ = ["fit_drive_log", "DriveLogFitError", "classify_regime", "DriveLogResiduals", "drive_log_residuals",
-           "DriveLogSensitivities", "drive_log_sensitivities"]
+__all__ = [
+    "fit_drive_log",
+    "DriveLogFitError",
+    "classify_regime",
+    "DriveLogResiduals",
+    "drive_log_residuals",
+    "DriveLogSensitivities",
+    "drive_log_sensitivities",
+]

@@ -1,4 +1,5 @@
 """Sandwich covariance of the drive-log output-error estimator with profiled latent slips."""
+
 from __future__ import annotations
 
 import casadi as ca
@@ -18,8 +19,19 @@ def _pointwise_hessian() -> ca.Function:
     F = Fm * bracket_signed(s, l / K)
     return ca.Function("drivelog_pointwise_hess", [s, Fm, K, l], [ca.hessian(F, ca.vertcat(Fm, K, s))[0]])
 
-def profiled_covariance(prep: "PreparedLog", r: float, slip: np.ndarray, Fmax: float, K: float, l: float,
-                         F: np.ndarray, dF_ds: np.ndarray, dF_dFm: np.ndarray, dF_dK: np.ndarray):
+
+def profiled_covariance(
+    prep: "PreparedLog",
+    r: float,
+    slip: np.ndarray,
+    Fmax: float,
+    K: float,
+    l: float,
+    F: np.ndarray,
+    dF_ds: np.ndarray,
+    dF_dFm: np.ndarray,
+    dF_dK: np.ndarray,
+):
     """Sandwich covariance of ``(F_max, K)`` for the output-error estimator with profiled slips.
 
     The estimator minimises ``sum_k c_k(theta, i_k)`` with ``c_k = (e_w^2 + e_T^2) / 2``; each
@@ -53,12 +65,12 @@ def profiled_covariance(prep: "PreparedLog", r: float, slip: np.ndarray, Fmax: f
     ss, sc, rho = prep.sigma_speed, prep.sigma_thrust_cond, prep.coupling
     d_s = prep.vehicle_speed - rw * (1 - slip)
     e_T = (prep.thrust - F - rho * d_s) / sc
-    g_w = rw / ss                                                      # de_w / di (e_w is linear)
+    g_w = rw / ss  # de_w / di (e_w is linear)
     g_T = np.column_stack([-dF_dFm / sc, -dF_dK / sc, -(dF_ds + rho * rw) / sc])
     hF = np.asarray(_pointwise_hessian()(slip.reshape(1, -1), Fmax, K, l), dtype=float)
-    hF = np.transpose(hF.reshape(3, n, 3), (1, 0, 2))                  # (n, 3, 3)
+    hF = np.transpose(hF.reshape(3, n, 3), (1, 0, 2))  # (n, 3, 3)
     H = g_T[:, :, None] * g_T[:, None, :] - (e_T / sc)[:, None, None] * hF
-    H[:, 2, 2] += g_w ** 2
+    H[:, 2, 2] += g_w**2
     lo, hi = SLIP_BOUNDS
     free = (slip > lo + 1e-6) & (slip < hi - 1e-6) & (H[:, 2, 2] > 1e-12 * np.max(np.abs(H[:, 2, 2])))
     Hii = np.where(free, H[:, 2, 2], 1.0)
@@ -77,5 +89,3 @@ def profiled_covariance(prep: "PreparedLog", r: float, slip: np.ndarray, Fmax: f
     if not np.all(np.isfinite(V)) or np.any(np.linalg.eigvalsh(V) <= 0):
         return None
     return V, A, B
-
-

@@ -127,6 +127,7 @@ thrust, sample selection), :mod:`.drivelog_nlp` (the NLPs and their solves),
 residuals), :mod:`.drivelog_sensitivity` (per-sample residuals and sensitivities for score tests);
 this module is the entry, :func:`fit_drive_log`.
 """
+
 from __future__ import annotations
 
 import math
@@ -141,8 +142,7 @@ from ...soilmodel.traction import check_model
 from ...soilmodel.vehicle import Vehicle
 from . import covariance as _covariance
 from .noise import estimate_noise, estimate_noise_profile
-from .nlp import (eval_pointwise, fmax_bounds, padded_size, ridge_point, solve_equation_error,
-                           solve_output_error)
+from .nlp import eval_pointwise, fmax_bounds, padded_size, ridge_point, solve_equation_error, solve_output_error
 from .prepare import MIN_USABLE_SAMPLES, SLIP_BOUNDS, PreparedLog, prepare_drive_log
 from .joint_fit import fit_joint
 from .regime import classify_regime
@@ -152,17 +152,42 @@ from .simex import BIAS_CORRECTIONS, SIMEX_LAMBDAS, simex_fit
 from ..sweep.problem import FitFailed
 from ..estimates.result import FitResult, build_result
 
-__all__ = ["fit_drive_log", "FORMULATIONS", "DriveLogFitError", "estimate_noise", "estimate_noise_profile",
-           "prepare_drive_log", "PreparedLog", "padded_size", "MIN_USABLE_SAMPLES", "SLIP_BOUNDS",
-           "BIAS_CORRECTIONS", "SIMEX_LAMBDAS", "drive_log_residuals", "DriveLogResiduals",
-           "drive_log_sensitivities", "DriveLogSensitivities"]
+__all__ = [
+    "fit_drive_log",
+    "FORMULATIONS",
+    "DriveLogFitError",
+    "estimate_noise",
+    "estimate_noise_profile",
+    "prepare_drive_log",
+    "PreparedLog",
+    "padded_size",
+    "MIN_USABLE_SAMPLES",
+    "SLIP_BOUNDS",
+    "BIAS_CORRECTIONS",
+    "SIMEX_LAMBDAS",
+    "drive_log_residuals",
+    "DriveLogResiduals",
+    "drive_log_sensitivities",
+    "DriveLogSensitivities",
+]
 
 #: Formulations of :func:`fit_drive_log`.
 FORMULATIONS = ("output-error", "equation-error")
 
-_OPTION_NAMES = ("sigma_torque", "sigma_sprocket_speed", "sigma_vehicle_speed", "torque_hold",
-                 "min_speed", "sprocket_equation", "max_iter", "tol", "print_level", "multistart",
-                 "hull_channel", "sigma_accel")
+_OPTION_NAMES = (
+    "sigma_torque",
+    "sigma_sprocket_speed",
+    "sigma_vehicle_speed",
+    "torque_hold",
+    "min_speed",
+    "sprocket_equation",
+    "max_iter",
+    "tol",
+    "print_level",
+    "multistart",
+    "hull_channel",
+    "sigma_accel",
+)
 
 
 class DriveLogFitError(FitFailed):
@@ -172,10 +197,21 @@ class DriveLogFitError(FitFailed):
     """
 
 
-def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: SoilBounds = PRACTICAL_BOUNDS,
-                  x0=None, strict: bool = False, *, method: str = "ipopt", formulation: str = "output-error",
-                  bias_correction: str | None = None, effects: Any = None, fixed: Any = None,
-                  **options: Any) -> FitResult:
+def fit_drive_log(
+    log: DriveLog,
+    vehicle: Vehicle,
+    model: str = "full",
+    bounds: SoilBounds = PRACTICAL_BOUNDS,
+    x0=None,
+    strict: bool = False,
+    *,
+    method: str = "ipopt",
+    formulation: str = "output-error",
+    bias_correction: str | None = None,
+    effects: Any = None,
+    fixed: Any = None,
+    **options: Any,
+) -> FitResult:
     """Identify the soil under a tracked vehicle from a straight-line drive log.
 
     Parameters
@@ -255,7 +291,9 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
     if bias_correction is not None:
         if joint:
             raise DataError("bias_correction is not available with effects or the hull channel")
-        return simex_fit(fit_drive_log, log, vehicle, model, bounds, x0, strict, method, formulation, bias_correction, options)
+        return simex_fit(
+            fit_drive_log, log, vehicle, model, bounds, x0, strict, method, formulation, bias_correction, options
+        )
     _check_arguments(model, method, formulation, options)
     if joint and formulation != "output-error":
         raise DataError("effects and the hull channel need the output-error formulation")
@@ -273,8 +311,9 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
     if joint:
         pr0 = {"covariance": "sandwich"}
         extra, warnings = _base_extra(log, prep, formulation, options, pr0["covariance"])
-        res, ok = fit_joint(log, vehicle, prep, model, bounds, effects, fixed, starts, c_hint, method, options,
-                            extra, warnings)
+        res, ok = fit_joint(
+            log, vehicle, prep, model, bounds, effects, fixed, starts, c_hint, method, options, extra, warnings
+        )
         if strict and not ok:
             raise DriveLogFitError(res)
         return res
@@ -283,24 +322,42 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
     best, Fmax, K, slip = solve(prep, vehicle, F_ref, K_ref, Fb, Kb, starts, max_iter, tol, print_level)
     pr = _profiled_residuals(prep, vehicle, formulation, best["ok"], slip, Fmax, K)
 
-    finite = (all(math.isfinite(z) for z in (Fmax, K)) and np.all(np.isfinite(pr["wres"]))
-              and np.all(np.isfinite(pr["J2"])))
+    finite = (
+        all(math.isfinite(z) for z in (Fmax, K)) and np.all(np.isfinite(pr["wres"])) and np.all(np.isfinite(pr["J2"]))
+    )
     success = bool(best["ok"] and finite)
     extra, warnings = _base_extra(log, prep, formulation, options, pr["covariance"])
     n = prep.n_used
     W = vehicle.weight
-    common = dict(data_kind="drive", model=model, method=method, residual_unit=pr["unit"], n_samples=n,
-                  normal_loads=np.full(n, W), vehicle=vehicle, bounds=bounds, status=best["status"],
-                  iterations=best["iterations"], solve_time=best["time"], sigma_known=prep.sigma_known,
-                  residual_model=DriveLogResiduals(hull_in_fit=False))
+    common = dict(
+        data_kind="drive",
+        model=model,
+        method=method,
+        residual_unit=pr["unit"],
+        n_samples=n,
+        normal_loads=np.full(n, W),
+        vehicle=vehicle,
+        bounds=bounds,
+        status=best["status"],
+        iterations=best["iterations"],
+        solve_time=best["time"],
+        sigma_known=prep.sigma_known,
+        residual_model=DriveLogResiduals(hull_in_fit=False),
+    )
     if not success:
-        msg = (f"drive-log fit failed: IPOPT returned {best['status']}"
-               + ("" if finite else " with non-finite values"))
+        msg = f"drive-log fit failed: IPOPT returned {best['status']}" + ("" if finite else " with non-finite values")
         wres, res = pr["wres"], pr["res"]
-        failed = build_result(theta=np.full(3, np.nan), jacobian=np.zeros((n, 3)),
-                              weighted_residuals=np.where(np.isfinite(wres), wres, 0.0),
-                              residuals=np.where(np.isfinite(res), res, 0.0), success=False, message=msg,
-                              warnings=tuple(warnings), extra=extra, **common)
+        failed = build_result(
+            theta=np.full(3, np.nan),
+            jacobian=np.zeros((n, 3)),
+            weighted_residuals=np.where(np.isfinite(wres), wres, 0.0),
+            residuals=np.where(np.isfinite(res), res, 0.0),
+            success=False,
+            message=msg,
+            warnings=tuple(warnings),
+            extra=extra,
+            **common,
+        )
         if strict:
             raise DriveLogFitError(failed)
         return failed
@@ -314,7 +371,7 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
     # identifiable combinations and the driving regime
     wres = pr["wres"]
     dof = max(n - 2, 1)
-    s2 = 1.0 if prep.sigma_known else float(np.sum(wres ** 2)) / dof
+    s2 = 1.0 if prep.sigma_known else float(np.sum(wres**2)) / dof
     cov2: np.ndarray | None
     try:
         cov2 = s2 * np.linalg.inv(J2.T @ J2)
@@ -328,21 +385,44 @@ def fit_drive_log(log: DriveLog, vehicle: Vehicle, model: str = "full", bounds: 
     thrust_peak = float(max(np.max(prep.thrust - 2.0 * sT), 0.0))
     utilisation = thrust_peak / Fmax
     n_high = int(np.count_nonzero(prep.thrust - 2.0 * sT > 0.7 * Fmax))
-    extra.update({"max_thrust_N": Fmax, "shear_modulus_m": K, "initial_slope_N": Fmax * l / (2 * K),
-                  "thrust_peak_N": thrust_peak, "thrust_utilisation": utilisation, "samples_above_70pct": n_high,
-                  "slip_max": float(np.max(slip)),
-                  "thrust_residual_rms_N": float(np.sqrt(np.mean((wres * pr["s_eff"]) ** 2))),
-                  "reduced_chi2": float(np.sum(wres ** 2)) / dof})
-    at_bound = [name for name, val, (lo, hi) in (("F_max", Fmax, Fb), ("K", K, Kb))
-                if val <= lo + 1e-6 * (hi - lo) or val >= hi - 1e-6 * (hi - lo)]
-    regime, regime_extra, regime_warnings = classify_regime(Fmax, K, l, cov2, at_bound, thrust_peak, utilisation,
-                                                            n_high)
+    extra.update(
+        {
+            "max_thrust_N": Fmax,
+            "shear_modulus_m": K,
+            "initial_slope_N": Fmax * l / (2 * K),
+            "thrust_peak_N": thrust_peak,
+            "thrust_utilisation": utilisation,
+            "samples_above_70pct": n_high,
+            "slip_max": float(np.max(slip)),
+            "thrust_residual_rms_N": float(np.sqrt(np.mean((wres * pr["s_eff"]) ** 2))),
+            "reduced_chi2": float(np.sum(wres**2)) / dof,
+        }
+    )
+    at_bound = [
+        name
+        for name, val, (lo, hi) in (("F_max", Fmax, Fb), ("K", K, Kb))
+        if val <= lo + 1e-6 * (hi - lo) or val >= hi - 1e-6 * (hi - lo)
+    ]
+    regime, regime_extra, regime_warnings = classify_regime(
+        Fmax, K, l, cov2, at_bound, thrust_peak, utilisation, n_high
+    )
     extra.update(regime_extra)
     warnings.extend(regime_warnings)
-    msg = (f"drive-log fit ({formulation}) converged: F_max = {Fmax:.5g} N, K = {1000 * K:.4g} mm, "
-           f"{regime} log, {n} samples used")
-    return build_result(theta=np.array([c, phi, K]), jacobian=jac, weighted_residuals=wres, residuals=pr["res"],
-                        success=True, message=msg, warnings=tuple(warnings), extra=extra, **common)
+    msg = (
+        f"drive-log fit ({formulation}) converged: F_max = {Fmax:.5g} N, K = {1000 * K:.4g} mm, "
+        f"{regime} log, {n} samples used"
+    )
+    return build_result(
+        theta=np.array([c, phi, K]),
+        jacobian=jac,
+        weighted_residuals=wres,
+        residuals=pr["res"],
+        success=True,
+        message=msg,
+        warnings=tuple(warnings),
+        extra=extra,
+        **common,
+    )
 
 
 def _check_arguments(model: str, method: str, formulation: str, options: dict) -> None:
@@ -358,14 +438,19 @@ def _check_arguments(model: str, method: str, formulation: str, options: dict) -
 
 def _prepare_options(options: dict) -> dict:
     """The keyword arguments of :func:`prepare_drive_log` taken from the fit's options."""
-    return {"sigma_torque": options.get("sigma_torque"), "sigma_sprocket_speed": options.get("sigma_sprocket_speed"),
-            "sigma_vehicle_speed": options.get("sigma_vehicle_speed"),
-            "torque_hold": str(options.get("torque_hold", "zoh")), "min_speed": options.get("min_speed", 0.0),
-            "sprocket_equation": str(options.get("sprocket_equation", "thrust"))}
+    return {
+        "sigma_torque": options.get("sigma_torque"),
+        "sigma_sprocket_speed": options.get("sigma_sprocket_speed"),
+        "sigma_vehicle_speed": options.get("sigma_vehicle_speed"),
+        "torque_hold": str(options.get("torque_hold", "zoh")),
+        "min_speed": options.get("min_speed", 0.0),
+        "sprocket_equation": str(options.get("sprocket_equation", "thrust")),
+    }
 
 
-def _start_points(prep: PreparedLog, vehicle: Vehicle, model: str, x0, Fb, Kb, K_ref: float,
-                  multistart: bool) -> tuple[list[tuple[float, float]], float | None]:
+def _start_points(
+    prep: PreparedLog, vehicle: Vehicle, model: str, x0, Fb, Kb, K_ref: float, multistart: bool
+) -> tuple[list[tuple[float, float]], float | None]:
     """Start values ``[(F_max, K), ...]`` and the cohesion hint for the ridge point.
 
     ``x0`` if given, else 1.2 times the 99th percentile of the thrust and K in the middle of its
@@ -392,8 +477,9 @@ def _start_points(prep: PreparedLog, vehicle: Vehicle, model: str, x0, Fb, Kb, K
     return starts, c_hint
 
 
-def _profiled_residuals(prep: PreparedLog, vehicle: Vehicle, formulation: str, ok: bool, slip: np.ndarray,
-                        Fmax: float, K: float) -> dict[str, Any]:
+def _profiled_residuals(
+    prep: PreparedLog, vehicle: Vehicle, formulation: str, ok: bool, slip: np.ndarray, Fmax: float, K: float
+) -> dict[str, Any]:
     """Residuals at the solution and the profiled Jacobian ``d wres / d(F_max, K)``.
 
     Output-error: one reduced residual per sample (the latent slip profiled out), and the
@@ -409,21 +495,21 @@ def _profiled_residuals(prep: PreparedLog, vehicle: Vehicle, formulation: str, o
         rw_k = r * prep.sprocket_speed
         sc = prep.sigma_thrust_cond
         # effective variance of the thrust residual after profiling out the latent slip
-        s_eff = np.sqrt(sc ** 2 + ((dF_ds + prep.coupling * rw_k) * prep.sigma_speed / rw_k) ** 2)
+        s_eff = np.sqrt(sc**2 + ((dF_ds + prep.coupling * rw_k) * prep.sigma_speed / rw_k) ** 2)
         d_s = prep.vehicle_speed - rw_k * (1 - slip)
         e_T = (prep.thrust - F - prep.coupling * d_s) / sc
         e_w = d_s / prep.sigma_speed
         # projected (profiled) residual, model minus data: |(e_w, e_T)| at the optimum
-        wres = -np.sign(e_T) * np.sqrt(e_T ** 2 + e_w ** 2)
+        wres = -np.sign(e_T) * np.sqrt(e_T**2 + e_w**2)
         # raw residual: predicted minus measured sprocket speed, v_k / (r (1 - i_k)) - w_k, rad/s
         res = d_s / (r * (1 - slip))
         unit = "rad/s"
     else:
         s_eff = prep.sigma_thrust
-        res = F - prep.thrust                                 # model minus data, N
+        res = F - prep.thrust  # model minus data, N
         wres = res / s_eff
         unit = "N"
-    J2 = np.column_stack([dF_dFm, dF_dK]) / s_eff[:, None]    # d wres / d(F_max, K)
+    J2 = np.column_stack([dF_dFm, dF_dK]) / s_eff[:, None]  # d wres / d(F_max, K)
     kind = "gauss-newton"
     if formulation == "output-error" and ok and np.all(np.isfinite(J2)) and np.all(np.isfinite(wres)):
         # Sandwich covariance. The shared result object computes s2 (J^T J)^-1; the Jacobian
@@ -433,7 +519,7 @@ def _profiled_residuals(prep: PreparedLog, vehicle: Vehicle, formulation: str, o
         sand = _covariance.profiled_covariance(prep, r, slip, Fmax, K, l, F, dF_ds, dF_dFm, dF_dK)
         if sand is not None:
             V = sand[0]
-            s2_rb = 1.0 if prep.sigma_known else float(np.sum(wres ** 2)) / max(n - 2, 1)
+            s2_rb = 1.0 if prep.sigma_known else float(np.sum(wres**2)) / max(n - 2, 1)
             try:
                 Lg = np.linalg.cholesky(J2.T @ J2)
                 Lv = np.linalg.cholesky(s2_rb * np.linalg.inv(V))
@@ -446,8 +532,9 @@ def _profiled_residuals(prep: PreparedLog, vehicle: Vehicle, formulation: str, o
     return {"wres": wres, "res": res, "unit": unit, "J2": J2, "s_eff": s_eff, "covariance": kind}
 
 
-def _base_extra(log: DriveLog, prep: PreparedLog, formulation: str, options: dict,
-                covariance_kind: str) -> tuple[dict[str, Any], list[str]]:
+def _base_extra(
+    log: DriveLog, prep: PreparedLog, formulation: str, options: dict, covariance_kind: str
+) -> tuple[dict[str, Any], list[str]]:
     """The sample counts, noise model and settings for ``FitResult.extra``, and the input warnings."""
     warnings: list[str] = []
     n = prep.n_used
@@ -464,7 +551,8 @@ def _base_extra(log: DriveLog, prep: PreparedLog, formulation: str, options: dic
             "torque_Nm": {"abs": prep.noise["torque"][0], "rel": prep.noise["torque"][1]},
             "sprocket_speed_rad_s": {"abs": prep.noise["sprocket_speed"][0], "rel": prep.noise["sprocket_speed"][1]},
             "vehicle_speed_m_s": {"abs": prep.noise["vehicle_speed"][0], "rel": prep.noise["vehicle_speed"][1]},
-            "estimated": not prep.sigma_known},
+            "estimated": not prep.sigma_known,
+        },
         "torque_hold": str(options.get("torque_hold", "zoh")),
         "sprocket_equation": str(options.get("sprocket_equation", "thrust")),
         "covariance": covariance_kind,
@@ -472,17 +560,22 @@ def _base_extra(log: DriveLog, prep: PreparedLog, formulation: str, options: dic
     dropped = prep.dropped["slow"] + prep.dropped["braking"] + prep.dropped["edge"]
     if prep.dropped["slow"] + prep.dropped["braking"]:
         warnings.append(
-            f"{dropped} of {log.n_samples} samples not used: {prep.dropped['slow']} standing, reversing or with vehicle or track speed "
+            f"{dropped} of {log.n_samples} samples not used: {prep.dropped['slow']} standing, reversing or "
+            "with vehicle or track speed "
             f"below 3 noise levels (about {prep.dropped['speed_floor_m_s']:.3g} m/s: slip undefined or lost in the "
             f"speed noise), {prep.dropped['braking']} braking (negative thrust: the skid law F(i) = -F(|i|) is only "
-            f"a first approximation), {prep.dropped['edge']} at the ends of the log (no sprocket-speed difference)")
+            f"a first approximation), {prep.dropped['edge']} at the ends of the log (no sprocket-speed difference)"
+        )
     if prep.dropped["turning"]:
         warnings.append(
             f"{prep.dropped['turning']} of {log.n_samples} samples turning (two-track log: left and right "
             f"sprocket speeds, or the yaw rate, beyond their noise): left out of the straight-line model with "
-            f"the sample after each turn ({prep.dropped['turning_left_out']} samples in all)")
+            f"the sample after each turn ({prep.dropped['turning_left_out']} samples in all)"
+        )
     if formulation == "equation-error":
-        warnings.append("equation-error formulation: slip computed from the noisy measured speeds is used as an "
-                        "exact regressor, which biases F_max and K (error-in-variables); use the default "
-                        "output-error formulation for estimates")
+        warnings.append(
+            "equation-error formulation: slip computed from the noisy measured speeds is used as an "
+            "exact regressor, which biases F_max and K (error-in-variables); use the default "
+            "output-error formulation for estimates"
+        )
     return extra, warnings

@@ -12,8 +12,9 @@ latent slip ``i_k``::
     d_H = F(i_k) - R(v_k, i_k) - m_eff a_k                        hull balance residual, N
 
 whitened as ``e_w = d_s / sigma_s``, ``e_T = (d_T - rho d_s) / sigma_T|s`` (as in the nominal
-problem; ``sigma_s`` and ``sigma_T`` follow ``r_eff``) and ``e_H = d_H / sigma_H`` with ``sigma_H = m_eff sigma_a`` (it depends on
-``mass_error``: errors in the acceleration regressor are weighted as such, Deming-style); IPOPT minimises ``sum |e_k|^2 / 2``. ``M_k'`` and
+problem; ``sigma_s`` and ``sigma_T`` follow ``r_eff``) and ``e_H = d_H / sigma_H`` with
+``sigma_H = m_eff sigma_a`` (it depends on ``mass_error``: errors in the acceleration regressor
+are weighted as such, Deming-style); IPOPT minimises ``sum |e_k|^2 / 2``. ``M_k'`` and
 ``dw_k/dt`` are those of the discrete sprocket equation (:func:`.drivelog_prepare.prepare_drive_log`).
 The acceleration ``a_k`` is the IMU column ``vehicle_accel_m_s2`` when the log has it (noise
 model estimated from that column), else the central difference of the measured vehicle speed
@@ -42,6 +43,7 @@ Identifiability: a direction of ``A`` with a relative eigenvalue below ``1e-10``
 identifiable; an effect parameter whose estimate correlates with another estimate (soil or
 effect) beyond :data:`~.result.WEAK_CORRELATION` is flagged with the correlation.
 """
+
 from __future__ import annotations
 
 import math
@@ -52,19 +54,41 @@ import casadi as ca
 import numpy as np
 
 from ...soilmodel.data import DriveLog
-from ...soilmodel.effects import (EFFECTS, EffectSet, effect_symbols, effective_mass, effective_normal_load,
-                                 effective_radius, motion_resistance, parameter_bounds, parameter_scale,
-                                 thrust_with_effects, torque_loss)
+from ...soilmodel.effects import (
+    EFFECTS,
+    EffectSet,
+    effect_symbols,
+    effective_mass,
+    effective_normal_load,
+    effective_radius,
+    motion_resistance,
+    parameter_bounds,
+    parameter_scale,
+    thrust_with_effects,
+    torque_loss,
+)
 from ...soilmodel.errors import DataError
 from ...soilmodel.threadsafe import locked_cache
 from ...soilmodel.vehicle import Vehicle
 from .noise import noise_model
 from .prepare import SLIP_BOUNDS, PreparedLog
 
-__all__ = ["JointData", "joint_data", "parse_fixed", "effect_layout",
-           "residual_function", "derivative_function", "sensitivity_function", "joint_solver", "padded_data",
-           "SlipSolver", "best_slips", "HULL_ROW", "CHANNELS",
-           "DATA_ROWS"]
+__all__ = [
+    "JointData",
+    "joint_data",
+    "parse_fixed",
+    "effect_layout",
+    "residual_function",
+    "derivative_function",
+    "sensitivity_function",
+    "joint_solver",
+    "padded_data",
+    "SlipSolver",
+    "best_slips",
+    "HULL_ROW",
+    "CHANNELS",
+    "DATA_ROWS",
+]
 
 #: Residual channels of a drive log (raw residuals: measured minus predicted).
 CHANNELS = ("sprocket_speed_rad_s", "thrust_N", "hull_N")
@@ -91,8 +115,14 @@ class JointData:
     accel_noise: tuple[float, float]
 
 
-def joint_data(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, torque_hold: str,
-               sigma_accel: float | None = None, accel_noise: tuple[float, float] | None = None) -> JointData:
+def joint_data(
+    log: DriveLog,
+    vehicle: Vehicle,
+    prep: PreparedLog,
+    torque_hold: str,
+    sigma_accel: float | None = None,
+    accel_noise: tuple[float, float] | None = None,
+) -> JointData:
     """Assemble the per-sample data of the joint problem from the log and its preparation.
 
     ``accel_noise`` (``(a, b)``, m/s^2) overrides the estimate (held-out blocks use the fit's).
@@ -134,11 +164,24 @@ def joint_data(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, torque_hold: 
     s_v = np.hypot(va, vb * prep.vehicle_speed)
     one_minus_i = np.clip(1.0 - prep.slip_measured, 1.0 - SLIP_BOUNDS[1], 1.0 - SLIP_BOUNDS[0])
     sw_slip = one_minus_i * np.hypot(wa, wb * prep.sprocket_speed)
-    cov = prep.coupling * prep.sigma_speed ** 2
-    D = np.vstack([prep.vehicle_speed, prep.sprocket_speed, M_used, dwdt, np.where(good, a, 0.0),
-                   s_v, sw_slip, prep.sigma_thrust, cov, inv_H])
-    return JointData(D=D, sigma_hull=np.where(good, sigma_H, np.inf), accel_source=source,
-                     accel_noise=(float(nm[0]), float(nm[1])))
+    cov = prep.coupling * prep.sigma_speed**2
+    D = np.vstack(
+        [
+            prep.vehicle_speed,
+            prep.sprocket_speed,
+            M_used,
+            dwdt,
+            np.where(good, a, 0.0),
+            s_v,
+            sw_slip,
+            prep.sigma_thrust,
+            cov,
+            inv_H,
+        ]
+    )
+    return JointData(
+        D=D, sigma_hull=np.where(good, sigma_H, np.inf), accel_source=source, accel_noise=(float(nm[0]), float(nm[1]))
+    )
 
 
 def parse_fixed(fixed: Any) -> dict[str, float]:
@@ -150,8 +193,9 @@ def parse_fixed(fixed: Any) -> dict[str, float]:
     if fixed is None:
         return {}
     if not isinstance(fixed, Mapping):
-        raise DataError(f"fixed must be a mapping like {{'grade': 0.05}} or {{'grade.theta_rad': 0.05}}, "
-                        f"got {type(fixed).__name__}")
+        raise DataError(
+            f"fixed must be a mapping like {{'grade': 0.05}} or {{'grade.theta_rad': 0.05}}, got {type(fixed).__name__}"
+        )
     out: dict[str, float] = {}
     for key, val in fixed.items():
         name, dot, param = str(key).partition(".")
@@ -168,8 +212,9 @@ def parse_fixed(fixed: Any) -> dict[str, float]:
             except (TypeError, ValueError):
                 raise DataError(f"fixed: {name}.{ps.name} must be a number, got {x!r}") from None
             if not (math.isfinite(xf) and ps.lower <= xf <= ps.upper):
-                raise DataError(f"fixed: {name}.{ps.name} = {x!r} outside its admissible range "
-                                f"[{ps.lower:g}, {ps.upper:g}]")
+                raise DataError(
+                    f"fixed: {name}.{ps.name} = {x!r} outside its admissible range [{ps.lower:g}, {ps.upper:g}]"
+                )
             out[f"{name}.{ps.name}"] = xf
     return out
 
@@ -216,15 +261,16 @@ def residual_function(vehicle: Vehicle, structure: EffectSet) -> tuple[ca.Functi
     # the speed and thrust noise scale with the effective radius (radius_error), like the hull
     # noise with the mass: weights fixed at the nominal r would attenuate eps (measured +10 %)
     ratio = r_eff / vehicle.sprocket_radius
-    ss2 = s_v ** 2 + (r_eff * sw_slip) ** 2
+    ss2 = s_v**2 + (r_eff * sw_slip) ** 2
     sTe = sT / ratio
     rho = cov / ss2
-    sTc = ca.sqrt(ca.fmax(sTe ** 2 - rho * cov, 0.0) + 1e-300)
+    sTc = ca.sqrt(ca.fmax(sTe**2 - rho * cov, 0.0) + 1e-300)
     e = ca.vertcat(d_s / ca.sqrt(ss2), (T - F - rho * d_s) / sTc, -hull * isH * (vehicle.mass / m_eff))
     raw = ca.vertcat(w - v / (r_eff * (1 - slip)), T - F, hull)
     theta = ca.vertcat(Flim, K, vec)
-    fn = ca.Function("drivelog_joint_residual", [theta, slip, d], [e, raw, F, T],
-                     ["theta", "slip", "d"], ["e", "raw", "F", "T"])
+    fn = ca.Function(
+        "drivelog_joint_residual", [theta, slip, d], [e, raw, F, T], ["theta", "slip", "d"], ["e", "raw", "F", "T"]
+    )
     return fn, tuple(labels)
 
 
@@ -241,8 +287,9 @@ def derivative_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
     e = res(theta, slip, d)[0]
     z = ca.vertcat(theta, slip)
     H = ca.hessian(0.5 * ca.sumsqr(e), z)[0]
-    return ca.Function("drivelog_joint_derivatives", [theta, slip, d],
-                       [e, ca.jacobian(e, theta), ca.jacobian(e, slip), H])
+    return ca.Function(
+        "drivelog_joint_derivatives", [theta, slip, d], [e, ca.jacobian(e, theta), ca.jacobian(e, slip), H]
+    )
 
 
 @locked_cache(maxsize=32)
@@ -252,8 +299,9 @@ def sensitivity_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
     entries were most of the evaluation)."""
     res, theta, slip, d = _sample_symbols(vehicle, structure)
     e = res(theta, slip, d)[0]
-    return ca.Function("drivelog_joint_sensitivities", [theta, slip, d],
-                       [e, ca.jacobian(e, theta), ca.jacobian(e, slip)])
+    return ca.Function(
+        "drivelog_joint_sensitivities", [theta, slip, d], [e, ca.jacobian(e, theta), ca.jacobian(e, slip)]
+    )
 
 
 @locked_cache(maxsize=32)
@@ -297,7 +345,7 @@ def _slip_step_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
     bar = c * (1 + 1e-12) + 1e-300
     s_new, c_new, ok = slip, c, ca.SX(0)
     for k in reversed(range(SLIP_STEP_FRACTIONS)):  # smallest first: the largest fraction that descends wins
-        cand = ca.fmin(ca.fmax(slip + 0.5 ** k * step, lo), hi)
+        cand = ca.fmin(ca.fmax(slip + 0.5**k * step, lo), hi)
         ck = 0.5 * ca.sumsqr(res(theta, cand, d)[0])
         good = ck <= bar
         s_new, c_new, ok = ca.if_else(good, cand, s_new), ca.if_else(good, ck, c_new), ca.if_else(good, 1, ok)
@@ -321,14 +369,22 @@ def _slip_kernels(vehicle: Vehicle, structure: EffectSet):
     numbers); the per-sample Newton iterations of a 3,000-sample log are most of a diagnosis's time.
     """
     from ..jitcache import load
-    return load([_slip_step_function(vehicle, structure).map(SLIP_CHUNK),
-                 _slip_cost_function(vehicle, structure).map(SLIP_CHUNK)], "drivelog_slip", wait=False)
+
+    return load(
+        [
+            _slip_step_function(vehicle, structure).map(SLIP_CHUNK),
+            _slip_cost_function(vehicle, structure).map(SLIP_CHUNK),
+        ],
+        "drivelog_slip",
+        wait=False,
+    )
 
 
 class _Chunked:
     """Per-sample evaluation of a chunk-mapped kernel ``(theta, i, d)`` over the samples of ``D``.
 
-    ``theta`` is one column (broadcast to every sample by CasADi); the samples are padded with samples at rest (:func:`padded_data`) to a multiple of :data:`SLIP_CHUNK`. ``D`` is
+    ``theta`` is one column (broadcast to every sample by CasADi); the samples are padded with
+    samples at rest (:func:`padded_data`) to a multiple of :data:`SLIP_CHUNK`. ``D`` is
     converted to CasADi once, for calls on all its samples; a call on a subset (``idx``) converts
     that subset.
     """
@@ -403,7 +459,7 @@ class SlipSolver:
             s_new, ok, step, c = (o[act] if whole else o for o in (out[0], out[2], out[3], out[4]))
             sa = s[act]
             pend = np.nonzero(ok == 0)[0]
-            s_new = np.where(ok != 0, s_new, sa + 0.5 ** _MAX_HALVINGS * step)
+            s_new = np.where(ok != 0, s_new, sa + 0.5**_MAX_HALVINGS * step)
             # samples no fraction of the compiled step let descend: the further halvings, 6 per call
             for k0 in range(SLIP_STEP_FRACTIONS, _MAX_HALVINGS, 6):
                 if pend.size == 0:
@@ -444,8 +500,14 @@ class SlipSolver:
         return best
 
 
-def best_slips(vehicle: Vehicle, structure: EffectSet, theta: np.ndarray, D: np.ndarray,
-               starts: list[np.ndarray], iterations: int = 40) -> np.ndarray:
+def best_slips(
+    vehicle: Vehicle,
+    structure: EffectSet,
+    theta: np.ndarray,
+    D: np.ndarray,
+    starts: list[np.ndarray],
+    iterations: int = 40,
+) -> np.ndarray:
     """Latent slips of the samples ``D`` at ``theta``, the best of several starts (:meth:`SlipSolver.best`)."""
     return SlipSolver(vehicle, structure, D).best(theta, starts, iterations)
 
@@ -483,8 +545,9 @@ def padded_data(D: np.ndarray, size: int) -> np.ndarray:
 
 
 @locked_cache(maxsize=16)
-def joint_solver(vehicle: Vehicle, structure: EffectSet, n: int, max_iter: int, tol: float,
-                 print_level: int) -> ca.Function:
+def joint_solver(
+    vehicle: Vehicle, structure: EffectSet, n: int, max_iter: int, tol: float, print_level: int
+) -> ca.Function:
     """IPOPT solver of the joint problem with ``n`` (padded) samples.
 
     Variables ``[theta / scale (2 + n_e), i_1 / i_ref, ..., i_n / i_ref]``; parameters
@@ -498,8 +561,8 @@ def joint_solver(vehicle: Vehicle, structure: EffectSet, n: int, max_iter: int, 
     p = ca.MX.sym("p", p_dim + 1 + len(DATA_ROWS) * n + n)
     scale = p[:p_dim]
     i_ref = p[p_dim]
-    D = ca.reshape(p[p_dim + 1:p_dim + 1 + len(DATA_ROWS) * n], len(DATA_ROWS), n)
-    pad = p[p_dim + 1 + len(DATA_ROWS) * n:]
+    D = ca.reshape(p[p_dim + 1 : p_dim + 1 + len(DATA_ROWS) * n], len(DATA_ROWS), n)
+    pad = p[p_dim + 1 + len(DATA_ROWS) * n :]
     theta = x[:p_dim] * scale
     z = x[p_dim:]
     # MX graph over the mapped per-sample cost (not expanded): built in about a third of the time
@@ -515,15 +578,27 @@ def joint_solver(vehicle: Vehicle, structure: EffectSet, n: int, max_iter: int, 
     # (drivelog_profiled): no bound push (the default 1 % of a range moved a drivetrain loss off its optimum)
     # and a small barrier parameter, capped (free to grow, the adaptive rule raised it to about 1 and the fit
     # took 91 iterations to come back; with the cap 4-9)
-    opts = dict(_QUIET, **{"ipopt.max_iter": max_iter, "ipopt.tol": tol, "ipopt.print_level": print_level,
-                           "ipopt.mu_strategy": "adaptive", "expand": False,
-                           "ipopt.bound_push": 1e-8, "ipopt.bound_frac": 1e-8, "ipopt.mu_init": 1e-8, "ipopt.mu_max": 1e-5,
-                           "hess_lag": _hessian_of_lagrangian(cost1, x, p, theta, z, scale, i_ref, D, pad)})
+    opts = dict(
+        _QUIET,
+        **{
+            "ipopt.max_iter": max_iter,
+            "ipopt.tol": tol,
+            "ipopt.print_level": print_level,
+            "ipopt.mu_strategy": "adaptive",
+            "expand": False,
+            "ipopt.bound_push": 1e-8,
+            "ipopt.bound_frac": 1e-8,
+            "ipopt.mu_init": 1e-8,
+            "ipopt.mu_max": 1e-5,
+            "hess_lag": _hessian_of_lagrangian(cost1, x, p, theta, z, scale, i_ref, D, pad),
+        },
+    )
     return ca.nlpsol(f"drivelog_joint_{n}", "ipopt", {"x": x, "p": p, "f": f}, opts)
 
 
-def _hessian_of_lagrangian(cost1: ca.Function, x: ca.MX, p: ca.MX, theta: ca.MX, z: ca.MX, scale: ca.MX,
-                           i_ref: ca.MX, D: ca.MX, pad: ca.MX) -> ca.Function:
+def _hessian_of_lagrangian(
+    cost1: ca.Function, x: ca.MX, p: ca.MX, theta: ca.MX, z: ca.MX, scale: ca.MX, i_ref: ca.MX, D: ca.MX, pad: ca.MX
+) -> ca.Function:
     """The exact Hessian of the joint cost for IPOPT, from ONE map of the per-sample Hessians (AD of ``cost1``).
 
     The cost is a sum of per-sample terms in ``(theta, i_k)``: its Hessian is an arrowhead (a dense
@@ -537,18 +612,18 @@ def _hessian_of_lagrangian(cost1: ca.Function, x: ca.MX, p: ca.MX, theta: ca.MX,
     n = z.numel()
     th1, s1, d1 = (ca.SX.sym(cost1.name_in(j), cost1.sparsity_in(j)) for j in range(3))
     H1 = ca.hessian(cost1(th1, s1, d1), ca.vertcat(th1, s1))[0]
-    tri = [(i, j) for j in range(p_dim) for i in range(j + 1)]   # upper triangle of the theta block, by column
-    h1 = ca.Function("drivelog_joint_hessian1", [th1, s1, d1],
-                     [ca.vertcat(*[H1[i, j] for i, j in tri]), H1[:, p_dim]])
+    tri = [(i, j) for j in range(p_dim) for i in range(j + 1)]  # upper triangle of the theta block, by column
+    h1 = ca.Function("drivelog_joint_hessian1", [th1, s1, d1], [ca.vertcat(*[H1[i, j] for i, j in tri]), H1[:, p_dim]])
     Htt, Hs = h1.map(n)(ca.repmat(theta, 1, n), (z * i_ref).T, D)
-    tt = ca.sum2(Htt) * ca.vertcat(*[scale[i] * scale[j] for i, j in tri])     # chain rule to x = theta / scale
+    tt = ca.sum2(Htt) * ca.vertcat(*[scale[i] * scale[j] for i, j in tri])  # chain rule to x = theta / scale
     cross = Hs[:p_dim, :] * ca.repmat(scale * i_ref, 1, n)
-    diag = Hs[p_dim, :] * i_ref ** 2 + (pad ** 2).T
+    diag = Hs[p_dim, :] * i_ref**2 + (pad**2).T
     lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", 0, 1)
     nz = lam_f * ca.vertcat(tt, ca.reshape(ca.vertcat(cross, diag), -1, 1))
     # nonzeros in column order: the theta block's upper triangle, then per sample its theta column and diagonal
     rows = [i for i, _ in tri] + [r for k in range(n) for r in list(range(p_dim)) + [p_dim + k]]
     cols = [j for _, j in tri] + [p_dim + k for k in range(n) for _ in range(p_dim + 1)]
     sp = ca.Sparsity.triplet(p_dim + n, p_dim + n, rows, cols)
-    return ca.Function("nlp_hess_l", [x, p, lam_f, lam_g], [ca.MX(sp, nz)],
-                       ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
+    return ca.Function(
+        "nlp_hess_l", [x, p, lam_f, lam_g], [ca.MX(sp, nz)], ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]
+    )

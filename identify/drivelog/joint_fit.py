@@ -8,6 +8,7 @@ i.e. with the effect parameters' uncertainty included); the effect parameters ar
 ``extra["effects"]`` as ``{effect: {param: {value, stderr, ci95, identifiable, at_bound,
 correlated_with}}}``.
 """
+
 from __future__ import annotations
 
 import math
@@ -20,9 +21,18 @@ from ...soilmodel.effects import EFFECTS, effect_structure, parse_effects
 from ...soilmodel.errors import DataError
 from ...soilmodel.soil import SoilBounds
 from ...soilmodel.vehicle import Vehicle
-from .joint import (CHANNELS, HULL_ROW, best_slips, derivative_function, effect_layout, joint_data, joint_solver, padded_data,
-                             parse_fixed,
-                             residual_function)
+from .joint import (
+    CHANNELS,
+    HULL_ROW,
+    best_slips,
+    derivative_function,
+    effect_layout,
+    joint_data,
+    joint_solver,
+    padded_data,
+    parse_fixed,
+    residual_function,
+)
 from .nlp import g_inverse, pad, run_starts, fmax_bounds, padded_size, ridge_point
 from .prepare import SLIP_BOUNDS, PreparedLog
 from .lm_start import profiled_start
@@ -50,13 +60,27 @@ def _load_factor_range(labels: list[str], lo: np.ndarray, hi: np.ndarray) -> tup
     return fmin, fmax_
 
 
-def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bounds: SoilBounds, effects: Any,
-              fixed: Any, starts: list[tuple[float, float]], c_hint: float | None, method: str,
-              options: dict, base_extra: dict, base_warnings: list[str]) -> tuple[FitResult, bool]:
+def fit_joint(
+    log: DriveLog,
+    vehicle: Vehicle,
+    prep: PreparedLog,
+    model: str,
+    bounds: SoilBounds,
+    effects: Any,
+    fixed: Any,
+    starts: list[tuple[float, float]],
+    c_hint: float | None,
+    method: str,
+    options: dict,
+    base_extra: dict,
+    base_warnings: list[str],
+) -> tuple[FitResult, bool]:
     """Solve the joint problem and build the result; returns ``(result, success)``."""
     if str(options.get("sprocket_equation", "thrust")) != "thrust":
-        raise DataError("effects and the hull channel need sprocket_equation='thrust' (the seed's printed "
-                        "Eq. 3 mixes the resistance into the sprocket equation)")
+        raise DataError(
+            "effects and the hull channel need sprocket_equation='thrust' (the seed's printed "
+            "Eq. 3 mixes the resistance into the sprocket equation)"
+        )
     fixed_vals = parse_fixed(fixed)
     names = set(_fixed_names(fixed_vals))
     es = parse_effects(effects)
@@ -100,10 +124,20 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     Dp = padded_data(jd.D, N)
     p = np.concatenate([scale, [i_ref], Dp.reshape(-1, order="F"), pad(np.zeros(n), N, 1.0)])
     big = 1e20
-    lbx = np.concatenate([[Fb[0] / F_ref, Kb[0] / K_ref], np.where(np.isfinite(e_lo), e_lo / esc, -big),
-                          np.full(N, SLIP_BOUNDS[0] / i_ref)])
-    ubx = np.concatenate([[Fb[1] / F_ref, Kb[1] / K_ref], np.where(np.isfinite(e_hi), e_hi / esc, big),
-                          np.full(N, SLIP_BOUNDS[1] / i_ref)])
+    lbx = np.concatenate(
+        [
+            [Fb[0] / F_ref, Kb[0] / K_ref],
+            np.where(np.isfinite(e_lo), e_lo / esc, -big),
+            np.full(N, SLIP_BOUNDS[0] / i_ref),
+        ]
+    )
+    ubx = np.concatenate(
+        [
+            [Fb[1] / F_ref, Kb[1] / K_ref],
+            np.where(np.isfinite(e_hi), e_hi / esc, big),
+            np.full(N, SLIP_BOUNDS[1] / i_ref),
+        ]
+    )
 
     lo_s, hi_s = SLIP_BOUNDS[0] + 1e-3, SLIP_BOUNDS[1] - 1e-3
     slip_meas = np.clip(prep.slip_measured, lo_s, hi_s)
@@ -127,6 +161,7 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
                 return np.concatenate([ps.theta / scale, pad(np.clip(ps.slip, lo_s, hi_s) / i_ref, N)])
             slip0 = np.clip(best_slips(vehicle, structure, th0, jd.D, [slip_inv, slip_meas], 6), lo_s, hi_s)
             return np.concatenate([[Fmax0 / F_ref, K0 / K_ref], e0 / esc, pad(slip0 / i_ref, N)])
+
         return make_x0
 
     starts = [(min(max(F0, Fb[0] * 1.001), Fb[1] * 0.999), K0) for F0, K0 in starts]
@@ -141,7 +176,7 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     xs = np.clip(best["x"], lbx, ubx)  # IPOPT may end a hair outside a bound (bound relaxation)
     pd = 2 + len(labels)
     theta = xs[:pd] * scale
-    slip = xs[pd:pd + n] * i_ref
+    slip = xs[pd : pd + n] * i_ref
     Flim, K = float(theta[0]), float(theta[1])
     evals = dict(zip(labels, theta[2:].tolist()))
 
@@ -149,9 +184,9 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     der = derivative_function(vehicle, structure).map(n)
     th_rep = np.repeat(theta.reshape(-1, 1), n, axis=1)
     e, Jt, gi, H = (np.asarray(o, dtype=float) for o in der(th_rep, slip.reshape(1, -1), jd.D))
-    e = e.T                                                   # (n, 3)
-    Jt = Jt.reshape(3, n, pd).transpose(1, 0, 2)              # (n, 3, pd)
-    gi = gi.T                                                 # (n, 3)
+    e = e.T  # (n, 3)
+    Jt = Jt.reshape(3, n, pd).transpose(1, 0, 2)  # (n, 3, pd)
+    gi = gi.T  # (n, 3)
     H = H.reshape(pd + 1, n, pd + 1).transpose(1, 0, 2)
     raw = np.asarray(res_fn.map(n)(th_rep, slip.reshape(1, -1), jd.D)[1], dtype=float).T
 
@@ -160,42 +195,75 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     finite = bool(np.all(np.isfinite(theta)) and np.all(np.isfinite(e)))
     success = bool(best["ok"] and finite)
 
-    wres = -np.sign(e[:, 1] + e[:, 2]) * np.sqrt(np.sum(e ** 2, axis=1))
+    wres = -np.sign(e[:, 1] + e[:, 2]) * np.sqrt(np.sum(e**2, axis=1))
     res = -raw[:, 0]  # predicted minus encoder, rad/s: model - data, as the nominal fit's (and every fit's)
     dof = max(n - int(np.count_nonzero(free)), 1)
     extra = dict(base_extra)
     warnings = list(base_warnings)
-    extra["hull_channel"] = {"used": hull_used, "accel_source": jd.accel_source,
-                             "accel_noise_m_s2": {"abs": jd.accel_noise[0], "rel": jd.accel_noise[1]},
-                             "sigma_hull_median_N": float(np.median(jd.sigma_hull[np.isfinite(jd.sigma_hull)]))
-                             if np.any(np.isfinite(jd.sigma_hull)) else None}
+    extra["hull_channel"] = {
+        "used": hull_used,
+        "accel_source": jd.accel_source,
+        "accel_noise_m_s2": {"abs": jd.accel_noise[0], "rel": jd.accel_noise[1]},
+        "sigma_hull_median_N": float(np.median(jd.sigma_hull[np.isfinite(jd.sigma_hull)]))
+        if np.any(np.isfinite(jd.sigma_hull))
+        else None,
+    }
     if presolved:
-        extra["profiled_start"] = {"steps": [{"iterations": ps.iterations, "converged": ps.converged} for ps in presolved],
-                                   "ipopt_status_from_it": best.get("profiled_status", best["status"])}
+        extra["profiled_start"] = {
+            "steps": [{"iterations": ps.iterations, "converged": ps.converged} for ps in presolved],
+            "ipopt_status_from_it": best.get("profiled_status", best["status"]),
+        }
     extra["channel_rms"] = {ch: float(np.sqrt(np.mean(raw[:, j] ** 2))) for j, ch in enumerate(CHANNELS)}
     Nload = _actual_load(W, evals)
     extra["normal_load_N"] = Nload
-    extra["joint_parameters"] = {"max_thrust_N": Flim, "shear_modulus_m": K, "effects": evals,
-                                 "structure": structure.to_dict(), "torque_hold": torque_hold}
+    extra["joint_parameters"] = {
+        "max_thrust_N": Flim,
+        "shear_modulus_m": K,
+        "effects": evals,
+        "structure": structure.to_dict(),
+        "torque_hold": torque_hold,
+    }
     units = [EFFECTS[lab.partition(".")[0]].param(lab.partition(".")[2]).unit for lab in labels]
-    common = dict(data_kind="drive", model=model, method=method, residual_unit="rad/s", n_samples=n,
-                  vehicle=vehicle, bounds=bounds, status=best["status"], iterations=best["iterations"],
-                  solve_time=best["time"], sigma_known=prep.sigma_known, effect_labels=tuple(labels),
-                  effect_values=theta[2:], effect_bounds=tuple(zip(elo.tolist(), ehi.tolist())),
-                  effect_units=tuple(units), effect_structure=structure,
-                  fixed_labels=tuple(lab for lab in labels if lab in fixed_vals),
-                  residual_model=DriveLogResiduals(hull_in_fit=hull_used))
+    common = dict(
+        data_kind="drive",
+        model=model,
+        method=method,
+        residual_unit="rad/s",
+        n_samples=n,
+        vehicle=vehicle,
+        bounds=bounds,
+        status=best["status"],
+        iterations=best["iterations"],
+        solve_time=best["time"],
+        sigma_known=prep.sigma_known,
+        effect_labels=tuple(labels),
+        effect_values=theta[2:],
+        effect_bounds=tuple(zip(elo.tolist(), ehi.tolist())),
+        effect_units=tuple(units),
+        effect_structure=structure,
+        fixed_labels=tuple(lab for lab in labels if lab in fixed_vals),
+        residual_model=DriveLogResiduals(hull_in_fit=hull_used),
+    )
     pd_all = 3 + len(labels)
     if not success:
         extra["covariance"] = "none"
-        msg = (f"drive-log fit with effects failed: IPOPT returned {best['status']}"
-               + ("" if finite else " with non-finite values"))
-        return build_result(theta=np.full(3, np.nan), jacobian=np.zeros((n, pd_all)),
-                            weighted_residuals=np.where(np.isfinite(wres), wres, 0.0),
-                            residuals=np.where(np.isfinite(res), res, 0.0), normal_loads=np.full(n, W),
-                            success=False, message=msg, warnings=tuple(warnings), extra=extra, **common), False
+        msg = f"drive-log fit with effects failed: IPOPT returned {best['status']}" + (
+            "" if finite else " with non-finite values"
+        )
+        return build_result(
+            theta=np.full(3, np.nan),
+            jacobian=np.zeros((n, pd_all)),
+            weighted_residuals=np.where(np.isfinite(wres), wres, 0.0),
+            residuals=np.where(np.isfinite(res), res, 0.0),
+            normal_loads=np.full(n, W),
+            success=False,
+            message=msg,
+            warnings=tuple(warnings),
+            extra=extra,
+            **common,
+        ), False
 
-    s2 = 1.0 if prep.sigma_known else float(np.sum(wres ** 2)) / dof
+    s2 = 1.0 if prep.sigma_known else float(np.sum(wres**2)) / dof
     Jr, cov2, kind = _result_jacobian(Jt, gi, free, ident, cov_full, s2)
     extra["covariance"] = kind
     c, phi = ridge_point(Flim, vehicle, bounds, model, c_hint, normal_load=Nload)
@@ -205,30 +273,53 @@ def fit_joint(log: DriveLog, vehicle: Vehicle, prep: PreparedLog, model: str, bo
     warnings.extend(_confounding_warnings(labels, is_fixed, free, ident, cov_full, A))
 
     # soil combinations and the regime (marginal over the effects)
-    Fb_hit = [nm for nm, val, (lo, hi) in (("F_max", Flim, Fb), ("K", K, Kb))
-              if val <= lo + 1e-6 * (hi - lo) or val >= hi - 1e-6 * (hi - lo)]
+    Fb_hit = [
+        nm
+        for nm, val, (lo, hi) in (("F_max", Flim, Fb), ("K", K, Kb))
+        if val <= lo + 1e-6 * (hi - lo) or val >= hi - 1e-6 * (hi - lo)
+    ]
     sT = prep.sigma_thrust
     thrust_peak = float(max(np.max(prep.thrust - 2.0 * sT), 0.0))
     utilisation = thrust_peak / Flim
     n_high = int(np.count_nonzero(prep.thrust - 2.0 * sT > 0.7 * Flim))
-    extra.update({"max_thrust_N": Flim, "shear_modulus_m": K, "initial_slope_N": Flim * l / (2 * K),
-                  "thrust_peak_N": thrust_peak, "thrust_utilisation": utilisation, "samples_above_70pct": n_high,
-                  "slip_max": float(np.max(slip)), "reduced_chi2": float(np.sum(wres ** 2)) / dof})
-    regime, regime_extra, regime_warnings = classify_regime(Flim, K, l, cov2, Fb_hit, thrust_peak,
-                                                            utilisation, n_high)
+    extra.update(
+        {
+            "max_thrust_N": Flim,
+            "shear_modulus_m": K,
+            "initial_slope_N": Flim * l / (2 * K),
+            "thrust_peak_N": thrust_peak,
+            "thrust_utilisation": utilisation,
+            "samples_above_70pct": n_high,
+            "slip_max": float(np.max(slip)),
+            "reduced_chi2": float(np.sum(wres**2)) / dof,
+        }
+    )
+    regime, regime_extra, regime_warnings = classify_regime(Flim, K, l, cov2, Fb_hit, thrust_peak, utilisation, n_high)
     extra.update(regime_extra)
     warnings.extend(regime_warnings)
     eff_txt = ", ".join(f"{lab} = {evals[lab]:.4g}" for lab in labels) or "none"
-    msg = (f"drive-log fit with effects converged: F_max = {Flim:.5g} N (at the log's normal load "
-           f"{Nload:.5g} N), K = {1000 * K:.4g} mm, {eff_txt}; {regime} log, {n} samples, hull channel from "
-           f"{jd.accel_source}")
-    return build_result(theta=np.array([c, phi, K]), jacobian=jac, weighted_residuals=wres, residuals=res,
-                        normal_loads=np.full(n, W), success=True, message=msg, warnings=tuple(warnings),
-                        extra=extra, **common), True
+    msg = (
+        f"drive-log fit with effects converged: F_max = {Flim:.5g} N (at the log's normal load "
+        f"{Nload:.5g} N), K = {1000 * K:.4g} mm, {eff_txt}; {regime} log, {n} samples, hull channel from "
+        f"{jd.accel_source}"
+    )
+    return build_result(
+        theta=np.array([c, phi, K]),
+        jacobian=jac,
+        weighted_residuals=wres,
+        residuals=res,
+        normal_loads=np.full(n, W),
+        success=True,
+        message=msg,
+        warnings=tuple(warnings),
+        extra=extra,
+        **common,
+    ), True
 
 
-def _result_jacobian(Jt: np.ndarray, gi: np.ndarray, free: np.ndarray, ident: np.ndarray,
-                     cov_full: np.ndarray | None, s2: float) -> tuple[np.ndarray, np.ndarray | None, str]:
+def _result_jacobian(
+    Jt: np.ndarray, gi: np.ndarray, free: np.ndarray, ident: np.ndarray, cov_full: np.ndarray | None, s2: float
+) -> tuple[np.ndarray, np.ndarray | None, str]:
     """Jacobian in ``(F_lim, K, effects)`` for the shared result object, the (F_lim, K) covariance, its kind.
 
     A Gram-preserving stand-in ``Q S`` with ``S^T S`` the profiled Gauss-Newton information
@@ -237,7 +328,7 @@ def _result_jacobian(Jt: np.ndarray, gi: np.ndarray, free: np.ndarray, ident: np
     ``"gauss-newton"`` when the sandwich does not exist for every free parameter).
     """
     Jp = Jt.copy()
-    gn = np.sum(gi ** 2, axis=1)
+    gn = np.sum(gi**2, axis=1)
     okg = gn > 1e-300
     Jp[okg] -= gi[okg, :, None] * (np.einsum("kc,kcp->kp", gi[okg], Jt[okg]) / gn[okg, None])[:, None, :]
     info = np.einsum("kcp,kcq->pq", Jp, Jp)
@@ -264,8 +355,14 @@ def _result_jacobian(Jt: np.ndarray, gi: np.ndarray, free: np.ndarray, ident: np
         return Jr, None, kind
 
 
-def _confounding_warnings(labels: list[str], is_fixed: np.ndarray, free: np.ndarray, ident: np.ndarray,
-                          cov_full: np.ndarray | None, A: np.ndarray) -> list[str]:
+def _confounding_warnings(
+    labels: list[str],
+    is_fixed: np.ndarray,
+    free: np.ndarray,
+    ident: np.ndarray,
+    cov_full: np.ndarray | None,
+    A: np.ndarray,
+) -> list[str]:
     """Effect parameters confounded with the soil or another effect, in words, with the experiment.
 
     Correlations from the sandwich covariance, or, where a parameter is not estimable, the
@@ -294,8 +391,11 @@ def _confounding_warnings(labels: list[str], is_fixed: np.ndarray, free: np.ndar
         # (the result object states weak identifiability itself; this adds what separates them)
         txt = ", ".join(f"{o} ({kinds[o]} {r:+.3f})" for o, r in corr.items())
         hard = not ident[jj] or any(abs(r) >= WEAK_CORRELATION for r in corr.values())
-        what = (f"{'cannot' if hard else 'can hardly'} be told apart from {txt}" if txt
-                else "is not determined (the log carries no information on it)")
+        what = (
+            f"{'cannot' if hard else 'can hardly'} be told apart from {txt}"
+            if txt
+            else "is not determined (the log carries no information on it)"
+        )
         warnings.append(f"effect {lab} {what} on this log. {_separating_experiment(lab.partition('.')[0], corr)}")
     return warnings
 
@@ -313,11 +413,11 @@ def _actual_load(W: float, evals: dict[str, float]) -> float:
 
 _SEPARATE = {
     frozenset({"grade", "mass_error"}): "A run at another payload, or with more acceleration and braking, separates "
-                                        "mass_error (scales with dv/dt) from grade (constant).",
+    "mass_error (scales with dv/dt) from grade (constant).",
     frozenset({"grade", "drivetrain_friction"}): "Runs at different speeds and torque levels separate a constant "
-                                                 "resistance from a torque loss in the drivetrain.",
+    "resistance from a torque loss in the drivetrain.",
     frozenset({"speed_resistance", "drivetrain_friction"}): "A run with the torque sensor checked on a rig, or at "
-                                                           "constant speed with different payloads, separates them.",
+    "constant speed with different payloads, separates them.",
 }
 
 
@@ -328,13 +428,15 @@ def _separating_experiment(name: str, correlated: dict[str, float]) -> str:
         if key in _SEPARATE:
             return _SEPARATE[key]
     if any(o in ("F_max", "K") for o in correlated):
-        return ("A tractive force-slip sweep (or a log with a wider range of slip and thrust) separates it from "
-                "the soil.")
+        return (
+            "A tractive force-slip sweep (or a log with a wider range of slip and thrust) separates it from the soil."
+        )
     return "A log with more varied speed, acceleration and thrust would help."
 
 
-def _sandwich(e: np.ndarray, Jt: np.ndarray, H: np.ndarray, slip: np.ndarray,
-              free: np.ndarray) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
+def _sandwich(
+    e: np.ndarray, Jt: np.ndarray, H: np.ndarray, slip: np.ndarray, free: np.ndarray
+) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
     """Sandwich covariance of the free parameters with the latent slips profiled out.
 
     ``A = sum_k (H_tt - H_ti H_it / H_ii)`` (exact per-sample Hessian), ``B = sum_k psi_k psi_k^T``

@@ -16,6 +16,7 @@ Levenberg-Marquardt steps on ``phi`` bring the start there; IPOPT then polishes 
 KKT test, its bounds). Nothing here is reported as a result: a start that did not converge is
 still a start.
 """
+
 from __future__ import annotations
 
 import math
@@ -77,8 +78,9 @@ def _sums_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
     gn = ca.sumsqr(gi)
     proj = ca.logic_and(conv, gn > 1e-300)
     Jp = Jt - ca.if_else(proj, ca.mtimes(gi, ca.mtimes(gi.T, Jt)) / ca.if_else(proj, gn, 1.0), ca.SX.zeros(Jt.shape))
-    return ca.Function("drivelog_profiled_sums", [theta, slip, d],
-                       [0.5 * ca.sumsqr(e), ca.mtimes(Jt.T, e), red, ca.mtimes(Jp.T, Jp)])
+    return ca.Function(
+        "drivelog_profiled_sums", [theta, slip, d], [0.5 * ca.sumsqr(e), ca.mtimes(Jt.T, e), red, ca.mtimes(Jp.T, Jp)]
+    )
 
 
 @locked_cache(maxsize=64)
@@ -99,9 +101,18 @@ class _Sums:
         return float(c), np.asarray(g, dtype=float).ravel(), np.asarray(Hr, dtype=float), np.asarray(Hgn, dtype=float)
 
 
-def profiled_start(vehicle: Vehicle, structure: EffectSet, D: np.ndarray, theta0: np.ndarray,
-                   lower: np.ndarray, upper: np.ndarray, scale: np.ndarray, slip_starts: list[np.ndarray],
-                   max_iter: int = 30, tol: float = 1e-7) -> ProfiledStart:
+def profiled_start(
+    vehicle: Vehicle,
+    structure: EffectSet,
+    D: np.ndarray,
+    theta0: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    scale: np.ndarray,
+    slip_starts: list[np.ndarray],
+    max_iter: int = 30,
+    tol: float = 1e-7,
+) -> ProfiledStart:
     """Projected Levenberg-Marquardt on the profiled cost from ``theta0`` inside ``[lower, upper]``.
 
     Parameters
@@ -171,8 +182,9 @@ def profiled_start(vehicle: Vehicle, structure: EffectSet, D: np.ndarray, theta0
                     it += 1
                     cost, g, Hr, Hgn = sums(x * sc, slip)
                     if not (np.all(np.isfinite(g)) and np.all(np.isfinite(Hr)) and np.all(np.isfinite(Hgn))):
-                        return ProfiledStart(theta=x * sc, slip=np.clip(slip, lo, hi), cost=cost, iterations=it,
-                                             converged=False)
+                        return ProfiledStart(
+                            theta=x * sc, slip=np.clip(slip, lo, hi), cost=cost, iterations=it, converged=False
+                        )
                     if rel <= tol:
                         converged = True
                     break

@@ -4,6 +4,7 @@ Each solver is built once per formulation and padded log length (data as paramet
 with :func:`~soiltrack.soilmodel.threadsafe.locked_cache` and called through
 :func:`~soiltrack.soilmodel.threadsafe.call_solver`.
 """
+
 from __future__ import annotations
 
 import math
@@ -20,8 +21,7 @@ from ...soilmodel.traction import shear_bracket, shear_bracket_inverse
 from ...soilmodel.vehicle import Vehicle
 from .prepare import SLIP_BOUNDS, PreparedLog
 
-__all__ = ["padded_size", "fmax_bounds", "ridge_point", "solve_output_error", "solve_equation_error",
-           "eval_pointwise"]
+__all__ = ["padded_size", "fmax_bounds", "ridge_point", "solve_output_error", "solve_equation_error", "eval_pointwise"]
 
 
 def bracket_signed(slip, lk):
@@ -29,8 +29,12 @@ def bracket_signed(slip, lk):
     return ca.sign(slip) * shear_bracket(ca.fabs(slip) * lk)
 
 
-_QUIET: dict[str, bool | int | float | str] = {"expand": True, "print_time": False, "ipopt.sb": "yes",
-                                               "ipopt.print_level": 0}
+_QUIET: dict[str, bool | int | float | str] = {
+    "expand": True,
+    "print_time": False,
+    "ipopt.sb": "yes",
+    "ipopt.print_level": 0,
+}
 
 
 def padded_size(n: int) -> int:
@@ -60,7 +64,7 @@ def _output_error_solver(n: int, max_iter: int, tol: float, print_level: int) ->
     x = ca.SX.sym("x", 2 + n)
     p = ca.SX.sym("p", 5 + 7 * n)
     F_ref, K_ref, i_ref, r, l = (p[j] for j in range(5))
-    v, w, T, iss, isT, rho, pad = (p[5 + j * n:5 + (j + 1) * n] for j in range(7))
+    v, w, T, iss, isT, rho, pad = (p[5 + j * n : 5 + (j + 1) * n] for j in range(7))
     Fmax, K = x[0] * F_ref, x[1] * K_ref
     z = x[2:]
     slip = z * i_ref
@@ -78,7 +82,7 @@ def _equation_error_solver(n: int, max_iter: int, tol: float, print_level: int) 
     x = ca.SX.sym("x", 2)
     p = ca.SX.sym("p", 3 + 3 * n)
     F_ref, K_ref, l = p[0], p[1], p[2]
-    slip, T, isT = (p[3 + j * n:3 + (j + 1) * n] for j in range(3))
+    slip, T, isT = (p[3 + j * n : 3 + (j + 1) * n] for j in range(3))
     e_T = (T - x[0] * F_ref * bracket_signed(slip, l / (x[1] * K_ref))) * isT
     f = 0.5 * ca.sumsqr(e_T)
     opts = dict(_QUIET, **{"ipopt.max_iter": max_iter, "ipopt.tol": tol, "ipopt.print_level": print_level})
@@ -90,9 +94,13 @@ def _pointwise() -> ca.Function:
     """``(slip, F_max, K, l) -> (F, dF/dslip, dF/dF_max, dF/dK)`` by AD (vectorises over rows)."""
     s, Fm, K, l = (ca.SX.sym(k) for k in ("slip", "Fmax", "K", "l"))
     F = Fm * bracket_signed(s, l / K)
-    return ca.Function("drivelog_pointwise", [s, Fm, K, l],
-                       [F, ca.jacobian(F, s), ca.jacobian(F, Fm), ca.jacobian(F, K)],
-                       ["slip", "Fmax", "K", "l"], ["F", "dF_ds", "dF_dFmax", "dF_dK"])
+    return ca.Function(
+        "drivelog_pointwise",
+        [s, Fm, K, l],
+        [F, ca.jacobian(F, s), ca.jacobian(F, Fm), ca.jacobian(F, K)],
+        ["slip", "Fmax", "K", "l"],
+        ["F", "dF_ds", "dF_dFmax", "dF_dK"],
+    )
 
 
 def eval_pointwise(slip: np.ndarray, Fmax: float, K: float, l: float) -> tuple[np.ndarray, ...]:
@@ -100,11 +108,9 @@ def eval_pointwise(slip: np.ndarray, Fmax: float, K: float, l: float) -> tuple[n
     return tuple(np.asarray(o, dtype=float).reshape(-1) for o in out)
 
 
-
 def g_inverse(y: np.ndarray) -> np.ndarray:
     """x >= 0 with ``1 - (1 - exp(-x))/x = y`` for y in [0, 1): the soilmodel's inverse of the one bracket."""
     return shear_bracket_inverse(y)
-
 
 
 def fmax_bounds(bounds: SoilBounds, vehicle: Vehicle, model: str) -> tuple[float, float]:
@@ -118,8 +124,14 @@ def fmax_bounds(bounds: SoilBounds, vehicle: Vehicle, model: str) -> tuple[float
     return lo, hi
 
 
-def ridge_point(Fmax: float, vehicle: Vehicle, bounds: SoilBounds, model: str,
-                c_hint: float | None, normal_load: float | None = None) -> np.ndarray:
+def ridge_point(
+    Fmax: float,
+    vehicle: Vehicle,
+    bounds: SoilBounds,
+    model: str,
+    c_hint: float | None,
+    normal_load: float | None = None,
+) -> np.ndarray:
     """A ``(c, phi)`` on the ridge ``A c + W tan(phi) = F_max`` inside the bounds.
 
     The point is NOT an estimate of c and phi (only their combination is identifiable; the
@@ -158,9 +170,14 @@ def run_starts(solver: ca.Function, make_x0, p, lbx, ubx, starts, Fb, Kb, F_ref,
         xs = np.asarray(sol["x"], dtype=float).reshape(-1)
         fval = float(sol["f"])
         ok = bool(st.get("success", False)) and bool(np.all(np.isfinite(xs))) and math.isfinite(fval)
-        cand: dict[str, Any] = {"x": xs, "f": fval, "ok": ok,
-                                "status": str(st.get("return_status", "unknown")),
-                                "iterations": int(st.get("iter_count", -1)), "starts_tried": j + 1}
+        cand: dict[str, Any] = {
+            "x": xs,
+            "f": fval,
+            "ok": ok,
+            "status": str(st.get("return_status", "unknown")),
+            "iterations": int(st.get("iter_count", -1)),
+            "starts_tried": j + 1,
+        }
         if best is None or (cand["ok"], -cand["f"]) > (best["ok"], -best["f"]):
             best = cand
         best["starts_tried"] = j + 1
@@ -174,16 +191,35 @@ def run_starts(solver: ca.Function, make_x0, p, lbx, ubx, starts, Fb, Kb, F_ref,
     return best
 
 
-def solve_output_error(prep: PreparedLog, vehicle: Vehicle, F_ref: float, K_ref: float, Fb, Kb,
-                        starts, max_iter: int, tol: float, print_level: int):
+def solve_output_error(
+    prep: PreparedLog,
+    vehicle: Vehicle,
+    F_ref: float,
+    K_ref: float,
+    Fb,
+    Kb,
+    starts,
+    max_iter: int,
+    tol: float,
+    print_level: int,
+):
     n = prep.n_used
     N = padded_size(n)
     l, r = vehicle.track_length, vehicle.sprocket_radius
     i_ref = K_ref / l
     solver = _output_error_solver(N, max_iter, tol, print_level)
-    p = np.concatenate([[F_ref, K_ref, i_ref, r, l], pad(prep.vehicle_speed, N), pad(prep.sprocket_speed, N),
-                        pad(prep.thrust, N), pad(1.0 / prep.sigma_speed, N), pad(1.0 / prep.sigma_thrust_cond, N),
-                        pad(prep.coupling, N), pad(np.zeros(n), N, 1.0)])
+    p = np.concatenate(
+        [
+            [F_ref, K_ref, i_ref, r, l],
+            pad(prep.vehicle_speed, N),
+            pad(prep.sprocket_speed, N),
+            pad(prep.thrust, N),
+            pad(1.0 / prep.sigma_speed, N),
+            pad(1.0 / prep.sigma_thrust_cond, N),
+            pad(prep.coupling, N),
+            pad(np.zeros(n), N, 1.0),
+        ]
+    )
     lbx = np.concatenate([[Fb[0] / F_ref, Kb[0] / K_ref], np.full(N, SLIP_BOUNDS[0] / i_ref)])
     ubx = np.concatenate([[Fb[1] / F_ref, Kb[1] / K_ref], np.full(N, SLIP_BOUNDS[1] / i_ref)])
 
@@ -195,11 +231,21 @@ def solve_output_error(prep: PreparedLog, vehicle: Vehicle, F_ref: float, K_ref:
 
     best = run_starts(solver, make_x0, p, lbx, ubx, starts, Fb, Kb, F_ref, K_ref)
     xs = best["x"]
-    return best, xs[0] * F_ref, xs[1] * K_ref, xs[2:2 + n] * i_ref
+    return best, xs[0] * F_ref, xs[1] * K_ref, xs[2 : 2 + n] * i_ref
 
 
-def solve_equation_error(prep: PreparedLog, vehicle: Vehicle, F_ref: float, K_ref: float, Fb, Kb,
-                          starts, max_iter: int, tol: float, print_level: int):
+def solve_equation_error(
+    prep: PreparedLog,
+    vehicle: Vehicle,
+    F_ref: float,
+    K_ref: float,
+    Fb,
+    Kb,
+    starts,
+    max_iter: int,
+    tol: float,
+    print_level: int,
+):
     n = prep.n_used
     N = padded_size(n)
     l = vehicle.track_length
@@ -208,8 +254,7 @@ def solve_equation_error(prep: PreparedLog, vehicle: Vehicle, F_ref: float, K_re
     p = np.concatenate([[F_ref, K_ref, l], pad(slip, N), pad(prep.thrust, N), pad(1.0 / prep.sigma_thrust, N)])
     lbx = [Fb[0] / F_ref, Kb[0] / K_ref]
     ubx = [Fb[1] / F_ref, Kb[1] / K_ref]
-    best = run_starts(solver, lambda F0, K0: np.array([F0 / F_ref, K0 / K_ref]), p, lbx, ubx, starts, Fb, Kb,
-                       F_ref, K_ref)
+    best = run_starts(
+        solver, lambda F0, K0: np.array([F0 / F_ref, K0 / K_ref]), p, lbx, ubx, starts, Fb, Kb, F_ref, K_ref
+    )
     return best, best["x"][0] * F_ref, best["x"][1] * K_ref, slip
-
-

@@ -3,6 +3,7 @@
 Each channel has the noise model ``sigma = sqrt(a^2 + (b x)^2)`` (absolute plus relative part),
 given by the caller or estimated here (:func:`estimate_noise_profile`).
 """
+
 from __future__ import annotations
 
 import math
@@ -88,4 +89,3 @@ def noise_model(x: np.ndarray, given: float | None) -> tuple[float, float]:
     a, b = estimate_noise_profile(x)
     floor = 1e-4 * float(np.max(np.abs(x))) + 1e-12  # a 0.01 % resolution floor keeps noise-free data sane
     return max(a, floor), b
-

@@ -1,4 +1,5 @@
 """Drive-log preparation: checks, noise levels, discrete sprocket-equation thrust, sample selection."""
+
 from __future__ import annotations
 
 import math
@@ -37,10 +38,10 @@ class PreparedLog:
     sprocket_speed: np.ndarray
     thrust: np.ndarray
     slip_measured: np.ndarray
-    sigma_speed: np.ndarray          # sigma_s: of v - r w (1 - i), m/s
-    sigma_thrust: np.ndarray         # sigma_T, N
-    coupling: np.ndarray             # rho = cov(speed, thrust residual noise) / sigma_s^2, N s/m
-    sigma_thrust_cond: np.ndarray    # sigma_T given the speed residual, sqrt(sigma_T^2 - rho^2 sigma_s^2), N
+    sigma_speed: np.ndarray  # sigma_s: of v - r w (1 - i), m/s
+    sigma_thrust: np.ndarray  # sigma_T, N
+    coupling: np.ndarray  # rho = cov(speed, thrust residual noise) / sigma_s^2, N s/m
+    sigma_thrust_cond: np.ndarray  # sigma_T given the speed residual, sqrt(sigma_T^2 - rho^2 sigma_s^2), N
     noise: dict
     sigma_known: bool
     dropped: dict
@@ -51,12 +52,19 @@ class PreparedLog:
         return int(self.thrust.size)
 
 
-
-def prepare_drive_log(log: DriveLog, vehicle: Vehicle, *, sigma_torque: float | None = None,
-                      sigma_sprocket_speed: float | None = None, sigma_vehicle_speed: float | None = None,
-                      torque_hold: str = "zoh", min_speed: float = 0.0,
-                      sprocket_equation: str = "thrust", fixed_keep: np.ndarray | None = None,
-                      noise_models: dict | None = None) -> PreparedLog:
+def prepare_drive_log(
+    log: DriveLog,
+    vehicle: Vehicle,
+    *,
+    sigma_torque: float | None = None,
+    sigma_sprocket_speed: float | None = None,
+    sigma_vehicle_speed: float | None = None,
+    torque_hold: str = "zoh",
+    min_speed: float = 0.0,
+    sprocket_equation: str = "thrust",
+    fixed_keep: np.ndarray | None = None,
+    noise_models: dict | None = None,
+) -> PreparedLog:
     """Check a drive log, estimate its noise, compute the sprocket thrust and select samples.
 
     The sprocket equation ``I dw/dt = M_s - r F(i)`` is used in discrete form, without any
@@ -89,27 +97,43 @@ def prepare_drive_log(log: DriveLog, vehicle: Vehicle, *, sigma_torque: float | 
         raise DataError(f"unknown torque_hold {torque_hold!r}; expected 'zoh' or 'sample'")
     n = log.n_samples
     if n < MIN_USABLE_SAMPLES:
-        raise DataError(f"a drive log needs at least {MIN_USABLE_SAMPLES} samples to identify F_max and K, "
-                        f"got {n}", file=log.source, column="time_s")
+        raise DataError(
+            f"a drive log needs at least {MIN_USABLE_SAMPLES} samples to identify F_max and K, got {n}",
+            file=log.source,
+            column="time_s",
+        )
     t = log.time
     v = log.vehicle_speed
     w = log.sprocket_speed
     M = log.sprocket_torque
     r, I, W = vehicle.sprocket_radius, vehicle.sprocket_inertia, vehicle.weight
     if not np.any(v > 0):
-        raise DataError("no sample with a positive vehicle speed: a standing (or reversing) vehicle shows "
-                        "nothing of the soil", file=log.source, column="vehicle_speed_m_s")
+        raise DataError(
+            "no sample with a positive vehicle speed: a standing (or reversing) vehicle shows nothing of the soil",
+            file=log.source,
+            column="vehicle_speed_m_s",
+        )
     if not np.any(w > 0):
-        raise DataError("no sample with a positive sprocket speed: the tracks never turned forwards",
-                        file=log.source, column="sprocket_speed_rad_s")
-    for name, val in (("sigma_torque", sigma_torque), ("sigma_sprocket_speed", sigma_sprocket_speed),
-                      ("sigma_vehicle_speed", sigma_vehicle_speed), ("min_speed", min_speed)):
+        raise DataError(
+            "no sample with a positive sprocket speed: the tracks never turned forwards",
+            file=log.source,
+            column="sprocket_speed_rad_s",
+        )
+    for name, val in (
+        ("sigma_torque", sigma_torque),
+        ("sigma_sprocket_speed", sigma_sprocket_speed),
+        ("sigma_vehicle_speed", sigma_vehicle_speed),
+        ("min_speed", min_speed),
+    ):
         if val is not None and not (isinstance(val, (int, float)) and math.isfinite(val) and val >= 0):
             raise DataError(f"{name} must be a finite number >= 0, got {val!r}")
     sigma_known = None not in (sigma_torque, sigma_sprocket_speed, sigma_vehicle_speed)
     # Noise models sigma = sqrt(a^2 + (b x)^2): given (constant), or estimated from the log.
-    nm = {"torque": noise_model(M, sigma_torque), "sprocket_speed": noise_model(w, sigma_sprocket_speed),
-          "vehicle_speed": noise_model(v, sigma_vehicle_speed)}
+    nm = {
+        "torque": noise_model(M, sigma_torque),
+        "sprocket_speed": noise_model(w, sigma_sprocket_speed),
+        "vehicle_speed": noise_model(v, sigma_vehicle_speed),
+    }
     if noise_models is not None:
         nm.update({k: (float(a), float(b)) for k, (a, b) in noise_models.items()})
     s_M = np.hypot(nm["torque"][0], nm["torque"][1] * M)
@@ -141,7 +165,7 @@ def prepare_drive_log(log: DriveLog, vehicle: Vehicle, *, sigma_torque: float | 
     big = np.where(d > 4.0 * 1.25 * sd, d, 0.0)
     jump[1:] = np.maximum(jump[1:], big)
     jump[:-1] = np.maximum(jump[:-1], big)
-    sigma_T = np.sqrt(sigma_T ** 2 + (0.5 * jump) ** 2)
+    sigma_T = np.sqrt(sigma_T**2 + (0.5 * jump) ** 2)
     n_jump = int(np.count_nonzero(jump > 0))
 
     floor = np.maximum(max(float(min_speed), 1e-3), 3.0 * np.maximum(s_v, r * s_w))
@@ -160,9 +184,13 @@ def prepare_drive_log(log: DriveLog, vehicle: Vehicle, *, sigma_torque: float | 
         slow, braking, edge = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool), ~keep
     n_keep = int(np.count_nonzero(keep))
     if n_keep < MIN_USABLE_SAMPLES:
-        raise DataError(f"only {n_keep} samples have vehicle and track speeds above 3 noise levels "
-                        f"(about {float(np.median(floor)):.3g} m/s) while driving; at least {MIN_USABLE_SAMPLES} "
-                        f"are needed", file=log.source, column="vehicle_speed_m_s")
+        raise DataError(
+            f"only {n_keep} samples have vehicle and track speeds above 3 noise levels "
+            f"(about {float(np.median(floor)):.3g} m/s) while driving; at least {MIN_USABLE_SAMPLES} "
+            f"are needed",
+            file=log.source,
+            column="vehicle_speed_m_s",
+        )
     vk, wk = v[keep], w[keep]
     slip_m = 1.0 - vk / (r * wk)
     one_minus_i = np.clip(1.0 - slip_m, 1.0 - SLIP_BOUNDS[1], 1.0 - SLIP_BOUNDS[0])
@@ -171,16 +199,29 @@ def prepare_drive_log(log: DriveLog, vehicle: Vehicle, *, sigma_torque: float | 
     if torque_hold == "zoh":  # w_k enters both residuals: -r (1 - i) dw_k and -I dw_k / (h r)
         hk = np.diff(t)[np.nonzero(keep)[0] - 1]
         cov = I * one_minus_i * s_w[keep] ** 2 / hk
-    else:                     # the central difference does not contain w_k
+    else:  # the central difference does not contain w_k
         cov = np.zeros_like(sT)
-    rho = cov / sigma_s ** 2
-    sT_cond = np.sqrt(np.maximum(sT ** 2 - rho * cov, 0.0) + 1e-300)
-    return PreparedLog(keep=keep, vehicle_speed=vk, sprocket_speed=wk, thrust=thrust[keep], slip_measured=slip_m,
-                       sigma_speed=sigma_s, sigma_thrust=sT, coupling=rho, sigma_thrust_cond=sT_cond, noise=nm,
-                       sigma_known=sigma_known,
-                       dropped={"slow": int(np.count_nonzero(slow)), "braking": int(np.count_nonzero(braking)),
-                                "edge": int(np.count_nonzero(edge)), "speed_floor_m_s": float(np.median(floor)),
-                                "thrust_jumps": n_jump, "turning": log.n_turning,
-                                "turning_left_out": int(np.count_nonzero(turning))})
-
-
+    rho = cov / sigma_s**2
+    sT_cond = np.sqrt(np.maximum(sT**2 - rho * cov, 0.0) + 1e-300)
+    return PreparedLog(
+        keep=keep,
+        vehicle_speed=vk,
+        sprocket_speed=wk,
+        thrust=thrust[keep],
+        slip_measured=slip_m,
+        sigma_speed=sigma_s,
+        sigma_thrust=sT,
+        coupling=rho,
+        sigma_thrust_cond=sT_cond,
+        noise=nm,
+        sigma_known=sigma_known,
+        dropped={
+            "slow": int(np.count_nonzero(slow)),
+            "braking": int(np.count_nonzero(braking)),
+            "edge": int(np.count_nonzero(edge)),
+            "speed_floor_m_s": float(np.median(floor)),
+            "thrust_jumps": n_jump,
+            "turning": log.n_turning,
+            "turning_left_out": int(np.count_nonzero(turning)),
+        },
+    )

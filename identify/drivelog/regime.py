@@ -6,6 +6,7 @@ the F_max and K estimates >= 0.99, or F_max standard error >= 25 %, or F_max on 
 ``"hard"`` (F_max within 5 % and K within 25 % standard error) or ``"intermediate"``, and
 writes the warning that says which experiment would help.
 """
+
 from __future__ import annotations
 
 import math
@@ -27,8 +28,16 @@ HARD_REL_STDERR = 0.05
 K_REL_STDERR = 0.25
 
 
-def classify_regime(Fmax: float, K: float, l: float, cov2: np.ndarray | None, at_bound: list[str],
-                    thrust_peak: float, utilisation: float, n_high: int) -> tuple[str, dict[str, Any], list[str]]:
+def classify_regime(
+    Fmax: float,
+    K: float,
+    l: float,
+    cov2: np.ndarray | None,
+    at_bound: list[str],
+    thrust_peak: float,
+    utilisation: float,
+    n_high: int,
+) -> tuple[str, dict[str, Any], list[str]]:
     """Driving regime of a fitted log, the statistics behind it and its warnings.
 
     Parameters
@@ -60,8 +69,14 @@ def classify_regime(Fmax: float, K: float, l: float, cov2: np.ndarray | None, at
         gslope = np.array([l / (2 * K), -Fmax * l / (2 * K * K)])
         s_slope = float(math.sqrt(max(gslope @ cov2 @ gslope, 0.0)))
         relF, relK = sF / Fmax, sK / K
-        extra.update({"max_thrust_stderr_N": sF, "shear_modulus_stderr_m": sK, "corr_max_thrust_shear_modulus": corr,
-                      "initial_slope_stderr_N": s_slope})
+        extra.update(
+            {
+                "max_thrust_stderr_N": sF,
+                "shear_modulus_stderr_m": sK,
+                "corr_max_thrust_shear_modulus": corr,
+                "initial_slope_stderr_N": s_slope,
+            }
+        )
     if not cov_ok or abs(corr) >= GENTLE_CORRELATION or relF >= GENTLE_REL_STDERR or "F_max" in at_bound:
         regime = "gentle"
     elif relF <= HARD_REL_STDERR and relK <= K_REL_STDERR and "K" not in at_bound:
@@ -80,7 +95,8 @@ def classify_regime(Fmax: float, K: float, l: float, cov2: np.ndarray | None, at
             f"below the soil's thrust limit, so the log only shows the initial slope {slope_txt}; F_max and K "
             f"are not separable (correlation of their estimates {corr:.3f}, standard error of F_max {pct(relF)}). "
             f"To identify them, drive a hard pull near the traction limit (e.g. a hard acceleration from low "
-            f"speed, a drawbar pull or a climb)")
+            f"speed, a drawbar pull or a climb)"
+        )
     elif regime == "intermediate" and relF <= HARD_REL_STDERR:
         i_lo, i_hi = K / l, 10 * K / l
         warnings.append(
@@ -88,19 +104,25 @@ def classify_regime(Fmax: float, K: float, l: float, cov2: np.ndarray | None, at
             f"poorly determined (standard error {pct(relK)}{', on a bound' if 'K' in at_bound else ''}): the "
             f"samples sit either near zero slip or at full track spin, with few in between ({n_high} samples "
             f"above 70 % of F_max). The best determined small-slip quantity is the initial slope {slope_txt}. "
-            f"A sustained pull at 50-90 % of the traction limit (slip about {i_lo:.3g} to {i_hi:.3g}) would pin K down")
+            f"A sustained pull at 50-90 % of the traction limit (slip about {i_lo:.3g} to {i_hi:.3g}) would pin K down"
+        )
     elif regime == "intermediate":
         warnings.append(
             f"F_max and K are only partly separated (correlation {corr:.3f}, standard errors: F_max {pct(relF)}, "
             f"K {pct(relK)}); the largest thrust seen is about {format_force(thrust_peak)}. The best "
             f"determined quantity is the initial slope {slope_txt}. A harder pull, nearer the traction limit, "
-            f"would pin F_max and K down")
+            f"would pin F_max and K down"
+        )
     else:
-        extra["note"] = (f"hard pull: the thrust reached about {pct(utilisation)} of the fitted limit; F_max and K "
-                         f"are separated (correlation {corr:.3f}, standard errors: F_max {pct(relF)}, K {pct(relK)})")
+        extra["note"] = (
+            f"hard pull: the thrust reached about {pct(utilisation)} of the fitted limit; F_max and K "
+            f"are separated (correlation {corr:.3f}, standard errors: F_max {pct(relF)}, K {pct(relK)})"
+        )
     if at_bound:
-        warnings.append(f"{' and '.join(at_bound)} ended on the bound implied by the soil ranges: "
-                        f"the data or the bounds are questionable")
+        warnings.append(
+            f"{' and '.join(at_bound)} ended on the bound implied by the soil ranges: "
+            f"the data or the bounds are questionable"
+        )
 
     return regime, extra, warnings
 

@@ -17,6 +17,7 @@ the channels of one sample share one fitted degree of freedom: the sum over the 
 whitened squares has expectation about (channels used - 1) per sample, not the number of
 channels. Per-channel noise sigmas (same units, per sample) come from the fit's noise model.
 """
+
 from __future__ import annotations
 
 import math
@@ -51,24 +52,38 @@ class DriveLogResiduals:
         return {ch: out["channels"][ch] for ch in CHANNELS}
 
 
-def _params_from(result_or_params: Any, effects: Any) -> tuple[
-        float, float, dict[str, float], Any, dict | None, bool, str, tuple[float, float] | None]:
+def _params_from(
+    result_or_params: Any, effects: Any
+) -> tuple[float, float, dict[str, float], Any, dict | None, bool, str, tuple[float, float] | None]:
     """``(F_lim, K, effect values, effects, noise models, hull used, torque_hold, accel noise)``."""
     if isinstance(result_or_params, Mapping):
         p = result_or_params
         F, K = float(p["max_thrust_N"]), float(p["shear_modulus_m"])
         ev = dict(p.get("effects", {}))
-        return F, K, ev, effects if effects is not None else p.get("structure"), p.get("noise"), \
-            bool(p.get("hull_in_fit", bool(ev))), str(p.get("torque_hold", "zoh")), p.get("accel_noise")
+        return (
+            F,
+            K,
+            ev,
+            effects if effects is not None else p.get("structure"),
+            p.get("noise"),
+            bool(p.get("hull_in_fit", bool(ev))),
+            str(p.get("torque_hold", "zoh")),
+            p.get("accel_noise"),
+        )
     res = result_or_params
     if getattr(res, "data_kind", None) != "drive":
         raise DataError("drive_log_residuals needs a drive-log fit result or a parameter mapping")
     if not res.success:
         raise DataError("drive_log_residuals: the fit did not succeed; there is no fitted model to evaluate")
     ex = res.extra
-    nm = {k: (ex["noise_model"][col]["abs"], ex["noise_model"][col]["rel"])
-          for k, col in (("torque", "torque_Nm"), ("sprocket_speed", "sprocket_speed_rad_s"),
-                         ("vehicle_speed", "vehicle_speed_m_s"))}
+    nm = {
+        k: (ex["noise_model"][col]["abs"], ex["noise_model"][col]["rel"])
+        for k, col in (
+            ("torque", "torque_Nm"),
+            ("sprocket_speed", "sprocket_speed_rad_s"),
+            ("vehicle_speed", "vehicle_speed_m_s"),
+        )
+    }
     jp = ex.get("joint_parameters")
     hull = bool(ex.get("hull_channel", {}).get("used", False))
     an = None
@@ -76,14 +91,31 @@ def _params_from(result_or_params: Any, effects: Any) -> tuple[
         a = ex["hull_channel"]["accel_noise_m_s2"]
         an = (a["abs"], a["rel"]) if ex["hull_channel"]["accel_source"] == "imu" else None
     if jp is not None:
-        return (float(jp["max_thrust_N"]), float(jp["shear_modulus_m"]), dict(jp["effects"]),
-                effects if effects is not None else jp["structure"], nm, hull, jp["torque_hold"], an)
-    return (float(ex["max_thrust_N"]), float(ex["shear_modulus_m"]), {}, effects, nm, hull,
-            str(ex.get("torque_hold", "zoh")), an)
+        return (
+            float(jp["max_thrust_N"]),
+            float(jp["shear_modulus_m"]),
+            dict(jp["effects"]),
+            effects if effects is not None else jp["structure"],
+            nm,
+            hull,
+            jp["torque_hold"],
+            an,
+        )
+    return (
+        float(ex["max_thrust_N"]),
+        float(ex["shear_modulus_m"]),
+        {},
+        effects,
+        nm,
+        hull,
+        str(ex.get("torque_hold", "zoh")),
+        an,
+    )
 
 
-def drive_log_residuals(result_or_params: Any, log: DriveLog, vehicle: Vehicle, effects: Any = None,
-                        model: str = "full") -> dict[str, Any]:
+def drive_log_residuals(
+    result_or_params: Any, log: DriveLog, vehicle: Vehicle, effects: Any = None, model: str = "full"
+) -> dict[str, Any]:
     """Residuals of a fitted drive-log model on a (held-out) log, per channel, with noise sigmas.
 
     Parameters
@@ -112,7 +144,9 @@ def drive_log_residuals(result_or_params: Any, log: DriveLog, vehicle: Vehicle, 
     return out
 
 
-def evaluate_residuals(result_or_params: Any, log: DriveLog, vehicle: Vehicle, effects: Any) -> tuple[dict[str, Any], dict]:
+def evaluate_residuals(
+    result_or_params: Any, log: DriveLog, vehicle: Vehicle, effects: Any
+) -> tuple[dict[str, Any], dict]:
     """:func:`drive_log_residuals` and what it was computed from (``theta``, ``structure``, ``D`` as
     used to solve the latent slips, ``labels``) for :mod:`.drivelog_sensitivity`."""
     F, K, ev, eff, nm, hull, torque_hold, an = _params_from(result_or_params, effects)
@@ -150,9 +184,17 @@ def evaluate_residuals(result_or_params: Any, log: DriveLog, vehicle: Vehicle, e
     sigma = {"sprocket_speed_rad_s": sig_w, "thrust_N": prep.sigma_thrust / ratio, "hull_N": sig_H}
     chans = {ch: raw[j] for j, ch in enumerate(CHANNELS)}
     chans["hull_N"] = np.where(np.isfinite(sig_H), chans["hull_N"], np.nan)
-    out = {"channels": chans, "sigma": sigma,
-           "noise_sigma": {ch: float(np.median(s[np.isfinite(s)])) if np.any(np.isfinite(s)) else math.inf
-                           for ch, s in sigma.items()},
-           "time_s": log.time[prep.keep], "keep": prep.keep, "slip": slip,
-           "vehicle_speed_m_s": prep.vehicle_speed, "accel_source": jd.accel_source, "hull_in_fit": hull}
+    out = {
+        "channels": chans,
+        "sigma": sigma,
+        "noise_sigma": {
+            ch: float(np.median(s[np.isfinite(s)])) if np.any(np.isfinite(s)) else math.inf for ch, s in sigma.items()
+        },
+        "time_s": log.time[prep.keep],
+        "keep": prep.keep,
+        "slip": slip,
+        "vehicle_speed_m_s": prep.vehicle_speed,
+        "accel_source": jd.accel_source,
+        "hull_in_fit": hull,
+    }
     return out, {"theta": theta, "structure": structure, "D": D_solve, "labels": tuple(labels)}

@@ -10,6 +10,7 @@ fitted parameters and the latent slips :func:`~.drivelog_residuals.drive_log_res
 with ``de_k/dtheta`` projected off ``de_k/di_k`` (the profiled sensitivity: at the per-sample
 optimum ``e_k`` is orthogonal to ``de_k/di_k``).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -94,10 +95,10 @@ def drive_log_sensitivities(result: Any, log: DriveLog, vehicle: Vehicle, effect
     fn = sensitivity_function(vehicle, structure)
     e, Jt, gi = (np.asarray(a, dtype=float) for a in fn.map(n)(np.repeat(theta.reshape(-1, 1), n, axis=1), slip, D))
     c, p = e.shape[0], theta.size
-    e = e.T                                      # (n, c)
+    e = e.T  # (n, c)
     Jt = Jt.reshape(c, n, p).transpose(1, 0, 2)  # (n, c, p)
-    gi = gi.T                                    # (n, c)
-    gn = np.sum(gi ** 2, axis=1)
+    gi = gi.T  # (n, c)
+    gn = np.sum(gi**2, axis=1)
     ok = gn > 1e-300
     Jt[ok] -= gi[ok, :, None] * (np.einsum("kc,kcp->kp", gi[ok], Jt[ok]) / gn[ok, None])[:, None, :]
     e = np.where(np.isfinite(e), e, 0.0)

@@ -1,4 +1,5 @@
 """Opt-in SIMEX correction of the drive-log error-in-variables bias (vehicle-speed noise)."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -26,16 +27,26 @@ SIMEX_LAMBDAS = (0.5, 1.0, 2.0)
 _SIMEX_FIXED_SELECTION = True
 
 
-
 def _simex_weights(lambdas=(0.0,) + SIMEX_LAMBDAS, at: float = -1.0) -> np.ndarray:
     """Weights ``c`` with ``sum c_j y_j`` = the least-squares quadratic in lambda through ``y_j``, at ``at``."""
     lam = np.asarray(lambdas, dtype=float)
-    X = np.column_stack([np.ones_like(lam), lam, lam ** 2])
+    X = np.column_stack([np.ones_like(lam), lam, lam**2])
     return np.array([1.0, at, at * at]) @ np.linalg.pinv(X)
 
 
-def simex_fit(fit_fn: Callable[..., FitResult], log: DriveLog, vehicle: Vehicle, model: str, bounds: SoilBounds | None, x0, strict: bool, method: str,
-              formulation: str, bias_correction: str, options: dict) -> FitResult:
+def simex_fit(
+    fit_fn: Callable[..., FitResult],
+    log: DriveLog,
+    vehicle: Vehicle,
+    model: str,
+    bounds: SoilBounds | None,
+    x0,
+    strict: bool,
+    method: str,
+    formulation: str,
+    bias_correction: str,
+    options: dict,
+) -> FitResult:
     """Uncorrected fit, then :func:`_simex_correct` (see there); entry of ``fit_drive_log(bias_correction=...)``.
 
     ``fit_fn`` is the uncorrected drive-log fit (``fit_drive_log``, passed in by its caller).
@@ -53,12 +64,36 @@ def simex_fit(fit_fn: Callable[..., FitResult], log: DriveLog, vehicle: Vehicle,
     base = fit_fn(log, vehicle, model, bounds, x0, strict, method=method, formulation=formulation, **options)
     if not base.success:
         return base
-    return _simex_correct(fit_fn, base, log, vehicle, model, bounds if bounds is not None else PRACTICAL_BOUNDS, x0,
-                          method, options, n_rep, seed, t0)
+    return _simex_correct(
+        fit_fn,
+        base,
+        log,
+        vehicle,
+        model,
+        bounds if bounds is not None else PRACTICAL_BOUNDS,
+        x0,
+        method,
+        options,
+        n_rep,
+        seed,
+        t0,
+    )
 
 
-def _simex_correct(fit_fn: Callable[..., FitResult], base: FitResult, log: DriveLog, vehicle: Vehicle, model: str, bounds: SoilBounds, x0,
-                   method: str, options: dict, n_rep: int, seed: int, t0: float) -> FitResult:
+def _simex_correct(
+    fit_fn: Callable[..., FitResult],
+    base: FitResult,
+    log: DriveLog,
+    vehicle: Vehicle,
+    model: str,
+    bounds: SoilBounds,
+    x0,
+    method: str,
+    options: dict,
+    n_rep: int,
+    seed: int,
+    t0: float,
+) -> FitResult:
     """SIMEX correction of F_max and K for the vehicle-speed (GNSS) noise.
 
     The bias of the output-error fit grows with the vehicle-speed noise variance (an
@@ -86,12 +121,22 @@ def _simex_correct(fit_fn: Callable[..., FitResult], base: FitResult, log: Drive
         # the refitted K wanders over its range or sits on a bound, the extrapolation is no bias
         # estimate (measured, heavy vehicle on LETE sand: it cost F_max coverage). Not applied.
         extra = dict(base.extra)
-        extra["bias_correction"] = {"method": "simex", "applied": False, "replicates": 0,
-                                    "reason": f"{base.extra.get('regime')} log: only applied to hard logs",
-                                    "time_s": _time.perf_counter() - t0}
-        return dataclasses.replace(base, extra=extra, input_warnings=tuple(base.input_warnings) + (
-            f"SIMEX bias correction not applied: {base.extra.get('regime')} log (F_max and K not both pinned "
-            f"down, see above); estimates uncorrected",))
+        extra["bias_correction"] = {
+            "method": "simex",
+            "applied": False,
+            "replicates": 0,
+            "reason": f"{base.extra.get('regime')} log: only applied to hard logs",
+            "time_s": _time.perf_counter() - t0,
+        }
+        return dataclasses.replace(
+            base,
+            extra=extra,
+            input_warnings=tuple(base.input_warnings)
+            + (
+                f"SIMEX bias correction not applied: {base.extra.get('regime')} log (F_max and K not both pinned "
+                f"down, see above); estimates uncorrected",
+            ),
+        )
     W, l = vehicle.weight, vehicle.track_length
     c0, phi0, K0 = (float(z) for z in base.theta)
     jac0 = np.asarray(base.jacobian, dtype=float)
@@ -106,19 +151,23 @@ def _simex_correct(fit_fn: Callable[..., FitResult], base: FitResult, log: Drive
     nm = base.extra["noise_model"]["vehicle_speed_m_s"]
     v = np.asarray(log.vehicle_speed, dtype=float)
     given = options.get("sigma_vehicle_speed")
-    sig_v = (np.full(v.size, float(given)) if given is not None
-             else np.sqrt(nm["abs"] ** 2 + (nm["rel"] * v) ** 2))
+    sig_v = np.full(v.size, float(given)) if given is not None else np.sqrt(nm["abs"] ** 2 + (nm["rel"] * v) ** 2)
     keep = None
     if _SIMEX_FIXED_SELECTION:  # the uncorrected fit's samples (the speed floor would rise with the added noise)
         keep = prepare_drive_log(
-            log, vehicle, sigma_torque=options.get("sigma_torque"),
-            sigma_sprocket_speed=options.get("sigma_sprocket_speed"), sigma_vehicle_speed=given,
-            torque_hold=str(options.get("torque_hold", "zoh")), min_speed=options.get("min_speed", 0.0),
-            sprocket_equation=str(options.get("sprocket_equation", "thrust"))).keep
+            log,
+            vehicle,
+            sigma_torque=options.get("sigma_torque"),
+            sigma_sprocket_speed=options.get("sigma_sprocket_speed"),
+            sigma_vehicle_speed=given,
+            torque_hold=str(options.get("torque_hold", "zoh")),
+            min_speed=options.get("min_speed", 0.0),
+            sprocket_equation=str(options.get("sprocket_equation", "thrust")),
+        ).keep
     rng = np.random.default_rng(seed)
     pairs = n_rep // 2
     z = rng.standard_normal((pairs, v.size))
-    est = np.full((pairs, 2, len(SIMEX_LAMBDAS), 2), np.nan)   # pair, sign, level, (F_max, K)
+    est = np.full((pairs, 2, len(SIMEX_LAMBDAS), 2), np.nan)  # pair, sign, level, (F_max, K)
     n_fail = 0
     for p in range(pairs):
         for si, sign in enumerate((1.0, -1.0)):
@@ -140,15 +189,24 @@ def _simex_correct(fit_fn: Callable[..., FitResult], base: FitResult, log: Drive
     if n_fail:
         # a failed refit would bias the level means; keep the uncorrected fit and say so
         extra = dict(base.extra)
-        extra["bias_correction"] = {"method": "simex", "applied": False, "replicates": n_rep,
-                                    "failed_refits": n_fail, "time_s": _time.perf_counter() - t0}
-        return dataclasses.replace(base, extra=extra, input_warnings=tuple(base.input_warnings) + (
-            f"SIMEX bias correction not applied: {n_fail} of {3 * n_rep} refits failed; estimates uncorrected",))
+        extra["bias_correction"] = {
+            "method": "simex",
+            "applied": False,
+            "replicates": n_rep,
+            "failed_refits": n_fail,
+            "time_s": _time.perf_counter() - t0,
+        }
+        return dataclasses.replace(
+            base,
+            extra=extra,
+            input_warnings=tuple(base.input_warnings)
+            + (f"SIMEX bias correction not applied: {n_fail} of {3 * n_rep} refits failed; estimates uncorrected",),
+        )
 
     w = _simex_weights()
     theta0 = np.array([F0, K0])
-    per_pair = est.mean(axis=1)                       # pair, level, param (antithetic means)
-    level_means = per_pair.mean(axis=0)               # level, param
+    per_pair = est.mean(axis=1)  # pair, level, param (antithetic means)
+    level_means = per_pair.mean(axis=0)  # level, param
     corrected = w[0] * theta0 + w[1:] @ level_means
     e_p = w[0] * theta0 + np.einsum("j,pjk->pk", w[1:], per_pair)
     cov_mc = (np.cov(e_p.T, ddof=1) / pairs) if pairs > 1 else np.zeros((2, 2))
@@ -174,30 +232,64 @@ def _simex_correct(fit_fn: Callable[..., FitResult], base: FitResult, log: Drive
     sF, sK = math.sqrt(cov[0, 0]), math.sqrt(cov[1, 1])
     gslope = np.array([l / (2 * Kc), -Fc * l / (2 * Kc * Kc)])
     extra = dict(base.extra)
-    extra.update({
-        "max_thrust_N": Fc, "shear_modulus_m": Kc, "initial_slope_N": Fc * l / (2 * Kc),
-        "max_thrust_stderr_N": sF, "shear_modulus_stderr_m": sK,
-        "corr_max_thrust_shear_modulus": float(cov[0, 1] / (sF * sK)),
-        "initial_slope_stderr_N": float(math.sqrt(max(gslope @ cov @ gslope, 0.0))),
-        "covariance": f"{base.extra['covariance']}+simex",
-        "bias_correction": {
-            "method": "simex", "applied": True, "lambdas": list(SIMEX_LAMBDAS), "replicates": n_rep,
-            "antithetic_pairs": pairs, "seed": seed, "extrapolation": "quadratic in lambda, to -1",
-            "uncorrected": {"max_thrust_N": F0, "shear_modulus_m": K0,
-                            "max_thrust_stderr_N": math.sqrt(cov0[0, 0]), "shear_modulus_stderr_m": math.sqrt(cov0[1, 1])},
-            "correction": {"max_thrust_N": Fc - F0, "shear_modulus_m": Kc - K0},
-            "level_means": {"max_thrust_N": level_means[:, 0].tolist(), "shear_modulus_m": level_means[:, 1].tolist()},
-            "monte_carlo_stderr": {"max_thrust_N": math.sqrt(cov_mc[0, 0]), "shear_modulus_m": math.sqrt(cov_mc[1, 1])},
-            "covariance": "uncorrected sandwich + Monte Carlo variance of the extrapolation",
-            "time_s": _time.perf_counter() - t0},
-    })
-    msg = (f"{base.message}; SIMEX-corrected: F_max = {Fc:.5g} N, K = {1000 * Kc:.4g} mm "
-           f"({3 * n_rep} refits)")
-    return build_result(data_kind="drive", model=model, method=method, theta=np.array([c, phi, Kc]), jacobian=jac,
-                        weighted_residuals=base.weighted_residuals, residuals=base.residuals,
-                        residual_unit=base.residual_unit, n_samples=base.n_samples,
-                        normal_loads=np.full(base.n_samples, W), vehicle=vehicle, bounds=bounds, status=base.status,
-                        success=True, message=msg, iterations=base.iterations,
-                        solve_time=base.solve_time, sigma_known=base.sigma_known,
-                        warnings=tuple(base.input_warnings), extra=extra)
-
+    extra.update(
+        {
+            "max_thrust_N": Fc,
+            "shear_modulus_m": Kc,
+            "initial_slope_N": Fc * l / (2 * Kc),
+            "max_thrust_stderr_N": sF,
+            "shear_modulus_stderr_m": sK,
+            "corr_max_thrust_shear_modulus": float(cov[0, 1] / (sF * sK)),
+            "initial_slope_stderr_N": float(math.sqrt(max(gslope @ cov @ gslope, 0.0))),
+            "covariance": f"{base.extra['covariance']}+simex",
+            "bias_correction": {
+                "method": "simex",
+                "applied": True,
+                "lambdas": list(SIMEX_LAMBDAS),
+                "replicates": n_rep,
+                "antithetic_pairs": pairs,
+                "seed": seed,
+                "extrapolation": "quadratic in lambda, to -1",
+                "uncorrected": {
+                    "max_thrust_N": F0,
+                    "shear_modulus_m": K0,
+                    "max_thrust_stderr_N": math.sqrt(cov0[0, 0]),
+                    "shear_modulus_stderr_m": math.sqrt(cov0[1, 1]),
+                },
+                "correction": {"max_thrust_N": Fc - F0, "shear_modulus_m": Kc - K0},
+                "level_means": {
+                    "max_thrust_N": level_means[:, 0].tolist(),
+                    "shear_modulus_m": level_means[:, 1].tolist(),
+                },
+                "monte_carlo_stderr": {
+                    "max_thrust_N": math.sqrt(cov_mc[0, 0]),
+                    "shear_modulus_m": math.sqrt(cov_mc[1, 1]),
+                },
+                "covariance": "uncorrected sandwich + Monte Carlo variance of the extrapolation",
+                "time_s": _time.perf_counter() - t0,
+            },
+        }
+    )
+    msg = f"{base.message}; SIMEX-corrected: F_max = {Fc:.5g} N, K = {1000 * Kc:.4g} mm ({3 * n_rep} refits)"
+    return build_result(
+        data_kind="drive",
+        model=model,
+        method=method,
+        theta=np.array([c, phi, Kc]),
+        jacobian=jac,
+        weighted_residuals=base.weighted_residuals,
+        residuals=base.residuals,
+        residual_unit=base.residual_unit,
+        n_samples=base.n_samples,
+        normal_loads=np.full(base.n_samples, W),
+        vehicle=vehicle,
+        bounds=bounds,
+        status=base.status,
+        success=True,
+        message=msg,
+        iterations=base.iterations,
+        solve_time=base.solve_time,
+        sigma_known=base.sigma_known,
+        warnings=tuple(base.input_warnings),
+        extra=extra,
+    )

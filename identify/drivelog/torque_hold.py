@@ -13,6 +13,7 @@ point estimate is reported) and again with ``sample``; every interval that the s
 interval leaves is widened to cover both, and its note says so. Giving ``torque_hold`` gives
 the one fit's interval. The diagnosis always states its hold and is not widened.
 """
+
 from __future__ import annotations
 
 import math
@@ -36,8 +37,14 @@ def _estimates(res) -> dict:
 
 def _finite_ci(pe) -> bool:
     lo, hi = pe.ci95
-    return (pe.identifiable and pe.value is not None and lo is not None and hi is not None
-            and math.isfinite(lo) and math.isfinite(hi))
+    return (
+        pe.identifiable
+        and pe.value is not None
+        and lo is not None
+        and hi is not None
+        and math.isfinite(lo)
+        and math.isfinite(hi)
+    )
 
 
 def widen_for_hold(res, alt, alt_hold: str = "sample"):
@@ -59,13 +66,16 @@ def widen_for_hold(res, alt, alt_hold: str = "sample"):
         if (lo, hi) == tuple(pe.ci95):
             continue
         prev = overrides.get(label)
-        note = (f"the torque hold was not given: this interval also covers the fit with torque_hold='{alt_hold}' "
-                f"({pa.value:.6g} [{pa.ci95[0]:.6g}, {pa.ci95[1]:.6g}] SI); give torque_hold for the interval of "
-                "the one that describes the log")
+        note = (
+            f"the torque hold was not given: this interval also covers the fit with torque_hold='{alt_hold}' "
+            f"({pa.value:.6g} [{pa.ci95[0]:.6g}, {pa.ci95[1]:.6g}] SI); give torque_hold for the interval of "
+            "the one that describes the log"
+        )
         if prev is not None:
             note = f"{prev.note}; {note}" if prev.note else note
-        overrides[label] = ReplacedInterval(label, float(lo), float(hi), False, False, tuple(pe.ci95), 0, note,
-                                           kind="hold")
+        overrides[label] = ReplacedInterval(
+            label, float(lo), float(hi), False, False, tuple(pe.ci95), 0, note, kind="hold"
+        )
     extra["torque_hold_alternative"] = info
     return replace(res, replaced_intervals=overrides or None, extra=extra)
 

@@ -8,6 +8,7 @@ outcome vocabulary :data:`OUTCOMES` and the residual sign :data:`RESIDUAL_SIGN` 
 :mod:`.distributions` (Student t, normal, F, chi-square without scipy), :mod:`.likelihood`
 (profile likelihood of one parameter), :mod:`.joint_likelihood` (profile intervals of joint fits).
 """
+
 from .records import Combination, ParameterEstimate
 from .report import OUTCOMES, RESIDUAL_SIGN
 from .result import FitResult, build_result

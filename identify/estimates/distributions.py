@@ -5,6 +5,7 @@ intervals are computed here: the Student t CDF through the regularised incomplet
 function (Lentz continued fraction, as in Numerical Recipes ``betacf``) and its quantile by
 bisection. Accuracy is about 1e-12 relative, far below what an interval needs.
 """
+
 from __future__ import annotations
 
 import math
@@ -190,6 +191,7 @@ def chi2_isf(p: float, dof: float) -> float:
         if hi - lo < 1e-10 * max(1.0, hi):
             break
     return 0.5 * (lo + hi)
+
 
 def lr_threshold(cmin: float, dof: int, sigma_known: bool) -> tuple[float, str]:
     """Profile cost that bounds the 95 % likelihood-ratio interval, and how it was set.

@@ -12,6 +12,7 @@ A mixin of :class:`~soiltrack.identify.estimates.result.FitResult` (it reads the
 * An effect parameter the data cannot separate from the soil or another effect names the
   parameter it is confounded with (:meth:`IdentifiabilityViews._partner`).
 """
+
 from __future__ import annotations
 
 import math
@@ -46,7 +47,7 @@ class IdentifiabilityViews:
         if null.shape[1] == 0:
             comp = np.zeros(len(self.free))
         else:
-            comp = np.sqrt((null ** 2).sum(axis=1))
+            comp = np.sqrt((null**2).sum(axis=1))
         return (comp < NULL_TOL) & self._Dok
 
     @cached_property
@@ -102,7 +103,6 @@ class IdentifiabilityViews:
         var = float(g_free @ C @ g_free)
         return (math.sqrt(var) if var >= 0 and math.isfinite(var) else None), est, weak
 
-
     # ---------------------------------------------------------------------------- ridge
     @cached_property
     def _cphi_ridge(self) -> bool:
@@ -118,14 +118,25 @@ class IdentifiabilityViews:
         F_lo = fmax.ci95[0] if fmax.ci95[0] is not None else fmax.value
         F_hi = fmax.ci95[1] if fmax.ci95[1] is not None else fmax.value
         rr = ridge_ranges(F_lo, F_hi, W, A, self.bounds)
-        how = ("F_max within its 95 % interval" if fmax.ci95[0] is not None
-               else "F_max at its estimate (no interval: no residual degrees of freedom)")
+        how = (
+            "F_max within its 95 % interval"
+            if fmax.ci95[0] is not None
+            else "F_max at its estimate (no interval: no residual degrees of freedom)"
+        )
         if rr is None:
-            return (None, None), (None, None), (f"no point of the ridge A c + W tan(phi) = F_max with {how} "
-                                                "lies within the bounds")
-        return rr[0], rr[1], (f"range along the ridge A c + W tan(phi) = F_max "
-                              f"(W = {format_value(W, 'N', 6)}) with {how}, within the bounds")
-
+            return (
+                (None, None),
+                (None, None),
+                (f"no point of the ridge A c + W tan(phi) = F_max with {how} lies within the bounds"),
+            )
+        return (
+            rr[0],
+            rr[1],
+            (
+                f"range along the ridge A c + W tan(phi) = F_max "
+                f"(W = {format_value(W, 'N', 6)}) with {how}, within the bounds"
+            ),
+        )
 
     def _partner(self, k: int, identifiable: bool) -> tuple[str | None, float | None]:
         """The free parameter most correlated with free parameter ``k`` and that correlation.
@@ -158,7 +169,6 @@ class IdentifiabilityViews:
             return None, None
         return names[m], float(np.sign(v[k] * v[m]))
 
-
     def _fmax_K_correlation(self) -> dict[str, float | None]:
         """Correlation of the F_max estimate at each load with the K estimate (scale-free)."""
         out: dict[str, float | None] = {}
@@ -188,7 +198,9 @@ class IdentifiabilityViews:
             d = d / np.linalg.norm(d)
             if d[np.argmax(np.abs(d))] < 0:
                 d = -d
-            null_dirs.append({(EDGE_UNITS[names[k]][0] if names[k] in EDGE_UNITS else names[k]): float(d[k]) for k in range(p)})
+            null_dirs.append(
+                {(EDGE_UNITS[names[k]][0] if names[k] in EDGE_UNITS else names[k]): float(d[k]) for k in range(p)}
+            )
         statements: list[str] = []
         params = self.parameters
         if self._cphi_ridge:
@@ -197,17 +209,21 @@ class IdentifiabilityViews:
                 f"c and phi are not separable: all data are at one normal load (W = {format_value(W, 'N', 6)}), "
                 "where they enter only through F_max = A c + W tan(phi); infinitely many (c, phi) give the same curve. "
                 "The data pin down F_max and K. Data at two or more normal loads (payload change, slope) or a "
-                "prior are needed to separate c and phi.")
+                "prior are needed to separate c and phi."
+            )
         for name, pe in params.items():
             if pe.fixed:
                 continue
             if not pe.identifiable and not (self._cphi_ridge and name in ("cohesion", "friction_angle")):
-                statements.append(f"{EDGE_UNITS[name][3]} is not identifiable from these data"
-                                  + (f": they cannot separate it from {pe.correlated_with}." if pe.correlated_with
-                                     else "."))
+                statements.append(
+                    f"{EDGE_UNITS[name][3]} is not identifiable from these data"
+                    + (f": they cannot separate it from {pe.correlated_with}." if pe.correlated_with else ".")
+                )
             elif pe.weakly_identifiable:
-                statements.append(f"{EDGE_UNITS[name][3]} is only weakly identifiable (correlated above "
-                                  f"{WEAK_CORRELATION} with other parameter directions).")
+                statements.append(
+                    f"{EDGE_UNITS[name][3]} is only weakly identifiable (correlated above "
+                    f"{WEAK_CORRELATION} with other parameter directions)."
+                )
         for name, ps in self.effects.items():
             for pname, pe in ps.items():
                 if pe.fixed or not self.success:
@@ -215,33 +231,54 @@ class IdentifiabilityViews:
                 partner = f" from {pe.correlated_with}" if pe.correlated_with else ""
                 rho = f" (correlation {pe.correlation:+.4f})" if pe.correlation is not None else ""
                 if not pe.identifiable:
-                    statements.append(f"effect parameter {name}.{pname} is not identifiable from these data: they "
-                                      f"cannot separate it{partner}{rho}.")
+                    statements.append(
+                        f"effect parameter {name}.{pname} is not identifiable from these data: they "
+                        f"cannot separate it{partner}{rho}."
+                    )
                 elif pe.weakly_identifiable:
-                    statements.append(f"effect parameter {name}.{pname} is only weakly identifiable: the data hardly "
-                                      f"separate it from the soil and the other effects ({pe.note.split(': ', 1)[-1]}). "
-                                      "Its interval assumes the model of the data is exact: along so narrow a ridge a "
-                                      "small unmodelled error (slip measured with noise, a sensor offset) can move the "
-                                      "estimate far outside it; an experiment that separates it is safer than the "
-                                      "interval.")
+                    statements.append(
+                        f"effect parameter {name}.{pname} is only weakly identifiable: the data hardly "
+                        f"separate it from the soil and the other effects ({pe.note.split(': ', 1)[-1]}). "
+                        "Its interval assumes the model of the data is exact: along so narrow a ridge a "
+                        "small unmodelled error (slip measured with noise, a sensor offset) can move the "
+                        "estimate far outside it; an experiment that separates it is safer than the "
+                        "interval."
+                    )
         fk_corr = self._fmax_K_correlation()
-        weak_combos = [cb for cb in self.combinations if cb.weakly_identifiable and cb.name.startswith("F_max")
-                       and not self.effect_labels]  # with effects, F_max may be weak through an effect
+        weak_combos = [
+            cb
+            for cb in self.combinations
+            if cb.weakly_identifiable and cb.name.startswith("F_max") and not self.effect_labels
+        ]  # with effects, F_max may be weak through an effect
         high = {w: r for w, r in fk_corr.items() if r is not None and abs(r) > WEAK_CORRELATION}
         if weak_combos or high or (params["shear_modulus"].weakly_identifiable and not self.effect_labels):
-            rtxt = (" (correlation " + ", ".join(f"{r:+.4f} at W = {format_value(float(w), 'N', 6)}"
-                                                 for w, r in high.items()) + ")") if high else ""
+            rtxt = (
+                (
+                    " (correlation "
+                    + ", ".join(f"{r:+.4f} at W = {format_value(float(w), 'N', 6)}" for w, r in high.items())
+                    + ")"
+                )
+                if high
+                else ""
+            )
             statements.append(
                 f"F_max and K are strongly correlated{rtxt}: the data show mainly the start of the thrust-slip curve, "
                 "whose slope F_max l / (2 K) is determined but not F_max and K separately; data at larger slip "
-                "(near the traction limit) separate them.")
+                "(near the traction limit) separate them."
+            )
         if not statements:
             statements.append("all free parameters are identifiable from these data.")
         corr = None
         if self.correlation is not None:
             corr = [[finite_or_none(x) for x in row] for row in self.correlation]
-        return {"rank": int(self.rank), "n_parameters": p, "parameters": names,
-                "fmax_K_correlation": fk_corr,
-                "scaled_singular_values": [float(s) for s in self.scaled_singular_values],
-                "null_space": null_dirs, "correlation": corr, "statements": statements,
-                "rank_tolerance": RANK_TOL}
+        return {
+            "rank": int(self.rank),
+            "n_parameters": p,
+            "parameters": names,
+            "fmax_K_correlation": fk_corr,
+            "scaled_singular_values": [float(s) for s in self.scaled_singular_values],
+            "null_space": null_dirs,
+            "correlation": corr,
+            "statements": statements,
+            "rank_tolerance": RANK_TOL,
+        }

@@ -19,6 +19,7 @@ profile point is a solve of the same cached NLP as the fit, warm-started from it
 identifiable or ended on a bound, where the linearised interval is least trustworthy;
 ``"profile"`` every identifiable one; ``"linear"`` none.
 """
+
 from __future__ import annotations
 
 import math
@@ -67,9 +68,15 @@ class ReplacedInterval:
     def to_dict(self) -> dict:
         """JSON-ready dict."""
         f = lambda x: None if x is None or not math.isfinite(x) else float(x)  # noqa: E731
-        return {"ci95": [f(self.lower), f(self.upper)], "open_lower": self.open_lower,
-                "open_upper": self.open_upper, "linear_ci95": [f(v) for v in self.linear],
-                "evaluations": self.evaluations, "note": self.note, "kind": self.kind}
+        return {
+            "ci95": [f(self.lower), f(self.upper)],
+            "open_lower": self.open_lower,
+            "open_upper": self.open_upper,
+            "linear_ci95": [f(v) for v in self.linear],
+            "evaluations": self.evaluations,
+            "note": self.note,
+            "kind": self.kind,
+        }
 
 
 def check_intervals(value) -> str:
@@ -160,8 +167,10 @@ def profile_intervals(pb, res, solve, mode: str = "auto") -> tuple[dict, tuple[s
                 ends.append(bound if (not failed and in_v == bound) else in_v)
                 opens.append(not failed and in_v == bound)
                 if failed:
-                    notes.append(f"a profile solve failed on the {'lower' if sign < 0 else 'upper'} side: that end "
-                                 "is the last value the profile reached, a lower limit of the interval's width")
+                    notes.append(
+                        f"a profile solve failed on the {'lower' if sign < 0 else 'upper'} side: that end "
+                        "is the last value the profile reached, a lower limit of the interval's width"
+                    )
                 elif in_v != bound:
                     notes.append(f"the {'lower' if sign < 0 else 'upper'} end was not reached in {_MAX_EXPAND} steps")
                 continue
@@ -182,12 +191,15 @@ def profile_intervals(pb, res, solve, mode: str = "auto") -> tuple[dict, tuple[s
             t = (thr - in_c) / (out_c - in_c) if out_c != in_c else 0.0
             ends.append(in_v + t * (out_v - in_v))
             opens.append(False)
-        out[label] = ReplacedInterval(label, float(min(ends)), float(max(ends)), opens[0], opens[1],
-                                     tuple(pe.ci95), n_eval, "; ".join(notes))
+        out[label] = ReplacedInterval(
+            label, float(min(ends)), float(max(ends)), opens[0], opens[1], tuple(pe.ci95), n_eval, "; ".join(notes)
+        )
     if best[1] is not None:
-        warnings.append(f"the profile found a lower cost ({best[0]:.6g} against the fit's {cmin:.6g}) at "
-                        f"{np.array2string(best[1], precision=5)}: the fit's optimum is local, and its intervals "
-                        "are referred to it")
+        warnings.append(
+            f"the profile found a lower cost ({best[0]:.6g} against the fit's {cmin:.6g}) at "
+            f"{np.array2string(best[1], precision=5)}: the fit's optimum is local, and its intervals "
+            "are referred to it"
+        )
     return out, tuple(warnings)
 
 

@@ -9,6 +9,7 @@
   freedom; when true, ``s^2 = 1`` and the normal quantile. With ``n - rank = 0`` and unknown
   sigma no standard error exists.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -21,7 +22,7 @@ __all__ = ["RANK_TOL", "WEAK_CORRELATION", "core_stats", "core_stats_one", "quan
 RANK_TOL = 1e-8
 #: Multiple correlation above which a parameter or combination is called weakly identifiable.
 WEAK_CORRELATION = 0.99
-WEAK_VIF = 1.0 / (1.0 - WEAK_CORRELATION ** 2)
+WEAK_VIF = 1.0 / (1.0 - WEAK_CORRELATION**2)
 
 
 def core_stats(J: np.ndarray, rw: np.ndarray, sigma_known: bool) -> dict[str, np.ndarray]:
@@ -62,9 +63,18 @@ def core_stats(J: np.ndarray, rw: np.ndarray, sigma_known: bool) -> dict[str, np
         s2 = np.ones(N)
     else:
         s2 = np.where(dof > 0, ssr / np.maximum(dof, 1), np.nan)
-    return {"D": Dsafe, "Dok": ok, "S": Srel, "V": V, "rank": rank, "Pinv": Pinv, "ssr": ssr, "dof": dof,
-            "s2": s2, "nonnull": nonnull}
-
+    return {
+        "D": Dsafe,
+        "Dok": ok,
+        "S": Srel,
+        "V": V,
+        "rank": rank,
+        "Pinv": Pinv,
+        "ssr": ssr,
+        "dof": dof,
+        "s2": s2,
+        "nonnull": nonnull,
+    }
 
 
 def core_stats_one(J: np.ndarray, rw: np.ndarray, sigma_known: bool) -> dict[str, np.ndarray]:
@@ -78,5 +88,3 @@ def quantile(dof: int, sigma_known: bool) -> float | None:
     if dof <= 0:
         return None
     return t_ppf(0.975, float(dof))
-
-

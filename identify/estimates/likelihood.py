@@ -11,6 +11,7 @@ gets ``lbx = ubx``), warm-started from the neighbouring grid point. The likeliho
 with SSR the weighted sum of squares. The ends are found by linear interpolation between
 grid points; an end that reaches the grid edge (usually a bound) is reported as such.
 """
+
 from __future__ import annotations
 
 import math
@@ -73,17 +74,31 @@ class ProfileResult:
     def to_dict(self) -> dict:
         """JSON-ready dict (SI units; non-finite numbers as ``None``)."""
         f = lambda x: None if x is None or not math.isfinite(x) else float(x)  # noqa: E731
-        return {"parameter": self.parameter, "values": [f(v) for v in self.values],
-                "cost": [f(c) for c in self.cost], "threshold": f(self.threshold),
-                "interval": [f(self.interval[0]), f(self.interval[1])], "open_lower": self.open_lower,
-                "open_upper": self.open_upper, "note": self.note}
+        return {
+            "parameter": self.parameter,
+            "values": [f(v) for v in self.values],
+            "cost": [f(c) for c in self.cost],
+            "threshold": f(self.threshold),
+            "interval": [f(self.interval[0]), f(self.interval[1])],
+            "open_lower": self.open_lower,
+            "open_upper": self.open_upper,
+            "note": self.note,
+        }
 
 
-
-
-def profile_likelihood(data: SlipData, vehicle: Vehicle, parameter: str, values=None, *, model: str = "full",
-                       bounds: SoilBounds = PRACTICAL_BOUNDS, n_points: int = 41, fit_result: FitResult | None = None,
-                       sigma=None, sigma_known: bool | None = None) -> ProfileResult:
+def profile_likelihood(
+    data: SlipData,
+    vehicle: Vehicle,
+    parameter: str,
+    values=None,
+    *,
+    model: str = "full",
+    bounds: SoilBounds = PRACTICAL_BOUNDS,
+    n_points: int = 41,
+    fit_result: FitResult | None = None,
+    sigma=None,
+    sigma_known: bool | None = None,
+) -> ProfileResult:
     """Profile the cost along one parameter and give the likelihood-ratio 95 % interval.
 
     Parameters
@@ -143,8 +158,18 @@ def profile_likelihood(data: SlipData, vehicle: Vehicle, parameter: str, values=
         return ProfileResult(name, grid, cost, others, math.inf, (None, None), True, True, fit_result, note)
     inside = cost <= thr
     if not np.any(inside):
-        return ProfileResult(name, grid, cost, others, thr, (None, None), False, False, fit_result,
-                             note + "; no grid point within the threshold (grid too coarse?)")
+        return ProfileResult(
+            name,
+            grid,
+            cost,
+            others,
+            thr,
+            (None, None),
+            False,
+            False,
+            fit_result,
+            note + "; no grid point within the threshold (grid too coarse?)",
+        )
     ks = np.nonzero(inside)[0]
     a, b = int(ks[0]), int(ks[-1])
 
@@ -158,7 +183,7 @@ def profile_likelihood(data: SlipData, vehicle: Vehicle, parameter: str, values=
     open_lo, open_hi = a == 0, b == grid.size - 1
     lo_v = float(grid[0]) if open_lo else cross(a, a - 1)
     hi_v = float(grid[-1]) if open_hi else cross(b, b + 1)
-    if np.any(~inside[a:b + 1]):
+    if np.any(~inside[a : b + 1]):
         note += "; the set within the threshold is not connected (interval shown is its hull)"
     if open_lo or open_hi:
         note += "; the interval reaches the grid edge" + (" (the bounds)" if values is None else "")

@@ -3,6 +3,7 @@
 SI inside; :data:`EDGE_UNITS` maps the soil's parameters to the units of the edges (kPa, deg, m).
 Effect parameters (``"effect.param"``) keep their SI unit at the edges too.
 """
+
 from __future__ import annotations
 
 import math
@@ -10,8 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ParameterEstimate", "Combination", "EDGE_UNITS", "finite_or_none", "NOT_USABLE",
-           "solver_converged"]
+__all__ = ["ParameterEstimate", "Combination", "EDGE_UNITS", "finite_or_none", "NOT_USABLE", "solver_converged"]
 
 EDGE_UNITS = {  # SI name -> (JSON key, edge unit, factor SI -> edge, label, SI unit)
     "cohesion": ("cohesion_kpa", "kPa", 1e-3, "cohesion c", "Pa"),
@@ -43,9 +43,6 @@ def finite_or_none(x) -> float | None:
         return None
     x = float(x)
     return x if math.isfinite(x) else None
-
-
-
 
 
 @dataclass(frozen=True)
@@ -132,13 +129,24 @@ class ParameterEstimate:
     def to_dict(self) -> dict:
         """JSON-ready dict in edge units (kPa, deg, m); never NaN."""
         lo, hi = self.edge_ci95
-        return {"value": finite_or_none(self.edge_value), "stderr": finite_or_none(self.edge_stderr), "ci95": [finite_or_none(lo), finite_or_none(hi)],
-                "identifiable": bool(self.identifiable), "at_bound": bool(self.at_bound),
-                "bound_side": self.bound_side, "weakly_identifiable": bool(self.weakly_identifiable),
-                "fixed": bool(self.fixed), "ridge_value": finite_or_none(self._edge(self.ridge_value)), "note": self.note,
-                **({} if self.name in EDGE_UNITS else {"unit": self.si_unit}),
-                **({} if self.name in EDGE_UNITS and self.correlated_with is None else
-                   {"correlated_with": self.correlated_with, "correlation": finite_or_none(self.correlation)})}
+        return {
+            "value": finite_or_none(self.edge_value),
+            "stderr": finite_or_none(self.edge_stderr),
+            "ci95": [finite_or_none(lo), finite_or_none(hi)],
+            "identifiable": bool(self.identifiable),
+            "at_bound": bool(self.at_bound),
+            "bound_side": self.bound_side,
+            "weakly_identifiable": bool(self.weakly_identifiable),
+            "fixed": bool(self.fixed),
+            "ridge_value": finite_or_none(self._edge(self.ridge_value)),
+            "note": self.note,
+            **({} if self.name in EDGE_UNITS else {"unit": self.si_unit}),
+            **(
+                {}
+                if self.name in EDGE_UNITS and self.correlated_with is None
+                else {"correlated_with": self.correlated_with, "correlation": finite_or_none(self.correlation)}
+            ),
+        }
 
 
 @dataclass(frozen=True)
@@ -177,7 +185,14 @@ class Combination:
 
     def to_dict(self) -> dict:
         """JSON-ready dict (SI units as named); never NaN."""
-        return {"name": self.name, "value": finite_or_none(self.value), "stderr": finite_or_none(self.stderr),
-                "ci95": [finite_or_none(self.ci95[0]), finite_or_none(self.ci95[1])], "unit": self.unit,
-                "description": self.description, "estimable": bool(self.estimable),
-                "weakly_identifiable": bool(self.weakly_identifiable), "note": self.note}
+        return {
+            "name": self.name,
+            "value": finite_or_none(self.value),
+            "stderr": finite_or_none(self.stderr),
+            "ci95": [finite_or_none(self.ci95[0]), finite_or_none(self.ci95[1])],
+            "unit": self.unit,
+            "description": self.description,
+            "estimable": bool(self.estimable),
+            "weakly_identifiable": bool(self.weakly_identifiable),
+            "note": self.note,
+        }

@@ -5,6 +5,7 @@ or Infinity: unavailable numbers are ``null`` and the reason is in the ``note`` 
 text. For drive logs ``rmse_N`` is ``null`` and ``rmse`` / ``residual_unit`` carry the residual
 size in its own unit.
 """
+
 from __future__ import annotations
 
 import json
@@ -57,7 +58,7 @@ class ReportViews:
 
         ``residuals`` holds model - data (the solver's convention); this is its negative.
         """
-        return -np.asarray(self.residuals, dtype=float)
+        return -np.asarray(self.residuals, dtype=np.float64)
 
     @cached_property
     def warnings(self) -> tuple[str, ...]:
@@ -68,90 +69,129 @@ class ReportViews:
         for name, d in self.outside_bounds.items():
             j = PARAMETER_NAMES.index(name)
             f, u = EDGE_UNITS[name][2], EDGE_UNITS[name][1]
-            w.append(f"{EDGE_UNITS[name][3]} = {self.theta[j] * f:.5g} {u} lies {d} its bounds "
-                     f"[{self.bounds.lower[j] * f:.5g}, {self.bounds.upper[j] * f:.5g}] {u}: the {self.method} "
-                     "method is unconstrained")
+            w.append(
+                f"{EDGE_UNITS[name][3]} = {self.theta[j] * f:.5g} {u} lies {d} its bounds "
+                f"[{self.bounds.lower[j] * f:.5g}, {self.bounds.upper[j] * f:.5g}] {u}: the {self.method} "
+                "method is unconstrained"
+            )
         for name, pe in self.parameters.items():
             if pe.at_bound and name == "cohesion" and pe.bound_side == "lower" and self.bounds.cohesion[0] == 0:
-                w.append("cohesion c ended on its lower bound 0 kPa: the data show no cohesion (consistent with a "
-                         "cohesionless soil; the cohesion-free model may be the better description)")
+                w.append(
+                    "cohesion c ended on its lower bound 0 kPa: the data show no cohesion (consistent with a "
+                    "cohesionless soil; the cohesion-free model may be the better description)"
+                )
             elif pe.at_bound:
-                w.append(f"{EDGE_UNITS[name][3]} ended on its {pe.bound_side} bound "
-                         f"({pe.edge_value if pe.value is not None else (pe.ridge_value or 0) * EDGE_UNITS[name][2]:.6g} "
-                         f"{pe.edge_unit}): a warning about the data or the bounds")
+                w.append(
+                    f"{EDGE_UNITS[name][3]} ended on its {pe.bound_side} bound "
+                    f"({pe.edge_value if pe.value is not None else (pe.ridge_value or 0) * EDGE_UNITS[name][2]:.6g} "
+                    f"{pe.edge_unit}): a warning about the data or the bounds"
+                )
         for s in self.identifiability["statements"]:
             if not s.startswith("all free"):
                 w.append(s)
         for name, ps in self.effects.items():
             for pname, pe in ps.items():
                 if pe.at_bound:
-                    w.append(f"effect parameter {name}.{pname} ended on its {pe.bound_side} bound "
-                             f"({pe.value:.6g} {pe.si_unit}): a warning about the data or the range")
+                    w.append(
+                        f"effect parameter {name}.{pname} ended on its {pe.bound_side} bound "
+                        f"({pe.value:.6g} {pe.si_unit}): a warning about the data or the range"
+                    )
         sep = self.extra.get("load_separation") if isinstance(self.extra, dict) else None
         if isinstance(sep, dict) and sep.get("fragile") and self.success:
             w.append(LoadSeparation(**sep).statement(self))
         if self.dof <= 0 and not self.sigma_known:
-            w.append("no residual degrees of freedom (as many identifiable directions as samples): no standard "
-                     "errors, and an exact fit says nothing about the noise")
+            w.append(
+                "no residual degrees of freedom (as many identifiable directions as samples): no standard "
+                "errors, and an exact fit says nothing about the noise"
+            )
         return tuple(w)
-
 
     # ---------------------------------------------------------------------------- output
     def to_dict(self) -> dict:
         """The CLI JSON object (edge units, never NaN; see the module docs)."""
         rmse = finite_or_none(self.rmse)
         d = {
-            "model": self.model, "method": self.method, "status": self.status, "success": bool(self.success),
+            "model": self.model,
+            "method": self.method,
+            "status": self.status,
+            "success": bool(self.success),
             "outcome": self.outcome,
             "n_samples": int(self.n_samples),
             "rmse_N": rmse if self.residual_unit == "N" else None,
             "solve_time_s": finite_or_none(self.solve_time),
             "parameters": {EDGE_UNITS[n][0]: self._parameter_json(pe) for n, pe in self.parameters.items()},
             "combinations": [cb.to_dict() for cb in self.combinations],
-            "data_kind": self.data_kind, "rmse": rmse, "residual_unit": self.residual_unit,
-            "cost": finite_or_none(self.cost), "iterations": int(self.iterations), "message": self.message,
-            "dof": int(self.dof), "sigma_known": bool(self.sigma_known),
-            "sigma_model": (self.extra.get("sigma_model") if self.data_kind == "slip" and isinstance(self.extra, dict)
-                            else "per-channel" if self.data_kind == "drive" else None),
+            "data_kind": self.data_kind,
+            "rmse": rmse,
+            "residual_unit": self.residual_unit,
+            "cost": finite_or_none(self.cost),
+            "iterations": int(self.iterations),
+            "message": self.message,
+            "dof": int(self.dof),
+            "sigma_known": bool(self.sigma_known),
+            "sigma_model": (
+                self.extra.get("sigma_model")
+                if self.data_kind == "slip" and isinstance(self.extra, dict)
+                else "per-channel"
+                if self.data_kind == "drive"
+                else None
+            ),
             "normal_loads_N": [float(w) for w in self.normal_loads],
-            "identifiability": self.identifiability, "warnings": list(self.warnings),
+            "identifiability": self.identifiability,
+            "warnings": list(self.warnings),
             "active_bounds": self.active_bounds,
             "measured": self.measured,
             "parameter_names": list(self.parameter_names),
             "effects": {n: {k: pe.to_dict() for k, pe in ps.items()} for n, ps in self.effects.items()},
             "covariance": self._covariance_json(),
             "bounds": self._bounds_json(),
-            "residuals": {"sign": RESIDUAL_SIGN, "unit": self.residual_unit,
-                          "values": [finite_or_none(x) for x in self.residuals_measured_minus_model]},
+            "residuals": {
+                "sign": RESIDUAL_SIGN,
+                "unit": self.residual_unit,
+                "values": [finite_or_none(x) for x in self.residuals_measured_minus_model],
+            },
         }
         if self.extra:
-            d["extra"] = json.loads(json.dumps(self.extra, default=json_default, allow_nan=True),
-                                    parse_constant=lambda _: None)
+            d["extra"] = json.loads(
+                json.dumps(self.extra, default=json_default, allow_nan=True), parse_constant=lambda _: None
+            )
         return d
 
     def _bounds_json(self) -> dict:
         """The soil bounds of the fit in edge units: ``{"cohesion_kpa": [lo, hi], ...}``."""
-        return {EDGE_UNITS[n][0]: [finite_or_none(self.bounds.lower[j] * EDGE_UNITS[n][2]),
-                                   finite_or_none(self.bounds.upper[j] * EDGE_UNITS[n][2])]
-                for j, n in enumerate(PARAMETER_NAMES)}
+        return {
+            EDGE_UNITS[n][0]: [
+                finite_or_none(self.bounds.lower[j] * EDGE_UNITS[n][2]),
+                finite_or_none(self.bounds.upper[j] * EDGE_UNITS[n][2]),
+            ]
+            for j, n in enumerate(PARAMETER_NAMES)
+        }
 
     def _bounds_line(self) -> str | None:
         """A report line naming the bounds when they are not the practical range (else ``None``)."""
-        if np.allclose(self.bounds.lower, PRACTICAL_BOUNDS.lower) and \
-                np.allclose(self.bounds.upper, PRACTICAL_BOUNDS.upper):
+        if np.allclose(self.bounds.lower, PRACTICAL_BOUNDS.lower) and np.allclose(
+            self.bounds.upper, PRACTICAL_BOUNDS.upper
+        ):
             return None
         b = self._bounds_json()
-        parts = [f"{EDGE_UNITS[n][3].split()[-1]} {b[EDGE_UNITS[n][0]][0]:.4g}-{b[EDGE_UNITS[n][0]][1]:.4g} "
-                 f"{EDGE_UNITS[n][1]}" for n in PARAMETER_NAMES]
-        return ("soil bounds: " + ", ".join(parts)
-                + " (not the practical range c 0-69 kPa, phi 6-40 deg, K 0.006-0.05 m)")
+        parts = [
+            f"{EDGE_UNITS[n][3].split()[-1]} {b[EDGE_UNITS[n][0]][0]:.4g}-{b[EDGE_UNITS[n][0]][1]:.4g} "
+            f"{EDGE_UNITS[n][1]}"
+            for n in PARAMETER_NAMES
+        ]
+        return (
+            "soil bounds: " + ", ".join(parts) + " (not the practical range c 0-69 kPa, phi 6-40 deg, K 0.006-0.05 m)"
+        )
 
     def _covariance_json(self) -> dict:
         """``{"parameters", "matrix", "units"}``: the covariance over :attr:`parameter_names` in SI,
         ``matrix`` null when unavailable (rank deficient, no dof, failed fit), entries never NaN."""
         C = self.covariance if self.success else None
-        return {"parameters": list(self.parameter_names),
-                "matrix": None if C is None else [[finite_or_none(x) for x in row] for row in C], "units": "SI"}
+        return {
+            "parameters": list(self.parameter_names),
+            "matrix": None if C is None else [[finite_or_none(x) for x in row] for row in C],
+            "units": "SI",
+        }
 
     def _parameter_json(self, pe: ParameterEstimate) -> dict:
         """A parameter's JSON entry. The CLI contract wants a number in ``value``: for a successful fit
@@ -159,8 +199,13 @@ class ReportViews:
         feasible ridge, flagged ``identifiable: false`` and ``value_is_ridge_point: true``, with
         ``ci95`` the range the ridge allows - a marker, not an estimate. A failed fit keeps ``null``."""
         d = pe.to_dict()
-        on_ridge = (self.success and d["value"] is None and not pe.identifiable and not pe.fixed
-                    and d["ridge_value"] is not None)
+        on_ridge = (
+            self.success
+            and d["value"] is None
+            and not pe.identifiable
+            and not pe.fixed
+            and d["ridge_value"] is not None
+        )
         if on_ridge:
             d["value"] = d["ridge_value"]
         d["value_is_ridge_point"] = bool(on_ridge)
@@ -175,16 +220,27 @@ class ReportViews:
         x = self.extra if isinstance(self.extra, dict) else {}
         L = []
         if "regime" in x or "formulation" in x:
-            hold = {"zoh": "torque held between samples (zoh)",
-                    "sample": "torque sampled from a continuous signal"}.get(str(x.get("torque_hold")))
-            L.append(f"drive log: {x.get('formulation', '?')} formulation, {x.get('samples_used', '?')} of "
-                     f"{x.get('samples_total', '?')} samples used, regime {x.get('regime', '?')}"
-                     + (f", {hold}" if hold else "") + (f" - {x['note']}" if x.get("note") else ""))
+            hold = {
+                "zoh": "torque held between samples (zoh)",
+                "sample": "torque sampled from a continuous signal",
+            }.get(str(x.get("torque_hold")))
+            L.append(
+                f"drive log: {x.get('formulation', '?')} formulation, {x.get('samples_used', '?')} of "
+                f"{x.get('samples_total', '?')} samples used, regime {x.get('regime', '?')}"
+                + (f", {hold}" if hold else "")
+                + (f" - {x['note']}" if x.get("note") else "")
+            )
             alt = x.get("torque_hold_alternative")
             if isinstance(alt, dict):
-                L.append(f"torque hold not given: fitted again with torque_hold='{alt.get('torque_hold')}' ("
-                         + ("its intervals are covered by the ones below" if alt.get("success") else
-                            f"that fit did not succeed: {alt.get('status')}; intervals from this one only") + ")")
+                L.append(
+                    f"torque hold not given: fitted again with torque_hold='{alt.get('torque_hold')}' ("
+                    + (
+                        "its intervals are covered by the ones below"
+                        if alt.get("success")
+                        else f"that fit did not succeed: {alt.get('status')}; intervals from this one only"
+                    )
+                    + ")"
+                )
         bc = x.get("bias_correction")
         if isinstance(bc, dict):
             if bc.get("applied"):
@@ -196,11 +252,15 @@ class ReportViews:
                     parts.append(f"F_max {F0:.5g} N {dF:+.3g} N")
                 if K0 and dK is not None:
                     parts.append(f"K {K0:.5g} m {dK:+.3g} m")
-                L.append(f"bias correction: {bc.get('method', '?').upper()} applied ({bc.get('replicates', '?')} "
-                         f"replicates; {', '.join(parts)}); intervals include its Monte Carlo variance")
+                L.append(
+                    f"bias correction: {bc.get('method', '?').upper()} applied ({bc.get('replicates', '?')} "
+                    f"replicates; {', '.join(parts)}); intervals include its Monte Carlo variance"
+                )
             else:
-                L.append(f"bias correction: {bc.get('method', '?').upper()} NOT applied"
-                         + (f" - {bc['reason']}" if bc.get("reason") else ""))
+                L.append(
+                    f"bias correction: {bc.get('method', '?').upper()} NOT applied"
+                    + (f" - {bc['reason']}" if bc.get("reason") else "")
+                )
         return L
 
     def _rig_lines(self) -> list[str]:
@@ -210,15 +270,22 @@ class ReportViews:
         for d in x.get("dropped_rows", ()):
             L.append(f"rows dropped ({d['option']}): {d['count']} {d['reason']}")
         if x.get("weights_from"):
-            L.append(f"weights: 1 / std^2 from the column {x['weights_from']} (relative weights: their level is "
-                     "estimated from the residuals)")
+            L.append(
+                f"weights: 1 / std^2 from the column {x['weights_from']} (relative weights: their level is "
+                "estimated from the residuals)"
+            )
         z = x.get("sinkage_m")
         if isinstance(z, dict):
             used = (x.get("resistance") or {}).get("mode") == "fit-sinkage"
-            L.append(f"sinkage: measured per row, {1e3 * z['min']:.3g} to {1e3 * z['max']:.3g} mm (correlation with "
-                     f"the slip {z['slip_correlation']:+.2f}); "
-                     + ("used by the resistance R = k_z z W" if used else
-                        "not in the track model's resistance (--resistance fit-sinkage uses it)"))
+            L.append(
+                f"sinkage: measured per row, {1e3 * z['min']:.3g} to {1e3 * z['max']:.3g} mm (correlation with "
+                f"the slip {z['slip_correlation']:+.2f}); "
+                + (
+                    "used by the resistance R = k_z z W"
+                    if used
+                    else "not in the track model's resistance (--resistance fit-sinkage uses it)"
+                )
+            )
             laws = z.get("laws")
             if isinstance(laws, dict):
                 L.append("sinkage laws: " + laws["statement"])
@@ -240,28 +307,38 @@ class ReportViews:
         x = self.extra if isinstance(self.extra, dict) else {}
         kind = x.get("sigma_model") if self.data_kind == "slip" else None
         q = self.quantile
-        t = (f"95 % intervals use Student t ({self.dof} residual degrees of freedom, quantile {q:.4g})"
-             if q is not None and not self.sigma_known else "95 % intervals use the normal quantile 1.96")
+        t = (
+            f"95 % intervals use Student t ({self.dof} residual degrees of freedom, quantile {q:.4g})"
+            if q is not None and not self.sigma_known
+            else "95 % intervals use the normal quantile 1.96"
+        )
         sn = x.get("slip_noise") if self.data_kind == "slip" else None
         if self.data_kind == "drive":
             head = "noise: per-channel levels " + ("given" if self.sigma_known else "estimated from the log")
         elif isinstance(sn, dict) and sn.get("adopted"):
-            how = ("estimated from the residuals" if sn.get("mode") == "auto" else "slip noise given")
-            head = (f"noise: on the force and on the slip, weights 1 / (sigma_F^2 + (dF/di)^2 sigma_i^2) (effective "
-                    f"variance; {how}: sigma_i = {sn['slip_sigma']:.3g}, sigma_F = "
-                    f"{format_force(sn['force_sigma_N'])})")
+            how = "estimated from the residuals" if sn.get("mode") == "auto" else "slip noise given"
+            head = (
+                f"noise: on the force and on the slip, weights 1 / (sigma_F^2 + (dF/di)^2 sigma_i^2) (effective "
+                f"variance; {how}: sigma_i = {sn['slip_sigma']:.3g}, sigma_F = "
+                f"{format_force(sn['force_sigma_N'])})"
+            )
         elif kind == "relative":
-            head = ("noise: proportional to the force (sigma='relative': weights 1/|F|, floored at 1 % of the "
-                    "largest force); its level estimated from the residuals")
+            head = (
+                "noise: proportional to the force (sigma='relative': weights 1/|F|, floored at 1 % of the "
+                "largest force); its level estimated from the residuals"
+            )
             if self.s2 is not None:
-                head += f" at about {100 * self.s2 ** 0.5:.3g} % of the force"
+                head += f" at about {100 * self.s2**0.5:.3g} % of the force"
         elif kind == "given" or (kind is None and self.sigma_known):
-            head = ("noise: sigma given per sample and taken as known" if self.sigma_known else
-                    "noise: sigma given as relative weights; level estimated from the residuals")
+            head = (
+                "noise: sigma given per sample and taken as known"
+                if self.sigma_known
+                else "noise: sigma given as relative weights; level estimated from the residuals"
+            )
         else:
             head = "noise: equal weights; level estimated from the residuals"
             if self.s2 is not None and self.residual_unit == "N":
-                head += f" (s = {format_force(self.s2 ** 0.5)})"
+                head += f" (s = {format_force(self.s2**0.5)})"
         if q is None and not self.sigma_known:
             return head + "; no residual degrees of freedom -> no standard errors"
         return f"{head}; {t}"
@@ -272,22 +349,30 @@ class ReportViews:
         continuous = len(self.normal_loads) > MAX_LOAD_LEVELS
         if continuous:
             lo, med, hi = load_summary_points(self.normal_loads)
-            loads = (f"measured per row, {len(self.normal_loads)} values from {format_force(lo)} to "
-                     f"{format_force(hi)} (median {format_force(med)})")
+            loads = (
+                f"measured per row, {len(self.normal_loads)} values from {format_force(lo)} to "
+                f"{format_force(hi)} (median {format_force(med)})"
+            )
         else:
             loads = ", ".join(format_force(w) for w in self.normal_loads)
         L.append(f"soiltrack identification - model {self.model}, method {self.method}")
         what = f" ({self.measured.replace('_', ' ')})" if self.measured else ""
         L.append(f"data: {self.data_kind}{what}, {self.n_samples} samples, normal load(s) W: {loads}")
         L.extend(self._rig_lines())
-        L.append(f"vehicle: {self.vehicle.name or 'unnamed'} (l = {self.vehicle.track_length:.4g} m, "
-                 f"b = {self.vehicle.track_width:.4g} m, A = {self.vehicle.contact_area:.4g} m^2)")
+        L.append(
+            f"vehicle: {self.vehicle.name or 'unnamed'} (l = {self.vehicle.track_length:.4g} m, "
+            f"b = {self.vehicle.track_width:.4g} m, A = {self.vehicle.contact_area:.4g} m^2)"
+        )
         if (bl := self._bounds_line()) is not None:
             L.append(bl)
-        why = {"not usable": " - the answer fails the plausibility checks (see the warnings)",
-               "failed": " - no estimate (see the warnings)"}.get(self.outcome, "")
-        L.append(f"status: {self.outcome}{why} (solver status {self.solver_status}, {self.iterations} "
-                 f"iterations, {_duration(self.solve_time)})")
+        why = {
+            "not usable": " - the answer fails the plausibility checks (see the warnings)",
+            "failed": " - no estimate (see the warnings)",
+        }.get(self.outcome, "")
+        L.append(
+            f"status: {self.outcome}{why} (solver status {self.solver_status}, {self.iterations} "
+            f"iterations, {_duration(self.solve_time)})"
+        )
         fallback = fallback_note(self.extra.get("engine_backend")) if isinstance(self.extra, dict) else None
         if fallback:  # said once on stderr too (soiltrack.identify.jitcache)
             L.append(f"engine: {fallback}")
@@ -314,11 +399,12 @@ class ReportViews:
                 flag = " [ON " + pe.bound_side.upper() + " BOUND]" if pe.at_bound else ""
                 weak = " [weakly identifiable]" if pe.weakly_identifiable else ""
                 cut = " [cut at a bound, see below]" if "is cut at the bound" in (pe.note or "") else ""
-                L.append(f"{lab}{pe.edge_value:.5g} {u}{se}, 95 % {rng}{self._interval_tag(name)}"
-                         f"{flag}{weak}{cut}")
+                L.append(f"{lab}{pe.edge_value:.5g} {u}{se}, 95 % {rng}{self._interval_tag(name)}{flag}{weak}{cut}")
                 if cut:
-                    notes.append(f"  {EDGE_UNITS[name][3]}: " + "; ".join(n for n in pe.note.split("; ")
-                                                                    if "is cut at the bound" in n))
+                    notes.append(
+                        f"  {EDGE_UNITS[name][3]}: "
+                        + "; ".join(n for n in pe.note.split("; ") if "is cut at the bound" in n)
+                    )
         L.extend(notes)
         if self.effects:
             L.append("effect parameters (95 % intervals, SI):")
@@ -338,19 +424,25 @@ class ReportViews:
                 else:
                     se = f" (SE {pe.stderr:.3g} {u})" if pe.stderr is not None else " (no SE)"
                     flag = " [ON " + pe.bound_side.upper() + " BOUND]" if pe.at_bound else ""
-                    weak = (f" [weakly identifiable: correlation {pe.correlation:+.4f} with {pe.correlated_with}]"
-                            if pe.weakly_identifiable and pe.correlated_with else
-                            (" [weakly identifiable]" if pe.weakly_identifiable else ""))
-                    L.append(f"{lab}{pe.value:.5g} {u}{se}, 95 % {rng}"
-                             f"{self._interval_tag(name + '.' + pname)}{flag}"
-                             f"{weak}")
+                    weak = (
+                        f" [weakly identifiable: correlation {pe.correlation:+.4f} with {pe.correlated_with}]"
+                        if pe.weakly_identifiable and pe.correlated_with
+                        else (" [weakly identifiable]" if pe.weakly_identifiable else "")
+                    )
+                    L.append(
+                        f"{lab}{pe.value:.5g} {u}{se}, 95 % {rng}{self._interval_tag(name + '.' + pname)}{flag}{weak}"
+                    )
         kinds = {v.kind for v in (self.replaced_intervals or {}).values()}
         if "profile" in kinds:
-            L.append("  (profile: the 95 % interval from the profile likelihood, this parameter held and all others "
-                     "refitted; SE is the linearised standard error, which assumes a quadratic cost)")
+            L.append(
+                "  (profile: the 95 % interval from the profile likelihood, this parameter held and all others "
+                "refitted; SE is the linearised standard error, which assumes a quadratic cost)"
+            )
         if "hold" in kinds:
-            L.append("  (both holds: the interval covers the fits with the torque held and sampled; the torque hold "
-                     "was not given)")
+            L.append(
+                "  (both holds: the interval covers the fits with the torque held and sampled; the torque hold "
+                "was not given)"
+            )
         k_shown = self.parameters["shear_modulus"].identifiable and self.success
         combos = [cb for cb in self.combinations if not (cb.name == "K" and k_shown)]  # K is said above
         L.append("what the data determine (95 % intervals):" + ("" if combos else " nothing (the fit failed)"))
@@ -365,26 +457,37 @@ class ReportViews:
                 continue
             ends = [e for e in ("lower", "upper") if f"the {e} end of the 95 % interval is cut" in cb.note]
             cut = f" [{' and '.join(ends)} end cut at the bound]" if ends else ""
-            L.append(f"  {label:<28} {_combo_value(cb)}{cut}{' [weak]' if cb.weakly_identifiable else ''}  "
-                     f"({cb.description})")
+            L.append(
+                f"  {label:<28} {_combo_value(cb)}{cut}{' [weak]' if cb.weakly_identifiable else ''}  "
+                f"({cb.description})"
+            )
         if shown is not None and per_load:
-            L.append(f"  (at the lowest, the median and the highest of the {len(self.normal_loads)} measured loads; "
-                     "every load's values are in --json under combinations)")
+            L.append(
+                f"  (at the lowest, the median and the highest of the {len(self.normal_loads)} measured loads; "
+                "every load's values are in --json under combinations)"
+            )
         ident = self.identifiability
-        L.append(f"identifiability: the data determine {ident['rank']} independent direction(s) of the "
-                 f"{ident['n_parameters']} parameters; sensitivity of the fit along each, relative to the strongest "
-                 "(scaled singular values; about 1e-8 or less = not determined): "
-                 + ", ".join(f"{s:.3g}" for s in ident["scaled_singular_values"]))
+        L.append(
+            f"identifiability: the data determine {ident['rank']} independent direction(s) of the "
+            f"{ident['n_parameters']} parameters; sensitivity of the fit along each, relative to the strongest "
+            "(scaled singular values; about 1e-8 or less = not determined): "
+            + ", ".join(f"{s:.3g}" for s in ident["scaled_singular_values"])
+        )
         for d in ident["null_space"]:
-            L.append("  undetermined direction: " + ", ".join(f"{k} {v:+.3g}" for k, v in d.items())
-                     + " (moving the parameters along it, in kPa / deg / m, leaves the fitted curve unchanged)")
+            L.append(
+                "  undetermined direction: "
+                + ", ".join(f"{k} {v:+.3g}" for k, v in d.items())
+                + " (moving the parameters along it, in kPa / deg / m, leaves the fitted curve unchanged)"
+            )
         for st in ident["statements"]:
             L.append("  - " + st)
         if self.ridge_point is not None and self.soil is None:
             rp = self.ridge_point
             what = "optimiser's ridge point" if self.success else "last iterate of the failed fit"
-            L.append(f"  ({what}, NOT an estimate: c = {rp.cohesion_kpa:.4g} kPa, "
-                     f"phi = {rp.friction_angle_deg:.4g} deg, K = {rp.shear_modulus:.4g} m)")
+            L.append(
+                f"  ({what}, NOT an estimate: c = {rp.cohesion_kpa:.4g} kPa, "
+                f"phi = {rp.friction_angle_deg:.4g} deg, K = {rp.shear_modulus:.4g} m)"
+            )
         if self.n_samples <= 20:
             res = self.residuals_measured_minus_model
             sc = choose_scale(res, "N") if unit == "N" else None
@@ -401,7 +504,6 @@ class ReportViews:
 
     def __str__(self) -> str:  # pragma: no cover - convenience
         return self.report()
-
 
 
 def _duration(seconds: float) -> str:

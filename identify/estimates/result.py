@@ -10,6 +10,7 @@ The record stores the optimum, residuals, solver status and the core statistics
 effects, combinations, the soil), :mod:`.identifiability` (null space, ridge, confounding) and
 :mod:`.report` (report, warnings, JSON). Value types: :mod:`.estimate_types`.
 """
+
 from __future__ import annotations
 
 import math
@@ -30,8 +31,15 @@ from .identifiability import BOUND_TOL, NULL_TOL, IdentifiabilityViews  # noqa: 
 from ..sweep.plausibility import assess, check_loads
 from .report import ReportViews, json_default  # noqa: F401
 
-__all__ = ["FitResult", "ParameterEstimate", "Combination", "build_result", "build_results_batch", "RANK_TOL",
-           "WEAK_CORRELATION"]
+__all__ = [
+    "FitResult",
+    "ParameterEstimate",
+    "Combination",
+    "build_result",
+    "build_results_batch",
+    "RANK_TOL",
+    "WEAK_CORRELATION",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -119,7 +127,7 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
             ck = state.get(key)
             if ck is not None and next(iter(ck[0].values())).shape[0] != 1:
                 core, k = ck
-                state[key] = ({name: v[k:k + 1] for name, v in core.items()}, 0)
+                state[key] = ({name: v[k : k + 1] for name, v in core.items()}, 0)
         return state
 
     def __setstate__(self, state: dict) -> None:
@@ -136,7 +144,7 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
         if self._core is not None:
             return self._core
         J = self.jacobian
-        cols = J[:, self.free[0]:] if not self.effect_labels else J[:, list(self.free)]
+        cols = J[:, self.free[0] :] if not self.effect_labels else J[:, list(self.free)]
         # a C-ordered copy: the same bytes (and so the same last digits) whatever the stored array's
         # layout, e.g. before and after pickling (the layout of a batch's stacked columns, too)
         return core_stats_one(np.ascontiguousarray(cols), self.weighted_residuals, self.sigma_known), 0
@@ -207,7 +215,7 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
         """A gradient over the first entries of :attr:`parameter_names`, padded with zeros."""
         out = np.zeros(self._n_all)
         g = np.asarray(g, dtype=float)
-        out[:g.size] = g
+        out[: g.size] = g
         return out
 
     def _effective_load(self, W: float) -> tuple[float, np.ndarray]:
@@ -215,6 +223,7 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
         if not self.effect_labels:
             return W, np.zeros(0)
         from ...soilmodel.effects import normal_load_function
+
         N, dN = normal_load_function(self.vehicle, self.effect_structure)(W, np.asarray(self.effect_values, float))
         return float(N), np.asarray(dN, dtype=float).ravel()
 
@@ -236,7 +245,6 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
     def quantile(self) -> float | None:
         """Two-sided 95 % quantile used (t with ``dof`` or normal), ``None`` if ``dof == 0``."""
         return quantile(self.dof, self.sigma_known)
-
 
     def predict(self, slip, normal_load=None, measured: str | None = None) -> np.ndarray:
         """What the fitted slip model predicts a rig reports at ``slip`` (N), e.g. for a fitted curve.
@@ -263,10 +271,14 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
         """
         from ...soilmodel.data import SlipData
         from ...soilmodel.errors import DataError
+
         if isinstance(slip, SlipData):
             if normal_load is not None or measured is not None:
-                raise DataError("predict(data) takes the normal load and the measured channel from the data; "
-                                "give slips to predict at another load or channel", file=slip.source)
+                raise DataError(
+                    "predict(data) takes the normal load and the measured channel from the data; "
+                    "give slips to predict at another load or channel",
+                    file=slip.source,
+                )
             return slip.values - self.residuals_on(slip)[slip.channel]
         s = np.atleast_1d(np.asarray(slip, dtype=float))
         if self.data_kind != "slip":
@@ -274,9 +286,13 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
         m = measured or self.measured or "tractive_force"
         W = None if normal_load is None else np.broadcast_to(np.asarray(normal_load, dtype=float), s.shape)
         zeros = np.zeros(s.shape)
-        probe = SlipData(slip=np.clip(s, 0.0, np.nextafter(1.0, 0.0)), normal_load=W, source="prediction grid",
-                         tractive_force=zeros if m == "tractive_force" else None,
-                         drawbar_pull=zeros if m == "drawbar_pull" else None)
+        probe = SlipData(
+            slip=np.clip(s, 0.0, np.nextafter(1.0, 0.0)),
+            normal_load=W,
+            source="prediction grid",
+            tractive_force=zeros if m == "tractive_force" else None,
+            drawbar_pull=zeros if m == "drawbar_pull" else None,
+        )
         return -next(iter(self.residuals_on(probe).values()))
 
     def residuals_on(self, data) -> dict[str, np.ndarray]:
@@ -296,9 +312,11 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
         model = self.residual_model
         if model is None and self.data_kind == "slip":
             from ..sweep.model import SweepResiduals
+
             model = SweepResiduals()
         if model is None:
             from ...soilmodel.errors import DataError
+
             raise DataError(f"residuals_on is not available for {self.data_kind} fits (no residual model)")
         return model.residuals_on(self, data)
 
@@ -334,14 +352,38 @@ def _finite_values(x: np.ndarray) -> bool:
     return all(map(math.isfinite, x.tolist())) if x.ndim == 1 else _all_finite(x)
 
 
-def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, jacobian: np.ndarray,
-                 weighted_residuals: np.ndarray, residuals: np.ndarray, residual_unit: str, n_samples: int,
-                 normal_loads: np.ndarray, vehicle: Vehicle, bounds: SoilBounds, status: str, success: bool,
-                 message: str, iterations: int, solve_time: float, sigma_known: bool = False,
-                 warnings: Sequence[str] = (), extra: dict | None = None, effect_labels: Sequence[str] = (),
-                 effect_values=None, effect_bounds: Sequence = (), effect_units: Sequence[str] = (),
-                 effect_structure=None, fixed_labels: Sequence[str] = (), measured: str | None = None,
-                 residual_model=None, samples=None) -> FitResult:
+def build_result(
+    *,
+    data_kind: str,
+    model: str,
+    method: str,
+    theta: np.ndarray,
+    jacobian: np.ndarray,
+    weighted_residuals: np.ndarray,
+    residuals: np.ndarray,
+    residual_unit: str,
+    n_samples: int,
+    normal_loads: np.ndarray,
+    vehicle: Vehicle,
+    bounds: SoilBounds,
+    status: str,
+    success: bool,
+    message: str,
+    iterations: int,
+    solve_time: float,
+    sigma_known: bool = False,
+    warnings: Sequence[str] = (),
+    extra: dict | None = None,
+    effect_labels: Sequence[str] = (),
+    effect_values=None,
+    effect_bounds: Sequence = (),
+    effect_units: Sequence[str] = (),
+    effect_structure=None,
+    fixed_labels: Sequence[str] = (),
+    measured: str | None = None,
+    residual_model=None,
+    samples=None,
+) -> FitResult:
     """Build a :class:`FitResult` from an optimum and its Jacobian (shared by all fitting methods).
 
     Parameters
@@ -429,16 +471,24 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
         if unknown:
             raise ValueError(f"fixed_labels {sorted(unknown)} are not effect parameters {labels}")
         free = free + tuple(3 + k for k, lab in enumerate(labels) if lab not in fixed_labels)
-        effect_fields.update(effect_labels=labels, effect_values=np.asarray(effect_values, float).reshape(m).copy(),
-                             effect_bounds=tuple((float(a), float(b)) for a, b in effect_bounds),
-                             effect_units=tuple(effect_units), effect_structure=effect_structure,
-                             fixed_labels=fixed_labels)
+        effect_fields.update(
+            effect_labels=labels,
+            effect_values=np.asarray(effect_values, float).reshape(m).copy(),
+            effect_bounds=tuple((float(a), float(b)) for a, b in effect_bounds),
+            effect_units=tuple(effect_units),
+            effect_structure=effect_structure,
+            fixed_labels=fixed_labels,
+        )
     res = np.asarray(residuals, dtype=float)
     ev = effect_fields.get("effect_values")
     rv = res.ravel()
     ss = float(np.dot(rv, rv))  # finite only if every residual is (squares cannot cancel an inf or a NaN)
-    finite = _finite_values(theta) and (math.isfinite(ss) or _all_finite(res)) and _all_finite(rw) \
+    finite = (
+        _finite_values(theta)
+        and (math.isfinite(ss) or _all_finite(res))
+        and _all_finite(rw)
         and (ev is None or _all_finite(ev))
+    )
     warn = tuple(warnings)
     if not finite:
         success = False
@@ -446,24 +496,58 @@ def build_result(*, data_kind: str, model: str, method: str, theta: np.ndarray, 
         warn += ("the solver returned non-finite numbers; no estimate is given",)
     state = dict(_RESULT_DEFAULTS)  # every field (extra, the one with a factory, is always given)
     state.update(
-        data_kind=data_kind, model=model, method=method, theta=theta, jacobian=J, weighted_residuals=rw,
-        residuals=res, residual_unit=residual_unit, n_samples=int(n_samples),
-        normal_loads=_distinct_loads(normal_loads), vehicle=vehicle, bounds=bounds, status=str(status),
-        success=bool(success), message=str(message), iterations=int(iterations), solve_time=float(solve_time),
-        sigma_known=bool(sigma_known), rmse=math.sqrt(ss / res.size) if res.size else math.nan, free=free,
-        _finite=finite, input_warnings=warn, extra=dict(extra or {}), **effect_fields)
+        data_kind=data_kind,
+        model=model,
+        method=method,
+        theta=theta,
+        jacobian=J,
+        weighted_residuals=rw,
+        residuals=res,
+        residual_unit=residual_unit,
+        n_samples=int(n_samples),
+        normal_loads=_distinct_loads(normal_loads),
+        vehicle=vehicle,
+        bounds=bounds,
+        status=str(status),
+        success=bool(success),
+        message=str(message),
+        iterations=int(iterations),
+        solve_time=float(solve_time),
+        sigma_known=bool(sigma_known),
+        rmse=math.sqrt(ss / res.size) if res.size else math.nan,
+        free=free,
+        _finite=finite,
+        input_warnings=warn,
+        extra=dict(extra or {}),
+        **effect_fields,
+    )
     obj = object.__new__(FitResult)
     obj.__dict__.update(state)
     return obj
 
 
-def build_results_batch(*, model: str, method: str, theta: np.ndarray, jacobian: np.ndarray,
-                        weighted_residuals: np.ndarray, residuals: np.ndarray, normal_loads: np.ndarray,
-                        vehicle: Vehicle, bounds: SoilBounds, status: Sequence[str], success: Sequence[bool],
-                        message: Sequence[str], iterations: Sequence[int], solve_time: Sequence[float],
-                        sigma_known: bool = False, extra: Sequence[dict] | None = None,
-                        warnings: Sequence[Sequence[str]] | None = None, measured: str | None = None,
-                        residual_model=None) -> list[FitResult]:
+def build_results_batch(
+    *,
+    model: str,
+    method: str,
+    theta: np.ndarray,
+    jacobian: np.ndarray,
+    weighted_residuals: np.ndarray,
+    residuals: np.ndarray,
+    normal_loads: np.ndarray,
+    vehicle: Vehicle,
+    bounds: SoilBounds,
+    status: Sequence[str],
+    success: Sequence[bool],
+    message: Sequence[str],
+    iterations: Sequence[int],
+    solve_time: Sequence[float],
+    sigma_known: bool = False,
+    extra: Sequence[dict] | None = None,
+    warnings: Sequence[Sequence[str]] | None = None,
+    measured: str | None = None,
+    residual_model=None,
+) -> list[FitResult]:
     """Vectorised :func:`build_result` for N same-size slip fits (stacked arrays, leading axis N).
 
     ``measured`` and ``residual_model`` (shared by the batch, as
@@ -482,7 +566,7 @@ def build_results_batch(*, model: str, method: str, theta: np.ndarray, jacobian:
     N, n = rw.shape
     core = core_stats(J[:, :, list(free)], rw, sigma_known)
     finite = np.all(np.isfinite(theta), axis=1) & np.all(np.isfinite(res), axis=1) & np.all(np.isfinite(rw), axis=1)
-    rmse = np.sqrt(np.mean(res ** 2, axis=1))
+    rmse = np.sqrt(np.mean(res**2, axis=1))
     W = np.sort(np.asarray(normal_loads, dtype=float), axis=1)
     keep = np.concatenate([np.ones((N, 1), bool), np.diff(W, axis=1) > LOAD_RTOL * np.abs(W[:, 1:])], axis=1)
     single = keep.sum(axis=1) == 1
@@ -490,21 +574,55 @@ def build_results_batch(*, model: str, method: str, theta: np.ndarray, jacobian:
     ok_l = (np.asarray(success, dtype=bool) & finite).tolist()
     fin_l = finite.tolist()
     loads_l = [W[k, :1] if single[k] else W[k][keep[k]] for k in range(N)] if not single.all() else list(W[:, :1])
-    rows = zip(list(theta), list(J), list(rw), list(res), loads_l, ok_l, fin_l, status, message,
-               np.asarray(iterations).tolist(), np.asarray(solve_time, dtype=float).tolist(), rmse.tolist(), range(N),
-               extra if extra is not None else [None] * N)
+    rows = zip(
+        list(theta),
+        list(J),
+        list(rw),
+        list(res),
+        loads_l,
+        ok_l,
+        fin_l,
+        status,
+        message,
+        np.asarray(iterations).tolist(),
+        np.asarray(solve_time, dtype=float).tolist(),
+        rmse.tolist(),
+        range(N),
+        extra if extra is not None else [None] * N,
+    )
     out = []
     new = object.__new__
     sk = bool(sigma_known)
     nonfinite = ("the solver returned non-finite numbers; no estimate is given",)
-    for (th, Jk, rwk, rk, Wk, ok, fin, st, msg, it, stime, rm, k, ex) in rows:
+    for th, Jk, rwk, rk, Wk, ok, fin, st, msg, it, stime, rm, k, ex in rows:
         obj = new(FitResult)
         obj.__dict__.update(
-            data_kind="slip", model=model, method=method, theta=th, jacobian=Jk, weighted_residuals=rwk,
-            residuals=rk, residual_unit="N", n_samples=n, normal_loads=Wk, vehicle=vehicle, bounds=bounds,
-            status=str(st) if fin else f"{st} (non-finite numbers)", success=ok, message=str(msg), iterations=it,
-            solve_time=stime, sigma_known=sk, rmse=rm, free=free, _core=(core, k), _finite=fin,
+            data_kind="slip",
+            model=model,
+            method=method,
+            theta=th,
+            jacobian=Jk,
+            weighted_residuals=rwk,
+            residuals=rk,
+            residual_unit="N",
+            n_samples=n,
+            normal_loads=Wk,
+            vehicle=vehicle,
+            bounds=bounds,
+            status=str(st) if fin else f"{st} (non-finite numbers)",
+            success=ok,
+            message=str(msg),
+            iterations=it,
+            solve_time=stime,
+            sigma_known=sk,
+            rmse=rm,
+            free=free,
+            _core=(core, k),
+            _finite=fin,
             input_warnings=(() if fin else nonfinite) + (tuple(warnings[k]) if warnings is not None else ()),
-            extra=dict(ex) if ex else {}, measured=measured, residual_model=residual_model)
+            extra=dict(ex) if ex else {},
+            measured=measured,
+            residual_model=residual_model,
+        )
         out.append(obj)
     return out

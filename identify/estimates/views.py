@@ -15,6 +15,7 @@ A mixin of :class:`~soiltrack.identify.estimates.result.FitResult`.
   ``ridge_value`` / ``ridge_point``, labelled as such. Estimates of the unconstrained seed
   methods that fall outside the bounds are reported as ``outside_bounds`` (not clipped).
 """
+
 from __future__ import annotations
 
 import math
@@ -35,12 +36,17 @@ def _cut_note(lo: float, hi: float, b_lo: float, b_hi: float, factor: float, uni
     out = []
     unit = "" if unit in ("-", "") else " " + unit
     if lo < b_lo:
-        out.append(f"the lower end of the 95 % interval is cut at the bound {b_lo * factor:.4g}{unit} (the "
-                   f"symmetric interval would reach {lo * factor:.4g}{unit})")
+        out.append(
+            f"the lower end of the 95 % interval is cut at the bound {b_lo * factor:.4g}{unit} (the "
+            f"symmetric interval would reach {lo * factor:.4g}{unit})"
+        )
     if hi > b_hi:
-        out.append(f"the upper end of the 95 % interval is cut at the bound {b_hi * factor:.4g}{unit} (the "
-                   f"symmetric interval would reach {hi * factor:.4g}{unit})")
+        out.append(
+            f"the upper end of the 95 % interval is cut at the bound {b_hi * factor:.4g}{unit} (the "
+            f"symmetric interval would reach {hi * factor:.4g}{unit})"
+        )
     return out
+
 
 __all__ = ["EstimateViews"]
 
@@ -51,10 +57,15 @@ def _profile_note(pi, factor: float, unit: str) -> str:
         return pi.note
     unit = "" if unit in ("-", "") else " " + unit
     a, b = pi.linear
-    lin = (f"; the linearised interval [{a * factor:.4g}, {b * factor:.4g}]{unit} assumes a quadratic cost"
-           if a is not None and b is not None else "")
-    s = ("95 % interval from the profile likelihood (this parameter held, all others refitted, up to the "
-         f"likelihood-ratio threshold){lin}")
+    lin = (
+        f"; the linearised interval [{a * factor:.4g}, {b * factor:.4g}]{unit} assumes a quadratic cost"
+        if a is not None and b is not None
+        else ""
+    )
+    s = (
+        "95 % interval from the profile likelihood (this parameter held, all others refitted, up to the "
+        f"likelihood-ratio threshold){lin}"
+    )
     if pi.open_lower or pi.open_upper:
         side = "either side" if (pi.open_lower and pi.open_upper) else ("below" if pi.open_lower else "above")
         s += f"; the data do not bound it {side}: the interval reaches the physical bound there"
@@ -102,7 +113,6 @@ class EstimateViews:
         """``{parameter name: "below"|"above"}`` for estimates outside the bounds (unconstrained methods)."""
         return {PARAMETER_NAMES[j]: s for j, s in enumerate(self._bound_flags) if s in ("below", "above")}
 
-
     # ---------------------------------------------------------------------------- views
     @cached_property
     def combinations(self) -> list[Combination]:
@@ -123,7 +133,7 @@ class EstimateViews:
             se, est, weak = self._combo_stderr(self._full(g3)[idx])
             ci = (value - q * se, value + q * se) if (se is not None and q is not None) else (None, None)
             note = ""
-            if rng is not None and ci[0] is not None:
+            if rng is not None and ci[0] is not None and ci[1] is not None:  # both set together
                 note = "; ".join(_cut_note(ci[0], ci[1], rng[0], rng[1], 1.0, unit))
                 ci = (max(ci[0], rng[0]), min(ci[1], rng[1]))
             out.append(Combination(name, float(value), se, ci, unit, desc, est, weak, note))
@@ -134,19 +144,26 @@ class EstimateViews:
             W = float(W)
             fm, gF = self._fmax(W)
             if self.effect_labels:
-                N_W = format_value(self._effective_load(W)[0], 'N', 6)
+                N_W = format_value(self._effective_load(W)[0], "N", 6)
                 actual = f" (actual normal load N = {N_W} with the fitted effects)"
-            add(f"F_max@W={W:.6g}N", fm, gF, "N",
+            add(
+                f"F_max@W={W:.6g}N",
+                fm,
+                gF,
+                "N",
                 f"soil thrust limit {'N tan(phi)' if cf else 'A c + N tan(phi)'} at W = "
                 f"{format_value(W, 'N', 6)}{actual}"
-                if self.effect_labels else
-                f"soil thrust limit {'W tan(phi)' if cf else 'A c + W tan(phi)'} at W = {format_value(W, 'N', 6)}",
-                rng=fmax_range(self.bounds, self.vehicle, self.model,
-                               self._effective_load(W)[0] if self.effect_labels else W))
+                if self.effect_labels
+                else f"soil thrust limit {'W tan(phi)' if cf else 'A c + W tan(phi)'} at W = {format_value(W, 'N', 6)}",
+                rng=fmax_range(
+                    self.bounds, self.vehicle, self.model, self._effective_load(W)[0] if self.effect_labels else W
+                ),
+            )
         Kb = self.bounds.shear_modulus
         add("K", K, [0.0, 0.0, 1.0], "m", "shear deformation modulus K", rng=Kb)
-        add("K/l", K / l, [0.0, 0.0, 1.0 / l], "-", f"K over the track length l = {l:.6g} m",
-            rng=(Kb[0] / l, Kb[1] / l))
+        add(
+            "K/l", K / l, [0.0, 0.0, 1.0 / l], "-", f"K over the track length l = {l:.6g} m", rng=(Kb[0] / l, Kb[1] / l)
+        )
         for W in self.normal_loads:
             W = float(W)
             fm, gF = self._fmax(W)
@@ -156,8 +173,14 @@ class EstimateViews:
             if not self.effect_labels:
                 f_lo, f_hi = fmax_range(self.bounds, self.vehicle, self.model, W)
                 srng = (f_lo * l / (2.0 * Kb[1]), f_hi * l / (2.0 * Kb[0]))
-            add(f"initial_slope@W={W:.6g}N", s0, g, "N/slip", f"small-slip slope dF/di = F_max l / (2 K) at W = "
-                f"{format_value(W, 'N', 6)}", rng=srng)
+            add(
+                f"initial_slope@W={W:.6g}N",
+                s0,
+                g,
+                "N/slip",
+                f"small-slip slope dF/di = F_max l / (2 K) at W = {format_value(W, 'N', 6)}",
+                rng=srng,
+            )
         return out
 
     @cached_property
@@ -176,17 +199,32 @@ class EstimateViews:
         for j, name in enumerate(PARAMETER_NAMES):
             val = float(self.theta[j])
             if j not in self.free:
-                out[name] = ParameterEstimate(name, 0.0, None, (0.0, 0.0), identifiable=False, fixed=True,
-                                              note="fixed at 0 by the cohesion-free model (not estimated)")
+                out[name] = ParameterEstimate(
+                    name,
+                    0.0,
+                    None,
+                    (0.0, 0.0),
+                    identifiable=False,
+                    fixed=True,
+                    note="fixed at 0 by the cohesion-free model (not estimated)",
+                )
                 continue
             k = self.free.index(j)
             side = flags[j]
             notes = []
             if not self.success:
-                out[name] = ParameterEstimate(name, None, None, (None, None), bool(ident[k]), False, False, None,
-                                              ridge_value=val if math.isfinite(val) else None,
-                                              note="the fit failed: no estimate (ridge_value is the last iterate, "
-                                                   "NOT an estimate)")
+                out[name] = ParameterEstimate(
+                    name,
+                    None,
+                    None,
+                    (None, None),
+                    bool(ident[k]),
+                    False,
+                    False,
+                    None,
+                    ridge_value=val if math.isfinite(val) else None,
+                    note="the fit failed: no estimate (ridge_value is the last iterate, NOT an estimate)",
+                )
                 continue
             outside = side in ("below", "above")
             if outside:
@@ -205,24 +243,33 @@ class EstimateViews:
                     v = C[k, k]
                     se = math.sqrt(v) if (v >= 0 and math.isfinite(v)) else None
                 if se is None:
-                    notes.append("no standard error: " + ("no residual degrees of freedom (n = rank)"
-                                                          if self.dof <= 0 else "covariance not finite"))
+                    notes.append(
+                        "no standard error: "
+                        + ("no residual degrees of freedom (n = rank)" if self.dof <= 0 else "covariance not finite")
+                    )
                 if se is not None and q is not None and outside:
                     ci = (val - q * se, val + q * se)
                 elif se is not None and q is not None:
                     ci = (max(lo[j], val - q * se), min(hi[j], val + q * se))
                     if side is None:
-                        notes.extend(_cut_note(val - q * se, val + q * se, lo[j], hi[j], EDGE_UNITS[name][2],
-                                               EDGE_UNITS[name][1]))
+                        notes.extend(
+                            _cut_note(
+                                val - q * se, val + q * se, lo[j], hi[j], EDGE_UNITS[name][2], EDGE_UNITS[name][1]
+                            )
+                        )
                 else:
                     ci = (None, None)
                 if side is not None:
-                    notes.append(f"on the {side} bound: the standard error is the local curvature ignoring the "
-                                 "bound and the interval is clipped to the bounds; use profile_likelihood for an "
-                                 "honest interval")
+                    notes.append(
+                        f"on the {side} bound: the standard error is the local curvature ignoring the "
+                        "bound and the interval is clipped to the bounds; use profile_likelihood for an "
+                        "honest interval"
+                    )
                 if weak:
-                    notes.append("weakly identifiable (correlation with other parameter directions > 0.99"
-                                 + (f"; most with {partner}: {rho:+.4f})" if partner else ")"))
+                    notes.append(
+                        "weakly identifiable (correlation with other parameter directions > 0.99"
+                        + (f"; most with {partner}: {rho:+.4f})" if partner else ")")
+                    )
                 pi = (self.replaced_intervals or {}).get(name)
                 if pi is not None:
                     ci = (pi.lower, pi.upper)
@@ -230,28 +277,53 @@ class EstimateViews:
                     if side is not None:
                         notes.insert(0, f"on the {side} bound")
                     notes.append(_profile_note(pi, EDGE_UNITS[name][2], EDGE_UNITS[name][1]))
-                out[name] = ParameterEstimate(name, val, se, ci, True, weak, side is not None, side,
-                                              note="; ".join(notes), correlated_with=partner, correlation=rho)
+                out[name] = ParameterEstimate(
+                    name,
+                    val,
+                    se,
+                    ci,
+                    True,
+                    weak,
+                    side is not None,
+                    side,
+                    note="; ".join(notes),
+                    correlated_with=partner,
+                    correlation=rho,
+                )
             else:
                 if ridge is not None and j in (0, 1):
                     ci = ridge[j]
-                    note = ("not identifiable: c and phi enter only through F_max = A c + W tan(phi) at one "
-                            "normal load; interval = " + ridge[2])
+                    note = (
+                        "not identifiable: c and phi enter only through F_max = A c + W tan(phi) at one "
+                        "normal load; interval = " + ridge[2]
+                    )
                 else:
                     ci = (float(lo[j]), float(hi[j]))
                     note = "not identifiable from these data; interval = the bounds"
                     if self.effect_labels:  # say what it is confounded with (an effect, or another parameter)
                         partner, rho = self._partner(k, False)
                         if partner:
-                            note = (f"not identifiable: the data cannot separate it from {partner}; interval = the "
-                                    "bounds")
+                            note = (
+                                f"not identifiable: the data cannot separate it from {partner}; interval = the bounds"
+                            )
                 # the optimiser's point on a ridge is arbitrary: "on a bound" only if the whole range is
                 pinned = ci[0] is not None and ci[1] is not None and ci[1] - ci[0] <= BOUND_TOL * (hi[j] - lo[j])
                 nb_side = side if (pinned and side in ("lower", "upper")) else None
-                out[name] = ParameterEstimate(name, None, None, ci, False, False, nb_side is not None, nb_side,
-                                              ridge_value=val, note=note, correlated_with=partner, correlation=rho)
+                out[name] = ParameterEstimate(
+                    name,
+                    None,
+                    None,
+                    ci,
+                    False,
+                    False,
+                    nb_side is not None,
+                    nb_side,
+                    ridge_value=val,
+                    note=note,
+                    correlated_with=partner,
+                    correlation=rho,
+                )
         return out
-
 
     @cached_property
     def effects(self) -> dict[str, dict[str, ParameterEstimate]]:
@@ -277,15 +349,29 @@ class EstimateViews:
             unit = self.effect_units[m] if m < len(self.effect_units) else ""
             d = out.setdefault(name, {})
             if label in self.fixed_labels:
-                d[pname] = ParameterEstimate(label, val, None, (val, val), identifiable=False, fixed=True,
-                                             si_unit=unit, note=f"held fixed at {val:g} {unit} (not estimated)")
+                d[pname] = ParameterEstimate(
+                    label,
+                    val,
+                    None,
+                    (val, val),
+                    identifiable=False,
+                    fixed=True,
+                    si_unit=unit,
+                    note=f"held fixed at {val:g} {unit} (not estimated)",
+                )
                 continue
             k = self.free.index(j)
             if not self.success:
-                d[pname] = ParameterEstimate(label, None, None, (None, None), bool(ident[k]), si_unit=unit,
-                                             ridge_value=val if math.isfinite(val) else None,
-                                             note="the fit failed: no estimate (ridge_value is the last iterate, "
-                                                  "NOT an estimate)")
+                d[pname] = ParameterEstimate(
+                    label,
+                    None,
+                    None,
+                    (None, None),
+                    bool(ident[k]),
+                    si_unit=unit,
+                    ridge_value=val if math.isfinite(val) else None,
+                    note="the fit failed: no estimate (ridge_value is the last iterate, NOT an estimate)",
+                )
                 continue
             tol = BOUND_TOL * (hi - lo)
             side = "lower" if val <= lo + tol else ("upper" if val >= hi - tol else None)
@@ -299,19 +385,28 @@ class EstimateViews:
                 if C is not None:
                     v = C[k, k]
                     se = math.sqrt(v) if (v >= 0 and math.isfinite(v)) else None
-                ci = (max(lo, val - q * se), min(hi, val + q * se)) if (se is not None and q is not None) \
+                ci = (
+                    (max(lo, val - q * se), min(hi, val + q * se))
+                    if (se is not None and q is not None)
                     else (None, None)
+                )
                 notes = []
                 if se is None:
-                    notes.append("no standard error: " + ("no residual degrees of freedom (n = rank)"
-                                                          if self.dof <= 0 else "covariance not finite"))
+                    notes.append(
+                        "no standard error: "
+                        + ("no residual degrees of freedom (n = rank)" if self.dof <= 0 else "covariance not finite")
+                    )
                 if side is not None:
-                    notes.append(f"on the {side} bound of its physical range [{lo:g}, {hi:g}] {unit}: the standard "
-                                 "error ignores the bound and the interval is clipped")
+                    notes.append(
+                        f"on the {side} bound of its physical range [{lo:g}, {hi:g}] {unit}: the standard "
+                        "error ignores the bound and the interval is clipped"
+                    )
                 if weak:
                     mult = math.sqrt(max(0.0, 1.0 - 1.0 / vif)) if math.isfinite(vif) else 1.0
-                    notes.append(f"weakly identifiable: multiple correlation {mult:.5f} with the other parameters"
-                                 + (f", most with {partner} ({rho:+.4f})" if partner else ""))
+                    notes.append(
+                        f"weakly identifiable: multiple correlation {mult:.5f} with the other parameters"
+                        + (f", most with {partner} ({rho:+.4f})" if partner else "")
+                    )
                 pi = (self.replaced_intervals or {}).get(label)
                 if pi is not None:
                     ci = (pi.lower, pi.upper)
@@ -319,15 +414,34 @@ class EstimateViews:
                     if side is not None:
                         notes.insert(0, f"on the {side} bound of its physical range [{lo:g}, {hi:g}] {unit}")
                     notes.append(_profile_note(pi, 1.0, unit))
-                d[pname] = ParameterEstimate(label, val, se, ci, True, bool(weak), side is not None, side,
-                                             note="; ".join(notes), si_unit=unit, correlated_with=partner,
-                                             correlation=rho)
+                d[pname] = ParameterEstimate(
+                    label,
+                    val,
+                    se,
+                    ci,
+                    True,
+                    bool(weak),
+                    side is not None,
+                    side,
+                    note="; ".join(notes),
+                    si_unit=unit,
+                    correlated_with=partner,
+                    correlation=rho,
+                )
             else:
                 with_ = f" from {partner}" if partner else ""
-                d[pname] = ParameterEstimate(label, None, None, (lo, hi), False, ridge_value=val, si_unit=unit,
-                                             correlated_with=partner, correlation=rho,
-                                             note=f"not identifiable: the data cannot separate it{with_}; "
-                                                  "interval = its physical range")
+                d[pname] = ParameterEstimate(
+                    label,
+                    None,
+                    None,
+                    (lo, hi),
+                    False,
+                    ridge_value=val,
+                    si_unit=unit,
+                    correlated_with=partner,
+                    correlation=rho,
+                    note=f"not identifiable: the data cannot separate it{with_}; interval = its physical range",
+                )
         return out
 
     @cached_property
@@ -338,8 +452,9 @@ class EstimateViews:
         if not self.effect_labels or not self.success:
             return None
         from ...soilmodel.effects import EFFECTS, parse_effects
+
         vals: dict[str, dict[str, float]] = {}
-        for label, v in zip(self.effect_labels, np.asarray(self.effect_values, float)):
+        for label, v in zip(self.effect_labels, np.asarray(self.effect_values, np.float64)):
             name, pname = label.split(".", 1)
             vals.setdefault(name, {})[pname] = float(v)
         for name in self.effect_structure.names:
@@ -351,7 +466,6 @@ class EstimateViews:
         except Exception:  # noqa: BLE001 - a non-finite or inadmissible point carries no effect set
             return None
 
-
     @cached_property
     def soil(self) -> Soil | None:
         """The identified soil, or ``None`` when the fit failed or a free parameter is not identifiable."""
@@ -362,8 +476,11 @@ class EstimateViews:
     @cached_property
     def ridge_point(self) -> Soil | None:
         """The optimiser's point as a Soil, labelled; NOT an estimate when ``soil`` is None."""
-        label = ("optimiser's point on an unidentifiable ridge - NOT an estimate" if self.soil is None
-                 else f"identified ({self.model}, {self.method})")
+        label = (
+            "optimiser's point on an unidentifiable ridge - NOT an estimate"
+            if self.soil is None
+            else f"identified ({self.model}, {self.method})"
+        )
         return self._soil_at(self.theta, label)
 
     def prediction_soil(self, normal_load) -> Soil:
@@ -387,8 +504,10 @@ class EstimateViews:
         if not self.success:
             raise DataError(f"the fit did not succeed ({self.status}): it gives no prediction")
         if self.effect_labels:
-            raise DataError("the fit includes effects: predict with soilmodel.tractive_force_with_effects(slip, "
-                            "result.ridge_point, vehicle, result.effect_set)")
+            raise DataError(
+                "the fit includes effects: predict with soilmodel.tractive_force_with_effects(slip, "
+                "result.ridge_point, vehicle, result.effect_set)"
+            )
         if self.soil is not None:
             return self.soil
         ident = {n: pe.identifiable for n, pe in self.parameters.items() if not pe.fixed}
@@ -399,11 +518,18 @@ class EstimateViews:
         W = np.atleast_1d(np.asarray(normal_load, dtype=float))
         off = W[~(np.abs(W - W0) <= 1e-6 * W0)]
         if off.size:
-            raise DataError(f"c and phi were not separable (all data at W = {W0:.6g} N): the fit predicts the "
-                            f"tractive force at that load only, not at W = {float(off[0]):.6g} N; fit data at "
-                            "two or more normal loads to predict at others")
-        return Soil(*(float(x) for x in self.theta[:3]),
-                    name=f"fitted curve at W = {W0:.6g} N (ridge point: c and phi NOT separately identified)")
+            raise DataError(
+                f"c and phi were not separable (all data at W = {W0:.6g} N): the fit predicts the "
+                f"tractive force at that load only, not at W = {float(off[0]):.6g} N; fit data at "
+                "two or more normal loads to predict at others"
+            )
+        th = self.theta
+        return Soil(
+            float(th[0]),
+            float(th[1]),
+            float(th[2]),
+            name=f"fitted curve at W = {W0:.6g} N (ridge point: c and phi NOT separately identified)",
+        )
 
     @staticmethod
     def _soil_at(theta, name: str) -> Soil | None:

@@ -73,6 +73,6 @@ class BufferCall:
             return
         args = [ca.DM(a.reshape(s[1], s[0]).T) for a, s in zip(self.inputs, self._shapes)]
         res = self.fn(*args)
-        res = res if isinstance(res, (list, tuple)) else [res]
-        for out, r in zip(self.outputs, res):
+        outs = res if isinstance(res, (list, tuple)) else [res]
+        for out, r in zip(self.outputs, outs):
             out[...] = np.asarray(r, dtype=float).T.reshape(out.shape)

@@ -175,13 +175,9 @@ class OnlineEstimator:
         self._T_all = np.zeros(cap)
         self._sT_all = np.zeros(cap)
         lib = k.library
-        self._c_step = BufferCall(
-            k.step, lib, [self._D, self._Z, self._P], [self._x_out, self._Z_out, self._sums]
-        )
+        self._c_step = BufferCall(k.step, lib, [self._D, self._Z, self._P], [self._x_out, self._Z_out, self._sums])
         self._c_predict = BufferCall(k.predict, lib, [self._row, self._P], [self._pred_out])
-        self._c_prepare = BufferCall(
-            k.prepare, lib, [self._raw1, self._noise], [self._row, self._T_out, self._sT_out]
-        )
+        self._c_prepare = BufferCall(k.prepare, lib, [self._raw1, self._noise], [self._row, self._T_out, self._sT_out])
         self._c_prepare_all = BufferCall(
             k.prepare_all, lib, [self._RAW, self._noise], [self._rows_all, self._T_all, self._sT_all]
         )
@@ -293,7 +289,7 @@ class OnlineEstimator:
         every = _TURN_REESTIMATE_EARLY if n < s.turn_history else s.noise_every
         if n >= MIN_NOISE_SAMPLES and (self._turn_sigma[0] is None or self._turn_count % every == 0):
             floor = NOISE_FLOOR_REL * self._w_max + 1e-12
-            sd = max(robust_noise(np.fromiter(self._turn_d, float)), floor)
+            sd: float | None = max(robust_noise(np.fromiter(self._turn_d, float)), floor)
             sy = None
             if len(self._turn_y) >= MIN_NOISE_SAMPLES:
                 y = np.fromiter(self._turn_y, float)
@@ -325,16 +321,12 @@ class OnlineEstimator:
             self._hist.popleft()
         if prev is None:
             self._prev = (t, M, w, -1)
-            return self._report(
-                t, None, False, None, None, "first sample of a chain (no sprocket-speed difference)"
-            )
+            return self._report(t, None, False, None, None, "first sample of a chain (no sprocket-speed difference)")
         h = t - prev[0]
         if len(self._dts) >= 3 and h > s.max_step_ratio * self._median_dt():
             self._prev = (t, M, w, -1)
             self._last_thrust = None
-            return self._report(
-                t, None, False, None, None, f"time step {h:.3g} s too long: a new chain starts"
-            )
+            return self._report(t, None, False, None, None, f"time step {h:.3g} s too long: a new chain starts")
         self._dts.append(h)
         self._refresh_noise()
         raw = self._raw1
@@ -450,9 +442,7 @@ class OnlineEstimator:
             noise_model(arr[:, 2], s.sigma_sprocket_speed),
             noise_model(arr[:, 3], s.sigma_vehicle_speed),
         )
-        self._noise[[_N["aM"], _N["bM"], _N["aw"], _N["bw"], _N["av"], _N["bv"]]] = [
-            z for pair in nm for z in pair
-        ]
+        self._noise[[_N["aM"], _N["bM"], _N["aw"], _N["bw"], _N["av"], _N["bv"]]] = [z for pair in nm for z in pair]
         if len(self._hist) >= MIN_NOISE_SAMPLES:
             self._since_noise = 0
         if self._have_noise:  # the horizon's weights follow the new noise levels

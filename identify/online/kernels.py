@@ -168,6 +168,7 @@ def _slip_gn(row, i, xF, xK, F_ref, K_ref, l, iterations: int):
             if best_i is None:
                 best_i, best_c = cand, c
             else:
+                assert best_c is not None  # set with best_i on the first fraction
                 better = c < best_c
                 best_i, best_c = ca.if_else(better, cand, best_i), ca.if_else(better, c, best_c)
         i = best_i
@@ -230,9 +231,7 @@ def _sample_sums():
     per_s, _ = core(row, i_opt, x, p, ca.DM.zeros(2))
     sums = ca.Function("online_sample_sums", [row, i0, p], [per_s, i_opt], {"cse": True})
     _, i_next_s = core(row, i0, x, p, dx)
-    slip = ca.Function(
-        "online_sample_slip", [row, i0, p, dx], [ca.if_else(m > 0, i_next_s, i0)], {"cse": True}
-    )
+    slip = ca.Function("online_sample_slip", [row, i0, p, dx], [ca.if_else(m > 0, i_next_s, i0)], {"cse": True})
     return sums, slip
 
 
@@ -275,21 +274,15 @@ def _step(n: int) -> ca.Function:
     xK_2d = ca.if_else(ca.logic_and(out1, ca.logic_not(out2)), x2_given1, x2b)
     # a parameter on a bound whose gradient pushes it outward stays there; the other takes its 1-D step
     tol = 1e-9
-    act1 = ca.logic_or(
-        ca.logic_and(xF <= lo1 * (1 + tol), g1 > 0), ca.logic_and(xF >= hi1 * (1 - tol), g1 < 0)
-    )
-    act2 = ca.logic_or(
-        ca.logic_and(xK <= lo2 * (1 + tol), g2 > 0), ca.logic_and(xK >= hi2 * (1 - tol), g2 < 0)
-    )
+    act1 = ca.logic_or(ca.logic_and(xF <= lo1 * (1 + tol), g1 > 0), ca.logic_and(xF >= hi1 * (1 - tol), g1 < 0))
+    act2 = ca.logic_or(ca.logic_and(xK <= lo2 * (1 + tol), g2 > 0), ca.logic_and(xK >= hi2 * (1 - tol), g2 < 0))
     xF_1d = ca.fmin(ca.fmax(xF + cap(-g1 / a11, xF), lo1), hi1)
     xK_1d = ca.fmin(ca.fmax(xK + cap(-g2 / a22, xK), lo2), hi2)
     xF_new = ca.if_else(act1, xF, ca.if_else(act2, xF_1d, xF_2d))
     xK_new = ca.if_else(act2, xK, ca.if_else(act1, xK_1d, xK_2d))
     dxe = ca.vertcat(xF_new - xF, xK_new - xK)
     # decrease of the cost predicted by the quadratic model along the step taken
-    decrement = -(g1 * dxe[0] + g2 * dxe[1]) - 0.5 * (
-        H11 * dxe[0] ** 2 + 2 * H12 * dxe[0] * dxe[1] + H22 * dxe[1] ** 2
-    )
+    decrement = -(g1 * dxe[0] + g2 * dxe[1]) - 0.5 * (H11 * dxe[0] ** 2 + 2 * H12 * dxe[0] * dxe[1] + H22 * dxe[1] ** 2)
     Znew = slip_f.map("online_slip_map", "serial", n, [2, 3], [])(D, Zopt, P, dxe)
     return ca.Function(
         f"online_step_{n}",
@@ -320,9 +313,7 @@ def predict_kernel() -> ca.Function:
     s = _slip_gn(row, s, P["xF"], P["xK"], P["F_ref"], P["K_ref"], P["l"], PREDICT_ITERATIONS)
     e_w, e_T = res(s)
     wres = ca.sign(e_T) * ca.sqrt(e_w**2 + e_T**2)
-    return ca.Function(
-        "online_predict", [row, p], [ca.vertcat(s, wres)], ["row", "P"], ["out"], {"cse": True}
-    )
+    return ca.Function("online_predict", [row, p], [ca.vertcat(s, wres)], ["row", "P"], ["out"], {"cse": True})
 
 
 class Kernels:

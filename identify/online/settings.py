@@ -127,12 +127,7 @@ class OnlineSettings:
             "turn_threshold",
         ):
             val = getattr(self, name)
-            if (
-                isinstance(val, bool)
-                or not isinstance(val, (int, float))
-                or not math.isfinite(val)
-                or val <= 0
-            ):
+            if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
                 raise DataError(f"setting {name} must be a finite number > 0, got {val!r}")
         for name in (
             "noise_every",
@@ -155,10 +150,7 @@ class OnlineSettings:
         ):
             val = getattr(self, name)
             if val is not None and (
-                isinstance(val, bool)
-                or not isinstance(val, (int, float))
-                or not math.isfinite(val)
-                or val < 0
+                isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val < 0
             ):
                 raise DataError(f"setting {name} must be a finite number >= 0, got {val!r}")
         if self.max_step_ratio <= 1:

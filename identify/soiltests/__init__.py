@@ -10,11 +10,23 @@ Public names
 :func:`predict_drawbar_pull`, :class:`DrawbarPrediction`
     A track's drawbar pull from a shear and a plate fit, with its interval.
 """
+
 from .plate import PLATE_BOUNDS, PlateBounds, fit_plate_test
 from .prediction import DrawbarPrediction, predict_drawbar_pull
 from .result import SOIL_TEST_KINDS, SoilTestFit, TestCombination, TestParameter
 from .shear import fit_shear_test
 from .dispatch import fit_soil_test
 
-__all__ = ["fit_soil_test", "fit_shear_test", "fit_plate_test", "PlateBounds", "PLATE_BOUNDS", "SoilTestFit",
-           "TestParameter", "TestCombination", "SOIL_TEST_KINDS", "predict_drawbar_pull", "DrawbarPrediction"]
+__all__ = [
+    "fit_soil_test",
+    "fit_shear_test",
+    "fit_plate_test",
+    "PlateBounds",
+    "PLATE_BOUNDS",
+    "SoilTestFit",
+    "TestParameter",
+    "TestCombination",
+    "SOIL_TEST_KINDS",
+    "predict_drawbar_pull",
+    "DrawbarPrediction",
+]

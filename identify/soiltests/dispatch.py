@@ -1,4 +1,5 @@
 """One entry for any bevameter test: the fit chosen by the kind of test."""
+
 from __future__ import annotations
 
 from ...soilmodel import DataError, PlateTest, ShearTest

@@ -1,4 +1,5 @@
 """From a bounded least-squares solution to reported parameters: edge units, intervals, bounds."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -21,9 +22,14 @@ def at_bounds(x: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray
     return (x - lower <= tol) | (upper - x <= tol)
 
 
-def edge_parameters(sol: LsqSolution, n_rows: int, values: np.ndarray, transform: np.ndarray,
-                    specs: list[tuple[str, str, str, float, float]], bound_flags: np.ndarray,
-                    ) -> tuple[list[TestParameter], np.ndarray | None]:
+def edge_parameters(
+    sol: LsqSolution,
+    n_rows: int,
+    values: np.ndarray,
+    transform: np.ndarray,
+    specs: list[tuple[str, str, str, float, float]],
+    bound_flags: np.ndarray,
+) -> tuple[list[TestParameter], np.ndarray | None]:
     """Parameters in edge units with linearised Student-t intervals (clipped to their bounds).
 
     Parameters
@@ -54,16 +60,48 @@ def edge_parameters(sol: LsqSolution, n_rows: int, values: np.ndarray, transform
     out = []
     for k, (key, label, unit, lo, hi) in enumerate(specs):
         if not ident[k]:
-            out.append(TestParameter(key, label, unit, None, None, (None, None), False,
-                                     note="the data leave it undetermined (flat direction of the fit)"))
+            out.append(
+                TestParameter(
+                    key,
+                    label,
+                    unit,
+                    None,
+                    None,
+                    (None, None),
+                    False,
+                    note="the data leave it undetermined (flat direction of the fit)",
+                )
+            )
             continue
         v = float(values[k])
         if cov is None or t is None:
-            out.append(TestParameter(key, label, unit, v, None, (None, None), True, bool(bound_flags[k]),
-                                     note="no residual degree of freedom: no interval"))
+            out.append(
+                TestParameter(
+                    key,
+                    label,
+                    unit,
+                    v,
+                    None,
+                    (None, None),
+                    True,
+                    bool(bound_flags[k]),
+                    note="no residual degree of freedom: no interval",
+                )
+            )
             continue
         se = float(np.sqrt(max(cov[k, k], 0.0)))
         ci = (max(lo, v - t * se), min(hi, v + t * se))
-        out.append(TestParameter(key, label, unit, v, se, ci, True, bool(bound_flags[k]),
-                                 note="on a bound of its range" if bound_flags[k] else ""))
+        out.append(
+            TestParameter(
+                key,
+                label,
+                unit,
+                v,
+                se,
+                ci,
+                True,
+                bool(bound_flags[k]),
+                note="on a bound of its range" if bound_flags[k] else "",
+            )
+        )
     return out, cov

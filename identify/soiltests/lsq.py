@@ -9,6 +9,7 @@ The linearised covariance ``s^2 (J^T J)^-1`` (``s^2 = |r|^2 / (n - m)``) and Stu
 intervals are computed on the scaled parameters; directions the data leave flat (relative
 singular value below :data:`RANK_RTOL`) are reported as not identifiable, never as numbers.
 """
+
 from __future__ import annotations
 
 import time
@@ -19,8 +20,17 @@ from typing import Callable
 import casadi as ca
 import numpy as np
 
-__all__ = ["ResidualModel", "LsqSolution", "solve_bounded", "covariance", "RANK_RTOL", "BOUND_RTOL",
-           "MAX_ITER", "IPOPT_TOL", "FLAT_COMPONENT_TOL"]
+__all__ = [
+    "ResidualModel",
+    "LsqSolution",
+    "solve_bounded",
+    "covariance",
+    "RANK_RTOL",
+    "BOUND_RTOL",
+    "MAX_ITER",
+    "IPOPT_TOL",
+    "FLAT_COMPONENT_TOL",
+]
 
 #: Relative singular value of the scaled Jacobian below which a direction is not identifiable.
 RANK_RTOL = 1e-7
@@ -109,15 +119,26 @@ def _functions(name: str, n: int) -> tuple[ca.Function, ca.Function]:
     x, D, a = _symbols(model, n)
     r = model.build(x, D, a)
     p = ca.vertcat(ca.vec(D), a)
-    opts: dict = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.max_iter": MAX_ITER,
-            "ipopt.tol": IPOPT_TOL}
+    opts: dict = {
+        "ipopt.print_level": 0,
+        "print_time": False,
+        "ipopt.sb": "yes",
+        "ipopt.max_iter": MAX_ITER,
+        "ipopt.tol": IPOPT_TOL,
+    }
     solver = ca.nlpsol(f"lsq_{name}_{n}", "ipopt", {"x": x, "p": p, "f": 0.5 * ca.sumsqr(r)}, opts)
     rj = ca.Function(f"rj_{name}_{n}", [x, p], [r, ca.jacobian(r, x)])
     return solver, rj
 
 
-def solve_bounded(model: ResidualModel, data: np.ndarray, aux: np.ndarray, starts: list[np.ndarray],
-                  lower: np.ndarray, upper: np.ndarray) -> LsqSolution:
+def solve_bounded(
+    model: ResidualModel,
+    data: np.ndarray,
+    aux: np.ndarray,
+    starts: list[np.ndarray],
+    lower: np.ndarray,
+    upper: np.ndarray,
+) -> LsqSolution:
     """Minimise ``0.5 |r(x)|^2`` within ``[lower, upper]`` from each start; the best start wins.
 
     Parameters
@@ -147,15 +168,27 @@ def solve_bounded(model: ResidualModel, data: np.ndarray, aux: np.ndarray, start
         f = float(sol["f"])
         if not (np.all(np.isfinite(x)) and np.isfinite(f)):
             continue
-        if best is None or f < best[1] - 1e-14 * max(abs(f), 1.0) or (not best[2] and stats["success"]
-                                                                         and f <= best[1] * (1 + 1e-9)):
+        if (
+            best is None
+            or f < best[1] - 1e-14 * max(abs(f), 1.0)
+            or (not best[2] and stats["success"] and f <= best[1] * (1 + 1e-9))
+        ):
             best = (x, f, bool(stats["success"]), str(stats["return_status"]), int(stats["iter_count"]))
     elapsed = time.perf_counter() - t0
     if best is None:
         x = np.clip(np.asarray(starts[0], dtype=float), lower, upper)
         r, J = rj(x, p)
-        return LsqSolution(x, float(np.sum(np.asarray(r) ** 2)), np.asarray(r, dtype=float).ravel(),
-                           np.asarray(J, dtype=float), False, "no start gave a finite answer", 0, elapsed, len(starts))
+        return LsqSolution(
+            x,
+            float(np.sum(np.asarray(r) ** 2)),
+            np.asarray(r, dtype=float).ravel(),
+            np.asarray(J, dtype=float),
+            False,
+            "no start gave a finite answer",
+            0,
+            elapsed,
+            len(starts),
+        )
     x, f, ok, status, it = best
     r, J = rj(x, p)
     r = np.asarray(r, dtype=float).ravel()

@@ -7,6 +7,7 @@ Plates of two or more widths identify k_c and k_phi; one width b identifies only
 ``k_c / b + k_phi`` (and n): then k_c and k_phi are ``identifiable: false`` and the
 combination ``bekker_k_eq`` is reported.
 """
+
 from __future__ import annotations
 
 import math
@@ -103,8 +104,11 @@ def fit_plate_test(test: PlateTest, bounds: PlateBounds = PLATE_BOUNDS) -> SoilT
     m = 3 if separable else 2
     informative = int(np.count_nonzero((z > 0) & (p > 0)))
     if informative <= m:
-        raise DataError(f"{informative} rows with a positive sinkage and pressure cannot fit {m} parameters "
-                        f"with an interval (need at least {m + 1})", file=test.source)
+        raise DataError(
+            f"{informative} rows with a positive sinkage and pressure cannot fit {m} parameters "
+            f"with an interval (need at least {m + 1})",
+            file=test.source,
+        )
     z_ref = float(np.exp(np.mean(np.log(z[(z > 0) & (p > 0)]))))
     ps = float(np.max(p))
     aux = np.array([ps, z_ref])
@@ -114,7 +118,7 @@ def fit_plate_test(test: PlateTest, bounds: PlateBounds = PLATE_BOUNDS) -> SoilT
     n_starts = [float(np.clip(n0, n_lo, n_hi)), *N_STARTS]
 
     def scaled(k_si, n):
-        return k_si * z_ref ** n / ps
+        return k_si * z_ref**n / ps
 
     if separable:
         kc0, kphi0 = np.linalg.lstsq(np.column_stack([1.0 / widths, np.ones_like(widths)]), k_eq0, rcond=None)[0]
@@ -123,20 +127,22 @@ def fit_plate_test(test: PlateTest, bounds: PlateBounds = PLATE_BOUNDS) -> SoilT
         for n in n_starts:  # the regression's moduli at its n; at other n, the same pressure at z_ref
             f = 1.0 if n == n_starts[0] else z_ref ** (n0 - n)
             starts.append(np.array([scaled(kc0 * f, n), scaled(kphi0 * f, n), n]))
-        big = UNBOUNDED_FACTOR * max(1.0, float(np.max(k_eq0)) * z_ref ** n0 / ps)
+        big = UNBOUNDED_FACTOR * max(1.0, float(np.max(k_eq0)) * z_ref**n0 / ps)
         lower = np.array([0.0, 0.0, n_lo])
         upper = np.array([big, big, n_hi])
         sol = solve_bounded(FULL, D, aux, starts, lower, upper)
         n = float(sol.x[2])
-        f = ps / z_ref ** n / 1e3  # A -> kN/m^(n+...)
+        f = ps / z_ref**n / 1e3  # A -> kN/m^(n+...)
         kc, kphi = sol.x[0] * f, sol.x[1] * f
         values = np.array([kc, kphi, n])
         lz = math.log(z_ref)
         T = np.array([[f, 0.0, -kc * lz], [0.0, f, -kphi * lz], [0.0, 0.0, 1.0]])
         flags = at_bounds(sol.x, lower, upper)
-        specs = [("bekker_kc", "Bekker k_c", "kN/m^(n+1)", 0.0, math.inf),
-                 ("bekker_kphi", "Bekker k_phi", "kN/m^(n+2)", 0.0, math.inf),
-                 ("bekker_n", "Bekker exponent n", "-", *bounds.n)]
+        specs = [
+            ("bekker_kc", "Bekker k_c", "kN/m^(n+1)", 0.0, math.inf),
+            ("bekker_kphi", "Bekker k_phi", "kN/m^(n+2)", 0.0, math.inf),
+            ("bekker_n", "Bekker exponent n", "-", *bounds.n),
+        ]
         params, cov = edge_parameters(sol, test.n_samples, values, T, specs, flags)
         combos: dict = {}
         notes = [f"{widths.size} plate widths ({widths.min():.4g}-{widths.max():.4g} m) separate k_c and k_phi"]
@@ -145,33 +151,66 @@ def fit_plate_test(test: PlateTest, bounds: PlateBounds = PLATE_BOUNDS) -> SoilT
         values_si = (kc * 1e3, kphi * 1e3, n)
     else:
         w = float(widths[0])
-        starts = [np.array([scaled(k_eq0[0] * (1.0 if n == n_starts[0] else z_ref ** (n0 - n)), n), n])
-                  for n in n_starts]
-        big = UNBOUNDED_FACTOR * max(1.0, float(k_eq0[0]) * z_ref ** n0 / ps)
+        starts = [
+            np.array([scaled(k_eq0[0] * (1.0 if n == n_starts[0] else z_ref ** (n0 - n)), n), n]) for n in n_starts
+        ]
+        big = UNBOUNDED_FACTOR * max(1.0, float(k_eq0[0]) * z_ref**n0 / ps)
         lower = np.array([0.0, n_lo])
         upper = np.array([big, n_hi])
         sol = solve_bounded(ONE_WIDTH, D, aux, starts, lower, upper)
         n = float(sol.x[1])
-        f = ps / z_ref ** n / 1e3
+        f = ps / z_ref**n / 1e3
         k_eq = sol.x[0] * f
         T = np.array([[f, -k_eq * math.log(z_ref)], [0.0, 1.0]])
         flags = at_bounds(sol.x, lower, upper)
-        specs = [("bekker_k_eq", "k_c / b + k_phi", "kN/m^(n+2)", 0.0, math.inf),
-                 ("bekker_n", "Bekker exponent n", "-", *bounds.n)]
+        specs = [
+            ("bekker_k_eq", "k_c / b + k_phi", "kN/m^(n+2)", 0.0, math.inf),
+            ("bekker_n", "Bekker exponent n", "-", *bounds.n),
+        ]
         (k_par, n_par), cov = edge_parameters(sol, test.n_samples, np.array([k_eq, n]), T, specs, flags)
-        why = (f"one plate width (b = {w:.4g} m): only k_c / b + k_phi is identified; plates of two or more "
-               "widths separate k_c and k_phi")
-        params = [TestParameter("bekker_kc", "Bekker k_c", "kN/m^(n+1)", None, None, (None, None), False, note=why),
-                  TestParameter("bekker_kphi", "Bekker k_phi", "kN/m^(n+2)", None, None, (None, None), False,
-                                note=why), n_par]
-        combos = {"bekker_k_eq": TestCombination("bekker_k_eq", "k_c / b + k_phi", "kN/m^(n+2)", k_par.value,
-                                                 k_par.stderr, k_par.ci95, {"plate_width_m": w})}
+        why = (
+            f"one plate width (b = {w:.4g} m): only k_c / b + k_phi is identified; plates of two or more "
+            "widths separate k_c and k_phi"
+        )
+        params = [
+            TestParameter("bekker_kc", "Bekker k_c", "kN/m^(n+1)", None, None, (None, None), False, note=why),
+            TestParameter("bekker_kphi", "Bekker k_phi", "kN/m^(n+2)", None, None, (None, None), False, note=why),
+            n_par,
+        ]
+        combos = {
+            "bekker_k_eq": TestCombination(
+                "bekker_k_eq",
+                "k_c / b + k_phi",
+                "kN/m^(n+2)",
+                k_par.value,
+                k_par.stderr,
+                k_par.ci95,
+                {"plate_width_m": w},
+            )
+        }
         notes = [why]
         si, values_si = None, (None, None, n)
     if np.any(flags):
-        notes.append("on a bound: " + (", ".join(q.key for q in params if q.at_bound) or "k_c / b + k_phi") +
-                     " (a warning about the data or the bounds)")
+        notes.append(
+            "on a bound: "
+            + (", ".join(q.key for q in params if q.at_bound) or "k_c / b + k_phi")
+            + " (a warning about the data or the bounds)"
+        )
     rmse = math.sqrt(sol.cost / test.n_samples) * ps / 1e3
-    return SoilTestFit("plate_test", test.source, {q.key: q for q in params}, combos, sol.converged, sol.status,
-                       sol.iterations, sol.solve_time_s, test.n_samples, rmse, "kPa",
-                       {"plate_widths_m": [float(v) for v in widths]}, tuple(notes), si, values_si)
+    return SoilTestFit(
+        "plate_test",
+        test.source,
+        {q.key: q for q in params},
+        combos,
+        sol.converged,
+        sol.status,
+        sol.iterations,
+        sol.solve_time_s,
+        test.n_samples,
+        rmse,
+        "kPa",
+        {"plate_widths_m": [float(v) for v in widths]},
+        tuple(notes),
+        si,
+        values_si,
+    )

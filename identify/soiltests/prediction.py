@@ -12,6 +12,7 @@ interval propagates it linearly (gradient from CasADi's AD). It is the interval 
 model's prediction from the soil's uncertainty: a measured pull adds its own noise and the
 model's error (uniform pressure, no slip sinkage).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -66,27 +67,36 @@ def drawbar_pull_function() -> ca.Function:
     R = compaction_expr(s["W"], s["n"], s["k_c"], s["k_phi"], s["l"], s["b"])
     p = ca.vertcat(*(s[k] for k in ("c", "phi", "K", "k_c", "k_phi", "n")))
     DP = F - R
-    return ca.Function("drawbar_pull", list(s.values()), [DP, ca.jacobian(DP, p), F, R], list(s),
-                       ["DP", "dDP_dp", "F", "R_c"])
+    return ca.Function(
+        "drawbar_pull", list(s.values()), [DP, ca.jacobian(DP, p), F, R], list(s), ["DP", "dDP_dp", "F", "R_c"]
+    )
 
 
 def _require(fit: SoilTestFit, kind: str, what: str) -> tuple[np.ndarray, np.ndarray]:
     if fit.kind != kind:
         raise DataError(f"expected a {kind.replace('_', ' ')} fit for {what}, got a {fit.kind.replace('_', ' ')} fit")
     if not fit.success:
-        raise DataError(f"the {kind.replace('_', ' ')} fit ({fit.source}) did not succeed ({fit.status}): "
-                        "no prediction from it")
+        raise DataError(
+            f"the {kind.replace('_', ' ')} fit ({fit.source}) did not succeed ({fit.status}): no prediction from it"
+        )
     if fit.covariance_si is None or any(v is None for v in fit.values_si):
         missing = [k for k, p in fit.parameters.items() if not p.identifiable]
-        hint = ("test at two or more normal pressures" if kind == "shear_test" else
-                "test plates of two or more widths")
-        raise DataError(f"the {kind.replace('_', ' ')} ({fit.source}) does not identify {', '.join(missing)}: the "
-                        f"track's {what} needs them ({hint})")
+        hint = "test at two or more normal pressures" if kind == "shear_test" else "test plates of two or more widths"
+        raise DataError(
+            f"the {kind.replace('_', ' ')} ({fit.source}) does not identify {', '.join(missing)}: the "
+            f"track's {what} needs them ({hint})"
+        )
     return np.array(fit.values_si, dtype=float), np.asarray(fit.covariance_si, dtype=float)
 
 
-def predict_drawbar_pull(shear: SoilTestFit, plate: SoilTestFit, vehicle: Vehicle, slip,
-                         normal_load: float | None = None, confidence: float = 0.95) -> DrawbarPrediction:
+def predict_drawbar_pull(
+    shear: SoilTestFit,
+    plate: SoilTestFit,
+    vehicle: Vehicle,
+    slip,
+    normal_load: float | None = None,
+    confidence: float = 0.95,
+) -> DrawbarPrediction:
     """Drawbar pull of the vehicle's tracks on the bevameter-identified soil, with its interval.
 
     Parameters

@@ -1,4 +1,5 @@
 """What a bevameter test fit returns: its parameters with intervals, what they identify, the solver's word."""
+
 from __future__ import annotations
 
 import json
@@ -56,9 +57,15 @@ class TestParameter:
 
     def to_dict(self) -> dict:
         """JSON-ready dict; never NaN."""
-        return {"value": _f(self.value), "stderr": _f(self.stderr), "ci95": [_f(self.ci95[0]), _f(self.ci95[1])],
-                "identifiable": bool(self.identifiable), "at_bound": bool(self.at_bound), "unit": self.unit,
-                "note": self.note}
+        return {
+            "value": _f(self.value),
+            "stderr": _f(self.stderr),
+            "ci95": [_f(self.ci95[0]), _f(self.ci95[1])],
+            "identifiable": bool(self.identifiable),
+            "at_bound": bool(self.at_bound),
+            "unit": self.unit,
+            "note": self.note,
+        }
 
 
 @dataclass(frozen=True)
@@ -85,10 +92,16 @@ class TestCombination:
 
     def to_dict(self) -> dict:
         """JSON-ready dict; never NaN."""
-        return {"name": self.key, "expression": self.expression, "unit": self.unit, "value": _f(self.value),
-                "stderr": _f(self.stderr),
-                "ci95": [_f(self.ci95[0]), _f(self.ci95[1])], "identifiable": True,
-                **{k: _f(v) for k, v in self.at.items()}}
+        return {
+            "name": self.key,
+            "expression": self.expression,
+            "unit": self.unit,
+            "value": _f(self.value),
+            "stderr": _f(self.stderr),
+            "ci95": [_f(self.ci95[0]), _f(self.ci95[1])],
+            "identifiable": True,
+            **{k: _f(v) for k, v in self.at.items()},
+        }
 
 
 @dataclass(frozen=True)
@@ -154,13 +167,24 @@ class SoilTestFit:
 
     def to_dict(self) -> dict:
         """JSON-ready dict (the ``soiltrack fit --json`` object of a bevameter file); never NaN."""
-        return {"kind": self.kind, "source": self.source, "method": "ipopt", "status": self.status,
-                "success": self.success, "converged": bool(self.converged), "iterations": int(self.iterations),
-                "n_samples": int(self.n_samples), f"rmse_{self.rmse_unit}": _f(self.rmse),
-                "solve_time_s": _f(self.solve_time_s), "levels": self.levels,
-                "parameters": {k: p.to_dict() for k, p in self.parameters.items()},
-                "combinations": [c.to_dict() for c in self.combinations.values()],
-                "identifiable": self.identifiable, "active_bounds": self.active_bounds, "notes": list(self.notes)}
+        return {
+            "kind": self.kind,
+            "source": self.source,
+            "method": "ipopt",
+            "status": self.status,
+            "success": self.success,
+            "converged": bool(self.converged),
+            "iterations": int(self.iterations),
+            "n_samples": int(self.n_samples),
+            f"rmse_{self.rmse_unit}": _f(self.rmse),
+            "solve_time_s": _f(self.solve_time_s),
+            "levels": self.levels,
+            "parameters": {k: p.to_dict() for k, p in self.parameters.items()},
+            "combinations": [c.to_dict() for c in self.combinations.values()],
+            "identifiable": self.identifiable,
+            "active_bounds": self.active_bounds,
+            "notes": list(self.notes),
+        }
 
     def to_json(self, indent: int | None = 2) -> str:
         """:meth:`to_dict` as JSON text."""
@@ -169,12 +193,15 @@ class SoilTestFit:
     def report(self) -> str:
         """Plain-text report: the solver's word, each parameter with its interval, what is not identifiable."""
         title = "bevameter shear test" if self.kind == "shear_test" else "plate sinkage test"
-        lvl = "; ".join(f"{_LEVEL_LABELS.get(k, k)}: {', '.join(f'{v:.4g}' for v in vals)}"
-                        for k, vals in self.levels.items())
-        lines = [f"{title}: {self.source} ({self.n_samples} rows; {lvl})",
-                 f"solver: IPOPT {'converged' if self.converged else 'DID NOT CONVERGE'} ({self.status}), "
-                 f"{self.iterations} iterations, {self.solve_time_s:.3f} s; rms misfit {self.rmse:.4g} "
-                 f"{self.rmse_unit}"]
+        lvl = "; ".join(
+            f"{_LEVEL_LABELS.get(k, k)}: {', '.join(f'{v:.4g}' for v in vals)}" for k, vals in self.levels.items()
+        )
+        lines = [
+            f"{title}: {self.source} ({self.n_samples} rows; {lvl})",
+            f"solver: IPOPT {'converged' if self.converged else 'DID NOT CONVERGE'} ({self.status}), "
+            f"{self.iterations} iterations, {self.solve_time_s:.3f} s; rms misfit {self.rmse:.4g} "
+            f"{self.rmse_unit}",
+        ]
         for p in self.parameters.values():
             if not p.identifiable:
                 lines.append(f"  {p.label:<28} not identifiable (see the note)")
@@ -187,7 +214,6 @@ class SoilTestFit:
             ci = f"[{c.ci95[0]:.4g}, {c.ci95[1]:.4g}]" if None not in c.ci95 else "[n/a]"
             lines.append(f"  {c.expression + ' (' + at + ')':<40} {c.value:.4g} {c.unit}  95 % {ci}")
         lines += [f"note: {n}" for n in self.notes]
-        why = ("the solver did not converge" if not self.converged else
-               "the data identify none of the parameters")
+        why = "the solver did not converge" if not self.converged else "the data identify none of the parameters"
         lines.append("result: " + ("usable" if self.success else f"NOT usable ({why})"))
         return "\n".join(lines)

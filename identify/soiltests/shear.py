@@ -5,6 +5,7 @@ two or more normal pressures c, phi and K are identified; at one pressure sigma 
 strength ``c + sigma tan(phi)`` and K are (the report says so and gives that combination,
 never a point of the c-phi line as an estimate).
 """
+
 from __future__ import annotations
 
 import math
@@ -74,20 +75,28 @@ def fit_shear_test(test: ShearTest, bounds: SoilBounds = WIDE_BOUNDS) -> SoilTes
     separable = levels.size >= 2
     m = 3 if separable else 2
     if test.n_samples <= m:
-        raise DataError(f"{test.n_samples} rows cannot fit {m} parameters with an interval (need at least {m + 1})",
-                        file=test.source)
+        raise DataError(
+            f"{test.n_samples} rows cannot fit {m} parameters with an interval (need at least {m + 1})",
+            file=test.source,
+        )
     ts = float(np.max(np.abs(tau)))
     if ts <= 0:
         raise DataError("every shear stress is zero", file=test.source, column="shear_stress_Pa")
     moved = j > 0
     if np.count_nonzero(moved) < m:
-        raise DataError(f"{np.count_nonzero(moved)} rows with a shear displacement above 0: the "
-                        f"stress-displacement curve needs at least {m}", file=test.source,
-                        column="shear_displacement_m")
+        raise DataError(
+            f"{np.count_nonzero(moved)} rows with a shear displacement above 0: the "
+            f"stress-displacement curve needs at least {m}",
+            file=test.source,
+            column="shear_displacement_m",
+        )
     if np.median(tau[moved]) <= 0:
-        raise DataError("most shear stresses at a positive displacement are <= 0: the soil resists shearing "
-                        "with a positive stress (a sign convention of the logger?)", file=test.source,
-                        column="shear_stress_Pa")
+        raise DataError(
+            "most shear stresses at a positive displacement are <= 0: the soil resists shearing "
+            "with a positive stress (a sign convention of the logger?)",
+            file=test.source,
+            column="shear_stress_Pa",
+        )
     D = np.column_stack([sigma, j, tau])
     (c_lo, c_hi), (p_lo, p_hi), (k_lo, k_hi) = bounds.cohesion, bounds.friction_angle, bounds.shear_modulus
     peaks = _start_strength(sigma, tau, levels)
@@ -103,15 +112,22 @@ def fit_shear_test(test: ShearTest, bounds: SoilBounds = WIDE_BOUNDS) -> SoilTes
         values = np.array([c / 1e3, math.degrees(phi), K])
         T = np.diag([ts / 1e3, 180.0 / math.pi, K_SCALE])
         flags = at_bounds(sol.x, lower, upper)
-        specs = [("cohesion_kpa", "cohesion c", "kPa", c_lo / 1e3, c_hi / 1e3),
-                 ("friction_angle_deg", "friction angle phi", "deg", math.degrees(p_lo), math.degrees(p_hi)),
-                 ("shear_modulus_m", "shear modulus K", "m", k_lo, k_hi)]
+        specs = [
+            ("cohesion_kpa", "cohesion c", "kPa", c_lo / 1e3, c_hi / 1e3),
+            ("friction_angle_deg", "friction angle phi", "deg", math.degrees(p_lo), math.degrees(p_hi)),
+            ("shear_modulus_m", "shear modulus K", "m", k_lo, k_hi),
+        ]
         params, cov = edge_parameters(sol, test.n_samples, values, T, specs, flags)
         combos: dict = {}
-        notes = [f"{levels.size} normal pressures ({levels.min() / 1e3:.4g}-{levels.max() / 1e3:.4g} kPa) separate "
-                 "cohesion and friction"]
-        si = None if cov is None or not all(p.identifiable for p in params) else \
-            np.diag([1e3, math.pi / 180.0, 1.0]) @ cov @ np.diag([1e3, math.pi / 180.0, 1.0])
+        notes = [
+            f"{levels.size} normal pressures ({levels.min() / 1e3:.4g}-{levels.max() / 1e3:.4g} kPa) separate "
+            "cohesion and friction"
+        ]
+        si = (
+            None
+            if cov is None or not all(p.identifiable for p in params)
+            else np.diag([1e3, math.pi / 180.0, 1.0]) @ cov @ np.diag([1e3, math.pi / 180.0, 1.0])
+        )
         values_si = (c, phi, K)
     else:
         s0 = float(levels[0])
@@ -123,24 +139,55 @@ def fit_shear_test(test: ShearTest, bounds: SoilBounds = WIDE_BOUNDS) -> SoilTes
         values = np.array([sol.x[0] * ts / 1e3, sol.x[1] * K_SCALE])
         T = np.diag([ts / 1e3, K_SCALE])
         flags = at_bounds(sol.x, lower, upper)
-        specs = [("shear_strength_kpa", "shear strength", "kPa", t_lo / 1e3, t_hi / 1e3),
-                 ("shear_modulus_m", "shear modulus K", "m", k_lo, k_hi)]
+        specs = [
+            ("shear_strength_kpa", "shear strength", "kPa", t_lo / 1e3, t_hi / 1e3),
+            ("shear_modulus_m", "shear modulus K", "m", k_lo, k_hi),
+        ]
         both, cov = edge_parameters(sol, test.n_samples, values, T, specs, flags)
         strength, k_par = both
-        why = (f"one normal pressure ({s0 / 1e3:.4g} kPa): only c + sigma tan(phi) is identified; a test at two "
-               "or more normal pressures separates c and phi")
-        params = [TestParameter("cohesion_kpa", "cohesion c", "kPa", None, None, (None, None), False, note=why),
-                  TestParameter("friction_angle_deg", "friction angle phi", "deg", None, None, (None, None), False,
-                                note=why), k_par]
-        combos = {"shear_strength_kpa": TestCombination("shear_strength_kpa", "c + sigma tan(phi)", "kPa",
-                                                        strength.value, strength.stderr, strength.ci95,
-                                                        {"normal_pressure_kpa": s0 / 1e3})}
+        why = (
+            f"one normal pressure ({s0 / 1e3:.4g} kPa): only c + sigma tan(phi) is identified; a test at two "
+            "or more normal pressures separates c and phi"
+        )
+        params = [
+            TestParameter("cohesion_kpa", "cohesion c", "kPa", None, None, (None, None), False, note=why),
+            TestParameter("friction_angle_deg", "friction angle phi", "deg", None, None, (None, None), False, note=why),
+            k_par,
+        ]
+        combos = {
+            "shear_strength_kpa": TestCombination(
+                "shear_strength_kpa",
+                "c + sigma tan(phi)",
+                "kPa",
+                strength.value,
+                strength.stderr,
+                strength.ci95,
+                {"normal_pressure_kpa": s0 / 1e3},
+            )
+        }
         notes = [why]
         si, values_si = None, (None, None, sol.x[1] * K_SCALE)
     if np.any(flags):
-        notes.append("on a bound: " + ", ".join(p.key for p in params if p.at_bound) +
-                     " (a warning about the data or the bounds)")
+        notes.append(
+            "on a bound: "
+            + ", ".join(p.key for p in params if p.at_bound)
+            + " (a warning about the data or the bounds)"
+        )
     rmse = math.sqrt(sol.cost / test.n_samples) * ts / 1e3
-    return SoilTestFit("shear_test", test.source, {p.key: p for p in params}, combos, sol.converged, sol.status,
-                       sol.iterations, sol.solve_time_s, test.n_samples, rmse, "kPa",
-                       {"normal_pressures_kpa": [float(s) / 1e3 for s in levels]}, tuple(notes), si, values_si)
+    return SoilTestFit(
+        "shear_test",
+        test.source,
+        {p.key: p for p in params},
+        combos,
+        sol.converged,
+        sol.status,
+        sol.iterations,
+        sol.solve_time_s,
+        test.n_samples,
+        rmse,
+        "kPa",
+        {"normal_pressures_kpa": [float(s) / 1e3 for s in levels]},
+        tuple(notes),
+        si,
+        values_si,
+    )

@@ -7,6 +7,7 @@ default), :mod:`.compiled_lm` (bounded Levenberg-Marquardt as one compiled CasAD
 and least squares), :mod:`.slip_noise` (slip measured with noise), :mod:`.plausibility` (wrong data
 must not pass as success).
 """
+
 from .problem import FitFailed, SlipProblem, make_problem
 
 __all__ = ["FitFailed", "SlipProblem", "make_problem"]

@@ -64,6 +64,7 @@ lock (a C call of microseconds; the lock is held only across it); each kernel is
 compiled) once under its own lock, so a compilation does not block fits that use other
 kernels; after ``fork`` the locks are renewed in the child.
 """
+
 from __future__ import annotations
 
 import math
@@ -83,8 +84,18 @@ from .plausibility import corner_soils, limit_screen_expr, screen_expr
 from .problem import SCALE, SlipProblem, heteroscedasticity_screen_expr, ridge_centre
 from ..estimates.result import FitResult, build_result
 
-__all__ = ["compiled_solver", "fit_compiled", "solve", "solve_many", "kernel", "size_class", "Solution", "N_ITER", "KKT_TOL",
-           "JIT_MODES"]
+__all__ = [
+    "compiled_solver",
+    "fit_compiled",
+    "solve",
+    "solve_many",
+    "kernel",
+    "size_class",
+    "Solution",
+    "N_ITER",
+    "KKT_TOL",
+    "JIT_MODES",
+]
 
 #: Most damped-Newton iterations per call (skipped once converged; typically 2-6 are run).
 N_ITER = 40
@@ -118,8 +129,7 @@ def _data_symbols():
     return [ca.SX.sym(k) for k in ("s", "F", "W", "w", "l", "b")]
 
 
-def _row_map(name: str, inputs: list, outputs: list, repeated: list, n: int, reduce_out=(),
-             opts: dict | None = None):
+def _row_map(name: str, inputs: list, outputs: list, repeated: list, n: int, reduce_out=(), opts: dict | None = None):
     """``Function(name, inputs, outputs).map(name, "serial", n, repeated, reduce_out)``, evaluated in less time.
 
     ``repeated``: indices of the inputs that are the same for every sample (the parameters,
@@ -138,13 +148,19 @@ def _row_map(name: str, inputs: list, outputs: list, repeated: list, n: int, red
     row_in = ([ca.vertcat(*syms)] if syms else []) + [inputs[k] for k in used]
     row = ca.Function(name, row_in, list(ret), opts or {})
     first = 1 if syms else 0
-    mapped = row.map(name + "_map", "serial", n, ([0] if syms else []) + [first + j for j, k in enumerate(used)
-                                                                          if k in rep], list(reduce_out))
+    mapped = row.map(
+        name + "_map",
+        "serial",
+        n,
+        ([0] if syms else []) + [first + j for j, k in enumerate(used) if k in rep],
+        list(reduce_out),
+    )
     pre = ca.Function(name + "_pre", [inputs[i] for i in rep], [ca.vertcat(*pars)], {"cse": True}) if syms else None
 
     def call(*args):
         kept = [args[k] for k in used]
         return mapped(pre(*[args[i] for i in rep]), *kept) if syms else mapped(*kept)
+
     return call
 
 
@@ -180,8 +196,9 @@ def _point_functions(p: int, n_grid: int, n: int, m: int):
     gr = ca.jacobian(r, z).T
     cost = 0.5 * r * r
     H = ca.hessian(cost, z)[0]
-    ev = _row_map("pt_ev", [z, s, F, W, w, l, b], [ca.vertcat(cost, r * gr, ca.vec(H), gr * gr)], [0, 5, 6], n, [0],
-                  {"cse": True})
+    ev = _row_map(
+        "pt_ev", [z, s, F, W, w, l, b], [ca.vertcat(cost, r * gr, ca.vec(H), gr * gr)], [0, 5, 6], n, [0], {"cse": True}
+    )
     return grid, ev
 
 
@@ -191,8 +208,7 @@ def _resjac_point(model: str, n: int):
     th = ca.SX.sym("theta", 3)
     Fm = thrust_expr(s, th[0], th[1], th[2], W, l, b, model=model)
     J = ca.jacobian(Fm, th)
-    return _row_map("pt_resjac", [th, s, F, W, w, l, b], [ca.vertcat(Fm - F, w * J.T)], [0, 5, 6], n, (),
-                    {"cse": True})
+    return _row_map("pt_resjac", [th, s, F, W, w, l, b], [ca.vertcat(Fm - F, w * J.T)], [0, 5, 6], n, (), {"cse": True})
 
 
 def _thrust_map(model: str, n: int):
@@ -209,20 +225,21 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
     can be called through a zero-copy buffer). Inputs: ``d = [slip (n), F (n), W (n), w (n), l, b]``
     with ``w = 1/sigma`` (0 on padding rows), ``lbz, ubz`` (scaled bounds), ``z0`` (scaled
     start, used when ``use_z0 = 1``) and, for ``n > GRID_ROWS``, ``g = [slip, F, W, w]`` of the
-    ``GRID_ROWS`` samples the start grid is evaluated on (:func:`grid_rows`). Output: ``[z (p), cost, g (p), trJJ, iters, zstart (p),
-    scale]``: the scaled optimum, ``0.5 sum r^2``, the gradient of the cost in ``z``, the trace
-    of ``J^T J``, the iterations run until the first-order test held, the start used and
-    ``0.5 sum (w F)^2``. :func:`kernel` compiles it to C (cached on disk).
+    ``GRID_ROWS`` samples the start grid is evaluated on (:func:`grid_rows`). Output:
+    ``[z (p), cost, g (p), trJJ, iters, zstart (p), scale]``: the scaled optimum,
+    ``0.5 sum r^2``, the gradient of the cost in ``z``, the trace of ``J^T J``, the iterations
+    run until the first-order test held, the start used and ``0.5 sum (w F)^2``. :func:`kernel`
+    compiles it to C (cached on disk).
     """
     n_grid = max(int(n_grid), 1)
     d = ca.MX.sym("d", 4 * n + 2)
     lbz, ubz, z0, use0 = ca.MX.sym("lbz", p), ca.MX.sym("ubz", p), ca.MX.sym("z0", p), ca.MX.sym("use_z0")
-    slip, force, W, wt = (d[k * n:(k + 1) * n].T for k in range(4))
+    slip, force, W, wt = (d[k * n : (k + 1) * n].T for k in range(4))
     l, b = d[4 * n], d[4 * n + 1]
     m = min(n, GRID_ROWS)  # rows of the start grid: all, or a subsample given as its own input
     grid_sums, evm = _point_functions(p, n_grid, n, m)
     gd = ca.MX.sym("grid_data", 4 * m if n > GRID_ROWS else 0)
-    g_rows = [gd[k * m:(k + 1) * m].T for k in range(4)] if n > GRID_ROWS else [slip, force, W, wt]
+    g_rows = [gd[k * m : (k + 1) * m].T for k in range(4)] if n > GRID_ROWS else [slip, force, W, wt]
 
     # ---- 1. variable-projection grid start (residual cost of each K from the sums:
     # |y|^2 - 2 c r1 - 2 t r2 + c^2 m11 + 2 c t m12 + t^2 m22, with t = tan(phi))
@@ -230,9 +247,9 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
     yy_s = ca.SX.sym("yy")
     lz, uz, Kg = ca.SX.sym("lz", p), ca.SX.sym("uz", p), ca.SX.sym("Kg", n_grid)
     if p == 3:
-        m11, m12, m22, r1, r2 = (sc[k * n_grid:(k + 1) * n_grid] for k in range(5))
+        m11, m12, m22, r1, r2 = (sc[k * n_grid : (k + 1) * n_grid] for k in range(5))
     else:
-        m22, r2 = sc[0:n_grid], sc[n_grid:2 * n_grid]
+        m22, r2 = sc[0:n_grid], sc[n_grid : 2 * n_grid]
     t_lo, t_hi = ca.tan(lz[p - 2]), ca.tan(uz[p - 2])
     if p == 3:
         c_lo, c_hi = lz[0] * SCALE[0], uz[0] * SCALE[0]
@@ -254,8 +271,9 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
         better = cost[j] < best[0]  # NaN never wins
         best = tuple(ca.if_else(better, new, old) for new, old in zip((cost[j], c[j], t[j], Kg[j]), best))
     _, c_b, t_b, K_b = best
-    zg = ca.vertcat(c_b / SCALE[0], ca.atan(t_b), K_b / SCALE[2]) if p == 3 else \
-        ca.vertcat(ca.atan(t_b), K_b / SCALE[2])
+    zg = (
+        ca.vertcat(c_b / SCALE[0], ca.atan(t_b), K_b / SCALE[2]) if p == 3 else ca.vertcat(ca.atan(t_b), K_b / SCALE[2])
+    )
     pick = ca.Function("pick", [sc, yy_s, lz, uz, Kg], [zg])
     K_lo, K_hi = lbz[p - 1] * SCALE[2], ubz[p - 1] * SCALE[2]
     frac = np.linspace(0.0, 1.0, n_grid) if n_grid > 1 else np.zeros(1)
@@ -271,7 +289,7 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
 
     def evaluate(z):
         s = evm(z, slip, force, W, wt, l, b)
-        return s[0], s[1:1 + p], ca.reshape(s[1 + p:1 + p + p * p], p, p), s[1 + p + p * p:]
+        return s[0], s[1 : 1 + p], ca.reshape(s[1 + p : 1 + p + p * p], p, p), s[1 + p + p * p :]
 
     # the first-order (KKT) test with bounds: the stopping test AND the certificate (one home);
     # tolS = [KKT_TOL, ZERO_COST] are inputs, not compiled-in constants
@@ -284,8 +302,9 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
     kkt = ca.Function("kkt", [zS, fS, gS, DS, lz, uz, scS, tolS], [done, act])
     # certificate: the KKT test on finite numbers inside the box (NaN fails every comparison)
     vals = ca.vertcat(zS, fS, gS, DS)
-    finite = ca.logic_and(ca.sum1(ca.fabs(vals) < ca.inf) == vals.numel(),
-                          ca.sum1(ca.logic_and(zS >= lz, zS <= uz)) == p)
+    finite = ca.logic_and(
+        ca.sum1(ca.fabs(vals) < ca.inf) == vals.numel(), ca.sum1(ca.logic_and(zS >= lz, zS <= uz)) == p
+    )
     certify = ca.Function("certify", [zS, fS, gS, DS, lz, uz, scS, tolS], [ca.logic_and(finite, done)])
     HS, lamS = ca.SX.sym("H", p, p), ca.SX.sym("lam")
     mfree = 1 - act
@@ -294,31 +313,44 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
     zt = ca.fmin(ca.fmax(zS + ca.solve(Hr, -mfree * gS), lz), uz)
     trial = ca.Function("trial", [zS, lamS, gS, HS, DS, lz, uz], [zt, mfree])
     ftS, gtS, mS = ca.SX.sym("ft"), ca.SX.sym("gt", p), ca.SX.sym("m", p)
-    accept = ca.Function("accept", [ftS, fS, gtS, gS, mS], [ca.logic_or(
-        ftS <= fS, ca.logic_and(ftS <= fS + 1e-13 * ca.fabs(fS), ca.norm_2(mS * gtS) < ca.norm_2(mS * gS)))])
+    accept = ca.Function(
+        "accept",
+        [ftS, fS, gtS, gS, mS],
+        [
+            ca.logic_or(
+                ftS <= fS, ca.logic_and(ftS <= fS + 1e-13 * ca.fabs(fS), ca.norm_2(mS * gtS) < ca.norm_2(mS * gS))
+            )
+        ],
+    )
 
     nst = 3 * p + p * p + 3
     st = ca.MX.sym("state", nst)
-    sz, slam, sf, sg_ = st[0:p], st[p], st[p + 1], st[p + 2:2 * p + 2]
-    sH = ca.reshape(st[2 * p + 2:2 * p + 2 + p * p], p, p)
-    sD, sit = st[2 * p + 2 + p * p:3 * p + 2 + p * p], st[nst - 1]
+    sz, slam, sf, sg_ = st[0:p], st[p], st[p + 1], st[p + 2 : 2 * p + 2]
+    sH = ca.reshape(st[2 * p + 2 : 2 * p + 2 + p * p], p, p)
+    sD, sit = st[2 * p + 2 + p * p : 3 * p + 2 + p * p], st[nst - 1]
     d_, lbz_, ubz_ = ca.MX.sym("d", 4 * n + 2), ca.MX.sym("lbz", p), ca.MX.sym("ubz", p)
-    slip_, force_, W_, w_ = (d_[k * n:(k + 1) * n].T for k in range(4))
+    slip_, force_, W_, w_ = (d_[k * n : (k + 1) * n].T for k in range(4))
     l_, b_ = d_[4 * n], d_[4 * n + 1]
     zt_, m_ = trial(sz, slam, sg_, sH, sD, lbz_, ubz_)
     s_ = evm(zt_, slip_, force_, W_, w_, l_, b_)
-    ft, gt, Ht, Dt = s_[0], s_[1:1 + p], s_[1 + p:1 + p + p * p], s_[1 + p + p * p:]
+    ft, gt, Ht, Dt = s_[0], s_[1 : 1 + p], s_[1 + p : 1 + p + p * p], s_[1 + p + p * p :]
     acc = accept(ft, sf, gt, sg_, m_)  # NaN is rejected
-    new = ca.vertcat(ca.if_else(acc, zt_, sz), ca.if_else(acc, ca.fmax(slam * 0.1, 1e-15), ca.fmin(slam * 10, 1e20)),
-                     ca.if_else(acc, ft, sf), ca.if_else(acc, gt, sg_), ca.if_else(acc, Ht, ca.vec(sH)),
-                     ca.if_else(acc, Dt, sD), sit + 1)
+    new = ca.vertcat(
+        ca.if_else(acc, zt_, sz),
+        ca.if_else(acc, ca.fmax(slam * 0.1, 1e-15), ca.fmin(slam * 10, 1e20)),
+        ca.if_else(acc, ft, sf),
+        ca.if_else(acc, gt, sg_),
+        ca.if_else(acc, Ht, ca.vec(sH)),
+        ca.if_else(acc, Dt, sD),
+        sit + 1,
+    )
     step_f = ca.Function("lm_step", [st, d_, lbz_, ubz_], [new])
     keep_f = ca.Function("lm_keep", [st, d_, lbz_, ubz_], [st])
     cond = ca.Function.conditional("lm_iter", [step_f], keep_f)  # index 0: iterate; else: keep
     sc_, tol_, tol = ca.MX.sym("scale"), ca.MX.sym("tol", 2), ca.MX.sym("tol", 2)
 
     def parts(s):
-        return s[0:p], s[p + 1], s[p + 2:2 * p + 2], s[2 * p + 2 + p * p:3 * p + 2 + p * p]
+        return s[0:p], s[p + 1], s[p + 2 : 2 * p + 2], s[2 * p + 2 + p * p : 3 * p + 2 + p * p]
 
     def converged(s, lo, hi, scl, tl):
         return kkt(*parts(s), lo, hi, scl, tl)[0]
@@ -334,16 +366,38 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
     state = ca.vertcat(zs, 1e-3, f0, g0, ca.vec(H0), D0, 0)
     for _ in range(-(-n_iter // _BLOCK)):
         state = cond_b(converged(state, lbz, ubz, scale, tol), state, d, lbz, ubz, scale, tol)
-    out = ca.vertcat(state[0:p], state[p + 1], state[p + 2:2 * p + 2],
-                     ca.sum1(state[2 * p + 2 + p * p:3 * p + 2 + p * p]), state[nst - 1], zs, scale,
-                     certify(*parts(state), lbz, ubz, scale, tol))
+    out = ca.vertcat(
+        state[0:p],
+        state[p + 1],
+        state[p + 2 : 2 * p + 2],
+        ca.sum1(state[2 * p + 2 + p * p : 3 * p + 2 + p * p]),
+        state[nst - 1],
+        zs,
+        scale,
+        certify(*parts(state), lbz, ubz, scale, tol),
+    )
     o = 4 * n + 2
     xin = ca.MX.sym("x", o + 3 * p + 3 + gd.numel())
     f = ca.Function("lm", [d, lbz, ubz, z0, use0, tol, gd], [out])
-    return ca.Function(f"soilfit_clm_{p}_{n}_{n_grid}_{n_iter}", [xin],
-                       [ca.densify(f(xin[0:o], xin[o:o + p], xin[o + p:o + 2 * p], xin[o + 2 * p:o + 3 * p],
-                                     xin[o + 3 * p], xin[o + 3 * p + 1:o + 3 * p + 3], xin[o + 3 * p + 3:]))],
-                       ["x"], ["y"])
+    return ca.Function(
+        f"soilfit_clm_{p}_{n}_{n_grid}_{n_iter}",
+        [xin],
+        [
+            ca.densify(
+                f(
+                    xin[0:o],
+                    xin[o : o + p],
+                    xin[o + p : o + 2 * p],
+                    xin[o + 2 * p : o + 3 * p],
+                    xin[o + 3 * p],
+                    xin[o + 3 * p + 1 : o + 3 * p + 3],
+                    xin[o + 3 * p + 3 :],
+                )
+            )
+        ],
+        ["x"],
+        ["y"],
+    )
 
 
 def resjac_function(model: str, n: int) -> ca.Function:
@@ -363,8 +417,8 @@ def resjac_function(model: str, n: int) -> ca.Function:
     pt = _resjac_point(model, n)
     thr = _thrust_map(model, n)
     xin = ca.MX.sym("x", 3 + 4 * n + 2 + 6)
-    th, d, cr = xin[0:3], xin[3:3 + 4 * n + 2], xin[3 + 4 * n + 2:]
-    rows = [d[k * n:(k + 1) * n].T for k in range(4)]
+    th, d, cr = xin[0:3], xin[3 : 3 + 4 * n + 2], xin[3 + 4 * n + 2 :]
+    rows = [d[k * n : (k + 1) * n].T for k in range(4)]
     l, b = d[4 * n], d[4 * n + 1]
     out = pt(th, *rows, l, b)  # 4 x n
     weak = thr(rows[0], cr[0], cr[1], cr[2], rows[2], l, b)
@@ -372,10 +426,13 @@ def resjac_function(model: str, n: int) -> ca.Function:
     screen = screen_expr(rows[0], rows[1], out[0, :], weak, strong, rows[3])
     bp = heteroscedasticity_screen_expr(rows[1], out[0, :], rows[3])
     limit = limit_screen_expr(th[0], th[1], rows[2], cr[0:3], cr[3:6], 2.0 * b * l, model, rows[3])
-    return ca.Function(f"soilfit_resjac_{model.replace('-', '_')}_{n}", [xin],
-                       [ca.densify(ca.vertcat(out[0, :].T, ca.vec(out[1:4, :].T), weak.T, strong.T, screen, bp,
-                                              limit))],
-                       ["x"], ["y"])
+    return ca.Function(
+        f"soilfit_resjac_{model.replace('-', '_')}_{n}",
+        [xin],
+        [ca.densify(ca.vertcat(out[0, :].T, ca.vec(out[1:4, :].T), weak.T, strong.T, screen, bp, limit))],
+        ["x"],
+        ["y"],
+    )
 
 
 class _Caller:
@@ -441,8 +498,8 @@ class Kernel:
         o = 4 * nc + 2
         # views of the solver's input buffer: the data [slip, F, W, w, l, b] (+ the box and start), the
         # start grid's samples as 4 x GRID_ROWS; (read with the caller, under its lock)
-        cs.head, cs.front = cs.x[0:o], cs.x[0:o + 3 * p + 3]
-        cs.grid = cs.x[o + 3 * p + 3:].reshape(4, GRID_ROWS) if nc > GRID_ROWS else None
+        cs.head, cs.front = cs.x[0:o], cs.x[0 : o + 3 * p + 3]
+        cs.grid = cs.x[o + 3 * p + 3 :].reshape(4, GRID_ROWS) if nc > GRID_ROWS else None
         self.solver, self.resjac = cs, cr
 
     @property
@@ -568,8 +625,7 @@ def _variant(pb: SlipProblem) -> tuple[int, bool, str]:
 
 def _scaled_box(pb: SlipProblem, p: int, one_load: bool) -> tuple[list, list]:
     if one_load:  # F_max = W tan(phi_e) spans what the (c, phi) box allows
-        (c_lo, c_hi), (p_lo, p_hi), (K_lo, K_hi) = pb.bounds.cohesion, pb.bounds.friction_angle, \
-            pb.bounds.shear_modulus
+        (c_lo, c_hi), (p_lo, p_hi), (K_lo, K_hi) = pb.bounds.cohesion, pb.bounds.friction_angle, pb.bounds.shear_modulus
         W0, A = float(pb.load[0]), pb.vehicle.contact_area
         F_lo, F_hi = max_thrust_expr(c_lo, p_lo, W0, A), max_thrust_expr(c_hi, p_hi, W0, A)
         return [math.atan(F_lo / W0), K_lo / _S2], [math.atan(F_hi / W0), K_hi / _S2]
@@ -609,10 +665,10 @@ def _data_vector(pb: SlipProblem, nc: int, out: np.ndarray | None = None) -> np.
         d = out
         d[:] = 0.0
     d[0:n] = pb.slip
-    d[nc:nc + n] = pb.force
-    d[2 * nc:2 * nc + n] = pb.load
-    d[2 * nc + n:3 * nc] = pb.load[0]
-    np.divide(1.0, pb.sigma, out=d[3 * nc:3 * nc + n])
+    d[nc : nc + n] = pb.force
+    d[2 * nc : 2 * nc + n] = pb.load
+    d[2 * nc + n : 3 * nc] = pb.load[0]
+    np.divide(1.0, pb.sigma, out=d[3 * nc : 3 * nc + n])
     d[4 * nc], d[4 * nc + 1] = pb.vehicle.track_length, pb.vehicle.track_width
     return d
 
@@ -635,9 +691,9 @@ def _grid_vector(pb: SlipProblem, out: np.ndarray) -> None:
     idx = grid_rows(pb)
     m = GRID_ROWS
     pb.slip.take(idx, out=out[0:m])
-    pb.force.take(idx, out=out[m:2 * m])
-    pb.load.take(idx, out=out[2 * m:3 * m])
-    w = out[3 * m:4 * m]
+    pb.force.take(idx, out=out[m : 2 * m])
+    pb.load.take(idx, out=out[2 * m : 3 * m])
+    w = out[3 * m : 4 * m]
     pb.sigma.take(idx, out=w)
     np.divide(1.0, w, out=w)
 
@@ -679,8 +735,7 @@ def solve(pb: SlipProblem, x0=None, n_grid: int = 25, jit: str = "wait") -> Solu
         # [slip, F, W, w] each padded to nc rows (zero slip, force and weight; W = the first load), l, b,
         # the scaled box and start (what input_vector gives), in one copy; then the start grid's samples
         # (grid_rows) taken from the blocks just written
-        np.concatenate((pb.slip, pad, pb.force, pad, pb.load, pb.load[0:1].repeat(nc - n), w, pad, tail),
-                       out=cs.front)
+        np.concatenate((pb.slip, pad, pb.force, pad, pb.load, pb.load[0:1].repeat(nc - n), w, pad, tail), out=cs.front)
         if grid is not None:
             cs.x.take(grid, out=cs.grid)
         t1 = time.perf_counter()
@@ -711,22 +766,48 @@ def _solve_unbuffered(pb: SlipProblem, x0, p: int, one_load: bool, k: "Kernel") 
     return _solution_of(theta, ok, iters, yl, p, z, one_load, cs, t_call, rj, n, nc)
 
 
-def _solution_of(theta, ok: bool, iters: int, yl: list, p: int, z: list, one_load: bool, cs: "_Caller",
-                 t_call: float, rj: np.ndarray | None, n: int, nc: int) -> "Solution":
+def _solution_of(
+    theta,
+    ok: bool,
+    iters: int,
+    yl: list,
+    p: int,
+    z: list,
+    one_load: bool,
+    cs: "_Caller",
+    t_call: float,
+    rj: np.ndarray | None,
+    n: int,
+    nc: int,
+) -> "Solution":
     """The :class:`Solution` of one solve: the solver's output list ``yl`` and the residual Function's ``rj``."""
     if rj is None:
         r = J = np.empty(0)
         curves = screen = bp = limit = None
     else:
         r = rj[0:n]
-        J = rj[nc:4 * nc].reshape(3, nc)[:, 0:n].T
-        curves = (rj[4 * nc:4 * nc + n], rj[5 * nc:5 * nc + n])
-        screen, bp, limit = rj[6 * nc:6 * nc + 3].tolist()
+        J = rj[nc : 4 * nc].reshape(3, nc)[:, 0:n].T
+        curves = (rj[4 * nc : 4 * nc + n], rj[5 * nc : 5 * nc + n])
+        screen, bp, limit = rj[6 * nc : 6 * nc + 3].tolist()
     obj = object.__new__(Solution)  # Solution(...) without the frozen dataclass's per-field setattr
-    obj.__dict__.update(theta=theta, certified=ok, iterations=iters, start=_theta_si(yl[2 * p + 3:3 * p + 3], p),
-                        residuals=r, jacobian=J, z=np.array(z), p=p, one_load=one_load, engine=cs.engine,
-                        backend=cs.backend, call_time=t_call, curves=curves, screen=screen, bp_screen=bp,
-                        limit_screen=limit)
+    obj.__dict__.update(
+        theta=theta,
+        certified=ok,
+        iterations=iters,
+        start=_theta_si(yl[2 * p + 3 : 3 * p + 3], p),
+        residuals=r,
+        jacobian=J,
+        z=np.array(z),
+        p=p,
+        one_load=one_load,
+        engine=cs.engine,
+        backend=cs.backend,
+        call_time=t_call,
+        curves=curves,
+        screen=screen,
+        bp_screen=bp,
+        limit_screen=limit,
+    )
     return obj
 
 
@@ -768,7 +849,10 @@ def _corners_cached(bounds, model: str) -> np.ndarray:
 
 
 def _corners(bounds, model: str) -> np.ndarray:
-    """``[weak (c, phi, K), strong (c, phi, K)]`` of :func:`corner_soils` as one array (the residual Function's last input)."""
+    """``[weak (c, phi, K), strong (c, phi, K)]`` of :func:`corner_soils` as one array.
+
+    The residual Function's last input.
+    """
     try:
         return _corners_cached(bounds, model)
     except TypeError:  # unhashable bounds: not cached
@@ -793,8 +877,12 @@ def _decode(pb: SlipProblem, yl: list, p: int, one_load: bool) -> tuple[list, in
     theta = np.array(_theta_si(z, p) if all(map(math.isfinite, z)) else [math.nan] * 3)
     if ok and one_load:  # the ridge marker, as the IPOPT path reports it
         W0 = float(pb.load[0])
-        c, phi = ridge_centre(max_thrust_expr(0.0, theta[1], W0, pb.vehicle.contact_area, "cohesion-free"), W0,
-                              pb.vehicle.contact_area, pb.bounds)
+        c, phi = ridge_centre(
+            max_thrust_expr(0.0, theta[1], W0, pb.vehicle.contact_area, "cohesion-free"),
+            W0,
+            pb.vehicle.contact_area,
+            pb.bounds,
+        )
         theta[0], theta[1] = float(c), float(phi)
     return z, iters, ok, theta
 
@@ -820,24 +908,25 @@ def solve_many(pbs: list, n_grid: int = 25, jit: str = "wait") -> list[Solution]
         X = np.zeros((N, cs.n_in))
         load = np.stack([pb.load for pb in P])
         X[:, 0:n] = np.stack([pb.slip for pb in P])
-        X[:, nc:nc + n] = np.stack([pb.force for pb in P])
-        X[:, 2 * nc:2 * nc + n] = load
-        X[:, 2 * nc + n:3 * nc] = load[:, 0:1]
-        X[:, 3 * nc:3 * nc + n] = 1.0 / np.stack([pb.sigma for pb in P])
+        X[:, nc : nc + n] = np.stack([pb.force for pb in P])
+        X[:, 2 * nc : 2 * nc + n] = load
+        X[:, 2 * nc + n : 3 * nc] = load[:, 0:1]
+        X[:, 3 * nc : 3 * nc + n] = 1.0 / np.stack([pb.sigma for pb in P])
         X[:, 4 * nc] = [pb.vehicle.track_length for pb in P]
         X[:, 4 * nc + 1] = [pb.vehicle.track_width for pb in P]
         for r, pb in enumerate(P):
             lbz, ubz = _scaled_box(pb, p, one_load)
-            X[r, o:o + 2 * p] = lbz + ubz
+            X[r, o : o + 2 * p] = lbz + ubz
         X[:, o + 3 * p + 1] = KKT_TOL
         X[:, o + 3 * p + 2] = ZERO_COST
         if nc > GRID_ROWS:
             m = GRID_ROWS
-            rows = np.take_along_axis(np.argsort(X[:, 0:n], axis=1, kind="stable"), _spread(n)[None, :].repeat(N, 0),
-                                      axis=1)
+            rows = np.take_along_axis(
+                np.argsort(X[:, 0:n], axis=1, kind="stable"), _spread(n)[None, :].repeat(N, 0), axis=1
+            )
             g = o + 3 * p + 3
             for j, blk in enumerate((0, nc, 2 * nc, 3 * nc)):
-                X[:, g + j * m:g + (j + 1) * m] = np.take_along_axis(X[:, blk:blk + n], rows, axis=1)
+                X[:, g + j * m : g + (j + 1) * m] = np.take_along_axis(X[:, blk : blk + n], rows, axis=1)
         Y = _run_rows(cs, X)
         Z = Y[:, 0:p]
         cert = Y[:, 3 * p + 4] > 0.5
@@ -855,20 +944,29 @@ def solve_many(pbs: list, n_grid: int = 25, jit: str = "wait") -> list[Solution]
                 theta[r, 0], theta[r, 1] = float(c), float(phi)
         corners = np.array([[v for c in corner_soils(pb.bounds, pb.model) for v in c] for pb in P])
         RJ = _run_rows(cr, np.concatenate((theta, X[:, 0:o], corners), axis=1))
-        J = RJ[:, nc:4 * nc].reshape(N, 3, nc)[:, :, 0:n].transpose(0, 2, 1)
+        J = RJ[:, nc : 4 * nc].reshape(N, 3, nc)[:, :, 0:n].transpose(0, 2, 1)
         iters = [int(v) if math.isfinite(v) else -1 for v in Y[:, 2 * p + 2].tolist()]
         empty = np.empty(0)
         for r, i in enumerate(idx):
             ok = bool(cert[r])
-            out[i] = Solution(theta=theta[r].copy(), certified=ok, iterations=iters[r],
-                              start=_theta_si(Y[r, 2 * p + 3:3 * p + 3], p),
-                              residuals=RJ[r, 0:n].copy() if ok else empty, jacobian=J[r].copy() if ok else empty,
-                              z=Z[r].copy(), p=p, one_load=one_load, engine=cs.engine, backend=cs.backend,
-                              call_time=math.nan,
-                              curves=(RJ[r, 4 * nc:4 * nc + n].copy(), RJ[r, 5 * nc:5 * nc + n].copy()) if ok else None,
-                              screen=float(RJ[r, 6 * nc]) if ok else None,
-                              bp_screen=float(RJ[r, 6 * nc + 1]) if ok else None,
-                              limit_screen=float(RJ[r, 6 * nc + 2]) if ok else None)
+            out[i] = Solution(
+                theta=theta[r].copy(),
+                certified=ok,
+                iterations=iters[r],
+                start=_theta_si(Y[r, 2 * p + 3 : 3 * p + 3], p),
+                residuals=RJ[r, 0:n].copy() if ok else empty,
+                jacobian=J[r].copy() if ok else empty,
+                z=Z[r].copy(),
+                p=p,
+                one_load=one_load,
+                engine=cs.engine,
+                backend=cs.backend,
+                call_time=math.nan,
+                curves=(RJ[r, 4 * nc : 4 * nc + n].copy(), RJ[r, 5 * nc : 5 * nc + n].copy()) if ok else None,
+                screen=float(RJ[r, 6 * nc]) if ok else None,
+                bp_screen=float(RJ[r, 6 * nc + 1]) if ok else None,
+                limit_screen=float(RJ[r, 6 * nc + 2]) if ok else None,
+            )
     return out  # type: ignore[return-value]
 
 
@@ -888,8 +986,9 @@ def _run_rows(c: "_Caller", X: np.ndarray) -> np.ndarray:
     return Y
 
 
-def fit_compiled(pb: SlipProblem, x0=None, n_grid: int = 25, ipopt_options: dict | None = None,
-                 jit: str = "wait") -> FitResult:
+def fit_compiled(
+    pb: SlipProblem, x0=None, n_grid: int = 25, ipopt_options: dict | None = None, jit: str = "wait"
+) -> FitResult:
     """Fit a :class:`SlipProblem` with the compiled engine; hand over to IPOPT if not certified.
 
     Parameters
@@ -913,8 +1012,14 @@ def fit_compiled(pb: SlipProblem, x0=None, n_grid: int = 25, ipopt_options: dict
 
 def _note(sol: Solution, x0) -> str:
     src = "user start point" if x0 is not None else "variable-projection grid start"
-    ridge = ("; one normal load: solved in the identifiable parameters (F_max, K), exactly equivalent; "
-             "(c, phi) is a point of the ridge") if sol.one_load else ""
+    ridge = (
+        (
+            "; one normal load: solved in the identifiable parameters (F_max, K), exactly equivalent; "
+            "(c, phi) is a point of the ridge"
+        )
+        if sol.one_load
+        else ""
+    )
     return f"{src}{ridge}"
 
 
@@ -925,8 +1030,13 @@ def message_of(sol: Solution, x0) -> str:
 
 def extra_of(sol: Solution) -> dict:
     """``extra`` of a certified compiled solve: which engine and backend, call time, start point."""
-    return {"engine": sol.engine, "engine_backend": sol.backend, "engine_call_time_s": sol.call_time,
-            "start": sol.start, "solver_status": "first-order conditions certified"}
+    return {
+        "engine": sol.engine,
+        "engine_backend": sol.backend,
+        "engine_call_time_s": sol.call_time,
+        "start": sol.start,
+        "solver_status": "first-order conditions certified",
+    }
 
 
 def result_of(pb: SlipProblem, sol: Solution, x0, solve_time: float) -> FitResult:
@@ -934,32 +1044,52 @@ def result_of(pb: SlipProblem, sol: Solution, x0, solve_time: float) -> FitResul
     kw = pb.result_kwargs(sol.curves, sol.screen)
     if sol.screen is not None and sol.limit_screen is not None:  # (slip, F, W, curves, screen, limit screen)
         kw["samples"] += (sol.limit_screen,)
-    return build_result(data_kind="slip", model=pb.model, method="ipopt", theta=sol.theta,
-                        jacobian=sol.jacobian, weighted_residuals=sol.residuals / pb.sigma, residuals=sol.residuals,
-                        residual_unit="N", n_samples=pb.n, normal_loads=pb.load, vehicle=pb.vehicle,
-                        bounds=pb.bounds, status="converged", success=True, message=message_of(sol, x0),
-                        iterations=sol.iterations, solve_time=solve_time, sigma_known=pb.sigma_known,
-                        warnings=pb.noise_warning(sol.residuals, sol.bp_screen),
-                        extra={**extra_of(sol), "sigma_model": pb.noise_model}, **kw)
+    return build_result(
+        data_kind="slip",
+        model=pb.model,
+        method="ipopt",
+        theta=sol.theta,
+        jacobian=sol.jacobian,
+        weighted_residuals=sol.residuals / pb.sigma,
+        residuals=sol.residuals,
+        residual_unit="N",
+        n_samples=pb.n,
+        normal_loads=pb.load,
+        vehicle=pb.vehicle,
+        bounds=pb.bounds,
+        status="converged",
+        success=True,
+        message=message_of(sol, x0),
+        iterations=sol.iterations,
+        solve_time=solve_time,
+        sigma_known=pb.sigma_known,
+        warnings=pb.noise_warning(sol.residuals, sol.bp_screen),
+        extra={**extra_of(sol), "sigma_model": pb.noise_model},
+        **kw,
+    )
 
 
-def hand_over(pb: SlipProblem, sol: Solution, x0, n_grid: int, ipopt_options: dict | None, t0: float,
-              source: str = "compiled") -> FitResult:
+def hand_over(
+    pb: SlipProblem, sol: Solution, x0, n_grid: int, ipopt_options: dict | None, t0: float, source: str = "compiled"
+) -> FitResult:
     """Re-solve with the cached IPOPT path (from the last iterate if finite, else as asked)."""
     from .ipopt import fit_ipopt
+
     x = None
     if np.all(np.isfinite(sol.z)):
         x = np.array(_theta_si(sol.z, sol.p))
         if sol.one_load:  # a point of the same F_max inside the box
             W0 = float(pb.load[0])
-            c, phi = ridge_centre(max_thrust_expr(0.0, x[1], W0, 0.0, "cohesion-free"), W0,
-                                  pb.vehicle.contact_area, pb.bounds)
+            c, phi = ridge_centre(
+                max_thrust_expr(0.0, x[1], W0, 0.0, "cohesion-free"), W0, pb.vehicle.contact_area, pb.bounds
+            )
             x[0], x[1] = float(c), float(phi)
     elif x0 is not None:
         x = np.asarray(x0, float)
     res = fit_ipopt(pb, x, ipopt_options=ipopt_options, n_grid=n_grid)
-    object.__setattr__(res, "message", f"{source} engine did not certify convergence; re-solved with IPOPT: "
-                       + res.message)
+    object.__setattr__(
+        res, "message", f"{source} engine did not certify convergence; re-solved with IPOPT: " + res.message
+    )
     object.__setattr__(res, "solve_time", time.perf_counter() - t0)
     res.extra["engine"] = "ipopt"
     res.extra["handed_over_from"] = sol.engine

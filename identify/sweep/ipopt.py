@@ -21,6 +21,7 @@ on trust).
 
 Fixing a parameter (for profiles) reuses the same solver with ``lbx = ubx``.
 """
+
 from __future__ import annotations
 
 import math
@@ -42,9 +43,15 @@ from .start import start_point
 __all__ = ["ipopt_solver", "fit_ipopt", "solve_ipopt"]
 
 _OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
-_DEFAULT_OPTS = {"ipopt.tol": 1e-12, "ipopt.acceptable_tol": 1e-8, "ipopt.max_iter": 300,
-                 # the grid start is good: start with a small barrier and close to the bounds
-                 "ipopt.mu_init": 1e-6, "ipopt.bound_push": 1e-6, "ipopt.bound_frac": 1e-6}
+_DEFAULT_OPTS = {
+    "ipopt.tol": 1e-12,
+    "ipopt.acceptable_tol": 1e-8,
+    "ipopt.max_iter": 300,
+    # the grid start is good: start with a small barrier and close to the bounds
+    "ipopt.mu_init": 1e-6,
+    "ipopt.bound_push": 1e-6,
+    "ipopt.bound_frac": 1e-6,
+}
 
 
 @locked_cache(maxsize=64)
@@ -53,15 +60,20 @@ def ipopt_solver(model: str, n: int, opts_key: tuple = ()) -> ca.Function:
     nx = 3 if model == "full" else 2
     x = ca.SX.sym("x", nx)
     P = ca.SX.sym("p", 4 * n + 3)
-    slip, F, W, sig = P[0:n], P[n:2 * n], P[2 * n:3 * n], P[3 * n:4 * n]
+    slip, F, W, sig = P[0:n], P[n : 2 * n], P[2 * n : 3 * n], P[3 * n : 4 * n]
     l, b, scale = P[4 * n], P[4 * n + 1], P[4 * n + 2]
     c = x[0] * SCALE[0] if model == "full" else 0
     phi, K = x[nx - 2], x[nx - 1] * SCALE[2]
     Fm = thrust_expr(slip, c, phi, K, W, l, b, model=model)
     rw = (Fm - F) / sig
     f = 0.5 * ca.dot(rw, rw) / scale
-    opts: dict[str, Any] = {"expand": True, "print_time": False, "error_on_fail": False,
-                            "ipopt.print_level": 0, "ipopt.sb": "yes"}
+    opts: dict[str, Any] = {
+        "expand": True,
+        "print_time": False,
+        "error_on_fail": False,
+        "ipopt.print_level": 0,
+        "ipopt.sb": "yes",
+    }
     opts.update(_DEFAULT_OPTS)
     opts.update(dict(opts_key))
     return ca.nlpsol(f"soilfit_{model.replace('-', '_')}_{n}", "ipopt", {"x": x, "p": P, "f": f}, opts)
@@ -70,12 +82,14 @@ def ipopt_solver(model: str, n: int, opts_key: tuple = ()) -> ca.Function:
 def _params(pb: SlipProblem) -> np.ndarray:
     y = pb.force / pb.sigma
     scale = max(0.5 * float(y @ y), 1e-300)
-    return np.concatenate([pb.slip, pb.force, pb.load, pb.sigma,
-                           [pb.vehicle.track_length, pb.vehicle.track_width, scale]])
+    return np.concatenate(
+        [pb.slip, pb.force, pb.load, pb.sigma, [pb.vehicle.track_length, pb.vehicle.track_width, scale]]
+    )
 
 
-def solve_ipopt(pb: SlipProblem, theta0: np.ndarray, fixed: dict[int, float] | None = None,
-                ipopt_options: dict | None = None) -> dict:
+def solve_ipopt(
+    pb: SlipProblem, theta0: np.ndarray, fixed: dict[int, float] | None = None, ipopt_options: dict | None = None
+) -> dict:
     """One IPOPT solve; returns theta (SI), checked status, iterations, time and raw stats.
 
     ``fixed`` maps parameter index (0 c, 1 phi, 2 K) to a value held fixed (profiles).
@@ -109,29 +123,45 @@ def solve_ipopt(pb: SlipProblem, theta0: np.ndarray, fixed: dict[int, float] | N
         ok = False
         msgs.append("IPOPT's answer lies outside the bounds")
     theta[free] = np.clip(theta[free], pb.bounds.lower[free], pb.bounds.upper[free])
-    return {"theta": theta, "status": status, "success": ok, "iterations": iters, "time": dt,
-            "message": "; ".join(msgs) or ("IPOPT converged" if ok else f"IPOPT: {status}"),
-            "cost": float(sol["f"]) * _params(pb)[-1]}
+    return {
+        "theta": theta,
+        "status": status,
+        "success": ok,
+        "iterations": iters,
+        "time": dt,
+        "message": "; ".join(msgs) or ("IPOPT converged" if ok else f"IPOPT: {status}"),
+        "cost": float(sol["f"]) * _params(pb)[-1],
+    }
 
 
 def fit_ipopt(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_grid: int = 25) -> FitResult:
     """Fit a :class:`SlipProblem` with the cached IPOPT solver and build the result."""
     one_load = pb.model == "full" and one_load_problem(pb)
-    ipopt_solver("cohesion-free" if one_load else pb.model, pb.n,
-                 tuple(sorted((ipopt_options or {}).items())))  # one-off build, not timed
+    ipopt_solver(
+        "cohesion-free" if one_load else pb.model, pb.n, tuple(sorted((ipopt_options or {}).items()))
+    )  # one-off build, not timed
     t0 = time.perf_counter()
     theta0, start = start_point(pb, x0, "grid", n_grid)
     note = ""
     if one_load:
         out = _solve_one_load(pb, theta0, ipopt_options)
-        note = ("; one normal load: solved in the identifiable parameters (F_max, K), exactly equivalent; "
-                "(c, phi) is a point of the ridge")
+        note = (
+            "; one normal load: solved in the identifiable parameters (F_max, K), exactly equivalent; "
+            "(c, phi) is a point of the ridge"
+        )
     else:
         out = solve_ipopt(pb, theta0, ipopt_options=ipopt_options)
     total = time.perf_counter() - t0
-    return pb.result(out["theta"], method="ipopt", status=out["status"], success=out["success"],
-                     message=f"{out['message']} ({start}{note})", iterations=out["iterations"], solve_time=total,
-                     extra={"ipopt_time_s": out["time"], "start": [float(v) for v in theta0]})
+    return pb.result(
+        out["theta"],
+        method="ipopt",
+        status=out["status"],
+        success=out["success"],
+        message=f"{out['message']} ({start}{note})",
+        iterations=out["iterations"],
+        solve_time=total,
+        extra={"ipopt_time_s": out["time"], "start": [float(v) for v in theta0]},
+    )
 
 
 def one_load_problem(pb: SlipProblem) -> bool:
@@ -157,5 +187,3 @@ def _solve_one_load(pb: SlipProblem, theta0: np.ndarray, ipopt_options: dict | N
     c, phi = ridge_centre(F, W, A, pb.bounds)
     out["theta"] = np.array([float(c), float(phi), out["theta"][2]])
     return out
-
-

@@ -23,6 +23,7 @@ reported (c, phi) is the centre of the bounds-feasible ridge at the fitted F_max
 (:func:`ridge_centre`), which leaves every prediction unchanged: the same marker as the
 nominal fit's.
 """
+
 from __future__ import annotations
 
 import time
@@ -66,14 +67,15 @@ def joint_layout(vehicle: Vehicle, structure: EffectSet) -> tuple[list[str], np.
 
 
 @locked_cache(maxsize=64)
-def _solver(vehicle: Vehicle, structure: EffectSet, model: str, measured: str, rig_speed: float, n: int,
-            opts_key: tuple = ()) -> ca.Function:
+def _solver(
+    vehicle: Vehicle, structure: EffectSet, model: str, measured: str, rig_speed: float, n: int, opts_key: tuple = ()
+) -> ca.Function:
     labels, _, scales, _ = joint_layout(vehicle, structure)
     nx = 3 + len(labels)
     S = np.concatenate([SCALE, scales])
     X = ca.SX.sym("x", nx)
     P = ca.SX.sym("p", 4 * n + 1)
-    slip, y, W, wt, scale = P[0:n], P[n:2 * n], P[2 * n:3 * n], P[3 * n:4 * n], P[4 * n]
+    slip, y, W, wt, scale = P[0:n], P[n : 2 * n], P[2 * n : 3 * n], P[3 * n : 4 * n], P[4 * n]
     obs = observation_function(vehicle, structure, model, measured, rig_speed)
     ym = obs.map(n)(slip.T, W.T, X * S)[0].T
     rw = (ym - y) * wt  # wt = 1 / sigma; 0 on padding
@@ -86,8 +88,13 @@ def _solver(vehicle: Vehicle, structure: EffectSet, model: str, measured: str, r
     nlp = {"x": X, "p": P, "f": f}
     if g:
         nlp["g"] = ca.vertcat(*g)
-    opts: dict[str, Any] = {"expand": True, "print_time": False, "error_on_fail": False,
-                            "ipopt.print_level": 0, "ipopt.sb": "yes"}
+    opts: dict[str, Any] = {
+        "expand": True,
+        "print_time": False,
+        "error_on_fail": False,
+        "ipopt.print_level": 0,
+        "ipopt.sb": "yes",
+    }
     opts.update(_DEFAULT_OPTS)
     opts.update(dict(opts_key))
     return ca.nlpsol(f"jointfit_{n}", "ipopt", nlp, opts)
@@ -101,8 +108,15 @@ def _separates_c_phi(structure: EffectSet, fixed: dict) -> bool:
     return not all(h is not None and h == 0.0 for h in held)
 
 
-def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_grid: int = 25, *,
-              hold: dict | None = None, start_x=None) -> FitResult:
+def fit_joint(
+    pb: SlipProblem,
+    x0=None,
+    ipopt_options: dict | None = None,
+    n_grid: int = 25,
+    *,
+    hold: dict | None = None,
+    start_x=None,
+) -> FitResult:
     """Fit the soil and the effects of ``pb`` jointly with IPOPT and build the result.
 
     ``hold``: ``{index in [c, phi, K, e...]: value (SI)}`` held during the solve (a profile
@@ -147,16 +161,29 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
     yw = y / pb.sigma
     scale = max(0.5 * float(yw @ yw), 1e-300)
     pad = n_pad - pb.n
-    p = np.concatenate([pb.slip, np.zeros(pad), y, np.zeros(pad), pb.load, np.full(pad, pb.load[0]),
-                        1.0 / pb.sigma, np.zeros(pad), [scale]])
+    p = np.concatenate(
+        [
+            pb.slip,
+            np.zeros(pad),
+            y,
+            np.zeros(pad),
+            pb.load,
+            np.full(pad, pb.load[0]),
+            1.0 / pb.sigma,
+            np.zeros(pad),
+            [scale],
+        ]
+    )
     args = {"x0": z0, "p": p, "lbx": lo, "ubx": hi}
     if "pressure_distribution" in structure:
         args.update(lbg=-1.0, ubg=1.0)
     W = pb.load
     A = pb.vehicle.contact_area
-    ridge = (pb.model == "full" and one_load(W) and not _separates_c_phi(structure, fixed)
-             and not {0, 1} & set(hold or ()))
+    ridge = (
+        pb.model == "full" and one_load(W) and not _separates_c_phi(structure, fixed) and not {0, 1} & set(hold or ())
+    )
     from ...soilmodel.effects import normal_load_function
+
     n_of = normal_load_function(pb.vehicle, structure) if m else None
 
     def load_at(e_values) -> float:
@@ -217,8 +244,9 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
         theta[0], theta[1] = float(c), float(phi)
         note = "; one normal load: (c, phi) moved along the ridge to its centre (predictions unchanged)"
     total = time.perf_counter() - t0
-    ypred, J = predict(np.concatenate([theta, e]), pb.slip, pb.load, pb.vehicle, structure, pb.model, pb.measured,
-                       pb.rig_speed)
+    ypred, J = predict(
+        np.concatenate([theta, e]), pb.slip, pb.load, pb.vehicle, structure, pb.model, pb.measured, pb.rig_speed
+    )
     r = ypred - y
     msg = "; ".join(msgs) or ("IPOPT converged" if ok else f"IPOPT: {status}")
     warnings = pb.noise_warning(r)
@@ -227,16 +255,42 @@ def fit_joint(pb: SlipProblem, x0=None, ipopt_options: dict | None = None, n_gri
         pe, pa = e[labels.index("pressure_distribution.e")], e[labels.index("pressure_distribution.alpha")]
         if abs(pe) + abs(pa) >= 1.0 - 1e-6:
             active.append("pressure_distribution: |e| + |alpha| <= 1")
-            warnings = warnings + (f"pressure_distribution ended on its constraint |e| + |alpha| = {abs(pe) + abs(pa):.6g} "
-                                   "<= 1 (the pressure reaches zero somewhere on the track): e and alpha and their "
-                                   "intervals are on that boundary, a warning about the data or the model",)
-    return build_result(data_kind="slip", model=pb.model, method="ipopt", theta=theta, jacobian=J / pb.sigma[:, None],
-                        weighted_residuals=r / pb.sigma, residuals=r, residual_unit="N", n_samples=pb.n,
-                        normal_loads=pb.load, vehicle=pb.vehicle, bounds=pb.bounds, status=status, success=ok,
-                        message=f"{msg} (joint soil and effects fit; {start}{note})", iterations=iters,
-                        solve_time=total, sigma_known=pb.sigma_known, warnings=warnings,
-                        extra={"engine": "ipopt", "start": [float(v) for v in np.concatenate([theta0, e0])],
-                               "active_constraints": active},
-                        effect_labels=labels, effect_values=e, effect_bounds=[tuple(b) for b in eb],
-                        effect_units=units, effect_structure=structure, fixed_labels=tuple(fixed),
-                        measured=pb.measured, residual_model=SweepResiduals(pb.rig_speed))
+            warnings = warnings + (
+                f"pressure_distribution ended on its constraint |e| + |alpha| = {abs(pe) + abs(pa):.6g} "
+                "<= 1 (the pressure reaches zero somewhere on the track): e and alpha and their "
+                "intervals are on that boundary, a warning about the data or the model",
+            )
+    return build_result(
+        data_kind="slip",
+        model=pb.model,
+        method="ipopt",
+        theta=theta,
+        jacobian=J / pb.sigma[:, None],
+        weighted_residuals=r / pb.sigma,
+        residuals=r,
+        residual_unit="N",
+        n_samples=pb.n,
+        normal_loads=pb.load,
+        vehicle=pb.vehicle,
+        bounds=pb.bounds,
+        status=status,
+        success=ok,
+        message=f"{msg} (joint soil and effects fit; {start}{note})",
+        iterations=iters,
+        solve_time=total,
+        sigma_known=pb.sigma_known,
+        warnings=warnings,
+        extra={
+            "engine": "ipopt",
+            "start": [float(v) for v in np.concatenate([theta0, e0])],
+            "active_constraints": active,
+        },
+        effect_labels=labels,
+        effect_values=e,
+        effect_bounds=[tuple(b) for b in eb],
+        effect_units=units,
+        effect_structure=structure,
+        fixed_labels=tuple(fixed),
+        measured=pb.measured,
+        residual_model=SweepResiduals(pb.rig_speed),
+    )

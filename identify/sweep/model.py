@@ -7,6 +7,7 @@ as one cached CasADi ``Function`` of ``(i, W, x)`` with ``x = [c, phi, K, e...]`
 identifiable effect parameters, order of :func:`~soiltrack.soilmodel.effects.effect_symbols`)
 and its AD Jacobian, mapped over the samples. No physics is written here.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -14,8 +15,7 @@ import casadi as ca
 import numpy as np
 
 from ...soilmodel.data import SlipData
-from ...soilmodel.effects import (DEFAULT_RIG_SPEED, EffectSet, effect_structure, effect_symbols,
-                                 sweep_measurement)
+from ...soilmodel.effects import DEFAULT_RIG_SPEED, EffectSet, effect_structure, effect_symbols, sweep_measurement
 from ...soilmodel.errors import DataError
 from ...soilmodel.ridge import LOAD_RTOL
 from ...soilmodel.threadsafe import locked_cache
@@ -35,8 +35,13 @@ def _observation(vehicle: Vehicle, structure: EffectSet, model: str, measured: s
     return ca.Function("sweep_observation", [i, W, x], [y, ca.jacobian(y, x)], ["i", "W", "x"], ["y", "dy_dx"])
 
 
-def observation_function(vehicle: Vehicle, effects=None, model: str = "full", measured: str = "tractive_force",
-                         rig_speed: float = DEFAULT_RIG_SPEED) -> ca.Function:
+def observation_function(
+    vehicle: Vehicle,
+    effects=None,
+    model: str = "full",
+    measured: str = "tractive_force",
+    rig_speed: float = DEFAULT_RIG_SPEED,
+) -> ca.Function:
     """Cached ``Function (i, W, x) -> (y, dy/dx)`` for one sample; ``x = [c, phi, K, e...]`` (SI)."""
     return _observation(vehicle, effect_structure(effects, vehicle), model, measured, float(rig_speed))
 
@@ -46,8 +51,16 @@ def _mapped(vehicle: Vehicle, structure: EffectSet, model: str, measured: str, r
     return _observation(vehicle, structure, model, measured, rig_speed).map(n)
 
 
-def predict(x, slip, W, vehicle: Vehicle, effects=None, model: str = "full", measured: str = "tractive_force",
-            rig_speed: float = DEFAULT_RIG_SPEED) -> tuple[np.ndarray, np.ndarray]:
+def predict(
+    x,
+    slip,
+    W,
+    vehicle: Vehicle,
+    effects=None,
+    model: str = "full",
+    measured: str = "tractive_force",
+    rig_speed: float = DEFAULT_RIG_SPEED,
+) -> tuple[np.ndarray, np.ndarray]:
     """Reported quantity (N) and its Jacobian ``(n, 3 + m)`` at ``x`` for samples ``(slip, W)``."""
     s = np.asarray(slip, dtype=float).reshape(1, -1)
     n = s.shape[1]
@@ -65,8 +78,9 @@ def fit_vector(result) -> np.ndarray:
 
 
 @locked_cache(maxsize=64)
-def _slope_mapped(vehicle: Vehicle, structure: EffectSet, model: str, measured: str, rig_speed: float,
-                  n: int) -> ca.Function:
+def _slope_mapped(
+    vehicle: Vehicle, structure: EffectSet, model: str, measured: str, rig_speed: float, n: int
+) -> ca.Function:
     obs = _observation(vehicle, structure, model, measured, rig_speed)  # the one observation model
     i, W = ca.SX.sym("i"), ca.SX.sym("W")
     x = ca.SX.sym("x", obs.size1_in(2))
@@ -74,8 +88,16 @@ def _slope_mapped(vehicle: Vehicle, structure: EffectSet, model: str, measured: 
     return ca.Function("sweep_slope", [i, W, x], [ca.jacobian(y, i)], ["i", "W", "x"], ["dy_di"]).map(n)
 
 
-def slip_slope(x, slip, W, vehicle: Vehicle, effects=None, model: str = "full", measured: str = "tractive_force",
-               rig_speed: float = DEFAULT_RIG_SPEED) -> np.ndarray:
+def slip_slope(
+    x,
+    slip,
+    W,
+    vehicle: Vehicle,
+    effects=None,
+    model: str = "full",
+    measured: str = "tractive_force",
+    rig_speed: float = DEFAULT_RIG_SPEED,
+) -> np.ndarray:
     """Slope ``dy/di`` (N per unit slip) of the reported quantity at each sample, by AD of the same model.
 
     What a slip error ``delta i`` does to a sample: ``y(i + delta i) ~ y(i) + dy/di delta i``
@@ -123,19 +145,25 @@ class SweepResiduals:
         checks flagged (the diagnosis: a nominal model missing an effect is implausible by design).
         """
         if not isinstance(data, SlipData):
-            raise DataError(f"residuals_on: the fit is on slip data; got {type(data).__name__}",
-                            file=getattr(data, "source", None))
+            raise DataError(
+                f"residuals_on: the fit is on slip data; got {type(data).__name__}", file=getattr(data, "source", None)
+            )
         if not (result.success or (accept_implausible and solver_converged(result))):
-            raise DataError(f"residuals_on: the fit did not succeed ({result.status}); it predicts nothing",
-                            file=data.source)
+            raise DataError(
+                f"residuals_on: the fit did not succeed ({result.status}); it predicts nothing", file=data.source
+            )
         W = data.loads(result.vehicle.weight).astype(float)
         if result.model == "full" and len(result.normal_loads) == 1 and result.soil is None:
             W0 = float(result.normal_loads[0])
             bad = np.nonzero(np.abs(W - W0) > LOAD_RTOL * W0)[0]
             if bad.size:
-                raise DataError(f"the fit saw one normal load ({W0:.6g} N), where c and phi are not separable: its "
-                                f"prediction at {W[bad[0]]:.6g} N is not determined", file=data.source,
-                                column="normal_load_N", row=int(bad[0]) + 1)
+                raise DataError(
+                    f"the fit saw one normal load ({W0:.6g} N), where c and phi are not separable: its "
+                    f"prediction at {W[bad[0]]:.6g} N is not determined",
+                    file=data.source,
+                    column="normal_load_N",
+                    row=int(bad[0]) + 1,
+                )
         x = fit_vector(result)
         effects = result.effect_structure if result.effect_labels else None
         y, _ = predict(x, data.slip, W, result.vehicle, effects, result.model, data.measured, self.rig_speed)

@@ -25,6 +25,7 @@ Each finding says whether the answer is still usable; :func:`assess` returns the
 the verdict that the result builder turns into ``warnings`` and ``success``. Rows are numbered
 like :class:`~soiltrack.soilmodel.DataError`'s: row 1 is the first data row of the file.
 """
+
 from __future__ import annotations
 
 import math
@@ -40,10 +41,27 @@ from ...soilmodel.traction import max_thrust_expr, thrust_at
 from ...soilmodel.vehicle import Vehicle
 from ...soilmodel.units import format_value
 
-__all__ = ["Finding", "fmax_range", "corner_soils", "corner_curves", "check_loads", "check_slip_data",
-           "check_slip_fit", "assess", "screen_expr", "limit_screen_expr", "LIMIT_BAND", "SCALE_FACTOR",
-           "OUTLIER_Z", "OUTLIER_SHARE", "GROSS_Z", "GROSS_SHARE", "RESIDUAL_RATIO", "BOUND_FACTOR",
-           "LOAD_FACTOR"]
+__all__ = [
+    "Finding",
+    "fmax_range",
+    "corner_soils",
+    "corner_curves",
+    "check_loads",
+    "check_slip_data",
+    "check_slip_fit",
+    "assess",
+    "screen_expr",
+    "limit_screen_expr",
+    "LIMIT_BAND",
+    "SCALE_FACTOR",
+    "OUTLIER_Z",
+    "OUTLIER_SHARE",
+    "GROSS_Z",
+    "GROSS_SHARE",
+    "RESIDUAL_RATIO",
+    "BOUND_FACTOR",
+    "LOAD_FACTOR",
+]
 
 #: Data this many times below the weakest soil (median over the samples) or a row this many times
 #: above the strongest are not a soil within the bounds.
@@ -113,8 +131,10 @@ def corner_soils(bounds: SoilBounds, model: str) -> tuple[tuple[float, float, fl
 @lru_cache(maxsize=64)
 def _corner_soils(bounds: SoilBounds, model: str) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
     cf = model == "cohesion-free"
-    return ((0.0 if cf else float(bounds.cohesion[0]), float(bounds.friction_angle[0]), float(bounds.shear_modulus[1])),
-            (0.0 if cf else float(bounds.cohesion[1]), float(bounds.friction_angle[1]), float(bounds.shear_modulus[0])))
+    return (
+        (0.0 if cf else float(bounds.cohesion[0]), float(bounds.friction_angle[0]), float(bounds.shear_modulus[1])),
+        (0.0 if cf else float(bounds.cohesion[1]), float(bounds.friction_angle[1]), float(bounds.shear_modulus[0])),
+    )
 
 
 def fmax_range(bounds: SoilBounds, vehicle: Vehicle, model: str, normal_load: float) -> tuple[float, float]:
@@ -129,7 +149,9 @@ def fmax_range(bounds: SoilBounds, vehicle: Vehicle, model: str, normal_load: fl
 @lru_cache(maxsize=1024)
 def _fmax_range(bounds: SoilBounds, A: float, model: str, W: float) -> tuple[float, float]:
     weak, strong = corner_soils(bounds, model)
-    return float(max_thrust_expr(weak[0], weak[1], W, A, model)), float(max_thrust_expr(strong[0], strong[1], W, A, model))
+    return float(max_thrust_expr(weak[0], weak[1], W, A, model)), float(
+        max_thrust_expr(strong[0], strong[1], W, A, model)
+    )
 
 
 def corner_curves(slip, load, vehicle: Vehicle, model: str, bounds: SoilBounds) -> tuple[np.ndarray, np.ndarray]:
@@ -141,8 +163,15 @@ def corner_curves(slip, load, vehicle: Vehicle, model: str, bounds: SoilBounds) 
     slip, load = np.asarray(slip, dtype=float).ravel(), np.asarray(load, dtype=float).ravel()
     n = slip.size
     weak, strong = corner_soils(bounds, model)
-    both = thrust_at(np.tile(slip, 2), np.repeat([weak[0], strong[0]], n), np.repeat([weak[1], strong[1]], n),
-                     np.repeat([weak[2], strong[2]], n), np.tile(load, 2), vehicle, model)
+    both = thrust_at(
+        np.tile(slip, 2),
+        np.repeat([weak[0], strong[0]], n),
+        np.repeat([weak[1], strong[1]], n),
+        np.repeat([weak[2], strong[2]], n),
+        np.tile(load, 2),
+        vehicle,
+        model,
+    )
     return both[:n], both[n:]
 
 
@@ -226,15 +255,17 @@ def screen_expr(slip, force, residuals, weak, strong, real):
     low = ca.mmin(ca.if_else(pos, SCALE_FACTOR * force - weak * (1 + e), big)) < 0
     above = ca.mmax(ca.if_else(pos, force - SCALE_FACTOR * strong, -big)) > 0
     negative = ca.mmin(ca.if_else(on, force, big)) < 0
-    large = ca.sum2(ca.if_else(on, residuals * residuals, 0)) > RESIDUAL_RATIO ** 2 * (1 - e) * \
-        ca.sum2(ca.if_else(on, force * force, 0))
+    large = ca.sum2(ca.if_else(on, residuals * residuals, 0)) > RESIDUAL_RATIO**2 * (1 - e) * ca.sum2(
+        ca.if_else(on, force * force, 0)
+    )
     n = ca.sum2(ca.if_else(on, 1, 0))
     spread = ca.mmax(ca.if_else(on, residuals, -big)) - ca.mmin(ca.if_else(on, residuals, big))
     level = spread * (1 + e) / min(OUTLIER_SHARE, GROSS_SHARE)
     high = ca.sum2(ca.if_else(ca.logic_and(on, ca.fabs(force) >= level), 1, 0))
     outlier = ca.logic_and(n >= MIN_ROBUST, high < n - ca.floor(0.9 * (n - 1)))
-    return ca.logic_or(ca.logic_not(finite), ca.logic_or(ca.logic_or(low, above), ca.logic_or(negative,
-                                                                                             ca.logic_or(large, outlier))))
+    return ca.logic_or(
+        ca.logic_not(finite), ca.logic_or(ca.logic_or(low, above), ca.logic_or(negative, ca.logic_or(large, outlier)))
+    )
 
 
 def limit_screen_expr(c, phi, load, weak, strong, area, model: str, real):
@@ -288,17 +319,21 @@ def check_loads(load, vehicle: Vehicle) -> list[Finding]:
     if 1.0 / LOAD_FACTOR <= ratio <= LOAD_FACTOR:
         return []
     size = f"{100 * ratio:.2g} % of" if ratio < 1 else f"{ratio:.3g} times"
-    return [Finding(
-        "load_not_this_vehicle",
-        f"the data's normal loads (median {_fmt_force(med)}) are {size} this vehicle's weight "
-        f"({_fmt_force(W)}): they are not this vehicle's, and its contact area "
-        f"A = {vehicle.contact_area:.4g} m^2 makes the cohesion (A c in F_max) meaningless; check --vehicle "
-        "(the file or preset of the vehicle that made the data) and the unit of the normal_load_N column",
-        usable=False)]
+    return [
+        Finding(
+            "load_not_this_vehicle",
+            f"the data's normal loads (median {_fmt_force(med)}) are {size} this vehicle's weight "
+            f"({_fmt_force(W)}): they are not this vehicle's, and its contact area "
+            f"A = {vehicle.contact_area:.4g} m^2 makes the cohesion (A c in F_max) meaningless; check --vehicle "
+            "(the file or preset of the vehicle that made the data) and the unit of the normal_load_N column",
+            usable=False,
+        )
+    ]
 
 
-def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: SoilBounds,
-                    curves: tuple | None = None) -> list[Finding]:
+def check_slip_data(
+    slip, force, load, vehicle: Vehicle, model: str, bounds: SoilBounds, curves: tuple | None = None
+) -> list[Finding]:
     """Checks that need no fit: the force scale against the bounds, and negative thrust.
 
     Parameters
@@ -327,34 +362,57 @@ def check_slip_data(slip, force, load, vehicle: Vehicle, model: str, bounds: Soi
     ratio = _median(f / lo)
     if ratio < 1.0 / SCALE_FACTOR:
         W = _median(load)
-        out.append(Finding(
-            "force_scale_low",
-            f"the forces are about {1 / max(ratio, 1e-12):.3g} times smaller than the weakest soil within the bounds "
-            f"gives at these slips (W = {_fmt_force(W)}; largest measured {_fmt_force(float(np.max(force)))}, the "
-            f"weakest soil reaches {_fmt_force(float(np.max(lo)))}): are they in kN in an N column, or is the "
-            "normal load or the vehicle wrong?", usable=False))
+        out.append(
+            Finding(
+                "force_scale_low",
+                f"the forces are about {1 / max(ratio, 1e-12):.3g} times smaller than the weakest soil "
+                "within the bounds "
+                f"gives at these slips (W = {_fmt_force(W)}; largest measured {_fmt_force(float(np.max(force)))}, the "
+                f"weakest soil reaches {_fmt_force(float(np.max(lo)))}): are they in kN in an N column, or is the "
+                "normal load or the vehicle wrong?",
+                usable=False,
+            )
+        )
     above = np.nonzero(pos)[0][f > SCALE_FACTOR * hi] if not every else np.nonzero(f > SCALE_FACTOR * hi)[0]
     if above.size:
         k = int(above[0])
-        out.append(Finding(
-            "force_above_any_soil",
-            f"row(s) {_rows(above)}: the tractive force ({_fmt_force(float(force[k]))} in row {k + 1}) is more than "
-            f"{SCALE_FACTOR:g} times what the strongest soil within the bounds gives at that slip and load "
-            f"({_fmt_force(float(hi[np.nonzero(pos)[0] == k][0]))}): a typo, a unit error or the wrong normal load?",
-            usable=False, rows=tuple(int(r) + 1 for r in above)))
+        hi_k = float(hi[np.nonzero(pos)[0] == k][0])
+        out.append(
+            Finding(
+                "force_above_any_soil",
+                f"row(s) {_rows(above)}: the tractive force ({_fmt_force(float(force[k]))} in row {k + 1}) "
+                f"is more than {SCALE_FACTOR:g} times what the strongest soil within the bounds gives at "
+                f"that slip and load ({_fmt_force(hi_k)}): a typo, a unit error or the wrong normal load?",
+                usable=False,
+                rows=tuple(int(r) + 1 for r in above),
+            )
+        )
     neg = np.nonzero(pos & (force < 0))[0] if _MIN(force) < 0 else np.zeros(0, dtype=np.intp)
     if len(neg):
         k = int(neg[0])
-        out.append(Finding(
-            "negative_thrust",
-            f"row(s) {_rows(neg)}: negative tractive force at positive slip ({_fmt_force(float(force[k]))} at "
-            f"i = {slip[k]:.3g} in row {k + 1}); a driving track pushes forward: a sign error or a braking sample?",
-            usable=True, rows=tuple(int(r) + 1 for r in neg)))
+        out.append(
+            Finding(
+                "negative_thrust",
+                f"row(s) {_rows(neg)}: negative tractive force at positive slip ({_fmt_force(float(force[k]))} at "
+                f"i = {slip[k]:.3g} in row {k + 1}); a driving track pushes forward: a sign error or a braking sample?",
+                usable=True,
+                rows=tuple(int(r) + 1 for r in neg),
+            )
+        )
     return out
 
 
-def _limit_on_bound(force: np.ndarray, load: np.ndarray, r: np.ndarray, c: float, phi: float, K: float,
-                    vehicle: Vehicle, model: str, bounds: SoilBounds) -> list[Finding]:
+def _limit_on_bound(
+    force: np.ndarray,
+    load: np.ndarray,
+    r: np.ndarray,
+    c: float,
+    phi: float,
+    K: float,
+    vehicle: Vehicle,
+    model: str,
+    bounds: SoilBounds,
+) -> list[Finding]:
     """The F_max-on-a-bound finding of :func:`check_slip_fit` (finite ``theta`` and residuals)."""
     out: list[Finding] = []
     if not (c >= 0 and 0 < phi < math.pi / 2 and K > 0):  # not a soil (what :class:`Soil` accepts)
@@ -362,7 +420,7 @@ def _limit_on_bound(force: np.ndarray, load: np.ndarray, r: np.ndarray, c: float
     single = _MIN(load) == _MAX(load)
     if not single and continuous_load(load):  # a measured load: one check over all rows, said once
         return _limit_on_bound_range(force, load, r, c, phi, vehicle, model, bounds)
-    for W in (load[:1] if single else np.unique(load)):
+    for W in load[:1] if single else np.unique(load):
         fm = float(max_thrust_expr(c, phi, float(W), vehicle.contact_area, model))
         fm_lo, fm_hi = fmax_range(bounds, vehicle, model, float(W))
         tol = LIMIT_BAND * (fm_hi - fm_lo)
@@ -375,19 +433,33 @@ def _limit_on_bound(force: np.ndarray, load: np.ndarray, r: np.ndarray, c: float
         g = (force[sel] + r[sel]) / fm
         wanted = float(np.sum(g * force[sel]) / np.sum(g * g)) if np.sum(g * g) > 0 else fm
         far = wanted < fm / BOUND_FACTOR if side == "smallest" else wanted > fm * BOUND_FACTOR
-        out.append(Finding(
-            "limit_on_bound",
-            f"the thrust limit F_max = {_fmt_force(fm)} at W = {_fmt_force(float(W))} is the {side} value the "
-            f"bounds allow (c and phi at their {'lower' if side == 'smallest' else 'upper'} bounds); the data ask "
-            f"for about {_fmt_force(wanted)}"
-            + (": the bounds, not the data, fixed the answer; check the units of the force and the normal load"
-               if far else ": the soil lies at or just beyond the bounds; widen them if that is physically "
-               "reasonable"), usable=not far))
+        out.append(
+            Finding(
+                "limit_on_bound",
+                f"the thrust limit F_max = {_fmt_force(fm)} at W = {_fmt_force(float(W))} is the {side} value the "
+                f"bounds allow (c and phi at their {'lower' if side == 'smallest' else 'upper'} bounds); the data ask "
+                f"for about {_fmt_force(wanted)}"
+                + (
+                    ": the bounds, not the data, fixed the answer; check the units of the force and the normal load"
+                    if far
+                    else ": the soil lies at or just beyond the bounds; widen them if that is physically reasonable"
+                ),
+                usable=not far,
+            )
+        )
     return out
 
 
-def _limit_on_bound_range(force: np.ndarray, load: np.ndarray, r: np.ndarray, c: float, phi: float,
-                          vehicle: Vehicle, model: str, bounds: SoilBounds) -> list[Finding]:
+def _limit_on_bound_range(
+    force: np.ndarray,
+    load: np.ndarray,
+    r: np.ndarray,
+    c: float,
+    phi: float,
+    vehicle: Vehicle,
+    model: str,
+    bounds: SoilBounds,
+) -> list[Finding]:
     """The F_max-on-a-bound check for a load varying row to row: one finding for all rows.
 
     F_max is on a bound at every load when it is at one (c and phi both at their lower or both
@@ -406,19 +478,26 @@ def _limit_on_bound_range(force: np.ndarray, load: np.ndarray, r: np.ndarray, c:
     m = force + r  # the fitted curve at each row; the data ask for it scaled by sum(m F) / sum(m^2)
     scale = float(np.sum(m * force) / np.sum(m * m)) if np.sum(m * m) > 0 else 1.0
     far = scale < 1 / BOUND_FACTOR if side == "smallest" else scale > BOUND_FACTOR
-    return [Finding(
-        "limit_on_bound",
-        f"the thrust limit F_max = {_fmt_force(float(fm.min()))} to {_fmt_force(float(fm.max()))} over the loads "
-        f"W = {_fmt_force(float(W.min()))} to {_fmt_force(float(W.max()))} is the {side} value the bounds allow (c "
-        f"and phi at their {'lower' if side == 'smallest' else 'upper'} bounds); the data, all rows together, ask "
-        f"for about {scale:.3g} times that"
-        + (": the bounds, not the data, fixed the answer; check the units of the force and the normal load"
-           if far else ": the soil lies at or just beyond the bounds; widen them if that is physically reasonable"),
-        usable=not far)]
+    return [
+        Finding(
+            "limit_on_bound",
+            f"the thrust limit F_max = {_fmt_force(float(fm.min()))} to {_fmt_force(float(fm.max()))} over the loads "
+            f"W = {_fmt_force(float(W.min()))} to {_fmt_force(float(W.max()))} is the {side} value the bounds allow (c "
+            f"and phi at their {'lower' if side == 'smallest' else 'upper'} bounds); the data, all rows together, ask "
+            f"for about {scale:.3g} times that"
+            + (
+                ": the bounds, not the data, fixed the answer; check the units of the force and the normal load"
+                if far
+                else ": the soil lies at or just beyond the bounds; widen them if that is physically reasonable"
+            ),
+            usable=not far,
+        )
+    ]
 
 
-def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model: str,
-                   bounds: SoilBounds) -> list[Finding]:
+def check_slip_fit(
+    slip, force, load, residuals, theta, vehicle: Vehicle, model: str, bounds: SoilBounds
+) -> list[Finding]:
     """Checks of a fit's answer: F_max on a bound, residuals as large as the data, gross outliers.
 
     ``residuals`` are model minus data (N) at the fitted ``theta = [c (Pa), phi (rad), K (m)]``.
@@ -432,10 +511,14 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
     scale = math.sqrt(_mean_square(force)) if force.size else 0.0
     rmse = math.sqrt(_mean_square(r)) if r.size else 0.0
     if scale > 0 and rmse > RESIDUAL_RATIO * scale:
-        out.append(Finding(
-            "residuals_large",
-            f"the residuals are as large as the data (RMSE {_fmt_force(rmse)}, data {_fmt_force(scale)} root mean "
-            "square): the model does not describe these data", usable=False))
+        out.append(
+            Finding(
+                "residuals_large",
+                f"the residuals are as large as the data (RMSE {_fmt_force(rmse)}, data {_fmt_force(scale)} root mean "
+                "square): the model does not describe these data",
+                usable=False,
+            )
+        )
     # gross outliers: far out in robust z-score AND a sizeable share of the force scale (the noise
     # of a thrust-slip sweep is not constant - slip noise on the steep part of the curve gives
     # large force residuals - so a z-score alone flags clean data)
@@ -454,24 +537,42 @@ def check_slip_fit(slip, force, load, residuals, theta, vehicle: Vehicle, model:
             gross = odd = np.empty(0, dtype=np.intp)
         if gross.size and gross.size <= max(1, r.size // 4):
             k = int(gross[np.argmax(az[gross])])
-            out.append(Finding(
-                "outlier",
-                f"row(s) {_rows(gross)} lie far off the rest (row {k + 1}: {_fmt_force(float(force[k]))} at "
-                f"i = {slip[k]:.3g}, off the fitted curve by {_fmt_force(abs(float(r[k])))}, {az[k]:.3g} robust "
-                "standard deviations): the fit is pulled by it; correct or remove the row and fit again",
-                usable=False, rows=tuple(int(g) + 1 for g in gross)))
+            out.append(
+                Finding(
+                    "outlier",
+                    f"row(s) {_rows(gross)} lie far off the rest (row {k + 1}: {_fmt_force(float(force[k]))} at "
+                    f"i = {slip[k]:.3g}, off the fitted curve by {_fmt_force(abs(float(r[k])))}, {az[k]:.3g} robust "
+                    "standard deviations): the fit is pulled by it; correct or remove the row and fit again",
+                    usable=False,
+                    rows=tuple(int(g) + 1 for g in gross),
+                )
+            )
         if odd.size and odd.size <= max(1, r.size // 4):
-            out.append(Finding(
-                "outlier",
-                f"row(s) {_rows(odd)} look like outliers (off the fitted curve by more than {OUTLIER_Z:g} robust "
-                f"standard deviations and {OUTLIER_SHARE:.0%} of the force scale)", usable=True,
-                rows=tuple(int(g) + 1 for g in odd)))
+            out.append(
+                Finding(
+                    "outlier",
+                    f"row(s) {_rows(odd)} look like outliers (off the fitted curve by more than {OUTLIER_Z:g} robust "
+                    f"standard deviations and {OUTLIER_SHARE:.0%} of the force scale)",
+                    usable=True,
+                    rows=tuple(int(g) + 1 for g in odd),
+                )
+            )
     return out
 
 
-def assess(slip, force, load, residuals, theta, vehicle: Vehicle, model: str,
-           bounds: SoilBounds, curves: tuple | None = None, screen: float | None = None,
-           limit_screen: float | None = None) -> tuple[tuple[str, ...], bool]:
+def assess(
+    slip,
+    force,
+    load,
+    residuals,
+    theta,
+    vehicle: Vehicle,
+    model: str,
+    bounds: SoilBounds,
+    curves: tuple | None = None,
+    screen: float | None = None,
+    limit_screen: float | None = None,
+) -> tuple[tuple[str, ...], bool]:
     """All checks: ``(warnings, usable)``; ``usable`` is False when any finding makes the answer unusable.
 
     Each cause is said once: rows already refused at input are not named again as outliers, and
@@ -489,15 +590,19 @@ def assess(slip, force, load, residuals, theta, vehicle: Vehicle, model: str,
             if limit_screen is not None and limit_screen < 0.5 and not loads:
                 return (), True
             slip, force, load = _vec(slip), _vec(force), _vec(load)
-            found = loads + ([] if limit_screen is not None and limit_screen < 0.5 else
-                             _limit_on_bound(force, load, _vec(residuals), c, phi, K, vehicle, model, bounds))
-            return tuple(("NOT USABLE: " if not f.usable else "") + f.message for f in found), \
-                all(f.usable for f in found)
+            found = loads + (
+                []
+                if limit_screen is not None and limit_screen < 0.5
+                else _limit_on_bound(force, load, _vec(residuals), c, phi, K, vehicle, model, bounds)
+            )
+            return tuple(("NOT USABLE: " if not f.usable else "") + f.message for f in found), all(
+                f.usable for f in found
+            )
     slip, force, load = _vec(slip), _vec(force), _vec(load)
     found = loads + check_slip_data(slip, force, load, vehicle, model, bounds, curves)
     named = {r for f in found if not f.usable for r in f.rows}
     after = check_slip_fit(slip, force, load, residuals, theta, vehicle, model, bounds)
-    for f in (sorted(after, key=lambda f: f.code == "residuals_large") if after else ()):
+    for f in sorted(after, key=lambda f: f.code == "residuals_large") if after else ():
         if f.code == "outlier" and set(f.rows) <= named:
             continue
         if f.code == "residuals_large" and any(not g.usable for g in found if g.code != "limit_on_bound"):

@@ -7,6 +7,7 @@ profiles), so that they all solve the same weighted least-squares problem
 
 and report through the same :func:`~soiltrack.identify.estimates.result.build_result`.
 """
+
 from __future__ import annotations
 
 import math
@@ -17,8 +18,15 @@ import casadi as ca
 import numpy as np
 
 from ...soilmodel.data import SlipData
-from ...soilmodel.effects import (DEFAULT_RIG_SPEED, EFFECTS, EffectSet, effect_structure, effect_symbols,
-                                 parameter_bounds, parse_effects)
+from ...soilmodel.effects import (
+    DEFAULT_RIG_SPEED,
+    EFFECTS,
+    EffectSet,
+    effect_structure,
+    effect_symbols,
+    parameter_bounds,
+    parse_effects,
+)
 from ...soilmodel.errors import DataError
 from ...soilmodel.ridge import ridge_centre  # noqa: F401 - re-exported: the one ridge marker
 from ...soilmodel.soil import SoilBounds
@@ -39,16 +47,16 @@ class FitFailed(RuntimeError):
 
     def __init__(self, result: FitResult) -> None:
         self.result = result
-        super().__init__(f"soil identification failed ({result.model}, {result.method}): {result.status}: "
-                         f"{result.message}")
+        super().__init__(
+            f"soil identification failed ({result.model}, {result.method}): {result.status}: {result.message}"
+        )
 
 
 #: Breusch-Pagan statistic above which the residual spread is said to grow with the force (chi2(1), p = 0.01).
 BP_CRITICAL = 6.635
 
 
-def heteroscedasticity(force: np.ndarray, residuals: np.ndarray,
-                       sigma: np.ndarray) -> np.ndarray | np.float64:
+def heteroscedasticity(force: np.ndarray, residuals: np.ndarray, sigma: np.ndarray) -> np.ndarray | np.float64:
     """Koenker's Breusch-Pagan statistic ``n R^2`` of the squared weighted residuals on the
     squared fitted force, per dataset (leading axes broadcast; NaN where it does not apply).
 
@@ -119,7 +127,7 @@ def heteroscedasticity_screen_expr(force, residuals, real):
     n = ca.sum2(ca.if_else(on, 1, 0))
     nn = ca.fmax(n, 1)
     x = ca.if_else(on, (force + residuals) ** 2, 0)
-    y = ca.if_else(on, residuals ** 2, 0)
+    y = ca.if_else(on, residuals**2, 0)
     xc = ca.if_else(on, x - ca.sum2(x) / nn, 0)
     yc = ca.if_else(on, y - ca.sum2(y) / nn, 0)
     sxy, sxx, syy = ca.sum2(xc * yc), ca.sum2(xc * xc), ca.sum2(yc * yc)
@@ -135,10 +143,12 @@ def heteroscedasticity_warning(stat: float) -> tuple[str, ...]:
     """Plain-words warning when the Breusch-Pagan statistic says the noise grows with the force."""
     if not np.isfinite(stat) or stat <= BP_CRITICAL:
         return ()
-    return (f"the residual spread grows with the force (Breusch-Pagan n R^2 = {stat:.3g} > {BP_CRITICAL}, "
-            "p < 0.01): with equal weights the intervals are too narrow, mostly for F_max; refit with "
-            "sigma='relative' (noise proportional to the force, e.g. a load cell's % of reading) or give "
-            "sigma per sample",)
+    return (
+        f"the residual spread grows with the force (Breusch-Pagan n R^2 = {stat:.3g} > {BP_CRITICAL}, "
+        "p < 0.01): with equal weights the intervals are too narrow, mostly for F_max; refit with "
+        "sigma='relative' (noise proportional to the force, e.g. a load cell's % of reading) or give "
+        "sigma per sample",
+    )
 
 
 def relative_sigma(force: np.ndarray) -> np.ndarray:
@@ -148,8 +158,14 @@ def relative_sigma(force: np.ndarray) -> np.ndarray:
     return np.maximum(a, np.where(floor > 0, floor, 1.0))
 
 
-def weights(values: np.ndarray, sigma=None, sigma_known: bool | None = None, *, source: str | None = None,
-            column: str | None = None) -> tuple[np.ndarray, bool]:
+def weights(
+    values: np.ndarray,
+    sigma=None,
+    sigma_known: bool | None = None,
+    *,
+    source: str | None = None,
+    column: str | None = None,
+) -> tuple[np.ndarray, bool]:
     """The one weighting rule of slip fits: per-sample ``sigma`` (N) and whether it is the true noise level.
 
     ``sigma=None``: equal weights, level estimated (``sigma_known`` default False).
@@ -171,8 +187,9 @@ def weights(values: np.ndarray, sigma=None, sigma_known: bool | None = None, *, 
         if sigma != "relative":
             raise DataError(f"sigma must be a number, an array or 'relative', got {sigma!r}")
         if sigma_known:
-            raise DataError("sigma='relative' gives relative weights only: the noise level is estimated "
-                            "(sigma_known must be False)")
+            raise DataError(
+                "sigma='relative' gives relative weights only: the noise level is estimated (sigma_known must be False)"
+            )
         return relative_sigma(values), False
     sig = np.broadcast_to(np.asarray(sigma, dtype=float), values.shape).astype(float)
     if not np.all(np.isfinite(sig)) or np.any(sig <= 0):
@@ -259,8 +276,19 @@ class SlipProblem:
             stat = heteroscedasticity(self.force, r, sig)
         return heteroscedasticity_warning(float(stat))
 
-    def result(self, theta: np.ndarray, *, method: str, status: str, success: bool, message: str,
-               iterations: int, solve_time: float, warnings=(), extra: dict | None = None) -> FitResult:
+    def result(
+        self,
+        theta: np.ndarray,
+        *,
+        method: str,
+        status: str,
+        success: bool,
+        message: str,
+        iterations: int,
+        solve_time: float,
+        warnings=(),
+        extra: dict | None = None,
+    ) -> FitResult:
         """Evaluate residuals at ``theta`` and build the :class:`FitResult`."""
         theta = np.asarray(theta, dtype=float).copy()
         if self.model == "cohesion-free":
@@ -268,12 +296,29 @@ class SlipProblem:
         with np.errstate(all="ignore"):
             r, rw, J = self.residuals(theta)
         warnings = tuple(warnings) + self.noise_warning(r)
-        return build_result(data_kind="slip", model=self.model, method=method, theta=theta, jacobian=J,
-                            weighted_residuals=rw, residuals=r, residual_unit="N", n_samples=self.n,
-                            normal_loads=self.load, vehicle=self.vehicle, bounds=self.bounds, status=status,
-                            success=success, message=message, iterations=iterations, solve_time=solve_time,
-                            sigma_known=self.sigma_known, warnings=warnings,
-                            extra={"sigma_model": self.noise_model, **(extra or {})}, **self.result_kwargs())
+        return build_result(
+            data_kind="slip",
+            model=self.model,
+            method=method,
+            theta=theta,
+            jacobian=J,
+            weighted_residuals=rw,
+            residuals=r,
+            residual_unit="N",
+            n_samples=self.n,
+            normal_loads=self.load,
+            vehicle=self.vehicle,
+            bounds=self.bounds,
+            status=status,
+            success=success,
+            message=message,
+            iterations=iterations,
+            solve_time=solve_time,
+            sigma_known=self.sigma_known,
+            warnings=warnings,
+            extra={"sigma_model": self.noise_model, **(extra or {})},
+            **self.result_kwargs(),
+        )
 
     def result_kwargs(self, curves: tuple | None = None, screen: float | None = None) -> dict:
         """What every slip result records about these data: pass to ``build_result(..., **pb.result_kwargs())``.
@@ -282,9 +327,13 @@ class SlipProblem:
         computed them (:func:`~soiltrack.identify.sweep.plausibility.corner_curves`); ``screen``: the
         solver's :func:`~soiltrack.identify.sweep.plausibility.screen_expr` with them.
         """
-        samples = (self.slip, self.force, self.load) if curves is None else \
-            (self.slip, self.force, self.load, curves) if screen is None else (self.slip, self.force, self.load,
-                                                                             curves, screen)
+        samples = (
+            (self.slip, self.force, self.load)
+            if curves is None
+            else (self.slip, self.force, self.load, curves)
+            if screen is None
+            else (self.slip, self.force, self.load, curves, screen)
+        )
         return {"measured": self.measured, "residual_model": _sweep_residuals(self.rig_speed), "samples": samples}
 
 
@@ -311,9 +360,18 @@ def check_common(vehicle, model: str, method: str, bounds) -> None:
         raise DataError("the lower bound on cohesion must be >= 0 Pa")
 
 
-def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBounds,
-                 sigma=None, sigma_known: bool | None = None, method: str = "ipopt", effects=None,
-                 fixed=None, rig_speed: float = DEFAULT_RIG_SPEED) -> SlipProblem:
+def make_problem(
+    data: SlipData,
+    vehicle: Vehicle,
+    model: str,
+    bounds: SoilBounds,
+    sigma=None,
+    sigma_known: bool | None = None,
+    method: str = "ipopt",
+    effects=None,
+    fixed=None,
+    rig_speed: float = DEFAULT_RIG_SPEED,
+) -> SlipProblem:
     """Validate slip data and build a :class:`SlipProblem`.
 
     Parameters
@@ -355,9 +413,12 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
     n_eff = len(effect_symbols(structure, vehicle=vehicle)[2]) - len(fixed_t) if structure else 0
     p = n_free(model) + n_eff
     if data.n_samples < p:
-        raise DataError(f"{data.n_samples} sample(s) cannot identify the {p} free parameters of the {model} model"
-                        f"{' with the effects' if n_eff else ''} (need at least {p} rows)", file=data.source,
-                        column=data.channel)
+        raise DataError(
+            f"{data.n_samples} sample(s) cannot identify the {p} free parameters of the {model} model"
+            f"{' with the effects' if n_eff else ''} (need at least {p} rows)",
+            file=data.source,
+            column=data.channel,
+        )
     load = data.loads(vehicle.weight)
     load = load.astype(float) if data.normal_load is not None else load  # a copy of the data's; np.full is new
     sig, known = weights(data.values, sigma, sigma_known, source=data.source, column=data.channel)
@@ -365,22 +426,42 @@ def make_problem(data: SlipData, vehicle: Vehicle, model: str, bounds: SoilBound
     if positive.size < 2 or not np.count_nonzero(positive != positive[0]):  # fewer than 2 distinct nonzero slips:
         # F(i) = F_max g(i l / K): one slip gives one number, not both F_max and K
         if not data.slip.any():  # all slips zero
-            raise DataError("all slips are zero: the tractive force carries no information on the soil",
-                            file=data.source, column="slip")
-        raise DataError(f"all nonzero slips are equal (i = {float(np.max(data.slip)):.6g}): one point of the "
-                        "thrust-slip curve cannot separate F_max from K; measure at two or more different slips "
-                        "(ideally spread up to the traction limit)", file=data.source, column="slip")
+            raise DataError(
+                "all slips are zero: the tractive force carries no information on the soil",
+                file=data.source,
+                column="slip",
+            )
+        raise DataError(
+            f"all nonzero slips are equal (i = {float(np.max(data.slip)):.6g}): one point of the "
+            "thrust-slip curve cannot separate F_max from K; measure at two or more different slips "
+            "(ideally spread up to the traction limit)",
+            file=data.source,
+            column="slip",
+        )
     offset = None
     force = np.array(data.values, float)
     if data.measured == "drawbar_pull":
         offset = nominal_offset(data.slip, load, vehicle, rig_speed)
         force = force + offset
     noise_model = "equal" if sigma is None else "relative" if isinstance(sigma, str) else "given"
-    return SlipProblem(slip=np.array(data.slip, float), force=force, load=load, noise_model=noise_model,
-                       sigma=sig, sigma_known=known, vehicle=vehicle, bounds=bounds, model=model,
-                       source=data.source, measured=data.measured, offset=offset,
-                       effects=structure if structure else None, fixed=fixed_t, rig_speed=float(rig_speed),
-                       effect_start=e_start)
+    return SlipProblem(
+        slip=np.array(data.slip, float),
+        force=force,
+        load=load,
+        noise_model=noise_model,
+        sigma=sig,
+        sigma_known=known,
+        vehicle=vehicle,
+        bounds=bounds,
+        model=model,
+        source=data.source,
+        measured=data.measured,
+        offset=offset,
+        effects=structure if structure else None,
+        fixed=fixed_t,
+        rig_speed=float(rig_speed),
+        effect_start=e_start,
+    )
 
 
 def _effects_and_fixed(effects, fixed, vehicle: Vehicle) -> tuple[EffectSet, tuple, tuple]:
@@ -393,8 +474,12 @@ def _effects_and_fixed(effects, fixed, vehicle: Vehicle) -> tuple[EffectSet, tup
         effects = [effects]
     given = parse_effects(effects) if effects else EffectSet()
     structure = effect_structure(given, vehicle) if effects else EffectSet()
-    start = tuple((f"{n}.{p.name}", given.value(n, p.name, vehicle)) for n in given.names
-                  for p in EFFECTS[n].params if not p.integer)
+    start = tuple(
+        (f"{n}.{p.name}", given.value(n, p.name, vehicle))
+        for n in given.names
+        for p in EFFECTS[n].params
+        if not p.integer
+    )
     if fixed is None:
         return structure, (), start
     if not hasattr(fixed, "items"):
@@ -404,7 +489,7 @@ def _effects_and_fixed(effects, fixed, vehicle: Vehicle) -> tuple[EffectSet, tup
     for label, value in fixed.items():
         if label not in labels:
             name = str(label).partition(".")[0]
-            hint = (f"the fitted effect parameters are {labels}" if labels else "no effect is fitted")
+            hint = f"the fitted effect parameters are {labels}" if labels else "no effect is fitted"
             if name in EFFECTS and name not in structure:
                 hint = f"effect '{name}' is not among the fitted effects ({list(structure.names)})"
             raise DataError(f"fixed: unknown parameter {label!r}; {hint}")

@@ -16,11 +16,12 @@ resistance was assumed.
 become tractive forces ``DP + k_z z W`` (what Eq. 2 predicts), and the result predicts drawbar
 pulls of data that carry their sinkage (:class:`SinkageResistance`).
 """
+
 from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Any, Callable
+from typing import Callable
 
 import numpy as np
 
@@ -33,8 +34,15 @@ from ..estimates.distributions import lr_threshold
 from ..estimates.result import FitResult
 from .model import SweepResiduals
 
-__all__ = ["RESISTANCE_MODES", "MU_BOUNDS", "GRID_POINTS", "GOLDEN_TOL", "fit_resistance",
-           "assumed_resistance", "SinkageResistance"]
+__all__ = [
+    "RESISTANCE_MODES",
+    "MU_BOUNDS",
+    "GRID_POINTS",
+    "GOLDEN_TOL",
+    "fit_resistance",
+    "assumed_resistance",
+    "SinkageResistance",
+]
 
 #: ``"assumed"``: the vehicle's rolling_resistance; ``"fit"``: mu_r fitted with the soil;
 #: ``"fit-sinkage"``: ``R = k_z z W`` with k_z fitted (needs ``sinkage_m``).
@@ -51,9 +59,12 @@ _PHI = (math.sqrt(5.0) - 1.0) / 2.0
 def assumed_resistance(result: FitResult) -> dict:
     """The ``extra["resistance"]`` entry of a drawbar-pull fit with the vehicle's assumed coefficient."""
     mu = float(result.vehicle.rolling_resistance)
-    return {"mode": "assumed", "coefficient": mu,
-            "statement": f"assumed R = mu_r W with mu_r = {mu:g} (the vehicle's rolling_resistance), not fitted; "
-                         "--resistance fit estimates it with the soil"}
+    return {
+        "mode": "assumed",
+        "coefficient": mu,
+        "statement": f"assumed R = mu_r W with mu_r = {mu:g} (the vehicle's rolling_resistance), not fitted; "
+        "--resistance fit estimates it with the soil",
+    }
 
 
 def _cost(res: FitResult) -> float:
@@ -74,8 +85,11 @@ class SinkageResistance:
     def residuals_on(self, result, data) -> dict:
         """``{drawbar_pull_N: measured - predicted}`` of data with a sinkage column."""
         if not isinstance(data, SlipData) or data.measured != "drawbar_pull" or data.sinkage is None:
-            raise DataError("this fit's resistance is proportional to the sinkage: it predicts drawbar pulls "
-                            "of data with a sinkage_m column", file=getattr(data, "source", None))
+            raise DataError(
+                "this fit's resistance is proportional to the sinkage: it predicts drawbar pulls "
+                "of data with a sinkage_m column",
+                file=getattr(data, "source", None),
+            )
         tf = _as_tractive(data, self.k_z, result.vehicle.weight)
         return {data.channel: next(iter(self.base.residuals_on(result, tf).values()))}
 
@@ -86,13 +100,24 @@ def _as_tractive(data: SlipData, k_z: float, weight: float) -> SlipData:
     W = data.loads(weight)
     if data.sinkage is None:
         raise DataError("a resistance proportional to the sinkage needs a sinkage_m column", file=data.source)
-    return SlipData(slip=data.slip, tractive_force=data.values + k_z * data.sinkage * W,
-                    normal_load=data.normal_load, source=data.source, sinkage=data.sinkage,
-                    force_std=data.force_std, dropped=data.dropped)
+    return SlipData(
+        slip=data.slip,
+        tractive_force=data.values + k_z * data.sinkage * W,
+        normal_load=data.normal_load,
+        source=data.source,
+        sinkage=data.sinkage,
+        force_std=data.force_std,
+        dropped=data.dropped,
+    )
 
 
-def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData, Vehicle, bool], FitResult],
-                   form: str = "fit", base_residuals: SweepResiduals | None = None) -> FitResult:
+def fit_resistance(
+    data: SlipData,
+    vehicle: Vehicle,
+    fit_at: Callable[[SlipData, Vehicle, bool], FitResult],
+    form: str = "fit",
+    base_residuals: SweepResiduals | None = None,
+) -> FitResult:
     """Fit the resistance with the soil (see the module docs); returns the soil's fit at the best value.
 
     Parameters
@@ -116,8 +141,10 @@ def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData,
         ``"fit-sinkage"``, or no trial value fitted.
     """
     if data.measured != "drawbar_pull":
-        raise DataError(f"resistance={form!r} applies to drawbar-pull data (tractive force already has the "
-                        "resistance added back)", file=data.source)
+        raise DataError(
+            f"resistance={form!r} applies to drawbar-pull data (tractive force already has the resistance added back)",
+            file=data.source,
+        )
     if form == "fit-sinkage":
         if data.sinkage is None:
             raise DataError("resistance='fit-sinkage' needs a sinkage_m column", file=data.source)
@@ -131,6 +158,7 @@ def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData,
 
         def trial(v: float, final: bool) -> FitResult:
             return fit_at(data, replace(vehicle, rolling_resistance=v), final)
+
     lo_b = MU_BOUNDS[0]
     tol = GOLDEN_TOL * (hi - lo_b) / (MU_BOUNDS[1] - MU_BOUNDS[0])
     cache: dict[float, float] = {}
@@ -144,8 +172,7 @@ def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData,
     grid = np.linspace(lo_b, hi, GRID_POINTS)
     costs = np.array([cost(m) for m in grid])
     if not np.any(np.isfinite(costs)):
-        raise DataError(f"no soil fitted the drawbar pull at any resistance in [{lo_b:g}, {hi:.4g}]",
-                        file=data.source)
+        raise DataError(f"no soil fitted the drawbar pull at any resistance in [{lo_b:g}, {hi:.4g}]", file=data.source)
     k = int(np.argmin(costs))
     a, b = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
     c, d = b - _PHI * (b - a), a + _PHI * (b - a)
@@ -165,10 +192,16 @@ def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData,
     limit, how = lr_threshold(cmin, dof, bool(best.sigma_known))
     ends = [_end(cost, v, side, limit, tol) for side in (lo_b, hi)]
     soils = [trial(e, False) for e in ends if e is not None and e != v]
-    entry = {"mode": form, "coefficient": v, "ci95": ends, "interval": how, "bounds": [lo_b, hi],
-             "unit": "1/m" if form == "fit-sinkage" else "-",
-             "at_bound": bool(v - lo_b <= tol or hi - v <= tol),
-             "soil_over_interval": _soil_ranges([best, *soils])}
+    entry = {
+        "mode": form,
+        "coefficient": v,
+        "ci95": ends,
+        "interval": how,
+        "bounds": [lo_b, hi],
+        "unit": "1/m" if form == "fit-sinkage" else "-",
+        "at_bound": bool(v - lo_b <= tol or hi - v <= tol),
+        "soil_over_interval": _soil_ranges([best, *soils]),
+    }
     if form == "fit-sinkage":
         z = np.asarray(data.sinkage, dtype=float)
         entry["mu_r_range"] = [float(v * z.min()), float(v * z.max())]
@@ -178,10 +211,8 @@ def fit_resistance(data: SlipData, vehicle: Vehicle, fit_at: Callable[[SlipData,
         if "weights_from" in extra:  # the fit saw the pulls as tractive forces; the column was the pull's
             extra["weights_from"] = STD_COLUMNS[data.measured]
         if base_residuals is None:
-            raise ValueError("fit_resistance: form='fit-sinkage' needs base_residuals (the sweep's "
-                             "residual model)")
-        return replace(best, extra=extra, measured="drawbar_pull",
-                       residual_model=SinkageResistance(v, base_residuals))
+            raise ValueError("fit_resistance: form='fit-sinkage' needs base_residuals (the sweep's residual model)")
+        return replace(best, extra=extra, measured="drawbar_pull", residual_model=SinkageResistance(v, base_residuals))
     return replace(best, extra=extra)
 
 
@@ -204,8 +235,11 @@ def _soil_ranges(results: list[FitResult]) -> dict:
     """Range of each soil parameter (edge units) over the fits at mu_r's best value and interval ends."""
     out = {}
     ok = [r for r in results if r.success]
-    for name, key, f in (("cohesion", "cohesion_kpa", 1e-3), ("friction_angle", "friction_angle_deg", 180 / math.pi),
-                         ("shear_modulus", "shear_modulus_m", 1.0)):
+    for name, key, f in (
+        ("cohesion", "cohesion_kpa", 1e-3),
+        ("friction_angle", "friction_angle_deg", 180 / math.pi),
+        ("shear_modulus", "shear_modulus_m", 1.0),
+    ):
         j = ("cohesion", "friction_angle", "shear_modulus").index(name)
         vals = [float(r.theta[j]) * f for r in ok if math.isfinite(r.theta[j])]
         if vals:
@@ -222,8 +256,10 @@ def _statement(e: dict) -> str:
     soil = ", ".join(f"{names[k][0]} {v[0]:.3g} to {v[1]:.3g} {names[k][1]}" for k, v in rng.items())
     if e["mode"] == "fit-sinkage":
         a, b = e["mu_r_range"]
-        head = (f"fitted R = k_z z W: k_z = {e['coefficient']:.4g} 1/m, {ci} 1/m (profile likelihood)"
-                f"{bound}, i.e. R / W from {a:.3g} to {b:.3g} over the rows' sinkage")
+        head = (
+            f"fitted R = k_z z W: k_z = {e['coefficient']:.4g} 1/m, {ci} 1/m (profile likelihood)"
+            f"{bound}, i.e. R / W from {a:.3g} to {b:.3g} over the rows' sinkage"
+        )
     else:
         head = f"fitted R = mu_r W: mu_r = {e['coefficient']:.4g}, {ci} (profile likelihood){bound}"
     return f"{head}; the soil below is at this value; over its interval: {soil}"

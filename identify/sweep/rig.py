@@ -19,6 +19,7 @@ sinkage. This module turns those columns into what a fit reports:
 - what was dropped when reading (``--driving-only``, ``--slip-angle 0``) and the measured
   sinkage (read and summarised; the track model's resistance does not use it).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -30,8 +31,18 @@ from ...soilmodel.ridge import distinct_loads
 from ..estimates.distributions import f_sf
 from .sinkage_channel import fit_sinkage_channel
 
-__all__ = ["LOAD_SPREAD_SMALL", "LOAD_SLIP_CORRELATION", "SLIP_REPEAT_TOL", "LACK_OF_FIT_ALPHA", "LoadSeparation",
-           "LackOfFit", "std_weights", "load_separation", "pure_error_test", "rig_extra"]
+__all__ = [
+    "LOAD_SPREAD_SMALL",
+    "LOAD_SLIP_CORRELATION",
+    "SLIP_REPEAT_TOL",
+    "LACK_OF_FIT_ALPHA",
+    "LoadSeparation",
+    "LackOfFit",
+    "std_weights",
+    "load_separation",
+    "pure_error_test",
+    "rig_extra",
+]
 
 #: Spread of the normal load, (max - min) / median, below which c and phi rest on little (a designed
 #: test at 300 and 450 N spreads 0.4; measured rig loads of 21-26 N spread 0.18).
@@ -68,8 +79,10 @@ class LoadSeparation:
         if self.spread < LOAD_SPREAD_SMALL:
             why.append(f"the load spreads only {100 * self.spread:.0f} % of its median")
         if abs(self.slip_correlation) > LOAD_SLIP_CORRELATION:
-            why.append(f"the load correlates with the slip (r = {self.slip_correlation:+.2f}): a slip effect can "
-                       "pass for a load effect")
+            why.append(
+                f"the load correlates with the slip (r = {self.slip_correlation:+.2f}): a slip effect can "
+                "pass for a load effect"
+            )
         if not self.fragile:
             return ""
         ivs = []
@@ -82,8 +95,11 @@ class LoadSeparation:
             if lo is not None and hi is not None:
                 ivs.append(f"{label} in [{lo:.3g}, {hi:.3g}] {pe.edge_unit}{tag}")
         tail = f"; 95 % intervals: {', '.join(ivs)}" if ivs else ""
-        return ("c and phi are told apart only through the normal load's spread, and " + " and ".join(why)
-                + f": the separation rests on it{tail}")
+        return (
+            "c and phi are told apart only through the normal load's spread, and "
+            + " and ".join(why)
+            + f": the separation rests on it{tail}"
+        )
 
     def to_dict(self) -> dict:
         """JSON-ready: the numbers and the verdict (the statement needs the fit: :meth:`statement`)."""
@@ -118,15 +134,28 @@ class LackOfFit:
 
     def statement(self) -> str:
         """Plain words."""
-        verdict = ("the model misses the means of the slip levels by more than the repeats scatter"
-                   if self.significant else "no lack of fit beyond the repeats' scatter")
-        return (f"pure-error test over {self.levels} slip levels with repeats: F = {self.F:.3g} "
-                f"({self.df_lack}, {self.df_pure} dof), p = {self.p_value:.3g}: {verdict}")
+        verdict = (
+            "the model misses the means of the slip levels by more than the repeats scatter"
+            if self.significant
+            else "no lack of fit beyond the repeats' scatter"
+        )
+        return (
+            f"pure-error test over {self.levels} slip levels with repeats: F = {self.F:.3g} "
+            f"({self.df_lack}, {self.df_pure} dof), p = {self.p_value:.3g}: {verdict}"
+        )
 
     def to_dict(self) -> dict:
         """JSON-ready."""
-        return {"levels": self.levels, "repeats": self.repeats, "df_lack": self.df_lack, "df_pure": self.df_pure,
-                "F": self.F, "p_value": self.p_value, "significant": self.significant, "statement": self.statement()}
+        return {
+            "levels": self.levels,
+            "repeats": self.repeats,
+            "df_lack": self.df_lack,
+            "df_pure": self.df_pure,
+            "F": self.F,
+            "p_value": self.p_value,
+            "significant": self.significant,
+            "statement": self.statement(),
+        }
 
 
 def std_weights(data: SlipData) -> np.ndarray | None:
@@ -171,7 +200,7 @@ def pure_error_test(slip, weighted_residuals, n_params: int) -> LackOfFit | None
     counts = np.bincount(level, minlength=g)
     means = np.bincount(level, weights=r, minlength=g) / counts
     ss_pure = float(np.sum((r - means[level]) ** 2))
-    ss_lack = float(np.sum(counts * means ** 2))
+    ss_lack = float(np.sum(counts * means**2))
     if not ss_pure > 0:
         return None
     df_lack, df_pure = g - n_params, n - g
@@ -183,15 +212,21 @@ def rig_extra(data: SlipData, result, separation: LoadSeparation | None) -> dict
     """The entries a rig sweep adds to ``FitResult.extra`` (empty for a plain sweep)."""
     out: dict = {}
     if data.dropped:
-        out["dropped_rows"] = [{"reason": reason, "option": option, "count": len(rows), "rows": list(rows)}
-                               for reason, option, rows in data.dropped]
+        out["dropped_rows"] = [
+            {"reason": reason, "option": option, "count": len(rows), "rows": list(rows)}
+            for reason, option, rows in data.dropped
+        ]
     if data.force_std is not None:
         out["weights_from"] = STD_COLUMNS[data.measured]
     if data.sinkage is not None:
         z, s = np.asarray(data.sinkage, dtype=float), np.asarray(data.slip, dtype=float)
         corr = float(np.corrcoef(z, s)[0, 1]) if np.std(z) > 0 and np.std(s) > 0 else 0.0
-        out["sinkage_m"] = {"min": float(z.min()), "max": float(z.max()), "slip_correlation": corr,
-                            "laws": fit_sinkage_channel(data, result.vehicle)}
+        out["sinkage_m"] = {
+            "min": float(z.min()),
+            "max": float(z.max()),
+            "slip_correlation": corr,
+            "laws": fit_sinkage_channel(data, result.vehicle),
+        }
     if separation is not None and result.model == "full":
         out["load_separation"] = separation.to_dict()
     if result.success:  # (the free parameters' count: no statistic of the result is computed here)

@@ -23,6 +23,7 @@
     c-phi ridge; :func:`~soiltrack.identify.estimates.result.build_result` reports that point as not
     identifiable. A negative cohesion is outside the physical domain: reported as a failure.
 """
+
 from __future__ import annotations
 
 import time
@@ -68,8 +69,11 @@ def fit_newton(pb: SlipProblem, x0=None, max_iter: int = 50, tol: float = 1e-12)
     free = pb.free
     theta = _start(pb, x0)
     square = pb.n == len(free)
-    kind = "Newton-Raphson on the square system (Eq. 5-7)" if square else \
-        f"Gauss-Newton (least-squares step, {pb.n} samples > {len(free)} unknowns)"
+    kind = (
+        "Newton-Raphson on the square system (Eq. 5-7)"
+        if square
+        else f"Gauss-Newton (least-squares step, {pb.n} samples > {len(free)} unknowns)"
+    )
     status, ok, msg = "Maximum_Iterations_Exceeded", False, f"no convergence in {max_iter} iterations"
     f0 = None
     it = 0
@@ -88,11 +92,15 @@ def fit_newton(pb: SlipProblem, x0=None, max_iter: int = 50, tol: float = 1e-12)
         cond = _scaled_cond(Js)
         if not np.isfinite(cond) or cond > COND_MAX:
             status = "Singular_Jacobian"
-            msg = (f"the Jacobian is singular (column-scaled condition number {cond:.3g} > {COND_MAX:.0e}) at "
-                   f"iteration {it}: no Newton step exists")
+            msg = (
+                f"the Jacobian is singular (column-scaled condition number {cond:.3g} > {COND_MAX:.0e}) at "
+                f"iteration {it}: no Newton step exists"
+            )
             if pb.model == "full" and np.unique(pb.load).size == 1:
-                msg += ("; c and phi enter Eq. 2 only through F_max = A c + W tan(phi) at one normal load, so their "
-                        "Jacobian columns are proportional (use method='ipopt', which reports F_max and K)")
+                msg += (
+                    "; c and phi enter Eq. 2 only through F_max = A c + W tan(phi) at one normal load, so their "
+                    "Jacobian columns are proportional (use method='ipopt', which reports F_max and K)"
+                )
             break
         if square:
             step = np.linalg.solve(Js, -rw)
@@ -104,8 +112,10 @@ def fit_newton(pb: SlipProblem, x0=None, max_iter: int = 50, tol: float = 1e-12)
         new = theta.copy()
         new[free] = theta[free] + step * SCALE[free]
         if not _in_domain(new):
-            status, msg = "Left_Physical_Domain", (f"the Newton step left the physical domain (phi in (0, 90) deg, "
-                                                   f"K > 0) at iteration {it}")
+            status, msg = (
+                "Left_Physical_Domain",
+                (f"the Newton step left the physical domain (phi in (0, 90) deg, K > 0) at iteration {it}"),
+            )
             break
         theta = new
         z = theta[free] / SCALE[free]
@@ -116,9 +126,16 @@ def fit_newton(pb: SlipProblem, x0=None, max_iter: int = 50, tol: float = 1e-12)
         ok, status = False, "Nonphysical_Solution"
         msg = f"converged to a negative cohesion ({theta[0] / 1e3:.4g} kPa): no physical solution"
     dt = time.perf_counter() - t0
-    return pb.result(theta, method="newton", status=status, success=ok, message=msg, iterations=it,
-                     solve_time=dt, extra={"algorithm": kind, "condition_number": float(cond) if np.isfinite(cond)
-                                           else None})
+    return pb.result(
+        theta,
+        method="newton",
+        status=status,
+        success=ok,
+        message=msg,
+        iterations=it,
+        solve_time=dt,
+        extra={"algorithm": kind, "condition_number": float(cond) if np.isfinite(cond) else None},
+    )
 
 
 def fit_least_squares(pb: SlipProblem, x0=None, max_iter: int = 500, tol: float = 1e-12) -> FitResult:
@@ -172,7 +189,13 @@ def fit_least_squares(pb: SlipProblem, x0=None, max_iter: int = 500, tol: float 
         ok, status = False, "Nonphysical_Solution"
         msg = f"converged to a negative cohesion ({theta[0] / 1e3:.4g} kPa): outside the physical domain"
     dt = time.perf_counter() - t0
-    return pb.result(theta, method="least-squares", status=status, success=ok,
-                     message=f"unconstrained Levenberg-Marquardt (Marquardt damping), {msg}", iterations=it,
-                     solve_time=dt, extra={"algorithm": "unconstrained Levenberg-Marquardt, diag(J^T J) damping, "
-                                                        "scaled variables (kPa, rad, cm)"})
+    return pb.result(
+        theta,
+        method="least-squares",
+        status=status,
+        success=ok,
+        message=f"unconstrained Levenberg-Marquardt (Marquardt damping), {msg}",
+        iterations=it,
+        solve_time=dt,
+        extra={"algorithm": "unconstrained Levenberg-Marquardt, diag(J^T J) damping, scaled variables (kPa, rad, cm)"},
+    )

@@ -15,6 +15,7 @@ a straight line, fitted by least squares. What the rows identify:
 The fitted law's sinkage at each row is computed with the one home of each law
 (:func:`~soiltrack.soilmodel.sinkage.sinkage_expr`, :func:`~soiltrack.soilmodel.sinkage.slip_sinkage`).
 """
+
 from __future__ import annotations
 
 import math
@@ -65,9 +66,15 @@ def fit_sinkage_channel(data: SlipData, vehicle: Vehicle) -> dict | None:
         return None
     q = t_ppf(0.975, dof)
     a, se_a = float(coef[0]), math.sqrt(max(cov[0, 0], 0.0))
-    out: dict = {"reference_load_N": W_ref, "z0_m": math.exp(a),
-                 "z0_ci95_m": [math.exp(a - q * se_a), math.exp(a + q * se_a)], "n": None, "n_ci95": None,
-                 "k_eq_kn": None, "identifiable": ["z0"]}
+    out: dict = {
+        "reference_load_N": W_ref,
+        "z0_m": math.exp(a),
+        "z0_ci95_m": [math.exp(a - q * se_a), math.exp(a + q * se_a)],
+        "n": None,
+        "n_ci95": None,
+        "k_eq_kn": None,
+        "identifiable": ["z0"],
+    }
     if spread:
         m, se_m = float(coef[1]), math.sqrt(max(cov[1, 1], 0.0))
         lo, hi = m - q * se_m, m + q * se_m
@@ -76,8 +83,9 @@ def fit_sinkage_channel(data: SlipData, vehicle: Vehicle) -> dict | None:
             out.update(n=n, n_ci95=[1.0 / hi, 1.0 / lo], identifiable=["z0", "n", "k_eq"])
             A = vehicle.contact_area
             out["k_eq_kn"] = W_ref / (A * math.exp(a) ** n) / 1e3  # z0 = (W / (A k)) ^ (1 / n) solved for k
-            z_fit = np.asarray(sinkage_expr(W, n, 0.0, out["k_eq_kn"] * 1e3, vehicle.track_length,
-                                            vehicle.track_width), dtype=float) * slip_sinkage(1.0, i)
+            z_fit = np.asarray(
+                sinkage_expr(W, n, 0.0, out["k_eq_kn"] * 1e3, vehicle.track_length, vehicle.track_width), dtype=float
+            ) * slip_sinkage(1.0, i)
             out["rms_m"] = float(np.sqrt(np.mean((z_fit - z) ** 2)))
     # Lyasko's slip factor with a free exponent s: s = 1 is the law
     Xs = np.column_stack([X, lL])
@@ -93,18 +101,30 @@ def fit_sinkage_channel(data: SlipData, vehicle: Vehicle) -> dict | None:
 
 def _statement(o: dict, spread: bool) -> str:
     lo, hi = o["z0_ci95_m"]
-    head = (f"static Bekker sinkage z0 = {1e3 * o['z0_m']:.3g} mm at W = {o['reference_load_N']:.4g} N, 95 % "
-            f"[{1e3 * lo:.3g}, {1e3 * hi:.3g}] mm")
+    head = (
+        f"static Bekker sinkage z0 = {1e3 * o['z0_m']:.3g} mm at W = {o['reference_load_N']:.4g} N, 95 % "
+        f"[{1e3 * lo:.3g}, {1e3 * hi:.3g}] mm"
+    )
     if o["n"] is not None:
-        head += (f"; n = {o['n']:.3g} [{o['n_ci95'][0]:.3g}, {o['n_ci95'][1]:.3g}], k_c / b + k_phi = "
-                 f"{o['k_eq_kn']:.4g} kN/m^(n+2)")
+        head += (
+            f"; n = {o['n']:.3g} [{o['n_ci95'][0]:.3g}, {o['n_ci95'][1]:.3g}], k_c / b + k_phi = "
+            f"{o['k_eq_kn']:.4g} kN/m^(n+2)"
+        )
     else:
-        head += ("; n and k not identifiable (" + ("one load" if not spread else
-                                                   "the load's spread does not determine 1/n") + ")")
+        head += (
+            "; n and k not identifiable ("
+            + ("one load" if not spread else "the load's spread does not determine 1/n")
+            + ")"
+        )
     se = o.get("slip_exponent")
     if se:
-        verdict = "grows with the slip as Lyasko's law" if se["p_value_lyasko"] >= 0.05 else \
-            "does NOT grow with the slip as Lyasko's law"
-        head += (f"; the sinkage {verdict} (exponent of its factor {se['value']:.3g}, 95 % [{se['ci95'][0]:.3g}, "
-                 f"{se['ci95'][1]:.3g}], law 1, p = {se['p_value_lyasko']:.3g})")
+        verdict = (
+            "grows with the slip as Lyasko's law"
+            if se["p_value_lyasko"] >= 0.05
+            else "does NOT grow with the slip as Lyasko's law"
+        )
+        head += (
+            f"; the sinkage {verdict} (exponent of its factor {se['value']:.3g}, 95 % [{se['ci95'][0]:.3g}, "
+            f"{se['ci95'][1]:.3g}], law 1, p = {se['p_value_lyasko']:.3g})"
+        )
     return head

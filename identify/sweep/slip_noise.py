@@ -28,6 +28,7 @@ and said in the report. A misfit of the model at small slips (the wrong shear la
 puts large residuals where the slope is steep, and this test cannot tell it from slip noise:
 the report says so when it adopts the weights.
 """
+
 from __future__ import annotations
 
 import math
@@ -40,7 +41,15 @@ from ..estimates.result import FitResult
 from .model import fit_vector, slip_slope
 from .problem import SlipProblem
 
-__all__ = ["SlipNoise", "estimate_slip_noise", "leverage", "serial_correlation", "check_slip_noise", "fit_with_slip_noise", "LR_CRITICAL"]
+__all__ = [
+    "SlipNoise",
+    "estimate_slip_noise",
+    "leverage",
+    "serial_correlation",
+    "check_slip_noise",
+    "fit_with_slip_noise",
+    "LR_CRITICAL",
+]
 
 #: Likelihood-ratio level above which slip noise is adopted: p = 0.01 under the mixture
 #: 0.5 chi2(0) + 0.5 chi2(1) of a variance tested on its zero bound (P(chi2(1) > 5.412) = 0.02).
@@ -86,10 +95,17 @@ class SlipNoise:
     def to_dict(self) -> dict:
         """JSON-ready dict."""
         f = lambda x: None if x is None or not math.isfinite(x) else float(x)  # noqa: E731
-        return {"mode": self.mode, "adopted": self.adopted, "slip_sigma": f(self.slip_sigma),
-                "force_sigma_N": f(self.force_sigma), "likelihood_ratio": f(self.likelihood_ratio),
-                "threshold": LR_CRITICAL if self.mode == "auto" else None, "iterations": self.iterations,
-                "converged": self.converged, "note": self.note}
+        return {
+            "mode": self.mode,
+            "adopted": self.adopted,
+            "slip_sigma": f(self.slip_sigma),
+            "force_sigma_N": f(self.force_sigma),
+            "likelihood_ratio": f(self.likelihood_ratio),
+            "threshold": LR_CRITICAL if self.mode == "auto" else None,
+            "iterations": self.iterations,
+            "converged": self.converged,
+            "note": self.note,
+        }
 
 
 def check_slip_noise(value) -> str | float:
@@ -100,10 +116,15 @@ def check_slip_noise(value) -> str | float:
         try:
             value = float(value)
         except ValueError:
-            raise DataError(f"slip_noise must be 'auto', 'off' or a slip standard deviation (a number in (0, 0.5)), "
-                            f"got {value!r}") from None
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 < float(value) < 0.5) \
-            or not math.isfinite(float(value)):
+            raise DataError(
+                f"slip_noise must be 'auto', 'off' or a slip standard deviation (a number in (0, 0.5)), got {value!r}"
+            ) from None
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not (0.0 < float(value) < 0.5)
+        or not math.isfinite(float(value))
+    ):
         raise DataError(f"slip_noise must be 'auto', 'off' or a slip standard deviation in (0, 0.5), got {value!r}")
     return float(value)
 
@@ -117,8 +138,9 @@ def _loglik(r2: np.ndarray, v: np.ndarray, level_known: bool) -> float:
     return -0.5 * float(np.sum(np.log(s2 * v))) - 0.5 * r2.size if s2 > 0 else math.inf
 
 
-def estimate_slip_noise(residuals, slope, base_sigma, sigma_known: bool,
-                        slip_sigma: float | None = None) -> tuple[float, float, float]:
+def estimate_slip_noise(
+    residuals, slope, base_sigma, sigma_known: bool, slip_sigma: float | None = None
+) -> tuple[float, float, float]:
     """Maximum-likelihood variance components ``(slip_sigma, s, likelihood ratio)``.
 
     Model: ``var_k = s^2 b_k^2 + slip_sigma^2 slope_k^2`` (``s = 1`` when ``sigma_known``). With
@@ -135,8 +157,9 @@ def estimate_slip_noise(residuals, slope, base_sigma, sigma_known: bool,
         plain = float(np.mean(r2 / b2))
 
         def nll(ls2):
-            v = math.exp(ls2) * b2 + slip_sigma ** 2 * d2
+            v = math.exp(ls2) * b2 + slip_sigma**2 * d2
             return 0.5 * float(np.sum(np.log(v)) + np.sum(r2 / v))
+
         ls2 = _minimise_1d(nll, math.log(max(plain, 1e-300)) - 20.0, math.log(max(plain, 1e-300)) + 2.0)
         return float(slip_sigma), math.sqrt(math.exp(ls2)), math.nan
     dmax = float(np.max(d2)) if d2.size else 0.0
@@ -148,6 +171,7 @@ def estimate_slip_noise(residuals, slope, base_sigma, sigma_known: bool,
 
     def nll_k(lk):
         return -_loglik(r2, b2 + math.exp(lk) * d2, sigma_known)
+
     grid = np.linspace(lk_lo, lk_hi, 121)
     vals = np.array([nll_k(g) for g in grid])
     k = int(np.argmin(vals))
@@ -234,11 +258,25 @@ def fit_with_slip_noise(pb, solve, mode) -> tuple[FitResult, SlipNoise, SlipProb
     if mode == "off":
         return res, SlipNoise("off", False, note="slip taken as exact"), pb
     if pb.n < MIN_SAMPLES:
-        return res, SlipNoise("auto" if mode == "auto" else "given", False,
-                              note=f"fewer than {MIN_SAMPLES} samples: slip taken as exact"), pb
+        return (
+            res,
+            SlipNoise(
+                "auto" if mode == "auto" else "given",
+                False,
+                note=f"fewer than {MIN_SAMPLES} samples: slip taken as exact",
+            ),
+            pb,
+        )
     if not res.success:
-        return res, SlipNoise("auto" if mode == "auto" else "given", False,
-                              note="the exact-slip fit did not succeed: no slip-noise weights"), pb
+        return (
+            res,
+            SlipNoise(
+                "auto" if mode == "auto" else "given",
+                False,
+                note="the exact-slip fit did not succeed: no slip-noise weights",
+            ),
+            pb,
+        )
     base = pb.sigma
     given = None if mode == "auto" else float(mode)
 
@@ -248,16 +286,39 @@ def fit_with_slip_noise(pb, solve, mode) -> tuple[FitResult, SlipNoise, SlipProb
 
     d, (ss, s, lr) = components(res)
     if given is None and not lr > LR_CRITICAL:
-        return res, SlipNoise("auto", False, ss, s, lr,
-                              note=f"the residual spread does not grow with the slope dF/di as slip noise would make "
-                                   f"it (likelihood ratio {lr:.3g} <= {LR_CRITICAL}): slip taken as exact"), pb
+        return (
+            res,
+            SlipNoise(
+                "auto",
+                False,
+                ss,
+                s,
+                lr,
+                note=f"the residual spread does not grow with the slope dF/di as slip noise would make "
+                f"it (likelihood ratio {lr:.3g} <= {LR_CRITICAL}): slip taken as exact",
+            ),
+            pb,
+        )
     sig = np.sqrt((s * base) ** 2 + (ss * d) ** 2)
     zs = serial_correlation(res.residuals, sig, pb.slip, pb.load)
     if given is None and zs > SERIAL_Z:
-        return res, SlipNoise("auto", False, ss, s, lr, note=(
-            f"the residual spread grows with the slope dF/di (likelihood ratio {lr:.3g} > {LR_CRITICAL}), but the "
-            f"residuals change smoothly with the slip (lag-1 correlation z = {zs:.3g} > {SERIAL_Z}): a misfit of "
-            "the model's shape, not noise on the slip, so the slip is taken as exact")), pb
+        return (
+            res,
+            SlipNoise(
+                "auto",
+                False,
+                ss,
+                s,
+                lr,
+                note=(
+                    "the residual spread grows with the slope dF/di "
+                    f"(likelihood ratio {lr:.3g} > {LR_CRITICAL}), but the residuals change smoothly with "
+                    f"the slip (lag-1 correlation z = {zs:.3g} > {SERIAL_Z}): a misfit of "
+                    "the model's shape, not noise on the slip, so the slip is taken as exact"
+                ),
+            ),
+            pb,
+        )
     it, converged, last, last_pb = 0, False, res, pb
     while it < MAX_ITER:
         it += 1
@@ -274,13 +335,39 @@ def fit_with_slip_noise(pb, solve, mode) -> tuple[FitResult, SlipNoise, SlipProb
             converged = True
             break
     if last is res:  # the first weighted fit failed: keep the exact-slip fit, say so
-        return res, SlipNoise("auto" if given is None else "given", False, ss, s, lr if given is None else None,
-                              it, False, "the fit with slip-noise weights did not succeed: slip taken as exact"), pb
-    note = ("" if converged else f"the slip-noise weights were still changing after {it} refits; ")
+        return (
+            res,
+            SlipNoise(
+                "auto" if given is None else "given",
+                False,
+                ss,
+                s,
+                lr if given is None else None,
+                it,
+                False,
+                "the fit with slip-noise weights did not succeed: slip taken as exact",
+            ),
+            pb,
+        )
+    note = "" if converged else f"the slip-noise weights were still changing after {it} refits; "
     if given is None:
-        note += (f"the residual spread grows with the slope dF/di as noise on the measured slip makes it "
-                 f"(likelihood ratio {lr:.3g} > {LR_CRITICAL}), so the fit weights the samples for it (see noise); "
-                 "a model misfit at small slips would look the same: if the slip is measured exactly, refit with "
-                 "slip_noise='off' (--slip-noise off) and compare")
-    return last, SlipNoise("auto" if given is None else "given", True, ss, s * float(np.median(base)),
-                           lr if given is None else None, it, converged, note), last_pb
+        note += (
+            f"the residual spread grows with the slope dF/di as noise on the measured slip makes it "
+            f"(likelihood ratio {lr:.3g} > {LR_CRITICAL}), so the fit weights the samples for it (see noise); "
+            "a model misfit at small slips would look the same: if the slip is measured exactly, refit with "
+            "slip_noise='off' (--slip-noise off) and compare"
+        )
+    return (
+        last,
+        SlipNoise(
+            "auto" if given is None else "given",
+            True,
+            ss,
+            s * float(np.median(base)),
+            lr if given is None else None,
+            it,
+            converged,
+            note,
+        ),
+        last_pb,
+    )

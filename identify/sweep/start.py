@@ -14,6 +14,7 @@ This is a global search over the only nonlinear parameter; the local solver then
 Vectorised over many problems at once (leading axis N). The slip factor ``g`` of every
 (sample, K) pair comes from the soilmodel's CasADi Function in one mapped call.
 """
+
 from __future__ import annotations
 
 import math
@@ -57,8 +58,17 @@ def start_point(pb, x0=None, how: str = "grid", n_grid: int = 25) -> tuple[np.nd
         return theta, "user start point"
     if how == "middle":
         return middle_of_bounds(pb.bounds, pb.model), "middle of the bounds"
-    theta = grid_start(pb.slip[None], pb.force[None], pb.load[None], pb.sigma[None], pb.vehicle.track_length,
-                       pb.vehicle.track_width, pb.model, pb.bounds, n_grid=n_grid)[0]
+    theta = grid_start(
+        pb.slip[None],
+        pb.force[None],
+        pb.load[None],
+        pb.sigma[None],
+        pb.vehicle.track_length,
+        pb.vehicle.track_width,
+        pb.model,
+        pb.bounds,
+        n_grid=n_grid,
+    )[0]
     return theta, "variable-projection grid start"
 
 
@@ -76,8 +86,17 @@ def _slip_factors(slip: np.ndarray, l: float, Ks: np.ndarray) -> np.ndarray:
     return np.asarray(g, dtype=float).reshape(N, Ks.size, n)
 
 
-def grid_start(slip: np.ndarray, force: np.ndarray, load: np.ndarray, sigma: np.ndarray, l: float, b: float,
-               model: str, bounds: SoilBounds, n_grid: int = 25) -> np.ndarray:
+def grid_start(
+    slip: np.ndarray,
+    force: np.ndarray,
+    load: np.ndarray,
+    sigma: np.ndarray,
+    l: float,
+    b: float,
+    model: str,
+    bounds: SoilBounds,
+    n_grid: int = 25,
+) -> np.ndarray:
     """Start points ``[c, phi, K]`` (SI) for stacked problems, shape (N, 3).
 
     Parameters

@@ -90,9 +90,7 @@ class WheelDiagnosis:
         for r in self.ranking:
             sh = "-" if r["shrink"] is None else f"{r['shrink']:.2f}"
             after = "-" if r["holdout_rmse_after"] is None else f"{r['holdout_rmse_after']:.3g}"
-            lines.append(
-                f"{r['effect']:<16}{r['weight']:>8.2f}{r['holdout_rmse_before']:>17.3g}{after:>8}{sh:>8}"
-            )
+            lines.append(f"{r['effect']:<16}{r['weight']:>8.2f}{r['holdout_rmse_before']:>17.3g}{after:>8}{sh:>8}")
         sig = self.signature
         if sig.get("correlation") is not None:
             lines.append(
@@ -101,9 +99,7 @@ class WheelDiagnosis:
             )
         lf = self.nominal.lack_of_fit
         if lf.get("testable"):
-            lines.append(
-                f"drawbar pull against the repeats' scatter: F = {lf['F']:.3g}, p = {lf['p_value']:.2g}"
-            )
+            lines.append(f"drawbar pull against the repeats' scatter: F = {lf['F']:.3g}, p = {lf['p_value']:.2g}")
         lines += [f"note: {n}" for n in self.notes]
         return "\n".join(lines)
 
@@ -179,9 +175,7 @@ def diagnose_wheel(
         r = fit_wheel(data, wheel, replace(options, effects=(eff,)))
         ho, _, ok = _holdout(data, wheel, replace(options, effects=(eff,)), scale)
         ok_nom &= ok
-        hyps.append(
-            {"effect": eff, "fit": r, "holdout": ho, "k": sum(not e.fixed for e in r.parameters.values())}
-        )
+        hyps.append({"effect": eff, "fit": r, "holdout": ho, "k": sum(not e.fixed for e in r.parameters.values())})
     aic = np.array([2 * _objective(h["fit"], data) + 2 * h["k"] for h in hyps])
     w = np.exp(-(aic - aic.min()) / 2)
     w = w / w.sum()
@@ -225,9 +219,7 @@ def diagnose_wheel(
                 "shrink": sh,
                 "p_value": h["p_value"],
                 "parameters": (
-                    {"slip_sinkage": h["fit"].parameters["slip_sinkage"].value}
-                    if h["effect"] == "slip_sinkage"
-                    else {}
+                    {"slip_sinkage": h["fit"].parameters["slip_sinkage"].value} if h["effect"] == "slip_sinkage" else {}
                 ),
             }
         )
@@ -249,11 +241,7 @@ def diagnose_wheel(
             }
         )
     after = next((h["fit"] for h in hyps if h["effect"] == verdict), None)
-    shrink = (
-        next((r["shrink"] for r in ranking if r["effect"] == verdict), None)
-        if verdict in WHEEL_EFFECTS
-        else None
-    )
+    shrink = next((r["shrink"] for r in ranking if r["effect"] == verdict), None) if verdict in WHEEL_EFFECTS else None
     notes.append(
         "held-out errors are root mean squares of residuals scaled by the nominal fit's noise level per "
         "channel (1 = as good as the fit in-sample), each slip level left out in turn"

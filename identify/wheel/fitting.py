@@ -78,8 +78,7 @@ class WheelFitOptions:
         for name, v in self.fixed.items():
             if name not in WHEEL_PARAMETERS:
                 raise DataError(
-                    f"unknown wheel parameter {name!r} to hold fixed; expected one of "
-                    f"{list(WHEEL_PARAMETERS)}"
+                    f"unknown wheel parameter {name!r} to hold fixed; expected one of {list(WHEEL_PARAMETERS)}"
                 )
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise DataError(f"fixed value of {name} must be a finite number, got {v!r}")
@@ -88,9 +87,7 @@ class WheelFitOptions:
                 self.bounds.upper[WHEEL_PARAMETERS.index(name)],
             )
             if not lo <= v <= hi:
-                raise DataError(
-                    f"fixed value of {name} ({v:.6g} SI) lies outside its bounds [{lo:.6g}, {hi:.6g}]"
-                )
+                raise DataError(f"fixed value of {name} ({v:.6g} SI) lies outside its bounds [{lo:.6g}, {hi:.6g}]")
 
 
 def _starts(
@@ -130,9 +127,7 @@ def _p(data: WheelSweep, th: np.ndarray) -> np.ndarray:
     return np.concatenate([data.slip, z, data.normal_load, data.drawbar_pull, th])
 
 
-def fit_wheel(
-    data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = WheelFitOptions()
-) -> WheelFitResult:
+def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = WheelFitOptions()) -> WheelFitResult:
     """Identify c, phi, K (and the Bekker k_c, k_phi, n) from a wheel sweep with bounded IPOPT.
 
     Every start of a small grid (:data:`START_FRICTION_DEG` x :data:`START_SHEAR_MODULUS_M`) is

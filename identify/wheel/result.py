@@ -249,15 +249,7 @@ class WheelFitResult:
             name = next(n for n, v in _EDGE.items() if v[0] == key)
             unit, words = _EDGE[name][2], _EDGE[name][3]
             ci = "fixed" if e.fixed else "-" if e.ci95[0] is None else f"[{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
-            ident = (
-                "fixed"
-                if e.fixed
-                else "no"
-                if not e.identifiable
-                else "weakly"
-                if e.weakly_identifiable
-                else "yes"
-            )
+            ident = "fixed" if e.fixed else "no" if not e.identifiable else "weakly" if e.weakly_identifiable else "yes"
             flag = f"  ON {e.bound_side.upper()} BOUND" if e.at_bound else ""
             lines.append(f"{words + ' (' + unit + ')':<30}{e.value:>12.4g}{ci:>28}  {ident}{flag}")
         if self.combinations:
@@ -346,8 +338,7 @@ def _lack_of_fit(data: WheelSweep, r_dp: np.ndarray, rank_dp: int) -> dict[str, 
         out.update(
             testable=False,
             reason=(
-                f"{levels} conditions (slip and load levels) for {rank_dp} identified "
-                "directions of the drawbar pull"
+                f"{levels} conditions (slip and load levels) for {rank_dp} identified directions of the drawbar pull"
                 if dof_lof <= 0
                 else "no repeated condition"
             ),
@@ -534,9 +525,7 @@ def build_wheel_result(
         )
     for c in combos:
         if c.estimable and not c.weakly_identifiable and c.stderr is not None:
-            statements.append(
-                f"{c.name} ({c.meaning}) is identified: {c.value:.4g} {c.unit} +- {c.stderr:.2g}."
-            )
+            statements.append(f"{c.name} ({c.meaning}) is identified: {c.value:.4g} {c.unit} +- {c.stderr:.2g}.")
     good = [_EDGE[nm][3] for j, nm in enumerate(names) if ident[j] and nm not in weak_names]
     if good:
         statements.append(f"identified on their own: {', '.join(good)}.")
@@ -558,9 +547,7 @@ def build_wheel_result(
             )
     at_bound = [k for k, e in params.items() if e.at_bound]
     if at_bound:
-        warnings.append(
-            f"on a bound: {', '.join(at_bound)} (the interval of a bound-pinned value is not reliable)."
-        )
+        warnings.append(f"on a bound: {', '.join(at_bound)} (the interval of a bound-pinned value is not reliable).")
     rank_dp = int(core_stats_one(np.where(np.isfinite(jac_dp), jac_dp, 0.0), residual_dp, False)["rank"][0])
     lof = _lack_of_fit(data, residual_dp, rank_dp)
     ok = converged and finite
