@@ -6,7 +6,7 @@ Given the weights of the admissible hypotheses (:mod:`.evidence`) and the gap te
 1. No gap: the verdict is ``none``.
 2. A gap, and the heaviest hypothesis is a candidate effect that explains it: that effect. It
    explains the gap when it removes at least ``min_explained`` of the nominal model's excess error
-   over the noise and leaves no gap that a flexible term on top of it still explains.
+   over the noise.
 3. A gap, and the heaviest is a candidate that does not explain it, the flexible term, or a cause
    outside the library (or an effect the user left out of the candidates): ``unexplained``, with
    the cause named when the heaviest is one and it explains the gap (the same test).
@@ -83,16 +83,14 @@ def _confusable(
     return tuple((p, c, separating_experiment(*p)) for p, c in pairs)
 
 
-def _explains(h: Hypothesis, exv: float | None, gap: GapDecision, s: DiagnoseSettings) -> tuple[bool, str]:
+def _explains(h: Hypothesis, exv: float | None, s: DiagnoseSettings) -> tuple[bool, str]:
     """Whether the heaviest hypothesis explains the gap: it removes at least ``min_explained`` of the nominal
-    excess over the noise and leaves no gap a flexible term on top of it still explains; and why not."""
+    excess over the noise; and why not."""
     if exv is not None and exv < s.min_explained:
         return False, (
             f"removes only {max(exv, 0.0):.0%} of the nominal excess error over the noise (at least "
             f"{s.min_explained:.0%} is needed)"
         )
-    if gap.left is not None and gap.left.significant:
-        return False, f"leaves a gap a flexible term on top of it still explains (p = {gap.left.p_value:.2g})"
     share = "" if exv is None else f"removes {exv:.0%} of the nominal excess error over the noise"
     return True, share
 
@@ -113,7 +111,7 @@ def decide(
     weights
         Their weights (:mod:`.evidence`).
     gap
-        The gap tests, and the test of the gap the heaviest hypothesis leaves.
+        The gap tests.
     directions
         Projected sensitivity of each library effect (screening), for the confusable pairs.
     settings
@@ -129,12 +127,12 @@ def decide(
     w_top = f"{top} carries the largest weight ({weights[top]:.2f})"
     if not gap.present or h.family == "nominal":
         why = (
-            f"no gap test is significant at the level {settings.alpha:g}"
+            f"no gap test is significant (family level {settings.alpha:g}, shared among {len(gap.tests)} tests)"
             if not gap.present
             else f"a gap test is significant, but {w_top}"
         )
         return Decision(NOMINAL, weights[NOMINAL], top, None, None, why, confusable=conf)
-    ok, how = _explains(h, exv, gap, settings)
+    ok, how = _explains(h, exv, settings)
     if h.family == "candidate" and ok:
         return Decision(top, weights[top], top, exv, None, f"{w_top} and {how}" if how else w_top, confusable=conf)
     cause = top if h.family == "outside" and ok else None

@@ -33,6 +33,7 @@ from ...soilmodel.effects import EFFECTS
 from ...soilmodel.errors import DataError
 from ...soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
 from ...soilmodel.vehicle import Vehicle
+from ..consistency import ConsistencyReport, check_consistency
 from .decision import UNEXPLAINED, Decision, decide
 from .evidence import HeldOutEvidence, PenalisedEvidence
 from .fits import SOIL_KEYS, FitRunner, channels, effect_parameters, soil_summary, usable
@@ -40,7 +41,7 @@ from .gap import long_run_factor
 from .gap_test import GapDecision, decide_gap, pure_error_lack_of_fit
 from .hold import HoldChoice, choose_hold
 from .hypotheses import NOMINAL, Frame, Hypothesis
-from .library import effect_hypothesis, flexible_hypothesis, flexible_on, nominal_hypothesis
+from .library import effect_hypothesis, flexible_hypothesis, nominal_hypothesis
 from .localisation import localisation
 from .outside import outside_hypotheses
 from .result import Diagnosis, Excluded, RankEntry
@@ -71,7 +72,8 @@ def _runner(
         raise DataError(f"vehicle must be a Vehicle, got {type(vehicle).__name__}")
     if torque_hold not in TORQUE_HOLDS:
         raise DataError(f"torque_hold must be 'auto', 'zoh' or 'sample', got {torque_hold!r}")
-    options: dict[str, Any] = {"bounds": PRACTICAL_BOUNDS if bounds is None else bounds}
+    # the data's consistency is checked once, on all of it (diagnose); the refits of its parts skip it
+    options: dict[str, Any] = {"bounds": PRACTICAL_BOUNDS if bounds is None else bounds, "consistency": False}
     if isinstance(data, DriveLog):
         options["torque_hold"] = torque_hold if torque_hold in ("zoh", "sample") else "zoh"
     return FitRunner(
@@ -89,7 +91,7 @@ def _setup(runner: FitRunner, nominal_fit: Any) -> Setup:
     x = np.asarray(data.time if isinstance(data, DriveLog) else data.slip, dtype=float)
     order = np.arange(data.n_samples) if runner.is_log else np.argsort(x, kind="stable")
     R = channels(nominal_fit, data)
-    sigma, flat = noise_floors(R, order)
+    sigma, flat = noise_floors(R, order, runner.settings.noise_window(data.n_samples, runner.is_log))
     if runner.is_log and np.all(np.isfinite(nominal_fit.theta)):
         runner.x0 = np.asarray(nominal_fit.theta, dtype=float)
     return Setup(runner, nominal_fit, R, sigma, frozenset(flat), make_folds(data, order, runner.settings), x, order)
@@ -137,7 +139,7 @@ def _sweep_noise(setup: Setup, hyps: list[Hypothesis]) -> Setup:
     if not ss or min(ss.values()) >= ss_nom:
         return setup
     best = next(h for h in hyps if h.name == min(ss, key=lambda k: ss[k]))
-    sigma, _ = noise_floors(best.residuals, setup.order)
+    sigma, _ = noise_floors(best.residuals, setup.order, setup.settings.noise_window(setup.n, False))
     return replace(setup, sigma=sigma)
 
 
@@ -196,13 +198,10 @@ def _data_step(
             return nominal_fit, screens, setup, base, chosen
         if runner.hold_given is not None:
             return nominal_fit, screens, setup, base, HoldChoice(runner.hold_given, True)
-        chosen = choose_hold(setup, base[0])
+        chosen = choose_hold(setup, base[0], base[2])
         if chosen.hold == "zoh":
             return nominal_fit, screens, setup, base, chosen
-        say(
-            f"the sampled torque predicts the held-out blocks better (p = {chosen.p_value:.2g}): "
-            "everything refitted with it"
-        )
+        say("the sampled torque predicts the held-out blocks better: everything refitted with it")
         runner.options["torque_hold"] = "sample"
         runner.x0 = None
     raise AssertionError("unreachable: the second pass returns")
@@ -235,23 +234,7 @@ def _gap(setup: Setup, hyps: list[Hypothesis], weights: dict[str, float], hold: 
     if not setup.is_log:
         p["lack of fit"] = _lack_of_fit(setup, setup.residuals, setup.nominal_fit)
         p["pure-error lack of fit"] = _pure_error(setup)
-    return decide_gap(p, s.alpha, _gap_left(setup, top, hold, z_nom))
-
-
-def _gap_left(setup: Setup, top: Hypothesis, hold: Frame, z_nom: np.ndarray) -> tuple[str, float] | None:
-    """``(test, p-value)`` of the gap the heaviest hypothesis leaves, tested like the nominal model's: a log's
-    held-out (a flexible term fitted to its training residuals predicts its held-out residuals better,
-    Diebold-Mariano); a sweep's in-sample (the lack-of-fit F test on top of its fit on all the data)."""
-    name = f"gap left by {top.name}"
-    if top.family in ("nominal", "flexible"):
-        return None
-    if not setup.is_log:
-        return (name, _lack_of_fit(setup, top.residuals, top.fit)) if usable(top.fit, False) else None
-    if top.train_residuals is None or top.held is None:
-        return None
-    zt = hold.z(top.held, z_nom)
-    zf = hold.z(flexible_on(setup, top.held, top.train_residuals), zt)
-    return name, dm_test(zt, zf, setup.dm_lag)
+    return decide_gap(p, s.alpha)
 
 
 def _lack_of_fit(setup: Setup, residuals: dict[str, np.ndarray], res: Any) -> float:
@@ -376,6 +359,9 @@ def diagnose(
     runner = _runner(data, vehicle, model, torque_hold, bounds, settings)
     cands = check_candidates(candidates, runner.is_log)
     say = progress if progress is not None else (lambda msg: None)
+    consistency = check_consistency(data, vehicle)
+    if not consistency.passed:
+        return _inconsistent(runner, cands, consistency, t0)
     nominal_fit, screens, setup_or_none, base, choice = _data_step(runner, cands, say)
     if setup_or_none is None or base is None:
         return _no_comparison(runner, cands, nominal_fit, screens, choice, t0)
@@ -480,6 +466,44 @@ def _result(
         notes=tuple(notes),
         elapsed_s=time.perf_counter() - t0,
         curves=curves,
+    )
+
+
+def _inconsistent(runner: FitRunner, cands: tuple[str, ...], report: ConsistencyReport, t0: float) -> Diagnosis:
+    """Data that fail the cross-channel consistency checks (a mislabelled channel, a unit) are not diagnosed:
+    no gap is read against a model of the wrong data (``unexplained``, confidence 0, not converged)."""
+    fatal = [f for f in report.findings if f.severity == "fatal"]
+    reason = (
+        "the data fail the consistency checks (" + ", ".join(f.check for f in fatal) + "): a channel's label or "
+        "unit does not match the vehicle; no gap is read against a model of the wrong data"
+    )
+    return Diagnosis(
+        data_kind="drive" if runner.is_log else "sweep",
+        n_samples=runner.data.n_samples,
+        candidates=cands,
+        verdict=UNEXPLAINED,
+        confidence=0.0,
+        reason=reason,
+        cause="inconsistent_data",
+        cause_detail={"checks": [f.check for f in fatal]},
+        ranking=(),
+        excluded=(),
+        evidence="none",
+        gap=GapDecision(()),
+        screens=(),
+        confusable=(),
+        localisation=(),
+        noise={},
+        holdout_rmse_before={},
+        holdout_rmse_after=None,
+        shrink=None,
+        explained=None,
+        soil_before={},
+        soil_after=None,
+        converged=False,
+        torque_hold=None,
+        notes=(reason,) + tuple(f.message for f in fatal),
+        elapsed_s=time.perf_counter() - t0,
     )
 
 

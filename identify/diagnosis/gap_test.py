@@ -1,6 +1,9 @@
 """Is there a gap? The tests the decision uses, each with its p-value and level.
 
-A gap is present when any of these is significant at ``alpha`` (each printed in the report):
+A gap is present when any of these is significant. They are one family of tests of one question,
+so each is held to ``alpha`` divided by the number of tests made (Bonferroni): the chance that
+effect-free data show a gap stays below ``alpha``. Each test's p-value and level are printed in the
+report and the JSON, and no other number decides whether there is a gap.
 
 - ``nominal error vs noise`` (drive logs): the nominal model's held-out error against the noise
   floor (:func:`~.selection.gap_p_value`, the chi-square corrected for correlated residuals). A
@@ -54,21 +57,15 @@ class GapTest:
 
 @dataclass(frozen=True)
 class GapDecision:
-    """The gap tests, whether any is significant, and the test of the gap the heaviest hypothesis leaves.
+    """The gap tests and whether any is significant.
 
     Attributes
     ----------
     tests
-        The tests of the nominal model's gap.
-    left
-        The gap the heaviest hypothesis leaves, tested like the nominal model's: on a log, a flexible
-        term fitted to its training residuals predicts its held-out residuals better (Diebold-Mariano);
-        on a sweep, the lack-of-fit F test on top of its fit. None when not made (the heaviest is the
-        nominal model or the flexible term, or has no fit to test).
+        The tests of the nominal model's gap, each with its (Bonferroni) level.
     """
 
     tests: tuple[GapTest, ...]
-    left: GapTest | None = None
 
     @property
     def present(self) -> bool:
@@ -106,10 +103,9 @@ def pure_error_lack_of_fit(residuals: np.ndarray, sigma: np.ndarray, keys: np.nd
     return f_sf((ss_lof / (g - n_params)) / (ss_pe / (n - g)), g - n_params, n - g)
 
 
-def decide_gap(p_values: dict[str, float | None], alpha: float, left: tuple[str, float] | None = None) -> GapDecision:
-    """The :class:`GapDecision` from the p-values of the tests made (None: not made) and ``left``, the
-    ``(name, p-value)`` of the gap the heaviest hypothesis leaves."""
-    return GapDecision(
-        tuple(GapTest(k, float(v), alpha) for k, v in p_values.items() if v is not None and math.isfinite(float(v))),
-        None if left is None or not math.isfinite(left[1]) else GapTest(left[0], float(left[1]), alpha),
-    )
+def decide_gap(p_values: dict[str, float | None], alpha: float) -> GapDecision:
+    """The :class:`GapDecision` from the p-values of the tests made (None: not made), each held to ``alpha``
+    divided by the number of tests made."""
+    made = {k: float(v) for k, v in p_values.items() if v is not None and math.isfinite(float(v))}
+    level = alpha / max(1, len(made))
+    return GapDecision(tuple(GapTest(k, v, level) for k, v in made.items()))

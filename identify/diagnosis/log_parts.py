@@ -339,8 +339,7 @@ def refine_delay(nominal, data, vehicle, train: np.ndarray, k0: int, max_lag: in
         if k not in fits:
             try:
                 # at most 60 iterations, one start: a shift far from the delay makes a hard problem (hundreds
-                # of
-                # iterations) whose answer is only "worse"; unconverged counts as not fitting
+                # of iterations) whose answer is only "worse"; unconverged counts as not fitting
                 r = fit(
                     shift_speed(data, sign * k).subset(train),
                     vehicle,
@@ -351,6 +350,7 @@ def refine_delay(nominal, data, vehicle, train: np.ndarray, k0: int, max_lag: in
                     multistart=False,
                     bounds=nominal.bounds,
                     torque_hold=str(nominal.extra.get("torque_hold", "zoh")),
+                    consistency=False,
                 )
                 fits[k] = r if r.success else None
             except Exception:  # noqa: BLE001 - a shift that leaves too few usable samples

@@ -174,7 +174,6 @@ class Diagnosis:
                 "evidence": self.evidence,
                 "gap_tests": [t.to_dict() for t in self.gap.tests],
                 "gap": bool(self.gap.present),
-                "gap_left": None if self.gap.left is None else self.gap.left.to_dict(),
                 "confusable": [list(p) for p, _, _ in self.confusable],
                 "confusable_detail": [
                     {"effects": list(p), "correlation": finite(c), "experiment": x} for p, c, x in self.confusable

@@ -61,6 +61,11 @@ class DiagnoseSettings:
         larger (and at least ``confusable_weight``) and their sensitivities are this collinear.
     max_delay_samples
         Largest delay between channels tried (samples): a quarter second at 100 Hz.
+    sweep_noise_window
+        Share of a sweep's rows in the moving window of its noise profile: a quarter, so that the
+        profile follows the noise's shape along the slip (larger at small slip, where slip noise meets
+        a steep curve) without the row-to-row wiggles of a few squared differences, which would give
+        the rows random weights and a lack-of-fit test that finds structure in them.
     n_bootstrap
         Bayesian-bootstrap replicates of the pseudo-BMA+ weights: 400 keeps their Monte Carlo error
         below 0.01.
@@ -87,7 +92,12 @@ class DiagnoseSettings:
     confusable_corr: float = 0.9
     confusable_weight: float = 0.05
     max_delay_samples: int = 25
+    sweep_noise_window: float = 0.25
     n_bootstrap: int = 400
+
+    def noise_window(self, n: int, is_log: bool) -> int | None:
+        """Moving window of the noise profile of ``n`` samples (None on a log: the profile's default)."""
+        return None if is_log else max(7, int(round(self.sweep_noise_window * n)))
 
     def knots(self, n: int, is_log: bool) -> int:
         """Knots of the flexible term for ``n`` samples of a log or a sweep."""

@@ -48,8 +48,11 @@ def check_candidates(candidates: Any, is_log: bool) -> tuple[str, ...]:
     return tuple(out)
 
 
-def noise_floors(resid: dict[str, np.ndarray], order: np.ndarray) -> tuple[dict[str, np.ndarray], set[str]]:
-    """The noise floor per sample of each channel's residuals along ``order``.
+def noise_floors(
+    resid: dict[str, np.ndarray], order: np.ndarray, window: int | None = None
+) -> tuple[dict[str, np.ndarray], set[str]]:
+    """The noise floor per sample of each channel's residuals along ``order`` (moving ``window`` of
+    neighbours; None: :func:`~.gap.noise_profile`'s default).
 
     Returns the floors (NaN where a residual is not finite) and the channels without measurable
     noise (a noise-free simulated run), whose floor is set to a negligible value instead of zero.
@@ -58,7 +61,7 @@ def noise_floors(resid: dict[str, np.ndarray], order: np.ndarray) -> tuple[dict[
     for ch, rr in resid.items():
         ok = np.isfinite(rr)
         o = order[ok[order]]
-        prof = noise_profile(rr[o])
+        prof = noise_profile(rr[o], window=window)
         if not np.all(prof > 0):
             scale = float(np.max(np.abs(rr[ok]))) if np.any(ok) else 0.0
             prof = np.full(o.size, max(1e-12, 1e-9 * scale))
