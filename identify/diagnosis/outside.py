@@ -7,9 +7,9 @@ Drive logs (held-out evidence: fitted on the training blocks, predicting the oth
   shifted log (:func:`~.log_parts.refine_delay`); the hypothesis is the nominal model on the log with
   the speed channel shifted back. Detail: ``lag_s``.
 - ``terrain_change``: the soil differs within a time window. The window comes from the score test of
-  the nominal fit on all the data (:func:`~.log_parts.terrain_window`); the hypothesis moves the soil
-  inside the window by one Gauss-Newton step on the training samples there and predicts the held-out
-  samples. It must beat the effects and the flexible term on held-out evidence like any other.
+  the nominal fit on all the data (:func:`~.log_parts.terrain_window`); the hypothesis fits one soil
+  on the training samples inside the window and one outside, each predicting the held-out samples on
+  its side. It must beat the effects and the flexible term on held-out evidence like any other.
   Detail: ``window_s`` (where the data show it) and ``bracket_s`` (where its boundaries can lie).
 
 Both kinds of data:
@@ -91,6 +91,11 @@ def delay_hypothesis(setup: Setup, train_res: list) -> Hypothesis:
     )
 
 
+def _soil_of(res: Any) -> tuple[float, float]:
+    """``(F_max, K)`` of a drive-log fit."""
+    return float(res.extra["max_thrust_N"]), float(res.extra["shear_modulus_m"])
+
+
 def _with_soil(res: Any, fmax: float, k: float) -> Any:
     """Fit result ``res`` with its thrust limit and shear modulus replaced (a drive-log model predicts
     from these two)."""
@@ -101,42 +106,60 @@ def _with_soil(res: Any, fmax: float, k: float) -> Any:
     return replace(res, extra=extra)
 
 
-def _inside_soil(
-    train_fit: Any, data: Any, vehicle: Any, tr: np.ndarray, inside: np.ndarray
-) -> tuple[float, float] | None:
-    """``(F_max, K)`` inside the window: one Gauss-Newton step from the training fit on its training samples
-    inside the window (the soil outside stays the training fit's). None without information there."""
-    sens = drive_log_sensitivities(train_fit, data, vehicle)
-    used = np.nonzero(sens.keep)[0]
-    rows = np.isin(used, tr) & inside[used]
-    if np.count_nonzero(rows) < 2:
-        return None
-    J = sens.jacobian[rows][:, :, :2].reshape(-1, 2)
-    e = sens.residuals[rows].reshape(-1)
-    d = -np.linalg.pinv(J.T @ J) @ (J.T @ e)
-    f0, k0 = float(train_fit.extra["max_thrust_N"]), float(train_fit.extra["shear_modulus_m"])
-    return f0 + float(d[0]), k0 + float(d[1])
+def _inside_modulus(setup: Setup, outside_fit: Any, rows: np.ndarray) -> tuple[float, bool]:
+    """The shear modulus inside the window, the thrust limit kept at the outside soil's: the least squares
+    of the standardised residuals on the training ``rows`` inside, over log K (a grid, then golden
+    section). A soft patch driven gently shows only its small-slip slope ``F_max l / (2 K)``: one number,
+    which K carries; the thrust limit stays the one the rest of the run supports, so the prediction
+    inside never asks for more thrust than the soil can give. Returns K and whether it ends on an edge of
+    the range searched."""
+    s = setup.settings
+    f0, k0 = _soil_of(outside_fit)
+    lo, hi = math.log(k0 / s.terrain_slope_ratio), math.log(k0 * s.terrain_slope_ratio)
+
+    def cost(logk: float) -> float:
+        try:
+            r = channels(_with_soil(outside_fit, f0, math.exp(logk)), setup.data)
+        except DataError:
+            return math.inf
+        z = np.concatenate([r[ch][rows] / setup.sigma[ch][rows] for ch in setup.channels])
+        z = z[np.isfinite(z)]
+        return float(z @ z) if z.size else math.inf
+
+    grid = np.linspace(lo, hi, s.terrain_grid)
+    costs = [cost(g) for g in grid]
+    j = int(np.argmin(costs))
+    a, b = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
+    g = (math.sqrt(5.0) - 1.0) / 2.0
+    c, d = b - g * (b - a), a + g * (b - a)
+    fc, fd = cost(c), cost(d)
+    for _ in range(s.terrain_golden_steps):
+        if fc < fd:
+            b, d, fd = d, c, fc
+            c = b - g * (b - a)
+            fc = cost(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + g * (b - a)
+            fd = cost(d)
+    return math.exp(0.5 * (a + b)), bool(min(a - lo, hi - b) < 1e-3 * (hi - lo))
 
 
-def terrain_hypothesis(setup: Setup, train_fit: Any, nominal_held: dict[str, np.ndarray]) -> Hypothesis:
+def terrain_hypothesis(setup: Setup, nominal_held: dict[str, np.ndarray]) -> Hypothesis:
     """A different soil inside a time window (drive logs).
 
     The window is found like the effects are screened: by the score test of the nominal fit on all
-    the data (:func:`~.log_parts.terrain_window`). The hypothesis is then judged like the others on
-    the held-out samples: outside the window the nominal training fit predicts them; inside, its
-    soil (F_max, K) moved by one Gauss-Newton step on the training samples inside the window.
+    the data (:func:`~.log_parts.terrain_window`). The hypothesis is then fitted and judged like the
+    others: one soil fitted on the training samples inside the window, another on those outside it
+    (the nominal soil, fitted across the window, is a compromise of the two), each predicting the
+    held-out samples on its side. Parameters: the second soil (3) and the window's two ends.
     """
     s, data, run = setup.settings, setup.data, setup.runner
     tr, te = setup.folds[0]
     try:
         sens = drive_log_sensitivities(setup.nominal_fit, data, run.vehicle)
-        ex = setup.nominal_fit.extra
         win = terrain_window(
-            sens.residuals,
-            sens.jacobian,
-            sens.time_s,
-            alpha=s.alpha,
-            scale=(float(ex.get("max_thrust_N", 1.0)), float(ex.get("shear_modulus_m", 1.0))),
+            sens.residuals, sens.jacobian, sens.time_s, alpha=s.alpha, scale=_soil_of(setup.nominal_fit)
         )
     except DataError:
         win = None
@@ -154,30 +177,46 @@ def terrain_hypothesis(setup: Setup, train_fit: Any, nominal_held: dict[str, np.
         "bracket_s": [float(win.start), float(win.end)],
         "score_p_value": float(win.p_value),
     }
+    rows_in, rows_out = tr[inside[tr]], tr[~inside[tr]]
+    if min(rows_in.size, rows_out.size) < s.min_samples:
+        return _not_formed(
+            "terrain_change", "too few training samples on one side of the window", setup.n, setup.channels
+        )
+    fout = run.run_warm(rows_out)
+    if not usable(fout, True):
+        return Hypothesis(
+            "terrain_change",
+            "outside",
+            3,
+            {ch: np.full(setup.n, np.inf) for ch in setup.channels},
+            admissible=False,
+            detail=detail,
+            why="the soil outside the window could not be fitted on its training samples",
+        )
+    f0, k0 = _soil_of(fout)
+    k1, on_edge = _inside_modulus(setup, fout, rows_in)
     try:
-        soil = _inside_soil(train_fit, data, run.vehicle, tr, inside)
-        if soil is None or not (soil[0] > 0 and soil[1] > 0):
-            return Hypothesis(
-                "terrain_change",
-                "outside",
-                5,
-                {ch: np.full(setup.n, np.inf) for ch in setup.channels},
-                admissible=False,
-                detail=detail,
-                why="the training samples inside the window give no soil of physical sign",
-            )
-        rin = channels(_with_soil(train_fit, *soil), data)
+        rin, rout = channels(_with_soil(fout, f0, k1), data), channels(fout, data)
     except DataError as e:
-        return _not_formed("terrain_change", f"no soil inside the window ({e})", setup.n, setup.channels)
+        return _not_formed("terrain_change", f"no prediction inside the window ({e})", setup.n, setup.channels)
     held = {ch: np.full(setup.n, np.nan) for ch in setup.channels}
     for ch in setup.channels:
-        held[ch][te] = np.where(inside[te], rin[ch][te], nominal_held[ch][te])
-    f0, k0 = float(train_fit.extra["max_thrust_N"]), float(train_fit.extra["shear_modulus_m"])
+        held[ch][te] = np.where(inside[te], rin[ch][te], rout[ch][te])
     params = {
-        "fmax_change": {"value": soil[0] / f0 - 1.0, "identifiable": True, "at_bound": False},
-        "k_change": {"value": soil[1] / k0 - 1.0, "identifiable": True, "at_bound": False},
+        "slope_change": {"value": k0 / k1 - 1.0, "identifiable": True, "at_bound": on_edge},
     }
-    return Hypothesis("terrain_change", "outside", 4, held, held=held, detail=detail, parameters=params)
+    detail.update(max_thrust_N=f0, shear_modulus_inside_m=k1, shear_modulus_outside_m=k0)
+    return Hypothesis(
+        "terrain_change",
+        "outside",
+        3,
+        held,
+        held=held,
+        detail=detail,
+        parameters=params,
+        admissible=not on_edge,
+        why="the small-slip slope inside the window ends on an edge of the range searched" if on_edge else "",
+    )
 
 
 def _bound_edges(nominal: Any) -> dict[str, str]:
@@ -295,7 +334,7 @@ def outside_hypotheses(setup: Setup, nominal: Hypothesis, train_res: list, train
     """Every outside cause this kind of data can show (formed or not)."""
     out = [wider_soil_hypothesis(setup), clipped_hypothesis(setup)]
     if setup.is_log:
-        out += [delay_hypothesis(setup, train_res), terrain_hypothesis(setup, train_fit, nominal.heldout())]
+        out += [delay_hypothesis(setup, train_res), terrain_hypothesis(setup, nominal.heldout())]
     else:
         out.append(plateau_hypothesis(setup))
     return out

@@ -66,6 +66,11 @@ class DiagnoseSettings:
         profile follows the noise's shape along the slip (larger at small slip, where slip noise meets
         a steep curve) without the row-to-row wiggles of a few squared differences, which would give
         the rows random weights and a lack-of-fit test that finds structure in them.
+    terrain_grid, terrain_golden_steps, terrain_slope_ratio
+        The small-slip slope inside a terrain window (carried by K, the thrust limit kept) is searched
+        on a grid of this many points in log K, within ``terrain_slope_ratio`` (100) times the outside
+        soil's either way (a slope beyond a hundredfold change is no soil but a fault), then refined
+        by golden section (20 steps: 0.01 % of the bracket).
     n_bootstrap
         Bayesian-bootstrap replicates of the pseudo-BMA+ weights: 400 keeps their Monte Carlo error
         below 0.01.
@@ -93,6 +98,9 @@ class DiagnoseSettings:
     confusable_weight: float = 0.05
     max_delay_samples: int = 25
     sweep_noise_window: float = 0.25
+    terrain_grid: int = 25
+    terrain_golden_steps: int = 20
+    terrain_slope_ratio: float = 100.0
     n_bootstrap: int = 400
 
     def noise_window(self, n: int, is_log: bool) -> int | None:
