@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from ...soilmodel.errors import DataError
+from ..estimates.distributions import chi2_sf
 from ...soilmodel.soil import PRACTICAL_BOUNDS, WIDE_BOUNDS
 from ..drivelog.sensitivity import drive_log_sensitivities
 from .fits import SOIL_KEYS, channels, outside_practical, usable
@@ -42,6 +43,7 @@ from .hypotheses import Hypothesis
 from .library import held_out
 from .log_parts import SPEED_CHANNEL, delay_scan, refine_delay, shift_speed, terrain_window
 from .saturation import find_saturation
+from .selection import dm_test
 from .setup import Setup
 from .sweep_parts import find_plateau
 
@@ -232,8 +234,28 @@ def _bound_edges(nominal: Any) -> dict[str, str]:
     return out
 
 
-def wider_soil_hypothesis(setup: Setup) -> Hypothesis:
-    """The nominal model with the soil bounds widened (when the nominal soil ends on a practical edge)."""
+def _beats_nominal(setup: Setup, nominal: Hypothesis, resid: dict[str, np.ndarray], extra_params: int) -> float:
+    """p-value that residuals ``resid`` of a model nesting the nominal one fit better than the nominal's: a
+    log's held-out (Diebold-Mariano), a sweep's in-sample (likelihood ratio, ``extra_params`` dof)."""
+    base = nominal.heldout() if setup.is_log else nominal.residuals
+    mask = {ch: np.isfinite(base[ch]) & (np.nan_to_num(setup.sigma[ch]) > 0) for ch in setup.channels}
+    z0 = np.concatenate([base[ch][m] / setup.sigma[ch][m] for ch, m in mask.items()])
+    z1 = np.concatenate([resid[ch][m] / setup.sigma[ch][m] for ch, m in mask.items()])
+    if not np.all(np.isfinite(z1)):
+        return 1.0
+    if setup.is_log:
+        return dm_test(z0, z1, setup.dm_lag)
+    s0, s1 = float(z0 @ z0), float(z1 @ z1)
+    if s1 <= 0 or s0 <= s1:
+        return 1.0
+    return chi2_sf(z0.size * math.log(s0 / s1), max(1, extra_params))
+
+
+def wider_soil_hypothesis(setup: Setup, nominal: Hypothesis) -> Hypothesis:
+    """The nominal model with the soil bounds widened (when the nominal soil ends on a practical edge).
+
+    It nests the nominal model: it enters the comparison only when it fits significantly better (at
+    ``alpha``); otherwise it is the nominal model again and would only split its weight."""
     run, nom = setup.runner, setup.nominal_fit
     edges = _bound_edges(nom)
     if not edges or setup.runner.options.get("bounds") is not PRACTICAL_BOUNDS:
@@ -257,8 +279,20 @@ def wider_soil_hypothesis(setup: Setup) -> Hypothesis:
             setup.channels,
         )
     resid = held if setup.is_log else channels(ref, setup.data)
-    detail = {"outside_practical_range": outside_practical(ref), "on_practical_bound": sorted(edges)}
-    return Hypothesis("soil_beyond_range", "outside", 0, resid, held=held, detail=detail, fit=ref)
+    p = _beats_nominal(setup, nominal, resid, len(edges))
+    if not p < setup.settings.alpha:
+        return _not_formed(
+            "soil_beyond_range",
+            f"the soil beyond the practical range fits no better than the one on its edge (p = {p:.2g})",
+            setup.n,
+            setup.channels,
+        )
+    detail = {
+        "outside_practical_range": outside_practical(ref),
+        "on_practical_bound": sorted(edges),
+        "p_value": float(p),
+    }
+    return Hypothesis("soil_beyond_range", "outside", len(edges), resid, held=held, detail=detail, fit=ref)
 
 
 def clipped_hypothesis(setup: Setup) -> Hypothesis:
@@ -332,7 +366,7 @@ def plateau_hypothesis(setup: Setup) -> Hypothesis:
 
 def outside_hypotheses(setup: Setup, nominal: Hypothesis, train_res: list, train_fit: Any) -> list[Hypothesis]:
     """Every outside cause this kind of data can show (formed or not)."""
-    out = [wider_soil_hypothesis(setup), clipped_hypothesis(setup)]
+    out = [wider_soil_hypothesis(setup, nominal), clipped_hypothesis(setup)]
     if setup.is_log:
         out += [delay_hypothesis(setup, train_res), terrain_hypothesis(setup, nominal.heldout())]
     else:
