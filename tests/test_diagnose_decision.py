@@ -129,12 +129,10 @@ def test_settings_knots():
     assert S.knots(3001, True) == 20 and S.knots(600, True) == 8 and S.knots(60, False) == 10
 
 
-def test_a_candidate_that_leaves_a_gap_is_not_named():
-    e = RNG.standard_normal(N)
-    hs = [hyp("none", "nominal", 3 * e), hyp("grade", "candidate", e)]
-    w = {"none": 0.0, "grade": 1.0}
-    g = decide_gap({"nominal error vs noise": 1e-9}, S.alpha, ("gap left by grade", 1e-4))
-    d = decide(hs, w, g, {}, S)
-    assert d.verdict == "unexplained" and d.cause is None and d.confidence == 0.0
-    g = decide_gap({"nominal error vs noise": 1e-9}, S.alpha, ("gap left by grade", 0.3))
-    assert decide(hs, w, g, {}, S).verdict == "grade"
+def test_the_gap_tests_share_the_family_level():
+    """Two tests at p = 0.008 each: significant alone at 0.01, not when they share it (0.005 each)."""
+    one = decide_gap({"a": 0.008}, 0.01)
+    two = decide_gap({"a": 0.008, "b": 0.008}, 0.01)
+    assert one.present and [t.level for t in one.tests] == [0.01]
+    assert not two.present and [t.level for t in two.tests] == [0.005, 0.005]
+    assert decide_gap({"a": 0.004, "b": 0.5}, 0.01).present

@@ -215,8 +215,11 @@ def _score(setup: Setup, hyps: list[Hypothesis]) -> tuple[list[Hypothesis], Fram
     return [h.scored(frame, z0) for h in hyps], frame
 
 
-def _gap(setup: Setup, hyps: list[Hypothesis], weights: dict[str, float], hold: Frame) -> GapDecision:
-    """The gap tests (:mod:`.gap_test`) on the held-out residuals (and a sweep's pure-error test)."""
+def _gap(
+    setup: Setup, hyps: list[Hypothesis], weights: dict[str, float], hold: Frame, window_p: float | None
+) -> GapDecision:
+    """The gap tests (:mod:`.gap_test`) on the held-out residuals, a log's soil-window score test
+    (``window_p``, None when not made) and a sweep's lack-of-fit tests."""
     s = setup.settings
     by = {h.name: h for h in hyps}
     z_nom = hold.z(by[NOMINAL].heldout())
@@ -224,6 +227,7 @@ def _gap(setup: Setup, hyps: list[Hypothesis], weights: dict[str, float], hold: 
     if setup.is_log:  # a log's noise floor is measured on thousands of samples; correlated residuals count less
         infl = max(long_run_factor(by[NOMINAL].heldout()[ch][m] / setup.sigma[ch][m]) for ch, m in hold.mask.items())
         p["nominal error vs noise"] = gap_p_value(float(z_nom @ z_nom), z_nom.size, infl)
+        p["soil differs within a time window"] = window_p
     p["flexible term beats nominal"] = dm_test(z_nom, hold.z(by["discrepancy"].heldout(), z_nom), setup.dm_lag)
     top = by[max(weights, key=lambda k: weights[k])]
     if top.family != "nominal" and top.held is not None:
@@ -375,7 +379,9 @@ def diagnose(
     )
     weights = evidence.weights(scored)
     hold = _frame(setup, scored[0], held=True)
-    gap = _gap(setup, scored, weights, hold)
+    terrain = next((h for h in hyps if h.name == "terrain_change"), None)
+    window_p = None if terrain is None else terrain.detail.get("score_p_value")
+    gap = _gap(setup, scored, weights, hold, window_p)
     dirs = {s.effect: s.direction for s in screens if s.direction is not None}
     dec = decide(scored, weights, gap, dirs, settings)
     say("the verdict's fit on all the data")

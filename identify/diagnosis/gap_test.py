@@ -8,6 +8,11 @@ report and the JSON, and no other number decides whether there is a gap.
 - ``nominal error vs noise`` (drive logs): the nominal model's held-out error against the noise
   floor (:func:`~.selection.gap_p_value`, the chi-square corrected for correlated residuals). A
   sweep's noise floor, from second differences of a few dozen readings, is too rough for this.
+- ``soil differs within a time window`` (drive logs): the score test of the nominal fit on all the
+  data for one soil inside a window of time and another outside it, over every window of whole
+  cells (:func:`~.log_parts.terrain_window`, its own Bonferroni over the windows and its
+  correction for correlated residuals): a gap that the held-out blocks, each holding half of a
+  window, can miss.
 - ``flexible term beats nominal``: the flexible term predicts the held-out data better than the
   nominal model (Diebold-Mariano, :func:`~.selection.dm_test`);
 - ``heaviest beats nominal``: the heaviest hypothesis predicts the held-out data better than the

@@ -50,8 +50,16 @@ from .sweep_parts import find_plateau
 __all__ = ["outside_hypotheses"]
 
 
-def _not_formed(name: str, why: str, n: int, channels_: list[str]) -> Hypothesis:
-    return Hypothesis(name, "outside", 0, {ch: np.full(n, np.inf) for ch in channels_}, admissible=False, why=why)
+def _not_formed(name: str, why: str, n: int, channels_: list[str], detail: dict | None = None) -> Hypothesis:
+    return Hypothesis(
+        name,
+        "outside",
+        0,
+        {ch: np.full(n, np.inf) for ch in channels_},
+        admissible=False,
+        why=why,
+        detail=detail or {},
+    )
 
 
 def delay_hypothesis(setup: Setup, train_res: list) -> Hypothesis:
@@ -147,7 +155,7 @@ def _inside_modulus(setup: Setup, outside_fit: Any, rows: np.ndarray) -> tuple[f
     return math.exp(0.5 * (a + b)), bool(min(a - lo, hi - b) < 1e-3 * (hi - lo))
 
 
-def terrain_hypothesis(setup: Setup, nominal_held: dict[str, np.ndarray]) -> Hypothesis:
+def terrain_hypothesis(setup: Setup, nominal_held: dict[str, np.ndarray], train_fit: Any) -> Hypothesis:
     """A different soil inside a time window (drive logs).
 
     The window is found like the effects are screened: by the score test of the nominal fit on all
@@ -171,7 +179,9 @@ def terrain_hypothesis(setup: Setup, nominal_held: dict[str, np.ndarray]) -> Hyp
             if win is None
             else f"no time window where the soil differs significantly (p = {win.p_value:.2g})"
         )
-        return _not_formed("terrain_change", why, setup.n, setup.channels)
+        return _not_formed(
+            "terrain_change", why, setup.n, setup.channels, None if win is None else {"score_p_value": win.p_value}
+        )
     t = np.asarray(data.time, dtype=float)
     inside = (t >= win.evidence_start) & (t <= win.evidence_end)
     detail = {
@@ -184,7 +194,7 @@ def terrain_hypothesis(setup: Setup, nominal_held: dict[str, np.ndarray]) -> Hyp
         return _not_formed(
             "terrain_change", "too few training samples on one side of the window", setup.n, setup.channels
         )
-    fout = run.run_warm(rows_out)
+    fout = train_fit
     if not usable(fout, True):
         return Hypothesis(
             "terrain_change",
@@ -368,7 +378,7 @@ def outside_hypotheses(setup: Setup, nominal: Hypothesis, train_res: list, train
     """Every outside cause this kind of data can show (formed or not)."""
     out = [wider_soil_hypothesis(setup, nominal), clipped_hypothesis(setup)]
     if setup.is_log:
-        out += [delay_hypothesis(setup, train_res), terrain_hypothesis(setup, nominal.heldout())]
+        out += [delay_hypothesis(setup, train_res), terrain_hypothesis(setup, nominal.heldout(), train_fit)]
     else:
         out.append(plateau_hypothesis(setup))
     return out

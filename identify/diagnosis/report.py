@@ -59,7 +59,7 @@ def _gap_lines(d: Any) -> list[str]:
         ratio = f" = {v / nf:.2f} x the noise floor {fmt(nf)}" if nf and nf > 0 else ""
         out.append(f"  {ch}: held-out RMS {fmt(v)}{ratio}")
     for t in d.gap.tests:
-        out.append(f"  {'*' if t.significant else ' '} {t.name}: p = {t.p_value:.2g} (level {t.level:g})")
+        out.append(f"  {'*' if t.significant else ' '} {t.name}: p = {t.p_value:.2g} (level {t.level:.2g})")
     out.append(f"  gap present: {'yes' if d.gap.present else 'no'}")
     return out
 
@@ -140,7 +140,7 @@ def report_text(d: Any) -> str:
             if h.given
             else (
                 "chosen: it predicts the held-out blocks better, the flexible term on top of both"
-                f" (held-out error {abs(h.shrink or 0.0):.1%} lower than the other; p = {fmt(h.p_value)} that the "
+                f" (held-out error {abs(h.shrink or 0.0):.1%} lower than the other; p = {h.p_value:.2g} that the "
                 "two predict equally well)"
                 if h.p_value is not None
                 else "not tested"
