@@ -116,43 +116,57 @@ def _with_soil(res: Any, fmax: float, k: float) -> Any:
     return replace(res, extra=extra)
 
 
-def _inside_modulus(setup: Setup, outside_fit: Any, rows: np.ndarray) -> tuple[float, bool]:
+def _slope_cost(setup: Setup, outside_fit: Any, span: np.ndarray, rows: np.ndarray, logk: float) -> float:
+    """Sum of squared standardised residuals, on the samples ``rows`` of the contiguous stretch ``span``, of
+    the outside soil with its shear modulus set to ``exp(logk)``."""
+    f0, _ = _soil_of(outside_fit)
+    try:
+        r = channels(_with_soil(outside_fit, f0, math.exp(logk)), setup.data.subset(span))
+    except DataError:
+        return math.inf
+    z = np.concatenate([r[ch][rows] / setup.sigma[ch][span[rows]] for ch in setup.channels])
+    z = z[np.isfinite(z)]
+    return float(z @ z) if z.size else math.inf
+
+
+def _inside_modulus(setup: Setup, outside_fit: Any, span: np.ndarray, rows: np.ndarray) -> tuple[float, bool]:
     """The shear modulus inside the window, the thrust limit kept at the outside soil's: the least squares
-    of the standardised residuals on the training ``rows`` inside, over log K (a grid, then golden
-    section). A soft patch driven gently shows only its small-slip slope ``F_max l / (2 K)``: one number,
-    which K carries; the thrust limit stays the one the rest of the run supports, so the prediction
-    inside never asks for more thrust than the soil can give. Returns K and whether it ends on an edge of
-    the range searched."""
+    of the standardised residuals on the training samples ``rows`` of the window's stretch ``span``, over
+    log K (a grid, then golden section). A soft patch driven gently shows only its small-slip slope
+    ``F_max l / (2 K)``: one number, which K carries; the thrust limit stays the one the rest of the run
+    supports, so the prediction inside never asks for more thrust than the soil can give. Returns K and
+    whether it ends on an edge of the range searched."""
     s = setup.settings
-    f0, k0 = _soil_of(outside_fit)
+    k0 = _soil_of(outside_fit)[1]
     lo, hi = math.log(k0 / s.terrain_slope_ratio), math.log(k0 * s.terrain_slope_ratio)
-
-    def cost(logk: float) -> float:
-        try:
-            r = channels(_with_soil(outside_fit, f0, math.exp(logk)), setup.data)
-        except DataError:
-            return math.inf
-        z = np.concatenate([r[ch][rows] / setup.sigma[ch][rows] for ch in setup.channels])
-        z = z[np.isfinite(z)]
-        return float(z @ z) if z.size else math.inf
-
     grid = np.linspace(lo, hi, s.terrain_grid)
-    costs = [cost(g) for g in grid]
+    costs = [_slope_cost(setup, outside_fit, span, rows, g) for g in grid]
     j = int(np.argmin(costs))
-    a, b = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
+    a, b = float(grid[max(j - 1, 0)]), float(grid[min(j + 1, grid.size - 1)])
     g = (math.sqrt(5.0) - 1.0) / 2.0
     c, d = b - g * (b - a), a + g * (b - a)
-    fc, fd = cost(c), cost(d)
+    fc, fd = (_slope_cost(setup, outside_fit, span, rows, x) for x in (c, d))
     for _ in range(s.terrain_golden_steps):
         if fc < fd:
             b, d, fd = d, c, fc
             c = b - g * (b - a)
-            fc = cost(c)
+            fc = _slope_cost(setup, outside_fit, span, rows, c)
         else:
             a, c, fc = c, d, fd
             d = a + g * (b - a)
-            fd = cost(d)
+            fd = _slope_cost(setup, outside_fit, span, rows, d)
     return math.exp(0.5 * (a + b)), bool(min(a - lo, hi - b) < 1e-3 * (hi - lo))
+
+
+def _window(setup: Setup) -> Any:
+    """The soil's score-test window of the nominal fit on all the data (None when it cannot be made)."""
+    try:
+        sens = drive_log_sensitivities(setup.nominal_fit, setup.data, setup.runner.vehicle)
+        return terrain_window(
+            sens.residuals, sens.jacobian, sens.time_s, alpha=setup.settings.alpha, scale=_soil_of(setup.nominal_fit)
+        )
+    except DataError:
+        return None
 
 
 def terrain_hypothesis(setup: Setup, nominal_held: dict[str, np.ndarray], train_fit: Any) -> Hypothesis:
@@ -160,19 +174,11 @@ def terrain_hypothesis(setup: Setup, nominal_held: dict[str, np.ndarray], train_
 
     The window is found like the effects are screened: by the score test of the nominal fit on all
     the data (:func:`~.log_parts.terrain_window`). The hypothesis is then fitted and judged like the
-    others: one soil fitted on the training samples inside the window, another on those outside it
-    (the nominal soil, fitted across the window, is a compromise of the two), each predicting the
-    held-out samples on its side. Parameters: the second soil (3) and the window's two ends.
+    others: outside the window the nominal training fit ``train_fit`` predicts the held-out samples;
+    inside, its small-slip slope refitted on the training samples there (:func:`_inside_modulus`).
+    Parameters: the slope inside and the window's two ends.
     """
-    s, data, run = setup.settings, setup.data, setup.runner
-    tr, te = setup.folds[0]
-    try:
-        sens = drive_log_sensitivities(setup.nominal_fit, data, run.vehicle)
-        win = terrain_window(
-            sens.residuals, sens.jacobian, sens.time_s, alpha=s.alpha, scale=_soil_of(setup.nominal_fit)
-        )
-    except DataError:
-        win = None
+    win = _window(setup)
     if win is None or not win.significant:
         why = (
             "the soil's score test finds no window"
@@ -182,41 +188,30 @@ def terrain_hypothesis(setup: Setup, nominal_held: dict[str, np.ndarray], train_
         return _not_formed(
             "terrain_change", why, setup.n, setup.channels, None if win is None else {"score_p_value": win.p_value}
         )
-    t = np.asarray(data.time, dtype=float)
+    tr, te = setup.folds[0]
+    t = np.asarray(setup.data.time, dtype=float)
     inside = (t >= win.evidence_start) & (t <= win.evidence_end)
     detail = {
         "window_s": [float(win.evidence_start), float(win.evidence_end)],
         "bracket_s": [float(win.start), float(win.end)],
         "score_p_value": float(win.p_value),
     }
-    rows_in, rows_out = tr[inside[tr]], tr[~inside[tr]]
-    if min(rows_in.size, rows_out.size) < s.min_samples:
-        return _not_formed(
-            "terrain_change", "too few training samples on one side of the window", setup.n, setup.channels
-        )
-    fout = train_fit
-    if not usable(fout, True):
-        return Hypothesis(
-            "terrain_change",
-            "outside",
-            3,
-            {ch: np.full(setup.n, np.inf) for ch in setup.channels},
-            admissible=False,
-            detail=detail,
-            why="the soil outside the window could not be fitted on its training samples",
-        )
-    f0, k0 = _soil_of(fout)
-    k1, on_edge = _inside_modulus(setup, fout, rows_in)
+    span = np.nonzero(inside)[0]
+    span = np.arange(span[0], span[-1] + 1) if span.size else span
+    rows = np.nonzero(np.isin(span, tr))[0]
+    if rows.size < setup.settings.min_samples or not usable(train_fit, True):
+        return _not_formed("terrain_change", "too few training samples inside the window", setup.n, setup.channels)
+    f0, k0 = _soil_of(train_fit)
+    k1, on_edge = _inside_modulus(setup, train_fit, span, rows)
     try:
-        rin, rout = channels(_with_soil(fout, f0, k1), data), channels(fout, data)
+        rin = channels(_with_soil(train_fit, f0, k1), setup.data.subset(span))
     except DataError as e:
         return _not_formed("terrain_change", f"no prediction inside the window ({e})", setup.n, setup.channels)
-    held = {ch: np.full(setup.n, np.nan) for ch in setup.channels}
+    held = {ch: np.where(np.isin(np.arange(setup.n), te), nominal_held[ch], np.nan) for ch in setup.channels}
+    test_in = np.isin(span, te)
     for ch in setup.channels:
-        held[ch][te] = np.where(inside[te], rin[ch][te], rout[ch][te])
-    params = {
-        "slope_change": {"value": k0 / k1 - 1.0, "identifiable": True, "at_bound": on_edge},
-    }
+        held[ch][span[test_in]] = rin[ch][test_in]
+    params = {"slope_change": {"value": k0 / k1 - 1.0, "identifiable": True, "at_bound": on_edge}}
     detail.update(max_thrust_N=f0, shear_modulus_inside_m=k1, shear_modulus_outside_m=k0)
     return Hypothesis(
         "terrain_change",
