@@ -164,7 +164,7 @@ def _hypotheses(
         say(f"{name} refitted ({fam})")
         hyps.append(effect_hypothesis(setup, name, fam))
     say("causes outside the library")
-    hyps += outside_hypotheses(setup, nominal, train_res, train_fits[0])
+    hyps += outside_hypotheses(setup, nominal, train_res, train_fits[0], hyps[2:])
     if not setup.is_log:
         setup = _sweep_noise(setup, hyps)
     return setup, hyps

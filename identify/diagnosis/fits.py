@@ -123,6 +123,14 @@ class FitRunner:
             res = fit(d, self.vehicle, model=self.model, **kw)
         return res
 
+    def run_on(self, data: DriveLog, idx: np.ndarray) -> Any:
+        """The nominal model fitted (warm, few iterations) on the samples ``idx`` of another version of the
+        log (a channel corrected)."""
+        kw = dict(self.options, hull_channel=True, max_iter=self.settings.warm_max_iter)
+        if self.x0 is not None:
+            kw.update(x0=self.x0, multistart=False)
+        return fit(data.subset(np.asarray(idx)), self.vehicle, model=self.model, **kw)
+
     def run_warm(self, idx: np.ndarray | None, effects: tuple[str, ...] = (), **extra: Any) -> Any:
         """:meth:`run` warm-started with few iterations, then from the fit's own starts if that fails."""
         if self.x0 is None or not self.is_log:

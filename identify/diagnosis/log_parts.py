@@ -315,6 +315,21 @@ def shift_speed(data, k: int):
     )
 
 
+def scale_speed(data, gain: float):
+    """The log with its vehicle-speed channel divided by ``1 + gain`` (undoing a sensor that reads ``gain``
+    high: a GNSS or odometry scale error). The IMU column is left as it is."""
+    from ...soilmodel.data import DriveLog
+
+    return DriveLog(
+        data.time,
+        data.sprocket_torque,
+        data.sprocket_speed,
+        np.asarray(data.vehicle_speed, dtype=float) / (1.0 + gain),
+        data.vehicle_accel,
+        source=f"{data.source} (vehicle speed divided by {1.0 + gain:.6g})",
+    )
+
+
 #: The speed channel of a drive-log fit's residuals (:data:`~.drivelog_joint.CHANNELS`).
 SPEED_CHANNEL = "sprocket_speed_rad_s"
 

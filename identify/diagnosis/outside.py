@@ -41,7 +41,7 @@ from ..drivelog.sensitivity import drive_log_sensitivities
 from .fits import SOIL_KEYS, channels, outside_practical, usable
 from .hypotheses import Hypothesis
 from .library import held_out
-from .log_parts import SPEED_CHANNEL, delay_scan, refine_delay, shift_speed, terrain_window
+from .log_parts import SPEED_CHANNEL, delay_scan, refine_delay, scale_speed, shift_speed, terrain_window
 from .saturation import find_saturation
 from .selection import dm_test
 from .setup import Setup
@@ -98,6 +98,56 @@ def delay_hypothesis(setup: Setup, train_res: list) -> Hypothesis:
         held=held,
         detail=detail,
         parameters={"lag_s": {"value": float(k * h), "identifiable": True, "at_bound": False}},
+    )
+
+
+def _scaled_fit(setup: Setup, gain: float) -> tuple[float, Any]:
+    """The nominal model refitted (warm) on the training blocks of the log with the vehicle speed divided by
+    ``1 + gain``: its cost and fit (inf, None when it does not converge)."""
+    tr = setup.folds[0][0]
+    try:
+        res = setup.runner.run_on(scale_speed(setup.data, gain), tr)
+    except DataError:
+        return math.inf, None
+    return (float(res.cost), res) if usable(res, True) else (math.inf, None)
+
+
+def speed_scale_hypothesis(setup: Setup, radius: Hypothesis | None) -> Hypothesis:
+    """The vehicle-speed channel reading a constant factor high or low (drive logs).
+
+    Its slip signature is a radius error's (both scale the apparent slip; only a radius error also
+    changes the torque arm), so it is formed where the radius error was refitted, from its fitted
+    ``eps``: the gain is the minimum of a parabola through the training costs at 0.5, 1 and 1.5 times
+    ``eps``, then the nominal model refitted on the corrected log predicts the held-out blocks."""
+    eps = None if radius is None else radius.parameters.get("eps", {}).get("value")
+    if eps is None or not math.isfinite(float(eps)) or float(eps) == 0.0:
+        return _not_formed("speed_scale", "no radius-like slip scale was fitted", setup.n, setup.channels)
+    gains = np.array([0.5, 1.0, 1.5]) * float(eps)
+    costs = np.array([_scaled_fit(setup, float(g))[0] for g in gains])
+    if not np.all(np.isfinite(costs)):
+        return _not_formed("speed_scale", "a fit with the speed rescaled did not converge", setup.n, setup.channels)
+    a, b, _ = np.polyfit(gains, costs, 2)
+    g = (
+        float(np.clip(-b / (2 * a), gains[0] - 0.5 * float(eps), gains[-1] + 0.5 * float(eps)))
+        if a > 0
+        else float(gains[int(np.argmin(costs))])
+    )
+    cost, res = _scaled_fit(setup, g)
+    if res is None:
+        return _not_formed("speed_scale", "the fit with the speed rescaled did not converge", setup.n, setup.channels)
+    te = setup.folds[0][1]
+    full = channels(res, scale_speed(setup.data, g))
+    held = {ch: np.full(setup.n, np.nan) for ch in setup.channels}
+    for ch in setup.channels:
+        held[ch][te] = full[ch][te]
+    return Hypothesis(
+        "speed_scale",
+        "outside",
+        1,
+        held,
+        held=held,
+        detail={"gain": g},
+        parameters={"gain": {"value": g, "identifiable": True, "at_bound": False}},
     )
 
 
@@ -369,11 +419,19 @@ def plateau_hypothesis(setup: Setup) -> Hypothesis:
     )
 
 
-def outside_hypotheses(setup: Setup, nominal: Hypothesis, train_res: list, train_fit: Any) -> list[Hypothesis]:
-    """Every outside cause this kind of data can show (formed or not)."""
+def outside_hypotheses(
+    setup: Setup, nominal: Hypothesis, train_res: list, train_fit: Any, effects: list[Hypothesis]
+) -> list[Hypothesis]:
+    """Every outside cause this kind of data can show (formed or not); ``effects``: the library effects
+    refitted (a speed scale is formed from the radius error's fit)."""
     out = [wider_soil_hypothesis(setup, nominal), clipped_hypothesis(setup)]
     if setup.is_log:
-        out += [delay_hypothesis(setup, train_res), terrain_hypothesis(setup, nominal.heldout(), train_fit)]
+        radius = next((h for h in effects if h.name == "radius_error" and h.admissible), None)
+        out += [
+            delay_hypothesis(setup, train_res),
+            terrain_hypothesis(setup, nominal.heldout(), train_fit),
+            speed_scale_hypothesis(setup, radius),
+        ]
     else:
         out.append(plateau_hypothesis(setup))
     return out

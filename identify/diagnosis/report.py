@@ -139,9 +139,9 @@ def report_text(d: Any) -> str:
             "given"
             if h.given
             else (
-                "chosen: it predicts the held-out blocks better, the flexible term on top of both"
-                f" (held-out error {abs(h.shrink or 0.0):.1%} lower than the other; p = {h.p_value:.2g} that the "
-                "two predict equally well)"
+                "chosen: held unless the sampled torque predicts the held-out blocks significantly better, "
+                f"the flexible term on top of both (sampled: held-out error {h.shrink or 0.0:+.1%} lower; p = "
+                f"{h.p_value:.2g}, level {h.level or 0.0:.2g})"
                 if h.p_value is not None
                 else "not tested"
             )
