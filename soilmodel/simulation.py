@@ -544,7 +544,8 @@ def simulate_slip_sweep(
     if sinkage_slip_exponent is not None:
         if not has_bekker(soil):
             raise DataError(
-                "a simulated sinkage channel needs the soil's Bekker n, k_c and k_phi: use a terrain preset or give them"
+                "a simulated sinkage channel needs the soil's Bekker n, k_c and k_phi: use a terrain preset "
+                "(--terrain) or give them (--bekker)"
             )
         if not (
             isinstance(sinkage_slip_exponent, (int, float))
@@ -613,12 +614,14 @@ def simulate(
     sprocket_equation: str = "thrust",
     measure: str = "tractive_force",
     return_truth: bool = False,
+    sinkage_slip_exponent: float | None = None,
 ):
     """Simulate a drive log (``kind="drive"``) or a drawbar-pull slip sweep (``kind="sweep"``).
 
     Dispatches to :func:`simulate_drive_log` (``duration_s`` default 60, ``sample_rate_hz``
     default 50, ``speed_profile``, ``sprocket_equation``) or :func:`simulate_slip_sweep`
-    (``slips``, ``normal_loads``, ``measure``: ``"tractive_force"`` or ``"drawbar_pull"``).
+    (``slips``, ``normal_loads``, ``measure``: ``"tractive_force"`` or ``"drawbar_pull"``,
+    ``sinkage_slip_exponent``: a ``sinkage_m`` channel).
     Arguments that belong to the other kind are refused.
 
     Returns
@@ -626,8 +629,15 @@ def simulate(
     DriveLog or SlipData (with a truth dict when ``return_truth``).
     """
     if kind == "drive":
-        if slips is not None or normal_loads is not None or measure != "tractive_force":
-            raise DataError("slips, normal_loads and measure belong to kind='sweep', not to a drive log")
+        if (
+            slips is not None
+            or normal_loads is not None
+            or measure != "tractive_force"
+            or sinkage_slip_exponent is not None
+        ):
+            raise DataError(
+                "slips, normal_loads, measure and sinkage_slip_exponent belong to kind='sweep', not to a drive log"
+            )
         return simulate_drive_log(
             vehicle,
             soil,
@@ -657,5 +667,6 @@ def simulate(
             model=model,
             measure=measure,
             return_truth=return_truth,
+            sinkage_slip_exponent=sinkage_slip_exponent,
         )
     raise DataError(f"unknown kind {kind!r}; expected 'drive' or 'sweep'")

@@ -228,7 +228,7 @@ def rig_extra(data: SlipData, result, separation: LoadSeparation | None) -> dict
         channel = fit_sinkage_channel(data, result.vehicle)
         laws = None if channel is None else channel.to_dict()
         mu_s = (result.effects.get("slip_sinkage") or {}).get("mu_s") if result.effects else None
-        if laws is not None and mu_s is not None and not mu_s.fixed:
+        if channel is not None and laws is not None and mu_s is not None and not mu_s.fixed:
             laws["slip_sinkage_effect"] = compare_slip_resistance(channel, data, result.vehicle, mu_s)
         out["sinkage_m"] = {"min": float(z.min()), "max": float(z.max()), "slip_correlation": corr, "laws": laws}
     if separation is not None and result.model == "full":
