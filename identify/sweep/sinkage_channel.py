@@ -33,13 +33,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import lru_cache
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
 from ...soilmodel.data import SlipData
+from ...soilmodel.threadsafe import locked_cache
 from ...soilmodel.sinkage import compaction_at_sinkage_expr, sinkage_expr, slip_sinkage_expr
 from ...soilmodel.vehicle import Vehicle
 from ..estimates.distributions import norm_cdf, t_cdf, t_ppf
@@ -80,7 +80,7 @@ _A, _M, _S = 0, 1, 2  # solver parameters: log z0(W_ref), 1 / n, slip exponent
 _HELD = (0.0, 1.0, 1.0)  # values of a held parameter (m at one load: any; s at one slip: Lyasko's)
 
 
-@lru_cache(maxsize=32)
+@locked_cache(maxsize=32)
 def _row_function(track_length: float, track_width: float) -> ca.Function:
     """``(theta[3], W, i, W_ref) -> (log z_model, d log z_model / d theta)`` from soilmodel's laws."""
     th, W, i, W_ref = ca.SX.sym("theta", 3), ca.SX.sym("W"), ca.SX.sym("i"), ca.SX.sym("W_ref")
@@ -93,7 +93,7 @@ def _row_function(track_length: float, track_width: float) -> ca.Function:
     return ca.Function("log_sinkage", [th, W, i, W_ref], [log_z, ca.jacobian(log_z, th)])
 
 
-@lru_cache(maxsize=32)
+@locked_cache(maxsize=32)
 def _k_function(track_length: float, track_width: float) -> ca.Function:
     """``(theta, W_ref) -> k`` (N/m^(n+2)): the k at which the law gives ``z0 = exp(a)`` at ``W_ref``."""
     th, W_ref = ca.SX.sym("theta", 3), ca.SX.sym("W_ref")
@@ -137,7 +137,12 @@ class SinkageEstimate:
             "stderr": _num(self.stderr),
             "ci95": [_num(self.ci95[0]), _num(self.ci95[1])],
             "identifiable": bool(self.identifiable),
-            "at_bound": False,
+            "weakly_identifiable": False,
+            "at_bound": False,  # no bounds: a free Gauss-Newton fit
+            "bound_side": None,
+            "fixed": False,
+            "ridge_value": None,
+            "value_is_ridge_point": False,
             "unit": self.unit,
             "note": self.note,
             "source": "sinkage_m",
@@ -207,7 +212,7 @@ class SinkageChannelFit:
         """The fitted laws' sinkage (m) at the given slips and loads (soilmodel's expressions)."""
         i = np.asarray(slip, dtype=float).ravel()
         W = np.broadcast_to(np.asarray(normal_load, dtype=float), i.shape).ravel()
-        log_z, _ = _evaluate(_row_function(self.track_length, self.track_width), self.theta, W, i, self.reference_load)
+        log_z, _ = _evaluate((self.track_length, self.track_width), self.theta, W, i, self.reference_load)
         return np.exp(log_z)
 
     def statement(self) -> str:
@@ -325,18 +330,24 @@ class SlipSinkageEvidence:
         }
 
 
-def _evaluate(fn: ca.Function, theta: np.ndarray, W: np.ndarray, i: np.ndarray, W_ref: float):
+@locked_cache(maxsize=64)
+def _mapped_rows(track_length: float, track_width: float, n_rows: int) -> ca.Function:
+    """:func:`_row_function` mapped over ``n_rows`` rows."""
+    return _row_function(track_length, track_width).map(n_rows)
+
+
+def _evaluate(geometry: tuple[float, float], theta: np.ndarray, W: np.ndarray, i: np.ndarray, W_ref: float):
     """Row values and Jacobian rows of :func:`_row_function` (one call over all rows)."""
-    f = fn.map(W.size)
+    f = _mapped_rows(geometry[0], geometry[1], W.size)
     log_z, J = f(ca.DM(theta), W.reshape(1, -1), i.reshape(1, -1), W_ref)
     return np.asarray(log_z, dtype=float).ravel(), np.asarray(J, dtype=float).reshape(W.size, 3)
 
 
-def _gauss_newton(fn, theta, free, W, i, lz, W_ref) -> tuple[np.ndarray, np.ndarray, int, bool]:
+def _gauss_newton(geo, theta, free, W, i, lz, W_ref) -> tuple[np.ndarray, np.ndarray, int, bool]:
     """Gauss-Newton on the free parameters; returns theta, the last Jacobian, iterations, converged."""
     J = np.zeros((W.size, 3))
     for it in range(1, GN_MAX_ITER + 1):
-        pred, J = _evaluate(fn, theta, W, i, W_ref)
+        pred, J = _evaluate(geo, theta, W, i, W_ref)
         r = pred - lz
         if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
             return theta, J, it, False
@@ -344,7 +355,7 @@ def _gauss_newton(fn, theta, free, W, i, lz, W_ref) -> tuple[np.ndarray, np.ndar
         theta = theta.copy()
         theta[free] += step
         if np.linalg.norm(step) <= GN_STEP_TOL * (1 + np.linalg.norm(theta)):
-            _, J = _evaluate(fn, theta, W, i, W_ref)
+            _, J = _evaluate(geo, theta, W, i, W_ref)
             return theta, J, it, bool(np.all(np.isfinite(J)))
     return theta, J, GN_MAX_ITER, False
 
@@ -403,7 +414,7 @@ def fit_sinkage_channel(data: SlipData, vehicle: Vehicle) -> SinkageChannelFit |
     W_ref = float(np.median(W))
     lz = np.log(z)
     l, b = float(vehicle.track_length), float(vehicle.track_width)
-    fn = _row_function(l, b)
+    geo = (l, b)
     notes: list[str] = []
     if int(np.count_nonzero(~use)):
         notes.append(f"{int(np.count_nonzero(~use))} rows without a positive sinkage or at a skid slip left out")
@@ -413,13 +424,13 @@ def fit_sinkage_channel(data: SlipData, vehicle: Vehicle) -> SinkageChannelFit |
     why_n = "" if load_spread else "one load: n and k enter only through the static sinkage z0 at that load"
     why_s = "" if slip_spread else "one slip: the exponent is held at Lyasko's 1"
     theta0 = np.array([float(np.mean(lz)), _HELD[_M], 0.0 if slip_spread else _HELD[_S]])
-    _, J0 = _evaluate(fn, theta0, W, i, W_ref)
+    _, J0 = _evaluate(geo, theta0, W, i, W_ref)
     if free[_M] and free[_S] and not _full_rank(J0[:, free]):
         free[_M] = False  # the load moves with the slip factor exactly: their effects do not separate
         why_n = "the load moves with the slip exactly: a load effect and a slip effect on the sinkage do not separate"
-    theta, J, iters, converged = _gauss_newton(fn, theta0, free, W, i, lz, W_ref)
+    theta, J, iters, converged = _gauss_newton(geo, theta0, free, W, i, lz, W_ref)
     dof = int(z.size - np.count_nonzero(free))
-    pred, _ = _evaluate(fn, theta, W, i, W_ref)
+    pred, _ = _evaluate(geo, theta, W, i, W_ref)
     r = pred - lz
     rss = float(r @ r)
     cov: np.ndarray | None = None
@@ -586,7 +597,7 @@ def slip_sinkage_evidence(data: SlipData, vehicle: Vehicle) -> SlipSinkageEviden
     return SlipSinkageEvidence(True, s.value, s.stderr, ch.p_no_slip_sinkage, ch.p_lyasko, ch.n_rows, ch.dof)
 
 
-@lru_cache(maxsize=32)
+@locked_cache(maxsize=32)
 def _slip_resistance_function(track_length: float, track_width: float, n_rows: int) -> ca.Function:
     """``(theta, W[n], i[n], W_ref) -> (mu_s, d mu_s / d theta)``: Bekker compaction's slip coefficient."""
     th, W, i = ca.SX.sym("theta", 3), ca.SX.sym("W", n_rows), ca.SX.sym("i", n_rows)
