@@ -50,6 +50,11 @@ def test_n_and_k_are_recovered_with_intervals_that_cover_the_truth():
     n, k = ch.parameters["bekker_n"], ch.parameters["bekker_k_eq"]
     assert abs(n.value / N_TRUE - 1) < 0.1 and abs(k.value / (K_TRUE / 1e3) - 1) < 0.3
     assert n.ci95[0] <= N_TRUE <= n.ci95[1] and k.ci95[0] <= K_TRUE / 1e3 <= k.ci95[1]
+    # the fitted laws' sinkage is the textbook formula at the reported n, k and s
+    s = ch.parameters["slip_sinkage_exponent"].value
+    i, W = np.array([0.0, 0.2, 0.6]), np.array([200.0, 300.0, 450.0])
+    textbook = (W / (2 * B * L * k.value * 1e3)) ** (1 / n.value) * ((1 + i) / (1 - 0.5 * i)) ** s
+    assert np.allclose(ch.predict(i, W), textbook, rtol=1e-9)
     # k_c and k_phi never separate at one track width
     assert not ch.parameters["bekker_kc"].identifiable and ch.parameters["bekker_kc"].value is None
     assert not ch.parameters["bekker_kphi"].identifiable and ch.parameters["bekker_kphi"].value is None
@@ -230,3 +235,14 @@ def test_cli_simulates_a_track_sweep_with_its_sinkage(tmp_path, capsys):
         main(["simulate", "--kind", "sweep", "--vehicle", "light", "--soil", "1,30,0.01", "--sinkage", "static"]) == 2
     )
     assert main(["simulate", "--vehicle", "light", "--sinkage", "static", "--seed", "1"]) == 2
+
+
+def test_a_load_tied_exactly_to_the_slip_identifies_neither_n_nor_the_slip_exponent():
+    i = np.repeat(np.array([0.1, 0.5]), 4)
+    W = np.where(i < 0.3, 250.0, 400.0)
+    z = (W / (2 * B * L * K_TRUE)) ** (1 / N_TRUE) * np.exp(np.random.default_rng(13).normal(0.0, 0.03, i.size))
+    ch = fit_sinkage_channel(sweep(i, W, z), TRACK)
+    assert ch.converged and ch.free == (True, False, False)
+    assert not ch.n_identifiable and not ch.parameters["slip_sinkage_exponent"].identifiable
+    ev = slip_sinkage_evidence(sweep(i, W, z), TRACK)
+    assert not ev.testable and ev.p_no_slip_sinkage is None and not ev.found()

@@ -422,12 +422,18 @@ def fit_sinkage_channel(data: SlipData, vehicle: Vehicle) -> SinkageChannelFit |
     slip_spread = float(np.std(np.log(np.asarray(slip_sinkage_expr(1.0, i), dtype=float)))) > MIN_LOG_SLIP_SPREAD
     free = np.array([True, load_spread, slip_spread])
     why_n = "" if load_spread else "one load: n and k enter only through the static sinkage z0 at that load"
-    why_s = "" if slip_spread else "one slip: the exponent is held at Lyasko's 1"
+    why_s = "" if slip_spread else "one slip: the exponent is held at Lyasko's 1 (z0 assumes Lyasko's law)"
     theta0 = np.array([float(np.mean(lz)), _HELD[_M], 0.0 if slip_spread else _HELD[_S]])
     _, J0 = _evaluate(geo, theta0, W, i, W_ref)
     if free[_M] and free[_S] and not _full_rank(J0[:, free]):
-        free[_M] = False  # the load moves with the slip factor exactly: their effects do not separate
-        why_n = "the load moves with the slip exactly: a load effect and a slip effect on the sinkage do not separate"
+        # the load moves with the slip factor exactly: neither effect is identified; z0 then rests on
+        # the held n = 1 and Lyasko's law
+        free[_M] = free[_S] = False
+        why_n = why_s = (
+            "the load moves with the slip exactly: a load effect and a slip effect on the sinkage do not "
+            "separate (z0 assumes n = 1 and Lyasko's law)"
+        )
+        theta0[_S] = _HELD[_S]
     theta, J, iters, converged = _gauss_newton(geo, theta0, free, W, i, lz, W_ref)
     dof = int(z.size - np.count_nonzero(free))
     pred, _ = _evaluate(geo, theta, W, i, W_ref)
