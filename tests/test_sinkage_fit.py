@@ -147,9 +147,13 @@ def test_a_sweep_without_sinkage_keeps_its_parameters_and_one_with_it_adds_the_s
     i, W, z = textbook_rows(8, (250.0, 350.0))
     x = i * L / 0.02
     F = (2 * B * L * 1.7e3 + W * math.tan(math.radians(29.0))) * (1 - (1 - np.exp(-x)) / x)
-    plain = fit(SlipData(slip=i, tractive_force=F, normal_load=W), TRACK).to_dict()
+    plain_fit = fit(SlipData(slip=i, tractive_force=F, normal_load=W), TRACK)
+    plain = plain_fit.to_dict()
+    assert plain_fit.sinkage_parameters == {} and "sinkage_m" not in plain.get("extra", {})
     assert set(plain["parameters"]) == {"cohesion_kpa", "friction_angle_deg", "shear_modulus_m"}
-    sunk = fit(SlipData(slip=i, tractive_force=F, normal_load=W, sinkage=z), TRACK).to_dict()
+    sunk_fit = fit(SlipData(slip=i, tractive_force=F, normal_load=W, sinkage=z), TRACK)
+    sunk = sunk_fit.to_dict()
+    assert sunk_fit.sinkage_parameters == {k: sunk["parameters"][k] for k in sunk_fit.sinkage_parameters}
     keys = {"bekker_kc", "bekker_kphi", "bekker_n", "bekker_k_eq", "slip_sinkage_exponent"}
     assert keys <= set(sunk["parameters"])
     n = sunk["parameters"]["bekker_n"]

@@ -121,7 +121,7 @@ class ReportViews:
             "solve_time_s": finite_or_none(self.solve_time),
             "parameters": {
                 **{EDGE_UNITS[n][0]: self._parameter_json(pe) for n, pe in self.parameters.items()},
-                **self._sinkage_parameters_json(),
+                **self.sinkage_parameters,
             },
             "combinations": [cb.to_dict() for cb in self.combinations],
             "data_kind": self.data_kind,
@@ -160,10 +160,12 @@ class ReportViews:
             )
         return d
 
-    def _sinkage_parameters_json(self) -> dict:
-        """The sinkage laws' parameters fitted from a ``sinkage_m`` column (``bekker_kc``, ``bekker_kphi``,
-        ``bekker_n``, ``bekker_k_eq``, ``slip_sinkage_exponent``; :mod:`~soiltrack.identify.sweep.sinkage_channel`),
-        empty without one."""
+    @property
+    def sinkage_parameters(self) -> dict:
+        """The sinkage laws' parameters fitted from a ``sinkage_m`` column, in the JSON's form and units:
+        ``{"bekker_kc", "bekker_kphi", "bekker_n", "bekker_k_eq", "slip_sinkage_exponent"}``, each with
+        ``value``, ``stderr``, ``ci95``, ``identifiable`` (:mod:`~soiltrack.identify.sweep.sinkage_channel`);
+        empty without a sinkage column."""
         z = self.extra.get("sinkage_m") if isinstance(self.extra, dict) else None
         laws = z.get("laws") if isinstance(z, dict) else None
         params = laws.get("parameters") if isinstance(laws, dict) else None
