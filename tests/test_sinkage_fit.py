@@ -250,3 +250,13 @@ def test_a_load_tied_exactly_to_the_slip_identifies_neither_n_nor_the_slip_expon
     assert not ch.n_identifiable and not ch.parameters["slip_sinkage_exponent"].identifiable
     ev = slip_sinkage_evidence(sweep(i, W, z), TRACK)
     assert not ev.testable and ev.p_no_slip_sinkage is None and not ev.found()
+
+
+def test_a_wheel_sweep_is_no_test_of_the_tracks_slip_sinkage():
+    from soiltrack.soilmodel.rigid_wheel import RigidWheel
+    from soiltrack.soilmodel.wheel_sweep import WheelSweep
+
+    i = np.array([0.1, 0.3, 0.5, 0.7, 0.9])
+    data = WheelSweep(slip=i, drawbar_pull=np.ones_like(i), normal_load=np.full(i.shape, 20.0), sinkage=0.01 + 0.01 * i)
+    ev = slip_sinkage_evidence(data, RigidWheel(radius=0.058, width=0.05))
+    assert not ev.testable and ev.exponent is None and not ev.found()

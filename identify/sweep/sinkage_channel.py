@@ -587,8 +587,21 @@ def slip_sinkage_evidence(data: SlipData, vehicle: Vehicle) -> SlipSinkageEviden
     Returns
     -------
     SlipSinkageEvidence
-        ``testable`` False, with the reason, when no test is possible.
+        ``testable`` False, with the reason, when no test is possible (also for a rigid wheel's
+        sweep: the textbook wheel's own sinkage grows with the slip at a given load).
     """
+    if not isinstance(data, SlipData) or not isinstance(vehicle, Vehicle):
+        return SlipSinkageEvidence(
+            False,
+            None,
+            None,
+            None,
+            None,
+            0,
+            0,
+            "not a track sweep: a rigid wheel's sinkage grows with the slip in the textbook wheel itself; its "
+            "slip-sinkage signature is the wheel fit's sinkage residual",
+        )
     if data.sinkage is None:
         return SlipSinkageEvidence(False, None, None, None, None, 0, 0, "no sinkage_m column")
     ch = fit_sinkage_channel(data, vehicle)
