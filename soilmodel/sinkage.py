@@ -21,9 +21,9 @@ free exponent ``s`` of its factor, ``z = z0 [(1 + i) / (1 - 0.5 i)] ** s`` (``s 
 ``s = 0`` no slip sinkage), the form a measured sinkage channel is tested against;
 :func:`slip_sinkage` is the numpy helper and :func:`slip_at_sinkage` its inverse. The compaction
 resistance at a given sinkage z (the rut's work per metre, both tracks) is
-:func:`compaction_at_sinkage_expr`; :func:`compaction_expr` is its value at z0. A soil without Bekker parameters
-(``n``, ``k_c``, ``k_phi`` of :class:`~.soil.Soil` unset) has no compaction term: the helpers
-return 0 and :func:`has_bekker` says so.
+:func:`compaction_at_sinkage_expr`; :func:`compaction_expr` is its value at z0. A soil without
+Bekker parameters (``n``, ``k_c``, ``k_phi`` of :class:`~.soil.Soil` unset) has no compaction
+term: the helpers return 0 and :func:`has_bekker` says so.
 """
 
 from __future__ import annotations
