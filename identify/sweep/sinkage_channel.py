@@ -218,10 +218,10 @@ class SinkageChannelFit:
     def statement(self) -> str:
         """One line of plain words with the numbers."""
         lo, hi = self.z0_ci95
+        ci = f"95 % [{1e3 * lo:.3g}, {1e3 * hi:.3g}] mm" if lo is not None and hi is not None else "no interval"
         head = (
-            f"static Bekker sinkage z0 = {1e3 * self.z0:.3g} mm at W = {self.reference_load:.4g} N, 95 % "
-            f"[{1e3 * (lo or 0):.3g}, {1e3 * (hi or 0):.3g}] mm"
-        )
+            "" if self.converged else f"Gauss-Newton did NOT converge ({self.iterations} iterations): "
+        ) + f"static Bekker sinkage z0 = {1e3 * self.z0:.3g} mm at W = {self.reference_load:.4g} N, {ci}"
         n, k = self.parameters["bekker_n"], self.parameters["bekker_k_eq"]
         if n.identifiable and n.value is not None and k.value is not None:
             head += (
