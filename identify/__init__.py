@@ -25,6 +25,10 @@ Public names
 :func:`fit_soil_test`, :class:`SoilTestFit`, :func:`predict_drawbar_pull`
     Bevameter shear and plate sinkage tests (:mod:`soiltrack.identify.soiltests`), and a
     track's drawbar pull predicted from them.
+:func:`fit_sinkage_channel`, :class:`SinkageChannelFit`, :func:`slip_sinkage_evidence`, :class:`SlipSinkageEvidence`
+    A track sweep's measured sinkage (``sinkage_m``) against the Bekker and slip-sinkage laws
+    (:mod:`soiltrack.identify.sweep.sinkage_channel`): n, k_c / b + k_phi, the slip exponent,
+    and the evidence of slip sinkage that the diagnosis weighs.
 """
 
 from . import jitcache  # noqa: F401 - soiltrack.identify.jitcache, the compiled-code cache
@@ -38,6 +42,7 @@ from .estimates.result import Combination, FitResult, ParameterEstimate, build_r
 from .settings import FitSettings
 from .online import OnlineEstimate, OnlineEstimator, OnlineSettings
 from .soiltests import SoilTestFit, fit_soil_test, predict_drawbar_pull
+from .sweep.sinkage_channel import SinkageChannelFit, SlipSinkageEvidence, fit_sinkage_channel, slip_sinkage_evidence
 
 __all__ = [
     "fit",
@@ -60,4 +65,8 @@ __all__ = [
     "OnlineEstimator",
     "OnlineSettings",
     "OnlineEstimate",
+    "fit_sinkage_channel",
+    "SinkageChannelFit",
+    "slip_sinkage_evidence",
+    "SlipSinkageEvidence",
 ]

@@ -45,6 +45,7 @@ from .effects import (
     sweep_measurement,
 )
 from .errors import DataError
+from .sinkage import has_bekker, slip_sinkage, static_sinkage
 from .soil import Soil
 from .traction import check_model
 from .vehicle import Vehicle
@@ -94,6 +95,9 @@ class SensorNoise:
         Sweep tractive force: 1 % of reading and 0 N.
     slip_abs
         Sweep slip: 0.002 (absolute).
+    sinkage_rel, sinkage_abs
+        Sweep sinkage (``sinkage_m``, when simulated): 3 % of reading (the rut's unevenness
+        under a sinkage gauge) and 0 m.
     """
 
     encoder_rel: float = 0.005
@@ -105,6 +109,8 @@ class SensorNoise:
     force_rel: float = 0.01
     force_abs: float = 0.0
     slip_abs: float = 0.002
+    sinkage_rel: float = 0.03
+    sinkage_abs: float = 0.0
 
     def __post_init__(self) -> None:
         for k, v in self.__dict__.items():
@@ -475,6 +481,7 @@ def simulate_slip_sweep(
     rig_speed: float = DEFAULT_RIG_SPEED,
     measure: str = "tractive_force",
     return_truth: bool = False,
+    sinkage_slip_exponent: float | None = None,
 ):
     """Simulate a drawbar-pull slip sweep: tractive force at set slips and normal loads.
 
@@ -507,7 +514,14 @@ def simulate_slip_sweep(
         :func:`~soiltrack.soilmodel.effects.sweep_measurement`.
     return_truth
         Also return ``{"slip": measured-noise-free, "slip_true", "tractive_force", "thrust",
-        "normal_load"}``.
+        "normal_load"}`` (and ``"sinkage"`` when simulated).
+    sinkage_slip_exponent
+        ``None`` (default): no sinkage channel. A number ``s``: the data carry ``sinkage_m``, the
+        soil's static Bekker sinkage at each row's load times the slip-sinkage factor
+        (:func:`~soilmodel.sinkage.slip_sinkage_expr`) at the true slip with exponent ``s``
+        (1: Lyasko's law; 0: no slip sinkage), with the noise ``sinkage_rel``/``sinkage_abs``.
+        Needs the soil's Bekker n, k_c, k_phi. Independent of the ``slip_sinkage`` effect, whose
+        resistance the thrust sees.
 
     Returns
     -------
@@ -527,6 +541,18 @@ def simulate_slip_sweep(
         raise DataError(f"rig_speed must be a finite number > 0, got {rig_speed!r}")
     if measure not in SWEEP_MEASURES:
         raise DataError(f"measure must be one of {SWEEP_MEASURES}, got {measure!r}")
+    if sinkage_slip_exponent is not None:
+        if not has_bekker(soil):
+            raise DataError(
+                "a simulated sinkage channel needs the soil's Bekker n, k_c and k_phi: use a terrain preset "
+                "(--terrain) or give them (--bekker)"
+            )
+        if not (
+            isinstance(sinkage_slip_exponent, (int, float))
+            and not isinstance(sinkage_slip_exponent, bool)
+            and math.isfinite(sinkage_slip_exponent)
+        ):
+            raise DataError(f"sinkage_slip_exponent must be a finite number, got {sinkage_slip_exponent!r}")
     S, Wn = (a.ravel() for a in np.meshgrid(s, loads, indexing="xy"))
     fn = _sweep_fn(vehicle, eff, model, measure)
     slip_true, thrust, reported = (
@@ -538,13 +564,22 @@ def simulate_slip_sweep(
     rng = np.random.default_rng(seed)
     F_meas = _std(rng, reported, nz.force_abs, nz.force_rel)
     s_meas = np.clip(_std(rng, S, nz.slip_abs, 0.0), 0.0, 0.999)
+    z_true = z_meas = None
+    if sinkage_slip_exponent is not None:  # drawn after the other channels: their noise stays as without it
+        z0 = np.asarray(static_sinkage(soil, vehicle, Wn), dtype=float)
+        z_true = np.asarray(slip_sinkage(z0, slip_true, float(sinkage_slip_exponent)), dtype=float)
+        z_meas = _std(rng, z_true, nz.sinkage_abs, nz.sinkage_rel)
     src = f"simulated slip sweep ({vehicle.name or 'vehicle'}, {soil.name or 'soil'}, effects: {eff})"
+    W_col = Wn if loads_given else None
     if measure == "drawbar_pull":
-        data = SlipData(slip=s_meas, normal_load=Wn if loads_given else None, source=src, drawbar_pull=F_meas)
+        data = SlipData(slip=s_meas, normal_load=W_col, source=src, drawbar_pull=F_meas, sinkage=z_meas)
     else:
-        data = SlipData(slip=s_meas, tractive_force=F_meas, normal_load=Wn if loads_given else None, source=src)
+        data = SlipData(slip=s_meas, tractive_force=F_meas, normal_load=W_col, source=src, sinkage=z_meas)
     if return_truth:
-        return data, {"slip": S, "slip_true": slip_true, measure: reported, "thrust": thrust, "normal_load": Wn}
+        truth = {"slip": S, "slip_true": slip_true, measure: reported, "thrust": thrust, "normal_load": Wn}
+        if z_true is not None:
+            truth["sinkage"] = z_true
+        return data, truth
     return data
 
 
@@ -579,12 +614,14 @@ def simulate(
     sprocket_equation: str = "thrust",
     measure: str = "tractive_force",
     return_truth: bool = False,
+    sinkage_slip_exponent: float | None = None,
 ):
     """Simulate a drive log (``kind="drive"``) or a drawbar-pull slip sweep (``kind="sweep"``).
 
     Dispatches to :func:`simulate_drive_log` (``duration_s`` default 60, ``sample_rate_hz``
     default 50, ``speed_profile``, ``sprocket_equation``) or :func:`simulate_slip_sweep`
-    (``slips``, ``normal_loads``, ``measure``: ``"tractive_force"`` or ``"drawbar_pull"``).
+    (``slips``, ``normal_loads``, ``measure``: ``"tractive_force"`` or ``"drawbar_pull"``,
+    ``sinkage_slip_exponent``: a ``sinkage_m`` channel).
     Arguments that belong to the other kind are refused.
 
     Returns
@@ -592,8 +629,15 @@ def simulate(
     DriveLog or SlipData (with a truth dict when ``return_truth``).
     """
     if kind == "drive":
-        if slips is not None or normal_loads is not None or measure != "tractive_force":
-            raise DataError("slips, normal_loads and measure belong to kind='sweep', not to a drive log")
+        if (
+            slips is not None
+            or normal_loads is not None
+            or measure != "tractive_force"
+            or sinkage_slip_exponent is not None
+        ):
+            raise DataError(
+                "slips, normal_loads, measure and sinkage_slip_exponent belong to kind='sweep', not to a drive log"
+            )
         return simulate_drive_log(
             vehicle,
             soil,
@@ -623,5 +667,6 @@ def simulate(
             model=model,
             measure=measure,
             return_truth=return_truth,
+            sinkage_slip_exponent=sinkage_slip_exponent,
         )
     raise DataError(f"unknown kind {kind!r}; expected 'drive' or 'sweep'")

@@ -16,10 +16,14 @@ prediction) follows Lyasko's empirical relation (J. Terramechanics 47, 2010)::
 
     z = z0 (1 + i) / (1 - 0.5 i)          (z = 4 z0 at full slip)
 
-one law among several (others give other numbers); :func:`slip_sinkage` and its inverse
-:func:`slip_at_sinkage`. A soil without Bekker parameters
-(``n``, ``k_c``, ``k_phi`` of :class:`~.soil.Soil` unset) has no compaction term: the helpers
-return 0 and :func:`has_bekker` says so.
+one law among several (others give other numbers); :func:`slip_sinkage_expr` writes it with a
+free exponent ``s`` of its factor, ``z = z0 [(1 + i) / (1 - 0.5 i)] ** s`` (``s = 1`` the law,
+``s = 0`` no slip sinkage), the form a measured sinkage channel is tested against;
+:func:`slip_sinkage` is the numpy helper and :func:`slip_at_sinkage` its inverse. The compaction
+resistance at a given sinkage z (the rut's work per metre, both tracks) is
+:func:`compaction_at_sinkage_expr`; :func:`compaction_expr` is its value at z0. A soil without
+Bekker parameters (``n``, ``k_c``, ``k_phi`` of :class:`~.soil.Soil` unset) has no compaction
+term: the helpers return 0 and :func:`has_bekker` says so.
 """
 
 from __future__ import annotations
@@ -34,6 +38,8 @@ __all__ = [
     "has_bekker",
     "sinkage_expr",
     "compaction_expr",
+    "compaction_at_sinkage_expr",
+    "slip_sinkage_expr",
     "static_sinkage",
     "compaction_resistance",
     "slip_sinkage",
@@ -52,10 +58,15 @@ def sinkage_expr(N, n, k_c, k_phi, track_length, track_width):
     return (ca.fmax(p, 0) / (k_c / track_width + k_phi)) ** (1.0 / n)
 
 
+def compaction_at_sinkage_expr(z, n, k_c, k_phi, track_width):
+    """Bekker compaction resistance of both tracks at sinkage ``z`` (m): ``2 b k z^(n+1) / (n+1)``, N."""
+    return 2 * track_width * (k_c / track_width + k_phi) * z ** (n + 1) / (n + 1)
+
+
 def compaction_expr(N, n, k_c, k_phi, track_length, track_width):
     """Bekker compaction resistance of both tracks ``R_c``, N (symbolic or float)."""
     z0 = sinkage_expr(N, n, k_c, k_phi, track_length, track_width)
-    return 2 * track_width * (k_c / track_width + k_phi) * z0 ** (n + 1) / (n + 1)
+    return compaction_at_sinkage_expr(z0, n, k_c, k_phi, track_width)
 
 
 def _eval(expr_fn, soil: Soil, vehicle: Vehicle, normal_load) -> float | np.ndarray:
@@ -85,10 +96,19 @@ def compaction_resistance(soil: Soil, vehicle: Vehicle, normal_load=None) -> flo
     return _eval(compaction_expr, soil, vehicle, normal_load)
 
 
-def slip_sinkage(z0, slip):
-    """Lyasko's slip sinkage ``z0 (1 + |i|) / (1 - 0.5 |i|)``, m (numpy)."""
-    i = np.abs(np.asarray(slip, dtype=float))
-    return np.asarray(z0, dtype=float) * (1 + i) / (1 - 0.5 * i)
+def slip_sinkage_expr(z0, slip, exponent=1.0):
+    """Slip sinkage ``z0 [(1 + |i|) / (1 - 0.5 |i|)] ** exponent``, m (symbolic or numpy).
+
+    ``exponent`` 1 is Lyasko's law, 0 a sinkage that does not grow with the slip.
+    """
+    symbolic = isinstance(slip, (ca.SX, ca.MX, ca.DM))
+    i = ca.fabs(slip) if symbolic else np.abs(slip)
+    return z0 * ((1 + i) / (1 - 0.5 * i)) ** exponent
+
+
+def slip_sinkage(z0, slip, exponent: float = 1.0):
+    """Lyasko's slip sinkage ``z0 (1 + |i|) / (1 - 0.5 |i|)``, m (numpy; :func:`slip_sinkage_expr`)."""
+    return slip_sinkage_expr(np.asarray(z0, dtype=float), np.asarray(slip, dtype=float), exponent)
 
 
 def slip_at_sinkage(z0: float, z: float) -> float:

@@ -13,6 +13,8 @@ from .soilmodel.rigid_wheel import RigidWheel
 
 #: Bits of a seed drawn when ``--seed`` is not given (said on stderr, so that the run can be repeated).
 SEED_BITS = 32
+#: ``--sinkage`` of a track sweep: the exponent of Lyasko's slip factor in the simulated sinkage.
+SINKAGE_LAWS = {"static": 0.0, "lyasko": 1.0}
 
 
 # --- simulate ---------------------------------------------------------------------------------
@@ -63,10 +65,14 @@ def _cmd_simulate(a: argparse.Namespace) -> int:
         if a.output != "-":
             output_path(a.output, "-o/--output")
         return simulate_wheel_command(a, gear, soil_arg(a.terrain, a.soil))
-    if a.bekker:
-        raise DataError("--bekker applies to a rigid wheel's sweep (--vehicle WHEEL.json) only")
+    if a.sinkage and a.kind != "sweep":
+        raise DataError("--sinkage applies to slip sweeps only (--kind sweep)")
+    if a.bekker and not a.sinkage:
+        raise DataError("--bekker applies to a rigid wheel's sweep or to a track sweep with --sinkage only")
     _check_options(a)
     vehicle, soil = gear, soil_arg(a.terrain, a.soil)
+    if a.bekker:
+        soil = _with_bekker(soil, a.bekker)
     effects = parse_effects(a.effect or [])
     kwargs = dict(kind=a.kind, effects=effects, seed=a.seed, noise=a.noise, model=a.model)
     if a.kind == "drive":
@@ -79,6 +85,8 @@ def _cmd_simulate(a: argparse.Namespace) -> int:
             kwargs["slips"] = floats_arg(a.slips, "--slips")
         if a.loads:
             kwargs["normal_loads"] = floats_arg(a.loads, "--loads")
+        if a.sinkage:
+            kwargs["sinkage_slip_exponent"] = SINKAGE_LAWS[a.sinkage]
     data = simulate(vehicle, soil, **kwargs)
     what = "drive log" if a.kind == "drive" else "slip sweep"
     if a.output == "-":
@@ -95,6 +103,25 @@ def _cmd_simulate(a: argparse.Namespace) -> int:
         path = plot_data(data, a.plot, title=f"{vehicle.name or a.vehicle} on {soil.name or 'soil'}")
         print(f"wrote the figure to {path}", file=sys.stderr)
     return EXIT_OK
+
+
+def _with_bekker(soil, spec: str):
+    """The soil with ``--bekker KC,KPHI,N`` (kN/m^(n+1), kN/m^(n+2), -)."""
+    from .soilmodel import Soil
+
+    vals = floats_arg(spec, "--bekker")
+    if len(vals) != 3:
+        raise DataError(f"--bekker expects KC,KPHI,N (kN/m^(n+1), kN/m^(n+2), -), got {spec!r}")
+    kc, kphi, n = vals
+    return Soil(
+        cohesion=soil.cohesion,
+        friction_angle=soil.friction_angle,
+        shear_modulus=soil.shear_modulus,
+        name=soil.name,
+        n=n,
+        k_c=kc * 1e3,
+        k_phi=kphi * 1e3,
+    )
 
 
 def add_parser(sub) -> None:
@@ -160,8 +187,15 @@ def add_parser(sub) -> None:
     s.add_argument(
         "--bekker",
         metavar="KC,KPHI,N",
-        help="rigid wheel: the soil's Bekker k_c (kN/m^(n+1)), k_phi (kN/m^(n+2)) and n, with --soil "
-        "(a --terrain preset carries its own)",
+        help="rigid wheel, or a track sweep with --sinkage: the soil's Bekker k_c (kN/m^(n+1)), k_phi "
+        "(kN/m^(n+2)) and n, with --soil (a --terrain preset carries its own)",
+    )
+    s.add_argument(
+        "--sinkage",
+        choices=tuple(SINKAGE_LAWS),
+        default=None,
+        help="track sweep: also write sinkage_m, the soil's static Bekker sinkage at each row's load "
+        "(static) or times Lyasko's slip factor (1 + i) / (1 - 0.5 i) (lyasko); 3 %% reading noise",
     )
     s.add_argument("-o", "--output", default="-", help="output CSV path, '-' for stdout (default: -)")
     s.add_argument("--plot", metavar="PNG", help="also save a figure of the data (.png, .pdf, .svg)")

@@ -273,13 +273,16 @@ def _sunk(seed, loads, s_exp=1.0, n=0.8, k=1.5e6):
 def test_the_sinkage_channel_recovers_bekker_n_and_k_and_tests_lyasko():
     from soiltrack.identify.sweep.sinkage_channel import fit_sinkage_channel
 
-    out = fit_sinkage_channel(_sunk(1, (15.0, 25.0, 40.0)), RIG)
-    assert out["identifiable"] == ["z0", "n", "k_eq"]
-    assert out["n_ci95"][0] <= 0.8 <= out["n_ci95"][1] and abs(out["k_eq_kn"] / 1.5e3 - 1) < 0.3
-    assert out["slip_exponent"]["ci95"][0] <= 1.0 <= out["slip_exponent"]["ci95"][1]
+    out = fit_sinkage_channel(_sunk(1, (15.0, 25.0, 40.0)), RIG).to_dict()
+    assert out["converged"] and out["identifiable"] == ["z0", "bekker_n", "bekker_k_eq", "slip_sinkage_exponent"]
+    n, k = out["parameters"]["bekker_n"], out["parameters"]["bekker_k_eq"]
+    assert n["ci95"][0] <= 0.8 <= n["ci95"][1] and k["ci95"][0] <= 1.5e3 <= k["ci95"][1]
+    s = out["parameters"]["slip_sinkage_exponent"]
+    assert s["ci95"][0] <= 1.0 <= s["ci95"][1]
     slow = fit_sinkage_channel(_sunk(2, (15.0, 25.0, 40.0), s_exp=0.4), RIG)
-    assert slow["slip_exponent"]["p_value_lyasko"] < 1e-3
-    one = fit_sinkage_channel(_sunk(3, (25.0,)), RIG)
-    assert one["identifiable"] == ["z0"] and one["n"] is None and one["k_eq_kn"] is None
+    assert slow.p_lyasko < 1e-3
+    one = fit_sinkage_channel(_sunk(3, (25.0,)), RIG).to_dict()
+    assert one["identifiable"] == ["z0", "slip_sinkage_exponent"]
+    assert one["parameters"]["bekker_n"]["value"] is None and one["parameters"]["bekker_k_eq"]["value"] is None
     z0 = (25.0 / (2 * B * L * 1.5e6)) ** (1 / 0.8)
     assert one["z0_ci95_m"][0] <= z0 <= one["z0_ci95_m"][1]

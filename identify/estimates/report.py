@@ -119,7 +119,10 @@ class ReportViews:
             "n_samples": int(self.n_samples),
             "rmse_N": rmse if self.residual_unit == "N" else None,
             "solve_time_s": finite_or_none(self.solve_time),
-            "parameters": {EDGE_UNITS[n][0]: self._parameter_json(pe) for n, pe in self.parameters.items()},
+            "parameters": {
+                **{EDGE_UNITS[n][0]: self._parameter_json(pe) for n, pe in self.parameters.items()},
+                **self.sinkage_parameters,
+            },
             "combinations": [cb.to_dict() for cb in self.combinations],
             "data_kind": self.data_kind,
             "rmse": rmse,
@@ -156,6 +159,17 @@ class ReportViews:
                 json.dumps(self.extra, default=json_default, allow_nan=True), parse_constant=lambda _: None
             )
         return d
+
+    @property
+    def sinkage_parameters(self) -> dict:
+        """The sinkage laws' parameters fitted from a ``sinkage_m`` column, in the JSON's form and units:
+        ``{"bekker_kc", "bekker_kphi", "bekker_n", "bekker_k_eq", "slip_sinkage_exponent"}``, each with
+        ``value``, ``stderr``, ``ci95``, ``identifiable`` (:mod:`~soiltrack.identify.sweep.sinkage_channel`);
+        empty without a sinkage column."""
+        z = self.extra.get("sinkage_m") if isinstance(self.extra, dict) else None
+        laws = z.get("laws") if isinstance(z, dict) else None
+        params = laws.get("parameters") if isinstance(laws, dict) else None
+        return dict(params) if isinstance(params, dict) else {}
 
     def _bounds_json(self) -> dict:
         """The soil bounds of the fit in edge units: ``{"cohesion_kpa": [lo, hi], ...}``."""
@@ -289,6 +303,9 @@ class ReportViews:
             laws = z.get("laws")
             if isinstance(laws, dict):
                 L.append("sinkage laws: " + laws["statement"])
+                eff = laws.get("slip_sinkage_effect")
+                if isinstance(eff, dict):
+                    L.append(eff["statement"])
         res = x.get("resistance")
         if isinstance(res, dict):
             L.append("resistance: " + res["statement"])

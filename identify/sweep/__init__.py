@@ -5,7 +5,8 @@ model with effects), :mod:`.start` (where the solvers start), :mod:`.ipopt` (bou
 default), :mod:`.compiled_lm` (bounded Levenberg-Marquardt as one compiled CasADi call),
 :mod:`.joint` (soil and effects together), :mod:`.seed_methods` (the seed paper's Newton-Raphson
 and least squares), :mod:`.slip_noise` (slip measured with noise), :mod:`.plausibility` (wrong data
-must not pass as success).
+must not pass as success), :mod:`.rig` (rig columns: weights, the load, repeats) and
+:mod:`.sinkage_channel` (the measured sinkage against the Bekker and slip-sinkage laws).
 """
 
 from .problem import FitFailed, SlipProblem, make_problem

@@ -17,7 +17,11 @@ sinkage. This module turns those columns into what a fit reports:
   lack of fit. ``F = (SS_lof / (g - p)) / (SS_pe / (n - g))`` with g slip levels and p
   identified directions, and its p-value.
 - what was dropped when reading (``--driving-only``, ``--slip-angle 0``) and the measured
-  sinkage (read and summarised; the track model's resistance does not use it).
+  sinkage: the Bekker and slip-sinkage laws fitted to it (:mod:`.sinkage_channel`: n and
+  k_c / b + k_phi where the loads spread, the slip exponent and its tests), and, when the thrust
+  fit has the ``slip_sinkage`` effect, the slip coefficient Bekker compaction of the measured ruts
+  implies beside the fit's (the track model's resistance itself uses the sinkage only with
+  ``resistance="fit-sinkage"``).
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ import numpy as np
 from ...soilmodel.data import STD_COLUMNS, SlipData
 from ...soilmodel.ridge import distinct_loads
 from ..estimates.distributions import f_sf
-from .sinkage_channel import fit_sinkage_channel
+from .sinkage_channel import compare_slip_resistance, fit_sinkage_channel
 
 __all__ = [
     "LOAD_SPREAD_SMALL",
@@ -221,12 +225,12 @@ def rig_extra(data: SlipData, result, separation: LoadSeparation | None) -> dict
     if data.sinkage is not None:
         z, s = np.asarray(data.sinkage, dtype=float), np.asarray(data.slip, dtype=float)
         corr = float(np.corrcoef(z, s)[0, 1]) if np.std(z) > 0 and np.std(s) > 0 else 0.0
-        out["sinkage_m"] = {
-            "min": float(z.min()),
-            "max": float(z.max()),
-            "slip_correlation": corr,
-            "laws": fit_sinkage_channel(data, result.vehicle),
-        }
+        channel = fit_sinkage_channel(data, result.vehicle)
+        laws = None if channel is None else channel.to_dict()
+        mu_s = (result.effects.get("slip_sinkage") or {}).get("mu_s") if result.effects else None
+        if channel is not None and laws is not None and mu_s is not None and not mu_s.fixed:
+            laws["slip_sinkage_effect"] = compare_slip_resistance(channel, data, result.vehicle, mu_s)
+        out["sinkage_m"] = {"min": float(z.min()), "max": float(z.max()), "slip_correlation": corr, "laws": laws}
     if separation is not None and result.model == "full":
         out["load_separation"] = separation.to_dict()
     if result.success:  # (the free parameters' count: no statistic of the result is computed here)
