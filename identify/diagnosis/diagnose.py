@@ -34,6 +34,7 @@ from ...soilmodel.errors import DataError
 from ...soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
 from ...soilmodel.vehicle import Vehicle
 from ..consistency import ConsistencyReport, check_consistency
+from ..sweep.sinkage_channel import slip_sinkage_evidence
 from .decision import UNEXPLAINED, Decision, decide
 from .evidence import HeldOutEvidence, PenalisedEvidence
 from .fits import SOIL_KEYS, FitRunner, channels, effect_parameters, soil_summary, usable
@@ -472,6 +473,7 @@ def _result(
         notes=tuple(notes),
         elapsed_s=time.perf_counter() - t0,
         curves=curves,
+        sinkage=_sinkage(setup),
     )
 
 
@@ -511,6 +513,15 @@ def _inconsistent(runner: FitRunner, cands: tuple[str, ...], report: Consistency
         notes=(reason,) + tuple(f.message for f in fatal),
         elapsed_s=time.perf_counter() - t0,
     )
+
+
+def _sinkage(setup: Setup) -> Any:
+    """A sweep's measured sinkage against the slip (:func:`~..sweep.sinkage_channel.slip_sinkage_evidence`):
+    the slip-sinkage signature, shown beside the comparison (None without a ``sinkage_m`` channel)."""
+    data = setup.data
+    if setup.is_log or getattr(data, "sinkage", None) is None:
+        return None
+    return slip_sinkage_evidence(data, setup.runner.vehicle)
 
 
 def _no_comparison(

@@ -95,6 +95,22 @@ def _where_lines(d: Any) -> list[str]:
     return out
 
 
+def _sinkage_lines(d: Any) -> list[str]:
+    """The measured sinkage against the slip (sweeps with a ``sinkage_m`` channel)."""
+    ev = getattr(d, "sinkage", None)
+    if ev is None:
+        return []
+    if not ev.testable:
+        return [f"Measured sinkage: no test of its growth with the slip ({ev.reason})."]
+    grows = "grows with the slip" if ev.found() else "shows no significant growth with the slip"
+    return [
+        f"Measured sinkage ({ev.n_rows} rows) {grows}: exponent of Lyasko's factor s = {ev.exponent:.3g} "
+        f"(standard error {ev.stderr:.2g}; p = {ev.p_no_slip_sinkage:.2g} for no slip sinkage, "
+        f"p = {ev.p_lyasko:.2g} for Lyasko's law s = 1). A sinkage that grows with the slip is the signature of "
+        "slip sinkage; its resistance is weighed above on the force channel."
+    ]
+
+
 def _after_lines(d: Any) -> list[str]:
     if d.holdout_rmse_after is None or d.verdict == "none":
         return []
@@ -151,7 +167,7 @@ def report_text(d: Any) -> str:
         lines.append("  CAUTION: a fit the verdict rests on did not converge")
     if not d.ranking:
         return "\n".join(lines + [f"Note: {n}" for n in d.notes])
-    for part in (_gap_lines, _ranking_lines, _where_lines, _after_lines, _soil_lines):
+    for part in (_gap_lines, _ranking_lines, _sinkage_lines, _where_lines, _after_lines, _soil_lines):
         block = part(d)
         if block:
             lines += [""] + block

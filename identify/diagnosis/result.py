@@ -153,6 +153,7 @@ class Diagnosis:
     torque_hold: HoldChoice | None = None
     elapsed_s: float = 0.0
     curves: dict = field(default_factory=dict, repr=False)
+    sinkage: Any = None
 
     def weight_of(self, name: str) -> float:
         """Weight of hypothesis ``name`` in the ranking (0 when absent)."""
@@ -196,6 +197,7 @@ class Diagnosis:
                 "torque_hold": None if self.torque_hold is None else self.torque_hold.hold,
                 "torque_hold_choice": None if self.torque_hold is None else self.torque_hold.to_dict(),
                 "converged": bool(self.converged),
+                "sinkage_evidence": None if self.sinkage is None else self.sinkage.to_dict(),
                 "notes": list(self.notes),
                 "elapsed_s": finite(self.elapsed_s),
             }
