@@ -185,6 +185,7 @@ _OPTION_NAMES = (
     "tol",
     "print_level",
     "multistart",
+    "profiled_start",
     "hull_channel",
     "sigma_accel",
 )
@@ -247,7 +248,9 @@ def fit_drive_log(
         signal), see :func:`prepare_drive_log`; ``max_iter`` (500), ``tol`` (1e-9),
         ``print_level`` (0): IPOPT settings; ``multistart`` (True): if the first solve fails or
         ends on a bound, also start from a second point (K on the other side of the range);
-        ``hull_channel`` (default: on exactly when effects are fitted): use the hull force
+        ``profiled_start`` (True): a few profiled Levenberg-Marquardt steps before IPOPT (False:
+        IPOPT from the start as given, the latent slips by Newton steps: a warm start from a
+        nearby answer); ``hull_channel`` (default: on exactly when effects are fitted): use the hull force
         balance as a third residual channel (``True`` also for a nominal fit, e.g. to compare a
         nominal and an effect fit on equal terms; ``False`` with effects: fit them from the speed
         and thrust channels only); ``sigma_accel`` (m/s^2): constant noise of the IMU

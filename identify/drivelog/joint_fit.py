@@ -142,8 +142,9 @@ def fit_joint(
     lo_s, hi_s = SLIP_BOUNDS[0] + 1e-3, SLIP_BOUNDS[1] - 1e-3
     slip_meas = np.clip(prep.slip_measured, lo_s, hi_s)
 
-    # the start: a few profiled Levenberg-Marquardt steps (drivelog_profiled); "_plain_start" (tests) skips them
-    profiled = not options.get("_plain_start", False)
+    # the start: a few profiled Levenberg-Marquardt steps (drivelog_profiled); profiled_start=False (a warm start
+    # from a nearby answer, e.g. the diagnosis's refits) or "_plain_start" (tests) skips them
+    profiled = bool(options.get("profiled_start", True)) and not options.get("_plain_start", False)
     presolved: list = []
     th_lo = np.concatenate([[Fb[0], Kb[0]], np.where(np.isfinite(e_lo), e_lo, -big * esc)])
     th_hi = np.concatenate([[Fb[1], Kb[1]], np.where(np.isfinite(e_hi), e_hi, big * esc)])
