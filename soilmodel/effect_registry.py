@@ -162,9 +162,17 @@ EFFECTS: dict[str, EffectSpec] = {
         "drivetrain_friction",
         "torque lost between the torque sensor and the track: tau_c sgn(w) + tau_v w",
         (
-            ParamSpec("tau_c", "N m", "Coulomb torque loss (both tracks)", 0.0, lower=-_INF, upper=_INF),
             ParamSpec(
-                "tau_v", "N m s/rad", "viscous torque loss coefficient (both tracks)", 0.0, lower=-_INF, upper=_INF
+                "tau_c", "N m", "Coulomb torque loss (both tracks)", 0.0, lower=-_INF, upper=_INF, physical_sign=1
+            ),
+            ParamSpec(
+                "tau_v",
+                "N m s/rad",
+                "viscous torque loss coefficient (both tracks)",
+                0.0,
+                lower=-_INF,
+                upper=_INF,
+                physical_sign=1,
             ),
         ),
         "tau_c",

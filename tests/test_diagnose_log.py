@@ -5,7 +5,7 @@ import pytest
 
 from soiltrack.identify import diagnose
 from soiltrack.identify.diagnosis.log_parts import delay_scan, shift_speed, terrain_window
-from soiltrack.soilmodel import TERRAINS, VEHICLES, DriveLog, simulate
+from soiltrack.soilmodel import TERRAINS, VEHICLES, DriveLog, Vehicle, simulate
 
 
 def _scores(patch, n=1500, seed=0, change=(-0.3, 0.0)):
@@ -135,3 +135,46 @@ def test_a_soft_patch_is_unexplained_and_never_an_effect():
     if d.cause == "terrain_change":
         w0, w1 = d.cause_detail["window_s"]
         assert 24.0 - 15.0 <= w0 < w1 <= 39.0 + 15.0  # within twice the true window
+
+
+def _independent_log(tmp_path, seed, **kw):
+    """A drive log made by the plain-numpy generator of benchmarks/independent_check.py (not soilmodel)."""
+    from conftest import bench_module
+
+    from soiltrack.soilmodel import read_csv
+
+    ic = bench_module("independent_check")
+    path = tmp_path / f"log_{seed}.csv"
+    ic.log_csv(str(path), seed, **kw)
+    return read_csv(str(path)), Vehicle.from_json(ic.VEHICLE)
+
+
+@pytest.mark.slow
+def test_a_speed_sensor_reading_high_is_unexplained_with_its_gain(tmp_path):
+    """GNSS speed 3 % high: it offsets the slip like a radius error but leaves the torque arm alone."""
+    log, v = _independent_log(tmp_path, 1, speed_scale=1.03)
+    d = diagnose(log, v)
+    _consistent(d)
+    assert (d.verdict, d.cause) == ("unexplained", "speed_scale"), (d.verdict, d.reason)
+    assert abs(d.cause_detail["gain"] - 0.03) < 0.01
+    assert d.confidence == pytest.approx(sum(e.weight for e in d.ranking if e.family in ("flexible", "outside")))
+
+
+@pytest.mark.slow
+def test_a_radius_error_is_not_taken_for_a_speed_sensor(tmp_path):
+    log, v = _independent_log(tmp_path, 2, radius=0.04)
+    d = diagnose(log, v)
+    _consistent(d)
+    assert d.verdict == "radius_error" and d.weight_of("radius_error") > d.weight_of("speed_scale")
+
+
+@pytest.mark.slow
+def test_a_soft_patch_from_independent_code_is_a_change_of_terrain_inside_twice_its_window(tmp_path):
+    """Soil 200 Pa, 12 deg, K 50 mm from 20 to 35 s in a run on 1.3 kPa, 31 deg, 12 mm (seed 2)."""
+    log, v = _independent_log(tmp_path, 2, patch=(20.0, 35.0, (200.0, np.radians(12.0), 0.05)))
+    d = diagnose(log, v)
+    _consistent(d)
+    assert (d.verdict, d.cause) == ("unexplained", "terrain_change"), (d.verdict, d.reason)
+    w0, w1 = d.cause_detail["window_s"]
+    assert 20.0 - 15.0 <= w0 < w1 <= 35.0 + 15.0  # within twice the true window
+    assert d.ranking[0].parameters["slope_change"]["value"] < 0  # softer inside

@@ -131,15 +131,17 @@ def test_cli_fit_takes_the_torque_hold_and_says_it_in_the_json(tmp_path):
 
 @pytest.mark.slow
 def test_the_hold_not_given_is_chosen_on_held_out_blocks():
-    # a 0.05 rad grade in a log whose torque is sampled (a transducer), the hold not given. The choice is made
-    # on the nominal model alone, and with the grade missing the sampled torque predicts the held-out blocks
-    # worse (measured shrink -0.29, p = 1): held is kept, and the constant thrust offset of the grade is then
-    # named (grade or drivetrain_friction, which the wrong hold and a Coulomb loss both imitate)
+    # a 0.05 rad grade in a log whose torque is sampled (a transducer), the hold not given. The two holds are
+    # compared with the flexible term on top of both, so the grade's slow gap does not hide the hold's fast
+    # signature: the sampled torque predicts the held-out blocks significantly better and is taken. A grade
+    # and a Coulomb drivetrain loss then fit alike (both remove 99.93 % of the excess error, measured): the
+    # verdict is one of the two, and the pair is confusable with the experiment that separates them
     d = diagnose(sampled_torque_log(1), HEAVY)
     h = d.torque_hold
-    assert (h.hold, h.given) == ("zoh", False) and h.p_value >= 0.01 and h.shrink < 0.05, h
-    assert d.to_dict()["torque_hold"] == "zoh"
+    assert (h.hold, h.given) == ("sample", False) and h.p_value < h.level and h.shrink > 0, h
+    assert d.to_dict()["torque_hold"] == "sample"
     assert d.verdict in ("grade", "drivetrain_friction"), d.verdict
+    assert {"grade", "drivetrain_friction"} in [set(p) for p, _, _ in d.confusable]
     assert d.confidence == d.weight_of(d.verdict)
 
 

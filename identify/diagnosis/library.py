@@ -16,6 +16,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ...soilmodel.effects import EFFECTS
 from ...soilmodel.errors import DataError
 from .fits import channels, effect_parameters, usable
 from .hypotheses import DISCREPANCY, NOMINAL, Hypothesis
@@ -121,6 +122,19 @@ def _stretched(fits: list, name: str) -> list[str]:
     )
 
 
+def _wrong_sign(params: dict, name: str) -> list[str]:
+    """Parameters of effect ``name`` whose fitted value has the opposite of their physical sign
+    (:attr:`~soiltrack.soilmodel.effect_registry.ParamSpec.physical_sign`: a loss or a resistance that the data
+    want negative is another effect imitating this one)."""
+    spec = EFFECTS[name]
+    out = []
+    for p in spec.params:
+        v = (params.get(p.name) or {}).get("value")
+        if p.physical_sign and v is not None and float(v) * p.physical_sign < 0:
+            out.append(f"{p.name} = {float(v):.3g}")
+    return out
+
+
 def effect_hypothesis(setup: Setup, name: str, family: str) -> Hypothesis:
     """Library effect ``name`` refitted with the soil (``family``: ``"candidate"`` or ``"outside"``)."""
     run = setup.runner
@@ -156,6 +170,9 @@ def effect_hypothesis(setup: Setup, name: str, family: str) -> Hypothesis:
     )
     n_par = len(getattr(ref, "effect_labels", ()) or ()) - len(getattr(ref, "fixed_labels", ()) or ())
     params = effect_parameters(ref, name) if ref is not None and usable(ref, setup.is_log) else {}
+    wrong = _wrong_sign(params, name) if not why else []
+    if wrong:
+        why = f"{', '.join(wrong)}: of the wrong physical sign"
     return Hypothesis(
         name,
         family,
