@@ -8,7 +8,7 @@ import pytest
 from soiltrack.identify.diagnosis import DiagnoseSettings
 from soiltrack.identify.diagnosis.decision import decide
 from soiltrack.identify.diagnosis.evidence import HeldOutEvidence, PenalisedEvidence
-from soiltrack.identify.diagnosis.gap_test import decide_gap, pure_error_lack_of_fit
+from soiltrack.identify.diagnosis.gap_test import decide_gap
 from soiltrack.identify.diagnosis.hypotheses import Frame, Hypothesis
 
 S = DiagnoseSettings()
@@ -107,16 +107,6 @@ def test_frame_fills_unpredicted_samples_with_the_nominal_values():
     z0 = f.z({"c": np.array([2.0, 4.0, 9.0, 6.0])})
     assert z0.tolist() == [1.0, 2.0, 3.0]
     assert f.z({"c": np.array([0.0, np.nan, 1.0, 2.0])}, z0).tolist() == [0.0, 2.0, 1.0]
-
-
-def test_pure_error_lack_of_fit():
-    keys = np.repeat(np.arange(10), 4).reshape(-1, 1)
-    sigma = np.ones(40)
-    noise = np.random.default_rng(1).standard_normal(40)
-    assert pure_error_lack_of_fit(noise, sigma, keys, 3) > 0.01
-    bias = np.repeat(np.array([3.0, -3.0] * 5), 4)
-    assert pure_error_lack_of_fit(noise + bias, sigma, keys, 3) < 1e-6
-    assert pure_error_lack_of_fit(noise, sigma, np.arange(40).reshape(-1, 1), 3) is None
 
 
 def test_gap_decision_keeps_only_the_tests_made():

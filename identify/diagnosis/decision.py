@@ -127,7 +127,8 @@ def decide(
     w_top = f"{top} carries the largest weight ({weights[top]:.2f})"
     if not gap.present or h.family == "nominal":
         why = (
-            f"no gap test is significant (family level {settings.alpha:g}, shared among {len(gap.tests)} tests)"
+            f"no gap test is significant (family level {settings.alpha:g}, shared among {len(gap.tests)} tests): "
+            f"without a gap no explanation is named; the confidence is the nominal model's weight"
             if not gap.present
             else f"a gap test is significant, but {w_top}"
         )

@@ -34,12 +34,13 @@ from ...soilmodel.errors import DataError
 from ...soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
 from ...soilmodel.vehicle import Vehicle
 from ..consistency import ConsistencyReport, check_consistency
+from ..sweep.rig import pure_error_test
 from ..sweep.sinkage_channel import slip_sinkage_evidence
 from .decision import UNEXPLAINED, Decision, decide
 from .evidence import HeldOutEvidence, PenalisedEvidence
 from .fits import SOIL_KEYS, FitRunner, channels, effect_parameters, soil_summary, usable
 from .gap import long_run_factor
-from .gap_test import GapDecision, decide_gap, pure_error_lack_of_fit
+from .gap_test import GapDecision, decide_gap
 from .hold import HoldChoice, choose_hold
 from .hypotheses import NOMINAL, Frame, Hypothesis
 from .library import effect_hypothesis, flexible_hypothesis, nominal_hypothesis
@@ -50,7 +51,7 @@ from .screening import Screen, newey_west_lag, screen
 from .selection import LOOKALIKES, dm_test, gap_p_value, hat_basis
 from .sweep_parts import fit_jacobian, lack_of_fit
 from .settings import DEFAULT_SETTINGS, DiagnoseSettings
-from .setup import Setup, check_candidates, make_folds, noise_floors
+from .setup import Setup, check_candidates, make_folds, noise_floors, sweep_noise_model
 
 __all__ = ["diagnose", "Diagnosis", "RankEntry", "TORQUE_HOLDS"]
 
@@ -93,9 +94,14 @@ def _setup(runner: FitRunner, nominal_fit: Any) -> Setup:
     order = np.arange(data.n_samples) if runner.is_log else np.argsort(x, kind="stable")
     R = channels(nominal_fit, data)
     sigma, flat = noise_floors(R, order, runner.settings.noise_window(data.n_samples, runner.is_log))
+    # a sweep: the nominal fit with its slip-noise model (the screening fit takes the slip as exact)
+    model_sigma = None if runner.is_log else sweep_noise_model(runner.run(None, slip_noise="auto"), data)
+    if model_sigma is not None:
+        sigma = {ch: model_sigma for ch in sigma}
     if runner.is_log and np.all(np.isfinite(nominal_fit.theta)):
         runner.x0 = np.asarray(nominal_fit.theta, dtype=float)
-    return Setup(runner, nominal_fit, R, sigma, frozenset(flat), make_folds(data, order, runner.settings), x, order)
+    folds = make_folds(data, order, runner.settings)
+    return Setup(runner, nominal_fit, R, sigma, frozenset(flat), folds, x, order, model_sigma is not None)
 
 
 def _refits(
@@ -106,8 +112,11 @@ def _refits(
     s = setup.settings
     ok = [x for x in screens if x.screenable]
     if not setup.is_log:
+        twins = set() if outside_too else _twins(ok, cands, s.confusable_corr)
         return [
-            (x.effect, "candidate" if x.effect in cands else "outside") for x in ok if x.effect in cands or outside_too
+            (x.effect, "candidate" if x.effect in cands else "outside")
+            for x in ok
+            if x.effect in cands or outside_too or x.effect in twins
         ]
     thr = s.alpha / max(1, len([x for x in ok if x.effect in cands]))
     if not hint and not any(x.p_value < thr for x in ok if x.effect in cands):
@@ -119,6 +128,22 @@ def _refits(
     return out
 
 
+def _twins(screens: list[Screen], cands: tuple[str, ...], min_corr: float) -> set[str]:
+    """Library effects outside the candidates whose sensitivity is collinear with a candidate's (``|corr| >=
+    min_corr``): the data cannot tell them apart from it, so they are weighed even when the effects outside the
+    candidates are not; otherwise the candidate's weight would only say that its twin was left out."""
+    d = {x.effect: x.direction for x in screens if x.direction is not None and np.linalg.norm(x.direction) > 0}
+    out = set()
+    for e, de in d.items():
+        if e in cands:
+            continue
+        for c in cands:
+            dc = d.get(c)
+            if dc is not None and abs(float(de @ dc)) / (np.linalg.norm(de) * np.linalg.norm(dc)) >= min_corr:
+                out.add(e)
+    return out
+
+
 def _frame(setup: Setup, nominal: Hypothesis, held: bool) -> Frame:
     """The evidence's samples (``held``: the held-out residuals of every fold) with the noise floor."""
     base = nominal.heldout() if held else nominal.residuals
@@ -127,9 +152,11 @@ def _frame(setup: Setup, nominal: Hypothesis, held: bool) -> Frame:
 
 
 def _sweep_noise(setup: Setup, hyps: list[Hypothesis]) -> Setup:
-    """A sweep's noise floor from the residuals of the effect that fits it best (when better than nominal):
-    where the nominal model misses a sharp bend, its second differences carry the bend and overstate the
-    noise."""
+    """A sweep's noise floor (when it does not come from the fit's slip-noise model) from the residuals of the
+    effect that fits it best (when better than nominal): where the nominal model misses a sharp bend, its second
+    differences carry the bend and overstate the noise."""
+    if setup.noise_from_fit:
+        return setup
     frame = _frame(setup, hyps[0], held=False)
     ss = {
         h.name: float(np.nansum(frame.z(h.residuals) ** 2))
@@ -258,12 +285,14 @@ def _lack_of_fit(setup: Setup, residuals: dict[str, np.ndarray], res: Any) -> fl
 
 
 def _pure_error(setup: Setup) -> float | None:
-    """A sweep's pure-error lack-of-fit test of the nominal model when rows repeat a condition."""
+    """A sweep's pure-error lack-of-fit test of the nominal model when rows repeat a slip level (rig trials are
+    repeated; :func:`~..sweep.rig.pure_error_test`, the rig fit's own test), on the standardised residuals."""
     ch, data, nom = setup.channels[0], setup.data, setup.nominal_fit
-    loads = data.loads(setup.runner.vehicle.weight)
-    keys = np.column_stack([np.round(np.asarray(data.slip, dtype=float), 6), np.round(loads, 3)])
+    z = setup.residuals[ch] / setup.sigma[ch]
+    ok = np.isfinite(z)
     n_par = int(np.sum([not getattr(pe, "fixed", False) for pe in (nom.parameters or {}).values()]))
-    return pure_error_lack_of_fit(setup.residuals[ch], setup.sigma[ch], keys, n_par)
+    lof = pure_error_test(np.asarray(data.slip, dtype=float)[ok], z[ok], n_par)
+    return None if lof is None else float(lof.p_value)
 
 
 def _rmse(held: dict[str, np.ndarray], frame: Frame) -> dict[str, float]:

@@ -20,9 +20,9 @@ report and the JSON, and no other number decides whether there is a gap.
   (a gain of a fraction of a percent over hundreds of samples is no gap);
 - ``lack of fit`` (sweeps): a flexible term in slip on top of the nominal fit explains its residuals
   (F test, :func:`~.sweep_parts.lack_of_fit`; in-sample like a sweep's evidence, free of the noise level);
-- ``pure-error lack of fit`` (sweeps whose rows repeat a condition): the spread of the group
-  means about the model against the spread within the groups (:func:`pure_error_lack_of_fit`),
-  which measures the noise directly.
+- ``pure-error lack of fit`` (sweeps whose rows repeat a slip level): the spread of the level
+  means about the model against the spread within the levels (the rig fit's own test,
+  :func:`~..sweep.rig.pure_error_test`), which measures the noise directly.
 """
 
 from __future__ import annotations
@@ -30,11 +30,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
 
-from ..estimates.distributions import f_sf
-
-__all__ = ["GapTest", "GapDecision", "pure_error_lack_of_fit", "decide_gap"]
+__all__ = ["GapTest", "GapDecision", "decide_gap"]
 
 
 @dataclass(frozen=True)
@@ -80,32 +77,6 @@ class GapDecision:
     def p_of(self, name: str) -> float:
         """p-value of the test ``name`` (1 when it was not made)."""
         return next((t.p_value for t in self.tests if t.name == name), 1.0)
-
-
-def pure_error_lack_of_fit(residuals: np.ndarray, sigma: np.ndarray, keys: np.ndarray, n_params: int) -> float | None:
-    """p-value of the pure-error lack-of-fit F test, or None when no condition is repeated.
-
-    Rows with the same ``keys`` repeat one condition (rig trials). With weights ``1/sigma^2``, the
-    pure error is the spread of the residuals within the groups, the lack of fit the spread of the
-    group means about zero less the ``n_params`` fitted; ``F = (SS_lof / (g - p)) / (SS_pe / (n - g))``.
-    """
-    r = np.asarray(residuals, dtype=float)
-    w = 1.0 / np.asarray(sigma, dtype=float) ** 2
-    ok = np.isfinite(r) & np.isfinite(w)
-    r, w, keys = r[ok], w[ok], np.asarray(keys)[ok]
-    _, inv = np.unique(keys, axis=0, return_inverse=True)
-    inv = np.asarray(inv).ravel()
-    g = int(inv.max()) + 1 if inv.size else 0
-    n = r.size
-    if g == n or n - g < 2 or g - n_params < 1:
-        return None
-    sw = np.bincount(inv, weights=w, minlength=g)
-    mean = np.bincount(inv, weights=w * r, minlength=g) / sw
-    ss_pe = float(np.sum(w * (r - mean[inv]) ** 2))
-    ss_lof = float(np.sum(sw * mean**2))
-    if ss_pe <= 0:
-        return 0.0 if ss_lof > 0 else 1.0
-    return f_sf((ss_lof / (g - n_params)) / (ss_pe / (n - g)), g - n_params, n - g)
 
 
 def decide_gap(p_values: dict[str, float | None], alpha: float) -> GapDecision:

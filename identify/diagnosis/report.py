@@ -85,11 +85,13 @@ def _ranking_lines(d: Any) -> list[str]:
 
 
 def _where_lines(d: Any) -> list[str]:
-    out = ["Where the nominal misfit lies (share above the noise; * = significant):"]
+    if not d.gap.present:
+        return ["Where the nominal misfit lies: no gap to localise."]
+    out = ["Where the nominal misfit lies (share of the misfit above the noise):"]
     shown = [s for s in d.localisation if s.share >= 0.05][:8]
     for s in shown:
         rng = "whole channel" if s.range is None else f"{s.dimension} {fmt(s.range[0])} to {fmt(s.range[1])}"
-        out.append(f"  {'*' if s.significant else ' '} {s.share:5.1%}  {s.channel:<24s} {rng}")
+        out.append(f"  {s.share:6.1%}  {s.channel:<24s} {rng}")
     if not shown:
         out.append("  nowhere above the noise")
     return out

@@ -8,7 +8,7 @@ on all the data and its residuals (measured - model), the hold-out folds, the na
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -22,7 +22,10 @@ from .screening import newey_west_lag
 from .settings import DiagnoseSettings
 from .sweep_parts import sweep_folds
 
-__all__ = ["Setup", "check_candidates", "noise_floors", "make_folds"]
+__all__ = ["Setup", "check_candidates", "noise_floors", "make_folds", "sweep_noise_model"]
+
+#: Slip step of the central difference of a sweep model's slope dF/di (the slip is a fraction).
+SLOPE_STEP = 1e-5
 
 
 def check_candidates(candidates: Any, is_log: bool) -> tuple[str, ...]:
@@ -72,6 +75,26 @@ def noise_floors(
     return floors, flat
 
 
+def sweep_noise_model(res: Any, data: Any) -> np.ndarray | None:
+    """A sweep's noise level per row from its nominal fit's own noise model, when that fit adopted noise on the
+    measured slip (:mod:`~..sweep.slip_noise`): ``sqrt(s^2 + (sigma_i dF/di)^2)``, the slope ``dF/di`` by a
+    central difference of the fit's own prediction. None when the fit took the slip as exact (the noise floor
+    then comes from second differences of the residuals). The second differences cannot follow a noise that
+    falls tenfold over the first rows of a sweep, as slip noise on the steep start of the curve does."""
+    sn = (getattr(res, "extra", None) or {}).get("slip_noise") or {}
+    s, si = sn.get("force_sigma_N"), sn.get("slip_sigma")
+    if not sn.get("adopted") or s is None or si is None or getattr(data, "force_std", None) is not None:
+        return None
+    slip = np.asarray(data.slip, dtype=float)
+    try:
+        up, dn = (res.predict(replace(data, slip=slip + d)) for d in (SLOPE_STEP, -SLOPE_STEP))
+    except DataError:
+        return None
+    slope = (np.asarray(up, dtype=float) - np.asarray(dn, dtype=float)) / (2 * SLOPE_STEP)
+    out = np.sqrt(float(s) ** 2 + (float(si) * slope) ** 2)
+    return out if np.all(np.isfinite(out)) and np.all(out > 0) else None
+
+
 def make_folds(data: Any, order: np.ndarray, s: DiagnoseSettings) -> list[tuple[np.ndarray, np.ndarray]]:
     """A log: one fold (fit on the even blocks in time, predict the odd ones); a sweep: every block
     held out once over :attr:`~.settings.DiagnoseSettings.sweep_folds` folds (blocks in slip)."""
@@ -103,6 +126,8 @@ class Setup:
         The natural variable per sample (time, s, or slip).
     order
         Sample indices in natural order.
+    noise_from_fit
+        A sweep's noise level comes from its fit's slip-noise model (:func:`sweep_noise_model`).
     """
 
     runner: FitRunner
@@ -113,6 +138,7 @@ class Setup:
     folds: list
     x: np.ndarray
     order: np.ndarray
+    noise_from_fit: bool = False
 
     @property
     def data(self) -> Any:
