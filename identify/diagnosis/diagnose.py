@@ -240,7 +240,7 @@ def _score(setup: Setup, hyps: list[Hypothesis]) -> tuple[list[Hypothesis], Fram
     unpredicted)."""
     frame = _frame(setup, hyps[0], held=setup.is_log)
     z0 = frame.z(hyps[0].residuals)
-    return [h.scored(frame, z0) for h in hyps], frame
+    return [h.scored(frame, z0, hyps[0]) for h in hyps], frame
 
 
 def _gap(
@@ -259,7 +259,7 @@ def _gap(
     p["flexible term beats nominal"] = dm_test(z_nom, hold.z(by["discrepancy"].heldout(), z_nom), setup.dm_lag)
     top = by[max(weights, key=lambda k: weights[k])]
     if top.family != "nominal" and top.held is not None:
-        zt = hold.z(top.held, z_nom)
+        zt = hold.z(top.held, z_nom, top.scale)
         ok = bool(np.all(np.isfinite(zt)))
         shrink = 1.0 - float(np.sqrt((zt @ zt) / max(z_nom @ z_nom, 1e-300))) if ok else 0.0
         p["heaviest beats nominal"] = dm_test(z_nom, zt, setup.dm_lag) if shrink >= s.min_shrink else None
@@ -309,7 +309,7 @@ def _ranking(hyps: list[Hypothesis], weights: dict[str, float], hold: Frame) -> 
     for h in sorted(hyps, key=lambda h: -weights[h.name]):
         after, shrink = before, None
         if h.held is not None and h.family != "nominal":
-            zh = hold.z(h.held, z0)
+            zh = hold.z(h.held, z0, h.scale)
             after = _rmse(
                 {ch: np.where(np.isnan(h.heldout()[ch]), nominal.heldout()[ch], h.heldout()[ch]) for ch in h.heldout()},
                 hold,

@@ -1,7 +1,8 @@
 """The weights of the comparison: one interface, two implementations.
 
 - :class:`HeldOutEvidence` (drive logs): each hypothesis is fitted on alternate blocks of the run
-  and predicts the others; its held-out log density ``-z^2 / 2`` per sample is averaged over a
+  and predicts the others; its held-out log density ``-z^2 / 2 - log q`` per sample (``q`` its own noise level relative to the nominal
+  model's: a mass error scales the hull balance's noise with the mass) is averaged over a
   Bayesian bootstrap of blocks of consecutive samples (pseudo-BMA+, Yao et al. 2018,
   :func:`~.selection.stacking_weights`): correlated residuals move together, and a gain that rests
   on a few samples does not look certain. No penalty: held-out prediction pays for flexibility.
@@ -38,6 +39,11 @@ class Evidence(Protocol):
         """Weight of each admissible hypothesis (summing to 1)."""
 
 
+def _log_scale(h: Hypothesis) -> np.ndarray | float:
+    """``log`` of a hypothesis's noise level relative to the nominal model's per sample (0 when it has none)."""
+    return h.log_scale if h.log_scale.size == np.asarray(h.z).size else 0.0
+
+
 @dataclass(frozen=True)
 class HeldOutEvidence:
     """Pseudo-BMA+ weights of held-out log densities (blocks of ``block`` consecutive residuals)."""
@@ -49,7 +55,7 @@ class HeldOutEvidence:
     def weights(self, hypotheses: Sequence[Hypothesis]) -> dict[str, float]:
         """Weights of ``hypotheses`` (all on the same held-out samples)."""
         return stacking_weights(
-            {h.name: -0.5 * np.asarray(h.z) ** 2 for h in hypotheses},
+            {h.name: -0.5 * np.asarray(h.z) ** 2 - _log_scale(h) for h in hypotheses},
             block=self.block,
             n_boot=self.n_bootstrap,
         )

@@ -151,6 +151,31 @@ class FitRunner:
         )
 
 
+def log_channels(res: Any, data: DriveLog) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """A drive-log fit's residuals (measured - model) and its own noise model's standard deviation, per channel
+    at full length (NaN where the fit uses no sample). The noise model belongs to the fit: a mass error scales
+    the hull balance's noise with the mass, a radius error the thrust's with the radius.
+
+    Raises
+    ------
+    DataError
+        The fit predicts nothing (it did not succeed).
+    """
+    m = data.n_samples
+    if not res.success:
+        raise DataError("the fit did not succeed; it predicts nothing", file=data.source)
+    out = drive_log_residuals(res, data, res.vehicle, model=res.model)
+    keep = np.asarray(out["keep"])
+    idx = np.nonzero(keep)[0] if keep.dtype == bool else keep.astype(int)
+    full: tuple[dict[str, np.ndarray], dict[str, np.ndarray]] = ({}, {})
+    for part, src in zip(full, (out["channels"], out["sigma"])):
+        for k, v in src.items():
+            a = np.full(m, np.nan)
+            a[idx] = np.asarray(v, dtype=float).ravel()
+            part[k] = a
+    return full
+
+
 def channels(res: Any, data: SlipData | DriveLog) -> dict[str, np.ndarray]:
     """Residuals (measured - model) per channel at full length: NaN where the fit uses no sample.
 
@@ -161,17 +186,7 @@ def channels(res: Any, data: SlipData | DriveLog) -> dict[str, np.ndarray]:
     """
     m = data.n_samples
     if isinstance(data, DriveLog):
-        if not res.success:
-            raise DataError("the fit did not succeed; it predicts nothing", file=data.source)
-        out = drive_log_residuals(res, data, res.vehicle, model=res.model)
-        keep = np.asarray(out["keep"])
-        idx = np.nonzero(keep)[0] if keep.dtype == bool else keep.astype(int)
-        full = {}
-        for k, v in out["channels"].items():
-            a = np.full(m, np.nan)
-            a[idx] = np.asarray(v, dtype=float).ravel()
-            full[k] = a
-        return full
+        return log_channels(res, data)[0]
     rm = getattr(res, "residual_model", None)
     items = (rm if isinstance(rm, SweepResiduals) else SweepResiduals()).residuals_on(
         res, data, accept_implausible=True

@@ -54,15 +54,24 @@ class Frame:
         """Number of standardised residuals compared."""
         return int(sum(int(np.count_nonzero(m)) for m in self.mask.values()))
 
-    def z(self, residuals: dict[str, np.ndarray], fill: np.ndarray | None = None) -> np.ndarray:
+    def z(
+        self,
+        residuals: dict[str, np.ndarray],
+        fill: np.ndarray | None = None,
+        scale: dict[str, np.ndarray] | None = None,
+    ) -> np.ndarray:
         """Standardised residuals on the compared samples, channel after channel.
 
         ``fill`` (a z vector of the same layout, e.g. the nominal model's) replaces samples the
         hypothesis leaves unpredicted (NaN), so that every hypothesis is scored on the same samples.
+        ``scale`` (per channel, full length): the hypothesis's own noise level relative to the nominal
+        model's (:meth:`Hypothesis.noise_scale`); None: 1.
         """
-        out = np.concatenate(
-            [np.asarray(residuals[ch], dtype=float)[m] / self.sigma[ch][m] for ch, m in self.mask.items()]
-        )
+        parts = []
+        for ch, m in self.mask.items():
+            sg = self.sigma[ch][m] if scale is None else self.sigma[ch][m] * np.asarray(scale[ch], dtype=float)[m]
+            parts.append(np.asarray(residuals[ch], dtype=float)[m] / sg)
+        out = np.concatenate(parts)
         if fill is not None:
             bad = np.isnan(out)
             out[bad] = fill[bad]
@@ -100,6 +109,13 @@ class Hypothesis:
         Its fit on all the data, when made.
     train_residuals
         Per fold, its residuals on the training samples (full length), when held out.
+    noise
+        A log's: its own fits' noise level per channel at the held-out samples (full length), when it
+        differs from the nominal model's by construction (an effect that scales a channel's noise).
+    scale, log_scale
+        Set by :meth:`scored`: its noise level relative to the nominal model's per channel (full
+        length; None: 1), and ``log`` of it on the frame's samples (the held-out log density is
+        ``-z^2 / 2 - log_scale``).
     """
 
     name: str
@@ -114,6 +130,9 @@ class Hypothesis:
     detail: dict = field(default_factory=dict)
     fit: Any = None
     train_residuals: list | None = None
+    noise: dict[str, np.ndarray] | None = None
+    scale: dict[str, np.ndarray] | None = None
+    log_scale: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def heldout(self) -> dict[str, np.ndarray]:
         """Its held-out residuals (raises when it was not held out: the nominal model always is)."""
@@ -121,9 +140,27 @@ class Hypothesis:
             raise ValueError(f"hypothesis {self.name} was not held out")
         return self.held
 
-    def scored(self, frame: Frame, fill: np.ndarray | None = None) -> "Hypothesis":
-        """This hypothesis with ``z`` on the frame's samples (see :meth:`Frame.z`)."""
-        return replace(self, z=frame.z(self.residuals, fill))
+    def noise_scale(self, nominal: "Hypothesis") -> dict[str, np.ndarray] | None:
+        """Its noise level relative to ``nominal``'s per channel (1 where either is unknown), or None."""
+        if self.noise is None or nominal.noise is None:
+            return None
+        out = {}
+        for ch, s in self.noise.items():
+            s0 = nominal.noise.get(ch)
+            q = np.ones_like(s) if s0 is None else np.asarray(s, dtype=float) / np.asarray(s0, dtype=float)
+            out[ch] = np.where(np.isfinite(q) & (q > 0), q, 1.0)
+        return out
+
+    def scored(self, frame: Frame, fill: np.ndarray | None = None, nominal: "Hypothesis | None" = None) -> "Hypothesis":
+        """This hypothesis with ``z`` on the frame's samples (see :meth:`Frame.z`), standardised by its own noise
+        level relative to ``nominal``'s where it has one."""
+        scale = None if nominal is None else self.noise_scale(nominal)
+        z = frame.z(self.residuals, fill, scale)
+        if scale is None:
+            return replace(self, z=z, scale=None, log_scale=np.zeros(z.size))
+        ls = np.concatenate([np.log(scale[ch][m]) for ch, m in frame.mask.items()])
+        ls[np.isnan(frame.z(self.residuals))] = 0.0  # filled with the nominal model's values
+        return replace(self, z=z, scale=scale, log_scale=ls)
 
     @property
     def sum_squares(self) -> float:

@@ -18,7 +18,7 @@ import numpy as np
 
 from ...soilmodel.effects import EFFECTS
 from ...soilmodel.errors import DataError
-from .fits import channels, effect_parameters, usable
+from .fits import channels, effect_parameters, log_channels, usable
 from .hypotheses import DISCREPANCY, NOMINAL, Hypothesis
 from .selection import fit_discrepancy
 from .setup import Setup
@@ -26,11 +26,14 @@ from .setup import Setup
 __all__ = ["nominal_hypothesis", "flexible_hypothesis", "flexible_on", "effect_hypothesis", "held_out"]
 
 
-def held_out(setup: Setup, fit_on: Callable[[np.ndarray], Any]) -> tuple[dict[str, np.ndarray], list, list]:
+def held_out(
+    setup: Setup, fit_on: Callable[[np.ndarray], Any], noise_out: dict[str, np.ndarray] | None = None
+) -> tuple[dict[str, np.ndarray], list, list]:
     """Held-out residuals of the model ``fit_on(train) -> fit`` over the folds.
 
     Returns the held-out residuals per channel (full length, NaN where not held out or not
-    predicted), the training fits, and the training residuals per fold (full length).
+    predicted), the training fits, and the training residuals per fold (full length). ``noise_out``
+    (a log's), when given, is filled with each fit's own noise level at the samples it predicts.
     A log's fit is evaluated on the whole log and picked (each prediction uses the measured
     inputs at its own sample); a sweep's on the held-out rows.
     """
@@ -43,7 +46,10 @@ def held_out(setup: Setup, fit_on: Callable[[np.ndarray], Any]) -> tuple[dict[st
         tres = {ch: np.full(n, np.nan) for ch in setup.channels}
         try:
             if setup.is_log:
-                full = channels(res, setup.data)
+                full, sig = log_channels(res, setup.data)
+                if noise_out is not None:
+                    for ch in setup.channels:
+                        noise_out.setdefault(ch, np.full(n, np.nan))[te] = sig[ch][te]
                 pick_te = {ch: full[ch][te] for ch in setup.channels}
                 pick_tr = {ch: full[ch][tr] for ch in setup.channels}
             else:
@@ -62,7 +68,8 @@ def held_out(setup: Setup, fit_on: Callable[[np.ndarray], Any]) -> tuple[dict[st
 def nominal_hypothesis(setup: Setup) -> tuple[Hypothesis, list, list]:
     """The nominal model, its training fits and its training residuals per fold (for the flexible term,
     the delay and the change of terrain)."""
-    held, fits, train_res = held_out(setup, lambda tr: setup.runner.run_warm(tr))
+    noise: dict[str, np.ndarray] = {}
+    held, fits, train_res = held_out(setup, lambda tr: setup.runner.run_warm(tr), noise)
     ok = all(usable(f, setup.is_log) for f in fits)
     resid = held if setup.is_log else setup.residuals
     return (
@@ -75,6 +82,7 @@ def nominal_hypothesis(setup: Setup) -> tuple[Hypothesis, list, list]:
             why="" if ok else "a training fit failed",
             held=held,
             fit=setup.nominal_fit,
+            noise=noise or None,
         ),
         fits,
         train_res,
@@ -141,8 +149,9 @@ def effect_hypothesis(setup: Setup, name: str, family: str) -> Hypothesis:
     eff = (name,)
     full = None
     unpredicted = {ch: np.full(setup.n, np.inf) for ch in setup.channels}
+    noise: dict[str, np.ndarray] = {}
     if setup.is_log:
-        held, fits, train_res = held_out(setup, lambda tr: run.run_warm(tr, eff))
+        held, fits, train_res = held_out(setup, lambda tr: run.run_warm(tr, eff), noise)
         resid = held
     else:
         full = run.run(None, eff)
@@ -184,4 +193,5 @@ def effect_hypothesis(setup: Setup, name: str, family: str) -> Hypothesis:
         parameters=params,
         fit=full,
         train_residuals=train_res,
+        noise=(noise or None) if setup.is_log else None,
     )
