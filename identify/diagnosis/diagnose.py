@@ -47,7 +47,7 @@ from .library import effect_hypothesis, flexible_hypothesis, nominal_hypothesis
 from .localisation import localisation
 from .outside import outside_hypotheses
 from .result import Diagnosis, Excluded, RankEntry
-from .screening import Screen, newey_west_lag, screen
+from .screening import Screen, screen
 from .selection import LOOKALIKES, dm_test, gap_p_value, hat_basis
 from .sweep_parts import fit_jacobian, lack_of_fit
 from .settings import DEFAULT_SETTINGS, DiagnoseSettings
@@ -403,7 +403,7 @@ def diagnose(
     admissible = [h for h in hyps if h.admissible]
     scored, frame = _score(setup, admissible)
     evidence = (
-        HeldOutEvidence(max(1, newey_west_lag(frame.size // max(1, len(setup.channels)))), settings.n_bootstrap)
+        HeldOutEvidence(max(1, setup.n // settings.log_blocks), settings.n_bootstrap)
         if runner.is_log
         else PenalisedEvidence(settings.n_bootstrap)
     )

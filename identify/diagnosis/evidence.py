@@ -1,8 +1,11 @@
 """The weights of the comparison: one interface, two implementations.
 
 - :class:`HeldOutEvidence` (drive logs): each hypothesis is fitted on alternate blocks of the run
-  and predicts the others; its held-out log density ``-z^2 / 2 - log q`` per sample (``q`` its own noise level relative to the nominal
-  model's: a mass error scales the hull balance's noise with the mass) is averaged over a
+  and predicts the others (the bootstrap draws whole hold-out blocks: the unit the design makes
+  independent; shorter blocks would let a gain that a model's form wins on every sample of a
+  correlated stretch look certain); its held-out log density ``-z^2 / 2 - log q`` per sample
+  (``q`` its own noise level relative to the nominal model's: a mass error scales the hull
+  balance's noise with the mass) is averaged over a
   Bayesian bootstrap of blocks of consecutive samples (pseudo-BMA+, Yao et al. 2018,
   :func:`~.selection.stacking_weights`): correlated residuals move together, and a gain that rests
   on a few samples does not look certain. No penalty: held-out prediction pays for flexibility.

@@ -140,14 +140,16 @@ class FitRunner:
             return res
         return self.run(idx, effects, x0=None, **extra)
 
-    def refit_from(self, start: Any, idx: np.ndarray | None, effects: tuple[str, ...]) -> Any:
-        """Refit ``effects`` on ``idx`` from another fit's answer (soil and effect parameters)."""
+    def refit_from(self, start: Any, idx: np.ndarray | None, effects: tuple[str, ...], **extra: Any) -> Any:
+        """Refit ``effects`` on ``idx`` from another fit's answer (soil and effect parameters); ``extra`` as in
+        :meth:`run`."""
         st = effect_start(start)
         return self.run(
             idx,
             effects,
             start={e: dict(st.get(e, {})) or True for e in effects},
             x0=np.asarray(start.theta, dtype=float),
+            **extra,
         )
 
 
