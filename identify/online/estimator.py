@@ -236,6 +236,11 @@ class OnlineEstimator:
         return self._last
 
     @property
+    def normal_load_N(self) -> float:
+        """Normal load of the estimates, N: ``W cos(theta)`` on the known grade (``settings.grade_rad``)."""
+        return self._normal_load
+
+    @property
     def backend(self) -> str:
         """What evaluates the kernels (C code, or CasADi's virtual machine)."""
         return self._backend

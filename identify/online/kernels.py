@@ -158,7 +158,7 @@ TRACK_SLIP_ITERATIONS = 1
 #: from a poor start can jump to the other side of the optimum and back.
 SLIP_STEP_FRACTIONS = (1.0, 0.5, 0.25, 0.0)
 #: Step fractions of a tracking step's slip iteration.
-TRACK_STEP_FRACTIONS = (1.0, 0.0)
+TRACK_STEP_FRACTIONS = (1.0,)
 
 
 def _slip_gn(row, i, xF, xK, F_ref, K_ref, l, iterations: int, fractions: tuple[float, ...] = SLIP_STEP_FRACTIONS):
