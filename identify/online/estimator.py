@@ -75,7 +75,7 @@ _MESSAGES = {
     "not_converged": "the Gauss-Newton iteration has not converged yet",
 }
 #: What an estimate does not identify, given what it does (c and phi never: one normal load).
-_NOT_IDENTIFIED = {
+_NOT_IDENTIFIED: dict[tuple[str, ...], tuple[str, ...]] = {
     ident: tuple(n for n in IDENTIFIABLE_NAMES if n not in ident) + NOT_SEPARABLE
     for ident in ((), ("slope",), ("slope", "max_thrust"), ("slope", "max_thrust", "shear_modulus"))
 }
@@ -146,6 +146,10 @@ class OnlineEstimator:
         self._noise_known = None not in (s.sigma_torque, s.sigma_sprocket_speed, s.sigma_vehicle_speed)
         self._since_noise = 0
         self._alloc(INITIAL_CAPACITY)
+        # the horizon's slots in time order, (t, slot), and the running maximum of the used slots'
+        # peak thrust (a deque of (t, slot, peak) with decreasing peaks: the maximum is its front)
+        self._live: deque[tuple[float, int]] = deque()
+        self._peaks: deque[tuple[float, int, float]] = deque()
         self._hist: deque = deque()  # (t, M, w, v) of valid straight samples, time order
         self._dts: deque = deque(maxlen=31)
         self._dt_med: float | None = None
@@ -225,9 +229,13 @@ class OnlineEstimator:
         self._sl = self._sums.tolist()
         self._peak[:cap] = old[6][order]
         self._slot = cap
+        new_slot = np.empty(cap, dtype=int)
+        new_slot[order] = np.arange(cap)
+        self._live = deque((t, int(new_slot[j])) for t, j in self._live)
+        self._peaks = deque((t, int(new_slot[j]), val) for t, j, val in self._peaks)
         if self._prev is not None and self._prev[3] >= 0:
             p = self._prev
-            self._prev = (p[0], p[1], p[2], int(np.nonzero(order == p[3])[0][0]))
+            self._prev = (p[0], p[1], p[2], int(new_slot[p[3]]))
 
     # ------------------------------------------------------------------ public
     @property
@@ -299,7 +307,12 @@ class OnlineEstimator:
         if self._is_turning(float(speed_left), float(speed_right), yaw):
             self.samples_turning += 1
             if self._prev is not None and self._prev[3] >= 0:  # a turn's edge: the sample before it
-                self._tslot[self._prev[3]] = -math.inf
+                j = self._prev[3]
+                self._tslot[j] = -math.inf
+                self._D[j, _R["m"]] = 0.0
+                if self._live and self._live[-1][1] == j:
+                    self._live.pop()
+                self._rebuild_peaks()
             self._prev = None
             self._last_thrust = None
             return self._report(float(time_s), None, False, None, "skipped", "turning sample left out")
@@ -415,12 +428,19 @@ class OnlineEstimator:
         if self._tslot[slot] >= cutoff and self._cap < s.max_capacity:
             self._grow()
             slot = self._slot
+        if self._live and self._live[0][1] == slot:  # at max_capacity: the oldest sample leaves early
+            self._live.popleft()
+            if self._peaks and self._peaks[0][1] == slot:
+                self._peaks.popleft()
         self._RAW[slot] = raw
         self._D[slot] = self._row
         self._ok[slot] = self._row[_R["m"]]
-        self._peak[slot] = _peak(self._row)
+        pk = self._peak[slot] = _peak(self._row)
         self._Z[slot] = 0.0 if slip0 is None else slip0
         self._tslot[slot] = t
+        self._live.append((t, slot))
+        if self._ok[slot] > 0:
+            self._push_peak(t, slot, pk)
         self._slot = (slot + 1) % self._cap
         self._prev = (t, M, w, slot)
         if change is not None:
@@ -428,6 +448,29 @@ class OnlineEstimator:
             cutoff = max(t - s.window_s, self._t_reset)
         self._iterate(cutoff)
         return self._report(t, slip0, change is not None, change, None, "")
+
+    def _advance(self, cutoff: float) -> None:
+        """Samples older than ``cutoff`` leave the horizon (their ``m`` set to 0)."""
+        live, m = self._live, _R["m"]
+        while live and live[0][0] < cutoff:
+            self._D[live.popleft()[1], m] = 0.0
+        peaks = self._peaks
+        while peaks and peaks[0][0] < cutoff:
+            peaks.popleft()
+
+    def _push_peak(self, t: float, slot: int, value: float) -> None:
+        peaks = self._peaks
+        while peaks and peaks[-1][2] <= value:
+            peaks.pop()
+        peaks.append((t, slot, value))
+
+    def _rebuild_peaks(self) -> None:
+        """The running maximum from scratch (after a slot's weight or use changed)."""
+        self._peaks.clear()
+        ok, peak = self._ok, self._peak
+        for t, j in self._live:
+            if ok[j] > 0:
+                self._push_peak(t, j, float(peak[j]))
 
     def _median_dt(self) -> float:
         """Running median of the recent time steps (recomputed every few samples)."""
@@ -445,6 +488,7 @@ class OnlineEstimator:
         self._D[j] = self._row
         self._ok[j] = self._row[_R["m"]]
         self._peak[j] = _peak(self._row)
+        self._rebuild_peaks()
         self._row[:] = keep_row
         self._T_out[:], self._sT_out[:], self._raw1[:] = keep
 
@@ -489,6 +533,11 @@ class OnlineEstimator:
             self._ok[:] = self._rows_all[:, _R["m"]]
             with np.errstate(divide="ignore"):
                 np.subtract(self._rows_all[:, _R["T"]], 2.0 / self._rows_all[:, _R["inv_sc"]], out=self._peak)
+            live = np.zeros(self._cap)
+            for _, j in self._live:
+                live[j] = 1.0
+            np.multiply(self._ok, live, out=self._D[:, _R["m"]])
+            self._rebuild_peaks()
         self._have_noise = True
 
     def _scale(self) -> float:
@@ -521,7 +570,7 @@ class OnlineEstimator:
         (backtracking across kernel calls).
         """
         s = self.settings
-        np.multiply(self._ok, self._tslot >= cutoff, out=self._D[:, _R["m"]])
+        self._advance(cutoff)
         steps = 1 if self._converged else s.max_steps_per_update
         P = self._P
         before: tuple[float, float, float] | None = None  # (xF, xK, cost) before the last step
@@ -608,7 +657,7 @@ class OnlineEstimator:
                 K_bound = not (Klo + tol < xK < Khi - tol)
                 if abs(corr) < GENTLE_CORRELATION and sF_ / F < GENTLE_REL_STDERR and not F_bound:
                     # the horizon's largest thrust, two standard deviations below its value
-                    peak = float(np.max(self._peak, where=self._D[:, _R["m"]] > 0, initial=0.0))
+                    peak = max(self._peaks[0][2], 0.0) if self._peaks else 0.0
                     if peak >= self.settings.identify_min_utilisation * F:
                         ident = ("slope", "max_thrust")
                         sF = sF_
@@ -626,7 +675,9 @@ class OnlineEstimator:
             F, K = xF * self._F_ref, xK * self._K_ref
             slope = F * l / (2 * K)
         if status is None:
-            status = "ok" if (have and self._converged) else ("not_converged" if (have or n_used >= 3) else "warming_up")
+            status = (
+                "ok" if (have and self._converged) else ("not_converged" if (have or n_used >= 3) else "warming_up")
+            )
         if not message:
             message = _MESSAGES.get(status, status)
             if change:
