@@ -35,6 +35,7 @@ batch fit does not use it either).
 from __future__ import annotations
 
 import math
+import statistics
 from collections import deque
 
 import numpy as np
@@ -110,6 +111,7 @@ class OnlineEstimator:
             if s.grade_rad
             else float(vehicle.weight)
         )
+        self._grade = float(s.grade_rad)
         N, A, b = self._normal_load, vehicle.contact_area, s.bounds
         Fb = (
             float(max_thrust_expr(max(b.cohesion[0], 0.0), b.friction_angle[0], N, A, s.model)),
@@ -476,7 +478,7 @@ class OnlineEstimator:
         """Running median of the recent time steps (recomputed every few samples)."""
         self._dt_count += 1
         if self._dt_med is None or self._dt_count % _TURN_REESTIMATE_EARLY == 0:
-            self._dt_med = float(np.median(np.fromiter(self._dts, float)))
+            self._dt_med = statistics.median(self._dts)
         return self._dt_med
 
     def _reprepare(self, j: int) -> None:
@@ -557,8 +559,8 @@ class OnlineEstimator:
         self._z_count += 1
         n = len(self._recent_z)
         if n >= MIN_NOISE_SAMPLES and self._z_count % _TURN_REESTIMATE_EARLY == 0:
-            z = np.fromiter(self._recent_z, float)
-            self._z_scale = max(1.0, MAD_TO_SIGMA * float(np.median(np.abs(z - np.median(z)))))
+            med = statistics.median(self._recent_z)
+            self._z_scale = max(1.0, MAD_TO_SIGMA * statistics.median([abs(x - med) for x in self._recent_z]))
         return self._z_scale
 
     def _iterate(self, cutoff: float) -> None:
@@ -682,30 +684,32 @@ class OnlineEstimator:
             message = _MESSAGES.get(status, status)
             if change:
                 message = f"change of terrain detected, dated {t_change:.6g} s: older samples forgotten"
-        est = OnlineEstimate(
-            time_s=float(t),
-            max_thrust_N=F,
-            max_thrust_stderr_N=sF,
-            shear_modulus_m=K,
-            shear_modulus_stderr_m=sK,
-            covariance=cov,
-            slope_N=slope,
-            slope_stderr_N=s_slope,
-            normal_load_N=self._normal_load,
-            grade_rad=self.settings.grade_rad,
-            identifiable=ident,
-            not_identifiable=_NOT_IDENTIFIED[ident],
-            slip=None if slip is None else float(slip),
-            change_detected=bool(change),
-            change_time_s=None if t_change is None else float(t_change),
-            samples_used=n_used,
-            samples_skipped=self.samples_skipped,
-            samples_turning=self.samples_turning,
-            samples_seen=self.samples_seen,
-            converged=bool(self._converged and have),
-            status=status,
-            message=message,
-            detector=self._detector.statistic,
+        est = OnlineEstimate.from_fields(
+            {
+                "time_s": float(t),
+                "max_thrust_N": F,
+                "max_thrust_stderr_N": sF,
+                "shear_modulus_m": K,
+                "shear_modulus_stderr_m": sK,
+                "covariance": cov,
+                "slope_N": slope,
+                "slope_stderr_N": s_slope,
+                "normal_load_N": self._normal_load,
+                "grade_rad": self._grade,
+                "identifiable": ident,
+                "not_identifiable": _NOT_IDENTIFIED[ident],
+                "slip": None if slip is None else float(slip),
+                "change_detected": bool(change),
+                "change_time_s": None if t_change is None else float(t_change),
+                "samples_used": n_used,
+                "samples_skipped": self.samples_skipped,
+                "samples_turning": self.samples_turning,
+                "samples_seen": self.samples_seen,
+                "converged": bool(self._converged and have),
+                "status": status,
+                "message": message,
+                "detector": self._detector.statistic,
+            }
         )
         self._last = est
         return est
