@@ -43,6 +43,7 @@ __all__ = [
     "SPEED_FLOOR_SIGMA",
     "BRAKING_SIGMA",
     "PREDICT_ITERATIONS",
+    "PREDICT_START_U",
     "SLIP_ITERATIONS",
     "TRACK_SLIP_ITERATIONS",
     "SLIP_STEP_FRACTIONS",
@@ -100,6 +101,12 @@ BRAKING_SIGMA = 3.0
 JUMP_SIGMA = 5.0
 #: Gauss-Newton iterations on the latent slip of a new sample before it is predicted.
 PREDICT_ITERATIONS = 4
+#: Start candidates of a new sample's latent slip besides the measured one, as ``u = i l / K``
+#: (the slip factor's argument; its curve rises over u = 0.1 to 10). At low speed the measured
+#: slip is mostly noise and can sit on the wrong plateau of the curve (thrust positive, slip
+#: negative), where a Gauss-Newton step jumps to the other plateau and never reaches the steep
+#: part; the batch fit starts from the thrust's slip for the same reason.
+PREDICT_START_U = (0.0, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0)
 #: Smallest speed floor, m/s (as the batch fit).
 _MIN_FLOOR = 1e-3
 
@@ -342,9 +349,10 @@ def _step(n: int, iterations: int, fractions: tuple[float, ...], name: str) -> c
 def predict_kernel() -> ca.Function:
     """A new sample's profiled residual: ``(row, P) -> [slip, wres]``.
 
-    The latent slip starts at the measured slip (clipped to the slip bounds) and takes
-    :data:`PREDICT_ITERATIONS` Gauss-Newton steps on ``e_w^2 + e_T^2`` at the current
-    estimate; ``wres`` is the batch fit's profiled residual ``sign(e_T) sqrt(e_w^2 + e_T^2)``.
+    The latent slip starts at the cheapest of the measured slip (clipped to the slip bounds)
+    and the points :data:`PREDICT_START_U` of the thrust-slip curve at the current estimate, and
+    takes :data:`PREDICT_ITERATIONS` Gauss-Newton steps on ``e_w^2 + e_T^2``; ``wres`` is the
+    batch fit's profiled residual ``sign(e_T) sqrt(e_w^2 + e_T^2)``.
     """
     row = ca.SX.sym("row", len(ROWS))
     p = ca.SX.sym("p", len(PARAMS))
@@ -355,6 +363,14 @@ def predict_kernel() -> ca.Function:
         return _residuals(row, i, P["xF"], P["xK"], P["F_ref"], P["K_ref"], P["l"])
 
     s = ca.fmin(ca.fmax(1 - row[0] / ca.fmax(row[1], _MIN_FLOOR), lo), hi)
+    e_w, e_T = res(s)
+    best = e_w**2 + e_T**2
+    for u in PREDICT_START_U:
+        cand = ca.fmin(ca.fmax(u * P["xK"] * P["K_ref"] / P["l"], lo), hi)
+        e_w, e_T = res(cand)
+        c = e_w**2 + e_T**2
+        better = c < best
+        s, best = ca.if_else(better, cand, s), ca.if_else(better, c, best)
     s = _slip_gn(row, s, P["xF"], P["xK"], P["F_ref"], P["K_ref"], P["l"], PREDICT_ITERATIONS)
     e_w, e_T = res(s)
     wres = ca.sign(e_T) * ca.sqrt(e_w**2 + e_T**2)
