@@ -210,7 +210,7 @@ def _thrust_residual_derivatives(row, i_s, xs, P, z):
 
     Differentiated (AD) through the slip factor's local second-order model at the point,
     ``g(u0) + g'(u0) (u - u0) + g''(u0) (u - u0)^2 / 2`` with ``u0 = u``: the same value, gradient
-    and Hessian as differentiating :func:`_residuals` directly (to rounding), in about 40 % fewer
+    and Hessian as differentiating :func:`_residuals` directly (to rounding), in fewer
     operations (the slip factor's two branches are differentiated once, in ``u`` alone).
     """
     u0 = ca.SX.sym("u0")
@@ -382,7 +382,7 @@ class Kernels:
 
     ``step`` is the Newton step of a horizon whose iteration has not converged (start, after a
     change of terrain: :data:`SLIP_ITERATIONS` safeguarded slip steps); ``track`` the step of a
-    converged one (:data:`TRACK_SLIP_ITERATIONS`, about 40 % cheaper). Both share the inputs
+    converged one (:data:`TRACK_SLIP_ITERATIONS`: less work per sample). Both share the inputs
     and outputs.
 
     ``backend`` says what evaluates them (C code from the per-user cache, or CasADi's

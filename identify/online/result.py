@@ -107,9 +107,9 @@ class OnlineEstimate:
     def from_fields(cls, fields: dict) -> OnlineEstimate:
         """Build from a dict holding every field (the estimator's per-update fast path).
 
-        The frozen ``__init__`` sets its fields one ``object.__setattr__`` at a time (about
-        5 us for these 24 at every update); this fills the instance's dict at once. A missing or
-        unknown field is refused as ``__init__`` would.
+        The frozen ``__init__`` sets its fields one ``object.__setattr__`` at a time, at every
+        update; this fills the instance's dict at once. A missing or unknown field is refused,
+        as ``__init__`` would refuse it.
         """
         if fields.keys() != _FIELDS:
             raise TypeError(f"OnlineEstimate fields differ: {sorted(fields.keys() ^ _FIELDS)}")
