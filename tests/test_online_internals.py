@@ -106,3 +106,18 @@ def test_local_model_derivatives_are_the_direct_ones():
         iv = rng.uniform(-0.2, 0.9) * (0.001 if rng.random() < 0.2 else 1.0)  # also the bracket's series branch
         for a, b in zip(local(rv, pv, xv, iv), direct(rv, pv, xv, iv)):
             np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-9, atol=1e-9)
+
+
+def test_estimate_fast_constructor_is_the_dataclass_one():
+    from soiltrack.identify import OnlineEstimate
+
+    est = OnlineEstimator(LIGHT)
+    e = est.update(0.0, 1.0, 10.0, 0.7)
+    fields = {k: getattr(e, k) for k in OnlineEstimate.__dataclass_fields__}
+    assert OnlineEstimate(**fields).as_dict() == e.as_dict()
+    with pytest.raises(TypeError):
+        OnlineEstimate.from_fields({k: v for k, v in fields.items() if k != "slip"})
+    with pytest.raises(TypeError):
+        OnlineEstimate.from_fields({**fields, "extra": 1})
+    with pytest.raises(AttributeError):
+        e.slip = 0.1
