@@ -93,3 +93,21 @@ def test_the_command_line_keeps_or_widens_the_bounds(tmp_path, capsys):
         text=True,
     )
     assert bad.returncode == 2 and "--bounds" in bad.stderr and "Traceback" not in bad.stderr
+
+
+@pytest.mark.parametrize("exponent", [1.0, 0.0])
+def test_the_measured_sinkage_shows_the_slip_sinkage_signature(exponent):
+    """A track sweep with sinkage_m: the diagnosis carries the sinkage's growth with the slip (Lyasko's law
+    simulated: found, exponent near 1; static sinkage: not found)."""
+    from soiltrack.soilmodel import TERRAINS, VEHICLES
+    from soiltrack.soilmodel.simulation import simulate_slip_sweep
+
+    v = VEHICLES["light"]
+    data = simulate_slip_sweep(
+        v, TERRAINS["sandy_loam"], normal_loads=(300.0, 450.0), seed=3, sinkage_slip_exponent=exponent
+    )
+    d = diagnose(data, v)
+    ev = json.loads(d.to_json())["sinkage_evidence"]
+    assert ev["testable"] and ev["n_rows"] == data.n_samples
+    assert abs(ev["exponent"] - exponent) < 3 * ev["stderr"] + 0.05
+    assert d.sinkage.found() is (exponent > 0)

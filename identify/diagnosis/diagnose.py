@@ -34,6 +34,7 @@ All model evaluations go through :func:`~.fitting.fit` and its results; no physi
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import time
@@ -73,6 +74,7 @@ from .gap import (
 )
 from .screening import Screen, newey_west_lag, screen
 from ..sweep.model import SweepResiduals
+from ..sweep.sinkage_channel import slip_sinkage_evidence
 from .selection import (
     DISCREPANCY,
     LOOKALIKES,
@@ -235,6 +237,9 @@ class Diagnosis:
     gap_shrink: float | None = None
     elapsed_s: float = 0.0
     curves: dict = field(default_factory=dict, repr=False)
+    #: A sweep's measured sinkage against the slip (:func:`~..sweep.sinkage_channel.slip_sinkage_evidence`):
+    #: the slip-sinkage signature, shown beside the comparison; None without a ``sinkage_m`` channel.
+    sinkage: Any = None
 
     # ------------------------------------------------------------------ output
     def to_dict(self) -> dict:
@@ -267,6 +272,7 @@ class Diagnosis:
             "n_samples": int(self.n_samples),
             "candidates": list(self.candidates),
             "converged": bool(self.converged),
+            "sinkage_evidence": None if self.sinkage is None else self.sinkage.to_dict(),
             "notes": list(self.notes),
             "elapsed_s": _f(self.elapsed_s),
         }
@@ -438,6 +444,7 @@ class Diagnosis:
             L.append(f"  {k}: {_fmt(v)}{_soil_flag(self.soil_before, k)}{after}")
         if self.soil_after:
             L.append("  (the change is the bias the missing effect caused in the nominal fit)")
+        L += _sinkage_lines(self.sinkage)
         for n in self.notes:
             L.append(f"Note: {n}")
         L.append(f"({self.elapsed_s:.1f} s)")
@@ -1028,7 +1035,22 @@ def _check_candidates(candidates, data) -> tuple[str, ...]:
 
 
 # ----------------------------------------------------------------------------- the diagnosis
-def diagnose(
+def _sinkage_lines(ev: Any) -> list[str]:
+    """The measured sinkage against the slip (sweeps with a ``sinkage_m`` channel)."""
+    if ev is None:
+        return []
+    if not ev.testable:
+        return [f"Measured sinkage: no test of its growth with the slip ({ev.reason})."]
+    grows = "grows with the slip" if ev.found() else "shows no significant growth with the slip"
+    return [
+        f"Measured sinkage ({ev.n_rows} rows) {grows}: exponent of Lyasko's factor s = {ev.exponent:.3g} "
+        f"(standard error {ev.stderr:.2g}; p = {ev.p_no_slip_sinkage:.2g} for no slip sinkage, "
+        f"p = {ev.p_lyasko:.2g} for Lyasko's law s = 1). A sinkage that grows with the slip is the signature of "
+        "slip sinkage; its resistance is weighed above on the force channel."
+    ]
+
+
+def _diagnose(
     data: SlipData | DriveLog,
     vehicle: Vehicle,
     *,
@@ -2350,3 +2372,12 @@ def _nominal_failed(data, cands, screens, res, where: str, is_log: bool, t0: flo
         elapsed_s=time.perf_counter() - t0,
         curves={},
     )
+
+
+@functools.wraps(_diagnose)
+def diagnose(data: SlipData | DriveLog, vehicle: Vehicle, **kwargs: Any) -> Diagnosis:
+    """(:func:`_diagnose`'s docstring, copied by ``functools.wraps``) plus a sweep's slip-sinkage signature."""
+    d = _diagnose(data, vehicle, **kwargs)
+    if isinstance(data, SlipData) and data.sinkage is not None and isinstance(vehicle, Vehicle):
+        d = replace(d, sinkage=slip_sinkage_evidence(data, vehicle))
+    return d
