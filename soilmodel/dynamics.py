@@ -234,6 +234,15 @@ _PEAK_ROUNDS = 20
 _INVERSE_ROUNDS = 19
 
 
+def _thrust_at(fn: Any, soil: Any, pts: np.ndarray, W: np.ndarray) -> np.ndarray:
+    """The thrust function ``fn`` at the slips ``pts`` (one row per load of ``W``, ``_SECTIONS`` columns), in
+    one CasADi call."""
+    F = fn(
+        pts.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus, np.repeat(W, pts.shape[1])[None, :]
+    )
+    return np.asarray(F, dtype=float).reshape(pts.shape)
+
+
 def _peak(fn, soil: Soil, W: np.ndarray, n: int = 400) -> tuple[np.ndarray, np.ndarray]:
     """Largest F on [0, _SLIP_MAX] and the smallest slip where it occurs, per load (grid + refine)."""
     grid = np.concatenate([[0.0], np.geomspace(1e-5, _SLIP_MAX, n - 1)])
@@ -248,16 +257,7 @@ def _peak(fn, soil: Soil, W: np.ndarray, n: int = 400) -> tuple[np.ndarray, np.n
     # CasADi call for all loads; the bracket shrinks to the points beside the largest value
     for _ in range(_PEAK_ROUNDS):
         pts = lo[:, None] + (hi - lo)[:, None] * _FRACTIONS[None, :]
-        Fp = np.asarray(
-            fn(
-                pts.reshape(1, -1),
-                soil.cohesion,
-                soil.friction_angle,
-                soil.shear_modulus,
-                np.repeat(W, _SECTIONS)[None, :],
-            ),
-            dtype=float,
-        ).reshape(pts.shape)
+        Fp = _thrust_at(fn, soil, pts, W)
         j = np.argmax(Fp, axis=1)
         rows = np.arange(len(W))
         lo, hi = (
@@ -324,16 +324,7 @@ def slip_from_thrust(
     # multisection of the rising branch: _SECTIONS points per round, one CasADi call for all thrusts
     for _ in range(_INVERSE_ROUNDS):
         pts = lo[:, None] + (hi - lo)[:, None] * _FRACTIONS[None, :]
-        Fp = np.asarray(
-            fn(
-                pts.reshape(1, -1),
-                soil.cohesion,
-                soil.friction_angle,
-                soil.shear_modulus,
-                np.repeat(Wb, _SECTIONS)[None, :],
-            ),
-            dtype=float,
-        ).reshape(pts.shape)
+        Fp = _thrust_at(fn, soil, pts, Wb)
         j = np.sum(Fp < tgt[:, None], axis=1)  # points below the target (F rises on the bracket)
         rows = np.arange(len(tgt))
         lo, hi = (
