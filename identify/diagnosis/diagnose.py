@@ -2297,16 +2297,10 @@ def _too_few(
     )
 
 
-def _inconsistent(data, cands, report: ConsistencyReport, is_log: bool, t0: float) -> Diagnosis:
-    """Data that fail the cross-channel consistency checks (a mislabelled channel, a unit) are not
-    diagnosed: no gap can be read against a model of the wrong data (verdict ``unexplained``,
-    confidence 0, not converged, the checks in the notes)."""
-    fatal = [f for f in report.findings if f.severity == "fatal"]
-    reason = (
-        "the data fail the consistency checks (" + ", ".join(f.check for f in fatal) + "): a channel's "
-        "label or unit does not match the vehicle; no gap is read against a model of the wrong data"
-    )
-    return Diagnosis(
+def _no_comparison(data, cands, is_log: bool, t0: float, reason: str, notes: tuple, **fields) -> Diagnosis:
+    """A diagnosis in which nothing was compared (verdict ``unexplained``, confidence 0, not converged unless
+    ``fields`` say otherwise): the fields every such result shares, ``fields`` overriding them."""
+    base: dict[str, Any] = dict(
         data_kind="drive" if is_log else "sweep",
         n_samples=data.n_samples,
         candidates=cands,
@@ -2328,10 +2322,25 @@ def _inconsistent(data, cands, report: ConsistencyReport, is_log: bool, t0: floa
         soil_after=None,
         gap_p_value=1.0,
         converged=False,
-        notes=(reason,) + tuple(f.message for f in fatal),
+        notes=notes,
         elapsed_s=time.perf_counter() - t0,
         curves={},
     )
+    base.update(fields)
+    return Diagnosis(**base)
+
+
+def _inconsistent(data, cands, report: ConsistencyReport, is_log: bool, t0: float) -> Diagnosis:
+    """Data that fail the cross-channel consistency checks (a mislabelled channel, a unit) are not
+    diagnosed: no gap can be read against a model of the wrong data (verdict ``unexplained``,
+    confidence 0, not converged, the checks in the notes)."""
+    fatal = [f for f in report.findings if f.severity == "fatal"]
+    reason = (
+        "the data fail the consistency checks ("
+        + ", ".join(f.check for f in fatal)
+        + "): a channel's label or unit does not match the vehicle; no gap is read against a model of the wrong data"
+    )
+    return _no_comparison(data, cands, is_log, t0, reason, (reason,) + tuple(f.message for f in fatal))
 
 
 class _NominalFailed(Exception):
@@ -2346,31 +2355,8 @@ def _nominal_failed(data, cands, screens, res, where: str, is_log: bool, t0: flo
         f"the nominal model could not be fitted {where} ({getattr(res, 'status', 'failed')}: "
         f"{getattr(res, 'message', '')}); without it there is no gap to explain"
     )
-    return Diagnosis(
-        data_kind="drive" if is_log else "sweep",
-        n_samples=data.n_samples,
-        candidates=cands,
-        verdict="unexplained",
-        confidence=0.0,
-        reason=reason,
-        ranking=(),
-        screens=tuple(screens),
-        confusable=(),
-        localisation=(),
-        change=None,
-        whiteness={},
-        lags={},
-        noise={},
-        holdout_rmse_before={},
-        holdout_rmse_after=None,
-        shrink=None,
-        soil_before=_soil_summary(res),
-        soil_after=None,
-        gap_p_value=1.0,
-        converged=False,
-        notes=(reason,),
-        elapsed_s=time.perf_counter() - t0,
-        curves={},
+    return _no_comparison(
+        data, cands, is_log, t0, reason, (reason,), screens=tuple(screens), soil_before=_soil_summary(res)
     )
 
 
