@@ -59,6 +59,8 @@ __all__ = [
     "dynamics_function",
     "slip_from_thrust",
     "slip_from_thrust_function",
+    "slip_time_constant_expr",
+    "held_torque_weight_expr",
 ]
 
 #: The two sprocket equations: ``"thrust"`` (default, ``I dw/dt = M_s - r F``) and ``"seed"``
@@ -232,6 +234,37 @@ _PEAK_ROUNDS = 20
 #: Rounds of the inversion: the bracket shrinks by 1 / (_SECTIONS + 1) per round, to 7e-19 of the bracket after
 #: 19 (below double precision, as the 60 halvings this replaces, 9e-19).
 _INVERSE_ROUNDS = 19
+
+
+def slip_time_constant_expr(slip, w, dthrust_dslip, vehicle: Vehicle):
+    """Time constant (s) of the slip's relaxation under a held sprocket torque.
+
+    The sprocket equation ``I dw/dt = M - r F(i)`` with ``w = v / (r (1 - i))``, linearised in the
+    slip at a fixed vehicle speed (the hull is far heavier than the sprocket):
+    ``tau = I w / ((1 - i) r dF/di)``. ``dthrust_dslip`` is ``dF/di`` of the thrust law (N), floored
+    at a tiny positive value (on the flat of the curve the relaxation is slow, never negative).
+    """
+    dF = ca.fmax(dthrust_dslip, 1e-9)
+    return vehicle.sprocket_inertia * ca.fabs(w) / (ca.fmax(1.0 - slip, 1e-3) * vehicle.sprocket_radius * dF)
+
+
+def held_torque_weight_expr(x):
+    """Weight ``phi(x)`` of the next interval's mean thrust in the thrust at a sample (``x = h / tau``).
+
+    Under a torque held over each sample interval (zero-order hold), the thrust after each torque
+    step relaxes exponentially with the slip's time constant ``tau`` (:func:`slip_time_constant_expr`).
+    The mean thrust of an interval then differs from the thrust at its end by
+    ``phi(x)`` times the change over the interval, with
+    ``phi(x) = ((1 - e^-x) / x - e^-x) / (1 - e^-x)``; and ``(1 - phi) T_k + phi T_{k+1}`` of two
+    consecutive interval means ``T`` equals the thrust at the sample between them to first order in
+    the change (exact for a steady trend of equal steps). ``phi`` falls from 1/2 (``x -> 0``: slow
+    relaxation, the thrust linear in time, the midpoint rule) to 0 (``x -> inf``: the slip settles at
+    once, the interval's mean is its end value).
+    """
+    x = ca.fmax(x, 0.0)
+    em = ca.exp(-x)
+    exact = ((1.0 - em) / ca.fmax(x, 1e-300) - em) / ca.fmax(1.0 - em, 1e-300)
+    return ca.if_else(x < 1e-4, 0.5 - x / 12.0, exact)
 
 
 def _thrust_at(fn: Any, soil: Any, pts: np.ndarray, W: np.ndarray) -> np.ndarray:
