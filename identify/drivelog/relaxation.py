@@ -38,7 +38,8 @@ __all__ = ["DISCRETISATIONS", "TREND_SAMPLES", "relaxation_function", "relaxatio
 #: (``python benchmarks/drivelog_discretisation.py``): on hard pulls the end-point rule puts F_max high
 #: and its intervals miss (8 deg, 50 Hz: 8 of 20 hold the truth; relaxation 20 of 20), on the default
 #: profile the relaxation weights give intervals too narrow (60 seeds: F_max 52, K 49 of 60 against
-#: 56 and 55), as the mix correlates neighbouring samples, which the per-sample covariance ignores.
+#: 56 and 55) and F_max 0.5 % higher. Why is not established: the mix correlates neighbouring samples,
+#: but adding the lag-1 cross products of the scores to the sandwich made it worse (49 and 49 of 60).
 DISCRETISATIONS = ("end-point", "relaxation")
 #: Samples of the running median that gives the slip a weight is computed at. The weight multiplies the
 #: difference of two interval means, which holds the encoder noise of the sample's own sprocket speed;
