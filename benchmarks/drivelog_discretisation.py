@@ -5,6 +5,8 @@ Usage (from the repository root)::
 
     python benchmarks/drivelog_discretisation.py              # 20 seeds per case (about 5 min)
     python benchmarks/drivelog_discretisation.py --seeds 5
+    python benchmarks/drivelog_discretisation.py --case default --seeds 60   # one case (label prefix)
+    python benchmarks/drivelog_discretisation.py --check 12   # the check's shifts on ordinary logs
 
 What is measured
 ----------------
@@ -17,7 +19,9 @@ the truth at the log's load), the mean standardised error (error / standard erro
 the 95 % intervals of F_max and K hold the truth. Cases: hard pulls (1 -> 2.5 m/s every 4 s) on flat
 ground and on an 8 deg grade at 50 Hz, the same pulls at 100 Hz, and the default (gentle) profile at
 50 Hz. Plus one noise-free log of the pulls at 25, 50, 100 and 200 Hz per rule (the discretisation
-error alone).
+error alone). ``--check N``: instead, the shift of F_max between the two rules in standard errors
+(``fit(..., discretisation_check=True)``) on N default-profile logs each of the light vehicle on LETE
+sand and dry sand and the heavy vehicle on LETE sand (how often the check warns on ordinary logs).
 """
 
 from __future__ import annotations
@@ -34,6 +38,7 @@ if _ROOT not in sys.path:
     sys.path.insert(0, _ROOT)
 
 from soiltrack.identify import fit  # noqa: E402
+from soiltrack.identify.drivelog.fit import DISCRETISATION_SHIFT_SE  # noqa: E402
 from soiltrack.soilmodel import TERRAINS, VEHICLES, max_thrust, simulate_drive_log  # noqa: E402
 
 VEHICLE, SOIL = VEHICLES["light"], TERRAINS["lete_sand"]
@@ -70,9 +75,11 @@ def simulate(case: dict, seed: int, noise: str = "default"):
     return log, max_thrust(SOIL, VEHICLE, normal_load=VEHICLE.weight * math.cos(th))
 
 
-def study(seeds: int) -> None:
+def study(seeds: int, only: str | None = None) -> None:
     K_true = SOIL.shear_modulus
     for label, case in CASES.items():
+        if only is not None and not label.startswith(only):
+            continue
         rows = {rule: [] for rule in RULES}
         for seed in range(seeds):
             log, F_true = simulate(case, 100 + seed)
@@ -111,14 +118,39 @@ def noise_free() -> None:
         print(f"  {hz:5.0f} Hz: " + ", ".join(parts))
 
 
+def check_shifts(seeds: int, limit: float) -> None:
+    """The discretisation check on ordinary (default-profile) logs: its F_max shifts, in standard errors."""
+    for vehicle, soil in ((VEHICLE, SOIL), (VEHICLE, TERRAINS["dry_sand"]), (VEHICLES["heavy"], SOIL)):
+        shifts = []
+        for seed in range(seeds):
+            log = simulate_drive_log(vehicle, soil, seed=200 + seed)
+            c = fit(log, vehicle, discretisation_check=True).extra.get("discretisation_check", {})
+            if c.get("max_thrust_shift_se") is not None:
+                shifts.append(c["max_thrust_shift_se"])
+        a = np.abs(np.array(shifts))
+        print(
+            f"{vehicle.name.split(' (')[0]} vehicle, {soil.name}: {a.size} logs compared, "
+            f"|shift| max {a.max():.2f} SE, beyond 1 SE {int(np.sum(a > 1))}, "
+            f"beyond {limit:g} SE (a warning) {int(np.sum(a > limit))}"
+        )
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", type=int, default=20, help="seeds per case (default 20)")
+    ap.add_argument("--case", default=None, help="only the cases whose label starts with this")
+    ap.add_argument("--check", type=int, default=None, metavar="N", help="the check's shifts on N logs per vehicle")
     a = ap.parse_args(argv)
     if a.seeds < 2:
         ap.error("--seeds must be at least 2")
-    noise_free()
-    study(a.seeds)
+    if a.check is not None:
+        if a.check < 1:
+            ap.error("--check must be at least 1")
+        check_shifts(a.check, DISCRETISATION_SHIFT_SE)
+        return 0
+    if a.case is None:
+        noise_free()
+    study(a.seeds, a.case)
     return 0
 
 

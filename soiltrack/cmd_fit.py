@@ -144,6 +144,8 @@ def _cmd_fit(a: argparse.Namespace) -> int:
         kw["torque_hold"] = a.torque_hold
     if a.discretisation is not None:
         kw["discretisation"] = a.discretisation
+    elif drive_log and a.torque_hold != "sample" and not a.effect:  # the default rule, the other one beside it
+        kw["discretisation_check"] = True
     if a.slip_noise is not None:
         kw["slip_noise"] = (
             a.slip_noise if a.slip_noise in ("auto", "off") else floats_arg(a.slip_noise, "--slip-noise")[0]

@@ -139,3 +139,54 @@ def test_unknown_discretisation_is_refused():
     log = simulate_drive_log(LIGHT, SAND, seed=3, duration_s=10.0)
     with pytest.raises(DataError, match="discretisation"):
         fit(log, LIGHT, discretisation="trapezoid")
+
+
+def _hard_pulls_on_a_slope():
+    return simulate_drive_log(
+        LIGHT,
+        SAND,
+        seed=105,
+        duration_s=30.0,
+        speed_profile=pulls,
+        effects={"grade": np.radians(8.0)},
+        controller_bandwidth=2.0,
+    )
+
+
+def test_the_discretisation_check_puts_the_other_rule_beside_the_fit():
+    """8 deg hard pulls: the end-point fit (the default) and the relaxation fit disagree by about 3 SE."""
+    log = _hard_pulls_on_a_slope()
+    plain = fit(log, LIGHT)
+    assert "discretisation_check" not in plain.extra  # the library's default: no second fit
+    res = fit(log, LIGHT, discretisation_check=True)
+    assert res.extra["max_thrust_N"] == pytest.approx(plain.extra["max_thrust_N"], rel=1e-9)  # unchanged
+    chk = res.extra["discretisation_check"]
+    rel = fit(log, LIGHT, discretisation="relaxation")
+    assert chk["compared"] and chk["relaxation_max_thrust_N"] == pytest.approx(rel.extra["max_thrust_N"], rel=1e-9)
+    shift = (rel.extra["max_thrust_N"] - plain.extra["max_thrust_N"]) / plain.extra["max_thrust_stderr_N"]
+    assert chk["max_thrust_shift_se"] == pytest.approx(shift, rel=1e-9)
+    assert shift < -2.0  # measured -2.9: the end-point rule reads high here
+    truth = max_thrust(SAND, LIGHT, normal_load=LIGHT.weight * np.cos(np.radians(8.0)))
+    assert abs(rel.extra["max_thrust_N"] - truth) < abs(plain.extra["max_thrust_N"] - truth)
+    assert len(res.warnings) == len(plain.warnings) + 1
+
+
+def test_the_command_line_fit_of_a_drive_log_carries_the_check(tmp_path, capsys):
+    import json
+
+    from soiltrack.cli import main
+    from soiltrack.soilmodel.data import write_csv
+
+    path = tmp_path / "pulls.csv"
+    write_csv(_hard_pulls_on_a_slope(), path)
+    assert main(["fit", str(path), "--vehicle", "light", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    chk = out["extra"]["discretisation_check"]
+    assert chk["compared"] is True and chk["max_thrust_shift_se"] < -2.0
+    assert main(["fit", str(path), "--vehicle", "light", "--json", "--discretisation", "relaxation"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["extra"]["discretisation"] == "relaxation" and "discretisation_check" not in out["extra"]
+    sweep = tmp_path / "sweep.csv"
+    sweep.write_text("slip,drawbar_pull_N\n0.05,100\n0.1,150\n0.2,180\n0.3,190\n0.4,195\n")
+    assert main(["fit", str(sweep), "--vehicle", "light", "--discretisation", "relaxation"]) == 2
+    assert "--discretisation" in capsys.readouterr().err
