@@ -104,6 +104,7 @@ def test_sampled_torque_keeps_its_central_difference():
     assert np.all(b.relaxation == 0.0) and b.relaxation_at is None
 
 
+@pytest.mark.slow
 def test_noise_free_hard_pulls_no_longer_put_fmax_high():
     """Noise-free pulls at 50 Hz: the end-point rule +3.3 % (10 SE), the relaxation weights +0.7 %."""
     log = simulate_drive_log(
@@ -122,6 +123,7 @@ def test_noise_free_hard_pulls_no_longer_put_fmax_high():
     assert abs(rel.extra["shear_modulus_m"] / SAND.shear_modulus - 1) < 0.02
 
 
+@pytest.mark.slow
 def test_residuals_use_the_fit_s_own_discretisation():
     from soiltrack.identify.drivelog import drive_log_residuals
 
