@@ -141,6 +141,8 @@ def test_unknown_discretisation_is_refused():
     log = simulate_drive_log(LIGHT, SAND, seed=3, duration_s=10.0)
     with pytest.raises(DataError, match="discretisation"):
         fit(log, LIGHT, discretisation="trapezoid")
+    with pytest.raises(DataError, match="torque_hold"):  # nothing silently ignored
+        fit(log, LIGHT, discretisation="relaxation", torque_hold="sample")
 
 
 def _hard_pulls_on_a_slope():

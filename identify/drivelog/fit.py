@@ -471,6 +471,11 @@ def _check_arguments(model: str, method: str, formulation: str, options: dict) -
     disc = options.get("discretisation", DISCRETISATIONS[0])
     if disc not in DISCRETISATIONS:
         raise DataError(f"unknown discretisation {disc!r}; expected one of {DISCRETISATIONS}")
+    if disc == "relaxation" and options.get("torque_hold", "zoh") != "zoh":
+        raise DataError(
+            "discretisation='relaxation' is for a torque held between samples (torque_hold='zoh'); "
+            "a sampled torque (torque_hold='sample') has its own central difference"
+        )
     unknown = sorted(set(options) - set(_OPTION_NAMES) - {"_fixed_keep", "_plain_start"})
     if unknown:
         raise DataError(f"unknown option(s) {unknown} for a drive-log fit; expected some of {list(_OPTION_NAMES)}")
