@@ -315,8 +315,13 @@ def fit_drive_log(
         )
         kw.update(options)
         res = fit_drive_log(log, vehicle, model, bounds, x0, strict, **kw)
+        # the default fit is the relaxation fit's pilot: its soil is handed over, not fitted again
+        pilot = (res.extra.get("max_thrust_N"), res.extra.get("shear_modulus_m"))
         return _discretisation_check(
-            res, lambda: fit_drive_log(log, vehicle, model, bounds, x0, False, **{**kw, "discretisation": "relaxation"})
+            res,
+            lambda: fit_drive_log(
+                log, vehicle, model, bounds, x0, False, **{**kw, "discretisation": "relaxation", "_pilot": pilot}
+            ),
         )
     joint = bool(effects) or bool(fixed) or options.get("hull_channel", False) is True
     if bias_correction is not None:
@@ -340,7 +345,9 @@ def fit_drive_log(
     K_ref = math.sqrt(Kb[0] * Kb[1])
     starts, c_hint = _start_points(prep, vehicle, model, x0, Fb, Kb, K_ref, bool(options.get("multistart", True)))
     solve = solve_output_error if formulation == "output-error" else solve_equation_error
-    pilot = _relaxation_pilot(prep, vehicle, options, solve, (F_ref, K_ref, Fb, Kb, starts, max_iter, tol, print_level))
+    pilot = options.get("_pilot") or _relaxation_pilot(
+        prep, vehicle, options, solve, (F_ref, K_ref, Fb, Kb, starts, max_iter, tol, print_level)
+    )
     if pilot is not None:  # the held-torque discretisation at the pilot's soil; the pilot starts the fit
         prep = prepare_drive_log(
             log, vehicle, **_prepare_options(options), fixed_keep=options.get("_fixed_keep"), relaxation_at=pilot
@@ -476,7 +483,7 @@ def _check_arguments(model: str, method: str, formulation: str, options: dict) -
             "discretisation='relaxation' is for a torque held between samples (torque_hold='zoh'); "
             "a sampled torque (torque_hold='sample') has its own central difference"
         )
-    unknown = sorted(set(options) - set(_OPTION_NAMES) - {"_fixed_keep", "_plain_start"})
+    unknown = sorted(set(options) - set(_OPTION_NAMES) - {"_fixed_keep", "_plain_start", "_pilot"})
     if unknown:
         raise DataError(f"unknown option(s) {unknown} for a drive-log fit; expected some of {list(_OPTION_NAMES)}")
 
