@@ -316,11 +316,16 @@ def fit_drive_log(
         kw.update(options)
         res = fit_drive_log(log, vehicle, model, bounds, x0, strict, **kw)
         # the default fit is the relaxation fit's pilot: its soil is handed over, not fitted again
-        pilot = (res.extra.get("max_thrust_N"), res.extra.get("shear_modulus_m"))
         return _discretisation_check(
             res,
             lambda: fit_drive_log(
-                log, vehicle, model, bounds, x0, False, **{**kw, "discretisation": "relaxation", "_pilot": pilot}
+                log,
+                vehicle,
+                model,
+                bounds,
+                x0,
+                False,
+                **{**kw, "discretisation": "relaxation", "_pilot": _soil_of(res)},
             ),
         )
     joint = bool(effects) or bool(fixed) or options.get("hull_channel", False) is True
@@ -345,7 +350,7 @@ def fit_drive_log(
     K_ref = math.sqrt(Kb[0] * Kb[1])
     starts, c_hint = _start_points(prep, vehicle, model, x0, Fb, Kb, K_ref, bool(options.get("multistart", True)))
     solve = solve_output_error if formulation == "output-error" else solve_equation_error
-    pilot = options.get("_pilot") or _relaxation_pilot(
+    pilot: tuple[float, float] | None = options.get("_pilot") or _relaxation_pilot(
         prep, vehicle, options, solve, (F_ref, K_ref, Fb, Kb, starts, max_iter, tol, print_level)
     )
     if pilot is not None:  # the held-torque discretisation at the pilot's soil; the pilot starts the fit
@@ -527,6 +532,11 @@ def _discretisation_check(res: FitResult, refit) -> FitResult:
     else:
         chk["reason"] = "the fit with the relaxation weights did not converge"
     return replace(res, extra={**ex, "discretisation_check": chk}, input_warnings=tuple(res.input_warnings) + warn)
+
+
+def _soil_of(res: FitResult) -> tuple[float, float]:
+    """``(F_lim, K)`` of a converged drive-log fit (the pilot of its relaxation refit)."""
+    return float(res.extra["max_thrust_N"]), float(res.extra["shear_modulus_m"])
 
 
 def _se_words(shift: float | None) -> str:
