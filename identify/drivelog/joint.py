@@ -119,13 +119,14 @@ def joint_data(
     log: DriveLog,
     vehicle: Vehicle,
     prep: PreparedLog,
-    torque_hold: str,
     sigma_accel: float | None = None,
     accel_noise: tuple[float, float] | None = None,
 ) -> JointData:
     """Assemble the per-sample data of the joint problem from the log and its preparation.
 
-    ``accel_noise`` (``(a, b)``, m/s^2) overrides the estimate (held-out blocks use the fit's).
+    The torque and sprocket acceleration behind each thrust are the preparation's (its torque hold
+    and discretisation). ``accel_noise`` (``(a, b)``, m/s^2) overrides the estimate (held-out blocks
+    use the fit's).
     """
     idx = np.nonzero(prep.keep)[0]
     t, v = log.time, log.vehicle_speed

@@ -171,7 +171,7 @@ def evaluate_residuals(
     prep = prepare_drive_log(
         log, vehicle, torque_hold=torque_hold, noise_models=nm, relaxation_at=None if rel is None else tuple(rel)
     )
-    jd = joint_data(log, vehicle, prep, torque_hold, accel_noise=an)
+    jd = joint_data(log, vehicle, prep, accel_noise=an)
     n = prep.n_used
     l = vehicle.track_length
     y = np.clip(np.abs(prep.thrust) / F, 0.0, 0.98)
