@@ -54,7 +54,7 @@ def scipy_problem(log, vehicle, effect):
     from scipy import sparse
 
     prep = prepare_drive_log(log, vehicle)
-    jd = joint_data(log, vehicle, prep, "zoh")
+    jd = joint_data(log, vehicle, prep)
     st = effect_structure(parse_effects([effect]), vehicle)
     res_fn, labels = residual_function(vehicle, st)
     sens = sensitivity_function(vehicle, st)

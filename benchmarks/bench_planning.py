@@ -25,14 +25,19 @@ What is measured
   (what ``minimize`` does without a Jacobian). Its result is replayed and compared.
 * Re-planning while driving (:class:`soiltrack.planning.Replanner`, its own warm start), the same
   100-interval problem: cold (``reset`` before each call), warm on a new soil (alternating LETE
-  sand / dry sand, the case above), and warm on a small change of the soil (alternating LETE
-  sand and LETE sand with a friction angle 0.5 deg lower and K 5 % larger: what an on-line
-  estimate's update looks like). Medians of the whole ``replan`` call and of the solver alone.
+  sand / dry sand, the case above), warm on a soil never seen before (the same alternation with
+  the friction angle and K moved a little at every call, so that no per-soil cache of the planner
+  is hit: what a stream of on-line estimates gives), and warm on a small change of the soil
+  (alternating LETE sand and LETE sand with a friction angle 0.5 deg lower and K 5 % larger).
+  Medians of the whole ``replan`` call and of the solver alone, and the split of the warm re-plans
+  into the NLP functions, IPOPT's own work (mostly MUMPS) and the work around the solver.
 * Candidates for the warm re-plan on a new soil (issue 22), on the same 20 (``--repeats``) re-plans
   in the same run: FATROP on the same NLP in stage order (from the previous plan's primal
-  solution), IPOPT with other options (``IPOPT_VARIANTS``), and an SQP method with HPIPM (first
-  ``SQP_REPLANS`` re-plans). Iterations, converged count, median and p90 times, CPU time, and the
-  objective against the Replanner's IPOPT plan. ``--replan-only`` runs only the re-planning parts.
+  solution), IPOPT with other options (``IPOPT_VARIANTS``), and two SQP methods from the previous
+  plan and its multipliers (first ``SQP_REPLANS`` re-plans): exact Hessian regularised with HPIPM,
+  and exact Hessian as it is with PIQP (sparse interior-point QP). Iterations, converged count,
+  median and p90 times, CPU time, and the objective against the Replanner's IPOPT plan.
+  ``--replan-only`` runs only the re-planning parts.
 * A 10-patch route (alternating terrains and grades, 100 intervals): cold solve and warm
   re-solve.
 * ``margin`` with a fit's uncertainty and 10,000 Monte Carlo samples.
@@ -137,8 +142,25 @@ def bench_profile(repeats: int) -> dict:
     }
 
 
+def fresh_soil(k: int) -> Soil:
+    """A soil no earlier re-plan has seen: LETE sand / dry sand in turn, friction angle and K moved by a
+    per-call step (0.01 deg, 0.1 %), so that no cache of the planner (slip bounds per soil) is hit."""
+    base = TERRAINS["dry_sand" if k % 2 else "lete_sand"]
+    return Soil(
+        base.cohesion,
+        base.friction_angle - np.radians(0.01 * (k + 1)),
+        base.shear_modulus * (1 + 1e-3 * (k + 1)),
+        name=f"{base.name}, step {k}",
+    )
+
+
 def bench_replan(repeats: int) -> dict:
-    """The Replanner: cold, warm on a new soil, warm on a small change of the soil (same run)."""
+    """The Replanner: cold, warm on a new soil, on a never-seen soil, on a small change of the soil (same run).
+
+    Besides the whole call and the solver call, the time of the warm re-plans is split into the NLP
+    functions (IPOPT's ``t_wall_nlp_*``), IPOPT's own work (mostly the sparse factorisation, MUMPS) and the
+    work around the solver (input and steady-state checks, start slip, checks after the solve).
+    """
     lete = TERRAINS["lete_sand"]
     near = Soil(lete.cohesion, lete.friction_angle - np.radians(0.5), lete.shear_modulus * 1.05, name="lete, updated")
     rp = Replanner(
@@ -151,31 +173,51 @@ def bench_replan(repeats: int) -> dict:
     )
     rp.replan(lete, v0=CASE["v0"])  # builds the cold and the warm solvers (not timed below)
     rp.replan(TERRAINS["dry_sand"], v0=CASE["v0"])
+    fn_wall: list[float] = []
+    original = ocp_module.call_solver
+
+    def recording(solver, **args):
+        out, stats = original(solver, **args)
+        fn_wall.append(sum(v for key, v in stats.items() if key.startswith("t_wall_nlp_")))
+        return out, stats
+
     out = {}
-    for label, soils, reset in (
-        ("cold", (lete, TERRAINS["dry_sand"]), True),
-        ("warm_new_soil", (lete, TERRAINS["dry_sand"]), False),
-        ("warm_small_change", (lete, near), False),
-    ):
-        call, solver, its, cpu = [], [], [], []
-        for k in range(repeats):
-            if reset:
-                rp.reset()
-            c0 = time.process_time()
-            r, t = timed(lambda: rp.replan(soils[k % 2], v0=CASE["v0"]))
-            cpu.append(time.process_time() - c0)
-            assert r.success and r.warm_start is not reset, r.message
-            call.append(t)
-            solver.append(r.solve_time_s)
-            its.append(r.iterations)
-        out[label] = {
-            "call_s": med(call),
-            "call_p90_s": p90(call),
-            "cpu_s": med(cpu),
-            "solver_s": med(solver),
-            "iterations": med(its),
-            "iterations_max": max(its),
-        }
+    ocp_module.call_solver = recording
+    try:
+        for label, soil_of, reset in (
+            ("cold", lambda k: (lete, TERRAINS["dry_sand"])[k % 2], True),
+            ("warm_new_soil", lambda k: (lete, TERRAINS["dry_sand"])[k % 2], False),
+            ("warm_fresh_soil", fresh_soil, False),
+            ("warm_small_change", lambda k: (lete, near)[k % 2], False),
+        ):
+            call, solver, its, cpu, fns = [], [], [], [], []
+            for k in range(repeats):
+                if reset:
+                    rp.reset()
+                soil = soil_of(k)
+                fn_wall.clear()
+                c0 = time.process_time()
+                r, t = timed(lambda: rp.replan(soil, v0=CASE["v0"]))
+                cpu.append(time.process_time() - c0)
+                assert r.success and r.warm_start is not reset, r.message
+                call.append(t)
+                solver.append(r.solve_time_s)
+                its.append(r.iterations)
+                fns.append(sum(fn_wall))
+            out[label] = {
+                "call_s": med(call),
+                "call_p90_s": p90(call),
+                "cpu_s": med(cpu),
+                "solver_s": med(solver),
+                "functions_s": med(fns),
+                "ipopt_own_s": med([a - b for a, b in zip(solver, fns)]),
+                "around_solver_s": med([a - b for a, b in zip(call, solver)]),
+                "per_iteration_s": med([a / max(b, 1) for a, b in zip(solver, its)]),
+                "iterations": med(its),
+                "iterations_max": max(its),
+            }
+    finally:
+        ocp_module.call_solver = original
     return out
 
 
@@ -195,9 +237,10 @@ IPOPT_VARIANTS = {
     "linear solver SPRAL": {"linear_solver": "spral"},
 }
 
-#: SQP candidate (c): SQP iterations allowed per re-plan, and re-plans tried (each is slow: see the output).
+#: SQP candidates (c): SQP iterations allowed per re-plan, and re-plans tried (each is slow: see the output;
+#: four re-plans cover both directions, LETE sand -> dry sand and back, twice).
 SQP_MAX_ITER = 15
-SQP_REPLANS = 3
+SQP_REPLANS = 4
 
 
 def staged_problem(n: int) -> tuple[dict, np.ndarray, np.ndarray, list, list, list]:
@@ -325,6 +368,42 @@ def bench_replan_candidates(repeats: int) -> dict:
             "error_on_fail": False,
         },
     )
+    piqp = ca.nlpsol(
+        "replan_sqp_piqp",
+        "sqpmethod",
+        ocp_nlp(HEAVY, n, False, False),
+        {
+            "qpsol": "piqp",
+            "qpsol_options": {"error_on_fail": False, "piqp": {"verbose": False}},
+            "max_iter": SQP_MAX_ITER,
+            "tol_pr": 1e-8,
+            "tol_du": 1e-8,
+            "print_header": False,
+            "print_iteration": False,
+            "print_status": False,
+            "print_time": False,
+            "error_on_fail": False,
+        },
+    )
+    s_cpu, s_it, s_ok, s_rel = [], [], [], []
+    q_cpu, q_it, q_ok, q_rel, q_qp = [], [], [], [], []
+    for k in range(1, min(len(calls), SQP_REPLANS + 1)):
+        args, _, f_ipopt = calls[k][:3]
+        prev = calls[k - 1]
+        c0 = time.process_time()
+        sol = piqp(
+            **{key: args[key] for key in ("p", "lbx", "ubx", "lbg", "ubg")},
+            x0=np.clip(prev[1], args["lbx"], args["ubx"]),
+            lam_x0=prev[3],
+            lam_g0=prev[4],
+        )
+        q_cpu.append(time.process_time() - c0)
+        st = piqp.stats()
+        q_it.append(int(st["iter_count"]))
+        q_ok.append(bool(st["success"]))
+        q_qp.append(float(st.get("t_wall_QP", float("nan"))) / max(int(st["iter_count"]), 1))
+        f_sqp = float(sol["f"])
+        q_rel.append(abs(f_sqp - f_ipopt) / abs(f_ipopt) if np.isfinite(f_sqp) else float("inf"))
     s_cpu, s_it, s_ok, s_rel = [], [], [], []
     for k in range(1, min(len(calls), SQP_REPLANS + 1)):
         args, _, f_ipopt = calls[k][:3]
@@ -413,6 +492,14 @@ def bench_replan_candidates(repeats: int) -> dict:
             "max_rel_objective_difference": max(f_rel),
         },
         "ipopt_variants": sweep,
+        "sqp_piqp": {
+            "replans": len(q_it),
+            "cpu_s": med(q_cpu),
+            "iterations": [int(i) for i in q_it],
+            "converged": f"{sum(q_ok)} of {len(q_ok)}",
+            "qp_s_per_iteration": med(q_qp),
+            "rel_objective_difference_converged": max((r for r, ok in zip(q_rel, q_ok) if ok), default=None),
+        },
         "sqp_hpipm": {
             "replans": len(s_it),
             "cpu_s": med(s_cpu),
@@ -593,17 +680,22 @@ def main(argv=None) -> int:
     for key, label in (
         ("cold", "cold (reset)       "),
         ("warm_new_soil", "warm, new soil     "),
+        ("warm_fresh_soil", "warm, unseen soil  "),
         ("warm_small_change", "warm, small change "),
     ):
         print(
             f"  {label} {rr[key]['call_s'] * 1e3:8.1f} ms per call ({rr[key]['solver_s'] * 1e3:.1f} ms in IPOPT, "
             f"median {rr[key]['iterations']:.0f} iterations)"
         )
+    for key in ("warm_new_soil", "warm_fresh_soil"):
+        w = rr[key]
+        print(
+            f"  {key}: p90 {w['call_p90_s'] * 1e3:.1f} ms per call, CPU {w['cpu_s'] * 1e3:.1f} ms (median), "
+            f"iterations max {w['iterations_max']}; split: NLP functions {w['functions_s'] * 1e3:.1f} ms, IPOPT's own "
+            f"work {w['ipopt_own_s'] * 1e3:.1f} ms ({w['per_iteration_s'] * 1e3:.2f} ms per iteration with the "
+            f"functions), around the solver {w['around_solver_s'] * 1e3:.1f} ms"
+        )
     t = rr["warm_new_soil"]["call_s"]
-    print(
-        f"  warm, new soil: p90 {rr['warm_new_soil']['call_p90_s'] * 1e3:.1f} ms per call, CPU "
-        f"{rr['warm_new_soil']['cpu_s'] * 1e3:.1f} ms (median), iterations max {rr['warm_new_soil']['iterations_max']}"
-    )
     print(
         f"  target warm re-plan on a new soil < 20 ms: {'reached' if t < 0.02 else 'NOT reached'} ({t * 1e3:.1f} ms); "
         f"aim 10 ms: {'reached' if t < 0.01 else 'not reached'}"
@@ -635,6 +727,16 @@ def main(argv=None) -> int:
         f"  SQP (exact Hessian, regularised; QP: HPIPM) from the last plan and its multipliers, first "
         f"{sq['replans']} re-plans: converged {sq['converged']} within {SQP_MAX_ITER} SQP iterations, CPU "
         f"{sq['cpu_s'] * 1e3:.0f} ms (median); objective vs IPOPT {sq['max_rel_objective_difference']:.1e} (relative)"
+    )
+    sp = rc["sqp_piqp"]
+    diff = sp["rel_objective_difference_converged"]
+    print(
+        f"  SQP (exact Hessian, not convexified; QP: PIQP, sparse interior point) from the last plan and its "
+        f"multipliers, first {sp['replans']} re-plans: converged {sp['converged']} within {SQP_MAX_ITER} SQP "
+        f"iterations (iterations {sp['iterations']}), CPU {sp['cpu_s'] * 1e3:.0f} ms (median), one QP "
+        f"{sp['qp_s_per_iteration'] * 1e3:.1f} ms; objective vs IPOPT where converged "
+        + ("n/a" if diff is None else f"{diff:.1e}")
+        + " (relative)"
     )
     if not a.replan_only:
         if not a.skip_slsqp:

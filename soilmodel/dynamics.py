@@ -59,6 +59,8 @@ __all__ = [
     "dynamics_function",
     "slip_from_thrust",
     "slip_from_thrust_function",
+    "slip_time_constant_expr",
+    "held_torque_weight_expr",
 ]
 
 #: The two sprocket equations: ``"thrust"`` (default, ``I dw/dt = M_s - r F``) and ``"seed"``
@@ -223,6 +225,55 @@ def dynamics_function(
 # --- quasi-static limit: slip as a function of thrust -------------------------------------------------
 
 _SLIP_MAX = 0.999
+#: Points per round of the peak search and of the inversion (one CasADi call per round for all loads/thrusts).
+_SECTIONS = 8
+_FRACTIONS = np.arange(1, _SECTIONS + 1) / (_SECTIONS + 1)
+#: Rounds of the peak refinement: the bracket shrinks by 2 / (_SECTIONS + 1) per round, to 9e-14 of the grid
+#: step after 20 (as the 60 golden-section steps this replaces, 3e-13).
+_PEAK_ROUNDS = 20
+#: Rounds of the inversion: the bracket shrinks by 1 / (_SECTIONS + 1) per round, to 7e-19 of the bracket after
+#: 19 (below double precision, as the 60 halvings this replaces, 9e-19).
+_INVERSE_ROUNDS = 19
+
+
+def slip_time_constant_expr(slip, w, dthrust_dslip, vehicle: Vehicle):
+    """Time constant (s) of the slip's relaxation under a held sprocket torque.
+
+    The sprocket equation ``I dw/dt = M - r F(i)`` with ``w = v / (r (1 - i))``, linearised in the
+    slip at a fixed vehicle speed (the hull is far heavier than the sprocket):
+    ``tau = I w / ((1 - i) r dF/di)``. ``dthrust_dslip`` is ``dF/di`` of the thrust law (N), floored
+    at a tiny positive value (on the flat of the curve the relaxation is slow, never negative).
+    """
+    dF = ca.fmax(dthrust_dslip, 1e-9)
+    return vehicle.sprocket_inertia * ca.fabs(w) / (ca.fmax(1.0 - slip, 1e-3) * vehicle.sprocket_radius * dF)
+
+
+def held_torque_weight_expr(x):
+    """Weight ``phi(x)`` of the next interval's mean thrust in the thrust at a sample (``x = h / tau``).
+
+    Under a torque held over each sample interval (zero-order hold), the thrust after each torque
+    step relaxes exponentially with the slip's time constant ``tau`` (:func:`slip_time_constant_expr`).
+    The mean thrust of an interval then differs from the thrust at its end by
+    ``phi(x)`` times the change over the interval, with
+    ``phi(x) = ((1 - e^-x) / x - e^-x) / (1 - e^-x)``; and ``(1 - phi) T_k + phi T_{k+1}`` of two
+    consecutive interval means ``T`` equals the thrust at the sample between them to first order in
+    the change (exact for a steady trend of equal steps). ``phi`` falls from 1/2 (``x -> 0``: slow
+    relaxation, the thrust linear in time, the midpoint rule) to 0 (``x -> inf``: the slip settles at
+    once, the interval's mean is its end value).
+    """
+    x = ca.fmax(x, 0.0)
+    em = ca.exp(-x)
+    exact = ((1.0 - em) / ca.fmax(x, 1e-300) - em) / ca.fmax(1.0 - em, 1e-300)
+    return ca.if_else(x < 1e-4, 0.5 - x / 12.0, exact)
+
+
+def _thrust_at(fn: Any, soil: Any, pts: np.ndarray, W: np.ndarray) -> np.ndarray:
+    """The thrust function ``fn`` at the slips ``pts`` (one row per load of ``W``, ``_SECTIONS`` columns), in
+    one CasADi call."""
+    F = fn(
+        pts.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus, np.repeat(W, pts.shape[1])[None, :]
+    )
+    return np.asarray(F, dtype=float).reshape(pts.shape)
 
 
 def _peak(fn, soil: Soil, W: np.ndarray, n: int = 400) -> tuple[np.ndarray, np.ndarray]:
@@ -235,20 +286,17 @@ def _peak(fn, soil: Soil, W: np.ndarray, n: int = 400) -> tuple[np.ndarray, np.n
     k = np.argmax(F, axis=1)
     lo = grid[np.maximum(k - 1, 0)]
     hi = grid[np.minimum(k + 1, n - 1)]
-    # golden-section refinement of the peak inside [lo, hi] (F is unimodal there)
-    gr = (np.sqrt(5) - 1) / 2
-    for _ in range(60):
-        a = hi - gr * (hi - lo)
-        b = lo + gr * (hi - lo)
-        Fa = np.asarray(
-            fn(a.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus, W.reshape(1, -1)), dtype=float
-        ).ravel()
-        Fb = np.asarray(
-            fn(b.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus, W.reshape(1, -1)), dtype=float
-        ).ravel()
-        left = Fa >= Fb
-        hi = np.where(left, b, hi)
-        lo = np.where(left, lo, a)
+    # refinement of the peak inside [lo, hi] (F is unimodal there): _SECTIONS points per round, one
+    # CasADi call for all loads; the bracket shrinks to the points beside the largest value
+    for _ in range(_PEAK_ROUNDS):
+        pts = lo[:, None] + (hi - lo)[:, None] * _FRACTIONS[None, :]
+        Fp = _thrust_at(fn, soil, pts, W)
+        j = np.argmax(Fp, axis=1)
+        rows = np.arange(len(W))
+        lo, hi = (
+            np.where(j > 0, pts[rows, np.maximum(j - 1, 0)], lo),
+            np.where(j < _SECTIONS - 1, pts[rows, np.minimum(j + 1, _SECTIONS - 1)], hi),
+        )
     s_peak = 0.5 * (lo + hi)
     F_peak = np.asarray(
         fn(s_peak.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus, W.reshape(1, -1)), dtype=float
@@ -306,15 +354,16 @@ def slip_from_thrust(
     lo = np.zeros_like(target)
     hi = s_pk.copy()
     tgt = np.minimum(target, F_pk)
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        Fm = np.asarray(
-            fn(mid.reshape(1, -1), soil.cohesion, soil.friction_angle, soil.shear_modulus, Wb.reshape(1, -1)),
-            dtype=float,
-        ).ravel()
-        below = Fm < tgt
-        lo = np.where(below, mid, lo)
-        hi = np.where(below, hi, mid)
+    # multisection of the rising branch: _SECTIONS points per round, one CasADi call for all thrusts
+    for _ in range(_INVERSE_ROUNDS):
+        pts = lo[:, None] + (hi - lo)[:, None] * _FRACTIONS[None, :]
+        Fp = _thrust_at(fn, soil, pts, Wb)
+        j = np.sum(Fp < tgt[:, None], axis=1)  # points below the target (F rises on the bracket)
+        rows = np.arange(len(tgt))
+        lo, hi = (
+            np.where(j > 0, pts[rows, np.maximum(j - 1, 0)], lo),
+            np.where(j < _SECTIONS, pts[rows, np.minimum(j, _SECTIONS - 1)], hi),
+        )
     slip = np.where(reachable, 0.5 * (lo + hi), s_pk) * np.sign(T)
     slip = slip.reshape(shape)
     return (slip, reachable.reshape(shape)) if return_reachable else slip

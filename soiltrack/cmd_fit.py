@@ -6,6 +6,7 @@ import argparse
 import sys
 
 from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path, running_gear_arg
+from .identify.drivelog import DISCRETISATIONS
 from .identify.engines import DEFAULT_ENGINE, ENGINES
 from .soilmodel import PRACTICAL_BOUNDS, WIDE_BOUNDS, DataError, SoilBounds
 from .soilmodel.rigid_wheel import RigidWheel
@@ -50,6 +51,8 @@ def _check_options(a: argparse.Namespace, drive_log: bool) -> None:
         raise DataError("--bias-correction applies to drive logs only", file=a.data)
     if a.torque_hold is not None and not drive_log:
         raise DataError("--torque-hold applies to drive logs only", file=a.data)
+    if a.discretisation is not None and not drive_log:
+        raise DataError("--discretisation applies to drive logs only", file=a.data)
     if a.resistance is not None and drive_log:
         raise DataError(
             "--resistance applies to drawbar-pull sweeps; a drive log's resistance is the vehicle's (or an --effect)",
@@ -73,6 +76,7 @@ _VEHICLE_OPTIONS = {
     "sigma": None,
     "bias_correction": "none",
     "torque_hold": None,
+    "discretisation": None,
     "slip_noise": None,
     "intervals": None,
     "interval_method": None,
@@ -138,6 +142,10 @@ def _cmd_fit(a: argparse.Namespace) -> int:
         kw["bias_correction"] = a.bias_correction
     if a.torque_hold is not None:
         kw["torque_hold"] = a.torque_hold
+    if a.discretisation is not None:
+        kw["discretisation"] = a.discretisation
+    elif drive_log and a.torque_hold != "sample" and not a.effect:  # the default rule, the other one beside it
+        kw["discretisation_check"] = True
     if a.slip_noise is not None:
         kw["slip_noise"] = (
             a.slip_noise if a.slip_noise in ("auto", "off") else floats_arg(a.slip_noise, "--slip-noise")[0]
@@ -253,6 +261,17 @@ def add_parser(sub) -> None:
         "a continuous torque signal sampled at each time (a torque transducer, or a controller "
         "much faster than the log). The wrong one biases a fitted grade by about the thrust "
         "change over one sample",
+    )
+    f.add_argument(
+        "--discretisation",
+        choices=DISCRETISATIONS,
+        default=None,
+        help="drive logs with a held torque: how the sprocket equation's interval means meet the slip at "
+        "the samples (default: end-point). end-point: the interval's mean on the slip at its end (the "
+        "quasi-static limit; on hard pulls at 50 Hz F_max comes out a few percent high); relaxation: the "
+        "thrust at each sample from the two interval means around it, weighted by the slip's relaxation "
+        "after each torque step (right on hard pulls, intervals a little narrow on gentle driving); see "
+        "docs/drivelogs.md",
     )
     f.add_argument(
         "--slip-noise",

@@ -32,9 +32,13 @@ STEP_FIELDS = (
     "slip",
     "converged",
     "status",
+    "normal_load_N",
+    "not_identifiable",
 )
 #: Largest grade accepted by --grade-deg, deg (the margin's own range).
 MAX_GRADE_DEG = 68.75
+#: Largest grade accepted by --log-grade-deg, deg (the ``grade`` effect's range, 1.2 rad).
+MAX_LOG_GRADE_DEG = 68.75
 #: Monte Carlo samples of each printed step's margin (a margin costs about 0.1 s: use --every).
 MARGIN_SAMPLES = 1000
 
@@ -46,6 +50,19 @@ def _positive(text: str, option: str, integer: bool = False) -> float:
         raise DataError(f"{option} expects {'an integer' if integer else 'a number'} > 0, got {text!r}") from None
     if not math.isfinite(val) or val <= 0:
         raise DataError(f"{option} expects {'an integer' if integer else 'a number'} > 0, got {text!r}")
+    return val
+
+
+def _grade(text: str | None, option: str, limit: float) -> float | None:
+    """A grade option in degrees (``None`` when not given), checked to be finite and within +-``limit``."""
+    if text is None:
+        return None
+    try:
+        val = float(text)
+    except ValueError:
+        raise DataError(f"{option} expects a number of degrees, got {text!r}") from None
+    if not math.isfinite(val) or abs(val) > limit:
+        raise DataError(f"{option} expects a finite grade within +-{limit:g} deg, got {text!r}")
     return val
 
 
@@ -95,23 +112,18 @@ def _step(estimate, p_trav) -> dict:
 
 def _cmd_track(a: argparse.Namespace) -> int:
     from .identify import OnlineEstimator, OnlineSettings
+    from .identify.online import NOT_SEPARABLE
     from .soilmodel.drive_stream import read_drive_stream
 
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
     window = _positive(a.window, "--window")
     every = int(_positive(a.every, "--every", integer=True))
-    grade = None
-    if a.grade_deg is not None:
-        try:
-            grade = float(a.grade_deg)
-        except ValueError:
-            raise DataError(f"--grade-deg expects a number of degrees, got {a.grade_deg!r}") from None
-        if not math.isfinite(grade) or abs(grade) > MAX_GRADE_DEG:
-            raise DataError(f"--grade-deg expects a finite grade within +-{MAX_GRADE_DEG} deg, got {a.grade_deg!r}")
+    grade = _grade(a.grade_deg, "--grade-deg", MAX_GRADE_DEG)
+    log_grade = _grade(a.log_grade_deg, "--log-grade-deg", MAX_LOG_GRADE_DEG)
     vehicle = vehicle_arg(a.vehicle)
     stream = read_drive_stream(a.log)
-    est = OnlineEstimator(vehicle, OnlineSettings(window_s=window))
+    est = OnlineEstimator(vehicle, OnlineSettings(window_s=window, grade_rad=math.radians(log_grade or 0.0)))
     method, rows = _samples(stream)
     update = getattr(est, method)
     times = np.empty(len(rows))
@@ -160,6 +172,9 @@ def _cmd_track(a: argparse.Namespace) -> int:
         "real_time_factor": duration / wall if wall > 0 else None,
         "replay_cpu_time_s": cpu,
         "window_s": window,
+        "log_grade_deg": log_grade or 0.0,
+        "normal_load_N": est.normal_load_N,
+        "not_identifiable": list(last.not_identifiable) if last is not None else list(NOT_SEPARABLE),
         "kernel_backend": est.backend,
         "converged": bool(ok),
         "reason": reason,
@@ -192,6 +207,10 @@ def _report(source: str, steps: list[dict], summary: dict, every: int) -> str:
         f"faster than real time ({summary['kernel_backend']})",
         "",
     ]
+    L.append(
+        f"normal load {summary['normal_load_N']:.5g} N (grade {summary['log_grade_deg']:g} deg); cohesion and "
+        "friction angle are not separable at one normal load: only F_max = A c + N tan(phi) and K are estimated"
+    )
     for c in summary["changes"]:
         L.append(
             f"change of terrain detected at {c['detected_at_s']:.3f} s, dated {c['time_s']:.3f} s "
@@ -244,6 +263,12 @@ def add_parser(sub) -> None:
         default=None,
         metavar="G",
         help="probability of traversing this grade from each estimate (planning margin), deg",
+    )
+    f.add_argument(
+        "--log-grade-deg",
+        default=None,
+        metavar="G",
+        help="known grade the log was driven on, deg, positive uphill: normal load W cos(G) (default: 0)",
     )
     f.add_argument("--json", action="store_true", help="JSON lines and a final summary line")
     f.add_argument("--plot", metavar="PNG", help="write the estimates over time to this figure")

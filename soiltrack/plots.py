@@ -321,7 +321,8 @@ def _drive_log_panels(fig, ax, axr, data: DriveLog, vehicle, result, curve) -> N
     """The two panels of a drive-log fit (see :func:`plot_fit`)."""
     from .identify.drivelog.fit import prepare_drive_log
 
-    prep = prepare_drive_log(data, vehicle)
+    rel = (getattr(result, "extra", None) or {}).get("relaxation_at")  # the fit's own thrust rows
+    prep = prepare_drive_log(data, vehicle, relaxation_at=None if rel is None else tuple(rel))
     r_s = vehicle.sprocket_radius
     rw = r_s * prep.sprocket_speed
     effects = bool(getattr(result, "effects", None)) and result.success

@@ -243,7 +243,7 @@ def test_joint_solver_hessian_is_casadis_own(names):
 
     log = simulate_drive_log(LIGHT, DRY_SAND, seed=3, effects={"grade": GRADE}, duration_s=1.2)
     prep = prepare_drive_log(log, LIGHT)
-    jd = joint_data(log, LIGHT, prep, "zoh")
+    jd = joint_data(log, LIGHT, prep)
     n, N = prep.n_used, 64
     assert n < N
     structure = effect_structure(parse_effects(names or None), LIGHT)

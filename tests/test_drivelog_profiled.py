@@ -32,7 +32,7 @@ def grade_log():
 
 def _problem(log, names):
     prep = prepare_drive_log(log, HEAVY)
-    jd = joint_data(log, HEAVY, prep, "zoh")
+    jd = joint_data(log, HEAVY, prep)
     st = effect_structure(parse_effects(names), HEAVY)
     return prep, jd, st
 

@@ -154,6 +154,26 @@ def test_slip_from_thrust_inverts(frac, eff):
     assert s2 == pytest.approx(float(s), rel=1e-7, abs=1e-12)
 
 
+def test_slip_from_thrust_to_rounding_and_peak_on_the_curve():
+    """The multisection inversion is exact to rounding (F at the slip gives the thrust back to 1e-12), many
+    thrusts and loads in one call; the peak it reports lies on the curve and no grid point of F exceeds it."""
+    F_lim = float(max_thrust(SEED_ACTUAL, HEAVY))
+    F = np.linspace(-0.75, 0.75, 25) * F_lim  # below the peak at the lightest load (0.8 W)
+    N = np.linspace(0.8, 1.2, 25) * HEAVY.weight
+    s, ok = slip_from_thrust(F, SEED_ACTUAL, HEAVY, normal_load=N, return_reachable=True)
+    assert ok.all()
+    back = np.array(
+        [float(tractive_force(si, SEED_ACTUAL, HEAVY, normal_load=ni)) for si, ni in zip(np.abs(s), N)]
+    ) * np.sign(s)
+    np.testing.assert_allclose(back, F, rtol=1e-12, atol=1e-9 * F_lim)
+    grid = np.linspace(0.0, 0.999, 20001)
+    Fg = tractive_force(grid, SEED_ACTUAL, HEAVY)
+    s_pk, reachable = slip_from_thrust([2 * F_lim], SEED_ACTUAL, HEAVY, return_reachable=True)
+    assert not reachable[0]
+    F_pk = float(tractive_force(float(s_pk[0]), SEED_ACTUAL, HEAVY))
+    assert F_pk >= Fg.max() * (1 - 1e-12)
+
+
 def test_slip_from_thrust_unreachable_and_hump():
     F_lim = max_thrust(SEED_ACTUAL, HEAVY)
     s, ok = slip_from_thrust([0.0, 0.5 * F_lim, 1.1 * F_lim], SEED_ACTUAL, HEAVY, return_reachable=True)

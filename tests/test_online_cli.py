@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -95,7 +96,27 @@ def test_two_track_log_turns_counted(log, tmp_path, capsys):
     assert n_turn <= lines[-1]["summary"]["samples_turning"] <= n_turn + 2
 
 
-@pytest.mark.parametrize("case", ["missing_file", "missing_column", "text", "window", "every", "grade", "time"])
+def test_log_grade_sets_the_normal_load_and_c_phi_are_never_identified(log, tmp_path, capsys):
+    path = tmp_path / "log.csv"
+    write_csv(log.subset(slice(0, 600)), path)
+    W = VEHICLES["light"].weight
+    for grade, load in ((None, W), ("6", W * math.cos(math.radians(6.0)))):
+        extra = [] if grade is None else ["--log-grade-deg", grade]
+        rc, lines, _ = _run(["track", str(path), "--vehicle", "light", "--every", "50", "--json", *extra], capsys)
+        steps, summary = lines[:-1], lines[-1]["summary"]
+        assert rc in (0, 1)
+        assert all(st["normal_load_N"] == pytest.approx(load, rel=1e-12) for st in steps)
+        assert summary["normal_load_N"] == pytest.approx(load, rel=1e-12)
+        assert summary["log_grade_deg"] == (0.0 if grade is None else 6.0)
+        assert all(st["not_identifiable"][-2:] == ["cohesion", "friction_angle"] for st in steps)
+        assert all(not {"cohesion", "friction_angle"} & set(st["identifiable"]) for st in steps)
+        assert summary["not_identifiable"][-2:] == ["cohesion", "friction_angle"]
+
+
+@pytest.mark.parametrize(
+    "case",
+    ["missing_file", "missing_column", "text", "window", "every", "grade", "time", "log_grade", "log_grade_text"],
+)
 def test_bad_input_exits_2(case, log, tmp_path, capsys):
     path = tmp_path / "log.csv"
     write_csv(log.subset(slice(0, 200)), path)
@@ -119,6 +140,10 @@ def test_bad_input_exits_2(case, log, tmp_path, capsys):
         args += ["--every", "0.5"]
     elif case == "grade":
         args += ["--grade-deg", "95"]
+    elif case == "log_grade":
+        args += ["--log-grade-deg", "80"]
+    elif case == "log_grade_text":
+        args += ["--log-grade-deg", "steep"]
     rc = main(args)
     err = capsys.readouterr().err
     assert rc == 2

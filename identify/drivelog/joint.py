@@ -119,23 +119,19 @@ def joint_data(
     log: DriveLog,
     vehicle: Vehicle,
     prep: PreparedLog,
-    torque_hold: str,
     sigma_accel: float | None = None,
     accel_noise: tuple[float, float] | None = None,
 ) -> JointData:
     """Assemble the per-sample data of the joint problem from the log and its preparation.
 
-    ``accel_noise`` (``(a, b)``, m/s^2) overrides the estimate (held-out blocks use the fit's).
+    The torque and sprocket acceleration behind each thrust are the preparation's (its torque hold
+    and discretisation). ``accel_noise`` (``(a, b)``, m/s^2) overrides the estimate (held-out blocks
+    use the fit's).
     """
     idx = np.nonzero(prep.keep)[0]
-    t, M, w, v = log.time, log.sprocket_torque, log.sprocket_speed, log.vehicle_speed
+    t, v = log.time, log.vehicle_speed
     n_all = t.size
-    if torque_hold == "zoh":
-        M_used = M[idx - 1]
-        dwdt = (w[idx] - w[idx - 1]) / (t[idx] - t[idx - 1])
-    else:
-        M_used = M[idx]
-        dwdt = (w[idx + 1] - w[idx - 1]) / (t[idx + 1] - t[idx - 1])
+    M_used, dwdt = prep.torque_used, prep.dw_dt  # the preparation's discretisation of the sprocket equation
     m = vehicle.mass
     if log.vehicle_accel is not None:
         acc = np.asarray(log.vehicle_accel, dtype=float)

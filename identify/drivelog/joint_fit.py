@@ -90,7 +90,7 @@ def fit_joint(
     res_fn, fn_labels = residual_function(vehicle, structure)
     labels = list(fn_labels)
     torque_hold = str(options.get("torque_hold", "zoh"))
-    jd = joint_data(log, vehicle, prep, torque_hold, sigma_accel=options.get("sigma_accel"))
+    jd = joint_data(log, vehicle, prep, sigma_accel=options.get("sigma_accel"))
     hull_used = options.get("hull_channel", True) is not False
     if not hull_used:  # explicitly off: effects fitted from the speed and thrust channels only
         jd.D[HULL_ROW] = 0.0

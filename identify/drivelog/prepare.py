@@ -11,6 +11,7 @@ from ...soilmodel.data import DriveLog
 from ...soilmodel.errors import DataError
 from ...soilmodel.vehicle import Vehicle
 from .noise import noise_model
+from .relaxation import relaxation_weights, slip_trend
 
 __all__ = ["PreparedLog", "prepare_drive_log", "MIN_USABLE_SAMPLES", "SLIP_BOUNDS"]
 
@@ -19,6 +20,10 @@ MIN_USABLE_SAMPLES = 10
 
 #: Latent slip bounds (skid down to -0.95, driving slip up to 0.98).
 SLIP_BOUNDS = (-0.95, 0.98)
+#: A change of the thrust (first difference; second difference with the slip-relaxation weights)
+#: beyond this many noise standard deviations is a jump: half of it is added to the sample's thrust
+#: standard deviation (the discretisation's error there). 5 = 4 standard deviations with 25 % margin.
+JUMP_SIGMA = 5.0
 
 
 @dataclass(frozen=True)
@@ -28,12 +33,19 @@ class PreparedLog:
     ``thrust`` is the thrust from the sprocket equation over the interval ending at each used
     sample (see :func:`prepare_drive_log`); ``slip_measured`` is ``1 - v/(r w)`` (for reference
     and for the equation-error comparison only). ``keep`` marks the used samples of the log.
+    ``torque_used`` and ``dw_dt`` are the torque and sprocket acceleration behind ``thrust``
+    (``thrust = (torque_used - I dw_dt) / r``, plus ``W mu_r`` with the seed's equation);
+    ``relaxation`` the weight of the next interval in them (0 without ``relaxation_at``).
     ``noise`` holds the noise model ``(a, b)`` per channel: ``sigma = sqrt(a^2 + (b x)^2)``.
     The speed and thrust residuals of one sample share the encoder noise of ``w_k`` (with
     ``torque_hold="zoh"``); ``coupling`` and ``sigma_thrust_cond`` whiten that 2x2 covariance.
     """
 
     keep: np.ndarray
+    torque_used: np.ndarray  # the torque behind each used sample's thrust, N m
+    dw_dt: np.ndarray  # the sprocket acceleration behind it, rad/s^2
+    relaxation: np.ndarray  # the slip-relaxation weight phi of each used sample (0: the end-point rule)
+    relaxation_at: tuple[float, float] | None  # (F_lim N, K m) the weights were computed at
     vehicle_speed: np.ndarray
     sprocket_speed: np.ndarray
     thrust: np.ndarray
@@ -64,6 +76,7 @@ def prepare_drive_log(
     sprocket_equation: str = "thrust",
     fixed_keep: np.ndarray | None = None,
     noise_models: dict | None = None,
+    relaxation_at: tuple[float, float] | None = None,
 ) -> PreparedLog:
     """Check a drive log, estimate its noise, compute the sprocket thrust and select samples.
 
@@ -78,6 +91,13 @@ def prepare_drive_log(
       quasi-static value, the one sampled at t_k) it is the L-stable quasi-static limit.
     - ``torque_hold="sample"`` (torque measured at the sample instants of a continuous signal):
       ``r F(i_k) = M_k - I (w_{k+1} - w_{k-1}) / (2 h)``.
+
+    With ``relaxation_at=(F_lim, K)`` (a pilot estimate) and the held torque, the thrust at sample k
+    is ``(1 - phi_k) T_k + phi_k T_{k+1}`` of the two interval means around it, with the
+    slip-relaxation weight ``phi_k`` of :mod:`.relaxation` (the slip does not settle at once after a
+    torque step; the end-point rule above then lags). The torque and the sprocket acceleration rows
+    (``torque_used``, ``dw_dt``) are mixed alike, and the thrust's noise and its covariance with the
+    speed residual follow the mix.
 
     With the seed's printed sprocket equation (``sprocket_equation="seed"``) ``W mu_r`` is added.
     ``noise_models`` (``{"torque": (a, b), "sprocket_speed": ..., "vehicle_speed": ...}``)
@@ -142,13 +162,48 @@ def prepare_drive_log(
 
     thrust = np.full(n, np.nan)
     sigma_T = np.full(n, np.inf)
+    M_used = np.full(n, np.nan)  # the torque and the sprocket acceleration behind each thrust
+    dwdt = np.full(n, np.nan)
+    # covariance of the thrust's noise with the speed residual's (through the encoder reading w_k),
+    # per unit (1 - i) (that factor belongs to the speed residual)
+    cov_w = np.zeros(n)
+    phi = np.zeros(n)
     if torque_hold == "zoh":
         h = np.diff(t)
-        thrust[1:] = (M[:-1] - I * np.diff(w) / h) / r
-        sigma_T[1:] = np.sqrt(s_M[:-1] ** 2 + (I / h) ** 2 * (s_w[1:] ** 2 + s_w[:-1] ** 2)) / r
+        M_used[1:] = M[:-1]
+        dwdt[1:] = np.diff(w) / h
+        var_T = np.full(n, np.inf)
+        var_T[1:] = (s_M[:-1] ** 2 + (I / h) ** 2 * (s_w[1:] ** 2 + s_w[:-1] ** 2)) / r**2
+        cov_w[1:] = I * s_w[1:] ** 2 / h
+        if relaxation_at is not None and n > 2:
+            k = np.arange(1, n - 1)  # samples with a next interval
+            i_m = 1.0 - v / (r * np.where(w != 0, w, np.nan))
+            phi[k] = relaxation_weights(vehicle, relaxation_at[0], relaxation_at[1], slip_trend(i_m)[k], w[k], h[k - 1])
+            nxt = np.isfinite(M[k]) & np.isfinite(w[k + 1]) & np.isfinite(h[k])
+            # the weight's premise is a steady trend of the interval means; where their second difference
+            # exceeds the noise (a torque step at the traction limit) the end-point rule stays
+            T_mean = (M_used - I * dwdt) / r
+            Tm = np.where(np.isfinite(T_mean), T_mean, 0.0)
+            d2 = np.abs(Tm[k + 1] - 2.0 * Tm[k] + Tm[k - 1])
+            sd2 = np.sqrt(np.where(nxt, var_T[k + 1] + 4.0 * var_T[k] + var_T[k - 1], np.inf))
+            steady = nxt & np.isfinite(T_mean[k - 1]) & (d2 <= JUMP_SIGMA * sd2)
+            phi[k] = np.where(steady, phi[k], 0.0)
+            nxt = steady
+            a, b = 1.0 - phi[k], phi[k]
+            M_used[k] = a * M[k - 1] + b * np.where(nxt, M[k], 0.0)
+            dwdt[k] = a * dwdt[k] + b * np.where(nxt, (w[k + 1] - w[k]) / h[k], 0.0)
+            # T_k holds -I w_k / (h_k r), T_{k+1} holds +I w_k / (h_{k+1} r): their covariance
+            c_next = -(I**2) * s_w[k] ** 2 / (h[k - 1] * h[k] * r**2)
+            var_next = np.where(nxt, (s_M[k] ** 2 + (I / h[k]) ** 2 * (s_w[k + 1] ** 2 + s_w[k] ** 2)) / r**2, 0.0)
+            var_T[k] = a**2 * var_T[k] + b**2 * var_next + 2.0 * a * b * c_next
+            cov_w[k] = I * s_w[k] ** 2 * (a / h[k - 1] - b / h[k])
+        thrust = (M_used - I * dwdt) / r
+        sigma_T = np.sqrt(var_T)
     else:
         h2 = t[2:] - t[:-2]
-        thrust[1:-1] = (M[1:-1] - I * (w[2:] - w[:-2]) / h2) / r
+        M_used[1:-1] = M[1:-1]
+        dwdt[1:-1] = (w[2:] - w[:-2]) / h2
+        thrust[1:-1] = (M_used[1:-1] - I * dwdt[1:-1]) / r
         sigma_T[1:-1] = np.sqrt(s_M[1:-1] ** 2 + (I / h2) ** 2 * (s_w[2:] ** 2 + s_w[:-2] ** 2)) / r
     if sprocket_equation == "seed":  # I dw/dt = M_s - (F - W mu_r) r, as printed in the seed
         thrust = thrust + W * vehicle.rolling_resistance
@@ -162,7 +217,7 @@ def prepare_drive_log(
     fin = np.isfinite(thrust)
     d = np.where(fin[1:] & fin[:-1], np.abs(np.diff(np.where(fin, thrust, 0.0))), 0.0)
     sd = np.sqrt(np.where(fin[1:] & fin[:-1], sigma_T[1:] ** 2 + sigma_T[:-1] ** 2, np.inf))
-    big = np.where(d > 4.0 * 1.25 * sd, d, 0.0)
+    big = np.where(d > JUMP_SIGMA * sd, d, 0.0)
     jump[1:] = np.maximum(jump[1:], big)
     jump[:-1] = np.maximum(jump[:-1], big)
     sigma_T = np.sqrt(sigma_T**2 + (0.5 * jump) ** 2)
@@ -196,15 +251,19 @@ def prepare_drive_log(
     one_minus_i = np.clip(1.0 - slip_m, 1.0 - SLIP_BOUNDS[1], 1.0 - SLIP_BOUNDS[0])
     sigma_s = np.sqrt(s_v[keep] ** 2 + (r * one_minus_i * s_w[keep]) ** 2)
     sT = sigma_T[keep]
-    if torque_hold == "zoh":  # w_k enters both residuals: -r (1 - i) dw_k and -I dw_k / (h r)
-        hk = np.diff(t)[np.nonzero(keep)[0] - 1]
-        cov = I * one_minus_i * s_w[keep] ** 2 / hk
-    else:  # the central difference does not contain w_k
-        cov = np.zeros_like(sT)
+    # w_k enters both residuals: -r (1 - i) dw_k and the thrust's encoder terms (zoh; the central
+    # difference of torque_hold="sample" does not contain w_k)
+    cov = one_minus_i * cov_w[keep]
     rho = cov / sigma_s**2
     sT_cond = np.sqrt(np.maximum(sT**2 - rho * cov, 0.0) + 1e-300)
     return PreparedLog(
         keep=keep,
+        torque_used=M_used[keep],
+        dw_dt=dwdt[keep],
+        relaxation=phi[keep],
+        relaxation_at=None
+        if relaxation_at is None or torque_hold != "zoh"
+        else (float(relaxation_at[0]), float(relaxation_at[1])),
         vehicle_speed=vk,
         sprocket_speed=wk,
         thrust=thrust[keep],

@@ -54,8 +54,11 @@ class DriveLogResiduals:
 
 def _params_from(
     result_or_params: Any, effects: Any
-) -> tuple[float, float, dict[str, float], Any, dict | None, bool, str, tuple[float, float] | None]:
-    """``(F_lim, K, effect values, effects, noise models, hull used, torque_hold, accel noise)``."""
+) -> tuple[float, float, dict[str, float], Any, dict | None, bool, str, tuple[float, float] | None, Any]:
+    """``(F_lim, K, effect values, effects, noise models, hull used, torque_hold, accel noise, relaxation_at)``.
+
+    ``relaxation_at`` is the pilot soil ``(F_lim, K)`` of the fit's held-torque discretisation (None:
+    the end-point rule; see :mod:`.relaxation`), so that the residuals use the fit's own rows."""
     if isinstance(result_or_params, Mapping):
         p = result_or_params
         F, K = float(p["max_thrust_N"]), float(p["shear_modulus_m"])
@@ -69,6 +72,7 @@ def _params_from(
             bool(p.get("hull_in_fit", bool(ev))),
             str(p.get("torque_hold", "zoh")),
             p.get("accel_noise"),
+            p.get("relaxation_at"),
         )
     res = result_or_params
     if getattr(res, "data_kind", None) != "drive":
@@ -100,6 +104,7 @@ def _params_from(
             hull,
             jp["torque_hold"],
             an,
+            ex.get("relaxation_at"),
         )
     return (
         float(ex["max_thrust_N"]),
@@ -110,6 +115,7 @@ def _params_from(
         hull,
         str(ex.get("torque_hold", "zoh")),
         an,
+        ex.get("relaxation_at"),
     )
 
 
@@ -149,7 +155,7 @@ def evaluate_residuals(
 ) -> tuple[dict[str, Any], dict]:
     """:func:`drive_log_residuals` and what it was computed from (``theta``, ``structure``, ``D`` as
     used to solve the latent slips, ``labels``) for :mod:`.drivelog_sensitivity`."""
-    F, K, ev, eff, nm, hull, torque_hold, an = _params_from(result_or_params, effects)
+    F, K, ev, eff, nm, hull, torque_hold, an, rel = _params_from(result_or_params, effects)
     structure = effect_structure(parse_effects(eff) if eff is not None else None, vehicle)
     res_fn, labels = residual_function(vehicle, structure)
     missing = [lab for lab in labels if lab not in ev]
@@ -162,8 +168,10 @@ def evaluate_residuals(
     theta = np.array([F, K] + [ev[lab] for lab in labels], dtype=float)
     if not np.all(np.isfinite(theta)):
         raise DataError("drive_log_residuals: the parameters are not finite")
-    prep = prepare_drive_log(log, vehicle, torque_hold=torque_hold, noise_models=nm)
-    jd = joint_data(log, vehicle, prep, torque_hold, accel_noise=an)
+    prep = prepare_drive_log(
+        log, vehicle, torque_hold=torque_hold, noise_models=nm, relaxation_at=None if rel is None else tuple(rel)
+    )
+    jd = joint_data(log, vehicle, prep, accel_noise=an)
     n = prep.n_used
     l = vehicle.track_length
     y = np.clip(np.abs(prep.thrust) / F, 0.0, 0.98)

@@ -3,7 +3,7 @@ Gauss-Newton iterations, change-of-terrain detection), its :class:`OnlineSetting
 :class:`OnlineEstimate` each update gives."""
 
 from .estimator import OnlineEstimator
-from .result import OnlineEstimate
+from .result import NOT_SEPARABLE, OnlineEstimate
 from .settings import OnlineSettings
 
-__all__ = ["OnlineEstimator", "OnlineEstimate", "OnlineSettings"]
+__all__ = ["OnlineEstimator", "OnlineEstimate", "OnlineSettings", "NOT_SEPARABLE"]

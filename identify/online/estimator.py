@@ -35,19 +35,21 @@ batch fit does not use it either).
 from __future__ import annotations
 
 import math
+import statistics
 from collections import deque
 
 import numpy as np
 
 from ...soilmodel.tracks import MAD_TO_SIGMA, NOISE_FLOOR_REL, combine_tracks, robust_noise, turning_mask
+from ...soilmodel.effects import effective_normal_load
+from ...soilmodel.traction import max_thrust_expr
 from ...soilmodel.vehicle import Vehicle
-from ..drivelog.nlp import fmax_bounds
 from ..drivelog.noise import noise_model
 from ..drivelog.regime import GENTLE_CORRELATION, GENTLE_REL_STDERR, K_REL_STDERR
 from .detector import CusumDetector
 from .ccall import BufferCall
 from .kernels import JUMP_SIGMA, NOISE, PARAMS, RAW, ROWS, SUMS, kernels
-from .result import OnlineEstimate
+from .result import IDENTIFIABLE_NAMES, NOT_SEPARABLE, OnlineEstimate
 from .settings import OnlineSettings
 
 __all__ = ["OnlineEstimator", "INITIAL_CAPACITY", "START_THRUST_FACTOR", "MIN_NOISE_SAMPLES"]
@@ -68,6 +70,16 @@ _RAW_JUMP = RAW.index("jump")
 _N = {name: j for j, name in enumerate(NOISE)}
 #: Benign readings for empty slots (finite everything; never used: outside the horizon).
 _EMPTY_RAW = np.array([1.0, 1.0, 1.0, 0.0, 1.0, 0.0])
+_MESSAGES = {
+    "ok": "converged",
+    "warming_up": "too few samples for an estimate yet",
+    "not_converged": "the Gauss-Newton iteration has not converged yet",
+}
+#: What an estimate does not identify, given what it does (c and phi never: one normal load).
+_NOT_IDENTIFIED: dict[tuple[str, ...], tuple[str, ...]] = {
+    ident: tuple(n for n in IDENTIFIABLE_NAMES if n not in ident) + NOT_SEPARABLE
+    for ident in ((), ("slope",), ("slope", "max_thrust"), ("slope", "max_thrust", "shear_modulus"))
+}
 
 
 class OnlineEstimator:
@@ -92,7 +104,19 @@ class OnlineEstimator:
         self.vehicle = vehicle
         self.settings = settings or OnlineSettings()
         s = self.settings
-        Fb = fmax_bounds(s.bounds, vehicle, s.model)
+        # the normal load on the known grade (soilmodel's one home of the grade's load), and the
+        # range of F_max = A c + N tan(phi) over the soil box at that load
+        self._normal_load = (
+            float(effective_normal_load(vehicle.weight, vehicle, {"grade": s.grade_rad}))
+            if s.grade_rad
+            else float(vehicle.weight)
+        )
+        self._grade = float(s.grade_rad)
+        N, A, b = self._normal_load, vehicle.contact_area, s.bounds
+        Fb = (
+            float(max_thrust_expr(max(b.cohesion[0], 0.0), b.friction_angle[0], N, A, s.model)),
+            float(max_thrust_expr(b.cohesion[1], b.friction_angle[1], N, A, s.model)),
+        )
         Kb = tuple(s.bounds.shear_modulus)
         self._F_ref = 0.5 * (Fb[0] + Fb[1])
         self._K_ref = math.sqrt(Kb[0] * Kb[1])
@@ -121,8 +145,13 @@ class OnlineEstimator:
             s.min_speed,
         )
         self._have_noise = False
+        self._noise_known = None not in (s.sigma_torque, s.sigma_sprocket_speed, s.sigma_vehicle_speed)
         self._since_noise = 0
         self._alloc(INITIAL_CAPACITY)
+        # the horizon's slots in time order, (t, slot), and the running maximum of the used slots'
+        # peak thrust (a deque of (t, slot, peak) with decreasing peaks: the maximum is its front)
+        self._live: deque[tuple[float, int]] = deque()
+        self._peaks: deque[tuple[float, int, float]] = deque()
         self._hist: deque = deque()  # (t, M, w, v) of valid straight samples, time order
         self._dts: deque = deque(maxlen=31)
         self._dt_med: float | None = None
@@ -166,6 +195,8 @@ class OnlineEstimator:
         self._x_out = np.zeros(2)
         self._Z_out = np.zeros(cap)
         self._sums = np.zeros(len(SUMS))
+        self._sl: list[float] = self._sums.tolist()  # the sums as Python floats (read per update)
+        self._peak = np.zeros(cap)  # per slot: thrust two standard deviations below its value
         self._row = np.zeros(len(ROWS))
         self._raw1 = np.zeros(len(RAW))
         self._pred_out = np.zeros(2)
@@ -176,6 +207,7 @@ class OnlineEstimator:
         self._sT_all = np.zeros(cap)
         lib = k.library
         self._c_step = BufferCall(k.step, lib, [self._D, self._Z, self._P], [self._x_out, self._Z_out, self._sums])
+        self._c_track = BufferCall(k.track, lib, [self._D, self._Z, self._P], [self._x_out, self._Z_out, self._sums])
         self._c_predict = BufferCall(k.predict, lib, [self._row, self._P], [self._pred_out])
         self._c_prepare = BufferCall(k.prepare, lib, [self._raw1, self._noise], [self._row, self._T_out, self._sT_out])
         self._c_prepare_all = BufferCall(
@@ -183,7 +215,7 @@ class OnlineEstimator:
         )
 
     def _grow(self) -> None:
-        old = (self._RAW, self._D, self._ok, self._Z, self._tslot, self._sums.copy())
+        old = (self._RAW, self._D, self._ok, self._Z, self._tslot, self._sums.copy(), self._peak)
         cap = self._cap
         new = min(2 * cap, self.settings.max_capacity)
         if new == cap:
@@ -196,16 +228,27 @@ class OnlineEstimator:
         self._Z[:cap] = old[3][order]
         self._tslot[:cap] = old[4][order]
         self._sums[:] = old[5]
+        self._sl = self._sums.tolist()
+        self._peak[:cap] = old[6][order]
         self._slot = cap
+        new_slot = np.empty(cap, dtype=int)
+        new_slot[order] = np.arange(cap)
+        self._live = deque((t, int(new_slot[j])) for t, j in self._live)
+        self._peaks = deque((t, int(new_slot[j]), val) for t, j, val in self._peaks)
         if self._prev is not None and self._prev[3] >= 0:
             p = self._prev
-            self._prev = (p[0], p[1], p[2], int(np.nonzero(order == p[3])[0][0]))
+            self._prev = (p[0], p[1], p[2], int(new_slot[p[3]]))
 
     # ------------------------------------------------------------------ public
     @property
     def estimate(self) -> OnlineEstimate | None:
         """The estimate after the last update (``None`` before the first)."""
         return self._last
+
+    @property
+    def normal_load_N(self) -> float:
+        """Normal load of the estimates, N: ``W cos(theta)`` on the known grade (``settings.grade_rad``)."""
+        return self._normal_load
 
     @property
     def backend(self) -> str:
@@ -231,10 +274,13 @@ class OnlineEstimator:
             IMU acceleration, m/s^2: accepted and not used (the nominal fit does not use it).
         """
         self.samples_seen += 1
-        vals = (time_s, sprocket_torque, sprocket_speed, vehicle_speed)
-        if not all(_finite(x) for x in vals):
+        try:
+            t, M, w, v = float(time_s), float(sprocket_torque), float(sprocket_speed), float(vehicle_speed)
+        except (TypeError, ValueError):
             return self._skip(time_s, "a channel is missing or not finite")
-        return self._straight(*(float(x) for x in vals))
+        if not (math.isfinite(t) and math.isfinite(M) and math.isfinite(w) and math.isfinite(v)):
+            return self._skip(time_s, "a channel is missing or not finite")
+        return self._straight(t, M, w, v)
 
     def update_tracks(
         self,
@@ -263,7 +309,12 @@ class OnlineEstimator:
         if self._is_turning(float(speed_left), float(speed_right), yaw):
             self.samples_turning += 1
             if self._prev is not None and self._prev[3] >= 0:  # a turn's edge: the sample before it
-                self._tslot[self._prev[3]] = -math.inf
+                j = self._prev[3]
+                self._tslot[j] = -math.inf
+                self._D[j, _R["m"]] = 0.0
+                if self._live and self._live[-1][1] == j:
+                    self._live.pop()
+                self._rebuild_peaks()
             self._prev = None
             self._last_thrust = None
             return self._report(float(time_s), None, False, None, "skipped", "turning sample left out")
@@ -368,7 +419,7 @@ class OnlineEstimator:
             if (
                 loaded
                 and self._started
-                and self._sums[_S["n_used"]] >= s.detect_min_samples
+                and self._sl[_S["n_used"]] >= s.detect_min_samples
                 and t - self._detect_since >= s.detect_min_s
             ):
                 change = self._detector.update(z / self._robust_scale(), t)
@@ -379,11 +430,19 @@ class OnlineEstimator:
         if self._tslot[slot] >= cutoff and self._cap < s.max_capacity:
             self._grow()
             slot = self._slot
+        if self._live and self._live[0][1] == slot:  # at max_capacity: the oldest sample leaves early
+            self._live.popleft()
+            if self._peaks and self._peaks[0][1] == slot:
+                self._peaks.popleft()
         self._RAW[slot] = raw
         self._D[slot] = self._row
         self._ok[slot] = self._row[_R["m"]]
+        pk = self._peak[slot] = _peak(self._row)
         self._Z[slot] = 0.0 if slip0 is None else slip0
         self._tslot[slot] = t
+        self._live.append((t, slot))
+        if self._ok[slot] > 0:
+            self._push_peak(t, slot, pk)
         self._slot = (slot + 1) % self._cap
         self._prev = (t, M, w, slot)
         if change is not None:
@@ -392,11 +451,34 @@ class OnlineEstimator:
         self._iterate(cutoff)
         return self._report(t, slip0, change is not None, change, None, "")
 
+    def _advance(self, cutoff: float) -> None:
+        """Samples older than ``cutoff`` leave the horizon (their ``m`` set to 0)."""
+        live, m = self._live, _R["m"]
+        while live and live[0][0] < cutoff:
+            self._D[live.popleft()[1], m] = 0.0
+        peaks = self._peaks
+        while peaks and peaks[0][0] < cutoff:
+            peaks.popleft()
+
+    def _push_peak(self, t: float, slot: int, value: float) -> None:
+        peaks = self._peaks
+        while peaks and peaks[-1][2] <= value:
+            peaks.pop()
+        peaks.append((t, slot, value))
+
+    def _rebuild_peaks(self) -> None:
+        """The running maximum from scratch (after a slot's weight or use changed)."""
+        self._peaks.clear()
+        ok, peak = self._ok, self._peak
+        for t, j in self._live:
+            if ok[j] > 0:
+                self._push_peak(t, j, float(peak[j]))
+
     def _median_dt(self) -> float:
         """Running median of the recent time steps (recomputed every few samples)."""
         self._dt_count += 1
         if self._dt_med is None or self._dt_count % _TURN_REESTIMATE_EARLY == 0:
-            self._dt_med = float(np.median(np.fromiter(self._dts, float)))
+            self._dt_med = statistics.median(self._dts)
         return self._dt_med
 
     def _reprepare(self, j: int) -> None:
@@ -407,6 +489,8 @@ class OnlineEstimator:
         self._c_prepare()
         self._D[j] = self._row
         self._ok[j] = self._row[_R["m"]]
+        self._peak[j] = _peak(self._row)
+        self._rebuild_peaks()
         self._row[:] = keep_row
         self._T_out[:], self._sT_out[:], self._raw1[:] = keep
 
@@ -449,15 +533,21 @@ class OnlineEstimator:
             self._c_prepare_all()
             self._D[:] = self._rows_all
             self._ok[:] = self._rows_all[:, _R["m"]]
+            with np.errstate(divide="ignore"):
+                np.subtract(self._rows_all[:, _R["T"]], 2.0 / self._rows_all[:, _R["inv_sc"]], out=self._peak)
+            live = np.zeros(self._cap)
+            for _, j in self._live:
+                live[j] = 1.0
+            np.multiply(self._ok, live, out=self._D[:, _R["m"]])
+            self._rebuild_peaks()
         self._have_noise = True
 
     def _scale(self) -> float:
         """Residual scale: 1 with known noise, else sqrt of the reduced chi-square of the horizon."""
-        s = self.settings
-        if None not in (s.sigma_torque, s.sigma_sprocket_speed, s.sigma_vehicle_speed):
+        if self._noise_known:
             return 1.0
-        n = self._sums[_S["n_used"]]
-        return math.sqrt(max(2.0 * self._sums[_S["cost"]] / max(n - 2.0, 1.0), 1e-12))
+        n = self._sl[_S["n_used"]]
+        return math.sqrt(max(2.0 * self._sl[_S["cost"]] / max(n - 2.0, 1.0), 1e-12))
 
     def _robust_scale(self) -> float:
         """Spread of the recent prediction residuals (MAD, never below 1), re-estimated every few samples.
@@ -469,18 +559,20 @@ class OnlineEstimator:
         self._z_count += 1
         n = len(self._recent_z)
         if n >= MIN_NOISE_SAMPLES and self._z_count % _TURN_REESTIMATE_EARLY == 0:
-            z = np.fromiter(self._recent_z, float)
-            self._z_scale = max(1.0, MAD_TO_SIGMA * float(np.median(np.abs(z - np.median(z)))))
+            med = statistics.median(self._recent_z)
+            self._z_scale = max(1.0, MAD_TO_SIGMA * statistics.median([abs(x - med) for x in self._recent_z]))
         return self._z_scale
 
     def _iterate(self, cutoff: float) -> None:
         """Newton steps on the horizon: one when converged, else up to ``max_steps_per_update``.
 
-        Within one update (fixed data) a step that raised the cost is taken back and retried
-        with a quarter of the trust region (backtracking across kernel calls).
+        A converged iteration takes the tracking step (:data:`~.kernels.TRACK_SLIP_ITERATIONS`
+        slip iterations); one that has not, the full step. Within one update (fixed data) a step
+        that raised the cost is taken back and retried with a quarter of the trust region
+        (backtracking across kernel calls).
         """
         s = self.settings
-        np.multiply(self._ok, self._tslot >= cutoff, out=self._D[:, _R["m"]])
+        self._advance(cutoff)
         steps = 1 if self._converged else s.max_steps_per_update
         P = self._P
         before: tuple[float, float, float] | None = None  # (xF, xK, cost) before the last step
@@ -488,12 +580,16 @@ class OnlineEstimator:
         for _ in range(steps + 1):
             P[_P["max_step"]] = tr
             x_old = (P[_P["xF"]], P[_P["xK"]])
-            self._c_step()
-            if not math.isfinite(float(self._sums.sum()) + float(self._x_out.sum())):
+            (self._c_track if self._converged else self._c_step)()
+            sl = self._sums.tolist()
+            x_new = self._x_out.tolist()
+            if not math.isfinite(math.fsum(sl) + x_new[0] + x_new[1]):
                 self._converged = False  # keep the last good iterate; say so
                 P[_P["max_step"]] = s.max_step_scaled
+                self._sl = sl
                 return
-            cost = self._sums[_S["cost"]]
+            self._sl = sl
+            cost = sl[_S["cost"]]
             if before is not None and cost > before[2] * (1 + 1e-9) + 1e-12:
                 P[_P["xF"]], P[_P["xK"]] = before[0], before[1]  # take the step back, shorter
                 tr *= 0.25
@@ -501,118 +597,128 @@ class OnlineEstimator:
                 self._converged = False
                 continue
             before = (x_old[0], x_old[1], cost)
-            P[_P["xF"]], P[_P["xK"]] = self._x_out
+            P[_P["xF"]], P[_P["xK"]] = x_new
             np.copyto(self._Z, self._Z_out)
-            dec = abs(self._sums[_S["decrement"]]) / self._scale() ** 2
-            self._converged = bool(self._sums[_S["n_used"]] >= 3 and dec < s.converged_decrement)
+            dec = abs(sl[_S["decrement"]]) / self._scale() ** 2
+            self._converged = bool(sl[_S["n_used"]] >= 3 and dec < s.converged_decrement)
             if self._converged or steps == 1:
                 break
         P[_P["max_step"]] = s.max_step_scaled
         if self._converged:
             self._started = True
 
-    def _covariance(self) -> np.ndarray | None:
-        """Sandwich covariance over (F_max, K) in SI, or ``None`` when it does not exist."""
-        S = self._sums
-        A = np.array([[S[_S["A11"]], S[_S["A12"]]], [S[_S["A12"]], S[_S["A22"]]]])
-        B = np.array([[S[_S["B11"]], S[_S["B12"]]], [S[_S["B12"]], S[_S["B22"]]]])
-        if S[_S["n_used"]] < 3 or not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+    def _covariance(self) -> tuple[float, float, float] | None:
+        """Sandwich covariance over (F_max, K) in SI as ``(V_FF, V_FK, V_KK)``, or ``None`` when it does not exist."""
+        S = self._sl
+        a11, a12, a22 = S[_S["A11"]], S[_S["A12"]], S[_S["A22"]]
+        b11, b12, b22 = S[_S["B11"]], S[_S["B12"]], S[_S["B22"]]
+        if not (S[_S["n_used"]] >= 3 and math.isfinite(a11 + a12 + a22 + b11 + b12 + b22)):
             return None
-        det = A[0, 0] * A[1, 1] - A[0, 1] ** 2
-        if not (A[0, 0] > 0 and det > 1e-12 * A[0, 0] * A[1, 1]):
+        det = a11 * a22 - a12 * a12
+        if not (a11 > 0 and det > 1e-12 * a11 * a22):
             return None
-        Ai = np.array([[A[1, 1], -A[0, 1]], [-A[0, 1], A[0, 0]]]) / det
-        V = Ai @ B @ Ai
-        D = np.array([self._F_ref, self._K_ref])
-        V = 0.5 * (V + V.T) * np.outer(D, D)
-        if not (np.all(np.isfinite(V)) and V[0, 0] > 0 and V[1, 1] > 0 and V[0, 0] * V[1, 1] > V[0, 1] ** 2):
+        # A^-1 B A^-1 with A^-1 = [[a22, -a12], [-a12, a11]] / det
+        i11, i12, i22 = a22 / det, -a12 / det, a11 / det
+        m11, m12 = i11 * b11 + i12 * b12, i11 * b12 + i12 * b22  # rows of A^-1 B
+        m21, m22 = i12 * b11 + i22 * b12, i12 * b12 + i22 * b22
+        v11 = m11 * i11 + m12 * i12
+        v12 = 0.5 * ((m11 * i12 + m12 * i22) + (m21 * i11 + m22 * i12))
+        v22 = m21 * i12 + m22 * i22
+        fr, kr = self._F_ref, self._K_ref
+        v11, v12, v22 = v11 * fr * fr, v12 * fr * kr, v22 * kr * kr
+        if not (math.isfinite(v11 + v12 + v22) and v11 > 0 and v22 > 0 and v11 * v22 > v12 * v12):
             return None
-        return V
+        return v11, v12, v22
 
     def _report(self, t: float, slip, change: bool, t_change, status, message) -> OnlineEstimate:
         self._last_time = t
-        l, W = self.vehicle.track_length, self.vehicle.weight
-        n_used = int(round(self._sums[_S["n_used"]]))
+        l = self.vehicle.track_length
+        n_raw = self._sl[_S["n_used"]]
+        n_used = int(round(n_raw)) if math.isfinite(n_raw) else 0
         # identification needs the iteration to have converged once (since the start); before that
         # the iterate is shown, not identified
         have = self._started or (n_used >= 3 and self._converged)
-        iterate = self._P[_P["xF"]] * self._F_ref if n_used >= 3 else None
-        xF, xK = self._P[_P["xF"]], self._P[_P["xK"]]
+        xF, xK = float(self._P[_P["xF"]]), float(self._P[_P["xK"]])
         F = K = sF = sK = cov = slope = s_slope = None
         ident: tuple[str, ...] = ()
         if have and n_used >= 3:
-            F, K = float(xF * self._F_ref), float(xK * self._K_ref)
+            F, K = xF * self._F_ref, xK * self._K_ref
             slope = F * l / (2 * K)
             V = self._covariance()
             if V is not None:
-                gs = np.array([l / (2 * K), -F * l / (2 * K * K)])
-                s_slope = float(math.sqrt(max(gs @ V @ gs, 0.0)))
+                v11, v12, v22 = V
+                g1, g2 = l / (2 * K), -F * l / (2 * K * K)
+                s_slope = math.sqrt(max(g1 * g1 * v11 + 2 * g1 * g2 * v12 + g2 * g2 * v22, 0.0))
                 if s_slope < GENTLE_REL_STDERR * slope:  # even the slope needs slips above the noise
                     ident = ("slope",)
-                sF_, sK_ = math.sqrt(V[0, 0]), math.sqrt(V[1, 1])
-                corr = V[0, 1] / (sF_ * sK_)
+                sF_, sK_ = math.sqrt(v11), math.sqrt(v22)
+                corr = v12 / (sF_ * sK_)
                 (Flo, Fhi), (Klo, Khi) = self._bounds_scaled
                 tol = 1e-6
                 F_bound = not (Flo + tol < xF < Fhi - tol)
                 K_bound = not (Klo + tol < xK < Khi - tol)
-                used = self._D[:, _R["m"]] > 0
-                peak = float(np.max(self._D[used, _R["T"]] - 2.0 / self._D[used, _R["inv_sc"]], initial=0.0))
-                reached = peak >= self.settings.identify_min_utilisation * F
-                if reached and abs(corr) < GENTLE_CORRELATION and sF_ / F < GENTLE_REL_STDERR and not F_bound:
-                    ident = ("slope", "max_thrust")
-                    sF = sF_
-                    # F_max is determined: hold it there (weakly) while later horizons do not determine it
-                    self._P[_P["xF_prior"]] = xF
-                    self._P[_P["w_prior"]] = 1.0 / (self.settings.hold_rel * xF) ** 2
-                    if self._F_known is None:
-                        self._known_since = self._last_time
-                    self._F_known = F
-                    if sK_ / K <= K_REL_STDERR and not K_bound:
-                        ident = ("slope", "max_thrust", "shear_modulus")
-                        sK = sK_
-                        cov = V
-        elif have or iterate is not None:
-            F, K = float(xF * self._F_ref), float(xK * self._K_ref)
+                if abs(corr) < GENTLE_CORRELATION and sF_ / F < GENTLE_REL_STDERR and not F_bound:
+                    # the horizon's largest thrust, two standard deviations below its value
+                    peak = max(self._peaks[0][2], 0.0) if self._peaks else 0.0
+                    if peak >= self.settings.identify_min_utilisation * F:
+                        ident = ("slope", "max_thrust")
+                        sF = sF_
+                        # F_max is determined: hold it there (weakly) while later horizons do not determine it
+                        self._P[_P["xF_prior"]] = xF
+                        self._P[_P["w_prior"]] = 1.0 / (self.settings.hold_rel * xF) ** 2
+                        if self._F_known is None:
+                            self._known_since = self._last_time
+                        self._F_known = F
+                        if sK_ / K <= K_REL_STDERR and not K_bound:
+                            ident = ("slope", "max_thrust", "shear_modulus")
+                            sK = sK_
+                            cov = np.array([[v11, v12], [v12, v22]])
+        elif have or n_used >= 3:
+            F, K = xF * self._F_ref, xK * self._K_ref
             slope = F * l / (2 * K)
         if status is None:
             status = (
-                "ok"
-                if (have and self._converged)
-                else ("not_converged" if (have or iterate is not None) else "warming_up")
+                "ok" if (have and self._converged) else ("not_converged" if (have or n_used >= 3) else "warming_up")
             )
         if not message:
-            message = {
-                "ok": "converged",
-                "warming_up": "too few samples for an estimate yet",
-                "not_converged": "the Gauss-Newton iteration has not converged yet",
-            }.get(status, status)
+            message = _MESSAGES.get(status, status)
             if change:
                 message = f"change of terrain detected, dated {t_change:.6g} s: older samples forgotten"
-        est = OnlineEstimate(
-            time_s=float(t),
-            max_thrust_N=F,
-            max_thrust_stderr_N=sF,
-            shear_modulus_m=K,
-            shear_modulus_stderr_m=sK,
-            covariance=cov,
-            slope_N=slope,
-            slope_stderr_N=s_slope,
-            normal_load_N=float(W),
-            identifiable=ident,
-            slip=None if slip is None else float(slip),
-            change_detected=bool(change),
-            change_time_s=None if t_change is None else float(t_change),
-            samples_used=n_used,
-            samples_skipped=self.samples_skipped,
-            samples_turning=self.samples_turning,
-            samples_seen=self.samples_seen,
-            converged=bool(self._converged and have),
-            status=status,
-            message=message,
-            detector=float(self._detector.statistic),
+        est = OnlineEstimate.from_fields(
+            {
+                "time_s": float(t),
+                "max_thrust_N": F,
+                "max_thrust_stderr_N": sF,
+                "shear_modulus_m": K,
+                "shear_modulus_stderr_m": sK,
+                "covariance": cov,
+                "slope_N": slope,
+                "slope_stderr_N": s_slope,
+                "normal_load_N": self._normal_load,
+                "grade_rad": self._grade,
+                "identifiable": ident,
+                "not_identifiable": _NOT_IDENTIFIED[ident],
+                "slip": None if slip is None else float(slip),
+                "change_detected": bool(change),
+                "change_time_s": None if t_change is None else float(t_change),
+                "samples_used": n_used,
+                "samples_skipped": self.samples_skipped,
+                "samples_turning": self.samples_turning,
+                "samples_seen": self.samples_seen,
+                "converged": bool(self._converged and have),
+                "status": status,
+                "message": message,
+                "detector": self._detector.statistic,
+            }
         )
         self._last = est
         return est
+
+
+def _peak(row: np.ndarray) -> float:
+    """A data column's thrust two standard deviations below its value (-inf without a weight)."""
+    isc = float(row[_R["inv_sc"]])
+    return float(row[_R["T"]]) - 2.0 / isc if isc > 0 else -math.inf
 
 
 def _finite(x) -> bool:

@@ -43,6 +43,11 @@ __all__ = [
     "SPEED_FLOOR_SIGMA",
     "BRAKING_SIGMA",
     "PREDICT_ITERATIONS",
+    "PREDICT_START_U",
+    "SLIP_ITERATIONS",
+    "TRACK_SLIP_ITERATIONS",
+    "SLIP_STEP_FRACTIONS",
+    "TRACK_STEP_FRACTIONS",
 ]
 
 #: A sample's readings: vehicle speed, sprocket speed and the previous one, the previous
@@ -96,6 +101,12 @@ BRAKING_SIGMA = 3.0
 JUMP_SIGMA = 5.0
 #: Gauss-Newton iterations on the latent slip of a new sample before it is predicted.
 PREDICT_ITERATIONS = 4
+#: Start candidates of a new sample's latent slip besides the measured one, as ``u = i l / K``
+#: (the slip factor's argument; its curve rises over u = 0.1 to 10). At low speed the measured
+#: slip is mostly noise and can sit on the wrong plateau of the curve (thrust positive, slip
+#: negative), where a Gauss-Newton step jumps to the other plateau and never reaches the steep
+#: part; the batch fit starts from the thrust's slip for the same reason.
+PREDICT_START_U = (0.0, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0)
 #: Smallest speed floor, m/s (as the batch fit).
 _MIN_FLOOR = 1e-3
 
@@ -124,11 +135,12 @@ def _prepare(raw, noise):
     return row, T, ca.sqrt(sT2_raw)
 
 
-def _residuals(row, i, xF, xK, F_ref, K_ref, l):
+def _residuals(row, i, xF, xK, F_ref, K_ref, l, shape=slip_factor):
+    """The speed and thrust residuals of one sample; ``shape(i, l, K)`` is the slip factor (soilmodel's)."""
     v, rw, T, isc, iss, rho = (row[j] for j in range(6))
     d_s = v - rw * (1 - i)
     e_w = d_s * iss
-    e_T = (T - xF * F_ref * slip_factor(i, l, xK * K_ref) - rho * d_s) * isc
+    e_T = (T - xF * F_ref * shape(i, l, xK * K_ref) - rho * d_s) * isc
     return e_w, e_T
 
 
@@ -143,16 +155,25 @@ def prepare_kernel() -> ca.Function:
 
 #: Gauss-Newton iterations on each latent slip (at the current F_max, K) within one step.
 SLIP_ITERATIONS = 2
+#: ... and within a tracking step (the iteration converged: each slip starts from its optimum
+#: of the previous update, moved by the step's first-order follow), with the step fractions
+#: of :data:`TRACK_STEP_FRACTIONS`: a full Gauss-Newton step, kept only where it lowers the cost.
+TRACK_SLIP_ITERATIONS = 1
 
 
 #: Step fractions tried by each safeguarded Gauss-Newton step on a latent slip (the cheapest
 #: cost wins; 0 keeps the slip): the thrust-slip curve is steep at small slip, and a full step
 #: from a poor start can jump to the other side of the optimum and back.
 SLIP_STEP_FRACTIONS = (1.0, 0.5, 0.25, 0.0)
+#: Step fractions of a tracking step's slip iteration.
+TRACK_STEP_FRACTIONS = (1.0, 0.0)
 
 
-def _slip_gn(row, i, xF, xK, F_ref, K_ref, l, iterations: int):
-    """``iterations`` safeguarded Gauss-Newton steps on one sample's latent slip at fixed (F_max, K)."""
+def _slip_gn(row, i, xF, xK, F_ref, K_ref, l, iterations: int, fractions: tuple[float, ...] = SLIP_STEP_FRACTIONS):
+    """``iterations`` safeguarded Gauss-Newton steps on one sample's latent slip at fixed (F_max, K).
+
+    Each step tries the ``fractions`` of the Gauss-Newton step and keeps the cheapest.
+    """
     lo, hi = SLIP_BOUNDS
     z = ca.SX.sym("z")
     e = ca.vertcat(*_residuals(row, z, xF, xK, F_ref, K_ref, l))
@@ -162,8 +183,9 @@ def _slip_gn(row, i, xF, xK, F_ref, K_ref, l, iterations: int):
     for _ in range(iterations):
         st = ca.substitute(step, z, i)
         best_i, best_c = None, None
-        for frac in SLIP_STEP_FRACTIONS:
-            cand = ca.fmin(ca.fmax(i + frac * st, lo), hi)
+        for frac in fractions:
+            # the fraction 0 keeps the slip (inside the bounds already): its cost shares the step's residuals
+            cand = i if frac == 0.0 else ca.fmin(ca.fmax(i + frac * st, lo), hi)
             c = ca.substitute(cost, z, cand)
             if best_i is None:
                 best_i, best_c = cand, c
@@ -175,15 +197,46 @@ def _slip_gn(row, i, xF, xK, F_ref, K_ref, l, iterations: int):
     return i
 
 
-def _sample_sums():
-    """Per-sample contributions to the sums, and the slip after the step (SX Functions).
+@locked_cache(maxsize=1)
+def _bracket_derivatives() -> ca.Function:
+    """``u -> (g, g', g'')``: the slip factor ``g(u)`` of soilmodel (``u = i l / K``) and its derivatives (AD)."""
+    u = ca.SX.sym("u")
+    g = slip_factor(u, 1.0, 1.0)
+    return ca.Function("online_bracket", [u], [g, ca.jacobian(g, u), ca.hessian(g, u)[0]])
 
-    Each latent slip is first moved to its optimum at the current (F_max, K)
-    (:data:`SLIP_ITERATIONS` Gauss-Newton steps, warm-started), so the sums are those of the
+
+def _thrust_residual_derivatives(row, i_s, xs, P, z):
+    """The thrust residual ``e_T`` at ``(xs, i_s)`` with its gradient and Hessian in ``z = (xF, xK, i)``.
+
+    Differentiated (AD) through the slip factor's local second-order model at the point,
+    ``g(u0) + g'(u0) (u - u0) + g''(u0) (u - u0)^2 / 2`` with ``u0 = u``: the same value, gradient
+    and Hessian as differentiating :func:`_residuals` directly (to rounding), in fewer
+    operations (the slip factor's two branches are differentiated once, in ``u`` alone).
+    """
+    u0 = ca.SX.sym("u0")
+    g0, g1, g2 = _bracket_derivatives()(u0)
+
+    def local(i, l, K):
+        du = i * l / K - u0
+        return g0 + g1 * du + 0.5 * g2 * du**2
+
+    _, e_T = _residuals(row, i_s, xs[0], xs[1], P["F_ref"], P["K_ref"], P["l"], shape=local)
+    u = i_s * P["l"] / (xs[1] * P["K_ref"])
+    out = ca.substitute([e_T, ca.gradient(e_T, z), ca.hessian(e_T, z)[0]], [u0], [u])
+    return out[0], out[1], out[2]
+
+
+def _sample_sums(iterations: int, fractions: tuple[float, ...]):
+    """Per-sample contributions to the sums, the optimal slip, and its follow of a step (SX Function).
+
+    Each latent slip is first moved to its optimum at the current (F_max, K) (``iterations``
+    safeguarded Gauss-Newton steps trying the step ``fractions``, warm-started), so the sums are those of the
     profiled cost: its gradient ``g = e_T de_T/dx``, its exact Hessian ``A`` (Schur
     complement of the per-sample Hessian in (xF, xK, i), residual curvature included), the
     Gauss-Newton matrix ``S`` (a fallback where ``A`` is not positive definite) and the score
-    products ``B`` of the sandwich covariance.
+    products ``B`` of the sandwich covariance. ``follow`` is the slip's first-order change per
+    unit parameter step (``i_next = i - follow . dx``), so the slips follow the step without a
+    second pass over the horizon.
     """
     row = ca.SX.sym("row", len(ROWS))
     i0 = ca.SX.sym("i")
@@ -193,10 +246,9 @@ def _sample_sums():
     lo, hi = SLIP_BOUNDS
     xs = ca.SX.sym("xs", 2)
     i_s = ca.SX.sym("i_s")
-    e_w, e_T = _residuals(row, i_s, xs[0], xs[1], P["F_ref"], P["K_ref"], P["l"])
+    e_w, _ = _residuals(row, i_s, xs[0], xs[1], P["F_ref"], P["K_ref"], P["l"])
     z = ca.vertcat(xs, i_s)
-    gT = ca.gradient(e_T, z)
-    hT = ca.hessian(e_T, z)[0]
+    e_T, gT, hT = _thrust_residual_derivatives(row, i_s, xs, P, z)
     a, bT = gT[:2], gT[2]
     bw = row[1] * row[4]  # d e_w / d i
     Hii_gn = bw**2 + bT**2
@@ -222,25 +274,23 @@ def _sample_sums():
         g[1] ** 2,
         1.0,
     )
-    dx = ca.SX.sym("dx", 2)
-    i_next = ca.fmin(ca.fmax(i_s - bT * ca.dot(a, dx) / Hii_gn, lo), hi)  # first-order follow of the step
-    core = ca.Function("online_sample_core", [row, i_s, xs, p, dx], [per, i_next])
+    # first-order follow of a parameter step dx: i_next = clip(i - follow . dx)
+    follow = m * bT * a / Hii_gn
+    core = ca.Function("online_sample_core", [row, i_s, xs, p], [per, follow])
     x = ca.vertcat(P["xF"], P["xK"])
-    i_opt = _slip_gn(row, i0, P["xF"], P["xK"], P["F_ref"], P["K_ref"], P["l"], SLIP_ITERATIONS)
+    i_opt = _slip_gn(row, i0, P["xF"], P["xK"], P["F_ref"], P["K_ref"], P["l"], iterations, fractions)
     i_opt = ca.if_else(m > 0, i_opt, i0)
-    per_s, _ = core(row, i_opt, x, p, ca.DM.zeros(2))
-    sums = ca.Function("online_sample_sums", [row, i0, p], [per_s, i_opt], {"cse": True})
-    _, i_next_s = core(row, i0, x, p, dx)
-    slip = ca.Function("online_sample_slip", [row, i0, p, dx], [ca.if_else(m > 0, i_next_s, i0)], {"cse": True})
-    return sums, slip
+    per_s, follow_s = core(row, i_opt, x, p)
+    return ca.Function("online_sample_sums", [row, i0, p], [per_s, i_opt, follow_s], {"cse": True})
 
 
-def _step(n: int) -> ca.Function:
-    sums_f, slip_f = _sample_sums()
+def _step(n: int, iterations: int, fractions: tuple[float, ...], name: str) -> ca.Function:
+    """One Newton step on a horizon of capacity ``n`` (slips: ``iterations`` steps over ``fractions``)."""
+    sums_f = _sample_sums(iterations, fractions)
     D = ca.MX.sym("D", len(ROWS), n)
     Z = ca.MX.sym("Z", 1, n)
     P = ca.MX.sym("P", len(PARAMS))
-    tot, Zopt = sums_f.map("online_sums_map", "serial", n, [2], [0])(D, Z, P)
+    tot, Zopt, follow = sums_f.map(f"{name}_sums_map", "serial", n, [2], [0])(D, Z, P)
     Q = {name: P[j] for j, name in enumerate(PARAMS)}
     xF, xK = Q["xF"], Q["xK"]
     g1 = tot[3] + Q["w_prior"] * (xF - Q["xF_prior"])
@@ -283,9 +333,11 @@ def _step(n: int) -> ca.Function:
     dxe = ca.vertcat(xF_new - xF, xK_new - xK)
     # decrease of the cost predicted by the quadratic model along the step taken
     decrement = -(g1 * dxe[0] + g2 * dxe[1]) - 0.5 * (H11 * dxe[0] ** 2 + 2 * H12 * dxe[0] * dxe[1] + H22 * dxe[1] ** 2)
-    Znew = slip_f.map("online_slip_map", "serial", n, [2, 3], [])(D, Zopt, P, dxe)
+    lo, hi = SLIP_BOUNDS
+    Zfollow = ca.fmin(ca.fmax(Zopt - (dxe[0] * follow[0, :] + dxe[1] * follow[1, :]), lo), hi)
+    Znew = ca.if_else(D[len(ROWS) - 1, :] > 0, Zfollow, Zopt)
     return ca.Function(
-        f"online_step_{n}",
+        f"{name}_{n}",
         [D, Z, P],
         [ca.vertcat(xF_new, xK_new), Znew, ca.vertcat(tot, decrement)],
         ["D", "Z", "P"],
@@ -297,9 +349,10 @@ def _step(n: int) -> ca.Function:
 def predict_kernel() -> ca.Function:
     """A new sample's profiled residual: ``(row, P) -> [slip, wres]``.
 
-    The latent slip starts at the measured slip (clipped to the slip bounds) and takes
-    :data:`PREDICT_ITERATIONS` Gauss-Newton steps on ``e_w^2 + e_T^2`` at the current
-    estimate; ``wres`` is the batch fit's profiled residual ``sign(e_T) sqrt(e_w^2 + e_T^2)``.
+    The latent slip starts at the cheapest of the measured slip (clipped to the slip bounds)
+    and the points :data:`PREDICT_START_U` of the thrust-slip curve at the current estimate, and
+    takes :data:`PREDICT_ITERATIONS` Gauss-Newton steps on ``e_w^2 + e_T^2``; ``wres`` is the
+    batch fit's profiled residual ``sign(e_T) sqrt(e_w^2 + e_T^2)``.
     """
     row = ca.SX.sym("row", len(ROWS))
     p = ca.SX.sym("p", len(PARAMS))
@@ -310,6 +363,14 @@ def predict_kernel() -> ca.Function:
         return _residuals(row, i, P["xF"], P["xK"], P["F_ref"], P["K_ref"], P["l"])
 
     s = ca.fmin(ca.fmax(1 - row[0] / ca.fmax(row[1], _MIN_FLOOR), lo), hi)
+    e_w, e_T = res(s)
+    best = e_w**2 + e_T**2
+    for u in PREDICT_START_U:
+        cand = ca.fmin(ca.fmax(u * P["xK"] * P["K_ref"] / P["l"], lo), hi)
+        e_w, e_T = res(cand)
+        c = e_w**2 + e_T**2
+        better = c < best
+        s, best = ca.if_else(better, cand, s), ca.if_else(better, c, best)
     s = _slip_gn(row, s, P["xF"], P["xK"], P["F_ref"], P["K_ref"], P["l"], PREDICT_ITERATIONS)
     e_w, e_T = res(s)
     wres = ca.sign(e_T) * ca.sqrt(e_w**2 + e_T**2)
@@ -317,7 +378,12 @@ def predict_kernel() -> ca.Function:
 
 
 class Kernels:
-    """The compiled Functions of one horizon capacity: ``step``, ``predict``, ``prepare``, ``prepare_all``.
+    """The compiled Functions of one horizon capacity: ``step``, ``track``, ``predict``, ``prepare``, ``prepare_all``.
+
+    ``step`` is the Newton step of a horizon whose iteration has not converged (start, after a
+    change of terrain: :data:`SLIP_ITERATIONS` safeguarded slip steps); ``track`` the step of a
+    converged one (:data:`TRACK_SLIP_ITERATIONS`: less work per sample). Both share the inputs
+    and outputs.
 
     ``backend`` says what evaluates them (C code from the per-user cache, or CasADi's
     virtual machine when no compiler is available: same numbers, slower); ``library`` is the
@@ -327,9 +393,15 @@ class Kernels:
     def __init__(self, n: int) -> None:
         prep = prepare_kernel()
         prep_all = prep.map(f"online_prepare_all_{n}", "serial", n, [1], [])
-        fns = [_step(n), predict_kernel(), prep, prep_all]
+        fns = [
+            _step(n, SLIP_ITERATIONS, SLIP_STEP_FRACTIONS, "online_step"),
+            _step(n, TRACK_SLIP_ITERATIONS, TRACK_STEP_FRACTIONS, "online_track"),
+            predict_kernel(),
+            prep,
+            prep_all,
+        ]
         comp = jitcache.load(fns, f"soiltrack_online_{n}", wait=True)
-        self.step, self.predict, self.prepare, self.prepare_all = comp.functions
+        self.step, self.track, self.predict, self.prepare, self.prepare_all = comp.functions
         self.backend = comp.backend
         self.library = comp.path if comp.is_c else None
         self.capacity = n

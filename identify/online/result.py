@@ -6,11 +6,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["OnlineEstimate", "IDENTIFIABLE_NAMES"]
+__all__ = ["OnlineEstimate", "IDENTIFIABLE_NAMES", "NOT_SEPARABLE"]
 
 #: The quantities an estimate can call identified: the small-slip slope ``F_max l / (2 K)``
 #: (gentle driving), and F_max and K themselves (a pull near the traction limit).
 IDENTIFIABLE_NAMES = ("slope", "max_thrust", "shear_modulus")
+#: Never identified on-line: the horizon holds one normal load, and at one load c and phi enter
+#: the thrust only through F_max = A c + N tan(phi) (their Jacobian columns are proportional), so
+#: any (c, phi) on that line fits the same. Separating them needs loads that differ (a payload,
+#: a change of grade, a rig sweep at several loads: the batch ``fit`` of such data).
+NOT_SEPARABLE = ("cohesion", "friction_angle")
 
 
 @dataclass(frozen=True, eq=False)
@@ -22,7 +27,8 @@ class OnlineEstimate:
     time_s
         Time of the sample just processed, s.
     max_thrust_N, shear_modulus_m
-        Current estimate of the thrust limit F_max = A c + W tan(phi) (N) and of K (m); the
+        Current estimate of the thrust limit F_max = A c + N tan(phi) at the normal load N
+        (``normal_load_N``), N, and of K (m); the
         values of the moving-horizon fit even when they are not identifiable (then only their
         slope is: see ``identifiable``). ``None`` before the first estimate.
     max_thrust_stderr_N, shear_modulus_stderr_m
@@ -35,10 +41,19 @@ class OnlineEstimate:
         The small-slip slope ``F_max l / (2 K)`` (thrust per unit slip) and its standard error
         (``None`` before an estimate exists).
     normal_load_N
-        Normal load W of the estimate, N (the vehicle's weight on flat ground).
+        Normal load N of the estimate, N: ``W cos(theta)`` on the known grade theta
+        (``grade_rad``, :func:`soiltrack.soilmodel.effects.effective_normal_load`), the vehicle's
+        weight W on flat ground. F_max is the limit at this load.
+    grade_rad
+        The known grade the estimate assumes (``OnlineSettings.grade_rad``), rad, positive uphill.
     identifiable
         What the horizon's data pin down now: ``()`` (too few samples), ``("slope",)`` (gentle
         driving), ``("slope", "max_thrust")`` or ``("slope", "max_thrust", "shear_modulus")``.
+        Never ``cohesion`` or ``friction_angle``: see ``not_identifiable``.
+    not_identifiable
+        What the estimate does not identify: the names of :data:`IDENTIFIABLE_NAMES` missing from
+        ``identifiable``, and always :data:`NOT_SEPARABLE` (``"cohesion"``, ``"friction_angle"``:
+        one normal load, only their combination F_max is determined).
     slip
         The latent (true) slip of the sample just processed, ``None`` when it was not used.
     change_detected
@@ -73,7 +88,9 @@ class OnlineEstimate:
     slope_N: float | None
     slope_stderr_N: float | None
     normal_load_N: float
+    grade_rad: float
     identifiable: tuple[str, ...]
+    not_identifiable: tuple[str, ...]
     slip: float | None
     change_detected: bool
     change_time_s: float | None
@@ -86,9 +103,27 @@ class OnlineEstimate:
     message: str
     detector: float
 
+    @classmethod
+    def from_fields(cls, fields: dict) -> OnlineEstimate:
+        """Build from a dict holding every field (the estimator's per-update fast path).
+
+        The frozen ``__init__`` sets its fields one ``object.__setattr__`` at a time, at every
+        update; this fills the instance's dict at once. A missing or unknown field is refused,
+        as ``__init__`` would refuse it.
+        """
+        if fields.keys() != _FIELDS:
+            raise TypeError(f"OnlineEstimate fields differ: {sorted(fields.keys() ^ _FIELDS)}")
+        obj = cls.__new__(cls)
+        obj.__dict__.update(fields)
+        return obj
+
     def as_dict(self) -> dict:
         """JSON-ready dict (``covariance`` as a nested list or ``None``; ``identifiable`` a list)."""
         out = {k: getattr(self, k) for k in self.__dataclass_fields__}
         out["identifiable"] = list(self.identifiable)
+        out["not_identifiable"] = list(self.not_identifiable)
         out["covariance"] = None if self.covariance is None else np.asarray(self.covariance).tolist()
         return out
+
+
+_FIELDS = frozenset(OnlineEstimate.__dataclass_fields__)

@@ -5,12 +5,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from ...soilmodel.effects import EFFECTS
 from ...soilmodel.errors import DataError
 from ...soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
 from ...soilmodel.tracks import TURN_THRESHOLD_SIGMA
 from ...soilmodel.traction import check_model
 
 __all__ = ["OnlineSettings"]
+
+#: Admissible grade, rad: the ``grade`` effect's range (soilmodel's registry).
+_GRADE_RANGE = (EFFECTS["grade"].params[0].lower, EFFECTS["grade"].params[0].upper)
 
 
 @dataclass(frozen=True)
@@ -22,6 +26,14 @@ class OnlineSettings:
     window_s
         Length of the moving horizon, s: the estimate rests on the samples of the last
         ``window_s`` seconds (and on none before the last detected change of terrain).
+    grade_rad
+        Known grade of the ground the vehicle drives on, rad, positive uphill (0: flat). The
+        normal load becomes ``W cos(theta)`` (:func:`soiltrack.soilmodel.effects.effective_normal_load`):
+        the estimate's F_max is the limit at that load and its bounds are those of
+        ``A c + W cos(theta) tan(phi)`` over the soil box. The grade's ``W sin(theta)`` acts on the
+        hull, which neither residual of the estimator (track speed, sprocket thrust) contains:
+        the fitted F_max and K do not depend on it (see docs/online.md, "On a slope").
+        Within the ``grade`` effect's range (+-1.2 rad).
     model, bounds
         Thrust law (``"full"`` or ``"cohesion-free"``) and the soil box; F_max is bounded by
         the range of ``A c + W tan(phi)`` over the box, K by its K range.
@@ -86,6 +98,7 @@ class OnlineSettings:
     """
 
     window_s: float = 5.0
+    grade_rad: float = 0.0
     model: str = "full"
     bounds: SoilBounds = PRACTICAL_BOUNDS
     sigma_torque: float | None = None
@@ -153,5 +166,9 @@ class OnlineSettings:
                 isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val < 0
             ):
                 raise DataError(f"setting {name} must be a finite number >= 0, got {val!r}")
+        g = self.grade_rad
+        lo, hi = _GRADE_RANGE
+        if isinstance(g, bool) or not isinstance(g, (int, float)) or not math.isfinite(g) or not lo <= g <= hi:
+            raise DataError(f"setting grade_rad must be a finite number in [{lo:g}, {hi:g}] rad, got {g!r}")
         if self.max_step_ratio <= 1:
             raise DataError(f"setting max_step_ratio must be > 1, got {self.max_step_ratio!r}")
