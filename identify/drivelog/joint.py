@@ -69,6 +69,7 @@ from ...soilmodel.effects import (
 )
 from ...soilmodel.errors import DataError
 from ...soilmodel.threadsafe import locked_cache
+from ...soilmodel.dense_call import call_dense
 from ...soilmodel.vehicle import Vehicle
 from .noise import noise_model
 from .prepare import SLIP_BOUNDS, PreparedLog
@@ -388,27 +389,24 @@ class _Chunked:
     def __init__(self, fn: ca.Function, D: np.ndarray) -> None:
         self.fn = fn
         self.D = np.asarray(D, dtype=float)
-        self._full: ca.DM | None = None
+        self._full: np.ndarray | None = None
 
     def __call__(self, th: np.ndarray, slip: np.ndarray, idx: np.ndarray | None = None) -> list[np.ndarray]:
         slip = np.asarray(slip, dtype=float).ravel()
         n = slip.size
         k = -(-n // SLIP_CHUNK)
         size = k * SLIP_CHUNK
-        D: ca.DM | np.ndarray
+        D: np.ndarray
         if idx is None:
             if self._full is None:
-                self._full = ca.DM(padded_data(self.D, size))
+                self._full = padded_data(self.D, size)
             D = self._full
         else:
             D = padded_data(self.D[:, idx], size)
         th = np.asarray(th, dtype=float).reshape(-1, 1)
         s = np.zeros((1, size))
         s[0, :n] = slip
-        out = _mapped(self.fn, k)(th, s, D)
-        if isinstance(out, (list, tuple)):
-            return [np.asarray(o, dtype=float).ravel()[:n] for o in out]
-        return [np.asarray(out, dtype=float).ravel()[:n]]
+        return [o.ravel()[:n] for o in call_dense(_mapped(self.fn, k), th, s, D)]
 
 
 def _slip_pair(vehicle: Vehicle, structure: EffectSet, D: np.ndarray) -> tuple[_Chunked, _Chunked]:
