@@ -6,7 +6,8 @@ Given the weights of the admissible hypotheses (:mod:`.evidence`) and the gap te
 1. No gap: the verdict is ``none``.
 2. A gap, and the heaviest hypothesis is a candidate effect that explains it: that effect. It
    explains the gap when it removes at least ``min_explained`` of the nominal model's excess error
-   over the noise.
+   over the noise on the samples it changes (its support: the whole run for an effect, the window
+   for a change of terrain); where the nominal model shows no excess there, it explains nothing.
 3. A gap, and the heaviest is a candidate that does not explain it, the flexible term, or a cause
    outside the library (or an effect the user left out of the candidates): ``unexplained``, with
    the cause named when the heaviest is one and it explains the gap (the same test).
@@ -86,13 +87,17 @@ def _confusable(
 def _explains(h: Hypothesis, exv: float | None, s: DiagnoseSettings) -> tuple[bool, str]:
     """Whether the heaviest hypothesis explains the gap: it removes at least ``min_explained`` of the nominal
     excess over the noise; and why not."""
-    if exv is not None and exv < s.min_explained:
+    if exv is None:
+        return False, (
+            "the nominal model shows no excess error over the noise on the samples it changes, so it has "
+            "nothing there to remove"
+        )
+    if exv < s.min_explained:
         return False, (
             f"removes only {max(exv, 0.0):.0%} of the nominal excess error over the noise (at least "
             f"{s.min_explained:.0%} is needed)"
         )
-    share = "" if exv is None else f"removes {exv:.0%} of the nominal excess error over the noise"
-    return True, share
+    return True, f"removes {exv:.0%} of the nominal excess error over the noise"
 
 
 def decide(

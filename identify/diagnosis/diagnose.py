@@ -237,8 +237,11 @@ def _data_step(
 
 def _score(setup: Setup, hyps: list[Hypothesis]) -> tuple[list[Hypothesis], Frame]:
     """Every hypothesis with its z on the evidence's frame (the nominal values fill what one leaves
-    unpredicted)."""
+    unpredicted). On a log the frame's noise floor is at most the nominal model's held-out error per
+    channel (:meth:`Frame.at_most_nominal`)."""
     frame = _frame(setup, hyps[0], held=setup.is_log)
+    if setup.is_log:
+        frame = frame.at_most_nominal(hyps[0].residuals)
     z0 = frame.z(hyps[0].residuals)
     return [h.scored(frame, z0, hyps[0]) for h in hyps], frame
 

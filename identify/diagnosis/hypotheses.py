@@ -54,6 +54,24 @@ class Frame:
         """Number of standardised residuals compared."""
         return int(sum(int(np.count_nonzero(m)) for m in self.mask.values()))
 
+    def at_most_nominal(self, residuals: dict[str, np.ndarray]) -> "Frame":
+        """This frame with each channel's noise floor lowered, where needed, to the nominal model's own error.
+
+        The noise on a channel is at most what the nominal model leaves there (``residuals``): where
+        the nominal model's mean squared standardised residual is below one, the floor (second
+        differences, which also carry fast real variations of the signal) is too high, and a
+        hypothesis that only rescales a channel's noise (a mass error scales the hull balance's)
+        would gain held-out density from the floor's error, not from its predictions. Channels where
+        the nominal error is above the floor keep it.
+        """
+        sigma = dict(self.sigma)
+        for ch, m in self.mask.items():
+            z = np.asarray(residuals[ch], dtype=float)[m] / self.sigma[ch][m]
+            z = z[np.isfinite(z)]
+            if z.size:
+                sigma[ch] = self.sigma[ch] * math.sqrt(min(1.0, max(float(np.mean(z**2)), 1e-12)))
+        return Frame(sigma, self.mask)
+
     def z(
         self,
         residuals: dict[str, np.ndarray],
@@ -116,6 +134,12 @@ class Hypothesis:
         Set by :meth:`scored`: its noise level relative to the nominal model's per channel (full
         length; None: 1), and ``log`` of it on the frame's samples (the held-out log density is
         ``-z^2 / 2 - log_scale``).
+    support
+        Per channel (full length), the samples where its prediction can differ from the nominal
+        model's (a change of terrain: its window); None: every sample (an effect of the whole run).
+        The share of the gap it explains is measured there (:meth:`explained`).
+    in_support
+        Set by :meth:`scored`: ``support`` on the frame's samples, in the layout of ``z`` (None: all).
     """
 
     name: str
@@ -133,6 +157,8 @@ class Hypothesis:
     noise: dict[str, np.ndarray] | None = None
     scale: dict[str, np.ndarray] | None = None
     log_scale: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    support: dict[str, np.ndarray] | None = None
+    in_support: np.ndarray | None = None
 
     def heldout(self) -> dict[str, np.ndarray]:
         """Its held-out residuals (raises when it was not held out: the nominal model always is)."""
@@ -156,11 +182,16 @@ class Hypothesis:
         level relative to ``nominal``'s where it has one."""
         scale = None if nominal is None else self.noise_scale(nominal)
         z = frame.z(self.residuals, fill, scale)
+        sel = (
+            None
+            if self.support is None
+            else np.concatenate([np.asarray(self.support[ch], dtype=bool)[m] for ch, m in frame.mask.items()])
+        )
         if scale is None:
-            return replace(self, z=z, scale=None, log_scale=np.zeros(z.size))
+            return replace(self, z=z, scale=None, log_scale=np.zeros(z.size), in_support=sel)
         ls = np.concatenate([np.log(scale[ch][m]) for ch, m in frame.mask.items()])
         ls[np.isnan(frame.z(self.residuals))] = 0.0  # filled with the nominal model's values
-        return replace(self, z=z, scale=scale, log_scale=ls)
+        return replace(self, z=z, scale=scale, log_scale=ls, in_support=sel)
 
     @property
     def sum_squares(self) -> float:
@@ -171,11 +202,15 @@ class Hypothesis:
         """Share of the nominal model's excess error over the noise that this hypothesis removes.
 
         ``1 - max(E, 0) / E_nominal`` with ``E = S / n - 1`` (``S`` the sum of squared standardised
-        residuals over ``n``): at most 1, negative when it does worse, NaN when the nominal model
-        shows no excess (nothing to explain).
+        residuals over the ``n`` compared samples in its :attr:`support`): at most 1, negative when it
+        does worse, NaN when the nominal model shows no excess there (nothing for it to explain).
         """
-        n = self.z.size
-        s0, s1 = nominal.sum_squares, self.sum_squares
+        z0, z1 = nominal.z, self.z
+        if self.in_support is not None and self.in_support.size == z1.size == z0.size:
+            z0, z1 = z0[self.in_support], z1[self.in_support]
+        n = z1.size
+        s0 = float(z0 @ z0) if np.all(np.isfinite(z0)) else math.inf
+        s1 = float(z1 @ z1) if np.all(np.isfinite(z1)) else math.inf
         if n == 0 or not (math.isfinite(s0) and math.isfinite(s1)) or s0 / n - 1.0 <= 0.0:
             return math.nan
         return 1.0 - max(s1 / n - 1.0, 0.0) / (s0 / n - 1.0)

@@ -263,6 +263,8 @@ def terrain_hypothesis(setup: Setup, nominal_held: dict[str, np.ndarray], train_
         held[ch][span[test_in]] = rin[ch][test_in]
     params = {"slope_change": {"value": k0 / k1 - 1.0, "identifiable": True, "at_bound": on_edge}}
     detail.update(max_thrust_N=f0, shear_modulus_inside_m=k1, shear_modulus_outside_m=k0)
+    window = np.zeros(setup.n, dtype=bool)
+    window[span] = True
     return Hypothesis(
         "terrain_change",
         "outside",
@@ -271,6 +273,7 @@ def terrain_hypothesis(setup: Setup, nominal_held: dict[str, np.ndarray], train_
         held=held,
         detail=detail,
         parameters=params,
+        support={ch: window for ch in setup.channels},
         admissible=not on_edge,
         why="the small-slip slope inside the window ends on an edge of the range searched" if on_edge else "",
     )
