@@ -61,14 +61,6 @@ def test_find_plateau_needs_the_soil_below_to_rise_to_the_level():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "known miss of the one comparison: the lack-of-fit F test on top of the nominal fit reads p = 0.0006 on "
-        "this effect-free sweep (the flexible term does not predict the held-out blocks better, p = 0.17): the "
-        "verdict is unexplained, no effect is named"
-    ),
-)
 def test_an_effect_free_clayey_sweep_from_independent_code_is_none(tmp_path):
     # independent oracle, effect-free, c = 4.14 kPa, phi = 13 deg, K = 6 mm, seed 0: white residuals, with a
     # chance lag-1 correlation of 0.26; a 10-knot flexible term wins on all the data
