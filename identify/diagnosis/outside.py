@@ -182,30 +182,50 @@ def _slope_cost(setup: Setup, outside_fit: Any, span: np.ndarray, rows: np.ndarr
 def _inside_modulus(setup: Setup, outside_fit: Any, span: np.ndarray, rows: np.ndarray) -> tuple[float, bool]:
     """The shear modulus inside the window, the thrust limit kept at the outside soil's: the least squares
     of the standardised residuals on the training samples ``rows`` of the window's stretch ``span``, over
-    log K (a grid, then golden section). A soft patch driven gently shows only its small-slip slope
-    ``F_max l / (2 K)``: one number, which K carries; the thrust limit stays the one the rest of the run
-    supports, so the prediction inside never asks for more thrust than the soil can give. Returns K and
-    whether it ends on an edge of the range searched."""
+    log K (a grid, then parabolic steps inside the grid's bracket). A soft patch driven gently shows only
+    its small-slip slope ``F_max l / (2 K)``: one number, which K carries; the thrust limit stays the one
+    the rest of the run supports, so the prediction inside never asks for more thrust than the soil can
+    give. Returns K and whether it ends on an edge of the range searched."""
     s = setup.settings
     k0 = _soil_of(outside_fit)[1]
     lo, hi = math.log(k0 / s.terrain_slope_ratio), math.log(k0 * s.terrain_slope_ratio)
     grid = np.linspace(lo, hi, s.terrain_grid)
     costs = [_slope_cost(setup, outside_fit, span, rows, g) for g in grid]
     j = int(np.argmin(costs))
-    a, b = float(grid[max(j - 1, 0)]), float(grid[min(j + 1, grid.size - 1)])
-    g = (math.sqrt(5.0) - 1.0) / 2.0
-    c, d = b - g * (b - a), a + g * (b - a)
-    fc, fd = (_slope_cost(setup, outside_fit, span, rows, x) for x in (c, d))
-    for _ in range(s.terrain_golden_steps):
-        if fc < fd:
-            b, d, fd = d, c, fc
-            c = b - g * (b - a)
-            fc = _slope_cost(setup, outside_fit, span, rows, c)
+    if j in (0, grid.size - 1):  # the least cost on an edge: half way to the neighbour tells
+        nb = 1 if j == 0 else grid.size - 2
+        mid = 0.5 * (grid[j] + grid[nb])
+        f_mid = _slope_cost(setup, outside_fit, span, rows, mid)
+        if not f_mid < costs[j]:
+            return math.exp(float(grid[j])), True
+        pts = sorted([(float(grid[j]), costs[j]), (mid, f_mid), (float(grid[nb]), costs[nb])])
+    else:
+        pts = [(float(grid[i]), costs[i]) for i in (j - 1, j, j + 1)]
+    (a, fa), (b, fb), (c, fc) = pts
+    for _ in range(s.terrain_refine_steps):
+        u = _parabola_vertex(a, fa, b, fb, c, fc)
+        if u is None or not a < u < c or abs(u - b) < s.terrain_tol_log_k:
+            break
+        fu = _slope_cost(setup, outside_fit, span, rows, u)
+        if fu < fb:  # u is the new centre; b bounds it on its side
+            (a, fa, c, fc) = (b, fb, c, fc) if u > b else (a, fa, b, fb)
+            b, fb = u, fu
+        elif u < b:
+            a, fa = u, fu
         else:
-            a, c, fc = c, d, fd
-            d = a + g * (b - a)
-            fd = _slope_cost(setup, outside_fit, span, rows, d)
-    return math.exp(0.5 * (a + b)), bool(min(a - lo, hi - b) < 1e-3 * (hi - lo))
+            c, fc = u, fu
+    return math.exp(b), bool(min(b - lo, hi - b) < 1e-3 * (hi - lo))
+
+
+def _parabola_vertex(a: float, fa: float, b: float, fb: float, c: float, fc: float) -> float | None:
+    """The abscissa of the minimum of the parabola through three points (None when it has none)."""
+    p = (b - a) * (fb - fc)
+    q = (b - c) * (fb - fa)
+    den = 2.0 * (p - q)
+    if not (math.isfinite(den) and den != 0.0) or not all(map(math.isfinite, (fa, fb, fc))):
+        return None
+    u = b - ((b - a) * p - (b - c) * q) / den
+    return u if (fb <= fa and fb <= fc) else None
 
 
 def _window(setup: Setup) -> Any:

@@ -66,12 +66,12 @@ class DiagnoseSettings:
         profile follows the noise's shape along the slip (larger at small slip, where slip noise meets
         a steep curve) without the row-to-row wiggles of a few squared differences, which would give
         the rows random weights and a lack-of-fit test that finds structure in them.
-    terrain_grid, terrain_golden_steps, terrain_slope_ratio
+    terrain_grid, terrain_slope_ratio, terrain_refine_steps, terrain_tol_log_k
         The small-slip slope inside a terrain window (carried by K, the thrust limit kept) is searched
         on a grid of this many points in log K, within ``terrain_slope_ratio`` (100) times the outside
         soil's either way (a slope beyond a hundredfold change is no soil but a fault): 9 points, a
-        factor 3.2 apart; then refined by golden section (12 steps: the bracket of two grid steps
-        narrowed to K within 1 %, finer than a window's data tell).
+        factor 3.2 apart; then refined inside the grid's bracket by parabolic steps (at most 6) until
+        a step moves log K by less than 0.01 (K within 1 %, finer than a window's data tell).
     n_bootstrap
         Bayesian-bootstrap replicates of the pseudo-BMA+ weights: 400 keeps their Monte Carlo error
         below 0.01.
@@ -100,7 +100,8 @@ class DiagnoseSettings:
     max_delay_samples: int = 25
     sweep_noise_window: float = 0.25
     terrain_grid: int = 9
-    terrain_golden_steps: int = 12
+    terrain_refine_steps: int = 6
+    terrain_tol_log_k: float = 0.01
     terrain_slope_ratio: float = 100.0
     n_bootstrap: int = 400
 
