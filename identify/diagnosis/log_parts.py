@@ -132,13 +132,46 @@ def terrain_window(
     e = np.asarray(residuals, dtype=float)
     J = np.asarray(jacobian, dtype=float)[:, :, :2]
     t = np.asarray(time_s, dtype=float)
-    n = e.shape[0]
-    if n < 24:
+    if e.shape[0] < 24:
         return None
+    cs = _cell_scores(e, J, n_cells)
+    if cs is None:
+        return None
+    cells, G, I, infl = cs
+    win = _window_statistics(G, I, infl, min_info)
+    a_idx, b_idx, stats, ranks, S, Vin, Ia = win
+    k = int(np.argmax(stats))
+    dof = max(1, int(ranks[k]))
+    stat = float(stats[k])
+    p = min(1.0, chi2_sf(stat, dof) * a_idx.size)
+    close, k = _compatible(a_idx, b_idx, stats, stat, alpha, len(cells))
+    lo = cells[int(np.min(a_idx[close]))][0]
+    hi = cells[int(np.max(b_idx[close])) - 1][-1]
+    a, b = int(a_idx[k]), int(b_idx[k])
+    # the soil change inside the evidence window (one Gauss-Newton step of a separate soil there)
+    Vk = Vin[k] - Vin[k] @ Ia @ Vin[k]
+    delta = -np.linalg.pinv(Vk) @ S[k] / np.asarray(scale, dtype=float)
+    return TerrainWindow(
+        start=float(t[lo]),
+        end=float(t[hi]),
+        evidence_start=float(t[cells[a][0]]),
+        evidence_end=float(t[cells[b - 1][-1]]),
+        statistic=stat,
+        dof=dof,
+        p_value=p,
+        significant=bool(p < alpha),
+        fmax_change=float(delta[0]),
+        k_change=float(delta[1]),
+    )
+
+
+def _cell_scores(e: np.ndarray, J: np.ndarray, n_cells: int) -> tuple[list, np.ndarray, np.ndarray, float] | None:
+    """The samples pooled into consecutive cells: the cells, their summed scores ``(m, 2)`` and information
+    ``(m, 2, 2)``, and the long-run inflation of the scores' variance (None without information)."""
+    n = e.shape[0]
     g = np.einsum("kcp,kc->kp", J, e)  # per-sample scores (n, 2)
     info = np.einsum("kcp,kcq->kpq", J, J)  # per-sample information (n, 2, 2)
     cells = np.array_split(np.arange(n), min(n_cells, n // 4))
-    m = len(cells)
     G = np.array([g[c].sum(axis=0) for c in cells])  # (m, 2)
     I = np.array([info[c].sum(axis=0) for c in cells])
     I_all = I.sum(axis=0)
@@ -151,10 +184,17 @@ def terrain_window(
     wlen = max(3, n // len(cells))
     ker = np.ones(wlen) / wlen
     hp = [g[:, j] / d[j] - np.convolve(g[:, j] / d[j], ker, mode="same") for j in range(2)]
-    infl = max(long_run_factor(hp[0]), long_run_factor(hp[1]))
+    return cells, G, I, max(long_run_factor(hp[0]), long_run_factor(hp[1]))
+
+
+def _window_statistics(G: np.ndarray, I: np.ndarray, infl: float, min_info: float) -> tuple:
+    """Every window of whole cells except the whole run: its first and end cell, score statistic, rank, score
+    ``S`` (inside against outside) and information ``Vin``, and the whole run's pseudo-inverse information."""
+    m = G.shape[0]
+    I_all = I.sum(axis=0)
+    d = np.sqrt(np.maximum(np.diag(I_all), 1e-300))
     GS = np.concatenate([np.zeros((1, 2)), np.cumsum(G, axis=0)])
     IS = np.concatenate([np.zeros((1, 2, 2)), np.cumsum(I, axis=0)])
-    # every window of whole cells, except the whole run
     a_idx, b_idx = np.triu_indices(m + 1, k=1)
     keep = ~((a_idx == 0) & (b_idx == m))
     a_idx, b_idx = a_idx[keep], b_idx[keep]
@@ -172,14 +212,16 @@ def terrain_window(
     ranks = np.empty(a_idx.size, dtype=int)
     for j in range(a_idx.size):
         stats[j], ranks[j] = _pinv_quad(Sn[j], Vn[j], atol=min_info * infl)
-    k = int(np.argmax(stats))
-    a, b = int(a_idx[k]), int(b_idx[k])
-    dof = max(1, int(ranks[k]))
-    stat = float(stats[k])
-    p = min(1.0, chi2_sf(stat, dof) * a_idx.size)
-    # where the boundaries can lie: every window whose statistic is within a 1 % chi-squared (1 dof)
-    # quantile of the best one is as compatible with the data (samples that carry no information
-    # about the soil, e.g. cruising or standing, can be inside or outside at no cost)
+    return a_idx, b_idx, stats, ranks, S, Vin, Ia
+
+
+def _compatible(
+    a_idx: np.ndarray, b_idx: np.ndarray, stats: np.ndarray, stat: float, alpha: float, m: int
+) -> tuple[np.ndarray, int]:
+    """The windows as compatible with the data as the best one, and the shortest of them (the evidence)."""
+    # every window whose statistic is within a 1 % chi-squared (1 dof) quantile of the best one is as
+    # compatible with the data (samples that carry no information about the soil, e.g. cruising or
+    # standing, can be inside or outside at no cost)
     close = stats >= stat - chi2_isf(alpha, 1)
     # a window that starts with the run is the same contrast as its complement, which ends with the run;
     # a change "in the middle of a run" has the reference soil on both sides: the interior windows are
@@ -187,27 +229,9 @@ def terrain_window(
     interior = close & (a_idx > 0) & (b_idx < m)
     if np.any(interior):
         close = interior
-    lo = cells[int(np.min(a_idx[close]))][0]
-    hi = cells[int(np.max(b_idx[close])) - 1][-1]
     # the evidence: the shortest of those windows (the most specific statement the data support)
     cand = np.nonzero(close)[0]
-    k = int(cand[np.argmin(b_idx[cand] - a_idx[cand])])
-    a, b = int(a_idx[k]), int(b_idx[k])
-    # the soil change inside the evidence window (one Gauss-Newton step of a separate soil there)
-    Vk = Vin[k] - Vin[k] @ Ia @ Vin[k]
-    delta = -np.linalg.pinv(Vk) @ S[k] / np.asarray(scale, dtype=float)
-    return TerrainWindow(
-        start=float(t[lo]),
-        end=float(t[hi]),
-        evidence_start=float(t[cells[a][0]]),
-        evidence_end=float(t[cells[b - 1][-1]]),
-        statistic=stat,
-        dof=dof,
-        p_value=p,
-        significant=bool(p < alpha),
-        fmax_change=float(delta[0]),
-        k_change=float(delta[1]),
-    )
+    return close, int(cand[np.argmin(b_idx[cand] - a_idx[cand])])
 
 
 def delay_scan(
