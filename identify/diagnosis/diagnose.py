@@ -39,7 +39,6 @@ from ..sweep.sinkage_channel import slip_sinkage_evidence
 from .decision import UNEXPLAINED, Decision, decide
 from .evidence import HeldOutEvidence, PenalisedEvidence
 from .fits import SOIL_KEYS, FitRunner, channels, effect_parameters, soil_summary, usable
-from ..estimates.distributions import chi2_sf
 from .gap import long_run_factor
 from .gap_test import GapDecision, decide_gap
 from .hold import HoldChoice, choose_hold
@@ -262,30 +261,15 @@ def _gap(
         p["soil differs within a time window"] = window_p
     p["flexible term beats nominal"] = dm_test(z_nom, hold.z(by["discrepancy"].heldout(), z_nom), setup.dm_lag)
     top = by[max(weights, key=lambda k: weights[k])]
-    if top.family != "nominal" and setup.is_log and top.held is not None:
+    if top.family != "nominal" and top.held is not None:
         zt = hold.z(top.held, z_nom, top.scale)
         ok = bool(np.all(np.isfinite(zt)))
         shrink = 1.0 - float(np.sqrt((zt @ zt) / max(z_nom @ z_nom, 1e-300))) if ok else 0.0
         p["heaviest beats nominal"] = dm_test(z_nom, zt, setup.dm_lag) if shrink >= s.min_shrink else None
-    elif top.family != "nominal" and not setup.is_log:
-        p["heaviest beats nominal"] = _in_sample_gain(by[NOMINAL].z, top.z, top.n_params, s.min_shrink)
     if not setup.is_log:
         p["lack of fit"] = _lack_of_fit(setup, setup.residuals, setup.nominal_fit)
         p["pure-error lack of fit"] = _pure_error(setup)
     return decide_gap(p, s.alpha)
-
-
-def _in_sample_gain(z0: np.ndarray, z1: np.ndarray, n_params: int, min_shrink: float) -> float | None:
-    """A sweep's ``heaviest beats nominal``: the likelihood-ratio test of the heaviest hypothesis against the
-    nominal model on the same in-sample evidence its weight comes from (the noise level profiled out,
-    ``n log(S0 / S1)`` on ``n_params`` degrees of freedom); None (not made) when its RMS shrinks by less
-    than ``min_shrink``."""
-    if z0.size == 0 or z0.size != z1.size or not (np.all(np.isfinite(z0)) and np.all(np.isfinite(z1))):
-        return None
-    s0, s1 = float(z0 @ z0), float(z1 @ z1)
-    if s1 <= 0.0 or s0 <= s1 or 1.0 - float(np.sqrt(s1 / s0)) < min_shrink:
-        return None
-    return chi2_sf(z0.size * float(np.log(s0 / s1)), max(1, int(n_params)))
 
 
 def _lack_of_fit(setup: Setup, residuals: dict[str, np.ndarray], res: Any) -> float:
