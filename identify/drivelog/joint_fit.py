@@ -29,6 +29,7 @@ from .joint import (
     effect_layout,
     joint_data,
     joint_solver,
+    nlp_backend,
     padded_data,
     parse_fixed,
     residual_function,
@@ -120,7 +121,8 @@ def fit_joint(
     e_hi = np.where(is_fixed, e0, ehi)
     e0 = np.clip(e0, np.where(np.isfinite(elo), elo, -1e300), np.where(np.isfinite(ehi), ehi, 1e300))
 
-    solver = joint_solver(vehicle, structure, N, max_iter, tol, print_level)
+    # the per-sample functions from C once the background compilation has them (the same numbers)
+    solver = joint_solver(vehicle, structure, N, max_iter, tol, print_level, nlp_backend(vehicle, structure, N))
     Dp = padded_data(jd.D, N)
     p = np.concatenate([scale, [i_ref], Dp.reshape(-1, order="F"), pad(np.zeros(n), N, 1.0)])
     big = 1e20

@@ -1,0 +1,85 @@
+"""The joint drive-log NLP evaluated from compiled C kernels gives the virtual machine's numbers exactly."""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from soiltrack.identify.drivelog import joint as J
+from soiltrack.identify.drivelog.prepare import prepare_drive_log
+from soiltrack.identify.jitcache import compiler, load
+from soiltrack.soilmodel import TERRAINS, VEHICLES, simulate
+from soiltrack.soilmodel.effects import effect_structure, parse_effects
+
+
+def _problem(names, vehicle="light", seconds=1.2, seed=3):
+    v = VEHICLES[vehicle]
+    log = simulate(v, TERRAINS["dry_sand"], kind="drive", effects={"grade": 0.03}, seed=seed, duration_s=seconds)
+    prep = prepare_drive_log(log, v)
+    jd = J.joint_data(log, v, prep)
+    st = effect_structure(parse_effects(names or None), v)
+    return v, st, prep, jd
+
+
+def _compiled(v, st, N):
+    if compiler() is None:
+        pytest.skip("no C compiler: the virtual machine is used, nothing to compare")
+    assert load(J._nlp_kernel_functions(v, st), "drivelog_nlp", wait=True).is_c
+    assert J.nlp_backend(v, st, N)
+
+
+@pytest.mark.parametrize("names", [[], ["drivetrain_friction", "grade"]])
+def test_compiled_nlp_functions_equal_the_virtual_machine(names):
+    # IPOPT's objective, gradient and Hessian of the Lagrangian: bit for bit, padding samples included
+    v, st, prep, jd = _problem(names)
+    n, N = prep.n_used, 64
+    assert n < N
+    _compiled(v, st, N)
+    vm = J.joint_solver(v, st, N, 500, 1e-9, 0, False)
+    cc = J.joint_solver(v, st, N, 500, 1e-9, 0, True)
+    pd = vm.size1_in("x0") - N
+    rng = np.random.default_rng(2)
+    scale = np.concatenate([[300.0, 0.017], np.full(pd - 2, 0.3)])
+    i_ref = 0.017 / v.track_length
+    p = np.concatenate(
+        [scale, [i_ref], J.padded_data(jd.D, N).reshape(-1, order="F"), np.r_[np.zeros(n), np.ones(N - n)]]
+    )
+    x = np.concatenate([[1.1, 0.8], rng.uniform(-0.1, 0.1, pd - 2), rng.uniform(0.0, 2.0, n), np.zeros(N - n)])
+    for name, args in (("nlp_f", (x, p)), ("nlp_grad_f", (x, p)), ("nlp_hess_l", (x, p, 0.7, np.zeros(0)))):
+        a, b = vm.get_function(name)(*args), cc.get_function(name)(*args)
+        a, b = (list(o) if isinstance(o, (list, tuple)) else [o] for o in (a, b))
+        assert len(a) == len(b) >= 1
+        for oa, ob in zip(a, b):
+            oa, ob = np.asarray(ca.DM(oa).full()), np.asarray(ca.DM(ob).full())
+            assert np.all(np.isfinite(oa)) and np.max(np.abs(oa)) > 0
+            assert np.array_equal(oa, ob), (name, float(np.max(np.abs(oa - ob))))
+
+
+def test_compiled_nlp_solve_equals_the_virtual_machine():
+    # the same IPOPT run: iterations, optimum and status
+    v, st, prep, jd = _problem(["grade"], vehicle="heavy", seconds=3.0, seed=1)
+    n = prep.n_used
+    N = 192
+    assert n <= N and N % J.NLP_CHUNK == 0
+    _compiled(v, st, N)
+    pd = 3
+    scale = np.array([0.6 * v.weight, 0.02, 0.05])
+    i_ref = 0.02 / v.track_length
+    p = np.concatenate(
+        [scale, [i_ref], J.padded_data(jd.D, N).reshape(-1, order="F"), np.r_[np.zeros(n), np.ones(N - n)]]
+    )
+    x0 = np.concatenate([[1.0, 1.0, 0.0], np.clip(prep.slip_measured, 0.0, 0.9) / i_ref, np.zeros(N - n)])
+    lo, hi = J.SLIP_BOUNDS
+    lbx = np.concatenate([[0.05, 0.3, -1.0], np.full(N, lo / i_ref)])
+    ubx = np.concatenate([[3.0, 2.5, 1.0], np.full(N, hi / i_ref)])
+    out = []
+    for compiled in (False, True):
+        solver = J.joint_solver(v, st, N, 500, 1e-9, 0, compiled)
+        sol = solver(x0=x0, p=p, lbx=lbx, ubx=ubx)
+        stats = solver.stats()
+        out.append((np.asarray(sol["x"]).ravel(), stats["iter_count"], stats["return_status"]))
+    (xa, ia, sa), (xb, ib, sb) = out
+    assert sa == sb == "Solve_Succeeded"
+    assert ia == ib and ia > 1
+    assert np.array_equal(xa, xb)
