@@ -83,3 +83,34 @@ def test_compiled_nlp_solve_equals_the_virtual_machine():
     assert sa == sb == "Solve_Succeeded"
     assert ia == ib and ia > 1
     assert np.array_equal(xa, xb)
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_profiled_sums_equal_casadis_summing_map(compiled):
+    # the profiled start's sums (chunked kernel, per-sample outputs summed in numpy) are CasADi's summing
+    # map's numbers exactly, from the virtual machine and from C
+    from soiltrack.identify.drivelog import lm_start as L
+
+    v, st, prep, jd = _problem(["grade", "drivetrain_friction"], vehicle="heavy", seconds=3.0, seed=2)
+    n = prep.n_used
+    assert n % J.SLIP_CHUNK != 0  # padded
+    f1 = L._sums_function(v, st)
+    if compiled:
+        if compiler() is None:
+            pytest.skip("no C compiler: the virtual machine is used, nothing to compare")
+        assert load([f1.map(J.SLIP_CHUNK)], "drivelog_sums", wait=True).is_c
+    sums = L._Sums(v, st, jd.D)
+    if compiled:
+        assert L._sums_kernels(v, st).is_c
+    else:  # the virtual machine's chunked map, whatever the cache holds
+        sums.fn = f1.map(J.SLIP_CHUNK).map(sums.D.shape[1] // J.SLIP_CHUNK)
+    rng = np.random.default_rng(5)
+    th = np.array([0.5 * v.weight, 0.015, 0.02, 150.0, 0.5])
+    slip = np.clip(prep.slip_measured + rng.normal(0, 0.01, n), -0.5, 0.9)
+    ref = f1.map("ref_sums", "serial", n, [], [0, 1, 2, 3])(th.reshape(-1, 1), slip.reshape(1, -1), jd.D)
+    got = sums(th, slip)
+    for a, b in zip(ref, got):
+        a = np.asarray(ca.DM(a).full())
+        b = np.atleast_2d(np.asarray(b, dtype=float)).reshape(a.shape)
+        assert np.all(np.isfinite(a)) and np.max(np.abs(a)) > 0
+        assert np.array_equal(a, b), float(np.max(np.abs(a - b)))
