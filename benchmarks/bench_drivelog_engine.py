@@ -11,10 +11,20 @@ its solver builds, and a second one). ``--reference`` compares with values store
 ``--write-reference`` (the reference file of this repository,
 ``benchmarks/drivelog_engine_reference.json``, was written on commit 7b291f1, before the engine
 changes it checks): the largest relative difference in theta, in the residual and sensitivity
-sums, and whether the iteration counts are the same. Exit status 1 if theta differs by more than
-1e-10 relative or an iteration count differs. ``--diagnose`` also diagnoses the heavy and light
-logs of ``bench_diagnose_speed.py`` in this process (verdict and time; the fresh-process times are
-that benchmark's).
+sums, and in the fit's cost and sums of its Jacobian (the sandwich covariance's stand-in) and
+weighted residuals; whether the iteration counts and statuses are the same. ``--diagnose`` also
+diagnoses the heavy and light logs of ``bench_diagnose_speed.py`` in this process (verdict,
+confidence, shrink and time; the fresh-process times are that benchmark's). Exit status 1 if
+theta differs by more than 1e-10 relative, the other numbers by more than 1e-9, or an iteration
+count, status or diagnosis differs.
+
+Reference on another commit (here 7b291f1), from a source tree of it (the script puts its own
+tree first on ``sys.path``)::
+
+    mkdir /tmp/ref && git archive 7b291f1 | tar -x -C /tmp/ref
+    cp benchmarks/bench_drivelog_engine.py /tmp/ref/benchmarks/
+    python /tmp/ref/benchmarks/bench_drivelog_engine.py --diagnose \
+        --write-reference benchmarks/drivelog_engine_reference.json
 """
 
 from __future__ import annotations
@@ -46,6 +56,8 @@ CASES = (
     ("heavy-dry-two-s1", "heavy", "dry_sand", {"grade": 0.02}, ["grade", "drivetrain_friction"], 1),
 )
 THETA_RTOL = 1e-10
+#: Largest relative difference of the cost and of the sums of |Jacobian| and |weighted residuals| accepted.
+STATS_RTOL = 1e-9
 
 
 def run_case(name: str, vname: str, terrain: str, sim_eff, fit_eff, seed: int, seconds: float) -> dict:
@@ -78,6 +90,7 @@ def run_case(name: str, vname: str, terrain: str, sim_eff, fit_eff, seed: int, s
         "iterations": int(r.iterations),
         "theta": [float(x) for x in theta],
         "sums": sums,
+        "stats": [float(r.cost), float(np.nansum(np.abs(r.jacobian))), float(np.nansum(np.abs(r.weighted_residuals)))],
         "fit_s": t_first,
         "fit_again_s": t_second,
         "residuals_and_sensitivities_s": t_eval,
@@ -97,10 +110,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--diagnose", action="store_true")
     a = ap.parse_args(argv)
     print("load average before:", os.getloadavg())
-    ref = {}
+    ref, ref_diag = {}, {}
     if a.reference:
         with open(a.reference) as fh:
-            ref = {row["name"]: row for row in json.load(fh)["cases"]}
+            stored = json.load(fh)
+        ref = {row["name"]: row for row in stored["cases"]}
+        ref_diag = {row["vehicle"]: row for row in stored.get("diagnose", [])}
     rows, bad = [], 0
     for case in CASES:
         row = run_case(*case, seconds=a.seconds)
@@ -114,11 +129,13 @@ def main(argv: list[str] | None = None) -> int:
         if row["name"] in ref:
             rr = ref[row["name"]]
             dth, dsum = _rel(row["theta"], rr["theta"]), _rel(row["sums"], rr["sums"])
+            dst = _rel(row["stats"], rr["stats"])
             same_it = row["iterations"] == rr["iterations"]
-            ok = dth <= THETA_RTOL and same_it and row["status"] == rr["status"]
+            ok = dth <= THETA_RTOL and same_it and row["status"] == rr["status"] and dst <= STATS_RTOL
             bad += not ok
             line += (
                 f"\n    vs reference: theta rel diff {dth:.1e}, residual/sensitivity sums rel diff {dsum:.1e}, "
+                f"cost/jacobian/residual sums rel diff {dst:.1e}, "
                 f"iterations {rr['iterations']} -> {row['iterations']}, fit {rr['fit_s']:.2f} -> {row['fit_s']:.2f} s,"
                 f" again {rr['fit_again_s']:.2f} -> {row['fit_again_s']:.2f} s, residuals+sensitivities "
                 f"{rr['residuals_and_sensitivities_s']:.2f} -> {row['residuals_and_sensitivities_s']:.2f} s"
@@ -133,15 +150,24 @@ def main(argv: list[str] | None = None) -> int:
             t0 = time.perf_counter()
             d = diagnose(log, v)
             dt = time.perf_counter() - t0
-            diag.append({"vehicle": vname, "verdict": d.verdict, "confidence": d.confidence, "s": dt})
-            print(f"diagnose {vname} (in this process, after the fits): {d.verdict} ({d.confidence:.3f}) in {dt:.2f} s")
+            row = {"vehicle": vname, "verdict": d.verdict, "confidence": d.confidence, "shrink": d.shrink, "s": dt}
+            diag.append(row)
+            line = f"diagnose {vname} (in this process, after the fits): {d.verdict} ({d.confidence!r}, shrink {d.shrink!r})"
+            line += f" in {dt:.2f} s"
+            old = ref_diag.get(vname)
+            if old is not None:
+                same = (old["verdict"], old["confidence"], old["shrink"]) == (d.verdict, d.confidence, d.shrink)
+                bad += not same
+                line += f"; reference {old['verdict']} ({old['confidence']!r}, shrink {old['shrink']!r}) in {old['s']:.2f} s"
+                line += f" [{'same' if same else 'DIFFERENT'}]"
+            print(line, flush=True)
     if a.write_reference:
         with open(a.write_reference, "w") as fh:
             json.dump({"cases": rows, "diagnose": diag}, fh, indent=1)
             fh.write("\n")
     print("load average after:", os.getloadavg())
     if a.reference:
-        print(f"{len(rows) - bad} of {len(rows)} cases with the reference's theta (rel {THETA_RTOL:g}) and iterations")
+        print(f"{bad} difference(s); {len(rows)} cases compared (theta rel {THETA_RTOL:g}, iterations, status, stats rel {STATS_RTOL:g}; diagnoses: verdict, confidence, shrink)")
     return 1 if bad else 0
 
 

@@ -114,3 +114,35 @@ def test_profiled_sums_equal_casadis_summing_map(compiled):
         b = np.atleast_2d(np.asarray(b, dtype=float)).reshape(a.shape)
         assert np.all(np.isfinite(a)) and np.max(np.abs(a)) > 0
         assert np.array_equal(a, b), float(np.max(np.abs(a - b)))
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_sample_outputs_equal_the_map(compiled, monkeypatch):
+    # residuals, derivatives and sensitivities over the samples (chunked kernels, padded) are fn.map(n)'s
+    # numbers exactly, from the virtual machine and from C
+    v, st, prep, jd = _problem(["grade", "radius_error"], vehicle="light", seconds=3.0, seed=4)
+    n = prep.n_used
+    assert n % J.SLIP_CHUNK != 0
+    fns = (J.residual_function(v, st)[0], J.derivative_function(v, st), J.sensitivity_function(v, st))
+    if compiled:
+        if compiler() is None:
+            pytest.skip("no C compiler: the virtual machine is used, nothing to compare")
+        assert load([f.map(J.SLIP_CHUNK) for f in fns], "drivelog_samples", wait=True).is_c
+    kernels = J._sample_kernels(v, st)
+    kernels.upgrade()
+    if compiled:
+        assert kernels.is_c
+    else:  # the virtual machine's chunked maps, whatever the cache holds
+        kernels = type(kernels)(kernels.names, [f.map(J.SLIP_CHUNK) for f in fns], kernels.backend)
+    th = np.array([300.0, 0.02, 0.03, 0.01])
+    rng = np.random.default_rng(6)
+    slip = np.clip(prep.slip_measured + rng.normal(0, 0.01, n), -0.5, 0.9)
+    monkeypatch.setattr(J, "_sample_kernels", lambda vehicle, structure: kernels)
+    for which, fn in zip(J.SAMPLE_FUNCTIONS, fns):
+        ref = fn.map(n)(np.repeat(th.reshape(-1, 1), n, axis=1), slip.reshape(1, -1), jd.D)
+        got = J.sample_outputs(v, st, which, th, slip, jd.D)
+        assert len(got) == fn.n_out()
+        for a, b in zip(ref, got):
+            a = np.asarray(ca.DM(a).full())
+            assert a.shape == b.shape and np.max(np.abs(a)) > 0
+            assert np.array_equal(a, b, equal_nan=True), (which, float(np.nanmax(np.abs(a - b))))
