@@ -427,7 +427,7 @@ def _sample_kernels(vehicle: Vehicle, structure: EffectSet):
         derivative_function(vehicle, structure),
         sensitivity_function(vehicle, structure),
     )
-    return load([f.map(SLIP_CHUNK) for f in fns], "drivelog_samples", wait=False, queue=True)
+    return load([f.map(SLIP_CHUNK) for f in fns], "drivelog_samples", wait=False, defer=True)
 
 
 def sample_outputs(
@@ -617,7 +617,7 @@ def _nlp_kernels(vehicle: Vehicle, structure: EffectSet):
     """
     from ..jitcache import load
 
-    return load(_nlp_kernel_functions(vehicle, structure), "drivelog_nlp", wait=False, queue=True)
+    return load(_nlp_kernel_functions(vehicle, structure), "drivelog_nlp", wait=False, defer=True)
 
 
 def _nlp_kernel_functions(vehicle: Vehicle, structure: EffectSet) -> list[ca.Function]:

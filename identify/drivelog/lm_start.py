@@ -91,7 +91,7 @@ def _sums_kernels(vehicle: Vehicle, structure: EffectSet):
     virtual machine answers until the library, compiled once per machine in the background, is there)."""
     from ..jitcache import load
 
-    return load([_sums_function(vehicle, structure).map(SLIP_CHUNK)], "drivelog_sums", wait=False, queue=True)
+    return load([_sums_function(vehicle, structure).map(SLIP_CHUNK)], "drivelog_sums", wait=False, defer=True)
 
 
 class _Sums:
