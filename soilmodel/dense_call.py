@@ -5,8 +5,8 @@ mapped kernel over a few thousand samples the output conversion alone (through a
 the elements) costs as much as the evaluation. Measured on the slip-step kernel of a 2,704-sample
 drive log (``python benchmarks/bench_dense_call.py``): 3.18 ms per call with the outputs converted,
 1.18 ms through the buffer. The buffer interface (``Function.buffer()``) reads and writes the
-numpy arrays' memory directly. Each call checks out its own buffer (a few microseconds), so calls from several threads do not share
-memory; the numbers are the same operations' as the plain call's.
+numpy arrays' memory directly. Each call checks out its own buffer (a few microseconds), so calls
+from several threads do not share memory; the numbers are the same operations' as the plain call's.
 """
 
 from __future__ import annotations

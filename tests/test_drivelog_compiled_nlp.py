@@ -63,7 +63,6 @@ def test_compiled_nlp_solve_equals_the_virtual_machine():
     N = 192
     assert n <= N and N % J.NLP_CHUNK == 0
     _compiled(v, st, N)
-    pd = 3
     scale = np.array([0.6 * v.weight, 0.02, 0.05])
     i_ref = 0.02 / v.track_length
     p = np.concatenate(
@@ -127,13 +126,13 @@ def test_sample_outputs_equal_the_map(compiled, monkeypatch):
     if compiled:
         if compiler() is None:
             pytest.skip("no C compiler: the virtual machine is used, nothing to compare")
-        assert load([f.map(J.SLIP_CHUNK) for f in fns], "drivelog_samples", wait=True).is_c
+        assert load([J._dense_outputs(f).map(J.SLIP_CHUNK) for f in fns], "drivelog_samples", wait=True).is_c
     kernels = J._sample_kernels(v, st)
     kernels.upgrade()
     if compiled:
         assert kernels.is_c
     else:  # the virtual machine's chunked maps, whatever the cache holds
-        kernels = type(kernels)(kernels.names, [f.map(J.SLIP_CHUNK) for f in fns], kernels.backend)
+        kernels = type(kernels)(kernels.names, [J._dense_outputs(f).map(J.SLIP_CHUNK) for f in fns], kernels.backend)
     th = np.array([300.0, 0.02, 0.03, 0.01])
     rng = np.random.default_rng(6)
     slip = np.clip(prep.slip_measured + rng.normal(0, 0.01, n), -0.5, 0.9)

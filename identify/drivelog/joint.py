@@ -427,7 +427,16 @@ def _sample_kernels(vehicle: Vehicle, structure: EffectSet):
         derivative_function(vehicle, structure),
         sensitivity_function(vehicle, structure),
     )
-    return load([f.map(SLIP_CHUNK) for f in fns], "drivelog_samples", wait=False, defer=True)
+    return load([_dense_outputs(f).map(SLIP_CHUNK) for f in fns], "drivelog_samples", wait=False, defer=True)
+
+
+def _dense_outputs(fn: ca.Function) -> ca.Function:
+    """``fn`` with every output dense (structural zeros written as zeros: the same values), so that
+    :func:`~soiltrack.soilmodel.dense_call.call_dense` takes its buffer path (a sparse Jacobian output sent
+    the derivatives through the plain call and its conversions: 15 -> 5 ms on 3,072 samples)."""
+    ins = fn.sx_in()
+    outs = [ca.densify(o) for o in fn.call(ins)]
+    return ca.Function(fn.name() + "_dense", ins, outs, fn.name_in(), fn.name_out())
 
 
 def sample_outputs(
