@@ -27,6 +27,7 @@ def test_deferred_compilation_starts_at_exit_waits_for_the_lock_then_loads(tmp_p
     if jitcache.compiler() is None or shutil.which("flock") is None:
         pytest.skip("needs a C compiler and flock")
     monkeypatch.setenv("SOILTRACK_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(jitcache, "_DEFERRED", {})  # none deferred by earlier tests
     lock = tmp_path / jitcache.COMPILE_LOCK
     c = jitcache.load([_fn("a")], "queued_test", wait=False, defer=True)
     assert c.backend == jitcache.VM_PENDING and not c.is_c
@@ -66,6 +67,7 @@ def test_deferred_compilation_skips_a_library_made_meanwhile(tmp_path, monkeypat
     if jitcache.compiler() is None or shutil.which("flock") is None:
         pytest.skip("needs a C compiler and flock")
     monkeypatch.setenv("SOILTRACK_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(jitcache, "_DEFERRED", {})  # none deferred by earlier tests
     c = jitcache.load([_fn("c")], "skip_test", wait=False, defer=True)
     lib = c.path
     assert lib is not None
