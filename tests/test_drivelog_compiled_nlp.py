@@ -145,3 +145,24 @@ def test_sample_outputs_equal_the_map(compiled, monkeypatch):
             a = np.asarray(ca.DM(a).full())
             assert a.shape == b.shape and np.max(np.abs(a)) > 0
             assert np.array_equal(a, b, equal_nan=True), (which, float(np.nanmax(np.abs(a - b))))
+
+
+@pytest.mark.parametrize("names", [["grade"], ["slip_sinkage", "drivetrain_friction"]])
+def test_merged_subexpressions_give_the_same_numbers(names):
+    # the virtual machine's copies of the slip step and the profiled sums (ca.cse) compute each value once:
+    # fewer instructions, the same outputs bit for bit
+    from soiltrack.identify.drivelog import lm_start as L
+
+    v, st, prep, jd = _problem(names, vehicle="heavy", seconds=3.0, seed=2)
+    n = prep.n_used
+    rng = np.random.default_rng(7)
+    th = np.r_[[0.5 * v.weight, 0.015], rng.uniform(0.0, 0.05, J.residual_function(v, st)[0].size1_in(0) - 2)]
+    slip = np.clip(prep.slip_measured + rng.normal(0, 0.02, n), -0.5, 0.9).reshape(1, -1)
+    for f in (J._slip_step_function(v, st), L._sums_function(v, st)):
+        g = J.cse_function(f)
+        assert g.n_instructions() < f.n_instructions()
+        a, b = f.map(n)(th.reshape(-1, 1), slip, jd.D), g.map(n)(th.reshape(-1, 1), slip, jd.D)
+        for x, y in zip(a, b):
+            x, y = np.asarray(ca.DM(x).full()), np.asarray(ca.DM(y).full())
+            assert np.max(np.abs(x[np.isfinite(x)])) > 0
+            assert np.array_equal(x, y, equal_nan=True)

@@ -87,6 +87,7 @@ __all__ = [
     "SlipSolver",
     "best_slips",
     "sample_outputs",
+    "cse_function",
     "SAMPLE_FUNCTIONS",
     "HULL_ROW",
     "CHANNELS",
@@ -348,11 +349,20 @@ def _slip_step_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
         ck = 0.5 * ca.sumsqr(res(theta, cand, d)[0])
         good = ck <= bar
         s_new, c_new, ok = ca.if_else(good, cand, s_new), ca.if_else(good, ck, c_new), ca.if_else(good, 1, ok)
-    # common subexpressions merged (ca.cse: each value computed once, the same operations on the same operands:
-    # the same numbers): the four candidates' costs share everything that does not depend on the slip
-    # (930 -> 607 instructions with grade; the virtual machine, which answers until the C code is compiled,
-    # 2.3 times faster per call, the C code 6 %)
-    return ca.Function("drivelog_joint_slip_step", [theta, slip, d], ca.cse([s_new, c_new, ok, step, c]))
+    return ca.Function("drivelog_joint_slip_step", [theta, slip, d], [s_new, c_new, ok, step, c])
+
+
+def cse_function(fn: ca.Function) -> ca.Function:
+    """``fn`` (an SX Function) with its common subexpressions merged, for CasADi's virtual machine.
+
+    ``ca.cse`` computes each value once: the same operations on the same operands, so the same numbers
+    (checked bit for bit in the tests). The slip step's four candidate costs share everything that does
+    not depend on the slip (930 -> 607 instructions with grade): the virtual machine, which answers until
+    the C code is compiled, runs it 2.3 times faster. The C compiler finds most of it itself (6 %), and
+    merging costs about 10 ms per function, so the compiled libraries are generated from ``fn`` as it is.
+    """
+    ins = fn.sx_in()
+    return ca.Function(fn.name() + "_cse", ins, ca.cse(fn.call(ins)), fn.name_in(), fn.name_out())
 
 
 @locked_cache(maxsize=32)
@@ -373,14 +383,13 @@ def _slip_kernels(vehicle: Vehicle, structure: EffectSet):
     """
     from ..jitcache import load
 
-    return load(
-        [
-            _slip_step_function(vehicle, structure).map(SLIP_CHUNK),
-            _slip_cost_function(vehicle, structure).map(SLIP_CHUNK),
-        ],
-        "drivelog_slip",
-        wait=False,
+    step = _slip_step_function(vehicle, structure)
+    kernels = load(
+        [step.map(SLIP_CHUNK), _slip_cost_function(vehicle, structure).map(SLIP_CHUNK)], "drivelog_slip", wait=False
     )
+    if not kernels.is_c:  # until the C code is there: the step with its common subexpressions merged
+        kernels.functions = [cse_function(step).map(SLIP_CHUNK), kernels.functions[1]]
+    return kernels
 
 
 class _Chunked:

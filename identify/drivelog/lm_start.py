@@ -29,7 +29,7 @@ from ...soilmodel.effects import EffectSet
 from ...soilmodel.threadsafe import locked_cache
 from ...soilmodel.vehicle import Vehicle
 from ...soilmodel.dense_call import call_dense
-from .joint import SLIP_CHUNK, SlipSolver, derivative_function, padded_data
+from .joint import SLIP_CHUNK, SlipSolver, cse_function, derivative_function, padded_data
 from .prepare import SLIP_BOUNDS
 
 __all__ = ["ProfiledStart", "profiled_start"]
@@ -79,9 +79,7 @@ def _sums_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
     gn = ca.sumsqr(gi)
     proj = ca.logic_and(conv, gn > 1e-300)
     Jp = Jt - ca.if_else(proj, ca.mtimes(gi, ca.mtimes(gi.T, Jt)) / ca.if_else(proj, gn, 1.0), ca.SX.zeros(Jt.shape))
-    # common subexpressions merged (the same operations on the same operands, the same numbers; 1,031 -> 837
-    # instructions with grade: the virtual machine, which answers until the C code is compiled, 20 % faster)
-    outs = ca.cse([0.5 * ca.sumsqr(e), ca.mtimes(Jt.T, e), red, ca.mtimes(Jp.T, Jp)])
+    outs = [0.5 * ca.sumsqr(e), ca.mtimes(Jt.T, e), red, ca.mtimes(Jp.T, Jp)]
     return ca.Function("drivelog_profiled_sums", [theta, slip, d], outs)
 
 
@@ -92,7 +90,11 @@ def _sums_kernels(vehicle: Vehicle, structure: EffectSet):
     virtual machine answers until the library, compiled once per machine in the background, is there)."""
     from ..jitcache import load
 
-    return load([_sums_function(vehicle, structure).map(SLIP_CHUNK)], "drivelog_sums", wait=False, defer=True)
+    sums = _sums_function(vehicle, structure)
+    kernels = load([sums.map(SLIP_CHUNK)], "drivelog_sums", wait=False, defer=True)
+    if not kernels.is_c:  # until the C code is there: common subexpressions merged (1,031 -> 837 instructions)
+        kernels.functions = [cse_function(sums).map(SLIP_CHUNK)]
+    return kernels
 
 
 class _Sums:
