@@ -87,7 +87,8 @@ def _sums_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
 def _sums_kernels(vehicle: Vehicle, structure: EffectSet):
     """:func:`_sums_function` mapped over :data:`~.joint.SLIP_CHUNK` samples (per-sample outputs), from C
     code when the per-user cache has it (:func:`~soiltrack.identify.jitcache.load` without waiting: the
-    virtual machine answers until the library, compiled once per machine in the background, is there)."""
+    virtual machine answers until the library, compiled once per machine after the process that first needs
+    it exits, is there)."""
     from ..jitcache import load
 
     sums = _sums_function(vehicle, structure)
