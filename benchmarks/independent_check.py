@@ -25,8 +25,12 @@ Cases (truth in brackets; "unexplained" where the cause is outside the library):
   torque arm alone]; two torque glitches of +25 and -18 kN m at rows 301 and 801 [none or
   unexplained, with the two rows named].
 
-Run:  python benchmarks/independent_check.py [--kinds sweep,drive] [--seeds 3] [--torque-hold sample]
-It prints one line per case and a summary: right verdicts, confident (> 0.5) wrong names.
+Run:  python benchmarks/independent_check.py [--kinds sweep,drive] [--seeds 3] [--torque-hold sample] [--set varied]
+It prints one line per case and a summary: right verdicts, confident (> 0.5) wrong names, uniform-soil
+logs that claim a change of terrain, and (``--set varied``: drive logs at 10 and 50 Hz, 30 and 120 s, a
+stop-and-go profile, doubled noise, other magnitudes, a grade and a mass error at once, a 0.2 s delay at
+50 Hz, soft patches elsewhere in longer or faster logs) whether the outside cause is named, whether a
+patch's window lies within twice the true one, and whether a named verdict's confidence is its weight.
 """
 
 from __future__ import annotations
@@ -122,10 +126,16 @@ def log_csv(
     duration=60.0,
     speed_scale=1.0,
     torque_glitches=(),
+    rate=20.0,
+    profile="sine",
+    noise=1.0,
 ):
     rng = np.random.default_rng(seed)
-    t = np.arange(0, duration, 0.05)
-    v = 2.0 + 1.2 * np.sin(2 * np.pi * t / 17) + 0.6 * np.sin(2 * np.pi * t / 6.3 + 1) + 0.4 * t / 60.0
+    t = np.arange(0, duration, 1.0 / rate)
+    if profile == "stop_go":  # from standstill to 3 m/s and back to a stop every 15 s
+        v = 1.5 * (1 - np.cos(2 * np.pi * t / 15.0)) + 0.02
+    else:
+        v = 2.0 + 1.2 * np.sin(2 * np.pi * t / 17) + 0.6 * np.sin(2 * np.pi * t / 6.3 + 1) + 0.4 * t / 60.0
     a = np.gradient(v, t)
     m = M * (1 + mass)
     W = m * G
@@ -137,14 +147,14 @@ def log_csv(
     i = _slip_for(F, W * np.cos(grade), c, phi, K)
     w = v / (R * (1 + radius) * (1 - i))
     Ms = R * (1 + radius) * F + I_S * np.gradient(w, t)
-    vm = speed_scale * v + rng.normal(0, 0.05, t.size)
+    vm = speed_scale * v + rng.normal(0, 0.05 * noise, t.size)
     if delay:
         vm = np.concatenate([np.full(delay, vm[0]), vm[:-delay]])
-    wm = w * (1 + rng.normal(0, 0.005, t.size)) + rng.normal(0, 0.01, t.size)
-    Mm = Ms * (1 + rng.normal(0, 0.01, t.size)) + rng.normal(0, 100, t.size)
+    wm = w * (1 + rng.normal(0, 0.005 * noise, t.size)) + rng.normal(0, 0.01 * noise, t.size)
+    Mm = Ms * (1 + rng.normal(0, 0.01 * noise, t.size)) + rng.normal(0, 100 * noise, t.size)
     for k, dM in torque_glitches:
         Mm[k] += dM
-    am = a + rng.normal(0, 0.05, t.size)
+    am = a + rng.normal(0, 0.05 * noise, t.size)
     with open(path, "w") as fh:
         fh.write("time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s,vehicle_accel_m_s2\n")
         fh.writelines(",".join(f"{x:.6g}" for x in row) + "\n" for row in zip(t, Mm, wm, vm, am))
@@ -203,10 +213,69 @@ def cases(kinds, seeds):
     return out
 
 
+def varied_cases(seeds):
+    """Drive logs at other rates, durations, driving profiles, noise levels and magnitudes, two effects at
+    once, other delays and patches (the ``--set varied`` cases); truth as in :func:`cases`, and for an
+    outside cause the cause the JSON should name (``expect_cause``) and a patch's true window."""
+    out = []
+    patch_soft = (200.0, np.radians(12.0), 0.05)
+    for s in range(1, 1 + seeds):
+        out += [
+            ("drive", "none, 50 Hz, 30 s", s, dict(rate=50.0, duration=30.0), {"none"}),
+            (
+                "drive",
+                "none, 10 Hz, 120 s, stop-and-go",
+                s,
+                dict(rate=10.0, duration=120.0, profile="stop_go"),
+                {"none"},
+            ),
+            ("drive", "none, noise x2", s, dict(noise=2.0), {"none"}),
+            ("drive", "grade 0.08, stop-and-go", s, dict(grade=0.08, profile="stop_go"), {"grade"}),
+            ("drive", "mass_error 0.1, 50 Hz", s, dict(mass=0.1, rate=50.0), {"mass_error"}),
+            ("drive", "radius_error 0.03, noise x2", s, dict(radius=0.03, noise=2.0), {"radius_error"}),
+            ("drive", "grade 0.05 + mass_error 0.2", s, dict(grade=0.05, mass=0.2), {"grade", "mass_error"}),
+            ("drive", "OUT: speed 0.2 s late, 50 Hz", s, dict(delay=10, rate=50.0), {"unexplained"}, "delay"),
+            (
+                "drive",
+                "OUT: soft patch 70-90 s, 120 s",
+                s,
+                dict(duration=120.0, patch=(70.0, 90.0, patch_soft)),
+                {"unexplained"},
+                "terrain_change",
+                (70.0, 90.0),
+            ),
+            (
+                "drive",
+                "OUT: soft patch 10-25 s, 50 Hz",
+                s,
+                dict(rate=50.0, patch=(10.0, 25.0, patch_soft)),
+                {"unexplained"},
+                "terrain_change",
+                (10.0, 25.0),
+            ),
+        ]
+    return out
+
+
+def _within_twice(window, true):
+    """Whether a reported window lies inside the true window widened by half its length on each side (twice
+    its length, centred on it)."""
+    half = 0.5 * (true[1] - true[0])
+    return bool(window) and true[0] - half <= window[0] < window[1] <= true[1] + half
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--kinds", default="sweep,drive")
     ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument(
+        "--set",
+        choices=("standard", "varied"),
+        default="standard",
+        help="standard: the cases above; varied: drive logs at other rates, durations, profiles, noise "
+        "levels and magnitudes, two effects at once, other delays and patches (checks the cause, the "
+        "window within twice the true one, no change of terrain on uniform soil, confidence = weight)",
+    )
     ap.add_argument(
         "--torque-hold",
         choices=("zoh", "sample"),
@@ -217,8 +286,11 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     kinds = set(args.kinds.split(","))
     right = confident_wrong = total = 0
+    checks = {"cause named": [0, 0], "window within twice": [0, 0], "confidence = weight": [0, 0]}
+    uniform_terrain = uniform = 0
+    todo = cases(kinds, args.seeds) if args.set == "standard" else varied_cases(args.seeds)
     with tempfile.TemporaryDirectory() as tmp:
-        for kind, label, seed, kw, truth in cases(kinds, args.seeds):
+        for kind, label, seed, kw, truth, *expect in todo:
             path = os.path.join(tmp, f"{kind}_{seed}.csv")
             (sweep_csv if kind == "sweep" else log_csv)(path, seed, **kw)
             t0 = time.perf_counter()
@@ -240,12 +312,24 @@ def main(argv=None) -> int:
             wrong = not ok and j["verdict"] not in ("none", "unexplained") and j["confidence"] > 0.5
             right += ok
             confident_wrong += wrong
-            win = j.get("change_window") or {}
-            extra = f"  window {win.get('start')}-{win.get('end')} s" if kind == "drive" and "patch" in label else ""
-            if "glitches" in label:
-                rows = "row 301 (t = 15 s), row 801 (t = 40 s)" if kind == "drive" else None
-                named = any((rows in n) if rows else n.startswith("rows 18, 42 ") for n in j.get("notes", []))
-                extra += f"  glitch rows named: {'yes' if named else 'NO'}"
+            if kind == "drive" and "patch" not in kw:
+                uniform += 1
+                uniform_terrain += j.get("cause") == "terrain_change"
+            if expect:
+                checks["cause named"][0] += j.get("cause") == expect[0]
+                checks["cause named"][1] += 1
+            if len(expect) > 1:
+                checks["window within twice"][0] += _within_twice(j.get("window_s"), expect[1])
+                checks["window within twice"][1] += 1
+            if j["verdict"] not in ("none", "unexplained"):
+                w = next((r["weight"] for r in j["ranking"] if r["effect"] == j["verdict"]), None)
+                checks["confidence = weight"][0] += w is not None and abs(w - j["confidence"]) < 1e-9
+                checks["confidence = weight"][1] += 1
+            extra = f"  cause {j.get('cause')}" if j.get("cause") else ""
+            if j.get("window_s"):
+                extra += f"  window {j['window_s'][0]:.1f}-{j['window_s'][1]:.1f} s"
+            if j.get("lag_s") is not None:
+                extra += f"  lag {j['lag_s']:.3g} s"
             shrink = j.get("shrink")
             print(
                 f"{kind:5s} {label:28s} seed {seed}: {j['verdict']:20s} confidence {j['confidence']:.2f}  "
@@ -254,6 +338,10 @@ def main(argv=None) -> int:
                 flush=True,
             )
     print(f"\n{right}/{total} right; {confident_wrong} confident (> 0.5) wrong names")
+    print(f"uniform-soil drive logs that claim a change of terrain: {uniform_terrain}/{uniform}")
+    for name, (k, n) in checks.items():
+        if n:
+            print(f"{name}: {k}/{n}")
     return 0
 
 
