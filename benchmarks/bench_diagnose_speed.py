@@ -1,8 +1,12 @@
 """Time of one drive-log diagnosis on a 3,001-sample log (60 s at the simulator's 50 Hz), in a fresh process.
 
 Run:  python benchmarks/bench_diagnose_speed.py [--vehicle light] [--runs 3] [--seconds 60] [--source sim|plain]
+                                               [--fresh-cache]
 Each run is a new Python process (solver builds included, as for the CLI); prints the verdict,
 wall-clock and CPU time of each run and their medians, and the load average before and after.
+``--fresh-cache``: the runs share a new, empty compiled-code cache folder (``SOILTRACK_CACHE_DIR``,
+printed; left in place, background compilations may still be writing to it): the first run is the
+first use on a new machine, the next ones what follows while the background compilations finish.
 
 ``--source plain``: instead of the library's simulator, the plain-numpy generator of
 ``benchmarks/independent_check.py`` (heavy vehicle, a sampled continuous torque at 20 Hz, grade
@@ -38,8 +42,15 @@ def main(argv=None) -> int:
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--seconds", type=float, default=60.0)
     ap.add_argument("--source", choices=("sim", "plain"), default="sim")
+    ap.add_argument("--fresh-cache", action="store_true")
     a = ap.parse_args(argv)
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env = dict(os.environ)
+    if a.fresh_cache:
+        import tempfile
+
+        env["SOILTRACK_CACHE_DIR"] = tempfile.mkdtemp(prefix="soiltrack_bench_cache_")
+        print("empty compiled-code cache:", env["SOILTRACK_CACHE_DIR"])
     if a.source == "plain":
         return plain(root, a.runs)
     print("load average before:", os.getloadavg())
@@ -51,6 +62,7 @@ def main(argv=None) -> int:
                 capture_output=True,
                 text=True,
                 check=True,
+                env=env,
             )
             .stdout.strip()
             .splitlines()[-1]

@@ -5,11 +5,13 @@ mapped kernel over a few thousand samples the output conversion alone (through a
 the elements) costs as much as the evaluation. Measured on the slip-step kernel of a 2,704-sample
 drive log (``python benchmarks/bench_dense_call.py``): 3.18 ms per call with the outputs converted,
 1.18 ms through the buffer. The buffer interface (``Function.buffer()``) reads and writes the
-numpy arrays' memory directly. Each call checks out its own buffer (a few microseconds), so calls from several threads do not share
-memory; the numbers are the same operations' as the plain call's.
+numpy arrays' memory directly. Each call checks out its own buffer (a few microseconds), so calls
+from several threads do not share memory; the numbers are the same operations' as the plain call's.
 """
 
 from __future__ import annotations
+
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -55,11 +57,12 @@ def call_dense(fn: ca.Function, *args: np.ndarray) -> list[np.ndarray]:
         outs = out if isinstance(out, (list, tuple)) else [out]
         return [np.asarray(o, dtype=float) for o in outs]
     buf, trigger = fn.buffer()
+    b: Any = buf  # casadi's type stubs give set_arg/set_res a size argument its Python wrapper does not take
     for i, a in enumerate(inputs):
-        buf.set_arg(i, memoryview(a))
+        b.set_arg(i, a.data)  # ndarray.data: a memoryview of the array's memory
     flat = [np.empty(fn.numel_out(i)) for i in range(fn.n_out())]
     for i, o in enumerate(flat):
-        buf.set_res(i, memoryview(o))
+        b.set_res(i, o.data)
     trigger()
     if buf.ret() != 0:
         raise RuntimeError(f"{fn.name()}: evaluation failed (return flag {buf.ret()})")

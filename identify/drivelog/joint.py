@@ -86,6 +86,9 @@ __all__ = [
     "padded_data",
     "SlipSolver",
     "best_slips",
+    "sample_outputs",
+    "cse_function",
+    "SAMPLE_FUNCTIONS",
     "HULL_ROW",
     "CHANNELS",
     "DATA_ROWS",
@@ -349,6 +352,19 @@ def _slip_step_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
     return ca.Function("drivelog_joint_slip_step", [theta, slip, d], [s_new, c_new, ok, step, c])
 
 
+def cse_function(fn: ca.Function) -> ca.Function:
+    """``fn`` (an SX Function) with its common subexpressions merged, for CasADi's virtual machine.
+
+    ``ca.cse`` computes each value once: the same operations on the same operands, so the same numbers
+    (checked bit for bit in the tests). The slip step's four candidate costs share everything that does
+    not depend on the slip (930 -> 607 instructions with grade): the virtual machine, which answers until
+    the C code is compiled, runs it 2.3 times faster. The C compiler finds most of it itself (6 %), and
+    merging costs about 10 ms per function, so the compiled libraries are generated from ``fn`` as it is.
+    """
+    ins = fn.sx_in()
+    return ca.Function(fn.name() + "_cse", ins, ca.cse(fn.call(ins)), fn.name_in(), fn.name_out())
+
+
 @locked_cache(maxsize=32)
 def _slip_cost_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
     """Per-sample cost ``(theta, i, d) -> |e|^2 / 2``."""
@@ -367,14 +383,13 @@ def _slip_kernels(vehicle: Vehicle, structure: EffectSet):
     """
     from ..jitcache import load
 
-    return load(
-        [
-            _slip_step_function(vehicle, structure).map(SLIP_CHUNK),
-            _slip_cost_function(vehicle, structure).map(SLIP_CHUNK),
-        ],
-        "drivelog_slip",
-        wait=False,
+    step = _slip_step_function(vehicle, structure)
+    kernels = load(
+        [step.map(SLIP_CHUNK), _slip_cost_function(vehicle, structure).map(SLIP_CHUNK)], "drivelog_slip", wait=False
     )
+    if not kernels.is_c:  # until the C code is there: the step with its common subexpressions merged
+        kernels.functions = [cse_function(step).map(SLIP_CHUNK), kernels.functions[1]]
+    return kernels
 
 
 class _Chunked:
@@ -407,6 +422,63 @@ class _Chunked:
         s = np.zeros((1, size))
         s[0, :n] = slip
         return [o.ravel()[:n] for o in call_dense(_mapped(self.fn, k), th, s, D)]
+
+
+#: The per-sample functions :func:`sample_outputs` evaluates, in the order of their compiled library.
+SAMPLE_FUNCTIONS = ("residual", "derivative", "sensitivity")
+
+
+@locked_cache(maxsize=32)
+def _sample_kernels(vehicle: Vehicle, structure: EffectSet):
+    """:func:`residual_function`, :func:`derivative_function` and :func:`sensitivity_function` mapped over
+    :data:`SLIP_CHUNK` samples, from C code when the per-user cache has it (compiled once per machine, after
+    the process that first needs it exits: ``load(defer=True)``; the virtual machine until then)."""
+    from ..jitcache import load
+
+    fns = (
+        residual_function(vehicle, structure)[0],
+        derivative_function(vehicle, structure),
+        sensitivity_function(vehicle, structure),
+    )
+    return load([_dense_outputs(f).map(SLIP_CHUNK) for f in fns], "drivelog_samples", wait=False, defer=True)
+
+
+def _dense_outputs(fn: ca.Function) -> ca.Function:
+    """``fn`` with every output dense (structural zeros written as zeros: the same values), so that
+    :func:`~soiltrack.soilmodel.dense_call.call_dense` takes its buffer path (a sparse Jacobian output sent
+    the derivatives through the plain call and its conversions: 15 ms on 3,072 samples, 0.8 ms through the
+    buffer)."""
+    ins = fn.sx_in()
+    outs = [ca.densify(o) for o in fn.call(ins)]
+    return ca.Function(fn.name() + "_dense", ins, outs, fn.name_in(), fn.name_out())
+
+
+def sample_outputs(
+    vehicle: Vehicle, structure: EffectSet, which: str, theta: np.ndarray, slip: np.ndarray, D: np.ndarray
+) -> list[np.ndarray]:
+    """Outputs of a per-sample function of the model over the samples of ``D``, as ``fn.map(n)`` gives them.
+
+    ``which`` is one of :data:`SAMPLE_FUNCTIONS` (:func:`residual_function`, :func:`derivative_function`,
+    :func:`sensitivity_function`); ``theta`` one column for every sample, ``slip`` one value per sample.
+    Each output is the ``rows x (n cols)`` array of the map over the ``n`` samples (sample ``k`` in columns
+    ``k cols ... (k + 1) cols - 1``): the same numbers, evaluated from the chunked kernels (C code once
+    compiled) through :func:`~soiltrack.soilmodel.dense_call.call_dense` instead of a map built and called
+    with conversions per evaluation (``python benchmarks/bench_drivelog_engine.py --kernels``: the derivatives
+    on 2,704 samples 23.2 -> 0.80 ms).
+    """
+    if which not in SAMPLE_FUNCTIONS:
+        raise ValueError(f"sample_outputs: which must be one of {SAMPLE_FUNCTIONS}, got {which!r}")
+    kernels = _sample_kernels(vehicle, structure)
+    kernels.upgrade()
+    fn = kernels.functions[SAMPLE_FUNCTIONS.index(which)]
+    D = np.asarray(D, dtype=float)
+    n = D.shape[1]
+    k = -(-n // SLIP_CHUNK)
+    size = k * SLIP_CHUNK
+    s = np.zeros((1, size))
+    s[0, :n] = np.asarray(slip, dtype=float).ravel()
+    outs = call_dense(_mapped(fn, k), np.asarray(theta, dtype=float).reshape(-1, 1), s, padded_data(D, size))
+    return [o.reshape(o.shape[0], size, o.shape[1] // size)[:, :n, :].reshape(o.shape[0], -1) for o in outs]
 
 
 def _slip_pair(vehicle: Vehicle, structure: EffectSet, D: np.ndarray) -> tuple[_Chunked, _Chunked]:
@@ -538,9 +610,68 @@ def padded_data(D: np.ndarray, size: int) -> np.ndarray:
     return Dp
 
 
+#: Samples per call of the compiled NLP kernels: every padded size of a joint problem
+#: (:func:`~.nlp.padded_size`: 64, 96, 128, 192, ...) is a multiple of it.
+NLP_CHUNK = 32
+
+
+@locked_cache(maxsize=32)
+def _hessian_sample_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
+    """Per-sample ``(theta, i, d) -> (upper triangle of the theta block, theta-i column and i-i entry)`` of the
+    Hessian of ``|e|^2 / 2`` in ``(theta, i)`` (AD of :func:`_slip_cost_function`; the theta block by column)."""
+    cost1 = _slip_cost_function(vehicle, structure)
+    p_dim = cost1.size1_in(0)
+    th1, s1, d1 = (ca.SX.sym(cost1.name_in(j), cost1.sparsity_in(j)) for j in range(3))
+    H1 = ca.hessian(cost1(th1, s1, d1), ca.vertcat(th1, s1))[0]
+    tri = [(i, j) for j in range(p_dim) for i in range(j + 1)]
+    return ca.Function(
+        "drivelog_joint_hessian1", [th1, s1, d1], [ca.vertcat(*[H1[i, j] for i, j in tri]), H1[:, p_dim]]
+    )
+
+
+@locked_cache(maxsize=32)
+def _nlp_kernels(vehicle: Vehicle, structure: EffectSet):
+    """The joint NLP's per-sample cost, its reverse derivative and the per-sample Hessian, mapped over
+    :data:`NLP_CHUNK` samples, from C code when the per-user cache has it.
+
+    :func:`~soiltrack.identify.jitcache.load` without waiting, compiled once per machine after the process
+    that first needs it exits (``defer=True``); the virtual machine until then. The reverse derivative is
+    generated into the same library under the name CasADi looks for (``adj1_<name>``), so that IPOPT's
+    gradient, CasADi's reverse AD of the objective's graph, evaluates the same per-sample operations from C.
+    """
+    from ..jitcache import load
+
+    return load(_nlp_kernel_functions(vehicle, structure), "drivelog_nlp", wait=False, defer=True)
+
+
+def _nlp_kernel_functions(vehicle: Vehicle, structure: EffectSet) -> list[ca.Function]:
+    """The functions of :func:`_nlp_kernels`' library: cost map, its reverse derivative, Hessian map."""
+    cost = _slip_cost_function(vehicle, structure).map(NLP_CHUNK)
+    return [cost, cost.reverse(1), _hessian_sample_function(vehicle, structure).map(NLP_CHUNK)]
+
+
+def nlp_backend(vehicle: Vehicle, structure: EffectSet, n: int) -> bool:
+    """Whether the joint solver of ``n`` (padded) samples can evaluate its per-sample functions from C now.
+
+    False while the library compiles in the background (the virtual machine answers meanwhile, with the
+    same numbers), without a compiler, or for a size that is not a multiple of :data:`NLP_CHUNK`.
+    """
+    if n % NLP_CHUNK:
+        return False
+    k = _nlp_kernels(vehicle, structure)
+    k.upgrade()
+    return k.is_c
+
+
 @locked_cache(maxsize=16)
 def joint_solver(
-    vehicle: Vehicle, structure: EffectSet, n: int, max_iter: int, tol: float, print_level: int
+    vehicle: Vehicle,
+    structure: EffectSet,
+    n: int,
+    max_iter: int,
+    tol: float,
+    print_level: int,
+    compiled: bool = False,
 ) -> ca.Function:
     """IPOPT solver of the joint problem with ``n`` (padded) samples.
 
@@ -548,6 +679,9 @@ def joint_solver(
     ``[scale (2 + n_e), i_ref, D (10 n, column-major per sample), pad (n)]``. Padding samples
     (:func:`padded_data`) are inert and have ``pad = 1`` (a unit penalty pins their latent slip at 0).
     IPOPT gets the exact Hessian from :func:`_hessian_of_lagrangian`; the barrier parameter is adaptive.
+    ``compiled``: the per-sample cost, its reverse derivative and Hessian from the C library of
+    :func:`_nlp_kernels` (see :func:`nlp_backend`), else CasADi's virtual machine; the graph around them,
+    and so every number IPOPT sees, is the same.
     """
     res, _ = residual_function(vehicle, structure)
     p_dim = res.size1_in(0)
@@ -559,11 +693,19 @@ def joint_solver(
     pad = p[p_dim + 1 + len(DATA_ROWS) * n :]
     theta = x[:p_dim] * scale
     z = x[p_dim:]
+    if compiled:
+        kernels = _nlp_kernels(vehicle, structure)
+        if not kernels.is_c or n % NLP_CHUNK:
+            raise ValueError(f"joint_solver: no compiled kernels for {n} samples ({kernels.backend})")
+        cost_map = kernels.functions[0].map(n // NLP_CHUNK)
+        hess_map = kernels.functions[2].map(n // NLP_CHUNK)
+    else:
+        cost_map = _slip_cost_function(vehicle, structure).map(n)
+        hess_map = _hessian_sample_function(vehicle, structure).map(n)
     # MX graph over the mapped per-sample cost (not expanded): built in about a third of the time
     # of the inlined SX graph (3,000 samples: 3.8 s against 10.4 s first call, same optimum);
     # derivatives are maps of the per-sample SX derivatives
-    cost1 = _slip_cost_function(vehicle, structure)
-    f = ca.sum2(cost1.map(n)(ca.repmat(theta, 1, n), (z * i_ref).T, D)) + 0.5 * ca.sumsqr(pad * z)
+    f = ca.sum2(cost_map(ca.repmat(theta, 1, n), (z * i_ref).T, D)) + 0.5 * ca.sumsqr(pad * z)
     # adaptive barrier parameter: the fits start near their optimum (the nominal fit's soil, the latent slips
     # at their per-sample minimum) with no bound active but K's, and the monotone rule spent most iterations
     # lowering mu from 0.1 (measured on 60 s logs, same optima to 10 digits: light 30/20/25/26 -> 18/11/13/17
@@ -584,31 +726,29 @@ def joint_solver(
             "ipopt.bound_frac": 1e-8,
             "ipopt.mu_init": 1e-8,
             "ipopt.mu_max": 1e-5,
-            "hess_lag": _hessian_of_lagrangian(cost1, x, p, theta, z, scale, i_ref, D, pad),
+            "hess_lag": _hessian_of_lagrangian(hess_map, x, p, theta, z, scale, i_ref, D, pad),
         },
     )
     return ca.nlpsol(f"drivelog_joint_{n}", "ipopt", {"x": x, "p": p, "f": f}, opts)
 
 
 def _hessian_of_lagrangian(
-    cost1: ca.Function, x: ca.MX, p: ca.MX, theta: ca.MX, z: ca.MX, scale: ca.MX, i_ref: ca.MX, D: ca.MX, pad: ca.MX
+    hess_map: ca.Function, x: ca.MX, p: ca.MX, theta: ca.MX, z: ca.MX, scale: ca.MX, i_ref: ca.MX, D: ca.MX, pad: ca.MX
 ) -> ca.Function:
-    """The exact Hessian of the joint cost for IPOPT, from ONE map of the per-sample Hessians (AD of ``cost1``).
+    """The exact Hessian of the joint cost for IPOPT, from ONE map of the per-sample Hessians.
 
     The cost is a sum of per-sample terms in ``(theta, i_k)``: its Hessian is an arrowhead (a dense
     ``theta`` block, one ``theta``-``i_k`` column and one diagonal entry per sample). CasADi's own Hessian of
     the mapped graph colours it into ``p + 1`` forward-over-reverse sweeps of the whole map (measured 27-40 ms
-    per evaluation on 3,072 samples, about 60 % of IPOPT's time); the per-sample ``(p + 1)^2`` Hessian mapped
-    once is the same matrix (to rounding, checked in the tests) in 9 ms. Output: the upper triangle
-    (``triu:hess:gamma:x:x`` of the solver interface) with the objective multiplier ``lam_f``; no constraints.
+    per evaluation on 3,072 samples, about 60 % of IPOPT's time); the per-sample ``(p + 1)^2`` Hessian
+    (:func:`_hessian_sample_function`, ``hess_map`` its map over the samples) mapped once is the same matrix
+    (to rounding, checked in the tests) in 9 ms. Output: the upper triangle (``triu:hess:gamma:x:x`` of the
+    solver interface) with the objective multiplier ``lam_f``; no constraints.
     """
     p_dim = theta.numel()
     n = z.numel()
-    th1, s1, d1 = (ca.SX.sym(cost1.name_in(j), cost1.sparsity_in(j)) for j in range(3))
-    H1 = ca.hessian(cost1(th1, s1, d1), ca.vertcat(th1, s1))[0]
     tri = [(i, j) for j in range(p_dim) for i in range(j + 1)]  # upper triangle of the theta block, by column
-    h1 = ca.Function("drivelog_joint_hessian1", [th1, s1, d1], [ca.vertcat(*[H1[i, j] for i, j in tri]), H1[:, p_dim]])
-    Htt, Hs = h1.map(n)(ca.repmat(theta, 1, n), (z * i_ref).T, D)
+    Htt, Hs = hess_map(ca.repmat(theta, 1, n), (z * i_ref).T, D)
     tt = ca.sum2(Htt) * ca.vertcat(*[scale[i] * scale[j] for i, j in tri])  # chain rule to x = theta / scale
     cross = Hs[:p_dim, :] * ca.repmat(scale * i_ref, 1, n)
     diag = Hs[p_dim, :] * i_ref**2 + (pad**2).T

@@ -25,13 +25,14 @@ from .joint import (
     CHANNELS,
     HULL_ROW,
     best_slips,
-    derivative_function,
     effect_layout,
     joint_data,
     joint_solver,
+    nlp_backend,
     padded_data,
     parse_fixed,
     residual_function,
+    sample_outputs,
 )
 from .nlp import g_inverse, pad, run_starts, fmax_bounds, padded_size, ridge_point
 from .prepare import SLIP_BOUNDS, PreparedLog
@@ -87,7 +88,7 @@ def fit_joint(
     if names - set(es.names):
         es = parse_effects({**es.to_dict(), **{n: None for n in names - set(es.names)}})
     structure = effect_structure(es, vehicle)
-    res_fn, fn_labels = residual_function(vehicle, structure)
+    _, fn_labels = residual_function(vehicle, structure)
     labels = list(fn_labels)
     torque_hold = str(options.get("torque_hold", "zoh"))
     jd = joint_data(log, vehicle, prep, sigma_accel=options.get("sigma_accel"))
@@ -120,7 +121,8 @@ def fit_joint(
     e_hi = np.where(is_fixed, e0, ehi)
     e0 = np.clip(e0, np.where(np.isfinite(elo), elo, -1e300), np.where(np.isfinite(ehi), ehi, 1e300))
 
-    solver = joint_solver(vehicle, structure, N, max_iter, tol, print_level)
+    # the per-sample functions from C once the background compilation has them (the same numbers)
+    solver = joint_solver(vehicle, structure, N, max_iter, tol, print_level, nlp_backend(vehicle, structure, N))
     Dp = padded_data(jd.D, N)
     p = np.concatenate([scale, [i_ref], Dp.reshape(-1, order="F"), pad(np.zeros(n), N, 1.0)])
     big = 1e20
@@ -182,14 +184,12 @@ def fit_joint(
     evals = dict(zip(labels, theta[2:].tolist()))
 
     # residuals and derivatives at the solution (CasADi AD, mapped over the samples)
-    der = derivative_function(vehicle, structure).map(n)
-    th_rep = np.repeat(theta.reshape(-1, 1), n, axis=1)
-    e, Jt, gi, H = (np.asarray(o, dtype=float) for o in der(th_rep, slip.reshape(1, -1), jd.D))
+    e, Jt, gi, H = sample_outputs(vehicle, structure, "derivative", theta, slip, jd.D)
     e = e.T  # (n, 3)
     Jt = Jt.reshape(3, n, pd).transpose(1, 0, 2)  # (n, 3, pd)
     gi = gi.T  # (n, 3)
     H = H.reshape(pd + 1, n, pd + 1).transpose(1, 0, 2)
-    raw = np.asarray(res_fn.map(n)(th_rep, slip.reshape(1, -1), jd.D)[1], dtype=float).T
+    raw = sample_outputs(vehicle, structure, "residual", theta, slip, jd.D)[1].T
 
     free = ~np.concatenate([[False, False], is_fixed])
     cov_full, ident, A = _sandwich(e, Jt, H, slip, free)

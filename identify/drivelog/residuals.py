@@ -30,7 +30,7 @@ from ...soilmodel.data import DriveLog
 from ...soilmodel.effects import effect_structure, parse_effects
 from ...soilmodel.errors import DataError
 from ...soilmodel.vehicle import Vehicle
-from .joint import CHANNELS, HULL_ROW, best_slips, joint_data, residual_function
+from .joint import CHANNELS, HULL_ROW, best_slips, joint_data, residual_function, sample_outputs
 from .nlp import g_inverse
 from .prepare import SLIP_BOUNDS, prepare_drive_log
 
@@ -157,7 +157,7 @@ def evaluate_residuals(
     used to solve the latent slips, ``labels``) for :mod:`.drivelog_sensitivity`."""
     F, K, ev, eff, nm, hull, torque_hold, an, rel = _params_from(result_or_params, effects)
     structure = effect_structure(parse_effects(eff) if eff is not None else None, vehicle)
-    res_fn, labels = residual_function(vehicle, structure)
+    _, labels = residual_function(vehicle, structure)
     missing = [lab for lab in labels if lab not in ev]
     if missing:
         # effects switched on without a value: their given values (or off values)
@@ -172,7 +172,6 @@ def evaluate_residuals(
         log, vehicle, torque_hold=torque_hold, noise_models=nm, relaxation_at=None if rel is None else tuple(rel)
     )
     jd = joint_data(log, vehicle, prep, accel_noise=an)
-    n = prep.n_used
     l = vehicle.track_length
     y = np.clip(np.abs(prep.thrust) / F, 0.0, 0.98)
     slip0 = np.clip(np.sign(prep.thrust) * g_inverse(y) * K / l, SLIP_BOUNDS[0] + 1e-3, SLIP_BOUNDS[1] - 1e-3)
@@ -181,8 +180,7 @@ def evaluate_residuals(
         D_solve[HULL_ROW] = 0.0
     slip_meas = np.clip(prep.slip_measured, SLIP_BOUNDS[0] + 1e-3, SLIP_BOUNDS[1] - 1e-3)
     slip = best_slips(vehicle, structure, theta, D_solve, [slip0, slip_meas])
-    th = np.repeat(theta.reshape(-1, 1), n, axis=1)
-    e, raw, Fi, T = (np.asarray(o, dtype=float) for o in res_fn.map(n)(th, slip.reshape(1, -1), jd.D))
+    raw = sample_outputs(vehicle, structure, "residual", theta, slip, jd.D)[1]
     r_eff = vehicle.sprocket_radius * (1 + ev.get("radius_error.eps", 0.0))
     m_eff = vehicle.mass * (1 + ev.get("mass_error.delta", 0.0))
     ratio = r_eff / vehicle.sprocket_radius

@@ -20,7 +20,7 @@ import numpy as np
 
 from ...soilmodel.data import DriveLog
 from ...soilmodel.vehicle import Vehicle
-from .joint import sensitivity_function
+from .joint import sample_outputs
 from .residuals import evaluate_residuals
 
 __all__ = ["DriveLogSensitivities", "drive_log_sensitivities"]
@@ -91,9 +91,7 @@ def drive_log_sensitivities(result: Any, log: DriveLog, vehicle: Vehicle, effect
     out, ctx = evaluate_residuals(result, log, vehicle, effects)
     theta, structure, D = ctx["theta"], ctx["structure"], ctx["D"]
     n = D.shape[1]
-    slip = np.asarray(out["slip"], dtype=float).reshape(1, -1)
-    fn = sensitivity_function(vehicle, structure)
-    e, Jt, gi = (np.asarray(a, dtype=float) for a in fn.map(n)(np.repeat(theta.reshape(-1, 1), n, axis=1), slip, D))
+    e, Jt, gi = sample_outputs(vehicle, structure, "sensitivity", theta, out["slip"], D)
     c, p = e.shape[0], theta.size
     e = e.T  # (n, c)
     Jt = Jt.reshape(c, n, p).transpose(1, 0, 2)  # (n, c, p)
