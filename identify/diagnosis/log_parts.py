@@ -362,11 +362,10 @@ def refine_delay(nominal, data, vehicle, train: np.ndarray, k0: int, max_lag: in
     """The delay (whole samples) that the nominal model REFITTED on the shifted training part fits best.
 
     A profile with the nominal fit's parameters (no refit) is biased towards zero (the nominal fit
-    has partly absorbed the delay: 3 samples for a 10-sample delay, measured); this walks from the
-    scan's lag ``k0`` (its side and size) to longer shifts while they fit better, then to shorter
-    ones (each point a warm-started refit on the training part, their costs compared; a few refits
-    when the scan's lag is near the delay or there is none, instead of the 16-20 of a ternary search
-    over ``1..max_lag``). Returns ``(k, fit)`` (``(0, None)`` when no shift fits better than none).
+    has partly absorbed the delay: 3 samples for a 10-sample delay, measured); this searches the
+    side of ``k0`` (its sign; ternary search on the integers ``1..max_lag``, each point a
+    warm-started refit on the training part, their costs compared). Returns ``(k, fit)``
+    (``(0, None)`` when no shift fits better than none).
     """
     from ..fitting import fit
 
@@ -398,14 +397,15 @@ def refine_delay(nominal, data, vehicle, train: np.ndarray, k0: int, max_lag: in
         r = fits[k]
         return math.inf if r is None else float(r.cost)
 
-    # the scan's lag is biased towards zero (the nominal fit has partly absorbed the delay): walk from it
-    # while a longer (or shorter) shift fits better; the cost is taken unimodal in the shift, as the
-    # scan's peak is
-    c0 = cost(0)
-    best = min(max(abs(int(k0)), 1), max_lag)
-    for step in (1, -1):
-        while 1 <= best + step <= max_lag and cost(best + step) < cost(best):
-            best += step
-    if not math.isfinite(cost(best)) or cost(best) >= c0:
+    lo, hi = 1, max_lag
+    while hi - lo > 2:
+        m1 = lo + (hi - lo) // 3
+        m2 = hi - (hi - lo) // 3
+        if cost(m1) <= cost(m2):
+            hi = m2
+        else:
+            lo = m1
+    best = min(range(lo, hi + 1), key=cost)
+    if not math.isfinite(cost(best)) or cost(best) >= cost(0):
         return 0, None
     return sign * best, fits[best]

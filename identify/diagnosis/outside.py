@@ -77,7 +77,9 @@ def delay_hypothesis(setup: Setup, train_res: list) -> Hypothesis:
             setup.n,
             setup.channels,
         )
-    k, fit_k = refine_delay(setup.nominal_fit, data, setup.runner.vehicle, tr, int(scan["lag"]), s.max_delay_samples)
+    k, fit_k = refine_delay(
+        setup.nominal_fit, data, setup.runner.vehicle, tr, int(np.sign(scan["lag"])), s.max_delay_samples
+    )
     if k == 0 or fit_k is None:
         return _not_formed(
             "delay", "no shift of the speed channel fits the training blocks better", setup.n, setup.channels
