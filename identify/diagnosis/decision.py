@@ -16,7 +16,9 @@ Given the weights of the admissible hypotheses (:mod:`.evidence`) and the gap te
 The confidence is the verdict's weight as it stands in the ranking; for ``unexplained`` the summed
 weight of the hypotheses outside the candidates (the flexible term and the outside causes). Effects
 whose weights are close and whose sensitivities are collinear are ``confusable``, each pair with the
-experiment that separates them; the confidence is not capped for it.
+experiment that separates them; such a group shares its summed weight evenly before the verdict is
+drawn (:func:`share_confusable`: the data name the group, not a member), so the confidence is the
+shared weight, as the ranking prints it, and no cap is needed.
 """
 
 from __future__ import annotations
@@ -28,10 +30,10 @@ import numpy as np
 
 from .gap_test import GapDecision
 from .hypotheses import NOMINAL, Hypothesis
-from .selection import confusable_groups, separating_experiment
+from .selection import confusable_groups, separating_experiment, shared_weights
 from .settings import DiagnoseSettings
 
-__all__ = ["Decision", "decide", "UNEXPLAINED"]
+__all__ = ["Decision", "decide", "share_confusable", "UNEXPLAINED"]
 
 UNEXPLAINED = "unexplained"
 
@@ -68,12 +70,12 @@ class Decision:
     confusable: tuple = ()
 
 
-def _confusable(
-    hyps: list[Hypothesis], weights: dict[str, float], directions: dict, verdict: str, s: DiagnoseSettings
-) -> tuple:
-    """Pairs of library effects with close weights and collinear sensitivities, with their experiment."""
+def _pairs(
+    hyps: list[Hypothesis], weights: dict[str, float], directions: dict, verdict: str | None, s: DiagnoseSettings
+) -> list[tuple[tuple[str, ...], float]]:
+    """Pairs of library effects with close weights and collinear sensitivities."""
     lib = {h.name: weights[h.name] for h in hyps if h.name in directions}
-    pairs = confusable_groups(
+    return confusable_groups(
         lib,
         directions,
         min_ratio=s.confusable_ratio,
@@ -81,7 +83,26 @@ def _confusable(
         min_weight=s.confusable_weight,
         verdict=verdict,
     )
-    return tuple((p, c, separating_experiment(*p)) for p, c in pairs)
+
+
+def share_confusable(
+    hyps: list[Hypothesis], weights: dict[str, float], directions: dict, settings: DiagnoseSettings
+) -> dict[str, float]:
+    """The weights with each group of confusable effects sharing its summed weight evenly.
+
+    The data cannot tell the members of a group apart (close weights, collinear sensitivities), so
+    the evidence names the group, not one member: a difference of weight inside it is the noise's
+    coin flip. Ordered heaviest first, ties by the weight before sharing
+    (:func:`~.selection.shared_weights`).
+    """
+    return shared_weights(weights, _pairs(hyps, weights, directions, None, settings))
+
+
+def _confusable(
+    hyps: list[Hypothesis], weights: dict[str, float], directions: dict, verdict: str, s: DiagnoseSettings
+) -> tuple:
+    """Pairs of library effects with close weights and collinear sensitivities, with their experiment."""
+    return tuple((p, c, separating_experiment(*p)) for p, c in _pairs(hyps, weights, directions, verdict, s))
 
 
 def _explains(h: Hypothesis, exv: float | None, s: DiagnoseSettings) -> tuple[bool, str]:

@@ -36,7 +36,7 @@ from ...soilmodel.vehicle import Vehicle
 from ..consistency import ConsistencyReport, check_consistency
 from ..sweep.rig import pure_error_test
 from ..sweep.sinkage_channel import slip_sinkage_evidence
-from .decision import UNEXPLAINED, Decision, decide
+from .decision import share_confusable, UNEXPLAINED, Decision, decide
 from .evidence import HeldOutEvidence, PenalisedEvidence
 from .fits import SOIL_KEYS, FitRunner, channels, effect_parameters, soil_summary, usable
 from .gap import long_run_factor
@@ -304,12 +304,17 @@ def _rmse(held: dict[str, np.ndarray], frame: Frame) -> dict[str, float]:
     }
 
 
-def _ranking(hyps: list[Hypothesis], weights: dict[str, float], hold: Frame) -> tuple[RankEntry, ...]:
+def _ranking(
+    hyps: list[Hypothesis], weights: dict[str, float], raw: dict[str, float], hold: Frame
+) -> tuple[RankEntry, ...]:
+    """The ranking in the order of ``weights`` (shared among confusable effects; ties: the order of ``weights``,
+    which puts the larger weight before sharing, ``raw``, first)."""
     nominal = hyps[0]
     z0 = hold.z(nominal.heldout())
     before = _rmse(nominal.heldout(), hold)
     out = []
-    for h in sorted(hyps, key=lambda h: -weights[h.name]):
+    pos = {k: i for i, k in enumerate(weights)}
+    for h in sorted(hyps, key=lambda h: (-weights[h.name], pos[h.name])):
         after, shrink = before, None
         if h.held is not None and h.family != "nominal":
             zh = hold.z(h.held, z0, h.scale)
@@ -331,6 +336,7 @@ def _ranking(hyps: list[Hypothesis], weights: dict[str, float], hold: Frame) -> 
                 None if ex is None or not np.isfinite(ex) else float(ex),
                 h.parameters,
                 h.detail,
+                raw[h.name],
             )
         )
     return tuple(out)
@@ -410,12 +416,13 @@ def diagnose(
         if runner.is_log
         else PenalisedEvidence(settings.n_bootstrap)
     )
-    weights = evidence.weights(scored)
+    raw = evidence.weights(scored)
+    dirs = {s.effect: s.direction for s in screens if s.direction is not None}
+    weights = share_confusable(scored, raw, dirs, settings)
     hold = _frame(setup, scored[0], held=True)
     terrain = next((h for h in hyps if h.name == "terrain_change"), None)
     window_p = None if terrain is None else terrain.detail.get("score_p_value")
     gap = _gap(setup, scored, weights, hold, window_p)
-    dirs = {s.effect: s.direction for s in screens if s.direction is not None}
     dec = decide(scored, weights, gap, dirs, settings)
     say("the verdict's fit on all the data")
     return _result(
@@ -424,7 +431,7 @@ def diagnose(
         screens,
         scored,
         [h for h in hyps if not h.admissible],
-        weights,
+        (weights, raw),
         gap,
         dec,
         evidence.describes,
@@ -440,7 +447,7 @@ def _result(
     screens: list[Screen],
     hyps: list[Hypothesis],
     excluded: list[Hypothesis],
-    weights: dict[str, float],
+    weights: tuple[dict[str, float], dict[str, float]],
     gap: GapDecision,
     dec: Decision,
     evidence: str,
@@ -449,7 +456,7 @@ def _result(
     t0: float,
 ) -> Diagnosis:
     by = {h.name: h for h in hyps}
-    ranking = _ranking(hyps, weights, hold)
+    ranking = _ranking(hyps, *weights, hold)
     vfit = _verdict_fit(setup, dec, by)
     shown = dec.heaviest if dec.verdict == UNEXPLAINED else dec.verdict
     entry = next(e for e in ranking if e.effect == shown)

@@ -70,7 +70,9 @@ def _ranking_lines(d: Any) -> list[str]:
         sh = "" if e.shrink is None else f", held-out error shrinks by {e.shrink:.0%}"
         ex = "" if e.explained is None else f", explains {e.explained:.0%} of the excess"
         det = "".join(f", {k} {_value(v)}" for k, v in e.detail.items() if k in ("lag_s", "window_s", "level_N"))
-        out.append(f"  {e.effect:<20s} {e.family:<9s} weight {e.weight:.3f} ({e.n_params} par){sh}{ex}{det}")
+        ew = e.evidence_weight
+        shared = "" if ew is None or abs(ew - e.weight) < 5e-4 else f" (shared; {ew:.3f} from the evidence alone)"
+        out.append(f"  {e.effect:<20s} {e.family:<9s} weight {e.weight:.3f}{shared} ({e.n_params} par){sh}{ex}{det}")
         for p, v in e.parameters.items():
             out.append(
                 f"      {p} = {fmt(v.get('value'))} (standard error {fmt(v.get('stderr'))})"
@@ -80,7 +82,9 @@ def _ranking_lines(d: Any) -> list[str]:
         out.append(f"  left out: {x.name} ({x.family}): {x.why}")
     for (a, b), corr, exp in d.confusable:
         cs = f" (sensitivities correlated {corr:.2f})" if corr is not None and math.isfinite(corr) else ""
-        out.append(f"  {a} and {b} cannot be told apart on these data{cs}; to separate them: {exp}")
+        out.append(
+            f"  {a} and {b} cannot be told apart on these data{cs}: they share their weight; to separate them: {exp}"
+        )
     return out
 
 

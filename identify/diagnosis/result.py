@@ -35,7 +35,11 @@ class RankEntry:
     family
         ``nominal``, ``candidate``, ``flexible`` or ``outside``.
     weight
-        Its weight in the one comparison (the weights sum to 1).
+        Its weight in the one comparison (the weights sum to 1); effects the data cannot tell apart
+        (``confusable``) share their summed weight evenly.
+    evidence_weight
+        Its weight from the evidence alone, before a confusable group shares it (None when not
+        computed).
     n_params
         Parameters it adds to the nominal soil.
     holdout_rmse_before, holdout_rmse_after
@@ -59,6 +63,7 @@ class RankEntry:
     explained: float | None
     parameters: dict
     detail: dict = field(default_factory=dict)
+    evidence_weight: float | None = None
 
     def to_dict(self) -> dict:
         """The JSON entry."""
@@ -66,6 +71,7 @@ class RankEntry:
             "effect": self.effect,
             "family": self.family,
             "weight": float(self.weight),
+            "evidence_weight": finite(self.evidence_weight),
             "n_params": int(self.n_params),
             "holdout_rmse_before": {k: finite(v) for k, v in self.holdout_rmse_before.items()},
             "holdout_rmse_after": {k: finite(v) for k, v in self.holdout_rmse_after.items()},

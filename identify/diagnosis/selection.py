@@ -25,6 +25,7 @@ __all__ = [
     "hat_basis",
     "fit_discrepancy",
     "confusable_groups",
+    "shared_weights",
     "dm_test",
     "gap_p_value",
     "stacking_weights",
@@ -217,6 +218,38 @@ def confusable_groups(
             if close and (not math.isfinite(corr) or corr >= min_corr):
                 out.append(((a, b), corr))
     return out
+
+
+def shared_weights(weights: dict[str, float], pairs: list[tuple[tuple[str, ...], float]]) -> dict[str, float]:
+    """The weights with each group of confusable hypotheses sharing its summed weight evenly.
+
+    A group is the hypotheses linked through ``pairs`` (:func:`confusable_groups`): the data cannot
+    tell its members apart, so the evidence is for the group, and a difference inside it (a coin
+    flip of the noise) says nothing about which member it is. Each member gets the group's mean
+    weight; the sum over all hypotheses is unchanged. The dict comes back in descending order of
+    the shared weight, ties in descending order of the weight before sharing, so ``max`` and any
+    stable sort by weight put the member the data lean to first.
+    """
+    root = {k: k for k in weights}
+
+    def find(k: str) -> str:
+        while root[k] != k:
+            k = root[k]
+        return k
+
+    for (a, b), _ in pairs:
+        if a in root and b in root:
+            root[find(a)] = find(b)
+    groups: dict[str, list[str]] = {}
+    for k in weights:
+        groups.setdefault(find(k), []).append(k)
+    shared = dict(weights)
+    for members in groups.values():
+        if len(members) > 1:
+            mean = float(sum(weights[k] for k in members)) / len(members)
+            shared.update({k: mean for k in members})
+    order = sorted(weights, key=lambda k: (-shared[k], -weights[k]))
+    return {k: shared[k] for k in order}
 
 
 def dm_test(z_a: np.ndarray, z_b: np.ndarray, lag: int = 0) -> float:
