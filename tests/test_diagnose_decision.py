@@ -6,7 +6,11 @@ import numpy as np
 import pytest
 
 from soiltrack.identify.diagnosis import DiagnoseSettings
-from soiltrack.identify.diagnosis.decision import decide
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from soiltrack.identify.diagnosis.decision import decide, share_confusable
+from soiltrack.identify.diagnosis.selection import shared_weights
 from soiltrack.identify.diagnosis.evidence import HeldOutEvidence, PenalisedEvidence
 from soiltrack.identify.diagnosis.gap_test import decide_gap
 from soiltrack.identify.diagnosis.hypotheses import Frame, Hypothesis
@@ -84,6 +88,87 @@ def test_close_collinear_effects_are_confusable_with_their_experiment_and_no_cap
     assert d.verdict == "grade" and d.confidence == 0.55
     assert [set(p) for p, _, _ in d.confusable] == [{"grade", "drivetrain_friction"}]
     assert d.confusable[0][1] == pytest.approx(1.0) and d.confusable[0][2]
+
+
+def test_confusable_effects_share_their_weight_and_the_simplest_is_named():
+    e = RNG.standard_normal(N)
+    hs = [
+        hyp("none", "nominal", 3 * e),
+        hyp("drivetrain_friction", "candidate", e, k=2),
+        hyp("grade", "candidate", e),
+        hyp("speed_resistance", "candidate", 2 * e),
+    ]
+    raw = {"none": 0.0, "drivetrain_friction": 0.76, "grade": 0.24, "speed_resistance": 0.0}
+    u = np.ones(10) / math.sqrt(10)
+    w = share_confusable(hs, raw, {"grade": u, "drivetrain_friction": u, "speed_resistance": u[::-1]}, S)
+    assert w["grade"] == w["drivetrain_friction"] == pytest.approx(0.5)
+    assert sum(w.values()) == pytest.approx(1.0)
+    d = decide(hs, w, gap(1e-9), {"grade": u, "drivetrain_friction": u}, S)
+    # the data cannot tell them apart: the one with fewer parameters, at the shared weight
+    assert (d.verdict, d.confidence) == ("grade", pytest.approx(0.5))
+    # sensitivities not collinear: no sharing
+    v = np.r_[1.0, -1.0, np.zeros(8)] / math.sqrt(2)
+    w2 = share_confusable(hs, raw, {"grade": u, "drivetrain_friction": v}, S)
+    assert (w2["drivetrain_friction"], w2["grade"]) == (0.76, 0.24)
+    # weights far apart (a factor above 1 / confusable_ratio): no sharing
+    far = {"none": 0.0, "drivetrain_friction": 0.9, "grade": 0.1, "speed_resistance": 0.0}
+    assert share_confusable(hs, far, {"grade": u, "drivetrain_friction": u}, S)["grade"] == 0.1
+
+
+def test_the_flexible_term_shares_with_an_effect_of_close_weight_and_the_effect_is_named():
+    e = RNG.standard_normal(N)
+    hs = [
+        hyp("none", "nominal", 3 * e),
+        hyp("speed_resistance", "candidate", e),
+        hyp("discrepancy", "flexible", e, k=12),
+    ]
+    raw = {"none": 0.0, "speed_resistance": 0.37, "discrepancy": 0.63}
+    w = share_confusable(hs, raw, {"speed_resistance": np.ones(4)}, S)
+    d = decide(hs, w, gap(1e-9), {"speed_resistance": np.ones(4)}, S)
+    assert (d.verdict, d.confidence) == ("speed_resistance", pytest.approx(0.5))
+    clear = {"none": 0.0, "speed_resistance": 0.1, "discrepancy": 0.9}
+    w = share_confusable(hs, clear, {"speed_resistance": np.ones(4)}, S)
+    d = decide(hs, w, gap(1e-9), {"speed_resistance": np.ones(4)}, S)
+    assert (d.verdict, d.confidence) == ("unexplained", pytest.approx(0.9))
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.floats(0.0, 1.0), min_size=2, max_size=6),
+    st.lists(st.tuples(st.integers(0, 5), st.integers(0, 5)), max_size=6),
+    st.lists(st.integers(0, 4), min_size=6, max_size=6),
+)
+def test_shared_weights_keep_the_sum_equalise_groups_and_order_the_result(ws, links, ks):
+    names = [f"h{i}" for i in range(len(ws))]
+    w = dict(zip(names, ws))
+    pairs = [((names[a], names[b]), 1.0) for a, b in links if a < len(names) and b < len(names) and a != b]
+    n_par = dict(zip(names, ks))
+    out = shared_weights(w, pairs, n_par)
+    assert set(out) == set(w) and sum(out.values()) == pytest.approx(sum(w.values()))
+    for (a, b), _ in pairs:
+        assert out[a] == pytest.approx(out[b])
+    keys = list(out)
+    for x, y in zip(keys, keys[1:]):  # heaviest first; among equals the fewest parameters first
+        assert out[x] > out[y] - 1e-12
+        if out[x] == out[y]:
+            assert n_par[x] <= n_par[y]
+
+
+def _scaled(rng, n, var):
+    z = rng.standard_normal(n)
+    return z / np.sqrt(np.mean(z**2)) * np.sqrt(var)
+
+
+@pytest.mark.parametrize("n, left, verdict", [(60, 1.18, "grade"), (20000, 1.24, "unexplained")])
+def test_a_share_below_min_explained_names_the_effect_unless_the_data_show_it(n, left, verdict):
+    rng = np.random.default_rng(5)
+    # nominal excess 0.3 of the noise's variance; the candidate leaves 0.18 (explains 40 %) or 0.24 (20 %)
+    hs = [hyp("none", "nominal", _scaled(rng, n, 1.3)), hyp("grade", "candidate", _scaled(rng, n, left))]
+    d = decide(hs, {"none": 0.0, "grade": 1.0}, gap(1e-9), {}, S)
+    assert d.explained == pytest.approx(1 - (left - 1) / 0.3)
+    assert d.explained < S.min_explained
+    # 60 samples cannot show that 40 % is less than half; 20,000 show that 20 % is
+    assert d.verdict == verdict
 
 
 def test_evidence_weights_sum_to_one_and_favour_the_better_prediction():

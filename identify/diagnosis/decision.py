@@ -30,7 +30,7 @@ import numpy as np
 
 from .gap_test import GapDecision
 from .hypotheses import NOMINAL, Hypothesis
-from .selection import confusable_groups, separating_experiment, shared_weights
+from .selection import confusable_groups, dm_test, separating_experiment, shared_weights
 from .settings import DiagnoseSettings
 
 __all__ = ["Decision", "decide", "share_confusable", "UNEXPLAINED"]
@@ -73,8 +73,9 @@ class Decision:
 def _pairs(
     hyps: list[Hypothesis], weights: dict[str, float], directions: dict, verdict: str | None, s: DiagnoseSettings
 ) -> list[tuple[tuple[str, ...], float]]:
-    """Pairs of library effects with close weights and collinear sensitivities."""
-    lib = {h.name: weights[h.name] for h in hyps if h.name in directions}
+    """Pairs of library effects with close weights and collinear sensitivities; the flexible term pairs with any
+    effect of close weight (it can follow any smooth gap: its direction is unknown)."""
+    lib = {h.name: weights[h.name] for h in hyps if h.name in directions or h.family == "flexible"}
     return confusable_groups(
         lib,
         directions,
@@ -90,12 +91,15 @@ def share_confusable(
 ) -> dict[str, float]:
     """The weights with each group of confusable effects sharing its summed weight evenly.
 
-    The data cannot tell the members of a group apart (close weights, collinear sensitivities), so
-    the evidence names the group, not one member: a difference of weight inside it is the noise's
-    coin flip. Ordered heaviest first, ties by the weight before sharing
+    The data cannot tell the members of a group apart (close weights, collinear sensitivities; the
+    flexible term with any effect of close weight), so the evidence names the group, not one member:
+    a difference of weight inside it is the noise's coin flip. Ordered heaviest first; inside a
+    group the fewest parameters first, then the larger weight before sharing
     (:func:`~.selection.shared_weights`).
     """
-    return shared_weights(weights, _pairs(hyps, weights, directions, None, settings))
+    return shared_weights(
+        weights, _pairs(hyps, weights, directions, None, settings), {h.name: h.n_params for h in hyps}
+    )
 
 
 def _confusable(
@@ -105,20 +109,39 @@ def _confusable(
     return tuple((p, c, separating_experiment(*p)) for p, c in _pairs(hyps, weights, directions, verdict, s))
 
 
-def _explains(h: Hypothesis, exv: float | None, s: DiagnoseSettings) -> tuple[bool, str]:
-    """Whether the heaviest hypothesis explains the gap: it removes at least ``min_explained`` of the nominal
-    excess over the noise; and why not."""
+def _leaves_too_much(h: Hypothesis, nominal: Hypothesis, s: DiagnoseSettings, lag: int) -> float:
+    """p-value that ``h`` leaves more than ``1 - min_explained`` of the nominal model's excess error over
+    the noise on its support: a one-sided Diebold-Mariano test of ``z_h^2 - (1 - m) z_0^2 - m`` (``m`` =
+    ``min_explained``; its mean is ``E_h - (1 - m) E_0`` with ``E = mean(z^2) - 1``), Newey-West lag ``lag``."""
+    z0, z1 = np.asarray(nominal.z, dtype=float), np.asarray(h.z, dtype=float)
+    if h.in_support is not None and h.in_support.size == z1.size == z0.size:
+        z0, z1 = z0[h.in_support], z1[h.in_support]
+    if not (np.all(np.isfinite(z0)) and np.all(np.isfinite(z1))):
+        return 0.0
+    m = s.min_explained
+    return dm_test(z1, np.sqrt((1.0 - m) * z0**2 + m), lag)
+
+
+def _explains(h: Hypothesis, nominal: Hypothesis, exv: float | None, s: DiagnoseSettings, lag: int) -> tuple[bool, str]:
+    """Whether the heaviest hypothesis explains the gap, and why (not).
+
+    It does unless the data show that it leaves more than ``1 - min_explained`` of the nominal model's
+    excess error over the noise (the test of :func:`_leaves_too_much` at level ``alpha``): the share it
+    removes is an estimate, and on a small excess its noise alone can put it on either side of
+    ``min_explained``. Where the nominal model shows no excess on its support it explains nothing.
+    """
     if exv is None:
         return False, (
             "the nominal model shows no excess error over the noise on the samples it changes, so it has "
             "nothing there to remove"
         )
+    p = _leaves_too_much(h, nominal, s, lag)
+    share = f"removes {max(exv, 0.0):.0%} of the nominal excess error over the noise"
+    if p < s.alpha:
+        return False, (f"{share}: significantly less than {s.min_explained:.0%} (p = {p:.2g}, level {s.alpha:g})")
     if exv < s.min_explained:
-        return False, (
-            f"removes only {max(exv, 0.0):.0%} of the nominal excess error over the noise (at least "
-            f"{s.min_explained:.0%} is needed)"
-        )
-    return True, f"removes {exv:.0%} of the nominal excess error over the noise"
+        return True, f"{share}, not significantly less than {s.min_explained:.0%} (p = {p:.2g}, level {s.alpha:g})"
+    return True, share
 
 
 def decide(
@@ -127,6 +150,7 @@ def decide(
     gap: GapDecision,
     directions: dict[str, np.ndarray],
     settings: DiagnoseSettings,
+    lag: int = 0,
 ) -> Decision:
     """Apply the rule of the module docstring.
 
@@ -141,10 +165,12 @@ def decide(
     directions
         Projected sensitivity of each library effect (screening), for the confusable pairs.
     settings
-        ``min_explained`` and the confusable thresholds.
+        ``min_explained``, ``alpha`` and the confusable thresholds.
+    lag
+        Newey-West lag of the test that the heaviest leaves too much (correlated residuals of a log).
     """
     by = {h.name: h for h in hyps}
-    top = max(weights, key=lambda k: weights[k])
+    top = max(weights, key=lambda k: weights[k])  # the first maximal: ties in the order of share_confusable
     h = by[top]
     w_out = float(sum(weights[x.name] for x in hyps if x.family in ("flexible", "outside")))
     ex = h.explained(by[NOMINAL]) if h.family != "nominal" else math.nan
@@ -159,7 +185,7 @@ def decide(
             else f"a gap test is significant, but {w_top}"
         )
         return Decision(NOMINAL, weights[NOMINAL], top, None, None, why, confusable=conf)
-    ok, how = _explains(h, exv, settings)
+    ok, how = _explains(h, by[NOMINAL], exv, settings, lag)
     if h.family == "candidate" and ok:
         return Decision(top, weights[top], top, exv, None, f"{w_top} and {how}" if how else w_top, confusable=conf)
     cause = top if h.family == "outside" and ok else None

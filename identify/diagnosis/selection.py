@@ -90,6 +90,12 @@ def separating_experiment(a: str, b: str) -> str:
     text = SEPARATING_EXPERIMENTS.get(frozenset({a, b}))
     if text:
         return text
+    if DISCREPANCY in (a, b):
+        e = b if a == DISCREPANCY else a
+        return (
+            f"data where {e} predicts something other than a smooth trend (other speeds, slips, loads or "
+            "accelerations than these data cover): the flexible term follows any smooth gap"
+        )
     return (
         f"data over a wider range of the variables where {a} and {b} differ (other slips, speeds, "
         "loads or accelerations), or a direct measurement of one of them"
@@ -203,7 +209,7 @@ def confusable_groups(
     are local (at "effect off"), and a refit that the held-out data clearly prefer has told the
     two apart. Returns ``[((a, b), corr), ...]`` (corr NaN when a direction is unknown).
     """
-    names = [k for k in weights if k not in (NOMINAL, DISCREPANCY)]
+    names = [k for k in weights if k != NOMINAL]
     out: list[tuple[tuple[str, ...], float]] = []
     for i, a in enumerate(names):
         for b in names[i + 1 :]:
@@ -220,15 +226,18 @@ def confusable_groups(
     return out
 
 
-def shared_weights(weights: dict[str, float], pairs: list[tuple[tuple[str, ...], float]]) -> dict[str, float]:
+def shared_weights(
+    weights: dict[str, float], pairs: list[tuple[tuple[str, ...], float]], n_params: dict[str, int]
+) -> dict[str, float]:
     """The weights with each group of confusable hypotheses sharing its summed weight evenly.
 
     A group is the hypotheses linked through ``pairs`` (:func:`confusable_groups`): the data cannot
     tell its members apart, so the evidence is for the group, and a difference inside it (a coin
     flip of the noise) says nothing about which member it is. Each member gets the group's mean
-    weight; the sum over all hypotheses is unchanged. The dict comes back in descending order of
-    the shared weight, ties in descending order of the weight before sharing, so ``max`` and any
-    stable sort by weight put the member the data lean to first.
+    weight; the sum over all hypotheses is unchanged. The dict comes back heaviest first; inside a
+    group the member with the fewest parameters first (of explanations the data cannot tell apart,
+    the simplest, as in the one-standard-error rule of model selection), then the larger weight
+    before sharing. ``max`` and any stable sort by weight keep that order.
     """
     root = {k: k for k in weights}
 
@@ -248,7 +257,7 @@ def shared_weights(weights: dict[str, float], pairs: list[tuple[tuple[str, ...],
         if len(members) > 1:
             mean = float(sum(weights[k] for k in members)) / len(members)
             shared.update({k: mean for k in members})
-    order = sorted(weights, key=lambda k: (-shared[k], -weights[k]))
+    order = sorted(weights, key=lambda k: (-shared[k], n_params.get(k, 0), -weights[k]))
     return {k: shared[k] for k in order}
 
 
