@@ -1,5 +1,6 @@
 """Drive-log diagnosis: the change-of-terrain and delay tools, and the outside causes they name."""
 
+import json
 import numpy as np
 import pytest
 
@@ -166,6 +167,19 @@ def test_a_radius_error_is_not_taken_for_a_speed_sensor(tmp_path):
     d = diagnose(log, v)
     _consistent(d)
     assert d.verdict == "radius_error" and d.weight_of("radius_error") > d.weight_of("speed_scale")
+
+
+@pytest.mark.slow
+def test_torque_glitches_are_lone_readings_left_out_and_name_no_effect(tmp_path):
+    """Two logger glitches of the torque (+25 and -18 kN m at rows 300 and 800): a glitch is not a gap."""
+    log, v = _independent_log(tmp_path, 2, torque_glitches=((300, 25000.0), (800, -18000.0)))
+    d = diagnose(log, v)
+    _consistent(d)
+    assert d.verdict in ("none", "unexplained") and d.cause is None, (d.verdict, d.reason)
+    # the thrust residual at row k is the step from row k - 1 (torque held over it): the glitches of rows
+    # 300 and 800 show at 301 and 801
+    assert d.lone_readings == {"thrust_N": (301, 801)}, d.lone_readings
+    assert json.loads(d.to_json())["lone_readings"]
 
 
 _TIED_WITH_A_MASS_ERROR = pytest.mark.xfail(

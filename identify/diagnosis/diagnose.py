@@ -39,7 +39,7 @@ from ..sweep.sinkage_channel import slip_sinkage_evidence
 from .decision import share_confusable, UNEXPLAINED, Decision, decide
 from .evidence import HeldOutEvidence, PenalisedEvidence
 from .fits import SOIL_KEYS, FitRunner, channels, effect_parameters, soil_summary, usable
-from .gap import long_run_factor
+from .gap import isolated_outliers, long_run_factor
 from .gap_test import GapDecision, decide_gap
 from .hold import HoldChoice, choose_hold
 from .hypotheses import NOMINAL, Frame, Hypothesis
@@ -144,11 +144,30 @@ def _twins(screens: list[Screen], cands: tuple[str, ...], min_corr: float) -> se
     return out
 
 
+def _lone_readings(setup: Setup) -> dict[str, tuple[int, ...]]:
+    """Per channel, the rows where the nominal model's residual is a lone reading far off its neighbours (in
+    the order of time or slip; :func:`~.gap.isolated_outliers`): a glitch of a sensor or a logger, not a
+    trend an effect could explain."""
+    out: dict[str, tuple[int, ...]] = {}
+    for ch in setup.channels:
+        r = np.asarray(setup.residuals[ch], dtype=float)
+        ok = np.flatnonzero(np.isfinite(r))
+        rows = tuple(sorted(int(ok[k]) for k, _ in isolated_outliers(r[ok], np.asarray(setup.x)[ok])))
+        if rows:
+            out[ch] = rows
+    return out
+
+
 def _frame(setup: Setup, nominal: Hypothesis, held: bool) -> Frame:
-    """The evidence's samples (``held``: the held-out residuals of every fold) with the noise floor."""
+    """The evidence's samples (``held``: the held-out residuals of every fold) with the noise floor. Lone
+    readings (:func:`_lone_readings`) are left out: one glitch would otherwise make a gap on its own, and
+    weigh the hypotheses by how they treat one wrong number."""
     base = nominal.heldout() if held else nominal.residuals
     mask = {ch: np.isfinite(base[ch]) & (np.nan_to_num(setup.sigma[ch]) > 0) for ch in setup.channels}
-    return Frame(setup.sigma, mask)
+    lone = _lone_readings(setup)
+    for ch, rows in lone.items():
+        mask[ch][list(rows)] = False
+    return Frame(setup.sigma, mask, lone)
 
 
 def _sweep_noise(setup: Setup, hyps: list[Hypothesis]) -> Setup:
@@ -411,10 +430,9 @@ def diagnose(
     setup, hyps = _hypotheses(setup_or_none, base, screens, cands, weigh_outside, say)
     admissible = [h for h in hyps if h.admissible]
     scored, frame = _score(setup, admissible)
+    block = max(1, setup.n // settings.log_blocks) if runner.is_log else 1
     evidence = (
-        HeldOutEvidence(max(1, setup.n // settings.log_blocks), settings.n_bootstrap)
-        if runner.is_log
-        else PenalisedEvidence(settings.n_bootstrap)
+        HeldOutEvidence(block, settings.n_bootstrap) if runner.is_log else PenalisedEvidence(settings.n_bootstrap)
     )
     raw = evidence.weights(scored)
     dirs = {s.effect: s.direction for s in screens if s.direction is not None}
@@ -423,7 +441,7 @@ def diagnose(
     terrain = next((h for h in hyps if h.name == "terrain_change"), None)
     window_p = None if terrain is None else terrain.detail.get("score_p_value")
     gap = _gap(setup, scored, weights, hold, window_p)
-    dec = decide(scored, weights, gap, dirs, settings, setup.dm_lag)
+    dec = decide(scored, weights, gap, dirs, settings, block)
     say("the verdict's fit on all the data")
     return _result(
         setup,
@@ -469,6 +487,12 @@ def _result(
         )
     if setup.flat:
         notes.append(f"no measurable noise in {', '.join(sorted(setup.flat))}: its noise floor is set negligible")
+    for ch, rows in hold.lone.items():
+        notes.append(
+            f"{ch}: {len(rows)} lone reading(s) left out of the evidence and the gap tests, rows "
+            f"{', '.join(str(r) for r in rows[:10])}{' ...' if len(rows) > 10 else ''} "
+            "(far off both neighbours: a glitch)"
+        )
     params = dict(entry.parameters)
     if vfit is not None and usable(vfit, setup.is_log):
         params = effect_parameters(vfit, dec.verdict)
@@ -513,6 +537,7 @@ def _result(
         elapsed_s=time.perf_counter() - t0,
         curves=curves,
         sinkage=_sinkage(setup),
+        lone_readings=dict(hold.lone),
     )
 
 

@@ -39,10 +39,13 @@ class Frame:
         Noise floor per channel and sample (full length; NaN where unknown).
     mask
         Per channel, the samples compared (held out for a log, all usable ones for a sweep).
+    lone
+        Per channel, the rows left out as lone readings (a glitch; :func:`~.gap.isolated_outliers`).
     """
 
     sigma: dict[str, np.ndarray]
     mask: dict[str, np.ndarray]
+    lone: dict[str, tuple[int, ...]] = field(default_factory=dict)
 
     @property
     def channels(self) -> list[str]:
@@ -70,7 +73,7 @@ class Frame:
             z = z[np.isfinite(z)]
             if z.size:
                 sigma[ch] = self.sigma[ch] * math.sqrt(min(1.0, max(float(np.mean(z**2)), 1e-12)))
-        return Frame(sigma, self.mask)
+        return Frame(sigma, self.mask, self.lone)
 
     def z(
         self,

@@ -130,6 +130,10 @@ class Diagnosis:
     torque_hold
         A drive log's torque hold: given, or chosen on the held-out blocks (:mod:`.hold`); None for
         a sweep.
+    lone_readings
+        Per residual channel, the rows left out of the evidence and the gap tests as lone readings
+        far off both neighbours (a glitch; :func:`~.gap.isolated_outliers`). On a drive log the
+        residual at row k is the step from row k - 1: a torque glitch at row k shows at k + 1.
     """
 
     data_kind: str
@@ -160,6 +164,7 @@ class Diagnosis:
     elapsed_s: float = 0.0
     curves: dict = field(default_factory=dict, repr=False)
     sinkage: Any = None
+    lone_readings: dict = field(default_factory=dict)
 
     def weight_of(self, name: str) -> float:
         """Weight of hypothesis ``name`` in the ranking (0 when absent)."""
@@ -186,6 +191,7 @@ class Diagnosis:
                     {"effects": list(p), "correlation": finite(c), "experiment": x} for p, c, x in self.confusable
                 ],
                 "localisation": [s.to_dict() for s in self.localisation],
+                "lone_readings": {ch: [int(r) for r in rows] for ch, rows in self.lone_readings.items()},
                 "shrink": finite(self.shrink),
                 "explained": finite(self.explained),
                 "holdout_rmse_before": {k: finite(v) for k, v in self.holdout_rmse_before.items()},
