@@ -21,8 +21,9 @@ class DiagnoseSettings:
         Significance level of every test the decision uses (the gap tests, a cause's own test):
         1 %, so that one diagnosis in a hundred of effect-free data sees a gap by chance.
     min_explained
-        Least share of the nominal model's excess error over the noise that the heaviest hypothesis
-        must remove to be the verdict: below half, something else carries most of the gap.
+        Share of the nominal model's excess error over the noise that the heaviest hypothesis must
+        not be shown (at ``alpha``) to fall short of to be the verdict: when it leaves more than half,
+        something else carries most of the gap.
     min_shrink
         Least held-out RMS shrink (with a significant Diebold-Mariano test) that shows a gap when the
         nominal error alone is within the noise: 5 % is about what a half-size effect gives on a
@@ -58,7 +59,10 @@ class DiagnoseSettings:
         Knots of the flexible term in slip on a sweep: one per 6 samples, 2 to 12.
     confusable_ratio, confusable_corr, confusable_weight
         Two library hypotheses are confusable when the smaller weight is at least this share of the
-        larger (and at least ``confusable_weight``) and their sensitivities are this collinear.
+        larger (and at least ``confusable_weight``) and their sensitivities are this collinear (the
+        flexible term: with any effect of close weight); a confusable group shares its weight. A
+        factor 5 of weight is 1.6 nats of held-out log density: about the spread of the difference
+        between two hypotheses that predict alike on thousands of samples.
     max_delay_samples
         Largest delay between channels tried (samples): a quarter second at 100 Hz.
     sweep_noise_window
