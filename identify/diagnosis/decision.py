@@ -30,7 +30,7 @@ import numpy as np
 
 from .gap_test import GapDecision
 from .hypotheses import NOMINAL, Hypothesis
-from .selection import confusable_groups, bootstrap_p_mean_below, separating_experiment, shared_weights
+from .selection import confusable_groups, separating_experiment, shared_weights
 from .settings import DiagnoseSettings
 
 __all__ = ["Decision", "decide", "share_confusable", "UNEXPLAINED"]
@@ -109,43 +109,20 @@ def _confusable(
     return tuple((p, c, separating_experiment(*p)) for p, c in _pairs(hyps, weights, directions, verdict, s))
 
 
-def _leaves_too_much(h: Hypothesis, nominal: Hypothesis, s: DiagnoseSettings, block: int) -> float:
-    """p-value that ``h`` leaves more than ``1 - min_explained`` of the nominal model's excess error over
-    the noise on its support: the block Bayesian-bootstrap probability
-    (:func:`~.selection.bootstrap_p_mean_below`, the evidence's blocks) that the mean of
-    ``z_h^2 - (1 - m) z_0^2 - m`` is at most 0 (``m`` = ``min_explained``; that mean is
-    ``E_h - (1 - m) E_0`` with ``E = mean(z^2) - 1``)."""
-    z0, z1 = np.asarray(nominal.z, dtype=float), np.asarray(h.z, dtype=float)
-    if h.in_support is not None and h.in_support.size == z1.size == z0.size:
-        z0, z1 = z0[h.in_support], z1[h.in_support]
-    if not (np.all(np.isfinite(z0)) and np.all(np.isfinite(z1))):
-        return 0.0
-    m = s.min_explained
-    return bootstrap_p_mean_below(z1**2 - (1.0 - m) * z0**2 - m, block, s.n_bootstrap)
-
-
-def _explains(
-    h: Hypothesis, nominal: Hypothesis, exv: float | None, s: DiagnoseSettings, block: int
-) -> tuple[bool, str]:
-    """Whether the heaviest hypothesis explains the gap, and why (not).
-
-    It does unless the data show that it leaves more than ``1 - min_explained`` of the nominal model's
-    excess error over the noise (the test of :func:`_leaves_too_much` at level ``alpha``): the share it
-    removes is an estimate, and on a small excess its noise alone can put it on either side of
-    ``min_explained``. Where the nominal model shows no excess on its support it explains nothing.
-    """
+def _explains(exv: float | None, s: DiagnoseSettings) -> tuple[bool, str]:
+    """Whether the heaviest hypothesis explains the gap: it removes at least ``min_explained`` of the nominal
+    excess over the noise; and why not."""
     if exv is None:
         return False, (
             "the nominal model shows no excess error over the noise on the samples it changes, so it has "
             "nothing there to remove"
         )
-    p = _leaves_too_much(h, nominal, s, block)
-    share = f"removes {max(exv, 0.0):.0%} of the nominal excess error over the noise"
-    if p < s.alpha:
-        return False, (f"{share}: significantly less than {s.min_explained:.0%} (p = {p:.2g}, level {s.alpha:g})")
     if exv < s.min_explained:
-        return True, f"{share}, not significantly less than {s.min_explained:.0%} (p = {p:.2g}, level {s.alpha:g})"
-    return True, share
+        return False, (
+            f"removes only {max(exv, 0.0):.0%} of the nominal excess error over the noise (at least "
+            f"{s.min_explained:.0%} is needed)"
+        )
+    return True, f"removes {exv:.0%} of the nominal excess error over the noise"
 
 
 def decide(
@@ -154,7 +131,6 @@ def decide(
     gap: GapDecision,
     directions: dict[str, np.ndarray],
     settings: DiagnoseSettings,
-    block: int = 1,
 ) -> Decision:
     """Apply the rule of the module docstring.
 
@@ -169,10 +145,7 @@ def decide(
     directions
         Projected sensitivity of each library effect (screening), for the confusable pairs.
     settings
-        ``min_explained``, ``alpha`` and the confusable thresholds.
-    block
-        Samples per bootstrap block of the test that the heaviest leaves too much (the evidence's
-        blocks on a log: correlated residuals move together; 1 on a sweep).
+        ``min_explained`` and the confusable thresholds.
     """
     by = {h.name: h for h in hyps}
     top = max(weights, key=lambda k: weights[k])  # the first maximal: ties in the order of share_confusable
@@ -190,7 +163,7 @@ def decide(
             else f"a gap test is significant, but {w_top}"
         )
         return Decision(NOMINAL, weights[NOMINAL], top, None, None, why, confusable=conf)
-    ok, how = _explains(h, by[NOMINAL], exv, settings, block)
+    ok, how = _explains(exv, settings)
     if h.family == "candidate" and ok:
         return Decision(top, weights[top], top, exv, None, f"{w_top} and {how}" if how else w_top, confusable=conf)
     cause = top if h.family == "outside" and ok else None

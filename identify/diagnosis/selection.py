@@ -29,7 +29,6 @@ __all__ = [
     "dm_test",
     "gap_p_value",
     "stacking_weights",
-    "bootstrap_p_mean_below",
 ]
 
 from .hypotheses import DISCREPANCY, NOMINAL
@@ -191,30 +190,6 @@ def stacking_weights(
     W /= W.sum(axis=1, keepdims=True)
     out[finite] = W.mean(axis=0)
     return {m: float(w) for m, w in zip(names, out)}
-
-
-def bootstrap_p_mean_below(d: np.ndarray, block: int = 1, n_boot: int = 400, seed: int = 20261126) -> float:
-    """Bayesian-bootstrap probability that the mean of ``d`` is at most 0 (blocks of ``block`` consecutive
-    samples, as :func:`stacking_weights` draws them).
-
-    Each replicate draws Dirichlet(1, ..., 1) weights over the blocks and forms the weighted mean of
-    ``d``; the result is ``(k + 1) / (n_boot + 1)`` with ``k`` the replicates at or below 0 (a Monte
-    Carlo p-value, never 0). Unlike a t statistic, it keeps the skew of a mean that rests on a few
-    large values (a glitch): a gain that every block shows, or a loss that a few blocks show and
-    none offsets, is not made uncertain by their spread. Deterministic (fixed ``seed``). NaN
-    samples count as 0; an empty ``d`` gives 1.
-    """
-    x = np.nan_to_num(np.asarray(d, dtype=float), nan=0.0)
-    n = x.size
-    if n == 0:
-        return 1.0
-    b = int(max(1, min(block, n)))
-    edges = np.arange(0, n, b)
-    S = np.add.reduceat(x, edges)
-    cnt = np.add.reduceat(np.ones(n), edges)
-    A = np.random.default_rng(seed).dirichlet(np.ones(S.size), size=n_boot)
-    means = (A @ S) / (A @ cnt)
-    return float((np.count_nonzero(means <= 0.0) + 1) / (n_boot + 1))
 
 
 def confusable_groups(

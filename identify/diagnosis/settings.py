@@ -21,9 +21,8 @@ class DiagnoseSettings:
         Significance level of every test the decision uses (the gap tests, a cause's own test):
         1 %, so that one diagnosis in a hundred of effect-free data sees a gap by chance.
     min_explained
-        Share of the nominal model's excess error over the noise that the heaviest hypothesis must
-        not be shown (at ``alpha``) to fall short of to be the verdict: when it leaves more than half,
-        something else carries most of the gap.
+        Least share of the nominal model's excess error over the noise that the heaviest hypothesis
+        must remove to be the verdict: below half, something else carries most of the gap.
     min_shrink
         Least held-out RMS shrink (with a significant Diebold-Mariano test) that shows a gap when the
         nominal error alone is within the noise: 5 % is about what a half-size effect gives on a
