@@ -491,7 +491,7 @@ def _result(
         notes.append(
             f"{ch}: {len(rows)} lone reading(s) left out of the evidence and the gap tests, rows "
             f"{', '.join(str(r) for r in rows[:10])}{' ...' if len(rows) > 10 else ''} "
-            "(far off both neighbours: a glitch)"
+            "(far off both neighbours: a glitch, or a one-sample transient that no hypothesis here models)"
         )
     params = dict(entry.parameters)
     if vfit is not None and usable(vfit, setup.is_log):
