@@ -87,6 +87,7 @@ __all__ = [
     "SlipSolver",
     "best_slips",
     "sample_outputs",
+    "chunked_outputs",
     "cse_function",
     "SAMPLE_FUNCTIONS",
     "HULL_ROW",
@@ -361,8 +362,13 @@ def cse_function(fn: ca.Function) -> ca.Function:
     the C code is compiled, runs it 2.3 times faster. The C compiler finds most of it itself (6 %), and
     merging costs about 10 ms per function, so the compiled libraries are generated from ``fn`` as it is.
     """
+    return _rebuilt(fn, "_cse", ca.cse)
+
+
+def _rebuilt(fn: ca.Function, suffix: str, outputs) -> ca.Function:
+    """The SX Function ``fn`` rebuilt with ``outputs(its outputs)`` (same inputs and names, ``suffix`` added)."""
     ins = fn.sx_in()
-    return ca.Function(fn.name() + "_cse", ins, ca.cse(fn.call(ins)), fn.name_in(), fn.name_out())
+    return ca.Function(fn.name() + suffix, ins, outputs(fn.call(ins)), fn.name_in(), fn.name_out())
 
 
 @locked_cache(maxsize=32)
@@ -411,17 +417,36 @@ class _Chunked:
         n = slip.size
         k = -(-n // SLIP_CHUNK)
         size = k * SLIP_CHUNK
-        D: np.ndarray
         if idx is None:
-            if self._full is None:
+            size = -(-slip.size // SLIP_CHUNK) * SLIP_CHUNK
+            if self._full is None or self._full.shape[1] != size:
                 self._full = padded_data(self.D, size)
-            D = self._full
+            outs = chunked_outputs(self.fn, th, slip, self._full)
         else:
-            D = padded_data(self.D[:, idx], size)
-        th = np.asarray(th, dtype=float).reshape(-1, 1)
-        s = np.zeros((1, size))
-        s[0, :n] = slip
-        return [o.ravel()[:n] for o in call_dense(_mapped(self.fn, k), th, s, D)]
+            outs = chunked_outputs(self.fn, th, slip, self.D[:, idx])
+        return [o.ravel() for o in outs]
+
+
+def chunked_outputs(fn: ca.Function, theta: np.ndarray, slip: np.ndarray, D: np.ndarray) -> list[np.ndarray]:
+    """Outputs of ``fn``, a per-sample function mapped over :data:`SLIP_CHUNK` samples, over the ``n`` samples
+    of ``D``, as ``per_sample.map(n)`` gives them: each the ``rows x (n cols)`` array (sample ``k`` in columns
+    ``k cols ... (k + 1) cols - 1``).
+
+    ``theta`` is one column for every sample; ``slip`` one value per sample; ``D`` the samples' data, or the
+    data already padded (:func:`padded_data`) to the next multiple of :data:`SLIP_CHUNK`. The samples are
+    padded with samples at rest, evaluated in ``ceil(n / SLIP_CHUNK)`` chunks through
+    :func:`~soiltrack.soilmodel.dense_call.call_dense`, and the padding dropped.
+    """
+    s_in = np.asarray(slip, dtype=float).ravel()
+    n = s_in.size
+    k = -(-n // SLIP_CHUNK)
+    size = k * SLIP_CHUNK
+    D = np.asarray(D, dtype=float)
+    Dp = D if D.shape[1] == size else padded_data(D, size)
+    s = np.zeros((1, size))
+    s[0, :n] = s_in
+    outs = call_dense(_mapped(fn, k), np.asarray(theta, dtype=float).reshape(-1, 1), s, Dp)
+    return [o.reshape(o.shape[0], size, o.shape[1] // size)[:, :n, :].reshape(o.shape[0], -1) for o in outs]
 
 
 #: The per-sample functions :func:`sample_outputs` evaluates, in the order of their compiled library.
@@ -448,9 +473,7 @@ def _dense_outputs(fn: ca.Function) -> ca.Function:
     :func:`~soiltrack.soilmodel.dense_call.call_dense` takes its buffer path (a sparse Jacobian output sent
     the derivatives through the plain call and its conversions: 15 ms on 3,072 samples, 0.8 ms through the
     buffer)."""
-    ins = fn.sx_in()
-    outs = [ca.densify(o) for o in fn.call(ins)]
-    return ca.Function(fn.name() + "_dense", ins, outs, fn.name_in(), fn.name_out())
+    return _rebuilt(fn, "_dense", lambda outs: [ca.densify(o) for o in outs])
 
 
 def sample_outputs(
@@ -470,15 +493,7 @@ def sample_outputs(
         raise ValueError(f"sample_outputs: which must be one of {SAMPLE_FUNCTIONS}, got {which!r}")
     kernels = _sample_kernels(vehicle, structure)
     kernels.upgrade()
-    fn = kernels.functions[SAMPLE_FUNCTIONS.index(which)]
-    D = np.asarray(D, dtype=float)
-    n = D.shape[1]
-    k = -(-n // SLIP_CHUNK)
-    size = k * SLIP_CHUNK
-    s = np.zeros((1, size))
-    s[0, :n] = np.asarray(slip, dtype=float).ravel()
-    outs = call_dense(_mapped(fn, k), np.asarray(theta, dtype=float).reshape(-1, 1), s, padded_data(D, size))
-    return [o.reshape(o.shape[0], size, o.shape[1] // size)[:, :n, :].reshape(o.shape[0], -1) for o in outs]
+    return chunked_outputs(kernels.functions[SAMPLE_FUNCTIONS.index(which)], theta, slip, D)
 
 
 def _slip_pair(vehicle: Vehicle, structure: EffectSet, D: np.ndarray) -> tuple[_Chunked, _Chunked]:

@@ -28,8 +28,7 @@ import numpy as np
 from ...soilmodel.effects import EffectSet
 from ...soilmodel.threadsafe import locked_cache
 from ...soilmodel.vehicle import Vehicle
-from ...soilmodel.dense_call import call_dense
-from .joint import SLIP_CHUNK, SlipSolver, cse_function, derivative_function, padded_data
+from .joint import SLIP_CHUNK, SlipSolver, chunked_outputs, cse_function, derivative_function, padded_data
 from .prepare import SLIP_BOUNDS
 
 __all__ = ["ProfiledStart", "profiled_start"]
@@ -111,23 +110,19 @@ class _Sums:
     def __init__(self, vehicle: Vehicle, structure: EffectSet, D: np.ndarray) -> None:
         kernels = _sums_kernels(vehicle, structure)
         kernels.upgrade()
+        self.fn = kernels.functions[0]
         self.n = int(D.shape[1])
-        size = -(-self.n // SLIP_CHUNK) * SLIP_CHUNK
-        self.fn = kernels.functions[0].map(size // SLIP_CHUNK)
-        self.D = padded_data(np.asarray(D, dtype=float), size)
+        self.D = padded_data(np.asarray(D, dtype=float), -(-self.n // SLIP_CHUNK) * SLIP_CHUNK)
 
     def __call__(self, theta: np.ndarray, slip: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
-        n, size = self.n, self.D.shape[1]
-        s = np.zeros((1, size))
-        s[0, :n] = np.asarray(slip, dtype=float).ravel()
-        outs = call_dense(self.fn, np.asarray(theta, dtype=float).reshape(-1, 1), s, self.D)
+        n = self.n
         sums = []
-        for o in outs:
+        for o in chunked_outputs(self.fn, theta, np.asarray(slip, dtype=float).ravel()[:n], self.D):
+            rows, cols = o.shape[0], o.shape[1] // max(n, 1)
             if n == 0:
-                sums.append(np.zeros((o.shape[0], o.shape[1] // size)))
-                continue  # (rows, size * cols): sample k in columns k * cols ... (k + 1) * cols - 1
-            rows, cols = o.shape[0], o.shape[1] // size
-            per_sample = o.reshape(rows, size, cols)[:, :n, :].transpose(1, 0, 2).reshape(n, rows * cols)
+                sums.append(np.zeros((rows, cols)))
+                continue
+            per_sample = o.reshape(rows, n, cols).transpose(1, 0, 2).reshape(n, rows * cols)
             sums.append(np.cumsum(per_sample, axis=0)[-1].reshape(rows, cols))
         c, g, Hr, Hgn = sums
         return float(c[0, 0]), g.ravel(), Hr, Hgn
