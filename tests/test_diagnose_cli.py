@@ -45,6 +45,7 @@ def test_bad_arguments_exit_2(tmp_path, capsys):
     assert "--candidates" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_progress_on_stderr_and_quiet(tmp_path, capsys):
     # the stages of a diagnosis, one line each on stderr with the time since the start; stdout keeps the JSON alone
     import json

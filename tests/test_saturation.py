@@ -61,6 +61,7 @@ def test_diagnosis_of_a_clipped_sweep_names_no_effect_with_confidence():
     assert "clipped_sensor" in [x.name for x in clean.excluded]
 
 
+@pytest.mark.slow
 def test_an_effect_seen_through_a_clipped_sensor_is_the_effect_or_the_clip():
     # a softening soil (hump_shear) measured by a load cell that clips its four largest readings: the effect
     # is still the best candidate, but the clipped rows bias its fit; the unclipped sweep names it with

@@ -52,6 +52,7 @@ def test_vehicle_constants_match_the_generator():
     assert HEAVY.sprocket_radius == R and HEAVY.track_length == L and HEAVY.contact_area == pytest.approx(A)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2])
 def test_sampled_torque_fitted_as_sampled_gives_the_grade_inside_its_interval(seed):
     log = sampled_torque_log(seed)
@@ -82,6 +83,7 @@ def test_sampled_torque_fitted_as_sampled_gives_the_grade_inside_its_interval(se
     assert "torque held between samples" in wrong.report()
 
 
+@pytest.mark.slow
 def test_torque_hold_is_refused_where_it_does_not_apply(tmp_path):
     log = sampled_torque_log(1)
     with pytest.raises(DataError, match="torque_hold"):
@@ -98,6 +100,7 @@ def test_torque_hold_is_refused_where_it_does_not_apply(tmp_path):
         assert "Traceback" not in p.stderr
 
 
+@pytest.mark.slow
 def test_cli_fit_takes_the_torque_hold_and_says_it_in_the_json(tmp_path):
     log = sampled_torque_log(2)
     csv = tmp_path / "log.csv"
