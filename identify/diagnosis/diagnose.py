@@ -39,7 +39,7 @@ from ..sweep.sinkage_channel import slip_sinkage_evidence
 from .decision import share_confusable, UNEXPLAINED, Decision, decide
 from .evidence import HeldOutEvidence, PenalisedEvidence
 from .fits import SOIL_KEYS, FitRunner, channels, effect_parameters, soil_summary, usable
-from .gap import isolated_outliers, long_run_factor
+from .gap import long_run_factor
 from .gap_test import GapDecision, decide_gap
 from .hold import HoldChoice, choose_hold
 from .hypotheses import NOMINAL, Frame, Hypothesis
@@ -51,7 +51,7 @@ from .screening import Screen, screen
 from .selection import LOOKALIKES, dm_test, gap_p_value, hat_basis
 from .sweep_parts import fit_jacobian, lack_of_fit
 from .settings import DEFAULT_SETTINGS, DiagnoseSettings
-from .setup import Setup, check_candidates, make_folds, noise_floors, sweep_noise_model
+from .setup import Setup, check_candidates, lone_readings, make_folds, noise_floors, sweep_noise_model
 
 __all__ = ["diagnose", "Diagnosis", "RankEntry", "TORQUE_HOLDS"]
 
@@ -101,7 +101,9 @@ def _setup(runner: FitRunner, nominal_fit: Any) -> Setup:
     if runner.is_log and np.all(np.isfinite(nominal_fit.theta)):
         runner.x0 = np.asarray(nominal_fit.theta, dtype=float)
     folds = make_folds(data, order, runner.settings)
-    return Setup(runner, nominal_fit, R, sigma, frozenset(flat), folds, x, order, model_sigma is not None)
+    return Setup(
+        runner, nominal_fit, R, sigma, frozenset(flat), folds, x, order, model_sigma is not None, lone_readings(R, x)
+    )
 
 
 def _refits(
@@ -144,30 +146,10 @@ def _twins(screens: list[Screen], cands: tuple[str, ...], min_corr: float) -> se
     return out
 
 
-def _lone_readings(setup: Setup) -> dict[str, tuple[int, ...]]:
-    """Per channel, the rows where the nominal model's residual is a lone reading far off its neighbours (in
-    the order of time or slip; :func:`~.gap.isolated_outliers`): a glitch of a sensor or a logger, not a
-    trend an effect could explain."""
-    out: dict[str, tuple[int, ...]] = {}
-    for ch in setup.channels:
-        r = np.asarray(setup.residuals[ch], dtype=float)
-        ok = np.flatnonzero(np.isfinite(r))
-        rows = tuple(sorted(int(ok[k]) for k, _ in isolated_outliers(r[ok], np.asarray(setup.x)[ok])))
-        if rows:
-            out[ch] = rows
-    return out
-
-
 def _frame(setup: Setup, nominal: Hypothesis, held: bool) -> Frame:
-    """The evidence's samples (``held``: the held-out residuals of every fold) with the noise floor. Lone
-    readings (:func:`_lone_readings`) are left out: one glitch would otherwise make a gap on its own, and
-    weigh the hypotheses by how they treat one wrong number."""
-    base = nominal.heldout() if held else nominal.residuals
-    mask = {ch: np.isfinite(base[ch]) & (np.nan_to_num(setup.sigma[ch]) > 0) for ch in setup.channels}
-    lone = _lone_readings(setup)
-    for ch, rows in lone.items():
-        mask[ch][list(rows)] = False
-    return Frame(setup.sigma, mask, lone)
+    """The evidence's samples (``held``: the held-out residuals of every fold) with the noise floor
+    (:meth:`~.setup.Setup.frame`: lone readings left out)."""
+    return setup.frame(nominal.heldout() if held else nominal.residuals)
 
 
 def _sweep_noise(setup: Setup, hyps: list[Hypothesis]) -> Setup:

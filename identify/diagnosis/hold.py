@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .fits import usable
-from .hypotheses import Frame, Hypothesis
+from .hypotheses import Hypothesis
 from .library import flexible_on, held_out
 from .selection import dm_test
 from .setup import Setup
@@ -66,8 +66,7 @@ def choose_hold(setup: Setup, nominal: Hypothesis, train_res: list) -> HoldChoic
     predicts them significantly better."""
     sampled, fits, sampled_train = held_out(setup, lambda tr: setup.runner.run_warm(tr, torque_hold="sample"))
     held = nominal.heldout()
-    mask = {ch: np.isfinite(held[ch]) & (np.nan_to_num(setup.sigma[ch]) > 0) for ch in setup.channels}
-    frame = Frame(setup.sigma, mask)
+    frame = setup.frame(held)
     if not all(usable(f, True) for f in fits):
         return HoldChoice("zoh", False, None, None)
     z0 = frame.z(flexible_on(setup, held, train_res))

@@ -8,7 +8,7 @@ on all the data and its residuals (measured - model), the hold-out folds, the na
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -17,12 +17,13 @@ from ...soilmodel.data import DriveLog
 from ...soilmodel.effects import EFFECTS
 from ...soilmodel.errors import DataError
 from .fits import FitRunner
-from .gap import blocked_folds, noise_profile
+from .gap import blocked_folds, isolated_outliers, noise_profile
+from .hypotheses import Frame
 from .screening import newey_west_lag
 from .settings import DiagnoseSettings
 from .sweep_parts import sweep_folds
 
-__all__ = ["Setup", "check_candidates", "noise_floors", "make_folds", "sweep_noise_model"]
+__all__ = ["lone_readings", "Setup", "check_candidates", "noise_floors", "make_folds", "sweep_noise_model"]
 
 #: Slip step of the central difference of a sweep model's slope dF/di (the slip is a fraction).
 SLOPE_STEP = 1e-5
@@ -128,6 +129,8 @@ class Setup:
         Sample indices in natural order.
     noise_from_fit
         A sweep's noise level comes from its fit's slip-noise model (:func:`sweep_noise_model`).
+    lone
+        Per channel, the rows whose residual is a lone reading (:func:`lone_readings`).
     """
 
     runner: FitRunner
@@ -139,6 +142,16 @@ class Setup:
     x: np.ndarray
     order: np.ndarray
     noise_from_fit: bool = False
+    lone: dict = field(default_factory=dict)
+
+    def frame(self, residuals: dict[str, np.ndarray]) -> Frame:
+        """The evidence's samples: where ``residuals`` (held-out ones, or all) and the noise floor are known,
+        less the lone readings (:attr:`lone`: one glitch would otherwise make a gap on its own, and weigh the
+        hypotheses by how they treat one wrong number)."""
+        mask = {ch: np.isfinite(residuals[ch]) & (np.nan_to_num(self.sigma[ch]) > 0) for ch in self.channels}
+        for ch, rows in self.lone.items():
+            mask[ch][list(rows)] = False
+        return Frame(self.sigma, mask, self.lone)
 
     @property
     def data(self) -> Any:
@@ -185,3 +198,17 @@ class Setup:
         for _, te in self.folds:
             held[te] = True
         return {ch: m & held for ch, m in ok.items()}
+
+
+def lone_readings(residuals: dict[str, np.ndarray], x: np.ndarray) -> dict[str, tuple[int, ...]]:
+    """Per channel, the rows where a residual is a lone reading far off its neighbours (in the order of ``x``,
+    time or slip; :func:`~.gap.isolated_outliers`): a glitch of a sensor or a logger, not a trend an effect
+    could explain. Channels without one are left out."""
+    out: dict[str, tuple[int, ...]] = {}
+    for ch, res in residuals.items():
+        r = np.asarray(res, dtype=float)
+        ok = np.flatnonzero(np.isfinite(r))
+        rows = tuple(sorted(int(ok[k]) for k, _ in isolated_outliers(r[ok], np.asarray(x)[ok])))
+        if rows:
+            out[ch] = rows
+    return out
