@@ -71,7 +71,7 @@ class Decision:
 
 
 def _pairs(
-    hyps: list[Hypothesis], weights: dict[str, float], directions: dict, verdict: str | None, s: DiagnoseSettings
+    hyps: list[Hypothesis], weights: dict[str, float], directions: dict, s: DiagnoseSettings
 ) -> list[tuple[tuple[str, ...], float]]:
     """Pairs of library effects with close weights and collinear sensitivities; the flexible term pairs with any
     effect of close weight (it can follow any smooth gap: its direction is unknown)."""
@@ -82,7 +82,6 @@ def _pairs(
         min_ratio=s.confusable_ratio,
         min_corr=s.confusable_corr,
         min_weight=s.confusable_weight,
-        verdict=verdict,
     )
 
 
@@ -97,16 +96,12 @@ def share_confusable(
     group the fewest parameters first, then the larger weight before sharing
     (:func:`~.selection.shared_weights`).
     """
-    return shared_weights(
-        weights, _pairs(hyps, weights, directions, None, settings), {h.name: h.n_params for h in hyps}
-    )
+    return shared_weights(weights, _pairs(hyps, weights, directions, settings), {h.name: h.n_params for h in hyps})
 
 
-def _confusable(
-    hyps: list[Hypothesis], weights: dict[str, float], directions: dict, verdict: str, s: DiagnoseSettings
-) -> tuple:
+def _confusable(hyps: list[Hypothesis], weights: dict[str, float], directions: dict, s: DiagnoseSettings) -> tuple:
     """Pairs of library effects with close weights and collinear sensitivities, with their experiment."""
-    return tuple((p, c, separating_experiment(*p)) for p, c in _pairs(hyps, weights, directions, verdict, s))
+    return tuple((p, c, separating_experiment(*p)) for p, c in _pairs(hyps, weights, directions, s))
 
 
 def _explains(exv: float | None, s: DiagnoseSettings) -> tuple[bool, str]:
@@ -153,7 +148,7 @@ def decide(
     w_out = float(sum(weights[x.name] for x in hyps if x.family in ("flexible", "outside")))
     ex = h.explained(by[NOMINAL]) if h.family != "nominal" else math.nan
     exv = float(ex) if math.isfinite(ex) else None
-    conf = _confusable(hyps, weights, directions, top, settings)
+    conf = _confusable(hyps, weights, directions, settings)
     w_top = f"{top} carries the largest weight ({weights[top]:.2f})"
     if not gap.present or h.family == "nominal":
         why = (

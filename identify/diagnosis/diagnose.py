@@ -469,7 +469,7 @@ def _result(
         )
     if setup.flat:
         notes.append(f"no measurable noise in {', '.join(sorted(setup.flat))}: its noise floor is set negligible")
-    for ch, rows in hold.lone.items():
+    for ch, rows in setup.lone.items():
         notes.append(
             f"{ch}: {len(rows)} lone reading(s) left out of the evidence and the gap tests, rows "
             f"{', '.join(str(r) for r in rows[:10])}{' ...' if len(rows) > 10 else ''} "
@@ -519,7 +519,7 @@ def _result(
         elapsed_s=time.perf_counter() - t0,
         curves=curves,
         sinkage=_sinkage(setup),
-        lone_readings=dict(hold.lone),
+        lone_readings=dict(setup.lone),
     )
 
 

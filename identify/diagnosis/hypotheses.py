@@ -39,13 +39,10 @@ class Frame:
         Noise floor per channel and sample (full length; NaN where unknown).
     mask
         Per channel, the samples compared (held out for a log, all usable ones for a sweep).
-    lone
-        Per channel, the rows left out as lone readings (a glitch; :func:`~.gap.isolated_outliers`).
     """
 
     sigma: dict[str, np.ndarray]
     mask: dict[str, np.ndarray]
-    lone: dict[str, tuple[int, ...]] = field(default_factory=dict)
 
     @property
     def channels(self) -> list[str]:
@@ -73,7 +70,7 @@ class Frame:
             z = z[np.isfinite(z)]
             if z.size:
                 sigma[ch] = self.sigma[ch] * math.sqrt(min(1.0, max(float(np.mean(z**2)), 1e-12)))
-        return Frame(sigma, self.mask, self.lone)
+        return Frame(sigma, self.mask)
 
     def z(
         self,
@@ -195,11 +192,6 @@ class Hypothesis:
         ls = np.concatenate([np.log(scale[ch][m]) for ch, m in frame.mask.items()])
         ls[np.isnan(frame.z(self.residuals))] = 0.0  # filled with the nominal model's values
         return replace(self, z=z, scale=scale, log_scale=ls, in_support=sel)
-
-    @property
-    def sum_squares(self) -> float:
-        """Sum of the squared standardised residuals (inf when any is not finite)."""
-        return float(self.z @ self.z) if np.all(np.isfinite(self.z)) else math.inf
 
     def explained(self, nominal: "Hypothesis") -> float:
         """Share of the nominal model's excess error over the noise that this hypothesis removes.

@@ -198,7 +198,6 @@ def confusable_groups(
     min_ratio: float = 0.2,
     min_corr: float = 0.9,
     min_weight: float = 0.05,
-    verdict: str | None = None,
 ) -> list[tuple[tuple[str, ...], float]]:
     """Pairs of candidates the data cannot tell apart.
 
@@ -214,14 +213,13 @@ def confusable_groups(
     for i, a in enumerate(names):
         for b in names[i + 1 :]:
             wa, wb = weights[a], weights[b]
-            if max(wa, wb) < min_weight and verdict not in (a, b):
-                continue
+            if min(wa, wb) < max(min_ratio * max(wa, wb), min_weight):
+                continue  # not close: the evidence tells them apart
             da, db = directions.get(a), directions.get(b)
             corr = float("nan")
             if da is not None and db is not None and np.linalg.norm(da) > 0 and np.linalg.norm(db) > 0:
                 corr = float(abs(np.dot(da, db)) / (np.linalg.norm(da) * np.linalg.norm(db)))
-            close = min(wa, wb) >= max(min_ratio * max(wa, wb), min_weight)
-            if close and (not math.isfinite(corr) or corr >= min_corr):
+            if not math.isfinite(corr) or corr >= min_corr:
                 out.append(((a, b), corr))
     return out
 

@@ -151,7 +151,7 @@ class Setup:
         mask = {ch: np.isfinite(residuals[ch]) & (np.nan_to_num(self.sigma[ch]) > 0) for ch in self.channels}
         for ch, rows in self.lone.items():
             mask[ch][list(rows)] = False
-        return Frame(self.sigma, mask, self.lone)
+        return Frame(self.sigma, mask)
 
     @property
     def data(self) -> Any:
