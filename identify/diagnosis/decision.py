@@ -126,6 +126,7 @@ def decide(
     gap: GapDecision,
     directions: dict[str, np.ndarray],
     settings: DiagnoseSettings,
+    in_sample: bool = False,
 ) -> Decision:
     """Apply the rule of the module docstring.
 
@@ -141,12 +142,15 @@ def decide(
         Projected sensitivity of each library effect (screening), for the confusable pairs.
     settings
         ``min_explained`` and the confusable thresholds.
+    in_sample
+        Whether the residuals are in-sample (a sweep's): the noise level then counts each hypothesis's
+        parameters (:meth:`~.hypotheses.Hypothesis.noise_level`).
     """
     by = {h.name: h for h in hyps}
     top = max(weights, key=lambda k: weights[k])  # the first maximal: ties in the order of share_confusable
     h = by[top]
     w_out = float(sum(weights[x.name] for x in hyps if x.family in ("flexible", "outside")))
-    ex = h.explained(by[NOMINAL]) if h.family != "nominal" else math.nan
+    ex = h.explained(by[NOMINAL], h.noise_level(hyps, in_sample)) if h.family != "nominal" else math.nan
     exv = float(ex) if math.isfinite(ex) else None
     conf = _confusable(hyps, weights, directions, settings)
     w_top = f"{top} carries the largest weight ({weights[top]:.2f})"
