@@ -31,7 +31,7 @@ def gap(p):
 def test_no_gap_is_none_with_the_nominal_weight_as_confidence():
     hs = [hyp("none", "nominal", RNG.standard_normal(N)), hyp("grade", "candidate", RNG.standard_normal(N))]
     w = {"none": 0.7, "grade": 0.3}
-    d = decide(hs, w, gap(0.5), {}, S)
+    d = decide(hs, w, gap(0.5), S)
     assert d.verdict == "none" and d.confidence == 0.7 and d.cause is None
 
 
@@ -43,7 +43,7 @@ def test_a_candidate_that_explains_the_gap_is_named_with_its_weight():
         hyp("discrepancy", "flexible", 1.2 * e),
     ]
     w = {"none": 0.0, "grade": 0.8, "discrepancy": 0.2}
-    d = decide(hs, w, gap(1e-9), {}, S)
+    d = decide(hs, w, gap(1e-9), S)
     assert d.verdict == "grade" and d.confidence == 0.8 and d.explained > 0.9
 
 
@@ -56,9 +56,28 @@ def test_a_candidate_that_explains_too_little_gives_unexplained_with_the_outside
         hyp("delay", "outside", 2.6 * e, detail={"lag_s": 0.25}),
     ]
     w = {"none": 0.0, "radius_error": 0.7, "delay": 0.3}
-    d = decide(hs, w, gap(1e-9), {}, S)
+    d = decide(hs, w, gap(1e-9), S)
     assert d.verdict == "unexplained" and d.cause is None and d.confidence == pytest.approx(0.3)
     assert d.explained == pytest.approx(1 - (2.5**2 * np.mean(e**2) - 1) / (9 * np.mean(e**2) - 1))
+
+
+def test_the_noise_level_is_at_most_what_the_best_hypothesis_leaves():
+    e = RNG.standard_normal(N)
+    e = e / math.sqrt(np.mean(e**2))  # mean square exactly 1
+    # the floor is 25 % too high: the true model leaves a mean square of 0.64, below the floor's 1
+    best = hyp("grade", "candidate", 0.8 * e)
+    part = hyp("mass_error", "candidate", 1.6 * e)
+    nominal = hyp("none", "nominal", 2 * e)
+    hs = [nominal, best, part]
+    assert best.noise_level(hs, in_sample=False) == pytest.approx(0.64)
+    assert best.explained(nominal, best.noise_level(hs, False)) == pytest.approx(1.0)
+    # the partial one is measured against the same level: (2.56 - 0.64) / (4 - 0.64) left
+    assert part.explained(nominal, part.noise_level(hs, False)) == pytest.approx(1 - 1.92 / 3.36)
+    # in-sample residuals count each hypothesis's parameters: S / (n - p)
+    many = hyp("discrepancy", "flexible", 0.8 * e, k=40)
+    assert many.noise_level([nominal, many], in_sample=True) == pytest.approx(min(1.0, 0.64 * N / (N - 40)))
+    # a floor that is right (every hypothesis at or above it) is kept
+    assert part.noise_level([nominal, part], in_sample=False) == 1.0
 
 
 def test_an_outside_cause_is_named_with_its_detail_and_the_outside_weight():
@@ -70,7 +89,7 @@ def test_an_outside_cause_is_named_with_its_detail_and_the_outside_weight():
         hyp("delay", "outside", e, detail={"lag_s": 0.25, "lag_samples": 25}),
     ]
     w = {"none": 0.0, "grade": 0.1, "discrepancy": 0.2, "delay": 0.7}
-    d = decide(hs, w, gap(1e-9), {}, S)
+    d = decide(hs, w, gap(1e-9), S)
     assert (d.verdict, d.cause, d.cause_detail["lag_s"]) == ("unexplained", "delay", 0.25)
     assert d.confidence == pytest.approx(0.9)
 
@@ -82,12 +101,16 @@ def test_close_collinear_effects_are_confusable_with_their_experiment_and_no_cap
         hyp("grade", "candidate", e),
         hyp("drivetrain_friction", "candidate", e),
     ]
-    w = {"none": 0.0, "grade": 0.55, "drivetrain_friction": 0.45}
+    raw = {"none": 0.0, "grade": 0.55, "drivetrain_friction": 0.45}
     u = np.ones(10) / math.sqrt(10)
-    d = decide(hs, w, gap(1e-9), {"grade": u, "drivetrain_friction": u}, S)
-    assert d.verdict == "grade" and d.confidence == 0.55
+    shared = share_confusable(hs, raw, {"grade": u, "drivetrain_friction": u}, S)
+    d = decide(hs, shared.weights, gap(1e-9), S, confusable=shared.confusable)
+    # the pair shares its weight: the confidence is the shared weight, no cap
+    assert d.verdict == "grade" and d.confidence == pytest.approx(0.5)
     assert [set(p) for p, _, _ in d.confusable] == [{"grade", "drivetrain_friction"}]
     assert d.confusable[0][1] == pytest.approx(1.0) and d.confusable[0][2]
+    # the decision lists the pairs that shared, found once on the weights before sharing
+    assert d.confusable == shared.confusable
 
 
 def test_confusable_effects_share_their_weight_and_the_simplest_is_named():
@@ -100,19 +123,20 @@ def test_confusable_effects_share_their_weight_and_the_simplest_is_named():
     ]
     raw = {"none": 0.0, "drivetrain_friction": 0.76, "grade": 0.24, "speed_resistance": 0.0}
     u = np.ones(10) / math.sqrt(10)
-    w = share_confusable(hs, raw, {"grade": u, "drivetrain_friction": u, "speed_resistance": u[::-1]}, S)
+    sh = share_confusable(hs, raw, {"grade": u, "drivetrain_friction": u, "speed_resistance": u[::-1]}, S)
+    w = sh.weights
     assert w["grade"] == w["drivetrain_friction"] == pytest.approx(0.5)
     assert sum(w.values()) == pytest.approx(1.0)
-    d = decide(hs, w, gap(1e-9), {"grade": u, "drivetrain_friction": u}, S)
+    d = decide(hs, w, gap(1e-9), S, confusable=sh.confusable)
     # the data cannot tell them apart: the one with fewer parameters, at the shared weight
     assert (d.verdict, d.confidence) == ("grade", pytest.approx(0.5))
     # sensitivities not collinear: no sharing
     v = np.r_[1.0, -1.0, np.zeros(8)] / math.sqrt(2)
-    w2 = share_confusable(hs, raw, {"grade": u, "drivetrain_friction": v}, S)
+    w2 = share_confusable(hs, raw, {"grade": u, "drivetrain_friction": v}, S).weights
     assert (w2["drivetrain_friction"], w2["grade"]) == (0.76, 0.24)
     # weights far apart (a factor above 1 / confusable_ratio): no sharing
     far = {"none": 0.0, "drivetrain_friction": 0.9, "grade": 0.1, "speed_resistance": 0.0}
-    assert share_confusable(hs, far, {"grade": u, "drivetrain_friction": u}, S)["grade"] == 0.1
+    assert share_confusable(hs, far, {"grade": u, "drivetrain_friction": u}, S).weights["grade"] == 0.1
 
 
 def test_the_flexible_term_shares_with_an_effect_of_close_weight_and_the_effect_is_named():
@@ -123,12 +147,12 @@ def test_the_flexible_term_shares_with_an_effect_of_close_weight_and_the_effect_
         hyp("discrepancy", "flexible", e, k=12),
     ]
     raw = {"none": 0.0, "speed_resistance": 0.37, "discrepancy": 0.63}
-    w = share_confusable(hs, raw, {"speed_resistance": np.ones(4)}, S)
-    d = decide(hs, w, gap(1e-9), {"speed_resistance": np.ones(4)}, S)
+    sh = share_confusable(hs, raw, {"speed_resistance": np.ones(4)}, S)
+    d = decide(hs, sh.weights, gap(1e-9), S, confusable=sh.confusable)
     assert (d.verdict, d.confidence) == ("speed_resistance", pytest.approx(0.5))
     clear = {"none": 0.0, "speed_resistance": 0.1, "discrepancy": 0.9}
-    w = share_confusable(hs, clear, {"speed_resistance": np.ones(4)}, S)
-    d = decide(hs, w, gap(1e-9), {"speed_resistance": np.ones(4)}, S)
+    sh = share_confusable(hs, clear, {"speed_resistance": np.ones(4)}, S)
+    d = decide(hs, sh.weights, gap(1e-9), S, confusable=sh.confusable)
     assert (d.verdict, d.confidence) == ("unexplained", pytest.approx(0.9))
 
 

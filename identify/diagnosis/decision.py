@@ -26,14 +26,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import numpy as np
-
 from .gap_test import GapDecision
 from .hypotheses import NOMINAL, Hypothesis
 from .selection import confusable_groups, separating_experiment, shared_weights
 from .settings import DiagnoseSettings
 
-__all__ = ["Decision", "decide", "share_confusable", "UNEXPLAINED"]
+__all__ = ["Decision", "SharedWeights", "decide", "share_confusable", "UNEXPLAINED"]
 
 UNEXPLAINED = "unexplained"
 
@@ -85,23 +83,40 @@ def _pairs(
     )
 
 
+@dataclass(frozen=True)
+class SharedWeights:
+    """The weights after each group of confusable effects has shared its summed weight evenly.
+
+    Attributes
+    ----------
+    weights
+        The shared weights, heaviest first (see :func:`share_confusable`).
+    confusable
+        ``((a, b), correlation, experiment)`` per pair that shared: effects the data cannot tell
+        apart, with the experiment that separates them.
+    """
+
+    weights: dict[str, float]
+    confusable: tuple = ()
+
+
 def share_confusable(
     hyps: list[Hypothesis], weights: dict[str, float], directions: dict, settings: DiagnoseSettings
-) -> dict[str, float]:
-    """The weights with each group of confusable effects sharing its summed weight evenly.
+) -> SharedWeights:
+    """The weights with each group of confusable effects sharing its summed weight evenly, and the pairs.
 
     The data cannot tell the members of a group apart (close weights, collinear sensitivities; the
     flexible term with any effect of close weight), so the evidence names the group, not one member:
     a difference of weight inside it is the noise's coin flip. Ordered heaviest first; inside a
     group the fewest parameters first, then the larger weight before sharing
-    (:func:`~.selection.shared_weights`).
+    (:func:`~.selection.shared_weights`). The pairs are found once, here, on the weights before
+    sharing; the decision lists the same pairs.
     """
-    return shared_weights(weights, _pairs(hyps, weights, directions, settings), {h.name: h.n_params for h in hyps})
-
-
-def _confusable(hyps: list[Hypothesis], weights: dict[str, float], directions: dict, s: DiagnoseSettings) -> tuple:
-    """Pairs of library effects with close weights and collinear sensitivities, with their experiment."""
-    return tuple((p, c, separating_experiment(*p)) for p, c in _pairs(hyps, weights, directions, s))
+    pairs = _pairs(hyps, weights, directions, settings)
+    return SharedWeights(
+        shared_weights(weights, pairs, {h.name: h.n_params for h in hyps}),
+        tuple((p, c, separating_experiment(*p)) for p, c in pairs),
+    )
 
 
 def _explains(exv: float | None, s: DiagnoseSettings) -> tuple[bool, str]:
@@ -124,8 +139,9 @@ def decide(
     hyps: list[Hypothesis],
     weights: dict[str, float],
     gap: GapDecision,
-    directions: dict[str, np.ndarray],
     settings: DiagnoseSettings,
+    *,
+    confusable: tuple = (),
     in_sample: bool = False,
 ) -> Decision:
     """Apply the rule of the module docstring.
@@ -135,13 +151,15 @@ def decide(
     hyps
         The admissible hypotheses (the nominal model among them).
     weights
-        Their weights (:mod:`.evidence`).
+        Their weights (:mod:`.evidence`), shared among confusable effects
+        (:attr:`SharedWeights.weights`).
     gap
         The gap tests.
-    directions
-        Projected sensitivity of each library effect (screening), for the confusable pairs.
     settings
-        ``min_explained`` and the confusable thresholds.
+        ``min_explained``.
+    confusable
+        The pairs that shared their weight (:attr:`SharedWeights.confusable`), reported with the
+        decision.
     in_sample
         Whether the residuals are in-sample (a sweep's): the noise level then counts each hypothesis's
         parameters (:meth:`~.hypotheses.Hypothesis.noise_level`).
@@ -152,7 +170,7 @@ def decide(
     w_out = float(sum(weights[x.name] for x in hyps if x.family in ("flexible", "outside")))
     ex = h.explained(by[NOMINAL], h.noise_level(hyps, in_sample)) if h.family != "nominal" else math.nan
     exv = float(ex) if math.isfinite(ex) else None
-    conf = _confusable(hyps, weights, directions, settings)
+    conf = confusable
     w_top = f"{top} carries the largest weight ({weights[top]:.2f})"
     if not gap.present or h.family == "nominal":
         why = (

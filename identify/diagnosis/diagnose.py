@@ -418,12 +418,13 @@ def diagnose(
     )
     raw = evidence.weights(scored)
     dirs = {s.effect: s.direction for s in screens if s.direction is not None}
-    weights = share_confusable(scored, raw, dirs, settings)
+    shared = share_confusable(scored, raw, dirs, settings)
+    weights = shared.weights
     hold = _frame(setup, scored[0], held=True)
     terrain = next((h for h in hyps if h.name == "terrain_change"), None)
     window_p = None if terrain is None else terrain.detail.get("score_p_value")
     gap = _gap(setup, scored, weights, hold, window_p)
-    dec = decide(scored, weights, gap, dirs, settings, in_sample=not runner.is_log)
+    dec = decide(scored, weights, gap, settings, confusable=shared.confusable, in_sample=not runner.is_log)
     say("the verdict's fit on all the data")
     return _result(
         setup,
