@@ -82,6 +82,7 @@ def nominal_hypothesis(setup: Setup) -> tuple[Hypothesis, list, list]:
             why="" if ok else "a training fit failed",
             held=held,
             fit=setup.nominal_fit,
+            train_residuals=train_res,
             noise=noise or None,
         ),
         fits,
