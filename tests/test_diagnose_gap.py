@@ -189,12 +189,12 @@ def test_range_share_is_on_the_scale_of_the_localisation_bins():
 def test_local_noise_medians_follow_their_definition(split):
     # the vectorised local medians of isolated_outliers against the definition read literally, reading by reading:
     # half second differences on each side, leaving out the three the reading enters, a side counting from 3 values
-    from soiltrack.identify.diagnosis.gap import _local_medians
+    from soiltrack.identify.diagnosis.gap import local_medians
 
     rng = np.random.default_rng(7)
     for n, half in ((9, 3), (40, 5), (300, 21), (301, 150)):
         d = np.abs(rng.normal(size=n - 2)) * (1 + (np.arange(n - 2) > n // 2))
-        got = _local_medians(d, n, half, split)
+        got = local_medians(d, n, half, split)
         for k in range(2, n - 2):
             left, right = d[max(0, k - 2 - half) : k - 2], d[k + 1 : k + 1 + half]
             if split:

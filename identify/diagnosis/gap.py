@@ -30,6 +30,7 @@ from ..estimates.distributions import chi2_isf, chi2_sf  # re-exported (their ho
 
 __all__ = [
     "blocked_folds",
+    "local_medians",
     "noise_floor",
     "noise_profile",
     "long_run_factor",
@@ -153,7 +154,7 @@ def _row_medians(a: np.ndarray, full: np.ndarray) -> np.ndarray:
     return out
 
 
-def _local_medians(d: np.ndarray, n: int, half: int, split_sides: bool) -> np.ndarray:
+def local_medians(d: np.ndarray, n: int, half: int, split_sides: bool) -> np.ndarray:
     """Per reading ``k`` of ``n``, the median of the second differences ``d`` over ``half`` on each side.
 
     Leaves out the three that reading ``k`` enters (``d[j]`` is centred on reading ``j + 1``): the left
@@ -228,7 +229,7 @@ def isolated_outliers(
     w = max(3, min(w, d.size))
     glob = _MAD_TO_SIGMA * float(np.median(d)) / math.sqrt(6.0)
     half = max(3, w // 2)
-    sig = np.maximum(glob, _MAD_TO_SIGMA * _local_medians(d, n, half, split_sides) / math.sqrt(6.0))
+    sig = np.maximum(glob, _MAD_TO_SIGMA * local_medians(d, n, half, split_sides) / math.sqrt(6.0))
     sig[:2] = sig[n - 2 :] = 0.0
     # the reading against the mean of its two neighbours on each side, the nearer of the two: a glitch is far
     # from both, a reading at the edge of a step is near one of them (each difference has variance
