@@ -81,16 +81,6 @@ def hold_base(hyps: list[Hypothesis], weights: dict[str, float]) -> Hypothesis:
     return best if best.train_residuals is not None else nominal
 
 
-def _deviance(frame: Frame, held: dict[str, np.ndarray], fill: np.ndarray, scale: dict | None) -> np.ndarray:
-    """Per held-out sample, ``z^2 + 2 log q`` (``q`` the model's own noise level relative to the nominal
-    model's): minus twice the log density up to a constant, comparable across noise models."""
-    z = frame.z(held, fill, scale)
-    if scale is None:
-        return z**2
-    ls = np.concatenate([np.log(np.asarray(scale[ch], dtype=float)[m]) for ch, m in frame.mask.items()])
-    return z**2 + 2.0 * np.where(np.isfinite(ls), ls, 0.0)
-
-
 def _common_floor(setup: Setup, frame: Frame, held: tuple[dict[str, np.ndarray], ...]) -> Frame:
     """``frame`` with the noise floor per sample at most what the held-out residuals of either hold leave
     (their second differences, :func:`~.setup.noise_floors`): the wrong hold's fast misfit inflates the floor
@@ -121,9 +111,14 @@ def choose_hold(setup: Setup, nominal: Hypothesis, base: Hypothesis) -> HoldChoi
     alt = replace(base, residuals=sampled, held=sampled, train_residuals=sampled_train, noise=noise or None)
     frame = _common_floor(setup, setup.frame(nominal.heldout()), (base.heldout(), sampled))
     z_nom = frame.z(nominal.heldout())
-    on_top = [flexible_on(setup, h.heldout(), h.train_residuals) for h in (base, alt)]
-    d0, d1 = (_deviance(frame, r, z_nom, h.noise_scale(nominal)) for r, h in zip(on_top, (base, alt)))
-    z0, z1 = (frame.z(r, z_nom) for r in on_top)
+    # each with the flexible term on top, standardised by its own noise level: per sample, minus twice the
+    # held-out log density up to a constant (z^2 + 2 log q), comparable across noise models
+    tops = [
+        replace(h, residuals=flexible_on(setup, h.heldout(), h.train_residuals)).scored(frame, z_nom, nominal)
+        for h in (base, alt)
+    ]
+    d0, d1 = (h.z**2 + 2.0 * h.log_scale for h in tops)
+    z0, z1 = (frame.z(h.residuals, z_nom) for h in tops)
     shrink = 1.0 - float(np.sqrt((z1 @ z1) / max(float(z0 @ z0), 1e-300)))
     p = dm_loss_test(d0 - d1, setup.dm_lag)
     hold = "sample" if p < setup.settings.alpha else "zoh"
