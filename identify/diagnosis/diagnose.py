@@ -2,8 +2,7 @@
 
 The procedure, one step per module:
 
-1. **Data** (:mod:`.setup`, :mod:`.fits`, :mod:`.hold`): the candidates, the fit runner, the folds;
-   a drive log's torque hold when not given.
+1. **Data** (:mod:`.setup`, :mod:`.fits`): the candidates, the fit runner, the folds.
 2. **Screening** (:mod:`.screening`): the nominal model on all the data, with every library
    effect's score test; it ranks the effects for refitting and gives their sensitivities.
 3. **The gap** (:mod:`.gap`, :mod:`.gap_test`): the noise floor, the held-out error of the nominal
@@ -13,7 +12,9 @@ The procedure, one step per module:
    admissibility.
 5. **Evidence** (:mod:`.evidence`): one set of weights over the admissible hypotheses (held-out for
    a log, penalised in-sample for a sweep).
-6. **Verdict** (:mod:`.decision`): one rule; the confidence is the verdict's weight.
+6. **Verdict** (:mod:`.decision`): one rule; the confidence is the verdict's weight. Before it, a drive
+   log's torque hold when not given (:mod:`.hold`): judged under the comparison's best model; when the
+   sampled torque predicts better, steps 2-5 again with it.
 7. **Localisation** (:mod:`.localisation`): where the nominal misfit lies.
 8. **Result** (:mod:`.result`, :mod:`.report`, :mod:`.plot`): the report, the JSON, the figure.
 
