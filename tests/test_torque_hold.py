@@ -30,15 +30,13 @@ def _slip_for(F, W, c=1300.0, phi=np.radians(31.1), K=0.012):
     return 0.5 * (lo + hi)
 
 
-def sampled_torque_log(seed: int, grade: float = 0.05, mass: float = 0.0, rate: float = 20.0) -> DriveLog:
-    """A 60 s log at ``rate`` Hz with the torque sampled; ``mass``: the true mass ``M (1 + mass)``."""
+def sampled_torque_log(seed: int, grade: float = 0.05) -> DriveLog:
     rng = np.random.default_rng(seed)
-    t = np.arange(0, 60.0, 1.0 / rate)
+    t = np.arange(0, 60.0, 0.05)
     v = 2.0 + 1.2 * np.sin(2 * np.pi * t / 17) + 0.6 * np.sin(2 * np.pi * t / 6.3 + 1) + 0.4 * t / 60.0
     a = np.gradient(v, t)
-    m = M * (1 + mass)
-    W = m * G
-    F = m * a + W * np.cos(grade) * MU + W * np.sin(grade)
+    W = M * G
+    F = M * a + W * np.cos(grade) * MU + W * np.sin(grade)
     w = v / (R * (1 - _slip_for(F, W * np.cos(grade))))
     Ms = R * F + I_S * np.gradient(w, t)
     return DriveLog(
@@ -151,20 +149,6 @@ def test_the_hold_not_given_is_chosen_on_held_out_blocks():
 
 
 @pytest.mark.slow
-def test_the_hold_is_judged_under_the_best_model_of_the_comparison():
-    # a 10 % mass error at 50 Hz with the torque sampled, the hold not given. With the flexible term alone on
-    # top, the sampled nominal model predicted the held-out blocks worse (the mass error's fast signature
-    # in the hull balance), the held torque was kept and a drivetrain loss named at 0.99. Judged under the
-    # heaviest model of the held-torque comparison, on a noise floor that the wrong hold's fast misfit does
-    # not inflate, the sampled torque wins and the comparison made again with it names the mass error
-    d = diagnose(sampled_torque_log(1, grade=0.0, mass=0.1, rate=50.0), HEAVY)
-    h = d.torque_hold
-    assert (h.hold, h.given) == ("sample", False) and h.p_value < h.level, h
-    assert h.judged_with in ("drivetrain_friction", "grade", "mass_error", "none"), h
-    assert d.verdict == "mass_error" and d.confidence == d.weight_of("mass_error") > 0.5, d.verdict
-
-
-@pytest.mark.slow
 def test_a_log_diagnosis_says_which_torque_hold_it_assumed():
     from soiltrack.soilmodel import TERRAINS, simulate
 
@@ -176,3 +160,18 @@ def test_a_log_diagnosis_says_which_torque_hold_it_assumed():
         assert d.to_dict()["torque_hold"] == hold
     d = diagnose(log, light)  # the library's simulator holds the torque: held is kept
     assert (d.torque_hold.hold, d.torque_hold.given) == ("zoh", False) and d.torque_hold.p_value >= 0.01
+
+
+@pytest.mark.slow
+def test_the_library_simulators_held_torque_is_kept_on_the_heavy_speed_log():
+    # the speed benchmark's heavy log (60 s, torque held by the simulator's controller). Its sampled version
+    # fits the thrust channel better and the hull balance worse, as on a log whose torque is sampled
+    # (benchmarks/hold_channels.py): a comparison that weighed the thrust channel more (a floor from the
+    # sampled version's residuals) took the sampled torque here at p = 5e-10. The held torque must be kept
+    from soiltrack.soilmodel import TERRAINS, simulate
+
+    log = simulate(HEAVY, TERRAINS["lete_sand"], kind="drive", effects={"grade": 0.03}, seed=1, duration_s=60)
+    d = diagnose(log, HEAVY)
+    h = d.torque_hold
+    assert (h.hold, h.given) == ("zoh", False) and h.p_value >= h.level, h
+    assert d.verdict == "grade" and d.confidence == d.weight_of("grade")

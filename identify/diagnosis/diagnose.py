@@ -2,7 +2,8 @@
 
 The procedure, one step per module:
 
-1. **Data** (:mod:`.setup`, :mod:`.fits`): the candidates, the fit runner, the folds.
+1. **Data** (:mod:`.setup`, :mod:`.fits`, :mod:`.hold`): the candidates, the fit runner, the folds;
+   a drive log's torque hold when not given.
 2. **Screening** (:mod:`.screening`): the nominal model on all the data, with every library
    effect's score test; it ranks the effects for refitting and gives their sensitivities.
 3. **The gap** (:mod:`.gap`, :mod:`.gap_test`): the noise floor, the held-out error of the nominal
@@ -12,9 +13,7 @@ The procedure, one step per module:
    admissibility.
 5. **Evidence** (:mod:`.evidence`): one set of weights over the admissible hypotheses (held-out for
    a log, penalised in-sample for a sweep).
-6. **Verdict** (:mod:`.decision`): one rule; the confidence is the verdict's weight. Before it, a drive
-   log's torque hold when not given (:mod:`.hold`): judged under the comparison's best model; when the
-   sampled torque predicts better, steps 2-5 again with it.
+6. **Verdict** (:mod:`.decision`): one rule; the confidence is the verdict's weight.
 7. **Localisation** (:mod:`.localisation`): where the nominal misfit lies.
 8. **Result** (:mod:`.result`, :mod:`.report`, :mod:`.plot`): the report, the JSON, the figure.
 
@@ -24,7 +23,7 @@ Residuals are measured - model throughout.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -42,7 +41,7 @@ from .evidence import HeldOutEvidence, PenalisedEvidence
 from .fits import SOIL_KEYS, FitRunner, channels, effect_parameters, soil_summary, usable
 from .gap import long_run_factor
 from .gap_test import GapDecision, decide_gap
-from .hold import HoldChoice, choose_hold, hold_base
+from .hold import HoldChoice, choose_hold
 from .hypotheses import NOMINAL, Frame, Hypothesis
 from .library import effect_hypothesis, flexible_hypothesis, nominal_hypothesis
 from .localisation import localisation
@@ -202,82 +201,39 @@ def _hypotheses(
 
 def _data_step(
     runner: FitRunner, cands: tuple[str, ...], say: Callable[[str], None]
-) -> tuple[Any, list[Screen], Setup | None, tuple[Hypothesis, list, list] | None]:
-    """Screening, the setup and the nominal hypothesis (None, None when there is too little to compare or the
-    nominal model does not fit)."""
+) -> tuple[Any, list[Screen], Setup | None, tuple[Hypothesis, list, list] | None, HoldChoice | None]:
+    """Screening, the setup and the nominal hypothesis; for a log whose torque hold was not given, the hold
+    chosen on the held-out blocks (:mod:`.hold`) and, when it is the sampled one, all of it again with it."""
     data = runner.data
     kind = "drive" if runner.is_log else "sweep"
     library = cands + tuple(e for e, spec in EFFECTS.items() if kind in spec.shows_in and e not in cands)
-    say(f"screening: the nominal model on all {data.n_samples} samples, with the score tests")
-    nominal_fit, screens = screen(
-        data,
-        runner.vehicle,
-        library,
-        model=runner.model,
-        hac_lag=None if runner.is_log else 0,
-        fit_options=runner.options,
-    )
-    if data.n_samples < runner.settings.min_samples or not usable(nominal_fit, runner.is_log):
-        return nominal_fit, screens, None, None
-    setup = _setup(runner, nominal_fit)
-    say("the nominal model and the flexible term on the training blocks")
-    return nominal_fit, screens, setup, nominal_hypothesis(setup)
-
-
-@dataclass(frozen=True)
-class _Comparison:
-    """One pass of the comparison: every hypothesis fitted, scored and weighed (``setup`` None: nothing could
-    be compared)."""
-
-    nominal_fit: Any
-    screens: list[Screen]
-    setup: Setup | None = None
-    hyps: tuple[Hypothesis, ...] = ()
-    scored: tuple[Hypothesis, ...] = ()
-    raw: dict[str, float] = field(default_factory=dict)
-    evidence: str = ""
-
-
-def _compare(runner: FitRunner, cands: tuple[str, ...], weigh_outside: bool, say: Callable[[str], None]) -> _Comparison:
-    """Data, screening, hypotheses and their weights, with the runner's torque hold."""
-    nominal_fit, screens, setup0, base = _data_step(runner, cands, say)
-    if setup0 is None or base is None:
-        return _Comparison(nominal_fit, screens)
-    setup, hyps = _hypotheses(setup0, base, screens, cands, weigh_outside, say)
-    scored, _ = _score(setup, [h for h in hyps if h.admissible])
-    block = max(1, setup.n // setup.settings.log_blocks) if runner.is_log else 1
-    evidence = (
-        HeldOutEvidence(block, setup.settings.n_bootstrap)
-        if runner.is_log
-        else PenalisedEvidence(setup.settings.n_bootstrap)
-    )
-    return _Comparison(
-        nominal_fit, screens, setup, tuple(hyps), tuple(scored), evidence.weights(scored), evidence.describes
-    )
-
-
-def _with_hold(
-    runner: FitRunner, cands: tuple[str, ...], weigh_outside: bool, say: Callable[[str], None]
-) -> tuple[_Comparison, HoldChoice | None]:
-    """The comparison, and a drive log's torque hold: given, or judged after the comparison with the held torque
-    under its best model (:mod:`.hold`); when the sampled torque predicts better, the comparison again with it."""
-    step = _compare(runner, cands, weigh_outside, say)
-    if not runner.is_log:
-        return step, None
-    if runner.hold_given is not None:
-        return step, HoldChoice(runner.hold_given, True)
-    if step.setup is None:
-        return step, None
-    scored = list(step.scored)
-    base = hold_base(scored, step.raw)
-    say(f"the torque sampled rather than held, judged with {base.name}")
-    chosen = choose_hold(step.setup, scored[0], base)
-    if chosen.hold == "zoh":
-        return step, chosen
-    say("the sampled torque predicts the held-out blocks better: everything refitted with it")
-    runner.options["torque_hold"] = "sample"
-    runner.x0 = None
-    return _compare(runner, cands, weigh_outside, say), chosen
+    chosen: HoldChoice | None = None
+    for attempt in range(2):
+        say(f"screening: the nominal model on all {data.n_samples} samples, with the score tests")
+        nominal_fit, screens = screen(
+            data,
+            runner.vehicle,
+            library,
+            model=runner.model,
+            hac_lag=None if runner.is_log else 0,
+            fit_options=runner.options,
+        )
+        if data.n_samples < runner.settings.min_samples or not usable(nominal_fit, runner.is_log):
+            return nominal_fit, screens, None, None, chosen
+        setup = _setup(runner, nominal_fit)
+        say("the nominal model and the flexible term on the training blocks")
+        base = nominal_hypothesis(setup)
+        if not runner.is_log or attempt == 1:
+            return nominal_fit, screens, setup, base, chosen
+        if runner.hold_given is not None:
+            return nominal_fit, screens, setup, base, HoldChoice(runner.hold_given, True)
+        chosen = choose_hold(setup, base[0], base[2])
+        if chosen.hold == "zoh":
+            return nominal_fit, screens, setup, base, chosen
+        say("the sampled torque predicts the held-out blocks better: everything refitted with it")
+        runner.options["torque_hold"] = "sample"
+        runner.x0 = None
+    raise AssertionError("unreachable: the second pass returns")
 
 
 def _score(setup: Setup, hyps: list[Hypothesis]) -> tuple[list[Hypothesis], Frame]:
@@ -450,10 +406,17 @@ def diagnose(
     consistency = check_consistency(data, vehicle)
     if not consistency.passed:
         return _inconsistent(runner, cands, consistency, t0)
-    step, choice = _with_hold(runner, cands, weigh_outside, say)
-    if step.setup is None:
-        return _no_comparison(runner, cands, step.nominal_fit, step.screens, choice, t0)
-    setup, hyps, scored, raw, screens = step.setup, list(step.hyps), list(step.scored), step.raw, step.screens
+    nominal_fit, screens, setup_or_none, base, choice = _data_step(runner, cands, say)
+    if setup_or_none is None or base is None:
+        return _no_comparison(runner, cands, nominal_fit, screens, choice, t0)
+    setup, hyps = _hypotheses(setup_or_none, base, screens, cands, weigh_outside, say)
+    admissible = [h for h in hyps if h.admissible]
+    scored, frame = _score(setup, admissible)
+    block = max(1, setup.n // settings.log_blocks) if runner.is_log else 1
+    evidence = (
+        HeldOutEvidence(block, settings.n_bootstrap) if runner.is_log else PenalisedEvidence(settings.n_bootstrap)
+    )
+    raw = evidence.weights(scored)
     dirs = {s.effect: s.direction for s in screens if s.direction is not None}
     shared = share_confusable(scored, raw, dirs, settings)
     weights = shared.weights
@@ -472,7 +435,7 @@ def diagnose(
         (weights, raw),
         gap,
         dec,
-        step.evidence,
+        evidence.describes,
         hold,
         choice,
         t0,

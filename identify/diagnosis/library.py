@@ -82,7 +82,6 @@ def nominal_hypothesis(setup: Setup) -> tuple[Hypothesis, list, list]:
             why="" if ok else "a training fit failed",
             held=held,
             fit=setup.nominal_fit,
-            train_residuals=train_res,
             noise=noise or None,
         ),
         fits,

@@ -162,8 +162,7 @@ def report_text(d: Any) -> str:
             if h.given
             else (
                 "chosen: held unless the sampled torque predicts the held-out blocks significantly better, "
-                f"both with the best model of the comparison ({h.judged_with or 'none'}) and the flexible term on "
-                f"top (sampled: held-out error {abs(h.shrink or 0.0):.1%} "
+                f"the flexible term on top of both (sampled: held-out error {abs(h.shrink or 0.0):.1%} "
                 f"{'lower' if (h.shrink or 0.0) >= 0 else 'higher'}; p = "
                 f"{h.p_value:.2g}, level {h.level or 0.0:.2g})"
                 if h.p_value is not None

@@ -27,7 +27,6 @@ __all__ = [
     "confusable_groups",
     "shared_weights",
     "dm_test",
-    "dm_loss_test",
     "gap_p_value",
     "stacking_weights",
 ]
@@ -269,23 +268,12 @@ def shared_weights(
 def dm_test(z_a: np.ndarray, z_b: np.ndarray, lag: int = 0) -> float:
     """One-sided Diebold-Mariano p-value that model b predicts the held-out data better than model a.
 
-    ``d_t = z_a[t]^2 - z_b[t]^2`` (standardised held-out residuals of the same samples); see
-    :func:`dm_loss_test`.
+    ``d_t = z_a[t]^2 - z_b[t]^2`` (standardised held-out residuals of the same samples); the
+    statistic is ``mean(d) / se(mean(d))`` with a Newey-West (Bartlett, ``lag``) variance, so a
+    few large residuals or correlated ones do not make a small average gain look certain.
     """
     d = np.asarray(z_a, dtype=float) ** 2 - np.asarray(z_b, dtype=float) ** 2
     d = d[np.isfinite(d)] if np.all(np.isfinite(z_a)) or np.all(np.isfinite(z_b)) else d
-    return dm_loss_test(d, lag)
-
-
-def dm_loss_test(d: np.ndarray, lag: int = 0) -> float:
-    """One-sided Diebold-Mariano p-value that the loss differential ``d_t`` (model a's loss minus model b's,
-    per held-out sample) is positive on average: model b predicts better.
-
-    The statistic is ``mean(d) / se(mean(d))`` with a Newey-West (Bartlett, ``lag``) variance, so a
-    few large residuals or correlated ones do not make a small average gain look certain. A
-    non-finite differential gives 1.
-    """
-    d = np.asarray(d, dtype=float)
     n = d.size
     if n < 3:
         return 1.0
