@@ -7,11 +7,10 @@ Drive logs (held-out evidence: fitted on the training blocks, predicting the oth
   shifted log (:func:`~.log_parts.refine_delay`); the hypothesis is the nominal model on the log with
   the speed channel shifted back. Detail: ``lag_s``.
 - ``terrain_change``: the soil differs within a time window. The window comes from the score test of
-  the nominal fit on all the data (:func:`~.log_parts.terrain_window`); the hypothesis refits the soil
-  on the training samples outside the window and its small-slip slope on those inside, which predicts
-  the held-out samples inside (the nominal training fit predicts those outside). It must beat the
-  effects and the flexible term on held-out evidence like any other. Detail: ``window_s`` (where the
-  data show it) and ``bracket_s`` (where its boundaries can lie).
+  the nominal fit on all the data (:func:`~.log_parts.terrain_window`); the hypothesis fits one soil
+  on the training samples inside the window and one outside, each predicting the held-out samples on
+  its side. It must beat the effects and the flexible term on held-out evidence like any other.
+  Detail: ``window_s`` (where the data show it) and ``bracket_s`` (where its boundaries can lie).
 
 Both kinds of data:
 
@@ -246,13 +245,8 @@ def terrain_hypothesis(setup: Setup, nominal_held: dict[str, np.ndarray], train_
     The window is found like the effects are screened: by the score test of the nominal fit on all
     the data (:func:`~.log_parts.terrain_window`). The hypothesis is then fitted and judged like the
     others: outside the window the nominal training fit ``train_fit`` predicts the held-out samples;
-    inside, the soil of the nominal model refitted on the training samples outside the window, with
-    its small-slip slope refitted on the training samples inside (:func:`_inside_modulus`). The
-    outside refit matters: the nominal training fit leans towards the window's soil (on an
-    independent 50 Hz log with a soft patch over 10-25 s its K ended on the practical range's lower
-    edge, 6 mm against the true 12 mm, and the slope searched from it removed 47 % of the excess
-    error inside the window; from the outside refit, 78 %). Parameters: the slope inside and the
-    window's two ends.
+    inside, its small-slip slope refitted on the training samples there (:func:`_inside_modulus`).
+    Parameters: the slope inside and the window's two ends.
     """
     win = _window(setup)
     if win is None or not win.significant:
@@ -277,14 +271,10 @@ def terrain_hypothesis(setup: Setup, nominal_held: dict[str, np.ndarray], train_
     rows = np.nonzero(np.isin(span, tr))[0]
     if rows.size < setup.settings.min_samples or not usable(train_fit, True):
         return _not_formed("terrain_change", "too few training samples inside the window", setup.n, setup.channels)
-    # the soil outside: the nominal model refitted on the training samples outside the window (the nominal
-    # training fit has leant towards the window's soil); the slope inside is searched from it
-    outside = setup.runner.run_warm(tr[~np.isin(tr, span)])
-    base = outside if usable(outside, True) else train_fit
-    f0, k0 = _soil_of(base)
-    k1, on_edge = _inside_modulus(setup, base, span, rows)
+    f0, k0 = _soil_of(train_fit)
+    k1, on_edge = _inside_modulus(setup, train_fit, span, rows)
     try:
-        rin = channels(_with_soil(base, f0, k1), setup.data.subset(span))
+        rin = channels(_with_soil(train_fit, f0, k1), setup.data.subset(span))
     except DataError as e:
         return _not_formed("terrain_change", f"no prediction inside the window ({e})", setup.n, setup.channels)
     held = {ch: np.where(np.isin(np.arange(setup.n), te), nominal_held[ch], np.nan) for ch in setup.channels}
