@@ -61,25 +61,6 @@ def test_a_candidate_that_explains_too_little_gives_unexplained_with_the_outside
     assert d.explained == pytest.approx(1 - (2.5**2 * np.mean(e**2) - 1) / (9 * np.mean(e**2) - 1))
 
 
-def test_the_noise_level_is_at_most_what_the_best_hypothesis_leaves():
-    e = RNG.standard_normal(N)
-    e = e / math.sqrt(np.mean(e**2))  # mean square exactly 1
-    # the floor is 25 % too high: the true model leaves a mean square of 0.64, below the floor's 1
-    best = hyp("grade", "candidate", 0.8 * e)
-    part = hyp("mass_error", "candidate", 1.6 * e)
-    nominal = hyp("none", "nominal", 2 * e)
-    hs = [nominal, best, part]
-    assert best.noise_level(hs, in_sample=False) == pytest.approx(0.64)
-    assert best.explained(nominal, best.noise_level(hs, False)) == pytest.approx(1.0)
-    # the partial one is measured against the same level: (2.56 - 0.64) / (4 - 0.64) left
-    assert part.explained(nominal, part.noise_level(hs, False)) == pytest.approx(1 - 1.92 / 3.36)
-    # in-sample residuals count each hypothesis's parameters: S / (n - p)
-    many = hyp("discrepancy", "flexible", 0.8 * e, k=40)
-    assert many.noise_level([nominal, many], in_sample=True) == pytest.approx(min(1.0, 0.64 * N / (N - 40)))
-    # a floor that is right (every hypothesis at or above it) is kept
-    assert part.noise_level([nominal, part], in_sample=False) == 1.0
-
-
 def test_an_outside_cause_is_named_with_its_detail_and_the_outside_weight():
     e = RNG.standard_normal(N)
     hs = [

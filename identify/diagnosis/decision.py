@@ -142,7 +142,6 @@ def decide(
     settings: DiagnoseSettings,
     *,
     confusable: tuple = (),
-    in_sample: bool = False,
 ) -> Decision:
     """Apply the rule of the module docstring.
 
@@ -160,15 +159,12 @@ def decide(
     confusable
         The pairs that shared their weight (:attr:`SharedWeights.confusable`), reported with the
         decision.
-    in_sample
-        Whether the residuals are in-sample (a sweep's): the noise level then counts each hypothesis's
-        parameters (:meth:`~.hypotheses.Hypothesis.noise_level`).
     """
     by = {h.name: h for h in hyps}
     top = max(weights, key=lambda k: weights[k])  # the first maximal: ties in the order of share_confusable
     h = by[top]
     w_out = float(sum(weights[x.name] for x in hyps if x.family in ("flexible", "outside")))
-    ex = h.explained(by[NOMINAL], h.noise_level(hyps, in_sample)) if h.family != "nominal" else math.nan
+    ex = h.explained(by[NOMINAL]) if h.family != "nominal" else math.nan
     exv = float(ex) if math.isfinite(ex) else None
     conf = confusable
     w_top = f"{top} carries the largest weight ({weights[top]:.2f})"

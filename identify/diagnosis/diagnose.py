@@ -306,7 +306,7 @@ def _rmse(held: dict[str, np.ndarray], frame: Frame) -> dict[str, float]:
 
 
 def _ranking(
-    hyps: list[Hypothesis], weights: dict[str, float], raw: dict[str, float], hold: Frame, in_sample: bool
+    hyps: list[Hypothesis], weights: dict[str, float], raw: dict[str, float], hold: Frame
 ) -> tuple[RankEntry, ...]:
     """The ranking in the order of ``weights`` (shared among confusable effects; ties: the order of ``weights``,
     which puts the larger weight before sharing, ``raw``, first)."""
@@ -324,7 +324,7 @@ def _ranking(
                 hold,
             )
             shrink = 1.0 - float(np.sqrt((zh @ zh) / max(z0 @ z0, 1e-300))) if np.all(np.isfinite(zh)) else None
-        ex = h.explained(nominal, h.noise_level(hyps, in_sample)) if h.family != "nominal" else None
+        ex = h.explained(nominal) if h.family != "nominal" else None
         out.append(
             RankEntry(
                 h.name,
@@ -424,7 +424,7 @@ def diagnose(
     terrain = next((h for h in hyps if h.name == "terrain_change"), None)
     window_p = None if terrain is None else terrain.detail.get("score_p_value")
     gap = _gap(setup, scored, weights, hold, window_p)
-    dec = decide(scored, weights, gap, settings, confusable=shared.confusable, in_sample=not runner.is_log)
+    dec = decide(scored, weights, gap, settings, confusable=shared.confusable)
     say("the verdict's fit on all the data")
     return _result(
         setup,
@@ -457,7 +457,7 @@ def _result(
     t0: float,
 ) -> Diagnosis:
     by = {h.name: h for h in hyps}
-    ranking = _ranking(hyps, *weights, hold, not setup.is_log)
+    ranking = _ranking(hyps, *weights, hold)
     vfit = _verdict_fit(setup, dec, by)
     shown = dec.heaviest if dec.verdict == UNEXPLAINED else dec.verdict
     entry = next(e for e in ranking if e.effect == shown)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -193,41 +193,19 @@ class Hypothesis:
         ls[np.isnan(frame.z(self.residuals))] = 0.0  # filled with the nominal model's values
         return replace(self, z=z, scale=scale, log_scale=ls, in_support=sel)
 
-    def _on_support(self, z: np.ndarray) -> np.ndarray:
-        """``z`` (a hypothesis's standardised residuals, same layout) on this hypothesis's support."""
-        if self.in_support is not None and self.in_support.size == z.size:
-            return z[self.in_support]
-        return z
-
-    def noise_level(self, others: "Sequence[Hypothesis]", in_sample: bool) -> float:
-        """The noise's mean squared standardised residual on this hypothesis's support.
-
-        At most 1 (the noise floor) and at most what any of ``others`` leaves there: no model predicts
-        below the noise, so a hypothesis that does shows that the floor (second differences, which also
-        carry fast real variations of the signal) is too high there. ``in_sample`` (a sweep's
-        residuals, fitted on the same samples): each one's mean square counts its parameters as
-        degrees of freedom, ``S / (n - p)``.
-        """
-        level = 1.0
-        for g in others:
-            z = self._on_support(np.asarray(g.z, dtype=float))
-            dof = z.size - (g.n_params if in_sample else 0)
-            if dof > 0 and np.all(np.isfinite(z)):
-                level = min(level, float(z @ z) / dof)
-        return level
-
-    def explained(self, nominal: "Hypothesis", level: float = 1.0) -> float:
+    def explained(self, nominal: "Hypothesis") -> float:
         """Share of the nominal model's excess error over the noise that this hypothesis removes.
 
-        ``1 - max(E, 0) / E_nominal`` with ``E = S / n - level`` (``S`` the sum of squared
-        standardised residuals over the ``n`` compared samples in its :attr:`support`; ``level`` the
-        noise's mean square there, :meth:`noise_level`): at most 1, negative when it does worse, NaN
-        when the nominal model shows no excess there (nothing for it to explain).
+        ``1 - max(E, 0) / E_nominal`` with ``E = S / n - 1`` (``S`` the sum of squared standardised
+        residuals over the ``n`` compared samples in its :attr:`support`): at most 1, negative when it
+        does worse, NaN when the nominal model shows no excess there (nothing for it to explain).
         """
-        z0, z1 = self._on_support(nominal.z), self._on_support(self.z)
+        z0, z1 = nominal.z, self.z
+        if self.in_support is not None and self.in_support.size == z1.size == z0.size:
+            z0, z1 = z0[self.in_support], z1[self.in_support]
         n = z1.size
         s0 = float(z0 @ z0) if np.all(np.isfinite(z0)) else math.inf
         s1 = float(z1 @ z1) if np.all(np.isfinite(z1)) else math.inf
-        if n == 0 or z0.size != n or not (math.isfinite(s0) and math.isfinite(s1)) or s0 / n - level <= 0.0:
+        if n == 0 or not (math.isfinite(s0) and math.isfinite(s1)) or s0 / n - 1.0 <= 0.0:
             return math.nan
-        return 1.0 - max(s1 / n - level, 0.0) / (s0 / n - level)
+        return 1.0 - max(s1 / n - 1.0, 0.0) / (s0 / n - 1.0)
