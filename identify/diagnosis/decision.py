@@ -166,7 +166,6 @@ def decide(
     w_out = float(sum(weights[x.name] for x in hyps if x.family in ("flexible", "outside")))
     ex = h.explained(by[NOMINAL]) if h.family != "nominal" else math.nan
     exv = float(ex) if math.isfinite(ex) else None
-    conf = confusable
     w_top = f"{top} carries the largest weight ({weights[top]:.2f})"
     if not gap.present or h.family == "nominal":
         why = (
@@ -175,10 +174,11 @@ def decide(
             if not gap.present
             else f"a gap test is significant, but {w_top}"
         )
-        return Decision(NOMINAL, weights[NOMINAL], top, None, None, why, confusable=conf)
+        return Decision(NOMINAL, weights[NOMINAL], top, None, None, why, confusable=confusable)
     ok, how = _explains(exv, settings)
     if h.family == "candidate" and ok:
-        return Decision(top, weights[top], top, exv, None, f"{w_top} and {how}" if how else w_top, confusable=conf)
+        why = f"{w_top} and {how}" if how else w_top
+        return Decision(top, weights[top], top, exv, None, why, confusable=confusable)
     cause = top if h.family == "outside" and ok else None
     if h.family == "flexible":
         why = f"the flexible discrepancy term carries the largest weight ({weights[top]:.2f})"
@@ -193,5 +193,5 @@ def decide(
         cause,
         why,
         cause_detail=dict(h.detail) if cause else {},
-        confusable=conf,
+        confusable=confusable,
     )
