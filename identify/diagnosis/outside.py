@@ -77,19 +77,6 @@ def delay_hypothesis(setup: Setup, train_res: list) -> Hypothesis:
             setup.n,
             setup.channels,
         )
-    # the lag's trace must be able to show a gap: removed from the speed channel's training residuals it
-    # shrinks their RMS by 1 - sqrt(1 - r2); below min_shrink no refit on the shifted log can do more than
-    # the gap tests would call nothing (a grade's residual correlates a little with the sprocket speed's
-    # changes: r2 0.006 at p = 7e-8 on a 3,001-sample log, against 0.17-0.26 for delays of 5-25 samples)
-    most = 1.0 - math.sqrt(max(0.0, 1.0 - float(scan["r2"])))
-    if most < s.min_shrink:
-        return _not_formed(
-            "delay",
-            f"the delay scan's lag ({scan['lag']} samples, p = {scan['p_value']:.2g}) explains {scan['r2']:.1%} of "
-            f"the speed residual: at most {most:.1%} of shrink, below {s.min_shrink:.0%}",
-            setup.n,
-            setup.channels,
-        )
     k, fit_k = refine_delay(
         setup.nominal_fit, data, setup.runner.vehicle, tr, int(np.sign(scan["lag"])), s.max_delay_samples
     )

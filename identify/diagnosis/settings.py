@@ -26,8 +26,7 @@ class DiagnoseSettings:
     min_shrink
         Least held-out RMS shrink (with a significant Diebold-Mariano test) that shows a gap when the
         nominal error alone is within the noise: 5 % is about what a half-size effect gives on a
-        one-minute log, and more than chance gains of hundreds of held-out samples. A delay whose
-        trace cannot shrink the speed channel's residual by this much is not refitted.
+        one-minute log, and more than chance gains of hundreds of held-out samples.
     min_samples
         Fewest samples for a blocked hold-out: two folds of alternate blocks of at least 2 samples.
     sweep_blocks
