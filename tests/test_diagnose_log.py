@@ -104,20 +104,6 @@ def test_a_delayed_speed_sensor_is_unexplained_with_the_delay_named():
 
 
 @pytest.mark.slow
-def test_a_lag_whose_trace_cannot_shrink_the_speed_residual_is_not_refitted():
-    # the speed benchmark's light log (0.03 rad grade, 60 s): the nominal training residuals of the speed
-    # channel correlate a little with the sprocket speed's changes (the grade's gap), significant on 1,500
-    # samples (p = 7e-8), but a delay there removes 0.6 % of their variance, at most 0.3 % of shrink against
-    # min_shrink's 5 %: no refit is made for it (its refits cost 2.4 s and the hypothesis ended with no weight)
-    v = VEHICLES["light"]
-    log = simulate(v, TERRAINS["lete_sand"], kind="drive", effects={"grade": 0.03}, seed=1, duration_s=60.0)
-    d = diagnose(log, v)
-    _consistent(d)
-    assert "delay" in [x.name for x in d.excluded] and "delay" not in [e.effect for e in d.ranking]
-    assert d.verdict == "grade" and d.confidence == pytest.approx(0.5)
-
-
-@pytest.mark.slow
 def test_a_grade_on_uniform_soil_is_no_change_of_terrain():
     v = VEHICLES["light"]
     log = simulate(v, TERRAINS["lete_sand"], kind="drive", effects={"grade": 0.05}, seed=7, duration_s=40.0)
