@@ -243,6 +243,15 @@ def summarise(rows, title):
         for r in det_all:
             if r["verdict"] != r["effect"]:
                 print(f"    {_line(r)}  confusable {r['confusable'] or '-'}")
+        twin = [
+            r
+            for r in det_all
+            if r["verdict"] != r["effect"] and {r["verdict"], r["effect"]} in [set(p) for p in r["confusable"]]
+        ]
+        print(
+            f"  of the {len(det_all) - ok} misses, {len(twin)} name the effect's confusable twin (the pair shares its "
+            "weight: these data cannot tell the two apart, and the tie-break names one of them)"
+        )
     free = [r for r in rows if r["effect"] == "none"]
     if free:
         fa = sum(r["verdict"] != "none" for r in free)

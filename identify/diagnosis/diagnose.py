@@ -184,10 +184,11 @@ def _hypotheses(
     nominal, train_fits, train_res = base
     flexible = flexible_hypothesis(setup, nominal, train_res)
     fz = _frame(setup, nominal, held=True)
-    hint = (
-        dm_test(fz.z(nominal.heldout()), fz.z(flexible.heldout(), fz.z(nominal.heldout())), setup.dm_lag)
-        < setup.settings.alpha
-    )
+    # a gap hinted by either test that needs no effect: the flexible term beats the nominal model, or (a log)
+    # the nominal held-out error exceeds the noise; without either and without a significant screen, no refit
+    hint = dm_test(
+        fz.z(nominal.heldout()), fz.z(flexible.heldout(), fz.z(nominal.heldout())), setup.dm_lag
+    ) < setup.settings.alpha or (setup.is_log and _nominal_vs_noise(setup, nominal, fz) < setup.settings.alpha)
     hyps = [nominal, flexible]
     for name, fam in _refits(screens, cands, hint, setup, weigh_outside):
         say(f"{name} refitted ({fam})")
@@ -247,6 +248,14 @@ def _score(setup: Setup, hyps: list[Hypothesis]) -> tuple[list[Hypothesis], Fram
     return [h.scored(frame, z0, hyps[0]) for h in hyps], frame
 
 
+def _nominal_vs_noise(setup: Setup, nominal: Hypothesis, hold: Frame) -> float:
+    """A log's gap test of the nominal held-out error against the noise floor (chi-square; a log's floor is
+    measured on thousands of samples, and correlated residuals count less: the long-run variance factor)."""
+    z = hold.z(nominal.heldout())
+    infl = max(long_run_factor(nominal.heldout()[ch][m] / setup.sigma[ch][m]) for ch, m in hold.mask.items())
+    return gap_p_value(float(z @ z), z.size, infl)
+
+
 def _gap(
     setup: Setup, hyps: list[Hypothesis], weights: dict[str, float], hold: Frame, window_p: float | None
 ) -> GapDecision:
@@ -256,9 +265,8 @@ def _gap(
     by = {h.name: h for h in hyps}
     z_nom = hold.z(by[NOMINAL].heldout())
     p: dict[str, float | None] = {}
-    if setup.is_log:  # a log's noise floor is measured on thousands of samples; correlated residuals count less
-        infl = max(long_run_factor(by[NOMINAL].heldout()[ch][m] / setup.sigma[ch][m]) for ch, m in hold.mask.items())
-        p["nominal error vs noise"] = gap_p_value(float(z_nom @ z_nom), z_nom.size, infl)
+    if setup.is_log:
+        p["nominal error vs noise"] = _nominal_vs_noise(setup, by[NOMINAL], hold)
         p["soil differs within a time window"] = window_p
     p["flexible term beats nominal"] = dm_test(z_nom, hold.z(by["discrepancy"].heldout(), z_nom), setup.dm_lag)
     top = by[max(weights, key=lambda k: weights[k])]
