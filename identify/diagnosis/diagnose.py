@@ -186,9 +186,10 @@ def _hypotheses(
     fz = _frame(setup, nominal, held=True)
     # a gap hinted by either test that needs no effect: the flexible term beats the nominal model, or (a log)
     # the nominal held-out error exceeds the noise; without either and without a significant screen, no refit
-    hint = dm_test(
-        fz.z(nominal.heldout()), fz.z(flexible.heldout(), fz.z(nominal.heldout())), setup.dm_lag
-    ) < setup.settings.alpha or (setup.is_log and _nominal_vs_noise(setup, nominal, fz) < setup.settings.alpha)
+    z0, alpha = fz.z(nominal.heldout()), setup.settings.alpha
+    hint = dm_test(z0, fz.z(flexible.heldout(), z0), setup.dm_lag) < alpha or (
+        setup.is_log and _nominal_vs_noise(setup, nominal, fz) < alpha
+    )
     hyps = [nominal, flexible]
     for name, fam in _refits(screens, cands, hint, setup, weigh_outside):
         say(f"{name} refitted ({fam})")
