@@ -153,10 +153,14 @@ class FitRunner:
         )
 
 
-def log_channels(res: Any, data: DriveLog) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
-    """A drive-log fit's residuals (measured - model) and its own noise model's standard deviation, per channel
-    at full length (NaN where the fit uses no sample). The noise model belongs to the fit: a mass error scales
-    the hull balance's noise with the mass, a radius error the thrust's with the radius.
+def log_channels(
+    res: Any, data: DriveLog
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """A drive-log fit's residuals (measured - model), its own noise model's standard deviation and each
+    residual's gain (its derivative with respect to the measured signal it is formed from), per channel at
+    full length (NaN where the fit uses no sample). The noise model belongs to the fit: a mass error scales
+    the hull balance's noise with the mass, a radius error the thrust's with the radius; the gain says how
+    much of that is only the residual's scale (the same measured noise, seen through another factor).
 
     Raises
     ------
@@ -169,8 +173,8 @@ def log_channels(res: Any, data: DriveLog) -> tuple[dict[str, np.ndarray], dict[
     out = drive_log_residuals(res, data, res.vehicle, model=res.model)
     keep = np.asarray(out["keep"])
     idx = np.nonzero(keep)[0] if keep.dtype == bool else keep.astype(int)
-    full: tuple[dict[str, np.ndarray], dict[str, np.ndarray]] = ({}, {})
-    for part, src in zip(full, (out["channels"], out["sigma"])):
+    full: tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, np.ndarray]] = ({}, {}, {})
+    for part, src in zip(full, (out["channels"], out["sigma"], out["gain"])):
         for k, v in src.items():
             a = np.full(m, np.nan)
             a[idx] = np.asarray(v, dtype=float).ravel()

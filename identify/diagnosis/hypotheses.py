@@ -130,10 +130,18 @@ class Hypothesis:
     noise
         A log's: its own fits' noise level per channel at the held-out samples (full length), when it
         differs from the nominal model's by construction (an effect that scales a channel's noise).
+    gain
+        A log's: each residual's derivative with respect to the measured signal it is formed from, per
+        channel (full length; :func:`~.fits.log_channels`), when ``noise`` is given.
     scale, log_scale
         Set by :meth:`scored`: its noise level relative to the nominal model's per channel (full
-        length; None: 1), and ``log`` of it on the frame's samples (the held-out log density is
-        ``-z^2 / 2 - log_scale``).
+        length; None: 1), which standardises its residuals; and ``log`` of its noise level *in the
+        measured signals' units* relative to the nominal model's, on the frame's samples (the held-out
+        log density of the measurements is ``-z^2 / 2 - log_scale``). The two differ where a residual
+        only rescales the same measured noise: a mass error's hull balance is the acceleration times
+        the mass, so its noise and its residual grow together and the measured acceleration's density
+        is unchanged (the Jacobian of the residual cancels the larger noise); the encoder's noise seen
+        through a radius error's speed balance is a real change.
     support
         Per channel (full length), the samples where its prediction can differ from the nominal
         model's (a change of terrain: its window); None: every sample (an effect of the whole run).
@@ -155,6 +163,7 @@ class Hypothesis:
     fit: Any = None
     train_residuals: list | None = None
     noise: dict[str, np.ndarray] | None = None
+    gain: dict[str, np.ndarray] | None = None
     scale: dict[str, np.ndarray] | None = None
     log_scale: np.ndarray = field(default_factory=lambda: np.zeros(0))
     support: dict[str, np.ndarray] | None = None
@@ -177,6 +186,20 @@ class Hypothesis:
             out[ch] = np.where(np.isfinite(q) & (q > 0), q, 1.0)
         return out
 
+    def measured_noise_scale(self, nominal: "Hypothesis") -> dict[str, np.ndarray] | None:
+        """Its noise level in the measured signals' units relative to ``nominal``'s per channel: :meth:`noise_scale`
+        over the ratio of the residuals' gains (1 where either is unknown), or None."""
+        q = self.noise_scale(nominal)
+        if q is None or self.gain is None or nominal.gain is None:
+            return q
+        out = {}
+        for ch, s in q.items():
+            g, g0 = self.gain.get(ch), nominal.gain.get(ch)
+            ratio = np.ones_like(s) if g is None or g0 is None else np.asarray(g, dtype=float) / np.asarray(g0, dtype=float)
+            ratio = np.where(np.isfinite(ratio) & (ratio > 0), ratio, 1.0)
+            out[ch] = s / ratio
+        return out
+
     def scored(self, frame: Frame, fill: np.ndarray | None = None, nominal: "Hypothesis | None" = None) -> "Hypothesis":
         """This hypothesis with ``z`` on the frame's samples (see :meth:`Frame.z`), standardised by its own noise
         level relative to ``nominal``'s where it has one."""
@@ -189,7 +212,8 @@ class Hypothesis:
         )
         if scale is None:
             return replace(self, z=z, scale=None, log_scale=np.zeros(z.size), in_support=sel)
-        ls = np.concatenate([np.log(scale[ch][m]) for ch, m in frame.mask.items()])
+        measured = (None if nominal is None else self.measured_noise_scale(nominal)) or scale
+        ls = np.concatenate([np.log(measured[ch][m]) for ch, m in frame.mask.items()])
         ls[np.isnan(frame.z(self.residuals))] = 0.0  # filled with the nominal model's values
         return replace(self, z=z, scale=scale, log_scale=ls, in_support=sel)
 

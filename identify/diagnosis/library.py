@@ -27,13 +27,17 @@ __all__ = ["nominal_hypothesis", "flexible_hypothesis", "flexible_on", "effect_h
 
 
 def held_out(
-    setup: Setup, fit_on: Callable[[np.ndarray], Any], noise_out: dict[str, np.ndarray] | None = None
+    setup: Setup,
+    fit_on: Callable[[np.ndarray], Any],
+    noise_out: dict[str, np.ndarray] | None = None,
+    gain_out: dict[str, np.ndarray] | None = None,
 ) -> tuple[dict[str, np.ndarray], list, list]:
     """Held-out residuals of the model ``fit_on(train) -> fit`` over the folds.
 
     Returns the held-out residuals per channel (full length, NaN where not held out or not
     predicted), the training fits, and the training residuals per fold (full length). ``noise_out``
-    (a log's), when given, is filled with each fit's own noise level at the samples it predicts.
+    (a log's), when given, is filled with each fit's own noise level at the samples it predicts, ``gain_out``
+    with each residual's derivative with respect to its measured signal (:func:`~.fits.log_channels`).
     A log's fit is evaluated on the whole log and picked (each prediction uses the measured
     inputs at its own sample); a sweep's on the held-out rows.
     """
@@ -46,10 +50,11 @@ def held_out(
         tres = {ch: np.full(n, np.nan) for ch in setup.channels}
         try:
             if setup.is_log:
-                full, sig = log_channels(res, setup.data)
-                if noise_out is not None:
-                    for ch in setup.channels:
-                        noise_out.setdefault(ch, np.full(n, np.nan))[te] = sig[ch][te]
+                full, sig, gain = log_channels(res, setup.data)
+                for out, src in ((noise_out, sig), (gain_out, gain)):
+                    if out is not None:
+                        for ch in setup.channels:
+                            out.setdefault(ch, np.full(n, np.nan))[te] = src[ch][te]
                 pick_te = {ch: full[ch][te] for ch in setup.channels}
                 pick_tr = {ch: full[ch][tr] for ch in setup.channels}
             else:
@@ -69,7 +74,8 @@ def nominal_hypothesis(setup: Setup) -> tuple[Hypothesis, list, list]:
     """The nominal model, its training fits and its training residuals per fold (for the flexible term,
     the delay and the change of terrain)."""
     noise: dict[str, np.ndarray] = {}
-    held, fits, train_res = held_out(setup, lambda tr: setup.runner.run_warm(tr), noise)
+    gain: dict[str, np.ndarray] = {}
+    held, fits, train_res = held_out(setup, lambda tr: setup.runner.run_warm(tr), noise, gain)
     ok = all(usable(f, setup.is_log) for f in fits)
     resid = held if setup.is_log else setup.residuals
     return (
@@ -83,6 +89,7 @@ def nominal_hypothesis(setup: Setup) -> tuple[Hypothesis, list, list]:
             held=held,
             fit=setup.nominal_fit,
             noise=noise or None,
+            gain=gain or None,
         ),
         fits,
         train_res,
@@ -167,8 +174,9 @@ def effect_hypothesis(setup: Setup, name: str, family: str) -> Hypothesis:
     full = None
     unpredicted = {ch: np.full(setup.n, np.inf) for ch in setup.channels}
     noise: dict[str, np.ndarray] = {}
+    gain: dict[str, np.ndarray] = {}
     if setup.is_log:
-        held, fits, train_res = held_out(setup, lambda tr: run.run_warm(tr, eff, **extra), noise)
+        held, fits, train_res = held_out(setup, lambda tr: run.run_warm(tr, eff, **extra), noise, gain)
         resid = held
     else:
         full = run.run(None, eff, **extra)
@@ -211,4 +219,5 @@ def effect_hypothesis(setup: Setup, name: str, family: str) -> Hypothesis:
         fit=full,
         train_residuals=train_res,
         noise=(noise or None) if setup.is_log else None,
+        gain=(gain or None) if setup.is_log else None,
     )

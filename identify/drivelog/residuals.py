@@ -142,7 +142,10 @@ def drive_log_residuals(
     -------
     dict
         ``channels`` ``{channel: ndarray}`` (measured - predicted), ``sigma`` ``{channel:
-        ndarray}`` (noise standard deviation per sample, same unit), ``noise_sigma`` ``{channel:
+        ndarray}`` (noise standard deviation per sample, same unit), ``gain`` ``{channel: ndarray}`` (the
+        residual's derivative with respect to the measured signal it is formed from: 1 for the sprocket speed,
+        ``1 / r_eff`` for the thrust from the torque, ``m_eff`` for the hull balance from the acceleration; a
+        likelihood of the measured signals divides ``sigma`` by it), ``noise_sigma`` ``{channel:
         median sigma}``, ``time_s``, ``keep`` (used samples of ``log``), ``slip`` (latent slips),
         ``vehicle_speed_m_s``, ``accel_source``, ``hull_in_fit``.
     """
@@ -188,11 +191,16 @@ def evaluate_residuals(
     sig_w = s_speed / (r_eff * np.maximum(1 - slip, 1e-3))
     sig_H = jd.sigma_hull * m_eff / vehicle.mass
     sigma = {"sprocket_speed_rad_s": sig_w, "thrust_N": prep.sigma_thrust / ratio, "hull_N": sig_H}
+    # each residual's derivative with respect to the measured signal it is formed from: the sprocket speed
+    # itself, the torque over the effective radius, the acceleration times the effective mass
+    ones = np.ones(slip.size)
+    gain = {"sprocket_speed_rad_s": ones, "thrust_N": ones / r_eff, "hull_N": ones * m_eff}
     chans = {ch: raw[j] for j, ch in enumerate(CHANNELS)}
     chans["hull_N"] = np.where(np.isfinite(sig_H), chans["hull_N"], np.nan)
     out = {
         "channels": chans,
         "sigma": sigma,
+        "gain": gain,
         "noise_sigma": {
             ch: float(np.median(s[np.isfinite(s)])) if np.any(np.isfinite(s)) else math.inf for ch, s in sigma.items()
         },
