@@ -199,3 +199,22 @@ def test_the_gap_tests_share_the_family_level():
     assert one.present and [t.level for t in one.tests] == [0.01]
     assert not two.present and [t.level for t in two.tests] == [0.005, 0.005]
     assert decide_gap({"a": 0.004, "b": 0.5}, 0.01).present
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(0.5, 2.0), st.integers(0, 2**16))
+def test_a_residual_that_only_rescales_the_measured_noise_keeps_its_density(g, seed):
+    """A hypothesis whose residual and noise are the nominal ones times ``g`` (its gain on the measured signal:
+    a mass error's hull balance) predicts the measurements alike, so it scores the nominal model's density;
+    the same noise growth without the gain (the encoder noise through a radius error) costs ``log g`` per sample."""
+    r = np.random.default_rng(seed).standard_normal(50)
+    f = Frame({"c": np.ones(50)}, {"c": np.ones(50, bool)})
+    one = {"c": np.ones(50)}
+    nom = Hypothesis("none", "nominal", 0, {"c": r}, noise=one, gain=one).scored(f)
+    scaled = {"c": np.full(50, g)}
+    rescaled = Hypothesis("m", "candidate", 1, {"c": g * r}, noise=scaled, gain=scaled).scored(f, None, nom)
+    noisier = Hypothesis("n", "candidate", 1, {"c": g * r}, noise=scaled, gain=one).scored(f, None, nom)
+    assert np.allclose(rescaled.z, nom.z) and np.allclose(rescaled.log_scale, 0.0)
+    assert np.allclose(noisier.z, nom.z) and np.allclose(noisier.log_scale, math.log(g))
+    w = HeldOutEvidence(block=5, n_bootstrap=50).weights([nom, rescaled])
+    assert w["none"] == pytest.approx(0.5, abs=1e-9)

@@ -82,10 +82,10 @@ def _consistent(d):
         assert d.confidence == w[d.verdict]
 
 
-def _diagnosed(vehicle: str, effects: dict, seed: int, duration_s: float):
-    """The diagnosis of a simulated drive log on LETE sand, its verdict's confidence checked against its weight."""
+def _diagnosed(vehicle: str, effects: dict, seed: int, duration_s: float, terrain: str = "lete_sand"):
+    """The diagnosis of a simulated drive log, its verdict's confidence checked against its weight."""
     v = VEHICLES[vehicle]
-    d = diagnose(simulate(v, TERRAINS["lete_sand"], kind="drive", effects=effects, seed=seed, duration_s=duration_s), v)
+    d = diagnose(simulate(v, TERRAINS[terrain], kind="drive", effects=effects, seed=seed, duration_s=duration_s), v)
     _consistent(d)
     return d
 
@@ -223,3 +223,16 @@ def test_a_soft_patch_from_independent_code_is_a_change_of_terrain_inside_twice_
     w0, w1 = d.cause_detail["window_s"]
     assert 20.0 - 15.0 <= w0 < w1 <= 35.0 + 15.0  # within twice the true window
     assert d.ranking[0].parameters["slope_change"]["value"] < 0  # softer inside
+
+
+@pytest.mark.slow
+def test_a_mass_error_is_not_charged_for_the_larger_residual_its_mass_gives():
+    """The hull balance of a 10 % heavier vehicle is the measured acceleration times 1.1 m: its residual and its
+    noise grow together, and the measured acceleration's density does not change. Charged ``log 1.1`` per
+    sample as a larger noise, the mass error lost to a drivetrain loss (0.65 against 0.35, heavy vehicle on dry
+    sand, the diagnosis grid's seed 1)."""
+    d = _diagnosed("heavy", {"mass_error": 0.1}, 1, 60.0, terrain="dry_sand")
+    assert d.verdict == "mass_error", (d.verdict, d.reason)
+    assert d.confidence > 0.5
+    lo, hi = d.ranking[0].parameters["delta"]["ci95"]
+    assert lo < 0.1 < hi
