@@ -236,3 +236,28 @@ def test_a_mass_error_is_not_charged_for_the_larger_residual_its_mass_gives():
     assert d.confidence > 0.5
     lo, hi = d.ranking[0].parameters["delta"]["ci95"]
     assert lo < 0.1 < hi
+
+
+@pytest.mark.slow
+def test_a_radius_error_and_a_speed_sensor_scale_share_their_weight_when_the_data_cannot_tell_them_apart():
+    """Both scale the apparent slip; only a radius error changes the torque arm, which the soil's thrust limit
+    absorbs but for the hull balance. On the grid's light-vehicle log with doubled noise (radius error 5 %, seed
+    2) the two weigh 0.35 and 0.65 apart; their sensitivities are collinear, so they are confusable, share their
+    weight, and the pair is listed with its separating experiment."""
+    from soiltrack.soilmodel import SensorNoise
+
+    noise = SensorNoise(
+        encoder_rel=0.01, encoder_abs=0.02, gnss_speed=0.1, imu_accel=0.1, torque_rel=0.02, torque_fs=0.002
+    )
+    v = VEHICLES["light"]
+    log = simulate(
+        v, TERRAINS["lete_sand"], kind="drive", effects={"radius_error": 0.05}, seed=2, noise=noise, duration_s=60.0
+    )
+    d = diagnose(log, v)
+    _consistent(d)
+    w = {e.effect: e.weight for e in d.ranking}
+    assert w["radius_error"] == w["speed_scale"] == pytest.approx(0.5, abs=0.01)
+    pairs = [set(p) for p, _, _ in d.confusable]
+    assert {"radius_error", "speed_scale"} in pairs
+    eps = next(e for e in d.ranking if e.effect == "radius_error").parameters["eps"]["ci95"]
+    assert eps[0] < 0.05 < eps[1]

@@ -195,7 +195,9 @@ class Hypothesis:
         out = {}
         for ch, s in q.items():
             g, g0 = self.gain.get(ch), nominal.gain.get(ch)
-            ratio = np.ones_like(s) if g is None or g0 is None else np.asarray(g, dtype=float) / np.asarray(g0, dtype=float)
+            ratio = (
+                np.ones_like(s) if g is None or g0 is None else np.asarray(g, dtype=float) / np.asarray(g0, dtype=float)
+            )
             ratio = np.where(np.isfinite(ratio) & (ratio > 0), ratio, 1.0)
             out[ch] = s / ratio
         return out

@@ -39,9 +39,17 @@ import numpy as np
 
 from .gap import long_run_factor
 from ..estimates.distributions import chi2_isf, chi2_sf
-from .screening import newey_west_lag
+from .screening import Screen, drive_log_score_pair, newey_west_lag, score_test
 
-__all__ = ["TerrainWindow", "terrain_window", "delay_scan", "shift_speed", "refine_delay", "SPEED_CHANNEL"]
+__all__ = [
+    "TerrainWindow",
+    "terrain_window",
+    "delay_scan",
+    "shift_speed",
+    "refine_delay",
+    "speed_scale_screen",
+    "SPEED_CHANNEL",
+]
 
 
 @dataclass(frozen=True)
@@ -409,3 +417,29 @@ def refine_delay(nominal, data, vehicle, train: np.ndarray, k0: int, max_lag: in
     if not math.isfinite(cost(best)) or cost(best) >= cost(0):
         return 0, None
     return sign * best, fits[best]
+
+
+#: Relative step of the central difference of a drive log's residuals in the vehicle-speed scale: far above the
+#: latent-slip solve's tolerance, far below any scale error the data show.
+SPEED_SCALE_STEP = 1e-3
+
+
+def speed_scale_screen(res, log, vehicle, hac_lag: int | None = None) -> Screen:
+    """Score test of a vehicle-speed sensor scale (``speed_scale``) from the nominal drive-log fit ``res``.
+
+    A speed scale is no effect of the model, so its column of the Jacobian is the central difference of the
+    fit's whitened residuals (latent slips solved again) in the scale of the speed channel, at the fitted
+    soil. Its direction puts the speed scale into the same comparison of sensitivities as the library's
+    effects (:func:`~.selection.confusable_groups`): it shares a radius error's slip signature. Not testable
+    (``testable`` False) when the scaled log keeps other samples.
+    """
+    J, r, names, c = drive_log_score_pair(res, log, vehicle)
+    up = drive_log_score_pair(res, scale_speed(log, SPEED_SCALE_STEP), vehicle)[1]
+    down = drive_log_score_pair(res, scale_speed(log, -SPEED_SCALE_STEP), vehicle)[1]
+    if not (up.size == down.size == r.size):
+        return Screen("speed_scale", (), 0.0, 0.0, 0, 1.0, False, None)
+    Z = ((up - down) / (2.0 * SPEED_SCALE_STEP)).reshape(-1, 1)
+    bound = set(getattr(res, "active_bounds", {}) or {})
+    free = [j for j, nm in enumerate(names) if nm not in bound]
+    lag = c * newey_west_lag(r.size // max(c, 1)) if hac_lag is None else hac_lag
+    return score_test("speed_scale", J[:, free], Z, r, ("speed_scale.gain",), hac_lag=lag)

@@ -66,6 +66,9 @@ SEPARATING_EXPERIMENTS: dict[frozenset, str] = {
     frozenset({"mass_error", "speed_resistance"}): "runs at two constant speeds and an acceleration run",
     frozenset({"mass_error", "slip_sinkage"}): "a run at constant speed with a different drawbar load (slip sinkage "
     "grows with the slip, a mass error only shows with acceleration), or a run at another payload",
+    frozenset({"radius_error", "speed_scale"}): "a speed reference independent of the vehicle-speed sensor (a "
+    "measured distance over a timed run), or pulls against a known drawbar load: both scale the apparent "
+    "slip, only a radius error changes the torque arm",
     frozenset({"drivetrain_friction", "radius_error"}): "a torque sensor at the track or a coast-down; "
     "and a measured distance per sprocket turn",
 }
