@@ -148,15 +148,16 @@ def test_shared_weights_keep_the_sum_equalise_groups_and_order_the_result(ws, li
     w = dict(zip(names, ws))
     pairs = [((names[a], names[b]), 1.0) for a, b in links if a < len(names) and b < len(names) and a != b]
     n_par = dict(zip(names, ks))
-    out = shared_weights(w, pairs, n_par)
+    cands = set(names[::2])
+    out = shared_weights(w, pairs, n_par, cands)
     assert set(out) == set(w) and sum(out.values()) == pytest.approx(sum(w.values()))
     for (a, b), _ in pairs:
         assert out[a] == pytest.approx(out[b])
     keys = list(out)
-    for x, y in zip(keys, keys[1:]):  # heaviest first; among equals the fewest parameters first
+    for x, y in zip(keys, keys[1:]):  # heaviest first; among equals the candidates, then the fewest parameters
         assert out[x] > out[y] - 1e-12
         if out[x] == out[y]:
-            assert n_par[x] <= n_par[y]
+            assert (x not in cands, n_par[x]) <= (y not in cands, n_par[y])
 
 
 def test_evidence_weights_sum_to_one_and_favour_the_better_prediction():

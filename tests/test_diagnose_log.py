@@ -243,7 +243,7 @@ def test_a_radius_error_and_a_speed_sensor_scale_share_their_weight_when_the_dat
     """Both scale the apparent slip; only a radius error changes the torque arm, which the soil's thrust limit
     absorbs but for the hull balance. On the grid's light-vehicle log with doubled noise (radius error 5 %, seed
     2) the two weigh 0.35 and 0.65 apart; their sensitivities are collinear, so they are confusable, share their
-    weight, and the pair is listed with its separating experiment."""
+    weight, and the pair is listed with its separating experiment; the candidate is named first."""
     from soiltrack.soilmodel import SensorNoise
 
     noise = SensorNoise(
@@ -259,5 +259,7 @@ def test_a_radius_error_and_a_speed_sensor_scale_share_their_weight_when_the_dat
     assert w["radius_error"] == w["speed_scale"] == pytest.approx(0.5, abs=0.01)
     pairs = [set(p) for p, _, _ in d.confusable]
     assert {"radius_error", "speed_scale"} in pairs
+    # a candidate explains the gap as well as the cause outside the candidates: the gap is not unexplained
+    assert (d.verdict, d.confidence) == ("radius_error", w["radius_error"])
     eps = next(e for e in d.ranking if e.effect == "radius_error").parameters["eps"]["ci95"]
     assert eps[0] < 0.05 < eps[1]

@@ -108,13 +108,15 @@ def share_confusable(
     The data cannot tell the members of a group apart (close weights, collinear sensitivities; the
     flexible term with any effect of close weight), so the evidence names the group, not one member:
     a difference of weight inside it is the noise's coin flip. Ordered heaviest first; inside a
-    group the fewest parameters first, then the larger weight before sharing
+    group the user's candidates first, then the fewest parameters, then the larger weight before sharing
     (:func:`~.selection.shared_weights`). The pairs are found once, here, on the weights before
     sharing; the decision lists the same pairs.
     """
     pairs = _pairs(hyps, weights, directions, settings)
     return SharedWeights(
-        shared_weights(weights, pairs, {h.name: h.n_params for h in hyps}),
+        shared_weights(
+            weights, pairs, {h.name: h.n_params for h in hyps}, [h.name for h in hyps if h.family == "candidate"]
+        ),
         tuple((p, c, separating_experiment(*p)) for p, c in pairs),
     )
 

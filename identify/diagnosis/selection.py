@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Collection
 import numpy as np
 
 from ..estimates.distributions import chi2_sf
@@ -233,7 +234,10 @@ WEIGHT_DECIMALS = 12
 
 
 def shared_weights(
-    weights: dict[str, float], pairs: list[tuple[tuple[str, ...], float]], n_params: dict[str, int]
+    weights: dict[str, float],
+    pairs: list[tuple[tuple[str, ...], float]],
+    n_params: dict[str, int],
+    candidates: Collection[str] = (),
 ) -> dict[str, float]:
     """The weights with each group of confusable hypotheses sharing its summed weight evenly.
 
@@ -241,9 +245,11 @@ def shared_weights(
     tell its members apart, so the evidence is for the group, and a difference inside it (a coin
     flip of the noise) says nothing about which member it is. Each member gets the group's mean
     weight; the sum over all hypotheses is unchanged (to ``WEIGHT_DECIMALS``). The dict comes back
-    heaviest first; inside a group the member with the fewest parameters first (of explanations
-    the data cannot tell apart, the simplest, as in the one-standard-error rule of model
-    selection), then the larger weight before sharing. ``max`` and any stable sort by weight keep that order.
+    heaviest first; inside a group the user's ``candidates`` first (naming a cause outside them, or
+    the flexible term, says that the candidates cannot explain the gap, which these data do not show
+    when a candidate explains it as well), then the fewest parameters (of explanations the data
+    cannot tell apart, the simplest, as in the one-standard-error rule of model selection), then the
+    larger weight before sharing. ``max`` and any stable sort by weight keep that order.
     """
     root = {k: k for k in weights}
 
@@ -264,7 +270,8 @@ def shared_weights(
             mean = float(sum(weights[k] for k in members)) / len(members)
             shared.update({k: mean for k in members})
     shared = {k: round(v, WEIGHT_DECIMALS) for k, v in shared.items()}
-    order = sorted(weights, key=lambda k: (-shared[k], n_params.get(k, 0), -weights[k]))
+    chosen = set(candidates)
+    order = sorted(weights, key=lambda k: (-shared[k], k not in chosen, n_params.get(k, 0), -weights[k]))
     return {k: shared[k] for k in order}
 
 
