@@ -84,6 +84,7 @@ def test_sinkage_solved_from_the_load_with_a_known_bekker_soil():
     assert r.rmse_sinkage is None and r.parameters["bekker_n"].fixed
 
 
+@pytest.mark.slow
 def test_bound_pinned_values_are_flagged():
     soil = (
         0.0,
