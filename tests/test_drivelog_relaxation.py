@@ -157,6 +157,7 @@ def _hard_pulls_on_a_slope():
     )
 
 
+@pytest.mark.slow
 def test_the_discretisation_check_puts_the_other_rule_beside_the_fit():
     """8 deg hard pulls: the end-point fit (the default) and the relaxation fit disagree by about 3 SE."""
     log = _hard_pulls_on_a_slope()

@@ -49,7 +49,6 @@ def test_report_and_figures_exist(quick_run):
         assert f"({name})" in report, f"report does not embed {name}"
 
 
-@pytest.mark.slow
 def test_report_has_every_section(quick_run):
     _, report, _ = quick_run
     for heading in (

@@ -234,6 +234,7 @@ def test_failed_fit_figure_says_failed(captured, sweep_csv):
     assert "(N)" in axr.get_ylabel() and "%" not in axr.get_ylabel()  # absolute residuals, unit by magnitude
 
 
+@pytest.mark.slow
 def test_drive_log_figure_shows_the_samples_that_fix_fmax(captured):
     from soiltrack.identify.drivelog.fit import prepare_drive_log
     from soiltrack.plots import plot_fit

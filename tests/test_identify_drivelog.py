@@ -72,7 +72,6 @@ def test_light_vehicle_recovers_fmax_and_k(light_fits):
     assert np.mean([abs(e["K"]) for e in errs]) < 0.20
 
 
-@pytest.mark.slow
 def test_light_vehicle_interval_coverage(light_fits):
     """95 % intervals hold the truth at the measured rate over 8 seeds.
 
@@ -91,7 +90,6 @@ def test_light_vehicle_interval_coverage(light_fits):
     assert all(res.extra["covariance"] == "sandwich" for _, res in light_fits)
 
 
-@pytest.mark.slow
 def test_covariance_is_the_profiled_sandwich(light_fits):
     """The reported (F_max, K) covariance is A^-1 B A^-1 of the profiled estimator.
 
@@ -123,7 +121,6 @@ def test_covariance_is_the_profiled_sandwich(light_fits):
     assert res.parameters["shear_modulus"].stderr == pytest.approx(math.sqrt(V[1, 1]), rel=1e-3)
 
 
-@pytest.mark.slow
 def test_light_vehicle_result_contents(light_fits):
     log, res = light_fits[0]
     e = res.extra

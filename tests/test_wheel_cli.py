@@ -41,6 +41,7 @@ def _write(path, cols: dict) -> str:
     return str(path)
 
 
+@pytest.mark.slow
 def test_fit_of_an_independently_simulated_sweep(tmp_path, wheel_json, capsys):
     soil = (1500.0, math.radians(28), 0.015, 1.2e6, 1.0)
     i, dp, W, z = oracle.sweep(
