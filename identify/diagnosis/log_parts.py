@@ -433,13 +433,12 @@ def speed_scale_screen(res, log, vehicle, hac_lag: int | None = None) -> Screen:
     effects (:func:`~.selection.confusable_groups`): it shares a radius error's slip signature. Not testable
     (``testable`` False) when the scaled log keeps other samples.
     """
-    J, r, names, c = drive_log_score_pair(res, log, vehicle)
+    J, r, _, c = drive_log_score_pair(res, log, vehicle)
     up = drive_log_score_pair(res, scale_speed(log, SPEED_SCALE_STEP), vehicle)[1]
     down = drive_log_score_pair(res, scale_speed(log, -SPEED_SCALE_STEP), vehicle)[1]
     if not (up.size == down.size == r.size):
         return Screen("speed_scale", (), 0.0, 0.0, 0, 1.0, False, None)
     Z = ((up - down) / (2.0 * SPEED_SCALE_STEP)).reshape(-1, 1)
-    bound = set(getattr(res, "active_bounds", {}) or {})
-    free = [j for j, nm in enumerate(names) if nm not in bound]
     lag = c * newey_west_lag(r.size // max(c, 1)) if hac_lag is None else hac_lag
-    return score_test("speed_scale", J[:, free], Z, r, ("speed_scale.gain",), hac_lag=lag)
+    # projected off the same soil columns as the effects' directions (:func:`~.screening.screen`)
+    return score_test("speed_scale", J, Z, r, ("speed_scale.gain",), hac_lag=lag)
