@@ -1,0 +1,86 @@
+"""A radius error against a speed-sensor scale: how far apart the held-out evidence puts them, in standard errors.
+
+On the diagnosis grid's radius-error logs that are named ``unexplained`` with cause ``speed_scale``
+(``python benchmarks/bench_diagnose.py --kinds drive``), this prints, per log, the verdict and its
+confidence, and the difference of held-out log density between the radius error and the speed scale
+(the evidence the pseudo-BMA+ weights are made of, summed over the held-out samples) with its standard
+error from the hold-out blocks (the blocks the weights' bootstrap draws). A weight near one at a
+difference of one or two standard errors is the weight ratio calling two hypotheses apart that the
+evidence does not separate.
+
+Run:  python benchmarks/radius_speed_scale.py
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import sys
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
+
+import bench_diagnose as grid  # noqa: E402
+
+from soiltrack.identify import diagnose  # noqa: E402
+from soiltrack.identify.diagnosis import DiagnoseSettings  # noqa: E402
+
+#: (vehicle, terrain, eps, noise, seed): the grid's radius-error logs named ``unexplained`` on commit 1d64cb4.
+CASES = [
+    ("light", "lete_sand", 0.02, "double", 1),
+    ("light", "lete_sand", 0.02, "double", 2),
+    ("light", "lete_sand", 0.02, "double", 3),
+    ("light", "lete_sand", 0.05, "double", 1),
+    ("light", "dry_sand", 0.02, "double", 1),
+    ("light", "dry_sand", 0.02, "double", 2),
+    ("light", "dry_sand", 0.02, "double", 3),
+    ("heavy", "lete_sand", 0.02, "default", 1),
+    ("heavy", "lete_sand", 0.02, "double", 1),
+    ("heavy", "dry_sand", 0.02, "double", 1),
+]
+
+
+def _density(h) -> np.ndarray:
+    """A scored hypothesis's held-out log density per compared sample (as :class:`HeldOutEvidence` forms it)."""
+    z = np.asarray(h.z, dtype=float)
+    return -0.5 * z**2 - (h.log_scale if h.log_scale.size == z.size else 0.0)
+
+
+def main() -> None:
+    steps = importlib.import_module("soiltrack.identify.diagnosis.diagnose")
+    decide = steps.decide
+    seen: dict = {}
+
+    def keep(hyps, *args, **kw):
+        seen["hyps"] = {h.name: h for h in hyps}
+        return decide(hyps, *args, **kw)
+
+    steps.decide = keep
+    print(f"{'log':48s} {'verdict':12s} {'conf':>5s} {'diff':>8s} {'SE':>7s} {'diff/SE':>8s}")
+    for vname, tname, eps, noise, seed in CASES:
+        vehicle = grid.VEHICLES[vname]
+        data = grid.make(
+            "drive", vehicle, grid.TERRAINS[tname], {"radius_error": eps}, seed, grid.NOISE["drive"][noise]
+        )
+        d = diagnose(data, vehicle)
+        hs = seen["hyps"]
+        if "radius_error" not in hs or "speed_scale" not in hs:
+            print(f"{vname} {tname} eps {eps} {noise} s{seed}: radius error or speed scale not admissible")
+            continue
+        diff = _density(hs["radius_error"]) - _density(hs["speed_scale"])
+        block = max(1, data.n_samples // DiagnoseSettings().log_blocks)
+        sums = np.add.reduceat(diff, np.arange(0, diff.size, block))
+        se = float(np.std(sums) * np.sqrt(sums.size))
+        label = f"{vname} {tname} eps {eps} noise {noise} seed {seed}"
+        print(
+            f"{label:48s} {d.verdict:12s} {d.confidence:5.2f} {diff.sum():8.1f} {se:7.1f} {diff.sum() / se:8.2f}",
+            flush=True,
+        )
+    steps.decide = decide
+
+
+if __name__ == "__main__":
+    main()
