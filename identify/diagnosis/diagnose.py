@@ -48,7 +48,6 @@ from .localisation import localisation
 from .outside import outside_hypotheses
 from .result import Diagnosis, Excluded, RankEntry
 from .screening import Screen, screen
-from .log_parts import speed_scale_screen
 from .selection import LOOKALIKES, dm_test, gap_p_value, hat_basis
 from .sweep_parts import fit_jacobian, lack_of_fit
 from .settings import DEFAULT_SETTINGS, DiagnoseSettings
@@ -202,14 +201,11 @@ def _hypotheses(
     return setup, hyps
 
 
-def _directions(runner: FitRunner, nominal_fit: Any, screens: list[Screen], scored: list[Hypothesis]) -> dict:
-    """The sensitivity directions of the screened effects and, on a log where it was formed, of the speed scale
-    (which shares a radius error's slip signature: the confusable check compares them like two effects)."""
+def _directions(screens: list[Screen], scored: list[Hypothesis]) -> dict:
+    """The sensitivity directions of the screened effects and of the hypotheses that carry one (the speed scale,
+    which shares a radius error's slip signature: the confusable check compares them like two effects)."""
     dirs = {s.effect: s.direction for s in screens if s.direction is not None}
-    if runner.is_log and any(h.name == "speed_scale" for h in scored):
-        sc = speed_scale_screen(nominal_fit, runner.data, runner.vehicle)
-        if sc.direction is not None:
-            dirs["speed_scale"] = sc.direction
+    dirs.update({h.name: h.direction for h in scored if h.direction is not None})
     return dirs
 
 
@@ -438,7 +434,7 @@ def diagnose(
         HeldOutEvidence(block, settings.n_bootstrap) if runner.is_log else PenalisedEvidence(settings.n_bootstrap)
     )
     raw = evidence.weights(scored)
-    dirs = _directions(runner, nominal_fit, screens, scored)
+    dirs = _directions(screens, scored)
     shared = share_confusable(scored, raw, dirs, settings)
     weights = shared.weights
     hold = _frame(setup, scored[0], held=True)

@@ -142,6 +142,9 @@ class Hypothesis:
         the mass, so its noise and its residual grow together and the measured acceleration's density
         is unchanged (the Jacobian of the residual cancels the larger noise); the encoder's noise seen
         through a radius error's speed balance is a real change.
+    direction
+        Its sensitivity direction (the projected residual change it would make, beyond the soil) when it is no
+        screened effect but one can be computed (the speed scale), for the confusable check.
     support
         Per channel (full length), the samples where its prediction can differ from the nominal
         model's (a change of terrain: its window); None: every sample (an effect of the whole run).
@@ -164,6 +167,7 @@ class Hypothesis:
     train_residuals: list | None = None
     noise: dict[str, np.ndarray] | None = None
     gain: dict[str, np.ndarray] | None = None
+    direction: np.ndarray | None = None
     scale: dict[str, np.ndarray] | None = None
     log_scale: np.ndarray = field(default_factory=lambda: np.zeros(0))
     support: dict[str, np.ndarray] | None = None
@@ -186,20 +190,16 @@ class Hypothesis:
             out[ch] = np.where(np.isfinite(q) & (q > 0), q, 1.0)
         return out
 
-    def measured_noise_scale(self, nominal: "Hypothesis") -> dict[str, np.ndarray] | None:
-        """Its noise level in the measured signals' units relative to ``nominal``'s per channel: :meth:`noise_scale`
-        over the ratio of the residuals' gains (1 where either is unknown), or None."""
-        q = self.noise_scale(nominal)
-        if q is None or self.gain is None or nominal.gain is None:
-            return q
+    def gain_ratio(self, nominal: "Hypothesis") -> dict[str, np.ndarray] | None:
+        """Its residuals' gains relative to ``nominal``'s per channel (1 where either is unknown), or None: the
+        part of :meth:`noise_scale` that only rescales the same measured noise."""
+        if self.gain is None or nominal.gain is None:
+            return None
         out = {}
-        for ch, s in q.items():
-            g, g0 = self.gain.get(ch), nominal.gain.get(ch)
-            ratio = (
-                np.ones_like(s) if g is None or g0 is None else np.asarray(g, dtype=float) / np.asarray(g0, dtype=float)
-            )
-            ratio = np.where(np.isfinite(ratio) & (ratio > 0), ratio, 1.0)
-            out[ch] = s / ratio
+        for ch, g in self.gain.items():
+            g0 = nominal.gain.get(ch)
+            ratio = np.ones_like(g) if g0 is None else np.asarray(g, dtype=float) / np.asarray(g0, dtype=float)
+            out[ch] = np.where(np.isfinite(ratio) & (ratio > 0), ratio, 1.0)
         return out
 
     def scored(self, frame: Frame, fill: np.ndarray | None = None, nominal: "Hypothesis | None" = None) -> "Hypothesis":
@@ -214,8 +214,13 @@ class Hypothesis:
         )
         if scale is None:
             return replace(self, z=z, scale=None, log_scale=np.zeros(z.size), in_support=sel)
-        measured = (None if nominal is None else self.measured_noise_scale(nominal)) or scale
-        ls = np.concatenate([np.log(measured[ch][m]) for ch, m in frame.mask.items()])
+        gains = None if nominal is None else self.gain_ratio(nominal)
+        ls = np.concatenate(
+            [
+                np.log(scale[ch][m] / (1.0 if gains is None or ch not in gains else gains[ch][m]))
+                for ch, m in frame.mask.items()
+            ]
+        )
         ls[np.isnan(frame.z(self.residuals))] = 0.0  # filled with the nominal model's values
         return replace(self, z=z, scale=scale, log_scale=ls, in_support=sel)
 

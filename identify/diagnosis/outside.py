@@ -41,7 +41,15 @@ from ..drivelog.sensitivity import drive_log_sensitivities
 from .fits import SOIL_KEYS, channels, outside_practical, usable
 from .hypotheses import Hypothesis
 from .library import held_out
-from .log_parts import SPEED_CHANNEL, delay_scan, refine_delay, scale_speed, shift_speed, terrain_window
+from .log_parts import (
+    SPEED_CHANNEL,
+    delay_scan,
+    refine_delay,
+    scale_speed,
+    shift_speed,
+    speed_scale_screen,
+    terrain_window,
+)
 from .saturation import find_saturation
 from .selection import dm_test
 from .setup import Setup
@@ -148,6 +156,7 @@ def speed_scale_hypothesis(setup: Setup, radius: Hypothesis | None) -> Hypothesi
         held=held,
         detail={"gain": g},
         parameters={"gain": {"value": g, "identifiable": True, "at_bound": False}},
+        direction=speed_scale_screen(setup.nominal_fit, setup.data, setup.runner.vehicle).direction,
     )
 
 
