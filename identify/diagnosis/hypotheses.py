@@ -96,6 +96,19 @@ class Frame:
         return out
 
 
+def _ratio(a: dict[str, np.ndarray] | None, b: dict[str, np.ndarray] | None) -> dict[str, np.ndarray] | None:
+    """``a / b`` per channel of ``a`` (1 where ``b`` has no channel or the ratio is not a finite positive
+    number), or None when either is None."""
+    if a is None or b is None:
+        return None
+    out = {}
+    for ch, x in a.items():
+        y = b.get(ch)
+        q = np.ones_like(x) if y is None else np.asarray(x, dtype=float) / np.asarray(y, dtype=float)
+        out[ch] = np.where(np.isfinite(q) & (q > 0), q, 1.0)
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class Hypothesis:
     """One explanation in the comparison.
@@ -181,26 +194,12 @@ class Hypothesis:
 
     def noise_scale(self, nominal: "Hypothesis") -> dict[str, np.ndarray] | None:
         """Its noise level relative to ``nominal``'s per channel (1 where either is unknown), or None."""
-        if self.noise is None or nominal.noise is None:
-            return None
-        out = {}
-        for ch, s in self.noise.items():
-            s0 = nominal.noise.get(ch)
-            q = np.ones_like(s) if s0 is None else np.asarray(s, dtype=float) / np.asarray(s0, dtype=float)
-            out[ch] = np.where(np.isfinite(q) & (q > 0), q, 1.0)
-        return out
+        return _ratio(self.noise, nominal.noise)
 
     def gain_ratio(self, nominal: "Hypothesis") -> dict[str, np.ndarray] | None:
         """Its residuals' gains relative to ``nominal``'s per channel (1 where either is unknown), or None: the
         part of :meth:`noise_scale` that only rescales the same measured noise."""
-        if self.gain is None or nominal.gain is None:
-            return None
-        out = {}
-        for ch, g in self.gain.items():
-            g0 = nominal.gain.get(ch)
-            ratio = np.ones_like(g) if g0 is None else np.asarray(g, dtype=float) / np.asarray(g0, dtype=float)
-            out[ch] = np.where(np.isfinite(ratio) & (ratio > 0), ratio, 1.0)
-        return out
+        return _ratio(self.gain, nominal.gain)
 
     def scored(self, frame: Frame, fill: np.ndarray | None = None, nominal: "Hypothesis | None" = None) -> "Hypothesis":
         """This hypothesis with ``z`` on the frame's samples (see :meth:`Frame.z`), standardised by its own noise
