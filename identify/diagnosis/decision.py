@@ -24,6 +24,7 @@ shared weight, as the ranking prints it, and no cap is needed.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from .gap_test import GapDecision
@@ -69,10 +70,15 @@ class Decision:
 
 
 def _pairs(
-    hyps: list[Hypothesis], weights: dict[str, float], directions: dict, s: DiagnoseSettings
+    hyps: list[Hypothesis],
+    weights: dict[str, float],
+    directions: dict,
+    s: DiagnoseSettings,
+    separation: Callable[[Hypothesis, Hypothesis], float] | None,
 ) -> list[tuple[tuple[str, ...], float]]:
-    """Pairs of library effects with close weights and collinear sensitivities; the flexible term pairs with any
-    effect of close weight (it can follow any smooth gap: its direction is unknown)."""
+    """Pairs of hypotheses with a known sensitivity (and the flexible term: it can follow any smooth gap, its
+    direction is unknown) that the evidence does not tell apart and whose sensitivities are collinear."""
+    by_name = {h.name: h for h in hyps}
     lib = {h.name: weights[h.name] for h in hyps if h.name in directions or h.family == "flexible"}
     return confusable_groups(
         lib,
@@ -80,6 +86,8 @@ def _pairs(
         min_ratio=s.confusable_ratio,
         min_corr=s.confusable_corr,
         min_weight=s.confusable_weight,
+        separation=None if separation is None else (lambda a, b: separation(by_name[a], by_name[b])),
+        max_separation=s.confusable_separation,
     )
 
 
@@ -101,18 +109,24 @@ class SharedWeights:
 
 
 def share_confusable(
-    hyps: list[Hypothesis], weights: dict[str, float], directions: dict, settings: DiagnoseSettings
+    hyps: list[Hypothesis],
+    weights: dict[str, float],
+    directions: dict,
+    settings: DiagnoseSettings,
+    separation: Callable[[Hypothesis, Hypothesis], float] | None = None,
 ) -> SharedWeights:
     """The weights with each group of confusable effects sharing its summed weight evenly, and the pairs.
 
-    The data cannot tell the members of a group apart (close weights, collinear sensitivities; the
-    flexible term with any effect of close weight), so the evidence names the group, not one member:
+    The data cannot tell the members of a group apart (collinear sensitivities, and close weights or a
+    difference of evidence within ``confusable_separation`` of its standard errors, ``separation``, e.g.
+    :meth:`.evidence.HeldOutEvidence.separation`; the flexible term with any effect the evidence does not
+    tell from it), so the evidence names the group, not one member:
     a difference of weight inside it is the noise's coin flip. Ordered heaviest first; inside a
     group the user's candidates first, then the fewest parameters, then the larger weight before sharing
     (:func:`~.selection.shared_weights`). The pairs are found once, here, on the weights before
     sharing; the decision lists the same pairs.
     """
-    pairs = _pairs(hyps, weights, directions, settings)
+    pairs = _pairs(hyps, weights, directions, settings, separation)
     return SharedWeights(
         shared_weights(
             weights, pairs, {h.name: h.n_params for h in hyps}, [h.name for h in hyps if h.family == "candidate"]

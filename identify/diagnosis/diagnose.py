@@ -435,7 +435,7 @@ def diagnose(
     )
     raw = evidence.weights(scored)
     dirs = _directions(screens, scored)
-    shared = share_confusable(scored, raw, dirs, settings)
+    shared = share_confusable(scored, raw, dirs, settings, evidence.separation)
     weights = shared.weights
     hold = _frame(setup, scored[0], held=True)
     terrain = next((h for h in hyps if h.name == "terrain_change"), None)

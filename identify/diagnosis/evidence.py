@@ -20,13 +20,14 @@ The weights are computed once, over the admissible hypotheses; they sum to one.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Protocol, Sequence
 
 import numpy as np
 
 from .hypotheses import Hypothesis
-from .selection import stacking_weights
+from .selection import difference_z, stacking_weights
 from .sweep_parts import information_weights
 
 __all__ = ["Evidence", "HeldOutEvidence", "PenalisedEvidence"]
@@ -41,10 +42,23 @@ class Evidence(Protocol):
     def weights(self, hypotheses: Sequence[Hypothesis]) -> dict[str, float]:
         """Weight of each admissible hypothesis (summing to 1)."""
 
+    def separation(self, a: Hypothesis, b: Hypothesis) -> float:
+        """The difference of evidence between ``a`` and ``b`` in its standard errors (absolute)."""
 
-def _log_scale(h: Hypothesis) -> np.ndarray | float:
-    """``log`` of a hypothesis's noise level relative to the nominal model's per sample (0 when it has none)."""
-    return h.log_scale if h.log_scale.size == np.asarray(h.z).size else 0.0
+
+def _density(h: Hypothesis) -> np.ndarray:
+    """A hypothesis's held-out log density per compared sample: ``-z^2 / 2 - log_scale`` (the log of its noise
+    level relative to the nominal model's; 0 when it has none)."""
+    z = np.asarray(h.z, dtype=float)
+    return -0.5 * z**2 - (h.log_scale if h.log_scale.size == z.size else 0.0)
+
+
+def _profiled(h: Hypothesis) -> np.ndarray:
+    """A sweep fit's Gaussian log-likelihood per sample with the noise level profiled out: its terms sum to
+    ``-n/2 log(mean z^2)`` and their spread gives the standard error of a difference (delta method)."""
+    q = np.asarray(h.z, dtype=float) ** 2
+    s2 = max(float(np.mean(q)), 1e-300) if q.size else 1.0
+    return -0.5 * math.log(s2) - 0.5 * q / s2 + 0.5
 
 
 @dataclass(frozen=True)
@@ -58,10 +72,16 @@ class HeldOutEvidence:
     def weights(self, hypotheses: Sequence[Hypothesis]) -> dict[str, float]:
         """Weights of ``hypotheses`` (all on the same held-out samples)."""
         return stacking_weights(
-            {h.name: -0.5 * np.asarray(h.z) ** 2 - _log_scale(h) for h in hypotheses},
+            {h.name: _density(h) for h in hypotheses},
             block=self.block,
             n_boot=self.n_bootstrap,
         )
+
+    def separation(self, a: Hypothesis, b: Hypothesis) -> float:
+        """The held-out log-density difference of ``a`` and ``b`` in its standard errors, from the sums
+        over the hold-out blocks (the units the bootstrap draws)."""
+        d = _density(a) - _density(b)
+        return difference_z(np.add.reduceat(d, np.arange(0, d.size, max(1, self.block))) if d.size else d)
 
 
 @dataclass(frozen=True)
@@ -80,3 +100,8 @@ class PenalisedEvidence:
             {h.name: h.n_params for h in hypotheses},
             n_boot=self.n_bootstrap,
         )
+
+    def separation(self, a: Hypothesis, b: Hypothesis) -> float:
+        """The penalised log-likelihood difference of ``a`` and ``b`` in its standard errors, from the
+        samples' terms (noise level profiled out) and Akaike's penalties."""
+        return difference_z(_profiled(a) - _profiled(b), offset=float(b.n_params - a.n_params))

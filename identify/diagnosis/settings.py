@@ -62,6 +62,13 @@ class DiagnoseSettings:
         flexible term: with any effect of close weight); a confusable group shares its weight. A
         factor 5 of weight is 1.6 in held-out log density; a grade and a drivetrain loss that
         predict a simulated log alike (held-out shrinks 0.4053 and 0.4051) reach 0.76 and 0.24 (1.2).
+    confusable_separation
+        Two collinear hypotheses whose difference of evidence is within this many of its standard
+        errors are confusable too, whatever their weights (the larger at least ``confusable_weight``):
+        2, a two-sided 5 % level. Pseudo-BMA+ weights of a long log can put 0.99 on a lead of 1.8
+        standard errors (a radius error and a speed-sensor scale on the grid's light log, doubled noise,
+        dry sand, seed 1): the Bayesian bootstrap reweights the blocks it has, and a lead carried by a
+        few of them stays in every replicate.
     max_delay_samples
         Largest delay between channels tried (samples): a quarter second at 100 Hz.
     sweep_noise_window
@@ -100,6 +107,7 @@ class DiagnoseSettings:
     confusable_ratio: float = 0.2
     confusable_corr: float = 0.9
     confusable_weight: float = 0.05
+    confusable_separation: float = 2.0
     max_delay_samples: int = 25
     sweep_noise_window: float = 0.25
     terrain_grid: int = 9
