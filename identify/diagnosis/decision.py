@@ -27,6 +27,8 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from .gap_test import GapDecision
 from .hypotheses import NOMINAL, Hypothesis
 from .selection import confusable_groups, separating_experiment, shared_weights
@@ -135,18 +137,31 @@ def share_confusable(
     )
 
 
-def _explains(exv: float | None, s: DiagnoseSettings) -> tuple[bool, str]:
-    """Whether the heaviest hypothesis explains the gap: it removes at least ``min_explained`` of the nominal
-    excess over the noise; and why not."""
+def _explains(exv: float | None, short_t: float | None, s: DiagnoseSettings) -> tuple[bool, str]:
+    """Whether the heaviest hypothesis explains the gap, and why not.
+
+    It explains it unless it removes less than ``min_explained`` of the nominal excess over the noise by
+    more than ``explained_z`` standard errors (``short_t``: the shortfall's sum over its standard error,
+    :meth:`~.hypotheses.Hypothesis.shortfall`; None: the share alone decides). A share measured below
+    ``min_explained`` within the noise is not a shortfall the data show: on a log whose nominal excess is
+    a few hundredths of the noise, the share of it is a ratio of two noisy numbers."""
     if exv is None:
         return False, (
             "the nominal model shows no excess error over the noise on the samples it changes, so it has "
             "nothing there to remove"
         )
-    if exv < s.min_explained:
+    short = exv < s.min_explained if short_t is None else short_t > s.explained_z
+    if short:
         return False, (
             f"removes only {max(exv, 0.0):.0%} of the nominal excess error over the noise (at least "
-            f"{s.min_explained:.0%} is needed)"
+            f"{s.min_explained:.0%} is needed"
+            + ("" if short_t is None else f"; short by {short_t:.1f} standard errors")
+            + ")"
+        )
+    if exv < s.min_explained:
+        return True, (
+            f"removes {max(exv, 0.0):.0%} of the nominal excess error over the noise, less than "
+            f"{s.min_explained:.0%} by {max(short_t or 0.0, 0.0):.1f} standard errors (within the noise)"
         )
     return True, f"removes {exv:.0%} of the nominal excess error over the noise"
 
@@ -158,6 +173,7 @@ def decide(
     settings: DiagnoseSettings,
     *,
     confusable: tuple = (),
+    t_statistic: Callable[[np.ndarray], float] | None = None,
 ) -> Decision:
     """Apply the rule of the module docstring.
 
@@ -175,6 +191,9 @@ def decide(
     confusable
         The pairs that shared their weight (:attr:`SharedWeights.confusable`), reported with the
         decision.
+    t_statistic
+        A per-sample sum in its standard errors (:meth:`.evidence.HeldOutEvidence.t_statistic`): whether
+        the heaviest falls short of ``min_explained`` beyond the noise. None: the share alone decides.
     """
     by = {h.name: h for h in hyps}
     top = max(weights, key=lambda k: weights[k])  # the first maximal: ties in the order of share_confusable
@@ -191,7 +210,10 @@ def decide(
             else f"a gap test is significant, but {w_top}"
         )
         return Decision(NOMINAL, weights[NOMINAL], top, None, None, why, confusable=confusable)
-    ok, how = _explains(exv, settings)
+    short_t = (
+        None if t_statistic is None or exv is None else t_statistic(h.shortfall(by[NOMINAL], settings.min_explained))
+    )
+    ok, how = _explains(exv, short_t, settings)
     if h.family == "candidate" and ok:
         why = f"{w_top} and {how}" if how else w_top
         return Decision(top, weights[top], top, exv, None, why, confusable=confusable)
