@@ -219,3 +219,97 @@ def test_a_residual_that_only_rescales_the_measured_noise_keeps_its_density(g, s
     assert np.allclose(noisier.z, nom.z) and np.allclose(noisier.log_scale, math.log(g))
     w = HeldOutEvidence(block=5, n_bootstrap=50).weights([nom, rescaled])
     assert w["none"] == pytest.approx(0.5, abs=1e-9)
+
+
+def test_a_difference_of_evidence_in_its_standard_errors():
+    from soiltrack.identify.diagnosis.selection import difference_t, difference_z
+
+    u = np.array([1.0, 3.0, 2.0, 2.0])  # sum 8, sd sqrt(0.5), sqrt(4) sd = 1.414...
+    assert difference_t(u) == pytest.approx(8 / (2 * math.sqrt(0.5)))
+    assert difference_t(-u, offset=-1.0) == pytest.approx(-9 / (2 * math.sqrt(0.5)))
+    assert difference_z(-u) == difference_t(u)
+    assert difference_t(np.full(5, 1.0)) == math.inf and difference_t(np.zeros(5)) == 0.0
+    assert difference_t(np.array([1.0, np.inf])) == math.inf
+
+
+def test_held_out_separation_groups_the_samples_into_the_bootstrap_blocks():
+    """Two hypotheses whose density differs by one per sample in 10 blocks of 4 with a spread of block sums:
+    the separation is the blocks' sum over sqrt(10) times their standard deviation, either way round."""
+    n, block = 40, 4
+    za = np.zeros(n)
+    gain = np.repeat(RNG.uniform(0.0, 2.0, n // block), block)  # per-sample density gain of b, constant in a block
+    zb = -np.sqrt(2 * gain)  # -z^2/2 = -gain: b predicts worse by gain per sample
+    a, b = hyp("a", "candidate", za), hyp("b", "candidate", zb)
+    sums = gain.reshape(-1, block).sum(axis=1)
+    want = sums.sum() / (math.sqrt(sums.size) * sums.std())
+    ev = HeldOutEvidence(block=block, n_bootstrap=50)
+    assert ev.separation(a, b) == pytest.approx(want) and ev.separation(b, a) == pytest.approx(want)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**16), st.integers(0, 3), st.integers(0, 3))
+def test_penalised_separation_is_symmetric_and_counts_the_penalty(seed, ka, kb):
+    rng = np.random.default_rng(seed)
+    a = hyp("a", "candidate", rng.standard_normal(30), k=ka)
+    b = hyp("b", "candidate", 1.3 * rng.standard_normal(30), k=kb)
+    ev = PenalisedEvidence(n_bootstrap=50)
+    assert ev.separation(a, b) == pytest.approx(ev.separation(b, a))
+    # the profiled terms sum to the profiled log-likelihood -n/2 log(mean z^2)
+    la = -15 * math.log(np.mean(a.z**2)) - ka
+    lb = -15 * math.log(np.mean(b.z**2)) - kb
+    from soiltrack.identify.diagnosis.selection import difference_z
+
+    q = lambda h: -0.5 * math.log(np.mean(h.z**2)) - 0.5 * h.z**2 / np.mean(h.z**2) + 0.5  # noqa: E731
+    d = q(a) - q(b)
+    assert np.sum(d) + kb - ka == pytest.approx(la - lb)
+    assert ev.separation(a, b) == pytest.approx(difference_z(d, kb - ka))
+
+
+def test_collinear_effects_within_two_standard_errors_are_confusable_whatever_their_weights():
+    u = np.ones(10) / math.sqrt(10)
+    e = RNG.standard_normal(N)
+    hs = [hyp("none", "nominal", 3 * e), hyp("radius_error", "candidate", e), hyp("grade", "candidate", e)]
+    raw = {"none": 0.0, "grade": 0.97, "radius_error": 0.03}
+    dirs = {"grade": u, "radius_error": u}
+    for sep, shared in ((1.5, True), (2.5, False)):
+        sh = share_confusable(hs, raw, dirs, S, lambda a, b: sep)
+        assert bool(sh.confusable) is shared
+        assert sh.weights["grade"] == (pytest.approx(0.5) if shared else 0.97)
+    # different signatures: the separation does not matter
+    v = np.r_[1.0, -1.0, np.zeros(8)] / math.sqrt(2)
+    assert not share_confusable(hs, raw, {"grade": u, "radius_error": v}, S, lambda a, b: 0.1).confusable
+    # the flexible term (no direction) is judged by its weight alone
+    hf = [hyp("none", "nominal", 3 * e), hyp("grade", "candidate", e), hyp("discrepancy", "flexible", e, k=12)]
+    far = {"none": 0.0, "grade": 0.95, "discrepancy": 0.05}
+    assert not share_confusable(hf, far, {"grade": u}, S, lambda a, b: 0.1).confusable
+
+
+def test_a_twin_the_data_cannot_tell_apart_carries_the_explanation_of_its_group():
+    """The heaviest candidate removes less than half of the nominal excess; its twin (collinear, within the
+    noise of it) removes all of it: the group explains the gap and the candidate is named at the shared
+    weight. The flexible term (no direction) does not carry an effect's explanation."""
+    e = RNG.standard_normal(N)
+    e /= np.sqrt(np.mean(e**2))
+    hs = [
+        hyp("none", "nominal", 1.1 * e),
+        hyp("radius_error", "candidate", 1.08 * e),  # removes 1 - 0.1664 / 0.21 = 21 %
+        hyp("speed_scale", "outside", 0.95 * e),
+        hyp("discrepancy", "flexible", 0.95 * e, k=12),
+    ]
+    raw = {"none": 0.0, "radius_error": 0.06, "speed_scale": 0.9, "discrepancy": 0.04}
+    u = np.ones(10) / math.sqrt(10)
+    sh = share_confusable(hs, raw, {"radius_error": u, "speed_scale": u}, S, lambda a, b: 1.5)
+    d = decide(hs, sh.weights, gap(1e-9), S, confusable=sh.confusable)
+    assert hs[1].explained(hs[0]) == pytest.approx(1 - (1.08**2 - 1) / (1.1**2 - 1))
+    assert (d.verdict, d.confidence) == ("radius_error", pytest.approx(0.48))
+    assert d.explained == pytest.approx(hs[1].explained(hs[0]))
+    # told apart (beyond two standard errors): the speed scale is the heaviest and the cause
+    sh = share_confusable(hs, raw, {"radius_error": u, "speed_scale": u}, S, lambda a, b: 3.0)
+    d = decide(hs, sh.weights, gap(1e-9), S, confusable=sh.confusable)
+    assert (d.verdict, d.cause, d.confidence) == ("unexplained", "speed_scale", pytest.approx(0.94))
+    # a candidate paired only with the flexible term keeps its own test
+    flex = {"none": 0.0, "radius_error": 0.45, "speed_scale": 0.0, "discrepancy": 0.55}
+    sh = share_confusable(hs, flex, {"radius_error": u}, S)
+    d = decide(hs, sh.weights, gap(1e-9), S, confusable=sh.confusable)
+    assert [set(p) for p, _, _ in sh.confusable] == [{"radius_error", "discrepancy"}]
+    assert (d.verdict, d.cause) == ("unexplained", None)

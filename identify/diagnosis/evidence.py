@@ -27,7 +27,7 @@ from typing import Protocol, Sequence
 import numpy as np
 
 from .hypotheses import Hypothesis
-from .selection import difference_t, difference_z, stacking_weights
+from .selection import difference_z, stacking_weights
 from .sweep_parts import information_weights
 
 __all__ = ["Evidence", "HeldOutEvidence", "PenalisedEvidence"]
@@ -44,10 +44,6 @@ class Evidence(Protocol):
 
     def separation(self, a: Hypothesis, b: Hypothesis) -> float:
         """The difference of evidence between ``a`` and ``b`` in its standard errors (absolute)."""
-
-    def t_statistic(self, per_sample: np.ndarray) -> float:
-        """The sum of ``per_sample`` (one value per compared sample) in its standard errors, signed, with the
-        samples grouped into the units the evidence takes as independent."""
 
 
 def _density(h: Hypothesis) -> np.ndarray:
@@ -84,12 +80,8 @@ class HeldOutEvidence:
     def separation(self, a: Hypothesis, b: Hypothesis) -> float:
         """The held-out log-density difference of ``a`` and ``b`` in its standard errors, from the sums
         over the hold-out blocks (the units the bootstrap draws)."""
-        return abs(self.t_statistic(_density(a) - _density(b)))
-
-    def t_statistic(self, per_sample: np.ndarray) -> float:
-        """The sum of ``per_sample`` in its standard errors, from its sums over blocks of ``block`` samples."""
-        d = np.asarray(per_sample, dtype=float).ravel()
-        return difference_t(np.add.reduceat(d, np.arange(0, d.size, max(1, self.block))) if d.size else d)
+        d = _density(a) - _density(b)
+        return difference_z(np.add.reduceat(d, np.arange(0, d.size, max(1, self.block))) if d.size else d)
 
 
 @dataclass(frozen=True)
@@ -113,7 +105,3 @@ class PenalisedEvidence:
         """The penalised log-likelihood difference of ``a`` and ``b`` in its standard errors, from the
         samples' terms (noise level profiled out) and Akaike's penalties."""
         return difference_z(_profiled(a) - _profiled(b), offset=float(b.n_params - a.n_params))
-
-    def t_statistic(self, per_sample: np.ndarray) -> float:
-        """The sum of ``per_sample`` in its standard errors (the samples independent)."""
-        return difference_t(per_sample)

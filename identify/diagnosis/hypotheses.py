@@ -223,20 +223,6 @@ class Hypothesis:
         ls[np.isnan(frame.z(self.residuals))] = 0.0  # filled with the nominal model's values
         return replace(self, z=z, scale=scale, log_scale=ls, in_support=sel)
 
-    def _compared(self, nominal: "Hypothesis") -> tuple[np.ndarray, np.ndarray]:
-        """The nominal model's and this hypothesis's standardised residuals on its :attr:`support`."""
-        z0, z1 = nominal.z, self.z
-        if self.in_support is not None and self.in_support.size == z1.size == z0.size:
-            z0, z1 = z0[self.in_support], z1[self.in_support]
-        return z0, z1
-
-    def shortfall(self, nominal: "Hypothesis", share: float) -> np.ndarray:
-        """Per compared sample (on its :attr:`support`), ``z1^2 - (1 - share) z0^2 - share``: their mean is
-        ``E - (1 - share) E_nominal`` (see :meth:`explained`), positive when this hypothesis removes less
-        than ``share`` of the nominal excess error; its sum over its standard error tests that."""
-        z0, z1 = self._compared(nominal)
-        return z1**2 - (1.0 - share) * z0**2 - share
-
     def explained(self, nominal: "Hypothesis") -> float:
         """Share of the nominal model's excess error over the noise that this hypothesis removes.
 
@@ -244,7 +230,9 @@ class Hypothesis:
         residuals over the ``n`` compared samples in its :attr:`support`): at most 1, negative when it
         does worse, NaN when the nominal model shows no excess there (nothing for it to explain).
         """
-        z0, z1 = self._compared(nominal)
+        z0, z1 = nominal.z, self.z
+        if self.in_support is not None and self.in_support.size == z1.size == z0.size:
+            z0, z1 = z0[self.in_support], z1[self.in_support]
         n = z1.size
         s0 = float(z0 @ z0) if np.all(np.isfinite(z0)) else math.inf
         s1 = float(z1 @ z1) if np.all(np.isfinite(z1)) else math.inf

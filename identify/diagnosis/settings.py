@@ -23,11 +23,6 @@ class DiagnoseSettings:
     min_explained
         Least share of the nominal model's excess error over the noise that the heaviest hypothesis
         must remove to be the verdict: below half, something else carries most of the gap.
-    explained_z
-        Standard errors by which the heaviest hypothesis must fall short of ``min_explained`` not to
-        explain the gap: 2 (one-sided 2.3 %). The share is a ratio of two noisy excesses; on a log whose
-        nominal excess is a few hundredths of the noise (a 2 % radius error, doubled noise) it measured
-        -4.6 for the true model, a shortfall of 0.8 standard errors.
     min_shrink
         Least held-out RMS shrink (with a significant Diebold-Mariano test) that shows a gap when the
         nominal error alone is within the noise: 5 % is about what a half-size effect gives on a
@@ -94,7 +89,6 @@ class DiagnoseSettings:
 
     alpha: float = 0.01
     min_explained: float = 0.5
-    explained_z: float = 2.0
     min_shrink: float = 0.05
     min_samples: int = 8
     sweep_blocks: int = 10
