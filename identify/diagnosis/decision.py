@@ -185,7 +185,7 @@ def _group_explains(
     for twin in _twins(h.name, confusable):
         ex = by[twin].explained(by[NOMINAL]) if twin in by else math.nan
         if math.isfinite(ex) and _explains(float(ex), s)[0]:
-            own = "nothing measurable" if exv is None else f"{max(exv, 0.0):.0%}"
+            own = "nothing measurable" if exv is None else f"{exv:.0%}"
             return True, (
                 f"{twin}, which these data cannot tell from it, removes {ex:.0%} of the nominal excess error "
                 f"over the noise (its own refit removes {own})"
