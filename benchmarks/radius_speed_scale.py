@@ -1,12 +1,14 @@
 """A radius error against a speed-sensor scale: how far apart the held-out evidence puts them, in standard errors.
 
-On the diagnosis grid's radius-error logs that are named ``unexplained`` with cause ``speed_scale``
+On the diagnosis grid's radius-error logs that were named ``unexplained`` with cause ``speed_scale`` before
+the diagnosis judged collinear pairs by the standard error of their difference
 (``python benchmarks/bench_diagnose.py --kinds drive``), this prints, per log, the verdict and its
-confidence, and the difference of held-out log density between the radius error and the speed scale
-(the evidence the pseudo-BMA+ weights are made of, summed over the held-out samples) with its standard
-error from the hold-out blocks (the blocks the weights' bootstrap draws). A weight near one at a
-difference of one or two standard errors is the weight ratio calling two hypotheses apart that the
-evidence does not separate.
+confidence, the speed scale's weight from the evidence alone, and the difference of held-out log density
+between the radius error and the speed scale (the evidence the pseudo-BMA+ weights are made of, summed
+over the held-out samples) with its standard error from the hold-out blocks (the blocks the weights'
+bootstrap draws; ``HeldOutEvidence.separation`` gives the ratio), and the share of the nominal excess
+error each one's refit removes. A weight near one at a difference of one or two standard errors is the
+weight calling two hypotheses apart that the evidence does not separate.
 
 Run:  python benchmarks/radius_speed_scale.py
 """
@@ -27,6 +29,8 @@ import bench_diagnose as grid  # noqa: E402
 
 from soiltrack.identify import diagnose  # noqa: E402
 from soiltrack.identify.diagnosis import DiagnoseSettings  # noqa: E402
+from soiltrack.identify.diagnosis.evidence import HeldOutEvidence, log_density  # noqa: E402
+
 
 #: (vehicle, terrain, eps, noise, seed): the grid's radius-error logs named ``unexplained`` on commit 1d64cb4.
 CASES = [
@@ -43,10 +47,9 @@ CASES = [
 ]
 
 
-def _density(h) -> np.ndarray:
-    """A scored hypothesis's held-out log density per compared sample (as :class:`HeldOutEvidence` forms it)."""
-    z = np.asarray(h.z, dtype=float)
-    return -0.5 * z**2 - (h.log_scale if h.log_scale.size == z.size else 0.0)
+def _share(x) -> str:
+    """A share removed, or n/a."""
+    return f"{x:7.2f}" if x is not None else f"{'n/a':>7s}"
 
 
 def main() -> None:
@@ -59,7 +62,10 @@ def main() -> None:
         return decide(hyps, *args, **kw)
 
     steps.decide = keep
-    print(f"{'log':48s} {'verdict':12s} {'conf':>5s} {'diff':>8s} {'SE':>7s} {'diff/SE':>8s}")
+    print(
+        f"{'log':48s} {'verdict':12s} {'conf':>5s} {'w_ss':>5s} {'diff':>8s} {'SE':>7s} {'diff/SE':>8s} "
+        f"{'expl_r':>7s} {'expl_s':>7s}"
+    )
     for vname, tname, eps, noise, seed in CASES:
         vehicle = grid.VEHICLES[vname]
         data = grid.make(
@@ -70,13 +76,18 @@ def main() -> None:
         if "radius_error" not in hs or "speed_scale" not in hs:
             print(f"{vname} {tname} eps {eps} {noise} s{seed}: radius error or speed scale not admissible")
             continue
-        diff = _density(hs["radius_error"]) - _density(hs["speed_scale"])
         block = max(1, data.n_samples // DiagnoseSettings().log_blocks)
-        sums = np.add.reduceat(diff, np.arange(0, diff.size, block))
-        se = float(np.std(sums) * np.sqrt(sums.size))
+        ev = HeldOutEvidence(block, DiagnoseSettings().n_bootstrap)
+        r, q = hs["radius_error"], hs["speed_scale"]
+        z = ev.separation(r, q)
+        diff = float(np.sum(log_density(r) - log_density(q)))
+        raw = {e.effect: e.evidence_weight for e in d.ranking}
+        ex = {e.effect: e.explained for e in d.ranking}
         label = f"{vname} {tname} eps {eps} noise {noise} seed {seed}"
         print(
-            f"{label:48s} {d.verdict:12s} {d.confidence:5.2f} {diff.sum():8.1f} {se:7.1f} {diff.sum() / se:8.2f}",
+            f"{label:48s} {d.verdict:12s} {d.confidence:5.2f} {raw['speed_scale']:5.2f} {diff:8.1f} "
+            f"{abs(diff) / z if z else float('nan'):7.1f} {diff / abs(diff) * z if diff else 0.0:8.2f} "
+            f"{_share(ex['radius_error'])} {_share(ex['speed_scale'])}",
             flush=True,
         )
     steps.decide = decide

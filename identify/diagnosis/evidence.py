@@ -30,7 +30,7 @@ from .hypotheses import Hypothesis
 from .selection import difference_z, stacking_weights
 from .sweep_parts import information_weights
 
-__all__ = ["Evidence", "HeldOutEvidence", "PenalisedEvidence"]
+__all__ = ["Evidence", "HeldOutEvidence", "PenalisedEvidence", "log_density"]
 
 
 class Evidence(Protocol):
@@ -46,7 +46,7 @@ class Evidence(Protocol):
         """The difference of evidence between ``a`` and ``b`` in its standard errors (absolute)."""
 
 
-def _density(h: Hypothesis) -> np.ndarray:
+def log_density(h: Hypothesis) -> np.ndarray:
     """A hypothesis's held-out log density per compared sample: ``-z^2 / 2 - log_scale`` (the log of its noise
     level relative to the nominal model's; 0 when it has none)."""
     z = np.asarray(h.z, dtype=float)
@@ -72,7 +72,7 @@ class HeldOutEvidence:
     def weights(self, hypotheses: Sequence[Hypothesis]) -> dict[str, float]:
         """Weights of ``hypotheses`` (all on the same held-out samples)."""
         return stacking_weights(
-            {h.name: _density(h) for h in hypotheses},
+            {h.name: log_density(h) for h in hypotheses},
             block=self.block,
             n_boot=self.n_bootstrap,
         )
@@ -80,7 +80,7 @@ class HeldOutEvidence:
     def separation(self, a: Hypothesis, b: Hypothesis) -> float:
         """The held-out log-density difference of ``a`` and ``b`` in its standard errors, from the sums
         over the hold-out blocks (the units the bootstrap draws)."""
-        d = _density(a) - _density(b)
+        d = log_density(a) - log_density(b)
         return difference_z(np.add.reduceat(d, np.arange(0, d.size, max(1, self.block))) if d.size else d)
 
 
