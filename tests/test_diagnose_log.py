@@ -238,21 +238,32 @@ def test_a_mass_error_is_not_charged_for_the_larger_residual_its_mass_gives():
     assert lo < 0.1 < hi
 
 
+def _light_radius_log(terrain: str, eps: float, seed: int) -> DriveLog:
+    """The diagnosis grid's light-vehicle log with doubled noise and a radius error ``eps`` (one minute)."""
+    from soiltrack.soilmodel import SensorNoise
+
+    noise = SensorNoise(
+        encoder_rel=0.01, encoder_abs=0.02, gnss_speed=0.1, imu_accel=0.1, torque_rel=0.02, torque_fs=0.002
+    )
+    return simulate(
+        VEHICLES["light"],
+        TERRAINS[terrain],
+        kind="drive",
+        effects={"radius_error": eps},
+        seed=seed,
+        noise=noise,
+        duration_s=60.0,
+    )
+
+
 @pytest.mark.slow
 def test_a_radius_error_and_a_speed_sensor_scale_share_their_weight_when_the_data_cannot_tell_them_apart():
     """Both scale the apparent slip; only a radius error changes the torque arm, which the soil's thrust limit
     absorbs but for the hull balance. On the grid's light-vehicle log with doubled noise (radius error 5 %, seed
     2) the two weigh 0.35 and 0.65 apart; their sensitivities are collinear, so they are confusable, share their
     weight, and the pair is listed with its separating experiment; the candidate is named first."""
-    from soiltrack.soilmodel import SensorNoise
-
-    noise = SensorNoise(
-        encoder_rel=0.01, encoder_abs=0.02, gnss_speed=0.1, imu_accel=0.1, torque_rel=0.02, torque_fs=0.002
-    )
     v = VEHICLES["light"]
-    log = simulate(
-        v, TERRAINS["lete_sand"], kind="drive", effects={"radius_error": 0.05}, seed=2, noise=noise, duration_s=60.0
-    )
+    log = _light_radius_log("lete_sand", 0.05, 2)
     d = diagnose(log, v)
     _consistent(d)
     w = {e.effect: e.weight for e in d.ranking}
@@ -272,15 +283,8 @@ def test_a_speed_scale_ahead_by_less_than_two_standard_errors_does_not_win_over_
     weight is 0.97 (named ``unexplained``, cause ``speed_scale``, before). Within two standard errors, with
     collinear sensitivities, the two are confusable: they share, and the candidate is named. Its own refit
     removes 46 % of the nominal excess, the speed scale 89 %: the group explains the gap."""
-    from soiltrack.soilmodel import SensorNoise
-
-    noise = SensorNoise(
-        encoder_rel=0.01, encoder_abs=0.02, gnss_speed=0.1, imu_accel=0.1, torque_rel=0.02, torque_fs=0.002
-    )
     v = VEHICLES["light"]
-    log = simulate(
-        v, TERRAINS["dry_sand"], kind="drive", effects={"radius_error": 0.02}, seed=2, noise=noise, duration_s=60.0
-    )
+    log = _light_radius_log("dry_sand", 0.02, 2)
     d = diagnose(log, v)
     _consistent(d)
     w = {e.effect: e.weight for e in d.ranking}
