@@ -135,7 +135,7 @@ def run_case(kind, vname, tname, eff_name, mag, nname, seed, candidates=None, du
         "det": det,
         "n": data.n_samples,
         "outside": weigh_outside,
-        "confusable": [p for p, _, _ in d.confusable],
+        "confusable": [c.effects for c in d.confusable],
         "diag": d,
     }
 

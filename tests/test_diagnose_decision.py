@@ -88,8 +88,9 @@ def test_close_collinear_effects_are_confusable_with_their_experiment_and_no_cap
     d = decide(hs, shared.weights, gap(1e-9), S, confusable=shared.confusable)
     # the pair shares its weight: the confidence is the shared weight, no cap
     assert d.verdict == "grade" and d.confidence == pytest.approx(0.5)
-    assert [set(p) for p, _, _ in d.confusable] == [{"grade", "drivetrain_friction"}]
-    assert d.confusable[0][1] == pytest.approx(1.0) and d.confusable[0][2]
+    assert [set(c.effects) for c in d.confusable] == [{"grade", "drivetrain_friction"}]
+    assert d.confusable[0].correlation == pytest.approx(1.0) and d.confusable[0].experiment
+    assert math.isnan(d.confusable[0].separation)  # close weights made them confusable
     # the decision lists the pairs that shared, found once on the weights before sharing
     assert d.confusable == shared.confusable
 
@@ -273,7 +274,7 @@ def test_collinear_effects_within_two_standard_errors_are_confusable_whatever_th
     dirs = {"grade": u, "radius_error": u}
     for sep, shared in ((1.5, True), (2.5, False)):
         sh = share_confusable(hs, raw, dirs, S, lambda a, b: sep)
-        assert bool(sh.confusable) is shared
+        assert bool(sh.confusable) is shared and (not shared or sh.confusable[0].separation == sep)
         assert sh.weights["grade"] == (pytest.approx(0.5) if shared else 0.97)
     # different signatures: the separation does not matter
     v = np.r_[1.0, -1.0, np.zeros(8)] / math.sqrt(2)
@@ -311,5 +312,5 @@ def test_a_twin_the_data_cannot_tell_apart_carries_the_explanation_of_its_group(
     flex = {"none": 0.0, "radius_error": 0.45, "speed_scale": 0.0, "discrepancy": 0.55}
     sh = share_confusable(hs, flex, {"radius_error": u}, S)
     d = decide(hs, sh.weights, gap(1e-9), S, confusable=sh.confusable)
-    assert [set(p) for p, _, _ in sh.confusable] == [{"radius_error", "discrepancy"}]
+    assert [set(c.effects) for c in sh.confusable] == [{"radius_error", "discrepancy"}]
     assert (d.verdict, d.cause) == ("unexplained", None)

@@ -144,7 +144,7 @@ def test_confusable_pairs_and_experiments():
     d = np.array([1.0, 2.0, 3.0])
     dirs = {"grade": d, "mass_error": 2 * d, "radius_error": np.array([1.0, -1.0, 0.0]), "hump_shear": -d}
     pairs = confusable_groups({"grade": 0.45, "mass_error": 0.40, "radius_error": 0.01, "hump_shear": 0.001}, dirs)
-    assert [p for p, _ in pairs] == [("grade", "mass_error")] and pairs[0][1] == pytest.approx(1.0)
+    assert [p for p, _, _ in pairs] == [("grade", "mass_error")] and pairs[0][1] == pytest.approx(1.0)
     # collinear sensitivities but clearly different weights: the refit told them apart
     assert confusable_groups({"grade": 0.95, "hump_shear": 0.01, "radius_error": 0.04}, dirs) == []
     # close weights but unrelated sensitivities: not confusable (each changes something different)

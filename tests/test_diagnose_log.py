@@ -238,6 +238,9 @@ def test_a_mass_error_is_not_charged_for_the_larger_residual_its_mass_gives():
     assert lo < 0.1 < hi
 
 
+S_CONFUSABLE = DiagnoseSettings().confusable_separation
+
+
 def _light_radius_log(terrain: str, eps: float, seed: int) -> DriveLog:
     """The diagnosis grid's light-vehicle log with doubled noise and a radius error ``eps`` (one minute)."""
     from soiltrack.soilmodel import SensorNoise
@@ -268,7 +271,7 @@ def test_a_radius_error_and_a_speed_sensor_scale_share_their_weight_when_the_dat
     _consistent(d)
     w = {e.effect: e.weight for e in d.ranking}
     assert w["radius_error"] == w["speed_scale"] == pytest.approx(0.5, abs=0.01)
-    pairs = [set(p) for p, _, _ in d.confusable]
+    pairs = [set(c.effects) for c in d.confusable]
     assert {"radius_error", "speed_scale"} in pairs
     # a candidate explains the gap as well as the cause outside the candidates: the gap is not unexplained
     assert (d.verdict, d.confidence) == ("radius_error", w["radius_error"])
@@ -292,7 +295,10 @@ def test_a_speed_scale_ahead_by_less_than_two_standard_errors_does_not_win_over_
     assert raw["speed_scale"] > 0.9  # the weights alone would have told them apart
     assert w["radius_error"] == w["speed_scale"] == pytest.approx(0.5, abs=0.01)
     assert (d.verdict, d.confidence, d.cause) == ("radius_error", w["radius_error"], None)
-    assert {"radius_error", "speed_scale"} in [set(p) for p, _, _ in d.confusable]
+    assert {"radius_error", "speed_scale"} in [set(c.effects) for c in d.confusable]
+    # the report and the JSON give the separation that decided: 1.8 standard errors (below 2)
+    detail = next(c for c in d.to_dict()["confusable_detail"] if set(c["effects"]) == {"radius_error", "speed_scale"})
+    assert 1.5 < detail["separation_se"] < S_CONFUSABLE
     # with the criterion off (no pair within 0 standard errors), the weights decide as before
     d0 = diagnose(log, v, settings=DiagnoseSettings(confusable_separation=0.0))
     assert (d0.verdict, d0.cause) == ("unexplained", "speed_scale")

@@ -144,7 +144,7 @@ def test_the_hold_not_given_is_chosen_on_held_out_blocks():
     assert (h.hold, h.given) == ("sample", False) and h.p_value < h.level and h.shrink > 0, h
     assert d.to_dict()["torque_hold"] == "sample"
     assert d.verdict in ("grade", "drivetrain_friction"), d.verdict
-    assert {"grade", "drivetrain_friction"} in [set(p) for p, _, _ in d.confusable]
+    assert {"grade", "drivetrain_friction"} in [set(c.effects) for c in d.confusable]
     assert d.confidence == d.weight_of(d.verdict)
 
 

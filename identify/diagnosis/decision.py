@@ -28,15 +28,38 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from .gap_test import GapDecision
 from .hypotheses import NOMINAL, Hypothesis
 from .selection import confusable_groups, separating_experiment, shared_weights
 from .settings import DiagnoseSettings
 
-__all__ = ["Decision", "SharedWeights", "decide", "share_confusable", "UNEXPLAINED"]
+__all__ = ["ConfusablePair", "Decision", "SharedWeights", "decide", "share_confusable", "UNEXPLAINED"]
 
 UNEXPLAINED = "unexplained"
+
+
+class ConfusablePair(NamedTuple):
+    """Two hypotheses the data cannot tell apart (:func:`share_confusable`).
+
+    Attributes
+    ----------
+    effects
+        The two names.
+    correlation
+        ``|corr|`` of their sensitivity directions (NaN when one is unknown: the flexible term).
+    separation
+        Their difference of evidence in its standard errors when that made them confusable (below
+        ``confusable_separation``, whatever their weights); NaN when their close weights did.
+    experiment
+        The experiment that separates them.
+    """
+
+    effects: tuple[str, ...]
+    correlation: float
+    separation: float
+    experiment: str
 
 
 @dataclass(frozen=True)
@@ -58,7 +81,7 @@ class Decision:
     reason
         The rule that decided, with its numbers.
     confusable
-        ``((a, b), correlation, experiment)`` per pair of effects the data cannot tell apart.
+        A :class:`ConfusablePair` per pair of effects the data cannot tell apart.
     """
 
     verdict: str
@@ -77,7 +100,7 @@ def _pairs(
     directions: dict,
     s: DiagnoseSettings,
     separation: Callable[[Hypothesis, Hypothesis], float] | None,
-) -> list[tuple[tuple[str, ...], float]]:
+) -> list[tuple[tuple[str, ...], float, float]]:
     """Pairs of hypotheses with a known sensitivity (and the flexible term: it can follow any smooth gap, its
     direction is unknown) that the evidence does not tell apart and whose sensitivities are collinear."""
     by_name = {h.name: h for h in hyps}
@@ -102,8 +125,8 @@ class SharedWeights:
     weights
         The shared weights, heaviest first (see :func:`share_confusable`).
     confusable
-        ``((a, b), correlation, experiment)`` per pair that shared: effects the data cannot tell
-        apart, with the experiment that separates them.
+        A :class:`ConfusablePair` per pair that shared: effects the data cannot tell apart, with
+        the experiment that separates them.
     """
 
     weights: dict[str, float]
@@ -133,7 +156,7 @@ def share_confusable(
         shared_weights(
             weights, pairs, {h.name: h.n_params for h in hyps}, [h.name for h in hyps if h.family == "candidate"]
         ),
-        tuple((p, c, separating_experiment(*p)) for p, c in pairs),
+        tuple(ConfusablePair(p, c, sep, separating_experiment(*p)) for p, c, sep in pairs),
     )
 
 
@@ -159,8 +182,9 @@ def _twins(name: str, confusable: tuple) -> list[str]:
     seen, todo = [name], [name]
     while todo:
         k = todo.pop(0)
-        for (a, b), corr, _ in confusable:
-            if k in (a, b) and math.isfinite(corr):
+        for pair in confusable:
+            a, b = pair.effects
+            if k in (a, b) and math.isfinite(pair.correlation):
                 other = b if k == a else a
                 if other not in seen:
                     seen.append(other)

@@ -80,10 +80,17 @@ def _ranking_lines(d: Any) -> list[str]:
             )
     for x in d.excluded:
         out.append(f"  left out: {x.name} ({x.family}): {x.why}")
-    for (a, b), corr, exp in d.confusable:
-        cs = f" (sensitivities correlated {corr:.2f})" if corr is not None and math.isfinite(corr) else ""
+    for c in d.confusable:
+        a, b = c.effects
+        why = []
+        if c.correlation is not None and math.isfinite(c.correlation):
+            why.append(f"sensitivities correlated {c.correlation:.2f}")
+        if c.separation is not None and math.isfinite(c.separation):
+            why.append(f"evidence {c.separation:.1f} standard errors apart")
+        cs = f" ({'; '.join(why)})" if why else ""
         out.append(
-            f"  {a} and {b} cannot be told apart on these data{cs}: they share their weight; to separate them: {exp}"
+            f"  {a} and {b} cannot be told apart on these data{cs}: they share their weight; to separate them: "
+            f"{c.experiment}"
         )
     return out
 

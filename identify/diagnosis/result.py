@@ -116,7 +116,7 @@ class Diagnosis:
     screens
         The score test of every library effect (which were refitted).
     confusable
-        ``((a, b), correlation, experiment)`` per pair the data cannot tell apart.
+        A :class:`~.decision.ConfusablePair` per pair the data cannot tell apart.
     localisation
         Where the nominal misfit lies (:class:`~.gap.Segment`, by share).
     noise
@@ -186,9 +186,15 @@ class Diagnosis:
                 "evidence": self.evidence,
                 "gap_tests": [t.to_dict() for t in self.gap.tests],
                 "gap": bool(self.gap.present),
-                "confusable": [list(p) for p, _, _ in self.confusable],
+                "confusable": [list(c.effects) for c in self.confusable],
                 "confusable_detail": [
-                    {"effects": list(p), "correlation": finite(c), "experiment": x} for p, c, x in self.confusable
+                    {
+                        "effects": list(c.effects),
+                        "correlation": finite(c.correlation),
+                        "separation_se": finite(c.separation),
+                        "experiment": c.experiment,
+                    }
+                    for c in self.confusable
                 ],
                 "localisation": [s.to_dict() for s in self.localisation],
                 "lone_readings": {ch: [int(r) for r in rows] for ch, rows in self.lone_readings.items()},

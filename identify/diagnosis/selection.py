@@ -232,7 +232,7 @@ def confusable_groups(
     min_weight: float = 0.05,
     separation: Callable[[str, str], float] | None = None,
     max_separation: float = 2.0,
-) -> list[tuple[tuple[str, ...], float]]:
+) -> list[tuple[tuple[str, ...], float, float]]:
     """Pairs of candidates the data cannot tell apart.
 
     A pair of named candidates is confusable when their projected sensitivity directions (what each
@@ -248,11 +248,13 @@ def confusable_groups(
     effect that predicts as well as the flexible term with fewer parameters is what the held-out
     evidence rewards, and the flexible term is within the noise of the true effect by design.
     Collinear sensitivities alone are not enough: they are local (at "effect off"), and a refit that
-    the held-out data clearly prefer has told the two apart. Returns ``[((a, b), corr), ...]`` (corr
-    NaN when a direction is unknown).
+    the held-out data clearly prefer has told the two apart.
+
+    Returns ``[((a, b), corr, separation), ...]``: corr NaN when a direction is unknown; separation
+    when it made the pair confusable (below ``max_separation``), else NaN (the weights did).
     """
     names = [k for k in weights if k != NOMINAL]
-    out: list[tuple[tuple[str, ...], float]] = []
+    out: list[tuple[tuple[str, ...], float, float]] = []
     for i, a in enumerate(names):
         for b in names[i + 1 :]:
             wa, wb = weights[a], weights[b]
@@ -263,14 +265,10 @@ def confusable_groups(
             if math.isfinite(corr) and corr < min_corr:
                 continue  # different signatures: the data can tell them apart
             close = min(wa, wb) >= max(min_ratio * max(wa, wb), min_weight)
-            within = (
-                math.isfinite(corr)
-                and max(wa, wb) >= min_weight
-                and separation is not None
-                and separation(a, b) < max_separation
-            )
+            sep = separation(a, b) if separation is not None and math.isfinite(corr) else math.nan
+            within = math.isfinite(corr) and max(wa, wb) >= min_weight and sep < max_separation
             if close or within:
-                out.append(((a, b), corr))
+                out.append(((a, b), corr, sep if within else math.nan))
     return out
 
 
@@ -281,7 +279,7 @@ WEIGHT_DECIMALS = 12
 
 def shared_weights(
     weights: dict[str, float],
-    pairs: list[tuple[tuple[str, ...], float]],
+    pairs: list[tuple[tuple[str, ...], float, float]],
     n_params: dict[str, int],
     candidates: Collection[str] = (),
 ) -> dict[str, float]:
@@ -304,7 +302,7 @@ def shared_weights(
             k = root[k]
         return k
 
-    for (a, b), _ in pairs:
+    for (a, b), *_ in pairs:
         if a in root and b in root:
             root[find(a)] = find(b)
     groups: dict[str, list[str]] = {}
