@@ -6,7 +6,8 @@ the diagnosis judged collinear pairs by the standard error of their difference
 confidence, the speed scale's weight from the evidence alone, and the difference of held-out log density
 between the radius error and the speed scale (the evidence the pseudo-BMA+ weights are made of, summed
 over the held-out samples) with its standard error from the hold-out blocks (the blocks the weights'
-bootstrap draws; ``HeldOutEvidence.separation`` gives the ratio), and the share of the nominal excess
+bootstrap draws: the separation the diagnosis reports for the pair, NaN when the pair is not confusable
+by it), and the share of the nominal excess
 error each one's refit removes. A weight near one at a difference of one or two standard errors is the
 weight calling two hypotheses apart that the evidence does not separate.
 
@@ -16,6 +17,7 @@ Run:  python benchmarks/radius_speed_scale.py
 from __future__ import annotations
 
 import importlib
+import math
 import os
 import sys
 
@@ -28,8 +30,7 @@ sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
 import bench_diagnose as grid  # noqa: E402
 
 from soiltrack.identify import diagnose  # noqa: E402
-from soiltrack.identify.diagnosis import DiagnoseSettings  # noqa: E402
-from soiltrack.identify.diagnosis.evidence import HeldOutEvidence, log_density  # noqa: E402
+from soiltrack.identify.diagnosis.evidence import log_density  # noqa: E402
 
 
 #: (vehicle, terrain, eps, noise, seed): the grid's radius-error logs named ``unexplained`` on commit 1d64cb4.
@@ -76,17 +77,16 @@ def main() -> None:
         if "radius_error" not in hs or "speed_scale" not in hs:
             print(f"{vname} {tname} eps {eps} {noise} s{seed}: radius error or speed scale not admissible")
             continue
-        block = max(1, data.n_samples // DiagnoseSettings().log_blocks)
-        ev = HeldOutEvidence(block, DiagnoseSettings().n_bootstrap)
-        r, q = hs["radius_error"], hs["speed_scale"]
-        z = ev.separation(r, q)
-        diff = float(np.sum(log_density(r) - log_density(q)))
+        # the separation the diagnosis computed (its own hold-out blocks), when it made the pair confusable
+        pair = next((c for c in d.confusable if set(c.effects) == {"radius_error", "speed_scale"}), None)
+        z = pair.separation if pair is not None else float("nan")
+        diff = float(np.sum(log_density(hs["radius_error"]) - log_density(hs["speed_scale"])))
         raw = {e.effect: e.evidence_weight for e in d.ranking}
         ex = {e.effect: e.explained for e in d.ranking}
         label = f"{vname} {tname} eps {eps} noise {noise} seed {seed}"
         print(
             f"{label:48s} {d.verdict:12s} {d.confidence:5.2f} {raw['speed_scale']:5.2f} {diff:8.1f} "
-            f"{abs(diff) / z if z else float('nan'):7.1f} {diff / abs(diff) * z if diff else 0.0:8.2f} "
+            f"{abs(diff) / z if z > 0 else float('nan'):7.1f} {math.copysign(z, diff):8.2f} "
             f"{_share(ex['radius_error'])} {_share(ex['speed_scale'])}",
             flush=True,
         )

@@ -26,7 +26,6 @@ __all__ = [
     "hat_basis",
     "fit_discrepancy",
     "confusable_groups",
-    "difference_t",
     "difference_z",
     "shared_weights",
     "dm_test",
@@ -198,30 +197,25 @@ def stacking_weights(
     return {m: float(w) for m, w in zip(names, out)}
 
 
-def difference_t(units: np.ndarray, offset: float = 0.0) -> float:
-    """A difference of evidence in its standard errors, signed: ``(sum(units) + offset) / (sqrt(m) * sd(units))``.
+def difference_z(units: np.ndarray, offset: float = 0.0) -> float:
+    """How many standard errors apart the evidence puts two hypotheses: ``|sum(units) + offset| / (sqrt(m) sd(units))``.
 
     ``units`` are the difference's contributions from the ``m`` units the data make independent (the
     hold-out blocks of a log, the samples of a sweep); ``offset`` a constant part (a difference of
     penalties). The standard error is the one of a sum of ``m`` independent draws (as in the
-    comparison of held-out predictions of Vehtari, Gelman and Gabry 2017). ``+-inf`` when the units do
-    not vary and the difference is not zero; 0 when it is; ``inf`` when a unit is not finite.
+    comparison of held-out predictions of Vehtari, Gelman and Gabry 2017). ``inf`` when the units do
+    not vary and the difference is not zero, or when a unit is not finite; 0 when there is no difference.
     """
     u = np.asarray(units, dtype=float).ravel()
     if u.size == 0:
         return 0.0
     if not np.all(np.isfinite(u)):
         return math.inf
-    diff = float(u.sum()) + offset
+    diff = abs(float(u.sum()) + offset)
     se = math.sqrt(u.size) * float(np.std(u))
     if se <= 0.0:
-        return math.copysign(math.inf, diff) if diff != 0.0 else 0.0
+        return math.inf if diff > 0.0 else 0.0
     return diff / se
-
-
-def difference_z(units: np.ndarray, offset: float = 0.0) -> float:
-    """:func:`difference_t` without its sign: how many standard errors apart the evidence puts two hypotheses."""
-    return abs(difference_t(units, offset))
 
 
 def confusable_groups(
