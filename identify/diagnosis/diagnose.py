@@ -38,7 +38,7 @@ from ..sweep.rig import pure_error_test
 from ..sweep.sinkage_channel import slip_sinkage_evidence
 from .decision import share_confusable, UNEXPLAINED, Decision, decide
 from .evidence import HeldOutEvidence, PenalisedEvidence
-from .fits import SOIL_KEYS, FitRunner, channels, effect_parameters, soil_summary, usable
+from .fits import SOIL_KEYS, FitRunner, channels, effect_parameters, log_noise, soil_summary, usable
 from .gap import long_run_factor
 from .gap_test import GapDecision, decide_gap
 from .hold import HoldChoice, choose_hold
@@ -98,11 +98,26 @@ def _setup(runner: FitRunner, nominal_fit: Any) -> Setup:
     model_sigma = None if runner.is_log else sweep_noise_model(runner.run(None, slip_noise="auto"), data)
     if model_sigma is not None:
         sigma = {ch: model_sigma for ch in sigma}
-    if runner.is_log and np.all(np.isfinite(nominal_fit.theta)):
-        runner.x0 = np.asarray(nominal_fit.theta, dtype=float)
+    expected = None
+    if runner.is_log:
+        # a log's channels are weighed by the sensors' noise, as the fit weighs them; the latent slip of each
+        # sample takes up part of it (expected: the share it leaves)
+        sigma, expected = log_noise(nominal_fit, data)
+        if np.all(np.isfinite(nominal_fit.theta)):
+            runner.x0 = np.asarray(nominal_fit.theta, dtype=float)
     folds = make_folds(data, order, runner.settings)
     return Setup(
-        runner, nominal_fit, R, sigma, frozenset(flat), folds, x, order, model_sigma is not None, lone_readings(R, x)
+        runner,
+        nominal_fit,
+        R,
+        sigma,
+        frozenset(flat),
+        folds,
+        x,
+        order,
+        model_sigma is not None,
+        lone_readings(R, x),
+        expected,
     )
 
 
@@ -262,7 +277,7 @@ def _nominal_vs_noise(setup: Setup, nominal: Hypothesis, hold: Frame) -> float:
     measured on thousands of samples, and correlated residuals count less: the long-run variance factor)."""
     z = hold.z(nominal.heldout())
     infl = max(long_run_factor(nominal.heldout()[ch][m] / setup.sigma[ch][m]) for ch, m in hold.mask.items())
-    return gap_p_value(float(z @ z), z.size, infl)
+    return gap_p_value(float(z @ z), float(np.sum(hold.expect())), infl)
 
 
 def _gap(
@@ -524,7 +539,7 @@ def _result(
         screens=tuple(screens),
         confusable=dec.confusable,
         localisation=tuple(localisation(setup)),
-        noise={ch: float(np.sqrt(np.nanmean(s**2))) for ch, s in setup.sigma.items()},
+        noise={ch: float(np.sqrt(np.nanmean(s**2))) for ch, s in setup.residual_sigma.items()},
         holdout_rmse_before=entry.holdout_rmse_before,
         holdout_rmse_after=None if dec.verdict == NOMINAL else entry.holdout_rmse_after,
         shrink=entry.shrink if dec.verdict != NOMINAL else None,

@@ -21,6 +21,7 @@ from ...soilmodel.errors import DataError
 from ...soilmodel.soil import PRACTICAL_BOUNDS
 from ...soilmodel.vehicle import Vehicle
 from ..drivelog.residuals import drive_log_residuals
+from ..drivelog.sensitivity import latent_slip_expectation
 from ..estimates.records import solver_converged
 from ..fitting import fit
 from ..sweep.model import SweepResiduals
@@ -180,6 +181,22 @@ def log_channels(
             a[idx] = np.asarray(v, dtype=float).ravel()
             part[k] = a
     return full
+
+
+def log_noise(res: Any, data: DriveLog) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """A drive-log fit's noise level per channel (its noise model: the sensors' noise carried into each
+    channel) and the expected squared standardised residual of a right model (the share of that noise the
+    sample's latent slip leaves, :func:`~..drivelog.sensitivity.latent_slip_expectation`), at full length
+    (NaN where the fit uses no sample).
+
+    Raises
+    ------
+    DataError
+        The fit predicts nothing (it did not succeed).
+    """
+    if not res.success:
+        raise DataError("the fit did not succeed; it predicts nothing", file=data.source)
+    return log_channels(res, data)[1], latent_slip_expectation(res, data, res.vehicle)
 
 
 def channels(res: Any, data: SlipData | DriveLog) -> dict[str, np.ndarray]:

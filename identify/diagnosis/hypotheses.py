@@ -36,13 +36,19 @@ class Frame:
     Attributes
     ----------
     sigma
-        Noise floor per channel and sample (full length; NaN where unknown).
+        Noise level per channel and sample (full length; NaN where unknown): a log's, the sensors' noise
+        as the fit's noise model carries it into each channel; a sweep's, its noise floor.
     mask
         Per channel, the samples compared (held out for a log, all usable ones for a sweep).
+    expected
+        Per channel and sample (full length), the expected squared standardised residual of a right model:
+        a log's ``1 - h``, the share of the channel's noise its latent slip leaves
+        (:func:`~soiltrack.identify.drivelog.sensitivity.latent_slip_expectation`); None: 1 (a sweep).
     """
 
     sigma: dict[str, np.ndarray]
     mask: dict[str, np.ndarray]
+    expected: dict[str, np.ndarray] | None = None
 
     @property
     def channels(self) -> list[str]:
@@ -55,22 +61,34 @@ class Frame:
         return int(sum(int(np.count_nonzero(m)) for m in self.mask.values()))
 
     def at_most_nominal(self, residuals: dict[str, np.ndarray]) -> "Frame":
-        """This frame with each channel's noise floor lowered, where needed, to the nominal model's own error.
+        """This frame with each channel's noise level lowered, where needed, to the nominal model's own error.
 
         The noise on a channel is at most what the nominal model leaves there (``residuals``): where
-        the nominal model's mean squared standardised residual is below one, the floor (second
-        differences, which also carry fast real variations of the signal) is too high, and a
-        hypothesis that only rescales a channel's noise (a mass error scales the hull balance's)
-        would gain held-out density from the floor's error, not from its predictions. Channels where
-        the nominal error is above the floor keep it.
+        the nominal model's mean squared standardised residual is below its expected value
+        (:attr:`expected`), the noise level is too high, and a hypothesis that only rescales a
+        channel's noise (a mass error scales the hull balance's) would gain held-out density from
+        the noise level's error, not from its predictions. Channels where the nominal error is above
+        the expected value keep it.
         """
         sigma = dict(self.sigma)
         for ch, m in self.mask.items():
             z = np.asarray(residuals[ch], dtype=float)[m] / self.sigma[ch][m]
-            z = z[np.isfinite(z)]
-            if z.size:
-                sigma[ch] = self.sigma[ch] * math.sqrt(min(1.0, max(float(np.mean(z**2)), 1e-12)))
-        return Frame(sigma, self.mask)
+            e = self.expect_of(ch)[m]
+            ok = np.isfinite(z)
+            if np.any(ok):
+                ratio = float(np.mean(z[ok] ** 2)) / max(float(np.mean(e[ok])), 1e-12)
+                sigma[ch] = self.sigma[ch] * math.sqrt(min(1.0, max(ratio, 1e-12)))
+        return Frame(sigma, self.mask, self.expected)
+
+    def expect_of(self, ch: str) -> np.ndarray:
+        """The expected squared standardised residual of channel ``ch`` (full length; ones without one)."""
+        if self.expected is None or ch not in self.expected:
+            return np.ones(self.mask[ch].size)
+        return np.asarray(self.expected[ch], dtype=float)
+
+    def expect(self) -> np.ndarray:
+        """The expected squared standardised residual on the compared samples, in the layout of :meth:`z`."""
+        return np.concatenate([self.expect_of(ch)[m] for ch, m in self.mask.items()])
 
     def z(
         self,
@@ -164,6 +182,9 @@ class Hypothesis:
         The share of the gap it explains is measured there (:meth:`explained`).
     in_support
         Set by :meth:`scored`: ``support`` on the frame's samples, in the layout of ``z`` (None: all).
+    expect
+        Set by :meth:`scored`: the frame's expected squared standardised residual of a right model, in the
+        layout of ``z`` (:meth:`Frame.expect`; empty: 1 each).
     """
 
     name: str
@@ -185,6 +206,7 @@ class Hypothesis:
     log_scale: np.ndarray = field(default_factory=lambda: np.zeros(0))
     support: dict[str, np.ndarray] | None = None
     in_support: np.ndarray | None = None
+    expect: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def heldout(self) -> dict[str, np.ndarray]:
         """Its held-out residuals (raises when it was not held out: the nominal model always is)."""
@@ -211,8 +233,9 @@ class Hypothesis:
             if self.support is None
             else np.concatenate([np.asarray(self.support[ch], dtype=bool)[m] for ch, m in frame.mask.items()])
         )
+        ex = frame.expect()
         if scale is None:
-            return replace(self, z=z, scale=None, log_scale=np.zeros(z.size), in_support=sel)
+            return replace(self, z=z, scale=None, log_scale=np.zeros(z.size), in_support=sel, expect=ex)
         gains = None if nominal is None else self.gain_ratio(nominal)
         ls = np.concatenate(
             [
@@ -221,21 +244,23 @@ class Hypothesis:
             ]
         )
         ls[np.isnan(frame.z(self.residuals))] = 0.0  # filled with the nominal model's values
-        return replace(self, z=z, scale=scale, log_scale=ls, in_support=sel)
+        return replace(self, z=z, scale=scale, log_scale=ls, in_support=sel, expect=ex)
 
     def explained(self, nominal: "Hypothesis") -> float:
         """Share of the nominal model's excess error over the noise that this hypothesis removes.
 
-        ``1 - max(E, 0) / E_nominal`` with ``E = S / n - 1`` (``S`` the sum of squared standardised
-        residuals over the ``n`` compared samples in its :attr:`support`): at most 1, negative when it
+        ``1 - max(E, 0) / E_nominal`` with ``E = (S - X) / n`` (``S`` the sum of squared standardised
+        residuals over the ``n`` compared samples in its :attr:`support`, ``X`` the sum a right model
+        is expected to leave there, :attr:`expect`; ``n`` each without one): at most 1, negative when it
         does worse, NaN when the nominal model shows no excess there (nothing for it to explain).
         """
         z0, z1 = nominal.z, self.z
+        ex = self.expect if self.expect.size == z1.size else np.ones(z1.size)
         if self.in_support is not None and self.in_support.size == z1.size == z0.size:
-            z0, z1 = z0[self.in_support], z1[self.in_support]
-        n = z1.size
+            z0, z1, ex = z0[self.in_support], z1[self.in_support], ex[self.in_support]
+        n, x = z1.size, float(np.sum(ex))
         s0 = float(z0 @ z0) if np.all(np.isfinite(z0)) else math.inf
         s1 = float(z1 @ z1) if np.all(np.isfinite(z1)) else math.inf
-        if n == 0 or not (math.isfinite(s0) and math.isfinite(s1)) or s0 / n - 1.0 <= 0.0:
+        if n == 0 or not (math.isfinite(s0) and math.isfinite(s1)) or s0 - x <= 0.0:
             return math.nan
-        return 1.0 - max(s1 / n - 1.0, 0.0) / (s0 / n - 1.0)
+        return 1.0 - max(s1 - x, 0.0) / (s0 - x)

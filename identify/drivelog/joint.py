@@ -295,13 +295,16 @@ def derivative_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
 
 @locked_cache(maxsize=32)
 def sensitivity_function(vehicle: Vehicle, structure: EffectSet) -> ca.Function:
-    """Per-sample ``(theta, i, d) -> (e, de/dtheta, de/di)`` by AD: :func:`derivative_function` without the
-    Hessian (for score tests and sensitivities; with every candidate effect on, the Hessian's ``(p + 1)^2``
-    entries were most of the evaluation)."""
+    """Per-sample ``(theta, i, d) -> (e, de/dtheta, de/di, draw/di)`` by AD: :func:`derivative_function` without
+    the Hessian (for score tests and sensitivities; with every candidate effect on, the Hessian's ``(p + 1)^2``
+    entries were most of the evaluation), and the derivative of the channels' residuals ``raw`` (measured units,
+    :func:`residual_function`) with respect to the slip (the latent slip's leverage on each channel)."""
     res, theta, slip, d = _sample_symbols(vehicle, structure)
-    e = res(theta, slip, d)[0]
+    e, raw = res(theta, slip, d)[:2]
     return ca.Function(
-        "drivelog_joint_sensitivities", [theta, slip, d], [e, ca.jacobian(e, theta), ca.jacobian(e, slip)]
+        "drivelog_joint_sensitivities",
+        [theta, slip, d],
+        [e, ca.jacobian(e, theta), ca.jacobian(e, slip), ca.jacobian(raw, slip)],
     )
 
 

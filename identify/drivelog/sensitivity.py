@@ -20,10 +20,11 @@ import numpy as np
 
 from ...soilmodel.data import DriveLog
 from ...soilmodel.vehicle import Vehicle
-from .joint import sample_outputs
+from .joint import CHANNELS, sample_outputs
+from .prepare import SLIP_BOUNDS
 from .residuals import evaluate_residuals
 
-__all__ = ["DriveLogSensitivities", "drive_log_sensitivities"]
+__all__ = ["DriveLogSensitivities", "drive_log_sensitivities", "latent_slip_expectation"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,7 +92,7 @@ def drive_log_sensitivities(result: Any, log: DriveLog, vehicle: Vehicle, effect
     out, ctx = evaluate_residuals(result, log, vehicle, effects)
     theta, structure, D = ctx["theta"], ctx["structure"], ctx["D"]
     n = D.shape[1]
-    e, Jt, gi = sample_outputs(vehicle, structure, "sensitivity", theta, out["slip"], D)
+    e, Jt, gi, _ = sample_outputs(vehicle, structure, "sensitivity", theta, out["slip"], D)
     c, p = e.shape[0], theta.size
     e = e.T  # (n, c)
     Jt = Jt.reshape(c, n, p).transpose(1, 0, 2)  # (n, c, p)
@@ -107,3 +108,38 @@ def drive_log_sensitivities(result: Any, log: DriveLog, vehicle: Vehicle, effect
         mask[keep.astype(int)] = True
         keep = mask
     return DriveLogSensitivities(e, Jt, ("F_max", "K") + tuple(ctx["labels"]), keep, np.asarray(out["time_s"], float))
+
+
+def latent_slip_expectation(result: Any, log: DriveLog, vehicle: Vehicle) -> dict[str, np.ndarray]:
+    """Expected squared standardised residual per channel and used sample of a drive-log fit, given the
+    latent slip each sample solves for: ``1 - h_c`` with the leverage ``h_c = (g_c / sigma_c)^2 / |de/di|^2``.
+
+    The latent slip of a sample is fitted to that sample's own readings, so it takes up part of their noise:
+    one degree of freedom of the sample's channels. ``g_c`` is the derivative of channel ``c``'s residual
+    (measured units) with respect to the slip, ``sigma_c`` the fit's noise level of that channel
+    (:func:`~.residuals.drive_log_residuals`), ``de/di`` that of the whitened residual vector the slip is
+    solved on (all by AD from the model's own functions). To first order, ``r_c / sigma_c`` then has
+    variance ``1 - h_c`` (the channels' leverages sum to one: the sample keeps ``channels - 1`` degrees of
+    freedom); a slip on its bound takes up nothing (1). Returns ``{channel: array}`` over the log's
+    samples (NaN where the fit uses none).
+    """
+    out, ctx = evaluate_residuals(result, log, vehicle, None)
+    theta, structure, D = ctx["theta"], ctx["structure"], ctx["D"]
+    slip = np.asarray(out["slip"], dtype=float)
+    _, _, gi, graw = sample_outputs(vehicle, structure, "sensitivity", theta, slip, D)
+    gn = np.sum(gi**2, axis=0)
+    lo, hi = SLIP_BOUNDS
+    free = (gn > 1e-300) & (slip > lo + 1e-9) & (slip < hi - 1e-9)
+    expect = {}
+    for j, ch in enumerate(CHANNELS):
+        a2 = (graw[j] / np.asarray(out["sigma"][ch], dtype=float)) ** 2
+        h = np.where(free, a2 / np.where(free, gn, 1.0), 0.0)
+        expect[ch] = np.full(log.n_samples, np.nan)
+        expect[ch][_used(out["keep"], log.n_samples)] = np.clip(np.where(np.isfinite(h), 1.0 - h, 1.0), 0.0, 1.0)
+    return expect
+
+
+def _used(keep: Any, n: int) -> np.ndarray:
+    """The used samples' indices from a ``keep`` (a mask or indices)."""
+    keep = np.asarray(keep)
+    return np.nonzero(keep)[0] if keep.dtype == bool else keep.astype(int)
