@@ -98,11 +98,11 @@ def _setup(runner: FitRunner, nominal_fit: Any) -> Setup:
     model_sigma = None if runner.is_log else sweep_noise_model(runner.run(None, slip_noise="auto"), data)
     if model_sigma is not None:
         sigma = {ch: model_sigma for ch in sigma}
-    expected = None
+    sensor, expected = None, None
     if runner.is_log:
-        # a log's channels are weighed by the sensors' noise, as the fit weighs them; the latent slip of each
+        # the evidence weighs a log's channels by the sensors' noise, as the fit does; the latent slip of each
         # sample takes up part of it (expected: the share it leaves)
-        sigma, expected = log_noise(nominal_fit, data)
+        sensor, expected = log_noise(nominal_fit, data)
         if np.all(np.isfinite(nominal_fit.theta)):
             runner.x0 = np.asarray(nominal_fit.theta, dtype=float)
     folds = make_folds(data, order, runner.settings)
@@ -117,6 +117,7 @@ def _setup(runner: FitRunner, nominal_fit: Any) -> Setup:
         order,
         model_sigma is not None,
         lone_readings(R, x),
+        sensor,
         expected,
     )
 
@@ -263,13 +264,19 @@ def _data_step(
 
 def _score(setup: Setup, hyps: list[Hypothesis]) -> tuple[list[Hypothesis], Frame]:
     """Every hypothesis with its z on the evidence's frame (the nominal values fill what one leaves
-    unpredicted). On a log the frame's noise floor is at most the nominal model's held-out error per
-    channel (:meth:`Frame.at_most_nominal`)."""
-    frame = _frame(setup, hyps[0], held=setup.is_log)
-    if setup.is_log:
-        frame = frame.at_most_nominal(hyps[0].residuals)
-    z0 = frame.z(hyps[0].residuals)
-    return [h.scored(frame, z0, hyps[0]) for h in hyps], frame
+    unpredicted). On a log the frame weighs the channels by the sensors' noise, as the fits do, with the share
+    of it each sample's latent slip leaves as the expected value, and the noise level at most the nominal
+    model's held-out error per channel (:meth:`Frame.at_most_nominal`)."""
+    if not setup.is_log:
+        frame = _frame(setup, hyps[0], held=False)
+        z0 = frame.z(hyps[0].residuals)
+        return [h.scored(frame, z0, hyps[0]) for h in hyps], frame
+    frame = setup.frame(hyps[0].heldout(), sensor=True).at_most_nominal(hyps[0].residuals)
+    # the share of the gap explained: on the same samples, standardised by the noise floor (calibrated on the
+    # residuals themselves), at most the nominal model's held-out error per channel
+    floor = Frame(setup.sigma, frame.mask).at_most_nominal(hyps[0].residuals)
+    z0, g0 = frame.z(hyps[0].residuals), floor.z(hyps[0].residuals)
+    return [h.scored(frame, z0, hyps[0]).with_gap(floor, g0) for h in hyps], frame
 
 
 def _nominal_vs_noise(setup: Setup, nominal: Hypothesis, hold: Frame) -> float:
@@ -277,7 +284,7 @@ def _nominal_vs_noise(setup: Setup, nominal: Hypothesis, hold: Frame) -> float:
     measured on thousands of samples, and correlated residuals count less: the long-run variance factor)."""
     z = hold.z(nominal.heldout())
     infl = max(long_run_factor(nominal.heldout()[ch][m] / setup.sigma[ch][m]) for ch, m in hold.mask.items())
-    return gap_p_value(float(z @ z), float(np.sum(hold.expect())), infl)
+    return gap_p_value(float(z @ z), z.size, infl)
 
 
 def _gap(
@@ -539,7 +546,7 @@ def _result(
         screens=tuple(screens),
         confusable=dec.confusable,
         localisation=tuple(localisation(setup)),
-        noise={ch: float(np.sqrt(np.nanmean(s**2))) for ch, s in setup.residual_sigma.items()},
+        noise={ch: float(np.sqrt(np.nanmean(s**2))) for ch, s in setup.sigma.items()},
         holdout_rmse_before=entry.holdout_rmse_before,
         holdout_rmse_after=None if dec.verdict == NOMINAL else entry.holdout_rmse_after,
         shrink=entry.shrink if dec.verdict != NOMINAL else None,

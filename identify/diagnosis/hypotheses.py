@@ -86,10 +86,6 @@ class Frame:
             return np.ones(self.mask[ch].size)
         return np.asarray(self.expected[ch], dtype=float)
 
-    def expect(self) -> np.ndarray:
-        """The expected squared standardised residual on the compared samples, in the layout of :meth:`z`."""
-        return np.concatenate([self.expect_of(ch)[m] for ch, m in self.mask.items()])
-
     def z(
         self,
         residuals: dict[str, np.ndarray],
@@ -182,9 +178,11 @@ class Hypothesis:
         The share of the gap it explains is measured there (:meth:`explained`).
     in_support
         Set by :meth:`scored`: ``support`` on the frame's samples, in the layout of ``z`` (None: all).
-    expect
-        Set by :meth:`scored`: the frame's expected squared standardised residual of a right model, in the
-        layout of ``z`` (:meth:`Frame.expect`; empty: 1 each).
+    z_gap
+        Set by :meth:`with_gap`: its residuals standardised by the noise floor instead (a log's: the
+        residuals' own noise level, as the gap tests take it), in the layout of ``z``; empty: ``z``. The
+        share of the gap it explains (:meth:`explained`) is measured on them: a share of the excess over
+        the noise needs that noise level calibrated on the residuals themselves.
     """
 
     name: str
@@ -206,7 +204,7 @@ class Hypothesis:
     log_scale: np.ndarray = field(default_factory=lambda: np.zeros(0))
     support: dict[str, np.ndarray] | None = None
     in_support: np.ndarray | None = None
-    expect: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    z_gap: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def heldout(self) -> dict[str, np.ndarray]:
         """Its held-out residuals (raises when it was not held out: the nominal model always is)."""
@@ -233,9 +231,8 @@ class Hypothesis:
             if self.support is None
             else np.concatenate([np.asarray(self.support[ch], dtype=bool)[m] for ch, m in frame.mask.items()])
         )
-        ex = frame.expect()
         if scale is None:
-            return replace(self, z=z, scale=None, log_scale=np.zeros(z.size), in_support=sel, expect=ex)
+            return replace(self, z=z, scale=None, log_scale=np.zeros(z.size), in_support=sel)
         gains = None if nominal is None else self.gain_ratio(nominal)
         ls = np.concatenate(
             [
@@ -244,23 +241,32 @@ class Hypothesis:
             ]
         )
         ls[np.isnan(frame.z(self.residuals))] = 0.0  # filled with the nominal model's values
-        return replace(self, z=z, scale=scale, log_scale=ls, in_support=sel, expect=ex)
+        return replace(self, z=z, scale=scale, log_scale=ls, in_support=sel)
+
+    def with_gap(self, frame: Frame, fill: np.ndarray | None = None) -> "Hypothesis":
+        """This scored hypothesis with :attr:`z_gap` on ``frame`` (the same samples as :meth:`scored`'s, another
+        noise level), standardised by its own noise level relative to the nominal model's as :attr:`z` is."""
+        return replace(self, z_gap=frame.z(self.residuals, fill, self.scale))
 
     def explained(self, nominal: "Hypothesis") -> float:
         """Share of the nominal model's excess error over the noise that this hypothesis removes.
 
-        ``1 - max(E, 0) / E_nominal`` with ``E = (S - X) / n`` (``S`` the sum of squared standardised
-        residuals over the ``n`` compared samples in its :attr:`support`, ``X`` the sum a right model
-        is expected to leave there, :attr:`expect`; ``n`` each without one): at most 1, negative when it
-        does worse, NaN when the nominal model shows no excess there (nothing for it to explain).
+        ``1 - max(E, 0) / E_nominal`` with ``E = S / n - 1`` (``S`` the sum of squared standardised
+        residuals over the ``n`` compared samples in its :attr:`support`, on :attr:`z_gap` where set): at
+        most 1, negative when it does worse, NaN when the nominal model shows no excess there (nothing for
+        it to explain).
         """
-        z0, z1 = nominal.z, self.z
-        ex = self.expect if self.expect.size == z1.size else np.ones(z1.size)
+        z0, z1 = nominal.gap_z, self.gap_z
         if self.in_support is not None and self.in_support.size == z1.size == z0.size:
-            z0, z1, ex = z0[self.in_support], z1[self.in_support], ex[self.in_support]
-        n, x = z1.size, float(np.sum(ex))
+            z0, z1 = z0[self.in_support], z1[self.in_support]
+        n = z1.size
         s0 = float(z0 @ z0) if np.all(np.isfinite(z0)) else math.inf
         s1 = float(z1 @ z1) if np.all(np.isfinite(z1)) else math.inf
-        if n == 0 or not (math.isfinite(s0) and math.isfinite(s1)) or s0 - x <= 0.0:
+        if n == 0 or not (math.isfinite(s0) and math.isfinite(s1)) or s0 / n - 1.0 <= 0.0:
             return math.nan
-        return 1.0 - max(s1 - x, 0.0) / (s0 - x)
+        return 1.0 - max(s1 / n - 1.0, 0.0) / (s0 / n - 1.0)
+
+    @property
+    def gap_z(self) -> np.ndarray:
+        """:attr:`z_gap` where set, else :attr:`z`."""
+        return self.z_gap if self.z_gap.size == self.z.size and self.z.size else self.z

@@ -27,7 +27,7 @@ def variables(setup: Setup) -> dict[str, np.ndarray]:
 
 def localisation(setup: Setup) -> list[Segment]:
     """Segments of the nominal model's full-data residuals, by share of the misfit above the noise."""
-    R, sg = setup.residuals, setup.residual_sigma
+    R, sg = setup.residuals, setup.sigma
     common = np.logical_and.reduce([np.isfinite(R[ch]) & np.isfinite(sg[ch]) for ch in setup.channels])
     return localise(
         {ch: R[ch][common] for ch in setup.channels},

@@ -52,12 +52,6 @@ def check_candidates(candidates: Any, is_log: bool) -> tuple[str, ...]:
     return tuple(out)
 
 
-#: Smallest share of a channel's noise its residual is taken to keep (:attr:`Setup.residual_sigma`): where the
-#: latent slip takes up a channel's noise entirely (to first order), its second-order part remains, and a
-#: noise level of zero would divide by zero.
-MIN_EXPECTED = 0.01
-
-
 def noise_floors(
     resid: dict[str, np.ndarray], order: np.ndarray, window: int | None = None
 ) -> tuple[dict[str, np.ndarray], set[str]]:
@@ -124,8 +118,8 @@ class Setup:
     residuals
         Its residuals per channel, full length.
     sigma
-        Noise level per channel and sample: a sweep's noise floor; a log's, the sensors' noise as the
-        nominal fit's noise model carries it into each channel (the fit weighs the channels by it).
+        Noise floor per channel and sample (the residuals' own noise level: the gap tests, the
+        localisation, the report).
     flat
         Channels without measurable noise.
     folds
@@ -138,9 +132,13 @@ class Setup:
         A sweep's noise level comes from its fit's slip-noise model (:func:`sweep_noise_model`).
     lone
         Per channel, the rows whose residual is a lone reading (:func:`lone_readings`).
+    sensor_sigma
+        A log's: the sensors' noise per channel and sample as the nominal fit's noise model carries it into
+        each channel (the fit weighs the channels by it; so does the evidence, :meth:`frame`); None: a sweep.
     expected
-        A log's expected squared standardised residual per channel and sample of a right model (the
-        share of the noise its latent slip leaves, :attr:`.hypotheses.Frame.expected`); None: 1.
+        A log's expected squared standardised residual per channel and sample of a right model, on
+        :attr:`sensor_sigma` (the share of the noise its latent slip leaves,
+        :attr:`.hypotheses.Frame.expected`); None: a sweep.
     """
 
     runner: FitRunner
@@ -153,24 +151,23 @@ class Setup:
     order: np.ndarray
     noise_from_fit: bool = False
     lone: dict = field(default_factory=dict)
+    sensor_sigma: dict[str, np.ndarray] | None = None
     expected: dict[str, np.ndarray] | None = None
 
-    @property
-    def residual_sigma(self) -> dict[str, np.ndarray]:
-        """The noise level of each residual per channel and sample: :attr:`sigma` times the square root of
-        :attr:`expected` (a log's latent slip takes up part of each sample's noise)."""
-        if self.expected is None:
-            return self.sigma
-        return {ch: self.sigma[ch] * np.sqrt(np.maximum(self.expected.get(ch, 1.0), MIN_EXPECTED)) for ch in self.sigma}
-
-    def frame(self, residuals: dict[str, np.ndarray]) -> Frame:
+    def frame(self, residuals: dict[str, np.ndarray], sensor: bool = False) -> Frame:
         """The evidence's samples: where ``residuals`` (held-out ones, or all) and the noise floor are known,
         less the lone readings (:attr:`lone`: one glitch would otherwise make a gap on its own, and weigh the
-        hypotheses by how they treat one wrong number)."""
+        hypotheses by how they treat one wrong number). ``sensor`` (a log): standardised by the sensors'
+        noise (:attr:`sensor_sigma`) with its expected share (:attr:`expected`), as the weights take them;
+        else by the noise floor, as the gap tests do."""
         mask = {ch: np.isfinite(residuals[ch]) & (np.nan_to_num(self.sigma[ch]) > 0) for ch in self.channels}
         for ch, rows in self.lone.items():
             mask[ch][list(rows)] = False
-        return Frame(self.sigma, mask, self.expected)
+        if not sensor or self.sensor_sigma is None:
+            return Frame(self.sigma, mask)
+        sg = self.sensor_sigma
+        mask = {ch: m & (np.nan_to_num(sg[ch]) > 0) for ch, m in mask.items()}
+        return Frame(sg, mask, self.expected)
 
     @property
     def data(self) -> Any:
