@@ -314,3 +314,35 @@ def test_a_twin_the_data_cannot_tell_apart_carries_the_explanation_of_its_group(
     d = decide(hs, sh.weights, gap(1e-9), S, confusable=sh.confusable)
     assert [set(c.effects) for c in sh.confusable] == [{"radius_error", "discrepancy"}]
     assert (d.verdict, d.cause) == ("unexplained", None)
+
+
+def test_a_channel_whose_latent_slip_takes_most_of_its_noise_keeps_its_noise_level():
+    # a hull balance whose latent slip leaves a fifth of its noise: the nominal model's z^2 near 0.2 is what a
+    # right model leaves there, not a noise level five times too high
+    m = np.ones(N, bool)
+    z = RNG.standard_normal(N)
+    r = {"hull": np.sqrt(0.2) * z / np.sqrt(np.mean(z**2)), "speed": 0.5 * z / np.sqrt(np.mean(z**2))}
+    sigma = {"hull": np.ones(N), "speed": np.ones(N)}
+    f = Frame(sigma, {"hull": m, "speed": m}, {"hull": np.full(N, 0.2), "speed": np.full(N, 1.0)})
+    g = f.at_most_nominal(r)
+    assert g.sigma["hull"] == pytest.approx(np.ones(N))
+    assert g.sigma["speed"] == pytest.approx(np.full(N, 0.5))
+    # without the expected share (a sweep's frame) the hull's level is lowered to the nominal error's
+    assert Frame(sigma, {"hull": m, "speed": m}).at_most_nominal(r).sigma["hull"] == pytest.approx(
+        np.full(N, np.sqrt(0.2))
+    )
+    # half the expected share left: lowered by the square root of the ratio
+    h = Frame(sigma, {"hull": m}, {"hull": np.full(N, 0.4)}).at_most_nominal(r)
+    assert h.sigma["hull"] == pytest.approx(np.full(N, np.sqrt(0.5)))
+
+
+def test_the_share_explained_is_measured_on_the_floor_not_on_the_weights_standardisation():
+    e = RNG.standard_normal(N)
+    f = Frame({"c": np.ones(N)}, {"c": np.ones(N, bool)})
+    g0 = f.z({"c": 2.0 * e})
+    nominal = Hypothesis("none", "nominal", 0, {"c": 2.0 * e}, z=0.3 * e).with_gap(f)
+    effect = Hypothesis("grade", "candidate", 1, {"c": 1.1 * e}, z=0.2 * e).with_gap(f, g0)
+    q = float(np.mean(e**2))
+    assert effect.explained(nominal) == pytest.approx(1 - (1.21 * q - 1) / (4 * q - 1))
+    # without a floor standardisation the weights' z serve (a sweep): both within the noise, nothing to explain
+    assert math.isnan(hyp("grade", "candidate", 0.2 * e).explained(hyp("none", "nominal", 0.3 * e)))
