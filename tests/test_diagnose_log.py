@@ -186,7 +186,11 @@ def test_a_radius_error_is_not_taken_for_a_speed_sensor(tmp_path):
     log, v = _independent_log(tmp_path, 2, radius=0.04)
     d = diagnose(log, v)
     _consistent(d)
-    assert d.verdict == "radius_error" and d.weight_of("radius_error") > d.weight_of("speed_scale")
+    # the evidence itself puts the radius error first (raw weights 0.96 and 0.04 on this version); within two
+    # standard errors of each other (1.8) the two share their weight, and the candidate is named
+    raw = {e.effect: e.evidence_weight for e in d.ranking}
+    assert d.verdict == "radius_error" and raw["radius_error"] > raw["speed_scale"]
+    assert d.weight_of("radius_error") >= d.weight_of("speed_scale")
 
 
 @pytest.mark.slow
@@ -262,11 +266,12 @@ def _light_radius_log(terrain: str, eps: float, seed: int) -> DriveLog:
 @pytest.mark.slow
 def test_a_radius_error_and_a_speed_sensor_scale_share_their_weight_when_the_data_cannot_tell_them_apart():
     """Both scale the apparent slip; only a radius error changes the torque arm, which the soil's thrust limit
-    absorbs but for the hull balance. On the grid's light-vehicle log with doubled noise (radius error 5 %, seed
-    2) the two weigh 0.35 and 0.65 apart; their sensitivities are collinear, so they are confusable, share their
-    weight, and the pair is listed with its separating experiment; the candidate is named first."""
+    absorbs but for the hull balance. On the grid's light-vehicle log with doubled noise (radius error 2 %, seed
+    3) the two weigh 0.81 and 0.19 from the evidence alone, 1.0 standard error apart; their sensitivities are
+    collinear, so they are confusable, share their weight, and the pair is listed with its separating
+    experiment; the candidate is named first."""
     v = VEHICLES["light"]
-    log = _light_radius_log("lete_sand", 0.05, 2)
+    log = _light_radius_log("lete_sand", 0.02, 3)
     d = diagnose(log, v)
     _consistent(d)
     w = {e.effect: e.weight for e in d.ranking}
@@ -276,29 +281,33 @@ def test_a_radius_error_and_a_speed_sensor_scale_share_their_weight_when_the_dat
     # a candidate explains the gap as well as the cause outside the candidates: the gap is not unexplained
     assert (d.verdict, d.confidence) == ("radius_error", w["radius_error"])
     eps = next(e for e in d.ranking if e.effect == "radius_error").parameters["eps"]["ci95"]
-    assert eps[0] < 0.05 < eps[1]
+    assert eps[0] < 0.02 < eps[1]
 
 
 @pytest.mark.slow
-def test_a_speed_scale_ahead_by_less_than_two_standard_errors_does_not_win_over_a_radius_error():
-    """The grid's light log on dry sand with doubled noise (radius error 2 %, seed 2): the speed scale leads the
-    radius error by 13.9 nats of held-out density at 1.8 standard errors of the block sums, and its pseudo-BMA+
-    weight is 0.97 (named ``unexplained``, cause ``speed_scale``, before). Within two standard errors, with
-    collinear sensitivities, the two are confusable: they share, and the candidate is named. Its own refit
-    removes 46 % of the nominal excess, the speed scale 89 %: the group explains the gap."""
+def test_collinear_hypotheses_within_two_standard_errors_share_and_their_group_explains_the_gap():
+    """The grid's light log on dry sand with doubled noise (radius error 2 %, seed 2): the evidence alone
+    weighs the radius error 0.88 and the speed scale 0.12 (a factor 7, beyond the weight test's factor 5), 1.3
+    standard errors of the block sums apart. Within two standard errors, with collinear sensitivities, the two
+    are confusable: they share, and the candidate is named. Its own refit removes 46 % of the nominal excess,
+    the speed scale 89 %: the group explains the gap. (Before the evidence weighed the channels by the
+    sensors' noise, the speed scale led here at 0.97.)"""
     v = VEHICLES["light"]
     log = _light_radius_log("dry_sand", 0.02, 2)
     d = diagnose(log, v)
     _consistent(d)
     w = {e.effect: e.weight for e in d.ranking}
     raw = {e.effect: e.evidence_weight for e in d.ranking}
-    assert raw["speed_scale"] > 0.9  # the weights alone would have told them apart
+    assert raw["speed_scale"] < 0.2 * raw["radius_error"]  # the weights alone would have told them apart
     assert w["radius_error"] == w["speed_scale"] == pytest.approx(0.5, abs=0.01)
     assert (d.verdict, d.confidence, d.cause) == ("radius_error", w["radius_error"], None)
     assert {"radius_error", "speed_scale"} in [set(c.effects) for c in d.confusable]
-    # the report and the JSON give the separation that decided: 1.8 standard errors (below 2)
+    ex = {e.effect: e.explained for e in d.ranking}
+    assert ex["radius_error"] < 0.5 <= ex["speed_scale"]
+    # the report and the JSON give the separation that decided (below 2)
     detail = next(c for c in d.to_dict()["confusable_detail"] if set(c["effects"]) == {"radius_error", "speed_scale"})
-    assert 1.5 < detail["separation_se"] < S_CONFUSABLE
-    # with the criterion off (no pair within 0 standard errors), the weights decide as before
+    assert 0.5 < detail["separation_se"] < S_CONFUSABLE
+    # with the criterion off (no pair within 0 standard errors) the weights decide: the radius error alone is
+    # heaviest and removes less than half of the excess
     d0 = diagnose(log, v, settings=DiagnoseSettings(confusable_separation=0.0))
-    assert (d0.verdict, d0.cause) == ("unexplained", "speed_scale")
+    assert (d0.verdict, d0.cause) == ("unexplained", None)

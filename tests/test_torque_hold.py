@@ -174,4 +174,6 @@ def test_the_library_simulators_held_torque_is_kept_on_the_heavy_speed_log():
     d = diagnose(log, HEAVY)
     h = d.torque_hold
     assert (h.hold, h.given) == ("zoh", False) and h.p_value >= h.level, h
-    assert d.verdict == "grade" and d.confidence == d.weight_of("grade")
+    # the grade is named, or a drivetrain loss the data cannot tell from it (their pair shares its weight)
+    named = {d.verdict} | {e for c in d.confusable if d.verdict in c.effects for e in c.effects}
+    assert "grade" in named and d.confidence == d.weight_of(d.verdict)
