@@ -67,8 +67,9 @@ class DiagnoseSettings:
         errors are confusable too, whatever their weights (the larger at least ``confusable_weight``):
         2, a two-sided 5 % level. A pseudo-BMA+ weight is about the bootstrap's probability that one
         predicts better: 0.98 for a speed-sensor scale 1.8 standard errors ahead of a radius error (the
-        grid's light log, doubled noise, dry sand, seed 1), beyond the factor 5 of ``confusable_ratio``
-        though not a difference a 5 % test shows.
+        grid's light log, doubled noise, dry sand, seed 1, before the evidence weighed a log's channels
+        by the sensors' noise), beyond the factor 5 of ``confusable_ratio`` though not a difference a
+        5 % test shows.
     max_delay_samples
         Largest delay between channels tried (samples): a quarter second at 100 Hz.
     sweep_noise_window
