@@ -77,6 +77,7 @@ def _ranking_lines(d: Any) -> list[str]:
             out.append(
                 f"      {p} = {fmt(v.get('value'))} (standard error {fmt(v.get('stderr'))})"
                 f"{'' if v.get('identifiable', True) else ' (not identifiable)'}"
+                f"{' (on a bound of its range)' if v.get('at_bound') else ''}"
             )
     for x in d.excluded:
         out.append(f"  left out: {x.name} ({x.family}): {x.why}")
