@@ -36,8 +36,8 @@ class Frame:
     Attributes
     ----------
     sigma
-        Noise level per channel and sample (full length; NaN where unknown): a log's, the sensors' noise
-        as the fit's noise model carries it into each channel; a sweep's, its noise floor.
+        Noise level per channel and sample (full length; NaN where unknown): for a log's weights, the
+        sensors' noise as the fit's noise model carries it into each channel; else the noise floor.
     mask
         Per channel, the samples compared (held out for a log, all usable ones for a sweep).
     expected

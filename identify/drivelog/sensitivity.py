@@ -111,7 +111,7 @@ def drive_log_sensitivities(result: Any, log: DriveLog, vehicle: Vehicle, effect
 
 
 def latent_slip_expectation(result: Any, log: DriveLog, vehicle: Vehicle) -> dict[str, np.ndarray]:
-    """Expected squared standardised residual per channel and used sample of a drive-log fit, given the
+    """Expected squared standardised residual per channel and sample of a drive-log fit, given the
     latent slip each sample solves for: ``1 - h_c`` with the leverage ``h_c = (g_c / sigma_c)^2 / |de/di|^2``.
 
     The latent slip of a sample is fitted to that sample's own readings, so it takes up part of their noise:
@@ -135,11 +135,11 @@ def latent_slip_expectation(result: Any, log: DriveLog, vehicle: Vehicle) -> dic
         a2 = (graw[j] / np.asarray(out["sigma"][ch], dtype=float)) ** 2
         h = np.where(free, a2 / np.where(free, gn, 1.0), 0.0)
         expect[ch] = np.full(log.n_samples, np.nan)
-        expect[ch][_used(out["keep"], log.n_samples)] = np.clip(np.where(np.isfinite(h), 1.0 - h, 1.0), 0.0, 1.0)
+        expect[ch][_used(out["keep"])] = np.clip(np.where(np.isfinite(h), 1.0 - h, 1.0), 0.0, 1.0)
     return expect
 
 
-def _used(keep: Any, n: int) -> np.ndarray:
+def _used(keep: Any) -> np.ndarray:
     """The used samples' indices from a ``keep`` (a mask or indices)."""
     keep = np.asarray(keep)
     return np.nonzero(keep)[0] if keep.dtype == bool else keep.astype(int)
