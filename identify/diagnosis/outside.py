@@ -7,9 +7,9 @@ Drive logs (held-out evidence: fitted on the training blocks, predicting the oth
   shifted log (:func:`~.log_parts.refine_delay`); the hypothesis is the nominal model on the log with
   the speed channel shifted back. Detail: ``lag_s``.
 - ``terrain_change``: the soil differs within a time window. The window comes from the score test of
-  the nominal fit on all the data (:func:`~.log_parts.terrain_window`); the hypothesis fits one soil
-  on the training samples inside the window and one outside, each predicting the held-out samples on
-  its side. It must beat the effects and the flexible term on held-out evidence like any other.
+  the nominal fit on all the data (:func:`~.log_parts.terrain_window`); the hypothesis fits the soil
+  on the training samples outside the window and its small-slip slope on those inside, each predicting
+  the held-out samples on its side. It must beat the effects and the flexible term on held-out evidence like any other.
   Detail: ``window_s`` (where the data show it) and ``bracket_s`` (where its boundaries can lie).
 
 Both kinds of data:
@@ -253,9 +253,10 @@ def terrain_hypothesis(setup: Setup, nominal_held: dict[str, np.ndarray], train_
 
     The window is found like the effects are screened: by the score test of the nominal fit on all
     the data (:func:`~.log_parts.terrain_window`). The hypothesis is then fitted and judged like the
-    others: outside the window the nominal training fit ``train_fit`` predicts the held-out samples;
-    inside, its small-slip slope refitted on the training samples there (:func:`_inside_modulus`).
-    Parameters: the slope inside and the window's two ends.
+    others: the nominal model refitted on the training samples outside the window predicts the held-out
+    samples outside; inside, its small-slip slope refitted on the training samples there
+    (:func:`_inside_modulus`). When that refit fails, the nominal training fit ``train_fit`` (which leans
+    towards the window's soil) stands in for it. Parameters: the slope inside and the window's two ends.
     """
     win = _window(setup)
     if win is None or not win.significant:
@@ -280,13 +281,19 @@ def terrain_hypothesis(setup: Setup, nominal_held: dict[str, np.ndarray], train_
     rows = np.nonzero(np.isin(span, tr))[0]
     if rows.size < setup.settings.min_samples or not usable(train_fit, True):
         return _not_formed("terrain_change", "too few training samples inside the window", setup.n, setup.channels)
-    f0, k0 = _soil_of(train_fit)
-    k1, on_edge = _inside_modulus(setup, train_fit, span, rows)
+    # the soil outside: the nominal model refitted on the training samples outside the window (the nominal
+    # training fit leans towards the window's soil); it predicts the held-out samples outside, and the slope
+    # inside is searched from it
+    outside = setup.runner.run_warm(tr[~np.isin(tr, span)])
+    base = outside if usable(outside, True) else train_fit
+    f0, k0 = _soil_of(base)
+    k1, on_edge = _inside_modulus(setup, base, span, rows)
     try:
-        rin = channels(_with_soil(train_fit, f0, k1), setup.data.subset(span))
+        rin = channels(_with_soil(base, f0, k1), setup.data.subset(span))
+        rout = channels(base, setup.data) if base is outside else nominal_held
     except DataError as e:
         return _not_formed("terrain_change", f"no prediction inside the window ({e})", setup.n, setup.channels)
-    held = {ch: np.where(np.isin(np.arange(setup.n), te), nominal_held[ch], np.nan) for ch in setup.channels}
+    held = {ch: np.where(np.isin(np.arange(setup.n), te), rout[ch], np.nan) for ch in setup.channels}
     test_in = np.isin(span, te)
     for ch in setup.channels:
         held[ch][span[test_in]] = rin[ch][test_in]
