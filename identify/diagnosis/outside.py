@@ -255,8 +255,9 @@ def terrain_hypothesis(setup: Setup, nominal_held: dict[str, np.ndarray], train_
     the data (:func:`~.log_parts.terrain_window`). The hypothesis is then fitted and judged like the
     others: the nominal model refitted on the training samples outside the window predicts the held-out
     samples outside; inside, its small-slip slope refitted on the training samples there
-    (:func:`_inside_modulus`). When that refit fails, the nominal training fit ``train_fit`` (which leans
-    towards the window's soil) stands in for it. Parameters: the slope inside and the window's two ends.
+    (:func:`_inside_modulus`). When that refit fails or the samples outside cannot be fitted (a window over
+    most of the run), the nominal training fit ``train_fit`` (which leans towards the window's soil) stands
+    in for it. Parameters: the slope inside and the window's two ends.
     """
     win = _window(setup)
     if win is None or not win.significant:
@@ -284,7 +285,10 @@ def terrain_hypothesis(setup: Setup, nominal_held: dict[str, np.ndarray], train_
     # the soil outside: the nominal model refitted on the training samples outside the window (the nominal
     # training fit leans towards the window's soil); it predicts the held-out samples outside, and the slope
     # inside is searched from it
-    outside = setup.runner.run_warm(tr[~np.isin(tr, span)])
+    try:
+        outside = setup.runner.run_warm(tr[~np.isin(tr, span)])
+    except DataError:  # too little outside the window to fit (a window over most of the run)
+        outside = None
     base = outside if usable(outside, True) else train_fit
     f0, k0 = _soil_of(base)
     k1, on_edge = _inside_modulus(setup, base, span, rows)
