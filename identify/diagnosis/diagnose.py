@@ -92,19 +92,20 @@ def _setup(runner: FitRunner, nominal_fit: Any) -> Setup:
     data = runner.data
     x = np.asarray(data.time if isinstance(data, DriveLog) else data.slip, dtype=float)
     order = np.arange(data.n_samples) if runner.is_log else np.argsort(x, kind="stable")
-    R = channels(nominal_fit, data)
+    sensor, expected = None, None
+    if runner.is_log:
+        # the evidence weighs a log's channels by the sensors' noise, as the fit does; the latent slip of each
+        # sample takes up part of it (expected: the share it leaves)
+        R, sensor, expected = log_noise(nominal_fit, data)
+        if np.all(np.isfinite(nominal_fit.theta)):
+            runner.x0 = np.asarray(nominal_fit.theta, dtype=float)
+    else:
+        R = channels(nominal_fit, data)
     sigma, flat = noise_floors(R, order, runner.settings.noise_window(data.n_samples, runner.is_log))
     # a sweep: the nominal fit with its slip-noise model (the screening fit takes the slip as exact)
     model_sigma = None if runner.is_log else sweep_noise_model(runner.run(None, slip_noise="auto"), data)
     if model_sigma is not None:
         sigma = {ch: model_sigma for ch in sigma}
-    sensor, expected = None, None
-    if runner.is_log:
-        # the evidence weighs a log's channels by the sensors' noise, as the fit does; the latent slip of each
-        # sample takes up part of it (expected: the share it leaves)
-        sensor, expected = log_noise(nominal_fit, data)
-        if np.all(np.isfinite(nominal_fit.theta)):
-            runner.x0 = np.asarray(nominal_fit.theta, dtype=float)
     folds = make_folds(data, order, runner.settings)
     return Setup(
         runner,

@@ -20,7 +20,7 @@ from ...soilmodel.data import DriveLog, SlipData
 from ...soilmodel.errors import DataError
 from ...soilmodel.soil import PRACTICAL_BOUNDS
 from ...soilmodel.vehicle import Vehicle
-from ..drivelog.residuals import drive_log_residuals
+from ..drivelog.residuals import drive_log_residuals, evaluate_residuals
 from ..drivelog.sensitivity import latent_slip_expectation
 from ..estimates.records import solver_converged
 from ..fitting import fit
@@ -168,26 +168,31 @@ def log_channels(
     DataError
         The fit predicts nothing (it did not succeed).
     """
-    m = data.n_samples
     if not res.success:
         raise DataError("the fit did not succeed; it predicts nothing", file=data.source)
     out = drive_log_residuals(res, data, res.vehicle, model=res.model)
+    return _full_length(out, "channels", data), _full_length(out, "sigma", data), _full_length(out, "gain", data)
+
+
+def _full_length(out: dict, part: str, data: DriveLog) -> dict[str, np.ndarray]:
+    """``out[part]`` (:func:`~..drivelog.residuals.drive_log_residuals`, per used sample) per channel over the
+    log's samples, NaN where the fit uses none."""
     keep = np.asarray(out["keep"])
     idx = np.nonzero(keep)[0] if keep.dtype == bool else keep.astype(int)
-    full: tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, np.ndarray]] = ({}, {}, {})
-    for part, src in zip(full, (out["channels"], out["sigma"], out["gain"])):
-        for k, v in src.items():
-            a = np.full(m, np.nan)
-            a[idx] = np.asarray(v, dtype=float).ravel()
-            part[k] = a
+    full = {}
+    for k, v in out[part].items():
+        a = np.full(data.n_samples, np.nan)
+        a[idx] = np.asarray(v, dtype=float).ravel()
+        full[k] = a
     return full
 
 
-def log_noise(res: Any, data: DriveLog) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
-    """A drive-log fit's noise level per channel (its noise model: the sensors' noise carried into each
-    channel) and the expected squared standardised residual of a right model (the share of that noise the
-    sample's latent slip leaves, :func:`~..drivelog.sensitivity.latent_slip_expectation`), at full length
-    (NaN where the fit uses no sample).
+def log_noise(res: Any, data: DriveLog) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """A drive-log fit's residuals (measured - model), its noise level per channel (its noise model: the
+    sensors' noise carried into each channel) and the expected squared standardised residual of a right model
+    (the share of that noise the sample's latent slip leaves,
+    :func:`~..drivelog.sensitivity.latent_slip_expectation`), at full length (NaN where the fit uses no
+    sample), from one evaluation of the fit on the log.
 
     Raises
     ------
@@ -196,7 +201,10 @@ def log_noise(res: Any, data: DriveLog) -> tuple[dict[str, np.ndarray], dict[str
     """
     if not res.success:
         raise DataError("the fit did not succeed; it predicts nothing", file=data.source)
-    return log_channels(res, data)[1], latent_slip_expectation(res, data, res.vehicle)
+    evaluated = evaluate_residuals(res, data, res.vehicle, None)
+    out = evaluated[0]
+    expected = latent_slip_expectation(res, data, res.vehicle, evaluated=evaluated)
+    return _full_length(out, "channels", data), _full_length(out, "sigma", data), expected
 
 
 def channels(res: Any, data: SlipData | DriveLog) -> dict[str, np.ndarray]:

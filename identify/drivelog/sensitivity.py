@@ -110,7 +110,9 @@ def drive_log_sensitivities(result: Any, log: DriveLog, vehicle: Vehicle, effect
     return DriveLogSensitivities(e, Jt, ("F_max", "K") + tuple(ctx["labels"]), keep, np.asarray(out["time_s"], float))
 
 
-def latent_slip_expectation(result: Any, log: DriveLog, vehicle: Vehicle) -> dict[str, np.ndarray]:
+def latent_slip_expectation(
+    result: Any, log: DriveLog, vehicle: Vehicle, evaluated: tuple[dict, dict] | None = None
+) -> dict[str, np.ndarray]:
     """Expected squared standardised residual per channel and sample of a drive-log fit, given the
     latent slip each sample solves for: ``1 - h_c`` with the leverage ``h_c = (g_c / sigma_c)^2 / |de/di|^2``.
 
@@ -121,9 +123,11 @@ def latent_slip_expectation(result: Any, log: DriveLog, vehicle: Vehicle) -> dic
     solved on (all by AD from the model's own functions). To first order, ``r_c / sigma_c`` then has
     variance ``1 - h_c`` (the channels' leverages sum to one: the sample keeps ``channels - 1`` degrees of
     freedom); a slip on its bound takes up nothing (1). Returns ``{channel: array}`` over the log's
-    samples (NaN where the fit uses none).
+    samples (NaN where the fit uses none). ``evaluated``: what
+    :func:`~.residuals.evaluate_residuals` gave for ``result`` on ``log`` (its fit's effects), when the
+    caller has it already.
     """
-    out, ctx = evaluate_residuals(result, log, vehicle, None)
+    out, ctx = evaluate_residuals(result, log, vehicle, None) if evaluated is None else evaluated
     theta, structure, D = ctx["theta"], ctx["structure"], ctx["D"]
     slip = np.asarray(out["slip"], dtype=float)
     _, _, gi, graw = sample_outputs(vehicle, structure, "sensitivity", theta, slip, D)
