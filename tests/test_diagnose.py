@@ -157,3 +157,21 @@ def test_lack_of_fit_f_test_on_a_linear_model():
     noise = rng.standard_normal(60)
     assert lack_of_fit(noise, J, B, np.ones(60)) > 0.01
     assert lack_of_fit(noise + 3 * np.sin(6 * x), J, B, np.ones(60)) < 1e-6
+
+
+def test_lack_of_fit_holds_a_parameter_that_ended_on_its_bound():
+    """A misfit along a parameter's own column is explained when the parameter is free, and is lack of fit
+    when the parameter ended on a bound (it cannot move on towards the residuals)."""
+    from soiltrack.identify.diagnosis.sweep_parts import lack_of_fit
+    from soiltrack.identify.diagnosis.selection import hat_basis
+
+    rng = np.random.default_rng(1)
+    x = np.linspace(0, 1, 60)
+    J = np.column_stack([np.ones(60), np.exp(-x / 0.2)])
+    B = hat_basis(x, np.linspace(0, 1, 8))
+    r = 4.0 * J[:, 1] + rng.standard_normal(60)
+    free, held = lack_of_fit(r, J, B, np.ones(60)), lack_of_fit(r, J, B, np.ones(60), held=[1])
+    assert free > 0.01
+    assert held < 1e-6
+    # held on noise alone: one more column for the basis, and still no lack of fit
+    assert lack_of_fit(rng.standard_normal(60), J, B, np.ones(60), held=[1]) > 0.01

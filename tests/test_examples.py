@@ -9,6 +9,9 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCRIPT = os.path.join(ROOT, "examples", "reproduce_paper.py")
+# One --quick run of the paper's reproduction, a subprocess of about 8 s: in CI's full run, out of the quick loop.
+pytestmark = pytest.mark.slow
+
 FIGURES = (
     "fig2_backprediction.png",
     "fig3_sensitivity_heavy.png",
@@ -37,7 +40,6 @@ def quick_run(tmp_path_factory):
     return out, open(out / "report.md", encoding="utf-8").read(), proc.stderr
 
 
-@pytest.mark.slow
 def test_report_and_figures_exist(quick_run):
     out, report, _ = quick_run
     for name in FIGURES:

@@ -31,7 +31,7 @@ import numpy as np
 from ...soilmodel.data import DriveLog, SlipData
 from ...soilmodel.effects import EFFECTS
 from ...soilmodel.errors import DataError
-from ...soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
+from ...soilmodel.soil import PARAMETER_NAMES, PRACTICAL_BOUNDS, SoilBounds
 from ...soilmodel.vehicle import Vehicle
 from ..consistency import ConsistencyReport, check_consistency
 from ..sweep.rig import pure_error_test
@@ -323,9 +323,12 @@ def _lack_of_fit(setup: Setup, residuals: dict[str, np.ndarray], res: Any) -> fl
     ok = np.isfinite(r) & (np.nan_to_num(sg) > 0)
     knots = np.unique(np.quantile(setup.x[ok], np.linspace(0.0, 1.0, max(2, setup.n_knots))))
     J = fit_jacobian(res, setup.data)
+    names = PARAMETER_NAMES + tuple(getattr(res, "effect_labels", ()) or ())
     if res is setup.nominal_fit:
-        J = J[:, : len(SOIL_KEYS)]
-    return lack_of_fit(r[ok], J[ok], hat_basis(setup.x, knots)[ok], sg[ok])
+        J, names = J[:, : len(SOIL_KEYS)], names[: len(SOIL_KEYS)]
+    active = dict(getattr(res, "active_bounds", None) or {})
+    held = [j for j, name in enumerate(names) if name in active]
+    return lack_of_fit(r[ok], J[ok], hat_basis(setup.x, knots)[ok], sg[ok], held)
 
 
 def _pure_error(setup: Setup) -> float | None:

@@ -15,6 +15,7 @@ of them, and effects whose signatures bend the thrust-slip curve:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -115,13 +116,24 @@ def effect_start(res) -> dict:
 
 
 # ----------------------------------------------------------------------------- lack of fit and the verdict
-def lack_of_fit(residuals: np.ndarray, jacobian: np.ndarray, basis: np.ndarray, sigma: np.ndarray) -> float:
+def lack_of_fit(
+    residuals: np.ndarray,
+    jacobian: np.ndarray,
+    basis: np.ndarray,
+    sigma: np.ndarray,
+    held: Sequence[int] = (),
+) -> float:
     """p-value that a flexible term ``basis`` on top of a fitted model still explains its residuals (F test).
 
     The model's own parameters are refitted with the flexible term (linearised: its Jacobian),
     so the test asks what the basis adds beyond them. Rows are weighted by ``1/sigma`` (the
     shape of the noise along the sweep); the F statistic does not depend on the noise level,
     which second differences estimate only roughly.
+
+    A parameter that ended on a bound of its range cannot move on towards the residuals: its
+    column (``held``) is left out of the refit. Linearised with it free, the test would move it
+    past its bound and call the misfit that the bound leaves "explained by the model" (a radius
+    error drives a heavy sweep's K onto its lower bound, and the test saw no gap).
 
     Parameters
     ----------
@@ -133,10 +145,12 @@ def lack_of_fit(residuals: np.ndarray, jacobian: np.ndarray, basis: np.ndarray, 
         The flexible term's basis, ``(n, k)`` (e.g. :func:`~.selection.hat_basis` in slip).
     sigma
         Noise level per sample (only its shape matters).
+    held
+        Columns of ``jacobian`` whose parameters ended on a bound (held there in the refit).
     """
     s = np.asarray(sigma, dtype=float)
     z = np.asarray(residuals, dtype=float) / s
-    J = np.asarray(jacobian, dtype=float) / s[:, None]
+    J = np.delete(np.asarray(jacobian, dtype=float), list(held), axis=1) / s[:, None]
     B = np.asarray(basis, dtype=float) / s[:, None]
     ok = np.isfinite(z) & np.all(np.isfinite(J), axis=1) & np.all(np.isfinite(B), axis=1)
     z, J, B = z[ok], J[ok], B[ok]
