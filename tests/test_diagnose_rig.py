@@ -89,6 +89,7 @@ def test_the_command_line_keeps_or_widens_the_bounds(tmp_path, capsys):
     assert bad.returncode == 2 and "--bounds" in bad.stderr and "Traceback" not in bad.stderr
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("exponent", [1.0, 0.0])
 def test_the_measured_sinkage_shows_the_slip_sinkage_signature(exponent):
     """A track sweep with sinkage_m: the diagnosis carries the sinkage's growth with the slip (Lyasko's law

@@ -176,6 +176,7 @@ def test_the_discretisation_check_puts_the_other_rule_beside_the_fit():
     assert len(res.warnings) == len(plain.warnings) + 1
 
 
+@pytest.mark.slow
 def test_the_command_line_fit_of_a_drive_log_carries_the_check(tmp_path, capsys):
     import json
 

@@ -278,7 +278,7 @@ def test_failure_is_reported_not_hidden(light_fits):
 
 
 def test_library_fit_dispatches_drive_logs(light_fits):
-    log, res = light_fits[5]
+    log, res = light_fits[1]
     via_fit = fit(log, LIGHT)
     assert via_fit.data_kind == "drive"
     assert via_fit.extra["max_thrust_N"] == pytest.approx(res.extra["max_thrust_N"], rel=1e-9)

@@ -23,6 +23,7 @@ def _libs(folder) -> list[str]:
     return [f for f in os.listdir(folder) if f.endswith(".so")]
 
 
+@pytest.mark.slow
 def test_deferred_compilation_starts_at_exit_waits_for_the_lock_then_loads(tmp_path, monkeypatch):
     if jitcache.compiler() is None or shutil.which("flock") is None:
         pytest.skip("needs a C compiler and flock")

@@ -200,6 +200,7 @@ def test_route_first_point_is_steady_and_a_given_slip_is_kept(capsys, tmp_path):
     assert rc == 2 and "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_plans_from_rest_and_to_rest():
     up = profile(TERRAINS["lete_sand"], HEAVY, v0=0.0, v1=3.0, distance=30.0, intervals=30)
     assert up.success and up.initial_slip_source == "rest" and up.series["slip"][0] == 0.0
