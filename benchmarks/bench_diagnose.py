@@ -14,7 +14,7 @@ Each case also gets its detectability: the RMS misfit the effect leaves after th
 is fitted to the noise-free data (what the soil cannot absorb), over the noise level. Accuracy
 targets are checked where that ratio exceeds 3; below it, ``none`` is a correct answer too.
 
-Run:  python benchmarks/bench_diagnose.py [--quick] [--kinds sweep,drive] [--png confusion.png]
+Run:  python benchmarks/bench_diagnose.py [--quick] [--kinds sweep,drive] [--effects radius_error] [--png confusion.png]
 (the figure goes to benchmarks/out/, which git ignores, unless --png names another path)
 Timings are wall-clock on whatever machine runs it (say how loaded it was).
 """
@@ -300,6 +300,12 @@ def main(argv=None) -> int:
     ap.add_argument("--terrains", default=None, help="subset, e.g. lete_sand (default: the grid's)")
     ap.add_argument("--noises", default=None, help="subset of noise levels, e.g. default (default: the grid's)")
     ap.add_argument("--seeds", default=None, help="subset of seeds, e.g. 1 (default: 1,2,3; --quick 1)")
+    ap.add_argument(
+        "--effects",
+        default=None,
+        help="subset of effects, e.g. radius_error or none,grade (default: all that show, the effect-free logs "
+        "and the out-of-library logs; a subset runs only the effects named)",
+    )
     ap.add_argument("--max-loo", type=int, default=None, help="leave-one-out cases per kind (default 40; quick 2/8)")
     a = ap.parse_args(argv)
     kinds = [k for k in a.kinds.split(",") if k]
@@ -317,6 +323,8 @@ def main(argv=None) -> int:
         terrains = tuple(a.terrains.split(",")) if a.terrains else terrains
         noises = [x for x in a.noises.split(",") if x in NOISE[kind]] if a.noises else noises
         names = [e for e, s in EFFECTS.items() if kind in s.shows_in]
+        if a.effects:
+            names = [e for e in names if e in a.effects.split(",")]
         # a drive-log diagnosis costs about a minute on a loaded 2-core machine: a smaller grid
         dur = a.log_seconds
         mags = (lambda e, v: magnitudes(e, v)[-1:]) if kind == "drive" and a.quick else magnitudes
@@ -327,7 +335,7 @@ def main(argv=None) -> int:
         for vname in vehicles:
             for tname in terrains:
                 for nname in noises:
-                    for seed in free_seeds:
+                    for seed in free_seeds if not a.effects or "none" in a.effects.split(",") else ():
                         rows.append(run_case(kind, vname, tname, "none", None, nname, seed, duration=dur))
                         print(_line(rows[-1]), flush=True)
                     for e in names:
@@ -370,7 +378,7 @@ def main(argv=None) -> int:
                     )
                 )
                 print("LOO-blind " + _line(loo[-1]), flush=True)
-    if "drive" in kinds:
+    if "drive" in kinds and not a.effects:
         v, s = VEHICLES["light"], TERRAINS["lete_sand"]
         soft = TERRAINS["dry_sand"]
         T = a.log_seconds
