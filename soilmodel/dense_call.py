@@ -11,6 +11,8 @@ from several threads do not share memory; the numbers are the same operations' a
 
 from __future__ import annotations
 
+import weakref
+from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
@@ -33,6 +35,40 @@ def _column_major(a: np.ndarray, rows: int, cols: int, name: str, i: int) -> np.
     return np.ascontiguousarray(m.T).ravel()
 
 
+@dataclass(frozen=True)
+class _Layout:
+    """What :func:`call_dense` asks of a function on every call, asked once: input and output sizes and
+    whether every input and output is dense."""
+
+    name: str
+    ins: tuple[tuple[int, int], ...]
+    outs: tuple[tuple[int, int], ...]
+    dense: bool
+
+
+_LAYOUTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _layout(fn: ca.Function) -> _Layout:
+    """``fn``'s :class:`_Layout`, kept while ``fn`` lives (the kernels are called thousands of times per fit)."""
+    try:
+        return _LAYOUTS[fn]
+    except (KeyError, TypeError):
+        pass
+    lay = _Layout(
+        fn.name(),
+        tuple((fn.size1_in(i), fn.size2_in(i)) for i in range(fn.n_in())),
+        tuple((fn.size1_out(i), fn.size2_out(i)) for i in range(fn.n_out())),
+        all(fn.nnz_in(i) == fn.numel_in(i) for i in range(fn.n_in()))
+        and all(fn.nnz_out(i) == fn.numel_out(i) for i in range(fn.n_out())),
+    )
+    try:
+        _LAYOUTS[fn] = lay
+    except TypeError:  # a function object that cannot be referenced weakly: asked again next time
+        pass
+    return lay
+
+
 def call_dense(fn: ca.Function, *args: np.ndarray) -> list[np.ndarray]:
     """Evaluate ``fn`` on dense arrays; each output as its ``size1 x size2`` float array.
 
@@ -47,23 +83,22 @@ def call_dense(fn: ca.Function, *args: np.ndarray) -> list[np.ndarray]:
     RuntimeError
         The evaluation failed (CasADi's return flag).
     """
-    if len(args) != fn.n_in():
-        raise ValueError(f"{fn.name()}: {len(args)} inputs given, {fn.n_in()} expected")
-    inputs = [_column_major(a, fn.size1_in(i), fn.size2_in(i), fn.name(), i) for i, a in enumerate(args)]
-    dense_in = all(fn.nnz_in(i) == fn.numel_in(i) for i in range(fn.n_in()))
-    dense_out = all(fn.nnz_out(i) == fn.numel_out(i) for i in range(fn.n_out()))
-    if not (dense_in and dense_out):
-        out = fn(*(a.reshape(fn.size2_in(i), fn.size1_in(i)).T for i, a in enumerate(inputs)))
+    lay = _layout(fn)
+    if len(args) != len(lay.ins):
+        raise ValueError(f"{lay.name}: {len(args)} inputs given, {len(lay.ins)} expected")
+    inputs = [_column_major(a, r, c, lay.name, i) for i, (a, (r, c)) in enumerate(zip(args, lay.ins))]
+    if not lay.dense:
+        out = fn(*(a.reshape(c, r).T for a, (r, c) in zip(inputs, lay.ins)))
         outs = out if isinstance(out, (list, tuple)) else [out]
         return [np.asarray(o, dtype=float) for o in outs]
     buf, trigger = fn.buffer()
     b: Any = buf  # casadi's type stubs give set_arg/set_res a size argument its Python wrapper does not take
     for i, a in enumerate(inputs):
         b.set_arg(i, a.data)  # ndarray.data: a memoryview of the array's memory
-    flat = [np.empty(fn.numel_out(i)) for i in range(fn.n_out())]
+    flat = [np.empty(r * c) for r, c in lay.outs]
     for i, o in enumerate(flat):
         b.set_res(i, o.data)
     trigger()
     if buf.ret() != 0:
-        raise RuntimeError(f"{fn.name()}: evaluation failed (return flag {buf.ret()})")
-    return [o.reshape(fn.size2_out(i), fn.size1_out(i)).T for i, o in enumerate(flat)]
+        raise RuntimeError(f"{lay.name}: evaluation failed (return flag {buf.ret()})")
+    return [o.reshape(c, r).T for o, (r, c) in zip(flat, lay.outs)]

@@ -93,14 +93,15 @@ class TerrainWindow:
         return self.fmax_change
 
 
-def _pinv_quad(S: np.ndarray, V: np.ndarray, atol: float = 1e-8) -> tuple[float, int]:
-    """``S^T V^+ S`` and the rank of ``V`` (symmetric; eigenvalues below ``atol`` dropped)."""
-    w, U = np.linalg.eigh(0.5 * (V + V.T))
-    if w[-1] <= atol:
-        return 0.0, 0
+def _pinv_quads(S: np.ndarray, V: np.ndarray, atol: float = 1e-8) -> tuple[np.ndarray, np.ndarray]:
+    """``S_j^T V_j^+ S_j`` and the rank of ``V_j`` for each of a stack of symmetric matrices ``V`` (``(w, p,
+    p)``) and vectors ``S`` (``(w, p)``): eigenvalues below ``atol`` dropped; 0 and rank 0 where none is
+    above it."""
+    w, U = np.linalg.eigh(0.5 * (V + np.swapaxes(V, 1, 2)))
     keep = w > atol
-    y = U[:, keep].T @ S
-    return float(np.sum(y**2 / w[keep])), int(np.count_nonzero(keep))
+    y = np.einsum("wpq,wp->wq", U, S)  # U^T S, one column per eigenvalue
+    quad = np.where(keep, y**2 / np.where(keep, w, 1.0), 0.0).sum(axis=1)
+    return quad, np.count_nonzero(keep, axis=1)
 
 
 def terrain_window(
@@ -216,10 +217,7 @@ def _window_statistics(G: np.ndarray, I: np.ndarray, infl: float, min_info: floa
     # run) holds less than min_info of it cannot tell inside from outside and is not tested
     Sn = S / d
     Vn = Veff / np.outer(d, d)
-    stats = np.empty(a_idx.size)
-    ranks = np.empty(a_idx.size, dtype=int)
-    for j in range(a_idx.size):
-        stats[j], ranks[j] = _pinv_quad(Sn[j], Vn[j], atol=min_info * infl)
+    stats, ranks = _pinv_quads(Sn, Vn, atol=min_info * infl)
     return a_idx, b_idx, stats, ranks, S, Vin, Ia
 
 

@@ -149,13 +149,17 @@ def prepare_drive_log(
             raise DataError(f"{name} must be a finite number >= 0, got {val!r}")
     sigma_known = None not in (sigma_torque, sigma_sprocket_speed, sigma_vehicle_speed)
     # Noise models sigma = sqrt(a^2 + (b x)^2): given (constant), or estimated from the log.
+    # (a model given in noise_models replaces the estimate, so that channel is not estimated at all)
+    given = {k: (float(a), float(b)) for k, (a, b) in (noise_models or {}).items()}
     nm = {
-        "torque": noise_model(M, sigma_torque),
-        "sprocket_speed": noise_model(w, sigma_sprocket_speed),
-        "vehicle_speed": noise_model(v, sigma_vehicle_speed),
+        k: given[k] if k in given else noise_model(x, sig)
+        for k, x, sig in (
+            ("torque", M, sigma_torque),
+            ("sprocket_speed", w, sigma_sprocket_speed),
+            ("vehicle_speed", v, sigma_vehicle_speed),
+        )
     }
-    if noise_models is not None:
-        nm.update({k: (float(a), float(b)) for k, (a, b) in noise_models.items()})
+    nm.update(given)
     s_M = np.hypot(nm["torque"][0], nm["torque"][1] * M)
     s_w = np.hypot(nm["sprocket_speed"][0], nm["sprocket_speed"][1] * w)
     s_v = np.hypot(nm["vehicle_speed"][0], nm["vehicle_speed"][1] * v)
