@@ -46,6 +46,9 @@ NOISE = {
     },
 }
 SLIPS = tuple(np.round(np.linspace(0.01, 0.7, 60), 4))
+#: The grid's vehicles and terrains (``--quick``: the first of each).
+GRID_VEHICLES = ("light", "heavy")
+GRID_TERRAINS = ("lete_sand", "dry_sand")
 
 
 def magnitudes(name: str, vehicle) -> list:
@@ -316,8 +319,8 @@ def main(argv=None) -> int:
     if a.seeds:
         seeds = tuple(int(x) for x in a.seeds.split(","))
     for kind in kinds:
-        vehicles = ("light",) if a.quick else ("light", "heavy")
-        terrains = ("lete_sand",) if a.quick else ("lete_sand", "dry_sand")
+        vehicles = GRID_VEHICLES[:1] if a.quick else GRID_VEHICLES
+        terrains = GRID_TERRAINS[:1] if a.quick else GRID_TERRAINS
         noises = list(NOISE[kind])[:1] if a.quick else list(NOISE[kind])
         vehicles = tuple(a.vehicles.split(",")) if a.vehicles else vehicles
         terrains = tuple(a.terrains.split(",")) if a.terrains else terrains

@@ -39,9 +39,9 @@ def main(argv: list[str] | None = None) -> int:
     by_truth: collections.Counter = collections.Counter()
     by_seed: collections.Counter = collections.Counter()
     for eff in pair:
-        for vname in ("light", "heavy"):
+        for vname in grid.GRID_VEHICLES:
             v = grid.VEHICLES[vname]
-            for tname in ("lete_sand", "dry_sand"):
+            for tname in grid.GRID_TERRAINS:
                 for nname in grid.NOISE["drive"]:
                     for mag in grid.magnitudes(eff, v):
                         for seed in seeds:

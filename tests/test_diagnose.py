@@ -31,7 +31,7 @@ def sweep(effects=None, seed=1, noise=LOW_NOISE):
 
 @pytest.fixture(scope="module")
 def clean_screens():
-    _, screens = screen(sweep(noise="none"), VEH, list(SWEEP_EFFECTS))
+    _, screens, _ = screen(sweep(noise="none"), VEH, list(SWEEP_EFFECTS))
     return {s.effect: s for s in screens}
 
 
@@ -45,7 +45,7 @@ def test_score_is_zero_at_the_nominal_model_on_effect_free_noise_free_data(clean
 
 @pytest.mark.parametrize("name", sorted(SWEEP_EFFECTS))
 def test_score_is_nonzero_with_the_effect(name, clean_screens):
-    _, screens = screen(sweep({name: SWEEP_EFFECTS[name]}, noise="none"), VEH, [name])
+    _, screens, _ = screen(sweep({name: SWEEP_EFFECTS[name]}, noise="none"), VEH, [name])
     s = screens[0]
     # measured cosines 0.3 to 1 (radius_error's local sensitivity is the weakest)
     assert s.score > 0.2 and s.score > 100 * clean_screens[name].score, (name, s.score)

@@ -38,7 +38,7 @@ from ..sweep.rig import pure_error_test
 from ..sweep.sinkage_channel import slip_sinkage_evidence
 from .decision import share_confusable, UNEXPLAINED, Decision, decide
 from .evidence import HeldOutEvidence, PenalisedEvidence
-from .fits import SOIL_KEYS, FitRunner, channels, effect_parameters, log_noise, soil_summary, usable
+from .fits import FitRunner, channels, effect_parameters, log_noise, soil_summary, usable
 from .gap import long_run_factor
 from .gap_test import GapDecision, decide_gap
 from .hold import HoldChoice, choose_hold
@@ -88,7 +88,7 @@ def _runner(
     )
 
 
-def _setup(runner: FitRunner, nominal_fit: Any) -> Setup:
+def _setup(runner: FitRunner, nominal_fit: Any, sensitivities: Any = None) -> Setup:
     data = runner.data
     x = np.asarray(data.time if isinstance(data, DriveLog) else data.slip, dtype=float)
     order = np.arange(data.n_samples) if runner.is_log else np.argsort(x, kind="stable")
@@ -120,6 +120,7 @@ def _setup(runner: FitRunner, nominal_fit: Any) -> Setup:
         lone_readings(R, x),
         sensor,
         expected,
+        sensitivities,
     )
 
 
@@ -237,7 +238,7 @@ def _data_step(
     chosen: HoldChoice | None = None
     for attempt in range(2):
         say(f"screening: the nominal model on all {data.n_samples} samples, with the score tests")
-        nominal_fit, screens = screen(
+        nominal_fit, screens, sens = screen(
             data,
             runner.vehicle,
             library,
@@ -247,7 +248,7 @@ def _data_step(
         )
         if data.n_samples < runner.settings.min_samples or not usable(nominal_fit, runner.is_log):
             return nominal_fit, screens, None, None, chosen
-        setup = _setup(runner, nominal_fit)
+        setup = _setup(runner, nominal_fit, sens)
         say("the nominal model and the flexible term on the training blocks")
         base = nominal_hypothesis(setup)
         if not runner.is_log or attempt == 1:
@@ -325,7 +326,7 @@ def _lack_of_fit(setup: Setup, residuals: dict[str, np.ndarray], res: Any) -> fl
     J = fit_jacobian(res, setup.data)
     names = PARAMETER_NAMES + tuple(getattr(res, "effect_labels", ()) or ())
     if res is setup.nominal_fit:
-        J, names = J[:, : len(SOIL_KEYS)], names[: len(SOIL_KEYS)]
+        J, names = J[:, : len(PARAMETER_NAMES)], names[: len(PARAMETER_NAMES)]
     active = dict(getattr(res, "active_bounds", None) or {})
     held = [j for j, name in enumerate(names) if name in active]
     return lack_of_fit(r[ok], J[ok], hat_basis(setup.x, knots)[ok], sg[ok], held)

@@ -422,16 +422,21 @@ def refine_delay(nominal, data, vehicle, train: np.ndarray, k0: int, max_lag: in
 SPEED_SCALE_STEP = 1e-3
 
 
-def speed_scale_screen(res, log, vehicle, hac_lag: int | None = None) -> Screen:
+def speed_scale_screen(res, log, vehicle, hac_lag: int | None = None, sensitivities: Any = None) -> Screen:
     """Score test of a vehicle-speed sensor scale (``speed_scale``) from the nominal drive-log fit ``res``.
 
     A speed scale is no effect of the model, so its column of the Jacobian is the central difference of the
     fit's whitened residuals (latent slips solved again) in the scale of the speed channel, at the fitted
     soil. Its direction puts the speed scale into the same comparison of sensitivities as the library's
     effects (:func:`~.selection.confusable_groups`): it shares a radius error's slip signature. Not testable
-    (``testable`` False) when the scaled log keeps other samples.
+    (``testable`` False) when the scaled log keeps other samples. ``sensitivities``: the fit's own on ``log``
+    (:class:`~..drivelog.sensitivity.DriveLogSensitivities`, soil columns first), when already evaluated.
     """
-    J, r, _, c = drive_log_score_pair(res, log, vehicle)
+    if sensitivities is None:
+        J, r, _, c = drive_log_score_pair(res, log, vehicle)
+    else:
+        J, r = sensitivities.stacked()
+        J, c = J[:, :2], sensitivities.n_channels  # the soil's columns (F_max, K)
     up = drive_log_score_pair(res, scale_speed(log, SPEED_SCALE_STEP), vehicle)[1]
     down = drive_log_score_pair(res, scale_speed(log, -SPEED_SCALE_STEP), vehicle)[1]
     if not (up.size == down.size == r.size):

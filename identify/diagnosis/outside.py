@@ -156,7 +156,9 @@ def speed_scale_hypothesis(setup: Setup, radius: Hypothesis | None) -> Hypothesi
         held=held,
         detail={"gain": g},
         parameters={"gain": {"value": g, "identifiable": True, "at_bound": False}},
-        direction=speed_scale_screen(setup.nominal_fit, setup.data, setup.runner.vehicle).direction,
+        direction=speed_scale_screen(
+            setup.nominal_fit, setup.data, setup.runner.vehicle, sensitivities=setup.sensitivities
+        ).direction,
     )
 
 
@@ -240,9 +242,15 @@ def _parabola_vertex(a: float, fa: float, b: float, fb: float, c: float, fc: flo
 def _window(setup: Setup) -> Any:
     """The soil's score-test window of the nominal fit on all the data (None when it cannot be made)."""
     try:
-        sens = drive_log_sensitivities(setup.nominal_fit, setup.data, setup.runner.vehicle)
+        sens = setup.sensitivities
+        if sens is None:
+            sens = drive_log_sensitivities(setup.nominal_fit, setup.data, setup.runner.vehicle)
         return terrain_window(
-            sens.residuals, sens.jacobian, sens.time_s, alpha=setup.settings.alpha, scale=_soil_of(setup.nominal_fit)
+            sens.residuals,
+            sens.jacobian[:, :, :2],  # the soil's columns (F_max, K)
+            sens.time_s,
+            alpha=setup.settings.alpha,
+            scale=_soil_of(setup.nominal_fit),
         )
     except DataError:
         return None

@@ -240,16 +240,20 @@ def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None =
 
     Returns
     -------
-    (FitResult, list of Screen)
+    (FitResult, list of Screen, DriveLogSensitivities or None)
+        The fit, the candidates' score tests and, for a drive log whose fit succeeded, the per-sample
+        sensitivities they came from (soil columns first: the later steps' score tests reuse them).
     """
     from ..fitting import fit
 
     cands = list(candidates)
     if not cands:
-        return fit(data, vehicle, model=model, **(fit_options or {})), []
+        return fit(data, vehicle, model=model, **(fit_options or {})), [], None
     from ...soilmodel.data import DriveLog
+    from ..drivelog.sensitivity import drive_log_sensitivities
 
     rows_per_sample = 1
+    sens = None
     if isinstance(data, DriveLog):
         # the nominal fit with the hull channel (the estimator of the candidates' fits); the candidates'
         # columns come from the drive-log model's derivatives with them switched on at "off"
@@ -258,7 +262,8 @@ def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None =
         J = np.zeros((1, len(names)))
         r = np.zeros(1)
         if res.success:
-            J, r, names, rows_per_sample = drive_log_score_pair(res, data, vehicle, effects=cands)
+            sens = drive_log_sensitivities(res, data, vehicle, effects=cands)
+            (J, r), names, rows_per_sample = sens.stacked(), list(sens.labels), sens.n_channels
     else:
         fixed = {f"{c}.{p.name}": p.off_value for c in cands for p in EFFECTS[c].params if not p.integer}
         res = fit(
@@ -286,4 +291,4 @@ def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None =
         bound = set(getattr(res, "active_bounds", {}) or {})
         fj = [j for j in free if names[j] not in bound]
         res.extra["screening_stationarity"] = stationarity(J[:, fj], r)
-    return res, out
+    return res, out, sens

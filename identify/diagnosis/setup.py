@@ -139,6 +139,10 @@ class Setup:
         A log's expected squared standardised residual per channel and sample of a right model, on
         :attr:`sensor_sigma` (the share of the noise its latent slip leaves,
         :attr:`.hypotheses.Frame.expected`); None: a sweep.
+    sensitivities
+        A log's: the nominal fit's per-sample whitened residuals and sensitivities from the screening
+        (:class:`~..drivelog.sensitivity.DriveLogSensitivities`, the soil's columns first, then the library
+        effects'), for the later score tests on the same fit; None: a sweep.
     """
 
     runner: FitRunner
@@ -153,6 +157,7 @@ class Setup:
     lone: dict = field(default_factory=dict)
     sensor_sigma: dict[str, np.ndarray] | None = None
     expected: dict[str, np.ndarray] | None = None
+    sensitivities: Any = None
 
     def frame(self, residuals: dict[str, np.ndarray], sensor: bool = False) -> Frame:
         """The evidence's samples: where ``residuals`` (held-out ones, or all) and the noise floor are known,
