@@ -118,3 +118,23 @@ def test_too_few_rows_are_refused():
         WheelFitOptions(fixed={"mass": 1.0})
     with pytest.raises(DataError):
         WheelFitOptions(effects=("grade",))
+
+
+@pytest.mark.slow
+def test_a_warm_start_solves_once_and_lands_on_the_grids_answer():
+    """A start at another fit's answer on nearly the same data (a left-out slip level) is one solve, and it
+    ends where the multi-start grid ends; a start that is not seven finite numbers is refused."""
+    d = _sweep(SOILS[0], [20.0], 0)
+    full = fit_wheel(d, WHEEL)
+    part = d.subset(np.abs(d.slip - 0.5) > 1e-9)  # one slip level left out, as the diagnosis does
+    grid = fit_wheel(part, WHEEL)
+    warm = fit_wheel(part, WHEEL, WheelFitOptions(start=tuple(full.theta)))
+    assert full.success and grid.success and warm.success
+    assert (grid.starts, warm.starts) == (6, 1)
+    assert warm.rmse_drawbar_pull == pytest.approx(grid.rmse_drawbar_pull, rel=1e-6)
+    assert warm.rmse_sinkage == pytest.approx(grid.rmse_sinkage, rel=1e-6)
+    np.testing.assert_allclose(warm.theta[:3], grid.theta[:3], rtol=1e-3)
+    with pytest.raises(DataError, match="start"):
+        WheelFitOptions(start=(1.0, 2.0))
+    with pytest.raises(DataError, match="start"):
+        WheelFitOptions(start=tuple(full.theta[:-1]) + (math.nan,))

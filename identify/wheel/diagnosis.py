@@ -123,7 +123,7 @@ def _holdout(
     ok = True
     for g in np.unique(lev):
         train, test = data.subset(lev != g), data.subset(lev == g)
-        r = fit_wheel(train, wheel, opts)
+        r = fit_wheel(train, wheel, opts)  # warm from the fit on all levels when opts.start is given
         ok &= r.success
         dp, _, _, z_w = wheel_rows(wheel, opts.settings, r.theta, test)
         s = float((((dp - test.drawbar_pull) / scale[0]) ** 2).sum())
@@ -159,7 +159,8 @@ def diagnose_wheel(
         math.hypot(nominal.rmse_drawbar_pull, f_dp),
         None if nominal.rmse_sinkage is None else math.hypot(nominal.rmse_sinkage, f_z),
     )
-    before, shares, ok_nom = _holdout(data, wheel, replace(options, effects=()), scale)
+    # each left-out level's fit starts from the fit on all levels (the grid when that solve fails)
+    before, shares, ok_nom = _holdout(data, wheel, replace(options, effects=(), start=tuple(nominal.theta)), scale)
     hyps = [
         {
             "effect": "none",
@@ -173,7 +174,7 @@ def diagnose_wheel(
             notes.append("slip_sinkage needs a measured sinkage (sinkage_m) to show: not tried")
             continue
         r = fit_wheel(data, wheel, replace(options, effects=(eff,)))
-        ho, _, ok = _holdout(data, wheel, replace(options, effects=(eff,)), scale)
+        ho, _, ok = _holdout(data, wheel, replace(options, effects=(eff,), start=tuple(r.theta)), scale)
         ok_nom &= ok
         hyps.append({"effect": eff, "fit": r, "holdout": ho, "k": sum(not e.fixed for e in r.parameters.values())})
     aic = np.array([2 * _objective(h["fit"], data) + 2 * h["k"] for h in hyps])

@@ -64,12 +64,17 @@ class WheelFitOptions:
         :class:`WheelBounds` of the seven parameters.
     settings
         :class:`~soiltrack.soilmodel.wheel.WheelSettings` of the wheel model (c1, c2, nodes).
+    start
+        A warm start: all seven parameters (SI, in :data:`WHEEL_PARAMETERS` order), e.g. another fit's
+        ``theta`` on nearly the same data. One solve from it (moved inside the bounds) replaces the
+        multi-start grid; when it does not converge, the grid is solved as without it.
     """
 
     fixed: Mapping[str, float] = field(default_factory=dict)
     effects: tuple[str, ...] = ()
     bounds: WheelBounds = DEFAULT_WHEEL_BOUNDS
     settings: WheelSettings = DEFAULT_WHEEL_SETTINGS
+    start: tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         for e in self.effects:
@@ -88,6 +93,13 @@ class WheelFitOptions:
             )
             if not lo <= v <= hi:
                 raise DataError(f"fixed value of {name} ({v:.6g} SI) lies outside its bounds [{lo:.6g}, {hi:.6g}]")
+        if self.start is not None:
+            st = np.asarray(self.start, dtype=float).ravel()
+            if st.size != len(WHEEL_PARAMETERS) or not np.all(np.isfinite(st)):
+                raise DataError(
+                    f"start must be {len(WHEEL_PARAMETERS)} finite numbers ({', '.join(WHEEL_PARAMETERS)}, SI), "
+                    f"got {self.start!r}"
+                )
 
 
 def _starts(
@@ -127,11 +139,30 @@ def _p(data: WheelSweep, th: np.ndarray) -> np.ndarray:
     return np.concatenate([data.slip, z, data.normal_load, data.drawbar_pull, th])
 
 
+def _solve_starts(solver, starts: list[np.ndarray], free: np.ndarray, p, lbx, ubx) -> tuple[tuple, int]:
+    """Solve from every start (SI, all parameters); the best ``(failed, f, x, status, iterations)`` (a converged
+    solve before any other, then the least objective) and how many converged."""
+    best, n_ok = None, 0
+    for th0 in starts:
+        sol, stats = call_solver(solver, x0=(th0 / PARAMETER_SCALES)[free], p=p, lbx=lbx, ubx=ubx)
+        f = float(sol["f"])
+        status = str(stats.get("return_status", "unknown"))
+        ok = bool(stats.get("success", False)) and status in _OK_STATUS and math.isfinite(f)
+        n_ok += ok
+        cand = (not ok, f, np.asarray(sol["x"], dtype=float).ravel(), status, int(stats.get("iter_count", -1)))
+        if best is None or cand[:2] < best[:2]:
+            best = cand
+    if best is None:
+        raise ValueError("no start to solve from")
+    return best, n_ok
+
+
 def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = WheelFitOptions()) -> WheelFitResult:
     """Identify c, phi, K (and the Bekker k_c, k_phi, n) from a wheel sweep with bounded IPOPT.
 
     Every start of a small grid (:data:`START_FRICTION_DEG` x :data:`START_SHEAR_MODULUS_M`) is
-    solved; the best converged solve is the answer. The result says whether it converged, which
+    solved (or one warm start, :attr:`WheelFitOptions.start`, the grid only when it fails); the best
+    converged solve is the answer. The result says whether it converged, which
     parameters sit on a bound and what the data identify (from the Jacobian's rank and null space).
     """
     if not isinstance(data, WheelSweep):
@@ -151,22 +182,20 @@ def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = Wh
     solver, resid = wheel_solver(wheel, options.settings, data.n_samples, sink, tuple(bool(f) for f in free))
     lo, hi = np.array(options.bounds.lower), np.array(options.bounds.upper)
     lbx, ubx = (lo / PARAMETER_SCALES)[free], (hi / PARAMETER_SCALES)[free]
-    best = None
-    n_ok = 0
-    starts = _starts(data, wheel, free, fixed, options)
-    for th0 in starts:
-        p = _p(data, np.where(free, 0.0, fixed))
-        sol, stats = call_solver(solver, x0=(th0 / PARAMETER_SCALES)[free], p=p, lbx=lbx, ubx=ubx)
-        f = float(sol["f"])
-        status = str(stats.get("return_status", "unknown"))
-        ok = bool(stats.get("success", False)) and status in _OK_STATUS and math.isfinite(f)
-        n_ok += ok
-        x = np.asarray(sol["x"], dtype=float).ravel()
-        cand = (not ok, f, x, status, int(stats.get("iter_count", -1)))
-        if best is None or cand[:2] < best[:2]:
-            best = cand
-    failed, f, x, status, iters = best
     p = _p(data, np.where(free, 0.0, fixed))
+    starts: list[np.ndarray] = []
+    best, n_ok = None, 0
+    if options.start is not None:  # one warm solve, moved inside the bounds as the grid's starts are
+        margin = START_BOUND_MARGIN * (hi - lo)
+        starts = [np.where(free, np.clip(np.asarray(options.start, dtype=float), lo + margin, hi - margin), fixed)]
+        best, n_ok = _solve_starts(solver, starts, free, p, lbx, ubx)
+    if best is None or best[0]:  # no warm start, or it did not converge: the grid
+        grid = _starts(data, wheel, free, fixed, options)
+        cand, k = _solve_starts(solver, grid, free, p, lbx, ubx)
+        starts += grid
+        n_ok += k
+        best = cand if best is None or cand[:2] < best[:2] else best
+    failed, f, x, status, iters = best
     r_dp, r_w, J_dp, J_w, th = (np.asarray(v, dtype=float) for v in resid(x, p))
     return build_wheel_result(
         data=data,
