@@ -312,6 +312,7 @@ def main(argv=None) -> int:
     ap.add_argument("--max-loo", type=int, default=None, help="leave-one-out cases per kind (default 40; quick 2/8)")
     a = ap.parse_args(argv)
     kinds = [k for k in a.kinds.split(",") if k]
+    chosen = set(a.effects.split(",")) if a.effects else None  # --effects: only these (and "none" if named)
     if "drive" in kinds and not drive_effects_supported(VEHICLES["light"]):
         kinds.remove("drive")
     rows, loo, ool = [], [], []
@@ -326,8 +327,8 @@ def main(argv=None) -> int:
         terrains = tuple(a.terrains.split(",")) if a.terrains else terrains
         noises = [x for x in a.noises.split(",") if x in NOISE[kind]] if a.noises else noises
         names = [e for e, s in EFFECTS.items() if kind in s.shows_in]
-        if a.effects:
-            names = [e for e in names if e in a.effects.split(",")]
+        if chosen is not None:
+            names = [e for e in names if e in chosen]
         # a drive-log diagnosis costs about a minute on a loaded 2-core machine: a smaller grid
         dur = a.log_seconds
         mags = (lambda e, v: magnitudes(e, v)[-1:]) if kind == "drive" and a.quick else magnitudes
@@ -338,7 +339,7 @@ def main(argv=None) -> int:
         for vname in vehicles:
             for tname in terrains:
                 for nname in noises:
-                    for seed in free_seeds if not a.effects or "none" in a.effects.split(",") else ():
+                    for seed in free_seeds if chosen is None or "none" in chosen else ():
                         rows.append(run_case(kind, vname, tname, "none", None, nname, seed, duration=dur))
                         print(_line(rows[-1]), flush=True)
                     for e in names:
@@ -381,7 +382,7 @@ def main(argv=None) -> int:
                     )
                 )
                 print("LOO-blind " + _line(loo[-1]), flush=True)
-    if "drive" in kinds and not a.effects:
+    if "drive" in kinds and chosen is None:
         v, s = VEHICLES["light"], TERRAINS["lete_sand"]
         soft = TERRAINS["dry_sand"]
         T = a.log_seconds

@@ -435,8 +435,7 @@ def speed_scale_screen(res, log, vehicle, hac_lag: int | None = None, sensitivit
     if sensitivities is None:
         J, r, _, c = drive_log_score_pair(res, log, vehicle)
     else:
-        J, r = sensitivities.stacked()
-        J, c = J[:, :2], sensitivities.n_channels  # the soil's columns (F_max, K)
+        (J, r), c = sensitivities.soil().stacked(), sensitivities.n_channels
     up = drive_log_score_pair(res, scale_speed(log, SPEED_SCALE_STEP), vehicle)[1]
     down = drive_log_score_pair(res, scale_speed(log, -SPEED_SCALE_STEP), vehicle)[1]
     if not (up.size == down.size == r.size):

@@ -245,12 +245,9 @@ def _window(setup: Setup) -> Any:
         sens = setup.sensitivities
         if sens is None:
             sens = drive_log_sensitivities(setup.nominal_fit, setup.data, setup.runner.vehicle)
+        soil = sens.soil()
         return terrain_window(
-            sens.residuals,
-            sens.jacobian[:, :, :2],  # the soil's columns (F_max, K)
-            sens.time_s,
-            alpha=setup.settings.alpha,
-            scale=_soil_of(setup.nominal_fit),
+            soil.residuals, soil.jacobian, soil.time_s, alpha=setup.settings.alpha, scale=_soil_of(setup.nominal_fit)
         )
     except DataError:
         return None

@@ -150,16 +150,14 @@ def prepare_drive_log(
     sigma_known = None not in (sigma_torque, sigma_sprocket_speed, sigma_vehicle_speed)
     # Noise models sigma = sqrt(a^2 + (b x)^2): given (constant), or estimated from the log.
     # (a model given in noise_models replaces the estimate, so that channel is not estimated at all)
-    given = {k: (float(a), float(b)) for k, (a, b) in (noise_models or {}).items()}
-    nm = {
-        k: given[k] if k in given else noise_model(x, sig)
-        for k, x, sig in (
-            ("torque", M, sigma_torque),
-            ("sprocket_speed", w, sigma_sprocket_speed),
-            ("vehicle_speed", v, sigma_vehicle_speed),
-        )
-    }
-    nm.update(given)
+    nm = {k: (float(a), float(b)) for k, (a, b) in (noise_models or {}).items()}
+    for channel, reading, sigma_given in (
+        ("torque", M, sigma_torque),
+        ("sprocket_speed", w, sigma_sprocket_speed),
+        ("vehicle_speed", v, sigma_vehicle_speed),
+    ):
+        if channel not in nm:
+            nm[channel] = noise_model(reading, sigma_given)
     s_M = np.hypot(nm["torque"][0], nm["torque"][1] * M)
     s_w = np.hypot(nm["sprocket_speed"][0], nm["sprocket_speed"][1] * w)
     s_v = np.hypot(nm["vehicle_speed"][0], nm["vehicle_speed"][1] * v)

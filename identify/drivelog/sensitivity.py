@@ -13,7 +13,7 @@ optimum ``e_k`` is orthogonal to ``de_k/di_k``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -25,6 +25,10 @@ from .prepare import SLIP_BOUNDS
 from .residuals import evaluate_residuals
 
 __all__ = ["DriveLogSensitivities", "drive_log_sensitivities", "latent_slip_expectation"]
+
+
+#: Labels of the soil's columns, first in every :class:`DriveLogSensitivities`: the thrust limit and K.
+SOIL_LABELS = ("F_max", "K")
 
 
 @dataclass(frozen=True, eq=False)
@@ -64,6 +68,10 @@ class DriveLogSensitivities:
         """``(J, r)`` stacked sample by sample: ``(c n, p)`` and ``(c n,)``."""
         n, c, p = self.jacobian.shape
         return self.jacobian.reshape(n * c, p), self.residuals.reshape(n * c)
+
+    def soil(self) -> DriveLogSensitivities:
+        """The same residuals with the soil's columns only (``F_max``, ``K``): what a fit without effects gives."""
+        return replace(self, jacobian=self.jacobian[:, :, : len(SOIL_LABELS)], labels=SOIL_LABELS)
 
 
 def drive_log_sensitivities(result: Any, log: DriveLog, vehicle: Vehicle, effects: Any = None) -> DriveLogSensitivities:
@@ -107,7 +115,7 @@ def drive_log_sensitivities(result: Any, log: DriveLog, vehicle: Vehicle, effect
         mask = np.zeros(log.n_samples, dtype=bool)
         mask[keep.astype(int)] = True
         keep = mask
-    return DriveLogSensitivities(e, Jt, ("F_max", "K") + tuple(ctx["labels"]), keep, np.asarray(out["time_s"], float))
+    return DriveLogSensitivities(e, Jt, SOIL_LABELS + tuple(ctx["labels"]), keep, np.asarray(out["time_s"], float))
 
 
 def latent_slip_expectation(

@@ -123,7 +123,7 @@ def _holdout(
     ok = True
     for g in np.unique(lev):
         train, test = data.subset(lev != g), data.subset(lev == g)
-        r = fit_wheel(train, wheel, opts)  # warm from the fit on all levels when opts.start is given
+        r = fit_wheel(train, wheel, opts)
         ok &= r.success
         dp, _, _, z_w = wheel_rows(wheel, opts.settings, r.theta, test)
         s = float((((dp - test.drawbar_pull) / scale[0]) ** 2).sum())

@@ -7,6 +7,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Mapping
 
+import casadi as ca
 import numpy as np
 
 from ...soilmodel.errors import DataError
@@ -139,7 +140,9 @@ def _p(data: WheelSweep, th: np.ndarray) -> np.ndarray:
     return np.concatenate([data.slip, z, data.normal_load, data.drawbar_pull, th])
 
 
-def _solve_starts(solver, starts: list[np.ndarray], free: np.ndarray, p, lbx, ubx) -> tuple[tuple, int]:
+def _solve_starts(
+    solver: ca.Function, starts: list[np.ndarray], free: np.ndarray, p: np.ndarray, lbx: np.ndarray, ubx: np.ndarray
+) -> tuple[tuple, int]:
     """Solve from every start (SI, all parameters); the best ``(failed, f, x, status, iterations)`` (a converged
     solve before any other, then the least objective) and how many converged."""
     best, n_ok = None, 0
