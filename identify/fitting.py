@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import TYPE_CHECKING, Any, overload
 
-from ..soilmodel.data import DriveLog, SlipData
+from ..soilmodel.data import DriveLog, PlateTest, ShearTest, SlipData
+from ..soilmodel.rigid_wheel import RigidWheel
+from ..soilmodel.wheel_sweep import WheelSweep
 from ..soilmodel.errors import DataError
 from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
 from ..soilmodel.threadsafe import fit_section
@@ -25,36 +28,62 @@ from .sweep.model import SweepResiduals
 from .sweep.rig import load_separation, rig_extra, std_weights
 from .sweep.slip_noise import check_slip_noise, fit_with_slip_noise
 from .drivelog.torque_hold import fit_both_holds
+from .dispatch import check_fit_options, fit_other_kind
+
+if TYPE_CHECKING:
+    from .soiltests.result import SoilTestFit
+    from .wheel.result import WheelFitResult
 
 __all__ = ["fit"]
 
 
+@overload
+def fit(data: SlipData | DriveLog, running_gear: Vehicle, **kwargs: Any) -> FitResult: ...
+@overload
+def fit(data: WheelSweep | SlipData, running_gear: RigidWheel, **kwargs: Any) -> WheelFitResult: ...
+@overload
+def fit(data: ShearTest | PlateTest, running_gear: None = None, **kwargs: Any) -> SoilTestFit: ...
+
+
 def fit(
-    data: SlipData | DriveLog,
-    vehicle: Vehicle,
+    data,
+    running_gear=None,
+    *,
     model: str = "full",
     method: str = "ipopt",
-    bounds: SoilBounds = PRACTICAL_BOUNDS,
+    bounds=None,
     x0=None,
     strict: bool = False,
     engine: str | None = None,
     effects=None,
     fixed=None,
-    *,
     settings: FitSettings | None = None,
     consistency: bool = True,
     **options,
-) -> FitResult:
-    """Identify the soil parameters ``c, phi, K`` from measured data.
+):
+    """Identify the soil from measured data of any kind: one entry point, every running gear.
+
+    ``fit(sweep_or_log, vehicle, ...)`` -> :class:`FitResult`; ``fit(wheel_sweep, rigid_wheel, ...)``
+    -> :class:`~soiltrack.identify.wheel.WheelFitResult` (:func:`~soiltrack.identify.wheel.fit_wheel`);
+    ``fit(shear_or_plate_test)`` (no running gear: the soil itself was measured) ->
+    :class:`~soiltrack.identify.soiltests.SoilTestFit`. Every result has ``outcome`` and
+    ``fit_outcome`` (:mod:`soiltrack.identify.outcome`). The options are keyword-only and checked up
+    front (:func:`~soiltrack.identify.dispatch.check_fit_options`): one that does not apply to the data
+    kind raises :class:`~soiltrack.soilmodel.DataError` naming it.
 
     Parameters
     ----------
-    data : SlipData or DriveLog
+    data : SlipData, DriveLog, WheelSweep, ShearTest or PlateTest
         Tractive force-slip or drawbar pull-slip samples (any number, one or several normal
         loads; a missing ``normal_load`` means the vehicle's weight) or a drive log (dispatched
         to :func:`soiltrack.identify.drivelog.fit.fit_drive_log`). Drawbar pull is modelled as
-        ``F(i) - R`` with ``R`` the motion resistance (``mu_r W`` for the nominal model).
-    vehicle : Vehicle
+        ``F(i) - R`` with ``R`` the motion resistance (``mu_r W`` for the nominal model). A wheel
+        sweep (or drawbar-pull :class:`SlipData` with the load per row) with a :class:`RigidWheel`;
+        a bevameter test without a running gear.
+    running_gear : Vehicle, RigidWheel or None
+        The tracked vehicle, the rigid wheel, or None for a bevameter test. For a wheel: ``model``
+        (``"cohesion-free"`` holds c at 0), ``fixed`` (``{parameter: SI value}``), ``effects``
+        (``("slip_sinkage",)``), ``bounds`` (a ``WheelBounds``) and ``strict`` apply.
     model : {"full", "cohesion-free"}
         Eq. 2, or Eq. 8 (c fixed at 0).
     method : {"ipopt", "newton", "least-squares"}
@@ -127,6 +156,25 @@ def fit(
     km/h or rpm, loads in kN, repeated rows) is said in the warnings, and the result fails
     (``success`` False) where the answer cannot stand.
     """
+    other = check_fit_options(
+        data,
+        running_gear,
+        model=model,
+        method=method,
+        bounds=bounds,
+        x0=x0,
+        engine=engine,
+        effects=effects,
+        fixed=fixed,
+        settings=settings,
+        options=options,
+    )
+    if other is not None:  # a rigid wheel or a bevameter test
+        return fit_other_kind(
+            data, running_gear, model=model, bounds=bounds, effects=effects, fixed=fixed, strict=strict
+        )
+    vehicle = running_gear
+    bounds = PRACTICAL_BOUNDS if bounds is None else bounds
     # the whole fit holds the process's solver lock (re-entrant): a fork then never copies a thread in the
     # middle of a fit's CasADi or BLAS work (soilmodel.threadsafe); the solves were serialised anyway
     with fit_section():
@@ -195,14 +243,14 @@ def _fit_unchecked(
             return fit(
                 d,
                 v,
-                model,
-                method,
-                bounds,
-                x0,
-                False,
-                engine,
-                effects,
-                fixed,
+                model=model,
+                method=method,
+                bounds=bounds,
+                x0=x0,
+                strict=False,
+                engine=engine,
+                effects=effects,
+                fixed=fixed,
                 settings=settings,
                 sigma=sigma,
                 sigma_known=sigma_known,

@@ -5,9 +5,10 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path, running_gear_arg
+from .cliutil import floats_arg, output_path, running_gear_arg
 from .identify.drivelog import DISCRETISATIONS
 from .identify.engines import DEFAULT_ENGINE, ENGINES
+from .identify.outcome import exit_code
 from .soilmodel import PRACTICAL_BOUNDS, WIDE_BOUNDS, DataError, SoilBounds
 from .soilmodel.rigid_wheel import RigidWheel
 
@@ -103,7 +104,7 @@ def _cmd_soil_test(a: argparse.Namespace, data) -> int:
         from .plot_soiltest import plot_soil_test
 
         print(f"wrote the figure to {plot_soil_test(data, result, a.plot)}", file=sys.stderr)
-    return EXIT_OK if result.success else EXIT_SOLVER
+    return exit_code(result.fit_outcome)
 
 
 def _cmd_fit(a: argparse.Namespace) -> int:
@@ -166,7 +167,7 @@ def _cmd_fit(a: argparse.Namespace) -> int:
 
         path = plot_fit(data, vehicle, result, a.plot)
         print(f"wrote the figure to {path}", file=sys.stderr)
-    return EXIT_OK if result.success else EXIT_SOLVER
+    return exit_code(result.fit_outcome)
 
 
 _DESCRIPTION = """\
@@ -191,10 +192,10 @@ recognised by its header (comma separated, SI units, any column order):
       "grouser_height_m"}): the Wong-Reece rigid wheel; the load is required per row; a measured
       sinkage sets the entry angle and its load balance identifies the Bekker stiffness
 
-Prints a report (or --json): the outcome (converged, not usable or failed, beside the solver's own
-status), each parameter with its standard error (SE) and 95 % interval, what the data determine,
-and residuals as measured - model. Exit 0 when the fit converged to a usable answer, 1 when it
-failed or its answer is not usable (the reason is printed), 2 for bad input."""
+Prints a report (or --json): first the outcome (usable, poor_fit, not_usable or failed, with its
+reason; the solver's own status beside it), each parameter with its standard error (SE) and 95 %
+interval, what the data determine, and residuals as measured - model. Exit 0 when the outcome is
+usable, 1 otherwise (poor fit, not usable, failed: the report is printed), 2 for bad input."""
 
 
 def add_parser(sub) -> None:

@@ -127,7 +127,7 @@ def _status_title(result) -> tuple[str, str]:
     """The figure's title and its colour: the fit's outcome in the report's words."""
     if result.success:
         return f"{result.model} model, {result.method}: {result.outcome}", "k"
-    if result.outcome == "not usable":
+    if result.outcome == "not_usable":
         return (
             f"ANSWER NOT USABLE ({result.model} model, {result.method}: the plausibility checks refuse "
             "it; see the report)",
@@ -282,12 +282,12 @@ def _residual_label(result) -> str:
     """``measured - model`` (:data:`RESIDUAL_SIGN`); ``measured - last iterate`` for a failed fit."""
     if result.outcome == "failed":
         return RESIDUAL_SIGN.replace("model", "last iterate")
-    return RESIDUAL_SIGN + (" (not usable)" if result.outcome == "not usable" else "")
+    return RESIDUAL_SIGN + (" (not usable)" if result.outcome == "not_usable" else "")
 
 
 def _unusable_label(result) -> str:
     """The legend of a curve that is not an answer: a converged but refused fit, or a failed one's last iterate."""
-    if result.outcome == "not usable":
+    if result.outcome == "not_usable":
         return "the fit's curve: answer NOT USABLE (see the report)"
     return "last iterate of the FAILED fit"
 

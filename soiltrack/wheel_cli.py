@@ -11,6 +11,7 @@ import math
 import sys
 
 from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path
+from .identify.outcome import exit_code
 from .soilmodel import DataError
 from .soilmodel.rigid_wheel import RigidWheel
 
@@ -94,7 +95,7 @@ def fit_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:
         from .wheel_plots import plot_wheel_fit
 
         print(f"wrote the figure to {plot_wheel_fit(data, result, a.plot)}", file=sys.stderr)
-    return EXIT_OK if result.success else EXIT_SOLVER
+    return exit_code(result.fit_outcome)
 
 
 def diagnose_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:

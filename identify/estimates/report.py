@@ -18,16 +18,23 @@ from ...soilmodel.ridge import MAX_LOAD_LEVELS, load_summary_points
 from ...soilmodel.soil import PARAMETER_NAMES, PRACTICAL_BOUNDS, Soil, SoilBounds
 from ...soilmodel.units import choose_scale, format_force
 from ...soilmodel.vehicle import Vehicle
+from ..outcome import (
+    OUTCOMES,
+    LackOfFitTest,
+    Outcome,
+    decide_outcome,
+    identified,
+    outcome_lines,
+    running_gear_json,
+    stated_noise_test,
+)
 from ..sweep.rig import LoadSeparation
 from .records import EDGE_UNITS, NOT_USABLE, ParameterEstimate, finite_or_none, solver_converged
 
 __all__ = ["ReportViews", "OUTCOMES", "RESIDUAL_SIGN"]
 
-#: The one vocabulary of a fit's outcome, in the report, the JSON (``outcome``) and the figures:
-#: the solver converged and the answer stands; it converged but the plausibility checks refuse the
-#: answer (the warnings say why); or the solver failed. The solver's own status word is kept
-#: beside it (``status``), as the solver said it.
-OUTCOMES = ("converged", "not usable", "failed")
+#: The prefix of a plausibility check's refusal among the warnings.
+_REFUSAL = "NOT USABLE: "
 #: The sign of every residual a fit shows (report, JSON ``residuals``, figures), as in the diagnosis.
 RESIDUAL_SIGN = "measured - model"
 
@@ -37,10 +44,86 @@ class ReportViews:
 
     @property
     def outcome(self) -> str:
-        """One of :data:`OUTCOMES`: ``"converged"``, ``"not usable"`` or ``"failed"``."""
-        if self.success:
-            return OUTCOMES[0]
-        return OUTCOMES[1] if solver_converged(self) else OUTCOMES[2]
+        """One of :data:`~soiltrack.identify.outcome.OUTCOMES` (the rules of :mod:`soiltrack.identify.outcome`)."""
+        return self.fit_outcome.outcome
+
+    @property
+    def outcome_reason(self) -> str | None:
+        """Why the outcome is not ``usable`` (a sentence), None when it is."""
+        return self.fit_outcome.reason
+
+    def identified_parameter(self, name: str) -> tuple[bool, str]:
+        """Whether soil parameter ``name`` is identified by the outcome rules, and why not
+        (:func:`~soiltrack.identify.outcome.identified`: not on a bound, interval narrower than most
+        of the bound range)."""
+        pe = self.parameters[name]
+        if pe.fixed or pe.value is None:
+            return False, "held fixed" if pe.fixed else "no estimate"
+        j = PARAMETER_NAMES.index(name)
+        return identified(
+            identifiable=pe.identifiable,
+            at_bound=pe.at_bound,
+            ci95=pe.ci95,
+            lower=float(self.bounds.lower[j]),
+            upper=float(self.bounds.upper[j]),
+        )
+
+    @cached_property
+    def determined(self) -> tuple[str, ...]:
+        """What the data determine: identified soil parameters and estimable combinations with an interval."""
+        out = [n for n in self.parameters if self.identified_parameter(n)[0]]
+        out += [
+            cb.name
+            for cb in self.combinations
+            if _combination_determined(cb) and (cb.name not in _SCALED_K or "shear_modulus" in out)
+        ]
+        return tuple(out)
+
+    def _determined_labels(self) -> list[str]:
+        """:attr:`determined` in the report's words (parameters by name, combinations as labelled)."""
+        return [EDGE_UNITS[d][3] if d in EDGE_UNITS else _combo_label(d) for d in self.determined]
+
+    @cached_property
+    def fit_outcome(self) -> Outcome:
+        """The fit's :class:`~soiltrack.identify.outcome.Outcome` (one rule for every kind of fit)."""
+        solver_ok = solver_converged(self)
+        refusals: list[str] = []
+        if solver_ok and not self.success:
+            refusals = [w[len(_REFUSAL) :] for w in self.warnings if w.startswith(_REFUSAL)] or [self.message]
+        x = self.extra if isinstance(self.extra, dict) else {}
+        lof = x.get("lack_of_fit")
+        test: LackOfFitTest | None = None
+        ratio = None
+        if self.sigma_known and self.data_kind == "slip" and self.dof > 0:  # against the stated noise
+            ssr = float(np.sum(np.asarray(self.weighted_residuals, dtype=float) ** 2))
+            test = stated_noise_test(ssr, self.dof)
+            ratio = float(np.sqrt(ssr / self.dof))
+        if isinstance(lof, dict) and lof.get("p_value") is not None:  # the repeats' pure error first
+            test = LackOfFitTest(
+                "the pure error of the repeats", float(lof["F"]), (lof["df_lack"], lof["df_pure"]), lof["p_value"]
+            )
+        return decide_outcome(
+            solver_ok=solver_ok,
+            failure=f"{self.solver_status}: {self.message}",
+            refusals=refusals,
+            determined=self.determined if self.success else (),
+            lack_of_fit=test,
+            noise_ratio=ratio,
+        )
+
+    @property
+    def running_gear(self) -> dict:
+        """The JSON ``running_gear`` of a tracked vehicle (``weight_N`` null when the loads are per row)."""
+        v = self.vehicle
+        loads = np.asarray(self.normal_loads, dtype=float)
+        own = loads.size == 0 or bool(np.allclose(loads, v.weight, rtol=1e-6))
+        return running_gear_json(
+            "track",
+            name=v.name or None,
+            weight_N=v.weight if own else None,
+            contact_area_m2=v.contact_area,
+            track_length_m=v.track_length,
+        )
 
     @property
     def solver_status(self) -> str:
@@ -64,7 +147,7 @@ class ReportViews:
     def warnings(self) -> tuple[str, ...]:
         """Warnings in plain words (input warnings first)."""
         w = list(self.input_warnings)
-        if self.outcome == "failed":  # "not usable" says why in its own warnings
+        if not solver_converged(self):  # "not usable" says why in its own warnings
             w.append(f"the fit failed (solver status {self.solver_status}): {self.message}")
         for name, d in self.outside_bounds.items():
             j = PARAMETER_NAMES.index(name)
@@ -115,7 +198,8 @@ class ReportViews:
             "method": self.method,
             "status": self.status,
             "success": bool(self.success),
-            "outcome": self.outcome,
+            **self.fit_outcome.to_dict(),
+            "running_gear": self.running_gear,
             "n_samples": int(self.n_samples),
             "rmse_N": rmse if self.residual_unit == "N" else None,
             "solve_time_s": finite_or_none(self.solve_time),
@@ -213,6 +297,7 @@ class ReportViews:
         feasible ridge, flagged ``identifiable: false`` and ``value_is_ridge_point: true``, with
         ``ci95`` the range the ridge allows - a marker, not an estimate. A failed fit keeps ``null``."""
         d = pe.to_dict()
+        d["identified"] = bool(pe.name in self.determined)
         on_ridge = (
             self.success
             and d["value"] is None
@@ -372,6 +457,8 @@ class ReportViews:
             )
         else:
             loads = ", ".join(format_force(w) for w in self.normal_loads)
+        nid = [EDGE_UNITS[n][3] for n, pe in self.parameters.items() if not pe.fixed and n not in self.determined]
+        L.extend(outcome_lines(self.fit_outcome, determined=self._determined_labels(), not_identified=nid))
         L.append(f"soiltrack identification - model {self.model}, method {self.method}")
         what = f" ({self.measured.replace('_', ' ')})" if self.measured else ""
         L.append(f"data: {self.data_kind}{what}, {self.n_samples} samples, normal load(s) W: {loads}")
@@ -382,12 +469,9 @@ class ReportViews:
         )
         if (bl := self._bounds_line()) is not None:
             L.append(bl)
-        why = {
-            "not usable": " - the answer fails the plausibility checks (see the warnings)",
-            "failed": " - no estimate (see the warnings)",
-        }.get(self.outcome, "")
+        word = "converged" if solver_converged(self) else "FAILED - no estimate (see the warnings)"
         L.append(
-            f"status: {self.outcome}{why} (solver status {self.solver_status}, {self.iterations} "
+            f"status: {word} (solver status {self.solver_status}, {self.iterations} "
             f"iterations, {_duration(self.solve_time)})"
         )
         fallback = fallback_note(self.extra.get("engine_backend")) if isinstance(self.extra, dict) else None
@@ -416,7 +500,11 @@ class ReportViews:
                 flag = " [ON " + pe.bound_side.upper() + " BOUND]" if pe.at_bound else ""
                 weak = " [weakly identifiable]" if pe.weakly_identifiable else ""
                 cut = " [cut at a bound, see below]" if "is cut at the bound" in (pe.note or "") else ""
-                L.append(f"{lab}{pe.edge_value:.5g} {u}{se}, 95 % {rng}{self._interval_tag(name)}{flag}{weak}{cut}")
+                ok, why_not = self.identified_parameter(name)
+                nid = "" if ok or pe.at_bound else f" [NOT IDENTIFIED: {why_not}]"
+                L.append(
+                    f"{lab}{pe.edge_value:.5g} {u}{se}, 95 % {rng}{self._interval_tag(name)}{flag}{weak}{cut}{nid}"
+                )
                 if cut:
                     notes.append(
                         f"  {EDGE_UNITS[name][3]}: "
@@ -543,6 +631,23 @@ def _combo_label(name: str) -> str:
         base, w = name.split("@W=")
         return f"{base} at W = {format_force(float(w[:-1]))}"
     return name
+
+
+#: Combinations that are K itself or K scaled by a constant: determined exactly when K is identified.
+_SCALED_K = ("K", "K/l")
+
+
+def _combination_determined(cb) -> bool:
+    """A combination the data determine: estimable, with a standard error and a whole interval, and not
+    pinned at an end its bounds cut (a value on a bound is never called identified)."""
+    if not (cb.estimable and cb.stderr is not None and None not in tuple(cb.ci95)):
+        return False
+    lo, hi = cb.ci95
+    tol = 1e-6 * max(abs(cb.value), 1e-300)
+    on_cut_end = ("lower end of the 95 % interval is cut" in cb.note and cb.value - lo <= tol) or (
+        "upper end of the 95 % interval is cut" in cb.note and hi - cb.value <= tol
+    )
+    return not on_cut_end
 
 
 def _combo_value(cb) -> str:

@@ -86,6 +86,8 @@ def edge_parameters(
                     True,
                     bool(bound_flags[k]),
                     note="no residual degree of freedom: no interval",
+                    lower=lo,
+                    upper=hi,
                 )
             )
             continue
@@ -102,6 +104,8 @@ def edge_parameters(
                 True,
                 bool(bound_flags[k]),
                 note="on a bound of its range" if bound_flags[k] else "",
+                lower=lo,
+                upper=hi,
             )
         )
     return out, cov

@@ -8,6 +8,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..outcome import Outcome, decide_outcome, identified, outcome_lines, running_gear_json
+
 __all__ = ["TestParameter", "TestCombination", "SoilTestFit", "SOIL_TEST_KINDS"]
 
 #: The bevameter test kinds: shear ring/box (c, phi, K), plate sinkage (k_c, k_phi, n).
@@ -43,6 +45,8 @@ class TestParameter:
         Whether the data pin it down; whether the estimate lies on a bound.
     note
         Plain-words remark (why not identifiable, which bound).
+    lower, upper
+        Its bounds in edge units (None when not known): the outcome rules' bound range.
     """
 
     key: str
@@ -54,6 +58,19 @@ class TestParameter:
     identifiable: bool
     at_bound: bool = False
     note: str = ""
+    lower: float | None = None
+    upper: float | None = None
+
+    @property
+    def identified(self) -> tuple[bool, str]:
+        """Identified by the outcome rules (:func:`~soiltrack.identify.outcome.identified`), and why not."""
+        if self.value is None:
+            return False, "not identifiable from these data"
+        if self.lower is None or self.upper is None:
+            return (self.identifiable and not self.at_bound), ("" if not self.at_bound else "on a bound")
+        return identified(
+            identifiable=self.identifiable, at_bound=self.at_bound, ci95=self.ci95, lower=self.lower, upper=self.upper
+        )
 
     def to_dict(self) -> dict:
         """JSON-ready dict; never NaN."""
@@ -62,6 +79,7 @@ class TestParameter:
             "stderr": _f(self.stderr),
             "ci95": [_f(self.ci95[0]), _f(self.ci95[1])],
             "identifiable": bool(self.identifiable),
+            "identified": bool(self.identified[0]),
             "at_bound": bool(self.at_bound),
             "unit": self.unit,
             "note": self.note,
@@ -156,6 +174,34 @@ class SoilTestFit:
         return bool(self.converged and vals and all(v is not None and math.isfinite(v) for v in vals))
 
     @property
+    def determined(self) -> list[str]:
+        """What the data determine: identified parameters and combinations with a whole interval."""
+        out = [k for k, p in self.parameters.items() if p.identified[0]]
+        out += [k for k, c in self.combinations.items() if c.stderr is not None and None not in tuple(c.ci95)]
+        return out
+
+    @property
+    def fit_outcome(self) -> Outcome:
+        """The fit's outcome by the one set of rules (:mod:`soiltrack.identify.outcome`)."""
+        vals = [p.value for p in self.parameters.values() if p.identifiable]
+        finite = all(v is not None and math.isfinite(v) for v in vals)
+        return decide_outcome(
+            solver_ok=bool(self.converged and finite),
+            failure=f"IPOPT {self.status}" if not self.converged else "non-finite numbers",
+            determined=self.determined,
+        )
+
+    @property
+    def outcome(self) -> str:
+        """One of :data:`~soiltrack.identify.outcome.OUTCOMES`."""
+        return self.fit_outcome.outcome
+
+    @property
+    def running_gear(self) -> dict:
+        """The JSON ``running_gear``: a bevameter (the soil itself was measured; no weight)."""
+        return running_gear_json("bevameter", name=self.kind.replace("_", " "))
+
+    @property
     def active_bounds(self) -> list[str]:
         """Keys of the parameters that end on a bound."""
         return [k for k, p in self.parameters.items() if p.at_bound]
@@ -173,6 +219,8 @@ class SoilTestFit:
             "method": "ipopt",
             "status": self.status,
             "success": self.success,
+            **self.fit_outcome.to_dict(),
+            "running_gear": self.running_gear,
             "converged": bool(self.converged),
             "iterations": int(self.iterations),
             "n_samples": int(self.n_samples),
@@ -196,7 +244,8 @@ class SoilTestFit:
         lvl = "; ".join(
             f"{_LEVEL_LABELS.get(k, k)}: {', '.join(f'{v:.4g}' for v in vals)}" for k, vals in self.levels.items()
         )
-        lines = [
+        nid = [p.label for p in self.parameters.values() if not p.identified[0]]
+        lines = outcome_lines(self.fit_outcome, determined=self.determined, not_identified=nid) + [
             f"{title}: {self.source} ({self.n_samples} rows; {lvl})",
             f"solver: IPOPT {'converged' if self.converged else 'DID NOT CONVERGE'} ({self.status}), "
             f"{self.iterations} iterations, {self.solve_time_s:.3f} s; rms misfit {self.rmse:.4g} "
@@ -207,13 +256,15 @@ class SoilTestFit:
                 lines.append(f"  {p.label:<28} not identifiable (see the note)")
                 continue
             ci = f"[{p.ci95[0]:.4g}, {p.ci95[1]:.4g}]" if None not in p.ci95 else "[n/a]"
-            flag = "  ON A BOUND" if p.at_bound else ""
+            ok, why = p.identified
+            flag = "  ON A BOUND (not identified; interval not reliable)" if p.at_bound else ""
+            flag += "" if ok or p.at_bound else f"  NOT IDENTIFIED ({why})"
             lines.append(f"  {p.label:<28} {p.value:>10.4g} {p.unit:<12} 95 % {ci}{flag}")
         for c in self.combinations.values():
             at = ", ".join(f"{k} = {v:.4g}" for k, v in c.at.items())
             ci = f"[{c.ci95[0]:.4g}, {c.ci95[1]:.4g}]" if None not in c.ci95 else "[n/a]"
             lines.append(f"  {c.expression + ' (' + at + ')':<40} {c.value:.4g} {c.unit}  95 % {ci}")
         lines += [f"note: {n}" for n in self.notes]
-        why = "the solver did not converge" if not self.converged else "the data identify none of the parameters"
-        lines.append("result: " + ("usable" if self.success else f"NOT usable ({why})"))
+        o = self.fit_outcome
+        lines.append("result: " + ("usable" if o.usable else f"{o.outcome.upper()} ({o.reason})"))
         return "\n".join(lines)

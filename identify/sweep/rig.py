@@ -32,7 +32,7 @@ import numpy as np
 
 from ...soilmodel.data import STD_COLUMNS, SlipData
 from ...soilmodel.ridge import distinct_loads
-from ..estimates.distributions import f_sf
+from ..outcome import OUTCOME_SETTINGS, pure_error_f_test
 from .sinkage_channel import compare_slip_resistance, fit_sinkage_channel
 
 __all__ = [
@@ -55,8 +55,9 @@ LOAD_SPREAD_SMALL = 0.3
 LOAD_SLIP_CORRELATION = 0.5
 #: Rows whose slips differ by at most this are repeats of one condition.
 SLIP_REPEAT_TOL = 0.005
-#: Level of the lack-of-fit test's verdict.
-LACK_OF_FIT_ALPHA = 0.05
+#: Level of the lack-of-fit test's verdict: the outcome rules' one level
+#: (:attr:`soiltrack.identify.outcome.OutcomeSettings.lack_of_fit_level`; it was 5 % before).
+LACK_OF_FIT_ALPHA = OUTCOME_SETTINGS.lack_of_fit_level
 
 
 @dataclass(frozen=True)
@@ -196,20 +197,12 @@ def pure_error_test(slip, weighted_residuals, n_params: int) -> LackOfFit | None
 
     Needs ``g > p`` slip levels and ``n > g`` rows (at least one repeat), and a non-zero pure error.
     """
-    r = np.asarray(weighted_residuals, dtype=float)
-    level = slip_levels(slip)
-    g, n = int(level.max()) + 1, r.size
-    if g <= n_params or n <= g:
+    t = pure_error_f_test(slip_levels(slip), weighted_residuals, n_params)
+    if t is None:
         return None
-    counts = np.bincount(level, minlength=g)
-    means = np.bincount(level, weights=r, minlength=g) / counts
-    ss_pure = float(np.sum((r - means[level]) ** 2))
-    ss_lack = float(np.sum(counts * means**2))
-    if not ss_pure > 0:
-        return None
-    df_lack, df_pure = g - n_params, n - g
-    F = (ss_lack / df_lack) / (ss_pure / df_pure)
-    return LackOfFit(g, n - g, df_lack, df_pure, F, f_sf(F, df_lack, df_pure))
+    df_lack, df_pure = t.dof
+    levels = df_lack + n_params
+    return LackOfFit(levels, df_pure, df_lack, df_pure, t.statistic, t.p_value)
 
 
 def rig_extra(data: SlipData, result, separation: LoadSeparation | None) -> dict:

@@ -27,6 +27,7 @@ from ...soilmodel.wheel import entry_angle
 from ...soilmodel.wheel_sweep import WheelSweep
 from ..estimates.least_squares import RANK_TOL, WEAK_CORRELATION, core_stats_one, quantile
 from ..estimates.distributions import f_sf
+from ..outcome import BOUND_TOL, LackOfFitTest, Outcome, decide_outcome, identified, outcome_lines, running_gear_json
 from .problem import WHEEL_PARAMETERS, bekker_modulus, channel_floors, residual_function
 
 __all__ = [
@@ -48,8 +49,9 @@ __all__ = [
 
 #: Norm of a parameter's component in the null space (scaled coordinates) above which it is not identifiable.
 NULL_TOL = 1e-4
-#: Distance to a bound, as a fraction of the bound range, below which a parameter is on it.
-BOUND_REL_TOL = 1e-4
+#: Distance to a bound, as a fraction of the bound range, below which a parameter is on it (the one
+#: bound tolerance of the outcome rules).
+BOUND_REL_TOL = BOUND_TOL
 #: Rows whose slips differ by less than this are repeats of one slip level (pure-error test).
 SLIP_LEVEL_TOL = 0.02
 #: Rows of one slip level whose loads lie within this fraction of their mean are repeats of one condition
@@ -90,6 +92,19 @@ class WheelEstimate:
     bound_side: str | None
     fixed: bool
     note: str = ""
+    lower: float | None = None
+    upper: float | None = None
+
+    @property
+    def identified(self) -> tuple[bool, str]:
+        """Identified by the outcome rules (:func:`~soiltrack.identify.outcome.identified`), and why not."""
+        if self.fixed:
+            return False, "held fixed"
+        if self.lower is None or self.upper is None:
+            return (self.identifiable and not self.at_bound), "on a bound" if self.at_bound else ""
+        return identified(
+            identifiable=self.identifiable, at_bound=self.at_bound, ci95=self.ci95, lower=self.lower, upper=self.upper
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """JSON form (the track fit's field names)."""
@@ -98,6 +113,7 @@ class WheelEstimate:
             "stderr": _num(self.stderr),
             "ci95": [_num(v) for v in self.ci95],
             "identifiable": self.identifiable,
+            "identified": bool(self.identified[0]),
             "at_bound": self.at_bound,
             "bound_side": self.bound_side,
             "weakly_identifiable": self.weakly_identifiable,
@@ -118,15 +134,36 @@ class WheelCombination:
     estimable: bool
     weakly_identifiable: bool
     meaning: str
+    range: tuple[float, float] | None = None
+    terms_on_bounds: tuple[str, ...] = ()
+    all_terms_on_bounds: bool = False
+
+    @property
+    def determined(self) -> tuple[bool, str]:
+        """Determined by the outcome rules: estimable with an interval, not every term on a bound, and
+        the interval no wider than most of the range its terms' bounds allow; and why not."""
+        if not self.estimable or self.stderr is None or None in self.ci95:
+            return False, "not estimable from these data"
+        if self.all_terms_on_bounds:
+            return False, f"its terms are on their bounds ({', '.join(self.terms_on_bounds)})"
+        if self.range is not None:
+            ok, why = identified(
+                identifiable=True, at_bound=False, ci95=self.ci95, lower=self.range[0], upper=self.range[1]
+            )
+            return ok, why
+        return True, ""
 
     def to_dict(self) -> dict[str, Any]:
         """JSON form."""
+        ok = self.determined[0]
         return {
             "name": self.name,
             "unit": self.unit,
             "value": self.value,
             "stderr": _num(self.stderr),
             "ci95": [_num(v) for v in self.ci95],
+            "determined": ok,
+            "terms_on_bounds": list(self.terms_on_bounds),
             "estimable": self.estimable,
             "weakly_identifiable": self.weakly_identifiable,
             "meaning": self.meaning,
@@ -183,10 +220,50 @@ class WheelFitResult:
     def _rows(self, data: WheelSweep) -> tuple[np.ndarray, ...]:
         return wheel_rows(self.wheel, self.settings, self.theta, data)
 
+    @property
+    def determined(self) -> list[str]:
+        """What the data determine: identified parameters and determined combinations (JSON names)."""
+        out = [k for k, e in self.parameters.items() if e.identified[0]]
+        return out + [c.name for c in self.combinations if c.determined[0]]
+
+    @property
+    def fit_outcome(self) -> Outcome:
+        """The fit's outcome by the one set of rules (:mod:`soiltrack.identify.outcome`): with repeats,
+        lack of fit of the drawbar pull against their pure error is a poor fit."""
+        lf = self.lack_of_fit
+        test = None
+        if lf.get("testable"):
+            test = LackOfFitTest(
+                "the pure error of the repeats (drawbar pull)",
+                float(lf["F"]),
+                (int(lf["lack_of_fit_dof"]), int(lf["pure_error_dof"])),
+                float(lf["p_value"]),
+            )
+        return decide_outcome(
+            solver_ok=self.success,
+            failure=self.message or self.status,
+            determined=self.determined if self.success else (),
+            lack_of_fit=test,
+        )
+
+    @property
+    def outcome(self) -> str:
+        """One of :data:`~soiltrack.identify.outcome.OUTCOMES`."""
+        return self.fit_outcome.outcome
+
+    @property
+    def running_gear(self) -> dict[str, Any]:
+        """The JSON ``running_gear`` of a rigid wheel (``weight_N`` null: a rig's load is per row)."""
+        w = self.wheel
+        return running_gear_json(
+            "rigid_wheel", name=w.name or None, weight_N=None, wheel_radius_m=w.radius, wheel_width_m=w.width
+        )
+
     def to_dict(self) -> dict[str, Any]:
         """The JSON object (``soiltrack fit --json`` on a wheel sweep)."""
         return {
-            "running_gear": "rigid_wheel",
+            **self.fit_outcome.to_dict(),
+            "running_gear": self.running_gear,
             "model": "wong_reece",
             "method": "ipopt",
             "status": "converged" if self.success else "failed",
@@ -225,10 +302,15 @@ class WheelFitResult:
         """:meth:`to_dict` as JSON text."""
         return json.dumps(self.to_dict(), indent=2)
 
+    def _determined_words(self) -> list[str]:
+        return [_EDGE[_NAME_OF[d]][3] if d in _NAME_OF else d for d in self.determined]
+
     def report(self) -> str:
         """A plain-text report (at most about 40 lines)."""
         w = self.wheel
-        lines = [
+        nid = [_EDGE[_NAME_OF[k]][3] for k, e in self.parameters.items() if not e.fixed and not e.identified[0]]
+        head = outcome_lines(self.fit_outcome, determined=self._determined_words(), not_identified=nid)
+        lines = head + [
             f"rigid wheel (Wong-Reece), r = {w.radius:g} m, b = {w.width:g} m, h = {w.grouser_height:g} m; "
             f"{self.n_samples} rows"
             + (f" ({self.rows_dropped} rows of the file dropped)" if self.rows_dropped else "")
@@ -246,21 +328,11 @@ class WheelFitResult:
         ]
         lines.append(f"{'parameter':<30}{'value':>12}{'95 % interval':>28}  identifiable")
         for key, e in self.parameters.items():
-            name = next(n for n, v in _EDGE.items() if v[0] == key)
-            unit, words = _EDGE[name][2], _EDGE[name][3]
-            ci = "fixed" if e.fixed else "-" if e.ci95[0] is None else f"[{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
-            ident = "fixed" if e.fixed else "no" if not e.identifiable else "weakly" if e.weakly_identifiable else "yes"
-            flag = f"  ON {e.bound_side.upper()} BOUND" if e.at_bound else ""
-            lines.append(f"{words + ' (' + unit + ')':<30}{e.value:>12.4g}{ci:>28}  {ident}{flag}")
+            lines.append(_parameter_line(key, e))
         if self.combinations:
             lines.append("")
             for c in self.combinations:
-                ci = "-" if c.ci95[0] is None else f"[{c.ci95[0]:.4g}, {c.ci95[1]:.4g}]"
-                lines.append(
-                    f"{c.name} = {c.value:.4g} {c.unit}, 95 % {ci}"
-                    + (" (weakly identified)" if c.weakly_identifiable else "")
-                    + ("" if c.estimable else " (not estimable)")
-                )
+                lines.append(_combination_line(c))
         lines.append("")
         lines.append("what the data identify:")
         lines += [f"- {s}" for s in self.statements]
@@ -275,6 +347,43 @@ class WheelFitResult:
         for wmsg in self.warnings:
             lines.append(f"warning: {wmsg}")
         return "\n".join(lines)
+
+
+_NAME_OF = {v[0]: n for n, v in _EDGE.items()}
+
+
+def _parameter_line(key: str, e: WheelEstimate) -> str:
+    """One row of the report's parameter table; no number for a parameter the data do not identify,
+    and nothing on a bound (or with an interval over most of its range) called identified."""
+    unit, words = _EDGE[_NAME_OF[key]][2], _EDGE[_NAME_OF[key]][3]
+    lab = f"{words + ' (' + unit + ')':<30}"
+    if e.fixed:
+        return f"{lab}{e.value:>12.4g}{'fixed':>28}  fixed"
+    if not e.identifiable:
+        return f"{lab}{'-':>12}{'-':>28}  NOT IDENTIFIABLE (the optimiser's point is no estimate)"
+    ci = "-" if e.ci95[0] is None else f"[{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
+    ok, why = e.identified
+    if e.at_bound:
+        ident = f"no: ON {str(e.bound_side).upper()} BOUND (interval not reliable)"
+    elif not ok:
+        ident = f"no: {why}"
+    else:
+        ident = "weakly" if e.weakly_identifiable else "yes"
+    return f"{lab}{e.value:>12.4g}{ci:>28}  {ident}"
+
+
+def _combination_line(c: WheelCombination) -> str:
+    """A combination in the report: a number only where the data determine it."""
+    ok, why = c.determined
+    if not ok:
+        return f"{c.name}: NOT DETERMINED ({why})"
+    ci = "-" if c.ci95[0] is None else f"[{c.ci95[0]:.4g}, {c.ci95[1]:.4g}]"
+    tail = f" (terms on a bound: {', '.join(c.terms_on_bounds)}; conditional on them)" if c.terms_on_bounds else ""
+    return (
+        f"{c.name} = {c.value:.4g} {c.unit}, 95 % {ci}"
+        + (" (weakly identified)" if c.weakly_identifiable else "")
+        + tail
+    )
 
 
 def wheel_rows(wheel: RigidWheel, settings, theta: np.ndarray, data: WheelSweep) -> tuple[np.ndarray, ...]:
@@ -443,6 +552,8 @@ def build_wheel_result(
             side,
             False,
             note,
+            lower=float(lo[k] * fac),
+            upper=float(hi[k] * fac),
         )
         if not ident[kf]:
             nonid.append(name)
@@ -469,8 +580,17 @@ def build_wheel_result(
         z_used = wheel_rows(wheel, options.settings, theta, data)[2]
     th1 = np.asarray(entry_angle(np.clip(z_used, 1e-12, wheel.radius), wheel.radius), dtype=float).ravel()
     p_bar = float(np.mean(data.normal_load / (wheel.width * wheel.radius * th1)))
+
+    def on_bounds(*ks: int) -> tuple[tuple[str, ...], bool]:
+        names_on = tuple(
+            _EDGE[WHEEL_PARAMETERS[k]][0] for k in ks if free[k] and params[_EDGE[WHEEL_PARAMETERS[k]][0]].at_bound
+        )
+        return names_on, len(names_on) == sum(bool(free[k]) for k in ks)
+
     if free[0] or free[1]:
         tau = theta[0] + p_bar * math.tan(theta[1])
+        tau_rng = (lo[0] + p_bar * math.tan(lo[1]), hi[0] + p_bar * math.tan(hi[1]))
+        tau_on, tau_all = on_bounds(0, 1)
         se, est, weak = combo(np.array([1.0, p_bar / math.cos(theta[1]) ** 2, 0, 0, 0, 0, 0]))
         ci = (max(tau - q * se, 0.0), tau + q * se) if se is not None and q is not None else (None, None)
         combos.append(
@@ -484,10 +604,15 @@ def build_wheel_result(
                 weak,
                 f"shear strength at the mean contact pressure p = {p_bar / 1e3:.3g} kPa "
                 "(load over the arc's projected area b r theta_1)",
+                (tau_rng[0] / 1e3, tau_rng[1] / 1e3),
+                tau_on,
+                tau_all,
             )
         )
     if free[3] and free[4]:
         kval = bekker_modulus(theta[3], theta[4], wheel.width)
+        k_rng = (bekker_modulus(lo[3], lo[4], wheel.width), bekker_modulus(hi[3], hi[4], wheel.width))
+        k_on, k_all = on_bounds(3, 4)
         se, est, weak = combo(np.array([0, 0, 0, 1.0 / wheel.width, 1.0, 0, 0]))
         ci = (max(kval - q * se, 0.0), kval + q * se) if se is not None and q is not None else (None, None)
         combos.append(
@@ -500,6 +625,9 @@ def build_wheel_result(
                 est,
                 weak,
                 f"Bekker stiffness of this wheel's width b = {wheel.width:g} m",
+                (float(k_rng[0]) / 1e3, float(k_rng[1]) / 1e3),
+                k_on,
+                k_all,
             )
         )
 
@@ -524,11 +652,21 @@ def build_wheel_result(
             f"{WEAK_CORRELATION} with the other parameters'): its interval is wide."
         )
     for c in combos:
-        if c.estimable and not c.weakly_identifiable and c.stderr is not None:
+        if c.determined[0] and not c.weakly_identifiable and c.stderr is not None:
             statements.append(f"{c.name} ({c.meaning}) is identified: {c.value:.4g} {c.unit} +- {c.stderr:.2g}.")
-    good = [_EDGE[nm][3] for j, nm in enumerate(names) if ident[j] and nm not in weak_names]
+        elif c.estimable and not c.determined[0]:
+            statements.append(f"{c.name} ({c.meaning}) is not determined: {c.determined[1]}.")
+    good = [
+        _EDGE[nm][3]
+        for j, nm in enumerate(names)
+        if ident[j] and nm not in weak_names and params[_EDGE[nm][0]].identified[0]
+    ]
     if good:
         statements.append(f"identified on their own: {', '.join(good)}.")
+    for nm in names:
+        e = params[_EDGE[nm][0]]
+        if e.identifiable and not e.identified[0]:
+            statements.append(f"{_EDGE[nm][3]} is not identified: {e.identified[1]}.")
     W = data.normal_load
     spread = float((W.max() - W.min()) / W.mean())
     warnings = []
