@@ -274,3 +274,23 @@ def test_fit_takes_a_rigid_wheel():
     r = fit_any(data, RigidWheel(R, B), model="cohesion-free")
     assert r.success and r.parameters["cohesion_kpa"].fixed and r.parameters["cohesion_kpa"].value == 0.0
     assert r.outcome in ("usable", "poor_fit") and r.running_gear["kind"] == "rigid_wheel"
+
+
+# --- the gentle drive log (docs/drivelogs.md): nothing derived from what is not determined ------
+@pytest.mark.slow
+def test_the_gentle_log_lists_neither_f_max_nor_ranges_derived_from_it():
+    from soiltrack import TERRAINS
+    from soiltrack.soilmodel import simulate_drive_log
+
+    log = simulate_drive_log(
+        LIGHT, TERRAINS["dry_sand"], duration_s=60, seed=1, speed_profile=[(0, 0.5), (20, 1.0), (60, 1.0)]
+    )
+    r = fit(log, LIGHT)
+    assert r.extra["regime"] == "gentle" and r.outcome == "usable"
+    assert r.determined == ("initial_slope@W=300N",)
+    text = r.report()
+    assert "possible range" not in text and "[6, 15.36] deg" not in text
+    determined = text.split("what the data determine")[1].split("NOT determined by these data")[0]
+    assert "F_max" not in determined and "initial_slope at W = 300 N   2.2423 kN/slip" in determined
+    assert "F_max at W = 300 N           gentle driving" in text.split("NOT determined by these data")[1]
+    assert "pin down neither F_max nor K" in text

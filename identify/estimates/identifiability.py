@@ -36,6 +36,19 @@ NULL_TOL = 1e-4
 class IdentifiabilityViews:
     """Identifiability views of a fit result (mixin; needs the result's core statistics)."""
 
+    def _ridge_pinned(self) -> str:
+        """What of F_max and K the data pin down, in words (the outcome rules' ``determined``)."""
+        det = self.determined
+        fm = any(d.startswith("F_max") for d in det)
+        k = "shear_modulus" in det
+        if fm and k:
+            return "The data pin down F_max and K."
+        if fm:
+            return "The data pin down F_max (K is not identified: see above)."
+        if k:
+            return "The data pin down K, not F_max."
+        return "The data pin down neither F_max nor K."
+
     @cached_property
     def _null(self) -> np.ndarray:
         """Null-space basis (scaled coordinates of the free parameters), shape (p, k)."""
@@ -203,12 +216,12 @@ class IdentifiabilityViews:
             )
         statements: list[str] = []
         params = self.parameters
-        if self._cphi_ridge:
+        if self._cphi_ridge:  # (what of F_max and K the data pin down: the outcome rules' ``determined``)
             W = float(self.normal_loads[0])
             statements.append(
                 f"c and phi are not separable: all data are at one normal load (W = {format_value(W, 'N', 6)}), "
                 "where they enter only through F_max = A c + W tan(phi); infinitely many (c, phi) give the same curve. "
-                "The data pin down F_max and K. Data at two or more normal loads (payload change, slope) or a "
+                f"{self._ridge_pinned()} Data at two or more normal loads (payload change, slope) or a "
                 "prior are needed to separate c and phi."
             )
         for name, pe in params.items():

@@ -72,12 +72,30 @@ class ReportViews:
     def determined(self) -> tuple[str, ...]:
         """What the data determine: identified soil parameters and estimable combinations with an interval."""
         out = [n for n in self.parameters if self.identified_parameter(n)[0]]
-        out += [
-            cb.name
-            for cb in self.combinations
-            if _combination_determined(cb) and (cb.name not in _SCALED_K or "shear_modulus" in out)
-        ]
+        if self._slope_only:  # a gentle drive log: K is not separated from F_max
+            out = [n for n in out if n != "shear_modulus"]
+        out += [cb.name for cb in self.combinations if cb.name not in self.undetermined_combinations]
         return tuple(out)
+
+    @property
+    def _slope_only(self) -> bool:
+        """A gentle drive log: only the initial slope F_max l / (2 K) is determined, not F_max or K
+        (:mod:`soiltrack.identify.drivelog.regime`)."""
+        return self.data_kind == "drive" and isinstance(self.extra, dict) and self.extra.get("regime") == "gentle"
+
+    @cached_property
+    def undetermined_combinations(self) -> dict[str, str]:
+        """``{combination name: why the data do not determine it}`` (never listed as determined)."""
+        out: dict[str, str] = {}
+        k_ok = self.identified_parameter("shear_modulus")[0] and not self._slope_only
+        for cb in self.combinations:
+            if not _combination_determined(cb):
+                out[cb.name] = "not estimable or pinned at a bound"
+            elif self._slope_only and (cb.name.startswith("F_max") or cb.name in _SCALED_K):
+                out[cb.name] = "gentle driving: the log shows only the initial slope F_max l / (2 K)"
+            elif cb.name in _SCALED_K and not k_ok:
+                out[cb.name] = "K itself is not identified"
+        return out
 
     def _determined_labels(self) -> list[str]:
         """:attr:`determined` in the report's words (parameters by name, combinations as labelled)."""
@@ -493,6 +511,8 @@ class ReportViews:
                 L.append(f"{lab}0 {u} (fixed by the cohesion-free model)")
             elif pe.value is None and not self.success:
                 L.append(f"{lab}no estimate (the fit failed)" + ("" if pe.identifiable else "; not identifiable"))
+            elif not pe.identifiable and any(n.startswith("F_max") for n in self.undetermined_combinations):
+                L.append(f"{lab}NOT IDENTIFIABLE (nor is F_max, which would bound it: no range)")
             elif not pe.identifiable:
                 L.append(f"{lab}NOT IDENTIFIABLE; possible range {rng}")
             else:
@@ -555,11 +575,10 @@ class ReportViews:
         per_load = [cb for cb in combos if "@W=" in cb.name]
         if shown is not None and per_load:  # a measured load: the combinations at its median and extremes
             combos = [cb for cb in combos if "@W=" not in cb.name or _combo_load(cb.name) in shown]
+        undetermined = [cb for cb in combos if cb.name in self.undetermined_combinations]
+        combos = [cb for cb in combos if cb.name not in self.undetermined_combinations]
         for cb in combos:
             label = _combo_label(cb.name)
-            if not cb.estimable:
-                L.append(f"  {label:<28} not estimable from these data")
-                continue
             ends = [e for e in ("lower", "upper") if f"the {e} end of the 95 % interval is cut" in cb.note]
             cut = f" [{' and '.join(ends)} end cut at the bound]" if ends else ""
             L.append(
@@ -571,6 +590,10 @@ class ReportViews:
                 f"  (at the lowest, the median and the highest of the {len(self.normal_loads)} measured loads; "
                 "every load's values are in --json under combinations)"
             )
+        if undetermined:
+            L.append("NOT determined by these data (no number is an estimate):")
+            for cb in undetermined:
+                L.append(f"  {_combo_label(cb.name):<28} {self.undetermined_combinations[cb.name]}")
         ident = self.identifiability
         L.append(
             f"identifiability: the data determine {ident['rank']} independent direction(s) of the "
