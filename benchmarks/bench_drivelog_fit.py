@@ -42,7 +42,7 @@ from soiltrack.identify.drivelog.joint import (
     sensitivity_function,
 )
 from soiltrack.identify.drivelog.fit import _start_points  # noqa: E402
-from soiltrack.identify.drivelog.nlp import _g_inverse, fmax_bounds  # noqa: E402
+from soiltrack.identify.drivelog.nlp import fmax_bounds, g_inverse  # noqa: E402
 from soiltrack.identify.drivelog.prepare import SLIP_BOUNDS, prepare_drive_log  # noqa: E402
 from soiltrack.soilmodel import TERRAINS, VEHICLES, simulate  # noqa: E402
 from soiltrack.soilmodel.effects import effect_structure, parse_effects  # noqa: E402
@@ -70,7 +70,7 @@ def scipy_problem(log, vehicle, effect):
     th0 = np.concatenate([[F0, K0], np.zeros(len(labels))])
     lo_s, hi_s = SLIP_BOUNDS[0] + 1e-3, SLIP_BOUNDS[1] - 1e-3
     y = np.clip(np.abs(prep.thrust) / F0, 0.0, 0.98)
-    s_inv = np.clip(np.sign(prep.thrust) * _g_inverse(y) * K0 / vehicle.track_length, lo_s, hi_s)
+    s_inv = np.clip(np.sign(prep.thrust) * g_inverse(y) * K0 / vehicle.track_length, lo_s, hi_s)
     s0 = best_slips(vehicle, st, th0, jd.D, [s_inv, np.clip(prep.slip_measured, lo_s, hi_s)])
     x0 = np.concatenate([th0 / scale, s0 / i_ref])
     lb = np.concatenate(

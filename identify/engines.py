@@ -12,7 +12,7 @@ IPOPT is the authority the others hand over to when they cannot certify their an
 ``"ipopt"``
     The cached IPOPT solver for every dataset (what ``fit_many(engine="loop")`` used to be).
 ``"compiled"``
-    The compiled LM engine (:mod:`.compiled_lm`), C code compiled now if not cached (about a
+    The compiled LM engine (:mod:`.sweep.compiled_lm`), C code compiled now if not cached (about a
     second, once per machine and size class), one result at a time.
 ``"vectorized"``
     For many datasets (``fit_many``): the compiled LM kernel on each dataset back to back,

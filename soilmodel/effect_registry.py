@@ -24,7 +24,7 @@ sets):
     The track's effective radius ``r (1 + eps)`` replaces the sprocket radius in the slip and
     in the torque arm. Slip computed with the nominal r is then offset by about ``-eps``.
 ``hump_shear`` (``drop``, -, primary; ``k_ratio``, -)
-    Strain-softening soil whose shear stress peaks, then falls. See :func:`softening_shear`.
+    Strain-softening soil whose shear stress peaks, then falls. See :func:`~.thrust_effects.softening_shear`.
 ``pressure_distribution`` (``e``, -, primary; ``alpha``, -; ``n_w``, -)
     Non-uniform normal pressure ``p(x) = p_mean [1 + e (2x/l - 1) + alpha cos(2 pi n_w x / l)]``
     with x from the front of the contact (``e > 0``: load shifted to the rear).

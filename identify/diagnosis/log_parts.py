@@ -8,7 +8,7 @@ each a hypothesis of the comparison from these tools:
   moves, and where the vehicle pushes little (cruising, standing) the data cannot see it at all.
   The test is the score (Lagrange-multiplier) test of "the soil (thrust limit F_max and shear
   modulus K) differs inside the window": the per-sample scores ``g_k = J_k^T e_k`` of the nominal
-  fit (:func:`~.drivelog_sensitivity.drive_log_sensitivities`) summed over the window, against
+  fit (:func:`~soiltrack.identify.drivelog.sensitivity.drive_log_sensitivities`) summed over the window, against
   their variance. The nominal fit sets the total score to zero, so the window's score is that of
   inside against outside (a bridge: ``V_in - V_in V_all^-1 V_in``). Every window of whole cells is
   tried (Bonferroni over the windows). The window with the largest statistic is where the

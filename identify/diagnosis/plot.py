@@ -1,4 +1,4 @@
-"""The figure of a :class:`~.diagnosis.Diagnosis` (matplotlib, Agg)."""
+"""The figure of a :class:`~.result.Diagnosis` (matplotlib, Agg)."""
 
 from __future__ import annotations
 

@@ -212,7 +212,7 @@ def drive_log_score_pair(res, log, vehicle, effects=None) -> tuple[np.ndarray, n
     A drive-log fit profiles out one latent slip per sample, and the Jacobian it reports is a
     stand-in with the right ``J^T J`` only. The score needs the real thing: the per-sample
     whitened residuals and their profiled sensitivities from
-    :func:`~.drivelog_sensitivity.drive_log_sensitivities`, stacked sample by sample.
+    :func:`~soiltrack.identify.drivelog.sensitivity.drive_log_sensitivities`, stacked sample by sample.
     ``effects`` (names) evaluates the derivatives with those effects switched on at their off
     values, so that a nominal fit gives the candidates' columns without carrying them in its NLP.
 
@@ -232,7 +232,7 @@ def drive_log_score_pair(res, log, vehicle, effects=None) -> tuple[np.ndarray, n
 def screen(data, vehicle, candidates, model: str = "full", hac_lag: int | None = 0, fit_options: dict | None = None):
     """Score-test every candidate from ONE fit: the nominal model with the candidates held off.
 
-    For a sweep the fit (:func:`~.fitting.fit` with ``effects=candidates`` and ``fixed`` = every
+    For a sweep the fit (:func:`~soiltrack.identify.fitting.fit` with ``effects=candidates`` and ``fixed`` = every
     parameter at its off value) is the nominal fit, and its Jacobian carries the candidates'
     columns. For a drive log it is the nominal fit with the hull channel, and the columns come
     from :func:`drive_log_score_pair` (cheaper: the candidates stay out of the NLP).

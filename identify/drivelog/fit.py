@@ -82,7 +82,7 @@ Covariance (output-error). Not the Gauss-Newton ``s^2 (J^T J)^-1`` of the profil
 which was measured to be optimistic (200 seeds, light vehicle on dry sand: standardised errors
 with standard deviation 1.23 for F_max and 1.19 for K; 95 % intervals held F_max 179 and K
 173 times of 200), but the sandwich ``A^-1 B A^-1`` of the profiled M-estimator
-(:func:`~.drivelog_covariance.profiled_covariance`): ``A`` the observed information of the profiled cost from the
+(:func:`~.covariance.profiled_covariance`): ``A`` the observed information of the profiled cost from the
 exact per-sample Hessian (the residual-curvature terms Gauss-Newton drops are not small when the
 slip noise is comparable with ``K / l``), ``B`` the empirical variance of the per-sample scores.
 The Jacobian handed to the result object is the profiled one times a 2x2 matrix chosen so that
@@ -109,17 +109,17 @@ GNSS noise it disappears (+0.5 % +- 0.3 %, 80 seeds); noise-free logs are recove
 0.03 %, and the true noise model instead of the estimated one does not remove it (-2.6 % +-
 1.6 %, 57 seeds). The second-order (delta-method) bias of the profiled score accounts for only
 about a quarter of it (+0.7 %), so no such correction is applied by default; the opt-in
-``bias_correction="simex"`` (:func:`~.drivelog_simex._simex_correct`: refits with added speed noise, quadratic
+``bias_correction="simex"`` (:func:`~.simex._simex_correct`: refits with added speed noise, quadratic
 extrapolation to none) removes it at the cost of 12 refits (see benchmarks/README.md for the
 measured bias and coverage before and after). The encoder reading ``w_k``
 is also in ``T_{k+1}``; this negative correlation of neighbouring scores is left out of ``B``
-(conservative, see :func:`~.drivelog_covariance.profiled_covariance`). For a heavy vehicle on firm sand (``K / l``
+(conservative, see :func:`~.covariance.profiled_covariance`). For a heavy vehicle on firm sand (``K / l``
 about 0.4 %) GNSS speed noise of 0.05 m/s leaves K poorly determined; the result says so.
 
 Effects and the hull channel. ``effects=[...]`` (docs/physics.md, "Unmodelled effects") fits the effects'
 parameters jointly with the thrust limit and K, and adds the hull force balance
 ``m dv/dt = F(i) - R(v, i)`` as a third residual channel (IMU column, else speed differences):
-:mod:`.drivelog_joint` states the problem, :mod:`.drivelog_joint_fit` solves it. Without effects
+:mod:`.joint` states the problem, :mod:`.joint_fit` solves it. Without effects
 the fit is the two-channel one above (unchanged); ``hull_channel=True`` adds the hull channel to a
 nominal fit. Measured over the same 20 noise seeds (light vehicle, dry sand, effect-free logs,
 ``python benchmarks/drivelog_coverage.py --seeds 20 [--hull]``): F_max spread 1.24 % -> 0.60 %,
@@ -127,15 +127,15 @@ K spread 12.8 % -> 7.6 %, K bias -6.2 % +- 2.9 -> -0.6 % +- 1.7, 95 % intervals 
 17/20 -> 19/20 and 19/20, at about 4x the fit time. It is not the default: an effect in the hull
 balance that the nominal model lacks (a grade) then biases F_max (measured +1.2 to +1.8
 standard errors on 3 deg), while the two-channel fit does not see it; held-out residuals
-(:func:`.drivelog_residuals.drive_log_residuals`, ``FitResult.residuals_on``) show it in the
+(:func:`.residuals.drive_log_residuals`, ``FitResult.residuals_on``) show it in the
 ``hull_N`` channel either way.
 
-Modules: :mod:`.drivelog_noise` (noise levels from the log), :mod:`.drivelog_prepare` (checks,
-thrust, sample selection), :mod:`.drivelog_nlp` (the NLPs and their solves),
-:mod:`.drivelog_covariance` (sandwich), :mod:`.drivelog_regime` (gentle/hard),
-:mod:`.drivelog_simex` (opt-in bias correction), :mod:`.drivelog_joint` /
-:mod:`.drivelog_joint_fit` (effects, hull channel), :mod:`.drivelog_residuals` (held-out
-residuals), :mod:`.drivelog_sensitivity` (per-sample residuals and sensitivities for score tests);
+Modules: :mod:`.noise` (noise levels from the log), :mod:`.prepare` (checks,
+thrust, sample selection), :mod:`.nlp` (the NLPs and their solves),
+:mod:`.covariance` (sandwich), :mod:`.regime` (gentle/hard),
+:mod:`.simex` (opt-in bias correction), :mod:`.joint` /
+:mod:`.joint_fit` (effects, hull channel), :mod:`.residuals` (held-out
+residuals), :mod:`.sensitivity` (per-sample residuals and sensitivities for score tests);
 this module is the entry, :func:`fit_drive_log`.
 """
 
@@ -283,14 +283,14 @@ def fit_drive_log(
         K: a list of names (``["grade", "mass_error"]``) or anything
         :func:`~soiltrack.soilmodel.effects.parse_effects` takes (given values are start values).
         Adds the hull force balance as a third residual channel (see
-        :mod:`.drivelog_joint`). ``None`` (default): the nominal fit.
+        :mod:`.joint`). ``None`` (default): the nominal fit.
     fixed
         Effect parameters held at given values, e.g. ``{"grade": 0.05}`` or
         ``{"drivetrain_friction.tau_v": 0.0}`` (the effect is switched on).
     bias_correction
         ``None`` (default: no correction) or ``"simex"``: opt-in simulation-extrapolation
         correction of the error-in-variables bias of F_max and K caused by the vehicle-speed
-        noise (output-error only; see :func:`~.drivelog_simex._simex_correct`). Options ``simex_replicates``
+        noise (output-error only; see :func:`~.simex._simex_correct`). Options ``simex_replicates``
         (even, default 4: antithetic pairs per noise level) and ``simex_seed`` (default 0).
         Costs ``3 x simex_replicates`` extra fits.
 
@@ -613,7 +613,7 @@ def _profiled_residuals(
 
     Output-error: one reduced residual per sample (the latent slip profiled out), and the
     Jacobian rescaled so that the result's ``s^2 (J^T J)^-1`` is the sandwich covariance
-    (:func:`~.drivelog_covariance.profiled_covariance`). Returns a dict with ``wres``, ``res``
+    (:func:`~.covariance.profiled_covariance`). Returns a dict with ``wres``, ``res``
     (raw, in ``unit``), ``unit``, ``J2``, ``s_eff`` (effective thrust-residual sigma, N) and
     ``covariance`` (``"sandwich"`` or ``"gauss-newton"``).
     """

@@ -1,6 +1,6 @@
 """Drive-log fits with unmodelled effects: three residual channels, effect parameters, latent slips.
 
-The nominal output-error problem (:mod:`.drivelog_nlp`) uses two channels per sample, the
+The nominal output-error problem (:mod:`.nlp`) uses two channels per sample, the
 encoder (speed residual) and the sprocket thrust. Most drive-log effects (docs/physics.md, "Unmodelled effects")
 show only in the HULL force balance ``m dv/dt = F(i) - R(v, i)``, so the joint problem adds it
 as a third channel. Per used sample ``k``, with ``theta = (F_lim, K, effect parameters)`` and the
@@ -15,7 +15,7 @@ whitened as ``e_w = d_s / sigma_s``, ``e_T = (d_T - rho d_s) / sigma_T|s`` (as i
 problem; ``sigma_s`` and ``sigma_T`` follow ``r_eff``) and ``e_H = d_H / sigma_H`` with
 ``sigma_H = m_eff sigma_a`` (it depends on ``mass_error``: errors in the acceleration regressor
 are weighted as such, Deming-style); IPOPT minimises ``sum |e_k|^2 / 2``. ``M_k'`` and
-``dw_k/dt`` are those of the discrete sprocket equation (:func:`.drivelog_prepare.prepare_drive_log`).
+``dw_k/dt`` are those of the discrete sprocket equation (:func:`.prepare.prepare_drive_log`).
 The acceleration ``a_k`` is the IMU column ``vehicle_accel_m_s2`` when the log has it (noise
 model estimated from that column), else the central difference of the measured vehicle speed
 (``sigma_a`` from the speed noise; about ``sqrt(2) sigma_v / (2 h)``, so the hull channel then
@@ -37,11 +37,11 @@ as frictional). Consequently ``grade`` and ``mass_error`` do not show in the thr
 The reported ``(c, phi)`` is a point of the ridge ``A c + N tan(phi) = F_lim`` at the fitted N.
 
 Covariance: the sandwich ``A^-1 B A^-1`` of the profiled M-estimator (as for the nominal fit,
-:mod:`.drivelog_covariance`), here from CasADi's exact per-sample Hessian of
+:mod:`.covariance`), here from CasADi's exact per-sample Hessian of
 ``|e_k|^2 / 2`` in ``(theta, i_k)``. Parameters with ``fixed`` values are not estimated.
 Identifiability: a direction of ``A`` with a relative eigenvalue below ``1e-10`` is not
 identifiable; an effect parameter whose estimate correlates with another estimate (soil or
-effect) beyond :data:`~.result.WEAK_CORRELATION` is flagged with the correlation.
+effect) beyond :data:`~soiltrack.identify.estimates.least_squares.WEAK_CORRELATION` is flagged with the correlation.
 """
 
 from __future__ import annotations

@@ -1,9 +1,9 @@
 """Joint drive-log fit: soil (thrust limit, K) and effect parameters with three residual channels.
 
-The problem is stated in :mod:`.drivelog_joint`; this module solves it, computes the sandwich
+The problem is stated in :mod:`.joint`; this module solves it, computes the sandwich
 covariance from CasADi's exact per-sample derivatives, judges identifiability (eigenvalues of the
-information, correlations) and builds the :class:`~.result.FitResult`. The soil part goes through
-:func:`~.result.build_result` as for the nominal fit (marginal covariance of ``F_lim`` and K,
+information, correlations) and builds the :class:`~soiltrack.identify.estimates.result.FitResult`. The soil part goes through
+:func:`~soiltrack.identify.estimates.result.build_result` as for the nominal fit (marginal covariance of ``F_lim`` and K,
 i.e. with the effect parameters' uncertainty included); the effect parameters are reported in
 ``extra["effects"]`` as ``{effect: {param: {value, stderr, ci95, identifiable, at_bound,
 correlated_with}}}``.

@@ -1,8 +1,8 @@
 """Start of the joint drive-log fit near its optimum: Levenberg-Marquardt on the profiled cost.
 
-The joint problem (:mod:`.drivelog_joint`) has a few global parameters ``theta`` (thrust limit,
+The joint problem (:mod:`.joint`) has a few global parameters ``theta`` (thrust limit,
 K, effect parameters) and one latent slip per sample, each in its own sample's residual only.
-For fixed ``theta`` every slip is a one-dimensional problem (:meth:`.drivelog_joint.SlipSolver.solve`);
+For fixed ``theta`` every slip is a one-dimensional problem (:meth:`.joint.SlipSolver.solve`);
 what is left is the profiled cost ``phi(theta) = sum_k min_i |e_k(theta, i)|^2 / 2`` in 2 to 5
 variables. Its gradient is ``sum_k J_k^T e_k`` at the per-sample optimum (the slip's own
 derivative vanishes there) and its exact Hessian is the Schur complement of each sample's
@@ -145,9 +145,9 @@ def profiled_start(
     Parameters
     ----------
     vehicle, structure
-        As for :func:`.drivelog_joint.residual_function`.
+        As for :func:`.joint.residual_function`.
     D
-        Per-sample data (rows of :data:`.drivelog_joint.DATA_ROWS`), used samples only.
+        Per-sample data (rows of :data:`.joint.DATA_ROWS`), used samples only.
     theta0, lower, upper, scale
         Start, bounds (equal for a fixed parameter) and typical sizes of ``[F_lim, K, effects...]``.
     slip_starts

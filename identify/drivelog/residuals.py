@@ -1,6 +1,6 @@
 """Per-channel residuals of a fitted drive-log model on a held-out log (block).
 
-Three channels, each ``measured - predicted`` in its own unit (:data:`~.drivelog_joint.CHANNELS`):
+Three channels, each ``measured - predicted`` in its own unit (:data:`~.joint.CHANNELS`):
 
 ``sprocket_speed_rad_s``
     encoder reading minus ``v / (r_eff (1 - i))``;
@@ -11,7 +11,7 @@ Three channels, each ``measured - predicted`` in its own unit (:data:`~.drivelog
     difference of the measured speed).
 
 The latent slip of each held-out sample is solved for the FITTED parameters (the per-sample
-minimum of the same whitened cost the fit profiles out, :meth:`~.drivelog_joint.SlipSolver.solve`;
+minimum of the same whitened cost the fit profiles out, :meth:`~.joint.SlipSolver.solve`;
 the hull channel takes part only if the fit used it). Because that slip is fitted to the sample,
 the channels of one sample share one fitted degree of freedom: the sum over the channels of the
 whitened squares has expectation about (channels used - 1) per sample, not the number of
@@ -127,7 +127,7 @@ def drive_log_residuals(
     Parameters
     ----------
     result_or_params
-        A drive-log :class:`~.result.FitResult`, or a mapping with ``max_thrust_N`` (the log's
+        A drive-log :class:`~soiltrack.identify.estimates.result.FitResult`, or a mapping with ``max_thrust_N`` (the log's
         thrust limit, N), ``shear_modulus_m`` and optionally ``effects`` (``{"effect.param":
         value}``), ``structure`` (which effects are on), ``noise`` (noise models per channel,
         ``{"torque": (a, b), ...}``), ``hull_in_fit``, ``torque_hold``, ``accel_noise``.
@@ -157,7 +157,7 @@ def evaluate_residuals(
     result_or_params: Any, log: DriveLog, vehicle: Vehicle, effects: Any
 ) -> tuple[dict[str, Any], dict]:
     """:func:`drive_log_residuals` and what it was computed from (``theta``, ``structure``, ``D`` as
-    used to solve the latent slips, ``labels``) for :mod:`.drivelog_sensitivity`."""
+    used to solve the latent slips, ``labels``) for :mod:`.sensitivity`."""
     F, K, ev, eff, nm, hull, torque_hold, an, rel = _params_from(result_or_params, effects)
     structure = effect_structure(parse_effects(eff) if eff is not None else None, vehicle)
     _, labels = residual_function(vehicle, structure)

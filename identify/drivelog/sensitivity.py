@@ -1,12 +1,12 @@
 """Per-sample residuals and parameter sensitivities of a fitted drive-log model (public API).
 
 A drive-log fit profiles out one latent slip per sample, and the Jacobian it hands to the result
-object is a stand-in with the right ``J^T J`` only (:mod:`.drivelog_joint_fit`). Score tests
-(:mod:`.screening`) and the search for a change of terrain (:mod:`.diagnosis_log`) need the real
+object is a stand-in with the right ``J^T J`` only (:mod:`.joint_fit`). Score tests
+(:mod:`soiltrack.identify.diagnosis.screening`) and the search for a change of terrain (:mod:`soiltrack.identify.diagnosis.log_parts`) need the real
 per-sample thing: the whitened residuals ``e_k`` (three channels per used sample) and
 ``de_k/dtheta`` from the drive-log model's own CasADi derivative function
-(:func:`~.drivelog_joint.sensitivity_function`, the physics of :mod:`soiltrack.soilmodel`), at the
-fitted parameters and the latent slips :func:`~.drivelog_residuals.drive_log_residuals` solves,
+(:func:`~.joint.sensitivity_function`, the physics of :mod:`soiltrack.soilmodel`), at the
+fitted parameters and the latent slips :func:`~.residuals.drive_log_residuals` solves,
 with ``de_k/dtheta`` projected off ``de_k/di_k`` (the profiled sensitivity: at the per-sample
 optimum ``e_k`` is orthogonal to ``de_k/di_k``).
 """
@@ -80,8 +80,8 @@ def drive_log_sensitivities(result: Any, log: DriveLog, vehicle: Vehicle, effect
     Parameters
     ----------
     result
-        A converged drive-log :class:`~.result.FitResult` (or the parameter mapping
-        :func:`~.drivelog_residuals.drive_log_residuals` takes).
+        A converged drive-log :class:`~soiltrack.identify.estimates.result.FitResult` (or the parameter mapping
+        :func:`~.residuals.drive_log_residuals` takes).
     log, vehicle
         The log to evaluate on (usually the one fitted) and the nominal vehicle.
     effects

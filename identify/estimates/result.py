@@ -6,9 +6,9 @@ engines, the drive-log identification) ends in :func:`build_result` (or
 Jacobian of the weighted residuals and the residuals into a :class:`FitResult`.
 
 The record stores the optimum, residuals, solver status and the core statistics
-(:mod:`.core_stats`); its views live with their concepts: :mod:`.estimate_views` (parameters,
+(:mod:`.least_squares`); its views live with their concepts: :mod:`.views` (parameters,
 effects, combinations, the soil), :mod:`.identifiability` (null space, ridge, confounding) and
-:mod:`.report` (report, warnings, JSON). Value types: :mod:`.estimate_types`.
+:mod:`.report` (report, warnings, JSON). Value types: :mod:`.records`.
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ formulation with latent slips) of the samples inside a moving horizon of ``windo
 tracked by real-time iteration: every new sample enters the horizon with its latent slip
 predicted from the current estimate, samples older than the horizon (or older than the last
 detected change of terrain) leave it, and ONE Gauss-Newton step on (F_max, K, all latent
-slips) is taken (:func:`~.kernels.step_kernel`: the slips are eliminated exactly, one pass
+slips) is taken (:class:`~.kernels.Kernels`: the slips are eliminated exactly, one pass
 over the horizon in a compiled CasADi kernel). While the Newton decrement says the iterate is
 not converged (start, after a change) up to ``max_steps_per_update`` steps are taken. When
 nothing changes, the iterate sits on the batch fit's optimum of the same window.

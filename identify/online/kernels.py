@@ -16,7 +16,7 @@ with the latent slip ``i_k`` a per-sample unknown and the noise model ``sigma = 
 the noise levels, so they are computed when a sample enters and when the noise levels are
 re-estimated). One Gauss-Newton step on ``(F_max, K, i_1..i_n)`` eliminates the slips exactly
 (block-arrow structure: the Schur complement is a 2x2 system), so a step costs one pass over
-the horizon (:func:`step_kernel`). The same pass gives the sandwich covariance of the profiled
+the horizon (:class:`Kernels`). The same pass gives the sandwich covariance of the profiled
 estimator (exact per-sample Hessian, empirical score variance), as the batch fit computes it.
 """
 
