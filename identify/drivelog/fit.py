@@ -69,7 +69,7 @@ dropped and counted in the result.
 
 Identifiability. A flat drive log has one normal load ``W``, so c and phi enter only through
 ``F_max = A c + W tan(phi)`` (cohesion-free: ``W tan(phi)``); the NLP is solved in
-``(F_max, K)`` and the Jacobian handed to :func:`~soiltrack.identify.estimates.result.build_result` is
+``(F_max, K)`` and the Jacobian handed to :func:`~..estimates.result.build_result` is
 ``d e / d(c, phi, K)`` by the chain rule, whose c and phi columns are exactly proportional
 (the result object then reports F_max, K, K/l and the initial slope, and the c-phi ridge).
 The latent slips are profiled out (Gauss-Newton, exact to first order) by projecting each

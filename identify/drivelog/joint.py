@@ -41,7 +41,7 @@ Covariance: the sandwich ``A^-1 B A^-1`` of the profiled M-estimator (as for the
 ``|e_k|^2 / 2`` in ``(theta, i_k)``. Parameters with ``fixed`` values are not estimated.
 Identifiability: a direction of ``A`` with a relative eigenvalue below ``1e-10`` is not
 identifiable; an effect parameter whose estimate correlates with another estimate (soil or
-effect) beyond :data:`~soiltrack.identify.estimates.least_squares.WEAK_CORRELATION` is flagged with the correlation.
+effect) beyond :data:`~..estimates.least_squares.WEAK_CORRELATION` is flagged with the correlation.
 """
 
 from __future__ import annotations

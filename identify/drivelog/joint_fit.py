@@ -2,8 +2,8 @@
 
 The problem is stated in :mod:`.joint`; this module solves it, computes the sandwich
 covariance from CasADi's exact per-sample derivatives, judges identifiability (eigenvalues of the
-information, correlations) and builds the :class:`~soiltrack.identify.estimates.result.FitResult`. The soil part goes through
-:func:`~soiltrack.identify.estimates.result.build_result` as for the nominal fit (marginal covariance of ``F_lim`` and K,
+information, correlations) and builds the :class:`~..estimates.result.FitResult`. The soil part goes through
+:func:`~..estimates.result.build_result` as for the nominal fit (marginal covariance of ``F_lim`` and K,
 i.e. with the effect parameters' uncertainty included); the effect parameters are reported in
 ``extra["effects"]`` as ``{effect: {param: {value, stderr, ci95, identifiable, at_bound,
 correlated_with}}}``.

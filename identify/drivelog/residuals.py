@@ -127,7 +127,7 @@ def drive_log_residuals(
     Parameters
     ----------
     result_or_params
-        A drive-log :class:`~soiltrack.identify.estimates.result.FitResult`, or a mapping with ``max_thrust_N`` (the log's
+        A drive-log :class:`~..estimates.result.FitResult`, or a mapping with ``max_thrust_N`` (the log's
         thrust limit, N), ``shear_modulus_m`` and optionally ``effects`` (``{"effect.param":
         value}``), ``structure`` (which effects are on), ``noise`` (noise models per channel,
         ``{"torque": (a, b), ...}``), ``hull_in_fit``, ``torque_hold``, ``accel_noise``.

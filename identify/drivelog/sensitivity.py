@@ -2,7 +2,7 @@
 
 A drive-log fit profiles out one latent slip per sample, and the Jacobian it hands to the result
 object is a stand-in with the right ``J^T J`` only (:mod:`.joint_fit`). Score tests
-(:mod:`soiltrack.identify.diagnosis.screening`) and the search for a change of terrain (:mod:`soiltrack.identify.diagnosis.log_parts`) need the real
+(:mod:`..diagnosis.screening`) and the search for a change of terrain (:mod:`..diagnosis.log_parts`) need the real
 per-sample thing: the whitened residuals ``e_k`` (three channels per used sample) and
 ``de_k/dtheta`` from the drive-log model's own CasADi derivative function
 (:func:`~.joint.sensitivity_function`, the physics of :mod:`soiltrack.soilmodel`), at the
@@ -80,7 +80,7 @@ def drive_log_sensitivities(result: Any, log: DriveLog, vehicle: Vehicle, effect
     Parameters
     ----------
     result
-        A converged drive-log :class:`~soiltrack.identify.estimates.result.FitResult` (or the parameter mapping
+        A converged drive-log :class:`~..estimates.result.FitResult` (or the parameter mapping
         :func:`~.residuals.drive_log_residuals` takes).
     log, vehicle
         The log to evaluate on (usually the one fitted) and the nominal vehicle.
