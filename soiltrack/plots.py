@@ -296,7 +296,8 @@ def _effect_corrected(prep, vehicle, result) -> tuple[np.ndarray, np.ndarray, st
     """The samples' thrust and slip with the fitted drivetrain loss and track radius, and a label.
 
     ``T = (M - loss(w) - I dw/dt) / r_eff`` and ``i = 1 - v / (r_eff w)``, from soilmodel's
-    :func:`~.soilmodel.effect_terms.torque_loss` and :func:`~.soilmodel.effect_terms.effective_radius` (the nominal sprocket thrust and slip when neither
+    :func:`~.soilmodel.effect_terms.torque_loss` and
+    :func:`~.soilmodel.effect_terms.effective_radius` (the nominal sprocket thrust and slip when neither
     effect was fitted): the points then lie where the fitted model puts the soil's thrust.
     """
     import casadi as ca
