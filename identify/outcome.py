@@ -18,7 +18,8 @@ range) is flagged and never called identified; a parameter whose 95 % interval s
 :attr:`OutcomeSettings.span_fraction` of its bound range is not identified. JSON carries
 ``outcome``, ``outcome_reason`` (null when usable) and ``running_gear`` (:func:`running_gear_json`);
 the command line exits :func:`exit_code` (0 for ``usable``, 1 for the others). This module imports
-no data kind: each result type hands it plain numbers.
+no data kind and no result type (its distributions only when a test runs): each result type hands it
+plain numbers.
 """
 
 from __future__ import annotations
@@ -28,8 +29,6 @@ from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
-
-from .estimates.distributions import chi2_sf, f_sf
 
 __all__ = [
     "OUTCOMES",
@@ -52,9 +51,10 @@ __all__ = [
 #: The one vocabulary of a fit's outcome (JSON ``outcome``, the report's first line, the exit status).
 OUTCOMES = ("usable", "poor_fit", "not_usable", "failed")
 
-#: Distance to a bound, as a fraction of the bound range, within which a value is on the bound (the
-#: one bound tolerance of the library's verdicts; IPOPT's bound relaxation ends some 1e-8 inside).
-BOUND_TOL = 1e-4
+#: Distance to a bound, as a fraction of the bound range, within which a value is on the bound: the
+#: library's one bound tolerance (track, wheel, bevameter; IPOPT's bound relaxation ends some 1e-8 of
+#: the range inside a bound).
+BOUND_TOL = 1e-5
 
 
 @dataclass(frozen=True)
@@ -141,6 +141,8 @@ def pure_error_f_test(levels, residuals, n_params: int) -> LackOfFitTest | None:
     ss_lack = float(np.sum(counts * means**2))
     if not ss_pure > 0:
         return None
+    from .estimates.distributions import f_sf  # (imported here: the record's modules import this one)
+
     df_lack, df_pure = g - n_params, n - g
     F = (ss_lack / df_lack) / (ss_pure / df_pure)
     return LackOfFitTest("pure error of the repeats", F, (df_lack, df_pure), f_sf(F, df_lack, df_pure))
@@ -151,6 +153,8 @@ def stated_noise_test(weighted_ssr: float, dof: int) -> LackOfFitTest | None:
     degrees of freedom; ``None`` without degrees of freedom or a finite sum."""
     if dof <= 0 or not math.isfinite(weighted_ssr):
         return None
+    from .estimates.distributions import chi2_sf  # (imported here: the record's modules import this one)
+
     return LackOfFitTest("the stated noise", float(weighted_ssr), (int(dof),), chi2_sf(float(weighted_ssr), dof))
 
 

@@ -23,6 +23,7 @@ import math
 import numpy as np
 
 __all__ = [
+    "mad_sigma",
     "TWO_TRACK_COLUMNS",
     "YAW_COLUMN",
     "TURN_THRESHOLD_SIGMA",
@@ -55,6 +56,13 @@ NOISE_FLOOR_REL = 1e-4
 MAD_TO_SIGMA = 1.482602218505602
 
 
+def mad_sigma(x) -> float:
+    """The robust standard deviation: :data:`MAD_TO_SIGMA` times the median absolute deviation of ``x``
+    from its median (the one home of the robust noise formula; a normal sample's sigma)."""
+    x = np.asarray(x, dtype=float)
+    return MAD_TO_SIGMA * float(np.median(np.abs(x - np.median(x))))
+
+
 def robust_noise(x: np.ndarray) -> float:
     """Standard deviation of white noise on a smooth signal, from second differences (MAD).
 
@@ -67,7 +75,7 @@ def robust_noise(x: np.ndarray) -> float:
     d = d[np.isfinite(d)]
     if d.size < 3:
         return 0.0
-    return MAD_TO_SIGMA * float(np.median(np.abs(d - np.median(d)))) / math.sqrt(6.0)
+    return mad_sigma(d) / math.sqrt(6.0)
 
 
 def combine_tracks(torque_left, torque_right, speed_left, speed_right) -> tuple[np.ndarray, np.ndarray]:

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from ...soilmodel.tracks import MAD_TO_SIGMA, mad_sigma
 from ..estimates.distributions import chi2_isf, chi2_sf  # re-exported (their home is .stats)
 
 __all__ = [
@@ -46,8 +47,6 @@ __all__ = [
     "OUTLIER_Z",
     "range_share",
 ]
-
-_MAD_TO_SIGMA = 1.4826
 
 
 # ----------------------------------------------------------------------------- splits and noise
@@ -93,7 +92,7 @@ def noise_floor(residuals: np.ndarray, order: np.ndarray | None = None) -> float
         return 0.0
     d = r[2:] - 2.0 * r[1:-1] + r[:-2]
     med = float(np.median(d))
-    mad = _MAD_TO_SIGMA * float(np.median(np.abs(d - med)))
+    mad = mad_sigma(d)
     if mad > 0:
         d = np.clip(d, med - 5 * mad, med + 5 * mad)
     return float(np.sqrt(np.mean(d**2) / 6.0))
@@ -124,7 +123,7 @@ def noise_profile(residuals: np.ndarray, order: np.ndarray | None = None, window
     d2 = np.empty(n)
     d = rs[2:] - 2.0 * rs[1:-1] + rs[:-2]
     med = float(np.median(d))
-    mad = _MAD_TO_SIGMA * float(np.median(np.abs(d - med)))
+    mad = mad_sigma(d)
     if mad > 0:
         d = np.clip(d, med - 8 * mad, med + 8 * mad)
     d2[1:-1] = d**2 / 6.0
@@ -227,9 +226,9 @@ def isolated_outliers(
     d = np.abs(rs[2:] - 2.0 * rs[1:-1] + rs[:-2])
     w = int(window if window is not None else max(21, n // 10))
     w = max(3, min(w, d.size))
-    glob = _MAD_TO_SIGMA * float(np.median(d)) / math.sqrt(6.0)
+    glob = MAD_TO_SIGMA * float(np.median(d)) / math.sqrt(6.0)
     half = max(3, w // 2)
-    sig = np.maximum(glob, _MAD_TO_SIGMA * local_medians(d, n, half, split_sides) / math.sqrt(6.0))
+    sig = np.maximum(glob, MAD_TO_SIGMA * local_medians(d, n, half, split_sides) / math.sqrt(6.0))
     sig[:2] = sig[n - 2 :] = 0.0
     # the reading against the mean of its two neighbours on each side, the nearer of the two: a glitch is far
     # from both, a reading at the edge of a step is near one of them (each difference has variance

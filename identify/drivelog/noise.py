@@ -10,10 +10,9 @@ import math
 
 import numpy as np
 
-__all__ = ["estimate_noise", "estimate_noise_profile", "noise_model"]
+from ...soilmodel.tracks import MAD_TO_SIGMA, robust_noise
 
-#: Factor from the median absolute deviation to the standard deviation of a normal distribution.
-_MAD_TO_SIGMA = 1.482602218505602
+__all__ = ["estimate_noise", "estimate_noise_profile", "noise_model"]
 
 
 def estimate_noise(x: np.ndarray) -> float:
@@ -27,9 +26,7 @@ def estimate_noise(x: np.ndarray) -> float:
     x = np.asarray(x, dtype=float)
     if x.size < 5:
         return 0.0
-    d = x[2:] - 2.0 * x[1:-1] + x[:-2]
-    mad = float(np.median(np.abs(d - np.median(d))))
-    return _MAD_TO_SIGMA * mad / math.sqrt(6.0)
+    return robust_noise(x)
 
 
 def estimate_noise_profile(x: np.ndarray, n_bins: int = 8) -> tuple[float, float]:
@@ -57,7 +54,7 @@ def estimate_noise_profile(x: np.ndarray, n_bins: int = 8) -> tuple[float, float
         dd = d[chunk]
         mad = float(np.median(np.abs(dd - np.median(dd))))
         rows.append([1.0, float(np.mean(xc[chunk] ** 2))])
-        var.append((_MAD_TO_SIGMA * mad) ** 2 / 6.0)
+        var.append((MAD_TO_SIGMA * mad) ** 2 / 6.0)
         cnt.append(chunk.size)
     X, y, wt = np.array(rows), np.array(var), np.sqrt(np.array(cnt, dtype=float))
     fits = {}

@@ -20,6 +20,9 @@ from typing import Callable
 import casadi as ca
 import numpy as np
 
+from ..estimates.least_squares import RANK_TOL
+from ..outcome import BOUND_TOL
+
 __all__ = [
     "ResidualModel",
     "LsqSolution",
@@ -32,10 +35,12 @@ __all__ = [
     "FLAT_COMPONENT_TOL",
 ]
 
-#: Relative singular value of the scaled Jacobian below which a direction is not identifiable.
-RANK_RTOL = 1e-7
-#: A parameter within this fraction of its box width from a bound is reported on that bound.
-BOUND_RTOL = 1e-5
+#: Relative singular value of the scaled Jacobian below which a direction is not identifiable: the
+#: library's one rank tolerance (:data:`soiltrack.identify.estimates.least_squares.RANK_TOL`).
+RANK_RTOL = RANK_TOL
+#: A parameter within this fraction of its box width from a bound is reported on that bound: the
+#: library's one bound tolerance (:data:`soiltrack.identify.outcome.BOUND_TOL`).
+BOUND_RTOL = BOUND_TOL
 #: IPOPT iteration budget of one start.
 MAX_ITER = 300
 #: IPOPT's convergence tolerance (the scaled problems are of order one).

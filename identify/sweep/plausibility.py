@@ -39,6 +39,7 @@ from ...soilmodel.ridge import continuous_load
 from ...soilmodel.soil import SoilBounds
 from ...soilmodel.traction import max_thrust_expr, thrust_at
 from ...soilmodel.vehicle import Vehicle
+from ...soilmodel.tracks import MAD_TO_SIGMA
 from ...soilmodel.units import format_value
 
 __all__ = [
@@ -525,7 +526,7 @@ def check_slip_fit(
     if r.size >= MIN_ROBUST:
         med = _median(r, finite=True)
         dev = np.abs(r - med)
-        mad = 1.4826 * _median(dev, finite=True)
+        mad = MAD_TO_SIGMA * _median(dev, finite=True)
         size = _quantile(np.abs(force), 0.9)  # the data's force scale, robust to a few wild rows
         az = dev / max(mad, 1e-6 * size, 1e-300)  # |robust z-score|
         if _MAX(az) > min(OUTLIER_Z, GROSS_Z):  # else no row is an outlier of either kind

@@ -42,6 +42,7 @@ from ...soilmodel.data import SlipData
 from ...soilmodel.threadsafe import locked_cache
 from ...soilmodel.sinkage import compaction_at_sinkage_expr, sinkage_expr, slip_sinkage_expr
 from ...soilmodel.vehicle import Vehicle
+from ..estimates.least_squares import RANK_TOL
 from ..estimates.distributions import norm_cdf, t_cdf, t_ppf
 
 __all__ = [
@@ -67,8 +68,8 @@ MIN_LOG_LOAD_SPREAD = 1e-6
 MIN_LOG_SLIP_SPREAD = 1e-6
 #: Fewest rows with a positive sinkage and a driving slip for a fit (three coefficients and a dof).
 MIN_SINKAGE_ROWS = 4
-#: Smallest singular value of the column-scaled Jacobian, relative to the largest, of a full rank.
-RANK_TOL = 1e-9
+#: Smallest singular value of the column-scaled Jacobian, relative to the largest, of a full rank: the
+#: library's one rank tolerance, imported from :mod:`soiltrack.identify.estimates.least_squares`.
 #: Gauss-Newton iterations at most (the log-residual is linear in the solver's parameters: one suffices).
 GN_MAX_ITER = 20
 #: Gauss-Newton stops when the step is below this, relative to ``1 + |theta|``.
