@@ -88,6 +88,29 @@ class OnlineSettings:
     detect_min_samples, detect_min_s
         The detector runs only once the estimate rests on this many samples and this many
         seconds since the start or the last change.
+    drift_max_thrust_rel, drift_shear_modulus_rel
+        Random-walk rates of the held estimate (:mod:`~.memory`), per sqrt(s): between
+        excitations F_max and K keep their last identified values and their variances grow by
+        ``(rate x value)^2`` per second. 0.003 says the soil under a moving vehicle may drift by
+        about 0.3 % in a second, 3 % in 100 s, 18 % in an hour (firm uniform ground; a patchy
+        field wants more): small against the 20-40 % of a change of terrain, large enough that a
+        value held for minutes is not trusted to the tenth of a percent a pull gave it.
+    memory
+        ``True`` (default): the held estimate of :mod:`~.memory` (arrival cost, random walk) is
+        what each update reports and what the detector tests new samples against. ``False``: the
+        window estimator of before (issue 22: the horizon's fit alone, forgotten as its samples
+        leave; the detector against the horizon's iterate), kept for comparison.
+    detect_held_sigmas
+        The detector's residuals are standardised by the noise and by this many standard
+        deviations of the prediction that the held estimate's own uncertainty allows: a change
+        must move the thrust-slip curve beyond that many standard errors of what is known
+        (the held estimate is shared by every sample, so its error would otherwise lean all of
+        a pull's residuals to one side and read as a change).
+    detect_window_chi2
+        A second test: when the horizon identifies F_max, its own estimate against the arrival
+        cost (what the samples before it said, grown by the random walk); a squared Mahalanobis
+        distance beyond this (chi-square, 2 degrees of freedom; 27.6 = p 1e-6) is a change.
+        A horizon beyond it is never fused into the held estimate.
     turn_threshold
         Noise standard deviations of the left-right speed difference (or the yaw rate) beyond
         which a two-track sample turns.
@@ -120,6 +143,11 @@ class OnlineSettings:
     detect_scale_samples: int = 100
     detect_min_samples: int = 20
     detect_min_s: float = 0.5
+    memory: bool = True
+    drift_max_thrust_rel: float = 0.003
+    drift_shear_modulus_rel: float = 0.003
+    detect_held_sigmas: float = 4.0
+    detect_window_chi2: float = 27.6
     turn_threshold: float = TURN_THRESHOLD_SIGMA
     turn_history: int = 256
     max_capacity: int = 16384
@@ -138,6 +166,7 @@ class OnlineSettings:
             "detect_threshold",
             "detect_clip",
             "turn_threshold",
+            "detect_window_chi2",
         ):
             val = getattr(self, name)
             if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
@@ -160,12 +189,17 @@ class OnlineSettings:
             "min_speed",
             "detect_min_s",
             "detect_settle_s",
+            "drift_max_thrust_rel",
+            "drift_shear_modulus_rel",
+            "detect_held_sigmas",
         ):
             val = getattr(self, name)
             if val is not None and (
                 isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val < 0
             ):
                 raise DataError(f"setting {name} must be a finite number >= 0, got {val!r}")
+        if not isinstance(self.memory, bool):
+            raise DataError(f"setting memory must be True or False, got {self.memory!r}")
         g = self.grade_rad
         lo, hi = _GRADE_RANGE
         if isinstance(g, bool) or not isinstance(g, (int, float)) or not math.isfinite(g) or not lo <= g <= hi:
