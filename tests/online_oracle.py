@@ -6,8 +6,8 @@ from the code under test. Straight-line tracked vehicle, Janosi-Hanamoto thrust
 equation ``I dw/dt = M - r F(i)`` integrated by implicit Euler (a scalar Newton/bisection solve
 per sub-step: the slip settles in milliseconds), the hull ``m dv/dt = F - R`` by explicit Euler,
 ``R = N mu_r + W sin(theta) + D(t)`` with a drawbar load ``D`` during the "pulls" (the thrust then
-ramps up to ``level * F_max`` over the pull at a held speed: a pull sweeping the thrust-slip curve
-up to near the traction limit). A PI speed controller
+ramps up to ``level * F_max`` over the first quarter of the pull and stays there, at a held speed:
+a pull sweeping the thrust-slip curve up to near the traction limit). A PI speed controller
 with feed-forward updates the torque at the log rate and holds it (zero-order hold). Sensor noise:
 torque 1 % + 0.1 % of ``0.8 W r``, encoder 0.5 % + 0.01 rad/s, speed ``speed_noise``.
 """
@@ -18,6 +18,8 @@ import math
 import random
 
 G = 9.81
+#: Share of a pull over which its drawbar load ramps up (then it is held until the pull ends).
+RAMP = 0.25
 #: The two reference vehicles: W (N), l, b, r (m), I (kg m^2), mu_r, cruise speed (m/s), speed noise (m/s).
 VEHICLES = {
     "heavy": dict(W=329e3, l=2.8, b=0.5, r=0.3, I=500.0, mu=0.05, v=3.0, sv=0.05),
@@ -108,7 +110,7 @@ def simulate(
         soil = soil_at(t)
         F = f_max(soil, veh, th)
         K = soil[2]
-        level = max((lv * (t - a) / (b - a) for a, b, lv in pulls if a <= t < b), default=0.0)
+        level = max((lv * min(1.0, (t - a) / (RAMP * (b - a))) for a, b, lv in pulls if a <= t < b), default=0.0)
         R = max(base, level * F)
         e = v_ref - v
         M = r * (R + m * (kp * e + ki * integ))

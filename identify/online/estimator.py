@@ -61,6 +61,8 @@ INITIAL_CAPACITY = 64
 START_THRUST_FACTOR = 1.2
 #: Fewest readings the noise levels are estimated from (before that: the first estimate stays).
 MIN_NOISE_SAMPLES = 8
+#: Informative samples closer than this belong to one excitation (a pull), s (change windows).
+EXCITATION_GAP_S = 0.5
 #: Turning-noise levels are re-estimated this often while fewer than ``turn_history`` are known.
 _TURN_REESTIMATE_EARLY = 8
 
@@ -151,6 +153,7 @@ class OnlineEstimator:
         self._held = HeldSoil(s.drift_max_thrust_rel, s.drift_shear_modulus_rel)
         self._informed_at: float | None = None
         self._info_times: deque = deque(maxlen=4096)  # times of the informative samples (change windows)
+        self._info_win: deque = deque()  # ... of those inside the horizon
         self._t_first = math.nan
         self._have_noise = False
         self._noise_known = None not in (s.sigma_torque, s.sigma_sprocket_speed, s.sigma_vehicle_speed)
@@ -465,14 +468,14 @@ class OnlineEstimator:
             self._forget(t, change, window)
             cutoff = max(t - s.window_s, self._t_reset)
         self._iterate(cutoff)
-        win = self._window()
+        win = self._window(t)
         if s.memory:
             late = self._remember(t, win)
             if late is not None and change is None:  # the horizon contradicts what is known: a change
                 change, window = late
-                self._forget(t, change, window)
+                self._forget(t, change, window, test="horizon")
                 self._iterate(max(t - s.window_s, self._t_reset))
-                win = self._window()
+                win = self._window(t)
                 self._remember(t, win)
         return self._report(t, slip0, change is not None, change, None, "", win=win, window=window)
 
@@ -519,7 +522,9 @@ class OnlineEstimator:
         self._row[:] = keep_row
         self._T_out[:], self._sT_out[:], self._raw1[:] = keep
 
-    def _forget(self, t: float, t_change: float, window: tuple[float, float] | None = None) -> None:
+    def _forget(
+        self, t: float, t_change: float, window: tuple[float, float] | None = None, test: str = "cusum"
+    ) -> None:
         """A change of terrain at ``t_change``: drop the older samples and what is held, restart the detector."""
         held = self._held.now(t)
         before = (
@@ -532,12 +537,18 @@ class OnlineEstimator:
                 "time_s": t_change,
                 "window_s": list(window) if window is not None else [t_change, t_change],
                 "detected_at_s": t,
+                "test": test,
                 "max_thrust_before_N": before[0],
                 "shear_modulus_before_m": before[1],
             }
         )
         self._held.reset()
         self._informed_at = None
+        keep = [x for x in self._info_times if x >= t_change]  # the new soil's informative samples only
+        self._info_times.clear()
+        self._info_times.extend(keep)
+        self._info_win.clear()
+        self._info_win.extend(keep)
         self._t_reset = t_change
         self._detector.reset(t)
         self._detect_since = t
@@ -664,7 +675,7 @@ class OnlineEstimator:
             return None
         return v11, v12, v22
 
-    def _window(self) -> dict:
+    def _window(self, t: float) -> dict:
         """The horizon's own fit: values, data-only covariance and what it identifies (``ident``).
 
         Once the horizon determines F_max, a weak prior (``hold_rel``) holds the iterate there
@@ -701,13 +712,17 @@ class OnlineEstimator:
         if abs(corr) < GENTLE_CORRELATION and sF_ / F < GENTLE_REL_STDERR and not F_bound:
             # the horizon's largest thrust, two standard deviations below its value
             peak = max(self._peaks[0][2], 0.0) if self._peaks else 0.0
-            if peak >= self.settings.identify_min_utilisation * F:
+            cut = max(t - self.settings.window_s, self._t_reset)
+            iw = self._info_win
+            while iw and iw[0] < cut:
+                iw.popleft()
+            if peak >= self.settings.identify_min_utilisation * F and len(iw) >= self.settings.identify_min_informative:
                 w.update(ident=("slope", "max_thrust"), sF=sF_)
                 # F_max is determined: hold it there (weakly) while later horizons do not determine it
                 self._P[_P["xF_prior"]] = xF
                 self._P[_P["w_prior"]] = 1.0 / (self.settings.hold_rel * xF) ** 2
                 if self._F_known is None:
-                    self._known_since = self._last_time
+                    self._known_since = t
                 self._F_known = F
                 if sK_ / K <= K_REL_STDERR and not K_bound:
                     w.update(ident=("slope", "max_thrust", "shear_modulus"), sK=sK_)
@@ -726,7 +741,8 @@ class OnlineEstimator:
                 H.set(t, xw, Vw)
             else:
                 res = fuse(pr[0], pr[1], xw, Vw)
-                if res is not None and res[2] > s.detect_window_chi2:
+                settled = t - self._known_since >= s.detect_settle_s
+                if res is not None and res[2] > s.detect_window_chi2 and settled:
                     first = next((x for x in self._info_times if x >= t_start), t)
                     t_change = self._detector.run_start(first)
                     return t_change, self._change_window(t_change)
@@ -764,14 +780,25 @@ class OnlineEstimator:
         if T - 2.0 * sT >= self.settings.identify_min_utilisation * ref:
             self._informed_at = t
             self._info_times.append(t)
+            self._info_win.append(t)
 
     def _change_window(self, latest: float) -> tuple[float, float]:
-        """``(earliest, latest)`` of a change first seen at ``latest``: from the last informative sample before it."""
+        """``(earliest, latest)`` of a change first seen at ``latest``.
+
+        ``earliest`` is the last informative sample before the excitation (the run of informative
+        samples, gaps below :data:`EXCITATION_GAP_S`) in which the change was seen: that
+        excitation's first samples may already have been on the new soil without leaning enough.
+        """
         earliest = None
+        block = latest
         for x in reversed(self._info_times):
-            if x < latest:
-                earliest = x
-                break
+            if x >= latest:
+                continue
+            if block - x <= EXCITATION_GAP_S:
+                block = x
+                continue
+            earliest = x
+            break
         if earliest is None:
             earliest = self._t_reset if math.isfinite(self._t_reset) else self._t_first
         return float(min(earliest, latest)), float(latest)
@@ -803,7 +830,7 @@ class OnlineEstimator:
     ) -> OnlineEstimate:
         self._last_time = t
         if win is None:
-            win = self._window()
+            win = self._window(t)
         n_used, have = win["n_used"], win["have"]
         v = self._held_fields(t, win) if self.settings.memory else dict(win, held=False)
         ident = v["ident"]

@@ -72,6 +72,12 @@ class OnlineSettings:
         fit's rules (correlation below 0.99, standard error below 25 %, not on a bound): gentle
         driving shows only the start of the curve, and a covariance computed where the
         iterate has drifted along the ridge can look tighter than the data are.
+    identify_min_informative
+        ... and only when the horizon holds at least this many informative samples (loaded to
+        ``identify_min_utilisation`` of F_max): the sandwich covariance estimates the scores'
+        variance from the samples themselves, and two or three samples of a short pull give no
+        estimate of it (measured: a horizon holding the last three samples of a pull on the light
+        vehicle reported F_max to 2 % and was contradicted by the next pull).
     detect_min_load
         The detector runs once F_max has been determined (since the start or the last change)
         and takes only samples whose thrust is at least this fraction of that F_max. Below it
@@ -138,6 +144,7 @@ class OnlineSettings:
     detect_threshold: float = 10.0
     detect_clip: float = 4.0
     identify_min_utilisation: float = 0.5
+    identify_min_informative: int = 5
     detect_min_load: float = 0.2
     detect_settle_s: float = 2.0
     detect_scale_samples: int = 100
@@ -176,6 +183,7 @@ class OnlineSettings:
             "max_steps_per_update",
             "detect_scale_samples",
             "detect_min_samples",
+            "identify_min_informative",
             "turn_history",
             "max_capacity",
         ):
