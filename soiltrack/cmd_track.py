@@ -199,8 +199,12 @@ def _cmd_track(a: argparse.Namespace) -> int:
 
 
 def _change_entry(c: dict) -> dict:
-    """A summary ``changes`` entry: ``time_s``, ``window_s`` [earliest, latest], ``detected_at_s``, the soil before."""
-    return {k: ([float(x) for x in v] if isinstance(v, (list, tuple)) else float(v)) for k, v in c.items()}
+    """A summary ``changes`` entry: ``time_s``, ``window_s`` [earliest, latest], ``detected_at_s``, ``test``
+    (``"cusum"`` or ``"horizon"``: which test flagged it), the soil before."""
+    return {
+        k: ([float(x) for x in v] if isinstance(v, (list, tuple)) else (v if isinstance(v, str) else float(v)))
+        for k, v in c.items()
+    }
 
 
 def _fmt(x, scale=1.0, digits=4):

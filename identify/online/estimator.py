@@ -153,7 +153,6 @@ class OnlineEstimator:
         self._held = HeldSoil(s.drift_max_thrust_rel, s.drift_shear_modulus_rel)
         self._informed_at: float | None = None
         self._info_times: deque = deque(maxlen=4096)  # times of the informative samples (change windows)
-        self._info_win: deque = deque()  # ... of those inside the horizon
         self._t_first = math.nan
         self._have_noise = False
         self._noise_known = None not in (s.sigma_torque, s.sigma_sprocket_speed, s.sigma_vehicle_speed)
@@ -424,9 +423,9 @@ class OnlineEstimator:
             self._c_predict()
             slip0, wres = float(self._pred_out[0]), float(self._pred_out[1])
             z = wres / self._scale()
+            self._note_informative(t, T, sT)
             if s.memory:
                 z = self._held_residual(t, z)
-                self._note_informative(t, T, sT)
             # a change is judged against a soil whose F_max was determined, on samples loaded against it
             loaded = (
                 self._F_known is not None
@@ -465,6 +464,7 @@ class OnlineEstimator:
         window = None
         if change is not None:
             window = self._change_window(change)
+            change = self._excitation_start(change, window[0])
             self._forget(t, change, window)
             cutoff = max(t - s.window_s, self._t_reset)
         self._iterate(cutoff)
@@ -473,6 +473,7 @@ class OnlineEstimator:
             late = self._remember(t, win)
             if late is not None and change is None:  # the horizon contradicts what is known: a change
                 change, window = late
+                change = self._excitation_start(change, window[0])
                 self._forget(t, change, window, test="horizon")
                 self._iterate(max(t - s.window_s, self._t_reset))
                 win = self._window(t)
@@ -547,8 +548,6 @@ class OnlineEstimator:
         keep = [x for x in self._info_times if x >= t_change]  # the new soil's informative samples only
         self._info_times.clear()
         self._info_times.extend(keep)
-        self._info_win.clear()
-        self._info_win.extend(keep)
         self._t_reset = t_change
         self._detector.reset(t)
         self._detect_since = t
@@ -689,7 +688,7 @@ class OnlineEstimator:
         have = self._started or (n_used >= 3 and self._converged)
         xF, xK = float(self._P[_P["xF"]]), float(self._P[_P["xK"]])
         w: dict = dict(F=None, K=None, sF=None, sK=None, cov=None, slope=None, s_slope=None, V=None)
-        w.update(ident=(), n_used=n_used, have=have)
+        w.update(ident=(), n_used=n_used, have=have, K_bound=False)
         if not (have or n_used >= 3):
             return w
         F, K = xF * self._F_ref, xK * self._K_ref
@@ -709,14 +708,11 @@ class OnlineEstimator:
         tol = 1e-6
         F_bound = not (Flo + tol < xF < Fhi - tol)
         K_bound = not (Klo + tol < xK < Khi - tol)
+        w["K_bound"] = K_bound
         if abs(corr) < GENTLE_CORRELATION and sF_ / F < GENTLE_REL_STDERR and not F_bound:
             # the horizon's largest thrust, two standard deviations below its value
             peak = max(self._peaks[0][2], 0.0) if self._peaks else 0.0
-            cut = max(t - self.settings.window_s, self._t_reset)
-            iw = self._info_win
-            while iw and iw[0] < cut:
-                iw.popleft()
-            if peak >= self.settings.identify_min_utilisation * F and len(iw) >= self.settings.identify_min_informative:
+            if peak >= self.settings.identify_min_utilisation * F:
                 w.update(ident=("slope", "max_thrust"), sF=sF_)
                 # F_max is determined: hold it there (weakly) while later horizons do not determine it
                 self._P[_P["xF_prior"]] = xF
@@ -729,12 +725,22 @@ class OnlineEstimator:
                     w["cov"] = np.array([[v11, v12], [v12, v22]])
         return w
 
+    def _enough_informative(self, level: float) -> bool:
+        """Whether the horizon holds ``identify_min_informative`` used samples loaded to ``level`` (memory on)."""
+        if not self.settings.memory:
+            return True  # the window estimator of before has no such rule
+        n = np.count_nonzero((self._peak >= level) & (self._D[:, _R["m"]] > 0))
+        return bool(n >= self.settings.identify_min_informative)
+
     # ------------------------------------------------------------------ memory
     def _remember(self, t: float, win: dict) -> tuple[float, tuple[float, float]] | None:
         """Fuse an informative horizon with its arrival cost; a contradiction gives ``(t_change, window)``."""
         H, s = self._held, self.settings
         t_start = max(t - s.window_s, self._t_reset)
-        if "max_thrust" in win["ident"]:
+        # a horizon is fused when it identifies F_max from enough loaded samples, K off its bounds (on a
+        # bound the covariance describes the box, not the data)
+        informative = "max_thrust" in win["ident"] and not win["K_bound"]
+        if informative and self._enough_informative(s.identify_min_utilisation * win["F"]):
             xw, Vw = (win["F"], win["K"]), win["V"]
             pr = H.prior(t_start, t)
             if pr is None:
@@ -780,7 +786,23 @@ class OnlineEstimator:
         if T - 2.0 * sT >= self.settings.identify_min_utilisation * ref:
             self._informed_at = t
             self._info_times.append(t)
-            self._info_win.append(t)
+
+    def _excitation_start(self, t_seen: float, earliest: float) -> float:
+        """Start of the excitation in which a change was seen at ``t_seen``: the date of the change.
+
+        The first informative sample of that excitation, less :data:`EXCITATION_GAP_S` (its ramp),
+        never before ``earliest`` (the last informative sample on the old soil). The horizon
+        restarts there: the excitation's less loaded samples are on the new soil too, and without
+        them the new horizon can hold one operating point of the curve only (F_max and K on a ridge).
+        """
+        block = t_seen
+        for x in reversed(self._info_times):
+            if x >= t_seen:
+                continue
+            if block - x > EXCITATION_GAP_S:
+                break
+            block = x
+        return max(block - EXCITATION_GAP_S, min(earliest, t_seen))
 
     def _change_window(self, latest: float) -> tuple[float, float]:
         """``(earliest, latest)`` of a change first seen at ``latest``.

@@ -73,7 +73,8 @@ class OnlineSettings:
         driving shows only the start of the curve, and a covariance computed where the
         iterate has drifted along the ridge can look tighter than the data are.
     identify_min_informative
-        ... and only when the horizon holds at least this many informative samples (loaded to
+        A horizon that identifies F_max is fused into the held estimate (and tested against it)
+        only when it holds at least this many informative samples (loaded to
         ``identify_min_utilisation`` of F_max): the sandwich covariance estimates the scores'
         variance from the samples themselves, and two or three samples of a short pull give no
         estimate of it (measured: a horizon holding the last three samples of a pull on the light
