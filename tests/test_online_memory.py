@@ -81,8 +81,12 @@ def _change_case(vehicle: str, pulls, t_change: float, seed: int, grade_deg: flo
     veh = OV[vehicle]
     new = _weaker(0.28, veh)
     cols = simulate(
-        vehicle, lambda t: SOILS["lete_sand"] if t < t_change else new, pulls[-1][1] + 3.0, pulls,
-        grade_deg=grade_deg, seed=seed,
+        vehicle,
+        lambda t: SOILS["lete_sand"] if t < t_change else new,
+        pulls[-1][1] + 3.0,
+        pulls,
+        grade_deg=grade_deg,
+        seed=seed,
     )
     est = OnlineEstimator(VEHICLES[vehicle], OnlineSettings(grade_rad=math.radians(grade_deg)))
     hist = _replay(est, cols)

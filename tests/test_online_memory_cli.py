@@ -69,7 +69,9 @@ def test_track_reports_the_held_estimate_the_change_window_and_p_traversable(tmp
     cols = simulate("heavy", lambda t: SOILS["lete_sand"] if t < 21.0 else weak, 36.0, pulls, seed=404)
     path = tmp_path / "log.csv"
     write_csv(cols, str(path))
-    rc, lines, _ = _run(["track", str(path), "--vehicle", "heavy", "--every", "50", "--grade-deg", "5", "--json"], capsys)
+    rc, lines, _ = _run(
+        ["track", str(path), "--vehicle", "heavy", "--every", "50", "--grade-deg", "5", "--json"], capsys
+    )
     assert rc == 0
     steps, summary = lines[:-1], lines[-1]["summary"]
     for st in steps:
