@@ -78,7 +78,8 @@ class OnlineSettings:
         ``identify_min_utilisation`` of F_max): the sandwich covariance estimates the scores'
         variance from the samples themselves, and two or three samples of a short pull give no
         estimate of it (measured: a horizon holding the last three samples of a pull on the light
-        vehicle reported F_max to 2 % and was contradicted by the next pull).
+        vehicle reported F_max to 2 % and was contradicted by the next pull; at 5 the library's
+        default profile's hard accelerations, light vehicle, were never fused).
     detect_min_load
         The detector runs once F_max has been determined (since the start or the last change)
         and takes only samples whose thrust is at least this fraction of that F_max. Below it
@@ -145,7 +146,7 @@ class OnlineSettings:
     detect_threshold: float = 10.0
     detect_clip: float = 4.0
     identify_min_utilisation: float = 0.5
-    identify_min_informative: int = 5
+    identify_min_informative: int = 4
     detect_min_load: float = 0.2
     detect_settle_s: float = 2.0
     detect_scale_samples: int = 100
