@@ -18,9 +18,16 @@ of the soil's limit) with a hard acceleration every 4 s, LETE sand, switching to
 31 s (``soil_changes``). The uniform-soil logs for false alarms are 10-minute runs of the same
 driving and of the library's default profile (mostly gentle), on several seeds.
 
-    python benchmarks/bench_online.py            # about 10 minutes on a loaded 2-core machine
-    python benchmarks/bench_online.py --quick    # one rate, shorter false-alarm logs
-    python benchmarks/bench_online.py --slope    # the known grade, with and without (about 30 s)
+The default run (issue 38) compares, side by side on the same logs of an independent simulator
+(``tests/online_oracle.py``), this estimator, the window estimator of before, a sliding-window
+refit with ``fit``, an EKF on (F_max, K) and a recursive Bayes filter over a terrain bank
+(``online_compare.py``)::
+
+    python benchmarks/bench_online.py --size small --estimators held,window,ekf,bank
+    python benchmarks/bench_online.py --size medium            # all five, 24 change logs
+    python benchmarks/bench_online.py --timing                 # the timing study of issue 22 (10 minutes)
+    python benchmarks/bench_online.py --timing --quick         # one rate, shorter false-alarm logs
+    python benchmarks/bench_online.py --slope                  # the known grade, with and without (about 30 s)
 """
 
 from __future__ import annotations
@@ -321,11 +328,33 @@ def _slope_logs(deg: float, low: float, high: float, seeds) -> None:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="50 Hz only, 2 x 5-minute false-alarm logs")
+    ap.add_argument(
+        "--size",
+        choices=("small", "medium", "full"),
+        default="small",
+        help="comparison: logs (small: 8 change logs a vehicle)",
+    )
+    ap.add_argument(
+        "--estimators", default="held,window,refit,ekf,bank", help="comparison: which estimators, comma-separated"
+    )
+    ap.add_argument("--duration", type=float, default=120.0, help="comparison: length of each change log, s")
+    ap.add_argument("--uniform-s", type=float, default=600.0, help="comparison: length of each uniform-soil log, s")
+    ap.add_argument("--timing", action="store_true", help="the timing study of issue 22 instead of the comparison")
+    ap.add_argument("--quick", action="store_true", help="with --timing: 50 Hz only, 2 x 5-minute false-alarm logs")
     ap.add_argument("--slope", action="store_true", help="only the known-grade study (8 deg, with and without)")
     a = ap.parse_args(argv)
     if a.slope:
         slope_study()
+        return 0
+    if not a.timing:
+        import online_compare
+
+        names = tuple(x.strip() for x in a.estimators.split(",") if x.strip())
+        bad = [n for n in names if n not in online_compare.ESTIMATORS]
+        if bad:
+            ap.error(f"--estimators: unknown {bad}; choose from {list(online_compare.ESTIMATORS)}")
+        print("machine load (1-min average) at the start:", open("/proc/loadavg").read().split()[0])
+        online_compare.compare(a.size, names, a.duration, a.uniform_s)
         return 0
     veh = VEHICLES["light"]
     rates = (50.0,) if a.quick else (10.0, 50.0, 100.0)

@@ -615,13 +615,15 @@ def simulate(
     measure: str = "tractive_force",
     return_truth: bool = False,
     sinkage_slip_exponent: float | None = None,
+    soil_changes: Sequence[tuple[float, Soil]] = (),
 ):
     """Simulate a drive log (``kind="drive"``) or a drawbar-pull slip sweep (``kind="sweep"``).
 
     Dispatches to :func:`simulate_drive_log` (``duration_s`` default 60, ``sample_rate_hz``
     default 50, ``speed_profile``, ``sprocket_equation``) or :func:`simulate_slip_sweep`
     (``slips``, ``normal_loads``, ``measure``: ``"tractive_force"`` or ``"drawbar_pull"``,
-    ``sinkage_slip_exponent``: a ``sinkage_m`` channel).
+    ``sinkage_slip_exponent``: a ``sinkage_m`` channel). ``soil_changes`` (drive logs only):
+    changes of terrain, as in :func:`simulate_drive_log`.
     Arguments that belong to the other kind are refused.
 
     Returns
@@ -650,8 +652,11 @@ def simulate(
             speed_profile=speed_profile,
             sprocket_equation=sprocket_equation,
             return_truth=return_truth,
+            soil_changes=soil_changes,
         )
     if kind == "sweep":
+        if soil_changes:
+            raise DataError("soil_changes belongs to kind='drive', not to a sweep")
         if duration_s is not None or sample_rate_hz is not None or speed_profile is not None:
             raise DataError("duration_s, sample_rate_hz and speed_profile belong to kind='drive', not to a sweep")
         if sprocket_equation != "thrust":

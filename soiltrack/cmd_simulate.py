@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import secrets
 import sys
 
@@ -20,7 +21,7 @@ SINKAGE_LAWS = {"static": 0.0, "lyasko": 1.0}
 # --- simulate ---------------------------------------------------------------------------------
 def _check_options(a: argparse.Namespace) -> None:
     """Refuse options that do not apply to the chosen kind, effects without a value, absurd sizes."""
-    drive_only = [o for o, v in (("--duration", a.duration), ("--rate", a.rate)) if v is not None]
+    drive_only = [o for o, v in (("--duration", a.duration), ("--rate", a.rate), ("--change", a.change)) if v]
     sweep_only = [o for o, v in (("--slips", a.slips), ("--loads", a.loads)) if v is not None]
     if a.kind == "drive" and sweep_only:
         raise DataError(
@@ -80,6 +81,8 @@ def _cmd_simulate(a: argparse.Namespace) -> int:
             kwargs["duration_s"] = a.duration
         if a.rate is not None:
             kwargs["sample_rate_hz"] = a.rate
+        if a.change:
+            kwargs["soil_changes"] = _changes(a.change, 60.0 if a.duration is None else a.duration)
     else:
         if a.slips:
             kwargs["slips"] = floats_arg(a.slips, "--slips")
@@ -103,6 +106,34 @@ def _cmd_simulate(a: argparse.Namespace) -> int:
         path = plot_data(data, a.plot, title=f"{vehicle.name or a.vehicle} on {soil.name or 'soil'}")
         print(f"wrote the figure to {path}", file=sys.stderr)
     return EXIT_OK
+
+
+def _changes(specs: list[str], duration: float) -> list:
+    """``--change T:TERRAIN`` or ``T:C_KPA,PHI_DEG,K_M`` (repeatable) -> ``[(t, Soil), ...]`` in time order."""
+    out = []
+    for spec in specs:
+        t_text, sep, what = spec.partition(":")
+        try:
+            t = float(t_text)
+        except ValueError:
+            t = math.nan
+        if not sep or not what or not math.isfinite(t):
+            raise DataError(
+                f"--change expects T:TERRAIN or T:C_KPA,PHI_DEG,K_M (T in s), got {spec!r}; "
+                f"terrains: {', '.join(TERRAINS)}"
+            )
+        if not 0 < t < duration:
+            raise DataError(f"--change {spec!r}: the time {t:g} s is outside the log (0 to {duration:g} s)")
+        try:
+            soil = soil_arg(None, what) if "," in what else soil_arg(what, None)
+        except DataError as e:
+            raise DataError(f"--change {spec!r}: {e}") from None
+        out.append((t, soil))
+    out.sort(key=lambda x: x[0])
+    for (t0, _), (t1, _) in zip(out, out[1:]):
+        if t1 == t0:
+            raise DataError(f"--change: two changes at {t0:g} s")
+    return out
 
 
 def _with_bekker(soil, spec: str):
@@ -178,6 +209,13 @@ def add_parser(sub) -> None:
     )
     s.add_argument("--duration", type=float, default=None, help="drive log length in s (default: 60)")
     s.add_argument("--rate", type=float, default=None, help="drive log sample rate in Hz (default: 50)")
+    s.add_argument(
+        "--change",
+        action="append",
+        metavar="T:TERRAIN",
+        help="drive log: a change of terrain at T s, to a preset (T:snow) or a soil (T:C_KPA,PHI_DEG,K_M); "
+        "repeatable (default: one soil all along)",
+    )
     s.add_argument("--slips", help="sweep: comma-separated slips in [0, 1) (default: 22 slips from 0.01 to 0.7)")
     s.add_argument(
         "--loads",

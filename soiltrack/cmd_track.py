@@ -34,6 +34,9 @@ STEP_FIELDS = (
     "status",
     "normal_load_N",
     "not_identifiable",
+    "informed_at_s",
+    "change_window_s",
+    "held",
 )
 #: Largest grade accepted by --grade-deg, deg (the margin's own range).
 MAX_GRADE_DEG = 68.75
@@ -91,7 +94,10 @@ def _samples(stream):
 
 
 def _p_traversable(estimate, vehicle, grade_deg: float | None):
-    """Probability of traversing the grade from the estimate (``None`` without a grade or a covariance)."""
+    """Probability of traversing the grade from the estimate (``None`` without a grade or a covariance).
+
+    Between excitations the estimate is the held one, its covariance grown by the random walk.
+    """
     if grade_deg is None or estimate.covariance is None or not estimate.converged:
         return None
     from .planning import margin
@@ -163,7 +169,7 @@ def _cmd_track(a: argparse.Namespace) -> int:
         "updates": len(rows),
         "update_time_median_s": float(np.median(times)) if len(rows) else None,
         "update_time_p99_s": float(np.quantile(times, 0.99)) if len(rows) else None,
-        "changes": [{k: float(v) for k, v in c.items()} for c in est.changes],
+        "changes": [_change_entry(c) for c in est.changes],
         "samples_turning": est.samples_turning,
         "samples_skipped": est.samples_skipped,
         "samples_seen": est.samples_seen,
@@ -192,6 +198,15 @@ def _cmd_track(a: argparse.Namespace) -> int:
     return EXIT_OK if ok else EXIT_SOLVER
 
 
+def _change_entry(c: dict) -> dict:
+    """A summary ``changes`` entry: ``time_s``, ``window_s`` [earliest, latest], ``detected_at_s``, ``test``
+    (``"cusum"`` or ``"horizon"``: which test flagged it), the soil before."""
+    return {
+        k: ([float(x) for x in v] if isinstance(v, (list, tuple)) else (v if isinstance(v, str) else float(v)))
+        for k, v in c.items()
+    }
+
+
 def _fmt(x, scale=1.0, digits=4):
     return "-" if x is None else f"{x * scale:.{digits}g}"
 
@@ -214,16 +229,25 @@ def _report(source: str, steps: list[dict], summary: dict, every: int) -> str:
     for c in summary["changes"]:
         L.append(
             f"change of terrain detected at {c['detected_at_s']:.3f} s, dated {c['time_s']:.3f} s "
-            f"(F_max before {c['max_thrust_before_N']:.4g} N)"
+            f"(between {c['window_s'][0]:.3f} and {c['window_s'][1]:.3f} s; "
+            f"F_max before {c['max_thrust_before_N']:.4g} N)"
         )
     L.append("")
-    L.append(f"{'time_s':>9} {'F_max_N':>10} {'+-N':>8} {'K_mm':>7} {'+-mm':>6} {'used':>5}  identifiable")
+    ptrav = any(s["p_traversable"] is not None for s in steps)
+    L.append(
+        f"{'time_s':>9} {'F_max_N':>10} {'+-N':>8} {'K_mm':>7} {'+-mm':>6} {'used':>5}"
+        + (f" {'p_trav':>6}" if ptrav else "")
+        + "  identifiable"
+    )
     shown = steps if len(steps) <= 40 else steps[:: max(1, len(steps) // 40)] + [steps[-1]]
     for s in shown:
         L.append(
             f"{s['time_s']:9.3f} {_fmt(s['max_thrust_N']):>10} {_fmt(s['max_thrust_stderr_N'], digits=2):>8} "
             f"{_fmt(s['shear_modulus_m'], 1e3, 3):>7} {_fmt(s['shear_modulus_stderr_m'], 1e3, 2):>6} "
-            f"{s['samples_used']:>5}  {', '.join(s['identifiable']) or '-'}"
+            f"{s['samples_used']:>5}"
+            + (f" {_fmt(s['p_traversable'], digits=3):>6}" if ptrav else "")
+            + f"  {', '.join(s['identifiable']) or '-'}"
+            + (" (held)" if s["held"] and s["identifiable"] else "")
             + ("  CHANGE" if s["change_detected"] else "")
         )
     if summary["reason"]:
@@ -262,7 +286,8 @@ def add_parser(sub) -> None:
         "--grade-deg",
         default=None,
         metavar="G",
-        help="probability of traversing this grade from each estimate (planning margin), deg",
+        help="probability of traversing this grade from each estimate (planning margin; the held estimate "
+        "between excitations), printed in the table and in --json, deg",
     )
     f.add_argument(
         "--log-grade-deg",

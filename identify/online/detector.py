@@ -48,6 +48,12 @@ class CusumDetector:
         """The larger of the two sides, in standard deviations."""
         return max(self.up, self.down)
 
+    def run_start(self, default: float) -> float:
+        """Start of the side that leans most now (its last time at zero), or ``default`` when neither leans."""
+        if self.up == 0.0 and self.down == 0.0:
+            return default
+        return self.up_start if self.up >= self.down else self.down_start
+
     def update(self, z: float, time_s: float) -> float | None:
         """Add one standardised residual taken at ``time_s``; the change time on an alarm, else ``None``."""
         if not math.isfinite(z):

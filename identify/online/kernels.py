@@ -39,6 +39,7 @@ __all__ = [
     "kernels",
     "prepare_kernel",
     "predict_kernel",
+    "predict_held_kernel",
     "JUMP_SIGMA",
     "SPEED_FLOOR_SIGMA",
     "BRAKING_SIGMA",
@@ -345,17 +346,8 @@ def _step(n: int, iterations: int, fractions: tuple[float, ...], name: str) -> c
     )
 
 
-@locked_cache(maxsize=1)
-def predict_kernel() -> ca.Function:
-    """A new sample's profiled residual: ``(row, P) -> [slip, wres]``.
-
-    The latent slip starts at the cheapest of the measured slip (clipped to the slip bounds)
-    and the points :data:`PREDICT_START_U` of the thrust-slip curve at the current estimate, and
-    takes :data:`PREDICT_ITERATIONS` Gauss-Newton steps on ``e_w^2 + e_T^2``; ``wres`` is the
-    batch fit's profiled residual ``sign(e_T) sqrt(e_w^2 + e_T^2)``.
-    """
-    row = ca.SX.sym("row", len(ROWS))
-    p = ca.SX.sym("p", len(PARAMS))
+def _predict(row, p):
+    """A new sample's latent slip and profiled residual at the parameters ``p`` (SX), and ``res(i)``."""
     P = {name: p[j] for j, name in enumerate(PARAMS)}
     lo, hi = SLIP_BOUNDS
 
@@ -374,11 +366,48 @@ def predict_kernel() -> ca.Function:
     s = _slip_gn(row, s, P["xF"], P["xK"], P["F_ref"], P["K_ref"], P["l"], PREDICT_ITERATIONS)
     e_w, e_T = res(s)
     wres = ca.sign(e_T) * ca.sqrt(e_w**2 + e_T**2)
+    return s, wres, res
+
+
+@locked_cache(maxsize=1)
+def predict_kernel() -> ca.Function:
+    """A new sample's profiled residual: ``(row, P) -> [slip, wres]``.
+
+    The latent slip starts at the cheapest of the measured slip (clipped to the slip bounds)
+    and the points :data:`PREDICT_START_U` of the thrust-slip curve at the current estimate, and
+    takes :data:`PREDICT_ITERATIONS` Gauss-Newton steps on ``e_w^2 + e_T^2``; ``wres`` is the
+    batch fit's profiled residual ``sign(e_T) sqrt(e_w^2 + e_T^2)``.
+    """
+    row = ca.SX.sym("row", len(ROWS))
+    p = ca.SX.sym("p", len(PARAMS))
+    s, wres, _ = _predict(row, p)
     return ca.Function("online_predict", [row, p], [ca.vertcat(s, wres)], ["row", "P"], ["out"], {"cse": True})
 
 
+@locked_cache(maxsize=1)
+def predict_held_kernel() -> ca.Function:
+    """The prediction of :func:`predict_kernel` at the held estimate, with its uncertainty: ``(row, P, V) -> out``.
+
+    ``V`` is the held covariance over the scaled ``(xF, xK)`` as ``(V11, V12, V22)``; ``out`` is
+    ``[slip, wres, var]`` with ``var = J V J'`` the variance of the whitened thrust residual that
+    the held estimate's uncertainty adds (``J`` its gradient in ``(xF, xK)`` at the slip).
+    """
+    row = ca.SX.sym("row", len(ROWS))
+    p = ca.SX.sym("p", len(PARAMS))
+    V = ca.SX.sym("V", 3)
+    s, wres, res = _predict(row, p)
+    i = ca.SX.sym("i")
+    _, e_T = res(i)
+    J = ca.substitute(ca.gradient(e_T, ca.vertcat(p[PARAMS.index("xF")], p[PARAMS.index("xK")])), i, s)
+    var = J[0] ** 2 * V[0] + 2 * J[0] * J[1] * V[1] + J[1] ** 2 * V[2]
+    return ca.Function(
+        "online_predict_held", [row, p, V], [ca.vertcat(s, wres, var)], ["row", "P", "V"], ["out"], {"cse": True}
+    )
+
+
 class Kernels:
-    """The compiled Functions of one horizon capacity: ``step``, ``track``, ``predict``, ``prepare``, ``prepare_all``.
+    """The compiled Functions of one horizon capacity: ``step``, ``track``, ``predict``, ``prepare``, ``prepare_all``,
+    ``predict_held``.
 
     ``step`` is the Newton step of a horizon whose iteration has not converged (start, after a
     change of terrain: :data:`SLIP_ITERATIONS` safeguarded slip steps); ``track`` the step of a
@@ -399,9 +428,10 @@ class Kernels:
             predict_kernel(),
             prep,
             prep_all,
+            predict_held_kernel(),
         ]
         comp = jitcache.load(fns, f"soiltrack_online_{n}", wait=True)
-        self.step, self.track, self.predict, self.prepare, self.prepare_all = comp.functions
+        self.step, self.track, self.predict, self.prepare, self.prepare_all, self.predict_held = comp.functions
         self.backend = comp.backend
         self.library = comp.path if comp.is_c else None
         self.capacity = n

@@ -32,11 +32,12 @@ class OnlineEstimate:
         values of the moving-horizon fit even when they are not identifiable (then only their
         slope is: see ``identifiable``). ``None`` before the first estimate.
     max_thrust_stderr_N, shear_modulus_stderr_m
-        Standard errors (sandwich covariance of the horizon's fit), ``None`` while the quantity
+        Standard errors: of the held estimate (the horizon's sandwich covariance fused with the
+        arrival cost, grown by the random walk between excitations), ``None`` while the quantity
         is not identifiable.
     covariance
-        2x2 covariance over ``[max_thrust_N, shear_modulus_m]`` (SI), ``None`` while F_max and
-        K are not both identifiable.
+        2x2 covariance over ``[max_thrust_N, shear_modulus_m]`` (SI) of the held estimate, ``None``
+        while F_max and K are not both identifiable.
     slope_N, slope_stderr_N
         The small-slip slope ``F_max l / (2 K)`` (thrust per unit slip) and its standard error
         (``None`` before an estimate exists).
@@ -77,6 +78,17 @@ class OnlineEstimate:
         (this sample skipped), and a sentence saying why.
     detector
         The change detector's statistic after this update (CUSUM, in standard deviations).
+    informed_at_s
+        Time of the last sample that carried information on F_max (a used sample whose thrust,
+        two standard deviations below its value, reaches ``identify_min_utilisation`` of F_max)
+        since the start or the last change of terrain; ``None`` before the first.
+    change_window_s
+        On the update that detects a change: ``(earliest, latest)``, the times between which it
+        can have happened (the last informative sample on the old soil, the first on the new);
+        ``None`` otherwise.
+    held
+        ``True`` when the values are the held estimate carried from earlier samples (no
+        informative sample in the horizon: its covariance grown by the random walk).
     """
 
     time_s: float
@@ -102,6 +114,9 @@ class OnlineEstimate:
     status: str
     message: str
     detector: float
+    informed_at_s: float | None = None
+    change_window_s: tuple[float, float] | None = None
+    held: bool = False
 
     @classmethod
     def from_fields(cls, fields: dict) -> OnlineEstimate:
@@ -123,6 +138,7 @@ class OnlineEstimate:
         out["identifiable"] = list(self.identifiable)
         out["not_identifiable"] = list(self.not_identifiable)
         out["covariance"] = None if self.covariance is None else np.asarray(self.covariance).tolist()
+        out["change_window_s"] = None if self.change_window_s is None else list(self.change_window_s)
         return out
 
 

@@ -72,6 +72,14 @@ class OnlineSettings:
         fit's rules (correlation below 0.99, standard error below 25 %, not on a bound): gentle
         driving shows only the start of the curve, and a covariance computed where the
         iterate has drifted along the ridge can look tighter than the data are.
+    identify_min_informative
+        A horizon that identifies F_max is fused into the held estimate (and tested against it)
+        only when it holds at least this many informative samples (loaded to
+        ``identify_min_utilisation`` of F_max): the sandwich covariance estimates the scores'
+        variance from the samples themselves, and two or three samples of a short pull give no
+        estimate of it (measured: a horizon holding the last three samples of a pull on the light
+        vehicle reported F_max to 2 % and was contradicted by the next pull; at 5 the library's
+        default profile's hard accelerations, light vehicle, were never fused).
     detect_min_load
         The detector runs once F_max has been determined (since the start or the last change)
         and takes only samples whose thrust is at least this fraction of that F_max. Below it
@@ -88,6 +96,29 @@ class OnlineSettings:
     detect_min_samples, detect_min_s
         The detector runs only once the estimate rests on this many samples and this many
         seconds since the start or the last change.
+    drift_max_thrust_rel, drift_shear_modulus_rel
+        Random-walk rates of the held estimate (:mod:`~.memory`), per sqrt(s): between
+        excitations F_max and K keep their last identified values and their variances grow by
+        ``(rate x value)^2`` per second. 0.003 says the soil under a moving vehicle may drift by
+        about 0.3 % in a second, 3 % in 100 s, 18 % in an hour (firm uniform ground; a patchy
+        field wants more): small against the 20-40 % of a change of terrain, large enough that a
+        value held for minutes is not trusted to the tenth of a percent a pull gave it.
+    memory
+        ``True`` (default): the held estimate of :mod:`~.memory` (arrival cost, random walk) is
+        what each update reports and what the detector tests new samples against. ``False``: the
+        window estimator of before (issue 22: the horizon's fit alone, forgotten as its samples
+        leave; the detector against the horizon's iterate), kept for comparison.
+    detect_held_sigmas
+        The detector's residuals are standardised by the noise and by this many standard
+        deviations of the prediction that the held estimate's own uncertainty allows: a change
+        must move the thrust-slip curve beyond that many standard errors of what is known
+        (the held estimate is shared by every sample, so its error would otherwise lean all of
+        a pull's residuals to one side and read as a change).
+    detect_window_chi2
+        A second test: when the horizon identifies F_max, its own estimate against the arrival
+        cost (what the samples before it said, grown by the random walk); a squared Mahalanobis
+        distance beyond this (chi-square, 2 degrees of freedom; 27.6 = p 1e-6) is a change.
+        A horizon beyond it is never fused into the held estimate.
     turn_threshold
         Noise standard deviations of the left-right speed difference (or the yaw rate) beyond
         which a two-track sample turns.
@@ -115,11 +146,17 @@ class OnlineSettings:
     detect_threshold: float = 10.0
     detect_clip: float = 4.0
     identify_min_utilisation: float = 0.5
+    identify_min_informative: int = 4
     detect_min_load: float = 0.2
     detect_settle_s: float = 2.0
     detect_scale_samples: int = 100
     detect_min_samples: int = 20
     detect_min_s: float = 0.5
+    memory: bool = True
+    drift_max_thrust_rel: float = 0.003
+    drift_shear_modulus_rel: float = 0.003
+    detect_held_sigmas: float = 4.0
+    detect_window_chi2: float = 27.6
     turn_threshold: float = TURN_THRESHOLD_SIGMA
     turn_history: int = 256
     max_capacity: int = 16384
@@ -138,6 +175,7 @@ class OnlineSettings:
             "detect_threshold",
             "detect_clip",
             "turn_threshold",
+            "detect_window_chi2",
         ):
             val = getattr(self, name)
             if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
@@ -147,6 +185,7 @@ class OnlineSettings:
             "max_steps_per_update",
             "detect_scale_samples",
             "detect_min_samples",
+            "identify_min_informative",
             "turn_history",
             "max_capacity",
         ):
@@ -160,12 +199,17 @@ class OnlineSettings:
             "min_speed",
             "detect_min_s",
             "detect_settle_s",
+            "drift_max_thrust_rel",
+            "drift_shear_modulus_rel",
+            "detect_held_sigmas",
         ):
             val = getattr(self, name)
             if val is not None and (
                 isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val < 0
             ):
                 raise DataError(f"setting {name} must be a finite number >= 0, got {val!r}")
+        if not isinstance(self.memory, bool):
+            raise DataError(f"setting memory must be True or False, got {self.memory!r}")
         g = self.grade_rad
         lo, hi = _GRADE_RANGE
         if isinstance(g, bool) or not isinstance(g, (int, float)) or not math.isfinite(g) or not lo <= g <= hi:

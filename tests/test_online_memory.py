@@ -1,0 +1,150 @@
+"""The on-line estimate's memory (issue 38): the held estimate between excitations, its growing
+covariance, changes of terrain between pulls, on logs of an independent simulator (tests/online_oracle.py,
+plain Python; its seeds here were not used to tune the estimator)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from online_oracle import SOILS, VEHICLES as OV, f_max, simulate
+from soiltrack.identify import OnlineEstimator, OnlineSettings
+from soiltrack.soilmodel import VEHICLES
+
+KEYS = ("time_s", "sprocket_torque_Nm", "sprocket_speed_rad_s", "vehicle_speed_m_s")
+
+
+def _replay(est, cols):
+    return [est.update(*row) for row in zip(*(cols[k] for k in KEYS))]
+
+
+def _weaker(frac: float, veh: dict):
+    """LETE sand with F_max lowered by ``frac`` (c and tan(phi) scaled), K unchanged."""
+    c, phi, K = SOILS["lete_sand"]
+    F0 = f_max((c, phi, K), veh)
+    c1 = c * (1 - frac)
+    return c1, math.atan(((1 - frac) * F0 - 2 * veh["b"] * veh["l"] * c1) / veh["W"]), K
+
+
+@pytest.fixture(scope="module")
+def heavy_two_pulls():
+    pulls = [(1.0, 4.0, 0.95), (26.0, 29.0, 0.95)]
+    return simulate("heavy", lambda t: SOILS["lete_sand"], 32.0, pulls, seed=101)
+
+
+def test_held_estimate_between_pulls_is_the_last_identified_with_variance_growing_at_the_rate(heavy_two_pulls):
+    s = OnlineSettings()
+    hist = _replay(OnlineEstimator(VEHICLES["heavy"], s), heavy_two_pulls)
+    t = np.array([e.time_s for e in hist])
+    gap = [e for e, tk in zip(hist, t) if 10.0 <= tk <= 25.0]  # the first pull has left the 5 s horizon
+    assert all(e.held for e in gap)
+    e0 = gap[0]
+    assert e0.identifiable[:2] == ("slope", "max_thrust")
+    assert e0.informed_at_s is not None and 2.0 <= e0.informed_at_s <= 4.0  # a sample of the pull
+    # the last identified values, unchanged ...
+    last_fused = [e for e, tk in zip(hist, t) if tk < 10.0 and not e.held][-1]
+    for e in gap:
+        assert e.max_thrust_N == last_fused.max_thrust_N
+        assert e.shear_modulus_m == last_fused.shear_modulus_m
+        assert e.informed_at_s == e0.informed_at_s
+        assert e.converged and e.identifiable == e0.identifiable
+    # ... with variances growing by (rate x value)^2 per second (the random walk)
+    F, K = last_fused.max_thrust_N, last_fused.shear_modulus_m
+    for e in gap[:: len(gap) // 10]:
+        dt = e.time_s - last_fused.time_s
+        assert e.max_thrust_stderr_N**2 == pytest.approx(
+            last_fused.max_thrust_stderr_N**2 + (s.drift_max_thrust_rel * F) ** 2 * dt, rel=1e-9
+        )
+        if last_fused.shear_modulus_stderr_m is not None:  # K identified too (else its error is not reported)
+            assert e.shear_modulus_stderr_m**2 == pytest.approx(
+                last_fused.shear_modulus_stderr_m**2 + (s.drift_shear_modulus_rel * K) ** 2 * dt, rel=1e-9
+            )
+            assert e.covariance[0, 1] == pytest.approx(last_fused.covariance[0, 1], rel=1e-12)
+    # the truth inside the held 95 % interval, and the second pull's estimate tighter than the held one
+    F_true = f_max(SOILS["lete_sand"], OV["heavy"])
+    assert abs(gap[-1].max_thrust_N - F_true) <= 1.96 * gap[-1].max_thrust_stderr_N
+    assert hist[-1].max_thrust_stderr_N < gap[-1].max_thrust_stderr_N
+    assert abs(hist[-1].max_thrust_N / F_true - 1) <= 0.05
+
+
+def test_window_estimator_kept_as_an_option(heavy_two_pulls):
+    """``memory=False``: the horizon's fit alone, nothing held once the pull has left it."""
+    hist = _replay(OnlineEstimator(VEHICLES["heavy"], OnlineSettings(memory=False)), heavy_two_pulls)
+    gap = [e for e in hist if 10.0 <= e.time_s <= 25.0]
+    assert not any(e.held for e in gap)
+    assert all(e.max_thrust_stderr_N is None for e in gap)
+
+
+def _change_case(vehicle: str, pulls, t_change: float, seed: int, grade_deg: float = 0.0):
+    veh = OV[vehicle]
+    new = _weaker(0.28, veh)
+    cols = simulate(
+        vehicle,
+        lambda t: SOILS["lete_sand"] if t < t_change else new,
+        pulls[-1][1] + 3.0,
+        pulls,
+        grade_deg=grade_deg,
+        seed=seed,
+    )
+    est = OnlineEstimator(VEHICLES[vehicle], OnlineSettings(grade_rad=math.radians(grade_deg)))
+    hist = _replay(est, cols)
+    t = np.array(cols["time_s"])
+    inf = np.nonzero((t >= t_change) & (np.array(cols["thrust"]) >= 0.5 * np.array(cols["F_max"])))[0]
+    return est, hist, float(t[inf[0]]), cols
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "vehicle, pulls, t_change, grade",
+    [
+        ("heavy", [(1.0, 4.0, 0.95), (12.0, 15.0, 0.95), (30.0, 33.0, 0.95)], 21.0, 0.0),
+        ("light", [(1.0, 1.3, 0.95), (9.0, 9.25, 0.95), (17.0, 17.3, 0.95), (31.0, 31.2, 0.95)], 24.0, 10.0),
+    ],
+)
+def test_change_between_pulls_detected_at_the_next_pull(vehicle, pulls, t_change, grade):
+    est, hist, t_inf, cols = _change_case(vehicle, pulls, t_change, seed=202, grade_deg=grade)
+    flagged = [e for e in hist if e.change_detected]
+    assert len(flagged) == 1, [e.time_s for e in flagged]
+    e = flagged[0]
+    assert t_inf <= e.time_s <= t_inf + 1.0  # within 1 s after the first informative sample on the new soil
+    lo, hi = e.change_window_s
+    assert lo <= t_change <= hi  # the window holds the true time ...
+    assert lo >= pulls[-2][0]  # ... and starts at the last pull on the old soil
+    assert lo <= e.change_time_s <= hi
+    c = est.changes[0]
+    assert c["window_s"] == [lo, hi] and c["detected_at_s"] == e.time_s and c["time_s"] == e.change_time_s
+    # the old soil's information dropped: the estimate at the end is the new soil's
+    F_new = cols["F_max"][-1]
+    assert abs(hist[-1].max_thrust_N / F_new - 1) <= 0.05
+    assert abs(hist[-1].max_thrust_N - F_new) <= 1.96 * hist[-1].max_thrust_stderr_N
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("vehicle, length", [("heavy", (2.0, 4.0)), ("light", (0.1, 0.3))])
+def test_no_alarm_on_uniform_soil_with_sporadic_pulls(vehicle, length):
+    from online_oracle import random_pulls
+
+    pulls = random_pulls(180.0, (5.0, 30.0), length, (0.9, 0.97), seed=303)
+    cols = simulate(vehicle, lambda t: SOILS["lete_sand"], 180.0, pulls, seed=303)
+    est = OnlineEstimator(VEHICLES[vehicle])
+    hist = _replay(est, cols)
+    assert est.changes == []
+    F_true = cols["F_max"][0]
+    ident = [e for e in hist if e.max_thrust_stderr_N is not None]
+    assert ident and all(e.max_thrust_N is not None for e in hist if e.time_s > ident[0].time_s)
+    # held between pulls: identified from the first pull on (F_max and its interval at every update)
+    first = ident[0].time_s
+    assert all(e.max_thrust_stderr_N is not None for e in hist if e.time_s > first + 1.0)
+    cover = np.mean([abs(e.max_thrust_N - F_true) <= 1.96 * e.max_thrust_stderr_N for e in ident])
+    assert cover >= 0.8
+
+
+def test_settings_of_the_memory_checked():
+    from soiltrack.soilmodel import DataError
+
+    for bad in (dict(drift_max_thrust_rel=-1.0), dict(detect_window_chi2=0.0), dict(memory="yes")):
+        with pytest.raises(DataError):
+            OnlineSettings(**bad)
+    assert OnlineSettings(drift_max_thrust_rel=0.0).drift_max_thrust_rel == 0.0
