@@ -333,7 +333,6 @@ class _Setting:
             speed=self.speed or 0.0,
         )
         items = {k: float(v[0]) for k, v in req.items()}
-        items.setdefault("effects_N", 0.0)
         return float(N_arr[0]), items
 
     def soil_limit(self, N: float, theta=None) -> float:

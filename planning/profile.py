@@ -62,6 +62,7 @@ from ..soilmodel.dynamics import slip_expr
 from ..soilmodel.effect_terms import DEFAULT_STANDSTILL_SPEED
 from ..soilmodel.simulation import drive_limits
 from .arguments import check_number
+from .fit_vehicle import headline_notes
 from .forces import resistances, soil_thrust
 from .margin import DEFAULT_MAX_SLIP, resolve_terrain, terrain_soil_vector
 from .ocp import DEGREE, OcpData, radau_collocation, solve_ocp
@@ -180,6 +181,8 @@ class SpeedPlan:
     standstills: tuple = ()
     initial_slip: float | None = None
     initial_slip_source: str | None = None
+    #: what the first line says about the fit(s) planned with (outcome, other vehicle, effects left out)
+    headline: tuple[str, ...] = ()
 
     def to_dict(self, route: bool = False) -> dict:
         """The ``profile --json`` / ``route --json`` object (docs/data-formats.md); never NaN."""
@@ -203,6 +206,7 @@ class SpeedPlan:
             d["reason"] = {k: (_f(v) if isinstance(v, float) else v) for k, v in self.reason.items()}
         d["limits"] = {k: (_f(v) if isinstance(v, float) else v) for k, v in self.limits.items()}
         d["notes"] = list(self.notes)
+        d["fit_notes"] = list(self.headline)
         d["active_limits"] = self.active_limits
         d["peak_speed_m_s"] = _f(self.peak_speed_m_s)
         d["standstills"] = [{k: _f(v) for k, v in w.items()} for w in self.standstills]
@@ -229,10 +233,12 @@ class SpeedPlan:
                 + (f"limit {vmax:.3g} m/s)" if vmax is not None else "no speed limit given)"),
                 f"  initial slip {(self.initial_slip or 0.0) * 100:.3g} % "
                 f"({_SLIP0_WORDS.get(self.initial_slip_source or '', 'unknown')})",
-                f"  largest slip {max(abs(x) for x in s['slip']) * 100:.3g} % "
-                f"(limit {self.limits['max_slip'] * 100:.3g} %),"
-                f" largest torque {format_torque(max(abs(x) for x in s['sprocket_torque_Nm']))} (limit "
-                f"{format_torque(self.limits['max_torque_Nm'])}), smallest traction reserve "
+                "  "
+                + _signed_extremes(s["slip"], "slip", lambda x: f"{x * 100:.3g} %")
+                + f" (limit +-{self.limits['max_slip'] * 100:.3g} %)",
+                "  "
+                + _signed_extremes(s["sprocket_torque_Nm"], "torque", format_torque)
+                + f" (limit +-{format_torque(self.limits['max_torque_Nm'])}), smallest traction reserve "
                 f"{format_force(min(s['margin_N']))}",
             ]
             act = {k: n for k, n in (self.active_limits or {}).items() if n}
@@ -257,7 +263,33 @@ class SpeedPlan:
                 f"(nominal-soil plan: {self.robust['nominal_violation_fraction'] * 100:.3g} %)"
             )
         L += [f"  note: {n}" for n in self.notes]
+        if self.headline:
+            L[0] += " - " + "; ".join(self.headline)
         return "\n".join(L)
+
+
+def _signed_extremes(values, what: str, fmt) -> str:
+    """``largest driving slip 3 %, largest braking slip -13.7 %`` (a side without values: ``none``)."""
+    v = np.asarray(values, dtype=float)
+    pos, neg = v[v > 0], v[v < 0]
+    a = fmt(float(pos.max())) if pos.size else "none"
+    b = fmt(float(neg.min())) if neg.size else "none"
+    return f"largest driving {what} {a}, largest braking {what} {b}"
+
+
+def with_fit_headline(plan: SpeedPlan, terrains) -> SpeedPlan:
+    """``plan`` with the first-line notes of the fits among ``terrains`` (a profile plans with no effects).
+
+    A fit's effects are named as left out; an outcome that is not ``usable``, a fit of another vehicle
+    and a fit without running gear are said (:func:`~.fit_vehicle.headline_notes`).
+    """
+    out: list[str] = []
+    for t in terrains:
+        ctx = getattr(t, "context", None)
+        for n in headline_notes(ctx, ()):
+            if n not in out:
+                out.append(n)
+    return replace(plan, headline=tuple(out)) if out else plan
 
 
 # --------------------------------------------------------------------------------------------------
@@ -925,7 +957,7 @@ def profile(
     else:
         length = 1.0
     grade_deg = check_number("grade_deg", grade_deg, -68.75, 68.75)
-    return plan_patches(
+    plan = plan_patches(
         (Patch(length, terrain, grade_deg),),
         vehicle,
         v0=v0,
@@ -942,6 +974,7 @@ def profile(
         max_speed=max_speed,
         slip0=slip0,
     )
+    return with_fit_headline(plan, (terrain,))
 
 
 def route_profile(
@@ -959,7 +992,7 @@ def route_profile(
     ``slip0`` as for :func:`profile`.
     """
     n = max(DEFAULT_INTERVALS, 10 * len(route.patches)) if intervals is None else intervals
-    return plan_patches(
+    plan = plan_patches(
         route.patches,
         vehicle,
         v0=route.v0_m_s,
@@ -975,3 +1008,4 @@ def route_profile(
         max_speed=max_speed,
         slip0=slip0,
     )
+    return with_fit_headline(plan, [p.terrain for p in route.patches])
