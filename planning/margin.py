@@ -491,12 +491,18 @@ def margin(
     max_grade, min_grade = _grade_range(st, limit)
     stable = abs(grade_deg) <= limit
     if not stable:
-        which = (
-            "tipping"
-            if stab.tipping_deg is not None and abs(grade_deg) > stab.tipping_deg
-            else "sliding (the soil's full shear strength does not hold the vehicle)"
+        tips = stab.tipping_deg is not None and abs(grade_deg) > stab.tipping_deg
+        why = (
+            "the vehicle tips over"
+            if tips
+            else "a vehicle stopped on it slides: the soil's full shear strength A c + W cos(theta) tan(phi) "
+            "does not hold W sin(theta)"
         )
-        notes.insert(0, f"beyond the static {which} limit {limit:.3g} deg: not traversable whatever the thrust")
+        notes.insert(
+            0,
+            f"beyond the static {'tipping' if tips else 'sliding'} limit {limit:.3g} deg ({why}): not traversable "
+            "whatever the thrust",
+        )
     sink = float(static_sinkage(soil, vehicle, N)) if soil is not None and has_bekker(soil) else None
     unc_out = _uncertain_margin(st, N, R, F_soil, m, theta0, samples, seed, notes) if unc is not None else {}
     if unc_out and not stable:
