@@ -67,6 +67,7 @@ __all__ = [
     "resolve_terrain",
     "terrain_soil_vector",
     "drivetrain_limit",
+    "split_effects",
 ]
 
 #: Allowed slip when none is given.
@@ -291,7 +292,7 @@ def drivetrain_limit(vehicle: Vehicle, speed: float | None) -> float | None:
     return min(lims) if lims else None
 
 
-def _effects_of(unc: SoilUncertainty | None, effects: dict | None) -> tuple[dict, dict, dict]:
+def split_effects(unc: SoilUncertainty | None, effects: dict | None) -> tuple[dict, dict, dict]:
     """``(resistance effects, shear-law effects, {left out: why})`` of an explicit ``effects`` or the fit's."""
     if effects is None:
         ctx = unc.context if unc is not None else None
@@ -434,7 +435,7 @@ def margin(
     if not isinstance(samples, int) or samples < 100:
         raise DataError(f"argument samples must be an integer >= 100, got {samples!r}")
     soil, unc, model = resolve_terrain(terrain, vehicle)
-    res_eff, shear_eff, left_out = _effects_of(unc, effects)
+    res_eff, shear_eff, left_out = split_effects(unc, effects)
     th = math.radians(grade_deg)
     notes: list[str] = []
     dt = drivetrain_limit(vehicle, speed)

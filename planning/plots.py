@@ -8,7 +8,7 @@ import numpy as np
 
 from ..soilmodel import Vehicle, choose_scale, format_energy, format_force
 from .forces import soil_thrust
-from .margin import Margin, _effects_of, resolve_terrain, terrain_soil_vector
+from .margin import Margin, split_effects, resolve_terrain, terrain_soil_vector
 from .profile import THRUST_RESERVE, SpeedPlan
 from .slip_optimal import SlipOptimum
 
@@ -28,7 +28,7 @@ def plot_margin(terrain: Any, vehicle: Vehicle, m: Margin, path: str) -> None:
     """Thrust-slip curve at the margin's normal load against the drivetrain limit and the requirement."""
     plt = _plt()
     soil, unc, model = resolve_terrain(terrain, vehicle)
-    shear = _effects_of(unc, None)[1] or None  # a fitted shear law is the soil's thrust the margin used
+    shear = split_effects(unc, None)[1] or None  # a fitted shear law is the soil's thrust the margin used
     theta = terrain_soil_vector(soil, unc, m.normal_load_N)
     s = np.linspace(0.0, 0.6, 301)
     F = np.array([soil_thrust(theta, float(x), m.normal_load_N, vehicle, model, effects=shear)[0] for x in s])

@@ -305,3 +305,19 @@ def test_diagnose_model_has_help(capsys):
         main(["diagnose", "--help"])
     out = capsys.readouterr().out
     assert "cohesion-free (phi, K; Eq. 8)" in " ".join(out.split())
+
+
+# ---------------------------------------------------------------- 10. smaller
+def test_bad_rows_counted_once_per_row_with_a_decimal_comma_hint(capsys, tmp_path):
+    p = tmp_path / "comma.csv"
+    p.write_text(
+        "slip,tractive_force_N,normal_load_N\n"
+        + "".join(f'"0,{k:02d}","7{k},5","300,0"\n' for k in range(1, 45))  # 44 rows, 3 bad values each
+    )
+    rc, _, err = run(capsys, "fit", str(p), "--vehicle", "light")
+    assert rc == 2 and "44 bad rows" in err and "(the first 20 of 44)" in err and "decimal comma" in err
+
+
+def test_bare_soiltrack_prints_the_help(capsys):
+    rc, out, _ = run(capsys)
+    assert rc == 0 and "usage: soiltrack" in out and "simulate" in out
