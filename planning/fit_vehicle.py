@@ -91,8 +91,12 @@ class FitContext:
         """``{effect: why}`` of the fitted effects a plan that uses ``planned`` leaves out."""
         out = {}
         for k in self.effects:
-            if k not in planned:
-                out[k] = _LEFT_OUT_WHY.get(k, "not modelled by this planner")
+            if k in planned:
+                continue
+            if k in RESISTANCE_EFFECTS + SHEAR_EFFECTS:
+                out[k] = "the profile and route planners do not model it yet; margin plans with it"
+            else:
+                out[k] = _LEFT_OUT_WHY.get(k, "not modelled by the planners")
         return out
 
 

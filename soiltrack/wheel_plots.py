@@ -29,14 +29,15 @@ def _curve_inputs(data) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, str]
     levels = np.array([s[lv == g].mean() for g in groups])
     W = np.asarray(data.normal_load, dtype=float)
     Wl = np.array([W[lv == g].mean() for g in groups])
-    i = np.linspace(levels[0], levels[-1], CURVE_POINTS) if levels.size > 1 else levels.copy()
+    # the grid holds the levels themselves: the curve passes through each level's mean load and sinkage
+    i = np.union1d(np.linspace(levels[0], levels[-1], CURVE_POINTS), levels) if levels.size > 1 else levels.copy()
     Wc = np.interp(i, levels, Wl)
     if data.has_sinkage:
         z_all = np.asarray(data.sinkage, dtype=float)
         zl = np.array([z_all[lv == g].mean() for g in groups])
         z = np.clip(np.interp(i, levels, zl), MIN_CURVE_SINKAGE_M, None)
-        return i, Wc, z, f"the mean load and sinkage of each slip level ({levels.size} levels, joined)"
-    return i, Wc, None, f"the mean load of each slip level ({levels.size} levels, joined; sinkage from the load)"
+        return i, Wc, z, f"the mean load and sinkage\nof each of the {levels.size} slip levels"
+    return i, Wc, None, f"the mean load of each of the\n{levels.size} slip levels (sinkage from the load)"
 
 
 def plot_wheel_fit(data, result, path: str) -> str:
@@ -70,7 +71,7 @@ def plot_wheel_fit(data, result, path: str) -> str:
     ax.set_ylabel("drawbar pull (N)")
     status = "converged" if result.success else "FAILED"
     ax.set_title(f"rigid wheel fit ({status}), rmse {result.rmse_drawbar_pull:.3g} N", fontsize=10)
-    ax.legend(fontsize=8, loc="lower right")
+    ax.legend(fontsize=8, loc="best")
     if two:
         ax2 = axes[0, 1]
         ax2.scatter(data.slip, 1e3 * data.sinkage, c="C0", s=30, label="measured sinkage")
