@@ -436,75 +436,27 @@ def margin(
         raise DataError(f"argument samples must be an integer >= 100, got {samples!r}")
     soil, unc, model = resolve_terrain(terrain, vehicle)
     res_eff, shear_eff, left_out = split_effects(unc, effects)
-    th = math.radians(grade_deg)
-    notes: list[str] = []
     dt = drivetrain_limit(vehicle, speed)
     st = _Setting(vehicle, soil, unc, model, i_max, accel, drawbar, speed, dt, res_eff, shear_eff)
-    N, required = st.required(th)
+    N, required = st.required(math.radians(grade_deg))
     R = sum(required.values())
-    braking = R < 0
-    if soil is None or not has_bekker(soil):
-        notes.append(
-            "no Bekker parameters (n, k_c, k_phi) for this terrain: compaction resistance not included"
-            if soil is not None
-            else "an identified soil has no Bekker parameters: compaction resistance "
-            "not included (add it as drawbar_N if known)"
-        )
     theta0 = terrain_soil_vector(soil, unc, N)
     soil_at = (
         soil if soil is not None else Soil(float(theta0[0]), float(theta0[1]), float(theta0[2]), name="fitted soil")
     )
     F_soil = st.soil_limit(N, theta0)
-    if dt is None:
-        notes.append("the vehicle gives no torque or power limit: only the soil limits the thrust")
-    elif speed is None and vehicle.max_power:
-        notes.append("no speed given: the power limit is not considered")
-    if braking:
-        notes.append(
-            f"downhill: the soil must hold the vehicle back with a braking thrust of {format_force(-R)} (skid "
-            f"at slip -{i_max:g}: the library's skid law F(i) = -F(|i|), a first approximation), and the "
-            "drivetrain must brake with it (its torque and power limits taken the same both ways)"
-        )
+    notes = _thrust_notes(st, R)
     available = F_soil if dt is None else min(F_soil, dt)
-    limited_by = "soil" if dt is None or F_soil <= dt else "drivetrain"
     m = available - abs(R)
     s_req, ok = slip_from_thrust(
         np.array([R]), soil_at, vehicle, effects=shear_eff or None, model=model, normal_load=N, return_reachable=True
     )
-    slip_required = float(s_req[0]) if bool(ok[0]) else None
-    if res_eff or shear_eff:
-        notes.append(
-            "planned with the fitted effect(s) "
-            + ", ".join(
-                f"{k} ({', '.join(f'{p} = {v:.4g}' for p, v in pv.items())})"
-                for k, pv in {**res_eff, **shear_eff}.items()
-            )
-            + (
-                f"; the resistance effects at the allowed slip {i_max:g}"
-                + (f" and the speed {speed:g} m/s" if speed else " (speed 0: no speed given)")
-                if res_eff
-                else ""
-            )
-        )
     stab = slope_limits(float(theta0[0]), float(theta0[1]), vehicle)
-    notes.append(stab.note)
     limit = min(stab.sliding_deg, stab.tipping_deg if stab.tipping_deg is not None else 90.0)
     max_grade, min_grade = _grade_range(st, limit)
     stable = abs(grade_deg) <= limit
-    if not stable:
-        tips = stab.tipping_deg is not None and abs(grade_deg) > stab.tipping_deg
-        why = (
-            "the vehicle tips over"
-            if tips
-            else "a vehicle stopped on it slides: the soil's full shear strength A c + W cos(theta) tan(phi) "
-            "does not hold W sin(theta)"
-        )
-        notes.insert(
-            0,
-            f"beyond the static {'tipping' if tips else 'sliding'} limit {limit:.3g} deg ({why}): not traversable "
-            "whatever the thrust",
-        )
-    sink = float(static_sinkage(soil, vehicle, N)) if soil is not None and has_bekker(soil) else None
+    head = _stability_notes(stab, grade_deg, limit)
+    notes = head[:-1] + notes + head[-1:]  # the verdict first, how the limits were found last
     unc_out = _uncertain_margin(st, N, R, F_soil, m, theta0, samples, seed, notes) if unc is not None else {}
     if unc_out and not stable:
         unc_out.update(p_traversable=0.0, p_traversable_mc=0.0, p_traversable_delta=0.0)
@@ -516,21 +468,21 @@ def margin(
         margin_N=float(m),
         margin_ratio=float(m / available) if available > 0 else -math.inf,
         traversable=bool(m >= 0 and stable),
-        slip_required=slip_required,
+        slip_required=float(s_req[0]) if bool(ok[0]) else None,
         max_grade_deg=max_grade,
-        limited_by=limited_by,
+        limited_by="soil" if dt is None or F_soil <= dt else "drivetrain",
         soil_limit_N=F_soil,
         drivetrain_limit_N=None if dt is None else float(dt),
         required=required,
         normal_load_N=N,
-        sinkage_m=sink,
+        sinkage_m=float(static_sinkage(soil, vehicle, N)) if soil is not None and has_bekker(soil) else None,
         max_slip=float(i_max),
         grade_deg=float(grade_deg),
         speed_m_s=speed,
         accel_m_s2=float(accel),
         terrain=label,
         notes=tuple(notes),
-        direction="braking" if braking else "driving",
+        direction="braking" if R < 0 else "driving",
         min_grade_deg=min_grade,
         tipping_limit_deg=stab.tipping_deg,
         sliding_limit_deg=stab.sliding_deg,
@@ -539,6 +491,60 @@ def margin(
         headline=tuple(headline_notes(ctx, RESISTANCE_EFFECTS + SHEAR_EFFECTS)) if ctx is not None else (),
         **unc_out,
     )
+
+
+def _thrust_notes(st: _Setting, R: float) -> list[str]:
+    """What the thrust comparison leaves out or assumes: compaction, drivetrain limits, braking, effects."""
+    notes = []
+    soil, vehicle = st.soil, st.vehicle
+    if soil is None or not has_bekker(soil):
+        notes.append(
+            "no Bekker parameters (n, k_c, k_phi) for this terrain: compaction resistance not included"
+            if soil is not None
+            else "an identified soil has no Bekker parameters: compaction resistance "
+            "not included (add it as drawbar_N if known)"
+        )
+    if st.dt is None:
+        notes.append("the vehicle gives no torque or power limit: only the soil limits the thrust")
+    elif st.speed is None and vehicle.max_power:
+        notes.append("no speed given: the power limit is not considered")
+    if R < 0:
+        notes.append(
+            f"downhill: the soil must hold the vehicle back with a braking thrust of {format_force(-R)} (skid "
+            f"at slip -{st.i_max:g}: the library's skid law F(i) = -F(|i|), a first approximation), and the "
+            "drivetrain must brake with it (its torque and power limits taken the same both ways)"
+        )
+    eff = {**st.res_effects, **st.shear_effects}
+    if eff:
+        notes.append(
+            "planned with the fitted effect(s) "
+            + ", ".join(f"{k} ({', '.join(f'{p} = {v:.4g}' for p, v in pv.items())})" for k, pv in eff.items())
+            + (
+                f"; the resistance effects at the allowed slip {st.i_max:g}"
+                + (f" and the speed {st.speed:g} m/s" if st.speed else " (speed 0: no speed given)")
+                if st.res_effects
+                else ""
+            )
+        )
+    return notes
+
+
+def _stability_notes(stab, grade_deg: float, limit: float) -> list[str]:
+    """The stability verdict first (when the grade is beyond a limit), then how the limits were found."""
+    if abs(grade_deg) <= limit:
+        return [stab.note]
+    tips = stab.tipping_deg is not None and abs(grade_deg) > stab.tipping_deg
+    why = (
+        "the vehicle tips over"
+        if tips
+        else "a vehicle stopped on it slides: the soil's full shear strength A c + W cos(theta) tan(phi) "
+        "does not hold W sin(theta)"
+    )
+    return [
+        f"beyond the static {'tipping' if tips else 'sliding'} limit {limit:.3g} deg ({why}): not traversable "
+        "whatever the thrust",
+        stab.note,
+    ]
 
 
 def _uncertain_margin(
