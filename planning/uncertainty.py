@@ -448,7 +448,11 @@ def load_fit_json(path: str, vehicle: Vehicle, *, allow_other_vehicle: bool = Fa
             float(area),
             context=ctx,
         )
-    # ridge (full model, one load): F_max and K
+    return replace(_ridge_from_json(obj, src, W0, bounds, model, area), context=ctx)
+
+
+def _ridge_from_json(obj: dict, src: str, W0: float, bounds, model: str, area: float) -> SoilUncertainty:
+    """The ridge (full model, one load) of a fit JSON: F_max and K with their correlation."""
     combos = obj.get("combinations") or []
     fm = next((c for c in combos if isinstance(c, dict) and str(c.get("name", "")).startswith("F_max@")), None)
     kk = next((c for c in combos if isinstance(c, dict) and c.get("name") == "K"), None)
@@ -463,7 +467,7 @@ def load_fit_json(path: str, vehicle: Vehicle, *, allow_other_vehicle: bool = Fa
     K, sK = _num(kk.get("value"), src, "combinations.K.value"), _num(kk.get("stderr"), src, "combinations.K.stderr")
     rho = ((obj.get("identifiability") or {}).get("fmax_K_correlation") or {}).get(f"{W0:.6g}")
     rho = 0.0 if rho is None else float(rho)
-    u = _ridge(
+    return _ridge(
         F,
         sF,
         K,
@@ -475,7 +479,6 @@ def load_fit_json(path: str, vehicle: Vehicle, *, allow_other_vehicle: bool = Fa
         area,
         "F_max and K standard errors and their correlation from the fit JSON",
     )
-    return replace(u, context=ctx)
 
 
 def _num(x, src: str, field: str) -> float:
