@@ -51,7 +51,10 @@ Traversability margin of a vehicle on a terrain preset, a soil, or an identified
 
 Available thrust: the soil's thrust at the allowed slip (Eq. 2 at the normal load W cos(theta))
 or the drivetrain limit min(T_max / r, P_max / v), whichever is smaller. Required thrust:
-rolling, Bekker compaction (terrain presets with n, k_c, k_phi), grade, inertia, drawbar pull.
+rolling, Bekker compaction (terrain presets with n, k_c, k_phi), grade, inertia, drawbar pull,
+and a fit's slip_sinkage / speed_resistance. Downhill the required thrust is negative: the soil
+must brake the vehicle, checked against its skid limit (F(i) = -F(|i|)). A vehicle JSON with
+cg_height_m adds the static tipping limit; the soil's sliding limit always applies.
 With --fit (what 'soiltrack fit --json' printed) the soil is uncertain: the probability of
 being traversable (Monte Carlo and delta method) and the worst case over the 95 % region.
 
