@@ -205,7 +205,7 @@ def headline_notes(ctx: FitContext | None, planned: tuple[str, ...]) -> list[str
     if ctx.running_gear is None:
         out.append("the fit records no running gear: the vehicle cannot be checked against it")
     if ctx.other_vehicle:
-        out.append("fit of another vehicle, scaled on purpose (--allow-other-vehicle)")
+        out.append("fit of another vehicle, scaled on purpose")
     lo = ctx.left_out(planned)
     if lo:
         out.append("fitted effect(s) left out: " + ", ".join(f"{k} ({why})" for k, why in lo.items()))

@@ -38,7 +38,7 @@ among the Monte Carlo samples inside it.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -54,7 +54,7 @@ from ..soilmodel import (
 )
 from ..soilmodel.sinkage import has_bekker, static_sinkage
 from .arguments import check_number
-from .fit_vehicle import RESISTANCE_EFFECTS, SHEAR_EFFECTS, headline_notes
+from .fit_vehicle import RESISTANCE_EFFECTS, SHEAR_EFFECTS, check_fit_vehicle, headline_notes
 from .forces import resistances, soil_thrust
 from .stability import slope_limits
 from .uncertainty import CHI2_95, SoilUncertainty, is_online_estimate, uncertainty_from_estimate, uncertainty_from_fit
@@ -259,6 +259,8 @@ def resolve_terrain(terrain: Any, vehicle: Vehicle | None = None) -> tuple[Soil 
         return None, terrain, terrain.model
     if hasattr(terrain, "theta") and hasattr(terrain, "combinations"):
         u = uncertainty_from_fit(terrain)
+        if vehicle is not None and u.context is not None:  # another vehicle than the fit's: said, not refused
+            u = replace(u, context=check_fit_vehicle(u.context, vehicle, allow_other=True))
         return None, u, u.model
     if is_online_estimate(terrain):
         if vehicle is None:

@@ -194,11 +194,40 @@ def _psd_sqrt(C: np.ndarray) -> np.ndarray:
 def uncertainty_from_fit(fit: Any) -> SoilUncertainty:
     """Build a :class:`SoilUncertainty` from a ``FitResult`` (public attributes only).
 
+    The fit's outcome, running gear (its vehicle) and effects are kept in ``context``, as for a fit
+    JSON (:func:`load_fit_json`); planning with another vehicle than the fit's is said, not refused
+    (in Python the caller passes the fit on purpose).
+
     Raises
     ------
     DataError
         The fit failed, or it carries no usable uncertainty.
     """
+    u = _soil_of_fit(fit)
+    return replace(u, context=_context_of_fit(fit))
+
+
+def _context_of_fit(fit: Any) -> FitContext:
+    """Outcome, running gear and effect values of a ``FitResult`` (public attributes only)."""
+    v = fit.vehicle
+    gear = {
+        "kind": "track",
+        "name": getattr(v, "name", "") or "fit's vehicle",
+        "weight_N": float(v.weight),
+        "contact_area_m2": float(v.contact_area),
+        "track_length_m": float(v.track_length),
+    }
+    effects = {
+        name: {p: float(e.value) for p, e in params.items() if e.value is not None}
+        for name, params in (getattr(fit, "effects", None) or {}).items()
+    }
+    outcome = getattr(fit, "outcome", None)
+    outcome = {"converged": "usable", "not usable": "not_usable"}.get(outcome, outcome)
+    return FitContext("the FitResult", outcome, None, gear, effects)
+
+
+def _soil_of_fit(fit: Any) -> SoilUncertainty:
+    """The soil's Gaussian of a ``FitResult``."""
     if not fit.success:
         raise DataError(f"the fit did not succeed ({fit.status}): no soil to plan with")
     loads = np.asarray(fit.normal_loads, dtype=float)

@@ -321,3 +321,18 @@ def test_bad_rows_counted_once_per_row_with_a_decimal_comma_hint(capsys, tmp_pat
 def test_bare_soiltrack_prints_the_help(capsys):
     rc, out, _ = run(capsys)
     assert rc == 0 and "usage: soiltrack" in out and "simulate" in out
+
+
+def test_a_fit_result_in_python_carries_its_effects_and_vehicle():
+    from soiltrack.identify import fit
+    from soiltrack.soilmodel import simulate
+
+    data = simulate(LIGHT, TERRAINS["sandy_loam"], kind="sweep", effects={"slip_sinkage": 0.1}, seed=1)
+    res = fit(data, LIGHT, effects=["slip_sinkage"])
+    m = margin(res, LIGHT, grade_deg=10)
+    mu_s = res.effects["slip_sinkage"]["mu_s"].value
+    assert m.effects_planned == ("slip_sinkage",)
+    assert m.required["effects_N"] == pytest.approx(mu_s * 0.2 * m.normal_load_N, rel=1e-9)
+    assert m.headline == ()  # the fit's own vehicle: nothing to say
+    other = margin(res, VEHICLES["heavy"], grade_deg=10)  # said, not refused, in Python
+    assert any("another vehicle" in h for h in other.headline)
