@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 
 from ..soilmodel import Vehicle, choose_scale, format_energy, format_force
-from .forces import soil_thrust
+from .forces import resistances, soil_thrust
 from .margin import Margin, split_effects, resolve_terrain, terrain_soil_vector
 from .profile import THRUST_RESERVE, SpeedPlan
 from .slip_optimal import SlipOptimum
@@ -28,7 +29,8 @@ def plot_margin(terrain: Any, vehicle: Vehicle, m: Margin, path: str) -> None:
     """Thrust-slip curve at the margin's normal load against the drivetrain limit and the requirement."""
     plt = _plt()
     soil, unc, model = resolve_terrain(terrain, vehicle)
-    shear = split_effects(unc, None)[1] or None  # a fitted shear law is the soil's thrust the margin used
+    res_eff, shear, _left = split_effects(unc, None)
+    shear = shear or None  # a fitted shear law is the soil's thrust the margin used
     theta = terrain_soil_vector(soil, unc, m.normal_load_N)
     s = np.linspace(0.0, 0.6, 301)
     F = np.array([soil_thrust(theta, float(x), m.normal_load_N, vehicle, model, effects=shear)[0] for x in s])
@@ -48,8 +50,30 @@ def plot_margin(terrain: Any, vehicle: Vehicle, m: Margin, path: str) -> None:
     ax.axhline(
         need * ks.factor,
         color="C3",
-        label=f"required braking {ks.format(need)} (downhill)" if brake else f"required {ks.format(need)}",
+        label=(f"required braking {ks.format(need)} (downhill)" if brake else f"required {ks.format(need)}")
+        + (" at the allowed slip" if "effects_N" in m.required else ""),
     )
+    if res_eff and "effects_N" in m.required:
+        # a fitted slip-dependent resistance: the requirement at each slip (the margin takes it at the allowed slip)
+        base = m.required_N - m.required["effects_N"]
+        th_r = np.array([math.radians(m.grade_deg)])
+        R_s = [
+            base
+            + float(
+                resistances(vehicle, None, th_r, 0.0, 0.0, effects=res_eff, slip=float(x), speed=m.speed_m_s or 0.0)[1][
+                    "effects_N"
+                ][0]
+            )
+            for x in s[::10]
+        ]
+        ax.plot(
+            s[::10] * 100,
+            np.abs(R_s) * ks.factor,
+            color="C3",
+            ls="--",
+            lw=1,
+            label="required with the fitted effects, by slip",
+        )
     if m.drivetrain_limit_N is not None:
         ax.axhline(
             m.drivetrain_limit_N * ks.factor,
