@@ -29,8 +29,8 @@ def plot_margin(terrain: Any, vehicle: Vehicle, m: Margin, path: str) -> None:
     """Thrust-slip curve at the margin's normal load against the drivetrain limit and the requirement."""
     plt = _plt()
     soil, unc, model = resolve_terrain(terrain, vehicle)
-    res_eff, shear, _left = split_effects(unc, None)
-    shear = shear or None  # a fitted shear law is the soil's thrust the margin used
+    res_eff, shear_all, _left = split_effects(unc, None)
+    shear = shear_all or None  # a fitted shear law is the soil's thrust the margin used
     theta = terrain_soil_vector(soil, unc, m.normal_load_N)
     s = np.linspace(0.0, 0.6, 301)
     F = np.array([soil_thrust(theta, float(x), m.normal_load_N, vehicle, model, effects=shear)[0] for x in s])
@@ -130,7 +130,7 @@ def plot_profile(result: SpeedPlan, path: str, title: str = "") -> None:
         Pp = P * (1.0 - THRUST_RESERVE)
         Mp = np.where(w > 0, Pp / np.maximum(w, 1e-12), np.inf)
         Mp = np.where(Mp <= 1.5 * result.limits["max_torque_Nm"], Mp, np.nan)
-        n_act = result.active_limits["power"]
+        n_act = (result.active_limits or {})["power"]
         axs[2].plot(
             x,
             Mp * ts.factor,

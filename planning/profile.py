@@ -476,7 +476,7 @@ def _slip(v: np.ndarray, w: np.ndarray, r: float) -> np.ndarray:
     )
 
 
-def _initial_slip(d0: dict, vehicle: Vehicle, v0: float, slip0: float | None, bound: float) -> tuple[float, str]:
+def _initial_slip(d0: "PatchData", vehicle: Vehicle, v0: float, slip0: float | None, bound: float) -> tuple[float, str]:
     """The first point's slip: given (checked against the plan's slip bound), 0 at rest, else the steady slip
     that carries the first patch's resistance at ``v0`` (the vehicle is cruising when the plan starts)."""
     if v0 == 0.0:
