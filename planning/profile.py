@@ -277,16 +277,21 @@ def _signed_extremes(values, what: str, fmt) -> str:
     return f"largest driving {what} {a}, largest braking {what} {b}"
 
 
-def with_fit_headline(plan: SpeedPlan, terrains) -> SpeedPlan:
-    """``plan`` with the first-line notes of the fits among ``terrains`` (a profile plans with no effects).
+#: The fitted effects a profile or route plans with (in the dynamics); the others are named as left out.
+PLANNED_EFFECTS = ("slip_sinkage",)
 
-    A fit's effects are named as left out; an outcome that is not ``usable``, a fit of another vehicle
-    and a fit without running gear are said (:func:`~.fit_vehicle.headline_notes`).
+
+def with_fit_headline(plan: SpeedPlan, terrains) -> SpeedPlan:
+    """``plan`` with the first-line notes of the fits among ``terrains``.
+
+    A fit's effects other than :data:`PLANNED_EFFECTS` are named as left out; an outcome that is not
+    ``usable``, a fit of another vehicle and a fit without running gear are said
+    (:func:`~.fit_vehicle.headline_notes`).
     """
     out: list[str] = []
     for t in terrains:
         ctx = getattr(t, "context", None)
-        for n in headline_notes(ctx, ()):
+        for n in headline_notes(ctx, PLANNED_EFFECTS):
             if n not in out:
                 out.append(n)
     return replace(plan, headline=tuple(out)) if out else plan
@@ -346,6 +351,9 @@ class PatchData:
         The soil's thrust at the slip limit and near full slip (0.999), N.
     soil, unc
         The patch's soil, or its uncertainty (an identified soil).
+    mu_s
+        The fitted ``slip_sinkage`` coefficient planned with (0: none): the resistance
+        ``mu_s N |i|`` adds to ``R`` along the plan (in the dynamics of the model core).
     """
 
     theta: np.ndarray
@@ -357,6 +365,13 @@ class PatchData:
     Fpk: float
     soil: Any
     unc: Any
+    mu_s: float = 0.0
+
+
+def _fitted_mu_s(terrain: Any, unc: Any) -> float:
+    """The ``slip_sinkage`` coefficient of a fit (its JSON or a FitResult; 0 without)."""
+    ctx = getattr(unc, "context", None)
+    return float((ctx.effects.get("slip_sinkage") or {}).get("mu_s", 0.0)) if ctx is not None else 0.0
 
 
 def _patch_data(patches, vehicle, i_max) -> list[PatchData]:
@@ -371,7 +386,8 @@ def _patch_data(patches, vehicle, i_max) -> list[PatchData]:
         Fs = float(soil_thrust(theta, i_max, N, vehicle, "full")[0])
         Fpk = float(soil_thrust(theta, 0.999, N, vehicle, "full")[0])
         R = float(req["rolling_N"][0] + req["compaction_N"][0] + req["grade_N"][0])
-        out.append(PatchData(theta, N, R, float(req["compaction_N"][0]), th, Fs, Fpk, soil, unc))
+        mu = _fitted_mu_s(p.terrain, unc)
+        out.append(PatchData(theta, N, R, float(req["compaction_N"][0]), th, Fs, Fpk, soil, unc, mu))
     return out
 
 
@@ -490,6 +506,15 @@ def _initial_slip(d0: "PatchData", vehicle: Vehicle, v0: float, slip0: float | N
         return float(slip0), "given"
     c, phi, K = (float(x) for x in d0.theta)
     i_ss = float(slip_from_thrust(np.array([d0.R]), Soil(c, phi, K), vehicle, normal_load=d0.N)[0])
+    for _ in range(50 if d0.mu_s else 0):  # F(i) = R + mu_s N |i|: a contraction (mu_s N << dF/di)
+        i_new = float(
+            slip_from_thrust(np.array([d0.R + d0.mu_s * d0.N * abs(i_ss)]), Soil(c, phi, K), vehicle, normal_load=d0.N)[
+                0
+            ]
+        )
+        if abs(i_new - i_ss) <= 1e-14:
+            break
+        i_ss = i_new
     if abs(i_ss) > bound:
         return float(np.sign(i_ss) * bound), "steady_capped"
     return i_ss, "steady"
@@ -731,6 +756,7 @@ def _ocp_data(pd, patches, vehicle, a: _PlanArgs, lengths, Tmax, Pmax):
         else None,
         w0=0.0 if a.v0 == 0.0 else a.v0 / (r * (1.0 - i0)),
         max_speed=a.max_speed,
+        mu_s=np.array([pd[k].mu_s for k in idx]) if any(d.mu_s for d in pd) else None,
     )
     return data, idx, i0_source
 
@@ -856,6 +882,8 @@ def _series_and_mesh(sol, data, i_nodes, i_col, F_nodes, Fs_int, idx, th, Nn) ->
         "patch": idx,
         "slip_collocation": i_col,
     }
+    if data.mu_s is not None:
+        mesh["mu_s"] = data.mu_s
     return series, mesh, energy
 
 
