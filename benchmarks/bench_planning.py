@@ -517,7 +517,7 @@ def bench_slsqp(maxiter: int) -> dict:
     r = HEAVY.sprocket_radius
     step = step_function(HEAVY, sub)
     x = ca.MX.sym("x", 2)
-    p = ca.MX.sym("p", 7)
+    p = ca.MX.sym("p", 8)  # M, c, phi, K, theta, R_c, dt, mu_s (planning.replay.step_function)
     out = step(x0=x, p=p)["xf"]
     one = ca.Function("one", [x, p], [out[:, -1], ca.vec(out)])
     sim = one.mapaccum("sim", n)
@@ -544,6 +544,7 @@ def bench_slsqp(maxiter: int) -> dict:
                 np.zeros(n),
                 np.full(n, Rc),
                 np.full(n, dt),
+                np.zeros(n),
             ]
         )
         w0 = v0 / (r * (1 - 0.05))

@@ -122,7 +122,7 @@ def plot(seed, margins, path: str) -> None:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default=os.path.join(HERE, "output", "fig7_traversability.png"), help="PNG to write")
+    ap.add_argument("--out", default=os.path.join(HERE, "out", "fig7_traversability.png"), help="PNG to write")
     a = ap.parse_args(argv)
     os.makedirs(os.path.dirname(os.path.abspath(a.out)), exist_ok=True)
     seed, margins = compute()

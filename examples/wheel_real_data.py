@@ -13,7 +13,7 @@ angle 0: three repeats at each of 4 slip levels, load and sinkage measured per t
    training rows' mean), the track approximation (two tracks of length r theta_1 and total width
    b, the library's track fit), the wheel model with and without slip sinkage, and the trials'
    own repeat scatter (the pure-error standard deviation: what no model of slip and load can beat);
-4. writes a figure to ``examples/output/wheel_real_data.png`` (not committed).
+4. writes a figure to ``examples/out/wheel_real_data.png`` (not committed).
 """
 
 from __future__ import annotations
@@ -71,7 +71,7 @@ def loso(data, predict_fold) -> tuple[float, int]:
 
 def main(argv=None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", default=os.path.join(HERE, "output", "wheel_real_data.png"), help="figure (PNG)")
+    ap.add_argument("--out", default=os.path.join(HERE, "out", "wheel_real_data.png"), help="figure (PNG)")
     args = ap.parse_args(argv)
     wheel = read_running_gear(WHEEL)
     data = read_wheel_sweep(DATA)

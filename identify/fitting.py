@@ -17,7 +17,7 @@ from .engines import check_engine, jit_mode, normalise_status
 from .sweep.ipopt import fit_ipopt
 from .sweep.start import x0_vector
 from .sweep.joint import fit_joint
-from .estimates.joint_likelihood import check_intervals, with_profile_intervals
+from .estimates.joint_likelihood import PROFILE_IPOPT_OPTIONS, check_intervals, with_profile_intervals
 from .sweep.problem import FitFailed, check_common, make_problem
 from .estimates.result import FitResult
 from .sweep.seed_methods import fit_least_squares, fit_newton
@@ -359,7 +359,9 @@ def _fit_joint_sweep(pb, x0v, st: FitSettings, slip_noise, intervals: str) -> Fi
     res = with_profile_intervals(
         pb_final,
         res,
-        lambda q, hold, sx: fit_joint(q, ipopt_options=opts, n_grid=n_grid, hold=hold, start_x=sx),
+        lambda q, hold, sx: fit_joint(
+            q, ipopt_options={**PROFILE_IPOPT_OPTIONS, **(opts or {})}, n_grid=n_grid, hold=hold, start_x=sx
+        ),
         intervals,
     )
     return normalise_status(res, "ipopt")

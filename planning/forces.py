@@ -12,13 +12,22 @@ import numpy as np
 
 from ..soilmodel import Soil, Vehicle, thrust_function
 from ..soilmodel.effects import effective_normal_load, motion_resistance
+from ..soilmodel.thrust_effects import thrust_with_effects_function
 from ..soilmodel.sinkage import compaction_resistance, has_bekker
 
 __all__ = ["soil_thrust", "resistances"]
 
 
 def resistances(
-    vehicle: Vehicle, soil_bekker: Soil | None, theta: np.ndarray, accel: float, drawbar: float
+    vehicle: Vehicle,
+    soil_bekker: Soil | None,
+    theta: np.ndarray,
+    accel: float,
+    drawbar: float,
+    *,
+    effects: dict | None = None,
+    slip: float = 0.0,
+    speed: float = 0.0,
 ) -> tuple[np.ndarray, dict]:
     """Normal load and itemised required thrust at grades ``theta``.
 
@@ -32,12 +41,16 @@ def resistances(
         Grades, rad (array).
     accel, drawbar
         Acceleration to sustain (m/s^2) and drawbar pull (N).
+    effects, slip, speed
+        Fitted resistance effects ``{effect: {parameter: value}}`` (``slip_sinkage``,
+        ``speed_resistance``), evaluated at ``|slip|`` and ``speed`` by
+        :func:`~soiltrack.soilmodel.effects.motion_resistance`; adds the item ``"effects_N"``.
 
     Returns
     -------
     tuple
         ``(N, items)``: normal loads (N, array) and ``{"rolling_N", "compaction_N", "grade_N",
-        "inertia_N", "drawbar_N"}`` (arrays like ``theta``).
+        "inertia_N", "drawbar_N"}`` (arrays like ``theta``; and ``"effects_N"`` when ``effects``).
     """
     W = vehicle.weight
     N = np.array([float(effective_normal_load(W, vehicle, {"grade": float(t)})) for t in np.atleast_1d(theta)])
@@ -55,16 +68,27 @@ def resistances(
         else np.zeros_like(N)
     )
     inertia = vehicle.mass * accel
-    return N, {
+    items = {
         "rolling_N": rolling,
         "compaction_N": comp,
         "grade_N": grade,
         "inertia_N": np.full_like(N, inertia),
         "drawbar_N": np.full_like(N, drawbar),
     }
+    if effects is not None:
+        items["effects_N"] = np.array(
+            [
+                float(motion_resistance(speed, slip, vehicle, {**effects, "grade": float(t)}, None, None, None))
+                - float(motion_resistance(speed, slip, vehicle, {"grade": float(t)}, None, None, None))
+                for t in np.atleast_1d(theta)
+            ]
+        )
+    return N, items
 
 
-def soil_thrust(thetas: np.ndarray, slip: float, N: np.ndarray | float, vehicle: Vehicle, model: str) -> np.ndarray:
+def soil_thrust(
+    thetas: np.ndarray, slip: float, N: np.ndarray | float, vehicle: Vehicle, model: str, *, effects: dict | None = None
+) -> np.ndarray:
     """Soil thrust (N) at ``slip`` for soils ``thetas`` (rows c, phi, K in SI) and loads ``N`` (broadcast).
 
     Parameters
@@ -79,6 +103,10 @@ def soil_thrust(thetas: np.ndarray, slip: float, N: np.ndarray | float, vehicle:
         The vehicle (track length and width).
     model
         ``"full"`` or ``"cohesion-free"``.
+    effects
+        Fitted shear-law effects ``{effect: {parameter: value}}`` (``hump_shear``,
+        ``pressure_distribution``): the thrust of
+        :func:`~soiltrack.soilmodel.thrust_effects.thrust_with_effects_function` instead of Eq. 2.
 
     Returns
     -------
@@ -93,14 +121,9 @@ def soil_thrust(thetas: np.ndarray, slip: float, N: np.ndarray | float, vehicle:
         if np.size(N) > 1
         else np.full(n, float(np.ravel(N)[0]))
     )
-    f = thrust_function(model)
-    out = f(
-        np.full((1, n), slip),
-        th[:, 0].reshape(1, -1),
-        th[:, 1].reshape(1, -1),
-        th[:, 2].reshape(1, -1),
-        NN.reshape(1, -1),
-        vehicle.track_length,
-        vehicle.track_width,
-    )
+    args = [np.full((1, n), slip), th[:, 0].reshape(1, -1), th[:, 1].reshape(1, -1), th[:, 2].reshape(1, -1)]
+    if effects:  # W is the nominal load of thrust_with_effects: with shear effects only, it is N itself
+        out = thrust_with_effects_function(vehicle, effects, model)(*args, NN.reshape(1, -1))
+    else:
+        out = thrust_function(model)(*args, NN.reshape(1, -1), vehicle.track_length, vehicle.track_width)
     return np.asarray(out, dtype=float).ravel()

@@ -101,15 +101,18 @@ class OcpData:
     v_guess: np.ndarray | None = None  # start guess of the node speeds (None: linear in distance)
     w0: float | None = None  # initial sprocket speed, rad/s (None: free within the slip limit)
     max_speed: float | None = None  # speed limit at the mesh and collocation points, m/s
+    mu_s: np.ndarray | None = None  # fitted slip_sinkage coefficient per interval (None: 0, the nominal model)
 
 
 @locked_cache(maxsize=8)
 def dynamics_fn(vehicle: Vehicle) -> ca.Function:
-    """``f(x=[v, w], M, p=[c, phi, K, grade, R_c]) -> (xdot, slip, thrust)`` from the model core."""
+    """``f(x=[v, w], M, p=[c, phi, K, grade, R_c, mu_s]) -> (xdot, slip, thrust)`` from the model core
+    (``mu_s``: the ``slip_sinkage`` effect's coefficient, 0 for the nominal model)."""
     x = ca.SX.sym("x", 2)
     M = ca.SX.sym("M")
-    p = ca.SX.sym("p", 5)
-    d = dynamics_expr(x[0], x[1], M, p[0], p[1], p[2], vehicle, {"grade": {"theta_rad": p[3]}})
+    p = ca.SX.sym("p", 6)
+    eff = {"grade": {"theta_rad": p[3]}, "slip_sinkage": {"mu_s": p[5]}}
+    d = dynamics_expr(x[0], x[1], M, p[0], p[1], p[2], vehicle, eff)
     xdot = ca.vertcat(d["dv"] - p[4] / vehicle.mass, d["dw"])
     return ca.Function(
         "plan_dynamics", [x, M, p], [xdot, d["slip"], d["thrust"]], ["x", "M", "p"], ["xdot", "slip", "thrust"]
@@ -166,7 +169,7 @@ def ocp_nlp(vehicle: Vehicle, n: int, energy: bool = False, rate_limit: bool = F
     u = ca.SX.sym("u", n)
     dt = ca.SX.sym("dt", n)
     e = ca.SX.sym("e", n)  # positive work per interval (slack)
-    P = ca.SX.sym("P", 7, n)  # c, phi, K, grade, R_c, slip bound, interval length
+    P = ca.SX.sym("P", 8, n)  # c, phi, K, grade, R_c, mu_s, slip bound, interval length
     Ms, Pw, rate, wt, we, ts, es, vs, ws = (
         ca.SX.sym(s) for s in ("Ms", "Pw", "rate", "wt", "we", "ts", "es", "vs", "ws")
     )
@@ -181,17 +184,17 @@ def ocp_nlp(vehicle: Vehicle, n: int, energy: bool = False, rate_limit: bool = F
         v_int = 0
         for j in range(1, d + 1):
             xp = sum(C[q, j] * pts[q] for q in range(d + 1))
-            fj = f(pts[j], Mk, P[:5, k])[0]
+            fj = f(pts[j], Mk, P[:6, k])[0]
             g_dyn.append((xp - dt[k] * fj) / xs)
             w_int += B[j] * pts[j][1]
             v_int += B[j] * pts[j][0]
         g_dyn.append((pts[d] - X[:, k + 1]) / xs)  # Radau: the last collocation point is the interval's end
         g_work.append((e[k] - Mk * dt[k] * w_int) / es)
-        g_dist.append(dt[k] * v_int / P[6, k] - 1.0)
+        g_dist.append(dt[k] * v_int / P[7, k] - 1.0)
         for q in range(d + 1):
             v_, w_ = pts[q][0], pts[q][1]
-            g_slip_lo.append((v_ - (1 - P[5, k]) * r * w_) / vs)
-            g_slip_hi.append(((1 + P[5, k]) * r * w_ - v_) / vs)
+            g_slip_lo.append((v_ - (1 - P[6, k]) * r * w_) / vs)
+            g_slip_hi.append(((1 + P[6, k]) * r * w_ - v_) / vs)
             g_pow.append((Mk * w_) / Pw)
     dM = u[1:] - u[:-1]
     avg_dt = 0.5 * (dt[1:] + dt[:-1])
@@ -235,9 +238,13 @@ def _guess(d: OcpData, vehicle: Vehicle, n: int, slip_of_thrust) -> np.ndarray:
     v[0], v[-1] = d.v0, d.v1
     h = np.diff(S)
     a = (v[1:] ** 2 - v[:-1] ** 2) / (2 * h)
+    mu = np.zeros(n) if d.mu_s is None else np.asarray(d.mu_s, dtype=float)
     R = (
         np.array(
-            [float(f(ca.DM([r, 1.0]), 0.0, [d.c[k], d.phi[k], d.K[k], d.grade[k], d.Rc[k]])[0][0]) for k in range(n)]
+            [
+                float(f(ca.DM([r, 1.0]), 0.0, [d.c[k], d.phi[k], d.K[k], d.grade[k], d.Rc[k], mu[k]])[0][0])
+                for k in range(n)
+            ]
         )
         * -m
     )  # resistance from the model core (rest of the slip: 0)
@@ -283,7 +290,8 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
     ts = (L / vmax) if d.duration is None else d.duration
     es = vehicle.weight * L * 0.1 + 0.5 * vehicle.mass * vmax**2
     wt, we = (1.0, 0.0) if d.objective == "time" else (0.0, 1.0)
-    Pmat = np.vstack([d.c, d.phi, d.K, d.grade, d.Rc, d.slip_bound, np.diff(d.s)])
+    mu_s = np.zeros(len(d.c)) if d.mu_s is None else np.asarray(d.mu_s, dtype=float)
+    Pmat = np.vstack([d.c, d.phi, d.K, d.grade, d.Rc, mu_s, d.slip_bound, np.diff(d.s)])
     p = np.concatenate([Pmat.ravel(order="F"), [Ms, Pw, d.torque_rate or 0.0, wt, we, ts, es, vmax, vmax / r]])
     nxv = 2 * (n + 1) + 2 * DEGREE * n + (3 if energy else 2) * n
     lbx, ubx = np.full(nxv, -inf), np.full(nxv, inf)

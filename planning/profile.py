@@ -62,6 +62,7 @@ from ..soilmodel.dynamics import slip_expr
 from ..soilmodel.effect_terms import DEFAULT_STANDSTILL_SPEED
 from ..soilmodel.simulation import drive_limits
 from .arguments import check_number
+from .fit_vehicle import headline_notes
 from .forces import resistances, soil_thrust
 from .margin import DEFAULT_MAX_SLIP, resolve_terrain, terrain_soil_vector
 from .ocp import DEGREE, OcpData, radau_collocation, solve_ocp
@@ -180,6 +181,8 @@ class SpeedPlan:
     standstills: tuple = ()
     initial_slip: float | None = None
     initial_slip_source: str | None = None
+    #: what the first line says about the fit(s) planned with (outcome, other vehicle, effects left out)
+    headline: tuple[str, ...] = ()
 
     def to_dict(self, route: bool = False) -> dict:
         """The ``profile --json`` / ``route --json`` object (docs/data-formats.md); never NaN."""
@@ -203,6 +206,7 @@ class SpeedPlan:
             d["reason"] = {k: (_f(v) if isinstance(v, float) else v) for k, v in self.reason.items()}
         d["limits"] = {k: (_f(v) if isinstance(v, float) else v) for k, v in self.limits.items()}
         d["notes"] = list(self.notes)
+        d["fit_notes"] = list(self.headline)
         d["active_limits"] = self.active_limits
         d["peak_speed_m_s"] = _f(self.peak_speed_m_s)
         d["standstills"] = [{k: _f(v) for k, v in w.items()} for w in self.standstills]
@@ -229,10 +233,12 @@ class SpeedPlan:
                 + (f"limit {vmax:.3g} m/s)" if vmax is not None else "no speed limit given)"),
                 f"  initial slip {(self.initial_slip or 0.0) * 100:.3g} % "
                 f"({_SLIP0_WORDS.get(self.initial_slip_source or '', 'unknown')})",
-                f"  largest slip {max(abs(x) for x in s['slip']) * 100:.3g} % "
-                f"(limit {self.limits['max_slip'] * 100:.3g} %),"
-                f" largest torque {format_torque(max(abs(x) for x in s['sprocket_torque_Nm']))} (limit "
-                f"{format_torque(self.limits['max_torque_Nm'])}), smallest traction reserve "
+                "  "
+                + _signed_extremes(s["slip"], "slip", lambda x: f"{x * 100:.3g} %")
+                + f" (limit +-{self.limits['max_slip'] * 100:.3g} %)",
+                "  "
+                + _signed_extremes(s["sprocket_torque_Nm"], "torque", format_torque)
+                + f" (limit +-{format_torque(self.limits['max_torque_Nm'])}), smallest traction reserve "
                 f"{format_force(min(s['margin_N']))}",
             ]
             act = {k: n for k, n in (self.active_limits or {}).items() if n}
@@ -257,7 +263,38 @@ class SpeedPlan:
                 f"(nominal-soil plan: {self.robust['nominal_violation_fraction'] * 100:.3g} %)"
             )
         L += [f"  note: {n}" for n in self.notes]
+        if self.headline:
+            L[0] += " - " + "; ".join(self.headline)
         return "\n".join(L)
+
+
+def _signed_extremes(values, what: str, fmt) -> str:
+    """``largest driving slip 3 %, largest braking slip -13.7 %`` (a side without values: ``none``)."""
+    v = np.asarray(values, dtype=float)
+    pos, neg = v[v > 0], v[v < 0]
+    a = fmt(float(pos.max())) if pos.size else "none"
+    b = fmt(float(neg.min())) if neg.size else "none"
+    return f"largest driving {what} {a}, largest braking {what} {b}"
+
+
+#: The fitted effects a profile or route plans with (in the dynamics); the others are named as left out.
+PLANNED_EFFECTS = ("slip_sinkage",)
+
+
+def with_fit_headline(plan: SpeedPlan, terrains) -> SpeedPlan:
+    """``plan`` with the first-line notes of the fits among ``terrains``.
+
+    A fit's effects other than :data:`PLANNED_EFFECTS` are named as left out; an outcome that is not
+    ``usable``, a fit of another vehicle and a fit without running gear are said
+    (:func:`~.fit_vehicle.headline_notes`).
+    """
+    out: list[str] = []
+    for t in terrains:
+        ctx = getattr(t, "context", None)
+        for n in headline_notes(ctx, PLANNED_EFFECTS):
+            if n not in out:
+                out.append(n)
+    return replace(plan, headline=tuple(out)) if out else plan
 
 
 # --------------------------------------------------------------------------------------------------
@@ -299,8 +336,46 @@ def _reason(k, limit, req, avail):
     }
 
 
-def _patch_data(patches, vehicle, i_max):
-    """Per patch: soil [c, phi, K], normal load, resistance items, soil limit, peak, label."""
+@dataclass(frozen=True)
+class PatchData:
+    """What the planner needs of one patch (SI).
+
+    Attributes
+    ----------
+    theta
+        Soil ``[c, phi, K]`` planned with (a robust plan's backed-off soil).
+    N, R, Rc, grade
+        Normal load, steady motion resistance (rolling, compaction, grade), compaction resistance (N)
+        and grade (rad).
+    Fs, Fpk
+        The soil's thrust at the slip limit and near full slip (0.999), N.
+    soil, unc
+        The patch's soil, or its uncertainty (an identified soil).
+    mu_s
+        The fitted ``slip_sinkage`` coefficient planned with (0: none): the resistance
+        ``mu_s N |i|`` adds to ``R`` along the plan (in the dynamics of the model core).
+    """
+
+    theta: np.ndarray
+    N: float
+    R: float
+    Rc: float
+    grade: float
+    Fs: float
+    Fpk: float
+    soil: Any
+    unc: Any
+    mu_s: float = 0.0
+
+
+def _fitted_mu_s(terrain: Any, unc: Any) -> float:
+    """The ``slip_sinkage`` coefficient of a fit (its JSON or a FitResult; 0 without)."""
+    ctx = getattr(unc, "context", None)
+    return float((ctx.effects.get("slip_sinkage") or {}).get("mu_s", 0.0)) if ctx is not None else 0.0
+
+
+def _patch_data(patches, vehicle, i_max) -> list[PatchData]:
+    """Per patch: soil [c, phi, K], normal load, resistance items, soil limit, peak."""
     out = []
     for p in patches:
         soil, unc, _ = resolve_terrain(p.terrain, vehicle)
@@ -311,19 +386,8 @@ def _patch_data(patches, vehicle, i_max):
         Fs = float(soil_thrust(theta, i_max, N, vehicle, "full")[0])
         Fpk = float(soil_thrust(theta, 0.999, N, vehicle, "full")[0])
         R = float(req["rolling_N"][0] + req["compaction_N"][0] + req["grade_N"][0])
-        out.append(
-            {
-                "theta": theta,
-                "N": N,
-                "R": R,
-                "Rc": float(req["compaction_N"][0]),
-                "grade": th,
-                "Fs": Fs,
-                "Fpk": Fpk,
-                "soil": soil,
-                "unc": unc,
-            }
-        )
+        mu = _fitted_mu_s(p.terrain, unc)
+        out.append(PatchData(theta, N, R, float(req["compaction_N"][0]), th, Fs, Fpk, soil, unc, mu))
     return out
 
 
@@ -331,16 +395,16 @@ def _precheck(pd, lengths, vehicle, v0, v1, i_max, Tmax, Pmax, r):
     """Steady-state and reachability checks (optimistic): a reason dict, or None."""
     T_thr = Tmax / r
     for k, d in enumerate(pd):
-        avail = min(d["Fs"], T_thr)
-        if d["R"] > avail:
-            if T_thr < d["Fs"]:
+        avail = min(d.Fs, T_thr)
+        if d.R > avail:
+            if T_thr < d.Fs:
                 lim = "torque"
             else:
-                lim = "slip" if d["R"] <= d["Fpk"] else "soil"
-            return _reason(k, lim, d["R"], avail)
+                lim = "slip" if d.R <= d.Fpk else "soil"
+            return _reason(k, lim, d.R, avail)
     last = len(pd) - 1
-    if Pmax and v1 > 0 and pd[last]["R"] > Pmax / v1:
-        return _reason(last, "power", pd[last]["R"], Pmax / v1)
+    if Pmax and v1 > 0 and pd[last].R > Pmax / v1:
+        return _reason(last, "power", pd[last].R, Pmax / v1)
     m = vehicle.mass
     # fastest possible: largest thrust min(F_s, T/r, P/v), no inertia of the sprocket, sub-steps
     v2 = v0**2
@@ -348,19 +412,19 @@ def _precheck(pd, lengths, vehicle, v0, v1, i_max, Tmax, Pmax, r):
         hs = lengths[k] / 200.0
         for _ in range(200):
             v = math.sqrt(max(v2, 0.0))
-            F = min(d["Fs"], T_thr, Pmax / v if (Pmax and v > 0) else math.inf)
-            v2 = v2 + 2 * hs * (F - d["R"]) / m
+            F = min(d.Fs, T_thr, Pmax / v if (Pmax and v > 0) else math.inf)
+            v2 = v2 + 2 * hs * (F - d.R) / m
     if v1 > math.sqrt(max(v2, 0.0)) * (1 + 1e-9) + 1e-9:
         d = pd[last]
         L = float(sum(lengths))
-        need = sum(p["R"] * lk for p, lk in zip(pd, lengths)) / L + m * (v1**2 - v0**2) / (2 * L)
+        need = sum(p.R * lk for p, lk in zip(pd, lengths)) / L + m * (v1**2 - v0**2) / (2 * L)
         lim = (
             "power"
-            if Pmax and Pmax / v1 <= min(d["Fs"], T_thr)
+            if Pmax and Pmax / v1 <= min(d.Fs, T_thr)
             else "torque"
-            if T_thr < d["Fs"]
+            if T_thr < d.Fs
             else "slip"
-            if d["Fs"] < d["Fpk"] * 0.999
+            if d.Fs < d.Fpk * 0.999
             else "soil"
         )
         avail = need - m * (v1**2 - math.sqrt(max(v2, 0)) ** 2) / (2 * L)
@@ -368,14 +432,14 @@ def _precheck(pd, lengths, vehicle, v0, v1, i_max, Tmax, Pmax, r):
     # slowest possible: largest braking thrust (skid at the slip limit, or the torque limit)
     v2 = v0**2
     for k, d in enumerate(pd):
-        Fb = min(d["Fs"], T_thr)
-        v2 = max(v2 - 2 * lengths[k] * (Fb + d["R"]) / m, 0.0)
+        Fb = min(d.Fs, T_thr)
+        v2 = max(v2 - 2 * lengths[k] * (Fb + d.R) / m, 0.0)
     if math.sqrt(v2) > v1 * (1 + 1e-9) + 1e-9:
         d = pd[last]
         L = float(sum(lengths))
-        need = m * (v0**2 - v1**2) / (2 * L) - sum(p["R"] * lk for p, lk in zip(pd, lengths)) / L
-        avail = min(d["Fs"], T_thr)
-        return _reason(last, "torque" if T_thr < d["Fs"] else "slip", need, avail)
+        need = m * (v0**2 - v1**2) / (2 * L) - sum(p.R * lk for p, lk in zip(pd, lengths)) / L
+        avail = min(d.Fs, T_thr)
+        return _reason(last, "torque" if T_thr < d.Fs else "slip", need, avail)
     return None
 
 
@@ -396,14 +460,14 @@ def _bang_bang(pd, idx, S, v0, v1, T_thr, Pmax, m, max_speed=None) -> np.ndarray
     fwd[0] = v0
     for k in range(n):
         d = pd[idx[k]]
-        F = min(0.95 * d["Fs"], T_thr, Pmax / max(fwd[k], 1e-3))
-        fwd[k + 1] = math.sqrt(max(fwd[k] ** 2 + 2 * h[k] * (F - d["R"]) / m, 0.01))
+        F = min(0.95 * d.Fs, T_thr, Pmax / max(fwd[k], 1e-3))
+        fwd[k + 1] = math.sqrt(max(fwd[k] ** 2 + 2 * h[k] * (F - d.R) / m, 0.01))
     bwd = np.empty(n + 1)
     bwd[n] = v1
     for k in range(n - 1, -1, -1):
         d = pd[idx[k]]
-        F = min(0.95 * d["Fs"], T_thr)
-        bwd[k] = math.sqrt(max(bwd[k + 1] ** 2 + 2 * h[k] * (F + d["R"]) / m, 0.01))
+        F = min(0.95 * d.Fs, T_thr)
+        bwd[k] = math.sqrt(max(bwd[k + 1] ** 2 + 2 * h[k] * (F + d.R) / m, 0.01))
     v = 0.8 * np.minimum(fwd, bwd) + 0.2 * (v0 + (v1 - v0) * S / S[-1])
     if max_speed is not None:
         v = np.minimum(v, max_speed)
@@ -428,7 +492,7 @@ def _slip(v: np.ndarray, w: np.ndarray, r: float) -> np.ndarray:
     )
 
 
-def _initial_slip(d0: dict, vehicle: Vehicle, v0: float, slip0: float | None, bound: float) -> tuple[float, str]:
+def _initial_slip(d0: "PatchData", vehicle: Vehicle, v0: float, slip0: float | None, bound: float) -> tuple[float, str]:
     """The first point's slip: given (checked against the plan's slip bound), 0 at rest, else the steady slip
     that carries the first patch's resistance at ``v0`` (the vehicle is cruising when the plan starts)."""
     if v0 == 0.0:
@@ -440,8 +504,17 @@ def _initial_slip(d0: dict, vehicle: Vehicle, v0: float, slip0: float | None, bo
                 f"patch (the slip limit less the traction reserve of {THRUST_RESERVE:g})"
             )
         return float(slip0), "given"
-    c, phi, K = (float(x) for x in d0["theta"])
-    i_ss = float(slip_from_thrust(np.array([d0["R"]]), Soil(c, phi, K), vehicle, normal_load=d0["N"])[0])
+    c, phi, K = (float(x) for x in d0.theta)
+    i_ss = float(slip_from_thrust(np.array([d0.R]), Soil(c, phi, K), vehicle, normal_load=d0.N)[0])
+    for _ in range(50 if d0.mu_s else 0):  # F(i) = R + mu_s N |i|: a contraction (mu_s N << dF/di)
+        i_new = float(
+            slip_from_thrust(np.array([d0.R + d0.mu_s * d0.N * abs(i_ss)]), Soil(c, phi, K), vehicle, normal_load=d0.N)[
+                0
+            ]
+        )
+        if abs(i_new - i_ss) <= 1e-14:
+            break
+        i_ss = i_new
     if abs(i_ss) > bound:
         return float(np.sign(i_ss) * bound), "steady_capped"
     return i_ss, "steady"
@@ -502,9 +575,26 @@ def plan_patches(patches: tuple[Patch, ...], vehicle: Vehicle, **kw: Any) -> Spe
     return replace(res, patches=tuple(info))
 
 
-def _plan_core(
-    patches: tuple[Patch, ...],
-    vehicle: Vehicle,
+@dataclass(frozen=True)
+class _PlanArgs:
+    """The checked arguments of a plan (internal)."""
+
+    v0: float
+    v1: float
+    distance: float | None
+    duration: float | None
+    i_max: float
+    objective: str
+    intervals: int
+    torque_rate: float | None
+    confidence: float | None
+    route: bool
+    robust_samples: int
+    max_speed: float | None
+    slip0: float | None
+
+
+def _check_args(
     *,
     v0: float,
     v1: float,
@@ -519,8 +609,8 @@ def _plan_core(
     robust_samples: int = ROBUST_SAMPLES,
     max_speed: float | None = None,
     slip0: float | None = None,
-    warm_store: dict | None = None,
-) -> SpeedPlan:
+) -> _PlanArgs:
+    """Every argument of a plan checked (DataError naming the argument)."""
     v0 = check_number("v0", v0, 0.0)
     v1 = check_number("v1", v1, 0.0)
     if v0 + v1 <= 0:
@@ -547,14 +637,23 @@ def _plan_core(
         duration = check_number("duration", duration, 0.0, lo_open=True)
         if objective == "time":
             raise DataError("argument objective: with a duration the time is fixed; use objective 'energy'")
+    if confidence is not None:
+        confidence = check_number("confidence", confidence, 0.5, 1.0, hi_open=True)
+    return _PlanArgs(
+        v0, v1, distance, duration, i_max, objective, int(intervals), torque_rate, confidence, route,
+        robust_samples, max_speed, slip0,
+    )  # fmt: skip
+
+
+def _limits(vehicle: Vehicle, a: _PlanArgs) -> tuple[Any, dict, list[str]]:
+    """The drivetrain limits (``drive_limits``), the ``limits`` dict of the result and the notes on them."""
     lim = drive_limits(vehicle)
-    Tmax, Pmax, r = lim.max_sprocket_torque, lim.max_power, vehicle.sprocket_radius
     limits = {
-        "max_torque_Nm": float(Tmax),
-        "max_power_W": float(Pmax),
-        "max_slip": float(i_max),
-        "torque_rate_Nm_s": torque_rate,
-        "max_speed_m_s": max_speed,
+        "max_torque_Nm": float(lim.max_sprocket_torque),
+        "max_power_W": float(lim.max_power),
+        "max_slip": float(a.i_max),
+        "torque_rate_Nm_s": a.torque_rate,
+        "max_speed_m_s": a.max_speed,
         "torque_assumed": lim.torque_assumed,
         "power_assumed": lim.power_assumed,
     }
@@ -564,66 +663,64 @@ def _plan_core(
             "the vehicle gives no "
             + " and no ".join(
                 x
-                for x, a in (
+                for x, on in (
                     ("torque limit (0.8 W r assumed)", lim.torque_assumed),
                     ("power limit (15 W/kg assumed)", lim.power_assumed),
                 )
-                if a
+                if on
             )
         )
-    pd = _patch_data(patches, vehicle, i_max)
-    if confidence is not None:
-        confidence = check_number("confidence", confidence, 0.5, 1.0, hi_open=True)
-        if not any(d["unc"] is not None for d in pd):
-            raise DataError(
-                "argument confidence needs an identified soil (--fit / a FitResult): the soil given has no uncertainty"
-            )
-        z = NormalDist().inv_cdf(confidence)
-        for d in pd:
-            u = d["unc"]
-            if u is None:
-                continue
+    return lim, limits, notes
+
+
+def _backed_off(pd: list[PatchData], vehicle: Vehicle, i_max: float, confidence: float) -> list[PatchData]:
+    """A robust plan's soils: each identified soil backed off to the one-sided ``confidence`` quantile of its
+    thrust at the slip limit (linearised covariance)."""
+    if not any(d.unc is not None for d in pd):
+        raise DataError(
+            "argument confidence needs an identified soil (--fit / a FitResult): the soil given has no uncertainty"
+        )
+    z = NormalDist().inv_cdf(confidence)
+    out = []
+    for d in pd:
+        u = d.unc
+        if u is not None:
             g = np.asarray(
-                sensitivity_function("full")(i_max, *d["theta"], d["N"], vehicle.track_length, vehicle.track_width),
+                sensitivity_function("full")(i_max, *d.theta, d.N, vehicle.track_length, vehicle.track_width),
                 dtype=float,
-            ).ravel() @ u.jacobian_at(d["N"])
+            ).ravel() @ u.jacobian_at(d.N)
             sd = math.sqrt(max(float(g @ u.cov @ g), 0.0))
             if sd > 0:
-                q = u.mean - z * (u.cov @ g) / sd
-                d["theta"] = u.soils_at(q, d["N"])[0]
-                d["Fs"] = float(soil_thrust(d["theta"], i_max, d["N"], vehicle, "full")[0])
-                d["Fpk"] = float(soil_thrust(d["theta"], 0.999, d["N"], vehicle, "full")[0])
-        notes.append(
-            f"robust plan: soils backed off to the one-sided {confidence:.3g} quantile of their thrust at the "
-            "slip limit (linearised covariance), checked by Monte Carlo"
-        )
-    lengths = np.array([p.length_m for p in patches], dtype=float)
-    if duration is not None:
-        pre = None
-        for k, d in enumerate(pd):
-            if d["R"] > min(d["Fs"], Tmax / r):
-                T_thr = Tmax / r
-                pre = _reason(
-                    k,
-                    "torque" if T_thr < d["Fs"] else ("slip" if d["R"] <= d["Fpk"] else "soil"),
-                    d["R"],
-                    min(d["Fs"], T_thr),
+                th = u.soils_at(u.mean - z * (u.cov @ g) / sd, d.N)[0]
+                d = replace(
+                    d,
+                    theta=th,
+                    Fs=float(soil_thrust(th, i_max, d.N, vehicle, "full")[0]),
+                    Fpk=float(soil_thrust(th, 0.999, d.N, vehicle, "full")[0]),
                 )
-                break
-    else:
-        pre = _precheck(pd, lengths, vehicle, v0, v1, i_max, Tmax, Pmax, r)
-    if pre is not None:
-        msg = (
-            f"patch {pre['patch']} ({patches[pre['patch']].label}, grade {patches[pre['patch']].grade_deg:g} deg): "
-            f"needs {format_force(pre['required_N'])}, the {pre['limit']} limit gives "
-            f"{format_force(pre['available_N'])} (short by {format_force(pre['short_by_N'])}); found by the "
-            "steady-state check before the solver"
-        )
-        return _infeasible(pre, msg, objective, limits, notes, len(patches))
-    counts = _mesh(lengths, intervals) if duration is None else np.array([intervals])
+        out.append(d)
+    return out
+
+
+def _pre_solver_reason(pd, lengths, vehicle, a: _PlanArgs, Tmax, Pmax, r) -> dict | None:
+    """Why the plan cannot exist, found at steady state before the solver (``None``: the solver decides)."""
+    if a.duration is None:
+        return _precheck(pd, lengths, vehicle, a.v0, a.v1, a.i_max, Tmax, Pmax, r)
+    T_thr = Tmax / r
+    for k, d in enumerate(pd):
+        if d.R > min(d.Fs, T_thr):
+            lim = "torque" if T_thr < d.Fs else ("slip" if d.R <= d.Fpk else "soil")
+            return _reason(k, lim, d.R, min(d.Fs, T_thr))
+    return None
+
+
+def _ocp_data(pd, patches, vehicle, a: _PlanArgs, lengths, Tmax, Pmax):
+    """The mesh (in distance), the per-interval soil and limits, and the start: ``(OcpData, idx, i0 source)``."""
+    r = vehicle.sprocket_radius
+    counts = _mesh(lengths, a.intervals) if a.duration is None else np.array([a.intervals])
     n = int(counts.sum())
     idx = np.repeat(np.arange(len(patches)), counts)
-    if duration is None:
+    if a.duration is None:
         S = np.concatenate(
             [[0.0]]
             + [
@@ -632,54 +729,58 @@ def _plan_core(
             ]
         )
     else:
-        S = np.linspace(0.0, 0.5 * (v0 + v1) * duration, n + 1)
-    th = np.array([pd[k]["theta"] for k in idx])
-    bounds_p = [_slip_bound(tuple(map(float, d["theta"])), d["N"], d["Fs"], i_max, vehicle) for d in pd]
+        S = np.linspace(0.0, 0.5 * (a.v0 + a.v1) * a.duration, n + 1)
+    th = np.array([pd[k].theta for k in idx])
+    bounds_p = [_slip_bound(tuple(map(float, d.theta)), d.N, d.Fs, a.i_max, vehicle) for d in pd]
     slip_bound = np.array([bounds_p[k] for k in idx])
-    i0, i0_source = _initial_slip(pd[0], vehicle, v0, slip0, float(slip_bound[0]))
-    w0 = 0.0 if v0 == 0.0 else v0 / (r * (1.0 - i0))
+    i0, i0_source = _initial_slip(pd[0], vehicle, a.v0, a.slip0, float(slip_bound[0]))
     data = OcpData(
         c=th[:, 0],
         phi=th[:, 1],
         K=th[:, 2],
-        grade=np.array([pd[k]["grade"] for k in idx]),
-        Rc=np.array([pd[k]["Rc"] for k in idx]),
+        grade=np.array([pd[k].grade for k in idx]),
+        Rc=np.array([pd[k].Rc for k in idx]),
         s=S,
-        v0=v0,
-        v1=v1,
-        distance=None if duration is not None else float(lengths.sum()),
-        duration=duration,
+        v0=a.v0,
+        v1=a.v1,
+        distance=None if a.duration is not None else float(lengths.sum()),
+        duration=a.duration,
         slip_bound=slip_bound,
         max_torque=Tmax,
         max_power=Pmax * (1 - THRUST_RESERVE),
-        max_slip=i_max,
-        torque_rate=torque_rate,
-        objective=objective,
-        v_guess=_bang_bang(pd, idx, S, v0, v1, Tmax / r, Pmax, vehicle.mass, max_speed)
-        if objective == "time" and duration is None
+        max_slip=a.i_max,
+        torque_rate=a.torque_rate,
+        objective=a.objective,
+        v_guess=_bang_bang(pd, idx, S, a.v0, a.v1, Tmax / r, Pmax, vehicle.mass, a.max_speed)
+        if a.objective == "time" and a.duration is None
         else None,
-        w0=w0,
-        max_speed=max_speed,
+        w0=0.0 if a.v0 == 0.0 else a.v0 / (r * (1.0 - i0)),
+        max_speed=a.max_speed,
+        mu_s=np.array([pd[k].mu_s for k in idx]) if any(d.mu_s for d in pd) else None,
     )
+    return data, idx, i0_source
+
+
+def _slip_guesser(pd, idx, vehicle):
+    """``F -> slip`` per interval (the inverse thrust-slip curve of each interval's soil): the solver's start."""
 
     def slip_guess(F):
-        out = np.empty(n)
-        for k in range(len(patches)):
+        out = np.empty(idx.size)
+        for k, d in enumerate(pd):
             sel = idx == k
-            c, phi, K = map(float, pd[k]["theta"])  # [c, phi, K] (_patch_data)
-            soil_k = Soil(c, phi, K)
-            s_, ok = slip_from_thrust(F[sel], soil_k, vehicle, normal_load=pd[k]["N"], return_reachable=True)
+            s_, _ok = slip_from_thrust(
+                F[sel], Soil(*map(float, d.theta)), vehicle, normal_load=d.N, return_reachable=True
+            )
             out[sel] = s_
         return out
 
-    sol = solve_ocp(data, vehicle, slip_guess, warm_store)
-    v, w, M, dt = sol["v"], sol["w"], sol["M"], sol["dt"]
-    Z = sol["Z"]
-    i_nodes = _slip(v, w, r)
-    i_col = _slip(Z[0], Z[1], r)
-    Nn = np.array([pd[k]["N"] for k in idx])
-    kk = np.minimum(np.arange(n + 1), n - 1)  # node k takes the soil of interval k (the end node: the last)
-    F_nodes = np.asarray(
+    return slip_guess
+
+
+def _node_thrust(i_nodes, th, Nn, n, vehicle) -> np.ndarray:
+    """Eq. 2 at the mesh nodes (node k takes the soil of interval k; the end node the last)."""
+    kk = np.minimum(np.arange(n + 1), n - 1)
+    return np.asarray(
         thrust_function("full")(
             i_nodes.reshape(1, -1),
             th[kk, 0].reshape(1, -1),
@@ -691,11 +792,13 @@ def _plan_core(
         ),
         dtype=float,
     ).ravel()
-    Fs_int = np.array([pd[k]["Fs"] for k in idx])
-    # checks after the solver (mesh and collocation points)
+
+
+def _violated(sol, i_nodes, i_col, a: _PlanArgs, Tmax, Pmax) -> tuple[list[str], float]:
+    """The limits broken after the solve at the mesh and collocation points, and the peak speed."""
+    v, w, M, Z = sol["v"], sol["w"], sol["M"], sol["Z"]
     viol = []
-    tol_i = 1e-6
-    if max(np.max(np.abs(i_nodes)), np.max(np.abs(i_col))) > i_max + tol_i:
+    if max(np.max(np.abs(i_nodes)), np.max(np.abs(i_col))) > a.i_max + 1e-6:
         viol.append("slip")
     if np.max(np.abs(M)) > Tmax * (1 + 1e-6):
         viol.append("torque")
@@ -704,38 +807,51 @@ def _plan_core(
     if Pmax and np.max(M_all * w_all) > Pmax * (1 + 1e-5):
         viol.append("power")
     peak = float(max(np.max(v), np.max(Z[0])))
-    if max_speed is not None and peak > max_speed * (1 + 1e-6):
+    if a.max_speed is not None and peak > a.max_speed * (1 + 1e-6):
         viol.append("speed")
-    ok = sol["success"] and not viol and abs(v[-1] - v1) <= 1e-6 * max(1.0, v1)
-    if not ok:
-        k_int = int(np.argmin(Fs_int - np.abs(F_nodes[:-1])))
-        k = int(idx[k_int])
-        d = pd[k]
-        reason = _reason(k, "slip" if d["Fs"] < Tmax / r else "torque", d["R"], float(min(d["Fs"], Tmax / r)))
-        msg = (
-            f"the solver found no feasible profile (IPOPT: {sol['status']}"
-            f"{'; violated after the solve: ' + ', '.join(viol) if viol else ''}); the plan is tightest on patch {k}"
-        )
-        return SpeedPlan(
-            False,
-            sol["status"],
-            msg,
-            objective,
-            None,
-            None,
-            sol["solve_time"],
-            sol["iterations"],
-            sol["warm"],
-            {k_: [] for k_ in _SERIES},
-            reason,
-            {},
-            limits,
-            tuple(notes),
-            None,
-            len(patches),
-        )
+    return viol, peak
+
+
+def _solver_failed(sol, viol, pd, idx, Fs_int, F_nodes, Tmax, r, a, limits, notes, n_patches) -> SpeedPlan:
+    """The result of a solve that found no feasible profile: the patch where the plan is tightest."""
+    k = int(idx[int(np.argmin(Fs_int - np.abs(F_nodes[:-1])))])
+    d = pd[k]
+    reason = _reason(k, "slip" if d.Fs < Tmax / r else "torque", d.R, float(min(d.Fs, Tmax / r)))
+    msg = (
+        f"the solver found no feasible profile (IPOPT: {sol['status']}"
+        f"{'; violated after the solve: ' + ', '.join(viol) if viol else ''}); the plan is tightest on patch {k}"
+    )
+    return SpeedPlan(
+        False, sol["status"], msg, a.objective, None, None, sol["solve_time"], sol["iterations"], sol["warm"],
+        {k_: [] for k_ in _SERIES}, reason, {}, limits, tuple(notes), None, n_patches,
+    )  # fmt: skip
+
+
+def _active(sol, i_nodes, slip_bound, a: _PlanArgs, Tmax, Pmax) -> dict:
+    """In how many intervals each limit is active."""
+    v, w, M, dt, Z = sol["v"], sol["w"], sol["M"], sol["dt"], sol["Z"]
+    n = M.size
+    sb_nodes = np.concatenate([slip_bound, slip_bound[-1:]])
+    at_slip = np.abs(i_nodes) >= sb_nodes * (1 - 1e-4)
+    tr = a.torque_rate
+    active = {
+        "slip": int(np.sum(at_slip[:-1] | at_slip[1:])),
+        "torque": int(np.sum(np.abs(M) >= Tmax * (1 - 1e-6))),
+        "power": int(np.sum(np.maximum(M * w[:-1], M * w[1:]) >= Pmax * (1 - THRUST_RESERVE) * (1 - 1e-4))),
+        "torque_rate": (int(np.sum(np.abs(np.diff(M)) >= tr * 0.5 * (dt[1:] + dt[:-1]) * (1 - 1e-4))) if tr else 0),
+    }
+    if a.max_speed is not None:
+        v_int = np.maximum(np.maximum(v[:-1], v[1:]), Z[0].reshape(n, DEGREE).max(axis=1))
+        active["speed"] = int(np.sum(v_int >= a.max_speed * (1 - 1e-4)))
+    return active
+
+
+def _series_and_mesh(sol, data, i_nodes, i_col, F_nodes, Fs_int, idx, th, Nn) -> tuple[dict, dict, float]:
+    """The result's series, its mesh record (for replay and the robust check) and the positive sprocket work."""
+    v, w, M, dt, Z = sol["v"], sol["w"], sol["M"], sol["dt"], sol["Z"]
+    n = M.size
     t = np.concatenate([[0.0], np.cumsum(dt)])
-    rep = lambda a: np.append(a, a[-1])  # noqa: E731 - interval value at its start node, last repeated
+    rep = lambda x: np.append(x, x[-1])  # noqa: E731 - interval value at its start node, last repeated
     series = {
         "time_s": t,
         "distance_m": sol["s"],
@@ -747,8 +863,8 @@ def _plan_core(
         "margin_N": rep(Fs_int) - np.abs(F_nodes),
         "patch": rep(idx),
     }
-    series = {k: [float(a) for a in vals] if k != "patch" else [int(a) for a in vals] for k, vals in series.items()}
-    tau, _C, B = radau_collocation(DEGREE)
+    series = {k: [float(x) for x in vals] if k != "patch" else [int(x) for x in vals] for k, vals in series.items()}
+    _tau, _C, B = radau_collocation(DEGREE)
     w_int = np.array([np.dot(B[1:], Z[1, k * DEGREE : (k + 1) * DEGREE]) for k in range(n)])
     energy = float(np.sum(np.maximum(M * dt * w_int, 0.0)))  # positive sprocket work (braking not recovered)
     mesh = {
@@ -766,83 +882,85 @@ def _plan_core(
         "patch": idx,
         "slip_collocation": i_col,
     }
-    msg = (
-        f"feasible profile: {sol['s'][-1]:.4g} m in {t[-1]:.4g} s; limits checked after the solve at the mesh "
-        "and collocation points"
-    )
-    sb_nodes = np.concatenate([slip_bound, slip_bound[-1:]])
-    at_slip = np.abs(i_nodes) >= sb_nodes * (1 - 1e-4)
-    active = {
-        "slip": int(np.sum(at_slip[:-1] | at_slip[1:])),
-        "torque": int(np.sum(np.abs(M) >= Tmax * (1 - 1e-6))),
-        "power": int(np.sum(np.maximum(M * w[:-1], M * w[1:]) >= Pmax * (1 - THRUST_RESERVE) * (1 - 1e-4))),
-        "torque_rate": (
-            int(np.sum(np.abs(np.diff(M)) >= torque_rate * 0.5 * (dt[1:] + dt[:-1]) * (1 - 1e-4))) if torque_rate else 0
-        ),
-    }
-    if max_speed is not None:
-        v_int = np.maximum(np.maximum(v[:-1], v[1:]), Z[0].reshape(n, DEGREE).max(axis=1))
-        active["speed"] = int(np.sum(v_int >= max_speed * (1 - 1e-4)))
-    stand = _standstills(t, v, sol["s"])
-    if stand and objective == "energy" and duration is not None:
+    if data.mu_s is not None:
+        mesh["mu_s"] = data.mu_s
+    return series, mesh, energy
+
+
+def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, warm_store: dict | None = None, **kw) -> SpeedPlan:
+    """Check, pre-check at steady state, solve, check after the solve, record (the steps above)."""
+    a = _check_args(**kw)
+    lim, limits, notes = _limits(vehicle, a)
+    Tmax, Pmax, r = lim.max_sprocket_torque, lim.max_power, vehicle.sprocket_radius
+    pd = _patch_data(patches, vehicle, a.i_max)
+    if a.confidence is not None:
+        pd = _backed_off(pd, vehicle, a.i_max, a.confidence)
+        notes.append(
+            f"robust plan: soils backed off to the one-sided {a.confidence:.3g} quantile of their thrust at the "
+            "slip limit (linearised covariance), checked by Monte Carlo"
+        )
+    lengths = np.array([p.length_m for p in patches], dtype=float)
+    pre = _pre_solver_reason(pd, lengths, vehicle, a, Tmax, Pmax, r)
+    if pre is not None:
+        pk = patches[pre["patch"]]
+        msg = (
+            f"patch {pre['patch']} ({pk.label}, grade {pk.grade_deg:g} deg): needs {format_force(pre['required_N'])}, "
+            f"the {pre['limit']} limit gives {format_force(pre['available_N'])} (short by "
+            f"{format_force(pre['short_by_N'])}); found by the steady-state check before the solver"
+        )
+        return _infeasible(pre, msg, a.objective, limits, notes, len(patches))
+    data, idx, i0_source = _ocp_data(pd, patches, vehicle, a, lengths, Tmax, Pmax)
+    n = idx.size
+    sol = solve_ocp(data, vehicle, _slip_guesser(pd, idx, vehicle), warm_store)
+    i_nodes, i_col = _slip(sol["v"], sol["w"], r), _slip(sol["Z"][0], sol["Z"][1], r)
+    th = np.array([pd[k].theta for k in idx])
+    Nn = np.array([pd[k].N for k in idx])
+    F_nodes = _node_thrust(i_nodes, th, Nn, n, vehicle)
+    Fs_int = np.array([pd[k].Fs for k in idx])
+    viol, peak = _violated(sol, i_nodes, i_col, a, Tmax, Pmax)
+    if not (sol["success"] and not viol and abs(sol["v"][-1] - a.v1) <= 1e-6 * max(1.0, a.v1)):
+        return _solver_failed(sol, viol, pd, idx, Fs_int, F_nodes, Tmax, r, a, limits, notes, len(patches))
+    series, mesh, energy = _series_and_mesh(sol, data, i_nodes, i_col, F_nodes, Fs_int, idx, th, Nn)
+    t = series["time_s"]
+    stand = _standstills(np.asarray(t), sol["v"], sol["s"])
+    if stand and a.objective == "energy" and a.duration is not None:
         notes.append(
             "the energy objective counts the sprocket's positive work only and, with a duration, the "
             "distance is free: standing still costs nothing, so the plan waits (see the standstills)"
         )
-    res = SpeedPlan(
-        True,
-        sol["status"],
-        msg,
-        objective,
-        float(t[-1]),
-        energy,
-        sol["solve_time"],
-        sol["iterations"],
-        sol["warm"],
-        series,
-        None,
-        mesh,
-        limits,
-        tuple(notes),
-        None,
-        len(patches),
-        active_limits=active,
-        peak_speed_m_s=peak,
-        standstills=stand,
-        initial_slip=float(i_nodes[0]),
-        initial_slip_source=i0_source,
+    msg = (
+        f"feasible profile: {sol['s'][-1]:.4g} m in {t[-1]:.4g} s; limits checked after the solve at the mesh "
+        "and collocation points"
     )
-    if confidence is not None:
-        kw = dict(
-            v0=v0,
-            v1=v1,
-            distance=distance,
-            duration=duration,
-            max_slip=i_max,
-            objective=objective,
-            intervals=intervals,
-            torque_rate=torque_rate,
-            route=route,
-            max_speed=max_speed,
-            slip0=slip0,
-        )
-        if isinstance(robust_samples, bool) or not isinstance(robust_samples, int) or robust_samples < 10:
-            raise DataError(f"argument robust_samples must be an integer >= 10, got {robust_samples!r}")
-        res = _with_mesh(res, mesh)
-        res = replace(res, robust=_robust_check(res, pd, idx, vehicle, i_max, confidence, patches, kw, robust_samples))
-    return res
+    res = SpeedPlan(
+        True, sol["status"], msg, a.objective, float(t[-1]), energy, sol["solve_time"], sol["iterations"],
+        sol["warm"], series, None, mesh, limits, tuple(notes), None, len(patches),
+        active_limits=_active(sol, i_nodes, data.slip_bound, a, Tmax, Pmax), peak_speed_m_s=peak,
+        standstills=stand, initial_slip=float(i_nodes[0]), initial_slip_source=i0_source,
+    )  # fmt: skip
+    if a.confidence is None:
+        return res
+    rkw = dict(
+        v0=a.v0, v1=a.v1, distance=a.distance, duration=a.duration, max_slip=a.i_max, objective=a.objective,
+        intervals=a.intervals, torque_rate=a.torque_rate, route=a.route, max_speed=a.max_speed, slip0=a.slip0,
+    )  # fmt: skip
+    rs = a.robust_samples
+    if isinstance(rs, bool) or not isinstance(rs, int) or rs < 10:
+        raise DataError(f"argument robust_samples must be an integer >= 10, got {rs!r}")
+    res = _with_mesh(res, mesh)
+    return replace(res, robust=_robust_check(res, pd, idx, vehicle, a.i_max, a.confidence, patches, rkw, rs))
 
 
 def _violations(result, pd, idx, vehicle, i_max, n_samples, seed=1) -> float:
     """Fraction of sampled soils for which the planned torque, replayed open-loop, breaks the slip limit."""
-    qs = {k: d["unc"].sample(n_samples, seed + k) for k, d in enumerate(pd) if d["unc"] is not None}
+    qs = {k: d.unc.sample(n_samples, seed + k) for k, d in enumerate(pd) if d.unc is not None}
     broken = 0
     for j in range(n_samples):
         mesh = dict(result.mesh)
         th = np.column_stack([mesh["c"], mesh["phi"], mesh["K"]]).copy()
         for k, q in qs.items():
             sel = idx == k
-            th[sel] = pd[k]["unc"].soils_at(q[j], pd[k]["N"])[0]
+            th[sel] = pd[k].unc.soils_at(q[j], pd[k].N)[0]
         mesh.update(c=th[:, 0], phi=th[:, 1], K=th[:, 2])
         rp = replay(_with_mesh(result, mesh), vehicle, substeps=4)
         broken += bool(np.max(np.abs(rp.slip)) > i_max * (1 + 1e-3))
@@ -925,7 +1043,7 @@ def profile(
     else:
         length = 1.0
     grade_deg = check_number("grade_deg", grade_deg, -68.75, 68.75)
-    return plan_patches(
+    plan = plan_patches(
         (Patch(length, terrain, grade_deg),),
         vehicle,
         v0=v0,
@@ -942,6 +1060,7 @@ def profile(
         max_speed=max_speed,
         slip0=slip0,
     )
+    return with_fit_headline(plan, (terrain,))
 
 
 def route_profile(
@@ -959,7 +1078,7 @@ def route_profile(
     ``slip0`` as for :func:`profile`.
     """
     n = max(DEFAULT_INTERVALS, 10 * len(route.patches)) if intervals is None else intervals
-    return plan_patches(
+    plan = plan_patches(
         route.patches,
         vehicle,
         v0=route.v0_m_s,
@@ -975,3 +1094,4 @@ def route_profile(
         max_speed=max_speed,
         slip0=slip0,
     )
+    return with_fit_headline(plan, [p.terrain for p in route.patches])

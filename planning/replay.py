@@ -40,11 +40,12 @@ class Replay:
 
 @locked_cache(maxsize=16)
 def step_function(vehicle: Vehicle, substeps: int) -> ca.Function:
-    """CVODES over one held-torque interval: ``x0 = [v, w]``, ``p = [M, c, phi, K, theta, R_c, dt]``, with
-    ``substeps`` equally spaced outputs."""
+    """CVODES over one held-torque interval: ``x0 = [v, w]``, ``p = [M, c, phi, K, theta, R_c, dt, mu_s]``, with
+    ``substeps`` equally spaced outputs (``mu_s``: the ``slip_sinkage`` coefficient, 0 for the nominal model)."""
     x = ca.SX.sym("x", 2)
-    p = ca.SX.sym("p", 7)  # M, c, phi, K, theta, R_c, dt
-    d = dynamics_expr(x[0], x[1], p[0], p[1], p[2], p[3], vehicle, {"grade": {"theta_rad": p[4]}})
+    p = ca.SX.sym("p", 8)  # M, c, phi, K, theta, R_c, dt, mu_s
+    eff = {"grade": {"theta_rad": p[4]}, "slip_sinkage": {"mu_s": p[7]}}
+    d = dynamics_expr(x[0], x[1], p[0], p[1], p[2], p[3], vehicle, eff)
     dv = d["dv"] - p[5] / vehicle.mass
     ode = p[6] * ca.vertcat(dv, d["dw"])  # normalised time tau in [0, 1]
     grid = list(np.linspace(0.0, 1.0, substeps + 1)[1:])
@@ -81,6 +82,7 @@ def replay(result, vehicle: Vehicle, substeps: int = 8) -> Replay:
             float(m["grade_rad"][k]),
             float(m["compaction_N"][k]),
             float(m["dt"][k]),
+            float(m["mu_s"][k]) if "mu_s" in m else 0.0,
         ]
         out, _ = call_solver(step, x0=x, p=p)
         X = np.asarray(out["xf"], dtype=float)

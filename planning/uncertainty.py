@@ -26,7 +26,7 @@ box); the delta method uses the same mapping, differentiated.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -34,6 +34,7 @@ import numpy as np
 from ..soilmodel import PRACTICAL_BOUNDS, DataError, Soil, SoilBounds, Vehicle, format_force
 from ..soilmodel.jsonread import load_json_file
 from .fit_json_checks import check_fit_numbers
+from .fit_vehicle import FitContext, check_fit_vehicle, read_fit_context
 
 __all__ = [
     "SoilUncertainty",
@@ -79,6 +80,9 @@ class SoilUncertainty:
         Contact area A of both tracks of the fitted vehicle, m^2 (maps F_max to the ridge).
     success
         Whether the fit succeeded.
+    context
+        What the fit JSON says beyond the soil (outcome, running gear, effects); ``None`` for a
+        ``FitResult`` or an on-line estimate.
     """
 
     kind: str
@@ -91,6 +95,7 @@ class SoilUncertainty:
     source: str
     area: float
     success: bool = True
+    context: FitContext | None = None
 
     @property
     def dim(self) -> int:
@@ -189,11 +194,40 @@ def _psd_sqrt(C: np.ndarray) -> np.ndarray:
 def uncertainty_from_fit(fit: Any) -> SoilUncertainty:
     """Build a :class:`SoilUncertainty` from a ``FitResult`` (public attributes only).
 
+    The fit's outcome, running gear (its vehicle) and effects are kept in ``context``, as for a fit
+    JSON (:func:`load_fit_json`); planning with another vehicle than the fit's is said, not refused
+    (in Python the caller passes the fit on purpose).
+
     Raises
     ------
     DataError
         The fit failed, or it carries no usable uncertainty.
     """
+    u = _soil_of_fit(fit)
+    return replace(u, context=_context_of_fit(fit))
+
+
+def _context_of_fit(fit: Any) -> FitContext:
+    """Outcome, running gear and effect values of a ``FitResult`` (public attributes only)."""
+    v = fit.vehicle
+    gear = {
+        "kind": "track",
+        "name": getattr(v, "name", "") or "fit's vehicle",
+        "weight_N": float(v.weight),
+        "contact_area_m2": float(v.contact_area),
+        "track_length_m": float(v.track_length),
+    }
+    effects = {
+        name: {p: float(e.value) for p, e in params.items() if e.value is not None}
+        for name, params in (getattr(fit, "effects", None) or {}).items()
+    }
+    outcome = getattr(fit, "outcome", None)
+    outcome = {"converged": "usable", "not usable": "not_usable"}.get(outcome, outcome)
+    return FitContext("the FitResult", outcome, None, gear, effects)
+
+
+def _soil_of_fit(fit: Any) -> SoilUncertainty:
+    """The soil's Gaussian of a ``FitResult``."""
     if not fit.success:
         raise DataError(f"the fit did not succeed ({fit.status}): no soil to plan with")
     loads = np.asarray(fit.normal_loads, dtype=float)
@@ -346,14 +380,17 @@ def _ridge(F, sF, K, sK, rho, W0, bounds, model, area, source) -> SoilUncertaint
     )
 
 
-def load_fit_json(path: str, vehicle: Vehicle) -> SoilUncertainty:
+def load_fit_json(path: str, vehicle: Vehicle, *, allow_other_vehicle: bool = False) -> SoilUncertainty:
     """Read what ``soiltrack fit --json`` printed and build a :class:`SoilUncertainty`.
 
     Uses the ``"covariance"`` block (``{"parameters", "matrix", "units": "SI"}``) when present;
     otherwise rebuilds the covariance from the standard errors and the correlation matrix (or,
     for c and phi at one load, from F_max's and K's standard errors and their correlation) and
     says so in ``source``. The JSON carries no bounds: the practical soil range is used. The
-    fit is assumed to be of ``vehicle`` (its contact area maps F_max to the ridge).
+    fit's ``running_gear`` is checked against ``vehicle``
+    (:func:`~soiltrack.planning.fit_vehicle.check_fit_vehicle`: refused beyond the tolerance unless
+    ``allow_other_vehicle``); its contact area maps F_max to the ridge (the vehicle's when the JSON
+    records none). Outcome, running gear and effects are kept in ``context``.
 
     Raises
     ------
@@ -376,10 +413,16 @@ def load_fit_json(path: str, vehicle: Vehicle) -> SoilUncertainty:
     if model not in ("full", "cohesion-free"):
         raise DataError(f"unknown model {model!r}", file=src, column="model")
     params = obj["parameters"]
+    ctx = check_fit_vehicle(read_fit_context(obj, src), vehicle, allow_other=allow_other_vehicle)
     loads = obj.get("normal_loads_N") or [vehicle.weight]
     W0 = _num(loads[0], src, "normal_loads_N")
     bounds = PRACTICAL_BOUNDS
-    area = vehicle.contact_area
+    gear_area = (ctx.running_gear or {}).get("contact_area_m2")
+    area = (
+        float(gear_area)
+        if isinstance(gear_area, (int, float)) and not isinstance(gear_area, bool) and gear_area > 0
+        else vehicle.contact_area
+    )
     scale = {"cohesion_kpa": 1e3, "friction_angle_deg": math.pi / 180.0, "shear_modulus_m": 1.0}
     names_si = {"cohesion_kpa": "cohesion", "friction_angle_deg": "friction_angle", "shear_modulus_m": "shear_modulus"}
 
@@ -423,9 +466,22 @@ def load_fit_json(path: str, vehicle: Vehicle) -> SoilUncertainty:
                 source = "rebuilt from the standard errors and correlations of the fit JSON (no covariance block)"
             cov = R * np.outer(se, se)
         return SoilUncertainty(
-            "parameters", model, tuple(names_si[k] for k in keys), mean, cov, W0, bounds, source, float(area)
+            "parameters",
+            model,
+            tuple(names_si[k] for k in keys),
+            mean,
+            cov,
+            W0,
+            bounds,
+            source,
+            float(area),
+            context=ctx,
         )
-    # ridge (full model, one load): F_max and K
+    return replace(_ridge_from_json(obj, src, W0, bounds, model, area), context=ctx)
+
+
+def _ridge_from_json(obj: dict, src: str, W0: float, bounds, model: str, area: float) -> SoilUncertainty:
+    """The ridge (full model, one load) of a fit JSON: F_max and K with their correlation."""
     combos = obj.get("combinations") or []
     fm = next((c for c in combos if isinstance(c, dict) and str(c.get("name", "")).startswith("F_max@")), None)
     kk = next((c for c in combos if isinstance(c, dict) and c.get("name") == "K"), None)

@@ -16,6 +16,7 @@ from __future__ import annotations
 import codecs
 import csv
 import math
+import re
 import os
 from array import array
 from typing import Iterator
@@ -128,17 +129,19 @@ class _BadRows:
         self.count = 0
         self.first: tuple[str, str | None] | None = None  # (reason, column) of the first bad row
         self.columns: set[str] = set()
+        self._last = -1  # the last row counted (``rows`` stops growing after the first few)
 
     def add(self, row: int, reason: str, column: str | None) -> None:
-        if self.rows and self.rows[-1] == row:
-            return  # one row counted once
+        if column is not None:
+            self.columns.add(column)
+        if self._last == row:
+            return  # one row counted once, however many of its columns are bad
+        self._last = row
         self.count += 1
         if len(self.rows) < SHOWN_ROWS:
             self.rows.append(row)
         if self.first is None:
             self.first = (reason, column)
-        if column is not None:
-            self.columns.add(column)
 
 
 def bad_rows_error(mask: np.ndarray, path: str, column: str | None, reason: str) -> DataError:
@@ -149,12 +152,17 @@ def bad_rows_error(mask: np.ndarray, path: str, column: str | None, reason: str)
     return DataError(text, file=path, column=column, rows=rows, count=int(idx.size))
 
 
+#: A number written with a decimal comma (``0,0098``).
+_DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+$")
+
+
 def _parse(text: str) -> tuple[float, str | None]:
     t = text.strip()
     try:
         v = float(t)
     except ValueError:
-        return math.nan, (f"'{t[:40]}{'...' if len(t) > 40 else ''}' is not a number" if t else "empty value")
+        comma = " (a decimal comma? the files use a decimal point)" if _DECIMAL_COMMA.match(t) else ""
+        return math.nan, (f"'{t[:40]}{'...' if len(t) > 40 else ''}' is not a number{comma}" if t else "empty value")
     if not math.isfinite(v):
         return v, f"value '{t}' is not a finite number"
     if abs(v) > MAX_ABS_VALUE:

@@ -25,6 +25,7 @@ _JSON_FIELDS = {  # JSON key -> dataclass field
     "max_power_W": "max_power",
     "road_wheels": "road_wheels",
     "ground_clearance_m": "ground_clearance",
+    "cg_height_m": "cg_height",
 }
 #: Plausible ranges (SI) of the vehicle's numbers; anything outside is refused at input, because a
 #: typo (a mass of 1e300 kg, a track 500 m long) would otherwise surface as overflow deep in a solver.
@@ -37,6 +38,7 @@ LIMITS = {
     "sprocket_inertia": (0.0, 1e8, "kg m^2"),
     "max_sprocket_torque": (0.0, 1e9, "N m"),
     "max_power": (0.0, 1e9, "W"),
+    "cg_height": (0.0, 50.0, "m"),
 }
 
 _REQUIRED = (
@@ -72,6 +74,9 @@ class Vehicle:
     ground_clearance
         Height of the belly above the track's ground contact, m (stuck prediction: sinkage
         reaching the belly); ``None`` when unknown.
+    cg_height
+        Height of the centre of gravity above the track's ground contact, m (static tipping limit
+        on a grade, :func:`soiltrack.planning.stability.slope_limits`); ``None`` when unknown.
     name
         Free text label.
     """
@@ -87,6 +92,7 @@ class Vehicle:
     road_wheels: int | None = None
     name: str = ""
     ground_clearance: float | None = None
+    cg_height: float | None = None
 
     def __post_init__(self) -> None:
         positive = ("mass", "track_length", "track_width", "sprocket_radius")
@@ -102,7 +108,7 @@ class Vehicle:
                 raise DataError(f"vehicle {f.name} must be > 0, got {v}")
             if v < 0:
                 raise DataError(f"vehicle {f.name} must be >= 0, got {v}")
-            if f.name in ("max_sprocket_torque", "max_power", "ground_clearance") and v == 0:
+            if f.name in ("max_sprocket_torque", "max_power", "ground_clearance", "cg_height") and v == 0:
                 raise DataError(f"vehicle {f.name} must be > 0 (or absent), got {v}")
         for name, (lo, hi, unit) in LIMITS.items():
             v = getattr(self, name)

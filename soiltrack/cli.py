@@ -50,7 +50,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit status."""
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if not argv:  # bare `soiltrack`: the help, not a usage error (a new user's first command)
+        parser.print_help()
+        return EXIT_OK
+    args = parser.parse_args(argv)
     try:
         return args.func(args)
     except DataError as e:

@@ -120,9 +120,10 @@ def figure_formats() -> dict[str, str]:
 def output_path(path: str, option: str, *, figure: bool = False) -> str:
     """Check an output path before any work is done (DataError naming the option otherwise).
 
-    The folder must exist and the path must not be a folder; a figure path must end in an
-    extension matplotlib writes (``.png``, ``.pdf``, ``.svg``, ...), so that nothing is
-    silently written under another name.
+    The folder must exist (the missing folders of a relative path are created, said on stderr) and
+    the path must not be a folder, and it must open for writing (probed, then removed if it did not
+    exist); a figure path must end in an extension matplotlib writes (``.png``, ``.pdf``, ``.svg``,
+    ...), so that nothing is silently written under another name.
     """
     if not path or not path.strip():
         raise DataError(f"{option} needs a file name")
@@ -132,17 +133,55 @@ def output_path(path: str, option: str, *, figure: bool = False) -> str:
             f"{os.path.join(path, 'fit.png' if figure else 'out.csv')!r}"
         )
     folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder) and not os.path.isabs(path):
+        _make_folder(folder, path, option)
     if not os.path.isdir(folder):
         raise DataError(f"{option} {path!r}: the folder {folder!r} does not exist")
     if not os.access(folder, os.W_OK):
         raise DataError(f"{option} {path!r}: the folder {folder!r} is not writable")
     if figure:
-        ext = os.path.splitext(path)[1].lower().lstrip(".")
-        formats = figure_formats()
-        if ext not in formats:
-            raise DataError(
-                f"{option} {path!r}: "
-                + (f"unknown figure format '.{ext}'" if ext else "no file extension")
-                + f"; use one of {', '.join('.' + e for e in sorted(formats))} (e.g. fit.png)"
-            )
+        _check_figure_format(path, option)
+    _probe_write(path, option)
     return path
+
+
+def _make_folder(folder: str, path: str, option: str) -> None:
+    """Create the missing folders of a relative output path (``-o out/sweep.csv`` in a fresh clone), said on stderr.
+
+    Only for a relative path: a missing folder of an absolute path is more likely a typo, and is refused.
+    """
+    try:
+        os.makedirs(folder, exist_ok=True)
+    except OSError as e:
+        raise DataError(f"{option} {path!r}: cannot create the folder {folder!r}: {e.strerror or e}") from None
+    print(f"soiltrack: created the folder {os.path.relpath(folder)!r} for {option}", file=sys.stderr)
+
+
+def _probe_write(path: str, option: str) -> None:
+    """Open ``path`` for appending (and remove it again if it did not exist): the path can be written.
+
+    ``os.access`` says yes to root everywhere (``/proc``, read-only mounts); only an open tells.
+    """
+    existed = os.path.exists(path)
+    try:
+        with open(path, "ab"):
+            pass
+    except OSError as e:
+        raise DataError(f"{option} {path!r}: cannot be written: {e.strerror or e}") from None
+    if not existed:
+        try:
+            os.remove(path)
+        except OSError:  # pragma: no cover - written a moment ago
+            pass
+
+
+def _check_figure_format(path: str, option: str) -> None:
+    """A figure path must end in an extension matplotlib writes."""
+    ext = os.path.splitext(path)[1].lower().lstrip(".")
+    formats = figure_formats()
+    if ext not in formats:
+        raise DataError(
+            f"{option} {path!r}: "
+            + (f"unknown figure format '.{ext}'" if ext else "no file extension")
+            + f"; use one of {', '.join('.' + e for e in sorted(formats))} (e.g. fit.png)"
+        )

@@ -87,7 +87,13 @@ def add_parser(sub) -> None:
     )
     p.add_argument("data", help="CSV: slip,tractive_force_N|drawbar_pull_N[,normal_load_N] or a drive log")
     p.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")
-    p.add_argument("--model", choices=("full", "cohesion-free"), default="full")
+    p.add_argument(
+        "--model",
+        choices=("full", "cohesion-free"),
+        default="full",
+        help="soil model of the nominal fit and of every candidate: full (c, phi, K; Eq. 2) or cohesion-free "
+        "(phi, K; Eq. 8) (default: full)",
+    )
     p.add_argument(
         "--candidates",
         metavar="A,B,...",

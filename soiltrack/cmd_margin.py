@@ -19,7 +19,7 @@ def terrain_args(a: argparse.Namespace, vehicle):
     if len(given) != 1:
         raise DataError("give exactly one of --terrain NAME, --soil C_KPA,PHI_DEG,K_M or --fit FIT.json")
     if a.fit is not None:
-        return load_fit_json(a.fit, vehicle)
+        return load_fit_json(a.fit, vehicle, allow_other_vehicle=bool(getattr(a, "allow_other_vehicle", False)))
     if a.terrain is not None and a.terrain not in TERRAINS:
         raise DataError(f"argument --terrain: unknown terrain {a.terrain!r}; presets: {sorted(TERRAINS)}")
     return soil_arg(a.terrain, a.soil)
@@ -30,6 +30,20 @@ def add_terrain_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--terrain", help=f"terrain preset ({', '.join(sorted(TERRAINS))})")
     p.add_argument("--soil", metavar="C_KPA,PHI_DEG,K_M", help="soil parameters (no Bekker parameters: no compaction)")
     p.add_argument("--fit", metavar="FIT.json", help="what `soiltrack fit --json` printed (soil with its uncertainty)")
+    add_other_vehicle_argument(p)
+
+
+def add_other_vehicle_argument(p: argparse.ArgumentParser) -> None:
+    """``--allow-other-vehicle``: plan with a fit of another running gear on purpose."""
+    from .planning.fit_vehicle import VEHICLE_TOLERANCE
+
+    p.add_argument(
+        "--allow-other-vehicle",
+        action="store_true",
+        help="with --fit: plan even when the fit's running gear differs from --vehicle by more than "
+        f"{VEHICLE_TOLERANCE * 100:g} %% in weight, contact area or track length (the soil is mapped with the "
+        "fit's own contact area and load, and the report says so); default: refused, exit 2",
+    )
 
 
 _DESCRIPTION = """\
@@ -37,7 +51,10 @@ Traversability margin of a vehicle on a terrain preset, a soil, or an identified
 
 Available thrust: the soil's thrust at the allowed slip (Eq. 2 at the normal load W cos(theta))
 or the drivetrain limit min(T_max / r, P_max / v), whichever is smaller. Required thrust:
-rolling, Bekker compaction (terrain presets with n, k_c, k_phi), grade, inertia, drawbar pull.
+rolling, Bekker compaction (terrain presets with n, k_c, k_phi), grade, inertia, drawbar pull,
+and a fit's slip_sinkage / speed_resistance. Downhill the required thrust is negative: the soil
+must brake the vehicle, checked against its skid limit (F(i) = -F(|i|)). A vehicle JSON with
+cg_height_m adds the static tipping limit; the soil's sliding limit always applies.
 With --fit (what 'soiltrack fit --json' printed) the soil is uncertain: the probability of
 being traversable (Monte Carlo and delta method) and the worst case over the 95 % region.
 

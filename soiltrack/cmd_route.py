@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from .cliutil import floats_arg, output_path, vehicle_arg
+from .cmd_margin import add_other_vehicle_argument
 from .cmd_profile import add_start_arguments, int_option, print_result
 
 _DESCRIPTION = """\
@@ -27,7 +28,7 @@ def _cmd_route(a: argparse.Namespace) -> int:
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
     vehicle = vehicle_arg(a.vehicle)
-    default = load_fit_json(a.fit, vehicle) if a.fit else None
+    default = load_fit_json(a.fit, vehicle, allow_other_vehicle=a.allow_other_vehicle) if a.fit else None
     route = read_route(a.route, default_terrain=default)
     res = route_profile(
         route,
@@ -54,6 +55,7 @@ def add_parser(sub) -> None:
     )
     p.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")
     p.add_argument("--fit", metavar="FIT.json", help="identified soil for patches that name no terrain or soil")
+    add_other_vehicle_argument(p)
     p.add_argument("--intervals", metavar="N", help="mesh intervals in total (default 10 per patch, at least 50)")
     add_start_arguments(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")

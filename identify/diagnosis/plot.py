@@ -34,8 +34,7 @@ def plot_diagnosis(diag: Any, path: str) -> str:
             fontsize=9,
             family="monospace",
         )
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
+        _save(fig, path, plt)
         return path
     chans = list(cv["before"])
     fig = plt.figure(figsize=(11, 7.5))
@@ -65,7 +64,7 @@ def plot_diagnosis(diag: Any, path: str) -> str:
     ax.set_title(
         f"verdict: {diag.verdict} ({'' if diag.cause is None else f'cause {diag.cause}, '}"
         f"confidence {diag.confidence:.2f})"
-        + ("" if diag.shrink is None else f", held-out error shrinks by {diag.shrink:.0%}")
+        + ("" if diag.shrink is None else f", standardised held-out RMS shrinks by {diag.shrink:.0%}")
     )
     ax.legend(fontsize=8, loc="best")
     ax2 = fig.add_subplot(gs[1, 0])
@@ -79,16 +78,33 @@ def plot_diagnosis(diag: Any, path: str) -> str:
     )
     ax3 = fig.add_subplot(gs[1, 1])
     segs = [sg for sg in diag.localisation if sg.dimension != "channel"][:8]
-    labels = [f"{sg.dimension} {sg.range[0]:.3g}-{sg.range[1]:.3g}\n{sg.channel}" for sg in segs]
+    # "lo to hi": a dash between signed numbers reads as a minus ("slip -0.387--0.0335")
+    labels = [f"{sg.dimension} {sg.range[0]:.3g} to {sg.range[1]:.3g}\n{sg.channel}" for sg in segs]
+    gap = diag.verdict != "none"  # no gap beyond the noise: no localisation is significant, whatever its share
     ax3.barh(
         range(len(segs)),
         [sg.share for sg in segs],
-        color=["tab:red" if sg.significant else "0.6" for sg in segs],
+        color=["tab:red" if sg.significant and gap else "0.6" for sg in segs],
     )
     ax3.set_yticks(range(len(segs)), labels, fontsize=7)
     ax3.invert_yaxis()
-    ax3.set_xlabel("share of the misfit (red: significant)")
+    ax3.set_xlabel(
+        "share of the misfit (red: significant)"
+        if gap
+        else "share of the misfit (verdict none: no gap beyond the noise)"
+    )
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save(fig, path, plt)
     return path
+
+
+def _save(fig, path: str, plt) -> None:
+    """Save and close ``fig``; an unwritable path is a DataError naming it (the CLI checked it before the work)."""
+    from ...soilmodel.errors import DataError
+
+    try:
+        fig.savefig(path, dpi=110)
+    except OSError as e:
+        raise DataError(f"cannot write the figure: {e.strerror or e}", file=path) from None
+    finally:
+        plt.close(fig)

@@ -67,7 +67,7 @@ def _gap_lines(d: Any) -> list[str]:
 def _ranking_lines(d: Any) -> list[str]:
     out = [f"The hypotheses, weighed together ({d.evidence}):"]
     for e in d.ranking:
-        sh = "" if e.shrink is None else f", held-out error shrinks by {e.shrink:.0%}"
+        sh = "" if e.shrink is None else f", standardised held-out RMS shrinks by {e.shrink:.0%}"
         ex = "" if e.explained is None else f", explains {e.explained:.0%} of the excess"
         det = "".join(f", {k} {_value(v)}" for k, v in e.detail.items() if k in ("lag_s", "window_s", "level_N"))
         ew = e.evidence_weight
@@ -131,9 +131,14 @@ def _after_lines(d: Any) -> list[str]:
     what = d.verdict if d.cause is None and d.verdict != "unexplained" else (d.cause or "the flexible term")
     out = [f"How far the gap shrinks with {what} (fitted on the training blocks only):"]
     for ch, b in d.holdout_rmse_before.items():
-        out.append(f"  {ch}: {fmt(b)} -> {fmt(d.holdout_rmse_after.get(ch))}")
+        a = d.holdout_rmse_after.get(ch)
+        fell = f" (held-out RMS {1 - a / b:.0%} lower)" if a is not None and b else ""
+        out.append(f"  {ch}: {fmt(b)} -> {fmt(a)}{fell}")
     if d.shrink is not None:
-        out.append(f"  shrink of the standardised held-out RMS {d.shrink:.2f}")
+        out.append(
+            f"  shrink of the standardised held-out RMS {d.shrink:.2f} (residuals over their noise model, all "
+            "channels: the measure the ranking quotes; the per-channel RMS above is in the channel's unit)"
+        )
     return out
 
 

@@ -11,7 +11,14 @@ every other one refitted, rises by the likelihood-ratio threshold
 
 Each end is found by stepping out from the estimate (first step: the linearised half-width,
 doubling) until the threshold is crossed or the physical bound is reached (then the end is
-the bound and the interval is open there), then by regula falsi on the profile cost. Every
+the bound and the interval is open there), then by regula falsi on the profile cost.
+
+The profile is continuous and starts at the fit's minimum: before each side is searched, a
+probe a small step from the estimate (:data:`_PROBE_STEP` of the linearised half-width) must
+come back within :data:`_PROBE_RTOL` of the threshold's rise of the minimum. When it does not,
+the held solves do not follow the profile's valley (the solver left the warm start for another
+local minimum; an end "found" that way sits at the estimate): that side takes the linearised
+end and the interval's note says so, rather than a one-sided interval ending at the estimate. Every
 profile point is a solve of the same cached NLP as the fit, warm-started from its neighbour
 (:func:`~soiltrack.identify.sweep.joint.fit_joint` with ``hold``).
 
@@ -34,13 +41,28 @@ from .distributions import lr_threshold
 from .records import ParameterEstimate
 from ..sweep.model import fit_vector
 
-__all__ = ["ReplacedInterval", "profile_intervals", "with_profile_intervals", "check_intervals", "INTERVAL_MODES"]
+__all__ = [
+    "PROFILE_IPOPT_OPTIONS",
+    "ReplacedInterval",
+    "profile_intervals",
+    "with_profile_intervals",
+    "check_intervals",
+    "INTERVAL_MODES",
+]
 
 INTERVAL_MODES = ("auto", "linear", "profile")
 _MAX_EXPAND = 7
 _MAX_REFINE = 8
 #: The end is located when the profile cost is within this share of (threshold - minimum) of the threshold.
 _COST_RTOL = 0.02
+#: IPOPT options of a profile solve: each starts at a neighbouring optimum, so the barrier starts small; with
+#: IPOPT's default (mu_init 0.1) the start is pushed into the interior and the solve can land in another local
+#: minimum (the hump-shear sweep of examples/diagnose_story.py: cost 77.0 at the estimate against the fit's 27.0).
+PROFILE_IPOPT_OPTIONS = {"ipopt.mu_init": 1e-6}
+#: Step of the continuity probe, as a share of the linearised half-width (small: the profile there is the minimum's).
+_PROBE_STEP = 1e-3
+#: The probe's cost may rise at most this share of (threshold - minimum) above the minimum (it rises ~1e-6).
+_PROBE_RTOL = 0.05
 
 
 @dataclass(frozen=True)
@@ -143,6 +165,24 @@ def profile_intervals(pb, res, solve, mode: str = "auto") -> tuple[dict, tuple[s
                 ends.append(bound)
                 opens.append(True)
                 continue
+            side = "lower" if sign < 0 else "upper"
+            v_probe = val + sign * min(_PROBE_STEP * half, 0.5 * abs(bound - val))
+            c_probe, _ = cost_at(j, v_probe, xhat)
+            n_eval += 1
+            if c_probe is None or c_probe - cmin > _PROBE_RTOL * (thr - cmin):
+                lin_end = pe.ci95[0] if sign < 0 else pe.ci95[1]
+                ends.append(float(lin_end) if lin_end is not None else bound)
+                opens.append(lin_end is None)
+                notes.append(
+                    f"the {side} end is the linearised one: a profile solve a small step from the estimate "
+                    + (
+                        "failed"
+                        if c_probe is None
+                        else f"came back at cost {c_probe:.6g} against the minimum {cmin:.6g}"
+                    )
+                    + " (the solve left the profile's valley), so the profile could not be followed on that side"
+                )
+                continue
             in_v, in_c, in_x = val, cmin, xhat
             out_v: float | None = None
             out_c: float | None = None
@@ -168,11 +208,11 @@ def profile_intervals(pb, res, solve, mode: str = "auto") -> tuple[dict, tuple[s
                 opens.append(not failed and in_v == bound)
                 if failed:
                     notes.append(
-                        f"a profile solve failed on the {'lower' if sign < 0 else 'upper'} side: that end "
+                        f"a profile solve failed on the {side} side: that end "
                         "is the last value the profile reached, a lower limit of the interval's width"
                     )
                 elif in_v != bound:
-                    notes.append(f"the {'lower' if sign < 0 else 'upper'} end was not reached in {_MAX_EXPAND} steps")
+                    notes.append(f"the {side} end was not reached in {_MAX_EXPAND} steps")
                 continue
             for _ in range(_MAX_REFINE):
                 if abs(out_c - thr) <= _COST_RTOL * (thr - cmin) or abs(in_c - thr) <= _COST_RTOL * (thr - cmin):
