@@ -28,9 +28,9 @@ import numpy as np
 
 from ...soilmodel.effects import effect_structure
 from ...soilmodel.vehicle import Vehicle
-from .joint import DATA_ROWS
+from .joint import DATA_ROWS, SLIP_CHUNK, padded_data
 from .lm_start import profiled_start
-from .nlp import g_inverse
+from .nlp import g_inverse, pad
 from .prepare import SLIP_BOUNDS, PreparedLog
 
 __all__ = ["solve_output_error_profiled", "nominal_data", "PROFILED_MAX_ITER"]
@@ -84,10 +84,14 @@ def solve_output_error_profiled(
     """
     del max_iter, tol, print_level
     structure = effect_structure(None, vehicle)
-    D = nominal_data(prep, vehicle)
+    n = prep.n_used
+    size = -(-n // SLIP_CHUNK) * SLIP_CHUNK
+    # padded once with inert samples (at rest: zero residuals, slips pinned at 0) and stored column by column:
+    # the slip kernels, the cost and the profiled sums then share this one array, with no copy per call
+    D = np.asfortranarray(padded_data(nominal_data(prep, vehicle), size))
     l = vehicle.track_length
     lo_s, hi_s = SLIP_BOUNDS[0] + 1e-3, SLIP_BOUNDS[1] - 1e-3
-    slip_meas = np.clip(prep.slip_measured, lo_s, hi_s)
+    slip_meas = pad(np.clip(prep.slip_measured, lo_s, hi_s), size)
     lower, upper = np.array([Fb[0], Kb[0]]), np.array([Fb[1], Kb[1]])
     scale = np.array([F_ref, K_ref])
     best: dict[str, Any] | None = None
@@ -95,7 +99,7 @@ def solve_output_error_profiled(
     for j, (F0, K0) in enumerate(starts):
         t0 = _time.perf_counter()
         y = np.clip(np.abs(prep.thrust) / F0, 0.0, 0.98)
-        slip_inv = np.clip(np.sign(prep.thrust) * g_inverse(y) * K0 / l, lo_s, hi_s)
+        slip_inv = pad(np.clip(np.sign(prep.thrust) * g_inverse(y) * K0 / l, lo_s, hi_s), size)
         ps = profiled_start(
             vehicle,
             structure,
@@ -129,6 +133,6 @@ def solve_output_error_profiled(
     if best is None:
         raise ValueError("solve_output_error_profiled: no start points given")
     best["time"] = total
-    theta, slip = best.pop("theta"), best.pop("slip")
+    theta, slip = best.pop("theta"), best.pop("slip")[:n]
     best["x"] = np.concatenate([theta / scale, slip])
     return best, float(theta[0]), float(theta[1]), np.asarray(slip, dtype=float)
