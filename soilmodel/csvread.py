@@ -4,7 +4,9 @@
 the rows. It never holds the file's text in memory: each row is parsed as it is read into one
 compact float array per column, so memory grows with the numbers kept (8 bytes a value), and
 a file with more data rows than :func:`max_rows` is refused as soon as the reader passes the
-limit (before the rest of the file is read). Every bad value or row is collected - the error
+limit (before the rest of the file is read). The rows are parsed in chunks (:data:`CHUNK_ROWS`; the
+values of a chunk's column converted at once), with the same checks, messages and row numbers
+whatever the chunk size. Every bad value or row is collected - the error
 names how many there are and the first few (:data:`~soiltrack.soilmodel.errors.SHOWN_ROWS`),
 not only the first. Encodings other than UTF-8 (a UTF-16 export, a binary file), fields
 longer than CSV's field limit and values beyond :data:`MAX_ABS_VALUE` are refused with the
@@ -29,6 +31,10 @@ __all__ = [
     "MAX_ROWS",
     "MAX_ROWS_ENV",
     "MAX_ABS_VALUE",
+    "CHUNK_ROWS",
+    "CHUNK_ROWS_ENV",
+    "chunk_rows",
+    "iter_chunks",
     "max_rows",
     "check_encoding",
     "read_header",
@@ -41,6 +47,11 @@ __all__ = [
 MAX_ROWS = 2_000_000
 #: Environment variable that sets the row limit.
 MAX_ROWS_ENV = "SOILTRACK_MAX_ROWS"
+#: Rows parsed per chunk (a chunk's text is the only text held: about 100 bytes a row); the checks, the
+#: messages and the rows they name do not depend on it. ``$SOILTRACK_CHUNK_ROWS`` or ``chunk=`` changes it.
+CHUNK_ROWS = 65_536
+#: Environment variable that sets the chunk size.
+CHUNK_ROWS_ENV = "SOILTRACK_CHUNK_ROWS"
 #: Largest magnitude of any value in a data file (SI units). No force, torque, speed, time or
 #: load of a tracked vehicle comes near it, and sums of squares of larger values overflow
 #: float64 in the fits (a torque of 1e308 made the drive-log fit fail with a linear-algebra error).
@@ -173,8 +184,79 @@ def _parse(text: str) -> tuple[float, str | None]:
     return v, None
 
 
-def read_columns(path: str, header: list[str], used: list[str], limit: int | None = None) -> dict[str, np.ndarray]:
-    """The ``used`` columns of the data rows as float arrays (streaming; see the module notes).
+def chunk_rows(chunk: int | None = None) -> int:
+    """Rows parsed per chunk: ``chunk`` if given, else ``$SOILTRACK_CHUNK_ROWS``, else :data:`CHUNK_ROWS`."""
+    if chunk is None:
+        env = os.environ.get(CHUNK_ROWS_ENV)
+        if env is None or not env.strip():
+            return CHUNK_ROWS
+        try:
+            chunk = int(env)
+        except ValueError:
+            raise DataError(f"${CHUNK_ROWS_ENV} must be a whole number of rows, got {env!r}") from None
+    if isinstance(chunk, bool) or int(chunk) < 1:
+        raise DataError(f"the chunk size must be a whole number of rows >= 1, got {chunk!r}")
+    return int(chunk)
+
+
+def iter_chunks(path: str, size: int) -> Iterator[tuple[list[str], list[tuple[int, list[str]]]]]:
+    """The header, then the data rows in lists of at most ``size`` ``(row, cells)``: the first item is
+    ``(header, [])``; ``row`` is the row's number (1 = the first data row; blank lines are skipped, not counted)."""
+    chunk: list[tuple[int, list[str]]] = []
+    for r, cells in _rows(path):
+        if r == 0:
+            yield [h.strip() for h in cells], []
+            continue
+        chunk.append((r, cells))
+        if len(chunk) >= size:
+            yield [], chunk
+            chunk = []
+    if chunk:
+        yield [], chunk
+
+
+def _column_values(texts: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """Values of one column's cells and the mask of the cells :func:`_parse` refuses (vectorised; the cells that
+    do not convert at once are parsed one by one)."""
+    try:
+        vals = np.array(texts, dtype=float)
+    except ValueError:
+        vals = np.array([_parse(t)[0] for t in texts], dtype=float)
+        bad = np.array([_parse(t)[1] is not None for t in texts], dtype=bool)
+        return vals, bad
+    return vals, ~np.isfinite(vals) | (np.abs(vals) > MAX_ABS_VALUE)
+
+
+def _parse_chunk(chunk, idx: dict[str, int], width: int, bad: "_BadRows") -> dict[str, np.ndarray]:
+    """The ``used`` columns of one chunk of rows; bad values and rows recorded in ``bad`` in file order (row by
+    row, column by column: the same order, counts and messages as a row-by-row read)."""
+    n = len(chunk)
+    ok_width = np.array([len(cells) == width for _, cells in chunk], dtype=bool)
+    out, masks = {}, {}
+    for c, j in idx.items():
+        texts = [cells[j] if len(cells) == width else "nan" for _, cells in chunk]
+        vals, m = _column_values(texts)
+        vals[~ok_width] = math.nan
+        out[c], masks[c] = vals, m & ok_width
+    any_bad = ~ok_width
+    for m in masks.values():
+        any_bad = any_bad | m
+    for k in np.nonzero(any_bad)[0] if n else []:
+        r, cells = chunk[k]
+        if not ok_width[k]:
+            bad.add(r, f"expected {width} fields, found {len(cells)}", None)
+            continue
+        for c, j in idx.items():
+            if masks[c][k]:
+                bad.add(r, _parse(cells[j])[1] or "not a number", c)
+    return out
+
+
+def read_columns(
+    path: str, header: list[str], used: list[str], limit: int | None = None, *, chunk: int | None = None
+) -> dict[str, np.ndarray]:
+    """The ``used`` columns of the data rows as float arrays (streamed in chunks of ``chunk`` rows, see
+    :func:`chunk_rows` and the module notes; the rows named in errors are the file's).
 
     Raises
     ------
@@ -184,33 +266,26 @@ def read_columns(path: str, header: list[str], used: list[str], limit: int | Non
         data rows, or an unreadable file.
     """
     lim = max_rows(limit)
+    size = chunk_rows(chunk)
     idx = {c: header.index(c) for c in used}
     cols = {c: array("d") for c in used}
     width = len(header)
     bad = _BadRows()
     n = 0
-    for r, cells in _rows(path):
-        if r == 0:
+    for _, rows in iter_chunks(path, size):
+        if not rows:
             continue
-        n = r
+        n = rows[-1][0]
         if n > lim:
             raise DataError(
                 f"more than {lim:,} data rows: files are read into memory and this one is larger than "
                 f"the limit (raise it with ${MAX_ROWS_ENV}=N or read_csv(..., max_rows=N), about "
                 f"{8 * len(used)} bytes a row, or decimate the log)",
                 file=path,
-                row=n,
+                row=lim + 1,
             )
-        if len(cells) != width:
-            bad.add(r, f"expected {width} fields, found {len(cells)}", None)
-            for c in used:
-                cols[c].append(math.nan)
-            continue
-        for c in used:
-            v, why = _parse(cells[idx[c]])
-            if why is not None:
-                bad.add(r, why, c)
-            cols[c].append(v)
+        for c, vals in _parse_chunk(rows, idx, width, bad).items():
+            cols[c].frombytes(vals.tobytes())
     if bad.count:
         reason, column = bad.first  # type: ignore[misc]
         if bad.count > 1:

@@ -10,20 +10,23 @@ a row with the wrong number of fields, time stamps that do not increase.
 
 from __future__ import annotations
 
-import csv
 import math
 import os
 from dataclasses import dataclass
 
 import numpy as np
 
+from .csvread import CHUNK_ROWS_ENV, chunk_rows, iter_chunks
 from .errors import DataError
 from .tracks import TWO_TRACK_COLUMNS, YAW_COLUMN
 
-__all__ = ["DriveStream", "read_drive_stream", "STREAM_COMBINED", "STREAM_OPTIONAL"]
+__all__ = ["DriveStream", "DriveStreamReader", "read_drive_stream", "STREAM_COMBINED", "STREAM_OPTIONAL"]
 
 #: The combined (one-channel) sprocket columns of a drive log.
 STREAM_COMBINED = ("sprocket_torque_Nm", "sprocket_speed_rad_s")
+#: Rows per chunk of :class:`DriveStreamReader` (a chunk's text and Python rows, about 700 bytes a row, are the
+#: replay's only memory that grows with the chunk: 6 MB).
+STREAM_CHUNK_ROWS = 8192
 #: Optional columns of a streamed drive log.
 STREAM_OPTIONAL = ("vehicle_accel_m_s2", YAW_COLUMN)
 
@@ -71,8 +74,99 @@ def _cell(text: str, path: str, column: str, row: int) -> float:
         ) from None
 
 
-def read_drive_stream(path: str | os.PathLike) -> DriveStream:
+class DriveStreamReader:
+    """A drive log read chunk by chunk (constant memory): the header checked on opening, each chunk's rows on
+    reading, with the messages and file rows of :func:`read_drive_stream` (which is this reader's chunks joined).
+
+    Attributes
+    ----------
+    source, two_track, used
+        The file, whether it has the two-track columns, and the columns read (contract names).
+    chunk
+        Rows per chunk (default :data:`STREAM_CHUNK_ROWS`, or ``$SOILTRACK_CHUNK_ROWS``).
+    """
+
+    def __init__(self, path: str | os.PathLike, *, chunk: int | None = None) -> None:
+        self.source = os.fspath(path)
+        env = os.environ.get(CHUNK_ROWS_ENV)
+        self.chunk = chunk_rows(chunk if chunk is not None or (env and env.strip()) else STREAM_CHUNK_ROWS)
+        header = self._header()
+        dup = sorted({h for h in header if header.count(h) > 1})
+        if dup:
+            raise DataError(f"duplicate column(s) {dup}", file=self.source, column=dup[0])
+        self.two_track = any(c in header for c in TWO_TRACK_COLUMNS)
+        if self.two_track and any(c in header for c in STREAM_COMBINED):
+            raise DataError(
+                f"both combined columns {list(STREAM_COMBINED)} and two-track columns given: a drive log "
+                "has one or the other",
+                file=self.source,
+                column=next(c for c in STREAM_COMBINED if c in header),
+            )
+        sprocket = TWO_TRACK_COLUMNS if self.two_track else STREAM_COMBINED
+        required = ("time_s", *sprocket, "vehicle_speed_m_s")
+        for col in required:
+            if col not in header:
+                raise DataError(
+                    f"missing required column of a drive log (header has {header})", file=self.source, column=col
+                )
+        self.header = header
+        self.used = [c for c in (*required, *STREAM_OPTIONAL) if c in header]
+
+    def _header(self) -> list[str]:
+        for head, _ in self._chunks():
+            return head
+        raise DataError("empty file: expected a header row", file=self.source)
+
+    def _chunks(self):
+        return iter_chunks(self.source, self.chunk)
+
+    def __iter__(self):
+        """Chunks ``{column: values}`` (NaN for a gap) in file order; DataError at the first bad row."""
+        path, header = self.source, self.header
+        idx = {c: header.index(c) for c in self.used}
+        t_last = math.nan
+        seen = False
+        for _, rows in self._chunks():
+            if not rows:
+                continue
+            data = {c: np.empty(len(rows)) for c in self.used}
+            for k, (r, cells) in enumerate(rows):
+                if len(cells) != len(header):
+                    raise DataError(f"expected {len(header)} fields, found {len(cells)}", file=path, row=r)
+                for c in self.used:
+                    data[c][k] = _cell(cells[idx[c]], path, c, r)
+            t = data["time_s"]
+            fin = np.nonzero(np.isfinite(t))[0]
+            tf = np.concatenate([[t_last], t[fin]]) if math.isfinite(t_last) else t[fin]
+            off = 1 if math.isfinite(t_last) else 0
+            bad = np.nonzero(np.diff(tf) <= 0)[0]
+            if bad.size:
+                k = int(fin[bad[0] + 1 - off])
+                raise DataError(
+                    f"time must be strictly increasing ({tf[bad[0]]:.6g} then {t[k]:.6g})",
+                    file=path,
+                    column="time_s",
+                    row=rows[k][0],
+                )
+            if fin.size:
+                t_last = float(t[fin[-1]])
+            seen = True
+            for v in data.values():
+                v.setflags(write=False)
+            yield data
+        if not seen:
+            raise DataError("no data rows after the header", file=path)
+
+    def check(self) -> int:
+        """Read the whole file once (constant memory) and return its data rows; DataError as :meth:`__iter__`."""
+        return sum(int(c["time_s"].size) for c in self)
+
+
+def read_drive_stream(path: str | os.PathLike, *, chunk: int | None = None) -> DriveStream:
     """Read a drive log (combined or two-track columns) keeping missing readings as NaN.
+
+    The rows are read in chunks (:class:`DriveStreamReader`); a replay that must not hold the log iterates
+    the reader itself.
 
     Raises
     ------
@@ -81,54 +175,12 @@ def read_drive_stream(path: str | os.PathLike) -> DriveStream:
         a number, a row with the wrong number of fields, no data rows, or time stamps (where
         present) that do not strictly increase; the message names the file, column and row.
     """
-    path = os.fspath(path)
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            rows = [r for r in csv.reader(fh) if any(cell.strip() for cell in r)]
-    except OSError as e:
-        raise DataError(f"cannot read: {e.strerror}", file=path) from None
-    except UnicodeDecodeError:
-        raise DataError("not a UTF-8 text file", file=path) from None
-    if not rows:
-        raise DataError("empty file: expected a header row", file=path)
-    header = [h.strip() for h in rows[0]]
-    dup = sorted({h for h in header if header.count(h) > 1})
-    if dup:
-        raise DataError(f"duplicate column(s) {dup}", file=path, column=dup[0])
-    two_track = any(c in header for c in TWO_TRACK_COLUMNS)
-    if two_track and any(c in header for c in STREAM_COMBINED):
-        raise DataError(
-            f"both combined columns {list(STREAM_COMBINED)} and two-track columns given: a drive log "
-            "has one or the other",
-            file=path,
-            column=next(c for c in STREAM_COMBINED if c in header),
-        )
-    sprocket = TWO_TRACK_COLUMNS if two_track else STREAM_COMBINED
-    required = ("time_s", *sprocket, "vehicle_speed_m_s")
-    for col in required:
-        if col not in header:
-            raise DataError(f"missing required column of a drive log (header has {header})", file=path, column=col)
-    if len(rows) < 2:
-        raise DataError("no data rows after the header", file=path)
-    used = [c for c in (*required, *STREAM_OPTIONAL) if c in header]
-    idx = {c: header.index(c) for c in used}
-    data = {c: np.empty(len(rows) - 1) for c in used}
-    for r, cells in enumerate(rows[1:], start=1):
-        if len(cells) != len(header):
-            raise DataError(f"expected {len(header)} fields, found {len(cells)}", file=path, row=r)
-        for c in used:
-            data[c][r - 1] = _cell(cells[idx[c]], path, c, r)
-    t = data["time_s"]
-    fin = np.nonzero(np.isfinite(t))[0]
-    bad = np.nonzero(np.diff(t[fin]) <= 0)[0]
-    if bad.size:
-        k = int(fin[bad[0] + 1])
-        raise DataError(
-            f"time must be strictly increasing ({t[fin[bad[0]]]:.6g} then {t[k]:.6g})",
-            file=path,
-            column="time_s",
-            row=k + 1,
-        )
+    reader = DriveStreamReader(path, chunk=chunk)
+    parts: dict[str, list[np.ndarray]] = {c: [] for c in reader.used}
+    for data in reader:
+        for c, v in data.items():
+            parts[c].append(v)
+    data = {c: np.concatenate(v) for c, v in parts.items()}
     for v in data.values():
         v.setflags(write=False)
-    return DriveStream(columns=data, two_track=two_track, source=path)
+    return DriveStream(columns=data, two_track=reader.two_track, source=reader.source)

@@ -6,6 +6,8 @@ import argparse
 import sys
 
 from .cliutil import floats_arg, output_path, running_gear_arg
+from .cmd_segments import add_arguments as add_segment_arguments
+from .cmd_segments import check_budget, segments_command
 from .identify.drivelog import DISCRETISATIONS
 from .identify.engines import DEFAULT_ENGINE, ENGINES
 from .identify.outcome import exit_code
@@ -121,6 +123,7 @@ def _cmd_fit(a: argparse.Namespace) -> int:
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
     bounds = bounds_arg(a.bounds)
+    check_budget(a)  # a drive log's fit estimated from its row count: refused before the work when too large
     data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle)
     if isinstance(data, (ShearTest, PlateTest)):
         return _cmd_soil_test(a, data)
@@ -131,6 +134,8 @@ def _cmd_fit(a: argparse.Namespace) -> int:
         )
     vehicle = gear
     drive_log = isinstance(data, DriveLog)
+    if a.segments is not None:
+        return segments_command(a, data, vehicle, bounds)
     if a.intervals is not None:  # the old name (profile's --intervals is a mesh size)
         print("soiltrack fit: --intervals is now --interval-method (the old name will go)", file=sys.stderr)
         a.interval_method = a.interval_method or a.intervals
@@ -334,6 +339,7 @@ def add_parser(sub) -> None:
         help="rigid wheel: hold a parameter at a value in edge units (repeatable), e.g. bekker_n=1; names "
         "cohesion_kpa, friction_angle_deg, shear_modulus_m, bekker_kc, bekker_kphi, bekker_n",
     )
+    add_segment_arguments(f)  # --segments, --max-memory (soiltrack.cmd_segments)
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit (.png, .pdf, .svg)")
     f.set_defaults(func=_cmd_fit)

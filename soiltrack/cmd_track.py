@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from array import array
 import math
 import sys
 import time
@@ -71,10 +72,15 @@ def _grade(text: str | None, option: str, limit: float) -> float | None:
 
 def _samples(stream):
     """Rows of the stream as the estimator's update arguments: ``(method name, args)``."""
-    c = stream.columns
-    n = stream.n_samples
+    return _chunk_samples(stream.columns, stream.two_track)
+
+
+def _chunk_samples(c: dict, two_track: bool):
+    """Rows of one chunk of columns (:class:`~soiltrack.soilmodel.drive_stream.DriveStreamReader`) as the
+    estimator's update arguments: ``(method name, args)``."""
+    n = int(c["time_s"].size)
     accel = c.get("vehicle_accel_m_s2")
-    if stream.two_track:
+    if two_track:
         yaw = c.get("yaw_rate_rad_s")
         cols = [
             c[k].tolist()
@@ -91,6 +97,18 @@ def _samples(stream):
         return "update_tracks", list(zip(*cols, *extra))
     cols = [c[k].tolist() for k in ("time_s", "sprocket_torque_Nm", "sprocket_speed_rad_s", "vehicle_speed_m_s")]
     return "update", list(zip(*cols, [None] * n if accel is None else accel.tolist()))
+
+
+#: Output steps kept for the text report beyond which every other one is dropped (the report shows about 40;
+#: the replay's memory stays bounded on a log of any length; fewer steps are kept as they are).
+KEPT_STEPS = 4096
+#: Estimates kept for --plot beyond which every other one is dropped (changes of terrain always kept).
+KEPT_ESTIMATES = 200_000
+
+
+def _thin(items: list, keep=lambda x: False) -> list:
+    """Every other item (the last and those ``keep`` marks kept): a bounded record of a long replay."""
+    return [x for j, x in enumerate(items) if j % 2 == 0 or j == len(items) - 1 or keep(x)]
 
 
 def _p_traversable(estimate, vehicle, grade_deg: float | None):
@@ -119,7 +137,7 @@ def _step(estimate, p_trav) -> dict:
 def _cmd_track(a: argparse.Namespace) -> int:
     from .identify import OnlineEstimator, OnlineSettings
     from .identify.online import NOT_SEPARABLE
-    from .soilmodel.drive_stream import read_drive_stream
+    from .soilmodel.drive_stream import DriveStreamReader
 
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
@@ -128,47 +146,62 @@ def _cmd_track(a: argparse.Namespace) -> int:
     grade = _grade(a.grade_deg, "--grade-deg", MAX_GRADE_DEG)
     log_grade = _grade(a.log_grade_deg, "--log-grade-deg", MAX_LOG_GRADE_DEG)
     vehicle = vehicle_arg(a.vehicle)
-    stream = read_drive_stream(a.log)
+    reader = DriveStreamReader(a.log)
+    reader.check()  # the whole file checked first (constant memory): bad input refused before any output
     est = OnlineEstimator(vehicle, OnlineSettings(window_s=window, grade_rad=math.radians(log_grade or 0.0)))
-    method, rows = _samples(stream)
-    update = getattr(est, method)
-    times = np.empty(len(rows))
+    times = array("d")
     steps, history = [], []
     t_start, cpu_start = time.perf_counter(), time.process_time()
     last = None
-    for k, row in enumerate(rows):
-        t0 = time.perf_counter()
-        e = update(*row)
-        times[k] = time.perf_counter() - t0
-        last = e
-        history.append(e)
-        if k % every == every - 1 or e.change_detected or k == len(rows) - 1:
-            step = _step(e, _p_traversable(e, vehicle, grade))
-            steps.append(step)
-            if a.json:
-                print(json.dumps(step, allow_nan=False))
+    converged_since_change = False
+    t_first = t_last = None
+    k = -1
+    pending = None
+    for chunk in reader:
+        tc = chunk["time_s"][np.isfinite(chunk["time_s"])]
+        if tc.size:
+            t_first = float(tc[0]) if t_first is None else t_first
+            t_last = float(tc[-1])
+        method, rows = _chunk_samples(chunk, reader.two_track)
+        update = getattr(est, method)
+        for row in rows:
+            k += 1
+            pending = None  # the previous update, not printed, is not the last
+            t0 = time.perf_counter()
+            e = update(*row)
+            times.append(time.perf_counter() - t0)
+            last = e
+            # usable: the iteration converged at least once since the last change of terrain (its convergence
+            # flag may flicker from one update to the next; the last step's own flag is in its JSON line)
+            converged_since_change = bool(e.converged) if e.change_detected else (converged_since_change or e.converged)
+            if a.plot:
+                history.append(e)
+                if len(history) > 2 * KEPT_ESTIMATES:
+                    history = _thin(history, lambda x: x.change_detected)
+            if k % every == every - 1 or e.change_detected:
+                _emit(a, e, vehicle, grade, steps)
+            else:
+                pending = e
+        if len(steps) > 2 * KEPT_STEPS:
+            steps[:] = _thin(steps, lambda x: x["change_detected"])
+    if pending is not None:  # the last update is always printed
+        _emit(a, pending, vehicle, grade, steps)
+    n_rows = k + 1
     wall = time.perf_counter() - t_start
     cpu = time.process_time() - cpu_start
-    t_fin = stream.columns["time_s"][np.isfinite(stream.columns["time_s"])]
-    duration = float(t_fin[-1] - t_fin[0]) if t_fin.size > 1 else 0.0
-    # usable: the iteration converged at least once since the last change of terrain (its convergence
-    # flag may flicker from one update to the next; the last step's own flag is in its JSON line)
-    since_change = []
-    for e in reversed(history):
-        since_change.append(e)
-        if e.change_detected:
-            break
-    ok = last is not None and last.max_thrust_N is not None and any(e.converged for e in since_change)
+    duration = float(t_last - t_first) if t_first is not None and t_last is not None else 0.0
+    ok = last is not None and last.max_thrust_N is not None and converged_since_change
     if ok:
         reason = None
     elif last is None or last.max_thrust_N is None:
         reason = "no estimate: too few usable samples (standing, turning, skipped or slower than the noise)"
     else:
         reason = "the iteration has not converged since the start or the last change of terrain"
+    times_a = np.frombuffer(times, dtype=float) if len(times) else np.zeros(0)
     summary = {
-        "updates": len(rows),
-        "update_time_median_s": float(np.median(times)) if len(rows) else None,
-        "update_time_p99_s": float(np.quantile(times, 0.99)) if len(rows) else None,
+        "updates": n_rows,
+        "update_time_median_s": float(np.median(times_a)) if n_rows else None,
+        "update_time_p99_s": float(np.quantile(times_a, 0.99)) if n_rows else None,
         "changes": [_change_entry(c) for c in est.changes],
         "samples_turning": est.samples_turning,
         "samples_skipped": est.samples_skipped,
@@ -189,11 +222,11 @@ def _cmd_track(a: argparse.Namespace) -> int:
     if a.json:
         print(json.dumps({"summary": summary}, allow_nan=False))
     else:
-        print(_report(stream.source, steps, summary, every))
+        print(_report(reader.source, steps, summary, every))
     if a.plot:
         from .plot_track import plot_track
 
-        path = plot_track(history, a.plot, title=f"on-line estimate: {stream.source}")
+        path = plot_track(history, a.plot, title=f"on-line estimate: {reader.source}")
         print(f"wrote the figure to {path}", file=sys.stderr)
     return EXIT_OK if ok else EXIT_SOLVER
 
@@ -205,6 +238,16 @@ def _change_entry(c: dict) -> dict:
         k: ([float(x) for x in v] if isinstance(v, (list, tuple)) else (v if isinstance(v, str) else float(v)))
         for k, v in c.items()
     }
+
+
+def _emit(a: argparse.Namespace, e, vehicle, grade, steps: list) -> None:
+    """One output step: printed as a JSON line (--json; only the last is kept, for the summary), else kept."""
+    step = _step(e, _p_traversable(e, vehicle, grade))
+    if a.json:
+        print(json.dumps(step, allow_nan=False))
+        steps[:] = [step]
+    else:
+        steps.append(step)
 
 
 def _fmt(x, scale=1.0, digits=4):

@@ -20,6 +20,35 @@ def _pointwise_hessian() -> ca.Function:
     return ca.Function("drivelog_pointwise_hess", [s, Fm, K, l], [ca.hessian(F, ca.vertcat(Fm, K, s))[0]])
 
 
+#: Samples per block of :func:`profiled_covariance` (bounds its temporaries).
+COV_BLOCK = 65_536
+
+
+def _sample_terms(prep, r, slip, Fmax, K, l, F, dF_ds, dF_dFm, dF_dK, b: slice) -> tuple[np.ndarray, np.ndarray]:
+    """Per-sample Hessians ``H`` (``(m, 3, 3)`` in ``(F_max, K, i)``) and scores ``psi`` (``(m, 2)``) of block ``b``."""
+    m = slip[b].size
+    rw = r * prep.sprocket_speed[b]
+    ss, sc, rho = prep.sigma_speed[b], prep.sigma_thrust_cond[b], prep.coupling[b]
+    d_s = prep.vehicle_speed[b] - rw * (1 - slip[b])
+    e_T = (prep.thrust[b] - F[b] - rho * d_s) / sc
+    g_w = rw / ss  # de_w / di (e_w is linear)
+    g_T = np.column_stack([-dF_dFm[b] / sc, -dF_dK[b] / sc, -(dF_ds[b] + rho * rw) / sc])
+    hF = np.asarray(_pointwise_hessian()(slip[b].reshape(1, -1), Fmax, K, l), dtype=float)
+    hF = np.transpose(hF.reshape(3, m, 3), (1, 0, 2))  # (m, 3, 3)
+    H = g_T[:, :, None] * g_T[:, None, :] - (e_T / sc)[:, None, None] * hF
+    H[:, 2, 2] += g_w**2
+    return H, e_T[:, None] * g_T[:, :2]
+
+
+def _block_sums(H: np.ndarray, psi: np.ndarray, slip: np.ndarray, h_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """One block's part of ``A`` (profiled information) and ``B`` (score variance)."""
+    lo, hi = SLIP_BOUNDS
+    free = (slip > lo + 1e-6) & (slip < hi - 1e-6) & (H[:, 2, 2] > 1e-12 * h_max)
+    Hii = np.where(free, H[:, 2, 2], 1.0)
+    cross = np.where(free[:, None, None], H[:, :2, 2:3] * H[:, 2:3, :2] / Hii[:, None, None], 0.0)
+    return np.sum(H[:, :2, :2] - cross, axis=0), psi.T @ psi
+
+
 def profiled_covariance(
     prep: "PreparedLog",
     r: float,
@@ -61,23 +90,20 @@ def profiled_covariance(
     Returns ``(V, A, B)`` or ``None`` when ``A`` is not positive definite.
     """
     n = slip.size
-    rw = r * prep.sprocket_speed
-    ss, sc, rho = prep.sigma_speed, prep.sigma_thrust_cond, prep.coupling
-    d_s = prep.vehicle_speed - rw * (1 - slip)
-    e_T = (prep.thrust - F - rho * d_s) / sc
-    g_w = rw / ss  # de_w / di (e_w is linear)
-    g_T = np.column_stack([-dF_dFm / sc, -dF_dK / sc, -(dF_ds + rho * rw) / sc])
-    hF = np.asarray(_pointwise_hessian()(slip.reshape(1, -1), Fmax, K, l), dtype=float)
-    hF = np.transpose(hF.reshape(3, n, 3), (1, 0, 2))  # (n, 3, 3)
-    H = g_T[:, :, None] * g_T[:, None, :] - (e_T / sc)[:, None, None] * hF
-    H[:, 2, 2] += g_w**2
-    lo, hi = SLIP_BOUNDS
-    free = (slip > lo + 1e-6) & (slip < hi - 1e-6) & (H[:, 2, 2] > 1e-12 * np.max(np.abs(H[:, 2, 2])))
-    Hii = np.where(free, H[:, 2, 2], 1.0)
-    cross = np.where(free[:, None, None], H[:, :2, 2:3] * H[:, 2:3, :2] / Hii[:, None, None], 0.0)
-    A = np.sum(H[:, :2, :2] - cross, axis=0)
-    psi = e_T[:, None] * g_T[:, :2]
-    B = psi.T @ psi
+    # in blocks of COV_BLOCK samples (the per-sample 3x3 Hessians are a long log's largest temporaries): the
+    # slip-slip curvature of every sample first (the profiling test is relative to its largest), then the sums;
+    # a log of at most one block gives the same numbers as a single pass
+    blocks = [slice(a, min(a + COV_BLOCK, n)) for a in range(0, n, COV_BLOCK)]
+    terms = [_sample_terms(prep, r, slip, Fmax, K, l, F, dF_ds, dF_dFm, dF_dK, b) for b in blocks[:1]]
+    h_max = max((float(np.max(np.abs(t[0][:, 2, 2]))) for t in terms if t[0].size), default=0.0)
+    for b in blocks[1:]:  # (a long log: the terms again in the second pass, not kept)
+        H = _sample_terms(prep, r, slip, Fmax, K, l, F, dF_ds, dF_dFm, dF_dK, b)[0]
+        h_max = max(h_max, float(np.max(np.abs(H[:, 2, 2]))))
+    A, B = np.zeros((2, 2)), np.zeros((2, 2))
+    for j, b in enumerate(blocks):
+        H, psi = terms[0] if j == 0 else _sample_terms(prep, r, slip, Fmax, K, l, F, dF_ds, dF_dFm, dF_dK, b)
+        Ab, Bb = _block_sums(H, psi, slip[b], h_max)
+        A, B = (Ab, Bb) if j == 0 else (A + Ab, B + Bb)
     try:
         if not np.all(np.isfinite(A)) or not np.all(np.isfinite(B)) or np.any(np.linalg.eigvalsh(A) <= 0):
             return None

@@ -156,6 +156,7 @@ from ...soilmodel.vehicle import Vehicle
 from . import covariance as _covariance
 from .noise import estimate_noise, estimate_noise_profile
 from .nlp import eval_pointwise, fmax_bounds, padded_size, ridge_point, solve_equation_error, solve_output_error
+from .profiled import solve_output_error_profiled
 from .prepare import MIN_USABLE_SAMPLES, SLIP_BOUNDS, PreparedLog, prepare_drive_log
 from .relaxation import DISCRETISATIONS
 from .joint_fit import fit_joint
@@ -204,7 +205,14 @@ _OPTION_NAMES = (
     "sigma_accel",
     "discretisation",
     "discretisation_check",
+    "latent_slips",
 )
+#: How the output-error fit treats the latent slips: ``"ipopt"`` (one IPOPT variable each), ``"profiled"``
+#: (eliminated per sample, :mod:`.profiled`), ``"auto"`` (profiled above :data:`PROFILED_ABOVE` used samples).
+LATENT_SLIPS = ("auto", "ipopt", "profiled")
+#: Used samples above which ``latent_slips="auto"`` profiles the slips out (the IPOPT problem's memory grows
+#: by about 73 kB per sample: 0.9 GB here; :mod:`.budget`).
+PROFILED_ABOVE = 10_000
 #: |shift| of F_max or K, in this fit's standard errors, beyond which the discretisation check warns. On
 #: ordinary logs the two rules differ by noise (measured on default profiles, light and heavy vehicle,
 #: 36 logs: at most 1.9 standard errors, 5 of 36 beyond 1); on 8 deg hard pulls at 50 Hz by about 3.
@@ -353,6 +361,8 @@ def fit_drive_log(
     K_ref = math.sqrt(Kb[0] * Kb[1])
     starts, c_hint = _start_points(prep, vehicle, model, x0, Fb, Kb, K_ref, bool(options.get("multistart", True)))
     solve = solve_output_error if formulation == "output-error" else solve_equation_error
+    if formulation == "output-error" and _profiled(options, prep.n_used):
+        solve = solve_output_error_profiled
     pilot: tuple[float, float] | None = options.get("_pilot") or _relaxation_pilot(
         prep, vehicle, options, solve, (F_ref, K_ref, Fb, Kb, starts, max_iter, tol, print_level)
     )
@@ -477,6 +487,12 @@ def fit_drive_log(
     )
 
 
+def _profiled(options: dict, n_used: int) -> bool:
+    """Whether the nominal output-error fit profiles the latent slips out (:mod:`.profiled`)."""
+    how = options.get("latent_slips", "auto")
+    return how == "profiled" or (how == "auto" and n_used > PROFILED_ABOVE)
+
+
 def _check_arguments(model: str, method: str, formulation: str, options: dict) -> None:
     check_model(model)
     if method != "ipopt":
@@ -491,6 +507,8 @@ def _check_arguments(model: str, method: str, formulation: str, options: dict) -
             "discretisation='relaxation' is for a torque held between samples (torque_hold='zoh'); "
             "a sampled torque (torque_hold='sample') has its own central difference"
         )
+    if options.get("latent_slips", "auto") not in LATENT_SLIPS:
+        raise DataError(f"unknown latent_slips {options['latent_slips']!r}; expected one of {LATENT_SLIPS}")
     unknown = sorted(set(options) - set(_OPTION_NAMES) - {"_fixed_keep", "_plain_start", "_pilot"})
     if unknown:
         raise DataError(f"unknown option(s) {unknown} for a drive-log fit; expected some of {list(_OPTION_NAMES)}")

@@ -423,11 +423,18 @@ class _Chunked:
         if idx is None:
             size = -(-slip.size // SLIP_CHUNK) * SLIP_CHUNK
             if self._full is None or self._full.shape[1] != size:
-                self._full = padded_data(self.D, size)
+                # data already padded (the profiled fit pads them once) are used as they are: no copy
+                self._full = self.D if self.D.shape[1] == size else padded_data(self.D, size)
             outs = chunked_outputs(self.fn, th, slip, self._full)
         else:
             outs = chunked_outputs(self.fn, th, slip, self.D[:, idx])
         return [o.ravel() for o in outs]
+
+
+#: Most chunks of :data:`SLIP_CHUNK` samples evaluated by one mapped call (16,384 samples): a longer log is
+#: evaluated in pieces. A cached map of a whole long log held memory in proportion to its size (measured
+#: 74 MB retained after a 180,000-sample fit, 19 sizes of shrinking active sets).
+MAP_PIECE = 256
 
 
 def chunked_outputs(fn: ca.Function, theta: np.ndarray, slip: np.ndarray, D: np.ndarray) -> list[np.ndarray]:
@@ -448,7 +455,16 @@ def chunked_outputs(fn: ca.Function, theta: np.ndarray, slip: np.ndarray, D: np.
     Dp = D if D.shape[1] == size else padded_data(D, size)
     s = np.zeros((1, size))
     s[0, :n] = s_in
-    outs = call_dense(_mapped(fn, k), np.asarray(theta, dtype=float).reshape(-1, 1), s, Dp)
+    th = np.asarray(theta, dtype=float).reshape(-1, 1)
+    if k <= MAP_PIECE:
+        outs = call_dense(_mapped(fn, k), th, s, Dp)
+    else:  # a long log in pieces of MAP_PIECE chunks: bounded maps and temporaries, the same per-sample values
+        w = MAP_PIECE * SLIP_CHUNK
+        pieces = [
+            call_dense(_mapped(fn, -(-min(w, size - a) // SLIP_CHUNK)), th, s[:, a : a + w], Dp[:, a : a + w])
+            for a in range(0, size, w)
+        ]
+        outs = [np.hstack([p[j] for p in pieces]) for j in range(len(pieces[0]))]
     return [o.reshape(o.shape[0], size, o.shape[1] // size)[:, :n, :].reshape(o.shape[0], -1) for o in outs]
 
 

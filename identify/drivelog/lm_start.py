@@ -112,7 +112,9 @@ class _Sums:
         kernels.upgrade()
         self.fn = kernels.functions[0]
         self.n = int(D.shape[1])
-        self.D = padded_data(np.asarray(D, dtype=float), -(-self.n // SLIP_CHUNK) * SLIP_CHUNK)
+        size = -(-self.n // SLIP_CHUNK) * SLIP_CHUNK
+        D = np.asarray(D, dtype=float)
+        self.D = D if D.shape[1] == size else padded_data(D, size)  # already padded: shared, not copied
 
     def __call__(self, theta: np.ndarray, slip: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
         n = self.n
@@ -122,10 +124,27 @@ class _Sums:
             if n == 0:
                 sums.append(np.zeros((rows, cols)))
                 continue
-            per_sample = o.reshape(rows, n, cols).transpose(1, 0, 2).reshape(n, rows * cols)
-            sums.append(np.cumsum(per_sample, axis=0)[-1].reshape(rows, cols))
+            sums.append(_sequential_sum(o.reshape(rows, n, cols)).reshape(rows, cols))
         c, g, Hr, Hgn = sums
         return float(c[0, 0]), g.ravel(), Hr, Hgn
+
+
+#: Samples summed per block by :func:`_sequential_sum` (its temporary memory; the sum does not depend on it).
+SUM_BLOCK = 65_536
+
+
+def _sequential_sum(o: np.ndarray) -> np.ndarray:
+    """``o`` (``rows x n x cols``) summed over the samples one after the other, as ``numpy.cumsum``'s last row:
+    block by block with the running sum carried in front, so the same additions in the same order (the same
+    numbers) with temporaries of :data:`SUM_BLOCK` samples instead of the log's length."""
+    rows, n, cols = o.shape
+    carry: np.ndarray | None = None
+    for a in range(0, n, SUM_BLOCK):
+        block = o[:, a : a + SUM_BLOCK, :].transpose(1, 0, 2).reshape(-1, rows * cols)
+        if carry is not None:
+            block = np.vstack([carry, block])
+        carry = np.cumsum(block, axis=0)[-1:]
+    return np.zeros(rows * cols) if carry is None else carry[0]
 
 
 def profiled_start(

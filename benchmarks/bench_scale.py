@@ -1,0 +1,151 @@
+"""Drive logs from 10^3 to 2x10^6 rows: wall time, peak memory and time per row of fit, track and --segments.
+
+Each measurement runs in its own process (its peak resident memory from ``wait4``): the command-line
+``soiltrack fit LOG --vehicle light --json`` (the default fit: latent slips profiled out above 10,000
+rows, plus the discretisation check's second fit), ``soiltrack track`` (streamed replay), ``soiltrack fit
+--segments 60s``, the former fit with one IPOPT variable per latent slip (``latent_slips="ipopt"``, the
+same two fits; up to ``--ipopt-max`` rows) and scipy's ``least_squares`` on the same two-channel problem
+(latent slips as variables, sparse Jacobian, ``trf``/``lsmr``; up to ``--scipy-max`` rows). The logs are
+the library's simulator's (light vehicle, dry sand, 50 Hz, default driving, seed 1), made once into
+``--dir``.
+
+    python benchmarks/bench_scale.py                                   # 1,000 and 5,000 rows (about a minute)
+    python benchmarks/bench_scale.py --sizes 1e4,5e4,1.8e5 --ipopt-max 2e4
+    python benchmarks/bench_scale.py --sizes 2e6 --tasks fit,track      # the 11-hour log (minutes; 2 GB)
+
+The machine this project measures on has 2 cores shared with other engineers' jobs: the wall times are
+those of a loaded machine (the CPU time is printed beside them); the memory is not affected.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+TASKS = ("fit", "track", "segments", "ipopt", "scipy")
+
+_FIT_SNIPPET = """
+import sys
+from soiltrack.soilmodel import read_csv, VEHICLES
+from soiltrack.identify import fit
+r = fit(read_csv(sys.argv[1]), VEHICLES["light"], latent_slips=sys.argv[2], discretisation_check=True)
+print(r.extra.get("max_thrust_N"), r.extra.get("max_thrust_stderr_N"), r.status)
+"""
+
+_SCIPY_SNIPPET = """
+import sys, numpy as np, scipy.sparse as sp
+from scipy.optimize import least_squares
+from soiltrack.soilmodel import read_csv, VEHICLES
+from soiltrack.identify.drivelog.prepare import prepare_drive_log
+from soiltrack.identify.drivelog.nlp import eval_pointwise
+v = VEHICLES["light"]
+p = prepare_drive_log(read_csv(sys.argv[1]), v)
+n, r, l = p.n_used, v.sprocket_radius, v.track_length
+rw, ss, sc, rho = r * p.sprocket_speed, p.sigma_speed, p.sigma_thrust_cond, p.coupling
+def res(x):
+    F, dFs, dFF, dFK = eval_pointwise(x[2:], x[0], x[1], l)
+    d_s = p.vehicle_speed - rw * (1 - x[2:])
+    return np.concatenate([d_s / ss, (p.thrust - F - rho * d_s) / sc])
+def jac(x):
+    F, dFs, dFF, dFK = eval_pointwise(x[2:], x[0], x[1], l)
+    k = np.arange(n)
+    rows = np.concatenate([k, n + k, n + k, n + k])
+    cols = np.concatenate([2 + k, np.zeros(n, int), np.ones(n, int), 2 + k])
+    vals = np.concatenate([rw / ss, -dFF / sc, -dFK / sc, -(dFs + rho * rw) / sc])
+    return sp.csr_matrix((vals, (rows, cols)), shape=(2 * n, n + 2))
+x0 = np.concatenate([[1.2 * np.quantile(np.abs(p.thrust), 0.99), 0.0155], np.clip(p.slip_measured, -0.9, 0.9)])
+lo = np.concatenate([[1.0, 0.006], np.full(n, -0.95)]); hi = np.concatenate([[1e4, 0.05], np.full(n, 0.98)])
+s = least_squares(res, np.clip(x0, lo + 1e-9, hi - 1e-9), jac=jac, bounds=(lo, hi), method="trf", tr_solver="lsmr",
+                  x_scale="jac", max_nfev=200)
+print(s.x[0], None, f"least_squares status {s.status} nfev {s.nfev}")
+"""
+
+
+def _measure(cmd: list[str]) -> dict:
+    """Like :func:`_run`, with the peak RSS of the child from ``wait4`` (the process is waited here)."""
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    out_chunks = []
+    # read stdout while it runs (a fit's JSON can be large); stderr is small
+    while True:
+        b = proc.stdout.read(1 << 16)
+        if not b:
+            break
+        out_chunks.append(b[-4096:])
+    _, status, ru = os.wait4(proc.pid, 0)
+    err = proc.stderr.read().decode(errors="replace")
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    wall = time.perf_counter() - t0
+    tail = b"".join(out_chunks)[-4096:].decode(errors="replace").strip().splitlines()
+    return {
+        "wall_s": wall,
+        "cpu_s": ru.ru_utime + ru.ru_stime,
+        "peak_rss_mb": ru.ru_maxrss / 1024.0,
+        "rc": proc.returncode,
+        "last": tail[-1][:200] if tail else "",
+        "err": err.strip().splitlines()[-1][:300] if err.strip() else "",
+    }
+
+
+def _log(directory: str, rows: int) -> str:
+    path = os.path.join(directory, f"light_{rows}.csv")
+    if not os.path.exists(path):
+        dur = (rows - 1) / 50.0
+        cmd = ["soiltrack", "simulate", "--vehicle", "light", "--terrain", "dry_sand", "--duration", f"{dur:g}"]
+        subprocess.run([*cmd, "--seed", "1", "-o", path], check=True, stderr=subprocess.DEVNULL)
+    return path
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--sizes", default="1e3,5e3", help="rows of the logs, comma separated (default: 1e3,5e3)")
+    ap.add_argument("--tasks", default="fit,track,segments,ipopt,scipy", help=f"some of {','.join(TASKS)}")
+    ap.add_argument("--ipopt-max", type=float, default=2e4, help="largest log fitted the former way (rows)")
+    ap.add_argument("--scipy-max", type=float, default=5e4, help="largest log given to least_squares (rows)")
+    ap.add_argument("--dir", default=os.path.join("build", "bench_scale"), help="where the logs are made and kept")
+    ap.add_argument("--json", action="store_true", help="one JSON object per measurement")
+    a = ap.parse_args(argv)
+    sizes = [int(float(s)) for s in a.sizes.split(",") if s.strip()]
+    tasks = [t for t in a.tasks.split(",") if t]
+    bad = sorted(set(tasks) - set(TASKS))
+    if bad:
+        ap.error(f"unknown tasks {bad}; expected some of {TASKS}")
+    os.makedirs(a.dir, exist_ok=True)
+    py = sys.executable
+    print(f"# machine: {os.cpu_count()} cores (shared), python {sys.version.split()[0]}", file=sys.stderr)
+    if not a.json:
+        print(f"{'task':>9} {'rows':>9} {'wall_s':>8} {'cpu_s':>8} {'peak_MB':>8} {'us/row':>7}  result")
+    for n in sizes:
+        log = _log(a.dir, n)
+        for task in tasks:
+            if task == "ipopt" and n > a.ipopt_max or task == "scipy" and n > a.scipy_max:
+                continue
+            cmd = {
+                "fit": ["soiltrack", "fit", log, "--vehicle", "light", "--json"],
+                "track": ["soiltrack", "track", log, "--vehicle", "light", "--every", str(10**9), "--json"],
+                "segments": ["soiltrack", "fit", log, "--vehicle", "light", "--segments", "60s", "--json"],
+                "ipopt": [py, "-c", _FIT_SNIPPET, log, "ipopt"],
+                "scipy": [py, "-c", _SCIPY_SNIPPET, log],
+            }[task]
+            m = _measure(cmd)
+            m.update(task=task, rows=n, us_per_row=1e6 * m["wall_s"] / n)
+            if task in ("fit", "segments"):  # (a fit's JSON ends with its residuals: the exit status says it)
+                m["last"] = f"exit {m['rc']}"
+            result = m["last"] if m["rc"] in (0, 1) else f"rc {m['rc']}: {m['err']}"
+            if a.json:
+                print(json.dumps(m))
+            else:
+                print(
+                    f"{task:>9} {n:>9} {m['wall_s']:8.2f} {m['cpu_s']:8.2f} {m['peak_rss_mb']:8.0f} "
+                    f"{m['us_per_row']:7.0f}  {result[:90]}",
+                    flush=True,
+                )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
