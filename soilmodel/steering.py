@@ -250,7 +250,7 @@ def _rootfinder(name: str, residual: ca.Function) -> ca.Function:
         name,
         "newton",
         residual,
-        {"abstol": 1e-10, "max_iter": 60, "error_on_fail": False, "line_search": True},
+        {"abstol": 1e-10, "max_iter": 60, "error_on_fail": False, "line_search": True, "show_eval_warnings": False},
     )
 
 
@@ -286,9 +286,7 @@ def motion_inverse_function(settings: SteeringSettings = SteeringSettings()) -> 
     m, l, Iz = veh[0], veh[1], veh[7]
     W = m * G
     _, net, _ = hf(ca.vertcat(u, z[2], Om), z[0:2], so, u * Om, veh)
-    res = ca.vertcat(
-        (net[0] - m * (du - z[2] * Om)) / W, (net[1] - m * u * Om) / W, (net[2] - Iz * dOm) / (W * l)
-    )
+    res = ca.vertcat((net[0] - m * (du - z[2] * Om)) / W, (net[1] - m * u * Om) / W, (net[2] - Iz * dOm) / (W * l))
     return _rootfinder("motion_inverse", ca.Function("motion_residual", [z, p], [res]))
 
 

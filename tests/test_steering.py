@@ -36,7 +36,9 @@ def test_straight_line_limit_is_eq2(soil):
         hf = hull_forces_function(settings)
         got = []
         for i in slips:
-            Fx, net, W = hf([HEAVY.sprocket_radius * w * (1 - i), 0, 0], [w, w], _soilvec(soil), 0.0, vehicle_parameters(HEAVY))
+            Fx, net, W = hf(
+                [HEAVY.sprocket_radius * w * (1 - i), 0, 0], [w, w], _soilvec(soil), 0.0, vehicle_parameters(HEAVY)
+            )
             got.append(float(Fx[0] + Fx[1]))
             assert abs(float(net[1])) < 1e-6 * HEAVY.weight and abs(float(net[2])) < 1e-6 * HEAVY.weight
             assert float(W[0]) == pytest.approx(HEAVY.weight / 2, rel=1e-12)
@@ -143,8 +145,13 @@ def test_quadrature_converges(ratio):
     errs = []
     for s in (SteeringSettings(), SteeringSettings(40, 6)):
         st = steady_turn(6.0, 6.0 * ratio, soil, HEAVY, settings=s)
-        errs.append(max(abs(st.torque_left / ref.torque_left - 1), abs(st.torque_right / ref.torque_right - 1),
-                        abs(st.radius / ref.radius - 1)))
+        errs.append(
+            max(
+                abs(st.torque_left / ref.torque_left - 1),
+                abs(st.torque_right / ref.torque_right - 1),
+                abs(st.radius / ref.radius - 1),
+            )
+        )
     assert errs[0] < 3e-3
     assert errs[1] < errs[0]
 
