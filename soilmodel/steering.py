@@ -61,6 +61,7 @@ __all__ = [
     "steady_turn_function",
     "motion_inverse_function",
     "torque_inverse_function",
+    "torque_residual_function",
     "kinematic_radius",
     "check_steering_vehicle",
 ]
@@ -290,14 +291,11 @@ def motion_inverse_function(settings: SteeringSettings = SteeringSettings()) -> 
     return _rootfinder("motion_inverse", ca.Function("motion_residual", [z, p], [res]))
 
 
-@locked_cache(maxsize=8)
-def torque_inverse_function(settings: SteeringSettings = SteeringSettings()) -> ca.Function:
-    """Rootfinder ``(z0, [u, Om, T_l, T_r, c, phi, K, veh...]) -> z = [w_l, w_r, v]``.
+@lru_cache(maxsize=8)
+def torque_residual_function(settings: SteeringSettings = SteeringSettings()) -> ca.Function:
+    """Residuals ``(z = [w_l, w_r, v], p = [u, Om, T_l, T_r, c, phi, K, veh...])`` of :func:`torque_inverse_function`.
 
-    The sprocket speeds and lateral speed at which each track's shear gives the measured
-    sprocket torque (``r F_x,k = T_k``, the sprocket inertia's share already taken off) and the
-    lateral force balance holds (``m u Om = Y``, quasi-static in v): what a drive log's
-    encoders should read, given its torques, vehicle speed and yaw rate. The fit's model.
+    ``[(r F_x,l - T_l) / (W r), (r F_x,r - T_r) / (W r), (Y - m u Om) / W]``.
     """
     hf = hull_forces_function(settings)
     z = ca.SX.sym("z", 3)
@@ -307,7 +305,19 @@ def torque_inverse_function(settings: SteeringSettings = SteeringSettings()) -> 
     W = m * G
     Fx, net, _ = hf(ca.vertcat(u, z[2], Om), z[0:2], so, u * Om, veh)
     res = ca.vertcat((r * Fx[0] - Tl) / (W * r), (r * Fx[1] - Tr) / (W * r), (net[1] - m * u * Om) / W)
-    return _rootfinder("torque_inverse", ca.Function("torque_residual", [z, p], [res]))
+    return ca.Function("torque_residual", [z, p], [res])
+
+
+@locked_cache(maxsize=8)
+def torque_inverse_function(settings: SteeringSettings = SteeringSettings()) -> ca.Function:
+    """Rootfinder ``(z0, [u, Om, T_l, T_r, c, phi, K, veh...]) -> z = [w_l, w_r, v]``.
+
+    The sprocket speeds and lateral speed at which each track's shear gives the measured
+    sprocket torque (``r F_x,k = T_k``, the sprocket inertia's share already taken off) and the
+    lateral force balance holds (``m u Om = Y``, quasi-static in v): what a drive log's
+    encoders should read, given its torques, vehicle speed and yaw rate. The fit's model.
+    """
+    return _rootfinder("torque_inverse", torque_residual_function(settings))
 
 
 @dataclass(frozen=True)

@@ -10,6 +10,7 @@ from .identify.drivelog import DISCRETISATIONS
 from .identify.engines import DEFAULT_ENGINE, ENGINES
 from .soilmodel import PRACTICAL_BOUNDS, WIDE_BOUNDS, DataError, SoilBounds
 from .soilmodel.rigid_wheel import RigidWheel
+from .turn_cli import add_fit_options, fit_motion_command
 
 #: Named soil bounds of ``--bounds`` (the same names as ``diagnose --bounds``).
 NAMED_BOUNDS = {"practical": PRACTICAL_BOUNDS, "wide": WIDE_BOUNDS}
@@ -129,6 +130,10 @@ def _cmd_fit(a: argparse.Namespace) -> int:
             file=a.data,
         )
     vehicle = gear
+    a.bounds_obj = bounds
+    motion_rc = fit_motion_command(a, data, vehicle)  # two-track log with yaw rate: the steering model
+    if motion_rc is not None:
+        return motion_rc
     drive_log = isinstance(data, DriveLog)
     if a.intervals is not None:  # the old name (profile's --intervals is a mesh size)
         print("soiltrack fit: --intervals is now --interval-method (the old name will go)", file=sys.stderr)
@@ -334,5 +339,6 @@ def add_parser(sub) -> None:
         "cohesion_kpa, friction_angle_deg, shear_modulus_m, bekker_kc, bekker_kphi, bekker_n",
     )
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
+    add_fit_options(f)
     f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit (.png, .pdf, .svg)")
     f.set_defaults(func=_cmd_fit)

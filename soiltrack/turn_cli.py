@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 
-from .cliutil import EXIT_OK, output_path
+from .cliutil import EXIT_OK, EXIT_SOLVER, output_path
 from .soilmodel import DataError
 
 #: Drive-log options the two-track turning simulator does not take (the steering model has no effects yet).
@@ -98,4 +99,135 @@ def add_simulate_options(s) -> None:
         metavar="T0:T1:RADIUS_M[,...]",
         help="with --two-track: turns from T0 to T1 s of the given radius (m, signed: positive to the left, "
         "larger than half the tread), e.g. 10:20:15,30:38:-8",
+    )
+
+
+# --- fit --motion -------------------------------------------------------------------------------
+def _csv_header(path: str) -> list[str]:
+    from .soilmodel.csvread import read_header
+
+    return read_header(path)
+
+
+def fit_motion_command(a: argparse.Namespace, data, vehicle) -> int | None:
+    """``fit`` of a two-track log with yaw rate by the steering model; None: not this path.
+
+    Taken when the log has the two-track columns and ``yaw_rate_rad_s`` and the vehicle has
+    ``tread_m`` (``--motion`` default ``all``), or when ``--motion`` is given (then anything
+    missing is refused, exit 2).
+    """
+    from .soilmodel import DriveLog
+    from .soilmodel.tracks import YAW_COLUMN
+
+    given = a.motion is not None
+    two_track = isinstance(data, DriveLog) and data.turning is not None
+    has_yaw = isinstance(data, DriveLog) and YAW_COLUMN in _csv_header(a.data)
+    if isinstance(data, DriveLog) and has_yaw and not two_track:
+        raise DataError(
+            "a yaw rate without the two-track columns (sprocket_torque_left_Nm, sprocket_torque_right_Nm, "
+            "sprocket_speed_left_rad_s, sprocket_speed_right_rad_s): turns need each track's channels",
+            file=a.data,
+            column=YAW_COLUMN,
+        )
+    if not given and not (two_track and has_yaw and vehicle.tread is not None):
+        return None
+    if not two_track:
+        raise DataError("--motion applies to two-track drive logs (each track's torque and speed)", file=a.data)
+    if not has_yaw:
+        raise DataError("--motion needs the yaw rate of a two-track log", file=a.data, column=YAW_COLUMN)
+    if vehicle.tread is None:
+        raise DataError(
+            "--motion (the steering model) needs the vehicle's tread_m (distance between the track centre lines)",
+            file=a.vehicle,
+            column="tread_m",
+        )
+    motion = a.motion or "all"
+    return _fit_and_print(a, vehicle, motion)
+
+
+def _fit_and_print(a: argparse.Namespace, vehicle, motion: str) -> int:
+    from .identify.turning import fit_by_motion
+    from .soilmodel.turning import read_two_track
+
+    log = read_two_track(a.data)
+    by_motion, fits = fit_by_motion(log, vehicle, bounds=a.bounds_obj)
+    main = fits[motion]
+    out = {"model": "steering", "motion": motion, **main.to_dict()}
+    out["running_gear"] = {
+        "kind": "track",
+        "name": vehicle.name,
+        "weight_N": vehicle.weight,
+        "contact_area_m2": vehicle.contact_area,
+        "track_length_m": vehicle.track_length,
+        "tread_m": vehicle.tread,
+    }
+    out["by_motion"] = by_motion
+    if a.json:
+        print(json.dumps(out, indent=2))
+    else:
+        print(_report(out, fits))
+    return EXIT_OK if main.outcome == "usable" else EXIT_SOLVER
+
+
+def _fmt_ci(x, ci, scale=1.0, unit=""):
+    if x is None:
+        return "-"
+    return f"{x * scale:.4g} {unit} [{ci[0] * scale:.4g}, {ci[1] * scale:.4g}]"
+
+
+def _report(out: dict, fits: dict) -> str:
+    lines = [
+        f"soil from the steering model (skid-steer, Wong-Chiang), main result: {out['motion']} samples",
+        f"outcome: {out['outcome']}" + (f" - {out['outcome_reason']}" if out["outcome_reason"] else ""),
+        "",
+        f"{'samples':<10}{'rows':>7}  {'outcome':<11}{'F_max (kN) [95 %]':<32}{'K (m) [95 %]':<30}",
+    ]
+    for m in ("straight", "turning", "all"):
+        f = fits[m]
+        if f.outcome != "usable":
+            what = (
+                f"not determined; initial slope F_max l/(2K) {_fmt_ci(f.initial_slope, f.initial_slope_ci95, 1e-3)} kN"
+                if f.initial_slope is not None
+                else (f.outcome_reason or "")
+            )
+            lines.append(f"{m:<10}{f.rows:>7}  {f.outcome:<11}{what}")
+            continue
+        lines.append(
+            f"{m:<10}{f.rows:>7}  {f.outcome:<11}{_fmt_ci(f.max_thrust, f.max_thrust_ci95, 1e-3):<32}"
+            f"{_fmt_ci(f.shear_modulus, f.shear_modulus_ci95):<30}"
+        )
+    ag = out["by_motion"]["agreement_se"]
+    if ag.get("max_thrust_N") is not None:
+        lines.append(
+            f"turning - straight: F_max {ag['max_thrust_N']:+.2f} SE, K {ag['shear_modulus_m']:+.2f} SE "
+            "(|x| < 2: they agree)"
+        )
+    else:
+        lines.append("turning and straight not compared: one of them is not usable (see its outcome)")
+    main = fits[out["motion"]]
+    if main.separable:
+        lines.append(
+            f"c {_fmt_ci(main.cohesion, main.cohesion_ci95, 1e-3, 'kPa')}, "
+            f"phi {_fmt_ci(main.friction_angle, main.friction_angle_ci95, 180 / 3.141592653589793, 'deg')} "
+            "(separated by the turns' load transfer)"
+        )
+    else:
+        se = main.friction_share_se
+        lines.append(
+            "c and phi not separable: the turns' lateral load transfer leaves the friction share "
+            f"W tan(phi) / F_max undetermined (SE {se:.2g}, needs < 0.15)"
+            if se is not None
+            else "c and phi not separable"
+        )
+    return "\n".join(lines)
+
+
+def add_fit_options(f) -> None:
+    """``--motion`` on the ``fit`` parser."""
+    f.add_argument(
+        "--motion",
+        choices=("all", "straight", "turning"),
+        default=None,
+        help="two-track log with yaw_rate_rad_s and a vehicle with tread_m: fit the steering model to all, "
+        "the straight or the turning samples (default: all); the JSON adds by_motion with the three side by side",
     )
