@@ -231,3 +231,45 @@ def add_fit_options(f) -> None:
         help="two-track log with yaw_rate_rad_s and a vehicle with tread_m: fit the steering model to all, "
         "the straight or the turning samples (default: all); the JSON adds by_motion with the three side by side",
     )
+
+
+# --- margin --turn-radius -----------------------------------------------------------------------
+def turn_margin_command(a: argparse.Namespace, terrain, vehicle, m) -> int:
+    """``margin ... --turn-radius R --speed S``: the straight-line margin's JSON plus the turn's keys."""
+    from .cliutil import floats_arg
+    from .planning.turning import turn_margin
+    from .soilmodel.traction import resolve_soil
+
+    radius = floats_arg(a.turn_radius, "--turn-radius")[0]
+    if a.speed is None:
+        raise DataError("--turn-radius needs --speed S (the forward speed of the turn, m/s)")
+    if vehicle.tread is None:
+        raise DataError(
+            "--turn-radius needs the vehicle's tread_m (distance between the track centre lines)",
+            file=a.vehicle,
+            column="tread_m",
+        )
+    speed = floats_arg(a.speed, "--speed")[0]
+    soil, _ = resolve_soil(terrain, vehicle)
+    max_slip = floats_arg(a.max_slip, "--max-slip")[0] if a.max_slip is not None else 0.2
+    t = turn_margin(vehicle, soil, radius_m=radius, speed_m_s=speed, max_slip=max_slip)
+    if a.json:
+        print(json.dumps({**m.to_dict(), **t.to_dict()}, indent=2, allow_nan=False))
+    else:
+        print(m.report())
+        print(t.report())
+    if a.plot:
+        from .planning.plots import plot_margin
+
+        plot_margin(terrain, vehicle, m, a.plot)
+    return EXIT_OK if (m.traversable and t.turn_feasible) else EXIT_SOLVER
+
+
+def add_margin_options(p) -> None:
+    """``--turn-radius`` on the ``margin`` parser."""
+    p.add_argument(
+        "--turn-radius",
+        metavar="R",
+        help="steady turn of radius R m (signed: positive to the left) at --speed: both sprockets' torques, the "
+        "outer and inner slips, the smallest radius at that speed, turn_feasible (needs tread_m)",
+    )

@@ -326,7 +326,7 @@ def fit_turning(
 
 
 def _ci(x: float, se: float) -> tuple[float, float]:
-    return (x - Z95 * se, x + Z95 * se)
+    return (float(x - Z95 * se), float(x + Z95 * se))
 
 
 def _result(motion, rows, n, prob: _Problem, th, Z, Jw, lo, hi, iterations) -> TurnFit:
