@@ -141,6 +141,18 @@ def fit_motion_command(a: argparse.Namespace, data, vehicle) -> int | None:
             file=a.vehicle,
             column="tread_m",
         )
+    from .cmd_fit import _VEHICLE_OPTIONS
+
+    taken = {"vehicle", "bounds"}  # the steering fit takes --bounds (K's, and F_max's from c's and phi's)
+    given = [f"--{k.replace('_', '-')}" for k, v in _VEHICLE_OPTIONS.items() if k not in taken and getattr(a, k) != v]
+    given += ["--plot"] if a.plot else []
+    if given:
+        raise DataError(
+            f"{', '.join(given)} do{'es' if len(given) == 1 else ''} not apply to the steering model's fit of a "
+            "two-track log with yaw rate (leave it out, or fit the straight samples with the straight-line model: "
+            "drop the yaw_rate_rad_s column)",
+            file=a.data,
+        )
     motion = a.motion or "all"
     return _fit_and_print(a, vehicle, motion)
 
