@@ -23,9 +23,11 @@ import casadi as ca
 import numpy as np
 
 from .csvread import read_columns, read_header
-from .data import _check_finite, _check_increasing, _check_lengths, _frozen, _write_rows
+import csv
+
+from .csvread import bad_rows_error
 from .errors import DataError
-from .simulation import _noise, _std, cruise_speed, drive_limits
+from .simulation import add_noise, cruise_speed, drive_limits, sensor_noise
 from .soil import Soil
 from .steering import SteeringSettings, motion_inverse_function, hull_forces_function, vehicle_parameters
 from .threadsafe import call_solver, locked_cache
@@ -68,15 +70,33 @@ class TwoTrackLog:
     source: str = "<memory>"
 
     def __post_init__(self) -> None:
-        for name in ("time", "torque_left", "torque_right", "speed_left", "speed_right", "vehicle_speed"):
-            object.__setattr__(self, name, _frozen(getattr(self, name)))
-        for name in ("yaw_rate", "vehicle_accel", "lateral_speed"):
+        for name in (
+            "time",
+            "torque_left",
+            "torque_right",
+            "speed_left",
+            "speed_right",
+            "vehicle_speed",
+            "yaw_rate",
+            "vehicle_accel",
+            "lateral_speed",
+        ):
             if getattr(self, name) is not None:
-                object.__setattr__(self, name, _frozen(getattr(self, name)))
+                arr = np.array(getattr(self, name), dtype=float).reshape(-1)
+                arr.setflags(write=False)
+                object.__setattr__(self, name, arr)
         cols = self.columns()
-        _check_lengths(cols, self.source)
-        _check_finite(cols, self.source)
-        _check_increasing(self.time, "time_s", self.source)
+        sizes = {k: v.size for k, v in cols.items()}
+        if len(set(sizes.values())) > 1:
+            raise DataError(f"columns differ in length: {sizes}", file=self.source)
+        for name, values in cols.items():
+            bad = ~np.isfinite(values)
+            if bad.any():
+                raise bad_rows_error(bad, self.source, name, f"value {values[np.argmax(bad)]} is not a finite number")
+        step = np.zeros(self.time.shape, dtype=bool)
+        step[1:] = np.diff(self.time) <= 0
+        if step.any():
+            raise bad_rows_error(step, self.source, "time_s", "time must be strictly increasing")
 
     @property
     def n_samples(self) -> int:
@@ -104,10 +124,17 @@ class TwoTrackLog:
     def write_csv(self, path) -> None:
         """Write the log as CSV (a path or an open text stream)."""
         if hasattr(path, "write"):
-            _write_rows(path, self.columns())
+            self._write(path)
             return
         with open(os.fspath(path), "w", newline="", encoding="utf-8") as fh:
-            _write_rows(fh, self.columns())
+            self._write(fh)
+
+    def _write(self, fh) -> None:
+        cols = self.columns()
+        w = csv.writer(fh, lineterminator="\n")
+        w.writerow(list(cols))
+        for row in zip(*cols.values()):
+            w.writerow([repr(float(v)) for v in row])
 
 
 def read_two_track(path: str | os.PathLike, *, max_rows: int | None = None) -> TwoTrackLog:
@@ -288,7 +315,7 @@ def simulate_turning_log(
     DataError
         Bad turns, a vehicle without tread, or a motion the soil cannot give (the samples named).
     """
-    nz = _noise(noise)
+    nz = sensor_noise(noise)
     for name, val in (("duration_s", duration_s), ("sample_rate_hz", sample_rate_hz), ("ramp_s", ramp_s)):
         if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
             raise DataError(f"{name} must be a finite number > 0, got {val!r}")
@@ -318,12 +345,12 @@ def simulate_turning_log(
     fs = nz.torque_fs * 0.5 * limits.max_sprocket_torque
     log = TwoTrackLog(
         time=t,
-        torque_left=_std(rng, Tl, fs, nz.torque_rel),
-        torque_right=_std(rng, Tr, fs, nz.torque_rel),
-        speed_left=_std(rng, wl, nz.encoder_abs, nz.encoder_rel),
-        speed_right=_std(rng, wr, nz.encoder_abs, nz.encoder_rel),
-        vehicle_speed=_std(rng, u, nz.gnss_speed, 0.0),
-        yaw_rate=_std(rng, Om, GYRO_NOISE if any(vars(nz).values()) else 0.0, 0.0),
+        torque_left=add_noise(rng, Tl, fs, nz.torque_rel),
+        torque_right=add_noise(rng, Tr, fs, nz.torque_rel),
+        speed_left=add_noise(rng, wl, nz.encoder_abs, nz.encoder_rel),
+        speed_right=add_noise(rng, wr, nz.encoder_abs, nz.encoder_rel),
+        vehicle_speed=add_noise(rng, u, nz.gnss_speed, 0.0),
+        yaw_rate=add_noise(rng, Om, GYRO_NOISE if any(vars(nz).values()) else 0.0, 0.0),
         source=f"simulated two-track log ({vehicle.name or 'vehicle'}, {soil.name or 'soil'}, {len(tr)} turns)",
     )
     if not return_truth:

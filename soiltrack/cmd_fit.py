@@ -131,7 +131,9 @@ def _cmd_fit(a: argparse.Namespace) -> int:
         )
     vehicle = gear
     a.bounds_obj = bounds
-    motion_rc = fit_motion_command(a, data, vehicle)  # two-track log with yaw rate: the steering model
+    motion_rc = fit_motion_command(
+        a, data, vehicle, _VEHICLE_OPTIONS
+    )  # two-track log with yaw rate: the steering model
     if motion_rc is not None:
         return motion_rc
     drive_log = isinstance(data, DriveLog)

@@ -109,12 +109,13 @@ def _csv_header(path: str) -> list[str]:
     return read_header(path)
 
 
-def fit_motion_command(a: argparse.Namespace, data, vehicle) -> int | None:
+def fit_motion_command(a: argparse.Namespace, data, vehicle, options: dict) -> int | None:
     """``fit`` of a two-track log with yaw rate by the steering model; None: not this path.
 
     Taken when the log has the two-track columns and ``yaw_rate_rad_s`` and the vehicle has
     ``tread_m`` (``--motion`` default ``all``), or when ``--motion`` is given (then anything
-    missing is refused, exit 2).
+    missing is refused, exit 2). ``options``: the fit's options and their defaults (those given
+    other than ``--bounds`` are refused: the steering fit does not take them).
     """
     from .soilmodel import DriveLog
     from .soilmodel.tracks import YAW_COLUMN
@@ -141,10 +142,8 @@ def fit_motion_command(a: argparse.Namespace, data, vehicle) -> int | None:
             file=a.vehicle,
             column="tread_m",
         )
-    from .cmd_fit import _VEHICLE_OPTIONS
-
     taken = {"vehicle", "bounds"}  # the steering fit takes --bounds (K's, and F_max's from c's and phi's)
-    given = [f"--{k.replace('_', '-')}" for k, v in _VEHICLE_OPTIONS.items() if k not in taken and getattr(a, k) != v]
+    given = [f"--{k.replace('_', '-')}" for k, v in options.items() if k not in taken and getattr(a, k) != v]
     given += ["--plot"] if a.plot else []
     if given:
         raise DataError(
