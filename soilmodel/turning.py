@@ -224,10 +224,13 @@ def _curvature(t: np.ndarray, turns: tuple, ramp_s: float) -> tuple[np.ndarray, 
     return k, dk
 
 
-def default_turn_speed(vehicle: Vehicle, t: np.ndarray, duration_s: float) -> tuple[np.ndarray, np.ndarray]:
+def default_turn_speed(
+    vehicle: Vehicle, t: np.ndarray, duration_s: float, cruise_m_s: float | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Forward speed u(t) and du/dt of the default profile: 0.3 v_c -> v_c in the first 10 %,
-    a +30 % speed change at 45-60 %, v_c = :func:`~.simulation.cruise_speed` (capped at 2 m/s)."""
-    vc = min(2.0, cruise_speed(vehicle))
+    a +30 % speed change at 45-60 %, v_c = ``cruise_m_s`` or :func:`~.simulation.cruise_speed`
+    capped at 2 m/s."""
+    vc = min(2.0, cruise_speed(vehicle)) if cruise_m_s is None else float(cruise_m_s)
     T = duration_s
     s1, d1 = _smooth_step(t, 0.0, 0.1 * T)
     s2, d2 = _smooth_step(t, 0.45 * T, 0.05 * T)
@@ -287,6 +290,7 @@ def simulate_turning_log(
     duration_s: float = 60.0,
     sample_rate_hz: float = 50.0,
     ramp_s: float = 1.0,
+    cruise_m_s: float | None = None,
     settings: SteeringSettings = SteeringSettings(),
     return_truth: bool = False,
 ):
@@ -304,6 +308,9 @@ def simulate_turning_log(
         Length and rate of the log.
     ramp_s
         Time over which a turn's curvature ramps in and out, s.
+    cruise_m_s
+        Cruise speed of the speed profile (:func:`default_turn_speed`), m/s; default
+        min(2, :func:`~.simulation.cruise_speed`).
     settings
         Quadrature of the steering model.
     return_truth
@@ -316,7 +323,8 @@ def simulate_turning_log(
         Bad turns, a vehicle without tread, or a motion the soil cannot give (the samples named).
     """
     nz = sensor_noise(noise)
-    for name, val in (("duration_s", duration_s), ("sample_rate_hz", sample_rate_hz), ("ramp_s", ramp_s)):
+    checks = [("duration_s", duration_s), ("sample_rate_hz", sample_rate_hz), ("ramp_s", ramp_s)]
+    for name, val in checks + ([("cruise_m_s", cruise_m_s)] if cruise_m_s is not None else []):
         if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
             raise DataError(f"{name} must be a finite number > 0, got {val!r}")
     tr = parse_turns(turns, tread=vehicle.tread, duration_s=duration_s, what="turns") if turns else ()
@@ -324,7 +332,7 @@ def simulate_turning_log(
     h = 1.0 / sample_rate_hz
     n = int(round(duration_s * sample_rate_hz)) + 1
     t = np.arange(n) * h
-    u, du = default_turn_speed(vehicle, t, duration_s)
+    u, du = default_turn_speed(vehicle, t, duration_s, cruise_m_s)
     kappa, dkappa = _curvature(t, tr, ramp_s)
     Om, dOm = u * kappa, du * kappa + u * dkappa
     Z, Fx, W, bad = _solve_plant(vehicle, soil, settings, u, du, Om, dOm)
