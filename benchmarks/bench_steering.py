@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/bench_steering.py [--seeds N] [--duration S] [--rate HZ] [--quick]
+    python benchmarks/bench_steering.py [--seeds N] [--duration S] [--rate HZ] [--quick | --separation]
 
 Parts (sizes printed with each result):
 
@@ -15,6 +15,8 @@ Parts (sizes printed with each result):
    turning samples, the straight samples of the turning log, and the straight log; their error,
    95 % interval width, coverage over ``--seeds`` seeds, the friction share's standard error
    (c-phi separation by the load transfer), and the fit time.
+4. ``--separation``: c and phi from the turns' load transfer (cg 1.5 m, turns of 10-14 m at
+   3.5 m/s), the friction share and its standard error per seed.
 """
 
 from __future__ import annotations
@@ -113,17 +115,50 @@ def _identification(vehicle, soil, seeds: int, duration: float, rate: float) -> 
         )
 
 
+def _separation(soil, seeds: int, duration: float, rate: float) -> None:
+    """c and phi from the load transfer: cg 1.5 m, turns of 10-14 m at 3.5 m/s."""
+    from soiltrack.identify.turning import fit_turning
+    from soiltrack.soilmodel import VEHICLES
+    from soiltrack.soilmodel.turning import simulate_turning_log
+
+    vehicle = dataclasses.replace(VEHICLES["heavy"], tread=2.5, cg_height=1.5)
+    f = duration / 30.0
+    turns = f"{4 * f:g}:{10 * f:g}:12,{13 * f:g}:{19 * f:g}:-10,{22 * f:g}:{27 * f:g}:14"
+    W = vehicle.weight
+    Ft = vehicle.contact_area * soil.cohesion + W * np.tan(soil.friction_angle)
+    print(
+        f"4. c-phi separation: cg 1.5 m, 3.5 m/s, turns {turns}, {duration:g} s at {rate:g} Hz; true friction "
+        f"share {W * np.tan(soil.friction_angle) / Ft:.3f}, F_max {Ft / 1e3:.1f} kN, K {soil.shear_modulus:g} m"
+    )
+    for seed in range(1, seeds + 1):
+        log = simulate_turning_log(
+            vehicle, soil, turns=turns, duration_s=duration, sample_rate_hz=rate, seed=seed, cruise_m_s=3.5
+        )
+        fit = fit_turning(log, vehicle, motion="turning")
+        phi = "-" if fit.friction_angle is None else f"{np.degrees(fit.friction_angle):.1f} deg"
+        print(
+            f"   seed {seed}: share {fit.friction_share:.3f} (SE {fit.friction_share_se:.3f}), separable "
+            f"{fit.separable}, phi {phi}; F_max {fit.max_thrust / 1e3:.1f} kN {fit.max_thrust_ci95[0] / 1e3:.1f}-"
+            f"{fit.max_thrust_ci95[1] / 1e3:.1f}, K {fit.shear_modulus:.4f} m {fit.shear_modulus_ci95[0]:.4f}-"
+            f"{fit.shear_modulus_ci95[1]:.4f}"
+        )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=3, help="seeds of the identification part (default 3)")
     ap.add_argument("--duration", type=float, default=30.0, help="log length, s (default 30)")
     ap.add_argument("--rate", type=float, default=25.0, help="sample rate, Hz (default 25)")
     ap.add_argument("--quick", action="store_true", help="parts 1 and 2 only")
+    ap.add_argument("--separation", action="store_true", help="part 4 only (c-phi separation, --seeds seeds)")
     a = ap.parse_args()
     from soiltrack.soilmodel import TERRAINS, VEHICLES
 
     vehicle = dataclasses.replace(VEHICLES["heavy"], tread=2.5, cg_height=1.0)
     soils = [TERRAINS[k] for k in ("lete_sand", "clayey_soil", "dry_sand")]
+    if a.separation:
+        _separation(soils[0], a.seeds, a.duration, a.rate)
+        return
     _quadrature(vehicle, soils)
     _timing(vehicle, soils[0])
     if not a.quick:

@@ -9,7 +9,8 @@ biases a torque-from-slip fit; DESIGN section 4). The channels are averaged over
 ``block_s`` (the quasi-static model is smooth over 0.4 s; the noise falls by the square root of
 the block's samples and the model is solved once per block). Left and right residuals are
 weighted by their 2 x 2 covariance estimated from the residuals (the vehicle-speed noise enters
-both), in a second pass.
+both), in a second pass; each standard error is the larger of the model-based and the sandwich
+one (:func:`_covariance`).
 
 Parameters: ``F_max = A c + W tan(phi)`` (as ``F_max / W``), ``K``, and the friction share
 ``kappa = W tan(phi) / F_max`` in [0, 1] (c = (1 - kappa) F_max / A). Going straight both tracks
@@ -322,18 +323,35 @@ def fit_turning(
     if out is None:
         return TurnFit(motion, rows, n, "failed", "the steering model lost its solution in the weighted pass")
     th, Z, Jw, r, it2 = out
-    return _result(motion, rows, n, prob, th, Z, Jw, lo, hi, it1 + it2)
+    return _result(motion, rows, n, prob, th, Z, Jw, r, lo, hi, it1 + it2)
+
+
+def _covariance(Jw: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """The larger (per parameter, scaled as a whole) of the model-based and the sandwich covariance.
+
+    Model-based: ``(J'J)^-1`` of the whitened residuals (their 2 x 2 covariance estimated).
+    Sandwich (per block, HC0): ``(J'J)^-1 (sum_b J_b' r_b r_b' J_b) (J'J)^-1``: robust to the
+    noise level changing along the log (the relative encoder noise is larger on the faster, outer
+    track, which changes sides between left and right turns). The larger of the two is taken for
+    each standard error (its correlations are the model-based ones).
+    """
+    H = np.linalg.pinv(Jw.T @ Jw, rcond=1e-13)
+    n = r.size // 2
+    g = np.einsum("bi,bij->bj", r.reshape(n, 2), Jw.reshape(n, 2, -1))  # per-block score
+    S = H @ (g.T @ g) @ H
+    scale = np.sqrt(np.maximum(np.diag(S), np.diag(H)) / np.maximum(np.diag(H), 1e-300))
+    return H * np.outer(scale, scale)
 
 
 def _ci(x: float, se: float) -> tuple[float, float]:
     return (float(x - Z95 * se), float(x + Z95 * se))
 
 
-def _result(motion, rows, n, prob: _Problem, th, Z, Jw, lo, hi, iterations) -> TurnFit:
+def _result(motion, rows, n, prob: _Problem, th, Z, Jw, r, lo, hi, iterations) -> TurnFit:
     """Covariance, intervals, identifiability and the outcome of a converged fit."""
     W = prob.W
     try:
-        cov = np.linalg.pinv(Jw.T @ Jw, rcond=1e-13)
+        cov = _covariance(Jw, r)
     except np.linalg.LinAlgError:
         return TurnFit(motion, rows, n, "failed", "singular information matrix")
     se = np.sqrt(np.maximum(np.diag(cov), 0))
