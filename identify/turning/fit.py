@@ -6,7 +6,7 @@ measured forward speed u, yaw rate Om and the two sprocket torques (the sprocket
 shear delivers its torque while the lateral shear holds the centripetal force; the fit compares
 them with the encoders (output error: the noisy speeds are not regressors of the slip, which
 biases a torque-from-slip fit; DESIGN section 4). The channels are averaged over blocks of
-``block_s`` (the quasi-static model is smooth over 0.4 s; the noise falls by the square root of
+``block_s`` (the quasi-static model is smooth over 0.2 s; the noise falls by the square root of
 the block's samples and the model is solved once per block). Left and right residuals are
 weighted by their 2 x 2 covariance estimated from the residuals (the vehicle-speed noise enters
 both), in a second pass; each standard error is the larger of the model-based and the sandwich
@@ -70,7 +70,7 @@ class TurnFitSettings:
         200 x 16 rule in radius and torques on the three test soils, docs/physics.md).
     """
 
-    block_s: float = 0.4
+    block_s: float = 0.2
     min_speed: float = 0.2
     max_iter: int = 25
     steering: SteeringSettings = field(default_factory=lambda: SteeringSettings(10, 2))
@@ -368,10 +368,16 @@ def _result(motion, rows, n, prob: _Problem, th, Z, Jw, r, lo, hi, iterations) -
     se_slope = float(math.sqrt(max(grad @ cov @ grad, 0.0)))
     problems = []
     if rel > REL_SE_MAX:
+        gentle = corr is not None and corr > 0.95  # F_max and K move together: only the initial slope is seen
         problems.append(
             f"F_max and K are not both determined (relative standard errors {se_F / Fmax:.2g} and {se_K / K:.2g}; "
-            f"correlation {corr if corr is None else round(corr, 3)}): the log's thrust stays far below the soil's "
-            "limit, so only the initial slope F_max l / (2 K) is pinned down"
+            f"correlation {corr if corr is None else round(corr, 3)})"
+            + (
+                ": the log's thrust stays far below the soil's limit, so only the initial slope F_max l / (2 K) "
+                "is pinned down"
+                if gentle
+                else ""
+            )
         )
     act = [a for a in active if a != "friction_share"]
     if act:
