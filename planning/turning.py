@@ -27,7 +27,13 @@ import numpy as np
 
 from ..soilmodel import DataError, Soil, Vehicle
 from ..soilmodel.simulation import drive_limits
-from ..soilmodel.steering import SteeringSettings, motion_inverse_function, hull_forces_function, vehicle_parameters
+from ..soilmodel.steering import (
+    SteeringSettings,
+    hull_forces_function,
+    motion_inverse_function,
+    tread_of,
+    vehicle_parameters,
+)
 from ..soilmodel.threadsafe import call_solver
 
 __all__ = ["TurnMargin", "turn_margin", "turn_point", "min_turn_radius", "R_MAX"]
@@ -84,11 +90,12 @@ class TurnMargin:
         """A few lines for the margin report."""
         side = "left" if self.radius_m > 0 else "right"
         head = f"turn {abs(self.radius_m):g} m to the {side} at {self.speed_m_s:g} m/s: "
-        if not self.solved:
+        tl, tr = self.torque_left_Nm, self.torque_right_Nm
+        if not self.solved or tl is None or tr is None:
             body = "the soil cannot hold it (no steady motion)"
         else:
             body = (
-                f"torques left {self.torque_left_Nm / 1e3:.3g} kN m, right {self.torque_right_Nm / 1e3:.3g} kN m; "
+                f"torques left {tl / 1e3:.3g} kN m, right {tr / 1e3:.3g} kN m; "
                 f"slip outer {self.slip_outer:.3g}, inner {self.slip_inner:.3g}; sideslip {self.sideslip_deg:.2g} deg"
             )
         verdict = "feasible" if self.turn_feasible else f"NOT feasible (limited by {self.turn_limited_by})"
@@ -102,7 +109,7 @@ def turn_point(
     """``(solved, w_l, w_r, v, T_l, T_r)`` of the steady turn at radius R (+ left) and forward speed S."""
     veh = vehicle_parameters(vehicle)
     u, Om = float(speed_m_s), float(speed_m_s) / float(radius_m)
-    r, B = vehicle.sprocket_radius, float(vehicle.tread)
+    r, B = vehicle.sprocket_radius, tread_of(vehicle)
     sv = [soil.cohesion, soil.friction_angle, soil.shear_modulus]
     p = np.concatenate([[u, Om, 0.0, 0.0], sv, veh])
     z0 = [(u - Om * B / 2) / (0.97 * r), (u + Om * B / 2) / (0.97 * r), 0.0]
@@ -129,7 +136,7 @@ def _check(vehicle, soil, radius_m, speed_m_s, max_slip, limits, settings):
         if np.all(np.isfinite([wl, wr])) and min(wl, wr) <= 0:
             return "soil", "the inner sprocket would have to stop or reverse (a pivot turn: outside the model)", d
         return "soil", "the soil cannot hold the turn (no steady motion)", d
-    r, B = vehicle.sprocket_radius, float(vehicle.tread)
+    r, B = vehicle.sprocket_radius, tread_of(vehicle)
     Om = speed_m_s / radius_m
     sl, sr = 1 - (speed_m_s - Om * B / 2) / (r * wl), 1 - (speed_m_s + Om * B / 2) / (r * wr)
     outer = sr if radius_m > 0 else sl
@@ -148,7 +155,7 @@ def _check(vehicle, soil, radius_m, speed_m_s, max_slip, limits, settings):
 def min_turn_radius(vehicle, soil, speed_m_s, *, max_slip=0.2, settings=SteeringSettings()) -> float | None:
     """Smallest feasible |R| (m) at the speed, by bisection on log |R| (left turn; the model is symmetric)."""
     limits = drive_limits(vehicle)
-    lo, hi = 0.5 * float(vehicle.tread) * (1 + 1e-6), R_MAX
+    lo, hi = 0.5 * tread_of(vehicle) * (1 + 1e-6), R_MAX
     if _check(vehicle, soil, hi, speed_m_s, max_slip, limits, settings)[0] is not None:
         return None
     if _check(vehicle, soil, lo, speed_m_s, max_slip, limits, settings)[0] is None:
@@ -179,7 +186,7 @@ def turn_margin(
         No tread, a radius not beyond half the tread, a speed not > 0, a slip limit outside (0, 1).
     """
     vehicle_parameters(vehicle)  # tread checked
-    B = float(vehicle.tread)
+    B = tread_of(vehicle)
     if not (math.isfinite(radius_m) and abs(radius_m) > 0.5 * B):
         raise DataError(f"--turn-radius {radius_m:g} m must be larger than half the tread ({0.5 * B:g} m)")
     if not (math.isfinite(speed_m_s) and speed_m_s > 0):

@@ -64,6 +64,7 @@ __all__ = [
     "torque_residual_function",
     "kinematic_radius",
     "check_steering_vehicle",
+    "tread_of",
 ]
 
 #: Below this |Om T| the path integrals C0, S0, C1, S1 are evaluated by their series (error < 1e-14).
@@ -107,6 +108,13 @@ def check_steering_vehicle(vehicle: Vehicle) -> Vehicle:
             column="tread_m",
         )
     return vehicle
+
+
+def tread_of(vehicle: Vehicle) -> float:
+    """The vehicle's tread B, m (DataError naming ``tread_m`` when it has none)."""
+    tread = check_steering_vehicle(vehicle).tread
+    assert tread is not None  # checked above
+    return float(tread)
 
 
 def vehicle_parameters(vehicle: Vehicle) -> np.ndarray:
@@ -390,7 +398,7 @@ def steady_turn(
     veh = vehicle_parameters(vehicle)
     if not (math.isfinite(w_left) and math.isfinite(w_right) and w_left > 0 and w_right > 0):
         raise DataError(f"sprocket speeds must be finite and > 0 rad/s, got {w_left!r}, {w_right!r}")
-    r, B = vehicle.sprocket_radius, float(vehicle.tread)
+    r, B = vehicle.sprocket_radius, tread_of(vehicle)
     z0 = [0.5 * r * (w_left + w_right), 0.0, 0.6 * r * (w_right - w_left) / B]
     p = np.concatenate([[w_left, w_right], _soil_vector(soil), veh])
     z, _ = call_solver(steady_turn_function(settings), z0, p)
@@ -406,7 +414,7 @@ def _steady_result(z, p, wl, wr, vehicle: Vehicle, settings: SteeringSettings) -
     res = np.array([(net[0] + vehicle.mass * v * Om) / scale, (net[1] - vehicle.mass * u * Om) / scale])
     res = np.append(res, net[2] / (scale * vehicle.track_length))
     ok = bool(np.all(np.isfinite(z)) and np.max(np.abs(res)) < 1e-8 and np.min(W) > 0)  # W <= 0: tipping
-    r, B = vehicle.sprocket_radius, float(vehicle.tread)
+    r, B = vehicle.sprocket_radius, tread_of(vehicle)
     turning = abs(Om) > 1e-12
     return SteadyTurn(
         converged=ok,

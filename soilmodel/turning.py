@@ -29,7 +29,7 @@ from .csvread import bad_rows_error
 from .errors import DataError
 from .simulation import add_noise, cruise_speed, drive_limits, sensor_noise
 from .soil import Soil
-from .steering import SteeringSettings, motion_inverse_function, hull_forces_function, vehicle_parameters
+from .steering import SteeringSettings, hull_forces_function, motion_inverse_function, vehicle_parameters
 from .threadsafe import call_solver, locked_cache
 from .tracks import TWO_TRACK_COLUMNS, YAW_COLUMN, turning_mask
 from .vehicle import Vehicle

@@ -143,11 +143,11 @@ def fit_motion_command(a: argparse.Namespace, data, vehicle, options: dict) -> i
             column="tread_m",
         )
     taken = {"vehicle", "bounds"}  # the steering fit takes --bounds (K's, and F_max's from c's and phi's)
-    given = [f"--{k.replace('_', '-')}" for k, v in options.items() if k not in taken and getattr(a, k) != v]
-    given += ["--plot"] if a.plot else []
-    if given:
+    extra = [f"--{k.replace('_', '-')}" for k, v in options.items() if k not in taken and getattr(a, k) != v]
+    extra += ["--plot"] if a.plot else []
+    if extra:
         raise DataError(
-            f"{', '.join(given)} do{'es' if len(given) == 1 else ''} not apply to the steering model's fit of a "
+            f"{', '.join(extra)} do{'es' if len(extra) == 1 else ''} not apply to the steering model's fit of a "
             "two-track log with yaw rate (leave it out, or fit the straight samples with the straight-line model: "
             "drop the yaw_rate_rad_s column)",
             file=a.data,

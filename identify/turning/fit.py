@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import lru_cache
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -133,7 +134,7 @@ class TurnFit:
             "friction_share_se": self.friction_share_se,
             "c_phi_separable": self.separable,
         }
-        if self.separable:
+        if self.separable and self.cohesion is not None and self.friction_angle is not None:
             out["cohesion_kpa"] = self.cohesion / 1e3
             out["cohesion_ci95"] = pair(self.cohesion_ci95, 1e-3)
             out["friction_angle_deg"] = math.degrees(self.friction_angle)
@@ -360,7 +361,8 @@ def _result(motion, rows, n, prob: _Problem, th, Z, Jw, r, lo, hi, iterations) -
     corr = float(cov[0, 1] / (se[0] * se[1])) if se[0] > 0 and se[1] > 0 else None
     names = ("max_thrust", "shear_modulus", "friction_share")
     active = tuple(nm for nm, v, a, b in zip(names, th, lo, hi) if v <= a + 1e-9 * max(1, abs(a)) or v >= b - 1e-9 * b)
-    rms = tuple(float(x) for x in np.sqrt(np.mean((prob.y - Z[:2]) ** 2, axis=1)))
+    rms_lr = np.sqrt(np.mean((prob.y - Z[:2]) ** 2, axis=1))
+    rms = (float(rms_lr[0]), float(rms_lr[1]))
     rel = max(se_F / Fmax, se_K / K)
     l = prob.vehicle.track_length
     slope = Fmax * l / (2 * K)  # dF/di at i = 0: what gentle driving determines
@@ -383,7 +385,7 @@ def _result(motion, rows, n, prob: _Problem, th, Z, Jw, r, lo, hi, iterations) -
     if act:
         problems.append(f"{', '.join(act)} ended on a bound")
     separable = bool(se[2] < KAPPA_SE_MAX and "friction_share" not in active and not problems)
-    kw = {}
+    kw: dict[str, Any] = {}
     if separable:
         s, D = prob.soil(th)
         cs = D @ cov @ D.T
@@ -423,14 +425,14 @@ def fit_by_motion(
     *,
     bounds: SoilBounds = PRACTICAL_BOUNDS,
     settings: TurnFitSettings = TurnFitSettings(),
-) -> dict:
+) -> tuple[dict, dict[str, TurnFit]]:
     """``by_motion`` of DESIGN section 9 and the three :class:`TurnFit` (``(dict, {motion: fit})``).
 
     ``agreement_se``: for F_max and K, ``(turning - straight) / sqrt(se_t^2 + se_s^2)`` (None when
     either fit is not usable).
     """
     fits = {m: fit_turning(log, vehicle, motion=m, bounds=bounds, settings=settings) for m in MOTIONS}
-    agree = {}
+    agree: dict[str, float | None] = {}
     s, t = fits["straight"], fits["turning"]
     for key, attr in (("max_thrust_N", "max_thrust"), ("shear_modulus_m", "shear_modulus")):
         if s.outcome == "usable" and t.outcome == "usable":
