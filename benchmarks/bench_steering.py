@@ -10,7 +10,7 @@ Parts (sizes printed with each result):
    against a 200 x 16 rule, heavy vehicle (tread 2.5 m, cg 1 m), three soils, inner sprocket
    3 rad/s and speed ratios 1.1, 1.5, 2.5.
 2. Steady-turn evaluation time (cached rootfinder, warm process), median of 50 calls.
-3. Identification: logs of ``--duration`` s at ``--rate`` Hz on LETE sand, one with three turns
+3. Identification: logs of ``--duration`` s at ``--rate`` Hz on ``--terrain`` (LETE sand), one with three turns
    (15 m left, 8 m right, 25 m left), one of the same duration with none; F_max and K from the
    turning samples, the straight samples of the turning log, and the straight log; their error,
    95 % interval width, coverage over ``--seeds`` seeds, the friction share's standard error
@@ -149,6 +149,7 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=3, help="seeds of the identification part (default 3)")
     ap.add_argument("--duration", type=float, default=30.0, help="log length, s (default 30)")
     ap.add_argument("--rate", type=float, default=25.0, help="sample rate, Hz (default 25)")
+    ap.add_argument("--terrain", default="lete_sand", help="terrain of parts 3 and 4 (default lete_sand)")
     ap.add_argument("--quick", action="store_true", help="parts 1 and 2 only")
     ap.add_argument("--separation", action="store_true", help="part 4 only (c-phi separation, --seeds seeds)")
     a = ap.parse_args()
@@ -156,13 +157,14 @@ def main() -> None:
 
     vehicle = dataclasses.replace(VEHICLES["heavy"], tread=2.5, cg_height=1.0)
     soils = [TERRAINS[k] for k in ("lete_sand", "clayey_soil", "dry_sand")]
+    soil = TERRAINS[a.terrain]
     if a.separation:
-        _separation(soils[0], a.seeds, a.duration, a.rate)
+        _separation(soil, a.seeds, a.duration, a.rate)
         return
     _quadrature(vehicle, soils)
     _timing(vehicle, soils[0])
     if not a.quick:
-        _identification(vehicle, soils[0], a.seeds, a.duration, a.rate)
+        _identification(vehicle, soil, a.seeds, a.duration, a.rate)
 
 
 if __name__ == "__main__":
