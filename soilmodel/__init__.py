@@ -10,6 +10,8 @@ unmodelled effects (:data:`EFFECTS`, :func:`parse_effects`, :func:`thrust_with_e
 (:func:`dynamics_function`, :func:`slip_from_thrust`) and the simulator (:func:`simulate`); units
 by magnitude for reports and figures (:func:`format_force`, :func:`format_torque`,
 :func:`format_power`, :func:`format_energy`, :func:`choose_scale`).
+Skid steering (Wong-Chiang): :func:`steady_turn`, :class:`SteadyTurn`, :class:`SteeringSettings`;
+two-track logs with turns: :class:`TwoTrackLog`, :func:`read_two_track`, :func:`simulate_turning_log`.
 The rigid wheel on a rig: :class:`RigidWheel`, :func:`read_running_gear` (track or wheel JSON),
 :func:`wheel_expr` (the Wong-Reece stresses integrated), :class:`WheelSettings`,
 :class:`WheelSweep`, :func:`read_wheel_sweep`, :func:`simulate_wheel_sweep`.
@@ -55,6 +57,8 @@ from .dynamics import (
     slip_from_thrust_function,
 )
 from .simulation import SensorNoise, simulate, simulate_drive_log, simulate_slip_sweep
+from .steering import SteadyTurn, SteeringSettings, steady_turn
+from .turning import TwoTrackLog, read_two_track, simulate_turning_log
 from .units import Scale, choose_scale, format_energy, format_force, format_power, format_torque, format_value
 from .rigid_wheel import RigidWheel, read_running_gear
 from .wheel import WheelSettings, wheel_expr
@@ -62,6 +66,12 @@ from .wheel_sweep import WheelSweep, read_wheel_sweep, write_wheel_sweep
 from .wheel_simulation import simulate_wheel_sweep
 
 __all__ = [
+    "SteadyTurn",
+    "SteeringSettings",
+    "steady_turn",
+    "TwoTrackLog",
+    "read_two_track",
+    "simulate_turning_log",
     "DataError",
     "DriveLog",
     "SlipData",

@@ -138,6 +138,16 @@ def _std(rng: np.random.Generator, x: np.ndarray, abs_: float, rel: float) -> np
     return x + sd * rng.standard_normal(x.shape)
 
 
+def sensor_noise(noise: Any) -> SensorNoise:
+    """``"default"``, ``"none"`` (or None) or a :class:`SensorNoise` -> that :class:`SensorNoise` (else DataError)."""
+    return _noise(noise)
+
+
+def add_noise(rng: np.random.Generator, x: np.ndarray, abs_: float, rel: float) -> np.ndarray:
+    """``x`` plus white Gaussian noise of standard deviation ``sqrt(abs_^2 + (rel |x|)^2)`` per sample."""
+    return _std(rng, x, abs_, rel)
+
+
 @dataclass(frozen=True)
 class DriveLimits:
     """Drivetrain limits used by the simulator's controller (both tracks).

@@ -25,6 +25,8 @@ _JSON_FIELDS = {  # JSON key -> dataclass field
     "max_power_W": "max_power",
     "road_wheels": "road_wheels",
     "ground_clearance_m": "ground_clearance",
+    "tread_m": "tread",
+    "yaw_inertia_kg_m2": "yaw_inertia",
     "cg_height_m": "cg_height",
 }
 #: Plausible ranges (SI) of the vehicle's numbers; anything outside is refused at input, because a
@@ -38,6 +40,8 @@ LIMITS = {
     "sprocket_inertia": (0.0, 1e8, "kg m^2"),
     "max_sprocket_torque": (0.0, 1e9, "N m"),
     "max_power": (0.0, 1e9, "W"),
+    "tread": (1e-3, 100.0, "m"),
+    "yaw_inertia": (0.0, 1e12, "kg m^2"),
     "cg_height": (0.0, 50.0, "m"),
 }
 
@@ -74,9 +78,16 @@ class Vehicle:
     ground_clearance
         Height of the belly above the track's ground contact, m (stuck prediction: sinkage
         reaching the belly); ``None`` when unknown.
+    tread
+        Distance B between the two tracks' centre lines, m (the steering model); ``None`` when
+        unknown (then nothing can turn).
+    yaw_inertia
+        Yaw moment of inertia Iz of the whole vehicle about its centre of gravity, kg m^2; ``None``:
+        the steering model assumes a uniform box over the tracks, ``m (l^2 + (B + b)^2) / 12``.
     cg_height
         Height of the centre of gravity above the track's ground contact, m (static tipping limit
-        on a grade, :func:`soiltrack.planning.stability.slope_limits`); ``None`` when unknown.
+        on a grade, :func:`soiltrack.planning.stability.slope_limits`; lateral load transfer in a
+        turn); ``None`` when unknown (tipping not checked, no load transfer).
     name
         Free text label.
     """
@@ -92,6 +103,8 @@ class Vehicle:
     road_wheels: int | None = None
     name: str = ""
     ground_clearance: float | None = None
+    tread: float | None = None
+    yaw_inertia: float | None = None
     cg_height: float | None = None
 
     def __post_init__(self) -> None:
@@ -108,7 +121,14 @@ class Vehicle:
                 raise DataError(f"vehicle {f.name} must be > 0, got {v}")
             if v < 0:
                 raise DataError(f"vehicle {f.name} must be >= 0, got {v}")
-            if f.name in ("max_sprocket_torque", "max_power", "ground_clearance", "cg_height") and v == 0:
+            if f.name in (
+                "max_sprocket_torque",
+                "max_power",
+                "ground_clearance",
+                "tread",
+                "yaw_inertia",
+                "cg_height",
+            ) and (v == 0):
                 raise DataError(f"vehicle {f.name} must be > 0 (or absent), got {v}")
         for name, (lo, hi, unit) in LIMITS.items():
             v = getattr(self, name)
@@ -119,6 +139,11 @@ class Vehicle:
                 )
         if self.rolling_resistance >= 1:
             raise DataError(f"vehicle rolling_resistance must be < 1, got {self.rolling_resistance}")
+        if self.tread is not None and self.tread <= self.track_width:
+            raise DataError(
+                f"vehicle tread {self.tread:g} m (between the track centre lines) must exceed the track width "
+                f"{self.track_width:g} m: the two tracks would overlap"
+            )
         rw = self.road_wheels
         if rw is not None and (isinstance(rw, bool) or not isinstance(rw, int) or not 1 <= rw <= 100):
             raise DataError(f"vehicle road_wheels must be a positive integer (at most 100), got {rw!r}")
@@ -132,6 +157,15 @@ class Vehicle:
     def contact_area(self) -> float:
         """Contact area of both tracks A = 2 b l, m^2."""
         return 2.0 * self.track_width * self.track_length
+
+    @property
+    def yaw_inertia_or_box(self) -> float:
+        """Iz, kg m^2: the given ``yaw_inertia``, else a uniform box over the tracks (needs ``tread``)."""
+        if self.yaw_inertia is not None:
+            return self.yaw_inertia
+        if self.tread is None:
+            raise DataError("the vehicle has no tread_m (distance between the track centre lines)", column="tread_m")
+        return self.mass * (self.track_length**2 + (self.tread + self.track_width) ** 2) / 12.0
 
     @property
     def mean_pressure(self) -> float:

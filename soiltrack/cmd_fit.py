@@ -13,6 +13,7 @@ from .identify.engines import DEFAULT_ENGINE, ENGINES
 from .identify.outcome import exit_code
 from .soilmodel import PRACTICAL_BOUNDS, WIDE_BOUNDS, DataError, SoilBounds
 from .soilmodel.rigid_wheel import RigidWheel
+from .turn_cli import add_fit_options, fit_motion_command
 
 #: Named soil bounds of ``--bounds`` (the same names as ``diagnose --bounds``).
 NAMED_BOUNDS = {"practical": PRACTICAL_BOUNDS, "wide": WIDE_BOUNDS}
@@ -133,6 +134,12 @@ def _cmd_fit(a: argparse.Namespace) -> int:
             file=a.data,
         )
     vehicle = gear
+    a.bounds_obj = bounds
+    motion_rc = fit_motion_command(
+        a, data, vehicle, _VEHICLE_OPTIONS
+    )  # two-track log with yaw rate: the steering model
+    if motion_rc is not None:
+        return motion_rc
     drive_log = isinstance(data, DriveLog)
     if a.segments is not None:
         return segments_command(a, data, vehicle, bounds)
@@ -341,5 +348,6 @@ def add_parser(sub) -> None:
     )
     add_segment_arguments(f)  # --segments, --max-memory (soiltrack.cmd_segments)
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
+    add_fit_options(f)
     f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit (.png, .pdf, .svg)")
     f.set_defaults(func=_cmd_fit)

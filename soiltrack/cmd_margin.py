@@ -8,6 +8,7 @@ import json
 from .argcheck import check_drawbar
 from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path, vehicle_arg
 from .soilmodel import TERRAINS, DataError
+from .turn_cli import add_margin_options, turn_margin_command
 
 
 def terrain_args(a: argparse.Namespace, vehicle):
@@ -82,6 +83,8 @@ def _cmd_margin(a: argparse.Namespace) -> int:
         speed=_num(a.speed, "--speed"),
         max_slip=_num(a.max_slip, "--max-slip"),
     )
+    if a.turn_radius is not None:  # a steady turn with the steering model (soiltrack.planning.turning)
+        return turn_margin_command(a, terrain, vehicle, m)
     print(json.dumps(m.to_dict(), indent=2, allow_nan=False) if a.json else m.report())
     if a.plot:
         from .planning.plots import plot_margin
@@ -107,6 +110,7 @@ def add_parser(sub) -> None:
     p.add_argument("--drawbar-N", dest="drawbar_N", metavar="D", help="drawbar pull to deliver, N (default 0)")
     p.add_argument("--speed", metavar="V", help="vehicle speed, m/s (brings in the power limit)")
     p.add_argument("--max-slip", metavar="S", help="allowed slip in (0, 1) (default 0.2)")
+    add_margin_options(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     p.add_argument(
         "--plot",

@@ -11,6 +11,7 @@ from .argcheck import check_seed
 from .cliutil import EXIT_OK, MAX_SAMPLES, floats_arg, output_path, running_gear_arg, soil_arg
 from .soilmodel import TERRAINS, DataError
 from .soilmodel.rigid_wheel import RigidWheel
+from .turn_cli import add_simulate_options, check_two_track_options, simulate_two_track_command
 
 #: Bits of a seed drawn when ``--seed`` is not given (said on stderr, so that the run can be repeated).
 SEED_BITS = 32
@@ -71,7 +72,10 @@ def _cmd_simulate(a: argparse.Namespace) -> int:
     if a.bekker and not a.sinkage:
         raise DataError("--bekker applies to a rigid wheel's sweep or to a track sweep with --sinkage only")
     _check_options(a)
+    check_two_track_options(a)
     vehicle, soil = gear, soil_arg(a.terrain, a.soil)
+    if a.two_track:
+        return simulate_two_track_command(a, vehicle, soil)
     if a.bekker:
         soil = _with_bekker(soil, a.bekker)
     effects = parse_effects(a.effect or [])
@@ -237,4 +241,5 @@ def add_parser(sub) -> None:
     )
     s.add_argument("-o", "--output", default="-", help="output CSV path, '-' for stdout (default: -)")
     s.add_argument("--plot", metavar="PNG", help="also save a figure of the data (.png, .pdf, .svg)")
+    add_simulate_options(s)
     s.set_defaults(func=_cmd_simulate)
