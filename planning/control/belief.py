@@ -119,23 +119,32 @@ class EstimatedSoil(PriorSoil):
         super().__init__(vehicle, soils, grades_deg)
         self.vehicle = vehicle
         self._grades = list(grades_deg)
+        self._soils = list(soils)
         self._factory = estimator_factory or _default_factory
         self._est = self._factory(vehicle, math.radians(self._grades[0]))
-        self._grade_now = self._grades[0]
+        self._key = (self._grades[0], self._soils[0])
         self._last: Any = None
+        self._held: SoilBelief | None = None
         self._events: list[dict] = []
         self.update_times_s: list[float] = []
 
     def update(self, time_s: float, torque: float, w: float, v: float, accel: float | None, patch: int) -> None:
-        """Feed one sample (torque applied, sprocket speed, vehicle speed) to the estimator."""
-        g = self._grades[min(patch, len(self._grades) - 1)]
-        if g != self._grade_now:  # another normal load: the old horizon's F_max is another load's
-            self._est, self._grade_now, self._last = self._factory(self.vehicle, math.radians(g)), g, None
+        """Feed one sample (torque applied, sprocket speed, vehicle speed) to the estimator.
+
+        Entering a patch of another grade (another normal load, so another F_max) or another planned
+        soil starts a new estimator: the old horizon describes the ground behind.
+        """
+        k = min(patch, len(self._grades) - 1)
+        key = (self._grades[k], self._soils[k])
+        if key != self._key:
+            self._est = self._factory(self.vehicle, math.radians(key[0]))
+            self._key, self._last, self._held = key, None, None
         t0 = time.perf_counter()
         e = self._est.update(time_s, torque, w, v, accel)
         self.update_times_s.append(time.perf_counter() - t0)
         self._last = e
         if getattr(e, "change_detected", False):
+            self._held = None
             self._events.append(
                 {
                     "time_s": float(time_s),
@@ -144,23 +153,35 @@ class EstimatedSoil(PriorSoil):
                     "reason": "the estimator detected a change of terrain",
                 }
             )
+        ident = tuple(getattr(e, "identifiable", ()) or ())
+        if "max_thrust" in ident and e.max_thrust_N is not None:
+            K = e.shear_modulus_m if "shear_modulus" in ident else None
+            if K is None and e.slope_N:
+                K = e.max_thrust_N * self.vehicle.track_length / (2.0 * e.slope_N)
+            self._held = SoilBelief(float(e.max_thrust_N), float(K or self._b[k].shear_modulus_m), "estimate")
 
     def belief(self, patch: int, current: int) -> SoilBelief:
-        """The estimate for the patch under the vehicle, the prior for the others."""
+        """The estimate for the patch under the vehicle, the prior for the others.
+
+        F_max identified now: the estimate. Identified earlier on this patch (no change detected
+        since): that estimate, held (``"held estimate"``). Only the small-slip slope: the prior's
+        F_max with the K of that slope (``"slope+prior"``). Nothing: the prior.
+        """
         prior = super().belief(patch, current)
         e = self._last
         if patch != current or e is None or e.max_thrust_N is None:
-            return prior
+            return SoilBelief(prior.max_thrust_N, prior.shear_modulus_m, "prior")
         ident = tuple(getattr(e, "identifiable", ()) or ())
-        if "max_thrust" in ident:
-            K = e.shear_modulus_m if "shear_modulus" in ident else prior.shear_modulus_m
-            if "shear_modulus" not in ident and e.slope_N:
-                K = e.max_thrust_N * self.vehicle.track_length / (2.0 * e.slope_N)
-            return SoilBelief(float(e.max_thrust_N), float(K), "estimate")
+        if self._held is not None:
+            return (
+                self._held
+                if "max_thrust" in ident
+                else SoilBelief(self._held.max_thrust_N, self._held.shear_modulus_m, "held estimate")
+            )
         if "slope" in ident and e.slope_N and e.slope_N > 0:
             K = prior.max_thrust_N * self.vehicle.track_length / (2.0 * e.slope_N)
             return SoilBelief(prior.max_thrust_N, float(min(max(K, 1e-3), 0.5)), "slope+prior")
-        return prior
+        return SoilBelief(prior.max_thrust_N, prior.shear_modulus_m, "prior")
 
     @property
     def estimate(self) -> Any:

@@ -72,6 +72,12 @@ class ControlSettings:
         Receding horizon: intervals, their length, and samples between two solves.
     sample_s
         Sample time assumed for the first sample (later: from the measurement's times).
+    probe, probe_s, probe_settle_s, probe_overspeed
+        Traction probe (``slip``, ``mpc`` with the estimator): gentle driving shows only the start of
+        the thrust-slip curve, so on a patch whose F_max is not identified yet the controller pulls
+        at the slip ceiling for ``probe_s`` (once per patch, and again after a detected change),
+        ``probe_settle_s`` after entering it, ending early beyond ``1 + probe_overspeed`` times the
+        speed target.
     """
 
     max_slip: float | None = None
@@ -90,11 +96,15 @@ class ControlSettings:
     mpc_interval_s: float = 0.2
     mpc_every: int = 5
     sample_s: float = 0.02
+    probe: bool = True
+    probe_s: float = 0.6
+    probe_settle_s: float = 1.0
+    probe_overspeed: float = 0.2
 
     def __post_init__(self) -> None:
         for f in fields(self):
             v = getattr(self, f.name)
-            if f.name in ("governor",):
+            if f.name in ("governor", "probe"):
                 continue
             if v is None:
                 continue
@@ -309,14 +319,14 @@ class Controller:
             if self.belief is not None:
                 self.belief.update(t, self._last_M if M_meas is None else M_meas, w, v, a, patch)
             v_ref = self._governor(patch, self._v) if (self.belief is not None and s.governor) else self.target
-            M = self._limit(self._torque(patch, v_ref, dt))
+            M = self._limit(self._torque(patch, v_ref, dt), w)
             self.last = {"v_ref": v_ref, "patch": patch, "slip_filtered": self._slip}
         self._last_M = M
         self.step_times_s.append(time.perf_counter() - t0)
         return (0.5 * M, 0.5 * M) if two else M
 
-    def _limit(self, M: float) -> float:
-        M = min(M, self._M_max, self._P_max / max(self._w, 1e-3))
+    def _limit(self, M: float, w_now: float) -> float:
+        M = min(M, self._M_max, self._P_max / max(self._w, w_now, 1e-3))
         return max(M, -self.settings.brake_fraction * self._M_max) if math.isfinite(self._M_max) else M
 
     def _speed_loop(self, patch: int, v_ref: float, dt: float, cap: float) -> float:
@@ -356,6 +366,40 @@ class SlipController(Controller):
         super().__init__(*args, **kw)
         self.fixed = fixed
         self.slip_ceiling = fixed if fixed is not None else self.max_slip
+        self._probe_until: float | None = None
+        self._probed: set[int] = set()
+        self._entered = (-1, 0.0)
+        self._changes_seen = 0
+
+    def _probing(self, patch: int, v_ref: float) -> bool:
+        """Whether to pull at the slip ceiling now (the traction probe, :class:`ControlSettings`)."""
+        s, t = self.settings, self._t or 0.0
+        if not s.probe or not isinstance(self.belief, EstimatedSoil) or v_ref <= 0:
+            return False
+        if patch != self._entered[0]:
+            self._entered = (patch, t)
+        n = sum(1 for e in self.belief.events if e["kind"] == "change_detected")
+        if n != self._changes_seen:
+            self._changes_seen = n
+            self._probed.discard(patch)
+            self._entered = (patch, t)
+        if self._probe_until is not None:
+            if t < self._probe_until and self._v < (1 + s.probe_overspeed) * v_ref:
+                return True
+            self._probe_until = None
+            return False
+        src = self.belief.belief(patch, patch).source
+        if patch in self._probed or src not in ("prior", "slope+prior") or t - self._entered[1] < s.probe_settle_s:
+            return False
+        self._probed.add(patch)
+        self._probe_until = t + s.probe_s
+        self._event(
+            "probe",
+            patch,
+            f"F_max of patch {patch} not identified yet ({src}): a traction probe of "
+            f"{s.probe_s:g} s at the slip ceiling",
+        )
+        return True
 
     def _ceiling(self, patch: int) -> tuple[float, SoilBelief | None]:
         if self.fixed is not None or self.belief is None:
@@ -379,6 +423,8 @@ class SlipController(Controller):
         ceiling, b = self._ceiling(patch)
         self.slip_ceiling = ceiling
         M_s, gain = self._slip_loop(ceiling, b, dt)
+        if self._probing(patch, v_ref):
+            return M_s
         cap = min(self._M_max, self._P_max / max(self._w, 1e-3), M_s)
         M_v = self._speed_loop(patch, v_ref, dt, cap)
         if M_s < M_v:  # the slip loop limits: integrate its error (only then)
@@ -405,6 +451,9 @@ class MpcController(SlipController):
         b = self.belief.belief(patch, patch) if self.belief is not None else None
         if b is None:
             return super()._torque(patch, v_ref, dt)
+        if self._probing(patch, v_ref):
+            ceiling, b = self._ceiling(patch)
+            return self._slip_loop(ceiling, b, dt)[0]
         if self._n % self.settings.mpc_every == 0:
             t0 = time.perf_counter()
             M_max = self._M_max if math.isfinite(self._M_max) else 1e12
