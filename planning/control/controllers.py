@@ -39,6 +39,8 @@ __all__ = ["ControlSettings", "RouteView", "Controller", "make_controller", "CON
 
 CONTROLLERS = ("pi", "slip", "mpc", "fixed_slip")
 SOIL_SOURCES = ("estimate", "nominal", "true")
+#: Below this speed target (m/s) a controller stops (holds with no drive torque) rather than creeps.
+_STOP_SPEED = 0.05
 
 
 @dataclass(frozen=True)
@@ -59,7 +61,7 @@ class ControlSettings:
     filter_s
         Time constant of the first-order filter of the measured speeds (slip from noisy speeds).
     min_track_speed
-        Below this track speed (m/s) the slip is not measured (taken as 0).
+        Regularisation of the measured slip, ``(r w - v) / max(r w, v_0)`` (as soilmodel's slip), m/s.
     brake_fraction
         Braking torque allowed, as a fraction of the torque limit.
     decel_m_s2
@@ -87,7 +89,7 @@ class ControlSettings:
     slip_gain: float = 0.5
     slip_integral_s: float = 0.3
     filter_s: float = 0.05
-    min_track_speed: float = 0.05
+    min_track_speed: float = 0.01
     brake_fraction: float = 0.5
     decel_m_s2: float = 0.3
     stop_margin_m: float = 1.0
@@ -214,6 +216,7 @@ class Controller:
         self._M_max = vehicle.max_sprocket_torque or math.inf
         self._P_max = vehicle.max_power or math.inf
         self.last: dict[str, Any] = {}
+        self.limiting = "speed"  # which loop set the last torque: "speed", "slip", "probe" or "plan"
 
     # ------------------------------------------------------------------ helpers
     def resistance(self, patch: int) -> float:
@@ -315,18 +318,24 @@ class Controller:
             self.distance_m += max(v, 0.0) * dt
             patch = self.route.patch_at(self.distance_m)
             rw = self.vehicle.sprocket_radius * self._w
-            self._slip = 1.0 - self._v / rw if rw > s.min_track_speed else 0.0
+            self._slip = min(max((rw - self._v) / max(rw, s.min_track_speed), -1.0), 1.0)  # Eq. 4, regularised
             if self.belief is not None:
                 self.belief.update(t, self._last_M if M_meas is None else M_meas, w, v, a, patch)
             v_ref = self._governor(patch, self._v) if (self.belief is not None and s.governor) else self.target
             M = self._limit(self._torque(patch, v_ref, dt), w)
-            self.last = {"v_ref": v_ref, "patch": patch, "slip_filtered": self._slip}
+            self.last = {"v_ref": v_ref, "patch": patch, "slip_filtered": self._slip, "limiting": self.limiting}
         self._last_M = M
         self.step_times_s.append(time.perf_counter() - t0)
         return (0.5 * M, 0.5 * M) if two else M
 
     def _limit(self, M: float, w_now: float) -> float:
-        M = min(M, self._M_max, self._P_max / max(self._w, w_now, 1e-3))
+        """Torque and power limits; the power on the largest of the filtered, raw and (while a slip loop
+        drives) the sprocket speed its slip target will reach within the sample."""
+        w_hi = max(self._w, w_now, 1e-3)
+        if self.limiting in ("slip", "probe", "plan"):
+            target = min(getattr(self, "slip_target", 0.0), 0.95)
+            w_hi = max(w_hi, self._v / (self.vehicle.sprocket_radius * (1 - target)))
+        M = min(M, self._M_max, self._P_max / w_hi)
         return max(M, -self.settings.brake_fraction * self._M_max) if math.isfinite(self._M_max) else M
 
     def _speed_loop(self, patch: int, v_ref: float, dt: float, cap: float) -> float:
@@ -334,10 +343,13 @@ class Controller:
         s, r, m = self.settings, self.vehicle.sprocket_radius, self.vehicle.mass
         kp = r * m / s.speed_time_constant_s
         e = v_ref - self._v
-        if v_ref <= 0 and self._v < 0.05:  # stopped on purpose: hold, no torque
+        if v_ref < _STOP_SPEED and self._v < _STOP_SPEED:  # stopped on purpose: hold (brakes), no torque
             self._Iv = 0.0
             return 0.0
         M = r * self.resistance(patch) + kp * e + self._Iv
+        if v_ref < _STOP_SPEED:  # stopping: no drive torque (a climb stops the vehicle; downhill it brakes)
+            self._Iv = 0.0
+            return min(M, 0.0)
         near = abs(e) < 0.3 * max(self.target, 0.1)  # far from the target the proportional part acts alone
         if near and not (M >= cap and e > 0) and not (M <= -self.settings.brake_fraction * self._M_max and e < 0):
             self._Iv += kp / s.speed_integral_s * e * dt
@@ -419,19 +431,27 @@ class SlipController(Controller):
             gain, ff = s.slip_gain * min(self._M_max, r * self.vehicle.weight), 0.0
         return ff + gain * (target - self._slip) + self._Is, gain
 
+    def _integrate_slip(self, gain: float, target: float, dt: float) -> None:
+        """The slip loop's integral (bounded by the torque limit)."""
+        self._Is += gain / self.settings.slip_integral_s * (target - self._slip) * dt
+        if math.isfinite(self._M_max):
+            self._Is = min(max(self._Is, -self._M_max), self._M_max)
+
     def _torque(self, patch: int, v_ref: float, dt: float) -> float:
         ceiling, b = self._ceiling(patch)
         self.slip_ceiling = ceiling
         M_s, gain = self._slip_loop(ceiling, b, dt)
+        self.slip_target = ceiling
         if self._probing(patch, v_ref):
+            self.limiting = "probe"
+            self._integrate_slip(gain, ceiling, dt)
             return M_s
         cap = min(self._M_max, self._P_max / max(self._w, 1e-3), M_s)
         M_v = self._speed_loop(patch, v_ref, dt, cap)
-        if M_s < M_v:  # the slip loop limits: integrate its error (only then)
-            self._Is += gain / self.settings.slip_integral_s * (ceiling - self._slip) * dt
-            self._Is = min(max(self._Is, -self._M_max), self._M_max) if math.isfinite(self._M_max) else self._Is
-            return M_s
-        return M_v
+        self.limiting = "slip" if M_s < M_v else "speed"
+        if M_s < M_v or self._slip > ceiling:  # the slip loop limits, or should: integrate its error
+            self._integrate_slip(gain, ceiling, dt)
+        return min(M_s, M_v)
 
 
 class MpcController(SlipController):
@@ -453,7 +473,11 @@ class MpcController(SlipController):
             return super()._torque(patch, v_ref, dt)
         if self._probing(patch, v_ref):
             ceiling, b = self._ceiling(patch)
-            return self._slip_loop(ceiling, b, dt)[0]
+            self.limiting, self.slip_target = "probe", ceiling
+            M, gain = self._slip_loop(ceiling, b, dt)
+            self._integrate_slip(gain, ceiling, dt)
+            return M
+        self.limiting, self.slip_target = "plan", self._plan_slip
         if self._n % self.settings.mpc_every == 0:
             t0 = time.perf_counter()
             M_max = self._M_max if math.isfinite(self._M_max) else 1e12
@@ -472,12 +496,12 @@ class MpcController(SlipController):
             self.solve_times_s.append(time.perf_counter() - t0)
             self._plan_slip = float(plan[0])
         self._n += 1
-        if v_ref <= 0 and self._v < 0.05:
+        if v_ref < _STOP_SPEED:  # stopping: the speed loop brakes (the plan's slips cannot be negative)
             self._Is = 0.0
-            return 0.0
+            self.limiting = "speed"
+            return self._speed_loop(patch, v_ref, dt, min(self._M_max, self._P_max / max(self._w, 1e-3)))
         M, gain = self._slip_loop(self._plan_slip, b, dt)
-        self._Is += gain / self.settings.slip_integral_s * (self._plan_slip - self._slip) * dt
-        self._Is = min(max(self._Is, -self._M_max), self._M_max) if math.isfinite(self._M_max) else self._Is
+        self._integrate_slip(gain, self._plan_slip, dt)
         return M
 
 
