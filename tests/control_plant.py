@@ -16,8 +16,9 @@ G = 9.81
 
 
 class JHPlant:
-    def __init__(self, mass, l, b, r, I, mu_r, patches, *, dt=0.02, substeps=5, v0=0.5, sigma_v=0.0,
-                 sigma_w=0.0, seed=0):
+    def __init__(
+        self, mass, l, b, r, I, mu_r, patches, *, dt=0.02, substeps=5, v0=0.5, sigma_v=0.0, sigma_w=0.0, seed=0
+    ):
         self.m, self.l, self.b, self.r, self.I, self.mu_r = mass, l, b, r, I, mu_r
         self.patches = patches  # (length_m, c_Pa, phi_rad, K_m, grade_deg)
         self.ends = np.cumsum([p[0] for p in patches])
@@ -58,15 +59,21 @@ class JHPlant:
             self.w = 0.5 * (lo + hi)
             self.slip = self.slip_of(self.v, self.w)
             F = self.thrust(self.slip, k)
-            R = W * (self.mu_r * math.cos(g) + math.sin(g)) if self.v > 1e-3 else min(
-                W * (self.mu_r * math.cos(g) + math.sin(g)), max(F, 0.0))
+            R = (
+                W * (self.mu_r * math.cos(g) + math.sin(g))
+                if self.v > 1e-3
+                else min(W * (self.mu_r * math.cos(g) + math.sin(g)), max(F, 0.0))
+            )
             v_new = max(self.v + h * (F - R) / self.m, 0.0)
             self.x += 0.5 * (self.v + v_new) * h
             self.v = v_new
         self.t += self.dt
-        return {"time_s": self.t, "sprocket_torque_Nm": self.M,
-                "sprocket_speed_rad_s": self.w + (self.rng.normal(0, self.sw) if self.sw else 0.0),
-                "vehicle_speed_m_s": self.v + (self.rng.normal(0, self.sv) if self.sv else 0.0)}
+        return {
+            "time_s": self.t,
+            "sprocket_torque_Nm": self.M,
+            "sprocket_speed_rad_s": self.w + (self.rng.normal(0, self.sw) if self.sw else 0.0),
+            "vehicle_speed_m_s": self.v + (self.rng.normal(0, self.sv) if self.sv else 0.0),
+        }
 
 
 def drive(controller, plant, distance, t_max):

@@ -74,6 +74,10 @@ class ControlSettings:
         Receding horizon: intervals, their length, and samples between two solves.
     sample_s
         Sample time assumed for the first sample (later: from the measurement's times).
+    cut_factor
+        Runaway guard (all but ``pi``): while the measured slip is above the slip limit, the drive torque
+        is cut to this fraction of the last one at every sample (a belief that overrates the soil
+        would otherwise let the tracks spin up faster than the slip loop corrects it).
     probe, probe_s, probe_settle_s, probe_overspeed
         Traction probe (``slip``, ``mpc`` with the estimator): gentle driving shows only the start of
         the thrust-slip curve, so on a patch whose F_max is not identified yet the controller pulls
@@ -98,6 +102,7 @@ class ControlSettings:
     mpc_interval_s: float = 0.2
     mpc_every: int = 5
     sample_s: float = 0.02
+    cut_factor: float = 0.85
     probe: bool = True
     probe_s: float = 0.6
     probe_settle_s: float = 1.0
@@ -323,6 +328,9 @@ class Controller:
                 self.belief.update(t, self._last_M if M_meas is None else M_meas, w, v, a, patch)
             v_ref = self._governor(patch, self._v) if (self.belief is not None and s.governor) else self.target
             M = self._limit(self._torque(patch, v_ref, dt), w)
+            if self.kind != "pi" and self._slip > self.max_slip and M > 0:  # runaway guard: cut the torque
+                M = min(M, max(self._last_M, 0.0) * s.cut_factor)
+                self._Is = min(self._Is, 0.0)
             self.last = {"v_ref": v_ref, "patch": patch, "slip_filtered": self._slip, "limiting": self.limiting}
         self._last_M = M
         self.step_times_s.append(time.perf_counter() - t0)
