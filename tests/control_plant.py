@@ -97,3 +97,26 @@ def stuck_events(arr, speed=0.05, slip=0.5, hold=1.0):
         if run > hold and run - dt <= hold:
             n += 1
     return n
+
+
+def with_truth(plant):
+    """Give a JHPlant the ``truth`` the closed loop's metrics read (true distance, slip, F_max, K)."""
+
+    class Truthful(type(plant)):
+        @property
+        def truth(self):
+            k = self.patch()
+            _, c, phi, K, g = self.patches[k]
+            N = self.m * G * math.cos(math.radians(g))
+            return {
+                "distance_m": self.x,
+                "vehicle_speed_m_s": self.v,
+                "sprocket_speed_rad_s": self.w,
+                "slip": self.slip,
+                "patch": k,
+                "max_thrust_N": 2 * self.b * self.l * c + N * math.tan(phi),
+                "shear_modulus_m": K,
+            }
+
+    plant.__class__ = Truthful
+    return plant

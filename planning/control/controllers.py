@@ -29,7 +29,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ...soilmodel import TERRAINS, DataError, Soil, Vehicle
-from ...soilmodel.traction import shear_bracket_inverse, slip_factor_function
+from ...soilmodel.traction import _bracket_table, shear_bracket_inverse
 from ..margin import DEFAULT_MAX_SLIP
 from .belief import EstimatedSoil, PriorSoil, SoilBelief, TrueSoil, patch_load, soil_of
 from .mpc import MpcProblem
@@ -208,7 +208,8 @@ class Controller:
         )
         self.max_slip = settings.max_slip or route.max_slip or DEFAULT_MAX_SLIP
         self.events: list[dict] = []
-        self.step_times_s: list[float] = []
+        self.step_times_s: list[float] = []  # wall clock per command
+        self.step_cpu_s: list[float] = []  # this thread's CPU time per command (a loaded machine's waits left out)
         self.distance_m = 0.0
         self._t: float | None = None
         self._v = self._w = 0.0
@@ -217,7 +218,7 @@ class Controller:
         self._Iv = 0.0
         self._Is = 0.0
         self._gov_state: tuple = ("go", -1)
-        self._g = slip_factor_function()
+        self._gy, self._gx = _bracket_table()
         self._M_max = vehicle.max_sprocket_torque or math.inf
         self._P_max = vehicle.max_power or math.inf
         self.last: dict[str, Any] = {}
@@ -232,8 +233,11 @@ class Controller:
         )
 
     def _thrust(self, b: SoilBelief, slips: Sequence[float]) -> np.ndarray:
-        s = np.asarray(slips, dtype=float).reshape(1, -1)
-        return b.max_thrust_N * np.asarray(self._g(s, self.vehicle.track_length, b.shear_modulus_m)).ravel()
+        """Believed thrust (Eq. 2, ``F_max g(i l / K)``) at ``slips`` (non-negative), from soilmodel's table of
+        the shear bracket ``g`` (the one behind :func:`~soiltrack.soilmodel.traction.shear_bracket_inverse`,
+        exact to about 1e-5; a CasADi call per sample would cost more than the whole control step)."""
+        x = np.abs(np.asarray(slips, dtype=float)) * (self.vehicle.track_length / b.shear_modulus_m)
+        return b.max_thrust_N * np.interp(x, self._gx, self._gy)
 
     def _slip_for(self, b: SoilBelief, thrust: float) -> float:
         """Slip at which the believed soil gives ``thrust`` (inf beyond its F_max)."""
@@ -309,7 +313,7 @@ class Controller:
     # ------------------------------------------------------------------ one sample
     def command(self, measurement: dict) -> float | tuple[float, float]:
         """Torque (N m, both sprockets; a (left, right) pair for two-track measurements) for this sample."""
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.thread_time()
         t, w, v, a, M_meas, two = _measurement(measurement)
         s = self.settings
         dt = s.sample_s if self._t is None else max(t - self._t, 1e-6)
@@ -334,6 +338,7 @@ class Controller:
             self.last = {"v_ref": v_ref, "patch": patch, "slip_filtered": self._slip, "limiting": self.limiting}
         self._last_M = M
         self.step_times_s.append(time.perf_counter() - t0)
+        self.step_cpu_s.append(time.thread_time() - c0)
         return (0.5 * M, 0.5 * M) if two else M
 
     def _limit(self, M: float, w_now: float) -> float:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 from ...soilmodel import DataError, Soil, Vehicle
 from ..margin import DEFAULT_MAX_SLIP
@@ -56,6 +56,7 @@ def drive(
     max_time_s: float | None = None,
     baselines: Sequence[str] = BASELINES,
     record_every: int = 1,
+    plant_factory: Callable[[list[TerrainPatch]], Any] | None = None,
     **settings: Any,
 ) -> DriveResult:
     """Run controller ``kind`` and the ``baselines`` over ``route`` on the true soils (module docstring).
@@ -74,6 +75,9 @@ def drive(
         Speed to track (default the larger of ``v0_m_s`` and ``v_end_m_s``).
     max_time_s
         Time allowed (default: 3 times the route at the target speed, plus 30 s).
+    plant_factory
+        ``factory(true_patches) -> plant`` (any object with ``step(torque) -> measurement``; a fresh
+        one per run); default the library's :class:`~.plant.TrackPlant` with ``plant_settings``.
     """
     if kind not in CONTROLLERS:
         raise DataError(f"unknown controller {kind!r}; expected one of {CONTROLLERS}", column="--controller")
@@ -109,7 +113,7 @@ def drive(
         ctl = make_controller(k, vehicle, route=route, target_speed_m_s=v_t, sample_s=ps.dt, **settings, **extra)
         runs[name] = run_closed_loop(
             ctl,
-            TrackPlant(vehicle, patches, ps),
+            plant_factory(patches) if plant_factory is not None else TrackPlant(vehicle, patches, ps),
             distance_m=route.length_m,
             target_speed_m_s=v_t,
             max_slip=lim,

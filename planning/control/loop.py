@@ -55,6 +55,8 @@ class ClosedLoop:
     estimator_time_median_s: float | None = None
     own_step_time_median_s: float | None = None
     own_step_time_p99_s: float | None = None
+    step_cpu_median_s: float | None = None
+    step_cpu_p99_s: float | None = None
     notes: tuple[str, ...] = field(default=())
 
 
@@ -126,6 +128,7 @@ def run_closed_loop(
     events += list(getattr(belief, "events", []) or [])
     events.sort(key=lambda e: e.get("time_s") or 0.0)
     ut = np.asarray(getattr(belief, "update_times_s", []) or [], dtype=float)
+    cpu = np.asarray(getattr(controller, "step_cpu_s", []) or [], dtype=float)
     own = st - ut if ut.size == st.size else st  # the controller's own time, the estimator's update taken out
     return ClosedLoop(
         getattr(controller, "kind", type(controller).__name__),
@@ -140,6 +143,8 @@ def run_closed_loop(
         float(np.median(ut)) if ut.size else None,
         float(np.median(own)),
         float(np.percentile(own, 99)),
+        float(np.median(cpu)) if cpu.size else None,
+        float(np.percentile(cpu, 99)) if cpu.size else None,
     )
 
 
