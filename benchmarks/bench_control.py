@@ -58,7 +58,12 @@ def _row(name, r):
         return "-" if x is None else f"{x:.{d}g}"
 
     own = r.own_step_time_median_s, r.own_step_time_p99_s
-    solve = f"{r.solve_time_median_s * 1e3:.2f}/{r.solve_time_p99_s * 1e3:.2f}" if r.solve_time_median_s else "-"
+    solve = (
+        f"{r.solve_time_median_s * 1e3:.1f}/{r.solve_time_p99_s * 1e3:.1f} "
+        f"(CPU {r.solve_cpu_median_s * 1e3:.1f}/{r.solve_cpu_p99_s * 1e3:.1f})"
+        if r.solve_time_median_s
+        else "-"
+    )
     return (
         f"| {name} | {'yes' if r.arrived else 'no'} | {f(m['time_s'])} | {f(m['energy_J'])} | "
         f"{f(m['tracking_rmse_m_s'])} | {f(m['peak_slip'])} | {f(m['time_above_slip_limit_s'])} | "
@@ -86,7 +91,7 @@ def main(argv=None) -> int:
     sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
     print(
         "| controller | arrived | time_s | energy_J | rmse_m_s | peak_slip | above_limit_s | stuck | adapt_s "
-        "| step us med/p99 | own us med/p99 | solve ms med/p99 |"
+        "| step us med/p99 | step CPU us med/p99 | own us med/p99 | solve ms med/p99 |"
     )
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for vname in a.vehicles.split(","):

@@ -57,6 +57,8 @@ class ClosedLoop:
     own_step_time_p99_s: float | None = None
     step_cpu_median_s: float | None = None
     step_cpu_p99_s: float | None = None
+    solve_cpu_median_s: float | None = None
+    solve_cpu_p99_s: float | None = None
     notes: tuple[str, ...] = field(default=())
 
 
@@ -123,6 +125,7 @@ def run_closed_loop(
     m = metrics(S, target_speed_m_s=target_speed_m_s, max_slip=max_slip, arrived=arrived)
     st = np.asarray(getattr(controller, "step_times_s", []) or [math.nan])
     sv = getattr(controller, "solve_times_s", None)
+    sc = getattr(controller, "solve_cpu_s", None)
     events = list(getattr(controller, "events", []))
     belief = getattr(controller, "belief", None)
     events += list(getattr(belief, "events", []) or [])
@@ -145,6 +148,8 @@ def run_closed_loop(
         float(np.percentile(own, 99)),
         float(np.median(cpu)) if cpu.size else None,
         float(np.percentile(cpu, 99)) if cpu.size else None,
+        float(np.median(sc)) if sc else None,
+        float(np.percentile(sc, 99)) if sc else None,
     )
 
 

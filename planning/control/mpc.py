@@ -8,7 +8,8 @@ follows Eq. 1 with the quasi-static sprocket (the slip settles in milliseconds, 
 
 Limits: ``0 <= i_k <= i_max``, ``M_k <= M_max``, ``M_k w_k <= P_max``. Objective: the squared
 speed error to the target (relative), the sprocket energy (relative to the target's kinetic
-energy), and the slip's changes. IPOPT, quiet, warm-started from the previous solution.
+energy), and the slip's changes. SQP with CasADi's QRQP (IPOPT when it fails), quiet, warm-started
+from the previous solution.
 Parameters ``[v0, F_max, K, R, v_ref, i_prev, i_max, M_max, P_max]``.
 """
 
@@ -28,8 +29,11 @@ MPC_PARAMS = ("v0", "F_max", "K", "R", "v_ref", "i_prev", "i_max", "M_max", "P_m
 
 
 @lru_cache(maxsize=16)
-def mpc_solver(vehicle: Vehicle, horizon: int, h: float, w_energy: float, w_smooth: float) -> ca.Function:
-    """The IPOPT solver of the horizon's problem (module docstring), built once per arguments."""
+def mpc_solver(
+    vehicle: Vehicle, horizon: int, h: float, w_energy: float, w_smooth: float, method: str = "sqp"
+) -> ca.Function:
+    """The solver of the horizon's problem (module docstring), built once per arguments: ``"sqp"`` (SQP,
+    QRQP) or ``"ipopt"`` (the fall-back when SQP fails)."""
     i = ca.SX.sym("i", horizon)
     p = ca.SX.sym("p", len(MPC_PARAMS))
     v0, Fmax, K, R, vref, iprev, _imax, Mmax, Pmax = (p[j] for j in range(len(MPC_PARAMS)))
@@ -48,6 +52,19 @@ def mpc_solver(vehicle: Vehicle, horizon: int, h: float, w_energy: float, w_smoo
         J += ((v - vref) / ca.fmax(vref, 0.1)) ** 2
         i_last = i[k]
     nlp = {"x": i, "p": p, "f": J, "g": ca.vertcat(*g)}
+    if method == "sqp":  # exact-Hessian SQP with CasADi's QRQP: about 1 ms on 10 slips (IPOPT: about 9)
+        qp = {"print_iter": False, "print_header": False, "print_info": False, "error_on_fail": False}
+        opts = {
+            "qpsol": "qrqp",
+            "qpsol_options": qp,
+            "print_header": False,
+            "print_iteration": False,
+            "print_status": False,
+            "print_time": False,
+            "max_iter": 30,
+            "error_on_fail": False,
+        }
+        return ca.nlpsol("slip_mpc_sqp", "sqpmethod", nlp, opts)
     opts = {
         "ipopt.print_level": 0,
         "print_time": False,
@@ -68,7 +85,8 @@ class MpcProblem:
         self, vehicle: Vehicle, *, horizon: int = 10, h: float = 0.2, w_energy: float = 0.05, w_smooth: float = 0.01
     ) -> None:
         self.vehicle, self.horizon, self.h = vehicle, horizon, h
-        self._solver = mpc_solver(vehicle, horizon, float(h), float(w_energy), float(w_smooth))
+        self._solver = mpc_solver(vehicle, horizon, float(h), float(w_energy), float(w_smooth), "sqp")
+        self._fallback = mpc_solver(vehicle, horizon, float(h), float(w_energy), float(w_smooth), "ipopt")
         self._x = np.full(horizon, 0.02)
         self._lam_x = np.zeros(horizon)
         self._lam_g = np.zeros(2 * horizon)
@@ -88,14 +106,18 @@ class MpcProblem:
         M_max: float,
         P_max: float,
     ) -> np.ndarray:
-        """The slips of the horizon (the first is applied); on a solver failure the previous plan shifted."""
+        """The slips of the horizon (the first is applied): SQP, IPOPT when SQP fails, else the previous plan
+        shifted (counted in ``failures``)."""
         p = np.array([v0, F_max, K, R, v_ref, i_prev, i_max, M_max, P_max], dtype=float)
         x0 = np.clip(np.append(self._x[1:], self._x[-1]), 0.0, i_max)
-        sol = self._solver(x0=x0, p=p, lbx=0.0, ubx=i_max, lbg=-np.inf, ubg=1.0, lam_x0=self._lam_x, lam_g0=self._lam_g)
-        st = self._solver.stats()
-        self.last_status = st.get("return_status", "")
+        for solver in (self._solver, self._fallback):
+            sol = solver(x0=x0, p=p, lbx=0.0, ubx=i_max, lbg=-np.inf, ubg=1.0, lam_x0=self._lam_x, lam_g0=self._lam_g)
+            st = solver.stats()
+            x = np.asarray(sol["x"], dtype=float).ravel()
+            if st.get("success", False) and np.all(np.isfinite(x)):
+                break
+        self.last_status = str(st.get("return_status", ""))
         self.last_iterations = int(st.get("iter_count", 0))
-        x = np.asarray(sol["x"], dtype=float).ravel()
         if not st.get("success", False) or not np.all(np.isfinite(x)):
             self.failures += 1
             self._x = x0
