@@ -25,7 +25,11 @@ from ...soilmodel import DataError, Soil, Vehicle
 from ...soilmodel.effects import effective_normal_load
 from ...soilmodel.traction import max_thrust_expr
 
-__all__ = ["SoilBelief", "PriorSoil", "TrueSoil", "EstimatedSoil", "soil_of", "patch_load"]
+#: An identified F_max is taken (and held) only with a standard error within this fraction of it: the
+#: estimator calls F_max identified up to 25 %, too loose for a controller that acts on it.
+MAX_REL_STDERR = 0.10
+
+__all__ = ["MAX_REL_STDERR", "SoilBelief", "PriorSoil", "TrueSoil", "EstimatedSoil", "soil_of", "patch_load"]
 
 
 @dataclass(frozen=True)
@@ -154,7 +158,9 @@ class EstimatedSoil(PriorSoil):
                 }
             )
         ident = tuple(getattr(e, "identifiable", ()) or ())
-        if "max_thrust" in ident and e.max_thrust_N is not None:
+        se = getattr(e, "max_thrust_stderr_N", None)
+        precise = se is not None and e.max_thrust_N and se <= MAX_REL_STDERR * e.max_thrust_N
+        if "max_thrust" in ident and e.max_thrust_N is not None and precise:
             K = e.shear_modulus_m if "shear_modulus" in ident else None
             if K is None and e.slope_N:
                 K = e.max_thrust_N * self.vehicle.track_length / (2.0 * e.slope_N)

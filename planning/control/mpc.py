@@ -93,6 +93,8 @@ class MpcProblem:
         self.last_status = "not solved"
         self.last_iterations = 0
         self.failures = 0
+        self.fallbacks = 0  # SQP failures re-solved by IPOPT
+        self.fallback_reasons: dict[str, int] = {}
 
     def solve(
         self,
@@ -111,14 +113,19 @@ class MpcProblem:
         p = np.array([v0, F_max, K, R, v_ref, i_prev, i_max, M_max, P_max], dtype=float)
         x0 = np.clip(np.append(self._x[1:], self._x[-1]), 0.0, i_max)
         for solver in (self._solver, self._fallback):
+            if solver is self._fallback:
+                self.fallbacks += 1
+                self.fallback_reasons[self.last_status] = self.fallback_reasons.get(self.last_status, 0) + 1
             sol = solver(x0=x0, p=p, lbx=0.0, ubx=i_max, lbg=-np.inf, ubg=1.0, lam_x0=self._lam_x, lam_g0=self._lam_g)
             st = solver.stats()
+            self.last_status = str(st.get("return_status", ""))
             x = np.asarray(sol["x"], dtype=float).ravel()
-            if st.get("success", False) and np.all(np.isfinite(x)):
+            ok = bool(st.get("success", False))
+            if ok and np.all(np.isfinite(x)):
                 break
         self.last_status = str(st.get("return_status", ""))
         self.last_iterations = int(st.get("iter_count", 0))
-        if not st.get("success", False) or not np.all(np.isfinite(x)):
+        if not ok or not np.all(np.isfinite(x)):
             self.failures += 1
             self._x = x0
             return x0
