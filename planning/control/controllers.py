@@ -24,12 +24,13 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, fields, replace
+from functools import lru_cache
 from typing import Any, Sequence
 
 import numpy as np
 
 from ...soilmodel import TERRAINS, DataError, Soil, Vehicle
-from ...soilmodel.traction import _bracket_table, shear_bracket_inverse
+from ...soilmodel.traction import shear_bracket_inverse, slip_factor_function
 from ..margin import DEFAULT_MAX_SLIP
 from .belief import EstimatedSoil, PriorSoil, SoilBelief, TrueSoil, patch_load, soil_of
 from .mpc import MpcProblem
@@ -160,6 +161,15 @@ class RouteView:
         return 0.0 if k == 0 else self.ends_m[k - 1]
 
 
+@lru_cache(maxsize=1)
+def _bracket_table() -> tuple[np.ndarray, np.ndarray]:
+    """``(g(x), x)``: soilmodel's shear bracket (the slip factor at l = K = 1) at x = 0 and 8,001 log-spaced
+    points in [1e-8, 1e4], one mapped CasADi call; linear interpolation in it is exact to about 1e-5."""
+    x = np.concatenate([[0.0], np.logspace(-8.0, 4.0, 8001)])
+    g = slip_factor_function().map(x.size)(x.reshape(1, -1), 1.0, 1.0)
+    return np.asarray(g, dtype=float).ravel(), x
+
+
 def _measurement(meas: Any) -> tuple[float, float, float, float | None, float | None, bool]:
     """``(t, w, v, accel, torque, two_track)`` from a measurement dict (drive-log column names)."""
     if not isinstance(meas, dict):
@@ -233,9 +243,9 @@ class Controller:
         )
 
     def _thrust(self, b: SoilBelief, slips: Sequence[float]) -> np.ndarray:
-        """Believed thrust (Eq. 2, ``F_max g(i l / K)``) at ``slips`` (non-negative), from soilmodel's table of
-        the shear bracket ``g`` (the one behind :func:`~soiltrack.soilmodel.traction.shear_bracket_inverse`,
-        exact to about 1e-5; a CasADi call per sample would cost more than the whole control step)."""
+        """Believed thrust (Eq. 2, ``F_max g(i l / K)``) at ``slips`` (non-negative), from a table of
+        soilmodel's shear bracket ``g`` (:func:`_bracket_table`, exact to about 1e-5; a CasADi call per
+        sample would cost more than the whole control step)."""
         x = np.abs(np.asarray(slips, dtype=float)) * (self.vehicle.track_length / b.shear_modulus_m)
         return b.max_thrust_N * np.interp(x, self._gx, self._gy)
 

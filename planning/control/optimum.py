@@ -19,7 +19,7 @@ import numpy as np
 
 from ...soilmodel import Soil, Vehicle
 from ...soilmodel.traction import slip_factor_function
-from ..slip_optimal import _GRID, slip_optimal
+from ..slip_optimal import slip_optimal
 from .belief import patch_load
 
 __all__ = ["optimal_slip", "optimal_slip_reference"]
@@ -27,10 +27,16 @@ __all__ = ["optimal_slip", "optimal_slip_reference"]
 _K = np.geomspace(0.002, 0.25, 200)
 
 
+@lru_cache(maxsize=1)
+def _grid() -> np.ndarray:
+    """The traction study's slip grid (``SlipOptimum.slip``: 1e-4 to 0.99, finer below 5 %)."""
+    return np.asarray(slip_optimal(Soil(0.0, 0.5, 0.01), Vehicle(1.0, 1.0, 0.1, 0.1, 0.0, 0.05)).slip, dtype=float)
+
+
 @lru_cache(maxsize=16)
 def _table(track_length: float) -> np.ndarray:
     """``g(i l / K)`` on (K rows, slip grid columns), one mapped CasADi call."""
-    S, KK = np.meshgrid(_GRID, _K)
+    S, KK = np.meshgrid(_grid(), _K)
     f = slip_factor_function().map(S.size)
     return np.asarray(f(S.reshape(1, -1), track_length, KK.reshape(1, -1)), dtype=float).reshape(S.shape)
 
@@ -57,9 +63,10 @@ def _optimal(track_length: float, k_rho: int, k_K: int) -> float | None:
     j = int(u)
     f = u - j
     g = G[j] if f == 0 or j + 1 >= _K.size else (1 - f) * G[j] + f * G[j + 1]
-    P = (g - rho) * (1 - _GRID)
+    grid = _grid()
+    P = (g - rho) * (1 - grid)
     k = int(np.argmax(P))
-    return None if P[k] <= 0 else float(_GRID[k])
+    return None if P[k] <= 0 else float(grid[k])
 
 
 def optimal_slip_reference(
