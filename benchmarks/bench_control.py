@@ -1,0 +1,144 @@
+"""Closed-loop traction control: each controller beside its baselines on routes of true terrain, and its step time.
+
+Routes (planned everywhere as LETE sand; the true terrain differs, as identification must find):
+
+- ``soft``: flat, a patch of snow (soft, K = 25 mm) in the middle;
+- ``change``: flat, LETE sand -> dry sand -> clayey soil (changes of terrain);
+- ``climb``: flat, then a climb on dry sand (heavy: 20 deg; light: snow at 25 deg), then flat;
+- ``steep``: a climb the true soil cannot carry within the slip limit (heavy: snow at 27 deg, beyond
+  F_max at any slip; light: snow at 32 deg, beyond the 0.3 slip limit).
+
+For each route, vehicle and controller (``slip``, ``mpc``), the baselines of the same run (``pi``,
+``fixed_slip_7``, ``fixed_slip_20``, ``nominal_soil``, ``true_soil``) and the metrics of
+:mod:`soiltrack.planning.control.loop`; per-step time (median, p99) of the controller with the
+on-line estimator inside, of the controller alone, and of the MPC's solve. ``--plant independent``
+runs the independent numpy plant of tests/control_plant.py instead of the library's.
+
+    python benchmarks/bench_control.py                       # light, climb, slip (about 30 s)
+    python benchmarks/bench_control.py --vehicles heavy,light --routes soft,change,climb,steep \\
+        --controllers slip,mpc --plant independent          # the full table (tens of minutes)
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+ROUTES = ("soft", "change", "climb", "steep")
+
+
+def routes(vehicle: str) -> dict:
+    """``{name: (route dict, true terrain names, target speed)}`` for a vehicle."""
+    v = 3.0 if vehicle == "heavy" else 1.5
+    climb, climb_soil = (20, "dry_sand") if vehicle == "heavy" else (25, "snow")
+    steep = 27 if vehicle == "heavy" else 32
+
+    def R(patches):
+        return {
+            "v0_m_s": 0.3,
+            "v_end_m_s": v,
+            "max_slip": 0.3,
+            "patches": [dict(length_m=L, terrain="lete_sand", grade_deg=g) for L, g in patches],
+        }
+
+    return {
+        "soft": (R([(15, 0), (15, 0), (15, 0)]), ["lete_sand", "snow", "lete_sand"]),
+        "change": (R([(15, 0), (15, 0), (15, 0)]), ["lete_sand", "dry_sand", "clayey_soil"]),
+        "climb": (R([(15, 0), (25, climb), (10, 0)]), ["lete_sand", climb_soil, "lete_sand"]),
+        "steep": (R([(12, 0), (20, steep)]), ["lete_sand", "snow"]),
+    }
+
+
+def _row(name, r):
+    m = r.metrics
+
+    def f(x, d=3):
+        return "-" if x is None else f"{x:.{d}g}"
+
+    own = r.own_step_time_median_s, r.own_step_time_p99_s
+    solve = (
+        f"{r.solve_time_median_s * 1e3:.1f}/{r.solve_time_p99_s * 1e3:.1f} "
+        f"(CPU {r.solve_cpu_median_s * 1e3:.1f}/{r.solve_cpu_p99_s * 1e3:.1f})"
+        if r.solve_time_median_s
+        else "-"
+    )
+    return (
+        f"| {name} | {'yes' if r.arrived else 'no'} | {f(m['time_s'])} | {f(m['energy_J'])} | "
+        f"{f(m['tracking_rmse_m_s'])} | {f(m['peak_slip'])} | {f(m['time_above_slip_limit_s'])} | "
+        f"{m['stuck_events']} | {f(m['adapt_time_s'])} | {r.step_time_median_s * 1e6:.0f}/{r.step_time_p99_s * 1e6:.0f}"
+        f" | {r.step_cpu_median_s * 1e6:.0f}/{r.step_cpu_p99_s * 1e6:.0f}"
+        f" | {own[0] * 1e6:.0f}/{own[1] * 1e6:.0f} | {solve} |"
+    )
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__
+    )
+    p.add_argument("--vehicles", default="light", help="comma-separated: heavy, light (default light)")
+    p.add_argument("--routes", default="climb", help=f"comma-separated of {', '.join(ROUTES)} (default climb)")
+    p.add_argument("--controllers", default="slip", help="comma-separated: slip, mpc, pi (default slip)")
+    p.add_argument("--plant", default="library", choices=("library", "independent"))
+    p.add_argument("--seed", type=int, default=0)
+    a = p.parse_args(argv)
+
+    from soiltrack.planning import route_from_dict
+    from soiltrack.planning.control import PlantSettings, drive
+    from soiltrack.soilmodel import TERRAINS, VEHICLES
+
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
+    print(
+        "| controller | arrived | time_s | energy_J | rmse_m_s | peak_slip | above_limit_s | stuck | adapt_s "
+        "| step us med/p99 | step CPU us med/p99 | own us med/p99 | solve ms med/p99 |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for vname in a.vehicles.split(","):
+        V = VEHICLES[vname]
+        for rname in a.routes.split(","):
+            spec, true = routes(vname)[rname]
+            route = route_from_dict(spec)
+            soils = [TERRAINS[k] for k in true]
+            noise = dict(
+                sigma_vehicle_speed=0.005, sigma_sprocket_speed=0.02, sigma_torque=0.005 * V.max_sprocket_torque
+            )
+            ps = PlantSettings(v0=0.3, seed=a.seed, **noise)
+            factory = None
+            if a.plant == "independent":
+                from control_plant import JHPlant, with_truth
+
+                def factory(patches, V=V):
+                    pat = [
+                        (q.length_m, q.soil.cohesion, q.soil.friction_angle, q.soil.shear_modulus, q.grade_deg)
+                        for q in patches
+                    ]
+                    return with_truth(
+                        JHPlant(
+                            V.mass,
+                            V.track_length,
+                            V.track_width,
+                            V.sprocket_radius,
+                            V.sprocket_inertia,
+                            V.rolling_resistance,
+                            pat,
+                            v0=0.3,
+                            sigma_v=0.005,
+                            sigma_w=0.02,
+                            seed=a.seed,
+                        )
+                    )
+
+            for kind in a.controllers.split(","):
+                t0 = time.perf_counter()
+                res = drive(kind, V, route, soils, plant_settings=ps, plant_factory=factory)
+                print(f"| **{vname} / {rname} / {kind}** ({time.perf_counter() - t0:.0f} s wall) ||||||||||||")
+                print(_row(kind, res.run))
+                for name, r in res.baselines.items():
+                    print(_row(name, r))
+                sys.stdout.flush()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,588 @@
+"""Controllers with one call per sample, ``command(measurement) -> torque``: PI, slip and receding horizon.
+
+Every controller tracks a target speed along a route (or on one patch), filters the measured
+speeds, keeps its own odometry (the patch under it and ahead), and holds the drivetrain's limits:
+``|M| <= M_max`` (braking to ``brake_fraction`` of it) and ``M w <= P_max``.
+
+- ``pi``: PI speed control (feed-forward of the rolling and grade resistance), conditional
+  integration (anti-windup); no soil knowledge.
+- ``slip`` (and ``fixed_slip``): the torque is the smaller of a speed loop's and a slip loop's. The
+  slip loop holds the slip at a ceiling: the believed soil's power-optimal slip (the traction
+  study's optimum, :func:`~.optimum.optimal_slip`) capped by the slip limit, with the believed
+  thrust there as feed-forward; ``fixed_slip`` holds a fixed ceiling (7 %, 20 %) by feedback alone.
+- ``mpc``: the slip/torque problem of :mod:`.mpc` over a short horizon on the believed soil,
+  re-solved every ``mpc_every`` samples; its first slip is the slip loop's target.
+
+A speed governor (``slip``, ``mpc``) checks the patches ahead with the believed soil: where the
+thrust at the slip limit (or the torque limit) is below the resistance (rolling and grade) the
+controller stops before the patch (on it: at once); where the power limit cannot hold the target
+speed it slows down; each decision is an entry of :attr:`events` with the reason in numbers.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, fields, replace
+from functools import lru_cache
+from typing import Any, Sequence
+
+import numpy as np
+
+from ...soilmodel import TERRAINS, DataError, Soil, Vehicle
+from ...soilmodel.traction import shear_bracket_inverse, slip_factor_function
+from ..margin import DEFAULT_MAX_SLIP
+from .belief import EstimatedSoil, PriorSoil, SoilBelief, TrueSoil, patch_load, soil_of
+from .mpc import MpcProblem
+from .optimum import optimal_slip
+
+__all__ = ["ControlSettings", "RouteView", "Controller", "make_controller", "CONTROLLERS", "SOIL_SOURCES"]
+
+CONTROLLERS = ("pi", "slip", "mpc", "fixed_slip")
+SOIL_SOURCES = ("estimate", "nominal", "true")
+#: Below this speed target (m/s) a controller stops (holds with no drive torque) rather than creeps.
+_STOP_SPEED = 0.05
+
+
+@dataclass(frozen=True)
+class ControlSettings:
+    """Settings of the controllers (SI; one line each on why).
+
+    Attributes
+    ----------
+    max_slip
+        Slip limit (``None``: the route's, else the planning default 0.2).
+    fixed_slip
+        ``fixed_slip`` controller: its fixed slip ceiling.
+    speed_time_constant_s, speed_integral_s
+        Speed loop: proportional gain ``r m / tau`` (an error corrected in about tau), integral time.
+    slip_gain, slip_integral_s
+        Slip loop: proportional gain as a fraction of the torque the believed curve's slope gives per
+        unit slip, and integral time (corrects a wrong belief).
+    filter_s
+        Time constant of the first-order filter of the measured speeds (slip from noisy speeds).
+    min_track_speed
+        Regularisation of the measured slip, ``(r w - v) / max(r w, v_0)`` (as soilmodel's slip), m/s.
+    brake_fraction
+        Braking torque allowed, as a fraction of the torque limit.
+    decel_m_s2
+        Deceleration the governor plans a stop with.
+    stop_margin_m
+        Distance before an untraversable patch where the vehicle should stand.
+    governor
+        Whether the governor checks the ground ahead (``slip``, ``mpc``).
+    mpc_horizon, mpc_interval_s, mpc_every
+        Receding horizon: intervals, their length, and samples between two solves.
+    sample_s
+        Sample time assumed for the first sample (later: from the measurement's times).
+    cut_factor
+        Runaway guard (all but ``pi``): while the measured slip is above the slip limit, the drive torque
+        is cut to this fraction of the last one at every sample (a belief that overrates the soil
+        would otherwise let the tracks spin up faster than the slip loop corrects it).
+    probe, probe_s, probe_settle_s, probe_overspeed
+        Traction probe (``slip``, ``mpc`` with the estimator): gentle driving shows only the start of
+        the thrust-slip curve, so on a patch whose F_max is not identified yet the controller pulls
+        at the slip ceiling for ``probe_s`` (once per patch, and again after a detected change),
+        ``probe_settle_s`` after entering it, ending early beyond ``1 + probe_overspeed`` times the
+        speed target.
+    """
+
+    max_slip: float | None = None
+    fixed_slip: float = 0.07
+    speed_time_constant_s: float = 1.0
+    speed_integral_s: float = 3.0
+    slip_gain: float = 0.5
+    slip_integral_s: float = 0.3
+    filter_s: float = 0.05
+    min_track_speed: float = 0.01
+    brake_fraction: float = 0.5
+    decel_m_s2: float = 0.3
+    stop_margin_m: float = 1.0
+    governor: bool = True
+    mpc_horizon: int = 10
+    mpc_interval_s: float = 0.2
+    mpc_every: int = 2
+    sample_s: float = 0.02
+    cut_factor: float = 0.85
+    probe: bool = True
+    probe_s: float = 0.6
+    probe_settle_s: float = 1.0
+    probe_overspeed: float = 0.2
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name in ("governor", "probe"):
+                continue
+            if v is None:
+                continue
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                raise DataError(f"controller setting {f.name} must be a finite number > 0, got {v!r}")
+        for name in ("max_slip", "fixed_slip"):
+            v = getattr(self, name)
+            if v is not None and not 0 < v < 1:
+                raise DataError(f"controller setting {name} must lie in (0, 1), got {v!r}")
+        if not isinstance(self.mpc_horizon, int) or not isinstance(self.mpc_every, int):
+            raise DataError("controller settings mpc_horizon and mpc_every must be integers")
+
+
+@dataclass(frozen=True)
+class RouteView:
+    """What a controller knows of its route: patch ends (m), grades (deg), planned soils, slip limit."""
+
+    ends_m: tuple[float, ...]
+    grades_deg: tuple[float, ...]
+    soils: tuple[Soil, ...]
+    max_slip: float | None
+    length_m: float
+
+    @classmethod
+    def of(cls, route: Any, prior: Soil | None = None) -> "RouteView":
+        """From a :class:`~soiltrack.planning.Route` (or ``None``: one endless flat patch of ``prior``)."""
+        if route is None:
+            return cls((math.inf,), (0.0,), (prior or TERRAINS["lete_sand"],), None, math.inf)
+        ends = tuple(float(x) for x in np.cumsum([p.length_m for p in route.patches]))
+        return cls(
+            ends,
+            tuple(float(p.grade_deg) for p in route.patches),
+            tuple(soil_of(p.terrain) for p in route.patches),
+            route.max_slip,
+            ends[-1],
+        )
+
+    def patch_at(self, x: float) -> int:
+        """Index of the patch at distance ``x``."""
+        for k, e in enumerate(self.ends_m):
+            if x < e:
+                return k
+        return len(self.ends_m) - 1
+
+    def start_of(self, k: int) -> float:
+        return 0.0 if k == 0 else self.ends_m[k - 1]
+
+
+@lru_cache(maxsize=1)
+def _bracket_table() -> tuple[np.ndarray, np.ndarray]:
+    """``(g(x), x)``: soilmodel's shear bracket (the slip factor at l = K = 1) at x = 0 and 8,001 log-spaced
+    points in [1e-8, 1e4], one mapped CasADi call; linear interpolation in it is exact to about 1e-5."""
+    x = np.concatenate([[0.0], np.logspace(-8.0, 4.0, 8001)])
+    g = slip_factor_function().map(x.size)(x.reshape(1, -1), 1.0, 1.0)
+    return np.asarray(g, dtype=float).ravel(), x
+
+
+def _measurement(meas: Any) -> tuple[float, float, float, float | None, float | None, bool]:
+    """``(t, w, v, accel, torque, two_track)`` from a measurement dict (drive-log column names)."""
+    if not isinstance(meas, dict):
+        raise DataError(f"a measurement must be a dict with the drive-log column names, got {type(meas).__name__}")
+    try:
+        t = float(meas["time_s"])
+        v = float(meas["vehicle_speed_m_s"])
+        if "sprocket_speed_rad_s" in meas:
+            w, two = float(meas["sprocket_speed_rad_s"]), False
+        else:
+            w, two = 0.5 * (float(meas["sprocket_speed_left_rad_s"]) + float(meas["sprocket_speed_right_rad_s"])), True
+    except KeyError as e:
+        raise DataError(
+            f"the measurement has no {e.args[0]!r} (needs time_s, vehicle_speed_m_s and "
+            "sprocket_speed_rad_s or the left and right speeds)",
+            column=str(e.args[0]),
+        ) from None
+    a = meas.get("vehicle_accel_m_s2")
+    M = meas.get("sprocket_torque_Nm")
+    if M is None and "sprocket_torque_left_Nm" in meas:
+        M = float(meas["sprocket_torque_left_Nm"]) + float(meas["sprocket_torque_right_Nm"])
+    return t, w, v, (None if a is None else float(a)), (None if M is None else float(M)), two
+
+
+class Controller:
+    """Base of the controllers: measurement, filter, odometry, belief, governor, limits (module docstring)."""
+
+    kind = "base"
+
+    def __init__(
+        self,
+        vehicle: Vehicle,
+        route: RouteView,
+        target_speed_m_s: float,
+        settings: ControlSettings,
+        belief: PriorSoil | None,
+    ) -> None:
+        if not (math.isfinite(target_speed_m_s) and target_speed_m_s > 0):
+            raise DataError(f"target speed must be a finite number > 0 m/s, got {target_speed_m_s!r}")
+        self.vehicle, self.route, self.target, self.settings, self.belief = (
+            vehicle,
+            route,
+            float(target_speed_m_s),
+            settings,
+            belief,
+        )
+        self.max_slip = settings.max_slip or route.max_slip or DEFAULT_MAX_SLIP
+        self.events: list[dict] = []
+        self.step_times_s: list[float] = []  # wall clock per command
+        self.step_cpu_s: list[float] = []  # this thread's CPU time per command (a loaded machine's waits left out)
+        self.distance_m = 0.0
+        self._t: float | None = None
+        self._v = self._w = 0.0
+        self._slip = 0.0
+        self._last_M = 0.0
+        self._Iv = 0.0
+        self._Is = 0.0
+        self._gov_state: tuple = ("go", -1)
+        self._gy, self._gx = _bracket_table()
+        self._M_max = vehicle.max_sprocket_torque or math.inf
+        self._P_max = vehicle.max_power or math.inf
+        self.last: dict[str, Any] = {}
+        self.limiting = "speed"  # which loop set the last torque: "speed", "slip", "probe" or "plan"
+
+    # ------------------------------------------------------------------ helpers
+    def resistance(self, patch: int) -> float:
+        """Rolling and grade resistance on a patch, N (``mu_r W cos(theta) + W sin(theta)``)."""
+        g = math.radians(self.route.grades_deg[patch])
+        return self.vehicle.rolling_resistance * patch_load(self.vehicle, self.route.grades_deg[patch]) + (
+            self.vehicle.weight * math.sin(g)
+        )
+
+    def _thrust(self, b: SoilBelief, slips: Sequence[float]) -> np.ndarray:
+        """Believed thrust (Eq. 2, ``F_max g(i l / K)``) at ``slips`` (non-negative), from a table of
+        soilmodel's shear bracket ``g`` (:func:`_bracket_table`, exact to about 1e-5; a CasADi call per
+        sample would cost more than the whole control step)."""
+        x = np.abs(np.asarray(slips, dtype=float)) * (self.vehicle.track_length / b.shear_modulus_m)
+        return b.max_thrust_N * np.interp(x, self._gx, self._gy)
+
+    def _slip_for(self, b: SoilBelief, thrust: float) -> float:
+        """Slip at which the believed soil gives ``thrust`` (inf beyond its F_max)."""
+        y = thrust / b.max_thrust_N
+        if y >= 0.999:
+            return math.inf
+        return float(shear_bracket_inverse(max(y, 0.0))) * b.shear_modulus_m / self.vehicle.track_length
+
+    def _event(self, kind: str, patch: int, text: str, **numbers: float) -> None:
+        self.events.append(
+            {
+                "time_s": self._t,
+                "distance_m": self.distance_m,
+                "kind": kind,
+                "patch": patch,
+                "reason": text,
+                **{k: float(v) for k, v in numbers.items()},
+            }
+        )
+
+    # ------------------------------------------------------------------ governor
+    def _governor(self, patch: int, v: float) -> float:
+        """The speed target after checking the ground ahead with the belief (module docstring)."""
+        s, r = self.settings, self.vehicle.sprocket_radius
+        v_ref, state = self.target, ("go", -1)
+        reach = v * v / (2 * s.decel_m_s2) + s.stop_margin_m + 5.0
+        for k in range(patch, len(self.route.ends_m)):
+            start = self.route.start_of(k)
+            if k > patch and start - self.distance_m > reach:
+                break
+            b = self.belief.belief(k, patch) if self.belief is not None else None
+            R = self.resistance(k)
+            i_R = self._slip_for(b, R) if b is not None else 0.0
+            limit = None
+            if R > self._M_max / r:
+                limit, avail = "torque", self._M_max / r
+            elif i_R > self.max_slip:
+                limit, avail = ("soil" if math.isinf(i_R) else "slip"), float(self._thrust(b, [self.max_slip])[0])
+            if limit is not None:
+                gap = max(start - s.stop_margin_m - self.distance_m, 0.0) if k > patch else 0.0
+                v_ref = min(v_ref, math.sqrt(2 * s.decel_m_s2 * gap))
+                state = ("stop", k, limit, R, avail)
+                break
+            v_pow = 0.95 * self._P_max * (1 - i_R) / max(R, 1e-9)
+            if v_pow < v_ref:
+                gap = max(start - self.distance_m, 0.0)
+                v_ref = min(v_ref, math.sqrt(v_pow**2 + 2 * s.decel_m_s2 * gap))
+                if state[0] == "go":
+                    state = ("slow", k, "power", R, self._P_max * (1 - i_R) / max(self.target, 1e-9))
+        if state[:2] != self._gov_state[:2]:
+            self._log_state(state)
+        self._gov_state = state
+        return v_ref
+
+    def _log_state(self, state: tuple) -> None:
+        if state[0] == "go":
+            self._event("resume", self._gov_state[1], "the ground ahead is traversable at the target speed")
+            return
+        kind, k, limit, R, avail = state
+        src = self.belief.belief(k, self.route.patch_at(self.distance_m)).source if self.belief else "none"
+        if kind == "stop":
+            text = (
+                f"patch {k} needs {R:.4g} N of thrust; the {src} soil gives {avail:.4g} N within the "
+                f"{limit} limit: stopping {'now' if k == self.route.patch_at(self.distance_m) else 'before it'}"
+            )
+        else:
+            text = (
+                f"patch {k} needs {R:.4g} N; the power limit holds it only below the target speed "
+                f"({avail:.4g} N at {self.target:.3g} m/s): slowing down"
+            )
+        self._event(kind, k, text, required_N=R, available_N=avail)
+
+    # ------------------------------------------------------------------ one sample
+    def command(self, measurement: dict) -> float | tuple[float, float]:
+        """Torque (N m, both sprockets; a (left, right) pair for two-track measurements) for this sample."""
+        t0, c0 = time.perf_counter(), time.thread_time()
+        t, w, v, a, M_meas, two = _measurement(measurement)
+        s = self.settings
+        dt = s.sample_s if self._t is None else max(t - self._t, 1e-6)
+        if not all(math.isfinite(x) for x in (t, w, v)):
+            M = self._last_M  # a sample with a missing channel: hold the torque
+        else:
+            alpha = dt / (s.filter_s + dt) if self._t is not None else 1.0
+            self._v += alpha * (v - self._v)
+            self._w += alpha * (w - self._w)
+            self._t = t
+            self.distance_m += max(v, 0.0) * dt
+            patch = self.route.patch_at(self.distance_m)
+            rw = self.vehicle.sprocket_radius * self._w
+            self._slip = min(max((rw - self._v) / max(rw, s.min_track_speed), -1.0), 1.0)  # Eq. 4, regularised
+            if self.belief is not None:
+                self.belief.update(t, self._last_M if M_meas is None else M_meas, w, v, a, patch)
+            v_ref = self._governor(patch, self._v) if (self.belief is not None and s.governor) else self.target
+            M = self._limit(self._torque(patch, v_ref, dt), w)
+            if self.kind != "pi" and self._slip > self.max_slip and M > 0:  # runaway guard: cut the torque
+                M = min(M, max(self._last_M, 0.0) * s.cut_factor)
+                self._Is = min(self._Is, 0.0)
+            self.last = {"v_ref": v_ref, "patch": patch, "slip_filtered": self._slip, "limiting": self.limiting}
+        self._last_M = M
+        self.step_times_s.append(time.perf_counter() - t0)
+        self.step_cpu_s.append(time.thread_time() - c0)
+        return (0.5 * M, 0.5 * M) if two else M
+
+    def _limit(self, M: float, w_now: float) -> float:
+        """Torque and power limits; the power on the largest of the filtered, raw and (while a slip loop
+        drives) the sprocket speed its slip target will reach within the sample."""
+        w_hi = max(self._w, w_now, 1e-3)
+        if self.limiting in ("slip", "probe", "plan"):
+            target = min(getattr(self, "slip_target", 0.0), 0.95)
+            w_hi = max(w_hi, self._v / (self.vehicle.sprocket_radius * (1 - target)))
+        M = min(M, self._M_max, self._P_max / w_hi)
+        return max(M, -self.settings.brake_fraction * self._M_max) if math.isfinite(self._M_max) else M
+
+    def _speed_loop(self, patch: int, v_ref: float, dt: float, cap: float) -> float:
+        """PI speed torque with resistance feed-forward; integrates only while unsaturated (anti-windup)."""
+        s, r, m = self.settings, self.vehicle.sprocket_radius, self.vehicle.mass
+        kp = r * m / s.speed_time_constant_s
+        e = v_ref - self._v
+        if v_ref < _STOP_SPEED and self._v < _STOP_SPEED:  # stopped on purpose: hold (brakes), no torque
+            self._Iv = 0.0
+            return 0.0
+        M = r * self.resistance(patch) + kp * e + self._Iv
+        if v_ref < _STOP_SPEED:  # stopping: no drive torque (a climb stops the vehicle; downhill it brakes)
+            self._Iv = 0.0
+            return min(M, 0.0)
+        near = abs(e) < 0.3 * max(self.target, 0.1)  # far from the target the proportional part acts alone
+        if near and not (M >= cap and e > 0) and not (M <= -self.settings.brake_fraction * self._M_max and e < 0):
+            self._Iv += kp / s.speed_integral_s * e * dt
+        return M
+
+    def _torque(self, patch: int, v_ref: float, dt: float) -> float:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+
+class PIController(Controller):
+    """PI speed control, no soil knowledge (module docstring)."""
+
+    kind = "pi"
+
+    def _torque(self, patch: int, v_ref: float, dt: float) -> float:
+        cap = min(self._M_max, self._P_max / max(self._w, 1e-3))
+        return self._speed_loop(patch, v_ref, dt, cap)
+
+
+class SlipController(Controller):
+    """Speed loop under a slip ceiling: the believed soil's power-optimal slip, or a fixed one (module docstring)."""
+
+    kind = "slip"
+
+    def __init__(self, *args: Any, fixed: float | None = None, **kw: Any) -> None:
+        super().__init__(*args, **kw)
+        self.fixed = fixed
+        self.slip_ceiling = fixed if fixed is not None else self.max_slip
+        self._probe_until: float | None = None
+        self._probed: set[int] = set()
+        self._entered = (-1, 0.0)
+        self._changes_seen = 0
+
+    def _probing(self, patch: int, v_ref: float) -> bool:
+        """Whether to pull at the slip ceiling now (the traction probe, :class:`ControlSettings`)."""
+        s, t = self.settings, self._t or 0.0
+        if not s.probe or not isinstance(self.belief, EstimatedSoil) or v_ref <= 0:
+            return False
+        if patch != self._entered[0]:
+            self._entered = (patch, t)
+        n = sum(1 for e in self.belief.events if e["kind"] == "change_detected")
+        if n != self._changes_seen:
+            self._changes_seen = n
+            self._probed.discard(patch)
+            self._entered = (patch, t)
+        if self._probe_until is not None:
+            if t < self._probe_until and self._v < (1 + s.probe_overspeed) * v_ref:
+                return True
+            self._probe_until = None
+            return False
+        src = self.belief.belief(patch, patch).source
+        if patch in self._probed or src not in ("prior", "slope+prior") or t - self._entered[1] < s.probe_settle_s:
+            return False
+        self._probed.add(patch)
+        self._probe_until = t + s.probe_s
+        self._event(
+            "probe",
+            patch,
+            f"F_max of patch {patch} not identified yet ({src}): a traction probe of "
+            f"{s.probe_s:g} s at the slip ceiling",
+        )
+        return True
+
+    def _ceiling(self, patch: int) -> tuple[float, SoilBelief | None]:
+        if self.fixed is not None or self.belief is None:
+            return (self.fixed or self.max_slip), None
+        b = self.belief.belief(patch, patch)
+        opt = optimal_slip(self.vehicle, b.max_thrust_N, b.shear_modulus_m, self.route.grades_deg[patch])
+        return min(opt if opt is not None else self.max_slip, self.max_slip), b
+
+    def _slip_loop(self, target: float, b: SoilBelief | None, dt: float) -> float:
+        """Torque holding the slip at ``target``: believed thrust there (feed-forward) plus PI on the slip."""
+        s, r = self.settings, self.vehicle.sprocket_radius
+        if b is not None:
+            F0, F1 = self._thrust(b, [target, target + 1e-3])
+            gain = s.slip_gain * r * max((F1 - F0) / 1e-3, 1e-3 * b.max_thrust_N)
+            ff = r * F0
+        else:  # no belief: feedback alone, the gain from the largest torque per unit slip
+            gain, ff = s.slip_gain * min(self._M_max, r * self.vehicle.weight), 0.0
+        return ff + gain * (target - self._slip) + self._Is, gain
+
+    def _integrate_slip(self, gain: float, target: float, dt: float) -> None:
+        """The slip loop's integral (bounded by the torque limit)."""
+        self._Is += gain / self.settings.slip_integral_s * (target - self._slip) * dt
+        if math.isfinite(self._M_max):
+            self._Is = min(max(self._Is, -self._M_max), self._M_max)
+
+    def _torque(self, patch: int, v_ref: float, dt: float) -> float:
+        ceiling, b = self._ceiling(patch)
+        self.slip_ceiling = ceiling
+        M_s, gain = self._slip_loop(ceiling, b, dt)
+        self.slip_target = ceiling
+        if self._probing(patch, v_ref):
+            self.limiting = "probe"
+            self._integrate_slip(gain, ceiling, dt)
+            return M_s
+        cap = min(self._M_max, self._P_max / max(self._w, 1e-3), M_s)
+        M_v = self._speed_loop(patch, v_ref, dt, cap)
+        self.limiting = "slip" if M_s < M_v else "speed"
+        if M_s < M_v or self._slip > ceiling:  # the slip loop limits, or should: integrate its error
+            self._integrate_slip(gain, ceiling, dt)
+        return min(M_s, M_v)
+
+
+class MpcController(SlipController):
+    """Receding horizon on the believed soil; its first slip drives the slip loop (module docstring)."""
+
+    kind = "mpc"
+
+    def __init__(self, *args: Any, **kw: Any) -> None:
+        super().__init__(*args, **kw)
+        s = self.settings
+        self.problem = MpcProblem(self.vehicle, horizon=s.mpc_horizon, h=s.mpc_interval_s)
+        self._n = 0
+        self._plan_slip = 0.0
+        self.solve_times_s: list[float] = []  # wall clock per solve
+        self.solve_cpu_s: list[float] = []  # CPU time per solve (IPOPT runs in this thread)
+
+    def _torque(self, patch: int, v_ref: float, dt: float) -> float:
+        b = self.belief.belief(patch, patch) if self.belief is not None else None
+        if b is None:
+            return super()._torque(patch, v_ref, dt)
+        if self._probing(patch, v_ref):
+            ceiling, b = self._ceiling(patch)
+            self.limiting, self.slip_target = "probe", ceiling
+            M, gain = self._slip_loop(ceiling, b, dt)
+            self._integrate_slip(gain, ceiling, dt)
+            return M
+        self.limiting, self.slip_target = "plan", self._plan_slip
+        if self._n % self.settings.mpc_every == 0:
+            t0, c0 = time.perf_counter(), time.thread_time()
+            M_max = self._M_max if math.isfinite(self._M_max) else 1e12
+            P_max = self._P_max if math.isfinite(self._P_max) else 1e15
+            plan = self.problem.solve(
+                self._v,
+                b.max_thrust_N,
+                b.shear_modulus_m,
+                self.resistance(patch),
+                v_ref,
+                self._plan_slip,
+                self.max_slip,
+                M_max,
+                P_max,
+            )
+            self.solve_times_s.append(time.perf_counter() - t0)
+            self.solve_cpu_s.append(time.thread_time() - c0)
+            self._plan_slip = float(plan[0])
+        self._n += 1
+        if v_ref < _STOP_SPEED:  # stopping: the speed loop brakes (the plan's slips cannot be negative)
+            self._Is = 0.0
+            self.limiting = "speed"
+            return self._speed_loop(patch, v_ref, dt, min(self._M_max, self._P_max / max(self._w, 1e-3)))
+        M, gain = self._slip_loop(self._plan_slip, b, dt)
+        self._integrate_slip(gain, self._plan_slip, dt)
+        return M
+
+
+def make_controller(
+    kind: str, vehicle: Vehicle, *, route: Any = None, target_speed_m_s: float | None = None, **settings: Any
+) -> Controller:
+    """A controller object with ``command(measurement) -> torque``.
+
+    Parameters
+    ----------
+    kind
+        ``"pi"``, ``"slip"``, ``"mpc"`` or ``"fixed_slip"`` (:data:`CONTROLLERS`).
+    vehicle
+        The vehicle (limits from ``max_sprocket_torque`` and ``max_power``).
+    route
+        A :class:`~soiltrack.planning.Route` (patches with planned soils and grades, slip limit), or
+        ``None``: one flat patch of ``prior_soil``.
+    target_speed_m_s
+        Speed to track, m/s (default: the route's larger of ``v0_m_s`` and ``v_end_m_s``).
+    **settings
+        Fields of :class:`ControlSettings`, and ``soil`` (``"estimate"`` default, ``"nominal"``: the
+        route's soils, no estimator, ``"true"``: ``true_soils``, one Soil per patch), ``true_soils``,
+        ``prior_soil`` (without a route; default LETE sand), ``estimator_factory`` (see
+        :class:`~.belief.EstimatedSoil`).
+    """
+    if kind not in CONTROLLERS:
+        raise DataError(f"unknown controller {kind!r}; expected one of {CONTROLLERS}", column="--controller")
+    source = settings.pop("soil", "estimate")
+    true_soils = settings.pop("true_soils", None)
+    prior = settings.pop("prior_soil", None)
+    factory = settings.pop("estimator_factory", None)
+    unknown = sorted(set(settings) - {f.name for f in fields(ControlSettings)})
+    if unknown:
+        raise DataError(f"unknown controller setting(s) {unknown}")
+    cs = replace(ControlSettings(), **settings)
+    view = RouteView.of(route, prior)
+    if target_speed_m_s is None:
+        if route is None:
+            raise DataError("make_controller needs target_speed_m_s (or a route)")
+        target_speed_m_s = max(route.v0_m_s, route.v_end_m_s)
+    if source not in SOIL_SOURCES:
+        raise DataError(f"unknown soil source {source!r}; expected one of {SOIL_SOURCES}")
+    belief: PriorSoil | None
+    if kind in ("pi", "fixed_slip"):
+        belief = None
+    elif source == "estimate":
+        belief = EstimatedSoil(vehicle, view.soils, view.grades_deg, factory)
+    elif source == "nominal":
+        belief = PriorSoil(vehicle, view.soils, view.grades_deg)
+    else:
+        if true_soils is None or len(true_soils) != len(view.soils):
+            raise DataError("soil='true' needs true_soils, one Soil per patch of the route")
+        belief = TrueSoil(vehicle, list(true_soils), view.grades_deg)
+    cls = {"pi": PIController, "slip": SlipController, "mpc": MpcController, "fixed_slip": SlipController}[kind]
+    kw = {"fixed": cs.fixed_slip} if kind == "fixed_slip" else {}
+    ctl = cls(vehicle, view, float(target_speed_m_s), cs, belief, **kw)
+    if kind == "fixed_slip":
+        ctl.kind = f"fixed_slip_{round(cs.fixed_slip * 100):g}"
+    return ctl

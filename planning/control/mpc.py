@@ -1,0 +1,135 @@
+"""The receding-horizon slip/torque problem: built once per vehicle and horizon, soil and state as parameters.
+
+Decision: the slips ``i_0 .. i_{N-1}`` held over the horizon's intervals of ``h`` seconds. The hull
+follows Eq. 1 with the quasi-static sprocket (the slip settles in milliseconds, far below ``h``)::
+
+    v_{k+1} = v_k + h (F(i_k) - R) / m,   F(i) = F_max g(i l / K)  (Eq. 2, soilmodel's slip factor)
+    M_k = r F(i_k),   w_k = v_k / (r (1 - i_k))
+
+Limits: ``0 <= i_k <= i_max``, ``M_k <= M_max``, ``M_k w_k <= P_max``. Objective: the squared
+speed error to the target (relative), the sprocket energy (relative to the target's kinetic
+energy), and the slip's changes. SQP with CasADi's QRQP (IPOPT when it fails), quiet, warm-started
+from the previous solution.
+Parameters ``[v0, F_max, K, R, v_ref, i_prev, i_max, M_max, P_max]``.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import casadi as ca
+import numpy as np
+
+from ...soilmodel import Vehicle
+from ...soilmodel.traction import slip_factor
+
+__all__ = ["MPC_PARAMS", "mpc_solver", "MpcProblem"]
+
+MPC_PARAMS = ("v0", "F_max", "K", "R", "v_ref", "i_prev", "i_max", "M_max", "P_max")
+
+
+@lru_cache(maxsize=16)
+def mpc_solver(
+    vehicle: Vehicle, horizon: int, h: float, w_energy: float, w_smooth: float, method: str = "sqp"
+) -> ca.Function:
+    """The solver of the horizon's problem (module docstring), built once per arguments: ``"sqp"`` (SQP,
+    QRQP) or ``"ipopt"`` (the fall-back when SQP fails)."""
+    i = ca.SX.sym("i", horizon)
+    p = ca.SX.sym("p", len(MPC_PARAMS))
+    v0, Fmax, K, R, vref, iprev, _imax, Mmax, Pmax = (p[j] for j in range(len(MPC_PARAMS)))
+    m, r, l = vehicle.mass, vehicle.sprocket_radius, vehicle.track_length
+    v = v0
+    J = 0
+    g = []
+    E_ref = 0.5 * m * ca.fmax(vref, 0.1) ** 2
+    i_last = iprev
+    for k in range(horizon):
+        F = Fmax * slip_factor(i[k], l, K)
+        w = ca.fmax(v, 0.0) / (r * (1 - i[k]))
+        g += [r * F / Mmax, r * F * w / Pmax]
+        J += w_energy * r * F * w * h / E_ref + w_smooth * ((i[k] - i_last) / 0.01) ** 2
+        v = v + h * (F - R) / m
+        J += ((v - vref) / ca.fmax(vref, 0.1)) ** 2
+        i_last = i[k]
+    nlp = {"x": i, "p": p, "f": J, "g": ca.vertcat(*g)}
+    if method == "sqp":  # exact-Hessian SQP with CasADi's QRQP: about 1 ms on 10 slips (IPOPT: about 9)
+        qp = {"print_iter": False, "print_header": False, "print_info": False, "error_on_fail": False}
+        opts = {
+            "qpsol": "qrqp",
+            "qpsol_options": qp,
+            "print_header": False,
+            "print_iteration": False,
+            "print_status": False,
+            "print_time": False,
+            "max_iter": 30,
+            "error_on_fail": False,
+        }
+        return ca.nlpsol("slip_mpc_sqp", "sqpmethod", nlp, opts)
+    opts = {
+        "ipopt.print_level": 0,
+        "print_time": False,
+        "ipopt.sb": "yes",
+        "ipopt.max_iter": 30,
+        "ipopt.max_cpu_time": 0.05,
+        "ipopt.tol": 1e-6,
+        "ipopt.warm_start_init_point": "yes",
+        "ipopt.mu_init": 1e-3,
+    }
+    return ca.nlpsol("slip_mpc", "ipopt", nlp, opts)
+
+
+class MpcProblem:
+    """One horizon problem, re-solved warm (module docstring); ``solve`` gives the slip plan."""
+
+    def __init__(
+        self, vehicle: Vehicle, *, horizon: int = 10, h: float = 0.2, w_energy: float = 0.05, w_smooth: float = 0.01
+    ) -> None:
+        self.vehicle, self.horizon, self.h = vehicle, horizon, h
+        self._solver = mpc_solver(vehicle, horizon, float(h), float(w_energy), float(w_smooth), "sqp")
+        self._fallback = mpc_solver(vehicle, horizon, float(h), float(w_energy), float(w_smooth), "ipopt")
+        self._x = np.full(horizon, 0.02)
+        self._lam_x = np.zeros(horizon)
+        self._lam_g = np.zeros(2 * horizon)
+        self.last_status = "not solved"
+        self.last_iterations = 0
+        self.failures = 0
+        self.fallbacks = 0  # SQP failures re-solved by IPOPT
+        self.fallback_reasons: dict[str, int] = {}
+
+    def solve(
+        self,
+        v0: float,
+        F_max: float,
+        K: float,
+        R: float,
+        v_ref: float,
+        i_prev: float,
+        i_max: float,
+        M_max: float,
+        P_max: float,
+    ) -> np.ndarray:
+        """The slips of the horizon (the first is applied): SQP, IPOPT when SQP fails, else the previous plan
+        shifted (counted in ``failures``)."""
+        p = np.array([v0, F_max, K, R, v_ref, i_prev, i_max, M_max, P_max], dtype=float)
+        x0 = np.clip(np.append(self._x[1:], self._x[-1]), 0.0, i_max)
+        for solver in (self._solver, self._fallback):
+            if solver is self._fallback:
+                self.fallbacks += 1
+                self.fallback_reasons[self.last_status] = self.fallback_reasons.get(self.last_status, 0) + 1
+            sol = solver(x0=x0, p=p, lbx=0.0, ubx=i_max, lbg=-np.inf, ubg=1.0, lam_x0=self._lam_x, lam_g0=self._lam_g)
+            st = solver.stats()
+            self.last_status = str(st.get("return_status", ""))
+            x = np.asarray(sol["x"], dtype=float).ravel()
+            ok = bool(st.get("success", False))
+            if ok and np.all(np.isfinite(x)):
+                break
+        self.last_status = str(st.get("return_status", ""))
+        self.last_iterations = int(st.get("iter_count", 0))
+        if not ok or not np.all(np.isfinite(x)):
+            self.failures += 1
+            self._x = x0
+            return x0
+        self._x = x
+        self._lam_x = np.asarray(sol["lam_x"], dtype=float).ravel()
+        self._lam_g = np.asarray(sol["lam_g"], dtype=float).ravel()
+        return x

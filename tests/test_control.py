@@ -1,0 +1,276 @@
+"""Closed-loop control (soiltrack.planning.control): limits, slip optimum, stuck events, terrain changes,
+user plants, and the `soiltrack drive` command. Numbers, checked on the library's plant and on an
+independent numpy plant (tests/control_plant.py)."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.dirname(__file__))
+from control_plant import JHPlant, drive, stuck_events  # noqa: E402
+
+from soiltrack.planning import route_from_dict  # noqa: E402
+from soiltrack.planning.control import (  # noqa: E402
+    PlantSettings,
+    TerrainPatch,
+    TrackPlant,
+    make_controller,
+    run_closed_loop,
+)
+from soiltrack.planning.control.optimum import optimal_slip, optimal_slip_reference  # noqa: E402
+from soiltrack.soilmodel import TERRAINS, VEHICLES, DataError  # noqa: E402
+
+HEAVY, LIGHT = VEHICLES["heavy"], VEHICLES["light"]
+
+
+def _route(v0, v1, patches, max_slip=0.3):
+    return route_from_dict({"v0_m_s": v0, "v_end_m_s": v1, "max_slip": max_slip, "patches": patches})
+
+
+def _jh(V, route, soils, **kw):
+    pat = [
+        (p.length_m, s.cohesion, s.friction_angle, s.shear_modulus, p.grade_deg) for p, s in zip(route.patches, soils)
+    ]
+    return JHPlant(
+        V.mass,
+        V.track_length,
+        V.track_width,
+        V.sprocket_radius,
+        V.sprocket_inertia,
+        V.rolling_resistance,
+        pat,
+        v0=route.v0_m_s,
+        **kw,
+    )
+
+
+# a traversable heavy route: flat, a 20 deg climb on a weaker soil than planned, flat
+CLIMB = _route(
+    0.3,
+    3.0,
+    [
+        {"length_m": 15, "terrain": "lete_sand"},
+        {"length_m": 25, "terrain": "lete_sand", "grade_deg": 20},
+        {"length_m": 10, "terrain": "lete_sand"},
+    ],
+)
+CLIMB_TRUE = [TERRAINS["lete_sand"], TERRAINS["dry_sand"], TERRAINS["lete_sand"]]
+
+
+def test_optimum_agrees_with_the_traction_study():
+    for V, F, K, g in ((HEAVY, 200e3, 0.012, 0.0), (LIGHT, 210.0, 0.025, 18.0), (HEAVY, 170e3, 0.025, 15.0)):
+        fast, ref = optimal_slip(V, F, K, g), optimal_slip_reference(V, F, K, g)
+        assert abs(fast - ref) < 0.004, (fast, ref)
+    assert optimal_slip(LIGHT, 100.0, 0.02, 40.0) is None  # no drawbar pull at any slip
+
+
+def test_library_plant_agrees_with_independent_plant_at_constant_torque():
+    route = _route(1.0, 1.0, [{"length_m": 100, "terrain": "lete_sand", "grade_deg": 5}])
+    lib = TrackPlant(HEAVY, [TerrainPatch(100, TERRAINS["lete_sand"], 5.0)], PlantSettings(v0=1.0))
+    ind = _jh(HEAVY, route, [TERRAINS["lete_sand"]])
+    for _ in range(250):  # 5 s at 45 kN m
+        m = lib.step(45e3)
+        ind.step(45e3)
+    assert m["vehicle_speed_m_s"] == pytest.approx(ind.v, rel=0.01)
+    assert lib.slip == pytest.approx(ind.slip, rel=0.03)
+
+
+@pytest.mark.parametrize("kind", ["pi", "slip", "mpc"])
+def test_limits_held_on_the_independent_plant(kind):
+    ctl = make_controller(kind, HEAVY, route=CLIMB)
+    plant = _jh(HEAVY, CLIMB, CLIMB_TRUE, sigma_v=0.005, sigma_w=0.02)
+    a, arrived = drive(ctl, plant, CLIMB.length_m, 60.0)
+    M, w_meas = a[1:, 4], a[:-1, 6]  # each torque with the sprocket speed measured when it was commanded
+    assert arrived
+    assert np.max(np.abs(a[:, 4])) <= HEAVY.max_sprocket_torque * (1 + 1e-12)
+    assert np.max(M * w_meas) <= HEAVY.max_power * (1 + 1e-9)
+    assert np.min(a[:, 4]) >= -0.5 * HEAVY.max_sprocket_torque - 1e-9
+    if kind != "pi":
+        assert np.max(a[:, 3]) <= 0.3  # the route's slip limit, on the true slip
+
+
+def test_slip_controller_settles_at_the_estimates_optimal_slip():
+    """Uniform soil, a climb that keeps the slip loop limiting while the vehicle accelerates."""
+    route = _route(0.3, 3.0, [{"length_m": 60, "terrain": "lete_sand", "grade_deg": 25}])
+    ctl = make_controller("slip", HEAVY, route=route, probe=False)
+    plant = TrackPlant(HEAVY, [TerrainPatch(60, TERRAINS["lete_sand"], 25.0)], PlantSettings(v0=0.3))
+    m = plant.step(0.0)
+    rows = []
+    for _ in range(400):
+        M = ctl.command(m)
+        m = plant.step(M)
+        rows.append((plant.slip, ctl.slip_ceiling, ctl.limiting))
+    lim = [(s, c) for s, c, how in rows if how == "slip"]
+    assert len(lim) > 50  # 1 s or more with the slip loop limiting
+    s, c = np.array(lim[-25:]).T  # its last half second
+    b = ctl.belief.belief(0, 0)
+    assert c[-1] == pytest.approx(optimal_slip(HEAVY, b.max_thrust_N, b.shear_modulus_m, 25.0))
+    assert np.median(s) == pytest.approx(c[-1], abs=0.02)
+
+
+@pytest.mark.parametrize("kind", ["slip", "mpc"])
+def test_true_soil_no_stuck_event_on_a_traversable_route(kind):
+    ctl = make_controller(kind, HEAVY, route=CLIMB, soil="true", true_soils=CLIMB_TRUE)
+    plant = _jh(HEAVY, CLIMB, CLIMB_TRUE, sigma_v=0.005, sigma_w=0.02)
+    a, arrived = drive(ctl, plant, CLIMB.length_m, 60.0)
+    assert arrived and stuck_events(a) == 0
+
+
+@pytest.mark.slow
+def test_untraversable_climb_stop_with_reason_and_pi_digs_in():
+    """Snow at 27 deg under the heavy vehicle: R > F_max at any slip; planned as LETE sand."""
+    route = _route(
+        0.3, 2.0, [{"length_m": 12, "terrain": "lete_sand"}, {"length_m": 20, "terrain": "lete_sand", "grade_deg": 27}]
+    )
+    true = [TERRAINS["lete_sand"], TERRAINS["snow"]]
+    res = {}
+    for name, kind, kw in (
+        ("pi", "pi", {}),
+        ("slip", "slip", {}),
+        ("true", "slip", {"soil": "true", "true_soils": true}),
+    ):
+        ctl = make_controller(kind, HEAVY, route=route, **kw)
+        a, arrived = drive(ctl, _jh(HEAVY, route, true, sigma_v=0.005, sigma_w=0.02), route.length_m, 40.0)
+        res[name] = (a, arrived, ctl)
+    assert stuck_events(res["pi"][0]) >= 1 and not res["pi"][1]
+    for name in ("slip", "true"):
+        a, arrived, ctl = res[name]
+        assert not arrived and stuck_events(a) == 0
+        stops = [e for e in ctl.events if e["kind"] == "stop"]
+        assert stops and stops[-1]["patch"] == 1 and stops[-1]["required_N"] > stops[-1]["available_N"]
+    assert res["true"][0][-1, 1] < 12.0  # the true-soil controller stops before the climb
+
+
+def test_change_of_terrain_is_followed():
+    ctl = make_controller("slip", HEAVY, route=CLIMB)
+    plant = TrackPlant(
+        HEAVY,
+        [TerrainPatch(p.length_m, s, p.grade_deg) for p, s in zip(CLIMB.patches, CLIMB_TRUE)],
+        PlantSettings(v0=0.3, sigma_vehicle_speed=0.005, sigma_sprocket_speed=0.02, sigma_torque=400.0),
+    )
+    r = run_closed_loop(ctl, plant, distance_m=CLIMB.length_m, target_speed_m_s=3.0, max_slip=0.3, max_time_s=60.0)
+    assert r.arrived and r.metrics["stuck_events"] == 0
+    S = r.series
+    on_climb = [k for k, p in enumerate(S["patch"]) if p == 1]
+    k = on_climb[-1]
+    assert S["belief_max_thrust_N"][k] == pytest.approx(S["true_max_thrust_N"][k], rel=0.10)  # dry sand, not LETE
+    planned = 0.5 * 2.8 * 2 * 1.3e3 + 329e3 * math.cos(math.radians(20)) * math.tan(math.radians(31.1))
+    assert abs(S["belief_max_thrust_N"][k] - planned) > 0.05 * planned
+
+
+def test_user_plant_object_accepted():
+    route = _route(0.5, 1.0, [{"length_m": 5, "terrain": "lete_sand"}])
+    plant = _jh(LIGHT, route, [TERRAINS["lete_sand"]])
+    ctl = make_controller("slip", LIGHT, route=route)
+    r = run_closed_loop(ctl, plant, distance_m=5.0, target_speed_m_s=1.0, max_slip=0.3, max_time_s=30.0)
+    assert r.arrived and r.metrics["stuck_events"] == 0 and r.metrics["tracking_rmse_m_s"] < 0.3
+    assert r.series["true_max_thrust_N"][0] is None  # no truth from a user plant: measured signals
+
+    class Broken:
+        pass
+
+    with pytest.raises(DataError, match="step"):
+        run_closed_loop(ctl, Broken(), distance_m=5.0, target_speed_m_s=1.0, max_slip=0.3, max_time_s=1.0)
+
+
+def test_two_track_measurement_gives_a_pair():
+    ctl = make_controller("pi", LIGHT, target_speed_m_s=1.0)
+    out = ctl.command(
+        {"time_s": 0.0, "sprocket_speed_left_rad_s": 10.0, "sprocket_speed_right_rad_s": 10.0, "vehicle_speed_m_s": 0.5}
+    )
+    assert isinstance(out, tuple) and out[0] == out[1] > 0
+    with pytest.raises(DataError, match="vehicle_speed_m_s"):
+        ctl.command({"time_s": 0.1, "sprocket_speed_rad_s": 1.0})
+
+
+# ---------------------------------------------------------------- command line
+def _run(*args, timeout=300):
+    return subprocess.run(
+        [sys.executable, "-m", "soiltrack", "drive", *args], capture_output=True, text=True, timeout=timeout
+    )
+
+
+def _write(tmp_path, obj, name="route.json"):
+    p = tmp_path / name
+    p.write_text(json.dumps(obj))
+    return str(p)
+
+
+ROUTE = {
+    "v0_m_s": 0.5,
+    "v_end_m_s": 1.0,
+    "max_slip": 0.3,
+    "patches": [
+        {"length_m": 4, "terrain": "lete_sand"},
+        {"length_m": 4, "terrain": "lete_sand", "grade_deg": 10, "true_terrain": "dry_sand"},
+    ],
+}
+
+
+@pytest.mark.parametrize(
+    "patch, args, needle",
+    [
+        ({}, ["--controller", "fuzzy"], "--controller"),
+        ({"patches": [{"length_m": 4, "terrain": "lete_sand", "true_terrain": "mud"}]}, [], "patches[0].true_terrain"),
+        (
+            {"patches": [{"length_m": 4, "terrain": "lete_sand", "true_terrain": "snow", "true_soil": {}}]},
+            [],
+            "not both",
+        ),
+        (
+            {
+                "patches": [
+                    {"length_m": 4, "terrain": "lete_sand", "true_soil": {"cohesion_kpa": 1, "friction_angle_deg": 30}}
+                ]
+            },
+            [],
+            "true_soil.shear_modulus_m",
+        ),
+        ({"patches": [{"length_m": -4, "terrain": "lete_sand"}]}, [], "patches[0].length_m"),
+        ({}, ["--dt", "5"], "--dt"),
+        ({}, ["--speed", "-1"], "--speed"),
+    ],
+)
+def test_drive_bad_input_exit_2(tmp_path, patch, args, needle):
+    path = _write(tmp_path, dict(ROUTE, **patch))
+    a = ["--controller", "pi"] if "--controller" not in args else []
+    p = _run(path, "--vehicle", "light", *a, *args)
+    assert p.returncode == 2, p.stderr
+    assert needle in p.stderr and "Traceback" not in p.stderr
+
+
+def test_drive_missing_vehicle_exit_2(tmp_path):
+    p = _run(_write(tmp_path, ROUTE), "--vehicle", str(tmp_path / "nope.json"), "--controller", "slip")
+    assert p.returncode == 2 and "nope.json" in p.stderr and "Traceback" not in p.stderr
+
+
+@pytest.mark.slow
+def test_drive_json_and_plot(tmp_path):
+    png = str(tmp_path / "d.png")
+    p = _run(_write(tmp_path, ROUTE), "--vehicle", "light", "--controller", "slip", "--json", "--plot", png)
+    assert p.returncode == 0, p.stderr
+    js = json.loads(p.stdout)
+    assert js["controller"] == "slip" and js["arrived"] is True and js["reason"] is None
+    keys = {
+        "time_s",
+        "energy_J",
+        "tracking_rmse_m_s",
+        "peak_slip",
+        "time_above_slip_limit_s",
+        "stuck_events",
+        "adapt_time_s",
+    }
+    assert keys <= set(js["metrics"])
+    assert {"pi", "fixed_slip", "nominal_soil", "true_soil"} <= set(js["baselines"])
+    assert all(keys <= set(m) for m in js["baselines"].values())
+    n = len(js["series"]["time_s"])
+    assert n > 10 and all(len(v) == n for v in js["series"].values())
+    assert js["metrics"]["time_s"] == pytest.approx(js["series"]["time_s"][-1])
+    assert os.path.getsize(png) > 10_000
