@@ -37,12 +37,16 @@ print(r.extra.get("max_thrust_N"), r.extra.get("max_thrust_stderr_N"), r.status)
 """
 
 _ITERATION_SNIPPET = """
-import sys
+import sys, time
 from soiltrack.soilmodel import read_csv, VEHICLES
 from soiltrack.identify.drivelog import fit_drive_log
-r = fit_drive_log(read_csv(sys.argv[1]), VEHICLES["light"], latent_slips="profiled")
-n, it, t = r.extra["samples_used"], r.iterations, r.solve_time
-print(f"one profiled fit: {t:.2f} s, {it} iterations, {1e6 * t / (n * max(it, 1)):.2f} us per sample per iteration")
+log = read_csv(sys.argv[1])
+c0 = time.process_time()
+r = fit_drive_log(log, VEHICLES["light"], latent_slips="profiled")
+cpu = time.process_time() - c0
+n, it, t = r.extra["samples_used"], max(r.iterations, 1), r.solve_time
+print(f"one profiled fit: solve {t:.2f} s wall, whole fit {cpu:.2f} s CPU, {it} iterations: "
+      f"{1e6 * cpu / (n * it):.2f} us CPU per sample per iteration")
 """
 
 _SCIPY_SNIPPET = """
