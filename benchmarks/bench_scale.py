@@ -2,14 +2,14 @@
 
 Each measurement runs in its own process (its peak resident memory from ``wait4``): the command-line
 ``soiltrack fit LOG --vehicle light --json`` (the default fit: latent slips profiled out above 10,000
-rows, plus the discretisation check's second fit), ``soiltrack track`` (streamed replay), ``soiltrack fit
---segments 60s``, the former fit with one IPOPT variable per latent slip (``latent_slips="ipopt"``, the
-same two fits; up to ``--ipopt-max`` rows) and scipy's ``least_squares`` on the same two-channel problem
-(latent slips as variables, sparse Jacobian, ``trf``/``lsmr``; up to ``--scipy-max`` rows). The logs are
-the library's simulator's (light vehicle, dry sand, 50 Hz, default driving, seed 1), made once into
-``--dir``.
+rows, plus the discretisation check's second fit), ``soiltrack track`` (streamed replay), ``soiltrack
+fit --segments 60s``, one profiled fit's solve time per sample and iteration (``iteration``), the
+former fit with one IPOPT variable per latent slip (``latent_slips="ipopt"``, the same two fits; up to
+``--ipopt-max`` rows) and scipy's ``least_squares`` on the same two-channel problem (latent slips as
+variables, sparse Jacobian, ``trf``/``lsmr``; up to ``--scipy-max`` rows). The logs are the library's
+simulator's (light vehicle, dry sand, 50 Hz, default driving, seed 1), made once into ``--dir``.
 
-    python benchmarks/bench_scale.py                                   # 1,000 and 5,000 rows (about a minute)
+    python benchmarks/bench_scale.py                                   # 1,000 and 5,000 rows (minutes)
     python benchmarks/bench_scale.py --sizes 1e4,5e4,1.8e5 --ipopt-max 2e4
     python benchmarks/bench_scale.py --sizes 2e6 --tasks fit,track      # the 11-hour log (minutes; 2 GB)
 
@@ -26,7 +26,7 @@ import subprocess
 import sys
 import time
 
-TASKS = ("fit", "track", "segments", "ipopt", "scipy")
+TASKS = ("fit", "track", "segments", "ipopt", "scipy", "iteration")
 
 _FIT_SNIPPET = """
 import sys
@@ -34,6 +34,19 @@ from soiltrack.soilmodel import read_csv, VEHICLES
 from soiltrack.identify import fit
 r = fit(read_csv(sys.argv[1]), VEHICLES["light"], latent_slips=sys.argv[2], discretisation_check=True)
 print(r.extra.get("max_thrust_N"), r.extra.get("max_thrust_stderr_N"), r.status)
+"""
+
+_ITERATION_SNIPPET = """
+import sys, time
+from soiltrack.soilmodel import read_csv, VEHICLES
+from soiltrack.identify.drivelog import fit_drive_log
+log = read_csv(sys.argv[1])
+c0 = time.process_time()
+r = fit_drive_log(log, VEHICLES["light"], latent_slips="profiled")
+cpu = time.process_time() - c0
+n, it, t = r.extra["samples_used"], max(r.iterations, 1), r.solve_time
+print(f"one profiled fit: solve {t:.2f} s wall, whole fit {cpu:.2f} s CPU, {it} iterations: "
+      f"{1e6 * cpu / (n * it):.2f} us CPU per sample per iteration")
 """
 
 _SCIPY_SNIPPET = """
@@ -103,7 +116,7 @@ def _log(directory: str, rows: int) -> str:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sizes", default="1e3,5e3", help="rows of the logs, comma separated (default: 1e3,5e3)")
-    ap.add_argument("--tasks", default="fit,track,segments,ipopt,scipy", help=f"some of {','.join(TASKS)}")
+    ap.add_argument("--tasks", default="fit,track,segments,iteration,ipopt,scipy", help=f"some of {','.join(TASKS)}")
     ap.add_argument("--ipopt-max", type=float, default=2e4, help="largest log fitted the former way (rows)")
     ap.add_argument("--scipy-max", type=float, default=5e4, help="largest log given to least_squares (rows)")
     ap.add_argument("--dir", default=os.path.join("build", "bench_scale"), help="where the logs are made and kept")
@@ -130,6 +143,7 @@ def main(argv: list[str] | None = None) -> int:
                 "segments": ["soiltrack", "fit", log, "--vehicle", "light", "--segments", "60s", "--json"],
                 "ipopt": [py, "-c", _FIT_SNIPPET, log, "ipopt"],
                 "scipy": [py, "-c", _SCIPY_SNIPPET, log],
+                "iteration": [py, "-c", _ITERATION_SNIPPET, log],
             }[task]
             m = _measure(cmd)
             m.update(task=task, rows=n, us_per_row=1e6 * m["wall_s"] / n)

@@ -40,8 +40,9 @@ AVAILABLE_FRACTION = 0.5
 #: Memory of the process before any data (Python, numpy, CasADi loaded, the kernels), bytes; measured 52-70 MB.
 BASE_BYTES = 80e6
 #: Peak bytes per row, by way of fitting (measured slope x 1.25). "profiled": the nominal fit with the latent
-#: slips eliminated (:mod:`.profiled`; measured 0.79 kB per row on 180,000 rows, reading and the discretisation
-#: check included); "ipopt": one IPOPT variable per slip, per padded sample (measured 73-75 kB);
+#: slips eliminated (:mod:`.profiled`; measured 131 MB at 50,000 rows, 217 MB at 180,000, 1,617 MB at 2,000,001:
+#: 0.6-0.8 kB per row, reading, the discretisation check and the JSON output included); "ipopt": one IPOPT
+#: variable per slip, per padded sample (measured 73-75 kB);
 #: "joint": fits with effects (IPOPT over the mapped kernels; measured 4.1 kB per padded sample).
 BYTES_PER_ROW = {"profiled": 1.0e3, "ipopt": 94e3, "joint": 5.2e3}
 #: Seconds per row, by way of fitting, on the loaded 2-core machine (the CLI's two fits of the discretisation
