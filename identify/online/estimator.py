@@ -853,11 +853,13 @@ class OnlineEstimator:
         ident: tuple[str, ...] = ("slope",) if out["s_slope"] < GENTLE_REL_STDERR * out["slope"] else ()
         out.update(sF=None, sK=None, cov=None)
         if sF / F < GENTLE_REL_STDERR:
+            # the held covariance is given with F_max (K's variance in it large while K is not
+            # identified): traversability between excitations propagates both
             ident = ("slope", "max_thrust")
-            out["sF"] = sF
+            out.update(sF=sF, cov=np.array([[p11, p12], [p12, p22]]))
             if sK / K <= K_REL_STDERR:
                 ident = ("slope", "max_thrust", "shear_modulus")
-                out.update(sK=sK, cov=np.array([[p11, p12], [p12, p22]]))
+                out["sK"] = sK
         out["ident"] = ident
         return out
 
