@@ -754,14 +754,16 @@ class OnlineEstimator:
                 if res is not None and res[2] > s.detect_window_chi2 and settled:
                     first = next((x for x in self._info_times if x >= t_start), t)
                     t_change = self._detector.run_start(first)
-                    if self.changes and t_change <= self.changes[-1]["window_s"][1] + EXCITATION_GAP_S:
+                    window = self._change_window(t_change)
+                    t_ex = self._excitation_start(t_change, window[0])
+                    if self.changes and t_ex <= self.changes[-1]["window_s"][1] + EXCITATION_GAP_S:
                         # the excitation that revealed the last change: its first estimate of the new
                         # soil was held too early, not a second change; start the held estimate again
                         H.reset()
                         H.set(t, xw, Vw)
                         H.snapshot(t, t - s.window_s)
                         return None
-                    return t_change, self._change_window(t_change)
+                    return t_change, window
                 if res is not None:
                     H.set(t, res[0], res[1])
         if H.known:
