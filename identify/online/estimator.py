@@ -418,30 +418,7 @@ class OnlineEstimator:
                 self._bounds_scaled[0][1],
             )
         # change detection on the one-step prediction, before the sample enters the horizon
-        change = None
-        slip0 = None
-        if used:
-            self._c_predict()
-            slip0, wres = float(self._pred_out[0]), float(self._pred_out[1])
-            z = wres / self._scale()
-            self._note_informative(t, T, sT)
-            if s.memory:
-                z = self._held_residual(t, z)
-            # a change is judged against a soil whose F_max was determined, on samples loaded against it
-            loaded = (
-                self._F_known is not None
-                and T >= s.detect_min_load * self._F_known
-                and t - self._known_since >= s.detect_settle_s
-            )
-            if (
-                loaded
-                and self._started
-                and self._sl[_S["n_used"]] >= s.detect_min_samples
-                and t - self._detect_since >= s.detect_min_s
-            ):
-                change = self._detector.update(z / self._robust_scale(), t)
-                if self._detector.statistic == 0.0:  # the residual spread is learnt from quiet samples only
-                    self._recent_z.append(z)
+        change, slip0 = self._detect(t, T, sT) if used else (None, None)
         # the sample enters the ring buffer
         slot = self._slot
         if self._tslot[slot] >= cutoff and self._cap < s.max_capacity:
@@ -462,6 +439,38 @@ class OnlineEstimator:
             self._push_peak(t, slot, pk)
         self._slot = (slot + 1) % self._cap
         self._prev = (t, M, w, slot)
+        return self._finish(t, slip0, change, cutoff)
+
+    def _detect(self, t: float, T: float, sT: float) -> tuple[float | None, float]:
+        """The new sample's prediction: the CUSUM's change time (or ``None``) and its latent slip."""
+        s = self.settings
+        self._c_predict()
+        slip0, wres = float(self._pred_out[0]), float(self._pred_out[1])
+        z = wres / self._scale()
+        self._note_informative(t, T, sT)
+        if s.memory:
+            z = self._held_residual(t, z)
+        # a change is judged against a soil whose F_max was determined, on samples loaded against it
+        loaded = (
+            self._F_known is not None
+            and T >= s.detect_min_load * self._F_known
+            and t - self._known_since >= s.detect_settle_s
+        )
+        change = None
+        if (
+            loaded
+            and self._started
+            and self._sl[_S["n_used"]] >= s.detect_min_samples
+            and t - self._detect_since >= s.detect_min_s
+        ):
+            change = self._detector.update(z / self._robust_scale(), t)
+            if self._detector.statistic == 0.0:  # the residual spread is learnt from quiet samples only
+                self._recent_z.append(z)
+        return change, slip0
+
+    def _finish(self, t: float, slip0, change, cutoff: float) -> OnlineEstimate:
+        """After the sample entered: forget on a change, iterate, update the memory, report."""
+        s = self.settings
         window = None
         if change is not None:
             window = self._change_window(change)
