@@ -339,6 +339,7 @@ def main(argv=None) -> int:
     )
     ap.add_argument("--duration", type=float, default=120.0, help="comparison: length of each change log, s")
     ap.add_argument("--uniform-s", type=float, default=600.0, help="comparison: length of each uniform-soil log, s")
+    ap.add_argument("--logs", type=int, default=None, help="comparison: only the first N change logs")
     ap.add_argument("--timing", action="store_true", help="the timing study of issue 22 instead of the comparison")
     ap.add_argument("--quick", action="store_true", help="with --timing: 50 Hz only, 2 x 5-minute false-alarm logs")
     ap.add_argument("--slope", action="store_true", help="only the known-grade study (8 deg, with and without)")
@@ -354,7 +355,7 @@ def main(argv=None) -> int:
         if bad:
             ap.error(f"--estimators: unknown {bad}; choose from {list(online_compare.ESTIMATORS)}")
         print("machine load (1-min average) at the start:", open("/proc/loadavg").read().split()[0])
-        online_compare.compare(a.size, names, a.duration, a.uniform_s)
+        online_compare.compare(a.size, names, a.duration, a.uniform_s, logs=a.logs)
         return 0
     veh = VEHICLES["light"]
     rates = (50.0,) if a.quick else (10.0, 50.0, 100.0)

@@ -405,10 +405,21 @@ def _uniform_cases(size: str) -> list[dict]:
     ]
 
 
-def compare(size: str = "small", names=ESTIMATORS, duration: float = 120.0, uniform_s: float = 600.0, out=print):
-    """Run every estimator on the same logs; print one table (markdown) and return the per-estimator totals."""
-    cases = scenarios(size)
-    uni = _uniform_cases(size)
+def compare(
+    size: str = "small",
+    names=ESTIMATORS,
+    duration: float = 120.0,
+    uniform_s: float = 600.0,
+    out=print,
+    logs: int | None = None,
+):
+    """Run every estimator on the same logs; print one table (markdown) and return the per-estimator totals.
+
+    ``logs`` keeps the first that many change logs (all by default); ``uniform_s`` 0 leaves the
+    uniform-soil logs out.
+    """
+    cases = scenarios(size)[:logs]
+    uni = _uniform_cases(size) if uniform_s > 0 else []
     tot = {
         n: dict(delays=[], missed=0, false=0, n_changes=0, hours=0.0, err=[], cover=[], times=[], win=[]) for n in names
     }

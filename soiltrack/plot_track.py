@@ -15,7 +15,9 @@ def _series(history, name: str) -> np.ndarray:
 
 
 def plot_track(history, path: str, title: str = "on-line estimate") -> str:
-    """F_max and K with their 95 % bands over time, detected changes, samples used; saved to ``path``.
+    """F_max and K with their 95 % bands over time, detected changes and their windows, samples used.
+
+    Saved to ``path``; the held estimate between excitations is drawn dotted.
 
     ``history`` is the :class:`~soiltrack.identify.OnlineEstimate` of every update. Where a
     quantity is not identifiable its estimate is drawn thin and grey (the value the horizon's
@@ -28,11 +30,15 @@ def plot_track(history, path: str, title: str = "on-line estimate") -> str:
     skipped = _series(history, "samples_skipped")
     turning = _series(history, "samples_turning")
     changes = [(e.time_s, e.change_time_s) for e in history if e.change_detected]
+    windows = [getattr(e, "change_window_s", None) for e in history if e.change_detected]
+    held = np.array([bool(getattr(e, "held", False)) for e in history])
     fig, ax = plt.subplots(3, 1, figsize=(9, 8), sharex=True, gridspec_kw={"height_ratios": [3, 3, 2]})
     for a, y, s, scale, label in ((ax[0], F, sF, 1e-3, "F_max (kN)"), (ax[1], K, sK, 1e3, "K (mm)")):
         a.plot(t, y * scale, color="0.6", lw=0.8, label="estimate (not identifiable: grey)")
         ident = np.isfinite(s)
-        a.plot(t, np.where(ident, y, np.nan) * scale, color="C0", lw=1.5, label="identified")
+        a.plot(t, np.where(ident & ~held, y, np.nan) * scale, color="C0", lw=1.5, label="identified")
+        if held.any():
+            a.plot(t, np.where(ident & held, y, np.nan) * scale, color="C0", lw=1.5, ls=":", label="held")
         a.fill_between(
             t,
             (y - Z95 * s) * scale,
@@ -55,6 +61,9 @@ def plot_track(history, path: str, title: str = "on-line estimate") -> str:
         for j, (td, tc) in enumerate(changes):
             a.axvline(td, color="C1", lw=1.2, label="change detected" if j == 0 else None)
             a.axvline(tc, color="C1", lw=1.0, ls="--", label="change dated" if j == 0 else None)
+            w = windows[j]
+            if w is not None:
+                a.axvspan(w[0], w[1], color="C1", alpha=0.12, label="change window" if j == 0 else None)
     for a in ax:
         a.legend(loc="best", fontsize=7)
     ax[0].set_title(title, fontsize=9)

@@ -418,30 +418,7 @@ class OnlineEstimator:
                 self._bounds_scaled[0][1],
             )
         # change detection on the one-step prediction, before the sample enters the horizon
-        change = None
-        slip0 = None
-        if used:
-            self._c_predict()
-            slip0, wres = float(self._pred_out[0]), float(self._pred_out[1])
-            z = wres / self._scale()
-            self._note_informative(t, T, sT)
-            if s.memory:
-                z = self._held_residual(t, z)
-            # a change is judged against a soil whose F_max was determined, on samples loaded against it
-            loaded = (
-                self._F_known is not None
-                and T >= s.detect_min_load * self._F_known
-                and t - self._known_since >= s.detect_settle_s
-            )
-            if (
-                loaded
-                and self._started
-                and self._sl[_S["n_used"]] >= s.detect_min_samples
-                and t - self._detect_since >= s.detect_min_s
-            ):
-                change = self._detector.update(z / self._robust_scale(), t)
-                if self._detector.statistic == 0.0:  # the residual spread is learnt from quiet samples only
-                    self._recent_z.append(z)
+        change, slip0 = self._detect(t, T, sT) if used else (None, None)
         # the sample enters the ring buffer
         slot = self._slot
         if self._tslot[slot] >= cutoff and self._cap < s.max_capacity:
@@ -462,6 +439,38 @@ class OnlineEstimator:
             self._push_peak(t, slot, pk)
         self._slot = (slot + 1) % self._cap
         self._prev = (t, M, w, slot)
+        return self._finish(t, slip0, change, cutoff)
+
+    def _detect(self, t: float, T: float, sT: float) -> tuple[float | None, float]:
+        """The new sample's prediction: the CUSUM's change time (or ``None``) and its latent slip."""
+        s = self.settings
+        self._c_predict()
+        slip0, wres = float(self._pred_out[0]), float(self._pred_out[1])
+        z = wres / self._scale()
+        self._note_informative(t, T, sT)
+        if s.memory:
+            z = self._held_residual(t, z)
+        # a change is judged against a soil whose F_max was determined, on samples loaded against it
+        loaded = (
+            self._F_known is not None
+            and T >= s.detect_min_load * self._F_known
+            and t - self._known_since >= s.detect_settle_s
+        )
+        change = None
+        if (
+            loaded
+            and self._started
+            and self._sl[_S["n_used"]] >= s.detect_min_samples
+            and t - self._detect_since >= s.detect_min_s
+        ):
+            change = self._detector.update(z / self._robust_scale(), t)
+            if self._detector.statistic == 0.0:  # the residual spread is learnt from quiet samples only
+                self._recent_z.append(z)
+        return change, slip0
+
+    def _finish(self, t: float, slip0, change, cutoff: float) -> OnlineEstimate:
+        """After the sample entered: forget on a change, iterate, update the memory, report."""
+        s = self.settings
         window = None
         if change is not None:
             window = self._change_window(change)
@@ -754,14 +763,16 @@ class OnlineEstimator:
                 if res is not None and res[2] > s.detect_window_chi2 and settled:
                     first = next((x for x in self._info_times if x >= t_start), t)
                     t_change = self._detector.run_start(first)
-                    if self.changes and t_change <= self.changes[-1]["window_s"][1] + EXCITATION_GAP_S:
+                    window = self._change_window(t_change)
+                    t_ex = self._excitation_start(t_change, window[0])
+                    if self.changes and t_ex <= self.changes[-1]["window_s"][1] + EXCITATION_GAP_S:
                         # the excitation that revealed the last change: its first estimate of the new
                         # soil was held too early, not a second change; start the held estimate again
                         H.reset()
                         H.set(t, xw, Vw)
                         H.snapshot(t, t - s.window_s)
                         return None
-                    return t_change, self._change_window(t_change)
+                    return t_change, window
                 if res is not None:
                     H.set(t, res[0], res[1])
         if H.known:
@@ -853,11 +864,13 @@ class OnlineEstimator:
         ident: tuple[str, ...] = ("slope",) if out["s_slope"] < GENTLE_REL_STDERR * out["slope"] else ()
         out.update(sF=None, sK=None, cov=None)
         if sF / F < GENTLE_REL_STDERR:
+            # the held covariance is given with F_max (K's variance in it large while K is not
+            # identified): traversability between excitations propagates both
             ident = ("slope", "max_thrust")
-            out["sF"] = sF
+            out.update(sF=sF, cov=np.array([[p11, p12], [p12, p22]]))
             if sK / K <= K_REL_STDERR:
                 ident = ("slope", "max_thrust", "shear_modulus")
-                out.update(sK=sK, cov=np.array([[p11, p12], [p12, p22]]))
+                out["sK"] = sK
         out["ident"] = ident
         return out
 

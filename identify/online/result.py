@@ -36,8 +36,10 @@ class OnlineEstimate:
         arrival cost, grown by the random walk between excitations), ``None`` while the quantity
         is not identifiable.
     covariance
-        2x2 covariance over ``[max_thrust_N, shear_modulus_m]`` (SI) of the held estimate, ``None``
-        while F_max and K are not both identifiable.
+        2x2 covariance over ``[max_thrust_N, shear_modulus_m]`` (SI). Once something is held
+        (``OnlineSettings.memory``): the held estimate's, given whenever F_max is identified (K's
+        variance in it may then be beyond K's 25 % rule: K is not called identified). Before, and
+        with ``memory=False``: the horizon's, ``None`` unless F_max and K are both identifiable.
     slope_N, slope_stderr_N
         The small-slip slope ``F_max l / (2 K)`` (thrust per unit slip) and its standard error
         (``None`` before an estimate exists).
