@@ -71,8 +71,11 @@ def _cell(text: str, path: str, column: str, row: int) -> float:
         ) from None
 
 
-def read_drive_stream(path: str | os.PathLike) -> DriveStream:
+def read_drive_stream(path: str | os.PathLike, *, columns: dict[str, str] | None = None) -> DriveStream:
     """Read a drive log (combined or two-track columns) keeping missing readings as NaN.
+
+    ``columns`` maps the file's columns onto the library's names; unit suffixes convert
+    (:mod:`soiltrack.soilmodel.columns`).
 
     Raises
     ------
@@ -91,7 +94,11 @@ def read_drive_stream(path: str | os.PathLike) -> DriveStream:
         raise DataError("not a UTF-8 text file", file=path) from None
     if not rows:
         raise DataError("empty file: expected a header row", file=path)
-    header = [h.strip() for h in rows[0]]
+    from .columns import plan_columns
+    from .data import KNOWN_COLUMNS
+
+    plan = plan_columns([h.strip() for h in rows[0]], known=KNOWN_COLUMNS, mapping=columns, source=path)
+    header = list(plan.header)
     dup = sorted({h for h in header if header.count(h) > 1})
     if dup:
         raise DataError(f"duplicate column(s) {dup}", file=path, column=dup[0])
@@ -118,6 +125,7 @@ def read_drive_stream(path: str | os.PathLike) -> DriveStream:
             raise DataError(f"expected {len(header)} fields, found {len(cells)}", file=path, row=r)
         for c in used:
             data[c][r - 1] = _cell(cells[idx[c]], path, c, r)
+    data = plan.apply(data)
     t = data["time_s"]
     fin = np.nonzero(np.isfinite(t))[0]
     bad = np.nonzero(np.diff(t[fin]) <= 0)[0]

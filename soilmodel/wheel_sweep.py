@@ -14,15 +14,30 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .data import SlipData, read_csv
+from .columns import plan_columns
+from .csvread import read_header
+from .data import KNOWN_COLUMNS, SlipData, read_csv
 from .errors import DataError
 
-__all__ = ["WheelSweep", "read_wheel_sweep", "write_wheel_sweep", "SINKAGE_COLUMN", "WHEEL_COLUMNS"]
+__all__ = [
+    "WheelSweep",
+    "read_wheel_sweep",
+    "write_wheel_sweep",
+    "check_sweep_for_wheel",
+    "pull_sign_problem",
+    "SINKAGE_COLUMN",
+    "WHEEL_COLUMNS",
+    "SIGN_MIN_ROWS",
+]
 
 #: The measured sinkage column, m.
 SINKAGE_COLUMN = "sinkage_m"
 #: The required columns of a wheel sweep.
 WHEEL_COLUMNS = ("slip", "drawbar_pull_N", "normal_load_N")
+#: Fewest driving rows (slip > 0) on which the sign of the pull is judged.
+SIGN_MIN_ROWS = 3
+#: Rank correlation of pull and slip below which a sweep's pull runs against its slip.
+SIGN_RANK_CORRELATION = -0.5
 
 
 def _frozen(a) -> np.ndarray:
@@ -112,26 +127,28 @@ class WheelSweep:
         return out
 
 
-def _header(path: str) -> list[str] | None:
-    """The header of a CSV (None when the file cannot be read: read_csv then says why)."""
+def _header(path: str, columns: dict[str, str] | None) -> list[str] | None:
+    """The header of a CSV in the library's names (None when the file cannot be read: read_csv then says why)."""
     try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            for row in csv.reader(fh):
-                if any(cell.strip() for cell in row):
-                    return [h.strip() for h in row]
-    except (OSError, UnicodeDecodeError):
+        head = read_header(path)
+    except DataError:
         return None
-    return None
+    return list(plan_columns(head, known=KNOWN_COLUMNS, mapping=columns, source=path).header)
 
 
 def read_wheel_sweep(
-    path: str | os.PathLike, *, driving_only: bool = False, slip_angle: float | None = None
+    path: str | os.PathLike,
+    *,
+    driving_only: bool = False,
+    slip_angle: float | None = None,
+    columns: dict[str, str] | None = None,
 ) -> WheelSweep:
     """Read a wheel sweep ``slip,drawbar_pull_N,normal_load_N[,sinkage_m]``.
 
     ``driving_only`` and ``slip_angle`` drop the rows at negative slip or another slip angle
     as :func:`~soiltrack.soilmodel.read_csv` does (refused otherwise); their count is kept in
-    :attr:`WheelSweep.dropped`.
+    :attr:`WheelSweep.dropped`. ``columns`` maps the file's columns onto the library's names and
+    unit suffixes convert (``sinkage_mm``: :mod:`soiltrack.soilmodel.columns`).
 
     Raises
     ------
@@ -141,7 +158,7 @@ def read_wheel_sweep(
         the message names the file, the column and the row.
     """
     path = os.fspath(path)
-    header = _header(path)
+    header = _header(path, columns)
     if header is not None and "tractive_force_N" not in header:
         for col in WHEEL_COLUMNS:
             if col not in header:
@@ -151,7 +168,7 @@ def read_wheel_sweep(
                     file=path,
                     column=col,
                 )
-    data = read_csv(path, driving_only=driving_only, slip_angle=slip_angle)
+    data = read_csv(path, driving_only=driving_only, slip_angle=slip_angle, columns=columns)
     if not isinstance(data, SlipData) or data.measured != "drawbar_pull":
         raise DataError(
             f"a rigid wheel's sweep needs the columns {list(WHEEL_COLUMNS)} (drawbar pull against slip); "
@@ -175,6 +192,86 @@ def read_wheel_sweep(
         source=path,
         dropped=data.dropped_count,
     )
+
+
+def _ranks(x: np.ndarray) -> np.ndarray:
+    """Ranks of ``x`` (ties get their mean rank)."""
+    order = np.argsort(x, kind="mergesort")
+    r = np.empty(x.size)
+    r[order] = np.arange(x.size, dtype=float)
+    for v in np.unique(x):
+        tie = x == v
+        r[tie] = r[tie].mean()
+    return r
+
+
+def _rank_correlation(a: np.ndarray, b: np.ndarray) -> float:
+    ra, rb = _ranks(a) - (a.size - 1) / 2, _ranks(b) - (b.size - 1) / 2
+    den = float(np.sqrt((ra @ ra) * (rb @ rb)))
+    return float(ra @ rb) / den if den > 0 else 0.0
+
+
+def pull_sign_problem(slip: np.ndarray, pull: np.ndarray) -> str | None:
+    """Why the pull's sign contradicts the slip across a sweep, in words, or ``None``.
+
+    The pull of a wheel (or track) rises with its slip: negative when braked or locked (slip < 0),
+    positive and rising at the start of driving. A sweep contradicts that when its pull falls as
+    the slip rises (Spearman rank correlation below :data:`SIGN_RANK_CORRELATION`) and either
+    it has skid and driving rows, or every driving row pulls backwards (at least
+    :data:`SIGN_MIN_ROWS` of them): the sign of the pull (or of the slip) is flipped.
+    """
+    slip, pull = np.asarray(slip, dtype=float), np.asarray(pull, dtype=float)
+    drive = slip > 0
+    if np.count_nonzero(drive) < SIGN_MIN_ROWS or slip.size < SIGN_MIN_ROWS + 1:
+        return None
+    both = bool(np.any(slip < 0))
+    rho = _rank_correlation(slip, pull)
+    if rho >= SIGN_RANK_CORRELATION or not (both or np.all(pull[drive] < 0)):
+        return None
+    where = (
+        "from skid to driving" if both else f"and is negative at all {np.count_nonzero(drive)} driving rows (slip > 0)"
+    )
+    return (
+        f"the drawbar pull falls as the slip rises (rank correlation {rho:.2f}) {where}: its sign (or the "
+        "slip's) looks flipped; drawbar_pull_N is + forward (a driving wheel pulls) and the slip is > 0 when "
+        "driving: negate the column in the file"
+    )
+
+
+def check_sweep_for_wheel(data: WheelSweep, radius: float) -> None:
+    """Refuse a sweep that cannot be this wheel's: sinkage beyond the radius, a pull against the slip.
+
+    Raises
+    ------
+    DataError
+        Rows whose sinkage exceeds the wheel's radius (named; with the hint that the values look
+        like millimetres when they do), or a pull whose sign contradicts the slip
+        (:func:`pull_sign_problem`).
+    """
+    if data.sinkage is not None:
+        deep = data.sinkage > radius
+        if deep.any():
+            idx = np.nonzero(deep)[0]
+            rows = [int(k) + 1 for k in idx]
+            z = data.sinkage
+            mm = bool(np.median(z) / 1e3 < radius)
+            hint = (
+                f"; the values ({np.min(z):.3g} to {np.max(z):.3g}) look like millimetres: name the column "
+                f"sinkage_mm (it is then converted) or map it with --columns sinkage_m=NAME_mm"
+                if mm and np.median(z) > 1.0
+                else "; the Wong-Reece arc ends at the axle"
+            )
+            shown = ", ".join(map(str, rows[:20])) + (f", ... ({len(rows)} rows)" if len(rows) > 20 else "")
+            raise DataError(
+                f"{len(rows)} of {z.size} rows have a sinkage larger than the wheel's radius {radius:g} m "
+                f"(rows {shown}; largest {np.max(z):.4g} m){hint}",
+                file=data.source,
+                column=SINKAGE_COLUMN,
+                rows=rows,
+            )
+    why = pull_sign_problem(data.slip, data.drawbar_pull)
+    if why is not None:
+        raise DataError(why, file=data.source, column="drawbar_pull_N")
 
 
 def write_wheel_sweep(data: WheelSweep, path) -> None:

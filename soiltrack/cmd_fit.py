@@ -6,6 +6,7 @@ import argparse
 import sys
 
 from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path, running_gear_arg
+from .columns_cli import add_columns_argument, column_notes, columns_arg, with_column_notes
 from .identify.drivelog import DISCRETISATIONS
 from .identify.engines import DEFAULT_ENGINE, ENGINES
 from .soilmodel import PRACTICAL_BOUNDS, WIDE_BOUNDS, DataError, SoilBounds
@@ -98,7 +99,8 @@ def _cmd_soil_test(a: argparse.Namespace, data) -> int:
             file=a.data,
         )
     result = fit_soil_test(data)
-    print(result.to_json() if a.json else result.report())
+    notes = column_notes(a.data, columns_arg(a))
+    print(with_column_notes(result.to_json() if a.json else result.report(), notes, a.json))
     if a.plot:
         from .plot_soiltest import plot_soil_test
 
@@ -120,7 +122,7 @@ def _cmd_fit(a: argparse.Namespace) -> int:
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
     bounds = bounds_arg(a.bounds)
-    data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle)
+    data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle, columns=columns_arg(a))
     if isinstance(data, (ShearTest, PlateTest)):
         return _cmd_soil_test(a, data)
     if gear is None:
@@ -157,10 +159,8 @@ def _cmd_fit(a: argparse.Namespace) -> int:
     if a.effect:
         kw["effects"] = [e.strip() for item in a.effect for e in item.split(",") if e.strip()]
     result = fit(data, vehicle, model=a.model, method=a.method, **kw)
-    if a.json:
-        print(result.to_json())
-    else:
-        print(result.report())
+    notes = column_notes(a.data, columns_arg(a))
+    print(with_column_notes(result.to_json() if a.json else result.report(), notes, a.json))
     if a.plot:
         from .plots import plot_fit
 
@@ -333,6 +333,7 @@ def add_parser(sub) -> None:
         help="rigid wheel: hold a parameter at a value in edge units (repeatable), e.g. bekker_n=1; names "
         "cohesion_kpa, friction_angle_deg, shear_modulus_m, bekker_kc, bekker_kphi, bekker_n",
     )
+    add_columns_argument(f)
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit (.png, .pdf, .svg)")
     f.set_defaults(func=_cmd_fit)

@@ -11,6 +11,7 @@ import math
 import sys
 
 from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path
+from .columns_cli import column_notes, columns_arg, with_column_notes
 from .soilmodel import DataError
 from .soilmodel.rigid_wheel import RigidWheel
 
@@ -86,10 +87,11 @@ def fit_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:
     )
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
-    data = read_wheel_sweep(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle)
+    cols = columns_arg(a)
+    data = read_wheel_sweep(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle, columns=cols)
     opts = WheelFitOptions(fixed=wheel_fixed_arg(getattr(a, "fix", None), a.model), effects=_effects(a))
     result = fit_wheel(data, wheel, opts)
-    print(result.to_json() if a.json else result.report())
+    print(with_column_notes(result.to_json() if a.json else result.report(), column_notes(a.data, cols), a.json))
     if a.plot:
         from .wheel_plots import plot_wheel_fit
 
@@ -104,12 +106,13 @@ def diagnose_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:
     from .soilmodel.wheel_sweep import read_wheel_sweep
 
     _refuse(a, set(), {"torque_hold": None, "bounds": "auto"}, "its soil bounds are the practical ranges")
-    data = read_wheel_sweep(a.data)
+    cols = columns_arg(a)
+    data = read_wheel_sweep(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle, columns=cols)
     cands = None
     if a.candidates is not None:
         cands = tuple(c.strip() for c in a.candidates.split(",") if c.strip())
     d = diagnose_wheel(data, wheel, WheelFitOptions(fixed=wheel_fixed_arg(None, a.model)), candidates=cands)
-    print(d.to_json() if a.json else d.report())
+    print(with_column_notes(d.to_json() if a.json else d.report(), column_notes(a.data, cols), a.json))
     if a.plot:
         from .wheel_plots import plot_wheel_fit
 

@@ -15,7 +15,7 @@ from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.soil import Soil
 from ...soilmodel.threadsafe import call_solver
 from ...soilmodel.wheel import DEFAULT_WHEEL_SETTINGS, WheelSettings, evaluate, wheel_forces_function
-from ...soilmodel.wheel_sweep import WheelSweep
+from ...soilmodel.wheel_sweep import WheelSweep, check_sweep_for_wheel
 from .problem import DEFAULT_WHEEL_BOUNDS, PARAMETER_SCALES, WHEEL_PARAMETERS, WheelBounds, wheel_solver
 from .result import WheelFitResult, build_wheel_result
 
@@ -170,6 +170,7 @@ def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = Wh
     """
     if not isinstance(data, WheelSweep):
         raise DataError(f"fit_wheel takes a WheelSweep, got {type(data).__name__}")
+    check_sweep_for_wheel(data, wheel.radius)  # sinkage beyond the radius, a pull against the slip
     sink = data.has_sinkage
     free = np.array(
         [
