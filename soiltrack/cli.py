@@ -16,7 +16,16 @@ from .cliutil import EXIT_INPUT, EXIT_OK
 from .soilmodel import DataError
 
 #: Subcommand modules, in the order of the help text; each has ``add_parser(subparsers)``.
-COMMAND_MODULES = ("cmd_simulate", "cmd_fit", "cmd_track", "cmd_margin", "cmd_profile", "cmd_route", "cmd_diagnose")
+COMMAND_MODULES = (
+    "cmd_simulate",
+    "cmd_fit",
+    "cmd_track",
+    "cmd_margin",
+    "cmd_profile",
+    "cmd_route",
+    "cmd_diagnose",
+    "cmd_predict",
+)
 
 EPILOG = """\
 exit status:

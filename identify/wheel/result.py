@@ -167,6 +167,24 @@ class WheelFitResult:
     dof: int
     residuals: np.ndarray = field(repr=False, default=None)
     rows_dropped: int = 0
+    #: Covariance of the free parameters in SI (order of :attr:`free_names`), ``None`` without one.
+    covariance_si: np.ndarray | None = field(repr=False, default=None)
+    #: The free parameters' names (``WHEEL_PARAMETERS`` order) of :attr:`covariance_si`.
+    free_names: tuple[str, ...] = ()
+    #: Directions (SI, over :attr:`free_names`) the data do not see: a prediction is estimable only
+    #: when its gradient is orthogonal to every one.
+    null_space_si: tuple[tuple[float, ...], ...] = ()
+
+    def covariance_dict(self) -> dict[str, Any] | None:
+        """The ``"covariance"`` block of the JSON (SI, linearised), or ``None``."""
+        if self.covariance_si is None or not np.all(np.isfinite(self.covariance_si)):
+            return None
+        return {
+            "parameters": list(self.free_names),
+            "matrix": [[float(x) for x in row] for row in self.covariance_si],
+            "units": "SI",
+            "null_space": [list(v) for v in self.null_space_si],
+        }
 
     def predict(self, data: WheelSweep) -> np.ndarray:
         """The model's drawbar pull (N) for each row of ``data`` (its sinkage, or solved from its load)."""
@@ -219,6 +237,7 @@ class WheelFitResult:
                 "starts": self.starts,
                 "starts_converged": self.starts_converged,
             },
+            "covariance": self.covariance_dict(),
         }
 
     def to_json(self) -> str:
@@ -587,4 +606,7 @@ def build_wheel_result(
         dof=dof,
         residuals=np.asarray(residual_dp, dtype=float),
         rows_dropped=int(data.dropped),
+        covariance_si=None if C is None else np.array(C, dtype=float),
+        free_names=tuple(names),
+        null_space_si=tuple(tuple(float(x) for x in (col / D) / np.linalg.norm(col / D)) for col in null.T),
     )
