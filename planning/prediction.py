@@ -190,7 +190,8 @@ def fits_estimate(paths: list[str], gear: Vehicle | RigidWheel, load: float | No
         for k, v in vals.items():
             if k in owner and not (k == 6 and v == 0.0):
                 raise DataError(
-                    f"{PREDICTION_PARAMETERS[k]} is given by two fits ({owner[k]} and {path}): give each parameter once",
+                    f"{PREDICTION_PARAMETERS[k]} is given by two fits ({owner[k]} and {path}): "
+                    "give each parameter once",
                     file=path,
                 )
             owner[k] = path

@@ -109,8 +109,9 @@ def add_parser(sub) -> None:
         help="forward prediction: drawbar pull, thrust, torque and sinkage against slip (wheel or track)",
         description=_DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="example:\n  soiltrack predict --vehicle examples/data/cmu-3dterra/smooth_wheel.json --terrain lete_sand "
-        "--load 20 --slip 0:0.9:0.1\n  soiltrack predict --vehicle light --fit FIT.json --slip 0:0.5:0.05 --json",
+        epilog="example:\n  soiltrack predict --vehicle examples/data/cmu-3dterra/smooth_wheel.json "
+        "--terrain lete_sand --load 20 --slip 0:0.9:0.1\n"
+        "  soiltrack predict --vehicle light --fit FIT.json --slip 0:0.5:0.05 --json",
     )
     p.add_argument("--vehicle", required=True, help="vehicle JSON, preset name (heavy, light) or rigid-wheel JSON")
     p.add_argument("--terrain", help=f"terrain preset ({', '.join(sorted(TERRAINS))})")
