@@ -87,6 +87,23 @@ _VEHICLE_OPTIONS = {
 }
 
 
+def _bevameter_record(a: argparse.Namespace):
+    """The file as a bevameter record (annulus torque, plate force or radius), or ``None`` if it is not one."""
+    from .soilmodel.bevameter_records import RECORD_COLUMNS, is_bevameter_record, read_bevameter_record
+    from .soilmodel.columns import plan_columns
+    from .soilmodel.csvread import read_header
+
+    try:
+        head = read_header(a.data)
+    except DataError:
+        return None  # read_csv names the problem
+    if not is_bevameter_record(list(plan_columns(head, known=RECORD_COLUMNS, mapping=columns_arg(a)).header)):
+        return None
+    return read_bevameter_record(
+        a.data, inner_radius_m=a.inner_radius_m, outer_radius_m=a.outer_radius_m, columns=columns_arg(a)
+    )
+
+
 def _cmd_soil_test(a: argparse.Namespace, data) -> int:
     """Fit a bevameter test (no vehicle: the soil itself was measured)."""
     from .identify.soiltests import fit_soil_test
@@ -98,8 +115,12 @@ def _cmd_soil_test(a: argparse.Namespace, data) -> int:
             "a bevameter test is fitted on its own (leave it out)",
             file=a.data,
         )
+    from .soilmodel.bevameter_records import RECORD_COLUMNS, AnnulusTest
+
+    if a.plot and isinstance(data, AnnulusTest):
+        raise DataError("--plot is not available for a shear annulus's record yet (the fit's report and JSON are)")
     result = fit_soil_test(data)
-    notes = column_notes(a.data, columns_arg(a))
+    notes = column_notes(a.data, columns_arg(a), RECORD_COLUMNS)
     print(with_column_notes(result.to_json() if a.json else result.report(), notes, a.json))
     if a.plot:
         from .plot_soiltest import plot_soil_test
@@ -122,6 +143,11 @@ def _cmd_fit(a: argparse.Namespace) -> int:
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
     bounds = bounds_arg(a.bounds)
+    record = _bevameter_record(a)  # a shear annulus's torque or a plate's force, as recorded
+    if record is not None:
+        return _cmd_soil_test(a, record)
+    if a.inner_radius_m is not None or a.outer_radius_m is not None:
+        raise DataError("--inner-radius-m / --outer-radius-m apply to a shear annulus (torque_Nm) only", file=a.data)
     data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle, columns=columns_arg(a))
     if isinstance(data, (ShearTest, PlateTest)):
         return _cmd_soil_test(a, data)
@@ -334,6 +360,20 @@ def add_parser(sub) -> None:
         "cohesion_kpa, friction_angle_deg, shear_modulus_m, bekker_kc, bekker_kphi, bekker_n",
     )
     add_columns_argument(f)
+    f.add_argument(
+        "--inner-radius-m",
+        type=float,
+        default=None,
+        metavar="R",
+        help="a shear annulus's inner radius, m (when the file has no inner_radius_m column)",
+    )
+    f.add_argument(
+        "--outer-radius-m",
+        type=float,
+        default=None,
+        metavar="R",
+        help="a shear annulus's outer radius, m (when the file has no outer_radius_m column)",
+    )
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit (.png, .pdf, .svg)")
     f.set_defaults(func=_cmd_fit)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from ...soilmodel import DataError, PlateTest, ShearTest
+from ...soilmodel.bevameter_records import AnnulusTest
 from .plate import fit_plate_test
 from .result import SoilTestFit
 from .shear import fit_shear_test
@@ -12,12 +13,12 @@ __all__ = ["fit_soil_test", "is_soil_test"]
 
 def is_soil_test(data) -> bool:
     """Whether ``data`` is a bevameter test (shear or plate)."""
-    return isinstance(data, (ShearTest, PlateTest))
+    return isinstance(data, (ShearTest, PlateTest, AnnulusTest))
 
 
-def fit_soil_test(test: ShearTest | PlateTest) -> SoilTestFit:
+def fit_soil_test(test: ShearTest | PlateTest | AnnulusTest) -> SoilTestFit:
     """Fit a bevameter test with its default bounds (:func:`fit_shear_test` or :func:`fit_plate_test`)."""
-    if isinstance(test, ShearTest):
+    if isinstance(test, (ShearTest, AnnulusTest)):
         return fit_shear_test(test)
     if isinstance(test, PlateTest):
         return fit_plate_test(test)
