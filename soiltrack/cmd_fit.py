@@ -119,7 +119,7 @@ def _cmd_soil_test(a: argparse.Namespace, data) -> int:
 
     if a.plot and isinstance(data, AnnulusTest):
         raise DataError("--plot is not available for a shear annulus's record yet (the fit's report and JSON are)")
-    result = fit_soil_test(data)
+    result = fit_soil_test(data, negative_kc=a.negative_kc)
     notes = column_notes(a.data, columns_arg(a), RECORD_COLUMNS)
     print(with_column_notes(result.to_json() if a.json else result.report(), notes, a.json))
     if a.plot:
@@ -151,6 +151,8 @@ def _cmd_fit(a: argparse.Namespace) -> int:
     data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle, columns=columns_arg(a))
     if isinstance(data, (ShearTest, PlateTest)):
         return _cmd_soil_test(a, data)
+    if a.negative_kc:
+        raise DataError("--negative-kc applies to plate tests only", file=a.data)
     if gear is None:
         raise DataError(
             "--vehicle is required for slip sweeps and drive logs (a vehicle JSON file or a preset name: heavy, light)",
@@ -373,6 +375,12 @@ def add_parser(sub) -> None:
         default=None,
         metavar="R",
         help="a shear annulus's outer radius, m (when the file has no outer_radius_m column)",
+    )
+    f.add_argument(
+        "--negative-kc",
+        action="store_true",
+        help="plate tests: fit Bekker k_c freely (flagged when negative) instead of holding it >= 0 (where it ends "
+        "on 0 the report gives the unconstrained value either way)",
     )
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit (.png, .pdf, .svg)")

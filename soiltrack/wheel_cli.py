@@ -82,6 +82,9 @@ def fit_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:
             "bounds": "practical",
             "method": "ipopt",
             "resistance": None,
+            "negative_kc": False,
+            "inner_radius_m": None,
+            "outer_radius_m": None,
         },
         "its fit is bounded IPOPT; its rolling resistance is in its normal stresses",
     )

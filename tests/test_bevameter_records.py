@@ -144,3 +144,38 @@ def test_rectangular_plate_needs_its_length_for_a_force(tmp_path):
     rec = read_bevameter_record(path)
     np.testing.assert_allclose(rec.pressure, 1e4 * z / 0.05)
     np.testing.assert_allclose(rec.plate_width, 0.1)
+
+
+def _negative_kc_plates(tmp_path):
+    rng = np.random.default_rng(5)
+    kc, kphi, n = -30e3, 1200e3, 1.0
+    b = np.repeat([0.2, 0.3], 12)
+    z = np.tile(np.linspace(0.005, 0.06, 12), 2)
+    p = (kc / b + kphi) * z**n * np.exp(rng.normal(0, 0.01, z.size))
+    return _write(tmp_path / "plates.csv", {"plate_width_m": b, "pressure_Pa": p, "sinkage_m": z})
+
+
+def test_negative_kc_held_at_0_with_the_unconstrained_value(tmp_path, capsys):
+    path = _negative_kc_plates(tmp_path)
+    assert main(["fit", path, "--json"]) == 0
+    js = json.loads(capsys.readouterr().out)
+    assert js["parameters"]["bekker_kc"]["value"] == 0.0 and js["parameters"]["bekker_kc"]["at_bound"]
+    note = next(n for n in js["notes"] if n.startswith("k_c is held at its bound 0"))
+    assert "unconstrained fit gives k_c = -" in note and "negative_kc" in note
+    lo, hi = (float(v) for v in note.split("95 % [")[1].split("]")[0].split(", "))
+    assert lo <= -30.0 <= hi and hi < 0  # the unconstrained interval holds the truth
+    assert main(["fit", path, "--json", "--negative-kc"]) == 0
+    js = json.loads(capsys.readouterr().out)
+    lo, hi = js["parameters"]["bekker_kc"]["ci95"]
+    assert lo <= -30.0 <= hi and hi < 0
+    assert any("the data say so" in n for n in js["notes"])
+
+
+def test_negative_kc_refused_elsewhere(capsys):
+    import os
+
+    wong = os.path.join(
+        os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples", "data", "wong2001_p176.csv"
+    )
+    assert main(["fit", wong, "--vehicle", "heavy", "--negative-kc"]) == 2
+    assert "plate tests only" in capsys.readouterr().err
