@@ -15,8 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .columns import plan_columns
-from .csvread import read_header
-from .data import KNOWN_COLUMNS, SlipData, read_csv
+from .csvread import bad_rows_error, read_columns, read_header
+from .data import KNOWN_COLUMNS, bad_rows, raise_rows
 from .errors import DataError
 
 __all__ = [
@@ -77,8 +77,19 @@ class WheelSweep:
         for name in ("slip", "drawbar_pull", "normal_load", "sinkage"):
             if getattr(self, name) is not None:
                 object.__setattr__(self, name, _frozen(getattr(self, name)))
-        # slip range, finiteness and positive loads are checked by SlipData, with file, column and row
-        SlipData(slip=self.slip, drawbar_pull=self.drawbar_pull, normal_load=self.normal_load, source=self.source)
+        cols = {"slip": self.slip, "drawbar_pull_N": self.drawbar_pull, "normal_load_N": self.normal_load}
+        if len({v.size for v in cols.values()}) != 1:
+            raise DataError(f"columns differ in length: { {k: v.size for k, v in cols.items()} }", file=self.source)
+        for col, v in cols.items():
+            if not np.all(np.isfinite(v)):
+                raise bad_rows_error(~np.isfinite(v), self.source, col, "not a finite number")
+        out = (self.slip < -1) | (self.slip >= 1)
+        if out.any():
+            raise bad_rows_error(
+                out, self.source, "slip", "slip must lie in [-1, 1) (-1: a locked wheel, < 0: skid, > 0: driving)"
+            )
+        if not np.all(self.normal_load > 0):
+            raise bad_rows_error(~(self.normal_load > 0), self.source, "normal_load_N", "normal load must be > 0 N")
         if self.sinkage is not None:
             if self.sinkage.size != self.slip.size:
                 raise DataError(
@@ -145,16 +156,17 @@ def read_wheel_sweep(
 ) -> WheelSweep:
     """Read a wheel sweep ``slip,drawbar_pull_N,normal_load_N[,sinkage_m]``.
 
-    ``driving_only`` and ``slip_angle`` drop the rows at negative slip or another slip angle
-    as :func:`~soiltrack.soilmodel.read_csv` does (refused otherwise); their count is kept in
+    Rows at negative slip (skid, down to -1: a locked wheel) are kept and fitted by the skid model
+    (:mod:`.wheel`); ``driving_only`` drops them. ``slip_angle=0`` keeps only the rows at slip angle
+    0 (other slip angles are refused otherwise). The count of rows dropped is kept in
     :attr:`WheelSweep.dropped`. ``columns`` maps the file's columns onto the library's names and
     unit suffixes convert (``sinkage_mm``: :mod:`soiltrack.soilmodel.columns`).
 
     Raises
     ------
     DataError
-        For anything :func:`~soiltrack.soilmodel.read_csv` refuses, a file that is not drawbar-pull
-        data, a missing ``normal_load_N`` (a rig's load is per row and required) or a bad sinkage;
+        An unreadable file or value (as :func:`~soiltrack.soilmodel.read_csv`), a file that is not drawbar-pull
+        data, slip outside [-1, 1), a missing ``normal_load_N`` (a rig's load is per row and required) or a bad sinkage;
         the message names the file, the column and the row.
     """
     path = os.fspath(path)
@@ -168,30 +180,66 @@ def read_wheel_sweep(
                     file=path,
                     column=col,
                 )
-    data = read_csv(path, driving_only=driving_only, slip_angle=slip_angle, columns=columns)
-    if not isinstance(data, SlipData) or data.measured != "drawbar_pull":
+    plan = plan_columns(read_header(path), known=KNOWN_COLUMNS, mapping=columns, source=path)
+    header = list(plan.header)
+    dup = sorted({h for h in header if header.count(h) > 1})
+    if dup:
+        raise DataError(f"duplicate column(s) {dup}", file=path, column=dup[0])
+    if "tractive_force_N" in header:
         raise DataError(
             f"a rigid wheel's sweep needs the columns {list(WHEEL_COLUMNS)} (drawbar pull against slip); "
-            "this file is " + ("a drive log" if not isinstance(data, SlipData) else "tractive force data"),
+            "this file is tractive force data",
             file=path,
             column="drawbar_pull_N",
         )
-    if data.normal_load is None:
-        raise DataError(
-            "missing required column: a rigid wheel on a rig has no mass, so the measured normal load "
-            "is required in every row",
-            file=path,
-            column="normal_load_N",
-        )
-    sink = data.sinkage
+    used = [c for c in (*WHEEL_COLUMNS, SINKAGE_COLUMN, "slip_angle_deg") if c in header]
+    data = plan.apply(read_columns(path, header, used))
+    keep, dropped = _kept_rows(data, path, driving_only, slip_angle)
     return WheelSweep(
-        slip=data.slip,
-        drawbar_pull=data.drawbar_pull,
-        normal_load=data.normal_load,
-        sinkage=sink,
+        slip=data["slip"][keep],
+        drawbar_pull=data["drawbar_pull_N"][keep],
+        normal_load=data["normal_load_N"][keep],
+        sinkage=data[SINKAGE_COLUMN][keep] if SINKAGE_COLUMN in data else None,
         source=path,
-        dropped=data.dropped_count,
+        dropped=dropped,
     )
+
+
+def _kept_rows(data: dict, path: str, driving_only: bool, slip_angle: float | None) -> tuple[np.ndarray, int]:
+    """Rows kept by ``--slip-angle 0`` and ``--driving-only`` (a slip angle other than 0 refused without it)."""
+    keep = np.ones(data["slip"].size, dtype=bool)
+    angle = data.get("slip_angle_deg")
+    if slip_angle is not None:
+        if slip_angle != 0:
+            raise DataError(
+                f"--slip-angle {slip_angle:g}: the model is straight-line; only 0 can be kept",
+                file=path,
+                column="slip_angle_deg",
+            )
+        if angle is None:
+            raise DataError("--slip-angle given but the file has no slip_angle_deg column", file=path)
+        keep &= angle == 0
+    elif angle is not None:
+        raise_rows(
+            [
+                q
+                for q in [
+                    bad_rows(
+                        angle != 0,
+                        "at a non-zero slip angle (combined slip), outside the straight-line model",
+                        "slip_angle_deg",
+                        "--slip-angle 0 (read_wheel_sweep(..., slip_angle=0))",
+                    )
+                ]
+                if q is not None
+            ],
+            path,
+        )
+    if driving_only:
+        keep &= data["slip"] >= 0
+    if not keep.any():
+        raise DataError(f"no rows left after dropping {keep.size} (--driving-only, --slip-angle)", file=path)
+    return keep, int(keep.size - np.count_nonzero(keep))
 
 
 def _ranks(x: np.ndarray) -> np.ndarray:

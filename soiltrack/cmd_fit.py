@@ -97,7 +97,8 @@ def _bevameter_record(a: argparse.Namespace):
         head = read_header(a.data)
     except DataError:
         return None  # read_csv names the problem
-    if not is_bevameter_record(list(plan_columns(head, known=RECORD_COLUMNS, mapping=columns_arg(a)).header)):
+    plan = plan_columns(head, known=RECORD_COLUMNS, mapping=columns_arg(a), source=a.data)
+    if not is_bevameter_record(list(plan.header)):
         return None
     return read_bevameter_record(
         a.data, inner_radius_m=a.inner_radius_m, outer_radius_m=a.outer_radius_m, columns=columns_arg(a)
@@ -140,6 +141,8 @@ def _cmd_fit(a: argparse.Namespace) -> int:
         return fit_wheel_command(a, gear)
     if a.fix:
         raise DataError("--fix applies to a rigid wheel's fit (--vehicle WHEEL.json) only")
+    if a.bulldozing_density is not None:
+        raise DataError("--bulldozing-density applies to a rigid wheel's fit (--vehicle WHEEL.json) only")
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
     bounds = bounds_arg(a.bounds)
@@ -360,6 +363,14 @@ def add_parser(sub) -> None:
         metavar="NAME=VALUE",
         help="rigid wheel: hold a parameter at a value in edge units (repeatable), e.g. bekker_n=1; names "
         "cohesion_kpa, friction_angle_deg, shear_modulus_m, bekker_kc, bekker_kphi, bekker_n",
+    )
+    f.add_argument(
+        "--bulldozing-density",
+        type=float,
+        default=None,
+        metavar="KG_M3",
+        help="rigid wheel: add Bekker's bulldozing resistance of the sinking wheel with this soil bulk density "
+        "(held; docs/physics.md)",
     )
     add_columns_argument(f)
     f.add_argument(

@@ -63,6 +63,19 @@ def _effects(a: argparse.Namespace) -> tuple[str, ...]:
     return names
 
 
+def _settings(a: argparse.Namespace):
+    """The wheel model's settings: the defaults, with ``--bulldozing-density`` as the soil's unit weight."""
+    from .soilmodel import G
+    from .soilmodel.wheel import DEFAULT_WHEEL_SETTINGS, WheelSettings
+
+    rho = getattr(a, "bulldozing_density", None)
+    if rho is None:
+        return DEFAULT_WHEEL_SETTINGS
+    if not (math.isfinite(rho) and 100.0 <= rho <= 5000.0):
+        raise DataError(f"--bulldozing-density expects a soil bulk density in [100, 5000] kg/m^3, got {rho:g}")
+    return WheelSettings(bulldozing_unit_weight=rho * G)
+
+
 def fit_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:
     """``soiltrack fit DATA --vehicle WHEEL.json``: the rigid-wheel fit; exit 0 converged, 1 failed."""
     from .identify.wheel import WheelFitOptions, fit_wheel
@@ -92,7 +105,9 @@ def fit_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:
         output_path(a.plot, "--plot", figure=True)
     cols = columns_arg(a)
     data = read_wheel_sweep(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle, columns=cols)
-    opts = WheelFitOptions(fixed=wheel_fixed_arg(getattr(a, "fix", None), a.model), effects=_effects(a))
+    opts = WheelFitOptions(
+        fixed=wheel_fixed_arg(getattr(a, "fix", None), a.model), effects=_effects(a), settings=_settings(a)
+    )
     result = fit_wheel(data, wheel, opts)
     print(with_column_notes(result.to_json() if a.json else result.report(), column_notes(a.data, cols), a.json))
     if a.plot:

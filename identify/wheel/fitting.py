@@ -171,6 +171,13 @@ def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = Wh
     if not isinstance(data, WheelSweep):
         raise DataError(f"fit_wheel takes a WheelSweep, got {type(data).__name__}")
     check_sweep_for_wheel(data, wheel.radius)  # sinkage beyond the radius, a pull against the slip
+    st = options.settings
+    if np.any(data.slip < 0) and not st.c1 - st.c2 > 0:
+        raise DataError(
+            f"skid rows need theta_m = (c1 + c2 i) theta_1 inside the arc down to i = -1: c1 > c2, got c1 = {st.c1}, "
+            f"c2 = {st.c2}",
+            file=data.source,
+        )
     sink = data.has_sinkage
     free = np.array(
         [
