@@ -325,8 +325,12 @@ def predict(gear: Vehicle | RigidWheel, est: SoilEstimate, slips, load: float | 
         Slip outside [0, 1), a wheel without its load or without the soil's Bekker parameters.
     """
     slips = np.asarray(slips, dtype=float).ravel()
-    if slips.size == 0 or not np.all(np.isfinite(slips)) or np.any((slips < 0) | (slips >= 1)):
-        raise DataError("the slips must lie in [0, 1) (driving; skid is not predicted)")
+    lowest = -1.0 if isinstance(gear, RigidWheel) else 0.0
+    if slips.size == 0 or not np.all(np.isfinite(slips)) or np.any((slips < lowest) | (slips >= 1)):
+        raise DataError(
+            "the slips must lie in [-1, 1) for a wheel (skid down to a locked wheel) and in [0, 1) for a track "
+            "(its skid is not predicted)"
+        )
     notes = list(est.notes)
     _require(est, range(3), "a prediction")
     q = np.where(est.known, est.mean, 0.0)

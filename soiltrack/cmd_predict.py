@@ -43,8 +43,8 @@ def slip_arg(text: str) -> list[float]:
         raise DataError(f"--slip: STEP must be > 0, got {step:g}")
     if b < a:
         raise DataError(f"--slip {text}: the range is reversed (B = {b:g} < A = {a:g}); give A:B:STEP with A <= B")
-    if a < 0 or b >= 1:
-        raise DataError(f"--slip {text}: slips must lie in [0, 1) (driving; skid and a locked wheel are not predicted)")
+    if a < -1 or b >= 1:
+        raise DataError(f"--slip {text}: slips must lie in [-1, 1) (a wheel: -1 locked, < 0 skid; a track: [0, 1))")
     n = int(math.floor((b - a) / step + 1e-9)) + 1
     if n > MAX_SLIPS:
         raise DataError(f"--slip {text}: {n} slips, more than {MAX_SLIPS}; use a larger STEP")
@@ -127,7 +127,13 @@ def add_parser(sub) -> None:
         help="what `soiltrack fit --json` printed (track, wheel, bevameter shear or plate test); repeatable: "
         "a shear test and a plate test together",
     )
-    p.add_argument("--slip", required=True, metavar="A:B:STEP", help="slips from A to B (inclusive) by STEP, in [0, 1)")
+    p.add_argument(
+        "--slip",
+        required=True,
+        metavar="A:B:STEP",
+        help="slips from A to B (inclusive) by STEP: a wheel in [-1, 1) (skid down to locked: --slip=-1:0.9:0.1), "
+        "a track in [0, 1)",
+    )
     p.add_argument("--load", metavar="N", help="normal load, N (required for a wheel; a track: default its weight)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     p.add_argument("--plot", metavar="PNG", help="save the four outputs against slip with their bounds")

@@ -240,7 +240,7 @@ def test_a_prediction_along_a_null_direction_has_no_bounds():
     [
         (["--terrain", "lete_sand", "--slip", "0:0.5:0.1"], "--load"),
         (["--soil", "1,30,0.01", "--load", "20", "--slip", "0:0.5:0.1"], "k_c, k_phi, n"),
-        (["--terrain", "lete_sand", "--load", "20", "--slip=-0.5:0.5:0.1"], "[0, 1)"),
+        (["--terrain", "lete_sand", "--load", "20", "--slip=-1.5:0.5:0.1"], "[-1, 1)"),
         (["--terrain", "lete_sand", "--load", "20", "--slip", "0:0.5:0"], "STEP must be > 0"),
         (["--terrain", "lete_sand", "--load", "20", "--slip", "0:0.5"], "A:B:STEP"),
         (["--terrain", "lete_sand", "--soil", "1,30,0.01", "--load", "20", "--slip", "0:0.5:0.1"], "exactly one"),
@@ -266,3 +266,18 @@ def test_plot(tmp_path, capsys, wheel_json):
         capsys, "--vehicle", wheel_json, "--terrain", "lete_sand", "--load", "40", "--slip", "0:0.9:0.1", "--plot", png
     )
     assert rc == 0 and os.path.getsize(png) > 10_000 and png in err
+
+
+def test_wheel_skid_prediction_down_to_a_locked_wheel(capsys, wheel_json):
+    rc, out, _ = _run(
+        capsys, "--vehicle", wheel_json, "--terrain", "lete_sand", "--load", "60", "--slip=-1:0.5:0.5", "--json"
+    )
+    js = json.loads(out)
+    assert rc == 0 and js["slip"] == [-1.0, -0.5, 0.0, 0.5]
+    assert js["drawbar_pull_N"][0] < js["drawbar_pull_N"][1] < js["drawbar_pull_N"][2] < js["drawbar_pull_N"][3]
+    assert js["torque_Nm"][0] < 0 < js["torque_Nm"][3]
+
+
+def test_track_skid_is_refused(capsys):
+    rc, _, err = _run(capsys, "--vehicle", "light", "--terrain", "lete_sand", "--slip=-0.5:0.5:0.1")
+    assert rc == 2 and "for a track" in err
