@@ -28,12 +28,17 @@ __all__ = [
     "SINKAGE_COLUMN",
     "WHEEL_COLUMNS",
     "SIGN_MIN_ROWS",
+    "TORQUE_COLUMN",
+    "TORQUE_STD_COLUMN",
+    "WHEEL_KNOWN_COLUMNS",
 ]
 
 #: The measured sinkage column, m.
 SINKAGE_COLUMN = "sinkage_m"
 #: The required columns of a wheel sweep.
 WHEEL_COLUMNS = ("slip", "drawbar_pull_N", "normal_load_N")
+#: The wheel's measured torque and its standard deviation (optional; a fitted channel).
+TORQUE_COLUMN, TORQUE_STD_COLUMN = "wheel_torque_Nm", "wheel_torque_std_N_m"
 #: Fewest driving rows (slip > 0) on which the sign of the pull is judged.
 SIGN_MIN_ROWS = 3
 #: Rank correlation of pull and slip below which a sweep's pull runs against its slip.
@@ -64,6 +69,11 @@ class WheelSweep:
         Where the data came from, used in messages.
     dropped
         Rows of the file left out when it was read (``--driving-only``, ``--slip-angle 0``).
+    torque
+        Measured wheel torque per row, N m (``wheel_torque_Nm``; + driving), or ``None``.
+    torque_std
+        The torque reading's standard deviation per row, N m (``wheel_torque_std_N_m``, > 0): a
+        relative weight of the torque channel's rows, or ``None``.
     """
 
     slip: np.ndarray
@@ -72,9 +82,11 @@ class WheelSweep:
     sinkage: np.ndarray | None = None
     source: str = "<memory>"
     dropped: int = 0
+    torque: np.ndarray | None = None
+    torque_std: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        for name in ("slip", "drawbar_pull", "normal_load", "sinkage"):
+        for name in ("slip", "drawbar_pull", "normal_load", "sinkage", "torque", "torque_std"):
             if getattr(self, name) is not None:
                 object.__setattr__(self, name, _frozen(getattr(self, name)))
         cols = {"slip": self.slip, "drawbar_pull_N": self.drawbar_pull, "normal_load_N": self.normal_load}
@@ -90,6 +102,7 @@ class WheelSweep:
             )
         if not np.all(self.normal_load > 0):
             raise bad_rows_error(~(self.normal_load > 0), self.source, "normal_load_N", "normal load must be > 0 N")
+        self._check_torque()
         if self.sinkage is not None:
             if self.sinkage.size != self.slip.size:
                 raise DataError(
@@ -107,10 +120,27 @@ class WheelSweep:
                     row=int(bad[0]) + 1,
                 )
 
+    def _check_torque(self) -> None:
+        if self.torque_std is not None and self.torque is None:
+            raise DataError(f"{TORQUE_STD_COLUMN} without {TORQUE_COLUMN}", file=self.source, column=TORQUE_STD_COLUMN)
+        for col, v, positive in ((TORQUE_COLUMN, self.torque, False), (TORQUE_STD_COLUMN, self.torque_std, True)):
+            if v is None:
+                continue
+            if v.size != self.slip.size:
+                raise DataError(f"{col} has {v.size} values for {self.slip.size} rows", file=self.source, column=col)
+            bad = ~np.isfinite(v) | ((v <= 0) if positive else False)
+            if np.any(bad):
+                raise bad_rows_error(bad, self.source, col, "must be a finite number" + (" > 0" if positive else ""))
+
     @property
     def n_samples(self) -> int:
         """Number of rows."""
         return int(self.slip.size)
+
+    @property
+    def has_torque(self) -> bool:
+        """True when the wheel's torque was measured."""
+        return self.torque is not None
 
     @property
     def has_sinkage(self) -> bool:
@@ -128,6 +158,8 @@ class WheelSweep:
             normal_load=self.normal_load[idx],
             sinkage=None if self.sinkage is None else self.sinkage[idx],
             source=f"{self.source} ({idx.size} of {self.n_samples} rows)",
+            torque=None if self.torque is None else self.torque[idx],
+            torque_std=None if self.torque_std is None else self.torque_std[idx],
         )
 
     def columns(self) -> dict[str, np.ndarray]:
@@ -135,7 +167,15 @@ class WheelSweep:
         out = {"slip": self.slip, "drawbar_pull_N": self.drawbar_pull, "normal_load_N": self.normal_load}
         if self.sinkage is not None:
             out[SINKAGE_COLUMN] = self.sinkage
+        if self.torque is not None:
+            out[TORQUE_COLUMN] = self.torque
+        if self.torque_std is not None:
+            out[TORQUE_STD_COLUMN] = self.torque_std
         return out
+
+
+#: Every column a wheel sweep may have (the names a column mapping may target).
+WHEEL_KNOWN_COLUMNS = (*KNOWN_COLUMNS, TORQUE_COLUMN, TORQUE_STD_COLUMN)
 
 
 def _header(path: str, columns: dict[str, str] | None) -> list[str] | None:
@@ -144,7 +184,7 @@ def _header(path: str, columns: dict[str, str] | None) -> list[str] | None:
         head = read_header(path)
     except DataError:
         return None
-    return list(plan_columns(head, known=KNOWN_COLUMNS, mapping=columns, source=path).header)
+    return list(plan_columns(head, known=WHEEL_KNOWN_COLUMNS, mapping=columns, source=path).header)
 
 
 def read_wheel_sweep(
@@ -180,7 +220,7 @@ def read_wheel_sweep(
                     file=path,
                     column=col,
                 )
-    plan = plan_columns(read_header(path), known=KNOWN_COLUMNS, mapping=columns, source=path)
+    plan = plan_columns(read_header(path), known=WHEEL_KNOWN_COLUMNS, mapping=columns, source=path)
     header = list(plan.header)
     dup = sorted({h for h in header if header.count(h) > 1})
     if dup:
@@ -192,7 +232,9 @@ def read_wheel_sweep(
             file=path,
             column="drawbar_pull_N",
         )
-    used = [c for c in (*WHEEL_COLUMNS, SINKAGE_COLUMN, "slip_angle_deg") if c in header]
+    used = [
+        c for c in (*WHEEL_COLUMNS, SINKAGE_COLUMN, "slip_angle_deg", TORQUE_COLUMN, TORQUE_STD_COLUMN) if c in header
+    ]
     data = plan.apply(read_columns(path, header, used))
     keep, dropped = _kept_rows(data, path, driving_only, slip_angle)
     return WheelSweep(
@@ -202,6 +244,8 @@ def read_wheel_sweep(
         sinkage=data[SINKAGE_COLUMN][keep] if SINKAGE_COLUMN in data else None,
         source=path,
         dropped=dropped,
+        torque=data[TORQUE_COLUMN][keep] if TORQUE_COLUMN in data else None,
+        torque_std=data[TORQUE_STD_COLUMN][keep] if TORQUE_STD_COLUMN in data else None,
     )
 
 

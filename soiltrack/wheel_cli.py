@@ -14,6 +14,7 @@ from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path
 from .columns_cli import column_notes, columns_arg, with_column_notes
 from .soilmodel import DataError
 from .soilmodel.rigid_wheel import RigidWheel
+from .soilmodel.wheel_sweep import WHEEL_KNOWN_COLUMNS
 
 __all__ = ["fit_wheel_command", "diagnose_wheel_command", "simulate_wheel_command", "wheel_fixed_arg"]
 
@@ -109,7 +110,11 @@ def fit_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:
         fixed=wheel_fixed_arg(getattr(a, "fix", None), a.model), effects=_effects(a), settings=_settings(a)
     )
     result = fit_wheel(data, wheel, opts)
-    print(with_column_notes(result.to_json() if a.json else result.report(), column_notes(a.data, cols), a.json))
+    print(
+        with_column_notes(
+            result.to_json() if a.json else result.report(), column_notes(a.data, cols, WHEEL_KNOWN_COLUMNS), a.json
+        )
+    )
     if a.plot:
         from .wheel_plots import plot_wheel_fit
 
@@ -130,7 +135,11 @@ def diagnose_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:
     if a.candidates is not None:
         cands = tuple(c.strip() for c in a.candidates.split(",") if c.strip())
     d = diagnose_wheel(data, wheel, WheelFitOptions(fixed=wheel_fixed_arg(None, a.model)), candidates=cands)
-    print(with_column_notes(d.to_json() if a.json else d.report(), column_notes(a.data, cols), a.json))
+    print(
+        with_column_notes(
+            d.to_json() if a.json else d.report(), column_notes(a.data, cols, WHEEL_KNOWN_COLUMNS), a.json
+        )
+    )
     if a.plot:
         from .wheel_plots import plot_wheel_fit
 
