@@ -50,7 +50,7 @@ def with_column_notes(text: str, notes: list[str], as_json: bool) -> str:
         obj = json.loads(text)
         if isinstance(obj, dict):
             obj["columns_read"] = list(notes)
-            return json.dumps(obj, indent=2, allow_nan=False)
+            return json.dumps(obj, indent=2)  # the same numbers as the text it came from
         return text
     if not notes:
         return text
