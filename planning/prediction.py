@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from ..soilmodel import DataError, Soil, Vehicle
+from ..soilmodel import DataError, Soil, Vehicle, choose_scale, format_force
 from ..soilmodel.jsonread import load_json_file
 from ..soilmodel.prediction import (
     PREDICTION_OUTPUTS,
@@ -130,7 +130,7 @@ def _one_fit(path: str, gear: Vehicle | RigidWheel, load: float | None):
     if obj.get("success") is not True:
         raise DataError("the fit did not succeed: no soil to predict with", file=path, column="success")
     notes = []
-    if obj.get("outcome") not in (None, "usable"):
+    if obj.get("outcome") in ("poor_fit", "not_usable", "failed"):
         notes.append(f"{path}: the fit's outcome is {obj['outcome']!r} ({obj.get('outcome_reason') or 'see the fit'})")
     kind = obj.get("kind") or ("rigid_wheel" if obj.get("running_gear") == "rigid_wheel" else "track")
     if kind == "track":
@@ -280,8 +280,13 @@ class Prediction:
             if isinstance(g, RigidWheel)
             else f"tracked vehicle {g.name or ''} (l = {g.track_length:g} m, b = {g.track_width:g} m)"
         )
-        lines = [f"{head}; normal load {self.load:.5g} N; soil from {', '.join(self.estimate.sources)}"]
-        lines.append(f"{'slip':>6} {'drawbar pull N':>28} {'thrust N':>28} {'torque N m':>28} {'sinkage mm':>24}")
+        lines = [f"{head}; normal load {format_force(self.load)}; soil from {', '.join(self.estimate.sources)}"]
+        fs = choose_scale(np.concatenate([self.values["drawbar_pull"], self.values["thrust"]]), "N")
+        ts = choose_scale(self.values["torque"], "N m")
+        lines.append(
+            f"{'slip':>6} {'drawbar pull ' + fs.unit:>28} {'thrust ' + fs.unit:>28} {'torque ' + ts.unit:>28} "
+            f"{'sinkage mm':>24}"
+        )
 
         def cell(o, k, scale=1.0, w=28):
             v, lo, hi = self.values[o][k], self.lower[o][k], self.upper[o][k]
@@ -292,8 +297,8 @@ class Prediction:
 
         for k, s in enumerate(self.slip):
             lines.append(
-                f"{s:>6.3f} {cell('drawbar_pull', k)} {cell('thrust', k)} {cell('torque', k)} "
-                f"{cell('sinkage', k, 1e3, 24)}"
+                f"{s:>6.3f} {cell('drawbar_pull', k, fs.factor)} {cell('thrust', k, fs.factor)} "
+                f"{cell('torque', k, ts.factor)} {cell('sinkage', k, 1e3, 24)}"
             )
         lines.append(
             "bounds: "
@@ -392,7 +397,7 @@ def _bounds(y: np.ndarray, G: np.ndarray, est: SoilEstimate, ok: np.ndarray, not
         scale = np.abs(G) @ np.abs(v)
         est_ok &= dot <= NULL_TOL * np.maximum(scale, 1e-300)
     est_ok &= ok[:, None] & np.isfinite(y)
-    bad = [PREDICTION_OUTPUTS[k] for k in range(y.shape[1]) if (~est_ok[:, k] & ok).any()]
+    bad = [PREDICTION_OUTPUTS[k] for k in range(y.shape[1]) if (~est_ok[:, k] & ok & np.isfinite(y[:, k])).any()]
     if bad:
         notes.append(
             f"no bounds for {', '.join(bad)}: the prediction depends on a combination of the parameters the "
