@@ -1,8 +1,8 @@
 """Wheel sweeps from a locked wheel to driving (skid rows), simulated in numpy, fitted, intervals counted.
 
 Each replicate: ``tests/test_wheel_skid.py::skid_sweep`` (r 0.1 m, b 0.08 m, loads 60 and 90 N, slips -1 to
-0.9, c 1.5 kPa, phi 30 deg, K 10 mm, Bekker held; pull noise 0.1 N), fitted by ``fit_wheel``; prints how often
-the 95 % intervals of c, phi and K hold the truth.
+0.9, c 1.5 kPa, phi 30 deg, K 10 mm, Bekker held; noise: pull 0.1 N, sinkage 0.5 mm), fitted by
+``fit_wheel``; prints how often the 95 % intervals of c, phi and K hold the truth.
 
     python benchmarks/wheel_skid_coverage.py [--reps 10]
 """

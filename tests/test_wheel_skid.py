@@ -81,8 +81,9 @@ SKID_SLIPS = (-1.0, -0.7, -0.5, -0.3, -0.1, 0.1, 0.3, 0.5, 0.7, 0.9)
 BEKKER_HELD = {"bekker_kc": KC, "bekker_kphi": KPHI, "bekker_n": N}
 
 
-def skid_sweep(seed: int, sd_dp: float = 0.1) -> WheelSweep:
-    """A sweep from a locked wheel to driving at 60 and 90 N, simulated in numpy (sinkage by bisection)."""
+def skid_sweep(seed: int, sd_dp: float = 0.1, sd_z: float = 0.0005) -> WheelSweep:
+    """A sweep from a locked wheel to driving at 60 and 90 N, simulated in numpy (sinkage by bisection), with
+    reading noise on the pull (N) and the sinkage (m; 0.5 mm, the library's simulated rig's)."""
     rng = np.random.default_rng(seed)
     i = np.tile(np.array(SKID_SLIPS), 2)
     W = np.repeat([60.0, 90.0], len(SKID_SLIPS))
@@ -94,7 +95,7 @@ def skid_sweep(seed: int, sd_dp: float = 0.1) -> WheelSweep:
             lo, hi = (mid, hi) if _skid_forces(i[k], mid)[1] < W[k] else (lo, mid)
         z[k] = 0.5 * (lo + hi)
         dp[k] = _skid_forces(i[k], z[k])[0]
-    return WheelSweep(i, dp + rng.normal(0, sd_dp, dp.size), W, z)
+    return WheelSweep(i, dp + rng.normal(0, sd_dp, dp.size), W, z + rng.normal(0, sd_z, z.size))
 
 
 @pytest.mark.slow
