@@ -33,6 +33,7 @@ from typing import cast
 
 import numpy as np
 
+from .columns import ColumnPlan, plan_columns
 from .csvread import MAX_ABS_VALUE, bad_rows_error, read_columns, read_header
 from .errors import DataError
 from .tracks import TWO_TRACK_COLUMNS, YAW_COLUMN, combine_tracks, turning_mask
@@ -51,6 +52,13 @@ DRIVE_OPTIONAL = ("vehicle_accel_m_s2",)
 SHEAR_COLUMNS: tuple[str, ...] = ("normal_pressure_Pa", "shear_displacement_m", "shear_stress_Pa")
 PLATE_COLUMNS: tuple[str, ...] = ("plate_width_m", "pressure_Pa", "sinkage_m")
 NO_COLUMNS: tuple[str, ...] = ()
+#: Every column :func:`read_csv` reads (the names a column mapping may target, :mod:`.columns`).
+KNOWN_COLUMNS: tuple[str, ...] = tuple(
+    dict.fromkeys(
+        (*SLIP_COLUMNS, *DRAWBAR_COLUMNS, *SLIP_OPTIONAL, *DRIVE_COLUMNS, *DRIVE_OPTIONAL, *SHEAR_COLUMNS)
+        + (*PLATE_COLUMNS, *TWO_TRACK_COLUMNS, YAW_COLUMN)
+    )
+)
 
 
 def _frozen(a) -> np.ndarray:
@@ -509,7 +517,12 @@ def _check_range(values, column, source, *, lo=None, hi=None, lo_open=False, hi_
 
 
 def read_csv(
-    path: str | os.PathLike, *, driving_only: bool = False, slip_angle: float | None = None, max_rows: int | None = None
+    path: str | os.PathLike,
+    *,
+    driving_only: bool = False,
+    slip_angle: float | None = None,
+    max_rows: int | None = None,
+    columns: dict[str, str] | None = None,
 ) -> SlipData | DriveLog | ShearTest | PlateTest:
     """Read a slip sweep, a drive log or a bevameter test (recognised by the columns).
 
@@ -527,6 +540,11 @@ def read_csv(
         Most data rows read into memory (default ``$SOILTRACK_MAX_ROWS`` or 2,000,000): the rows
         are streamed (:mod:`soiltrack.soilmodel.csvread`), a larger file is refused as soon as the
         reader passes the limit, and every bad row is counted, the first few named.
+    columns
+        ``{library column: file column}`` read under the library's name; a unit suffix on the
+        file's column (or on a column whose stem is a library column's, e.g. ``sinkage_mm``)
+        converts the values (:mod:`soiltrack.soilmodel.columns`; what was converted:
+        ``plan_columns(read_header(path), known=KNOWN_COLUMNS, mapping=columns).notes``).
 
     Raises
     ------
@@ -537,6 +555,8 @@ def read_csv(
     """
     path = os.fspath(path)
     header = read_header(path)  # encoding checked, blank lines skipped (soilmodel.csvread)
+    plan = plan_columns(header, known=KNOWN_COLUMNS, mapping=columns, source=path)  # mapping, unit suffixes
+    header = list(plan.header)
     dup = sorted({h for h in header if header.count(h) > 1})
     if dup:
         raise DataError(f"duplicate column(s) {dup}", file=path, column=dup[0])
@@ -555,7 +575,7 @@ def read_csv(
     elif "slip" in header or "tractive_force_N" in header:
         kind, required, optional = "slip", SLIP_COLUMNS, SLIP_OPTIONAL
     elif any(c in header for c in TWO_TRACK_COLUMNS):
-        return _read_two_track(path, header, max_rows)
+        return _read_two_track(path, header, max_rows, plan)
     elif any(c in header for c in DRIVE_COLUMNS):
         kind, required, optional = "drive", DRIVE_COLUMNS, DRIVE_OPTIONAL
     else:
@@ -579,7 +599,7 @@ def read_csv(
         if col not in header:
             raise DataError(f"missing required column (header has {header})", file=path, column=col)
     used = [c for c in (*required, *optional) if c in header]
-    data = read_columns(path, header, used, max_rows)  # streamed, row limit, every bad row counted
+    data = plan.apply(read_columns(path, header, used, max_rows))  # streamed, row limit, bad rows counted
     if kind in ("drawbar", "slip"):
         return _slip_data(kind, data, path, driving_only, slip_angle)
     for opt, val in (("driving_only", driving_only), ("slip_angle", slip_angle)):
@@ -609,7 +629,7 @@ def read_csv(
     )
 
 
-def _read_two_track(path: str, header: list[str], max_rows: int | None) -> DriveLog:
+def _read_two_track(path: str, header: list[str], max_rows: int | None, plan: ColumnPlan) -> DriveLog:
     """A two-track drive log: summed torque, mean sprocket speed, turning samples marked."""
     combined = [c for c in ("sprocket_torque_Nm", "sprocket_speed_rad_s") if c in header]
     if combined:
@@ -626,7 +646,7 @@ def _read_two_track(path: str, header: list[str], max_rows: int | None) -> Drive
                 f"missing required column of a two-track drive log (header has {header})", file=path, column=col
             )
     used = [c for c in (*required, *DRIVE_OPTIONAL, YAW_COLUMN) if c in header]
-    data = read_columns(path, header, used, max_rows)  # streamed, row limit, every bad row counted
+    data = plan.apply(read_columns(path, header, used, max_rows))  # streamed, row limit, bad rows counted
     torque, speed = combine_tracks(*(data[c] for c in TWO_TRACK_COLUMNS))
     turning = turning_mask(data["sprocket_speed_left_rad_s"], data["sprocket_speed_right_rad_s"], data.get(YAW_COLUMN))
     return DriveLog(

@@ -84,13 +84,22 @@ class DriveStreamReader:
         The file, whether it has the two-track columns, and the columns read (contract names).
     chunk
         Rows per chunk (default :data:`STREAM_CHUNK_ROWS`, or ``$SOILTRACK_CHUNK_ROWS``).
+    plan
+        The file's columns under the library's names, with their unit conversions
+        (:func:`soiltrack.soilmodel.columns.plan_columns`; ``columns`` maps file columns onto names).
     """
 
-    def __init__(self, path: str | os.PathLike, *, chunk: int | None = None) -> None:
+    def __init__(
+        self, path: str | os.PathLike, *, chunk: int | None = None, columns: dict[str, str] | None = None
+    ) -> None:
+        from .columns import plan_columns
+        from .data import KNOWN_COLUMNS
+
         self.source = os.fspath(path)
         env = os.environ.get(CHUNK_ROWS_ENV)
         self.chunk = chunk_rows(chunk if chunk is not None or (env and env.strip()) else STREAM_CHUNK_ROWS)
-        header = self._header()
+        self.plan = plan_columns(self._header(), known=KNOWN_COLUMNS, mapping=columns, source=self.source)
+        header = list(self.plan.header)
         dup = sorted({h for h in header if header.count(h) > 1})
         if dup:
             raise DataError(f"duplicate column(s) {dup}", file=self.source, column=dup[0])
@@ -135,6 +144,7 @@ class DriveStreamReader:
                     raise DataError(f"expected {len(header)} fields, found {len(cells)}", file=path, row=r)
                 for c in self.used:
                     data[c][k] = _cell(cells[idx[c]], path, c, r)
+            data = self.plan.apply(data)
             t = data["time_s"]
             fin = np.nonzero(np.isfinite(t))[0]
             tf = np.concatenate([[t_last], t[fin]]) if math.isfinite(t_last) else t[fin]
@@ -162,11 +172,14 @@ class DriveStreamReader:
         return sum(int(c["time_s"].size) for c in self)
 
 
-def read_drive_stream(path: str | os.PathLike, *, chunk: int | None = None) -> DriveStream:
+def read_drive_stream(
+    path: str | os.PathLike, *, chunk: int | None = None, columns: dict[str, str] | None = None
+) -> DriveStream:
     """Read a drive log (combined or two-track columns) keeping missing readings as NaN.
 
     The rows are read in chunks (:class:`DriveStreamReader`); a replay that must not hold the log iterates
-    the reader itself.
+    the reader itself. ``columns`` maps the file's columns onto the library's names; unit suffixes
+    convert (:mod:`soiltrack.soilmodel.columns`).
 
     Raises
     ------
@@ -175,7 +188,7 @@ def read_drive_stream(path: str | os.PathLike, *, chunk: int | None = None) -> D
         a number, a row with the wrong number of fields, no data rows, or time stamps (where
         present) that do not strictly increase; the message names the file, column and row.
     """
-    reader = DriveStreamReader(path, chunk=chunk)
+    reader = DriveStreamReader(path, chunk=chunk, columns=columns)
     parts: dict[str, list[np.ndarray]] = {c: [] for c in reader.used}
     for data in reader:
         for c, v in data.items():

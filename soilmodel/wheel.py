@@ -34,8 +34,31 @@ The stress laws are the soil's own (:mod:`.bevameter`, their one home): the norm
 angle theta is Bekker's plate pressure at the local depth ``r (cos(theta) - cos(theta_1))``
 with the wheel's width as the plate's, the shear stress is Janosi-Hanamoto's.
 
-Only driving slip (0 <= i < 1) is modelled: at skid the shear displacement changes sign along
-the arc and the Wong-Reece normal stress has no agreed form.
+Skid (braking, down to a locked wheel): with the slip as a rig records it for skid,
+``i = r w / v - 1`` in [-1, 0) (-1: locked), the rim's slip velocity ``r w - v cos(theta)``
+integrated over the time a soil element spends under the rim, parametrised by the travel
+(``dt = r dtheta / v``: the wheel may not turn), gives Wong's shear displacement of a skidding
+wheel::
+
+    j(theta) = r_s [(1 + i)(theta_1 - theta) - (sin(theta_1) - sin(theta))]      (i < 0)
+
+(continuous with the driving form at i = 0; at a locked wheel ``-r_s (sin theta_1 - sin theta)``,
+the distance slid since the element entered). j is negative (the shear opposes the motion) and
+the shear stress is Janosi-Hanamoto's with the sign of j,
+``tau = sign(j) (c + sigma tan phi)(1 - exp(-|j| / K))`` (for driving j >= 0 and nothing
+changes). The normal stress keeps the Wong-Reece form with theta_m = (c1 + c2 i) theta_1 (c1 > c2
+keeps it inside the arc at a locked wheel). The slip-sinkage effect uses |i|.
+
+Bulldozing (off unless :attr:`WheelSettings.bulldozing_unit_weight` is set): a sinking wheel pushes
+a wedge of soil ahead of it; Bekker's bulldozing resistance of a blade of width b at depth z (as
+tabulated by Wong, Theory of Ground Vehicles, ch. 2)::
+
+    R_b = b (0.67 c z K_pc + 0.5 z^2 gamma_s K_pgamma)
+    K_pc = (N_c - tan(phi)) cos^2(phi),  K_pgamma = (2 N_gamma / tan(phi) + 1) cos^2(phi)
+
+with the bearing-capacity factors in Vesic's closed form (N_q = e^(pi tan phi) tan^2(45 deg +
+phi/2), N_c = (N_q - 1) / tan(phi), N_gamma = 2 (N_q + 1) tan(phi)) and gamma_s the soil's unit
+weight (N/m^3, held); it is subtracted from the drawbar pull of every row (docs/physics.md).
 """
 
 from __future__ import annotations
@@ -59,6 +82,7 @@ __all__ = [
     "sinkage_from_load_function",
     "WHEEL_OUTPUTS",
     "evaluate",
+    "bulldozing_expr",
 ]
 
 #: Bekker's closed-form wheel sinkage (the rootfinder's start) holds for n < 3; larger n are capped here.
@@ -77,7 +101,8 @@ class WheelSettings:
     ----------
     c1, c2
         Position of the largest normal stress ``theta_m = (c1 + c2 i) theta_1`` (Wong and
-        Reece's values for sand: 0.4 and 0.15 by default).
+        Reece's values for sand: 0.4 and 0.15 by default; c1 > c2 keeps theta_m inside the arc
+        down to a locked wheel, i = -1).
     nodes
         Gauss-Legendre nodes on each of the two arcs [0, theta_m] and [theta_m, theta_1].
         With n < 1 the stress has an integrable root singularity at theta_1; 24 nodes a side
@@ -87,6 +112,8 @@ class WheelSettings:
     c1: float = 0.4
     c2: float = 0.15
     nodes: int = 24
+    #: Soil unit weight gamma_s of the bulldozing resistance, N/m^3 (``None``: no bulldozing term).
+    bulldozing_unit_weight: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("c1", "c2"):
@@ -100,6 +127,9 @@ class WheelSettings:
             )
         if isinstance(self.nodes, bool) or not isinstance(self.nodes, int) or not 2 <= self.nodes <= 400:
             raise DataError(f"wheel setting nodes must be an integer in [2, 400], got {self.nodes!r}")
+        g = self.bulldozing_unit_weight
+        if g is not None and (isinstance(g, bool) or not isinstance(g, (int, float)) or not 0 < g < 1e6):
+            raise DataError(f"wheel setting bulldozing_unit_weight must be a unit weight in (0, 1e6) N/m^3, got {g!r}")
 
 
 DEFAULT_WHEEL_SETTINGS = WheelSettings()
@@ -108,6 +138,16 @@ DEFAULT_WHEEL_SETTINGS = WheelSettings()
 def entry_angle(z, r):
     """Entry angle theta_1 = acos(1 - z / r), rad (symbolic or float; z in (0, r])."""
     return ca.acos(1 - z / r)
+
+
+def bulldozing_expr(z, c, phi, b, unit_weight):
+    """Bekker's bulldozing resistance ``b (0.67 c z K_pc + 0.5 z^2 gamma_s K_pgamma)``, N (see the module text)."""
+    t = ca.tan(phi)
+    n_q = ca.exp(np.pi * t) * ca.tan(np.pi / 4 + phi / 2) ** 2
+    n_c = (n_q - 1) / t
+    n_g = 2 * (n_q + 1) * t
+    cos2 = ca.cos(phi) ** 2
+    return b * (0.67 * c * z * (n_c - t) * cos2 + 0.5 * z**2 * unit_weight * (2 * n_g / t + 1) * cos2)
 
 
 def _as_column(x):
@@ -170,12 +210,17 @@ def wheel_expr(
     rs = r + h
     cos1, sin1 = ca.cos(th1), ca.sin(th1)
 
+    skid = ca.mtimes(i < 0, ones)  # 1 on the rows at negative slip
+
     def integrands(theta, sigma):
-        j = rs * ((ca.mtimes(th1, ones) - theta) - ca.mtimes(1 - i, ones) * (ca.mtimes(sin1, ones) - ca.sin(theta)))
-        tau = shear_stress_expr(j, sigma, c, phi, K)
+        arc, chord = ca.mtimes(th1, ones) - theta, ca.mtimes(sin1, ones) - ca.sin(theta)
+        j_drive = rs * (arc - ca.mtimes(1 - i, ones) * chord)
+        j_skid = rs * (ca.mtimes(1 + i, ones) * arc - chord)  # Wong's skid form (module text)
+        j = ca.if_else(skid, j_skid, j_drive)
+        tau = ca.sign(j) * shear_stress_expr(ca.fabs(j), sigma, c, phi, K)
         return (tau * ca.cos(theta) - sigma * ca.sin(theta), sigma * ca.cos(theta) + tau * ca.sin(theta), tau)
 
-    soften = ca.mtimes(1 / (1 + slip_sinkage * i), ones)  # the slip-sinkage effect (1 when off)
+    soften = ca.mtimes(1 / (1 + slip_sinkage * ca.fabs(i)), ones)  # the slip-sinkage effect (1 when off)
 
     def sigma_at(theta_eq):
         depth = r * (ca.cos(theta_eq) - ca.mtimes(cos1, ones))  # the soil's depth under the rim at theta_eq
@@ -191,7 +236,10 @@ def wheel_expr(
     for a_f, a_r in zip(integrands(th_f, sig_f), integrands(th_r, sig_r)):
         out.append((th1 - thm) * ca.mtimes(a_f, wc) + thm * ca.mtimes(a_r, wc))
     dp, wl, tq = out
-    return r * b * dp, r * b * wl, rs**2 * b * tq
+    dp = r * b * dp
+    if settings.bulldozing_unit_weight is not None:
+        dp = dp - bulldozing_expr(z, c, phi, b, settings.bulldozing_unit_weight)
+    return dp, r * b * wl, rs**2 * b * tq
 
 
 def wheel_forces_function(
@@ -238,7 +286,7 @@ def sinkage_from_load_function(
     )
     ins = [ca.MX.sym(nm) for nm in names]
     i_, W_, c_, phi_, K_, kc_, kphi_, n_, s_ = ins
-    k_eff = (kc_ / b + kphi_) / (1 + s_ * i_)
+    k_eff = (kc_ / b + kphi_) / (1 + s_ * ca.fabs(i_))
     z0 = (3 * W_ / ((3 - ca.fmin(n_, BEKKER_START_N_MAX)) * k_eff * b * ca.sqrt(2 * r))) ** (2 / (2 * n_ + 1))
     u0 = ca.log(entry_angle(ca.fmin(z0, BEKKER_START_Z_MAX * r), r))
     u_star = rf(u0, ca.vertcat(*ins))

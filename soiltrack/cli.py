@@ -25,6 +25,7 @@ COMMAND_MODULES = (
     "cmd_route",
     "cmd_diagnose",
     "cmd_drive",
+    "cmd_predict",
 )
 
 EPILOG = """\

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from .cliutil import EXIT_OK, EXIT_SOLVER, output_path, running_gear_arg
+from .columns_cli import add_columns_argument, column_notes, columns_arg, with_column_notes
 from .soilmodel.rigid_wheel import RigidWheel
 
 
@@ -20,7 +21,7 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
 
         return diagnose_wheel_command(a, gear)
     vehicle = gear
-    data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle)
+    data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle, columns=columns_arg(a))
     cands = None
     if a.candidates is not None:
         cands = [c.strip() for c in a.candidates.split(",") if c.strip()]
@@ -54,7 +55,7 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
         bounds=bounds,
         progress=None if a.quiet else progress,
     )
-    print(d.to_json() if a.json else d.report())
+    print(with_column_notes(d.to_json() if a.json else d.report(), column_notes(a.data, columns_arg(a)), a.json))
     if a.plot:
         d.plot(a.plot)
     return EXIT_OK if d.converged else EXIT_SOLVER
@@ -129,6 +130,7 @@ def add_parser(sub) -> None:
         help="slip sweeps with a slip_angle_deg column: keep only the rows at slip angle 0 "
         "instead of refusing the file",
     )
+    add_columns_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     p.add_argument("--plot", metavar="PNG", help="save a figure of the held-out residuals, weights and localisation")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")

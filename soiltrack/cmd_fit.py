@@ -8,6 +8,7 @@ import sys
 from .cliutil import floats_arg, output_path, running_gear_arg
 from .cmd_segments import add_arguments as add_segment_arguments
 from .cmd_segments import check_budget, segments_command
+from .columns_cli import add_columns_argument, column_notes, columns_arg, with_column_notes
 from .identify.drivelog import DISCRETISATIONS
 from .identify.engines import DEFAULT_ENGINE, ENGINES
 from .identify.outcome import exit_code
@@ -90,6 +91,24 @@ _VEHICLE_OPTIONS = {
 }
 
 
+def _bevameter_record(a: argparse.Namespace):
+    """The file as a bevameter record (annulus torque, plate force or radius), or ``None`` if it is not one."""
+    from .soilmodel.bevameter_records import RECORD_COLUMNS, is_bevameter_record, read_bevameter_record
+    from .soilmodel.columns import plan_columns
+    from .soilmodel.csvread import read_header
+
+    try:
+        head = read_header(a.data)
+    except DataError:
+        return None  # read_csv names the problem
+    plan = plan_columns(head, known=RECORD_COLUMNS, mapping=columns_arg(a), source=a.data)
+    if not is_bevameter_record(list(plan.header)):
+        return None
+    return read_bevameter_record(
+        a.data, inner_radius_m=a.inner_radius_m, outer_radius_m=a.outer_radius_m, columns=columns_arg(a)
+    )
+
+
 def _cmd_soil_test(a: argparse.Namespace, data) -> int:
     """Fit a bevameter test (no vehicle: the soil itself was measured)."""
     from .identify.soiltests import fit_soil_test
@@ -101,8 +120,13 @@ def _cmd_soil_test(a: argparse.Namespace, data) -> int:
             "a bevameter test is fitted on its own (leave it out)",
             file=a.data,
         )
-    result = fit_soil_test(data)
-    print(result.to_json() if a.json else result.report())
+    from .soilmodel.bevameter_records import RECORD_COLUMNS, AnnulusTest
+
+    if a.plot and isinstance(data, AnnulusTest):
+        raise DataError("--plot is not available for a shear annulus's record yet (the fit's report and JSON are)")
+    result = fit_soil_test(data, negative_kc=a.negative_kc)
+    notes = column_notes(a.data, columns_arg(a), RECORD_COLUMNS)
+    print(with_column_notes(result.to_json() if a.json else result.report(), notes, a.json))
     if a.plot:
         from .plot_soiltest import plot_soil_test
 
@@ -121,13 +145,22 @@ def _cmd_fit(a: argparse.Namespace) -> int:
         return fit_wheel_command(a, gear)
     if a.fix:
         raise DataError("--fix applies to a rigid wheel's fit (--vehicle WHEEL.json) only")
+    if a.bulldozing_density is not None:
+        raise DataError("--bulldozing-density applies to a rigid wheel's fit (--vehicle WHEEL.json) only")
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
     bounds = bounds_arg(a.bounds)
+    record = _bevameter_record(a)  # a shear annulus's torque or a plate's force, as recorded
+    if record is not None:
+        return _cmd_soil_test(a, record)
+    if a.inner_radius_m is not None or a.outer_radius_m is not None:
+        raise DataError("--inner-radius-m / --outer-radius-m apply to a shear annulus (torque_Nm) only", file=a.data)
     check_budget(a)  # a drive log's fit estimated from its row count: refused before the work when too large
-    data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle)
+    data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle, columns=columns_arg(a))
     if isinstance(data, (ShearTest, PlateTest)):
         return _cmd_soil_test(a, data)
+    if a.negative_kc:
+        raise DataError("--negative-kc applies to plate tests only", file=a.data)
     if gear is None:
         raise DataError(
             "--vehicle is required for slip sweeps and drive logs (a vehicle JSON file or a preset name: heavy, light)",
@@ -170,10 +203,8 @@ def _cmd_fit(a: argparse.Namespace) -> int:
     if a.effect:
         kw["effects"] = [e.strip() for item in a.effect for e in item.split(",") if e.strip()]
     result = fit(data, vehicle, model=a.model, method=a.method, **kw)
-    if a.json:
-        print(result.to_json())
-    else:
-        print(result.report())
+    notes = column_notes(a.data, columns_arg(a))
+    print(with_column_notes(result.to_json() if a.json else result.report(), notes, a.json))
     if a.plot:
         from .plots import plot_fit
 
@@ -345,6 +376,35 @@ def add_parser(sub) -> None:
         metavar="NAME=VALUE",
         help="rigid wheel: hold a parameter at a value in edge units (repeatable), e.g. bekker_n=1; names "
         "cohesion_kpa, friction_angle_deg, shear_modulus_m, bekker_kc, bekker_kphi, bekker_n",
+    )
+    f.add_argument(
+        "--bulldozing-density",
+        type=float,
+        default=None,
+        metavar="KG_M3",
+        help="rigid wheel: add Bekker's bulldozing resistance of the sinking wheel with this soil bulk density "
+        "(held; docs/physics.md)",
+    )
+    add_columns_argument(f)
+    f.add_argument(
+        "--inner-radius-m",
+        type=float,
+        default=None,
+        metavar="R",
+        help="a shear annulus's inner radius, m (when the file has no inner_radius_m column)",
+    )
+    f.add_argument(
+        "--outer-radius-m",
+        type=float,
+        default=None,
+        metavar="R",
+        help="a shear annulus's outer radius, m (when the file has no outer_radius_m column)",
+    )
+    f.add_argument(
+        "--negative-kc",
+        action="store_true",
+        help="plate tests: fit Bekker k_c freely (flagged when negative) instead of holding it >= 0 (where it ends "
+        "on 0 the report gives the unconstrained value either way)",
     )
     add_segment_arguments(f)  # --segments, --max-memory (soiltrack.cmd_segments)
     f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")

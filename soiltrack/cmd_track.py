@@ -146,8 +146,13 @@ def _cmd_track(a: argparse.Namespace) -> int:
     grade = _grade(a.grade_deg, "--grade-deg", MAX_GRADE_DEG)
     log_grade = _grade(a.log_grade_deg, "--log-grade-deg", MAX_LOG_GRADE_DEG)
     vehicle = vehicle_arg(a.vehicle)
-    reader = DriveStreamReader(a.log)
+    from .columns_cli import column_notes, columns_arg
+
+    reader = DriveStreamReader(a.log, columns=columns_arg(a))
     reader.check()  # the whole file checked first (constant memory): bad input refused before any output
+    notes = column_notes(a.log, columns_arg(a))
+    for line in notes:
+        print(f"soiltrack track: columns: {line}", file=sys.stderr)
     est = OnlineEstimator(vehicle, OnlineSettings(window_s=window, grade_rad=math.radians(log_grade or 0.0)))
     times = array("d")
     steps, history = [], []
@@ -217,6 +222,7 @@ def _cmd_track(a: argparse.Namespace) -> int:
         "kernel_backend": est.backend,
         "converged": bool(ok),
         "reason": reason,
+        "columns_read": notes,
         "final": steps[-1] if steps else None,
     }
     if a.json:
@@ -338,6 +344,9 @@ def add_parser(sub) -> None:
         metavar="G",
         help="known grade the log was driven on, deg, positive uphill: normal load W cos(G) (default: 0)",
     )
+    from .columns_cli import add_columns_argument
+
+    add_columns_argument(f)
     f.add_argument("--json", action="store_true", help="JSON lines and a final summary line")
     f.add_argument("--plot", metavar="PNG", help="write the estimates over time to this figure")
     f.set_defaults(func=_cmd_track)

@@ -12,8 +12,10 @@ import sys
 
 from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path
 from .identify.outcome import exit_code
+from .columns_cli import column_notes, columns_arg, with_column_notes
 from .soilmodel import DataError
 from .soilmodel.rigid_wheel import RigidWheel
+from .soilmodel.wheel_sweep import WHEEL_KNOWN_COLUMNS
 
 __all__ = ["fit_wheel_command", "diagnose_wheel_command", "simulate_wheel_command", "wheel_fixed_arg"]
 
@@ -63,6 +65,19 @@ def _effects(a: argparse.Namespace) -> tuple[str, ...]:
     return names
 
 
+def _settings(a: argparse.Namespace):
+    """The wheel model's settings: the defaults, with ``--bulldozing-density`` as the soil's unit weight."""
+    from .soilmodel import G
+    from .soilmodel.wheel import DEFAULT_WHEEL_SETTINGS, WheelSettings
+
+    rho = getattr(a, "bulldozing_density", None)
+    if rho is None:
+        return DEFAULT_WHEEL_SETTINGS
+    if not (math.isfinite(rho) and 100.0 <= rho <= 5000.0):
+        raise DataError(f"--bulldozing-density expects a soil bulk density in [100, 5000] kg/m^3, got {rho:g}")
+    return WheelSettings(bulldozing_unit_weight=rho * G)
+
+
 def fit_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:
     """``soiltrack fit DATA --vehicle WHEEL.json``: the rigid-wheel fit; exit 0 converged, 1 failed."""
     from .identify.wheel import WheelFitOptions, fit_wheel
@@ -82,15 +97,25 @@ def fit_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:
             "bounds": "practical",
             "method": "ipopt",
             "resistance": None,
+            "negative_kc": False,
+            "inner_radius_m": None,
+            "outer_radius_m": None,
         },
         "its fit is bounded IPOPT; its rolling resistance is in its normal stresses",
     )
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
-    data = read_wheel_sweep(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle)
-    opts = WheelFitOptions(fixed=wheel_fixed_arg(getattr(a, "fix", None), a.model), effects=_effects(a))
+    cols = columns_arg(a)
+    data = read_wheel_sweep(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle, columns=cols)
+    opts = WheelFitOptions(
+        fixed=wheel_fixed_arg(getattr(a, "fix", None), a.model), effects=_effects(a), settings=_settings(a)
+    )
     result = fit_wheel(data, wheel, opts)
-    print(result.to_json() if a.json else result.report())
+    print(
+        with_column_notes(
+            result.to_json() if a.json else result.report(), column_notes(a.data, cols, WHEEL_KNOWN_COLUMNS), a.json
+        )
+    )
     if a.plot:
         from .wheel_plots import plot_wheel_fit
 
@@ -105,12 +130,17 @@ def diagnose_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:
     from .soilmodel.wheel_sweep import read_wheel_sweep
 
     _refuse(a, set(), {"torque_hold": None, "bounds": "auto"}, "its soil bounds are the practical ranges")
-    data = read_wheel_sweep(a.data)
+    cols = columns_arg(a)
+    data = read_wheel_sweep(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle, columns=cols)
     cands = None
     if a.candidates is not None:
         cands = tuple(c.strip() for c in a.candidates.split(",") if c.strip())
     d = diagnose_wheel(data, wheel, WheelFitOptions(fixed=wheel_fixed_arg(None, a.model)), candidates=cands)
-    print(d.to_json() if a.json else d.report())
+    print(
+        with_column_notes(
+            d.to_json() if a.json else d.report(), column_notes(a.data, cols, WHEEL_KNOWN_COLUMNS), a.json
+        )
+    )
     if a.plot:
         from .wheel_plots import plot_wheel_fit
 

@@ -246,10 +246,13 @@ def test_module_entry_point(tmp_path, wheel_json):
     assert p.returncode == 2 and "Traceback" not in p.stderr
 
 
-def test_skid_rows_are_refused_with_their_count(capsys):
+def test_skid_rows_are_kept_for_the_skid_model(capsys):
+    # correction (issue 41): skid rows are fitted by the skid model, no longer refused
+    from soiltrack.soilmodel.wheel_sweep import read_wheel_sweep
+
+    data = read_wheel_sweep(os.path.join(CMU, "smooth_wheel_trials_beta0.csv"))
+    assert data.n_samples == 27 and int(np.count_nonzero(data.slip < 0)) == 15 and data.slip.min() == -1.0
     wheel = os.path.join(CMU, "smooth_wheel.json")
-    rc = main(["fit", os.path.join(CMU, "smooth_wheel_trials_beta0.csv"), "--vehicle", wheel])
-    assert rc == 2 and "15 of 27 rows" in capsys.readouterr().err
     rc = main(["fit", os.path.join(CMU, "smooth_wheel_driving.csv"), "--vehicle", wheel, "--resistance", "fit"])
     assert rc == 2
 

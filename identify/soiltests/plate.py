@@ -38,6 +38,9 @@ class PlateBounds:
     """
 
     n: tuple[float, float] = (0.05, 2.5)
+    #: False: k_c >= 0, and where the fit ends on 0 the unconstrained value is reported beside it;
+    #: True: k_c is free (plate tests often give a negative k_c; the report flags it).
+    negative_kc: bool = False
 
     def __post_init__(self) -> None:
         lo, hi = self.n
@@ -76,6 +79,43 @@ def _loglog_start(b: np.ndarray, z: np.ndarray, p: np.ndarray, widths: np.ndarra
     X = np.column_stack([np.log(z[use])] + [g.astype(float) for g in groups])
     coef = np.linalg.lstsq(X, np.log(p[use]), rcond=None)[0]
     return float(coef[0]), np.exp(coef[1:])
+
+
+def _plate_specs(bounds: PlateBounds) -> list:
+    return [
+        ("bekker_kc", "Bekker k_c", "kN/m^(n+1)", -math.inf if bounds.negative_kc else 0.0, math.inf),
+        ("bekker_kphi", "Bekker k_phi", "kN/m^(n+2)", 0.0, math.inf),
+        ("bekker_n", "Bekker exponent n", "-", *bounds.n),
+    ]
+
+
+def _kc_notes(bounds: PlateBounds, kc: float, free, sol, rows: int, ps: float, z_ref: float, specs) -> list[str]:
+    """What a negative k_c means here: flagged when fitted freely, the unconstrained value when held at 0."""
+    if bounds.negative_kc:
+        if kc >= 0:
+            return []
+        return [
+            f"k_c = {kc:.4g} kN/m^(n+1) < 0: the data say so (fitted freely); a negative k_c has no reading as a "
+            "cohesive modulus - it is the plates' size effect in Bekker's form - and makes the pressure of a plate "
+            f"narrower than -k_c / k_phi negative: do not extrapolate to narrower running gear"
+        ]
+    if free is None:
+        return []
+    n = float(free.x[2])
+    f = ps / z_ref**n / 1e3
+    kc_f, kphi_f = free.x[0] * f, free.x[1] * f
+    lz = math.log(z_ref)
+    T = np.array([[f, 0.0, -kc_f * lz], [0.0, f, -kphi_f * lz], [0.0, 0.0, 1.0]])
+    neg = [("bekker_kc", "Bekker k_c", "kN/m^(n+1)", -math.inf, math.inf), *specs[1:]]
+    (p_kc, _, _), _ = edge_parameters(free, rows, np.array([kc_f, kphi_f, n]), T, neg, np.zeros(3, dtype=bool))
+    ci = "" if None in p_kc.ci95 else f", 95 % [{p_kc.ci95[0]:.4g}, {p_kc.ci95[1]:.4g}]"
+    rms = math.sqrt(free.cost / rows) * ps / 1e3
+    return [
+        f"k_c is held at its bound 0: the unconstrained fit gives k_c = {kc_f:.4g} kN/m^(n+1){ci} (k_phi "
+        f"{kphi_f:.4g}, n {n:.4g}; rms misfit {rms:.4g} kPa against {math.sqrt(sol.cost / rows) * ps / 1e3:.4g}). "
+        "Held because a negative k_c makes a narrow enough plate's pressure negative; "
+        "PlateBounds(negative_kc=True) fits it freely (flagged)"
+    ]
 
 
 def fit_plate_test(test: PlateTest, bounds: PlateBounds = PLATE_BOUNDS) -> SoilTestFit:
@@ -131,6 +171,12 @@ def fit_plate_test(test: PlateTest, bounds: PlateBounds = PLATE_BOUNDS) -> SoilT
         lower = np.array([0.0, 0.0, n_lo])
         upper = np.array([big, big, n_hi])
         sol = solve_bounded(FULL, D, aux, starts, lower, upper)
+        free = None
+        if bounds.negative_kc or at_bounds(sol.x, lower, upper)[0]:
+            lower_free = np.array([-big, 0.0, n_lo])
+            free = solve_bounded(FULL, D, aux, [*starts, sol.x], lower_free, upper)
+            if bounds.negative_kc:
+                sol, lower = free, lower_free
         n = float(sol.x[2])
         f = ps / z_ref**n / 1e3  # A -> kN/m^(n+...)
         kc, kphi = sol.x[0] * f, sol.x[1] * f
@@ -138,14 +184,11 @@ def fit_plate_test(test: PlateTest, bounds: PlateBounds = PLATE_BOUNDS) -> SoilT
         lz = math.log(z_ref)
         T = np.array([[f, 0.0, -kc * lz], [0.0, f, -kphi * lz], [0.0, 0.0, 1.0]])
         flags = at_bounds(sol.x, lower, upper)
-        specs = [
-            ("bekker_kc", "Bekker k_c", "kN/m^(n+1)", 0.0, math.inf),
-            ("bekker_kphi", "Bekker k_phi", "kN/m^(n+2)", 0.0, math.inf),
-            ("bekker_n", "Bekker exponent n", "-", *bounds.n),
-        ]
+        specs = _plate_specs(bounds)
         params, cov = edge_parameters(sol, test.n_samples, values, T, specs, flags)
         combos: dict = {}
         notes = [f"{widths.size} plate widths ({widths.min():.4g}-{widths.max():.4g} m) separate k_c and k_phi"]
+        notes += _kc_notes(bounds, kc, free, sol, test.n_samples, ps, z_ref, specs)
         S = np.diag([1e3, 1e3, 1.0])
         si = None if cov is None or not all(q.identifiable for q in params) else S @ cov @ S
         values_si = (kc * 1e3, kphi * 1e3, n)

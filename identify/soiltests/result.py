@@ -232,6 +232,26 @@ class SoilTestFit:
             "identifiable": self.identifiable,
             "active_bounds": self.active_bounds,
             "notes": list(self.notes),
+            "covariance": self._covariance_dict(),
+        }
+
+    def _covariance_dict(self) -> dict | None:
+        """``{"parameters", "values", "matrix", "units": "SI"}`` of the identified parameters, or ``None``."""
+        if self.covariance_si is None or any(v is None for v in self.values_si):
+            return None
+        names = (
+            ["cohesion", "friction_angle", "shear_modulus"]
+            if self.kind == "shear_test"
+            else ["bekker_kc", "bekker_kphi", "bekker_n"]
+        )
+        C = np.asarray(self.covariance_si, dtype=float)
+        if not np.all(np.isfinite(C)):
+            return None
+        return {
+            "parameters": names,
+            "values": [float(v) for v in self.values_si],
+            "matrix": [[float(x) for x in row] for row in C],
+            "units": "SI",
         }
 
     def to_json(self, indent: int | None = 2) -> str:

@@ -13,6 +13,8 @@ import math
 import numpy as np
 
 from ...soilmodel import WIDE_BOUNDS, DataError, ShearTest, SoilBounds, shear_stress_expr
+from ...soilmodel.bevameter import ANNULUS_NODES, annulus_torque_expr, ring_torque_per_stress
+from ...soilmodel.bevameter_records import AnnulusTest
 from ...soilmodel.ridge import distinct_loads
 from .intervals import at_bounds, edge_parameters
 from .lsq import ResidualModel, solve_bounded
@@ -42,12 +44,43 @@ FULL = ResidualModel("shear_full", 3, 3, 1, _full)
 STRENGTH = ResidualModel("shear_strength", 2, 3, 1, _strength)
 
 
+def _annulus(x, D, a, strength: bool):
+    """Annulus rows ``[sigma, theta, T / ring, r_i, r_o]``: the torque integrated across the ring, per unit ring."""
+    ts = a[0]
+    if strength:
+        T = annulus_torque_expr(D[:, 1], 0.0, x[0] * ts, 0.0, x[1] * K_SCALE, D[:, 3], D[:, 4])
+    else:
+        T = annulus_torque_expr(D[:, 1], D[:, 0], x[0] * ts, x[1], x[2] * K_SCALE, D[:, 3], D[:, 4])
+    ring = 2 * math.pi * (D[:, 4] ** 3 - D[:, 3] ** 3) / 3
+    return (T / ring - D[:, 2]) / ts
+
+
+ANNULUS_FULL = ResidualModel("annulus_full", 3, 5, 1, lambda x, D, a: _annulus(x, D, a, False))
+ANNULUS_STRENGTH = ResidualModel("annulus_strength", 2, 5, 1, lambda x, D, a: _annulus(x, D, a, True))
+
+
+def _rows(test: ShearTest | AnnulusTest):
+    """``(sigma, displacement-like, stress-like, D, full model, strength model, note)`` of either test."""
+    if isinstance(test, AnnulusTest):
+        ring = ring_torque_per_stress(test.inner_radius, test.outer_radius)
+        tau = test.torque / ring  # the ring-mean stress, only for starts and scaling: the model integrates
+        D = np.column_stack([test.normal_pressure, test.rotation, tau, test.inner_radius, test.outer_radius])
+        note = (
+            f"shear annulus r_i {np.min(test.inner_radius):.4g}-r_o {np.max(test.outer_radius):.4g} m: the torque "
+            f"is the shear law integrated across the ring with j = r theta ({ANNULUS_NODES}-point Gauss-Legendre, "
+            "relative error below 1e-12); residuals in torque per ring (T / (2 pi (r_o^3 - r_i^3) / 3), kPa)"
+        )
+        return test.normal_pressure, test.rotation, tau, D, ANNULUS_FULL, ANNULUS_STRENGTH, note
+    D = np.column_stack([test.normal_pressure, test.shear_displacement, test.shear_stress])
+    return test.normal_pressure, test.shear_displacement, test.shear_stress, D, FULL, STRENGTH, None
+
+
 def _start_strength(sigma: np.ndarray, tau: np.ndarray, levels: np.ndarray) -> np.ndarray:
     """Largest stress per pressure level (the strength it approaches)."""
     return np.array([tau[np.isclose(sigma, s, rtol=1e-9, atol=0.0)].max() for s in levels])
 
 
-def fit_shear_test(test: ShearTest, bounds: SoilBounds = WIDE_BOUNDS) -> SoilTestFit:
+def fit_shear_test(test: ShearTest | AnnulusTest, bounds: SoilBounds = WIDE_BOUNDS) -> SoilTestFit:
     """Fit c, phi and K (or the shear strength and K at one pressure) to a bevameter shear test.
 
     Parameters
@@ -70,7 +103,7 @@ def fit_shear_test(test: ShearTest, bounds: SoilBounds = WIDE_BOUNDS) -> SoilTes
     DataError
         Too few rows for the parameters, or no non-zero stress.
     """
-    sigma, j, tau = test.normal_pressure, test.shear_displacement, test.shear_stress
+    sigma, j, tau, D, full_model, strength_model, ring_note = _rows(test)
     levels = distinct_loads(sigma)
     separable = levels.size >= 2
     m = 3 if separable else 2
@@ -97,7 +130,6 @@ def fit_shear_test(test: ShearTest, bounds: SoilBounds = WIDE_BOUNDS) -> SoilTes
             file=test.source,
             column="shear_stress_Pa",
         )
-    D = np.column_stack([sigma, j, tau])
     (c_lo, c_hi), (p_lo, p_hi), (k_lo, k_hi) = bounds.cohesion, bounds.friction_angle, bounds.shear_modulus
     peaks = _start_strength(sigma, tau, levels)
     if separable:
@@ -107,7 +139,7 @@ def fit_shear_test(test: ShearTest, bounds: SoilBounds = WIDE_BOUNDS) -> SoilTes
         lower = np.array([c_lo / ts, p_lo, k_lo / K_SCALE])
         upper = np.array([c_hi / ts, p_hi, k_hi / K_SCALE])
         starts = [np.array([c0, phi0, K / K_SCALE]) for K in K_STARTS]
-        sol = solve_bounded(FULL, D, np.array([ts]), starts, lower, upper)
+        sol = solve_bounded(full_model, D, np.array([ts]), starts, lower, upper)
         c, phi, K = sol.x[0] * ts, sol.x[1], sol.x[2] * K_SCALE
         values = np.array([c / 1e3, math.degrees(phi), K])
         T = np.diag([ts / 1e3, 180.0 / math.pi, K_SCALE])
@@ -135,7 +167,7 @@ def fit_shear_test(test: ShearTest, bounds: SoilBounds = WIDE_BOUNDS) -> SoilTes
         lower = np.array([t_lo / ts, k_lo / K_SCALE])
         upper = np.array([t_hi / ts, k_hi / K_SCALE])
         starts = [np.array([peaks[0] / ts, K / K_SCALE]) for K in K_STARTS]
-        sol = solve_bounded(STRENGTH, D, np.array([ts]), starts, lower, upper)
+        sol = solve_bounded(strength_model, D, np.array([ts]), starts, lower, upper)
         values = np.array([sol.x[0] * ts / 1e3, sol.x[1] * K_SCALE])
         T = np.diag([ts / 1e3, K_SCALE])
         flags = at_bounds(sol.x, lower, upper)
@@ -167,6 +199,8 @@ def fit_shear_test(test: ShearTest, bounds: SoilBounds = WIDE_BOUNDS) -> SoilTes
         }
         notes = [why]
         si, values_si = None, (None, None, sol.x[1] * K_SCALE)
+    if ring_note is not None:
+        notes.append(ring_note)
     if np.any(flags):
         notes.append(
             "on a bound: "

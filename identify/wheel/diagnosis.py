@@ -125,7 +125,7 @@ def _holdout(
         train, test = data.subset(lev != g), data.subset(lev == g)
         r = fit_wheel(train, wheel, opts)
         ok &= r.success
-        dp, _, _, z_w = wheel_rows(wheel, opts.settings, r.theta, test)
+        dp, _, _, z_w = wheel_rows(wheel, opts.settings, r.theta, test)[:4]
         s = float((((dp - test.drawbar_pull) / scale[0]) ** 2).sum())
         if scale[1] is not None:
             s += float((((z_w - test.sinkage) / scale[1]) ** 2).sum())

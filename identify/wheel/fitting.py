@@ -15,7 +15,7 @@ from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.soil import Soil
 from ...soilmodel.threadsafe import call_solver
 from ...soilmodel.wheel import DEFAULT_WHEEL_SETTINGS, WheelSettings, evaluate, wheel_forces_function
-from ...soilmodel.wheel_sweep import WheelSweep
+from ...soilmodel.wheel_sweep import WheelSweep, check_sweep_for_wheel
 from .problem import DEFAULT_WHEEL_BOUNDS, PARAMETER_SCALES, WHEEL_PARAMETERS, WheelBounds, wheel_solver
 from .result import WheelFitResult, build_wheel_result
 
@@ -137,7 +137,12 @@ def _unit_load_scale(data: WheelSweep, wheel: RigidWheel, th: np.ndarray, opts: 
 
 def _p(data: WheelSweep, th: np.ndarray) -> np.ndarray:
     z = data.sinkage if data.sinkage is not None else np.zeros(data.n_samples)
-    return np.concatenate([data.slip, z, data.normal_load, data.drawbar_pull, th])
+    torque = []
+    if data.torque is not None:  # the torque and its rows' weights (1 / relative standard deviation)
+        sd = data.torque_std
+        w = np.ones(data.n_samples) if sd is None else float(np.exp(np.mean(np.log(sd)))) / sd
+        torque = [data.torque, w]
+    return np.concatenate([data.slip, z, data.normal_load, data.drawbar_pull, *torque, th])
 
 
 def _solve_starts(
@@ -170,6 +175,14 @@ def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = Wh
     """
     if not isinstance(data, WheelSweep):
         raise DataError(f"fit_wheel takes a WheelSweep, got {type(data).__name__}")
+    check_sweep_for_wheel(data, wheel.radius)  # sinkage beyond the radius, a pull against the slip
+    st = options.settings
+    if np.any(data.slip < 0) and not st.c1 - st.c2 > 0:
+        raise DataError(
+            f"skid rows need theta_m = (c1 + c2 i) theta_1 inside the arc down to i = -1: c1 > c2, got c1 = {st.c1}, "
+            f"c2 = {st.c2}",
+            file=data.source,
+        )
     sink = data.has_sinkage
     free = np.array(
         [
@@ -182,7 +195,9 @@ def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = Wh
     if data.n_samples * (2 if sink else 1) <= nf:
         raise DataError(f"{data.n_samples} rows cannot carry {nf} free parameters", file=data.source)
     t0 = time.perf_counter()
-    solver, resid = wheel_solver(wheel, options.settings, data.n_samples, sink, tuple(bool(f) for f in free))
+    solver, resid = wheel_solver(
+        wheel, options.settings, data.n_samples, sink, tuple(bool(f) for f in free), data.has_torque
+    )
     lo, hi = np.array(options.bounds.lower), np.array(options.bounds.upper)
     lbx, ubx = (lo / PARAMETER_SCALES)[free], (hi / PARAMETER_SCALES)[free]
     p = _p(data, np.where(free, 0.0, fixed))
@@ -199,8 +214,10 @@ def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = Wh
         n_ok += k
         best = cand if best is None or cand[:2] < best[:2] else best
     failed, f, x, status, iters = best
-    r_dp, r_w, J_dp, J_w, th = (np.asarray(v, dtype=float) for v in resid(x, p))
+    r_dp, r_w, J_dp, J_w, th, r_t, J_t = (np.asarray(v, dtype=float) for v in resid(x, p))
+    torque = {"residual_torque": r_t.ravel(), "jac_torque": J_t} if data.has_torque else {}
     return build_wheel_result(
+        **torque,
         data=data,
         wheel=wheel,
         options=options,

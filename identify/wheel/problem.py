@@ -49,6 +49,7 @@ __all__ = [
     "N_PARAMETERS",
     "residual_function",
     "bekker_modulus",
+    "torque_floor",
 ]
 
 #: Parameter names of the wheel fit (SI), in vector order.
@@ -134,13 +135,13 @@ def residual_function(wheel: RigidWheel, settings: WheelSettings, measured_sinka
     r, b, h = wheel.radius, wheel.width, wheel.grouser_height
     z_w = sinkage_from_load_function(r, b, h, settings)(i, W, c, phi, K, k_c, k_phi, n, s)
     z_used = z if measured_sinkage else z_w
-    dp, wl, _ = wheel_expr(i, z_used, c, phi, K, k_c, k_phi, n, r, b, h, settings, slip_sinkage=s)
+    dp, wl, tq = wheel_expr(i, z_used, c, phi, K, k_c, k_phi, n, r, b, h, settings, slip_sinkage=s)
     return ca.Function(
         "wheel_row",
         [i, z, W, th],
-        [dp, wl, z_used, z_w],
+        [dp, wl, z_used, z_w, tq],
         ["i", "z", "W", "theta"],
-        ["drawbar_pull", "normal_load", "sinkage", "sinkage_from_load"],
+        ["drawbar_pull", "normal_load", "sinkage", "sinkage_from_load", "torque"],
     )
 
 
@@ -149,22 +150,36 @@ def channel_floors(mean_load: float) -> tuple[float, float]:
     return NOISE_FLOOR_REL * mean_load, SINKAGE_FLOOR_M
 
 
+def torque_floor(mean_load: float, radius: float) -> float:
+    """Noise floor of the torque channel, N m: the drawbar pull's floor times the wheel's radius."""
+    return NOISE_FLOOR_REL * mean_load * radius
+
+
 @locked_cache(maxsize=64)
 def wheel_solver(
-    wheel: RigidWheel, settings: WheelSettings, n_rows: int, measured_sinkage: bool, free: tuple[bool, ...]
+    wheel: RigidWheel,
+    settings: WheelSettings,
+    n_rows: int,
+    measured_sinkage: bool,
+    free: tuple[bool, ...],
+    measured_torque: bool = False,
 ) -> tuple[ca.Function, ca.Function]:
     """The cached IPOPT solver and its residual/Jacobian Function.
 
     NLP variables: the free parameters scaled (``theta / PARAMETER_SCALES``); NLP parameters
     ``p = [i (n), z (n), W (n), DP (n), fixed theta (7)]``. Returns ``(solver, resid)`` with
     ``resid(x_free, p) -> (r_dp, r_z, J_dp, J_z, theta)``: raw residuals (drawbar pull N, sinkage
-    m) and their Jacobians with respect to the SI free parameters.
+    m) and their Jacobians with respect to the SI free parameters. With ``measured_torque`` the
+    torque is a third channel: ``p`` carries after DP the torque T (n) and its row weights (n,
+    1 / relative standard deviation), and ``resid`` returns after theta the weighted torque
+    residual (N m) and its Jacobian.
     """
     nf = sum(free)
     x = ca.MX.sym("x", nf)
-    p = ca.MX.sym("p", 4 * n_rows + N_PARAMETERS)
+    nch = 6 if measured_torque else 4
+    p = ca.MX.sym("p", nch * n_rows + N_PARAMETERS)
     i, z, W, DP = (p[q * n_rows : (q + 1) * n_rows] for q in range(4))
-    fixed = p[4 * n_rows :]
+    fixed = p[nch * n_rows :]
     parts, q = [], 0
     for k in range(N_PARAMETERS):
         if free[k]:
@@ -174,12 +189,18 @@ def wheel_solver(
             parts.append(fixed[k])
     theta = ca.vertcat(*parts)
     row = residual_function(wheel, settings, measured_sinkage).map(n_rows)
-    dp, _, _, z_w = row(i.T, z.T, W.T, ca.repmat(theta, 1, n_rows))
+    dp, _, _, z_w, tq = row(i.T, z.T, W.T, ca.repmat(theta, 1, n_rows))
     r_dp = dp.T - DP
     r_w = (z_w.T - z) if measured_sinkage else ca.MX.zeros(n_rows, 1)
     f = n_rows / 2 * ca.log(ca.sumsqr(r_dp) + n_rows * (NOISE_FLOOR_REL * ca.sum1(W) / n_rows) ** 2)
     if measured_sinkage:
         f = f + n_rows / 2 * ca.log(ca.sumsqr(r_w) + n_rows * SINKAGE_FLOOR_M**2)
+    r_t = ca.MX.zeros(n_rows, 1)
+    if measured_torque:
+        T, wt = p[4 * n_rows : 5 * n_rows], p[5 * n_rows : 6 * n_rows]
+        r_t = (tq.T - T) * wt
+        floor_t = NOISE_FLOOR_REL * ca.sum1(W) / n_rows * wheel.radius
+        f = f + n_rows / 2 * ca.log(ca.sumsqr(r_t) + n_rows * floor_t**2)
     opts = {
         "ipopt.print_level": 0,
         "print_time": False,
@@ -194,9 +215,10 @@ def wheel_solver(
     solver = ca.nlpsol("wheel_fit", "ipopt", {"x": x, "p": p, "f": f}, opts)
     xs = ca.MX.sym("xs", nf)
     th_si = ca.substitute(theta, x, xs)
-    r_dp_s, r_w_s = ca.substitute([r_dp, r_w], [x], [xs])
+    r_dp_s, r_w_s, r_t_s = ca.substitute([r_dp, r_w, r_t], [x], [xs])
     scale = ca.DM(PARAMETER_SCALES[np.array(free)])
     J_dp = ca.jacobian(r_dp_s, xs) / ca.repmat(scale.T, n_rows, 1)
     J_w = ca.jacobian(r_w_s, xs) / ca.repmat(scale.T, n_rows, 1)
-    resid = ca.Function("wheel_resid", [xs, p], [r_dp_s, r_w_s, J_dp, J_w, th_si])
+    J_t = ca.jacobian(r_t_s, xs) / ca.repmat(scale.T, n_rows, 1)
+    resid = ca.Function("wheel_resid", [xs, p], [r_dp_s, r_w_s, J_dp, J_w, th_si, r_t_s, J_t])
     return solver, resid

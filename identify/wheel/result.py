@@ -28,7 +28,7 @@ from ...soilmodel.wheel_sweep import WheelSweep
 from ..estimates.least_squares import RANK_TOL, WEAK_CORRELATION, core_stats_one, quantile
 from ..estimates.distributions import f_sf
 from ..outcome import BOUND_TOL, LackOfFitTest, Outcome, decide_outcome, identified, outcome_lines, running_gear_json
-from .problem import WHEEL_PARAMETERS, bekker_modulus, channel_floors, residual_function
+from .problem import WHEEL_PARAMETERS, bekker_modulus, channel_floors, residual_function, torque_floor
 
 __all__ = [
     "WheelEstimate",
@@ -204,6 +204,26 @@ class WheelFitResult:
     dof: int
     residuals: np.ndarray = field(repr=False, default=None)
     rows_dropped: int = 0
+    #: The torque channel's rms (weighted) residual, N m (``None``: the torque was not measured).
+    rmse_torque: float | None = None
+    #: Covariance of the free parameters in SI (order of :attr:`free_names`), ``None`` without one.
+    covariance_si: np.ndarray | None = field(repr=False, default=None)
+    #: The free parameters' names (``WHEEL_PARAMETERS`` order) of :attr:`covariance_si`.
+    free_names: tuple[str, ...] = ()
+    #: Directions (SI, over :attr:`free_names`) the data do not see: a prediction is estimable only
+    #: when its gradient is orthogonal to every one.
+    null_space_si: tuple[tuple[float, ...], ...] = ()
+
+    def covariance_dict(self) -> dict[str, Any] | None:
+        """The ``"covariance"`` block of the JSON (SI, linearised), or ``None``."""
+        if self.covariance_si is None or not np.all(np.isfinite(self.covariance_si)):
+            return None
+        return {
+            "parameters": list(self.free_names),
+            "matrix": [[float(x) for x in row] for row in self.covariance_si],
+            "units": "SI",
+            "null_space": [list(v) for v in self.null_space_si],
+        }
 
     def predict(self, data: WheelSweep) -> np.ndarray:
         """The model's drawbar pull (N) for each row of ``data`` (its sinkage, or solved from its load)."""
@@ -212,6 +232,10 @@ class WheelFitResult:
     def predict_load(self, data: WheelSweep) -> np.ndarray:
         """The vertical force (N) of the fitted stresses at each row's sinkage (its load if solved)."""
         return self._rows(data)[1]
+
+    def predict_torque(self, data: WheelSweep) -> np.ndarray:
+        """The model's driving torque (N m) for each row of ``data`` (at the sinkage the pull uses)."""
+        return self._rows(data)[4]
 
     def predict_sinkage(self, data: WheelSweep) -> np.ndarray:
         """The sinkage (m) at which the fitted stresses carry each row's load (the sinkage channel)."""
@@ -296,6 +320,11 @@ class WheelFitResult:
                 "starts": self.starts,
                 "starts_converged": self.starts_converged,
             },
+            "covariance": self.covariance_dict(),
+            "torque_rmse_Nm": _num(self.rmse_torque) if self.rmse_torque is not None else None,
+            "channels": ["drawbar_pull_N"]
+            + (["sinkage_m"] if self.sinkage_measured else [])
+            + (["wheel_torque_Nm"] if self.rmse_torque is not None else []),
         }
 
     def to_json(self) -> str:
@@ -323,7 +352,8 @@ class WheelFitResult:
                 f", sinkage rmse {1e3 * self.rmse_sinkage:.3g} mm (against the sinkage that carries the load)"
                 if self.rmse_sinkage is not None
                 else ""
-            ),
+            )
+            + (f", wheel torque rmse {self.rmse_torque:.4g} N m" if self.rmse_torque is not None else ""),
             "",
         ]
         lines.append(f"{'parameter':<30}{'value':>12}{'95 % interval':>28}  identifiable")
@@ -484,8 +514,14 @@ def build_wheel_result(
     starts: int,
     starts_converged: int,
     solve_time_s: float,
+    residual_torque: np.ndarray | None = None,
+    jac_torque: np.ndarray | None = None,
 ) -> WheelFitResult:
-    """Assemble a :class:`WheelFitResult` from the optimum's residuals and Jacobians (SI)."""
+    """Assemble a :class:`WheelFitResult` from the optimum's residuals and Jacobians (SI).
+
+    ``residual_torque`` / ``jac_torque``: the measured torque's channel (weighted by its rows'
+    relative standard deviations), stacked with its own noise level like the sinkage's.
+    """
     n = data.n_samples
     sink = data.has_sinkage
     lo, hi = np.array(options.bounds.lower), np.array(options.bounds.upper)
@@ -501,6 +537,12 @@ def build_wheel_result(
         s_z_eff = math.sqrt(s_z**2 + f_z**2)
         rw = np.concatenate([rw, residual_z / s_z_eff])
         J = np.vstack([J, jac_z / s_z_eff])
+    s_t = None
+    if residual_torque is not None and jac_torque is not None:
+        s_t = math.sqrt(float(residual_torque @ residual_torque) / n)
+        s_t_eff = math.hypot(s_t, torque_floor(float(np.mean(data.normal_load)), wheel.radius))
+        rw = np.concatenate([rw, residual_torque / s_t_eff])
+        J = np.vstack([J, jac_torque / s_t_eff])
     finite = bool(np.all(np.isfinite(J)) and np.all(np.isfinite(rw)) and np.all(np.isfinite(theta)))
     names = [WHEEL_PARAMETERS[k] for k in range(len(WHEEL_PARAMETERS)) if free[k]]
     st = core_stats_one(np.where(np.isfinite(J), J, 0.0), np.where(np.isfinite(rw), rw, 0.0), False)
@@ -711,7 +753,7 @@ def build_wheel_result(
         rank=rank,
         scaled_singular_values=tuple(float(s) for s in Srel),
         null_space=tuple(null_dirs),
-        noise_sd={"drawbar_pull_N": s_dp, "sinkage_m": s_z},
+        noise_sd={"drawbar_pull_N": s_dp, "sinkage_m": s_z, **({"wheel_torque_Nm": s_t} if s_t is not None else {})},
         rmse_drawbar_pull=s_dp,
         rmse_sinkage=s_z,
         lack_of_fit=lof,
@@ -725,4 +767,8 @@ def build_wheel_result(
         dof=dof,
         residuals=np.asarray(residual_dp, dtype=float),
         rows_dropped=int(data.dropped),
+        rmse_torque=s_t,
+        covariance_si=None if C is None else np.array(C, dtype=float),
+        free_names=tuple(names),
+        null_space_si=tuple(tuple(float(x) for x in (col / D) / np.linalg.norm(col / D)) for col in null.T),
     )
