@@ -99,7 +99,11 @@ class ReportViews:
 
     def _determined_labels(self) -> list[str]:
         """:attr:`determined` in the report's words (parameters by name, combinations as labelled)."""
-        return [EDGE_UNITS[d][3] if d in EDGE_UNITS else _combo_label(d) for d in self.determined]
+        return [
+            EDGE_UNITS[d][3] if d in EDGE_UNITS else _combo_label(d)
+            for d in self.determined
+            if not (d == "K" and "shear_modulus" in self.determined)  # K is said once
+        ]
 
     @cached_property
     def fit_outcome(self) -> Outcome:
