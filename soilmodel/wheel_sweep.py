@@ -167,6 +167,7 @@ def read_wheel_sweep(
             column="normal_load_N",
         )
     sink = data.sinkage
+    assert data.drawbar_pull is not None  # (checked above: the column is required)
     return WheelSweep(
         slip=data.slip,
         drawbar_pull=data.drawbar_pull,

@@ -117,7 +117,7 @@ class ReportViews:
         test: LackOfFitTest | None = None
         ratio = None
         if self.sigma_known and self.data_kind == "slip" and self.dof > 0:  # against the stated noise
-            ssr = float(np.sum(np.asarray(self.weighted_residuals, dtype=float) ** 2))
+            ssr = float(np.sum(np.asarray(self.weighted_residuals, dtype=np.float64) ** 2))
             test = stated_noise_test(ssr, self.dof)
             ratio = float(np.sqrt(ssr / self.dof))
         if isinstance(lof, dict) and lof.get("p_value") is not None:  # the repeats' pure error first
@@ -137,7 +137,7 @@ class ReportViews:
     def running_gear(self) -> dict:
         """The JSON ``running_gear`` of a tracked vehicle (``weight_N`` null when the loads are per row)."""
         v = self.vehicle
-        loads = np.asarray(self.normal_loads, dtype=float)
+        loads = np.asarray(self.normal_loads, dtype=np.float64)
         own = loads.size == 0 or bool(np.allclose(loads, v.weight, rtol=1e-6))
         return running_gear_json(
             "track",
@@ -525,9 +525,9 @@ class ReportViews:
                 weak = " [weakly identifiable]" if pe.weakly_identifiable else ""
                 cut = " [cut at a bound, see below]" if "is cut at the bound" in (pe.note or "") else ""
                 ok, why_not = self.identified_parameter(name)
-                nid = "" if ok or pe.at_bound else f" [NOT IDENTIFIED: {why_not}]"
+                tag = "" if ok or pe.at_bound else f" [NOT IDENTIFIED: {why_not}]"
                 L.append(
-                    f"{lab}{pe.edge_value:.5g} {u}{se}, 95 % {rng}{self._interval_tag(name)}{flag}{weak}{cut}{nid}"
+                    f"{lab}{pe.edge_value:.5g} {u}{se}, 95 % {rng}{self._interval_tag(name)}{flag}{weak}{cut}{tag}"
                 )
                 if cut:
                     notes.append(

@@ -27,6 +27,8 @@ parameters) and cached; the data enter as NLP parameters.
 
 from __future__ import annotations
 
+from typing import Any
+
 from dataclasses import dataclass
 
 import casadi as ca
@@ -180,7 +182,7 @@ def wheel_solver(
     f = n_rows / 2 * ca.log(ca.sumsqr(r_dp) + n_rows * (NOISE_FLOOR_REL * ca.sum1(W) / n_rows) ** 2)
     if measured_sinkage:
         f = f + n_rows / 2 * ca.log(ca.sumsqr(r_w) + n_rows * SINKAGE_FLOOR_M**2)
-    opts = {
+    opts: dict[str, Any] = {
         "ipopt.print_level": 0,
         "print_time": False,
         "ipopt.sb": "yes",
@@ -191,7 +193,8 @@ def wheel_solver(
         # shorter step; the status of the solve says whether it converged
         "show_eval_warnings": False,
     }
-    solver = ca.nlpsol("wheel_fit", "ipopt", {"x": x, "p": p, "f": f}, opts)
+    nlp: dict[str, Any] = {"x": x, "p": p, "f": f}
+    solver = ca.nlpsol("wheel_fit", "ipopt", nlp, opts)
     xs = ca.MX.sym("xs", nf)
     th_si = ca.substitute(theta, x, xs)
     r_dp_s, r_w_s = ca.substitute([r_dp, r_w], [x], [xs])
