@@ -112,6 +112,7 @@ def _refuse(names: list[str], what: str) -> None:
 
 def fit_other_kind(data, running_gear, *, model: str, bounds, effects, fixed, strict: bool):
     """Fit a wheel sweep with its rigid wheel or a bevameter test (checked by :func:`check_fit_options`)."""
+    res: Any
     if running_gear is None:
         from .soiltests import fit_soil_test
 

@@ -61,15 +61,9 @@ def fit(
     consistency: bool = True,
     **options,
 ):
-    """Identify the soil from measured data of any kind: one entry point, every running gear.
-
-    ``fit(sweep_or_log, vehicle, ...)`` -> :class:`FitResult`; ``fit(wheel_sweep, rigid_wheel, ...)``
-    -> :class:`~soiltrack.identify.wheel.WheelFitResult` (:func:`~soiltrack.identify.wheel.fit_wheel`);
-    ``fit(shear_or_plate_test)`` (no running gear: the soil itself was measured) ->
-    :class:`~soiltrack.identify.soiltests.SoilTestFit`. Every result has ``outcome`` and
-    ``fit_outcome`` (:mod:`soiltrack.identify.outcome`). The options are keyword-only and checked up
-    front (:func:`~soiltrack.identify.dispatch.check_fit_options`): one that does not apply to the data
-    kind raises :class:`~soiltrack.soilmodel.DataError` naming it.
+    """Identify the soil from measured data of any kind: :class:`FitResult` for a vehicle's sweep or log,
+    :class:`~.wheel.WheelFitResult` for a wheel, :class:`~.soiltests.SoilTestFit` for a bevameter test, each
+    with its ``outcome`` (:mod:`.outcome`); keyword-only options checked up front (:mod:`.dispatch`).
 
     Parameters
     ----------
@@ -78,8 +72,7 @@ def fit(
         loads; a missing ``normal_load`` means the vehicle's weight) or a drive log (dispatched
         to :func:`soiltrack.identify.drivelog.fit.fit_drive_log`). Drawbar pull is modelled as
         ``F(i) - R`` with ``R`` the motion resistance (``mu_r W`` for the nominal model). A wheel
-        sweep (or drawbar-pull :class:`SlipData` with the load per row) with a :class:`RigidWheel`;
-        a bevameter test without a running gear.
+        sweep (or drawbar-pull :class:`SlipData`, load per row); a bevameter test (no running gear).
     running_gear : Vehicle, RigidWheel or None
         The tracked vehicle, the rigid wheel, or None for a bevameter test. For a wheel: ``model``
         (``"cohesion-free"`` holds c at 0), ``fixed`` (``{parameter: SI value}``), ``effects``
@@ -156,20 +149,8 @@ def fit(
     km/h or rpm, loads in kN, repeated rows) is said in the warnings, and the result fails
     (``success`` False) where the answer cannot stand.
     """
-    other = check_fit_options(
-        data,
-        running_gear,
-        model=model,
-        method=method,
-        bounds=bounds,
-        x0=x0,
-        engine=engine,
-        effects=effects,
-        fixed=fixed,
-        settings=settings,
-        options=options,
-    )
-    if other is not None:  # a rigid wheel or a bevameter test
+    kw = {"model": model, "method": method, "bounds": bounds, "x0": x0, "engine": engine, "effects": effects}
+    if check_fit_options(data, running_gear, options=options, fixed=fixed, settings=settings, **kw) is not None:
         return fit_other_kind(
             data, running_gear, model=model, bounds=bounds, effects=effects, fixed=fixed, strict=strict
         )

@@ -253,7 +253,7 @@ def wheel_forces_function(
     """
     names = ["i", "z", "c", "phi", "K", "k_c", "k_phi", "n", "s"]
     s = [ca.SX.sym(nm) for nm in names]
-    dp, wl, tq = wheel_expr(*s[:8], r, b, h, settings, slip_sinkage=s[8])
+    dp, wl, tq = wheel_expr(s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], r, b, h, settings, slip_sinkage=s[8])
     return ca.Function("rigid_wheel", s, [dp, wl, tq], names, list(WHEEL_OUTPUTS))
 
 
@@ -299,6 +299,6 @@ def evaluate(fn: ca.Function, *args: Any) -> list[np.ndarray]:
     arrs = np.broadcast_arrays(*[np.asarray(a, dtype=float) for a in args])
     shape = arrs[0].shape
     mapped = fn.map(int(arrs[0].size))
-    res = mapped(*[ca.DM(a.reshape(1, -1)) for a in arrs])
-    res = res if isinstance(res, (list, tuple)) else [res]
-    return [np.asarray(x, dtype=float).reshape(shape) for x in res]
+    out = mapped(*[ca.DM(a.reshape(1, -1)) for a in arrs])
+    outs = out if isinstance(out, (list, tuple)) else [out]
+    return [np.asarray(x, dtype=float).reshape(shape) for x in outs]

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from typing import Any
 
 from .cliutil import EXIT_OK, EXIT_SOLVER, floats_arg, output_path
 from .identify.outcome import exit_code
@@ -180,7 +181,7 @@ def simulate_wheel_command(a: argparse.Namespace, wheel: RigidWheel, soil) -> in
             k_c=kc * 1e3,
             k_phi=kphi * 1e3,
         )
-    kw = {}
+    kw: dict[str, Any] = {}
     if a.slips:
         kw["slips"] = floats_arg(a.slips, "--slips")
     loads = floats_arg(a.loads, "--loads") if a.loads else None

@@ -346,3 +346,24 @@ def test_the_share_explained_is_measured_on_the_floor_not_on_the_weights_standar
     assert effect.explained(nominal) == pytest.approx(1 - (1.21 * q - 1) / (4 * q - 1))
     # without a floor standardisation the weights' z serve (a sweep): both within the noise, nothing to explain
     assert math.isnan(hyp("grade", "candidate", 0.2 * e).explained(hyp("none", "nominal", 0.3 * e)))
+
+
+def test_none_has_the_weight_of_the_no_gap_hypothesis_as_confidence():
+    """Issue 37 item 4: an effect-free sweep's nominal weight is shared with effects that fit it as well;
+    ``none`` then carries the weight of every hypothesis the evidence does not tell from the nominal model."""
+    e = RNG.standard_normal(N)
+    hs = [
+        hyp("none", "nominal", e),
+        hyp("grade", "candidate", e),
+        hyp("radius_error", "candidate", e),
+        hyp("discrepancy", "flexible", e),
+    ]
+    w = {"none": 0.03, "grade": 0.32, "radius_error": 0.32, "discrepancy": 0.33}
+    apart = {"grade": 0.5, "radius_error": 1.9, "discrepancy": 3.0}  # standard errors from the nominal model
+    sep = lambda a, b: apart[a.name if a.name != "none" else b.name]  # noqa: E731
+    d = decide(hs, w, gap(0.5), S, separation=sep)
+    assert d.verdict == "none" and d.confidence == pytest.approx(0.03 + 0.32 + 0.32)
+    assert "no-gap hypothesis (0.67)" in d.reason and "grade, radius_error" in d.reason
+    assert decide(hs, w, gap(0.5), S).confidence == 0.03  # without the separation: the nominal model's own
+    far = lambda a, b: 5.0  # noqa: E731
+    assert decide(hs, w, gap(0.5), S, separation=far).confidence == 0.03

@@ -78,6 +78,8 @@ def _consistent(d):
     w = {e.effect: e.weight for e in d.ranking}
     if d.verdict == "unexplained":
         assert d.confidence == pytest.approx(sum(e.weight for e in d.ranking if e.family in ("flexible", "outside")))
+    elif d.verdict == "none":  # the no-gap hypothesis's weight (issue 37): at least the nominal model's
+        assert w["none"] <= d.confidence <= 1.0 + 1e-12 and "no-gap hypothesis" in d.reason
     else:
         assert d.confidence == w[d.verdict]
 

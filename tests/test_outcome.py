@@ -291,6 +291,7 @@ def test_the_gentle_log_lists_neither_f_max_nor_ranges_derived_from_it():
     text = r.report()
     assert "possible range" not in text and "[6, 15.36] deg" not in text
     determined = text.split("what the data determine")[1].split("NOT determined by these data")[0]
-    assert "F_max" not in determined and "initial_slope at W = 300 N   2.2423 kN/slip" in determined
+    assert not any(line.lstrip().startswith("F_max") for line in determined.splitlines())
+    assert "initial_slope at W = 300 N   2.2423 kN/slip" in determined
     assert "F_max at W = 300 N           gentle driving" in text.split("NOT determined by these data")[1]
     assert "pin down neither F_max nor K" in text

@@ -16,7 +16,13 @@ Given the weights of the admissible hypotheses (:mod:`.evidence`) and the gap te
 4. A gap, and the heaviest is the nominal model: ``none``.
 
 The confidence is the verdict's weight as it stands in the ranking; for ``unexplained`` the summed
-weight of the hypotheses outside the candidates (the flexible term and the outside causes). Effects
+weight of the hypotheses outside the candidates (the flexible term and the outside causes); for
+``none`` the weight of the no-gap hypothesis in the same comparison: the nominal model's together
+with that of every hypothesis the evidence does not tell from it (their difference of evidence within
+``confusable_separation`` of its standard errors: an effect fitted to no gap describes the data as
+the nominal model does, and the weights spread over such nested hypotheses are the nominal
+model's). Without that, an effect-free sweep whose nominal weight is shared with a dozen effects that
+fit it as well would print ``none`` with a confidence near zero. Effects
 whose weights are close and whose sensitivities are collinear are ``confusable``, each pair with the
 experiment that separates them; such a group shares its summed weight evenly before the verdict is
 drawn (:func:`share_confusable`: the data name the group, not a member), so the confidence is the
@@ -35,7 +41,15 @@ from .hypotheses import NOMINAL, Hypothesis
 from .selection import confusable_groups, separating_experiment, shared_weights
 from .settings import DiagnoseSettings
 
-__all__ = ["ConfusablePair", "Decision", "SharedWeights", "decide", "share_confusable", "UNEXPLAINED"]
+__all__ = [
+    "ConfusablePair",
+    "Decision",
+    "SharedWeights",
+    "decide",
+    "share_confusable",
+    "no_gap_weight",
+    "UNEXPLAINED",
+]
 
 UNEXPLAINED = "unexplained"
 
@@ -217,6 +231,33 @@ def _group_explains(
     return ok, how
 
 
+def no_gap_weight(
+    hyps: list[Hypothesis],
+    weights: dict[str, float],
+    settings: DiagnoseSettings,
+    separation: Callable[[Hypothesis, Hypothesis], float] | None,
+) -> tuple[float, list[str]]:
+    """The weight of the no-gap hypothesis and the hypotheses it holds besides the nominal model.
+
+    The nominal model's weight plus that of every hypothesis whose difference of evidence from it is
+    within ``confusable_separation`` of its standard errors (``separation``; none without it): the
+    comparison cannot tell them from "no gap". At most 1 (the weights sum to one).
+    """
+    by = {h.name: h for h in hyps}
+    if separation is None or NOMINAL not in by:
+        return float(weights.get(NOMINAL, 0.0)), []
+    nominal = by[NOMINAL]
+    alike = []
+    for h in hyps:
+        if h.name == NOMINAL:
+            continue
+        z = separation(h, nominal)
+        if math.isfinite(z) and z < settings.confusable_separation:
+            alike.append(h.name)
+    total = float(weights[NOMINAL]) + sum(float(weights[a]) for a in alike)
+    return min(total, 1.0), alike
+
+
 def decide(
     hyps: list[Hypothesis],
     weights: dict[str, float],
@@ -224,6 +265,7 @@ def decide(
     settings: DiagnoseSettings,
     *,
     confusable: tuple = (),
+    separation: Callable[[Hypothesis, Hypothesis], float] | None = None,
 ) -> Decision:
     """Apply the rule of the module docstring.
 
@@ -241,6 +283,10 @@ def decide(
     confusable
         The pairs that shared their weight (:attr:`SharedWeights.confusable`), reported with the
         decision.
+    separation
+        The evidence's difference of two hypotheses in its standard errors (e.g.
+        :meth:`.evidence.HeldOutEvidence.separation`): with it, the confidence of ``none`` is the
+        no-gap hypothesis's weight (:func:`no_gap_weight`); without it, the nominal model's.
     """
     by = {h.name: h for h in hyps}
     top = max(weights, key=lambda k: weights[k])  # the first maximal: ties in the order of share_confusable
@@ -250,13 +296,20 @@ def decide(
     exv = float(ex) if math.isfinite(ex) else None
     w_top = f"{top} carries the largest weight ({weights[top]:.2f})"
     if not gap.present or h.family == "nominal":
+        conf, alike = no_gap_weight(hyps, weights, settings, separation)
         why = (
             f"no gap test is significant (family level {settings.alpha:g}, shared among {len(gap.tests)} tests): "
-            f"without a gap no explanation is named; the confidence is the nominal model's weight"
+            f"without a gap no explanation is named"
             if not gap.present
             else f"a gap test is significant, but {w_top}"
         )
-        return Decision(NOMINAL, weights[NOMINAL], top, None, None, why, confusable=confusable)
+        why += f"; the confidence is the weight of the no-gap hypothesis ({conf:.2f}): the nominal model's " + (
+            f"({weights[NOMINAL]:.2f}) and that of the {len(alike)} hypotheses the evidence does not tell from "
+            f"it (within {settings.confusable_separation:g} standard errors: {', '.join(alike)})"
+            if alike
+            else "alone (the evidence tells every other hypothesis from it)"
+        )
+        return Decision(NOMINAL, conf, top, None, None, why, confusable=confusable)
     ok, how = _group_explains(h, by, exv, confusable, settings)
     if h.family == "candidate" and ok:
         why = f"{w_top} and {how}" if how else w_top

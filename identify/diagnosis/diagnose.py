@@ -468,7 +468,7 @@ def diagnose(
     terrain = next((h for h in hyps if h.name == "terrain_change"), None)
     window_p = None if terrain is None else terrain.detail.get("score_p_value")
     gap = _gap(setup, scored, weights, hold, window_p)
-    dec = decide(scored, weights, gap, settings, confusable=shared.confusable)
+    dec = decide(scored, weights, gap, settings, confusable=shared.confusable, separation=evidence.separation)
     say("the verdict's fit on all the data")
     return _result(
         setup,

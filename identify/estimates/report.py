@@ -99,7 +99,11 @@ class ReportViews:
 
     def _determined_labels(self) -> list[str]:
         """:attr:`determined` in the report's words (parameters by name, combinations as labelled)."""
-        return [EDGE_UNITS[d][3] if d in EDGE_UNITS else _combo_label(d) for d in self.determined]
+        return [
+            EDGE_UNITS[d][3] if d in EDGE_UNITS else _combo_label(d)
+            for d in self.determined
+            if not (d == "K" and "shear_modulus" in self.determined)  # K is said once
+        ]
 
     @cached_property
     def fit_outcome(self) -> Outcome:
@@ -113,7 +117,7 @@ class ReportViews:
         test: LackOfFitTest | None = None
         ratio = None
         if self.sigma_known and self.data_kind == "slip" and self.dof > 0:  # against the stated noise
-            ssr = float(np.sum(np.asarray(self.weighted_residuals, dtype=float) ** 2))
+            ssr = float(np.sum(np.asarray(self.weighted_residuals, dtype=np.float64) ** 2))
             test = stated_noise_test(ssr, self.dof)
             ratio = float(np.sqrt(ssr / self.dof))
         if isinstance(lof, dict) and lof.get("p_value") is not None:  # the repeats' pure error first
@@ -133,7 +137,7 @@ class ReportViews:
     def running_gear(self) -> dict:
         """The JSON ``running_gear`` of a tracked vehicle (``weight_N`` null when the loads are per row)."""
         v = self.vehicle
-        loads = np.asarray(self.normal_loads, dtype=float)
+        loads = np.asarray(self.normal_loads, dtype=np.float64)
         own = loads.size == 0 or bool(np.allclose(loads, v.weight, rtol=1e-6))
         return running_gear_json(
             "track",
@@ -463,6 +467,73 @@ class ReportViews:
             return head + "; no residual degrees of freedom -> no standard errors"
         return f"{head}; {t}"
 
+    def _soil_parameter_lines(self) -> list[str]:
+        """The report's soil parameters: value, SE, 95 % interval and flags, or why there is no number."""
+        L: list[str] = []
+        L.append("parameters (95 % intervals):")
+        notes = []
+        for name, pe in self.parameters.items():
+            lab = f"  {EDGE_UNITS[name][3]:<20}"
+            u = pe.edge_unit
+            lo, hi = pe.edge_ci95
+            rng = f"[{lo:.4g}, {hi:.4g}] {u}" if lo is not None and hi is not None else "[unavailable]"
+            if pe.fixed:
+                L.append(f"{lab}0 {u} (fixed by the cohesion-free model)")
+            elif pe.value is None and not self.success:
+                L.append(f"{lab}no estimate (the fit failed)" + ("" if pe.identifiable else "; not identifiable"))
+            elif not pe.identifiable and any(n.startswith("F_max") for n in self.undetermined_combinations):
+                L.append(f"{lab}NOT IDENTIFIABLE (nor is F_max, which would bound it: no range)")
+            elif not pe.identifiable:
+                L.append(f"{lab}NOT IDENTIFIABLE; possible range {rng}")
+            else:
+                se = f" (SE {pe.edge_stderr:.3g} {u})" if pe.stderr is not None else " (no SE)"
+                flag = " [ON " + pe.bound_side.upper() + " BOUND]" if pe.at_bound else ""
+                weak = " [weakly identifiable]" if pe.weakly_identifiable else ""
+                cut = " [cut at a bound, see below]" if "is cut at the bound" in (pe.note or "") else ""
+                ok, why_not = self.identified_parameter(name)
+                tag = "" if ok or pe.at_bound else f" [NOT IDENTIFIED: {why_not}]"
+                L.append(
+                    f"{lab}{pe.edge_value:.5g} {u}{se}, 95 % {rng}{self._interval_tag(name)}{flag}{weak}{cut}{tag}"
+                )
+                if cut:
+                    notes.append(
+                        f"  {EDGE_UNITS[name][3]}: "
+                        + "; ".join(n for n in pe.note.split("; ") if "is cut at the bound" in n)
+                    )
+        L.extend(notes)
+        return L
+
+    def _combination_lines(self, continuous: bool) -> list[str]:
+        """What the data determine (with numbers) and, apart, what they do not (without)."""
+        L: list[str] = []
+        k_shown = self.parameters["shear_modulus"].identifiable and self.success
+        combos = [cb for cb in self.combinations if not (cb.name == "K" and k_shown)]  # K is said above
+        L.append("what the data determine (95 % intervals):" + ("" if combos else " nothing (the fit failed)"))
+        shown = {f"{w:.6g}" for w in load_summary_points(self.normal_loads)} if continuous else None
+        per_load = [cb for cb in combos if "@W=" in cb.name]
+        if shown is not None and per_load:  # a measured load: the combinations at its median and extremes
+            combos = [cb for cb in combos if "@W=" not in cb.name or _combo_load(cb.name) in shown]
+        undetermined = [cb for cb in combos if cb.name in self.undetermined_combinations]
+        combos = [cb for cb in combos if cb.name not in self.undetermined_combinations]
+        for cb in combos:
+            label = _combo_label(cb.name)
+            ends = [e for e in ("lower", "upper") if f"the {e} end of the 95 % interval is cut" in cb.note]
+            cut = f" [{' and '.join(ends)} end cut at the bound]" if ends else ""
+            L.append(
+                f"  {label:<28} {_combo_value(cb)}{cut}{' [weak]' if cb.weakly_identifiable else ''}  "
+                f"({cb.description})"
+            )
+        if shown is not None and per_load:
+            L.append(
+                f"  (at the lowest, the median and the highest of the {len(self.normal_loads)} measured loads; "
+                "every load's values are in --json under combinations)"
+            )
+        if undetermined:
+            L.append("NOT determined by these data (no number is an estimate):")
+            for cb in undetermined:
+                L.append(f"  {_combo_label(cb.name):<28} {self.undetermined_combinations[cb.name]}")
+        return L
+
     def report(self) -> str:
         """A human-readable multi-line report (units by magnitude: N or kN, kPa, deg, m)."""
         L: list[str] = []
@@ -500,37 +571,7 @@ class ReportViews:
         L.append(f"fit: RMSE {rmse}, cost {self.cost:.6g}, residual dof {self.dof}")
         L.append(self._noise_line())
         L.extend(self._drive_log_lines())
-        L.append("parameters (95 % intervals):")
-        notes = []
-        for name, pe in self.parameters.items():
-            lab = f"  {EDGE_UNITS[name][3]:<20}"
-            u = pe.edge_unit
-            lo, hi = pe.edge_ci95
-            rng = f"[{lo:.4g}, {hi:.4g}] {u}" if lo is not None and hi is not None else "[unavailable]"
-            if pe.fixed:
-                L.append(f"{lab}0 {u} (fixed by the cohesion-free model)")
-            elif pe.value is None and not self.success:
-                L.append(f"{lab}no estimate (the fit failed)" + ("" if pe.identifiable else "; not identifiable"))
-            elif not pe.identifiable and any(n.startswith("F_max") for n in self.undetermined_combinations):
-                L.append(f"{lab}NOT IDENTIFIABLE (nor is F_max, which would bound it: no range)")
-            elif not pe.identifiable:
-                L.append(f"{lab}NOT IDENTIFIABLE; possible range {rng}")
-            else:
-                se = f" (SE {pe.edge_stderr:.3g} {u})" if pe.stderr is not None else " (no SE)"
-                flag = " [ON " + pe.bound_side.upper() + " BOUND]" if pe.at_bound else ""
-                weak = " [weakly identifiable]" if pe.weakly_identifiable else ""
-                cut = " [cut at a bound, see below]" if "is cut at the bound" in (pe.note or "") else ""
-                ok, why_not = self.identified_parameter(name)
-                nid = "" if ok or pe.at_bound else f" [NOT IDENTIFIED: {why_not}]"
-                L.append(
-                    f"{lab}{pe.edge_value:.5g} {u}{se}, 95 % {rng}{self._interval_tag(name)}{flag}{weak}{cut}{nid}"
-                )
-                if cut:
-                    notes.append(
-                        f"  {EDGE_UNITS[name][3]}: "
-                        + "; ".join(n for n in pe.note.split("; ") if "is cut at the bound" in n)
-                    )
-        L.extend(notes)
+        L.extend(self._soil_parameter_lines())
         if self.effects:
             L.append("effect parameters (95 % intervals, SI):")
         for name, ps in self.effects.items():
@@ -568,32 +609,7 @@ class ReportViews:
                 "  (both holds: the interval covers the fits with the torque held and sampled; the torque hold "
                 "was not given)"
             )
-        k_shown = self.parameters["shear_modulus"].identifiable and self.success
-        combos = [cb for cb in self.combinations if not (cb.name == "K" and k_shown)]  # K is said above
-        L.append("what the data determine (95 % intervals):" + ("" if combos else " nothing (the fit failed)"))
-        shown = {f"{w:.6g}" for w in load_summary_points(self.normal_loads)} if continuous else None
-        per_load = [cb for cb in combos if "@W=" in cb.name]
-        if shown is not None and per_load:  # a measured load: the combinations at its median and extremes
-            combos = [cb for cb in combos if "@W=" not in cb.name or _combo_load(cb.name) in shown]
-        undetermined = [cb for cb in combos if cb.name in self.undetermined_combinations]
-        combos = [cb for cb in combos if cb.name not in self.undetermined_combinations]
-        for cb in combos:
-            label = _combo_label(cb.name)
-            ends = [e for e in ("lower", "upper") if f"the {e} end of the 95 % interval is cut" in cb.note]
-            cut = f" [{' and '.join(ends)} end cut at the bound]" if ends else ""
-            L.append(
-                f"  {label:<28} {_combo_value(cb)}{cut}{' [weak]' if cb.weakly_identifiable else ''}  "
-                f"({cb.description})"
-            )
-        if shown is not None and per_load:
-            L.append(
-                f"  (at the lowest, the median and the highest of the {len(self.normal_loads)} measured loads; "
-                "every load's values are in --json under combinations)"
-            )
-        if undetermined:
-            L.append("NOT determined by these data (no number is an estimate):")
-            for cb in undetermined:
-                L.append(f"  {_combo_label(cb.name):<28} {self.undetermined_combinations[cb.name]}")
+        L.extend(self._combination_lines(continuous))
         ident = self.identifiability
         L.append(
             f"identifiability: the data determine {ident['rank']} independent direction(s) of the "

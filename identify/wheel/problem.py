@@ -27,6 +27,8 @@ parameters) and cached; the data enter as NLP parameters.
 
 from __future__ import annotations
 
+from typing import Any
+
 from dataclasses import dataclass
 
 import casadi as ca
@@ -201,7 +203,7 @@ def wheel_solver(
         r_t = (tq.T - T) * wt
         floor_t = NOISE_FLOOR_REL * ca.sum1(W) / n_rows * wheel.radius
         f = f + n_rows / 2 * ca.log(ca.sumsqr(r_t) + n_rows * floor_t**2)
-    opts = {
+    opts: dict[str, Any] = {
         "ipopt.print_level": 0,
         "print_time": False,
         "ipopt.sb": "yes",
@@ -212,7 +214,8 @@ def wheel_solver(
         # shorter step; the status of the solve says whether it converged
         "show_eval_warnings": False,
     }
-    solver = ca.nlpsol("wheel_fit", "ipopt", {"x": x, "p": p, "f": f}, opts)
+    nlp: dict[str, Any] = {"x": x, "p": p, "f": f}
+    solver = ca.nlpsol("wheel_fit", "ipopt", nlp, opts)
     xs = ca.MX.sym("xs", nf)
     th_si = ca.substitute(theta, x, xs)
     r_dp_s, r_w_s, r_t_s = ca.substitute([r_dp, r_w, r_t], [x], [xs])

@@ -202,7 +202,7 @@ class WheelFitResult:
     starts_converged: int
     solve_time_s: float
     dof: int
-    residuals: np.ndarray = field(repr=False, default=None)
+    residuals: np.ndarray | None = field(repr=False, default=None)
     rows_dropped: int = 0
     #: The torque channel's rms (weighted) residual, N m (``None``: the torque was not measured).
     rmse_torque: float | None = None
@@ -497,6 +497,183 @@ def _lack_of_fit(data: WheelSweep, r_dp: np.ndarray, rank_dp: int) -> dict[str, 
     return out
 
 
+def _wheel_parameters(theta, free, lo, hi, ident, Pinv, C, q) -> tuple[dict[str, WheelEstimate], list, list]:
+    """Each parameter's estimate in edge units (held ones as given), and the names not identifiable and
+    weakly identifiable."""
+    params: dict[str, WheelEstimate] = {}
+    kf = 0
+    weak_names, nonid = [], []
+    for k, name in enumerate(WHEEL_PARAMETERS):
+        key, fac = _EDGE[name][0], _EDGE[name][1]
+        if not free[k]:
+            params[key] = WheelEstimate(
+                float(theta[k] * fac), None, (None, None), True, False, False, None, True, "held fixed"
+            )
+            continue
+        span = hi[k] - lo[k]
+        side = (
+            "lower"
+            if theta[k] - lo[k] < BOUND_REL_TOL * span
+            else "upper"
+            if hi[k] - theta[k] < BOUND_REL_TOL * span
+            else None
+        )
+        vif = float(Pinv[kf, kf])
+        weak = bool(ident[kf] and vif > _WEAK_VIF)
+        se = math.sqrt(C[kf, kf]) if C is not None and ident[kf] and C[kf, kf] >= 0 else None
+        # linearised interval, intersected with the bounds (no negative cohesion or friction angle)
+        ci = (
+            (max(theta[k] - q * se, lo[k]), min(theta[k] + q * se, hi[k]))
+            if se is not None and q is not None
+            else (None, None)
+        )
+        note = "" if side is None else f"on its {side} bound: the data or the bounds want a value beyond it"
+        params[key] = WheelEstimate(
+            float(theta[k] * fac),
+            None if se is None else se * fac,
+            (None if ci[0] is None else float(ci[0] * fac), None if ci[1] is None else float(ci[1] * fac)),
+            bool(ident[kf]),
+            weak,
+            side is not None,
+            side,
+            False,
+            note,
+            lower=float(lo[k] * fac),
+            upper=float(hi[k] * fac),
+        )
+        if not ident[kf]:
+            nonid.append(name)
+        elif weak:
+            weak_names.append(name)
+        kf += 1
+
+    return params, nonid, weak_names
+
+
+def _null_statements(null, D, names, statements: list) -> list[dict[str, float]]:
+    """The null directions in edge units (largest component positive); a statement per direction."""
+    null_dirs = []
+    for col in null.T:
+        d = col / D * np.array([_EDGE[nm][1] for nm in names])
+        d = d / np.linalg.norm(d)
+        if d[np.argmax(np.abs(d))] < 0:
+            d = -d
+        null_dirs.append({_EDGE[nm][0]: float(d[j]) for j, nm in enumerate(names)})
+        involved = [_EDGE[nm][3] for j, nm in enumerate(names) if abs(col[j]) > 0.1]
+        statements.append(
+            f"the data do not separate {' and '.join(involved)}: they see no change along one "
+            "combination of them (a null direction of the Jacobian)."
+        )
+    return null_dirs
+
+
+def _parameter_statements(names, nonid, weak_names, combos, params, ident) -> list[str]:
+    """What the data identify, in words: parameters not identifiable, weakly identifiable, not identified by
+    the outcome rules (on a bound, an interval over most of the range), the combinations."""
+    statements: list[str] = []
+    for name in nonid:
+        statements.append(f"{_EDGE[name][3]} is not identifiable from these data.")
+    for name in weak_names:
+        statements.append(
+            f"{_EDGE[name][3]} is only weakly identifiable (its estimate correlates above "
+            f"{WEAK_CORRELATION} with the other parameters'): its interval is wide."
+        )
+    for c in combos:
+        if c.determined[0] and not c.weakly_identifiable and c.stderr is not None:
+            statements.append(f"{c.name} ({c.meaning}) is identified: {c.value:.4g} {c.unit} +- {c.stderr:.2g}.")
+        elif c.estimable and not c.determined[0]:
+            statements.append(f"{c.name} ({c.meaning}) is not determined: {c.determined[1]}.")
+    good = [
+        _EDGE[nm][3]
+        for j, nm in enumerate(names)
+        if ident[j] and nm not in weak_names and params[_EDGE[nm][0]].identified[0]
+    ]
+    if good:
+        statements.append(f"identified on their own: {', '.join(good)}.")
+    for nm in names:
+        e = params[_EDGE[nm][0]]
+        if e.identifiable and not e.identified[0]:
+            statements.append(f"{_EDGE[nm][3]} is not identified: {e.identified[1]}.")
+    return statements
+
+
+def _wheel_combinations(data, wheel, options, theta, free, lo, hi, params, D, null, Pinv, C, q) -> list:
+    """The combinations the wheel's data can pin down: the shear strength at the mean contact pressure and
+    the Bekker stiffness of this width (edge units), with the range their terms' bounds allow."""
+    sink = data.has_sinkage
+
+    def combo(grad_full: np.ndarray) -> tuple[float | None, bool, bool]:
+        g = grad_full[free]
+        gs = g / D
+        nrm = float(np.linalg.norm(gs))
+        est = nrm == 0 or null.shape[1] == 0 or float(np.linalg.norm(gs @ null)) / nrm < NULL_TOL
+        weak = bool(est and nrm > 0 and float(gs @ Pinv @ gs) / nrm**2 > _WEAK_VIF)
+        if not est or C is None:
+            return None, est, weak
+        var = float(g @ C @ g)
+        return (math.sqrt(var) if var >= 0 else None), est, weak
+
+    combos = []
+    # shear strength at the mean contact pressure
+    z_used = data.sinkage if sink else None
+    if z_used is None:
+        z_used = wheel_rows(wheel, options.settings, theta, data)[2]
+    th1 = np.asarray(entry_angle(np.clip(z_used, 1e-12, wheel.radius), wheel.radius), dtype=float).ravel()
+    p_bar = float(np.mean(data.normal_load / (wheel.width * wheel.radius * th1)))
+
+    def on_bounds(*ks: int) -> tuple[tuple[str, ...], bool]:
+        names_on = tuple(
+            _EDGE[WHEEL_PARAMETERS[k]][0] for k in ks if free[k] and params[_EDGE[WHEEL_PARAMETERS[k]][0]].at_bound
+        )
+        return names_on, len(names_on) == sum(bool(free[k]) for k in ks)
+
+    if free[0] or free[1]:
+        tau = theta[0] + p_bar * math.tan(theta[1])
+        tau_rng = (lo[0] + p_bar * math.tan(lo[1]), hi[0] + p_bar * math.tan(hi[1]))
+        tau_on, tau_all = on_bounds(0, 1)
+        se, est, weak = combo(np.array([1.0, p_bar / math.cos(theta[1]) ** 2, 0, 0, 0, 0, 0]))
+        ci = (max(tau - q * se, 0.0), tau + q * se) if se is not None and q is not None else (None, None)
+        combos.append(
+            WheelCombination(
+                "c + p tan(phi)",
+                "kPa",
+                tau / 1e3,
+                None if se is None else se / 1e3,
+                (None if ci[0] is None else ci[0] / 1e3, None if ci[1] is None else ci[1] / 1e3),
+                est,
+                weak,
+                f"shear strength at the mean contact pressure p = {p_bar / 1e3:.3g} kPa "
+                "(load over the arc's projected area b r theta_1)",
+                (tau_rng[0] / 1e3, tau_rng[1] / 1e3),
+                tau_on,
+                tau_all,
+            )
+        )
+    if free[3] and free[4]:
+        kval = bekker_modulus(theta[3], theta[4], wheel.width)
+        k_rng = (bekker_modulus(lo[3], lo[4], wheel.width), bekker_modulus(hi[3], hi[4], wheel.width))
+        k_on, k_all = on_bounds(3, 4)
+        se, est, weak = combo(np.array([0, 0, 0, 1.0 / wheel.width, 1.0, 0, 0]))
+        ci = (max(kval - q * se, 0.0), kval + q * se) if se is not None and q is not None else (None, None)
+        combos.append(
+            WheelCombination(
+                "k_c / b + k_phi",
+                "kN/m^(n+2)",
+                kval / 1e3,
+                None if se is None else se / 1e3,
+                (None if ci[0] is None else ci[0] / 1e3, None if ci[1] is None else ci[1] / 1e3),
+                est,
+                weak,
+                f"Bekker stiffness of this wheel's width b = {wheel.width:g} m",
+                (float(k_rng[0]) / 1e3, float(k_rng[1]) / 1e3),
+                k_on,
+                k_all,
+            )
+        )
+
+    return combos
+
+
 def build_wheel_result(
     *,
     data: WheelSweep,
@@ -533,7 +710,7 @@ def build_wheel_result(
     s_dp_eff = math.sqrt(s_dp**2 + f_dp**2)
     rw = residual_dp / s_dp_eff
     J = jac_dp / s_dp_eff
-    if sink:
+    if s_z is not None:
         s_z_eff = math.sqrt(s_z**2 + f_z**2)
         rw = np.concatenate([rw, residual_z / s_z_eff])
         J = np.vstack([J, jac_z / s_z_eff])
@@ -554,161 +731,12 @@ def build_wheel_result(
     q = quantile(dof, False)
     C = s2 * Pinv / np.outer(D, D) if math.isfinite(s2) else None
 
-    params: dict[str, WheelEstimate] = {}
-    kf = 0
-    weak_names, nonid = [], []
-    for k, name in enumerate(WHEEL_PARAMETERS):
-        key, fac = _EDGE[name][0], _EDGE[name][1]
-        if not free[k]:
-            params[key] = WheelEstimate(
-                float(theta[k] * fac), None, (None, None), True, False, False, None, True, "held fixed"
-            )
-            continue
-        span = hi[k] - lo[k]
-        side = (
-            "lower"
-            if theta[k] - lo[k] < BOUND_REL_TOL * span
-            else "upper"
-            if hi[k] - theta[k] < BOUND_REL_TOL * span
-            else None
-        )
-        g = np.zeros(len(names))
-        g[kf] = 1.0
-        vif = float(Pinv[kf, kf])
-        weak = bool(ident[kf] and vif > _WEAK_VIF)
-        se = math.sqrt(C[kf, kf]) if C is not None and ident[kf] and C[kf, kf] >= 0 else None
-        # linearised interval, intersected with the bounds (no negative cohesion or friction angle)
-        ci = (
-            (max(theta[k] - q * se, lo[k]), min(theta[k] + q * se, hi[k]))
-            if se is not None and q is not None
-            else (None, None)
-        )
-        note = "" if side is None else f"on its {side} bound: the data or the bounds want a value beyond it"
-        params[key] = WheelEstimate(
-            float(theta[k] * fac),
-            None if se is None else se * fac,
-            tuple(None if v is None else float(v * fac) for v in ci),
-            bool(ident[kf]),
-            weak,
-            side is not None,
-            side,
-            False,
-            note,
-            lower=float(lo[k] * fac),
-            upper=float(hi[k] * fac),
-        )
-        if not ident[kf]:
-            nonid.append(name)
-        elif weak:
-            weak_names.append(name)
-        kf += 1
+    params, nonid, weak_names = _wheel_parameters(theta, free, lo, hi, ident, Pinv, C, q)
 
-    def combo(grad_full: np.ndarray) -> tuple[float | None, bool, bool]:
-        g = grad_full[free]
-        gs = g / D
-        nrm = float(np.linalg.norm(gs))
-        est = nrm == 0 or null.shape[1] == 0 or float(np.linalg.norm(gs @ null)) / nrm < NULL_TOL
-        weak = bool(est and nrm > 0 and float(gs @ Pinv @ gs) / nrm**2 > _WEAK_VIF)
-        if not est or C is None:
-            return None, est, weak
-        var = float(g @ C @ g)
-        return (math.sqrt(var) if var >= 0 else None), est, weak
-
-    combos = []
-    statements = []
-    # shear strength at the mean contact pressure
-    z_used = data.sinkage if sink else None
-    if z_used is None:
-        z_used = wheel_rows(wheel, options.settings, theta, data)[2]
-    th1 = np.asarray(entry_angle(np.clip(z_used, 1e-12, wheel.radius), wheel.radius), dtype=float).ravel()
-    p_bar = float(np.mean(data.normal_load / (wheel.width * wheel.radius * th1)))
-
-    def on_bounds(*ks: int) -> tuple[tuple[str, ...], bool]:
-        names_on = tuple(
-            _EDGE[WHEEL_PARAMETERS[k]][0] for k in ks if free[k] and params[_EDGE[WHEEL_PARAMETERS[k]][0]].at_bound
-        )
-        return names_on, len(names_on) == sum(bool(free[k]) for k in ks)
-
-    if free[0] or free[1]:
-        tau = theta[0] + p_bar * math.tan(theta[1])
-        tau_rng = (lo[0] + p_bar * math.tan(lo[1]), hi[0] + p_bar * math.tan(hi[1]))
-        tau_on, tau_all = on_bounds(0, 1)
-        se, est, weak = combo(np.array([1.0, p_bar / math.cos(theta[1]) ** 2, 0, 0, 0, 0, 0]))
-        ci = (max(tau - q * se, 0.0), tau + q * se) if se is not None and q is not None else (None, None)
-        combos.append(
-            WheelCombination(
-                "c + p tan(phi)",
-                "kPa",
-                tau / 1e3,
-                None if se is None else se / 1e3,
-                tuple(None if v is None else v / 1e3 for v in ci),
-                est,
-                weak,
-                f"shear strength at the mean contact pressure p = {p_bar / 1e3:.3g} kPa "
-                "(load over the arc's projected area b r theta_1)",
-                (tau_rng[0] / 1e3, tau_rng[1] / 1e3),
-                tau_on,
-                tau_all,
-            )
-        )
-    if free[3] and free[4]:
-        kval = bekker_modulus(theta[3], theta[4], wheel.width)
-        k_rng = (bekker_modulus(lo[3], lo[4], wheel.width), bekker_modulus(hi[3], hi[4], wheel.width))
-        k_on, k_all = on_bounds(3, 4)
-        se, est, weak = combo(np.array([0, 0, 0, 1.0 / wheel.width, 1.0, 0, 0]))
-        ci = (max(kval - q * se, 0.0), kval + q * se) if se is not None and q is not None else (None, None)
-        combos.append(
-            WheelCombination(
-                "k_c / b + k_phi",
-                "kN/m^(n+2)",
-                kval / 1e3,
-                None if se is None else se / 1e3,
-                tuple(None if v is None else v / 1e3 for v in ci),
-                est,
-                weak,
-                f"Bekker stiffness of this wheel's width b = {wheel.width:g} m",
-                (float(k_rng[0]) / 1e3, float(k_rng[1]) / 1e3),
-                k_on,
-                k_all,
-            )
-        )
-
-    # statements in words, from the rank and the null space
-    null_dirs = []
-    for col in null.T:
-        d = col / D * np.array([_EDGE[nm][1] for nm in names])
-        d = d / np.linalg.norm(d)
-        if d[np.argmax(np.abs(d))] < 0:
-            d = -d
-        null_dirs.append({_EDGE[nm][0]: float(d[j]) for j, nm in enumerate(names)})
-        involved = [_EDGE[nm][3] for j, nm in enumerate(names) if abs(col[j]) > 0.1]
-        statements.append(
-            f"the data do not separate {' and '.join(involved)}: they see no change along one "
-            "combination of them (a null direction of the Jacobian)."
-        )
-    for name in nonid:
-        statements.append(f"{_EDGE[name][3]} is not identifiable from these data.")
-    for name in weak_names:
-        statements.append(
-            f"{_EDGE[name][3]} is only weakly identifiable (its estimate correlates above "
-            f"{WEAK_CORRELATION} with the other parameters'): its interval is wide."
-        )
-    for c in combos:
-        if c.determined[0] and not c.weakly_identifiable and c.stderr is not None:
-            statements.append(f"{c.name} ({c.meaning}) is identified: {c.value:.4g} {c.unit} +- {c.stderr:.2g}.")
-        elif c.estimable and not c.determined[0]:
-            statements.append(f"{c.name} ({c.meaning}) is not determined: {c.determined[1]}.")
-    good = [
-        _EDGE[nm][3]
-        for j, nm in enumerate(names)
-        if ident[j] and nm not in weak_names and params[_EDGE[nm][0]].identified[0]
-    ]
-    if good:
-        statements.append(f"identified on their own: {', '.join(good)}.")
-    for nm in names:
-        e = params[_EDGE[nm][0]]
-        if e.identifiable and not e.identified[0]:
-            statements.append(f"{_EDGE[nm][3]} is not identified: {e.identified[1]}.")
+    combos = _wheel_combinations(data, wheel, options, theta, free, lo, hi, params, D, null, Pinv, C, q)
+    statements: list[str] = []
+    null_dirs = _null_statements(null, D, names, statements)
+    statements += _parameter_statements(names, nonid, weak_names, combos, params, ident)
     W = data.normal_load
     spread = float((W.max() - W.min()) / W.mean())
     warnings = []
