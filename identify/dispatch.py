@@ -93,7 +93,7 @@ def check_fit_options(
     kind = "a slip sweep"
     if unknown:
         raise DataError(
-            f"fit: option(s) {', '.join(repr(u) for u in unknown)} do not apply to {kind}; it takes "
+            f"fit: unknown option(s) {', '.join(repr(u) for u in unknown)} for {kind}; it takes "
             f"{', '.join(sorted(allowed))}"
         )
     return None

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any, overload
 
@@ -149,6 +151,11 @@ def fit(
     km/h or rpm, loads in kN, repeated rows) is said in the warnings, and the result fails
     (``success`` False) where the answer cannot stand.
     """
+    if "vehicle" in options:  # the keyword's name before the running gear of every kind
+        if running_gear is not None:
+            raise DataError("fit: give the running gear once (running_gear, or its old name vehicle), not both")
+        warnings.warn("fit(vehicle=...) is now fit(running_gear=...)", DeprecationWarning, stacklevel=2)
+        running_gear = options.pop("vehicle")
     kw = {"model": model, "method": method, "bounds": bounds, "x0": x0, "engine": engine, "effects": effects}
     if check_fit_options(data, running_gear, options=options, fixed=fixed, settings=settings, **kw) is not None:
         return fit_other_kind(

@@ -185,7 +185,7 @@ def test_segments_cli(tmp_path, capsys):
     d = json.loads(capsys.readouterr().out)
     assert rc == 0 and png.stat().st_size > 0
     assert d["segments_spec"] == "20s" and d["cuts_s"] == [20.0]
-    assert all(s["outcome"] == "converged" for s in d["segments"])
+    assert all(s["outcome"] == "usable" for s in d["segments"])
     rc = main(["fit", str(p), "--vehicle", "light", "--segments", "20s"])
     out = capsys.readouterr().out.splitlines()
     assert rc == 0 and out[0].startswith("start_s,end_s,distance_m,max_thrust_N,max_thrust_ci95_lo")
@@ -224,7 +224,7 @@ def test_segments_find_two_terrains_with_their_soils():
     assert segs[0].end_s < 60.0 <= segs[1].start_s
     assert [s.pieces for s in segs] == [2, 2]
     for seg, soil in zip(segs, (TERRAINS["dry_sand"], TERRAINS["sandy_loam"])):
-        assert seg.outcome == "converged" and seg.reason is None
+        assert seg.outcome == "usable" and seg.reason is None
         lo, hi = seg.max_thrust_ci95
         assert lo <= _fmax(soil) <= hi
         klo, khi = seg.shear_modulus_ci95
