@@ -266,7 +266,7 @@ def _agree(a: Segment, b: Segment) -> bool:
         (a.max_thrust_N, b.max_thrust_N, a.max_thrust_stderr_N, b.max_thrust_stderr_N),
         (a.shear_modulus_m, b.shear_modulus_m, a.shear_modulus_stderr_m, b.shear_modulus_stderr_m),
     ):
-        if None in (va, vb, sa, sb):
+        if va is None or vb is None or sa is None or sb is None:
             return False
         if abs(va - vb) > AGREE_Z * math.hypot(sa, sb):
             return False

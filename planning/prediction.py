@@ -389,6 +389,7 @@ def predict(gear: Vehicle | RigidWheel, est: SoilEstimate, slips, load: float | 
 def _bounds(y: np.ndarray, G: np.ndarray, est: SoilEstimate, ok: np.ndarray, notes: list[str]):
     """Delta-method 95 % bounds; NaN where not estimable (a null direction of the fit) or not carried."""
     C = est.cov
+    assert C is not None  # called only with a covariance
     var = np.einsum("noi,ij,noj->no", G, C, G)
     sd = np.sqrt(np.maximum(var, 0.0))
     est_ok = np.ones(y.shape, dtype=bool)

@@ -221,7 +221,7 @@ def _context_of_fit(fit: Any) -> FitContext:
         name: {p: float(e.value) for p, e in params.items() if e.value is not None}
         for name, params in (getattr(fit, "effects", None) or {}).items()
     }
-    outcome = getattr(fit, "outcome", None)
+    outcome: Any = getattr(fit, "outcome", None)
     outcome = {"converged": "usable", "not usable": "not_usable"}.get(outcome, outcome)
     return FitContext("the FitResult", outcome, None, gear, effects)
 

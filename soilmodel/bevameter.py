@@ -118,7 +118,9 @@ def annulus_torque_function() -> ca.Function:
     """CasADi Function ``T(theta, sigma, c, phi, K, r_i, r_o)`` (SI), built once."""
     names = ("theta", "sigma", "c", "phi", "K", "r_i", "r_o")
     s = [ca.SX.sym(n) for n in names]
-    return ca.Function("annulus_torque", s, [annulus_torque_expr(*s)], list(names), ["T"])
+    return ca.Function(
+        "annulus_torque", s, [annulus_torque_expr(s[0], s[1], s[2], s[3], s[4], s[5], s[6])], list(names), ["T"]
+    )
 
 
 def annulus_torque(theta, sigma, c: float, phi: float, K: float, r_i, r_o) -> np.ndarray:

@@ -182,6 +182,7 @@ def read_bevameter_record(
     for col in used:
         if col in ("plate_radius_m", "plate_width_m", "plate_length_m") and not np.all(data[col] > 0):
             raise bad_rows_error(~(data[col] > 0), path, col, "a plate's size must be > 0 m")
+    area: np.ndarray | None
     if size == "plate_radius_m":
         b, area = s, math.pi * s**2
     else:

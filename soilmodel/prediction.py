@@ -101,8 +101,8 @@ def evaluate_prediction(fn: ca.Function, slips: np.ndarray, load: float, q: np.n
     """``fn`` over ``slips``: outputs (n x 4), gradients (n x 4 x 7) and the carried load (n,)."""
     slips = np.asarray(slips, dtype=float).ravel()
     m = fn.map(int(slips.size))
-    y, G, wl = m(ca.DM(slips.reshape(1, -1)), float(load), ca.DM(np.asarray(q, dtype=float)), *extra)
-    y = np.asarray(y, dtype=float).T  # (n, 4)
+    y_dm, G_dm, wl = m(ca.DM(slips.reshape(1, -1)), float(load), ca.DM(np.asarray(q, dtype=float)), *extra)
+    y = np.asarray(y_dm, dtype=float).T  # (n, 4)
     nq = len(PREDICTION_PARAMETERS)
-    G = np.asarray(G, dtype=float).reshape(len(PREDICTION_OUTPUTS), nq, slips.size, order="F").transpose(2, 0, 1)
+    G = np.asarray(G_dm, dtype=float).reshape(len(PREDICTION_OUTPUTS), nq, slips.size, order="F").transpose(2, 0, 1)
     return y, G, np.asarray(wl, dtype=float).ravel()

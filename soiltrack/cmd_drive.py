@@ -44,7 +44,7 @@ def read_drive_route(path: str):
     if not isinstance(obj, dict) or not isinstance(obj.get("patches"), list):
         return route_from_dict(obj, source=path), None  # its own error
     planned = dict(obj, patches=[])
-    truths = []
+    truths: list[dict | None] = []
     for k, p in enumerate(obj["patches"]):
         if not isinstance(p, dict):
             planned["patches"].append(p)

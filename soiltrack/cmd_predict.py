@@ -55,7 +55,7 @@ def _soil(text: str) -> Soil:
     vals = floats_arg(text, "--soil")
     if len(vals) not in (3, 6):
         raise DataError(f"--soil expects C_KPA,PHI_DEG,K_M or C_KPA,PHI_DEG,K_M,KC,KPHI,N, got {text!r}")
-    for w in check_soil(*vals[:3], "--soil"):
+    for w in check_soil(vals[0], vals[1], vals[2], "--soil"):
         print(f"soiltrack: warning: {w}", file=sys.stderr)
     kw = {}
     if len(vals) == 6:

@@ -155,7 +155,8 @@ def _cmd_track(a: argparse.Namespace) -> int:
         print(f"soiltrack track: columns: {line}", file=sys.stderr)
     est = OnlineEstimator(vehicle, OnlineSettings(window_s=window, grade_rad=math.radians(log_grade or 0.0)))
     times = array("d")
-    steps, history = [], []
+    steps: list[dict] = []
+    history = []
     t_start, cpu_start = time.perf_counter(), time.process_time()
     last = None
     converged_since_change = False

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from typing import Any
 
 from .cliutil import EXIT_OK, EXIT_SOLVER, output_path
 from .soilmodel import DataError
@@ -40,7 +41,7 @@ def simulate_two_track_command(a: argparse.Namespace, vehicle, soil) -> int:
         )
     if a.output != "-":
         output_path(a.output, "-o/--output")
-    kw = {"duration_s": 60.0 if a.duration is None else a.duration}
+    kw: dict[str, Any] = {"duration_s": 60.0 if a.duration is None else a.duration}
     if a.rate is not None:
         kw["sample_rate_hz"] = a.rate
     log = simulate_turning_log(vehicle, soil, turns=a.turns or (), seed=a.seed, noise=a.noise, **kw)

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 import statistics
+from typing import Any
 from collections import deque
 
 import numpy as np
@@ -776,6 +777,7 @@ class OnlineEstimator:
                 if res is not None:
                     H.set(t, res[0], res[1])
         if H.known:
+            assert H.x is not None  # known: an estimate is held
             if self._informed_at is None:  # the horizon that first identified F_max: its latest loaded sample
                 self._informed_at = next((x for x in reversed(self._info_times) if x >= t_start), t)
             self._F_known = H.x[0]
@@ -803,7 +805,7 @@ class OnlineEstimator:
 
     def _note_informative(self, t: float, T: float, sT: float) -> None:
         """Keep the time of a sample loaded enough to inform F_max (relative to what is known)."""
-        ref = self._held.x[0] if self._held.known else (self._F_known or float(self._P[_P["xF"]] * self._F_ref))
+        ref = self._held.x[0] if self._held.x is not None else (self._F_known or float(self._P[_P["xF"]] * self._F_ref))
         if T >= self.settings.detect_min_load * ref:
             self._loaded_times.append(t)
         if T - 2.0 * sT >= self.settings.identify_min_utilisation * ref:
@@ -859,7 +861,7 @@ class OnlineEstimator:
         l = self.vehicle.track_length
         sF, sK = math.sqrt(p11), math.sqrt(p22)
         g1, g2 = l / (2 * K), -F * l / (2 * K * K)
-        out = dict(F=F, K=K, slope=F * l / (2 * K), held="max_thrust" not in win["ident"])
+        out: dict[str, Any] = dict(F=F, K=K, slope=F * l / (2 * K), held="max_thrust" not in win["ident"])
         out["s_slope"] = math.sqrt(max(g1 * g1 * p11 + 2 * g1 * g2 * p12 + g2 * g2 * p22, 0.0))
         ident: tuple[str, ...] = ("slope",) if out["s_slope"] < GENTLE_REL_STDERR * out["slope"] else ()
         out.update(sF=None, sK=None, cov=None)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -249,7 +250,7 @@ class SoilTestFit:
             return None
         return {
             "parameters": names,
-            "values": [float(v) for v in self.values_si],
+            "values": [float(cast(float, v)) for v in self.values_si],  # none is None (checked above)
             "matrix": [[float(x) for x in row] for row in C],
             "units": "SI",
         }

@@ -272,7 +272,8 @@ class Controller:
     def _governor(self, patch: int, v: float) -> float:
         """The speed target after checking the ground ahead with the belief (module docstring)."""
         s, r = self.settings, self.vehicle.sprocket_radius
-        v_ref, state = self.target, ("go", -1)
+        v_ref = self.target
+        state: tuple = ("go", -1)
         reach = v * v / (2 * s.decel_m_s2) + s.stop_margin_m + 5.0
         for k in range(patch, len(self.route.ends_m)):
             start = self.route.start_of(k)
@@ -285,6 +286,7 @@ class Controller:
             if R > self._M_max / r:
                 limit, avail = "torque", self._M_max / r
             elif i_R > self.max_slip:
+                assert b is not None  # i_R is 0.0 without a belief
                 limit, avail = ("soil" if math.isinf(i_R) else "slip"), float(self._thrust(b, [self.max_slip])[0])
             if limit is not None:
                 gap = max(start - s.stop_margin_m - self.distance_m, 0.0) if k > patch else 0.0
@@ -443,7 +445,7 @@ class SlipController(Controller):
         opt = optimal_slip(self.vehicle, b.max_thrust_N, b.shear_modulus_m, self.route.grades_deg[patch])
         return min(opt if opt is not None else self.max_slip, self.max_slip), b
 
-    def _slip_loop(self, target: float, b: SoilBelief | None, dt: float) -> float:
+    def _slip_loop(self, target: float, b: SoilBelief | None, dt: float) -> tuple[float, float]:
         """Torque holding the slip at ``target``: believed thrust there (feed-forward) plus PI on the slip."""
         s, r = self.settings, self.vehicle.sprocket_radius
         if b is not None:

@@ -96,7 +96,7 @@ def drive(
     same = "slip" if kind == "pi" else kind
     if kind == "pi":
         notes.append("pi uses no soil: nominal_soil and true_soil are the slip controller's")
-    plan = {kind: (kind, {})}
+    plan: dict[str, tuple[str, dict[str, Any]]] = {kind: (kind, {})}
     for b in baselines:
         if b == "pi":
             plan[b] = ("pi", {})

@@ -16,6 +16,7 @@ Parameters ``[v0, F_max, K, R, v_ref, i_prev, i_max, M_max, P_max]``.
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -54,7 +55,7 @@ def mpc_solver(
     nlp = {"x": i, "p": p, "f": J, "g": ca.vertcat(*g)}
     if method == "sqp":  # exact-Hessian SQP with CasADi's QRQP: about 1 ms on 10 slips (IPOPT: about 9)
         qp = {"print_iter": False, "print_header": False, "print_info": False, "error_on_fail": False}
-        opts = {
+        opts: dict[str, Any] = {
             "qpsol": "qrqp",
             "qpsol_options": qp,
             "print_header": False,

@@ -164,7 +164,7 @@ class TrackPlant:
     def patch_index(self, distance_m: float | None = None) -> int:
         """Index of the patch at ``distance_m`` (default the vehicle's position)."""
         x = self.distance_m if distance_m is None else distance_m
-        return int(min(np.searchsorted(self._ends, x, side="right"), len(self.patches) - 1))
+        return int(min(int(np.searchsorted(self._ends, x, side="right")), len(self.patches) - 1))
 
     @property
     def truth(self) -> dict[str, Any]:
