@@ -470,3 +470,12 @@ def compare(
             f"{1e6 * np.median(tm):.0f} us / {1e6 * np.quantile(tm, 0.99):.0f} us |"
         )
     return tot
+
+
+if __name__ == "__main__":  # a module of bench_online.py; run that script for the comparison
+    import argparse
+
+    argparse.ArgumentParser(
+        description="The estimators and metrics of the on-line comparison; run benchmarks/bench_online.py for it."
+    ).parse_args()
+    print("benchmarks/online_compare.py is the comparison's module: run python benchmarks/bench_online.py")
