@@ -37,7 +37,7 @@ __all__ = [
     "SEGMENT_FIELDS",
 ]
 
-#: The fields of one segment, in the order of the CSV columns (DESIGN.md section 9).
+#: The fields of one segment, in the order of the CSV columns (docs/drivelogs.md, "Long logs").
 SEGMENT_FIELDS = (
     "start_s",
     "end_s",
