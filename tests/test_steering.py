@@ -7,7 +7,6 @@ import math
 
 import numpy as np
 import pytest
-from scipy.optimize import fsolve
 
 from soiltrack.soilmodel import TERRAINS, VEHICLES, DataError, Soil, Vehicle, tractive_force
 from soiltrack.soilmodel.steering import (
@@ -103,6 +102,27 @@ def _numpy_track(u, v, Om, belt, yc, Wk, soil, veh, nx=3000, ny=40):
     return fx.sum(), fy.sum(), (X * fy - Y * fx).sum()
 
 
+def _newton(res, z0: np.ndarray, tol: float = 1e-13, max_iter: int = 100) -> np.ndarray:
+    """A plain damped Newton solve of ``res(z) = 0`` with a forward-difference Jacobian (independent of the
+    library's CasADi rootfinder)."""
+    z = np.asarray(z0, dtype=float)
+    r = np.asarray(res(z), dtype=float)
+    for _ in range(max_iter):
+        if np.max(np.abs(r)) < tol:
+            break
+        h = 1e-7 * np.maximum(1.0, np.abs(z))
+        J = np.column_stack([(np.asarray(res(z + h[k] * np.eye(z.size)[k])) - r) / h[k] for k in range(z.size)])
+        dz = np.linalg.solve(J, -r)
+        step = 1.0
+        while step > 1e-6:
+            r_new = np.asarray(res(z + step * dz), dtype=float)
+            if np.max(np.abs(r_new)) < np.max(np.abs(r)):
+                break
+            step /= 2
+        z, r = z + step * dz, r_new
+    return z
+
+
 def _numpy_steady(wl, wr, soil, veh):
     r, B, m, h, mu = veh.sprocket_radius, veh.tread, veh.mass, veh.cg_height, veh.rolling_resistance
     W = m * G
@@ -117,7 +137,7 @@ def _numpy_steady(wl, wr, soil, veh):
         N = fl[2] + fr[2] + B / 2 * mu * (Wl - Wr)
         return [(X + m * v * Om) / W, (fl[1] + fr[1] - m * u * Om) / W, N / (W * veh.track_length)]
 
-    z = fsolve(res, [0.5 * r * (wl + wr), 0.0, 0.6 * r * (wr - wl) / B], xtol=1e-12)
+    z = _newton(res, np.array([0.5 * r * (wl + wr), 0.0, 0.6 * r * (wr - wl) / B]))
     u, v, Om = z
     dW = m * u * Om * h / B
     tl = r * _numpy_track(u, v, Om, r * wl, B / 2, W / 2 - dW, soil, veh)[0]
