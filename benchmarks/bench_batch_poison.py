@@ -51,8 +51,9 @@ import numpy as np
 
 try:
     from scipy.optimize import least_squares
-except ImportError:  # pragma: no cover
-    sys.exit("benchmarks need scipy: pip install 'soiltrack[bench]'")
+except ImportError:  # --help answers without it; a run says what is missing
+    if not {"-h", "--help"} & set(sys.argv[1:]):
+        sys.exit("benchmarks need scipy: pip install 'soiltrack[bench]'")
 
 from soiltrack.identify import fit, fit_many
 from soiltrack.soilmodel import PRACTICAL_BOUNDS, VEHICLES, DriveLog, SlipData
