@@ -1,12 +1,17 @@
 """Closed-loop traction control: each controller beside its baselines on routes of true terrain, and its step time.
 
-Routes (planned everywhere as LETE sand; the true terrain differs, as identification must find):
+Routes (planned everywhere as LETE sand, but ``dig``; the true terrain differs, as identification must find):
 
 - ``soft``: flat, a patch of snow (soft, K = 25 mm) in the middle;
 - ``change``: flat, LETE sand -> dry sand -> clayey soil (changes of terrain);
 - ``climb``: flat, then a climb on dry sand (heavy: 20 deg; light: snow at 25 deg), then flat;
 - ``steep``: a climb the true soil cannot carry within the slip limit (heavy: snow at 27 deg, beyond
-  F_max at any slip; light: snow at 32 deg, beyond the 0.3 slip limit).
+  F_max at any slip; light: snow at 32 deg, beyond the 0.3 slip limit);
+- ``dig``: starting at 1 m/s, to accelerate to the target on a soft rise that digs in (snow with
+  soilmodel's ``slip_sinkage`` effect, :data:`DIG`: more slip loses net pull, so a high fixed slip ceiling digs in) and then a loose climb that needs a high
+  slip (heavy: dry sand at 24 deg, about 10 % slip; light: snow at 20 deg, about 10 %), so that neither
+  fixed ceiling (7 %, 20 %) gets through. Planned with the true soils, the slip sinkage unknown to the plan
+  (``mu_s`` = 0): what the on-line estimate must find is that more slip digs in.
 
 For each route, vehicle and controller (``slip``, ``mpc``), the baselines of the same run (``pi``,
 ``fixed_slip_7``, ``fixed_slip_20``, ``nominal_soil``, ``true_soil``) and the metrics of
@@ -26,28 +31,46 @@ import os
 import sys
 import time
 
-ROUTES = ("soft", "change", "climb", "steep")
+ROUTES = ("soft", "change", "climb", "steep", "dig")
+#: The ``dig`` route's slip-sinkage patch: (grade deg, mu_s) per vehicle (the net pull F(i) - N mu_s i peaks
+#: 7 % (heavy) / 4 % (light) of F_max above the resistance at 5.7 % / 10 % slip, below it at 20 %).
+DIG = {"heavy": (10.0, 1.0), "light": (7.0, 2.0)}
 
 
 def routes(vehicle: str) -> dict:
-    """``{name: (route dict, true terrain names, target speed)}`` for a vehicle."""
+    """``{name: (route dict, true terrain names, true slip-sinkage mu_s per patch)}`` for a vehicle."""
     v = 3.0 if vehicle == "heavy" else 1.5
     climb, climb_soil = (20, "dry_sand") if vehicle == "heavy" else (25, "snow")
     steep = 27 if vehicle == "heavy" else 32
 
-    def R(patches):
+    def R(patches, v0=0.3, planned=None):
         return {
-            "v0_m_s": 0.3,
+            "v0_m_s": v0,
             "v_end_m_s": v,
             "max_slip": 0.3,
-            "patches": [dict(length_m=L, terrain="lete_sand", grade_deg=g) for L, g in patches],
+            "patches": [
+                dict(length_m=L, terrain=planned[k] if planned else "lete_sand", grade_deg=g)
+                for k, (L, g) in enumerate(patches)
+            ],
         }
 
+    dig_grade, dig_mu = DIG[vehicle]
+    dig_climb, dig_soil = (24, "dry_sand") if vehicle == "heavy" else (20, "snow")
+    dig_true = ["snow", "lete_sand", dig_soil, "lete_sand"]
     return {
-        "soft": (R([(15, 0), (15, 0), (15, 0)]), ["lete_sand", "snow", "lete_sand"]),
-        "change": (R([(15, 0), (15, 0), (15, 0)]), ["lete_sand", "dry_sand", "clayey_soil"]),
-        "climb": (R([(15, 0), (25, climb), (10, 0)]), ["lete_sand", climb_soil, "lete_sand"]),
-        "steep": (R([(12, 0), (20, steep)]), ["lete_sand", "snow"]),
+        "soft": (R([(15, 0), (15, 0), (15, 0)]), ["lete_sand", "snow", "lete_sand"], [0.0] * 3),
+        "change": (R([(15, 0), (15, 0), (15, 0)]), ["lete_sand", "dry_sand", "clayey_soil"], [0.0] * 3),
+        "climb": (R([(15, 0), (25, climb), (10, 0)]), ["lete_sand", climb_soil, "lete_sand"], [0.0] * 3),
+        "steep": (R([(12, 0), (20, steep)]), ["lete_sand", "snow"], [0.0] * 2),
+        "dig": (
+            R(
+                [(15, dig_grade), (8, 0), (40 if vehicle == "heavy" else 15, dig_climb), (8, 0)],
+                v0=1.0,
+                planned=dig_true,
+            ),
+            dig_true,
+            [dig_mu, 0.0, 0.0, 0.0],
+        ),
     }
 
 
@@ -97,20 +120,28 @@ def main(argv=None) -> int:
     for vname in a.vehicles.split(","):
         V = VEHICLES[vname]
         for rname in a.routes.split(","):
-            spec, true = routes(vname)[rname]
+            spec, true, mus = routes(vname)[rname]
             route = route_from_dict(spec)
             soils = [TERRAINS[k] for k in true]
             noise = dict(
                 sigma_vehicle_speed=0.005, sigma_sprocket_speed=0.02, sigma_torque=0.005 * V.max_sprocket_torque
             )
-            ps = PlantSettings(v0=0.3, seed=a.seed, **noise)
+            v0 = route.v0_m_s
+            ps = PlantSettings(v0=v0, seed=a.seed, **noise)
             factory = None
             if a.plant == "independent":
                 from control_plant import JHPlant, with_truth
 
-                def factory(patches, V=V):
+                def factory(patches, V=V, v0=v0):
                     pat = [
-                        (q.length_m, q.soil.cohesion, q.soil.friction_angle, q.soil.shear_modulus, q.grade_deg)
+                        (
+                            q.length_m,
+                            q.soil.cohesion,
+                            q.soil.friction_angle,
+                            q.soil.shear_modulus,
+                            q.grade_deg,
+                            q.slip_sinkage,
+                        )
                         for q in patches
                     ]
                     return with_truth(
@@ -122,7 +153,7 @@ def main(argv=None) -> int:
                             V.sprocket_inertia,
                             V.rolling_resistance,
                             pat,
-                            v0=0.3,
+                            v0=v0,
                             sigma_v=0.005,
                             sigma_w=0.02,
                             seed=a.seed,
@@ -131,7 +162,7 @@ def main(argv=None) -> int:
 
             for kind in a.controllers.split(","):
                 t0 = time.perf_counter()
-                res = drive(kind, V, route, soils, plant_settings=ps, plant_factory=factory)
+                res = drive(kind, V, route, soils, true_slip_sinkage=mus, plant_settings=ps, plant_factory=factory)
                 print(f"| **{vname} / {rname} / {kind}** ({time.perf_counter() - t0:.0f} s wall) ||||||||||||")
                 print(_row(kind, res.run))
                 for name, r in res.baselines.items():

@@ -1,9 +1,10 @@
 """An independent straight-line tracked-vehicle plant for the control tests (plain numpy, no soiltrack code).
 
-Janosi-Hanamoto thrust of both tracks, uniform pressure: F = (2 b l c + N tan(phi)) (1 - K/(i l)
-(1 - exp(-i l / K))), odd in the slip; N = W cos(theta). Hull: m dv/dt = F - W (mu_r cos(theta) +
-sin(theta)); sprocket: I dw/dt = M - r F; slip (r w - v) / max(r w, v, 1e-3). Each sub-step moves the
-hull explicitly and solves the stiff sprocket equation by backward Euler (bisection on w).
+Janosi-Hanamoto thrust of both tracks, uniform pressure: F = (2 b l c + N tan(phi)) (1 - K/(i l) (1 - exp(-i l
+/ K))), odd in the slip; N = W cos(theta). Hull: m dv/dt = F - W ((mu_r + mu_s |i|) cos(theta) + sin(theta))
+(mu_s: slip sinkage, an optional 6th entry of a patch, default 0); sprocket: I dw/dt = M - r F; slip (r w - v)
+/ max(r w, v, 1e-3). Each sub-step moves the hull explicitly and solves the stiff sprocket equation by
+backward Euler (bisection on w).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ class JHPlant:
         self, mass, l, b, r, I, mu_r, patches, *, dt=0.02, substeps=5, v0=0.5, sigma_v=0.0, sigma_w=0.0, seed=0
     ):
         self.m, self.l, self.b, self.r, self.I, self.mu_r = mass, l, b, r, I, mu_r
-        self.patches = patches  # (length_m, c_Pa, phi_rad, K_m, grade_deg)
+        self.patches = [tuple(p) + (0.0,) * (6 - len(p)) for p in patches]  # (length_m, c, phi, K, grade_deg, mu_s)
         self.ends = np.cumsum([p[0] for p in patches])
         self.dt, self.n = dt, substeps
         self.v, self.w, self.x, self.t = v0, v0 / r, 0.0, 0.0
@@ -33,7 +34,7 @@ class JHPlant:
         return int(min(np.searchsorted(self.ends, self.x, side="right"), len(self.patches) - 1))
 
     def thrust(self, i, k):
-        _, c, phi, K, g = self.patches[k]
+        _, c, phi, K, g, _ = self.patches[k]
         N = self.m * G * math.cos(math.radians(g))
         Fmax = 2 * self.b * self.l * c + N * math.tan(phi)
         x = abs(i) * self.l / K
@@ -49,7 +50,7 @@ class JHPlant:
         h = self.dt / self.n
         for _ in range(self.n):
             k = self.patch()
-            g = math.radians(self.patches[k][4])
+            g, mu_s = math.radians(self.patches[k][4]), self.patches[k][5]
             W = self.m * G
             lo, hi = 0.0, max(self.w, self.v / self.r) * 2 + abs(M) * h / self.I + 1.0
             for _ in range(60):  # I (w1 - w) / h = M - r F(i(v, w1)): increasing in w1
@@ -59,11 +60,8 @@ class JHPlant:
             self.w = 0.5 * (lo + hi)
             self.slip = self.slip_of(self.v, self.w)
             F = self.thrust(self.slip, k)
-            R = (
-                W * (self.mu_r * math.cos(g) + math.sin(g))
-                if self.v > 1e-3
-                else min(W * (self.mu_r * math.cos(g) + math.sin(g)), max(F, 0.0))
-            )
+            R_full = W * ((self.mu_r + mu_s * abs(self.slip)) * math.cos(g) + math.sin(g))
+            R = R_full if self.v > 1e-3 else min(R_full, max(F, 0.0))
             v_new = max(self.v + h * (F - R) / self.m, 0.0)
             self.x += 0.5 * (self.v + v_new) * h
             self.v = v_new
@@ -106,7 +104,7 @@ def with_truth(plant):
         @property
         def truth(self):
             k = self.patch()
-            _, c, phi, K, g = self.patches[k]
+            _, c, phi, K, g, mu_s = self.patches[k]
             N = self.m * G * math.cos(math.radians(g))
             return {
                 "distance_m": self.x,
@@ -116,6 +114,7 @@ def with_truth(plant):
                 "patch": k,
                 "max_thrust_N": 2 * self.b * self.l * c + N * math.tan(phi),
                 "shear_modulus_m": K,
+                "slip_sinkage": mu_s,
             }
 
     plant.__class__ = Truthful

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 import time
+from bisect import bisect_right
 from dataclasses import dataclass, fields, replace
 from functools import lru_cache
 from typing import Any, Sequence
@@ -30,7 +31,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ...soilmodel import TERRAINS, DataError, Soil, Vehicle
-from ...soilmodel.traction import shear_bracket_inverse, slip_factor_function
+from ...soilmodel.traction import slip_factor_function
 from ..margin import DEFAULT_MAX_SLIP
 from .belief import EstimatedSoil, PriorSoil, SoilBelief, TrueSoil, patch_load, soil_of
 from .mpc import MpcProblem
@@ -75,16 +76,20 @@ class ControlSettings:
         Receding horizon: intervals, their length, and samples between two solves.
     sample_s
         Sample time assumed for the first sample (later: from the measurement's times).
-    cut_factor
-        Runaway guard (all but ``pi``): while the measured slip is above the slip limit, the drive torque
-        is cut to this fraction of the last one at every sample (a belief that overrates the soil
-        would otherwise let the tracks spin up faster than the slip loop corrects it).
+    cut_factor, guard_margin
+        Runaway guard (all but ``pi``): while the measured slip is above the slip limit (for a controller
+        with a slip target: above the larger of 1.5 times the target and the target plus ``guard_margin``,
+        capped by the limit, whichever loop sets the torque), the drive torque is cut to this fraction of
+        the last one at every sample (a belief that overrates the soil would otherwise let the tracks spin
+        up faster than the slip loop corrects it, and on a soil with slip sinkage a spinning track digs
+        in within a few tenths of a second).
     probe, probe_s, probe_settle_s, probe_overspeed
         Traction probe (``slip``, ``mpc`` with the estimator): gentle driving shows only the start of
         the thrust-slip curve, so on a patch whose F_max is not identified yet the controller pulls
         at the slip ceiling for ``probe_s`` (once per patch, and again after a detected change),
         ``probe_settle_s`` after entering it, ending early beyond ``1 + probe_overspeed`` times the
-        speed target.
+        speed target; and at once when the speed falls below ``1 - probe_overspeed`` times the speed at its
+        start (pulling harder slowed the vehicle: slip sinkage digs in, logged as ``probe_aborted``).
     """
 
     max_slip: float | None = None
@@ -104,6 +109,7 @@ class ControlSettings:
     mpc_every: int = 2
     sample_s: float = 0.02
     cut_factor: float = 0.85
+    guard_margin: float = 0.05
     probe: bool = True
     probe_s: float = 0.6
     probe_settle_s: float = 1.0
@@ -170,6 +176,17 @@ def _bracket_table() -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(g, dtype=float).ravel(), x
 
 
+def _lookup(x: float, xs: list[float], ys: list[float]) -> float:
+    """Linear interpolation of ``ys`` at ``x`` over increasing ``xs`` (held at the ends), plain Python."""
+    j = bisect_right(xs, x)
+    if j <= 0:
+        return ys[0]
+    if j >= len(xs):
+        return ys[-1]
+    x0, x1 = xs[j - 1], xs[j]
+    return ys[j - 1] + (ys[j] - ys[j - 1]) * (x - x0) / (x1 - x0)
+
+
 def _measurement(meas: Any) -> tuple[float, float, float, float | None, float | None, bool]:
     """``(t, w, v, accel, torque, two_track)`` from a measurement dict (drive-log column names)."""
     if not isinstance(meas, dict):
@@ -219,7 +236,9 @@ class Controller:
         self.max_slip = settings.max_slip or route.max_slip or DEFAULT_MAX_SLIP
         self.events: list[dict] = []
         self.step_times_s: list[float] = []  # wall clock per command
-        self.step_cpu_s: list[float] = []  # this thread's CPU time per command (a loaded machine's waits left out)
+        # CPU time per command (process_time: a loaded machine's waits left out; thread_time is a slow system
+        # call here, 8 us to 1 ms, and would inflate what it measures)
+        self.step_cpu_s: list[float] = []
         self.distance_m = 0.0
         self._t: float | None = None
         self._v = self._w = 0.0
@@ -229,18 +248,36 @@ class Controller:
         self._Is = 0.0
         self._gov_state: tuple = ("go", -1)
         self._gy, self._gx = _bracket_table()
+        self._gyl, self._gxl = self._gy.tolist(), self._gx.tolist()
         self._M_max = vehicle.max_sprocket_torque or math.inf
         self._P_max = vehicle.max_power or math.inf
+        self._N = [patch_load(vehicle, g) for g in route.grades_deg]
+        self._R0 = [
+            vehicle.rolling_resistance * n + vehicle.weight * math.sin(math.radians(g))
+            for n, g in zip(self._N, route.grades_deg)
+        ]
+        self._limit_grid = np.linspace(0.0, self.max_slip, 61)
         self.last: dict[str, Any] = {}
         self.limiting = "speed"  # which loop set the last torque: "speed", "slip", "probe" or "plan"
 
     # ------------------------------------------------------------------ helpers
     def resistance(self, patch: int) -> float:
         """Rolling and grade resistance on a patch, N (``mu_r W cos(theta) + W sin(theta)``)."""
-        g = math.radians(self.route.grades_deg[patch])
-        return self.vehicle.rolling_resistance * patch_load(self.vehicle, self.route.grades_deg[patch]) + (
-            self.vehicle.weight * math.sin(g)
-        )
+        return self._R0[patch]
+
+    def _sinkage_N(self, b: SoilBelief | None, patch: int) -> float:
+        """The believed slip sinkage's resistance per unit slip on a patch, ``N mu_s``, N."""
+        return 0.0 if b is None or not b.slip_sinkage else self._N[patch] * b.slip_sinkage
+
+    def _pull_at_limit(self, b: SoilBelief, patch: int) -> tuple[float, float]:
+        """``(slip, net pull)``: the slip (within the slip limit) of the largest believed ``F(i) - N mu_s i``."""
+        Rs = self._sinkage_N(b, patch)
+        if not Rs:
+            return self.max_slip, self._thrust1(b, self.max_slip)
+        grid = self._limit_grid
+        net = self._thrust(b, grid) - Rs * grid
+        j = int(np.argmax(net))
+        return float(grid[j]), float(net[j])
 
     def _thrust(self, b: SoilBelief, slips: Sequence[float]) -> np.ndarray:
         """Believed thrust (Eq. 2, ``F_max g(i l / K)``) at ``slips`` (non-negative), from a table of
@@ -249,12 +286,18 @@ class Controller:
         x = np.abs(np.asarray(slips, dtype=float)) * (self.vehicle.track_length / b.shear_modulus_m)
         return b.max_thrust_N * np.interp(x, self._gx, self._gy)
 
+    def _thrust1(self, b: SoilBelief, slip: float) -> float:
+        """:meth:`_thrust` at one slip in plain Python (bisection in the same table: no numpy call per sample)."""
+        return b.max_thrust_N * _lookup(abs(slip) * self.vehicle.track_length / b.shear_modulus_m, self._gxl, self._gyl)
+
     def _slip_for(self, b: SoilBelief, thrust: float) -> float:
-        """Slip at which the believed soil gives ``thrust`` (inf beyond its F_max)."""
+        """Slip at which the believed soil gives ``thrust`` (inf beyond its F_max): the same table, inverted
+        (``g`` rises monotonically; soilmodel's :func:`~soiltrack.soilmodel.traction.shear_bracket_inverse`
+        agrees to about 1e-4 relative, tests/test_control.py)."""
         y = thrust / b.max_thrust_N
         if y >= 0.999:
             return math.inf
-        return float(shear_bracket_inverse(max(y, 0.0))) * b.shear_modulus_m / self.vehicle.track_length
+        return _lookup(max(y, 0.0), self._gyl, self._gxl) * b.shear_modulus_m / self.vehicle.track_length
 
     def _event(self, kind: str, patch: int, text: str, **numbers: float) -> None:
         self.events.append(
@@ -283,11 +326,15 @@ class Controller:
             R = self.resistance(k)
             i_R = self._slip_for(b, R) if b is not None else 0.0
             limit = None
+            if b is not None and b.slip_sinkage and i_R <= self.max_slip:  # sinkage: the net pull's peak decides
+                pull = self._pull_at_limit(b, k)[1]
+                i_R = i_R if pull >= R else math.inf
             if R > self._M_max / r:
                 limit, avail = "torque", self._M_max / r
             elif i_R > self.max_slip:
                 assert b is not None  # i_R is 0.0 without a belief
-                limit, avail = ("soil" if math.isinf(i_R) else "slip"), float(self._thrust(b, [self.max_slip])[0])
+                avail = self._pull_at_limit(b, k)[1]
+                limit = "soil" if math.isinf(i_R) else "slip"
             if limit is not None:
                 gap = max(start - s.stop_margin_m - self.distance_m, 0.0) if k > patch else 0.0
                 v_ref = min(v_ref, math.sqrt(2 * s.decel_m_s2 * gap))
@@ -325,7 +372,7 @@ class Controller:
     # ------------------------------------------------------------------ one sample
     def command(self, measurement: dict) -> float | tuple[float, float]:
         """Torque (N m, both sprockets; a (left, right) pair for two-track measurements) for this sample."""
-        t0, c0 = time.perf_counter(), time.thread_time()
+        t0, c0 = time.perf_counter(), time.process_time()
         t, w, v, a, M_meas, two = _measurement(measurement)
         s = self.settings
         dt = s.sample_s if self._t is None else max(t - self._t, 1e-6)
@@ -344,14 +391,22 @@ class Controller:
                 self.belief.update(t, self._last_M if M_meas is None else M_meas, w, v, a, patch)
             v_ref = self._governor(patch, self._v) if (self.belief is not None and s.governor) else self.target
             M = self._limit(self._torque(patch, v_ref, dt), w)
-            if self.kind != "pi" and self._slip > self.max_slip and M > 0:  # runaway guard: cut the torque
+            if self.kind != "pi" and self._slip > self._guard_slip() and M > 0:  # runaway guard: cut the torque
                 M = min(M, max(self._last_M, 0.0) * s.cut_factor)
                 self._Is = min(self._Is, 0.0)
             self.last = {"v_ref": v_ref, "patch": patch, "slip_filtered": self._slip, "limiting": self.limiting}
         self._last_M = M
         self.step_times_s.append(time.perf_counter() - t0)
-        self.step_cpu_s.append(time.thread_time() - c0)
+        self.step_cpu_s.append(time.process_time() - c0)
         return (0.5 * M, 0.5 * M) if two else M
+
+    def _guard_slip(self) -> float:
+        """Slip above which the runaway guard cuts the torque: the slip limit, or nearer the slip loop's target
+        (``guard_margin``) for a controller with one (beyond it the tracks are spinning up, not settling)."""
+        target = getattr(self, "slip_target", None)
+        if target is None:
+            return self.max_slip
+        return min(self.max_slip, max(1.5 * target, target + self.settings.guard_margin))
 
     def _limit(self, M: float, w_now: float) -> float:
         """Torque and power limits; the power on the largest of the filtered, raw and (while a slip loop
@@ -371,7 +426,8 @@ class Controller:
         if v_ref < _STOP_SPEED and self._v < _STOP_SPEED:  # stopped on purpose: hold (brakes), no torque
             self._Iv = 0.0
             return 0.0
-        M = r * self.resistance(patch) + kp * e + self._Iv
+        b = self.belief.belief(patch, patch) if self.belief is not None else None
+        M = r * (self.resistance(patch) + self._sinkage_N(b, patch) * max(self._slip, 0.0)) + kp * e + self._Iv
         if v_ref < _STOP_SPEED:  # stopping: no drive torque (a climb stops the vehicle; downhill it brakes)
             self._Iv = 0.0
             return min(M, 0.0)
@@ -404,6 +460,7 @@ class SlipController(Controller):
         self.fixed = fixed
         self.slip_ceiling = fixed if fixed is not None else self.max_slip
         self._probe_until: float | None = None
+        self._probe_v0 = 0.0
         self._probed: set[int] = set()
         self._entered = (-1, 0.0)
         self._changes_seen = 0
@@ -415,12 +472,21 @@ class SlipController(Controller):
             return False
         if patch != self._entered[0]:
             self._entered = (patch, t)
-        n = sum(1 for e in self.belief.events if e["kind"] == "change_detected")
+        n = self.belief.changes
         if n != self._changes_seen:
             self._changes_seen = n
             self._probed.discard(patch)
             self._entered = (patch, t)
         if self._probe_until is not None:
+            if self._v < (1 - s.probe_overspeed) * self._probe_v0:  # pulling harder slowed it: the ground digs in
+                self._probe_until = None
+                self._event(
+                    "probe_aborted",
+                    patch,
+                    f"the vehicle slowed from {self._probe_v0:.3g} to {self._v:.3g} m/s while pulling at the slip "
+                    "ceiling: more slip loses pull here (slip sinkage); the probe ends",
+                )
+                return False
             if t < self._probe_until and self._v < (1 + s.probe_overspeed) * v_ref:
                 return True
             self._probe_until = None
@@ -429,7 +495,7 @@ class SlipController(Controller):
         if patch in self._probed or src not in ("prior", "slope+prior") or t - self._entered[1] < s.probe_settle_s:
             return False
         self._probed.add(patch)
-        self._probe_until = t + s.probe_s
+        self._probe_until, self._probe_v0 = t + s.probe_s, self._v
         self._event(
             "probe",
             patch,
@@ -442,18 +508,20 @@ class SlipController(Controller):
         if self.fixed is not None or self.belief is None:
             return (self.fixed or self.max_slip), None
         b = self.belief.belief(patch, patch)
-        opt = optimal_slip(self.vehicle, b.max_thrust_N, b.shear_modulus_m, self.route.grades_deg[patch])
+        opt = optimal_slip(
+            self.vehicle, b.max_thrust_N, b.shear_modulus_m, self.route.grades_deg[patch], b.slip_sinkage
+        )
         return min(opt if opt is not None else self.max_slip, self.max_slip), b
 
-    def _slip_loop(self, target: float, b: SoilBelief | None, dt: float) -> tuple[float, float]:
+    def _slip_loop(self, target: float, b: SoilBelief | None, dt: float, patch: int = 0) -> tuple[float, float]:
         """Torque holding the slip at ``target``: believed thrust there (feed-forward) plus PI on the slip."""
         s, r = self.settings, self.vehicle.sprocket_radius
         if b is not None:
-            F0, F1 = self._thrust(b, [target, target + 1e-3])
+            F0, F1 = self._thrust1(b, target), self._thrust1(b, target + 1e-3)
             gain = s.slip_gain * r * max((F1 - F0) / 1e-3, 1e-3 * b.max_thrust_N)
             ff = r * F0
-        else:  # no belief: feedback alone, the gain from the largest torque per unit slip
-            gain, ff = s.slip_gain * min(self._M_max, r * self.vehicle.weight), 0.0
+        else:  # no belief: the resistance torque (as the PI's feed-forward), the gain from the largest torque per slip
+            gain, ff = s.slip_gain * min(self._M_max, r * self.vehicle.weight), r * self.resistance(patch)
         return ff + gain * (target - self._slip) + self._Is, gain
 
     def _integrate_slip(self, gain: float, target: float, dt: float) -> None:
@@ -465,7 +533,7 @@ class SlipController(Controller):
     def _torque(self, patch: int, v_ref: float, dt: float) -> float:
         ceiling, b = self._ceiling(patch)
         self.slip_ceiling = ceiling
-        M_s, gain = self._slip_loop(ceiling, b, dt)
+        M_s, gain = self._slip_loop(ceiling, b, dt, patch)
         self.slip_target = ceiling
         if self._probing(patch, v_ref):
             self.limiting = "probe"
@@ -500,12 +568,12 @@ class MpcController(SlipController):
         if self._probing(patch, v_ref):
             ceiling, b = self._ceiling(patch)
             self.limiting, self.slip_target = "probe", ceiling
-            M, gain = self._slip_loop(ceiling, b, dt)
+            M, gain = self._slip_loop(ceiling, b, dt, patch)
             self._integrate_slip(gain, ceiling, dt)
             return M
         self.limiting, self.slip_target = "plan", self._plan_slip
         if self._n % self.settings.mpc_every == 0:
-            t0, c0 = time.perf_counter(), time.thread_time()
+            t0, c0 = time.perf_counter(), time.process_time()
             M_max = self._M_max if math.isfinite(self._M_max) else 1e12
             P_max = self._P_max if math.isfinite(self._P_max) else 1e15
             plan = self.problem.solve(
@@ -513,6 +581,7 @@ class MpcController(SlipController):
                 b.max_thrust_N,
                 b.shear_modulus_m,
                 self.resistance(patch),
+                self._sinkage_N(b, patch),
                 v_ref,
                 self._plan_slip,
                 self.max_slip,
@@ -520,14 +589,14 @@ class MpcController(SlipController):
                 P_max,
             )
             self.solve_times_s.append(time.perf_counter() - t0)
-            self.solve_cpu_s.append(time.thread_time() - c0)
+            self.solve_cpu_s.append(time.process_time() - c0)
             self._plan_slip = float(plan[0])
         self._n += 1
         if v_ref < _STOP_SPEED:  # stopping: the speed loop brakes (the plan's slips cannot be negative)
             self._Is = 0.0
             self.limiting = "speed"
             return self._speed_loop(patch, v_ref, dt, min(self._M_max, self._P_max / max(self._w, 1e-3)))
-        M, gain = self._slip_loop(self._plan_slip, b, dt)
+        M, gain = self._slip_loop(self._plan_slip, b, dt, patch)
         self._integrate_slip(gain, self._plan_slip, dt)
         return M
 
@@ -551,6 +620,7 @@ def make_controller(
     **settings
         Fields of :class:`ControlSettings`, and ``soil`` (``"estimate"`` default, ``"nominal"``: the
         route's soils, no estimator, ``"true"``: ``true_soils``, one Soil per patch), ``true_soils``,
+        ``true_slip_sinkage`` (with ``soil="true"``: each patch's ``mu_s``, default 0),
         ``prior_soil`` (without a route; default LETE sand), ``estimator_factory`` (see
         :class:`~.belief.EstimatedSoil`).
     """
@@ -560,6 +630,7 @@ def make_controller(
     true_soils = settings.pop("true_soils", None)
     prior = settings.pop("prior_soil", None)
     factory = settings.pop("estimator_factory", None)
+    true_mu = settings.pop("true_slip_sinkage", None)
     unknown = sorted(set(settings) - {f.name for f in fields(ControlSettings)})
     if unknown:
         raise DataError(f"unknown controller setting(s) {unknown}")
@@ -581,7 +652,7 @@ def make_controller(
     else:
         if true_soils is None or len(true_soils) != len(view.soils):
             raise DataError("soil='true' needs true_soils, one Soil per patch of the route")
-        belief = TrueSoil(vehicle, list(true_soils), view.grades_deg)
+        belief = TrueSoil(vehicle, list(true_soils), view.grades_deg, true_mu)
     cls = {"pi": PIController, "slip": SlipController, "mpc": MpcController, "fixed_slip": SlipController}[kind]
     kw = {"fixed": cs.fixed_slip} if kind == "fixed_slip" else {}
     ctl = cls(vehicle, view, float(target_speed_m_s), cs, belief, **kw)

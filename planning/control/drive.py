@@ -51,6 +51,7 @@ def drive(
     route: Any,
     true_soils: Sequence[Soil] | None = None,
     *,
+    true_slip_sinkage: Sequence[float] | None = None,
     plant_settings: PlantSettings | None = None,
     target_speed_m_s: float | None = None,
     max_time_s: float | None = None,
@@ -69,6 +70,8 @@ def drive(
         The vehicle and a :class:`~soiltrack.planning.Route` (its patches' soils are the planned ones).
     true_soils
         The true soil of each patch (default: the planned ones).
+    true_slip_sinkage
+        The true ``mu_s`` of each patch (soilmodel's ``slip_sinkage`` effect; default 0 everywhere).
     plant_settings
         Noise, delay, sample time (default: :class:`~.plant.PlantSettings` starting at the route's ``v0_m_s``).
     target_speed_m_s
@@ -91,7 +94,10 @@ def drive(
     ps = plant_settings or PlantSettings(v0=route.v0_m_s, slip0=0.0)
     t_max = max_time_s or 3.0 * route.length_m / v_t + 30.0
     lim = route.max_slip or settings.get("max_slip") or DEFAULT_MAX_SLIP
-    patches = [TerrainPatch(p.length_m, s, p.grade_deg) for p, s in zip(route.patches, truth)]
+    mus = [float(x) for x in true_slip_sinkage] if true_slip_sinkage is not None else [0.0] * len(truth)
+    if len(mus) != len(truth):
+        raise DataError(f"{len(mus)} slip-sinkage coefficients for {len(truth)} patches")
+    patches = [TerrainPatch(p.length_m, s, p.grade_deg, m) for p, s, m in zip(route.patches, truth, mus)]
     notes = []
     same = "slip" if kind == "pi" else kind
     if kind == "pi":
@@ -105,7 +111,7 @@ def drive(
         elif b == "nominal_soil":
             plan[b] = (same, {"soil": "nominal"})
         elif b == "true_soil":
-            plan[b] = (same, {"soil": "true", "true_soils": truth})
+            plan[b] = (same, {"soil": "true", "true_soils": truth, "true_slip_sinkage": mus})
         else:
             raise DataError(f"unknown baseline {b!r}; expected some of {BASELINES}")
     runs = {}

@@ -3,14 +3,15 @@
 Decision: the slips ``i_0 .. i_{N-1}`` held over the horizon's intervals of ``h`` seconds. The hull
 follows Eq. 1 with the quasi-static sprocket (the slip settles in milliseconds, far below ``h``)::
 
-    v_{k+1} = v_k + h (F(i_k) - R) / m,   F(i) = F_max g(i l / K)  (Eq. 2, soilmodel's slip factor)
+    v_{k+1} = v_k + h (F(i_k) - R - R_s i_k) / m,   F(i) = F_max g(i l / K)  (Eq. 2, soilmodel's slip factor)
     M_k = r F(i_k),   w_k = v_k / (r (1 - i_k))
 
 Limits: ``0 <= i_k <= i_max``, ``M_k <= M_max``, ``M_k w_k <= P_max``. Objective: the squared
 speed error to the target (relative), the sprocket energy (relative to the target's kinetic
 energy), and the slip's changes. SQP with CasADi's QRQP (IPOPT when it fails), quiet, warm-started
 from the previous solution.
-Parameters ``[v0, F_max, K, R, v_ref, i_prev, i_max, M_max, P_max]``.
+``R_s = N mu_s`` is the slip sinkage's resistance per unit slip (soilmodel's ``slip_sinkage`` effect).
+Parameters ``[v0, F_max, K, R, R_s, v_ref, i_prev, i_max, M_max, P_max]``.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from ...soilmodel.traction import slip_factor
 
 __all__ = ["MPC_PARAMS", "mpc_solver", "MpcProblem"]
 
-MPC_PARAMS = ("v0", "F_max", "K", "R", "v_ref", "i_prev", "i_max", "M_max", "P_max")
+MPC_PARAMS = ("v0", "F_max", "K", "R", "R_s", "v_ref", "i_prev", "i_max", "M_max", "P_max")
 
 
 @lru_cache(maxsize=16)
@@ -37,7 +38,7 @@ def mpc_solver(
     QRQP) or ``"ipopt"`` (the fall-back when SQP fails)."""
     i = ca.SX.sym("i", horizon)
     p = ca.SX.sym("p", len(MPC_PARAMS))
-    v0, Fmax, K, R, vref, iprev, _imax, Mmax, Pmax = (p[j] for j in range(len(MPC_PARAMS)))
+    v0, Fmax, K, R, Rs, vref, iprev, _imax, Mmax, Pmax = (p[j] for j in range(len(MPC_PARAMS)))
     m, r, l = vehicle.mass, vehicle.sprocket_radius, vehicle.track_length
     v = v0
     J = 0
@@ -49,7 +50,7 @@ def mpc_solver(
         w = ca.fmax(v, 0.0) / (r * (1 - i[k]))
         g += [r * F / Mmax, r * F * w / Pmax]
         J += w_energy * r * F * w * h / E_ref + w_smooth * ((i[k] - i_last) / 0.01) ** 2
-        v = v + h * (F - R) / m
+        v = v + h * (F - R - Rs * i[k]) / m
         J += ((v - vref) / ca.fmax(vref, 0.1)) ** 2
         i_last = i[k]
     nlp = {"x": i, "p": p, "f": J, "g": ca.vertcat(*g)}
@@ -103,6 +104,7 @@ class MpcProblem:
         F_max: float,
         K: float,
         R: float,
+        R_s: float,
         v_ref: float,
         i_prev: float,
         i_max: float,
@@ -111,7 +113,7 @@ class MpcProblem:
     ) -> np.ndarray:
         """The slips of the horizon (the first is applied): SQP, IPOPT when SQP fails, else the previous plan
         shifted (counted in ``failures``)."""
-        p = np.array([v0, F_max, K, R, v_ref, i_prev, i_max, M_max, P_max], dtype=float)
+        p = np.array([v0, F_max, K, R, R_s, v_ref, i_prev, i_max, M_max, P_max], dtype=float)
         x0 = np.clip(np.append(self._x[1:], self._x[-1]), 0.0, i_max)
         for solver in (self._solver, self._fallback):
             if solver is self._fallback:

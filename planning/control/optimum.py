@@ -6,8 +6,10 @@ A controller asks at every sample, so :func:`optimal_slip` evaluates the same ob
 same slip grid from a table of the slip factor ``g(i l / K)`` (Eq. 2's bracket, soilmodel's
 :func:`~soiltrack.soilmodel.traction.slip_factor_function`, one mapped call per vehicle) over
 200 log-spaced K in [2 mm, 0.25 m]: ``P(i) ∝ (g(i l / K) - R / F_max) (1 - i)``, K interpolated
-between rows. It agrees with ``slip_optimal`` (tests/test_control.py checks it) to the grid's
-resolution; :func:`optimal_slip_reference` is the traction study's own answer.
+between rows. With slip sinkage (soilmodel's ``slip_sinkage`` effect, extra resistance ``N mu_s i``) the
+objective is ``(g(i l / K) - R / F_max - N mu_s i / F_max) (1 - i)``. It agrees with ``slip_optimal``
+(tests/test_control.py checks it) to the grid's resolution; :func:`optimal_slip_reference` is the
+traction study's own answer.
 """
 
 from __future__ import annotations
@@ -46,17 +48,28 @@ def _resistance(vehicle: Vehicle, grade_deg: float) -> float:
     return vehicle.rolling_resistance * patch_load(vehicle, grade_deg) + vehicle.weight * math.sin(g)
 
 
-def optimal_slip(vehicle: Vehicle, max_thrust_N: float, shear_modulus_m: float, grade_deg: float) -> float | None:
-    """Slip of the largest drawbar power for the thrust law ``(F_max, K)`` on the grade; ``None``: no drawbar pull.
+def optimal_slip(
+    vehicle: Vehicle, max_thrust_N: float, shear_modulus_m: float, grade_deg: float, slip_sinkage: float = 0.0
+) -> float | None:
+    """Slip of the largest drawbar power for the thrust law ``(F_max, K)`` on the grade (``slip_sinkage``: the
+    ``mu_s`` of the extra resistance ``N mu_s i``); ``None``: no drawbar pull.
 
-    Cached on a grid of 0.2 % in ``R / F_max`` and 0.5 % in K (the answer moves far less in between).
+    Cached on a grid of 0.2 % in ``R / F_max`` and ``N mu_s / F_max`` and 0.5 % in K (the answer moves far
+    less in between).
     """
-    rho = _resistance(vehicle, grade_deg) / max(max_thrust_N, 1e-9)
-    return _optimal(vehicle.track_length, round(rho / 0.002), round(math.log(max(shear_modulus_m, 1e-6)) / 0.005))
+    F = max(max_thrust_N, 1e-9)
+    rho = _resistance(vehicle, grade_deg) / F
+    sigma = patch_load(vehicle, grade_deg) * slip_sinkage / F
+    return _optimal(
+        vehicle.track_length,
+        round(rho / 0.002),
+        round(math.log(max(shear_modulus_m, 1e-6)) / 0.005),
+        round(sigma / 0.002),
+    )
 
 
 @lru_cache(maxsize=65536)
-def _optimal(track_length: float, k_rho: int, k_K: int) -> float | None:
+def _optimal(track_length: float, k_rho: int, k_K: int, k_sigma: int = 0) -> float | None:
     G = _table(track_length)
     rho = k_rho * 0.002
     u = float(np.interp(k_K * 0.005, np.log(_K), np.arange(_K.size)))
@@ -64,7 +77,7 @@ def _optimal(track_length: float, k_rho: int, k_K: int) -> float | None:
     f = u - j
     g = G[j] if f == 0 or j + 1 >= _K.size else (1 - f) * G[j] + f * G[j + 1]
     grid = _grid()
-    P = (g - rho) * (1 - grid)
+    P = (g - rho - k_sigma * 0.002 * grid) * (1 - grid)
     k = int(np.argmax(P))
     return None if P[k] <= 0 else float(grid[k])
 

@@ -3,7 +3,9 @@
 State ``[v, w]`` (vehicle speed, sprocket speed), input the sprocket torque of both tracks, the
 dynamics of :func:`soiltrack.soilmodel.dynamics.dynamics_expr` (Eqs. 1 and 4 with the thrust
 balance ``I dw/dt = M_s - r F(i)``; the patch's grade as the ``grade`` effect: normal load
-``W cos(theta)``, extra resistance ``W sin(theta)``). The dynamics are stiff (the slip settles in
+``W cos(theta)``, extra resistance ``W sin(theta)``; optionally soilmodel's ``slip_sinkage`` effect,
+a resistance ``N mu_s |i|``: on such a patch more slip digs the tracks in, so the net pull
+``F(i) - R(i)`` peaks at a moderate slip and falls beyond it). The dynamics are stiff (the slip settles in
 milliseconds), so each control period is integrated by backward Euler sub-steps, each solved by
 a CasADi Newton rootfinder built once per vehicle with the soil and grade as parameters.
 
@@ -34,11 +36,21 @@ __all__ = ["TerrainPatch", "PlantSettings", "TrackPlant", "step_function"]
 
 @dataclass(frozen=True)
 class TerrainPatch:
-    """One stretch of the true terrain: length (m), soil, grade (deg, positive uphill)."""
+    """One stretch of the true terrain: length (m), soil, grade (deg, positive uphill), slip sinkage.
+
+    ``slip_sinkage`` is the ``mu_s`` of soilmodel's ``slip_sinkage`` effect (-): the resistance grows
+    by ``N mu_s |i|`` with the slip (0: none).
+    """
 
     length_m: float
     soil: Soil
     grade_deg: float = 0.0
+    slip_sinkage: float = 0.0
+
+    def __post_init__(self) -> None:
+        v = self.slip_sinkage
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 <= v <= 2:
+            raise DataError(f"terrain patch slip_sinkage (mu_s) must lie in [0, 2], got {v!r}")
 
 
 @dataclass(frozen=True)
@@ -90,13 +102,14 @@ class PlantSettings:
 
 @lru_cache(maxsize=16)
 def step_function(vehicle: Vehicle) -> ca.Function:
-    """Backward-Euler step ``(x0, M, p=[c, phi, K, theta], h) -> (x1, slip, thrust)``, built once per vehicle."""
+    """Backward-Euler step ``(x0, M, p=[c, phi, K, theta, mu_s], h) -> (x1, slip, thrust)``, built once per vehicle."""
     x1 = ca.SX.sym("x1", 2)
     x0 = ca.SX.sym("x0", 2)
     M = ca.SX.sym("M")
-    p = ca.SX.sym("p", 4)
+    p = ca.SX.sym("p", 5)
     h = ca.SX.sym("h")
-    d = dynamics_expr(x1[0], x1[1], M, p[0], p[1], p[2], vehicle, {"grade": {"theta_rad": p[3]}})
+    effects = {"grade": {"theta_rad": p[3]}, "slip_sinkage": {"mu_s": p[4]}}
+    d = dynamics_expr(x1[0], x1[1], M, p[0], p[1], p[2], vehicle, effects)
     g = x1 - x0 - h * ca.vertcat(d["dv"], d["dw"])
     rf = ca.rootfinder(
         "plant_step_rf",
@@ -104,7 +117,7 @@ def step_function(vehicle: Vehicle) -> ca.Function:
         {"x": x1, "p": ca.vertcat(x0, M, p, h), "g": g},
         {"abstol": 1e-9, "max_iter": 50, "error_on_fail": False},
     )
-    X0, MM, P, H = ca.MX.sym("x0", 2), ca.MX.sym("M"), ca.MX.sym("p", 4), ca.MX.sym("h")
+    X0, MM, P, H = ca.MX.sym("x0", 2), ca.MX.sym("M"), ca.MX.sym("p", 5), ca.MX.sym("h")
     sol = rf(X0, ca.vertcat(X0, MM, P, H))
     out = ca.Function("plant_signals", [x1, M, p], [d["slip"], d["thrust"]])(sol, MM, P)
     resid = ca.Function("plant_residual", [x1, x0, M, p, h], [ca.norm_inf(g)])(sol, X0, MM, P, H)
@@ -143,7 +156,15 @@ class TrackPlant:
         self.settings = s = settings or PlantSettings()
         self._ends = np.cumsum([p.length_m for p in self.patches])
         self._p = [
-            np.array([p.soil.cohesion, p.soil.friction_angle, p.soil.shear_modulus, math.radians(p.grade_deg)])
+            np.array(
+                [
+                    p.soil.cohesion,
+                    p.soil.friction_angle,
+                    p.soil.shear_modulus,
+                    math.radians(p.grade_deg),
+                    p.slip_sinkage,
+                ]
+            )
             for p in self.patches
         ]
         self._fn = step_function(vehicle)
@@ -184,6 +205,7 @@ class TrackPlant:
             "max_thrust_N": Fmax,
             "shear_modulus_m": pt.soil.shear_modulus,
             "grade_deg": pt.grade_deg,
+            "slip_sinkage": pt.slip_sinkage,
         }
 
     def _measure(self) -> dict[str, float]:
