@@ -8,8 +8,9 @@ Routes (planned everywhere as LETE sand, but ``dig``; the true terrain differs, 
 - ``steep``: a climb the true soil cannot carry within the slip limit (heavy: snow at 27 deg, beyond
   F_max at any slip; light: snow at 32 deg, beyond the 0.3 slip limit);
 - ``dig``: starting at 1 m/s, to accelerate to the target on a soft rise that digs in (snow with
-  soilmodel's ``slip_sinkage`` effect, :data:`DIG`: more slip loses net pull, so a high fixed slip ceiling digs in) and then a loose climb that needs a high
-  slip (heavy: dry sand at 24 deg, about 10 % slip; light: snow at 20 deg, about 10 %), so that neither
+  soilmodel's ``slip_sinkage`` effect, :data:`DIG`: more slip loses net pull, so a high fixed slip
+  ceiling digs in) and then a loose climb that needs a high slip (heavy: 40 m of dry sand at 24 deg,
+  about 10 % slip; light: 15 m of snow at 20 deg, about 10 %), so that neither
   fixed ceiling (7 %, 20 %) gets through. Planned with the true soils, the slip sinkage unknown to the plan
   (``mu_s`` = 0): what the on-line estimate must find is that more slip digs in.
 
