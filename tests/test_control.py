@@ -34,9 +34,11 @@ def _route(v0, v1, patches, max_slip=0.3):
     return route_from_dict({"v0_m_s": v0, "v_end_m_s": v1, "max_slip": max_slip, "patches": patches})
 
 
-def _jh(V, route, soils, **kw):
+def _jh(V, route, soils, mus=None, **kw):
+    mus = mus or [0.0] * len(soils)
     pat = [
-        (p.length_m, s.cohesion, s.friction_angle, s.shear_modulus, p.grade_deg) for p, s in zip(route.patches, soils)
+        (p.length_m, s.cohesion, s.friction_angle, s.shear_modulus, p.grade_deg, m)
+        for p, s, m in zip(route.patches, soils, mus)
     ]
     return JHPlant(
         V.mass,
@@ -71,15 +73,67 @@ def test_optimum_agrees_with_the_traction_study():
     assert optimal_slip(LIGHT, 100.0, 0.02, 40.0) is None  # no drawbar pull at any slip
 
 
-def test_library_plant_agrees_with_independent_plant_at_constant_torque():
+@pytest.mark.parametrize("mu_s", [0.0, 0.5])
+def test_library_plant_agrees_with_independent_plant_at_constant_torque(mu_s):
     route = _route(1.0, 1.0, [{"length_m": 100, "terrain": "lete_sand", "grade_deg": 5}])
-    lib = TrackPlant(HEAVY, [TerrainPatch(100, TERRAINS["lete_sand"], 5.0)], PlantSettings(v0=1.0))
-    ind = _jh(HEAVY, route, [TERRAINS["lete_sand"]])
+    lib = TrackPlant(HEAVY, [TerrainPatch(100, TERRAINS["lete_sand"], 5.0, mu_s)], PlantSettings(v0=1.0))
+    ind = _jh(HEAVY, route, [TERRAINS["lete_sand"]], [mu_s])
     for _ in range(250):  # 5 s at 45 kN m
         m = lib.step(45e3)
         ind.step(45e3)
     assert m["vehicle_speed_m_s"] == pytest.approx(ind.v, rel=0.01)
     assert lib.slip == pytest.approx(ind.slip, rel=0.03)
+
+
+def test_sinkage_estimator_recovers_mu_s_from_the_hull_balance():
+    """Samples of an exact hull balance with mu_s = 0.8 (and 0): the block least squares gives it back."""
+    from soiltrack.planning.control.belief import SinkageEstimator, patch_load
+
+    V, g = HEAVY, 5.0
+    N = patch_load(V, g)
+    R0 = V.rolling_resistance * N + V.weight * math.sin(math.radians(g))
+    rng = np.random.default_rng(1)
+    for mu in (0.8, 0.0):
+        est = SinkageEstimator(V, g)
+        v, dt = 2.0, 0.02
+        for k in range(100):
+            i = 0.03 + 0.05 * (1 + math.sin(k / 7))  # slips of 3 % to 13 %
+            F = 1.4e5 * (1 - math.exp(-i * 40))
+            a = (F - R0 - N * mu * i) / V.mass
+            w = v / (V.sprocket_radius * (1 - i))
+            est.update(k * dt, V.sprocket_radius * F, w, v + rng.normal(0, 0.002))
+            v += a * dt
+        val = est.value
+        assert val is not None and val[0] == pytest.approx(mu, abs=0.03) and val[1] < 0.05
+
+
+def test_optimum_with_slip_sinkage_is_the_net_power_optimum():
+    """optimal_slip with mu_s maximises (F(i) - R - N mu_s i)(1 - i) (brute force on a fine grid)."""
+    from soiltrack.planning.control.belief import patch_load
+    from soiltrack.soilmodel.traction import slip_factor
+
+    V, K, g = HEAVY, 0.025, 10.0
+    N = patch_load(V, g)
+    F = 1.19e5
+    R = V.rolling_resistance * N + V.weight * math.sin(math.radians(g))
+    i = np.linspace(1e-4, 0.5, 20001)
+    gi = np.array([float(slip_factor(x, V.track_length, K)) for x in i[::20]])
+    P = (F * gi - R - N * 1.0 * i[::20]) * (1 - i[::20])
+    ref = i[::20][int(np.argmax(P))]
+    opt = optimal_slip(V, F, K, g, 1.0)
+    assert opt == pytest.approx(ref, abs=0.004)
+    assert opt < optimal_slip(V, F, K, g) - 0.05  # sinkage moves the optimum well below the JH one
+
+
+def test_controller_slip_inverse_agrees_with_soilmodel():
+    from soiltrack.planning.control.belief import SoilBelief
+    from soiltrack.soilmodel.traction import shear_bracket_inverse
+
+    ctl = make_controller("slip", HEAVY, target_speed_m_s=1.0)
+    b = SoilBelief(1e5, 0.02, "prior")
+    for y in (0.05, 0.3, 0.7, 0.95, 0.99):
+        ref = float(shear_bracket_inverse(y)) * 0.02 / HEAVY.track_length
+        assert ctl._slip_for(b, y * 1e5) == pytest.approx(ref, rel=2e-4)
 
 
 @pytest.mark.parametrize("kind", ["pi", "slip", "mpc"])
@@ -274,3 +328,40 @@ def test_drive_json_and_plot(tmp_path):
     assert n > 10 and all(len(v) == n for v in js["series"].values())
     assert js["metrics"]["time_s"] == pytest.approx(js["series"]["time_s"][-1])
     assert os.path.getsize(png) > 10_000
+
+
+# the dig route (benchmarks/bench_control.py "dig", heavy): start at 1 m/s on a 10 deg snow rise with slip
+# sinkage mu_s = 1 (net pull peaks at 5.7 % slip, below the resistance at 20 %), then 40 m of dry sand at 24 deg
+# (about 10 % slip to hold the speed); planned with the true soils, the sinkage unknown to the plan
+DIG = _route(
+    1.0,
+    3.0,
+    [
+        {"length_m": 15, "terrain": "snow", "grade_deg": 10},
+        {"length_m": 8, "terrain": "lete_sand"},
+        {"length_m": 40, "terrain": "dry_sand", "grade_deg": 24},
+        {"length_m": 8, "terrain": "lete_sand"},
+    ],
+)
+DIG_TRUE = [TERRAINS["snow"], TERRAINS["lete_sand"], TERRAINS["dry_sand"], TERRAINS["lete_sand"]]
+DIG_MU = [1.0, 0.0, 0.0, 0.0]
+
+
+@pytest.mark.slow
+def test_dig_route_no_fixed_limit_gets_through_the_estimate_does():
+    """The issue's case: pi digs in on the soft rise, 20 % digs in there too, 7 % stalls on the loose climb;
+    the slip controller learns the sinkage on-line (its ceiling drops below the net-pull peak) and arrives."""
+    out = {}
+    for name, kind, kw in (
+        ("pi", "pi", {}),
+        ("fixed_7", "fixed_slip", {"fixed_slip": 0.07}),
+        ("fixed_20", "fixed_slip", {"fixed_slip": 0.2}),
+        ("slip", "slip", {}),
+    ):
+        ctl = make_controller(kind, HEAVY, route=DIG, **kw)
+        arr, arrived = drive(ctl, _jh(HEAVY, DIG, DIG_TRUE, DIG_MU, sigma_v=0.005, sigma_w=0.02), 71.0, 90.0)
+        out[name] = (arrived, stuck_events(arr), arr[:, 1].max())
+    assert not out["pi"][0] and out["pi"][1] >= 1 and out["pi"][2] < 15  # dug in on the soft rise
+    assert not out["fixed_20"][0] and out["fixed_20"][2] < 15  # dug in on the soft rise
+    assert not out["fixed_7"][0] and out["fixed_7"][2] > 23  # through the soft rise, stalled on the climb
+    assert out["slip"][0] and out["slip"][1] == 0

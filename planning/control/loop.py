@@ -60,6 +60,10 @@ class ClosedLoop:
     solve_cpu_median_s: float | None = None
     solve_cpu_p99_s: float | None = None
     notes: tuple[str, ...] = field(default=())
+    estimator_time_p99_s: float | None = None
+    mpc_solves: int = 0  # receding-horizon solves, of them answered by IPOPT (SQP failed) and by the shifted plan
+    mpc_fallbacks: int = 0
+    mpc_failures: int = 0
 
 
 def run_closed_loop(
@@ -150,6 +154,10 @@ def run_closed_loop(
         float(np.percentile(cpu, 99)) if cpu.size else None,
         float(np.median(sc)) if sc else None,
         float(np.percentile(sc, 99)) if sc else None,
+        estimator_time_p99_s=float(np.percentile(ut, 99)) if ut.size else None,
+        mpc_solves=len(sv or []),
+        mpc_fallbacks=int(getattr(getattr(controller, "problem", None), "fallbacks", 0)),
+        mpc_failures=int(getattr(getattr(controller, "problem", None), "failures", 0)),
     )
 
 
