@@ -83,12 +83,12 @@ class ControlSettings:
         the last one at every sample (a belief that overrates the soil would otherwise let the tracks spin
         up faster than the slip loop corrects it, and on a soil with slip sinkage a spinning track digs
         in within a few tenths of a second).
-    probe, probe_s, probe_settle_s, probe_overspeed
+    probe, probe_s, probe_settle_s, probe_overspeed, probe_abort_drop
         Traction probe (``slip``, ``mpc`` with the estimator): gentle driving shows only the start of
         the thrust-slip curve, so on a patch whose F_max is not identified yet the controller pulls
         at the slip ceiling for ``probe_s`` (once per patch, and again after a detected change),
         ``probe_settle_s`` after entering it, ending early beyond ``1 + probe_overspeed`` times the
-        speed target; and at once when the speed falls below ``1 - probe_overspeed`` times the speed at its
+        speed target; and at once when the speed falls below ``1 - probe_abort_drop`` times the speed at its
         start (pulling harder slowed the vehicle: slip sinkage digs in, logged as ``probe_aborted``).
     """
 
@@ -114,6 +114,7 @@ class ControlSettings:
     probe_s: float = 0.6
     probe_settle_s: float = 1.0
     probe_overspeed: float = 0.2
+    probe_abort_drop: float = 0.2
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -478,7 +479,7 @@ class SlipController(Controller):
             self._probed.discard(patch)
             self._entered = (patch, t)
         if self._probe_until is not None:
-            if self._v < (1 - s.probe_overspeed) * self._probe_v0:  # pulling harder slowed it: the ground digs in
+            if self._v < (1 - s.probe_abort_drop) * self._probe_v0:  # pulling harder slowed it: the ground digs in
                 self._probe_until = None
                 self._event(
                     "probe_aborted",

@@ -18,6 +18,7 @@ Parameters ``[v0, F_max, K, R, R_s, v_ref, i_prev, i_max, M_max, P_max]``.
 
 from __future__ import annotations
 
+import time
 from functools import lru_cache
 from typing import Any
 
@@ -65,7 +66,7 @@ def mpc_solver(
             "print_iteration": False,
             "print_status": False,
             "print_time": False,
-            "max_iter": 30,
+            "max_iter": 15,
             "error_on_fail": False,
         }
         return ca.nlpsol("slip_mpc_sqp", "sqpmethod", nlp, opts)
@@ -99,6 +100,10 @@ class MpcProblem:
         self.failures = 0
         self.fallbacks = 0  # SQP failures re-solved by IPOPT
         self.fallback_reasons: dict[str, int] = {}
+        self.iterations: list[int] = []  # iterations of each solve's last solver
+        self.solver_cpu_s: list[tuple[bool, str, float]] = []  # (IPOPT?, status, CPU s) of every solver call
+        # the first IPOPT call loads its plugin (~0.3 s): done here, not in the first fall-back of a run
+        self._fallback(x0=self._x, p=np.ones(len(MPC_PARAMS)), lbx=0.0, ubx=0.5, lbg=-np.inf, ubg=1.0)
 
     def solve(
         self,
@@ -121,8 +126,12 @@ class MpcProblem:
             if solver is self._fallback:
                 self.fallbacks += 1
                 self.fallback_reasons[self.last_status] = self.fallback_reasons.get(self.last_status, 0) + 1
+            c0 = time.process_time()
             sol = solver(x0=x0, p=p, lbx=0.0, ubx=i_max, lbg=-np.inf, ubg=1.0, lam_x0=self._lam_x, lam_g0=self._lam_g)
             st = solver.stats()
+            self.solver_cpu_s.append(
+                (solver is self._fallback, str(st.get("return_status", "")), time.process_time() - c0)
+            )
             self.last_status = str(st.get("return_status", ""))
             x = np.asarray(sol["x"], dtype=float).ravel()
             ok = bool(st.get("success", False))
@@ -130,6 +139,7 @@ class MpcProblem:
                 break
         self.last_status = str(st.get("return_status", ""))
         self.last_iterations = int(st.get("iter_count", 0))
+        self.iterations.append(self.last_iterations)
         if not ok or not np.all(np.isfinite(x)):
             self.failures += 1
             self._x = x0
