@@ -138,7 +138,7 @@ def main(argv=None) -> int:
             ps = PlantSettings(v0=v0, seed=a.seed, **noise)
             factory = None
             if a.plant == "independent":
-                from control_plant import JHPlant, with_truth
+                from control_plant import from_vehicle, with_truth
 
                 def factory(patches, V=V, v0=v0):
                     pat = [
@@ -152,21 +152,7 @@ def main(argv=None) -> int:
                         )
                         for q in patches
                     ]
-                    return with_truth(
-                        JHPlant(
-                            V.mass,
-                            V.track_length,
-                            V.track_width,
-                            V.sprocket_radius,
-                            V.sprocket_inertia,
-                            V.rolling_resistance,
-                            pat,
-                            v0=v0,
-                            sigma_v=0.005,
-                            sigma_w=0.02,
-                            seed=a.seed,
-                        )
-                    )
+                    return with_truth(from_vehicle(V, pat, v0=v0, sigma_v=0.005, sigma_w=0.02, seed=a.seed))
 
             for kind in a.controllers.split(","):
                 t0 = time.perf_counter()

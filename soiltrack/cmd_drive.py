@@ -23,15 +23,6 @@ default the planned soil). The target speed is the larger of v0_m_s and v_end_m_
 Exit status: 0 the controller reached the end with no stuck event, 1 it did not (the reason in
 the report and the JSON), 2 bad input."""
 
-_METRIC_ORDER = (
-    "time_s",
-    "energy_J",
-    "tracking_rmse_m_s",
-    "peak_slip",
-    "time_above_slip_limit_s",
-    "stuck_events",
-    "adapt_time_s",
-)
 _MAX_POINTS = 2000
 
 
@@ -85,8 +76,10 @@ def _fmt(v) -> str:
 
 def _table(res) -> str:
     rows = [(res.controller, res.run)] + list(res.baselines.items())
-    head = ["controller", "arrived"] + list(_METRIC_ORDER)
-    lines = [head] + [[n, "yes" if r.arrived else "no"] + [_fmt(r.metrics[k]) for k in _METRIC_ORDER] for n, r in rows]
+    from .planning.control.loop import METRIC_KEYS
+
+    head = ["controller", "arrived"] + list(METRIC_KEYS)
+    lines = [head] + [[n, "yes" if r.arrived else "no"] + [_fmt(r.metrics[k]) for k in METRIC_KEYS] for n, r in rows]
     widths = [max(len(str(x[j])) for x in lines) for j in range(len(head))]
     return "\n".join("  ".join(str(x[j]).rjust(widths[j]) for j in range(len(head))) for x in lines)
 

@@ -74,6 +74,21 @@ class JHPlant:
         }
 
 
+def from_vehicle(V, patches, **kw):
+    """A JHPlant of a vehicle object (``mass``, ``track_length``, ``track_width``, ``sprocket_radius``,
+    ``sprocket_inertia``, ``rolling_resistance`` attributes) over ``patches`` (tuples as JHPlant's)."""
+    return JHPlant(
+        V.mass,
+        V.track_length,
+        V.track_width,
+        V.sprocket_radius,
+        V.sprocket_inertia,
+        V.rolling_resistance,
+        patches,
+        **kw,
+    )
+
+
 def drive(controller, plant, distance, t_max):
     """Run the loop; returns arrays (t, x, v, slip, M, w) and whether it arrived."""
     meas = plant.step(0.0)

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, os.path.dirname(__file__))
-from control_plant import JHPlant, drive, stuck_events  # noqa: E402
+from control_plant import drive, from_vehicle, stuck_events  # noqa: E402
 
 from soiltrack.planning import route_from_dict  # noqa: E402
 from soiltrack.planning.control import (  # noqa: E402
@@ -40,17 +40,7 @@ def _jh(V, route, soils, mus=None, **kw):
         (p.length_m, s.cohesion, s.friction_angle, s.shear_modulus, p.grade_deg, m)
         for p, s, m in zip(route.patches, soils, mus)
     ]
-    return JHPlant(
-        V.mass,
-        V.track_length,
-        V.track_width,
-        V.sprocket_radius,
-        V.sprocket_inertia,
-        V.rolling_resistance,
-        pat,
-        v0=route.v0_m_s,
-        **kw,
-    )
+    return from_vehicle(V, pat, v0=route.v0_m_s, **kw)
 
 
 # a traversable heavy route: flat, a 20 deg climb on a weaker soil than planned, flat
