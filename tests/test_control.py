@@ -85,14 +85,17 @@ def test_sinkage_estimator_recovers_mu_s_from_the_hull_balance():
     rng = np.random.default_rng(1)
     for mu in (0.8, 0.0):
         est = SinkageEstimator(V, g)
-        v, dt = 2.0, 0.02
-        for k in range(100):
-            i = 0.03 + 0.05 * (1 + math.sin(k / 7))  # slips of 3 % to 13 %
-            F = 1.4e5 * (1 - math.exp(-i * 40))
-            a = (F - R0 - N * mu * i) / V.mass
-            w = v / (V.sprocket_radius * (1 - i))
-            est.update(k * dt, V.sprocket_radius * F, w, v + rng.normal(0, 0.002))
-            v += a * dt
+        dt, n = 0.02, 100
+        i = 0.03 + 0.05 * (1 + np.sin(np.arange(n + 1) / 7))  # slips of 3 % to 13 %
+        F = 1.4e5 * (1 - np.exp(-i * 40))
+        v = np.empty(n + 1)
+        v[0] = 2.0
+        for k in range(n):
+            v[k + 1] = v[k] + dt * (F[k] - R0 - N * mu * i[k]) / V.mass
+        w = v / (V.sprocket_radius * (1 - i))
+        for k in range(n):  # the sprocket balance: M = r F + I dw/dt
+            M = V.sprocket_radius * F[k] + V.sprocket_inertia * (w[k + 1] - w[k]) / dt
+            est.update(k * dt, M, w[k], v[k] + rng.normal(0, 0.002))
         val = est.value
         assert val is not None and val[0] == pytest.approx(mu, abs=0.03) and val[1] < 0.05
 
