@@ -113,6 +113,7 @@ def main(argv=None) -> int:
     p.add_argument("--controllers", default="slip", help="comma-separated: slip, mpc, pi (default slip)")
     p.add_argument("--plant", default="library", choices=("library", "independent"))
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--no-probe", action="store_true", help="controllers without the traction probe (probe=False)")
     a = p.parse_args(argv)
 
     from soiltrack.planning import route_from_dict
@@ -156,7 +157,10 @@ def main(argv=None) -> int:
 
             for kind in a.controllers.split(","):
                 t0 = time.perf_counter()
-                res = drive(kind, V, route, soils, true_slip_sinkage=mus, plant_settings=ps, plant_factory=factory)
+                extra = {"probe": False} if a.no_probe else {}
+                res = drive(
+                    kind, V, route, soils, true_slip_sinkage=mus, plant_settings=ps, plant_factory=factory, **extra
+                )
                 print(f"| **{vname} / {rname} / {kind}** ({time.perf_counter() - t0:.0f} s wall) |||||||||||||")
                 print(_row(kind, res.run))
                 for name, r in res.baselines.items():

@@ -597,6 +597,8 @@ class MpcController(SlipController):
             self._Is = 0.0
             self.limiting = "speed"
             return self._speed_loop(patch, v_ref, dt, min(self._M_max, self._P_max / max(self._w, 1e-3)))
+        if self.problem.failed_last:  # no plan: the slip controller's rule (speed loop under the optimal slip)
+            return SlipController._torque(self, patch, v_ref, dt)
         M, gain = self._slip_loop(self._plan_slip, b, dt, patch)
         self._integrate_slip(gain, self._plan_slip, dt)
         return M

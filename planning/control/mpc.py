@@ -11,7 +11,8 @@ speed error to the target (relative), the sprocket energy (relative to the targe
 energy), and the slip's changes. SQP with CasADi's QRQP, quiet, warm-started from the previous solution
 (its plan shifted by one interval, and its multipliers). When SQP fails (about 1 % of the solves), IPOPT
 from the same warm start, bounded to 15 iterations and 8 ms of CPU (it took up to ~55 ms unbounded);
-when that fails too, the previous plan shifted is the safe answer (counted in ``failures``).
+when that fails too, the previous plan shifted is returned (counted in ``failures``, ``failed_last``) and
+the controller drives by the slip controller's rule until the next solve succeeds.
 ``R_s = N mu_s`` is the slip sinkage's resistance per unit slip (soilmodel's ``slip_sinkage`` effect).
 Parameters ``[v0, F_max, K, R, R_s, v_ref, i_prev, i_max, M_max, P_max]``.
 """
@@ -98,6 +99,7 @@ class MpcProblem:
         self.last_status = "not solved"
         self.last_iterations = 0
         self.failures = 0
+        self.failed_last = False  # whether the last solve failed (the plan returned is the previous one shifted)
         self.fallbacks = 0  # SQP failures re-solved by IPOPT
         self.fallback_reasons: dict[str, int] = {}
         self.iterations: list[int] = []  # iterations of each solve's last solver
@@ -140,7 +142,8 @@ class MpcProblem:
         self.last_status = str(st.get("return_status", ""))
         self.last_iterations = int(st.get("iter_count", 0))
         self.iterations.append(self.last_iterations)
-        if not ok or not np.all(np.isfinite(x)):
+        self.failed_last = not ok or not np.all(np.isfinite(x))
+        if self.failed_last:
             self.failures += 1
             self._x = x0
             return x0
