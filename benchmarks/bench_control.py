@@ -22,6 +22,7 @@ alone, and of the MPC's solve (with its IPOPT fall-backs and shifted-plan answer
 runs the independent numpy plant of tests/control_plant.py instead of the library's.
 
     python benchmarks/bench_control.py                       # light, climb, slip (about 30 s)
+    python benchmarks/bench_control.py --split-time 1000     # the slip step: estimator vs own time
     python benchmarks/bench_control.py --vehicles heavy,light --routes soft,change,climb,steep \\
         --controllers slip,mpc --plant independent          # the full table (tens of minutes)
 """
@@ -104,6 +105,33 @@ def _row(name, r):
     )
 
 
+def split_time(n: int) -> None:
+    """The slip controller's step split into the estimator's update and its own part (library plant,
+    light vehicle, ``climb``, ``n`` steps after 300 of warm-up; median and p99 wall clock)."""
+    import numpy as np
+
+    from soiltrack.planning import route_from_dict
+    from soiltrack.planning.control import PlantSettings, TerrainPatch, TrackPlant, make_controller
+    from soiltrack.soilmodel import TERRAINS, VEHICLES
+
+    V = VEHICLES["light"]
+    spec, true, _ = routes("light")["climb"]
+    route = route_from_dict(spec)
+    ctl = make_controller("slip", V, route=route)
+    ps = PlantSettings(v0=route.v0_m_s, sigma_vehicle_speed=0.005, sigma_sprocket_speed=0.02)
+    pl = TrackPlant(V, [TerrainPatch(p.length_m, TERRAINS[t], p.grade_deg) for p, t in zip(route.patches, true)], ps)
+    meas = pl.step(0.0)
+    for _ in range(300):
+        meas = pl.step(ctl.command(meas))
+    ctl.step_times_s.clear()
+    ctl.belief.update_times_s.clear()
+    for _ in range(n):
+        meas = pl.step(ctl.command(meas))
+    st, ut = np.array(ctl.step_times_s), np.array(ctl.belief.update_times_s)
+    for name, x in (("step", st), ("estimator update", ut), ("own (step - estimator)", st - ut)):
+        print(f"{name}: median {np.median(x) * 1e6:.0f} us, p99 {np.percentile(x, 99) * 1e6:.0f} us")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__
@@ -114,7 +142,11 @@ def main(argv=None) -> int:
     p.add_argument("--plant", default="library", choices=("library", "independent"))
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-probe", action="store_true", help="controllers without the traction probe (probe=False)")
+    p.add_argument("--split-time", type=int, metavar="N", help="only time the slip controller's step split (N steps)")
     a = p.parse_args(argv)
+    if a.split_time:
+        split_time(a.split_time)
+        return 0
 
     from soiltrack.planning import route_from_dict
     from soiltrack.planning.control import PlantSettings, drive

@@ -67,7 +67,7 @@ def mpc_solver(
             "print_iteration": False,
             "print_status": False,
             "print_time": False,
-            "max_iter": 15,
+            "max_iter": 30,
             "error_on_fail": False,
         }
         return ca.nlpsol("slip_mpc_sqp", "sqpmethod", nlp, opts)
