@@ -92,7 +92,7 @@ def _row(name, r):
     solve = (
         f"{r.solve_time_median_s * 1e3:.1f}/{r.solve_time_p99_s * 1e3:.1f} "
         f"(CPU {r.solve_cpu_median_s * 1e3:.1f}/{r.solve_cpu_p99_s * 1e3:.1f}; "
-        f"{r.mpc_solves} solves, {r.mpc_fallbacks} IPOPT, {r.mpc_failures} shifted)"
+        f"{r.mpc_solves} solves, {r.mpc_fallbacks} IPOPT, {r.mpc_failures} failed: slip rule)"
         if r.solve_time_median_s
         else "-"
     )
