@@ -18,7 +18,8 @@ soil without the estimator, and the same controller given the true soil.
 ROUTE.json: as for `soiltrack route` ({"v0_m_s", "v_end_m_s", "max_slip", "patches": [{"length_m",
 "terrain" | "soil", "grade_deg"}]}); each patch may add "true_terrain": NAME or "true_soil":
 {"cohesion_kpa", "friction_angle_deg", "shear_modulus_m"} (what the vehicle really drives on;
-default the planned soil). The target speed is the larger of v0_m_s and v_end_m_s (or --speed).
+default the planned soil), and "true_slip_sinkage": MU_S (soilmodel's slip_sinkage effect, extra
+resistance N mu_s |slip|, 0 to 2; default 0). The target speed is the larger of v0_m_s and v_end_m_s (or --speed).
 
 Exit status: 0 the controller reached the end with no stuck event, 1 it did not (the reason in
 the report and the JSON), 2 bad input."""
@@ -27,26 +28,38 @@ _MAX_POINTS = 2000
 
 
 def read_drive_route(path: str):
-    """ROUTE.json with ``true_terrain``/``true_soil`` per patch -> (Route, true soils); DataError naming the field."""
+    """ROUTE.json with ``true_terrain``/``true_soil`` (and ``true_slip_sinkage``, mu_s) per patch -> (Route, true
+    soils, true slip-sinkage coefficients); DataError naming the field."""
     from .planning import route_from_dict
     from .soilmodel.jsonread import load_json_file
 
     obj = load_json_file(path, "route file")
     if not isinstance(obj, dict) or not isinstance(obj.get("patches"), list):
-        return route_from_dict(obj, source=path), None  # its own error
+        return route_from_dict(obj, source=path), None, None  # its own error
     planned = dict(obj, patches=[])
     truths: list[dict | None] = []
+    sinkage: list[float] = []
     for k, p in enumerate(obj["patches"]):
         if not isinstance(p, dict):
             planned["patches"].append(p)
             truths.append(None)
+            sinkage.append(0.0)
             continue
         true = {key: p[key] for key in ("true_terrain", "true_soil") if key in p}
         if len(true) == 2:
             raise DataError(
                 f"patches[{k}]: give 'true_terrain' or 'true_soil', not both", file=path, column=f"patches[{k}]"
             )
-        planned["patches"].append({key: v for key, v in p.items() if key not in ("true_terrain", "true_soil")})
+        mu = p.get("true_slip_sinkage", 0.0)
+        if isinstance(mu, bool) or not isinstance(mu, (int, float)) or not 0 <= mu <= 2:
+            raise DataError(
+                f"patches[{k}].true_slip_sinkage must be a number in [0, 2] (mu_s), got {mu!r}",
+                file=path,
+                column=f"patches[{k}].true_slip_sinkage",
+            )
+        sinkage.append(float(mu))
+        drop = ("true_terrain", "true_soil", "true_slip_sinkage")
+        planned["patches"].append({key: v for key, v in p.items() if key not in drop})
         truths.append(true or None)
     route = route_from_dict(planned, source=path)
     soils = []
@@ -63,7 +76,7 @@ def read_drive_route(path: str):
                 "patches[0].soil", f"patches[{k}].{key}"
             )
             raise DataError(msg, file=path, column=f"patches[{k}].{key}") from None
-    return route, soils
+    return route, soils, sinkage
 
 
 def _fmt(v) -> str:
@@ -143,7 +156,7 @@ def _cmd_drive(a: argparse.Namespace) -> int:
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
     vehicle = vehicle_arg(a.vehicle)
-    route, soils = read_drive_route(a.route)
+    route, soils, sinkage = read_drive_route(a.route)
     speed = None if a.speed is None else floats_arg(a.speed, "--speed")[0]
     if speed is not None and not speed > 0:
         raise DataError(f"argument --speed must be > 0 m/s, got {speed:g}")
@@ -166,7 +179,9 @@ def _cmd_drive(a: argparse.Namespace) -> int:
         sigma_accel=0.02 * noise,
         delay_steps=int(a.delay_steps),
     )
-    res = drive(a.controller, vehicle, route, soils, plant_settings=ps, target_speed_m_s=speed)
+    res = drive(
+        a.controller, vehicle, route, soils, true_slip_sinkage=sinkage, plant_settings=ps, target_speed_m_s=speed
+    )
     reason = _reason(res.run)
     if a.json:
         print(json.dumps(_json(res, reason), indent=None, allow_nan=False, default=float))

@@ -281,6 +281,11 @@ ROUTE = {
             "true_soil.shear_modulus_m",
         ),
         ({"patches": [{"length_m": -4, "terrain": "lete_sand"}]}, [], "patches[0].length_m"),
+        (
+            {"patches": [{"length_m": 4, "terrain": "lete_sand"}, {"length_m": 4, "true_slip_sinkage": 3}]},
+            [],
+            "patches[1].true_slip_sinkage",
+        ),
         ({}, ["--dt", "5"], "--dt"),
         ({}, ["--speed", "-1"], "--speed"),
     ],
