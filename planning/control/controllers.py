@@ -280,7 +280,7 @@ class Controller:
         j = int(np.argmax(net))
         return float(grid[j]), float(net[j])
 
-    def _thrust(self, b: SoilBelief, slips: Sequence[float]) -> np.ndarray:
+    def _thrust(self, b: SoilBelief, slips: Sequence[float] | np.ndarray) -> np.ndarray:
         """Believed thrust (Eq. 2, ``F_max g(i l / K)``) at ``slips`` (non-negative), from a table of
         soilmodel's shear bracket ``g`` (:func:`_bracket_table`, exact to about 1e-5; a CasADi call per
         sample would cost more than the whole control step)."""
