@@ -187,8 +187,7 @@ class EstimatedSoil(PriorSoil):
     estimator_factory
         ``factory(vehicle, grade_rad) -> estimator`` (default
         :class:`~soiltrack.identify.online.OnlineEstimator` with ``OnlineSettings(grade_rad=...)``);
-        a new estimator is made when the vehicle enters a patch of another grade (its normal load
-        changes, and with it F_max).
+        a new estimator is made when the vehicle enters another patch of the route (see :meth:`update`).
     """
 
     source = "estimate"
@@ -209,7 +208,7 @@ class EstimatedSoil(PriorSoil):
         self._soils = list(soils)
         self._factory = estimator_factory or _default_factory
         self._est = self._factory(vehicle, math.radians(self._grades[0]))
-        self._key = (self._grades[0], self._soils[0])
+        self._key = (0, self._grades[0], self._soils[0])
         self._last: Any = None
         self._held: SoilBelief | None = None
         self._events: list[dict] = []
@@ -221,13 +220,14 @@ class EstimatedSoil(PriorSoil):
     def update(self, time_s: float, torque: float, w: float, v: float, accel: float | None, patch: int) -> None:
         """Feed one sample (torque applied, sprocket speed, vehicle speed) to the estimator.
 
-        Entering a patch of another grade (another normal load, so another F_max) or another planned
-        soil starts a new estimator: the old horizon describes the ground behind.
+        Entering another patch of the route starts a new estimator and drops the held estimate: the old
+        horizon describes the ground behind (even where the plan says the same soil and grade, the true
+        ground may differ, and the change detector need not fire).
         """
         k = min(patch, len(self._grades) - 1)
-        key = (self._grades[k], self._soils[k])
+        key = (k, self._grades[k], self._soils[k])
         if key != self._key:
-            self._est = self._factory(self.vehicle, math.radians(key[0]))
+            self._est = self._factory(self.vehicle, math.radians(key[1]))
             self._key, self._last, self._held = key, None, None
         self._cache.clear()
         if k != self._sink_patch:
