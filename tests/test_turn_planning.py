@@ -72,3 +72,112 @@ def test_margin_cli_p_turn_feasible_from_fit(tmp_path, capsys):
     rc, js = out["1.6"]
     assert rc == 1 and js["turn_feasible"] is False and js["p_turn_feasible"] <= 0.02
     assert js["p_turn_limited_by"]["soil"] >= 0.98
+
+
+# --- ROUTE.json radius_m: route and profile through turns ---------------------------------------
+def _route(radius, terrain="lete_sand", v=2.0):
+    turn = {"length_m": 15, "terrain": terrain}
+    if radius is not None:
+        turn["radius_m"] = radius
+    return {
+        "v0_m_s": v,
+        "v_end_m_s": v,
+        "objective": "time",
+        "max_slip": 0.2,
+        "patches": [{"length_m": 20, "terrain": terrain}, turn, {"length_m": 20, "terrain": terrain}],
+    }
+
+
+def _plan(obj, max_speed=2.0):
+    from soiltrack.planning import route_profile
+    from soiltrack.planning.route import route_from_dict
+
+    return route_profile(route_from_dict(obj), HEAVY, max_speed=max_speed)
+
+
+def test_route_left_and_right_turns_mirrored_straight_unchanged():
+    straight, left, right = (_plan(_route(r)) for r in (None, 10.0, -10.0))
+    assert straight.success and left.success and right.success
+    assert straight.turns == () and "turns" not in straight.to_dict(route=True)
+    # the speed profile and the straight-line series are those of the route without the turn (the same
+    # problem; IPOPT's warm start between the three solves moves the last digits: 1e-6 of the values)
+    for k in ("speed_m_s", "sprocket_torque_Nm", "time_s"):
+        np.testing.assert_allclose(left.series[k], straight.series[k], rtol=1e-5, atol=1e-6 * max(straight.series[k]))
+        np.testing.assert_allclose(right.series[k], straight.series[k], rtol=1e-5, atol=1e-6 * max(straight.series[k]))
+    js_l, js_r = left.to_dict(route=True), right.to_dict(route=True)
+    on = [j for j, r in enumerate(js_l["radius_m"]) if r is not None]
+    assert len(on) >= 3 and [js_r["radius_m"][j] for j in on] == [-10.0] * len(on)
+    np.testing.assert_allclose([js_l["torque_left_Nm"][j] for j in on], [js_r["torque_right_Nm"][j] for j in on], 1e-4)
+    np.testing.assert_allclose([js_l["torque_right_Nm"][j] for j in on], [js_r["torque_left_Nm"][j] for j in on], 1e-4)
+    np.testing.assert_allclose([js_l["slip_right"][j] for j in on], [js_r["slip_left"][j] for j in on], 1e-4)
+    j = on[len(on) // 2]
+    assert js_l["torque_right_Nm"][j] > 0 > js_l["torque_left_Nm"][j]  # left turn: the right track is outer
+    # the turn's torques are the steering model's steady turn at the planned speed (constant 2 m/s here)
+    m = turn_margin(HEAVY, SAND, radius_m=10.0, speed_m_s=2.0)
+    assert js_l["torque_right_Nm"][j] == pytest.approx(m.torque_right_Nm, rel=1e-3)
+    assert js_l["torque_left_Nm"][j] == pytest.approx(m.torque_left_Nm, rel=1e-3)
+    off = [j for j, r in enumerate(js_l["radius_m"]) if r is None]
+    assert all(
+        js_l["torque_left_Nm"][j] == js_l["torque_right_Nm"][j] == 0.5 * js_l["sprocket_torque_Nm"][j] for j in off
+    )
+    (t,) = js_l["turns"]
+    assert t["patch"] == 1 and t["feasible"] is True and t["limited_by"] is None
+
+
+def test_route_turn_too_tight_for_the_soil_not_traversable(tmp_path, capsys):
+    clay = TERRAINS["clayey_soil"]
+    r0 = min_turn_radius(HEAVY, clay, 2.0)
+    assert r0 is not None
+    tight, ok = _plan(_route(0.95 * r0, "clayey_soil")), _plan(_route(1.05 * r0, "clayey_soil"))
+    assert ok.success and ok.turns[0]["feasible"] is True
+    assert not tight.success and tight.status == "infeasible"
+    assert tight.reason["patch"] == 1 and tight.reason["limit"] == "soil"
+    assert tight.turns[0]["feasible"] is False and tight.turns[0]["limited_by"] == "soil"
+    assert "patch 1" in tight.message
+    d = HEAVY.to_dict()
+    d.pop("name", None)
+    vj, rj = tmp_path / "v.json", tmp_path / "r.json"
+    vj.write_text(json.dumps(d))
+    rj.write_text(json.dumps(_route(0.95 * r0, "clayey_soil")))
+    rc = main(["route", str(rj), "--vehicle", str(vj), "--max-speed", "2", "--json"])
+    js = json.loads(capsys.readouterr().out)
+    assert rc == 1 and js["success"] is False and js["reason"]["limit"] == "soil" and js["reason"]["patch"] == 1
+
+
+@pytest.mark.parametrize(
+    "radius,words",
+    [
+        (0, "patches[1].radius_m = 0"),
+        (1.0, "half the tread"),
+        (-1.25, "half the tread"),
+        ("ten", "patches[1].radius_m"),
+    ],
+)
+def test_route_bad_radius_exit_2(tmp_path, capsys, radius, words):
+    d = HEAVY.to_dict()
+    d.pop("name", None)
+    vj, rj = tmp_path / "v.json", tmp_path / "r.json"
+    vj.write_text(json.dumps(d))
+    rj.write_text(json.dumps(_route(radius)))
+    rc = main(["route", str(rj), "--vehicle", str(vj)])
+    err = capsys.readouterr().err
+    assert rc == 2 and words in err and "Traceback" not in err
+    rc = main(["route", str(rj), "--vehicle", "heavy"])  # no tread_m
+    err = capsys.readouterr().err
+    assert rc == 2 and ("tread_m" in err or words in err)
+
+
+def test_profile_turn_radius_cli(tmp_path, capsys):
+    d = HEAVY.to_dict()
+    d.pop("name", None)
+    vj = tmp_path / "v.json"
+    vj.write_text(json.dumps(d))
+    base = ["profile", "--vehicle", str(vj), "--terrain", "lete_sand", "--v0", "2", "--v1", "2", "--distance", "20"]
+    rc = main([*base, "--max-speed", "2", "--turn-radius", "-10", "--json"])
+    js = json.loads(capsys.readouterr().out)
+    assert rc == 0 and js["turns"][0]["radius_m"] == -10.0 and js["turns"][0]["feasible"] is True
+    assert js["torque_left_Nm"][5] > 0 > js["torque_right_Nm"][5]  # right turn: the left track is outer
+    rc = main([*base, "--turn-radius", "0"])
+    assert rc == 2 and "--turn-radius" in capsys.readouterr().err
+    rc = main([*base, "--turn-radius", "5", "--grade-deg", "4"])
+    assert rc == 2 and "grade" in capsys.readouterr().err
