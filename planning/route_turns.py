@@ -6,7 +6,7 @@ optimal control problem); :func:`plan_turns` then solves, at every mesh point of
 the hull motion the plan prescribes - forward speed ``u``, its rate ``du/dt`` (central differences
 of the plan's speeds over its times), yaw rate ``u / R`` and its rate ``(du/dt) / R`` - with the
 steering model (:func:`~.turning.motion_points`: both sprockets' speeds and torques, the lateral
-speed) and checks it against the limits of ``margin --turn-radius`` (:func:`~.turning._classify`:
+speed) and checks it against the limits of ``margin --turn-radius`` (:func:`~.turning.classify_turn`:
 soil - steady motion, inner sprocket forwards, sideslip, outer slip at most the plan's slip
 limit -, torque per sprocket at most half the plan's ``max_torque_Nm``, power). A turn that breaks
 a limit makes the plan infeasible, naming the patch, the limit and the mesh point.
@@ -30,7 +30,7 @@ import numpy as np
 from ..soilmodel import DataError, Vehicle
 from ..soilmodel.steering import SteeringSettings, tread_of
 from .margin import resolve_terrain, terrain_soil_vector
-from .turning import _classify, motion_points
+from .turning import classify_turn, motion_points
 
 __all__ = ["check_turns", "plan_turns", "turn_line", "TURN_SERIES", "MIN_TURN_SPEED"]
 
@@ -42,7 +42,7 @@ MIN_TURN_SPEED = 0.05
 
 @dataclass(frozen=True)
 class _Limits:
-    """The plan's drivetrain limits in the attribute names :func:`~.turning._classify` reads."""
+    """The plan's drivetrain limits in the attribute names :func:`~.turning.classify_turn` reads."""
 
     max_sprocket_torque: float
     max_power: float
@@ -130,7 +130,7 @@ def plan_turns(plan, patches, vehicle: Vehicle, settings: SteeringSettings = Ste
             out["slip_left"][j] = np.where(solved, 1 - (u - Om * B / 2) / (r * wl), np.nan)
             out["slip_right"][j] = np.where(solved, 1 - (u + Om * B / 2) / (r * wr), np.nan)
         for n, jj in enumerate(j):
-            limit, why = _classify(vehicle, R[jj], v[jj], plan.limits["max_slip"], lim, tuple(c[n] for c in cols))
+            limit, why = classify_turn(vehicle, R[jj], v[jj], plan.limits["max_slip"], lim, tuple(c[n] for c in cols))
             if limit is not None:
                 first_bad = (int(jj), limit, why)
                 break
@@ -139,7 +139,7 @@ def plan_turns(plan, patches, vehicle: Vehicle, settings: SteeringSettings = Ste
     jj = first_bad[0]
     sv = _soil_vector(patches[k_node[jj]].terrain, vehicle)[None, :]
     steady = motion_points(vehicle, sv, v[jj], v[jj] / R[jj], 0.0, 0.0, settings)  # the same point, no acceleration
-    ok = _classify(vehicle, R[jj], v[jj], plan.limits["max_slip"], lim, tuple(c[0] for c in steady))[0] is None
+    ok = classify_turn(vehicle, R[jj], v[jj], plan.limits["max_slip"], lim, tuple(c[0] for c in steady))[0] is None
     return _with_turns(plan, out, R, k_node, on, radii, first_bad, patches, float(du[jj]), ok)
 
 

@@ -242,7 +242,7 @@ def turn_point(
     return bool(solved[0]), wl[0], wr[0], v[0], Tl[0], Tr[0]
 
 
-def _classify(vehicle, radius_m, speed_m_s, max_slip, limits, d):
+def classify_turn(vehicle, radius_m, speed_m_s, max_slip, limits, d):
     """``(limit or None, reason)`` of one solved-or-not turn ``d = (solved, w_l, w_r, v, T_l, T_r)``."""
     solved, wl, wr, v, Tl, Tr = d
     if not solved:
@@ -268,7 +268,7 @@ def _classify(vehicle, radius_m, speed_m_s, max_slip, limits, d):
 def _check(vehicle, soil, radius_m, speed_m_s, max_slip, limits, settings):
     """``(limit or None, reason, details)`` of one turn: the first limit it breaks (soil, torque, power)."""
     d = turn_point(vehicle, soil, radius_m, speed_m_s, settings)
-    return (*_classify(vehicle, radius_m, speed_m_s, max_slip, limits, d), d)
+    return (*classify_turn(vehicle, radius_m, speed_m_s, max_slip, limits, d), d)
 
 
 def min_turn_radius(vehicle, soil, speed_m_s, *, max_slip=0.2, settings=SteeringSettings()) -> float | None:
@@ -386,7 +386,7 @@ def turn_probability(
     cols = turn_points(vehicle, soils, radius_m, speed_m_s, settings)
     counts = {"soil": 0, "torque": 0, "power": 0}
     for k in range(n_samples):
-        limit, _ = _classify(vehicle, radius_m, speed_m_s, max_slip, limits, tuple(c[k] for c in cols))
+        limit, _ = classify_turn(vehicle, radius_m, speed_m_s, max_slip, limits, tuple(c[k] for c in cols))
         if limit is not None:
             counts[limit] += 1
     p = 1.0 - sum(counts.values()) / n_samples
