@@ -136,11 +136,12 @@ def plan_turns(plan, patches, vehicle: Vehicle, settings: SteeringSettings = Ste
                 break
     if first_bad is None:
         return _with_turns(plan, out, R, k_node, on, radii, first_bad, patches)
-    jj = first_bad[0]
-    sv = _soil_vector(patches[k_node[jj]].terrain, vehicle)[None, :]
-    steady = motion_points(vehicle, sv, v[jj], v[jj] / R[jj], 0.0, 0.0, settings)  # the same point, no acceleration
-    ok = classify_turn(vehicle, R[jj], v[jj], plan.limits["max_slip"], lim, tuple(c[0] for c in steady))[0] is None
-    return _with_turns(plan, out, R, k_node, on, radii, first_bad, patches, float(du[jj]), ok)
+    jb = first_bad[0]
+    sv = _soil_vector(patches[k_node[jb]].terrain, vehicle)[None, :]
+    zero = np.zeros(1)  # the same point without acceleration: does the steady turn hold?
+    steady = motion_points(vehicle, sv, v[jb : jb + 1], v[jb : jb + 1] / R[jb], zero, zero, settings)
+    ok = classify_turn(vehicle, R[jb], v[jb], plan.limits["max_slip"], lim, tuple(c[0] for c in steady))[0] is None
+    return _with_turns(plan, out, R, k_node, on, radii, first_bad, patches, float(du[jb]), ok)
 
 
 def _soil_vector(terrain: Any, vehicle: Vehicle) -> np.ndarray:

@@ -177,6 +177,11 @@ def test_profile_turn_radius_cli(tmp_path, capsys):
     js = json.loads(capsys.readouterr().out)
     assert rc == 0 and js["turns"][0]["radius_m"] == -10.0 and js["turns"][0]["feasible"] is True
     assert js["torque_left_Nm"][5] > 0 > js["torque_right_Nm"][5]  # right turn: the left track is outer
+    # time-optimal from 1 to 2 m/s: the straight plan's acceleration (about 5 m/s^2) leaves no traction to turn
+    rc = main([*base[:-6], "--v0", "1", "--v1", "2", "--distance", "30", "--turn-radius", "-8", "--json"])
+    js = json.loads(capsys.readouterr().out)
+    assert rc == 1 and js["success"] is False and js["reason"]["limit"] == "soil" and js["reason"]["patch"] == 0
+    assert "a steady turn at this speed holds" in js["message"]
     rc = main([*base, "--turn-radius", "0"])
     assert rc == 2 and "--turn-radius" in capsys.readouterr().err
     rc = main([*base, "--turn-radius", "5", "--grade-deg", "4"])
