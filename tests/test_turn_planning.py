@@ -35,6 +35,7 @@ def _uncertain(soil: Soil, rel: float) -> SoilUncertainty:
     )
 
 
+@pytest.mark.slow  # about 10 s CPU (tens of seconds wall on a loaded machine)
 def test_p_turn_feasible_inside_outside_and_monotone():
     unc = _uncertain(SAND, 0.15)
     r0 = min_turn_radius(HEAVY, SAND, 2.0)
@@ -54,6 +55,7 @@ def test_p_turn_feasible_inside_outside_and_monotone():
     assert "without uncertainty" in m.to_dict()["p_turn_method"]
 
 
+@pytest.mark.slow  # about 10 s CPU (tens of seconds wall on a loaded machine)
 def test_margin_cli_p_turn_feasible_from_fit(tmp_path, capsys):
     data = simulate_slip_sweep(VEHICLES["heavy"], Soil.from_kpa_deg(1.3, 31.1, 0.012), seed=5)
     fj = tmp_path / "fit.json"
@@ -167,6 +169,7 @@ def test_route_bad_radius_exit_2(tmp_path, capsys, radius, words):
     assert rc == 2 and ("tread_m" in err or words in err)
 
 
+@pytest.mark.slow  # about 10 s CPU (tens of seconds wall on a loaded machine)
 def test_profile_turn_radius_cli(tmp_path, capsys):
     d = HEAVY.to_dict()
     d.pop("name", None)
