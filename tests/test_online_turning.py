@@ -48,6 +48,7 @@ def runs(turn_log):
     return _run(turn_log), _run(turn_log, NEVER)
 
 
+@pytest.mark.slow  # the 22 s log through the estimator: about 5 s CPU (shared fixture)
 def test_turning_samples_fitted_and_counted(runs, turn_log):
     (est, hist), (base, _) = runs
     e = hist[-1]
@@ -60,6 +61,7 @@ def test_turning_samples_fitted_and_counted(runs, turn_log):
     assert T.not_fitted["disagrees"] == 0 and T.not_fitted["failed"] == 0
 
 
+@pytest.mark.slow  # the 22 s log through the estimator: about 5 s CPU (shared fixture)
 def test_estimate_after_turns_consistent_and_tighter(runs):
     (_, hist), (_, base) = runs
     e, b = hist[-1], base[-1]
@@ -71,6 +73,7 @@ def test_estimate_after_turns_consistent_and_tighter(runs):
     assert b.max_thrust_stderr_N is None or b.max_thrust_stderr_N > e.max_thrust_stderr_N
 
 
+@pytest.mark.slow  # the 22 s log through the estimator: about 5 s CPU (shared fixture)
 def test_turns_on_uniform_soil_raise_no_alarm(runs):
     (est, hist), _ = runs
     assert not est.changes and not any(h.change_detected for h in hist)
@@ -105,3 +108,60 @@ def test_vehicle_without_tread_counts_not_fitted():
 def test_settings_checked():
     with pytest.raises(ValueError, match="friction_share"):
         TurningSettings(friction_share=1.5)
+
+
+def _feed(log, held, x0):
+    up = TurningUpdate(HEAVY, OnlineSettings().bounds)
+    c = log
+    for j in np.flatnonzero(log.turning()):
+        up.add((c.time[j], c.torque_left[j], c.torque_right[j], c.speed_left[j], c.speed_right[j],
+                c.vehicle_speed[j], c.yaw_rate[j]), held, x0, 5.0)  # fmt: skip
+    up.end(held, x0, 5.0)
+    return up
+
+
+@pytest.fixture(scope="module")
+def one_turn():
+    return simulate_turning_log(HEAVY, SOIL, turns="3:9:30", duration_s=11, sample_rate_hz=25, seed=3)
+
+
+def test_turn_tightens_a_held_estimate(one_turn):
+    """Held: the truth with 5 % / 20 % standard errors; the turn's blocks shrink F_max's, truth kept inside."""
+    F, K = max_thrust(SOIL, HEAVY), SOIL.shear_modulus
+    held = HeldSoil(0.0, 0.0)
+    P0 = ((0.05 * F) ** 2, 0.0, (0.2 * K) ** 2)
+    held.set(0.0, (F, K), P0)
+    up = _feed(one_turn, held, (F, K))
+    assert up.samples_fitted > 0 and up.not_fitted["disagrees"] == 0
+    assert held.P[0] < 0.8 * P0[0]
+    assert abs(held.x[0] - F) <= Z95 * held.P[0] ** 0.5 and abs(held.x[1] - K) <= Z95 * held.P[2] ** 0.5
+
+
+def test_block_without_information_contributes_nothing(one_turn):
+    """Held far tighter than a turn can tell (0.2 % / 2 %): every block is ``no_information``, nothing changes."""
+    F, K = max_thrust(SOIL, HEAVY), SOIL.shear_modulus
+    held = HeldSoil(0.0, 0.0)
+    x, P = (F, K), ((0.002 * F) ** 2, 0.0, (0.02 * K) ** 2)
+    held.set(0.0, x, P)
+    up = _feed(one_turn, held, x)
+    assert up.blocks and all(b.status == "no_information" for b in up.blocks)
+    assert held.x == x and held.P == P and up.samples_fitted == 0
+
+
+@pytest.mark.slow  # the CLI replay: about 2-3 s CPU
+def test_track_cli_counts_fitted_turning_samples(one_turn, tmp_path, capsys):
+    import json
+
+    from soiltrack.cli import main
+
+    log_path, veh_path = tmp_path / "turn.csv", tmp_path / "veh.json"
+    one_turn.write_csv(log_path)
+    d = HEAVY.to_dict()
+    d.pop("name", None)
+    veh_path.write_text(json.dumps(d))
+    assert main(["track", str(log_path), "--vehicle", str(veh_path), "--every", "100", "--json"]) == 0
+    lines = [json.loads(x) for x in capsys.readouterr().out.splitlines() if x.strip()]
+    s = lines[-1]["summary"]
+    recognised = s["samples_turning"] + sum(s["samples_turning_not_fitted"].values())
+    assert s["samples_turning"] > 0 and abs(recognised - int(np.count_nonzero(one_turn.turning()))) <= 4
+    assert s["samples_turning"] == lines[-2]["samples_turning"] and not s["changes"]
