@@ -21,7 +21,7 @@ NEVER = TurningSettings(min_block_s=1e9)  # no block is long enough: the turns l
 
 
 def _run(log, turning=None, settings=None):
-    est = OnlineEstimator(HEAVY, settings, turning)
+    est = OnlineEstimator(HEAVY, settings, turning=turning)
     history = []
     for k in range(log.n_samples):
         history.append(

@@ -106,7 +106,7 @@ class OnlineEstimator:
     """
 
     def __init__(
-        self, vehicle: Vehicle, settings: OnlineSettings | None = None, turning: TurningSettings | None = None
+        self, vehicle: Vehicle, settings: OnlineSettings | None = None, *, turning: TurningSettings | None = None
     ) -> None:
         self.vehicle = vehicle
         self.settings = settings or OnlineSettings()

@@ -33,7 +33,8 @@ CasADi Functions are built once per size and cached, the data enter as parameter
      counted and flagged, not fused, and it does NOT declare a change of terrain: the straight
      line's detector remains the one that does;
    - the steering model has no solution for it (``failed``), the vehicle has no ``tread_m``
-     (``no_tread``), or too few sub-blocks are above ``min_speed`` (``slow``).
+     (``no_tread``), the sample has no yaw rate (``no_yaw``), or too few sub-blocks are above
+     ``min_speed`` (``slow``).
 5. **Arrival cost.** The horizon's prior is the held state at its oldest sample; the turning
    blocks fused after that are not in the horizon (turning samples never are), so
    :meth:`TurningUpdate.with_recent` fuses them into the prior: no block is counted twice or lost.
@@ -57,7 +58,7 @@ from .memory import HeldSoil, Sym, fuse
 __all__ = ["TurningSettings", "TurnBlock", "TurningUpdate", "NOT_FITTED_REASONS"]
 
 #: Why a turning sample was not fitted (the keys of :attr:`TurningUpdate.not_fitted`).
-NOT_FITTED_REASONS = ("no_tread", "short", "slow", "failed", "no_information", "disagrees")
+NOT_FITTED_REASONS = ("no_tread", "no_yaw", "short", "slow", "failed", "no_information", "disagrees")
 
 
 @dataclass(frozen=True)
@@ -170,7 +171,7 @@ class TurningUpdate:
             return None
         if sample[6] is None or not math.isfinite(sample[6]):  # no yaw rate: the steering model needs it
             blk = self.end(held, x_start, window_s)
-            self._count_short(1)
+            self.not_fitted["no_yaw"] += 1
             return blk
         if self._buf and sample[0] <= self._buf[-1][0]:
             self.end(held, x_start, window_s)
