@@ -12,9 +12,10 @@ CasADi Functions are built once per size and cached, the data enter as parameter
 2. The block's channels are averaged over ``sub_block_s`` (as ``fit --motion turning``), and
    (F_max, K) are fitted by Levenberg-Marquardt from the held estimate (data only: no prior),
    the left and right residuals whitened by their 2 x 2 covariance pooled over the last
-   ``noise_sub_blocks`` sub-blocks of fitted turns (each block's residuals scaled by
-   ``n / (n - 1)`` for the two fitted parameters). The block's information matrix is ``J' J`` of
-   the whitened residuals.
+   ``noise_sub_blocks`` sub-blocks of fitted turns, this block's included (each block's residuals
+   scaled by ``n / (n - 1)`` for the two fitted parameters; the first block is fitted twice, the
+   second time with the covariance its own residuals gave). The block's information matrix is
+   ``J' J`` of the whitened residuals.
 3. **c/phi split.** The turn's load transfer moves ``m a_y h / B`` from the inner to the outer
    track, and how much that changes each track's ``F_max,k`` depends on the friction share
    ``kappa = W tan(phi) / F_max``, which the on-line estimate (F_max, K at one load) does not
@@ -216,9 +217,10 @@ class TurningUpdate:
         now = held.now(t_end)
         x0 = now[0] if now is not None else x_start
         need = 2.2 * max(np.max(np.abs(model.Tl)), np.max(np.abs(model.Tr))) / (self.vehicle.sprocket_radius * model.W)
-        out = None
+        out, L = None, self._whitener()
+        pooled = len(self._resid) >= s.min_noise_sub_blocks  # the noise covariance known before this block
         for f0 in (x0[0] / model.W, max(0.6, need)):  # the held value; else fit_turning's start (the model solves)
-            out = self._lm(model, np.clip(np.array([f0, x0[1] / K_REF]), self._lo, self._hi), self._whitener())
+            out = self._lm(model, np.clip(np.array([f0, x0[1] / K_REF]), self._lo, self._hi), L)
             if out is not None:
                 break
         if out is None:
@@ -229,10 +231,15 @@ class TurningUpdate:
         self._resid.extend(e * math.sqrt(m / max(m - 1, 1)))
         if len(self._resid) < s.min_noise_sub_blocks:
             return TurnBlock(t_end, n, "no_information")
-        out = self._lm(model, th, self._whitener())  # again with the updated noise covariance
-        if out is None:
-            return TurnBlock(t_end, n, "failed")
-        th, Z, Jw = out
+        L_new = self._whitener()
+        if pooled:  # one pass: the information re-whitened with the pool that now holds this block too
+            M = L_new @ np.linalg.inv(L)
+            Jw = np.einsum("ij,njk->nik", M, Jw.reshape(model.n, 2, 2)).reshape(2 * model.n, 2)
+        else:  # the first block: fitted again with the noise covariance its residuals gave
+            out = self._lm(model, th, L_new)
+            if out is None:
+                return TurnBlock(t_end, n, "failed")
+            th, Z, Jw = out
         on_bound = np.any(th <= self._lo * (1 + 1e-9)) or np.any(th >= self._hi * (1 - 1e-9))
         D = np.diag([model.W, K_REF])
         try:
