@@ -90,8 +90,8 @@ def test_block_far_from_held_soil_not_fused(turn_log):
     for j in k:
         c = turn_log
         up.add((c.time[j], c.torque_left[j], c.torque_right[j], c.speed_left[j], c.speed_right[j],
-                c.vehicle_speed[j], c.yaw_rate[j]), held, x, 5.0)  # fmt: skip
-    up.end(held, x, 5.0)
+                c.vehicle_speed[j], c.yaw_rate[j]), held, 5.0)  # fmt: skip
+    up.end(held, 5.0)
     assert up.blocks and all(b.status == "disagrees" for b in up.blocks)
     d = [b for b in up.blocks if b.status == "disagrees"]
     assert d and all(b.d2 > TurningSettings().gate_chi2 for b in d)
@@ -101,7 +101,7 @@ def test_block_far_from_held_soil_not_fused(turn_log):
 def test_vehicle_without_tread_counts_not_fitted():
     up = TurningUpdate(VEHICLES["heavy"], OnlineSettings().bounds)
     held = HeldSoil(0.0, 0.0)
-    assert up.add((0.0, 1.0, 1.0, 1.0, 2.0, 0.5, 0.1), held, (1e5, 0.01), 5.0) is None
+    assert up.add((0.0, 1.0, 1.0, 1.0, 2.0, 0.5, 0.1), held, 5.0) is None
     assert up.samples_fitted == 0 and up.not_fitted["no_tread"] == 1
 
 
@@ -110,13 +110,13 @@ def test_settings_checked():
         TurningSettings(friction_share=1.5)
 
 
-def _feed(log, held, x0):
+def _feed(log, held):
     up = TurningUpdate(HEAVY, OnlineSettings().bounds)
     c = log
     for j in np.flatnonzero(log.turning()):
         up.add((c.time[j], c.torque_left[j], c.torque_right[j], c.speed_left[j], c.speed_right[j],
-                c.vehicle_speed[j], c.yaw_rate[j]), held, x0, 5.0)  # fmt: skip
-    up.end(held, x0, 5.0)
+                c.vehicle_speed[j], c.yaw_rate[j]), held, 5.0)  # fmt: skip
+    up.end(held, 5.0)
     return up
 
 
@@ -131,7 +131,7 @@ def test_turn_tightens_a_held_estimate(one_turn):
     held = HeldSoil(0.0, 0.0)
     P0 = ((0.05 * F) ** 2, 0.0, (0.2 * K) ** 2)
     held.set(0.0, (F, K), P0)
-    up = _feed(one_turn, held, (F, K))
+    up = _feed(one_turn, held)
     assert up.samples_fitted > 0 and up.not_fitted["disagrees"] == 0
     assert held.P[0] < 0.8 * P0[0]
     assert abs(held.x[0] - F) <= Z95 * held.P[0] ** 0.5 and abs(held.x[1] - K) <= Z95 * held.P[2] ** 0.5
@@ -143,7 +143,7 @@ def test_block_without_information_contributes_nothing(one_turn):
     held = HeldSoil(0.0, 0.0)
     x, P = (F, K), ((0.002 * F) ** 2, 0.0, (0.02 * K) ** 2)
     held.set(0.0, x, P)
-    up = _feed(one_turn, held, x)
+    up = _feed(one_turn, held)
     assert up.blocks and all(b.status == "no_information" for b in up.blocks)
     assert held.x == x and held.P == P and up.samples_fitted == 0
 

@@ -343,10 +343,8 @@ class OnlineEstimator:
     # ------------------------------------------------------------------ internals
     def _turn_hook(self, sample) -> None:
         """i42 hook: a turning sample to the steering-model blocks (None: the turn ended); fused when fitted."""
-        x0 = (float(self._P[_P["xF"]] * self._F_ref), float(self._P[_P["xK"]] * self._K_ref))
-        T = self.turning
-        w = self.settings.window_s
-        blk = T.add(sample, self._held, x0, w) if sample else T.end(self._held, x0, w)
+        T, w = self.turning, self.settings.window_s
+        blk = T.add(sample, self._held, w) if sample else T.end(self._held, w)
         self.samples_turning = T.samples_fitted
         if blk is not None and blk.status == "fused":
             self._informed_at = blk.time_s

@@ -173,7 +173,7 @@ class TurningUpdate:
         return sum(self.not_fitted.values())
 
     # ------------------------------------------------------------------ collecting
-    def add(self, sample: tuple[float, ...], held: HeldSoil, x_start: tuple[float, float], window_s: float):
+    def add(self, sample: tuple[float, ...], held: HeldSoil, window_s: float):
         """Take one turning sample ``(t, T_l, T_r, w_l, w_r, u, yaw)``; fits and fuses a full block.
 
         Returns the :class:`TurnBlock` when one was fitted, else None.
@@ -182,20 +182,20 @@ class TurningUpdate:
             self.not_fitted["no_tread"] += 1
             return None
         if sample[6] is None or not math.isfinite(sample[6]):  # no yaw rate: the steering model needs it
-            blk = self.end(held, x_start, window_s)
+            blk = self.end(held, window_s)
             self.not_fitted["no_yaw"] += 1
             return blk
         if self._buf and sample[0] <= self._buf[-1][0]:
-            self.end(held, x_start, window_s)
+            self.end(held, window_s)
         self._buf.append(tuple(float(v) for v in sample))
         if self._buf[-1][0] - self._buf[0][0] >= self.settings.block_s:
-            return self.end(held, x_start, window_s)
+            return self.end(held, window_s)
         return None
 
     def _count_short(self, n: int) -> None:
         self.not_fitted["short"] += n
 
-    def end(self, held: HeldSoil, x_start: tuple[float, float], window_s: float) -> TurnBlock | None:
+    def end(self, held: HeldSoil, window_s: float) -> TurnBlock | None:
         """The turn (or the block) ended: fit and fuse what was collected (a short run is counted)."""
         buf, self._buf = self._buf, []
         if not buf:
@@ -203,7 +203,7 @@ class TurningUpdate:
         if buf[-1][0] - buf[0][0] < self.settings.min_block_s:
             self._count_short(len(buf))
             return None
-        blk = self._fit(np.array(buf), held, x_start)
+        blk = self._fit(np.array(buf), held)
         blk = self._fuse(blk, held, window_s)
         self.blocks.append(blk)
         if blk.status == "fused":
@@ -213,7 +213,7 @@ class TurningUpdate:
         return blk
 
     # ------------------------------------------------------------------ fitting
-    def _fit(self, a: np.ndarray, held: HeldSoil, x_start: tuple[float, float]) -> TurnBlock:
+    def _fit(self, a: np.ndarray, held: HeldSoil) -> TurnBlock:
         """The block's data-only estimate and covariance (status ``fitted`` or a reason)."""
         s, t_end, n = self.settings, float(a[-1, 0]), int(a.shape[0])
         log = TwoTrackLog(
