@@ -44,7 +44,11 @@ def check_budget(a: argparse.Namespace) -> None:
     """Refuse a drive-log fit the memory limit cannot hold (DataError, exit 2), before the file is read."""
     from .identify.drivelog.budget import check_fit_budget, count_rows, parse_memory
 
+    from .soilmodel.logread import is_bag
+
     limit = parse_memory(a.max_memory)
+    if is_bag(a.data):
+        return  # a ROS bag: its rows are known only once read (not estimated before the work)
     if not _is_drive_log(read_header(a.data)):
         if a.segments is not None:
             raise DataError("--segments applies to drive logs only", file=a.data)
