@@ -142,3 +142,27 @@ def test_parquet_needs_pyarrow_or_writes_it(fleet, tmp_path):
     assert sorted(table["index"]) == [0, 1, 2]
     k = table["index"].index(0)
     assert table["max_thrust_N"][k] is not None and res[0].success in (True, False)
+
+
+def test_cli_fleet_writes_the_rows_and_exits_1_for_the_poisoned_log(fleet, serial, tmp_path, capsys):
+    from soiltrack.cli import main
+
+    out = tmp_path / "cli.csv"
+    rc = main(["fleet", *fleet, "--vehicle", "light", "--out", str(out), "--workers", "2"])
+    cap = capsys.readouterr()
+    assert rc == 1 and "4 logs" in cap.out and "1 failed" in cap.out
+    assert "poisoned.csv" in cap.err and "row 7" in cap.err
+    _check_rows(_rows(out), fleet, serial)
+    assert main(["fleet", *fleet, "--vehicle", "light", "--out", str(out), "--segments", "soon"]) == 2
+    assert main(["fleet", *fleet, "--vehicle", "light", "--out", str(tmp_path / "x.parquet")]) in (
+        (0, 1) if _has_pyarrow() else (2,)
+    )
+    assert "Traceback" not in capsys.readouterr().err
+
+
+def _has_pyarrow():
+    try:
+        import pyarrow  # noqa: F401
+    except ImportError:
+        return False
+    return True
