@@ -251,3 +251,15 @@ def test_without_the_extra_the_error_says_how_to_install(csv_log, monkeypatch):
     monkeypatch.setattr(builtins, "__import__", no_rosbags)
     with pytest.raises(DataError, match=r"pip install 'soiltrack\[ros\]'"):
         read_data(bag, topics=TOPICS)
+
+
+@pytest.mark.slow
+def test_cli_diagnose_takes_a_bag(csv_log, capsys):
+    path, log, d = csv_log
+    bag = write_bag(d / "diag_mcap", log, "mcap")
+    rc_csv = main(["diagnose", path, "--vehicle", "light", "--json"])
+    a = json.loads(capsys.readouterr().out)
+    rc_bag = main(["diagnose", bag, "--vehicle", "light", "--topics", TOPICS, "--json"])
+    b = json.loads(capsys.readouterr().out)
+    assert rc_bag == rc_csv and b["verdict"] == a["verdict"] and b["cause"] == a["cause"]
+    assert any("linear interpolation" in n for n in b["columns_read"])
