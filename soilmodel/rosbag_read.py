@@ -54,7 +54,7 @@ class BagMapping:
     rate_hz: float | None = None
 
 
-def _entry(name: str, value: str, where: str) -> tuple[str, str]:
+def _entry(name: str, value: str, where: str | None) -> tuple[str, str]:
     if name not in BAG_COLUMNS:
         raise DataError(
             f"unknown drive-log column {name!r} in the bag mapping (expected some of {list(BAG_COLUMNS)})",
@@ -218,13 +218,13 @@ def _channels(path: str, mapping: BagMapping) -> tuple[dict[str, np.ndarray], di
     first = [ts[0] for ts in times.values() if ts]
     t0 = min(first) if first else 0
     for name in mapping.topics:  # seconds since the first stamp of all (exact to the nanosecond's float)
-        t = (np.asarray(times[name], dtype=np.int64) - t0).astype(float) / 1e9  # correctly rounded: 0.06 is 0.06
+        secs = (np.asarray(times[name], dtype=np.int64) - t0).astype(float) / 1e9  # correctly rounded: 0.06 is 0.06
         v = np.asarray(vals[name], float)
-        if t.size < 2:
+        if secs.size < 2:
             topic = mapping.topics[name][0]
-            raise DataError(f"topic {topic} (for {name}) has {t.size} message(s): a drive log needs more", file=path)
-        order = np.argsort(t, kind="stable")
-        out_t[name], out_v[name] = t[order], v[order]
+            raise DataError(f"topic {topic} (for {name}) has {secs.size} message(s): a drive log needs more", file=path)
+        order = np.argsort(secs, kind="stable")
+        out_t[name], out_v[name] = secs[order], v[order]
         how[name] = "header stamps" if header[name] else "recorded times"
     return out_t, out_v, how
 
