@@ -7,7 +7,7 @@ import sys
 
 from .cliutil import floats_arg, output_path, read_data_arg, running_gear_arg
 from .cmd_segments import add_arguments as add_segment_arguments
-from .cmd_segments import check_budget, segments_command
+from .cmd_segments import check_budget, memory_limit_arg, segments_command
 from .columns_cli import add_columns_argument, column_notes, columns_arg, with_column_notes
 from .identify.drivelog import DISCRETISATIONS
 from .identify.engines import DEFAULT_ENGINE, ENGINES
@@ -202,6 +202,8 @@ def _cmd_fit(a: argparse.Namespace) -> int:
         kw["resistance"] = a.resistance
     if a.effect:
         kw["effects"] = [e.strip() for item in a.effect for e in item.split(",") if e.strip()]
+    if drive_log:  # checked again on the data read (a ROS bag's rows are known only now)
+        kw["max_memory"] = memory_limit_arg(a)
     result = fit(data, vehicle, model=a.model, method=a.method, **kw)
     notes = column_notes(a.data, columns_arg(a))
     print(with_column_notes(result.to_json() if a.json else result.report(), notes, a.json))

@@ -166,3 +166,12 @@ def _has_pyarrow():
     except ImportError:
         return False
     return True
+
+
+@pytest.mark.skipif(FORK is None, reason="needs the fork start method")
+def test_rows_are_written_in_the_order_the_fits_finish(fleet, tmp_path):
+    """A log that fails at once (the poisoned one, last in the input) has its row before a long fit's."""
+    out = tmp_path / "order.csv"
+    with ProcessPoolExecutor(2, mp_context=FORK) as ex:
+        fit_many([fleet[0], fleet[2]], LIGHT, executor=ex, chunk_size=1, out=out, progress=False)
+    assert [int(r["index"]) for r in _rows(out)] == [1, 0]

@@ -263,3 +263,10 @@ def test_cli_diagnose_takes_a_bag(csv_log, capsys):
     b = json.loads(capsys.readouterr().out)
     assert rc_bag == rc_csv and b["verdict"] == a["verdict"] and b["cause"] == a["cause"]
     assert any("linear interpolation" in n for n in b["columns_read"])
+
+
+def test_max_memory_applies_to_a_bag(csv_log, capsys):
+    _, log, d = csv_log
+    bag = write_bag(d / "mem_mcap", log, "mcap")
+    rc, err = _rc_err(capsys, ["fit", bag, "--vehicle", "light", "--topics", TOPICS, "--max-memory", "10M"])
+    assert rc == 2 and "more than the limit of 10 MB (--max-memory)" in err and "1,501 rows" in err
