@@ -116,6 +116,7 @@ def _guarded_fit(
     kw: dict,
     settings: FitSettings,
     segments: str | float | None = None,
+    topics: Any = None,
 ) -> Any:
     """``fit`` of one item; any error becomes a failed result naming the item (never raised).
 
@@ -127,7 +128,7 @@ def _guarded_fit(
         try:
             from ..soilmodel.logread import read_data
 
-            d = read_data(d)
+            d = read_data(d, topics=topics if topics is not None and _is_bag(d) else None)
         except Exception as e:  # noqa: BLE001 - a log that cannot be read is this item's failure only
             return _failure(k, d, vehicle, model, method, bounds, e, read=True)
     if not isinstance(d, (SlipData, DriveLog)):
@@ -154,6 +155,12 @@ def _guarded_fit(
 
         res.extra["log_span"] = log_span(d)  # the result's own, fresh dict
     return res
+
+
+def _is_bag(path: Any) -> bool:
+    from ..soilmodel.logread import is_bag
+
+    return is_bag(path)
 
 
 def _failure(
@@ -314,11 +321,21 @@ def _with_rig_extra(res: FitResult, d: SlipData, model: str) -> FitResult:
 
 
 def _fit_chunk(
-    indices: Sequence[int], datasets, vehicle, model, method, bounds, kw, settings: FitSettings, segments=None
+    indices: Sequence[int],
+    datasets,
+    vehicle,
+    model,
+    method,
+    bounds,
+    kw,
+    settings: FitSettings,
+    segments=None,
+    topics=None,
 ) -> list[Any]:
     """``fit`` of each item, errors per item (:func:`_guarded_fit`)."""
     return [
-        _guarded_fit(k, d, vehicle, model, method, bounds, kw, settings, segments) for k, d in zip(indices, datasets)
+        _guarded_fit(k, d, vehicle, model, method, bounds, kw, settings, segments, topics)
+        for k, d in zip(indices, datasets)
     ]
 
 
@@ -354,6 +371,7 @@ def fit_many(
     settings: FitSettings | None = None,
     out: str | os.PathLike | None = None,
     segments: str | float | None = None,
+    topics: Any = None,
     **kw,
 ) -> list[Any]:
     """Fit many datasets with one vehicle; results in input order.
@@ -387,6 +405,9 @@ def fit_many(
     segments : str or float, optional
         Fit each drive log segment by segment (``"60s"``, ``"auto"``: :func:`~.segments.fit_segments`);
         such an item's result is its :class:`~.segments.SegmentMap`.
+    topics : str, dict or path, optional
+        The mapping of the ROS bags among the paths (:func:`~soiltrack.soilmodel.rosbag_read.parse_topics`),
+        one for every bag; CSV paths ignore it.
     **kw
         ``sigma``, ``sigma_known`` and drive-log options of :func:`fit`.
 
@@ -437,7 +458,9 @@ def fit_many(
         )
     for s in range(0, len(singles), chunk_size):
         part = singles[s : s + chunk_size]
-        jobs.append((part, _fit_chunk, ([datasets[k] for k in part], vehicle, model, method, bounds, kw, st, segments)))
+        jobs.append(
+            (part, _fit_chunk, ([datasets[k] for k in part], vehicle, model, method, bounds, kw, st, segments, topics))
+        )
     writer = None
     if out is not None:
         from .fleet import FleetWriter, fleet_rows
@@ -452,7 +475,7 @@ def fit_many(
         prog.update(len(part))
 
     def single(k: int) -> tuple[Callable, tuple]:  # one item as its own job (retries)
-        return _fit_chunk, ([k], [datasets[k]], vehicle, model, method, bounds, kw, st, segments)
+        return _fit_chunk, ([k], [datasets[k]], vehicle, model, method, bounds, kw, st, segments, topics)
 
     def dead(k: int, why: str, error: str) -> FitResult:
         return failed_result(k, datasets[k], vehicle, model, method, bounds, why, error)

@@ -60,7 +60,9 @@ def _cmd_fleet(a: argparse.Namespace) -> int:
     vehicle = vehicle_arg(a.vehicle)
     out = output_path(a.out, "--out")
     with _executor(a) as ex:
-        results = fit_many(a.logs, vehicle, executor=ex, chunk_size=1, out=out, segments=a.segments, progress=True)
+        results = fit_many(
+            a.logs, vehicle, executor=ex, chunk_size=1, out=out, segments=a.segments, topics=a.topics, progress=True
+        )
     outcomes: Counter = Counter()
     for r in results:
         segs = getattr(r, "segments", None)
@@ -86,7 +88,10 @@ def add_parser(sub) -> None:
         epilog="example:\n  soiltrack fleet runs/*.csv --vehicle light --out fleet.csv --workers 2\n"
         "  soiltrack fleet runs/*.csv --vehicle light --out map.csv --segments 60s --scheduler local",
     )
-    p.add_argument("logs", nargs="+", help="drive-log CSV files")
+    p.add_argument("logs", nargs="+", help="drive-log CSV files or ROS bags (with --topics)")
+    p.add_argument(
+        "--topics", metavar="NAME=TOPIC:FIELD[,...]|MAP.json", default=None, help="the ROS bags' mapping (as fit)"
+    )
     p.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")
     p.add_argument(
         "--out",

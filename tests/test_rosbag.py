@@ -270,3 +270,19 @@ def test_max_memory_applies_to_a_bag(csv_log, capsys):
     bag = write_bag(d / "mem_mcap", log, "mcap")
     rc, err = _rc_err(capsys, ["fit", bag, "--vehicle", "light", "--topics", TOPICS, "--max-memory", "10M"])
     assert rc == 2 and "more than the limit of 10 MB (--max-memory)" in err and "1,501 rows" in err
+
+
+def test_a_fleet_of_bags_and_csv_files(csv_log, tmp_path):
+    import csv
+
+    from soiltrack.identify import fit_many
+
+    path, log, d = csv_log
+    bag = write_bag(d / "fleet_mcap", log, "mcap")
+    out = tmp_path / "fleet.csv"
+    res = fit_many([bag, path, str(d / "nothing_mcap.mcap")], LIGHT, topics=TOPICS, out=out, progress=False)
+    np.testing.assert_allclose(res[0].theta, res[1].theta, rtol=1e-9)
+    assert res[2].status == "not fitted" and "nothing_mcap.mcap" in res[2].message
+    rows = {int(r["index"]): r for r in csv.DictReader(open(out))}
+    assert rows[0]["source"] == bag and rows[0]["max_thrust_N"] == rows[1]["max_thrust_N"] != ""
+    assert rows[2]["outcome"] == "failed" and rows[2]["reason"]
