@@ -35,6 +35,7 @@ are retried one by one in the same executor. Every result carries the data-consi
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 import time
@@ -436,36 +437,16 @@ def fit_many(
         if out is not None and batched == [] and executor is None:
             chunk_size = 1  # a results file: each log's row written when it finishes
     chunk_size = max(1, int(chunk_size))
-    jobs: list[tuple[list[int], Callable, tuple]] = []  # (indices, callable, args): callable(indices, *args)
     # batched: sorted by length so that a chunk holds few lengths (one stacked result step each)
     batched.sort(key=lambda k: datasets[k].n_samples)
-    for s in range(0, len(batched), chunk_size):
-        part = batched[s : s + chunk_size]
-        jobs.append(
-            (
-                part,
-                _solve_chunk,
-                (
-                    [datasets[k] for k in part],
-                    vehicle,
-                    model,
-                    bounds,
-                    kw.get("sigma"),
-                    kw.get("sigma_known"),
-                    st,
-                ),
-            )
-        )
-    for s in range(0, len(singles), chunk_size):
-        part = singles[s : s + chunk_size]
-        jobs.append(
-            (part, _fit_chunk, ([datasets[k] for k in part], vehicle, model, method, bounds, kw, st, segments, topics))
-        )
-    writer = None
-    if out is not None:
-        from .fleet import FleetWriter, fleet_rows
+    slip_args = (vehicle, model, bounds, kw.get("sigma"), kw.get("sigma_known"), st)
+    one_args = (vehicle, model, method, bounds, kw, st, segments, topics)
+    jobs = _chunked(batched, chunk_size, _solve_chunk, datasets, slip_args)
+    jobs += _chunked(singles, chunk_size, _fit_chunk, datasets, one_args)
+    from .fleet import FleetWriter, fleet_rows
 
-        writer = FleetWriter(out).__enter__()  # refused (pyarrow missing, path not writable) before any fit
+    # a results file is opened before any fit (refused when pyarrow is missing or the path is not writable)
+    writer = FleetWriter(out) if out is not None else None
 
     def store(part: Sequence[int], res: list[Any]) -> None:
         for k, r in zip(part, res):
@@ -475,25 +456,28 @@ def fit_many(
         prog.update(len(part))
 
     def single(k: int) -> tuple[Callable, tuple]:  # one item as its own job (retries)
-        return _fit_chunk, ([k], [datasets[k]], vehicle, model, method, bounds, kw, st, segments, topics)
+        return _fit_chunk, ([k], [datasets[k]], *one_args)
 
     def dead(k: int, why: str, error: str) -> FitResult:
         return failed_result(k, datasets[k], vehicle, model, method, bounds, why, error)
 
-    try:
+    with writer if writer is not None else contextlib.nullcontext():
         if executor is None:
             for part, fn, args in jobs:
                 store(part, fn(part, *args))
         else:
             _run_on_executor(executor, jobs, store, single, dead)
-    finally:
-        if writer is not None:
-            writer.__exit__(None, None, None)
     if strict:
         for r in results:
             if isinstance(r, FitResult) and not r.success:
                 raise FitFailed(r)
     return results  # type: ignore[return-value]
+
+
+def _chunked(indices: list[int], size: int, fn: Callable, datasets: list, args: tuple) -> list[tuple]:
+    """Jobs ``(part, fn, (its datasets, *args))`` of at most ``size`` items each."""
+    parts = [indices[s : s + size] for s in range(0, len(indices), size)]
+    return [(part, fn, ([datasets[k] for k in part], *args)) for part in parts]
 
 
 def _run_on_executor(executor: Executor, jobs: list, store: Callable, single: Callable, dead: Callable) -> None:
