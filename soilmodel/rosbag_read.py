@@ -274,8 +274,27 @@ def read_bag_columns(path: str | os.PathLike, topics: Any) -> tuple[dict[str, np
         f"{rate:.4g} Hz mean"
         + (f", {dropped} rows of the clock outside that span dropped" if dropped else "")
         + "; time_s = the clock's time since its first row",
+        *_gaps(t, mapping),
     ]
     return cols, notes
+
+
+#: A topic's silence longer than this many of its median periods is said in the notes (interpolated across).
+GAP_PERIODS = 5.0
+
+
+def _gaps(t: dict[str, np.ndarray], mapping: BagMapping) -> list[str]:
+    """Notes of the topics with a gap the interpolation bridges (longer than :data:`GAP_PERIODS` periods)."""
+    out = []
+    for name, ts in t.items():
+        dt = np.diff(ts)
+        k = int(np.argmax(dt))
+        if dt[k] > GAP_PERIODS * float(np.median(dt)):
+            out.append(
+                f"{mapping.topics[name][0]} ({name}) is silent for {dt[k]:.3g} s from {ts[k]:.6g} s (the median "
+                f"period is {float(np.median(dt)):.3g} s): its values are interpolated across the gap"
+            )
+    return out
 
 
 def read_bag(path: str | os.PathLike, topics: Any):

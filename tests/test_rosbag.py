@@ -19,7 +19,7 @@ from soiltrack.identify import fit
 from soiltrack.soilmodel import TERRAINS, VEHICLES, DataError
 from soiltrack.soilmodel.data import read_csv, write_csv
 from soiltrack.soilmodel.logread import read_data
-from soiltrack.soilmodel.rosbag_read import parse_topics, read_bag
+from soiltrack.soilmodel.rosbag_read import bag_notes, parse_topics, read_bag
 from soiltrack.soilmodel.simulation import simulate_drive_log
 
 if os.environ.get("SOILTRACK_ALLOW_NO_ROS"):
@@ -178,6 +178,12 @@ def test_gnss_at_its_own_rate_is_interpolated_onto_the_drive_clock(csv_log):
     np.testing.assert_array_equal(got.sprocket_torque, log.sprocket_torque[keep])
     uniform = read_bag(bag, TOPICS + ",rate_hz=25")
     np.testing.assert_allclose(np.diff(uniform.time), 0.04, atol=1e-9)
+    assert not any("silent" in n for n in bag_notes(bag))
+    quiet = (tg < 10.0) | (tg > 12.0)  # the receiver silent for 2 s: bridged, and said
+    bag = write_bag(d / "gap_mcap", log, "mcap", gnss=list(zip(tg[quiet], vg[quiet])))
+    read_bag(bag, TOPICS)
+    said = [n for n in bag_notes(bag) if "silent" in n]
+    assert len(said) == 1 and "/gnss/speed (vehicle_speed_m_s) is silent for 2.1 s from 9.91" in said[0]
 
 
 def _rc_err(capsys, argv):
