@@ -100,13 +100,13 @@ class ConsistencySettings:
     gap_factor : float
         A time step longer than this many median steps splits a log into segments (the rows of a
         subset, a logger pause); the integrals restart at each.
-    sign_speed : float
-        Below this measured speed, m/s, the resistance's sign is taken from the track's speed ``r w``
-        (three GNSS noise levels of 0.05 m/s: a standing hull reads above it in 0.3 % of samples).
     max_segment_s : float
         The integrals also restart after this long, s: over an hour the integrated noise and
         drift swamp the balance (measured: ratio 0.19 on a simulated 1-hour light-vehicle log,
         0.93 with restarts every 120 s, IMU check 1.33 -> 1.02; logs up to 120 s are unchanged).
+    sign_speed : float
+        Below this measured speed, m/s, the resistance's sign is taken from the track's speed ``r w``
+        (three GNSS noise levels of 0.05 m/s: a standing hull reads above it in 0.3 % of samples).
     """
 
     warn_factor: float = 1.25
