@@ -6,12 +6,18 @@ rows, plus the discretisation check's second fit), ``soiltrack track`` (streamed
 fit --segments 60s``, one profiled fit's solve time per sample and iteration (``iteration``), the
 former fit with one IPOPT variable per latent slip (``latent_slips="ipopt"``, the same two fits; up to
 ``--ipopt-max`` rows) and scipy's ``least_squares`` on the same two-channel problem (latent slips as
-variables, sparse Jacobian, ``trf``/``lsmr``; up to ``--scipy-max`` rows). The logs are the library's
+variables, sparse Jacobian, ``trf``/``lsmr``; up to ``--scipy-max`` rows).
+``fleet``: ``--fleet N:M`` logs of M minutes fitted by ``fit_many(paths, out=CSV)`` on a dask
+``LocalCluster`` of 2 worker processes (1 thread each) and on a plain ``ProcessPoolExecutor`` of 2 (fork),
+each in its own process: logs per minute, rows per second, peak RSS of each worker (dask: ``client.run``
+of ``getrusage``; the pool: the largest child's, ``RUSAGE_CHILDREN``). The logs are the library's
 simulator's (light vehicle, dry sand, 50 Hz, default driving, seed 1), made once into ``--dir``.
 
     python benchmarks/bench_scale.py                                   # 1,000 and 5,000 rows (minutes)
     python benchmarks/bench_scale.py --sizes 1e4,5e4,1.8e5 --ipopt-max 2e4
     python benchmarks/bench_scale.py --sizes 2e6 --tasks fit,track      # the 11-hour log (minutes; 2 GB)
+    python benchmarks/bench_scale.py --tasks fleet --fleet 8:2           # 8 logs of 2 min, dask vs a pool
+    python benchmarks/bench_scale.py --tasks fleet --fleet 200:10        # the issue's fleet (hours here)
 
 The machine this project measures on has 2 cores shared with other engineers' jobs: the wall times are
 those of a loaded machine (the CPU time is printed beside them); the memory is not affected.
@@ -26,7 +32,36 @@ import subprocess
 import sys
 import time
 
-TASKS = ("fit", "track", "segments", "ipopt", "scipy", "iteration")
+TASKS = ("fit", "track", "segments", "ipopt", "scipy", "iteration", "fleet")
+
+_FLEET_SNIPPET = """
+import csv, resource, sys, time
+from soiltrack.soilmodel import VEHICLES
+from soiltrack.identify import fit_many
+kind, out, paths = sys.argv[1], sys.argv[2], sys.argv[3:]
+rows = sum(sum(1 for _ in open(p)) - 1 for p in paths)
+def peak():
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+if kind == "dask":
+    from dask.distributed import Client, LocalCluster
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cl, Client(cl) as c:
+        t0 = time.perf_counter()
+        res = fit_many(paths, VEHICLES["light"], executor=c.get_executor(), chunk_size=1, out=out, progress=False)
+        wall = time.perf_counter() - t0
+        workers = sorted(c.run(peak).values())
+else:
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+    with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("fork")) as ex:
+        t0 = time.perf_counter()
+        res = fit_many(paths, VEHICLES["light"], executor=ex, chunk_size=1, out=out, progress=False)
+        wall = time.perf_counter() - t0
+    workers = [resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0]
+written = len(list(csv.DictReader(open(out))))
+ok = sum(bool(getattr(r, "success", False)) for r in res)
+print(f"{len(paths)} logs ({rows:,} rows) in {wall:.1f} s: {60 * len(paths) / wall:.2f} logs/min, "
+      f"{rows / wall:,.0f} rows/s; worker peak MB {[round(w) for w in workers]}; {ok} usable, {written} rows in {out}")
+"""
 
 _FIT_SNIPPET = """
 import sys
@@ -113,6 +148,28 @@ def _log(directory: str, rows: int) -> str:
     return path
 
 
+def _fleet(a: argparse.Namespace, py: str) -> None:
+    """The fleet measurement: the same N logs on a dask LocalCluster and on a process pool (module notes)."""
+    n_logs, minutes = a.fleet.split(":")
+    n, rows = int(n_logs), int(float(minutes) * 60 * 50) + 1
+    paths = []
+    for k in range(n):
+        path = os.path.join(a.dir, f"fleet_{rows}_{k + 1}.csv")
+        if not os.path.exists(path):
+            cmd = ["soiltrack", "simulate", "--vehicle", "light", "--terrain", "dry_sand"]
+            cmd += ["--duration", f"{(rows - 1) / 50.0:g}", "--seed", str(k + 1), "-o", path]
+            subprocess.run(cmd, check=True, stderr=subprocess.DEVNULL)
+        paths.append(path)
+    for kind in ("dask", "pool"):
+        m = _measure([py, "-c", _FLEET_SNIPPET, kind, os.path.join(a.dir, f"fleet_{kind}.csv"), *paths])
+        m.update(task=f"fleet-{kind}", rows=n * rows, us_per_row=1e6 * m["wall_s"] / (n * rows))
+        result = m["last"] if m["rc"] == 0 else f"rc {m['rc']}: {m['err']}"
+        if a.json:
+            print(json.dumps(m))
+        else:
+            print(f"fleet-{kind} ({n} x {rows} rows): {result} [whole run {m['wall_s']:.1f} s wall]", flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sizes", default="1e3,5e3", help="rows of the logs, comma separated (default: 1e3,5e3)")
@@ -121,6 +178,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scipy-max", type=float, default=5e4, help="largest log given to least_squares (rows)")
     ap.add_argument("--dir", default=os.path.join("build", "bench_scale"), help="where the logs are made and kept")
     ap.add_argument("--json", action="store_true", help="one JSON object per measurement")
+    ap.add_argument("--fleet", default="8:2", help="task fleet: N:M = N logs of M minutes (default 8:2)")
     a = ap.parse_args(argv)
     sizes = [int(float(s)) for s in a.sizes.split(",") if s.strip()]
     tasks = [t for t in a.tasks.split(",") if t]
@@ -132,9 +190,13 @@ def main(argv: list[str] | None = None) -> int:
     print(f"# machine: {os.cpu_count()} cores (shared), python {sys.version.split()[0]}", file=sys.stderr)
     if not a.json:
         print(f"{'task':>9} {'rows':>9} {'wall_s':>8} {'cpu_s':>8} {'peak_MB':>8} {'us/row':>7}  result")
+    if "fleet" in tasks:
+        _fleet(a, py)
     for n in sizes:
-        log = _log(a.dir, n)
+        log = _log(a.dir, n) if set(tasks) - {"fleet"} else ""
         for task in tasks:
+            if task == "fleet":
+                continue
             if task == "ipopt" and n > a.ipopt_max or task == "scipy" and n > a.scipy_max:
                 continue
             cmd = {

@@ -35,10 +35,12 @@ are retried one by one in the same executor. Every result carries the data-consi
 
 from __future__ import annotations
 
+import contextlib
+import os
 import sys
 import time
 from dataclasses import replace
-from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, as_completed, wait
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Callable, Iterable, Sequence
 
@@ -79,7 +81,7 @@ def failed_result(
     ``message`` is ``"batch item <index> (<source>): <reason>"``; ``extra`` holds ``batch_index``
     and ``error`` (the exception's type name, when one was raised).
     """
-    src = getattr(data, "source", None)
+    src = os.fspath(data) if isinstance(data, (str, os.PathLike)) else getattr(data, "source", None)
     where = f"batch item {index}" + (f" ({src})" if isinstance(src, str) else f" (a {type(data).__name__})")
     kind = "drive" if isinstance(data, DriveLog) else "slip"
     res = build_result(
@@ -114,8 +116,22 @@ def _guarded_fit(
     bounds: SoilBounds,
     kw: dict,
     settings: FitSettings,
-) -> FitResult:
-    """``fit`` of one item; any error becomes a failed result naming the item (never raised)."""
+    segments: str | float | None = None,
+    topics: Any = None,
+) -> Any:
+    """``fit`` of one item; any error becomes a failed result naming the item (never raised).
+
+    A path is read here (in the worker: :func:`~soiltrack.soilmodel.logread.read_data`, a CSV or a ROS bag);
+    a drive log gets ``extra["log_span"]`` (:func:`~.segments.log_span`), or with ``segments`` its soil map
+    (:func:`~.segments.fit_segments`, a :class:`~.segments.SegmentMap`).
+    """
+    if isinstance(d, (str, os.PathLike)):
+        try:
+            from ..soilmodel.logread import read_data
+
+            d = read_data(d, topics=topics if topics is not None and _is_bag(d) else None)
+        except Exception as e:  # noqa: BLE001 - a log that cannot be read is this item's failure only
+            return _failure(k, d, vehicle, model, method, bounds, e, read=True)
     if not isinstance(d, (SlipData, DriveLog)):
         return failed_result(
             k,
@@ -128,20 +144,35 @@ def _guarded_fit(
             "DataError",
         )
     try:
-        return fit(d, vehicle, model=model, method=method, bounds=bounds, settings=settings, **kw)
+        if segments is not None and isinstance(d, DriveLog):
+            from .segments import fit_segments
+
+            return fit_segments(d, vehicle, segments, model=model, bounds=bounds, **kw)
+        res = fit(d, vehicle, model=model, method=method, bounds=bounds, settings=settings, **kw)
     except Exception as e:  # noqa: BLE001 - one bad item never aborts the batch (module notes)
-        reason = getattr(e, "reason", None) or str(e) or type(e).__name__
-        col = getattr(e, "column", None)
-        return failed_result(
-            k,
-            d,
-            vehicle,
-            model,
-            method,
-            bounds,
-            (f"column '{col}': " if col else "") + reason,
-            type(e).__name__,
-        )
+        return _failure(k, d, vehicle, model, method, bounds, e)
+    if isinstance(d, DriveLog):
+        from .segments import log_span
+
+        res.extra["log_span"] = log_span(d)  # the result's own, fresh dict
+    return res
+
+
+def _is_bag(path: Any) -> bool:
+    from ..soilmodel.logread import is_bag
+
+    return is_bag(path)
+
+
+def _failure(
+    k: int, d: Any, vehicle: Vehicle, model: str, method: str, bounds: SoilBounds, e: Exception, *, read: bool = False
+) -> FitResult:
+    """The failed result of item ``k`` from the error ``e``: its reason and column; reading errors (``read``) in
+    full (the file, column and rows they name)."""
+    reason = getattr(e, "reason", None) or str(e) or type(e).__name__
+    col = getattr(e, "column", None)
+    why = str(e) if read else (f"column '{col}': " if col else "") + reason
+    return failed_result(k, d, vehicle, model, method, bounds, why, type(e).__name__)
 
 
 def _solve_chunk(
@@ -291,10 +322,22 @@ def _with_rig_extra(res: FitResult, d: SlipData, model: str) -> FitResult:
 
 
 def _fit_chunk(
-    indices: Sequence[int], datasets, vehicle, model, method, bounds, kw, settings: FitSettings
-) -> list[FitResult]:
+    indices: Sequence[int],
+    datasets,
+    vehicle,
+    model,
+    method,
+    bounds,
+    kw,
+    settings: FitSettings,
+    segments=None,
+    topics=None,
+) -> list[Any]:
     """``fit`` of each item, errors per item (:func:`_guarded_fit`)."""
-    return [_guarded_fit(k, d, vehicle, model, method, bounds, kw, settings) for k, d in zip(indices, datasets)]
+    return [
+        _guarded_fit(k, d, vehicle, model, method, bounds, kw, settings, segments, topics)
+        for k, d in zip(indices, datasets)
+    ]
 
 
 class _Progress:
@@ -327,13 +370,18 @@ def fit_many(
     engine: str | None = None,
     strict: bool = False,
     settings: FitSettings | None = None,
+    out: str | os.PathLike | None = None,
+    segments: str | float | None = None,
+    topics: Any = None,
     **kw,
-) -> list[FitResult]:
+) -> list[Any]:
     """Fit many datasets with one vehicle; results in input order.
 
     Parameters
     ----------
-    datasets : iterable of SlipData or DriveLog
+    datasets : iterable of SlipData, DriveLog or paths
+        A path (str or PathLike: a CSV or a ROS bag) is read where it is fitted (in the worker);
+        a file that cannot be read gives a failed result with the reader's message.
     vehicle : Vehicle
     model, method, bounds
         As for :func:`~soiltrack.identify.fit`.
@@ -352,12 +400,21 @@ def fit_many(
     settings : FitSettings, optional
         Typed solver settings; ``engine``, ``n_grid``, ``ipopt_options``, ``max_iter`` keywords
         override its fields.
+    out : path, optional
+        Write one row per item (per segment with ``segments``) to this CSV file as the fits finish
+        (:mod:`soiltrack.identify.fleet`; ``*.parquet`` needs pyarrow). The file is created before any fit.
+    segments : str or float, optional
+        Fit each drive log segment by segment (``"60s"``, ``"auto"``: :func:`~.segments.fit_segments`);
+        such an item's result is its :class:`~.segments.SegmentMap`.
+    topics : str, dict or path, optional
+        The mapping of the ROS bags among the paths (:func:`~soiltrack.soilmodel.rosbag_read.parse_topics`),
+        one for every bag; CSV paths ignore it.
     **kw
         ``sigma``, ``sigma_known`` and drive-log options of :func:`fit`.
 
     Returns
     -------
-    list of FitResult
+    list of FitResult (or SegmentMap with ``segments``)
         One per item, in input order; an item that could not be fitted has a failed result
         (``status`` "not fitted", its index in ``message`` and ``extra["batch_index"]``).
     """
@@ -377,52 +434,50 @@ def fit_many(
     if chunk_size is None:
         workers = getattr(executor, "_max_workers", 4) if executor is not None else 1
         chunk_size = n if executor is None else max(1, min(256, -(-n // (4 * workers))))
+        if out is not None and batched == [] and executor is None:
+            chunk_size = 1  # a results file: each log's row written when it finishes
     chunk_size = max(1, int(chunk_size))
-    jobs: list[tuple[list[int], Callable, tuple]] = []  # (indices, callable, args): callable(indices, *args)
     # batched: sorted by length so that a chunk holds few lengths (one stacked result step each)
     batched.sort(key=lambda k: datasets[k].n_samples)
-    for s in range(0, len(batched), chunk_size):
-        part = batched[s : s + chunk_size]
-        jobs.append(
-            (
-                part,
-                _solve_chunk,
-                (
-                    [datasets[k] for k in part],
-                    vehicle,
-                    model,
-                    bounds,
-                    kw.get("sigma"),
-                    kw.get("sigma_known"),
-                    st,
-                ),
-            )
-        )
-    for s in range(0, len(singles), chunk_size):
-        part = singles[s : s + chunk_size]
-        jobs.append((part, _fit_chunk, ([datasets[k] for k in part], vehicle, model, method, bounds, kw, st)))
+    slip_args = (vehicle, model, bounds, kw.get("sigma"), kw.get("sigma_known"), st)
+    one_args = (vehicle, model, method, bounds, kw, st, segments, topics)
+    jobs = _chunked(batched, chunk_size, _solve_chunk, datasets, slip_args)
+    jobs += _chunked(singles, chunk_size, _fit_chunk, datasets, one_args)
+    from .fleet import FleetWriter, fleet_rows
 
-    def store(part: Sequence[int], res: list[FitResult]) -> None:
+    # a results file is opened before any fit (refused when pyarrow is missing or the path is not writable)
+    writer = FleetWriter(out) if out is not None else None
+
+    def store(part: Sequence[int], res: list[Any]) -> None:
         for k, r in zip(part, res):
             results[k] = r
+            if writer is not None:
+                writer.write(fleet_rows(k, datasets[k], r))
         prog.update(len(part))
 
     def single(k: int) -> tuple[Callable, tuple]:  # one item as its own job (retries)
-        return _fit_chunk, ([k], [datasets[k]], vehicle, model, method, bounds, kw, st)
+        return _fit_chunk, ([k], [datasets[k]], *one_args)
 
     def dead(k: int, why: str, error: str) -> FitResult:
         return failed_result(k, datasets[k], vehicle, model, method, bounds, why, error)
 
-    if executor is None:
-        for part, fn, args in jobs:
-            store(part, fn(part, *args))
-    else:
-        _run_on_executor(executor, jobs, store, single, dead)
+    with writer if writer is not None else contextlib.nullcontext():
+        if executor is None:
+            for part, fn, args in jobs:
+                store(part, fn(part, *args))
+        else:
+            _run_on_executor(executor, jobs, store, single, dead)
     if strict:
         for r in results:
-            if r is not None and not r.success:
+            if isinstance(r, FitResult) and not r.success:
                 raise FitFailed(r)
     return results  # type: ignore[return-value]
+
+
+def _chunked(indices: list[int], size: int, fn: Callable, datasets: list, args: tuple) -> list[tuple]:
+    """Jobs ``(part, fn, (its datasets, *args))`` of at most ``size`` items each."""
+    parts = [indices[s : s + size] for s in range(0, len(indices), size)]
+    return [(part, fn, ([datasets[k] for k in part], *args)) for part in parts]
 
 
 def _run_on_executor(executor: Executor, jobs: list, store: Callable, single: Callable, dead: Callable) -> None:
@@ -436,19 +491,22 @@ def _run_on_executor(executor: Executor, jobs: list, store: Callable, single: Ca
     lost: list[int] = []
     broken = False
     last_error: BaseException | None = None
-    for j, (part, fut, err) in enumerate(futures):
-        if fut is not None:
-            try:
-                res = fut.result()
-            except Exception as e:  # noqa: BLE001 - the chunk is lost, its items are recovered below
-                err = e
-            else:
-                store(part, res)
-                futures[j] = (part, None, None)  # the results are kept in `store`, not twice
-                continue
-        lost.extend(part)
-        broken = broken or isinstance(err, BrokenProcessPool)
-        last_error = err
+    parts = {fut: part for part, fut, _ in futures if fut is not None}
+    for part, fut, err in futures:
+        if fut is None:  # never submitted
+            lost.extend(part)
+            broken = broken or isinstance(err, BrokenProcessPool)
+            last_error = err
+    for fut in as_completed(parts):  # stored as they finish (a results file gets each row when it is ready)
+        part = parts.pop(fut)
+        try:
+            res = fut.result()
+        except Exception as e:  # noqa: BLE001 - the chunk is lost, its items are recovered below
+            lost.extend(part)
+            broken = broken or isinstance(e, BrokenProcessPool)
+            last_error = e
+        else:
+            store(part, res)
     if not lost:
         return
     lost.sort()

@@ -87,6 +87,16 @@ def check_fit_options(
     if bounds is not None and not isinstance(bounds, SoilBounds):
         raise DataError(f"bounds must be a SoilBounds, got {type(bounds).__name__}")
     if isinstance(data, DriveLog):  # the drive-log fit checks its own options before it solves
+        from .drivelog.budget import check_fit_budget
+
+        # never killed: the estimate against max_memory (bytes; default half the available memory), up front
+        check_fit_budget(
+            data.n_samples,
+            source=data.source,
+            max_memory=options.pop("max_memory", None),
+            effects=bool(effects),
+            latent_slips=str(options.get("latent_slips", "auto")),
+        )
         return None
     allowed = set(SWEEP_OPTIONS) | set(SETTING_NAMES)
     unknown = sorted(set(options) - allowed)

@@ -131,7 +131,8 @@ def fit(
         ``drawbar_pull_std_N`` column of the data gives relative weights when ``sigma`` is not
         given (:mod:`soiltrack.identify.sweep.rig`). ``n_grid``, ``ipopt_options`` and
         ``max_iter`` are :class:`FitSettings` fields.
-        Drive-log options are passed on.
+        Drive-log options are passed on; ``max_memory`` (bytes, default half the available memory) refuses
+        a drive-log fit whose estimated memory exceeds it, before the work (:mod:`.drivelog.budget`).
 
     Returns
     -------

@@ -35,6 +35,8 @@ __all__ = [
     "detected_changes",
     "fit_segments",
     "SEGMENT_FIELDS",
+    "log_span",
+    "segment_of",
 ]
 
 #: The fields of one segment, in the order of the CSV columns (docs/drivelogs.md, "Long logs").
@@ -172,6 +174,17 @@ def segment_edges(log: DriveLog, vehicle: Vehicle, length_s: float | None) -> np
     return np.array(edges + [t1])
 
 
+#: The soil fields of a segment without an estimate.
+_EMPTY: dict[str, Any] = dict(
+    max_thrust_N=None,
+    max_thrust_ci95=None,
+    shear_modulus_m=None,
+    shear_modulus_ci95=None,
+    cohesion_kpa=None,
+    friction_angle_deg=None,
+)
+
+
 def _distance(log: DriveLog, idx: np.ndarray) -> float:
     t, v = log.time[idx], log.vehicle_speed[idx]
     return float(np.sum(0.5 * (v[1:] + v[:-1]) * np.diff(t))) if idx.size > 1 else 0.0
@@ -181,20 +194,33 @@ def _fit_piece(log: DriveLog, vehicle: Vehicle, idx: np.ndarray, pieces: int, op
     """One segment's fit (``identify.fit`` on its rows) as a :class:`Segment`."""
     from .fitting import fit
 
-    start, end = float(log.time[idx[0]]), float(log.time[idx[-1]])
-    base: dict[str, Any] = dict(start_s=start, end_s=end, distance_m=_distance(log, idx), rows=int(idx.size))
-    empty: dict[str, Any] = dict(
-        max_thrust_N=None,
-        max_thrust_ci95=None,
-        shear_modulus_m=None,
-        shear_modulus_ci95=None,
-        cohesion_kpa=None,
-        friction_angle_deg=None,
-    )
+    base = log_span(log, idx)
+    empty = dict(_EMPTY)
     try:
         res = fit(log.subset(idx), vehicle, **options)
     except DataError as e:
         return Segment(**base, **empty, outcome="failed", pieces=pieces, reason=str(e))
+    return segment_of(res, base, pieces)
+
+
+def log_span(log: DriveLog, idx: np.ndarray | None = None) -> dict[str, Any]:
+    """``start_s``, ``end_s``, ``distance_m`` and ``rows`` of the rows ``idx`` of a log (all rows by default)."""
+    idx = np.arange(log.n_samples) if idx is None else idx
+    if idx.size == 0:
+        return dict(start_s=None, end_s=None, distance_m=0.0, rows=0)
+    return dict(
+        start_s=float(log.time[idx[0]]),
+        end_s=float(log.time[idx[-1]]),
+        distance_m=_distance(log, idx),
+        rows=int(idx.size),
+    )
+
+
+def segment_of(res: Any, base: dict[str, Any], pieces: int = 1) -> Segment:
+    """A fit result as a :class:`Segment` (``base``: its :func:`log_span`); a failed fit's reason kept."""
+    empty = dict(_EMPTY)
+    if res.status == "not fitted":  # fit_many's failed item: nothing was solved
+        return Segment(**base, **empty, outcome="failed", pieces=pieces, reason=res.message)
     d = res.to_dict()
     if not res.success:
         reason = d.get("outcome_reason") or res.message

@@ -29,6 +29,8 @@ from .errors import SHOWN_ROWS, DataError, rows_text
 
 __all__ = [
     "MAX_ROWS",
+    "count_rows",
+    "check_row_limit",
     "MAX_ROWS_ENV",
     "MAX_ABS_VALUE",
     "CHUNK_ROWS",
@@ -252,6 +254,47 @@ def _parse_chunk(chunk, idx: dict[str, int], width: int, bad: "_BadRows") -> dic
     return out
 
 
+def count_rows(path: str, block: int = 1 << 20) -> int:
+    """Data rows of a CSV file (its lines after the header; a last line without a newline counts), read in blocks."""
+    lines, last = 0, b"\n"
+    try:
+        with open(path, "rb") as fh:
+            while True:
+                buf = fh.read(block)
+                if not buf:
+                    break
+                lines += buf.count(b"\n")
+                last = buf[-1:]
+    except OSError as e:
+        raise DataError(f"cannot read: {e.strerror}", file=path) from None
+    lines += last != b"\n"
+    return max(lines - 1, 0)
+
+
+def check_row_limit(path: str, limit: int | None = None) -> None:
+    """Refuse, before any parsing, a file with more lines after its header than the row limit (``max_rows``).
+
+    Only a file larger than 4 bytes a row at the limit is counted (1 MB blocks, no parse: about a second for
+    a few hundred MB); the streaming reader checks the rows themselves anyway.
+    """
+    lim = max_rows(limit)
+    try:
+        big = os.path.getsize(path) > 4 * lim
+    except OSError:
+        return  # the reader names the problem
+    if not big:
+        return
+    n = count_rows(path)
+    if n > lim:
+        raise DataError(
+            f"{n:,} lines after the header, more than the limit of {lim:,} data rows: files are read into memory "
+            f"(raise it with ${MAX_ROWS_ENV}=N or read_csv(..., max_rows=N), or decimate the log); refused before "
+            "reading",
+            file=path,
+            row=lim + 1,
+        )
+
+
 def read_columns(
     path: str, header: list[str], used: list[str], limit: int | None = None, *, chunk: int | None = None
 ) -> dict[str, np.ndarray]:
@@ -266,6 +309,7 @@ def read_columns(
         data rows, or an unreadable file.
     """
     lim = max_rows(limit)
+    check_row_limit(path, lim)  # counted before the parse (a long log refused in about a second)
     size = chunk_rows(chunk)
     idx = {c: header.index(c) for c in used}
     cols = {c: array("d") for c in used}

@@ -619,13 +619,27 @@ def read_csv(
             sinkage=np.asarray(data["sinkage_m"]),
             source=path,
         )
+    return drive_log_from_columns(data, path)
+
+
+def drive_log_from_columns(data: dict, source: str) -> DriveLog:
+    """The :class:`DriveLog` of parsed columns (a CSV's, or a ROS bag's: :mod:`.rosbag_read`): combined or
+    two-track (summed torque, mean sprocket speed, turning samples marked), with the log's own checks."""
+    if any(c in data for c in TWO_TRACK_COLUMNS):
+        torque, speed = combine_tracks(*(data[c] for c in TWO_TRACK_COLUMNS))
+        turning = turning_mask(
+            data["sprocket_speed_left_rad_s"], data["sprocket_speed_right_rad_s"], data.get(YAW_COLUMN)
+        )
+    else:
+        torque, speed, turning = data["sprocket_torque_Nm"], data["sprocket_speed_rad_s"], None
     return DriveLog(
         time=data["time_s"],
-        sprocket_torque=data["sprocket_torque_Nm"],
-        sprocket_speed=data["sprocket_speed_rad_s"],
+        sprocket_torque=torque,
+        sprocket_speed=speed,
         vehicle_speed=data["vehicle_speed_m_s"],
         vehicle_accel=data.get("vehicle_accel_m_s2"),
-        source=path,
+        source=source,
+        turning=turning,
     )
 
 
@@ -647,17 +661,7 @@ def _read_two_track(path: str, header: list[str], max_rows: int | None, plan: Co
             )
     used = [c for c in (*required, *DRIVE_OPTIONAL, YAW_COLUMN) if c in header]
     data = plan.apply(read_columns(path, header, used, max_rows))  # streamed, row limit, bad rows counted
-    torque, speed = combine_tracks(*(data[c] for c in TWO_TRACK_COLUMNS))
-    turning = turning_mask(data["sprocket_speed_left_rad_s"], data["sprocket_speed_right_rad_s"], data.get(YAW_COLUMN))
-    return DriveLog(
-        time=data["time_s"],
-        sprocket_torque=torque,
-        sprocket_speed=speed,
-        vehicle_speed=data["vehicle_speed_m_s"],
-        vehicle_accel=data.get("vehicle_accel_m_s2"),
-        source=path,
-        turning=turning,
-    )
+    return drive_log_from_columns(data, path)
 
 
 def _slip_data(kind: str, data: dict, path: str, driving_only: bool, slip_angle: float | None) -> SlipData:

@@ -26,6 +26,7 @@ COMMAND_MODULES = (
     "cmd_diagnose",
     "cmd_drive",
     "cmd_predict",
+    "cmd_fleet",
 )
 
 EPILOG = """\

@@ -185,3 +185,23 @@ def _check_figure_format(path: str, option: str) -> None:
             + (f"unknown figure format '.{ext}'" if ext else "no file extension")
             + f"; use one of {', '.join('.' + e for e in sorted(formats))} (e.g. fit.png)"
         )
+
+
+def read_data_arg(a, path: str, **csv_options):
+    """The one place a command turns a data path into data: a CSV (``read_csv``) or a ROS bag (``--topics``)."""
+    from .soilmodel.logread import read_data
+
+    return read_data(path, topics=getattr(a, "topics", None), **csv_options)
+
+
+def drive_stream_arg(a, path: str, columns: dict[str, str] | None = None):
+    """A drive log read chunk by chunk for a replay (``DriveStreamReader``), or a ROS bag's (one chunk)."""
+    from .soilmodel.logread import is_bag
+
+    if is_bag(path):
+        from .soilmodel.rosbag_read import BagStreamReader
+
+        return BagStreamReader(path, getattr(a, "topics", None), columns=columns)
+    from .soilmodel.drive_stream import DriveStreamReader
+
+    return DriveStreamReader(path, columns=columns)

@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import argparse
 
-from .cliutil import EXIT_OK, EXIT_SOLVER, output_path, running_gear_arg
+from .cliutil import EXIT_OK, EXIT_SOLVER, output_path, read_data_arg, running_gear_arg
 from .columns_cli import add_columns_argument, column_notes, columns_arg, with_column_notes
 from .soilmodel.rigid_wheel import RigidWheel
 
 
 def _cmd_diagnose(a: argparse.Namespace) -> int:
     from .identify import diagnose
-    from .soilmodel import read_csv
 
     if a.plot:  # checked before the work (a missing folder or an unknown extension: exit 2)
         output_path(a.plot, "--plot", figure=True)
@@ -21,7 +20,7 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
 
         return diagnose_wheel_command(a, gear)
     vehicle = gear
-    data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle, columns=columns_arg(a))
+    data = read_data_arg(a, a.data, driving_only=a.driving_only, slip_angle=a.slip_angle, columns=columns_arg(a))
     cands = None
     if a.candidates is not None:
         cands = [c.strip() for c in a.candidates.split(",") if c.strip()]

@@ -5,9 +5,9 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .cliutil import floats_arg, output_path, running_gear_arg
+from .cliutil import floats_arg, output_path, read_data_arg, running_gear_arg
 from .cmd_segments import add_arguments as add_segment_arguments
-from .cmd_segments import check_budget, segments_command
+from .cmd_segments import check_budget, memory_limit_arg, segments_command
 from .columns_cli import add_columns_argument, column_notes, columns_arg, with_column_notes
 from .identify.drivelog import DISCRETISATIONS
 from .identify.engines import DEFAULT_ENGINE, ENGINES
@@ -136,7 +136,7 @@ def _cmd_soil_test(a: argparse.Namespace, data) -> int:
 
 def _cmd_fit(a: argparse.Namespace) -> int:
     from .identify import fit
-    from .soilmodel import DriveLog, PlateTest, ShearTest, read_csv
+    from .soilmodel import DriveLog, PlateTest, ShearTest
 
     gear = running_gear_arg(a.vehicle) if a.vehicle is not None else None
     if isinstance(gear, RigidWheel):
@@ -156,7 +156,7 @@ def _cmd_fit(a: argparse.Namespace) -> int:
     if a.inner_radius_m is not None or a.outer_radius_m is not None:
         raise DataError("--inner-radius-m / --outer-radius-m apply to a shear annulus (torque_Nm) only", file=a.data)
     check_budget(a)  # a drive log's fit estimated from its row count: refused before the work when too large
-    data = read_csv(a.data, driving_only=a.driving_only, slip_angle=a.slip_angle, columns=columns_arg(a))
+    data = read_data_arg(a, a.data, driving_only=a.driving_only, slip_angle=a.slip_angle, columns=columns_arg(a))
     if isinstance(data, (ShearTest, PlateTest)):
         return _cmd_soil_test(a, data)
     if a.negative_kc:
@@ -202,6 +202,8 @@ def _cmd_fit(a: argparse.Namespace) -> int:
         kw["resistance"] = a.resistance
     if a.effect:
         kw["effects"] = [e.strip() for item in a.effect for e in item.split(",") if e.strip()]
+    if drive_log:  # checked again on the data read (a ROS bag's rows are known only now)
+        kw["max_memory"] = memory_limit_arg(a)
     result = fit(data, vehicle, model=a.model, method=a.method, **kw)
     notes = column_notes(a.data, columns_arg(a))
     print(with_column_notes(result.to_json() if a.json else result.report(), notes, a.json))

@@ -14,7 +14,7 @@ from .soilmodel.csvread import read_header
 from .soilmodel.data import DRIVE_COLUMNS
 from .soilmodel.tracks import TWO_TRACK_COLUMNS
 
-__all__ = ["add_arguments", "check_budget", "segments_command"]
+__all__ = ["add_arguments", "check_budget", "memory_limit_arg", "segments_command"]
 
 
 def add_arguments(f: argparse.ArgumentParser) -> None:
@@ -40,11 +40,22 @@ def _is_drive_log(header: list[str]) -> bool:
     return any(c in header for c in (*DRIVE_COLUMNS, *TWO_TRACK_COLUMNS)) and "slip" not in header
 
 
+def memory_limit_arg(a: argparse.Namespace) -> float | None:
+    """``--max-memory`` in bytes (None: auto, the fit's default limit)."""
+    from .identify.drivelog.budget import parse_memory
+
+    return parse_memory(a.max_memory)
+
+
 def check_budget(a: argparse.Namespace) -> None:
     """Refuse a drive-log fit the memory limit cannot hold (DataError, exit 2), before the file is read."""
     from .identify.drivelog.budget import check_fit_budget, count_rows, parse_memory
 
+    from .soilmodel.logread import is_bag
+
     limit = parse_memory(a.max_memory)
+    if is_bag(a.data):
+        return  # a ROS bag: its rows are known only once read (not estimated before the work)
     if not _is_drive_log(read_header(a.data)):
         if a.segments is not None:
             raise DataError("--segments applies to drive logs only", file=a.data)

@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from .cliutil import EXIT_OK, EXIT_SOLVER, output_path, vehicle_arg
+from .cliutil import EXIT_OK, EXIT_SOLVER, drive_stream_arg, output_path, vehicle_arg
 from .soilmodel import DataError
 
 #: The fields of every JSON line (docs/online.md), in this order.
@@ -137,7 +137,6 @@ def _step(estimate, p_trav) -> dict:
 def _cmd_track(a: argparse.Namespace) -> int:
     from .identify import OnlineEstimator, OnlineSettings
     from .identify.online import NOT_SEPARABLE
-    from .soilmodel.drive_stream import DriveStreamReader
 
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
@@ -148,7 +147,7 @@ def _cmd_track(a: argparse.Namespace) -> int:
     vehicle = vehicle_arg(a.vehicle)
     from .columns_cli import column_notes, columns_arg
 
-    reader = DriveStreamReader(a.log, columns=columns_arg(a))
+    reader = drive_stream_arg(a, a.log, columns_arg(a))  # a CSV chunk by chunk, or a ROS bag (--topics)
     reader.check()  # the whole file checked first (constant memory): bad input refused before any output
     notes = column_notes(a.log, columns_arg(a))
     for line in notes:

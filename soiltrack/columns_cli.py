@@ -25,9 +25,20 @@ COLUMNS_HELP = (
 )
 
 
+TOPICS_HELP = (
+    "a ROS bag given as the data (ROS 2 .db3/.mcap or its folder, ROS 1 .bag; pip install 'soiltrack[ros]'): "
+    "the topic and message field of each drive-log column, e.g. sprocket_torque_Nm=/drive/state:effort[0],"
+    "sprocket_speed_rad_s=/drive/state:velocity[0],vehicle_speed_m_s=/gnss/speed:data (clock=NAME, rate_hz=R "
+    "choose the clock), or a JSON file of the same; units as the column names state; resampled by linear "
+    "interpolation onto one clock, said in the report"
+)
+
+
 def add_columns_argument(p: argparse.ArgumentParser) -> None:
     """Add ``--columns NAME=SOURCE[,...]`` to a subcommand's parser."""
     p.add_argument("--columns", metavar="NAME=SOURCE[,...]", default=None, help=COLUMNS_HELP)
+    if "--topics" not in p._option_string_actions:  # drive logs as ROS bags (soilmodel.rosbag_read)
+        p.add_argument("--topics", metavar="NAME=TOPIC:FIELD[,...]|MAP.json", default=None, help=TOPICS_HELP)
 
 
 def columns_arg(a: argparse.Namespace) -> dict[str, str] | None:
@@ -37,6 +48,12 @@ def columns_arg(a: argparse.Namespace) -> dict[str, str] | None:
 
 def column_notes(path: str, mapping: dict[str, str] | None, known: tuple[str, ...] = KNOWN_COLUMNS) -> list[str]:
     """What reading ``path`` with ``mapping`` converted or left unread, in words (empty: read as it is)."""
+    from .soilmodel.logread import is_bag
+
+    if is_bag(path):  # a ROS bag: its topics, units and resampling (soilmodel.rosbag_read)
+        from .soilmodel.rosbag_read import bag_notes
+
+        return bag_notes(path)
     try:
         head = read_header(path)
     except DataError:  # the reader itself says why

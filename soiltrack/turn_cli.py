@@ -106,6 +106,10 @@ def add_simulate_options(s) -> None:
 # --- fit --motion -------------------------------------------------------------------------------
 def _csv_header(path: str) -> list[str]:
     from .soilmodel.csvread import read_header
+    from .soilmodel.logread import is_bag
+
+    if is_bag(path):
+        return []  # a ROS bag: the steering fit reads CSV files only (the straight-line fit takes the bag)
 
     return read_header(path)
 

@@ -92,6 +92,44 @@ def test_cli_refuses_a_fit_beyond_the_limit_before_reading(tmp_path, capsys):
 
 
 # --- the profiled fit ------------------------------------------------------------------------------------------
+def test_python_fit_refuses_a_drive_log_beyond_max_memory_before_the_work(monkeypatch):
+    log = simulate_drive_log(VEHICLES["light"], TERRAINS["dry_sand"], seed=1, duration_s=4.0)
+    need = budget.estimate_fit_cost(log.n_samples).bytes
+
+    def no_solve(*a, **k):  # the refusal comes before any solver is built
+        raise AssertionError("the fit started")
+
+    monkeypatch.setattr("soiltrack.identify.fitting._fit_unchecked", no_solve)
+    with pytest.raises(DataError) as e:
+        fit(log, VEHICLES["light"], max_memory=0.5 * need)
+    msg = str(e.value)
+    assert "refused before the work" in msg and budget.format_bytes(0.5 * need) in msg
+    assert f"{log.n_samples:,} rows" in msg
+    monkeypatch.undo()
+    res = fit(log, VEHICLES["light"], max_memory=2 * need)  # under the limit: fitted (max_memory not passed on)
+    assert res.status != "not fitted" and np.all(np.isfinite(res.theta))
+
+
+def test_row_limit_is_checked_before_reading(tmp_path, monkeypatch):
+    from soiltrack.soilmodel import csvread
+
+    p = tmp_path / "rows.csv"
+    p.write_text(
+        "time_s,sprocket_torque_Nm,sprocket_speed_rad_s,vehicle_speed_m_s\n"
+        + "".join(f"{0.02 * k:.2f},1.5,2.5,0.5\n" for k in range(300))
+    )
+
+    def no_parse(*a, **k):
+        raise AssertionError("the rows were parsed")
+
+    monkeypatch.setattr(csvread, "iter_chunks", no_parse)
+    with pytest.raises(DataError) as e:
+        read_csv(str(p), max_rows=100)
+    assert e.value.row == 101 and "300 lines after the header" in str(e.value) and "before reading" in str(e.value)
+    monkeypatch.undo()
+    assert read_csv(str(p), max_rows=300).n_samples == 300
+
+
 def test_profiled_fit_is_the_ipopt_optimum():
     """The latent slips eliminated per sample give IPOPT's optimum, its sandwich intervals and its verdict."""
     log = simulate_drive_log(LIGHT, TERRAINS["dry_sand"], seed=3, duration_s=60)

@@ -156,3 +156,19 @@ def test_diagnose_of_a_consistent_log_is_not_refused_by_the_checks_on_its_parts(
     log = independent_log(tmp_path / "log.csv", 1)
     dg = diagnose(log, HEAVY)
     assert dg.converged and dg.verdict == "none"
+
+
+@pytest.mark.parametrize("stop_s", [20.0, 300.0])
+def test_a_long_standstill_does_not_fake_a_torque_scale_error(stop_s):
+    """A consistent log that stands still for most of its 600 s: the GNSS speed's noise (0.05 m/s) flips the
+    sign of the nominal resistance sample by sample at a standstill; evaluated on that speed, the resistance
+    column integrated +-W mu_r noise and the ratio read 0.33 / 0.15 ("fatal"; an 11-hour simulated log 0.012).
+    The sign is taken from the track's speed below ``sign_speed``."""
+    from soiltrack.soilmodel import TERRAINS
+    from soiltrack.soilmodel.simulation import simulate_drive_log
+
+    light = VEHICLES["light"]
+    profile = [(0, 0), (stop_s, 0), (stop_s + 2, 1.0), (stop_s + 40, 1.0), (stop_s + 80, 0.5), (stop_s + 120, 0)]
+    log = simulate_drive_log(light, TERRAINS["dry_sand"], seed=4, duration_s=600, speed_profile=profile + [(600, 0)])
+    f = _findings(check_consistency(log, light))["torque_scale"]
+    assert f.severity == "ok" and abs(math.log(f.ratio)) < math.log(1.1), f.message

@@ -20,6 +20,7 @@ import os
 import re
 from dataclasses import dataclass
 
+from ...soilmodel.csvread import count_rows
 from ...soilmodel.errors import DataError
 from .nlp import padded_size
 
@@ -140,23 +141,6 @@ def memory_limit(max_memory: float | None = None) -> tuple[float | None, str]:
     return AVAILABLE_FRACTION * avail, (
         f"--max-memory auto: {AVAILABLE_FRACTION:.0%} of the {format_bytes(avail)} the machine has available"
     )
-
-
-def count_rows(path: str, block: int = 1 << 20) -> int:
-    """Data rows of a CSV file (its lines after the header; a last line without a newline counts), read in blocks."""
-    lines, last = 0, b"\n"
-    try:
-        with open(path, "rb") as fh:
-            while True:
-                buf = fh.read(block)
-                if not buf:
-                    break
-                lines += buf.count(b"\n")
-                last = buf[-1:]
-    except OSError as e:
-        raise DataError(f"cannot read: {e.strerror}", file=path) from None
-    lines += last != b"\n"
-    return max(lines - 1, 0)
 
 
 def check_fit_budget(
