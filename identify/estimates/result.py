@@ -442,29 +442,71 @@ def build_result(
     """
     if data_kind not in ("slip", "drive"):
         raise ValueError(f"data_kind must be 'slip' or 'drive', got {data_kind!r}")
-    free = _free_indices(model)
+    theta, J, rw = _checked_arrays(theta, jacobian, weighted_residuals, len(effect_labels))
+    if data_kind == "slip":
+        warnings, success, status, message = _plausibility(
+            samples, residuals, theta, normal_loads, vehicle, model, bounds, (tuple(warnings), success, status, message)
+        )
+    free, effect_fields = _effect_fields(
+        model, effect_labels, effect_values, effect_bounds, effect_units, effect_structure, fixed_labels
+    )
+    effect_fields.update(measured=measured, residual_model=residual_model)
+    res = np.asarray(residuals, dtype=float)
+    rmse, finite, success, status, warn = _finite_check(
+        theta, res, rw, effect_fields.get("effect_values"), tuple(warnings), success, status
+    )
+    state = dict(_RESULT_DEFAULTS)  # every field (extra, the one with a factory, is always given)
+    state.update(data_kind=data_kind, model=model, method=method, theta=theta, jacobian=J, weighted_residuals=rw)
+    state.update(residuals=res, residual_unit=residual_unit, n_samples=int(n_samples), vehicle=vehicle, bounds=bounds)
+    state.update(normal_loads=_distinct_loads(normal_loads), status=str(status), success=bool(success))
+    state.update(message=str(message), iterations=int(iterations), solve_time=float(solve_time))
+    state.update(sigma_known=bool(sigma_known), rmse=rmse, free=free, _finite=finite, input_warnings=warn)
+    state.update(extra=dict(extra or {}), **effect_fields)
+    obj = object.__new__(FitResult)
+    obj.__dict__.update(state)
+    return obj
+
+
+def _checked_arrays(theta, jacobian, weighted_residuals, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``theta`` (3,) as a float copy, the Jacobian and the weighted residuals; ValueError on a wrong shape."""
     if type(theta) is np.ndarray and theta.shape == (3,) and theta.dtype == np.float64:
         theta = theta.copy()
     else:
         theta = np.asarray(theta, dtype=float).reshape(3).copy()
     J = np.asarray(jacobian, dtype=float)
     rw = np.asarray(weighted_residuals, dtype=float).ravel()
-    labels = tuple(effect_labels)
-    m = len(labels)
     if J.ndim != 2 or J.shape[1] != 3 + m or J.shape[0] != rw.size:
         raise ValueError(f"jacobian must have shape (n_res, 3 + {m}) = ({rw.size}, {3 + m}), got {J.shape}")
-    if data_kind == "slip":
-        if samples is not None:
-            slip, thrust, load, *curves = samples
-            found, usable = assess(slip, thrust, load, residuals, theta, vehicle, model, bounds, *curves)
-        else:  # a fit without the checks of the data (joint fits): the loads against the vehicle all the same
-            loads = check_loads(normal_loads, vehicle)
-            found, usable = tuple("NOT USABLE: " + f.message for f in loads), not loads
-        warnings = tuple(warnings) + found
-        if not usable and success:
-            success, status = False, f"{status} {NOT_USABLE}"
-            message = f"{message}; the data or the answer fail the plausibility checks (see the warnings)"
-    effect_fields: dict[str, Any] = {"measured": measured, "residual_model": residual_model}
+    return theta, J, rw
+
+
+def _plausibility(samples, residuals, theta, normal_loads, vehicle, model, bounds, verdict: tuple) -> tuple:
+    """Slip data: the plausibility checks' warnings; an answer they refuse is not a success.
+
+    ``verdict = (warnings, success, status, message)`` as the solver left them; returns them updated.
+    """
+    warnings, success, status, message = verdict
+    if samples is not None:
+        slip, thrust, load, *curves = samples
+        found, usable = assess(slip, thrust, load, residuals, theta, vehicle, model, bounds, *curves)
+    else:  # a fit without the checks of the data (joint fits): the loads against the vehicle all the same
+        loads = check_loads(normal_loads, vehicle)
+        found, usable = tuple("NOT USABLE: " + f.message for f in loads), not loads
+    warnings = tuple(warnings) + found
+    if not usable and success:
+        success, status = False, f"{status} {NOT_USABLE}"
+        message = f"{message}; the data or the answer fail the plausibility checks (see the warnings)"
+    return warnings, success, status, message
+
+
+def _effect_fields(
+    model, effect_labels, effect_values, effect_bounds, effect_units, effect_structure, fixed_labels
+) -> tuple[tuple[int, ...], dict[str, Any]]:
+    """The free parameter indices (soil, then the effects not held) and the result's effect fields."""
+    free = _free_indices(model)
+    labels = tuple(effect_labels)
+    m = len(labels)
+    effect_fields: dict[str, Any] = {}
     if m:
         fixed_labels = tuple(fixed_labels)
         unknown = set(fixed_labels) - set(labels)
@@ -479,8 +521,11 @@ def build_result(
             effect_structure=effect_structure,
             fixed_labels=fixed_labels,
         )
-    res = np.asarray(residuals, dtype=float)
-    ev = effect_fields.get("effect_values")
+    return free, effect_fields
+
+
+def _finite_check(theta, res, rw, ev, warnings: tuple, success: bool, status: str):
+    """``(rmse, finite, success, status, warnings)``: non-finite numbers make no estimate, and say so."""
     rv = res.ravel()
     ss = float(np.dot(rv, rv))  # finite only if every residual is (squares cannot cancel an inf or a NaN)
     finite = (
@@ -494,36 +539,7 @@ def build_result(
         success = False
         status = status if "non-finite" in status else f"{status} (non-finite numbers)"
         warn += ("the solver returned non-finite numbers; no estimate is given",)
-    state = dict(_RESULT_DEFAULTS)  # every field (extra, the one with a factory, is always given)
-    state.update(
-        data_kind=data_kind,
-        model=model,
-        method=method,
-        theta=theta,
-        jacobian=J,
-        weighted_residuals=rw,
-        residuals=res,
-        residual_unit=residual_unit,
-        n_samples=int(n_samples),
-        normal_loads=_distinct_loads(normal_loads),
-        vehicle=vehicle,
-        bounds=bounds,
-        status=str(status),
-        success=bool(success),
-        message=str(message),
-        iterations=int(iterations),
-        solve_time=float(solve_time),
-        sigma_known=bool(sigma_known),
-        rmse=math.sqrt(ss / res.size) if res.size else math.nan,
-        free=free,
-        _finite=finite,
-        input_warnings=warn,
-        extra=dict(extra or {}),
-        **effect_fields,
-    )
-    obj = object.__new__(FitResult)
-    obj.__dict__.update(state)
-    return obj
+    return (math.sqrt(ss / res.size) if res.size else math.nan), finite, success, status, warn
 
 
 def build_results_batch(
