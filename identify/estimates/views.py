@@ -26,6 +26,7 @@ import numpy as np
 from ...soilmodel.soil import PARAMETER_NAMES, Soil
 from .least_squares import WEAK_VIF
 from ...soilmodel.units import format_value
+from .record_fields import RecordFields
 from .records import EDGE_UNITS, Combination, ParameterEstimate
 from .identifiability import BOUND_TOL
 from ..sweep.plausibility import fmax_range
@@ -74,7 +75,7 @@ def _profile_note(pi, factor: float, unit: str) -> str:
     return s
 
 
-class EstimateViews:
+class EstimateViews(RecordFields):
     """Estimate views of a fit result (mixin)."""
 
     # ---------------------------------------------------------------------------- bounds
