@@ -94,7 +94,7 @@ def stale_references() -> list[str]:
             if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
                 for kind, target in REF.findall(ast.get_docstring(node, clean=False) or ""):
                     if not _resolves(target, module, is_package, cls):
-                        bad.append(f"{os.path.relpath(path, ROOT)}:{node.lineno}: :{kind}:`{target}`")
+                        bad.append(f"{os.path.relpath(path, ROOT)}:{getattr(node, 'lineno', 1)}: :{kind}:`{target}`")
             for child in ast.iter_child_nodes(node):
                 visit(child, node.name if isinstance(node, ast.ClassDef) else cls)
 

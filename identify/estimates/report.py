@@ -28,9 +28,8 @@ from ..outcome import (
     running_gear_json,
     stated_noise_test,
 )
-from ..sweep.rig import LoadSeparation
 from .record_fields import RecordFields
-from .records import EDGE_UNITS, NOT_USABLE, ParameterEstimate, finite_or_none, solver_converged
+from .records import EDGE_UNITS, NOT_USABLE, LoadSeparation, ParameterEstimate, finite_or_none, solver_converged
 
 __all__ = ["ReportViews", "OUTCOMES", "RESIDUAL_SIGN"]
 

@@ -25,10 +25,9 @@ from ...soilmodel.soil import PARAMETER_NAMES, SoilBounds
 from ...soilmodel.traction import max_thrust_function
 from ...soilmodel.vehicle import Vehicle
 from .least_squares import RANK_TOL, WEAK_CORRELATION, core_stats, core_stats_one, quantile, WEAK_VIF  # noqa: F401
-from .records import EDGE_UNITS, NOT_USABLE, Combination, ParameterEstimate, finite_or_none  # noqa: F401
+from .records import EDGE_UNITS, NOT_USABLE, Combination, ParameterEstimate, check_loads, finite_or_none  # noqa: F401
 from .views import EstimateViews
 from .identifiability import BOUND_TOL, NULL_TOL, IdentifiabilityViews  # noqa: F401
-from ..sweep.plausibility import assess, check_loads
 from .report import ReportViews, json_default  # noqa: F401
 
 __all__ = [
@@ -310,10 +309,6 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
             phi on their ridge, asked at another normal load).
         """
         model = self.residual_model
-        if model is None and self.data_kind == "slip":
-            from ..sweep.model import SweepResiduals
-
-            model = SweepResiduals()
         if model is None:
             from ...soilmodel.errors import DataError
 
@@ -382,7 +377,7 @@ def build_result(
     fixed_labels: Sequence[str] = (),
     measured: str | None = None,
     residual_model=None,
-    samples=None,
+    plausibility: tuple[tuple[str, ...], bool] | None = None,
 ) -> FitResult:
     """Build a :class:`FitResult` from an optimum and its Jacobian (shared by all fitting methods).
 
@@ -426,15 +421,12 @@ def build_result(
         What slip data measured (``"tractive_force"`` / ``"drawbar_pull"``).
     residual_model
         Object with ``residuals_on(result, data) -> dict`` for :meth:`FitResult.residuals_on`.
-    samples : tuple of arrays, optional
-        Slip data ``(slip, thrust_N, load_N)`` per sample, optionally followed by the weakest and
-        strongest soil's thrust at each sample ``(F_weak, F_strong)`` when the solver has them
-        (:func:`~soiltrack.identify.sweep.plausibility.corner_curves`) and the solver's screen of them
-        (:func:`~soiltrack.identify.sweep.plausibility.screen_expr`) and of F_max on a bound
-        (:func:`~soiltrack.identify.sweep.plausibility.limit_screen_expr`): then the plausibility checks of
-        :mod:`soiltrack.identify.sweep.plausibility` run, add their warnings, and set
-        ``success=False`` when the answer is not usable (a force scale no soil within the bounds
-        gives, F_max fixed by a bound, residuals as large as the data, a gross outlier).
+    plausibility : (warnings, usable), optional, slip data only
+        The verdict of the slip data's plausibility checks, run by the data kind
+        (:func:`~soiltrack.identify.sweep.plausibility.slip_checks`): their warnings are added, and an
+        answer they find not usable (a force scale no soil within the bounds gives, F_max fixed by a
+        bound, residuals as large as the data, a gross outlier) has ``success=False``. Not given: only
+        the rows' loads against the vehicle's weight (:func:`~.records.check_loads`).
 
     Returns
     -------
@@ -444,8 +436,11 @@ def build_result(
         raise ValueError(f"data_kind must be 'slip' or 'drive', got {data_kind!r}")
     theta, J, rw = _checked_arrays(theta, jacobian, weighted_residuals, len(effect_labels))
     if data_kind == "slip":
-        warnings, success, status, message = _plausibility(
-            samples, residuals, theta, normal_loads, vehicle, model, bounds, (tuple(warnings), success, status, message)
+        if plausibility is None:  # no checks of the data: the loads against the vehicle all the same
+            loads = check_loads(normal_loads, vehicle)
+            plausibility = (tuple("NOT USABLE: " + f.message for f in loads), not loads)
+        warnings, success, status, message = _with_plausibility(
+            plausibility, (tuple(warnings), success, status, message)
         )
     free, effect_fields = _effect_fields(
         model, effect_labels, effect_values, effect_bounds, effect_units, effect_structure, fixed_labels
@@ -480,19 +475,14 @@ def _checked_arrays(theta, jacobian, weighted_residuals, m: int) -> tuple[np.nda
     return theta, J, rw
 
 
-def _plausibility(samples, residuals, theta, normal_loads, vehicle, model, bounds, verdict: tuple) -> tuple:
-    """Slip data: the plausibility checks' warnings; an answer they refuse is not a success.
+def _with_plausibility(plausibility: tuple[tuple[str, ...], bool], verdict: tuple) -> tuple:
+    """Slip data: the plausibility checks' warnings added; an answer they refuse is not a success.
 
     ``verdict = (warnings, success, status, message)`` as the solver left them; returns them updated.
     """
     warnings, success, status, message = verdict
-    if samples is not None:
-        slip, thrust, load, *curves = samples
-        found, usable = assess(slip, thrust, load, residuals, theta, vehicle, model, bounds, *curves)
-    else:  # a fit without the checks of the data (joint fits): the loads against the vehicle all the same
-        loads = check_loads(normal_loads, vehicle)
-        found, usable = tuple("NOT USABLE: " + f.message for f in loads), not loads
-    warnings = tuple(warnings) + found
+    found, usable = plausibility
+    warnings = tuple(warnings) + tuple(found)
     if not usable and success:
         success, status = False, f"{status} {NOT_USABLE}"
         message = f"{message}; the data or the answer fail the plausibility checks (see the warnings)"

@@ -29,7 +29,7 @@ from ...soilmodel.units import format_value
 from .record_fields import RecordFields
 from .records import EDGE_UNITS, Combination, ParameterEstimate
 from .identifiability import BOUND_TOL
-from ..sweep.plausibility import fmax_range
+from ...soilmodel.ridge import soil_fmax_range as fmax_range
 
 
 def _cut_note(lo: float, hi: float, b_lo: float, b_hi: float, factor: float, unit: str) -> list[str]:

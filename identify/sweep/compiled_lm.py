@@ -1064,9 +1064,10 @@ def extra_of(sol: Solution) -> dict:
 
 def result_of(pb: SlipProblem, sol: Solution, x0, solve_time: float) -> FitResult:
     """The :class:`FitResult` of a certified solve (shared statistics via ``build_result``)."""
-    kw = pb.result_kwargs(sol.curves, sol.screen)
+    samples = pb.result_kwargs(sol.curves, sol.screen)["samples"]
     if sol.screen is not None and sol.limit_screen is not None:  # (slip, F, W, curves, screen, limit screen)
-        kw["samples"] += (sol.limit_screen,)
+        samples += (sol.limit_screen,)
+    kw = pb.checked_kwargs(sol.residuals, sol.theta, samples)
     return build_result(
         data_kind="slip",
         model=pb.model,

@@ -48,6 +48,7 @@ from .problem import SCALE, SlipProblem
 from ..estimates.result import FitResult, build_result
 from .start import start_point
 from .model import SweepResiduals, observation_function, predict
+from .plausibility import slip_checks
 
 __all__ = ["fit_joint", "joint_layout", "padded_size"]
 
@@ -208,6 +209,7 @@ def fit_joint(
         fixed_labels=tuple(fixed),
         measured=pb.measured,
         residual_model=SweepResiduals(pb.rig_speed),
+        plausibility=slip_checks(None, r, theta, pb.load, pb.vehicle, pb.model, pb.bounds),
     )
 
 
