@@ -12,18 +12,8 @@ import numpy as np  # noqa: E402
 
 from .identify.estimates.report import RESIDUAL_SIGN  # noqa: E402
 from .soilmodel import DataError, DriveLog, SlipData, choose_scale  # noqa: E402
+from .soilmodel.figures import save_figure  # noqa: E402  (the one helper; callers use plots.save_figure)
 from .soilmodel.ridge import MAX_LOAD_LEVELS  # noqa: E402  (more distinct loads: drawn by load range)
-
-
-def save_figure(fig, path: str) -> str:
-    """Save ``fig`` to ``path`` (format from the extension) and close it; OSError -> DataError."""
-    try:
-        fig.savefig(path, dpi=120)
-    except OSError as e:
-        raise DataError(f"cannot write the figure: {e.strerror or e}", file=path) from None
-    finally:
-        plt.close(fig)
-    return path
 
 
 _QUANTITY = {"tractive_force": "tractive force F", "drawbar_pull": "drawbar pull DP"}
