@@ -1,14 +1,15 @@
-"""What the record's view mixins read from the record, declared for the type checker.
+"""The fit record's fields, and what the record's view mixins read from it.
 
 :class:`~soiltrack.identify.estimates.result.FitResult` is assembled from three mixins
 (:mod:`.views`, :mod:`.identifiability`, :mod:`.report`) that read the record's fields and each
-other's properties. :class:`RecordFields`, their common base, declares those names under
-``TYPE_CHECKING`` only: at run time it is an empty class (no field, no attribute, no cost); the
-record's own dataclass fields and properties are the definitions.
+other's properties. :class:`RecordFields`, their common base, is the frozen dataclass of the fields
+(``FitResult`` inherits them, in this order), and declares under ``TYPE_CHECKING`` only the statistics
+and views the mixins read from each other (the record's properties are their definitions).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
@@ -21,43 +22,50 @@ if TYPE_CHECKING:
 __all__ = ["RecordFields"]
 
 
+@dataclass(frozen=True, eq=False)
 class RecordFields:
-    """Names the view mixins of the fit record read (type declarations only; see the module text)."""
+    """The fit record's fields (their one home) and, for the type checker, what its view mixins read."""
+
+    data_kind: str
+    model: str
+    method: str
+    theta: np.ndarray
+    jacobian: np.ndarray
+    weighted_residuals: np.ndarray
+    residuals: np.ndarray
+    residual_unit: str
+    n_samples: int
+    normal_loads: np.ndarray
+    vehicle: Vehicle
+    bounds: SoilBounds
+    status: str
+    success: bool
+    message: str
+    iterations: int
+    solve_time: float
+    sigma_known: bool
+    rmse: float
+    free: tuple[int, ...]
+    #: ``(batched core statistics dict, index of this fit)`` when built in a batch, else None:
+    #: computed from ``jacobian`` and ``weighted_residuals`` on first use (:attr:`_stats`).
+    _core: Any = field(default=None, repr=False)
+    _finite: bool = field(default=True, repr=False)  # theta, residuals (and effects) finite
+    input_warnings: tuple[str, ...] = ()
+    extra: dict = field(default_factory=dict)
+    effect_labels: tuple[str, ...] = ()
+    effect_values: Any = None
+    effect_bounds: tuple = ()
+    effect_units: tuple = ()
+    effect_structure: Any = None
+    fixed_labels: tuple[str, ...] = ()
+    measured: str | None = None
+    residual_model: Any = None
+    #: ``{label: ReplacedInterval}`` replacing the linearised 95 % intervals of those parameters: profile
+    #: likelihood (:mod:`soiltrack.identify.estimates.joint_likelihood`) or widened over both torque holds
+    #: (:mod:`soiltrack.identify.drivelog.torque_hold`); None when every interval is the linearised one.
+    replaced_intervals: Any = None
 
     if TYPE_CHECKING:
-        # the record's dataclass fields (result.FitResult)
-        data_kind: str
-        model: str
-        method: str
-        theta: np.ndarray
-        jacobian: np.ndarray
-        weighted_residuals: np.ndarray
-        residuals: np.ndarray
-        residual_unit: str
-        n_samples: int
-        normal_loads: np.ndarray
-        vehicle: Vehicle
-        bounds: SoilBounds
-        status: str
-        success: bool
-        message: str
-        iterations: int
-        solve_time: float
-        sigma_known: bool
-        rmse: float
-        free: tuple[int, ...]
-        input_warnings: tuple[str, ...]
-        extra: dict
-        effect_labels: tuple[str, ...]
-        effect_values: Any
-        effect_bounds: tuple
-        effect_units: tuple
-        effect_structure: Any
-        fixed_labels: tuple[str, ...]
-        measured: str | None
-        residual_model: Any
-        replaced_intervals: Any
-
         # the record's statistics (result.FitResult)
         @property
         def rank(self) -> int: ...

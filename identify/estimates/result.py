@@ -14,7 +14,7 @@ effects, combinations, the soil), :mod:`.identifiability` (null space, ridge, co
 from __future__ import annotations
 
 import math
-from dataclasses import MISSING, dataclass, field, fields
+from dataclasses import MISSING, dataclass, fields
 from functools import cached_property
 from typing import Any, Sequence
 
@@ -80,44 +80,7 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
         Rank of the scaled Jacobian; residual degrees of freedom ``n - rank``.
     """
 
-    data_kind: str
-    model: str
-    method: str
-    theta: np.ndarray
-    jacobian: np.ndarray
-    weighted_residuals: np.ndarray
-    residuals: np.ndarray
-    residual_unit: str
-    n_samples: int
-    normal_loads: np.ndarray
-    vehicle: Vehicle
-    bounds: SoilBounds
-    status: str
-    success: bool
-    message: str
-    iterations: int
-    solve_time: float
-    sigma_known: bool
-    rmse: float
-    free: tuple[int, ...]
-    #: ``(batched core statistics dict, index of this fit)`` when built in a batch, else None:
-    #: computed from ``jacobian`` and ``weighted_residuals`` on first use (:attr:`_stats`).
-    _core: Any = field(default=None, repr=False)
-    _finite: bool = field(default=True, repr=False)  # theta, residuals (and effects) finite
-    input_warnings: tuple[str, ...] = ()
-    extra: dict = field(default_factory=dict)
-    effect_labels: tuple[str, ...] = ()
-    effect_values: Any = None
-    effect_bounds: tuple = ()
-    effect_units: tuple = ()
-    effect_structure: Any = None
-    fixed_labels: tuple[str, ...] = ()
-    measured: str | None = None
-    residual_model: Any = None
-    #: ``{label: ReplacedInterval}`` replacing the linearised 95 % intervals of those parameters: profile
-    #: likelihood (:mod:`soiltrack.identify.estimates.joint_likelihood`) or widened over both torque holds
-    #: (:mod:`soiltrack.identify.drivelog.torque_hold`); None when every interval is the linearised one.
-    replaced_intervals: Any = None
+    # the fields: :class:`~.record_fields.RecordFields` (their one home)
 
     def __getstate__(self) -> dict:
         """Pickle only this fit's slice of batched core statistics (never computed ones: they follow)."""
