@@ -37,7 +37,7 @@ from .engines import DEFAULT_ENGINE, ENGINES
 from .diagnosis.diagnose import Diagnosis, diagnose
 from .fitting import fit
 from .sweep.problem import FitFailed
-from .estimates.likelihood import ProfileResult, profile_likelihood
+from .sweep.likelihood import ProfileResult, profile_likelihood
 from .estimates.result import Combination, FitResult, ParameterEstimate, build_result
 from .settings import FitSettings
 from .online import OnlineEstimate, OnlineEstimator, OnlineSettings

@@ -54,6 +54,7 @@ from .engines import check_engine, jit_mode, normalise_status
 from .sweep.problem import FitFailed, check_common, make_problem
 from ..soilmodel.ridge import continuous_load
 from .sweep.plausibility import assess
+from .sweep.model import SweepResiduals
 from .estimates.records import NOT_USABLE
 from .estimates.result import FitResult, build_results_batch
 from .settings import SETTING_NAMES, FitSettings
@@ -103,6 +104,7 @@ def failed_result(
         iterations=0,
         solve_time=0.0,
         extra={"batch_index": int(index), "error": error},
+        residual_model=SweepResiduals() if kind == "slip" else None,
     )
     return replace(res, status="not fitted")  # nothing was solved: no "non-finite numbers" suffix
 
@@ -284,6 +286,7 @@ def _solve_problems(
             sigma_known=P[0].sigma_known,
             extra=extras,
             warnings=warns,
+            residual_model=SweepResiduals(),
         )
         for k, res in zip(idx, built):
             out[k] = res

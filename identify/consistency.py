@@ -242,9 +242,14 @@ def _sign_speed(v: np.ndarray, rw: np.ndarray, st: ConsistencySettings) -> np.nd
 def _drive_findings(log: DriveLog, vehicle: Vehicle, st: ConsistencySettings) -> list[Finding]:
     t = log.time - log.time[0]
     seg = _segments(t, st.gap_factor, st.max_segment_s)
+    found = (_torque_scale_finding(log, vehicle, st, t, seg), _imu_finding(log, st, t, seg))
+    return [f for f in found if f is not None] + [_speed_ratio_finding(log, vehicle, st)]
+
+
+def _torque_scale_finding(log: DriveLog, vehicle: Vehicle, st: ConsistencySettings, t, seg) -> Finding | None:
+    """The sprocket torque against the hull balance (None: fewer than 10 samples or non-finite numbers)."""
     v, w, M = log.vehicle_speed, log.sprocket_speed, log.sprocket_torque
     m, I, r = vehicle.mass, vehicle.sprocket_inertia, vehicle.sprocket_radius
-    out: list[Finding] = []
     # torque scale: m (v - v0) + I (w - w0) / r = rho int M/r dt - a int R dt - b int v dt - g t
     y = m * (v - v[seg]) + I * (w - w[seg]) / r
     X = np.column_stack(
@@ -276,69 +281,69 @@ def _drive_findings(log: DriveLog, vehicle: Vehicle, st: ConsistencySettings) ->
                 f"the hull balance needs {rho:.3g} times the thrust the sprocket torque gives "
                 f"(standard error {se:.2g})" + ("" if sev == "ok" else f": {_cause_torque(rho)}")
             )
-            out.append(Finding("torque_scale", sev, msg, rho))
-        elif rho <= 0 and se < abs(rho):
-            out.append(
-                Finding(
-                    "torque_scale",
-                    "fatal",
-                    f"the hull accelerates against the torque (ratio {rho:.3g}): "
-                    "the torque's sign is flipped, or the columns are swapped",
-                    rho,
-                )
+            return Finding("torque_scale", sev, msg, rho)
+        if rho <= 0 and se < abs(rho):
+            return Finding(
+                "torque_scale",
+                "fatal",
+                f"the hull accelerates against the torque (ratio {rho:.3g}): "
+                "the torque's sign is flipped, or the columns are swapped",
+                rho,
             )
-        else:
-            out.append(
-                Finding(
-                    "torque_scale",
-                    "unchecked",
-                    f"not checked: the log has too little speed change to "
-                    f"compare the torque with the hull balance (ratio {rho:.3g} +- {se:.2g})",
-                    rho,
-                )
-            )
-    # IMU against the measured speed
-    if log.vehicle_accel is not None:
-        dv = v - v[seg]
-        ia = _cumtrapz(log.vehicle_accel, t, seg)
-        den = float(ia @ ia)
-        if den > 0 and float(dv @ dv) > 0:
-            s = float(ia @ dv) / den  # dv ~ s * int(a) -> the IMU is 1/s times what the speed says
-            k = 1.0 / s if s != 0 else math.inf
-            note = " (the nominal drive-log fit does not use the IMU column; fits with effects do)"
-            if k < 0:
-                out.append(
-                    Finding(
-                        "imu",
-                        "warning",
-                        f"the IMU acceleration has the opposite sign of the speed's change "
-                        f"(ratio {k:.3g}): its sign is flipped" + note,
-                        k,
-                    )
-                )
-            else:
-                sev = _severity(k, st)
-                cause = (
-                    ""
-                    if sev == "ok"
-                    else (
-                        ": the time stamps in milliseconds?"
-                        if 300 < k < 3000
-                        else ": the IMU in g instead of m/s^2?"
-                        if 0.07 < k < 0.13
-                        else ": a scale or unit error in the IMU column"
-                    )
-                )
-                out.append(
-                    Finding(
-                        "imu",
-                        "ok" if sev == "ok" else "warning",
-                        f"the IMU acceleration is {k:.3g} times what the speed's change gives{cause}" + note,
-                        k,
-                    )
-                )
-    else:
-        out.append(Finding("imu", "unchecked", "no IMU column (vehicle_accel_m_s2): not checked"))
+        return Finding(
+            "torque_scale",
+            "unchecked",
+            f"not checked: the log has too little speed change to "
+            f"compare the torque with the hull balance (ratio {rho:.3g} +- {se:.2g})",
+            rho,
+        )
+    return None
+
+
+def _imu_finding(log: DriveLog, st: ConsistencySettings, t, seg) -> Finding | None:
+    """The IMU acceleration against the measured speed's change (None: no speed change to compare with)."""
+    if log.vehicle_accel is None:
+        return Finding("imu", "unchecked", "no IMU column (vehicle_accel_m_s2): not checked")
+    v = log.vehicle_speed
+    dv = v - v[seg]
+    ia = _cumtrapz(log.vehicle_accel, t, seg)
+    den = float(ia @ ia)
+    if not (den > 0 and float(dv @ dv) > 0):
+        return None
+    s = float(ia @ dv) / den  # dv ~ s * int(a) -> the IMU is 1/s times what the speed says
+    k = 1.0 / s if s != 0 else math.inf
+    note = " (the nominal drive-log fit does not use the IMU column; fits with effects do)"
+    if k < 0:
+        return Finding(
+            "imu",
+            "warning",
+            f"the IMU acceleration has the opposite sign of the speed's change "
+            f"(ratio {k:.3g}): its sign is flipped" + note,
+            k,
+        )
+    sev = _severity(k, st)
+    cause = (
+        ""
+        if sev == "ok"
+        else (
+            ": the time stamps in milliseconds?"
+            if 300 < k < 3000
+            else ": the IMU in g instead of m/s^2?"
+            if 0.07 < k < 0.13
+            else ": a scale or unit error in the IMU column"
+        )
+    )
+    return Finding(
+        "imu",
+        "ok" if sev == "ok" else "warning",
+        f"the IMU acceleration is {k:.3g} times what the speed's change gives{cause}" + note,
+        k,
+    )
+
+
+def _speed_ratio_finding(log: DriveLog, vehicle: Vehicle, st: ConsistencySettings) -> Finding:
+    """The median of v / (r w) while moving against the driving range."""
+    v, w, r = log.vehicle_speed, log.sprocket_speed, vehicle.sprocket_radius
     # speed ratio while moving
     rw = r * w
     moving = (rw > st.moving_speed) & (v > st.moving_speed)
@@ -346,7 +351,7 @@ def _drive_findings(log: DriveLog, vehicle: Vehicle, st: ConsistencySettings) ->
         q = _median(v[moving] / rw[moving])
         lo, hi = st.speed_ratio_range
         if lo <= q <= hi:
-            out.append(Finding("speed_ratio", "ok", f"v / (r w) while moving is {q:.3g} (slip {1 - q:.2g})", q))
+            return Finding("speed_ratio", "ok", f"v / (r w) while moving is {q:.3g} (slip {1 - q:.2g})", q)
         else:
             if q > hi:
                 cause = (
@@ -362,17 +367,13 @@ def _drive_findings(log: DriveLog, vehicle: Vehicle, st: ConsistencySettings) ->
                     if 0.04 < q < 0.12
                     else "the tracks turn much faster than the vehicle moves: a unit error or a wrong sprocket radius?"
                 )
-            out.append(
-                Finding(
-                    "speed_ratio",
-                    "fatal",
-                    f"v / (r w) while moving is {q:.3g}, outside the driving range [{lo:g}, {hi:g}]: {cause}",
-                    q,
-                )
+            return Finding(
+                "speed_ratio",
+                "fatal",
+                f"v / (r w) while moving is {q:.3g}, outside the driving range [{lo:g}, {hi:g}]: {cause}",
+                q,
             )
-    else:
-        out.append(Finding("speed_ratio", "unchecked", "fewer than 5 moving samples: v / (r w) not checked"))
-    return out
+    return Finding("speed_ratio", "unchecked", "fewer than 5 moving samples: v / (r w) not checked")
 
 
 def repeated_rows(data: SlipData) -> tuple[int, tuple[int, ...]]:

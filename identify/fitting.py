@@ -152,18 +152,13 @@ def fit(
     km/h or rpm, loads in kN, repeated rows) is said in the warnings, and the result fails
     (``success`` False) where the answer cannot stand.
     """
-    if "vehicle" in options:  # the keyword's name before the running gear of every kind
-        if running_gear is not None:
-            raise DataError("fit: give the running gear once (running_gear, or its old name vehicle), not both")
-        warnings.warn("fit(vehicle=...) is now fit(running_gear=...)", DeprecationWarning, stacklevel=2)
-        running_gear = options.pop("vehicle")
+    running_gear = _renamed_running_gear(running_gear, options)
     kw = {"model": model, "method": method, "bounds": bounds, "x0": x0, "engine": engine, "effects": effects}
     if check_fit_options(data, running_gear, options=options, fixed=fixed, settings=settings, **kw) is not None:
         return fit_other_kind(
             data, running_gear, model=model, bounds=bounds, effects=effects, fixed=fixed, strict=strict
         )
-    vehicle = running_gear
-    bounds = PRACTICAL_BOUNDS if bounds is None else bounds
+    vehicle, bounds = running_gear, PRACTICAL_BOUNDS if bounds is None else bounds
     # the whole fit holds the process's solver lock (re-entrant): a fork then never copies a thread in the
     # middle of a fit's CasADi or BLAS work (soilmodel.threadsafe); the solves were serialised anyway
     with fit_section():
@@ -173,6 +168,16 @@ def fit(
     if strict and not res.success:
         raise FitFailed(res)
     return res
+
+
+def _renamed_running_gear(running_gear, options: dict):
+    """The running gear, given as ``running_gear`` or by its old keyword ``vehicle`` (deprecated), not both."""
+    if "vehicle" in options:  # the keyword's name before the running gear of every kind
+        if running_gear is not None:
+            raise DataError("fit: give the running gear once (running_gear, or its old name vehicle), not both")
+        warnings.warn("fit(vehicle=...) is now fit(running_gear=...)", DeprecationWarning, stacklevel=3)
+        running_gear = options.pop("vehicle")
+    return running_gear
 
 
 def _fit_unchecked(
@@ -189,34 +194,8 @@ def _fit_unchecked(
     options: dict,
 ) -> FitResult:
     """``fit`` without the consistency checks (never strict: ``fit`` raises after the checks)."""
-    strict = False
     if isinstance(data, DriveLog):
-        check_common(vehicle, model, method, bounds)
-        for opt in ("slip_noise", "intervals"):
-            if options.get(opt) is not None:
-                raise DataError(
-                    f"{opt} applies to slip sweeps; a drive log's slip is already a latent variable of "
-                    "its fit (its noise comes from the speed channels)",
-                    file=data.source,
-                )
-            options.pop(opt, None)
-        from .drivelog.fit import fit_drive_log  # written separately; imported lazily
-
-        if effects is not None:
-            options["effects"] = effects
-        if fixed is not None:
-            options["fixed"] = fixed
-        if settings is not None or engine is not None:
-            check_engine(FitSettings.resolve(settings, engine=engine).engine)
-        if effects is not None and options.get("torque_hold") is None:
-            # the hold is not stated: intervals cover both (soiltrack.identify.drivelog.torque_hold)
-            options.pop("torque_hold", None)
-            return fit_both_holds(
-                lambda hold: fit_drive_log(
-                    data, vehicle, model, bounds, x0, strict, method=method, torque_hold=hold, **options
-                )
-            )
-        return fit_drive_log(data, vehicle, model, bounds, x0, strict, method=method, **options)
+        return _fit_log(data, vehicle, model, method, bounds, x0, engine, effects, fixed, settings, options)
     if not isinstance(data, SlipData):
         raise DataError(f"fit takes SlipData or DriveLog, got {type(data).__name__}")
     sigma = options.pop("sigma", None)
@@ -249,12 +228,9 @@ def _fit_unchecked(
             )
 
         rig_speed = options.get("rig_speed")
-        res = fit_resistance(
+        return fit_resistance(
             data, vehicle, fit_at, resistance, SweepResiduals() if rig_speed is None else SweepResiduals(rig_speed)
         )
-        if strict and not res.success:
-            raise FitFailed(res)
-        return res
     std = std_weights(data)
     if sigma is None and std is not None:  # the rig's per-row std: relative weights, level estimated
         sigma, sigma_known = std, (False if sigma_known is None else sigma_known)
@@ -275,12 +251,51 @@ def _fit_unchecked(
         **rig,
     )
     x0v = None if x0 is None else x0_vector(x0)
+    st = _resolved_settings(settings, engine, options)
+    return _with_rig(data, _solve_sweep(pb, x0v, st, method, fixed, slip_noise, intervals), separation)
+
+
+def _fit_log(data: DriveLog, vehicle, model, method, bounds, x0, engine, effects, fixed, settings, options: dict):
+    """A drive log: the sweep-only options refused, the rest handed to the drive-log fit."""
+    check_common(vehicle, model, method, bounds)
+    for opt in ("slip_noise", "intervals"):
+        if options.get(opt) is not None:
+            raise DataError(
+                f"{opt} applies to slip sweeps; a drive log's slip is already a latent variable of "
+                "its fit (its noise comes from the speed channels)",
+                file=data.source,
+            )
+        options.pop(opt, None)
+    from .drivelog.fit import fit_drive_log  # written separately; imported lazily
+
+    if effects is not None:
+        options["effects"] = effects
+    if fixed is not None:
+        options["fixed"] = fixed
+    if settings is not None or engine is not None:
+        check_engine(FitSettings.resolve(settings, engine=engine).engine)
+    if effects is not None and options.get("torque_hold") is None:
+        # the hold is not stated: intervals cover both (soiltrack.identify.drivelog.torque_hold)
+        options.pop("torque_hold", None)
+        return fit_both_holds(
+            lambda hold: fit_drive_log(
+                data, vehicle, model, bounds, x0, False, method=method, torque_hold=hold, **options
+            )
+        )
+    return fit_drive_log(data, vehicle, model, bounds, x0, False, method=method, **options)
+
+
+def _resolved_settings(settings: FitSettings | None, engine: str | None, options: dict) -> FitSettings:
+    """The typed settings with the keywords of the same names applied; an unknown option is refused."""
     if options:
         given = {k: options.pop(k) for k in SETTING_NAMES if k in options}
         _check_options(options, set(SETTING_NAMES))
-        st = FitSettings.resolve(settings, engine=engine, **given)
-    else:  # the common case: no settings keywords
-        st = FitSettings.resolve(settings, engine=engine)
+        return FitSettings.resolve(settings, engine=engine, **given)
+    return FitSettings.resolve(settings, engine=engine)  # the common case: no settings keywords
+
+
+def _solve_sweep(pb, x0v, st: FitSettings, method: str, fixed, slip_noise, intervals) -> FitResult:
+    """Solve a slip problem: jointly by IPOPT (effects, slip noise, profile intervals), else by the engine or method."""
     joint = pb.has_effects
     if slip_noise is not None or intervals is not None or joint:
         slip_noise = check_slip_noise(("auto" if joint else "off") if slip_noise is None else slip_noise)
@@ -294,10 +309,7 @@ def _fit_unchecked(
             )
         if st.max_iter is not None:
             raise DataError("max_iter applies to method='newton' or 'least-squares'")
-        res = _with_rig(data, _fit_joint_sweep(pb, x0v, st, slip_noise, intervals), separation)
-        if strict and not res.success:
-            raise FitFailed(res)
-        return res
+        return _fit_joint_sweep(pb, x0v, st, slip_noise, intervals)
     if fixed:
         raise DataError("fixed holds effect parameters: give the effects too (effects=[...])")
     if method == "ipopt":
@@ -307,19 +319,15 @@ def _fit_unchecked(
                 "ipopt_options={'ipopt.max_iter': N}"
             )
         if st.engine == "ipopt":
-            res = normalise_status(fit_ipopt(pb, x0v, ipopt_options=st.ipopt_dict, n_grid=st.n_grid), "ipopt")
-        else:  # compiled LM (a single dataset is "vectorized" trivially); IPOPT if not certified
-            res = fit_compiled(pb, x0v, n_grid=st.n_grid, ipopt_options=st.ipopt_dict, jit=jit_mode(st.engine))
-            if res.extra.get("engine") == "ipopt":
-                normalise_status(res)
-    elif method == "newton":
-        res = fit_newton(pb, x0v, max_iter=st.max_iter or 50)
-    else:
-        res = fit_least_squares(pb, x0v, max_iter=st.max_iter or 500)
-    res = _with_rig(data, res, separation)
-    if strict and not res.success:
-        raise FitFailed(res)
-    return res
+            return normalise_status(fit_ipopt(pb, x0v, ipopt_options=st.ipopt_dict, n_grid=st.n_grid), "ipopt")
+        # compiled LM (a single dataset is "vectorized" trivially); IPOPT if not certified
+        res = fit_compiled(pb, x0v, n_grid=st.n_grid, ipopt_options=st.ipopt_dict, jit=jit_mode(st.engine))
+        if res.extra.get("engine") == "ipopt":
+            normalise_status(res)
+        return res
+    if method == "newton":
+        return fit_newton(pb, x0v, max_iter=st.max_iter or 50)
+    return fit_least_squares(pb, x0v, max_iter=st.max_iter or 500)
 
 
 def _with_rig(data: SlipData, res: FitResult, separation) -> FitResult:

@@ -12,6 +12,7 @@ from .forces import resistances, soil_thrust
 from .margin import Margin, split_effects, resolve_terrain, terrain_soil_vector
 from .profile import THRUST_RESERVE, SpeedPlan
 from .slip_optimal import SlipOptimum
+from ..soilmodel.figures import save_figure
 
 __all__ = ["plot_margin", "plot_profile", "plot_slip_optimal"]
 
@@ -89,7 +90,7 @@ def plot_margin(terrain: Any, vehicle: Vehicle, m: Margin, path: str) -> None:
     ax.legend(fontsize=8, loc="lower right")
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    _save(fig, path, plt)
+    save_figure(fig, path, dpi=110)
 
 
 def plot_profile(result: SpeedPlan, path: str, title: str = "") -> None:
@@ -184,7 +185,7 @@ def plot_profile(result: SpeedPlan, path: str, title: str = "") -> None:
         fontsize=9,
     )
     fig.tight_layout()
-    _save(fig, path, plt)
+    save_figure(fig, path, dpi=110)
 
 
 def plot_slip_optimal(opt: SlipOptimum, path: str, title: str = "") -> None:
@@ -222,16 +223,4 @@ def plot_slip_optimal(opt: SlipOptimum, path: str, title: str = "") -> None:
         fontsize=9,
     )
     fig.tight_layout()
-    _save(fig, path, plt)
-
-
-def _save(fig, path: str, plt) -> None:
-    """Save and close ``fig``; an unwritable path is a DataError naming it (the CLI checked it before the work)."""
-    from ..soilmodel import DataError
-
-    try:
-        fig.savefig(path, dpi=110)
-    except OSError as e:
-        raise DataError(f"cannot write the figure: {e.strerror or e}", file=path) from None
-    finally:
-        plt.close(fig)
+    save_figure(fig, path, dpi=110)

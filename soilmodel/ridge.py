@@ -10,6 +10,7 @@ F_max itself is :func:`~soiltrack.soilmodel.traction.max_thrust_expr`.
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 
@@ -17,6 +18,8 @@ from .soil import SoilBounds
 from .traction import max_thrust_expr
 
 __all__ = [
+    "corner_soils",
+    "soil_fmax_range",
     "fmax_range",
     "ridge_centre",
     "ridge_ranges",
@@ -109,3 +112,39 @@ def ridge_ranges(F_lo: float, F_hi: float, N: float, A: float, bounds: SoilBound
     if c_a > c_b or ph_a > ph_b:
         return None
     return (float(c_a), float(c_b)), (float(ph_a), float(ph_b))
+
+
+def corner_soils(bounds: SoilBounds, model: str) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """``[c, phi, K]`` (SI) of the weakest (c, phi low, K high) and strongest (c, phi high, K low) soil
+    within the bounds (c = 0 for the cohesion-free model)."""
+    try:
+        return _corner_soils(bounds, model)
+    except TypeError:  # unhashable bounds: not cached
+        return _corner_soils.__wrapped__(bounds, model)
+
+
+@lru_cache(maxsize=64)
+def _corner_soils(bounds: SoilBounds, model: str) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    cf = model == "cohesion-free"
+    return (
+        (0.0 if cf else float(bounds.cohesion[0]), float(bounds.friction_angle[0]), float(bounds.shear_modulus[1])),
+        (0.0 if cf else float(bounds.cohesion[1]), float(bounds.friction_angle[1]), float(bounds.shear_modulus[0])),
+    )
+
+
+def soil_fmax_range(bounds: SoilBounds, vehicle, model: str, normal_load: float) -> tuple[float, float]:
+    """Smallest and largest thrust limit F_max (N) that soils within the bounds give at this load (``model``:
+    full or cohesion-free; ``vehicle``: anything with a ``contact_area``)."""
+    key = (bounds, vehicle.contact_area, model, float(normal_load))
+    try:
+        return _fmax_range(*key)
+    except TypeError:  # unhashable bounds: not cached
+        return _fmax_range.__wrapped__(*key)
+
+
+@lru_cache(maxsize=1024)
+def _fmax_range(bounds: SoilBounds, A: float, model: str, W: float) -> tuple[float, float]:
+    weak, strong = corner_soils(bounds, model)
+    return float(max_thrust_expr(weak[0], weak[1], W, A, model)), float(
+        max_thrust_expr(strong[0], strong[1], W, A, model)
+    )

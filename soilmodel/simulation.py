@@ -368,59 +368,22 @@ def simulate_drive_log(
     check_sprocket_equation(sprocket_equation)
     eff = parse_effects(effects)
     nz = _noise(noise)
-    for name, val in (
-        ("duration_s", duration_s),
-        ("sample_rate_hz", sample_rate_hz),
-        ("controller_bandwidth", controller_bandwidth),
-    ):
-        if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
-            raise DataError(f"{name} must be a finite number > 0, got {val!r}")
-    h = 1.0 / float(sample_rate_hz)
-    n = int(round(duration_s * sample_rate_hz)) + 1
-    if n < 3:
-        raise DataError(f"duration_s x sample_rate_hz gives {n} samples; need at least 3")
+    h, n = _sampling(duration_s, sample_rate_hz, controller_bandwidth)
     t = np.arange(n) * h
     vref = _reference(vehicle, duration_s, t, speed_profile)
     dvref = np.append(np.diff(vref) / h, 0.0)
     limits = drive_limits(vehicle)
     soils, starts = _soil_segments(soil, soil_changes, h, n)
-    X_parts, M_parts = [np.zeros((3, 1))], []
-    for j, (k0, k1) in enumerate(zip(starts, starts[1:])):
-        sim = _closed_loop(
-            vehicle, soils[j], eff, model, sprocket_equation, h, k1 - k0, limits, float(controller_bandwidth)
-        )
-        try:
-            (Xj, Mj), _ = call_solver(sim, X_parts[-1][:, -1], np.vstack([vref[k0:k1], dvref[k0:k1]]))
-        except RuntimeError as exc:  # CVODES gave up (e.g. an absurd speed profile)
-            raise DataError(
-                f"simulation failed: the integrator did not converge ({str(exc).splitlines()[-1]})"
-            ) from None
-        X_parts.append(np.asarray(Xj).reshape(3, -1))
-        M_parts.append(np.asarray(Mj).ravel())
-    X = np.hstack(X_parts)
-    M = np.append(np.concatenate(M_parts), 0.0)
-    M[-1] = M[-2]  # the last sample's torque: held from the previous interval
+    X, M = _integrate(
+        vehicle, soils, starts, eff, model, sprocket_equation, h, limits, float(controller_bandwidth), vref, dvref
+    )
     v, w = X[0], X[1]
     if not (np.all(np.isfinite(v)) and np.all(np.isfinite(w)) and np.all(np.isfinite(M))):
         raise DataError("simulation produced non-finite values (integration failed)")
     soil_index = np.zeros(n, dtype=int)
     for j, k0 in enumerate(starts[1:-1], start=1):
         soil_index[k0 + 1 :] = j  # sample k0 + 1 is the first reached on soil j
-    xdot, slip, thrust, res, loss = (
-        np.empty((2, n)),
-        np.empty((1, n)),
-        np.empty((1, n)),
-        np.empty((1, n)),
-        np.empty((1, n)),
-    )
-    for j, sj in enumerate(soils):
-        sel = np.nonzero(soil_index == j)[0]
-        if sel.size == 0:
-            continue
-        dyn = dynamics_function(vehicle, sj, eff, model=model, sprocket_equation=sprocket_equation)
-        outs = [np.asarray(a, dtype=float).reshape(-1, sel.size) for a in dyn(X[:2, sel], M[sel].reshape(1, -1))]
-        for arr, o in zip((xdot, slip, thrust, res, loss), outs):
-            arr[:, sel] = o
+    xdot, slip, thrust, res, loss = _outputs(vehicle, soils, soil_index, eff, model, sprocket_equation, X, M)
     r_nom = vehicle.sprocket_radius
     slip_app = np.asarray(_slip_fn()(v.reshape(1, -1), w.reshape(1, -1), r_nom), dtype=float).ravel()
     truth = {
@@ -450,6 +413,62 @@ def simulate_drive_log(
         source=f"simulated drive log ({vehicle.name or 'vehicle'}, {soil.name or 'soil'}, effects: {eff})",
     )
     return (log, truth) if return_truth else log
+
+
+def _sampling(duration_s, sample_rate_hz, controller_bandwidth) -> tuple[float, int]:
+    """The sample interval and the number of samples; DataError naming a bad argument."""
+    for name, val in (
+        ("duration_s", duration_s),
+        ("sample_rate_hz", sample_rate_hz),
+        ("controller_bandwidth", controller_bandwidth),
+    ):
+        if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
+            raise DataError(f"{name} must be a finite number > 0, got {val!r}")
+    h = 1.0 / float(sample_rate_hz)
+    n = int(round(duration_s * sample_rate_hz)) + 1
+    if n < 3:
+        raise DataError(f"duration_s x sample_rate_hz gives {n} samples; need at least 3")
+    return h, n
+
+
+def _integrate(vehicle, soils, starts, eff, model, sprocket_equation, h, limits, bandwidth, vref, dvref):
+    """The closed loop integrated over each soil's segment (CVODES): states ``X`` (3 x n) and torques ``M`` (n)."""
+    X_parts, M_parts = [np.zeros((3, 1))], []
+    for j, (k0, k1) in enumerate(zip(starts, starts[1:])):
+        sim = _closed_loop(vehicle, soils[j], eff, model, sprocket_equation, h, k1 - k0, limits, bandwidth)
+        try:
+            (Xj, Mj), _ = call_solver(sim, X_parts[-1][:, -1], np.vstack([vref[k0:k1], dvref[k0:k1]]))
+        except RuntimeError as exc:  # CVODES gave up (e.g. an absurd speed profile)
+            raise DataError(
+                f"simulation failed: the integrator did not converge ({str(exc).splitlines()[-1]})"
+            ) from None
+        X_parts.append(np.asarray(Xj).reshape(3, -1))
+        M_parts.append(np.asarray(Mj).ravel())
+    X = np.hstack(X_parts)
+    M = np.append(np.concatenate(M_parts), 0.0)
+    M[-1] = M[-2]  # the last sample's torque: held from the previous interval
+    return X, M
+
+
+def _outputs(vehicle, soils, soil_index, eff, model, sprocket_equation, X, M):
+    """``(xdot, slip, thrust, resistance, torque loss)`` at every sample, on the soil under it."""
+    n = soil_index.size
+    xdot, slip, thrust, res, loss = (
+        np.empty((2, n)),
+        np.empty((1, n)),
+        np.empty((1, n)),
+        np.empty((1, n)),
+        np.empty((1, n)),
+    )
+    for j, sj in enumerate(soils):
+        sel = np.nonzero(soil_index == j)[0]
+        if sel.size == 0:
+            continue
+        dyn = dynamics_function(vehicle, sj, eff, model=model, sprocket_equation=sprocket_equation)
+        outs = [np.asarray(a, dtype=float).reshape(-1, sel.size) for a in dyn(X[:2, sel], M[sel].reshape(1, -1))]
+        for arr, o in zip((xdot, slip, thrust, res, loss), outs):
+            arr[:, sel] = o
+    return xdot, slip, thrust, res, loss
 
 
 def _soil_segments(soil: Soil, changes, h: float, n: int) -> tuple[list[Soil], list[int]]:

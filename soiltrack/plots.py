@@ -12,18 +12,8 @@ import numpy as np  # noqa: E402
 
 from .identify.estimates.report import RESIDUAL_SIGN  # noqa: E402
 from .soilmodel import DataError, DriveLog, SlipData, choose_scale  # noqa: E402
+from .soilmodel.figures import save_figure  # noqa: E402  (the one helper; callers use plots.save_figure)
 from .soilmodel.ridge import MAX_LOAD_LEVELS  # noqa: E402  (more distinct loads: drawn by load range)
-
-
-def save_figure(fig, path: str) -> str:
-    """Save ``fig`` to ``path`` (format from the extension) and close it; OSError -> DataError."""
-    try:
-        fig.savefig(path, dpi=120)
-    except OSError as e:
-        raise DataError(f"cannot write the figure: {e.strerror or e}", file=path) from None
-    finally:
-        plt.close(fig)
-    return path
 
 
 _QUANTITY = {"tractive_force": "tractive force F", "drawbar_pull": "drawbar pull DP"}
@@ -181,90 +171,7 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
         fig, (ax, axr) = plt.subplots(
             2, 1, figsize=(6.6, 6.2), sharex=True, gridspec_kw={"height_ratios": [3, 1.3]}, layout="constrained"
         )
-        loads = data.loads(vehicle.weight)
-        sc, u = force_unit(data.values)
-        grid = np.linspace(0.0, slip_grid_end(data.slip), 300)
-        res = result.residuals_measured_minus_model
-        levels = np.unique(loads)
-        curve_loads: list[tuple[Any, float, str | None]]  # colour, load, legend label
-        if levels.size <= MAX_LOAD_LEVELS:
-            shown = [(f"C{k}", W, sel) for k, (W, sel) in enumerate((W, loads == W) for W in levels)]
-            curve_loads = [(f"C{k}", W, f"fitted ({result.model} model)") for k, W in enumerate(levels)]
-        else:  # a measured, continuously varying load: colour by load, curves at its typical value and extremes
-            norm = plt.Normalize(float(levels[0]) / sc, float(levels[-1]) / sc)
-            cmap = plt.get_cmap("viridis")
-            sca = ax.scatter(
-                data.slip,
-                data.values / sc,
-                c=loads / sc,
-                cmap=cmap,
-                norm=norm,
-                s=28,
-                edgecolors="k",
-                linewidths=0.4,
-                zorder=3,
-                label="measured (colour: normal load)",
-            )
-            axr.scatter(data.slip, res / sc, c=loads / sc, cmap=cmap, norm=norm, s=22, edgecolors="k", linewidths=0.4)
-            fig.colorbar(sca, ax=[ax, axr], label=f"normal load W ({u})", pad=0.02)
-            rep = float(loads[np.argsort(loads)[loads.size // 2]])  # the median row's measured load
-            shown = []
-            curve_loads = [
-                (cmap(norm(rep / sc)), rep, f"fitted at the median load {rep / sc:.4g} {u}"),
-                (
-                    cmap(norm(levels[0] / sc)),
-                    float(levels[0]),
-                    f"at the extremes {levels[0] / sc:.4g} and {levels[-1] / sc:.4g} {u}",
-                ),
-                (cmap(norm(levels[-1] / sc)), float(levels[-1]), None),
-            ]
-        for col, W, sel in shown:
-            ax.plot(
-                data.slip[sel], data.values[sel] / sc, "o", color=col, ms=5, label=f"measured, W = {W / sc:.4g} {u}"
-            )
-            if np.all(np.isfinite(res[sel])):
-                axr.plot(data.slip[sel], res[sel] / sc, "o", color=col, ms=5)
-        lows = [float(np.min(data.values)) / sc]
-        try:
-            if drawable:
-                curve(grid[:2], curve_loads[0][1])
-        except DataError:  # a resistance from each row's sinkage: the model exists at the rows only
-            drawable = False
-            at_rows = result.predict(data)
-            ax.plot(data.slip, at_rows / sc, "x", color="k", ms=6, label="model at each row (its own sinkage)")
-            lows.append(float(np.min(at_rows)) / sc)
-        for k, (col, W, label) in enumerate(curve_loads):
-            if not drawable:
-                break
-            F = curve(grid, W)
-            lows.append(float(np.min(F)) / sc)
-            if not result.success:
-                ax.plot(grid, F / sc, "--", color="0.5", lw=1.0, label=_unusable_label(result) if k == 0 else None)
-                continue
-            extreme = levels.size > MAX_LOAD_LEVELS and k > 0
-            ax.plot(grid, F / sc, ":" if extreme else "-", color=col, lw=1.0 if extreme else 1.4, label=label)
-            band = None if effects or extreme else _curve_band(grid, result, vehicle, float(W))
-            if band is not None:
-                ax.fill_between(
-                    grid,
-                    (F - band) / sc,
-                    (F + band) / sc,
-                    color=col,
-                    alpha=0.18,
-                    lw=0,
-                    label=None if k else "95 % band of the fitted curve",
-                )
-        axr.axhline(0, color="k", lw=0.6)
-        ax.set_ylabel(f"{_QUANTITY[measured]} ({u})")
-        lo = min(0.0, *lows)
-        ax.set_ylim(bottom=lo - 0.05 * abs(lo) if lo < 0 else 0.0)
-        if lo < 0:
-            ax.axhline(0, color="k", lw=0.6)
-        ax.set_xlim(0.0, max(grid[-1], float(np.max(data.slip))) * 1.02)
-        ax.legend(fontsize=8)
-        axr.set_ylabel(f"{_residual_label(result)} ({u})")
-        axr.set_xlabel("slip i (-)")
-        axes = (ax, axr)
+        axes = _sweep_panels(fig, ax, axr, data, vehicle, result, curve, drawable)
     else:
         fig, (ax, axr) = plt.subplots(2, 1, figsize=(7, 7.4), gridspec_kw={"height_ratios": [3, 1.4]})
         _drive_log_panels(fig, ax, axr, data, vehicle, result, curve if drawable else None)
@@ -276,6 +183,106 @@ def plot_fit(data: SlipData | DriveLog, vehicle, result, path: str) -> str:
     if fig.get_layout_engine() is None:
         fig.tight_layout()
     return save_figure(fig, path)
+
+
+def _sweep_panels(fig, ax, axr, data: SlipData, vehicle, result, curve, drawable: bool) -> tuple:
+    """A sweep's panels: the measurements per load, the fitted curves with their bands, the residuals."""
+    effects = bool(getattr(result, "effects", None))
+    measured = getattr(data, "measured", "tractive_force")
+    loads = data.loads(vehicle.weight)
+    sc, u = force_unit(data.values)
+    grid = np.linspace(0.0, slip_grid_end(data.slip), 300)
+    res = result.residuals_measured_minus_model
+    levels, shown, curve_loads = _sweep_points(fig, ax, axr, data, loads, res, result.model)
+    for col, W, sel in shown:
+        ax.plot(data.slip[sel], data.values[sel] / sc, "o", color=col, ms=5, label=f"measured, W = {W / sc:.4g} {u}")
+        if np.all(np.isfinite(res[sel])):
+            axr.plot(data.slip[sel], res[sel] / sc, "o", color=col, ms=5)
+    lows = [float(np.min(data.values)) / sc]
+    try:
+        if drawable:
+            curve(grid[:2], curve_loads[0][1])
+    except DataError:  # a resistance from each row's sinkage: the model exists at the rows only
+        drawable = False
+        at_rows = result.predict(data)
+        ax.plot(data.slip, at_rows / sc, "x", color="k", ms=6, label="model at each row (its own sinkage)")
+        lows.append(float(np.min(at_rows)) / sc)
+    for k, (col, W, label) in enumerate(curve_loads):
+        if not drawable:
+            break
+        F = curve(grid, W)
+        lows.append(float(np.min(F)) / sc)
+        if not result.success:
+            ax.plot(grid, F / sc, "--", color="0.5", lw=1.0, label=_unusable_label(result) if k == 0 else None)
+            continue
+        extreme = levels.size > MAX_LOAD_LEVELS and k > 0
+        ax.plot(grid, F / sc, ":" if extreme else "-", color=col, lw=1.0 if extreme else 1.4, label=label)
+        band = None if effects or extreme else _curve_band(grid, result, vehicle, float(W))
+        if band is not None:
+            ax.fill_between(
+                grid,
+                (F - band) / sc,
+                (F + band) / sc,
+                color=col,
+                alpha=0.18,
+                lw=0,
+                label=None if k else "95 % band of the fitted curve",
+            )
+    axr.axhline(0, color="k", lw=0.6)
+    ax.set_ylabel(f"{_QUANTITY[measured]} ({u})")
+    lo = min(0.0, *lows)
+    ax.set_ylim(bottom=lo - 0.05 * abs(lo) if lo < 0 else 0.0)
+    if lo < 0:
+        ax.axhline(0, color="k", lw=0.6)
+    ax.set_xlim(0.0, max(grid[-1], float(np.max(data.slip))) * 1.02)
+    ax.legend(fontsize=8)
+    axr.set_ylabel(f"{_residual_label(result)} ({u})")
+    axr.set_xlabel("slip i (-)")
+    axes = (ax, axr)
+    return axes
+
+
+def _sweep_points(fig, ax, axr, data: SlipData, loads, res, model: str) -> tuple:
+    """The load levels, the points drawn per level, and the curves' loads: ``(levels, shown, curve_loads)``.
+
+    Up to :data:`MAX_LOAD_LEVELS` levels: one colour each; more (a measured, varying load): points coloured by
+    load (drawn here), curves at the median load and the extremes.
+    """
+    sc, u = force_unit(data.values)
+    levels = np.unique(loads)
+    curve_loads: list[tuple[Any, float, str | None]]  # colour, load, legend label
+    if levels.size <= MAX_LOAD_LEVELS:
+        shown = [(f"C{k}", W, sel) for k, (W, sel) in enumerate((W, loads == W) for W in levels)]
+        curve_loads = [(f"C{k}", W, f"fitted ({model} model)") for k, W in enumerate(levels)]
+    else:  # a measured, continuously varying load: colour by load, curves at its typical value and extremes
+        norm = plt.Normalize(float(levels[0]) / sc, float(levels[-1]) / sc)
+        cmap = plt.get_cmap("viridis")
+        sca = ax.scatter(
+            data.slip,
+            data.values / sc,
+            c=loads / sc,
+            cmap=cmap,
+            norm=norm,
+            s=28,
+            edgecolors="k",
+            linewidths=0.4,
+            zorder=3,
+            label="measured (colour: normal load)",
+        )
+        axr.scatter(data.slip, res / sc, c=loads / sc, cmap=cmap, norm=norm, s=22, edgecolors="k", linewidths=0.4)
+        fig.colorbar(sca, ax=[ax, axr], label=f"normal load W ({u})", pad=0.02)
+        rep = float(loads[np.argsort(loads)[loads.size // 2]])  # the median row's measured load
+        shown = []
+        curve_loads = [
+            (cmap(norm(rep / sc)), rep, f"fitted at the median load {rep / sc:.4g} {u}"),
+            (
+                cmap(norm(levels[0] / sc)),
+                float(levels[0]),
+                f"at the extremes {levels[0] / sc:.4g} and {levels[-1] / sc:.4g} {u}",
+            ),
+            (cmap(norm(levels[-1] / sc)), float(levels[-1]), None),
+        ]
+    return levels, shown, curve_loads
 
 
 def _residual_label(result) -> str:

@@ -138,3 +138,70 @@ def test_layers_flow_one_way():
 def test_checker_sees_a_cycle_and_a_private_import():
     """The checks above can fail: a hand-made cycle is found."""
     assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == [["a", "b", "c"]]
+
+
+#: The data-kind packages of identify: each fits one kind of data (and may use the record), never the reverse.
+DATA_KINDS = ("sweep", "drivelog", "wheel", "soiltests", "online", "turning")
+#: The record and its statistics, and the outcome rules: they know no data kind.
+KIND_FREE = ("soiltrack.identify.estimates", "soiltrack.identify.outcome")
+
+
+def _inside(module: str, prefix: str) -> bool:
+    return module == prefix or module.startswith(prefix + ".")
+
+
+def kind_imports(edges) -> list[str]:
+    """Imports of a data-kind package by the record, its statistics or the outcome rules."""
+    kinds = [f"soiltrack.identify.{k}" for k in DATA_KINDS]
+    return sorted(
+        f"{m} imports {t}"
+        for m, ts in edges.items()
+        if any(_inside(m, p) for p in KIND_FREE)
+        for t in ts
+        if any(_inside(t, k) for k in kinds)
+    )
+
+
+def _public_names(path: Path) -> set[str] | None:
+    """A package ``__init__``'s ``__all__`` (None when it has none)."""
+    for node in ast.parse(path.read_text()).body:
+        if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "__all__" for t in node.targets):
+            return {ast.literal_eval(e) for e in node.value.elts}  # type: ignore[attr-defined]
+    return None
+
+
+def planning_internals() -> list[str]:
+    """Imports by planning of identify's internals: an internal module, or a name outside a package's __all__."""
+    mods = _modules()
+    bad = []
+    for m, (path, is_pkg) in mods.items():
+        if not _inside(m, "soiltrack.planning"):
+            continue
+        for target, name, line in _imports(m, path, is_pkg, mods):
+            if not _inside(target, "soiltrack.identify"):
+                continue
+            where = f"{path.relative_to(ROOT)}:{line}"
+            if target not in mods or not mods[target][1]:
+                bad.append(f"{where} imports the internal module {target}")
+                continue
+            public = _public_names(mods[target][0])
+            if name is None or public is None or name not in public:
+                bad.append(f"{where} imports {name or 'the package'} from {target}, not in its __all__")
+    return sorted(bad)
+
+
+def test_the_record_and_the_outcome_import_no_data_kind():
+    """identify/estimates and identify/outcome.py: the one record and its rules know no data kind."""
+    edges, _ = _graph()
+    assert kind_imports(edges) == []
+
+
+def test_planning_imports_only_identify_public_surfaces():
+    """planning takes from identify only what a package's __init__ lists in its __all__."""
+    assert planning_internals() == []
+
+
+def test_the_layer_checks_can_fail():
+    edges = {"soiltrack.identify.estimates.result": {"soiltrack.identify.sweep.model"}}
+    assert kind_imports(edges) == ["soiltrack.identify.estimates.result imports soiltrack.identify.sweep.model"]
+    assert kind_imports({"soiltrack.identify.sweep.model": {"soiltrack.identify.estimates.result"}}) == []

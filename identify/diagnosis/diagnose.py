@@ -93,7 +93,7 @@ def _setup(runner: FitRunner, nominal_fit: Any, sensitivities: Any = None) -> Se
     x = np.asarray(data.time if isinstance(data, DriveLog) else data.slip, dtype=float)
     order = np.arange(data.n_samples) if runner.is_log else np.argsort(x, kind="stable")
     sensor, expected = None, None
-    if runner.is_log:
+    if isinstance(data, DriveLog):  # runner.is_log
         # the evidence weighs a log's channels by the sensors' noise, as the fit does; the latent slip of each
         # sample takes up part of it (expected: the share it leaves)
         R, sensor, expected = log_noise(nominal_fit, data)

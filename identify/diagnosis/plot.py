@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from ...soilmodel.figures import save_figure
 
 __all__ = ["plot_diagnosis"]
 
@@ -34,7 +35,7 @@ def plot_diagnosis(diag: Any, path: str) -> str:
             fontsize=9,
             family="monospace",
         )
-        _save(fig, path, plt)
+        save_figure(fig, path, dpi=110)
         return path
     chans = list(cv["before"])
     fig = plt.figure(figsize=(11, 7.5))
@@ -94,17 +95,5 @@ def plot_diagnosis(diag: Any, path: str) -> str:
         else "share of the misfit (verdict none: no gap beyond the noise)"
     )
     fig.tight_layout()
-    _save(fig, path, plt)
+    save_figure(fig, path, dpi=110)
     return path
-
-
-def _save(fig, path: str, plt) -> None:
-    """Save and close ``fig``; an unwritable path is a DataError naming it (the CLI checked it before the work)."""
-    from ...soilmodel.errors import DataError
-
-    try:
-        fig.savefig(path, dpi=110)
-    except OSError as e:
-        raise DataError(f"cannot write the figure: {e.strerror or e}", file=path) from None
-    finally:
-        plt.close(fig)

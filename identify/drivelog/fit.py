@@ -142,8 +142,8 @@ this module is the entry, :func:`fit_drive_log`.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
-from typing import Any
+from dataclasses import dataclass, replace
+from typing import Any, Callable
 
 import numpy as np
 
@@ -324,21 +324,7 @@ def fit_drive_log(
         kw: dict[str, Any] = dict(
             method=method, formulation=formulation, bias_correction=bias_correction, effects=effects, fixed=fixed
         )
-        kw.update(options)
-        res = fit_drive_log(log, vehicle, model, bounds, x0, strict, **kw)
-        # the default fit is the relaxation fit's pilot: its soil is handed over, not fitted again
-        return _discretisation_check(
-            res,
-            lambda: fit_drive_log(
-                log,
-                vehicle,
-                model,
-                bounds,
-                x0,
-                False,
-                **{**kw, "discretisation": "relaxation", "_pilot": _soil_of(res)},
-            ),
-        )
+        return _fit_checking_discretisation(log, vehicle, model, bounds, x0, strict, {**kw, **options})
     joint = bool(effects) or bool(fixed) or options.get("hull_channel", False) is True
     if bias_correction is not None:
         if joint:
@@ -350,11 +336,71 @@ def fit_drive_log(
     if joint and formulation != "output-error":
         raise DataError("effects and the hull channel need the output-error formulation")
     bounds = PRACTICAL_BOUNDS if bounds is None else bounds
+    s = _set_up(log, vehicle, model, bounds, x0, formulation, options)
+    if joint:
+        extra, warnings = _base_extra(log, s.prep, formulation, options, "sandwich")
+        res, ok = fit_joint(
+            log, vehicle, s.prep, model, bounds, effects, fixed, s.starts, s.c_hint, method, options, extra, warnings
+        )
+        if strict and not ok:
+            raise DriveLogFitError(res)
+        return res
+    return _nominal_fit(log, vehicle, s, _Call(model, bounds, method, formulation, strict, options))
+
+
+@dataclass(frozen=True)
+class _Setup:
+    """The prepared log and the solver's settings of one drive-log fit (between :func:`_set_up` and the solve)."""
+
+    prep: PreparedLog  #: the checked samples, thrust and noise levels
+    Fb: tuple  #: bounds of the thrust limit F_max (N), from the soil bounds
+    Kb: tuple  #: bounds of K (m)
+    F_ref: float  #: scale of F_max (mid-range)
+    K_ref: float  #: scale of K (geometric mid-range)
+    starts: list[tuple[float, float]]  #: start points (F_max, K)
+    c_hint: float | None  #: cohesion of the start, to pick the point on the c-phi ridge
+    solve: Callable[..., Any]  #: the NLP solve of the formulation
+    max_iter: int  #: IPOPT iterations
+    tol: float  #: IPOPT tolerance
+    print_level: int  #: IPOPT print level
+
+
+@dataclass(frozen=True)
+class _Call:
+    """The caller's choices that the result needs (model, bounds, formulation, options)."""
+
+    model: str  #: "full" or "cohesion-free"
+    bounds: SoilBounds  #: the soil's box bounds
+    method: str  #: "ipopt"
+    formulation: str  #: "output-error" or "equation-error"
+    strict: bool  #: raise on a failed fit
+    options: dict  #: the remaining options
+
+
+def _fit_checking_discretisation(log, vehicle, model, bounds, x0, strict, kw: dict) -> FitResult:
+    """The default fit and, to compare, the relaxation fit (:func:`_discretisation_check`)."""
+    res = fit_drive_log(log, vehicle, model, bounds, x0, strict, **kw)
+    # the default fit is the relaxation fit's pilot: its soil is handed over, not fitted again
+    return _discretisation_check(
+        res,
+        lambda: fit_drive_log(
+            log,
+            vehicle,
+            model,
+            bounds,
+            x0,
+            False,
+            **{**kw, "discretisation": "relaxation", "_pilot": _soil_of(res)},
+        ),
+    )
+
+
+def _set_up(log: DriveLog, vehicle: Vehicle, model: str, bounds: SoilBounds, x0, formulation: str, options: dict):
+    """Prepare the log, the bounds and start points of (F_max, K), the solve; the relaxation pilot if asked."""
     prep = prepare_drive_log(log, vehicle, **_prepare_options(options), fixed_keep=options.get("_fixed_keep"))
     max_iter = int(options.get("max_iter", 500))
     tol = float(options.get("tol", 1e-9))
     print_level = int(options.get("print_level", 0))
-
     Fb = fmax_bounds(bounds, vehicle, model)
     Kb = tuple(bounds.shear_modulus)
     F_ref = 0.5 * (Fb[0] + Fb[1])
@@ -371,35 +417,32 @@ def fit_drive_log(
             log, vehicle, **_prepare_options(options), fixed_keep=options.get("_fixed_keep"), relaxation_at=pilot
         )
         starts = [pilot] + [s for s in starts if s != pilot]
-    if joint:
-        pr0 = {"covariance": "sandwich"}
-        extra, warnings = _base_extra(log, prep, formulation, options, pr0["covariance"])
-        res, ok = fit_joint(
-            log, vehicle, prep, model, bounds, effects, fixed, starts, c_hint, method, options, extra, warnings
-        )
-        if strict and not ok:
-            raise DriveLogFitError(res)
-        return res
+    return _Setup(prep, Fb, Kb, F_ref, K_ref, starts, c_hint, solve, max_iter, tol, print_level)
 
-    best, Fmax, K, slip = solve(prep, vehicle, F_ref, K_ref, Fb, Kb, starts, max_iter, tol, print_level)
+
+def _nominal_fit(log: DriveLog, vehicle: Vehicle, s: _Setup, call: _Call) -> FitResult:
+    """Solve the two-channel fit in (F_max, K) and build its result (failed or converged)."""
+    prep, formulation = s.prep, call.formulation
+    best, Fmax, K, slip = s.solve(
+        prep, vehicle, s.F_ref, s.K_ref, s.Fb, s.Kb, s.starts, s.max_iter, s.tol, s.print_level
+    )
     pr = _profiled_residuals(prep, vehicle, formulation, best["ok"], slip, Fmax, K)
 
     finite = (
         all(math.isfinite(z) for z in (Fmax, K)) and np.all(np.isfinite(pr["wres"])) and np.all(np.isfinite(pr["J2"]))
     )
     success = bool(best["ok"] and finite)
-    extra, warnings = _base_extra(log, prep, formulation, options, pr["covariance"])
+    extra, warnings = _base_extra(log, prep, formulation, call.options, pr["covariance"])
     n = prep.n_used
-    W = vehicle.weight
     common = dict(
         data_kind="drive",
-        model=model,
-        method=method,
+        model=call.model,
+        method=call.method,
         residual_unit=pr["unit"],
         n_samples=n,
-        normal_loads=np.full(n, W),
+        normal_loads=np.full(n, vehicle.weight),
         vehicle=vehicle,
-        bounds=bounds,
+        bounds=call.bounds,
         status=best["status"],
         iterations=best["iterations"],
         solve_time=best["time"],
@@ -420,12 +463,20 @@ def fit_drive_log(
             extra=extra,
             **common,
         )
-        if strict:
+        if call.strict:
             raise DriveLogFitError(failed)
         return failed
+    return _converged_result(vehicle, s, call, pr, (Fmax, K, slip), extra, warnings, common)
 
+
+def _converged_result(
+    vehicle: Vehicle, s: _Setup, call: _Call, pr: dict, solved: tuple, extra: dict, warnings: list, common: dict
+) -> FitResult:
+    """The converged fit: (c, phi) on the ridge, the identifiable combinations, the driving regime."""
+    Fmax, K, slip = solved
+    prep, model, W, n = s.prep, call.model, vehicle.weight, s.prep.n_used
     # (c, phi) on the ridge, and the Jacobian in [c, phi, K] by the chain rule
-    c, phi = ridge_point(Fmax, vehicle, bounds, model, c_hint)
+    c, phi = ridge_point(Fmax, vehicle, call.bounds, model, s.c_hint)
     J2 = pr["J2"]
     dFm_dc = vehicle.contact_area if model == "full" else 0.0
     jac = np.column_stack([J2[:, 0] * dFm_dc, J2[:, 0] * (W / math.cos(phi) ** 2), J2[:, 1]])
@@ -462,7 +513,7 @@ def fit_drive_log(
     )
     at_bound = [
         name
-        for name, val, (lo, hi) in (("F_max", Fmax, Fb), ("K", K, Kb))
+        for name, val, (lo, hi) in (("F_max", Fmax, s.Fb), ("K", K, s.Kb))
         if val <= lo + 1e-6 * (hi - lo) or val >= hi - 1e-6 * (hi - lo)
     ]
     regime, regime_extra, regime_warnings = classify_regime(
@@ -471,7 +522,7 @@ def fit_drive_log(
     extra.update(regime_extra)
     warnings.extend(regime_warnings)
     msg = (
-        f"drive-log fit ({formulation}) converged: F_max = {Fmax:.5g} N, K = {1000 * K:.4g} mm, "
+        f"drive-log fit ({call.formulation}) converged: F_max = {Fmax:.5g} N, K = {1000 * K:.4g} mm, "
         f"{regime} log, {n} samples used"
     )
     return build_result(

@@ -12,6 +12,7 @@ correlated_with}}}``.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -82,6 +83,128 @@ def fit_joint(
             "effects and the hull channel need sprocket_equation='thrust' (the seed's printed "
             "Eq. 3 mixes the resistance into the sprocket equation)"
         )
+    jp = _joint_problem(log, vehicle, prep, model, bounds, effects, fixed, options)
+    best, presolved, lbx, ubx = _solve_joint(vehicle, prep, jp, starts, options)
+    labels, structure, n, W = jp.labels, jp.structure, jp.n, vehicle.weight
+    xs = np.clip(best["x"], lbx, ubx)  # IPOPT may end a hair outside a bound (bound relaxation)
+    pd = 2 + len(labels)
+    theta = xs[:pd] * jp.scale
+    slip = xs[pd : pd + n] * jp.i_ref
+    Flim, K = float(theta[0]), float(theta[1])
+    evals = dict(zip(labels, theta[2:].tolist()))
+
+    # residuals and derivatives at the solution (CasADi AD, mapped over the samples)
+    e, Jt, gi, H = sample_outputs(vehicle, structure, "derivative", theta, slip, jp.jd.D)
+    e = e.T  # (n, 3)
+    Jt = Jt.reshape(3, n, pd).transpose(1, 0, 2)  # (n, 3, pd)
+    gi = gi.T  # (n, 3)
+    H = H.reshape(pd + 1, n, pd + 1).transpose(1, 0, 2)
+    raw = sample_outputs(vehicle, structure, "residual", theta, slip, jp.jd.D)[1].T
+
+    free = ~np.concatenate([[False, False], jp.is_fixed])
+    cov_full, ident, A = _sandwich(e, Jt, H, slip, free)
+    finite = bool(np.all(np.isfinite(theta)) and np.all(np.isfinite(e)))
+    success = bool(best["ok"] and finite)
+
+    wres = -np.sign(e[:, 1] + e[:, 2]) * np.sqrt(np.sum(e**2, axis=1))
+    res = -raw[:, 0]  # predicted minus encoder, rad/s: model - data, as the nominal fit's (and every fit's)
+    Nload = _actual_load(W, evals)
+    extra = _joint_extra(jp, base_extra, best, presolved, raw, (Flim, K, evals, Nload))
+    units = [EFFECTS[lab.partition(".")[0]].param(lab.partition(".")[2]).unit for lab in labels]
+    common = dict(
+        data_kind="drive",
+        model=model,
+        method=method,
+        residual_unit="rad/s",
+        n_samples=n,
+        vehicle=vehicle,
+        bounds=bounds,
+        status=best["status"],
+        iterations=best["iterations"],
+        solve_time=best["time"],
+        sigma_known=prep.sigma_known,
+        effect_labels=tuple(labels),
+        effect_values=theta[2:],
+        effect_bounds=tuple(zip(jp.elo.tolist(), jp.ehi.tolist())),
+        effect_units=tuple(units),
+        effect_structure=structure,
+        fixed_labels=tuple(lab for lab in labels if lab in jp.fixed_vals),
+        residual_model=DriveLogResiduals(hull_in_fit=jp.hull_used),
+        normal_loads=np.full(n, W),
+        extra=extra,
+    )
+    if not success:
+        extra["covariance"] = "none"
+        msg = f"drive-log fit with effects failed: IPOPT returned {best['status']}" + (
+            "" if finite else " with non-finite values"
+        )
+        return build_result(
+            theta=np.full(3, np.nan),
+            jacobian=np.zeros((n, 3 + len(labels))),
+            weighted_residuals=np.where(np.isfinite(wres), wres, 0.0),
+            residuals=np.where(np.isfinite(res), res, 0.0),
+            success=False,
+            message=msg,
+            warnings=tuple(base_warnings),
+            **common,
+        ), False
+    sens = _Sensitivities(Jt, gi, free, ident, cov_full, A)
+    return _converged_joint(
+        vehicle,
+        prep,
+        jp,
+        (model, bounds, c_hint),
+        (Flim, K, evals, Nload, slip, wres, res),
+        sens,
+        list(base_warnings),
+        common,
+    ), True
+
+
+@dataclass(frozen=True)
+class _JointProblem:
+    """The joint problem of one log, scaled for IPOPT (between :func:`_joint_problem` and the solve)."""
+
+    structure: Any  #: the effects' structure (:func:`~soiltrack.soilmodel.effects.effect_structure`)
+    labels: list[str]  #: effect parameter labels ``effect.param``
+    fixed_vals: dict  #: held effect parameters and their values
+    jd: Any  #: the joint data (three channels, noise, acceleration source)
+    hull_used: bool  #: whether the hull channel is in the fit
+    torque_hold: str  #: "zoh" or "sample"
+    n: int  #: samples used
+    N: int  #: padded size of the per-sample maps
+    elo: np.ndarray  #: lower bounds of the effect parameters
+    ehi: np.ndarray  #: upper bounds of the effect parameters
+    esc: np.ndarray  #: scales of the effect parameters
+    Fb: tuple  #: bounds of the thrust limit (N), widened by the load factor the effects allow
+    Kb: tuple  #: bounds of K (m)
+    F_ref: float  #: scale of the thrust limit
+    K_ref: float  #: scale of K
+    i_ref: float  #: scale of the latent slips (K_ref / l)
+    scale: np.ndarray  #: scales of (F_lim, K, effects)
+    e0: np.ndarray  #: start of the effect parameters (held ones at their values)
+    is_fixed: np.ndarray  #: which effect parameters are held
+    e_lo: np.ndarray  #: lower bounds of the effects, held ones pinned
+    e_hi: np.ndarray  #: upper bounds of the effects, held ones pinned
+    max_iter: int  #: IPOPT iterations
+    tol: float  #: IPOPT tolerance
+    print_level: int  #: IPOPT print level
+
+
+@dataclass(frozen=True)
+class _Sensitivities:
+    """Per-sample derivatives and the sandwich covariance at the joint solution."""
+
+    Jt: np.ndarray  #: (n, 3, p) residual derivatives in the parameters
+    gi: np.ndarray  #: (n, 3) residual derivatives in the latent slip
+    free: np.ndarray  #: which of (F_lim, K, effects) are free
+    ident: np.ndarray  #: which free directions are identifiable
+    cov_full: np.ndarray | None  #: sandwich covariance of the free parameters
+    A: np.ndarray  #: the observed information
+
+
+def _joint_problem(log, vehicle, prep, model, bounds, effects, fixed, options) -> _JointProblem:
+    """State the joint problem: effects and their bounds, the data channels, scales and start of the effects."""
     fixed_vals = parse_fixed(fixed)
     names = set(_fixed_names(fixed_vals))
     es = parse_effects(effects)
@@ -97,7 +220,7 @@ def fit_joint(
         jd.D[HULL_ROW] = 0.0
     n = prep.n_used
     N = padded_size(n)
-    l, W = vehicle.track_length, vehicle.weight
+    l = vehicle.track_length
     max_iter = int(options.get("max_iter", 500))
     tol = float(options.get("tol", 1e-9))
     print_level = int(options.get("print_level", 0))
@@ -120,9 +243,43 @@ def fit_joint(
     e_lo = np.where(is_fixed, e0, elo)
     e_hi = np.where(is_fixed, e0, ehi)
     e0 = np.clip(e0, np.where(np.isfinite(elo), elo, -1e300), np.where(np.isfinite(ehi), ehi, 1e300))
+    return _JointProblem(
+        structure,
+        labels,
+        fixed_vals,
+        jd,
+        hull_used,
+        torque_hold,
+        n,
+        N,
+        elo,
+        ehi,
+        esc,
+        Fb,
+        Kb,
+        F_ref,
+        K_ref,
+        i_ref,
+        scale,
+        e0,
+        is_fixed,
+        e_lo,
+        e_hi,
+        max_iter,
+        tol,
+        print_level,
+    )
 
+
+def _solve_joint(vehicle: Vehicle, prep: PreparedLog, jp: _JointProblem, starts: list, options: dict):
+    """Run IPOPT from the start points (profiled steps first unless switched off); ``(best, presolved, lbx, ubx)``."""
+    structure, jd, n, N, l = jp.structure, jp.jd, jp.n, jp.N, vehicle.track_length
+    Fb, Kb, F_ref, K_ref, i_ref, esc, scale, e0 = jp.Fb, jp.Kb, jp.F_ref, jp.K_ref, jp.i_ref, jp.esc, jp.scale, jp.e0
+    e_lo, e_hi = jp.e_lo, jp.e_hi
     # the per-sample functions from C once the background compilation has them (the same numbers)
-    solver = joint_solver(vehicle, structure, N, max_iter, tol, print_level, nlp_backend(vehicle, structure, N))
+    solver = joint_solver(
+        vehicle, structure, N, jp.max_iter, jp.tol, jp.print_level, nlp_backend(vehicle, structure, N)
+    )
     Dp = padded_data(jd.D, N)
     p = np.concatenate([scale, [i_ref], Dp.reshape(-1, order="F"), pad(np.zeros(n), N, 1.0)])
     big = 1e20
@@ -176,33 +333,16 @@ def fit_joint(
         plain["time"] += best["time"]
         plain["profiled_status"] = best["status"]
         best = plain if (plain["ok"], -plain["f"]) >= (best["ok"], -best["f"]) else best
-    xs = np.clip(best["x"], lbx, ubx)  # IPOPT may end a hair outside a bound (bound relaxation)
-    pd = 2 + len(labels)
-    theta = xs[:pd] * scale
-    slip = xs[pd : pd + n] * i_ref
-    Flim, K = float(theta[0]), float(theta[1])
-    evals = dict(zip(labels, theta[2:].tolist()))
+    return best, presolved, lbx, ubx
 
-    # residuals and derivatives at the solution (CasADi AD, mapped over the samples)
-    e, Jt, gi, H = sample_outputs(vehicle, structure, "derivative", theta, slip, jd.D)
-    e = e.T  # (n, 3)
-    Jt = Jt.reshape(3, n, pd).transpose(1, 0, 2)  # (n, 3, pd)
-    gi = gi.T  # (n, 3)
-    H = H.reshape(pd + 1, n, pd + 1).transpose(1, 0, 2)
-    raw = sample_outputs(vehicle, structure, "residual", theta, slip, jd.D)[1].T
 
-    free = ~np.concatenate([[False, False], is_fixed])
-    cov_full, ident, A = _sandwich(e, Jt, H, slip, free)
-    finite = bool(np.all(np.isfinite(theta)) and np.all(np.isfinite(e)))
-    success = bool(best["ok"] and finite)
-
-    wres = -np.sign(e[:, 1] + e[:, 2]) * np.sqrt(np.sum(e**2, axis=1))
-    res = -raw[:, 0]  # predicted minus encoder, rad/s: model - data, as the nominal fit's (and every fit's)
-    dof = max(n - int(np.count_nonzero(free)), 1)
+def _joint_extra(jp: _JointProblem, base_extra: dict, best: dict, presolved: list, raw: np.ndarray, sol: tuple):
+    """The result's ``extra``: the hull channel, the profiled start, channel rms, load and joint parameters."""
+    Flim, K, evals, Nload = sol
+    jd = jp.jd
     extra = dict(base_extra)
-    warnings = list(base_warnings)
     extra["hull_channel"] = {
-        "used": hull_used,
+        "used": jp.hull_used,
         "accel_source": jd.accel_source,
         "accel_noise_m_s2": {"abs": jd.accel_noise[0], "rel": jd.accel_noise[1]},
         "sigma_hull_median_N": float(np.median(jd.sigma_hull[np.isfinite(jd.sigma_hull)]))
@@ -215,63 +355,40 @@ def fit_joint(
             "ipopt_status_from_it": best.get("profiled_status", best["status"]),
         }
     extra["channel_rms"] = {ch: float(np.sqrt(np.mean(raw[:, j] ** 2))) for j, ch in enumerate(CHANNELS)}
-    Nload = _actual_load(W, evals)
     extra["normal_load_N"] = Nload
     extra["joint_parameters"] = {
         "max_thrust_N": Flim,
         "shear_modulus_m": K,
         "effects": evals,
-        "structure": structure.to_dict(),
-        "torque_hold": torque_hold,
+        "structure": jp.structure.to_dict(),
+        "torque_hold": jp.torque_hold,
     }
-    units = [EFFECTS[lab.partition(".")[0]].param(lab.partition(".")[2]).unit for lab in labels]
-    common = dict(
-        data_kind="drive",
-        model=model,
-        method=method,
-        residual_unit="rad/s",
-        n_samples=n,
-        vehicle=vehicle,
-        bounds=bounds,
-        status=best["status"],
-        iterations=best["iterations"],
-        solve_time=best["time"],
-        sigma_known=prep.sigma_known,
-        effect_labels=tuple(labels),
-        effect_values=theta[2:],
-        effect_bounds=tuple(zip(elo.tolist(), ehi.tolist())),
-        effect_units=tuple(units),
-        effect_structure=structure,
-        fixed_labels=tuple(lab for lab in labels if lab in fixed_vals),
-        residual_model=DriveLogResiduals(hull_in_fit=hull_used),
-    )
-    pd_all = 3 + len(labels)
-    if not success:
-        extra["covariance"] = "none"
-        msg = f"drive-log fit with effects failed: IPOPT returned {best['status']}" + (
-            "" if finite else " with non-finite values"
-        )
-        return build_result(
-            theta=np.full(3, np.nan),
-            jacobian=np.zeros((n, pd_all)),
-            weighted_residuals=np.where(np.isfinite(wres), wres, 0.0),
-            residuals=np.where(np.isfinite(res), res, 0.0),
-            normal_loads=np.full(n, W),
-            success=False,
-            message=msg,
-            warnings=tuple(warnings),
-            extra=extra,
-            **common,
-        ), False
+    return extra
 
+
+def _converged_joint(
+    vehicle: Vehicle,
+    prep: PreparedLog,
+    jp: _JointProblem,
+    call: tuple,
+    sol: tuple,
+    sens: _Sensitivities,
+    warnings: list[str],
+    common: dict,
+) -> FitResult:
+    """The converged joint fit: covariance kind, (c, phi) on the ridge, confounding, the regime."""
+    model, bounds, c_hint = call
+    Flim, K, evals, Nload, slip, wres, res = sol
+    labels, n, l, Fb, Kb, extra = jp.labels, jp.n, vehicle.track_length, jp.Fb, jp.Kb, common["extra"]
+    dof = max(n - int(np.count_nonzero(sens.free)), 1)
     s2 = 1.0 if prep.sigma_known else float(np.sum(wres**2)) / dof
-    Jr, cov2, kind = _result_jacobian(Jt, gi, free, ident, cov_full, s2)
+    Jr, cov2, kind = _result_jacobian(sens.Jt, sens.gi, sens.free, sens.ident, sens.cov_full, s2)
     extra["covariance"] = kind
     c, phi = ridge_point(Flim, vehicle, bounds, model, c_hint, normal_load=Nload)
     dFm_dc = vehicle.contact_area if model == "full" else 0.0
     jac = np.column_stack([Jr[:, 0] * dFm_dc, Jr[:, 0] * (Nload / math.cos(phi) ** 2), Jr[:, 1:]])
 
-    warnings.extend(_confounding_warnings(labels, is_fixed, free, ident, cov_full, A))
+    warnings.extend(_confounding_warnings(labels, jp.is_fixed, sens.free, sens.ident, sens.cov_full, sens.A))
 
     # soil combinations and the regime (marginal over the effects)
     Fb_hit = [
@@ -302,20 +419,18 @@ def fit_joint(
     msg = (
         f"drive-log fit with effects converged: F_max = {Flim:.5g} N (at the log's normal load "
         f"{Nload:.5g} N), K = {1000 * K:.4g} mm, {eff_txt}; {regime} log, {n} samples, hull channel from "
-        f"{jd.accel_source}"
+        f"{jp.jd.accel_source}"
     )
     return build_result(
         theta=np.array([c, phi, K]),
         jacobian=jac,
         weighted_residuals=wres,
         residuals=res,
-        normal_loads=np.full(n, W),
         success=True,
         message=msg,
         warnings=tuple(warnings),
-        extra=extra,
         **common,
-    ), True
+    )
 
 
 def _result_jacobian(

@@ -120,24 +120,14 @@ def _simex_correct(
         # Gentle or intermediate log (K, or F_max and K together, poorly determined, or on a bound):
         # the refitted K wanders over its range or sits on a bound, the extrapolation is no bias
         # estimate (measured, heavy vehicle on LETE sand: it cost F_max coverage). Not applied.
-        extra = dict(base.extra)
-        extra["bias_correction"] = {
-            "method": "simex",
-            "applied": False,
-            "replicates": 0,
-            "reason": f"{base.extra.get('regime')} log: only applied to hard logs",
-            "time_s": _time.perf_counter() - t0,
-        }
-        return dataclasses.replace(
+        return _not_applied(
             base,
-            extra=extra,
-            input_warnings=tuple(base.input_warnings)
-            + (
-                f"SIMEX bias correction not applied: {base.extra.get('regime')} log (F_max and K not both pinned "
-                f"down, see above); estimates uncorrected",
-            ),
+            {"replicates": 0, "reason": f"{base.extra.get('regime')} log: only applied to hard logs"},
+            f"SIMEX bias correction not applied: {base.extra.get('regime')} log (F_max and K not both pinned "
+            f"down, see above); estimates uncorrected",
+            t0,
         )
-    W, l = vehicle.weight, vehicle.track_length
+    W = vehicle.weight
     c0, phi0, K0 = (float(z) for z in base.theta)
     jac0 = np.asarray(base.jacobian, dtype=float)
     dFm_dphi0 = W / math.cos(phi0) ** 2
@@ -147,7 +137,73 @@ def _simex_correct(
         raise RuntimeError("SIMEX: the uncorrected fit has no residual variance s2")
     s2 = float(base.s2)
     cov0 = s2 * np.linalg.inv(J2.T @ J2)
+    est, n_fail = _refits(fit_fn, base, log, vehicle, model, bounds, method, options, n_rep, seed)
+    if n_fail:
+        # a failed refit would bias the level means; keep the uncorrected fit and say so
+        return _not_applied(
+            base,
+            {"replicates": n_rep, "failed_refits": n_fail},
+            f"SIMEX bias correction not applied: {n_fail} of {3 * n_rep} refits failed; estimates uncorrected",
+            t0,
+        )
+    pairs = n_rep // 2
+    corrected, level_means, cov_mc = _extrapolate(est, np.array([F0, K0]), pairs)
+    cov = cov0 + cov_mc
+    Fb = fmax_bounds(bounds, vehicle, model)
+    Kb = tuple(bounds.shear_modulus)
+    Fc = min(max(float(corrected[0]), Fb[0]), Fb[1])
+    Kc = min(max(float(corrected[1]), Kb[0]), Kb[1])
 
+    # Jacobian in (F_max, K) rescaled so that s2 (J^T J)^-1 = cov, then the chain rule to (c, phi, K)
+    R = np.linalg.solve(np.linalg.cholesky(J2.T @ J2).T, np.linalg.cholesky(s2 * np.linalg.inv(cov)).T)
+    J2c = J2 @ R
+    c_hint = None
+    if x0 is not None and model == "full":
+        c_hint = float(np.asarray(x0.as_vector() if hasattr(x0, "as_vector") else x0, dtype=float).reshape(-1)[0])
+    c, phi = ridge_point(Fc, vehicle, bounds, model, c_hint)
+    A = vehicle.contact_area
+    jac = np.column_stack([J2c[:, 0] * (A if model == "full" else 0.0), J2c[:, 0] * W / math.cos(phi) ** 2, J2c[:, 1]])
+    info = {
+        "method": "simex",
+        "applied": True,
+        "lambdas": list(SIMEX_LAMBDAS),
+        "replicates": n_rep,
+        "antithetic_pairs": pairs,
+        "seed": seed,
+        "extrapolation": "quadratic in lambda, to -1",
+        "uncorrected": {
+            "max_thrust_N": F0,
+            "shear_modulus_m": K0,
+            "max_thrust_stderr_N": math.sqrt(cov0[0, 0]),
+            "shear_modulus_stderr_m": math.sqrt(cov0[1, 1]),
+        },
+        "correction": {"max_thrust_N": Fc - F0, "shear_modulus_m": Kc - K0},
+        "level_means": {
+            "max_thrust_N": level_means[:, 0].tolist(),
+            "shear_modulus_m": level_means[:, 1].tolist(),
+        },
+        "monte_carlo_stderr": {
+            "max_thrust_N": math.sqrt(cov_mc[0, 0]),
+            "shear_modulus_m": math.sqrt(cov_mc[1, 1]),
+        },
+        "covariance": "uncorrected sandwich + Monte Carlo variance of the extrapolation",
+        "time_s": _time.perf_counter() - t0,
+    }
+    return _corrected_result(base, vehicle, model, bounds, method, (c, phi, Fc, Kc), cov, jac, info)
+
+
+def _not_applied(base: FitResult, info: dict, warning: str, t0: float) -> FitResult:
+    """The uncorrected fit, its ``extra["bias_correction"]`` saying why the correction was not applied."""
+    extra = dict(base.extra)
+    extra["bias_correction"] = {"method": "simex", "applied": False, **info, "time_s": _time.perf_counter() - t0}
+    return dataclasses.replace(base, extra=extra, input_warnings=tuple(base.input_warnings) + (warning,))
+
+
+def _refits(fit_fn, base, log, vehicle, model, bounds, method, options, n_rep, seed) -> tuple[np.ndarray, int]:
+    """Refit the log with added speed noise at each level in antithetic pairs: ``(estimates, failed refits)``.
+
+    The estimates are indexed (pair, sign, level, (F_max, K)).
+    """
     nm = base.extra["noise_model"]["vehicle_speed_m_s"]
     v = np.asarray(log.vehicle_speed, dtype=float)
     given = options.get("sigma_vehicle_speed")
@@ -186,25 +242,12 @@ def _simex_correct(
                     n_fail += 1
                     continue
                 est[p, si, j] = (r.extra["max_thrust_N"], r.extra["shear_modulus_m"])
-    if n_fail:
-        # a failed refit would bias the level means; keep the uncorrected fit and say so
-        extra = dict(base.extra)
-        extra["bias_correction"] = {
-            "method": "simex",
-            "applied": False,
-            "replicates": n_rep,
-            "failed_refits": n_fail,
-            "time_s": _time.perf_counter() - t0,
-        }
-        return dataclasses.replace(
-            base,
-            extra=extra,
-            input_warnings=tuple(base.input_warnings)
-            + (f"SIMEX bias correction not applied: {n_fail} of {3 * n_rep} refits failed; estimates uncorrected",),
-        )
+    return est, n_fail
 
+
+def _extrapolate(est: np.ndarray, theta0: np.ndarray, pairs: int):
+    """The quadratic extrapolation to no noise, the level means and the Monte Carlo covariance."""
     w = _simex_weights()
-    theta0 = np.array([F0, K0])
     per_pair = est.mean(axis=1)  # pair, level, param (antithetic means)
     level_means = per_pair.mean(axis=0)  # level, param
     corrected = w[0] * theta0 + w[1:] @ level_means
@@ -213,22 +256,13 @@ def _simex_correct(
     if pairs == 1:  # one pair: the antithetic halves give a (conservative) spread
         e_h = w[0] * theta0 + np.einsum("j,sjk->sk", w[1:], est[0])
         cov_mc = np.cov(e_h.T, ddof=1) / 2.0
-    cov = cov0 + cov_mc
-    Fb = fmax_bounds(bounds, vehicle, model)
-    Kb = tuple(bounds.shear_modulus)
-    Fc = min(max(float(corrected[0]), Fb[0]), Fb[1])
-    Kc = min(max(float(corrected[1]), Kb[0]), Kb[1])
+    return corrected, level_means, cov_mc
 
-    # Jacobian in (F_max, K) rescaled so that s2 (J^T J)^-1 = cov, then the chain rule to (c, phi, K)
-    R = np.linalg.solve(np.linalg.cholesky(J2.T @ J2).T, np.linalg.cholesky(s2 * np.linalg.inv(cov)).T)
-    J2c = J2 @ R
-    c_hint = None
-    if x0 is not None and model == "full":
-        c_hint = float(np.asarray(x0.as_vector() if hasattr(x0, "as_vector") else x0, dtype=float).reshape(-1)[0])
-    c, phi = ridge_point(Fc, vehicle, bounds, model, c_hint)
-    A = vehicle.contact_area
-    jac = np.column_stack([J2c[:, 0] * (A if model == "full" else 0.0), J2c[:, 0] * W / math.cos(phi) ** 2, J2c[:, 1]])
 
+def _corrected_result(base, vehicle, model, bounds, method, sol: tuple, cov, jac, info: dict) -> FitResult:
+    """The corrected fit: its combinations, standard errors and ``extra["bias_correction"]``."""
+    c, phi, Fc, Kc = sol
+    W, l = vehicle.weight, vehicle.track_length
     sF, sK = math.sqrt(cov[0, 0]), math.sqrt(cov[1, 1])
     gslope = np.array([l / (2 * Kc), -Fc * l / (2 * Kc * Kc)])
     extra = dict(base.extra)
@@ -242,34 +276,10 @@ def _simex_correct(
             "corr_max_thrust_shear_modulus": float(cov[0, 1] / (sF * sK)),
             "initial_slope_stderr_N": float(math.sqrt(max(gslope @ cov @ gslope, 0.0))),
             "covariance": f"{base.extra['covariance']}+simex",
-            "bias_correction": {
-                "method": "simex",
-                "applied": True,
-                "lambdas": list(SIMEX_LAMBDAS),
-                "replicates": n_rep,
-                "antithetic_pairs": pairs,
-                "seed": seed,
-                "extrapolation": "quadratic in lambda, to -1",
-                "uncorrected": {
-                    "max_thrust_N": F0,
-                    "shear_modulus_m": K0,
-                    "max_thrust_stderr_N": math.sqrt(cov0[0, 0]),
-                    "shear_modulus_stderr_m": math.sqrt(cov0[1, 1]),
-                },
-                "correction": {"max_thrust_N": Fc - F0, "shear_modulus_m": Kc - K0},
-                "level_means": {
-                    "max_thrust_N": level_means[:, 0].tolist(),
-                    "shear_modulus_m": level_means[:, 1].tolist(),
-                },
-                "monte_carlo_stderr": {
-                    "max_thrust_N": math.sqrt(cov_mc[0, 0]),
-                    "shear_modulus_m": math.sqrt(cov_mc[1, 1]),
-                },
-                "covariance": "uncorrected sandwich + Monte Carlo variance of the extrapolation",
-                "time_s": _time.perf_counter() - t0,
-            },
+            "bias_correction": info,
         }
     )
+    n_rep = info["replicates"]
     msg = f"{base.message}; SIMEX-corrected: F_max = {Fc:.5g} N, K = {1000 * Kc:.4g} mm ({3 * n_rep} refits)"
     return build_result(
         data_kind="drive",

@@ -5,8 +5,11 @@ Modules: :mod:`.records` (one parameter's estimate, one identifiable combination
 degrees of freedom from the Jacobian), :mod:`.identifiability` (null space, the c-phi ridge),
 :mod:`.views` (estimates per parameter and combination), :mod:`.report` (words and JSON; the
 outcome vocabulary :data:`OUTCOMES` and the residual sign :data:`RESIDUAL_SIGN` of every output),
-:mod:`.distributions` (Student t, normal, F, chi-square without scipy), :mod:`.likelihood`
-(profile likelihood of one parameter), :mod:`.joint_likelihood` (profile intervals of joint fits).
+:mod:`.distributions` (Student t, normal, F, chi-square without scipy), :mod:`.joint_likelihood` (profile
+intervals of joint fits), :mod:`.record_fields` (what the view mixins read, for the type checker). The record
+knows no data kind (tested): the profile likelihood of one sweep parameter is
+:mod:`soiltrack.identify.sweep.likelihood`, the plausibility checks of slip data
+:mod:`soiltrack.identify.sweep.plausibility`.
 """
 
 from .records import Combination, ParameterEstimate

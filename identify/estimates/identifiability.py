@@ -25,6 +25,7 @@ from ...soilmodel.ridge import ridge_ranges
 from ..outcome import BOUND_TOL
 from .least_squares import RANK_TOL, WEAK_CORRELATION, WEAK_VIF
 from ...soilmodel.units import format_value
+from .record_fields import RecordFields
 from .records import EDGE_UNITS, Combination, finite_or_none
 
 __all__ = ["IdentifiabilityViews", "BOUND_TOL"]
@@ -34,7 +35,7 @@ __all__ = ["IdentifiabilityViews", "BOUND_TOL"]
 NULL_TOL = 1e-4
 
 
-class IdentifiabilityViews:
+class IdentifiabilityViews(RecordFields):
     """Identifiability views of a fit result (mixin; needs the result's core statistics)."""
 
     def _ridge_pinned(self) -> str:

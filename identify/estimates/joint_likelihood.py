@@ -6,7 +6,7 @@ trade along a long curved valley, and the linearised interval can exclude the tr
 data do not reject (a likelihood-ratio test at the truth well inside its 95 % level). The
 profile interval does not assume it: each end is where the cost, with this parameter held and
 every other one refitted, rises by the likelihood-ratio threshold
-(:func:`~soiltrack.identify.estimates.likelihood.lr_threshold`: ``1.96^2 / 2`` with a known sigma, else
+(:func:`~soiltrack.identify.estimates.distributions.lr_threshold`: ``1.96^2 / 2`` with a known sigma, else
 ``s^2 t^2 / 2``).
 
 Each end is found by stepping out from the estimate (first step: the linearised half-width,
@@ -38,8 +38,7 @@ import numpy as np
 from ...soilmodel.errors import DataError
 from ...soilmodel.soil import PARAMETER_NAMES
 from .distributions import lr_threshold
-from .records import ParameterEstimate
-from ..sweep.model import fit_vector
+from .records import ParameterEstimate, fit_vector
 
 __all__ = [
     "PROFILE_IPOPT_OPTIONS",

@@ -28,8 +28,8 @@ from ..outcome import (
     running_gear_json,
     stated_noise_test,
 )
-from ..sweep.rig import LoadSeparation
-from .records import EDGE_UNITS, NOT_USABLE, ParameterEstimate, finite_or_none, solver_converged
+from .record_fields import RecordFields
+from .records import EDGE_UNITS, NOT_USABLE, LoadSeparation, ParameterEstimate, finite_or_none, solver_converged
 
 __all__ = ["ReportViews", "OUTCOMES", "RESIDUAL_SIGN"]
 
@@ -39,7 +39,7 @@ _REFUSAL = "NOT USABLE: "
 RESIDUAL_SIGN = "measured - model"
 
 
-class ReportViews:
+class ReportViews(RecordFields):
     """Report, warnings and JSON of a fit result (mixin)."""
 
     @property
@@ -487,7 +487,7 @@ class ReportViews:
                 L.append(f"{lab}NOT IDENTIFIABLE; possible range {rng}")
             else:
                 se = f" (SE {pe.edge_stderr:.3g} {u})" if pe.stderr is not None else " (no SE)"
-                flag = " [ON " + pe.bound_side.upper() + " BOUND]" if pe.at_bound else ""
+                flag = " [ON " + (pe.bound_side or "").upper() + " BOUND]" if pe.at_bound else ""
                 weak = " [weakly identifiable]" if pe.weakly_identifiable else ""
                 cut = " [cut at a bound, see below]" if "is cut at the bound" in (pe.note or "") else ""
                 ok, why_not = self.identified_parameter(name)
@@ -589,7 +589,7 @@ class ReportViews:
                     L.append(f"{lab}NOT IDENTIFIABLE (not separable{w}); range {rng}")
                 else:
                     se = f" (SE {pe.stderr:.3g} {u})" if pe.stderr is not None else " (no SE)"
-                    flag = " [ON " + pe.bound_side.upper() + " BOUND]" if pe.at_bound else ""
+                    flag = " [ON " + (pe.bound_side or "").upper() + " BOUND]" if pe.at_bound else ""
                     weak = (
                         f" [weakly identifiable: correlation {pe.correlation:+.4f} with {pe.correlated_with}]"
                         if pe.weakly_identifiable and pe.correlated_with

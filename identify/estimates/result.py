@@ -14,7 +14,7 @@ effects, combinations, the soil), :mod:`.identifiability` (null space, ridge, co
 from __future__ import annotations
 
 import math
-from dataclasses import MISSING, dataclass, field, fields
+from dataclasses import MISSING, dataclass, fields
 from functools import cached_property
 from typing import Any, Sequence
 
@@ -25,10 +25,9 @@ from ...soilmodel.soil import PARAMETER_NAMES, SoilBounds
 from ...soilmodel.traction import max_thrust_function
 from ...soilmodel.vehicle import Vehicle
 from .least_squares import RANK_TOL, WEAK_CORRELATION, core_stats, core_stats_one, quantile, WEAK_VIF  # noqa: F401
-from .records import EDGE_UNITS, NOT_USABLE, Combination, ParameterEstimate, finite_or_none  # noqa: F401
+from .records import EDGE_UNITS, NOT_USABLE, Combination, ParameterEstimate, check_loads, finite_or_none  # noqa: F401
 from .views import EstimateViews
 from .identifiability import BOUND_TOL, NULL_TOL, IdentifiabilityViews  # noqa: F401
-from ..sweep.plausibility import assess, check_loads
 from .report import ReportViews, json_default  # noqa: F401
 
 __all__ = [
@@ -81,44 +80,7 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
         Rank of the scaled Jacobian; residual degrees of freedom ``n - rank``.
     """
 
-    data_kind: str
-    model: str
-    method: str
-    theta: np.ndarray
-    jacobian: np.ndarray
-    weighted_residuals: np.ndarray
-    residuals: np.ndarray
-    residual_unit: str
-    n_samples: int
-    normal_loads: np.ndarray
-    vehicle: Vehicle
-    bounds: SoilBounds
-    status: str
-    success: bool
-    message: str
-    iterations: int
-    solve_time: float
-    sigma_known: bool
-    rmse: float
-    free: tuple[int, ...]
-    #: ``(batched core statistics dict, index of this fit)`` when built in a batch, else None:
-    #: computed from ``jacobian`` and ``weighted_residuals`` on first use (:attr:`_stats`).
-    _core: Any = field(default=None, repr=False)
-    _finite: bool = field(default=True, repr=False)  # theta, residuals (and effects) finite
-    input_warnings: tuple[str, ...] = ()
-    extra: dict = field(default_factory=dict)
-    effect_labels: tuple[str, ...] = ()
-    effect_values: Any = None
-    effect_bounds: tuple = ()
-    effect_units: tuple = ()
-    effect_structure: Any = None
-    fixed_labels: tuple[str, ...] = ()
-    measured: str | None = None
-    residual_model: Any = None
-    #: ``{label: ReplacedInterval}`` replacing the linearised 95 % intervals of those parameters: profile
-    #: likelihood (:mod:`soiltrack.identify.estimates.joint_likelihood`) or widened over both torque holds
-    #: (:mod:`soiltrack.identify.drivelog.torque_hold`); None when every interval is the linearised one.
-    replaced_intervals: Any = None
+    # the fields: :class:`~.record_fields.RecordFields` (their one home)
 
     def __getstate__(self) -> dict:
         """Pickle only this fit's slice of batched core statistics (never computed ones: they follow)."""
@@ -310,10 +272,6 @@ class FitResult(EstimateViews, IdentifiabilityViews, ReportViews):
             phi on their ridge, asked at another normal load).
         """
         model = self.residual_model
-        if model is None and self.data_kind == "slip":
-            from ..sweep.model import SweepResiduals
-
-            model = SweepResiduals()
         if model is None:
             from ...soilmodel.errors import DataError
 
@@ -382,7 +340,7 @@ def build_result(
     fixed_labels: Sequence[str] = (),
     measured: str | None = None,
     residual_model=None,
-    samples=None,
+    plausibility: tuple[tuple[str, ...], bool] | None = None,
 ) -> FitResult:
     """Build a :class:`FitResult` from an optimum and its Jacobian (shared by all fitting methods).
 
@@ -426,15 +384,12 @@ def build_result(
         What slip data measured (``"tractive_force"`` / ``"drawbar_pull"``).
     residual_model
         Object with ``residuals_on(result, data) -> dict`` for :meth:`FitResult.residuals_on`.
-    samples : tuple of arrays, optional
-        Slip data ``(slip, thrust_N, load_N)`` per sample, optionally followed by the weakest and
-        strongest soil's thrust at each sample ``(F_weak, F_strong)`` when the solver has them
-        (:func:`~soiltrack.identify.sweep.plausibility.corner_curves`) and the solver's screen of them
-        (:func:`~soiltrack.identify.sweep.plausibility.screen_expr`) and of F_max on a bound
-        (:func:`~soiltrack.identify.sweep.plausibility.limit_screen_expr`): then the plausibility checks of
-        :mod:`soiltrack.identify.sweep.plausibility` run, add their warnings, and set
-        ``success=False`` when the answer is not usable (a force scale no soil within the bounds
-        gives, F_max fixed by a bound, residuals as large as the data, a gross outlier).
+    plausibility : (warnings, usable), optional, slip data only
+        The verdict of the slip data's plausibility checks, run by the data kind
+        (:func:`~soiltrack.identify.sweep.plausibility.slip_checks`): their warnings are added, and an
+        answer they find not usable (a force scale no soil within the bounds gives, F_max fixed by a
+        bound, residuals as large as the data, a gross outlier) has ``success=False``. Not given: only
+        the rows' loads against the vehicle's weight (:func:`~.records.check_loads`).
 
     Returns
     -------
@@ -442,29 +397,69 @@ def build_result(
     """
     if data_kind not in ("slip", "drive"):
         raise ValueError(f"data_kind must be 'slip' or 'drive', got {data_kind!r}")
-    free = _free_indices(model)
+    theta, J, rw = _checked_arrays(theta, jacobian, weighted_residuals, len(effect_labels))
+    if data_kind == "slip":
+        if plausibility is None:  # no checks of the data: the loads against the vehicle all the same
+            loads = check_loads(normal_loads, vehicle)
+            plausibility = (tuple("NOT USABLE: " + f.message for f in loads), not loads)
+        warnings, success, status, message = _with_plausibility(
+            plausibility, (tuple(warnings), success, status, message)
+        )
+    free, effect_fields = _effect_fields(
+        model, effect_labels, effect_values, effect_bounds, effect_units, effect_structure, fixed_labels
+    )
+    effect_fields.update(measured=measured, residual_model=residual_model)
+    res = np.asarray(residuals, dtype=float)
+    rmse, finite, success, status, warn = _finite_check(
+        theta, res, rw, effect_fields.get("effect_values"), tuple(warnings), success, status
+    )
+    state = dict(_RESULT_DEFAULTS)  # every field (extra, the one with a factory, is always given)
+    state.update(data_kind=data_kind, model=model, method=method, theta=theta, jacobian=J, weighted_residuals=rw)
+    state.update(residuals=res, residual_unit=residual_unit, n_samples=int(n_samples), vehicle=vehicle, bounds=bounds)
+    state.update(normal_loads=_distinct_loads(normal_loads), status=str(status), success=bool(success))
+    state.update(message=str(message), iterations=int(iterations), solve_time=float(solve_time))
+    state.update(sigma_known=bool(sigma_known), rmse=rmse, free=free, _finite=finite, input_warnings=warn)
+    state.update(extra=dict(extra or {}), **effect_fields)
+    obj = object.__new__(FitResult)
+    obj.__dict__.update(state)
+    return obj
+
+
+def _checked_arrays(theta, jacobian, weighted_residuals, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``theta`` (3,) as a float copy, the Jacobian and the weighted residuals; ValueError on a wrong shape."""
     if type(theta) is np.ndarray and theta.shape == (3,) and theta.dtype == np.float64:
         theta = theta.copy()
     else:
         theta = np.asarray(theta, dtype=float).reshape(3).copy()
     J = np.asarray(jacobian, dtype=float)
     rw = np.asarray(weighted_residuals, dtype=float).ravel()
-    labels = tuple(effect_labels)
-    m = len(labels)
     if J.ndim != 2 or J.shape[1] != 3 + m or J.shape[0] != rw.size:
         raise ValueError(f"jacobian must have shape (n_res, 3 + {m}) = ({rw.size}, {3 + m}), got {J.shape}")
-    if data_kind == "slip":
-        if samples is not None:
-            slip, thrust, load, *curves = samples
-            found, usable = assess(slip, thrust, load, residuals, theta, vehicle, model, bounds, *curves)
-        else:  # a fit without the checks of the data (joint fits): the loads against the vehicle all the same
-            loads = check_loads(normal_loads, vehicle)
-            found, usable = tuple("NOT USABLE: " + f.message for f in loads), not loads
-        warnings = tuple(warnings) + found
-        if not usable and success:
-            success, status = False, f"{status} {NOT_USABLE}"
-            message = f"{message}; the data or the answer fail the plausibility checks (see the warnings)"
-    effect_fields: dict[str, Any] = {"measured": measured, "residual_model": residual_model}
+    return theta, J, rw
+
+
+def _with_plausibility(plausibility: tuple[tuple[str, ...], bool], verdict: tuple) -> tuple:
+    """Slip data: the plausibility checks' warnings added; an answer they refuse is not a success.
+
+    ``verdict = (warnings, success, status, message)`` as the solver left them; returns them updated.
+    """
+    warnings, success, status, message = verdict
+    found, usable = plausibility
+    warnings = tuple(warnings) + tuple(found)
+    if not usable and success:
+        success, status = False, f"{status} {NOT_USABLE}"
+        message = f"{message}; the data or the answer fail the plausibility checks (see the warnings)"
+    return warnings, success, status, message
+
+
+def _effect_fields(
+    model, effect_labels, effect_values, effect_bounds, effect_units, effect_structure, fixed_labels
+) -> tuple[tuple[int, ...], dict[str, Any]]:
+    """The free parameter indices (soil, then the effects not held) and the result's effect fields."""
+    free = _free_indices(model)
+    labels = tuple(effect_labels)
+    m = len(labels)
+    effect_fields: dict[str, Any] = {}
     if m:
         fixed_labels = tuple(fixed_labels)
         unknown = set(fixed_labels) - set(labels)
@@ -479,8 +474,11 @@ def build_result(
             effect_structure=effect_structure,
             fixed_labels=fixed_labels,
         )
-    res = np.asarray(residuals, dtype=float)
-    ev = effect_fields.get("effect_values")
+    return free, effect_fields
+
+
+def _finite_check(theta, res, rw, ev, warnings: tuple, success: bool, status: str):
+    """``(rmse, finite, success, status, warnings)``: non-finite numbers make no estimate, and say so."""
     rv = res.ravel()
     ss = float(np.dot(rv, rv))  # finite only if every residual is (squares cannot cancel an inf or a NaN)
     finite = (
@@ -494,36 +492,7 @@ def build_result(
         success = False
         status = status if "non-finite" in status else f"{status} (non-finite numbers)"
         warn += ("the solver returned non-finite numbers; no estimate is given",)
-    state = dict(_RESULT_DEFAULTS)  # every field (extra, the one with a factory, is always given)
-    state.update(
-        data_kind=data_kind,
-        model=model,
-        method=method,
-        theta=theta,
-        jacobian=J,
-        weighted_residuals=rw,
-        residuals=res,
-        residual_unit=residual_unit,
-        n_samples=int(n_samples),
-        normal_loads=_distinct_loads(normal_loads),
-        vehicle=vehicle,
-        bounds=bounds,
-        status=str(status),
-        success=bool(success),
-        message=str(message),
-        iterations=int(iterations),
-        solve_time=float(solve_time),
-        sigma_known=bool(sigma_known),
-        rmse=math.sqrt(ss / res.size) if res.size else math.nan,
-        free=free,
-        _finite=finite,
-        input_warnings=warn,
-        extra=dict(extra or {}),
-        **effect_fields,
-    )
-    obj = object.__new__(FitResult)
-    obj.__dict__.update(state)
-    return obj
+    return (math.sqrt(ss / res.size) if res.size else math.nan), finite, success, status, warn
 
 
 def build_results_batch(

@@ -26,9 +26,10 @@ import numpy as np
 from ...soilmodel.soil import PARAMETER_NAMES, Soil
 from .least_squares import WEAK_VIF
 from ...soilmodel.units import format_value
+from .record_fields import RecordFields
 from .records import EDGE_UNITS, Combination, ParameterEstimate
 from .identifiability import BOUND_TOL
-from ..sweep.plausibility import fmax_range
+from ...soilmodel.ridge import soil_fmax_range as fmax_range
 
 
 def _cut_note(lo: float, hi: float, b_lo: float, b_hi: float, factor: float, unit: str) -> list[str]:
@@ -74,7 +75,7 @@ def _profile_note(pi, factor: float, unit: str) -> str:
     return s
 
 
-class EstimateViews:
+class EstimateViews(RecordFields):
     """Estimate views of a fit result (mixin)."""
 
     # ---------------------------------------------------------------------------- bounds
@@ -186,10 +187,7 @@ class EstimateViews:
     @cached_property
     def parameters(self) -> dict[str, ParameterEstimate]:
         """Per parameter (``cohesion``, ``friction_angle``, ``shear_modulus``): estimate and uncertainty."""
-        q = self.quantile
-        C = self._cov_free
         ident = self._identifiable_free
-        lo, hi = self.bounds.lower, self.bounds.upper
         flags = self._bound_flags
         out: dict[str, ParameterEstimate] = {}
         ridge = None
@@ -238,92 +236,101 @@ class EstimateViews:
             if weak and self.effect_labels:
                 partner, rho = self._partner(k, True)
             if ident[k]:
-                se = None
-                if C is not None:
-                    v = C[k, k]
-                    se = math.sqrt(v) if (v >= 0 and math.isfinite(v)) else None
-                if se is None:
-                    notes.append(
-                        "no standard error: "
-                        + ("no residual degrees of freedom (n = rank)" if self.dof <= 0 else "covariance not finite")
-                    )
-                if se is not None and q is not None and outside:
-                    ci = (val - q * se, val + q * se)
-                elif se is not None and q is not None:
-                    ci = (max(lo[j], val - q * se), min(hi[j], val + q * se))
-                    if side is None:
-                        notes.extend(
-                            _cut_note(
-                                val - q * se, val + q * se, lo[j], hi[j], EDGE_UNITS[name][2], EDGE_UNITS[name][1]
-                            )
-                        )
-                else:
-                    ci = (None, None)
-                if side is not None:
-                    notes.append(
-                        f"on the {side} bound: the standard error is the local curvature ignoring the "
-                        "bound and the interval is clipped to the bounds; use profile_likelihood for an "
-                        "honest interval"
-                    )
-                if weak:
-                    notes.append(
-                        "weakly identifiable (correlation with other parameter directions > 0.99"
-                        + (f"; most with {partner}: {rho:+.4f})" if partner else ")")
-                    )
-                pi = (self.replaced_intervals or {}).get(name)
-                if pi is not None:
-                    ci = (pi.lower, pi.upper)
-                    notes = [n for n in notes if not n.startswith(("on the", "the lower end", "the upper end"))]
-                    if side is not None:
-                        notes.insert(0, f"on the {side} bound")
-                    notes.append(_profile_note(pi, EDGE_UNITS[name][2], EDGE_UNITS[name][1]))
-                out[name] = ParameterEstimate(
-                    name,
-                    val,
-                    se,
-                    ci,
-                    True,
-                    weak,
-                    side is not None,
-                    side,
-                    note="; ".join(notes),
-                    correlated_with=partner,
-                    correlation=rho,
-                )
+                out[name] = self._identified_estimate(name, j, k, val, side, outside, notes, (weak, partner, rho))
             else:
-                if ridge is not None and j in (0, 1):
-                    ci = ridge[j]
-                    note = (
-                        "not identifiable: c and phi enter only through F_max = A c + W tan(phi) at one "
-                        "normal load; interval = " + ridge[2]
-                    )
-                else:
-                    ci = (float(lo[j]), float(hi[j]))
-                    note = "not identifiable from these data; interval = the bounds"
-                    if self.effect_labels:  # say what it is confounded with (an effect, or another parameter)
-                        partner, rho = self._partner(k, False)
-                        if partner:
-                            note = (
-                                f"not identifiable: the data cannot separate it from {partner}; interval = the bounds"
-                            )
-                # the optimiser's point on a ridge is arbitrary: "on a bound" only if the whole range is
-                pinned = ci[0] is not None and ci[1] is not None and ci[1] - ci[0] <= BOUND_TOL * (hi[j] - lo[j])
-                nb_side = side if (pinned and side in ("lower", "upper")) else None
-                out[name] = ParameterEstimate(
-                    name,
-                    None,
-                    None,
-                    ci,
-                    False,
-                    False,
-                    nb_side is not None,
-                    nb_side,
-                    ridge_value=val,
-                    note=note,
-                    correlated_with=partner,
-                    correlation=rho,
-                )
+                out[name] = self._unidentified_estimate(name, j, k, val, side, ridge)
         return out
+
+    def _identified_estimate(self, name, j, k, val, side, outside, notes, weakness) -> ParameterEstimate:
+        """An identifiable parameter: standard error, the interval (clipped, cut or profiled) and its notes."""
+        weak, partner, rho = weakness
+        q, C = self.quantile, self._cov_free
+        lo, hi = self.bounds.lower, self.bounds.upper
+        se = None
+        if C is not None:
+            v = C[k, k]
+            se = math.sqrt(v) if (v >= 0 and math.isfinite(v)) else None
+        if se is None:
+            notes.append(
+                "no standard error: "
+                + ("no residual degrees of freedom (n = rank)" if self.dof <= 0 else "covariance not finite")
+            )
+        if se is not None and q is not None and outside:
+            ci = (val - q * se, val + q * se)
+        elif se is not None and q is not None:
+            ci = (max(lo[j], val - q * se), min(hi[j], val + q * se))
+            if side is None:
+                notes.extend(
+                    _cut_note(val - q * se, val + q * se, lo[j], hi[j], EDGE_UNITS[name][2], EDGE_UNITS[name][1])
+                )
+        else:
+            ci = (None, None)
+        if side is not None:
+            notes.append(
+                f"on the {side} bound: the standard error is the local curvature ignoring the "
+                "bound and the interval is clipped to the bounds; use profile_likelihood for an "
+                "honest interval"
+            )
+        if weak:
+            notes.append(
+                "weakly identifiable (correlation with other parameter directions > 0.99"
+                + (f"; most with {partner}: {rho:+.4f})" if partner else ")")
+            )
+        pi = (self.replaced_intervals or {}).get(name)
+        if pi is not None:
+            ci = (pi.lower, pi.upper)
+            notes = [n for n in notes if not n.startswith(("on the", "the lower end", "the upper end"))]
+            if side is not None:
+                notes.insert(0, f"on the {side} bound")
+            notes.append(_profile_note(pi, EDGE_UNITS[name][2], EDGE_UNITS[name][1]))
+        return ParameterEstimate(
+            name,
+            val,
+            se,
+            ci,
+            True,
+            weak,
+            side is not None,
+            side,
+            note="; ".join(notes),
+            correlated_with=partner,
+            correlation=rho,
+        )
+
+    def _unidentified_estimate(self, name, j, k, val, side, ridge) -> ParameterEstimate:
+        """A parameter the data do not identify: no value, the ridge's range or the bounds as its interval."""
+        lo, hi = self.bounds.lower, self.bounds.upper
+        partner = rho = None
+        if ridge is not None and j in (0, 1):
+            ci = ridge[j]
+            note = (
+                "not identifiable: c and phi enter only through F_max = A c + W tan(phi) at one "
+                "normal load; interval = " + ridge[2]
+            )
+        else:
+            ci = (float(lo[j]), float(hi[j]))
+            note = "not identifiable from these data; interval = the bounds"
+            if self.effect_labels:  # say what it is confounded with (an effect, or another parameter)
+                partner, rho = self._partner(k, False)
+                if partner:
+                    note = f"not identifiable: the data cannot separate it from {partner}; interval = the bounds"
+        # the optimiser's point on a ridge is arbitrary: "on a bound" only if the whole range is
+        pinned = ci[0] is not None and ci[1] is not None and ci[1] - ci[0] <= BOUND_TOL * (hi[j] - lo[j])
+        nb_side = side if (pinned and side in ("lower", "upper")) else None
+        return ParameterEstimate(
+            name,
+            None,
+            None,
+            ci,
+            False,
+            False,
+            nb_side is not None,
+            nb_side,
+            ridge_value=val,
+            note=note,
+            correlated_with=partner,
+            correlation=rho,
+        )
 
     @cached_property
     def effects(self) -> dict[str, dict[str, ParameterEstimate]]:

@@ -149,97 +149,16 @@ def fit_plate_test(test: PlateTest, bounds: PlateBounds = PLATE_BOUNDS) -> SoilT
             f"with an interval (need at least {m + 1})",
             file=test.source,
         )
-    z_ref = float(np.exp(np.mean(np.log(z[(z > 0) & (p > 0)]))))
-    ps = float(np.max(p))
-    aux = np.array([ps, z_ref])
-    D = np.column_stack([b, z, p])
-    n0, k_eq0 = _loglog_start(b, z, p, widths)
-    n_lo, n_hi = bounds.n
-    n_starts = [float(np.clip(n0, n_lo, n_hi)), *N_STARTS]
-
-    def scaled(k_si, n):
-        return k_si * z_ref**n / ps
-
-    if separable:
-        kc0, kphi0 = np.linalg.lstsq(np.column_stack([1.0 / widths, np.ones_like(widths)]), k_eq0, rcond=None)[0]
-        kc0, kphi0 = max(kc0, 0.0), max(kphi0, 0.0)
-        starts = []
-        for n in n_starts:  # the regression's moduli at its n; at other n, the same pressure at z_ref
-            f = 1.0 if n == n_starts[0] else z_ref ** (n0 - n)
-            starts.append(np.array([scaled(kc0 * f, n), scaled(kphi0 * f, n), n]))
-        big = UNBOUNDED_FACTOR * max(1.0, float(np.max(k_eq0)) * z_ref**n0 / ps)
-        lower = np.array([0.0, 0.0, n_lo])
-        upper = np.array([big, big, n_hi])
-        sol = solve_bounded(FULL, D, aux, starts, lower, upper)
-        free = None
-        if bounds.negative_kc or at_bounds(sol.x, lower, upper)[0]:
-            lower_free = np.array([-big, 0.0, n_lo])
-            free = solve_bounded(FULL, D, aux, [*starts, sol.x], lower_free, upper)
-            if bounds.negative_kc:
-                sol, lower = free, lower_free
-        n = float(sol.x[2])
-        f = ps / z_ref**n / 1e3  # A -> kN/m^(n+...)
-        kc, kphi = sol.x[0] * f, sol.x[1] * f
-        values = np.array([kc, kphi, n])
-        lz = math.log(z_ref)
-        T = np.array([[f, 0.0, -kc * lz], [0.0, f, -kphi * lz], [0.0, 0.0, 1.0]])
-        flags = at_bounds(sol.x, lower, upper)
-        specs = _plate_specs(bounds)
-        params, cov = edge_parameters(sol, test.n_samples, values, T, specs, flags)
-        combos: dict = {}
-        notes = [f"{widths.size} plate widths ({widths.min():.4g}-{widths.max():.4g} m) separate k_c and k_phi"]
-        notes += _kc_notes(bounds, kc, free, sol, test.n_samples, ps, z_ref, specs)
-        S = np.diag([1e3, 1e3, 1.0])
-        si = None if cov is None or not all(q.identifiable for q in params) else S @ cov @ S
-        values_si = (kc * 1e3, kphi * 1e3, n)
-    else:
-        w = float(widths[0])
-        starts = [
-            np.array([scaled(k_eq0[0] * (1.0 if n == n_starts[0] else z_ref ** (n0 - n)), n), n]) for n in n_starts
-        ]
-        big = UNBOUNDED_FACTOR * max(1.0, float(k_eq0[0]) * z_ref**n0 / ps)
-        lower = np.array([0.0, n_lo])
-        upper = np.array([big, n_hi])
-        sol = solve_bounded(ONE_WIDTH, D, aux, starts, lower, upper)
-        n = float(sol.x[1])
-        f = ps / z_ref**n / 1e3
-        k_eq = sol.x[0] * f
-        T = np.array([[f, -k_eq * math.log(z_ref)], [0.0, 1.0]])
-        flags = at_bounds(sol.x, lower, upper)
-        specs = [
-            ("bekker_k_eq", "k_c / b + k_phi", "kN/m^(n+2)", 0.0, math.inf),
-            ("bekker_n", "Bekker exponent n", "-", *bounds.n),
-        ]
-        (k_par, n_par), cov = edge_parameters(sol, test.n_samples, np.array([k_eq, n]), T, specs, flags)
-        why = (
-            f"one plate width (b = {w:.4g} m): only k_c / b + k_phi is identified; plates of two or more "
-            "widths separate k_c and k_phi"
-        )
-        params = [
-            TestParameter("bekker_kc", "Bekker k_c", "kN/m^(n+1)", None, None, (None, None), False, note=why),
-            TestParameter("bekker_kphi", "Bekker k_phi", "kN/m^(n+2)", None, None, (None, None), False, note=why),
-            n_par,
-        ]
-        combos = {
-            "bekker_k_eq": TestCombination(
-                "bekker_k_eq",
-                "k_c / b + k_phi",
-                "kN/m^(n+2)",
-                k_par.value,
-                k_par.stderr,
-                k_par.ci95,
-                {"plate_width_m": w},
-            )
-        }
-        notes = [why]
-        si, values_si = None, (None, None, n)
+    pb = _scaled_problem(b, z, p, widths, bounds)
+    fit = (_fit_two_or_more_widths if separable else _fit_one_width)(test, widths, pb, bounds)
+    sol, params, combos, notes, si, values_si, flags = fit
     if np.any(flags):
         notes.append(
             "on a bound: "
             + (", ".join(q.key for q in params if q.at_bound) or "k_c / b + k_phi")
             + " (a warning about the data or the bounds)"
         )
-    rmse = math.sqrt(sol.cost / test.n_samples) * ps / 1e3
+    rmse = math.sqrt(sol.cost / test.n_samples) * pb.ps / 1e3
     return SoilTestFit(
         "plate_test",
         test.source,
@@ -257,3 +176,118 @@ def fit_plate_test(test: PlateTest, bounds: PlateBounds = PLATE_BOUNDS) -> SoilT
         si,
         values_si,
     )
+
+
+@dataclass(frozen=True)
+class _PlateProblem:
+    """A plate test scaled for the solver, with the log-log regression's start."""
+
+    D: np.ndarray  #: rows ``[b, z, p]``
+    aux: np.ndarray  #: scales ``[p_s, z_ref]``
+    ps: float  #: the largest pressure (Pa)
+    z_ref: float  #: the geometric mean sinkage (m)
+    n0: float  #: the regression's exponent
+    k_eq0: np.ndarray  #: the regression's ``k_c / b + k_phi`` per width (kN units)
+    n_starts: list  #: start values of n
+
+    def scaled(self, k_si, n):
+        """A modulus in the solver's scaled units."""
+        return k_si * self.z_ref**n / self.ps
+
+
+def _scaled_problem(b, z, p, widths, bounds: PlateBounds) -> _PlateProblem:
+    """Scales, data rows and the start of n from the log-log regression."""
+    z_ref = float(np.exp(np.mean(np.log(z[(z > 0) & (p > 0)]))))
+    ps = float(np.max(p))
+    aux = np.array([ps, z_ref])
+    D = np.column_stack([b, z, p])
+    n0, k_eq0 = _loglog_start(b, z, p, widths)
+    n_lo, n_hi = bounds.n
+    n_starts = [float(np.clip(n0, n_lo, n_hi)), *N_STARTS]
+
+    return _PlateProblem(D, aux, ps, z_ref, n0, k_eq0, n_starts)
+
+
+def _fit_two_or_more_widths(test: PlateTest, widths, pb: _PlateProblem, bounds: PlateBounds) -> tuple:
+    """k_c, k_phi and n from two or more widths: ``(sol, params, combos, notes, si, values_si, flags)``."""
+    n_lo, n_hi = bounds.n
+    D, aux, ps, z_ref = pb.D, pb.aux, pb.ps, pb.z_ref
+    n0, k_eq0, n_starts, scaled = pb.n0, pb.k_eq0, pb.n_starts, pb.scaled
+    kc0, kphi0 = np.linalg.lstsq(np.column_stack([1.0 / widths, np.ones_like(widths)]), k_eq0, rcond=None)[0]
+    kc0, kphi0 = max(kc0, 0.0), max(kphi0, 0.0)
+    starts = []
+    for n in n_starts:  # the regression's moduli at its n; at other n, the same pressure at z_ref
+        f = 1.0 if n == n_starts[0] else z_ref ** (n0 - n)
+        starts.append(np.array([scaled(kc0 * f, n), scaled(kphi0 * f, n), n]))
+    big = UNBOUNDED_FACTOR * max(1.0, float(np.max(k_eq0)) * z_ref**n0 / ps)
+    lower = np.array([0.0, 0.0, n_lo])
+    upper = np.array([big, big, n_hi])
+    sol = solve_bounded(FULL, D, aux, starts, lower, upper)
+    free = None
+    if bounds.negative_kc or at_bounds(sol.x, lower, upper)[0]:
+        lower_free = np.array([-big, 0.0, n_lo])
+        free = solve_bounded(FULL, D, aux, [*starts, sol.x], lower_free, upper)
+        if bounds.negative_kc:
+            sol, lower = free, lower_free
+    n = float(sol.x[2])
+    f = ps / z_ref**n / 1e3  # A -> kN/m^(n+...)
+    kc, kphi = sol.x[0] * f, sol.x[1] * f
+    values = np.array([kc, kphi, n])
+    lz = math.log(z_ref)
+    T = np.array([[f, 0.0, -kc * lz], [0.0, f, -kphi * lz], [0.0, 0.0, 1.0]])
+    flags = at_bounds(sol.x, lower, upper)
+    specs = _plate_specs(bounds)
+    params, cov = edge_parameters(sol, test.n_samples, values, T, specs, flags)
+    combos: dict = {}
+    notes = [f"{widths.size} plate widths ({widths.min():.4g}-{widths.max():.4g} m) separate k_c and k_phi"]
+    notes += _kc_notes(bounds, kc, free, sol, test.n_samples, ps, z_ref, specs)
+    S = np.diag([1e3, 1e3, 1.0])
+    si = None if cov is None or not all(q.identifiable for q in params) else S @ cov @ S
+    values_si = (kc * 1e3, kphi * 1e3, n)
+    return sol, params, combos, notes, si, values_si, flags
+
+
+def _fit_one_width(test: PlateTest, widths, pb: _PlateProblem, bounds: PlateBounds) -> tuple:
+    """``k_c / b + k_phi`` and n at one width (k_c, k_phi not identified): as :func:`_fit_two_or_more_widths`."""
+    n_lo, n_hi = bounds.n
+    D, aux, ps, z_ref = pb.D, pb.aux, pb.ps, pb.z_ref
+    n0, k_eq0, n_starts, scaled = pb.n0, pb.k_eq0, pb.n_starts, pb.scaled
+    w = float(widths[0])
+    starts = [np.array([scaled(k_eq0[0] * (1.0 if n == n_starts[0] else z_ref ** (n0 - n)), n), n]) for n in n_starts]
+    big = UNBOUNDED_FACTOR * max(1.0, float(k_eq0[0]) * z_ref**n0 / ps)
+    lower = np.array([0.0, n_lo])
+    upper = np.array([big, n_hi])
+    sol = solve_bounded(ONE_WIDTH, D, aux, starts, lower, upper)
+    n = float(sol.x[1])
+    f = ps / z_ref**n / 1e3
+    k_eq = sol.x[0] * f
+    T = np.array([[f, -k_eq * math.log(z_ref)], [0.0, 1.0]])
+    flags = at_bounds(sol.x, lower, upper)
+    specs = [
+        ("bekker_k_eq", "k_c / b + k_phi", "kN/m^(n+2)", 0.0, math.inf),
+        ("bekker_n", "Bekker exponent n", "-", *bounds.n),
+    ]
+    (k_par, n_par), cov = edge_parameters(sol, test.n_samples, np.array([k_eq, n]), T, specs, flags)
+    why = (
+        f"one plate width (b = {w:.4g} m): only k_c / b + k_phi is identified; plates of two or more "
+        "widths separate k_c and k_phi"
+    )
+    params = [
+        TestParameter("bekker_kc", "Bekker k_c", "kN/m^(n+1)", None, None, (None, None), False, note=why),
+        TestParameter("bekker_kphi", "Bekker k_phi", "kN/m^(n+2)", None, None, (None, None), False, note=why),
+        n_par,
+    ]
+    combos = {
+        "bekker_k_eq": TestCombination(
+            "bekker_k_eq",
+            "k_c / b + k_phi",
+            "kN/m^(n+2)",
+            k_par.value,
+            k_par.stderr,
+            k_par.ci95,
+            {"plate_width_m": w},
+        )
+    }
+    notes = [why]
+    si, values_si = None, (None, None, n)
+    return sol, params, combos, notes, si, values_si, flags

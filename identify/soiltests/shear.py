@@ -112,93 +112,12 @@ def fit_shear_test(test: ShearTest | AnnulusTest, bounds: SoilBounds = WIDE_BOUN
             f"{test.n_samples} rows cannot fit {m} parameters with an interval (need at least {m + 1})",
             file=test.source,
         )
-    ts = float(np.max(np.abs(tau)))
-    if ts <= 0:
-        raise DataError("every shear stress is zero", file=test.source, column="shear_stress_Pa")
-    moved = j > 0
-    if np.count_nonzero(moved) < m:
-        raise DataError(
-            f"{np.count_nonzero(moved)} rows with a shear displacement above 0: the "
-            f"stress-displacement curve needs at least {m}",
-            file=test.source,
-            column="shear_displacement_m",
-        )
-    if np.median(tau[moved]) <= 0:
-        raise DataError(
-            "most shear stresses at a positive displacement are <= 0: the soil resists shearing "
-            "with a positive stress (a sign convention of the logger?)",
-            file=test.source,
-            column="shear_stress_Pa",
-        )
-    (c_lo, c_hi), (p_lo, p_hi), (k_lo, k_hi) = bounds.cohesion, bounds.friction_angle, bounds.shear_modulus
+    ts = _stress_scale(test, j, tau, m)
     peaks = _start_strength(sigma, tau, levels)
-    if separable:
-        slope, icpt = np.polyfit(levels, peaks, 1)
-        c0 = float(np.clip(icpt, c_lo, c_hi)) / ts
-        phi0 = float(np.clip(math.atan(max(slope, 1e-6)), p_lo, p_hi))
-        lower = np.array([c_lo / ts, p_lo, k_lo / K_SCALE])
-        upper = np.array([c_hi / ts, p_hi, k_hi / K_SCALE])
-        starts = [np.array([c0, phi0, K / K_SCALE]) for K in K_STARTS]
-        sol = solve_bounded(full_model, D, np.array([ts]), starts, lower, upper)
-        c, phi, K = sol.x[0] * ts, sol.x[1], sol.x[2] * K_SCALE
-        values = np.array([c / 1e3, math.degrees(phi), K])
-        T = np.diag([ts / 1e3, 180.0 / math.pi, K_SCALE])
-        flags = at_bounds(sol.x, lower, upper)
-        specs = [
-            ("cohesion_kpa", "cohesion c", "kPa", c_lo / 1e3, c_hi / 1e3),
-            ("friction_angle_deg", "friction angle phi", "deg", math.degrees(p_lo), math.degrees(p_hi)),
-            ("shear_modulus_m", "shear modulus K", "m", k_lo, k_hi),
-        ]
-        params, cov = edge_parameters(sol, test.n_samples, values, T, specs, flags)
-        combos: dict = {}
-        notes = [
-            f"{levels.size} normal pressures ({levels.min() / 1e3:.4g}-{levels.max() / 1e3:.4g} kPa) separate "
-            "cohesion and friction"
-        ]
-        si = (
-            None
-            if cov is None or not all(p.identifiable for p in params)
-            else np.diag([1e3, math.pi / 180.0, 1.0]) @ cov @ np.diag([1e3, math.pi / 180.0, 1.0])
-        )
-        values_si = (c, phi, K)
-    else:
-        s0 = float(levels[0])
-        t_lo, t_hi = c_lo + s0 * math.tan(p_lo), c_hi + s0 * math.tan(p_hi)
-        lower = np.array([t_lo / ts, k_lo / K_SCALE])
-        upper = np.array([t_hi / ts, k_hi / K_SCALE])
-        starts = [np.array([peaks[0] / ts, K / K_SCALE]) for K in K_STARTS]
-        sol = solve_bounded(strength_model, D, np.array([ts]), starts, lower, upper)
-        values = np.array([sol.x[0] * ts / 1e3, sol.x[1] * K_SCALE])
-        T = np.diag([ts / 1e3, K_SCALE])
-        flags = at_bounds(sol.x, lower, upper)
-        specs = [
-            ("shear_strength_kpa", "shear strength", "kPa", t_lo / 1e3, t_hi / 1e3),
-            ("shear_modulus_m", "shear modulus K", "m", k_lo, k_hi),
-        ]
-        both, cov = edge_parameters(sol, test.n_samples, values, T, specs, flags)
-        strength, k_par = both
-        why = (
-            f"one normal pressure ({s0 / 1e3:.4g} kPa): only c + sigma tan(phi) is identified; a test at two "
-            "or more normal pressures separates c and phi"
-        )
-        params = [
-            TestParameter("cohesion_kpa", "cohesion c", "kPa", None, None, (None, None), False, note=why),
-            TestParameter("friction_angle_deg", "friction angle phi", "deg", None, None, (None, None), False, note=why),
-            k_par,
-        ]
-        combos = {
-            "shear_strength_kpa": TestCombination(
-                "shear_strength_kpa",
-                "c + sigma tan(phi)",
-                "kPa",
-                strength.value,
-                strength.stderr,
-                strength.ci95,
-                {"normal_pressure_kpa": s0 / 1e3},
-            )
-        }
-        notes = [why]
-        si, values_si = None, (None, None, sol.x[1] * K_SCALE)
+    fit = (_two_or_more_pressures if separable else _one_pressure)(
+        test, levels, peaks, ts, bounds, full_model if separable else strength_model, D
+    )
+    sol, params, combos, notes, si, values_si, flags = fit
     if ring_note is not None:
         notes.append(ring_note)
     if np.any(flags):
@@ -225,3 +144,103 @@ def fit_shear_test(test: ShearTest | AnnulusTest, bounds: SoilBounds = WIDE_BOUN
         si,
         values_si,
     )
+
+
+def _stress_scale(test, j, tau, m: int) -> float:
+    """The largest |shear stress| (Pa, the fit's scale); DataError when the rows cannot fit ``m`` parameters."""
+    ts = float(np.max(np.abs(tau)))
+    if ts <= 0:
+        raise DataError("every shear stress is zero", file=test.source, column="shear_stress_Pa")
+    moved = j > 0
+    if np.count_nonzero(moved) < m:
+        raise DataError(
+            f"{np.count_nonzero(moved)} rows with a shear displacement above 0: the "
+            f"stress-displacement curve needs at least {m}",
+            file=test.source,
+            column="shear_displacement_m",
+        )
+    if np.median(tau[moved]) <= 0:
+        raise DataError(
+            "most shear stresses at a positive displacement are <= 0: the soil resists shearing "
+            "with a positive stress (a sign convention of the logger?)",
+            file=test.source,
+            column="shear_stress_Pa",
+        )
+    return ts
+
+
+def _two_or_more_pressures(test, levels, peaks, ts: float, bounds: SoilBounds, full_model, D) -> tuple:
+    """c, phi and K from two or more normal pressures: ``(sol, params, combos, notes, si, values_si, flags)``."""
+    (c_lo, c_hi), (p_lo, p_hi), (k_lo, k_hi) = bounds.cohesion, bounds.friction_angle, bounds.shear_modulus
+    slope, icpt = np.polyfit(levels, peaks, 1)
+    c0 = float(np.clip(icpt, c_lo, c_hi)) / ts
+    phi0 = float(np.clip(math.atan(max(slope, 1e-6)), p_lo, p_hi))
+    lower = np.array([c_lo / ts, p_lo, k_lo / K_SCALE])
+    upper = np.array([c_hi / ts, p_hi, k_hi / K_SCALE])
+    starts = [np.array([c0, phi0, K / K_SCALE]) for K in K_STARTS]
+    sol = solve_bounded(full_model, D, np.array([ts]), starts, lower, upper)
+    c, phi, K = sol.x[0] * ts, sol.x[1], sol.x[2] * K_SCALE
+    values = np.array([c / 1e3, math.degrees(phi), K])
+    T = np.diag([ts / 1e3, 180.0 / math.pi, K_SCALE])
+    flags = at_bounds(sol.x, lower, upper)
+    specs = [
+        ("cohesion_kpa", "cohesion c", "kPa", c_lo / 1e3, c_hi / 1e3),
+        ("friction_angle_deg", "friction angle phi", "deg", math.degrees(p_lo), math.degrees(p_hi)),
+        ("shear_modulus_m", "shear modulus K", "m", k_lo, k_hi),
+    ]
+    params, cov = edge_parameters(sol, test.n_samples, values, T, specs, flags)
+    combos: dict = {}
+    notes = [
+        f"{levels.size} normal pressures ({levels.min() / 1e3:.4g}-{levels.max() / 1e3:.4g} kPa) separate "
+        "cohesion and friction"
+    ]
+    si = (
+        None
+        if cov is None or not all(p.identifiable for p in params)
+        else np.diag([1e3, math.pi / 180.0, 1.0]) @ cov @ np.diag([1e3, math.pi / 180.0, 1.0])
+    )
+    values_si = (c, phi, K)
+    return sol, params, combos, notes, si, values_si, flags
+
+
+def _one_pressure(test, levels, peaks, ts: float, bounds: SoilBounds, strength_model, D) -> tuple:
+    """The shear strength at one normal pressure and K (c and phi not identified): as :func:`_two_or_more_pressures`."""
+    (c_lo, c_hi), (p_lo, p_hi), (k_lo, k_hi) = bounds.cohesion, bounds.friction_angle, bounds.shear_modulus
+    s0 = float(levels[0])
+    t_lo, t_hi = c_lo + s0 * math.tan(p_lo), c_hi + s0 * math.tan(p_hi)
+    lower = np.array([t_lo / ts, k_lo / K_SCALE])
+    upper = np.array([t_hi / ts, k_hi / K_SCALE])
+    starts = [np.array([peaks[0] / ts, K / K_SCALE]) for K in K_STARTS]
+    sol = solve_bounded(strength_model, D, np.array([ts]), starts, lower, upper)
+    values = np.array([sol.x[0] * ts / 1e3, sol.x[1] * K_SCALE])
+    T = np.diag([ts / 1e3, K_SCALE])
+    flags = at_bounds(sol.x, lower, upper)
+    specs = [
+        ("shear_strength_kpa", "shear strength", "kPa", t_lo / 1e3, t_hi / 1e3),
+        ("shear_modulus_m", "shear modulus K", "m", k_lo, k_hi),
+    ]
+    both, cov = edge_parameters(sol, test.n_samples, values, T, specs, flags)
+    strength, k_par = both
+    why = (
+        f"one normal pressure ({s0 / 1e3:.4g} kPa): only c + sigma tan(phi) is identified; a test at two "
+        "or more normal pressures separates c and phi"
+    )
+    params = [
+        TestParameter("cohesion_kpa", "cohesion c", "kPa", None, None, (None, None), False, note=why),
+        TestParameter("friction_angle_deg", "friction angle phi", "deg", None, None, (None, None), False, note=why),
+        k_par,
+    ]
+    combos = {
+        "shear_strength_kpa": TestCombination(
+            "shear_strength_kpa",
+            "c + sigma tan(phi)",
+            "kPa",
+            strength.value,
+            strength.stderr,
+            strength.ci95,
+            {"normal_pressure_kpa": s0 / 1e3},
+        )
+    }
+    notes = [why]
+    si, values_si = None, (None, None, sol.x[1] * K_SCALE)
+    return sol, params, combos, notes, si, values_si, flags

@@ -6,7 +6,8 @@ default), :mod:`.compiled_lm` (bounded Levenberg-Marquardt as one compiled CasAD
 :mod:`.joint` (soil and effects together), :mod:`.seed_methods` (the seed paper's Newton-Raphson
 and least squares), :mod:`.slip_noise` (slip measured with noise), :mod:`.plausibility` (wrong data
 must not pass as success), :mod:`.rig` (rig columns: weights, the load, repeats) and
-:mod:`.sinkage_channel` (the measured sinkage against the Bekker and slip-sinkage laws).
+:mod:`.sinkage_channel` (the measured sinkage against the Bekker and slip-sinkage laws),
+:mod:`.likelihood` (profile likelihood of one parameter, re-optimising the others).
 """
 
 from .problem import FitFailed, SlipProblem, make_problem

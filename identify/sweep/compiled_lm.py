@@ -241,6 +241,65 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
     gd = ca.MX.sym("grid_data", 4 * m if n > GRID_ROWS else 0)
     g_rows = [gd[k * m : (k + 1) * m].T for k in range(4)] if n > GRID_ROWS else [slip, force, W, wt]
 
+    pick = _grid_pick(p, n_grid)
+    K_lo, K_hi = lbz[p - 1] * SCALE[2], ubz[p - 1] * SCALE[2]
+    frac = np.linspace(0.0, 1.0, n_grid) if n_grid > 1 else np.zeros(1)
+    Kgrid = 1 / (1 / K_hi + ca.DM(frac) * (1 / K_lo - 1 / K_hi))  # uniform in 1/K
+    # mapped over the samples with the sums accumulated in the loop (reduce_out)
+    gm, yy = grid_sums(*g_rows, l, b, Kgrid)
+    zgrid = pick(gm, yy, lbz, ubz, Kgrid)
+    zs = ca.if_else(use0 > 0.5, z0, zgrid)
+    zs = ca.fmin(ca.fmax(zs, lbz), ubz)
+    scale = 0.5 * ca.sumsqr(force * wt)
+
+    # ---- 2. damped projected Newton iterations (state: z, lam, f, g, H, D, iters)
+
+    def evaluate(z):
+        s = evm(z, slip, force, W, wt, l, b)
+        return s[0], s[1 : 1 + p], ca.reshape(s[1 + p : 1 + p + p * p], p, p), s[1 + p + p * p :]
+
+    kkt, certify, trial, accept = _lm_tests(p)
+    nst, cond_b, parts, converged, tol = _lm_blocks(p, n, evm, kkt, trial, accept)
+    f0, g0, H0, D0 = evaluate(zs)
+    state = ca.vertcat(zs, 1e-3, f0, g0, ca.vec(H0), D0, 0)
+    for _ in range(-(-n_iter // _BLOCK)):
+        state = cond_b(converged(state, lbz, ubz, scale, tol), state, d, lbz, ubz, scale, tol)
+    out = ca.vertcat(
+        state[0:p],
+        state[p + 1],
+        state[p + 2 : 2 * p + 2],
+        ca.sum1(state[2 * p + 2 + p * p : 3 * p + 2 + p * p]),
+        state[nst - 1],
+        zs,
+        scale,
+        certify(*parts(state), lbz, ubz, scale, tol),
+    )
+    o = 4 * n + 2
+    xin = ca.MX.sym("x", o + 3 * p + 3 + gd.numel())
+    f = ca.Function("lm", [d, lbz, ubz, z0, use0, tol, gd], [out])
+    return ca.Function(
+        f"soilfit_clm_{p}_{n}_{n_grid}_{n_iter}",
+        [xin],
+        [
+            ca.densify(
+                f(
+                    xin[0:o],
+                    xin[o : o + p],
+                    xin[o + p : o + 2 * p],
+                    xin[o + 2 * p : o + 3 * p],
+                    xin[o + 3 * p],
+                    xin[o + 3 * p + 1 : o + 3 * p + 3],
+                    xin[o + 3 * p + 3 :],
+                )
+            )
+        ],
+        ["x"],
+        ["y"],
+    )
+
+
+def _grid_pick(p: int, n_grid: int) -> ca.Function:
+    """The start grid's pick: the best (c, tan phi) of each K from the sums, then the best K (scaled ``z``)."""
     # ---- 1. variable-projection grid start (residual cost of each K from the sums:
     # |y|^2 - 2 c r1 - 2 t r2 + c^2 m11 + 2 c t m12 + t^2 m22, with t = tan(phi))
     sc = ca.SX.sym("sums", (5 if p == 3 else 2) * n_grid)
@@ -274,23 +333,12 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
     zg = (
         ca.vertcat(c_b / SCALE[0], ca.atan(t_b), K_b / SCALE[2]) if p == 3 else ca.vertcat(ca.atan(t_b), K_b / SCALE[2])
     )
-    pick = ca.Function("pick", [sc, yy_s, lz, uz, Kg], [zg])
-    K_lo, K_hi = lbz[p - 1] * SCALE[2], ubz[p - 1] * SCALE[2]
-    frac = np.linspace(0.0, 1.0, n_grid) if n_grid > 1 else np.zeros(1)
-    Kgrid = 1 / (1 / K_hi + ca.DM(frac) * (1 / K_lo - 1 / K_hi))  # uniform in 1/K
-    # mapped over the samples with the sums accumulated in the loop (reduce_out)
-    gm, yy = grid_sums(*g_rows, l, b, Kgrid)
-    zgrid = pick(gm, yy, lbz, ubz, Kgrid)
-    zs = ca.if_else(use0 > 0.5, z0, zgrid)
-    zs = ca.fmin(ca.fmax(zs, lbz), ubz)
-    scale = 0.5 * ca.sumsqr(force * wt)
+    return ca.Function("pick", [sc, yy_s, lz, uz, Kg], [zg])
 
-    # ---- 2. damped projected Newton iterations (state: z, lam, f, g, H, D, iters)
 
-    def evaluate(z):
-        s = evm(z, slip, force, W, wt, l, b)
-        return s[0], s[1 : 1 + p], ca.reshape(s[1 + p : 1 + p + p * p], p, p), s[1 + p + p * p :]
-
+def _lm_tests(p: int) -> tuple[ca.Function, ca.Function, ca.Function, ca.Function]:
+    """The first-order test with bounds, its certificate, the damped projected Newton trial, the acceptance."""
+    lz, uz = ca.SX.sym("lz", p), ca.SX.sym("uz", p)
     # the first-order (KKT) test with bounds: the stopping test AND the certificate (one home);
     # tolS = [KKT_TOL, ZERO_COST] are inputs, not compiled-in constants
     zS, gS, DS, fS, scS = ca.SX.sym("z", p), ca.SX.sym("g", p), ca.SX.sym("D", p), ca.SX.sym("f"), ca.SX.sym("sc")
@@ -323,6 +371,16 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
         ],
     )
 
+    return kkt, certify, trial, accept
+
+
+def _lm_blocks(p: int, n: int, evm, kkt, trial, accept):
+    """The iteration state's layout and the Function of one block of conditional iterations.
+
+    Returns ``(nst, cond_b, parts, converged, tol)``: the state's length, the conditional block (index 0:
+    iterate, else keep), the accessor of ``(z, f, g, D)`` in a state, the first-order test of a state and
+    the solver's tolerance input ``[KKT_TOL, ZERO_COST]``.
+    """
     nst = 3 * p + p * p + 3
     st = ca.MX.sym("state", nst)
     sz, slam, sf, sg_ = st[0:p], st[p], st[p + 1], st[p + 2 : 2 * p + 2]
@@ -362,42 +420,7 @@ def compiled_solver(p: int, n: int, n_grid: int = 25, n_iter: int = N_ITER) -> c
     keep_b = ca.Function("lm_keep_block", [st, d_, lbz_, ubz_, sc_, tol_], [st])
     cond_b = ca.Function.conditional("lm_blocks", [block_f], keep_b)
 
-    f0, g0, H0, D0 = evaluate(zs)
-    state = ca.vertcat(zs, 1e-3, f0, g0, ca.vec(H0), D0, 0)
-    for _ in range(-(-n_iter // _BLOCK)):
-        state = cond_b(converged(state, lbz, ubz, scale, tol), state, d, lbz, ubz, scale, tol)
-    out = ca.vertcat(
-        state[0:p],
-        state[p + 1],
-        state[p + 2 : 2 * p + 2],
-        ca.sum1(state[2 * p + 2 + p * p : 3 * p + 2 + p * p]),
-        state[nst - 1],
-        zs,
-        scale,
-        certify(*parts(state), lbz, ubz, scale, tol),
-    )
-    o = 4 * n + 2
-    xin = ca.MX.sym("x", o + 3 * p + 3 + gd.numel())
-    f = ca.Function("lm", [d, lbz, ubz, z0, use0, tol, gd], [out])
-    return ca.Function(
-        f"soilfit_clm_{p}_{n}_{n_grid}_{n_iter}",
-        [xin],
-        [
-            ca.densify(
-                f(
-                    xin[0:o],
-                    xin[o : o + p],
-                    xin[o + p : o + 2 * p],
-                    xin[o + 2 * p : o + 3 * p],
-                    xin[o + 3 * p],
-                    xin[o + 3 * p + 1 : o + 3 * p + 3],
-                    xin[o + 3 * p + 3 :],
-                )
-            )
-        ],
-        ["x"],
-        ["y"],
-    )
+    return nst, cond_b, parts, converged, tol
 
 
 def resjac_function(model: str, n: int) -> ca.Function:
@@ -1041,9 +1064,10 @@ def extra_of(sol: Solution) -> dict:
 
 def result_of(pb: SlipProblem, sol: Solution, x0, solve_time: float) -> FitResult:
     """The :class:`FitResult` of a certified solve (shared statistics via ``build_result``)."""
-    kw = pb.result_kwargs(sol.curves, sol.screen)
+    samples = pb.result_kwargs(sol.curves, sol.screen)["samples"]
     if sol.screen is not None and sol.limit_screen is not None:  # (slip, F, W, curves, screen, limit screen)
-        kw["samples"] += (sol.limit_screen,)
+        samples += (sol.limit_screen,)
+    kw = pb.checked_kwargs(sol.residuals, sol.theta, samples)
     return build_result(
         data_kind="slip",
         model=pb.model,

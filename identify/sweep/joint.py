@@ -32,7 +32,14 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from ...soilmodel.effects import EFFECTS, EffectSet, effect_symbols, parameter_bounds, parameter_scale
+from ...soilmodel.effects import (
+    EFFECTS,
+    EffectSet,
+    effect_symbols,
+    normal_load_function,
+    parameter_bounds,
+    parameter_scale,
+)
 from ...soilmodel.ridge import fmax_range, one_load, ridge_centre
 from ...soilmodel.threadsafe import call_solver, locked_cache
 from ...soilmodel.traction import max_thrust_expr
@@ -41,6 +48,7 @@ from .problem import SCALE, SlipProblem
 from ..estimates.result import FitResult, build_result
 from .start import start_point
 from .model import SweepResiduals, observation_function, predict
+from .plausibility import slip_checks
 
 __all__ = ["fit_joint", "joint_layout", "padded_size"]
 
@@ -125,56 +133,15 @@ def fit_joint(
     """
     structure = pb.effects if pb.effects is not None else EffectSet()
     labels, eb, escale, units = joint_layout(pb.vehicle, structure)
-    m = len(labels)
     S = np.concatenate([SCALE, escale])
     key = tuple(sorted((ipopt_options or {}).items()))
     n_pad = padded_size(pb.n)
     solver = _solver(pb.vehicle, structure, pb.model, pb.measured, pb.rig_speed, n_pad, key)
     t0 = time.perf_counter()
     fixed = dict(pb.fixed)
-    # start: nominal soil from the variable-projection grid (on the tractive-force equivalent), effects off
-    if start_x is not None:
-        sx = np.asarray(start_x, float).ravel()
-        theta0, e0, start = sx[:3].copy(), [float(v) for v in sx[3:]], "given start"
-    else:
-        theta0, start = start_point(pb, x0, "grid", n_grid)
-        start += ", effects at their given or default values"
-        e0 = []
-        given = dict(pb.effect_start)
-        for lab, (lo, hi) in zip(labels, eb):
-            name, pname = lab.split(".", 1)
-            spec = EFFECTS[name].param(pname)
-            v = fixed.get(lab, given.get(lab, spec.off_value if spec.default is None else spec.default))
-            e0.append(min(max(v, lo), hi))
-    lo = np.concatenate([pb.bounds.lower, eb[:, 0]]) / S
-    hi = np.concatenate([pb.bounds.upper, eb[:, 1]]) / S
-    z0 = np.concatenate([theta0, e0]) / S
-    if pb.model == "cohesion-free":
-        lo[0] = hi[0] = z0[0] = 0.0
-    for k, lab in enumerate(labels):
-        if lab in fixed:
-            lo[3 + k] = hi[3 + k] = z0[3 + k] = fixed[lab] / S[3 + k]
-    for j, v in (hold or {}).items():
-        lo[j] = hi[j] = z0[j] = float(v) / S[j]
-    z0 = np.clip(z0, lo, hi)
-    y = pb.measured_values
-    yw = y / pb.sigma
-    scale = max(0.5 * float(yw @ yw), 1e-300)
-    pad = n_pad - pb.n
-    p = np.concatenate(
-        [
-            pb.slip,
-            np.zeros(pad),
-            y,
-            np.zeros(pad),
-            pb.load,
-            np.full(pad, pb.load[0]),
-            1.0 / pb.sigma,
-            np.zeros(pad),
-            [scale],
-        ]
-    )
-    args = {"x0": z0, "p": p, "lbx": lo, "ubx": hi}
+    theta0, e0, start = _joint_start(pb, labels, eb, fixed, x0, n_grid, start_x)
+    lo, hi, z0 = _joint_box(pb, labels, eb, S, fixed, np.concatenate([theta0, e0]), hold)
+    args = {"x0": z0, "p": _joint_parameters(pb, n_pad), "lbx": lo, "ubx": hi}
     if "pressure_distribution" in structure:
         args.update(lbg=-1.0, ubg=1.0)
     W = pb.load
@@ -182,59 +149,17 @@ def fit_joint(
     ridge = (
         pb.model == "full" and one_load(W) and not _separates_c_phi(structure, fixed) and not {0, 1} & set(hold or ())
     )
-    from ...soilmodel.effects import normal_load_function
-
-    n_of = normal_load_function(pb.vehicle, structure) if m else None
+    n_of = normal_load_function(pb.vehicle, structure) if labels else None
 
     def load_at(e_values) -> float:
         return float(n_of(float(W[0]), e_values)[0]) if n_of is not None else float(W[0])
 
     if ridge:
-        # c and phi enter only through F_max = A c + N tan(phi): solve for (F_max, K, effects) with
-        # F_max = N0 tan(phi_e) (c held at 0, phi_e over the F_max range of the box), exactly the
-        # optimum of the full problem without its singular Hessian (IPOPT wanders along the ridge
-        # otherwise and never certifies); the reported (c, phi) is the ridge centre below.
-        N0 = load_at(z0[3:] * S[3:])
-        F_lo, F_hi = fmax_range(N0, A, pb.bounds)
-        F0 = float(max_thrust_expr(z0[0] * S[0], z0[1] * S[1], N0, A))
-        rlo, rhi = lo.copy(), hi.copy()
-        rlo[0] = rhi[0] = 0.0
-        rlo[1], rhi[1] = np.arctan(F_lo / N0) / S[1], np.arctan(F_hi / N0) / S[1]
-        rz0 = z0.copy()
-        rz0[0] = 0.0
-        rz0[1] = min(max(np.arctan(F0 / N0) / S[1], rlo[1]), rhi[1])
-        args.update(x0=rz0, lbx=rlo, ubx=rhi)
-        sol, st = call_solver(solver, **args)
-        xr = np.asarray(sol["x"], float).ravel() * S
-        lo_c, hi_c = rlo, rhi
-        if np.all(np.isfinite(xr)):
-            Nr = load_at(xr[3:])
-            Fr = float(max_thrust_expr(0.0, xr[1], Nr, A))
-            f_lo, f_hi = fmax_range(Nr, A, pb.bounds)
-            if not f_lo * (1 - 1e-9) <= Fr <= f_hi * (1 + 1e-9):
-                # the fitted effects moved N so far that this F_max leaves the box: solve the full problem
-                c_r, phi_r = ridge_centre(Fr, Nr, A, pb.bounds)
-                z1 = np.concatenate([[float(c_r), float(phi_r)], xr[2:]]) / S
-                args.update(x0=np.clip(z1, lo, hi), lbx=lo, ubx=hi)
-                sol, st = call_solver(solver, **args)
-                lo_c, hi_c = lo, hi
+        sol, st, lo_c, hi_c = _ridge_solve(pb, solver, args, S, lo, hi, z0, load_at)
     else:
         sol, st = call_solver(solver, **args)
         lo_c, hi_c = lo, hi
-    x = np.asarray(sol["x"], float).ravel() * S
-    status = str(st.get("return_status", "unknown"))
-    iters = int(st.get("iter_count", -1))
-    ok = bool(st.get("success", False)) and status in _OK_STATUS
-    msgs = []
-    if not np.all(np.isfinite(x)):
-        ok = False
-        msgs.append("IPOPT returned non-finite numbers")
-    span = np.where(hi_c > lo_c, hi_c - lo_c, 1.0) * S
-    viol = np.maximum(lo_c * S - x, x - hi_c * S) / span
-    if np.any(viol > 1e-6):
-        ok = False
-        msgs.append("IPOPT's answer lies outside the bounds")
-    x = np.clip(np.where(np.isfinite(x), x, z0 * S), lo_c * S, hi_c * S)
+    x, status, iters, ok, msgs = _checked_solution(sol, st, lo_c, hi_c, z0, S)
     theta, e = x[:3].copy(), x[3:].copy()
     note = ""
     if ridge and ok:
@@ -244,22 +169,13 @@ def fit_joint(
         theta[0], theta[1] = float(c), float(phi)
         note = "; one normal load: (c, phi) moved along the ridge to its centre (predictions unchanged)"
     total = time.perf_counter() - t0
+    y = pb.measured_values
     ypred, J = predict(
         np.concatenate([theta, e]), pb.slip, pb.load, pb.vehicle, structure, pb.model, pb.measured, pb.rig_speed
     )
     r = ypred - y
     msg = "; ".join(msgs) or ("IPOPT converged" if ok else f"IPOPT: {status}")
-    warnings = pb.noise_warning(r)
-    active = []
-    if "pressure_distribution" in structure:
-        pe, pa = e[labels.index("pressure_distribution.e")], e[labels.index("pressure_distribution.alpha")]
-        if abs(pe) + abs(pa) >= 1.0 - 1e-6:
-            active.append("pressure_distribution: |e| + |alpha| <= 1")
-            warnings = warnings + (
-                f"pressure_distribution ended on its constraint |e| + |alpha| = {abs(pe) + abs(pa):.6g} "
-                "<= 1 (the pressure reaches zero somewhere on the track): e and alpha and their "
-                "intervals are on that boundary, a warning about the data or the model",
-            )
+    active, warnings = _pressure_constraint(structure, labels, e, pb.noise_warning(r))
     return build_result(
         data_kind="slip",
         model=pb.model,
@@ -293,4 +209,130 @@ def fit_joint(
         fixed_labels=tuple(fixed),
         measured=pb.measured,
         residual_model=SweepResiduals(pb.rig_speed),
+        plausibility=slip_checks(None, r, theta, pb.load, pb.vehicle, pb.model, pb.bounds),
     )
+
+
+def _joint_start(pb: SlipProblem, labels, eb, fixed: dict, x0, n_grid: int, start_x):
+    """``(theta0, e0, words)``: the given start, or the nominal soil from the grid and the effects' defaults."""
+    # start: nominal soil from the variable-projection grid (on the tractive-force equivalent), effects off
+    if start_x is not None:
+        sx = np.asarray(start_x, float).ravel()
+        return sx[:3].copy(), [float(v) for v in sx[3:]], "given start"
+    theta0, start = start_point(pb, x0, "grid", n_grid)
+    start += ", effects at their given or default values"
+    e0 = []
+    given = dict(pb.effect_start)
+    for lab, (lo, hi) in zip(labels, eb):
+        name, pname = lab.split(".", 1)
+        spec = EFFECTS[name].param(pname)
+        v = fixed.get(lab, given.get(lab, spec.off_value if spec.default is None else spec.default))
+        e0.append(min(max(v, lo), hi))
+    return theta0, e0, start
+
+
+def _joint_box(pb: SlipProblem, labels, eb, S, fixed: dict, x_start, hold):
+    """Scaled bounds and start ``(lo, hi, z0)``: cohesion-free, held effects and profile points pinned."""
+    lo = np.concatenate([pb.bounds.lower, eb[:, 0]]) / S
+    hi = np.concatenate([pb.bounds.upper, eb[:, 1]]) / S
+    z0 = x_start / S
+    if pb.model == "cohesion-free":
+        lo[0] = hi[0] = z0[0] = 0.0
+    for k, lab in enumerate(labels):
+        if lab in fixed:
+            lo[3 + k] = hi[3 + k] = z0[3 + k] = fixed[lab] / S[3 + k]
+    for j, v in (hold or {}).items():
+        lo[j] = hi[j] = z0[j] = float(v) / S[j]
+    return lo, hi, np.clip(z0, lo, hi)
+
+
+def _joint_parameters(pb: SlipProblem, n_pad: int) -> np.ndarray:
+    """The NLP's parameter vector: slips, measurements, loads, weights (padded), the cost scale."""
+    y = pb.measured_values
+    yw = y / pb.sigma
+    scale = max(0.5 * float(yw @ yw), 1e-300)
+    pad = n_pad - pb.n
+    return np.concatenate(
+        [
+            pb.slip,
+            np.zeros(pad),
+            y,
+            np.zeros(pad),
+            pb.load,
+            np.full(pad, pb.load[0]),
+            1.0 / pb.sigma,
+            np.zeros(pad),
+            [scale],
+        ]
+    )
+
+
+def _ridge_solve(pb: SlipProblem, solver, args: dict, S, lo, hi, z0, load_at):
+    """One normal load: solve in (F_max, K, effects); the full problem if the effects move F_max off the box.
+
+    c and phi enter only through F_max = A c + N tan(phi): solve for (F_max, K, effects) with
+    F_max = N0 tan(phi_e) (c held at 0, phi_e over the F_max range of the box), exactly the
+    optimum of the full problem without its singular Hessian (IPOPT wanders along the ridge
+    otherwise and never certifies); the reported (c, phi) is the ridge centre.
+    Returns ``(sol, stats, lo, hi)`` with the bounds of the problem solved last.
+    """
+    A = pb.vehicle.contact_area
+    N0 = load_at(z0[3:] * S[3:])
+    F_lo, F_hi = fmax_range(N0, A, pb.bounds)
+    F0 = float(max_thrust_expr(z0[0] * S[0], z0[1] * S[1], N0, A))
+    rlo, rhi = lo.copy(), hi.copy()
+    rlo[0] = rhi[0] = 0.0
+    rlo[1], rhi[1] = np.arctan(F_lo / N0) / S[1], np.arctan(F_hi / N0) / S[1]
+    rz0 = z0.copy()
+    rz0[0] = 0.0
+    rz0[1] = min(max(np.arctan(F0 / N0) / S[1], rlo[1]), rhi[1])
+    args.update(x0=rz0, lbx=rlo, ubx=rhi)
+    sol, st = call_solver(solver, **args)
+    xr = np.asarray(sol["x"], float).ravel() * S
+    lo_c, hi_c = rlo, rhi
+    if np.all(np.isfinite(xr)):
+        Nr = load_at(xr[3:])
+        Fr = float(max_thrust_expr(0.0, xr[1], Nr, A))
+        f_lo, f_hi = fmax_range(Nr, A, pb.bounds)
+        if not f_lo * (1 - 1e-9) <= Fr <= f_hi * (1 + 1e-9):
+            # the fitted effects moved N so far that this F_max leaves the box: solve the full problem
+            c_r, phi_r = ridge_centre(Fr, Nr, A, pb.bounds)
+            z1 = np.concatenate([[float(c_r), float(phi_r)], xr[2:]]) / S
+            args.update(x0=np.clip(z1, lo, hi), lbx=lo, ubx=hi)
+            sol, st = call_solver(solver, **args)
+            lo_c, hi_c = lo, hi
+    return sol, st, lo_c, hi_c
+
+
+def _checked_solution(sol, st, lo_c, hi_c, z0, S):
+    """``(x, status, iterations, ok, messages)``: IPOPT's answer in SI, non-finite or out-of-bounds said."""
+    x = np.asarray(sol["x"], float).ravel() * S
+    status = str(st.get("return_status", "unknown"))
+    iters = int(st.get("iter_count", -1))
+    ok = bool(st.get("success", False)) and status in _OK_STATUS
+    msgs = []
+    if not np.all(np.isfinite(x)):
+        ok = False
+        msgs.append("IPOPT returned non-finite numbers")
+    span = np.where(hi_c > lo_c, hi_c - lo_c, 1.0) * S
+    viol = np.maximum(lo_c * S - x, x - hi_c * S) / span
+    if np.any(viol > 1e-6):
+        ok = False
+        msgs.append("IPOPT's answer lies outside the bounds")
+    x = np.clip(np.where(np.isfinite(x), x, z0 * S), lo_c * S, hi_c * S)
+    return x, status, iters, ok, msgs
+
+
+def _pressure_constraint(structure: EffectSet, labels, e, warnings: tuple):
+    """The active constraint ``|e| + |alpha| <= 1`` of the pressure distribution, with its warning."""
+    active = []
+    if "pressure_distribution" in structure:
+        pe, pa = e[labels.index("pressure_distribution.e")], e[labels.index("pressure_distribution.alpha")]
+        if abs(pe) + abs(pa) >= 1.0 - 1e-6:
+            active.append("pressure_distribution: |e| + |alpha| <= 1")
+            warnings = warnings + (
+                f"pressure_distribution ended on its constraint |e| + |alpha| = {abs(pe) + abs(pa):.6g} "
+                "<= 1 (the pressure reaches zero somewhere on the track): e and alpha and their "
+                "intervals are on that boundary, a warning about the data or the model",
+            )
+    return active, warnings

@@ -20,7 +20,7 @@ from ...soilmodel.errors import DataError
 from ...soilmodel.ridge import LOAD_RTOL
 from ...soilmodel.threadsafe import locked_cache
 from ...soilmodel.vehicle import Vehicle
-from ..estimates.records import solver_converged
+from ..estimates.records import fit_vector, solver_converged
 
 __all__ = ["observation_function", "predict", "slip_slope", "fit_vector", "nominal_offset", "SweepResiduals"]
 
@@ -69,12 +69,6 @@ def predict(
     x = np.asarray(x, dtype=float).reshape(-1, 1)
     y, J = _mapped(vehicle, structure, model, measured, float(rig_speed), n)(s, Wr, x)
     return np.asarray(y, dtype=float).ravel(), np.asarray(J, dtype=float).reshape(n, x.size)
-
-
-def fit_vector(result) -> np.ndarray:
-    """``x = [c, phi, K, e...]`` (SI) of a slip fit: its ``theta`` and its effect values (none without effects)."""
-    ev = result.effect_values if result.effect_labels and result.effect_values is not None else []
-    return np.concatenate([np.asarray(result.theta, dtype=float), np.asarray(ev, dtype=float).ravel()])
 
 
 @locked_cache(maxsize=64)

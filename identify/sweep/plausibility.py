@@ -29,13 +29,13 @@ like :class:`~soiltrack.soilmodel.DataError`'s: row 1 is the first data row of t
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from functools import lru_cache
 
 import casadi as ca
 import numpy as np
 
-from ...soilmodel.ridge import continuous_load
+from ...soilmodel.ridge import continuous_load, corner_soils
+from ..estimates.records import LOAD_FACTOR, Finding, check_loads
+from ...soilmodel.ridge import soil_fmax_range as fmax_range
 from ...soilmodel.soil import SoilBounds
 from ...soilmodel.traction import max_thrust_expr, thrust_at
 from ...soilmodel.vehicle import Vehicle
@@ -44,6 +44,7 @@ from ...soilmodel.units import format_value
 
 __all__ = [
     "Finding",
+    "slip_checks",
     "fmax_range",
     "corner_soils",
     "corner_curves",
@@ -77,37 +78,10 @@ RESIDUAL_RATIO = 0.5
 BOUND_FACTOR = 2.0
 #: F_max within this share of the range the bounds allow from either end counts as on that bound.
 LIMIT_BAND = 1e-3
-#: Normal loads (median over the rows) more than this factor below or above the vehicle's weight are
-#: not this vehicle's: one track of it on a rig, a payload change or a slope stay well within it; a
-#: light vehicle's 300 N sweep fitted with a 329 kN vehicle's file (0.1 %) does not.
-LOAD_FACTOR = 10.0
 #: Fewest samples for a robust residual scale (median absolute deviation).
 MIN_ROBUST = 6
 #: Relative slack of :func:`screen_expr`: rounding never lets the screen pass data a check would flag.
 SCREEN_SLACK = 1e-9
-
-
-@dataclass(frozen=True)
-class Finding:
-    """One plausibility finding.
-
-    Attributes
-    ----------
-    code : str
-        ``"force_scale_low"``, ``"force_above_any_soil"``, ``"negative_thrust"``,
-        ``"limit_on_bound"``, ``"residuals_large"``, ``"outlier"``.
-    message : str
-        What is wrong and what to check, in plain words.
-    usable : bool
-        Whether the fit's answer can still be used (``False`` makes the fit unsuccessful).
-    rows : tuple of int
-        Data rows concerned (1-based), if any.
-    """
-
-    code: str
-    message: str
-    usable: bool
-    rows: tuple[int, ...] = ()
 
 
 def _fmt_force(x: float) -> str:
@@ -118,41 +92,6 @@ def _rows(idx, limit: int = 5) -> str:
     rows = [int(k) + 1 for k in idx]
     text = ", ".join(str(r) for r in rows[:limit])
     return text + (f" and {len(rows) - limit} more" if len(rows) > limit else "")
-
-
-def corner_soils(bounds: SoilBounds, model: str) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-    """``[c, phi, K]`` (SI) of the weakest (c, phi low, K high) and strongest (c, phi high, K low) soil
-    within the bounds (c = 0 for the cohesion-free model)."""
-    try:
-        return _corner_soils(bounds, model)
-    except TypeError:  # unhashable bounds: not cached
-        return _corner_soils.__wrapped__(bounds, model)
-
-
-@lru_cache(maxsize=64)
-def _corner_soils(bounds: SoilBounds, model: str) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-    cf = model == "cohesion-free"
-    return (
-        (0.0 if cf else float(bounds.cohesion[0]), float(bounds.friction_angle[0]), float(bounds.shear_modulus[1])),
-        (0.0 if cf else float(bounds.cohesion[1]), float(bounds.friction_angle[1]), float(bounds.shear_modulus[0])),
-    )
-
-
-def fmax_range(bounds: SoilBounds, vehicle: Vehicle, model: str, normal_load: float) -> tuple[float, float]:
-    """Smallest and largest thrust limit F_max (N) that soils within the bounds give at this load."""
-    key = (bounds, vehicle.contact_area, model, float(normal_load))
-    try:
-        return _fmax_range(*key)
-    except TypeError:  # unhashable bounds: not cached
-        return _fmax_range.__wrapped__(*key)
-
-
-@lru_cache(maxsize=1024)
-def _fmax_range(bounds: SoilBounds, A: float, model: str, W: float) -> tuple[float, float]:
-    weak, strong = corner_soils(bounds, model)
-    return float(max_thrust_expr(weak[0], weak[1], W, A, model)), float(
-        max_thrust_expr(strong[0], strong[1], W, A, model)
-    )
 
 
 def corner_curves(slip, load, vehicle: Vehicle, model: str, bounds: SoilBounds) -> tuple[np.ndarray, np.ndarray]:
@@ -297,39 +236,6 @@ def limit_screen_expr(c, phi, load, weak, strong, area, model: str, real):
     slack = SCREEN_SLACK * (ca.fabs(fm) + ca.fabs(lo) + ca.fabs(hi))
     clear = ca.logic_and(fm > lo + tol + slack, fm < hi - tol - slack)  # NaN: not clear
     return ca.sum2(ca.if_else(real > 0, 1 - clear, 0)) > 0
-
-
-def check_loads(load, vehicle: Vehicle) -> list[Finding]:
-    """The rows' normal loads against the vehicle's weight (:data:`LOAD_FACTOR`); not usable beyond it.
-
-    Parameters
-    ----------
-    load : array_like
-        Normal load per row, N (the vehicle's weight where the data give none).
-    vehicle
-        The vehicle of the fit: its weight W = m g and contact area A.
-    """
-    load = _vec(load)
-    W = float(vehicle.weight)
-    if not load.size or W <= 0 or (_MIN(load) * LOAD_FACTOR >= W and _MAX(load) <= LOAD_FACTOR * W):
-        return []  # every row within the factor (the common case: one comparison each way)
-    if not _all_finite(load):
-        return []
-    med = _median(load, finite=True)
-    ratio = med / W
-    if 1.0 / LOAD_FACTOR <= ratio <= LOAD_FACTOR:
-        return []
-    size = f"{100 * ratio:.2g} % of" if ratio < 1 else f"{ratio:.3g} times"
-    return [
-        Finding(
-            "load_not_this_vehicle",
-            f"the data's normal loads (median {_fmt_force(med)}) are {size} this vehicle's weight "
-            f"({_fmt_force(W)}): they are not this vehicle's, and its contact area "
-            f"A = {vehicle.contact_area:.4g} m^2 makes the cohesion (A c in F_max) meaningless; check --vehicle "
-            "(the file or preset of the vehicle that made the data) and the unit of the normal_load_N column",
-            usable=False,
-        )
-    ]
 
 
 def check_slip_data(
@@ -613,3 +519,19 @@ def assess(
             named |= set(f.rows)
     usable = all(f.usable for f in found)
     return tuple(("NOT USABLE: " if not f.usable else "") + f.message for f in found), usable
+
+
+def slip_checks(samples, residuals, theta, normal_loads, vehicle: Vehicle, model: str, bounds: SoilBounds):
+    """The plausibility checks' verdict on a slip fit, ``(warnings, usable)``, for ``build_result(plausibility=...)``.
+
+    ``samples``: ``(slip, thrust_N, load_N)`` per sample, optionally followed by the weakest and strongest
+    soil's thrust at each sample ``(F_weak, F_strong)`` when the solver has them (:func:`corner_curves`) and
+    the solver's screen of them (:func:`screen_expr`) and of F_max on a bound (:func:`limit_screen_expr`):
+    then :func:`assess` runs. None (a fit without the checks of the data: joint fits, a failed batch item):
+    the loads against the vehicle all the same (:func:`check_loads`).
+    """
+    if samples is not None:
+        slip, thrust, load, *curves = samples
+        return assess(slip, thrust, load, residuals, theta, vehicle, model, bounds, *curves)
+    loads = check_loads(normal_loads, vehicle)
+    return tuple("NOT USABLE: " + f.message for f in loads), not loads

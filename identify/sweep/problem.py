@@ -34,6 +34,7 @@ from ...soilmodel.traction import MODELS
 from ...soilmodel.vehicle import Vehicle
 from ..estimates.result import FitResult, build_result
 from .model import SweepResiduals, nominal_offset, predict
+from .plausibility import slip_checks
 
 __all__ = ["SlipProblem", "make_problem", "FitFailed", "SCALE", "METHODS", "n_free", "ridge_centre", "weights"]
 
@@ -317,8 +318,16 @@ class SlipProblem:
             sigma_known=self.sigma_known,
             warnings=warnings,
             extra={"sigma_model": self.noise_model, **(extra or {})},
-            **self.result_kwargs(),
+            **self.checked_kwargs(r, theta),
         )
+
+    def checked_kwargs(self, residuals, theta, samples: tuple | None = None) -> dict:
+        """:meth:`result_kwargs` with the plausibility checks run on ``samples`` (default: these data's rows)."""
+        kw = self.result_kwargs()
+        found = samples if samples is not None else kw.pop("samples")
+        kw.pop("samples", None)
+        plausibility = slip_checks(found, residuals, theta, self.load, self.vehicle, self.model, self.bounds)
+        return {**kw, "plausibility": plausibility}
 
     def result_kwargs(self, curves: tuple | None = None, screen: float | None = None) -> dict:
         """What every slip result records about these data: pass to ``build_result(..., **pb.result_kwargs())``.

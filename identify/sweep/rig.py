@@ -34,6 +34,7 @@ from ...soilmodel.data import STD_COLUMNS, SlipData
 from ...soilmodel.ridge import distinct_loads
 from ..outcome import OUTCOME_SETTINGS, pure_error_f_test
 from .sinkage_channel import compare_slip_resistance, fit_sinkage_channel
+from ..estimates.records import LOAD_SLIP_CORRELATION, LOAD_SPREAD_SMALL, LoadSeparation
 
 __all__ = [
     "LOAD_SPREAD_SMALL",
@@ -48,67 +49,11 @@ __all__ = [
     "rig_extra",
 ]
 
-#: Spread of the normal load, (max - min) / median, below which c and phi rest on little (a designed
-#: test at 300 and 450 N spreads 0.4; measured rig loads of 21-26 N spread 0.18).
-LOAD_SPREAD_SMALL = 0.3
-#: |correlation| of the load with the slip above which a load effect and a slip effect mix.
-LOAD_SLIP_CORRELATION = 0.5
 #: Rows whose slips differ by at most this are repeats of one condition.
 SLIP_REPEAT_TOL = 0.005
 #: Level of the lack-of-fit test's verdict: the outcome rules' one level
 #: (:attr:`soiltrack.identify.outcome.OutcomeSettings.lack_of_fit_level`; it was 5 % before).
 LACK_OF_FIT_ALPHA = OUTCOME_SETTINGS.lack_of_fit_level
-
-
-@dataclass(frozen=True)
-class LoadSeparation:
-    """How the normal load separates c and phi in a sweep at several loads.
-
-    Attributes
-    ----------
-    spread
-        ``(max - min) / median`` of the rows' loads.
-    slip_correlation
-        Correlation of the load with the slip over the rows.
-    fragile
-        The spread is small or the load correlates with the slip: the separation rests on it.
-    """
-
-    spread: float
-    slip_correlation: float
-    fragile: bool
-
-    def statement(self, result) -> str:
-        """Plain words, with the fit's intervals of c and phi (profile likelihood when fragile)."""
-        why = []
-        if self.spread < LOAD_SPREAD_SMALL:
-            why.append(f"the load spreads only {100 * self.spread:.0f} % of its median")
-        if abs(self.slip_correlation) > LOAD_SLIP_CORRELATION:
-            why.append(
-                f"the load correlates with the slip (r = {self.slip_correlation:+.2f}): a slip effect can "
-                "pass for a load effect"
-            )
-        if not self.fragile:
-            return ""
-        ivs = []
-        for name, label in (("cohesion", "c"), ("friction_angle", "phi")):
-            pe = result.parameters.get(name)
-            if pe is None or pe.fixed:
-                continue
-            lo, hi = pe.edge_ci95
-            tag = " (profile)" if name in (result.replaced_intervals or {}) else ""
-            if lo is not None and hi is not None:
-                ivs.append(f"{label} in [{lo:.3g}, {hi:.3g}] {pe.edge_unit}{tag}")
-        tail = f"; 95 % intervals: {', '.join(ivs)}" if ivs else ""
-        return (
-            "c and phi are told apart only through the normal load's spread, and "
-            + " and ".join(why)
-            + f": the separation rests on it{tail}"
-        )
-
-    def to_dict(self) -> dict:
-        """JSON-ready: the numbers and the verdict (the statement needs the fit: :meth:`statement`)."""
-        return {"spread": self.spread, "slip_correlation": self.slip_correlation, "fragile": self.fragile}
 
 
 @dataclass(frozen=True)

@@ -257,26 +257,9 @@ def fit_with_slip_noise(pb, solve, mode) -> tuple[FitResult, SlipNoise, SlipProb
     res = solve(pb, None)
     if mode == "off":
         return res, SlipNoise("off", False, note="slip taken as exact"), pb
-    if pb.n < MIN_SAMPLES:
-        return (
-            res,
-            SlipNoise(
-                "auto" if mode == "auto" else "given",
-                False,
-                note=f"fewer than {MIN_SAMPLES} samples: slip taken as exact",
-            ),
-            pb,
-        )
-    if not res.success:
-        return (
-            res,
-            SlipNoise(
-                "auto" if mode == "auto" else "given",
-                False,
-                note="the exact-slip fit did not succeed: no slip-noise weights",
-            ),
-            pb,
-        )
+    early = _exact_slip_only(res, pb, mode)
+    if early is not None:
+        return early
     base = pb.sigma
     given = None if mode == "auto" else float(mode)
 
@@ -319,21 +302,7 @@ def fit_with_slip_noise(pb, solve, mode) -> tuple[FitResult, SlipNoise, SlipProb
             ),
             pb,
         )
-    it, converged, last, last_pb = 0, False, res, pb
-    while it < MAX_ITER:
-        it += 1
-        q = replace(pb, sigma=sig / s)  # relative weights when the level is estimated (s = 1 when known)
-        cur = solve(q, fit_vector(last))
-        if not cur.success:
-            break
-        last, last_pb = cur, q
-        d, (ss_new, s_new, _) = components(cur)
-        sig_new = np.sqrt((s_new * base) ** 2 + (ss_new * d) ** 2)
-        change = float(np.max(np.abs(sig_new - sig) / sig))
-        sig, ss, s = sig_new, ss_new, s_new
-        if change < WEIGHT_RTOL:
-            converged = True
-            break
+    it, converged, last, last_pb, ss, s = _iterate_weights(pb, solve, res, components, (sig, ss, s))
     if last is res:  # the first weighted fit failed: keep the exact-slip fit, say so
         return (
             res,
@@ -371,3 +340,50 @@ def fit_with_slip_noise(pb, solve, mode) -> tuple[FitResult, SlipNoise, SlipProb
         ),
         last_pb,
     )
+
+
+def _exact_slip_only(res: FitResult, pb: SlipProblem, mode) -> tuple[FitResult, SlipNoise, SlipProblem] | None:
+    """The exact-slip answer when there are too few samples or its fit failed; None to go on."""
+    if pb.n < MIN_SAMPLES:
+        return (
+            res,
+            SlipNoise(
+                "auto" if mode == "auto" else "given",
+                False,
+                note=f"fewer than {MIN_SAMPLES} samples: slip taken as exact",
+            ),
+            pb,
+        )
+    if not res.success:
+        return (
+            res,
+            SlipNoise(
+                "auto" if mode == "auto" else "given",
+                False,
+                note="the exact-slip fit did not succeed: no slip-noise weights",
+            ),
+            pb,
+        )
+    return None
+
+
+def _iterate_weights(pb: SlipProblem, solve, res: FitResult, components, start: tuple):
+    """Refit with the slip-noise weights until they settle: ``(refits, converged, last, its problem, ss, s)``."""
+    base = pb.sigma
+    sig, ss, s = start
+    it, converged, last, last_pb = 0, False, res, pb
+    while it < MAX_ITER:
+        it += 1
+        q = replace(pb, sigma=sig / s)  # relative weights when the level is estimated (s = 1 when known)
+        cur = solve(q, fit_vector(last))
+        if not cur.success:
+            break
+        last, last_pb = cur, q
+        d, (ss_new, s_new, _) = components(cur)
+        sig_new = np.sqrt((s_new * base) ** 2 + (ss_new * d) ** 2)
+        change = float(np.max(np.abs(sig_new - sig) / sig))
+        sig, ss, s = sig_new, ss_new, s_new
+        if change < WEIGHT_RTOL:
+            converged = True
+            break
+    return it, converged, last, last_pb, ss, s

@@ -135,6 +135,18 @@ def _holdout(
     return math.sqrt(total / n_res), {g: v / total if total > 0 else 0.0 for g, v in sq.items()}, ok
 
 
+@dataclass(frozen=True, eq=False)
+class _Hypothesis:
+    """One explanation tried by :func:`diagnose_wheel`: its fit, held-out error and evidence."""
+
+    effect: str  #: "none" (the nominal wheel) or one of :data:`WHEEL_EFFECTS`
+    fit: WheelFitResult  #: the fit on all slip levels
+    holdout: float  #: scaled rms of the held-out residuals (each slip level left out in turn)
+    k: int  #: free parameters
+    weight: float = 0.0  #: Akaike weight among the hypotheses
+    p_value: float | None = None  #: likelihood-ratio test against the nominal fit (None for "none")
+
+
 def diagnose_wheel(
     data: WheelSweep,
     wheel: RigidWheel,
@@ -142,6 +154,57 @@ def diagnose_wheel(
     candidates: tuple[str, ...] | None = None,
 ) -> WheelDiagnosis:
     """Diagnose a wheel sweep against the nominal rigid wheel (see the module text)."""
+    cands = _checked_candidates(data, candidates)
+    nominal = fit_wheel(data, wheel, replace(options, effects=()))
+    notes = []
+    f_dp, f_z = channel_floors(float(np.mean(data.normal_load)))
+    scale = (
+        math.hypot(nominal.rmse_drawbar_pull, f_dp),
+        None if nominal.rmse_sinkage is None else math.hypot(nominal.rmse_sinkage, f_z),
+    )
+    # each left-out level's fit starts from the fit on all levels (the grid when that solve fails)
+    before, shares, ok_nom = _holdout(data, wheel, replace(options, effects=(), start=tuple(nominal.theta)), scale)
+    hyps = [_Hypothesis("none", nominal, before, sum(not e.fixed for e in nominal.parameters.values()))]
+    for eff in cands:
+        if eff == "slip_sinkage" and not data.has_sinkage:
+            notes.append("slip_sinkage needs a measured sinkage (sinkage_m) to show: not tried")
+            continue
+        r = fit_wheel(data, wheel, replace(options, effects=(eff,)))
+        ho, _, ok = _holdout(data, wheel, replace(options, effects=(eff,), start=tuple(r.theta)), scale)
+        ok_nom &= ok
+        hyps.append(_Hypothesis(eff, r, ho, sum(not e.fixed for e in r.parameters.values())))
+    hyps, verdict = _weighed(hyps, data, nominal, before)
+    lf = nominal.lack_of_fit
+    unexplained = verdict == "none" and lf.get("testable") and lf["p_value"] < ALPHA
+    if unexplained:
+        verdict = "unexplained"
+    ranking = _ranking(hyps, before)
+    if verdict == "unexplained":
+        confidence = 1.0 - float(lf["p_value"])
+    else:
+        confidence = next(r["weight"] for r in ranking if r["effect"] == verdict)
+    after = next((h.fit for h in hyps if h.effect == verdict), None)
+    shrink = next((r["shrink"] for r in ranking if r["effect"] == verdict), None) if verdict in WHEEL_EFFECTS else None
+    notes.append(
+        "held-out errors are root mean squares of residuals scaled by the nominal fit's noise level per "
+        "channel (1 = as good as the fit in-sample), each slip level left out in turn"
+    )
+    return WheelDiagnosis(
+        verdict=verdict,
+        confidence=float(confidence),
+        ranking=tuple(ranking),
+        localisation=tuple(_localisation(data, shares)),
+        shrink=shrink,
+        nominal=nominal,
+        after=after,
+        signature=_sinkage_signature(data, nominal),
+        converged=bool(nominal.success and ok_nom),
+        notes=tuple(notes),
+    )
+
+
+def _checked_candidates(data: WheelSweep, candidates: tuple[str, ...] | None) -> tuple[str, ...]:
+    """The candidate effects (default all the wheel's); DataError for an unknown one or fewer than 3 slip levels."""
     cands = WHEEL_EFFECTS if candidates is None else tuple(candidates)
     bad = [c for c in cands if c not in WHEEL_EFFECTS]
     if bad:
@@ -152,53 +215,38 @@ def diagnose_wheel(
             file=data.source,
             column="slip",
         )
-    nominal = fit_wheel(data, wheel, replace(options, effects=()))
-    notes = []
-    f_dp, f_z = channel_floors(float(np.mean(data.normal_load)))
-    scale = (
-        math.hypot(nominal.rmse_drawbar_pull, f_dp),
-        None if nominal.rmse_sinkage is None else math.hypot(nominal.rmse_sinkage, f_z),
-    )
-    # each left-out level's fit starts from the fit on all levels (the grid when that solve fails)
-    before, shares, ok_nom = _holdout(data, wheel, replace(options, effects=(), start=tuple(nominal.theta)), scale)
-    hyps = [
-        {
-            "effect": "none",
-            "fit": nominal,
-            "holdout": before,
-            "k": sum(not e.fixed for e in nominal.parameters.values()),
-        }
-    ]
-    for eff in cands:
-        if eff == "slip_sinkage" and not data.has_sinkage:
-            notes.append("slip_sinkage needs a measured sinkage (sinkage_m) to show: not tried")
-            continue
-        r = fit_wheel(data, wheel, replace(options, effects=(eff,)))
-        ho, _, ok = _holdout(data, wheel, replace(options, effects=(eff,), start=tuple(r.theta)), scale)
-        ok_nom &= ok
-        hyps.append({"effect": eff, "fit": r, "holdout": ho, "k": sum(not e.fixed for e in r.parameters.values())})
-    aic = np.array([2 * _objective(h["fit"], data) + 2 * h["k"] for h in hyps])
+    return cands
+
+
+def _weighed(
+    hyps: list[_Hypothesis], data: WheelSweep, nominal: WheelFitResult, before: float
+) -> tuple[list[_Hypothesis], str]:
+    """The hypotheses with their Akaike weights and p-values, and the verdict among the effects.
+
+    An effect wins when its likelihood-ratio test is significant at :data:`ALPHA`, it lowers the held-out
+    error, its fit succeeded, and it outweighs the effect chosen so far; else the verdict is "none".
+    """
+    aic = np.array([2 * _objective(h.fit, data) + 2 * h.k for h in hyps])
     w = np.exp(-(aic - aic.min()) / 2)
     w = w / w.sum()
     f0 = _objective(nominal, data)
-    verdict = "none"
+    verdict, best = "none", 0.0  # best: the weight of the verdict's hypothesis
+    out = []
     for h, wk in zip(hyps, w):
-        h["weight"] = float(wk)
-        if h["effect"] == "none":
-            h["p_value"] = None
+        if h.effect == "none":
+            out.append(replace(h, weight=float(wk), p_value=None))
             continue
-        lr = max(2 * (f0 - _objective(h["fit"], data)), 0.0)
-        h["p_value"] = chi2_sf(lr, 1)
-        if h["p_value"] < ALPHA and h["holdout"] < before and h["fit"].success:
-            if verdict == "none" or h["weight"] > next(x["weight"] for x in hyps if x["effect"] == verdict):
-                verdict = h["effect"]
-    lf = nominal.lack_of_fit
-    unexplained = verdict == "none" and lf.get("testable") and lf["p_value"] < ALPHA
-    if unexplained:
-        verdict = "unexplained"
-    # the slip-sinkage signature: the sinkage residual's trend with slip (nominal fit)
+        p = chi2_sf(max(2 * (f0 - _objective(h.fit, data)), 0.0), 1)
+        out.append(replace(h, weight=float(wk), p_value=p))
+        if p < ALPHA and h.holdout < before and h.fit.success and (verdict == "none" or float(wk) > best):
+            verdict, best = h.effect, float(wk)
+    return out, verdict
+
+
+def _sinkage_signature(data: WheelSweep, nominal: WheelFitResult) -> dict[str, Any]:
+    """The slip-sinkage signature: the nominal fit's sinkage residual's correlation with the slip."""
     sig: dict[str, Any] = {"correlation": None, "p_value": None, "sinkage_slip_r": None}
-    if data.has_sinkage and data.n_samples > 3:
+    if data.has_sinkage and data.n_samples > 3 and data.sinkage is not None:
         res = data.sinkage - nominal.predict_sinkage(data)
         rho = float(np.corrcoef(res, data.slip)[0, 1])
         dof = data.n_samples - 2
@@ -208,26 +256,32 @@ def diagnose_wheel(
             "p_value": 2 * (1 - t_cdf(abs(t), dof)),
             "sinkage_slip_r": float(np.corrcoef(data.sinkage, data.slip)[0, 1]),
         }
+    return sig
+
+
+def _ranking(hyps: list[_Hypothesis], before: float) -> list[dict[str, Any]]:
+    """The hypotheses by weight, as the JSON's ranking (held-out errors before and after, shrink, p-value)."""
     ranking = []
-    for h in sorted(hyps, key=lambda x: -x["weight"]):
-        sh = None if h["effect"] == "none" else 1 - h["holdout"] / before
+    for h in sorted(hyps, key=lambda x: -x.weight):
+        sh = None if h.effect == "none" else 1 - h.holdout / before
         ranking.append(
             {
-                "effect": h["effect"],
-                "weight": h["weight"],
+                "effect": h.effect,
+                "weight": h.weight,
                 "holdout_rmse_before": before,
-                "holdout_rmse_after": None if h["effect"] == "none" else h["holdout"],
+                "holdout_rmse_after": None if h.effect == "none" else h.holdout,
                 "shrink": sh,
-                "p_value": h["p_value"],
+                "p_value": h.p_value,
                 "parameters": (
-                    {"slip_sinkage": h["fit"].parameters["slip_sinkage"].value} if h["effect"] == "slip_sinkage" else {}
+                    {"slip_sinkage": h.fit.parameters["slip_sinkage"].value} if h.effect == "slip_sinkage" else {}
                 ),
             }
         )
-    if verdict == "unexplained":
-        confidence = 1.0 - float(lf["p_value"])
-    else:
-        confidence = next(r["weight"] for r in ranking if r["effect"] == verdict)
+    return ranking
+
+
+def _localisation(data: WheelSweep, shares: dict[int, float]) -> list[dict[str, Any]]:
+    """Where the held-out error sits: each slip level's share, largest first."""
     lev = slip_levels(data.slip)
     loc = []
     for g, share in sorted(shares.items(), key=lambda kv: -kv[1]):
@@ -241,21 +295,4 @@ def diagnose_wheel(
                 "significant": bool(share > LOCALISATION_SHARE / len(shares)),
             }
         )
-    after = next((h["fit"] for h in hyps if h["effect"] == verdict), None)
-    shrink = next((r["shrink"] for r in ranking if r["effect"] == verdict), None) if verdict in WHEEL_EFFECTS else None
-    notes.append(
-        "held-out errors are root mean squares of residuals scaled by the nominal fit's noise level per "
-        "channel (1 = as good as the fit in-sample), each slip level left out in turn"
-    )
-    return WheelDiagnosis(
-        verdict=verdict,
-        confidence=float(confidence),
-        ranking=tuple(ranking),
-        localisation=tuple(loc),
-        shrink=shrink,
-        nominal=nominal,
-        after=after,
-        signature=sig,
-        converged=bool(nominal.success and ok_nom),
-        notes=tuple(notes),
-    )
+    return loc

@@ -703,23 +703,9 @@ def build_wheel_result(
     sink = data.has_sinkage
     lo, hi = np.array(options.bounds.lower), np.array(options.bounds.upper)
     theta = np.clip(theta, lo, hi)  # IPOPT may end a hair outside a bound (its bound relaxation)
-    s_dp = math.sqrt(float(residual_dp @ residual_dp) / n)
-    s_z = math.sqrt(float(residual_z @ residual_z) / n) if sink else None
-    # the weights the objective's optimum used: 1 / (SSR_k / n + floor_k^2) per channel
-    f_dp, f_z = channel_floors(float(np.mean(data.normal_load)))
-    s_dp_eff = math.sqrt(s_dp**2 + f_dp**2)
-    rw = residual_dp / s_dp_eff
-    J = jac_dp / s_dp_eff
-    if s_z is not None:
-        s_z_eff = math.sqrt(s_z**2 + f_z**2)
-        rw = np.concatenate([rw, residual_z / s_z_eff])
-        J = np.vstack([J, jac_z / s_z_eff])
-    s_t = None
-    if residual_torque is not None and jac_torque is not None:
-        s_t = math.sqrt(float(residual_torque @ residual_torque) / n)
-        s_t_eff = math.hypot(s_t, torque_floor(float(np.mean(data.normal_load)), wheel.radius))
-        rw = np.concatenate([rw, residual_torque / s_t_eff])
-        J = np.vstack([J, jac_torque / s_t_eff])
+    rw, J, (s_dp, s_z, s_t) = _weighted_channels(
+        data, wheel, (residual_dp, jac_dp), (residual_z, jac_z), (residual_torque, jac_torque)
+    )
     finite = bool(np.all(np.isfinite(J)) and np.all(np.isfinite(rw)) and np.all(np.isfinite(theta)))
     names = [WHEEL_PARAMETERS[k] for k in range(len(WHEEL_PARAMETERS)) if free[k]]
     st = core_stats_one(np.where(np.isfinite(J), J, 0.0), np.where(np.isfinite(rw), rw, 0.0), False)
@@ -737,25 +723,7 @@ def build_wheel_result(
     statements: list[str] = []
     null_dirs = _null_statements(null, D, names, statements)
     statements += _parameter_statements(names, nonid, weak_names, combos, params, ident)
-    W = data.normal_load
-    spread = float((W.max() - W.min()) / W.mean())
-    warnings = []
-    if spread < LOAD_SPREAD_MIN:
-        statements.append(
-            f"the loads span only {100 * spread:.0f} % of their mean ({W.min():.4g}-{W.max():.4g} N): "
-            "c and phi separate only through the pressure's variation along the arc and with the "
-            "sinkage, not through the load."
-        )
-    if n > 2 and np.std(W) > 0 and np.std(data.slip) > 0:
-        rho = float(np.corrcoef(W, data.slip)[0, 1])
-        if abs(rho) > LOAD_SLIP_CORRELATION_WARN:
-            warnings.append(
-                f"the load correlates with the slip (r = {rho:+.2f}): what the fit attributes to the load "
-                "may be the slip's doing and vice versa; c and phi rest on it."
-            )
-    at_bound = [k for k, e in params.items() if e.at_bound]
-    if at_bound:
-        warnings.append(f"on a bound: {', '.join(at_bound)} (the interval of a bound-pinned value is not reliable).")
+    warnings = _load_notes(data, params, statements)
     rank_dp = int(core_stats_one(np.where(np.isfinite(jac_dp), jac_dp, 0.0), residual_dp, False)["rank"][0])
     lof = _lack_of_fit(data, residual_dp, rank_dp)
     ok = converged and finite
@@ -800,3 +768,56 @@ def build_wheel_result(
         free_names=tuple(names),
         null_space_si=tuple(tuple(float(x) for x in (col / D) / np.linalg.norm(col / D)) for col in null.T),
     )
+
+
+def _weighted_channels(data: WheelSweep, wheel: RigidWheel, dp: tuple, z: tuple, torque: tuple):
+    """Stack the channels weighted as the objective's optimum weighted them: ``(rw, J, (s_dp, s_z, s_t))``.
+
+    Each channel is ``(residuals, Jacobian)``; the sinkage's counts when measured, the torque's when given.
+    The weights are ``1 / sqrt(SSR_k / n + floor_k^2)`` per channel.
+    """
+    (residual_dp, jac_dp), (residual_z, jac_z), (residual_torque, jac_torque) = dp, z, torque
+    n, sink = data.n_samples, data.has_sinkage
+    s_dp = math.sqrt(float(residual_dp @ residual_dp) / n)
+    s_z = math.sqrt(float(residual_z @ residual_z) / n) if sink else None
+    # the weights the objective's optimum used: 1 / (SSR_k / n + floor_k^2) per channel
+    f_dp, f_z = channel_floors(float(np.mean(data.normal_load)))
+    s_dp_eff = math.sqrt(s_dp**2 + f_dp**2)
+    rw = residual_dp / s_dp_eff
+    J = jac_dp / s_dp_eff
+    if s_z is not None:
+        s_z_eff = math.sqrt(s_z**2 + f_z**2)
+        rw = np.concatenate([rw, residual_z / s_z_eff])
+        J = np.vstack([J, jac_z / s_z_eff])
+    s_t = None
+    if residual_torque is not None and jac_torque is not None:
+        s_t = math.sqrt(float(residual_torque @ residual_torque) / n)
+        s_t_eff = math.hypot(s_t, torque_floor(float(np.mean(data.normal_load)), wheel.radius))
+        rw = np.concatenate([rw, residual_torque / s_t_eff])
+        J = np.vstack([J, jac_torque / s_t_eff])
+    return rw, J, (s_dp, s_z, s_t)
+
+
+def _load_notes(data: WheelSweep, params: dict, statements: list[str]) -> list[str]:
+    """Append what the loads' spread says to ``statements``; the warnings of load-slip correlation and bounds."""
+    n = data.n_samples
+    W = data.normal_load
+    spread = float((W.max() - W.min()) / W.mean())
+    warnings: list[str] = []
+    if spread < LOAD_SPREAD_MIN:
+        statements.append(
+            f"the loads span only {100 * spread:.0f} % of their mean ({W.min():.4g}-{W.max():.4g} N): "
+            "c and phi separate only through the pressure's variation along the arc and with the "
+            "sinkage, not through the load."
+        )
+    if n > 2 and np.std(W) > 0 and np.std(data.slip) > 0:
+        rho = float(np.corrcoef(W, data.slip)[0, 1])
+        if abs(rho) > LOAD_SLIP_CORRELATION_WARN:
+            warnings.append(
+                f"the load correlates with the slip (r = {rho:+.2f}): what the fit attributes to the load "
+                "may be the slip's doing and vice versa; c and phi rest on it."
+            )
+    at_bound = [k for k, e in params.items() if e.at_bound]
+    if at_bound:
+        warnings.append(f"on a bound: {', '.join(at_bound)} (the interval of a bound-pinned value is not reliable).")
+    return warnings

@@ -23,11 +23,11 @@ from ...soilmodel.data import SlipData
 from ...soilmodel.errors import DataError
 from ...soilmodel.soil import PARAMETER_NAMES, PRACTICAL_BOUNDS, SoilBounds
 from ...soilmodel.vehicle import Vehicle
-from ..sweep.ipopt import solve_ipopt
-from ..sweep.problem import make_problem
-from .result import FitResult
+from .ipopt import solve_ipopt
+from .problem import make_problem
+from ..estimates.result import FitResult
 from ..fitting import fit
-from .distributions import lr_threshold
+from ..estimates.distributions import lr_threshold
 
 __all__ = ["profile_likelihood", "ProfileResult"]
 
