@@ -159,8 +159,7 @@ def fit(
             data, running_gear, model=model, bounds=bounds, effects=effects, fixed=fixed, strict=strict
         )
     vehicle, bounds = running_gear, PRACTICAL_BOUNDS if bounds is None else bounds
-    # the whole fit holds the process's solver lock (re-entrant): a fork then never copies a thread in the
-    # middle of a fit's CasADi or BLAS work (soilmodel.threadsafe); the solves were serialised anyway
+    # the solver lock (re-entrant) held for the whole fit: a fork never copies a thread mid-solve (soilmodel.threadsafe)
     with fit_section():
         res = _fit_unchecked(data, vehicle, model, method, bounds, x0, engine, effects, fixed, settings, options)
         if consistency and isinstance(data, (SlipData, DriveLog)):
