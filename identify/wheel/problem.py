@@ -52,6 +52,8 @@ __all__ = [
     "residual_function",
     "bekker_modulus",
     "torque_floor",
+    "wheel_block",
+    "WHEEL_IPOPT_OPTIONS",
 ]
 
 #: Parameter names of the wheel fit (SI), in vector order.
@@ -73,6 +75,19 @@ PARAMETER_SCALES = np.array([1e3, 1.0, 1e-2, 1e3, 1e6, 1.0, 1.0])
 NOISE_FLOOR_REL = 1e-3
 #: Noise floor of the sinkage channel, m (a displacement sensor's resolution).
 SINKAGE_FLOOR_M = 1e-5
+
+#: IPOPT options of the wheel fit and of the joint fit of several data sets.
+WHEEL_IPOPT_OPTIONS: dict[str, Any] = {
+    "ipopt.print_level": 0,
+    "print_time": False,
+    "ipopt.sb": "yes",
+    "ipopt.tol": 1e-10,
+    "ipopt.acceptable_tol": 1e-7,
+    "ipopt.max_iter": 500,
+    # a trial point where the wheel cannot carry a load is NaN: IPOPT's line search then takes a
+    # shorter step; the status of the solve says whether it converged
+    "show_eval_warnings": False,
+}
 
 
 @dataclass(frozen=True)
@@ -157,6 +172,40 @@ def torque_floor(mean_load: float, radius: float) -> float:
     return NOISE_FLOOR_REL * mean_load * radius
 
 
+def wheel_block(
+    wheel: RigidWheel,
+    settings: WheelSettings,
+    n_rows: int,
+    measured_sinkage: bool,
+    measured_torque: bool,
+    theta,
+    p,
+) -> tuple[Any, tuple[Any, Any, Any]]:
+    """One wheel sweep's concentrated negative log-likelihood and raw residuals (CasADi MX).
+
+    ``theta`` the seven parameters (SI, :data:`WHEEL_PARAMETERS`), ``p`` the sweep's data as
+    :func:`wheel_solver` lays them out (``[i, z, W, DP(, T, weights)]``, n each; anything after is
+    ignored). Returns ``(f, (r_dp, r_z, r_t))``; ``r_z``, ``r_t`` zeros where not measured. The
+    one home of the wheel's objective: the wheel's own fit and the joint fit of several data sets
+    (:mod:`soiltrack.identify.datasets`) both build it here.
+    """
+    i, z, W, DP = (p[q * n_rows : (q + 1) * n_rows] for q in range(4))
+    row = residual_function(wheel, settings, measured_sinkage).map(n_rows)
+    dp, _, _, z_w, tq = row(i.T, z.T, W.T, ca.repmat(theta, 1, n_rows))
+    r_dp = dp.T - DP
+    r_w = (z_w.T - z) if measured_sinkage else ca.MX.zeros(n_rows, 1)
+    f = n_rows / 2 * ca.log(ca.sumsqr(r_dp) + n_rows * (NOISE_FLOOR_REL * ca.sum1(W) / n_rows) ** 2)
+    if measured_sinkage:
+        f = f + n_rows / 2 * ca.log(ca.sumsqr(r_w) + n_rows * SINKAGE_FLOOR_M**2)
+    r_t = ca.MX.zeros(n_rows, 1)
+    if measured_torque:
+        T, wt = p[4 * n_rows : 5 * n_rows], p[5 * n_rows : 6 * n_rows]
+        r_t = (tq.T - T) * wt
+        floor_t = NOISE_FLOOR_REL * ca.sum1(W) / n_rows * wheel.radius
+        f = f + n_rows / 2 * ca.log(ca.sumsqr(r_t) + n_rows * floor_t**2)
+    return f, (r_dp, r_w, r_t)
+
+
 @locked_cache(maxsize=64)
 def wheel_solver(
     wheel: RigidWheel,
@@ -180,7 +229,6 @@ def wheel_solver(
     x = ca.MX.sym("x", nf)
     nch = 6 if measured_torque else 4
     p = ca.MX.sym("p", nch * n_rows + N_PARAMETERS)
-    i, z, W, DP = (p[q * n_rows : (q + 1) * n_rows] for q in range(4))
     fixed = p[nch * n_rows :]
     parts, q = [], 0
     for k in range(N_PARAMETERS):
@@ -190,30 +238,8 @@ def wheel_solver(
         else:
             parts.append(fixed[k])
     theta = ca.vertcat(*parts)
-    row = residual_function(wheel, settings, measured_sinkage).map(n_rows)
-    dp, _, _, z_w, tq = row(i.T, z.T, W.T, ca.repmat(theta, 1, n_rows))
-    r_dp = dp.T - DP
-    r_w = (z_w.T - z) if measured_sinkage else ca.MX.zeros(n_rows, 1)
-    f = n_rows / 2 * ca.log(ca.sumsqr(r_dp) + n_rows * (NOISE_FLOOR_REL * ca.sum1(W) / n_rows) ** 2)
-    if measured_sinkage:
-        f = f + n_rows / 2 * ca.log(ca.sumsqr(r_w) + n_rows * SINKAGE_FLOOR_M**2)
-    r_t = ca.MX.zeros(n_rows, 1)
-    if measured_torque:
-        T, wt = p[4 * n_rows : 5 * n_rows], p[5 * n_rows : 6 * n_rows]
-        r_t = (tq.T - T) * wt
-        floor_t = NOISE_FLOOR_REL * ca.sum1(W) / n_rows * wheel.radius
-        f = f + n_rows / 2 * ca.log(ca.sumsqr(r_t) + n_rows * floor_t**2)
-    opts: dict[str, Any] = {
-        "ipopt.print_level": 0,
-        "print_time": False,
-        "ipopt.sb": "yes",
-        "ipopt.tol": 1e-10,
-        "ipopt.acceptable_tol": 1e-7,
-        "ipopt.max_iter": 500,
-        # a trial point where the wheel cannot carry a load is NaN: IPOPT's line search then takes a
-        # shorter step; the status of the solve says whether it converged
-        "show_eval_warnings": False,
-    }
+    f, (r_dp, r_w, r_t) = wheel_block(wheel, settings, n_rows, measured_sinkage, measured_torque, theta, p)
+    opts = dict(WHEEL_IPOPT_OPTIONS)
     nlp: dict[str, Any] = {"x": x, "p": p, "f": f}
     solver = ca.nlpsol("wheel_fit", "ipopt", nlp, opts)
     xs = ca.MX.sym("xs", nf)
