@@ -69,7 +69,9 @@ def fit(
 
     Parameters
     ----------
-    data : SlipData, DriveLog, WheelSweep, ShearTest or PlateTest
+    data : SlipData, DriveLog, WheelSweep, ShearTest or PlateTest, or a list of them
+        A list: one soil shared by all (wheel sweeps and bevameter tests; running_gear one for all or a
+        list, one per data set), :func:`soiltrack.identify.datasets.fit_datasets`.
         Tractive force-slip or drawbar pull-slip samples (any number, one or several normal
         loads; a missing ``normal_load`` means the vehicle's weight) or a drive log (dispatched
         to :func:`soiltrack.identify.drivelog.fit.fit_drive_log`). Drawbar pull is modelled as
@@ -156,6 +158,10 @@ def fit(
             raise DataError("fit: give the running gear once (running_gear, or its old name vehicle), not both")
         warnings.warn("fit(vehicle=...) is now fit(running_gear=...)", DeprecationWarning, stacklevel=2)
         running_gear = options.pop("vehicle")
+    if isinstance(data, (list, tuple)):  # several data sets on one soil (identify/datasets)
+        from .datasets.fit import fit_joint_call
+
+        return fit_joint_call(data, running_gear, model=model, bounds=bounds, effects=effects, fixed=fixed, **options)
     kw = {"model": model, "method": method, "bounds": bounds, "x0": x0, "engine": engine, "effects": effects}
     if check_fit_options(data, running_gear, options=options, fixed=fixed, settings=settings, **kw) is not None:
         return fit_other_kind(

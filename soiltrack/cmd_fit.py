@@ -137,7 +137,10 @@ def _cmd_soil_test(a: argparse.Namespace, data) -> int:
 def _cmd_fit(a: argparse.Namespace) -> int:
     from .identify import fit
     from .soilmodel import DriveLog, PlateTest, ShearTest, read_csv
+    from .cmd_fit_joint import joint_fit_command, single_file_args
 
+    if not single_file_args(a):  # several files: one soil for all (cmd_fit_joint)
+        return joint_fit_command(a)
     gear = running_gear_arg(a.vehicle) if a.vehicle is not None else None
     if isinstance(gear, RigidWheel):
         from .wheel_cli import fit_wheel_command
@@ -253,12 +256,15 @@ def add_parser(sub) -> None:
     )
     f.add_argument(
         "data",
-        help="CSV file: a slip sweep (tractive force or drawbar pull), a drive log or a bevameter test (columns above)",
+        nargs="+",
+        help="CSV file: a slip sweep (tractive force or drawbar pull), a drive log or a bevameter test (columns "
+        "above); several files (wheel sweeps, bevameter tests): one soil fitted to all, with a consistency test",
     )
     f.add_argument(
         "--vehicle",
+        action="append",
         help="vehicle JSON file or preset name (heavy, light); required for slip sweeps and "
-        "drive logs, refused for bevameter tests",
+        "drive logs, refused for bevameter tests; with several files once for all or once per file in order",
     )
     f.add_argument(
         "--model",

@@ -33,7 +33,7 @@ from ..wheel.result import NULL_TOL
 from .problem import N_SHARED, SHARED, BlockSpec, block_touches, joint_solver
 from .result import JointFitResult, build_joint_result
 
-__all__ = ["fit_datasets"]
+__all__ = ["fit_datasets", "fit_joint_call"]
 
 _OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 #: Starts of a block without a usable own fit (SI): c, phi (deg), K, n.
@@ -217,7 +217,7 @@ def _default_starts(spec: BlockSpec, d: np.ndarray) -> list[np.ndarray]:
     out = []
     kphi = 1.5e6
     if spec.kind == "plate":
-        b, z, pr = d[: spec.n], d[spec.n : 2 * spec.n], d[2 * spec.n : 3 * spec.n]
+        z, pr = d[spec.n : 2 * spec.n], d[2 * spec.n : 3 * spec.n]
         use = z > 0
         kphi = float(np.median(pr[use] / z[use])) if np.any(use) else kphi
     for phi in _START_PHI_DEG:
@@ -348,3 +348,20 @@ def _joint_starts(own, specs, shared_free, bounds) -> list[np.ndarray]:
 
 
 _ = WHEEL_PARAMETERS  # the vector order every 7-vector here follows
+
+
+def fit_joint_call(datasets, running_gear, *, model: str, bounds, effects, fixed, **options) -> JointFitResult:
+    """:func:`soiltrack.identify.fit` on a list: the keywords that apply handed to :func:`fit_datasets`."""
+    kw: dict[str, Any] = {}
+    if "labels" in options:
+        kw["labels"] = options.pop("labels")
+    if "wheel_settings" in options:  # the wheel model's settings (fit's own ``settings`` are a track's)
+        kw["settings"] = options.pop("wheel_settings")
+    if options:
+        raise DataError(f"fit: option(s) {', '.join(map(repr, sorted(options)))} do not apply to a joint fit")
+    held = dict(fixed or {})
+    if model == "cohesion-free":
+        held.setdefault("cohesion", 0.0)
+    if bounds is not None:
+        kw["bounds"] = bounds
+    return fit_datasets(datasets, running_gear, effects=tuple(effects or ()), fixed=held, **kw)

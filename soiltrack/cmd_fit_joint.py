@@ -1,0 +1,95 @@
+"""``soiltrack fit A.csv B.csv ... [--vehicle a.json --vehicle b.json ...]``: one soil for several data sets."""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import sys
+
+from .cliutil import running_gear_arg
+from .identify.outcome import exit_code
+from .columns_cli import columns_arg
+from .soilmodel import DataError
+from .soilmodel.rigid_wheel import RigidWheel
+
+__all__ = ["single_file_args", "joint_fit_command"]
+
+#: Options a joint fit takes beside the files and vehicles (the others are refused by name).
+_TAKEN = ("json", "driving_only", "slip_angle", "columns", "effect", "fix", "model", "bulldozing_density")
+#: Options refused in a joint fit, with their defaults.
+_REFUSED = {"plot": None, "segments": None, "negative_kc": False, "method": "ipopt", "sigma": None, "resistance": None}
+
+
+def single_file_args(a: argparse.Namespace) -> bool:
+    """Turn ``a.data`` / ``a.vehicle`` (lists) into one file and one vehicle; False when several files are given."""
+    files = list(a.data) if isinstance(a.data, (list, tuple)) else [a.data]
+    vehicles = a.vehicle if isinstance(a.vehicle, (list, tuple)) else ([] if a.vehicle is None else [a.vehicle])
+    if len(files) > 1:
+        a.data, a.vehicle = files, list(vehicles)
+        return False
+    if len(vehicles) > 1:
+        raise DataError(f"--vehicle given {len(vehicles)} times for one file ({files[0]}): give it once")
+    a.data, a.vehicle = files[0], (vehicles[0] if vehicles else None)
+    return True
+
+
+def _read(a: argparse.Namespace, path: str, gear):
+    """One file as a wheel sweep (with a rigid wheel) or a bevameter test (shear, annulus, plate)."""
+    from .cmd_fit import _bevameter_record
+    from .soilmodel import PlateTest, ShearTest, read_csv
+    from .soilmodel.wheel_sweep import read_wheel_sweep
+
+    from .soilmodel.csvread import read_header
+
+    if isinstance(gear, RigidWheel) and "slip" in read_header(path) + [n for n, _ in _mapped(a)]:
+        return read_wheel_sweep(path, driving_only=a.driving_only, slip_angle=a.slip_angle, columns=columns_arg(a))
+    one = copy.copy(a)
+    one.data = path
+    record = _bevameter_record(one)
+    if record is not None:
+        return record
+    data = read_csv(path, columns=columns_arg(a))
+    if isinstance(data, (ShearTest, PlateTest)):
+        return data
+    raise DataError(
+        "a joint fit takes wheel sweeps (--vehicle WHEEL.json) and bevameter tests; this file is a "
+        f"{type(data).__name__}" + ("" if gear is None else f" with a {type(gear).__name__}") + ", not joined yet",
+        file=path,
+    )
+
+
+def _mapped(a: argparse.Namespace) -> list[tuple[str, str]]:
+    """The ``--columns`` pairs (library name, source)."""
+    m = columns_arg(a) or {}
+    return list(m.items()) if isinstance(m, dict) else list(m)
+
+
+def joint_fit_command(a: argparse.Namespace) -> int:
+    """Fit the files ``a.data`` on one soil; exit 0 when the joint fit is usable, 1 otherwise, 2 for bad input."""
+    from .identify import fit
+    from .wheel_cli import _effects, _settings, wheel_fixed_arg
+
+    files, vehicles = a.data, a.vehicle
+    if len(vehicles) not in (0, 1, len(files)):
+        raise DataError(
+            f"--vehicle: give it once for all {len(files)} files or once per file in order ({len(files)}), "
+            f"got {len(vehicles)}"
+        )
+    for name, default in _REFUSED.items():
+        if getattr(a, name, default) != default:
+            raise DataError(f"--{name.replace('_', '-')} does not apply to a joint fit of several files (yet)")
+    gears = [running_gear_arg(v) for v in vehicles]
+    per_file = gears * len(files) if len(gears) == 1 else (gears or [None] * len(files))
+    datasets = [_read(a, path, g) for path, g in zip(files, per_file)]
+    result = fit(
+        datasets,
+        per_file,
+        effects=_effects(a),
+        fixed=wheel_fixed_arg(getattr(a, "fix", None), a.model),
+        wheel_settings=_settings(a),
+        labels=list(files),
+    )
+    print(result.to_json() if a.json else result.report())
+    if not a.json:
+        print(f"(one soil for {len(files)} files; --json gives datasets and consistency)", file=sys.stderr)
+    return exit_code(result.fit_outcome)
