@@ -140,7 +140,7 @@ def _cmd_fit(a: argparse.Namespace) -> int:
     from .cmd_fit_joint import joint_fit_command, single_file_args
 
     if not single_file_args(a):  # several files: one soil for all (cmd_fit_joint)
-        return joint_fit_command(a)
+        return joint_fit_command(a, _bevameter_record)
     gear = running_gear_arg(a.vehicle) if a.vehicle is not None else None
     if isinstance(gear, RigidWheel):
         from .wheel_cli import fit_wheel_command

@@ -33,9 +33,8 @@ def single_file_args(a: argparse.Namespace) -> bool:
     return True
 
 
-def _read(a: argparse.Namespace, path: str, gear):
+def _read(a: argparse.Namespace, path: str, gear, read_record):
     """One file as a wheel sweep (with a rigid wheel) or a bevameter test (shear, annulus, plate)."""
-    from .cmd_fit import _bevameter_record
     from .soilmodel import PlateTest, ShearTest, read_csv
     from .soilmodel.wheel_sweep import read_wheel_sweep
 
@@ -45,7 +44,7 @@ def _read(a: argparse.Namespace, path: str, gear):
         return read_wheel_sweep(path, driving_only=a.driving_only, slip_angle=a.slip_angle, columns=columns_arg(a))
     one = copy.copy(a)
     one.data = path
-    record = _bevameter_record(one)
+    record = read_record(one)
     if record is not None:
         return record
     data = read_csv(path, columns=columns_arg(a))
@@ -64,10 +63,13 @@ def _mapped(a: argparse.Namespace) -> list[tuple[str, str]]:
     return list(m.items()) if isinstance(m, dict) else list(m)
 
 
-def joint_fit_command(a: argparse.Namespace) -> int:
-    """Fit the files ``a.data`` on one soil; exit 0 when the joint fit is usable, 1 otherwise, 2 for bad input."""
+def joint_fit_command(a: argparse.Namespace, read_record) -> int:
+    """Fit the files ``a.data`` on one soil; exit 0 when the joint fit is usable, 1 otherwise, 2 for bad input.
+
+    ``read_record(namespace)``: the file ``namespace.data`` as a bevameter record, or None (``fit``'s reader).
+    """
     from .identify import fit
-    from .wheel_cli import _effects, _settings, wheel_fixed_arg
+    from .wheel_cli import wheel_effects_arg, wheel_fixed_arg, wheel_settings_arg
 
     files, vehicles = a.data, a.vehicle
     if len(vehicles) not in (0, 1, len(files)):
@@ -80,13 +82,13 @@ def joint_fit_command(a: argparse.Namespace) -> int:
             raise DataError(f"--{name.replace('_', '-')} does not apply to a joint fit of several files (yet)")
     gears = [running_gear_arg(v) for v in vehicles]
     per_file = gears * len(files) if len(gears) == 1 else (gears or [None] * len(files))
-    datasets = [_read(a, path, g) for path, g in zip(files, per_file)]
+    datasets = [_read(a, path, g, read_record) for path, g in zip(files, per_file)]
     result = fit(
         datasets,
         per_file,
-        effects=_effects(a),
+        effects=wheel_effects_arg(a),
         fixed=wheel_fixed_arg(getattr(a, "fix", None), a.model),
-        wheel_settings=_settings(a),
+        wheel_settings=wheel_settings_arg(a),
         labels=list(files),
     )
     print(result.to_json() if a.json else result.report())

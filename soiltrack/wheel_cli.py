@@ -205,3 +205,8 @@ def simulate_wheel_command(a: argparse.Namespace, wheel: RigidWheel, soil) -> in
             raise DataError(f"cannot write the CSV: {e.strerror or e}", file=a.output) from None
         print(f"wrote {data.n_samples} rows (wheel sweep) to {a.output}", file=sys.stderr)
     return EXIT_OK
+
+
+#: Public names of the wheel options' parsers (the joint fit of several files uses them).
+wheel_effects_arg = _effects
+wheel_settings_arg = _settings

@@ -68,12 +68,12 @@ def _as_block(data, gear, settings: WheelSettings, effects: tuple[str, ...]) -> 
             file=getattr(data, "source", None),
         )
     if isinstance(data, SlipData):
-        from ..dispatch import _wheel_sweep
+        from ..dispatch import wheel_sweep_of
 
-        data = _wheel_sweep(data)
+        data = wheel_sweep_of(data)
     if not isinstance(data, WheelSweep):
         raise DataError(f"not a data set the joint fit takes: {type(data).__name__}")
-    from ..wheel.fitting import _p
+    from ..wheel.fitting import sweep_parameters
 
     spec = BlockSpec(
         "wheel",
@@ -84,7 +84,7 @@ def _as_block(data, gear, settings: WheelSettings, effects: tuple[str, ...]) -> 
         torque=data.has_torque,
         specific_free="slip_sinkage" in effects,
     )
-    return spec, _p(data, np.zeros(0))
+    return spec, sweep_parameters(data, np.zeros(0))
 
 
 def _gears(datasets: Sequence, gears) -> list:
@@ -229,10 +229,10 @@ def _default_starts(spec: BlockSpec, d: np.ndarray) -> list[np.ndarray]:
 def _own_theta(data, gear, spec, fixed, effects, bounds, settings) -> tuple[list[np.ndarray], Any]:
     """The library's own fit of one data set (its outcome) and start 7-vectors from it."""
     if spec.kind == "wheel":
-        from ..dispatch import _wheel_sweep
+        from ..dispatch import wheel_sweep_of
 
         opts = WheelFitOptions(fixed=dict(fixed), effects=effects, bounds=bounds, settings=settings)
-        res = fit_wheel(_wheel_sweep(data), gear, opts)
+        res = fit_wheel(wheel_sweep_of(data), gear, opts)
         return [np.asarray(res.theta, dtype=float)], res
     from ..soiltests import fit_soil_test
 

@@ -13,7 +13,8 @@ import numpy as np
 from ..estimates.distributions import chi2_sf
 from ..estimates.least_squares import quantile
 from ..outcome import OUTCOME_SETTINGS, Outcome, decide_outcome, on_bound, outcome_lines
-from ..wheel.result import _EDGE, WheelEstimate
+from ..wheel.result import EDGE_UNITS as _EDGE
+from ..wheel.result import WheelEstimate, parameter_line
 from .problem import N_SHARED, SHARED
 
 __all__ = ["JointFitResult", "build_joint_result", "consistency_test"]
@@ -132,13 +133,11 @@ class JointFitResult:
             "starts converged)"
         )
         lines.append(f"{'shared soil':<30}{'value':>12}{'95 % interval':>28}  identifiable")
-        from ..wheel.result import _parameter_line
-
         for key, e in self.parameters.items():
-            lines.append(_parameter_line(key, e))
+            lines.append(parameter_line(key, e))
         for lab, sp in zip(self.labels, self.specific):
             for key, e in sp.items():
-                lines.append(_parameter_line(key, e) + f"  [{lab}]")
+                lines.append(parameter_line(key, e) + f"  [{lab}]")
         lines.append("each data set's own fit:")
         for d in self.datasets:
             soil = ", ".join(f"{k} {_fmt(v)}" for k, v in d["soil"].items() if v is not None)

@@ -800,3 +800,8 @@ def build_wheel_result(
         free_names=tuple(names),
         null_space_si=tuple(tuple(float(x) for x in (col / D) / np.linalg.norm(col / D)) for col in null.T),
     )
+
+
+#: Public names of the edge units and the report line (the joint fit of several data sets uses them).
+EDGE_UNITS = _EDGE
+parameter_line = _parameter_line
