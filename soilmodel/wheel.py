@@ -17,7 +17,9 @@ and, as the ``slip_sinkage`` effect (0 by default: the textbook wheel), ``k`` re
 ``k / (1 + s i)``: at a given sinkage a slipping wheel's soil carries less (it is excavated and
 loosened), so at a given load the wheel sinks deeper as the slip rises. With the shear radius
 ``r_s = r + h`` (grouser height h; ``r_s = r`` for a smooth wheel: the
-grousers move the shear surface to their tips, only j sees it). Integrated over the arc::
+grousers move the shear surface to their tips) and, with h > 0, Bekker's side shear of the soil
+between the grousers: ``tau`` with ``c (1 + 2h/b)`` and ``tan(phi) (1 + 0.64 (h/b) arccot(h/b))``
+(:mod:`.grousers`; ``WheelSettings(grouser_model="shear_radius")`` leaves it out). Integrated over the arc::
 
     DP = r b  int_0^theta_1 (tau cos(theta) - sigma sin(theta)) dtheta     drawbar pull, N
     W  = r b  int_0^theta_1 (sigma cos(theta) + tau sin(theta)) dtheta     normal load, N
@@ -72,6 +74,7 @@ import numpy as np
 
 from .bevameter import plate_pressure_expr, shear_stress_expr
 from .errors import DataError
+from .grousers import GROUSER_MODELS, grouser_factors_expr
 
 __all__ = [
     "WheelSettings",
@@ -114,6 +117,9 @@ class WheelSettings:
     nodes: int = 24
     #: Soil unit weight gamma_s of the bulldozing resistance, N/m^3 (``None``: no bulldozing term).
     bulldozing_unit_weight: float | None = None
+    #: Grousers (h > 0): ``bekker`` adds Bekker's side shear (:mod:`.grousers`) to the shear radius r + h;
+    #: ``shear_radius`` is the shear radius alone (grousers then only rescale K).
+    grouser_model: str = "bekker"
 
     def __post_init__(self) -> None:
         for name in ("c1", "c2"):
@@ -127,6 +133,8 @@ class WheelSettings:
             )
         if isinstance(self.nodes, bool) or not isinstance(self.nodes, int) or not 2 <= self.nodes <= 400:
             raise DataError(f"wheel setting nodes must be an integer in [2, 400], got {self.nodes!r}")
+        if self.grouser_model not in GROUSER_MODELS:
+            raise DataError(f"wheel setting grouser_model must be one of {GROUSER_MODELS}, got {self.grouser_model!r}")
         g = self.bulldozing_unit_weight
         if g is not None and (isinstance(g, bool) or not isinstance(g, (int, float)) or not 0 < g < 1e6):
             raise DataError(f"wheel setting bulldozing_unit_weight must be a unit weight in (0, 1e6) N/m^3, got {g!r}")
@@ -211,13 +219,17 @@ def wheel_expr(
     cos1, sin1 = ca.cos(th1), ca.sin(th1)
 
     skid = ca.mtimes(i < 0, ones)  # 1 on the rows at negative slip
+    c_s, phi_s = c, phi
+    if settings.grouser_model == "bekker" and not (isinstance(h, (int, float)) and h == 0):
+        f_c, f_phi = grouser_factors_expr(h, b)  # Bekker's side shear of the soil between the grousers
+        c_s, phi_s = c * f_c, ca.atan(f_phi * ca.tan(phi))
 
     def integrands(theta, sigma):
         arc, chord = ca.mtimes(th1, ones) - theta, ca.mtimes(sin1, ones) - ca.sin(theta)
         j_drive = rs * (arc - ca.mtimes(1 - i, ones) * chord)
         j_skid = rs * (ca.mtimes(1 + i, ones) * arc - chord)  # Wong's skid form (module text)
         j = ca.if_else(skid, j_skid, j_drive)
-        tau = ca.sign(j) * shear_stress_expr(ca.fabs(j), sigma, c, phi, K)
+        tau = ca.sign(j) * shear_stress_expr(ca.fabs(j), sigma, c_s, phi_s, K)
         return (tau * ca.cos(theta) - sigma * ca.sin(theta), sigma * ca.cos(theta) + tau * ca.sin(theta), tau)
 
     soften = ca.mtimes(1 / (1 + slip_sinkage * ca.fabs(i)), ones)  # the slip-sinkage effect (1 when off)
