@@ -84,6 +84,7 @@ __all__ = [
     "wheel_forces_function",
     "sinkage_from_load_function",
     "WHEEL_OUTPUTS",
+    "WHEEL_PARAMETER_NAMES",
     "evaluate",
     "bulldozing_expr",
 ]
@@ -94,6 +95,17 @@ BEKKER_START_N_MAX = 2.9
 BEKKER_START_Z_MAX = 0.9
 #: Names of the outputs of :func:`wheel_expr`, in order.
 WHEEL_OUTPUTS = ("drawbar_pull", "normal_load", "torque")
+#: The wheel model's soil parameters (SI) in the order of every parameter vector (fit, prediction):
+#: c (Pa), phi (rad), K (m), k_c (N/m^(n+1)), k_phi (N/m^(n+2)), n, and the slip-sinkage coefficient s.
+WHEEL_PARAMETER_NAMES = (
+    "cohesion",
+    "friction_angle",
+    "shear_modulus",
+    "bekker_kc",
+    "bekker_kphi",
+    "bekker_n",
+    "slip_sinkage",
+)
 
 
 @dataclass(frozen=True)

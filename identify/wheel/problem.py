@@ -37,7 +37,7 @@ import numpy as np
 from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.soil import PRACTICAL_BOUNDS
 from ...soilmodel.threadsafe import locked_cache
-from ...soilmodel.wheel import WheelSettings, sinkage_from_load_function, wheel_expr
+from ...soilmodel.wheel import WHEEL_PARAMETER_NAMES, WheelSettings, sinkage_from_load_function, wheel_expr
 
 __all__ = [
     "WHEEL_PARAMETERS",
@@ -57,15 +57,7 @@ __all__ = [
 ]
 
 #: Parameter names of the wheel fit (SI), in vector order.
-WHEEL_PARAMETERS = (
-    "cohesion",
-    "friction_angle",
-    "shear_modulus",
-    "bekker_kc",
-    "bekker_kphi",
-    "bekker_n",
-    "slip_sinkage",
-)
+WHEEL_PARAMETERS = WHEEL_PARAMETER_NAMES
 #: Number of wheel-fit parameters.
 N_PARAMETERS = len(WHEEL_PARAMETERS)
 #: Scales of the NLP variables (x = theta / scale): kPa, rad, cm, kN/m^(n+1), MN/m^(n+2), 1, 1.
