@@ -189,7 +189,14 @@ def diagnose_wheel(
             continue
         lr = max(2 * (f0 - _objective(h["fit"], data)), 0.0)
         h["p_value"] = chi2_sf(lr, 1)
-        if h["p_value"] < ALPHA and h["holdout"] < before and h["fit"].success:
+        e = h["fit"].parameters.get(h["effect"])  # an effect on its bound is inadmissible (the track's rule)
+        h["admissible"] = not (e is not None and e.at_bound)
+        if not h["admissible"]:
+            notes.append(
+                f"{h['effect']} ends on its {e.bound_side} bound ({e.value:.4g}): inadmissible as a verdict (a value "
+                "the bounds choose is not an estimate of the effect; its weight and p-value are shown, not used)"
+            )
+        if h["p_value"] < ALPHA and h["holdout"] < before and h["fit"].success and h["admissible"]:
             if verdict == "none" or h["weight"] > next(x["weight"] for x in hyps if x["effect"] == verdict):
                 verdict = h["effect"]
     lf = nominal.lack_of_fit
@@ -219,6 +226,7 @@ def diagnose_wheel(
                 "holdout_rmse_after": None if h["effect"] == "none" else h["holdout"],
                 "shrink": sh,
                 "p_value": h["p_value"],
+                "admissible": h.get("admissible", True),
                 "parameters": (
                     {"slip_sinkage": h["fit"].parameters["slip_sinkage"].value} if h["effect"] == "slip_sinkage" else {}
                 ),

@@ -314,7 +314,12 @@ class WheelFitResult:
             "lack_of_fit": self.lack_of_fit,
             "warnings": list(self.warnings),
             "wheel": self.wheel.to_dict(),
-            "settings": {"c1": self.settings.c1, "c2": self.settings.c2, "nodes": self.settings.nodes},
+            "settings": {
+                "c1": self.settings.c1,
+                "c2": self.settings.c2,
+                "nodes": self.settings.nodes,
+                "grouser_model": self.settings.grouser_model,
+            },
             "solver": {
                 "iterations": self.iterations,
                 "starts": self.starts,
