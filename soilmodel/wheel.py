@@ -282,9 +282,17 @@ def wheel_forces_function(
 
 
 def sinkage_from_load_function(
-    r: float, b: float, h: float = 0.0, settings: WheelSettings = DEFAULT_WHEEL_SETTINGS
+    r: float,
+    b: float,
+    h: float = 0.0,
+    settings: WheelSettings = DEFAULT_WHEEL_SETTINGS,
+    *,
+    grouser_input: bool = False,
 ) -> ca.Function:
     """CasADi Function ``(i, W, c, phi, K, k_c, k_phi, n, s) -> z``: the sinkage at which the wheel carries W.
+
+    With ``grouser_input`` the grouser height is a last input ``h`` (m; ``h`` here is then ignored): a
+    fit can free it.
 
     Newton's method on ``log W(theta_1) = log W`` in ``u = log theta_1`` (W grows about like
     theta_1^(2n+1), so the residual is nearly linear in u), started from Bekker's closed-form
@@ -293,9 +301,11 @@ def sinkage_from_load_function(
     with respect to every input follow from the implicit function theorem.
     """
     u = ca.MX.sym("u")
-    names = ["i", "W", "c", "phi", "K", "k_c", "k_phi", "n", "s"]
+    names = ["i", "W", "c", "phi", "K", "k_c", "k_phi", "n", "s"] + (["h"] if grouser_input else [])
     p = ca.MX.sym("p", len(names))
-    i, W, c, phi, K, k_c, k_phi, n, s = (p[q] for q in range(len(names)))
+    i, W, c, phi, K, k_c, k_phi, n, s = (p[q] for q in range(9))
+    if grouser_input:
+        h = p[9]
     th1 = ca.exp(u)
     z = r * (1 - ca.cos(th1))
     _, wl, _ = wheel_expr(i, z, c, phi, K, k_c, k_phi, n, r, b, h, settings, slip_sinkage=s)
@@ -309,7 +319,7 @@ def sinkage_from_load_function(
         {"abstol": 1e-12, "max_iter": 60, "error_on_fail": False, "show_eval_warnings": False},
     )
     ins = [ca.MX.sym(nm) for nm in names]
-    i_, W_, c_, phi_, K_, kc_, kphi_, n_, s_ = ins
+    i_, W_, c_, phi_, K_, kc_, kphi_, n_, s_ = ins[:9]
     k_eff = (kc_ / b + kphi_) / (1 + s_ * ca.fabs(i_))
     z0 = (3 * W_ / ((3 - ca.fmin(n_, BEKKER_START_N_MAX)) * k_eff * b * ca.sqrt(2 * r))) ** (2 / (2 * n_ + 1))
     u0 = ca.log(entry_angle(ca.fmin(z0, BEKKER_START_Z_MAX * r), r))

@@ -170,3 +170,29 @@ def test_python_joint_fit_bad_input():
         fit([w, s], None)
     with pytest.raises(DataError, match="do not apply"):
         fit([s, s], None, sigma=1.0)
+
+
+@pytest.mark.slow
+def test_a_grousered_wheels_height_is_fitted_beside_a_smooth_wheel():
+    """One soil, a smooth and a grousered wheel: the grouser height (gear-specific) is fitted; held at 0 the
+    grousered wheel disagrees."""
+    smooth = RigidWheel(radius=0.15, width=0.08)
+    h = 0.012
+    s, dp, W, z = oracle.sweep(
+        SLIPS, LOADS, C, PHI, K, KC / 0.08 + KPHI, N, 0.15, 0.08, h=h, sd_dp=0.3, sd_z=3e-4, seed=2
+    )
+    g = WheelSweep(slip=s, drawbar_pull=dp, normal_load=W, sinkage=z)
+    a = _sweep(smooth, 1)
+    r = fit([a, g], [smooth, RigidWheel(0.15, 0.08, grouser_height=0.006)], labels=["smooth", "g"], free_grousers=[1])
+    assert r.outcome == "usable"
+    e = r.specific[1]["grouser_height_m"]
+    assert e.identifiable and e.ci95[0] <= h <= e.ci95[1], e.ci95
+    assert r.specific[0] == {}
+    for key, v in (("cohesion_kpa", C / 1e3), ("friction_angle_deg", math.degrees(PHI)), ("shear_modulus_m", K)):
+        assert r.parameters[key].ci95[0] <= v <= r.parameters[key].ci95[1], key
+    # alone, the grousered wheel's c and phi are confounded with its grouser height
+    assert r.datasets[1]["soil"]["cohesion_kpa"] is None
+    held = fit([a, g], [smooth, RigidWheel(0.15, 0.08)], labels=["smooth", "g as smooth"])
+    assert held.outcome == "poor_fit" and held.consistency["disagrees"] == "g as smooth"
+    with pytest.raises(DataError, match="free_grousers"):
+        fit([a, _shear(1)], [smooth, None], free_grousers=[1])

@@ -30,18 +30,22 @@ from ..estimates.least_squares import core_stats_one
 from ..wheel.fitting import START_BOUND_MARGIN, WheelFitOptions, fit_wheel
 from ..wheel.problem import DEFAULT_WHEEL_BOUNDS, PARAMETER_SCALES, WHEEL_PARAMETERS, WheelBounds
 from ..wheel.result import NULL_TOL
-from .problem import N_SHARED, SHARED, BlockSpec, block_touches, joint_solver
+from .problem import GROUSER_SCALE, N_SHARED, N_SPECIFIC, SHARED, BlockSpec, block_touches, joint_solver
 from .result import JointFitResult, build_joint_result
 
 __all__ = ["fit_datasets", "fit_joint_call"]
 
 _OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+#: Upper bound of a fitted grouser height, as a fraction of the wheel's radius.
+GROUSER_MAX_REL = 0.5
 #: Starts of a block without a usable own fit (SI): c, phi (deg), K, n.
 _START_PHI_DEG = (20.0, 30.0, 38.0)
 _START_K_M = (0.008, 0.025)
 
 
-def _as_block(data, gear, settings: WheelSettings, effects: tuple[str, ...]) -> tuple[BlockSpec, np.ndarray]:
+def _as_block(
+    data, gear, settings: WheelSettings, effects: tuple[str, ...], free_grouser: bool = False
+) -> tuple[BlockSpec, np.ndarray]:
     """The block spec and data vector of one data set (checked: kind against gear)."""
     if isinstance(data, (DriveLog,)) or isinstance(gear, Vehicle):
         raise DataError(
@@ -83,6 +87,7 @@ def _as_block(data, gear, settings: WheelSettings, effects: tuple[str, ...]) -> 
         sinkage=data.has_sinkage,
         torque=data.has_torque,
         specific_free="slip_sinkage" in effects,
+        grouser_free=free_grouser,
     )
     return spec, sweep_parameters(data, np.zeros(0))
 
@@ -131,9 +136,8 @@ def _solve(specs, shared_free, p, starts, lbx, ubx) -> dict[str, Any]:
 
 
 def _scales(specs, shared_free) -> np.ndarray:
-    sc = [PARAMETER_SCALES[k] for k in range(N_SHARED) if shared_free[k]]
-    sc += [PARAMETER_SCALES[N_SHARED] for s in specs if s.specific_free]
-    return np.array(sc, dtype=float)
+    sc8 = np.append(PARAMETER_SCALES, GROUSER_SCALE)
+    return np.array([sc8[k] for _, k in _layout(specs, shared_free)], dtype=float)
 
 
 def _statistics(specs, outs: list[np.ndarray]) -> dict[str, Any]:
@@ -187,6 +191,23 @@ def _statistics(specs, outs: list[np.ndarray]) -> dict[str, Any]:
     }
 
 
+def _layout(specs, shared_free) -> list[tuple[int, int]]:
+    """``(block, index into its 8-vector)`` of every NLP variable: the shared soil, then s and h per block."""
+    out = [(0, k) for k in range(N_SHARED) if shared_free[k]]
+    for d, sp in enumerate(specs):
+        out += [(d, N_SHARED)] if sp.specific_free else []
+        out += [(d, N_SHARED + 1)] if sp.grouser_free else []
+    return out
+
+
+def box8(spec: BlockSpec, bounds: WheelBounds) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Lower, upper bounds and solver scales of a block's 8-vector (7 wheel parameters, grouser height)."""
+    r = spec.wheel.radius if spec.wheel is not None else 1.0
+    lo = np.append(np.array(bounds.lower, dtype=float), 0.0)
+    hi = np.append(np.array(bounds.upper, dtype=float), GROUSER_MAX_REL * r)
+    return lo, hi, np.append(PARAMETER_SCALES, GROUSER_SCALE)
+
+
 def _problem(specs, data_p, fixed: Mapping[str, float], bounds: WheelBounds):
     """Free mask, held values, variable bounds and the NLP parameter vector of blocks ``specs``."""
     touched = np.zeros(N_SHARED, bool)
@@ -194,21 +215,26 @@ def _problem(specs, data_p, fixed: Mapping[str, float], bounds: WheelBounds):
         touched |= np.array(block_touches(s))
     shared_free = tuple(bool(touched[k] and SHARED[k] not in fixed) for k in range(N_SHARED))
     held = np.array([float(fixed.get(n, 0.0)) for n in SHARED])
-    held_spec = [float(fixed.get("slip_sinkage", 0.0)) for _ in specs]
-    lo, hi = np.array(bounds.lower), np.array(bounds.upper)
-    idx = [k for k in range(N_SHARED) if shared_free[k]] + [N_SHARED for s in specs if s.specific_free]
-    lbx, ubx = (lo / PARAMETER_SCALES)[idx], (hi / PARAMETER_SCALES)[idx]
+    held_spec = [
+        v
+        for sp in specs
+        for v in (float(fixed.get("slip_sinkage", 0.0)), sp.wheel.grouser_height if sp.wheel is not None else 0.0)
+    ]
+    lay = _layout(specs, shared_free)
+    boxes = [box8(sp, bounds) for sp in specs]
+    lbx = np.array([boxes[d][0][k] / boxes[d][2][k] for d, k in lay])
+    ubx = np.array([boxes[d][1][k] / boxes[d][2][k] for d, k in lay])
     p = np.concatenate([held, held_spec, *data_p])
-    return shared_free, p, lbx, ubx, idx
+    return shared_free, p, lbx, ubx, lay
 
 
-def _x_from_theta(th7s: list[np.ndarray], specs, shared_free, bounds: WheelBounds) -> np.ndarray:
-    """Scaled variables from a full 7-vector per block (the shared part from the first), inside the bounds."""
-    lo, hi = np.array(bounds.lower), np.array(bounds.upper)
-    m = START_BOUND_MARGIN * (hi - lo)
-    th = [np.clip(t, lo + m, hi - m) for t in th7s]
-    x = [th[0][k] / PARAMETER_SCALES[k] for k in range(N_SHARED) if shared_free[k]]
-    x += [t[N_SHARED] / PARAMETER_SCALES[N_SHARED] for t, s in zip(th, specs) if s.specific_free]
+def _x_from_theta(th8s: list[np.ndarray], specs, shared_free, bounds: WheelBounds) -> np.ndarray:
+    """Scaled variables from an 8-vector per block (the shared part from the first), inside the bounds."""
+    x = []
+    for d, k in _layout(specs, shared_free):
+        lo, hi, sc = box8(specs[d], bounds)
+        m = START_BOUND_MARGIN * (hi[k] - lo[k])
+        x.append(float(np.clip(th8s[d][k], lo[k] + m, hi[k] - m)) / sc[k])
     return np.array(x, dtype=float)
 
 
@@ -222,7 +248,8 @@ def _default_starts(spec: BlockSpec, d: np.ndarray) -> list[np.ndarray]:
         kphi = float(np.median(pr[use] / z[use])) if np.any(use) else kphi
     for phi in _START_PHI_DEG:
         for K in _START_K_M:
-            out.append(np.array([500.0, math.radians(phi), K, 0.0, kphi, 1.0, 0.0]))
+            h = spec.wheel.grouser_height if spec.wheel is not None else 0.0
+            out.append(np.array([500.0, math.radians(phi), K, 0.0, kphi, 1.0, 0.0, h]))
     return out
 
 
@@ -233,14 +260,14 @@ def _own_theta(data, gear, spec, fixed, effects, bounds, settings) -> tuple[list
 
         opts = WheelFitOptions(fixed=dict(fixed), effects=effects, bounds=bounds, settings=settings)
         res = fit_wheel(wheel_sweep_of(data), gear, opts)
-        return [np.asarray(res.theta, dtype=float)], res
+        return [np.append(np.asarray(res.theta, dtype=float), gear.grouser_height)], res
     from ..soiltests import fit_soil_test
 
     res = fit_soil_test(data)
     starts = []
     vals = res.values_si
     if vals and all(v is not None for v in vals):
-        th = np.array([500.0, math.radians(30.0), 0.02, 0.0, 1.5e6, 1.0, 0.0])
+        th = np.array([500.0, math.radians(30.0), 0.02, 0.0, 1.5e6, 1.0, 0.0, 0.0])
         if spec.kind == "plate":
             th[3:6] = vals
         else:
@@ -258,6 +285,7 @@ def fit_datasets(
     fixed: Mapping[str, float] | None = None,
     bounds: WheelBounds = DEFAULT_WHEEL_BOUNDS,
     settings: WheelSettings = DEFAULT_WHEEL_SETTINGS,
+    free_grousers: Sequence[int] = (),
 ) -> JointFitResult:
     """Fit one soil shared by several data sets (wheel sweeps and bevameter tests).
 
@@ -278,6 +306,9 @@ def fit_datasets(
         Soil parameters held (``{name: SI value}``, names of the wheel fit).
     bounds, settings
         The wheel fit's bounds and model settings (used by every block).
+    free_grousers
+        Indices of the wheel data sets whose grouser height is fitted (gear-specific, started from the
+        wheel's ``grouser_height``, bounded by [0, 0.5 r]); the others hold their wheel's.
 
     Returns
     -------
@@ -297,7 +328,11 @@ def fit_datasets(
         else [getattr(d, "source", f"data set {k + 1}") for k, d in enumerate(datasets)]
     )
     t0 = time.perf_counter()
-    blocks = [_as_block(d, g, settings, effects) for d, g in zip(datasets, gears)]
+    free_h = set(int(k) for k in free_grousers)
+    bad = sorted(k for k in free_h if not (0 <= k < len(datasets)) or not isinstance(gears[k], RigidWheel))
+    if bad:
+        raise DataError(f"free_grousers: data set(s) {bad} are not wheel sweeps of this fit (0-based indices)")
+    blocks = [_as_block(d, g, settings, effects, k in free_h) for k, (d, g) in enumerate(zip(datasets, gears))]
     specs = [b[0] for b in blocks]
     own = []
     for d, g, (spec, dp) in zip(datasets, gears, blocks):
@@ -305,7 +340,7 @@ def fit_datasets(
         starts7 = starts7 + _default_starts(spec, dp) if not starts7 else starts7
         sf, p, lbx, ubx, _ = _problem([spec], [dp], fixed, bounds)
         sol = _solve([spec], sf, p, [_x_from_theta([t], [spec], sf, bounds) for t in starts7], lbx, ubx)
-        own.append({"solution": sol, "shared_free": sf, "official": official, "theta7": _full7(sol, [spec], sf, p)[0]})
+        own.append({"solution": sol, "shared_free": sf, "official": official, "theta8": _full8(sol, [spec])[0]})
     shared_free, p, lbx, ubx, _ = _problem(specs, [b[1] for b in blocks], fixed, bounds)
     starts = _joint_starts(own, specs, shared_free, bounds)
     joint = _solve(specs, shared_free, p, starts, lbx, ubx)
@@ -317,17 +352,20 @@ def fit_datasets(
         own=own,
         joint=joint,
         shared_free=shared_free,
-        theta7=_full7(joint, specs, shared_free, p),
+        theta8=_full8(joint, specs),
         fixed=fixed,
         bounds=bounds,
         solve_time_s=time.perf_counter() - t0,
     )
 
 
-def _full7(sol, specs, shared_free, p) -> list[np.ndarray]:
-    """Each block's 7-vector at a solution (held values where not free)."""
+def _full8(sol, specs) -> list[np.ndarray]:
+    """Each block's 8-vector (7 wheel parameters, grouser height) at a solution (held values where not free)."""
     th = sol["theta"]
-    return [np.concatenate([th[:N_SHARED], [th[N_SHARED + d]]]) for d in range(len(specs))]
+    return [
+        np.concatenate([th[:N_SHARED], th[N_SHARED + N_SPECIFIC * d : N_SHARED + N_SPECIFIC * (d + 1)]])
+        for d in range(len(specs))
+    ]
 
 
 def _joint_starts(own, specs, shared_free, bounds) -> list[np.ndarray]:
@@ -335,15 +373,15 @@ def _joint_starts(own, specs, shared_free, bounds) -> list[np.ndarray]:
     that touches them, every block's own gear-specific value."""
     out = []
     for d, spec in enumerate(specs):
-        base = own[d]["theta7"].copy()
+        base = own[d]["theta8"].copy()
         touch = np.array(block_touches(spec))
         for e, other in enumerate(specs):
             t_o = np.array(block_touches(other))
             fill = ~touch & t_o
-            base[:N_SHARED][fill] = own[e]["theta7"][:N_SHARED][fill]
+            base[:N_SHARED][fill] = own[e]["theta8"][:N_SHARED][fill]
             touch |= t_o
-        th7s = [np.concatenate([base[:N_SHARED], [own[e]["theta7"][N_SHARED]]]) for e in range(len(specs))]
-        out.append(_x_from_theta(th7s, specs, shared_free, bounds))
+        th8s = [np.concatenate([base[:N_SHARED], own[e]["theta8"][N_SHARED:]]) for e in range(len(specs))]
+        out.append(_x_from_theta(th8s, specs, shared_free, bounds))
     return out
 
 
@@ -353,8 +391,9 @@ _ = WHEEL_PARAMETERS  # the vector order every 7-vector here follows
 def fit_joint_call(datasets, running_gear, *, model: str, bounds, effects, fixed, **options) -> JointFitResult:
     """:func:`soiltrack.identify.fit` on a list: the keywords that apply handed to :func:`fit_datasets`."""
     kw: dict[str, Any] = {}
-    if "labels" in options:
-        kw["labels"] = options.pop("labels")
+    for name in ("labels", "free_grousers"):
+        if name in options:
+            kw[name] = options.pop(name)
     if "wheel_settings" in options:  # the wheel model's settings (fit's own ``settings`` are a track's)
         kw["settings"] = options.pop("wheel_settings")
     if options:

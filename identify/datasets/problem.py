@@ -33,13 +33,26 @@ from ...soilmodel.threadsafe import locked_cache
 from ...soilmodel.wheel import WheelSettings
 from ..wheel.problem import NOISE_FLOOR_REL, PARAMETER_SCALES, WHEEL_IPOPT_OPTIONS, WHEEL_PARAMETERS, wheel_block
 
-__all__ = ["SHARED", "SPECIFIC", "BlockSpec", "block_touches", "joint_solver", "N_SHARED"]
+__all__ = [
+    "SHARED",
+    "SPECIFIC",
+    "BlockSpec",
+    "block_touches",
+    "joint_solver",
+    "N_SHARED",
+    "N_SPECIFIC",
+    "GROUSER_SCALE",
+]
 
 #: The soil's parameters, shared by every data set (SI names of the wheel fit).
 SHARED = WHEEL_PARAMETERS[:6]
 N_SHARED = len(SHARED)
-#: A wheel's gear-specific parameters (one per wheel data set).
-SPECIFIC = WHEEL_PARAMETERS[6:]
+#: A wheel's gear-specific parameters (one each per data set): the slip-sinkage coefficient and the
+#: grouser height (m; held at the wheel's unless freed).
+SPECIFIC = (WHEEL_PARAMETERS[6], "grouser_height")
+N_SPECIFIC = len(SPECIFIC)
+#: Scale of the grouser height inside the solver, m (solved for in centimetres).
+GROUSER_SCALE = 1e-2
 
 
 @dataclass(frozen=True)
@@ -58,6 +71,7 @@ class BlockSpec:
     sinkage: bool = False
     torque: bool = False
     specific_free: bool = False
+    grouser_free: bool = False
 
     @property
     def p_size(self) -> int:
@@ -91,13 +105,15 @@ def _floor_term(r, floor, n: int):
     return n / 2 * ca.log(ca.sumsqr(r) + n * floor**2)
 
 
-def _block(spec: BlockSpec, theta, p) -> tuple[Any, list[tuple[Any, Any]]]:
-    """``(f, [(residual, floor), ...])`` of one block (theta: 7 SI parameters)."""
+def _block(spec: BlockSpec, theta, p, h=None) -> tuple[Any, list[tuple[Any, Any]]]:
+    """``(f, [(residual, floor), ...])`` of one block (theta: 7 SI parameters; h the grouser height if freed)."""
     n = spec.n
     cols = [p[q * n : (q + 1) * n] for q in range(spec.p_size // n)]
     if spec.kind == "wheel":
         assert spec.wheel is not None and spec.settings is not None
-        f, (r_dp, r_w, r_t) = wheel_block(spec.wheel, spec.settings, n, spec.sinkage, spec.torque, theta, p)
+        f, (r_dp, r_w, r_t) = wheel_block(
+            spec.wheel, spec.settings, n, spec.sinkage, spec.torque, theta, p, grouser_height=h
+        )
         W = cols[2]
         floor = NOISE_FLOOR_REL * ca.sum1(W) / n
         out = [(r_dp, floor)]
@@ -127,7 +143,8 @@ def _block(spec: BlockSpec, theta, p) -> tuple[Any, list[tuple[Any, Any]]]:
 
 
 def _theta_blocks(x, p, specs: tuple[BlockSpec, ...], shared_free: tuple[bool, ...]):
-    """The 7-vector of every block from the variables and the held values, and the SI variables' scales."""
+    """The 7-vector and the grouser height of every block from the variables and the held values (two per
+    block: s, h), and the SI variables' scales."""
     parts, scales, q = [], [], 0
     for k in range(N_SHARED):
         if shared_free[k]:
@@ -136,34 +153,39 @@ def _theta_blocks(x, p, specs: tuple[BlockSpec, ...], shared_free: tuple[bool, .
             q += 1
         else:
             parts.append(p[k])
-    thetas = []
+    thetas, hs = [], []
     for d, spec in enumerate(specs):
         if spec.specific_free:
             s = x[q] * PARAMETER_SCALES[N_SHARED]
             scales.append(PARAMETER_SCALES[N_SHARED])
             q += 1
         else:
-            s = p[N_SHARED + d]
+            s = p[N_SHARED + N_SPECIFIC * d]
+        if spec.grouser_free:
+            hs.append(x[q] * GROUSER_SCALE)
+            scales.append(GROUSER_SCALE)
+            q += 1
+        else:
+            hs.append(p[N_SHARED + N_SPECIFIC * d + 1])
         thetas.append(ca.vertcat(*parts, s))
-    return thetas, np.array(scales)
+    return thetas, hs, np.array(scales)
 
 
 @locked_cache(maxsize=32)
 def joint_solver(specs: tuple[BlockSpec, ...], shared_free: tuple[bool, ...]) -> tuple[ca.Function, ca.Function]:
     """The cached IPOPT solver of the joint problem and its evaluation Function.
 
-    ``eval(x_si, p) -> [theta (6 + blocks), f per block, then per block and channel: residual,
+    ``eval(x_si, p) -> [theta (6 + 2 per block: s, h), f per block, then per block and channel: residual,
     Jacobian w.r.t. the SI variables, floor]``.
     """
-    nf = sum(shared_free) + sum(s.specific_free for s in specs)
+    nf = sum(shared_free) + sum(s.specific_free + s.grouser_free for s in specs)
     x = ca.MX.sym("x", nf)
-    np_total = N_SHARED + len(specs) + sum(s.p_size for s in specs)
-    p = ca.MX.sym("p", np_total)
-    thetas, scales = _theta_blocks(x, p, specs, shared_free)
-    off = N_SHARED + len(specs)
+    off = N_SHARED + N_SPECIFIC * len(specs)
+    p = ca.MX.sym("p", off + sum(s.p_size for s in specs))
+    thetas, hs, scales = _theta_blocks(x, p, specs, shared_free)
     fs, chans = [], []
-    for spec, th in zip(specs, thetas):
-        f, ch = _block(spec, th, p[off : off + spec.p_size])
+    for spec, th, h in zip(specs, thetas, hs):
+        f, ch = _block(spec, th, p[off : off + spec.p_size], h if spec.grouser_free else None)
         off += spec.p_size
         fs.append(f)
         chans.append(ch)
@@ -171,7 +193,7 @@ def joint_solver(specs: tuple[BlockSpec, ...], shared_free: tuple[bool, ...]) ->
     xs = ca.MX.sym("xs", nf)
     xsc = xs / ca.DM(scales) if nf else xs
     sub = lambda e: ca.substitute(e, x, xsc)  # noqa: E731 - the SI variables in place of the scaled ones
-    theta_all = ca.vertcat(thetas[0][:N_SHARED], *[th[N_SHARED] for th in thetas])
+    theta_all = ca.vertcat(thetas[0][:N_SHARED], *[ca.vertcat(th[N_SHARED], h) for th, h in zip(thetas, hs)])
     outs = [sub(theta_all), sub(ca.vertcat(*fs))]
     for ch in chans:
         for r, floor in ch:

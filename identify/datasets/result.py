@@ -137,13 +137,24 @@ class JointFitResult:
             lines.append(parameter_line(key, e))
         for lab, sp in zip(self.labels, self.specific):
             for key, e in sp.items():
-                lines.append(parameter_line(key, e) + f"  [{lab}]")
+                lines.append(_specific_line(key, e) + f"  [{lab}]")
         lines.append("each data set's own fit:")
         for d in self.datasets:
             soil = ", ".join(f"{k} {_fmt(v)}" for k, v in d["soil"].items() if v is not None)
             lines.append(f"- {d['label']} ({d['kind']}, {d['rows']} rows): {d['outcome']}; {soil}")
         lines += [f"note: {n}" for n in self.notes]
         return "\n".join(lines)
+
+
+def _specific_line(key: str, e: WheelEstimate) -> str:
+    """A gear-specific parameter's report row (the wheel's table row; the grouser height written here)."""
+    if key != "grouser_height_m":
+        return parameter_line(key, e)
+    lab = f"{'grouser height h (m)':<30}"
+    if not e.identifiable or e.ci95[0] is None:
+        return f"{lab}{e.value:>12.4g}{'-':>28}  NOT IDENTIFIABLE"
+    ident = f"no: ON {str(e.bound_side).upper()} BOUND" if e.at_bound else "yes"
+    return f"{lab}{e.value:>12.4g}{f'[{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]':>28}  {ident}"
 
 
 def _fmt(v: Any) -> str:
@@ -171,17 +182,23 @@ def consistency_lines(c: dict[str, Any], labels) -> list[str]:
     return out
 
 
-def _estimates(theta7, names_idx, free_idx, sol, bounds, fixed_names) -> dict[str, WheelEstimate]:
-    """WheelEstimates (edge units) of the parameters ``names_idx`` (indices into the 7-vector)."""
+#: Edge units of the wheel's parameters and of the grouser height (a gear-specific parameter here).
+EDGE = {**_EDGE, "grouser_height": ("grouser_height_m", 1.0, "m", "grouser height h")}
+NAMES8 = tuple(_EDGE) + ("grouser_height",)
+
+
+def _estimates(theta8, names_idx, spec, sol, bounds, fixed_names) -> dict[str, WheelEstimate]:
+    """WheelEstimates (edge units) of the parameters ``names_idx`` (``(index into the 8-vector, variable column
+    or None)``)."""
+    from .fit import box8
+
     cov, ident, q = sol["cov"], sol["ident"], quantile(int(sol["dof"]), False)
-    lo, hi = np.array(bounds.lower), np.array(bounds.upper)
+    lo, hi, _ = box8(spec, bounds)
     out = {}
     for k, col in names_idx:
-        name = ("cohesion", "friction_angle", "shear_modulus", "bekker_kc", "bekker_kphi", "bekker_n", "slip_sinkage")[
-            k
-        ]
-        key, fac = _EDGE[name][0], _EDGE[name][1]
-        v = float(np.clip(theta7[k], lo[k], hi[k]))
+        name = NAMES8[k]
+        key, fac = EDGE[name][0], EDGE[name][1]
+        v = float(np.clip(theta8[k], lo[k], hi[k]))
         side = on_bound(v, lo[k], hi[k])
         se = None
         if col is not None and ident[col] and math.isfinite(cov[col, col]):
@@ -203,16 +220,20 @@ def _estimates(theta7, names_idx, free_idx, sol, bounds, fixed_names) -> dict[st
     return out
 
 
-def _columns(specs, shared_free) -> tuple[list[int | None], list[int | None]]:
-    """Variable column of each shared parameter (None if held) and of each block's specific one."""
+def _columns(specs, shared_free) -> tuple[list[int | None], list[list[tuple[int, int | None]]]]:
+    """Variable column of each shared parameter (None if held) and each block's specific ``(index, column)``."""
     cols, q = [], 0
     for k in range(N_SHARED):
         cols.append(q if shared_free[k] else None)
         q += shared_free[k]
     spec_cols = []
     for s in specs:
-        spec_cols.append(q if s.specific_free else None)
-        q += s.specific_free
+        mine = []
+        for k, free in ((N_SHARED, s.specific_free), (N_SHARED + 1, s.grouser_free)):
+            if free:
+                mine.append((k, q))
+                q += 1
+        spec_cols.append(mine)
     return cols, spec_cols
 
 
@@ -297,24 +318,21 @@ def _own_entry(label, spec, gear, o, est) -> dict[str, Any]:
 
 
 def build_joint_result(
-    *, labels, datasets, gears, specs, own, joint, shared_free, theta7, fixed, bounds, solve_time_s
+    *, labels, datasets, gears, specs, own, joint, shared_free, theta8, fixed, bounds, solve_time_s
 ) -> JointFitResult:
     """Assemble the :class:`JointFitResult` from the own solutions and the joint one (:mod:`.fit`)."""
     from .problem import block_touches
 
     cols, spec_cols = _columns(specs, shared_free)
     fixed_names = set(fixed)
-    joint_est = _estimates(theta7[0], list(enumerate(cols)), None, joint, bounds, fixed_names)
-    specific = tuple(
-        _estimates(theta7[d], [(N_SHARED, spec_cols[d])], None, joint, bounds, fixed_names) if s.specific_free else {}
-        for d, s in enumerate(specs)
-    )
+    joint_est = _estimates(theta8[0], list(enumerate(cols)), specs[0], joint, bounds, fixed_names)
+    specific = tuple(_estimates(theta8[d], spec_cols[d], s, joint, bounds, fixed_names) for d, s in enumerate(specs))
     own_est = []
     for o, s in zip(own, specs):
         oc, _ = _columns([s], o["shared_free"])
         touch = block_touches(s)
         idx = [(k, oc[k]) for k in range(N_SHARED) if touch[k]]
-        own_est.append(_estimates(o["theta7"], idx, None, o["solution"], bounds, fixed_names))
+        own_est.append(_estimates(o["theta8"], idx, s, o["solution"], bounds, fixed_names))
     cons = consistency_test(own, joint, labels, own_est, joint_est)
     notes = []
     if not all(o["solution"]["converged"] for o in own):
@@ -330,7 +348,7 @@ def build_joint_result(
         if e["official"].outcome != "usable":
             notes.append(f"{lab}'s own fit is {e['official'].outcome}: {e['official'].fit_outcome.reason}")
     names = [SHARED[k] for k in range(N_SHARED) if shared_free[k]]
-    names += [f"slip_sinkage[{labels[d]}]" for d, s in enumerate(specs) if s.specific_free]
+    names += [f"{NAMES8[k]}[{labels[d]}]" for d in range(len(specs)) for k, _ in spec_cols[d]]
     return JointFitResult(
         labels=tuple(labels),
         parameters=joint_est,

@@ -131,25 +131,32 @@ def bekker_modulus(k_c, k_phi, width):
 
 
 @locked_cache(maxsize=32)
-def residual_function(wheel: RigidWheel, settings: WheelSettings, measured_sinkage: bool) -> ca.Function:
+def residual_function(
+    wheel: RigidWheel, settings: WheelSettings, measured_sinkage: bool, grouser_input: bool = False
+) -> ca.Function:
     """Per-row Function ``(i, z, W, theta[7]) -> (drawbar pull, vertical force, sinkage used, z_W)``.
 
     ``z_W`` is the sinkage at which the fitted stresses carry the load W. With
     ``measured_sinkage`` the row's z is used for the drawbar pull and the vertical force;
-    otherwise z_W is (the input z is ignored).
+    otherwise z_W is (the input z is ignored). With ``grouser_input`` the grouser height is a last
+    input ``h`` (m) instead of the wheel's (the joint fit frees it).
     """
     i, z, W = ca.MX.sym("i"), ca.MX.sym("z"), ca.MX.sym("W")
     th = ca.MX.sym("theta", N_PARAMETERS)
     c, phi, K, k_c, k_phi, n, s = (th[q] for q in range(N_PARAMETERS))
-    r, b, h = wheel.radius, wheel.width, wheel.grouser_height
-    z_w = sinkage_from_load_function(r, b, h, settings)(i, W, c, phi, K, k_c, k_phi, n, s)
+    r, b = wheel.radius, wheel.width
+    hs = ca.MX.sym("h")
+    h = hs if grouser_input else wheel.grouser_height
+    z_fn = sinkage_from_load_function(r, b, wheel.grouser_height, settings, grouser_input=grouser_input)
+    z_w = z_fn(i, W, c, phi, K, k_c, k_phi, n, s, *([hs] if grouser_input else []))
     z_used = z if measured_sinkage else z_w
     dp, wl, tq = wheel_expr(i, z_used, c, phi, K, k_c, k_phi, n, r, b, h, settings, slip_sinkage=s)
+    extra = [hs] if grouser_input else []
     return ca.Function(
         "wheel_row",
-        [i, z, W, th],
+        [i, z, W, th, *extra],
         [dp, wl, z_used, z_w, tq],
-        ["i", "z", "W", "theta"],
+        ["i", "z", "W", "theta", *(["h"] if grouser_input else [])],
         ["drawbar_pull", "normal_load", "sinkage", "sinkage_from_load", "torque"],
     )
 
@@ -172,18 +179,22 @@ def wheel_block(
     measured_torque: bool,
     theta,
     p,
+    grouser_height=None,
 ) -> tuple[Any, tuple[Any, Any, Any]]:
     """One wheel sweep's concentrated negative log-likelihood and raw residuals (CasADi MX).
 
     ``theta`` the seven parameters (SI, :data:`WHEEL_PARAMETERS`), ``p`` the sweep's data as
     :func:`wheel_solver` lays them out (``[i, z, W, DP(, T, weights)]``, n each; anything after is
-    ignored). Returns ``(f, (r_dp, r_z, r_t))``; ``r_z``, ``r_t`` zeros where not measured. The
+    ignored); ``grouser_height`` (MX, optional) in place of the wheel's. Returns ``(f, (r_dp, r_z, r_t))``;
+    ``r_z``, ``r_t`` zeros where not measured. The
     one home of the wheel's objective: the wheel's own fit and the joint fit of several data sets
     (:mod:`soiltrack.identify.datasets`) both build it here.
     """
     i, z, W, DP = (p[q * n_rows : (q + 1) * n_rows] for q in range(4))
-    row = residual_function(wheel, settings, measured_sinkage).map(n_rows)
-    dp, _, _, z_w, tq = row(i.T, z.T, W.T, ca.repmat(theta, 1, n_rows))
+    h_in = grouser_height is not None
+    row = residual_function(wheel, settings, measured_sinkage, h_in).map(n_rows)
+    extra = [ca.repmat(grouser_height, 1, n_rows)] if h_in else []
+    dp, _, _, z_w, tq = row(i.T, z.T, W.T, ca.repmat(theta, 1, n_rows), *extra)
     r_dp = dp.T - DP
     r_w = (z_w.T - z) if measured_sinkage else ca.MX.zeros(n_rows, 1)
     f = n_rows / 2 * ca.log(ca.sumsqr(r_dp) + n_rows * (NOISE_FLOOR_REL * ca.sum1(W) / n_rows) ** 2)
