@@ -391,6 +391,12 @@ def add_parser(sub) -> None:
         help="rigid wheel: add Bekker's bulldozing resistance of the sinking wheel with this soil bulk density "
         "(held; docs/physics.md)",
     )
+    f.add_argument(
+        "--fit-grouser-height",
+        action="store_true",
+        help="several files: fit the grouser height of every wheel whose JSON has grouser_height_m > 0 (its own "
+        "parameter, started there), beside the shared soil (docs/physics.md, grousers)",
+    )
     add_columns_argument(f)
     f.add_argument(
         "--inner-radius-m",

@@ -14,8 +14,6 @@ from .soilmodel.rigid_wheel import RigidWheel
 
 __all__ = ["single_file_args", "joint_fit_command"]
 
-#: Options a joint fit takes beside the files and vehicles (the others are refused by name).
-_TAKEN = ("json", "driving_only", "slip_angle", "columns", "effect", "fix", "model", "bulldozing_density")
 #: Options refused in a joint fit, with their defaults.
 _REFUSED = {"plot": None, "segments": None, "negative_kc": False, "method": "ipopt", "sigma": None, "resistance": None}
 
@@ -29,6 +27,11 @@ def single_file_args(a: argparse.Namespace) -> bool:
         return False
     if len(vehicles) > 1:
         raise DataError(f"--vehicle given {len(vehicles)} times for one file ({files[0]}): give it once")
+    if getattr(a, "fit_grouser_height", False):
+        raise DataError(
+            "--fit-grouser-height needs several files: on one wheel the grouser height is confounded with c and "
+            "phi (fit it beside a smooth wheel of the same soil)"
+        )
     a.data, a.vehicle = files[0], (vehicles[0] if vehicles else None)
     return True
 
@@ -83,9 +86,17 @@ def joint_fit_command(a: argparse.Namespace, read_record) -> int:
     gears = [running_gear_arg(v) for v in vehicles]
     per_file = gears * len(files) if len(gears) == 1 else (gears or [None] * len(files))
     datasets = [_read(a, path, g, read_record) for path, g in zip(files, per_file)]
+    free_h = [
+        k
+        for k, g in enumerate(per_file)
+        if getattr(a, "fit_grouser_height", False) and isinstance(g, RigidWheel) and g.grouser_height > 0
+    ]
+    if getattr(a, "fit_grouser_height", False) and not free_h:
+        raise DataError("--fit-grouser-height: no wheel of these files has grouser_height_m > 0 in its JSON")
     result = fit(
         datasets,
         per_file,
+        free_grousers=free_h,
         effects=wheel_effects_arg(a),
         fixed=wheel_fixed_arg(getattr(a, "fix", None), a.model),
         wheel_settings=wheel_settings_arg(a),

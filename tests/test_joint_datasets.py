@@ -147,6 +147,10 @@ def test_cli_vehicle_count_neither_one_nor_per_file_exits_2(tmp_path, capsys):
     assert main(["fit", files[0], "--vehicle", str(js), "--vehicle", str(js)]) == 2
     assert "once" in capsys.readouterr().err
     assert main(["fit", *files[:2], "--vehicle", str(js), "--plot", str(tmp_path / "x.png")]) == 2
+    assert main(["fit", files[0], "--vehicle", str(js), "--fit-grouser-height"]) == 2
+    assert "needs several files" in capsys.readouterr().err
+    assert main(["fit", *files[:2], "--vehicle", str(js), "--fit-grouser-height"]) == 2
+    assert "grouser_height_m > 0" in capsys.readouterr().err
 
 
 def test_python_joint_fit_bad_input():
