@@ -200,3 +200,20 @@ def test_a_grousered_wheels_height_is_fitted_beside_a_smooth_wheel():
     assert held.outcome == "poor_fit" and held.consistency["disagrees"] == "g as smooth"
     with pytest.raises(DataError, match="free_grousers"):
         fit([a, _shear(1)], [smooth, None], free_grousers=[1])
+
+
+@pytest.mark.slow
+def test_a_wheel_with_a_plate_test_shares_the_bekker_soil():
+    from soiltrack.soilmodel import PlateTest
+
+    rng = np.random.default_rng(3)
+    b = np.repeat([0.05, 0.1], 8)
+    z = np.tile(np.linspace(0.005, 0.04, 8), 2)
+    p = (KC / b + KPHI) * z**N
+    plate = PlateTest(plate_width=b, pressure=p + rng.normal(0, 0.01 * p.max(), p.size), sinkage=z, source="plate")
+    r = fit([_sweep(WA, 1), plate], [WA, None], labels=["wheel", "plate"])
+    assert r.outcome == "usable" and r.consistency["dof"] == 2  # wheel rank 5 + plate 3 - joint 6
+    for key, v in (("bekker_kc", KC / 1e3), ("bekker_kphi", KPHI / 1e3), ("bekker_n", N)):
+        e = r.parameters[key]
+        assert e.ci95[0] <= v <= e.ci95[1], (key, e.ci95, v)
+    assert r.datasets[1]["kind"] == "plate_test" and "cohesion_kpa" not in r.datasets[1]["soil"]

@@ -30,14 +30,12 @@ from ..estimates.least_squares import core_stats_one
 from ..wheel.fitting import START_BOUND_MARGIN, WheelFitOptions, fit_wheel
 from ..wheel.problem import DEFAULT_WHEEL_BOUNDS, PARAMETER_SCALES, WHEEL_PARAMETERS, WheelBounds
 from ..wheel.result import NULL_TOL
-from .problem import GROUSER_SCALE, N_SHARED, N_SPECIFIC, SHARED, BlockSpec, block_touches, joint_solver
+from .problem import GROUSER_SCALE, N_SHARED, N_SPECIFIC, SHARED, BlockSpec, block_touches, box8, joint_solver
 from .result import JointFitResult, build_joint_result
 
 __all__ = ["fit_datasets", "fit_joint_call"]
 
 _OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
-#: Upper bound of a fitted grouser height, as a fraction of the wheel's radius.
-GROUSER_MAX_REL = 0.5
 #: Starts of a block without a usable own fit (SI): c, phi (deg), K, n.
 _START_PHI_DEG = (20.0, 30.0, 38.0)
 _START_K_M = (0.008, 0.025)
@@ -198,14 +196,6 @@ def _layout(specs, shared_free) -> list[tuple[int, int]]:
         out += [(d, N_SHARED)] if sp.specific_free else []
         out += [(d, N_SHARED + 1)] if sp.grouser_free else []
     return out
-
-
-def box8(spec: BlockSpec, bounds: WheelBounds) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Lower, upper bounds and solver scales of a block's 8-vector (7 wheel parameters, grouser height)."""
-    r = spec.wheel.radius if spec.wheel is not None else 1.0
-    lo = np.append(np.array(bounds.lower, dtype=float), 0.0)
-    hi = np.append(np.array(bounds.upper, dtype=float), GROUSER_MAX_REL * r)
-    return lo, hi, np.append(PARAMETER_SCALES, GROUSER_SCALE)
 
 
 def _problem(specs, data_p, fixed: Mapping[str, float], bounds: WheelBounds):

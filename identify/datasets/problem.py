@@ -31,7 +31,14 @@ from ...soilmodel.bevameter import annulus_torque_expr, plate_pressure_expr, she
 from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.threadsafe import locked_cache
 from ...soilmodel.wheel import WheelSettings
-from ..wheel.problem import NOISE_FLOOR_REL, PARAMETER_SCALES, WHEEL_IPOPT_OPTIONS, WHEEL_PARAMETERS, wheel_block
+from ..wheel.problem import (
+    NOISE_FLOOR_REL,
+    PARAMETER_SCALES,
+    WHEEL_IPOPT_OPTIONS,
+    WHEEL_PARAMETERS,
+    WheelBounds,
+    wheel_block,
+)
 
 __all__ = [
     "SHARED",
@@ -53,6 +60,8 @@ SPECIFIC = (WHEEL_PARAMETERS[6], "grouser_height")
 N_SPECIFIC = len(SPECIFIC)
 #: Scale of the grouser height inside the solver, m (solved for in centimetres).
 GROUSER_SCALE = 1e-2
+#: Upper bound of a fitted grouser height, as a fraction of the wheel's radius.
+GROUSER_MAX_REL = 0.5
 
 
 @dataclass(frozen=True)
@@ -90,6 +99,14 @@ class BlockSpec:
                 + (("wheel_torque_Nm",) if self.torque else ())
             )
         return {"shear": ("shear_stress_Pa",), "annulus": ("torque_per_ring_Pa",), "plate": ("pressure_Pa",)}[self.kind]
+
+
+def box8(spec: BlockSpec, bounds: WheelBounds) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Lower, upper bounds and solver scales of a block's 8-vector (7 wheel parameters, grouser height)."""
+    r = spec.wheel.radius if spec.wheel is not None else 1.0
+    lo = np.append(np.array(bounds.lower, dtype=float), 0.0)
+    hi = np.append(np.array(bounds.upper, dtype=float), GROUSER_MAX_REL * r)
+    return lo, hi, np.append(PARAMETER_SCALES, GROUSER_SCALE)
 
 
 def block_touches(spec: BlockSpec) -> tuple[bool, ...]:

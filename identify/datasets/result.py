@@ -15,7 +15,7 @@ from ..estimates.least_squares import quantile
 from ..outcome import OUTCOME_SETTINGS, Outcome, decide_outcome, on_bound, outcome_lines
 from ..wheel.result import EDGE_UNITS as _EDGE
 from ..wheel.result import WheelEstimate, parameter_line
-from .problem import N_SHARED, SHARED
+from .problem import N_SHARED, SHARED, box8
 
 __all__ = ["JointFitResult", "build_joint_result", "consistency_test"]
 
@@ -190,8 +190,6 @@ NAMES8 = tuple(_EDGE) + ("grouser_height",)
 def _estimates(theta8, names_idx, spec, sol, bounds, fixed_names) -> dict[str, WheelEstimate]:
     """WheelEstimates (edge units) of the parameters ``names_idx`` (``(index into the 8-vector, variable column
     or None)``)."""
-    from .fit import box8
-
     cov, ident, q = sol["cov"], sol["ident"], quantile(int(sol["dof"]), False)
     lo, hi, _ = box8(spec, bounds)
     out = {}
