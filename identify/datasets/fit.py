@@ -266,6 +266,18 @@ def _own_theta(data, gear, spec, fixed, effects, bounds, settings) -> tuple[list
     return starts, res
 
 
+def _own_fits(datasets, gears, blocks, fixed, effects, bounds, settings) -> list[dict[str, Any]]:
+    """Each data set's block solved alone (started from the library's own fit of its kind, or a grid)."""
+    own = []
+    for d, g, (spec, dp) in zip(datasets, gears, blocks):
+        starts7, official = _own_theta(d, g, spec, fixed, effects, bounds, settings)
+        starts7 = starts7 + _default_starts(spec, dp) if not starts7 else starts7
+        sf, p, lbx, ubx, _ = _problem([spec], [dp], fixed, bounds)
+        sol = _solve([spec], sf, p, [_x_from_theta([t], [spec], sf, bounds) for t in starts7], lbx, ubx)
+        own.append({"solution": sol, "shared_free": sf, "official": official, "theta8": _full8(sol, [spec])[0]})
+    return own
+
+
 def fit_datasets(
     datasets: Sequence,
     running_gear=None,
@@ -324,13 +336,7 @@ def fit_datasets(
         raise DataError(f"free_grousers: data set(s) {bad} are not wheel sweeps of this fit (0-based indices)")
     blocks = [_as_block(d, g, settings, effects, k in free_h) for k, (d, g) in enumerate(zip(datasets, gears))]
     specs = [b[0] for b in blocks]
-    own = []
-    for d, g, (spec, dp) in zip(datasets, gears, blocks):
-        starts7, official = _own_theta(d, g, spec, fixed, effects, bounds, settings)
-        starts7 = starts7 + _default_starts(spec, dp) if not starts7 else starts7
-        sf, p, lbx, ubx, _ = _problem([spec], [dp], fixed, bounds)
-        sol = _solve([spec], sf, p, [_x_from_theta([t], [spec], sf, bounds) for t in starts7], lbx, ubx)
-        own.append({"solution": sol, "shared_free": sf, "official": official, "theta8": _full8(sol, [spec])[0]})
+    own = _own_fits(datasets, gears, blocks, fixed, effects, bounds, settings)
     shared_free, p, lbx, ubx, _ = _problem(specs, [b[1] for b in blocks], fixed, bounds)
     starts = _joint_starts(own, specs, shared_free, bounds)
     joint = _solve(specs, shared_free, p, starts, lbx, ubx)
