@@ -217,3 +217,38 @@ def test_a_wheel_with_a_plate_test_shares_the_bekker_soil():
         e = r.parameters[key]
         assert e.ci95[0] <= v <= e.ci95[1], (key, e.ci95, v)
     assert r.datasets[1]["kind"] == "plate_test" and "cohesion_kpa" not in r.datasets[1]["soil"]
+
+
+def _annulus_torque(theta, sigma, r_i=0.15, r_o=0.2):
+    """Closed form of 2 pi int r^2 (c + sigma tan phi)(1 - exp(-r theta / K)) dr (written out here)."""
+    a = theta / K
+
+    def prim(r):  # int r^2 exp(-a r) dr
+        return -np.exp(-a * r) * (r**2 / a + 2 * r / a**2 + 2 / a**3)
+
+    return 2 * math.pi * (C + sigma * math.tan(PHI)) * ((r_o**3 - r_i**3) / 3 - (prim(r_o) - prim(r_i)))
+
+
+@pytest.mark.slow
+def test_a_shear_test_and_a_shear_annulus_share_c_phi_k():
+    from soiltrack.soilmodel.bevameter_records import AnnulusTest
+
+    rng = np.random.default_rng(11)
+    sig = np.repeat([10e3, 20e3, 30e3], 8)
+    th = np.tile(np.radians(np.linspace(1.0, 40.0, 8)), 3)
+    T = np.array([_annulus_torque(t, s) for t, s in zip(th, sig)])
+    ring = AnnulusTest(
+        normal_pressure=sig,
+        rotation=th,
+        torque=T + rng.normal(0, 0.5, T.size),
+        inner_radius=np.full(T.size, 0.15),
+        outer_radius=np.full(T.size, 0.2),
+        source="annulus",
+    )
+    r = fit([_shear(5), ring], None, labels=["shear", "annulus"])
+    assert r.outcome == "usable" and r.consistency["dof"] == 3 and r.consistency["p_value"] > 0.01
+    assert r.datasets[1]["kind"] == "shear_annulus"
+    for key, v in (("cohesion_kpa", C / 1e3), ("friction_angle_deg", math.degrees(PHI)), ("shear_modulus_m", K)):
+        e = r.parameters[key]
+        assert e.ci95[0] <= v <= e.ci95[1], (key, e.ci95, v)
+    assert r.parameters["bekker_n"].fixed  # no data set sees the Bekker soil: held, said so
