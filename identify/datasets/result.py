@@ -118,8 +118,8 @@ class JointFitResult:
         }
 
     def to_json(self) -> str:
-        """:meth:`to_dict` as JSON text."""
-        return json.dumps(self.to_dict(), indent=2)
+        """:meth:`to_dict` as JSON text (a non-finite number, e.g. of a failed solve, as null)."""
+        return json.dumps(_finite(self.to_dict()), indent=2)
 
     def report(self) -> str:
         """Plain text: the outcome, the consistency test first, the joint soil, each data set's own fit."""
@@ -155,6 +155,17 @@ def _specific_line(key: str, e: WheelEstimate) -> str:
         return f"{lab}{e.value:>12.4g}{'-':>28}  NOT IDENTIFIABLE"
     ident = f"no: ON {str(e.bound_side).upper()} BOUND" if e.at_bound else "yes"
     return f"{lab}{e.value:>12.4g}{f'[{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]':>28}  {ident}"
+
+
+def _finite(x: Any) -> Any:
+    """``x`` with every non-finite float replaced by None (JSON has no NaN)."""
+    if isinstance(x, float):
+        return x if math.isfinite(x) else None
+    if isinstance(x, dict):
+        return {k: _finite(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_finite(v) for v in x]
+    return x
 
 
 def _fmt(v: Any) -> str:
@@ -238,7 +249,8 @@ def _columns(specs, shared_free) -> tuple[list[int | None], list[list[tuple[int,
 def consistency_test(own, joint, labels, own_est, joint_est) -> dict[str, Any]:
     """The likelihood-ratio test of one soil, each data set's share, the shifts in standard errors."""
     f_joint = joint["f_blocks"]
-    shares = [max(0.0, 2 * (float(f_joint[d]) - float(o["solution"]["f_blocks"][0]))) for d, o in enumerate(own)]
+    shares = [2 * (float(f_joint[d]) - float(o["solution"]["f_blocks"][0])) for d, o in enumerate(own)]
+    shares = [max(0.0, x) if math.isfinite(x) else math.nan for x in shares]
     stat = float(sum(shares))
     dof = int(sum(o["solution"]["rank"] for o in own) - joint["rank"])
     shifts: dict[str, list[float | None]] = {}
@@ -261,6 +273,10 @@ def consistency_test(own, joint, labels, own_est, joint_est) -> dict[str, Any]:
         "disagrees": None,
         "poor_fit": False,
     }
+    if not math.isfinite(stat):  # a failed solve: no statistic (never NaN in the JSON)
+        out.update(statistic=None, p_value=None, contributions=[None] * len(shares))
+        out["reason_untestable"] = "a fit did not give a finite likelihood"
+        return out
     if dof <= 0:
         out["reason_untestable"] = "the data sets identify no parameter in common (degrees of freedom 0)"
         return out
