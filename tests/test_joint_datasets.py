@@ -51,8 +51,8 @@ def disagreeing():
     return fit([_sweep(WA, 1), _sweep(WB, 3, phi=math.radians(36.0))], [WA, WB], labels=["A", "Bbad"])
 
 
-def _write(path, wheel: RigidWheel, data: WheelSweep) -> tuple[str, str]:
-    csv = path / f"w{wheel.width:g}_{id(data)}.csv"
+def _write(path, name: str, wheel: RigidWheel, data: WheelSweep) -> tuple[str, str]:
+    csv = path / f"{name}.csv"
     rows = ["slip,drawbar_pull_N,normal_load_N,sinkage_m"]
     rows += [
         f"{a:.8g},{b:.8g},{c:.8g},{d:.8g}"
@@ -119,9 +119,9 @@ def test_a_wheel_with_a_shear_test_shares_the_soil():
 
 @pytest.mark.slow
 def test_cli_joint_fit_exit_codes_and_json(tmp_path, capsys):
-    a_csv, a_js = _write(tmp_path, WA, _sweep(WA, 1))
-    b_csv, b_js = _write(tmp_path, WB, _sweep(WB, 2))
-    bad_csv, _ = _write(tmp_path, WB, _sweep(WB, 3, phi=math.radians(36.0)))
+    a_csv, a_js = _write(tmp_path, "a", WA, _sweep(WA, 1))
+    b_csv, b_js = _write(tmp_path, "b", WB, _sweep(WB, 2))
+    bad_csv, _ = _write(tmp_path, "bad", WB, _sweep(WB, 3, phi=math.radians(36.0)))
     assert main(["fit", a_csv, b_csv, "--vehicle", a_js, "--vehicle", b_js, "--json"]) == 0
     js = json.loads(capsys.readouterr().out)
     assert js["outcome"] == "usable" and js["kind"] == "joint"
