@@ -136,7 +136,9 @@ def diagnose_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:
     cands = None
     if a.candidates is not None:
         cands = tuple(c.strip() for c in a.candidates.split(",") if c.strip())
-    d = diagnose_wheel(data, wheel, WheelFitOptions(fixed=wheel_fixed_arg(None, a.model)), candidates=cands)
+    d = diagnose_wheel(
+        data, wheel, WheelFitOptions(fixed=wheel_fixed_arg(getattr(a, "fix", None), a.model)), candidates=cands
+    )
     print(
         with_column_notes(
             d.to_json() if a.json else d.report(), column_notes(a.data, cols, WHEEL_KNOWN_COLUMNS), a.json

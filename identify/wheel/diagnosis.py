@@ -28,6 +28,7 @@ from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.wheel_sweep import WheelSweep
 from ..estimates.distributions import chi2_sf, t_cdf
 from .fitting import WHEEL_EFFECTS, WheelFitOptions, fit_wheel
+from .grouser_hypothesis import GROUSER_HYPOTHESIS, grouser_hypothesis, grousers_weighable
 from .problem import channel_floors
 from .result import WheelFitResult, slip_levels, wheel_rows
 
@@ -35,6 +36,17 @@ __all__ = ["WheelDiagnosis", "diagnose_wheel", "ALPHA"]
 
 #: Significance level of the likelihood-ratio, lack-of-fit and trend tests.
 ALPHA = 0.01
+#: Why the grouser hypothesis is not weighed with c and phi both free.
+GROUSER_CONFOUNDED = (
+    "grousers: not weighed - with c and phi both fitted the grouser height is confounded with them (Bekker's "
+    "factors multiply c and tan(phi); c held at 0 does not tell them apart); hold phi or a c above 0 (a shear test, "
+    "a terrain; CLI --fix friction_angle_deg=...) to weigh grousers"
+)
+#: What the grouser hypothesis' held-out error is.
+GROUSER_HOLDOUT = (
+    "grousers: Bekker's grouser term with the height fitted, h = {h:.3g} mm (the wheel's JSON: {h0:.3g} mm); "
+    "its held-out error holds h at this all-rows value in each left-out fold (one parameter's optimism)"
+)
 #: A slip level whose share of the held-out misfit exceeds this many equal shares is flagged significant.
 LOCALISATION_SHARE = 2.0
 
@@ -69,7 +81,7 @@ class WheelDiagnosis:
             "localisation": list(self.localisation),
             "shrink": self.shrink,
             "soil_before": soil(self.nominal),
-            "soil_after": soil(self.after) if self.verdict in WHEEL_EFFECTS else None,
+            "soil_after": soil(self.after) if self.verdict in (*WHEEL_EFFECTS, GROUSER_HYPOTHESIS) else None,
             "slip_sinkage_signature": self.signature,
             "lack_of_fit": self.nominal.lack_of_fit,
             "converged": self.converged,
@@ -142,10 +154,11 @@ def diagnose_wheel(
     candidates: tuple[str, ...] | None = None,
 ) -> WheelDiagnosis:
     """Diagnose a wheel sweep against the nominal rigid wheel (see the module text)."""
-    cands = WHEEL_EFFECTS if candidates is None else tuple(candidates)
-    bad = [c for c in cands if c not in WHEEL_EFFECTS]
+    known = (*WHEEL_EFFECTS, GROUSER_HYPOTHESIS)
+    cands = known if candidates is None else tuple(candidates)
+    bad = [c for c in cands if c not in known]
     if bad:
-        raise DataError(f"unknown candidate {bad[0]!r} for a rigid wheel; it has {list(WHEEL_EFFECTS)}")
+        raise DataError(f"unknown candidate {bad[0]!r} for a rigid wheel; it has {list(known)}")
     if np.unique(slip_levels(data.slip)).size < 3:
         raise DataError(
             "a wheel diagnosis leaves each slip level out in turn: it needs at least 3 slip levels",
@@ -173,6 +186,16 @@ def diagnose_wheel(
         if eff == "slip_sinkage" and not data.has_sinkage:
             notes.append("slip_sinkage needs a measured sinkage (sinkage_m) to show: not tried")
             continue
+        if eff == GROUSER_HYPOTHESIS:  # Bekker's grouser term, the height fitted (grouser_hypothesis.py)
+            if not grousers_weighable(options):
+                notes.append(GROUSER_CONFOUNDED)
+                continue
+            g = grouser_hypothesis(data, wheel, options, nominal, _objective)
+            g["holdout"], _, ok = _holdout(data, g["wheel"], replace(g["options"], start=tuple(g["fit"].theta)), scale)
+            ok_nom &= ok
+            hyps.append(g)
+            notes.append(GROUSER_HOLDOUT.format(h=1e3 * g["height"], h0=1e3 * wheel.grouser_height))
+            continue
         r = fit_wheel(data, wheel, replace(options, effects=(eff,)))
         ho, _, ok = _holdout(data, wheel, replace(options, effects=(eff,), start=tuple(r.theta)), scale)
         ok_nom &= ok
@@ -190,8 +213,13 @@ def diagnose_wheel(
         lr = max(2 * (f0 - _objective(h["fit"], data)), 0.0)
         h["p_value"] = chi2_sf(lr, 1)
         e = h["fit"].parameters.get(h["effect"])  # an effect on its bound is inadmissible (the track's rule)
-        h["admissible"] = not (e is not None and e.at_bound)
-        if not h["admissible"]:
+        h["admissible"] = h.get("admissible", not (e is not None and e.at_bound))
+        if h["effect"] == GROUSER_HYPOTHESIS and not h["admissible"]:
+            notes.append(
+                f"grousers: the fitted height ends on its {h['bound_side']} bound ({1e3 * h['bound_value']:.4g} mm): "
+                "inadmissible as a verdict (a height the bounds choose is not an estimate of the grousers)"
+            )
+        elif not h["admissible"]:
             notes.append(
                 f"{h['effect']} ends on its {e.bound_side} bound ({e.value:.4g}): inadmissible as a verdict (a value "
                 "the bounds choose is not an estimate of the effect; its weight and p-value are shown, not used)"
@@ -228,7 +256,11 @@ def diagnose_wheel(
                 "p_value": h["p_value"],
                 "admissible": h.get("admissible", True),
                 "parameters": (
-                    {"slip_sinkage": h["fit"].parameters["slip_sinkage"].value} if h["effect"] == "slip_sinkage" else {}
+                    {"slip_sinkage": h["fit"].parameters["slip_sinkage"].value}
+                    if h["effect"] == "slip_sinkage"
+                    else {"grouser_height_m": h["height"]}
+                    if h["effect"] == GROUSER_HYPOTHESIS
+                    else {}
                 ),
             }
         )
@@ -250,7 +282,7 @@ def diagnose_wheel(
             }
         )
     after = next((h["fit"] for h in hyps if h["effect"] == verdict), None)
-    shrink = next((r["shrink"] for r in ranking if r["effect"] == verdict), None) if verdict in WHEEL_EFFECTS else None
+    shrink = next((r["shrink"] for r in ranking if r["effect"] == verdict), None) if verdict in known else None
     notes.append(
         "held-out errors are root mean squares of residuals scaled by the nominal fit's noise level per "
         "channel (1 = as good as the fit in-sample), each slip level left out in turn"
