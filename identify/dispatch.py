@@ -155,3 +155,7 @@ def _wheel_sweep(data) -> WheelSweep:
     return WheelSweep(
         slip=data.slip, drawbar_pull=data.drawbar_pull, normal_load=data.normal_load, sinkage=data.sinkage
     )
+
+
+#: Public name of the wheel sweep of SlipData (the joint fit of several data sets uses it).
+wheel_sweep_of = _wheel_sweep

@@ -33,6 +33,7 @@ from .drivelog.torque_hold import fit_both_holds
 from .dispatch import check_fit_options, fit_other_kind
 
 if TYPE_CHECKING:
+    from .datasets.result import JointFitResult
     from .soiltests.result import SoilTestFit
     from .wheel.result import WheelFitResult
 
@@ -45,6 +46,8 @@ def fit(data: SlipData | DriveLog, running_gear: Vehicle, **kwargs: Any) -> FitR
 def fit(data: WheelSweep | SlipData, running_gear: RigidWheel, **kwargs: Any) -> WheelFitResult: ...
 @overload
 def fit(data: ShearTest | PlateTest, running_gear: None = None, **kwargs: Any) -> SoilTestFit: ...
+@overload
+def fit(data: list | tuple, running_gear: Any = None, **kwargs: Any) -> JointFitResult: ...
 
 
 def fit(
@@ -69,7 +72,9 @@ def fit(
 
     Parameters
     ----------
-    data : SlipData, DriveLog, WheelSweep, ShearTest or PlateTest
+    data : SlipData, DriveLog, WheelSweep, ShearTest or PlateTest, or a list of them
+        A list: one soil shared by all (wheel sweeps and bevameter tests; running_gear one for all or a
+        list, one per data set), :func:`soiltrack.identify.datasets.fit_datasets`.
         Tractive force-slip or drawbar pull-slip samples (any number, one or several normal
         loads; a missing ``normal_load`` means the vehicle's weight) or a drive log (dispatched
         to :func:`soiltrack.identify.drivelog.fit.fit_drive_log`). Drawbar pull is modelled as
@@ -153,6 +158,8 @@ def fit(
     (``success`` False) where the answer cannot stand.
     """
     running_gear = _renamed_running_gear(running_gear, options)
+    if isinstance(data, (list, tuple)):  # several data sets on one soil (identify/datasets)
+        return _fit_several(data, running_gear, model=model, bounds=bounds, effects=effects, fixed=fixed, **options)
     kw = {"model": model, "method": method, "bounds": bounds, "x0": x0, "engine": engine, "effects": effects}
     if check_fit_options(data, running_gear, options=options, fixed=fixed, settings=settings, **kw) is not None:
         return fit_other_kind(
@@ -167,6 +174,13 @@ def fit(
     if strict and not res.success:
         raise FitFailed(res)
     return res
+
+
+def _fit_several(data, running_gear, **kwargs):
+    """Several data sets on one soil, with the consistency test (:mod:`soiltrack.identify.datasets`)."""
+    from .datasets.fit import fit_joint_call
+
+    return fit_joint_call(data, running_gear, **kwargs)
 
 
 def _renamed_running_gear(running_gear, options: dict):

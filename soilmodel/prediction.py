@@ -25,7 +25,13 @@ import numpy as np
 
 from .sinkage import compaction_expr, sinkage_expr
 from .traction import thrust_expr
-from .wheel import DEFAULT_WHEEL_SETTINGS, WheelSettings, sinkage_from_load_function, wheel_forces_function
+from .wheel import (
+    DEFAULT_WHEEL_SETTINGS,
+    WHEEL_PARAMETER_NAMES,
+    WheelSettings,
+    sinkage_from_load_function,
+    wheel_forces_function,
+)
 
 __all__ = [
     "PREDICTION_PARAMETERS",
@@ -37,15 +43,7 @@ __all__ = [
 
 #: The soil's parameters a prediction depends on (SI): c (Pa), phi (rad), K (m), k_c (N/m^(n+1)),
 #: k_phi (N/m^(n+2)), n, and the wheel's slip-sinkage coefficient s (0: none).
-PREDICTION_PARAMETERS = (
-    "cohesion",
-    "friction_angle",
-    "shear_modulus",
-    "bekker_kc",
-    "bekker_kphi",
-    "bekker_n",
-    "slip_sinkage",
-)
+PREDICTION_PARAMETERS = WHEEL_PARAMETER_NAMES
 #: The outputs, in order: drawbar pull (N), thrust (N), torque (N m), sinkage (m).
 PREDICTION_OUTPUTS = ("drawbar_pull", "thrust", "torque", "sinkage")
 

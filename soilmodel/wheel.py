@@ -17,7 +17,9 @@ and, as the ``slip_sinkage`` effect (0 by default: the textbook wheel), ``k`` re
 ``k / (1 + s i)``: at a given sinkage a slipping wheel's soil carries less (it is excavated and
 loosened), so at a given load the wheel sinks deeper as the slip rises. With the shear radius
 ``r_s = r + h`` (grouser height h; ``r_s = r`` for a smooth wheel: the
-grousers move the shear surface to their tips, only j sees it). Integrated over the arc::
+grousers move the shear surface to their tips) and, with h > 0, Bekker's side shear of the soil
+between the grousers: ``tau`` with ``c (1 + 2h/b)`` and ``tan(phi) (1 + 0.64 (h/b) arccot(h/b))``
+(:mod:`.grousers`; ``WheelSettings(grouser_model="shear_radius")`` leaves it out). Integrated over the arc::
 
     DP = r b  int_0^theta_1 (tau cos(theta) - sigma sin(theta)) dtheta     drawbar pull, N
     W  = r b  int_0^theta_1 (sigma cos(theta) + tau sin(theta)) dtheta     normal load, N
@@ -72,6 +74,7 @@ import numpy as np
 
 from .bevameter import plate_pressure_expr, shear_stress_expr
 from .errors import DataError
+from .grousers import GROUSER_MODELS, grouser_factors_expr
 
 __all__ = [
     "WheelSettings",
@@ -81,6 +84,7 @@ __all__ = [
     "wheel_forces_function",
     "sinkage_from_load_function",
     "WHEEL_OUTPUTS",
+    "WHEEL_PARAMETER_NAMES",
     "evaluate",
     "bulldozing_expr",
 ]
@@ -91,6 +95,17 @@ BEKKER_START_N_MAX = 2.9
 BEKKER_START_Z_MAX = 0.9
 #: Names of the outputs of :func:`wheel_expr`, in order.
 WHEEL_OUTPUTS = ("drawbar_pull", "normal_load", "torque")
+#: The wheel model's soil parameters (SI) in the order of every parameter vector (fit, prediction):
+#: c (Pa), phi (rad), K (m), k_c (N/m^(n+1)), k_phi (N/m^(n+2)), n, and the slip-sinkage coefficient s.
+WHEEL_PARAMETER_NAMES = (
+    "cohesion",
+    "friction_angle",
+    "shear_modulus",
+    "bekker_kc",
+    "bekker_kphi",
+    "bekker_n",
+    "slip_sinkage",
+)
 
 
 @dataclass(frozen=True)
@@ -114,6 +129,9 @@ class WheelSettings:
     nodes: int = 24
     #: Soil unit weight gamma_s of the bulldozing resistance, N/m^3 (``None``: no bulldozing term).
     bulldozing_unit_weight: float | None = None
+    #: Grousers (h > 0): ``bekker`` adds Bekker's side shear (:mod:`.grousers`) to the shear radius r + h;
+    #: ``shear_radius`` is the shear radius alone (grousers then only rescale K).
+    grouser_model: str = "bekker"
 
     def __post_init__(self) -> None:
         for name in ("c1", "c2"):
@@ -127,6 +145,8 @@ class WheelSettings:
             )
         if isinstance(self.nodes, bool) or not isinstance(self.nodes, int) or not 2 <= self.nodes <= 400:
             raise DataError(f"wheel setting nodes must be an integer in [2, 400], got {self.nodes!r}")
+        if self.grouser_model not in GROUSER_MODELS:
+            raise DataError(f"wheel setting grouser_model must be one of {GROUSER_MODELS}, got {self.grouser_model!r}")
         g = self.bulldozing_unit_weight
         if g is not None and (isinstance(g, bool) or not isinstance(g, (int, float)) or not 0 < g < 1e6):
             raise DataError(f"wheel setting bulldozing_unit_weight must be a unit weight in (0, 1e6) N/m^3, got {g!r}")
@@ -211,13 +231,17 @@ def wheel_expr(
     cos1, sin1 = ca.cos(th1), ca.sin(th1)
 
     skid = ca.mtimes(i < 0, ones)  # 1 on the rows at negative slip
+    c_s, phi_s = c, phi
+    if settings.grouser_model == "bekker" and not (isinstance(h, (int, float)) and h == 0):
+        f_c, f_phi = grouser_factors_expr(h, b)  # Bekker's side shear of the soil between the grousers
+        c_s, phi_s = c * f_c, ca.atan(f_phi * ca.tan(phi))
 
     def integrands(theta, sigma):
         arc, chord = ca.mtimes(th1, ones) - theta, ca.mtimes(sin1, ones) - ca.sin(theta)
         j_drive = rs * (arc - ca.mtimes(1 - i, ones) * chord)
         j_skid = rs * (ca.mtimes(1 + i, ones) * arc - chord)  # Wong's skid form (module text)
         j = ca.if_else(skid, j_skid, j_drive)
-        tau = ca.sign(j) * shear_stress_expr(ca.fabs(j), sigma, c, phi, K)
+        tau = ca.sign(j) * shear_stress_expr(ca.fabs(j), sigma, c_s, phi_s, K)
         return (tau * ca.cos(theta) - sigma * ca.sin(theta), sigma * ca.cos(theta) + tau * ca.sin(theta), tau)
 
     soften = ca.mtimes(1 / (1 + slip_sinkage * ca.fabs(i)), ones)  # the slip-sinkage effect (1 when off)
@@ -258,9 +282,17 @@ def wheel_forces_function(
 
 
 def sinkage_from_load_function(
-    r: float, b: float, h: float = 0.0, settings: WheelSettings = DEFAULT_WHEEL_SETTINGS
+    r: float,
+    b: float,
+    h: float = 0.0,
+    settings: WheelSettings = DEFAULT_WHEEL_SETTINGS,
+    *,
+    grouser_input: bool = False,
 ) -> ca.Function:
     """CasADi Function ``(i, W, c, phi, K, k_c, k_phi, n, s) -> z``: the sinkage at which the wheel carries W.
+
+    With ``grouser_input`` the grouser height is a last input ``h`` (m; ``h`` here is then ignored): a
+    fit can free it.
 
     Newton's method on ``log W(theta_1) = log W`` in ``u = log theta_1`` (W grows about like
     theta_1^(2n+1), so the residual is nearly linear in u), started from Bekker's closed-form
@@ -269,12 +301,13 @@ def sinkage_from_load_function(
     with respect to every input follow from the implicit function theorem.
     """
     u = ca.MX.sym("u")
-    names = ["i", "W", "c", "phi", "K", "k_c", "k_phi", "n", "s"]
+    names = ["i", "W", "c", "phi", "K", "k_c", "k_phi", "n", "s"] + (["h"] if grouser_input else [])
     p = ca.MX.sym("p", len(names))
-    i, W, c, phi, K, k_c, k_phi, n, s = (p[q] for q in range(len(names)))
+    i, W, c, phi, K, k_c, k_phi, n, s = (p[q] for q in range(9))
+    height: float | ca.MX = p[9] if grouser_input else h
     th1 = ca.exp(u)
     z = r * (1 - ca.cos(th1))
-    _, wl, _ = wheel_expr(i, z, c, phi, K, k_c, k_phi, n, r, b, h, settings, slip_sinkage=s)
+    _, wl, _ = wheel_expr(i, z, c, phi, K, k_c, k_phi, n, r, b, height, settings, slip_sinkage=s)
     g = ca.Function("g", [u, p], [ca.log(wl) - ca.log(W)])
     # no eval warnings: a trial point of a fit where the wheel cannot carry the load gives NaN, which
     # IPOPT's line search handles by a shorter step
@@ -285,7 +318,7 @@ def sinkage_from_load_function(
         {"abstol": 1e-12, "max_iter": 60, "error_on_fail": False, "show_eval_warnings": False},
     )
     ins = [ca.MX.sym(nm) for nm in names]
-    i_, W_, c_, phi_, K_, kc_, kphi_, n_, s_ = ins
+    i_, W_, c_, phi_, K_, kc_, kphi_, n_, s_ = ins[:9]
     k_eff = (kc_ / b + kphi_) / (1 + s_ * ca.fabs(i_))
     z0 = (3 * W_ / ((3 - ca.fmin(n_, BEKKER_START_N_MAX)) * k_eff * b * ca.sqrt(2 * r))) ** (2 / (2 * n_ + 1))
     u0 = ca.log(entry_angle(ca.fmin(z0, BEKKER_START_Z_MAX * r), r))

@@ -20,6 +20,10 @@ def _cmd_diagnose(a: argparse.Namespace) -> int:
 
         return diagnose_wheel_command(a, gear)
     vehicle = gear
+    if getattr(a, "fix", None):
+        from .soilmodel import DataError
+
+        raise DataError("--fix applies to a rigid wheel (--vehicle WHEEL.json) only")
     data = read_data_arg(a, a.data, driving_only=a.driving_only, slip_angle=a.slip_angle, columns=columns_arg(a))
     cands = None
     if a.candidates is not None:
@@ -93,6 +97,13 @@ def add_parser(sub) -> None:
         default="full",
         help="soil model of the nominal fit and of every candidate: full (c, phi, K; Eq. 2) or cohesion-free "
         "(phi, K; Eq. 8) (default: full)",
+    )
+    p.add_argument(
+        "--fix",
+        action="append",
+        metavar="NAME=VALUE",
+        help="rigid wheel: hold a soil parameter in edge units (repeatable), e.g. friction_angle_deg=30 from a "
+        "shear test (the grousers hypothesis needs phi, or c above 0, held); names as fit --fix",
     )
     p.add_argument(
         "--candidates",

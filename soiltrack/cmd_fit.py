@@ -137,7 +137,10 @@ def _cmd_soil_test(a: argparse.Namespace, data) -> int:
 def _cmd_fit(a: argparse.Namespace) -> int:
     from .identify import fit
     from .soilmodel import DriveLog, PlateTest, ShearTest
+    from .cmd_fit_joint import joint_fit_command, single_file_args
 
+    if not single_file_args(a):  # several files: one soil for all (cmd_fit_joint)
+        return joint_fit_command(a, _bevameter_record)
     gear = running_gear_arg(a.vehicle) if a.vehicle is not None else None
     if isinstance(gear, RigidWheel):
         from .wheel_cli import fit_wheel_command
@@ -255,13 +258,28 @@ def add_parser(sub) -> None:
     )
     f.add_argument(
         "data",
-        help="CSV file: a slip sweep (tractive force or drawbar pull), a drive log or a bevameter test (columns above)",
+        nargs="+",
+        help="CSV file: a slip sweep (tractive force or drawbar pull), a drive log or a bevameter test (columns "
+        "above); several files (wheel sweeps, bevameter tests): one soil fitted to all, with a consistency test",
     )
     f.add_argument(
         "--vehicle",
+        action="append",
         help="vehicle JSON file or preset name (heavy, light); required for slip sweeps and "
-        "drive logs, refused for bevameter tests",
+        "drive logs, refused for bevameter tests; with several files once for all or once per file in order",
     )
+    _add_model_options(f)
+    _add_data_options(f)
+    _add_kind_options(f)
+    add_segment_arguments(f)  # --segments, --max-memory (soiltrack.cmd_segments)
+    f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
+    add_fit_options(f)
+    f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit (.png, .pdf, .svg)")
+    f.set_defaults(func=_cmd_fit)
+
+
+def _add_model_options(f: argparse.ArgumentParser) -> None:
+    """The model, the solver and the bounds: ``--model`` to ``--resistance``."""
     f.add_argument(
         "--model",
         choices=("full", "cohesion-free"),
@@ -359,6 +377,10 @@ def add_parser(sub) -> None:
         "or R = k_z z W with k_z fitted from the sinkage_m column (fit-sinkage); with its "
         "profile-likelihood interval",
     )
+
+
+def _add_data_options(f: argparse.ArgumentParser) -> None:
+    """Which rows of the data are used: ``--driving-only``, ``--slip-angle``."""
     f.add_argument(
         "--driving-only",
         action="store_true",
@@ -372,6 +394,10 @@ def add_parser(sub) -> None:
         help="slip sweeps with a slip_angle_deg column: keep only the rows at this slip angle (only 0: "
         "the model is straight-line) instead of refusing the file; the count is reported",
     )
+
+
+def _add_kind_options(f: argparse.ArgumentParser) -> None:
+    """Options of one data kind: the rigid wheel's, the column mapping, the bevameters'."""
     f.add_argument(
         "--fix",
         action="append",
@@ -386,6 +412,12 @@ def add_parser(sub) -> None:
         metavar="KG_M3",
         help="rigid wheel: add Bekker's bulldozing resistance of the sinking wheel with this soil bulk density "
         "(held; docs/physics.md)",
+    )
+    f.add_argument(
+        "--fit-grouser-height",
+        action="store_true",
+        help="several files: fit the grouser height of every wheel whose JSON has grouser_height_m > 0 (its own "
+        "parameter, started there), beside the shared soil (docs/physics.md, grousers)",
     )
     add_columns_argument(f)
     f.add_argument(
@@ -408,8 +440,3 @@ def add_parser(sub) -> None:
         help="plate tests: fit Bekker k_c freely (flagged when negative) instead of holding it >= 0 (where it ends "
         "on 0 the report gives the unconstrained value either way)",
     )
-    add_segment_arguments(f)  # --segments, --max-memory (soiltrack.cmd_segments)
-    f.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
-    add_fit_options(f)
-    f.add_argument("--plot", metavar="PNG", help="save a figure of the data and the fit (.png, .pdf, .svg)")
-    f.set_defaults(func=_cmd_fit)

@@ -136,7 +136,9 @@ def diagnose_wheel_command(a: argparse.Namespace, wheel: RigidWheel) -> int:
     cands = None
     if a.candidates is not None:
         cands = tuple(c.strip() for c in a.candidates.split(",") if c.strip())
-    d = diagnose_wheel(data, wheel, WheelFitOptions(fixed=wheel_fixed_arg(None, a.model)), candidates=cands)
+    d = diagnose_wheel(
+        data, wheel, WheelFitOptions(fixed=wheel_fixed_arg(getattr(a, "fix", None), a.model)), candidates=cands
+    )
     print(
         with_column_notes(
             d.to_json() if a.json else d.report(), column_notes(a.data, cols, WHEEL_KNOWN_COLUMNS), a.json
@@ -205,3 +207,8 @@ def simulate_wheel_command(a: argparse.Namespace, wheel: RigidWheel, soil) -> in
             raise DataError(f"cannot write the CSV: {e.strerror or e}", file=a.output) from None
         print(f"wrote {data.n_samples} rows (wheel sweep) to {a.output}", file=sys.stderr)
     return EXIT_OK
+
+
+#: Public names of the wheel options' parsers (the joint fit of several files uses them).
+wheel_effects_arg = _effects
+wheel_settings_arg = _settings

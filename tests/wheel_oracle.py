@@ -20,8 +20,12 @@ def _trapz(y, x):
     return float(np.sum((y[1:] + y[:-1]) * np.diff(x)) / 2)
 
 
-def stresses(theta, i, th1, c, phi, K, k, n, r, h, c1, c2, s=0.0):
-    """sigma, tau (Pa) at angles theta (rad) of a wheel with entry angle th1."""
+def stresses(theta, i, th1, c, phi, K, k, n, r, h, c1, c2, s=0.0, b=None, grousers="bekker"):
+    """sigma, tau (Pa) at angles theta (rad) of a wheel with entry angle th1.
+
+    With grousers (h > 0, ``b`` given, ``grousers="bekker"``) Bekker's grousered shear strength
+    c (1 + 2 h/b) + sigma tan(phi) (1 + 0.64 (h/b) arccot(h/b)) (Bekker 1956, as Wong quotes it).
+    """
     thm = (c1 + c2 * i) * th1
     ke = k / (1.0 + s * i)
     sigma = np.empty_like(theta)
@@ -30,18 +34,21 @@ def stresses(theta, i, th1, c, phi, K, k, n, r, h, c1, c2, s=0.0):
     th_eq = th1 - theta[~front] / thm * (th1 - thm)
     sigma[~front] = ke * r**n * np.clip(np.cos(th_eq) - math.cos(th1), 0, None) ** n
     j = (r + h) * ((th1 - theta) - (1 - i) * (math.sin(th1) - np.sin(theta)))
-    tau = (c + sigma * math.tan(phi)) * (1 - np.exp(-j / K))
+    fc = fphi = 1.0
+    if h > 0 and b is not None and grousers == "bekker":
+        fc, fphi = 1 + 2 * h / b, 1 + 0.64 * (h / b) * math.atan2(1.0, h / b)
+    tau = (c * fc + sigma * math.tan(phi) * fphi) * (1 - np.exp(-j / K))
     return sigma, tau
 
 
-def forces(i, z, c, phi, K, k, n, r, b, h=0.0, c1=0.4, c2=0.15, s=0.0):
+def forces(i, z, c, phi, K, k, n, r, b, h=0.0, c1=0.4, c2=0.15, s=0.0, grousers="bekker"):
     """(drawbar pull N, normal load N, torque N m) of one row."""
     th1 = math.acos(1 - z / r)
     thm = (c1 + c2 * i) * th1
     out = np.zeros(3)
     for lo, hi in ((0.0, thm), (thm, th1)):
         th = np.linspace(lo, hi, POINTS)
-        sig, tau = stresses(th, i, th1, c, phi, K, k, n, r, h, c1, c2, s)
+        sig, tau = stresses(th, i, th1, c, phi, K, k, n, r, h, c1, c2, s, b=b, grousers=grousers)
         out += [
             _trapz(tau * np.cos(th) - sig * np.sin(th), th),
             _trapz(sig * np.cos(th) + tau * np.sin(th), th),

@@ -28,6 +28,7 @@ from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.wheel_sweep import WheelSweep
 from ..estimates.distributions import chi2_sf, t_cdf
 from .fitting import WHEEL_EFFECTS, WheelFitOptions, fit_wheel
+from .grouser_hypothesis import GROUSER_HYPOTHESIS, grouser_hypothesis, grousers_weighable
 from .problem import channel_floors
 from .result import WheelFitResult, slip_levels, wheel_rows
 
@@ -35,6 +36,19 @@ __all__ = ["WheelDiagnosis", "diagnose_wheel", "ALPHA"]
 
 #: Significance level of the likelihood-ratio, lack-of-fit and trend tests.
 ALPHA = 0.01
+#: Why the grouser hypothesis is not weighed with c and phi both free.
+GROUSER_CONFOUNDED = (
+    "grousers: not weighed - with c and phi both fitted the grouser height is confounded with them (Bekker's "
+    "factors multiply c and tan(phi); c held at 0 does not tell them apart); hold phi or a c above 0 (a shear test, "
+    "a terrain; CLI --fix friction_angle_deg=...) to weigh grousers"
+)
+#: What the grouser hypothesis' held-out error is.
+GROUSER_HOLDOUT = (
+    "grousers: Bekker's grouser term with the height fitted, h = {h:.3g} mm (the wheel's JSON: {h0:.3g} mm); "
+    "its held-out error holds h at this all-rows value in each left-out fold (one parameter's optimism)"
+)
+#: Every hypothesis the wheel diagnosis can weigh: the wheel's effects and the grousers.
+KNOWN_HYPOTHESES = (*WHEEL_EFFECTS, GROUSER_HYPOTHESIS)
 #: A slip level whose share of the held-out misfit exceeds this many equal shares is flagged significant.
 LOCALISATION_SHARE = 2.0
 
@@ -69,7 +83,7 @@ class WheelDiagnosis:
             "localisation": list(self.localisation),
             "shrink": self.shrink,
             "soil_before": soil(self.nominal),
-            "soil_after": soil(self.after) if self.verdict in WHEEL_EFFECTS else None,
+            "soil_after": soil(self.after) if self.verdict in KNOWN_HYPOTHESES else None,
             "slip_sinkage_signature": self.signature,
             "lack_of_fit": self.nominal.lack_of_fit,
             "converged": self.converged,
@@ -145,6 +159,9 @@ class _Hypothesis:
     k: int  #: free parameters
     weight: float = 0.0  #: Akaike weight among the hypotheses
     p_value: float | None = None  #: likelihood-ratio test against the nominal fit (None for "none")
+    admissible: bool = True  #: False when the effect (or the grouser height) ends on a bound
+    bound_note: str | None = None  #: why it is inadmissible, for the diagnosis' notes
+    height: float | None = None  #: the fitted grouser height (m), for the grousers hypothesis
 
 
 def diagnose_wheel(
@@ -169,11 +186,21 @@ def diagnose_wheel(
         if eff == "slip_sinkage" and not data.has_sinkage:
             notes.append("slip_sinkage needs a measured sinkage (sinkage_m) to show: not tried")
             continue
+        if eff == GROUSER_HYPOTHESIS:  # Bekker's grouser term, the height fitted (grouser_hypothesis.py)
+            if not grousers_weighable(options):
+                notes.append(GROUSER_CONFOUNDED)
+                continue
+            h, ok = _grouser_row(data, wheel, options, nominal, scale)
+            ok_nom &= ok
+            hyps.append(h)
+            notes.append(GROUSER_HOLDOUT.format(h=1e3 * (h.height or 0.0), h0=1e3 * wheel.grouser_height))
+            continue
         r = fit_wheel(data, wheel, replace(options, effects=(eff,)))
         ho, _, ok = _holdout(data, wheel, replace(options, effects=(eff,), start=tuple(r.theta)), scale)
         ok_nom &= ok
-        hyps.append(_Hypothesis(eff, r, ho, sum(not e.fixed for e in r.parameters.values())))
+        hyps.append(_effect_row(eff, r, ho))
     hyps, verdict = _weighed(hyps, data, nominal, before)
+    notes.extend(h.bound_note for h in hyps if h.bound_note)
     lf = nominal.lack_of_fit
     unexplained = verdict == "none" and lf.get("testable") and lf["p_value"] < ALPHA
     if unexplained:
@@ -184,7 +211,9 @@ def diagnose_wheel(
     else:
         confidence = next(r["weight"] for r in ranking if r["effect"] == verdict)
     after = next((h.fit for h in hyps if h.effect == verdict), None)
-    shrink = next((r["shrink"] for r in ranking if r["effect"] == verdict), None) if verdict in WHEEL_EFFECTS else None
+    shrink = None
+    if verdict in KNOWN_HYPOTHESES:
+        shrink = next((r["shrink"] for r in ranking if r["effect"] == verdict), None)
     notes.append(
         "held-out errors are root mean squares of residuals scaled by the nominal fit's noise level per "
         "channel (1 = as good as the fit in-sample), each slip level left out in turn"
@@ -205,10 +234,10 @@ def diagnose_wheel(
 
 def _checked_candidates(data: WheelSweep, candidates: tuple[str, ...] | None) -> tuple[str, ...]:
     """The candidate effects (default all the wheel's); DataError for an unknown one or fewer than 3 slip levels."""
-    cands = WHEEL_EFFECTS if candidates is None else tuple(candidates)
-    bad = [c for c in cands if c not in WHEEL_EFFECTS]
+    cands = KNOWN_HYPOTHESES if candidates is None else tuple(candidates)
+    bad = [c for c in cands if c not in KNOWN_HYPOTHESES]
     if bad:
-        raise DataError(f"unknown candidate {bad[0]!r} for a rigid wheel; it has {list(WHEEL_EFFECTS)}")
+        raise DataError(f"unknown candidate {bad[0]!r} for a rigid wheel; it has {list(KNOWN_HYPOTHESES)}")
     if np.unique(slip_levels(data.slip)).size < 3:
         raise DataError(
             "a wheel diagnosis leaves each slip level out in turn: it needs at least 3 slip levels",
@@ -218,13 +247,43 @@ def _checked_candidates(data: WheelSweep, candidates: tuple[str, ...] | None) ->
     return cands
 
 
+def _effect_row(eff: str, r: WheelFitResult, holdout: float) -> _Hypothesis:
+    """An effect's hypothesis; an effect that ends on its bound is inadmissible as a verdict (the track's rule)."""
+    e = r.parameters.get(eff)
+    note = None
+    if e is not None and e.at_bound:
+        note = (
+            f"{eff} ends on its {e.bound_side} bound ({e.value:.4g}): inadmissible as a verdict (a value "
+            "the bounds choose is not an estimate of the effect; its weight and p-value are shown, not used)"
+        )
+    k = sum(not p.fixed for p in r.parameters.values())
+    return _Hypothesis(eff, r, holdout, k, admissible=note is None, bound_note=note)
+
+
+def _grouser_row(
+    data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions, nominal: WheelFitResult, scale: tuple
+) -> tuple[_Hypothesis, bool]:
+    """The grousers hypothesis (height profiled, :mod:`.grouser_hypothesis`) with its held-out error."""
+    g = grouser_hypothesis(data, wheel, options, nominal, _objective)
+    ho, _, ok = _holdout(data, g["wheel"], replace(g["options"], start=tuple(g["fit"].theta)), scale)
+    note = None
+    if not g["admissible"]:
+        note = (
+            f"grousers: the fitted height ends on its {g['bound_side']} bound ({1e3 * g['bound_value']:.4g} mm): "
+            "inadmissible as a verdict (a height the bounds choose is not an estimate of the grousers)"
+        )
+    row = _Hypothesis(GROUSER_HYPOTHESIS, g["fit"], ho, int(g["k"]), admissible=note is None, bound_note=note)
+    return replace(row, height=float(g["height"])), ok
+
+
 def _weighed(
     hyps: list[_Hypothesis], data: WheelSweep, nominal: WheelFitResult, before: float
 ) -> tuple[list[_Hypothesis], str]:
     """The hypotheses with their Akaike weights and p-values, and the verdict among the effects.
 
     An effect wins when its likelihood-ratio test is significant at :data:`ALPHA`, it lowers the held-out
-    error, its fit succeeded, and it outweighs the effect chosen so far; else the verdict is "none".
+    error, its fit succeeded, it is admissible (not on a bound), and it outweighs the effect chosen so far; else
+    the verdict is "none".
     """
     aic = np.array([2 * _objective(h.fit, data) + 2 * h.k for h in hyps])
     w = np.exp(-(aic - aic.min()) / 2)
@@ -238,7 +297,8 @@ def _weighed(
             continue
         p = chi2_sf(max(2 * (f0 - _objective(h.fit, data)), 0.0), 1)
         out.append(replace(h, weight=float(wk), p_value=p))
-        if p < ALPHA and h.holdout < before and h.fit.success and (verdict == "none" or float(wk) > best):
+        win = p < ALPHA and h.holdout < before and h.fit.success and h.admissible
+        if win and (verdict == "none" or float(wk) > best):
             verdict, best = h.effect, float(wk)
     return out, verdict
 
@@ -272,12 +332,20 @@ def _ranking(hyps: list[_Hypothesis], before: float) -> list[dict[str, Any]]:
                 "holdout_rmse_after": None if h.effect == "none" else h.holdout,
                 "shrink": sh,
                 "p_value": h.p_value,
-                "parameters": (
-                    {"slip_sinkage": h.fit.parameters["slip_sinkage"].value} if h.effect == "slip_sinkage" else {}
-                ),
+                "admissible": h.admissible,
+                "parameters": _row_parameters(h),
             }
         )
     return ranking
+
+
+def _row_parameters(h: _Hypothesis) -> dict[str, float]:
+    """The hypothesis' own fitted parameter for the ranking (the slip-sinkage coefficient, the grouser height)."""
+    if h.effect == "slip_sinkage":
+        return {"slip_sinkage": h.fit.parameters["slip_sinkage"].value}
+    if h.effect == GROUSER_HYPOTHESIS and h.height is not None:
+        return {"grouser_height_m": h.height}
+    return {}
 
 
 def _localisation(data: WheelSweep, shares: dict[int, float]) -> list[dict[str, Any]]:

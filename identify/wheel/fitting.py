@@ -248,3 +248,7 @@ def soil_from_wheel_fit(result: WheelFitResult) -> Soil:
         k_phi=float(v[4]),
         name="identified from a wheel sweep",
     )
+
+
+#: The NLP parameter vector of a sweep (data, then the held values), public for the joint fit.
+sweep_parameters = _p

@@ -37,7 +37,7 @@ import numpy as np
 from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.soil import PRACTICAL_BOUNDS
 from ...soilmodel.threadsafe import locked_cache
-from ...soilmodel.wheel import WheelSettings, sinkage_from_load_function, wheel_expr
+from ...soilmodel.wheel import WHEEL_PARAMETER_NAMES, WheelSettings, sinkage_from_load_function, wheel_expr
 
 __all__ = [
     "WHEEL_PARAMETERS",
@@ -52,18 +52,12 @@ __all__ = [
     "residual_function",
     "bekker_modulus",
     "torque_floor",
+    "wheel_block",
+    "WHEEL_IPOPT_OPTIONS",
 ]
 
 #: Parameter names of the wheel fit (SI), in vector order.
-WHEEL_PARAMETERS = (
-    "cohesion",
-    "friction_angle",
-    "shear_modulus",
-    "bekker_kc",
-    "bekker_kphi",
-    "bekker_n",
-    "slip_sinkage",
-)
+WHEEL_PARAMETERS = WHEEL_PARAMETER_NAMES
 #: Number of wheel-fit parameters.
 N_PARAMETERS = len(WHEEL_PARAMETERS)
 #: Scales of the NLP variables (x = theta / scale): kPa, rad, cm, kN/m^(n+1), MN/m^(n+2), 1, 1.
@@ -73,6 +67,19 @@ PARAMETER_SCALES = np.array([1e3, 1.0, 1e-2, 1e3, 1e6, 1.0, 1.0])
 NOISE_FLOOR_REL = 1e-3
 #: Noise floor of the sinkage channel, m (a displacement sensor's resolution).
 SINKAGE_FLOOR_M = 1e-5
+
+#: IPOPT options of the wheel fit and of the joint fit of several data sets.
+WHEEL_IPOPT_OPTIONS: dict[str, Any] = {
+    "ipopt.print_level": 0,
+    "print_time": False,
+    "ipopt.sb": "yes",
+    "ipopt.tol": 1e-10,
+    "ipopt.acceptable_tol": 1e-7,
+    "ipopt.max_iter": 500,
+    # a trial point where the wheel cannot carry a load is NaN: IPOPT's line search then takes a
+    # shorter step; the status of the solve says whether it converged
+    "show_eval_warnings": False,
+}
 
 
 @dataclass(frozen=True)
@@ -124,25 +131,32 @@ def bekker_modulus(k_c, k_phi, width):
 
 
 @locked_cache(maxsize=32)
-def residual_function(wheel: RigidWheel, settings: WheelSettings, measured_sinkage: bool) -> ca.Function:
+def residual_function(
+    wheel: RigidWheel, settings: WheelSettings, measured_sinkage: bool, grouser_input: bool = False
+) -> ca.Function:
     """Per-row Function ``(i, z, W, theta[7]) -> (drawbar pull, vertical force, sinkage used, z_W)``.
 
     ``z_W`` is the sinkage at which the fitted stresses carry the load W. With
     ``measured_sinkage`` the row's z is used for the drawbar pull and the vertical force;
-    otherwise z_W is (the input z is ignored).
+    otherwise z_W is (the input z is ignored). With ``grouser_input`` the grouser height is a last
+    input ``h`` (m) instead of the wheel's (the joint fit frees it).
     """
     i, z, W = ca.MX.sym("i"), ca.MX.sym("z"), ca.MX.sym("W")
     th = ca.MX.sym("theta", N_PARAMETERS)
     c, phi, K, k_c, k_phi, n, s = (th[q] for q in range(N_PARAMETERS))
-    r, b, h = wheel.radius, wheel.width, wheel.grouser_height
-    z_w = sinkage_from_load_function(r, b, h, settings)(i, W, c, phi, K, k_c, k_phi, n, s)
+    r, b = wheel.radius, wheel.width
+    hs = ca.MX.sym("h")
+    h = hs if grouser_input else wheel.grouser_height
+    z_fn = sinkage_from_load_function(r, b, wheel.grouser_height, settings, grouser_input=grouser_input)
+    z_w = z_fn(i, W, c, phi, K, k_c, k_phi, n, s, *([hs] if grouser_input else []))
     z_used = z if measured_sinkage else z_w
     dp, wl, tq = wheel_expr(i, z_used, c, phi, K, k_c, k_phi, n, r, b, h, settings, slip_sinkage=s)
+    extra = [hs] if grouser_input else []
     return ca.Function(
         "wheel_row",
-        [i, z, W, th],
+        [i, z, W, th, *extra],
         [dp, wl, z_used, z_w, tq],
-        ["i", "z", "W", "theta"],
+        ["i", "z", "W", "theta", *(["h"] if grouser_input else [])],
         ["drawbar_pull", "normal_load", "sinkage", "sinkage_from_load", "torque"],
     )
 
@@ -155,6 +169,44 @@ def channel_floors(mean_load: float) -> tuple[float, float]:
 def torque_floor(mean_load: float, radius: float) -> float:
     """Noise floor of the torque channel, N m: the drawbar pull's floor times the wheel's radius."""
     return NOISE_FLOOR_REL * mean_load * radius
+
+
+def wheel_block(
+    wheel: RigidWheel,
+    settings: WheelSettings,
+    n_rows: int,
+    measured_sinkage: bool,
+    measured_torque: bool,
+    theta,
+    p,
+    grouser_height=None,
+) -> tuple[Any, tuple[Any, Any, Any]]:
+    """One wheel sweep's concentrated negative log-likelihood and raw residuals (CasADi MX).
+
+    ``theta`` the seven parameters (SI, :data:`WHEEL_PARAMETERS`), ``p`` the sweep's data as
+    :func:`wheel_solver` lays them out (``[i, z, W, DP(, T, weights)]``, n each; anything after is
+    ignored); ``grouser_height`` (MX, optional) in place of the wheel's. Returns ``(f, (r_dp, r_z, r_t))``;
+    ``r_z``, ``r_t`` zeros where not measured. The
+    one home of the wheel's objective: the wheel's own fit and the joint fit of several data sets
+    (:mod:`soiltrack.identify.datasets`) both build it here.
+    """
+    i, z, W, DP = (p[q * n_rows : (q + 1) * n_rows] for q in range(4))
+    h_in = grouser_height is not None
+    row = residual_function(wheel, settings, measured_sinkage, h_in).map(n_rows)
+    extra = [ca.repmat(grouser_height, 1, n_rows)] if h_in else []
+    dp, _, _, z_w, tq = row(i.T, z.T, W.T, ca.repmat(theta, 1, n_rows), *extra)
+    r_dp = dp.T - DP
+    r_w = (z_w.T - z) if measured_sinkage else ca.MX.zeros(n_rows, 1)
+    f = n_rows / 2 * ca.log(ca.sumsqr(r_dp) + n_rows * (NOISE_FLOOR_REL * ca.sum1(W) / n_rows) ** 2)
+    if measured_sinkage:
+        f = f + n_rows / 2 * ca.log(ca.sumsqr(r_w) + n_rows * SINKAGE_FLOOR_M**2)
+    r_t = ca.MX.zeros(n_rows, 1)
+    if measured_torque:
+        T, wt = p[4 * n_rows : 5 * n_rows], p[5 * n_rows : 6 * n_rows]
+        r_t = (tq.T - T) * wt
+        floor_t = NOISE_FLOOR_REL * ca.sum1(W) / n_rows * wheel.radius
+        f = f + n_rows / 2 * ca.log(ca.sumsqr(r_t) + n_rows * floor_t**2)
+    return f, (r_dp, r_w, r_t)
 
 
 @locked_cache(maxsize=64)
@@ -180,7 +232,6 @@ def wheel_solver(
     x = ca.MX.sym("x", nf)
     nch = 6 if measured_torque else 4
     p = ca.MX.sym("p", nch * n_rows + N_PARAMETERS)
-    i, z, W, DP = (p[q * n_rows : (q + 1) * n_rows] for q in range(4))
     fixed = p[nch * n_rows :]
     parts, q = [], 0
     for k in range(N_PARAMETERS):
@@ -190,30 +241,8 @@ def wheel_solver(
         else:
             parts.append(fixed[k])
     theta = ca.vertcat(*parts)
-    row = residual_function(wheel, settings, measured_sinkage).map(n_rows)
-    dp, _, _, z_w, tq = row(i.T, z.T, W.T, ca.repmat(theta, 1, n_rows))
-    r_dp = dp.T - DP
-    r_w = (z_w.T - z) if measured_sinkage else ca.MX.zeros(n_rows, 1)
-    f = n_rows / 2 * ca.log(ca.sumsqr(r_dp) + n_rows * (NOISE_FLOOR_REL * ca.sum1(W) / n_rows) ** 2)
-    if measured_sinkage:
-        f = f + n_rows / 2 * ca.log(ca.sumsqr(r_w) + n_rows * SINKAGE_FLOOR_M**2)
-    r_t = ca.MX.zeros(n_rows, 1)
-    if measured_torque:
-        T, wt = p[4 * n_rows : 5 * n_rows], p[5 * n_rows : 6 * n_rows]
-        r_t = (tq.T - T) * wt
-        floor_t = NOISE_FLOOR_REL * ca.sum1(W) / n_rows * wheel.radius
-        f = f + n_rows / 2 * ca.log(ca.sumsqr(r_t) + n_rows * floor_t**2)
-    opts: dict[str, Any] = {
-        "ipopt.print_level": 0,
-        "print_time": False,
-        "ipopt.sb": "yes",
-        "ipopt.tol": 1e-10,
-        "ipopt.acceptable_tol": 1e-7,
-        "ipopt.max_iter": 500,
-        # a trial point where the wheel cannot carry a load is NaN: IPOPT's line search then takes a
-        # shorter step; the status of the solve says whether it converged
-        "show_eval_warnings": False,
-    }
+    f, (r_dp, r_w, r_t) = wheel_block(wheel, settings, n_rows, measured_sinkage, measured_torque, theta, p)
+    opts = dict(WHEEL_IPOPT_OPTIONS)
     nlp: dict[str, Any] = {"x": x, "p": p, "f": f}
     solver = ca.nlpsol("wheel_fit", "ipopt", nlp, opts)
     xs = ca.MX.sym("xs", nf)

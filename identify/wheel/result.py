@@ -314,7 +314,12 @@ class WheelFitResult:
             "lack_of_fit": self.lack_of_fit,
             "warnings": list(self.warnings),
             "wheel": self.wheel.to_dict(),
-            "settings": {"c1": self.settings.c1, "c2": self.settings.c2, "nodes": self.settings.nodes},
+            "settings": {
+                "c1": self.settings.c1,
+                "c2": self.settings.c2,
+                "nodes": self.settings.nodes,
+                "grouser_model": self.settings.grouser_model,
+            },
             "solver": {
                 "iterations": self.iterations,
                 "starts": self.starts,
@@ -821,3 +826,8 @@ def _load_notes(data: WheelSweep, params: dict, statements: list[str]) -> list[s
     if at_bound:
         warnings.append(f"on a bound: {', '.join(at_bound)} (the interval of a bound-pinned value is not reliable).")
     return warnings
+
+
+#: Public names of the edge units and the report line (the joint fit of several data sets uses them).
+EDGE_UNITS = _EDGE
+parameter_line = _parameter_line
