@@ -97,12 +97,9 @@ def fit(
     strict : bool
         Raise :class:`FitFailed` when the fit does not succeed.
     engine : {"auto", "ipopt", "compiled", "vectorized"}, optional
-        What solves ``method="ipopt"`` on slip data (the estimator and its optimum are the
-        same; :mod:`soiltrack.identify.engines`). Default ``"auto"``: the compiled LM engine
-        (one CasADi call; C code from the per-user cache, else the virtual machine while the C
-        code compiles in the background), which hands any fit it cannot certify to IPOPT.
-        ``result.extra["engine"]`` says what solved the fit. Drive logs and the other methods
-        ignore it.
+        What solves ``method="ipopt"`` on slip data (same estimator and optimum; :mod:`soiltrack.identify.engines`).
+        Default ``"auto"``: the compiled LM engine (C code from the per-user cache, else the virtual machine while
+        it compiles), which hands any fit it cannot certify to IPOPT; ``result.extra["engine"]`` says which solved.
     consistency : bool
         Run the data's cross-channel consistency checks (see Notes). ``False`` is for a caller
         that checked the whole data set once and refits parts of it (the diagnosis): a part of a
@@ -119,11 +116,10 @@ def fit(
         ``{"effect.param": value}`` (SI): effect parameters held at a value; their Jacobian
         column is still reported (``result.jacobian``, ``result.parameter_names``).
     **options
-        ``rig_speed`` (m/s, track speed of the rig for ``speed_resistance``, default 0.5),
-        ``sigma`` (N, scalar or per sample; default: equal weights, noise estimated from the
-        residuals) and ``sigma_known`` (bool) describe the data; ``slip_noise`` (``"auto"``,
-        ``"off"`` or the slip's standard deviation; default ``"auto"`` with effects, else
-        ``"off"``) says whether the measured slip is noisy (:mod:`soiltrack.identify.sweep.slip_noise`:
+        ``rig_speed`` (m/s, the rig's track speed for ``speed_resistance``, default 0.5), ``sigma`` (N, scalar or
+        per sample; default: equal weights, noise from the residuals) and ``sigma_known`` (bool) describe the data;
+        ``slip_noise`` (``"auto"``, ``"off"`` or the slip's standard deviation; default ``"auto"`` with effects,
+        else ``"off"``) says whether the measured slip is noisy (:mod:`soiltrack.identify.sweep.slip_noise`:
         effective-variance weights, adopted by ``auto`` only when a likelihood-ratio test finds
         the noise); ``intervals`` (``"auto"``, ``"linear"``, ``"profile"``; default ``"auto"``
         with effects, else ``"linear"``) says which 95 % intervals come from the profile
@@ -141,7 +137,7 @@ def fit(
 
     Returns
     -------
-    FitResult
+    FitResult, WheelFitResult, SoilTestFit or JointFitResult (a list of data sets: one soil, :mod:`.datasets`)
 
     Raises
     ------
