@@ -107,6 +107,11 @@ class ConsistencySettings:
     sign_speed : float
         Below this measured speed, m/s, the resistance's sign is taken from the track's speed ``r w``
         (three GNSS noise levels of 0.05 m/s: a standing hull reads above it in 0.3 % of samples).
+    error_block_s : float
+        The torque scale's standard error is also taken from the fit's increments over blocks this long, s
+        (the larger one counts): the integrated balance's residual is a random walk, whose increments over
+        1 s (50 samples at 50 Hz) are about independent; with the per-sample error alone, gentle 60 s
+        pieces of a consistent log read "fatal".
     """
 
     warn_factor: float = 1.25
@@ -120,6 +125,7 @@ class ConsistencySettings:
     gap_factor: float = 3.0
     max_segment_s: float = 120.0
     sign_speed: float = 0.15
+    error_block_s: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -239,6 +245,30 @@ def _sign_speed(v: np.ndarray, rw: np.ndarray, st: ConsistencySettings) -> np.nd
     return np.where(np.abs(v) < st.sign_speed, rw, v)
 
 
+def _increment_stderr(
+    res: np.ndarray, Xs: np.ndarray, seg: np.ndarray, t: np.ndarray, st: ConsistencySettings
+) -> float:
+    """Standard error of the first coefficient from the fit's increments over blocks of ``st.error_block_s``.
+
+    The balance is regressed on integrals from each segment's start, so its residual is a random walk
+    (integrated torque noise, the nominal resistance's error), not white: the least-squares error, which
+    counts the 3,000 samples of a 60 s piece as independent, is too small where the columns are nearly
+    collinear (gentle 60 s pieces of a light log: 0.012-0.35 for ratios scattered from -2.1 to 1.6). A random walk's
+    increments are independent: the same coefficients' residual and columns differenced over blocks (within
+    a segment) give the error the samples really carry."""
+    n = res.size
+    dt = float(np.median(np.diff(t))) if n > 1 else 0.0
+    k = max(int(round(st.error_block_s / dt)), 1) if dt > 0 else 1
+    ends = np.unique(np.concatenate([np.arange(0, n, k), np.unique(seg), [n - 1]]))
+    a, b = ends[:-1], ends[1:]
+    a, b = a[seg[a] == seg[b]], b[seg[a] == seg[b]]  # no block across a segment's start
+    if a.size <= Xs.shape[1]:
+        return math.inf
+    dr, dX = res[b] - res[a], Xs[b] - Xs[a]
+    s2 = float(dr @ dr) / (a.size - Xs.shape[1])
+    return math.sqrt(max(s2 * float(np.linalg.pinv(dX.T @ dX)[0, 0]), 0.0))
+
+
 def _drive_findings(log: DriveLog, vehicle: Vehicle, st: ConsistencySettings) -> list[Finding]:
     t = log.time - log.time[0]
     seg = _segments(t, st.gap_factor, st.max_segment_s)
@@ -270,8 +300,8 @@ def _torque_scale_finding(log: DriveLog, vehicle: Vehicle, st: ConsistencySettin
         dof = max(log.n_samples - X.shape[1], 1)
         s2 = float(res @ res) / dof
         try:
-            cov = s2 * np.linalg.pinv(Xs.T @ Xs)
-            se = math.sqrt(max(cov[0, 0], 0.0)) / scale[0]
+            se = math.sqrt(s2 * max(float(np.linalg.pinv(Xs.T @ Xs)[0, 0]), 0.0)) / scale[0]
+            se = max(se, _increment_stderr(res, Xs, seg, t, st) / scale[0])
         except np.linalg.LinAlgError:  # pragma: no cover - pinv of a finite matrix converges
             se = math.inf
         rho = float(coef[0] / scale[0])

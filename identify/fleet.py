@@ -75,7 +75,7 @@ def _row(index: int, source: str, segment: int | None, seg: Segment, error: str 
         shear_modulus_stderr_m=seg.shear_modulus_stderr_m,
         cohesion_kpa=seg.cohesion_kpa,
         friction_angle_deg=seg.friction_angle_deg,
-        reason=seg.reason,
+        reason=seg.reason or "; ".join(f"{k} not identified: {why}" for k, why in seg.not_identified) or None,
         error=error,
     )
 

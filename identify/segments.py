@@ -83,6 +83,8 @@ class Segment:
     reason: str | None
     max_thrust_stderr_N: float | None = None
     shear_modulus_stderr_m: float | None = None
+    not_identified: tuple[tuple[str, str], ...] = ()
+    """``(name, why)`` of F_max / K the fit does not determine (their fields are then null)."""
 
     def to_dict(self) -> dict:
         """JSON fields (never NaN)."""
@@ -95,6 +97,7 @@ class Segment:
             outcome_reason=self.reason,
             max_thrust_stderr_N=self.max_thrust_stderr_N,
             shear_modulus_stderr_m=self.shear_modulus_stderr_m,
+            not_identified=dict(self.not_identified),
         )
         return d
 
@@ -237,19 +240,28 @@ def segment_of(res: Any, base: dict[str, Any], pieces: int = 1) -> Segment:
         return None if lo is None or hi is None else (float(lo), float(hi))
 
     F, K = comb.get("F_max", {}), comb.get("K", {})
+    # only what the outcome rules call determined is reported (and merged on): a gentle piece's F_max, a K on
+    # its bound (F_max's interval then holds K at the bound) are null, with the reason in ``not_identified``
+    okF, okK = bool(F.get("determined")), bool(K.get("determined"))
+    missing = tuple(
+        (k, str(c.get("not_determined_reason") or "not determined"))
+        for k, c, ok in (("F_max", F, okF), ("K", K, okK))
+        if not ok
+    )
     return Segment(
         **base,
-        max_thrust_N=F.get("value"),
-        max_thrust_ci95=ci(F),
-        shear_modulus_m=K.get("value") if K.get("estimable") else None,
-        shear_modulus_ci95=ci(K) if K.get("estimable") else None,
+        max_thrust_N=F.get("value") if okF else None,
+        max_thrust_ci95=ci(F) if okF else None,
+        shear_modulus_m=K.get("value") if okK else None,
+        shear_modulus_ci95=ci(K) if okK else None,
         cohesion_kpa=ident("cohesion_kpa"),
         friction_angle_deg=ident("friction_angle_deg"),
         outcome=str(d["outcome"]),
         pieces=pieces,
         reason=None,
-        max_thrust_stderr_N=F.get("stderr"),
-        shear_modulus_stderr_m=K.get("stderr") if K.get("estimable") else None,
+        max_thrust_stderr_N=F.get("stderr") if okF else None,
+        shear_modulus_stderr_m=K.get("stderr") if okK else None,
+        not_identified=missing,
     )
 
 

@@ -274,3 +274,50 @@ def test_segments_find_two_terrains_with_their_soils():
     # the merged rows are fits of their pieces' rows together: tighter than a piece's
     one = fit(log.subset(np.nonzero(log.time < 30.0)[0]), LIGHT)
     assert segs[0].max_thrust_stderr_N < one.extra["max_thrust_stderr_N"]
+
+
+def _joined(*logs):
+    """Logs back to back (time shifted) as one drive log."""
+    from soiltrack.soilmodel import DriveLog
+
+    times, t0 = [], 0.0
+    for lg in logs:
+        times.append(lg.time - lg.time[0] + t0)
+        t0 = times[-1][-1] + 0.02
+    cols = {k: np.concatenate([lg.columns()[k] for lg in logs]) for k in logs[0].columns()}
+    return DriveLog(
+        time=np.concatenate(times),
+        sprocket_torque=cols["sprocket_torque_Nm"],
+        sprocket_speed=cols["sprocket_speed_rad_s"],
+        vehicle_speed=cols["vehicle_speed_m_s"],
+        vehicle_accel=cols.get("vehicle_accel_m_s2"),
+        source="joined.csv",
+    )
+
+
+def test_a_gentle_piece_reports_no_fmax_and_is_not_merged_an_excited_one_holds_the_truth():
+    """A cruise far below the traction limit shows only the initial slope: its segments' F_max and K are null with
+    the reason, and they are not merged on them; the excited piece before them keeps an F_max holding the truth."""
+
+    def gentle(t):
+        t = np.asarray(t, dtype=float)
+        return 1.2 + 0.3 * np.sin(2 * np.pi * t / 12.0)
+
+    soil = TERRAINS["dry_sand"]
+    hard = simulate_drive_log(LIGHT, soil, seed=7, duration_s=20)
+    calm = simulate_drive_log(LIGHT, soil, seed=3, duration_s=60, speed_profile=gentle)
+    log = _joined(hard, calm.subset(np.nonzero(calm.time >= 20.0)[0]))  # the cruise, not its start from rest
+    segs = fit_segments(log, LIGHT, "20s").segments
+    assert len(segs) == 3 and [s.pieces for s in segs] == [1, 1, 1]  # the gentle pieces are not merged
+    lo, hi = segs[0].max_thrust_ci95
+    assert segs[0].max_thrust_N is not None and lo <= _fmax(soil) <= hi
+    for s in segs[1:]:
+        assert s.max_thrust_N is None and s.max_thrust_ci95 is None and s.max_thrust_stderr_N is None
+        why = dict(s.not_identified)
+        assert "gentle driving" in why["F_max"], why
+        assert s.to_dict()["not_identified"]["F_max"] == why["F_max"]
+    # the plain fit of a gentle piece says the same: F_max not determined, with the same reason
+    d = fit(log.subset(np.nonzero(log.time >= 20.0)[0][:1000]), LIGHT).to_dict()
+    F = next(c for c in d["combinations"] if c["name"].startswith("F_max"))
+    assert F["determined"] is False and "gentle driving" in F["not_determined_reason"]
+    assert d["extra"]["regime"] == "gentle"

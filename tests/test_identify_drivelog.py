@@ -373,3 +373,19 @@ def test_simex_is_not_applied_to_a_log_that_does_not_pin_k():
     assert res.extra["shear_modulus_m"] == base.extra["shear_modulus_m"]
     assert res.extra["max_thrust_N"] == base.extra["max_thrust_N"]
     assert any("SIMEX bias correction not applied" in w for w in res.warnings)
+
+
+def test_k_on_its_bound_leaves_fmax_identified_only_when_pinned_down():
+    """K on a bound: F_max's interval is the one of K held there - the log is "gentle" (F_max not determined)
+    unless F_max's own standard error is within 5 % (a pull to the traction limit pins it whatever K is)."""
+    from soiltrack.identify.drivelog.regime import classify_regime
+
+    def regime(rel_F, at_bound):
+        F, K = 265.0, 0.006
+        sF, sK, corr = rel_F * F, 0.5 * K, 0.9
+        cov = np.array([[sF**2, corr * sF * sK], [corr * sF * sK, sK**2]])
+        return classify_regime(F, K, 0.5, cov, at_bound, 200.0, 0.75, 10)[0]
+
+    assert regime(0.10, ["K"]) == "gentle"
+    assert regime(0.10, []) == "intermediate"
+    assert regime(0.03, ["K"]) == "intermediate"

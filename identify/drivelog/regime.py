@@ -2,7 +2,9 @@
 
 At small slip ``F ~ F_max l i / (2 K)``: a log whose thrust stays well below ``F_max`` pins
 down only this initial slope. :func:`classify_regime` calls a log ``"gentle"`` (correlation of
-the F_max and K estimates >= 0.99, or F_max standard error >= 25 %, or F_max on a bound),
+the F_max and K estimates >= 0.99, or F_max standard error >= 25 %, or F_max on a bound, or K on a bound
+while F_max is not pinned within 5 %: F_max's interval is then the one of K held at the bound, not a valid
+interval),
 ``"hard"`` (F_max within 5 % and K within 25 % standard error) or ``"intermediate"``, and
 writes the warning that says which experiment would help.
 """
@@ -77,7 +79,9 @@ def classify_regime(
                 "initial_slope_stderr_N": s_slope,
             }
         )
-    if not cov_ok or abs(corr) >= GENTLE_CORRELATION or relF >= GENTLE_REL_STDERR or "F_max" in at_bound:
+    # K on a bound: F_max's interval is conditional on K held there; only a pinned-down F_max survives it
+    k_held = "K" in at_bound and not relF <= HARD_REL_STDERR
+    if not cov_ok or abs(corr) >= GENTLE_CORRELATION or relF >= GENTLE_REL_STDERR or "F_max" in at_bound or k_held:
         regime = "gentle"
     elif relF <= HARD_REL_STDERR and relK <= K_REL_STDERR and "K" not in at_bound:
         regime = "hard"

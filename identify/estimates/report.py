@@ -215,6 +215,10 @@ class ReportViews(RecordFields):
     def to_dict(self) -> dict:
         """The CLI JSON object (edge units, never NaN; see the module docs)."""
         rmse = finite_or_none(self.rmse)
+        # per combination: determined by the outcome rules (a gentle log's F_max, a K on a bound are not)
+        und = (
+            self.undetermined_combinations if self.success else {cb.name: "the fit failed" for cb in self.combinations}
+        )
         d = {
             "model": self.model,
             "method": self.method,
@@ -229,7 +233,10 @@ class ReportViews(RecordFields):
                 **{EDGE_UNITS[n][0]: self._parameter_json(pe) for n, pe in self.parameters.items()},
                 **self.sinkage_parameters,
             },
-            "combinations": [cb.to_dict() for cb in self.combinations],
+            "combinations": [
+                {**cb.to_dict(), "determined": cb.name not in und, "not_determined_reason": und.get(cb.name)}
+                for cb in self.combinations
+            ],
             "data_kind": self.data_kind,
             "rmse": rmse,
             "residual_unit": self.residual_unit,
