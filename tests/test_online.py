@@ -88,19 +88,29 @@ def test_agrees_with_the_batch_fit_of_the_same_window_within_its_95_percent_inte
     assert checked >= 4
 
 
-def test_with_known_noise_the_online_optimum_is_the_batch_optimum(sand_log):
+@pytest.mark.parametrize("relaxation", [False, True])
+def test_with_known_noise_the_online_optimum_is_the_batch_optimum(sand_log, relaxation):
+    """The horizon's fit against the batch fit of the same window, with the same discretisation.
+
+    ``relaxation=False``: the end-point rule of both. ``True`` (the on-line default): the batch fit's
+    ``discretisation="relaxation"``; the on-line weights differ at the horizon's last samples (they
+    wait for their slip trend) and in their pilot soil, so K (on the batch fit's bound here) is not
+    compared.
+    """
     sig = dict(sigma_torque=0.04, sigma_sprocket_speed=0.005, sigma_vehicle_speed=0.05)
     window, k = 5.0, int(round(25.0 * 50))
-    est = OnlineEstimator(LIGHT, OnlineSettings(window_s=window, detect_threshold=1e9, memory=False, **sig))
-    e = _replay(est, sand_log, upto=k)[-1]
+    settings = OnlineSettings(window_s=window, detect_threshold=1e9, memory=False, relaxation=relaxation, **sig)
+    e = _replay(OnlineEstimator(LIGHT, settings), sand_log, upto=k)[-1]
     r = fit(
         sand_log.subset(slice(int(np.searchsorted(sand_log.time, sand_log.time[k] - window)) - 1, k + 1)),
         LIGHT,
+        discretisation="relaxation" if relaxation else "end-point",
         **sig,
     )
     assert e.converged
     assert e.max_thrust_N == pytest.approx(r.extra["max_thrust_N"], rel=2e-3)
-    assert e.shear_modulus_m == pytest.approx(r.extra["shear_modulus_m"], rel=1e-2)
+    if not relaxation:
+        assert e.shear_modulus_m == pytest.approx(r.extra["shear_modulus_m"], rel=1e-2)
     assert e.max_thrust_stderr_N == pytest.approx(r.extra["max_thrust_stderr_N"], rel=2e-2)
 
 

@@ -128,20 +128,10 @@ def test_no_alarm_on_uniform_soil_with_sporadic_pulls(vehicle, length):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "vehicle, length",
-    [
-        ("heavy", (2.0, 4.0)),
-        pytest.param(
-            "light",
-            (0.1, 0.3),
-            marks=pytest.mark.xfail(
-                strict=True, reason="end-point bias of 0.1-0.3 s pulls held (issue 38, open): 71 % measured"
-            ),
-        ),
-    ],
-)
+@pytest.mark.parametrize("vehicle, length", [("heavy", (2.0, 4.0)), ("light", (0.1, 0.3))])
 def test_held_intervals_hold_the_truth_on_uniform_soil(vehicle, length):
+    """The light vehicle's 0.1-0.3 s pulls: with the end-point rule the held value carried its bias
+    (+2.6 % median, 78 % coverage measured); the slip-relaxation rule (the default) removes it."""
     _uniform(vehicle, length, coverage=True)
 
 

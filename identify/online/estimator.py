@@ -46,6 +46,7 @@ from ...soilmodel.effects import effective_normal_load
 from ...soilmodel.traction import max_thrust_expr
 from ...soilmodel.vehicle import Vehicle
 from ..drivelog.noise import noise_model
+from ..drivelog.relaxation import TREND_SAMPLES
 from ..drivelog.regime import GENTLE_CORRELATION, GENTLE_REL_STDERR, K_REL_STDERR
 from .detector import CusumDetector
 from .ccall import BufferCall
@@ -58,7 +59,8 @@ __all__ = ["OnlineEstimator", "INITIAL_CAPACITY", "START_THRUST_FACTOR", "MIN_NO
 
 #: Horizon capacity the estimator starts with (grown by doubling when the horizon needs more).
 INITIAL_CAPACITY = 64
-#: Start value of F_max: this factor times the largest thrust seen (the batch fit's start rule).
+#: Start value of F_max: this factor times the largest thrust seen (the batch fit's start rule), applied
+#: until the iteration has converged once, whenever a thrust (less two standard deviations) exceeds the iterate.
 START_THRUST_FACTOR = 1.2
 #: Fewest readings the noise levels are estimated from (before that: the first estimate stays).
 MIN_NOISE_SAMPLES = 8
@@ -71,9 +73,10 @@ _P = {name: j for j, name in enumerate(PARAMS)}
 _S = {name: j for j, name in enumerate(SUMS)}
 _R = {name: j for j, name in enumerate(ROWS)}
 _RAW_JUMP = RAW.index("jump")
+_RAW_RELAX = [RAW.index(k) for k in ("M", "w_next", "h_next", "slip_trend", "F_pilot", "K_pilot", "relax")]
 _N = {name: j for j, name in enumerate(NOISE)}
 #: Benign readings for empty slots (finite everything; never used: outside the horizon).
-_EMPTY_RAW = np.array([1.0, 1.0, 1.0, 0.0, 1.0, 0.0])
+_EMPTY_RAW = np.array([1.0, 1.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 0.0])
 _MESSAGES = {
     "ok": "converged",
     "warming_up": "too few samples for an estimate yet",
@@ -143,10 +146,11 @@ class OnlineEstimator:
         ):
             self._P[_P[name]] = val
         self._noise = np.zeros(len(NOISE))
-        self._noise[[_N["r"], _N["I"], _N["min_speed"]]] = (
+        self._noise[[_N["r"], _N["I"], _N["min_speed"], _N["l"]]] = (
             vehicle.sprocket_radius,
             vehicle.sprocket_inertia,
             s.min_speed,
+            vehicle.track_length,
         )
         self._Ph = np.zeros(len(PARAMS))  # the parameters at the held estimate (for the detector)
         self._Vh = np.zeros(3)  # the held covariance over the scaled (xF, xK)
@@ -170,6 +174,10 @@ class OnlineEstimator:
         self._dt_count = 0
         self._prev: tuple[float, float, float, int] | None = None  # t, M, w, slot (-1: not in horizon)
         self._last_thrust: tuple[float, float] | None = None  # T and sigma_T of the previous sample
+        self._thrust_before: tuple[float, float] | None = None  # ... and of the one before it (relaxation)
+        self._slips: deque = deque(maxlen=TREND_SAMPLES)  # measured slips of the latest samples (slip trend)
+        self._n_slips = 0  # slips appended so far (the index of the next)
+        self._pending: deque = deque()  # samples waiting for their slip trend: (index, slot, t, M, w_next, h_next)
         self._t_reset = -math.inf
         self._detector = CusumDetector(s.detect_reference, s.detect_threshold, s.detect_clip)
         self._detect_since = -math.inf
@@ -191,6 +199,8 @@ class OnlineEstimator:
         self.samples_skipped = 0
         self.samples_turning = 0
         self._converged = False
+        self._gentle_win: dict | None = None  # the last fit of a gentle horizon (see _solve)
+        self._since_solve = 0
         self._last: OnlineEstimate | None = None
 
     # ------------------------------------------------------------------ buffers
@@ -211,6 +221,10 @@ class OnlineEstimator:
         self._peak = np.zeros(cap)  # per slot: thrust two standard deviations below its value
         self._row = np.zeros(len(ROWS))
         self._raw1 = np.zeros(len(RAW))
+        self._raw_relax = np.zeros(len(RAW))
+        self._row_relax = np.zeros(len(ROWS))
+        self._relax_T = np.zeros(1)
+        self._relax_sT = np.zeros(1)
         self._pred_out = np.zeros(2)
         self._T_out = np.zeros(1)
         self._sT_out = np.zeros(1)
@@ -223,6 +237,11 @@ class OnlineEstimator:
         self._c_predict = BufferCall(k.predict, lib, [self._row, self._P], [self._pred_out])
         self._c_predict_held = BufferCall(k.predict_held, lib, [self._row, self._Ph, self._Vh], [self._held_out])
         self._c_prepare = BufferCall(k.prepare, lib, [self._raw1, self._noise], [self._row, self._T_out, self._sT_out])
+        self._c_relax = BufferCall(
+            k.prepare, lib, [self._raw_relax, self._noise], [self._row_relax, self._relax_T, self._relax_sT]
+        )
+        self._relax_pred = np.zeros(2)
+        self._c_relax_predict = BufferCall(k.predict, lib, [self._row_relax, self._P], [self._relax_pred])
         self._c_prepare_all = BufferCall(
             k.prepare_all, lib, [self._RAW, self._noise], [self._rows_all, self._T_all, self._sT_all]
         )
@@ -330,6 +349,7 @@ class OnlineEstimator:
                 self._rebuild_peaks()
             self._prev = None
             self._last_thrust = None
+            self._finish_relax(flush=True)
             return self._report(float(time_s), None, False, None, "skipped", "turning sample left out")
         M, w = combine_tracks(torque_left, torque_right, speed_left, speed_right)
         return self._straight(float(time_s), float(M), float(w), float(vehicle_speed))
@@ -339,6 +359,7 @@ class OnlineEstimator:
         self.samples_skipped += 1
         self._prev = None
         self._last_thrust = None
+        self._finish_relax(flush=True)
         t = float(time_s) if _finite(time_s) else (self._last.time_s if self._last else math.nan)
         return self._report(t, None, False, None, "skipped", f"sample skipped: {why}")
 
@@ -392,13 +413,17 @@ class OnlineEstimator:
         if len(self._dts) >= 3 and h > s.max_step_ratio * self._median_dt():
             self._prev = (t, M, w, -1)
             self._last_thrust = None
+            self._finish_relax(flush=True)
             return self._report(t, None, False, None, None, f"time step {h:.3g} s too long: a new chain starts")
         self._dts.append(h)
         self._refresh_noise()
         raw = self._raw1
-        raw[:] = (v, w, prev[2], prev[1], h, 0.0)
+        raw[:] = _EMPTY_RAW
+        raw[:6] = (v, w, prev[2], prev[1], h, 0.0)
         self._c_prepare()
         T, sT = float(self._T_out[0]), float(self._sT_out[0])
+        self._slips.append(1.0 - v / (self.vehicle.sprocket_radius * w) if w != 0.0 else math.nan)
+        self._n_slips += 1
         # thrust jumps (the batch fit's allowance): this sample and the one before it
         if self._last_thrust is not None:
             T0, sT0 = self._last_thrust
@@ -410,14 +435,19 @@ class OnlineEstimator:
                     j = prev[3]
                     self._RAW[j, _RAW_JUMP] = max(self._RAW[j, _RAW_JUMP], dT)
                     self._reprepare(j)
+        if s.relaxation and prev[3] >= 0 and self._last_thrust is not None and self._thrust_before is not None:
+            self._queue_relax(prev[3], prev[0], T, sT, M=prev[1], w_next=w, h_next=h)
+        self._finish_relax(cutoff=cutoff)
+        self._thrust_before = self._last_thrust
         self._last_thrust = (T, sT)
         used = self._row[_R["m"]] > 0
         if used and not self._started:  # start value of F_max (the batch fit's rule), until converged once
-            self._thrust_max = max(self._thrust_max, T)
-            self._P[_P["xF"]] = min(
-                max(self._P[_P["xF"]], START_THRUST_FACTOR * self._thrust_max / self._F_ref),
-                self._bounds_scaled[0][1],
-            )
+            # raised only where a thrust (two standard deviations below its value) exceeds the iterate:
+            # a floor at START_THRUST_FACTOR x the largest thrust held an iteration that had not yet
+            # converged on a pull's plateau (0.9-0.97 F_max) above the truth, update after update
+            self._thrust_max = max(self._thrust_max, T - 2.0 * sT)
+            if self._thrust_max > self._P[_P["xF"]] * self._F_ref:
+                self._P[_P["xF"]] = min(START_THRUST_FACTOR * self._thrust_max / self._F_ref, self._bounds_scaled[0][1])
         # change detection on the one-step prediction, before the sample enters the horizon
         change, slip0 = self._detect(t, T, sT) if used else (None, None)
         # the sample enters the ring buffer
@@ -441,6 +471,56 @@ class OnlineEstimator:
         self._slot = (slot + 1) % self._cap
         self._prev = (t, M, w, slot)
         return self._finish(t, slip0, change, cutoff)
+
+    def _queue_relax(self, j: int, t: float, T1: float, sT1: float, *, M: float, w_next: float, h_next: float) -> None:
+        """Queue slot ``j`` (the sample before the new one) for the slip-relaxation rule (its next interval is known).
+
+        The batch fit's ``discretisation="relaxation"`` (:mod:`~soiltrack.identify.drivelog.relaxation`):
+        the thrust at the sample is ``(1 - phi) T_k + phi T_{k+1}``. Where the interval means are not
+        a steady trend (second difference beyond :data:`JUMP_SIGMA` noise levels: a torque step at
+        the traction limit) the end-point rule stays, as in the batch fit. The weight waits for the
+        slip trend (:meth:`_finish_relax`).
+        """
+        (T0, sT0), (Tm, sTm) = self._last_thrust, self._thrust_before  # type: ignore[misc]
+        if abs(T1 - 2.0 * T0 + Tm) > JUMP_SIGMA * math.sqrt(sT1 * sT1 + 4.0 * sT0 * sT0 + sTm * sTm):
+            return
+        self._pending.append((self._n_slips - 2, j, t, M, w_next, h_next))
+
+    def _finish_relax(self, flush: bool = False, cutoff: float | None = None) -> None:
+        """Apply the relaxation rule to the queued samples whose slip trend is complete.
+
+        ``phi`` comes from the slip's time constant at the slip trend (the median of the
+        :data:`TREND_SAMPLES` measured slips centred on the sample, as the batch fit: the sample
+        waits ``TREND_SAMPLES // 2`` samples for it; ``flush``: at a chain's end, what there is)
+        and the pilot soil (the held estimate, else the iterate). The slot's peak (the
+        informative-sample test) stays the end-point one; its latent slip starts again from the new
+        row's optimum at the iterate (the row moved under it). ``cutoff``: the horizon's start (a
+        slot before it is not used).
+        """
+        half = TREND_SAMPLES // 2
+        if cutoff is None:
+            cutoff = max(self._last_time - self.settings.window_s, self._t_reset)
+        while self._pending and (flush or self._pending[0][0] + half <= self._n_slips - 1):
+            k, j, t, M, w_next, h_next = self._pending.popleft()
+            if self._tslot[j] != t:  # the slot was reused or moved meanwhile
+                continue
+            first = max(k - half, self._n_slips - len(self._slips))
+            sl = [x for x in list(self._slips)[first - (self._n_slips - len(self._slips)) :] if x == x]
+            trend = statistics.median(sl) if sl else 0.0
+            held = self._held.x
+            F, K = held if held is not None else (self._P[_P["xF"]] * self._F_ref, self._P[_P["xK"]] * self._K_ref)
+            raw = self._raw_relax
+            raw[:] = self._RAW[j]
+            raw[_RAW_RELAX] = (M, w_next, h_next, trend, F, K, 1.0)
+            self._c_relax()
+            self._RAW[j] = raw
+            self._D[j] = self._row_relax
+            self._ok[j] = self._row_relax[_R["m"]]
+            if t < cutoff:
+                self._D[j, _R["m"]] = 0.0
+            elif self._ok[j] > 0:
+                self._c_relax_predict()
+                self._Z[j] = self._relax_pred[0]
 
     def _detect(self, t: float, T: float, sT: float) -> tuple[float | None, float]:
         """The new sample's prediction: the CUSUM's change time (or ``None``) and its latent slip."""
@@ -478,8 +558,7 @@ class OnlineEstimator:
             change = self._excitation_start(change, window[0])
             self._forget(t, change, window)
             cutoff = max(t - s.window_s, self._t_reset)
-        self._iterate(cutoff)
-        win = self._window(t)
+        win = self._solve(t, cutoff, change is None)
         if s.memory:
             late = self._remember(t, win)
             if late is not None and change is None:  # the horizon contradicts what is known: a change
@@ -490,6 +569,33 @@ class OnlineEstimator:
                 win = self._window(t)
                 self._remember(t, win)
         return self._report(t, slip0, change is not None, change, None, "", win=win, window=window)
+
+    def _solve(self, t: float, cutoff: float, may_skip: bool) -> dict:
+        """The horizon's iteration and its fit (:meth:`_window`), or the last fit while driving is gentle.
+
+        With the memory on, a horizon holding no sample loaded to ``detect_min_load`` of the held
+        F_max (gentle driving) identifies at most the slope and the held estimate is what is
+        reported; there the converged iteration is solved only every ``gentle_solve_every`` samples
+        (the samples leaving the horizon still leave it at once, and the detector still tests each
+        new sample). The last fit stands in between only if its horizon was gentle too.
+        """
+        s = self.settings
+        gentle = (
+            may_skip
+            and s.memory
+            and self._converged
+            and self._held.known
+            and not (self._loaded_times and self._loaded_times[-1] >= cutoff)
+        )
+        if gentle and self._gentle_win is not None and self._since_solve < s.gentle_solve_every - 1:
+            self._since_solve += 1
+            self._advance(cutoff)
+            return self._gentle_win
+        self._iterate(cutoff)
+        win = self._window(t)
+        self._since_solve = 0
+        self._gentle_win = win if gentle and self._converged else None
+        return win
 
     def _advance(self, cutoff: float) -> None:
         """Samples older than ``cutoff`` leave the horizon (their ``m`` set to 0)."""
@@ -561,6 +667,7 @@ class OnlineEstimator:
             dq.clear()
             dq.extend(keep)
         self._t_reset = t_change
+        self._gentle_win = None
         self._detector.reset(t)
         self._detect_since = t
         self._converged = False
