@@ -247,6 +247,7 @@ class OnlineEstimator:
         )
 
     def _grow(self) -> None:
+        self._finish_relax(flush=True)  # the queue holds slot numbers: settled before they move
         old = (self._RAW, self._D, self._ok, self._Z, self._tslot, self._sums.copy(), self._peak)
         cap = self._cap
         new = min(2 * cap, self.settings.max_capacity)
@@ -347,9 +348,7 @@ class OnlineEstimator:
                 if self._live and self._live[-1][1] == j:
                     self._live.pop()
                 self._rebuild_peaks()
-            self._prev = None
-            self._last_thrust = None
-            self._finish_relax(flush=True)
+            self._end_chain()
             return self._report(float(time_s), None, False, None, "skipped", "turning sample left out")
         M, w = combine_tracks(torque_left, torque_right, speed_left, speed_right)
         return self._straight(float(time_s), float(M), float(w), float(vehicle_speed))
@@ -357,9 +356,7 @@ class OnlineEstimator:
     # ------------------------------------------------------------------ internals
     def _skip(self, time_s, why: str) -> OnlineEstimate:
         self.samples_skipped += 1
-        self._prev = None
-        self._last_thrust = None
-        self._finish_relax(flush=True)
+        self._end_chain()
         t = float(time_s) if _finite(time_s) else (self._last.time_s if self._last else math.nan)
         return self._report(t, None, False, None, "skipped", f"sample skipped: {why}")
 
@@ -411,9 +408,8 @@ class OnlineEstimator:
             return self._report(t, None, False, None, None, "first sample of a chain (no sprocket-speed difference)")
         h = t - prev[0]
         if len(self._dts) >= 3 and h > s.max_step_ratio * self._median_dt():
+            self._end_chain()
             self._prev = (t, M, w, -1)
-            self._last_thrust = None
-            self._finish_relax(flush=True)
             return self._report(t, None, False, None, None, f"time step {h:.3g} s too long: a new chain starts")
         self._dts.append(h)
         self._refresh_noise()
@@ -435,8 +431,14 @@ class OnlineEstimator:
                     j = prev[3]
                     self._RAW[j, _RAW_JUMP] = max(self._RAW[j, _RAW_JUMP], dT)
                     self._reprepare(j)
-        if s.relaxation and prev[3] >= 0 and self._last_thrust is not None and self._thrust_before is not None:
-            self._queue_relax(prev[3], prev[0], T, sT, M=prev[1], w_next=w, h_next=h)
+        if s.relaxation and prev[3] >= 0:
+            queued = (
+                self._last_thrust is not None
+                and self._thrust_before is not None
+                and self._queue_relax(prev[3], prev[0], T, sT, M=prev[1], w_next=w, h_next=h)
+            )
+            if not queued:  # the end-point rule stays: the sample is used as it is
+                self._release(prev[3], cutoff)
         self._finish_relax(cutoff=cutoff)
         self._thrust_before = self._last_thrust
         self._last_thrust = (T, sT)
@@ -462,6 +464,8 @@ class OnlineEstimator:
         self._RAW[slot] = raw
         self._D[slot] = self._row
         self._ok[slot] = self._row[_R["m"]]
+        if s.relaxation:  # held back until its discretisation is decided (see _release, _finish_relax)
+            self._D[slot, _R["m"]] = 0.0
         pk = self._peak[slot] = _peak(self._row)
         self._Z[slot] = 0.0 if slip0 is None else slip0
         self._tslot[slot] = t
@@ -472,7 +476,27 @@ class OnlineEstimator:
         self._prev = (t, M, w, slot)
         return self._finish(t, slip0, change, cutoff)
 
-    def _queue_relax(self, j: int, t: float, T1: float, sT1: float, *, M: float, w_next: float, h_next: float) -> None:
+    def _end_chain(self) -> None:
+        """The sample chain breaks (a skipped or turning sample, a long gap): held-back samples are used as they are."""
+        if self._prev is not None and self._prev[3] >= 0:
+            self._release(self._prev[3], max(self._last_time - self.settings.window_s, self._t_reset))
+        self._finish_relax(flush=True)
+        self._prev = None
+        self._last_thrust = None
+
+    def _release(self, j: int, cutoff: float) -> None:
+        """Slot ``j`` enters the fit (its use flag) unless it has left the horizon."""
+        if self._tslot[j] >= cutoff:
+            self._D[j, _R["m"]] = self._ok[j]
+
+    def held_back(self) -> list[int]:
+        """Slots not in the fit yet: waiting for the next sample or their slip trend (the relaxation rule)."""
+        out = [e[1] for e in self._pending]
+        if self.settings.relaxation and self._prev is not None and self._prev[3] >= 0:
+            out.append(self._prev[3])
+        return out
+
+    def _queue_relax(self, j: int, t: float, T1: float, sT1: float, *, M: float, w_next: float, h_next: float) -> bool:
         """Queue slot ``j`` (the sample before the new one) for the slip-relaxation rule (its next interval is known).
 
         The batch fit's ``discretisation="relaxation"`` (:mod:`~soiltrack.identify.drivelog.relaxation`):
@@ -483,8 +507,9 @@ class OnlineEstimator:
         """
         (T0, sT0), (Tm, sTm) = self._last_thrust, self._thrust_before  # type: ignore[misc]
         if abs(T1 - 2.0 * T0 + Tm) > JUMP_SIGMA * math.sqrt(sT1 * sT1 + 4.0 * sT0 * sT0 + sTm * sTm):
-            return
+            return False
         self._pending.append((self._n_slips - 2, j, t, M, w_next, h_next))
+        return True
 
     def _finish_relax(self, flush: bool = False, cutoff: float | None = None) -> None:
         """Apply the relaxation rule to the queued samples whose slip trend is complete.
@@ -702,6 +727,8 @@ class OnlineEstimator:
             for _, j in self._live:
                 live[j] = 1.0
             np.multiply(self._ok, live, out=self._D[:, _R["m"]])
+            for j in self.held_back():
+                self._D[j, _R["m"]] = 0.0
             self._rebuild_peaks()
         self._have_noise = True
 
