@@ -660,6 +660,8 @@ class OnlineEstimator:
         self._c_prepare()
         self._D[j] = self._row
         self._ok[j] = self._row[_R["m"]]
+        if self.settings.relaxation:  # the sample before the new one: still held back (its rule is decided next)
+            self._D[j, _R["m"]] = 0.0
         self._peak[j] = _peak(self._row)
         self._rebuild_peaks()
         self._row[:] = keep_row
