@@ -17,6 +17,10 @@ Parts (sizes printed with each result):
    (c-phi separation by the load transfer), and the fit time.
 4. ``--separation``: c and phi from the turns' load transfer (cg 1.5 m, turns of 10-14 m at
    3.5 m/s), the friction share and its standard error per seed.
+5. ``--plan`` (also in every run but ``--separation``): turning-plan solve times on LETE sand at
+   2 m/s: ``turn_margin`` at 10 m (incl. the smallest radius by bisection), ``p_turn_feasible`` over
+   ``--samples`` soils (15 % relative errors), and a 55 m route with a 15 m patch turning at 10 m
+   (planned, then the turn solved), against the same route straight.
 """
 
 from __future__ import annotations
@@ -144,6 +148,54 @@ def _separation(soil, seeds: int, duration: float, rate: float) -> None:
         )
 
 
+def _planning(vehicle, soil, samples: int) -> None:
+    from soiltrack.planning import route_profile
+    from soiltrack.planning.route import route_from_dict
+    from soiltrack.planning.turning import turn_margin, turn_probability
+    from soiltrack.planning.uncertainty import SoilUncertainty
+    from soiltrack.soilmodel import PRACTICAL_BOUNDS
+
+    def clock(f):
+        t, c = time.perf_counter(), time.process_time()
+        out = f()
+        return out, time.perf_counter() - t, time.process_time() - c
+
+    turn_margin(vehicle, soil, radius_m=10.0, speed_m_s=2.0)  # build the solvers once
+    m, tw, tc = clock(lambda: turn_margin(vehicle, soil, radius_m=10.0, speed_m_s=2.0))
+    print(
+        f"5. turn_margin at 10 m, 2 m/s (with the smallest radius {m.min_turn_radius_m:.3g} m): "
+        f"{tw:.3g} s wall, {tc:.3g} s CPU"
+    )
+    mean = soil.as_vector()
+    unc = SoilUncertainty(
+        "parameters", "full", ("cohesion", "friction_angle", "shear_modulus"), mean, np.diag((0.15 * mean) ** 2),
+        vehicle.weight, PRACTICAL_BOUNDS, "bench: 15 % relative errors", vehicle.contact_area,
+    )  # fmt: skip
+    turn_probability(vehicle, unc, radius_m=10.0, speed_m_s=2.0, n_samples=samples)  # build the map once
+    for R in (1.0, 1.1):
+        r = R * m.min_turn_radius_m
+        p, tw, tc = clock(lambda: turn_probability(vehicle, unc, radius_m=r, speed_m_s=2.0, n_samples=samples))
+        print(
+            f"   p_turn_feasible at {r:.3g} m = {p.p:.3g} +- {p.stderr:.2g} ({samples} soils): "
+            f"{tw:.3g} s wall, {tc:.3g} s CPU"
+        )
+    pats = [{"length_m": 20, "terrain": "lete_sand"}, {"length_m": 15, "terrain": "lete_sand", "radius_m": 10},
+            {"length_m": 20, "terrain": "lete_sand"}]  # fmt: skip
+    route = route_from_dict({"v0_m_s": 2.0, "v_end_m_s": 2.0, "patches": pats})
+    straight = route_from_dict(
+        {"v0_m_s": 2.0, "v_end_m_s": 2.0, "patches": [{k: v for k, v in q.items() if k != "radius_m"} for q in pats]}
+    )
+    route_profile(straight, vehicle, max_speed=2.0)
+    for label, rt in (("straight", straight), ("with the turn", route)):
+        runs = [clock(lambda: route_profile(rt, vehicle, max_speed=2.0)) for _ in range(3)]
+        plan = runs[-1][0]
+        tw, tc = statistics.median(x[1] for x in runs), statistics.median(x[2] for x in runs)
+        print(
+            f"   route 55 m, {len(plan.series['time_s'])} mesh points, {label}: success {plan.success}, "
+            f"{tw:.3g} s wall, {tc:.3g} s CPU (median of 3)"
+        )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=3, help="seeds of the identification part (default 3)")
@@ -152,6 +204,8 @@ def main() -> None:
     ap.add_argument("--terrain", default="lete_sand", help="terrain of parts 3 and 4 (default lete_sand)")
     ap.add_argument("--quick", action="store_true", help="parts 1 and 2 only")
     ap.add_argument("--separation", action="store_true", help="part 4 only (c-phi separation, --seeds seeds)")
+    ap.add_argument("--plan", action="store_true", help="part 5 only (turning-plan solve times)")
+    ap.add_argument("--samples", type=int, default=800, help="soils of p_turn_feasible in part 5 (default 800)")
     a = ap.parse_args()
     from soiltrack.soilmodel import TERRAINS, VEHICLES
 
@@ -161,8 +215,12 @@ def main() -> None:
     if a.separation:
         _separation(soil, a.seeds, a.duration, a.rate)
         return
+    if a.plan:
+        _planning(vehicle, TERRAINS["lete_sand"], a.samples)
+        return
     _quadrature(vehicle, soils)
     _timing(vehicle, soils[0])
+    _planning(vehicle, TERRAINS["lete_sand"], a.samples)
     if not a.quick:
         _identification(vehicle, soil, a.seeds, a.duration, a.rate)
 

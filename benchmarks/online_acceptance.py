@@ -216,7 +216,8 @@ def check(seed: int, folder: str) -> dict:
         "changes_s": changes,
         "change_flagged_within_2s": bool(flagged),
         "false_alarms": len(changes) - len(flagged[:1]),
-        "samples_turning": summ["samples_turning"],
+        # recognised turning samples: fitted by the steering model, or not (this vehicle has no tread_m)
+        "samples_turning": summ["samples_turning"] + sum(summ.get("samples_turning_not_fitted", {}).values()),
         "samples_skipped": summ["samples_skipped"],
         "turn_shift_se": turn_moves,
         "gentle_updates_identified": gentle_identified,

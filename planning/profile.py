@@ -68,6 +68,7 @@ from .margin import DEFAULT_MAX_SLIP, resolve_terrain, terrain_soil_vector
 from .ocp import DEGREE, OcpData, radau_collocation, solve_ocp
 from .replay import replay
 from .route import OBJECTIVES, Patch, Route
+from .route_turns import TURN_SERIES, check_turns, plan_turns, turn_line
 
 __all__ = [
     "SpeedPlan",
@@ -183,6 +184,8 @@ class SpeedPlan:
     initial_slip_source: str | None = None
     #: what the first line says about the fit(s) planned with (outcome, other vehicle, effects left out)
     headline: tuple[str, ...] = ()
+    #: per turning patch (:func:`~.route_turns.plan_turns`); empty: no turns, and the JSON has no turn keys
+    turns: tuple = ()
 
     def to_dict(self, route: bool = False) -> dict:
         """The ``profile --json`` / ``route --json`` object (docs/data-formats.md); never NaN."""
@@ -215,6 +218,10 @@ class SpeedPlan:
         d["patches"] = [{k: (_f(v) if isinstance(v, float) else v) for k, v in p.items()} for p in self.patches]
         if self.robust is not None:
             d["robust"] = {k: (_f(v) if isinstance(v, float) else v) for k, v in self.robust.items()}
+        if self.turns:  # a route or profile with turns (planning.route_turns); absent otherwise
+            for k in TURN_SERIES:
+                d[k] = [_f(x) for x in self.series.get(k, [])]
+            d["turns"] = [{k: (_f(v) if isinstance(v, float) else v) for k, v in t.items()} for t in self.turns]
         return d
 
     def report(self) -> str:
@@ -262,6 +269,7 @@ class SpeedPlan:
                 f"{self.robust['violation_fraction'] * 100:.3g} % of {self.robust['n_samples']} sampled soils "
                 f"(nominal-soil plan: {self.robust['nominal_violation_fraction'] * 100:.3g} %)"
             )
+        L += [turn_line(t) for t in self.turns]
         L += [f"  note: {n}" for n in self.notes]
         if self.headline:
             L[0] += " - " + "; ".join(self.headline)
@@ -1002,6 +1010,7 @@ def profile(
     robust_samples: int = ROBUST_SAMPLES,
     max_speed: float | None = None,
     slip0: float | None = None,
+    radius_m: float | None = None,
 ) -> SpeedPlan:
     """Plan a speed/slip/torque profile on one terrain (see the module docstring).
 
@@ -1030,6 +1039,9 @@ def profile(
     slip0
         The slip when the plan starts (default: the steady slip that carries the resistance at
         ``v0``; 0 at rest); within the plan's slip bound.
+    radius_m
+        A turn of this radius (m, signed, + left) over the whole profile: both sprockets' torques and
+        slips by the steering model on the planned speeds (:func:`~.route_turns.plan_turns`; flat only).
 
     Returns
     -------
@@ -1043,8 +1055,12 @@ def profile(
     else:
         length = 1.0
     grade_deg = check_number("grade_deg", grade_deg, -68.75, 68.75)
+    if radius_m is not None:
+        radius_m = check_number("radius_m", radius_m, -math.inf, math.inf)
+    patches = (Patch(length, terrain, grade_deg, radius_m),)
+    check_turns(patches, vehicle, argument="--turn-radius")
     plan = plan_patches(
-        (Patch(length, terrain, grade_deg),),
+        patches,
         vehicle,
         v0=v0,
         v1=v1,
@@ -1060,6 +1076,7 @@ def profile(
         max_speed=max_speed,
         slip0=slip0,
     )
+    plan = plan_turns(plan, patches, vehicle)  # unchanged without a turn
     return with_fit_headline(plan, (terrain,))
 
 
@@ -1078,6 +1095,7 @@ def route_profile(
     ``slip0`` as for :func:`profile`.
     """
     n = max(DEFAULT_INTERVALS, 10 * len(route.patches)) if intervals is None else intervals
+    check_turns(route.patches, vehicle)  # patches with radius_m: before the solve (planning.route_turns)
     plan = plan_patches(
         route.patches,
         vehicle,
@@ -1094,4 +1112,5 @@ def route_profile(
         max_speed=max_speed,
         slip0=slip0,
     )
+    plan = plan_turns(plan, route.patches, vehicle)  # unchanged without turns
     return with_fit_headline(plan, [p.terrain for p in route.patches])

@@ -35,11 +35,14 @@ class Patch:
         :class:`~.uncertainty.SoilUncertainty` (an identified soil).
     grade_deg
         Grade, deg, positive uphill.
+    radius_m
+        Turning radius, m, signed (positive to the left); ``None``: straight (:mod:`.route_turns`).
     """
 
     length_m: float
     terrain: Any
     grade_deg: float = 0.0
+    radius_m: float | None = None
 
     @property
     def label(self) -> str:
@@ -114,7 +117,7 @@ def route_from_dict(obj: Any, *, source: str | None = None, default_terrain: Any
         f = f"patches[{k}]"
         if not isinstance(p, dict):
             raise DataError(f"{f} must be an object", file=src, column=f)
-        bad = sorted(set(p) - {"length_m", "terrain", "soil", "grade_deg"})
+        bad = sorted(set(p) - {"length_m", "terrain", "soil", "grade_deg", "radius_m"})
         if bad:
             raise DataError(f"unknown field(s) {bad} in {f}", file=src, column=f)
         if "length_m" not in p:
@@ -155,7 +158,15 @@ def route_from_dict(obj: Any, *, source: str | None = None, default_terrain: Any
             terrain = default_terrain
         else:
             raise DataError(f"{f} needs 'terrain' (a preset name) or 'soil' (or pass --fit)", file=src, column=f)
-        patches.append(Patch(length, terrain, grade))
+        radius = None if p.get("radius_m") is None else _num(p["radius_m"], f"{f}.radius_m", src)
+        if radius == 0.0:
+            raise DataError(
+                f"{f}.radius_m = 0: a turn's radius is signed (positive to the left) and not 0; leave radius_m out "
+                "(or null) for a straight patch",
+                file=src,
+                column=f"{f}.radius_m",
+            )
+        patches.append(Patch(length, terrain, grade, radius))
     total = math.fsum(pt.length_m for pt in patches)
     if total > MAX_ROUTE_LENGTH_M:
         raise DataError(

@@ -104,6 +104,7 @@ def _cmd_profile(a: argparse.Namespace) -> int:
         confidence=_num(a.confidence, "--confidence"),
         max_speed=_num(a.max_speed, "--max-speed"),
         slip0=_num(a.initial_slip, "--initial-slip"),
+        radius_m=_num(a.turn_radius, "--turn-radius"),  # a turn over the whole profile (planning.route_turns)
     )
     return print_result(res, a, route=False)
 
@@ -132,6 +133,12 @@ def add_parser(sub) -> None:
     p.add_argument("--torque-rate", metavar="R", help="torque rate limit, N m/s (default none)")
     p.add_argument("--confidence", metavar="P", help="with --fit: probability that the slip limit holds (robust plan)")
     add_start_arguments(p)
+    p.add_argument(
+        "--turn-radius",
+        metavar="R",
+        help="turn of radius R m (signed: positive to the left) over the whole profile: left and right torques "
+        "and slips by the steering model on the planned speeds (needs tread_m; flat only)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     p.add_argument(
         "--plot",

@@ -13,7 +13,9 @@ A feasible speed/slip/torque profile over a route of terrain patches (ROUTE.json
 control: a mesh point on every patch boundary, each patch with its soil, grade and compaction.
 ROUTE.json: {"v0_m_s", "v_end_m_s", "objective": "time" | "energy", "max_slip",
 "patches": [{"length_m", "terrain": NAME | "soil": {"cohesion_kpa", "friction_angle_deg",
-"shear_modulus_m"}, "grade_deg"}]}; patches naming neither take the soil of --fit.
+"shear_modulus_m"}, "grade_deg", "radius_m"}]}; patches naming neither take the soil of --fit.
+radius_m (signed, positive to the left; optional): the patch is a turn of that radius, planned
+with the steering model on the planned speeds (left and right torques and slips; needs tread_m).
 
 Exit status: 0 feasible, 1 infeasible (the patch and the limit named) or solver failed, 2 bad input."""
 
@@ -24,12 +26,14 @@ def _num(text: str | None, name: str):
 
 def _cmd_route(a: argparse.Namespace) -> int:
     from .planning import load_fit_json, read_route, route_profile
+    from .planning.route_turns import check_turns
 
     if a.plot:
         output_path(a.plot, "--plot", figure=True)
     vehicle = vehicle_arg(a.vehicle)
     default = load_fit_json(a.fit, vehicle, allow_other_vehicle=a.allow_other_vehicle) if a.fit else None
     route = read_route(a.route, default_terrain=default)
+    check_turns(route.patches, vehicle, a.route)  # radius_m: tread, half the tread, flat (planning.route_turns)
     res = route_profile(
         route,
         vehicle,
@@ -51,7 +55,8 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "route",
-        help="ROUTE.json: v0_m_s, v_end_m_s, objective, max_slip, patches [{length_m, terrain | soil, grade_deg}]",
+        help="ROUTE.json: v0_m_s, v_end_m_s, objective, max_slip, patches [{length_m, terrain | soil, grade_deg, "
+        "radius_m}]",
     )
     p.add_argument("--vehicle", required=True, help="vehicle JSON file or preset name (heavy, light)")
     p.add_argument("--fit", metavar="FIT.json", help="identified soil for patches that name no terrain or soil")

@@ -210,6 +210,7 @@ def _cmd_track(a: argparse.Namespace) -> int:
         "update_time_p99_s": float(np.quantile(times_a, 0.99)) if n_rows else None,
         "changes": [_change_entry(c) for c in est.changes],
         "samples_turning": est.samples_turning,
+        "samples_turning_not_fitted": dict(est.turning.not_fitted),  # i42: why turning samples were not fitted
         "samples_skipped": est.samples_skipped,
         "samples_seen": est.samples_seen,
         "log_duration_s": duration,
@@ -264,7 +265,8 @@ def _fmt(x, scale=1.0, digits=4):
 def _report(source: str, steps: list[dict], summary: dict, every: int) -> str:
     L = [
         f"On-line estimate of {source}: {summary['updates']} samples, {summary['samples_skipped']} skipped "
-        f"(missing or non-finite channel), {summary['samples_turning']} turning (left out)",
+        f"(missing or non-finite channel), {summary['samples_turning']} turning fitted by the steering model "
+        f"({sum(summary['samples_turning_not_fitted'].values())} turning not fitted)",
         f"horizon {summary['window_s']:g} s; update time median "
         f"{1e6 * (summary['update_time_median_s'] or 0):.0f} us, p99 "
         f"{1e6 * (summary['update_time_p99_s'] or 0):.0f} us; "

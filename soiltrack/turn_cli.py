@@ -250,6 +250,7 @@ def turn_margin_command(a: argparse.Namespace, terrain, vehicle, m) -> int:
     """``margin ... --turn-radius R --speed S``: the straight-line margin's JSON plus the turn's keys."""
     from .cliutil import floats_arg
     from .planning.turning import turn_margin
+    from .planning.uncertainty import SoilUncertainty
     from .soilmodel.traction import resolve_soil
 
     radius = floats_arg(a.turn_radius, "--turn-radius")[0]
@@ -262,9 +263,12 @@ def turn_margin_command(a: argparse.Namespace, terrain, vehicle, m) -> int:
             column="tread_m",
         )
     speed = floats_arg(a.speed, "--speed")[0]
-    soil, _ = resolve_soil(terrain, vehicle)
+    uncertain = isinstance(terrain, SoilUncertainty)  # --fit: the fit's mean soil, and p_turn_feasible by sampling
+    soil = terrain.mean_soil(vehicle.weight) if uncertain else resolve_soil(terrain, vehicle)[0]
     max_slip = floats_arg(a.max_slip, "--max-slip")[0] if a.max_slip is not None else 0.2
-    t = turn_margin(vehicle, soil, radius_m=radius, speed_m_s=speed, max_slip=max_slip)
+    t = turn_margin(
+        vehicle, soil, radius_m=radius, speed_m_s=speed, max_slip=max_slip, uncertainty=terrain if uncertain else None
+    )
     if a.json:
         print(json.dumps({**m.to_dict(), **t.to_dict()}, indent=2, allow_nan=False))
     else:

@@ -93,7 +93,11 @@ def test_two_track_log_turns_counted(log, tmp_path, capsys):
     rc, lines, _ = _run(["track", str(path), "--vehicle", "light", "--every", "100", "--json"], capsys)
     n_turn = int(np.count_nonzero(cols["_turning"]))
     assert rc == 0
-    assert n_turn <= lines[-1]["summary"]["samples_turning"] <= n_turn + 2
+    # the light vehicle has no tread_m: no turning sample is fitted by the steering model, each is counted
+    summary = lines[-1]["summary"]
+    assert summary["samples_turning"] == 0
+    assert n_turn <= summary["samples_turning_not_fitted"]["no_tread"] <= n_turn + 2
+    assert sum(summary["samples_turning_not_fitted"].values()) == summary["samples_turning_not_fitted"]["no_tread"]
 
 
 def test_log_grade_sets_the_normal_load_and_c_phi_are_never_identified(log, tmp_path, capsys):

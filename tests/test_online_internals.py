@@ -60,7 +60,8 @@ def test_incremental_horizon_is_the_recomputed_one(two_track_rows):
         assert got == peak
         checked += 1
     assert checked > 0.9 * len(rows)
-    assert est.samples_turning > 100 and est.samples_skipped == 3
+    # LIGHT has no tread_m: the turning samples are counted as not fitted by the steering model
+    assert est.samples_turning == 0 and est.turning.not_fitted["no_tread"] > 100 and est.samples_skipped == 3
     assert len(est.changes) == 1 and est._cap >= 256  # the change forgot samples; the buffer grew
 
 

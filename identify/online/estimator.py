@@ -54,6 +54,7 @@ from .kernels import JUMP_SIGMA, NOISE, PARAMS, RAW, ROWS, SUMS, kernels
 from .memory import HeldSoil, fuse
 from .result import IDENTIFIABLE_NAMES, NOT_SEPARABLE, OnlineEstimate
 from .settings import OnlineSettings
+from .turning import TurningSettings, TurningUpdate  # i42 hook
 
 __all__ = ["OnlineEstimator", "INITIAL_CAPACITY", "START_THRUST_FACTOR", "MIN_NOISE_SAMPLES"]
 
@@ -107,7 +108,9 @@ class OnlineEstimator:
     ...     if e.change_detected: print("new terrain since", e.change_time_s)
     """
 
-    def __init__(self, vehicle: Vehicle, settings: OnlineSettings | None = None) -> None:
+    def __init__(
+        self, vehicle: Vehicle, settings: OnlineSettings | None = None, *, turning: TurningSettings | None = None
+    ) -> None:
         self.vehicle = vehicle
         self.settings = settings or OnlineSettings()
         s = self.settings
@@ -198,6 +201,8 @@ class OnlineEstimator:
         self.samples_seen = 0
         self.samples_skipped = 0
         self.samples_turning = 0
+        # i42 hook: turning samples fitted by the steering model (identify/online/turning.py)
+        self.turning = TurningUpdate(vehicle, s.bounds, turning)
         self._converged = False
         self._gentle_win: dict | None = None  # the last fit of a gentle horizon (see _solve)
         self._since_solve = 0
@@ -340,7 +345,7 @@ class OnlineEstimator:
             return self._skip(time_s, "a channel is missing or not finite")
         yaw = float(yaw_rate) if yaw_rate is not None and _finite(yaw_rate) else None
         if self._is_turning(float(speed_left), float(speed_right), yaw):
-            self.samples_turning += 1
+            self._turn_hook((time_s, torque_left, torque_right, speed_left, speed_right, vehicle_speed, yaw))
             if self._prev is not None and self._prev[3] >= 0:  # a turn's edge: the sample before it
                 j = self._prev[3]
                 self._tslot[j] = -math.inf
@@ -350,12 +355,22 @@ class OnlineEstimator:
                 self._rebuild_peaks()
             self._end_chain()
             return self._report(float(time_s), None, False, None, "skipped", "turning sample left out")
+        self._turn_hook(None)  # i42 hook: a straight sample ends the turn's block
         M, w = combine_tracks(torque_left, torque_right, speed_left, speed_right)
         return self._straight(float(time_s), float(M), float(w), float(vehicle_speed))
 
     # ------------------------------------------------------------------ internals
+    def _turn_hook(self, sample) -> None:
+        """i42 hook: a turning sample to the steering-model blocks (None: the turn ended); fused when fitted."""
+        T, w = self.turning, self.settings.window_s
+        blk = T.add(sample, self._held, w) if sample else T.end(self._held, w)
+        self.samples_turning = T.samples_fitted
+        if blk is not None and blk.status == "fused":
+            self._informed_at = blk.time_s
+
     def _skip(self, time_s, why: str) -> OnlineEstimate:
         self.samples_skipped += 1
+        self._turn_hook(None)  # i42 hook: a gap ends the turn's block
         self._end_chain()
         t = float(time_s) if _finite(time_s) else (self._last.time_s if self._last else math.nan)
         return self._report(t, None, False, None, "skipped", f"sample skipped: {why}")
@@ -891,7 +906,7 @@ class OnlineEstimator:
         informative = "max_thrust" in win["ident"] and not win["K_bound"]
         if informative and self._enough_informative(s.identify_min_utilisation * win["F"]):
             xw, Vw = (win["F"], win["K"]), win["V"]
-            pr = H.prior(t_start, t)
+            pr = self.turning.with_recent(H.prior(t_start, t), t_start)  # i42 hook: turns after t_start
             if pr is None:
                 H.set(t, xw, Vw)
             else:

@@ -41,7 +41,7 @@ from ...soilmodel.steering import (
 from ...soilmodel.threadsafe import call_solver, locked_cache
 from ...soilmodel.turning import TwoTrackLog
 
-__all__ = ["MOTIONS", "TurnFitSettings", "TurnFit", "fit_turning", "fit_by_motion", "motion_blocks"]
+__all__ = ["MOTIONS", "TurnFitSettings", "TurnFit", "BlockModel", "fit_turning", "fit_by_motion", "motion_blocks"]
 
 MOTIONS = ("all", "straight", "turning")
 #: Largest standard error of the friction share kappa at which c and phi are reported.
@@ -236,6 +236,15 @@ class _Problem:
         ok = bool(np.all(np.isfinite(Z)) and np.all(np.abs(R) < 1e-8) and np.all(Z[:2] > 0))
         Jt = np.einsum("ijn,jk->nik", J, D).reshape(2 * self.n, 3)  # rows: block-major, [left, right]
         return Z, Jt, ok
+
+
+class BlockModel(_Problem):
+    """The blocks' steering-model predictions and Jacobian (:meth:`evaluate`), for the on-line turning update.
+
+    ``BlockModel(blocks, vehicle, settings)`` with ``blocks`` from :func:`motion_blocks`;
+    ``evaluate([F_max / W, K / K_REF, kappa])`` gives the predicted speeds, their Jacobian and
+    whether every block solved (the cached, mapped Function of :func:`fit_turning`).
+    """
 
 
 def _lm(prob: _Problem, th0: np.ndarray, lo: np.ndarray, hi: np.ndarray, L: np.ndarray, max_iter: int):

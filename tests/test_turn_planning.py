@@ -1,0 +1,191 @@
+"""Turns in planning: p_turn_feasible from the soil's uncertainty; ROUTE.json patches with radius_m."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+
+from soiltrack.cli import main
+from soiltrack.identify import fit
+from soiltrack.planning.turning import min_turn_radius, turn_margin, turn_probability
+from soiltrack.planning.uncertainty import SoilUncertainty
+from soiltrack.soilmodel import PRACTICAL_BOUNDS, TERRAINS, VEHICLES, Soil, simulate_slip_sweep
+
+HEAVY = dataclasses.replace(VEHICLES["heavy"], tread=2.5, cg_height=1.0)
+SAND = TERRAINS["lete_sand"]
+
+
+def _uncertain(soil: Soil, rel: float) -> SoilUncertainty:
+    """c, phi, K with independent relative standard errors ``rel`` around ``soil``."""
+    mean = np.array([soil.cohesion, soil.friction_angle, soil.shear_modulus])
+    return SoilUncertainty(
+        "parameters",
+        "full",
+        ("cohesion", "friction_angle", "shear_modulus"),
+        mean,
+        np.diag((rel * mean) ** 2),
+        HEAVY.weight,
+        PRACTICAL_BOUNDS,
+        "test: independent relative errors",
+        HEAVY.contact_area,
+    )
+
+
+@pytest.mark.slow  # about 10 s CPU (tens of seconds wall on a loaded machine)
+def test_p_turn_feasible_inside_outside_and_monotone():
+    unc = _uncertain(SAND, 0.15)
+    r0 = min_turn_radius(HEAVY, SAND, 2.0)
+    assert r0 is not None and r0 > 0.5 * HEAVY.tread
+    radii = [0.55 * r0, 0.9 * r0, r0, 1.1 * r0, 4 * r0]
+    ps = [turn_probability(HEAVY, unc, radius_m=R, speed_m_s=2.0, n_samples=200).p for R in radii]
+    assert ps[0] <= 0.02 and ps[-1] >= 0.98  # far outside ~0, far inside ~1
+    assert all(a <= b for a, b in zip(ps, ps[1:]))  # monotone (same samples at every radius)
+    assert 0.1 < ps[2] < 0.9  # at the mean soil's limit the soil's uncertainty matters
+    right = turn_probability(HEAVY, unc, radius_m=-r0, speed_m_s=2.0, n_samples=200)  # mirror
+    assert right.p == pytest.approx(ps[2], abs=1e-12)
+    pr = turn_probability(HEAVY, unc, radius_m=1.1 * r0, speed_m_s=2.0, n_samples=200)
+    assert pr.stderr == pytest.approx(math.sqrt(pr.p * (1 - pr.p) / 200))
+    assert sum(pr.limited_by.values()) == pytest.approx(1 - pr.p) and "Monte Carlo" in pr.method
+    m = turn_margin(HEAVY, SAND, radius_m=4 * r0, speed_m_s=2.0)
+    assert m.probability is None and m.to_dict()["p_turn_feasible"] is None
+    assert "without uncertainty" in m.to_dict()["p_turn_method"]
+
+
+@pytest.mark.slow  # about 10 s CPU (tens of seconds wall on a loaded machine)
+def test_margin_cli_p_turn_feasible_from_fit(tmp_path, capsys):
+    data = simulate_slip_sweep(VEHICLES["heavy"], Soil.from_kpa_deg(1.3, 31.1, 0.012), seed=5)
+    fj = tmp_path / "fit.json"
+    fj.write_text(fit(data, VEHICLES["heavy"]).to_json())
+    d = HEAVY.to_dict()
+    d.pop("name", None)
+    vj = tmp_path / "veh.json"
+    vj.write_text(json.dumps(d))
+    out = {}
+    for R in ("10", "1.6"):
+        rc = main(["margin", "--vehicle", str(vj), "--fit", str(fj), "--turn-radius", R, "--speed", "2", "--json"])
+        out[R] = (rc, json.loads(capsys.readouterr().out))
+    rc, js = out["10"]
+    assert rc == 0 and js["turn_feasible"] is True and js["p_turn_feasible"] >= 0.98
+    assert js["p_turn_samples"] > 0 and "Monte Carlo" in js["p_turn_method"]
+    rc, js = out["1.6"]
+    assert rc == 1 and js["turn_feasible"] is False and js["p_turn_feasible"] <= 0.02
+    assert js["p_turn_limited_by"]["soil"] >= 0.98
+
+
+# --- ROUTE.json radius_m: route and profile through turns ---------------------------------------
+def _route(radius, terrain="lete_sand", v=2.0):
+    turn = {"length_m": 15, "terrain": terrain}
+    if radius is not None:
+        turn["radius_m"] = radius
+    return {
+        "v0_m_s": v,
+        "v_end_m_s": v,
+        "objective": "time",
+        "max_slip": 0.2,
+        "patches": [{"length_m": 20, "terrain": terrain}, turn, {"length_m": 20, "terrain": terrain}],
+    }
+
+
+def _plan(obj, max_speed=2.0):
+    from soiltrack.planning import route_profile
+    from soiltrack.planning.route import route_from_dict
+
+    return route_profile(route_from_dict(obj), HEAVY, max_speed=max_speed)
+
+
+def test_route_left_and_right_turns_mirrored_straight_unchanged():
+    straight, left, right = (_plan(_route(r)) for r in (None, 10.0, -10.0))
+    assert straight.success and left.success and right.success
+    assert straight.turns == () and "turns" not in straight.to_dict(route=True)
+    # the speed profile and the straight-line series are those of the route without the turn (the same
+    # problem; IPOPT's warm start between the three solves moves the last digits: 1e-6 of the values)
+    for k in ("speed_m_s", "sprocket_torque_Nm", "time_s"):
+        np.testing.assert_allclose(left.series[k], straight.series[k], rtol=1e-5, atol=1e-6 * max(straight.series[k]))
+        np.testing.assert_allclose(right.series[k], straight.series[k], rtol=1e-5, atol=1e-6 * max(straight.series[k]))
+    js_l, js_r = left.to_dict(route=True), right.to_dict(route=True)
+    on = [j for j, r in enumerate(js_l["radius_m"]) if r is not None]
+    assert len(on) >= 3 and [js_r["radius_m"][j] for j in on] == [-10.0] * len(on)
+    np.testing.assert_allclose([js_l["torque_left_Nm"][j] for j in on], [js_r["torque_right_Nm"][j] for j in on], 1e-4)
+    np.testing.assert_allclose([js_l["torque_right_Nm"][j] for j in on], [js_r["torque_left_Nm"][j] for j in on], 1e-4)
+    np.testing.assert_allclose([js_l["slip_right"][j] for j in on], [js_r["slip_left"][j] for j in on], 1e-4)
+    j = on[len(on) // 2]
+    assert js_l["torque_right_Nm"][j] > 0 > js_l["torque_left_Nm"][j]  # left turn: the right track is outer
+    # the turn's torques are the steering model's steady turn at the planned speed (constant 2 m/s here)
+    m = turn_margin(HEAVY, SAND, radius_m=10.0, speed_m_s=2.0)
+    assert js_l["torque_right_Nm"][j] == pytest.approx(m.torque_right_Nm, rel=1e-3)
+    assert js_l["torque_left_Nm"][j] == pytest.approx(m.torque_left_Nm, rel=1e-3)
+    off = [j for j, r in enumerate(js_l["radius_m"]) if r is None]
+    assert all(
+        js_l["torque_left_Nm"][j] == js_l["torque_right_Nm"][j] == 0.5 * js_l["sprocket_torque_Nm"][j] for j in off
+    )
+    (t,) = js_l["turns"]
+    assert t["patch"] == 1 and t["feasible"] is True and t["limited_by"] is None
+
+
+def test_route_turn_too_tight_for_the_soil_not_traversable(tmp_path, capsys):
+    clay = TERRAINS["clayey_soil"]
+    r0 = min_turn_radius(HEAVY, clay, 2.0)
+    assert r0 is not None
+    tight, ok = _plan(_route(0.95 * r0, "clayey_soil")), _plan(_route(1.05 * r0, "clayey_soil"))
+    assert ok.success and ok.turns[0]["feasible"] is True
+    assert not tight.success and tight.status == "infeasible"
+    assert tight.reason["patch"] == 1 and tight.reason["limit"] == "soil"
+    assert tight.turns[0]["feasible"] is False and tight.turns[0]["limited_by"] == "soil"
+    assert "patch 1" in tight.message
+    d = HEAVY.to_dict()
+    d.pop("name", None)
+    vj, rj = tmp_path / "v.json", tmp_path / "r.json"
+    vj.write_text(json.dumps(d))
+    rj.write_text(json.dumps(_route(0.95 * r0, "clayey_soil")))
+    rc = main(["route", str(rj), "--vehicle", str(vj), "--max-speed", "2", "--json"])
+    js = json.loads(capsys.readouterr().out)
+    assert rc == 1 and js["success"] is False and js["reason"]["limit"] == "soil" and js["reason"]["patch"] == 1
+
+
+@pytest.mark.parametrize(
+    "radius,words",
+    [
+        (0, "patches[1].radius_m = 0"),
+        (1.0, "half the tread"),
+        (-1.25, "half the tread"),
+        ("ten", "patches[1].radius_m"),
+    ],
+)
+def test_route_bad_radius_exit_2(tmp_path, capsys, radius, words):
+    d = HEAVY.to_dict()
+    d.pop("name", None)
+    vj, rj = tmp_path / "v.json", tmp_path / "r.json"
+    vj.write_text(json.dumps(d))
+    rj.write_text(json.dumps(_route(radius)))
+    rc = main(["route", str(rj), "--vehicle", str(vj)])
+    err = capsys.readouterr().err
+    assert rc == 2 and words in err and "Traceback" not in err
+    rc = main(["route", str(rj), "--vehicle", "heavy"])  # no tread_m
+    err = capsys.readouterr().err
+    assert rc == 2 and ("tread_m" in err or words in err)
+
+
+@pytest.mark.slow  # about 10 s CPU (tens of seconds wall on a loaded machine)
+def test_profile_turn_radius_cli(tmp_path, capsys):
+    d = HEAVY.to_dict()
+    d.pop("name", None)
+    vj = tmp_path / "v.json"
+    vj.write_text(json.dumps(d))
+    base = ["profile", "--vehicle", str(vj), "--terrain", "lete_sand", "--v0", "2", "--v1", "2", "--distance", "20"]
+    rc = main([*base, "--max-speed", "2", "--turn-radius", "-10", "--json"])
+    js = json.loads(capsys.readouterr().out)
+    assert rc == 0 and js["turns"][0]["radius_m"] == -10.0 and js["turns"][0]["feasible"] is True
+    assert js["torque_left_Nm"][5] > 0 > js["torque_right_Nm"][5]  # right turn: the left track is outer
+    # time-optimal from 1 to 2 m/s: the straight plan's acceleration (about 5 m/s^2) leaves no traction to turn
+    rc = main([*base[:-6], "--v0", "1", "--v1", "2", "--distance", "30", "--turn-radius", "-8", "--json"])
+    js = json.loads(capsys.readouterr().out)
+    assert rc == 1 and js["success"] is False and js["reason"]["limit"] == "soil" and js["reason"]["patch"] == 0
+    assert "a steady turn at this speed holds" in js["message"]
+    rc = main([*base, "--turn-radius", "0"])
+    assert rc == 2 and "--turn-radius" in capsys.readouterr().err
+    rc = main([*base, "--turn-radius", "5", "--grade-deg", "4"])
+    assert rc == 2 and "grade" in capsys.readouterr().err
