@@ -907,12 +907,15 @@ class OnlineEstimator:
         if informative and self._enough_informative(s.identify_min_utilisation * win["F"]):
             xw, Vw = (win["F"], win["K"]), win["V"]
             pr = self.turning.with_recent(H.prior(t_start, t), t_start)  # i42 hook: turns after t_start
+            # tested only where the horizon reaches its plateau (else its F_max is an extrapolation along the
+            # ridge that the sandwich does not describe: the uniform-soil false alarms); fused if it agrees
+            near = self._enough_informative(s.detect_window_min_load * xw[0])
             if pr is None:
                 H.set(t, xw, Vw)
             else:
                 res = fuse(pr[0], pr[1], xw, Vw)
                 settled = t - self._known_since >= s.detect_settle_s
-                if res is not None and res[2] > s.detect_window_chi2 and settled:
+                if res is not None and res[2] > s.detect_window_chi2 and settled and near:
                     first = next((x for x in self._info_times if x >= t_start), t)
                     t_change = self._detector.run_start(first)
                     window = self._change_window(t_change)
@@ -925,7 +928,7 @@ class OnlineEstimator:
                         H.snapshot(t, t - s.window_s)
                         return None
                     return t_change, window
-                if res is not None:
+                if res is not None and (near or res[2] <= s.detect_window_chi2):
                     H.set(t, res[0], res[1])
         if H.known:
             assert H.x is not None  # known: an estimate is held

@@ -132,6 +132,15 @@ class OnlineSettings:
         cost (what the samples before it said, grown by the random walk); a squared Mahalanobis
         distance beyond this (chi-square, 2 degrees of freedom; 27.6 = p 1e-6) is a change.
         A horizon beyond it is never fused into the held estimate.
+    detect_window_min_load
+        ... and a horizon is tested against the held estimate only when it holds
+        ``identify_min_informative`` used samples loaded to this fraction of its own F_max (its
+        plateau); a horizon below it is fused only when it agrees (distance within
+        ``detect_window_chi2``) and never declares a change. Below it the horizon sees a pull's
+        ramp only, and its F_max is an extrapolation along the ridge (correlation 0.95-0.99) that
+        the sandwich covariance does not describe (measured: every false alarm of a 10-minute
+        uniform heavy log came from horizons with 9-15 samples at 50-80 % of F_max and none above
+        80 %). The first horizon still starts the held estimate.
     turn_threshold
         Noise standard deviations of the left-right speed difference (or the yaw rate) beyond
         which a two-track sample turns.
@@ -172,6 +181,7 @@ class OnlineSettings:
     drift_shear_modulus_rel: float = 0.003
     detect_held_sigmas: float = 4.0
     detect_window_chi2: float = 27.6
+    detect_window_min_load: float = 0.8
     turn_threshold: float = TURN_THRESHOLD_SIGMA
     turn_history: int = 256
     max_capacity: int = 16384
@@ -191,6 +201,7 @@ class OnlineSettings:
             "detect_clip",
             "turn_threshold",
             "detect_window_chi2",
+            "detect_window_min_load",
         ):
             val = getattr(self, name)
             if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
