@@ -70,7 +70,10 @@ def test_agrees_with_the_batch_fit_of_the_same_window_within_its_95_percent_inte
     fused with its arrival cost (tests/test_online_memory.py).
     """
     window = 5.0
-    est = OnlineEstimator(LIGHT, OnlineSettings(window_s=window, memory=False))
+    # the batch fit's default discretisation (end-point) on both sides: with the relaxation rule (the
+    # on-line default) the horizon's newest five samples wait for their slip trend, so it holds fewer
+    # samples than the batch window (the relaxation rule against the batch one: the known-noise test)
+    est = OnlineEstimator(LIGHT, OnlineSettings(window_s=window, memory=False, relaxation=False))
     hist = _replay(est, sand_log)
     checked = 0
     for t in (5.0, 6.0, 23.0, 24.0, 25.0, 26.0):
@@ -88,19 +91,44 @@ def test_agrees_with_the_batch_fit_of_the_same_window_within_its_95_percent_inte
     assert checked >= 4
 
 
-def test_with_known_noise_the_online_optimum_is_the_batch_optimum(sand_log):
+@pytest.mark.parametrize(
+    "relaxation",
+    [
+        False,
+        pytest.param(
+            True,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="issue 38, open: on-line 305.0 N against the batch relaxation fit of the same samples 304.2 N "
+                "(0.26 %, 0.1 SE; 304.1 N before the samples were held back); cause not established",
+            ),
+        ),
+    ],
+)
+def test_with_known_noise_the_online_optimum_is_the_batch_optimum(sand_log, relaxation):
+    """The horizon's fit against the batch fit of the same window, with the same discretisation.
+
+    ``relaxation=False``: the end-point rule of both. ``True`` (the on-line default): the batch fit's
+    ``discretisation="relaxation"`` of the samples in the horizon's fit (the newest five wait for their
+    slip trend); the on-line weights differ in their pilot soil, so K (on the batch fit's bound here)
+    is not compared.
+    """
     sig = dict(sigma_torque=0.04, sigma_sprocket_speed=0.005, sigma_vehicle_speed=0.05)
     window, k = 5.0, int(round(25.0 * 50))
-    est = OnlineEstimator(LIGHT, OnlineSettings(window_s=window, detect_threshold=1e9, memory=False, **sig))
+    settings = OnlineSettings(window_s=window, detect_threshold=1e9, memory=False, relaxation=relaxation, **sig)
+    est = OnlineEstimator(LIGHT, settings)
     e = _replay(est, sand_log, upto=k)[-1]
+    end = k + 1 - len(est.held_back())  # the samples in the horizon's fit (the newest wait for their slip trend)
     r = fit(
-        sand_log.subset(slice(int(np.searchsorted(sand_log.time, sand_log.time[k] - window)) - 1, k + 1)),
+        sand_log.subset(slice(int(np.searchsorted(sand_log.time, sand_log.time[k] - window)) - 1, end)),
         LIGHT,
+        discretisation="relaxation" if relaxation else "end-point",
         **sig,
     )
     assert e.converged
     assert e.max_thrust_N == pytest.approx(r.extra["max_thrust_N"], rel=2e-3)
-    assert e.shear_modulus_m == pytest.approx(r.extra["shear_modulus_m"], rel=1e-2)
+    if not relaxation:
+        assert e.shear_modulus_m == pytest.approx(r.extra["shear_modulus_m"], rel=1e-2)
     assert e.max_thrust_stderr_N == pytest.approx(r.extra["max_thrust_stderr_N"], rel=2e-2)
 
 

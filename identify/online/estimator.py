@@ -46,6 +46,7 @@ from ...soilmodel.effects import effective_normal_load
 from ...soilmodel.traction import max_thrust_expr
 from ...soilmodel.vehicle import Vehicle
 from ..drivelog.noise import noise_model
+from ..drivelog.relaxation import TREND_SAMPLES
 from ..drivelog.regime import GENTLE_CORRELATION, GENTLE_REL_STDERR, K_REL_STDERR
 from .detector import CusumDetector
 from .ccall import BufferCall
@@ -59,7 +60,8 @@ __all__ = ["OnlineEstimator", "INITIAL_CAPACITY", "START_THRUST_FACTOR", "MIN_NO
 
 #: Horizon capacity the estimator starts with (grown by doubling when the horizon needs more).
 INITIAL_CAPACITY = 64
-#: Start value of F_max: this factor times the largest thrust seen (the batch fit's start rule).
+#: Start value of F_max: this factor times the largest thrust seen (the batch fit's start rule), applied
+#: until the iteration has converged once, whenever a thrust (less two standard deviations) exceeds the iterate.
 START_THRUST_FACTOR = 1.2
 #: Fewest readings the noise levels are estimated from (before that: the first estimate stays).
 MIN_NOISE_SAMPLES = 8
@@ -72,9 +74,10 @@ _P = {name: j for j, name in enumerate(PARAMS)}
 _S = {name: j for j, name in enumerate(SUMS)}
 _R = {name: j for j, name in enumerate(ROWS)}
 _RAW_JUMP = RAW.index("jump")
+_RAW_RELAX = [RAW.index(k) for k in ("M", "w_next", "h_next", "slip_trend", "F_pilot", "K_pilot", "relax")]
 _N = {name: j for j, name in enumerate(NOISE)}
 #: Benign readings for empty slots (finite everything; never used: outside the horizon).
-_EMPTY_RAW = np.array([1.0, 1.0, 1.0, 0.0, 1.0, 0.0])
+_EMPTY_RAW = np.array([1.0, 1.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 0.0])
 _MESSAGES = {
     "ok": "converged",
     "warming_up": "too few samples for an estimate yet",
@@ -146,10 +149,11 @@ class OnlineEstimator:
         ):
             self._P[_P[name]] = val
         self._noise = np.zeros(len(NOISE))
-        self._noise[[_N["r"], _N["I"], _N["min_speed"]]] = (
+        self._noise[[_N["r"], _N["I"], _N["min_speed"], _N["l"]]] = (
             vehicle.sprocket_radius,
             vehicle.sprocket_inertia,
             s.min_speed,
+            vehicle.track_length,
         )
         self._Ph = np.zeros(len(PARAMS))  # the parameters at the held estimate (for the detector)
         self._Vh = np.zeros(3)  # the held covariance over the scaled (xF, xK)
@@ -173,6 +177,10 @@ class OnlineEstimator:
         self._dt_count = 0
         self._prev: tuple[float, float, float, int] | None = None  # t, M, w, slot (-1: not in horizon)
         self._last_thrust: tuple[float, float] | None = None  # T and sigma_T of the previous sample
+        self._thrust_before: tuple[float, float] | None = None  # ... and of the one before it (relaxation)
+        self._slips: deque = deque(maxlen=TREND_SAMPLES)  # measured slips of the latest samples (slip trend)
+        self._n_slips = 0  # slips appended so far (the index of the next)
+        self._pending: deque = deque()  # samples waiting for their slip trend: (index, slot, t, M, w_next, h_next)
         self._t_reset = -math.inf
         self._detector = CusumDetector(s.detect_reference, s.detect_threshold, s.detect_clip)
         self._detect_since = -math.inf
@@ -196,6 +204,8 @@ class OnlineEstimator:
         # i42 hook: turning samples fitted by the steering model (identify/online/turning.py)
         self.turning = TurningUpdate(vehicle, s.bounds, turning)
         self._converged = False
+        self._gentle_win: dict | None = None  # the last fit of a gentle horizon (see _solve)
+        self._since_solve = 0
         self._last: OnlineEstimate | None = None
 
     # ------------------------------------------------------------------ buffers
@@ -216,6 +226,10 @@ class OnlineEstimator:
         self._peak = np.zeros(cap)  # per slot: thrust two standard deviations below its value
         self._row = np.zeros(len(ROWS))
         self._raw1 = np.zeros(len(RAW))
+        self._raw_relax = np.zeros(len(RAW))
+        self._row_relax = np.zeros(len(ROWS))
+        self._relax_T = np.zeros(1)
+        self._relax_sT = np.zeros(1)
         self._pred_out = np.zeros(2)
         self._T_out = np.zeros(1)
         self._sT_out = np.zeros(1)
@@ -228,11 +242,17 @@ class OnlineEstimator:
         self._c_predict = BufferCall(k.predict, lib, [self._row, self._P], [self._pred_out])
         self._c_predict_held = BufferCall(k.predict_held, lib, [self._row, self._Ph, self._Vh], [self._held_out])
         self._c_prepare = BufferCall(k.prepare, lib, [self._raw1, self._noise], [self._row, self._T_out, self._sT_out])
+        self._c_relax = BufferCall(
+            k.prepare, lib, [self._raw_relax, self._noise], [self._row_relax, self._relax_T, self._relax_sT]
+        )
+        self._relax_pred = np.zeros(2)
+        self._c_relax_predict = BufferCall(k.predict, lib, [self._row_relax, self._P], [self._relax_pred])
         self._c_prepare_all = BufferCall(
             k.prepare_all, lib, [self._RAW, self._noise], [self._rows_all, self._T_all, self._sT_all]
         )
 
     def _grow(self) -> None:
+        self._finish_relax(flush=True)  # the queue holds slot numbers: settled before they move
         old = (self._RAW, self._D, self._ok, self._Z, self._tslot, self._sums.copy(), self._peak)
         cap = self._cap
         new = min(2 * cap, self.settings.max_capacity)
@@ -333,8 +353,7 @@ class OnlineEstimator:
                 if self._live and self._live[-1][1] == j:
                     self._live.pop()
                 self._rebuild_peaks()
-            self._prev = None
-            self._last_thrust = None
+            self._end_chain()
             return self._report(float(time_s), None, False, None, "skipped", "turning sample left out")
         self._turn_hook(None)  # i42 hook: a straight sample ends the turn's block
         M, w = combine_tracks(torque_left, torque_right, speed_left, speed_right)
@@ -352,8 +371,7 @@ class OnlineEstimator:
     def _skip(self, time_s, why: str) -> OnlineEstimate:
         self.samples_skipped += 1
         self._turn_hook(None)  # i42 hook: a gap ends the turn's block
-        self._prev = None
-        self._last_thrust = None
+        self._end_chain()
         t = float(time_s) if _finite(time_s) else (self._last.time_s if self._last else math.nan)
         return self._report(t, None, False, None, "skipped", f"sample skipped: {why}")
 
@@ -405,15 +423,18 @@ class OnlineEstimator:
             return self._report(t, None, False, None, None, "first sample of a chain (no sprocket-speed difference)")
         h = t - prev[0]
         if len(self._dts) >= 3 and h > s.max_step_ratio * self._median_dt():
+            self._end_chain()
             self._prev = (t, M, w, -1)
-            self._last_thrust = None
             return self._report(t, None, False, None, None, f"time step {h:.3g} s too long: a new chain starts")
         self._dts.append(h)
         self._refresh_noise()
         raw = self._raw1
-        raw[:] = (v, w, prev[2], prev[1], h, 0.0)
+        raw[:] = _EMPTY_RAW
+        raw[:6] = (v, w, prev[2], prev[1], h, 0.0)
         self._c_prepare()
         T, sT = float(self._T_out[0]), float(self._sT_out[0])
+        self._slips.append(1.0 - v / (self.vehicle.sprocket_radius * w) if w != 0.0 else math.nan)
+        self._n_slips += 1
         # thrust jumps (the batch fit's allowance): this sample and the one before it
         if self._last_thrust is not None:
             T0, sT0 = self._last_thrust
@@ -425,14 +446,25 @@ class OnlineEstimator:
                     j = prev[3]
                     self._RAW[j, _RAW_JUMP] = max(self._RAW[j, _RAW_JUMP], dT)
                     self._reprepare(j)
+        if s.relaxation and prev[3] >= 0:
+            queued = (
+                self._last_thrust is not None
+                and self._thrust_before is not None
+                and self._queue_relax(prev[3], prev[0], T, sT, M=prev[1], w_next=w, h_next=h)
+            )
+            if not queued:  # the end-point rule stays: the sample is used as it is
+                self._release(prev[3], cutoff)
+        self._finish_relax(cutoff=cutoff)
+        self._thrust_before = self._last_thrust
         self._last_thrust = (T, sT)
         used = self._row[_R["m"]] > 0
         if used and not self._started:  # start value of F_max (the batch fit's rule), until converged once
-            self._thrust_max = max(self._thrust_max, T)
-            self._P[_P["xF"]] = min(
-                max(self._P[_P["xF"]], START_THRUST_FACTOR * self._thrust_max / self._F_ref),
-                self._bounds_scaled[0][1],
-            )
+            # raised only where a thrust (two standard deviations below its value) exceeds the iterate:
+            # a floor at START_THRUST_FACTOR x the largest thrust held an iteration that had not yet
+            # converged on a pull's plateau (0.9-0.97 F_max) above the truth, update after update
+            self._thrust_max = max(self._thrust_max, T - 2.0 * sT)
+            if self._thrust_max > self._P[_P["xF"]] * self._F_ref:
+                self._P[_P["xF"]] = min(START_THRUST_FACTOR * self._thrust_max / self._F_ref, self._bounds_scaled[0][1])
         # change detection on the one-step prediction, before the sample enters the horizon
         change, slip0 = self._detect(t, T, sT) if used else (None, None)
         # the sample enters the ring buffer
@@ -447,6 +479,8 @@ class OnlineEstimator:
         self._RAW[slot] = raw
         self._D[slot] = self._row
         self._ok[slot] = self._row[_R["m"]]
+        if s.relaxation:  # held back until its discretisation is decided (see _release, _finish_relax)
+            self._D[slot, _R["m"]] = 0.0
         pk = self._peak[slot] = _peak(self._row)
         self._Z[slot] = 0.0 if slip0 is None else slip0
         self._tslot[slot] = t
@@ -456,6 +490,77 @@ class OnlineEstimator:
         self._slot = (slot + 1) % self._cap
         self._prev = (t, M, w, slot)
         return self._finish(t, slip0, change, cutoff)
+
+    def _end_chain(self) -> None:
+        """The sample chain breaks (a skipped or turning sample, a long gap): held-back samples are used as they are."""
+        if self._prev is not None and self._prev[3] >= 0:
+            self._release(self._prev[3], max(self._last_time - self.settings.window_s, self._t_reset))
+        self._finish_relax(flush=True)
+        self._prev = None
+        self._last_thrust = None
+
+    def _release(self, j: int, cutoff: float) -> None:
+        """Slot ``j`` enters the fit (its use flag) unless it has left the horizon."""
+        if self._tslot[j] >= cutoff:
+            self._D[j, _R["m"]] = self._ok[j]
+
+    def held_back(self) -> list[int]:
+        """Slots not in the fit yet: waiting for the next sample or their slip trend (the relaxation rule)."""
+        out = [e[1] for e in self._pending]
+        if self.settings.relaxation and self._prev is not None and self._prev[3] >= 0:
+            out.append(self._prev[3])
+        return out
+
+    def _queue_relax(self, j: int, t: float, T1: float, sT1: float, *, M: float, w_next: float, h_next: float) -> bool:
+        """Queue slot ``j`` (the sample before the new one) for the slip-relaxation rule (its next interval is known).
+
+        The batch fit's ``discretisation="relaxation"`` (:mod:`~soiltrack.identify.drivelog.relaxation`):
+        the thrust at the sample is ``(1 - phi) T_k + phi T_{k+1}``. Where the interval means are not
+        a steady trend (second difference beyond :data:`JUMP_SIGMA` noise levels: a torque step at
+        the traction limit) the end-point rule stays, as in the batch fit. The weight waits for the
+        slip trend (:meth:`_finish_relax`).
+        """
+        (T0, sT0), (Tm, sTm) = self._last_thrust, self._thrust_before  # type: ignore[misc]
+        if abs(T1 - 2.0 * T0 + Tm) > JUMP_SIGMA * math.sqrt(sT1 * sT1 + 4.0 * sT0 * sT0 + sTm * sTm):
+            return False
+        self._pending.append((self._n_slips - 2, j, t, M, w_next, h_next))
+        return True
+
+    def _finish_relax(self, flush: bool = False, cutoff: float | None = None) -> None:
+        """Apply the relaxation rule to the queued samples whose slip trend is complete.
+
+        ``phi`` comes from the slip's time constant at the slip trend (the median of the
+        :data:`TREND_SAMPLES` measured slips centred on the sample, as the batch fit: the sample
+        waits ``TREND_SAMPLES // 2`` samples for it; ``flush``: at a chain's end, what there is)
+        and the pilot soil (the held estimate, else the iterate). The slot's peak (the
+        informative-sample test) stays the end-point one; its latent slip starts again from the new
+        row's optimum at the iterate (the row moved under it). ``cutoff``: the horizon's start (a
+        slot before it is not used).
+        """
+        half = TREND_SAMPLES // 2
+        if cutoff is None:
+            cutoff = max(self._last_time - self.settings.window_s, self._t_reset)
+        while self._pending and (flush or self._pending[0][0] + half <= self._n_slips - 1):
+            k, j, t, M, w_next, h_next = self._pending.popleft()
+            if self._tslot[j] != t:  # the slot was reused or moved meanwhile
+                continue
+            first = max(k - half, self._n_slips - len(self._slips))
+            sl = [x for x in list(self._slips)[first - (self._n_slips - len(self._slips)) :] if x == x]
+            trend = statistics.median(sl) if sl else 0.0
+            held = self._held.x
+            F, K = held if held is not None else (self._P[_P["xF"]] * self._F_ref, self._P[_P["xK"]] * self._K_ref)
+            raw = self._raw_relax
+            raw[:] = self._RAW[j]
+            raw[_RAW_RELAX] = (M, w_next, h_next, trend, F, K, 1.0)
+            self._c_relax()
+            self._RAW[j] = raw
+            self._D[j] = self._row_relax
+            self._ok[j] = self._row_relax[_R["m"]]
+            if t < cutoff:
+                self._D[j, _R["m"]] = 0.0
+            elif self._ok[j] > 0:
+                self._c_relax_predict()
+                self._Z[j] = self._relax_pred[0]
 
     def _detect(self, t: float, T: float, sT: float) -> tuple[float | None, float]:
         """The new sample's prediction: the CUSUM's change time (or ``None``) and its latent slip."""
@@ -493,8 +598,7 @@ class OnlineEstimator:
             change = self._excitation_start(change, window[0])
             self._forget(t, change, window)
             cutoff = max(t - s.window_s, self._t_reset)
-        self._iterate(cutoff)
-        win = self._window(t)
+        win = self._solve(t, cutoff, change is None)
         if s.memory:
             late = self._remember(t, win)
             if late is not None and change is None:  # the horizon contradicts what is known: a change
@@ -505,6 +609,33 @@ class OnlineEstimator:
                 win = self._window(t)
                 self._remember(t, win)
         return self._report(t, slip0, change is not None, change, None, "", win=win, window=window)
+
+    def _solve(self, t: float, cutoff: float, may_skip: bool) -> dict:
+        """The horizon's iteration and its fit (:meth:`_window`), or the last fit while driving is gentle.
+
+        With the memory on, a horizon holding no sample loaded to ``detect_min_load`` of the held
+        F_max (gentle driving) identifies at most the slope and the held estimate is what is
+        reported; there the converged iteration is solved only every ``gentle_solve_every`` samples
+        (the samples leaving the horizon still leave it at once, and the detector still tests each
+        new sample). The last fit stands in between only if its horizon was gentle too.
+        """
+        s = self.settings
+        gentle = (
+            may_skip
+            and s.memory
+            and self._converged
+            and self._held.known
+            and not (self._loaded_times and self._loaded_times[-1] >= cutoff)
+        )
+        if gentle and self._gentle_win is not None and self._since_solve < s.gentle_solve_every - 1:
+            self._since_solve += 1
+            self._advance(cutoff)
+            return self._gentle_win
+        self._iterate(cutoff)
+        win = self._window(t)
+        self._since_solve = 0
+        self._gentle_win = win if gentle and self._converged else None
+        return win
 
     def _advance(self, cutoff: float) -> None:
         """Samples older than ``cutoff`` leave the horizon (their ``m`` set to 0)."""
@@ -544,6 +675,8 @@ class OnlineEstimator:
         self._c_prepare()
         self._D[j] = self._row
         self._ok[j] = self._row[_R["m"]]
+        if self.settings.relaxation:  # the sample before the new one: still held back (its rule is decided next)
+            self._D[j, _R["m"]] = 0.0
         self._peak[j] = _peak(self._row)
         self._rebuild_peaks()
         self._row[:] = keep_row
@@ -576,6 +709,7 @@ class OnlineEstimator:
             dq.clear()
             dq.extend(keep)
         self._t_reset = t_change
+        self._gentle_win = None
         self._detector.reset(t)
         self._detect_since = t
         self._converged = False
@@ -610,6 +744,8 @@ class OnlineEstimator:
             for _, j in self._live:
                 live[j] = 1.0
             np.multiply(self._ok, live, out=self._D[:, _R["m"]])
+            for j in self.held_back():
+                self._D[j, _R["m"]] = 0.0
             self._rebuild_peaks()
         self._have_noise = True
 
@@ -771,12 +907,15 @@ class OnlineEstimator:
         if informative and self._enough_informative(s.identify_min_utilisation * win["F"]):
             xw, Vw = (win["F"], win["K"]), win["V"]
             pr = self.turning.with_recent(H.prior(t_start, t), t_start)  # i42 hook: turns after t_start
+            # tested only where the horizon reaches its plateau (else its F_max is an extrapolation along the
+            # ridge that the sandwich does not describe: the uniform-soil false alarms); fused if it agrees
+            near = self._enough_informative(s.detect_window_min_load * xw[0])
             if pr is None:
                 H.set(t, xw, Vw)
             else:
                 res = fuse(pr[0], pr[1], xw, Vw)
                 settled = t - self._known_since >= s.detect_settle_s
-                if res is not None and res[2] > s.detect_window_chi2 and settled:
+                if res is not None and res[2] > s.detect_window_chi2 and settled and near:
                     first = next((x for x in self._info_times if x >= t_start), t)
                     t_change = self._detector.run_start(first)
                     window = self._change_window(t_change)
@@ -789,7 +928,7 @@ class OnlineEstimator:
                         H.snapshot(t, t - s.window_s)
                         return None
                     return t_change, window
-                if res is not None:
+                if res is not None and (near or res[2] <= s.detect_window_chi2):
                     H.set(t, res[0], res[1])
         if H.known:
             assert H.x is not None  # known: an estimate is held

@@ -22,11 +22,15 @@ estimator (exact per-sample Hessian, empirical score variance), as the batch fit
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import casadi as ca
 
+from ...soilmodel.dynamics import held_torque_weight_expr, slip_time_constant_expr
 from ...soilmodel.threadsafe import locked_cache
 from ...soilmodel.traction import slip_factor
 from ..drivelog.prepare import SLIP_BOUNDS
+from ..drivelog.relaxation import _SLIP_RANGE as _RELAX_SLIP_RANGE
 from .. import jitcache
 
 __all__ = [
@@ -41,6 +45,7 @@ __all__ = [
     "predict_kernel",
     "predict_held_kernel",
     "JUMP_SIGMA",
+    "RELAX_SLIP_RANGE",
     "SPEED_FLOOR_SIGMA",
     "BRAKING_SIGMA",
     "PREDICT_ITERATIONS",
@@ -52,10 +57,14 @@ __all__ = [
 ]
 
 #: A sample's readings: vehicle speed, sprocket speed and the previous one, the previous
-#: torque, the time step, and the thrust jump allowance (N).
-RAW = ("v", "w", "w_prev", "M_prev", "h", "jump")
+#: torque, the time step, the thrust jump allowance (N); then what the slip-relaxation rule
+#: (:mod:`soiltrack.identify.drivelog.relaxation`) needs once the next sample has arrived: the
+#: sample's own torque, the next sprocket speed and time step, the slip trend the weight is
+#: computed at, the pilot (F_max, K) and ``relax`` (1: mix in the next interval's mean, 0: the
+#: end-point rule).
+RAW = ("v", "w", "w_prev", "M_prev", "h", "jump", "M", "w_next", "h_next", "slip_trend", "F_pilot", "K_pilot", "relax")
 #: Noise and vehicle constants of :func:`prepare_kernel`.
-NOISE = ("aM", "bM", "aw", "bw", "av", "bv", "r", "I", "min_speed")
+NOISE = ("aM", "bM", "aw", "bw", "av", "bv", "r", "I", "min_speed", "l")
 #: Rows of the horizon's data matrix (what :func:`prepare_kernel` gives per sample; ``m`` is
 #: 1 for a sample used in the fit, set to 0 outside the horizon).
 ROWS = ("v", "rw", "T", "inv_sc", "inv_ss", "rho", "m")
@@ -108,13 +117,37 @@ PREDICT_ITERATIONS = 4
 #: negative), where a Gauss-Newton step jumps to the other plateau and never reaches the steep
 #: part; the batch fit starts from the thrust's slip for the same reason.
 PREDICT_START_U = (0.0, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0)
+#: Slip trends are clipped to this range for the relaxation weight (the batch fit's range, one home).
+RELAX_SLIP_RANGE = _RELAX_SLIP_RANGE
 #: Smallest speed floor, m/s (as the batch fit).
 _MIN_FLOOR = 1e-3
 
 
+def _relaxation_weight(R, N, w):
+    """The slip-relaxation weight ``phi`` of the next interval (the batch fit's rule, soilmodel's expressions).
+
+    ``tau = I w / ((1 - i) r dF/di)`` at the slip trend and the pilot soil, with the estimator's own
+    thrust law ``F = F_max g(i l / K)``; ``phi = phi(h / tau)`` in [0, 1/2]; 0 unless ``relax``.
+    """
+    lo, hi = RELAX_SLIP_RANGE
+    i = ca.fmin(ca.fmax(R["slip_trend"], lo), hi)
+    z = ca.SX.sym("z")
+    dF = ca.substitute(ca.jacobian(R["F_pilot"] * slip_factor(z, N["l"], R["K_pilot"]), z), z, i)
+    tau = slip_time_constant_expr(i, w, dF, SimpleNamespace(sprocket_inertia=N["I"], sprocket_radius=N["r"]))
+    phi = ca.fmin(ca.fmax(held_torque_weight_expr(R["h"] / tau), 0.0), 0.5)
+    return ca.if_else(R["relax"] > 0, phi, 0.0)
+
+
 def _prepare(raw, noise):
-    """Per-sample weights from the readings and the noise levels (SX)."""
-    v, w, wp, Mp, h, jump = (raw[j] for j in range(len(RAW)))
+    """Per-sample weights from the readings and the noise levels (SX).
+
+    The thrust is the interval mean ``T_k`` (the end-point rule), or with ``relax`` the mix
+    ``(1 - phi) T_k + phi T_{k+1}`` of the two interval means around the sample, its variance and
+    its covariance with the speed residual mixed as :func:`~soiltrack.identify.drivelog.prepare.prepare_drive_log`
+    mixes them. The outputs ``T`` and ``sT`` are the end-point mean and its noise (the jump tests).
+    """
+    R = {name: raw[j] for j, name in enumerate(RAW)}
+    v, w, wp, Mp, h, jump = (R[k] for k in ("v", "w", "w_prev", "M_prev", "h", "jump"))
     N = {name: noise[j] for j, name in enumerate(NOISE)}
     r, I = N["r"], N["I"]
     sM = ca.sqrt(N["aM"] ** 2 + (N["bM"] * Mp) ** 2)
@@ -123,16 +156,26 @@ def _prepare(raw, noise):
     sv = ca.sqrt(N["av"] ** 2 + (N["bv"] * v) ** 2)
     T = (Mp - I * (w - wp) / h) / r
     sT2_raw = (sM**2 + (I / h) ** 2 * (sw**2 + swp**2)) / r**2
-    sT2 = sT2_raw + (0.5 * jump) ** 2
+    # the slip-relaxation mix with the next interval (b = 0: the end-point rule, unchanged)
+    b = _relaxation_weight(R, N, w)
+    a = 1.0 - b
+    hn, wn, Mk = R["h_next"], R["w_next"], R["M"]
+    swn = ca.sqrt(N["aw"] ** 2 + (N["bw"] * wn) ** 2)
+    sMk = ca.sqrt(N["aM"] ** 2 + (N["bM"] * Mk) ** 2)
+    T_next = (Mk - I * (wn - w) / hn) / r
+    var_next = (sMk**2 + (I / hn) ** 2 * (swn**2 + sw**2)) / r**2
+    c_next = -(I**2) * sw**2 / (h * hn * r**2)
+    T_mix = a * T + b * T_next
+    sT2 = a**2 * sT2_raw + b**2 * var_next + 2.0 * a * b * c_next + (0.5 * jump) ** 2
     floor = ca.fmax(ca.fmax(N["min_speed"], _MIN_FLOOR), SPEED_FLOOR_SIGMA * ca.fmax(sv, r * sw))
-    ok = ca.logic_and(ca.logic_and(v >= floor, r * w >= floor), T >= -BRAKING_SIGMA * ca.sqrt(sT2))
+    ok = ca.logic_and(ca.logic_and(v >= floor, r * w >= floor), T_mix >= -BRAKING_SIGMA * ca.sqrt(sT2))
     rw = r * w
     one_minus_i = ca.fmin(ca.fmax(v / ca.fmax(rw, _MIN_FLOOR), 1.0 - SLIP_BOUNDS[1]), 1.0 - SLIP_BOUNDS[0])
     ss2 = sv**2 + (r * one_minus_i * sw) ** 2
-    cov = I * one_minus_i * sw**2 / h
+    cov = I * one_minus_i * sw**2 * (a / h - b / hn)
     rho = cov / ss2
     sc = ca.sqrt(ca.fmax(sT2 - rho * cov, 0.0) + 1e-300)
-    row = ca.vertcat(v, rw, T, 1.0 / sc, 1.0 / ca.sqrt(ss2), rho, ca.if_else(ok, 1.0, 0.0))
+    row = ca.vertcat(v, rw, T_mix, 1.0 / sc, 1.0 / ca.sqrt(ss2), rho, ca.if_else(ok, 1.0, 0.0))
     return row, T, ca.sqrt(sT2_raw)
 
 
@@ -260,7 +303,9 @@ def _sample_sums(iterations: int, fractions: tuple[float, ...]):
     free = ca.if_else(ca.logic_and(i_s > lo + 1e-6, i_s < hi - 1e-6), 1.0, 0.0)
     Hi = ca.if_else(H[2, 2] > 0, H[2, 2], Hii_gn)
     Hc = H[:2, :2] - free * (H[:2, 2] @ H[2, :2]) / Hi
-    per = m * ca.vertcat(
+    # an unused column (m = 0: outside the horizon, an empty slot of zeros) contributes exactly 0,
+    # never 0 x NaN (its Gauss-Newton Schur term is 0 / 0)
+    per = ca.vertcat(
         S[0, 0],
         S[0, 1],
         S[1, 1],
@@ -275,8 +320,9 @@ def _sample_sums(iterations: int, fractions: tuple[float, ...]):
         g[1] ** 2,
         1.0,
     )
+    per = ca.if_else(m > 0, per, ca.DM.zeros(per.shape[0]))
     # first-order follow of a parameter step dx: i_next = clip(i - follow . dx)
-    follow = m * bT * a / Hii_gn
+    follow = ca.if_else(m > 0, bT * a / Hii_gn, ca.DM.zeros(2))
     core = ca.Function("online_sample_core", [row, i_s, xs, p], [per, follow])
     x = ca.vertcat(P["xF"], P["xK"])
     i_opt = _slip_gn(row, i0, P["xF"], P["xK"], P["F_ref"], P["K_ref"], P["l"], iterations, fractions)

@@ -103,6 +103,19 @@ class OnlineSettings:
         about 0.3 % in a second, 3 % in 100 s, 18 % in an hour (firm uniform ground; a patchy
         field wants more): small against the 20-40 % of a change of terrain, large enough that a
         value held for minutes is not trusted to the tenth of a percent a pull gave it.
+    relaxation
+        ``True`` (default): each sample's thrust is taken under the batch fit's slip-relaxation rule
+        (``discretisation="relaxation"`` of :func:`~soiltrack.identify.drivelog.fit.fit_drive_log`) once
+        its next sample has arrived: the interval's mean thrust lags the thrust at its end slip by
+        up to half the change over the interval where the slip relaxes slowly against the sample
+        step (light vehicle, short pulls), and the end-point rule then reads F_max a few percent
+        high; a horizon fused into the memory would keep that bias. ``False``: the end-point rule.
+    gentle_solve_every
+        With the memory on, while the horizon holds no sample loaded to ``detect_min_load`` of the
+        held F_max (gentle driving: the held estimate is reported, the horizon's own fit gives the
+        slope only), its converged iteration is solved every this many samples instead of at each
+        (the update time is mostly that solve; 1: at every sample). The detector still tests every
+        new sample; the iterate it predicts with is then up to that many samples old.
     memory
         ``True`` (default): the held estimate of :mod:`~.memory` (arrival cost, random walk) is
         what each update reports and what the detector tests new samples against. ``False``: the
@@ -119,6 +132,15 @@ class OnlineSettings:
         cost (what the samples before it said, grown by the random walk); a squared Mahalanobis
         distance beyond this (chi-square, 2 degrees of freedom; 27.6 = p 1e-6) is a change.
         A horizon beyond it is never fused into the held estimate.
+    detect_window_min_load
+        ... and a horizon is tested against the held estimate only when it holds
+        ``identify_min_informative`` used samples loaded to this fraction of its own F_max (its
+        plateau); a horizon below it is fused only when it agrees (distance within
+        ``detect_window_chi2``) and never declares a change. Below it the horizon sees a pull's
+        ramp only, and its F_max is an extrapolation along the ridge (correlation 0.95-0.99) that
+        the sandwich covariance does not describe (measured: every false alarm of a 10-minute
+        uniform heavy log came from horizons with 9-15 samples at 50-80 % of F_max and none above
+        80 %). The first horizon still starts the held estimate.
     turn_threshold
         Noise standard deviations of the left-right speed difference (or the yaw rate) beyond
         which a two-track sample turns.
@@ -153,10 +175,13 @@ class OnlineSettings:
     detect_min_samples: int = 20
     detect_min_s: float = 0.5
     memory: bool = True
+    relaxation: bool = True
+    gentle_solve_every: int = 10
     drift_max_thrust_rel: float = 0.003
     drift_shear_modulus_rel: float = 0.003
     detect_held_sigmas: float = 4.0
     detect_window_chi2: float = 27.6
+    detect_window_min_load: float = 0.8
     turn_threshold: float = TURN_THRESHOLD_SIGMA
     turn_history: int = 256
     max_capacity: int = 16384
@@ -176,6 +201,7 @@ class OnlineSettings:
             "detect_clip",
             "turn_threshold",
             "detect_window_chi2",
+            "detect_window_min_load",
         ):
             val = getattr(self, name)
             if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
@@ -186,6 +212,7 @@ class OnlineSettings:
             "detect_scale_samples",
             "detect_min_samples",
             "identify_min_informative",
+            "gentle_solve_every",
             "turn_history",
             "max_capacity",
         ):
@@ -208,8 +235,9 @@ class OnlineSettings:
                 isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val < 0
             ):
                 raise DataError(f"setting {name} must be a finite number >= 0, got {val!r}")
-        if not isinstance(self.memory, bool):
-            raise DataError(f"setting memory must be True or False, got {self.memory!r}")
+        for name in ("memory", "relaxation"):
+            if not isinstance(getattr(self, name), bool):
+                raise DataError(f"setting {name} must be True or False, got {getattr(self, name)!r}")
         g = self.grade_rad
         lo, hi = _GRADE_RANGE
         if isinstance(g, bool) or not isinstance(g, (int, float)) or not math.isfinite(g) or not lo <= g <= hi:
