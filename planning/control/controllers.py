@@ -43,6 +43,7 @@ CONTROLLERS = ("pi", "slip", "mpc", "fixed_slip")
 SOIL_SOURCES = ("estimate", "nominal", "true")
 #: Below this speed target (m/s) a controller stops (holds with no drive torque) rather than creeps.
 _STOP_SPEED = 0.05
+_UNIDENTIFIED = ("prior", "slope+prior")  # belief sources whose F_max is not identified on the patch
 
 
 @dataclass(frozen=True)
@@ -83,10 +84,13 @@ class ControlSettings:
         the last one at every sample (a belief that overrates the soil would otherwise let the tracks spin
         up faster than the slip loop corrects it, and on a soil with slip sinkage a spinning track digs
         in within a few tenths of a second).
-    probe, probe_s, probe_settle_s, probe_overspeed, probe_abort_drop
+    probe, probe_s, probe_settle_s, probe_overspeed, probe_abort_drop, probe_need
         Traction probe (``slip``, ``mpc`` with the estimator): gentle driving shows only the start of
-        the thrust-slip curve, so on a patch whose F_max is not identified yet the controller pulls
-        at the slip ceiling for ``probe_s`` (once per patch, and again after a detected change),
+        the thrust-slip curve, so on a patch whose F_max is not identified yet and whose resistance needs
+        at least ``probe_need`` times the believed pull at the slip limit (elsewhere the limit does not
+        bind the drive, and a probe only spends energy on slip and overspeed: heavy ``soft`` +20 %)
+        the controller pulls at the slip ceiling for ``probe_s`` (once per patch, and again after a
+        detected change; ending as soon as F_max is identified),
         ``probe_settle_s`` after entering it, ending early beyond ``1 + probe_overspeed`` times the
         speed target; and at once when the speed falls below ``1 - probe_abort_drop`` times the speed at its
         start (pulling harder slowed the vehicle: slip sinkage digs in, logged as ``probe_aborted``).
@@ -115,6 +119,7 @@ class ControlSettings:
     probe_settle_s: float = 1.0
     probe_overspeed: float = 0.2
     probe_abort_drop: float = 0.2
+    probe_need: float = 0.2
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -488,20 +493,33 @@ class SlipController(Controller):
                     "ceiling: more slip loses pull here (slip sinkage); the probe ends",
                 )
                 return False
-            if t < self._probe_until and self._v < (1 + s.probe_overspeed) * v_ref:
+            src = self.belief.belief(patch, patch).source
+            if t < self._probe_until and self._v < (1 + s.probe_overspeed) * v_ref and src in _UNIDENTIFIED:
                 return True
             self._probe_until = None
             return False
-        src = self.belief.belief(patch, patch).source
-        if patch in self._probed or src not in ("prior", "slope+prior") or t - self._entered[1] < s.probe_settle_s:
+        b = self.belief.belief(patch, patch)
+        if patch in self._probed or b.source not in _UNIDENTIFIED or t - self._entered[1] < s.probe_settle_s:
             return False
         self._probed.add(patch)
+        need = self.resistance(patch) / max(self._pull_at_limit(b, patch)[1], 1e-9)
+        if need < s.probe_need:  # the limit does not bind here: no probe (logged once per patch)
+            self._event(
+                "probe_skipped",
+                patch,
+                f"F_max of patch {patch} not identified ({b.source}), but its resistance needs only {need:.2f} of "
+                f"the believed pull at the slip limit (< probe_need {s.probe_need:g}): no traction probe",
+                need=need,
+            )
+            return False
+        src = b.source
         self._probe_until, self._probe_v0 = t + s.probe_s, self._v
         self._event(
             "probe",
             patch,
             f"F_max of patch {patch} not identified yet ({src}): a traction probe of "
-            f"{s.probe_s:g} s at the slip ceiling",
+            f"{s.probe_s:g} s at the slip ceiling (the resistance needs {need:.2f} of the believed pull)",
+            need=need,
         )
         return True
 
