@@ -219,6 +219,19 @@ def test_change_of_terrain_is_followed():
     assert need and min(need) >= 0.2
 
 
+@pytest.mark.slow
+def test_mpc_disturbance_option_closes_the_speed_gap_on_a_weaker_climb():
+    """Heavy CLIMB planned as LETE sand, dry sand under the climb: the MPC on the believed soil lags the
+    target; the filtered hull-force residual (``mpc_disturbance_s``) added to its resistance closes the gap."""
+    t = {}
+    for tau in (0.0, 1.0):
+        ctl = make_controller("mpc", HEAVY, route=CLIMB, mpc_disturbance_s=tau)
+        a, arrived = drive(ctl, _jh(HEAVY, CLIMB, CLIMB_TRUE, sigma_v=0.005, sigma_w=0.02), CLIMB.length_m, 60.0)
+        assert arrived and stuck_events(a) == 0
+        t[tau] = a[-1, 0]
+    assert t[1.0] < 0.97 * t[0.0]
+
+
 def test_user_plant_object_accepted():
     route = _route(0.5, 1.0, [{"length_m": 5, "terrain": "lete_sand"}])
     plant = _jh(LIGHT, route, [TERRAINS["lete_sand"]])
