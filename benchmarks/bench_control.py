@@ -142,6 +142,9 @@ def main(argv=None) -> int:
     p.add_argument("--plant", default="library", choices=("library", "independent"))
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-probe", action="store_true", help="controllers without the traction probe (probe=False)")
+    p.add_argument(
+        "--mpc-disturbance", type=float, default=0.0, metavar="S", help="MPC's mpc_disturbance_s (default 0: off)"
+    )
     p.add_argument("--split-time", type=int, metavar="N", help="only time the slip controller's step split (N steps)")
     a = p.parse_args(argv)
     if a.split_time:
@@ -189,7 +192,9 @@ def main(argv=None) -> int:
 
             for kind in a.controllers.split(","):
                 t0 = time.perf_counter()
-                extra = {"probe": False} if a.no_probe else {}
+                extra: dict = {"probe": False} if a.no_probe else {}
+                if a.mpc_disturbance:
+                    extra["mpc_disturbance_s"] = a.mpc_disturbance
                 res = drive(
                     kind, V, route, soils, true_slip_sinkage=mus, plant_settings=ps, plant_factory=factory, **extra
                 )

@@ -210,6 +210,26 @@ def test_change_of_terrain_is_followed():
     assert S["belief_max_thrust_N"][k] == pytest.approx(S["true_max_thrust_N"][k], rel=0.10)  # dry sand, not LETE
     planned = 0.5 * 2.8 * 2 * 1.3e3 + 329e3 * math.cos(math.radians(20)) * math.tan(math.radians(31.1))
     assert abs(S["belief_max_thrust_N"][k] - planned) > 0.05 * planned
+    # the traction probe only where the limit binds: the climb (resistance ~0.7 of the believed pull), not
+    # the flat patches (~0.08, below probe_need 0.2), where a probe spends energy on slip and overspeed
+    kinds = {(e["kind"], e["patch"]) for e in ctl.events if e["kind"].startswith("probe")}
+    assert ("probe", 1) in kinds and ("probe_skipped", 0) in kinds
+    assert ("probe", 0) not in kinds and ("probe", 2) not in kinds
+    need = [e["need"] for e in ctl.events if e["kind"] == "probe"]
+    assert need and min(need) >= 0.2
+
+
+@pytest.mark.slow
+def test_mpc_disturbance_option_closes_the_speed_gap_on_a_weaker_climb():
+    """Heavy CLIMB planned as LETE sand, dry sand under the climb: the MPC on the believed soil lags the
+    target; the filtered hull-force residual (``mpc_disturbance_s``) added to its resistance closes the gap."""
+    t = {}
+    for tau in (0.0, 1.0):
+        ctl = make_controller("mpc", HEAVY, route=CLIMB, mpc_disturbance_s=tau)
+        a, arrived = drive(ctl, _jh(HEAVY, CLIMB, CLIMB_TRUE, sigma_v=0.005, sigma_w=0.02), CLIMB.length_m, 60.0)
+        assert arrived and stuck_events(a) == 0
+        t[tau] = a[-1, 0]
+    assert t[1.0] < 0.97 * t[0.0]
 
 
 def test_user_plant_object_accepted():

@@ -43,6 +43,7 @@ CONTROLLERS = ("pi", "slip", "mpc", "fixed_slip")
 SOIL_SOURCES = ("estimate", "nominal", "true")
 #: Below this speed target (m/s) a controller stops (holds with no drive torque) rather than creeps.
 _STOP_SPEED = 0.05
+_UNIDENTIFIED = ("prior", "slope+prior")  # belief sources whose F_max is not identified on the patch
 
 
 @dataclass(frozen=True)
@@ -74,6 +75,12 @@ class ControlSettings:
         Whether the governor checks the ground ahead (``slip``, ``mpc``).
     mpc_horizon, mpc_interval_s, mpc_every
         Receding horizon: intervals, their length, and samples between two solves.
+    mpc_disturbance_s
+        Offset-free MPC: time constant of the filtered hull-force residual ``m dv/dt - (F(i) - R - R_s i)``
+        of the believed soil at the measured slip, added to the plan's resistance (a belief that overrates
+        the soil otherwise leaves the MPC below the target speed: heavy ``climb`` +13 % time, +1.2 % with
+        1 s); 0 (default): off, since with 1 s the heavy ``dig`` MPC spent 0.06 s above the slip limit
+        (0 without; docs/control.md).
     sample_s
         Sample time assumed for the first sample (later: from the measurement's times).
     cut_factor, guard_margin
@@ -83,10 +90,13 @@ class ControlSettings:
         the last one at every sample (a belief that overrates the soil would otherwise let the tracks spin
         up faster than the slip loop corrects it, and on a soil with slip sinkage a spinning track digs
         in within a few tenths of a second).
-    probe, probe_s, probe_settle_s, probe_overspeed, probe_abort_drop
+    probe, probe_s, probe_settle_s, probe_overspeed, probe_abort_drop, probe_need
         Traction probe (``slip``, ``mpc`` with the estimator): gentle driving shows only the start of
-        the thrust-slip curve, so on a patch whose F_max is not identified yet the controller pulls
-        at the slip ceiling for ``probe_s`` (once per patch, and again after a detected change),
+        the thrust-slip curve, so on a patch whose F_max is not identified yet and whose resistance needs
+        at least ``probe_need`` times the believed pull at the slip limit (elsewhere the limit does not
+        bind the drive, and a probe only spends energy on slip and overspeed: heavy ``soft`` +20 %)
+        the controller pulls at the slip ceiling for ``probe_s`` (once per patch, and again after a
+        detected change),
         ``probe_settle_s`` after entering it, ending early beyond ``1 + probe_overspeed`` times the
         speed target; and at once when the speed falls below ``1 - probe_abort_drop`` times the speed at its
         start (pulling harder slowed the vehicle: slip sinkage digs in, logged as ``probe_aborted``).
@@ -107,6 +117,7 @@ class ControlSettings:
     mpc_horizon: int = 10
     mpc_interval_s: float = 0.2
     mpc_every: int = 2
+    mpc_disturbance_s: float = 0.0
     sample_s: float = 0.02
     cut_factor: float = 0.85
     guard_margin: float = 0.05
@@ -115,6 +126,7 @@ class ControlSettings:
     probe_settle_s: float = 1.0
     probe_overspeed: float = 0.2
     probe_abort_drop: float = 0.2
+    probe_need: float = 0.2
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -123,8 +135,10 @@ class ControlSettings:
                 continue
             if v is None:
                 continue
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise DataError(f"controller setting {f.name} must be a finite number > 0, got {v!r}")
+            number = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
+            if not number or not (v >= 0 if f.name == "mpc_disturbance_s" else v > 0):  # 0: offset-free MPC off
+                bound = ">= 0" if f.name == "mpc_disturbance_s" else "> 0"
+                raise DataError(f"controller setting {f.name} must be a finite number {bound}, got {v!r}")
         for name in ("max_slip", "fixed_slip"):
             v = getattr(self, name)
             if v is not None and not 0 < v < 1:
@@ -492,16 +506,28 @@ class SlipController(Controller):
                 return True
             self._probe_until = None
             return False
-        src = self.belief.belief(patch, patch).source
-        if patch in self._probed or src not in ("prior", "slope+prior") or t - self._entered[1] < s.probe_settle_s:
+        b = self.belief.belief(patch, patch)
+        if patch in self._probed or b.source not in _UNIDENTIFIED or t - self._entered[1] < s.probe_settle_s:
             return False
         self._probed.add(patch)
+        need = self.resistance(patch) / max(self._pull_at_limit(b, patch)[1], 1e-9)
+        if need < s.probe_need:  # the limit does not bind here: no probe (logged once per patch)
+            self._event(
+                "probe_skipped",
+                patch,
+                f"F_max of patch {patch} not identified ({b.source}), but its resistance needs only {need:.2f} of "
+                f"the believed pull at the slip limit (< probe_need {s.probe_need:g}): no traction probe",
+                need=need,
+            )
+            return False
+        src = b.source
         self._probe_until, self._probe_v0 = t + s.probe_s, self._v
         self._event(
             "probe",
             patch,
             f"F_max of patch {patch} not identified yet ({src}): a traction probe of "
-            f"{s.probe_s:g} s at the slip ceiling",
+            f"{s.probe_s:g} s at the slip ceiling (the resistance needs {need:.2f} of the believed pull)",
+            need=need,
         )
         return True
 
@@ -559,13 +585,30 @@ class MpcController(SlipController):
         self.problem = MpcProblem(self.vehicle, horizon=s.mpc_horizon, h=s.mpc_interval_s)
         self._n = 0
         self._plan_slip = 0.0
+        self._dist = (0.0, -1, math.nan)  # (filtered residual force N, its patch, last filtered speed)
         self.solve_times_s: list[float] = []  # wall clock per solve
         self.solve_cpu_s: list[float] = []  # CPU time per solve (IPOPT runs in this thread)
+
+    def _disturbance(self, b: SoilBelief, patch: int, dt: float) -> float:
+        """The filtered hull-force residual of the believed soil, N (``mpc_disturbance_s``; restarts per patch)."""
+        tau = self.settings.mpc_disturbance_s
+        d, k, v_prev = self._dist
+        if tau <= 0 or k != patch or not math.isfinite(v_prev):
+            self._dist = (0.0, patch, self._v)
+            return 0.0
+        i = max(self._slip, 0.0)
+        model = self._thrust1(b, i) - self.resistance(patch) - self._sinkage_N(b, patch) * i
+        res = self.vehicle.mass * (self._v - v_prev) / dt - model
+        d += dt / (tau + dt) * (res - d)
+        d = min(max(d, -0.5 * b.max_thrust_N), 0.5 * b.max_thrust_N)
+        self._dist = (d, patch, self._v)
+        return d
 
     def _torque(self, patch: int, v_ref: float, dt: float) -> float:
         b = self.belief.belief(patch, patch) if self.belief is not None else None
         if b is None:
             return super()._torque(patch, v_ref, dt)
+        d = self._disturbance(b, patch, dt)
         if self._probing(patch, v_ref):
             ceiling, b = self._ceiling(patch)
             self.limiting, self.slip_target = "probe", ceiling
@@ -581,7 +624,7 @@ class MpcController(SlipController):
                 self._v,
                 b.max_thrust_N,
                 b.shear_modulus_m,
-                self.resistance(patch),
+                self.resistance(patch) - d,
                 self._sinkage_N(b, patch),
                 v_ref,
                 self._plan_slip,
