@@ -253,9 +253,9 @@ def _own_theta(data, gear, spec, fixed, effects, bounds, settings) -> tuple[list
         return [np.append(np.asarray(res.theta, dtype=float), gear.grouser_height)], res
     from ..soiltests import fit_soil_test
 
-    res = fit_soil_test(data)
+    test_fit = fit_soil_test(data)
     starts = []
-    vals = res.values_si
+    vals = test_fit.values_si
     if vals and all(v is not None for v in vals):
         th = np.array([500.0, math.radians(30.0), 0.02, 0.0, 1.5e6, 1.0, 0.0, 0.0])
         if spec.kind == "plate":
@@ -263,7 +263,7 @@ def _own_theta(data, gear, spec, fixed, effects, bounds, settings) -> tuple[list
         else:
             th[0:3] = vals
         starts.append(th)
-    return starts, res
+    return starts, test_fit
 
 
 def _own_fits(datasets, gears, blocks, fixed, effects, bounds, settings) -> list[dict[str, Any]]:

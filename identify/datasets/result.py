@@ -231,13 +231,14 @@ def _estimates(theta8, names_idx, spec, sol, bounds, fixed_names) -> dict[str, W
 
 def _columns(specs, shared_free) -> tuple[list[int | None], list[list[tuple[int, int | None]]]]:
     """Variable column of each shared parameter (None if held) and each block's specific ``(index, column)``."""
-    cols, q = [], 0
+    cols: list[int | None] = []
+    q = 0
     for k in range(N_SHARED):
         cols.append(q if shared_free[k] else None)
         q += shared_free[k]
-    spec_cols = []
+    spec_cols: list[list[tuple[int, int | None]]] = []
     for s in specs:
-        mine = []
+        mine: list[tuple[int, int | None]] = []
         for k, free in ((N_SHARED, s.specific_free), (N_SHARED + 1, s.grouser_free)):
             if free:
                 mine.append((k, q))
@@ -282,7 +283,7 @@ def consistency_test(own, joint, labels, own_est, joint_est) -> dict[str, Any]:
         return out
     worst = int(np.argmax(shares))
     if out["p_value"] < OUTCOME_SETTINGS.lack_of_fit_level:
-        big = [(abs(s[worst]), k) for k, s in shifts.items() if s[worst] is not None]
+        big = [(abs(float(v)), k) for k, s in shifts.items() if (v := s[worst]) is not None]
         par = (
             f"; its {max(big)[1]} lies {shifts[max(big)[1]][worst]:+.2f} own standard errors from the joint value"
             if big
