@@ -220,16 +220,21 @@ def test_change_of_terrain_is_followed():
 
 
 @pytest.mark.slow
-def test_mpc_disturbance_option_closes_the_speed_gap_on_a_weaker_climb():
-    """Heavy CLIMB planned as LETE sand, dry sand under the climb: the MPC on the believed soil lags the
-    target; the filtered hull-force residual (``mpc_disturbance_s``) added to its resistance closes the gap."""
+def test_mpc_keeps_pace_with_the_true_soil_on_a_weaker_climb():
+    """Heavy CLIMB planned as LETE sand, dry sand under the climb: the MPC on its on-line estimate, with and
+    without the filtered hull-force residual (``mpc_disturbance_s``), arrives within 3 % of the time of the same
+    MPC given the true soil. (With the previous on-line estimator it lagged by 12.9 % without the option; the
+    estimator's relaxation rule and ramp-horizon rule closed that gap: 17.14 s against 16.96 s.)"""
+    kinds = {"true": {"soil": "true", "true_soils": CLIMB_TRUE}, 0.0: {"mpc_disturbance_s": 0.0}}
+    kinds[1.0] = {"mpc_disturbance_s": 1.0}
     t = {}
-    for tau in (0.0, 1.0):
-        ctl = make_controller("mpc", HEAVY, route=CLIMB, mpc_disturbance_s=tau)
+    for key, kw in kinds.items():
+        ctl = make_controller("mpc", HEAVY, route=CLIMB, **kw)
         a, arrived = drive(ctl, _jh(HEAVY, CLIMB, CLIMB_TRUE, sigma_v=0.005, sigma_w=0.02), CLIMB.length_m, 60.0)
         assert arrived and stuck_events(a) == 0
-        t[tau] = a[-1, 0]
-    assert t[1.0] < 0.97 * t[0.0]
+        t[key] = a[-1, 0]
+    assert t[0.0] <= 1.03 * t["true"]
+    assert t[1.0] <= 1.03 * t["true"]
 
 
 def test_user_plant_object_accepted():
