@@ -157,6 +157,7 @@ from . import covariance as _covariance
 from .noise import estimate_noise, estimate_noise_profile
 from .nlp import eval_pointwise, fmax_bounds, padded_size, ridge_point, solve_equation_error, solve_output_error
 from .profiled import solve_output_error_profiled
+from .profile_check import profile_flatness
 from .prepare import MIN_USABLE_SAMPLES, SLIP_BOUNDS, PreparedLog, prepare_drive_log
 from .relaxation import DISCRETISATIONS
 from .joint_fit import fit_joint
@@ -516,8 +517,11 @@ def _converged_result(
         for name, val, (lo, hi) in (("F_max", Fmax, s.Fb), ("K", K, s.Kb))
         if val <= lo + 1e-6 * (hi - lo) or val >= hi - 1e-6 * (hi - lo)
     ]
+    rise = None  # does F_max's likelihood match its standard error (a start from rest: far wider)?
+    if formulation == "output-error" and cov2 is not None and not at_bound and cov2[0, 0] < (0.25 * Fmax) ** 2:
+        rise = profile_flatness(prep, vehicle, Fmax, K, math.sqrt(cov2[0, 0]), s2, Kb)
     regime, regime_extra, regime_warnings = classify_regime(
-        Fmax, K, l, cov2, at_bound, thrust_peak, utilisation, n_high
+        Fmax, K, l, cov2, at_bound, thrust_peak, utilisation, n_high, profile_rise=rise
     )
     extra.update(regime_extra)
     warnings.extend(regime_warnings)

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from ...soilmodel.units import format_force
+from .profile_check import PROFILE_MIN_RISE
 
 __all__ = ["classify_regime", "GENTLE_CORRELATION", "GENTLE_REL_STDERR", "HARD_REL_STDERR", "K_REL_STDERR"]
 
@@ -39,6 +40,8 @@ def classify_regime(
     thrust_peak: float,
     utilisation: float,
     n_high: int,
+    *,
+    profile_rise: tuple[float, float] | None = None,
 ) -> tuple[str, dict[str, Any], list[str]]:
     """Driving regime of a fitted log, the statistics behind it and its warnings.
 
@@ -53,6 +56,10 @@ def classify_regime(
     thrust_peak, utilisation, n_high
         Largest thrust the log certainly reached (N), its ratio to ``Fmax``, and the number of
         samples above 70 % of ``Fmax``.
+    profile_rise
+        Rise of the profiled cost at ``F_max -+ 2 SE`` (:func:`~.profile_check.profile_flatness`; 4 where the
+        standard error holds); below :data:`~.profile_check.PROFILE_MIN_RISE` on a side the log is "gentle":
+        F_max's likelihood is far wider than its standard error (``extra["regime_reason"]`` says so).
 
     Returns
     -------
@@ -81,7 +88,22 @@ def classify_regime(
         )
     # K on a bound: F_max's interval is conditional on K held there; only a pinned-down F_max survives it
     k_held = "K" in at_bound and not relF <= HARD_REL_STDERR
-    if not cov_ok or abs(corr) >= GENTLE_CORRELATION or relF >= GENTLE_REL_STDERR or "F_max" in at_bound or k_held:
+    flat = profile_rise is not None and min(profile_rise) < PROFILE_MIN_RISE
+    if profile_rise is not None:
+        extra["profile_rise"] = [float(x) for x in profile_rise]
+    if flat and profile_rise is not None:
+        extra["regime_reason"] = (
+            f"F_max's likelihood is far wider than its standard error: with K re-fitted the cost rises by only "
+            f"{min(profile_rise):.2g} (4 expected) at F_max -+ 2 SE, so no interval of F_max is valid"
+        )
+    if (
+        flat
+        or not cov_ok
+        or abs(corr) >= GENTLE_CORRELATION
+        or relF >= GENTLE_REL_STDERR
+        or "F_max" in at_bound
+        or k_held
+    ):
         regime = "gentle"
     elif relF <= HARD_REL_STDERR and relK <= K_REL_STDERR and "K" not in at_bound:
         regime = "hard"
@@ -93,7 +115,13 @@ def classify_regime(
     slope_se = f" (SE {format_force(s_slope)})" if math.isfinite(s_slope) else ""
     slope_txt = f"F_max l/(2K) = {format_force(slope)}{slope_se} (thrust per unit slip at small slip)"
     pct = _percent
-    if regime == "gentle":
+    if flat:
+        warnings.append(
+            f"{extra['regime_reason']}; the largest thrust in this log is about {format_force(thrust_peak)} "
+            f"(e.g. a start from rest: large thrust at speeds whose slip the log hardly measures). Only the initial "
+            f"slope {slope_txt} is reported. To identify F_max, drive a hard pull near the traction limit"
+        )
+    elif regime == "gentle":
         warnings.append(
             f"gentle driving: the largest thrust in this log is about {format_force(thrust_peak)}, well "
             f"below the soil's thrust limit, so the log only shows the initial slope {slope_txt}; F_max and K "

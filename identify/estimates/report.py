@@ -92,7 +92,9 @@ class ReportViews(RecordFields):
             if not _combination_determined(cb):
                 out[cb.name] = "not estimable or pinned at a bound"
             elif self._slope_only and (cb.name.startswith("F_max") or cb.name in _SCALED_K):
-                out[cb.name] = "gentle driving: the log shows only the initial slope F_max l / (2 K)"
+                out[cb.name] = self.extra.get("regime_reason") or (
+                    "gentle driving: the log shows only the initial slope F_max l / (2 K)"
+                )
             elif cb.name in _SCALED_K and not k_ok:
                 out[cb.name] = "K itself is not identified"
         return out
