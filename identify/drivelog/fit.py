@@ -518,8 +518,8 @@ def _converged_result(
         if val <= lo + 1e-6 * (hi - lo) or val >= hi - 1e-6 * (hi - lo)
     ]
     rise = None  # does F_max's likelihood match its standard error (a start from rest: far wider)?
-    if formulation == "output-error" and cov2 is not None and not at_bound and cov2[0, 0] < (0.25 * Fmax) ** 2:
-        rise = profile_flatness(prep, vehicle, Fmax, K, math.sqrt(cov2[0, 0]), s2, Kb)
+    if call.formulation == "output-error" and cov2 is not None and not at_bound and cov2[0, 0] < (0.25 * Fmax) ** 2:
+        rise = profile_flatness(prep, vehicle, Fmax, K, math.sqrt(cov2[0, 0]), s2, s.Kb)
     regime, regime_extra, regime_warnings = classify_regime(
         Fmax, K, l, cov2, at_bound, thrust_peak, utilisation, n_high, profile_rise=rise
     )

@@ -12,6 +12,7 @@ writes the warning that says which experiment would help.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -111,18 +112,51 @@ def classify_regime(
         regime = "intermediate"
     extra["regime"] = regime
 
+    stats = _RegimeStats(Fmax, K, l, corr, s_slope, relF, relK, thrust_peak, utilisation, n_high, at_bound)
+    warnings.extend(_regime_warnings(regime, flat, stats, extra))
+    if at_bound:
+        warnings.append(
+            f"{' and '.join(at_bound)} ended on the bound implied by the soil ranges: "
+            f"the data or the bounds are questionable"
+        )
+
+    return regime, extra, warnings
+
+
+@dataclass(frozen=True)
+class _RegimeStats:
+    """What the regime's warnings quote."""
+
+    Fmax: float  #: fitted thrust limit, N
+    K: float  #: fitted shear modulus, m
+    l: float  #: track length, m
+    corr: float  #: correlation of the F_max and K estimates
+    s_slope: float  #: standard error of the initial slope, N
+    relF: float  #: relative standard error of F_max
+    relK: float  #: relative standard error of K
+    thrust_peak: float  #: largest thrust the log certainly reached, N
+    utilisation: float  #: thrust_peak / F_max
+    n_high: int  #: samples above 70 % of F_max
+    at_bound: list[str]  #: estimates on a bound
+
+
+def _regime_warnings(regime: str, flat: bool, st: _RegimeStats, extra: dict[str, Any]) -> list[str]:
+    """The report's warnings for a regime (and the hard pull's ``extra["note"]``)."""
+    Fmax, K, l, corr, s_slope, relF, relK = st.Fmax, st.K, st.l, st.corr, st.s_slope, st.relF, st.relK
+    thrust_peak, utilisation, n_high, at_bound = st.thrust_peak, st.utilisation, st.n_high, st.at_bound
+    out: list[str] = []
     slope = Fmax * l / (2 * K)
     slope_se = f" (SE {format_force(s_slope)})" if math.isfinite(s_slope) else ""
     slope_txt = f"F_max l/(2K) = {format_force(slope)}{slope_se} (thrust per unit slip at small slip)"
     pct = _percent
     if flat:
-        warnings.append(
+        out.append(
             f"{extra['regime_reason']}; the largest thrust in this log is about {format_force(thrust_peak)} "
             f"(e.g. a start from rest: large thrust at speeds whose slip the log hardly measures). Only the initial "
             f"slope {slope_txt} is reported. To identify F_max, drive a hard pull near the traction limit"
         )
     elif regime == "gentle":
-        warnings.append(
+        out.append(
             f"gentle driving: the largest thrust in this log is about {format_force(thrust_peak)}, well "
             f"below the soil's thrust limit, so the log only shows the initial slope {slope_txt}; F_max and K "
             f"are not separable (correlation of their estimates {corr:.3f}, standard error of F_max {pct(relF)}). "
@@ -131,7 +165,7 @@ def classify_regime(
         )
     elif regime == "intermediate" and relF <= HARD_REL_STDERR:
         i_lo, i_hi = K / l, 10 * K / l
-        warnings.append(
+        out.append(
             f"the log reaches the traction limit (F_max = {format_force(Fmax)}, SE {pct(relF)}), but K is "
             f"poorly determined (standard error {pct(relK)}{', on a bound' if 'K' in at_bound else ''}): the "
             f"samples sit either near zero slip or at full track spin, with few in between ({n_high} samples "
@@ -139,7 +173,7 @@ def classify_regime(
             f"A sustained pull at 50-90 % of the traction limit (slip about {i_lo:.3g} to {i_hi:.3g}) would pin K down"
         )
     elif regime == "intermediate":
-        warnings.append(
+        out.append(
             f"F_max and K are only partly separated (correlation {corr:.3f}, standard errors: F_max {pct(relF)}, "
             f"K {pct(relK)}); the largest thrust seen is about {format_force(thrust_peak)}. The best "
             f"determined quantity is the initial slope {slope_txt}. A harder pull, nearer the traction limit, "
@@ -150,13 +184,7 @@ def classify_regime(
             f"hard pull: the thrust reached about {pct(utilisation)} of the fitted limit; F_max and K "
             f"are separated (correlation {corr:.3f}, standard errors: F_max {pct(relF)}, K {pct(relK)})"
         )
-    if at_bound:
-        warnings.append(
-            f"{' and '.join(at_bound)} ended on the bound implied by the soil ranges: "
-            f"the data or the bounds are questionable"
-        )
-
-    return regime, extra, warnings
+    return out
 
 
 def _percent(x: float) -> str:
