@@ -35,7 +35,15 @@ import threading
 import weakref
 from typing import Any, Callable, Iterator, TypeVar
 
-__all__ = ["SOLVER_LOCK", "call_solver", "locked_cache", "solver_lock", "fork_generation", "fit_section"]
+__all__ = [
+    "SOLVER_LOCK",
+    "call_solver",
+    "best_of_starts",
+    "locked_cache",
+    "solver_lock",
+    "fork_generation",
+    "fit_section",
+]
 
 #: The process-wide lock held across every cached-solver call and its ``stats()`` read
 #: (re-created in a forked child: read it through :func:`solver_lock`, never keep a copy).
@@ -157,3 +165,32 @@ def call_solver(solver: Any, *args: Any, **kwargs: Any) -> tuple[Any, dict]:
         except Exception:  # noqa: BLE001 - Functions without stats (plain SX/MX) have none
             stats = {}
     return out, stats
+
+
+#: IPOPT return statuses that count as a converged solve for :func:`best_of_starts`.
+CONVERGED_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+
+def best_of_starts(solver: Any, x0s: Any, **kwargs: Any) -> tuple[tuple, int]:
+    """Solve from every start ``x0`` (the solver's own variables); the best and how many converged.
+
+    The best is ``(failed, f, x, status, iterations)``: a converged solve (:data:`CONVERGED_STATUS`, finite
+    objective) before any other, then the least objective. ``kwargs`` go to every call (``p``, ``lbx``, ...).
+    """
+    import math
+
+    import numpy as np
+
+    best, n_ok = None, 0
+    for x0 in x0s:
+        sol, stats = call_solver(solver, x0=x0, **kwargs)
+        f = float(sol["f"])
+        status = str(stats.get("return_status", "unknown"))
+        ok = bool(stats.get("success", False)) and status in CONVERGED_STATUS and math.isfinite(f)
+        n_ok += ok
+        cand = (not ok, f, np.asarray(sol["x"], dtype=float).ravel(), status, int(stats.get("iter_count", -1)))
+        if best is None or cand[:2] < best[:2]:
+            best = cand
+    if best is None:
+        raise ValueError("no start to solve from")
+    return best, n_ok

@@ -22,7 +22,7 @@ from ...soilmodel.bevameter_records import AnnulusTest
 from ...soilmodel.data import DriveLog, PlateTest, ShearTest, SlipData
 from ...soilmodel.errors import DataError
 from ...soilmodel.rigid_wheel import RigidWheel
-from ...soilmodel.threadsafe import call_solver
+from ...soilmodel.threadsafe import best_of_starts
 from ...soilmodel.vehicle import Vehicle
 from ...soilmodel.wheel import DEFAULT_WHEEL_SETTINGS, WheelSettings
 from ...soilmodel.wheel_sweep import WheelSweep
@@ -35,7 +35,6 @@ from .result import JointFitResult, build_joint_result
 
 __all__ = ["fit_datasets", "fit_joint_call"]
 
-_OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 #: Starts of a block without a usable own fit (SI): c, phi (deg), K, n.
 _START_PHI_DEG = (20.0, 30.0, 38.0)
 _START_K_M = (0.008, 0.025)
@@ -107,17 +106,7 @@ def _gears(datasets: Sequence, gears) -> list:
 def _solve(specs, shared_free, p, starts, lbx, ubx) -> dict[str, Any]:
     """Solve from every start; the best (a converged solve first, then the least objective)."""
     solver, ev = joint_solver(tuple(specs), tuple(shared_free))
-    best, n_ok = None, 0
-    for x0 in starts:
-        sol, stats = call_solver(solver, x0=np.clip(x0, lbx, ubx), p=p, lbx=lbx, ubx=ubx)
-        f = float(sol["f"])
-        status = str(stats.get("return_status", "unknown"))
-        ok = bool(stats.get("success", False)) and status in _OK_STATUS and math.isfinite(f)
-        n_ok += ok
-        cand = (not ok, f, np.asarray(sol["x"], dtype=float).ravel(), status, int(stats.get("iter_count", -1)))
-        if best is None or cand[:2] < best[:2]:
-            best = cand
-    assert best is not None
+    best, n_ok = best_of_starts(solver, [np.clip(x0, lbx, ubx) for x0 in starts], p=p, lbx=lbx, ubx=ubx)
     failed, f, x, status, iters = best
     scales = _scales(specs, shared_free)
     outs = [np.asarray(v, dtype=float) for v in ev(x * scales, p)]

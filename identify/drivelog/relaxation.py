@@ -30,7 +30,14 @@ from ...soilmodel.effects import thrust_with_effects
 from ...soilmodel.threadsafe import locked_cache
 from ...soilmodel.vehicle import Vehicle
 
-__all__ = ["DISCRETISATIONS", "TREND_SAMPLES", "relaxation_function", "relaxation_weights", "slip_trend"]
+__all__ = [
+    "DISCRETISATIONS",
+    "RELAXATION_SLIP_RANGE",
+    "TREND_SAMPLES",
+    "relaxation_function",
+    "relaxation_weights",
+    "slip_trend",
+]
 
 #: The discretisations of the held-torque sprocket equation: ``"end-point"`` (default: the interval's
 #: mean thrust put on its end slip, the quasi-static limit) and ``"relaxation"`` (the thrust at the
@@ -48,7 +55,7 @@ DISCRETISATIONS = ("end-point", "relaxation")
 #: seeds). The median of 11 samples describes the slip's trend and dilutes that noise elevenfold.
 TREND_SAMPLES = 11
 #: Measured slips are clipped to this range for the weight (the curve's slope at the slip).
-_SLIP_RANGE = (1e-4, 0.95)
+RELAXATION_SLIP_RANGE = (1e-4, 0.95)
 
 
 def slip_trend(slip: np.ndarray, samples: int = TREND_SAMPLES) -> np.ndarray:
@@ -89,7 +96,7 @@ def relaxation_weights(
     slip, w, h
         Measured slip, sprocket speed (rad/s) and sample interval (s) per sample.
     """
-    slip = np.clip(np.nan_to_num(np.asarray(slip, dtype=float), nan=_SLIP_RANGE[0]), *_SLIP_RANGE)
+    slip = np.clip(np.nan_to_num(np.asarray(slip, dtype=float), nan=RELAXATION_SLIP_RANGE[0]), *RELAXATION_SLIP_RANGE)
     n = slip.size
     if n == 0:
         return np.zeros(0)

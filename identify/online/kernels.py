@@ -30,7 +30,7 @@ from ...soilmodel.dynamics import held_torque_weight_expr, slip_time_constant_ex
 from ...soilmodel.threadsafe import locked_cache
 from ...soilmodel.traction import slip_factor
 from ..drivelog.prepare import SLIP_BOUNDS
-from ..drivelog.relaxation import _SLIP_RANGE as _RELAX_SLIP_RANGE
+from ..drivelog.relaxation import RELAXATION_SLIP_RANGE
 from .. import jitcache
 
 __all__ = [
@@ -118,7 +118,7 @@ PREDICT_ITERATIONS = 4
 #: part; the batch fit starts from the thrust's slip for the same reason.
 PREDICT_START_U = (0.0, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0)
 #: Slip trends are clipped to this range for the relaxation weight (the batch fit's range, one home).
-RELAX_SLIP_RANGE = _RELAX_SLIP_RANGE
+RELAX_SLIP_RANGE = RELAXATION_SLIP_RANGE
 #: Smallest speed floor, m/s (as the batch fit).
 _MIN_FLOOR = 1e-3
 

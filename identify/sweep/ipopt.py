@@ -33,7 +33,7 @@ import casadi as ca
 import numpy as np
 
 from ...soilmodel.soil import SoilBounds
-from ...soilmodel.threadsafe import call_solver, locked_cache
+from ...soilmodel.threadsafe import CONVERGED_STATUS, call_solver, locked_cache
 from ...soilmodel.ridge import fmax_range, one_load
 from ...soilmodel.traction import max_thrust_expr, thrust_expr
 from .problem import SCALE, SlipProblem, ridge_centre
@@ -42,7 +42,7 @@ from .start import start_point
 
 __all__ = ["ipopt_solver", "fit_ipopt", "solve_ipopt"]
 
-_OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+_OK_STATUS = CONVERGED_STATUS  # the one home: soilmodel.threadsafe
 _DEFAULT_OPTS = {
     "ipopt.tol": 1e-12,
     "ipopt.acceptable_tol": 1e-8,

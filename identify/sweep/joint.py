@@ -41,7 +41,7 @@ from ...soilmodel.effects import (
     parameter_scale,
 )
 from ...soilmodel.ridge import fmax_range, one_load, ridge_centre
-from ...soilmodel.threadsafe import call_solver, locked_cache
+from ...soilmodel.threadsafe import CONVERGED_STATUS, call_solver, locked_cache
 from ...soilmodel.traction import max_thrust_expr
 from ...soilmodel.vehicle import Vehicle
 from .problem import SCALE, SlipProblem
@@ -52,7 +52,7 @@ from .plausibility import slip_checks
 
 __all__ = ["fit_joint", "joint_layout", "padded_size"]
 
-_OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+_OK_STATUS = CONVERGED_STATUS  # the one home: soilmodel.threadsafe
 _DEFAULT_OPTS = {"ipopt.tol": 1e-12, "ipopt.acceptable_tol": 1e-8, "ipopt.max_iter": 500}
 
 

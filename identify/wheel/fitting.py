@@ -13,7 +13,7 @@ import numpy as np
 from ...soilmodel.errors import DataError
 from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.soil import Soil
-from ...soilmodel.threadsafe import call_solver
+from ...soilmodel.threadsafe import best_of_starts
 from ...soilmodel.wheel import DEFAULT_WHEEL_SETTINGS, WheelSettings, evaluate, wheel_forces_function
 from ...soilmodel.wheel_sweep import WheelSweep, check_sweep_for_wheel
 from .problem import DEFAULT_WHEEL_BOUNDS, PARAMETER_SCALES, WHEEL_PARAMETERS, WheelBounds, wheel_solver
@@ -43,7 +43,6 @@ START_BOUND_MARGIN = 1e-3
 START_BEKKER_K = 1.5e6
 #: Effects the wheel fit can add (each a parameter of :data:`WHEEL_PARAMETERS`, 0 when off).
 WHEEL_EFFECTS = ("slip_sinkage",)
-_OK_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 
 
 @dataclass(frozen=True)
@@ -148,21 +147,8 @@ def _p(data: WheelSweep, th: np.ndarray) -> np.ndarray:
 def _solve_starts(
     solver: ca.Function, starts: list[np.ndarray], free: np.ndarray, p: np.ndarray, lbx: np.ndarray, ubx: np.ndarray
 ) -> tuple[tuple, int]:
-    """Solve from every start (SI, all parameters); the best ``(failed, f, x, status, iterations)`` (a converged
-    solve before any other, then the least objective) and how many converged."""
-    best, n_ok = None, 0
-    for th0 in starts:
-        sol, stats = call_solver(solver, x0=(th0 / PARAMETER_SCALES)[free], p=p, lbx=lbx, ubx=ubx)
-        f = float(sol["f"])
-        status = str(stats.get("return_status", "unknown"))
-        ok = bool(stats.get("success", False)) and status in _OK_STATUS and math.isfinite(f)
-        n_ok += ok
-        cand = (not ok, f, np.asarray(sol["x"], dtype=float).ravel(), status, int(stats.get("iter_count", -1)))
-        if best is None or cand[:2] < best[:2]:
-            best = cand
-    if best is None:
-        raise ValueError("no start to solve from")
-    return best, n_ok
+    """Solve from every start (SI, all parameters): :func:`~soiltrack.soilmodel.threadsafe.best_of_starts`."""
+    return best_of_starts(solver, [(th0 / PARAMETER_SCALES)[free] for th0 in starts], p=p, lbx=lbx, ubx=ubx)
 
 
 def fit_wheel(data: WheelSweep, wheel: RigidWheel, options: WheelFitOptions = WheelFitOptions()) -> WheelFitResult:
