@@ -21,7 +21,9 @@ def plot_segments(smap, path: str) -> str:
         if not usable:
             for ax in (ax_f, ax_k):
                 ax.axvspan(*x, color="0.85", lw=0)
-            ax_f.text(0.5 * sum(x), 0.02, s.outcome, transform=ax_f.get_xaxis_transform(), ha="center", fontsize=7)
+            # a usable fit whose F_max is not determined (gentle driving) is labelled so, not just "usable"
+            label = s.outcome if s.outcome != "usable" or not s.not_identified else "F_max, K\nnot identified"
+            ax_f.text(0.5 * sum(x), 0.02, label, transform=ax_f.get_xaxis_transform(), ha="center", fontsize=7)
             continue
         for ax, val, ci, scale in (
             (ax_f, s.max_thrust_N, s.max_thrust_ci95, 1.0),
