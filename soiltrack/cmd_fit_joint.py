@@ -38,8 +38,9 @@ def single_file_args(a: argparse.Namespace) -> bool:
 
 
 def _read(a: argparse.Namespace, path: str, gear, read_record):
-    """One file as a wheel sweep (with a rigid wheel) or a bevameter test (shear, annulus, plate)."""
-    from .soilmodel import PlateTest, ShearTest, read_csv
+    """One file as a wheel sweep (with a rigid wheel), a track sweep or a drive log (with a tracked vehicle) or a
+    bevameter test (shear, annulus, plate)."""
+    from .soilmodel import DriveLog, PlateTest, ShearTest, SlipData, read_csv
     from .soilmodel.wheel_sweep import read_wheel_sweep
 
     from .soilmodel.csvread import read_header
@@ -52,11 +53,14 @@ def _read(a: argparse.Namespace, path: str, gear, read_record):
     if record is not None:
         return record
     data = read_csv(path, columns=columns_arg(a))
-    if isinstance(data, (ShearTest, PlateTest)):
+    if isinstance(data, (ShearTest, PlateTest)) or (
+        isinstance(data, (SlipData, DriveLog)) and isinstance(gear, Vehicle)
+    ):
         return data
     raise DataError(
-        "a joint fit takes wheel sweeps (--vehicle WHEEL.json) and bevameter tests; this file is a "
-        f"{type(data).__name__}" + ("" if gear is None else f" with a {type(gear).__name__}") + ", not joined yet",
+        "a joint fit takes wheel sweeps (--vehicle WHEEL.json), track sweeps and drive logs (--vehicle VEHICLE) and "
+        f"bevameter tests; this file is a {type(data).__name__}"
+        + (" without a --vehicle" if gear is None else f" with a {type(gear).__name__}"),
         file=path,
     )
 

@@ -29,7 +29,10 @@ with the reason), 2 bad input."""
 
 
 def slip_arg(text: str) -> list[float]:
-    """``A:B:STEP`` -> the slips A, A + STEP, ... up to B (inclusive within rounding); DataError otherwise."""
+    """``A:B:STEP`` -> the slips A, A + STEP, ... up to B (inclusive within rounding), or a list ``S1,S2,...``
+    (the slips of a measured sweep, in increasing order); DataError otherwise."""
+    if "," in text or ":" not in text:
+        return _slip_list(text)
     parts = text.split(":")
     if len(parts) != 3:
         raise DataError(f"--slip expects A:B:STEP (e.g. 0:0.9:0.05), got {text!r}")
@@ -49,6 +52,23 @@ def slip_arg(text: str) -> list[float]:
     if n > MAX_SLIPS:
         raise DataError(f"--slip {text}: {n} slips, more than {MAX_SLIPS}; use a larger STEP")
     return [round(a + k * step, 12) for k in range(n)]
+
+
+def _slip_list(text: str) -> list[float]:
+    """``S1,S2,...`` -> those slips (finite, increasing, in [-1, 1), at most MAX_SLIPS)."""
+    try:
+        vals = [float(p) for p in text.split(",")]
+    except ValueError:
+        raise DataError(f"--slip expects A:B:STEP or a list S1,S2,... of numbers, got {text!r}") from None
+    if not all(math.isfinite(v) for v in vals):
+        raise DataError(f"--slip expects finite numbers, got {text!r}")
+    if any(b <= a for a, b in zip(vals, vals[1:])):
+        raise DataError(f"--slip {text}: a list of slips must increase")
+    if vals[0] < -1 or vals[-1] >= 1:
+        raise DataError(f"--slip {text}: slips must lie in [-1, 1) (a wheel: -1 locked, < 0 skid; a track: [0, 1))")
+    if len(vals) > MAX_SLIPS:
+        raise DataError(f"--slip {text}: {len(vals)} slips, more than {MAX_SLIPS}")
+    return vals
 
 
 def _soil(text: str) -> Soil:
@@ -131,7 +151,8 @@ def add_parser(sub) -> None:
         "--slip",
         required=True,
         metavar="A:B:STEP",
-        help="slips from A to B (inclusive) by STEP: a wheel in [-1, 1) (skid down to locked: --slip=-1:0.9:0.1), "
+        help="slips from A to B (inclusive) by STEP, or a list S1,S2,... (e.g. a measured sweep's): a wheel in "
+        "[-1, 1) (skid down to locked: --slip=-1:0.9:0.1), "
         "a track in [0, 1)",
     )
     p.add_argument("--load", metavar="N", help="normal load, N (required for a wheel; a track: default its weight)")

@@ -168,7 +168,7 @@ def test_python_joint_fit_bad_input():
         rolling_resistance=0.05,
     )
     w = WheelSweep(slip=np.array([0.1, 0.2, 0.3]), drawbar_pull=np.ones(3), normal_load=np.full(3, 50.0))
-    with pytest.raises(DataError, match="not joined yet"):
+    with pytest.raises(DataError, match="needs a RigidWheel"):
         fit([w, s], veh)
     with pytest.raises(DataError, match="needs a RigidWheel"):
         fit([w, s], None)

@@ -30,7 +30,18 @@ from ..estimates.least_squares import core_stats_one
 from ..wheel.fitting import START_BOUND_MARGIN, WheelFitOptions, fit_wheel
 from ..wheel.problem import DEFAULT_WHEEL_BOUNDS, PARAMETER_SCALES, WHEEL_PARAMETERS, WheelBounds
 from ..wheel.result import NULL_TOL
-from .problem import GROUSER_SCALE, N_SHARED, N_SPECIFIC, SHARED, BlockSpec, block_touches, box8, joint_solver
+from .problem import (
+    GROUSER_SCALE,
+    N_SHARED,
+    N_SPECIFIC,
+    SHARED,
+    SUMMARY_CHANNEL,
+    TRACK_KINDS,
+    BlockSpec,
+    block_touches,
+    box8,
+    joint_solver,
+)
 from .result import JointFitResult, build_joint_result
 
 __all__ = ["fit_datasets", "fit_joint_call"]
@@ -42,30 +53,31 @@ _START_K_M = (0.008, 0.025)
 
 def _as_block(
     data, gear, settings: WheelSettings, effects: tuple[str, ...], free_grouser: bool = False
-) -> tuple[BlockSpec, np.ndarray]:
-    """The block spec and data vector of one data set (checked: kind against gear)."""
-    if isinstance(data, (DriveLog,)) or isinstance(gear, Vehicle):
-        raise DataError(
-            "the joint fit of several data sets takes wheel sweeps (with a RigidWheel) and bevameter tests; "
-            "tracked vehicles' sweeps and drive logs are not joined yet",
-            file=getattr(data, "source", None),
-        )
+) -> tuple[BlockSpec, np.ndarray, Any]:
+    """The block spec, data vector and (for a drive log) own fit of one data set (checked: kind against gear)."""
+    if isinstance(gear, Vehicle) or isinstance(data, DriveLog):
+        return _track_block(data, gear)
     if isinstance(data, (ShearTest, AnnulusTest, PlateTest)):
         if isinstance(data, ShearTest):
-            return BlockSpec("shear", data.n_samples), np.concatenate(
-                [data.normal_pressure, data.shear_displacement, data.shear_stress]
+            return (
+                BlockSpec("shear", data.n_samples),
+                np.concatenate([data.normal_pressure, data.shear_displacement, data.shear_stress]),
+                None,
             )
         if isinstance(data, AnnulusTest):
             cols = [data.normal_pressure, data.rotation, data.torque, data.inner_radius, data.outer_radius]
-            return BlockSpec("annulus", data.n_samples), np.concatenate(
-                [np.broadcast_to(c, data.n_samples) for c in cols]
+            return (
+                BlockSpec("annulus", data.n_samples),
+                np.concatenate([np.broadcast_to(c, data.n_samples) for c in cols]),
+                None,
             )
         z, pr = data.sinkage, data.pressure
         z_ref = float(np.exp(np.mean(np.log(z[(z > 0) & (pr > 0)]))))
-        return BlockSpec("plate", data.n_samples), np.concatenate([data.plate_width, z, pr, [z_ref]])
+        return BlockSpec("plate", data.n_samples), np.concatenate([data.plate_width, z, pr, [z_ref]]), None
     if not isinstance(gear, RigidWheel):
         raise DataError(
-            f"a {type(data).__name__} in a joint fit needs a RigidWheel, got {type(gear).__name__}",
+            f"a {type(data).__name__} in a joint fit needs a RigidWheel (or, for SlipData, a tracked Vehicle), "
+            f"got {type(gear).__name__}",
             file=getattr(data, "source", None),
         )
     if isinstance(data, SlipData):
@@ -86,7 +98,51 @@ def _as_block(
         specific_free="slip_sinkage" in effects,
         grouser_free=free_grouser,
     )
-    return spec, sweep_parameters(data, np.zeros(0))
+    return spec, sweep_parameters(data, np.zeros(0)), None
+
+
+def _track_block(data, gear) -> tuple[BlockSpec, np.ndarray, Any]:
+    """A tracked vehicle's slip sweep (its rows) or drive log (its own fit's F_max and K, whitened)."""
+    src = getattr(data, "source", None)
+    if not isinstance(gear, Vehicle):
+        raise DataError(
+            f"a {type(data).__name__} in a joint fit needs a tracked Vehicle, got {type(gear).__name__}", file=src
+        )
+    if isinstance(data, SlipData):
+        W = data.loads(default=gear.weight)
+        spec = BlockSpec("track", data.n_samples, vehicle=gear, measured=data.measured)
+        return spec, np.concatenate([data.slip, W, data.values]), None
+    if not isinstance(data, DriveLog):
+        raise DataError(
+            f"a {type(data).__name__} in a joint fit needs a RigidWheel; with a tracked Vehicle a joint fit takes "
+            "slip sweeps (SlipData) and drive logs",
+            file=src,
+        )
+    from ..drivelog.fit import fit_drive_log
+
+    own = fit_drive_log(data, gear)
+    return BlockSpec("drivelog", data.n_samples, vehicle=gear), _summary_vector(own, gear, src), own
+
+
+def _summary_vector(own, gear: Vehicle, src) -> np.ndarray:
+    """``[F_max, K, L (row-major), W, A]`` of a drive log's own fit, ``L^T L`` the inverse covariance of
+    (F_max, K); K left out (its row of L zero) where the log does not determine it."""
+    ex = own.extra if own.success else {}
+    F, sF = ex.get("max_thrust_N"), ex.get("max_thrust_stderr_N")
+    if F is None or sF is None or not (math.isfinite(F) and math.isfinite(sF) and sF > 0):
+        raise DataError(
+            f"the drive log's own fit is {own.outcome} ({own.fit_outcome.reason or 'no F_max standard error'}): a "
+            "drive log joins a joint fit through its determined F_max and K",
+            file=src,
+        )
+    K, sK, rho = ex.get("shear_modulus_m"), ex.get("shear_modulus_stderr_m"), ex.get("corr_max_thrust_shear_modulus")
+    if K is not None and sK is not None and math.isfinite(sK) and sK > 0:
+        rho = float(rho) if rho is not None and math.isfinite(rho) else 0.0
+        cov = np.array([[sF**2, rho * sF * sK], [rho * sF * sK, sK**2]])
+        L = np.linalg.inv(np.linalg.cholesky(cov))
+    else:
+        K, L = 0.0, np.array([[1.0 / sF, 0.0], [0.0, 0.0]])
+    return np.concatenate([[F, K], L.ravel(), [gear.weight, gear.contact_area]])
 
 
 def _gears(datasets: Sequence, gears) -> list:
@@ -138,7 +194,8 @@ def _statistics(specs, outs: list[np.ndarray]) -> dict[str, Any]:
             q += 3
             s = math.sqrt(float(r @ r) / r.size)
             sds[name] = s
-            s_eff = math.hypot(s, floor)
+            # a drive log's summary is whitened by its own fit's covariance: known scale 1
+            s_eff = 1.0 if name == SUMMARY_CHANNEL else math.hypot(s, floor)
             rws.append(r / s_eff)
             Js.append(J.reshape(r.size, -1) / s_eff)
         noise.append(sds)
@@ -158,7 +215,8 @@ def _statistics(specs, outs: list[np.ndarray]) -> dict[str, Any]:
             "dof": rw.size,
             "n_rows": rw.size,
         }
-    st = core_stats_one(np.where(np.isfinite(J), J, 0.0), np.where(np.isfinite(rw), rw, 0.0), False)
+    known = all(name == SUMMARY_CHANNEL for sp in specs for name in sp.channels)
+    st = core_stats_one(np.where(np.isfinite(J), J, 0.0), np.where(np.isfinite(rw), rw, 0.0), known)
     D, V, Pinv = st["D"][0], st["V"][0], st["Pinv"][0]
     nonnull, rank, dof, s2 = st["nonnull"][0], int(st["rank"][0]), int(st["dof"][0]), float(st["s2"][0])
     null = V[:, ~nonnull]
@@ -232,8 +290,15 @@ def _default_starts(spec: BlockSpec, d: np.ndarray) -> list[np.ndarray]:
     return out
 
 
-def _own_theta(data, gear, spec, fixed, effects, bounds, settings) -> tuple[list[np.ndarray], Any]:
-    """The library's own fit of one data set (its outcome) and start 7-vectors from it."""
+def _own_theta(data, gear, spec, fixed, effects, bounds, settings, official=None) -> tuple[list[np.ndarray], Any]:
+    """The library's own fit of one data set (its outcome) and start 8-vectors from it."""
+    if spec.kind in TRACK_KINDS:
+        if official is None:
+            from ..fitting import fit as fit_one  # the sweep fit of the library (its outcome)
+
+            official = fit_one(data, gear)
+        starts = [_default8(official.theta)] if official.success and np.all(np.isfinite(official.theta)) else []
+        return starts, official
     if spec.kind == "wheel":
         from ..dispatch import wheel_sweep_of
 
@@ -246,7 +311,7 @@ def _own_theta(data, gear, spec, fixed, effects, bounds, settings) -> tuple[list
     starts = []
     vals = test_fit.values_si
     if vals and all(v is not None for v in vals):
-        th = np.array([500.0, math.radians(30.0), 0.02, 0.0, 1.5e6, 1.0, 0.0, 0.0])
+        th = _default8()
         if spec.kind == "plate":
             th[3:6] = vals
         else:
@@ -255,12 +320,19 @@ def _own_theta(data, gear, spec, fixed, effects, bounds, settings) -> tuple[list
     return starts, test_fit
 
 
+def _default8(csk=None) -> np.ndarray:
+    """A start 8-vector: c, phi, K from ``csk`` (default 500 Pa, 30 deg, 0.02 m), a middling Bekker soil."""
+    c, phi, K = (500.0, math.radians(30.0), 0.02) if csk is None else (float(v) for v in csk)
+    return np.array([c, phi, K, 0.0, 1.5e6, 1.0, 0.0, 0.0])
+
+
 def _own_fits(datasets, gears, blocks, fixed, effects, bounds, settings) -> list[dict[str, Any]]:
     """Each data set's block solved alone (started from the library's own fit of its kind, or a grid)."""
     own = []
-    for d, g, (spec, dp) in zip(datasets, gears, blocks):
-        starts7, official = _own_theta(d, g, spec, fixed, effects, bounds, settings)
-        starts7 = starts7 + _default_starts(spec, dp) if not starts7 else starts7
+    for d, g, (spec, dp, official0) in zip(datasets, gears, blocks):
+        starts7, official = _own_theta(d, g, spec, fixed, effects, bounds, settings, official0)
+        if not starts7 or spec.kind in TRACK_KINDS:
+            starts7 = starts7 + _default_starts(spec, dp)
         sf, p, lbx, ubx, _ = _problem([spec], [dp], fixed, bounds)
         sol = _solve([spec], sf, p, [_x_from_theta([t], [spec], sf, bounds) for t in starts7], lbx, ubx)
         own.append({"solution": sol, "shared_free": sf, "official": official, "theta8": _full8(sol, [spec])[0]})
@@ -330,6 +402,7 @@ def fit_datasets(
     starts = _joint_starts(own, specs, shared_free, bounds)
     joint = _solve(specs, shared_free, p, starts, lbx, ubx)
     return build_joint_result(
+        leave_one_out=_leave_one_out(own, specs, [b[1] for b in blocks], joint, fixed, bounds),
         labels=labels,
         datasets=datasets,
         gears=gears,
@@ -342,6 +415,35 @@ def fit_datasets(
         bounds=bounds,
         solve_time_s=time.perf_counter() - t0,
     )
+
+
+def _lr_p(own, sol) -> float | None:
+    """p-value of the likelihood-ratio test of the joint solution ``sol`` against the own fits ``own``."""
+    from ..estimates.distributions import chi2_sf
+
+    stat = 2 * sum(float(sol["f_blocks"][d]) - float(o["solution"]["f_blocks"][0]) for d, o in enumerate(own))
+    dof = int(sum(o["solution"]["rank"] for o in own) - sol["rank"])
+    if not (math.isfinite(stat) and dof > 0 and sol["converged"]):
+        return None
+    return float(chi2_sf(max(stat, 0.0), dof))
+
+
+def _leave_one_out(own, specs, data_p, joint, fixed, bounds) -> list[float | None] | None:
+    """Where one soil is refused and there are three or more data sets: per data set the test's p-value of
+    the others (each such joint solved again, started from the others' own fits); None otherwise."""
+    from ..outcome import OUTCOME_SETTINGS
+
+    p_all = _lr_p(own, joint)
+    if len(specs) < 3 or p_all is None or p_all >= OUTCOME_SETTINGS.lack_of_fit_level:
+        return None
+    out: list[float | None] = []
+    for d in range(len(specs)):
+        keep = [e for e in range(len(specs)) if e != d]
+        sp, ow = [specs[e] for e in keep], [own[e] for e in keep]
+        sf, p, lbx, ubx, _ = _problem(sp, [data_p[e] for e in keep], fixed, bounds)
+        sol = _solve(sp, sf, p, _joint_starts(ow, sp, sf, bounds), lbx, ubx)
+        out.append(_lr_p(ow, sol))
+    return out
 
 
 def _full8(sol, specs) -> list[np.ndarray]:

@@ -11,7 +11,16 @@ the likelihood-ratio statistic. Blocks:
   parameters and its own slip-sinkage coefficient (a gear-specific parameter);
 - ``shear``: a bevameter shear test (stress against displacement, Janosi-Hanamoto): c, phi, K;
 - ``annulus``: a shear annulus (torque against rotation, integrated across the ring): c, phi, K;
-- ``plate``: a plate sinkage test (Bekker pressure): k_c, k_phi, n.
+- ``plate``: a plate sinkage test (Bekker pressure): k_c, k_phi, n;
+- ``track``: a tracked vehicle's slip sweep (tractive force or drawbar pull against slip, the
+  sweep fit's own observation Function, :func:`soiltrack.identify.sweep.model.observation_function`,
+  without effects): c, phi, K;
+- ``drivelog``: a drive log, entered as its own fit's estimate of ``(F_max, K)`` with their
+  covariance (the log's likelihood to second order at its optimum; the latent-slip fit is
+  :func:`soiltrack.identify.drivelog.fit.fit_drive_log`'s): ``F_max = A c + W tan(phi)``
+  (:func:`soiltrack.soilmodel.traction.max_thrust_expr`) and K. Its block is
+  ``1/2 |L (g(theta) - g_hat)|^2`` with ``L^T L`` the inverse covariance: zero at the log's own
+  fit, so twice its rise is its Mahalanobis distance, the log's share of the statistic.
 
 Variables: the free shared soil parameters, then each wheel block's free gear-specific
 parameters, scaled by :data:`~soiltrack.identify.wheel.problem.PARAMETER_SCALES`. NLP parameters:
@@ -30,7 +39,10 @@ import numpy as np
 from ...soilmodel.bevameter import annulus_torque_expr, plate_pressure_expr, shear_stress_expr
 from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.threadsafe import locked_cache
+from ...soilmodel.traction import max_thrust_expr
+from ...soilmodel.vehicle import Vehicle
 from ...soilmodel.wheel import WheelSettings
+from ..sweep.model import observation_function
 from ..wheel.problem import (
     NOISE_FLOOR_REL,
     PARAMETER_SCALES,
@@ -49,6 +61,8 @@ __all__ = [
     "N_SHARED",
     "N_SPECIFIC",
     "GROUSER_SCALE",
+    "SUMMARY_CHANNEL",
+    "TRACK_KINDS",
 ]
 
 #: The soil's parameters, shared by every data set (SI names of the wheel fit).
@@ -62,15 +76,22 @@ N_SPECIFIC = len(SPECIFIC)
 GROUSER_SCALE = 1e-2
 #: Upper bound of a fitted grouser height, as a fraction of the wheel's radius.
 GROUSER_MAX_REL = 0.5
+#: The channel of a drive-log block: its own fit's (F_max, K) whitened by their covariance (known scale 1).
+SUMMARY_CHANNEL = "drive_log_max_thrust_and_shear_modulus"
+#: The block kinds of a tracked vehicle (running gear a :class:`Vehicle`).
+TRACK_KINDS = ("track", "drivelog")
+#: Length of a drive-log block's data vector: g_hat (2), the whitening matrix L (4, row-major), W, A.
+_SUMMARY_P = 8
 
 
 @dataclass(frozen=True)
 class BlockSpec:
     """What shapes one data set's block (hashable: the solver's cache key).
 
-    ``kind`` one of ``wheel``, ``shear``, ``annulus``, ``plate``; ``n`` its rows; for a wheel its
-    :class:`RigidWheel`, the model settings, whether sinkage and torque are measured and whether its
-    slip-sinkage coefficient is free.
+    ``kind`` one of ``wheel``, ``shear``, ``annulus``, ``plate``, ``track``, ``drivelog``; ``n`` its rows;
+    for a wheel its :class:`RigidWheel`, the model settings, whether sinkage and torque are measured and
+    whether its slip-sinkage coefficient is free; for a track sweep or a drive log its :class:`Vehicle`
+    (and for a sweep the measured quantity, ``tractive_force`` or ``drawbar_pull``).
     """
 
     kind: str
@@ -81,13 +102,19 @@ class BlockSpec:
     torque: bool = False
     specific_free: bool = False
     grouser_free: bool = False
+    vehicle: Vehicle | None = None
+    measured: str = "tractive_force"
 
     @property
     def p_size(self) -> int:
         """Length of the block's data vector."""
         if self.kind == "wheel":
             return (6 if self.torque else 4) * self.n
-        return {"shear": 3, "annulus": 5, "plate": 3}[self.kind] * self.n + (1 if self.kind == "plate" else 0)
+        if self.kind == "drivelog":
+            return _SUMMARY_P
+        return {"shear": 3, "annulus": 5, "plate": 3, "track": 3}[self.kind] * self.n + (
+            1 if self.kind == "plate" else 0
+        )
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -98,7 +125,13 @@ class BlockSpec:
                 + (("sinkage_m",) if self.sinkage else ())
                 + (("wheel_torque_Nm",) if self.torque else ())
             )
-        return {"shear": ("shear_stress_Pa",), "annulus": ("torque_per_ring_Pa",), "plate": ("pressure_Pa",)}[self.kind]
+        return {
+            "shear": ("shear_stress_Pa",),
+            "annulus": ("torque_per_ring_Pa",),
+            "plate": ("pressure_Pa",),
+            "track": (f"{self.measured}_N",),
+            "drivelog": (SUMMARY_CHANNEL,),
+        }[self.kind]
 
 
 def box8(spec: BlockSpec, bounds: WheelBounds) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -115,7 +148,7 @@ def block_touches(spec: BlockSpec) -> tuple[bool, ...]:
         return (True,) * N_SHARED
     if spec.kind == "plate":
         return (False, False, False, True, True, True)
-    return (True, True, True, False, False, False)
+    return (True, True, True, False, False, False)  # shear, annulus, track sweep, drive log
 
 
 def _floor_term(r, floor, n: int):
@@ -125,6 +158,8 @@ def _floor_term(r, floor, n: int):
 def _block(spec: BlockSpec, theta, p, h=None) -> tuple[Any, list[tuple[Any, Any]]]:
     """``(f, [(residual, floor), ...])`` of one block (theta: 7 SI parameters; h the grouser height if freed)."""
     n = spec.n
+    if spec.kind in TRACK_KINDS:
+        return _track_block(spec, theta, p)
     cols = [p[q * n : (q + 1) * n] for q in range(spec.p_size // n)]
     if spec.kind == "wheel":
         assert spec.wheel is not None and spec.settings is not None
@@ -156,6 +191,23 @@ def _block(spec: BlockSpec, theta, p, h=None) -> tuple[Any, list[tuple[Any, Any]
         z_ref = p[3 * n]
         r = plate_pressure_expr(z, b, k_c, k_phi, n_b, z_ref) - pr
         floor = NOISE_FLOOR_REL * ca.mmax(ca.fabs(pr))
+    return _floor_term(r, floor, n), [(r, floor)]
+
+
+def _track_block(spec: BlockSpec, theta, p) -> tuple[Any, list[tuple[Any, Any]]]:
+    """A track sweep's concentrated log-likelihood, or a drive log's quadratic summary (see the module)."""
+    assert spec.vehicle is not None
+    c, phi, K = theta[0], theta[1], theta[2]
+    if spec.kind == "drivelog":
+        g_hat, L, W, A = p[0:2], ca.reshape(p[2:6], 2, 2).T, p[6], p[7]
+        r = ca.mtimes(L, ca.vertcat(max_thrust_expr(c, phi, W, A, "full"), K) - g_hat)
+        return 0.5 * ca.sumsqr(r), [(r, ca.DM(0.0))]
+    n = spec.n
+    i, W, y = p[0:n], p[n : 2 * n], p[2 * n : 3 * n]
+    obs = observation_function(spec.vehicle, None, "full", spec.measured).map(n)
+    y_model = obs(i.T, W.T, ca.repmat(ca.vertcat(c, phi, K), 1, n))[0].T
+    r = y_model - y
+    floor = NOISE_FLOOR_REL * ca.mmax(ca.fabs(y))
     return _floor_term(r, floor, n), [(r, floor)]
 
 

@@ -247,8 +247,13 @@ def _columns(specs, shared_free) -> tuple[list[int | None], list[list[tuple[int,
     return cols, spec_cols
 
 
-def consistency_test(own, joint, labels, own_est, joint_est) -> dict[str, Any]:
-    """The likelihood-ratio test of one soil, each data set's share, the shifts in standard errors."""
+def consistency_test(own, joint, labels, own_est, joint_est, leave_one_out=None) -> dict[str, Any]:
+    """The likelihood-ratio test of one soil, each data set's share, the shifts in standard errors.
+
+    ``leave_one_out``: per data set the p-value of the same test on the OTHER data sets (None where not
+    testable); given, the disagreeing data set is the one without which the others agree best (else the
+    largest share: a block whose noise level is estimated gives in to a precise one, so with three or more
+    data sets the share alone can name the wrong one)."""
     f_joint = joint["f_blocks"]
     shares = [2 * (float(f_joint[d]) - float(o["solution"]["f_blocks"][0])) for d, o in enumerate(own)]
     shares = [max(0.0, x) if math.isfinite(x) else math.nan for x in shares]
@@ -282,6 +287,10 @@ def consistency_test(own, joint, labels, own_est, joint_est) -> dict[str, Any]:
         out["reason_untestable"] = "the data sets identify no parameter in common (degrees of freedom 0)"
         return out
     worst = int(np.argmax(shares))
+    loo = None if leave_one_out is None else [(-1.0 if v is None else float(v)) for v in leave_one_out]
+    if loo is not None and max(loo) >= 0:
+        worst = int(np.argmax(loo))
+        out["leave_one_out_p"] = list(leave_one_out)
     if out["p_value"] < OUTCOME_SETTINGS.lack_of_fit_level:
         big = [(abs(float(v)), k) for k, s in shifts.items() if (v := s[worst]) is not None]
         par = (
@@ -294,7 +303,13 @@ def consistency_test(own, joint, labels, own_est, joint_est) -> dict[str, Any]:
             disagrees=labels[worst],
             reason=(
                 f"the data sets do not share one soil (likelihood ratio {stat:.4g} on {dof} dof, p = "
-                f"{out['p_value']:.3g}): {labels[worst]} disagrees most ({shares[worst]:.3g} of the statistic){par}"
+                f"{out['p_value']:.3g}): {labels[worst]} disagrees most ({shares[worst]:.3g} of the statistic"
+                + (
+                    f"; without it the others agree with p = {loo[worst]:.3g}"
+                    if loo is not None and loo[worst] >= 0
+                    else ""
+                )
+                + f"){par}"
             ),
         )
     return out
@@ -303,6 +318,14 @@ def consistency_test(own, joint, labels, own_est, joint_est) -> dict[str, Any]:
 def _gear_json(gear) -> dict[str, Any] | None:
     if gear is None:
         return None
+    if not hasattr(gear, "radius"):  # a tracked Vehicle (a track sweep or a drive log)
+        return {
+            "kind": "track",
+            "name": gear.name or None,
+            "weight_N": gear.weight,
+            "contact_area_m2": gear.contact_area,
+            "track_length_m": gear.track_length,
+        }
     return {
         "kind": "rigid_wheel",
         "name": gear.name or None,
@@ -317,9 +340,14 @@ def _own_entry(label, spec, gear, o, est) -> dict[str, Any]:
     return {
         "label": label,
         "file": label,
-        "kind": {"wheel": "wheel_sweep", "shear": "shear_test", "annulus": "shear_annulus", "plate": "plate_test"}[
-            spec.kind
-        ],
+        "kind": {
+            "wheel": "wheel_sweep",
+            "shear": "shear_test",
+            "annulus": "shear_annulus",
+            "plate": "plate_test",
+            "track": "track_sweep",
+            "drivelog": "drive_log",
+        }[spec.kind],
         "rows": spec.n,
         "gear": _gear_json(gear),
         "outcome": off.outcome,
@@ -333,7 +361,7 @@ def _own_entry(label, spec, gear, o, est) -> dict[str, Any]:
 
 
 def build_joint_result(
-    *, labels, datasets, gears, specs, own, joint, shared_free, theta8, fixed, bounds, solve_time_s
+    *, labels, datasets, gears, specs, own, joint, shared_free, theta8, fixed, bounds, solve_time_s, leave_one_out=None
 ) -> JointFitResult:
     """Assemble the :class:`JointFitResult` from the own solutions and the joint one (:mod:`.fit`)."""
     from .problem import block_touches
@@ -348,12 +376,12 @@ def build_joint_result(
         touch = block_touches(s)
         idx = [(k, oc[k]) for k in range(N_SHARED) if touch[k]]
         own_est.append(_estimates(o["theta8"], idx, s, o["solution"], bounds, fixed_names))
-    cons = consistency_test(own, joint, labels, own_est, joint_est)
+    cons = consistency_test(own, joint, labels, own_est, joint_est, leave_one_out)
     notes = []
     if not all(o["solution"]["converged"] for o in own):
         bad = [lab for lab, o in zip(labels, own) if not o["solution"]["converged"]]
         notes.append(f"own fit did not converge: {', '.join(bad)} (its share of the statistic is not reliable)")
-    on_b = [k for k, e in joint_est.items() if e.at_bound]
+    on_b = [k for k, e in joint_est.items() if e.at_bound and not e.fixed]
     if on_b:
         notes.append(
             f"on a bound in the joint fit: {', '.join(on_b)}; the chi-square reference of the test is approximate "
