@@ -294,9 +294,12 @@ def _own_theta(data, gear, spec, fixed, effects, bounds, settings, official=None
     """The library's own fit of one data set (its outcome) and start 8-vectors from it."""
     if spec.kind in TRACK_KINDS:
         if official is None:
-            from ..fitting import fit as fit_one  # the sweep fit of the library (its outcome)
+            from ...soilmodel.soil import PRACTICAL_BOUNDS
+            from ..sweep.ipopt import fit_ipopt
+            from ..sweep.problem import make_problem
 
-            official = fit_one(data, gear)
+            # the sweep fit's problem and solver (its outcome), without identify.fitting's extras
+            official = fit_ipopt(make_problem(data, gear, "full", PRACTICAL_BOUNDS))
         starts = [_default8(official.theta)] if official.success and np.all(np.isfinite(official.theta)) else []
         return starts, official
     if spec.kind == "wheel":
