@@ -212,3 +212,20 @@ def test_a_held_estimate_of_one_excitation_declares_no_change():
 def test_excitation_setting_is_checked():
     with pytest.raises(Exception, match="detect_min_excitations"):
         OnlineSettings(detect_min_excitations=0)
+
+
+@pytest.mark.slow
+def test_nothing_held_nothing_tested():
+    """Before anything is held the CUSUM does not run: the light vehicle, flat, pulls every 20-30 s (the
+    benchmark's scenario seed 12, uniform up to 50 s) raised a false alarm at 47.06 s against the horizon's own
+    iterate (residuals +3 to +7 over a 0.1 s pull), which no horizon had fused."""
+    pulls = random_pulls(120.0, (20, 30), (0.1, 0.3), (0.9, 0.97), 12)
+    cols = simulate("light", lambda t: SOILS["lete_sand"], 50.0, pulls, grade_deg=0.0, seed=12)
+    est = OnlineEstimator(VEHICLES["light"])
+    _replay(est, cols)
+    assert est.changes == []
+
+
+def test_model_error_setting_is_checked():
+    with pytest.raises(Exception, match="detect_model_rel"):
+        OnlineSettings(detect_model_rel=-0.01)

@@ -572,8 +572,11 @@ class OnlineEstimator:
         if s.memory:
             z = self._held_residual(t, z)
         # a change is judged against a soil whose F_max was determined, on samples loaded against it
+        # with the memory on, only what is held is tested (nothing held: nothing known to contradict; the
+        # horizon's own iterate between pulls is not known, measured: a false alarm against it on the light vehicle)
         loaded = (
-            self._F_known is not None
+            (self._held.known or not s.memory)
+            and self._F_known is not None
             and T >= s.detect_min_load * self._F_known
             and t - self._known_since >= s.detect_settle_s
         )
@@ -981,7 +984,9 @@ class OnlineEstimator:
         self._c_predict_held()
         wres, var = float(self._held_out[1]), max(float(self._held_out[2]), 0.0)
         sc = self._scale()
-        return wres / math.sqrt(sc * sc + self.settings.detect_held_sigmas**2 * var)
+        # the model's own discretisation error, a fraction of the sample's thrust (whitened like the residual)
+        bias = self.settings.detect_model_rel * abs(float(self._row[_R["T"]])) * float(self._row[_R["inv_sc"]])
+        return wres / math.sqrt(sc * sc + self.settings.detect_held_sigmas**2 * var + bias * bias)
 
     def _note_informative(self, t: float, T: float, sT: float) -> None:
         """Keep the time of a sample loaded enough to inform F_max (relative to what is known)."""
