@@ -224,8 +224,3 @@ def test_nothing_held_nothing_tested():
     est = OnlineEstimator(VEHICLES["light"])
     _replay(est, cols)
     assert est.changes == []
-
-
-def test_model_error_setting_is_checked():
-    with pytest.raises(Exception, match="detect_model_rel"):
-        OnlineSettings(detect_model_rel=-0.01)

@@ -984,9 +984,7 @@ class OnlineEstimator:
         self._c_predict_held()
         wres, var = float(self._held_out[1]), max(float(self._held_out[2]), 0.0)
         sc = self._scale()
-        # the model's own discretisation error, a fraction of the sample's thrust (whitened like the residual)
-        bias = self.settings.detect_model_rel * abs(float(self._row[_R["T"]])) * float(self._row[_R["inv_sc"]])
-        return wres / math.sqrt(sc * sc + self.settings.detect_held_sigmas**2 * var + bias * bias)
+        return wres / math.sqrt(sc * sc + self.settings.detect_held_sigmas**2 * var)
 
     def _note_informative(self, t: float, T: float, sT: float) -> None:
         """Keep the time of a sample loaded enough to inform F_max (relative to what is known)."""

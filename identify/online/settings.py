@@ -127,13 +127,6 @@ class OnlineSettings:
         must move the thrust-slip curve beyond that many standard errors of what is known
         (the held estimate is shared by every sample, so its error would otherwise lean all of
         a pull's residuals to one side and read as a change).
-    detect_model_rel
-        ... and by the model's own discretisation error, this fraction of the sample's thrust (whitened
-        by the sample's thrust noise): the slip-relaxation rule reproduces a short pull's thrust to
-        about 2 % (the end-point rule reads 3-7 % high there, docs/drivelogs.md), and on a pull whose
-        thrust noise is below that, the error leans every residual of the pull to one side (measured:
-        residuals of +3 to +7 noise levels over a 0.1 s pull of the light vehicle at 88-90 % of a held
-        F_max that was right, a false alarm on uniform soil).
     detect_window_chi2
         A second test: when the horizon identifies F_max, its own estimate against the arrival
         cost (what the samples before it said, grown by the random walk); a squared Mahalanobis
@@ -196,7 +189,6 @@ class OnlineSettings:
     drift_max_thrust_rel: float = 0.003
     drift_shear_modulus_rel: float = 0.003
     detect_held_sigmas: float = 4.0
-    detect_model_rel: float = 0.02
     detect_window_chi2: float = 27.6
     detect_window_min_load: float = 0.8
     detect_min_excitations: int = 2
@@ -248,7 +240,6 @@ class OnlineSettings:
             "drift_max_thrust_rel",
             "drift_shear_modulus_rel",
             "detect_held_sigmas",
-            "detect_model_rel",
         ):
             val = getattr(self, name)
             if val is not None and (
