@@ -572,8 +572,11 @@ class OnlineEstimator:
         if s.memory:
             z = self._held_residual(t, z)
         # a change is judged against a soil whose F_max was determined, on samples loaded against it
+        # with the memory on, only what is held is tested (nothing held: nothing known to contradict; the
+        # horizon's own iterate between pulls is not known, measured: a false alarm against it on the light vehicle)
         loaded = (
-            self._F_known is not None
+            (self._held.known or not s.memory)
+            and self._F_known is not None
             and T >= s.detect_min_load * self._F_known
             and t - self._known_since >= s.detect_settle_s
         )
@@ -593,6 +596,11 @@ class OnlineEstimator:
         """After the sample entered: forget on a change, iterate, update the memory, report."""
         s = self.settings
         window = None
+        if change is not None and s.memory and self._excitations_before(change) < s.detect_min_excitations:
+            # what is held rests on one excitation (see detect_min_excitations): start it again
+            self._held.reset()
+            self._detector.reset(t)
+            change = None
         if change is not None:
             window = self._change_window(change)
             change = self._excitation_start(change, window[0])
@@ -920,9 +928,12 @@ class OnlineEstimator:
                     t_change = self._detector.run_start(first)
                     window = self._change_window(t_change)
                     t_ex = self._excitation_start(t_change, window[0])
-                    if self.changes and t_ex <= self.changes[-1]["window_s"][1] + EXCITATION_GAP_S:
-                        # the excitation that revealed the last change: its first estimate of the new
-                        # soil was held too early, not a second change; start the held estimate again
+                    revealed = bool(self.changes) and t_ex <= self.changes[-1]["window_s"][1] + EXCITATION_GAP_S
+                    if revealed or self._excitations_before(t_start) < s.detect_min_excitations:
+                        # the excitation that revealed the last change (its first estimate of the new soil
+                        # was held too early), or a held estimate resting on a single excitation (one
+                        # operating point of the curve: F_max an extrapolation along the ridge whose sandwich
+                        # covariance understates it): not a change; start the held estimate again
                         H.reset()
                         H.set(t, xw, Vw)
                         H.snapshot(t, t - s.window_s)
@@ -940,6 +951,24 @@ class OnlineEstimator:
             self._P[_P["xF_prior"]] = H.x[0] / self._F_ref
         H.snapshot(t, t - s.window_s)
         return None
+
+    def _excitations_before(self, t_start: float) -> int:
+        """Excitations before ``t_start``: runs of informative samples (gaps below :data:`EXCITATION_GAP_S`)
+        holding at least ``identify_min_informative`` of them (the fusion rule's count; a lone sample is none).
+
+        What the arrival cost of a horizon starting at ``t_start`` rests on (since the last change).
+        """
+        need = self.settings.identify_min_informative
+        n, last, run = 0, -math.inf, 0
+        for x in self._info_times:
+            if x >= t_start:
+                break
+            if x - last > EXCITATION_GAP_S:
+                n += run >= need
+                run = 0
+            run += 1
+            last = x
+        return n + (run >= need)
 
     def _held_residual(self, t: float, z: float) -> float:
         """The new sample's standardised residual against the held estimate (``z`` unchanged without one)."""
