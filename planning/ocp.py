@@ -34,8 +34,9 @@ boundary is a mesh point):
   (``e = B / (2 |R|)``, kinematic sprocket-speed ratio; the inner track's braking power is not
   recovered), the outer sprocket's torque at most ``o(v)`` and the inner's at least ``i(v)``
   (polynomials too: where the outer track's slip reaches the plan's limit accelerating and the
-  inner's skid braking, by the steering model), and the speed at most the turn's steady speed limit (``OcpData.speed_cap``: above it
-  the steady turn breaks a soil limit - sideslip, outer slip, no steady motion).
+  inner's skid braking, by the steering model), and the speed at most the turn's steady speed
+  limit (``OcpData.speed_cap``: above it the steady turn breaks a limit - sideslip, outer slip, no
+  steady motion, a sprocket's torque or the power).
 
 All data enter as parameters (soil, grade and compaction per interval, mesh distances,
 limits, weights), so one ``nlpsol`` (IPOPT) is built per (vehicle, n, objective, torque-rate

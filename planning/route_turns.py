@@ -154,7 +154,9 @@ def _steady_limits(vehicle, soil_vec, R, speeds, max_slip, lim, settings) -> tup
     """``classify_turn`` of the steady turn at each speed (one mapped call), and the solved columns."""
     n = speeds.size
     cols = motion_points(vehicle, np.tile(soil_vec, (n, 1)), speeds, speeds / R, np.zeros(n), np.zeros(n), settings)
-    return [classify_turn(vehicle, R, float(u), max_slip, lim, tuple(c[j] for c in cols)) for j, u in enumerate(speeds)], cols
+    return [
+        classify_turn(vehicle, R, float(u), max_slip, lim, tuple(c[j] for c in cols)) for j, u in enumerate(speeds)
+    ], cols
 
 
 def _speed_cap(vehicle, soil_vec, R, top, max_slip, lim, settings) -> tuple[float, str | None, str | None]:
@@ -242,7 +244,9 @@ def _slip_torque_caps(vehicle, soil_vec, R, speeds, max_slip, settings) -> tuple
         acc = sign * np.linspace(0.0, A_top, na)
         U, Acc = np.repeat(speeds, na), np.tile(acc, n)
         Om = U / R
-        solved, wl, wr, _v, Tl, Tr = motion_points(vehicle, np.tile(soil_vec, (n * na, 1)), U, Om, Acc, Acc / R, settings)
+        solved, wl, wr, _v, Tl, Tr = motion_points(
+            vehicle, np.tile(soil_vec, (n * na, 1)), U, Om, Acc, Acc / R, settings
+        )
         with np.errstate(divide="ignore", invalid="ignore"):
             sl, sr = 1 - (U - Om * B / 2) / (r * wl), 1 - (U + Om * B / 2) / (r * wr)
         so, si = (sr, sl) if R > 0 else (sl, sr)

@@ -48,11 +48,39 @@ def test_tight_turn_plans_lower_speed_and_its_torques_match_the_steering_model(r
     assert cruise.sum() >= 10
     e_o, e_i = np.abs(0.5 * M + dT - To), np.abs(0.5 * M - dT - Ti)
     scale = np.max(np.abs(To))
-    print(f"R {radius}: peak {turn.peak_speed_m_s:.4g} (straight {straight.peak_speed_m_s:.4g}), cap {tt.speed_cap:.4g}; "
-          f"steady points {cruise.sum()}: outer torque error {e_o[cruise].max():.4g} N m, inner {e_i[cruise].max():.4g} "
-          f"of {scale:.4g}; all points: {e_o[2:-2].max():.4g}, {e_i[2:-2].max():.4g}")
+    print(
+        f"R {radius}: peak {turn.peak_speed_m_s:.4g} (straight {straight.peak_speed_m_s:.4g}), cap {tt.speed_cap:.4g}; "
+        f"steady points {cruise.sum()}: outer torque error {e_o[cruise].max():.4g} N m, inner {e_i[cruise].max():.4g} "
+        f"of {scale:.4g}; all points: {e_o[2:-2].max():.4g}, {e_i[2:-2].max():.4g}"
+    )
     # at the steady points the planned torques (M/2 +- dT) satisfy the steady-turn model within 1 % of the
     # largest outer torque (the polynomial fits; measured 0.01-0.1 %); accelerating, the equal split of the
     # inertial thrust is an approximation, and the plan's feasibility rests on the post-check below
     assert e_o[cruise].max() <= 0.01 * scale and e_i[cruise].max() <= 0.01 * scale
     assert turn.turns[0]["feasible"] and turn.turns[0]["max_slip_outer"] <= 0.2 + 1e-6
+
+
+def test_pivot_turn_refused_by_the_steady_turn():
+    from soiltrack.soilmodel import DataError
+    from soiltrack.soilmodel.steering import steady_turn
+
+    for wl, wr in ((-3.0, 3.0), (0.0, 3.0)):  # counter-rotating (radius ~0) and one track stopped (B/2)
+        with pytest.raises(DataError, match="pivot turn"):
+            steady_turn(wl, wr, SAND, HEAVY)
+
+
+@pytest.mark.parametrize("opt,val", [("--grade-deg", "5"), ("--accel", "0.5"), ("--drawbar-N", "1000")])
+def test_margin_turn_on_a_grade_or_under_a_pull_exit_2(tmp_path, capsys, opt, val):
+    import json
+
+    from soiltrack.cli import main
+
+    d = HEAVY.to_dict()
+    d.pop("name", None)
+    vj = tmp_path / "v.json"
+    vj.write_text(json.dumps(d))
+    base = ["margin", "--vehicle", str(vj), "--terrain", "lete_sand", "--turn-radius", "10", "--speed", "1"]
+    rc = main([*base, opt, val])
+    err = capsys.readouterr().err
+    assert rc == 2 and opt in err and "outside the model" in err and "Traceback" not in err
+    assert main([*base, opt, "0"]) == 0  # a zero value is the flat steady turn itself
