@@ -1,22 +1,27 @@
 """Turns on routes: left and right sprocket torques through patches with ``radius_m`` (the steering model).
 
 A ROUTE.json patch may carry ``radius_m`` (signed, positive to the left; a turn of constant radius
-over the patch's length). The speed profile is planned as before (:mod:`.profile`, the straight-line
-optimal control problem); :func:`plan_turns` then solves, at every mesh point of a turning patch,
-the hull motion the plan prescribes - forward speed ``u``, its rate ``du/dt`` (central differences
-of the plan's speeds over its times), yaw rate ``u / R`` and its rate ``(du/dt) / R`` - with the
-steering model (:func:`~.turning.motion_points`: both sprockets' speeds and torques, the lateral
-speed) and checks it against the limits of ``margin --turn-radius`` (:func:`~.turning.classify_turn`:
-soil - steady motion, inner sprocket forwards, sideslip, outer slip at most the plan's slip
-limit -, torque per sprocket at most half the plan's ``max_torque_Nm``, power). A turn that breaks
-a limit makes the plan infeasible, naming the patch, the limit and the mesh point.
+over the patch's length). Before the solve, :func:`turn_terms` turns the steering model's steady
+turn at that radius into the optimiser's terms (:mod:`.ocp`): the turn's steady speed limit (the
+largest speed at which it breaks no limit of :func:`~.turning.classify_turn`), its extra
+longitudinal resistance and half the outer-minus-inner torque (the yaw moment balance) as
+polynomials in the speed, and the outer and inner sprockets' slip-limited torques (accelerating and
+braking). A turn that no speed holds, or whose limit is below v0/v1 at the route's ends, is refused
+before the solver with the limit named. After the solve :func:`plan_turns` solves, at every mesh
+point of a turning patch, the hull motion the plan prescribes - forward speed ``u``, its rate
+``du/dt`` (central differences of the plan's speeds over its times), yaw rate ``u / R`` and its rate
+``(du/dt) / R`` - with the steering model (:func:`~.turning.motion_points`: both sprockets' speeds
+and torques, the lateral speed) and checks it against the same limits: the optimiser's terms are
+fits and its torque split while accelerating an approximation (equal shares of the inertial
+thrust), so this check has the last word; a turn that breaks a limit makes the plan infeasible,
+naming the patch, the limit and the mesh point.
 
-Straight patches and routes without turns are unchanged (the same numbers). In a turn the plan's
-``sprocket_torque_Nm``, ``thrust_N``, ``margin_N`` and ``energy_J`` remain those of the
-straight-line problem (the optimiser does not see the turning resistance); the turn's own
-torques are the ``torque_left_Nm``/``torque_right_Nm`` series, and ``turns`` summarises each
-turning patch. Flat turns only (the steering model has no grade); the Bekker compaction
-resistance is not in the steering model (its motion resistance is ``mu_r W`` per track).
+Straight routes are the same problem as before (the turn rows are built only when a patch turns).
+In a turn the plan's ``sprocket_torque_Nm`` is the optimiser's total (it carries the turn's extra
+resistance); the turn's own torques are the ``torque_left_Nm``/``torque_right_Nm`` series of the
+steering model, and ``turns`` summarises each turning patch. Flat turns only (the steering model
+has no grade); the Bekker compaction resistance is not in the steering model (its motion
+resistance is ``mu_r W`` per track).
 """
 
 from __future__ import annotations
