@@ -97,6 +97,7 @@ def _plan(obj, max_speed=2.0):
     return route_profile(route_from_dict(obj), HEAVY, max_speed=max_speed)
 
 
+@pytest.mark.slow  # the turn terms and the OCP with the turn rows: minutes of wall time on a loaded machine
 def test_route_left_and_right_turns_mirrored_straight_unchanged():
     straight, left, right = (_plan(_route(r)) for r in (None, 10.0, -10.0))
     assert straight.success and left.success and right.success
@@ -131,7 +132,8 @@ def test_route_left_and_right_turns_mirrored_straight_unchanged():
     assert t["patch"] == 1 and t["feasible"] is True and t["limited_by"] is None
 
 
-def test_route_turn_too_tight_for_the_soil_not_traversable(tmp_path, capsys):
+@pytest.mark.slow  # the turn terms and the OCP with the turn rows: minutes of wall time on a loaded machine
+def test_route_turn_too_tight_at_2_m_s_is_slowed_for():
     clay = TERRAINS["clayey_soil"]
     r0 = min_turn_radius(HEAVY, clay, 2.0)
     assert r0 is not None
@@ -141,6 +143,9 @@ def test_route_turn_too_tight_for_the_soil_not_traversable(tmp_path, capsys):
     assert tight.success and tight.turns[0]["feasible"] is True
     v_turn = [v for v, k in zip(tight.series["speed_m_s"], tight.series["patch"]) if k == 1]
     assert max(v_turn) < 2.0 * (1 - 1e-3)
+
+
+def test_route_turn_no_speed_holds_not_traversable(tmp_path, capsys):
     # no speed holds this one (the inner sprocket would reverse): infeasible before the solver, limit named
     pivot = _plan(_route(1.3, "clayey_soil"))
     assert not pivot.success and pivot.status == "infeasible"
