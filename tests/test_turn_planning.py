@@ -116,8 +116,11 @@ def test_route_left_and_right_turns_mirrored_straight_unchanged():
     np.testing.assert_allclose([js_l["slip_right"][j] for j in on], [js_r["slip_left"][j] for j in on], 1e-4)
     j = on[len(on) // 2]
     assert js_l["torque_right_Nm"][j] > 0 > js_l["torque_left_Nm"][j]  # left turn: the right track is outer
-    # the optimiser's total torque there is the steering model's sum (steady: within 1 %)
+    # the optimiser's total torque there is the steering model's sum plus r times the Bekker compaction
+    # resistance, which the steering model does not have (steady: within 1 %; measured without the
+    # compaction term: 5107 against 4956 N m)
     total = js_l["torque_left_Nm"][j] + js_l["torque_right_Nm"][j]
+    total += HEAVY.sprocket_radius * left.patches[1]["compaction_N"]
     assert js_l["sprocket_torque_Nm"][j] == pytest.approx(total, rel=0.01)
     assert js_l["sprocket_torque_Nm"][j] > straight.series["sprocket_torque_Nm"][j]
     # the turn's torques are the steering model's steady turn at the planned speed (constant 2 m/s here)
