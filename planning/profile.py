@@ -965,9 +965,9 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, warm_store: dict
         )
         return _infeasible(pre, msg, a.objective, limits, notes, len(patches))
     terms = _turn_terms(pd, patches, vehicle, a, lim)
-    pre = _turn_reason(terms, patches, a)
-    if pre is not None:
-        return _infeasible(pre[0], pre[1], a.objective, limits, notes, len(patches))
+    turn_pre = _turn_reason(terms, patches, a)
+    if turn_pre is not None:
+        return _infeasible(turn_pre[0], turn_pre[1], a.objective, limits, notes, len(patches))
     data, idx, i0_source = _ocp_data(pd, patches, vehicle, a, lengths, Tmax, Pmax, terms)
     n = idx.size
     sol = solve_ocp(data, vehicle, _slip_guesser(pd, idx, vehicle), warm_store)

@@ -223,7 +223,7 @@ def turn_terms(
     cT, *_ = np.linalg.lstsq(A[keep], dT[keep], rcond=None)
     errR = float(np.max(np.abs(A[keep] @ cR - dR[keep])))
     errT = float(np.max(np.abs(A[keep] @ cT - dT[keep])))
-    pad = lambda c: (float(c[0]), *(float(x) for x in c[1:]), *([0.0] * (3 - c.size)))  # noqa: E731
+    pad = _three
     to_cap, ti_cap = _slip_torque_caps(vehicle, np.asarray(soil_vec, dtype=float), R, speeds[keep], max_slip, settings)
     cO, *_ = np.linalg.lstsq(A[keep], to_cap, rcond=None)
     cI, *_ = np.linalg.lstsq(A[keep], ti_cap, rcond=None)
@@ -234,6 +234,12 @@ def turn_terms(
     cI[0] += max(hi, 0.0)
     caps = (pad(cO), pad(cI))
     return TurnTerms(R, cap, limit, why, pad(cR), pad(cT), errR, errT, e, *caps)
+
+
+def _three(c: np.ndarray) -> tuple[float, float, float]:
+    """Coefficients ``[c0, c2, c4]`` of a fit (the missing ones 0)."""
+    x = [float(v) for v in np.ravel(c)] + [0.0, 0.0, 0.0]
+    return x[0], x[1], x[2]
 
 
 def _slip_torque_caps(vehicle, soil_vec, R, speeds, max_slip, settings) -> tuple[np.ndarray, np.ndarray]:
