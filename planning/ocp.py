@@ -306,6 +306,13 @@ def _guess(d: OcpData, vehicle: Vehicle, n: int, slip_of_thrust) -> np.ndarray:
     return np.concatenate(out)
 
 
+def _cap_speeds(cap: np.ndarray, Xu: np.ndarray, Zu: np.ndarray) -> None:
+    """Speed bounds (in place) from a per-interval limit: its collocation points and both its nodes."""
+    Zu[0] = np.minimum(Zu[0], np.repeat(cap, DEGREE))
+    Xu[0, :-1] = np.minimum(Xu[0, :-1], cap)
+    Xu[0, 1:] = np.minimum(Xu[0, 1:], cap)
+
+
 def _turn_row_bounds(d: OcpData, n: int, npt: int) -> tuple[np.ndarray, np.ndarray]:
     """Bounds of the turn rows (6 per point: outer torque, inner torque, outer power, driving power, the
     outer torque at its slip limit, the inner at its skid limit); a
@@ -353,11 +360,8 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
     Zl[0], Zl[1] = 0.0, MIN_SPROCKET_SPEED
     if d.max_speed is not None:
         Xu[0], Zu[0] = d.max_speed, d.max_speed
-    if d.speed_cap is not None:  # per interval: its collocation points and both its nodes
-        cap = np.asarray(d.speed_cap, dtype=float)
-        Zu[0] = np.minimum(Zu[0], np.repeat(cap, DEGREE))
-        Xu[0, :-1] = np.minimum(Xu[0, :-1], cap)
-        Xu[0, 1:] = np.minimum(Xu[0, 1:], cap)
+    if d.speed_cap is not None:
+        _cap_speeds(np.asarray(d.speed_cap, dtype=float), Xu, Zu)
     Xl[0, 0] = Xu[0, 0] = d.v0
     Xl[0, -1] = Xu[0, -1] = d.v1
     if d.w0 is not None:  # the initial state is given: speed and sprocket speed (its slip)
