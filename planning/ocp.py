@@ -20,7 +20,23 @@ boundary is a mesh point):
   (braking energy is not recovered; slack variables ``e_k >= 0, e_k >= M_k integral(w dt)``
   keep it smooth; the quadrature is exact for the collocation polynomial);
 - with a duration instead of a distance, the intervals are of equal time ``T / n`` and the
-  distance is free.
+  distance is free;
+- turning intervals (``OcpData.turn``, a patch with ``radius_m``; the problem is built with the
+  turn rows only when some interval turns, so straight plans are the same NLP as before): the
+  steering model's steady turn at that radius (:mod:`.route_turns`) enters as polynomials in the
+  speed, ``dR(v) = a0 + a2 v^2 + a4 v^4`` (the extra longitudinal resistance of the turn: the
+  centripetal force's sideslip and load transfer; added to the compaction resistance in the
+  dynamics) and ``dT(v) = d0 + d2 v^2 + d4 v^4`` (half the difference of the outer and inner
+  sprocket torques, from the yaw moment balance). At every point the outer sprocket's torque
+  ``M/2 + dT`` is at most ``T_max/2`` and the inner's ``M/2 - dT`` at least ``-T_max/2`` (each
+  sprocket carries half the drivetrain's limit), the outer sprocket's power
+  ``(M/2 + dT) w (1 + e)`` and the driving power of both ``M w + 2 dT e w`` at most ``P_max``
+  (``e = B / (2 |R|)``, kinematic sprocket-speed ratio; the inner track's braking power is not
+  recovered), the outer sprocket's torque at most ``o(v)`` and the inner's at least ``i(v)``
+  (polynomials too: where the outer track's slip reaches the plan's limit accelerating and the
+  inner's skid braking, by the steering model), and the speed at most the turn's steady speed
+  limit (``OcpData.speed_cap``: above it the steady turn breaks a limit - sideslip, outer slip, no
+  steady motion, a sprocket's torque or the power).
 
 All data enter as parameters (soil, grade and compaction per interval, mesh distances,
 limits, weights), so one ``nlpsol`` (IPOPT) is built per (vehicle, n, objective, torque-rate
@@ -52,10 +68,13 @@ __all__ = [
     "clear_warm_starts",
     "DEGREE",
     "radau_collocation",
+    "TURN_ROWS",
 ]
 
 #: Collocation points per interval (Radau IIA).
 DEGREE = 3
+#: Rows of ``OcpData.turn`` (turn-resistance and torque-split polynomial coefficients, and ``B / 2|R|``).
+TURN_ROWS = 13
 #: Lower bound of the sprocket speed while moving, rad/s (the slip limit's linear form needs w > 0).
 MIN_SPROCKET_SPEED = 1e-4
 #: IPOPT options of every profile solve.
@@ -102,6 +121,8 @@ class OcpData:
     w0: float | None = None  # initial sprocket speed, rad/s (None: free within the slip limit)
     max_speed: float | None = None  # speed limit at the mesh and collocation points, m/s
     mu_s: np.ndarray | None = None  # fitted slip_sinkage coefficient per interval (None: 0, the nominal model)
+    turn: np.ndarray | None = None  # (TURN_ROWS, n): [a0, a2, a4, d0, d2, d4, e] per interval (None: no turn)
+    speed_cap: np.ndarray | None = None  # speed limit per interval, m/s (a turn's steady limit; None: none)
 
 
 @locked_cache(maxsize=8)
@@ -154,11 +175,13 @@ def ocp_layout(n: int, energy: bool) -> tuple[slice, slice, slice, slice, slice 
     )
 
 
-def ocp_nlp(vehicle: Vehicle, n: int, energy: bool = False, rate_limit: bool = False) -> dict:
+def ocp_nlp(vehicle: Vehicle, n: int, energy: bool = False, rate_limit: bool = False, turns: bool = False) -> dict:
     """The OCP with ``n`` intervals as an SX NLP ``{"x", "p", "f", "g"}`` (the layout of :func:`ocp_layout`).
 
     ``energy``: energy objective (work slacks), else minimum time; ``rate_limit``: with the
-    torque-rate rows. Only the rows a problem needs are built; the last row of ``g`` is the total time.
+    torque-rate rows; ``turns``: with the turn terms and rows (module docstring; :data:`TURN_ROWS`
+    more parameter rows per interval, four rows per point after the power rows). Only the rows a
+    problem needs are built; the last row of ``g`` is the total time.
     """
     f = dynamics_fn(vehicle)
     d = DEGREE
@@ -169,12 +192,12 @@ def ocp_nlp(vehicle: Vehicle, n: int, energy: bool = False, rate_limit: bool = F
     u = ca.SX.sym("u", n)
     dt = ca.SX.sym("dt", n)
     e = ca.SX.sym("e", n)  # positive work per interval (slack)
-    P = ca.SX.sym("P", 8, n)  # c, phi, K, grade, R_c, mu_s, slip bound, interval length
+    P = ca.SX.sym("P", 8 + (TURN_ROWS if turns else 0), n)  # c, phi, K, grade, R_c, mu_s, slip bound, length, turn
     Ms, Pw, rate, wt, we, ts, es, vs, ws = (
         ca.SX.sym(s) for s in ("Ms", "Pw", "rate", "wt", "we", "ts", "es", "vs", "ws")
     )
     xs = ca.vertcat(vs, ws)  # state scales
-    g_dyn, g_slip_lo, g_slip_hi, g_pow, g_dist = [], [], [], [], []
+    g_dyn, g_slip_lo, g_slip_hi, g_pow, g_dist, g_turn = [], [], [], [], [], []
     J_time = ca.sum1(dt)
     g_work = []
     for k in range(n):
@@ -184,7 +207,10 @@ def ocp_nlp(vehicle: Vehicle, n: int, energy: bool = False, rate_limit: bool = F
         v_int = 0
         for j in range(1, d + 1):
             xp = sum(C[q, j] * pts[q] for q in range(d + 1))
-            fj = f(pts[j], Mk, P[:6, k])[0]
+            pk = P[:6, k]
+            if turns:  # the turn's extra resistance at this point's speed, with the compaction resistance
+                pk = ca.vertcat(P[:4, k], P[4, k] + _poly(P[8:11, k], pts[j][0]), P[5, k])
+            fj = f(pts[j], Mk, pk)[0]
             g_dyn.append((xp - dt[k] * fj) / xs)
             w_int += B[j] * pts[j][1]
             v_int += B[j] * pts[j][0]
@@ -196,9 +222,14 @@ def ocp_nlp(vehicle: Vehicle, n: int, energy: bool = False, rate_limit: bool = F
             g_slip_lo.append((v_ - (1 - P[6, k]) * r * w_) / vs)
             g_slip_hi.append(((1 + P[6, k]) * r * w_ - v_) / vs)
             g_pow.append((Mk * w_) / Pw)
+            if turns:
+                dT, e_ = _poly(P[11:14, k], v_), P[14, k]
+                g_turn += [(Mk + 2 * dT) / Ms, (Mk - 2 * dT) / Ms]
+                g_turn += [(0.5 * Mk + dT) * w_ * (1 + e_) / Pw, (Mk + 2 * dT * e_) * w_ / Pw]
+                g_turn += [(0.5 * Mk + dT - _poly(P[15:18, k], v_)) / Ms, (0.5 * Mk - dT - _poly(P[18:21, k], v_)) / Ms]
     dM = u[1:] - u[:-1]
     avg_dt = 0.5 * (dt[1:] + dt[:-1])
-    rows = [*g_dyn, *g_dist] + (g_work if energy else []) + [*g_slip_lo, *g_slip_hi, *g_pow]
+    rows = [*g_dyn, *g_dist] + (g_work if energy else []) + [*g_slip_lo, *g_slip_hi, *g_pow, *g_turn]
     if rate_limit:
         rows += [dM - rate * avg_dt / Ms, -dM - rate * avg_dt / Ms]
     g = ca.vertcat(*rows, J_time)
@@ -208,19 +239,27 @@ def ocp_nlp(vehicle: Vehicle, n: int, energy: bool = False, rate_limit: bool = F
     return {"x": x, "p": p, "f": J, "g": g}
 
 
+def _poly(a, v):
+    """``a0 + a2 v^2 + a4 v^4`` (the turn terms' polynomial in the speed)."""
+    v2 = v * v
+    return a[0] + v2 * (a[1] + v2 * a[2])
+
+
 @locked_cache(maxsize=32)
-def ocp_solver(vehicle: Vehicle, n: int, warm: bool, energy: bool = False, rate_limit: bool = False) -> ca.Function:
+def ocp_solver(
+    vehicle: Vehicle, n: int, warm: bool, energy: bool = False, rate_limit: bool = False, turns: bool = False
+) -> ca.Function:
     """The cached IPOPT solver of the OCP with ``n`` intervals (:func:`ocp_nlp`).
 
     ``warm``: warm-start options; ``energy``: energy objective (work slacks), else minimum time;
-    ``rate_limit``: with the torque-rate rows.
+    ``rate_limit``: with the torque-rate rows; ``turns``: with the turn terms and rows.
     """
     opts: dict[str, Any] = {
         "ipopt": dict(IPOPT_OPTIONS, **(WARM_OPTIONS if warm else {})),
         "print_time": False,
         "error_on_fail": False,
     }
-    return ca.nlpsol(f"speed_ocp_{n}", "ipopt", ocp_nlp(vehicle, n, energy, rate_limit), opts)
+    return ca.nlpsol(f"speed_ocp_{n}", "ipopt", ocp_nlp(vehicle, n, energy, rate_limit, turns), opts)
 
 
 _last: dict = {}
@@ -267,6 +306,24 @@ def _guess(d: OcpData, vehicle: Vehicle, n: int, slip_of_thrust) -> np.ndarray:
     return np.concatenate(out)
 
 
+def _cap_speeds(cap: np.ndarray, Xu: np.ndarray, Zu: np.ndarray) -> None:
+    """Speed bounds (in place) from a per-interval limit: its collocation points and both its nodes."""
+    Zu[0] = np.minimum(Zu[0], np.repeat(cap, DEGREE))
+    Xu[0, :-1] = np.minimum(Xu[0, :-1], cap)
+    Xu[0, 1:] = np.minimum(Xu[0, 1:], cap)
+
+
+def _turn_row_bounds(d: OcpData, n: int, npt: int) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of the turn rows (6 per point: outer torque, inner torque, outer power, driving power, the
+    outer torque at its slip limit, the inner at its skid limit); a
+    straight interval's rows are free (they would repeat the torque bound and the power row)."""
+    on = np.repeat(np.asarray(d.turn, dtype=float)[6] > 0, (DEGREE + 1) * 6)
+    pw = 1.0 if d.max_power else np.inf
+    lo = np.tile([-np.inf, -1.0, -np.inf, -np.inf, -np.inf, 0.0], npt)
+    hi = np.tile([1.0, np.inf, pw, pw, 0.0, np.inf], npt)
+    return np.where(on, lo, -np.inf), np.where(on, hi, np.inf)
+
+
 def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | None = None) -> dict:
     """Solve one instance; the raw solution, IPOPT's status, iterations and wall time.
 
@@ -276,9 +333,9 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
     keeps its own).
     """
     n = len(d.c)
-    energy, rate_on = d.objective == "energy", bool(d.torque_rate)
+    energy, rate_on, turns = d.objective == "energy", bool(d.torque_rate), d.turn is not None
     iX, iZ, iu, idt, ie = ocp_layout(n, energy)
-    key = (vehicle, n, energy, rate_on)
+    key = (vehicle, n, energy, rate_on, turns)
     store = _last if warm_store is None else warm_store
     prev = store.get(key)
     r = vehicle.sprocket_radius
@@ -292,6 +349,8 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
     wt, we = (1.0, 0.0) if d.objective == "time" else (0.0, 1.0)
     mu_s = np.zeros(len(d.c)) if d.mu_s is None else np.asarray(d.mu_s, dtype=float)
     Pmat = np.vstack([d.c, d.phi, d.K, d.grade, d.Rc, mu_s, d.slip_bound, np.diff(d.s)])
+    if turns:
+        Pmat = np.vstack([Pmat, np.asarray(d.turn, dtype=float).reshape(TURN_ROWS, n)])
     p = np.concatenate([Pmat.ravel(order="F"), [Ms, Pw, d.torque_rate or 0.0, wt, we, ts, es, vmax, vmax / r]])
     nxv = 2 * (n + 1) + 2 * DEGREE * n + (3 if energy else 2) * n
     lbx, ubx = np.full(nxv, -inf), np.full(nxv, inf)
@@ -301,6 +360,8 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
     Zl[0], Zl[1] = 0.0, MIN_SPROCKET_SPEED
     if d.max_speed is not None:
         Xu[0], Zu[0] = d.max_speed, d.max_speed
+    if d.speed_cap is not None:
+        _cap_speeds(np.asarray(d.speed_cap, dtype=float), Xu, Zu)
     Xl[0, 0] = Xu[0, 0] = d.v0
     Xl[0, -1] = Xu[0, -1] = d.v1
     if d.w0 is not None:  # the initial state is given: speed and sprocket speed (its slip)
@@ -328,6 +389,10 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
         + ([np.full(n, inf)] if energy else [])
         + [np.full(2 * npt, inf), np.full(npt, 1.0 if d.max_power else inf)]
     )
+    if turns:
+        lo_t, hi_t = _turn_row_bounds(d, n, npt)
+        lbg_parts.append(lo_t)
+        ubg_parts.append(hi_t)
     if rate_on:
         lbg_parts.append(np.full(2 * (n - 1), -inf))
         ubg_parts.append(np.zeros(2 * (n - 1)))
@@ -336,7 +401,7 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
     lbg, ubg = np.concatenate(lbg_parts), np.concatenate(ubg_parts)
     args = dict(p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
     warm = prev is not None
-    solver = ocp_solver(vehicle, n, warm, energy, rate_on)  # built once per structure; not solve time
+    solver = ocp_solver(vehicle, n, warm, energy, rate_on, turns)  # built once per structure; not solve time
     t0 = time.perf_counter()
     if prev is not None:  # warm
         args.update(x0=np.clip(prev["x"], lbx, ubx), lam_x0=prev["lam_x"], lam_g0=prev["lam_g"])
@@ -350,7 +415,7 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
             p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, x0=np.clip(_guess(d, vehicle, n, slip_of_thrust), lbx, ubx)
         )
         t_b = time.perf_counter()
-        cold = ocp_solver(vehicle, n, False, energy, rate_on)
+        cold = ocp_solver(vehicle, n, False, energy, rate_on, turns)
         t0 += time.perf_counter() - t_b  # the build (if any) is not solve time
         out, stats = call_solver(cold, **args)
         ok = bool(stats.get("success", False))

@@ -65,10 +65,10 @@ from .arguments import check_number
 from .fit_vehicle import headline_notes
 from .forces import resistances, soil_thrust
 from .margin import DEFAULT_MAX_SLIP, resolve_terrain, terrain_soil_vector
-from .ocp import DEGREE, OcpData, radau_collocation, solve_ocp
+from .ocp import DEGREE, TURN_ROWS, OcpData, radau_collocation, solve_ocp
 from .replay import replay
 from .route import OBJECTIVES, Patch, Route
-from .route_turns import TURN_SERIES, check_turns, plan_turns, turn_line
+from .route_turns import MIN_TURN_SPEED, TURN_SERIES, TURN_SPEED_TOP, check_turns, plan_turns, turn_line, turn_terms
 
 __all__ = [
     "SpeedPlan",
@@ -722,7 +722,50 @@ def _pre_solver_reason(pd, lengths, vehicle, a: _PlanArgs, Tmax, Pmax, r) -> dic
     return None
 
 
-def _ocp_data(pd, patches, vehicle, a: _PlanArgs, lengths, Tmax, Pmax):
+def _capped(v: np.ndarray, idx: np.ndarray, terms: dict | None) -> np.ndarray:
+    """Node speeds of a start guess within the turns' speed limits (the ends are kept: checked before)."""
+    if not terms:
+        return v
+    cap = np.array([terms[k].speed_cap if k in terms else np.inf for k in idx])
+    node = np.minimum(np.append(cap, np.inf), np.append(np.inf, cap))
+    out = np.minimum(v, 0.98 * node)
+    out[0], out[-1] = v[0], v[-1]
+    return out
+
+
+def _turn_terms(pd, patches, vehicle, a: _PlanArgs, lim) -> dict:
+    """``{patch: TurnTerms}`` of the turning patches on the soils planned with (:func:`~.route_turns.turn_terms`)."""
+    out = {}
+    for k, p in enumerate(patches):
+        if getattr(p, "radius_m", None) is not None:
+            top = TURN_SPEED_TOP if a.max_speed is None else min(TURN_SPEED_TOP, a.max_speed)
+            out[k] = turn_terms(pd[k].theta, p.radius_m, vehicle, max_slip=a.i_max, limits=lim, top=top)
+    return out
+
+
+def _turn_reason(terms: dict, patches, a: _PlanArgs) -> tuple[dict, str] | None:
+    """A turn no speed profile can make (no speed at which its steady turn holds; v0 or v1 above its limit)."""
+    last = len(patches) - 1
+    for k, tt in terms.items():
+        ends = [("v0", a.v0)] * (k == 0) + [("v1", a.v1)] * (k == last)
+        over = [(name, v) for name, v in ends if v > tt.speed_cap * (1 + 1e-9)]
+        if tt.speed_cap > 0 and not over:
+            continue
+        head = f"patch {k} ({patches[k].label}, turn of radius {tt.radius_m:g} m): "
+        if tt.speed_cap <= 0:
+            what = f"the steady turn breaks the {tt.cap_limit} limit even at {MIN_TURN_SPEED:g} m/s ({tt.cap_reason})"
+        else:
+            name, v = over[0]
+            what = (
+                f"{name} = {v:g} m/s is above the turn's steady speed limit {tt.speed_cap:.4g} m/s (above it: "
+                f"{tt.cap_reason})"
+            )
+        reason = {"patch": k, "limit": tt.cap_limit, "turn_radius_m": tt.radius_m, "speed_cap_m_s": tt.speed_cap}
+        return reason, head + what + "; found by the steering model before the solver"
+    return None
+
+
+def _ocp_data(pd, patches, vehicle, a: _PlanArgs, lengths, Tmax, Pmax, terms=None):
     """The mesh (in distance), the per-interval soil and limits, and the start: ``(OcpData, idx, i0 source)``."""
     r = vehicle.sprocket_radius
     counts = _mesh(lengths, a.intervals) if a.duration is None else np.array([a.intervals])
@@ -759,12 +802,16 @@ def _ocp_data(pd, patches, vehicle, a: _PlanArgs, lengths, Tmax, Pmax):
         max_slip=a.i_max,
         torque_rate=a.torque_rate,
         objective=a.objective,
-        v_guess=_bang_bang(pd, idx, S, a.v0, a.v1, Tmax / r, Pmax, vehicle.mass, a.max_speed)
+        v_guess=_capped(_bang_bang(pd, idx, S, a.v0, a.v1, Tmax / r, Pmax, vehicle.mass, a.max_speed), idx, terms)
         if a.objective == "time" and a.duration is None
         else None,
         w0=0.0 if a.v0 == 0.0 else a.v0 / (r * (1.0 - i0)),
         max_speed=a.max_speed,
         mu_s=np.array([pd[k].mu_s for k in idx]) if any(d.mu_s for d in pd) else None,
+        turn=np.column_stack([terms[k].column() if k in terms else np.zeros(TURN_ROWS) for k in idx])
+        if terms
+        else None,
+        speed_cap=np.array([terms[k].speed_cap if k in terms else np.inf for k in idx]) if terms else None,
     )
     return data, idx, i0_source
 
@@ -917,7 +964,11 @@ def _plan_core(patches: tuple[Patch, ...], vehicle: Vehicle, *, warm_store: dict
             f"{format_force(pre['short_by_N'])}); found by the steady-state check before the solver"
         )
         return _infeasible(pre, msg, a.objective, limits, notes, len(patches))
-    data, idx, i0_source = _ocp_data(pd, patches, vehicle, a, lengths, Tmax, Pmax)
+    terms = _turn_terms(pd, patches, vehicle, a, lim)
+    turn_pre = _turn_reason(terms, patches, a)
+    if turn_pre is not None:
+        return _infeasible(turn_pre[0], turn_pre[1], a.objective, limits, notes, len(patches))
+    data, idx, i0_source = _ocp_data(pd, patches, vehicle, a, lengths, Tmax, Pmax, terms)
     n = idx.size
     sol = solve_ocp(data, vehicle, _slip_guesser(pd, idx, vehicle), warm_store)
     i_nodes, i_col = _slip(sol["v"], sol["w"], r), _slip(sol["Z"][0], sol["Z"][1], r)

@@ -1,22 +1,27 @@
 """Turns on routes: left and right sprocket torques through patches with ``radius_m`` (the steering model).
 
 A ROUTE.json patch may carry ``radius_m`` (signed, positive to the left; a turn of constant radius
-over the patch's length). The speed profile is planned as before (:mod:`.profile`, the straight-line
-optimal control problem); :func:`plan_turns` then solves, at every mesh point of a turning patch,
-the hull motion the plan prescribes - forward speed ``u``, its rate ``du/dt`` (central differences
-of the plan's speeds over its times), yaw rate ``u / R`` and its rate ``(du/dt) / R`` - with the
-steering model (:func:`~.turning.motion_points`: both sprockets' speeds and torques, the lateral
-speed) and checks it against the limits of ``margin --turn-radius`` (:func:`~.turning.classify_turn`:
-soil - steady motion, inner sprocket forwards, sideslip, outer slip at most the plan's slip
-limit -, torque per sprocket at most half the plan's ``max_torque_Nm``, power). A turn that breaks
-a limit makes the plan infeasible, naming the patch, the limit and the mesh point.
+over the patch's length). Before the solve, :func:`turn_terms` turns the steering model's steady
+turn at that radius into the optimiser's terms (:mod:`.ocp`): the turn's steady speed limit (the
+largest speed at which it breaks no limit of :func:`~.turning.classify_turn`), its extra
+longitudinal resistance and half the outer-minus-inner torque (the yaw moment balance) as
+polynomials in the speed, and the outer and inner sprockets' slip-limited torques (accelerating and
+braking). A turn that no speed holds, or whose limit is below v0/v1 at the route's ends, is refused
+before the solver with the limit named. After the solve :func:`plan_turns` solves, at every mesh
+point of a turning patch, the hull motion the plan prescribes - forward speed ``u``, its rate
+``du/dt`` (central differences of the plan's speeds over its times), yaw rate ``u / R`` and its rate
+``(du/dt) / R`` - with the steering model (:func:`~.turning.motion_points`: both sprockets' speeds
+and torques, the lateral speed) and checks it against the same limits: the optimiser's terms are
+fits and its torque split while accelerating an approximation (equal shares of the inertial
+thrust), so this check has the last word; a turn that breaks a limit makes the plan infeasible,
+naming the patch, the limit and the mesh point.
 
-Straight patches and routes without turns are unchanged (the same numbers). In a turn the plan's
-``sprocket_torque_Nm``, ``thrust_N``, ``margin_N`` and ``energy_J`` remain those of the
-straight-line problem (the optimiser does not see the turning resistance); the turn's own
-torques are the ``torque_left_Nm``/``torque_right_Nm`` series, and ``turns`` summarises each
-turning patch. Flat turns only (the steering model has no grade); the Bekker compaction
-resistance is not in the steering model (its motion resistance is ``mu_r W`` per track).
+Straight routes are the same problem as before (the turn rows are built only when a patch turns).
+In a turn the plan's ``sprocket_torque_Nm`` is the optimiser's total (it carries the turn's extra
+resistance); the turn's own torques are the ``torque_left_Nm``/``torque_right_Nm`` series of the
+steering model, and ``turns`` summarises each turning patch. Flat turns only (the steering model
+has no grade); the Bekker compaction resistance is not in the steering model (its motion
+resistance is ``mu_r W`` per track).
 """
 
 from __future__ import annotations
@@ -28,16 +33,84 @@ from typing import Any
 import numpy as np
 
 from ..soilmodel import DataError, Vehicle
+from ..soilmodel.simulation import drive_limits
 from ..soilmodel.steering import SteeringSettings, tread_of
 from .margin import resolve_terrain, terrain_soil_vector
 from .turning import classify_turn, motion_points
 
-__all__ = ["check_turns", "plan_turns", "turn_line", "TURN_SERIES", "MIN_TURN_SPEED"]
+__all__ = [
+    "check_turns",
+    "plan_turns",
+    "turn_line",
+    "turn_terms",
+    "TurnTerms",
+    "TURN_SERIES",
+    "MIN_TURN_SPEED",
+    "TURN_SPEED_TOP",
+]
 
 #: Series a plan with turns adds (equal length to the others; straight points: half the plan's torque each).
 TURN_SERIES = ("torque_left_Nm", "torque_right_Nm", "slip_left", "slip_right", "radius_m")
 #: Below this speed (m/s) a mesh point of a turning patch is not turned (a turn at standstill is a pivot).
 MIN_TURN_SPEED = 0.05
+#: Highest speed (m/s) at which the turn terms of the optimiser are computed: a turn's speed limit
+#: when the steady turn holds all the way (the polynomials are not extrapolated beyond it).
+TURN_SPEED_TOP = 15.0
+#: Speeds of the first scan for a turn's steady speed limit (geometric from MIN_TURN_SPEED to the top).
+CAP_SCAN = 32
+#: Rounds refining the speed limit between two scanned speeds, FIT_POINTS speeds each (the scan's step
+#: of 20 % divided by 17 per round: a resolution of 0.07 % after two).
+CAP_REFINE = 2
+#: Steady turns the turn terms' polynomials are fitted to (evenly in speed up to the limit).
+FIT_POINTS = 16
+#: Accelerations (0 to the drivetrain's largest, each way) scanned for the tracks' slip-limited torques.
+ACCEL_SCAN = 9
+
+
+@dataclass(frozen=True)
+class TurnTerms:
+    """What the optimiser knows of one turning patch (:func:`turn_terms`), SI.
+
+    Attributes
+    ----------
+    radius_m
+        The patch's radius (signed, + left).
+    speed_cap
+        The steady turn's speed limit (the largest speed at which it breaks no limit), m/s; 0 when
+        it breaks one even at :data:`MIN_TURN_SPEED`.
+    cap_limit, cap_reason
+        The limit the steady turn breaks just above ``speed_cap`` (``soil``, ``torque``, ``power``)
+        and why; ``None`` when the cap is :data:`TURN_SPEED_TOP`.
+    resistance, split
+        Coefficients ``[a0, a2, a4]`` of the extra longitudinal resistance ``dR(v)`` (N) and
+        ``[d0, d2, d4]`` of half the outer-minus-inner sprocket torque ``dT(v)`` (N m).
+    fit_error_N, fit_error_Nm
+        Largest error of the two polynomials at the fitted steady turns (N, N m).
+    e
+        ``B / (2 |R|)`` (the kinematic sprocket-speed ratio's half-difference).
+    outer_cap, inner_cap
+        Coefficients of the outer sprocket's largest torque (its slip at the plan's limit,
+        accelerating) and the inner's smallest (its skid at the limit, braking), N m, in
+        ``[1, v^2, v^4]``, shifted by their fits' largest error to the safe side.
+    """
+
+    radius_m: float
+    speed_cap: float
+    cap_limit: str | None
+    cap_reason: str | None
+    resistance: tuple[float, float, float]
+    split: tuple[float, float, float]
+    fit_error_N: float
+    fit_error_Nm: float
+    e: float
+    outer_cap: tuple[float, float, float] = (math.inf, 0.0, 0.0)
+    inner_cap: tuple[float, float, float] = (-math.inf, 0.0, 0.0)
+
+    def column(self) -> np.ndarray:
+        """The patch's column of ``OcpData.turn`` (``[a0, a2, a4, d0, d2, d4, e, o0, o2, o4, i0, i2, i4]``)."""
+        big = 1e12  # an unbounded cap (no steady turn to fit): a bound that never binds
+        caps = [min(max(x, -big), big) for x in (*self.outer_cap, *self.inner_cap)]
+        return np.array([*self.resistance, *self.split, self.e, *caps], dtype=float)
 
 
 @dataclass(frozen=True)
@@ -80,6 +153,133 @@ def check_turns(patches, vehicle: Vehicle, source: str | None = None, *, argumen
                 file=source,
                 column=None if argument else f"patches[{k}].grade_deg",
             )
+
+
+def _steady_limits(vehicle, soil_vec, R, speeds, max_slip, lim, settings) -> tuple[list, tuple]:
+    """``classify_turn`` of the steady turn at each speed (one mapped call), and the solved columns."""
+    n = speeds.size
+    cols = motion_points(vehicle, np.tile(soil_vec, (n, 1)), speeds, speeds / R, np.zeros(n), np.zeros(n), settings)
+    return [
+        classify_turn(vehicle, R, float(u), max_slip, lim, tuple(c[j] for c in cols)) for j, u in enumerate(speeds)
+    ], cols
+
+
+def _speed_cap(vehicle, soil_vec, R, top, max_slip, lim, settings) -> tuple[float, str | None, str | None]:
+    """The largest speed (<= top) up to which the steady turn breaks no limit, and the limit broken above it."""
+    grid = np.geomspace(MIN_TURN_SPEED, top, CAP_SCAN)
+    res, _ = _steady_limits(vehicle, soil_vec, R, grid, max_slip, lim, settings)
+    bad = [j for j, (limit, _w) in enumerate(res) if limit is not None]
+    if not bad:
+        return float(top), None, None
+    if bad[0] == 0:
+        return 0.0, res[0][0], res[0][1]
+    lo, hi, why = float(grid[bad[0] - 1]), float(grid[bad[0]]), res[bad[0]]
+    for _ in range(CAP_REFINE):  # each round: FIT_POINTS speeds between the last feasible and the first not
+        sub = np.linspace(lo, hi, FIT_POINTS + 2)[1:-1]
+        r_sub, _ = _steady_limits(vehicle, soil_vec, R, sub, max_slip, lim, settings)
+        j = next((q for q, (limit, _w) in enumerate(r_sub) if limit is not None), None)
+        if j is None:
+            lo = float(sub[-1])
+        else:
+            lo, hi, why = (lo if j == 0 else float(sub[j - 1])), float(sub[j]), r_sub[j]
+    return lo, why[0], why[1]
+
+
+def turn_terms(
+    soil_vec: np.ndarray,
+    radius_m: float,
+    vehicle: Vehicle,
+    *,
+    max_slip: float,
+    limits: Any,
+    top: float = TURN_SPEED_TOP,
+    settings: SteeringSettings = SteeringSettings(),
+) -> TurnTerms:
+    """The steering model's steady turn at ``radius_m`` on soil ``[c, phi, K]`` as the optimiser's terms.
+
+    The speed limit: a scan of :data:`CAP_SCAN` speeds and :data:`CAP_REFINE` finer scans, each steady turn checked by
+    :func:`~.turning.classify_turn` (soil, per-sprocket torque, power). Then :data:`FIT_POINTS` steady
+    turns evenly up to the limit give the extra resistance ``dR = (T_l + T_r)/r - mu_r W`` (the steady
+    balance: ``-m v Om``, the sideslip's share of the centripetal force) and half the torque difference
+    ``dT = (T_outer - T_inner)/2`` (the yaw moment balance), fitted by least squares in ``[1, v^2, v^4]``
+    (the turn is symmetric in the direction of travel); their largest errors are kept.
+    """
+    R = float(radius_m)
+    cap, limit, why = _speed_cap(vehicle, np.asarray(soil_vec, dtype=float), R, top, max_slip, limits, settings)
+    e = 0.5 * tread_of(vehicle) / abs(R)
+    if cap <= 0.0:
+        return TurnTerms(R, 0.0, limit, why, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, 0.0, e)
+    speeds = np.linspace(MIN_TURN_SPEED, cap, FIT_POINTS) if cap > MIN_TURN_SPEED else np.array([cap])
+    _res, cols = _steady_limits(vehicle, np.asarray(soil_vec, dtype=float), R, speeds, max_slip, limits, settings)
+    solved, _wl, _wr, _v, Tl, Tr = cols
+    r = vehicle.sprocket_radius
+    dR = (Tl + Tr) / r - vehicle.rolling_resistance * vehicle.weight
+    dT = 0.5 * (Tr - Tl) if R > 0 else 0.5 * (Tl - Tr)
+    A = np.column_stack([np.ones_like(speeds), speeds**2, speeds**4])[: max(1, speeds.size)]
+    keep = np.asarray(solved, dtype=bool)
+    if keep.sum() < 3:  # too few steady turns for the speed terms: constants only
+        A = A[:, :1]
+    cR, *_ = np.linalg.lstsq(A[keep], dR[keep], rcond=None)
+    cT, *_ = np.linalg.lstsq(A[keep], dT[keep], rcond=None)
+    errR = float(np.max(np.abs(A[keep] @ cR - dR[keep])))
+    errT = float(np.max(np.abs(A[keep] @ cT - dT[keep])))
+    pad = _three
+    to_cap, ti_cap = _slip_torque_caps(vehicle, np.asarray(soil_vec, dtype=float), R, speeds[keep], max_slip, settings)
+    cO, *_ = np.linalg.lstsq(A[keep], to_cap, rcond=None)
+    cI, *_ = np.linalg.lstsq(A[keep], ti_cap, rcond=None)
+    # the torque caps' fits: conservative (shifted by their largest error towards the safe side)
+    lo = float(np.max(A[keep] @ cO - to_cap))
+    hi = float(np.max(ti_cap - A[keep] @ cI))
+    cO[0] -= max(lo, 0.0)
+    cI[0] += max(hi, 0.0)
+    caps = (pad(cO), pad(cI))
+    return TurnTerms(R, cap, limit, why, pad(cR), pad(cT), errR, errT, e, *caps)
+
+
+def _three(c: np.ndarray) -> tuple[float, float, float]:
+    """Coefficients ``[c0, c2, c4]`` of a fit (the missing ones 0)."""
+    x = [float(v) for v in np.ravel(c)] + [0.0, 0.0, 0.0]
+    return x[0], x[1], x[2]
+
+
+def _slip_torque_caps(vehicle, soil_vec, R, speeds, max_slip, settings) -> tuple[np.ndarray, np.ndarray]:
+    """Per speed: the outer sprocket's torque at which its slip reaches ``max_slip`` accelerating, and the
+    inner's at which its skid reaches ``-max_slip`` braking (the steering model at ``(u, u/R, a, a/R)`` on
+    :data:`ACCEL_SCAN` accelerations up to the drivetrain's, linearly interpolated; beyond the scan: the
+    torque at its end)."""
+    n, na = speeds.size, ACCEL_SCAN
+    A_top = drive_limits(vehicle).max_sprocket_torque / vehicle.sprocket_radius / vehicle.mass
+    r, B = vehicle.sprocket_radius, tread_of(vehicle)
+    out = []
+    for sign in (1.0, -1.0):
+        acc = sign * np.linspace(0.0, A_top, na)
+        U, Acc = np.repeat(speeds, na), np.tile(acc, n)
+        Om = U / R
+        solved, wl, wr, _v, Tl, Tr = motion_points(
+            vehicle, np.tile(soil_vec, (n * na, 1)), U, Om, Acc, Acc / R, settings
+        )
+        with np.errstate(divide="ignore", invalid="ignore"):
+            sl, sr = 1 - (U - Om * B / 2) / (r * wl), 1 - (U + Om * B / 2) / (r * wr)
+        so, si = (sr, sl) if R > 0 else (sl, sr)
+        To, Ti = (Tr, Tl) if R > 0 else (Tl, Tr)
+        slip, T = (so, To) if sign > 0 else (-si, Ti)
+        ok = solved & np.isfinite(slip) & (np.minimum(wl, wr) > 0)
+        slip = np.where(ok, slip, np.inf).reshape(n, na)
+        T = T.reshape(n, na)
+        caps = np.empty(n)
+        for j in range(n):
+            bad = np.flatnonzero(slip[j] > max_slip)
+            if bad.size == 0:
+                caps[j] = T[j, -1]
+            elif bad[0] == 0:
+                caps[j] = T[j, 0]
+            else:
+                k = bad[0]
+                s0, s1 = slip[j, k - 1], slip[j, k]
+                f = (max_slip - s0) / (s1 - s0) if np.isfinite(s1) else 0.0
+                caps[j] = T[j, k - 1] + f * (T[j, k] - T[j, k - 1]) if np.isfinite(s1) else T[j, k - 1]
+        out.append(caps)
+    return out[0], out[1]
 
 
 def _turn_of_node(idx: np.ndarray, radii: list) -> np.ndarray:

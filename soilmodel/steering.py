@@ -396,8 +396,14 @@ def steady_turn(
     CasADi Newton rootfinder; the start is the kinematic motion with a slip-reduced yaw rate.
     """
     veh = vehicle_parameters(vehicle)
-    if not (math.isfinite(w_left) and math.isfinite(w_right) and w_left > 0 and w_right > 0):
-        raise DataError(f"sprocket speeds must be finite and > 0 rad/s, got {w_left!r}, {w_right!r}")
+    if not (math.isfinite(w_left) and math.isfinite(w_right)):
+        raise DataError(f"sprocket speeds must be finite, got {w_left!r}, {w_right!r}")
+    if w_left <= 0 or w_right <= 0:
+        raise DataError(
+            f"sprocket speeds {w_left:g}, {w_right:g} rad/s: a stopped or counter-rotating track (a pivot turn, "
+            "radius at most half the tread) is outside the steering model (its contact time and shear "
+            "displacement assume a belt running rearwards under the hull); both must be > 0"
+        )
     r, B = vehicle.sprocket_radius, tread_of(vehicle)
     z0 = [0.5 * r * (w_left + w_right), 0.0, 0.6 * r * (w_right - w_left) / B]
     p = np.concatenate([[w_left, w_right], _soil_vector(soil), veh])

@@ -266,6 +266,13 @@ def turn_margin_command(a: argparse.Namespace, terrain, vehicle, m) -> int:
             file=a.vehicle,
             column="tread_m",
         )
+    for opt, val in (("--grade-deg", a.grade_deg), ("--accel", a.accel), ("--drawbar-N", a.drawbar_N)):
+        if val is not None and floats_arg(val, opt)[0] != 0.0:
+            raise DataError(
+                f"{opt} {val} with --turn-radius: the steering model's steady turn is flat, unaccelerated and "
+                "without drawbar pull (a turn on a grade or under a pull is outside the model); give it without "
+                f"{opt}, or check the straight-line margin alone"
+            )
     speed = floats_arg(a.speed, "--speed")[0]
     uncertain = isinstance(terrain, SoilUncertainty)  # --fit: the fit's mean soil, and p_turn_feasible by sampling
     soil = terrain.mean_soil(vehicle.weight) if uncertain else resolve_soil(terrain, vehicle)[0]

@@ -97,15 +97,17 @@ def _plan(obj, max_speed=2.0):
     return route_profile(route_from_dict(obj), HEAVY, max_speed=max_speed)
 
 
+@pytest.mark.slow  # the turn terms and the OCP with the turn rows: minutes of wall time on a loaded machine
 def test_route_left_and_right_turns_mirrored_straight_unchanged():
     straight, left, right = (_plan(_route(r)) for r in (None, 10.0, -10.0))
     assert straight.success and left.success and right.success
     assert straight.turns == () and "turns" not in straight.to_dict(route=True)
-    # the speed profile and the straight-line series are those of the route without the turn (the same
-    # problem; IPOPT's warm start between the three solves moves the last digits: 1e-6 of the values)
-    for k in ("speed_m_s", "sprocket_torque_Nm", "time_s"):
+    # the turn's steady speed limit is above --max-speed here: the speed profile is that of the straight
+    # route; the optimiser's torque carries the turn's extra resistance on top (the steering model's)
+    for k in ("speed_m_s", "time_s"):
         np.testing.assert_allclose(left.series[k], straight.series[k], rtol=1e-5, atol=1e-6 * max(straight.series[k]))
         np.testing.assert_allclose(right.series[k], straight.series[k], rtol=1e-5, atol=1e-6 * max(straight.series[k]))
+    np.testing.assert_allclose(left.series["sprocket_torque_Nm"], right.series["sprocket_torque_Nm"], rtol=1e-5)
     js_l, js_r = left.to_dict(route=True), right.to_dict(route=True)
     on = [j for j, r in enumerate(js_l["radius_m"]) if r is not None]
     assert len(on) >= 3 and [js_r["radius_m"][j] for j in on] == [-10.0] * len(on)
@@ -114,6 +116,13 @@ def test_route_left_and_right_turns_mirrored_straight_unchanged():
     np.testing.assert_allclose([js_l["slip_right"][j] for j in on], [js_r["slip_left"][j] for j in on], 1e-4)
     j = on[len(on) // 2]
     assert js_l["torque_right_Nm"][j] > 0 > js_l["torque_left_Nm"][j]  # left turn: the right track is outer
+    # the optimiser's total torque there is the steering model's sum plus r times the Bekker compaction
+    # resistance, which the steering model does not have (steady: within 1 %; measured without the
+    # compaction term: 5107 against 4956 N m)
+    total = js_l["torque_left_Nm"][j] + js_l["torque_right_Nm"][j]
+    total += HEAVY.sprocket_radius * left.patches[1]["compaction_N"]
+    assert js_l["sprocket_torque_Nm"][j] == pytest.approx(total, rel=0.01)
+    assert js_l["sprocket_torque_Nm"][j] > straight.series["sprocket_torque_Nm"][j]
     # the turn's torques are the steering model's steady turn at the planned speed (constant 2 m/s here)
     m = turn_margin(HEAVY, SAND, radius_m=10.0, speed_m_s=2.0)
     assert js_l["torque_right_Nm"][j] == pytest.approx(m.torque_right_Nm, rel=1e-3)
@@ -126,21 +135,30 @@ def test_route_left_and_right_turns_mirrored_straight_unchanged():
     assert t["patch"] == 1 and t["feasible"] is True and t["limited_by"] is None
 
 
-def test_route_turn_too_tight_for_the_soil_not_traversable(tmp_path, capsys):
+@pytest.mark.slow  # the turn terms and the OCP with the turn rows: minutes of wall time on a loaded machine
+def test_route_turn_too_tight_at_2_m_s_is_slowed_for():
     clay = TERRAINS["clayey_soil"]
     r0 = min_turn_radius(HEAVY, clay, 2.0)
     assert r0 is not None
     tight, ok = _plan(_route(0.95 * r0, "clayey_soil")), _plan(_route(1.05 * r0, "clayey_soil"))
     assert ok.success and ok.turns[0]["feasible"] is True
-    assert not tight.success and tight.status == "infeasible"
-    assert tight.reason["patch"] == 1 and tight.reason["limit"] == "soil"
-    assert tight.turns[0]["feasible"] is False and tight.turns[0]["limited_by"] == "soil"
-    assert "patch 1" in tight.message
+    # too tight at 2 m/s: the optimiser slows down for it (the turn's steady speed limit in the OCP)
+    assert tight.success and tight.turns[0]["feasible"] is True
+    v_turn = [v for v, k in zip(tight.series["speed_m_s"], tight.series["patch"]) if k == 1]
+    assert max(v_turn) < 2.0 * (1 - 1e-3)
+
+
+def test_route_turn_no_speed_holds_not_traversable(tmp_path, capsys):
+    # no speed holds this one (the inner sprocket would reverse): infeasible before the solver, limit named
+    pivot = _plan(_route(1.3, "clayey_soil"))
+    assert not pivot.success and pivot.status == "infeasible"
+    assert pivot.reason["patch"] == 1 and pivot.reason["limit"] == "soil"
+    assert "patch 1" in pivot.message and "even at" in pivot.message
     d = HEAVY.to_dict()
     d.pop("name", None)
     vj, rj = tmp_path / "v.json", tmp_path / "r.json"
     vj.write_text(json.dumps(d))
-    rj.write_text(json.dumps(_route(0.95 * r0, "clayey_soil")))
+    rj.write_text(json.dumps(_route(1.3, "clayey_soil")))
     rc = main(["route", str(rj), "--vehicle", str(vj), "--max-speed", "2", "--json"])
     js = json.loads(capsys.readouterr().out)
     assert rc == 1 and js["success"] is False and js["reason"]["limit"] == "soil" and js["reason"]["patch"] == 1
@@ -180,11 +198,12 @@ def test_profile_turn_radius_cli(tmp_path, capsys):
     js = json.loads(capsys.readouterr().out)
     assert rc == 0 and js["turns"][0]["radius_m"] == -10.0 and js["turns"][0]["feasible"] is True
     assert js["torque_left_Nm"][5] > 0 > js["torque_right_Nm"][5]  # right turn: the left track is outer
-    # time-optimal from 1 to 2 m/s: the straight plan's acceleration (about 5 m/s^2) leaves no traction to turn
+    # time-optimal from 1 to 2 m/s: the straight plan's acceleration (about 5 m/s^2) would leave the outer track
+    # no traction to turn; the optimiser, which sees the outer track's slip-limited torque, accelerates less
     rc = main([*base[:-6], "--v0", "1", "--v1", "2", "--distance", "30", "--turn-radius", "-8", "--json"])
     js = json.loads(capsys.readouterr().out)
-    assert rc == 1 and js["success"] is False and js["reason"]["limit"] == "soil" and js["reason"]["patch"] == 0
-    assert "a steady turn at this speed holds" in js["message"]
+    assert rc == 0 and js["success"] is True and js["turns"][0]["feasible"] is True
+    assert js["turns"][0]["max_slip_outer"] <= 0.2 + 1e-6
     rc = main([*base, "--turn-radius", "0"])
     assert rc == 2 and "--turn-radius" in capsys.readouterr().err
     rc = main([*base, "--turn-radius", "5", "--grade-deg", "4"])
