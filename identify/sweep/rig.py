@@ -146,10 +146,10 @@ def pure_error_test(slip, weighted_residuals, n_params: int) -> LackOfFit | None
 
     Needs ``g > p`` slip levels and ``n > g`` rows (at least one repeat), and a non-zero pure error.
     """
-    levels = slip_levels(slip)
-    if levels.size == 0 or int(levels.max()) + 1 >= np.size(weighted_residuals):  # no repeats: nothing to test
+    label = slip_levels(slip)
+    if label.size == 0 or int(label.max()) + 1 >= np.size(weighted_residuals):  # no repeats: nothing to test
         return None
-    t = pure_error_f_test(levels, weighted_residuals, n_params)
+    t = pure_error_f_test(label, weighted_residuals, n_params)
     if t is None:
         return None
     df_lack, df_pure = t.dof
