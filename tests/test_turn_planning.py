@@ -97,6 +97,7 @@ def _plan(obj, max_speed=2.0):
     return route_profile(route_from_dict(obj), HEAVY, max_speed=max_speed)
 
 
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 def test_route_left_and_right_turns_mirrored_straight_unchanged():
     straight, left, right = (_plan(_route(r)) for r in (None, 10.0, -10.0))
     assert straight.success and left.success and right.success
