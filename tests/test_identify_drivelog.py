@@ -172,6 +172,7 @@ def test_light_vehicle_result_contents(light_fits):
     assert d["data_kind"] == "drive" and d["extra"]["regime"] == "hard"
 
 
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 def test_noise_model_is_estimated_from_the_log(light_fits):
     log, res = light_fits[1]
     nm = res.extra["noise_model"]
