@@ -289,6 +289,13 @@ def main(argv=None):
         f"{os.cpu_count()} cores, Python {platform.python_version()}, numpy {np.__version__}, scipy "
         f"{scipy.__version__}, casadi {__import__('casadi').__version__}"
     )
+    load = os.getloadavg() if hasattr(os, "getloadavg") else None
+    if load is not None and load[0] > (os.cpu_count() or 1):
+        # measured: at a load of 20 on 2 cores scipy's loop ran 10x slower while the compiled path barely moved
+        print(
+            f"WARNING: load average {load[0]:.1f} on {os.cpu_count()} cores: the ratios to scipy are not meaningful "
+            "(the scipy loop slows far more than the compiled path under load); rerun on a quiet machine"
+        )
     print(
         f"model {MODEL}, heavy vehicle (W = 329 kN; l = 2.8 m, b = 0.5 m ASSUMED), bounds phi 6-40 deg, "
         f"K 0.006-0.05 m; x0 = middle of the bounds where 'same x0'"
@@ -376,6 +383,7 @@ def main(argv=None):
             "batch_100x": bool(b.get("speedup", 0) >= 100),
         },
         "total_time_s": time.perf_counter() - t_all,
+        "load_average": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
     }
     if args.json == "-":
         print()

@@ -406,20 +406,27 @@ def _speed_ratio_finding(log: DriveLog, vehicle: Vehicle, st: ConsistencySetting
     return Finding("speed_ratio", "unchecked", "fewer than 5 moving samples: v / (r w) not checked")
 
 
+_LOOP_ROWS = 16  # repeated_rows: up to this many rows a set of tuples, beyond it a sort
+
+
 def repeated_rows(data: SlipData) -> tuple[int, tuple[int, ...]]:
     """``(count, first rows)`` of rows that repeat an earlier row exactly (1-based data rows)."""
     cols = [data.slip, data.values] + ([data.normal_load] if data.normal_load is not None else [])
-    seen: set = set()
-    dup: list[int] = []
-    count = 0
-    for r, row in enumerate(zip(*(c.tolist() for c in cols)), start=1):
-        if row in seen:
-            count += 1
-            if len(dup) < 5:
+    if len(data.slip) <= _LOOP_ROWS:  # a few rows: the plain loop is the quicker (the same answer)
+        seen: set = set()
+        dup: list[int] = []
+        for r, row in enumerate(zip(*(c.tolist() for c in cols)), start=1):
+            if row in seen:
                 dup.append(r)
-        else:
-            seen.add(row)
-    return count, tuple(dup)
+            else:
+                seen.add(row)
+        return len(dup), tuple(dup[:5])
+    X = np.column_stack([np.asarray(c, dtype=float) for c in cols])
+    order = np.lexsort(X.T[::-1])  # stable: among equal rows the earliest first
+    Xs = X[order]
+    same = np.all(Xs[1:] == Xs[:-1], axis=1)  # NaN never equals: a row with a NaN repeats nothing
+    later = np.sort(order[1:][same])  # every row equal to an earlier one
+    return int(later.size), tuple(int(r) + 1 for r in later[:5])
 
 
 def _median(x: np.ndarray) -> float:

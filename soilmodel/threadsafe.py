@@ -39,6 +39,8 @@ __all__ = [
     "SOLVER_LOCK",
     "call_solver",
     "best_of_starts",
+    "CONVERGED_STATUS",
+    "solver_status",
     "locked_cache",
     "solver_lock",
     "fork_generation",
@@ -171,6 +173,16 @@ def call_solver(solver: Any, *args: Any, **kwargs: Any) -> tuple[Any, dict]:
 CONVERGED_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 
 
+def solver_status(stats: dict) -> tuple[str, int, bool]:
+    """``(return status, iterations, converged)`` read from an IPOPT call's ``stats``.
+
+    Converged: IPOPT's ``success`` flag and a status in :data:`CONVERGED_STATUS` (the caller adds its own
+    checks of the answer: finite numbers, inside the bounds).
+    """
+    status = str(stats.get("return_status", "unknown"))
+    return status, int(stats.get("iter_count", -1)), bool(stats.get("success", False)) and status in CONVERGED_STATUS
+
+
 def best_of_starts(solver: Any, x0s: Any, **kwargs: Any) -> tuple[tuple, int]:
     """Solve from every start ``x0`` (the solver's own variables); the best and how many converged.
 
@@ -185,10 +197,10 @@ def best_of_starts(solver: Any, x0s: Any, **kwargs: Any) -> tuple[tuple, int]:
     for x0 in x0s:
         sol, stats = call_solver(solver, x0=x0, **kwargs)
         f = float(sol["f"])
-        status = str(stats.get("return_status", "unknown"))
-        ok = bool(stats.get("success", False)) and status in CONVERGED_STATUS and math.isfinite(f)
+        status, iters, converged = solver_status(stats)
+        ok = converged and math.isfinite(f)
         n_ok += ok
-        cand = (not ok, f, np.asarray(sol["x"], dtype=float).ravel(), status, int(stats.get("iter_count", -1)))
+        cand = (not ok, f, np.asarray(sol["x"], dtype=float).ravel(), status, iters)
         if best is None or cand[:2] < best[:2]:
             best = cand
     if best is None:

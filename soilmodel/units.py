@@ -79,9 +79,12 @@ def choose_scale(values: float | Iterable[float] | np.ndarray, unit: str) -> Sca
     -------
     Scale
     """
-    a = np.abs(np.asarray(values, dtype=float).ravel())
-    a = a[np.isfinite(a)]
-    peak = float(a.max()) if a.size else 0.0
+    if isinstance(values, (float, int)):  # one number (the common case): no array
+        peak = abs(float(values)) if math.isfinite(values) else 0.0
+    else:
+        a = np.abs(np.asarray(values, dtype=float).ravel())
+        a = a[np.isfinite(a)]
+        peak = float(a.max()) if a.size else 0.0
     prefix, power = PREFIXES[0]
     for p, e in PREFIXES:
         # 999.95 kN would print as "1000 kN": switch at the rounding point of the digits shown

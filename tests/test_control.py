@@ -129,7 +129,7 @@ def test_controller_slip_inverse_agrees_with_soilmodel():
         assert ctl._slip_for(b, y * 1e5) == pytest.approx(ref, rel=2e-4)
 
 
-@pytest.mark.parametrize("kind", ["pi", "slip", "mpc"])
+@pytest.mark.parametrize("kind", ["pi", "slip", pytest.param("mpc", marks=pytest.mark.slow)])  # mpc: long (quick loop)
 def test_limits_held_on_the_independent_plant(kind):
     ctl = make_controller(kind, HEAVY, route=CLIMB)
     plant = _jh(HEAVY, CLIMB, CLIMB_TRUE, sigma_v=0.005, sigma_w=0.02)
@@ -162,7 +162,7 @@ def test_slip_controller_settles_at_the_estimates_optimal_slip():
     assert np.median(s) == pytest.approx(c[-1], abs=0.02)
 
 
-@pytest.mark.parametrize("kind", ["slip", "mpc"])
+@pytest.mark.parametrize("kind", ["slip", pytest.param("mpc", marks=pytest.mark.slow)])  # mpc: long (quick loop)
 def test_true_soil_no_stuck_event_on_a_traversable_route(kind):
     ctl = make_controller(kind, HEAVY, route=CLIMB, soil="true", true_soils=CLIMB_TRUE)
     plant = _jh(HEAVY, CLIMB, CLIMB_TRUE, sigma_v=0.005, sigma_w=0.02)

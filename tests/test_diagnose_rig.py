@@ -21,6 +21,7 @@ def _fmax(c=1.3e3, phi_deg=31.1, W=329e3, A=2.8):
     return A * c + W * math.tan(math.radians(phi_deg))
 
 
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 def test_a_humped_rig_sweep_with_zero_slip_rows_is_diagnosed():
     # a strain-softening sweep with two rows at zero slip: the plateau check fits the soil on the readings
     # below each trial level, and one of those subsets has a single nonzero slip; that fit is impossible

@@ -87,6 +87,7 @@ def test_mass_error_inside_its_interval():
     assert f.ci95[0] <= F_true <= f.ci95[1], (f, F_true)
 
 
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 def test_slip_sinkage_finds_the_spinning_samples():
     """slip_sinkage makes the hull balance non-monotone in the slip (a spinning track has a
     second, low-slip solution); the latent slips start from the better of two candidates.
@@ -119,6 +120,7 @@ def test_no_effects_is_the_nominal_fit(grade_light, nominal_light):
         assert "hull_channel" not in res.extra and not res.effects
 
 
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 def test_grade_and_mass_error_confused_on_a_steady_log():
     """At constant speed both act as one constant force: flagged, with the correlation."""
     log = simulate_drive_log(

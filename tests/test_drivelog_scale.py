@@ -130,6 +130,7 @@ def test_row_limit_is_checked_before_reading(tmp_path, monkeypatch):
     assert read_csv(str(p), max_rows=300).n_samples == 300
 
 
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 def test_profiled_fit_is_the_ipopt_optimum():
     """The latent slips eliminated per sample give IPOPT's optimum, its sandwich intervals and its verdict."""
     log = simulate_drive_log(LIGHT, TERRAINS["dry_sand"], seed=3, duration_s=60)
@@ -212,6 +213,7 @@ def test_track_streams_the_log(tmp_path, capsys):
 
 
 # --- segments --------------------------------------------------------------------------------------------------
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 def test_segments_cli(tmp_path, capsys):
     import json
 
@@ -295,6 +297,7 @@ def _joined(*logs):
     )
 
 
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 def test_a_gentle_piece_reports_no_fmax_and_is_not_merged_an_excited_one_holds_the_truth():
     """A cruise far below the traction limit shows only the initial slope: its segments' F_max and K are null with
     the reason, and they are not merged on them; the excited piece before them keeps an F_max holding the truth."""

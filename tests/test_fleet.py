@@ -97,6 +97,7 @@ def test_fleet_on_a_dask_local_cluster(fleet, serial, tmp_path):
     _check_rows(_rows(out), fleet, serial)
 
 
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 @pytest.mark.skipif(FORK is None, reason="needs the fork start method")
 def test_fleet_on_a_process_pool(fleet, serial, tmp_path):
     out = tmp_path / "pool.csv"
@@ -107,6 +108,7 @@ def test_fleet_on_a_process_pool(fleet, serial, tmp_path):
     _check_rows(_rows(out), fleet, serial)
 
 
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 @pytest.mark.skipif(FORK is None, reason="needs the fork start method")
 def test_fleet_of_segment_maps(fleet, tmp_path):
     out = tmp_path / "seg.csv"
@@ -144,6 +146,7 @@ def test_parquet_needs_pyarrow_or_writes_it(fleet, tmp_path):
     assert table["max_thrust_N"][k] is not None and res[0].success in (True, False)
 
 
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 def test_cli_fleet_writes_the_rows_and_exits_1_for_the_poisoned_log(fleet, serial, tmp_path, capsys):
     from soiltrack.cli import main
 

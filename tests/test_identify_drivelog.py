@@ -142,6 +142,7 @@ def test_covariance_is_the_profiled_sandwich(light_fits):
     assert res.parameters["shear_modulus"].stderr == pytest.approx(math.sqrt(V[1, 1]), rel=1e-3)
 
 
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 def test_light_vehicle_result_contents(light_fits):
     log, res = light_fits[0]
     e = res.extra
@@ -171,6 +172,7 @@ def test_light_vehicle_result_contents(light_fits):
     assert d["data_kind"] == "drive" and d["extra"]["regime"] == "hard"
 
 
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 def test_noise_model_is_estimated_from_the_log(light_fits):
     log, res = light_fits[1]
     nm = res.extra["noise_model"]

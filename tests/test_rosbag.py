@@ -120,6 +120,7 @@ def test_bag_gives_the_csv_samples(csv_log, kind):
     assert got.source == bag
 
 
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 def test_bag_gives_the_same_fit_as_the_csv(csv_log):
     _, log, d = csv_log
     bag = write_bag(d / "fit_mcap", log, "mcap")

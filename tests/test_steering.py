@@ -157,6 +157,7 @@ def test_steady_turn_against_independent_numpy_quadrature(soil, ratio):
     assert st.torque_right == pytest.approx(tr, rel=5e-3)
 
 
+@pytest.mark.slow  # long: builds the 200 x 16 reference rule (quick loop: README); CI runs it
 @pytest.mark.parametrize("ratio", [1.1, 2.5])
 def test_quadrature_converges(ratio):
     """The default rule within 3e-3 of a 200 x 16 one; a finer rule closer."""

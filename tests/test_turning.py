@@ -102,6 +102,7 @@ def test_simulate_cli_without_tread_exit_2():
     assert p.returncode == 2 and "tread_m" in p.stderr and "Traceback" not in p.stderr
 
 
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 def test_turn_too_tight_for_the_soil_refused():
     with pytest.raises(DataError, match="cannot give this motion"):
         simulate_turning_log(HEAVY, TERRAINS["clayey_soil"], turns="2:5:1.3", duration_s=6, sample_rate_hz=10)
@@ -177,6 +178,7 @@ def test_by_motion_turns_determine_what_straight_driving_does_not(tmp_path, vehi
 
 
 # --- margin --turn-radius -----------------------------------------------------------------------
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 def test_turn_margin_both_sides_of_the_limit():
     from soiltrack.planning.turning import turn_margin
 
@@ -200,6 +202,7 @@ def test_turn_margin_both_sides_of_the_limit():
     assert faster.min_turn_radius_m > r  # faster: a wider smallest radius
 
 
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 def test_margin_cli_turn(vehicle_json):
     p = _run(
         "margin", "--vehicle", vehicle_json, "--terrain", "lete_sand", "--turn-radius", "10", "--speed", "2", "--json"

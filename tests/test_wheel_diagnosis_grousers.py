@@ -57,6 +57,7 @@ def test_smooth_data_are_not_diagnosed_as_grousers():
     assert row["p_value"] is not None and (row["p_value"] >= 0.01 or not row["admissible"])
 
 
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 def test_grousers_are_not_weighed_with_c_and_phi_both_fitted():
     d = diagnose_wheel(
         _sweep(0.0, 5),
@@ -79,6 +80,7 @@ def test_a_grousered_wheels_json_height_too_low_is_diagnosed_as_grousers():
     assert 0.010 < row["parameters"]["grouser_height_m"] < 0.014
 
 
+@pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it
 def test_cohesion_held_at_zero_does_not_make_grousers_weighable():
     opts = WheelFitOptions(fixed={"cohesion": 0.0, "bekker_kc": 0.0})
     d = diagnose_wheel(_sweep(0.0, 5), RigidWheel(radius=R, width=B), opts, candidates=("grousers",))

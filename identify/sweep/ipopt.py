@@ -33,7 +33,7 @@ import casadi as ca
 import numpy as np
 
 from ...soilmodel.soil import SoilBounds
-from ...soilmodel.threadsafe import CONVERGED_STATUS, call_solver, locked_cache
+from ...soilmodel.threadsafe import call_solver, locked_cache, solver_status
 from ...soilmodel.ridge import fmax_range, one_load
 from ...soilmodel.traction import max_thrust_expr, thrust_expr
 from .problem import SCALE, SlipProblem, ridge_centre
@@ -42,7 +42,6 @@ from .start import start_point
 
 __all__ = ["ipopt_solver", "fit_ipopt", "solve_ipopt"]
 
-_OK_STATUS = CONVERGED_STATUS  # the one home: soilmodel.threadsafe
 _DEFAULT_OPTS = {
     "ipopt.tol": 1e-12,
     "ipopt.acceptable_tol": 1e-8,
@@ -109,9 +108,7 @@ def solve_ipopt(
     x = np.asarray(sol["x"], float).ravel()
     theta = np.zeros(3)
     theta[free] = x * SCALE[free]
-    status = str(st.get("return_status", "unknown"))
-    iters = int(st.get("iter_count", -1))
-    ok = bool(st.get("success", False)) and status in _OK_STATUS
+    status, iters, ok = solver_status(st)
     msgs = []
     if not np.all(np.isfinite(theta)):
         ok = False

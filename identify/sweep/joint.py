@@ -41,7 +41,7 @@ from ...soilmodel.effects import (
     parameter_scale,
 )
 from ...soilmodel.ridge import fmax_range, one_load, ridge_centre
-from ...soilmodel.threadsafe import CONVERGED_STATUS, call_solver, locked_cache
+from ...soilmodel.threadsafe import call_solver, locked_cache, solver_status
 from ...soilmodel.traction import max_thrust_expr
 from ...soilmodel.vehicle import Vehicle
 from .problem import SCALE, SlipProblem
@@ -52,7 +52,6 @@ from .plausibility import slip_checks
 
 __all__ = ["fit_joint", "joint_layout", "padded_size"]
 
-_OK_STATUS = CONVERGED_STATUS  # the one home: soilmodel.threadsafe
 _DEFAULT_OPTS = {"ipopt.tol": 1e-12, "ipopt.acceptable_tol": 1e-8, "ipopt.max_iter": 500}
 
 
@@ -307,9 +306,7 @@ def _ridge_solve(pb: SlipProblem, solver, args: dict, S, lo, hi, z0, load_at):
 def _checked_solution(sol, st, lo_c, hi_c, z0, S):
     """``(x, status, iterations, ok, messages)``: IPOPT's answer in SI, non-finite or out-of-bounds said."""
     x = np.asarray(sol["x"], float).ravel() * S
-    status = str(st.get("return_status", "unknown"))
-    iters = int(st.get("iter_count", -1))
-    ok = bool(st.get("success", False)) and status in _OK_STATUS
+    status, iters, ok = solver_status(st)
     msgs = []
     if not np.all(np.isfinite(x)):
         ok = False

@@ -28,6 +28,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import math
+
 import numpy as np
 
 from ...soilmodel.data import STD_COLUMNS, SlipData
@@ -128,12 +130,14 @@ def slip_levels(slip) -> np.ndarray:
     """Level index of each row: slips within :data:`SLIP_REPEAT_TOL` of the level's first (sorted) slip."""
     s = np.asarray(slip, dtype=float)
     order = np.argsort(s, kind="stable")
+    labels: list[int] = []
+    k, start = -1, -math.inf
+    for v in s[order].tolist():  # (Python floats: the same arithmetic as numpy's, without its per-item cost)
+        if v - start > SLIP_REPEAT_TOL:
+            k, start = k + 1, v
+        labels.append(k)
     level = np.empty(s.size, dtype=int)
-    k, start = -1, -np.inf
-    for j in order:
-        if s[j] - start > SLIP_REPEAT_TOL:
-            k, start = k + 1, s[j]
-        level[j] = k
+    level[order] = labels
     return level
 
 
@@ -142,7 +146,10 @@ def pure_error_test(slip, weighted_residuals, n_params: int) -> LackOfFit | None
 
     Needs ``g > p`` slip levels and ``n > g`` rows (at least one repeat), and a non-zero pure error.
     """
-    t = pure_error_f_test(slip_levels(slip), weighted_residuals, n_params)
+    label = slip_levels(slip)
+    if label.size == 0 or int(label.max()) + 1 >= np.size(weighted_residuals):  # no repeats: nothing to test
+        return None
+    t = pure_error_f_test(label, weighted_residuals, n_params)
     if t is None:
         return None
     df_lack, df_pure = t.dof

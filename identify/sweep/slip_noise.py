@@ -37,6 +37,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ...soilmodel.errors import DataError
+from ...soilmodel.search import golden_section
 from ..estimates.result import FitResult
 from .model import fit_vector, slip_slope
 from .problem import SlipProblem
@@ -187,20 +188,8 @@ def estimate_slip_noise(
 
 
 def _minimise_1d(f, a: float, b: float, tol: float = 1e-4) -> float:
-    """Golden-section minimum of ``f`` on ``[a, b]``."""
-    g = (math.sqrt(5.0) - 1.0) / 2.0
-    c, d = b - g * (b - a), a + g * (b - a)
-    fc, fd = f(c), f(d)
-    while abs(b - a) > tol:
-        if fc < fd:
-            b, d, fd = d, c, fc
-            c = b - g * (b - a)
-            fc = f(c)
-        else:
-            a, c, fc = c, d, fd
-            d = a + g * (b - a)
-            fd = f(d)
-    return 0.5 * (a + b)
+    """Golden-section minimum of ``f`` on ``[a, b]`` (:func:`~soiltrack.soilmodel.search.golden_section`)."""
+    return golden_section(f, a, b, tol=tol).midpoint
 
 
 def serial_correlation(residuals, sigma, slip, load) -> float:

@@ -21,6 +21,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ...soilmodel.rigid_wheel import RigidWheel
+from ...soilmodel.search import golden_section
 from ...soilmodel.wheel_sweep import WheelSweep
 from .fitting import WheelFitOptions, fit_wheel
 from .result import WheelFitResult
@@ -55,19 +56,8 @@ def _profile(fit_at: Callable[[float], tuple[float, WheelFitResult]], hi: float)
     k = int(np.argmin([v[0] for v in vals]))
     best = (grid[k], *vals[k])
     a, b = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
-    g = (math.sqrt(5) - 1) / 2
-    x1, x2 = b - g * (b - a), a + g * (b - a)
-    f1, f2 = fit_at(x1), fit_at(x2)
-    for _ in range(GOLDEN_STEPS):
-        if f1[0] < f2[0]:
-            b, x2, f2 = x2, x1, f1
-            x1 = b - g * (b - a)
-            f1 = fit_at(x1)
-        else:
-            a, x1, f1 = x1, x2, f2
-            x2 = a + g * (b - a)
-            f2 = fit_at(x2)
-    for x, f in ((x1, f1), (x2, f2)):
+    br = golden_section(fit_at, a, b, steps=GOLDEN_STEPS, key=lambda v: v[0])
+    for x, f in ((br.x1, br.f1), (br.x2, br.f2)):
         if f[0] < best[1]:
             best = (x, *f)
     return best
