@@ -1,7 +1,6 @@
 """Dynamics (Eqs. 1, 3, 4), the quasi-static slip inverse, and the simulator."""
 
 import math
-import time
 
 import casadi as ca
 import numpy as np
@@ -260,12 +259,9 @@ def test_seed_sprocket_equation_option():
     assert np.max(np.abs(tr["torque"][hold])) < 0.05 * LIGHT.weight * LIGHT.rolling_resistance * r
 
 
-def test_default_log_has_gentle_and_hard_driving_and_is_fast():
-    simulate_drive_log(LIGHT, SAND, seed=0)  # build
-    t0 = time.perf_counter()
+def test_default_log_has_gentle_and_hard_driving():
+    # its speed is not checked here: tests check correctness, never wall-clock time
     log, tr = simulate_drive_log(LIGHT, SAND, seed=0, return_truth=True)
-    elapsed = time.perf_counter() - t0
-    assert elapsed < 2.0
     assert isinstance(log, DriveLog) and log.n_samples == 3001 and log.vehicle_accel is not None
     assert log.time[-1] == pytest.approx(60.0)
     F_lim = max_thrust(SAND, LIGHT)
