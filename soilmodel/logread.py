@@ -68,7 +68,7 @@ def data_columns(path: str | os.PathLike, *, topics: Any = None) -> list[str]:
         return ["time_s", *parse_topics(topics).topics]
     from .csvread import read_header
 
-    return read_header(path)
+    return read_header(os.fspath(path))
 
 
 def read_two_track_data(path: str | os.PathLike, *, topics: Any = None):
