@@ -33,6 +33,8 @@ import sys
 import time
 
 TASKS = ("fit", "track", "segments", "ipopt", "scipy", "iteration", "fleet")
+#: The command line of this interpreter's soiltrack (not whichever ``soiltrack`` is first on PATH).
+SOILTRACK = [sys.executable, "-m", "soiltrack"]
 
 _FLEET_SNIPPET = """
 import csv, resource, sys, time
@@ -143,7 +145,7 @@ def _log(directory: str, rows: int) -> str:
     path = os.path.join(directory, f"light_{rows}.csv")
     if not os.path.exists(path):
         dur = (rows - 1) / 50.0
-        cmd = ["soiltrack", "simulate", "--vehicle", "light", "--terrain", "dry_sand", "--duration", f"{dur:g}"]
+        cmd = [*SOILTRACK, "simulate", "--vehicle", "light", "--terrain", "dry_sand", "--duration", f"{dur:g}"]
         subprocess.run([*cmd, "--seed", "1", "-o", path], check=True, stderr=subprocess.DEVNULL)
     return path
 
@@ -156,7 +158,7 @@ def _fleet(a: argparse.Namespace, py: str) -> None:
     for k in range(n):
         path = os.path.join(a.dir, f"fleet_{rows}_{k + 1}.csv")
         if not os.path.exists(path):
-            cmd = ["soiltrack", "simulate", "--vehicle", "light", "--terrain", "dry_sand"]
+            cmd = [*SOILTRACK, "simulate", "--vehicle", "light", "--terrain", "dry_sand"]
             cmd += ["--duration", f"{(rows - 1) / 50.0:g}", "--seed", str(k + 1), "-o", path]
             subprocess.run(cmd, check=True, stderr=subprocess.DEVNULL)
         paths.append(path)
@@ -200,9 +202,9 @@ def main(argv: list[str] | None = None) -> int:
             if task == "ipopt" and n > a.ipopt_max or task == "scipy" and n > a.scipy_max:
                 continue
             cmd = {
-                "fit": ["soiltrack", "fit", log, "--vehicle", "light", "--json"],
-                "track": ["soiltrack", "track", log, "--vehicle", "light", "--every", str(10**9), "--json"],
-                "segments": ["soiltrack", "fit", log, "--vehicle", "light", "--segments", "60s", "--json"],
+                "fit": [*SOILTRACK, "fit", log, "--vehicle", "light", "--json"],
+                "track": [*SOILTRACK, "track", log, "--vehicle", "light", "--every", str(10**9), "--json"],
+                "segments": [*SOILTRACK, "fit", log, "--vehicle", "light", "--segments", "60s", "--json"],
                 "ipopt": [py, "-c", _FIT_SNIPPET, log, "ipopt"],
                 "scipy": [py, "-c", _SCIPY_SNIPPET, log],
                 "iteration": [py, "-c", _ITERATION_SNIPPET, log],

@@ -121,8 +121,8 @@ class FleetWriter:
                 import pyarrow  # noqa: F401
             except ImportError:
                 raise DataError(
-                    "writing Parquet needs pyarrow (pip install pyarrow; not a dependency of soiltrack): "
-                    "give a .csv path instead",
+                    "writing Parquet needs pyarrow (pip install 'soiltrack[parquet]' or pip install pyarrow; "
+                    "not a dependency of soiltrack): give a .csv path instead",
                     file=self.path,
                 ) from None
         self._fh: Any = None

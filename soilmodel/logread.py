@@ -11,7 +11,7 @@ from typing import Any
 
 from .errors import DataError
 
-__all__ = ["is_bag", "read_data", "BAG_SUFFIXES"]
+__all__ = ["is_bag", "read_data", "read_two_track_data", "data_columns", "BAG_SUFFIXES"]
 
 #: File endings of ROS bags: ROS 1 ``.bag``, ROS 2 SQLite ``.db3``, MCAP ``.mcap``.
 BAG_SUFFIXES = (".bag", ".db3", ".mcap")
@@ -56,3 +56,52 @@ def read_data(path: str | os.PathLike, *, topics: Any = None, **csv_options: Any
     from .data import read_csv
 
     return read_csv(path, **csv_options)
+
+
+def data_columns(path: str | os.PathLike, *, topics: Any = None) -> list[str]:
+    """The columns ``path`` gives: a CSV's header, or a bag's mapped columns (with ``time_s``) through ``topics``."""
+    if is_bag(path):
+        from .rosbag_read import parse_topics
+
+        if topics is None:
+            return []
+        return ["time_s", *parse_topics(topics).topics]
+    from .csvread import read_header
+
+    return read_header(os.fspath(path))
+
+
+def read_two_track_data(path: str | os.PathLike, *, topics: Any = None):
+    """A two-track drive log keeping each track's channels (:class:`~.turning.TwoTrackLog`): from a CSV
+    (:func:`~.turning.read_two_track`) or from a ROS bag through ``topics`` (the bag's channels resampled
+    onto one clock as for :func:`read_data`); DataError naming the file and the missing column."""
+    from .tracks import TWO_TRACK_COLUMNS, YAW_COLUMN
+    from .turning import LATERAL_COLUMN, TwoTrackLog, read_two_track
+
+    if not is_bag(path):
+        return read_two_track(path)
+    from .rosbag_read import read_bag_columns
+
+    p = os.fspath(path)
+    if topics is None:
+        read_data(p)  # the same refusal as a straight-line fit's: a bag needs --topics
+    cols, _ = read_bag_columns(p, topics)
+    for col in (*TWO_TRACK_COLUMNS, "vehicle_speed_m_s"):
+        if col not in cols:
+            raise DataError(
+                f"the bag mapping has no topic for the two-track column {col} (mapped: {sorted(cols)})",
+                file=p,
+                column=col,
+            )
+    return TwoTrackLog(
+        time=cols["time_s"],
+        torque_left=cols[TWO_TRACK_COLUMNS[0]],
+        torque_right=cols[TWO_TRACK_COLUMNS[1]],
+        speed_left=cols[TWO_TRACK_COLUMNS[2]],
+        speed_right=cols[TWO_TRACK_COLUMNS[3]],
+        vehicle_speed=cols["vehicle_speed_m_s"],
+        yaw_rate=cols.get(YAW_COLUMN),
+        vehicle_accel=cols.get("vehicle_accel_m_s2"),
+        lateral_speed=cols.get(LATERAL_COLUMN),
+        source=p,
+    )

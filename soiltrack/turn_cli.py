@@ -104,16 +104,6 @@ def add_simulate_options(s) -> None:
 
 
 # --- fit --motion -------------------------------------------------------------------------------
-def _csv_header(path: str) -> list[str]:
-    from .soilmodel.csvread import read_header
-    from .soilmodel.logread import is_bag
-
-    if is_bag(path):
-        return []  # a ROS bag: the steering fit reads CSV files only (the straight-line fit takes the bag)
-
-    return read_header(path)
-
-
 def fit_motion_command(a: argparse.Namespace, data, vehicle, options: dict) -> int | None:
     """``fit`` of a two-track log with yaw rate by the steering model; None: not this path.
 
@@ -123,11 +113,12 @@ def fit_motion_command(a: argparse.Namespace, data, vehicle, options: dict) -> i
     other than ``--bounds`` are refused: the steering fit does not take them).
     """
     from .soilmodel import DriveLog
+    from .soilmodel.logread import data_columns
     from .soilmodel.tracks import YAW_COLUMN
 
     given = a.motion is not None
     two_track = isinstance(data, DriveLog) and data.turning is not None
-    has_yaw = isinstance(data, DriveLog) and YAW_COLUMN in _csv_header(a.data)
+    has_yaw = isinstance(data, DriveLog) and YAW_COLUMN in data_columns(a.data, topics=getattr(a, "topics", None))
     if isinstance(data, DriveLog) and has_yaw and not two_track:
         raise DataError(
             "a yaw rate without the two-track columns (sprocket_torque_left_Nm, sprocket_torque_right_Nm, "
@@ -163,9 +154,9 @@ def fit_motion_command(a: argparse.Namespace, data, vehicle, options: dict) -> i
 
 def _fit_and_print(a: argparse.Namespace, vehicle, motion: str) -> int:
     from .identify.turning import fit_by_motion
-    from .soilmodel.turning import read_two_track
+    from .soilmodel.logread import read_two_track_data
 
-    log = read_two_track(a.data)
+    log = read_two_track_data(a.data, topics=getattr(a, "topics", None))  # a CSV or a ROS bag
     by_motion, fits = fit_by_motion(log, vehicle, bounds=a.bounds_obj)
     main = fits[motion]
     out = {"model": "steering", "motion": motion, **main.to_dict()}

@@ -37,12 +37,22 @@ def test_estimate_is_linear_in_the_rows_with_the_measured_constants():
     assert budget.estimate_fit_cost(50_000, latent_slips="ipopt").bytes > 4e9  # what the old fit needed
 
 
+@pytest.mark.parametrize("rows, peak", [(180_000, 295e6), (2_000_000, 1_675e6)])
+def test_estimate_holds_the_measured_peaks(rows, peak):
+    # peaks of `soiltrack fit LOG --vehicle light --json` on logs from independent code (docs/drivelogs.md,
+    # /usr/bin/time -v): the estimate must not be below them (the guard would let a fit through that does not
+    # fit), nor so far above that it refuses what fits
+    est = budget.estimate_fit_cost(rows).bytes
+    assert peak <= est <= 1.35 * peak
+
+
 def test_refusal_names_the_estimate_the_limit_and_the_options():
     with pytest.raises(DataError) as e:
         budget.check_fit_budget(2_000_000, source="big.csv", max_memory=1e9)
     msg = str(e.value)
     assert "big.csv" in msg and "2,000,000 rows" in msg
-    assert "2.08 GB" in msg and "limit of 1 GB (--max-memory)" in msg
+    need = budget.BASE_BYTES + budget.BYTES_PER_ROW["profiled"] * 2_000_000
+    assert f"{need / 1e9:.2f} GB" in msg and "limit of 1 GB (--max-memory)" in msg
     for option in ("decimate", "--segments 60s", "--max-memory BYTES", "--max-memory 3G"):
         assert option in msg
     assert budget.check_fit_budget(2_000_000, max_memory=3e9).how == "profiled"

@@ -128,22 +128,41 @@ def test_fleet_of_segment_maps(fleet, tmp_path):
     assert {int(r["index"]) for r in rows} == {0, 1, 2, 3}
 
 
-def test_parquet_needs_pyarrow_or_writes_it(fleet, tmp_path):
+def test_parquet_without_pyarrow_is_refused_before_any_fit(fleet, tmp_path, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "pyarrow", None)  # `import pyarrow` raises ImportError
     out = tmp_path / "fleet.parquet"
-    try:
-        import pyarrow.parquet as pq
-    except ImportError:
-        with pytest.raises(DataError, match="pyarrow"):
-            FleetWriter(out)
-        with pytest.raises(DataError, match="pyarrow"):  # refused before any fit
-            fit_many(fleet, LIGHT, out=out, progress=False)
-        assert not out.exists()
-        return
-    res = fit_many(fleet[:3], LIGHT, out=out, progress=False)
-    table = pq.read_table(out).to_pydict()
-    assert sorted(table["index"]) == [0, 1, 2]
-    k = table["index"].index(0)
-    assert table["max_thrust_N"][k] is not None and res[0].success in (True, False)
+    with pytest.raises(DataError, match="pyarrow"):
+        FleetWriter(out)
+    with pytest.raises(DataError, match="pyarrow") as e:  # refused before any fit
+        fit_many(fleet, LIGHT, out=out, progress=False)
+    assert str(out) in str(e.value) and ".csv" in str(e.value)
+    assert not out.exists()
+
+
+def test_parquet_holds_the_csv_rows(fleet, serial, tmp_path):
+    pq = pytest.importorskip("pyarrow.parquet")
+    out, out_csv = tmp_path / "fleet.parquet", tmp_path / "fleet.csv"
+    fit_many(fleet, LIGHT, out=out, progress=False)
+    fit_many(fleet, LIGHT, out=out_csv, progress=False)
+    table = pq.read_table(out)
+    assert table.column_names == list(FLEET_COLUMNS)
+    rows = table.to_pylist()
+    assert sorted(r["index"] for r in rows) == [0, 1, 2, 3]
+    by_csv = {int(r["index"]): r for r in _rows(out_csv)}
+    for r in rows:
+        c = by_csv[r["index"]]
+        for k in FLEET_COLUMNS:
+            if c[k] == "":
+                assert r[k] is None, k  # an empty CSV cell is a Parquet null, never NaN
+            elif isinstance(r[k], float):
+                assert r[k] == pytest.approx(float(c[k]), rel=1e-12), k
+            else:
+                assert str(r[k]) == c[k], k
+    bad = next(r for r in rows if "poisoned" in r["source"])
+    assert bad["outcome"] == "failed" and bad["max_thrust_N"] is None and "row 7" in bad["reason"]
+    _check_rows(by_csv.values(), fleet, serial)
 
 
 @pytest.mark.slow  # long end-to-end (quick loop: README); CI runs it

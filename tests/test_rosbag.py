@@ -293,3 +293,87 @@ def test_a_fleet_of_bags_and_csv_files(csv_log, tmp_path):
     rows = {int(r["index"]): r for r in csv.DictReader(open(out))}
     assert rows[0]["source"] == bag and rows[0]["max_thrust_N"] == rows[1]["max_thrust_N"] != ""
     assert rows[2]["outcome"] == "failed" and rows[2]["reason"]
+
+
+TWO_TRACK_TOPICS = (
+    "sprocket_torque_left_Nm=/tracks/joint:effort[0],sprocket_torque_right_Nm=/tracks/joint:effort[1],"
+    "sprocket_speed_left_rad_s=/tracks/joint:velocity[0],sprocket_speed_right_rad_s=/tracks/joint:velocity[1],"
+    "vehicle_speed_m_s=/gnss/speed:data,yaw_rate_rad_s=/imu/yaw_rate:data"
+)
+
+
+def _write_two_track_bag(path, log):
+    """A two-track log as a ROS 2 MCAP bag: one JointState (left, right) and two Float64 topics."""
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    J, F = ts.types["sensor_msgs/msg/JointState"], ts.types["std_msgs/msg/Float64"]
+    H, S = ts.types["std_msgs/msg/Header"], ts.types["builtin_interfaces/msg/Time"]
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        cj = w.add_connection("/tracks/joint", J.__msgtype__, typestore=ts)
+        cv = w.add_connection("/gnss/speed", F.__msgtype__, typestore=ts)
+        cy = w.add_connection("/imu/yaw_rate", F.__msgtype__, typestore=ts)
+        for k, t in enumerate(log.time):
+            ns = _ns(t)
+            js = J(
+                header=H(stamp=S(sec=ns // 10**9, nanosec=ns % 10**9), frame_id="base"),
+                name=["left", "right"],
+                position=np.zeros(2),
+                velocity=np.array([log.speed_left[k], log.speed_right[k]]),
+                effort=np.array([log.torque_left[k], log.torque_right[k]]),
+            )
+            w.write(cj, ns, ts.serialize_cdr(js, J.__msgtype__))
+            w.write(cv, ns, ts.serialize_cdr(F(data=float(log.vehicle_speed[k])), F.__msgtype__))
+            w.write(cy, ns, ts.serialize_cdr(F(data=float(log.yaw_rate[k])), F.__msgtype__))
+    return str(path)
+
+
+@pytest.fixture(scope="module")
+def two_track(tmp_path_factory):
+    """A 10 s two-track turning log (heavy vehicle with a tread, one turn) as CSV and as an MCAP bag."""
+    import dataclasses
+
+    from soiltrack.soilmodel.turning import read_two_track, simulate_turning_log
+
+    d = tmp_path_factory.mktemp("two_track")
+    heavy = dataclasses.replace(VEHICLES["heavy"], tread=2.5, cg_height=1.0)
+    sim = simulate_turning_log(heavy, TERRAINS["lete_sand"], turns="3:8:15", duration_s=10, sample_rate_hz=20, seed=7)
+    sim = dataclasses.replace(sim, time=np.round(sim.time * 1e9) / 1e9, vehicle_accel=None, lateral_speed=None)
+    csv_path = d / "two.csv"
+    sim.write_csv(str(csv_path))
+    log = read_two_track(csv_path)
+    bag = _write_two_track_bag(d / "two_mcap", log)
+    vj = d / "heavy_tread.json"
+    spec = heavy.to_dict()
+    spec.pop("name", None)
+    vj.write_text(json.dumps(spec))
+    return str(csv_path), log, bag, str(vj)
+
+
+def test_a_two_track_bag_gives_the_csv_channels(two_track, capsys):
+    from soiltrack.soilmodel.logread import read_two_track_data
+
+    _, log, bag, vj = two_track
+    got = read_two_track_data(bag, topics=TWO_TRACK_TOPICS)
+    for name in ("time", "torque_left", "torque_right", "speed_left", "speed_right", "vehicle_speed", "yaw_rate"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(log, name), err_msg=name)
+    assert got.source == bag
+    # a mapping without the yaw rate: --motion refused (exit 2) with the column named, before any fit
+    no_yaw = TWO_TRACK_TOPICS.rsplit(",", 1)[0]
+    assert main(["fit", bag, "--vehicle", vj, "--motion", "all", "--topics", no_yaw]) == 2
+    err = capsys.readouterr().err
+    assert "yaw_rate_rad_s" in err and "Traceback" not in err
+
+
+@pytest.mark.slow
+def test_motion_fit_takes_a_two_track_bag(two_track, capsys):
+    """``fit --motion`` (the steering model) reads a two-track bag as it reads the CSV: the same fit."""
+    csv_path, _, bag, vj = two_track
+    outs = []
+    for src, extra in ((csv_path, []), (bag, ["--topics", TWO_TRACK_TOPICS])):
+        rc = main(["fit", src, "--vehicle", vj, "--motion", "all", "--json", *extra])
+        out = capsys.readouterr().out
+        assert rc in (0, 1), out[-500:]
+        outs.append(json.loads(out))
+    a, b = outs
+    assert a["model"] == b["model"] == "steering" and a["motion"] == b["motion"] == "all"
+    assert b["max_thrust_N"] == pytest.approx(a["max_thrust_N"], rel=1e-9)
+    assert b["outcome"] == a["outcome"]

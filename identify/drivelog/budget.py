@@ -38,8 +38,11 @@ __all__ = [
 #: Fraction of the available memory a fit may use by default (``--max-memory auto``): the rest is left to
 #: the other processes of a shared machine and to the estimate's error.
 AVAILABLE_FRACTION = 0.5
-#: Memory of the process before any data (Python, numpy, CasADi loaded, the kernels), bytes; measured 52-70 MB.
-BASE_BYTES = 80e6
+#: Memory of the process before any data (Python, numpy, CasADi loaded, the kernels), bytes; measured 52-70 MB
+#: at start, but the profiled fit's peak has a larger fixed part: on logs from independent code (light vehicle,
+#: 50 Hz) 295 MB at 180,000 rows and 1,675 MB at 2,000,000 (``/usr/bin/time -v soiltrack fit LOG --vehicle light
+#: --json``), a slope of 0.76 kB a row over about 160 MB; 80 MB here under-estimated the hour (260 MB).
+BASE_BYTES = 160e6
 #: Peak bytes per row, by way of fitting (measured slope x 1.25). "profiled": the nominal fit with the latent
 #: slips eliminated (:mod:`.profiled`; measured 131 MB at 50,000 rows, 217 MB at 180,000, 1,617 MB at 2,000,001:
 #: 0.6-0.8 kB per row, reading, the discretisation check and the JSON output included); "ipopt": one IPOPT
@@ -47,8 +50,9 @@ BASE_BYTES = 80e6
 #: "joint": fits with effects (IPOPT over the mapped kernels; measured 4.1 kB per padded sample).
 BYTES_PER_ROW = {"profiled": 1.0e3, "ipopt": 94e3, "joint": 5.2e3}
 #: Seconds per row, by way of fitting, on the loaded 2-core machine (the CLI's two fits of the discretisation
-#: check included): profiled 0.13 ms (24 s on 180,000 rows), ipopt 3.1 ms, joint 3.3 ms.
-SECONDS_PER_ROW = {"profiled": 1.3e-4, "ipopt": 3.1e-3, "joint": 3.3e-3}
+#: check included): profiled 0.16 ms (CPU time on logs from independent code: 28 s on 180,000 rows, 313 s on
+#: 2,000,000; the wall time is several times that under load), ipopt 3.1 ms, joint 3.3 ms.
+SECONDS_PER_ROW = {"profiled": 1.6e-4, "ipopt": 3.1e-3, "joint": 3.3e-3}
 #: Most rows fitted with IPOPT's latent slips under ``latent_slips="auto"`` (= :data:`.fit.PROFILED_ABOVE`,
 #: counted on rows: the used samples are fewer).
 _IPOPT_ROWS = 10_000
