@@ -145,6 +145,9 @@ def main(argv=None) -> int:
     p.add_argument(
         "--mpc-disturbance", type=float, default=0.0, metavar="S", help="MPC's mpc_disturbance_s (default 0: off)"
     )
+    p.add_argument(
+        "--mpc-qp", default="qpoases", choices=("qpoases", "qrqp"), help="MPC's SQP setup (mpc_qp; default qpoases)"
+    )
     p.add_argument("--split-time", type=int, metavar="N", help="only time the slip controller's step split (N steps)")
     a = p.parse_args(argv)
     if a.split_time:
@@ -195,6 +198,8 @@ def main(argv=None) -> int:
                 extra: dict = {"probe": False} if a.no_probe else {}
                 if a.mpc_disturbance:
                     extra["mpc_disturbance_s"] = a.mpc_disturbance
+                if a.mpc_qp != "qpoases":
+                    extra["mpc_qp"] = a.mpc_qp
                 res = drive(
                     kind, V, route, soils, true_slip_sinkage=mus, plant_settings=ps, plant_factory=factory, **extra
                 )

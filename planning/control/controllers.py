@@ -34,7 +34,7 @@ from ...soilmodel import TERRAINS, DataError, Soil, Vehicle
 from ...soilmodel.traction import slip_factor_function
 from ..margin import DEFAULT_MAX_SLIP
 from .belief import EstimatedSoil, PriorSoil, SoilBelief, TrueSoil, patch_load, soil_of
-from .mpc import MpcProblem
+from .mpc import MPC_METHODS, MpcProblem
 from .optimum import optimal_slip
 
 __all__ = ["ControlSettings", "RouteView", "Controller", "make_controller", "CONTROLLERS", "SOIL_SOURCES"]
@@ -75,6 +75,10 @@ class ControlSettings:
         Whether the governor checks the ground ahead (``slip``, ``mpc``).
     mpc_horizon, mpc_interval_s, mpc_every
         Receding horizon: intervals, their length, and samples between two solves.
+    mpc_qp
+        The receding horizon's SQP setup (:data:`~.mpc.MPC_METHODS`): ``"qpoases"`` (default: the
+        Hessian convexified, qpOASES) or ``"qrqp"`` (the exact Hessian with QRQP, last round's, whose
+        slow solves set the step's p99; kept for comparison).
     mpc_disturbance_s
         Offset-free MPC: time constant of the filtered hull-force residual ``m dv/dt - (F(i) - R - R_s i)``
         of the believed soil at the measured slip, added to the plan's resistance (a belief that overrates
@@ -117,6 +121,7 @@ class ControlSettings:
     mpc_horizon: int = 10
     mpc_interval_s: float = 0.2
     mpc_every: int = 2
+    mpc_qp: str = "qpoases"
     mpc_disturbance_s: float = 0.0
     sample_s: float = 0.02
     cut_factor: float = 0.85
@@ -132,6 +137,10 @@ class ControlSettings:
         for f in fields(self):
             v = getattr(self, f.name)
             if f.name in ("governor", "probe"):
+                continue
+            if f.name == "mpc_qp":
+                if v not in MPC_METHODS:
+                    raise DataError(f"controller setting mpc_qp must be one of {MPC_METHODS}, got {v!r}")
                 continue
             if v is None:
                 continue
@@ -582,7 +591,7 @@ class MpcController(SlipController):
     def __init__(self, *args: Any, **kw: Any) -> None:
         super().__init__(*args, **kw)
         s = self.settings
-        self.problem = MpcProblem(self.vehicle, horizon=s.mpc_horizon, h=s.mpc_interval_s)
+        self.problem = MpcProblem(self.vehicle, horizon=s.mpc_horizon, h=s.mpc_interval_s, qp=s.mpc_qp)
         self._n = 0
         self._plan_slip = 0.0
         self._dist = (0.0, -1, math.nan)  # (filtered residual force N, its patch, last filtered speed)
