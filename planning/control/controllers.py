@@ -111,6 +111,10 @@ class ControlSettings:
         ``probe_settle_s`` after entering it, ending early beyond ``1 + probe_overspeed`` times the
         speed target; and at once when the speed falls below ``1 - probe_abort_drop`` times the speed at its
         start (pulling harder slowed the vehicle: slip sinkage digs in, logged as ``probe_aborted``).
+        The probe's slip is the ceiling but at most the slip limit less ``guard_margin``, and during it the
+        runaway guard cuts at that slip (a belief that overrates F_max asks at the limit for more than the soil
+        gives: the tracks spin up past it; independent plant, light snow climbs: 0.18-0.22 s above the limit
+        before, 0-0.02 s after, docs/control.md).
     """
 
     max_slip: float | None = None
@@ -438,6 +442,8 @@ class Controller:
         target = getattr(self, "slip_target", None)
         if target is None:
             return self.max_slip
+        if self.limiting == "probe":  # a probe pulls at its target on purpose: beyond it the pull exceeds F_max
+            return min(self.max_slip, target)
         return min(self.max_slip, max(1.5 * target, target + self.settings.guard_margin))
 
     def _limit(self, M: float, w_now: float) -> float:
@@ -548,6 +554,11 @@ class SlipController(Controller):
         )
         return True
 
+    def _probe_target(self, ceiling: float) -> float:
+        """The probe's slip: the ceiling, at most the slip limit less ``guard_margin`` (a belief that overrates
+        F_max asks at the limit for more than the soil gives: the tracks spin up past the limit)."""
+        return min(ceiling, self.max_slip - self.settings.guard_margin)
+
     def _ceiling(self, patch: int) -> tuple[float, SoilBelief | None]:
         if self.fixed is not None or self.belief is None:
             return (self.fixed or self.max_slip), None
@@ -580,9 +591,10 @@ class SlipController(Controller):
         M_s, gain = self._slip_loop(ceiling, b, dt, patch)
         self.slip_target = ceiling
         if self._probing(patch, v_ref):
-            self.limiting = "probe"
-            self._integrate_slip(gain, ceiling, dt)
-            return M_s
+            self.limiting, self.slip_target = "probe", self._probe_target(ceiling)
+            M_p, gain = self._slip_loop(self.slip_target, b, dt, patch)
+            self._integrate_slip(gain, self.slip_target, dt)
+            return M_p
         cap = min(self._M_max, self._P_max / max(self._w, 1e-3), M_s)
         M_v = self._speed_loop(patch, v_ref, dt, cap)
         self.limiting = "slip" if M_s < M_v else "speed"
@@ -628,9 +640,9 @@ class MpcController(SlipController):
         d = self._disturbance(b, patch, dt)
         if self._probing(patch, v_ref):
             ceiling, b = self._ceiling(patch)
-            self.limiting, self.slip_target = "probe", ceiling
-            M, gain = self._slip_loop(ceiling, b, dt, patch)
-            self._integrate_slip(gain, ceiling, dt)
+            self.limiting, self.slip_target = "probe", self._probe_target(ceiling)
+            M, gain = self._slip_loop(self.slip_target, b, dt, patch)
+            self._integrate_slip(gain, self.slip_target, dt)
             return M
         self.limiting, self.slip_target = "plan", self._plan_slip
         if self._n % self.settings.mpc_every == 0:
