@@ -108,7 +108,7 @@ def mpc_solver(
         }
         with _stdout_to_devnull():
             return ca.nlpsol("slip_mpc_sqp", "sqpmethod", nlp, opts_q)
-    opts = {
+    opts: dict[str, Any] = {
         "ipopt.print_level": 0,
         "print_time": False,
         "ipopt.sb": "yes",
