@@ -645,7 +645,7 @@ class MpcController(SlipController):
             self._integrate_slip(gain, self.slip_target, dt)
             return M
         self.limiting, self.slip_target = "plan", self._plan_slip
-        if self._n % self.settings.mpc_every == 0:
+        if self._n % self.settings.mpc_every == 0 and v_ref >= _STOP_SPEED:  # stopping: the plan is not used
             t0, c0 = time.perf_counter(), time.process_time()
             M_max = self._M_max if math.isfinite(self._M_max) else 1e12
             P_max = self._P_max if math.isfinite(self._P_max) else 1e15
