@@ -23,6 +23,7 @@ runs the independent numpy plant of tests/control_plant.py instead of the librar
 
     python benchmarks/bench_control.py                       # light, climb, slip (about 30 s)
     python benchmarks/bench_control.py --split-time 1000     # the slip step: estimator vs own time
+    python benchmarks/bench_control.py --solve-time heavy/soft,light/climb,light/dig   # MPC solve: QRQP vs qpOASES
     python benchmarks/bench_control.py --vehicles heavy,light --routes soft,change,climb,steep \\
         --controllers slip,mpc --plant independent          # the full table (tens of minutes)
 """
@@ -132,6 +133,53 @@ def split_time(n: int) -> None:
         print(f"{name}: median {np.median(x) * 1e6:.0f} us, p99 {np.percentile(x, 99) * 1e6:.0f} us")
 
 
+def solve_time(specs: str) -> None:
+    """The MPC's step and solve, last round's SQP (exact Hessian, QRQP) beside this one's (convexified, qpOASES),
+    in the same process: library plant, on-line estimate, each ``vehicle/route`` of ``specs`` (median, p99, max;
+    CPU by ``process_time``, wall by ``perf_counter``; IPOPT fall-backs and failed solves)."""
+    import numpy as np
+
+    from soiltrack.planning import route_from_dict
+    from soiltrack.planning.control import PlantSettings, TerrainPatch, TrackPlant, make_controller
+    from soiltrack.soilmodel import TERRAINS, VEHICLES
+
+    print(
+        "| run | QP | solves | IPOPT | failed | solve CPU ms med/p99/max | solve wall ms med/p99 | step CPU ms med/p99 "
+        "| step wall ms med/p99 | time_s |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for item in specs.split(","):
+        vname, rname = item.split("/")
+        V = VEHICLES[vname]
+        spec, true, mus = routes(vname)[rname]
+        route = route_from_dict(spec)
+        for qp in ("qrqp", "qpoases"):
+            ctl = make_controller("mpc", V, route=route, mpc_qp=qp)
+            ps = PlantSettings(
+                v0=route.v0_m_s,
+                sigma_vehicle_speed=0.005,
+                sigma_sprocket_speed=0.02,
+                sigma_torque=0.005 * V.max_sprocket_torque,
+            )
+            pats = [TerrainPatch(p.length_m, TERRAINS[t], p.grade_deg, m) for p, t, m in zip(route.patches, true, mus)]
+            pl = TrackPlant(V, pats, ps)
+            meas = pl.step(0.0)
+            while pl.truth["distance_m"] < route.length_m and pl.truth["time_s"] < 120:
+                meas = pl.step(ctl.command(meas))
+            P = ctl.problem
+            sc, sw = np.array(ctl.solve_cpu_s) * 1e3, np.array(ctl.solve_times_s) * 1e3
+            tc, tw = np.array(ctl.step_cpu_s) * 1e3, np.array(ctl.step_times_s) * 1e3
+
+            def q(x):
+                return f"{np.median(x):.2f}/{np.percentile(x, 99):.2f}"
+
+            print(
+                f"| {item} | {qp} | {len(sc)} | {P.fallbacks} | {P.failures} | {q(sc)}/{sc.max():.1f} | {q(sw)} | "
+                f"{q(tc)} | {q(tw)} | {pl.truth['time_s']:.2f} |"
+            )
+            sys.stdout.flush()
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__
@@ -145,8 +193,19 @@ def main(argv=None) -> int:
     p.add_argument(
         "--mpc-disturbance", type=float, default=0.0, metavar="S", help="MPC's mpc_disturbance_s (default 0: off)"
     )
+    p.add_argument(
+        "--mpc-qp", default="qpoases", choices=("qpoases", "qrqp"), help="MPC's SQP setup (mpc_qp; default qpoases)"
+    )
     p.add_argument("--split-time", type=int, metavar="N", help="only time the slip controller's step split (N steps)")
+    p.add_argument(
+        "--solve-time",
+        metavar="V/R,...",
+        help="only the MPC solve time, QRQP (exact Hessian) beside qpOASES (convexified): heavy/soft,light/climb",
+    )
     a = p.parse_args(argv)
+    if a.solve_time:
+        solve_time(a.solve_time)
+        return 0
     if a.split_time:
         split_time(a.split_time)
         return 0
@@ -195,6 +254,8 @@ def main(argv=None) -> int:
                 extra: dict = {"probe": False} if a.no_probe else {}
                 if a.mpc_disturbance:
                     extra["mpc_disturbance_s"] = a.mpc_disturbance
+                if a.mpc_qp != "qpoases":
+                    extra["mpc_qp"] = a.mpc_qp
                 res = drive(
                     kind, V, route, soils, true_slip_sinkage=mus, plant_settings=ps, plant_factory=factory, **extra
                 )

@@ -34,7 +34,7 @@ from ...soilmodel import TERRAINS, DataError, Soil, Vehicle
 from ...soilmodel.traction import slip_factor_function
 from ..margin import DEFAULT_MAX_SLIP
 from .belief import EstimatedSoil, PriorSoil, SoilBelief, TrueSoil, patch_load, soil_of
-from .mpc import MpcProblem
+from .mpc import MPC_METHODS, MpcProblem
 from .optimum import optimal_slip
 
 __all__ = ["ControlSettings", "RouteView", "Controller", "make_controller", "CONTROLLERS", "SOIL_SOURCES"]
@@ -75,6 +75,17 @@ class ControlSettings:
         Whether the governor checks the ground ahead (``slip``, ``mpc``).
     mpc_horizon, mpc_interval_s, mpc_every
         Receding horizon: intervals, their length, and samples between two solves.
+    mpc_qp
+        The receding horizon's SQP setup (:data:`~.mpc.MPC_METHODS`): ``"qpoases"`` (default: the
+        Hessian convexified, qpOASES) or ``"qrqp"`` (the exact Hessian with QRQP, last round's, whose
+        slow solves set the step's p99; kept for comparison).
+    mpc_speed_floor
+        Whether the slip controller's rule (the speed loop, with its integral, under the believed optimal
+        slip) is a floor under the plan's torque. The horizon problem has no integral action: a belief that
+        overrates the soil (F_max not identified, the prior's kept) makes the plan's slips too small, it
+        predicts an acceleration that never comes, and the vehicle stays below the target speed (independent
+        plant, light vehicle, a snow climb planned as LETE sand: 35.9 s against 31.1 s with the true soil,
+        +15 %, before the floor; docs/control.md).
     mpc_disturbance_s
         Offset-free MPC: time constant of the filtered hull-force residual ``m dv/dt - (F(i) - R - R_s i)``
         of the believed soil at the measured slip, added to the plan's resistance (a belief that overrates
@@ -100,6 +111,10 @@ class ControlSettings:
         ``probe_settle_s`` after entering it, ending early beyond ``1 + probe_overspeed`` times the
         speed target; and at once when the speed falls below ``1 - probe_abort_drop`` times the speed at its
         start (pulling harder slowed the vehicle: slip sinkage digs in, logged as ``probe_aborted``).
+        The probe's slip is the ceiling but at most the slip limit less ``guard_margin``, and during it the
+        runaway guard cuts at that slip (a belief that overrates F_max asks at the limit for more than the soil
+        gives: the tracks spin up past it; independent plant, light snow climbs: 0.18-0.22 s above the limit
+        before, 0-0.02 s after, docs/control.md).
     """
 
     max_slip: float | None = None
@@ -117,6 +132,8 @@ class ControlSettings:
     mpc_horizon: int = 10
     mpc_interval_s: float = 0.2
     mpc_every: int = 2
+    mpc_qp: str = "qpoases"
+    mpc_speed_floor: bool = True
     mpc_disturbance_s: float = 0.0
     sample_s: float = 0.02
     cut_factor: float = 0.85
@@ -131,7 +148,11 @@ class ControlSettings:
     def __post_init__(self) -> None:
         for f in fields(self):
             v = getattr(self, f.name)
-            if f.name in ("governor", "probe"):
+            if f.name in ("governor", "probe", "mpc_speed_floor"):
+                continue
+            if f.name == "mpc_qp":
+                if v not in MPC_METHODS:
+                    raise DataError(f"controller setting mpc_qp must be one of {MPC_METHODS}, got {v!r}")
                 continue
             if v is None:
                 continue
@@ -421,6 +442,8 @@ class Controller:
         target = getattr(self, "slip_target", None)
         if target is None:
             return self.max_slip
+        if self.limiting == "probe":  # a probe pulls at its target on purpose: beyond it the pull exceeds F_max
+            return min(self.max_slip, target)
         return min(self.max_slip, max(1.5 * target, target + self.settings.guard_margin))
 
     def _limit(self, M: float, w_now: float) -> float:
@@ -531,6 +554,11 @@ class SlipController(Controller):
         )
         return True
 
+    def _probe_target(self, ceiling: float) -> float:
+        """The probe's slip: the ceiling, at most the slip limit less ``guard_margin`` (a belief that overrates
+        F_max asks at the limit for more than the soil gives: the tracks spin up past the limit)."""
+        return min(ceiling, self.max_slip - self.settings.guard_margin)
+
     def _ceiling(self, patch: int) -> tuple[float, SoilBelief | None]:
         if self.fixed is not None or self.belief is None:
             return (self.fixed or self.max_slip), None
@@ -563,9 +591,10 @@ class SlipController(Controller):
         M_s, gain = self._slip_loop(ceiling, b, dt, patch)
         self.slip_target = ceiling
         if self._probing(patch, v_ref):
-            self.limiting = "probe"
-            self._integrate_slip(gain, ceiling, dt)
-            return M_s
+            self.limiting, self.slip_target = "probe", self._probe_target(ceiling)
+            M_p, gain = self._slip_loop(self.slip_target, b, dt, patch)
+            self._integrate_slip(gain, self.slip_target, dt)
+            return M_p
         cap = min(self._M_max, self._P_max / max(self._w, 1e-3), M_s)
         M_v = self._speed_loop(patch, v_ref, dt, cap)
         self.limiting = "slip" if M_s < M_v else "speed"
@@ -582,7 +611,7 @@ class MpcController(SlipController):
     def __init__(self, *args: Any, **kw: Any) -> None:
         super().__init__(*args, **kw)
         s = self.settings
-        self.problem = MpcProblem(self.vehicle, horizon=s.mpc_horizon, h=s.mpc_interval_s)
+        self.problem = MpcProblem(self.vehicle, horizon=s.mpc_horizon, h=s.mpc_interval_s, qp=s.mpc_qp)
         self._n = 0
         self._plan_slip = 0.0
         self._dist = (0.0, -1, math.nan)  # (filtered residual force N, its patch, last filtered speed)
@@ -611,12 +640,12 @@ class MpcController(SlipController):
         d = self._disturbance(b, patch, dt)
         if self._probing(patch, v_ref):
             ceiling, b = self._ceiling(patch)
-            self.limiting, self.slip_target = "probe", ceiling
-            M, gain = self._slip_loop(ceiling, b, dt, patch)
-            self._integrate_slip(gain, ceiling, dt)
+            self.limiting, self.slip_target = "probe", self._probe_target(ceiling)
+            M, gain = self._slip_loop(self.slip_target, b, dt, patch)
+            self._integrate_slip(gain, self.slip_target, dt)
             return M
         self.limiting, self.slip_target = "plan", self._plan_slip
-        if self._n % self.settings.mpc_every == 0:
+        if self._n % self.settings.mpc_every == 0 and v_ref >= _STOP_SPEED:  # stopping: the plan is not used
             t0, c0 = time.perf_counter(), time.process_time()
             M_max = self._M_max if math.isfinite(self._M_max) else 1e12
             P_max = self._P_max if math.isfinite(self._P_max) else 1e15
@@ -644,6 +673,16 @@ class MpcController(SlipController):
             return SlipController._torque(self, patch, v_ref, dt)
         M, gain = self._slip_loop(self._plan_slip, b, dt, patch)
         self._integrate_slip(gain, self._plan_slip, dt)
+        if not self.settings.mpc_speed_floor:
+            return M
+        # the floor: the slip controller's rule (speed loop under the optimal-slip ceiling) when it asks for more
+        ceiling, _ = self._ceiling(patch)
+        M_c = self._slip_loop(ceiling, b, dt, patch)[0] - self._Is  # the plan loop's integral is not the ceiling's
+        M_v = self._speed_loop(patch, v_ref, dt, min(self._M_max, self._P_max / max(self._w, 1e-3), M_c))
+        floor = min(M_v, M_c)
+        if floor > M:
+            self.limiting, self.slip_target = ("slip" if M_c < M_v else "speed"), ceiling
+            return floor
         return M
 
 
