@@ -37,6 +37,7 @@ EDGE_UNITS = {
     "cohesion": ("cohesion_kpa", "kPa", 1e-3, "cohesion c", "Pa"),
     "friction_angle": ("friction_angle_deg", "deg", 180.0 / math.pi, "friction angle phi", "rad"),
     "shear_modulus": ("shear_modulus_m", "m", 1.0, "shear modulus K", "m"),
+    "shear_strength": ("shear_strength_kpa", "kPa", 1e-3, "shear strength", "Pa"),
     "bekker_kc": ("bekker_kc", "kN/m^(n+1)", 1e-3, "Bekker k_c", "N/m^(n+1)"),
     "bekker_kphi": ("bekker_kphi", "kN/m^(n+2)", 1e-3, "Bekker k_phi", "N/m^(n+2)"),
     "bekker_n": ("bekker_n", "-", 1.0, "Bekker exponent n", "-"),
