@@ -43,6 +43,7 @@ EDGE_UNITS = {
     "bekker_n": ("bekker_n", "-", 1.0, "Bekker exponent n", "-"),
     "bekker_k_eq": ("bekker_k_eq", "kN/m^(n+2)", 1e-3, "k_c / b + k_phi", "N/m^(n+2)"),
     "slip_sinkage": ("slip_sinkage", "-", 1.0, "slip-sinkage coefficient s", "-"),
+    "grouser_height": ("grouser_height_m", "m", 1.0, "grouser height h", "m"),
     "slip_sinkage_exponent": (
         "slip_sinkage_exponent",
         "-",
