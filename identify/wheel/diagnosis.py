@@ -342,7 +342,8 @@ def _ranking(hyps: list[_Hypothesis], before: float) -> list[dict[str, Any]]:
 def _row_parameters(h: _Hypothesis) -> dict[str, float]:
     """The hypothesis' own fitted parameter for the ranking (the slip-sinkage coefficient, the grouser height)."""
     if h.effect == "slip_sinkage":
-        return {"slip_sinkage": float(h.fit.parameters["slip_sinkage"].value or 0.0)}
+        v = h.fit.parameters["slip_sinkage"].value
+        return {} if v is None else {"slip_sinkage": float(v)}
     if h.effect == GROUSER_HYPOTHESIS and h.height is not None:
         return {"grouser_height_m": h.height}
     return {}
