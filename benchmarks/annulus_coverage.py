@@ -43,7 +43,7 @@ def main(argv=None) -> dict:
         for j, (key, true) in enumerate(
             (("cohesion_kpa", c / 1e3), ("friction_angle_deg", math.degrees(phi)), ("shear_modulus_m", K))
         ):
-            lo, hi = fit.parameters[key].ci95
+            lo, hi = fit.parameters[key].edge_ci95
             hits[j] += lo is not None and lo <= true <= hi
     rates = {k: float(v) for k, v in zip(("c", "phi", "K"), (hits / a.reps).round(4))}
     out = {"reps": a.reps, "converged": conv, "coverage": rates}

@@ -115,7 +115,7 @@ def main() -> None:
             }
             est = dict(zip(keys, (*fs.parameters.values(), *fp.parameters.values())))
             for k in keys:
-                lo, hi = est[k].ci95
+                lo, hi = est[k].edge_ci95
                 hits[k] += bool(lo <= truth[k] <= hi)
             pr = predict_drawbar_pull(fs, fp, vehicle, slips)
             true_dp = true_drawbar_pull(soil, slips, LIGHT["W"], LIGHT["l"], LIGHT["b"])

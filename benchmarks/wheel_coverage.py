@@ -54,7 +54,8 @@ def main() -> None:
                     if not e.identifiable:
                         marks.append("N")
                         continue
-                    ok = e.ci95[0] is not None and e.ci95[0] <= soil[k] * fac <= e.ci95[1]
+                    lo, hi = e.edge_ci95
+                    ok = lo is not None and hi is not None and lo <= soil[k] * fac <= hi
                     inside, total = inside + ok, total + 1
                     marks.append(
                         ("W" if e.weakly_identifiable else "I") + ("+" if ok else "-") + ("B" if e.at_bound else "")

@@ -35,7 +35,7 @@ def main(argv=None) -> dict:
         f = fit_wheel(WheelSweep(i, dp, W, z, torque=T), WHEEL, WheelFitOptions(fixed=fixed))
         ok += f.success
         for k, (key, true) in enumerate(truth):
-            lo, hi = f.parameters[key].ci95
+            lo, hi = f.parameters[key].edge_ci95
             hits[k] += lo is not None and lo <= true <= hi
     rates = {k: float(v) for k, v in zip(("c", "phi", "K"), (hits / a.reps).round(4))}
     out = {"reps": a.reps, "converged": ok, "coverage": rates}

@@ -11,30 +11,46 @@ from .soilmodel import PlateTest, ShearTest, plate_pressure, shear_stress
 __all__ = ["plot_soil_test"]
 
 
+def _si(fit: SoilTestFit, key: str) -> float:
+    """A fitted parameter's SI value (the curves are drawn only from identifiable ones)."""
+    v = fit.parameters[key].value
+    if v is None:
+        raise ValueError(f"{key} was not estimated: no curve from it")
+    return float(v)
+
+
+def _combination_si(fit: SoilTestFit, key: str, factor: float) -> float:
+    """An identified combination's value (edge units) times ``factor`` (to SI)."""
+    v = fit.combinations[key].value
+    if v is None:
+        raise ValueError(f"{key} was not estimated: no curve from it")
+    return float(v) * factor
+
+
 def _curves(test: ShearTest | PlateTest, fit: SoilTestFit):
     """``(levels, x readings, y readings, x grid, fitted y per level)`` in kPa / mm."""
     P = fit.parameters
     if isinstance(test, ShearTest):
         lev, x, y = test.normal_pressure, test.shear_displacement, test.shear_stress
         grid = np.linspace(0.0, float(x.max()), 200)
-        K = P["shear_modulus_m"].value
+        K = _si(fit, "shear_modulus_m")
         out = []
         for s in np.unique(lev):
             if P["cohesion_kpa"].identifiable:
-                tau = shear_stress(grid, s, P["cohesion_kpa"].value * 1e3, np.radians(P["friction_angle_deg"].value), K)
+                tau = shear_stress(grid, s, _si(fit, "cohesion_kpa"), _si(fit, "friction_angle_deg"), K)
             else:
-                tau = shear_stress(grid, 0.0, fit.combinations["shear_strength_kpa"].value * 1e3, 0.0, K)
+                tau = shear_stress(grid, 0.0, _combination_si(fit, "shear_strength_kpa", 1e3), 0.0, K)
             out.append(tau)
         return lev, x, y, grid, out
     lev, x, y = test.plate_width, test.sinkage, test.pressure
     grid = np.linspace(0.0, float(x.max()), 200)
-    n = P["bekker_n"].value
+    n = _si(fit, "bekker_n")
     out = []
     for b in np.unique(lev):
         if P["bekker_kc"].identifiable:
-            p = plate_pressure(grid, b, P["bekker_kc"].value * 1e3, P["bekker_kphi"].value * 1e3, n)
+            p = plate_pressure(grid, b, _si(fit, "bekker_kc"), _si(fit, "bekker_kphi"), n)
         else:
-            p = plate_pressure(grid, 1.0, 0.0, fit.combinations["bekker_k_eq"].value * 1e3, n)
+            p = plate_pressure(grid, 1.0, 0.0, _combination_si(fit, "bekker_k_eq", 1e3), n)
         out.append(p)
     return lev, x, y, grid, out
 

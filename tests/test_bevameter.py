@@ -48,7 +48,7 @@ def test_shear_test_recovers_c_phi_K_within_intervals(tmp_path):
         r = fit_shear_test(_shear(tmp_path, seed))
         assert r.success and r.converged and r.identifiable == list(truth)
         for k, v in truth.items():
-            lo, hi = r.parameters[k].ci95
+            lo, hi = r.parameters[k].edge_ci95
             hits[k] += lo <= v <= hi
     assert min(hits.values()) >= MIN_HITS, hits
 
@@ -60,7 +60,7 @@ def test_plate_test_recovers_kc_kphi_n_within_intervals(tmp_path):
         r = fit_plate_test(_plate(tmp_path, seed))
         assert r.success and r.identifiable == list(truth)
         for k, v in truth.items():
-            lo, hi = r.parameters[k].ci95
+            lo, hi = r.parameters[k].edge_ci95
             hits[k] += lo <= v <= hi
     assert min(hits.values()) >= MIN_HITS, hits
 

@@ -69,7 +69,7 @@ def test_a_grousered_sweep_is_recovered_with_the_grousers_held():
     assert res.success
     for key, v in (("cohesion_kpa", c / 1e3), ("friction_angle_deg", math.degrees(phi)), ("shear_modulus_m", K)):
         e = res.parameters[key]
-        assert e.ci95[0] <= v <= e.ci95[1], (key, e.ci95, v)
+        assert e.edge_ci95[0] <= v <= e.edge_ci95[1], (key, e.edge_ci95, v)
     # the shear radius alone books the grousers' side thrust as soil strength
     old = fit_wheel(
         data,

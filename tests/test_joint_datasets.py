@@ -83,7 +83,7 @@ def test_two_wheels_of_one_soil_are_consistent_and_hold_the_truth(consistent):
     }
     for key, v in truth.items():
         e = r.parameters[key]
-        assert e.identifiable and e.ci95[0] <= v <= e.ci95[1], (key, e.ci95, v)
+        assert e.identifiable and e.edge_ci95[0] <= v <= e.edge_ci95[1], (key, e.edge_ci95, v)
     # two widths separate k_c from k_phi; each wheel alone does not
     assert all(d["soil"]["bekker_kc"] is None for d in r.datasets)
     assert len(c["shifts_se"]["friction_angle_deg"]) == 2
@@ -110,11 +110,11 @@ def test_a_wheel_with_a_shear_test_shares_the_soil():
     assert r.consistency["dof"] == 3  # the shear test's c, phi, K shared with the wheel
     for key, v in (("cohesion_kpa", C / 1e3), ("friction_angle_deg", math.degrees(PHI)), ("shear_modulus_m", K)):
         e = r.parameters[key]
-        assert e.ci95[0] <= v <= e.ci95[1], (key, e.ci95, v)
+        assert e.edge_ci95[0] <= v <= e.edge_ci95[1], (key, e.edge_ci95, v)
     assert r.datasets[1]["kind"] == "shear_test"
     # the shear test narrows the joint friction angle against the wheel's own
     own = r.datasets[0]["soil_stderr"]["friction_angle_deg"]
-    assert r.parameters["friction_angle_deg"].stderr < own
+    assert r.parameters["friction_angle_deg"].edge_stderr < own
 
 
 @pytest.mark.slow
@@ -190,10 +190,10 @@ def test_a_grousered_wheels_height_is_fitted_beside_a_smooth_wheel():
     r = fit([a, g], [smooth, RigidWheel(0.15, 0.08, grouser_height=0.006)], labels=["smooth", "g"], free_grousers=[1])
     assert r.outcome == "usable"
     e = r.specific[1]["grouser_height_m"]
-    assert e.identifiable and e.ci95[0] <= h <= e.ci95[1], e.ci95
+    assert e.identifiable and e.edge_ci95[0] <= h <= e.edge_ci95[1], e.edge_ci95
     assert r.specific[0] == {}
     for key, v in (("cohesion_kpa", C / 1e3), ("friction_angle_deg", math.degrees(PHI)), ("shear_modulus_m", K)):
-        assert r.parameters[key].ci95[0] <= v <= r.parameters[key].ci95[1], key
+        assert r.parameters[key].edge_ci95[0] <= v <= r.parameters[key].edge_ci95[1], key
     # alone, the grousered wheel's c and phi are confounded with its grouser height
     assert r.datasets[1]["soil"]["cohesion_kpa"] is None
     held = fit([a, g], [smooth, RigidWheel(0.15, 0.08)], labels=["smooth", "g as smooth"])
@@ -215,7 +215,7 @@ def test_a_wheel_with_a_plate_test_shares_the_bekker_soil():
     assert r.outcome == "usable" and r.consistency["dof"] == 2  # wheel rank 5 + plate 3 - joint 6
     for key, v in (("bekker_kc", KC / 1e3), ("bekker_kphi", KPHI / 1e3), ("bekker_n", N)):
         e = r.parameters[key]
-        assert e.ci95[0] <= v <= e.ci95[1], (key, e.ci95, v)
+        assert e.edge_ci95[0] <= v <= e.edge_ci95[1], (key, e.edge_ci95, v)
     assert r.datasets[1]["kind"] == "plate_test" and "cohesion_kpa" not in r.datasets[1]["soil"]
 
 
@@ -250,5 +250,5 @@ def test_a_shear_test_and_a_shear_annulus_share_c_phi_k():
     assert r.datasets[1]["kind"] == "shear_annulus"
     for key, v in (("cohesion_kpa", C / 1e3), ("friction_angle_deg", math.degrees(PHI)), ("shear_modulus_m", K)):
         e = r.parameters[key]
-        assert e.ci95[0] <= v <= e.ci95[1], (key, e.ci95, v)
+        assert e.edge_ci95[0] <= v <= e.edge_ci95[1], (key, e.edge_ci95, v)
     assert r.parameters["bekker_n"].fixed  # no data set sees the Bekker soil: held, said so

@@ -48,12 +48,12 @@ def test_n_and_k_are_recovered_with_intervals_that_cover_the_truth():
     ch = fit_sinkage_channel(sweep(*textbook_rows(1, (200.0, 300.0, 450.0))), TRACK)
     assert ch.converged and ch.n_identifiable
     n, k = ch.parameters["bekker_n"], ch.parameters["bekker_k_eq"]
-    assert abs(n.value / N_TRUE - 1) < 0.1 and abs(k.value / (K_TRUE / 1e3) - 1) < 0.3
-    assert n.ci95[0] <= N_TRUE <= n.ci95[1] and k.ci95[0] <= K_TRUE / 1e3 <= k.ci95[1]
+    assert abs(n.value / N_TRUE - 1) < 0.1 and abs(k.value / K_TRUE - 1) < 0.3
+    assert n.ci95[0] <= N_TRUE <= n.ci95[1] and k.ci95[0] <= K_TRUE <= k.ci95[1]
     # the fitted laws' sinkage is the textbook formula at the reported n, k and s
     s = ch.parameters["slip_sinkage_exponent"].value
     i, W = np.array([0.0, 0.2, 0.6]), np.array([200.0, 300.0, 450.0])
-    textbook = (W / (2 * B * L * k.value * 1e3)) ** (1 / n.value) * ((1 + i) / (1 - 0.5 * i)) ** s
+    textbook = (W / (2 * B * L * k.value)) ** (1 / n.value) * ((1 + i) / (1 - 0.5 * i)) ** s
     assert np.allclose(ch.predict(i, W), textbook, rtol=1e-9)
     # k_c and k_phi never separate at one track width
     assert not ch.parameters["bekker_kc"].identifiable and ch.parameters["bekker_kc"].value is None
@@ -62,7 +62,7 @@ def test_n_and_k_are_recovered_with_intervals_that_cover_the_truth():
 
 def test_the_intervals_cover_n_k_and_the_slip_exponent_about_95_percent_of_the_time():
     hits = {"bekker_n": 0, "bekker_k_eq": 0, "slip_sinkage_exponent": 0}
-    truth = {"bekker_n": N_TRUE, "bekker_k_eq": K_TRUE / 1e3, "slip_sinkage_exponent": 1.0}
+    truth = {"bekker_n": N_TRUE, "bekker_k_eq": K_TRUE, "slip_sinkage_exponent": 1.0}
     runs = 60
     for seed in range(runs):
         ch = fit_sinkage_channel(sweep(*textbook_rows(100 + seed, (220.0, 300.0, 400.0), rel=0.05)), TRACK)
@@ -127,7 +127,7 @@ def test_evidence_on_soilmodels_simulator_with_and_without_slip_sinkage():
     assert not ev0.found() and ev0.p_no_slip_sinkage > SLIP_SINKAGE_ALPHA and ev0.p_lyasko < 1e-6
     # the simulator's sinkage is soilmodel's law: the channel returns the soil's n and k
     ch = fit_sinkage_channel(with_it, v)
-    k_true = (soil.k_c / v.track_width + soil.k_phi) / 1e3
+    k_true = soil.k_c / v.track_width + soil.k_phi  # SI: the record stores N/m^(n+2)
     assert ch.parameters["bekker_n"].ci95[0] <= soil.n <= ch.parameters["bekker_n"].ci95[1]
     assert ch.parameters["bekker_k_eq"].ci95[0] <= k_true <= ch.parameters["bekker_k_eq"].ci95[1]
 

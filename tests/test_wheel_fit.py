@@ -38,7 +38,7 @@ def test_recovery_from_an_independent_implementation():
                     e = r.parameters[key]
                     assert e.identifiable  # c, phi, K: in the row space (weakly at one load)
                     total += 1
-                    covered += e.ci95[0] <= soil[k] * fac <= e.ci95[1]
+                    covered += e.edge_ci95[0] <= soil[k] * fac <= e.edge_ci95[1]
                 # one wheel width: k_c and k_phi are not separable, their combination is
                 assert not r.parameters["bekker_kc"].identifiable and not r.parameters["bekker_kphi"].identifiable
                 assert r.parameters["bekker_kc"].ci95 == (None, None)
@@ -64,8 +64,8 @@ def test_one_load_separates_c_and_phi_only_weakly_three_loads_well():
     )
     assert not three.parameters["cohesion_kpa"].weakly_identifiable
     assert not three.parameters["friction_angle_deg"].weakly_identifiable
-    w1 = np.diff(one.parameters["friction_angle_deg"].ci95)[0]
-    w3 = np.diff(three.parameters["friction_angle_deg"].ci95)[0]
+    w1 = np.diff(one.parameters["friction_angle_deg"].edge_ci95)[0]
+    w3 = np.diff(three.parameters["friction_angle_deg"].edge_ci95)[0]
     assert w3 < 0.5 * w1
 
 
@@ -78,7 +78,7 @@ def test_sinkage_solved_from_the_load_with_a_known_bekker_soil():
     assert r.success and not r.sinkage_measured
     for key, fac, k in TRUE_KEYS:
         e = r.parameters[key]
-        assert e.identifiable and e.ci95[0] <= soil[k] * fac <= e.ci95[1], key
+        assert e.identifiable and e.edge_ci95[0] <= soil[k] * fac <= e.edge_ci95[1], key
     z_true = np.array([oracle.sinkage(i, W, *soil, R, B) for i, W in zip(d.slip, d.normal_load)])
     assert np.allclose(r.predict_sinkage(d), z_true, rtol=5e-3)
     assert r.rmse_sinkage is None and r.parameters["bekker_n"].fixed

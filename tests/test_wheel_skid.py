@@ -104,5 +104,5 @@ def test_skid_rows_fit_and_recover_the_soil():
     fit = fit_wheel(skid_sweep(3), RigidWheel(R, B), WheelFitOptions(fixed=BEKKER_HELD))
     assert fit.success
     for key, true in (("cohesion_kpa", C / 1e3), ("friction_angle_deg", math.degrees(PHI)), ("shear_modulus_m", K)):
-        lo, hi = fit.parameters[key].ci95
+        lo, hi = fit.parameters[key].edge_ci95
         assert lo <= true <= hi, (key, fit.parameters[key])

@@ -58,10 +58,10 @@ def test_torque_channel_fitted_jointly_and_the_soil_recovered():
         ("friction_angle_deg", 30.0, 0.03),
         ("shear_modulus_m", 0.012, 0.05),
     ):
-        assert with_t.parameters[key].value == pytest.approx(true, rel=tol), key
+        assert with_t.parameters[key].edge_value == pytest.approx(true, rel=tol), key
     # the torque carries information the pull alone does not: K's interval narrows
-    w_t = np.diff(with_t.parameters["shear_modulus_m"].ci95)[0]
-    w_0 = np.diff(without.parameters["shear_modulus_m"].ci95)[0]
+    w_t = np.diff(with_t.parameters["shear_modulus_m"].edge_ci95)[0]
+    w_0 = np.diff(without.parameters["shear_modulus_m"].edge_ci95)[0]
     assert w_t < w_0
     np.testing.assert_allclose(with_t.predict_torque(WheelSweep(i, dp, W, z, torque=T)), T, atol=0.02)
 

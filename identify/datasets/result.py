@@ -13,8 +13,9 @@ import numpy as np
 from ..estimates.distributions import chi2_sf
 from ..estimates.least_squares import quantile
 from ..outcome import OUTCOME_SETTINGS, Outcome, decide_outcome, on_bound, outcome_lines
-from ..wheel.result import EDGE_UNITS as _EDGE
-from ..wheel.result import WheelEstimate, parameter_line
+from ..wheel.result import WHEEL_EDGE as _EDGE
+from ..estimates.records import ParameterEstimate
+from ..wheel.result import parameter_line
 from .problem import N_SHARED, SHARED, box8
 
 __all__ = ["JointFitResult", "build_joint_result", "consistency_test"]
@@ -27,9 +28,10 @@ class JointFitResult:
     Attributes
     ----------
     parameters
-        The shared soil's estimates ``{JSON key: WheelEstimate}`` (edge units, as a wheel fit's).
+        The shared soil's estimates ``{JSON key: ParameterEstimate}`` (SI inside; edge units in the
+        JSON, as a wheel fit's).
     specific
-        Per data set its gear-specific estimates (``{"slip_sinkage": WheelEstimate}`` or empty).
+        Per data set its gear-specific estimates (``{"slip_sinkage": ParameterEstimate}`` or empty).
     datasets
         Per data set ``{"label", "kind", "rows", "gear", "outcome", "soil", ...}`` (its own fit).
     consistency
@@ -38,8 +40,8 @@ class JointFitResult:
     """
 
     labels: tuple[str, ...]
-    parameters: dict[str, WheelEstimate]
-    specific: tuple[dict[str, WheelEstimate], ...]
+    parameters: dict[str, ParameterEstimate]
+    specific: tuple[dict[str, ParameterEstimate], ...]
     datasets: tuple[dict[str, Any], ...]
     consistency: dict[str, Any]
     converged: bool
@@ -146,15 +148,17 @@ class JointFitResult:
         return "\n".join(lines)
 
 
-def _specific_line(key: str, e: WheelEstimate) -> str:
+def _specific_line(key: str, e: ParameterEstimate) -> str:
     """A gear-specific parameter's report row (the wheel's table row; the grouser height written here)."""
     if key != "grouser_height_m":
         return parameter_line(key, e)
     lab = f"{'grouser height h (m)':<30}"
-    if not e.identifiable or e.ci95[0] is None:
-        return f"{lab}{e.value:>12.4g}{'-':>28}  NOT IDENTIFIABLE"
+    value = e.edge_value if e.edge_value is not None else float("nan")
+    lo, hi = e.edge_ci95
+    if not e.identifiable or lo is None or hi is None:
+        return f"{lab}{value:>12.4g}{'-':>28}  NOT IDENTIFIABLE"
     ident = f"no: ON {str(e.bound_side).upper()} BOUND" if e.at_bound else "yes"
-    return f"{lab}{e.value:>12.4g}{f'[{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]':>28}  {ident}"
+    return f"{lab}{value:>12.4g}{f'[{lo:.4g}, {hi:.4g}]':>28}  {ident}"
 
 
 def _finite(x: Any) -> Any:
@@ -198,23 +202,24 @@ EDGE = {**_EDGE, "grouser_height": ("grouser_height_m", 1.0, "m", "grouser heigh
 NAMES8 = tuple(_EDGE) + ("grouser_height",)
 
 
-def _estimates(theta8, names_idx, spec, sol, bounds, fixed_names) -> dict[str, WheelEstimate]:
-    """WheelEstimates (edge units) of the parameters ``names_idx`` (``(index into the 8-vector, variable column
+def _estimates(theta8, names_idx, spec, sol, bounds, fixed_names) -> dict[str, ParameterEstimate]:
+    """Parameter records (SI) of the parameters ``names_idx`` (``(index into the 8-vector, variable column
     or None)``)."""
     cov, ident, q = sol["cov"], sol["ident"], quantile(int(sol["dof"]), False)
     lo, hi, _ = box8(spec, bounds)
     out = {}
     for k, col in names_idx:
         name = NAMES8[k]
-        key, fac = EDGE[name][0], EDGE[name][1]
+        key = EDGE[name][0]
         v = float(np.clip(theta8[k], lo[k], hi[k]))
         side = on_bound(v, lo[k], hi[k])
         se = None
         if col is not None and ident[col] and math.isfinite(cov[col, col]):
-            se = math.sqrt(max(float(cov[col, col]), 0.0)) * fac
-        ci = (v * fac - q * se, v * fac + q * se) if se is not None and q is not None else (None, None)
-        out[key] = WheelEstimate(
-            value=v * fac,
+            se = math.sqrt(max(float(cov[col, col]), 0.0))
+        ci = (v - q * se, v + q * se) if se is not None and q is not None else (None, None)
+        out[key] = ParameterEstimate(
+            name,
+            value=v,
             stderr=se,
             ci95=ci,
             identifiable=bool(col is not None and ident[col]),
@@ -223,8 +228,9 @@ def _estimates(theta8, names_idx, spec, sol, bounds, fixed_names) -> dict[str, W
             bound_side=side,
             fixed=col is None,
             note="held" if name in fixed_names else ("" if col is not None else "not in these data"),
-            lower=lo[k] * fac,
-            upper=hi[k] * fac,
+            lower=float(lo[k]),
+            upper=float(hi[k]),
+            label=EDGE[name][3],
         )
     return out
 
@@ -352,8 +358,8 @@ def _own_entry(label, spec, gear, o, est) -> dict[str, Any]:
         "gear": _gear_json(gear),
         "outcome": off.outcome,
         "outcome_reason": off.fit_outcome.reason,
-        "soil": {k: (e.value if e.identifiable else None) for k, e in est.items() if not e.fixed},
-        "soil_stderr": {k: e.stderr for k, e in est.items() if not e.fixed},
+        "soil": {k: (e.edge_value if e.identifiable else None) for k, e in est.items() if not e.fixed},
+        "soil_stderr": {k: e.edge_stderr for k, e in est.items() if not e.fixed},
         "converged": bool(o["solution"]["converged"]),
         "rank": int(o["solution"]["rank"]),
         "noise_sd": o["solution"]["noise_sd"][0],

@@ -23,16 +23,12 @@ import numpy as np
 
 from ...soilmodel.ridge import ridge_ranges
 from ..outcome import BOUND_TOL
-from .least_squares import RANK_TOL, WEAK_CORRELATION, WEAK_VIF
+from .least_squares import NULL_TOL, RANK_TOL, WEAK_CORRELATION, WEAK_VIF
 from ...soilmodel.units import format_value
 from .record_fields import RecordFields
 from .records import EDGE_UNITS, Combination, finite_or_none
 
 __all__ = ["IdentifiabilityViews", "BOUND_TOL"]
-
-#: Relative distance to a bound (fraction of the bound range) below which a parameter is on it: the
-#: library's one bound tolerance, imported from :mod:`soiltrack.identify.outcome`.
-NULL_TOL = 1e-4
 
 
 class IdentifiabilityViews(RecordFields):

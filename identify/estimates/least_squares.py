@@ -16,12 +16,16 @@ import numpy as np
 
 from .distributions import norm_ppf, t_ppf
 
-__all__ = ["RANK_TOL", "WEAK_CORRELATION", "core_stats", "core_stats_one", "quantile"]
+__all__ = ["RANK_TOL", "NULL_TOL", "WEAK_CORRELATION", "WEAK_VIF", "core_stats", "core_stats_one", "quantile"]
 
 #: Relative singular value (column-scaled Jacobian) below which a direction is unidentifiable.
 RANK_TOL = 1e-8
+#: Norm of a parameter's component in the null space (column-scaled coordinates) above which it is
+#: not identifiable: the library's one such rule (track, wheel, bevameter tests, joint fits).
+NULL_TOL = 1e-4
 #: Multiple correlation above which a parameter or combination is called weakly identifiable.
 WEAK_CORRELATION = 0.99
+#: The variance inflation of :data:`WEAK_CORRELATION`.
 WEAK_VIF = 1.0 / (1.0 - WEAK_CORRELATION**2)
 
 

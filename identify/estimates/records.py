@@ -12,11 +12,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...soilmodel.units import format_value
+from ..outcome import identified
 
 __all__ = [
     "ParameterEstimate",
     "Combination",
     "EDGE_UNITS",
+    "NAME_OF_KEY",
     "finite_or_none",
     "NOT_USABLE",
     "solver_converged",
@@ -29,11 +31,29 @@ __all__ = [
     "check_loads",
 ]
 
-EDGE_UNITS = {  # SI name -> (JSON key, edge unit, factor SI -> edge, label, SI unit)
+#: The library's one table of a parameter's units: SI name -> (JSON key, edge unit, factor SI -> edge,
+#: label, SI unit). Every kind's parameter record (:class:`ParameterEstimate`) converts through it.
+EDGE_UNITS = {
     "cohesion": ("cohesion_kpa", "kPa", 1e-3, "cohesion c", "Pa"),
     "friction_angle": ("friction_angle_deg", "deg", 180.0 / math.pi, "friction angle phi", "rad"),
     "shear_modulus": ("shear_modulus_m", "m", 1.0, "shear modulus K", "m"),
+    "shear_strength": ("shear_strength_kpa", "kPa", 1e-3, "shear strength", "Pa"),
+    "bekker_kc": ("bekker_kc", "kN/m^(n+1)", 1e-3, "Bekker k_c", "N/m^(n+1)"),
+    "bekker_kphi": ("bekker_kphi", "kN/m^(n+2)", 1e-3, "Bekker k_phi", "N/m^(n+2)"),
+    "bekker_n": ("bekker_n", "-", 1.0, "Bekker exponent n", "-"),
+    "bekker_k_eq": ("bekker_k_eq", "kN/m^(n+2)", 1e-3, "k_c / b + k_phi", "N/m^(n+2)"),
+    "slip_sinkage": ("slip_sinkage", "-", 1.0, "slip-sinkage coefficient s", "-"),
+    "grouser_height": ("grouser_height_m", "m", 1.0, "grouser height h", "m"),
+    "slip_sinkage_exponent": (
+        "slip_sinkage_exponent",
+        "-",
+        1.0,
+        "exponent s of Lyasko's slip-sinkage factor",
+        "-",
+    ),
 }
+#: JSON key -> SI name of :data:`EDGE_UNITS`.
+NAME_OF_KEY = {v[0]: n for n, v in EDGE_UNITS.items()}
 
 
 #: Suffix :func:`~.result.build_result` appends to the status of a fit the plausibility checks refuse.
@@ -63,14 +83,20 @@ def finite_or_none(x) -> float | None:
 
 @dataclass(frozen=True)
 class ParameterEstimate:
-    """One soil parameter, SI units.
+    """One parameter of any fit (track, rig, wheel, bevameter test, sinkage channel), SI units inside.
+
+    The library's one per-parameter record: every kind builds it, its edge units (kPa, deg, m,
+    kN/m^(n+1), ...) come from :data:`EDGE_UNITS`, whether it is identified from
+    :func:`~soiltrack.identify.outcome.identified`, and its JSON entry from :meth:`to_dict` (one layout).
 
     Attributes
     ----------
     name : str
-        ``"cohesion"``, ``"friction_angle"`` or ``"shear_modulus"``.
+        SI name: ``"cohesion"``, ``"friction_angle"``, ``"shear_modulus"``, ``"bekker_kc"``,
+        ``"bekker_kphi"``, ``"bekker_n"``, ``"bekker_k_eq"``, ``"slip_sinkage"``,
+        ``"slip_sinkage_exponent"`` (:data:`EDGE_UNITS`) or an effect's ``"effect.param"``.
     value : float or None
-        Estimate (Pa, rad, m); ``None`` when the data do not identify it.
+        Estimate (SI); ``None`` when the data do not identify it.
     stderr : float or None
         Linearised standard error; ``None`` when unavailable (reason in ``note``).
     ci95 : tuple of (float or None)
@@ -86,6 +112,17 @@ class ParameterEstimate:
         The optimiser's point, for diagnostics only when not identifiable (NOT an estimate).
     note : str
         Plain-words remarks.
+    si_unit : str
+        The SI unit of a parameter outside :data:`EDGE_UNITS` (an effect's).
+    correlated_with, correlation
+        The parameter it correlates with most, and how much (when reported).
+    lower, upper : float or None
+        Its bounds (SI): the range :func:`~soiltrack.identify.outcome.identified` measures its interval
+        against; ``None`` when the fit has none.
+    label : str
+        Plain name for a report (default: :data:`EDGE_UNITS`'s).
+    source : str or None
+        The data channel it comes from when not the fit's main one (``"sinkage_m"``).
     """
 
     name: str
@@ -102,6 +139,34 @@ class ParameterEstimate:
     si_unit: str = ""
     correlated_with: str | None = None
     correlation: float | None = None
+    lower: float | None = None
+    upper: float | None = None
+    label: str = ""
+    source: str | None = None
+
+    @classmethod
+    def from_edge(cls, name: str, value, stderr, ci95, identifiable: bool, **kw) -> ParameterEstimate:
+        """A record from numbers in edge units (``value``, ``stderr``, ``ci95`` and the ``lower``,
+        ``upper`` and ``ridge_value`` keywords): divided by :data:`EDGE_UNITS`'s factor into SI."""
+        f = EDGE_UNITS[name][2] if name in EDGE_UNITS else 1.0
+
+        def si(x):
+            return None if x is None else float(x) / f
+
+        for k in ("lower", "upper", "ridge_value"):
+            if k in kw:
+                kw[k] = si(kw[k])
+        return cls(name, si(value), si(stderr), (si(ci95[0]), si(ci95[1])), bool(identifiable), **kw)
+
+    @property
+    def key(self) -> str:
+        """JSON key (``"cohesion_kpa"``, ``"bekker_kc"``, ...; an effect parameter's own name)."""
+        return EDGE_UNITS[self.name][0] if self.name in EDGE_UNITS else self.name
+
+    @property
+    def words(self) -> str:
+        """Plain name for a report: :attr:`label`, else :data:`EDGE_UNITS`'s, else the name."""
+        return self.label or (EDGE_UNITS[self.name][3] if self.name in EDGE_UNITS else self.name)
 
     @property
     def unit(self) -> str:
@@ -110,7 +175,7 @@ class ParameterEstimate:
 
     @property
     def edge_unit(self) -> str:
-        """Unit at the edges (``"kPa"``, ``"deg"``, ``"m"``; effect parameters: SI)."""
+        """Unit at the edges (``"kPa"``, ``"deg"``, ``"m"``, ``"kN/m^(n+1)"``; effect parameters: SI)."""
         return EDGE_UNITS[self.name][1] if self.name in EDGE_UNITS else self.si_unit
 
     def _edge(self, x):
@@ -118,17 +183,17 @@ class ParameterEstimate:
 
     @property
     def edge_value(self) -> float | None:
-        """Value in kPa / deg / m."""
+        """Value in edge units."""
         return self._edge(self.value)
 
     @property
     def edge_stderr(self) -> float | None:
-        """Standard error in kPa / deg / m."""
+        """Standard error in edge units."""
         return self._edge(self.stderr)
 
     @property
     def edge_ci95(self) -> tuple[float | None, float | None]:
-        """95 % interval in kPa / deg / m."""
+        """95 % interval in edge units."""
         return (self._edge(self.ci95[0]), self._edge(self.ci95[1]))
 
     # convenience names terramechanics users reach for
@@ -142,26 +207,43 @@ class ParameterEstimate:
         """Value in degrees (friction angle)."""
         return None if self.value is None else math.degrees(self.value)
 
+    @property
+    def identified(self) -> tuple[bool, str]:
+        """Identified by the outcome rules (:func:`~soiltrack.identify.outcome.identified`), and why not:
+        held, not identifiable, on a bound, or an interval over most of its bound range are not."""
+        if self.fixed:
+            return False, "held fixed"
+        if self.value is None or not self.identifiable:
+            return False, "not identifiable from these data"
+        if self.lower is None or self.upper is None:
+            return (not self.at_bound), ("on a bound: its interval is not reliable" if self.at_bound else "")
+        return identified(identifiable=True, at_bound=self.at_bound, ci95=self.ci95, lower=self.lower, upper=self.upper)
+
     def to_dict(self) -> dict:
-        """JSON-ready dict in edge units (kPa, deg, m); never NaN."""
+        """The JSON entry, one layout for every kind, in edge units; never NaN.
+
+        Keys: ``value``, ``stderr``, ``ci95``, ``identifiable``, ``identified``, ``at_bound``,
+        ``bound_side``, ``weakly_identifiable``, ``fixed``, ``ridge_value``, ``value_is_ridge_point``
+        (the track's sets it), ``unit`` (edge), ``note``, ``correlated_with``, ``correlation``, ``source``.
+        """
         lo, hi = self.edge_ci95
         return {
             "value": finite_or_none(self.edge_value),
             "stderr": finite_or_none(self.edge_stderr),
             "ci95": [finite_or_none(lo), finite_or_none(hi)],
             "identifiable": bool(self.identifiable),
+            "identified": bool(self.identified[0]),
             "at_bound": bool(self.at_bound),
             "bound_side": self.bound_side,
             "weakly_identifiable": bool(self.weakly_identifiable),
             "fixed": bool(self.fixed),
             "ridge_value": finite_or_none(self._edge(self.ridge_value)),
+            "value_is_ridge_point": False,
+            "unit": self.edge_unit,
             "note": self.note,
-            **({} if self.name in EDGE_UNITS else {"unit": self.si_unit}),
-            **(
-                {}
-                if self.name in EDGE_UNITS and self.correlated_with is None
-                else {"correlated_with": self.correlated_with, "correlation": finite_or_none(self.correlation)}
-            ),
+            "correlated_with": self.correlated_with,
+            "correlation": finite_or_none(self.correlation),
+            "source": self.source,
         }
 
 

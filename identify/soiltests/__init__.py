@@ -13,7 +13,7 @@ Public names
 
 from .plate import PLATE_BOUNDS, PlateBounds, fit_plate_test
 from .prediction import DrawbarPrediction, predict_drawbar_pull
-from .result import SOIL_TEST_KINDS, SoilTestFit, TestCombination, TestParameter
+from .result import SOIL_TEST_KINDS, SoilTestFit, TestCombination
 from .shear import fit_shear_test
 from .dispatch import fit_soil_test
 
@@ -24,7 +24,6 @@ __all__ = [
     "PlateBounds",
     "PLATE_BOUNDS",
     "SoilTestFit",
-    "TestParameter",
     "TestCombination",
     "SOIL_TEST_KINDS",
     "predict_drawbar_pull",

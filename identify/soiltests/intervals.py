@@ -1,4 +1,5 @@
-"""From a bounded least-squares solution to reported parameters: edge units, intervals, bounds."""
+"""From a bounded least-squares solution to reported parameters: the library's one record (SI inside,
+built from the edge units the fit works in), intervals, bounds."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ import numpy as np
 
 from ..estimates.distributions import t_ppf
 from .lsq import BOUND_RTOL, LsqSolution, covariance
-from .result import TestParameter
+from ..estimates.records import NAME_OF_KEY, ParameterEstimate
 
 __all__ = ["edge_parameters", "at_bounds", "CONFIDENCE"]
 
@@ -29,8 +30,8 @@ def edge_parameters(
     transform: np.ndarray,
     specs: list[tuple[str, str, str, float, float]],
     bound_flags: np.ndarray,
-) -> tuple[list[TestParameter], np.ndarray | None]:
-    """Parameters in edge units with linearised Student-t intervals (clipped to their bounds).
+) -> tuple[list[ParameterEstimate], np.ndarray | None]:
+    """Parameter records (SI; built from edge units) with linearised Student-t intervals clipped to their bounds.
 
     Parameters
     ----------
@@ -43,14 +44,16 @@ def edge_parameters(
     transform
         ``d values / d x`` at ``sol.x``.
     specs
-        Per parameter ``(key, label, unit, lower, upper)`` in edge units.
+        Per parameter ``(key, label, unit, lower, upper)`` in edge units (``key`` the JSON key of
+        :data:`~soiltrack.identify.estimates.records.EDGE_UNITS`, whose unit is ``unit``).
     bound_flags
         Per parameter: on a bound (from :func:`at_bounds` of the scaled parameters it rests on).
 
     Returns
     -------
     parameters, covariance
-        The :class:`TestParameter` list, and the edge-unit covariance (``None`` without residual
+        The :class:`~soiltrack.identify.estimates.records.ParameterEstimate` list, and the edge-unit
+        covariance (``None`` without residual
         degrees of freedom).
     """
     cov_x, ident_x, dof = covariance(sol.jacobian, sol.cost, n_rows)
@@ -59,53 +62,20 @@ def edge_parameters(
     t = t_ppf(0.5 + CONFIDENCE / 2, dof) if dof > 0 else None
     out = []
     for k, (key, label, unit, lo, hi) in enumerate(specs):
+        name = NAME_OF_KEY[key]
         if not ident[k]:
-            out.append(
-                TestParameter(
-                    key,
-                    label,
-                    unit,
-                    None,
-                    None,
-                    (None, None),
-                    False,
-                    note="the data leave it undetermined (flat direction of the fit)",
-                )
-            )
+            why = "the data leave it undetermined (flat direction of the fit)"
+            out.append(ParameterEstimate.from_edge(name, None, None, (None, None), False, note=why, label=label))
             continue
         v = float(values[k])
+        side = ("lower" if v - lo <= hi - v else "upper") if bound_flags[k] else None
+        kw = dict(at_bound=bool(bound_flags[k]), bound_side=side, lower=lo, upper=hi, label=label)
         if cov is None or t is None:
-            out.append(
-                TestParameter(
-                    key,
-                    label,
-                    unit,
-                    v,
-                    None,
-                    (None, None),
-                    True,
-                    bool(bound_flags[k]),
-                    note="no residual degree of freedom: no interval",
-                    lower=lo,
-                    upper=hi,
-                )
-            )
+            note = "no residual degree of freedom: no interval"
+            out.append(ParameterEstimate.from_edge(name, v, None, (None, None), True, note=note, **kw))
             continue
         se = float(np.sqrt(max(cov[k, k], 0.0)))
         ci = (max(lo, v - t * se), min(hi, v + t * se))
-        out.append(
-            TestParameter(
-                key,
-                label,
-                unit,
-                v,
-                se,
-                ci,
-                True,
-                bool(bound_flags[k]),
-                note="on a bound of its range" if bound_flags[k] else "",
-                lower=lo,
-                upper=hi,
-            )
-        )
+        note = "on a bound of its range" if bound_flags[k] else ""
+        out.append(ParameterEstimate.from_edge(name, v, se, ci, True, note=note, **kw))
     return out, cov

@@ -20,7 +20,7 @@ from typing import Callable
 import casadi as ca
 import numpy as np
 
-from ..estimates.least_squares import RANK_TOL
+from ..estimates.least_squares import NULL_TOL, RANK_TOL
 from ..outcome import BOUND_TOL
 
 __all__ = [
@@ -45,8 +45,9 @@ BOUND_RTOL = BOUND_TOL
 MAX_ITER = 300
 #: IPOPT's convergence tolerance (the scaled problems are of order one).
 IPOPT_TOL = 1e-10
-#: A parameter whose weight in a flat direction of the fit exceeds this is not identifiable.
-FLAT_COMPONENT_TOL = 1e-6
+#: A parameter whose component in the flat directions of the fit exceeds this is not identifiable: the
+#: library's one rule (:data:`soiltrack.identify.estimates.least_squares.NULL_TOL`).
+FLAT_COMPONENT_TOL = NULL_TOL
 
 
 @dataclass(frozen=True)
@@ -212,7 +213,7 @@ def covariance(J: np.ndarray, cost: float, n: int) -> tuple[np.ndarray | None, n
     U, s, Vt = np.linalg.svd(J, full_matrices=False)
     keep = s > RANK_RTOL * (s[0] if s.size and s[0] > 0 else 1.0)
     flat = Vt[~keep]
-    ident = np.ones(m, dtype=bool) if flat.size == 0 else np.all(np.abs(flat) < FLAT_COMPONENT_TOL, axis=0)
+    ident = np.ones(m, dtype=bool) if flat.size == 0 else np.linalg.norm(flat, axis=0) < FLAT_COMPONENT_TOL
     if dof <= 0 or not np.any(keep):
         return None, ident, dof
     s2 = cost / dof

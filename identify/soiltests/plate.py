@@ -19,7 +19,8 @@ from ...soilmodel import DataError, PlateTest, plate_pressure_expr
 from ...soilmodel.ridge import distinct_loads
 from .intervals import at_bounds, edge_parameters
 from .lsq import ResidualModel, solve_bounded
-from .result import SoilTestFit, TestCombination, TestParameter
+from ..estimates.records import ParameterEstimate
+from .result import SoilTestFit, TestCombination
 
 __all__ = ["fit_plate_test", "PlateBounds", "PLATE_BOUNDS", "N_STARTS", "UNBOUNDED_FACTOR"]
 
@@ -108,7 +109,8 @@ def _kc_notes(bounds: PlateBounds, kc: float, free, sol, rows: int, ps: float, z
     T = np.array([[f, 0.0, -kc_f * lz], [0.0, f, -kphi_f * lz], [0.0, 0.0, 1.0]])
     neg = [("bekker_kc", "Bekker k_c", "kN/m^(n+1)", -math.inf, math.inf), *specs[1:]]
     (p_kc, _, _), _ = edge_parameters(free, rows, np.array([kc_f, kphi_f, n]), T, neg, np.zeros(3, dtype=bool))
-    ci = "" if None in p_kc.ci95 else f", 95 % [{p_kc.ci95[0]:.4g}, {p_kc.ci95[1]:.4g}]"
+    kc_lo, kc_hi = p_kc.edge_ci95
+    ci = "" if kc_lo is None or kc_hi is None else f", 95 % [{kc_lo:.4g}, {kc_hi:.4g}]"
     rms = math.sqrt(free.cost / rows) * ps / 1e3
     return [
         f"k_c is held at its bound 0: the unconstrained fit gives k_c = {kc_f:.4g} kN/m^(n+1){ci} (k_phi "
@@ -273,8 +275,8 @@ def _fit_one_width(test: PlateTest, widths, pb: _PlateProblem, bounds: PlateBoun
         "widths separate k_c and k_phi"
     )
     params = [
-        TestParameter("bekker_kc", "Bekker k_c", "kN/m^(n+1)", None, None, (None, None), False, note=why),
-        TestParameter("bekker_kphi", "Bekker k_phi", "kN/m^(n+2)", None, None, (None, None), False, note=why),
+        ParameterEstimate("bekker_kc", None, None, (None, None), False, note=why),
+        ParameterEstimate("bekker_kphi", None, None, (None, None), False, note=why),
         n_par,
     ]
     combos = {
@@ -282,9 +284,9 @@ def _fit_one_width(test: PlateTest, widths, pb: _PlateProblem, bounds: PlateBoun
             "bekker_k_eq",
             "k_c / b + k_phi",
             "kN/m^(n+2)",
-            k_par.value,
-            k_par.stderr,
-            k_par.ci95,
+            k_par.edge_value,
+            k_par.edge_stderr,
+            k_par.edge_ci95,
             {"plate_width_m": w},
         )
     }

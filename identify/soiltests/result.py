@@ -9,9 +9,10 @@ from typing import cast
 
 import numpy as np
 
-from ..outcome import Outcome, decide_outcome, identified, outcome_lines, running_gear_json
+from ..estimates.records import ParameterEstimate
+from ..outcome import Outcome, decide_outcome, outcome_lines, running_gear_json
 
-__all__ = ["TestParameter", "TestCombination", "SoilTestFit", "SOIL_TEST_KINDS"]
+__all__ = ["TestCombination", "SoilTestFit", "SOIL_TEST_KINDS"]
 
 #: The bevameter test kinds: shear ring/box (c, phi, K), plate sinkage (k_c, k_phi, n).
 SOIL_TEST_KINDS = ("shear_test", "plate_test")
@@ -25,66 +26,6 @@ def _f(x) -> float | None:
         return None
     x = float(x)
     return x if math.isfinite(x) else None
-
-
-@dataclass(frozen=True)
-class TestParameter:
-    """One parameter of a bevameter fit, in the units of the edges (kPa, deg, m, kN/m^(n+1), ...).
-
-    Attributes
-    ----------
-    key
-        JSON name: ``cohesion_kpa``, ``friction_angle_deg``, ``shear_modulus_m``, ``bekker_kc``,
-        ``bekker_kphi`` or ``bekker_n``.
-    label, unit
-        Plain name and unit for the report.
-    value, stderr
-        Estimate and linearised standard error; ``None`` when not identifiable.
-    ci95
-        95 % interval clipped to the bounds; ``(None, None)`` when not identifiable.
-    identifiable, at_bound
-        Whether the data pin it down; whether the estimate lies on a bound.
-    note
-        Plain-words remark (why not identifiable, which bound).
-    lower, upper
-        Its bounds in edge units (None when not known): the outcome rules' bound range.
-    """
-
-    key: str
-    label: str
-    unit: str
-    value: float | None
-    stderr: float | None
-    ci95: tuple[float | None, float | None]
-    identifiable: bool
-    at_bound: bool = False
-    note: str = ""
-    lower: float | None = None
-    upper: float | None = None
-
-    @property
-    def identified(self) -> tuple[bool, str]:
-        """Identified by the outcome rules (:func:`~soiltrack.identify.outcome.identified`), and why not."""
-        if self.value is None:
-            return False, "not identifiable from these data"
-        if self.lower is None or self.upper is None:
-            return (self.identifiable and not self.at_bound), ("" if not self.at_bound else "on a bound")
-        return identified(
-            identifiable=self.identifiable, at_bound=self.at_bound, ci95=self.ci95, lower=self.lower, upper=self.upper
-        )
-
-    def to_dict(self) -> dict:
-        """JSON-ready dict; never NaN."""
-        return {
-            "value": _f(self.value),
-            "stderr": _f(self.stderr),
-            "ci95": [_f(self.ci95[0]), _f(self.ci95[1])],
-            "identifiable": bool(self.identifiable),
-            "identified": bool(self.identified[0]),
-            "at_bound": bool(self.at_bound),
-            "unit": self.unit,
-            "note": self.note,
-        }
 
 
 @dataclass(frozen=True)
@@ -134,7 +75,7 @@ class SoilTestFit:
     source
         The file (or label) fitted.
     parameters
-        ``{key: TestParameter}`` in the JSON order.
+        ``{JSON key: ParameterEstimate}`` (SI inside; edge units in the JSON and report) in the JSON order.
     combinations
         ``{key: TestCombination}``: what one pressure / one plate width identifies.
     converged, status, iterations, solve_time_s
@@ -154,7 +95,7 @@ class SoilTestFit:
 
     kind: str
     source: str
-    parameters: dict
+    parameters: dict[str, ParameterEstimate]
     combinations: dict
     converged: bool
     status: str
@@ -265,7 +206,7 @@ class SoilTestFit:
         lvl = "; ".join(
             f"{_LEVEL_LABELS.get(k, k)}: {', '.join(f'{v:.4g}' for v in vals)}" for k, vals in self.levels.items()
         )
-        nid = [p.label for p in self.parameters.values() if not p.identified[0]]
+        nid = [p.words for p in self.parameters.values() if not p.identified[0]]
         lines = outcome_lines(self.fit_outcome, determined=self.determined, not_identified=nid) + [
             f"{title}: {self.source} ({self.n_samples} rows; {lvl})",
             f"solver: IPOPT {'converged' if self.converged else 'DID NOT CONVERGE'} ({self.status}), "
@@ -274,13 +215,14 @@ class SoilTestFit:
         ]
         for p in self.parameters.values():
             if not p.identifiable:
-                lines.append(f"  {p.label:<28} not identifiable (see the note)")
+                lines.append(f"  {p.words:<28} not identifiable (see the note)")
                 continue
-            ci = f"[{p.ci95[0]:.4g}, {p.ci95[1]:.4g}]" if None not in p.ci95 else "[n/a]"
+            lo, hi = p.edge_ci95
+            ci = f"[{lo:.4g}, {hi:.4g}]" if lo is not None and hi is not None else "[n/a]"
             ok, why = p.identified
             flag = "  ON A BOUND (not identified; interval not reliable)" if p.at_bound else ""
             flag += "" if ok or p.at_bound else f"  NOT IDENTIFIED ({why})"
-            lines.append(f"  {p.label:<28} {p.value:>10.4g} {p.unit:<12} 95 % {ci}{flag}")
+            lines.append(f"  {p.words:<28} {p.edge_value:>10.4g} {p.edge_unit:<12} 95 % {ci}{flag}")
         for c in self.combinations.values():
             at = ", ".join(f"{k} = {v:.4g}" for k, v in c.at.items())
             ci = f"[{c.ci95[0]:.4g}, {c.ci95[1]:.4g}]" if None not in c.ci95 else "[n/a]"

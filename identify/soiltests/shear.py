@@ -18,7 +18,8 @@ from ...soilmodel.bevameter_records import AnnulusTest
 from ...soilmodel.ridge import distinct_loads
 from .intervals import at_bounds, edge_parameters
 from .lsq import ResidualModel, solve_bounded
-from .result import SoilTestFit, TestCombination, TestParameter
+from ..estimates.records import ParameterEstimate
+from .result import SoilTestFit, TestCombination
 
 __all__ = ["fit_shear_test", "K_SCALE", "K_STARTS"]
 
@@ -226,8 +227,8 @@ def _one_pressure(test, levels, peaks, ts: float, bounds: SoilBounds, strength_m
         "or more normal pressures separates c and phi"
     )
     params = [
-        TestParameter("cohesion_kpa", "cohesion c", "kPa", None, None, (None, None), False, note=why),
-        TestParameter("friction_angle_deg", "friction angle phi", "deg", None, None, (None, None), False, note=why),
+        ParameterEstimate("cohesion", None, None, (None, None), False, note=why),
+        ParameterEstimate("friction_angle", None, None, (None, None), False, note=why),
         k_par,
     ]
     combos = {
@@ -235,9 +236,9 @@ def _one_pressure(test, levels, peaks, ts: float, bounds: SoilBounds, strength_m
             "shear_strength_kpa",
             "c + sigma tan(phi)",
             "kPa",
-            strength.value,
-            strength.stderr,
-            strength.ci95,
+            strength.edge_value,
+            strength.edge_stderr,
+            strength.edge_ci95,
             {"normal_pressure_kpa": s0 / 1e3},
         )
     }

@@ -43,6 +43,7 @@ from ...soilmodel.threadsafe import locked_cache
 from ...soilmodel.sinkage import compaction_at_sinkage_expr, sinkage_expr, slip_sinkage_expr
 from ...soilmodel.vehicle import Vehicle
 from ..estimates.least_squares import RANK_TOL
+from ..estimates.records import ParameterEstimate
 from ..estimates.distributions import norm_cdf, t_cdf, t_ppf
 
 __all__ = [
@@ -53,7 +54,6 @@ __all__ = [
     "GN_MAX_ITER",
     "GN_STEP_TOL",
     "SLIP_SINKAGE_ALPHA",
-    "SinkageEstimate",
     "SinkageChannelFit",
     "SlipSinkageEvidence",
     "fit_sinkage_channel",
@@ -104,52 +104,6 @@ def _k_function(track_length: float, track_width: float) -> ca.Function:
     return ca.Function("k_eq", [th, W_ref], [k, ca.jacobian(k, th)])
 
 
-@dataclass(frozen=True)
-class SinkageEstimate:
-    """One sinkage parameter in the JSON's units (``bekker_n`` -, ``bekker_k_eq`` kN/m^(n+2), ...).
-
-    Attributes
-    ----------
-    key, label, unit
-        JSON name, plain name, unit.
-    value, stderr
-        Estimate (``None`` where the rows give none) and its linearised standard error.
-    ci95
-        95 % interval; an open end is ``None``.
-    identifiable
-        The rows pin it down (a bounded interval).
-    note
-        Why not identifiable, or how the interval was made.
-    """
-
-    key: str
-    label: str
-    unit: str
-    value: float | None
-    stderr: float | None
-    ci95: tuple[float | None, float | None]
-    identifiable: bool
-    note: str = ""
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON form (the fit's parameter fields; never NaN)."""
-        return {
-            "value": _num(self.value),
-            "stderr": _num(self.stderr),
-            "ci95": [_num(self.ci95[0]), _num(self.ci95[1])],
-            "identifiable": bool(self.identifiable),
-            "weakly_identifiable": False,
-            "at_bound": False,  # no bounds: a free Gauss-Newton fit
-            "bound_side": None,
-            "fixed": False,
-            "ridge_value": None,
-            "value_is_ridge_point": False,
-            "unit": self.unit,
-            "note": self.note,
-            "source": "sinkage_m",
-        }
-
-
 def _num(x: float | None) -> float | None:
     return None if x is None or not math.isfinite(float(x)) else float(x)
 
@@ -173,7 +127,7 @@ class SinkageChannelFit:
     relative_error
         The rows' relative scatter about the laws (rms of the log-residuals).
     parameters
-        ``{key: SinkageEstimate}``: ``bekker_kc``, ``bekker_kphi``, ``bekker_n``, ``bekker_k_eq``,
+        ``{key: ParameterEstimate}``: ``bekker_kc``, ``bekker_kphi``, ``bekker_n``, ``bekker_k_eq``,
         ``slip_sinkage_exponent``.
     p_no_slip_sinkage, p_lyasko
         p-values of ``s = 0`` and ``s = 1`` (Student t), ``None`` when s is not fitted.
@@ -196,7 +150,7 @@ class SinkageChannelFit:
     z0: float
     z0_ci95: tuple[float | None, float | None]
     relative_error: float
-    parameters: dict[str, SinkageEstimate]
+    parameters: dict[str, ParameterEstimate]
     p_no_slip_sinkage: float | None
     p_lyasko: float | None
     free: tuple[bool, bool, bool]
@@ -224,10 +178,11 @@ class SinkageChannelFit:
             "" if self.converged else f"Gauss-Newton did NOT converge ({self.iterations} iterations): "
         ) + f"static Bekker sinkage z0 = {1e3 * self.z0:.3g} mm at W = {self.reference_load:.4g} N, {ci}"
         n, k = self.parameters["bekker_n"], self.parameters["bekker_k_eq"]
-        if n.identifiable and n.value is not None and k.value is not None:
+        if n.identifiable and n.value is not None and k.edge_value is not None:
+            k_lo, k_hi = k.edge_ci95
             head += (
-                f"; n = {n.value:.3g} [{_fmt(n.ci95[0])}, {_fmt(n.ci95[1])}], k_c / b + k_phi = {k.value:.4g} "
-                f"[{_fmt(k.ci95[0])}, {_fmt(k.ci95[1])}] kN/m^(n+2) (k_c and k_phi do not separate at one track "
+                f"; n = {n.value:.3g} [{_fmt(n.ci95[0])}, {_fmt(n.ci95[1])}], k_c / b + k_phi = {k.edge_value:.4g} "
+                f"[{_fmt(k_lo)}, {_fmt(k_hi)}] kN/m^(n+2) (k_c and k_phi do not separate at one track "
                 "width)"
             )
         else:
@@ -479,10 +434,15 @@ def fit_sinkage_channel(data: SlipData, vehicle: Vehicle) -> SinkageChannelFit |
     )
 
 
-def _parameters(theta, cov, free, q, W_ref, l, b, why_n, why_s, notes) -> dict[str, SinkageEstimate]:
-    """The JSON's sinkage parameters from the solver's (edge units, intervals, identifiability)."""
+def _sink(name: str, value, stderr, ci95, identifiable: bool, note: str = "") -> ParameterEstimate:
+    """A sinkage-channel parameter record (SI; no bounds: a free Gauss-Newton fit)."""
+    return ParameterEstimate(name, value, stderr, ci95, identifiable, note=note, source="sinkage_m")
+
+
+def _parameters(theta, cov, free, q, W_ref, l, b, why_n, why_s, notes) -> dict[str, ParameterEstimate]:
+    """The sinkage parameters (SI records; edge units in their JSON) from the solver's, with intervals."""
     a, m, s = (float(x) for x in theta)
-    n_est = k_est = s_est = SinkageEstimate("", "", "", None, None, (None, None), False)
+    n_est = k_est = _sink("", None, None, (None, None), False)
     one_width = (
         f"k_c and k_phi never separate at one track width (b = {b:.4g} m): only k_c / b + k_phi (bekker_k_eq); "
         "plates or tracks of two widths separate them"
@@ -502,23 +462,19 @@ def _parameters(theta, cov, free, q, W_ref, l, b, why_n, why_s, notes) -> dict[s
                 se_k = math.sqrt(max(float(g @ cov @ g), 0.0))
                 p_ref = W_ref / (2 * b * l)
                 iv = _fieller(a, m, va, vm, cam, q)  # u = log(k / p_ref) = -a / m
-                k_ci = (p_ref * math.exp(iv[0]) / 1e3, p_ref * math.exp(iv[1]) / 1e3) if iv else (None, None)
-                n_est = SinkageEstimate(
+                k_ci = (p_ref * math.exp(iv[0]), p_ref * math.exp(iv[1])) if iv else (None, None)
+                n_est = _sink(
                     "bekker_n",
-                    "Bekker exponent n",
-                    "-",
                     1.0 / m,
                     se_m / m**2,
                     (1.0 / hi, 1.0 / lo),
                     True,
                     "from the measured sinkage's growth with the load (interval: that of 1 / n, inverted)",
                 )
-                k_est = SinkageEstimate(
+                k_est = _sink(
                     "bekker_k_eq",
-                    "k_c / b + k_phi",
-                    "kN/m^(n+2)",
-                    k / 1e3,
-                    se_k / 1e3,
+                    k,
+                    se_k,
                     k_ci,
                     iv is not None,
                     f"at the track width b = {b:.4g} m (Fieller interval: k extrapolates the law to z = 1 m, so it "
@@ -531,16 +487,14 @@ def _parameters(theta, cov, free, q, W_ref, l, b, why_n, why_s, notes) -> dict[s
                     "does not lie above 0"
                 )
     if why_n:
-        n_est = SinkageEstimate("bekker_n", "Bekker exponent n", "-", None, None, (None, None), False, why_n)
-        k_est = SinkageEstimate("bekker_k_eq", "k_c / b + k_phi", "kN/m^(n+2)", None, None, (None, None), False, why_n)
+        n_est = _sink("bekker_n", None, None, (None, None), False, why_n)
+        k_est = _sink("bekker_k_eq", None, None, (None, None), False, why_n)
         notes.append("n and k not identifiable: " + why_n)
     notes.append(one_width)
     if free[_S] and cov is not None:
         se_s = math.sqrt(max(cov[_S, _S], 0.0))
-        s_est = SinkageEstimate(
+        s_est = _sink(
             "slip_sinkage_exponent",
-            "exponent s of Lyasko's slip-sinkage factor",
-            "-",
             s,
             se_s,
             (s - q * se_s, s + q * se_s),
@@ -549,18 +503,16 @@ def _parameters(theta, cov, free, q, W_ref, l, b, why_n, why_s, notes) -> dict[s
         )
     else:
         why = why_s or "no intervals (see the notes)"
-        s_est = SinkageEstimate(
+        s_est = _sink(
             "slip_sinkage_exponent",
-            "exponent s of Lyasko's slip-sinkage factor",
-            "-",
             None,
             None,
             (None, None),
             False,
             why,
         )
-    kc = SinkageEstimate("bekker_kc", "Bekker k_c", "kN/m^(n+1)", None, None, (None, None), False, one_width)
-    kphi = SinkageEstimate("bekker_kphi", "Bekker k_phi", "kN/m^(n+2)", None, None, (None, None), False, one_width)
+    kc = _sink("bekker_kc", None, None, (None, None), False, one_width)
+    kphi = _sink("bekker_kphi", None, None, (None, None), False, one_width)
     return {
         "bekker_kc": kc,
         "bekker_kphi": kphi,

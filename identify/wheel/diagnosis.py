@@ -72,7 +72,7 @@ class WheelDiagnosis:
         """The JSON object (the keys of the track's diagnosis, plus the wheel's signature and notes)."""
 
         def soil(r: WheelFitResult | None) -> dict | None:
-            return None if r is None else {k: v.value for k, v in r.parameters.items()}
+            return None if r is None else {k: v.edge_value for k, v in r.parameters.items()}
 
         return {
             "running_gear": "rigid_wheel",
@@ -253,7 +253,7 @@ def _effect_row(eff: str, r: WheelFitResult, holdout: float) -> _Hypothesis:
     note = None
     if e is not None and e.at_bound:
         note = (
-            f"{eff} ends on its {e.bound_side} bound ({e.value:.4g}): inadmissible as a verdict (a value "
+            f"{eff} ends on its {e.bound_side} bound ({e.edge_value:.4g}): inadmissible as a verdict (a value "
             "the bounds choose is not an estimate of the effect; its weight and p-value are shown, not used)"
         )
     k = sum(not p.fixed for p in r.parameters.values())
@@ -342,7 +342,8 @@ def _ranking(hyps: list[_Hypothesis], before: float) -> list[dict[str, Any]]:
 def _row_parameters(h: _Hypothesis) -> dict[str, float]:
     """The hypothesis' own fitted parameter for the ranking (the slip-sinkage coefficient, the grouser height)."""
     if h.effect == "slip_sinkage":
-        return {"slip_sinkage": h.fit.parameters["slip_sinkage"].value}
+        v = h.fit.parameters["slip_sinkage"].value
+        return {} if v is None else {"slip_sinkage": float(v)}
     if h.effect == GROUSER_HYPOTHESIS and h.height is not None:
         return {"grouser_height_m": h.height}
     return {}

@@ -25,13 +25,13 @@ import numpy as np
 from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.wheel import entry_angle
 from ...soilmodel.wheel_sweep import WheelSweep
-from ..estimates.least_squares import RANK_TOL, WEAK_CORRELATION, core_stats_one, quantile
+from ..estimates.least_squares import NULL_TOL, RANK_TOL, WEAK_CORRELATION, WEAK_VIF, core_stats_one, quantile
 from ..estimates.distributions import f_sf
+from ..estimates.records import EDGE_UNITS, ParameterEstimate
 from ..outcome import BOUND_TOL, LackOfFitTest, Outcome, decide_outcome, identified, outcome_lines, running_gear_json
 from .problem import WHEEL_PARAMETERS, bekker_modulus, channel_floors, residual_function, torque_floor
 
 __all__ = [
-    "WheelEstimate",
     "WheelCombination",
     "WheelFitResult",
     "build_wheel_result",
@@ -47,8 +47,6 @@ __all__ = [
     "LOAD_SPREAD_MIN",
 ]
 
-#: Norm of a parameter's component in the null space (scaled coordinates) above which it is not identifiable.
-NULL_TOL = 1e-4
 #: Distance to a bound, as a fraction of the bound range, below which a parameter is on it (the one
 #: bound tolerance of the outcome rules).
 BOUND_REL_TOL = BOUND_TOL
@@ -61,65 +59,18 @@ LOAD_REPEAT_TOL = 0.2
 LOAD_SLIP_CORRELATION_WARN = 0.5
 #: Relative spread of the loads ((max - min) / mean) below which the sweep counts as one load.
 LOAD_SPREAD_MIN = 0.25
-_WEAK_VIF = 1.0 / (1.0 - WEAK_CORRELATION**2)
 
-# name -> (JSON key, factor SI -> edge unit, unit, words)
+#: The wheel's report words where they differ from :data:`~soiltrack.identify.estimates.records.EDGE_UNITS`'s.
+_WORDS = {"shear_modulus": "shear deformation modulus K"}
+# name -> (JSON key, factor SI -> edge unit, unit, words), from the library's one unit table
 _EDGE = {
-    "cohesion": ("cohesion_kpa", 1e-3, "kPa", "cohesion c"),
-    "friction_angle": ("friction_angle_deg", 180.0 / math.pi, "deg", "friction angle phi"),
-    "shear_modulus": ("shear_modulus_m", 1.0, "m", "shear deformation modulus K"),
-    "bekker_kc": ("bekker_kc", 1e-3, "kN/m^(n+1)", "Bekker k_c"),
-    "bekker_kphi": ("bekker_kphi", 1e-3, "kN/m^(n+2)", "Bekker k_phi"),
-    "bekker_n": ("bekker_n", 1.0, "-", "Bekker exponent n"),
-    "slip_sinkage": ("slip_sinkage", 1.0, "-", "slip-sinkage coefficient s"),
+    n: (EDGE_UNITS[n][0], EDGE_UNITS[n][2], EDGE_UNITS[n][1], _WORDS.get(n, EDGE_UNITS[n][3]))
+    for n in ("cohesion", "friction_angle", "shear_modulus", "bekker_kc", "bekker_kphi", "bekker_n", "slip_sinkage")
 }
 
 
 def _num(x: float | None) -> float | None:
     return None if x is None or not math.isfinite(x) else float(x)
-
-
-@dataclass(frozen=True)
-class WheelEstimate:
-    """One parameter's estimate in edge units (kPa, deg, m, kN/m^(n+1), kN/m^(n+2), -)."""
-
-    value: float
-    stderr: float | None
-    ci95: tuple[float | None, float | None]
-    identifiable: bool
-    weakly_identifiable: bool
-    at_bound: bool
-    bound_side: str | None
-    fixed: bool
-    note: str = ""
-    lower: float | None = None
-    upper: float | None = None
-
-    @property
-    def identified(self) -> tuple[bool, str]:
-        """Identified by the outcome rules (:func:`~soiltrack.identify.outcome.identified`), and why not."""
-        if self.fixed:
-            return False, "held fixed"
-        if self.lower is None or self.upper is None:
-            return (self.identifiable and not self.at_bound), "on a bound" if self.at_bound else ""
-        return identified(
-            identifiable=self.identifiable, at_bound=self.at_bound, ci95=self.ci95, lower=self.lower, upper=self.upper
-        )
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON form (the track fit's field names)."""
-        return {
-            "value": self.value,
-            "stderr": _num(self.stderr),
-            "ci95": [_num(v) for v in self.ci95],
-            "identifiable": self.identifiable,
-            "identified": bool(self.identified[0]),
-            "at_bound": self.at_bound,
-            "bound_side": self.bound_side,
-            "weakly_identifiable": self.weakly_identifiable,
-            "fixed": self.fixed,
-            "note": self.note,
-        }
 
 
 @dataclass(frozen=True)
@@ -175,7 +126,8 @@ class WheelFitResult:
     """What a rigid-wheel fit found and how far the data support it.
 
     ``theta`` holds the six parameters in SI (:data:`WHEEL_PARAMETERS` order); ``parameters`` the
-    estimates in edge units keyed by JSON name; ``statements`` says in words what is identified.
+    library's parameter records (SI inside, edge units in the JSON and report) keyed by JSON name;
+    ``statements`` says in words what is identified.
     """
 
     wheel: RigidWheel
@@ -183,7 +135,7 @@ class WheelFitResult:
     status: str
     message: str
     theta: np.ndarray
-    parameters: dict[str, WheelEstimate]
+    parameters: dict[str, ParameterEstimate]
     combinations: tuple[WheelCombination, ...]
     statements: tuple[str, ...]
     warnings: tuple[str, ...]
@@ -387,16 +339,17 @@ class WheelFitResult:
 _NAME_OF = {v[0]: n for n, v in _EDGE.items()}
 
 
-def _parameter_line(key: str, e: WheelEstimate) -> str:
+def _parameter_line(key: str, e: ParameterEstimate) -> str:
     """One row of the report's parameter table; no number for a parameter the data do not identify,
     and nothing on a bound (or with an interval over most of its range) called identified."""
-    unit, words = _EDGE[_NAME_OF[key]][2], _EDGE[_NAME_OF[key]][3]
-    lab = f"{words + ' (' + unit + ')':<30}"
+    lab = f"{e.words + ' (' + e.edge_unit + ')':<30}"
+    value = e.edge_value if e.edge_value is not None else float("nan")
     if e.fixed:
-        return f"{lab}{e.value:>12.4g}{'fixed':>28}  fixed"
+        return f"{lab}{value:>12.4g}{'fixed':>28}  fixed"
     if not e.identifiable:
         return f"{lab}{'-':>12}{'-':>28}  NOT IDENTIFIABLE (the optimiser's point is no estimate)"
-    ci = "-" if e.ci95[0] is None else f"[{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]"
+    lo, hi = e.edge_ci95
+    ci = "-" if lo is None or hi is None else f"[{lo:.4g}, {hi:.4g}]"
     ok, why = e.identified
     if e.at_bound:
         ident = f"no: ON {str(e.bound_side).upper()} BOUND (interval not reliable)"
@@ -404,7 +357,7 @@ def _parameter_line(key: str, e: WheelEstimate) -> str:
         ident = f"no: {why}"
     else:
         ident = "weakly" if e.weakly_identifiable else "yes"
-    return f"{lab}{e.value:>12.4g}{ci:>28}  {ident}"
+    return f"{lab}{value:>12.4g}{ci:>28}  {ident}"
 
 
 def _combination_line(c: WheelCombination) -> str:
@@ -502,17 +455,17 @@ def _lack_of_fit(data: WheelSweep, r_dp: np.ndarray, rank_dp: int) -> dict[str, 
     return out
 
 
-def _wheel_parameters(theta, free, lo, hi, ident, Pinv, C, q) -> tuple[dict[str, WheelEstimate], list, list]:
-    """Each parameter's estimate in edge units (held ones as given), and the names not identifiable and
-    weakly identifiable."""
-    params: dict[str, WheelEstimate] = {}
+def _wheel_parameters(theta, free, lo, hi, ident, Pinv, C, q) -> tuple[dict[str, ParameterEstimate], list, list]:
+    """Each parameter's record (SI; held ones as given), and the names not identifiable and weakly
+    identifiable."""
+    params: dict[str, ParameterEstimate] = {}
     kf = 0
     weak_names, nonid = [], []
     for k, name in enumerate(WHEEL_PARAMETERS):
-        key, fac = _EDGE[name][0], _EDGE[name][1]
+        key, words = _EDGE[name][0], _EDGE[name][3]
         if not free[k]:
-            params[key] = WheelEstimate(
-                float(theta[k] * fac), None, (None, None), True, False, False, None, True, "held fixed"
+            params[key] = ParameterEstimate(
+                name, float(theta[k]), None, (None, None), True, fixed=True, note="held fixed", label=words
             )
             continue
         span = hi[k] - lo[k]
@@ -524,7 +477,7 @@ def _wheel_parameters(theta, free, lo, hi, ident, Pinv, C, q) -> tuple[dict[str,
             else None
         )
         vif = float(Pinv[kf, kf])
-        weak = bool(ident[kf] and vif > _WEAK_VIF)
+        weak = bool(ident[kf] and vif > WEAK_VIF)
         se = math.sqrt(C[kf, kf]) if C is not None and ident[kf] and C[kf, kf] >= 0 else None
         # linearised interval, intersected with the bounds (no negative cohesion or friction angle)
         ci = (
@@ -533,18 +486,19 @@ def _wheel_parameters(theta, free, lo, hi, ident, Pinv, C, q) -> tuple[dict[str,
             else (None, None)
         )
         note = "" if side is None else f"on its {side} bound: the data or the bounds want a value beyond it"
-        params[key] = WheelEstimate(
-            float(theta[k] * fac),
-            None if se is None else se * fac,
-            (None if ci[0] is None else float(ci[0] * fac), None if ci[1] is None else float(ci[1] * fac)),
+        params[key] = ParameterEstimate(
+            name,
+            float(theta[k]),
+            se,
+            (None if ci[0] is None else float(ci[0]), None if ci[1] is None else float(ci[1])),
             bool(ident[kf]),
-            weak,
-            side is not None,
-            side,
-            False,
-            note,
-            lower=float(lo[k] * fac),
-            upper=float(hi[k] * fac),
+            weakly_identifiable=weak,
+            at_bound=side is not None,
+            bound_side=side,
+            note=note,
+            lower=float(lo[k]),
+            upper=float(hi[k]),
+            label=words,
         )
         if not ident[kf]:
             nonid.append(name)
@@ -612,7 +566,7 @@ def _wheel_combinations(data, wheel, options, theta, free, lo, hi, params, D, nu
         gs = g / D
         nrm = float(np.linalg.norm(gs))
         est = nrm == 0 or null.shape[1] == 0 or float(np.linalg.norm(gs @ null)) / nrm < NULL_TOL
-        weak = bool(est and nrm > 0 and float(gs @ Pinv @ gs) / nrm**2 > _WEAK_VIF)
+        weak = bool(est and nrm > 0 and float(gs @ Pinv @ gs) / nrm**2 > WEAK_VIF)
         if not est or C is None:
             return None, est, weak
         var = float(g @ C @ g)
@@ -828,6 +782,7 @@ def _load_notes(data: WheelSweep, params: dict, statements: list[str]) -> list[s
     return warnings
 
 
-#: Public names of the edge units and the report line (the joint fit of several data sets uses them).
-EDGE_UNITS = _EDGE
+#: Public names of the wheel's edge units and words, and of the report line (the joint fit of several
+#: data sets uses them).
+WHEEL_EDGE = _EDGE
 parameter_line = _parameter_line
