@@ -388,8 +388,9 @@ def _with_turns(plan, out, R, k_node, on, radii, first_bad, patches, du_at=0.0, 
     )
     if steady_ok:
         msg += (
-            "; a steady turn at this speed holds: the straight-line plan's acceleration breaks it (the speed "
-            "profile is planned without the turn): a gentler plan (--max-speed, an energy objective) may pass"
+            "; a steady turn at this speed holds: the plan's acceleration in the turn breaks it (the optimiser "
+            "bounds the turn by its steady limits, not the accelerating turn's): a gentler plan (--max-speed, an "
+            "energy objective) may pass"
         )
     reason = {"patch": k, "limit": limit, "turn_radius_m": float(radii[k]), "distance_m": series["distance_m"][jj]}
     return replace(plan, success=False, status="infeasible", message=msg, reason=reason)
