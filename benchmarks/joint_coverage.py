@@ -76,7 +76,7 @@ def one(seed: int) -> dict:
     inside = {}
     for key, v in truth.items():
         e = r.parameters[key]
-        inside[key] = bool(e.identifiable and e.ci95[0] is not None and e.ci95[0] <= v <= e.ci95[1])
+        inside[key] = bool(e.identifiable and e.edge_ci95[0] is not None and e.edge_ci95[0] <= v <= e.edge_ci95[1])
     return {"inside": inside, "refused": bool(r.consistency["poor_fit"]), "outcome": r.outcome}
 
 

@@ -107,7 +107,7 @@ def test_annulus_intervals_cover_at_close_to_the_nominal_rate():
         for k, (key, true) in enumerate(
             (("cohesion_kpa", C / 1e3), ("friction_angle_deg", math.degrees(PHI)), ("shear_modulus_m", K))
         ):
-            lo, hi = fit.parameters[key].ci95
+            lo, hi = fit.parameters[key].edge_ci95  # the truths in kPa, deg, m
             hits[k] += lo <= true <= hi
     rate = hits / n
     assert np.all(rate >= 0.85), rate  # 95 % nominal; 60 replicates: a binomial 2.5 % quantile near 0.88

@@ -55,7 +55,7 @@ def test_a_sweep_and_a_log_of_one_soil_agree_and_hold_the_truth(log):
     assert c["dof"] == 2 and c["p_value"] > 0.01 and not c["poor_fit"]
     for key, v in (("cohesion_kpa", C / 1e3), ("friction_angle_deg", math.degrees(PHI)), ("shear_modulus_m", K)):
         e = r.parameters[key]
-        assert e.identifiable and e.ci95[0] <= v <= e.ci95[1], (key, e.ci95, v)
+        assert e.identifiable and e.edge_ci95[0] <= v <= e.edge_ci95[1], (key, e.edge_ci95, v)
     kinds = [d["kind"] for d in r.datasets]
     assert kinds == ["track_sweep", "drive_log"]
     assert r.datasets[1]["gear"]["kind"] == "track" and r.datasets[1]["outcome"] == "usable"
@@ -86,7 +86,7 @@ def test_a_one_load_sweep_with_a_shear_test_separates_c_and_phi():
     assert r.datasets[0]["soil"]["cohesion_kpa"] is None  # alone: c and phi confounded
     for key, v in (("cohesion_kpa", C / 1e3), ("friction_angle_deg", math.degrees(PHI)), ("shear_modulus_m", K)):
         e = r.parameters[key]
-        assert e.identifiable and e.ci95[0] <= v <= e.ci95[1], (key, e.ci95, v)
+        assert e.identifiable and e.edge_ci95[0] <= v <= e.edge_ci95[1], (key, e.edge_ci95, v)
 
 
 def test_a_wheel_sweep_with_a_vehicle_or_a_log_with_a_wheel_is_refused():
