@@ -85,9 +85,13 @@ class OnlineSettings:
         its sandwich covariance and the noise levels are estimated from the horizon's own samples,
         and a handful of them give no estimate of either (measured: the first 0.5 s of a start-up
         acceleration, heavy vehicle at 25 Hz, 8 samples loaded to 18 % of the true F_max, reported
-        F_max 37 +- 4.8 kN against 202 kN; held, that wrong value was never corrected). The
-        iteration must also have converged at that update (an iterate between two Gauss-Newton
-        steps is not a fit: measured, 58 +- 7 kN held from such an iterate, same vehicle).
+        F_max 37 +- 4.8 kN against 202 kN; held, that wrong value was never corrected). While
+        nothing is held, the iteration must also have converged at that update (the first
+        estimate of a soil has no arrival cost to be checked against, and an iterate between two
+        Gauss-Newton steps is not a fit: measured, 58 +- 7 kN held from such an iterate, same
+        vehicle). Once something is held the rule is the sample count only: a pull moves the
+        iterate, and asking for convergence there missed a change (measured, heavy flat, pulls
+        every 20-30 s: detected 48 s late instead of 0.5 s after the first pull on the new soil).
     detect_min_load
         The detector runs once F_max has been determined (since the start or the last change)
         and takes only samples whose thrust is at least this fraction of that F_max. Below it
