@@ -880,7 +880,10 @@ class OnlineEstimator:
         F_bound = not (Flo + tol < xF < Fhi - tol)
         K_bound = not (Klo + tol < xK < Khi - tol)
         w["K_bound"] = K_bound
-        if abs(corr) < GENTLE_CORRELATION and sF_ / F < GENTLE_REL_STDERR and not F_bound:
+        # samples to estimate its sandwich; and, while nothing is held, a converged fit (the first estimate
+        # of a soil is held with no arrival cost to check it against: an iterate between steps is no fit)
+        enough = n_used >= self.settings.identify_min_samples and (self._converged or self._held.known)
+        if enough and abs(corr) < GENTLE_CORRELATION and sF_ / F < GENTLE_REL_STDERR and not F_bound:
             # the horizon's largest thrust, two standard deviations below its value
             peak = max(self._peaks[0][2], 0.0) if self._peaks else 0.0
             if peak >= self.settings.identify_min_utilisation * F:
