@@ -75,8 +75,8 @@ def read_two_track_data(path: str | os.PathLike, *, topics: Any = None):
     """A two-track drive log keeping each track's channels (:class:`~.turning.TwoTrackLog`): from a CSV
     (:func:`~.turning.read_two_track`) or from a ROS bag through ``topics`` (the bag's channels resampled
     onto one clock as for :func:`read_data`); DataError naming the file and the missing column."""
-    from .tracks import TWO_TRACK_COLUMNS, YAW_COLUMN
-    from .turning import LATERAL_COLUMN, TwoTrackLog, read_two_track
+    from .tracks import TWO_TRACK_COLUMNS
+    from .turning import read_two_track, two_track_log_from_columns
 
     if not is_bag(path):
         return read_two_track(path)
@@ -93,15 +93,4 @@ def read_two_track_data(path: str | os.PathLike, *, topics: Any = None):
                 file=p,
                 column=col,
             )
-    return TwoTrackLog(
-        time=cols["time_s"],
-        torque_left=cols[TWO_TRACK_COLUMNS[0]],
-        torque_right=cols[TWO_TRACK_COLUMNS[1]],
-        speed_left=cols[TWO_TRACK_COLUMNS[2]],
-        speed_right=cols[TWO_TRACK_COLUMNS[3]],
-        vehicle_speed=cols["vehicle_speed_m_s"],
-        yaw_rate=cols.get(YAW_COLUMN),
-        vehicle_accel=cols.get("vehicle_accel_m_s2"),
-        lateral_speed=cols.get(LATERAL_COLUMN),
-        source=p,
-    )
+    return two_track_log_from_columns(cols, source=p)

@@ -34,7 +34,15 @@ from .threadsafe import call_solver, locked_cache
 from .tracks import TWO_TRACK_COLUMNS, YAW_COLUMN, turning_mask
 from .vehicle import Vehicle
 
-__all__ = ["TwoTrackLog", "Turn", "parse_turns", "read_two_track", "simulate_turning_log", "GYRO_NOISE"]
+__all__ = [
+    "TwoTrackLog",
+    "Turn",
+    "parse_turns",
+    "read_two_track",
+    "two_track_log_from_columns",
+    "simulate_turning_log",
+    "GYRO_NOISE",
+]
 
 #: Yaw-rate noise of the simulated gyroscope, rad/s (a MEMS gyro at 50 Hz).
 GYRO_NOISE = 0.005
@@ -147,6 +155,11 @@ def read_two_track(path: str | os.PathLike, *, max_rows: int | None = None) -> T
             raise DataError(f"missing column of a two-track drive log (header has {header})", file=path, column=col)
     optional = [c for c in ("vehicle_accel_m_s2", YAW_COLUMN, LATERAL_COLUMN) if c in header]
     d = read_columns(path, header, [*required, *optional], max_rows)
+    return two_track_log_from_columns(d, source=path)
+
+
+def two_track_log_from_columns(d: dict, *, source: str) -> TwoTrackLog:
+    """A :class:`TwoTrackLog` from columns named as in a CSV (a CSV's or a bag's, read and checked)."""
     return TwoTrackLog(
         time=d["time_s"],
         torque_left=d[TWO_TRACK_COLUMNS[0]],
@@ -157,7 +170,7 @@ def read_two_track(path: str | os.PathLike, *, max_rows: int | None = None) -> T
         yaw_rate=d.get(YAW_COLUMN),
         vehicle_accel=d.get("vehicle_accel_m_s2"),
         lateral_speed=d.get(LATERAL_COLUMN),
-        source=path,
+        source=source,
     )
 
 
