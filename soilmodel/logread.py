@@ -75,7 +75,6 @@ def read_two_track_data(path: str | os.PathLike, *, topics: Any = None):
     """A two-track drive log keeping each track's channels (:class:`~.turning.TwoTrackLog`): from a CSV
     (:func:`~.turning.read_two_track`) or from a ROS bag through ``topics`` (the bag's channels resampled
     onto one clock as for :func:`read_data`); DataError naming the file and the missing column."""
-    from .tracks import TWO_TRACK_COLUMNS
     from .turning import read_two_track, two_track_log_from_columns
 
     if not is_bag(path):
@@ -85,12 +84,5 @@ def read_two_track_data(path: str | os.PathLike, *, topics: Any = None):
     p = os.fspath(path)
     if topics is None:
         read_data(p)  # the same refusal as a straight-line fit's: a bag needs --topics
-    cols, _ = read_bag_columns(p, topics)
-    for col in (*TWO_TRACK_COLUMNS, "vehicle_speed_m_s"):
-        if col not in cols:
-            raise DataError(
-                f"the bag mapping has no topic for the two-track column {col} (mapped: {sorted(cols)})",
-                file=p,
-                column=col,
-            )
+    cols, _ = read_bag_columns(p, topics, two_track=True)
     return two_track_log_from_columns(cols, source=p)

@@ -229,12 +229,19 @@ def _channels(path: str, mapping: BagMapping) -> tuple[dict[str, np.ndarray], di
     return out_t, out_v, how
 
 
-def read_bag_columns(path: str | os.PathLike, topics: Any) -> tuple[dict[str, np.ndarray], list[str]]:
-    """The bag's channels on one clock as ``{column: values}`` (``time_s`` included), and the notes saying how."""
+def read_bag_columns(
+    path: str | os.PathLike, topics: Any, *, two_track: bool = False
+) -> tuple[dict[str, np.ndarray], list[str]]:
+    """The bag's channels on one clock as ``{column: values}`` (``time_s`` included), and the notes saying how.
+
+    The one check of the mapping's required columns: the two-track columns when ``two_track`` is true or the
+    mapping names any of them, else the straight-line sprocket columns; ``vehicle_speed_m_s`` always.
+    """
     path = os.fspath(path)
     mapping = parse_topics(topics)
     names = set(mapping.topics)
-    sprocket = TWO_TRACK_COLUMNS if names & set(TWO_TRACK_COLUMNS) else DRIVE_COLUMNS[1:3]
+    two = two_track or bool(names & set(TWO_TRACK_COLUMNS))
+    sprocket = TWO_TRACK_COLUMNS if two else DRIVE_COLUMNS[1:3]
     for col in (*sprocket, "vehicle_speed_m_s"):
         if col not in names:
             raise DataError(

@@ -377,3 +377,17 @@ def test_motion_fit_takes_a_two_track_bag(two_track, capsys):
     assert a["model"] == b["model"] == "steering" and a["motion"] == b["motion"] == "all"
     assert b["max_thrust_N"] == pytest.approx(a["max_thrust_N"], rel=1e-9)
     assert b["outcome"] == a["outcome"]
+
+
+def test_a_two_track_read_of_a_straight_line_mapping_names_the_missing_column(csv_log):
+    """The one required-column check (``read_bag_columns(two_track=True)``): a bag mapped with the straight-line
+    sprocket columns, read as a two-track log, is refused naming the first two-track column and the file."""
+    from soiltrack.soilmodel.errors import DataError
+    from soiltrack.soilmodel.logread import read_two_track_data
+
+    path, log, d = csv_log
+    bag = write_bag(d / "straight_mcap", log, "mcap")
+    with pytest.raises(DataError) as err:
+        read_two_track_data(bag, topics=TOPICS)
+    msg = str(err.value)
+    assert "required column sprocket_torque_left_Nm" in msg and "straight_mcap" in msg
