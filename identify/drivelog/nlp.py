@@ -16,7 +16,7 @@ import numpy as np
 
 from ...soilmodel.ridge import ridge_centre, ridge_ranges
 from ...soilmodel.soil import SoilBounds
-from ...soilmodel.threadsafe import call_solver, locked_cache
+from ...soilmodel.threadsafe import call_solver, locked_cache, solver_status
 from ...soilmodel.traction import shear_bracket, shear_bracket_inverse
 from ...soilmodel.vehicle import Vehicle
 from .prepare import SLIP_BOUNDS, PreparedLog
@@ -169,13 +169,14 @@ def run_starts(solver: ca.Function, make_x0, p, lbx, ubx, starts, Fb, Kb, F_ref,
         total += _time.perf_counter() - t0
         xs = np.asarray(sol["x"], dtype=float).reshape(-1)
         fval = float(sol["f"])
-        ok = bool(st.get("success", False)) and bool(np.all(np.isfinite(xs))) and math.isfinite(fval)
+        status, iters, converged = solver_status(st)
+        ok = converged and bool(np.all(np.isfinite(xs))) and math.isfinite(fval)
         cand: dict[str, Any] = {
             "x": xs,
             "f": fval,
             "ok": ok,
-            "status": str(st.get("return_status", "unknown")),
-            "iterations": int(st.get("iter_count", -1)),
+            "status": status,
+            "iterations": iters,
             "starts_tried": j + 1,
         }
         if best is None or (cand["ok"], -cand["f"]) > (best["ok"], -best["f"]):

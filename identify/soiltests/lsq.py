@@ -20,6 +20,7 @@ from typing import Callable
 import casadi as ca
 import numpy as np
 
+from ...soilmodel.threadsafe import call_solver, solver_status
 from ..estimates.least_squares import NULL_TOL, RANK_TOL
 from ..outcome import BOUND_TOL
 
@@ -168,8 +169,8 @@ def solve_bounded(
     best = None
     for x0 in starts:
         x0 = np.clip(np.asarray(x0, dtype=float), lower, upper)
-        sol = solver(x0=x0, p=p, lbx=lower, ubx=upper)
-        stats = solver.stats()
+        sol, stats = call_solver(solver, x0=x0, p=p, lbx=lower, ubx=upper)
+        status, iters, converged = solver_status(stats)
         x = np.clip(np.asarray(sol["x"], dtype=float).ravel(), lower, upper)  # IPOPT relaxes bounds by ~1e-8
         f = float(sol["f"])
         if not (np.all(np.isfinite(x)) and np.isfinite(f)):
@@ -177,9 +178,9 @@ def solve_bounded(
         if (
             best is None
             or f < best[1] - 1e-14 * max(abs(f), 1.0)
-            or (not best[2] and stats["success"] and f <= best[1] * (1 + 1e-9))
+            or (not best[2] and converged and f <= best[1] * (1 + 1e-9))
         ):
-            best = (x, f, bool(stats["success"]), str(stats["return_status"]), int(stats["iter_count"]))
+            best = (x, f, converged, status, iters)
     elapsed = time.perf_counter() - t0
     if best is None:
         x = np.clip(np.asarray(starts[0], dtype=float), lower, upper)
