@@ -148,17 +148,21 @@ def _separation(soil, seeds: int, duration: float, rate: float) -> None:
         )
 
 
-def _planning(vehicle, soil, samples: int) -> None:
-    from soiltrack.planning import route_profile
-    from soiltrack.planning.route import route_from_dict
-    from soiltrack.planning.turning import turn_margin, turn_probability
-    from soiltrack.planning.uncertainty import SoilUncertainty
-    from soiltrack.soilmodel import PRACTICAL_BOUNDS
-
+def _planning(vehicle, soil, samples: int, route_only: bool = False) -> None:
     def clock(f):
         t, c = time.perf_counter(), time.process_time()
         out = f()
         return out, time.perf_counter() - t, time.process_time() - c
+
+    if not route_only:
+        _margin_times(vehicle, soil, samples, clock)
+    _route_times(vehicle, clock)
+
+
+def _margin_times(vehicle, soil, samples: int, clock) -> None:
+    from soiltrack.planning.turning import turn_margin, turn_probability
+    from soiltrack.planning.uncertainty import SoilUncertainty
+    from soiltrack.soilmodel import PRACTICAL_BOUNDS
 
     turn_margin(vehicle, soil, radius_m=10.0, speed_m_s=2.0)  # build the solvers once
     m, tw, tc = clock(lambda: turn_margin(vehicle, soil, radius_m=10.0, speed_m_s=2.0))
@@ -179,6 +183,12 @@ def _planning(vehicle, soil, samples: int) -> None:
             f"   p_turn_feasible at {r:.3g} m = {p.p:.3g} +- {p.stderr:.2g} ({samples} soils): "
             f"{tw:.3g} s wall, {tc:.3g} s CPU"
         )
+
+
+def _route_times(vehicle, clock) -> None:
+    from soiltrack.planning import route_profile
+    from soiltrack.planning.route import route_from_dict
+
     pats = [{"length_m": 20, "terrain": "lete_sand"}, {"length_m": 15, "terrain": "lete_sand", "radius_m": 10},
             {"length_m": 20, "terrain": "lete_sand"}]  # fmt: skip
     route = route_from_dict({"v0_m_s": 2.0, "v_end_m_s": 2.0, "patches": pats})
@@ -192,7 +202,8 @@ def _planning(vehicle, soil, samples: int) -> None:
         tw, tc = statistics.median(x[1] for x in runs), statistics.median(x[2] for x in runs)
         print(
             f"   route 55 m, {len(plan.series['time_s'])} mesh points, {label}: success {plan.success}, "
-            f"{tw:.3g} s wall, {tc:.3g} s CPU (median of 3)"
+            f"{tw:.3g} s wall, {tc:.3g} s CPU (median of 3; IPOPT {plan.iterations} iterations, "
+            f"{plan.solve_time_s:.3g} s wall in the solver, warm {plan.warm_start})"
         )
 
 
@@ -206,6 +217,7 @@ def main() -> None:
     ap.add_argument("--separation", action="store_true", help="part 4 only (c-phi separation, --seeds seeds)")
     ap.add_argument("--plan", action="store_true", help="part 5 only (turning-plan solve times)")
     ap.add_argument("--samples", type=int, default=800, help="soils of p_turn_feasible in part 5 (default 800)")
+    ap.add_argument("--route-only", action="store_true", help="part 5's route plans only (straight and with the turn)")
     a = ap.parse_args()
     from soiltrack.soilmodel import TERRAINS, VEHICLES
 
@@ -215,8 +227,8 @@ def main() -> None:
     if a.separation:
         _separation(soil, a.seeds, a.duration, a.rate)
         return
-    if a.plan:
-        _planning(vehicle, TERRAINS["lete_sand"], a.samples)
+    if a.plan or a.route_only:
+        _planning(vehicle, TERRAINS["lete_sand"], a.samples, a.route_only)
         return
     _quadrature(vehicle, soils)
     _timing(vehicle, soils[0])

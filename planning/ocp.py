@@ -23,12 +23,17 @@ boundary is a mesh point):
   distance is free;
 - turning intervals (``OcpData.turn``, a patch with ``radius_m``; the problem is built with the
   turn rows only when some interval turns, so straight plans are the same NLP as before): the
-  steering model's steady turn at that radius (:mod:`.route_turns`) enters as polynomials in the
-  speed, ``dR(v) = a0 + a2 v^2 + a4 v^4`` (the extra longitudinal resistance of the turn: the
-  centripetal force's sideslip and load transfer; added to the compaction resistance in the
-  dynamics) and ``dT(v) = d0 + d2 v^2 + d4 v^4`` (half the difference of the outer and inner
-  sprocket torques, from the yaw moment balance). At every point the outer sprocket's torque
-  ``M/2 + dT`` is at most ``T_max/2`` and the inner's ``M/2 - dT`` at least ``-T_max/2`` (each
+  steering model's turn at that radius (:mod:`.route_turns`) enters as polynomials in the
+  speed, ``dR(v) = a0 + a2 v^2 + a4 v^4`` (the extra longitudinal resistance of the steady turn:
+  the centripetal force's sideslip and load transfer; added to the compaction resistance in the
+  dynamics), and in the speed and the forward acceleration ``a`` (the dynamics' ``dv/dt`` at the
+  point with the interval's torque), ``dT(v, a) = d(v) + a d1(v) + a^2 d2(v)`` (half the
+  difference of the outer and inner sprocket torques, from the yaw moment balance; each ``d`` in
+  ``[1, v^2, v^4]``) and the sideslip's tangent ``t(v, a)`` likewise: at every point
+  ``|t| + err <= tan(MAX_SIDESLIP_DEG)`` (the accelerating turn's sideslip, its fit's largest error
+  ``err`` to the safe side). The start node of the interval after a turn carries that turn's rows
+  with this interval's acceleration (the after-solve check turns there). At every point the outer
+  sprocket's torque ``M/2 + dT`` is at most ``T_max/2`` and the inner's ``M/2 - dT`` at least ``-T_max/2`` (each
   sprocket carries half the drivetrain's limit), the outer sprocket's power
   ``(M/2 + dT) w (1 + e)`` and the driving power of both ``M w + 2 dT e w`` at most ``P_max``
   (``e = B / (2 |R|)``, kinematic sprocket-speed ratio; the inner track's braking power is not
@@ -45,6 +50,7 @@ limit on/off) and re-solved; the previous solution of the same structure warm-st
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 from functools import lru_cache
@@ -56,6 +62,7 @@ import numpy as np
 from ..soilmodel import Vehicle
 from ..soilmodel.dynamics import dynamics_expr
 from ..soilmodel.threadsafe import SOLVER_LOCK, call_solver, locked_cache
+from .turning import MAX_SIDESLIP_DEG
 
 __all__ = [
     "OcpData",
@@ -73,8 +80,12 @@ __all__ = [
 
 #: Collocation points per interval (Radau IIA).
 DEGREE = 3
-#: Rows of ``OcpData.turn`` (turn-resistance and torque-split polynomial coefficients, and ``B / 2|R|``).
-TURN_ROWS = 13
+#: Rows of ``OcpData.turn`` (:meth:`~.route_turns.TurnTerms.column`: the turn-resistance, torque-split,
+#: slip-limited torque and sideslip coefficients, ``B / 2|R|`` and the sideslip fit's error).
+TURN_ROWS = 29
+#: Turn rows per point (outer and inner torque, outer and driving power, the two slip-limited torques, the
+#: sideslip from above and from below).
+TURN_POINT_ROWS = 8
 #: Lower bound of the sprocket speed while moving, rad/s (the slip limit's linear form needs w > 0).
 MIN_SPROCKET_SPEED = 1e-4
 #: IPOPT options of every profile solve.
@@ -121,7 +132,7 @@ class OcpData:
     w0: float | None = None  # initial sprocket speed, rad/s (None: free within the slip limit)
     max_speed: float | None = None  # speed limit at the mesh and collocation points, m/s
     mu_s: np.ndarray | None = None  # fitted slip_sinkage coefficient per interval (None: 0, the nominal model)
-    turn: np.ndarray | None = None  # (TURN_ROWS, n): [a0, a2, a4, d0, d2, d4, e] per interval (None: no turn)
+    turn: np.ndarray | None = None  # (TURN_ROWS, n): TurnTerms.column() per interval (None: no turn; zeros: straight)
     speed_cap: np.ndarray | None = None  # speed limit per interval, m/s (a turn's steady limit; None: none)
 
 
@@ -205,12 +216,12 @@ def ocp_nlp(vehicle: Vehicle, n: int, energy: bool = False, rate_limit: bool = F
         pts = [X[:, k]] + [Z[:, k * d + j] for j in range(d)]
         w_int = 0
         v_int = 0
+        acc = [f(pts[0], Mk, _point_params(P, k, pts[0][0]))[0][0]] if turns else []  # dv/dt at the start
         for j in range(1, d + 1):
             xp = sum(C[q, j] * pts[q] for q in range(d + 1))
-            pk = P[:6, k]
-            if turns:  # the turn's extra resistance at this point's speed, with the compaction resistance
-                pk = ca.vertcat(P[:4, k], P[4, k] + _poly(P[8:11, k], pts[j][0]), P[5, k])
+            pk = _point_params(P, k, pts[j][0]) if turns else P[:6, k]
             fj = f(pts[j], Mk, pk)[0]
+            acc.append(fj[0])
             g_dyn.append((xp - dt[k] * fj) / xs)
             w_int += B[j] * pts[j][1]
             v_int += B[j] * pts[j][0]
@@ -222,11 +233,9 @@ def ocp_nlp(vehicle: Vehicle, n: int, energy: bool = False, rate_limit: bool = F
             g_slip_lo.append((v_ - (1 - P[6, k]) * r * w_) / vs)
             g_slip_hi.append(((1 + P[6, k]) * r * w_ - v_) / vs)
             g_pow.append((Mk * w_) / Pw)
-            if turns:
-                dT, e_ = _poly(P[11:14, k], v_), P[14, k]
-                g_turn += [(Mk + 2 * dT) / Ms, (Mk - 2 * dT) / Ms]
-                g_turn += [(0.5 * Mk + dT) * w_ * (1 + e_) / Pw, (Mk + 2 * dT * e_) * w_ / Pw]
-                g_turn += [(0.5 * Mk + dT - _poly(P[15:18, k], v_)) / Ms, (0.5 * Mk - dT - _poly(P[18:21, k], v_)) / Ms]
+            if turns:  # the start node of an interval after a turn ends it: that turn's rows, this interval's dv/dt
+                tk = P[8:, k] if q > 0 or k == 0 else ca.if_else(P[14, k] > 0, P[8:, k], P[8:, k - 1])
+                g_turn += _turn_rows(tk, Mk, v_, w_, acc[q], Ms, Pw)
     dM = u[1:] - u[:-1]
     avg_dt = 0.5 * (dt[1:] + dt[:-1])
     rows = [*g_dyn, *g_dist] + (g_work if energy else []) + [*g_slip_lo, *g_slip_hi, *g_pow, *g_turn]
@@ -243,6 +252,36 @@ def _poly(a, v):
     """``a0 + a2 v^2 + a4 v^4`` (the turn terms' polynomial in the speed)."""
     v2 = v * v
     return a[0] + v2 * (a[1] + v2 * a[2])
+
+
+def _point_params(P, k: int, v):
+    """Interval k's dynamics parameters at a point of speed v: the turn's extra resistance ``dR(v)`` added to
+    the compaction resistance."""
+    return ca.vertcat(P[:4, k], P[4, k] + _poly(P[8:11, k], v), P[5, k])
+
+
+def _turn_rows(t, M, v, w, a, Ms, Pw) -> list:
+    """The :data:`TURN_POINT_ROWS` turn rows at one point of speed v, sprocket speed w and acceleration a
+    (``t``: the interval's turn column, :meth:`~.route_turns.TurnTerms.column`).
+
+    ``dT(v, a)`` and the sideslip's ``tan`` ``t0(v) + a t1(v) + a^2 t2(v)`` (shifted by its fit's error
+    both ways), scaled by ``tan`` of :data:`~.turning.MAX_SIDESLIP_DEG`; the acceleration is the dynamics'
+    ``dv/dt`` at the point with the interval's torque.
+    """
+    dT = _poly(t[3:6], v) + a * (_poly(t[13:16], v) + a * _poly(t[16:19], v))
+    e_ = t[6]
+    tan_b = _poly(t[19:22], v) + a * (_poly(t[22:25], v) + a * _poly(t[25:28], v))
+    tmax = math.tan(math.radians(MAX_SIDESLIP_DEG))
+    return [
+        (M + 2 * dT) / Ms,
+        (M - 2 * dT) / Ms,
+        (0.5 * M + dT) * w * (1 + e_) / Pw,
+        (M + 2 * dT * e_) * w / Pw,
+        (0.5 * M + dT - _poly(t[7:10], v)) / Ms,
+        (0.5 * M - dT - _poly(t[10:13], v)) / Ms,
+        (tan_b + t[28]) / tmax,
+        (tan_b - t[28]) / tmax,
+    ]
 
 
 @locked_cache(maxsize=32)
@@ -314,13 +353,16 @@ def _cap_speeds(cap: np.ndarray, Xu: np.ndarray, Zu: np.ndarray) -> None:
 
 
 def _turn_row_bounds(d: OcpData, n: int, npt: int) -> tuple[np.ndarray, np.ndarray]:
-    """Bounds of the turn rows (6 per point: outer torque, inner torque, outer power, driving power, the
-    outer torque at its slip limit, the inner at its skid limit); a
-    straight interval's rows are free (they would repeat the torque bound and the power row)."""
-    on = np.repeat(np.asarray(d.turn, dtype=float)[6] > 0, (DEGREE + 1) * 6)
+    """Bounds of the turn rows (:data:`TURN_POINT_ROWS` per point: outer torque, inner torque, outer power,
+    driving power, the outer torque at its slip limit, the inner at its skid limit, the sideslip from above
+    and from below); a straight interval's rows are free (they would repeat the torque bound and the power row)."""
+    turning = np.asarray(d.turn, dtype=float)[6] > 0
+    at = np.repeat(turning[:, None], DEGREE + 1, axis=1)
+    at[1:, 0] |= turning[:-1]  # an interval's start node ends the turn before it (the after-solve check's node)
+    on = np.repeat(at.ravel(), TURN_POINT_ROWS)
     pw = 1.0 if d.max_power else np.inf
-    lo = np.tile([-np.inf, -1.0, -np.inf, -np.inf, -np.inf, 0.0], npt)
-    hi = np.tile([1.0, np.inf, pw, pw, 0.0, np.inf], npt)
+    lo = np.tile([-np.inf, -1.0, -np.inf, -np.inf, -np.inf, 0.0, -np.inf, -1.0], npt)
+    hi = np.tile([1.0, np.inf, pw, pw, 0.0, np.inf, 1.0, np.inf], npt)
     return np.where(on, lo, -np.inf), np.where(on, hi, np.inf)
 
 

@@ -1,19 +1,22 @@
 """Turns on routes: left and right sprocket torques through patches with ``radius_m`` (the steering model).
 
 A ROUTE.json patch may carry ``radius_m`` (signed, positive to the left; a turn of constant radius
-over the patch's length). Before the solve, :func:`turn_terms` turns the steering model's steady
-turn at that radius into the optimiser's terms (:mod:`.ocp`): the turn's steady speed limit (the
-largest speed at which it breaks no limit of :func:`~.turning.classify_turn`), its extra
-longitudinal resistance and half the outer-minus-inner torque (the yaw moment balance) as
-polynomials in the speed, and the outer and inner sprockets' slip-limited torques (accelerating and
-braking). A turn that no speed holds, or whose limit is below v0/v1 at the route's ends, is refused
-before the solver with the limit named. After the solve :func:`plan_turns` solves, at every mesh
+over the patch's length). Before the solve, :func:`turn_terms` turns the steering model at that
+radius into the optimiser's terms (:mod:`.ocp`): the turn's steady speed limit (the largest speed
+at which it breaks no limit of :func:`~.turning.classify_turn`), its extra longitudinal resistance
+as a polynomial in the speed, the outer and inner sprockets' slip-limited torques (accelerating and
+braking, each solved directly by
+:func:`~soiltrack.soilmodel.steering.slip_limited_motion_function`), and, from the accelerating
+turns between those limits, half the outer-minus-inner torque (the yaw moment balance) and the
+sideslip as polynomials in the speed and the forward acceleration. A turn that no speed holds, or
+whose limit is below v0/v1 at the route's ends, is refused before the solver with the limit named.
+After the solve :func:`plan_turns` solves, at every mesh
 point of a turning patch, the hull motion the plan prescribes - forward speed ``u``, its rate
 ``du/dt`` (central differences of the plan's speeds over its times), yaw rate ``u / R`` and its rate
 ``(du/dt) / R`` - with the steering model (:func:`~.turning.motion_points`: both sprockets' speeds
 and torques, the lateral speed) and checks it against the same limits: the optimiser's terms are
-fits and its torque split while accelerating an approximation (equal shares of the inertial
-thrust), so this check has the last word; a turn that breaks a limit makes the plan infeasible,
+fits (their largest errors are stated and, for the sideslip and the slip-limited torques, shifted
+to the safe side), so this check has the last word; a turn that breaks a limit makes the plan infeasible,
 naming the patch, the limit and the mesh point.
 
 Straight routes are the same problem as before (the turn rows are built only when a patch turns).
@@ -33,8 +36,8 @@ from typing import Any
 import numpy as np
 
 from ..soilmodel import DataError, Vehicle
-from ..soilmodel.simulation import drive_limits
-from ..soilmodel.steering import SteeringSettings, tread_of
+from ..soilmodel.steering import SteeringSettings, slip_limited_motion_function, tread_of, vehicle_parameters
+from ..soilmodel.threadsafe import call_solver, locked_cache
 from .margin import resolve_terrain, terrain_soil_vector
 from .turning import classify_turn, motion_points
 
@@ -63,8 +66,9 @@ CAP_SCAN = 32
 CAP_REFINE = 2
 #: Steady turns the turn terms' polynomials are fitted to (evenly in speed up to the limit).
 FIT_POINTS = 16
-#: Accelerations (0 to the drivetrain's largest, each way) scanned for the tracks' slip-limited torques.
-ACCEL_SCAN = 9
+#: Fractions of the slip-limited acceleration (positive) and braking (negative) at which, at every fitted speed,
+#: the accelerating turn is solved for the acceleration-dependent fits (the torque split and the sideslip).
+ACCEL_FRACTIONS = (-1.0, -0.5, 0.0, 0.5, 1.0)
 
 
 @dataclass(frozen=True)
@@ -92,6 +96,16 @@ class TurnTerms:
         Coefficients of the outer sprocket's largest torque (its slip at the plan's limit,
         accelerating) and the inner's smallest (its skid at the limit, braking), N m, in
         ``[1, v^2, v^4]``, shifted by their fits' largest error to the safe side.
+    split_accel
+        The torque split's dependence on the forward acceleration ``a`` (m/s^2):
+        ``dT(v, a) = split(v) + a s1(v) + a^2 s2(v)``, ``[s1 (3), s2 (3)]`` in ``[1, v^2, v^4]``
+        (fitted with ``split`` to the accelerating turns).
+    sideslip
+        ``tan`` of the sideslip, ``v_lat / u``, as ``t0(v) + a t1(v) + a^2 t2(v)`` (9 coefficients,
+        ``[t0, t1, t2]`` each in ``[1, v^2, v^4]``), fitted to the accelerating turns.
+    sideslip_error
+        Largest error of the sideslip fit (in ``tan``): the optimiser's sideslip rows are shifted by
+        it to the safe side.
     """
 
     radius_m: float
@@ -105,12 +119,19 @@ class TurnTerms:
     e: float
     outer_cap: tuple[float, float, float] = (math.inf, 0.0, 0.0)
     inner_cap: tuple[float, float, float] = (-math.inf, 0.0, 0.0)
+    split_accel: tuple[float, ...] = (0.0,) * 6
+    sideslip: tuple[float, ...] = (0.0,) * 9
+    sideslip_error: float = 0.0
 
     def column(self) -> np.ndarray:
-        """The patch's column of ``OcpData.turn`` (``[a0, a2, a4, d0, d2, d4, e, o0, o2, o4, i0, i2, i4]``)."""
+        """The patch's column of ``OcpData.turn`` (:data:`~.ocp.TURN_ROWS` rows): ``[a0, a2, a4, d0, d2, d4, e,
+        o0, o2, o4, i0, i2, i4]``, ``split_accel`` (6), ``sideslip`` (9), ``sideslip_error``."""
         big = 1e12  # an unbounded cap (no steady turn to fit): a bound that never binds
         caps = [min(max(x, -big), big) for x in (*self.outer_cap, *self.inner_cap)]
-        return np.array([*self.resistance, *self.split, self.e, *caps], dtype=float)
+        return np.array(
+            [*self.resistance, *self.split, self.e, *caps, *self.split_accel, *self.sideslip, self.sideslip_error],
+            dtype=float,
+        )
 
 
 @dataclass(frozen=True)
@@ -195,45 +216,47 @@ def turn_terms(
     top: float = TURN_SPEED_TOP,
     settings: SteeringSettings = SteeringSettings(),
 ) -> TurnTerms:
-    """The steering model's steady turn at ``radius_m`` on soil ``[c, phi, K]`` as the optimiser's terms.
+    """The steering model's turn at ``radius_m`` on soil ``[c, phi, K]`` as the optimiser's terms.
 
     The speed limit: a scan of :data:`CAP_SCAN` speeds and :data:`CAP_REFINE` finer scans, each steady turn checked by
     :func:`~.turning.classify_turn` (soil, per-sprocket torque, power). Then :data:`FIT_POINTS` steady
     turns evenly up to the limit give the extra resistance ``dR = (T_l + T_r)/r - mu_r W`` (the steady
-    balance: ``-m v Om``, the sideslip's share of the centripetal force) and half the torque difference
-    ``dT = (T_outer - T_inner)/2`` (the yaw moment balance), fitted by least squares in ``[1, v^2, v^4]``
-    (the turn is symmetric in the direction of travel); their largest errors are kept.
+    balance: ``-m v Om``, the sideslip's share of the centripetal force), fitted by least squares in
+    ``[1, v^2, v^4]`` (the turn is symmetric in the direction of travel). At each of those speeds the
+    outer track's slip limit accelerating and the inner's skid limit braking are solved for directly
+    (:func:`_slip_limits`); the turns at :data:`ACCEL_FRACTIONS` of those accelerations give half the
+    torque difference ``dT = (T_outer - T_inner)/2`` (the yaw moment balance) and the sideslip's
+    ``tan`` as ``f0(v) + a f1(v) + a^2 f2(v)`` (:func:`_accel_fits`). The fits' largest errors are kept.
     """
     R = float(radius_m)
-    cap, limit, why = _speed_cap(vehicle, np.asarray(soil_vec, dtype=float), R, top, max_slip, limits, settings)
+    sv = np.asarray(soil_vec, dtype=float)
+    cap, limit, why = _speed_cap(vehicle, sv, R, top, max_slip, limits, settings)
     e = 0.5 * tread_of(vehicle) / abs(R)
     if cap <= 0.0:
         return TurnTerms(R, 0.0, limit, why, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, 0.0, e)
     speeds = np.linspace(MIN_TURN_SPEED, cap, FIT_POINTS) if cap > MIN_TURN_SPEED else np.array([cap])
-    _res, cols = _steady_limits(vehicle, np.asarray(soil_vec, dtype=float), R, speeds, max_slip, limits, settings)
+    _res, cols = _steady_limits(vehicle, sv, R, speeds, max_slip, limits, settings)
     solved, _wl, _wr, _v, Tl, Tr = cols
     r = vehicle.sprocket_radius
     dR = (Tl + Tr) / r - vehicle.rolling_resistance * vehicle.weight
-    dT = 0.5 * (Tr - Tl) if R > 0 else 0.5 * (Tl - Tr)
-    A = np.column_stack([np.ones_like(speeds), speeds**2, speeds**4])[: max(1, speeds.size)]
     keep = np.asarray(solved, dtype=bool)
-    if keep.sum() < 3:  # too few steady turns for the speed terms: constants only
-        A = A[:, :1]
-    cR, *_ = np.linalg.lstsq(A[keep], dR[keep], rcond=None)
-    cT, *_ = np.linalg.lstsq(A[keep], dT[keep], rcond=None)
-    errR = float(np.max(np.abs(A[keep] @ cR - dR[keep])))
-    errT = float(np.max(np.abs(A[keep] @ cT - dT[keep])))
+    nu = 3 if keep.sum() >= 3 else 1  # too few steady turns for the speed terms: constants only
+    A = _basis(speeds[keep], np.zeros(int(keep.sum())), nu)[:, :nu]
+    cR, *_ = np.linalg.lstsq(A, dR[keep], rcond=None)
+    errR = float(np.max(np.abs(A @ cR - dR[keep])))
     pad = _three
-    to_cap, ti_cap = _slip_torque_caps(vehicle, np.asarray(soil_vec, dtype=float), R, speeds[keep], max_slip, settings)
-    cO, *_ = np.linalg.lstsq(A[keep], to_cap, rcond=None)
-    cI, *_ = np.linalg.lstsq(A[keep], ti_cap, rcond=None)
+    (to_cap, a_out), (ti_cap, a_in) = _slip_limits(vehicle, sv, R, speeds[keep], max_slip, settings, cols, keep)
+    cO, *_ = np.linalg.lstsq(A, to_cap, rcond=None)
+    cI, *_ = np.linalg.lstsq(A, ti_cap, rcond=None)
     # the torque caps' fits: conservative (shifted by their largest error towards the safe side)
-    lo = float(np.max(A[keep] @ cO - to_cap))
-    hi = float(np.max(ti_cap - A[keep] @ cI))
+    lo = float(np.max(A @ cO - to_cap))
+    hi = float(np.max(ti_cap - A @ cI))
     cO[0] -= max(lo, 0.0)
     cI[0] += max(hi, 0.0)
-    caps = (pad(cO), pad(cI))
-    return TurnTerms(R, cap, limit, why, pad(cR), pad(cT), errR, errT, e, *caps)
+    cT, cB, errT, errB = _accel_fits(vehicle, sv, R, speeds[keep], a_out, a_in, settings, nu)
+    return TurnTerms(
+        R, cap, limit, why, pad(cR), cT[:3], errR, errT, e, pad(cO), pad(cI), cT[3:], cB, errB
+    )  # fmt: skip
 
 
 def _three(c: np.ndarray) -> tuple[float, float, float]:
@@ -242,44 +265,71 @@ def _three(c: np.ndarray) -> tuple[float, float, float]:
     return x[0], x[1], x[2]
 
 
-def _slip_torque_caps(vehicle, soil_vec, R, speeds, max_slip, settings) -> tuple[np.ndarray, np.ndarray]:
-    """Per speed: the outer sprocket's torque at which its slip reaches ``max_slip`` accelerating, and the
-    inner's at which its skid reaches ``-max_slip`` braking (the steering model at ``(u, u/R, a, a/R)`` on
-    :data:`ACCEL_SCAN` accelerations up to the drivetrain's, linearly interpolated; beyond the scan: the
-    torque at its end)."""
-    n, na = speeds.size, ACCEL_SCAN
-    A_top = drive_limits(vehicle).max_sprocket_torque / vehicle.sprocket_radius / vehicle.mass
+def _basis(u: np.ndarray, a: np.ndarray, nu: int = 3) -> np.ndarray:
+    """Columns ``a^k u^(2j)`` for k = 0, 1, 2 and j < nu (the layout of ``split``/``split_accel`` and ``sideslip``)."""
+    return np.column_stack([a**k * u ** (2 * j) for k in range(3) for j in range(nu)])
+
+
+def _accel_fits(vehicle, sv, R, speeds, a_out, a_in, settings, nu) -> tuple[tuple, tuple, float, float]:
+    """``dT`` and the sideslip's ``tan`` fitted in ``[1, v^2, v^4] x [1, a, a^2]`` to the turns at each speed and
+    :data:`ACCEL_FRACTIONS` of its slip-limited acceleration (> 0) or braking (< 0): 9 coefficients each (``nu = 1``:
+    the speed terms 0) and the largest errors (N m, tan)."""
+    fr = np.asarray(ACCEL_FRACTIONS)[None, :]
+    n, nf = speeds.size, fr.size
+    U = np.repeat(speeds, nf)
+    Acc = np.where(fr >= 0, fr * a_out[:, None], -fr * a_in[:, None]).ravel()
+    ok, _wl, _wr, v, Tl, Tr = motion_points(vehicle, np.tile(sv, (n * nf, 1)), U, U / R, Acc, Acc / R, settings)
+    dT = 0.5 * (Tr - Tl) if R > 0 else 0.5 * (Tl - Tr)
+    A = _basis(U[ok], Acc[ok], nu)
+    out: list = []
+    for y in (dT[ok], v[ok] / U[ok]):
+        c, *_ = np.linalg.lstsq(A, y, rcond=None)
+        full = np.zeros((3, 3))
+        full[:, :nu] = c.reshape(3, nu)
+        out += [tuple(float(x) for x in full.ravel()), float(np.max(np.abs(A @ c - y)))]
+    return out[0], out[2], out[1], out[3]
+
+
+@locked_cache(maxsize=16)
+def _slip_limited_mapped(settings: SteeringSettings, n: int):
+    """:func:`~soiltrack.soilmodel.steering.slip_limited_motion_function` mapped over n points (cached per size)."""
+    return slip_limited_motion_function(settings).map(n)
+
+
+def _slip_limits(vehicle, sv, R, speeds, max_slip, settings, steady, keep) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``[(T_outer, a), (T_inner, a)]`` per speed: the outer sprocket's torque and the acceleration at which its
+    slip reaches ``max_slip``, and the inner's torque and the braking at which its skid reaches ``-max_slip``
+    (:func:`~soiltrack.soilmodel.steering.slip_limited_motion_function`, one mapped solve from the steady turn,
+    each answer solved again by :func:`~.turning.motion_points` and its slip checked). Where it has no answer
+    (or one of the wrong sign), the steady turn's torque and no acceleration: the turn is not accelerated there.
+    """
+    n = speeds.size
+    _ok, wl0, wr0, v0, Tl0, Tr0 = (np.asarray(c)[keep] for c in steady)
     r, B = vehicle.sprocket_radius, tread_of(vehicle)
+    Om = speeds / R
+    veh = np.tile(np.asarray(vehicle_parameters(vehicle), dtype=float)[:, None], (1, n))
     out = []
-    for sign in (1.0, -1.0):
-        acc = sign * np.linspace(0.0, A_top, na)
-        U, Acc = np.repeat(speeds, na), np.tile(acc, n)
-        Om = U / R
-        solved, wl, wr, _v, Tl, Tr = motion_points(
-            vehicle, np.tile(soil_vec, (n * na, 1)), U, Om, Acc, Acc / R, settings
+    for target, right in ((max_slip, R > 0), (-max_slip, R < 0)):  # the outer track, then the inner
+        P = np.vstack(
+            [
+                speeds,
+                np.full(n, 1.0 / R),
+                np.full(n, target),
+                np.full(n, float(right)),
+                np.tile(sv[:, None], (1, n)),
+                veh,
+            ]
         )
+        z, _ = call_solver(_slip_limited_mapped(settings, n), np.vstack([wl0 if right else wr0, v0, np.zeros(n)]), P)
+        a = np.asarray(z, dtype=float).reshape(3, n)[2]
+        a = np.where(np.isfinite(a), a, 0.0)
+        ok, wl, wr, _v, Tl, Tr = motion_points(vehicle, np.tile(sv, (n, 1)), speeds, Om, a, a / R, settings)
+        w, y = (wr, -0.5 * B) if right else (wl, 0.5 * B)
         with np.errstate(divide="ignore", invalid="ignore"):
-            sl, sr = 1 - (U - Om * B / 2) / (r * wl), 1 - (U + Om * B / 2) / (r * wr)
-        so, si = (sr, sl) if R > 0 else (sl, sr)
-        To, Ti = (Tr, Tl) if R > 0 else (Tl, Tr)
-        slip, T = (so, To) if sign > 0 else (-si, Ti)
-        ok = solved & np.isfinite(slip) & (np.minimum(wl, wr) > 0)
-        slip = np.where(ok, slip, np.inf).reshape(n, na)
-        T = T.reshape(n, na)
-        caps = np.empty(n)
-        for j in range(n):
-            bad = np.flatnonzero(slip[j] > max_slip)
-            if bad.size == 0:
-                caps[j] = T[j, -1]
-            elif bad[0] == 0:
-                caps[j] = T[j, 0]
-            else:
-                k = bad[0]
-                s0, s1 = slip[j, k - 1], slip[j, k]
-                f = (max_slip - s0) / (s1 - s0) if np.isfinite(s1) else 0.0
-                caps[j] = T[j, k - 1] + f * (T[j, k] - T[j, k - 1]) if np.isfinite(s1) else T[j, k - 1]
-        out.append(caps)
-    return out[0], out[1]
+            slip = 1 - (speeds - Om * y) / (r * w)
+        good = ok & (np.abs(slip - target) < 1e-6) & (a * np.sign(target) >= 0)
+        out.append((np.where(good, Tr if right else Tl, Tr0 if right else Tl0), np.where(good, a, 0.0)))
+    return out
 
 
 def _turn_of_node(idx: np.ndarray, radii: list) -> np.ndarray:
@@ -389,8 +439,8 @@ def _with_turns(plan, out, R, k_node, on, radii, first_bad, patches, du_at=0.0, 
     if steady_ok:
         msg += (
             "; a steady turn at this speed holds: the plan's acceleration in the turn breaks it (the optimiser "
-            "bounds the turn by its steady limits, not the accelerating turn's): a gentler plan (--max-speed, an "
-            "energy objective) may pass"
+            "bounds the accelerating turn by fits of the steering model between mesh points): a gentler plan "
+            "(--max-speed, an energy objective) may pass"
         )
     reason = {"patch": k, "limit": limit, "turn_radius_m": float(radii[k]), "distance_m": series["distance_m"][jj]}
     return replace(plan, success=False, status="infeasible", message=msg, reason=reason)

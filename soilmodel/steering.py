@@ -60,6 +60,7 @@ __all__ = [
     "steady_turn",
     "steady_turn_function",
     "motion_inverse_function",
+    "slip_limited_motion_function",
     "torque_inverse_function",
     "torque_residual_function",
     "kinematic_radius",
@@ -297,6 +298,36 @@ def motion_inverse_function(settings: SteeringSettings = SteeringSettings()) -> 
     _, net, _ = hf(ca.vertcat(u, z[2], Om), z[0:2], so, u * Om, veh)
     res = ca.vertcat((net[0] - m * (du - z[2] * Om)) / W, (net[1] - m * u * Om) / W, (net[2] - Iz * dOm) / (W * l))
     return _rootfinder("motion_inverse", ca.Function("motion_residual", [z, p], [res]))
+
+
+@locked_cache(maxsize=8)
+def slip_limited_motion_function(settings: SteeringSettings = SteeringSettings()) -> ca.Function:
+    """Rootfinder ``(z0, [u, kappa, s, side, c, phi, K, veh...]) -> z = [w_free, v, a]``: a track at a given slip.
+
+    The hull moves at forward speed ``u`` on a path of curvature ``kappa`` (1/R, + left) with the
+    forward acceleration ``a`` (yaw rate ``Om = u kappa``, its rate ``a kappa``) such that track
+    ``side`` (0 left, 1 right) runs at the longitudinal slip ``s`` of its centre line: its sprocket
+    speed is fixed, ``w = (u - Om y_k) / (r (1 - s))``, and the balances of
+    :func:`motion_inverse_function` are solved for the other sprocket's speed, the lateral speed and
+    ``a``. With ``s`` the plan's slip limit on the outer track it gives the largest acceleration (and
+    torque) at which the outer track stays within the limit; with ``-s`` on the inner track the
+    hardest braking at which the inner's skid does. One solve per point instead of a scan over
+    accelerations (whose points beyond traction have no solution and cost the rootfinder its
+    iteration limit).
+    """
+    hf = hull_forces_function(settings)
+    z = ca.SX.sym("z", 3)
+    p = ca.SX.sym("p", 7 + len(VEHICLE_PARAMS))
+    u, kappa, s, side, so, veh = p[0], p[1], p[2], p[3], p[4:7], p[7:]
+    m, l, B, r, Iz = veh[0], veh[1], veh[3], veh[4], veh[7]
+    W = m * G
+    Om, a = u * kappa, z[2]
+    y_k = 0.5 * B * (1 - 2 * side)  # the fixed track's centre line: +B/2 left, -B/2 right
+    w_fixed = (u - Om * y_k) / (r * (1 - s))
+    w = ca.vertcat(side * z[0] + (1 - side) * w_fixed, side * w_fixed + (1 - side) * z[0])
+    _, net, _ = hf(ca.vertcat(u, z[1], Om), w, so, u * Om, veh)
+    res = ca.vertcat((net[0] - m * (a - z[1] * Om)) / W, (net[1] - m * u * Om) / W, (net[2] - Iz * a * kappa) / (W * l))
+    return _rootfinder("slip_limited_motion", ca.Function("slip_limited_residual", [z, p], [res]))
 
 
 @lru_cache(maxsize=8)

@@ -188,3 +188,36 @@ def test_vehicle_json_steering_fields(tmp_path):
         Vehicle.from_dict(d)
     with pytest.raises(DataError, match="tread_m"):
         steady_turn(6.0, 7.0, TERRAINS["lete_sand"], VEHICLES["heavy"])
+
+
+@pytest.mark.parametrize("radius", [10.0, -6.0])
+def test_slip_limited_motion_reaches_the_slip_and_is_the_motion_inverse(radius):
+    """The accelerating turn at which one track runs at a given slip: the motion inverse at that acceleration
+    gives back the same sprocket speeds, a little less acceleration gives less slip, a little more gives more."""
+    from soiltrack.soilmodel.steering import motion_inverse_function, slip_limited_motion_function
+    from soiltrack.soilmodel.threadsafe import call_solver
+
+    soil, u, r, B = TERRAINS["lete_sand"], 1.5, HEAVY.sprocket_radius, HEAVY.tread
+    veh = vehicle_parameters(HEAVY)
+    Om = u / radius
+    for target, right in ((0.2, radius > 0), (-0.2, radius < 0)):  # the outer track driving, the inner braking
+        w_guess = (u + Om * B / 2) / r if not right else (u - Om * B / 2) / r  # the free (other) sprocket
+        p = np.concatenate([[u, 1 / radius, target, float(right)], _soilvec(soil), veh])
+        z, _ = call_solver(slip_limited_motion_function(), [w_guess, 0.0, 0.0], p)
+        w_free, v, a = (float(x) for x in np.asarray(z, dtype=float).ravel())
+        assert a * target > 0.1  # a real acceleration (driving) or braking, m/s^2
+        y = -B / 2 if right else B / 2
+        w_fixed = (u - Om * y) / (r * (1 - target))
+        slips = []
+        for f in (0.98, 1.0, 1.02):
+            q = np.concatenate([[u, Om, f * a, f * a / radius], _soilvec(soil), veh])
+            z0 = [w_free, w_fixed, v] if right else [w_fixed, w_free, v]
+            zz = np.asarray(call_solver(motion_inverse_function(), z0, q)[0], dtype=float).ravel()
+            wl, wr = float(zz[0]), float(zz[1])
+            w = wr if right else wl
+            slips.append(1 - (u - Om * y) / (r * w))
+            if f == 1.0:
+                assert (wr if not right else wl) == pytest.approx(w_free, rel=1e-8)
+                assert float(zz[2]) == pytest.approx(v, rel=1e-6, abs=1e-9)
+        assert slips[1] == pytest.approx(target, abs=1e-9)
+        assert abs(slips[0]) < abs(target) < abs(slips[2])
