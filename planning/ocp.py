@@ -186,8 +186,11 @@ def ocp_layout(n: int, energy: bool) -> tuple[slice, slice, slice, slice, slice 
     )
 
 
+@locked_cache(maxsize=16)
 def ocp_nlp(vehicle: Vehicle, n: int, energy: bool = False, rate_limit: bool = False, turns: bool = False) -> dict:
     """The OCP with ``n`` intervals as an SX NLP ``{"x", "p", "f", "g"}`` (the layout of :func:`ocp_layout`).
+
+    Cached: the cold and the warm-start solver of one structure share it (built once; do not modify it).
 
     ``energy``: energy objective (work slacks), else minimum time; ``rate_limit``: with the
     torque-rate rows; ``turns``: with the turn terms and rows (module docstring; :data:`TURN_ROWS`

@@ -228,8 +228,15 @@ def turn_terms(
     torque difference ``dT = (T_outer - T_inner)/2`` (the yaw moment balance) and the sideslip's
     ``tan`` as ``f0(v) + a f1(v) + a^2 f2(v)`` (:func:`_accel_fits`). The fits' largest errors are kept.
     """
-    R = float(radius_m)
-    sv = np.asarray(soil_vec, dtype=float)
+    sv = tuple(float(x) for x in np.ravel(soil_vec))
+    lim = _Limits(float(limits.max_sprocket_torque), float(limits.max_power))
+    return _turn_terms(sv, float(radius_m), vehicle, float(max_slip), lim, float(top), settings)
+
+
+@locked_cache(maxsize=64)
+def _turn_terms(soil: tuple, R: float, vehicle: Vehicle, max_slip: float, limits, top: float, settings) -> TurnTerms:
+    """:func:`turn_terms` (cached: a re-plan of the same turn on the same soil does not solve it again)."""
+    sv = np.asarray(soil, dtype=float)
     cap, limit, why = _speed_cap(vehicle, sv, R, top, max_slip, limits, settings)
     e = 0.5 * tread_of(vehicle) / abs(R)
     if cap <= 0.0:
@@ -245,7 +252,9 @@ def turn_terms(
     cR, *_ = np.linalg.lstsq(A, dR[keep], rcond=None)
     errR = float(np.max(np.abs(A @ cR - dR[keep])))
     pad = _three
-    (to_cap, a_out), (ti_cap, a_in) = _slip_limits(vehicle, sv, R, speeds[keep], max_slip, settings, cols, keep)
+    (to_cap, a_out, at_out), (ti_cap, a_in, at_in) = _slip_limits(
+        vehicle, sv, R, speeds[keep], max_slip, settings, cols, keep
+    )
     cO, *_ = np.linalg.lstsq(A, to_cap, rcond=None)
     cI, *_ = np.linalg.lstsq(A, ti_cap, rcond=None)
     # the torque caps' fits: conservative (shifted by their largest error towards the safe side)
@@ -253,7 +262,8 @@ def turn_terms(
     hi = float(np.max(ti_cap - A @ cI))
     cO[0] -= max(lo, 0.0)
     cI[0] += max(hi, 0.0)
-    cT, cB, errT, errB = _accel_fits(vehicle, sv, R, speeds[keep], a_out, a_in, settings, nu)
+    known = {0.0: tuple(np.asarray(c)[keep] for c in cols), 1.0: at_out, -1.0: at_in}
+    cT, cB, errT, errB = _accel_fits(vehicle, sv, R, speeds[keep], a_out, a_in, known, settings, nu)
     return TurnTerms(
         R, cap, limit, why, pad(cR), cT[:3], errR, errT, e, pad(cO), pad(cI), cT[3:], cB, errB
     )  # fmt: skip
@@ -270,15 +280,23 @@ def _basis(u: np.ndarray, a: np.ndarray, nu: int = 3) -> np.ndarray:
     return np.column_stack([a**k * u ** (2 * j) for k in range(3) for j in range(nu)])
 
 
-def _accel_fits(vehicle, sv, R, speeds, a_out, a_in, settings, nu) -> tuple[tuple, tuple, float, float]:
+def _accel_fits(vehicle, sv, R, speeds, a_out, a_in, known, settings, nu) -> tuple[tuple, tuple, float, float]:
     """``dT`` and the sideslip's ``tan`` fitted in ``[1, v^2, v^4] x [1, a, a^2]`` to the turns at each speed and
     :data:`ACCEL_FRACTIONS` of its slip-limited acceleration (> 0) or braking (< 0): 9 coefficients each (``nu = 1``:
-    the speed terms 0) and the largest errors (N m, tan)."""
-    fr = np.asarray(ACCEL_FRACTIONS)[None, :]
-    n, nf = speeds.size, fr.size
-    U = np.repeat(speeds, nf)
-    Acc = np.where(fr >= 0, fr * a_out[:, None], -fr * a_in[:, None]).ravel()
-    ok, _wl, _wr, v, Tl, Tr = motion_points(vehicle, np.tile(sv, (n * nf, 1)), U, U / R, Acc, Acc / R, settings)
+    the speed terms 0) and the largest errors (N m, tan). ``known``: the turns already solved, by fraction
+    (``motion_points`` columns); the others are solved in one mapped call."""
+    n = speeds.size
+    new = [f for f in ACCEL_FRACTIONS if f not in known]
+    acc_of = {f: (f * a_out if f >= 0 else -f * a_in) for f in ACCEL_FRACTIONS}
+    if new:
+        U, Acc = np.tile(speeds, len(new)), np.concatenate([acc_of[f] for f in new])
+        cols = motion_points(vehicle, np.tile(sv, (U.size, 1)), U, U / R, Acc, Acc / R, settings)
+        for q, f in enumerate(new):
+            known = {**known, f: tuple(c[q * n : (q + 1) * n] for c in cols)}
+    U = np.tile(speeds, len(ACCEL_FRACTIONS))
+    Acc = np.concatenate([acc_of[f] for f in ACCEL_FRACTIONS])
+    ok, _wl, _wr, v, Tl, Tr = (np.concatenate([known[f][j] for f in ACCEL_FRACTIONS]) for j in range(6))
+    ok = ok.astype(bool)
     dT = 0.5 * (Tr - Tl) if R > 0 else 0.5 * (Tl - Tr)
     A = _basis(U[ok], Acc[ok], nu)
     out: list = []
@@ -296,15 +314,17 @@ def _slip_limited_mapped(settings: SteeringSettings, n: int):
     return slip_limited_motion_function(settings).map(n)
 
 
-def _slip_limits(vehicle, sv, R, speeds, max_slip, settings, steady, keep) -> list[tuple[np.ndarray, np.ndarray]]:
-    """``[(T_outer, a), (T_inner, a)]`` per speed: the outer sprocket's torque and the acceleration at which its
-    slip reaches ``max_slip``, and the inner's torque and the braking at which its skid reaches ``-max_slip``
-    (:func:`~soiltrack.soilmodel.steering.slip_limited_motion_function`, one mapped solve from the steady turn,
-    each answer solved again by :func:`~.turning.motion_points` and its slip checked). Where it has no answer
-    (or one of the wrong sign), the steady turn's torque and no acceleration: the turn is not accelerated there.
+def _slip_limits(vehicle, sv, R, speeds, max_slip, settings, steady, keep) -> list[tuple]:
+    """``[(T_outer, a, turns), (T_inner, a, turns)]`` per speed: the outer sprocket's torque and the acceleration at
+    which its slip reaches ``max_slip``, and the inner's torque and the braking at which its skid reaches
+    ``-max_slip`` (:func:`~soiltrack.soilmodel.steering.slip_limited_motion_function`, one mapped solve from the
+    steady turn, each answer solved again by :func:`~.turning.motion_points` and its slip checked; ``turns``:
+    those ``motion_points`` columns). Where it has no answer (or one of the wrong sign), the steady turn's
+    torque and no acceleration: the turn is not accelerated there.
     """
     n = speeds.size
-    _ok, wl0, wr0, v0, Tl0, Tr0 = (np.asarray(c)[keep] for c in steady)
+    st = tuple(np.asarray(c)[keep] for c in steady)
+    _ok, wl0, wr0, v0, Tl0, Tr0 = st
     r, B = vehicle.sprocket_radius, tread_of(vehicle)
     Om = speeds / R
     veh = np.tile(np.asarray(vehicle_parameters(vehicle), dtype=float)[:, None], (1, n))
@@ -328,7 +348,8 @@ def _slip_limits(vehicle, sv, R, speeds, max_slip, settings, steady, keep) -> li
         with np.errstate(divide="ignore", invalid="ignore"):
             slip = 1 - (speeds - Om * y) / (r * w)
         good = ok & (np.abs(slip - target) < 1e-6) & (a * np.sign(target) >= 0)
-        out.append((np.where(good, Tr if right else Tl, Tr0 if right else Tl0), np.where(good, a, 0.0)))
+        turns = tuple(np.where(good, c, c0) for c, c0 in zip((ok, wl, wr, _v, Tl, Tr), st))
+        out.append((np.where(good, Tr if right else Tl, Tr0 if right else Tl0), np.where(good, a, 0.0), turns))
     return out
 
 
