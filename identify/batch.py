@@ -62,7 +62,7 @@ from .consistency import check_consistency, with_consistency
 from .estimates.result import build_result
 from .fitting import fit
 from .sweep.resistance import assumed_resistance
-from .sweep.rig import load_separation, rig_extra, std_weights
+from .sweep.rig import load_separation, repeat_free, rig_extra, std_weights
 
 __all__ = ["fit_many", "failed_result"]
 
@@ -235,9 +235,12 @@ def _solve_problems(
                 pb, sol, None, settings.n_grid, settings.ipopt_dict, time.perf_counter(), source="vectorized"
             )
             out[k] = normalise_status(res)
+    no_repeats = [False] * len(pbs)  # found in bulk: no slip repeats (no pure-error test to run)
     for idx in groups.values():
         P = [pbs[k] for k in idx]
         S = [sols[k] for k in idx]
+        for k, free in zip(idx, repeat_free(np.stack([pb.slip for pb in P])).tolist()):
+            no_repeats[k] = free
         r = np.stack([s.residuals for s in S])
         sig = np.stack([pb.sigma for pb in P])
         extras = []
@@ -291,8 +294,8 @@ def _solve_problems(
         for k, res in zip(idx, built):
             out[k] = res
     return [
-        with_consistency(_with_rig_extra(res, d, model), check_consistency(d, vehicle))  # type: ignore
-        for res, d in zip(out, datasets)
+        with_consistency(_with_rig_extra(res, d, model, nr), check_consistency(d, vehicle))  # type: ignore
+        for res, d, nr in zip(out, datasets, no_repeats)
     ]
 
 
@@ -313,10 +316,11 @@ def _kernel_fits_like_fit(d: Any, model: str) -> bool:
     return sep is None or not sep.fragile
 
 
-def _with_rig_extra(res: FitResult, d: SlipData, model: str) -> FitResult:
+def _with_rig_extra(res: FitResult, d: SlipData, model: str, no_repeats: bool = False) -> FitResult:
     """What ``fit`` adds to a rig sweep's ``extra`` (:func:`~.sweep.rig.rig_extra`: the pure-error test over
-    repeated slips, the load separation; the assumed resistance of drawbar-pull data), on a kernel result."""
-    more = rig_extra(d, res, load_separation(d) if model == "full" else None)
+    repeated slips, the load separation; the assumed resistance of drawbar-pull data), on a kernel result
+    (``no_repeats``: :func:`~.sweep.rig.repeat_free` found no repeated slip)."""
+    more = rig_extra(d, res, load_separation(d) if model == "full" else None, no_repeats=no_repeats)
     if d.measured == "drawbar_pull":
         more["resistance"] = assumed_resistance(res)
     if more:

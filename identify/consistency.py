@@ -421,6 +421,9 @@ def repeated_rows(data: SlipData) -> tuple[int, tuple[int, ...]]:
             else:
                 seen.add(row)
         return len(dup), tuple(dup[:5])
+    ss = np.sort(np.asarray(data.slip, dtype=float))
+    if not np.count_nonzero(ss[1:] == ss[:-1]):  # no two rows share a slip: none repeats another (the same answer)
+        return 0, ()
     X = np.column_stack([np.asarray(c, dtype=float) for c in cols])
     order = np.lexsort(X.T[::-1])  # stable: among equal rows the earliest first
     Xs = X[order]

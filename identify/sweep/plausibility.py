@@ -337,8 +337,10 @@ def _limit_on_bound(
         sel = load == W
         # the F_max these data ask for with the fitted curve's shape: F = F_max g(i), g = model / F_max,
         # so the unbounded best F_max is the least-squares scale sum(g F) / sum(g^2)
-        g = (force[sel] + r[sel]) / fm
-        wanted = float(np.sum(g * force[sel]) / np.sum(g * g)) if np.sum(g * g) > 0 else fm
+        fs = force if single else force[sel]
+        g = (fs + (r if single else r[sel])) / fm
+        gg = np.add.reduce(g * g)  # (np.sum's reduction without its wrapper)
+        wanted = float(np.add.reduce(g * fs) / gg) if gg > 0 else fm
         far = wanted < fm / BOUND_FACTOR if side == "smallest" else wanted > fm * BOUND_FACTOR
         out.append(
             Finding(
