@@ -51,7 +51,7 @@ from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
 from ..soilmodel.vehicle import Vehicle
 from .sweep import compiled_lm
 from .engines import check_engine, jit_mode, normalise_status
-from .sweep.problem import FitFailed, check_common, make_problem
+from .sweep.problem import FitFailed, check_common, checked_problem
 from ..soilmodel.ridge import continuous_load
 from .sweep.plausibility import assess
 from .sweep.model import SweepResiduals
@@ -195,9 +195,10 @@ def _solve_chunk(
     kw = {k: v for k, v in (("sigma", sigma), ("sigma_known", sigma_known)) if v is not None}
     pbs, keep = [], []
     out: list[FitResult | None] = [None] * len(datasets)
+    check_common(vehicle, model, "ipopt", bounds)  # once for the chunk (a worker's chunk is checked there too)
     for j, d in enumerate(datasets):
         try:
-            pbs.append(make_problem(d, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known))
+            pbs.append(checked_problem(d, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known))
             keep.append(j)
         except Exception:  # noqa: BLE001 - said by the single fit below, with the item's index
             out[j] = _guarded_fit(indices[j], d, vehicle, model, "ipopt", bounds, kw, settings)
