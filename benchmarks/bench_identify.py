@@ -369,8 +369,8 @@ def main(argv=None):
     print(
         f"  scipy loop: timed on a subset of {b['scipy_subset']} datasets (median over {b['rounds']} rounds "
         f"alternating with fit_many), {b['scipy_per_fit_s'] * 1e3:.3f} ms per fit, EXTRAPOLATED per fit to "
-        f"{b['scipy_extrapolated_total_s']:.1f} s for {b['n_datasets']} ({b['scipy_throughput_fits_per_s']:.0f} fits/s); "
-        f"CPU {b['scipy_cpu_per_fit_s'] * 1e3:.3f} ms per fit"
+        f"{b['scipy_extrapolated_total_s']:.1f} s for {b['n_datasets']} ({b['scipy_throughput_fits_per_s']:.0f} "
+        f"fits/s); CPU {b['scipy_cpu_per_fit_s'] * 1e3:.3f} ms per fit"
     )
     if "fit_many_total_s" in b:
         print(
