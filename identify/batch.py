@@ -53,7 +53,7 @@ from .sweep import compiled_lm
 from .engines import check_engine, jit_mode, normalise_status
 from .sweep.problem import FitFailed, check_common, checked_problem
 from ..soilmodel.ridge import continuous_load
-from .sweep.plausibility import assess
+from .sweep.plausibility import assess_many
 from .sweep.model import SweepResiduals
 from .estimates.records import NOT_USABLE
 from .estimates.result import FitResult, build_results_batch
@@ -251,20 +251,7 @@ def _solve_problems(
             extras.append(e)
         # the same plausibility checks as fit (they decide success: fit and fit_many agree on it)
         status, success, message, warns = [], [], [], []
-        for pb, s in zip(P, S):
-            found, usable = assess(
-                pb.slip,
-                pb.force,
-                pb.load,
-                s.residuals,
-                s.theta,
-                vehicle,
-                model,
-                bounds,
-                s.curves,
-                s.screen,
-                s.limit_screen,
-            )
+        for pb, s, (found, usable) in zip(P, S, assess_many(P, S, vehicle, model, bounds)):
             msg = compiled_lm.message_of(s, None).replace("compiled", "vectorised compiled", 1)
             status.append("converged" if usable else f"converged {NOT_USABLE}")
             success.append(usable)
