@@ -51,9 +51,9 @@ from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
 from ..soilmodel.vehicle import Vehicle
 from .sweep import compiled_lm
 from .engines import check_engine, jit_mode, normalise_status
-from .sweep.problem import FitFailed, check_common, make_problem
+from .sweep.problem import FitFailed, check_common, checked_problem
 from ..soilmodel.ridge import continuous_load
-from .sweep.plausibility import assess
+from .sweep.plausibility import assess_many
 from .sweep.model import SweepResiduals
 from .estimates.records import NOT_USABLE
 from .estimates.result import FitResult, build_results_batch
@@ -62,7 +62,7 @@ from .consistency import check_consistency, with_consistency
 from .estimates.result import build_result
 from .fitting import fit
 from .sweep.resistance import assumed_resistance
-from .sweep.rig import load_separation, rig_extra, std_weights
+from .sweep.rig import load_separation, repeat_free, rig_extra, std_weights
 
 __all__ = ["fit_many", "failed_result"]
 
@@ -195,9 +195,10 @@ def _solve_chunk(
     kw = {k: v for k, v in (("sigma", sigma), ("sigma_known", sigma_known)) if v is not None}
     pbs, keep = [], []
     out: list[FitResult | None] = [None] * len(datasets)
+    check_common(vehicle, model, "ipopt", bounds)  # once for the chunk (a worker's chunk is checked there too)
     for j, d in enumerate(datasets):
         try:
-            pbs.append(make_problem(d, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known))
+            pbs.append(checked_problem(d, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known))
             keep.append(j)
         except Exception:  # noqa: BLE001 - said by the single fit below, with the item's index
             out[j] = _guarded_fit(indices[j], d, vehicle, model, "ipopt", bounds, kw, settings)
@@ -235,9 +236,12 @@ def _solve_problems(
                 pb, sol, None, settings.n_grid, settings.ipopt_dict, time.perf_counter(), source="vectorized"
             )
             out[k] = normalise_status(res)
+    no_repeats = [False] * len(pbs)  # found in bulk: no slip repeats (no pure-error test to run)
     for idx in groups.values():
         P = [pbs[k] for k in idx]
         S = [sols[k] for k in idx]
+        for k, free in zip(idx, repeat_free(np.stack([pb.slip for pb in P])).tolist()):
+            no_repeats[k] = free
         r = np.stack([s.residuals for s in S])
         sig = np.stack([pb.sigma for pb in P])
         extras = []
@@ -247,20 +251,7 @@ def _solve_problems(
             extras.append(e)
         # the same plausibility checks as fit (they decide success: fit and fit_many agree on it)
         status, success, message, warns = [], [], [], []
-        for pb, s in zip(P, S):
-            found, usable = assess(
-                pb.slip,
-                pb.force,
-                pb.load,
-                s.residuals,
-                s.theta,
-                vehicle,
-                model,
-                bounds,
-                s.curves,
-                s.screen,
-                s.limit_screen,
-            )
+        for pb, s, (found, usable) in zip(P, S, assess_many(P, S, vehicle, model, bounds)):
             msg = compiled_lm.message_of(s, None).replace("compiled", "vectorised compiled", 1)
             status.append("converged" if usable else f"converged {NOT_USABLE}")
             success.append(usable)
@@ -291,8 +282,8 @@ def _solve_problems(
         for k, res in zip(idx, built):
             out[k] = res
     return [
-        with_consistency(_with_rig_extra(res, d, model), check_consistency(d, vehicle))  # type: ignore
-        for res, d in zip(out, datasets)
+        with_consistency(_with_rig_extra(res, d, model, nr), check_consistency(d, vehicle))  # type: ignore
+        for res, d, nr in zip(out, datasets, no_repeats)
     ]
 
 
@@ -313,10 +304,11 @@ def _kernel_fits_like_fit(d: Any, model: str) -> bool:
     return sep is None or not sep.fragile
 
 
-def _with_rig_extra(res: FitResult, d: SlipData, model: str) -> FitResult:
+def _with_rig_extra(res: FitResult, d: SlipData, model: str, no_repeats: bool = False) -> FitResult:
     """What ``fit`` adds to a rig sweep's ``extra`` (:func:`~.sweep.rig.rig_extra`: the pure-error test over
-    repeated slips, the load separation; the assumed resistance of drawbar-pull data), on a kernel result."""
-    more = rig_extra(d, res, load_separation(d) if model == "full" else None)
+    repeated slips, the load separation; the assumed resistance of drawbar-pull data), on a kernel result
+    (``no_repeats``: :func:`~.sweep.rig.repeat_free` found no repeated slip)."""
+    more = rig_extra(d, res, load_separation(d) if model == "full" else None, no_repeats=no_repeats)
     if d.measured == "drawbar_pull":
         more["resistance"] = assumed_resistance(res)
     if more:

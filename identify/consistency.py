@@ -421,6 +421,9 @@ def repeated_rows(data: SlipData) -> tuple[int, tuple[int, ...]]:
             else:
                 seen.add(row)
         return len(dup), tuple(dup[:5])
+    ss = np.sort(np.asarray(data.slip, dtype=float))
+    if not np.count_nonzero(ss[1:] == ss[:-1]):  # no two rows share a slip: none repeats another (the same answer)
+        return 0, ()
     X = np.column_stack([np.asarray(c, dtype=float) for c in cols])
     order = np.lexsort(X.T[::-1])  # stable: among equal rows the earliest first
     Xs = X[order]
@@ -438,7 +441,6 @@ def _median(x: np.ndarray) -> float:
 def _sweep_findings(data: SlipData, vehicle: Vehicle, st: ConsistencySettings) -> list[Finding]:
     out: list[Finding] = []
     W = vehicle.weight
-    loads = data.loads(W)
     if data.normal_load is not None:
         q = _median(data.normal_load) / W
         lo, hi = st.load_ratio_range
@@ -461,7 +463,8 @@ def _sweep_findings(data: SlipData, vehicle: Vehicle, st: ConsistencySettings) -
                 )
             )
     developed = data.slip >= st.min_force_slip
-    if developed.any():
+    if np.count_nonzero(developed):
+        loads = data.loads(W)
         ratio = float(np.max(data.values[developed] / loads[developed]))
         c_hi, phi_hi = float(WIDE_BOUNDS.upper[0]), float(WIDE_BOUNDS.upper[1])  # the range of measured soils
         top = float(np.max((vehicle.contact_area * c_hi + loads * math.tan(phi_hi)) / loads))
@@ -507,6 +510,9 @@ def _sweep_findings(data: SlipData, vehicle: Vehicle, st: ConsistencySettings) -
     return out
 
 
+_DEFAULT_SETTINGS = ConsistencySettings()  # (frozen: one instance serves every call without settings)
+
+
 def check_consistency(data: Any, vehicle: Vehicle, settings: ConsistencySettings | None = None) -> ConsistencyReport:
     """Run the checks of the module notes on a drive log or a slip sweep.
 
@@ -520,7 +526,7 @@ def check_consistency(data: Any, vehicle: Vehicle, settings: ConsistencySettings
     -------
     ConsistencyReport
     """
-    st = settings or ConsistencySettings()
+    st = settings or _DEFAULT_SETTINGS
     if isinstance(data, DriveLog):
         return ConsistencyReport(tuple(_drive_findings(data, vehicle, st)))
     if isinstance(data, SlipData):

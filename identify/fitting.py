@@ -21,7 +21,7 @@ from .sweep.start import x0_vector
 from .sweep.joint import fit_joint
 from .estimates.joint_likelihood import PROFILE_IPOPT_OPTIONS, check_intervals, with_profile_intervals
 from .sweep.problem import FitFailed, check_common, make_problem
-from .estimates.result import FitResult
+from .estimates.result import FitResult, record_with
 from .sweep.seed_methods import fit_least_squares, fit_newton
 from .settings import SETTING_NAMES, FitSettings
 from .consistency import check_consistency, with_consistency
@@ -346,7 +346,7 @@ def _with_rig(data: SlipData, res: FitResult, separation) -> FitResult:
         more["resistance"] = assumed_resistance(res)
     if not more:
         return res
-    return replace(res, extra={**(res.extra if isinstance(res.extra, dict) else {}), **more})
+    return record_with(res, extra={**(res.extra if isinstance(res.extra, dict) else {}), **more})
 
 
 def _fit_joint_sweep(pb, x0v, st: FitSettings, slip_noise, intervals: str) -> FitResult:

@@ -122,23 +122,28 @@ class LackOfFitTest:
         return self.p_value < settings.lack_of_fit_level
 
 
-def pure_error_f_test(levels, residuals, n_params: int) -> LackOfFitTest | None:
+def pure_error_f_test(levels, residuals, n_params: int, *, compact: bool = False) -> LackOfFitTest | None:
     """The pure-error lack-of-fit F test of residuals grouped into repeated conditions.
 
     ``levels`` gives each row's condition (an integer label); the scatter of the residuals about
     their condition's mean is the pure error, the rest of the residual sum the lack of fit:
     ``F = (SS_lof / (g - p)) / (SS_pe / (n - g))``. ``None`` without ``g > p`` conditions, a
-    repeat (``n > g``) and a non-zero pure error.
+    repeat (``n > g``) and a non-zero pure error. ``compact``: the labels already are ``0 .. g - 1``,
+    each used (as :func:`~soiltrack.identify.sweep.rig.slip_levels` gives them): not relabelled.
     """
     r = np.asarray(residuals, dtype=float).ravel()
-    lab = np.unique(np.asarray(levels), return_inverse=True)[1].ravel()
-    g, n = int(lab.max()) + 1 if lab.size else 0, r.size
+    if compact:
+        lab = np.asarray(levels).ravel()
+    else:
+        lab = np.unique(np.asarray(levels), return_inverse=True)[1].ravel()
+    g, n = int(np.maximum.reduce(lab)) + 1 if lab.size else 0, r.size
     if g <= n_params or n <= g:
         return None
     counts = np.bincount(lab, minlength=g)
     means = np.bincount(lab, weights=r, minlength=g) / counts
-    ss_pure = float(np.sum((r - means[lab]) ** 2))
-    ss_lack = float(np.sum(counts * means**2))
+    # (np.add.reduce: what np.sum runs, without its Python wrapper)
+    ss_pure = float(np.add.reduce((r - means[lab]) ** 2))
+    ss_lack = float(np.add.reduce(counts * means**2))
     if not ss_pure > 0:
         return None
     from .estimates.distributions import f_sf  # (imported here: the record's modules import this one)

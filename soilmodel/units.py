@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Iterable
 
 import numpy as np
@@ -85,11 +86,21 @@ def choose_scale(values: float | Iterable[float] | np.ndarray, unit: str) -> Sca
         a = np.abs(np.asarray(values, dtype=float).ravel())
         a = a[np.isfinite(a)]
         peak = float(a.max()) if a.size else 0.0
-    prefix, power = PREFIXES[0]
-    for p, e in PREFIXES:
-        # 999.95 kN would print as "1000 kN": switch at the rounding point of the digits shown
-        if peak >= 10.0**e * (1 - 0.5 * 10.0**-SIGNIFICANT_DIGITS):
-            prefix, power = p, e
+    k = 0
+    for j, switch in enumerate(_SWITCH):
+        if peak >= switch:
+            k = j
+    return _scale(k, unit)
+
+
+#: 999.95 kN would print as "1000 kN": each prefix is taken from the rounding point of the digits shown
+_SWITCH = tuple(10.0**e * (1 - 0.5 * 10.0**-SIGNIFICANT_DIGITS) for _, e in PREFIXES)
+
+
+@lru_cache(maxsize=256)
+def _scale(k: int, unit: str) -> Scale:
+    """The :class:`Scale` of prefix ``PREFIXES[k]`` for ``unit`` (immutable: one per prefix and unit)."""
+    prefix, power = PREFIXES[k]
     return Scale(10.0**-power, prefix + unit)
 
 

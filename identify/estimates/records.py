@@ -401,7 +401,11 @@ def check_loads(load, vehicle) -> list[Finding]:
     """
     load = np.asarray(load, dtype=float).ravel()
     W = float(vehicle.weight)
-    if not load.size or W <= 0 or (float(np.min(load)) * LOAD_FACTOR >= W and float(np.max(load)) <= LOAD_FACTOR * W):
+    if (
+        not load.size
+        or W <= 0
+        or (float(np.minimum.reduce(load)) * LOAD_FACTOR >= W and float(np.maximum.reduce(load)) <= LOAD_FACTOR * W)
+    ):
         return []  # every row within the factor (the common case: one comparison each way)
     if not np.all(np.isfinite(load)):
         return []

@@ -425,6 +425,31 @@ def build_result(
     return obj
 
 
+_FIELD_NAMES: dict[type, tuple[str, ...]] = {}
+
+
+def record_with(res: FitResult, **changes: Any) -> FitResult:
+    """A new record: ``res``'s fields with ``changes`` (what ``dataclasses.replace`` gives, without the frozen
+    ``__init__``'s one ``object.__setattr__`` per field); statistics computed on ``res`` are not carried over.
+
+    Raises
+    ------
+    TypeError
+        A name in ``changes`` that is not a field.
+    """
+    cls = type(res)
+    names = _FIELD_NAMES.get(cls)
+    if names is None:
+        names = _FIELD_NAMES.setdefault(cls, tuple(f.name for f in fields(cls)))
+    unknown = set(changes).difference(names)
+    if unknown:
+        raise TypeError(f"record_with: {sorted(unknown)} are not fields of {cls.__name__}")
+    d = res.__dict__
+    obj = object.__new__(cls)
+    obj.__dict__.update({k: d[k] for k in names}, **changes)
+    return obj
+
+
 def _checked_arrays(theta, jacobian, weighted_residuals, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``theta`` (3,) as a float copy, the Jacobian and the weighted residuals; ValueError on a wrong shape."""
     if type(theta) is np.ndarray and theta.shape == (3,) and theta.dtype == np.float64:

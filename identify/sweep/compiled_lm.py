@@ -937,9 +937,14 @@ def solve_many(pbs: list, n_grid: int = 25, jit: str = "wait") -> list[Solution]
         X[:, 3 * nc : 3 * nc + n] = 1.0 / np.stack([pb.sigma for pb in P])
         X[:, 4 * nc] = [pb.vehicle.track_length for pb in P]
         X[:, 4 * nc + 1] = [pb.vehicle.track_width for pb in P]
-        for r, pb in enumerate(P):
-            lbz, ubz = _scaled_box(pb, p, one_load)
-            X[r, o : o + 2 * p] = lbz + ubz
+        if one_load:  # the box depends on the load
+            for r, pb in enumerate(P):
+                lbz, ubz = _scaled_box(pb, p, one_load)
+                X[r, o : o + 2 * p] = lbz + ubz
+        else:  # one box per bounds (most batches share one)
+            for b, rows_b in _by_bounds(P):
+                lbz, ubz = _box(b, p)
+                X[rows_b, o : o + 2 * p] = lbz + ubz
         X[:, o + 3 * p + 1] = KKT_TOL
         X[:, o + 3 * p + 2] = ZERO_COST
         if nc > GRID_ROWS:
@@ -965,14 +970,16 @@ def solve_many(pbs: list, n_grid: int = 25, jit: str = "wait") -> list[Solution]
                 W0, A = float(pb.load[0]), pb.vehicle.contact_area
                 c, phi = ridge_centre(max_thrust_expr(0.0, theta[r, 1], W0, A, "cohesion-free"), W0, A, pb.bounds)
                 theta[r, 0], theta[r, 1] = float(c), float(phi)
-        corners = np.array([[v for c in corner_soils(pb.bounds, pb.model) for v in c] for pb in P])
+        corners = np.stack([_corners(pb.bounds, pb.model) for pb in P])
         RJ = _run_rows(cr, np.concatenate((theta, X[:, 0:o], corners), axis=1))
         J = RJ[:, nc : 4 * nc].reshape(N, 3, nc)[:, :, 0:n].transpose(0, 2, 1)
         iters = [int(v) if math.isfinite(v) else -1 for v in Y[:, 2 * p + 2].tolist()]
         empty = np.empty(0)
+        new = object.__new__
         for r, i in enumerate(idx):
             ok = bool(cert[r])
-            out[i] = Solution(
+            sol = out[i] = new(Solution)  # Solution(...) without the frozen dataclass's per-field setattr
+            sol.__dict__.update(
                 theta=theta[r].copy(),
                 certified=ok,
                 iterations=iters[r],
@@ -991,6 +998,17 @@ def solve_many(pbs: list, n_grid: int = 25, jit: str = "wait") -> list[Solution]
                 limit_screen=float(RJ[r, 6 * nc + 2]) if ok else None,
             )
     return out  # type: ignore[return-value]
+
+
+def _by_bounds(P: list) -> list[tuple]:
+    """``[(bounds, rows of P)]``: the problems ``P`` by their bounds object (a batch of one bounds: one entry)."""
+    first = P[0].bounds
+    if all(pb.bounds is first for pb in P):
+        return [(first, slice(None))]
+    out: dict = {}
+    for r, pb in enumerate(P):
+        out.setdefault(id(pb.bounds), (pb.bounds, []))[1].append(r)
+    return list(out.values())
 
 
 def _run_rows(c: "_Caller", X: np.ndarray) -> np.ndarray:

@@ -55,6 +55,7 @@ __all__ = [
     "screen_expr",
     "limit_screen_expr",
     "LIMIT_BAND",
+    "assess_many",
     "SCALE_FACTOR",
     "OUTLIER_Z",
     "OUTLIER_SHARE",
@@ -337,24 +338,89 @@ def _limit_on_bound(
         sel = load == W
         # the F_max these data ask for with the fitted curve's shape: F = F_max g(i), g = model / F_max,
         # so the unbounded best F_max is the least-squares scale sum(g F) / sum(g^2)
-        g = (force[sel] + r[sel]) / fm
-        wanted = float(np.sum(g * force[sel]) / np.sum(g * g)) if np.sum(g * g) > 0 else fm
-        far = wanted < fm / BOUND_FACTOR if side == "smallest" else wanted > fm * BOUND_FACTOR
-        out.append(
-            Finding(
-                "limit_on_bound",
-                f"the thrust limit F_max = {_fmt_force(fm)} at W = {_fmt_force(float(W))} is the {side} value the "
-                f"bounds allow (c and phi at their {'lower' if side == 'smallest' else 'upper'} bounds); the data ask "
-                f"for about {_fmt_force(wanted)}"
-                + (
-                    ": the bounds, not the data, fixed the answer; check the units of the force and the normal load"
-                    if far
-                    else ": the soil lies at or just beyond the bounds; widen them if that is physically reasonable"
-                ),
-                usable=not far,
-            )
-        )
+        fs = force if single else force[sel]
+        g = (fs + (r if single else r[sel])) / fm
+        gg = np.add.reduce(g * g)  # (np.sum's reduction without its wrapper)
+        wanted = float(np.add.reduce(g * fs) / gg) if gg > 0 else fm
+        out.append(_limit_finding(fm, float(W), side, wanted))
     return out
+
+
+def _limit_finding(fm: float, W: float, side: str, wanted: float) -> Finding:
+    """The F_max-on-a-bound finding: F_max ``fm`` at load ``W`` on the ``side`` ("smallest"/"largest") the
+    bounds allow, where the data ask for ``wanted``; not usable beyond :data:`BOUND_FACTOR`."""
+    far = wanted < fm / BOUND_FACTOR if side == "smallest" else wanted > fm * BOUND_FACTOR
+    return Finding(
+        "limit_on_bound",
+        f"the thrust limit F_max = {_fmt_force(fm)} at W = {_fmt_force(W)} is the {side} value the "
+        f"bounds allow (c and phi at their {'lower' if side == 'smallest' else 'upper'} bounds); the data ask "
+        f"for about {_fmt_force(wanted)}"
+        + (
+            ": the bounds, not the data, fixed the answer; check the units of the force and the normal load"
+            if far
+            else ": the soil lies at or just beyond the bounds; widen them if that is physically reasonable"
+        ),
+        usable=not far,
+    )
+
+
+def assess_many(problems: list, solutions: list, vehicle: Vehicle, model: str, bounds: SoilBounds) -> list[tuple]:
+    """:func:`assess` of many certified compiled solves of one length (``fit_many``'s batch): the same verdicts.
+
+    The rows the solver's screens clear (``screen`` 0, finite ``theta``), with every load within
+    :data:`LOAD_FACTOR` of the vehicle's weight and one load per dataset, are decided for all at once: no
+    finding where the limit screen is 0 too, else F_max against the bounds (:func:`_limit_on_bound`'s
+    numbers, stacked); every other row goes through :func:`assess`.
+    """
+    N = len(problems)
+    theta = np.stack([s.theta for s in solutions])
+    L = np.stack([pb.load for pb in problems])
+    W = float(vehicle.weight)
+    lo, hi = np.minimum.reduce(L, axis=1), np.maximum.reduce(L, axis=1)
+    c, phi, K = theta[:, 0], theta[:, 1], theta[:, 2]
+    fast = np.array([s.screen is not None and s.screen < 0.5 for s in solutions]) & np.isfinite(theta).all(axis=1)
+    fast &= (lo == hi) & ((lo * LOAD_FACTOR >= W) & (hi <= LOAD_FACTOR * W) if W > 0 else True)  # check_loads: none
+    clear = np.array([s.limit_screen is not None and s.limit_screen < 0.5 for s in solutions]) & fast
+    soil = (c >= 0) & (0 < phi) & (phi < math.pi / 2) & (K > 0)  # what _limit_on_bound checks (a soil)
+    out: list[tuple | None] = [((), True) if ok else None for ok in clear.tolist()]
+    todo = np.nonzero(fast & ~clear & soil)[0]
+    if todo.size:
+        fm = max_thrust_expr(c[todo], phi[todo], lo[todo], vehicle.contact_area, model)
+        rng = np.array([fmax_range(bounds, vehicle, model, w) for w in lo[todo].tolist()]).reshape(-1, 2)
+        tol = LIMIT_BAND * (rng[:, 1] - rng[:, 0])
+        low, high = fm <= rng[:, 0] + tol, fm >= rng[:, 1] - tol
+        F = np.stack([problems[k].force for k in todo.tolist()])
+        R = np.stack([solutions[k].residuals for k in todo.tolist()])
+        with np.errstate(all="ignore"):
+            g = (F + R) / fm[:, None]
+            gg = np.add.reduce(g * g, axis=1)
+            wanted = np.where(gg > 0, np.add.reduce(g * F, axis=1) / gg, fm)
+        for j, k in enumerate(todo.tolist()):
+            side = "smallest" if low[j] else "largest" if high[j] else None
+            if not side or fm[j] <= 0:
+                out[k] = ((), True)
+                continue
+            f = _limit_finding(float(fm[j]), float(lo[k]), side, float(wanted[j]))
+            out[k] = ((("NOT USABLE: " if not f.usable else "") + f.message,), f.usable)
+    for k in np.nonzero(fast & ~clear & ~soil)[0].tolist():
+        out[k] = ((), True)  # not a soil: _limit_on_bound finds nothing, and the screens found nothing else
+    for k in range(N):
+        if out[k] is None:
+            pb, s = problems[k], solutions[k]
+            out[k] = assess(
+                pb.slip,
+                pb.force,
+                pb.load,
+                s.residuals,
+                s.theta,
+                vehicle,
+                model,
+                bounds,
+                s.curves,
+                s.screen,
+                s.limit_screen,
+            )
+    return out  # type: ignore[return-value]
 
 
 def _limit_on_bound_range(

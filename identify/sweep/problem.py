@@ -409,6 +409,23 @@ def make_problem(
         Wrong types, too few samples for the free parameters, bad sigma.
     """
     check_common(vehicle, model, method, bounds)
+    return checked_problem(data, vehicle, model, bounds, sigma, sigma_known, method, effects, fixed, rig_speed)
+
+
+def checked_problem(
+    data: SlipData,
+    vehicle: Vehicle,
+    model: str,
+    bounds: SoilBounds,
+    sigma=None,
+    sigma_known: bool | None = None,
+    method: str = "ipopt",
+    effects=None,
+    fixed=None,
+    rig_speed: float = DEFAULT_RIG_SPEED,
+) -> SlipProblem:
+    """:func:`make_problem` for a caller that checked the vehicle, model, method and bounds once
+    (:func:`check_common`) for many data sets (``fit_many``): the data's own checks only."""
     if not isinstance(data, SlipData):
         raise DataError(f"expected SlipData or DriveLog, got {type(data).__name__}")
     if not (isinstance(rig_speed, (int, float)) and math.isfinite(rig_speed) and rig_speed > 0):

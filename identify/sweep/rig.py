@@ -42,6 +42,7 @@ __all__ = [
     "LOAD_SPREAD_SMALL",
     "LOAD_SLIP_CORRELATION",
     "SLIP_REPEAT_TOL",
+    "repeat_free",
     "LACK_OF_FIT_ALPHA",
     "LoadSeparation",
     "LackOfFit",
@@ -141,15 +142,23 @@ def slip_levels(slip) -> np.ndarray:
     return level
 
 
+def repeat_free(slips: np.ndarray) -> np.ndarray:
+    """Per dataset (a row of ``slips``, datasets x samples): True when every sample is a slip level of its own
+    (:func:`slip_levels`: each sorted slip more than :data:`SLIP_REPEAT_TOL` beyond the one before), so that
+    :func:`pure_error_test` has no repeat to test; for many datasets at once."""
+    s = np.sort(np.asarray(slips, dtype=float), axis=1)
+    return np.all(s[:, 1:] - s[:, :-1] > SLIP_REPEAT_TOL, axis=1)
+
+
 def pure_error_test(slip, weighted_residuals, n_params: int) -> LackOfFit | None:
     """The pure-error lack-of-fit test, or ``None`` without enough repeats and levels.
 
     Needs ``g > p`` slip levels and ``n > g`` rows (at least one repeat), and a non-zero pure error.
     """
     label = slip_levels(slip)
-    if label.size == 0 or int(label.max()) + 1 >= np.size(weighted_residuals):  # no repeats: nothing to test
+    if label.size == 0 or int(np.maximum.reduce(label)) + 1 >= np.size(weighted_residuals):  # no repeats
         return None
-    t = pure_error_f_test(label, weighted_residuals, n_params)
+    t = pure_error_f_test(label, weighted_residuals, n_params, compact=True)
     if t is None:
         return None
     df_lack, df_pure = t.dof
@@ -157,8 +166,12 @@ def pure_error_test(slip, weighted_residuals, n_params: int) -> LackOfFit | None
     return LackOfFit(levels, df_pure, df_lack, df_pure, t.statistic, t.p_value)
 
 
-def rig_extra(data: SlipData, result, separation: LoadSeparation | None) -> dict:
-    """The entries a rig sweep adds to ``FitResult.extra`` (empty for a plain sweep)."""
+def rig_extra(data: SlipData, result, separation: LoadSeparation | None, *, no_repeats: bool = False) -> dict:
+    """The entries a rig sweep adds to ``FitResult.extra`` (empty for a plain sweep).
+
+    ``no_repeats``: the caller found (:func:`repeat_free`, for a batch at once) that no slip repeats, so the
+    pure-error test has nothing to test and is not run.
+    """
     out: dict = {}
     if data.dropped:
         out["dropped_rows"] = [
@@ -178,7 +191,7 @@ def rig_extra(data: SlipData, result, separation: LoadSeparation | None) -> dict
         out["sinkage_m"] = {"min": float(z.min()), "max": float(z.max()), "slip_correlation": corr, "laws": laws}
     if separation is not None and result.model == "full":
         out["load_separation"] = separation.to_dict()
-    if result.success:  # (the free parameters' count: no statistic of the result is computed here)
+    if result.success and not no_repeats:  # (the free parameters' count: no statistic of the result is computed here)
         lof = pure_error_test(data.slip, result.weighted_residuals, len(result.free))
         if lof is not None:
             out["lack_of_fit"] = lof.to_dict()
