@@ -263,6 +263,39 @@ def test_mpc_speed_floor_holds_the_pace_on_an_overrated_soil(floor):
     assert (t["nominal"] <= 1.10 * t["true"]) == floor
 
 
+# light: flat, then snow at 32 deg planned as LETE sand (needs ~40 % slip, beyond the 0.3 limit: the benchmark's steep)
+STEEP_LIGHT = _route(
+    0.3,
+    1.5,
+    [{"length_m": 12, "terrain": "lete_sand"}, {"length_m": 20, "terrain": "lete_sand", "grade_deg": 32}],
+)
+STEEP_LIGHT_TRUE = [TERRAINS["lete_sand"], TERRAINS["snow"]]
+
+
+def test_standing_after_a_stop_does_not_change_the_belief_or_resume():
+    """The MPC on its estimate stops on a climb it cannot carry within the slip limit. Standing with no drive
+    torque the samples carry no thrust (the slip is 0/0, noise): the belief of the climb must not move and the
+    governor must not resume. (Before ``learn_min_speed`` the estimator was fed those samples: its F_max of the
+    climb wandered 239-250 N while standing here, and at an earlier estimator's commit the governor resumed 2.6 s
+    after the stop and spun at the limit for 31 s.)"""
+    ctl = make_controller("mpc", LIGHT, route=STEEP_LIGHT)
+    plant = _jh(LIGHT, STEEP_LIGHT, STEEP_LIGHT_TRUE, sigma_v=0.005, sigma_w=0.02)
+    meas, held, t_stop = plant.step(0.0), [], None
+    while meas["time_s"] < 25.0:
+        M = ctl.command(meas)
+        meas = plant.step(M)
+        if t_stop is None and any(e["kind"] == "stop" for e in ctl.events):
+            t_stop = meas["time_s"]
+        if t_stop is not None and meas["time_s"] > t_stop + 1.0:
+            assert M <= 0.0 and ctl.last["v_ref"] == 0.0  # holds: no drive torque, no resume
+            b = ctl.belief.belief(1, 1)
+            held.append((b.max_thrust_N, b.shear_modulus_m, b.slip_sinkage))
+    stops = [e for e in ctl.events if e["kind"] == "stop"]
+    assert stops and stops[0]["patch"] == 1 and stops[0]["limit"] == "slip"
+    assert not [e for e in ctl.events if e["kind"] == "resume"]
+    assert len(held) > 400 and len(set(held)) == 1  # ~13 s standing, one belief
+
+
 def test_user_plant_object_accepted():
     route = _route(0.5, 1.0, [{"length_m": 5, "terrain": "lete_sand"}])
     plant = _jh(LIGHT, route, [TERRAINS["lete_sand"]])

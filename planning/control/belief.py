@@ -159,7 +159,9 @@ class PriorSoil:
         mus = list(slip_sinkage) if slip_sinkage is not None else [0.0] * len(soils)
         self._b = [_belief(s, vehicle, g, self.source, m) for s, g, m in zip(soils, grades_deg, mus)]
 
-    def update(self, time_s: float, torque: float, w: float, v: float, accel: float | None, patch: int) -> None:
+    def update(
+        self, time_s: float, torque: float, w: float, v: float, accel: float | None, patch: int, learn: bool = True
+    ) -> None:
         """Nothing to learn."""
 
     def belief(self, patch: int, current: int) -> SoilBelief:
@@ -217,21 +219,30 @@ class EstimatedSoil(PriorSoil):
         self._sink_patch = 0
         self._cache: dict[tuple[int, int], SoilBelief] = {}  # beliefs asked since the last update
 
-    def update(self, time_s: float, torque: float, w: float, v: float, accel: float | None, patch: int) -> None:
+    def update(
+        self, time_s: float, torque: float, w: float, v: float, accel: float | None, patch: int, learn: bool = True
+    ) -> None:
         """Feed one sample (torque applied, sprocket speed, vehicle speed) to the estimator.
 
         Entering another patch of the route starts a new estimator and drops the held estimate: the old
         horizon describes the ground behind (even where the plan says the same soil and grade, the true
-        ground may differ, and the change detector need not fire).
+        ground may differ, and the change detector need not fire). ``learn=False`` (the controller stands
+        with no drive torque, ``ControlSettings.learn_min_speed``): the sample is not given to the estimators and the belief
+        stays as it is (its update time is recorded as 0).
         """
         k = min(patch, len(self._grades) - 1)
         key = (k, self._grades[k], self._soils[k])
         if key != self._key:
             self._est = self._factory(self.vehicle, math.radians(key[1]))
             self._key, self._last, self._held = key, None, None
-        self._cache.clear()
+            self._cache.clear()
         if k != self._sink_patch:
             self._sink, self._sink_patch = SinkageEstimator(self.vehicle, self._grades[k]), k
+            self._cache.clear()
+        if not learn:
+            self.update_times_s.append(0.0)
+            return
+        self._cache.clear()
         self._sink.update(time_s, torque, w, v)
         t0 = time.perf_counter()
         e = self._est.update(time_s, torque, w, v, accel)

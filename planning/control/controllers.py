@@ -94,6 +94,15 @@ class ControlSettings:
         (0 without; docs/control.md).
     sample_s
         Sample time assumed for the first sample (later: from the measurement's times).
+    learn_min_speed
+        Standing with no drive: while both the filtered vehicle speed and the filtered track speed ``r w`` are
+        below this (m/s) and the torque commanded for the last sample was not positive (a hold), the samples are
+        not given to the belief (its estimator and the slip-sinkage estimate). Then the thrust is zero and the
+        slip ``0/0`` is sensor noise: such samples say nothing of the thrust-slip curve, and fed to the estimator
+        they moved the identified F_max and K of a patch the governor had stopped on, so that the governor
+        resumed on the changed belief (independent plant, light vehicle, ``steep``, MPC: a resume 2.6 s after
+        the stop, then 31.2 s above the slip limit; docs/control.md). A stall with a drive torque is kept: it
+        shows the thrust at a high slip (there the estimator identified that climb's F_max).
     cut_factor, guard_margin
         Runaway guard (all but ``pi``): while the measured slip is above the slip limit (for a controller
         with a slip target: above the larger of 1.5 times the target and the target plus ``guard_margin``,
@@ -136,6 +145,7 @@ class ControlSettings:
     mpc_speed_floor: bool = True
     mpc_disturbance_s: float = 0.0
     sample_s: float = 0.02
+    learn_min_speed: float = 0.05
     cut_factor: float = 0.85
     guard_margin: float = 0.05
     probe: bool = True
@@ -404,6 +414,7 @@ class Controller:
                 f"({avail:.4g} N at {self.target:.3g} m/s): slowing down"
             )
         self._event(kind, k, text, required_N=R, available_N=avail)
+        self.events[-1]["limit"] = limit  # "slip", "soil", "torque" or "power" (docs/control.md)
 
     # ------------------------------------------------------------------ one sample
     def command(self, measurement: dict) -> float | tuple[float, float]:
@@ -424,7 +435,8 @@ class Controller:
             rw = self.vehicle.sprocket_radius * self._w
             self._slip = min(max((rw - self._v) / max(rw, s.min_track_speed), -1.0), 1.0)  # Eq. 4, regularised
             if self.belief is not None:
-                self.belief.update(t, self._last_M if M_meas is None else M_meas, w, v, a, patch)
+                hold = self._last_M <= 0 and max(abs(self._v), abs(rw)) < s.learn_min_speed  # nothing to learn
+                self.belief.update(t, self._last_M if M_meas is None else M_meas, w, v, a, patch, learn=not hold)
             v_ref = self._governor(patch, self._v) if (self.belief is not None and s.governor) else self.target
             M = self._limit(self._torque(patch, v_ref, dt), w)
             if self.kind != "pi" and self._slip > self._guard_slip() and M > 0:  # runaway guard: cut the torque
