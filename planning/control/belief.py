@@ -227,8 +227,8 @@ class EstimatedSoil(PriorSoil):
         Entering another patch of the route starts a new estimator and drops the held estimate: the old
         horizon describes the ground behind (even where the plan says the same soil and grade, the true
         ground may differ, and the change detector need not fire). ``learn=False`` (the controller stands
-        with no drive torque, ``ControlSettings.learn_min_speed``): the sample is not given to the estimators and the belief
-        stays as it is (its update time is recorded as 0).
+        with no drive torque, ``ControlSettings.learn_min_speed``): the sample is not given to the estimators
+        and the belief stays as it is (its update time is recorded as 0).
         """
         k = min(patch, len(self._grades) - 1)
         key = (k, self._grades[k], self._soils[k])
