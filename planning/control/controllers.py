@@ -35,7 +35,7 @@ from ...soilmodel.traction import slip_factor_function
 from ..margin import DEFAULT_MAX_SLIP
 from .belief import EstimatedSoil, PriorSoil, SoilBelief, TrueSoil, patch_load, soil_of
 from .mpc import MPC_METHODS, MpcProblem
-from .optimum import optimal_slip
+from .optimum import optimal_slip_on_load
 
 __all__ = ["ControlSettings", "RouteView", "Controller", "make_controller", "CONTROLLERS", "SOIL_SOURCES"]
 
@@ -293,6 +293,8 @@ class Controller:
         self._Iv = 0.0
         self._Is = 0.0
         self._gov_state: tuple = ("go", -1)
+        self._judged: dict[int, tuple] = {}  # the governor's last judgement of each patch (:meth:`_judge`)
+        self._ff: tuple = (None, (0.0, 0.0))  # the slip loop's last feed-forward ((F_max, K, slip), (M, gain))
         self._gy, self._gx = _bracket_table()
         self._gyl, self._gxl = self._gy.tolist(), self._gx.tolist()
         self._M_max = vehicle.max_sprocket_torque or math.inf
@@ -360,27 +362,18 @@ class Controller:
     # ------------------------------------------------------------------ governor
     def _governor(self, patch: int, v: float) -> float:
         """The speed target after checking the ground ahead with the belief (module docstring)."""
-        s, r = self.settings, self.vehicle.sprocket_radius
+        s = self.settings
         v_ref = self.target
         state: tuple = ("go", -1)
         reach = v * v / (2 * s.decel_m_s2) + s.stop_margin_m + 5.0
-        for k in range(patch, len(self.route.ends_m)):
-            start = self.route.start_of(k)
+        ends, R0, belief = self.route.ends_m, self._R0, self.belief
+        for k in range(patch, len(ends)):
+            start = ends[k - 1] if k else 0.0  # RouteView.start_of
             if k > patch and start - self.distance_m > reach:
                 break
-            b = self.belief.belief(k, patch) if self.belief is not None else None
-            R = self.resistance(k)
-            i_R = self._slip_for(b, R) if b is not None else 0.0
-            limit = None
-            if b is not None and b.slip_sinkage and i_R <= self.max_slip:  # sinkage: the net pull's peak decides
-                pull = self._pull_at_limit(b, k)[1]
-                i_R = i_R if pull >= R else math.inf
-            if R > self._M_max / r:
-                limit, avail = "torque", self._M_max / r
-            elif i_R > self.max_slip:
-                assert b is not None  # i_R is 0.0 without a belief
-                avail = self._pull_at_limit(b, k)[1]
-                limit = "soil" if math.isinf(i_R) else "slip"
+            b = belief.belief(k, patch) if belief is not None else None
+            R = R0[k]  # self.resistance(k)
+            i_R, limit, avail = self._judge(b, k)
             if limit is not None:
                 gap = max(start - s.stop_margin_m - self.distance_m, 0.0) if k > patch else 0.0
                 v_ref = min(v_ref, math.sqrt(2 * s.decel_m_s2 * gap))
@@ -396,6 +389,31 @@ class Controller:
             self._log_state(state)
         self._gov_state = state
         return v_ref
+
+    def _judge(self, b: SoilBelief | None, k: int) -> tuple[float, str | None, float]:
+        """``(slip needed, limit, available N)`` on patch ``k`` under belief ``b``: the slip at which the belief
+        carries the patch's resistance (inf: beyond what it gives), and the limit that stops the vehicle there
+        (``"torque"``, ``"slip"``, ``"soil"``; ``None``: traversable) with the thrust available within it.
+        Remembered per patch for the last belief's values (the patches ahead keep their prior: asked at every
+        sample)."""
+        key = None if b is None else (b.max_thrust_N, b.shear_modulus_m, b.slip_sinkage)
+        memo = self._judged.get(k)
+        if memo is not None and memo[0] == key:
+            return memo[1]
+        R, r = self._R0[k], self.vehicle.sprocket_radius
+        i_R = self._slip_for(b, R) if b is not None else 0.0
+        limit, avail = None, 0.0
+        if b is not None and b.slip_sinkage and i_R <= self.max_slip:  # sinkage: the net pull's peak decides
+            pull = self._pull_at_limit(b, k)[1]
+            i_R = i_R if pull >= R else math.inf
+        if R > self._M_max / r:
+            limit, avail = "torque", self._M_max / r
+        elif i_R > self.max_slip:
+            assert b is not None  # i_R is 0.0 without a belief
+            avail = self._pull_at_limit(b, k)[1]
+            limit = "soil" if math.isinf(i_R) else "slip"
+        self._judged[k] = (key, (i_R, limit, avail))
+        return i_R, limit, avail
 
     def _log_state(self, state: tuple) -> None:
         if state[0] == "go":
@@ -419,7 +437,8 @@ class Controller:
     # ------------------------------------------------------------------ one sample
     def command(self, measurement: dict) -> float | tuple[float, float]:
         """Torque (N m, both sprockets; a (left, right) pair for two-track measurements) for this sample."""
-        t0, c0 = time.perf_counter(), time.process_time()
+        c0 = time.process_time()  # the CPU clock read outside the wall-clock interval (a system call, ~1-3 us)
+        t0 = time.perf_counter()
         t, w, v, a, M_meas, two = _measurement(measurement)
         s = self.settings
         dt = s.sample_s if self._t is None else max(t - self._t, 1e-6)
@@ -575,8 +594,13 @@ class SlipController(Controller):
         if self.fixed is not None or self.belief is None:
             return (self.fixed or self.max_slip), None
         b = self.belief.belief(patch, patch)
-        opt = optimal_slip(
-            self.vehicle, b.max_thrust_N, b.shear_modulus_m, self.route.grades_deg[patch], b.slip_sinkage
+        opt = optimal_slip_on_load(
+            self.vehicle.track_length,
+            b.max_thrust_N,
+            b.shear_modulus_m,
+            self._R0[patch],
+            self._N[patch],
+            b.slip_sinkage,
         )
         return min(opt if opt is not None else self.max_slip, self.max_slip), b
 
@@ -584,9 +608,14 @@ class SlipController(Controller):
         """Torque holding the slip at ``target``: believed thrust there (feed-forward) plus PI on the slip."""
         s, r = self.settings, self.vehicle.sprocket_radius
         if b is not None:
-            F0, F1 = self._thrust1(b, target), self._thrust1(b, target + 1e-3)
-            gain = s.slip_gain * r * max((F1 - F0) / 1e-3, 1e-3 * b.max_thrust_N)
-            ff = r * F0
+            key = (b.max_thrust_N, b.shear_modulus_m, target)
+            if self._ff[0] == key:  # the same belief and target as the last call
+                ff, gain = self._ff[1]
+            else:
+                F0, F1 = self._thrust1(b, target), self._thrust1(b, target + 1e-3)
+                gain = s.slip_gain * r * max((F1 - F0) / 1e-3, 1e-3 * b.max_thrust_N)
+                ff = r * F0
+                self._ff = (key, (ff, gain))
         else:  # no belief: the resistance torque (as the PI's feed-forward), the gain from the largest torque per slip
             gain, ff = s.slip_gain * min(self._M_max, r * self.vehicle.weight), r * self.resistance(patch)
         return ff + gain * (target - self._slip) + self._Is, gain
