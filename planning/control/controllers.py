@@ -103,6 +103,14 @@ class ControlSettings:
         resumed on the changed belief (independent plant, light vehicle, ``steep``, MPC: a resume 2.6 s after
         the stop, then 31.2 s above the slip limit; docs/control.md). A stall with a drive torque is kept: it
         shows the thrust at a high slip (there the estimator identified that climb's F_max).
+    stall_s
+        Stall: when the drive has pulled (torque > 0) with the filtered vehicle speed below ``learn_min_speed`` for
+        this long (s) and the measured slip passed the slip limit meanwhile (the tracks spin; the runaway guard
+        cuts the torque, so the slip swings), the governor stops on the patch (``"stall"``, logged with the
+        reason) whatever the belief says, and does not resume there. The belief can miss a soil that
+        cannot carry the climb (the estimator identifies F_max only from a converged horizon of enough samples,
+        ``identify_min_samples``, and a vehicle spinning at rest gives few): on the heavy ``steep`` route the
+        belief stayed on the planned soil and the ``slip`` controller spun at the limit for 30 s (docs/control.md).
     cut_factor, guard_margin
         Runaway guard (all but ``pi``): while the measured slip is above the slip limit (for a controller
         with a slip target: above the larger of 1.5 times the target and the target plus ``guard_margin``,
@@ -146,6 +154,7 @@ class ControlSettings:
     mpc_disturbance_s: float = 0.0
     sample_s: float = 0.02
     learn_min_speed: float = 0.05
+    stall_s: float = 0.5
     cut_factor: float = 0.85
     guard_margin: float = 0.05
     probe: bool = True
@@ -293,6 +302,8 @@ class Controller:
         self._Iv = 0.0
         self._Is = 0.0
         self._gov_state: tuple = ("go", -1)
+        self._stall = (math.nan, -1, 0.0)  # the current stall: (time it began, its patch, its peak slip)
+        self._stalled: set[int] = set()  # patches the vehicle stalled on (the governor stops there)
         self._judged: dict[int, tuple] = {}  # the governor's last judgement of each patch (:meth:`_judge`)
         self._ff: tuple = (None, (0.0, 0.0))  # the slip loop's last feed-forward ((F_max, K, slip), (M, gain))
         self._gy, self._gx = _bracket_table()
@@ -360,11 +371,34 @@ class Controller:
         )
 
     # ------------------------------------------------------------------ governor
+    def _stalled_on(self, patch: int) -> bool:
+        """Whether the vehicle has stalled on ``patch`` (``ControlSettings.stall_s``; logged once)."""
+        s, t = self.settings, self._t or 0.0
+        if patch in self._stalled:
+            return True
+        if not (self._last_M > 0 and self._v < s.learn_min_speed):
+            self._stall = (math.nan, -1, 0.0)
+            return False
+        t0, k, peak = self._stall
+        if k != patch:
+            t0, peak = t, 0.0
+        self._stall = (t0, patch, max(peak, self._slip))
+        if t - t0 < s.stall_s or self._stall[2] <= self.max_slip:
+            return False
+        self._stalled.add(patch)
+        return True
+
     def _governor(self, patch: int, v: float) -> float:
         """The speed target after checking the ground ahead with the belief (module docstring)."""
         s = self.settings
         v_ref = self.target
         state: tuple = ("go", -1)
+        if self._stalled_on(patch):
+            state = ("stop", patch, "stall", self._R0[patch], max(self._last_M, 0.0) / self.vehicle.sprocket_radius)
+            if state[:2] != self._gov_state[:2]:
+                self._log_state(state)
+            self._gov_state = state
+            return 0.0
         reach = v * v / (2 * s.decel_m_s2) + s.stop_margin_m + 5.0
         ends, R0, belief = self.route.ends_m, self._R0, self.belief
         for k in range(patch, len(ends)):
@@ -421,7 +455,14 @@ class Controller:
             return
         kind, k, limit, R, avail = state
         src = self.belief.belief(k, self.route.patch_at(self.distance_m)).source if self.belief else "none"
-        if kind == "stop":
+        if limit == "stall":
+            text = (
+                f"the vehicle stalled on patch {k} (below {self.settings.learn_min_speed:g} m/s for "
+                f"{self.settings.stall_s:g} s of pulling, the slip past the {self.max_slip:g} limit; the drive asked "
+                f"for {avail:.4g} N of thrust, the patch "
+                f"needs {R:.4g} N) though the {src} soil was believed to carry it: stopping now"
+            )
+        elif kind == "stop":
             text = (
                 f"patch {k} needs {R:.4g} N of thrust; the {src} soil gives {avail:.4g} N within the "
                 f"{limit} limit: stopping {'now' if k == self.route.patch_at(self.distance_m) else 'before it'}"
