@@ -335,6 +335,18 @@ def test_user_plant_object_accepted():
         run_closed_loop(ctl, Broken(), distance_m=5.0, target_speed_m_s=1.0, max_slip=0.3, max_time_s=1.0)
 
 
+def test_time_cpu_off_reads_no_cpu_clock_and_commands_the_same():
+    route = _route(0.5, 1.0, [{"length_m": 5, "terrain": "lete_sand"}])
+    out = {}
+    for flag in (True, False):
+        ctl = make_controller("slip", LIGHT, route=route, time_cpu=flag)
+        plant = _jh(LIGHT, route, [TERRAINS["lete_sand"]], sigma_v=0.005, sigma_w=0.02)
+        a, _ = drive(ctl, plant, 5.0, 2.0)
+        out[flag] = a[:, 4]
+        assert len(ctl.step_times_s) == len(a) and len(ctl.step_cpu_s) == (len(a) if flag else 0)
+    assert np.array_equal(out[True], out[False])
+
+
 def test_two_track_measurement_gives_a_pair():
     ctl = make_controller("pi", LIGHT, target_speed_m_s=1.0)
     out = ctl.command(

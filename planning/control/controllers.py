@@ -94,6 +94,11 @@ class ControlSettings:
         (0 without; docs/control.md).
     sample_s
         Sample time assumed for the first sample (later: from the measurement's times).
+    time_cpu
+        Whether each command reads the process CPU clock (``step_cpu_s``, the benchmark's CPU columns): two
+        system calls, about 6 of the slip controller's 21 us own step on the shared 2-core machine
+        (``/work/notes/i43_scripts/own_micro.py``, docs/control.md); ``False`` for a vehicle (the wall
+        clock ``step_times_s`` stays).
     learn_min_speed
         Standing with no drive: while both the filtered vehicle speed and the filtered track speed ``r w`` are
         below this (m/s) and the torque commanded for the last sample was not positive (a hold), the samples are
@@ -153,6 +158,7 @@ class ControlSettings:
     mpc_speed_floor: bool = True
     mpc_disturbance_s: float = 0.0
     sample_s: float = 0.02
+    time_cpu: bool = True
     learn_min_speed: float = 0.05
     stall_s: float = 0.5
     cut_factor: float = 0.85
@@ -167,7 +173,7 @@ class ControlSettings:
     def __post_init__(self) -> None:
         for f in fields(self):
             v = getattr(self, f.name)
-            if f.name in ("governor", "probe", "mpc_speed_floor"):
+            if f.name in ("governor", "probe", "mpc_speed_floor", "time_cpu"):
                 continue
             if f.name == "mpc_qp":
                 if v not in MPC_METHODS:
@@ -478,10 +484,10 @@ class Controller:
     # ------------------------------------------------------------------ one sample
     def command(self, measurement: dict) -> float | tuple[float, float]:
         """Torque (N m, both sprockets; a (left, right) pair for two-track measurements) for this sample."""
-        c0 = time.process_time()  # the CPU clock read outside the wall-clock interval (a system call, ~1-3 us)
+        s = self.settings
+        c0 = time.process_time() if s.time_cpu else 0.0  # read outside the wall-clock interval (a system call)
         t0 = time.perf_counter()
         t, w, v, a, M_meas, two = _measurement(measurement)
-        s = self.settings
         dt = s.sample_s if self._t is None else max(t - self._t, 1e-6)
         if not all(math.isfinite(x) for x in (t, w, v)):
             M = self._last_M  # a sample with a missing channel: hold the torque
@@ -505,7 +511,8 @@ class Controller:
             self.last = {"v_ref": v_ref, "patch": patch, "slip_filtered": self._slip, "limiting": self.limiting}
         self._last_M = M
         self.step_times_s.append(time.perf_counter() - t0)
-        self.step_cpu_s.append(time.process_time() - c0)
+        if s.time_cpu:
+            self.step_cpu_s.append(time.process_time() - c0)
         return (0.5 * M, 0.5 * M) if two else M
 
     def _guard_slip(self) -> float:
