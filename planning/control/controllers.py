@@ -16,7 +16,9 @@ speeds, keeps its own odometry (the patch under it and ahead), and holds the dri
 A speed governor (``slip``, ``mpc``) checks the patches ahead with the believed soil: where the
 thrust at the slip limit (or the torque limit) is below the resistance (rolling and grade) the
 controller stops before the patch (on it: at once); where the power limit cannot hold the target
-speed it slows down; each decision is an entry of :attr:`events` with the reason in numbers.
+speed it slows down; each decision is an entry of :attr:`events` with the reason in numbers. A stall (pulling
+at rest with the slip past the limit for ``stall_s``) stops on the patch whatever the belief says, and while
+the vehicle stands with no drive torque the belief learns nothing (``learn_min_speed``): a stop stays a stop.
 """
 
 from __future__ import annotations
