@@ -263,6 +263,63 @@ def test_mpc_speed_floor_holds_the_pace_on_an_overrated_soil(floor):
     assert (t["nominal"] <= 1.10 * t["true"]) == floor
 
 
+# light: flat, then snow at 32 deg planned as LETE sand (needs ~40 % slip, beyond the 0.3 limit: the benchmark's steep)
+STEEP_LIGHT = _route(
+    0.3,
+    1.5,
+    [{"length_m": 12, "terrain": "lete_sand"}, {"length_m": 20, "terrain": "lete_sand", "grade_deg": 32}],
+)
+STEEP_LIGHT_TRUE = [TERRAINS["lete_sand"], TERRAINS["snow"]]
+
+
+def test_standing_after_a_stop_does_not_change_the_belief_or_resume():
+    """The MPC on its estimate stops on a climb it cannot carry within the slip limit. Standing with no drive
+    torque the samples carry no thrust (the slip is 0/0, noise): the belief of the climb must not move and the
+    governor must not resume. (Before ``learn_min_speed`` the estimator was fed those samples: its F_max of the
+    climb wandered 239-250 N while standing here, and at an earlier estimator's commit the governor resumed 2.6 s
+    after the stop and spun at the limit for 31 s.)"""
+    # the stall rule off (stall_s): the stop here is the belief's (the estimate's F_max identified while the
+    # tracks spun), which the governor could revisit; a stall stop never is (test_stall_stops_where_...)
+    ctl = make_controller("mpc", LIGHT, route=STEEP_LIGHT, stall_s=1e6)
+    plant = _jh(LIGHT, STEEP_LIGHT, STEEP_LIGHT_TRUE, sigma_v=0.005, sigma_w=0.02)
+    meas, held, t_stop = plant.step(0.0), [], None
+    while meas["time_s"] < 25.0:
+        M = ctl.command(meas)
+        meas = plant.step(M)
+        if t_stop is None and any(e["kind"] == "stop" for e in ctl.events):
+            t_stop = meas["time_s"]
+        if t_stop is not None and meas["time_s"] > t_stop + 1.0:
+            assert M <= 0.0 and ctl.last["v_ref"] == 0.0  # holds: no drive torque, no resume
+            b = ctl.belief.belief(1, 1)
+            held.append((b.max_thrust_N, b.shear_modulus_m, b.slip_sinkage))
+    stops = [e for e in ctl.events if e["kind"] == "stop"]
+    assert stops and stops[0]["patch"] == 1 and stops[0]["limit"] == "slip"
+    assert not [e for e in ctl.events if e["kind"] == "resume"]
+    assert len(held) > 400 and len(set(held)) == 1  # ~13 s standing, one belief
+
+
+def test_stall_stops_where_the_belief_says_go():
+    """Heavy vehicle, 3 m/s, snow at 27 deg planned as LETE sand (beyond F_max at any slip): the estimator does not
+    identify F_max while the tracks spin at rest (identify_min_samples), so the belief keeps the planned soil and
+    says go. The stall rule (``stall_s``) stops the drive and says why. (Before it: no stop, 30 s above the slip
+    limit in the benchmark's 62 s, 45.8 s in 94 s.)"""
+    route = _route(
+        0.3, 3.0, [{"length_m": 12, "terrain": "lete_sand"}, {"length_m": 20, "terrain": "lete_sand", "grade_deg": 27}]
+    )
+    true = [TERRAINS["lete_sand"], TERRAINS["snow"]]
+    ctl = make_controller("slip", HEAVY, route=route)
+    plant = _jh(HEAVY, route, true, sigma_v=0.005, sigma_w=0.02)
+    a, arrived = drive(ctl, plant, route.length_m, 30.0)
+    assert not arrived and stuck_events(a) == 0
+    stops = [e for e in ctl.events if e["kind"] == "stop"]
+    assert stops and stops[-1]["patch"] == 1 and stops[-1]["limit"] == "stall" and "stalled" in stops[-1]["reason"]
+    assert not [e for e in ctl.events if e["kind"] == "resume"]
+    above = float(np.sum(a[:, 3] > 0.3)) * 0.02  # true slip above the limit, s
+    assert above < 3.0
+    after = a[:, 0] > stops[-1]["time_s"] + 0.1
+    assert after.any() and np.all(a[after, 4] <= 0.0)  # holds: no drive torque
+
+
 def test_user_plant_object_accepted():
     route = _route(0.5, 1.0, [{"length_m": 5, "terrain": "lete_sand"}])
     plant = _jh(LIGHT, route, [TERRAINS["lete_sand"]])
@@ -276,6 +333,18 @@ def test_user_plant_object_accepted():
 
     with pytest.raises(DataError, match="step"):
         run_closed_loop(ctl, Broken(), distance_m=5.0, target_speed_m_s=1.0, max_slip=0.3, max_time_s=1.0)
+
+
+def test_time_cpu_off_reads_no_cpu_clock_and_commands_the_same():
+    route = _route(0.5, 1.0, [{"length_m": 5, "terrain": "lete_sand"}])
+    out = {}
+    for flag in (True, False):
+        ctl = make_controller("slip", LIGHT, route=route, time_cpu=flag)
+        plant = _jh(LIGHT, route, [TERRAINS["lete_sand"]], sigma_v=0.005, sigma_w=0.02)
+        a, _ = drive(ctl, plant, 5.0, 2.0)
+        out[flag] = a[:, 4]
+        assert len(ctl.step_times_s) == len(a) and len(ctl.step_cpu_s) == (len(a) if flag else 0)
+    assert np.array_equal(out[True], out[False])
 
 
 def test_two_track_measurement_gives_a_pair():

@@ -107,21 +107,24 @@ class SinkageEstimator:
         self._buf: list[tuple[float, float, float, float]] = []
         self._sxx = self._sxy = self._syy = 0.0
         self.blocks = 0
+        self._value: tuple[float, float] | None = None
 
     def update(self, time_s: float, torque: float, w: float, v: float) -> None:
         """Add one sample (time, sprocket torque of both tracks, sprocket speed, vehicle speed)."""
         self._buf.append((time_s, torque, w, v))
         if len(self._buf) < SINKAGE_BLOCK:
             return
-        b, self._buf = self._buf, []
-        h = len(b) // 2
-        t0, t1 = sum(x[0] for x in b[:h]) / h, sum(x[0] for x in b[h:]) / (len(b) - h)
-        w0, w1 = sum(x[2] for x in b[:h]) / h, sum(x[2] for x in b[h:]) / (len(b) - h)
-        v0, v1 = sum(x[3] for x in b[:h]) / h, sum(x[3] for x in b[h:]) / (len(b) - h)
+        ts, Ms, ws, vs = zip(*self._buf)
+        self._buf = []
+        n = len(ts)
+        h = n // 2
+        t0, t1 = sum(ts[:h]) / h, sum(ts[h:]) / (n - h)
+        w0, w1 = sum(ws[:h]) / h, sum(ws[h:]) / (n - h)
+        v0, v1 = sum(vs[:h]) / h, sum(vs[h:]) / (n - h)
         V, r = self.vehicle, self.vehicle.sprocket_radius
         if t1 <= t0 or min(v0, v1) < SINKAGE_MIN_SPEED:
             return
-        M = sum(x[1] for x in b) / len(b)
+        M = sum(Ms) / n
         F = (M - V.sprocket_inertia * (w1 - w0) / (t1 - t0)) / r
         rw = r * 0.5 * (w0 + w1)
         i = (rw - 0.5 * (v0 + v1)) / max(rw, 0.01)
@@ -131,10 +134,16 @@ class SinkageEstimator:
         self._sxy += x * y
         self._syy += y * y
         self.blocks += 1
+        self._value = self._fit()
 
     @property
     def value(self) -> tuple[float, float] | None:
-        """``(mu_s, standard error)`` once it is identified (:data:`SINKAGE_MAX_SE`), else ``None``."""
+        """``(mu_s, standard error)`` once it is identified (:data:`SINKAGE_MAX_SE`), else ``None`` (the fit of
+        the last block: asked at every sample, it changes once a block)."""
+        return self._value
+
+    def _fit(self) -> tuple[float, float] | None:
+        """The least-squares ``mu_s`` through zero over the blocks and its standard error, or ``None``."""
         if self.blocks < SINKAGE_MIN_BLOCKS or self._sxx <= 0:
             return None
         mu = self._sxy / self._sxx
@@ -159,7 +168,9 @@ class PriorSoil:
         mus = list(slip_sinkage) if slip_sinkage is not None else [0.0] * len(soils)
         self._b = [_belief(s, vehicle, g, self.source, m) for s, g, m in zip(soils, grades_deg, mus)]
 
-    def update(self, time_s: float, torque: float, w: float, v: float, accel: float | None, patch: int) -> None:
+    def update(
+        self, time_s: float, torque: float, w: float, v: float, accel: float | None, patch: int, learn: bool = True
+    ) -> None:
         """Nothing to learn."""
 
     def belief(self, patch: int, current: int) -> SoilBelief:
@@ -217,21 +228,30 @@ class EstimatedSoil(PriorSoil):
         self._sink_patch = 0
         self._cache: dict[tuple[int, int], SoilBelief] = {}  # beliefs asked since the last update
 
-    def update(self, time_s: float, torque: float, w: float, v: float, accel: float | None, patch: int) -> None:
+    def update(
+        self, time_s: float, torque: float, w: float, v: float, accel: float | None, patch: int, learn: bool = True
+    ) -> None:
         """Feed one sample (torque applied, sprocket speed, vehicle speed) to the estimator.
 
         Entering another patch of the route starts a new estimator and drops the held estimate: the old
         horizon describes the ground behind (even where the plan says the same soil and grade, the true
-        ground may differ, and the change detector need not fire).
+        ground may differ, and the change detector need not fire). ``learn=False`` (the controller stands
+        with no drive torque, ``ControlSettings.learn_min_speed``): the sample is not given to the estimators
+        and the belief stays as it is (its update time is recorded as 0).
         """
         k = min(patch, len(self._grades) - 1)
         key = (k, self._grades[k], self._soils[k])
         if key != self._key:
             self._est = self._factory(self.vehicle, math.radians(key[1]))
             self._key, self._last, self._held = key, None, None
-        self._cache.clear()
+            self._cache.clear()
         if k != self._sink_patch:
             self._sink, self._sink_patch = SinkageEstimator(self.vehicle, self._grades[k]), k
+            self._cache.clear()
+        if not learn:
+            self.update_times_s.append(0.0)
+            return
+        self._cache.clear()
         self._sink.update(time_s, torque, w, v)
         t0 = time.perf_counter()
         e = self._est.update(time_s, torque, w, v, accel)

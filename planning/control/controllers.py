@@ -16,7 +16,9 @@ speeds, keeps its own odometry (the patch under it and ahead), and holds the dri
 A speed governor (``slip``, ``mpc``) checks the patches ahead with the believed soil: where the
 thrust at the slip limit (or the torque limit) is below the resistance (rolling and grade) the
 controller stops before the patch (on it: at once); where the power limit cannot hold the target
-speed it slows down; each decision is an entry of :attr:`events` with the reason in numbers.
+speed it slows down; each decision is an entry of :attr:`events` with the reason in numbers. A stall (pulling
+at rest with the slip past the limit for ``stall_s``) stops on the patch whatever the belief says, and while
+the vehicle stands with no drive torque the belief learns nothing (``learn_min_speed``): a stop stays a stop.
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ from ...soilmodel.traction import slip_factor_function
 from ..margin import DEFAULT_MAX_SLIP
 from .belief import EstimatedSoil, PriorSoil, SoilBelief, TrueSoil, patch_load, soil_of
 from .mpc import MPC_METHODS, MpcProblem
-from .optimum import optimal_slip
+from .optimum import optimal_slip_on_load
 
 __all__ = ["ControlSettings", "RouteView", "Controller", "make_controller", "CONTROLLERS", "SOIL_SOURCES"]
 
@@ -94,6 +96,28 @@ class ControlSettings:
         (0 without; docs/control.md).
     sample_s
         Sample time assumed for the first sample (later: from the measurement's times).
+    time_cpu
+        Whether each command reads the process CPU clock (``step_cpu_s``, the benchmark's CPU columns): two
+        system calls, about 6 of the slip controller's 21 us own step on the shared 2-core machine
+        (``/work/notes/i43_scripts/own_micro.py``, docs/control.md); ``False`` for a vehicle (the wall
+        clock ``step_times_s`` stays).
+    learn_min_speed
+        Standing with no drive: while both the filtered vehicle speed and the filtered track speed ``r w`` are
+        below this (m/s) and the torque commanded for the last sample was not positive (a hold), the samples are
+        not given to the belief (its estimator and the slip-sinkage estimate). Then the thrust is zero and the
+        slip ``0/0`` is sensor noise: such samples say nothing of the thrust-slip curve, and fed to the estimator
+        they moved the identified F_max and K of a patch the governor had stopped on, so that the governor
+        resumed on the changed belief (independent plant, light vehicle, ``steep``, MPC: a resume 2.6 s after
+        the stop, then 31.2 s above the slip limit; docs/control.md). A stall with a drive torque is kept: it
+        shows the thrust at a high slip (there the estimator identified that climb's F_max).
+    stall_s
+        Stall: when the drive has pulled (torque > 0) with the filtered vehicle speed below ``learn_min_speed`` for
+        this long (s) and the measured slip passed the slip limit meanwhile (the tracks spin; the runaway guard
+        cuts the torque, so the slip swings), the governor stops on the patch (``"stall"``, logged with the
+        reason) whatever the belief says, and does not resume there. The belief can miss a soil that
+        cannot carry the climb (the estimator identifies F_max only from a converged horizon of enough samples,
+        ``identify_min_samples``, and a vehicle spinning at rest gives few): on the heavy ``steep`` route the
+        belief stayed on the planned soil and the ``slip`` controller spun at the limit for 30 s (docs/control.md).
     cut_factor, guard_margin
         Runaway guard (all but ``pi``): while the measured slip is above the slip limit (for a controller
         with a slip target: above the larger of 1.5 times the target and the target plus ``guard_margin``,
@@ -136,6 +160,9 @@ class ControlSettings:
     mpc_speed_floor: bool = True
     mpc_disturbance_s: float = 0.0
     sample_s: float = 0.02
+    time_cpu: bool = True
+    learn_min_speed: float = 0.05
+    stall_s: float = 0.5
     cut_factor: float = 0.85
     guard_margin: float = 0.05
     probe: bool = True
@@ -148,7 +175,7 @@ class ControlSettings:
     def __post_init__(self) -> None:
         for f in fields(self):
             v = getattr(self, f.name)
-            if f.name in ("governor", "probe", "mpc_speed_floor"):
+            if f.name in ("governor", "probe", "mpc_speed_floor", "time_cpu"):
                 continue
             if f.name == "mpc_qp":
                 if v not in MPC_METHODS:
@@ -283,6 +310,10 @@ class Controller:
         self._Iv = 0.0
         self._Is = 0.0
         self._gov_state: tuple = ("go", -1)
+        self._stall = (math.nan, -1, 0.0)  # the current stall: (time it began, its patch, its peak slip)
+        self._stalled: set[int] = set()  # patches the vehicle stalled on (the governor stops there)
+        self._judged: dict[int, tuple] = {}  # the governor's last judgement of each patch (:meth:`_judge`)
+        self._ff: tuple = (None, (0.0, 0.0))  # the slip loop's last feed-forward ((F_max, K, slip), (M, gain))
         self._gy, self._gx = _bracket_table()
         self._gyl, self._gxl = self._gy.tolist(), self._gx.tolist()
         self._M_max = vehicle.max_sprocket_torque or math.inf
@@ -348,29 +379,43 @@ class Controller:
         )
 
     # ------------------------------------------------------------------ governor
+    def _stalled_on(self, patch: int) -> bool:
+        """Whether the vehicle has stalled on ``patch`` (``ControlSettings.stall_s``; logged once)."""
+        s, t = self.settings, self._t or 0.0
+        if patch in self._stalled:
+            return True
+        if not (self._last_M > 0 and self._v < s.learn_min_speed):
+            self._stall = (math.nan, -1, 0.0)
+            return False
+        t0, k, peak = self._stall
+        if k != patch:
+            t0, peak = t, 0.0
+        self._stall = (t0, patch, max(peak, self._slip))
+        if t - t0 < s.stall_s or self._stall[2] <= self.max_slip:
+            return False
+        self._stalled.add(patch)
+        return True
+
     def _governor(self, patch: int, v: float) -> float:
         """The speed target after checking the ground ahead with the belief (module docstring)."""
-        s, r = self.settings, self.vehicle.sprocket_radius
+        s = self.settings
         v_ref = self.target
         state: tuple = ("go", -1)
+        if self._stalled_on(patch):
+            state = ("stop", patch, "stall", self._R0[patch], max(self._last_M, 0.0) / self.vehicle.sprocket_radius)
+            if state[:2] != self._gov_state[:2]:
+                self._log_state(state)
+            self._gov_state = state
+            return 0.0
         reach = v * v / (2 * s.decel_m_s2) + s.stop_margin_m + 5.0
-        for k in range(patch, len(self.route.ends_m)):
-            start = self.route.start_of(k)
+        ends, R0, belief = self.route.ends_m, self._R0, self.belief
+        for k in range(patch, len(ends)):
+            start = ends[k - 1] if k else 0.0  # RouteView.start_of
             if k > patch and start - self.distance_m > reach:
                 break
-            b = self.belief.belief(k, patch) if self.belief is not None else None
-            R = self.resistance(k)
-            i_R = self._slip_for(b, R) if b is not None else 0.0
-            limit = None
-            if b is not None and b.slip_sinkage and i_R <= self.max_slip:  # sinkage: the net pull's peak decides
-                pull = self._pull_at_limit(b, k)[1]
-                i_R = i_R if pull >= R else math.inf
-            if R > self._M_max / r:
-                limit, avail = "torque", self._M_max / r
-            elif i_R > self.max_slip:
-                assert b is not None  # i_R is 0.0 without a belief
-                avail = self._pull_at_limit(b, k)[1]
-                limit = "soil" if math.isinf(i_R) else "slip"
+            b = belief.belief(k, patch) if belief is not None else None
+            R = R0[k]  # self.resistance(k)
+            i_R, limit, avail = self._judge(b, k)
             if limit is not None:
                 gap = max(start - s.stop_margin_m - self.distance_m, 0.0) if k > patch else 0.0
                 v_ref = min(v_ref, math.sqrt(2 * s.decel_m_s2 * gap))
@@ -387,13 +432,45 @@ class Controller:
         self._gov_state = state
         return v_ref
 
+    def _judge(self, b: SoilBelief | None, k: int) -> tuple[float, str | None, float]:
+        """``(slip needed, limit, available N)`` on patch ``k`` under belief ``b``: the slip at which the belief
+        carries the patch's resistance (inf: beyond what it gives), and the limit that stops the vehicle there
+        (``"torque"``, ``"slip"``, ``"soil"``; ``None``: traversable) with the thrust available within it.
+        Remembered per patch for the last belief's values (the patches ahead keep their prior: asked at every
+        sample)."""
+        key = None if b is None else (b.max_thrust_N, b.shear_modulus_m, b.slip_sinkage)
+        memo = self._judged.get(k)
+        if memo is not None and memo[0] == key:
+            return memo[1]
+        R, r = self._R0[k], self.vehicle.sprocket_radius
+        i_R = self._slip_for(b, R) if b is not None else 0.0
+        limit, avail = None, 0.0
+        if b is not None and b.slip_sinkage and i_R <= self.max_slip:  # sinkage: the net pull's peak decides
+            pull = self._pull_at_limit(b, k)[1]
+            i_R = i_R if pull >= R else math.inf
+        if R > self._M_max / r:
+            limit, avail = "torque", self._M_max / r
+        elif i_R > self.max_slip:
+            assert b is not None  # i_R is 0.0 without a belief
+            avail = self._pull_at_limit(b, k)[1]
+            limit = "soil" if math.isinf(i_R) else "slip"
+        self._judged[k] = (key, (i_R, limit, avail))
+        return i_R, limit, avail
+
     def _log_state(self, state: tuple) -> None:
         if state[0] == "go":
             self._event("resume", self._gov_state[1], "the ground ahead is traversable at the target speed")
             return
         kind, k, limit, R, avail = state
         src = self.belief.belief(k, self.route.patch_at(self.distance_m)).source if self.belief else "none"
-        if kind == "stop":
+        if limit == "stall":
+            text = (
+                f"the vehicle stalled on patch {k} (below {self.settings.learn_min_speed:g} m/s for "
+                f"{self.settings.stall_s:g} s of pulling, the slip past the {self.max_slip:g} limit; the drive asked "
+                f"for {avail:.4g} N of thrust, the patch "
+                f"needs {R:.4g} N) though the {src} soil was believed to carry it: stopping now"
+            )
+        elif kind == "stop":
             text = (
                 f"patch {k} needs {R:.4g} N of thrust; the {src} soil gives {avail:.4g} N within the "
                 f"{limit} limit: stopping {'now' if k == self.route.patch_at(self.distance_m) else 'before it'}"
@@ -404,13 +481,15 @@ class Controller:
                 f"({avail:.4g} N at {self.target:.3g} m/s): slowing down"
             )
         self._event(kind, k, text, required_N=R, available_N=avail)
+        self.events[-1]["limit"] = limit  # "slip", "soil", "torque" or "power" (docs/control.md)
 
     # ------------------------------------------------------------------ one sample
     def command(self, measurement: dict) -> float | tuple[float, float]:
         """Torque (N m, both sprockets; a (left, right) pair for two-track measurements) for this sample."""
-        t0, c0 = time.perf_counter(), time.process_time()
-        t, w, v, a, M_meas, two = _measurement(measurement)
         s = self.settings
+        c0 = time.process_time() if s.time_cpu else 0.0  # read outside the wall-clock interval (a system call)
+        t0 = time.perf_counter()
+        t, w, v, a, M_meas, two = _measurement(measurement)
         dt = s.sample_s if self._t is None else max(t - self._t, 1e-6)
         if not all(math.isfinite(x) for x in (t, w, v)):
             M = self._last_M  # a sample with a missing channel: hold the torque
@@ -424,7 +503,8 @@ class Controller:
             rw = self.vehicle.sprocket_radius * self._w
             self._slip = min(max((rw - self._v) / max(rw, s.min_track_speed), -1.0), 1.0)  # Eq. 4, regularised
             if self.belief is not None:
-                self.belief.update(t, self._last_M if M_meas is None else M_meas, w, v, a, patch)
+                hold = self._last_M <= 0 and max(abs(self._v), abs(rw)) < s.learn_min_speed  # nothing to learn
+                self.belief.update(t, self._last_M if M_meas is None else M_meas, w, v, a, patch, learn=not hold)
             v_ref = self._governor(patch, self._v) if (self.belief is not None and s.governor) else self.target
             M = self._limit(self._torque(patch, v_ref, dt), w)
             if self.kind != "pi" and self._slip > self._guard_slip() and M > 0:  # runaway guard: cut the torque
@@ -433,7 +513,8 @@ class Controller:
             self.last = {"v_ref": v_ref, "patch": patch, "slip_filtered": self._slip, "limiting": self.limiting}
         self._last_M = M
         self.step_times_s.append(time.perf_counter() - t0)
-        self.step_cpu_s.append(time.process_time() - c0)
+        if s.time_cpu:
+            self.step_cpu_s.append(time.process_time() - c0)
         return (0.5 * M, 0.5 * M) if two else M
 
     def _guard_slip(self) -> float:
@@ -563,8 +644,13 @@ class SlipController(Controller):
         if self.fixed is not None or self.belief is None:
             return (self.fixed or self.max_slip), None
         b = self.belief.belief(patch, patch)
-        opt = optimal_slip(
-            self.vehicle, b.max_thrust_N, b.shear_modulus_m, self.route.grades_deg[patch], b.slip_sinkage
+        opt = optimal_slip_on_load(
+            self.vehicle.track_length,
+            b.max_thrust_N,
+            b.shear_modulus_m,
+            self._R0[patch],
+            self._N[patch],
+            b.slip_sinkage,
         )
         return min(opt if opt is not None else self.max_slip, self.max_slip), b
 
@@ -572,9 +658,14 @@ class SlipController(Controller):
         """Torque holding the slip at ``target``: believed thrust there (feed-forward) plus PI on the slip."""
         s, r = self.settings, self.vehicle.sprocket_radius
         if b is not None:
-            F0, F1 = self._thrust1(b, target), self._thrust1(b, target + 1e-3)
-            gain = s.slip_gain * r * max((F1 - F0) / 1e-3, 1e-3 * b.max_thrust_N)
-            ff = r * F0
+            key = (b.max_thrust_N, b.shear_modulus_m, target)
+            if self._ff[0] == key:  # the same belief and target as the last call
+                ff, gain = self._ff[1]
+            else:
+                F0, F1 = self._thrust1(b, target), self._thrust1(b, target + 1e-3)
+                gain = s.slip_gain * r * max((F1 - F0) / 1e-3, 1e-3 * b.max_thrust_N)
+                ff = r * F0
+                self._ff = (key, (ff, gain))
         else:  # no belief: the resistance torque (as the PI's feed-forward), the gain from the largest torque per slip
             gain, ff = s.slip_gain * min(self._M_max, r * self.vehicle.weight), r * self.resistance(patch)
         return ff + gain * (target - self._slip) + self._Is, gain

@@ -24,7 +24,7 @@ from ...soilmodel.traction import slip_factor_function
 from ..slip_optimal import slip_optimal
 from .belief import patch_load
 
-__all__ = ["optimal_slip", "optimal_slip_reference"]
+__all__ = ["optimal_slip", "optimal_slip_on_load", "optimal_slip_reference"]
 
 _K = np.geomspace(0.002, 0.25, 200)
 
@@ -57,14 +57,33 @@ def optimal_slip(
     Cached on a grid of 0.2 % in ``R / F_max`` and ``N mu_s / F_max`` and 0.5 % in K (the answer moves far
     less in between).
     """
-    F = max(max_thrust_N, 1e-9)
-    rho = _resistance(vehicle, grade_deg) / F
-    sigma = patch_load(vehicle, grade_deg) * slip_sinkage / F
-    return _optimal(
+    return optimal_slip_on_load(
         vehicle.track_length,
-        round(rho / 0.002),
+        max_thrust_N,
+        shear_modulus_m,
+        _resistance(vehicle, grade_deg),
+        patch_load(vehicle, grade_deg),
+        slip_sinkage,
+    )
+
+
+def optimal_slip_on_load(
+    track_length: float,
+    max_thrust_N: float,
+    shear_modulus_m: float,
+    resistance_N: float,
+    normal_load_N: float,
+    slip_sinkage: float = 0.0,
+) -> float | None:
+    """:func:`optimal_slip` with the patch's rolling and grade resistance and normal load given (N): a
+    controller that holds them per patch asks this at every sample (the vehicle's hash for the cached load
+    and the resistance's sine cost more than the answer's cached look-up)."""
+    F = max(max_thrust_N, 1e-9)
+    return _optimal(
+        track_length,
+        round(resistance_N / F / 0.002),
         round(math.log(max(shear_modulus_m, 1e-6)) / 0.005),
-        round(sigma / 0.002),
+        round(normal_load_N * slip_sinkage / F / 0.002),
     )
 
 
