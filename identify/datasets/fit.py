@@ -369,7 +369,8 @@ def fit_datasets(
     ----------
     datasets
         Two or more :class:`~soiltrack.soilmodel.wheel_sweep.WheelSweep` (or drawbar-pull
-        SlipData with the load per row), :class:`~soiltrack.soilmodel.ShearTest`,
+        SlipData with the load per row; with a tracked Vehicle a track sweep, weighted by its per-row std
+        column as its single fit is, or a drive log), :class:`~soiltrack.soilmodel.ShearTest`,
         :class:`~soiltrack.soilmodel.bevameter_records.AnnulusTest` or
         :class:`~soiltrack.soilmodel.PlateTest`.
     running_gear
@@ -377,7 +378,9 @@ def fit_datasets(
     labels
         Names of the data sets in the report (default their files).
     effects
-        ``("slip_sinkage",)``: each wheel's own slip-sinkage coefficient (gear-specific) is fitted.
+        ``("slip_sinkage",)``: each wheel's own slip-sinkage coefficient (gear-specific) is fitted. With a
+        tracked vehicle's data set (a track sweep, a drive log) any effect is refused, naming the data set
+        and the effect: their blocks are the models without effects.
     fixed
         Soil parameters held (``{name: SI value}``, names of the wheel fit).
     bounds, settings
