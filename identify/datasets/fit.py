@@ -306,7 +306,7 @@ def _own_theta(data, gear, spec, fixed, effects, bounds, settings, official=None
     """The library's own fit of one data set (its outcome) and start 8-vectors from it."""
     if spec.kind in TRACK_KINDS:
         if official is None:
-            from ..fitting import fit as single_fit
+            from .. import fit as single_fit  # the public face (identify.fitting calls this module: no cycle)
 
             # the library's single fit of the sweep (its weights, outcome, lack of fit against the repeats)
             official = single_fit(data, gear)
