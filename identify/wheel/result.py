@@ -245,7 +245,7 @@ class WheelFitResult:
             determined=self.determined if self.success else (),
             lack_of_fit=test,
         )
-        held = {e.name: e.value for e in self.parameters.values() if e.fixed}
+        held = {e.name: float(e.value) for e in self.parameters.values() if e.fixed and e.value is not None}
         if base.outcome == "usable" and self.wheel.grouser_height > 0 and not grousers_separable(held):
             return Outcome("poor_fit", grouser_spacing_reason(self.wheel.grouser_height))
         return base
