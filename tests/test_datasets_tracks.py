@@ -145,17 +145,22 @@ def _plate(seed: int):
 KEYS = ("cohesion_kpa", "friction_angle_deg", "shear_modulus_m")
 
 
-def test_a_weighted_sweep_enters_the_joint_fit_as_its_single_fit():
+@pytest.mark.parametrize("measured", ["tractive_force", "drawbar_pull"])
+def test_a_weighted_sweep_enters_the_joint_fit_as_its_single_fit(measured):
     """Per-row std column (and repeats): the sweep's block alone is the single fit's weighted least squares - the
     same estimate and standard errors; beside a plate test (disjoint parameters) the joint c, phi, K are the
-    single fit's and their covariance the single fit's up to the one pooled noise factor."""
+    single fit's and their covariance the single fit's up to the one pooled noise factor. A drawbar-pull sweep
+    (the thrust less mu_r W, its std column ``drawbar_pull_std_N``) the same way."""
     d = _rig_sweep(11)
+    if measured == "drawbar_pull":
+        pull = d.values - V.rolling_resistance * d.normal_load
+        d = SlipData(slip=d.slip, drawbar_pull=pull, normal_load=d.normal_load, force_std=d.force_std, source="rig")
     one = fit(d, V)
-    assert one.extra["weights_from"] == "tractive_force_std_N" and "lack_of_fit" in one.extra
+    assert one.extra["weights_from"] == f"{measured}_std_N" and "lack_of_fit" in one.extra
     r = fit([d, _plate(2)], [V, None], labels=["rig", "plate"])
     own = r.datasets[0]
     assert own["outcome"] == one.outcome == "usable"
-    assert list(own["noise_sd"]) == ["tractive_force_N_per_std"]
+    assert list(own["noise_sd"]) == [f"{measured}_N_per_std"]
     cov_one = np.asarray(one.covariance)
     se_one = np.sqrt(np.diag(cov_one))
     for q, (k, edge) in enumerate(zip(KEYS, (1e-3, 180 / math.pi, 1.0))):  # SI -> the report's units
