@@ -102,7 +102,7 @@ def joint_fit_command(a: argparse.Namespace, read_record) -> int:
         datasets,
         per_file,
         free_grousers=free_h,
-        effects=wheel_effects_arg(a),
+        effects=wheel_effects_arg(a, wheel_only=not any(isinstance(g, Vehicle) for g in per_file)),
         fixed=wheel_fixed_arg(getattr(a, "fix", None), a.model),
         wheel_settings=wheel_settings_arg(a),
         labels=list(files),

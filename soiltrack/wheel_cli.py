@@ -56,11 +56,13 @@ def _refuse(a: argparse.Namespace, allowed: set[str], defaults: dict, what: str)
             raise DataError(f"--{opt.replace('_', '-')} does not apply to a rigid wheel ({what})")
 
 
-def _effects(a: argparse.Namespace) -> tuple[str, ...]:
+def _effects(a: argparse.Namespace, wheel_only: bool = True) -> tuple[str, ...]:
+    """The ``--effect`` names; ``wheel_only``: refused unless an effect of the rigid-wheel model (False: a joint
+    fit with a tracked vehicle's file, which refuses effects itself, naming the file)."""
     from .identify.wheel.fitting import WHEEL_EFFECTS
 
     names = tuple(e.strip() for item in (a.effect or []) for e in item.split(",") if e.strip())
-    bad = [e for e in names if e not in WHEEL_EFFECTS]
+    bad = [e for e in names if e not in WHEEL_EFFECTS] if wheel_only else []
     if bad:
         raise DataError(f"--effect {bad[0]!r} is not an effect of the rigid-wheel model; it has {list(WHEEL_EFFECTS)}")
     return names

@@ -37,3 +37,13 @@ def test_wilson_interval_brackets_the_rate():
     lo, hi = w(95, 100)
     assert 0.88 < lo < 0.95 < hi < 0.99
     assert w(0, 10)[0] == pytest.approx(0.0, abs=1e-12)
+
+
+@pytest.mark.slow
+def test_a_weighted_rig_sweeps_joint_intervals_cover_the_truth():
+    """The rig case (repeats, noise growing with the force, its std per row): 20 replicates on seeds the
+    benchmark's 300 (0-299) do not use; each interval holds the truth in at least 15 (as above)."""
+    out = _bench().run(20, seed0=2000, case="weighted")
+    for key, c in out["covered"].items():
+        assert c >= 15, (key, c, out)
+    assert out["refused"] <= 2, out

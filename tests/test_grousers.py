@@ -7,6 +7,7 @@ thrust with taller grousers, and a fit with the grousers held must recover the s
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -82,3 +83,23 @@ def test_a_grousered_sweep_is_recovered_with_the_grousers_held():
         return p["cohesion_kpa"].value * 1e3 + 20e3 * math.tan(math.radians(p["friction_angle_deg"].value))
 
     assert strength(old) > 1.1 * strength(res)
+
+
+@pytest.mark.slow
+def test_a_grousered_wheel_alone_with_c_and_phi_fitted_is_a_poor_fit_naming_the_spacing():
+    """The grouser spacing is not modelled (docs/physics.md): one grousered wheel's fit with c and phi both free
+    books whatever the grousers do beyond Bekker's term as soil strength, and says so; phi held, it does not."""
+    c, phi, K, _, k_phi, n = SOIL
+    s, dp, W, z = oracle.sweep(
+        [0.05, 0.15, 0.3, 0.5, 0.7], [60.0, 100.0], c, phi, K, k_phi, n, R, B, h=0.012, sd_dp=0.3, sd_z=3e-4, seed=5
+    )
+    data = WheelSweep(slip=s, drawbar_pull=dp, normal_load=W, sinkage=z)
+    wheel = RigidWheel(radius=R, width=B, grouser_height=0.012)
+    res = fit_wheel(data, wheel, WheelFitOptions(fixed={"bekker_kc": 0.0}))
+    assert res.success and res.outcome == "poor_fit"
+    assert "grouser spacing is not modelled" in res.fit_outcome.reason and "h = 12 mm" in res.fit_outcome.reason
+    assert json.loads(res.to_json())["outcome"] == "poor_fit"
+    held = fit_wheel(data, wheel, WheelFitOptions(fixed={"bekker_kc": 0.0, "friction_angle": phi}))
+    assert held.outcome == "usable", held.fit_outcome.reason
+    smooth = fit_wheel(data, RigidWheel(radius=R, width=B), WheelFitOptions(fixed={"bekker_kc": 0.0}))
+    assert "grouser" not in (smooth.fit_outcome.reason or "")

@@ -109,9 +109,9 @@ def _track_block(data, gear) -> tuple[BlockSpec, np.ndarray, Any]:
             f"a {type(data).__name__} in a joint fit needs a tracked Vehicle, got {type(gear).__name__}", file=src
         )
     if isinstance(data, SlipData):
-        W = data.loads(default=gear.weight)
-        spec = BlockSpec("track", data.n_samples, vehicle=gear, measured=data.measured)
-        return spec, np.concatenate([data.slip, W, data.values]), None
+        pb, weighted = _sweep_problem(data, gear)
+        spec = BlockSpec("track", data.n_samples, vehicle=gear, measured=data.measured, weighted=weighted)
+        return spec, np.concatenate([pb.slip, pb.load, data.values, pb.sigma]), None
     if not isinstance(data, DriveLog):
         raise DataError(
             f"a {type(data).__name__} in a joint fit needs a RigidWheel; with a tracked Vehicle a joint fit takes "
@@ -122,6 +122,18 @@ def _track_block(data, gear) -> tuple[BlockSpec, np.ndarray, Any]:
 
     own = fit_drive_log(data, gear)
     return BlockSpec("drivelog", data.n_samples, vehicle=gear), _summary_vector(own, gear, src), own
+
+
+def _sweep_problem(data: SlipData, gear: Vehicle) -> tuple[Any, bool]:
+    """The single fit's problem of a track sweep (:func:`soiltrack.identify.fit`'s rule: a per-row std column,
+    :func:`~soiltrack.identify.sweep.rig.std_weights`, gives relative weights, the level estimated) and whether
+    it is weighted (a std column; else every weight is 1)."""
+    from ...soilmodel.soil import PRACTICAL_BOUNDS
+    from ..sweep.problem import make_problem
+    from ..sweep.rig import std_weights
+
+    std = std_weights(data)
+    return make_problem(data, gear, "full", PRACTICAL_BOUNDS, sigma=std, sigma_known=False), std is not None
 
 
 def _summary_vector(own, gear: Vehicle, src) -> np.ndarray:
@@ -294,12 +306,10 @@ def _own_theta(data, gear, spec, fixed, effects, bounds, settings, official=None
     """The library's own fit of one data set (its outcome) and start 8-vectors from it."""
     if spec.kind in TRACK_KINDS:
         if official is None:
-            from ...soilmodel.soil import PRACTICAL_BOUNDS
-            from ..sweep.ipopt import fit_ipopt
-            from ..sweep.problem import make_problem
+            from .. import fit as single_fit  # the public face (identify.fitting calls this module: no cycle)
 
-            # the sweep fit's problem and solver (its outcome), without identify.fitting's extras
-            official = fit_ipopt(make_problem(data, gear, "full", PRACTICAL_BOUNDS))
+            # the library's single fit of the sweep (its weights, outcome, lack of fit against the repeats)
+            official = single_fit(data, gear)
         starts = [_default8(official.theta)] if official.success and np.all(np.isfinite(official.theta)) else []
         return starts, official
     if spec.kind == "wheel":
@@ -359,7 +369,8 @@ def fit_datasets(
     ----------
     datasets
         Two or more :class:`~soiltrack.soilmodel.wheel_sweep.WheelSweep` (or drawbar-pull
-        SlipData with the load per row), :class:`~soiltrack.soilmodel.ShearTest`,
+        SlipData with the load per row; with a tracked Vehicle a track sweep, weighted by its per-row std
+        column as its single fit is, or a drive log), :class:`~soiltrack.soilmodel.ShearTest`,
         :class:`~soiltrack.soilmodel.bevameter_records.AnnulusTest` or
         :class:`~soiltrack.soilmodel.PlateTest`.
     running_gear
@@ -367,7 +378,9 @@ def fit_datasets(
     labels
         Names of the data sets in the report (default their files).
     effects
-        ``("slip_sinkage",)``: each wheel's own slip-sinkage coefficient (gear-specific) is fitted.
+        ``("slip_sinkage",)``: each wheel's own slip-sinkage coefficient (gear-specific) is fitted. With a
+        tracked vehicle's data set (a track sweep, a drive log) any effect is refused, naming the data set
+        and the effect: their blocks are the models without effects.
     fixed
         Soil parameters held (``{name: SI value}``, names of the wheel fit).
     bounds, settings
@@ -386,13 +399,14 @@ def fit_datasets(
         raise DataError(f"a joint fit needs at least two data sets, got {len(datasets)}")
     fixed = dict(fixed or {})
     effects = tuple(effects)
-    WheelFitOptions(fixed=fixed, effects=effects, bounds=bounds, settings=settings)  # checks names and values
     gears = _gears(datasets, running_gear)
     labels = (
         list(labels)
         if labels is not None
         else [getattr(d, "source", f"data set {k + 1}") for k, d in enumerate(datasets)]
     )
+    _refuse_track_effects(datasets, gears, labels, effects)
+    WheelFitOptions(fixed=fixed, effects=effects, bounds=bounds, settings=settings)  # checks names and values
     t0 = time.perf_counter()
     free_h = set(int(k) for k in free_grousers)
     bad = sorted(k for k in free_h if not (0 <= k < len(datasets)) or not isinstance(gears[k], RigidWheel))
@@ -418,6 +432,23 @@ def fit_datasets(
         bounds=bounds,
         solve_time_s=time.perf_counter() - t0,
     )
+
+
+def _refuse_track_effects(datasets, gears, labels, effects: tuple[str, ...]) -> None:
+    """Effects with a tracked vehicle's data set are refused, naming the data set and the effects: the joint
+    fit's track and drive-log blocks are the models without effects (never silently dropped)."""
+    if not effects:
+        return
+    for d, g, lab in zip(datasets, gears, labels):
+        if isinstance(g, Vehicle) or isinstance(d, DriveLog):
+            kind = "drive log" if isinstance(d, DriveLog) else "track sweep"
+            raise DataError(
+                f"effect(s) {', '.join(map(repr, effects))} with the {kind} {lab!r}: a joint fit has no effects for "
+                "a tracked vehicle's data (its block is the model without them, and an effect of the wheels only "
+                "would leave the track's unmodelled); fit it alone with its effects (soiltrack.identify.fit(data, "
+                "vehicle, effects=[...]), `soiltrack fit FILE --vehicle V --effect NAME`) or drop the effect",
+                file=getattr(d, "source", None),
+            )
 
 
 def _lr_p(own, sol) -> float | None:

@@ -14,7 +14,11 @@ the likelihood-ratio statistic. Blocks:
 - ``plate``: a plate sinkage test (Bekker pressure): k_c, k_phi, n;
 - ``track``: a tracked vehicle's slip sweep (tractive force or drawbar pull against slip, the
   sweep fit's own observation Function, :func:`soiltrack.identify.sweep.model.observation_function`,
-  without effects): c, phi, K;
+  without effects - a joint fit refuses effects with a track data set): c, phi, K. Each row's residual
+  is divided by its weight ``sigma_k`` from the single fit's own rule (the sweep problem's
+  :attr:`~soiltrack.identify.sweep.problem.SlipProblem.sigma`: the per-row std column as relative
+  weights, else ones), so the block is ``n/2 log(sum (r_k / sigma_k)^2 + n floor^2)``, the concentrated
+  likelihood of noise ``s sigma_k`` with ``s`` unknown: alone, the single fit's weighted least squares;
 - ``drivelog``: a drive log, entered as its own fit's estimate of ``(F_max, K)`` with their
   covariance (the log's likelihood to second order at its optimum; the latent-slip fit is
   :func:`soiltrack.identify.drivelog.fit.fit_drive_log`'s): ``F_max = A c + W tan(phi)``
@@ -91,7 +95,9 @@ class BlockSpec:
     ``kind`` one of ``wheel``, ``shear``, ``annulus``, ``plate``, ``track``, ``drivelog``; ``n`` its rows;
     for a wheel its :class:`RigidWheel`, the model settings, whether sinkage and torque are measured and
     whether its slip-sinkage coefficient is free; for a track sweep or a drive log its :class:`Vehicle`
-    (and for a sweep the measured quantity, ``tractive_force`` or ``drawbar_pull``).
+    (and for a sweep the measured quantity, ``tractive_force`` or ``drawbar_pull``, and ``weighted``: whether
+    its rows carry the per-row std column's weights; its channel is then the residual in units of each row's
+    std, ``{measured}_N_per_std``).
     """
 
     kind: str
@@ -104,6 +110,7 @@ class BlockSpec:
     grouser_free: bool = False
     vehicle: Vehicle | None = None
     measured: str = "tractive_force"
+    weighted: bool = False
 
     @property
     def p_size(self) -> int:
@@ -112,7 +119,7 @@ class BlockSpec:
             return (6 if self.torque else 4) * self.n
         if self.kind == "drivelog":
             return _SUMMARY_P
-        return {"shear": 3, "annulus": 5, "plate": 3, "track": 3}[self.kind] * self.n + (
+        return {"shear": 3, "annulus": 5, "plate": 3, "track": 4}[self.kind] * self.n + (
             1 if self.kind == "plate" else 0
         )
 
@@ -129,7 +136,7 @@ class BlockSpec:
             "shear": ("shear_stress_Pa",),
             "annulus": ("torque_per_ring_Pa",),
             "plate": ("pressure_Pa",),
-            "track": (f"{self.measured}_N",),
+            "track": (f"{self.measured}_N_per_std" if self.weighted else f"{self.measured}_N",),
             "drivelog": (SUMMARY_CHANNEL,),
         }[self.kind]
 
@@ -203,11 +210,11 @@ def _track_block(spec: BlockSpec, theta, p) -> tuple[Any, list[tuple[Any, Any]]]
         r = ca.mtimes(L, ca.vertcat(max_thrust_expr(c, phi, W, A, "full"), K) - g_hat)
         return 0.5 * ca.sumsqr(r), [(r, ca.DM(0.0))]
     n = spec.n
-    i, W, y = p[0:n], p[n : 2 * n], p[2 * n : 3 * n]
+    i, W, y, sigma = p[0:n], p[n : 2 * n], p[2 * n : 3 * n], p[3 * n : 4 * n]
     obs = observation_function(spec.vehicle, None, "full", spec.measured).map(n)
     y_model = obs(i.T, W.T, ca.repmat(ca.vertcat(c, phi, K), 1, n))[0].T
-    r = y_model - y
-    floor = NOISE_FLOOR_REL * ca.mmax(ca.fabs(y))
+    r = (y_model - y) / sigma  # the single fit's weighted residual (sigma all ones without a std column)
+    floor = NOISE_FLOOR_REL * ca.mmax(ca.fabs(y / sigma))
     return _floor_term(r, floor, n), [(r, floor)]
 
 

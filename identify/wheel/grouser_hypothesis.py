@@ -24,7 +24,7 @@ from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.search import golden_section
 from ...soilmodel.wheel_sweep import WheelSweep
 from .fitting import WheelFitOptions, fit_wheel
-from .result import WheelFitResult
+from .result import WheelFitResult, grousers_separable
 
 __all__ = ["GROUSER_HYPOTHESIS", "grouser_height_bounds", "grouser_hypothesis", "grousers_weighable"]
 
@@ -46,7 +46,7 @@ def grousers_weighable(options: WheelFitOptions) -> bool:
 
     c held at 0 (``--model cohesion-free``) does not count: the factor on c then multiplies nothing.
     """
-    return "friction_angle" in options.fixed or options.fixed.get("cohesion", 0.0) > 0
+    return grousers_separable(dict(options.fixed))
 
 
 def _profile(fit_at: Callable[[float], tuple[float, WheelFitResult]], hi: float) -> tuple[float, float, WheelFitResult]:

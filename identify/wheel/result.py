@@ -45,6 +45,8 @@ __all__ = [
     "SLIP_LEVEL_TOL",
     "LOAD_SLIP_CORRELATION_WARN",
     "LOAD_SPREAD_MIN",
+    "grousers_separable",
+    "grouser_spacing_reason",
 ]
 
 #: Distance to a bound, as a fraction of the bound range, below which a parameter is on it (the one
@@ -71,6 +73,28 @@ _EDGE = {
 
 def _num(x: float | None) -> float | None:
     return None if x is None or not math.isfinite(x) else float(x)
+
+
+def grousers_separable(fixed: dict[str, float]) -> bool:
+    """Whether one grousered wheel's fit can tell the grousers from the soil: phi held, or c held above 0.
+
+    Bekker's grouser factors multiply c and tan(phi) (:mod:`soiltrack.soilmodel.grousers`), so with both
+    fitted any grouser effect the model misses is booked as soil strength. ``fixed``: the held parameters
+    ``{name: SI value}`` (c held at 0, the cohesion-free model, does not count: its factor multiplies nothing).
+    """
+    return "friction_angle" in fixed or fixed.get("cohesion", 0.0) > 0
+
+
+def grouser_spacing_reason(height: float) -> str:
+    """Why a grousered wheel's own fit with c and phi both fitted is a ``poor_fit`` (docs/physics.md)."""
+    return (
+        f"a grousered wheel (h = {1e3 * height:.3g} mm) with c and phi both fitted on it alone: the model's grouser "
+        "term is Bekker's side shear, which assumes grousers close enough that the soil between them moves with "
+        "the wheel; the grouser spacing is not modelled (sparse grousers push soil ahead of the wheel: more "
+        "resistance, Skonieczny, Moreland and Wettergreen, IROS 2012), so whatever the grousers do beyond Bekker's "
+        "term is booked as soil strength. Hold phi (a shear test: --fix) or fit this wheel beside a smooth wheel "
+        "on the same soil (a joint fit, whose consistency test checks the grouser term)"
+    )
 
 
 @dataclass(frozen=True)
@@ -215,12 +239,16 @@ class WheelFitResult:
                 (int(lf["lack_of_fit_dof"]), int(lf["pure_error_dof"])),
                 float(lf["p_value"]),
             )
-        return decide_outcome(
+        base = decide_outcome(
             solver_ok=self.success,
             failure=self.message or self.status,
             determined=self.determined if self.success else (),
             lack_of_fit=test,
         )
+        held = {e.name: float(e.value) for e in self.parameters.values() if e.fixed and e.value is not None}
+        if base.outcome == "usable" and self.wheel.grouser_height > 0 and not grousers_separable(held):
+            return Outcome("poor_fit", grouser_spacing_reason(self.wheel.grouser_height))
+        return base
 
     @property
     def outcome(self) -> str:
