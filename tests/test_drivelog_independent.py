@@ -9,7 +9,6 @@ docs/drivelogs.md ("The F_max bias on logs from independent code").
 from __future__ import annotations
 
 import importlib
-import math
 import os
 import sys
 
@@ -69,15 +68,24 @@ def test_held_torque_relaxation_bias_on_independent_noise_free_pulls():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="open: K about 5 % low on independent noisy hard pulls (slip-noise bias)")
-def test_intervals_hold_the_truth_on_independent_noisy_pulls():
-    """Independent noisy hard pulls, 3 seeds x 5 min: the 95 % intervals of K should hold the truth.
+def test_the_command_line_fit_holds_the_truth_on_independent_noisy_pulls():
+    """Held-out seeds 21-24, 5 min each: the command line's fit (the discretisation check) is unbiased.
 
-    They do not (10 min, 8 seeds: K -5.5 % +- 0.5 %, 0 of 8 intervals hold it; F_max -0.6 % +- 0.1 %).
+    On these logs the end-point rule puts K about 5 % low (10 min, seeds 1-8: K -5.5 % +- 0.5 %, mean z
+    -4.4, 0 of 8 intervals hold it); the check sees the two rules disagree and reports the relaxation fit
+    (seeds 1-8: F_max -0.19 % +- 0.11 %, mean z -0.64; K +1.1 % +- 0.5 %, mean z +0.9).
     """
     sim = _sim()
-    z = []
-    for log in sim.simulate([21, 22, 23], duration_s=300.0):
-        ex = fit(_drive_log(log), VEHICLES["light"]).extra
-        z.append((ex["shear_modulus_m"] - log["truth"]["K"]) / ex["shear_modulus_stderr_m"])
-    assert all(abs(v) < 1.959963984540054 for v in z) and math.isfinite(sum(z))
+    zF, zK, zK_end = [], [], []
+    for log in sim.simulate([21, 22, 23, 24], duration_s=300.0):
+        res = fit(_drive_log(log), VEHICLES["light"], discretisation_check=True)
+        ex, chk = res.extra, res.extra["discretisation_check"]
+        assert res.success and chk["compared"]
+        zF.append((ex["max_thrust_N"] - log["truth"]["F_max"]) / ex["max_thrust_stderr_N"])
+        zK.append((ex["shear_modulus_m"] - log["truth"]["K"]) / ex["shear_modulus_stderr_m"])
+        # the end-point fit's own standard error is the one the shift is measured in
+        se_end = (chk["end_point_shear_modulus_m"] - chk["relaxation_shear_modulus_m"]) / -chk["shear_modulus_shift_se"]
+        zK_end.append((chk["end_point_shear_modulus_m"] - log["truth"]["K"]) / se_end)
+    assert np.mean(zK_end) < -2.0  # the end-point rule alone misses
+    assert abs(np.mean(zF)) < 1.5 and abs(np.mean(zK)) < 1.5
+    assert sum(abs(z) < 1.959963984540054 for z in zF + zK) >= 6  # of 8 intervals
