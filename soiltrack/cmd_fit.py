@@ -331,7 +331,8 @@ def _add_model_options(f: argparse.ArgumentParser) -> None:
         choices=DISCRETISATIONS,
         default=None,
         help="drive logs with a held torque: how the sprocket equation's interval means meet the slip at "
-        "the samples (default: end-point). end-point: the interval's mean on the slip at its end (the "
+        "the samples (default: both fitted; the relaxation fit is reported where the two disagree beyond 2 "
+        "standard errors, else the end-point fit). end-point: the interval's mean on the slip at its end (the "
         "quasi-static limit; on hard pulls at 50 Hz F_max comes out a few percent high); relaxation: the "
         "thrust at each sample from the two interval means around it, weighted by the slip's relaxation "
         "after each torque step (right on hard pulls, intervals a little narrow on gentle driving); see "
