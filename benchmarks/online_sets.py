@@ -6,7 +6,7 @@ the same design and different seeds (so different pull timings, change times and
 - change logs: heavy and light vehicles x flat and 10 deg x pulls every 4-6, 12-18 and 25-35 s
   (heavy pulls 2-4 s, light 0.1-0.3 s, to 90-97 % of F_max) x F_max down 20-40 %, F_max up 20-40 %
   and K alone x2 = 36 logs of ``CHANGE_LOG_S`` seconds, one change each in the log's second half:
-  two of every three between two pulls (a random point of a gap), one inside a pull;
+  three of every four between two pulls (a random point of a gap), one inside a pull;
 - uniform soil: four 15-minute logs (heavy and light, flat and 10 deg, pulls every 5-30 s) = one hour,
   where every alarm is false.
 
@@ -53,7 +53,7 @@ def cases(name: str) -> list[dict]:
                             kind=kind,
                             seed=base + k,
                             frac=float(rnd.uniform(0.2, 0.4)),
-                            where="pull" if k % 3 == 0 else "gap",
+                            where="pull" if k % 4 == 0 else "gap",
                             pos=float(rnd.uniform(0.2, 0.8)),
                             duration=CHANGE_LOG_S,
                         )
