@@ -348,6 +348,9 @@ def main(argv=None) -> int:
         default=None,
         help="the detector's fixed log sets (online_sets.py): 36 change logs and one uniform hour each",
     )
+    ap.add_argument(
+        "--setting", action="append", default=[], metavar="NAME=VALUE", help="with --set: an OnlineSettings value"
+    )
     ap.add_argument("--only", default=None, help="with --set: only the logs whose label contains this text")
     ap.add_argument("--timing", action="store_true", help="the timing study of issue 22 instead of the comparison")
     ap.add_argument("--quick", action="store_true", help="with --timing: 50 Hz only, 2 x 5-minute false-alarm logs")
@@ -368,7 +371,11 @@ def main(argv=None) -> int:
         if a.set:
             import online_sets
 
-            online_sets.run_set(a.set, names if a.estimators_given else ("held",), only=a.only)
+            over = {}
+            for kv in a.setting:
+                k, _, v = kv.partition("=")
+                over[k] = int(v) if v.lstrip("-").isdigit() else float(v)
+            online_sets.run_set(a.set, names if a.estimators_given else ("held",), only=a.only, overrides=over)
             return 0
         online_compare.compare(a.size, names, a.duration, a.uniform_s, logs=a.logs)
         return 0

@@ -113,8 +113,18 @@ def label(sc: dict) -> str:
     )
 
 
-def run_set(name: str, estimators=("held",), out=print, only: str | None = None) -> dict:
-    """Replay the set through the estimators and print per-log lines and one table; the totals."""
+def run_set(name: str, estimators=("held",), out=print, only: str | None = None, overrides=None) -> dict:
+    """Replay the set through the estimators and print per-log lines and one table; the totals.
+
+    ``overrides``: ``{setting: value}`` given to every ``OnlineSettings`` of the held and window
+    estimators (to compare a setting's values on the tuning set).
+    """
+    if overrides:
+        import functools
+
+        from soiltrack.identify import OnlineSettings
+
+        oc.OnlineSettings = functools.partial(OnlineSettings, **overrides)  # type: ignore[assignment]
     tot = {
         n: dict(dF=[], dK=[], mF=0, mK=0, nF=0, nK=0, false=0, false_uni=0, hours=0.0, err=[], cover=[], cpu=[], win=[])
         for n in estimators
@@ -148,7 +158,7 @@ def run_set(name: str, estimators=("held",), out=print, only: str | None = None)
                 f" alarms {[round(a, 2) for a in run['alarms']]} change {[round(c, 2) for c in changes]}"
             )
         out(" ".join(parts), flush=True)
-    out(f"\nset {name} (seed base {SETS[name]}):")
+    out(f"\nset {name} (seed base {SETS[name]}), settings changed: {overrides or 'none'}:")
     out(
         "| estimator | F_max changes detected <= 1 s | K x2 detected <= 1 s | missed (F / K) | "
         "false alarms (all logs) | per uniform hour | F_max error median / p95 | 95 % coverage | "
