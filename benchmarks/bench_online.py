@@ -328,6 +328,17 @@ def _slope_logs(deg: float, low: float, high: float, seeds) -> None:
         )
 
 
+def _run_set(a, names) -> None:
+    """``--set``: the detector's fixed log sets (``online_sets.py``), the held estimator unless ``--estimators``."""
+    import online_sets
+
+    over: dict = {}
+    for kv in a.setting:
+        k, _, v = kv.partition("=")
+        over[k] = int(v) if v.lstrip("-").isdigit() else float(v)
+    online_sets.run_set(a.set, names if a.estimators_given else ("held",), only=a.only, overrides=over)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
@@ -369,13 +380,7 @@ def main(argv=None) -> int:
             ap.error(f"--estimators: unknown {bad}; choose from {list(online_compare.ESTIMATORS)}")
         print("machine load (1-min average) at the start:", open("/proc/loadavg").read().split()[0])
         if a.set:
-            import online_sets
-
-            over = {}
-            for kv in a.setting:
-                k, _, v = kv.partition("=")
-                over[k] = int(v) if v.lstrip("-").isdigit() else float(v)
-            online_sets.run_set(a.set, names if a.estimators_given else ("held",), only=a.only, overrides=over)
+            _run_set(a, names)
             return 0
         online_compare.compare(a.size, names, a.duration, a.uniform_s, logs=a.logs)
         return 0
