@@ -27,6 +27,8 @@ refit with ``fit``, an EKF on (F_max, K) and a recursive Bayes filter over a ter
     python benchmarks/bench_online.py --size medium            # all five, 24 change logs
     python benchmarks/bench_online.py --timing                 # the timing study of issue 22 (10 minutes)
     python benchmarks/bench_online.py --timing --quick         # one rate, shorter false-alarm logs
+    python benchmarks/bench_online.py --set tuning             # the detector's tuning set (held only)
+    python benchmarks/bench_online.py --set heldout            # ... its held-out set (report only)
     python benchmarks/bench_online.py --slope                  # the known grade, with and without (about 30 s)
 """
 
@@ -326,6 +328,17 @@ def _slope_logs(deg: float, low: float, high: float, seeds) -> None:
         )
 
 
+def _run_set(a, names) -> None:
+    """``--set``: the detector's fixed log sets (``online_sets.py``), the held estimator unless ``--estimators``."""
+    import online_sets
+
+    over: dict = {}
+    for kv in a.setting:
+        k, _, v = kv.partition("=")
+        over[k] = int(v) if v.lstrip("-").isdigit() else float(v)
+    online_sets.run_set(a.set, names if a.estimators_given else ("held",), only=a.only, overrides=over)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
@@ -340,10 +353,21 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=120.0, help="comparison: length of each change log, s")
     ap.add_argument("--uniform-s", type=float, default=600.0, help="comparison: length of each uniform-soil log, s")
     ap.add_argument("--logs", type=int, default=None, help="comparison: only the first N change logs")
+    ap.add_argument(
+        "--set",
+        choices=("tuning", "heldout"),
+        default=None,
+        help="the detector's fixed log sets (online_sets.py): 36 change logs and one uniform hour each",
+    )
+    ap.add_argument(
+        "--setting", action="append", default=[], metavar="NAME=VALUE", help="with --set: an OnlineSettings value"
+    )
+    ap.add_argument("--only", default=None, help="with --set: only the logs whose label contains this text")
     ap.add_argument("--timing", action="store_true", help="the timing study of issue 22 instead of the comparison")
     ap.add_argument("--quick", action="store_true", help="with --timing: 50 Hz only, 2 x 5-minute false-alarm logs")
     ap.add_argument("--slope", action="store_true", help="only the known-grade study (8 deg, with and without)")
     a = ap.parse_args(argv)
+    a.estimators_given = any(x.startswith("--estimators") for x in (argv if argv is not None else sys.argv[1:]))
     if a.slope:
         slope_study()
         return 0
@@ -355,6 +379,9 @@ def main(argv=None) -> int:
         if bad:
             ap.error(f"--estimators: unknown {bad}; choose from {list(online_compare.ESTIMATORS)}")
         print("machine load (1-min average) at the start:", open("/proc/loadavg").read().split()[0])
+        if a.set:
+            _run_set(a, names)
+            return 0
         online_compare.compare(a.size, names, a.duration, a.uniform_s, logs=a.logs)
         return 0
     veh = VEHICLES["light"]

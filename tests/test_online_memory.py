@@ -199,9 +199,17 @@ def test_a_held_estimate_of_one_excitation_declares_no_change():
     pulls = random_pulls(120.0, (20, 30), (2.0, 4.0), (0.9, 0.97), 8)[:1]
     cols = simulate("heavy", lambda t: SOILS["lete_sand"], 12.0, pulls, grade_deg=10.0, seed=8)
     g = math.radians(10.0)
-    off = OnlineEstimator(VEHICLES["heavy"], OnlineSettings(grade_rad=g, detect_min_excitations=1))
+    # the mechanism is there without the rule - and without the first estimate's likelihood-ratio check
+    # (identify_reject_factor): that check alone no longer holds the ramp's 120 +- 7 kN at 1.98 s (the first
+    # held estimate is 203 +- 10 kN at 2.38 s), so it raises no alarm either
+    off = OnlineEstimator(
+        VEHICLES["heavy"], OnlineSettings(grade_rad=g, detect_min_excitations=1, identify_reject_chi2=1e-9)
+    )
     _replay(off, cols)
-    assert len(off.changes) >= 1  # the mechanism is there without the rule
+    assert len(off.changes) >= 1
+    lr_only = OnlineEstimator(VEHICLES["heavy"], OnlineSettings(grade_rad=g, detect_min_excitations=1))
+    _replay(lr_only, cols)
+    assert lr_only.changes == []
     est = OnlineEstimator(VEHICLES["heavy"], OnlineSettings(grade_rad=g))
     hist = _replay(est, cols)
     assert est.changes == []
@@ -245,3 +253,33 @@ def test_nothing_held_nothing_tested():
     est = OnlineEstimator(VEHICLES["light"])
     _replay(est, cols)
     assert est.changes == []
+
+
+@pytest.mark.slow
+def test_few_plateau_samples_need_a_larger_contradiction():
+    """The horizon test's threshold grows as its plateau thins (``detect_window_plateau_samples``).
+
+    The tuning set's first log (``bench_online.py --set tuning``: heavy, flat, pulls every 4-6 s, F_max down 29 %
+    at 71.37 s, seed 3001): 0.4 s into the pull at 59.3 s a horizon with 3-4 samples on its plateau said F_max
+    179 +- 6 kN against a held 205 +- 2 kN (truth 202 kN), d2 45.8 and 35.0: with the threshold unscaled
+    (``detect_window_plateau_samples=1``) a false alarm at 59.78 s; now none, and the change is flagged at the
+    first pull on the new soil (d2 259 from 5 plateau samples) with its window holding the true time."""
+    veh = OV["heavy"]
+    old = SOILS["lete_sand"]
+    c, phi, K = old
+    s = 1 - 0.2873030873840089
+    c1 = c * s
+    new = (c1, math.atan((s * f_max(old, veh) - 2 * veh["b"] * veh["l"] * c1) / veh["W"]), K)
+    tc = 71.36700734450065
+    pulls = random_pulls(150.0, (4.0, 6.0), (2.0, 4.0), (0.9, 0.97), 3001)
+    cols = simulate("heavy", lambda t: old if t < tc else new, 90.0, pulls, seed=3001)
+    off = OnlineEstimator(VEHICLES["heavy"], OnlineSettings(detect_window_plateau_samples=1))
+    _replay(off, cols)
+    assert off.changes and off.changes[0]["detected_at_s"] < tc  # the mechanism is there without the rule
+    est = OnlineEstimator(VEHICLES["heavy"])
+    _replay(est, cols)
+    assert len(est.changes) == 1
+    ch = est.changes[0]
+    assert tc < ch["detected_at_s"] <= 76.2 and ch["window_s"][0] <= tc <= ch["window_s"][1]
+    with pytest.raises(Exception, match="detect_window_plateau_samples"):
+        OnlineSettings(detect_window_plateau_samples=0)

@@ -67,6 +67,8 @@ START_THRUST_FACTOR = 1.2
 MIN_NOISE_SAMPLES = 8
 #: Informative samples closer than this belong to one excitation (a pull), s (change windows).
 EXCITATION_GAP_S = 0.5
+#: Newton steps on K at the larger F_max of :meth:`OnlineEstimator._rejects_larger`.
+_REJECT_K_STEPS = 6
 #: Turning-noise levels are re-estimated this often while fewer than ``turn_history`` are known.
 _TURN_REESTIMATE_EARLY = 8
 
@@ -886,7 +888,8 @@ class OnlineEstimator:
         if enough and abs(corr) < GENTLE_CORRELATION and sF_ / F < GENTLE_REL_STDERR and not F_bound:
             # the horizon's largest thrust, two standard deviations below its value
             peak = max(self._peaks[0][2], 0.0) if self._peaks else 0.0
-            if peak >= self.settings.identify_min_utilisation * F:
+            first = self.settings.memory and not self._held.known  # the first estimate of a soil
+            if peak >= self.settings.identify_min_utilisation * F and (not first or self._rejects_larger(xF, xK)):
                 w.update(ident=("slope", "max_thrust"), sF=sF_)
                 # F_max is determined: hold it there (weakly) while later horizons do not determine it
                 self._P[_P["xF_prior"]] = xF
@@ -898,6 +901,59 @@ class OnlineEstimator:
                     w.update(ident=("slope", "max_thrust", "shear_modulus"), sK=sK_)
                     w["cov"] = np.array([[v11, v12], [v12, v22]])
         return w
+
+    def _rejects_larger(self, xF: float, xK: float) -> bool:
+        """Whether the horizon's data reject ``identify_reject_factor`` times its F_max (K refitted).
+
+        The profiled cost at F_max x factor, minimised over K by :data:`_REJECT_K_STEPS` Newton
+        steps (the slips at their optimum in each kernel pass), against the cost at the estimate:
+        twice the rise, in noise variances, must exceed ``identify_reject_chi2``. A likelihood-ratio
+        check that does not rest on the estimate's own covariance or F_max (a gentle horizon's
+        F_max along the ridge passes a utilisation test relative to itself). The horizon's state
+        is restored.
+        """
+        s, P = self.settings, self._P
+        keep = (P.copy(), self._Z.copy(), self._sums.copy(), self._x_out.copy(), self._Z_out.copy())
+        cost0 = self._sl[_S["cost"]]
+        (Flo, Fhi), (Klo, Khi) = self._bounds_scaled
+        P[_P["xF"]] = min(s.identify_reject_factor * xF, Fhi)
+        P[_P["xK"]] = min(s.identify_reject_factor * xK, Khi)  # the same small-slip slope to start from
+        P[_P["w_prior"]] = 0.0
+        P[_P["max_step"]] = 0.0  # the kernel's own step is not taken: its slips stay at their optimum
+        best = math.inf
+        try:
+            for _ in range(_REJECT_K_STEPS):
+                self._c_step()
+                sl = self._sums
+                best = min(best, float(sl[_S["cost"]]))
+                np.copyto(self._Z, self._Z_out)
+                g2, a22 = float(sl[_S["g2"]]), float(sl[_S["A22"]])
+                if a22 <= 0:
+                    a22 = float(sl[_S["S22"]])
+                xk = P[_P["xK"]]
+                step = -g2 / a22 if a22 > 0 else 0.0
+                P[_P["xK"]] = min(max(xk + max(min(step, 0.25 * xk), -0.25 * xk), Klo), Khi)
+        finally:
+            P[:], self._Z[:], self._sums[:], self._x_out[:], self._Z_out[:] = keep
+        sc = self._scale()
+        return bool(math.isfinite(best) and 2.0 * (best - cost0) / (sc * sc) > s.identify_reject_chi2)
+
+    def _count_loaded(self, level: float) -> int:
+        """Used samples of the horizon loaded to ``level`` (their thrust two standard deviations below it)."""
+        return int(np.count_nonzero((self._peak >= level) & (self._D[:, _R["m"]] > 0)))
+
+    def _window_threshold(self, n_plateau: int) -> float:
+        """The horizon test's threshold on d2 for a horizon holding ``n_plateau`` samples on its plateau.
+
+        ``detect_window_chi2`` from ``detect_window_plateau_samples`` plateau samples on, scaled up by
+        ``detect_window_plateau_samples / n_plateau`` below (never passed without a plateau sample).
+        """
+        s = self.settings
+        if not s.memory:
+            return s.detect_window_chi2
+        if n_plateau < 1:
+            return math.inf
+        return s.detect_window_chi2 * max(1.0, s.detect_window_plateau_samples / n_plateau)
 
     def _enough_informative(self, level: float) -> bool:
         """Whether the horizon holds ``identify_min_informative`` used samples loaded to ``level`` (memory on)."""
@@ -920,13 +976,14 @@ class OnlineEstimator:
             pr = self.turning.with_recent(H.prior(t_start, t), t_start)  # i42 hook: turns after t_start
             # tested only where the horizon reaches its plateau (else its F_max is an extrapolation along the
             # ridge that the sandwich does not describe: the uniform-soil false alarms); fused if it agrees
-            near = self._enough_informative(s.detect_window_min_load * xw[0])
+            n_plateau = self._count_loaded(s.detect_window_min_load * xw[0])
+            near = not s.memory or n_plateau >= s.identify_min_informative
             if pr is None:
                 H.set(t, xw, Vw)
             else:
                 res = fuse(pr[0], pr[1], xw, Vw)
                 settled = t - self._known_since >= s.detect_settle_s
-                if res is not None and res[2] > s.detect_window_chi2 and settled and near:
+                if res is not None and res[2] > self._window_threshold(n_plateau) and settled:
                     first = next((x for x in self._info_times if x >= t_start), t)
                     t_change = self._detector.run_start(first)
                     window = self._change_window(t_change)
@@ -942,7 +999,7 @@ class OnlineEstimator:
                         H.snapshot(t, t - s.window_s)
                         return None
                     return t_change, window
-                if res is not None and (near or res[2] <= s.detect_window_chi2):
+                if res is not None and (res[2] <= s.detect_window_chi2 or (near and not settled)):
                     H.set(t, res[0], res[1])
         if H.known:
             assert H.x is not None  # known: an estimate is held

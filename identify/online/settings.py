@@ -92,6 +92,15 @@ class OnlineSettings:
         vehicle). Once something is held the rule is the sample count only: a pull moves the
         iterate, and asking for convergence there missed a change (measured, heavy flat, pulls
         every 20-30 s: detected 48 s late instead of 0.5 s after the first pull on the new soil).
+    identify_reject_factor, identify_reject_chi2
+        The first estimate of a soil (nothing held: since the start or the last change) counts F_max
+        as identified only when the horizon's data reject ``identify_reject_factor`` times its F_max,
+        K refitted: twice the rise of the profiled cost, in noise variances, beyond
+        ``identify_reject_chi2`` (a likelihood ratio; 9 = three standard deviations for one
+        parameter). The other rules measure the horizon against its own estimate, which an
+        underestimate along the F_max-K ridge passes (measured: a converged horizon of 31 gentle
+        samples, heavy vehicle, its peak thrust 74 % of its own F_max, held 56.4 +- 12.2 kN against
+        202.1 kN, z -11.9). Once something is held, the arrival cost checks a new horizon.
     detect_min_load
         The detector runs once F_max has been determined (since the start or the last change)
         and takes only samples whose thrust is at least this fraction of that F_max. Below it
@@ -153,6 +162,18 @@ class OnlineSettings:
         the sandwich covariance does not describe (measured: every false alarm of a 10-minute
         uniform heavy log came from horizons with 9-15 samples at 50-80 % of F_max and none above
         80 %). The first horizon still starts the held estimate.
+    detect_window_plateau_samples
+        ... and the threshold ``detect_window_chi2`` holds for a horizon with at least this many used samples
+        on its plateau (loaded to ``detect_window_min_load`` of its own F_max); with ``n`` fewer (but at
+        least one) it is ``detect_window_chi2 x detect_window_plateau_samples / n``. The sandwich
+        covariance's score variance rests on those few samples: a pull's first samples on its plateau,
+        while the slip still relaxes, give a horizon whose F_max is pulled along the ridge with a
+        covariance that understates it (measured on the tuning set of ``bench_online.py --set``, heavy
+        flat, pulls every 4-6 s: d2 45.8 and 35.0 from 3 and 4 plateau samples 0.4 s into a pull, F_max
+        179 +- 6 kN against a held 205 +- 2 kN, truth 202 kN), while a change gives d2 of 80-300 from as
+        few samples (a K x2 change's ramp included, whose F_max is lowered and that reaches the plateau
+        of its own F_max only). Replaces the fixed rule "tested only from ``identify_min_informative``
+        plateau samples" (a horizon below it is still fused only when it agrees).
     detect_min_excitations
         A horizon that contradicts its arrival cost declares a change only when the arrival cost
         rests on at least this many excitations (runs of informative samples more than
@@ -191,6 +212,8 @@ class OnlineSettings:
     identify_min_utilisation: float = 0.5
     identify_min_informative: int = 4
     identify_min_samples: int = 20
+    identify_reject_factor: float = 2.0
+    identify_reject_chi2: float = 9.0
     detect_min_load: float = 0.2
     detect_settle_s: float = 2.0
     detect_scale_samples: int = 100
@@ -204,6 +227,7 @@ class OnlineSettings:
     detect_held_sigmas: float = 4.0
     detect_window_chi2: float = 27.6
     detect_window_min_load: float = 0.8
+    detect_window_plateau_samples: int = 8
     detect_min_excitations: int = 2
     turn_threshold: float = TURN_THRESHOLD_SIGMA
     turn_history: int = 256
@@ -225,6 +249,7 @@ class OnlineSettings:
             "turn_threshold",
             "detect_window_chi2",
             "detect_window_min_load",
+            "identify_reject_chi2",
         ):
             val = getattr(self, name)
             if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
@@ -237,6 +262,7 @@ class OnlineSettings:
             "identify_min_informative",
             "identify_min_samples",
             "detect_min_excitations",
+            "detect_window_plateau_samples",
             "gentle_solve_every",
             "turn_history",
             "max_capacity",
@@ -267,5 +293,8 @@ class OnlineSettings:
         lo, hi = _GRADE_RANGE
         if isinstance(g, bool) or not isinstance(g, (int, float)) or not math.isfinite(g) or not lo <= g <= hi:
             raise DataError(f"setting grade_rad must be a finite number in [{lo:g}, {hi:g}] rad, got {g!r}")
+        f = self.identify_reject_factor
+        if isinstance(f, bool) or not isinstance(f, (int, float)) or not math.isfinite(f) or f <= 1:
+            raise DataError(f"setting identify_reject_factor must be a finite number > 1, got {f!r}")
         if self.max_step_ratio <= 1:
             raise DataError(f"setting max_step_ratio must be > 1, got {self.max_step_ratio!r}")
