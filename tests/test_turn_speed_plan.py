@@ -54,8 +54,8 @@ def test_tight_turn_plans_lower_speed_and_its_torques_match_the_steering_model(r
         f"of {scale:.4g}; all points: {e_o[2:-2].max():.4g}, {e_i[2:-2].max():.4g}"
     )
     # at the steady points the planned torques (M/2 +- dT) satisfy the steady-turn model within 1 % of the
-    # largest outer torque (the fits, the hold; measured at R = 3 m: 90.6 and 70.3 N m of 24.8 kN m, 0.37 %); accelerating
-    # (up to 2.8 kN m, 11 % against this steady-split check, measured), the equal split of the
+    # largest outer torque (the fits, the hold; measured at R = 3 m: 90.6 and 70.3 N m of 24.8 kN m, 0.37 %);
+    # accelerating (up to 2.8 kN m, 11 % against this steady-split check, measured), the equal split of the
     # inertial thrust is an approximation, and the plan's feasibility rests on the post-check below
     assert e_o[cruise].max() <= 0.01 * scale and e_i[cruise].max() <= 0.01 * scale
     assert turn.turns[0]["feasible"] and turn.turns[0]["max_slip_outer"] <= 0.2 + 1e-6
