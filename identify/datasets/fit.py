@@ -26,10 +26,9 @@ from ...soilmodel.threadsafe import best_of_starts
 from ...soilmodel.vehicle import Vehicle
 from ...soilmodel.wheel import DEFAULT_WHEEL_SETTINGS, WheelSettings
 from ...soilmodel.wheel_sweep import WheelSweep
-from ..estimates.least_squares import core_stats_one
+from ..estimates.least_squares import core_stats_one, identified_columns
 from ..wheel.fitting import START_BOUND_MARGIN, WheelFitOptions, fit_wheel
 from ..wheel.problem import DEFAULT_WHEEL_BOUNDS, PARAMETER_SCALES, WHEEL_PARAMETERS, WheelBounds
-from ..wheel.result import NULL_TOL
 from .problem import (
     GROUSER_SCALE,
     N_SHARED,
@@ -232,8 +231,7 @@ def _statistics(specs, outs: list[np.ndarray]) -> dict[str, Any]:
     D, V, Pinv = st["D"][0], st["V"][0], st["Pinv"][0]
     nonnull, rank, dof, s2 = st["nonnull"][0], int(st["rank"][0]), int(st["dof"][0]), float(st["s2"][0])
     null = V[:, ~nonnull]
-    in_null = np.sqrt((null**2).sum(axis=1)) if null.shape[1] else np.zeros(nvar)
-    ident = (in_null < NULL_TOL) & st["Dok"][0]
+    ident = identified_columns(null, st["Dok"][0])
     cov = s2 * Pinv / np.outer(D, D) if math.isfinite(s2) else np.full((nvar, nvar), np.nan)
     return {
         "theta": theta,

@@ -23,7 +23,7 @@ import numpy as np
 
 from ...soilmodel.ridge import ridge_ranges
 from ..outcome import BOUND_TOL
-from .least_squares import NULL_TOL, RANK_TOL, WEAK_CORRELATION, WEAK_VIF
+from .least_squares import NULL_TOL, RANK_TOL, WEAK_CORRELATION, WEAK_VIF, estimable, identified_columns
 from ...soilmodel.units import format_value
 from .record_fields import RecordFields
 from .records import EDGE_UNITS, Combination, finite_or_none
@@ -54,12 +54,7 @@ class IdentifiabilityViews(RecordFields):
 
     @cached_property
     def _identifiable_free(self) -> np.ndarray:
-        null = self._null
-        if null.shape[1] == 0:
-            comp = np.zeros(len(self.free))
-        else:
-            comp = np.sqrt((null**2).sum(axis=1))
-        return (comp < NULL_TOL) & self._Dok
+        return identified_columns(self._null, self._Dok)
 
     @cached_property
     def _cov_free(self) -> np.ndarray | None:
@@ -97,11 +92,7 @@ class IdentifiabilityViews(RecordFields):
         return float(g_scaled @ self._Pinv @ g_scaled) / nrm if nrm > 0 else math.inf
 
     def _estimable(self, g_scaled: np.ndarray) -> bool:
-        null = self._null
-        nrm = float(np.linalg.norm(g_scaled))
-        if nrm == 0:
-            return True
-        return null.shape[1] == 0 or float(np.linalg.norm(g_scaled @ null)) / nrm < NULL_TOL
+        return estimable(g_scaled, self._null)
 
     def _combo_stderr(self, g_free: np.ndarray) -> tuple[float | None, bool, bool]:
         """(stderr, estimable, weak) of a linear functional with SI gradient g over free params."""

@@ -16,7 +16,17 @@ import numpy as np
 
 from .distributions import norm_ppf, t_ppf
 
-__all__ = ["RANK_TOL", "NULL_TOL", "WEAK_CORRELATION", "WEAK_VIF", "core_stats", "core_stats_one", "quantile"]
+__all__ = [
+    "RANK_TOL",
+    "NULL_TOL",
+    "WEAK_CORRELATION",
+    "WEAK_VIF",
+    "core_stats",
+    "core_stats_one",
+    "quantile",
+    "identified_columns",
+    "estimable",
+]
 
 #: Relative singular value (column-scaled Jacobian) below which a direction is unidentifiable.
 RANK_TOL = 1e-8
@@ -92,3 +102,32 @@ def quantile(dof: int, sigma_known: bool) -> float | None:
     if dof <= 0:
         return None
     return t_ppf(0.975, float(dof))
+
+
+def identified_columns(null: np.ndarray, usable: np.ndarray) -> np.ndarray:
+    """Which free parameters are identifiable: the library's one rule.
+
+    Parameters
+    ----------
+    null : ndarray, shape (p, k)
+        Null-space basis of the column-scaled Jacobian (scaled coordinates; ``k`` may be 0).
+    usable : ndarray of bool, shape (p,)
+        Whether each column is usable (finite, non-zero norm).
+
+    Returns
+    -------
+    ndarray of bool
+        A parameter's component in the null space below :data:`NULL_TOL`, on a usable column.
+    """
+    comp = np.sqrt((null**2).sum(axis=1)) if null.shape[1] else np.zeros(null.shape[0])
+    return (comp < NULL_TOL) & usable
+
+
+def estimable(g_scaled: np.ndarray, null: np.ndarray) -> bool:
+    """Whether a linear functional with gradient ``g_scaled`` (scaled coordinates) is estimable.
+
+    Its gradient's part in the null space, relative to its norm, below :data:`NULL_TOL` (a zero
+    gradient is estimable: the functional does not depend on the free parameters).
+    """
+    nrm = float(np.linalg.norm(g_scaled))
+    return nrm == 0 or null.shape[1] == 0 or float(np.linalg.norm(g_scaled @ null)) / nrm < NULL_TOL

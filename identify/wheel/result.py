@@ -25,7 +25,15 @@ import numpy as np
 from ...soilmodel.rigid_wheel import RigidWheel
 from ...soilmodel.wheel import entry_angle
 from ...soilmodel.wheel_sweep import WheelSweep
-from ..estimates.least_squares import NULL_TOL, RANK_TOL, WEAK_CORRELATION, WEAK_VIF, core_stats_one, quantile
+from ..estimates.least_squares import (
+    RANK_TOL,
+    WEAK_CORRELATION,
+    WEAK_VIF,
+    core_stats_one,
+    estimable,
+    identified_columns,
+    quantile,
+)
 from ..estimates.distributions import f_sf
 from ..estimates.records import EDGE_UNITS, ParameterEstimate
 from ..outcome import BOUND_TOL, LackOfFitTest, Outcome, decide_outcome, identified, outcome_lines, running_gear_json
@@ -35,7 +43,6 @@ __all__ = [
     "WheelCombination",
     "WheelFitResult",
     "build_wheel_result",
-    "NULL_TOL",
     "BOUND_REL_TOL",
     "wheel_rows",
     "pure_error",
@@ -593,7 +600,7 @@ def _wheel_combinations(data, wheel, options, theta, free, lo, hi, params, D, nu
         g = grad_full[free]
         gs = g / D
         nrm = float(np.linalg.norm(gs))
-        est = nrm == 0 or null.shape[1] == 0 or float(np.linalg.norm(gs @ null)) / nrm < NULL_TOL
+        est = estimable(gs, null)
         weak = bool(est and nrm > 0 and float(gs @ Pinv @ gs) / nrm**2 > WEAK_VIF)
         if not est or C is None:
             return None, est, weak
@@ -699,8 +706,7 @@ def build_wheel_result(
     D, V, Srel, Pinv = st["D"][0], st["V"][0], st["S"][0], st["Pinv"][0]
     nonnull, rank, dof, s2 = st["nonnull"][0], int(st["rank"][0]), int(st["dof"][0]), float(st["s2"][0])
     null = V[:, ~nonnull]
-    in_null = np.sqrt((null**2).sum(axis=1)) if null.shape[1] else np.zeros(len(names))
-    ident = (in_null < NULL_TOL) & st["Dok"][0]
+    ident = identified_columns(null, st["Dok"][0])
     q = quantile(dof, False)
     C = s2 * Pinv / np.outer(D, D) if math.isfinite(s2) else None
 
