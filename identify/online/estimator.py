@@ -678,12 +678,31 @@ class OnlineEstimator:
         peaks.append((t, slot, value))
 
     def _rebuild_peaks(self) -> None:
-        """The running maximum from scratch (after a slot's weight or use changed)."""
+        """The running maximum from scratch (after a slot's weight or use changed).
+
+        What :meth:`_push_peak` leaves after pushing the used live slots in time order, at once: the
+        slots whose peak exceeds every later one, and the last one.
+        """
         self._peaks.clear()
-        ok, peak = self._ok, self._peak
-        for t, j in self._live:
-            if ok[j] > 0:
-                self._push_peak(t, j, float(peak[j]))
+        if not self._live:
+            return
+        ts, js = zip(*self._live)
+        slots = np.fromiter(js, dtype=np.intp, count=len(js))
+        used = np.flatnonzero(self._ok[slots] > 0)
+        if used.size == 0:
+            return
+        vals = self._peak[slots[used]]
+        if np.isnan(vals).any():  # NaN compares false: the one-at-a-time rule, as it is
+            for k, val in zip(used.tolist(), vals.tolist()):
+                self._push_peak(ts[k], js[k], val)
+            return
+        later = np.empty_like(vals)  # the largest peak after each slot (-inf after the last)
+        later[-1] = -math.inf
+        if vals.size > 1:
+            np.maximum.accumulate(vals[:0:-1], out=later[-2::-1])
+        keep = vals > later
+        keep[-1] = True
+        self._peaks.extend((ts[k], js[k], val) for k, val in zip(used[keep].tolist(), vals[keep].tolist()))
 
     def _median_dt(self) -> float:
         """Running median of the recent time steps (recomputed every few samples)."""
