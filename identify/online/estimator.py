@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import math
 import statistics
-from typing import Any
 from collections import deque
 
 import numpy as np
@@ -731,11 +730,7 @@ class OnlineEstimator:
     ) -> None:
         """A change of terrain at ``t_change``: drop the older samples and what is held, restart the detector."""
         held = self._held.now(t)
-        before = (
-            (float(self._P[_PXF] * self._F_ref), float(self._P[_PXK] * self._K_ref))
-            if held is None
-            else held[0]
-        )
+        before = (float(self._P[_PXF] * self._F_ref), float(self._P[_PXK] * self._K_ref)) if held is None else held[0]
         self.changes.append(
             {
                 "time_s": t_change,
@@ -978,9 +973,16 @@ class OnlineEstimator:
         sc = self._scale()
         return bool(math.isfinite(best) and 2.0 * (best - cost0) / (sc * sc) > s.identify_reject_chi2)
 
-    def _count_loaded(self, level: float) -> int:
-        """Used samples of the horizon loaded to ``level`` (their thrust two standard deviations below it)."""
-        return int(np.count_nonzero((self._peak >= level) & (self._D[:, _RM] > 0)))
+    def _used_peaks(self) -> np.ndarray:
+        """The peaks (thrust two standard deviations below its value) of the horizon's used samples."""
+        return self._peak[self._D[:, _RM] > 0]
+
+    def _count_loaded(self, level: float, peaks: np.ndarray | None = None) -> int:
+        """Used samples of the horizon loaded to ``level`` (their thrust two standard deviations below it).
+
+        ``peaks``: :meth:`_used_peaks`, when the caller has them for the same data.
+        """
+        return int(np.count_nonzero((self._used_peaks() if peaks is None else peaks) >= level))
 
     def _window_threshold(self, n_plateau: int) -> float:
         """The horizon test's threshold on d2 for a horizon holding ``n_plateau`` samples on its plateau.
@@ -995,12 +997,11 @@ class OnlineEstimator:
             return math.inf
         return s.detect_window_chi2 * max(1.0, s.detect_window_plateau_samples / n_plateau)
 
-    def _enough_informative(self, level: float) -> bool:
+    def _enough_informative(self, level: float, peaks: np.ndarray | None = None) -> bool:
         """Whether the horizon holds ``identify_min_informative`` used samples loaded to ``level`` (memory on)."""
         if not self.settings.memory:
             return True  # the window estimator of before has no such rule
-        n = np.count_nonzero((self._peak >= level) & (self._D[:, _RM] > 0))
-        return bool(n >= self.settings.identify_min_informative)
+        return self._count_loaded(level, peaks) >= self.settings.identify_min_informative
 
     # ------------------------------------------------------------------ memory
     def _remember(self, t: float, win: dict) -> tuple[float, tuple[float, float]] | None:
@@ -1011,12 +1012,13 @@ class OnlineEstimator:
         # bound its covariance describes the box, not the data, and F_max's variance is the one given K
         # there: measured, 174 +- 4 kN against a truth of 146 kN on a pull's plateau)
         informative = "max_thrust" in win["ident"] and not win["K_bound"]
-        if informative and self._enough_informative(s.identify_min_utilisation * win["F"]):
+        peaks = self._used_peaks() if informative else None  # the same data for both counts below
+        if informative and self._enough_informative(s.identify_min_utilisation * win["F"], peaks):
             xw, Vw = (win["F"], win["K"]), win["V"]
             pr = self.turning.with_recent(H.prior(t_start, t), t_start)  # i42 hook: turns after t_start
             # tested only where the horizon reaches its plateau (else its F_max is an extrapolation along the
             # ridge that the sandwich does not describe: the uniform-soil false alarms); fused if it agrees
-            n_plateau = self._count_loaded(s.detect_window_min_load * xw[0])
+            n_plateau = self._count_loaded(s.detect_window_min_load * xw[0], peaks)
             near = not s.memory or n_plateau >= s.identify_min_informative
             if pr is None:
                 H.set(t, xw, Vw)
@@ -1142,22 +1144,20 @@ class OnlineEstimator:
             return dict(win, held=False)
         (F, K), (p11, p12, p22) = now
         l = self.vehicle.track_length
-        sF, sK = math.sqrt(p11), math.sqrt(p22)
+        slope = F * l / (2 * K)
+        sF_, sK_ = math.sqrt(p11), math.sqrt(p22)
         g1, g2 = l / (2 * K), -F * l / (2 * K * K)
-        out: dict[str, Any] = dict(F=F, K=K, slope=F * l / (2 * K), held="max_thrust" not in win["ident"])
-        out["s_slope"] = math.sqrt(max(g1 * g1 * p11 + 2 * g1 * g2 * p12 + g2 * g2 * p22, 0.0))
-        ident: tuple[str, ...] = ("slope",) if out["s_slope"] < GENTLE_REL_STDERR * out["slope"] else ()
-        out.update(sF=None, sK=None, cov=None)
-        if sF / F < GENTLE_REL_STDERR:
+        s_slope = math.sqrt(max(g1 * g1 * p11 + 2 * g1 * g2 * p12 + g2 * g2 * p22, 0.0))
+        ident: tuple[str, ...] = ("slope",) if s_slope < GENTLE_REL_STDERR * slope else ()
+        sF = sK = cov = None
+        if sF_ / F < GENTLE_REL_STDERR:
             # the held covariance is given with F_max (K's variance in it large while K is not
             # identified): traversability between excitations propagates both
-            ident = ("slope", "max_thrust")
-            out.update(sF=sF, cov=np.array([[p11, p12], [p12, p22]]))
-            if sK / K <= K_REL_STDERR:
-                ident = ("slope", "max_thrust", "shear_modulus")
-                out["sK"] = sK
-        out["ident"] = ident
-        return out
+            ident, sF, cov = ("slope", "max_thrust"), sF_, np.array([[p11, p12], [p12, p22]])
+            if sK_ / K <= K_REL_STDERR:
+                ident, sK = ("slope", "max_thrust", "shear_modulus"), sK_
+        held = "max_thrust" not in win["ident"]
+        return dict(F=F, K=K, slope=slope, held=held, s_slope=s_slope, sF=sF, sK=sK, cov=cov, ident=ident)
 
     def _report(self, t: float, slip, change: bool, t_change, status, message, win=None, window=None) -> OnlineEstimate:
         self._last_time = t
