@@ -44,7 +44,7 @@ class BufferCall:
             lib = ctypes.CDLL(library)
             c = getattr(lib, fn.name())
             c.restype = ctypes.c_int
-            c.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int]
+            # no ``argtypes``: the arguments are ready-made ctypes objects (no conversion per call)
             self._arg = (ctypes.c_void_p * max(fn.sz_arg(), 1))(*[a.ctypes.data for a in inputs])
             self._res = (ctypes.c_void_p * max(fn.sz_res(), 1))(*[a.ctypes.data for a in outputs])
             self._iw = np.zeros(max(fn.sz_iw(), 1), dtype=np.int64)
@@ -52,11 +52,11 @@ class BufferCall:
             self._lib = lib
             self._c = c
             self._args = (
-                ctypes.addressof(self._arg),
-                ctypes.addressof(self._res),
-                self._iw.ctypes.data,
-                self._w.ctypes.data,
-                0,
+                ctypes.c_void_p(ctypes.addressof(self._arg)),
+                ctypes.c_void_p(ctypes.addressof(self._res)),
+                ctypes.c_void_p(self._iw.ctypes.data),
+                ctypes.c_void_p(self._w.ctypes.data),
+                ctypes.c_int(0),
             )
         self._shapes = [(fn.size1_in(j), fn.size2_in(j)) for j in range(fn.n_in())]
 

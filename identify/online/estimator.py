@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import math
 import statistics
-from typing import Any
 from collections import deque
 
 import numpy as np
@@ -77,9 +76,17 @@ _S = {name: j for j, name in enumerate(SUMS)}
 _R = {name: j for j, name in enumerate(ROWS)}
 _RAW_JUMP = RAW.index("jump")
 _RAW_RELAX = [RAW.index(k) for k in ("M", "w_next", "h_next", "slip_trend", "F_pilot", "K_pilot", "relax")]
+#: The relaxation readings are the last entries of a sample's readings, in this order (written as a slice).
+_RAW_RELAX_AT = _RAW_RELAX[0]
+assert _RAW_RELAX == list(range(_RAW_RELAX_AT, len(RAW)))
+# per-update indices as plain ints (no dict look-up on the hot path)
+_RM, _RT, _RISC = ROWS.index("m"), ROWS.index("T"), ROWS.index("inv_sc")
+_PXF, _PXK = PARAMS.index("xF"), PARAMS.index("xK")
+_SN, _SCOST = SUMS.index("n_used"), SUMS.index("cost")
 _N = {name: j for j, name in enumerate(NOISE)}
 #: Benign readings for empty slots (finite everything; never used: outside the horizon).
 _EMPTY_RAW = np.array([1.0, 1.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 0.0])
+_EMPTY_RAW_TAIL = tuple(_EMPTY_RAW[6:].tolist())  # a new sample's readings after its first six
 _MESSAGES = {
     "ok": "converged",
     "warming_up": "too few samples for an estimate yet",
@@ -225,6 +232,7 @@ class OnlineEstimator:
         self._Z_out = np.zeros(cap)
         self._sums = np.zeros(len(SUMS))
         self._sl: list[float] = self._sums.tolist()  # the sums as Python floats (read per update)
+        self._scale_of: tuple[list[float] | None, float] = (None, 1.0)  # _scale's value for the sums ``_sl``
         self._peak = np.zeros(cap)  # per slot: thrust two standard deviations below its value
         self._row = np.zeros(len(ROWS))
         self._raw1 = np.zeros(len(RAW))
@@ -351,7 +359,7 @@ class OnlineEstimator:
             if self._prev is not None and self._prev[3] >= 0:  # a turn's edge: the sample before it
                 j = self._prev[3]
                 self._tslot[j] = -math.inf
-                self._D[j, _R["m"]] = 0.0
+                self._D[j, _RM] = 0.0
                 if self._live and self._live[-1][1] == j:
                     self._live.pop()
                 self._rebuild_peaks()
@@ -431,8 +439,7 @@ class OnlineEstimator:
         self._dts.append(h)
         self._refresh_noise()
         raw = self._raw1
-        raw[:] = _EMPTY_RAW
-        raw[:6] = (v, w, prev[2], prev[1], h, 0.0)
+        raw[:] = (v, w, prev[2], prev[1], h, 0.0, *_EMPTY_RAW_TAIL)
         self._c_prepare()
         T, sT = float(self._T_out[0]), float(self._sT_out[0])
         self._slips.append(1.0 - v / (self.vehicle.sprocket_radius * w) if w != 0.0 else math.nan)
@@ -459,14 +466,15 @@ class OnlineEstimator:
         self._finish_relax(cutoff=cutoff)
         self._thrust_before = self._last_thrust
         self._last_thrust = (T, sT)
-        used = self._row[_R["m"]] > 0
+        row = self._row.tolist()  # the new sample's data column as floats (read below)
+        used = row[_RM] > 0
         if used and not self._started:  # start value of F_max (the batch fit's rule), until converged once
             # raised only where a thrust (two standard deviations below its value) exceeds the iterate:
             # a floor at START_THRUST_FACTOR x the largest thrust held an iteration that had not yet
             # converged on a pull's plateau (0.9-0.97 F_max) above the truth, update after update
             self._thrust_max = max(self._thrust_max, T - 2.0 * sT)
-            if self._thrust_max > self._P[_P["xF"]] * self._F_ref:
-                self._P[_P["xF"]] = min(START_THRUST_FACTOR * self._thrust_max / self._F_ref, self._bounds_scaled[0][1])
+            if self._thrust_max > self._P[_PXF] * self._F_ref:
+                self._P[_PXF] = min(START_THRUST_FACTOR * self._thrust_max / self._F_ref, self._bounds_scaled[0][1])
         # change detection on the one-step prediction, before the sample enters the horizon
         change, slip0 = self._detect(t, T, sT) if used else (None, None)
         # the sample enters the ring buffer
@@ -479,15 +487,17 @@ class OnlineEstimator:
             if self._peaks and self._peaks[0][1] == slot:
                 self._peaks.popleft()
         self._RAW[slot] = raw
-        self._D[slot] = self._row
-        self._ok[slot] = self._row[_R["m"]]
+        D = self._D
+        D[slot] = self._row
+        self._ok[slot] = row[_RM]
         if s.relaxation:  # held back until its discretisation is decided (see _release, _finish_relax)
-            self._D[slot, _R["m"]] = 0.0
-        pk = self._peak[slot] = _peak(self._row)
+            D[slot, _RM] = 0.0
+        isc = row[_RISC]
+        pk = self._peak[slot] = row[_RT] - 2.0 / isc if isc > 0 else -math.inf  # as _peak
         self._Z[slot] = 0.0 if slip0 is None else slip0
         self._tslot[slot] = t
         self._live.append((t, slot))
-        if self._ok[slot] > 0:
+        if row[_RM] > 0:
             self._push_peak(t, slot, pk)
         self._slot = (slot + 1) % self._cap
         self._prev = (t, M, w, slot)
@@ -504,7 +514,7 @@ class OnlineEstimator:
     def _release(self, j: int, cutoff: float) -> None:
         """Slot ``j`` enters the fit (its use flag) unless it has left the horizon."""
         if self._tslot[j] >= cutoff:
-            self._D[j, _R["m"]] = self._ok[j]
+            self._D[j, _RM] = self._ok[j]
 
     def held_back(self) -> list[int]:
         """Slots not in the fit yet: waiting for the next sample or their slip trend (the relaxation rule)."""
@@ -540,27 +550,31 @@ class OnlineEstimator:
         slot before it is not used).
         """
         half = TREND_SAMPLES // 2
+        pending = self._pending
+        if not pending or not (flush or pending[0][0] + half <= self._n_slips - 1):
+            return
         if cutoff is None:
             cutoff = max(self._last_time - self.settings.window_s, self._t_reset)
-        while self._pending and (flush or self._pending[0][0] + half <= self._n_slips - 1):
-            k, j, t, M, w_next, h_next = self._pending.popleft()
+        while pending and (flush or pending[0][0] + half <= self._n_slips - 1):
+            k, j, t, M, w_next, h_next = pending.popleft()
             if self._tslot[j] != t:  # the slot was reused or moved meanwhile
                 continue
-            first = max(k - half, self._n_slips - len(self._slips))
-            sl = [x for x in list(self._slips)[first - (self._n_slips - len(self._slips)) :] if x == x]
+            base = self._n_slips - len(self._slips)  # the index of the oldest slip kept
+            first = max(k - half, base)
+            sl = [x for x in list(self._slips)[first - base :] if x == x]
             trend = statistics.median(sl) if sl else 0.0
             held = self._held.x
-            F, K = held if held is not None else (self._P[_P["xF"]] * self._F_ref, self._P[_P["xK"]] * self._K_ref)
-            raw = self._raw_relax
-            raw[:] = self._RAW[j]
-            raw[_RAW_RELAX] = (M, w_next, h_next, trend, F, K, 1.0)
+            F, K = held if held is not None else (self._P[_PXF] * self._F_ref, self._P[_PXK] * self._K_ref)
+            RAWj = self._RAW[j]
+            RAWj[_RAW_RELAX_AT:] = (M, w_next, h_next, trend, F, K, 1.0)
+            self._raw_relax[:] = RAWj
             self._c_relax()
-            self._RAW[j] = raw
-            self._D[j] = self._row_relax
-            self._ok[j] = self._row_relax[_R["m"]]
+            row = self._row_relax
+            self._D[j] = row
+            m = self._ok[j] = row[_RM]
             if t < cutoff:
-                self._D[j, _R["m"]] = 0.0
-            elif self._ok[j] > 0:
+                self._D[j, _RM] = 0.0
+            elif m > 0:
                 self._c_relax_predict()
                 self._Z[j] = self._relax_pred[0]
 
@@ -586,7 +600,7 @@ class OnlineEstimator:
         if (
             loaded
             and self._started
-            and self._sl[_S["n_used"]] >= s.detect_min_samples
+            and self._sl[_SN] >= s.detect_min_samples
             and t - self._detect_since >= s.detect_min_s
         ):
             change = self._detector.update(z / self._robust_scale(), t)
@@ -649,7 +663,7 @@ class OnlineEstimator:
 
     def _advance(self, cutoff: float) -> None:
         """Samples older than ``cutoff`` leave the horizon (their ``m`` set to 0)."""
-        live, m = self._live, _R["m"]
+        live, m = self._live, _RM
         while live and live[0][0] < cutoff:
             self._D[live.popleft()[1], m] = 0.0
         peaks = self._peaks
@@ -663,12 +677,31 @@ class OnlineEstimator:
         peaks.append((t, slot, value))
 
     def _rebuild_peaks(self) -> None:
-        """The running maximum from scratch (after a slot's weight or use changed)."""
+        """The running maximum from scratch (after a slot's weight or use changed).
+
+        What :meth:`_push_peak` leaves after pushing the used live slots in time order, at once: the
+        slots whose peak exceeds every later one, and the last one.
+        """
         self._peaks.clear()
-        ok, peak = self._ok, self._peak
-        for t, j in self._live:
-            if ok[j] > 0:
-                self._push_peak(t, j, float(peak[j]))
+        if not self._live:
+            return
+        ts, js = zip(*self._live)
+        slots = np.fromiter(js, dtype=np.intp, count=len(js))
+        used = np.flatnonzero(self._ok[slots] > 0)
+        if used.size == 0:
+            return
+        vals = self._peak[slots[used]]
+        if np.isnan(vals).any():  # NaN compares false: the one-at-a-time rule, as it is
+            for k, val in zip(used.tolist(), vals.tolist()):
+                self._push_peak(ts[k], js[k], val)
+            return
+        later = np.empty_like(vals)  # the largest peak after each slot (-inf after the last)
+        later[-1] = -math.inf
+        if vals.size > 1:
+            np.maximum.accumulate(vals[:0:-1], out=later[-2::-1])
+        keep = vals > later
+        keep[-1] = True
+        self._peaks.extend((ts[k], js[k], val) for k, val in zip(used[keep].tolist(), vals[keep].tolist()))
 
     def _median_dt(self) -> float:
         """Running median of the recent time steps (recomputed every few samples)."""
@@ -684,9 +717,9 @@ class OnlineEstimator:
         self._raw1[:] = self._RAW[j]
         self._c_prepare()
         self._D[j] = self._row
-        self._ok[j] = self._row[_R["m"]]
+        self._ok[j] = self._row[_RM]
         if self.settings.relaxation:  # the sample before the new one: still held back (its rule is decided next)
-            self._D[j, _R["m"]] = 0.0
+            self._D[j, _RM] = 0.0
         self._peak[j] = _peak(self._row)
         self._rebuild_peaks()
         self._row[:] = keep_row
@@ -697,11 +730,7 @@ class OnlineEstimator:
     ) -> None:
         """A change of terrain at ``t_change``: drop the older samples and what is held, restart the detector."""
         held = self._held.now(t)
-        before = (
-            (float(self._P[_P["xF"]] * self._F_ref), float(self._P[_P["xK"]] * self._K_ref))
-            if held is None
-            else held[0]
-        )
+        before = (float(self._P[_PXF] * self._F_ref), float(self._P[_PXK] * self._K_ref)) if held is None else held[0]
         self.changes.append(
             {
                 "time_s": t_change,
@@ -747,15 +776,15 @@ class OnlineEstimator:
         if self._have_noise:  # the horizon's weights follow the new noise levels
             self._c_prepare_all()
             self._D[:] = self._rows_all
-            self._ok[:] = self._rows_all[:, _R["m"]]
+            self._ok[:] = self._rows_all[:, _RM]
             with np.errstate(divide="ignore"):
-                np.subtract(self._rows_all[:, _R["T"]], 2.0 / self._rows_all[:, _R["inv_sc"]], out=self._peak)
+                np.subtract(self._rows_all[:, _RT], 2.0 / self._rows_all[:, _RISC], out=self._peak)
             live = np.zeros(self._cap)
             for _, j in self._live:
                 live[j] = 1.0
-            np.multiply(self._ok, live, out=self._D[:, _R["m"]])
+            np.multiply(self._ok, live, out=self._D[:, _RM])
             for j in self.held_back():
-                self._D[j, _R["m"]] = 0.0
+                self._D[j, _RM] = 0.0
             self._rebuild_peaks()
         self._have_noise = True
 
@@ -763,8 +792,14 @@ class OnlineEstimator:
         """Residual scale: 1 with known noise, else sqrt of the reduced chi-square of the horizon."""
         if self._noise_known:
             return 1.0
-        n = self._sl[_S["n_used"]]
-        return math.sqrt(max(2.0 * self._sl[_S["cost"]] / max(n - 2.0, 1.0), 1e-12))
+        sl = self._sl
+        cached = self._scale_of
+        if cached[0] is sl:  # the sums have not changed since it was computed (``_sl`` is replaced, never edited)
+            return cached[1]
+        n = sl[_SN]
+        sc = math.sqrt(max(2.0 * sl[_SCOST] / max(n - 2.0, 1.0), 1e-12))
+        self._scale_of = (sl, sc)
+        return sc
 
     def _robust_scale(self) -> float:
         """Spread of the recent prediction residuals (MAD, never below 1), re-estimated every few samples.
@@ -796,7 +831,7 @@ class OnlineEstimator:
         tr = s.max_step_scaled
         for _ in range(steps + 1):
             P[_P["max_step"]] = tr
-            x_old = (P[_P["xF"]], P[_P["xK"]])
+            x_old = (P[_PXF], P[_PXK])
             (self._c_track if self._converged else self._c_step)()
             sl = self._sums.tolist()
             x_new = self._x_out.tolist()
@@ -806,18 +841,18 @@ class OnlineEstimator:
                 self._sl = sl
                 return
             self._sl = sl
-            cost = sl[_S["cost"]]
+            cost = sl[_SCOST]
             if before is not None and cost > before[2] * (1 + 1e-9) + 1e-12:
-                P[_P["xF"]], P[_P["xK"]] = before[0], before[1]  # take the step back, shorter
+                P[_PXF], P[_PXK] = before[0], before[1]  # take the step back, shorter
                 tr *= 0.25
                 before = None
                 self._converged = False
                 continue
             before = (x_old[0], x_old[1], cost)
-            P[_P["xF"]], P[_P["xK"]] = x_new
+            P[_PXF], P[_PXK] = x_new
             np.copyto(self._Z, self._Z_out)
             dec = abs(sl[_S["decrement"]]) / self._scale() ** 2
-            self._converged = bool(sl[_S["n_used"]] >= 3 and dec < s.converged_decrement)
+            self._converged = bool(sl[_SN] >= 3 and dec < s.converged_decrement)
             if self._converged or steps == 1:
                 break
         P[_P["max_step"]] = s.max_step_scaled
@@ -829,7 +864,7 @@ class OnlineEstimator:
         S = self._sl
         a11, a12, a22 = S[_S["A11"]], S[_S["A12"]], S[_S["A22"]]
         b11, b12, b22 = S[_S["B11"]], S[_S["B12"]], S[_S["B22"]]
-        if not (S[_S["n_used"]] >= 3 and math.isfinite(a11 + a12 + a22 + b11 + b12 + b22)):
+        if not (S[_SN] >= 3 and math.isfinite(a11 + a12 + a22 + b11 + b12 + b22)):
             return None
         det = a11 * a22 - a12 * a12
         if not (a11 > 0 and det > 1e-12 * a11 * a22):
@@ -854,12 +889,12 @@ class OnlineEstimator:
         while later horizons do not determine it.
         """
         l = self.vehicle.track_length
-        n_raw = self._sl[_S["n_used"]]
+        n_raw = self._sl[_SN]
         n_used = int(round(n_raw)) if math.isfinite(n_raw) else 0
         # identification needs the iteration to have converged once (since the start); before that
         # the iterate is shown, not identified
         have = self._started or (n_used >= 3 and self._converged)
-        xF, xK = float(self._P[_P["xF"]]), float(self._P[_P["xK"]])
+        xF, xK = float(self._P[_PXF]), float(self._P[_PXK])
         w: dict = dict(F=None, K=None, sF=None, sK=None, cov=None, slope=None, s_slope=None, V=None)
         w.update(ident=(), n_used=n_used, have=have, K_bound=False)
         if not (have or n_used >= 3):
@@ -914,10 +949,10 @@ class OnlineEstimator:
         """
         s, P = self.settings, self._P
         keep = (P.copy(), self._Z.copy(), self._sums.copy(), self._x_out.copy(), self._Z_out.copy())
-        cost0 = self._sl[_S["cost"]]
+        cost0 = self._sl[_SCOST]
         (Flo, Fhi), (Klo, Khi) = self._bounds_scaled
-        P[_P["xF"]] = min(s.identify_reject_factor * xF, Fhi)
-        P[_P["xK"]] = min(s.identify_reject_factor * xK, Khi)  # the same small-slip slope to start from
+        P[_PXF] = min(s.identify_reject_factor * xF, Fhi)
+        P[_PXK] = min(s.identify_reject_factor * xK, Khi)  # the same small-slip slope to start from
         P[_P["w_prior"]] = 0.0
         P[_P["max_step"]] = 0.0  # the kernel's own step is not taken: its slips stay at their optimum
         best = math.inf
@@ -925,22 +960,29 @@ class OnlineEstimator:
             for _ in range(_REJECT_K_STEPS):
                 self._c_step()
                 sl = self._sums
-                best = min(best, float(sl[_S["cost"]]))
+                best = min(best, float(sl[_SCOST]))
                 np.copyto(self._Z, self._Z_out)
                 g2, a22 = float(sl[_S["g2"]]), float(sl[_S["A22"]])
                 if a22 <= 0:
                     a22 = float(sl[_S["S22"]])
-                xk = P[_P["xK"]]
+                xk = P[_PXK]
                 step = -g2 / a22 if a22 > 0 else 0.0
-                P[_P["xK"]] = min(max(xk + max(min(step, 0.25 * xk), -0.25 * xk), Klo), Khi)
+                P[_PXK] = min(max(xk + max(min(step, 0.25 * xk), -0.25 * xk), Klo), Khi)
         finally:
             P[:], self._Z[:], self._sums[:], self._x_out[:], self._Z_out[:] = keep
         sc = self._scale()
         return bool(math.isfinite(best) and 2.0 * (best - cost0) / (sc * sc) > s.identify_reject_chi2)
 
-    def _count_loaded(self, level: float) -> int:
-        """Used samples of the horizon loaded to ``level`` (their thrust two standard deviations below it)."""
-        return int(np.count_nonzero((self._peak >= level) & (self._D[:, _R["m"]] > 0)))
+    def _used_peaks(self) -> np.ndarray:
+        """The peaks (thrust two standard deviations below its value) of the horizon's used samples."""
+        return self._peak[self._D[:, _RM] > 0]
+
+    def _count_loaded(self, level: float, peaks: np.ndarray | None = None) -> int:
+        """Used samples of the horizon loaded to ``level`` (their thrust two standard deviations below it).
+
+        ``peaks``: :meth:`_used_peaks`, when the caller has them for the same data.
+        """
+        return int(np.count_nonzero((self._used_peaks() if peaks is None else peaks) >= level))
 
     def _window_threshold(self, n_plateau: int) -> float:
         """The horizon test's threshold on d2 for a horizon holding ``n_plateau`` samples on its plateau.
@@ -955,12 +997,11 @@ class OnlineEstimator:
             return math.inf
         return s.detect_window_chi2 * max(1.0, s.detect_window_plateau_samples / n_plateau)
 
-    def _enough_informative(self, level: float) -> bool:
+    def _enough_informative(self, level: float, peaks: np.ndarray | None = None) -> bool:
         """Whether the horizon holds ``identify_min_informative`` used samples loaded to ``level`` (memory on)."""
         if not self.settings.memory:
             return True  # the window estimator of before has no such rule
-        n = np.count_nonzero((self._peak >= level) & (self._D[:, _R["m"]] > 0))
-        return bool(n >= self.settings.identify_min_informative)
+        return self._count_loaded(level, peaks) >= self.settings.identify_min_informative
 
     # ------------------------------------------------------------------ memory
     def _remember(self, t: float, win: dict) -> tuple[float, tuple[float, float]] | None:
@@ -971,12 +1012,13 @@ class OnlineEstimator:
         # bound its covariance describes the box, not the data, and F_max's variance is the one given K
         # there: measured, 174 +- 4 kN against a truth of 146 kN on a pull's plateau)
         informative = "max_thrust" in win["ident"] and not win["K_bound"]
-        if informative and self._enough_informative(s.identify_min_utilisation * win["F"]):
+        peaks = self._used_peaks() if informative else None  # the same data for both counts below
+        if informative and self._enough_informative(s.identify_min_utilisation * win["F"], peaks):
             xw, Vw = (win["F"], win["K"]), win["V"]
             pr = self.turning.with_recent(H.prior(t_start, t), t_start)  # i42 hook: turns after t_start
             # tested only where the horizon reaches its plateau (else its F_max is an extrapolation along the
             # ridge that the sandwich does not describe: the uniform-soil false alarms); fused if it agrees
-            n_plateau = self._count_loaded(s.detect_window_min_load * xw[0])
+            n_plateau = self._count_loaded(s.detect_window_min_load * xw[0], peaks)
             near = not s.memory or n_plateau >= s.identify_min_informative
             if pr is None:
                 H.set(t, xw, Vw)
@@ -1039,7 +1081,7 @@ class OnlineEstimator:
         fr, kr = self._F_ref, self._K_ref
         Ph = self._Ph
         Ph[:] = self._P
-        Ph[_P["xF"]], Ph[_P["xK"]] = F / fr, K / kr
+        Ph[_PXF], Ph[_PXK] = F / fr, K / kr
         self._Vh[:] = (p11 / (fr * fr), p12 / (fr * kr), p22 / (kr * kr))
         self._c_predict_held()
         wres, var = float(self._held_out[1]), max(float(self._held_out[2]), 0.0)
@@ -1048,7 +1090,7 @@ class OnlineEstimator:
 
     def _note_informative(self, t: float, T: float, sT: float) -> None:
         """Keep the time of a sample loaded enough to inform F_max (relative to what is known)."""
-        ref = self._held.x[0] if self._held.x is not None else (self._F_known or float(self._P[_P["xF"]] * self._F_ref))
+        ref = self._held.x[0] if self._held.x is not None else (self._F_known or float(self._P[_PXF] * self._F_ref))
         if T >= self.settings.detect_min_load * ref:
             self._loaded_times.append(t)
         if T - 2.0 * sT >= self.settings.identify_min_utilisation * ref:
@@ -1102,22 +1144,20 @@ class OnlineEstimator:
             return dict(win, held=False)
         (F, K), (p11, p12, p22) = now
         l = self.vehicle.track_length
-        sF, sK = math.sqrt(p11), math.sqrt(p22)
+        slope = F * l / (2 * K)
+        sF_, sK_ = math.sqrt(p11), math.sqrt(p22)
         g1, g2 = l / (2 * K), -F * l / (2 * K * K)
-        out: dict[str, Any] = dict(F=F, K=K, slope=F * l / (2 * K), held="max_thrust" not in win["ident"])
-        out["s_slope"] = math.sqrt(max(g1 * g1 * p11 + 2 * g1 * g2 * p12 + g2 * g2 * p22, 0.0))
-        ident: tuple[str, ...] = ("slope",) if out["s_slope"] < GENTLE_REL_STDERR * out["slope"] else ()
-        out.update(sF=None, sK=None, cov=None)
-        if sF / F < GENTLE_REL_STDERR:
+        s_slope = math.sqrt(max(g1 * g1 * p11 + 2 * g1 * g2 * p12 + g2 * g2 * p22, 0.0))
+        ident: tuple[str, ...] = ("slope",) if s_slope < GENTLE_REL_STDERR * slope else ()
+        sF = sK = cov = None
+        if sF_ / F < GENTLE_REL_STDERR:
             # the held covariance is given with F_max (K's variance in it large while K is not
             # identified): traversability between excitations propagates both
-            ident = ("slope", "max_thrust")
-            out.update(sF=sF, cov=np.array([[p11, p12], [p12, p22]]))
-            if sK / K <= K_REL_STDERR:
-                ident = ("slope", "max_thrust", "shear_modulus")
-                out["sK"] = sK
-        out["ident"] = ident
-        return out
+            ident, sF, cov = ("slope", "max_thrust"), sF_, np.array([[p11, p12], [p12, p22]])
+            if sK_ / K <= K_REL_STDERR:
+                ident, sK = ("slope", "max_thrust", "shear_modulus"), sK_
+        held = "max_thrust" not in win["ident"]
+        return dict(F=F, K=K, slope=slope, held=held, s_slope=s_slope, sF=sF, sK=sK, cov=cov, ident=ident)
 
     def _report(self, t: float, slip, change: bool, t_change, status, message, win=None, window=None) -> OnlineEstimate:
         self._last_time = t
@@ -1173,8 +1213,8 @@ class OnlineEstimator:
 
 def _peak(row: np.ndarray) -> float:
     """A data column's thrust two standard deviations below its value (-inf without a weight)."""
-    isc = float(row[_R["inv_sc"]])
-    return float(row[_R["T"]]) - 2.0 / isc if isc > 0 else -math.inf
+    isc = float(row[_RISC])
+    return float(row[_RT]) - 2.0 / isc if isc > 0 else -math.inf
 
 
 def _finite(x) -> bool:
