@@ -238,6 +238,7 @@ def test_gentle_log_is_flagged():
     assert abs(e["initial_slope_N"] - true_slope) < q * e["initial_slope_stderr_N"]
 
 
+@pytest.mark.slow  # a 4 s fit; the quick loop keeps the other recovery tests
 def test_noise_free_log_is_recovered_exactly():
     """Without noise the discrete sprocket equation (implicit Euler, ZOH torque) is exact."""
     log = simulate_drive_log(HEAVY, LETE_SAND, noise="none")
