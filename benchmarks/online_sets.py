@@ -185,3 +185,21 @@ def _uniform_rate(T: dict) -> str:
     if T["hours"] <= 0:
         return "-"
     return f"{T['false_uni'] / T['hours']:.2f} ({T['false_uni']} in {T['hours']:.2f} h)"
+
+
+def main(argv=None) -> None:
+    """List a set's logs (the scenarios, not simulated); ``bench_online.py --set`` runs them."""
+    import argparse
+
+    ap = argparse.ArgumentParser(
+        description="The on-line detector's fixed log sets: list the scenarios of one "
+        "(run them with bench_online.py --set NAME)."
+    )
+    ap.add_argument("--set", choices=sorted(SETS), default="tuning", help="which set to list (default: tuning)")
+    args = ap.parse_args(argv)
+    for sc in cases(args.set):
+        print(label(sc))
+
+
+if __name__ == "__main__":
+    main()
