@@ -1,7 +1,7 @@
 """An independent plain-numpy drive-log simulator (light tracked vehicle, hard pulls): the drive-log fit's oracle.
 
-Written from the equations of ../shared/DESIGN.md (section 3), not from ``soiltrack.soilmodel``: it imports
-nothing of soiltrack. Eq. 2 (Janosi-Hanamoto thrust of a uniform pressure track, ``F(i) = -F(|i|)`` in
+Written from the equations of docs/physics.md (Eq. 2, the sprocket dynamics), not from ``soiltrack.soilmodel``:
+it imports nothing of soiltrack. Eq. 2 (Janosi-Hanamoto thrust of a uniform pressure track, ``F(i) = -F(|i|)`` in
 skid), the thrust-balance sprocket equation and Eqs. 1, 4::
 
     m dv/dt = F(i) - W mu_r,     I dw/dt = M_s - r F(i),     v = r w (1 - i)
@@ -40,13 +40,13 @@ G = 9.81
 
 @dataclass(frozen=True)
 class Vehicle:
-    """The light vehicle of DESIGN.md section 5, with its drivetrain limits.
+    """The library's light vehicle preset (docs/physics.md), with its drivetrain limits.
 
     Attributes
     ----------
     weight, length, width, radius, inertia, mu_r
         W (N), track length l and width b (m), sprocket radius r (m), sprocket inertia I (kg m^2),
-        rolling resistance mu_r: DESIGN.md's light vehicle.
+        rolling resistance mu_r: the light preset's.
     max_torque, max_power
         Drivetrain limits, N m and W (those the library's light preset carries: 40 N m, 500 W).
     """
@@ -73,7 +73,7 @@ class Vehicle:
 
 @dataclass(frozen=True)
 class Soil:
-    """Dry sand (DESIGN.md's terrain table; K = 25 mm, the library's value for it).
+    """Dry sand (docs/physics.md's terrain table; K = 25 mm, the library's value for it).
 
     Attributes
     ----------
@@ -264,7 +264,7 @@ COLUMNS = ("time_s", "sprocket_torque_Nm", "sprocket_speed_rad_s", "vehicle_spee
 
 
 def write_csv(log: dict, path: str) -> None:
-    """The log as a drive-log CSV (the columns of DESIGN.md section 7)."""
+    """The log as a drive-log CSV (the columns of docs/data-formats.md)."""
     a = np.column_stack([log[c] for c in COLUMNS])
     np.savetxt(path, a, delimiter=",", comments="", fmt="%.9g", header=",".join(COLUMNS))
 
