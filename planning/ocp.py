@@ -61,7 +61,7 @@ import numpy as np
 
 from ..soilmodel import Vehicle
 from ..soilmodel.dynamics import dynamics_expr
-from ..soilmodel.threadsafe import SOLVER_LOCK, call_solver, locked_cache
+from ..soilmodel.threadsafe import SOLVER_LOCK, call_solver, locked_cache, solver_status
 from .turning import MAX_SIDESLIP_DEG
 
 __all__ = [
@@ -453,7 +453,7 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
     else:
         args["x0"] = np.clip(_guess(d, vehicle, n, slip_of_thrust), lbx, ubx)
     out, stats = call_solver(solver, **args)
-    ok = bool(stats.get("success", False))
+    status, iterations, ok = solver_status(stats)
     if not ok and warm:  # a poor warm start: retry cold once
         warm = False
         args = dict(
@@ -463,7 +463,7 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
         cold = ocp_solver(vehicle, n, False, energy, rate_on, turns)
         t0 += time.perf_counter() - t_b  # the build (if any) is not solve time
         out, stats = call_solver(cold, **args)
-        ok = bool(stats.get("success", False))
+        status, iterations, ok = solver_status(stats)
     elapsed = time.perf_counter() - t0
     x = np.asarray(out["x"], dtype=float).ravel()
     if ok and np.all(np.isfinite(x)):
@@ -482,8 +482,8 @@ def solve_ocp(d: OcpData, vehicle: Vehicle, slip_of_thrust, warm_store: dict | N
         "M": x[iu] * Ms,
         "dt": x[idt],
         "success": ok,
-        "status": str(stats.get("return_status", "unknown")),
-        "iterations": int(stats.get("iter_count", -1)),
+        "status": status,
+        "iterations": iterations,
         "solve_time": elapsed,
         "warm": warm,
     }

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 from ...soilmodel.data import STD_COLUMNS, SlipData
 from ...soilmodel.errors import DataError
+from ...soilmodel.search import golden_section
 from ...soilmodel.vehicle import Vehicle
 from ..estimates.distributions import lr_threshold
 from ..estimates.result import FitResult
@@ -53,7 +54,6 @@ MU_BOUNDS = (0.0, 0.6)
 GRID_POINTS = 13
 #: The golden-section search stops when the bracket is this narrow (in mu_r).
 GOLDEN_TOL = 1e-4
-_PHI = (math.sqrt(5.0) - 1.0) / 2.0
 
 
 def assumed_resistance(result: FitResult) -> dict:
@@ -174,15 +174,7 @@ def fit_resistance(
     if not np.any(np.isfinite(costs)):
         raise DataError(f"no soil fitted the drawbar pull at any resistance in [{lo_b:g}, {hi:.4g}]", file=data.source)
     k = int(np.argmin(costs))
-    a, b = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
-    c, d = b - _PHI * (b - a), a + _PHI * (b - a)
-    while b - a > tol:
-        if cost(c) <= cost(d):
-            b, d = d, c
-            c = b - _PHI * (b - a)
-        else:
-            a, c = c, d
-            d = a + _PHI * (b - a)
+    golden_section(cost, float(grid[max(k - 1, 0)]), float(grid[min(k + 1, grid.size - 1)]), tol=tol)
     v = min(cache, key=lambda m: cache[m])
     best = trial(v, True)
     cmin = _cost(best)
