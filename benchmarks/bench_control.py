@@ -12,7 +12,12 @@ Routes (planned everywhere as LETE sand, but ``dig``; the true terrain differs, 
   ceiling digs in) and then a loose climb that needs a high slip (heavy: 40 m of dry sand at 24 deg,
   about 10 % slip; light: 15 m of snow at 20 deg, about 10 %), so that neither
   fixed ceiling (7 %, 20 %) gets through. Planned with the true soils, the slip sinkage unknown to the plan
-  (``mu_s`` = 0): what the on-line estimate must find is that more slip digs in.
+  (``mu_s`` = 0): what the on-line estimate must find is that more slip digs in;
+- ``mix`` and ``climbs``: the acceptance scenarios (changes of terrain mid-route, hard climbs), planned as LETE
+  sand. Heavy ``mix``: LETE sand, snow, dry sand at 8 deg, clayey soil, LETE sand; heavy ``climbs``: dry sand at
+  22 and 24 deg and LETE sand at 26 deg between flats. Light ``mix``: LETE sand, a user soil the library does not
+  know (:data:`USER_SOILS` "wet loam": c 2 kPa, phi 22 deg, K 18 mm) flat and at 15 deg, snow, LETE sand; light
+  ``climbs``: wet loam at 22 deg and snow at 24 deg between flats.
 
 For each route, vehicle and controller (``slip``, ``mpc``), the baselines of the same run (``pi``,
 ``fixed_slip_7``, ``fixed_slip_20``, ``nominal_soil``, ``true_soil``) and the metrics of
@@ -35,7 +40,9 @@ import os
 import sys
 import time
 
-ROUTES = ("soft", "change", "climb", "steep", "dig")
+ROUTES = ("soft", "change", "climb", "steep", "dig", "mix", "climbs")
+#: True soils of the routes that are not library terrains (``TERRAINS``): ``{name: (c kPa, phi deg, K m)}``.
+USER_SOILS = {"wet_loam": (2.0, 22.0, 0.018)}
 #: The ``dig`` route's slip-sinkage patch: (grade deg, mu_s) per vehicle (the net pull F(i) - N mu_s i peaks
 #: 7 % (heavy) / 6 % (light) of F_max above the resistance at 5.7 % / 10 % slip, below it at 20 %).
 DIG = {"heavy": (10.0, 1.0), "light": (6.0, 2.0)}
@@ -75,7 +82,33 @@ def routes(vehicle: str) -> dict:
             dig_true,
             [dig_mu, 0.0, 0.0, 0.0],
         ),
+        **_acceptance_routes(vehicle, R),
     }
+
+
+def _acceptance_routes(vehicle: str, R) -> dict:
+    """The ``mix`` and ``climbs`` routes (module docstring) of a vehicle, built with ``routes``' route maker."""
+    if vehicle == "heavy":
+        mix = ([(15, 0), (15, 0), (15, 8), (15, 0), (15, 0)], ["lete_sand", "snow", "dry_sand", "clayey_soil"])
+        climbs = ([(10, 0), (15, 22), (10, 0), (15, 24), (10, 0), (10, 26)], ["lete_sand", "dry_sand"] * 2)
+        mix[1].append("lete_sand")
+        climbs[1].extend(["lete_sand", "lete_sand"])
+    else:
+        mix = ([(10, 0), (10, 0), (10, 15), (10, 0), (10, 0)], ["lete_sand", "wet_loam", "wet_loam", "snow"])
+        climbs = ([(10, 0), (15, 22), (10, 0), (15, 24), (10, 0)], ["lete_sand", "wet_loam", "lete_sand", "snow"])
+        mix[1].append("lete_sand")
+        climbs[1].append("lete_sand")
+    return {k: (R(p), t, [0.0] * len(p)) for k, (p, t) in (("mix", mix), ("climbs", climbs))}
+
+
+def _true_soil(name: str):
+    """A library terrain, or one of :data:`USER_SOILS`."""
+    from soiltrack.soilmodel import TERRAINS, Soil
+
+    if name in USER_SOILS:
+        c, phi, K = USER_SOILS[name]
+        return Soil.from_kpa_deg(c, phi, K, name=name.replace("_", " ") + " (user soil)")
+    return TERRAINS[name]
 
 
 def _row(name, r):
@@ -120,7 +153,7 @@ def split_time(n: int, replays: int = 5) -> None:
     from soiltrack.identify.online import OnlineEstimator, OnlineSettings
     from soiltrack.planning import route_from_dict
     from soiltrack.planning.control import PlantSettings, TerrainPatch, TrackPlant, make_controller
-    from soiltrack.soilmodel import TERRAINS, VEHICLES
+    from soiltrack.soilmodel import VEHICLES
 
     V = VEHICLES["light"]
     spec, true, _ = routes("light")["climb"]
@@ -150,7 +183,7 @@ def split_time(n: int, replays: int = 5) -> None:
     def run(factory):
         ctl = make_controller("slip", V, route=route, estimator_factory=factory)
         ps = PlantSettings(v0=route.v0_m_s, sigma_vehicle_speed=0.005, sigma_sprocket_speed=0.02)
-        pats = [TerrainPatch(p.length_m, TERRAINS[t], p.grade_deg) for p, t in zip(route.patches, true)]
+        pats = [TerrainPatch(p.length_m, _true_soil(t), p.grade_deg) for p, t in zip(route.patches, true)]
         pl = TrackPlant(V, pats, ps)
         meas, torques = pl.step(0.0), []
         for _ in range(300 + n):
@@ -187,7 +220,7 @@ def solve_time(specs: str) -> None:
 
     from soiltrack.planning import route_from_dict
     from soiltrack.planning.control import PlantSettings, TerrainPatch, TrackPlant, make_controller
-    from soiltrack.soilmodel import TERRAINS, VEHICLES
+    from soiltrack.soilmodel import VEHICLES
 
     print(
         "| run | QP | solves | IPOPT | failed | solve CPU ms med/p99/max | solve wall ms med/p99 | step CPU ms med/p99 "
@@ -207,7 +240,9 @@ def solve_time(specs: str) -> None:
                 sigma_sprocket_speed=0.02,
                 sigma_torque=0.005 * V.max_sprocket_torque,
             )
-            pats = [TerrainPatch(p.length_m, TERRAINS[t], p.grade_deg, m) for p, t, m in zip(route.patches, true, mus)]
+            pats = [
+                TerrainPatch(p.length_m, _true_soil(t), p.grade_deg, m) for p, t, m in zip(route.patches, true, mus)
+            ]
             pl = TrackPlant(V, pats, ps)
             meas = pl.step(0.0)
             while pl.truth["distance_m"] < route.length_m and pl.truth["time_s"] < 120:
@@ -258,7 +293,7 @@ def main(argv=None) -> int:
 
     from soiltrack.planning import route_from_dict
     from soiltrack.planning.control import PlantSettings, drive
-    from soiltrack.soilmodel import TERRAINS, VEHICLES
+    from soiltrack.soilmodel import VEHICLES
 
     sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
     print(
@@ -271,7 +306,7 @@ def main(argv=None) -> int:
         for rname in a.routes.split(","):
             spec, true, mus = routes(vname)[rname]
             route = route_from_dict(spec)
-            soils = [TERRAINS[k] for k in true]
+            soils = [_true_soil(k) for k in true]
             noise = dict(
                 sigma_vehicle_speed=0.005, sigma_sprocket_speed=0.02, sigma_torque=0.005 * V.max_sprocket_torque
             )
