@@ -49,14 +49,8 @@ def estimate_noise_profile(x: np.ndarray, n_bins: int = 8) -> tuple[float, float
     d = x[3:-1] - 2.0 * x[2:-2] + x[1:-3]
     xc = 0.5 * (np.abs(x[:-4]) + np.abs(x[4:]))
     order = np.argsort(xc)
-    rows, var, cnt = [], [], []
-    for chunk in np.array_split(order, n_bins):
-        dd = d[chunk]
-        mad = float(np.median(np.abs(dd - np.median(dd))))
-        rows.append([1.0, float(np.mean(xc[chunk] ** 2))])
-        var.append((MAD_TO_SIGMA * mad) ** 2 / 6.0)
-        cnt.append(chunk.size)
-    X, y, wt = np.array(rows), np.array(var), np.sqrt(np.array(cnt, dtype=float))
+    X, y, cnt = _bin_stats(d, xc, order, n_bins)
+    wt = np.sqrt(cnt)
     fits = {}
     for cols in ((0,), (1,), (0, 1)):  # non-negative least squares on two coefficients
         A = X[:, cols] * wt[:, None]
@@ -77,6 +71,52 @@ def estimate_noise_profile(x: np.ndarray, n_bins: int = 8) -> tuple[float, float
         best = fits[(0, 1)]
     a2, b2 = best[1]
     return math.sqrt(a2), math.sqrt(b2)
+
+
+def _sorted_median(s: np.ndarray) -> np.ndarray:
+    """Row medians of a row-sorted matrix, as :func:`numpy.median` computes them (the mean of the middle two)."""
+    m = s.shape[1]
+    if m % 2:
+        return s[:, m // 2]
+    return (s[:, m // 2 - 1] + s[:, m // 2]) / 2.0
+
+
+def _bin_stats(d: np.ndarray, xc: np.ndarray, order: np.ndarray, n_bins: int):
+    """Per bin of :func:`estimate_noise_profile`: the rows ``[1, mean(x^2)]``, the MAD variances and the counts.
+
+    The bins are ``np.array_split(order, n_bins)``: at most two sizes, each size's bins contiguous in
+    ``order``, so each size is one matrix and its medians come from one sort per row (the same numbers
+    as ``np.median`` bin by bin: the middle element, or the mean of the middle two; the row means are
+    numpy's pairwise sums of the same contiguous values). Non-finite second differences take the bin
+    by bin route (``np.median`` propagates NaN; a sort does not).
+    """
+    if not np.all(np.isfinite(d)):
+        rows, var, cnt = [], [], []
+        for chunk in np.array_split(order, n_bins):
+            dd = d[chunk]
+            mad = float(np.median(np.abs(dd - np.median(dd))))
+            rows.append([1.0, float(np.mean(xc[chunk] ** 2))])
+            var.append((MAD_TO_SIGMA * mad) ** 2 / 6.0)
+            cnt.append(chunk.size)
+        return np.array(rows), np.array(var), np.array(cnt, dtype=float)
+    n = order.size
+    q, r = divmod(n, n_bins)
+    mads, means, cnt = [], [], []
+    for start, k, m in ((0, r, q + 1), (r * (q + 1), n_bins - r, q)):  # array_split: the r larger bins first
+        if k == 0 or m == 0:
+            continue
+        idx = order[start : start + k * m].reshape(k, m)
+        dd = np.sort(d[idx], axis=1)
+        dev = np.sort(np.abs(dd - _sorted_median(dd)[:, None]), axis=1)
+        mads.append(_sorted_median(dev))
+        means.append(np.mean(xc[idx] ** 2, axis=1))
+        cnt.append(np.full(k, float(m)))
+    mad = np.concatenate(mads)
+    X = np.column_stack([np.ones(mad.size), np.concatenate(means)])
+    # the variances in Python floats, as before (``float ** 2`` is C's pow, not numpy's square: the last bit
+    # can differ)
+    var = np.array([(MAD_TO_SIGMA * m) ** 2 / 6.0 for m in mad.tolist()])
+    return X, var, np.concatenate(cnt)
 
 
 def noise_model(x: np.ndarray, given: float | None) -> tuple[float, float]:
