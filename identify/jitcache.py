@@ -57,6 +57,7 @@ __all__ = [
     "load",
     "Compiled",
     "FLAGS",
+    "FLAGS_O3",
     "fallback_note",
     "FALLBACKS",
     "cache_writable",
@@ -70,6 +71,12 @@ __all__ = [
 #: through the PLT: the same operations in the same order, about a third less time per call.
 #: ``-ffp-contract=off``: no fused multiply-adds, whatever the target (the IEEE operations as written).
 FLAGS = ("-O2", "-fvisibility=hidden", "-DGCC_HASCLASSVISIBILITY", "-ffp-contract=off", "-shared", "-fPIC")
+#: :data:`FLAGS` at ``-O3``, for the libraries whose call time matters (the on-line estimator's kernels,
+#: called at every sample): more inlining and unrolling, the same IEEE operations in the same order
+#: (``-O3`` enables no unsafe floating-point optimisation, and ``-ffp-contract=off`` stays: no fused
+#: multiply-adds), so the same numbers bit for bit (checked on the on-line kernels:
+#: tests/test_online_speed_flags.py). The flags are part of a library's cache key.
+FLAGS_O3 = ("-O3",) + FLAGS[1:]
 
 #: Lock file (in the cache folder) that serialises queued background compilations (``flock``).
 COMPILE_LOCK = ".compile.lock"
@@ -91,7 +98,8 @@ _SAID: set[str] = set()  # fallbacks already said on stderr by this process
 _LOCK = threading.Lock()  # guards the dicts below
 _LIB_LOCKS: dict[str, threading.Lock] = {}  # one per library: one compilation of it per process at a time
 _PENDING: dict[str, subprocess.Popen] = {}
-_DEFERRED: dict[str, tuple[str, str, str, Path]] = {}  # compilations to start at exit (load(defer=True))
+# compilations to start at exit (load(defer=True)): source, name, compiler, library, flags
+_DEFERRED: dict[str, tuple[str, str, str, Path, tuple[str, ...]]] = {}
 _AT_EXIT: list[bool] = []  # start_deferred registered with atexit
 
 
@@ -214,9 +222,9 @@ def _source(functions: Sequence[ca.Function], name: str) -> str:
     return cg.dump()
 
 
-def _library_path(source: str, name: str, cc: str) -> Path:
+def _library_path(source: str, name: str, cc: str, flags: Sequence[str] = FLAGS) -> Path:
     h = hashlib.sha256()
-    for part in (source, str(getattr(ca, "__version__", "")), cc, " ".join(FLAGS)):
+    for part in (source, str(getattr(ca, "__version__", "")), cc, " ".join(flags)):
         h.update(part.encode())
         h.update(b"\0")
     return cache_dir() / f"{name}_{h.hexdigest()[:24]}.so"
@@ -237,12 +245,12 @@ def _write_source(folder: Path, name: str, source: str) -> str:
     return src
 
 
-def _compile_now(source: str, name: str, cc: str, lib: Path) -> bool:
+def _compile_now(source: str, name: str, cc: str, lib: Path, flags: Sequence[str] = FLAGS) -> bool:
     src = _write_source(lib.parent, name, source)
     tmp = f"{lib}.{os.getpid()}.{threading.get_ident()}.tmp"
     try:
         done = subprocess.run(
-            shlex.split(cc) + list(FLAGS) + [src, "-o", tmp, "-lm"],
+            shlex.split(cc) + list(flags) + [src, "-o", tmp, "-lm"],
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
             check=False,
@@ -257,12 +265,14 @@ def _compile_now(source: str, name: str, cc: str, lib: Path) -> bool:
                 os.remove(f)
 
 
-def _compile_background(source: str, name: str, cc: str, lib: Path, queue: bool = False) -> None:
+def _compile_background(
+    source: str, name: str, cc: str, lib: Path, queue: bool = False, flags: Sequence[str] = FLAGS
+) -> None:
     if str(lib) in _PENDING and _PENDING[str(lib)].poll() is None:
         return
     src = _write_source(lib.parent, name, source)
     tmp = f"{lib}.{os.getpid()}.bg.tmp"
-    cmd = " ".join(shlex.quote(a) for a in shlex.split(cc) + list(FLAGS) + [src, "-o", tmp, "-lm"])
+    cmd = " ".join(shlex.quote(a) for a in shlex.split(cc) + list(flags) + [src, "-o", tmp, "-lm"])
     script = (
         f"{cmd} >/dev/null 2>&1 && mv -f {shlex.quote(tmp)} {shlex.quote(str(lib))}; "
         f"rm -f {shlex.quote(src)} {shlex.quote(tmp)}"
@@ -296,18 +306,24 @@ def start_deferred() -> int:
         jobs = list(_DEFERRED.values())
         _DEFERRED.clear()
     started = 0
-    for source, name, cc, lib in jobs:
+    for source, name, cc, lib, flags in jobs:
         if lib.exists():
             continue
         try:
-            _compile_background(source, name, cc, lib, queue=True)
+            _compile_background(source, name, cc, lib, queue=True, flags=flags)
         except OSError:
             continue
         started += 1
     return started
 
 
-def load(functions: Sequence[ca.Function], name: str, wait: bool = True, defer: bool = False) -> Compiled:
+def load(
+    functions: Sequence[ca.Function],
+    name: str,
+    wait: bool = True,
+    defer: bool = False,
+    flags: Sequence[str] = FLAGS,
+) -> Compiled:
     """Evaluate ``functions`` from C code, compiled once per machine (see the module notes).
 
     Parameters
@@ -323,6 +339,8 @@ def load(functions: Sequence[ca.Function], name: str, wait: bool = True, defer: 
         With ``wait=False``: the background compilation starts when this process exits, queued
         behind the other deferred ones of the cache folder (``flock`` on :data:`COMPILE_LOCK`),
         at idle priority (see the module notes).
+    flags : sequence of str
+        Compiler flags (:data:`FLAGS`, or :data:`FLAGS_O3`); part of the library's cache key.
 
     Returns
     -------
@@ -343,8 +361,9 @@ def load(functions: Sequence[ca.Function], name: str, wait: bool = True, defer: 
         _say_once(VM_FAILED, "CasADi's code generator failed")
         return vm
     writable, why = cache_writable()
+    flags = tuple(flags)
     try:
-        lib = _library_path(source, name, cc)
+        lib = _library_path(source, name, cc, flags)
     except OSError:  # the cache folder cannot be created
         lib = None
     if lib is None or (not writable and not lib.exists()):  # a cached library in a read-only folder still loads
@@ -358,7 +377,7 @@ def load(functions: Sequence[ca.Function], name: str, wait: bool = True, defer: 
         if not lib.exists():
             if not wait and defer:
                 with _LOCK:
-                    _DEFERRED.setdefault(str(lib), (source, name, cc, lib))
+                    _DEFERRED.setdefault(str(lib), (source, name, cc, lib, flags))
                     if not _AT_EXIT:
                         atexit.register(start_deferred)
                         _AT_EXIT.append(True)
@@ -366,7 +385,7 @@ def load(functions: Sequence[ca.Function], name: str, wait: bool = True, defer: 
                 return vm
             if not wait:
                 try:
-                    _compile_background(source, name, cc, lib)
+                    _compile_background(source, name, cc, lib, flags=flags)
                 except OSError as e:
                     vm.backend = VM_FAILED
                     _say_once(VM_FAILED, f"cannot start the compiler: {e.strerror or e}")
@@ -374,7 +393,7 @@ def load(functions: Sequence[ca.Function], name: str, wait: bool = True, defer: 
                 vm.backend = VM_PENDING
                 return vm
             try:
-                compiled = _compile_now(source, name, cc, lib)
+                compiled = _compile_now(source, name, cc, lib, flags)
             except OSError as e:  # e.g. a full disk: nothing left behind (_write_source, _compile_now)
                 compiled = False
                 why = f"writing to the cache failed: {e.strerror or e}"

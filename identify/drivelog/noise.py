@@ -49,14 +49,8 @@ def estimate_noise_profile(x: np.ndarray, n_bins: int = 8) -> tuple[float, float
     d = x[3:-1] - 2.0 * x[2:-2] + x[1:-3]
     xc = 0.5 * (np.abs(x[:-4]) + np.abs(x[4:]))
     order = np.argsort(xc)
-    rows, var, cnt = [], [], []
-    for chunk in np.array_split(order, n_bins):
-        dd = d[chunk]
-        mad = float(np.median(np.abs(dd - np.median(dd))))
-        rows.append([1.0, float(np.mean(xc[chunk] ** 2))])
-        var.append((MAD_TO_SIGMA * mad) ** 2 / 6.0)
-        cnt.append(chunk.size)
-    X, y, wt = np.array(rows), np.array(var), np.sqrt(np.array(cnt, dtype=float))
+    X, y, cnt = _bin_stats(d, xc, order, n_bins)
+    wt = np.sqrt(cnt)
     fits = {}
     for cols in ((0,), (1,), (0, 1)):  # non-negative least squares on two coefficients
         A = X[:, cols] * wt[:, None]
@@ -77,6 +71,64 @@ def estimate_noise_profile(x: np.ndarray, n_bins: int = 8) -> tuple[float, float
         best = fits[(0, 1)]
     a2, b2 = best[1]
     return math.sqrt(a2), math.sqrt(b2)
+
+
+def _sorted_median(s: np.ndarray) -> np.ndarray:
+    """Row medians of a row-sorted matrix, as :func:`numpy.median` computes them (the mean of the middle two)."""
+    m = s.shape[1]
+    if m % 2:
+        return s[:, m // 2]
+    return (s[:, m // 2 - 1] + s[:, m // 2]) / 2.0
+
+
+_BinStats = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+def _bin_stats_loop(d: np.ndarray, xc: np.ndarray, order: np.ndarray, n_bins: int) -> _BinStats:
+    """:func:`_bin_stats` bin by bin with ``np.median`` (NaN propagates)."""
+    rows: list[list[float]] = []
+    var: list[float] = []
+    cnt: list[int] = []
+    for chunk in np.array_split(order, n_bins):
+        dd = d[chunk]
+        mad = float(np.median(np.abs(dd - np.median(dd))))
+        rows.append([1.0, float(np.mean(xc[chunk] ** 2))])
+        var.append((MAD_TO_SIGMA * mad) ** 2 / 6.0)
+        cnt.append(chunk.size)
+    return np.array(rows), np.array(var), np.array(cnt, dtype=float)
+
+
+def _bin_stats(d: np.ndarray, xc: np.ndarray, order: np.ndarray, n_bins: int) -> _BinStats:
+    """Per bin of :func:`estimate_noise_profile`: the rows ``[1, mean(x^2)]``, the MAD variances and the counts.
+
+    The bins are ``np.array_split(order, n_bins)``: at most two sizes, each size's bins contiguous in
+    ``order``, so each size is one matrix and its medians come from one sort per row (the same numbers
+    as ``np.median`` bin by bin: the middle element, or the mean of the middle two; the row means are
+    numpy's pairwise sums of the same contiguous values). Non-finite second differences take the bin
+    by bin route (:func:`_bin_stats_loop`: ``np.median`` propagates NaN; a sort does not).
+    """
+    if not np.all(np.isfinite(d)):
+        return _bin_stats_loop(d, xc, order, n_bins)
+    n = order.size
+    q, r = divmod(n, n_bins)
+    mads: list[np.ndarray] = []
+    means: list[np.ndarray] = []
+    counts: list[np.ndarray] = []
+    for start, k, m in ((0, r, q + 1), (r * (q + 1), n_bins - r, q)):  # array_split: the r larger bins first
+        if k == 0 or m == 0:
+            continue
+        idx = order[start : start + k * m].reshape(k, m)
+        dd = np.sort(d[idx], axis=1)
+        dev = np.sort(np.abs(dd - _sorted_median(dd)[:, None]), axis=1)
+        mads.append(_sorted_median(dev))
+        means.append(np.mean(xc[idx] ** 2, axis=1))
+        counts.append(np.full(k, float(m)))
+    mad_all = np.concatenate(mads)
+    X = np.column_stack([np.ones(mad_all.size), np.concatenate(means)])
+    # the variances in Python floats, as before (``float ** 2`` is C's pow, not numpy's square: the last bit
+    # can differ)
+    var_all = np.array([(MAD_TO_SIGMA * v) ** 2 / 6.0 for v in mad_all.tolist()])
+    return X, var_all, np.concatenate(counts)
 
 
 def noise_model(x: np.ndarray, given: float | None) -> tuple[float, float]:

@@ -41,6 +41,9 @@ __all__ = [
     "SUMS",
     "Kernels",
     "kernels",
+    "kernel_functions",
+    "library_name",
+    "KERNEL_FLAGS",
     "prepare_kernel",
     "predict_kernel",
     "predict_held_kernel",
@@ -451,6 +454,31 @@ def predict_held_kernel() -> ca.Function:
     )
 
 
+#: Compiler flags of the kernels' library: ``-O3`` (they run at every sample; the same numbers as ``-O2``
+#: bit for bit, :data:`~soiltrack.identify.jitcache.FLAGS_O3`; the tracking step about 12 % faster:
+#: docs/speed.md).
+KERNEL_FLAGS = jitcache.FLAGS_O3
+
+
+def library_name(n: int) -> str:
+    """The cache name of the kernels' library of capacity ``n``."""
+    return f"soiltrack_online_{n}"
+
+
+def kernel_functions(n: int) -> list[ca.Function]:
+    """The Functions of :class:`Kernels` of capacity ``n``, in its order (one generated C file)."""
+    prep = prepare_kernel()
+    prep_all = prep.map(f"online_prepare_all_{n}", "serial", n, [1], [])
+    return [
+        _step(n, SLIP_ITERATIONS, SLIP_STEP_FRACTIONS, "online_step"),
+        _step(n, TRACK_SLIP_ITERATIONS, TRACK_STEP_FRACTIONS, "online_track"),
+        predict_kernel(),
+        prep,
+        prep_all,
+        predict_held_kernel(),
+    ]
+
+
 class Kernels:
     """The compiled Functions of one horizon capacity: ``step``, ``track``, ``predict``, ``prepare``, ``prepare_all``,
     ``predict_held``.
@@ -466,17 +494,7 @@ class Kernels:
     """
 
     def __init__(self, n: int) -> None:
-        prep = prepare_kernel()
-        prep_all = prep.map(f"online_prepare_all_{n}", "serial", n, [1], [])
-        fns = [
-            _step(n, SLIP_ITERATIONS, SLIP_STEP_FRACTIONS, "online_step"),
-            _step(n, TRACK_SLIP_ITERATIONS, TRACK_STEP_FRACTIONS, "online_track"),
-            predict_kernel(),
-            prep,
-            prep_all,
-            predict_held_kernel(),
-        ]
-        comp = jitcache.load(fns, f"soiltrack_online_{n}", wait=True)
+        comp = jitcache.load(kernel_functions(n), library_name(n), wait=True, flags=KERNEL_FLAGS)
         self.step, self.track, self.predict, self.prepare, self.prepare_all, self.predict_held = comp.functions
         self.backend = comp.backend
         self.library = comp.path if comp.is_c else None
