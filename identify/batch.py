@@ -261,7 +261,8 @@ def _solve_problems(
         for pb, s, (found, usable) in zip(P, S, assess_many(P, S, vehicle, model, bounds, (theta, loads, r))):
             msg = messages.get(s.one_load)
             if msg is None:
-                msg = messages[s.one_load] = compiled_lm.message_of(s, None).replace("compiled", "vectorised compiled", 1)
+                msg = compiled_lm.message_of(s, None).replace("compiled", "vectorised compiled", 1)
+                messages[s.one_load] = msg
             status.append("converged" if usable else f"converged {NOT_USABLE}")
             success.append(usable)
             message.append(

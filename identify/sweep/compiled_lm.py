@@ -985,7 +985,7 @@ def _fill_solutions(out: list, idx: list, Y, RJ, theta, J, cert, kind: tuple) ->
     p, n, nc, one_load, engine, backend = kind
     iters = [int(v) if math.isfinite(v) else -1 for v in Y[:, 2 * p + 2].tolist()]
     st = Y[:, 2 * p + 3 : 3 * p + 3]  # the start (_theta_si of each row, the same products)
-    start = (st * [_S0, 1.0, _S2] if p == 3 else np.column_stack((np.zeros(len(idx)), st[:, 0], st[:, 1] * _S2)))
+    start = st * [_S0, 1.0, _S2] if p == 3 else np.column_stack((np.zeros(len(idx)), st[:, 0], st[:, 1] * _S2))
     screens = RJ[:, 6 * nc : 6 * nc + 3].tolist()
     empty = np.empty(0)
     new = object.__new__

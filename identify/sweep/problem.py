@@ -36,7 +36,17 @@ from ..estimates.result import FitResult, build_result
 from .model import SweepResiduals, nominal_offset, predict
 from .plausibility import slip_checks
 
-__all__ = ["SlipProblem", "make_problem", "checked_problems", "FitFailed", "SCALE", "METHODS", "n_free", "ridge_centre", "weights"]
+__all__ = [
+    "SlipProblem",
+    "make_problem",
+    "checked_problems",
+    "FitFailed",
+    "SCALE",
+    "METHODS",
+    "n_free",
+    "ridge_centre",
+    "weights",
+]
 
 #: Variable scaling used by the solvers: c in kPa, phi in rad, K in cm.
 SCALE = np.array([1e3, 1.0, 1e-2])
