@@ -464,7 +464,11 @@ def _sweep_findings(data: SlipData, vehicle: Vehicle, st: ConsistencySettings) -
                 )
             )
     developed = data.slip >= st.min_force_slip
-    if np.count_nonzero(developed):
+    if np.count_nonzero(developed) and data.normal_load is None and W > 0:  # every load W: exact as below,
+        ratio = float(np.maximum.reduce(data.values[developed])) / W  # (the largest quotient is the largest's)
+        c_hi, phi_hi = float(WIDE_BOUNDS.upper[0]), float(WIDE_BOUNDS.upper[1])
+        out.append(_force_scale_finding(ratio, (vehicle.contact_area * c_hi + W * math.tan(phi_hi)) / W, st))
+    elif np.count_nonzero(developed):
         loads = data.loads(W)
         ratio = float(np.max(data.values[developed] / loads[developed]))
         out.append(_force_scale_finding(ratio, _top_ratio(vehicle, loads), st))
@@ -525,15 +529,15 @@ def _plain_sweep_findings(datasets: list, vehicle: Vehicle, st: ConsistencySetti
     W = vehicle.weight
     S = np.array([d.slip for d in datasets], dtype=float)
     loads = datasets[0].loads(W)  # (the same for every sweep of this length)
-    dev = S >= st.min_force_slip
-    developed = dev.any(axis=1).tolist()
-    ratios = np.where(dev, np.array([d.values for d in datasets]) / loads, -np.inf).max(axis=1).tolist()
+    developed_rows = S >= st.min_force_slip
+    developed = (np.count_nonzero(developed_rows, axis=1) > 0).tolist()
+    ratios = np.where(developed_rows, np.array([d.values for d in datasets]) / loads, -np.inf).max(axis=1).tolist()
     Ss = np.sort(S, axis=1)
     maybe_repeats = (Ss[:, 1:] == Ss[:, :-1]).any(axis=1).tolist()
     top = _top_ratio(vehicle, loads)
-    out = []
+    out: list[tuple[Finding, ...]] = []
     for d, dev, ratio, maybe in zip(datasets, developed, ratios, maybe_repeats):
-        found = (_force_scale_finding(ratio, top, st),) if dev else ()
+        found: tuple[Finding, ...] = (_force_scale_finding(ratio, top, st),) if dev else ()
         if maybe:
             n_rep, rows = repeated_rows(d)
             if n_rep:
