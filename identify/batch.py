@@ -51,14 +51,14 @@ from ..soilmodel.soil import PRACTICAL_BOUNDS, SoilBounds
 from ..soilmodel.vehicle import Vehicle
 from .sweep import compiled_lm
 from .engines import check_engine, jit_mode, normalise_status
-from .sweep.problem import FitFailed, check_common, checked_problem
+from .sweep.problem import FitFailed, check_common, checked_problem, checked_problems
 from ..soilmodel.ridge import continuous_load
 from .sweep.plausibility import assess_many
 from .sweep.model import SweepResiduals
 from .estimates.records import NOT_USABLE
 from .estimates.result import FitResult, build_results_batch
 from .settings import SETTING_NAMES, FitSettings
-from .consistency import check_consistency, with_consistency
+from .consistency import check_consistency_many, with_consistency
 from .estimates.result import build_result
 from .fitting import fit
 from .sweep.resistance import assumed_resistance
@@ -196,9 +196,12 @@ def _solve_chunk(
     pbs, keep = [], []
     out: list[FitResult | None] = [None] * len(datasets)
     check_common(vehicle, model, "ipopt", bounds)  # once for the chunk (a worker's chunk is checked there too)
+    # plain sweeps set up for a length at once; any other item alone (the same problems)
+    bulk = checked_problems(list(datasets), vehicle, model, bounds, sigma_known) if sigma is None else None
     for j, d in enumerate(datasets):
         try:
-            pbs.append(checked_problem(d, vehicle, model, bounds, sigma=sigma, sigma_known=sigma_known))
+            pb = bulk[j] if bulk is not None else None
+            pbs.append(pb if pb is not None else checked_problem(d, vehicle, model, bounds, sigma, sigma_known))
             keep.append(j)
         except Exception:  # noqa: BLE001 - said by the single fit below, with the item's index
             out[j] = _guarded_fit(indices[j], d, vehicle, model, "ipopt", bounds, kw, settings)
@@ -244,15 +247,22 @@ def _solve_problems(
             no_repeats[k] = free
         r = np.stack([s.residuals for s in S])
         sig = np.stack([pb.sigma for pb in P])
+        theta = np.stack([s.theta for s in S])
+        loads = np.stack([pb.load for pb in P])
         extras = []
         for pb, s in zip(P, S):
-            e = {**compiled_lm.extra_of(s), "sigma_model": pb.noise_model}  # as fit's compiled path records
+            e = compiled_lm.extra_of(s)  # a new dict; as fit's compiled path records it
+            e["sigma_model"] = pb.noise_model
             e["engine"] = "vectorized" if s.engine == "compiled" else "vectorized-vm"
             extras.append(e)
         # the same plausibility checks as fit (they decide success: fit and fit_many agree on it)
         status, success, message, warns = [], [], [], []
-        for pb, s, (found, usable) in zip(P, S, assess_many(P, S, vehicle, model, bounds)):
-            msg = compiled_lm.message_of(s, None).replace("compiled", "vectorised compiled", 1)
+        messages: dict[bool, str] = {}  # the message depends on the solve only through one_load
+        for pb, s, (found, usable) in zip(P, S, assess_many(P, S, vehicle, model, bounds, (theta, loads, r))):
+            msg = messages.get(s.one_load)
+            if msg is None:
+                msg = compiled_lm.message_of(s, None).replace("compiled", "vectorised compiled", 1)
+                messages[s.one_load] = msg
             status.append("converged" if usable else f"converged {NOT_USABLE}")
             success.append(usable)
             message.append(
@@ -262,11 +272,11 @@ def _solve_problems(
         built = build_results_batch(
             model=model,
             method="ipopt",
-            theta=np.stack([s.theta for s in S]),
+            theta=theta,
             jacobian=np.stack([s.jacobian for s in S]),
             weighted_residuals=r / sig,
             residuals=r,
-            normal_loads=np.stack([pb.load for pb in P]),
+            normal_loads=loads,
             vehicle=vehicle,
             bounds=bounds,
             status=status,
@@ -282,8 +292,8 @@ def _solve_problems(
         for k, res in zip(idx, built):
             out[k] = res
     return [
-        with_consistency(_with_rig_extra(res, d, model, nr), check_consistency(d, vehicle))  # type: ignore
-        for res, d, nr in zip(out, datasets, no_repeats)
+        with_consistency(_with_rig_extra(res, d, model, nr), report)  # type: ignore
+        for res, d, nr, report in zip(out, datasets, no_repeats, check_consistency_many(datasets, vehicle))
     ]
 
 

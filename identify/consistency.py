@@ -61,6 +61,7 @@ __all__ = [
     "Finding",
     "ConsistencyReport",
     "check_consistency",
+    "check_consistency_many",
     "with_consistency",
     "repeated_rows",
     "SEVERITIES",
@@ -463,51 +464,100 @@ def _sweep_findings(data: SlipData, vehicle: Vehicle, st: ConsistencySettings) -
                 )
             )
     developed = data.slip >= st.min_force_slip
-    if np.count_nonzero(developed):
+    if np.count_nonzero(developed) and data.normal_load is None and W > 0:  # every load W: exact as below,
+        ratio = float(np.maximum.reduce(data.values[developed])) / W  # (the largest quotient is the largest's)
+        c_hi, phi_hi = float(WIDE_BOUNDS.upper[0]), float(WIDE_BOUNDS.upper[1])
+        out.append(_force_scale_finding(ratio, (vehicle.contact_area * c_hi + W * math.tan(phi_hi)) / W, st))
+    elif np.count_nonzero(developed):
         loads = data.loads(W)
         ratio = float(np.max(data.values[developed] / loads[developed]))
-        c_hi, phi_hi = float(WIDE_BOUNDS.upper[0]), float(WIDE_BOUNDS.upper[1])  # the range of measured soils
-        top = float(np.max((vehicle.contact_area * c_hi + loads * math.tan(phi_hi)) / loads))
-        if ratio < st.min_force_ratio:
-            out.append(
-                Finding(
-                    "force_scale",
-                    "fatal",
-                    f"the largest force at slips >= {st.min_force_slip:g} is "
-                    f"{ratio:.3g} of the normal load: no soil gives so little (phi >= 1 deg gives 0.017); "
-                    "the force in kN instead of N, or the data of a lighter vehicle?",
-                    ratio,
-                )
-            )
-        elif ratio > top:
-            out.append(
-                Finding(
-                    "force_scale",
-                    "fatal",
-                    f"the largest force is {ratio:.3g} times the normal load, more "
-                    f"than any soil gives this vehicle ({top:.3g}): the force in N where the load is in kN, "
-                    "or the data of a heavier vehicle?",
-                    ratio,
-                )
-            )
-        else:
-            out.append(Finding("force_scale", "ok", f"the largest force is {ratio:.3g} of the normal load", ratio))
+        out.append(_force_scale_finding(ratio, _top_ratio(vehicle, loads), st))
     n_rep, rows = repeated_rows(data)
     if n_rep:
-        out.append(
-            Finding(
-                "repeated_rows",
-                "warning",
-                f"{n_rep} row(s) repeat an earlier row exactly (rows "
-                f"{', '.join(map(str, rows))}{' ...' if n_rep > len(rows) else ''}): each is fitted as "
-                "independent evidence, which shrinks the standard errors; remove copies, keep true "
-                "replicates",
-                float(n_rep),
-                rows,
-                n_rep,
-            )
-        )
+        out.append(_repeated_finding(n_rep, rows))
     return out
+
+
+def _top_ratio(vehicle: Vehicle, loads) -> float:
+    """The largest force over the normal load any soil of the measured range gives at these loads."""
+    c_hi, phi_hi = float(WIDE_BOUNDS.upper[0]), float(WIDE_BOUNDS.upper[1])  # the range of measured soils
+    return float(np.max((vehicle.contact_area * c_hi + loads * math.tan(phi_hi)) / loads))
+
+
+def _force_scale_finding(ratio: float, top: float, st: ConsistencySettings) -> Finding:
+    """The force-scale check: the largest developed force over the normal load, ``ratio``, against what soils give."""
+    if ratio < st.min_force_ratio:
+        return Finding(
+            "force_scale",
+            "fatal",
+            f"the largest force at slips >= {st.min_force_slip:g} is "
+            f"{ratio:.3g} of the normal load: no soil gives so little (phi >= 1 deg gives 0.017); "
+            "the force in kN instead of N, or the data of a lighter vehicle?",
+            ratio,
+        )
+    if ratio > top:
+        return Finding(
+            "force_scale",
+            "fatal",
+            f"the largest force is {ratio:.3g} times the normal load, more "
+            f"than any soil gives this vehicle ({top:.3g}): the force in N where the load is in kN, "
+            "or the data of a heavier vehicle?",
+            ratio,
+        )
+    return Finding("force_scale", "ok", f"the largest force is {ratio:.3g} of the normal load", ratio)
+
+
+def _repeated_finding(n_rep: int, rows: tuple[int, ...]) -> Finding:
+    """The repeated-rows warning: ``n_rep`` rows repeat an earlier one (the first ``rows``, 1-based)."""
+    return Finding(
+        "repeated_rows",
+        "warning",
+        f"{n_rep} row(s) repeat an earlier row exactly (rows "
+        f"{', '.join(map(str, rows))}{' ...' if n_rep > len(rows) else ''}): each is fitted as "
+        "independent evidence, which shrinks the standard errors; remove copies, keep true "
+        "replicates",
+        float(n_rep),
+        rows,
+        n_rep,
+    )
+
+
+def _plain_sweep_findings(datasets: list, vehicle: Vehicle, st: ConsistencySettings) -> list[tuple[Finding, ...]]:
+    """:func:`_sweep_findings` of sweeps of one length without a normal-load column, decided at once: every
+    load is the vehicle's weight, so the force scale is one stacked maximum; a sweep with no two equal slips
+    has no repeated row (any other goes through :func:`repeated_rows`)."""
+    W = vehicle.weight
+    S = np.array([d.slip for d in datasets], dtype=float)
+    loads = datasets[0].loads(W)  # (the same for every sweep of this length)
+    developed_rows = S >= st.min_force_slip
+    developed = (np.count_nonzero(developed_rows, axis=1) > 0).tolist()
+    ratios = np.where(developed_rows, np.array([d.values for d in datasets]) / loads, -np.inf).max(axis=1).tolist()
+    Ss = np.sort(S, axis=1)
+    maybe_repeats = (Ss[:, 1:] == Ss[:, :-1]).any(axis=1).tolist()
+    top = _top_ratio(vehicle, loads)
+    out: list[tuple[Finding, ...]] = []
+    for d, dev, ratio, maybe in zip(datasets, developed, ratios, maybe_repeats):
+        found: tuple[Finding, ...] = (_force_scale_finding(ratio, top, st),) if dev else ()
+        if maybe:
+            n_rep, rows = repeated_rows(d)
+            if n_rep:
+                found += (_repeated_finding(n_rep, rows),)
+        out.append(found)
+    return out
+
+
+def check_consistency_many(datasets: list, vehicle: Vehicle) -> list[ConsistencyReport]:
+    """:func:`check_consistency` (default settings) of many datasets (``fit_many``): the same reports; the
+    slip sweeps of one length without a normal-load column checked at once (:func:`_plain_sweep_findings`)."""
+    out: list[ConsistencyReport | None] = [None] * len(datasets)
+    groups: dict[int, list[int]] = {}
+    for k, d in enumerate(datasets):
+        if type(d) is SlipData and d.normal_load is None and d.slip.size:
+            groups.setdefault(d.slip.size, []).append(k)
+    for idx in groups.values():
+        for k, found in zip(idx, _plain_sweep_findings([datasets[k] for k in idx], vehicle, _DEFAULT_SETTINGS)):
+            out[k] = ConsistencyReport(found)
+    return [r if r is not None else check_consistency(d, vehicle) for r, d in zip(out, datasets)]
 
 
 _DEFAULT_SETTINGS = ConsistencySettings()  # (frozen: one instance serves every call without settings)

@@ -19,6 +19,7 @@ the axis with ``scale.unit``::
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Iterable
@@ -86,11 +87,13 @@ def choose_scale(values: float | Iterable[float] | np.ndarray, unit: str) -> Sca
         a = np.abs(np.asarray(values, dtype=float).ravel())
         a = a[np.isfinite(a)]
         peak = float(a.max()) if a.size else 0.0
-    k = 0
-    for j, switch in enumerate(_SWITCH):
-        if peak >= switch:
-            k = j
-    return _scale(k, unit)
+    return _scale(_prefix_index(peak), unit)
+
+
+def _prefix_index(peak: float) -> int:
+    """Index in :data:`PREFIXES` of the prefix for a largest ``|value|`` of ``peak`` (finite, >= 0): the last
+    switch point at or below it (the switch points increase)."""
+    return max(bisect_right(_SWITCH, peak) - 1, 0)
 
 
 #: 999.95 kN would print as "1000 kN": each prefix is taken from the rounding point of the digits shown
@@ -106,9 +109,12 @@ def _scale(k: int, unit: str) -> Scale:
 
 def format_value(value: float | None, unit: str, digits: int = SIGNIFICANT_DIGITS) -> str:
     """One number in ``unit`` (base unit) with the prefix of its magnitude."""
-    if value is None or not math.isfinite(float(value)):
+    if value is None:
         return "n/a"
-    return choose_scale(value, unit).format(value, digits)
+    x = float(value)
+    if not math.isfinite(x):
+        return "n/a"
+    return _scale(_prefix_index(abs(x)), unit).format(x, digits)  # choose_scale(value, unit) of one number
 
 
 def format_force(value_N: float | None) -> str:

@@ -18,23 +18,28 @@ def _betacf(a: float, b: float, x: float) -> float:
     tiny, eps = 1e-300, 1e-15
     qab, qap, qam = a + b, a + 1.0, a - 1.0
     c, d = 1.0, 1.0 - qab * x / qap
-    d = tiny if abs(d) < tiny else d
+    if -tiny < d < tiny:
+        d = tiny
     d = 1.0 / d
     h = d
     for m in range(1, 10_000):
         m2 = 2 * m
         aa = m * (b - m) * x / ((qam + m2) * (a + m2))
         d = 1.0 + aa * d
-        d = tiny if abs(d) < tiny else d
+        if -tiny < d < tiny:  # (abs(d) < tiny without the call: the same for every float, NaN too)
+            d = tiny
         c = 1.0 + aa / c
-        c = tiny if abs(c) < tiny else c
+        if -tiny < c < tiny:  # (abs(c) < tiny without the call: the same for every float, NaN too)
+            c = tiny
         d = 1.0 / d
         h *= d * c
         aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2))
         d = 1.0 + aa * d
-        d = tiny if abs(d) < tiny else d
+        if -tiny < d < tiny:  # (abs(d) < tiny without the call: the same for every float, NaN too)
+            d = tiny
         c = 1.0 + aa / c
-        c = tiny if abs(c) < tiny else c
+        if -tiny < c < tiny:  # (abs(c) < tiny without the call: the same for every float, NaN too)
+            c = tiny
         d = 1.0 / d
         delta = d * c
         h *= delta

@@ -970,34 +970,46 @@ def solve_many(pbs: list, n_grid: int = 25, jit: str = "wait") -> list[Solution]
                 W0, A = float(pb.load[0]), pb.vehicle.contact_area
                 c, phi = ridge_centre(max_thrust_expr(0.0, theta[r, 1], W0, A, "cohesion-free"), W0, A, pb.bounds)
                 theta[r, 0], theta[r, 1] = float(c), float(phi)
-        corners = np.stack([_corners(pb.bounds, pb.model) for pb in P])
+        corners = np.empty((N, 6))
+        for b, rows_b in _by_bounds(P):  # one per bounds (the model is the group's)
+            corners[rows_b] = _corners(b, model)
         RJ = _run_rows(cr, np.concatenate((theta, X[:, 0:o], corners), axis=1))
         J = RJ[:, nc : 4 * nc].reshape(N, 3, nc)[:, :, 0:n].transpose(0, 2, 1)
-        iters = [int(v) if math.isfinite(v) else -1 for v in Y[:, 2 * p + 2].tolist()]
-        empty = np.empty(0)
-        new = object.__new__
-        for r, i in enumerate(idx):
-            ok = bool(cert[r])
-            sol = out[i] = new(Solution)  # Solution(...) without the frozen dataclass's per-field setattr
-            sol.__dict__.update(
-                theta=theta[r].copy(),
-                certified=ok,
-                iterations=iters[r],
-                start=_theta_si(Y[r, 2 * p + 3 : 3 * p + 3], p),
-                residuals=RJ[r, 0:n].copy() if ok else empty,
-                jacobian=J[r].copy() if ok else empty,
-                z=Z[r].copy(),
-                p=p,
-                one_load=one_load,
-                engine=cs.engine,
-                backend=cs.backend,
-                call_time=math.nan,
-                curves=(RJ[r, 4 * nc : 4 * nc + n].copy(), RJ[r, 5 * nc : 5 * nc + n].copy()) if ok else None,
-                screen=float(RJ[r, 6 * nc]) if ok else None,
-                bp_screen=float(RJ[r, 6 * nc + 1]) if ok else None,
-                limit_screen=float(RJ[r, 6 * nc + 2]) if ok else None,
-            )
+        _fill_solutions(out, idx, Y, RJ, theta, J, cert, (p, n, nc, one_load, cs.engine, cs.backend))
     return out  # type: ignore[return-value]
+
+
+def _fill_solutions(out: list, idx: list, Y, RJ, theta, J, cert, kind: tuple) -> None:
+    """The :class:`Solution` of each row of a stacked solve into ``out[idx[row]]``: its arrays are rows of the
+    stacked outputs (``Y`` the solver's, ``RJ`` the residual Function's; ``theta``, ``J`` decoded from them)."""
+    p, n, nc, one_load, engine, backend = kind
+    iters = [int(v) if math.isfinite(v) else -1 for v in Y[:, 2 * p + 2].tolist()]
+    st = Y[:, 2 * p + 3 : 3 * p + 3]  # the start (_theta_si of each row, the same products)
+    start = st * [_S0, 1.0, _S2] if p == 3 else np.column_stack((np.zeros(len(idx)), st[:, 0], st[:, 1] * _S2))
+    screens = RJ[:, 6 * nc : 6 * nc + 3].tolist()
+    empty = np.empty(0)
+    new = object.__new__
+    rows = zip(idx, cert.tolist(), iters, start.tolist(), screens, list(theta), list(Y[:, 0:p]), list(RJ), list(J))
+    for i, ok, it, st_r, sc, th, z, rj, Jr in rows:
+        sol = out[i] = new(Solution)  # Solution(...) without the frozen dataclass's per-field setattr
+        sol.__dict__.update(
+            theta=th,
+            certified=ok,
+            iterations=it,
+            start=st_r,
+            residuals=rj[0:n] if ok else empty,
+            jacobian=Jr if ok else empty,
+            z=z,
+            p=p,
+            one_load=one_load,
+            engine=engine,
+            backend=backend,
+            call_time=math.nan,
+            curves=(rj[4 * nc : 4 * nc + n], rj[5 * nc : 5 * nc + n]) if ok else None,
+            screen=sc[0] if ok else None,
+            bp_screen=sc[1] if ok else None,
+            limit_screen=sc[2] if ok else None,
+        )
 
 
 def _by_bounds(P: list) -> list[tuple]:
@@ -1020,10 +1032,10 @@ def _run_rows(c: "_Caller", X: np.ndarray) -> np.ndarray:
         return Y
     with c.lock:
         xb, yb, trig = c.x, c.y, c.trigger
-        for r in range(X.shape[0]):
-            xb[:] = X[r]
+        for xr, yr in zip(X, Y):  # (rows as views: iterating an array makes them in C)
+            xb[:] = xr
             trig()
-            Y[r] = yb
+            yr[:] = yb
     return Y
 
 

@@ -346,13 +346,14 @@ def _limit_on_bound(
     return out
 
 
-def _limit_finding(fm: float, W: float, side: str, wanted: float) -> Finding:
+def _limit_finding(fm: float, W: float, side: str, wanted: float, W_text: str | None = None) -> Finding:
     """The F_max-on-a-bound finding: F_max ``fm`` at load ``W`` on the ``side`` ("smallest"/"largest") the
-    bounds allow, where the data ask for ``wanted``; not usable beyond :data:`BOUND_FACTOR`."""
+    bounds allow, where the data ask for ``wanted``; not usable beyond :data:`BOUND_FACTOR`. ``W_text``:
+    ``W`` written already (``_fmt_force(W)``, for many findings at one load)."""
     far = wanted < fm / BOUND_FACTOR if side == "smallest" else wanted > fm * BOUND_FACTOR
     return Finding(
         "limit_on_bound",
-        f"the thrust limit F_max = {_fmt_force(fm)} at W = {_fmt_force(W)} is the {side} value the "
+        f"the thrust limit F_max = {_fmt_force(fm)} at W = {W_text or _fmt_force(W)} is the {side} value the "
         f"bounds allow (c and phi at their {'lower' if side == 'smallest' else 'upper'} bounds); the data ask "
         f"for about {_fmt_force(wanted)}"
         + (
@@ -364,17 +365,27 @@ def _limit_finding(fm: float, W: float, side: str, wanted: float) -> Finding:
     )
 
 
-def assess_many(problems: list, solutions: list, vehicle: Vehicle, model: str, bounds: SoilBounds) -> list[tuple]:
+def assess_many(
+    problems: list,
+    solutions: list,
+    vehicle: Vehicle,
+    model: str,
+    bounds: SoilBounds,
+    stacked: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+) -> list[tuple]:
     """:func:`assess` of many certified compiled solves of one length (``fit_many``'s batch): the same verdicts.
 
     The rows the solver's screens clear (``screen`` 0, finite ``theta``), with every load within
     :data:`LOAD_FACTOR` of the vehicle's weight and one load per dataset, are decided for all at once: no
     finding where the limit screen is 0 too, else F_max against the bounds (:func:`_limit_on_bound`'s
-    numbers, stacked); every other row goes through :func:`assess`.
+    numbers, stacked); every other row goes through :func:`assess`. ``stacked``: ``(theta, load,
+    residuals)`` of the solutions and problems as stacked arrays, when the caller has them.
     """
     N = len(problems)
-    theta = np.stack([s.theta for s in solutions])
-    L = np.stack([pb.load for pb in problems])
+    if stacked is None:
+        theta, L, R_all = np.stack([s.theta for s in solutions]), np.stack([pb.load for pb in problems]), None
+    else:
+        theta, L, R_all = stacked
     W = float(vehicle.weight)
     lo, hi = np.minimum.reduce(L, axis=1), np.maximum.reduce(L, axis=1)
     c, phi, K = theta[:, 0], theta[:, 1], theta[:, 2]
@@ -390,17 +401,22 @@ def assess_many(problems: list, solutions: list, vehicle: Vehicle, model: str, b
         tol = LIMIT_BAND * (rng[:, 1] - rng[:, 0])
         low, high = fm <= rng[:, 0] + tol, fm >= rng[:, 1] - tol
         F = np.stack([problems[k].force for k in todo.tolist()])
-        R = np.stack([solutions[k].residuals for k in todo.tolist()])
+        R = R_all[todo] if R_all is not None else np.stack([solutions[k].residuals for k in todo.tolist()])
         with np.errstate(all="ignore"):
             g = (F + R) / fm[:, None]
             gg = np.add.reduce(g * g, axis=1)
             wanted = np.where(gg > 0, np.add.reduce(g * F, axis=1) / gg, fm)
+        texts: dict[float, str] = {}  # each load written once (one vehicle: one load)
         for j, k in enumerate(todo.tolist()):
             side = "smallest" if low[j] else "largest" if high[j] else None
             if not side or fm[j] <= 0:
                 out[k] = ((), True)
                 continue
-            f = _limit_finding(float(fm[j]), float(lo[k]), side, float(wanted[j]))
+            W_k = float(lo[k])
+            W_text = texts.get(W_k)
+            if W_text is None:
+                W_text = texts[W_k] = _fmt_force(W_k)
+            f = _limit_finding(float(fm[j]), W_k, side, float(wanted[j]), W_text)
             out[k] = ((("NOT USABLE: " if not f.usable else "") + f.message,), f.usable)
     for k in np.nonzero(fast & ~clear & ~soil)[0].tolist():
         out[k] = ((), True)  # not a soil: _limit_on_bound finds nothing, and the screens found nothing else

@@ -36,7 +36,17 @@ from ..estimates.result import FitResult, build_result
 from .model import SweepResiduals, nominal_offset, predict
 from .plausibility import slip_checks
 
-__all__ = ["SlipProblem", "make_problem", "FitFailed", "SCALE", "METHODS", "n_free", "ridge_centre", "weights"]
+__all__ = [
+    "SlipProblem",
+    "make_problem",
+    "checked_problems",
+    "FitFailed",
+    "SCALE",
+    "METHODS",
+    "n_free",
+    "ridge_centre",
+    "weights",
+]
 
 #: Variable scaling used by the solvers: c in kPa, phi in rad, K in cm.
 SCALE = np.array([1e3, 1.0, 1e-2])
@@ -488,6 +498,63 @@ def checked_problem(
         rig_speed=float(rig_speed),
         effect_start=e_start,
     )
+
+
+def checked_problems(
+    datasets: list, vehicle: Vehicle, model: str, bounds: SoilBounds, sigma_known: bool | None = None
+) -> list[SlipProblem | None]:
+    """:func:`checked_problem` of many plain sweeps at once (``fit_many``, vehicle and bounds checked once, no
+    ``sigma``): the same problems, their arrays rows of one stacked array per length.
+
+    A plain sweep is :class:`SlipData` of the tractive force without a normal-load column, with enough rows
+    for the model's free parameters and two or more distinct nonzero slips (what :func:`checked_problem`
+    checks, decided for a length's datasets at once). Any other item is ``None``: the caller sets it up with
+    :func:`checked_problem` (which says what is wrong with it).
+    """
+    out: list[SlipProblem | None] = [None] * len(datasets)
+    groups: dict[int, list[int]] = {}
+    p = n_free(model)
+    for k, d in enumerate(datasets):
+        if type(d) is SlipData and d.normal_load is None and d.tractive_force is not None and d.slip.size >= p:
+            groups.setdefault(d.slip.size, []).append(k)
+    known = False if sigma_known is None else bool(sigma_known)
+    W = float(vehicle.weight)
+    rig_speed = float(DEFAULT_RIG_SPEED)
+    new = object.__new__
+    for n, idx in groups.items():
+        S = np.array([datasets[k].slip for k in idx], dtype=float)
+        F = np.array([datasets[k].tractive_force for k in idx], dtype=float)
+        L = np.empty(S.shape)
+        L.fill(W)
+        sig = np.empty(S.shape)
+        sig.fill(1.0)
+        pos = S > 0
+        with np.errstate(invalid="ignore"):
+            distinct = np.where(pos, S, np.inf).min(axis=1) != np.where(pos, S, -np.inf).max(axis=1)
+        ok = (np.count_nonzero(pos, axis=1) >= 2) & distinct
+        for k, good, s_r, f_r, l_r, w_r in zip(idx, ok.tolist(), list(S), list(F), list(L), list(sig)):
+            if not good:
+                continue  # checked_problem raises the error that names it
+            pb = out[k] = new(SlipProblem)  # SlipProblem(...) without the frozen dataclass's per-field setattr
+            pb.__dict__.update(
+                slip=s_r,
+                force=f_r,
+                load=l_r,
+                noise_model="equal",
+                sigma=w_r,
+                sigma_known=known,
+                vehicle=vehicle,
+                bounds=bounds,
+                model=model,
+                source=datasets[k].source,
+                measured="tractive_force",
+                offset=None,
+                effects=None,
+                fixed=(),
+                rig_speed=rig_speed,
+                effect_start=(),
+            )
+    return out
 
 
 def _effects_and_fixed(effects, fixed, vehicle: Vehicle) -> tuple[EffectSet, tuple, tuple]:
