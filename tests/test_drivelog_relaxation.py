@@ -73,7 +73,9 @@ def test_weights_lie_between_zero_and_a_half():
     assert np.all(np.diff(phi[2:7]) > 0)  # slower relaxation on the flatter part of the curve
 
 
-def test_prepared_rows_without_and_with_the_weights():
+def test_prepared_rows_without_and_with_the_weights(monkeypatch):
+    # the first-order rule (no curvature term): the mix of two interval means
+    monkeypatch.setattr("soiltrack.identify.drivelog.relaxation.RELAXATION_CURVATURE", 0.0)
     log = simulate_drive_log(LIGHT, SAND, seed=3, duration_s=10.0, speed_profile=pulls, controller_bandwidth=2.0)
     r, I = LIGHT.sprocket_radius, LIGHT.sprocket_inertia
     end = prepare_drive_log(log, LIGHT)

@@ -326,17 +326,44 @@ def fit_drive_log(
     DriveLogFitError
         With ``strict=True``, when the solver fails or returns a non-finite point.
     """
-    if options.pop("discretisation_check", False):
-        kw: dict[str, Any] = dict(
-            method=method, formulation=formulation, bias_correction=bias_correction, effects=effects, fixed=fixed
-        )
+    joint = bool(effects) or bool(fixed) or options.get("hull_channel", False) is True
+    rule = _discretisation_rule(options, joint, formulation)
+    kw: dict[str, Any] = dict(
+        method=method, formulation=formulation, bias_correction=bias_correction, effects=effects, fixed=fixed
+    )
+    if rule == "check":  # no rule given: both, the one the check picks reported (module notes)
         return _fit_checking_discretisation(log, vehicle, model, bounds, x0, strict, {**kw, **options})
+    if rule is None:
+        why = f"discretisation={options['discretisation']!r} given: that rule, not compared"
+    else:
+        why, options = rule, {**options, "discretisation": "end-point"}
+    res = _fit_one_rule(log, vehicle, model, bounds, x0, strict, **kw, **options)
+    chk = {"compared": False, "reported": res.extra.get("discretisation", "end-point"), "reason": why}
+    return replace(res, extra={**res.extra, "discretisation_check": chk})
+
+
+def _fit_one_rule(
+    log: DriveLog,
+    vehicle: Vehicle,
+    model: str,
+    bounds: SoilBounds,
+    x0,
+    strict: bool,
+    *,
+    method: str = "ipopt",
+    formulation: str = "output-error",
+    bias_correction: str | None = None,
+    effects: Any = None,
+    fixed: Any = None,
+    **options: Any,
+) -> FitResult:
+    """:func:`fit_drive_log` under the discretisation in ``options`` (no check)."""
     joint = bool(effects) or bool(fixed) or options.get("hull_channel", False) is True
     if bias_correction is not None:
         if joint:
             raise DataError("bias_correction is not available with effects or the hull channel")
         return simex_fit(
-            fit_drive_log, log, vehicle, model, bounds, x0, strict, method, formulation, bias_correction, options
+            _fit_one_rule, log, vehicle, model, bounds, x0, strict, method, formulation, bias_correction, options
         )
     _check_arguments(model, method, formulation, options)
     if joint and formulation != "output-error":
@@ -383,13 +410,36 @@ class _Call:
     options: dict  #: the remaining options
 
 
+def _discretisation_rule(options: dict, joint: bool, formulation: str) -> str | None:
+    """How the held-torque discretisation of this fit is chosen; pops ``discretisation_check``.
+
+    None: the caller gave ``discretisation`` (that rule, no check). ``"check"``: both rules, the one
+    :func:`_discretisation_check` picks reported (the default). Otherwise the reason the check does not
+    apply (the end-point rule is fitted): ``discretisation_check=False``, a sampled torque, effects or the
+    hull channel, the equation-error formulation.
+    """
+    asked = options.pop("discretisation_check", None)
+    if options.get("discretisation") is not None:
+        return None
+    options.pop("discretisation", None)
+    if asked is False:
+        return "discretisation_check=False: the end-point rule, not compared"
+    if options.get("torque_hold", "zoh") != "zoh":
+        return "torque sampled (torque_hold='sample'): its central difference, no held-torque discretisation"
+    if joint:
+        return "effects or the hull channel fitted: the end-point rule (the check compares nominal fits)"
+    if formulation != "output-error":
+        return "equation-error formulation: the end-point rule (the check compares output-error fits)"
+    return "check"
+
+
 def _fit_checking_discretisation(log, vehicle, model, bounds, x0, strict, kw: dict) -> FitResult:
-    """The default fit and, to compare, the relaxation fit (:func:`_discretisation_check`)."""
-    res = fit_drive_log(log, vehicle, model, bounds, x0, strict, **kw)
+    """The end-point fit and, to compare, the relaxation fit (:func:`_discretisation_check`)."""
+    res = _fit_one_rule(log, vehicle, model, bounds, x0, strict, **{**kw, "discretisation": "end-point"})
     # the default fit is the relaxation fit's pilot: its soil is handed over, not fitted again
     return _discretisation_check(
         res,
-        lambda: fit_drive_log(
+        lambda: _fit_one_rule(
             log,
             vehicle,
             model,
@@ -582,15 +632,17 @@ def _discretisation_check(res: FitResult, refit) -> FitResult:
     errors. Within :data:`DISCRETISATION_SHIFT_SE` the end-point fit is returned; beyond it (the slip does
     not settle within a sample after the torque steps: hard pulls) the relaxation fit is returned, with a
     warning, because there the end-point rule is the biased one (``"reported"`` says which; see the
-    module notes and :data:`DISCRETISATION_SHIFT_SE`). Other fits come back unchanged.
+    module notes and :data:`DISCRETISATION_SHIFT_SE`); ``"reason"`` says why. A failed end-point fit is
+    not compared.
     """
     ex = res.extra
-    if not res.success or ex.get("discretisation") != "end-point" or ex.get("torque_hold", "zoh") != "zoh":
-        return res
+    if not res.success:
+        chk0 = {"compared": False, "reported": "end-point", "reason": "the end-point fit failed: not compared"}
+        return replace(res, extra={**ex, "discretisation_check": chk0})
     alt = refit()
     chk: dict[str, Any] = {"compared": bool(alt.success and alt.extra.get("discretisation") == "relaxation")}
     if not chk["compared"]:
-        chk["reason"] = "the fit with the relaxation weights did not converge"
+        chk["reason"] = "the fit with the relaxation weights did not converge (or used none): the end-point fit"
         chk["reported"] = "end-point"
         return replace(res, extra={**ex, "discretisation_check": chk})
     a = alt.extra
@@ -609,6 +661,12 @@ def _discretisation_check(res: FitResult, refit) -> FitResult:
         max_thrust_shift_se=shift["max_thrust_N"],
         shear_modulus_shift_se=shift["shear_modulus_m"],
         reported="relaxation" if big else "end-point",
+        reason=(
+            f"the two rules disagree beyond {DISCRETISATION_SHIFT_SE:g} standard errors ({', '.join(big)}): "
+            "the relaxation fit"
+            if big
+            else f"the two rules agree within {DISCRETISATION_SHIFT_SE:g} standard errors: the end-point fit"
+        ),
     )
     if not big:
         return replace(res, extra={**ex, "discretisation_check": chk})
