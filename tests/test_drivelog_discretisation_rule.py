@@ -26,9 +26,10 @@ LIGHT = VEHICLES["light"]
 SAND = TERRAINS["lete_sand"]
 
 
-def _weights(x: float, curvature: float) -> np.ndarray:
+def _weights(x: float, curvature: float, spread: int = 1) -> np.ndarray:
     s = ca.SX.sym("x")
-    return np.array(ca.Function("w", [s], [ca.vertcat(*held_torque_stencil_expr(s, curvature))])(x)).ravel()
+    w = held_torque_stencil_expr(s, curvature, spread)
+    return np.array(ca.Function("w", [s], [ca.vertcat(*w)])(x)).ravel()
 
 
 def _phi(x: float) -> float:
@@ -49,6 +50,9 @@ def test_stencil_limits_and_the_cell_mean_reconstruction():
     means = [G(j) - G(j - 1) for j in range(0, 4)]  # T_{k-1}..T_{k+2} around the sample at t = 1
     assert float(c @ means) == pytest.approx(F(1.0), rel=1e-12)
     assert float(_weights(0.0, 0.0) @ means) != pytest.approx(F(1.0), rel=1e-3)  # the first-order rule is not
+    # a wider spread (T_{k-3}, T_k, T_{k+1}, T_{k+4}) reads the same curvature: exact on the cubic too
+    wide = [G(j) - G(j - 1) for j in (-2, 1, 2, 5)]
+    assert float(_weights(0.0, 2.0 / 3.0, 3) @ wide) == pytest.approx(F(1.0), rel=1e-12)
     # the slip settles at once: the end-point rule
     np.testing.assert_allclose(_weights(1e5, 2.0 / 3.0), [0.0, 1.0, 0.0, 0.0], atol=2e-5)
 
@@ -117,7 +121,8 @@ def _sim():
 
 @pytest.mark.slow
 def test_curvature_term_removes_the_relaxation_rule_s_fmax_bias(monkeypatch):
-    """Noise-free independent hard pulls (1 min, seed 1; a tuning seed): first-order rule F_max -0.29 %,
+    """Noise-free independent hard pulls (1 min, seed 1; a tuning seed), the curvature term from the four
+    nearest interval means (spread 1: the fourth-order reconstruction): first-order rule F_max -0.29 %,
     with the curvature term -0.05 % (5 min, seeds 1-2: -0.36/-0.38 % against -0.09/-0.09 %)."""
     from test_drivelog_independent import _drive_log
 
@@ -125,6 +130,7 @@ def test_curvature_term_removes_the_relaxation_rule_s_fmax_bias(monkeypatch):
     (log,) = sim.simulate([1], duration_s=60.0, noise=None)
     F_true, data = log["truth"]["F_max"], _drive_log(log)
     err = {}
+    monkeypatch.setattr("soiltrack.identify.drivelog.relaxation.RELAXATION_SPREAD", 1)
     for c in (0.0, 2.0 / 3.0):
         monkeypatch.setattr("soiltrack.identify.drivelog.relaxation.RELAXATION_CURVATURE", c)
         err[c] = 100 * (fit(data, LIGHT, discretisation="relaxation").extra["max_thrust_N"] / F_true - 1)

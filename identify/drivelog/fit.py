@@ -51,9 +51,12 @@ this puts F_max a few percent high with intervals that miss it (noise-free pulls
 with the slip-relaxation weight ``phi_k`` (:mod:`.relaxation`, at the soil of a first fit with the
 end-point rule; 20 of 20 on those pulls), but on the default profile its intervals are a little
 narrow (60 seeds: F_max 52 and K 49 of 60 hold the truth, against 56 and 55 with the end-point rule),
-for a reason not yet found, so the end-point rule stays the default of ``fit_drive_log``. The
-command line fits with both (``discretisation_check=True``) and reports the relaxation fit where the two
-disagree beyond :data:`DISCRETISATION_SHIFT_SE` standard errors (:func:`_discretisation_check`).
+for a reason not yet found, so neither rule is the default alone: without ``discretisation`` the fit
+is made with both and reports the relaxation fit where the two disagree beyond
+:data:`DISCRETISATION_SHIFT_SE` standard errors, else the end-point fit (:func:`_discretisation_check`;
+``extra["discretisation_check"]["reason"]`` says which and why). This one rule serves every caller: the
+command line, ``identify.fit``, segment maps and ``fit_many``. The relaxation rule carries a curvature
+term (:func:`~soiltrack.soilmodel.dynamics.held_torque_stencil_expr`, :mod:`.relaxation`).
 ``python benchmarks/drivelog_discretisation.py`` and ``benchmarks/drivelog_independent_bias.py`` measure both.
 
 Noise. Each channel has the model ``sigma = sqrt(a^2 + (b x)^2)`` (absolute plus relative
@@ -217,7 +220,7 @@ LATENT_SLIPS = ("auto", "ipopt", "profiled")
 #: by about 73 kB per sample: 0.9 GB here; :mod:`.budget`).
 PROFILED_ABOVE = 10_000
 #: |shift| of F_max or K, in the end-point fit's standard errors, beyond which the discretisation check
-#: (``discretisation_check=True``, the command line's default) reports the relaxation fit instead, with a
+#: (the default of every drive-log fit without ``discretisation``) reports the relaxation fit instead, with a
 #: warning. On ordinary logs the two rules differ by noise (measured on default profiles, light and heavy
 #: vehicle, 36 logs: at most 1.9 standard errors, 5 of 36 beyond 1); on 8 deg hard pulls at 50 Hz by about
 #: 3; on the independent simulator's hard pulls (benchmarks/drivelog_independent.py) K by 4-7, where the
@@ -289,8 +292,10 @@ def fit_drive_log(
         nominal and an effect fit on equal terms; ``False`` with effects: fit them from the speed
         and thrust channels only); ``sigma_accel`` (m/s^2): constant noise of the IMU
         acceleration column (default: estimated from the log); ``discretisation``:
-        ``"end-point"`` (default) or ``"relaxation"``, the held-torque sprocket equation (see the
-        module notes; ``extra["discretisation"]`` says which one the fit used).
+        ``"end-point"`` or ``"relaxation"``, the held-torque sprocket equation (default: both
+        fitted, the one the discretisation check picks reported; see the module notes;
+        ``extra["discretisation"]`` says which one the fit used and ``extra["discretisation_check"]``
+        why); ``discretisation_check=False``: the end-point rule without the check.
 
     effects
         Unmodelled effects (docs/physics.md, "Unmodelled effects") whose parameters are fitted jointly with F_max and
