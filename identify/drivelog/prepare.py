@@ -267,13 +267,18 @@ def _held_torque_thrust(log: DriveLog, vehicle: Vehicle, s_M, s_w, relaxation_at
         return np.where(ok, x[np.clip(idx, 0, n - 1)], fill)
 
     def mix(x):
-        return sum(np.where(C[:, j + lo] != 0, C[:, j + lo] * at(x, j), 0.0) for j in offsets)
+        out = np.zeros(n)
+        for j in offsets:
+            out += np.where(C[:, j + lo] != 0, C[:, j + lo] * at(x, j), 0.0)
+        return out
 
     M_used, dwdt = mix(M_iv), mix(a_iv)
     M_used[0] = dwdt[0] = np.nan
     hh = np.full(n + 1, np.inf)  # hh[m] = t_m - t_{m-1}
     hh[1:n] = h
-    var_T = sum(np.where(C[:, j + lo] != 0, (C[:, j + lo] / r) ** 2 * at(s_M, j - 1, 0.0) ** 2, 0.0) for j in offsets)
+    var_T = np.zeros(n)
+    for j in offsets:
+        var_T += np.where(C[:, j + lo] != 0, (C[:, j + lo] / r) ** 2 * at(s_M, j - 1, 0.0) ** 2, 0.0)
     coef_wk = np.zeros(n)
     for q in range(-lo - 1, C.shape[1] - lo):  # the reading w_{k+q}: in T_{k+q} (minus) and in T_{k+q+1} (plus)
         cq = np.zeros(n)
