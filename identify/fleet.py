@@ -40,6 +40,7 @@ FLEET_COLUMNS = (
     "shear_modulus_stderr_m",
     "cohesion_kpa",
     "friction_angle_deg",
+    "discretisation",
     "reason",
     "error",
 )
@@ -75,6 +76,7 @@ def _row(index: int, source: str, segment: int | None, seg: Segment, error: str 
         shear_modulus_stderr_m=seg.shear_modulus_stderr_m,
         cohesion_kpa=seg.cohesion_kpa,
         friction_angle_deg=seg.friction_angle_deg,
+        discretisation=seg.discretisation,
         reason=seg.reason or "; ".join(f"{k} not identified: {why}" for k, why in seg.not_identified) or None,
         error=error,
     )
@@ -163,7 +165,7 @@ class FleetWriter:
             self._pq.close()
 
 
-_TEXT = ("source", "outcome", "reason", "error")
+_TEXT = ("source", "outcome", "discretisation", "reason", "error")
 _INT = ("index", "segment", "rows")
 _ARROW_TYPES = {
     k: (lambda pa: pa.string()) if k in _TEXT else (lambda pa: pa.int64()) if k in _INT else (lambda pa: pa.float64())

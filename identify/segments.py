@@ -85,6 +85,10 @@ class Segment:
     shear_modulus_stderr_m: float | None = None
     not_identified: tuple[tuple[str, str], ...] = ()
     """``(name, why)`` of F_max / K the fit does not determine (their fields are then null)."""
+    discretisation: str | None = None
+    """The held-torque discretisation of the reported fit (``"end-point"`` or ``"relaxation"``: the fit's own
+    check, :func:`~soiltrack.identify.drivelog.fit.fit_drive_log`); None without a fit, several joined by "+"
+    for a merged run pooled from its pieces."""
 
     def to_dict(self) -> dict:
         """JSON fields (never NaN)."""
@@ -98,6 +102,7 @@ class Segment:
             max_thrust_stderr_N=self.max_thrust_stderr_N,
             shear_modulus_stderr_m=self.shear_modulus_stderr_m,
             not_identified=dict(self.not_identified),
+            discretisation=self.discretisation,
         )
         return d
 
@@ -262,6 +267,7 @@ def segment_of(res: Any, base: dict[str, Any], pieces: int = 1) -> Segment:
         max_thrust_stderr_N=F.get("stderr") if okF else None,
         shear_modulus_stderr_m=K.get("stderr") if okK else None,
         not_identified=missing,
+        discretisation=res.extra.get("discretisation"),
     )
 
 
@@ -293,6 +299,7 @@ def _combined(log: DriveLog, idx: np.ndarray, parts: list[Segment]) -> Segment:
         reason=None,
         max_thrust_stderr_N=sF,
         shear_modulus_stderr_m=sK,
+        discretisation="+".join(sorted({p.discretisation for p in parts if p.discretisation})) or None,
     )
 
 

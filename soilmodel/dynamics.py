@@ -61,6 +61,7 @@ __all__ = [
     "slip_from_thrust_function",
     "slip_time_constant_expr",
     "held_torque_weight_expr",
+    "held_torque_stencil_expr",
 ]
 
 #: The two sprocket equations: ``"thrust"`` (default, ``I dw/dt = M_s - r F``) and ``"seed"``
@@ -265,6 +266,39 @@ def held_torque_weight_expr(x):
     em = ca.exp(-x)
     exact = ((1.0 - em) / ca.fmax(x, 1e-300) - em) / ca.fmax(1.0 - em, 1e-300)
     return ca.if_else(x < 1e-4, 0.5 - x / 12.0, exact)
+
+
+def held_torque_stencil_expr(x, curvature, spread: int = 1):
+    """Weights of the interval means ``T_{k-s}, T_k, T_{k+1}, T_{k+1+s}`` (``s = spread``) in the thrust at k.
+
+    The first-order rule of :func:`held_torque_weight_expr` takes ``(1 - phi) T_k + phi T_{k+1}``; its
+    error is ``phi (1 - phi)`` times the second difference of the thrust at the samples (exact for a
+    steady trend only). Near the traction limit the slip relaxes slowly (``phi`` about 1/2) and the
+    thrust curves from sample to sample; there that error put F_max low. This rule subtracts
+    ``curvature * phi (1 - phi)`` times the second difference estimated from interval means around the
+    sample, ``((T_{k-s} + T_{k+1+s}) - (T_k + T_{k+1})) / (s (s + 1))`` (exact for a cubic; a wider
+    ``spread`` reads the curvature of the trend with less of the encoder noise). With ``curvature = 2/3``
+    and ``s = 1`` it is, in the slow limit (``phi -> 1/2``), the fourth-order reconstruction of a point
+    value from cell means, ``(-T_{k-1} + 7 T_k + 7 T_{k+1} - T_{k+2}) / 12``; where the slip settles at
+    once (``phi -> 0``) it is the end-point rule. The weights sum to one (a constant thrust is kept).
+
+    Parameters
+    ----------
+    x
+        ``h / tau`` of the sample (CasADi expression or number).
+    curvature
+        The factor of the curvature term (0: the first-order rule).
+    spread
+        ``s`` >= 1, the offset of the outer interval means.
+
+    Returns
+    -------
+    tuple
+        ``(c_outer_before, c_k, c_k+1, c_outer_after)``.
+    """
+    phi = held_torque_weight_expr(x)
+    q = curvature * phi * (1.0 - phi) / (spread * (spread + 1))
+    return -q, 1.0 - phi + q, phi + q, -q
 
 
 def _thrust_at(fn: Any, soil: Any, pts: np.ndarray, W: np.ndarray) -> np.ndarray:

@@ -191,10 +191,8 @@ def _cmd_fit(a: argparse.Namespace) -> int:
         kw["bias_correction"] = a.bias_correction
     if a.torque_hold is not None:
         kw["torque_hold"] = a.torque_hold
-    if a.discretisation is not None:
+    if a.discretisation is not None:  # else the fit's own check (identify.drivelog.fit)
         kw["discretisation"] = a.discretisation
-    elif drive_log and a.torque_hold != "sample" and not a.effect:  # the default rule, the other one beside it
-        kw["discretisation_check"] = True
     if a.slip_noise is not None:
         kw["slip_noise"] = (
             a.slip_noise if a.slip_noise in ("auto", "off") else floats_arg(a.slip_noise, "--slip-noise")[0]
@@ -334,7 +332,7 @@ def _add_model_options(f: argparse.ArgumentParser) -> None:
         "the samples (default: both fitted; the relaxation fit is reported where the two disagree beyond 2 "
         "standard errors, else the end-point fit). end-point: the interval's mean on the slip at its end (the "
         "quasi-static limit; on hard pulls at 50 Hz F_max comes out a few percent high); relaxation: the "
-        "thrust at each sample from the two interval means around it, weighted by the slip's relaxation "
+        "thrust at each sample from the four interval means around it, weighted by the slip's relaxation "
         "after each torque step (right on hard pulls, intervals a little narrow on gentle driving); see "
         "docs/drivelogs.md",
     )

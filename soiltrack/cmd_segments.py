@@ -110,6 +110,7 @@ def segments_command(a: argparse.Namespace, data, vehicle, bounds) -> int:
                 *SEGMENT_FIELDS[7:],
                 "rows",
                 "pieces",
+                "discretisation",
             ]
         )
         for s in smap.segments:
@@ -129,6 +130,7 @@ def segments_command(a: argparse.Namespace, data, vehicle, bounds) -> int:
                 d["outcome"],
                 d["rows"],
                 d["pieces"],
+                d["discretisation"],
             ]
             w.writerow(["" if x is None else (f"{x:.6g}" if isinstance(x, float) else x) for x in row])
         sys.stdout.write(buf.getvalue())

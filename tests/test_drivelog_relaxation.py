@@ -73,7 +73,9 @@ def test_weights_lie_between_zero_and_a_half():
     assert np.all(np.diff(phi[2:7]) > 0)  # slower relaxation on the flatter part of the curve
 
 
-def test_prepared_rows_without_and_with_the_weights():
+def test_prepared_rows_without_and_with_the_weights(monkeypatch):
+    # the first-order rule (no curvature term): the mix of two interval means
+    monkeypatch.setattr("soiltrack.identify.drivelog.relaxation.RELAXATION_CURVATURE", 0.0)
     log = simulate_drive_log(LIGHT, SAND, seed=3, duration_s=10.0, speed_profile=pulls, controller_bandwidth=2.0)
     r, I = LIGHT.sprocket_radius, LIGHT.sprocket_inertia
     end = prepare_drive_log(log, LIGHT)
@@ -111,7 +113,7 @@ def test_noise_free_hard_pulls_no_longer_put_fmax_high():
         LIGHT, SAND, seed=5, duration_s=30.0, speed_profile=pulls, controller_bandwidth=2.0, noise="none"
     )
     truth = max_thrust(SAND, LIGHT)
-    end = fit(log, LIGHT)  # the default
+    end = fit(log, LIGHT, discretisation="end-point")  # (the default runs the check: stop 49)
     rel = fit(log, LIGHT, discretisation="relaxation")
     assert end.success and rel.success
     assert end.extra["discretisation"] == "end-point" and rel.extra["discretisation"] == "relaxation"
@@ -165,10 +167,11 @@ def test_the_discretisation_check_reports_the_relaxation_fit_where_the_rules_dis
     the independent simulator's hard pulls the end-point rule is the biased one.)
     """
     log = _hard_pulls_on_a_slope()
-    plain = fit(log, LIGHT)
-    assert "discretisation_check" not in plain.extra  # the library's default: no second fit
+    plain = fit(log, LIGHT, discretisation="end-point")
+    assert not plain.extra["discretisation_check"]["compared"]  # a rule given: no second fit
     assert plain.extra["discretisation"] == "end-point"
-    res = fit(log, LIGHT, discretisation_check=True)
+    res = fit(log, LIGHT)  # the check is the default of every drive-log fit (stop 49; was discretisation_check=True)
+    assert fit(log, LIGHT, discretisation_check=True).extra["max_thrust_N"] == res.extra["max_thrust_N"]
     chk = res.extra["discretisation_check"]
     rel = fit(log, LIGHT, discretisation="relaxation")
     assert chk["compared"] and chk["reported"] == "relaxation" and res.extra["discretisation"] == "relaxation"
@@ -187,8 +190,8 @@ def test_the_discretisation_check_reports_the_relaxation_fit_where_the_rules_dis
 def test_the_discretisation_check_keeps_the_end_point_fit_where_the_rules_agree():
     """A default-profile log (gentle driving, two hard starts): the rules agree, the end-point fit is reported."""
     log = simulate_drive_log(LIGHT, SAND, seed=7, duration_s=30.0)
-    plain = fit(log, LIGHT)
-    res = fit(log, LIGHT, discretisation_check=True)
+    plain = fit(log, LIGHT, discretisation="end-point")
+    res = fit(log, LIGHT)  # the check (the default)
     chk = res.extra["discretisation_check"]
     assert chk["compared"] and chk["reported"] == "end-point"
     assert abs(chk["max_thrust_shift_se"]) <= 2.0 and abs(chk["shear_modulus_shift_se"]) <= 2.0
@@ -211,7 +214,9 @@ def test_the_command_line_fit_of_a_drive_log_carries_the_check(tmp_path, capsys)
     assert chk["compared"] is True and chk["max_thrust_shift_se"] < -2.0
     assert main(["fit", str(path), "--vehicle", "light", "--json", "--discretisation", "relaxation"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["extra"]["discretisation"] == "relaxation" and "discretisation_check" not in out["extra"]
+    assert out["extra"]["discretisation"] == "relaxation"
+    given = out["extra"]["discretisation_check"]  # stop 49: the result says why it was not compared
+    assert given["compared"] is False and "given" in given["reason"]
     sweep = tmp_path / "sweep.csv"
     sweep.write_text("slip,drawbar_pull_N\n0.05,100\n0.1,150\n0.2,180\n0.3,190\n0.4,195\n")
     assert main(["fit", str(sweep), "--vehicle", "light", "--discretisation", "relaxation"]) == 2

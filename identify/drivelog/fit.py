@@ -51,9 +51,12 @@ this puts F_max a few percent high with intervals that miss it (noise-free pulls
 with the slip-relaxation weight ``phi_k`` (:mod:`.relaxation`, at the soil of a first fit with the
 end-point rule; 20 of 20 on those pulls), but on the default profile its intervals are a little
 narrow (60 seeds: F_max 52 and K 49 of 60 hold the truth, against 56 and 55 with the end-point rule),
-for a reason not yet found, so the end-point rule stays the default of ``fit_drive_log``. The
-command line fits with both (``discretisation_check=True``) and reports the relaxation fit where the two
-disagree beyond :data:`DISCRETISATION_SHIFT_SE` standard errors (:func:`_discretisation_check`).
+for a reason not yet found, so neither rule is the default alone: without ``discretisation`` the fit
+is made with both and reports the relaxation fit where the two disagree beyond
+:data:`DISCRETISATION_SHIFT_SE` standard errors, else the end-point fit (:func:`_discretisation_check`;
+``extra["discretisation_check"]["reason"]`` says which and why). This one rule serves every caller: the
+command line, ``identify.fit``, segment maps and ``fit_many``. The relaxation rule carries a curvature
+term (:func:`~soiltrack.soilmodel.dynamics.held_torque_stencil_expr`, :mod:`.relaxation`).
 ``python benchmarks/drivelog_discretisation.py`` and ``benchmarks/drivelog_independent_bias.py`` measure both.
 
 Noise. Each channel has the model ``sigma = sqrt(a^2 + (b x)^2)`` (absolute plus relative
@@ -217,7 +220,7 @@ LATENT_SLIPS = ("auto", "ipopt", "profiled")
 #: by about 73 kB per sample: 0.9 GB here; :mod:`.budget`).
 PROFILED_ABOVE = 10_000
 #: |shift| of F_max or K, in the end-point fit's standard errors, beyond which the discretisation check
-#: (``discretisation_check=True``, the command line's default) reports the relaxation fit instead, with a
+#: (the default of every drive-log fit without ``discretisation``) reports the relaxation fit instead, with a
 #: warning. On ordinary logs the two rules differ by noise (measured on default profiles, light and heavy
 #: vehicle, 36 logs: at most 1.9 standard errors, 5 of 36 beyond 1); on 8 deg hard pulls at 50 Hz by about
 #: 3; on the independent simulator's hard pulls (benchmarks/drivelog_independent.py) K by 4-7, where the
@@ -289,8 +292,10 @@ def fit_drive_log(
         nominal and an effect fit on equal terms; ``False`` with effects: fit them from the speed
         and thrust channels only); ``sigma_accel`` (m/s^2): constant noise of the IMU
         acceleration column (default: estimated from the log); ``discretisation``:
-        ``"end-point"`` (default) or ``"relaxation"``, the held-torque sprocket equation (see the
-        module notes; ``extra["discretisation"]`` says which one the fit used).
+        ``"end-point"`` or ``"relaxation"``, the held-torque sprocket equation (default: both
+        fitted, the one the discretisation check picks reported; see the module notes;
+        ``extra["discretisation"]`` says which one the fit used and ``extra["discretisation_check"]``
+        why); ``discretisation_check=False``: the end-point rule without the check.
 
     effects
         Unmodelled effects (docs/physics.md, "Unmodelled effects") whose parameters are fitted jointly with F_max and
@@ -326,17 +331,44 @@ def fit_drive_log(
     DriveLogFitError
         With ``strict=True``, when the solver fails or returns a non-finite point.
     """
-    if options.pop("discretisation_check", False):
-        kw: dict[str, Any] = dict(
-            method=method, formulation=formulation, bias_correction=bias_correction, effects=effects, fixed=fixed
-        )
+    joint = bool(effects) or bool(fixed) or options.get("hull_channel", False) is True
+    rule = _discretisation_rule(options, joint, formulation)
+    kw: dict[str, Any] = dict(
+        method=method, formulation=formulation, bias_correction=bias_correction, effects=effects, fixed=fixed
+    )
+    if rule == "check":  # no rule given: both, the one the check picks reported (module notes)
         return _fit_checking_discretisation(log, vehicle, model, bounds, x0, strict, {**kw, **options})
+    if rule is None:
+        why = f"discretisation={options['discretisation']!r} given: that rule, not compared"
+    else:
+        why, options = rule, {**options, "discretisation": "end-point"}
+    res = _fit_one_rule(log, vehicle, model, bounds, x0, strict, **kw, **options)
+    chk = {"compared": False, "reported": res.extra.get("discretisation", "end-point"), "reason": why}
+    return replace(res, extra={**res.extra, "discretisation_check": chk})
+
+
+def _fit_one_rule(
+    log: DriveLog,
+    vehicle: Vehicle,
+    model: str,
+    bounds: SoilBounds,
+    x0,
+    strict: bool,
+    *,
+    method: str = "ipopt",
+    formulation: str = "output-error",
+    bias_correction: str | None = None,
+    effects: Any = None,
+    fixed: Any = None,
+    **options: Any,
+) -> FitResult:
+    """:func:`fit_drive_log` under the discretisation in ``options`` (no check)."""
     joint = bool(effects) or bool(fixed) or options.get("hull_channel", False) is True
     if bias_correction is not None:
         if joint:
             raise DataError("bias_correction is not available with effects or the hull channel")
         return simex_fit(
-            fit_drive_log, log, vehicle, model, bounds, x0, strict, method, formulation, bias_correction, options
+            _fit_one_rule, log, vehicle, model, bounds, x0, strict, method, formulation, bias_correction, options
         )
     _check_arguments(model, method, formulation, options)
     if joint and formulation != "output-error":
@@ -383,13 +415,36 @@ class _Call:
     options: dict  #: the remaining options
 
 
+def _discretisation_rule(options: dict, joint: bool, formulation: str) -> str | None:
+    """How the held-torque discretisation of this fit is chosen; pops ``discretisation_check``.
+
+    None: the caller gave ``discretisation`` (that rule, no check). ``"check"``: both rules, the one
+    :func:`_discretisation_check` picks reported (the default). Otherwise the reason the check does not
+    apply (the end-point rule is fitted): ``discretisation_check=False``, a sampled torque, effects or the
+    hull channel, the equation-error formulation.
+    """
+    asked = options.pop("discretisation_check", None)
+    if options.get("discretisation") is not None:
+        return None
+    options.pop("discretisation", None)
+    if asked is False:
+        return "discretisation_check=False: the end-point rule, not compared"
+    if options.get("torque_hold", "zoh") != "zoh":
+        return "torque sampled (torque_hold='sample'): its central difference, no held-torque discretisation"
+    if joint:
+        return "effects or the hull channel fitted: the end-point rule (the check compares nominal fits)"
+    if formulation != "output-error":
+        return "equation-error formulation: the end-point rule (the check compares output-error fits)"
+    return "check"
+
+
 def _fit_checking_discretisation(log, vehicle, model, bounds, x0, strict, kw: dict) -> FitResult:
-    """The default fit and, to compare, the relaxation fit (:func:`_discretisation_check`)."""
-    res = fit_drive_log(log, vehicle, model, bounds, x0, strict, **kw)
+    """The end-point fit and, to compare, the relaxation fit (:func:`_discretisation_check`)."""
+    res = _fit_one_rule(log, vehicle, model, bounds, x0, strict, **{**kw, "discretisation": "end-point"})
     # the default fit is the relaxation fit's pilot: its soil is handed over, not fitted again
     return _discretisation_check(
         res,
-        lambda: fit_drive_log(
+        lambda: _fit_one_rule(
             log,
             vehicle,
             model,
@@ -582,15 +637,17 @@ def _discretisation_check(res: FitResult, refit) -> FitResult:
     errors. Within :data:`DISCRETISATION_SHIFT_SE` the end-point fit is returned; beyond it (the slip does
     not settle within a sample after the torque steps: hard pulls) the relaxation fit is returned, with a
     warning, because there the end-point rule is the biased one (``"reported"`` says which; see the
-    module notes and :data:`DISCRETISATION_SHIFT_SE`). Other fits come back unchanged.
+    module notes and :data:`DISCRETISATION_SHIFT_SE`); ``"reason"`` says why. A failed end-point fit is
+    not compared.
     """
     ex = res.extra
-    if not res.success or ex.get("discretisation") != "end-point" or ex.get("torque_hold", "zoh") != "zoh":
-        return res
+    if not res.success:
+        chk0 = {"compared": False, "reported": "end-point", "reason": "the end-point fit failed: not compared"}
+        return replace(res, extra={**ex, "discretisation_check": chk0})
     alt = refit()
     chk: dict[str, Any] = {"compared": bool(alt.success and alt.extra.get("discretisation") == "relaxation")}
     if not chk["compared"]:
-        chk["reason"] = "the fit with the relaxation weights did not converge"
+        chk["reason"] = "the fit with the relaxation weights did not converge (or used none): the end-point fit"
         chk["reported"] = "end-point"
         return replace(res, extra={**ex, "discretisation_check": chk})
     a = alt.extra
@@ -609,6 +666,12 @@ def _discretisation_check(res: FitResult, refit) -> FitResult:
         max_thrust_shift_se=shift["max_thrust_N"],
         shear_modulus_shift_se=shift["shear_modulus_m"],
         reported="relaxation" if big else "end-point",
+        reason=(
+            f"the two rules disagree beyond {DISCRETISATION_SHIFT_SE:g} standard errors ({', '.join(big)}): "
+            "the relaxation fit"
+            if big
+            else f"the two rules agree within {DISCRETISATION_SHIFT_SE:g} standard errors: the end-point fit"
+        ),
     )
     if not big:
         return replace(res, extra={**ex, "discretisation_check": chk})

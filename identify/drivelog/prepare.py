@@ -11,7 +11,7 @@ from ...soilmodel.data import DriveLog
 from ...soilmodel.errors import DataError
 from ...soilmodel.vehicle import Vehicle
 from .noise import noise_model
-from .relaxation import relaxation_weights, slip_trend
+from .relaxation import slip_trend
 
 __all__ = ["PreparedLog", "prepare_drive_log", "MIN_USABLE_SAMPLES", "SLIP_BOUNDS"]
 
@@ -240,44 +240,108 @@ def _noise_levels(log: DriveLog, noise_models, sigma_torque, sigma_sprocket_spee
 
 
 def _held_torque_thrust(log: DriveLog, vehicle: Vehicle, s_M, s_w, relaxation_at) -> _Thrust:
-    """``torque_hold="zoh"``: implicit Euler over each interval; mixed with the next by the relaxation weights."""
-    n, t, v, w, M = log.n_samples, log.time, log.vehicle_speed, log.sprocket_speed, log.sprocket_torque
+    """``torque_hold="zoh"``: implicit Euler over each interval; with ``relaxation_at``, the relaxation rule.
+
+    The thrust at sample k is ``sum_j c_j T_{k+j}`` (j = -1..2) of the interval means ``T``
+    (:func:`_relaxation_coefficients`; the end-point rule ``c = (0, 1, 0, 0)``). The torque and the
+    sprocket acceleration rows are mixed alike, and the noise of the mix follows from the raw
+    readings' coefficients (each ``w_n`` enters ``T_n`` and ``T_{n+1}``).
+    """
+    n, t, w, M = log.n_samples, log.time, log.sprocket_speed, log.sprocket_torque
     r, I = vehicle.sprocket_radius, vehicle.sprocket_inertia
-    M_used = np.full(n, np.nan)  # the torque and the sprocket acceleration behind each thrust
-    dwdt = np.full(n, np.nan)
-    # covariance of the thrust's noise with the speed residual's (through the encoder reading w_k),
-    # per unit (1 - i) (that factor belongs to the speed residual)
-    cov_w = np.zeros(n)
-    phi = np.zeros(n)
     h = np.diff(t)
-    M_used[1:] = M[:-1]
-    dwdt[1:] = np.diff(w) / h
-    var_T = np.full(n, np.inf)
-    var_T[1:] = (s_M[:-1] ** 2 + (I / h) ** 2 * (s_w[1:] ** 2 + s_w[:-1] ** 2)) / r**2
-    cov_w[1:] = I * s_w[1:] ** 2 / h
-    if relaxation_at is not None and n > 2:
-        k = np.arange(1, n - 1)  # samples with a next interval
-        i_m = 1.0 - v / (r * np.where(w != 0, w, np.nan))
-        phi[k] = relaxation_weights(vehicle, relaxation_at[0], relaxation_at[1], slip_trend(i_m)[k], w[k], h[k - 1])
-        nxt = np.isfinite(M[k]) & np.isfinite(w[k + 1]) & np.isfinite(h[k])
-        # the weight's premise is a steady trend of the interval means; where their second difference
-        # exceeds the noise (a torque step at the traction limit) the end-point rule stays
-        T_mean = (M_used - I * dwdt) / r
-        Tm = np.where(np.isfinite(T_mean), T_mean, 0.0)
-        d2 = np.abs(Tm[k + 1] - 2.0 * Tm[k] + Tm[k - 1])
-        sd2 = np.sqrt(np.where(nxt, var_T[k + 1] + 4.0 * var_T[k] + var_T[k - 1], np.inf))
-        steady = nxt & np.isfinite(T_mean[k - 1]) & (d2 <= JUMP_SIGMA * sd2)
-        phi[k] = np.where(steady, phi[k], 0.0)
-        nxt = steady
-        a, b = 1.0 - phi[k], phi[k]
-        M_used[k] = a * M[k - 1] + b * np.where(nxt, M[k], 0.0)
-        dwdt[k] = a * dwdt[k] + b * np.where(nxt, (w[k + 1] - w[k]) / h[k], 0.0)
-        # T_k holds -I w_k / (h_k r), T_{k+1} holds +I w_k / (h_{k+1} r): their covariance
-        c_next = -(I**2) * s_w[k] ** 2 / (h[k - 1] * h[k] * r**2)
-        var_next = np.where(nxt, (s_M[k] ** 2 + (I / h[k]) ** 2 * (s_w[k + 1] ** 2 + s_w[k] ** 2)) / r**2, 0.0)
-        var_T[k] = a**2 * var_T[k] + b**2 * var_next + 2.0 * a * b * c_next
-        cov_w[k] = I * s_w[k] ** 2 * (a / h[k - 1] - b / h[k])
+    M_iv = np.full(n, np.nan)  # the interval ending at m: its torque, acceleration and thrust
+    a_iv = np.full(n, np.nan)
+    M_iv[1:] = M[:-1]
+    a_iv[1:] = np.diff(w) / h
+    T_iv = (M_iv - I * a_iv) / r
+    var_iv = np.full(n, np.inf)
+    var_iv[1:] = (s_M[:-1] ** 2 + (I / h) ** 2 * (s_w[1:] ** 2 + s_w[:-1] ** 2)) / r**2
+    C, phi, lo = _relaxation_coefficients(log, vehicle, relaxation_at, T_iv, var_iv)
+    offsets = range(-lo, C.shape[1] - lo)  # C[:, j + lo] is the weight of T_{k+j}
+    k = np.arange(n)
+
+    def at(x, j, fill=np.nan):
+        idx = k + j
+        ok = (idx >= 0) & (idx < n)
+        return np.where(ok, x[np.clip(idx, 0, n - 1)], fill)
+
+    def mix(x):
+        out = np.zeros(n)
+        for j in offsets:
+            out += np.where(C[:, j + lo] != 0, C[:, j + lo] * at(x, j), 0.0)
+        return out
+
+    M_used, dwdt = mix(M_iv), mix(a_iv)
+    M_used[0] = dwdt[0] = np.nan
+    hh = np.full(n + 1, np.inf)  # hh[m] = t_m - t_{m-1}
+    hh[1:n] = h
+    var_T = np.zeros(n)
+    for j in offsets:
+        var_T += np.where(C[:, j + lo] != 0, (C[:, j + lo] / r) ** 2 * at(s_M, j - 1, 0.0) ** 2, 0.0)
+    coef_wk = np.zeros(n)
+    for q in range(-lo - 1, C.shape[1] - lo):  # the reading w_{k+q}: in T_{k+q} (minus) and in T_{k+q+1} (plus)
+        cq = np.zeros(n)
+        for j, sign in ((q, -1.0), (q + 1, 1.0)):
+            if j in offsets:
+                cq = cq + np.where(C[:, j + lo] != 0, sign * C[:, j + lo] * I / (r * at(hh, j, np.inf)), 0.0)
+        var_T = var_T + np.where(cq != 0, cq**2 * at(s_w, q, 0.0) ** 2, 0.0)
+        if q == 0:
+            coef_wk = cq
+    var_T[0] = np.inf
+    # covariance with the speed residual per unit (1 - i), through w_k (that factor belongs to the speed residual)
+    cov_w = -r * coef_wk * s_w**2
+    cov_w[0] = 0.0
     return _Thrust((M_used - I * dwdt) / r, np.sqrt(var_T), M_used, dwdt, cov_w, phi)
+
+
+def _relaxation_coefficients(log: DriveLog, vehicle: Vehicle, relaxation_at, T_iv, var_iv):
+    """The weights of the interval means per sample, the relaxation weight ``phi`` and the stencil's reach back.
+
+    Returns ``(C, phi, s)``: ``C[k, j + s]`` is the weight of ``T_{k+j}`` (``j = -s .. s + 1``, ``s`` =
+    :data:`~.relaxation.RELAXATION_SPREAD`). The end-point rule (``T_k`` alone) without ``relaxation_at``.
+    With it: the weights of :func:`~.relaxation.relaxation_stencil` where the interval means around the
+    sample follow a steady trend (every second difference of ``T`` inside the stencil within
+    :data:`JUMP_SIGMA` noise levels: no torque step at the traction limit), the first-order rule where only
+    the one at k holds, the end-point rule where that one does not.
+    """
+    from . import relaxation as rx
+
+    n, sp = log.n_samples, int(rx.RELAXATION_SPREAD)
+    C = np.zeros((n, 2 * sp + 2))
+    C[:, sp] = 1.0
+    phi = np.zeros(n)
+    if relaxation_at is None or n <= 2:
+        return C, phi, sp
+    t, v, w = log.time, log.vehicle_speed, log.sprocket_speed
+    h = np.diff(t)
+    k = np.arange(1, n - 1)  # samples with a next interval
+    i_m = 1.0 - v / (vehicle.sprocket_radius * np.where(w != 0, w, np.nan))
+    p, c = rx.relaxation_stencil(
+        vehicle, relaxation_at[0], relaxation_at[1], slip_trend(i_m)[k], w[k], h[k - 1], rx.RELAXATION_CURVATURE, sp
+    )
+    fin = np.isfinite(T_iv)
+    Tm = np.where(fin, T_iv, 0.0)
+
+    def steady_at(j):  # the second difference of T around sample j (T_{j-1}, T_j, T_{j+1}) within the noise
+        ok = (j + 1 < n) & (j - 1 >= 1)
+        jj = np.clip(j, 1, n - 2)
+        d2 = np.abs(Tm[jj + 1] - 2.0 * Tm[jj] + Tm[jj - 1])
+        sd2 = np.sqrt(var_iv[jj + 1] + 4.0 * var_iv[jj] + var_iv[jj - 1])
+        return ok & fin[jj + 1] & fin[jj] & fin[jj - 1] & (d2 <= JUMP_SIGMA * sd2)
+
+    first = steady_at(k)
+    whole = first.copy()
+    for j in range(-sp + 1, sp + 1):  # the windows T_{k+j-1..k+j+1} inside T_{k-s}..T_{k+1+s}
+        if j != 0:
+            whole &= steady_at(k + j)
+    full = np.zeros((k.size, 2 * sp + 2))
+    full[:, [0, sp, sp + 1, 2 * sp + 1]] = c
+    one = np.zeros_like(full)
+    one[:, sp], one[:, sp + 1] = 1.0 - p, p
+    phi[k] = np.where(first, p, 0.0)
+    C[k] = np.where(whole[:, None], full, np.where(first[:, None], one, C[k]))
+    return C, phi, sp
 
 
 def _sampled_torque_thrust(log: DriveLog, vehicle: Vehicle, s_M, s_w) -> _Thrust:
