@@ -375,10 +375,14 @@ def simulate(
     drive: Drive = Drive(),
     noise: Noise | None = Noise(),
     turns: int = 4,
+    plans: list | None = None,
 ) -> list[dict]:
-    """Two-track logs for ``seeds`` (each its own plan and noise): column dicts plus ``truth``."""
+    """Two-track logs for ``seeds`` (each its own plan and noise): column dicts plus ``truth``.
+
+    ``plans`` (one ``(items, cruise)`` per seed, as :func:`plan` returns) replaces the random plans.
+    """
     seeds = list(seeds)
-    plans = [plan(s, duration_s, turns) for s in seeds]
+    plans = plans if plans is not None else [plan(s, duration_s, turns) for s in seeds]
     L = len(seeds)
     nsub = int(round(1.0 / (drive.control_hz * grid.dt)))
     per_log = int(round(drive.control_hz / drive.rate_hz))
