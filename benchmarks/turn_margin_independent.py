@@ -58,7 +58,10 @@ def prescribed_turn(u: float, R: float, soil, veh, grid, z0=None):
             dz = np.zeros(3)
             dz[k] = 1e-7 * max(1.0, abs(z[k]))
             J[:, k] = (res(z + dz) - f) / dz[k]
-        step = np.linalg.solve(J, -f)
+        try:
+            step = np.linalg.solve(J, -f)
+        except np.linalg.LinAlgError:
+            return (False, *z, math.nan, math.nan)
         lam = 1.0
         while lam > 1e-4 and np.max(np.abs(res(z + lam * step))) >= np.max(np.abs(f)):
             lam *= 0.5
@@ -95,8 +98,10 @@ def limit_radius(u, soil, veh, grid, limits, max_slip, steps: int = 22) -> float
     plain Newton does not converge; the limits of interest are well inside 60 m.)
     """
     lo, hi = 0.5 * veh[3] * 1.001, 60.0
-    if not feasible(u, hi, soil, veh, grid, limits, max_slip)[0]:
-        return None
+    while not feasible(u, hi, soil, veh, grid, limits, max_slip)[0]:
+        hi *= 0.5  # (or this Newton did not converge there: try a tighter start)
+        if hi < 4 * lo:
+            return None
     for _ in range(steps):
         mid = math.sqrt(lo * hi)
         if feasible(u, mid, soil, veh, grid, limits, max_slip)[0]:

@@ -339,8 +339,8 @@ class Plant:
             return np.concatenate([xi[..., :1], sl[..., :2], (xi[..., :1] - sl[..., 2:4]) / r], axis=-1)
 
         q0 = self.q
-        xi = np.concatenate([q0[:, :1], np.arcsinh(np.stack([q0[:, 1], q0[:, 2], q0[:, 0] - r * q0[:, 3],
-                                                             q0[:, 0] - r * q0[:, 4]], axis=1) / sc)], axis=1)  # fmt: skip
+        slides = np.stack([q0[:, 1], q0[:, 2], q0[:, 0] - r * q0[:, 3], q0[:, 0] - r * q0[:, 4]], axis=1)
+        xi = np.concatenate([q0[:, :1], np.arcsinh(slides / sc)], axis=1)
         scale = np.array([1e-8, 1e-7, 1e-7, 1e-7, 1e-7])
         for _ in range(30):  # Newton with backtracking per vehicle
             trial = np.concatenate([xi[:, None, :], xi[:, None, :] + np.diag(scale)[None]], axis=1)
