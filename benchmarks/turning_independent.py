@@ -20,7 +20,9 @@ Model (hull frame: x forward, y left, origin at the patches' centre; yaw rate Om
   resistance ``mu_r W_k`` along each track.
 - Planar dynamics ``m (du/dt - v Om) = X``, ``m (dv/dt + u Om) = Y``, ``Iz dOm/dt = N`` and each
   sprocket ``(I/2) dw_k/dt = T_k - r F_x,k``, integrated by IMPLICIT Euler (step ``dt``; Newton with a
-  finite-difference Jacobian on the five speeds: the Coulomb-like sliding direction is stiff).
+  finite-difference Jacobian and backtracking on u and the slides v, l Om, u - r w_k, each through
+  ``eps sinh(xi)``: the Coulomb-like sliding direction is stiff near V = 0, and plain Newton failed
+  at a track's stick; a step Newton does not solve is taken as two half steps).
 - Drive: a PI speed servo per sprocket (``bandwidth`` rad/s on the sprocket with half the hull's mass
   locked to it; conditional integration against wind-up) at ``control_hz``, its torque held between
   ticks and limited per track by ``max_torque`` and ``max_power / |w|``. Its references are the
