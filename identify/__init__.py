@@ -22,9 +22,10 @@ Public names
     Sim-to-real gap diagnosis: where the gap lies, which unmodelled effect explains it.
 :class:`OnlineEstimator`, :class:`OnlineSettings`, :class:`OnlineEstimate`
     On-line identification while driving, with change-of-terrain detection.
-:func:`fit_soil_test`, :class:`SoilTestFit`, :func:`predict_drawbar_pull`
+:func:`fit_soil_test`, :class:`Estimate` (``SoilTestFit``), :func:`predict_drawbar_pull`
     Bevameter shear and plate sinkage tests (:mod:`soiltrack.identify.soiltests`), and a
-    track's drawbar pull predicted from them.
+    track's drawbar pull predicted from them. :class:`Estimate` is the one record every kind moves onto
+    (:mod:`soiltrack.identify.estimates.estimate`).
 :func:`fit_sinkage_channel`, :class:`SinkageChannelFit`, :func:`slip_sinkage_evidence`, :class:`SlipSinkageEvidence`
     A track sweep's measured sinkage (``sinkage_m``) against the Bekker and slip-sinkage laws
     (:mod:`soiltrack.identify.sweep.sinkage_channel`): n, k_c / b + k_phi, the slip exponent,
@@ -41,6 +42,7 @@ from .sweep.likelihood import ProfileResult, profile_likelihood
 from .estimates.result import Combination, FitResult, ParameterEstimate, build_result
 from .settings import FitSettings
 from .online import OnlineEstimate, OnlineEstimator, OnlineSettings
+from .estimates.estimate import Estimate
 from .soiltests import SoilTestFit, fit_soil_test, predict_drawbar_pull
 from .sweep.sinkage_channel import SinkageChannelFit, SlipSinkageEvidence, fit_sinkage_channel, slip_sinkage_evidence
 
@@ -61,6 +63,7 @@ __all__ = [
     "Diagnosis",
     "fit_soil_test",
     "SoilTestFit",
+    "Estimate",
     "predict_drawbar_pull",
     "OnlineEstimator",
     "OnlineSettings",

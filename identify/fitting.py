@@ -34,7 +34,7 @@ from .dispatch import check_fit_options, fit_other_kind
 
 if TYPE_CHECKING:
     from .datasets.result import JointFitResult
-    from .soiltests.result import SoilTestFit
+    from .estimates.estimate import Estimate
     from .wheel.result import WheelFitResult
 
 __all__ = ["fit"]
@@ -45,7 +45,7 @@ def fit(data: SlipData | DriveLog, running_gear: Vehicle, **kwargs: Any) -> FitR
 @overload
 def fit(data: WheelSweep | SlipData, running_gear: RigidWheel, **kwargs: Any) -> WheelFitResult: ...
 @overload
-def fit(data: ShearTest | PlateTest, running_gear: None = None, **kwargs: Any) -> SoilTestFit: ...
+def fit(data: ShearTest | PlateTest, running_gear: None = None, **kwargs: Any) -> Estimate: ...
 @overload
 def fit(data: list | tuple, running_gear: Any = None, **kwargs: Any) -> JointFitResult: ...
 
@@ -67,8 +67,8 @@ def fit(
     **options,
 ):
     """Identify the soil from measured data of any kind: :class:`FitResult` for a vehicle's sweep or log,
-    :class:`~.wheel.WheelFitResult` for a wheel, :class:`~.soiltests.SoilTestFit` for a bevameter test, each
-    with its ``outcome`` (:mod:`.outcome`); keyword-only options checked up front (:mod:`.dispatch`).
+    :class:`~.wheel.WheelFitResult` for a wheel, :class:`~.estimates.estimate.Estimate` for a bevameter test,
+    each with its ``outcome`` (:mod:`.outcome`); keyword-only options checked up front (:mod:`.dispatch`).
 
     Parameters
     ----------
@@ -137,7 +137,7 @@ def fit(
 
     Returns
     -------
-    FitResult, WheelFitResult, SoilTestFit or JointFitResult (a list of data sets: one soil, :mod:`.datasets`)
+    FitResult, WheelFitResult, Estimate (bevameter) or JointFitResult (a list of data sets: :mod:`.datasets`)
 
     Raises
     ------

@@ -132,7 +132,9 @@ def _one_fit(path: str, gear: Vehicle | RigidWheel, load: float | None):
     notes = []
     if obj.get("outcome") in ("poor_fit", "not_usable", "failed"):
         notes.append(f"{path}: the fit's outcome is {obj['outcome']!r} ({obj.get('outcome_reason') or 'see the fit'})")
-    kind = obj.get("kind") or ("rigid_wheel" if obj.get("running_gear") == "rigid_wheel" else "track")
+    gear_json = obj.get("running_gear")  # ``{"kind": ...}`` (a bare string in files of earlier versions)
+    gear_kind = gear_json.get("kind") if isinstance(gear_json, dict) else gear_json
+    kind = obj.get("kind") or ("rigid_wheel" if gear_kind == "rigid_wheel" else "track")
     if kind == "track":
         return _track_fit(path, gear, load, notes)
     params = obj.get("parameters")

@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .identify.soiltests import SoilTestFit
+from .identify.estimates.estimate import Estimate
 from .plots import plt, save_figure
 from .soilmodel import PlateTest, ShearTest, plate_pressure, shear_stress
 
 __all__ = ["plot_soil_test"]
 
 
-def _si(fit: SoilTestFit, key: str) -> float:
+def _si(fit: Estimate, key: str) -> float:
     """A fitted parameter's SI value (the curves are drawn only from identifiable ones)."""
     v = fit.parameters[key].value
     if v is None:
@@ -19,7 +19,7 @@ def _si(fit: SoilTestFit, key: str) -> float:
     return float(v)
 
 
-def _combination_si(fit: SoilTestFit, key: str, factor: float) -> float:
+def _combination_si(fit: Estimate, key: str, factor: float) -> float:
     """An identified combination's value (edge units) times ``factor`` (to SI)."""
     v = fit.combinations[key].value
     if v is None:
@@ -27,7 +27,7 @@ def _combination_si(fit: SoilTestFit, key: str, factor: float) -> float:
     return float(v) * factor
 
 
-def _curves(test: ShearTest | PlateTest, fit: SoilTestFit):
+def _curves(test: ShearTest | PlateTest, fit: Estimate):
     """``(levels, x readings, y readings, x grid, fitted y per level)`` in kPa / mm."""
     P = fit.parameters
     if isinstance(test, ShearTest):
@@ -55,7 +55,7 @@ def _curves(test: ShearTest | PlateTest, fit: SoilTestFit):
     return lev, x, y, grid, out
 
 
-def plot_soil_test(test: ShearTest | PlateTest, fit: SoilTestFit, path: str) -> str:
+def plot_soil_test(test: ShearTest | PlateTest, fit: Estimate, path: str) -> str:
     """Save the readings and the fitted curve of each normal pressure (shear) or plate width (plate)."""
     shear = isinstance(test, ShearTest)
     lev, x, y, grid, curves = _curves(test, fit)

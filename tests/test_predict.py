@@ -281,3 +281,28 @@ def test_wheel_skid_prediction_down_to_a_locked_wheel(capsys, wheel_json):
 def test_track_skid_is_refused(capsys):
     rc, _, err = _run(capsys, "--vehicle", "light", "--terrain", "lete_sand", "--slip=-0.5:0.5:0.1")
     assert rc == 2 and "for a track" in err
+
+
+@pytest.mark.slow
+def test_a_wheel_fit_json_predicts_the_wheel(tmp_path, capsys, wheel_json):
+    """A rigid wheel's `fit --json` (its `running_gear` an object with `kind`) is read as a wheel's fit,
+    not refused as a track's, and predicts the simulated wheel's drawbar pull."""
+    r, b = WHEEL["wheel_radius_m"], WHEEL["wheel_width_m"]
+    soil = (1500.0, math.radians(30.0), 0.012, 1.4e6, 1.0)  # c, phi, K, k_c / b + k_phi, n
+    i, dp, W, z = oracle.sweep(
+        [0.1, 0.2, 0.3, 0.45, 0.6, 0.8], [60.0, 100.0], *soil, r, b, sd_dp=0.2, sd_z=2e-4, seed=1
+    )
+    data = _write(tmp_path / "wheel.csv", {"slip": i, "drawbar_pull_N": dp, "normal_load_N": W, "sinkage_m": z})
+    assert main(["fit", data, "--vehicle", wheel_json, "--fix", "bekker_kc=0", "--json"]) == 0
+    fit = tmp_path / "fit.json"
+    fit.write_text(capsys.readouterr().out)
+    assert json.loads(fit.read_text())["kind"] == "rigid_wheel"
+    rc, out, err = _run(
+        capsys, "--vehicle", wheel_json, "--fit", str(fit), "--load", "80", "--slip", "0.3:0.3:0.1", "--json"
+    )
+    assert rc == 0, err
+    js = json.loads(out)
+    zt = oracle.sinkage(0.3, 80.0, *soil, r, b)
+    truth = oracle.forces(0.3, zt, *soil, r, b)[0]
+    assert js["drawbar_pull_N"][0] == pytest.approx(truth, rel=0.1)
+    assert js["drawbar_pull_N_lo"][0] < js["drawbar_pull_N"][0] < js["drawbar_pull_N_hi"][0]

@@ -320,8 +320,8 @@ def _own_theta(data, gear, spec, fixed, effects, bounds, settings, official=None
 
     test_fit = fit_soil_test(data)
     starts = []
-    vals = test_fit.values_si
-    if vals and all(v is not None for v in vals):
+    if test_fit.covariance is not None:  # every parameter identified
+        vals = test_fit.covariance.values
         th = _default8()
         if spec.kind == "plate":
             th[3:6] = vals

@@ -1,6 +1,8 @@
 """What a fit says: the result record, its statistics, identifiability, intervals and report.
 
-Modules: :mod:`.records` (one parameter's estimate, one identifiable combination),
+Modules: :mod:`.estimate` (:class:`~.estimate.Estimate`, the one record every data kind moves onto, and
+its free functions: outcome, report, JSON; the bevameter tests' today), :mod:`.records` (one parameter's
+estimate, one identifiable combination and the one rule of its being determined),
 :mod:`.result` (:class:`FitResult` and its builders), :mod:`.least_squares` (rank, covariance,
 degrees of freedom from the Jacobian), :mod:`.identifiability` (null space, the c-phi ridge),
 :mod:`.views` (estimates per parameter and combination), :mod:`.report` (words and JSON; the

@@ -7,7 +7,8 @@ Effect parameters (``"effect.param"``) keep their SI unit at the edges too.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Mapping
 
 import numpy as np
 
@@ -17,6 +18,8 @@ from ..outcome import identified
 __all__ = [
     "ParameterEstimate",
     "Combination",
+    "combination_determined",
+    "CUT_END_RTOL",
     "EDGE_UNITS",
     "NAME_OF_KEY",
     "finite_or_none",
@@ -249,26 +252,36 @@ class ParameterEstimate:
 
 @dataclass(frozen=True)
 class Combination:
-    """An identifiable combination of the parameters, e.g. ``F_max = A c + W tan(phi)``.
+    """An identifiable combination of the parameters, e.g. ``F_max = A c + W tan(phi)``: the library's one
+    combination record (track, rig, wheel, bevameter test), whether it is determined by
+    :func:`combination_determined` (one rule).
 
     Attributes
     ----------
     name : str
-        Machine-friendly name, e.g. ``"F_max@W=329000N"``, ``"K"``, ``"K/l"``.
+        Machine-friendly name, e.g. ``"F_max@W=329000N"``, ``"K"``, ``"K/l"``, ``"bekker_k_eq"``.
     value : float
-        Value in ``unit`` (SI).
+        Value in ``unit`` (SI for the track's; the edge unit it names for a wheel's or a bevameter test's).
     stderr : float or None
         Linearised standard error; ``None`` when not estimable or no degrees of freedom.
     ci95 : tuple
         95 % interval (``None`` ends when unavailable).
     unit, description : str
-        SI unit and plain-words meaning.
+        Unit of ``value`` and plain-words meaning.
     estimable : bool
         Whether the data determine it (its gradient lies in the Jacobian's row space).
     weakly_identifiable : bool
         Variance inflation above the 0.99-correlation level.
     note : str
         Plain words about the interval, e.g. that a bound cut it (empty when nothing to say).
+    expression : str
+        Its formula where the name is not one (``"k_c / b + k_phi"``); empty otherwise.
+    at : dict
+        The condition it holds at, e.g. ``{"plate_width_m": 0.1}`` (in the JSON beside its other keys).
+    range : tuple of float or None
+        The range its terms' bounds allow (in ``unit``): an interval over most of it is not determined.
+    terms_on_bounds : tuple of str
+        The JSON keys of its terms that end on a bound; ``all_terms_on_bounds`` when every free one does.
     """
 
     name: str
@@ -280,9 +293,24 @@ class Combination:
     estimable: bool = True
     weakly_identifiable: bool = False
     note: str = ""
+    expression: str = ""
+    at: Mapping[str, float] = field(default_factory=dict)
+    range: tuple[float, float] | None = None
+    terms_on_bounds: tuple[str, ...] = ()
+    all_terms_on_bounds: bool = False
+
+    @property
+    def determined(self) -> tuple[bool, str]:
+        """:func:`combination_determined` of this combination."""
+        return combination_determined(self)
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (SI units as named); never NaN."""
+        """JSON-ready dict (units as named), one layout for every kind; never NaN.
+
+        Keys: ``name``, ``value``, ``stderr``, ``ci95``, ``unit``, ``description``, ``estimable``,
+        ``weakly_identifiable``, ``note``, ``expression``, ``terms_on_bounds`` and the keys of ``at``;
+        the record adds ``determined`` (its own rule may add to this one's, e.g. a gentle drive log's).
+        """
         return {
             "name": self.name,
             "value": finite_or_none(self.value),
@@ -293,7 +321,37 @@ class Combination:
             "estimable": bool(self.estimable),
             "weakly_identifiable": bool(self.weakly_identifiable),
             "note": self.note,
+            "expression": self.expression,
+            "terms_on_bounds": list(self.terms_on_bounds),
+            **{k: finite_or_none(v) for k, v in self.at.items()},
         }
+
+
+#: Relative distance of a combination's value from an end of its interval that a bound cut, within
+#: which the value is pinned at that end (a value on a bound is never called determined).
+CUT_END_RTOL = 1e-6
+
+
+def combination_determined(cb: Combination) -> tuple[bool, str]:
+    """Whether the data determine a combination, and why not (empty when they do): the one rule.
+
+    Determined: estimable, with a standard error and a whole interval; not pinned at an end of its
+    interval a bound cut (:data:`CUT_END_RTOL`); not every free term on a bound; and its interval no wider
+    than most of the range its terms' bounds allow (:func:`~soiltrack.identify.outcome.identified`).
+    """
+    if not (cb.estimable and cb.stderr is not None and None not in tuple(cb.ci95)):
+        return False, "not estimable from these data"
+    lo, hi = cb.ci95
+    tol = CUT_END_RTOL * max(abs(cb.value), 1e-300)
+    if ("lower end of the 95 % interval is cut" in cb.note and cb.value - lo <= tol) or (  # type: ignore[operator]
+        "upper end of the 95 % interval is cut" in cb.note and hi - cb.value <= tol  # type: ignore[operator]
+    ):
+        return False, "pinned at a bound"
+    if cb.all_terms_on_bounds:
+        return False, f"its terms are on their bounds ({', '.join(cb.terms_on_bounds)})"
+    if cb.range is not None:
+        return identified(identifiable=True, at_bound=False, ci95=cb.ci95, lower=cb.range[0], upper=cb.range[1])
+    return True, ""
 
 
 #: Spread of the normal load, (max - min) / median, below which c and phi rest on little (a designed

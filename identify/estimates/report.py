@@ -29,7 +29,15 @@ from ..outcome import (
     stated_noise_test,
 )
 from .record_fields import RecordFields
-from .records import EDGE_UNITS, NOT_USABLE, LoadSeparation, ParameterEstimate, finite_or_none, solver_converged
+from .records import (
+    EDGE_UNITS,
+    NOT_USABLE,
+    LoadSeparation,
+    ParameterEstimate,
+    combination_determined,
+    finite_or_none,
+    solver_converged,
+)
 
 __all__ = ["ReportViews", "OUTCOMES", "RESIDUAL_SIGN"]
 
@@ -686,16 +694,8 @@ _SCALED_K = ("K", "K/l")
 
 
 def _combination_determined(cb) -> bool:
-    """A combination the data determine: estimable, with a standard error and a whole interval, and not
-    pinned at an end its bounds cut (a value on a bound is never called identified)."""
-    if not (cb.estimable and cb.stderr is not None and None not in tuple(cb.ci95)):
-        return False
-    lo, hi = cb.ci95
-    tol = 1e-6 * max(abs(cb.value), 1e-300)
-    on_cut_end = ("lower end of the 95 % interval is cut" in cb.note and cb.value - lo <= tol) or (
-        "upper end of the 95 % interval is cut" in cb.note and hi - cb.value <= tol
-    )
-    return not on_cut_end
+    """A combination the data determine (:func:`~.records.combination_determined`, the one rule)."""
+    return combination_determined(cb)[0]
 
 
 def _combo_value(cb) -> str:

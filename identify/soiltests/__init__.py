@@ -4,7 +4,8 @@ Public names
 ------------
 :func:`fit_soil_test`
     A :class:`~soiltrack.soilmodel.ShearTest` or :class:`~soiltrack.soilmodel.PlateTest` ->
-    :class:`SoilTestFit` (bounded IPOPT, 95 % intervals, what is not identifiable).
+    :class:`~soiltrack.identify.estimates.estimate.Estimate`, the library's one record (``SoilTestFit`` is
+    its earlier name): bounded IPOPT, 95 % intervals, what is not identifiable.
 :func:`fit_shear_test`, :func:`fit_plate_test`, :class:`PlateBounds`
     The two fits.
 :func:`predict_drawbar_pull`, :class:`DrawbarPrediction`
@@ -13,7 +14,7 @@ Public names
 
 from .plate import PLATE_BOUNDS, PlateBounds, fit_plate_test
 from .prediction import DrawbarPrediction, predict_drawbar_pull
-from .result import SOIL_TEST_KINDS, SoilTestFit, TestCombination
+from .result import SOIL_TEST_KINDS, SoilTestFit
 from .shear import fit_shear_test
 from .dispatch import fit_soil_test
 
@@ -24,7 +25,6 @@ __all__ = [
     "PlateBounds",
     "PLATE_BOUNDS",
     "SoilTestFit",
-    "TestCombination",
     "SOIL_TEST_KINDS",
     "predict_drawbar_pull",
     "DrawbarPrediction",

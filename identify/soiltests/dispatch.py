@@ -5,7 +5,7 @@ from __future__ import annotations
 from ...soilmodel import DataError, PlateTest, ShearTest
 from ...soilmodel.bevameter_records import AnnulusTest
 from .plate import PlateBounds, fit_plate_test
-from .result import SoilTestFit
+from ..estimates.estimate import Estimate
 from .shear import fit_shear_test
 
 __all__ = ["fit_soil_test", "is_soil_test"]
@@ -16,7 +16,7 @@ def is_soil_test(data) -> bool:
     return isinstance(data, (ShearTest, PlateTest, AnnulusTest))
 
 
-def fit_soil_test(test: ShearTest | PlateTest | AnnulusTest, *, negative_kc: bool = False) -> SoilTestFit:
+def fit_soil_test(test: ShearTest | PlateTest | AnnulusTest, *, negative_kc: bool = False) -> Estimate:
     """Fit a bevameter test with its default bounds (:func:`fit_shear_test` or :func:`fit_plate_test`).
 
     ``negative_kc``: a plate test's k_c fitted freely (flagged when negative) instead of held at >= 0.

@@ -20,7 +20,8 @@ from ...soilmodel.ridge import distinct_loads
 from .intervals import at_bounds, edge_parameters
 from .lsq import ResidualModel, solve_bounded
 from ..estimates.records import ParameterEstimate
-from .result import SoilTestFit, TestCombination
+from ..estimates.estimate import Estimate
+from .result import one_level_combination, soil_test_estimate
 
 __all__ = ["fit_plate_test", "PlateBounds", "PLATE_BOUNDS", "N_STARTS", "UNBOUNDED_FACTOR"]
 
@@ -120,7 +121,7 @@ def _kc_notes(bounds: PlateBounds, kc: float, free, sol, rows: int, ps: float, z
     ]
 
 
-def fit_plate_test(test: PlateTest, bounds: PlateBounds = PLATE_BOUNDS) -> SoilTestFit:
+def fit_plate_test(test: PlateTest, bounds: PlateBounds = PLATE_BOUNDS) -> Estimate:
     """Fit Bekker k_c, k_phi, n (or ``k_c / b + k_phi`` and n at one width) to a plate sinkage test.
 
     Parameters
@@ -132,7 +133,7 @@ def fit_plate_test(test: PlateTest, bounds: PlateBounds = PLATE_BOUNDS) -> SoilT
 
     Returns
     -------
-    SoilTestFit
+    Estimate
         ``bekker_kc`` (kN/m^(n+1)), ``bekker_kphi`` (kN/m^(n+2)), ``bekker_n`` with 95 % intervals.
 
     Raises
@@ -160,23 +161,18 @@ def fit_plate_test(test: PlateTest, bounds: PlateBounds = PLATE_BOUNDS) -> SoilT
             + (", ".join(q.key for q in params if q.at_bound) or "k_c / b + k_phi")
             + " (a warning about the data or the bounds)"
         )
-    rmse = math.sqrt(sol.cost / test.n_samples) * pb.ps / 1e3
-    return SoilTestFit(
-        "plate_test",
-        test.source,
-        {q.key: q for q in params},
-        combos,
-        sol.converged,
-        sol.status,
-        sol.iterations,
-        sol.solve_time_s,
-        test.n_samples,
-        rmse,
-        "kPa",
-        {"plate_widths_m": [float(v) for v in widths]},
-        tuple(notes),
-        si,
-        values_si,
+    return soil_test_estimate(
+        kind="plate_test",
+        source=test.source,
+        params=params,
+        combos=combos,
+        sol=sol,
+        n_samples=test.n_samples,
+        residuals_kpa=-np.asarray(sol.residuals, dtype=float) * pb.ps / 1e3,  # measured minus model
+        levels={"plate_widths_m": [float(v) for v in widths]},
+        notes=notes,
+        covariance_si=si,
+        values_si=values_si,
     )
 
 
@@ -280,13 +276,11 @@ def _fit_one_width(test: PlateTest, widths, pb: _PlateProblem, bounds: PlateBoun
         n_par,
     ]
     combos = {
-        "bekker_k_eq": TestCombination(
+        "bekker_k_eq": one_level_combination(
             "bekker_k_eq",
             "k_c / b + k_phi",
-            "kN/m^(n+2)",
-            k_par.edge_value,
-            k_par.edge_stderr,
-            k_par.edge_ci95,
+            f"Bekker stiffness of the one plate width b = {w:.4g} m",
+            k_par,
             {"plate_width_m": w},
         )
     }

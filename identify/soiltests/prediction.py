@@ -25,7 +25,7 @@ from ...soilmodel import DataError, Vehicle
 from ...soilmodel.sinkage import compaction_expr
 from ...soilmodel.traction import thrust_expr
 from ..estimates.distributions import norm_ppf
-from .result import SoilTestFit
+from ..estimates.estimate import Estimate
 
 __all__ = ["DrawbarPrediction", "predict_drawbar_pull", "drawbar_pull_function"]
 
@@ -72,26 +72,26 @@ def drawbar_pull_function() -> ca.Function:
     )
 
 
-def _require(fit: SoilTestFit, kind: str, what: str) -> tuple[np.ndarray, np.ndarray]:
+def _require(fit: Estimate, kind: str, what: str) -> tuple[np.ndarray, np.ndarray]:
     if fit.kind != kind:
         raise DataError(f"expected a {kind.replace('_', ' ')} fit for {what}, got a {fit.kind.replace('_', ' ')} fit")
     if not fit.success:
         raise DataError(
             f"the {kind.replace('_', ' ')} fit ({fit.source}) did not succeed ({fit.status}): no prediction from it"
         )
-    if fit.covariance_si is None or any(v is None for v in fit.values_si):
+    if fit.covariance is None:
         missing = [k for k, p in fit.parameters.items() if not p.identifiable]
         hint = "test at two or more normal pressures" if kind == "shear_test" else "test plates of two or more widths"
         raise DataError(
             f"the {kind.replace('_', ' ')} ({fit.source}) does not identify {', '.join(missing)}: the "
             f"track's {what} needs them ({hint})"
         )
-    return np.array(fit.values_si, dtype=float), np.asarray(fit.covariance_si, dtype=float)
+    return np.array(fit.covariance.values, dtype=float), np.asarray(fit.covariance.matrix, dtype=float)
 
 
 def predict_drawbar_pull(
-    shear: SoilTestFit,
-    plate: SoilTestFit,
+    shear: Estimate,
+    plate: Estimate,
     vehicle: Vehicle,
     slip,
     normal_load: float | None = None,

@@ -19,7 +19,8 @@ from ...soilmodel.ridge import distinct_loads
 from .intervals import at_bounds, edge_parameters
 from .lsq import ResidualModel, solve_bounded
 from ..estimates.records import ParameterEstimate
-from .result import SoilTestFit, TestCombination
+from ..estimates.estimate import Estimate
+from .result import one_level_combination, soil_test_estimate
 
 __all__ = ["fit_shear_test", "K_SCALE", "K_STARTS"]
 
@@ -81,7 +82,7 @@ def _start_strength(sigma: np.ndarray, tau: np.ndarray, levels: np.ndarray) -> n
     return np.array([tau[np.isclose(sigma, s, rtol=1e-9, atol=0.0)].max() for s in levels])
 
 
-def fit_shear_test(test: ShearTest | AnnulusTest, bounds: SoilBounds = WIDE_BOUNDS) -> SoilTestFit:
+def fit_shear_test(test: ShearTest | AnnulusTest, bounds: SoilBounds = WIDE_BOUNDS) -> Estimate:
     """Fit c, phi and K (or the shear strength and K at one pressure) to a bevameter shear test.
 
     Parameters
@@ -94,7 +95,7 @@ def fit_shear_test(test: ShearTest | AnnulusTest, bounds: SoilBounds = WIDE_BOUN
 
     Returns
     -------
-    SoilTestFit
+    Estimate
         ``cohesion_kpa``, ``friction_angle_deg``, ``shear_modulus_m`` with 95 % intervals;
         at one pressure c and phi are ``identifiable: false`` and the combination
         ``shear_strength_kpa`` (``c + sigma tan(phi)``) is reported instead.
@@ -127,23 +128,18 @@ def fit_shear_test(test: ShearTest | AnnulusTest, bounds: SoilBounds = WIDE_BOUN
             + ", ".join(p.key for p in params if p.at_bound)
             + " (a warning about the data or the bounds)"
         )
-    rmse = math.sqrt(sol.cost / test.n_samples) * ts / 1e3
-    return SoilTestFit(
-        "shear_test",
-        test.source,
-        {p.key: p for p in params},
-        combos,
-        sol.converged,
-        sol.status,
-        sol.iterations,
-        sol.solve_time_s,
-        test.n_samples,
-        rmse,
-        "kPa",
-        {"normal_pressures_kpa": [float(s) / 1e3 for s in levels]},
-        tuple(notes),
-        si,
-        values_si,
+    return soil_test_estimate(
+        kind="shear_test",
+        source=test.source,
+        params=params,
+        combos=combos,
+        sol=sol,
+        n_samples=test.n_samples,
+        residuals_kpa=-np.asarray(sol.residuals, dtype=float) * ts / 1e3,  # measured minus model
+        levels={"normal_pressures_kpa": [float(s) / 1e3 for s in levels]},
+        notes=notes,
+        covariance_si=si,
+        values_si=values_si,
     )
 
 
@@ -232,13 +228,11 @@ def _one_pressure(test, levels, peaks, ts: float, bounds: SoilBounds, strength_m
         k_par,
     ]
     combos = {
-        "shear_strength_kpa": TestCombination(
+        "shear_strength_kpa": one_level_combination(
             "shear_strength_kpa",
             "c + sigma tan(phi)",
-            "kPa",
-            strength.edge_value,
-            strength.edge_stderr,
-            strength.edge_ci95,
+            f"shear strength at the one normal pressure {s0 / 1e3:.4g} kPa",
+            strength,
             {"normal_pressure_kpa": s0 / 1e3},
         )
     }

@@ -7,13 +7,12 @@ Public names: :func:`fit_wheel`, :class:`WheelFitOptions`, :class:`WheelFitResul
 
 from .fitting import WheelFitOptions, fit_wheel, soil_from_wheel_fit
 from .problem import DEFAULT_WHEEL_BOUNDS, WHEEL_PARAMETERS, WheelBounds
-from .result import WheelCombination, WheelFitResult, pure_error
+from .result import WheelFitResult, pure_error
 
 __all__ = [
     "fit_wheel",
     "WheelFitOptions",
     "WheelFitResult",
-    "WheelCombination",
     "WheelBounds",
     "DEFAULT_WHEEL_BOUNDS",
     "WHEEL_PARAMETERS",

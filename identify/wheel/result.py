@@ -35,12 +35,12 @@ from ..estimates.least_squares import (
     quantile,
 )
 from ..estimates.distributions import f_sf
-from ..estimates.records import EDGE_UNITS, ParameterEstimate
-from ..outcome import BOUND_TOL, LackOfFitTest, Outcome, decide_outcome, identified, outcome_lines, running_gear_json
+from ..estimates.report import RESIDUAL_SIGN
+from ..estimates.records import EDGE_UNITS, Combination, ParameterEstimate
+from ..outcome import BOUND_TOL, LackOfFitTest, Outcome, decide_outcome, outcome_lines, running_gear_json
 from .problem import WHEEL_PARAMETERS, bekker_modulus, channel_floors, residual_function, torque_floor
 
 __all__ = [
-    "WheelCombination",
     "WheelFitResult",
     "build_wheel_result",
     "BOUND_REL_TOL",
@@ -104,54 +104,6 @@ def grouser_spacing_reason(height: float) -> str:
     )
 
 
-@dataclass(frozen=True)
-class WheelCombination:
-    """An identified combination of parameters (edge units)."""
-
-    name: str
-    unit: str
-    value: float
-    stderr: float | None
-    ci95: tuple[float | None, float | None]
-    estimable: bool
-    weakly_identifiable: bool
-    meaning: str
-    range: tuple[float, float] | None = None
-    terms_on_bounds: tuple[str, ...] = ()
-    all_terms_on_bounds: bool = False
-
-    @property
-    def determined(self) -> tuple[bool, str]:
-        """Determined by the outcome rules: estimable with an interval, not every term on a bound, and
-        the interval no wider than most of the range its terms' bounds allow; and why not."""
-        if not self.estimable or self.stderr is None or None in self.ci95:
-            return False, "not estimable from these data"
-        if self.all_terms_on_bounds:
-            return False, f"its terms are on their bounds ({', '.join(self.terms_on_bounds)})"
-        if self.range is not None:
-            ok, why = identified(
-                identifiable=True, at_bound=False, ci95=self.ci95, lower=self.range[0], upper=self.range[1]
-            )
-            return ok, why
-        return True, ""
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON form."""
-        ok = self.determined[0]
-        return {
-            "name": self.name,
-            "unit": self.unit,
-            "value": self.value,
-            "stderr": _num(self.stderr),
-            "ci95": [_num(v) for v in self.ci95],
-            "determined": ok,
-            "terms_on_bounds": list(self.terms_on_bounds),
-            "estimable": self.estimable,
-            "weakly_identifiable": self.weakly_identifiable,
-            "meaning": self.meaning,
-        }
-
-
 @dataclass(frozen=True, eq=False)
 class WheelFitResult:
     """What a rigid-wheel fit found and how far the data support it.
@@ -167,7 +119,7 @@ class WheelFitResult:
     message: str
     theta: np.ndarray
     parameters: dict[str, ParameterEstimate]
-    combinations: tuple[WheelCombination, ...]
+    combinations: tuple[Combination, ...]
     statements: tuple[str, ...]
     warnings: tuple[str, ...]
     rank: int
@@ -273,6 +225,7 @@ class WheelFitResult:
     def to_dict(self) -> dict[str, Any]:
         """The JSON object (``soiltrack fit --json`` on a wheel sweep)."""
         return {
+            "kind": "rigid_wheel",
             **self.fit_outcome.to_dict(),
             "running_gear": self.running_gear,
             "model": "wong_reece",
@@ -288,7 +241,7 @@ class WheelFitResult:
             "noise_sd": {k: _num(v) for k, v in self.noise_sd.items()},
             "solve_time_s": self.solve_time_s,
             "parameters": {k: v.to_dict() for k, v in self.parameters.items()},
-            "combinations": [c.to_dict() for c in self.combinations],
+            "combinations": [_combination_json(c, self.success) for c in self.combinations],
             "identifiability": {
                 "rank": self.rank,
                 "n_parameters": sum(not e.fixed for e in self.parameters.values()),
@@ -314,6 +267,13 @@ class WheelFitResult:
             },
             "covariance": self.covariance_dict(),
             "torque_rmse_Nm": _num(self.rmse_torque) if self.rmse_torque is not None else None,
+            "determined": self.determined if self.success else [],
+            "dof": int(self.dof),
+            "residuals": {
+                "sign": RESIDUAL_SIGN,
+                "unit": "N",
+                "values": [_num(float(x)) for x in (self.residuals if self.residuals is not None else ())],
+            },
             "channels": ["drawbar_pull_N"]
             + (["sinkage_m"] if self.sinkage_measured else [])
             + (["wheel_torque_Nm"] if self.rmse_torque is not None else []),
@@ -395,7 +355,13 @@ def _parameter_line(key: str, e: ParameterEstimate) -> str:
     return f"{lab}{value:>12.4g}{ci:>28}  {ident}"
 
 
-def _combination_line(c: WheelCombination) -> str:
+def _combination_json(c: Combination, success: bool) -> dict[str, Any]:
+    """A combination's JSON entry (the one layout) with ``determined`` by the one rule."""
+    ok, why = c.determined if success else (False, "the fit failed")
+    return {**c.to_dict(), "determined": ok, "not_determined_reason": why or None}
+
+
+def _combination_line(c: Combination) -> str:
     """A combination in the report: a number only where the data determine it."""
     ok, why = c.determined
     if not ok:
@@ -574,9 +540,9 @@ def _parameter_statements(names, nonid, weak_names, combos, params, ident) -> li
         )
     for c in combos:
         if c.determined[0] and not c.weakly_identifiable and c.stderr is not None:
-            statements.append(f"{c.name} ({c.meaning}) is identified: {c.value:.4g} {c.unit} +- {c.stderr:.2g}.")
+            statements.append(f"{c.name} ({c.description}) is identified: {c.value:.4g} {c.unit} +- {c.stderr:.2g}.")
         elif c.estimable and not c.determined[0]:
-            statements.append(f"{c.name} ({c.meaning}) is not determined: {c.determined[1]}.")
+            statements.append(f"{c.name} ({c.description}) is not determined: {c.determined[1]}.")
     good = [
         _EDGE[nm][3]
         for j, nm in enumerate(names)
@@ -628,19 +594,19 @@ def _wheel_combinations(data, wheel, options, theta, free, lo, hi, params, D, nu
         se, est, weak = combo(np.array([1.0, p_bar / math.cos(theta[1]) ** 2, 0, 0, 0, 0, 0]))
         ci = (max(tau - q * se, 0.0), tau + q * se) if se is not None and q is not None else (None, None)
         combos.append(
-            WheelCombination(
+            Combination(
                 "c + p tan(phi)",
-                "kPa",
                 tau / 1e3,
                 None if se is None else se / 1e3,
                 (None if ci[0] is None else ci[0] / 1e3, None if ci[1] is None else ci[1] / 1e3),
-                est,
-                weak,
+                "kPa",
                 f"shear strength at the mean contact pressure p = {p_bar / 1e3:.3g} kPa "
                 "(load over the arc's projected area b r theta_1)",
-                (tau_rng[0] / 1e3, tau_rng[1] / 1e3),
-                tau_on,
-                tau_all,
+                estimable=est,
+                weakly_identifiable=weak,
+                range=(tau_rng[0] / 1e3, tau_rng[1] / 1e3),
+                terms_on_bounds=tau_on,
+                all_terms_on_bounds=tau_all,
             )
         )
     if free[3] and free[4]:
@@ -650,18 +616,18 @@ def _wheel_combinations(data, wheel, options, theta, free, lo, hi, params, D, nu
         se, est, weak = combo(np.array([0, 0, 0, 1.0 / wheel.width, 1.0, 0, 0]))
         ci = (max(kval - q * se, 0.0), kval + q * se) if se is not None and q is not None else (None, None)
         combos.append(
-            WheelCombination(
+            Combination(
                 "k_c / b + k_phi",
-                "kN/m^(n+2)",
                 kval / 1e3,
                 None if se is None else se / 1e3,
                 (None if ci[0] is None else ci[0] / 1e3, None if ci[1] is None else ci[1] / 1e3),
-                est,
-                weak,
+                "kN/m^(n+2)",
                 f"Bekker stiffness of this wheel's width b = {wheel.width:g} m",
-                (float(k_rng[0]) / 1e3, float(k_rng[1]) / 1e3),
-                k_on,
-                k_all,
+                estimable=est,
+                weakly_identifiable=weak,
+                range=(float(k_rng[0]) / 1e3, float(k_rng[1]) / 1e3),
+                terms_on_bounds=k_on,
+                all_terms_on_bounds=k_all,
             )
         )
 
