@@ -174,6 +174,30 @@ class OnlineSettings:
         few samples (a K x2 change's ramp included, whose F_max is lowered and that reaches the plateau
         of its own F_max only). Replaces the fixed rule "tested only from ``identify_min_informative``
         plateau samples" (a horizon below it is still fused only when it agrees).
+    detect_excitation_chi2
+        A third test, on each excitation (a run of samples loaded to ``detect_min_load`` of F_max, gaps
+        below ``EXCITATION_GAP_S``) while something is held: the excitation's samples against the estimate
+        held when it began, a score test (:class:`~.detector.ExcitationTest`: each sample's profiled
+        residual there and its gradient in (F_max, K), the held covariance grown by the random walk); a
+        statistic beyond this (chi-square, 2 degrees of freedom) is a change. It needs no fit of the new
+        samples: the horizon test waits until a horizon identifies F_max, which a pull's ramp on a new
+        soil does not (TODO measured).
+    detect_excitation_bias
+        ... with a model error shared by an excitation's samples of this many noise standard deviations
+        (:class:`~.detector.ExcitationTest`: ``n`` samples' noise part inflated by ``1 + n b^2``): a long run
+        at one operating point (a steady climb) tests the mean of its residuals there, and a lean of the
+        model of a fraction of the noise (the slope's error-in-variables bias, the controller's correlated
+        noise) adds up over hundreds of samples (TODO measured).
+    detect_excitation_max_s
+        ... and an excitation longer than this, s, is tested in parts of this length (each against the
+        estimate held when it began): on continuous load (a climb loads every sample) one run would hold
+        minutes of samples of the old soil, which dilute a change's lean (measured: a pull on 10 deg, its
+        change inside the pull, statistic 2 after 3000 samples of the run).
+    detect_date_margin
+        The excitation test dates a change at its most likely first sample on the new soil (the split of
+        the excitation's samples with the largest statistic of the samples after it), and its window
+        holds the splits whose statistic is within this margin of the largest (a likelihood interval;
+        one reaching the excitation's first sample reaches back to the last informative sample before).
     detect_min_excitations
         A horizon that contradicts its arrival cost declares a change only when the arrival cost
         rests on at least this many excitations (runs of informative samples more than
@@ -228,6 +252,10 @@ class OnlineSettings:
     detect_window_chi2: float = 27.6
     detect_window_min_load: float = 0.8
     detect_window_plateau_samples: int = 8
+    detect_excitation_chi2: float = 27.6
+    detect_excitation_bias: float = 0.1
+    detect_excitation_max_s: float = 5.0
+    detect_date_margin: float = 9.0
     detect_min_excitations: int = 2
     turn_threshold: float = TURN_THRESHOLD_SIGMA
     turn_history: int = 256
@@ -250,6 +278,9 @@ class OnlineSettings:
             "detect_window_chi2",
             "detect_window_min_load",
             "identify_reject_chi2",
+            "detect_excitation_chi2",
+            "detect_date_margin",
+            "detect_excitation_max_s",
         ):
             val = getattr(self, name)
             if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
@@ -280,6 +311,7 @@ class OnlineSettings:
             "drift_max_thrust_rel",
             "drift_shear_modulus_rel",
             "detect_held_sigmas",
+            "detect_excitation_bias",
         ):
             val = getattr(self, name)
             if val is not None and (
