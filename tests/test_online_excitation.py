@@ -86,3 +86,65 @@ def test_excitation_settings_checked():
             OnlineSettings(**{name: 0.0})
     with pytest.raises(Exception, match="detect_excitation_bias"):
         OnlineSettings(detect_excitation_bias=-0.1)
+
+
+def _tuning_log(seed: int, grade_deg: float, every, kind: str, frac: float, t_change: float, duration: float):
+    """A heavy-vehicle log of the tuning set (``benchmarks/online_sets.py``), cut at ``duration`` s."""
+    from online_oracle import VEHICLES as OV, f_max
+
+    veh = OV["heavy"]
+    g = math.radians(grade_deg)
+    old = SOILS["lete_sand"]
+    c, phi, K = old
+    s = 1 - frac if kind == "F_down" else 1 + frac
+    c1 = c * s
+    new = (c1, math.atan((s * f_max(old, veh, g) - 2 * veh["b"] * veh["l"] * c1) / (veh["W"] * math.cos(g))), K)
+    pulls = random_pulls(150.0, every, (2.0, 4.0), (0.9, 0.97), seed)
+    cols = simulate("heavy", lambda t: old if t < t_change else new, duration, pulls, grade_deg=grade_deg, seed=seed)
+    t = np.array(cols["time_s"])
+    inf = np.nonzero((t >= t_change) & (np.array(cols["thrust"]) >= 0.5 * np.array(cols["F_max"])))[0]
+    return cols, (float(t[inf[0]]) if inf.size else math.inf)
+
+
+def _replay(cols, grade_deg: float, **over):
+    est = OnlineEstimator(VEHICLES["heavy"], OnlineSettings(grade_rad=math.radians(grade_deg), **over))
+    keys = ("time_s", "sprocket_torque_Nm", "sprocket_speed_rad_s", "vehicle_speed_m_s")
+    for row in zip(*(cols[k] for k in keys)):
+        est.update(*row)
+    return est
+
+
+#: The excitation test switched off (the detector before it: the CUSUM and the horizon test only).
+_OFF = dict(detect_excitation_chi2=1e12)
+
+
+@pytest.mark.slow
+def test_a_pull_on_a_weaker_soil_is_flagged_before_its_horizon_identifies_it():
+    """Tuning log heavy flat, pulls every 25-35 s, F_max down 21 % at 73.93 s (seed 3007): the first pull on the
+    new soil (t_inf 97.66 s) is flagged within 1 s by the excitation test; without it the horizon test flags it
+    1.68 s after t_inf (its horizon identifies F_max only once the plateau is long enough)."""
+    tc = 73.93129273099338
+    cols, t_inf = _tuning_log(3007, 0.0, (25.0, 35.0), "F_down", 0.20985520340708808, tc, 101.0)
+    est = _replay(cols, 0.0)
+    assert len(est.changes) == 1
+    c = est.changes[0]
+    assert c["test"] == "excitation" and t_inf < c["detected_at_s"] <= t_inf + 1.0
+    assert c["window_s"][0] <= tc <= c["window_s"][1]
+    off = _replay(cols, 0.0, **_OFF)
+    assert len(off.changes) == 1 and off.changes[0]["detected_at_s"] > t_inf + 1.0
+
+
+@pytest.mark.slow
+def test_a_change_inside_a_pull_on_a_climb_is_flagged_and_dated_inside_it():
+    """Tuning log heavy 10 deg, pulls every 25-35 s, F_max down 26 % at 65.75 s inside a pull (seed 3016): the
+    climb loads every sample (the excitation test runs in 5-s parts) and the change is found inside a part by
+    the split search; flagged within 1 s, its window inside the pull and holding the true time. Without the
+    excitation test the change is missed (the horizon mixing both soils never reaches its own plateau)."""
+    tc = 65.75115413158434
+    cols, t_inf = _tuning_log(3016, 10.0, (25.0, 35.0), "F_down", 0.2618173168315804, tc, 70.0)
+    est = _replay(cols, 10.0)
+    assert len(est.changes) == 1
+    c = est.changes[0]
+    assert c["test"] == "excitation" and t_inf <= c["detected_at_s"] <= t_inf + 1.0
+    assert 64.0 < c["window_s"][0] <= tc <= c["window_s"][1] < c["detected_at_s"]
+    assert _replay(cols, 10.0, **_OFF).changes == []

@@ -673,10 +673,12 @@ class OnlineEstimator:
         """After the sample entered: forget on a change, iterate, update the memory, report."""
         s = self.settings
         window, test, keep_from = None, "cusum", None
+        t_rests = change  # what is held is judged by the excitations before this time
         if change is None and self._xalarm is not None:  # the excitation test's alarm, dated by it
             (change, window, keep_from), test = self._xalarm, "excitation"
+            t_rests = self._xtest.times[0]  # the reference: held before the excitation began
         self._xalarm = None
-        if change is not None and s.memory and self._excitations_before(change) < s.detect_min_excitations:
+        if change is not None and s.memory and self._excitations_before(t_rests) < s.detect_min_excitations:
             # what is held rests on one excitation (see detect_min_excitations): start it again
             self._held.reset()
             self._detector.reset(t)
