@@ -644,8 +644,10 @@ class OnlineEstimator:
         times = X.times
         if lo == 0:  # the excitation may have begun on the new soil: dated at its start (as the other tests)
             return times[0], (self._change_window(times[0])[0], times[hi]), times[0]
-        # inside the excitation: its samples from the earliest likely split on stay (the new horizon's ramp)
-        return times[best], (times[lo - 1], times[hi]), times[lo]
+        # inside the excitation: its samples from the earliest likely split on stay (the new horizon's ramp); the
+        # window reaches back to the last informative sample before that split's excitation (the samples between,
+        # a climb's, may be on the new soil without showing it)
+        return times[best], (self._change_window(times[lo])[0], times[hi]), times[lo]
 
     def _reference_residual(self, xF: float, xK: float) -> tuple[float, tuple[float, float]]:
         """The new sample's standardised profiled residual at the scaled ``(xF, xK)`` and its gradient there.
