@@ -121,11 +121,13 @@ _OFF = dict(detect_excitation_chi2=1e12)
 @pytest.mark.slow
 def test_a_pull_on_a_weaker_soil_is_flagged_before_its_horizon_identifies_it():
     """Tuning log heavy flat, pulls every 25-35 s, F_max down 21 % at 73.93 s (seed 3007): the first pull on the
-    new soil (t_inf 97.66 s) is flagged within 1 s by the excitation test; without it the horizon test flags it
-    1.68 s after t_inf (its horizon identifies F_max only once the plateau is long enough)."""
+    new soil (t_inf 97.66 s) is flagged within 1 s by the excitation test at threshold 27.6 (p = 1e-6); without it
+    the horizon test flags it 1.68 s after t_inf (its horizon identifies F_max only once the plateau is long
+    enough). At the default threshold 36.8 (p = 1e-8, chosen for the uniform hours: docs/online.md) this log is
+    one of the two tuning changes flagged later than 1 s: the mechanism is tested at the lower threshold."""
     tc = 73.93129273099338
     cols, t_inf = _tuning_log(3007, 0.0, (25.0, 35.0), "F_down", 0.20985520340708808, tc, 101.0)
-    est = _replay(cols, 0.0)
+    est = _replay(cols, 0.0, detect_excitation_chi2=27.6)
     assert len(est.changes) == 1
     c = est.changes[0]
     assert c["test"] == "excitation" and t_inf < c["detected_at_s"] <= t_inf + 1.0
