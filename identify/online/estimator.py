@@ -47,7 +47,7 @@ from ...soilmodel.vehicle import Vehicle
 from ..drivelog.noise import noise_model
 from ..drivelog.relaxation import TREND_SAMPLES
 from ..drivelog.regime import GENTLE_CORRELATION, GENTLE_REL_STDERR, K_REL_STDERR
-from .detector import CusumDetector
+from .detector import CusumDetector, ExcitationTest
 from .ccall import BufferCall
 from .kernels import JUMP_SIGMA, NOISE, PARAMS, RAW, ROWS, SUMS, kernels
 from .memory import HeldSoil, fuse
@@ -66,6 +66,8 @@ START_THRUST_FACTOR = 1.2
 MIN_NOISE_SAMPLES = 8
 #: Informative samples closer than this belong to one excitation (a pull), s (change windows).
 EXCITATION_GAP_S = 0.5
+#: Relative step of the finite differences of a residual in (F_max, K) (:meth:`OnlineEstimator._reference_residual`).
+_FD_REL = 1e-4
 #: Newton steps on K at the larger F_max of :meth:`OnlineEstimator._rejects_larger`.
 _REJECT_K_STEPS = 6
 #: Turning-noise levels are re-estimated this often while fewer than ``turn_history`` are known.
@@ -193,6 +195,13 @@ class OnlineEstimator:
         self._t_reset = -math.inf
         self._detector = CusumDetector(s.detect_reference, s.detect_threshold, s.detect_clip)
         self._detect_since = -math.inf
+        # the excitation test (detector.ExcitationTest): its own prediction buffers at the reference
+        self._xtest = ExcitationTest(s.detect_clip, s.detect_excitation_bias)
+        self._xref: tuple[tuple[float, float], tuple[float, float, float], float] | None = None  # x, P, t_ref
+        self._xalarm: tuple[float, tuple[float, float], float] | None = None
+        self._xrow, self._xP, self._xout = np.zeros(len(ROWS)), np.zeros(len(PARAMS)), np.zeros(2)
+        k0 = kernels(INITIAL_CAPACITY)
+        self._c_predict_ref = BufferCall(k0.predict, k0.library, [self._xrow, self._xP], [self._xout])
         self._recent_z: deque = deque(maxlen=s.detect_scale_samples)
         self._F_known: float | None = None  # last F_max the horizon determined (since the last change)
         self._known_since = math.inf  # when it was first determined
@@ -606,21 +615,82 @@ class OnlineEstimator:
             change = self._detector.update(z / self._robust_scale(), t)
             if self._detector.statistic == 0.0:  # the residual spread is learnt from quiet samples only
                 self._recent_z.append(z)
+            if s.memory and change is None:
+                self._xalarm = self._test_excitation(t)
         return change, slip0
+
+    def _test_excitation(self, t: float) -> tuple[float, tuple[float, float], float] | None:
+        """Add the new (loaded) sample to the excitation test; ``(t_change, window, keep_from)`` on an alarm.
+
+        An excitation is a run of loaded samples (gaps below :data:`EXCITATION_GAP_S`, at most
+        ``detect_excitation_max_s`` long); its reference is the held estimate at its first sample, with
+        the covariance grown by the random walk since.
+        """
+        s, X, H = self.settings, self._xtest, self._held
+        if H.x is None or H.P is None:
+            return None
+        if not X.active or t - X.t_last > EXCITATION_GAP_S or t - X.times[0] > s.detect_excitation_max_s:
+            self._xref = (H.x, H.P, H.t_ref)
+            X.begin(t, (H.x[0] / self._F_ref, H.x[1] / self._K_ref))
+        assert self._xref is not None  # set with the excitation's reference
+        x, P, t_ref = self._xref
+        p11, p12, p22 = H.grown(x, P, t - t_ref)
+        fr, kr = self._F_ref, self._K_ref
+        r, d = self._reference_residual(x[0] / fr, x[1] / kr)
+        d2 = X.add(t, r, d, (p11 / (fr * fr), p12 / (fr * kr), p22 / (kr * kr)))
+        if d2 <= s.detect_excitation_chi2:
+            return None
+        best, lo, hi = X.change_points(s.detect_date_margin)
+        times = X.times
+        if lo == 0:  # the excitation may have begun on the new soil: dated at its start (as the other tests)
+            return times[0], (self._change_window(times[0])[0], times[hi]), times[0]
+        # inside the excitation: its samples from the earliest likely split on stay (the new horizon's ramp); the
+        # window reaches back to the last informative sample before that split's excitation (the samples between,
+        # a climb's, may be on the new soil without showing it)
+        return times[best], (self._change_window(times[lo])[0], times[hi]), times[lo]
+
+    def _reference_residual(self, xF: float, xK: float) -> tuple[float, tuple[float, float]]:
+        """The new sample's standardised profiled residual at the scaled ``(xF, xK)`` and its gradient there.
+
+        The gradient by forward differences (step :data:`_FD_REL` of each value), each point's latent
+        slip profiled anew (the prediction kernel): the profiled residual's total derivative.
+        """
+        np.copyto(self._xrow, self._row)
+        P, out, call = self._xP, self._xout, self._c_predict_ref
+        np.copyto(P, self._P)
+        P[_PXF], P[_PXK] = xF, xK
+        call()
+        r0 = float(out[1])
+        hF, hK = _FD_REL * xF, _FD_REL * xK
+        P[_PXF] = xF + hF
+        call()
+        dF = (float(out[1]) - r0) / hF
+        P[_PXF], P[_PXK] = xF, xK + hK
+        call()
+        dK = (float(out[1]) - r0) / hK
+        sc = self._scale()
+        return r0 / sc, (dF / sc, dK / sc)
 
     def _finish(self, t: float, slip0, change, cutoff: float) -> OnlineEstimate:
         """After the sample entered: forget on a change, iterate, update the memory, report."""
         s = self.settings
-        window = None
-        if change is not None and s.memory and self._excitations_before(change) < s.detect_min_excitations:
+        window, test, keep_from = None, "cusum", None
+        t_rests = change  # what is held is judged by the excitations before this time
+        if change is None and self._xalarm is not None:  # the excitation test's alarm, dated by it
+            (change, window, keep_from), test = self._xalarm, "excitation"
+            t_rests = self._xtest.times[0]  # the reference: held before the excitation began
+        self._xalarm = None
+        if change is not None and s.memory and self._excitations_before(t_rests) < s.detect_min_excitations:
             # what is held rests on one excitation (see detect_min_excitations): start it again
             self._held.reset()
             self._detector.reset(t)
-            change = None
+            self._xtest.reset()
+            change = window = None
         if change is not None:
-            window = self._change_window(change)
-            change = self._excitation_start(change, window[0])
-            self._forget(t, change, window)
+            if window is None:
+                window = self._change_window(change)
+                change = self._excitation_start(change, window[0])
+            self._forget(t, change, window, test=test, keep_from=keep_from)
             cutoff = max(t - s.window_s, self._t_reset)
         win = self._solve(t, cutoff, change is None)
         if s.memory:
@@ -726,9 +796,17 @@ class OnlineEstimator:
         self._T_out[:], self._sT_out[:], self._raw1[:] = keep
 
     def _forget(
-        self, t: float, t_change: float, window: tuple[float, float] | None = None, test: str = "cusum"
+        self,
+        t: float,
+        t_change: float,
+        window: tuple[float, float] | None = None,
+        test: str = "cusum",
+        keep_from: float | None = None,
     ) -> None:
-        """A change of terrain at ``t_change``: drop the older samples and what is held, restart the detector."""
+        """A change of terrain at ``t_change``: drop the older samples and what is held, restart the detector.
+
+        ``keep_from``: the samples from this time on stay (default ``t_change``).
+        """
         held = self._held.now(t)
         before = (float(self._P[_PXF] * self._F_ref), float(self._P[_PXK] * self._K_ref)) if held is None else held[0]
         self.changes.append(
@@ -743,13 +821,15 @@ class OnlineEstimator:
         )
         self._held.reset()
         self._informed_at = None
+        cut = t_change if keep_from is None else keep_from
         for dq in (self._info_times, self._loaded_times):  # the new soil's samples only
-            keep = [x for x in dq if x >= t_change]
+            keep = [x for x in dq if x >= cut]
             dq.clear()
             dq.extend(keep)
-        self._t_reset = t_change
+        self._t_reset = cut
         self._gentle_win = None
         self._detector.reset(t)
+        self._xtest.reset()
         self._detect_since = t
         self._converged = False
         self._since_noise = self.settings.noise_every  # re-estimate the noise on the new soil

@@ -174,6 +174,46 @@ class OnlineSettings:
         few samples (a K x2 change's ramp included, whose F_max is lowered and that reaches the plateau
         of its own F_max only). Replaces the fixed rule "tested only from ``identify_min_informative``
         plateau samples" (a horizon below it is still fused only when it agrees).
+    detect_excitation_chi2
+        A third test, on each excitation (a run of samples loaded to ``detect_min_load`` of F_max, gaps
+        below ``EXCITATION_GAP_S``) while something is held: the excitation's samples against the estimate
+        held when it began, a score test (:class:`~.detector.ExcitationTest`: each sample's profiled
+        residual there and its gradient in (F_max, K), the held covariance grown by the random walk); a
+        statistic beyond this (chi-square, 2 degrees of freedom) is a change. It needs no fit of the new
+        samples: the horizon test waits until a horizon identifies F_max, which a pull's ramp on a new
+        soil does not (measured, tuning set of ``bench_online.py --set tuning``, heavy flat, pulls every
+        25-35 s, F_max down 21 %: the horizon test flagged the first pull on the new soil 1.68 s after its
+        first informative sample, this test 0.82-0.88 s). 36.8 is p = 1e-8 for one test: the test is
+        repeated at each sample and over the candidate splits, and at p = 1e-6 (27.6) the tuning set's
+        uniform hour had 1 false alarm (light, 10 deg, 502.8 s), at 36.8 none, at the cost of 2 of the 24
+        F_max changes flagged later than 1 s (23 -> 21 of 24; ``bench_online.py --set tuning --setting
+        detect_excitation_chi2=27.6``; see docs/online.md).
+    detect_excitation_bias
+        ... with a model error shared by an excitation's samples of this many noise standard deviations
+        (:class:`~.detector.ExcitationTest`: ``n`` samples' noise part inflated by ``1 + n b^2``): a long run
+        at one operating point (a steady climb) tests the mean of its residuals there, and a lean of the
+        model of a fraction of the noise (the slope's error-in-variables bias, the controller's correlated
+        noise) adds up over hundreds of samples (measured, tuning set, heavy 10 deg, steady climb at 37 %
+        of F_max, no pull, horizon and held estimate agreeing (d2 < 1): with 0 a split statistic of 28.2
+        and a false alarm at 61.18 s). 0.2 made the heavy flat F_max-down change above 1.68 s late again.
+    detect_excitation_max_s
+        ... and an excitation longer than this, s, is tested in parts of this length (each against the
+        estimate held when it began): on continuous load (a climb loads every sample) one run would hold
+        minutes of samples, its reference minutes old and its search for a change inside it (candidate
+        splits every ``SPLIT_STRIDE`` samples) growing with it. Measured on the tuning set's in-pull change
+        on 10 deg (seed 3016): the whole run's statistic 2 after 3000 samples of the climb (the change's
+        lean diluted), the split search in 5-s parts flags it 0.34 s after the first sample on the new soil.
+    detect_date_margin
+        The excitation test dates a change at its most likely first sample on the new soil (the split of
+        the excitation's samples with the largest statistic of the samples after it), and its window
+        holds the splits whose statistic is within this margin of the largest (a likelihood interval),
+        reaching back to the last informative sample before the excitation of its first split (on a climb
+        the samples before a pull are loaded and show little: measured, light vehicle on 10 deg, a change
+        between two pulls whose window started 5 s after it at a split inside the next pull).
+        The statistic is linearised at the reference and the best split is chosen by it, so the
+        interval is wider than a chi-square quantile: measured on the tuning set's in-pull change (heavy
+        10 deg, seed 3016) the true first sample on the new soil was 14.6 below the best split (9, the
+        chi-square(1) 99.7 % point, excluded it). The horizon restarts at the window's first split.
     detect_min_excitations
         A horizon that contradicts its arrival cost declares a change only when the arrival cost
         rests on at least this many excitations (runs of informative samples more than
@@ -228,6 +268,10 @@ class OnlineSettings:
     detect_window_chi2: float = 27.6
     detect_window_min_load: float = 0.8
     detect_window_plateau_samples: int = 8
+    detect_excitation_chi2: float = 36.8
+    detect_excitation_bias: float = 0.1
+    detect_excitation_max_s: float = 5.0
+    detect_date_margin: float = 20.0
     detect_min_excitations: int = 2
     turn_threshold: float = TURN_THRESHOLD_SIGMA
     turn_history: int = 256
@@ -250,6 +294,9 @@ class OnlineSettings:
             "detect_window_chi2",
             "detect_window_min_load",
             "identify_reject_chi2",
+            "detect_excitation_chi2",
+            "detect_date_margin",
+            "detect_excitation_max_s",
         ):
             val = getattr(self, name)
             if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
@@ -280,6 +327,7 @@ class OnlineSettings:
             "drift_max_thrust_rel",
             "drift_shear_modulus_rel",
             "detect_held_sigmas",
+            "detect_excitation_bias",
         ):
             val = getattr(self, name)
             if val is not None and (
