@@ -92,6 +92,7 @@ def test_the_result_says_why_the_rules_were_not_compared():
         assert not chk["compared"] and chk["reported"] == rule and word in chk["reason"]
 
 
+@pytest.mark.slow  # 2.5 s: the quick loop stays under 90 s; CI runs it
 def test_segments_and_fit_many_report_the_fit_s_own_rule(tmp_path):
     """A segment map's rows and a fleet's rows carry the rule of the fit behind them (the fit's check)."""
     log = _log(seed=5, duration=40.0)

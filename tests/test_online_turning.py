@@ -187,6 +187,7 @@ def test_straight_samples_of_a_gentle_log_do_not_hold_a_wrong_max_thrust(seed):
     assert abs(_worst_z(history)) < 4.0
 
 
+@pytest.mark.slow  # 2.6 s: the quick loop stays under 90 s; CI runs it
 def test_a_gentle_horizon_of_enough_samples_does_not_hold_a_wrong_max_thrust():
     """Seed 12, turns left out: a converged horizon of 31 samples at 11.32 s (peak thrust 41.9 kN, 74 % of its
     own F_max) was held as 56.4 +- 12.2 kN against 202.1 kN (z -11.9): the utilisation test is relative to the
